@@ -1,0 +1,2 @@
+//! Physical checks on the cut geometry: one piece, bridge and feature widths against a material.
+//! OWNER: the vectors issue.

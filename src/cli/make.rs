@@ -1,0 +1,229 @@
+//! `stencil make` and `stencil tone`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+
+use stencil::bridge::BridgeConfig;
+use stencil::export;
+use stencil::pipeline::{self, MakeConfig};
+use stencil::tone::filter::{self, FilterConfig};
+use stencil::tone::{Threshold, ToneConfig};
+
+use super::mesh::MeshArgs;
+
+fn parse_threshold(s: &str) -> Result<Threshold, String> {
+    if s.eq_ignore_ascii_case("otsu") {
+        return Ok(Threshold::Otsu);
+    }
+    s.parse::<u8>()
+        .map(Threshold::Level)
+        .map_err(|_| format!("'{s}' is not a threshold: use a level 0..255 or 'otsu'"))
+}
+
+fn parse_alpha(s: &str) -> Result<f64, String> {
+    let a: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if a > 1.0 && a < 2.0 {
+        Ok(a)
+    } else {
+        Err(format!(
+            "alpha must be between 1 and 2 (exclusive), got {a}"
+        ))
+    }
+}
+
+fn parse_weight(s: &str) -> Result<f64, String> {
+    let w: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if w.is_finite() && w >= 0.0 {
+        Ok(w)
+    } else {
+        Err(format!("a weight must be a finite number >= 0, got {s}"))
+    }
+}
+
+/// Two-tone options for pictures.
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Two-tone (pictures)")]
+pub struct ImageArgs {
+    /// Gray level 0..255 at and above which a pixel is light (material), or 'otsu' to pick it from
+    /// the histogram.
+    #[arg(long, default_value = "128", value_parser = parse_threshold)]
+    pub threshold: Threshold,
+    /// Make the dark parts material instead of the light ones (connect the lit regions).
+    #[arg(long)]
+    pub invert: bool,
+    /// Supersample: upsample the picture smoothly by this factor (1..8) before thresholding, so
+    /// edges follow the picture rather than its pixels. The working image is this much larger.
+    #[arg(long, default_value_t = 1)]
+    pub scale: u32,
+    /// Refuse pictures with more pixels than this (checked from the header, before decoding).
+    #[arg(long, default_value_t = 100_000_000)]
+    pub max_pixels: u64,
+}
+
+/// Topological filter options.
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Topological filter")]
+pub struct FilterArgs {
+    /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
+    /// cut features thinner than about twice this.
+    #[arg(long, default_value_t = 1)]
+    pub filter_radius: u32,
+    /// Material or cut pieces smaller than this many pixels flip to the other tone.
+    #[arg(long, default_value_t = 8)]
+    pub min_speck_px: usize,
+}
+
+/// Bridge optimizer options (the paper's cost C = w0·ΣI + w1·L^α + w2·κ + w3·σ²).
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Bridges")]
+pub struct BridgeArgs {
+    /// w0: weight of the intensity error (how much light the bridge blocks in the gray source).
+    #[arg(long, default_value_t = BridgeConfig::default().w_intensity, value_parser = parse_weight)]
+    pub w_intensity: f64,
+    /// w1: weight of the length penalty L^alpha.
+    #[arg(long, default_value_t = BridgeConfig::default().w_length, value_parser = parse_weight)]
+    pub w_length: f64,
+    /// w2: weight of the local curvature of the island border at the bridge.
+    #[arg(long, default_value_t = BridgeConfig::default().w_curvature, value_parser = parse_weight)]
+    pub w_curvature: f64,
+    /// w3: weight of the variance of strip cost across the bridge's width.
+    #[arg(long, default_value_t = BridgeConfig::default().w_variance, value_parser = parse_weight)]
+    pub w_variance: f64,
+    /// Exponent of the length penalty, strictly between 1 and 2.
+    #[arg(long, default_value_t = BridgeConfig::default().alpha, value_parser = parse_alpha)]
+    pub alpha: f64,
+    /// Walks through the cut longer than this many pixels are dropped.
+    #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
+    pub max_bridge_length_px: u32,
+    /// Narrowest bridge, in pixels.
+    #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
+    pub min_bridge_width_px: u32,
+    /// Widest bridge, in pixels.
+    #[arg(long, default_value_t = BridgeConfig::default().max_width_px)]
+    pub max_bridge_width_px: u32,
+    /// If a grown bridge's real error exceeds its estimate by more than this fraction, halve its
+    /// width and add a support bridge at the next cheapest place.
+    #[arg(long, default_value_t = BridgeConfig::default().support_margin)]
+    pub support_margin: f64,
+}
+
+impl BridgeArgs {
+    pub fn to_config(&self) -> anyhow::Result<BridgeConfig> {
+        anyhow::ensure!(
+            self.min_bridge_width_px >= 1 && self.min_bridge_width_px <= self.max_bridge_width_px,
+            "--min-bridge-width-px ({}) must be at least 1 and at most --max-bridge-width-px ({})",
+            self.min_bridge_width_px,
+            self.max_bridge_width_px
+        );
+        Ok(BridgeConfig {
+            w_intensity: self.w_intensity,
+            w_length: self.w_length,
+            w_curvature: self.w_curvature,
+            w_variance: self.w_variance,
+            alpha: self.alpha,
+            max_length_px: self.max_bridge_length_px,
+            min_width_px: self.min_bridge_width_px,
+            max_width_px: self.max_bridge_width_px,
+            support_margin: self.support_margin,
+        })
+    }
+}
+
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Example:
+  stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
+  writes out/rings/twotone.png, stencil.png, preview.png and report.json; the run fails (and writes
+  nothing) if any island cannot be joined to the frame.")]
+pub struct MakeArgs {
+    /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
+    pub input: PathBuf,
+    /// Output folder [default: out/<input stem>/].
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub image: ImageArgs,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    #[command(flatten)]
+    pub filter: FilterArgs,
+    #[command(flatten)]
+    pub bridge: BridgeArgs,
+}
+
+impl ImageArgs {
+    fn to_config(&self) -> ToneConfig {
+        ToneConfig {
+            threshold: self.threshold,
+            invert: self.invert,
+            scale: self.scale,
+            max_pixels: self.max_pixels,
+        }
+    }
+}
+
+impl FilterArgs {
+    fn to_config(&self) -> FilterConfig {
+        FilterConfig {
+            radius: self.filter_radius,
+            min_speck_px: self.min_speck_px,
+        }
+    }
+}
+
+pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
+    let cfg = MakeConfig {
+        out_dir: a
+            .out
+            .clone()
+            .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
+        input: a.input.clone(),
+        tone: a.image.to_config(),
+        mesh: a.mesh.to_config()?,
+        filter: a.filter.to_config(),
+        bridge: a.bridge.to_config()?,
+    };
+    let (made, _) = pipeline::make(&cfg)?;
+    let r = &made.report;
+    let total_ms: f64 = r.timings_ms.values().sum();
+    println!(
+        "{}: {}x{} px, {} islands, {} bridges ({} support), {} floating; {:.0} ms",
+        cfg.out_dir.display(),
+        r.width_px,
+        r.height_px,
+        r.islands,
+        r.bridges.len(),
+        r.bridges.iter().filter(|b| b.support).count(),
+        r.floating_after,
+        total_ms
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `stencil tone INPUT -o twotone.png`.
+#[derive(Args, Debug)]
+pub struct ToneCmdArgs {
+    /// The picture or OBJ mesh.
+    pub input: PathBuf,
+    /// The PNG to write (255 = material, 0 = cut).
+    #[arg(short, long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub image: ImageArgs,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    #[command(flatten)]
+    pub filter: FilterArgs,
+}
+
+pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
+    let (tt, _) = pipeline::two_tone(&a.input, &a.image.to_config(), &a.mesh.to_config()?)?;
+    let (bits, _) = filter::filter(&tt.bits, &a.filter.to_config());
+    export::write_atomic(&a.out, &export::png::encode_bits(&bits))
+        .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
+    println!("{}: {}x{} px", a.out.display(), bits.width, bits.height);
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,32 @@
+//! Command-line definitions (clap derive) and the thin dispatch into the library.
+//! Each area owns its argument struct in its own file; they are flattened into the commands here.
+
+mod make;
+mod mesh;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Turn a picture or a 3D mesh into a stencil that holds together as one sheet.
+#[derive(Parser, Debug)]
+#[command(name = "stencil", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run the whole pipeline on a picture or an OBJ mesh: two-tone, islands, bridges, outputs.
+    Make(make::MakeArgs),
+    /// Stop after the two-tone stage (after the topological filter) and write one PNG.
+    Tone(make::ToneCmdArgs),
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Make(a) => make::run_make(a),
+        Command::Tone(a) => make::run_tone(a),
+    }
+}

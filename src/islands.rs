@@ -1,0 +1,223 @@
+//! Stage 2: label the material into the frame and islands; find each island's border pixels.
+//!
+//! Connectivity is 4-connected: two material pixels that touch only at a corner are *not* joined,
+//! because a corner has no width and would tear. The sheet continues beyond the image, so every
+//! material region that touches the image border belongs to the frame (node 0).
+
+use crate::raster::BitGrid;
+
+/// Label of a cut pixel in [`IslandMap::labels`].
+pub const CUT: u32 = u32::MAX;
+/// The frame's node id.
+pub const FRAME: u32 = 0;
+
+/// One node of the bridge graph: the frame (id 0) or an island.
+#[derive(Clone, Debug, Default)]
+pub struct Node {
+    /// Material pixels in this node.
+    pub area: usize,
+    /// Material pixels of this node with a 4-neighbour cut pixel inside the image, in scan order.
+    /// These are the bridge candidates. Ordering along the contour is the bridge stage's business.
+    pub border: Vec<(u32, u32)>,
+}
+
+/// A label per pixel (frame = 0, islands 1..=n, cut = [`CUT`]) and per node its area and border.
+#[derive(Clone, Debug)]
+pub struct IslandMap {
+    pub width: u32,
+    pub height: u32,
+    pub labels: Vec<u32>,
+    /// `nodes[0]` is the frame (possibly of area 0 when no material touches the image border).
+    pub nodes: Vec<Node>,
+}
+
+impl IslandMap {
+    /// Number of islands (nodes other than the frame).
+    pub fn island_count(&self) -> usize {
+        self.nodes.len() - 1
+    }
+
+    #[inline]
+    pub fn label(&self, x: u32, y: u32) -> u32 {
+        self.labels[y as usize * self.width as usize + x as usize]
+    }
+}
+
+/// 4-connected components of the pixels equal to `value`: a label per pixel (`CUT` where the pixel
+/// is not `value`), and the area of each component. O(pixels).
+pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
+    let (w, h) = (bits.width as usize, bits.height as usize);
+    let mut labels = vec![CUT; w * h];
+    let mut areas = Vec::new();
+    let mut stack: Vec<usize> = Vec::new();
+    for seed in 0..w * h {
+        if bits.data[seed] != value || labels[seed] != CUT {
+            continue;
+        }
+        let id = areas.len() as u32;
+        let mut area = 0;
+        labels[seed] = id;
+        stack.push(seed);
+        while let Some(i) = stack.pop() {
+            area += 1;
+            let (x, y) = (i % w, i / w);
+            let mut visit = |j: usize| {
+                if bits.data[j] == value && labels[j] == CUT {
+                    labels[j] = id;
+                    stack.push(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < w {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - w);
+            }
+            if y + 1 < h {
+                visit(i + w);
+            }
+        }
+        areas.push(area);
+    }
+    (labels, areas)
+}
+
+/// Whether component labels touch the image border, indexed by label.
+pub fn touches_border(labels: &[u32], width: u32, height: u32, count: usize) -> Vec<bool> {
+    let (w, h) = (width as usize, height as usize);
+    let mut t = vec![false; count];
+    let mut mark = |i: usize| {
+        if labels[i] != CUT {
+            t[labels[i] as usize] = true;
+        }
+    };
+    for x in 0..w {
+        mark(x);
+        mark((h - 1) * w + x);
+    }
+    for y in 0..h {
+        mark(y * w);
+        mark(y * w + w - 1);
+    }
+    t
+}
+
+/// Label material pixels 4-connected into the frame (everything touching the image border) and
+/// islands numbered from 1 in scan order. O(pixels).
+pub fn label(bits: &BitGrid) -> IslandMap {
+    let (w, h) = (bits.width as usize, bits.height as usize);
+    let (mut labels, areas) = components(bits, true);
+    let mut nodes = vec![Node::default()];
+    if w > 0 && h > 0 {
+        let border = touches_border(&labels, bits.width, bits.height, areas.len());
+        // Component id -> node id: border-touching components merge into the frame.
+        let mut remap = vec![FRAME; areas.len()];
+        for (c, &area) in areas.iter().enumerate() {
+            if border[c] {
+                nodes[0].area += area;
+            } else {
+                remap[c] = nodes.len() as u32;
+                nodes.push(Node {
+                    area,
+                    border: Vec::new(),
+                });
+            }
+        }
+        for l in labels.iter_mut() {
+            if *l != CUT {
+                *l = remap[*l as usize];
+            }
+        }
+    }
+
+    // Border pixels: material with a cut 4-neighbour inside the image.
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let l = labels[i];
+            if l == CUT {
+                continue;
+            }
+            let cut_next = (x > 0 && labels[i - 1] == CUT)
+                || (x + 1 < w && labels[i + 1] == CUT)
+                || (y > 0 && labels[i - w] == CUT)
+                || (y + 1 < h && labels[i + w] == CUT);
+            if cut_next {
+                nodes[l as usize].border.push((x as u32, y as u32));
+            }
+        }
+    }
+
+    IslandMap {
+        width: bits.width,
+        height: bits.height,
+        labels,
+        nodes,
+    }
+}
+
+/// Material pieces not joined to the frame: the number that must be 0 for a valid stencil.
+pub fn floating_count(bits: &BitGrid) -> usize {
+    label(bits).island_count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(rows: &[&str]) -> BitGrid {
+        let h = rows.len() as u32;
+        let w = rows[0].len() as u32;
+        BitGrid::from_fn(w, h, |x, y| rows[y as usize].as_bytes()[x as usize] == b'#')
+    }
+
+    #[test]
+    fn frame_and_one_island() {
+        let g = grid(&["#####", "#...#", "#.#.#", "#...#", "#####"]);
+        let m = label(&g);
+        assert_eq!(m.island_count(), 1);
+        assert_eq!(m.nodes[0].area, 16);
+        assert_eq!(m.nodes[1].area, 1);
+        assert_eq!(m.label(2, 2), 1);
+        assert_eq!(m.label(1, 1), CUT);
+    }
+
+    #[test]
+    fn corner_touch_is_not_joined() {
+        // The two inner pixels touch only at a corner: two islands, not one.
+        let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
+        assert_eq!(label(&g).island_count(), 2);
+    }
+
+    #[test]
+    fn material_touching_border_is_frame_even_if_split() {
+        // Two separate pieces touch the border: both are the frame (the sheet continues outside).
+        let g = grid(&["#...#", ".....", "#...#"]);
+        let m = label(&g);
+        assert_eq!(m.island_count(), 0);
+        assert_eq!(m.nodes[0].area, 4);
+    }
+
+    #[test]
+    fn border_pixels_are_material_next_to_cut() {
+        let g = grid(&[
+            "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
+        ]);
+        let m = label(&g);
+        assert_eq!(m.island_count(), 1);
+        // 3x3 island: 8 border pixels, the centre is interior.
+        assert_eq!(m.nodes[1].border.len(), 8);
+        assert!(!m.nodes[1].border.contains(&(3, 3)));
+    }
+
+    #[test]
+    fn all_cut_and_all_material() {
+        assert_eq!(label(&BitGrid::new(4, 3, false)).island_count(), 0);
+        let m = label(&BitGrid::new(4, 3, true));
+        assert_eq!(m.island_count(), 0);
+        assert_eq!(m.nodes[0].area, 12);
+    }
+}

@@ -1,0 +1,49 @@
+//! `stencil`: turn a picture or a 3D mesh into a stencil that holds together as one sheet, and drive
+//! the machine that cuts it.
+//!
+//! The crate reads as the pipeline (Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
+//! through Error Minimization", NPAR 2008). Data flows one way, stage to stage, as plain types:
+//!
+//! `tone` (picture or mesh → [`raster::TwoTone`]) → `islands` ([`islands::IslandMap`]) →
+//! `bridge` ([`bridge::Bridged`]) → `vector` (cut geometry in mm) → `check`; `export` writes files,
+//! `plan` makes toolpaths and G-code, `machine` streams G-code to Grbl.
+//!
+//! Stages before `vector` work in pixels; millimetres appear only through [`units::Scale`]. Only
+//! `export` and `machine` touch files and devices (plus input loading in `tone`).
+
+pub mod bridge;
+pub mod check;
+pub mod export;
+pub mod islands;
+pub mod machine;
+pub mod pipeline;
+pub mod plan;
+pub mod profile;
+pub mod raster;
+pub mod report;
+pub mod tone;
+pub mod units;
+pub mod vector;
+
+pub use pipeline::{make, MakeConfig};
+
+/// Every error the library returns. Each message names the file, line or setting and what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Tone(#[from] tone::ToneError),
+    #[error(transparent)]
+    Bridge(#[from] bridge::BridgeError),
+    #[error(transparent)]
+    Export(#[from] export::ExportError),
+    #[error(
+        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
+         raise --max-bridge-length-px or --filter-radius"
+    )]
+    Floating {
+        count: usize,
+        x: u32,
+        y: u32,
+        area: usize,
+    },
+}

@@ -1,0 +1,5 @@
+//! The machine: Grbl protocol, streaming over a serial port, the virtual Grbl, the simulator.
+//! Knows G-code text and byte ports, not stencils: it must run any third-party job.
+//! OWNER: the machine issue (the G-code interpreter in `gcode.rs` is shared with `plan`'s estimator).
+
+pub mod gcode;

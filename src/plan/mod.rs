@@ -1,0 +1,1 @@
+//! Toolpaths: cut order, travel optimisation, passes, time estimate, G-code text. OWNER: the G-code issue.

@@ -1,0 +1,202 @@
+//! The topological filter: morphological opening and closing by a disc, then removal of specks.
+//!
+//! Lone pixels and thin spurs would each become an island needing its own bridge; the paper removes
+//! them with dilation and erosion before bridging. Everything here treats the area outside the image
+//! as material, because the sheet continues beyond the picture.
+
+use serde::{Deserialize, Serialize};
+
+use crate::islands::{components, touches_border};
+use crate::raster::{squared_distance_to, BitGrid};
+
+/// Options of the topological filter.
+#[derive(Clone, Copy, Debug)]
+pub struct FilterConfig {
+    /// Disc radius in pixels of the opening and closing; 0 turns them off. An opening removes
+    /// material thinner than about 2·r, a closing fills cuts thinner than about 2·r.
+    pub radius: u32,
+    /// Connected pieces (material or cut) smaller than this many pixels flip to the other tone.
+    pub min_speck_px: usize,
+}
+
+impl Default for FilterConfig {
+    fn default() -> Self {
+        FilterConfig {
+            radius: 1,
+            min_speck_px: 8,
+        }
+    }
+}
+
+/// What the filter changed, for the report.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct FilterStats {
+    /// Material pixels the opening turned to cut.
+    pub opened_px: usize,
+    /// Cut pixels the closing turned to material.
+    pub closed_px: usize,
+    /// Material specks (pieces not joined to the frame) removed, and their pixels.
+    pub material_specks: usize,
+    pub material_speck_px: usize,
+    /// Cut specks filled, and their pixels.
+    pub cut_specks: usize,
+    pub cut_speck_px: usize,
+}
+
+/// Apply opening, closing and speck removal. O(pixels) whatever the radius.
+pub fn filter(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
+    let mut stats = FilterStats::default();
+    let mut out = bits.clone();
+    if cfg.radius > 0 {
+        let opened = open(&out, cfg.radius);
+        stats.opened_px = diff(&out, &opened);
+        let closed = close(&opened, cfg.radius);
+        stats.closed_px = diff(&opened, &closed);
+        out = closed;
+    }
+    if cfg.min_speck_px > 1 {
+        // Material specks: pieces not tied to the frame.
+        let (labels, areas) = components(&out, true);
+        let border = touches_border(&labels, out.width, out.height, areas.len());
+        let small: Vec<bool> = areas
+            .iter()
+            .zip(&border)
+            .map(|(&a, &b)| !b && a < cfg.min_speck_px)
+            .collect();
+        for (i, l) in labels.iter().enumerate() {
+            if *l != crate::islands::CUT && small[*l as usize] {
+                out.data[i] = false;
+                stats.material_speck_px += 1;
+            }
+        }
+        stats.material_specks = small.iter().filter(|&&s| s).count();
+        // Cut specks: any small cut piece, at the border or not.
+        let (labels, areas) = components(&out, false);
+        let small: Vec<bool> = areas.iter().map(|&a| a < cfg.min_speck_px).collect();
+        for (i, l) in labels.iter().enumerate() {
+            if *l != crate::islands::CUT && small[*l as usize] {
+                out.data[i] = true;
+                stats.cut_speck_px += 1;
+            }
+        }
+        stats.cut_specks = small.iter().filter(|&&s| s).count();
+    }
+    (out, stats)
+}
+
+fn diff(a: &BitGrid, b: &BitGrid) -> usize {
+    a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
+}
+
+/// Pad by `pad` material pixels on every side (the frame), so that erosion and dilation behave at
+/// the image border as they would on the whole sheet.
+fn padded(bits: &BitGrid, pad: u32) -> BitGrid {
+    let (w, h) = (bits.width + 2 * pad, bits.height + 2 * pad);
+    BitGrid::from_fn(w, h, |x, y| {
+        if x < pad || y < pad || x >= pad + bits.width || y >= pad + bits.height {
+            true
+        } else {
+            bits.get(x - pad, y - pad)
+        }
+    })
+}
+
+fn crop(bits: &BitGrid, pad: u32, w: u32, h: u32) -> BitGrid {
+    BitGrid::from_fn(w, h, |x, y| bits.get(x + pad, y + pad))
+}
+
+/// Dilate material by a disc of radius r.
+fn dilate(bits: &BitGrid, r: u32) -> BitGrid {
+    let d = squared_distance_to(bits, true);
+    let r2 = (r * r) as f32;
+    BitGrid {
+        width: bits.width,
+        height: bits.height,
+        data: d.iter().map(|&v| v <= r2).collect(),
+    }
+}
+
+/// Erode material by a disc of radius r (dilate the cut).
+fn erode(bits: &BitGrid, r: u32) -> BitGrid {
+    let d = squared_distance_to(bits, false);
+    let r2 = (r * r) as f32;
+    BitGrid {
+        width: bits.width,
+        height: bits.height,
+        data: d.iter().map(|&v| v > r2).collect(),
+    }
+}
+
+/// Opening: removes material features thinner than the disc.
+pub fn open(bits: &BitGrid, r: u32) -> BitGrid {
+    let pad = r + 2;
+    let p = padded(bits, pad);
+    crop(&dilate(&erode(&p, r), r), pad, bits.width, bits.height)
+}
+
+/// Closing: fills cut features thinner than the disc.
+pub fn close(bits: &BitGrid, r: u32) -> BitGrid {
+    let pad = r + 2;
+    let p = padded(bits, pad);
+    crop(&erode(&dilate(&p, r), r), pad, bits.width, bits.height)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(rows: &[&str]) -> BitGrid {
+        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
+            rows[y as usize].as_bytes()[x as usize] == b'#'
+        })
+    }
+
+    #[test]
+    fn opening_removes_a_lone_pixel_and_keeps_a_block() {
+        let mut g = BitGrid::new(20, 20, false);
+        g.set(3, 3, true);
+        for y in 8..16 {
+            for x in 8..16 {
+                g.set(x, y, true);
+            }
+        }
+        let o = open(&g, 1);
+        assert!(!o.get(3, 3));
+        assert!(o.get(10, 10) && o.get(8, 10));
+        // Opening never adds material, even at the image border.
+        assert!(o.data.iter().zip(&g.data).all(|(a, b)| !a || *b));
+    }
+
+    #[test]
+    fn closing_fills_a_pinhole_and_never_removes_material() {
+        let mut g = BitGrid::new(12, 12, true);
+        g.set(5, 5, false);
+        let c = close(&g, 1);
+        assert!(c.get(5, 5));
+        assert!(c.data.iter().zip(&g.data).all(|(a, b)| *a || !*b));
+    }
+
+    #[test]
+    fn specks_flip_and_are_counted() {
+        let g = grid(&[
+            "##########",
+            "#........#",
+            "#.#......#",
+            "#........#",
+            "#....#####",
+            "#....#.###",
+            "##########",
+        ]);
+        let (f, s) = filter(
+            &g,
+            &FilterConfig {
+                radius: 0,
+                min_speck_px: 4,
+            },
+        );
+        assert_eq!(s.material_specks, 1);
+        assert_eq!(s.cut_specks, 1);
+        assert!(!f.get(2, 2));
+        assert!(f.get(6, 5));
+    }
+}

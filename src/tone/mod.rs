@@ -1,0 +1,165 @@
+//! Stage 1: the two-tone image, from a picture ([`image`]) or a mesh ([`mesh`]), then the
+//! topological filter ([`filter`]) that removes specks before islands are labelled.
+
+pub mod filter;
+pub mod image;
+pub mod mesh;
+
+use std::path::PathBuf;
+
+use crate::raster::{BitGrid, Gray, TwoTone};
+
+/// Errors of the two-tone stage. Each names the file and says what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum ToneError {
+    #[error("{path}: cannot open: {source}")]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not an image stencil can read (PNG, JPEG, BMP or TIFF expected){detail}")]
+    UnknownFormat { path: PathBuf, detail: String },
+    #[error("{path}: the image is damaged or truncated ({msg}); re-export it from your editor")]
+    Decode { path: PathBuf, msg: String },
+    #[error(
+        "{path}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} megapixels; \
+         downscale the image or raise --max-pixels"
+    )]
+    TooLarge {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        mp: f64,
+        limit_mp: f64,
+    },
+    #[error("{path}: the image has no pixels")]
+    Empty { path: PathBuf },
+    #[error("--scale {0} is out of range: use 1 to 8")]
+    BadScale(u32),
+    #[error(transparent)]
+    Mesh(#[from] mesh::MeshError),
+}
+
+/// How grayscale becomes two tones.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Threshold {
+    /// A fixed level, 0..255 on the 8-bit scale: a pixel at or above it is light.
+    Level(u8),
+    /// Otsu's method: the level that best separates the histogram into two classes.
+    Otsu,
+}
+
+impl Default for Threshold {
+    fn default() -> Self {
+        Threshold::Level(128)
+    }
+}
+
+/// Options of the image path of stage 1.
+#[derive(Clone, Debug)]
+pub struct ToneConfig {
+    pub threshold: Threshold,
+    /// Light is material by default (paint or light passes through the dark parts, which are cut).
+    /// `invert` makes the dark parts material instead: the paper's "connect the lit regions".
+    pub invert: bool,
+    /// Supersampling factor: the gray is upsampled smoothly by this factor before thresholding, so
+    /// edges follow the picture instead of its pixel staircase. 1 = off.
+    pub scale: u32,
+    /// Refuse images with more pixels than this, before decoding them.
+    pub max_pixels: u64,
+}
+
+impl Default for ToneConfig {
+    fn default() -> Self {
+        ToneConfig {
+            threshold: Threshold::default(),
+            invert: false,
+            scale: 1,
+            max_pixels: 100_000_000,
+        }
+    }
+}
+
+/// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
+pub fn otsu_level(gray: &Gray) -> u8 {
+    let mut hist = [0u64; 256];
+    for &v in &gray.data {
+        hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
+    }
+    let total: u64 = hist.iter().sum();
+    let sum_all: f64 = hist
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| i as f64 * c as f64)
+        .sum();
+    let (mut w0, mut sum0) = (0u64, 0f64);
+    let (mut best, mut best_t) = (-1f64, 128u8);
+    for t in 0..256usize {
+        // Class 0 = levels below t.
+        if t > 0 {
+            w0 += hist[t - 1];
+            sum0 += (t - 1) as f64 * hist[t - 1] as f64;
+        }
+        let w1 = total - w0;
+        if w0 == 0 || w1 == 0 {
+            continue;
+        }
+        let m0 = sum0 / w0 as f64;
+        let m1 = (sum_all - sum0) / w1 as f64;
+        let between = w0 as f64 * w1 as f64 * (m0 - m1) * (m0 - m1);
+        if between > best {
+            best = between;
+            best_t = t as u8;
+        }
+    }
+    best_t
+}
+
+/// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
+/// Returns the two-tone and the level used.
+pub fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+    let level = match threshold {
+        Threshold::Level(l) => l,
+        Threshold::Otsu => otsu_level(&gray),
+    };
+    let t = level as f32 / 255.0;
+    // Compare on the 8-bit scale so `--threshold 128` means what a user of an image editor expects.
+    let bits = BitGrid {
+        width: gray.width,
+        height: gray.height,
+        data: gray
+            .data
+            .iter()
+            .map(|&v| ((v * 255.0).round() >= level as f32 || t <= 0.0) != invert)
+            .collect(),
+    };
+    (TwoTone { bits, gray }, level)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn otsu_splits_two_populations() {
+        let mut g = Gray::new(100, 1, 0.2);
+        for x in 50..100 {
+            g.set(x, 0, 0.8);
+        }
+        let l = otsu_level(&g);
+        assert!(l > 51 && l <= 204, "level {l}");
+        let (tt, _) = threshold(g, Threshold::Otsu, false);
+        assert_eq!(tt.bits.count_material(), 50);
+        assert!(tt.bits.get(99, 0));
+    }
+
+    #[test]
+    fn invert_swaps_tones() {
+        let mut g = Gray::new(4, 1, 0.0);
+        g.set(0, 0, 1.0);
+        let (a, _) = threshold(g.clone(), Threshold::Level(128), false);
+        let (b, _) = threshold(g, Threshold::Level(128), true);
+        assert!(a.bits.get(0, 0) && !a.bits.get(1, 0));
+        assert!(!b.bits.get(0, 0) && b.bits.get(1, 0));
+    }
+}
