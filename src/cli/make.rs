@@ -18,9 +18,17 @@ fn parse_threshold(s: &str) -> Result<Threshold, String> {
     if s.eq_ignore_ascii_case("otsu") {
         return Ok(Threshold::Otsu);
     }
-    s.parse::<u8>()
-        .map(Threshold::Level)
-        .map_err(|_| format!("'{s}' is not a threshold: use a level 0..255 or 'otsu'"))
+    let bad =
+        || format!("'{s}' is not a threshold: use a level 0..255, a fraction 0.0..1.0, or 'otsu'");
+    if s.contains('.') {
+        // A fraction of full intensity (the natural unit for a rendered mesh).
+        let f: f64 = s.parse().map_err(|_| bad())?;
+        if !(0.0..=1.0).contains(&f) {
+            return Err(bad());
+        }
+        return Ok(Threshold::Level((f * 255.0).round() as u8));
+    }
+    s.parse::<u8>().map(Threshold::Level).map_err(|_| bad())
 }
 
 fn parse_alpha(s: &str) -> Result<f64, String> {
@@ -47,12 +55,13 @@ fn parse_weight(s: &str) -> Result<f64, String> {
 #[derive(Args, Debug, Clone)]
 #[command(next_help_heading = "Two-tone (pictures)")]
 pub struct ImageArgs {
-    /// Gray level 0..255 at and above which a pixel is light (material), or 'otsu' to pick it from
-    /// the histogram.
+    /// Level at and above which a pixel is light (material): 0..255, a fraction such as 0.5 of full
+    /// intensity, or 'otsu' to pick it from the histogram. Applies to pictures and rendered meshes.
     #[arg(long, default_value = "128", value_parser = parse_threshold)]
     pub threshold: Threshold,
-    /// Make the dark parts material instead of the light ones (connect the lit regions).
-    #[arg(long)]
+    /// Swap the tones: dark parts become material instead of light ones (the paper's reverse
+    /// stencil). `--lit` is the same switch.
+    #[arg(long, alias = "lit")]
     pub invert: bool,
     /// Supersample: upsample the picture smoothly by this factor (1..8) before thresholding, so
     /// edges follow the picture rather than its pixels. The working image is this much larger.
