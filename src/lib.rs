@@ -36,6 +36,8 @@ pub enum Error {
     Bridge(#[from] bridge::BridgeError),
     #[error(transparent)]
     Export(#[from] export::ExportError),
+    #[error(transparent)]
+    Machine(#[from] machine::MachineError),
     #[error(
         "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
          raise --max-bridge-length-px or --filter-radius"

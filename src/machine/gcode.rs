@@ -30,6 +30,8 @@ pub struct Modal {
     pub s: f64,
     /// M3/M4 on, M5 off.
     pub spindle_on: bool,
+    /// The last spindle command was M4 (laser mode: power scaled with speed) rather than M3.
+    pub dynamic: bool,
 }
 
 impl Default for Modal {
@@ -42,6 +44,7 @@ impl Default for Modal {
             feed: None,
             s: 0.0,
             spindle_on: false,
+            dynamic: false,
         }
     }
 }
@@ -136,7 +139,10 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
                 }
             },
             'M' => match v as u32 {
-                3 | 4 => modal.spindle_on = true,
+                3 | 4 => {
+                    modal.spindle_on = true;
+                    modal.dynamic = v as u32 == 4;
+                }
                 5 => modal.spindle_on = false,
                 2 | 30 | 0 | 1 | 8 | 9 => {}
                 _ => return Err(err(20, format!("M{v} is not supported"))),

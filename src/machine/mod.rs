@@ -3,3 +3,10 @@
 //! OWNER: the machine issue (the G-code interpreter in `gcode.rs` is shared with `plan`'s estimator).
 
 pub mod gcode;
+pub mod protocol;
+pub mod simulate;
+pub mod stream;
+pub mod virtual_grbl;
+
+pub use stream::{send, BytePort, Control, FlowControl, Job, MachineError, StreamConfig};
+pub use virtual_grbl::{VirtualConfig, VirtualGrbl};

@@ -1,0 +1,1255 @@
+//! Streaming a G-code program to Grbl over any byte port.
+//!
+//! The same code runs against a serial port and against the virtual Grbl on a pty, so the tests
+//! exercise exactly what `stencil send` does. Flow control is Grbl's character counting (at most
+//! rx buffer − 1 bytes in flight, each line counted with its `\n`), or send-response as a fallback.
+//! Every way a stream can stop early ends with a soft reset (laser off), an `M5` when the controller
+//! accepts one, and the line to resume from.
+
+use std::collections::VecDeque;
+use std::io::{self, Read, Write};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+
+use super::gcode::{self, Modal, Move};
+use super::protocol::{
+    self, MachineState, Reply, Status, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD,
+    RT_RESUME, RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
+};
+
+/// A byte link to a controller: read with a timeout, write. Implemented for serial ports and ptys.
+pub trait BytePort: Read + Write + Send {
+    /// How long a `read` may block before failing with `TimedOut`.
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()>;
+    /// The port's name for messages.
+    fn describe(&self) -> String;
+}
+
+impl BytePort for TTYPort {
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        SerialPort::set_timeout(self, timeout).map_err(io::Error::from)
+    }
+    fn describe(&self) -> String {
+        SerialPort::name(self).unwrap_or_else(|| "pseudo-terminal".into())
+    }
+}
+
+impl BytePort for Box<dyn SerialPort> {
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        self.set_timeout(timeout).map_err(io::Error::from)
+    }
+    fn describe(&self) -> String {
+        self.name().unwrap_or_else(|| "serial port".into())
+    }
+}
+
+/// How lines are paced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlowControl {
+    /// Keep the receive buffer as full as Grbl allows (fast; the normal mode).
+    CharacterCounting,
+    /// One line at a time, each waiting for its `ok` (slow; for boards that overflow).
+    SendResponse,
+}
+
+/// Commands from the operator while a job runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    FeedHold,
+    Resume,
+    /// Stop now: soft reset, laser off, report the resume line.
+    Abort,
+}
+
+/// Streaming settings.
+#[derive(Clone, Debug)]
+pub struct StreamConfig {
+    pub flow: FlowControl,
+    /// Receive buffer size to count against; `None` = ask Grbl (`$I`), else 128.
+    pub rx_buffer: Option<usize>,
+    /// A controller that says nothing for this long (while being polled) is reported as silent.
+    pub timeout: Duration,
+    /// How long to wait for the banner of a board that resets when the port opens, before sending
+    /// a soft reset to wake it.
+    pub boot_wait: Duration,
+    /// Status poll period (Grbl asks for 5 Hz or less).
+    pub poll_interval: Duration,
+    /// Send `$X` if the machine is locked in alarm.
+    pub unlock: bool,
+    /// Run the whole program through `$C` check mode first; refuse to cut if any line errors.
+    pub check_first: bool,
+    /// Start at this 1-based line of the file, after restoring the modal state it needs.
+    pub from_line: usize,
+}
+
+impl Default for StreamConfig {
+    fn default() -> Self {
+        StreamConfig {
+            flow: FlowControl::CharacterCounting,
+            rx_buffer: None,
+            timeout: Duration::from_secs(10),
+            boot_wait: Duration::from_millis(2500),
+            poll_interval: Duration::from_millis(250),
+            unlock: false,
+            check_first: false,
+            from_line: 1,
+        }
+    }
+}
+
+/// One line to send: its text as Grbl will see it, and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobLine {
+    /// 1-based line number in the file.
+    pub number: usize,
+    /// Cleaned text (no comments, no spaces, upper case), without the newline.
+    pub text: String,
+    /// The line makes a move (or might: lines our interpreter cannot read count as moves).
+    pub motion: bool,
+}
+
+/// A program ready to stream: vetted, cleaned, with its moves for the time estimate.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// File name for messages.
+    pub name: String,
+    pub lines: Vec<JobLine>,
+    /// Moves as our interpreter reads them (lines it cannot read are skipped).
+    pub moves: Vec<Move>,
+    source: Vec<String>,
+}
+
+impl Job {
+    /// Clean and vet a program before anything is sent: every line must fit Grbl's line buffer and
+    /// hold only printable ASCII without real-time characters (which Grbl would act on mid-line).
+    pub fn parse(name: &str, text: &str) -> Result<Job, MachineError> {
+        let mut lines = Vec::new();
+        let mut moves = Vec::new();
+        let mut modal = Modal::default();
+        let source: Vec<String> = text.lines().map(str::to_string).collect();
+        for (i, raw) in source.iter().enumerate() {
+            let number = i + 1;
+            let clean = gcode::clean_line(raw);
+            if clean.is_empty() {
+                continue;
+            }
+            if let Some(c) = clean
+                .chars()
+                .find(|&c| !c.is_ascii_graphic() || protocol::is_realtime(c as u32 as u8))
+            {
+                return Err(MachineError::BadChar {
+                    file: name.to_string(),
+                    line: number,
+                    ch: c,
+                });
+            }
+            if clean.len() > MAX_LINE_BYTES {
+                return Err(MachineError::LineTooLong {
+                    file: name.to_string(),
+                    line: number,
+                    len: clean.len(),
+                });
+            }
+            let mut m = modal;
+            let motion = match gcode::step(&mut m, &clean, number) {
+                Ok(mv) => {
+                    modal = m;
+                    if let Some(mv) = mv {
+                        moves.push(mv);
+                        true
+                    } else {
+                        false
+                    }
+                }
+                Err(_) => !clean.starts_with('$'),
+            };
+            lines.push(JobLine {
+                number,
+                text: clean,
+                motion,
+            });
+        }
+        Ok(Job {
+            name: name.to_string(),
+            lines,
+            moves,
+            source,
+        })
+    }
+
+    /// Lines that restore, before line `from_line`, the state the program had built up: laser off,
+    /// travel (G0, mm, absolute) to where the tool was, feed, motion mode, units, distance mode,
+    /// then laser mode and power.
+    pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {
+        if from_line == 0 || from_line > self.source.len() {
+            return Err(MachineError::FromLine {
+                file: self.name.clone(),
+                line: from_line,
+                total: self.source.len(),
+            });
+        }
+        let mut modal = Modal::default();
+        let mut used = [false; 3];
+        for (i, raw) in self.source.iter().enumerate().take(from_line - 1) {
+            let clean = gcode::clean_line(raw);
+            gcode::step(&mut modal, &clean, i + 1).map_err(|e| MachineError::ResumeState {
+                file: self.name.clone(),
+                from_line,
+                source: e,
+            })?;
+            for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
+                if let Some(a) = "XYZ".find(l) {
+                    used[a] = true;
+                }
+            }
+        }
+        if from_line == 1 {
+            return Ok(Vec::new());
+        }
+        let mut out = vec!["M5".to_string(), "G21G90".to_string()];
+        let mut travel = String::from("G0");
+        for (a, letter) in "XYZ".chars().enumerate() {
+            if used[a] {
+                travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
+            }
+        }
+        if travel.len() > 2 {
+            out.push(travel);
+        }
+        if let Some(f) = modal.feed {
+            out.push(format!("F{}", num(f)));
+            if modal.motion == 1 {
+                out.push("G1".into());
+            }
+        }
+        if !modal.metric {
+            out.push("G20".into());
+        }
+        if !modal.absolute {
+            out.push("G91".into());
+        }
+        if modal.spindle_on {
+            let m = if modal.dynamic { "M4" } else { "M3" };
+            out.push(format!("{m}S{}", num(modal.s)));
+        } else if modal.s > 0.0 {
+            out.push(format!("S{}", num(modal.s)));
+        }
+        Ok(out)
+    }
+}
+
+/// A number as G-code: at most 4 decimals, no trailing zeros.
+fn num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}
+
+/// How a stream that stopped early left the machine, and where to pick it up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halt {
+    /// File line of the last line Grbl acknowledged (queued).
+    pub last_acked: Option<usize>,
+    /// First file line that may not have run: resume here.
+    pub resume_from: usize,
+    /// What was done to make sure the laser is off.
+    pub laser: String,
+}
+
+impl std::fmt::Display for Halt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.last_acked {
+            Some(l) => write!(f, "last acknowledged line {l}; ")?,
+            None => write!(f, "no line was acknowledged; ")?,
+        }
+        write!(
+            f,
+            "{}; resume with --from-line {}",
+            self.laser, self.resume_from
+        )
+    }
+}
+
+/// One line `$C` check mode rejected.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckError {
+    pub line: usize,
+    pub text: String,
+    pub code: u8,
+}
+
+fn list_check_errors(errors: &[CheckError]) -> String {
+    let mut s: Vec<String> = errors
+        .iter()
+        .take(10)
+        .map(|e| {
+            format!(
+                "line {} `{}`: error:{} ({})",
+                e.line,
+                e.text,
+                e.code,
+                protocol::error_meaning(e.code)
+            )
+        })
+        .collect();
+    if errors.len() > 10 {
+        s.push(format!("and {} more", errors.len() - 10));
+    }
+    s.join("; ")
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum MachineError {
+    #[error("{file}: line {line} is {len} bytes without spaces and comments; Grbl takes at most {max}: split it", max = MAX_LINE_BYTES)]
+    LineTooLong {
+        file: String,
+        line: usize,
+        len: usize,
+    },
+    #[error("{file}: line {line} holds {ch:?}, which Grbl cannot take in a line (non-ASCII or a real-time command character): remove it")]
+    BadChar { file: String, line: usize, ch: char },
+    #[error("{file}: line {line} is {len} bytes with its newline, more than the controller's {rx}-byte receive buffer holds: split it")]
+    LineExceedsBuffer {
+        file: String,
+        line: usize,
+        len: usize,
+        rx: usize,
+    },
+    #[error("{file}: --from-line {line} is outside the file (1..={total})")]
+    FromLine {
+        file: String,
+        line: usize,
+        total: usize,
+    },
+    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {source}")]
+    ResumeState {
+        file: String,
+        from_line: usize,
+        source: gcode::GcodeError,
+    },
+    #[error("{file}: {source}")]
+    Gcode {
+        file: String,
+        source: gcode::GcodeError,
+    },
+    #[error("{port}: {source}")]
+    Io { port: String, source: io::Error },
+    #[error("{port}: no Grbl banner within {secs:.1} s, even after a soft reset: check the port and the baud rate (Grbl 1.1 uses 115200)")]
+    NoWelcome { port: String, secs: f64 },
+    #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
+    Locked { port: String, alarm: Option<u8> },
+    #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
+    Busy { port: String, state: String },
+    #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
+    Setup { port: String, cmd: String, code: u8 },
+    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
+    CheckFailed {
+        file: String,
+        errors: Vec<CheckError>,
+    },
+    #[error("Grbl rejected line {line} `{text}` with error:{code} ({}); stopped: {halt} (after fixing the line)", protocol::error_meaning(*code))]
+    Rejected {
+        line: usize,
+        text: String,
+        code: u8,
+        halt: Halt,
+    },
+    #[error("ALARM:{code} ({}); stopped: {halt}", protocol::alarm_meaning(*code))]
+    Alarm { code: u8, halt: Halt },
+    #[error("{port}: Grbl has not answered for {secs:.1} s; stopped: {halt}")]
+    Silent { port: String, secs: f64, halt: Halt },
+    #[error("{port}: the port went away ({detail}); {halt}")]
+    PortLost {
+        port: String,
+        detail: String,
+        halt: Halt,
+    },
+    #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
+    Restarted { halt: Halt },
+    #[error("aborted by the operator; {halt}")]
+    Aborted { halt: Halt },
+}
+
+impl MachineError {
+    /// Where a stopped job can be resumed, for errors that stopped one.
+    pub fn halt(&self) -> Option<&Halt> {
+        match self {
+            MachineError::Rejected { halt, .. }
+            | MachineError::Alarm { halt, .. }
+            | MachineError::Silent { halt, .. }
+            | MachineError::PortLost { halt, .. }
+            | MachineError::Restarted { halt }
+            | MachineError::Aborted { halt } => Some(halt),
+            _ => None,
+        }
+    }
+}
+
+/// What the controller told us on connect.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ControllerInfo {
+    pub version: String,
+    pub rx_buffer: usize,
+    pub planner_blocks: usize,
+    /// The machine was in alarm and `$X` unlocked it.
+    pub unlocked: bool,
+}
+
+/// Where a running job stands.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Progress {
+    /// Job lines acknowledged (the resume preamble not counted) and in total.
+    pub acked: usize,
+    pub total: usize,
+    pub last_acked_line: Option<usize>,
+    /// First file line that may not have run yet (acknowledged lines can still wait in the
+    /// planner): the remaining-time estimate starts here.
+    pub unexecuted_from: usize,
+    pub state: Option<MachineState>,
+    pub position: Option<[f64; 3]>,
+    pub elapsed: Duration,
+}
+
+/// Things a front end may show. Every method has a do-nothing default.
+pub trait Observer {
+    fn connected(&mut self, _info: &ControllerInfo) {}
+    /// A `[MSG:..]` or other text from the controller, or a note from the streamer.
+    fn message(&mut self, _text: &str) {}
+    /// The check-mode pass (true) or the real run (false) begins.
+    fn phase(&mut self, _checking: bool, _total: usize) {}
+    fn progress(&mut self, _p: &Progress) {}
+}
+
+/// An observer that shows nothing.
+pub struct Quiet;
+impl Observer for Quiet {}
+
+/// What a finished stream did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    pub lines: usize,
+    /// Program bytes written (lines with their newlines, without the preamble).
+    pub bytes: u64,
+    /// From the first program byte to the last acknowledgement.
+    pub elapsed: Duration,
+    pub rx_limit: usize,
+    /// Most bytes ever in flight.
+    pub max_in_flight: usize,
+    pub info: ControllerInfo,
+}
+
+enum LinkFault {
+    Lost(String),
+    Silent(f64),
+}
+
+/// Line-oriented reading and raw writing, with silence detection.
+struct Link<'a> {
+    port: &'a mut dyn BytePort,
+    buf: Vec<u8>,
+    last_heard: Instant,
+    timeout: Duration,
+}
+
+impl Link<'_> {
+    fn write(&mut self, bytes: &[u8]) -> Result<(), LinkFault> {
+        self.port
+            .write_all(bytes)
+            .and_then(|_| self.port.flush())
+            .map_err(|e| LinkFault::Lost(e.to_string()))
+    }
+
+    /// The next complete line, waiting at most `wait`; `None` if none came.
+    fn line(&mut self, wait: Duration) -> Result<Option<String>, LinkFault> {
+        loop {
+            if let Some(i) = self.buf.iter().position(|&b| b == b'\n') {
+                let raw: Vec<u8> = self.buf.drain(..=i).collect();
+                let s = String::from_utf8_lossy(&raw).trim().to_string();
+                if s.is_empty() {
+                    continue;
+                }
+                return Ok(Some(s));
+            }
+            let silent = self.last_heard.elapsed();
+            if silent > self.timeout {
+                return Err(LinkFault::Silent(silent.as_secs_f64()));
+            }
+            let wait = wait
+                .min(self.timeout - silent)
+                .max(Duration::from_millis(1));
+            self.port
+                .set_read_timeout(wait)
+                .map_err(|e| LinkFault::Lost(e.to_string()))?;
+            let mut chunk = [0u8; 1024];
+            match self.port.read(&mut chunk) {
+                Ok(0) => return Ok(None),
+                Ok(n) => {
+                    self.last_heard = Instant::now();
+                    self.buf.extend_from_slice(&chunk[..n]);
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut
+                            | io::ErrorKind::WouldBlock
+                            | io::ErrorKind::Interrupted
+                    ) =>
+                {
+                    return Ok(None)
+                }
+                Err(e) => return Err(LinkFault::Lost(e.to_string())),
+            }
+        }
+    }
+}
+
+/// Estimates which acknowledged moves have really run: Grbl acknowledges a line when it is
+/// queued, and the status report's free planner blocks tell how many still wait.
+struct Tracker {
+    planner_blocks: usize,
+    acked_motion: Vec<usize>,
+    motion_at_status: usize,
+    planner_used_at_status: usize,
+}
+
+impl Tracker {
+    fn status(&mut self, st: &Status) {
+        self.motion_at_status = self.acked_motion.len();
+        self.planner_used_at_status = match (&st.state, st.buffer) {
+            (MachineState::Idle, _) => 0,
+            (_, Some((free, _))) => self.planner_blocks.saturating_sub(free as usize),
+            (_, None) => self.planner_blocks,
+        };
+    }
+    /// The earliest acknowledged move that may not have finished.
+    fn first_unexecuted(&self) -> Option<usize> {
+        let n = self.acked_motion.len();
+        let unexec = self.planner_used_at_status + (n - self.motion_at_status.min(n));
+        if unexec == 0 || n == 0 {
+            None
+        } else {
+            Some(self.acked_motion[n.saturating_sub(unexec)])
+        }
+    }
+}
+
+struct Outgoing {
+    /// File line (the resume point for preamble lines).
+    number: usize,
+    text: String,
+    motion: bool,
+    preamble: bool,
+}
+
+/// The streamer's session with one controller.
+struct Session<'a, 'o> {
+    link: Link<'a>,
+    cfg: &'a StreamConfig,
+    obs: &'o mut dyn Observer,
+    controls: Option<&'a Receiver<Control>>,
+    port_name: String,
+    info: ControllerInfo,
+    last_status: Option<Status>,
+    started: Instant,
+}
+
+/// Stream `job` to the controller on `port` and wait until every line is acknowledged.
+///
+/// Connects (banner, `$I`, alarm check), optionally vets the job in check mode, restores the
+/// modal state for `--from-line`, then streams with status polling. Any fault stops the machine
+/// (soft reset, laser off) and returns an error carrying the resume line ([`MachineError::halt`]).
+pub fn send(
+    port: &mut dyn BytePort,
+    job: &Job,
+    cfg: &StreamConfig,
+    controls: Option<&Receiver<Control>>,
+    obs: &mut dyn Observer,
+) -> Result<Summary, MachineError> {
+    let port_name = port.describe();
+    let preamble = job.resume_preamble(cfg.from_line.max(1))?;
+    let mut s = Session {
+        link: Link {
+            port,
+            buf: Vec::new(),
+            last_heard: Instant::now(),
+            timeout: cfg.timeout,
+        },
+        cfg,
+        obs,
+        controls,
+        port_name,
+        info: ControllerInfo::default(),
+        last_status: None,
+        started: Instant::now(),
+    };
+    s.connect()?;
+    let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
+    for l in &job.lines {
+        if l.text.len() + 1 > rx_limit && cfg.flow == FlowControl::CharacterCounting {
+            return Err(MachineError::LineExceedsBuffer {
+                file: job.name.clone(),
+                line: l.number,
+                len: l.text.len() + 1,
+                rx: s.info.rx_buffer,
+            });
+        }
+    }
+    let from = cfg.from_line.max(1);
+    let body: Vec<Outgoing> = job
+        .lines
+        .iter()
+        .filter(|l| l.number >= from)
+        .map(|l| Outgoing {
+            number: l.number,
+            text: l.text.clone(),
+            motion: l.motion,
+            preamble: false,
+        })
+        .collect();
+    if cfg.check_first {
+        s.check(job, &body)?;
+    }
+    let resume_point = body.first().map(|l| l.number).unwrap_or(from);
+    let mut lines: Vec<Outgoing> = preamble
+        .into_iter()
+        .map(|text| Outgoing {
+            number: resume_point,
+            text,
+            motion: false,
+            preamble: true,
+        })
+        .collect();
+    if !lines.is_empty() {
+        s.obs.message(&format!(
+            "resuming at line {from}: restoring the machine state with {}",
+            lines
+                .iter()
+                .map(|l| l.text.as_str())
+                .collect::<Vec<_>>()
+                .join(" ")
+        ));
+    }
+    lines.extend(body);
+    s.obs
+        .phase(false, lines.iter().filter(|l| !l.preamble).count());
+    s.stream(&lines, false, rx_limit, resume_point)
+}
+
+impl Session<'_, '_> {
+    fn lost(&self, f: LinkFault) -> MachineError {
+        match f {
+            LinkFault::Lost(detail) => MachineError::Io {
+                port: self.port_name.clone(),
+                source: io::Error::other(detail),
+            },
+            LinkFault::Silent(secs) => MachineError::NoWelcome {
+                port: self.port_name.clone(),
+                secs,
+            },
+        }
+    }
+
+    /// Wait for the banner; wake a board that did not reset on open with a soft reset.
+    fn connect(&mut self) -> Result<(), MachineError> {
+        let mut alarm = None;
+        let mut hinted = false;
+        let mut version = self.wait_welcome(self.cfg.boot_wait, &mut alarm, &mut hinted)?;
+        if version.is_none() {
+            self.link
+                .write(&[RT_SOFT_RESET])
+                .map_err(|f| self.lost(f))?;
+            version = self.wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?;
+        }
+        let Some(version) = version else {
+            return Err(MachineError::NoWelcome {
+                port: self.port_name.clone(),
+                secs: (self.cfg.boot_wait + self.cfg.timeout).as_secs_f64(),
+            });
+        };
+        self.info.version = version;
+        self.info.rx_buffer = RX_BUFFER_DEFAULT;
+        self.info.planner_blocks = PLANNER_BLOCKS_DEFAULT;
+        let replies = self.command("$I")?;
+        for r in &replies {
+            if let Reply::Feedback(f) = r {
+                if let Some((blocks, rx)) = protocol::parse_opt(f) {
+                    self.info.planner_blocks = blocks;
+                    self.info.rx_buffer = rx;
+                }
+            }
+        }
+        if let Some(rx) = self.cfg.rx_buffer {
+            self.info.rx_buffer = rx;
+        }
+        // The banner may be followed by the unlock hint: collect it with the status.
+        let st = self.query_status(&mut hinted)?;
+        match st.state {
+            MachineState::Idle => {}
+            MachineState::Alarm => {
+                if !self.cfg.unlock {
+                    return Err(MachineError::Locked {
+                        port: self.port_name.clone(),
+                        alarm,
+                    });
+                }
+                self.obs
+                    .message("the machine was locked in alarm: unlocking with $X as asked");
+                self.command("$X")?;
+                self.info.unlocked = true;
+            }
+            other => {
+                return Err(MachineError::Busy {
+                    port: self.port_name.clone(),
+                    state: other.to_string(),
+                })
+            }
+        }
+        self.obs.connected(&self.info);
+        Ok(())
+    }
+
+    fn wait_welcome(
+        &mut self,
+        limit: Duration,
+        alarm: &mut Option<u8>,
+        hinted: &mut bool,
+    ) -> Result<Option<String>, MachineError> {
+        let end = Instant::now() + limit;
+        // The board may have been quiet for long before we opened it: only our own wait counts.
+        self.link.last_heard = Instant::now();
+        let saved = self.link.timeout;
+        self.link.timeout = limit + Duration::from_secs(1);
+        let result = loop {
+            let now = Instant::now();
+            if now >= end {
+                break Ok(None);
+            }
+            match self.link.line(end - now) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Welcome(v) => break Ok(Some(v)),
+                    Reply::Alarm(a) => *alarm = Some(a),
+                    Reply::Message(m) => {
+                        *hinted |= protocol::is_unlock_hint(&m);
+                        self.obs.message(&format!("Grbl: {m}"));
+                    }
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(LinkFault::Silent(_)) => break Ok(None),
+                Err(f) => break Err(self.lost(f)),
+            }
+        };
+        self.link.timeout = saved;
+        result
+    }
+
+    /// Send one setup command and wait for its answer (send-response).
+    fn command(&mut self, cmd: &str) -> Result<Vec<Reply>, MachineError> {
+        self.link
+            .write(format!("{cmd}\n").as_bytes())
+            .map_err(|f| self.lost(f))?;
+        let mut got = Vec::new();
+        let end = Instant::now() + self.cfg.timeout;
+        self.link.last_heard = Instant::now();
+        while Instant::now() < end {
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Ok => return Ok(got),
+                    Reply::Error(code) => {
+                        return Err(MachineError::Setup {
+                            port: self.port_name.clone(),
+                            cmd: cmd.to_string(),
+                            code,
+                        })
+                    }
+                    Reply::Message(m) => {
+                        self.obs.message(&format!("Grbl: {m}"));
+                        got.push(Reply::Message(m));
+                    }
+                    r => got.push(r),
+                },
+                Ok(None) => {}
+                Err(f) => return Err(self.lost(f)),
+            }
+        }
+        Err(MachineError::NoWelcome {
+            port: self.port_name.clone(),
+            secs: self.cfg.timeout.as_secs_f64(),
+        })
+    }
+
+    fn query_status(&mut self, hinted: &mut bool) -> Result<Status, MachineError> {
+        let end = Instant::now() + self.cfg.timeout;
+        let mut next_ask = Instant::now();
+        self.link.last_heard = Instant::now();
+        while Instant::now() < end {
+            if Instant::now() >= next_ask {
+                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
+                next_ask = Instant::now() + Duration::from_millis(500);
+            }
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Status(st) => {
+                        self.last_status = Some(st.clone());
+                        return Ok(st);
+                    }
+                    Reply::Message(m) => {
+                        *hinted |= protocol::is_unlock_hint(&m);
+                        self.obs.message(&format!("Grbl: {m}"));
+                    }
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(f) => return Err(self.lost(f)),
+            }
+        }
+        Err(MachineError::NoWelcome {
+            port: self.port_name.clone(),
+            secs: self.cfg.timeout.as_secs_f64(),
+        })
+    }
+
+    /// Run the lines through `$C` check mode; refuse if any errors.
+    fn check(&mut self, job: &Job, body: &[Outgoing]) -> Result<(), MachineError> {
+        self.obs
+            .message("checking the program in Grbl's check mode ($C)");
+        self.command("$C")?;
+        self.obs.phase(true, body.len());
+        let lines: Vec<Outgoing> = body
+            .iter()
+            .map(|l| Outgoing {
+                number: l.number,
+                text: l.text.clone(),
+                motion: false,
+                preamble: false,
+            })
+            .collect();
+        let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
+        let errors = match self.stream_inner(&lines, true, rx_limit, 1) {
+            Ok(run) => run.check_errors,
+            Err(e) => return Err(e),
+        };
+        // Leaving check mode soft-resets Grbl: wait for its banner.
+        self.command("$C")?;
+        let (mut alarm, mut hinted) = (None, false);
+        if self
+            .wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?
+            .is_none()
+        {
+            return Err(MachineError::NoWelcome {
+                port: self.port_name.clone(),
+                secs: self.cfg.timeout.as_secs_f64(),
+            });
+        }
+        if !errors.is_empty() {
+            return Err(MachineError::CheckFailed {
+                file: job.name.clone(),
+                errors,
+            });
+        }
+        self.obs
+            .message("check mode passed: every line was accepted");
+        Ok(())
+    }
+
+    fn stream(
+        &mut self,
+        lines: &[Outgoing],
+        checking: bool,
+        rx_limit: usize,
+        start_line: usize,
+    ) -> Result<Summary, MachineError> {
+        let run = self.stream_inner(lines, checking, rx_limit, start_line)?;
+        Ok(Summary {
+            lines: run.acked,
+            bytes: run.bytes,
+            elapsed: run.elapsed,
+            rx_limit,
+            max_in_flight: run.max_in_flight,
+            info: self.info.clone(),
+        })
+    }
+
+    fn stream_inner(
+        &mut self,
+        lines: &[Outgoing],
+        checking: bool,
+        rx_limit: usize,
+        start_line: usize,
+    ) -> Result<Run, MachineError> {
+        let total = lines.iter().filter(|l| !l.preamble).count();
+        let mut next = 0usize;
+        let mut in_flight: VecDeque<(usize, usize)> = VecDeque::new();
+        let mut in_flight_bytes = 0usize;
+        let mut run = Run::default();
+        let mut acked_total = 0usize;
+        let mut tracker = Tracker {
+            planner_blocks: self.info.planner_blocks,
+            acked_motion: Vec::new(),
+            motion_at_status: 0,
+            planner_used_at_status: 0,
+        };
+        let mut progress = Progress {
+            total,
+            unexecuted_from: start_line,
+            ..Progress::default()
+        };
+        let mut last_poll = Instant::now() - self.cfg.poll_interval;
+        let mut first_byte: Option<Instant> = None;
+        self.link.last_heard = Instant::now();
+        self.started = Instant::now();
+
+        // Where to resume if we stop now.
+        let resume_at = |acked_total: usize, tracker: &Tracker, failed: Option<usize>| {
+            let first_unacked = failed
+                .or_else(|| lines.get(acked_total).map(|l| l.number))
+                .unwrap_or_else(|| lines.last().map(|l| l.number + 1).unwrap_or(start_line));
+            tracker
+                .first_unexecuted()
+                .map_or(first_unacked, |u| u.min(first_unacked))
+        };
+
+        loop {
+            if let Some(rx) = self.controls {
+                while let Ok(c) = rx.try_recv() {
+                    let byte = match c {
+                        Control::FeedHold => RT_FEED_HOLD,
+                        Control::Resume => RT_RESUME,
+                        Control::Abort => {
+                            let resume = resume_at(acked_total, &tracker, None);
+                            let halt = self.halt(run.last_acked, resume);
+                            return Err(MachineError::Aborted { halt });
+                        }
+                    };
+                    if let Err(f) = self.link.write(&[byte]) {
+                        return Err(self.fault(
+                            f,
+                            run.last_acked,
+                            resume_at(acked_total, &tracker, None),
+                        ));
+                    }
+                    self.obs.message(match c {
+                        Control::FeedHold => "feed hold (!): press r to resume, a to abort",
+                        _ => "resuming (~)",
+                    });
+                }
+            }
+            // Fill Grbl's receive buffer.
+            while next < lines.len() {
+                let len = lines[next].text.len() + 1;
+                let fits = match self.cfg.flow {
+                    FlowControl::CharacterCounting => in_flight_bytes + len <= rx_limit,
+                    FlowControl::SendResponse => in_flight.is_empty(),
+                };
+                if !fits {
+                    break;
+                }
+                let mut bytes = Vec::with_capacity(len);
+                bytes.extend_from_slice(lines[next].text.as_bytes());
+                bytes.push(b'\n');
+                if let Err(f) = self.link.write(&bytes) {
+                    return Err(self.fault(
+                        f,
+                        run.last_acked,
+                        resume_at(acked_total, &tracker, None),
+                    ));
+                }
+                if !lines[next].preamble {
+                    first_byte.get_or_insert_with(Instant::now);
+                    run.bytes += len as u64;
+                }
+                in_flight.push_back((next, len));
+                in_flight_bytes += len;
+                run.max_in_flight = run.max_in_flight.max(in_flight_bytes);
+                next += 1;
+            }
+            if acked_total == lines.len() {
+                break;
+            }
+            if last_poll.elapsed() >= self.cfg.poll_interval {
+                if let Err(f) = self.link.write(&[RT_STATUS]) {
+                    return Err(self.fault(
+                        f,
+                        run.last_acked,
+                        resume_at(acked_total, &tracker, None),
+                    ));
+                }
+                last_poll = Instant::now();
+            }
+            let wait = self
+                .cfg
+                .poll_interval
+                .saturating_sub(last_poll.elapsed())
+                .min(Duration::from_millis(50));
+            let line = match self.link.line(wait) {
+                Ok(Some(l)) => l,
+                Ok(None) => continue,
+                Err(f) => {
+                    return Err(self.fault(
+                        f,
+                        run.last_acked,
+                        resume_at(acked_total, &tracker, None),
+                    ))
+                }
+            };
+            match Reply::parse(&line) {
+                Reply::Ok | Reply::Error(_) if in_flight.is_empty() => {
+                    self.obs.message(&format!(
+                        "Grbl answered `{line}` with no line waiting; ignored"
+                    ));
+                }
+                reply @ (Reply::Ok | Reply::Error(_)) => {
+                    let Some((idx, len)) = in_flight.pop_front() else {
+                        continue;
+                    };
+                    in_flight_bytes -= len;
+                    let l = &lines[idx];
+                    if let Reply::Error(code) = reply {
+                        if checking {
+                            run.check_errors.push(CheckError {
+                                line: l.number,
+                                text: l.text.clone(),
+                                code,
+                            });
+                        } else {
+                            let resume = resume_at(acked_total, &tracker, Some(l.number));
+                            let halt = self.halt(run.last_acked, resume);
+                            return Err(MachineError::Rejected {
+                                line: l.number,
+                                text: l.text.clone(),
+                                code,
+                                halt,
+                            });
+                        }
+                    }
+                    acked_total += 1;
+                    if !l.preamble {
+                        run.acked += 1;
+                        run.last_acked = Some(l.number);
+                        if l.motion {
+                            tracker.acked_motion.push(l.number);
+                        }
+                    }
+                    if let Some(t) = first_byte {
+                        run.elapsed = t.elapsed();
+                    }
+                    progress.acked = run.acked;
+                    progress.last_acked_line = run.last_acked;
+                    progress.unexecuted_from = resume_at(acked_total, &tracker, None);
+                    progress.elapsed = self.started.elapsed();
+                    self.obs.progress(&progress);
+                }
+                Reply::Alarm(code) => {
+                    let resume = resume_at(acked_total, &tracker, None);
+                    let halt = self.halt(run.last_acked, resume);
+                    return Err(MachineError::Alarm { code, halt });
+                }
+                Reply::Welcome(_) => {
+                    // Everything queued was lost with the reset; the laser is off.
+                    let resume = resume_at(acked_total, &tracker, None);
+                    let halt = Halt {
+                        last_acked: run.last_acked,
+                        resume_from: resume,
+                        laser: "the controller reset itself, which turns the laser off".into(),
+                    };
+                    return Err(MachineError::Restarted { halt });
+                }
+                Reply::Status(st) => {
+                    tracker.status(&st);
+                    progress.state = Some(st.state.clone());
+                    progress.position = st.position().or(progress.position);
+                    progress.unexecuted_from = resume_at(acked_total, &tracker, None);
+                    progress.elapsed = self.started.elapsed();
+                    self.last_status = Some(st);
+                    self.obs.progress(&progress);
+                }
+                Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
+                Reply::Feedback(f) => self.obs.message(&format!("Grbl: [{f}]")),
+                Reply::Other(o) => self.obs.message(&format!("Grbl: {o}")),
+            }
+        }
+        Ok(run)
+    }
+
+    fn fault(&mut self, f: LinkFault, last_acked: Option<usize>, resume: usize) -> MachineError {
+        match f {
+            LinkFault::Lost(detail) => MachineError::PortLost {
+                port: self.port_name.clone(),
+                detail,
+                halt: Halt {
+                    last_acked,
+                    resume_from: resume,
+                    laser: "the laser could not be switched off from here: make sure it is off \
+                            (a board that lost its USB power is off)"
+                        .into(),
+                },
+            },
+            LinkFault::Silent(secs) => {
+                let halt = self.halt(last_acked, resume);
+                MachineError::Silent {
+                    port: self.port_name.clone(),
+                    secs,
+                    halt,
+                }
+            }
+        }
+    }
+
+    /// Stop the machine: soft reset (stops motion and the laser at once), wait for the banner,
+    /// then `M5` unless the controller is locked in alarm (where the reset already did it).
+    fn halt(&mut self, last_acked: Option<usize>, resume_from: usize) -> Halt {
+        let laser = self.stop_laser();
+        Halt {
+            last_acked,
+            resume_from,
+            laser,
+        }
+    }
+
+    fn stop_laser(&mut self) -> String {
+        if self.link.write(&[RT_SOFT_RESET]).is_err() {
+            return "the soft reset could not be sent: make sure the laser is off".into();
+        }
+        let wait = self.cfg.timeout.min(Duration::from_secs(3));
+        let (mut alarm, mut hinted) = (None, false);
+        let welcomed = matches!(
+            self.wait_welcome(wait, &mut alarm, &mut hinted),
+            Ok(Some(_))
+        );
+        if !welcomed {
+            let _ = self.link.write(b"M5\n");
+            return "soft reset and M5 sent but Grbl did not answer: make sure the laser is off"
+                .into();
+        }
+        // The unlock hint follows the banner when the reset left the machine locked.
+        let end = Instant::now() + Duration::from_millis(300);
+        while !hinted && Instant::now() < end {
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Message(m) => hinted |= protocol::is_unlock_hint(&m),
+                    Reply::Alarm(a) => alarm = Some(a),
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(_) => break,
+            }
+        }
+        if hinted || alarm.is_some() {
+            return "laser off (soft reset); the machine is locked: check it, then home it or \
+                    unlock it (--unlock sends $X)"
+                .into();
+        }
+        match self.command("M5") {
+            Ok(_) => "laser off (soft reset, M5 acknowledged)".into(),
+            Err(_) => "laser off (soft reset; M5 was not acknowledged)".into(),
+        }
+    }
+}
+
+#[derive(Default)]
+struct Run {
+    acked: usize,
+    last_acked: Option<usize>,
+    bytes: u64,
+    elapsed: Duration,
+    max_in_flight: usize,
+    check_errors: Vec<CheckError>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn job_refuses_long_lines_and_realtime_characters() {
+        let long = format!("G1X1Y1 ; ok\n(c)\nG1X{}\n", "1".repeat(80));
+        match Job::parse("a.gcode", &long) {
+            Err(MachineError::LineTooLong {
+                line: 3, len: 83, ..
+            }) => {}
+            other => panic!("{other:?}"),
+        }
+        let e = Job::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
+        // Comments and spaces do not count against the 80 bytes.
+        let ok = format!("G1 X1 ({})\n", "c".repeat(100));
+        let j = Job::parse("a.gcode", &ok).unwrap();
+        assert_eq!(j.lines[0].text, "G1X1");
+    }
+
+    #[test]
+    fn preamble_restores_state() {
+        let p = "G21 G90\nM4 S300\nG0 X10 Y5\nG1 X20 F600\nG91\nX1\n";
+        let j = Job::parse("p", p).unwrap();
+        let pre = j.resume_preamble(6).unwrap();
+        assert_eq!(
+            pre,
+            vec!["M5", "G21G90", "G0X20Y5", "F600", "G1", "G91", "M4S300"]
+        );
+        assert!(j.resume_preamble(1).unwrap().is_empty());
+        assert!(j.resume_preamble(99).is_err());
+        // Inches: travel in mm, feed in mm/min, then back to G20.
+        let p = "G20\nG0 X1\nM3 S100\nG1 Y1 F10\nY2\n";
+        let pre = Job::parse("p", p).unwrap().resume_preamble(5).unwrap();
+        assert_eq!(
+            pre,
+            vec![
+                "M5",
+                "G21G90",
+                "G0X25.4Y25.4",
+                "F254",
+                "G1",
+                "G20",
+                "M3S100"
+            ]
+        );
+        // Running the preamble then the rest lands where the whole program does.
+        let whole = gcode::interpret(p).unwrap();
+        let mut m = Modal::default();
+        for l in pre.iter().map(String::as_str).chain(["Y2"]) {
+            gcode::step(&mut m, l, 0).unwrap();
+        }
+        assert_eq!(m.pos, whole.last().unwrap().to);
+        assert!(m.spindle_on && !m.dynamic && !m.metric);
+    }
+
+    #[test]
+    fn tracker_counts_planner_blocks() {
+        let mut t = Tracker {
+            planner_blocks: 15,
+            acked_motion: (1..=20).collect(),
+            motion_at_status: 0,
+            planner_used_at_status: 0,
+        };
+        assert_eq!(t.first_unexecuted(), Some(1));
+        let mut st = match Reply::parse("<Run|MPos:0,0,0|Bf:12,100>") {
+            Reply::Status(s) => s,
+            _ => unreachable!(),
+        };
+        t.status(&st);
+        assert_eq!(t.first_unexecuted(), Some(18));
+        t.acked_motion.push(21);
+        assert_eq!(t.first_unexecuted(), Some(18));
+        st.state = MachineState::Idle;
+        t.status(&st);
+        assert_eq!(t.first_unexecuted(), None);
+        st.state = MachineState::Hold(0);
+        st.buffer = None;
+        t.status(&st);
+        assert_eq!(t.first_unexecuted(), Some(7));
+    }
+
+    #[test]
+    fn numbers() {
+        assert_eq!(num(25.4), "25.4");
+        assert_eq!(num(600.0), "600");
+        assert_eq!(num(-0.00001), "0");
+        assert_eq!(num(1.23456), "1.2346");
+    }
+}

@@ -1,0 +1,869 @@
+//! A simulated Grbl 1.1h on a pseudo-terminal, for dry runs and tests.
+//!
+//! It speaks the real protocol on the far end of a pty pair, so `stencil send` runs exactly the same
+//! code against it as against a board: welcome banner, a receive buffer of fixed size that drops
+//! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
+//! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
+//! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
+//! `$$`, and injected faults. It records every line it received and what it executed, so a test can
+//! check the machine got exactly the program, once each, in order.
+
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+
+use super::gcode::{self, Modal, Move};
+use super::protocol::{
+    self, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME, RT_SOFT_RESET,
+    RT_STATUS, RX_BUFFER_DEFAULT,
+};
+
+/// How the simulated machine spends time on motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// Moves complete the moment they are planned: a dry run goes as fast as the link allows.
+    Instant,
+    /// Moves take their length ÷ feed, divided by `speedup` (1.0 = as the machine would).
+    Paced { speedup: f64 },
+}
+
+/// What goes wrong, for tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultKind {
+    /// Answer `error:N` instead of running the line.
+    Error(u8),
+    /// Stop everything with `ALARM:N` when the line arrives (like a limit switch): motion and laser
+    /// stop, buffers are dropped, and the controller waits for a soft reset, then stays locked.
+    Alarm(u8),
+    /// From this line on, read and act on everything but never answer.
+    Silence,
+    /// Close the port when this line arrives (a cable pulled; the board loses power, laser off).
+    ClosePort,
+}
+
+/// A fault that fires once, when the `at_job_line`-th G-code line arrives (counting lines that are
+/// not empty, not `$` commands, and not sent in check mode; 1-based).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fault {
+    pub at_job_line: usize,
+    pub kind: FaultKind,
+}
+
+/// The simulated controller's build.
+#[derive(Clone, Debug)]
+pub struct VirtualConfig {
+    /// Receive buffer size in bytes (128 in stock Grbl); reported in `$I` as `[OPT:V,blocks,rx]`.
+    pub rx_buffer: usize,
+    pub planner_blocks: usize,
+    pub motion: Motion,
+    /// Pace the link at this baud rate (10 bits per byte, both directions); `None` = as fast as the
+    /// pty goes.
+    pub baud: Option<u32>,
+    /// G0 rate, mm/min.
+    pub rapid_mm_min: f64,
+    pub faults: Vec<Fault>,
+}
+
+impl Default for VirtualConfig {
+    fn default() -> Self {
+        VirtualConfig {
+            rx_buffer: RX_BUFFER_DEFAULT,
+            planner_blocks: PLANNER_BLOCKS_DEFAULT,
+            motion: Motion::Instant,
+            baud: None,
+            rapid_mm_min: 6000.0,
+            faults: Vec::new(),
+        }
+    }
+}
+
+/// One line the controller took out of its receive buffer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Received {
+    /// The bytes of the line as received, without its terminator.
+    pub text: String,
+    /// Received while in `$C` check mode (parsed, never run).
+    pub check_mode: bool,
+}
+
+/// Things that happened, in order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Event {
+    /// A line, as an index into [`Record::received`].
+    Line(usize),
+    Realtime(u8),
+    SoftReset,
+    Alarm(u8),
+    Closed,
+}
+
+/// Everything the simulated machine saw and did.
+#[derive(Clone, Debug, Default)]
+pub struct Record {
+    pub received: Vec<Received>,
+    pub events: Vec<Event>,
+    /// Indices into `received` of lines the machine finished (motion completed or command run).
+    pub executed: Vec<usize>,
+    /// Most bytes ever waiting in the receive buffer.
+    pub max_rx_used: usize,
+    /// Bytes dropped because the receive buffer was full.
+    pub overflow_bytes: usize,
+    /// Laser armed: M3/M4 active with S > 0.
+    pub laser_on: bool,
+    pub position: [f64; 3],
+    pub state: String,
+    pub closed: bool,
+    /// Status reports sent (for checking the poll rate).
+    pub status_reports: usize,
+}
+
+impl Record {
+    /// The lines received outside check mode (what the machine was asked to run), in order.
+    pub fn run_lines(&self) -> Vec<&str> {
+        self.received
+            .iter()
+            .filter(|r| !r.check_mode)
+            .map(|r| r.text.as_str())
+            .collect()
+    }
+    pub fn soft_resets(&self) -> usize {
+        self.events
+            .iter()
+            .filter(|e| **e == Event::SoftReset)
+            .count()
+    }
+}
+
+/// A running virtual Grbl. Dropping it stops the thread and closes its end of the pty.
+pub struct VirtualGrbl {
+    shared: Arc<Mutex<Record>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl VirtualGrbl {
+    /// Start a virtual Grbl on a new pty pair; returns it and the host end to stream to.
+    pub fn spawn(cfg: VirtualConfig) -> std::io::Result<(VirtualGrbl, TTYPort)> {
+        let (master, host) = TTYPort::pair().map_err(std::io::Error::from)?;
+        let shared = Arc::new(Mutex::new(Record::default()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut sim = Sim::new(cfg, master, shared.clone());
+        let stop2 = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("virtual-grbl".into())
+            .spawn(move || sim.run(&stop2))?;
+        Ok((
+            VirtualGrbl {
+                shared,
+                stop,
+                thread: Some(thread),
+            },
+            host,
+        ))
+    }
+
+    /// A snapshot of what the machine saw so far.
+    pub fn record(&self) -> Record {
+        lock(&self.shared).clone()
+    }
+
+    /// Stop the machine and return its final record.
+    pub fn stop(mut self) -> Record {
+        self.halt();
+        self.record()
+    }
+
+    fn halt(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for VirtualGrbl {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
+    // A panic in the simulator thread must not hide its record from the test.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum State {
+    Idle,
+    Alarm,
+    /// Alarm that waits for a soft reset before anything else (hard/soft limit).
+    Critical,
+}
+
+struct Block {
+    mv: Move,
+    /// Index into the record's `received`.
+    idx: usize,
+    remaining_s: f64,
+    duration_s: f64,
+}
+
+struct Sim {
+    cfg: VirtualConfig,
+    port: Option<TTYPort>,
+    shared: Arc<Mutex<Record>>,
+    byte_time: Option<Duration>,
+    wire_in: VecDeque<(Instant, u8)>,
+    in_clock: Instant,
+    wire_out: VecDeque<(Instant, Vec<u8>)>,
+    out_clock: Instant,
+    rx: VecDeque<u8>,
+    line_buf: Vec<u8>,
+    line_overflow: bool,
+    /// A motion line taken from the buffer, waiting for a planner slot (its `ok` waits too).
+    pending: Option<(Move, usize)>,
+    planner: VecDeque<Block>,
+    modal: Modal,
+    state: State,
+    check_mode: bool,
+    hold: bool,
+    silent: bool,
+    status_requested: bool,
+    reports: u64,
+    job_lines: usize,
+    last_tick: Instant,
+}
+
+impl Sim {
+    fn new(cfg: VirtualConfig, port: TTYPort, shared: Arc<Mutex<Record>>) -> Sim {
+        let now = Instant::now();
+        let byte_time = cfg
+            .baud
+            .filter(|&b| b > 0)
+            .map(|b| Duration::from_secs_f64(10.0 / b as f64));
+        let mut sim = Sim {
+            cfg,
+            port: Some(port),
+            shared,
+            byte_time,
+            wire_in: VecDeque::new(),
+            in_clock: now,
+            wire_out: VecDeque::new(),
+            out_clock: now,
+            rx: VecDeque::new(),
+            line_buf: Vec::new(),
+            line_overflow: false,
+            pending: None,
+            planner: VecDeque::new(),
+            modal: Modal::default(),
+            state: State::Idle,
+            check_mode: false,
+            hold: false,
+            silent: false,
+            status_requested: false,
+            reports: 0,
+            job_lines: 0,
+            last_tick: now,
+        };
+        sim.say("");
+        sim.say("Grbl 1.1h ['$' for help]");
+        sim.publish();
+        sim
+    }
+
+    fn run(&mut self, stop: &AtomicBool) {
+        let mut buf = [0u8; 512];
+        while !stop.load(Ordering::SeqCst) && self.port.is_some() {
+            let now = Instant::now();
+            self.deliver(now);
+            self.advance(now);
+            self.process_lines();
+            if self.status_requested {
+                self.status_requested = false;
+                self.status_report();
+            }
+            self.flush_out(Instant::now());
+            self.publish();
+            let wait = self.next_wait();
+            let Some(port) = self.port.as_mut() else {
+                break;
+            };
+            let _ = port.set_timeout(wait);
+            match port.read(&mut buf) {
+                Ok(0) => {}
+                Ok(n) => {
+                    let t = Instant::now();
+                    for &b in &buf[..n] {
+                        let at = match self.byte_time {
+                            Some(bt) => {
+                                self.in_clock = self.in_clock.max(t) + bt;
+                                self.in_clock
+                            }
+                            None => t,
+                        };
+                        self.wire_in.push_back((at, b));
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                // The host end is closed or not open: wait for it (or for stop).
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+    }
+
+    fn next_wait(&self) -> Duration {
+        let now = Instant::now();
+        let mut wait = Duration::from_millis(20);
+        if let Some(&(t, _)) = self.wire_in.front() {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
+        if let Some((t, _)) = self.wire_out.front() {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
+        if let (Motion::Paced { .. }, false) = (self.cfg.motion, self.planner.is_empty()) {
+            wait = wait.min(Duration::from_millis(2));
+        }
+        wait
+    }
+
+    /// Move bytes that have finished crossing the wire into the receive buffer (or act on them).
+    fn deliver(&mut self, now: Instant) {
+        while let Some(&(t, b)) = self.wire_in.front() {
+            if t > now {
+                break;
+            }
+            self.wire_in.pop_front();
+            if protocol::is_realtime(b) {
+                self.realtime(b);
+                continue;
+            }
+            if self.rx.len() >= self.cfg.rx_buffer {
+                lock(&self.shared).overflow_bytes += 1;
+            } else {
+                self.rx.push_back(b);
+                let used = self.rx.len();
+                let mut r = lock(&self.shared);
+                r.max_rx_used = r.max_rx_used.max(used);
+            }
+        }
+    }
+
+    fn realtime(&mut self, b: u8) {
+        lock(&self.shared).events.push(Event::Realtime(b));
+        match b {
+            RT_STATUS => self.status_requested = true,
+            RT_FEED_HOLD => {
+                if self.state == State::Idle {
+                    self.hold = true;
+                }
+            }
+            RT_RESUME => self.hold = false,
+            RT_SOFT_RESET => self.soft_reset(),
+            _ => {}
+        }
+    }
+
+    fn soft_reset(&mut self) {
+        let moving = !self.planner.is_empty() || self.pending.is_some();
+        lock(&self.shared).events.push(Event::SoftReset);
+        self.rx.clear();
+        self.line_buf.clear();
+        self.line_overflow = false;
+        self.pending = None;
+        self.planner.clear();
+        self.hold = false;
+        self.check_mode = false;
+        let pos = self.modal.pos;
+        self.modal = Modal {
+            pos,
+            ..Modal::default()
+        };
+        if moving && self.state == State::Idle {
+            // Grbl: a reset during motion may have lost steps, so it locks until unlocked.
+            self.say("ALARM:3");
+            lock(&self.shared).events.push(Event::Alarm(3));
+            self.state = State::Alarm;
+        }
+        if self.state == State::Critical {
+            self.state = State::Alarm;
+        }
+        self.say("");
+        self.say("Grbl 1.1h ['$' for help]");
+        if self.state == State::Alarm {
+            self.say("[MSG:'$H'|'$X' to unlock]");
+        }
+    }
+
+    fn advance(&mut self, now: Instant) {
+        let dt = now.saturating_duration_since(self.last_tick).as_secs_f64();
+        self.last_tick = now;
+        let Motion::Paced { speedup } = self.cfg.motion else {
+            return;
+        };
+        if self.hold || self.state != State::Idle {
+            return;
+        }
+        let mut budget = dt * speedup.max(1e-9);
+        while budget > 0.0 {
+            let Some(b) = self.planner.front_mut() else {
+                break;
+            };
+            if b.remaining_s > budget {
+                b.remaining_s -= budget;
+                break;
+            }
+            budget -= b.remaining_s;
+            let done = self.planner.pop_front();
+            if let Some(done) = done {
+                lock(&self.shared).executed.push(done.idx);
+            }
+        }
+    }
+
+    /// The simulated tool position: the end of the last finished move, or part way along the
+    /// current one.
+    fn position(&self) -> [f64; 3] {
+        match self.planner.front() {
+            Some(b) => {
+                let f = if b.duration_s > 0.0 {
+                    1.0 - b.remaining_s / b.duration_s
+                } else {
+                    1.0
+                };
+                let mut p = [0.0; 3];
+                for (a, v) in p.iter_mut().enumerate() {
+                    *v = b.mv.from[a] + (b.mv.to[a] - b.mv.from[a]) * f;
+                }
+                p
+            }
+            None => self.modal.pos,
+        }
+    }
+
+    fn plan(&mut self, mv: Move, idx: usize) -> bool {
+        if self.planner.len() >= self.cfg.planner_blocks {
+            return false;
+        }
+        match self.cfg.motion {
+            Motion::Instant => lock(&self.shared).executed.push(idx),
+            Motion::Paced { .. } => {
+                let d = ((mv.to[0] - mv.from[0]).powi(2)
+                    + (mv.to[1] - mv.from[1]).powi(2)
+                    + (mv.to[2] - mv.from[2]).powi(2))
+                .sqrt();
+                let rate = if mv.rapid {
+                    self.cfg.rapid_mm_min
+                } else {
+                    mv.feed
+                };
+                let t = if rate > 0.0 { d / rate * 60.0 } else { 0.0 };
+                self.planner.push_back(Block {
+                    mv,
+                    idx,
+                    remaining_s: t,
+                    duration_s: t,
+                });
+            }
+        }
+        true
+    }
+
+    /// Pull lines out of the receive buffer and run them, as Grbl's main loop does: it stops
+    /// pulling while a motion line waits for a free planner block.
+    fn process_lines(&mut self) {
+        loop {
+            if self.state == State::Critical || self.port.is_none() {
+                return;
+            }
+            if let Some((mv, idx)) = self.pending.take() {
+                if !self.plan(mv, idx) {
+                    self.pending = Some((mv, idx));
+                    return;
+                }
+                self.say("ok");
+                continue;
+            }
+            let Some(b) = self.rx.pop_front() else {
+                return;
+            };
+            if b == b'\n' || b == b'\r' {
+                let raw = std::mem::take(&mut self.line_buf);
+                let overflow = std::mem::replace(&mut self.line_overflow, false);
+                self.line(String::from_utf8_lossy(&raw).into_owned(), overflow);
+            } else if self.line_buf.len() >= MAX_LINE_BYTES {
+                self.line_overflow = true;
+            } else if !(b == b' ' || b.is_ascii_control()) {
+                self.line_buf.push(b);
+            }
+        }
+    }
+
+    fn line(&mut self, text: String, overflow: bool) {
+        let idx = {
+            let mut r = lock(&self.shared);
+            r.received.push(Received {
+                text: text.clone(),
+                check_mode: self.check_mode,
+            });
+            let idx = r.received.len() - 1;
+            r.events.push(Event::Line(idx));
+            idx
+        };
+        let clean = gcode::clean_line(&text);
+        if overflow {
+            return self.reply_error(11);
+        }
+        if clean.is_empty() {
+            return self.done(idx);
+        }
+        if clean.starts_with('$') {
+            return self.system(&clean, idx);
+        }
+        if self.state == State::Alarm {
+            return self.reply_error(9);
+        }
+        if !self.check_mode {
+            self.job_lines += 1;
+            let n = self.job_lines;
+            if let Some(pos) = self.cfg.faults.iter().position(|f| f.at_job_line == n) {
+                let f = self.cfg.faults.remove(pos);
+                match f.kind {
+                    FaultKind::Error(code) => return self.reply_error(code),
+                    FaultKind::Alarm(code) => return self.alarm(code),
+                    FaultKind::Silence => self.silent = true,
+                    FaultKind::ClosePort => return self.close(),
+                }
+            }
+        }
+        let mut modal = self.modal;
+        match gcode::step(&mut modal, &clean, idx + 1) {
+            Err(e) => self.reply_error(e.code),
+            Ok(mv) => {
+                self.modal = modal;
+                match mv {
+                    Some(mv) if !self.check_mode => {
+                        if self.plan(mv, idx) {
+                            self.say("ok");
+                        } else {
+                            self.pending = Some((mv, idx));
+                        }
+                    }
+                    _ => self.done(idx),
+                }
+            }
+        }
+    }
+
+    fn done(&mut self, idx: usize) {
+        lock(&self.shared).executed.push(idx);
+        self.say("ok");
+    }
+
+    fn reply_error(&mut self, code: u8) {
+        self.say(&format!("error:{code}"));
+    }
+
+    fn alarm(&mut self, code: u8) {
+        self.planner.clear();
+        self.pending = None;
+        self.rx.clear();
+        self.hold = false;
+        self.modal.spindle_on = false;
+        self.state = State::Critical;
+        lock(&self.shared).events.push(Event::Alarm(code));
+        self.say(&format!("ALARM:{code}"));
+        self.say("[MSG:Reset to continue]");
+    }
+
+    fn close(&mut self) {
+        self.modal.spindle_on = false;
+        self.planner.clear();
+        {
+            let mut r = lock(&self.shared);
+            r.events.push(Event::Closed);
+            r.closed = true;
+        }
+        self.publish();
+        self.port = None;
+    }
+
+    fn system(&mut self, cmd: &str, idx: usize) {
+        let idle = self.planner.is_empty() && self.pending.is_none();
+        match cmd {
+            "$I" => {
+                self.say("[VER:1.1h.20190830:]");
+                let opt = format!("[OPT:V,{},{}]", self.cfg.planner_blocks, self.cfg.rx_buffer);
+                self.say(&opt);
+                self.done(idx);
+            }
+            "$C" => {
+                if !idle || self.state == State::Alarm {
+                    return self.reply_error(8);
+                }
+                if self.check_mode {
+                    self.say("[MSG:Disabled]");
+                    self.done(idx);
+                    self.soft_reset();
+                } else {
+                    self.check_mode = true;
+                    self.say("[MSG:Enabled]");
+                    self.done(idx);
+                }
+            }
+            "$X" => {
+                if self.state == State::Alarm {
+                    self.state = State::Idle;
+                    self.say("[MSG:Caution: Unlocked]");
+                }
+                self.done(idx);
+            }
+            "$H" => {
+                if !idle {
+                    return self.reply_error(8);
+                }
+                self.modal.pos = [0.0; 3];
+                self.state = State::Idle;
+                self.done(idx);
+            }
+            "$G" => {
+                let m = &self.modal;
+                let gc = format!(
+                    "[GC:G{} G54 G17 {} {} G94 {} M9 T0 F{} S{}]",
+                    m.motion,
+                    if m.metric { "G21" } else { "G20" },
+                    if m.absolute { "G90" } else { "G91" },
+                    match (m.spindle_on, m.dynamic) {
+                        (false, _) => "M5",
+                        (true, true) => "M4",
+                        (true, false) => "M3",
+                    },
+                    m.feed.unwrap_or(0.0),
+                    m.s
+                );
+                self.say(&gc);
+                self.done(idx);
+            }
+            "$$" => {
+                for s in [
+                    "$10=2",
+                    "$11=0.010",
+                    "$22=1",
+                    "$30=1000",
+                    "$31=0",
+                    "$32=1",
+                    "$110=6000.000",
+                    "$111=6000.000",
+                    "$120=1000.000",
+                    "$121=1000.000",
+                ] {
+                    self.say(s);
+                }
+                self.done(idx);
+            }
+            c if c.starts_with('$')
+                && c[1..]
+                    .split_once('=')
+                    .is_some_and(|(k, _)| k.parse::<u32>().is_ok()) =>
+            {
+                self.done(idx)
+            }
+            _ => self.reply_error(3),
+        }
+    }
+
+    fn status_report(&mut self) {
+        self.reports += 1;
+        let state = match self.state {
+            State::Alarm | State::Critical => "Alarm".to_string(),
+            State::Idle if self.check_mode => "Check".to_string(),
+            State::Idle if self.hold => "Hold:0".to_string(),
+            State::Idle if !self.planner.is_empty() => "Run".to_string(),
+            State::Idle => "Idle".to_string(),
+        };
+        let p = self.position();
+        let running = !self.planner.is_empty() && !self.hold && self.state == State::Idle;
+        let (feed, speed) = match self.planner.front() {
+            Some(b) if running => (
+                if b.mv.rapid {
+                    self.cfg.rapid_mm_min
+                } else {
+                    b.mv.feed
+                },
+                b.mv.power,
+            ),
+            _ => (0.0, 0.0),
+        };
+        let mut s = format!(
+            "<{state}|MPos:{:.3},{:.3},{:.3}|Bf:{},{}|FS:{feed:.0},{speed:.0}",
+            p[0],
+            p[1],
+            p[2],
+            self.cfg.planner_blocks - self.planner.len(),
+            self.cfg.rx_buffer - self.rx.len(),
+        );
+        if self.reports % 10 == 1 {
+            s.push_str("|WCO:0.000,0.000,0.000");
+        } else if self.reports % 10 == 2 {
+            s.push_str("|Ov:100,100,100");
+        }
+        s.push('>');
+        lock(&self.shared).status_reports += 1;
+        self.say(&s);
+    }
+
+    /// Queue a line for the host (`\r\n` ended, as Grbl sends), paced at the baud rate if set.
+    fn say(&mut self, line: &str) {
+        if self.silent {
+            return;
+        }
+        let mut bytes = line.as_bytes().to_vec();
+        bytes.extend_from_slice(b"\r\n");
+        let now = Instant::now();
+        let at = match self.byte_time {
+            Some(bt) => {
+                self.out_clock = self.out_clock.max(now) + bt * bytes.len() as u32;
+                self.out_clock
+            }
+            None => now,
+        };
+        self.wire_out.push_back((at, bytes));
+    }
+
+    fn flush_out(&mut self, now: Instant) {
+        let mut out = Vec::new();
+        while let Some((t, _)) = self.wire_out.front() {
+            if *t > now {
+                break;
+            }
+            if let Some((_, b)) = self.wire_out.pop_front() {
+                out.extend_from_slice(&b);
+            }
+        }
+        if out.is_empty() {
+            return;
+        }
+        if let Some(port) = self.port.as_mut() {
+            let _ = port.set_timeout(Duration::from_millis(200));
+            let _ = port.write_all(&out);
+        }
+    }
+
+    fn publish(&mut self) {
+        let pos = self.position();
+        let laser = self.modal.spindle_on && self.modal.s > 0.0;
+        let state = match self.state {
+            State::Idle if self.check_mode => "Check",
+            State::Idle if self.hold => "Hold",
+            State::Idle if !self.planner.is_empty() => "Run",
+            State::Idle => "Idle",
+            State::Alarm | State::Critical => "Alarm",
+        };
+        let mut r = lock(&self.shared);
+        r.position = pos;
+        r.laser_on = laser;
+        if r.state != state {
+            r.state = state.to_string();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read_until(port: &mut TTYPort, needle: &str, limit: Duration) -> String {
+        let mut got = String::new();
+        let end = Instant::now() + limit;
+        let mut buf = [0u8; 256];
+        port.set_timeout(Duration::from_millis(20)).unwrap();
+        while Instant::now() < end && !got.contains(needle) {
+            if let Ok(n) = port.read(&mut buf) {
+                got.push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        }
+        got
+    }
+
+    #[test]
+    fn banner_ok_errors_and_status() {
+        let (vg, mut host) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+        let s = read_until(&mut host, "for help]", Duration::from_secs(5));
+        assert!(s.contains("Grbl 1.1h ['$' for help]"), "{s:?}");
+        host.write_all(b"G1X1\n").unwrap();
+        let s = read_until(&mut host, "\r\n", Duration::from_secs(5));
+        assert_eq!(s, "error:22\r\n");
+        host.write_all(b"G5X1\n$I\n").unwrap();
+        let s = read_until(&mut host, "ok\r\n", Duration::from_secs(5));
+        assert_eq!(
+            s,
+            "error:20\r\n[VER:1.1h.20190830:]\r\n[OPT:V,15,128]\r\nok\r\n"
+        );
+        host.write_all(b"G0X3Y4F100\n?").unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(
+            s.starts_with("ok\r\n<Idle|MPos:3.000,4.000,0.000|"),
+            "{s:?}"
+        );
+        let r = vg.stop();
+        assert_eq!(r.run_lines(), vec!["G1X1", "G5X1", "$I", "G0X3Y4F100"]);
+        assert_eq!(r.overflow_bytes, 0);
+    }
+
+    #[test]
+    fn overflowing_bytes_are_dropped_and_counted() {
+        let cfg = VirtualConfig {
+            rx_buffer: 16,
+            motion: Motion::Paced { speedup: 1.0 },
+            ..VirtualConfig::default()
+        };
+        let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        // A long move fills the one-block planner... here 15 blocks; then lines pile up in rx.
+        let mut prog = String::from("G1X100F60\n");
+        for i in 0..40 {
+            prog.push_str(&format!("G1X{}\n", 100 + i));
+        }
+        host.write_all(prog.as_bytes()).unwrap();
+        let end = Instant::now() + Duration::from_secs(5);
+        while vg.record().overflow_bytes == 0 && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let r = vg.stop();
+        assert!(r.overflow_bytes > 0);
+        assert!(r.max_rx_used <= 16);
+    }
+
+    #[test]
+    fn reset_during_motion_locks_until_unlock() {
+        let cfg = VirtualConfig {
+            motion: Motion::Paced { speedup: 1.0 },
+            ..VirtualConfig::default()
+        };
+        let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        host.write_all(b"M4S500\nG1X100F60\n").unwrap();
+        read_until(&mut host, "ok\r\nok\r\n", Duration::from_secs(5));
+        assert!(vg.record().laser_on);
+        host.write_all(&[RT_SOFT_RESET]).unwrap();
+        let s = read_until(&mut host, "to unlock]", Duration::from_secs(5));
+        assert!(s.contains("ALARM:3") && s.contains("Grbl 1.1h"), "{s:?}");
+        assert!(!vg.record().laser_on);
+        host.write_all(b"G0X1\n").unwrap();
+        assert_eq!(
+            read_until(&mut host, "\r\n", Duration::from_secs(5)),
+            "error:9\r\n"
+        );
+        host.write_all(b"$X\nG0X1\n").unwrap();
+        let s = read_until(&mut host, "ok\r\nok\r\n", Duration::from_secs(5));
+        assert!(
+            s.ends_with("[MSG:Caution: Unlocked]\r\nok\r\nok\r\n"),
+            "{s:?}"
+        );
+        drop(vg);
+    }
+}
