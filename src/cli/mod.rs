@@ -3,6 +3,7 @@
 
 mod make;
 mod mesh;
+mod send;
 
 use std::process::ExitCode;
 
@@ -22,11 +23,17 @@ pub enum Command {
     Make(make::MakeArgs),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
+    /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
+    Send(send::SendArgs),
+    /// Draw what a G-code file makes the machine do (PNG) and estimate its running time.
+    Simulate(send::SimulateArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Make(a) => make::run_make(a),
         Command::Tone(a) => make::run_tone(a),
+        Command::Send(a) => send::run_send(a),
+        Command::Simulate(a) => send::run_simulate(a),
     }
 }

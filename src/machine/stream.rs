@@ -883,37 +883,31 @@ impl Session<'_, '_> {
         rx_limit: usize,
         start_line: usize,
     ) -> Result<Run, MachineError> {
-        let total = lines.iter().filter(|l| !l.preamble).count();
+        let mut f = Flight {
+            lines,
+            start_line,
+            in_flight: VecDeque::new(),
+            in_flight_bytes: 0,
+            acked_total: 0,
+            run: Run::default(),
+            tracker: Tracker {
+                planner_blocks: self.info.planner_blocks,
+                acked_motion: Vec::new(),
+                motion_at_status: 0,
+                planner_used_at_status: 0,
+            },
+            progress: Progress {
+                total: lines.iter().filter(|l| !l.preamble).count(),
+                unexecuted_from: start_line,
+                ..Progress::default()
+            },
+        };
         let mut next = 0usize;
-        let mut in_flight: VecDeque<(usize, usize)> = VecDeque::new();
-        let mut in_flight_bytes = 0usize;
-        let mut run = Run::default();
-        let mut acked_total = 0usize;
-        let mut tracker = Tracker {
-            planner_blocks: self.info.planner_blocks,
-            acked_motion: Vec::new(),
-            motion_at_status: 0,
-            planner_used_at_status: 0,
-        };
-        let mut progress = Progress {
-            total,
-            unexecuted_from: start_line,
-            ..Progress::default()
-        };
         let mut last_poll = Instant::now() - self.cfg.poll_interval;
         let mut first_byte: Option<Instant> = None;
+        let mut finished = false;
         self.link.last_heard = Instant::now();
         self.started = Instant::now();
-
-        // Where to resume if we stop now.
-        let resume_at = |acked_total: usize, tracker: &Tracker, failed: Option<usize>| {
-            let first_unacked = failed
-                .or_else(|| lines.get(acked_total).map(|l| l.number))
-                .unwrap_or_else(|| lines.last().map(|l| l.number + 1).unwrap_or(start_line));
-            tracker
-                .first_unexecuted()
-                .map_or(first_unacked, |u| u.min(first_unacked))
-        };
 
         loop {
             if let Some(rx) = self.controls {
@@ -922,17 +916,13 @@ impl Session<'_, '_> {
                         Control::FeedHold => RT_FEED_HOLD,
                         Control::Resume => RT_RESUME,
                         Control::Abort => {
-                            let resume = resume_at(acked_total, &tracker, None);
-                            let halt = self.halt(run.last_acked, resume);
+                            self.settle(&mut f);
+                            let halt = self.halt(f.run.last_acked, f.resume_at(None));
                             return Err(MachineError::Aborted { halt });
                         }
                     };
-                    if let Err(f) = self.link.write(&[byte]) {
-                        return Err(self.fault(
-                            f,
-                            run.last_acked,
-                            resume_at(acked_total, &tracker, None),
-                        ));
+                    if let Err(e) = self.link.write(&[byte]) {
+                        return Err(self.fault(e, &f));
                     }
                     self.obs.message(match c {
                         Control::FeedHold => "feed hold (!): press r to resume, a to abort",
@@ -944,8 +934,8 @@ impl Session<'_, '_> {
             while next < lines.len() {
                 let len = lines[next].text.len() + 1;
                 let fits = match self.cfg.flow {
-                    FlowControl::CharacterCounting => in_flight_bytes + len <= rx_limit,
-                    FlowControl::SendResponse => in_flight.is_empty(),
+                    FlowControl::CharacterCounting => f.in_flight_bytes + len <= rx_limit,
+                    FlowControl::SendResponse => f.in_flight.is_empty(),
                 };
                 if !fits {
                     break;
@@ -953,32 +943,26 @@ impl Session<'_, '_> {
                 let mut bytes = Vec::with_capacity(len);
                 bytes.extend_from_slice(lines[next].text.as_bytes());
                 bytes.push(b'\n');
-                if let Err(f) = self.link.write(&bytes) {
-                    return Err(self.fault(
-                        f,
-                        run.last_acked,
-                        resume_at(acked_total, &tracker, None),
-                    ));
+                if let Err(e) = self.link.write(&bytes) {
+                    return Err(self.fault(e, &f));
                 }
                 if !lines[next].preamble {
                     first_byte.get_or_insert_with(Instant::now);
-                    run.bytes += len as u64;
+                    f.run.bytes += len as u64;
                 }
-                in_flight.push_back((next, len));
-                in_flight_bytes += len;
-                run.max_in_flight = run.max_in_flight.max(in_flight_bytes);
+                f.in_flight.push_back((next, len));
+                f.in_flight_bytes += len;
+                f.run.max_in_flight = f.run.max_in_flight.max(f.in_flight_bytes);
                 next += 1;
             }
-            if acked_total == lines.len() {
+            // Done when every line is acknowledged and, for a real run, the machine has finished
+            // moving (`ok` only means queued).
+            if f.acked_total == lines.len() && (checking || finished) {
                 break;
             }
             if last_poll.elapsed() >= self.cfg.poll_interval {
-                if let Err(f) = self.link.write(&[RT_STATUS]) {
-                    return Err(self.fault(
-                        f,
-                        run.last_acked,
-                        resume_at(acked_total, &tracker, None),
-                    ));
+                if let Err(e) = self.link.write(&[RT_STATUS]) {
+                    return Err(self.fault(e, &f));
                 }
                 last_poll = Instant::now();
             }
@@ -990,95 +974,113 @@ impl Session<'_, '_> {
             let line = match self.link.line(wait) {
                 Ok(Some(l)) => l,
                 Ok(None) => continue,
-                Err(f) => {
-                    return Err(self.fault(
-                        f,
-                        run.last_acked,
-                        resume_at(acked_total, &tracker, None),
-                    ))
-                }
+                Err(e) => return Err(self.fault(e, &f)),
             };
             match Reply::parse(&line) {
-                Reply::Ok | Reply::Error(_) if in_flight.is_empty() => {
+                Reply::Ok | Reply::Error(_) if f.in_flight.is_empty() => {
                     self.obs.message(&format!(
                         "Grbl answered `{line}` with no line waiting; ignored"
                     ));
                 }
-                reply @ (Reply::Ok | Reply::Error(_)) => {
-                    let Some((idx, len)) = in_flight.pop_front() else {
-                        continue;
-                    };
-                    in_flight_bytes -= len;
-                    let l = &lines[idx];
-                    if let Reply::Error(code) = reply {
-                        if checking {
-                            run.check_errors.push(CheckError {
-                                line: l.number,
-                                text: l.text.clone(),
-                                code,
-                            });
-                        } else {
-                            let resume = resume_at(acked_total, &tracker, Some(l.number));
-                            let halt = self.halt(run.last_acked, resume);
-                            return Err(MachineError::Rejected {
-                                line: l.number,
-                                text: l.text.clone(),
-                                code,
-                                halt,
-                            });
-                        }
-                    }
-                    acked_total += 1;
-                    if !l.preamble {
-                        run.acked += 1;
-                        run.last_acked = Some(l.number);
-                        if l.motion {
-                            tracker.acked_motion.push(l.number);
-                        }
-                    }
+                Reply::Ok => {
+                    f.ack();
                     if let Some(t) = first_byte {
-                        run.elapsed = t.elapsed();
+                        f.run.elapsed = t.elapsed();
                     }
-                    progress.acked = run.acked;
-                    progress.last_acked_line = run.last_acked;
-                    progress.unexecuted_from = resume_at(acked_total, &tracker, None);
-                    progress.elapsed = self.started.elapsed();
-                    self.obs.progress(&progress);
+                    f.progress.elapsed = self.started.elapsed();
+                    self.obs.progress(&f.progress);
+                }
+                Reply::Error(code) => {
+                    let Some(l) = f.reject() else { continue };
+                    if checking {
+                        f.run.check_errors.push(CheckError {
+                            line: l.number,
+                            text: l.text.clone(),
+                            code,
+                        });
+                        continue;
+                    }
+                    self.settle(&mut f);
+                    let halt = self.halt(f.run.last_acked, f.resume_at(Some(l.number)));
+                    return Err(MachineError::Rejected {
+                        line: l.number,
+                        text: l.text.clone(),
+                        code,
+                        halt,
+                    });
                 }
                 Reply::Alarm(code) => {
-                    let resume = resume_at(acked_total, &tracker, None);
-                    let halt = self.halt(run.last_acked, resume);
+                    // Grbl has already stopped and dropped its planner: what it held is lost.
+                    let halt = self.halt(f.run.last_acked, f.resume_at(None));
                     return Err(MachineError::Alarm { code, halt });
                 }
                 Reply::Welcome(_) => {
                     // Everything queued was lost with the reset; the laser is off.
-                    let resume = resume_at(acked_total, &tracker, None);
                     let halt = Halt {
-                        last_acked: run.last_acked,
-                        resume_from: resume,
+                        last_acked: f.run.last_acked,
+                        resume_from: f.resume_at(None),
                         laser: "the controller reset itself, which turns the laser off".into(),
                     };
                     return Err(MachineError::Restarted { halt });
                 }
                 Reply::Status(st) => {
-                    tracker.status(&st);
-                    progress.state = Some(st.state.clone());
-                    progress.position = st.position().or(progress.position);
-                    progress.unexecuted_from = resume_at(acked_total, &tracker, None);
-                    progress.elapsed = self.started.elapsed();
+                    finished |= f.acked_total == lines.len() && st.state == MachineState::Idle;
+                    f.status(&st);
+                    f.progress.elapsed = self.started.elapsed();
                     self.last_status = Some(st);
-                    self.obs.progress(&progress);
+                    self.obs.progress(&f.progress);
                 }
                 Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
-                Reply::Feedback(f) => self.obs.message(&format!("Grbl: [{f}]")),
+                Reply::Feedback(fb) => self.obs.message(&format!("Grbl: [{fb}]")),
                 Reply::Other(o) => self.obs.message(&format!("Grbl: {o}")),
             }
         }
-        Ok(run)
+        Ok(f.run)
     }
 
-    fn fault(&mut self, f: LinkFault, last_acked: Option<usize>, resume: usize) -> MachineError {
-        match f {
+    /// Before stopping on purpose: feed hold (`!`) and wait until the machine has stopped, reading
+    /// the acknowledgements still coming and a fresh status report. Stopping from a completed
+    /// hold keeps Grbl's position (a reset while moving loses it: ALARM:3), and the report's free
+    /// planner blocks tell exactly which acknowledged moves have not run.
+    fn settle(&mut self, f: &mut Flight<'_>) {
+        if self.link.write(&[RT_FEED_HOLD]).is_err() {
+            return;
+        }
+        let end = Instant::now() + self.cfg.timeout.min(Duration::from_secs(5));
+        let mut next_ask = Instant::now();
+        while Instant::now() < end {
+            if Instant::now() >= next_ask {
+                if self.link.write(&[RT_STATUS]).is_err() {
+                    return;
+                }
+                next_ask = Instant::now() + Duration::from_millis(200);
+            }
+            let Ok(Some(line)) = self.link.line(Duration::from_millis(50)) else {
+                continue;
+            };
+            match Reply::parse(&line) {
+                Reply::Ok if !f.in_flight.is_empty() => f.ack(),
+                Reply::Error(_) if !f.in_flight.is_empty() => {
+                    f.reject();
+                }
+                Reply::Status(st) => {
+                    f.status(&st);
+                    if matches!(
+                        st.state,
+                        MachineState::Hold(0) | MachineState::Idle | MachineState::Alarm
+                    ) {
+                        return;
+                    }
+                }
+                Reply::Alarm(_) | Reply::Welcome(_) => return,
+                _ => {}
+            }
+        }
+    }
+
+    fn fault(&mut self, e: LinkFault, f: &Flight<'_>) -> MachineError {
+        let (last_acked, resume) = (f.run.last_acked, f.resume_at(None));
+        match e {
             LinkFault::Lost(detail) => MachineError::PortLost {
                 port: self.port_name.clone(),
                 detail,
@@ -1149,6 +1151,79 @@ impl Session<'_, '_> {
             Ok(_) => "laser off (soft reset, M5 acknowledged)".into(),
             Err(_) => "laser off (soft reset; M5 was not acknowledged)".into(),
         }
+    }
+}
+
+/// The state of lines on their way to Grbl.
+struct Flight<'l> {
+    lines: &'l [Outgoing],
+    start_line: usize,
+    /// (index into `lines`, bytes) of lines sent and not yet answered, oldest first.
+    in_flight: VecDeque<(usize, usize)>,
+    in_flight_bytes: usize,
+    /// Lines answered, preamble included.
+    acked_total: usize,
+    run: Run,
+    tracker: Tracker,
+    progress: Progress,
+}
+
+impl<'l> Flight<'l> {
+    /// The oldest line in flight was answered: free its bytes.
+    fn pop(&mut self) -> Option<&'l Outgoing> {
+        let (idx, len) = self.in_flight.pop_front()?;
+        self.in_flight_bytes -= len;
+        Some(&self.lines[idx])
+    }
+
+    fn ack(&mut self) {
+        let Some(l) = self.pop() else { return };
+        self.acked_total += 1;
+        if !l.preamble {
+            self.run.acked += 1;
+            self.run.last_acked = Some(l.number);
+            if l.motion {
+                self.tracker.acked_motion.push(l.number);
+            }
+        }
+        self.progress.acked = self.run.acked;
+        self.progress.last_acked_line = self.run.last_acked;
+        self.progress.unexecuted_from = self.resume_at(None);
+    }
+
+    /// The oldest line in flight was rejected (in check mode it counts as answered).
+    fn reject(&mut self) -> Option<&'l Outgoing> {
+        let l = self.pop()?;
+        self.acked_total += 1;
+        if !l.preamble {
+            self.run.acked += 1;
+        }
+        self.progress.acked = self.run.acked;
+        Some(l)
+    }
+
+    fn status(&mut self, st: &Status) {
+        self.tracker.status(st);
+        self.progress.state = Some(st.state.clone());
+        self.progress.position = st.position().or(self.progress.position);
+        self.progress.unexecuted_from = self.resume_at(None);
+    }
+
+    /// Where to resume if the job stops now: the first line not acknowledged (or the rejected
+    /// one), or an earlier acknowledged move that may still have been waiting in the planner.
+    fn resume_at(&self, failed: Option<usize>) -> usize {
+        let first_unanswered = failed
+            .or_else(|| self.in_flight.front().map(|&(i, _)| self.lines[i].number))
+            .or_else(|| self.lines.get(self.acked_total).map(|l| l.number))
+            .unwrap_or_else(|| {
+                self.lines
+                    .last()
+                    .map(|l| l.number + 1)
+                    .unwrap_or(self.start_line)
+            });
+        self.tracker
+            .first_unexecuted()
+            .map_or(first_unanswered, |u| u.min(first_unanswered))
     }
 }
 

@@ -369,7 +369,8 @@ impl Sim {
     }
 
     fn soft_reset(&mut self) {
-        let moving = !self.planner.is_empty() || self.pending.is_some();
+        // A completed feed hold keeps the position: only a reset while moving loses it.
+        let moving = (!self.planner.is_empty() || self.pending.is_some()) && !self.hold;
         lock(&self.shared).events.push(Event::SoftReset);
         self.rx.clear();
         self.line_buf.clear();
@@ -581,6 +582,8 @@ impl Sim {
     }
 
     fn close(&mut self) {
+        // Bytes already on the wire still arrive.
+        self.flush_out(Instant::now() + Duration::from_secs(3600));
         self.modal.spindle_on = false;
         self.planner.clear();
         {
