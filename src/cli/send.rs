@@ -368,13 +368,14 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         Err(e) => {
             let hint = match e.halt() {
                 Some(h) => format!(
-                    "\nto resume: stencil send {} --from-line {}{}",
+                    "\nto resume: stencil send {} --from-line {}{}{}",
                     a.file.display(),
                     h.resume_from,
                     match &a.port {
                         Some(p) => format!(" --port {p}"),
                         None => String::new(),
-                    }
+                    },
+                    if h.locked { " --unlock" } else { "" }
                 ),
                 None => String::new(),
             };
@@ -383,11 +384,12 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     };
     let secs = sum.elapsed.as_secs_f64();
     println!(
-        "sent {} lines ({} bytes) to {label} in {:.2} s ({:.0} bytes/s), Grbl {}, counting against {} bytes, at most {} in flight",
+        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; Grbl {}, counting against {} bytes, at most {} in flight",
         sum.lines,
         sum.bytes,
         secs,
         if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
+        fmt_duration(sum.total.as_secs_f64()),
         sum.info.version,
         sum.rx_limit,
         sum.max_in_flight

@@ -2,7 +2,9 @@
 //! Knows G-code text and byte ports, not stencils: it must run any third-party job.
 //! OWNER: the machine issue (the G-code interpreter in `gcode.rs` is shared with `plan`'s estimator).
 
+pub mod error;
 pub mod gcode;
+pub mod job;
 pub mod protocol;
 pub mod simulate;
 pub mod stream;

@@ -8,8 +8,10 @@ use std::fmt;
 pub const RX_BUFFER_DEFAULT: usize = 128;
 /// Planner blocks in the stock firmware (`[OPT:V,15,...]`).
 pub const PLANNER_BLOCKS_DEFAULT: usize = 15;
-/// Longest line Grbl accepts after stripping spaces and comments; longer is `error:11`.
-pub const MAX_LINE_BYTES: usize = 80;
+/// Longest line Grbl accepts after stripping spaces and comments; longer is `error:11`. Its line
+/// buffer is 80 bytes with the terminating zero, so 79 characters fit (protocol.c flags overflow
+/// at `char_counter >= LINE_BUFFER_SIZE-1`).
+pub const MAX_LINE_BYTES: usize = 79;
 
 /// Real-time command: ask for a status report (never enters the receive buffer).
 pub const RT_STATUS: u8 = b'?';
@@ -254,7 +256,9 @@ pub fn error_meaning(code: u8) -> &'static str {
         8 => "this '$' command only runs while the machine is idle",
         9 => "G-code is locked out during an alarm or a jog; unlock ($X) or home ($H) first",
         10 => "soft limits need homing enabled",
-        11 => "the line is longer than Grbl's 80-character line buffer",
+        11 => {
+            "the line is longer than Grbl's line buffer (79 characters without spaces and comments)"
+        }
         12 => "the setting would make the step rate exceed what the board can drive",
         13 => "the safety door is open",
         14 => "the build info or startup line is too long for the settings memory",

@@ -13,10 +13,11 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 
-use super::gcode::{self, Modal, Move};
+pub use super::error::{CheckError, Halt, MachineError};
+pub use super::job::{Job, JobLine};
 use super::protocol::{
-    self, MachineState, Reply, Status, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD,
-    RT_RESUME, RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
+    self, MachineState, Reply, Status, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME,
+    RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
 };
 
 /// A byte link to a controller: read with a timeout, write. Implemented for serial ports and ptys.
@@ -99,298 +100,6 @@ impl Default for StreamConfig {
     }
 }
 
-/// One line to send: its text as Grbl will see it, and where it came from.
-#[derive(Clone, Debug, PartialEq)]
-pub struct JobLine {
-    /// 1-based line number in the file.
-    pub number: usize,
-    /// Cleaned text (no comments, no spaces, upper case), without the newline.
-    pub text: String,
-    /// The line makes a move (or might: lines our interpreter cannot read count as moves).
-    pub motion: bool,
-}
-
-/// A program ready to stream: vetted, cleaned, with its moves for the time estimate.
-#[derive(Clone, Debug)]
-pub struct Job {
-    /// File name for messages.
-    pub name: String,
-    pub lines: Vec<JobLine>,
-    /// Moves as our interpreter reads them (lines it cannot read are skipped).
-    pub moves: Vec<Move>,
-    source: Vec<String>,
-}
-
-impl Job {
-    /// Clean and vet a program before anything is sent: every line must fit Grbl's line buffer and
-    /// hold only printable ASCII without real-time characters (which Grbl would act on mid-line).
-    pub fn parse(name: &str, text: &str) -> Result<Job, MachineError> {
-        let mut lines = Vec::new();
-        let mut moves = Vec::new();
-        let mut modal = Modal::default();
-        let source: Vec<String> = text.lines().map(str::to_string).collect();
-        for (i, raw) in source.iter().enumerate() {
-            let number = i + 1;
-            let clean = gcode::clean_line(raw);
-            if clean.is_empty() {
-                continue;
-            }
-            if let Some(c) = clean
-                .chars()
-                .find(|&c| !c.is_ascii_graphic() || protocol::is_realtime(c as u32 as u8))
-            {
-                return Err(MachineError::BadChar {
-                    file: name.to_string(),
-                    line: number,
-                    ch: c,
-                });
-            }
-            if clean.len() > MAX_LINE_BYTES {
-                return Err(MachineError::LineTooLong {
-                    file: name.to_string(),
-                    line: number,
-                    len: clean.len(),
-                });
-            }
-            let mut m = modal;
-            let motion = match gcode::step(&mut m, &clean, number) {
-                Ok(mv) => {
-                    modal = m;
-                    if let Some(mv) = mv {
-                        moves.push(mv);
-                        true
-                    } else {
-                        false
-                    }
-                }
-                Err(_) => !clean.starts_with('$'),
-            };
-            lines.push(JobLine {
-                number,
-                text: clean,
-                motion,
-            });
-        }
-        Ok(Job {
-            name: name.to_string(),
-            lines,
-            moves,
-            source,
-        })
-    }
-
-    /// Lines that restore, before line `from_line`, the state the program had built up: laser off,
-    /// travel (G0, mm, absolute) to where the tool was, feed, motion mode, units, distance mode,
-    /// then laser mode and power.
-    pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {
-        if from_line == 0 || from_line > self.source.len() {
-            return Err(MachineError::FromLine {
-                file: self.name.clone(),
-                line: from_line,
-                total: self.source.len(),
-            });
-        }
-        let mut modal = Modal::default();
-        let mut used = [false; 3];
-        for (i, raw) in self.source.iter().enumerate().take(from_line - 1) {
-            let clean = gcode::clean_line(raw);
-            gcode::step(&mut modal, &clean, i + 1).map_err(|e| MachineError::ResumeState {
-                file: self.name.clone(),
-                from_line,
-                source: e,
-            })?;
-            for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
-                if let Some(a) = "XYZ".find(l) {
-                    used[a] = true;
-                }
-            }
-        }
-        if from_line == 1 {
-            return Ok(Vec::new());
-        }
-        let mut out = vec!["M5".to_string(), "G21G90".to_string()];
-        let mut travel = String::from("G0");
-        for (a, letter) in "XYZ".chars().enumerate() {
-            if used[a] {
-                travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
-            }
-        }
-        if travel.len() > 2 {
-            out.push(travel);
-        }
-        if let Some(f) = modal.feed {
-            out.push(format!("F{}", num(f)));
-            if modal.motion == 1 {
-                out.push("G1".into());
-            }
-        }
-        if !modal.metric {
-            out.push("G20".into());
-        }
-        if !modal.absolute {
-            out.push("G91".into());
-        }
-        if modal.spindle_on {
-            let m = if modal.dynamic { "M4" } else { "M3" };
-            out.push(format!("{m}S{}", num(modal.s)));
-        } else if modal.s > 0.0 {
-            out.push(format!("S{}", num(modal.s)));
-        }
-        Ok(out)
-    }
-}
-
-/// A number as G-code: at most 4 decimals, no trailing zeros.
-fn num(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" {
-        "0".into()
-    } else {
-        s.to_string()
-    }
-}
-
-/// How a stream that stopped early left the machine, and where to pick it up.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Halt {
-    /// File line of the last line Grbl acknowledged (queued).
-    pub last_acked: Option<usize>,
-    /// First file line that may not have run: resume here.
-    pub resume_from: usize,
-    /// What was done to make sure the laser is off.
-    pub laser: String,
-}
-
-impl std::fmt::Display for Halt {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.last_acked {
-            Some(l) => write!(f, "last acknowledged line {l}; ")?,
-            None => write!(f, "no line was acknowledged; ")?,
-        }
-        write!(
-            f,
-            "{}; resume with --from-line {}",
-            self.laser, self.resume_from
-        )
-    }
-}
-
-/// One line `$C` check mode rejected.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CheckError {
-    pub line: usize,
-    pub text: String,
-    pub code: u8,
-}
-
-fn list_check_errors(errors: &[CheckError]) -> String {
-    let mut s: Vec<String> = errors
-        .iter()
-        .take(10)
-        .map(|e| {
-            format!(
-                "line {} `{}`: error:{} ({})",
-                e.line,
-                e.text,
-                e.code,
-                protocol::error_meaning(e.code)
-            )
-        })
-        .collect();
-    if errors.len() > 10 {
-        s.push(format!("and {} more", errors.len() - 10));
-    }
-    s.join("; ")
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum MachineError {
-    #[error("{file}: line {line} is {len} bytes without spaces and comments; Grbl takes at most {max}: split it", max = MAX_LINE_BYTES)]
-    LineTooLong {
-        file: String,
-        line: usize,
-        len: usize,
-    },
-    #[error("{file}: line {line} holds {ch:?}, which Grbl cannot take in a line (non-ASCII or a real-time command character): remove it")]
-    BadChar { file: String, line: usize, ch: char },
-    #[error("{file}: line {line} is {len} bytes with its newline, more than the controller's {rx}-byte receive buffer holds: split it")]
-    LineExceedsBuffer {
-        file: String,
-        line: usize,
-        len: usize,
-        rx: usize,
-    },
-    #[error("{file}: --from-line {line} is outside the file (1..={total})")]
-    FromLine {
-        file: String,
-        line: usize,
-        total: usize,
-    },
-    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {source}")]
-    ResumeState {
-        file: String,
-        from_line: usize,
-        source: gcode::GcodeError,
-    },
-    #[error("{file}: {source}")]
-    Gcode {
-        file: String,
-        source: gcode::GcodeError,
-    },
-    #[error("{port}: {source}")]
-    Io { port: String, source: io::Error },
-    #[error("{port}: no Grbl banner within {secs:.1} s, even after a soft reset: check the port and the baud rate (Grbl 1.1 uses 115200)")]
-    NoWelcome { port: String, secs: f64 },
-    #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
-    Locked { port: String, alarm: Option<u8> },
-    #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
-    Busy { port: String, state: String },
-    #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
-    Setup { port: String, cmd: String, code: u8 },
-    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
-    CheckFailed {
-        file: String,
-        errors: Vec<CheckError>,
-    },
-    #[error("Grbl rejected line {line} `{text}` with error:{code} ({}); stopped: {halt} (after fixing the line)", protocol::error_meaning(*code))]
-    Rejected {
-        line: usize,
-        text: String,
-        code: u8,
-        halt: Halt,
-    },
-    #[error("ALARM:{code} ({}); stopped: {halt}", protocol::alarm_meaning(*code))]
-    Alarm { code: u8, halt: Halt },
-    #[error("{port}: Grbl has not answered for {secs:.1} s; stopped: {halt}")]
-    Silent { port: String, secs: f64, halt: Halt },
-    #[error("{port}: the port went away ({detail}); {halt}")]
-    PortLost {
-        port: String,
-        detail: String,
-        halt: Halt,
-    },
-    #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
-    Restarted { halt: Halt },
-    #[error("aborted by the operator; {halt}")]
-    Aborted { halt: Halt },
-}
-
-impl MachineError {
-    /// Where a stopped job can be resumed, for errors that stopped one.
-    pub fn halt(&self) -> Option<&Halt> {
-        match self {
-            MachineError::Rejected { halt, .. }
-            | MachineError::Alarm { halt, .. }
-            | MachineError::Silent { halt, .. }
-            | MachineError::PortLost { halt, .. }
-            | MachineError::Restarted { halt }
-            | MachineError::Aborted { halt } => Some(halt),
-            _ => None,
-        }
-    }
-}
-
 /// What the controller told us on connect.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ControllerInfo {
@@ -441,6 +150,8 @@ pub struct Summary {
     pub rx_limit: usize,
     /// Most bytes ever in flight.
     pub max_in_flight: usize,
+    /// From the start of streaming until the machine was idle with every line done.
+    pub total: Duration,
     pub info: ControllerInfo,
 }
 
@@ -612,9 +323,6 @@ pub fn send(
             preamble: false,
         })
         .collect();
-    if cfg.check_first {
-        s.check(job, &body)?;
-    }
     let resume_point = body.first().map(|l| l.number).unwrap_or(from);
     let mut lines: Vec<Outgoing> = preamble
         .into_iter()
@@ -625,17 +333,22 @@ pub fn send(
             preamble: true,
         })
         .collect();
-    if !lines.is_empty() {
+    lines.extend(body);
+    if cfg.check_first {
+        // With the preamble, so a resumed job is checked in the state it will run in.
+        s.check(job, &lines)?;
+    }
+    let restore: Vec<&str> = lines
+        .iter()
+        .filter(|l| l.preamble)
+        .map(|l| l.text.as_str())
+        .collect();
+    if !restore.is_empty() {
         s.obs.message(&format!(
             "resuming at line {from}: restoring the machine state with {}",
-            lines
-                .iter()
-                .map(|l| l.text.as_str())
-                .collect::<Vec<_>>()
-                .join(" ")
+            restore.join(" ")
         ));
     }
-    lines.extend(body);
     s.obs
         .phase(false, lines.iter().filter(|l| !l.preamble).count());
     s.stream(&lines, false, rx_limit, resume_point)
@@ -827,7 +540,7 @@ impl Session<'_, '_> {
                 number: l.number,
                 text: l.text.clone(),
                 motion: false,
-                preamble: false,
+                preamble: l.preamble,
             })
             .collect();
         let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
@@ -872,6 +585,7 @@ impl Session<'_, '_> {
             elapsed: run.elapsed,
             rx_limit,
             max_in_flight: run.max_in_flight,
+            total: self.started.elapsed(),
             info: self.info.clone(),
         })
     }
@@ -1020,6 +734,7 @@ impl Session<'_, '_> {
                         last_acked: f.run.last_acked,
                         resume_from: f.resume_at(None),
                         laser: "the controller reset itself, which turns the laser off".into(),
+                        locked: false,
                     };
                     return Err(MachineError::Restarted { halt });
                 }
@@ -1090,6 +805,7 @@ impl Session<'_, '_> {
                     laser: "the laser could not be switched off from here: make sure it is off \
                             (a board that lost its USB power is off)"
                         .into(),
+                    locked: false,
                 },
             },
             LinkFault::Silent(secs) => {
@@ -1106,17 +822,22 @@ impl Session<'_, '_> {
     /// Stop the machine: soft reset (stops motion and the laser at once), wait for the banner,
     /// then `M5` unless the controller is locked in alarm (where the reset already did it).
     fn halt(&mut self, last_acked: Option<usize>, resume_from: usize) -> Halt {
-        let laser = self.stop_laser();
+        let (laser, locked) = self.stop_laser();
         Halt {
             last_acked,
             resume_from,
             laser,
+            locked,
         }
     }
 
-    fn stop_laser(&mut self) -> String {
+    /// What was done about the laser, and whether Grbl is now locked in alarm.
+    fn stop_laser(&mut self) -> (String, bool) {
         if self.link.write(&[RT_SOFT_RESET]).is_err() {
-            return "the soft reset could not be sent: make sure the laser is off".into();
+            return (
+                "the soft reset could not be sent: make sure the laser is off".into(),
+                false,
+            );
         }
         let wait = self.cfg.timeout.min(Duration::from_secs(3));
         let (mut alarm, mut hinted) = (None, false);
@@ -1126,8 +847,10 @@ impl Session<'_, '_> {
         );
         if !welcomed {
             let _ = self.link.write(b"M5\n");
-            return "soft reset and M5 sent but Grbl did not answer: make sure the laser is off"
-                .into();
+            return (
+                "soft reset and M5 sent but Grbl did not answer: make sure the laser is off".into(),
+                false,
+            );
         }
         // The unlock hint follows the banner when the reset left the machine locked.
         let end = Instant::now() + Duration::from_millis(300);
@@ -1143,13 +866,19 @@ impl Session<'_, '_> {
             }
         }
         if hinted || alarm.is_some() {
-            return "laser off (soft reset); the machine is locked: check it, then home it or \
-                    unlock it (--unlock sends $X)"
-                .into();
+            return (
+                "laser off (soft reset); the machine is locked: check it, then home it or \
+                 unlock it (--unlock sends $X)"
+                    .into(),
+                true,
+            );
         }
         match self.command("M5") {
-            Ok(_) => "laser off (soft reset, M5 acknowledged)".into(),
-            Err(_) => "laser off (soft reset; M5 was not acknowledged)".into(),
+            Ok(_) => ("laser off (soft reset, M5 acknowledged)".into(), false),
+            Err(_) => (
+                "laser off (soft reset; M5 was not acknowledged)".into(),
+                false,
+            ),
         }
     }
 }
@@ -1242,59 +971,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn job_refuses_long_lines_and_realtime_characters() {
-        let long = format!("G1X1Y1 ; ok\n(c)\nG1X{}\n", "1".repeat(80));
-        match Job::parse("a.gcode", &long) {
-            Err(MachineError::LineTooLong {
-                line: 3, len: 83, ..
-            }) => {}
-            other => panic!("{other:?}"),
-        }
-        let e = Job::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
-        assert!(e.to_string().contains("line 2"), "{e}");
-        // Comments and spaces do not count against the 80 bytes.
-        let ok = format!("G1 X1 ({})\n", "c".repeat(100));
-        let j = Job::parse("a.gcode", &ok).unwrap();
-        assert_eq!(j.lines[0].text, "G1X1");
-    }
-
-    #[test]
-    fn preamble_restores_state() {
-        let p = "G21 G90\nM4 S300\nG0 X10 Y5\nG1 X20 F600\nG91\nX1\n";
-        let j = Job::parse("p", p).unwrap();
-        let pre = j.resume_preamble(6).unwrap();
-        assert_eq!(
-            pre,
-            vec!["M5", "G21G90", "G0X20Y5", "F600", "G1", "G91", "M4S300"]
-        );
-        assert!(j.resume_preamble(1).unwrap().is_empty());
-        assert!(j.resume_preamble(99).is_err());
-        // Inches: travel in mm, feed in mm/min, then back to G20.
-        let p = "G20\nG0 X1\nM3 S100\nG1 Y1 F10\nY2\n";
-        let pre = Job::parse("p", p).unwrap().resume_preamble(5).unwrap();
-        assert_eq!(
-            pre,
-            vec![
-                "M5",
-                "G21G90",
-                "G0X25.4Y25.4",
-                "F254",
-                "G1",
-                "G20",
-                "M3S100"
-            ]
-        );
-        // Running the preamble then the rest lands where the whole program does.
-        let whole = gcode::interpret(p).unwrap();
-        let mut m = Modal::default();
-        for l in pre.iter().map(String::as_str).chain(["Y2"]) {
-            gcode::step(&mut m, l, 0).unwrap();
-        }
-        assert_eq!(m.pos, whole.last().unwrap().to);
-        assert!(m.spindle_on && !m.dynamic && !m.metric);
-    }
-
-    #[test]
     fn tracker_counts_planner_blocks() {
         let mut t = Tracker {
             planner_blocks: 15,
@@ -1318,13 +994,5 @@ mod tests {
         st.buffer = None;
         t.status(&st);
         assert_eq!(t.first_unexecuted(), Some(7));
-    }
-
-    #[test]
-    fn numbers() {
-        assert_eq!(num(25.4), "25.4");
-        assert_eq!(num(600.0), "600");
-        assert_eq!(num(-0.00001), "0");
-        assert_eq!(num(1.23456), "1.2346");
     }
 }

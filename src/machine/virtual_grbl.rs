@@ -205,6 +205,13 @@ enum State {
     Critical,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Comment {
+    None,
+    Paren,
+    Semicolon,
+}
+
 struct Block {
     mv: Move,
     /// Index into the record's `received`.
@@ -225,6 +232,7 @@ struct Sim {
     rx: VecDeque<u8>,
     line_buf: Vec<u8>,
     line_overflow: bool,
+    comment: Comment,
     /// A motion line taken from the buffer, waiting for a planner slot (its `ok` waits too).
     pending: Option<(Move, usize)>,
     planner: VecDeque<Block>,
@@ -258,6 +266,7 @@ impl Sim {
             rx: VecDeque::new(),
             line_buf: Vec::new(),
             line_overflow: false,
+            comment: Comment::None,
             pending: None,
             planner: VecDeque::new(),
             modal: Modal::default(),
@@ -375,6 +384,7 @@ impl Sim {
         self.rx.clear();
         self.line_buf.clear();
         self.line_overflow = false;
+        self.comment = Comment::None;
         self.pending = None;
         self.planner.clear();
         self.hold = false;
@@ -492,14 +502,27 @@ impl Sim {
             let Some(b) = self.rx.pop_front() else {
                 return;
             };
+            // As Grbl fills its line buffer: comments, spaces, control characters and block
+            // delete never enter it; what is left must fit 79 characters.
             if b == b'\n' || b == b'\r' {
                 let raw = std::mem::take(&mut self.line_buf);
                 let overflow = std::mem::replace(&mut self.line_overflow, false);
+                self.comment = Comment::None;
                 self.line(String::from_utf8_lossy(&raw).into_owned(), overflow);
+            } else if self.comment == Comment::Paren {
+                if b == b')' {
+                    self.comment = Comment::None;
+                }
+            } else if self.comment == Comment::Semicolon {
+            } else if b == b'(' {
+                self.comment = Comment::Paren;
+            } else if b == b';' {
+                self.comment = Comment::Semicolon;
+            } else if b <= b' ' || b == b'/' {
             } else if self.line_buf.len() >= MAX_LINE_BYTES {
                 self.line_overflow = true;
-            } else if !(b == b' ' || b.is_ascii_control()) {
-                self.line_buf.push(b);
+            } else {
+                self.line_buf.push(b.to_ascii_uppercase());
             }
         }
     }
@@ -812,8 +835,20 @@ mod tests {
             s.starts_with("ok\r\n<Idle|MPos:3.000,4.000,0.000|"),
             "{s:?}"
         );
+        // Comments and spaces do not count; 79 characters fit, 80 do not.
+        let fits = format!("g0 x1 (a comment){}\n", "0".repeat(75));
+        let long = format!("G0X1{}\n", "0".repeat(76));
+        host.write_all(fits.as_bytes()).unwrap();
+        assert_eq!(
+            read_until(&mut host, "\r\n", Duration::from_secs(5)),
+            "ok\r\n"
+        );
+        host.write_all(long.as_bytes()).unwrap();
+        let s = read_until(&mut host, "\r\n", Duration::from_secs(5));
+        assert_eq!(s, "error:11\r\n");
         let r = vg.stop();
-        assert_eq!(r.run_lines(), vec!["G1X1", "G5X1", "$I", "G0X3Y4F100"]);
+        assert_eq!(r.run_lines()[..4], ["G1X1", "G5X1", "$I", "G0X3Y4F100"]);
+        assert_eq!(r.run_lines()[4].len(), 79);
         assert_eq!(r.overflow_bytes, 0);
     }
 

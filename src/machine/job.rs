@@ -1,0 +1,227 @@
+//! A G-code program made ready for Grbl: cleaned and vetted line by line before anything is sent,
+//! with its moves (for the time estimate) and the state preamble that resumes it mid-way.
+
+use super::error::MachineError;
+use super::gcode::{self, Modal, Move};
+use super::protocol::{self, MAX_LINE_BYTES};
+
+/// One line to send: its text as Grbl will see it, and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobLine {
+    /// 1-based line number in the file.
+    pub number: usize,
+    /// Cleaned text (no comments, no spaces, upper case), without the newline.
+    pub text: String,
+    /// The line makes a move (or might: lines our interpreter cannot read count as moves).
+    pub motion: bool,
+}
+
+/// A program ready to stream: vetted, cleaned, with its moves for the time estimate.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// File name for messages.
+    pub name: String,
+    pub lines: Vec<JobLine>,
+    /// Moves as our interpreter reads them (lines it cannot read are skipped).
+    pub moves: Vec<Move>,
+    source: Vec<String>,
+}
+
+impl Job {
+    /// Clean and vet a program before anything is sent: every line must fit Grbl's line buffer and
+    /// hold only printable ASCII without real-time characters (which Grbl would act on mid-line).
+    pub fn parse(name: &str, text: &str) -> Result<Job, MachineError> {
+        let mut lines = Vec::new();
+        let mut moves = Vec::new();
+        let mut modal = Modal::default();
+        let source: Vec<String> = text.lines().map(str::to_string).collect();
+        for (i, raw) in source.iter().enumerate() {
+            let number = i + 1;
+            let clean = gcode::clean_line(raw);
+            if clean.is_empty() {
+                continue;
+            }
+            if let Some(c) = clean
+                .chars()
+                .find(|&c| !c.is_ascii_graphic() || protocol::is_realtime(c as u32 as u8))
+            {
+                return Err(MachineError::BadChar {
+                    file: name.to_string(),
+                    line: number,
+                    ch: c,
+                });
+            }
+            if clean.len() > MAX_LINE_BYTES {
+                return Err(MachineError::LineTooLong {
+                    file: name.to_string(),
+                    line: number,
+                    len: clean.len(),
+                });
+            }
+            let mut m = modal;
+            let motion = match gcode::step(&mut m, &clean, number) {
+                Ok(mv) => {
+                    modal = m;
+                    if let Some(mv) = mv {
+                        moves.push(mv);
+                        true
+                    } else {
+                        false
+                    }
+                }
+                Err(_) => !clean.starts_with('$'),
+            };
+            lines.push(JobLine {
+                number,
+                text: clean,
+                motion,
+            });
+        }
+        Ok(Job {
+            name: name.to_string(),
+            lines,
+            moves,
+            source,
+        })
+    }
+
+    /// Lines that restore, before line `from_line`, the state the program had built up: laser off,
+    /// travel (G0, mm, absolute) to where the tool was, feed, motion mode, units, distance mode,
+    /// then laser mode and power.
+    pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {
+        if from_line == 0 || from_line > self.source.len() {
+            return Err(MachineError::FromLine {
+                file: self.name.clone(),
+                line: from_line,
+                total: self.source.len(),
+            });
+        }
+        let mut modal = Modal::default();
+        let mut used = [false; 3];
+        for (i, raw) in self.source.iter().enumerate().take(from_line - 1) {
+            let clean = gcode::clean_line(raw);
+            gcode::step(&mut modal, &clean, i + 1).map_err(|e| MachineError::ResumeState {
+                file: self.name.clone(),
+                from_line,
+                source: e,
+            })?;
+            for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
+                if let Some(a) = "XYZ".find(l) {
+                    used[a] = true;
+                }
+            }
+        }
+        if from_line == 1 {
+            return Ok(Vec::new());
+        }
+        let mut out = vec!["M5".to_string(), "G21G90".to_string()];
+        let mut travel = String::from("G0");
+        for (a, letter) in "XYZ".chars().enumerate() {
+            if used[a] {
+                travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
+            }
+        }
+        if travel.len() > 2 {
+            out.push(travel);
+        }
+        if let Some(f) = modal.feed {
+            out.push(format!("F{}", num(f)));
+            if modal.motion == 1 {
+                out.push("G1".into());
+            }
+        }
+        if !modal.metric {
+            out.push("G20".into());
+        }
+        if !modal.absolute {
+            out.push("G91".into());
+        }
+        if modal.spindle_on {
+            let m = if modal.dynamic { "M4" } else { "M3" };
+            out.push(format!("{m}S{}", num(modal.s)));
+        } else if modal.s > 0.0 {
+            out.push(format!("S{}", num(modal.s)));
+        }
+        Ok(out)
+    }
+}
+
+/// A number as G-code: at most 4 decimals, no trailing zeros.
+fn num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn job_refuses_long_lines_and_realtime_characters() {
+        let long = format!("G1X1Y1 ; ok\n(c)\nG1X{}\n", "1".repeat(80));
+        match Job::parse("a.gcode", &long) {
+            Err(MachineError::LineTooLong {
+                line: 3, len: 83, ..
+            }) => {}
+            other => panic!("{other:?}"),
+        }
+        let e = Job::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
+        // 79 characters fit Grbl's line buffer, 80 do not.
+        assert!(Job::parse("a.gcode", &format!("G0X{}\n", "1".repeat(76))).is_ok());
+        assert!(Job::parse("a.gcode", &format!("G0X{}\n", "1".repeat(77))).is_err());
+        // Comments and spaces do not count.
+        let ok = format!("G1 X1 ({})\n", "c".repeat(100));
+        let j = Job::parse("a.gcode", &ok).unwrap();
+        assert_eq!(j.lines[0].text, "G1X1");
+    }
+
+    #[test]
+    fn preamble_restores_state() {
+        let p = "G21 G90\nM4 S300\nG0 X10 Y5\nG1 X20 F600\nG91\nX1\n";
+        let j = Job::parse("p", p).unwrap();
+        let pre = j.resume_preamble(6).unwrap();
+        assert_eq!(
+            pre,
+            vec!["M5", "G21G90", "G0X20Y5", "F600", "G1", "G91", "M4S300"]
+        );
+        assert!(j.resume_preamble(1).unwrap().is_empty());
+        assert!(j.resume_preamble(99).is_err());
+        // Inches: travel in mm, feed in mm/min, then back to G20.
+        let p = "G20\nG0 X1\nM3 S100\nG1 Y1 F10\nY2\n";
+        let pre = Job::parse("p", p).unwrap().resume_preamble(5).unwrap();
+        assert_eq!(
+            pre,
+            vec![
+                "M5",
+                "G21G90",
+                "G0X25.4Y25.4",
+                "F254",
+                "G1",
+                "G20",
+                "M3S100"
+            ]
+        );
+        // Running the preamble then the rest lands where the whole program does.
+        let whole = gcode::interpret(p).unwrap();
+        let mut m = Modal::default();
+        for l in pre.iter().map(String::as_str).chain(["Y2"]) {
+            gcode::step(&mut m, l, 0).unwrap();
+        }
+        assert_eq!(m.pos, whole.last().unwrap().to);
+        assert!(m.spindle_on && !m.dynamic && !m.metric);
+    }
+
+    #[test]
+    fn numbers() {
+        assert_eq!(num(25.4), "25.4");
+        assert_eq!(num(600.0), "600");
+        assert_eq!(num(-0.00001), "0");
+        assert_eq!(num(1.23456), "1.2346");
+    }
+}
