@@ -443,3 +443,294 @@ fn next_cheapest(
         })
         .min_by(|&a, &b| total(g, a).total_cmp(&total(g, b)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::islands::label;
+    use crate::raster::Gray;
+
+    fn black_white(bits: BitGrid) -> TwoTone {
+        let gray = Gray {
+            width: bits.width,
+            height: bits.height,
+            data: bits
+                .data
+                .iter()
+                .map(|&b| if b { 1.0 } else { 0.0 })
+                .collect(),
+        };
+        TwoTone { bits, gray }
+    }
+
+    /// Connect, then check what a user relies on: no floating piece, nothing cut that was
+    /// material, every bridge reported with its pixels.
+    fn connect_and_check(two: &TwoTone, cfg: &BridgeConfig) -> Bridged {
+        let map = label(&two.bits);
+        let out = connect(two, &map, cfg).unwrap();
+        assert_eq!(label(&out.bits).island_count(), 0, "pieces still float");
+        for (i, (&before, &after)) in two.bits.data.iter().zip(&out.bits.data).enumerate() {
+            assert!(!before || after, "pixel {i} was material and is cut now");
+        }
+        let added = out
+            .bits
+            .data
+            .iter()
+            .zip(&two.bits.data)
+            .filter(|(a, b)| **a && !**b)
+            .count();
+        assert_eq!(added, out.bridges.iter().map(|b| b.pixels).sum::<usize>());
+        assert!(out.bridges.len() >= map.island_count());
+        for b in &out.bridges {
+            assert!(b.nodes[0] < b.nodes[1] && (b.nodes[1] as usize) < map.nodes.len());
+            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px);
+            assert_eq!(b.polygon.len(), 4);
+            assert!(b.cost.total.is_finite());
+        }
+        out
+    }
+
+    fn rings(n: u32, depth: u32, band: u32) -> BitGrid {
+        let c = n as f64 / 2.0;
+        BitGrid::from_fn(n, n, |x, y| {
+            let r = ((x as f64 + 0.5 - c).powi(2) + (y as f64 + 0.5 - c).powi(2)).sqrt();
+            // Frame outside radius c - band; then alternating cut / material bands inwards.
+            let k = ((c - r) / band as f64).floor() as i64;
+            k <= 0 || (k % 2 == 0 && k <= 2 * depth as i64)
+        })
+    }
+
+    #[test]
+    fn nested_rings_five_deep_are_all_joined() {
+        let bits = rings(160, 5, 7);
+        let two = black_white(bits);
+        let islands = label(&two.bits).island_count();
+        assert_eq!(islands, 5);
+        let out = connect_and_check(&two, &BridgeConfig::default());
+        // A tree over 6 nodes needs at least 5 bridges.
+        assert!(out.bridges.iter().filter(|b| !b.support).count() >= 5);
+    }
+
+    #[test]
+    fn checkerboard_squares_touching_at_corners_are_bridged() {
+        let bits = BitGrid::from_fn(96, 96, |x, y| {
+            if x < 4 || y < 4 || x >= 92 || y >= 92 {
+                return true;
+            }
+            if !(8..88).contains(&x) || !(8..88).contains(&y) {
+                return false;
+            }
+            ((x - 8) / 8 + (y - 8) / 8) % 2 == 0
+        });
+        let two = black_white(bits);
+        assert_eq!(label(&two.bits).island_count(), 50);
+        connect_and_check(&two, &BridgeConfig::default());
+    }
+
+    /// Small deterministic generator (64-bit LCG) for random blobs.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    pub(crate) fn blobs(w: u32, h: u32, count: usize, seed: u64) -> BitGrid {
+        let mut rng = Lcg(seed);
+        let discs: Vec<(f64, f64, f64)> = (0..count)
+            .map(|_| {
+                (
+                    rng.next() * w as f64,
+                    rng.next() * h as f64,
+                    2.0 + rng.next() * 9.0,
+                )
+            })
+            .collect();
+        let mut bits = BitGrid::new(w, h, false);
+        for &(cx, cy, r) in &discs {
+            let (x0, x1) = ((cx - r).max(0.0) as u32, ((cx + r) as u32).min(w - 1));
+            let (y0, y1) = ((cy - r).max(0.0) as u32, ((cy + r) as u32).min(h - 1));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    if (x as f64 + 0.5 - cx).powi(2) + (y as f64 + 0.5 - cy).powi(2) <= r * r {
+                        bits.set(x, y, true);
+                    }
+                }
+            }
+        }
+        bits
+    }
+
+    #[test]
+    fn random_blobs_are_all_joined() {
+        for seed in [1u64, 7, 42] {
+            let bits = blobs(200, 150, 60, seed);
+            let two = black_white(bits);
+            assert!(label(&two.bits).island_count() > 10, "seed {seed}");
+            connect_and_check(&two, &BridgeConfig::default());
+        }
+    }
+
+    #[test]
+    fn shaded_gray_and_one_pixel_islands_are_joined() {
+        // Single-pixel islands on a gray ramp: walks steer by the gray, fallbacks thicken.
+        let bits = BitGrid::from_fn(60, 40, |x, y| (x % 6 == 3 && y % 6 == 3) || y == 0);
+        let gray = Gray {
+            width: 60,
+            height: 40,
+            data: (0..60 * 40)
+                .map(|i| {
+                    if bits.data[i] {
+                        1.0
+                    } else {
+                        (i % 60) as f32 / 120.0
+                    }
+                })
+                .collect(),
+        };
+        connect_and_check(&TwoTone { bits, gray }, &BridgeConfig::default());
+    }
+
+    #[test]
+    fn an_island_beyond_the_length_limit_is_named_in_the_error() {
+        let bits = BitGrid::from_fn(60, 60, |x, y| {
+            (25..35).contains(&x) && (25..35).contains(&y)
+        });
+        let two = black_white(bits);
+        let map = label(&two.bits);
+        let cfg = BridgeConfig {
+            max_length_px: 10,
+            ..Default::default()
+        };
+        match connect(&two, &map, &cfg) {
+            Err(BridgeError::Unreachable {
+                island,
+                x,
+                y,
+                reason,
+            }) => {
+                assert_eq!(island, 1);
+                assert!((25..35).contains(&x) && (25..35).contains(&y));
+                assert!(reason.contains("10 px"), "{reason}");
+            }
+            other => panic!("expected Unreachable, got {other:?}"),
+        }
+        // With a long enough limit the same island is joined.
+        connect_and_check(&two, &BridgeConfig::default());
+    }
+
+    #[test]
+    fn fallback_search_joins_an_island_whose_walks_all_fail() {
+        // A one-pixel bar whose normals all run more than 16 px to the frame, and a frame tooth
+        // hanging from the top whose tip is 14 cut pixels away diagonally: no walk finds it,
+        // the breadth-first search does.
+        let bits = BitGrid::from_fn(60, 60, |x, y| {
+            (y == 30 && (20..=40).contains(&x)) || (x == 10 && y <= 25)
+        });
+        let two = black_white(bits);
+        let map = label(&two.bits);
+        assert_eq!(map.island_count(), 1);
+        let cfg = BridgeConfig {
+            max_length_px: 16,
+            ..Default::default()
+        };
+        let fields = strips::Fields::new(&two, &map);
+        let c = candidates::collect(&map);
+        assert!((0..c.len()).all(|id| strips::walk_candidate(&fields, &c, id, 16).is_err()));
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 1);
+        let p = &out.bridges[0].polygon;
+        assert!(
+            p.iter()
+                .all(|q| (9.0..=21.0).contains(&q[0]) && (25.0..=31.0).contains(&q[1])),
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn a_fanning_bridge_is_halved_and_gets_a_support() {
+        // A disc of radius 12 far from the frame: its strips fan out, so the drawn bridge covers
+        // far more dark pixels than its strips promised.
+        let n = 110u32;
+        let disc = |x: u32, y: u32| {
+            (x as f64 + 0.5 - 55.0).powi(2) + (y as f64 + 0.5 - 55.0).powi(2) <= 144.0
+        };
+        let two = black_white(BitGrid::from_fn(n, n, disc));
+        let cfg = BridgeConfig {
+            min_width_px: 2,
+            ..Default::default()
+        };
+        let map = label(&two.bits);
+        let need = grow::width_for(map.nodes[1].area, &cfg);
+        assert!(need >= 4, "{need}");
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 2);
+        assert!(!out.bridges[0].support && out.bridges[1].support);
+        assert_eq!(out.bridges[0].width_px, need / 2);
+        assert_eq!(out.bridges[1].width_px, need / 2);
+        // Apart from each other.
+        let c = |b: &Bridge| b.polygon[0];
+        let (a, b) = (c(&out.bridges[0]), c(&out.bridges[1]));
+        assert!((a[0] - b[0]).hypot(a[1] - b[1]) > need as f64);
+
+        // With a wide margin the same bridge stays whole and alone.
+        let relaxed = BridgeConfig {
+            support_margin: 1000.0,
+            ..cfg.clone()
+        };
+        let out = connect_and_check(&two, &relaxed);
+        assert_eq!(out.bridges.len(), 1);
+        assert_eq!(out.bridges[0].width_px, need);
+    }
+
+    #[test]
+    fn a_square_bridge_across_a_straight_gap_needs_no_support() {
+        // Straight parallel strips: the drawn bridge is exactly its strips.
+        let bits = BitGrid::from_fn(80, 80, |x, y| {
+            y < 4 || ((10..70).contains(&x) && (10..70).contains(&y))
+        });
+        let two = black_white(bits);
+        let cfg = BridgeConfig {
+            min_width_px: 2,
+            ..Default::default()
+        };
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 1);
+        assert!(!out.bridges[0].support);
+    }
+
+    #[test]
+    fn bad_settings_are_refused_by_name() {
+        let two = black_white(BitGrid::new(4, 4, true));
+        let map = label(&two.bits);
+        for cfg in [
+            BridgeConfig {
+                alpha: 2.0,
+                ..Default::default()
+            },
+            BridgeConfig {
+                w_length: -1.0,
+                ..Default::default()
+            },
+            BridgeConfig {
+                min_width_px: 50,
+                ..Default::default()
+            },
+        ] {
+            let e = connect(&two, &map, &cfg).unwrap_err();
+            assert!(matches!(e, BridgeError::BadSetting { .. }), "{e}");
+        }
+    }
+
+    #[test]
+    fn no_islands_means_no_bridges() {
+        let two = black_white(BitGrid::from_fn(10, 10, |x, _| x < 3));
+        let out = connect_and_check(&two, &BridgeConfig::default());
+        assert!(out.bridges.is_empty());
+        assert_eq!(out.bits, two.bits);
+    }
+}
