@@ -205,15 +205,43 @@ fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
 
 /// Join every island to the frame with bridges.
 pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bridged, BridgeError> {
+    connect_timed(two, map, cfg).map(|(b, _)| b)
+}
+
+/// Wall-clock milliseconds per phase of [`connect`], in order: `fields` (summed-area table),
+/// `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
+/// fallback searches), `grow` (growing, support bridges, drawing).
+pub type PhaseTimes = Vec<(&'static str, f64)>;
+
+/// [`connect`], also returning where the time went (for the benchmark and diagnostics).
+pub fn connect_timed(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+) -> Result<(Bridged, PhaseTimes), BridgeError> {
     cfg.validate()?;
+    let mut times = PhaseTimes::new();
     if map.island_count() == 0 {
-        return Ok(Bridged {
+        let bridged = Bridged {
             bits: two.bits.clone(),
             bridges: Vec::new(),
-        });
+        };
+        return Ok((bridged, times));
     }
+    let mut clock = std::time::Instant::now();
+    let mut lap = |name: &'static str, times: &mut PhaseTimes| {
+        let now = std::time::Instant::now();
+        times.push((name, (now - clock).as_secs_f64() * 1e3));
+        clock = now;
+    };
     let fields = strips::Fields::new(two, map);
-    let mut g = build_graph(&fields, map, cfg);
+    lap("fields", &mut times);
+    let cands = candidates::collect(map);
+    lap("candidates", &mut times);
+    let walked = walk_all(&fields, &cands, cfg);
+    lap("walks", &mut times);
+    let mut g = build_graph(cands, walked, map, cfg);
+    lap("scores", &mut times);
 
     // Stage 4: Prim from the frame, with the search as fallback for stranded groups.
     let mut prim = tree::Prim::new(map.nodes.len());
@@ -285,28 +313,43 @@ pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bri
         prim.grow();
     }
 
+    lap("tree", &mut times);
+
     // Stage 5: grow and draw the chosen bridges in tree order.
     let mut bits = two.bits.clone();
     let mut bridges = Vec::new();
     for &(edge, _) in &prim.chosen {
         grow_bridge(two, &g, cfg, edge.candidate, &mut bits, &mut bridges);
     }
-    Ok(Bridged { bits, bridges })
+    lap("grow", &mut times);
+    Ok((Bridged { bits, bridges }, times))
 }
 
 fn total(g: &Graph, id: usize) -> f64 {
     g.scores[id].map_or(f64::INFINITY, |s| s.terms.total)
 }
 
-/// Candidates, walks, normalisation and window scores: the parallel, perimeter-bound part.
-fn build_graph(fields: &strips::Fields, map: &IslandMap, cfg: &BridgeConfig) -> Graph {
-    let cands = candidates::collect(map);
+/// A walk from every candidate, in parallel.
+fn walk_all(
+    fields: &strips::Fields,
+    cands: &candidates::Candidates,
+    cfg: &BridgeConfig,
+) -> Vec<Option<strips::Strip>> {
     let max_len = cfg.max_length_px as usize;
-    let strips: Vec<Option<strips::Strip>> = (0..cands.len())
+    (0..cands.len())
         .into_par_iter()
         .with_min_len(256)
-        .map(|id| strips::walk_candidate(fields, &cands, id, max_len).ok())
-        .collect();
+        .map(|id| strips::walk_candidate(fields, cands, id, max_len).ok())
+        .collect()
+}
+
+/// Normalisation, strip costs and window scores, in parallel; candidates grouped by node pair.
+fn build_graph(
+    cands: candidates::Candidates,
+    strips: Vec<Option<strips::Strip>>,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+) -> Graph {
     let norm = cost::Norm::new(strips.iter().flatten().map(|s| s.len()).collect(), cfg);
     let costs: Vec<_> = strips
         .iter()
