@@ -339,7 +339,9 @@ fn walk_all(
     (0..cands.len())
         .into_par_iter()
         .with_min_len(256)
-        .map(|id| strips::walk_candidate(fields, cands, id, max_len).ok())
+        .map_init(Vec::new, |scratch, id| {
+            strips::walk_candidate_with(fields, cands, id, max_len, scratch).ok()
+        })
         .collect()
 }
 

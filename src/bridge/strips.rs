@@ -245,8 +245,19 @@ pub fn walk_candidate(
     id: usize,
     max_len: usize,
 ) -> Result<Strip, WalkEnd> {
+    walk_candidate_with(f, c, id, max_len, &mut Vec::new())
+}
+
+/// [`walk_candidate`] with a reusable scratch buffer (no allocation for walks that fail).
+pub fn walk_candidate_with(
+    f: &Fields,
+    c: &Candidates,
+    id: usize,
+    max_len: usize,
+    scratch: &mut Vec<u32>,
+) -> Result<Strip, WalkEnd> {
     let (x, y) = c.pixels[id];
-    walk(f, x, y, c.node(id), normal(f, c, id), max_len)
+    walk(f, x, y, c.node(id), normal(f, c, id), max_len, scratch)
 }
 
 /// Walk from candidate (x, y) of node `own`, starting along `n` (see [`normal`]); at most
@@ -258,7 +269,9 @@ pub fn walk(
     own: u32,
     n: [f32; 2],
     max_len: usize,
+    pixels: &mut Vec<u32>,
 ) -> Result<Strip, WalkEnd> {
+    pixels.clear();
     let (cx, cy) = (x as i64, y as i64);
     // First pixel: the cut edge neighbour most in line with the normal.
     let mut best: Option<((i64, i64), f32)> = None;
@@ -282,16 +295,15 @@ pub fn walk(
     // Continuous position in pixel units: pixel (x, y) covers [x, x+1) × [y, y+1).
     let mut pos = [px as f32 + 0.5, py as f32 + 0.5];
     let w = f.width;
-    let mut pixels: Vec<u32> = Vec::with_capacity(32);
     let mut prev: Option<(i64, i64)> = Some((cx, cy));
     loop {
         pixels.push((py * w + px) as u32);
         if let Some((end, to)) = f.arrival(px, py, own) {
-            let intensity = super::cost::intensity(f.gray, &pixels);
+            let intensity = super::cost::intensity(f.gray, pixels);
             return Ok(Strip {
                 from: own,
                 to,
-                pixels,
+                pixels: pixels.clone(),
                 end,
                 intensity,
             });
