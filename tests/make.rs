@@ -296,3 +296,21 @@ fn help_has_a_worked_example() {
         assert!(text.contains(flag), "{flag} missing from --help");
     }
 }
+
+#[test]
+fn tone_command_writes_the_same_two_tone_as_make() {
+    let dir = tmp();
+    let input = samples().join("letters.png");
+    let png = dir.path().join("t.png");
+    let o = stencil(&["tone", s(&input), "-o", s(&png), "--threshold", "otsu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("make");
+    let o = stencil(&["make", s(&input), "-o", s(&out), "--threshold", "otsu"]);
+    if o.status.success() {
+        assert_eq!(read_bits(&png), read_bits(&out.join("twotone.png")));
+    }
+    let bits = read_bits(&png);
+    assert_eq!((bits.width, bits.height), (480, 160));
+    // The letters' counters are islands in the two-tone: O, A, two in B, two in 8.
+    assert!(stencil::islands::label(&bits).island_count() >= 6);
+}
