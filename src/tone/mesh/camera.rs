@@ -195,17 +195,6 @@ impl Camera {
             ..*self
         }
     }
-
-    /// Radius in pixels of the outline of a sphere (centre `c`, radius `r`) that lies on the view
-    /// axis: `f·tan(asin(r/d))` in perspective, `f·r` orthographic.
-    pub fn sphere_outline_px(&self, c: Vec3, r: f32) -> f32 {
-        if self.orthographic {
-            self.focal_px * r
-        } else {
-            let d = (c - self.eye).length();
-            self.focal_px * (r / d).asin().tan()
-        }
-    }
 }
 
 #[cfg(test)]
