@@ -35,7 +35,15 @@ fn sphere_lit_from_the_camera_is_a_disc_of_the_analytic_radius() {
         let mut c = cfg(LineMode::None);
         c.fov_deg = fov;
         // The light sits at the eye (orthographic: at infinity, well, 1000 radii away).
-        c.light = [0.0, 0.0, if fov.is_some() { c.eye_distance() } else { 1000.0 }];
+        c.light = [
+            0.0,
+            0.0,
+            if fov.is_some() {
+                c.eye_distance()
+            } else {
+                1000.0
+            },
+        ];
         let r = render_mesh(&m, &c).unwrap();
         let cam = r.camera;
         let centre = cam.project(Vec3::ZERO);
@@ -55,7 +63,12 @@ fn sphere_lit_from_the_camera_is_a_disc_of_the_analytic_radius() {
             if !bright(i) {
                 continue;
             }
-            for (j, dx, dy) in [(i - 1, -0.5, 0.0), (i + 1, 0.5, 0.0), (i - w, 0.0, -0.5), (i + w, 0.0, 0.5)] {
+            for (j, dx, dy) in [
+                (i - 1, -0.5, 0.0),
+                (i + 1, 0.5, 0.0),
+                (i - w, 0.0, -0.5),
+                (i + w, 0.0, 0.5),
+            ] {
                 if bright(j) {
                     continue;
                 }
@@ -68,7 +81,10 @@ fn sphere_lit_from_the_camera_is_a_disc_of_the_analytic_radius() {
                 );
             }
         }
-        assert!(edges as f32 > 4.0 * expect, "a closed outline, {edges} edge pixels");
+        assert!(
+            edges as f32 > 4.0 * expect,
+            "a closed outline, {edges} edge pixels"
+        );
     }
 }
 
@@ -120,7 +136,10 @@ fn sphere_silhouette_is_on_the_outline() {
         if r.lines.data[i] {
             count += 1;
             let rad = ((x - centre.x).powi(2) + (y - centre.y).powi(2)).sqrt();
-            assert!((rad - rho).abs() <= 3.0, "line pixel at radius {rad}, outline at {rho}");
+            assert!(
+                (rad - rho).abs() <= 3.0,
+                "line pixel at radius {rad}, outline at {rho}"
+            );
         }
     }
     assert!(count as f32 > 2.0 * std::f32::consts::TAU * rho, "{count}");
@@ -128,8 +147,14 @@ fn sphere_silhouette_is_on_the_outline() {
     let w = r.gray.width as usize;
     for k in 0..72 {
         let a = k as f32 * std::f32::consts::TAU / 72.0;
-        let (x, y) = (centre.x + (rho - 0.5) * a.cos(), centre.y + (rho - 0.5) * a.sin());
-        assert!(r.lines.data[y as usize * w + x as usize], "gap at {k}*5 degrees");
+        let (x, y) = (
+            centre.x + (rho - 0.5) * a.cos(),
+            centre.y + (rho - 0.5) * a.sin(),
+        );
+        assert!(
+            r.lines.data[y as usize * w + x as usize],
+            "gap at {k}*5 degrees"
+        );
     }
 }
 
@@ -163,7 +188,10 @@ fn cube_silhouette_is_its_outline_and_not_its_front_edge() {
             (centre.x - hx + 0.5, centre.y + s * (hy - 2.0)),
             (centre.x + hx - 0.5, centre.y + s * (hy - 2.0)),
         ] {
-            assert!(r.lines.data[y as usize * w + x as usize], "outline gap at ({x},{y})");
+            assert!(
+                r.lines.data[y as usize * w + x as usize],
+                "outline gap at ({x},{y})"
+            );
         }
     }
     // The front edge runs down the middle column: no line there.
@@ -176,8 +204,22 @@ fn cube_silhouette_is_its_outline_and_not_its_front_edge() {
 
 /// Line pixels drawn with suggestive contours but not with silhouettes alone.
 fn suggestive_only(m: &mesh::Mesh, c: &MeshConfig) -> usize {
-    let with = render_mesh(m, &MeshConfig { lines: LineMode::Suggestive, ..c.clone() }).unwrap();
-    let without = render_mesh(m, &MeshConfig { lines: LineMode::Silhouette, ..c.clone() }).unwrap();
+    let with = render_mesh(
+        m,
+        &MeshConfig {
+            lines: LineMode::Suggestive,
+            ..c.clone()
+        },
+    )
+    .unwrap();
+    let without = render_mesh(
+        m,
+        &MeshConfig {
+            lines: LineMode::Silhouette,
+            ..c.clone()
+        },
+    )
+    .unwrap();
     with.lines
         .data
         .iter()
@@ -219,7 +261,10 @@ fn invert_swaps_the_model_tones_but_not_lines_or_background() {
         if r.lines.data[i] {
             assert!(!a.bits.data[i] && !b.bits.data[i], "lines are cut");
         } else if !r.model.data[i] {
-            assert!(a.bits.data[i] && b.bits.data[i], "the background is material");
+            assert!(
+                a.bits.data[i] && b.bits.data[i],
+                "the background is material"
+            );
         } else {
             assert_ne!(a.bits.data[i], b.bits.data[i]);
         }
@@ -290,10 +335,30 @@ fn every_sample_mesh_makes_a_stencil_without_floating_pieces() {
 fn bad_files(dir: &Path) -> Vec<(PathBuf, usize, &'static str)> {
     let cases: [(&str, Option<&str>, usize, &'static str); 6] = [
         ("missing.obj", None, 0, "cannot open"),
-        ("short.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n"), 3, "needs 3 number"),
-        ("word.obj", Some("v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n"), 2, "not a number"),
-        ("index.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\n# a face\nf 1 2 7\n"), 5, "only 3 vertices"),
-        ("nan.obj", Some("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n"), 3, "not a finite number"),
+        (
+            "short.obj",
+            Some("v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n"),
+            3,
+            "needs 3 number",
+        ),
+        (
+            "word.obj",
+            Some("v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n"),
+            2,
+            "not a number",
+        ),
+        (
+            "index.obj",
+            Some("v 0 0 0\nv 1 0 0\nv 0 1 0\n# a face\nf 1 2 7\n"),
+            5,
+            "only 3 vertices",
+        ),
+        (
+            "nan.obj",
+            Some("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n"),
+            3,
+            "not a finite number",
+        ),
         ("empty.obj", Some("# nothing here\nv 0 0 0\n"), 0, "empty"),
     ];
     cases
@@ -330,7 +395,13 @@ fn bad_files_exit_non_zero_and_write_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     for (p, line, _) in bad_files(tmp.path()) {
         let out = tmp.path().join("out");
-        let run = stencil_bin().arg("make").arg(&p).arg("-o").arg(&out).output().unwrap();
+        let run = stencil_bin()
+            .arg("make")
+            .arg(&p)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
         assert!(!run.status.success());
         let err = String::from_utf8_lossy(&run.stderr);
         assert!(err.contains(&p.display().to_string()), "{err}");
@@ -339,7 +410,13 @@ fn bad_files_exit_non_zero_and_write_nothing() {
         }
         assert!(!out.exists(), "{} left {}", p.display(), out.display());
         let png = tmp.path().join("twotone.png");
-        let run = stencil_bin().arg("tone").arg(&p).arg("-o").arg(&png).output().unwrap();
+        let run = stencil_bin()
+            .arg("tone")
+            .arg(&p)
+            .arg("-o")
+            .arg(&png)
+            .output()
+            .unwrap();
         assert!(!run.status.success());
         assert!(!png.exists());
     }
@@ -390,7 +467,11 @@ fn tone_writes_the_two_tone_of_a_mesh() {
         .args(["--size", "300x200", "--view", "-30,25"])
         .output()
         .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let img = image::open(&png).unwrap().to_luma8();
     assert_eq!(img.dimensions(), (300, 200));
     // Corners are the sheet around the model; the model has cut parts.

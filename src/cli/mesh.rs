@@ -10,7 +10,12 @@ use stencil::tone::mesh::{LineMode, MeshConfig, Size};
 pub struct MeshArgs {
     /// Camera position on its orbit around the model: azimuth around the vertical (Y) axis and
     /// elevation above the horizon, in degrees ("0,0" looks along -Z at the model's front).
-    #[arg(long, value_name = "AZ,EL", default_value = "30,20", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "AZ,EL",
+        default_value = "30,20",
+        allow_hyphen_values = true
+    )]
     pub view: String,
     /// Camera distance from the model's centre, in bounding-sphere radii (> 1) [default: the
     /// distance at which the bounding sphere fills --fov]. Closer = stronger perspective.
@@ -29,7 +34,12 @@ pub struct MeshArgs {
     pub size: String,
     /// Point light position relative to the model's centre, in bounding radii, in the camera's
     /// frame: X right, Y up, Z towards the viewer. The default is above, to the left and in front.
-    #[arg(long, value_name = "X,Y,Z", default_value = "-1.5,1.5,1.5", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "-1.5,1.5,1.5",
+        allow_hyphen_values = true
+    )]
     pub light: String,
     /// Weight of the Blinn-Phong highlight (0 = matte).
     #[arg(long, default_value_t = 0.3)]
@@ -78,11 +88,18 @@ fn numbers<const N: usize>(flag: &str, s: &str, what: &str) -> anyhow::Result<[f
 }
 
 fn parse_size(s: &str) -> anyhow::Result<Size> {
-    let bad = || anyhow::anyhow!("--size '{s}': expected N (long side) or WxH in pixels, such as 1024 or 800x600");
+    let bad = || {
+        anyhow::anyhow!(
+            "--size '{s}': expected N (long side) or WxH in pixels, such as 1024 or 800x600"
+        )
+    };
     if let Some((w, h)) = s.split_once(['x', 'X']) {
         let w: u32 = w.trim().parse().map_err(|_| bad())?;
         let h: u32 = h.trim().parse().map_err(|_| bad())?;
-        Ok(Size::Exact { width: w, height: h })
+        Ok(Size::Exact {
+            width: w,
+            height: h,
+        })
     } else {
         Ok(Size::LongSide(s.trim().parse().map_err(|_| bad())?))
     }
@@ -91,7 +108,11 @@ fn parse_size(s: &str) -> anyhow::Result<Size> {
 impl MeshArgs {
     pub fn to_config(&self) -> anyhow::Result<MeshConfig> {
         let [az, el] = numbers::<2>("--view", &self.view, "AZ,EL in degrees, such as 30,20")?;
-        let light = numbers::<3>("--light", &self.light, "X,Y,Z in bounding radii, such as -1.5,1.5,1.5")?;
+        let light = numbers::<3>(
+            "--light",
+            &self.light,
+            "X,Y,Z in bounding radii, such as -1.5,1.5,1.5",
+        )?;
         let cfg = MeshConfig {
             azimuth_deg: az,
             elevation_deg: el,

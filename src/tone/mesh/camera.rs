@@ -45,12 +45,21 @@ pub struct Orbit {
 pub enum Size {
     /// This many pixels on the long side; the other side follows the model's outline.
     LongSide(u32),
-    Exact { width: u32, height: u32 },
+    Exact {
+        width: u32,
+        height: u32,
+    },
 }
 
 impl Camera {
     /// Place the camera on its orbit and fit the image plane to the projected `positions`.
-    pub fn frame(center: Vec3, radius: f32, orbit: &Orbit, size: Size, positions: &[Vec3]) -> Camera {
+    pub fn frame(
+        center: Vec3,
+        radius: f32,
+        orbit: &Orbit,
+        size: Size,
+        positions: &[Vec3],
+    ) -> Camera {
         let (az, el) = (
             orbit.azimuth_deg.to_radians(),
             orbit.elevation_deg.to_radians(),
@@ -150,7 +159,11 @@ impl Camera {
         } else {
             glam::Vec2::new(c.x / c.z, c.y / c.z)
         };
-        Vec3::new(self.cx + self.focal_px * q.x, self.cy - self.focal_px * q.y, c.z)
+        Vec3::new(
+            self.cx + self.focal_px * q.x,
+            self.cy - self.focal_px * q.y,
+            c.z,
+        )
     }
 
     /// The ray through pixel position (sx, sy): origin and direction, with `dir · forward = 1`, so
@@ -226,8 +239,13 @@ mod tests {
         assert!((c.right - Vec3::X).length() < 1e-6 && (c.up - Vec3::Y).length() < 1e-6);
         // The model fills the long side minus the margins.
         let xs: Vec<f32> = cube().iter().map(|&p| c.project(p).x).collect();
-        let (lo, hi) = xs.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
-        assert!((lo - 10.0).abs() < 1e-3 && (hi - 190.0).abs() < 1e-3, "{lo} {hi}");
+        let (lo, hi) = xs
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(
+            (lo - 10.0).abs() < 1e-3 && (hi - 190.0).abs() < 1e-3,
+            "{lo} {hi}"
+        );
         assert_eq!((c.width, c.height), (200, 200));
     }
 
@@ -239,7 +257,16 @@ mod tests {
             distance: 3.0,
             orthographic: false,
         };
-        let c = Camera::frame(Vec3::ZERO, 1.8, &o, Size::Exact { width: 300, height: 200 }, &cube());
+        let c = Camera::frame(
+            Vec3::ZERO,
+            1.8,
+            &o,
+            Size::Exact {
+                width: 300,
+                height: 200,
+            },
+            &cube(),
+        );
         for p in cube() {
             let s = c.project(p);
             let (o, d) = c.ray(s.x, s.y);

@@ -86,7 +86,10 @@ pub fn estimate(mesh: &Mesh, normals: &[Vec3]) -> Curvature {
         .iter()
         .zip(normals)
         .map(|(&e, &n)| {
-            let a = e.cross(n).try_normalize().unwrap_or_else(|| n.any_orthonormal_vector());
+            let a = e
+                .cross(n)
+                .try_normalize()
+                .unwrap_or_else(|| n.any_orthonormal_vector());
             (a, n.cross(a))
         })
         .unzip();
@@ -122,7 +125,13 @@ pub fn estimate(mesh: &Mesh, normals: &[Vec3]) -> Curvature {
 }
 
 /// The face's fitted tensor expressed in each of its three corners' frames, and the face's area.
-fn face_tensor(t: &[u32; 3], p: &[Vec3], n: &[Vec3], u: &[Vec3], v: &[Vec3]) -> ([[f64; 3]; 3], f64) {
+fn face_tensor(
+    t: &[u32; 3],
+    p: &[Vec3],
+    n: &[Vec3],
+    u: &[Vec3],
+    v: &[Vec3],
+) -> ([[f64; 3]; 3], f64) {
     let pp = t.map(|i| p[i as usize].as_dvec3());
     let nn = t.map(|i| n[i as usize].as_dvec3());
     // Edge j runs from corner j+1 to corner j+2 (opposite corner j).
@@ -255,8 +264,8 @@ pub fn view_dependent(
                 return (Vec3::ZERO, 0.0);
             }
             let nh = n / area2;
-            let g = (nh.cross(c - b) * f[0] + nh.cross(a - c) * f[1] + nh.cross(b - a) * f[2])
-                / area2;
+            let g =
+                (nh.cross(c - b) * f[0] + nh.cross(a - c) * f[1] + nh.cross(b - a) * f[2]) / area2;
             (g, 0.5 * area2)
         })
         .collect();
@@ -295,7 +304,10 @@ mod tests {
         // Away from the poles, whose fans of slivers bias any area-weighted estimate.
         for i in (0..m.positions.len()).filter(|&i| m.positions[i].y.abs() < 1.9) {
             let pr = c.principal(i);
-            assert!((pr.k1 - 0.5).abs() < 0.02 && (pr.k2 - 0.5).abs() < 0.02, "{pr:?}");
+            assert!(
+                (pr.k1 - 0.5).abs() < 0.02 && (pr.k2 - 0.5).abs() < 0.02,
+                "{pr:?}"
+            );
         }
     }
 
@@ -325,7 +337,10 @@ mod tests {
             .min_by(|a, b| a.1.x.total_cmp(&b.1.x))
             .unwrap();
         let pr = c.principal(j);
-        assert!((pr.k1 - 1.0).abs() < 0.03 && (pr.k2 + 0.5).abs() < 0.03, "{pr:?}");
+        assert!(
+            (pr.k1 - 1.0).abs() < 0.03 && (pr.k2 + 0.5).abs() < 0.03,
+            "{pr:?}"
+        );
     }
 
     #[test]

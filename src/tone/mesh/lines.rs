@@ -114,7 +114,9 @@ fn seed(
                 return SILHOUETTE;
             }
         }
-        if p.mode == LineMode::Suggestive && !contour && (f.kr <= 0.0) != (g.kr <= 0.0)
+        if p.mode == LineMode::Suggestive
+            && !contour
+            && (f.kr <= 0.0) != (g.kr <= 0.0)
             && f.kr.abs() <= g.kr.abs()
             && gap.abs() <= p.depth_tolerance.max(continuity_gap(cam, f.depth))
         {

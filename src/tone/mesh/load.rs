@@ -19,6 +19,8 @@ pub struct Mesh {
     /// The file's normals per triangle corner, when every face has them (hard edges stay hard).
     /// `None`: shading uses smooth vertex normals.
     pub corner_normals: Option<Vec<[Vec3; 3]>>,
+    /// Every edge is shared by exactly two triangles (computed by [`Mesh::new`]).
+    closed: bool,
 }
 
 impl Mesh {
@@ -69,8 +71,10 @@ impl Mesh {
             positions: welded,
             triangles: tris,
             corner_normals: normals,
+            closed: false,
         };
-        if mesh.is_closed() && mesh.signed_volume() < 0.0 {
+        mesh.closed = mesh.edges_paired();
+        if mesh.closed && mesh.signed_volume() < 0.0 {
             mesh.flip();
         }
         mesh
@@ -110,14 +114,24 @@ impl Mesh {
     /// Whether every edge is shared by exactly two triangles (a watertight surface: back faces are
     /// never visible, so the rasteriser may cull them).
     pub fn is_closed(&self) -> bool {
-        let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
-        for t in &self.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-            }
-        }
-        !edges.is_empty() && edges.values().all(|&c| c == 2)
+        self.closed
+    }
+
+    fn edges_paired(&self) -> bool {
+        use rayon::prelude::*;
+        // Sorted undirected edges: closed iff they come in pairs and never in threes.
+        let mut edges: Vec<u64> = self
+            .triangles
+            .par_iter()
+            .flat_map_iter(|t| {
+                (0..3).map(move |k| {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    ((a.min(b) as u64) << 32) | a.max(b) as u64
+                })
+            })
+            .collect();
+        edges.par_sort_unstable();
+        !edges.is_empty() && edges.chunk_by(|a, b| a == b).all(|run| run.len() == 2)
     }
 
     /// Signed volume (positive when faces are counter-clockwise seen from outside).
@@ -233,7 +247,8 @@ pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
             ),
         });
     }
-    let normals = (all_normals && corner_normals.len() == triangles.len()).then_some(corner_normals);
+    let normals =
+        (all_normals && corner_normals.len() == triangles.len()).then_some(corner_normals);
     let mesh = Mesh::with_normals(positions, triangles, normals);
     if mesh.triangles.is_empty() {
         return Err(MeshError::Empty {
@@ -253,10 +268,45 @@ struct Counts {
 
 /// OBJ statements a mesh file may contain that we either use or may safely ignore.
 const KNOWN: &[&str] = &[
-    "v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mg", "usemtl", "mtllib", "cstype", "deg",
-    "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end", "con",
-    "lod", "shadow_obj", "trace_obj", "ctech", "stech", "bevel", "c_interp", "d_interp", "maplib",
-    "usemap", "call", "csh",
+    "v",
+    "vt",
+    "vn",
+    "vp",
+    "f",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "maplib",
+    "usemap",
+    "call",
+    "csh",
 ];
 
 /// Check every line tobj will read, so errors name the line: numbers that do not parse or are not
@@ -298,7 +348,10 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                         ),
                     ));
                 }
-                for tok in args.iter().take(if kw == "vt" { args.len().min(3) } else { 3 }) {
+                for tok in args
+                    .iter()
+                    .take(if kw == "vt" { args.len().min(3) } else { 3 })
+                {
                     let x: f64 = tok.parse().map_err(|_| {
                         malformed(line, format!("{what} coordinate '{tok}' is not a number"))
                     })?;
@@ -326,7 +379,10 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                 for corner in &args {
                     for (k, part) in corner.split('/').enumerate() {
                         if k > 2 || (part.is_empty() && k == 0) {
-                            return Err(malformed(line, format!("face corner '{corner}' is not v, v/vt, v//vn or v/vt/vn")));
+                            return Err(malformed(
+                                line,
+                                format!("face corner '{corner}' is not v, v/vt, v//vn or v/vt/vn"),
+                            ));
                         }
                         if part.is_empty() {
                             continue;
@@ -337,10 +393,16 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                             _ => (nn, 'n'),
                         };
                         let idx: i64 = part.parse().map_err(|_| {
-                            malformed(line, format!("face index '{part}' in '{corner}' is not an integer"))
+                            malformed(
+                                line,
+                                format!("face index '{part}' in '{corner}' is not an integer"),
+                            )
                         })?;
                         if idx == 0 {
-                            return Err(malformed(line, format!("face index 0 in '{corner}': OBJ indices start at 1")));
+                            return Err(malformed(
+                                line,
+                                format!("face index 0 in '{corner}': OBJ indices start at 1"),
+                            ));
                         }
                         if idx < 0 {
                             if (-idx) as usize > count {
@@ -356,7 +418,10 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
             _ if KNOWN.contains(&kw) => {}
             _ => {
                 let shown: String = kw.chars().take(20).collect();
-                return Err(malformed(line, format!("unknown statement '{shown}' (is this an OBJ text file?)")));
+                return Err(malformed(
+                    line,
+                    format!("unknown statement '{shown}' (is this an OBJ text file?)"),
+                ));
             }
         }
     }

@@ -101,7 +101,10 @@ impl MeshConfig {
         }
         if let Some(f) = self.fov_deg {
             if !(f.is_finite() && f > 0.5 && f < 170.0) {
-                return bad("--fov", format!("{f} degrees is not a lens: use 0.5..170 or --ortho"));
+                return bad(
+                    "--fov",
+                    format!("{f} degrees is not a lens: use 0.5..170 or --ortho"),
+                );
             }
         }
         let (w, h) = match self.size {
@@ -109,10 +112,16 @@ impl MeshConfig {
             Size::Exact { width, height } => (width, height),
         };
         if w < 16 || h < 16 {
-            return bad("--size", format!("{w}x{h} is too small: at least 16 pixels a side"));
+            return bad(
+                "--size",
+                format!("{w}x{h} is too small: at least 16 pixels a side"),
+            );
         }
         if !(1..=4).contains(&self.supersample) {
-            return bad("--supersample", format!("{} is out of range: use 1 to 4", self.supersample));
+            return bad(
+                "--supersample",
+                format!("{} is out of range: use 1 to 4", self.supersample),
+            );
         }
         let working = w as u64 * h as u64 * (self.supersample as u64).pow(2);
         if working > MAX_WORKING_PIXELS {
@@ -126,17 +135,36 @@ impl MeshConfig {
                 ),
             );
         }
-        if !self.light.iter().all(|v| v.is_finite() && v.abs() <= 1000.0) {
-            return bad("--light", format!("{:?} must be three finite numbers (bounding radii)", self.light));
+        if !self
+            .light
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= 1000.0)
+        {
+            return bad(
+                "--light",
+                format!(
+                    "{:?} must be three finite numbers (bounding radii)",
+                    self.light
+                ),
+            );
         }
         if !(self.specular.is_finite() && (0.0..=10.0).contains(&self.specular)) {
-            return bad("--specular", format!("{} is out of range: use 0 (matte) to 10", self.specular));
+            return bad(
+                "--specular",
+                format!("{} is out of range: use 0 (matte) to 10", self.specular),
+            );
         }
         if !(self.shininess.is_finite() && (1.0..=10_000.0).contains(&self.shininess)) {
-            return bad("--shininess", format!("{} is out of range: use 1 to 10000", self.shininess));
+            return bad(
+                "--shininess",
+                format!("{} is out of range: use 1 to 10000", self.shininess),
+            );
         }
         if !(self.line_px.is_finite() && (0.5..=64.0).contains(&self.line_px)) {
-            return bad("--line-px", format!("{} is out of range: use 0.5 to 64 pixels", self.line_px));
+            return bad(
+                "--line-px",
+                format!("{} is out of range: use 0.5 to 64 pixels", self.line_px),
+            );
         }
         if !(self.contour_threshold.is_finite() && self.contour_threshold >= 0.0) {
             return bad(
@@ -308,38 +336,33 @@ fn compose(
     let kw = cam.width as usize;
     let k = k as usize;
     let n = (k * k) as f32;
-    let rows: Vec<Vec<(f32, f32, bool, bool)>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            (0..w)
-                .map(|x| {
-                    let (mut gray, mut shade, mut model, mut line) = (0f32, 0f32, 0usize, 0usize);
-                    for sy in y * k..y * k + k {
-                        for sx in x * k..x * k + k {
-                            let i = sy * kw + sx;
-                            let f = frags[i];
-                            let is_line = line_mask[i];
-                            line += is_line as usize;
-                            if f.is_model() {
-                                model += 1;
-                                shade += f.shade;
-                            }
-                            gray += if is_line {
-                                0.0
-                            } else if f.is_model() {
-                                f.shade
-                            } else {
-                                1.0
-                            };
-                        }
+    let mut flat = vec![(1f32, 1f32, false, false); w * h];
+    flat.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, out) in row.iter_mut().enumerate() {
+            let (mut gray, mut shade, mut model, mut line) = (0f32, 0f32, 0usize, 0usize);
+            for sy in y * k..y * k + k {
+                for sx in x * k..x * k + k {
+                    let i = sy * kw + sx;
+                    let f = frags[i];
+                    let is_line = line_mask[i];
+                    line += is_line as usize;
+                    if f.is_model() {
+                        model += 1;
+                        shade += f.shade;
                     }
-                    let shade = if model > 0 { shade / model as f32 } else { 1.0 };
-                    (gray / n, shade, 2 * model >= k * k, 2 * line >= k * k)
-                })
-                .collect()
-        })
-        .collect();
-    let flat: Vec<(f32, f32, bool, bool)> = rows.into_iter().flatten().collect();
+                    gray += if is_line {
+                        0.0
+                    } else if f.is_model() {
+                        f.shade
+                    } else {
+                        1.0
+                    };
+                }
+            }
+            let shade = if model > 0 { shade / model as f32 } else { 1.0 };
+            *out = (gray / n, shade, 2 * model >= k * k, 2 * line >= k * k);
+        }
+    });
     let (w32, h32) = (w as u32, h as u32);
     Rendering {
         gray: Gray {

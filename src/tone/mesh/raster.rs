@@ -61,11 +61,7 @@ pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
         if (r1 as isize) < r0 as isize {
             continue;
         }
-        for band in bins
-            .iter_mut()
-            .take(r1 as usize / BAND + 1)
-            .skip(r0 / BAND)
-        {
+        for band in bins.iter_mut().take(r1 as usize / BAND + 1).skip(r0 / BAND) {
             band.push(i as u32);
         }
     }
@@ -182,7 +178,16 @@ mod tests {
             distance: 3.0,
             orthographic: true,
         };
-        Camera::frame(c, r, &o, Size::Exact { width: 100, height: 100 }, &m.positions)
+        Camera::frame(
+            c,
+            r,
+            &o,
+            Size::Exact {
+                width: 100,
+                height: 100,
+            },
+            &m.positions,
+        )
     }
 
     #[test]
@@ -204,7 +209,14 @@ mod tests {
         let m = quad_mesh();
         let c = cam(180.0);
         assert!(rasterize(&m, &c, true).tri.iter().all(|&t| t == NONE));
-        assert!(rasterize(&m, &c, false).tri.iter().filter(|&&t| t != NONE).count() > 8000);
+        assert!(
+            rasterize(&m, &c, false)
+                .tri
+                .iter()
+                .filter(|&&t| t != NONE)
+                .count()
+                > 8000
+        );
     }
 
     #[test]
@@ -212,8 +224,7 @@ mod tests {
         // A big far square and a small near one in front of it.
         let mut p = quad_mesh().positions;
         p.extend(
-            [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]
-                .map(|[x, y]| Vec3::new(x, y, 0.5)),
+            [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]].map(|[x, y]| Vec3::new(x, y, 0.5)),
         );
         let m = Mesh::new(p, vec![[4, 5, 6], [4, 6, 7], [0, 1, 2], [0, 2, 3]]);
         let (c, r) = m.bounding_sphere();
@@ -223,10 +234,22 @@ mod tests {
             distance: 4.0,
             orthographic: false,
         };
-        let cam = Camera::frame(c, r, &o, Size::Exact { width: 64, height: 64 }, &m.positions);
+        let cam = Camera::frame(
+            c,
+            r,
+            &o,
+            Size::Exact {
+                width: 64,
+                height: 64,
+            },
+            &m.positions,
+        );
         let vb = rasterize(&m, &cam, true);
         let mid = vb.tri[32 * 64 + 32];
-        assert!(mid == 0 || mid == 1, "the near square covers the centre, got {mid}");
+        assert!(
+            mid == 0 || mid == 1,
+            "the near square covers the centre, got {mid}"
+        );
         assert!(vb.tri[(6 * 64 + 6) as usize] >= 2);
     }
 }

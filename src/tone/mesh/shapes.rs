@@ -11,7 +11,13 @@ use super::load::Mesh;
 /// A grid of `nu × nv` quads over parameters (i, j), each split into two triangles. `wrap_u`
 /// joins the last column to the first; rows run j = 0..=nv. Coincident points (poles, axis
 /// points) weld into one vertex and their degenerate triangles disappear.
-fn grid(nu: usize, nv: usize, wrap_u: bool, wrap_v: bool, f: impl Fn(usize, usize) -> Vec3) -> Mesh {
+fn grid(
+    nu: usize,
+    nv: usize,
+    wrap_u: bool,
+    wrap_v: bool,
+    f: impl Fn(usize, usize) -> Vec3,
+) -> Mesh {
     let cols = if wrap_u { nu } else { nu + 1 };
     let rows = if wrap_v { nv } else { nv + 1 };
     let mut pos = Vec::with_capacity(cols * rows);
@@ -40,7 +46,11 @@ pub fn uv_sphere(r: f32, segments: usize, rings: usize) -> Mesh {
             return Vec3::new(0.0, if j == 0 { r } else { -r }, 0.0);
         }
         let th = PI * j as f32 / rings as f32;
-        Vec3::new(r * th.sin() * phi.cos(), r * th.cos(), r * th.sin() * phi.sin())
+        Vec3::new(
+            r * th.sin() * phi.cos(),
+            r * th.cos(),
+            r * th.sin() * phi.sin(),
+        )
     })
 }
 
@@ -130,7 +140,9 @@ pub fn displaced_sphere(n: usize) -> Mesh {
 pub fn height_field(n: usize, f: impl Fn(f32, f32) -> f32) -> Mesh {
     let lat = |i: usize| -1.0 + 2.0 * i as f32 / n as f32;
     // With i along x and j along z the grid winds towards +y.
-    grid(n, n, false, false, |i, j| Vec3::new(lat(i), f(lat(i), lat(j)), lat(j)))
+    grid(n, n, false, false, |i, j| {
+        Vec3::new(lat(i), f(lat(i), lat(j)), lat(j))
+    })
 }
 
 /// A chess pawn: a surface of revolution through a hand-drawn profile (base, collar, head).
@@ -200,7 +212,10 @@ mod tests {
         assert_eq!(displaced_sphere(76).triangles.len(), 69_312);
         let s = uv_sphere(1.0, 16, 8);
         assert_eq!(s.positions.len(), 16 * 7 + 2);
-        assert!((uv_sphere(1.0, 64, 32).signed_volume() - 4.0 / 3.0 * std::f64::consts::PI).abs() < 0.03);
+        assert!(
+            (uv_sphere(1.0, 64, 32).signed_volume() - 4.0 / 3.0 * std::f64::consts::PI).abs()
+                < 0.03
+        );
     }
 
     #[test]
