@@ -50,17 +50,16 @@ impl Timer {
 }
 
 /// The two-tone stage, from a picture or a mesh, before the topological filter.
-/// Returns the two-tone and the threshold level used (pictures only).
+/// Returns the two-tone and the threshold level used.
 pub fn two_tone(
     input: &Path,
     tone: &ToneConfig,
     mesh: &MeshConfig,
 ) -> Result<(TwoTone, Option<u8>), Error> {
     if is_mesh(input) {
-        return Ok((
-            mesh::render(input, mesh).map_err(tone::ToneError::from)?,
-            None,
-        ));
+        let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
+            .map_err(tone::ToneError::from)?;
+        return Ok((tt, Some(level)));
     }
     if !(1..=8).contains(&tone.scale) {
         return Err(tone::ToneError::BadScale(tone.scale).into());
@@ -129,7 +128,15 @@ pub fn encode_outputs(made: &Made) -> Result<Vec<(String, Vec<u8>)>, Error> {
             path: PathBuf::from("report.json"),
             msg: e.to_string(),
         })?;
-    Ok(vec![
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    if is_mesh(Path::new(&made.report.input)) {
+        // The grayscale rendering: what the bridge cost's intensity term reads.
+        files.push((
+            "gray.png".into(),
+            png::encode_gray(tt.gray.width, tt.gray.height, &tt.gray.to_u8()),
+        ));
+    }
+    files.extend([
         ("twotone.png".into(), png::encode_bits(&tt.bits)),
         ("stencil.png".into(), png::encode_bits(&made.bridged.bits)),
         (
@@ -137,7 +144,8 @@ pub fn encode_outputs(made: &Made) -> Result<Vec<(String, Vec<u8>)>, Error> {
             png::preview(&tt.gray, &tt.bits, &made.bridged.bits),
         ),
         ("report.json".into(), report),
-    ])
+    ]);
+    Ok(files)
 }
 
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
