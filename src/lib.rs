@@ -36,6 +36,12 @@ pub enum Error {
     Bridge(#[from] bridge::BridgeError),
     #[error(transparent)]
     Export(#[from] export::ExportError),
+    #[error(transparent)]
+    Profile(#[from] profile::ProfileError),
+    #[error(transparent)]
+    Vector(#[from] vector::VectorError),
+    #[error(transparent)]
+    Check(#[from] check::CheckError),
     #[error(
         "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
          raise --max-bridge-length-px or --filter-radius"

@@ -30,7 +30,6 @@ macro_rules! shipped {
         }
     };
 }
-use shipped;
 
 /// The material profiles shipped with the crate, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
