@@ -44,7 +44,6 @@ pub const SHIPPED: &[Shipped] = &[
     shipped!("aluminium-gobo"),
 ];
 
-
 /// How the sheet is cut, with that process's settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub enum Process {
@@ -201,9 +200,7 @@ impl Material {
     pub fn shipped() -> Vec<Result<Material, ProfileError>> {
         SHIPPED
             .iter()
-            .map(|s| {
-                Material::find(s.name).map(|(m, _)| m)
-            })
+            .map(|s| Material::find(s.name).map(|(m, _)| m))
             .collect()
     }
 
@@ -256,7 +253,10 @@ impl Material {
                 return Err(invalid(
                     sec,
                     format!("[{sec}]"),
-                    &format!("section given but process = \"{}\"; remove it or change process", f.process),
+                    &format!(
+                        "section given but process = \"{}\"; remove it or change process",
+                        f.process
+                    ),
                 ));
             }
         }
@@ -271,21 +271,49 @@ impl Material {
             ProcessKind::Laser => {
                 let l = f.laser.ok_or_else(|| missing("laser"))?;
                 check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
-                check_range(origin, "laser.speed_mm_min", l.speed_mm_min, 1.0, 100_000.0, "mm/min")?;
+                check_range(
+                    origin,
+                    "laser.speed_mm_min",
+                    l.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
                 check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
                 Process::Laser(l)
             }
             ProcessKind::Knife => {
                 let k = f.knife.ok_or_else(|| missing("knife"))?;
                 check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
-                check_range(origin, "knife.speed_mm_s", k.speed_mm_s, 1.0, 2000.0, "mm/s")?;
+                check_range(
+                    origin,
+                    "knife.speed_mm_s",
+                    k.speed_mm_s,
+                    1.0,
+                    2000.0,
+                    "mm/s",
+                )?;
                 check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
-                check_range(origin, "knife.blade_offset_mm", k.blade_offset_mm, 0.0, 2.0, "mm")?;
+                check_range(
+                    origin,
+                    "knife.blade_offset_mm",
+                    k.blade_offset_mm,
+                    0.0,
+                    2.0,
+                    "mm",
+                )?;
                 Process::Knife(k)
             }
             ProcessKind::Pen => {
                 let p = f.pen.ok_or_else(|| missing("pen"))?;
-                check_range(origin, "pen.speed_mm_min", p.speed_mm_min, 1.0, 100_000.0, "mm/min")?;
+                check_range(
+                    origin,
+                    "pen.speed_mm_min",
+                    p.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
                 check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
                 Process::Pen(p)
             }
@@ -334,8 +362,11 @@ mod tests {
 
     #[test]
     fn a_section_for_another_process_is_an_error() {
-        let text = SHIPPED[1].text.to_string() + "\n[etch]\netch_factor = 2.0\nmirror = false\ntwo_sided = false\n";
-        let e = Material::parse(&text, Path::new("x.toml")).unwrap_err().to_string();
+        let text = SHIPPED[1].text.to_string()
+            + "\n[etch]\netch_factor = 2.0\nmirror = false\ntwo_sided = false\n";
+        let e = Material::parse(&text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("x.toml") && e.contains("etch"), "{e}");
     }
 }

@@ -88,7 +88,9 @@ pub fn is_path(arg: &str) -> bool {
 /// The folders searched for `profiles/<kind>/`: the current directory, then the checkout.
 pub fn search_dirs(kind: &str) -> Vec<PathBuf> {
     let mut dirs = vec![Path::new("profiles").join(kind)];
-    let checkout = Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles").join(kind);
+    let checkout = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("profiles")
+        .join(kind);
     if checkout.is_dir() && !dirs.contains(&checkout) {
         dirs.push(checkout);
     }

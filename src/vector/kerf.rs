@@ -38,7 +38,10 @@ mod tests {
         let sq: Polygon<f64> = Rect::new((0.0, 0.0), (10.0, 10.0)).to_polygon();
         let out = offset_cuts(&MultiPolygon::new(vec![sq]), 0.2);
         let b = out.bounding_rect().unwrap();
-        assert!((b.min().x - 0.1).abs() < 1e-3 && (b.max().x - 9.9).abs() < 1e-3, "{b:?}");
+        assert!(
+            (b.min().x - 0.1).abs() < 1e-3 && (b.max().x - 9.9).abs() < 1e-3,
+            "{b:?}"
+        );
         assert!((out.unsigned_area() - 9.8 * 9.8).abs() < 1e-2);
     }
 }

@@ -86,7 +86,9 @@ pub struct VectorStats {
 pub enum VectorError {
     #[error("--tolerance-mm must be a finite number >= 0, got {0}")]
     Tolerance(f64),
-    #[error("--margin-mm must be a finite number > 0 (the sheet continues beyond the picture), got {0}")]
+    #[error(
+        "--margin-mm must be a finite number > 0 (the sheet continues beyond the picture), got {0}"
+    )]
     Margin(f64),
     #[error("the stencil image is empty (0 pixels)")]
     Empty,
@@ -145,7 +147,13 @@ pub fn vectorize(
 }
 
 fn to_ring(pts: &[[f64; 2]], mm: f64) -> LineString<f64> {
-    let mut v: Vec<Coord<f64>> = pts.iter().map(|p| Coord { x: p[0] * mm, y: p[1] * mm }).collect();
+    let mut v: Vec<Coord<f64>> = pts
+        .iter()
+        .map(|p| Coord {
+            x: p[0] * mm,
+            y: p[1] * mm,
+        })
+        .collect();
     if let Some(&f) = v.first() {
         v.push(f);
     }
@@ -172,7 +180,11 @@ fn assemble(
             0
         } else {
             let l = map.label(x as u32, y as u32);
-            if l == islands::CUT { 0 } else { l as usize }
+            if l == islands::CUT {
+                0
+            } else {
+                l as usize
+            }
         }
     };
     let n = map.nodes.len().max(1);
@@ -202,7 +214,9 @@ mod tests {
 
     #[test]
     fn a_square_hole_becomes_one_cut_loop_in_mm() {
-        let g = BitGrid::from_fn(20, 20, |x, y| !((5..15).contains(&x) && (5..15).contains(&y)));
+        let g = BitGrid::from_fn(20, 20, |x, y| {
+            !((5..15).contains(&x) && (5..15).contains(&y))
+        });
         let cfg = VectorConfig {
             smooth: false,
             ..Default::default()

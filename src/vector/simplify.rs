@@ -32,7 +32,11 @@ pub fn simplify_rings(rings: &mut [Vec<[f64; 2]>], tol: f64) -> SimplifyStats {
     let lossless: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| drop_collinear(r)).collect();
     let mut simplified = vec![false; rings.len()];
     for (i, r) in rings.iter_mut().enumerate() {
-        let s = if tol > 0.0 { dp_ring(&lossless[i], tol) } else { lossless[i].clone() };
+        let s = if tol > 0.0 {
+            dp_ring(&lossless[i], tol)
+        } else {
+            lossless[i].clone()
+        };
         let a0 = signed_area2(&lossless[i]);
         let a1 = signed_area2(&s);
         if s.len() >= 3 && a0.signum() == a1.signum() && a1 != 0.0 && s.len() < lossless[i].len() {
@@ -150,13 +154,19 @@ pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bo
     let o3 = RobustKernel::orient2d(c(cc), c(d), c(a));
     let o4 = RobustKernel::orient2d(c(cc), c(d), c(b));
     let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
-        r[0] >= p[0].min(q[0]) && r[0] <= p[0].max(q[0]) && r[1] >= p[1].min(q[1]) && r[1] <= p[1].max(q[1])
+        r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
     };
     use Orientation::Collinear as C;
     if o1 != o2 && o3 != o4 && o1 != C && o2 != C && o3 != C && o4 != C {
         return true;
     }
-    (o1 == C && on(a, b, cc)) || (o2 == C && on(a, b, d)) || (o3 == C && on(cc, d, a)) || (o4 == C && on(cc, d, b))
+    (o1 == C && on(a, b, cc))
+        || (o2 == C && on(a, b, d))
+        || (o3 == C && on(cc, d, a))
+        || (o4 == C && on(cc, d, b))
 }
 
 /// Rings that cross or touch themselves or another ring.
@@ -203,9 +213,14 @@ fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
                     let adjacent = (ia + 1) % n == ib || (ib + 1) % n == ia;
                     if adjacent {
                         // Neighbouring segments share one end; they conflict only if they fold back.
-                        let (shared, x, y) = if (ia + 1) % n == ib { (b, a, q) } else { (a, b, p) };
+                        let (shared, x, y) = if (ia + 1) % n == ib {
+                            (b, a, q)
+                        } else {
+                            (a, b, p)
+                        };
                         let o = RobustKernel::orient2d(c(x), c(shared), c(y));
-                        let back = (x[0] - shared[0]) * (y[0] - shared[0]) + (x[1] - shared[1]) * (y[1] - shared[1]);
+                        let back = (x[0] - shared[0]) * (y[0] - shared[0])
+                            + (x[1] - shared[1]) * (y[1] - shared[1]);
                         if o == Orientation::Collinear && back > 0.0 {
                             bad[ra] = true;
                         }
@@ -253,8 +268,20 @@ mod tests {
     fn rings_that_would_cross_keep_their_detail() {
         // Dropping a's notch vertex (10, 0) (0.9 from the chord, under tolerance 1.0) would put
         // a's edge at y = 0.9 across b's tip at (10, 0.5).
-        let a = vec![[0.0, -10.0], [20.0, -10.0], [20.0, 0.9], [10.0, 0.0], [0.0, 0.9]];
-        let b = vec![[0.0, 2.0], [10.0, 0.5], [20.0, 2.0], [20.0, 12.0], [0.0, 12.0]];
+        let a = vec![
+            [0.0, -10.0],
+            [20.0, -10.0],
+            [20.0, 0.9],
+            [10.0, 0.0],
+            [0.0, 0.9],
+        ];
+        let b = vec![
+            [0.0, 2.0],
+            [10.0, 0.5],
+            [20.0, 2.0],
+            [20.0, 12.0],
+            [0.0, 12.0],
+        ];
         assert!(conflicts(&[a.clone(), b.clone()], 4.0).is_empty());
         let mut rings = vec![a.clone(), b.clone()];
         let s = simplify_rings(&mut rings, 1.0);
@@ -265,8 +292,23 @@ mod tests {
 
     #[test]
     fn touching_segments_are_detected() {
-        assert!(segments_touch([0.0, 0.0], [2.0, 0.0], [1.0, 0.0], [1.0, 5.0]));
-        assert!(!segments_touch([0.0, 0.0], [2.0, 0.0], [1.0, 0.1], [1.0, 5.0]));
-        assert!(segments_touch([0.0, 0.0], [2.0, 2.0], [0.0, 2.0], [2.0, 0.0]));
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 5.0]
+        ));
+        assert!(!segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.1],
+            [1.0, 5.0]
+        ));
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 2.0],
+            [0.0, 2.0],
+            [2.0, 0.0]
+        ));
     }
 }

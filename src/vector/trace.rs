@@ -207,7 +207,9 @@ mod tests {
 
     #[test]
     fn an_island_gives_a_positive_ring_inside_a_negative_one() {
-        let g = grid(&["#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######"]);
+        let g = grid(&[
+            "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
+        ]);
         let rings = trace(&g, false);
         assert_eq!(rings.len(), 2);
         let mut areas: Vec<f64> = rings.iter().map(|r| signed_area2(&r.pts) / 2.0).collect();
@@ -223,9 +225,15 @@ mod tests {
         let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
         let rings = trace(&g, true);
         let pos = rings.iter().filter(|r| signed_area2(&r.pts) > 0.0).count();
-        assert_eq!(pos, 2, "corner-touching material must trace as two outlines");
+        assert_eq!(
+            pos, 2,
+            "corner-touching material must trace as two outlines"
+        );
         // And the cut around them is one region (cut joins through the saddle).
-        assert_eq!(rings.iter().filter(|r| signed_area2(&r.pts) < 0.0).count(), 1);
+        assert_eq!(
+            rings.iter().filter(|r| signed_area2(&r.pts) < 0.0).count(),
+            1
+        );
     }
 
     #[test]
