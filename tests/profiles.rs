@@ -48,7 +48,10 @@ fn a_good_profile_loads_from_a_path() {
 #[test]
 fn unknown_field_is_named() {
     let e = load_err(&GOOD.replace("kerf_mm = 0.1", "kerf_mm = 0.1\nbridge_mm = 2"));
-    assert!(e.contains("bridge_mm") && e.contains("unknown field"), "{e}");
+    assert!(
+        e.contains("bridge_mm") && e.contains("unknown field"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -79,7 +82,10 @@ fn negative_value_is_named() {
 #[test]
 fn absurd_value_is_named() {
     let e = load_err(&GOOD.replace("thickness_mm = 0.3", "thickness_mm = 300"));
-    assert!(e.contains("thickness_mm") && e.contains("out of range"), "{e}");
+    assert!(
+        e.contains("thickness_mm") && e.contains("out of range"),
+        "{e}"
+    );
     let e = load_err(&GOOD.replace("power_pct = 20", "power_pct = 2000"));
     assert!(e.contains("laser.power_pct"), "{e}");
 }
@@ -118,23 +124,39 @@ fn cli_rejects_an_unknown_material_before_doing_anything() {
     std::fs::write(&img, stencil::export::png::encode_bits(&bits)).unwrap();
     let out = dir.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
-        .args(["make", img.to_str().unwrap(), "-o", out.to_str().unwrap(), "--material", "tinfoil"])
+        .args([
+            "make",
+            img.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--material",
+            "tinfoil",
+        ])
         .output()
         .unwrap();
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("tinfoil") && err.contains("cardstock") && err.contains("mylar-0.19"), "{err}");
+    assert!(
+        err.contains("tinfoil") && err.contains("cardstock") && err.contains("mylar-0.19"),
+        "{err}"
+    );
     assert!(!out.exists(), "nothing written");
 }
 
 #[test]
 fn cli_lists_the_shipped_profiles() {
-    let o = Command::new(env!("CARGO_BIN_EXE_stencil")).arg("profiles").output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .arg("profiles")
+        .output()
+        .unwrap();
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
     for s in SHIPPED {
         let m = Material::find(s.name).unwrap().0;
-        let line = text.lines().find(|l| l.starts_with(s.name)).unwrap_or_else(|| panic!("{} missing:\n{text}", s.name));
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(s.name))
+            .unwrap_or_else(|| panic!("{} missing:\n{text}", s.name));
         assert!(line.contains(&format!("{} mm", m.min_bridge_mm)), "{line}");
     }
 }

@@ -39,7 +39,7 @@ pub enum ProfileError {
         value: String,
         why: String,
     },
-    #[error("unknown {kind} profile '{name}'; known: {}; or give a path to a .toml file", known.join(", "))]
+    #[error("unknown {kind} '{name}'; known: {}; or give a path to a .toml file", known.join(", "))]
     Unknown {
         kind: String,
         name: String,
@@ -121,7 +121,7 @@ pub fn resolve<T: DeserializeOwned>(
         return Ok((parse_toml(s.text, &origin)?, origin));
     }
     Err(ProfileError::Unknown {
-        kind: kind.to_string(),
+        kind: kind.trim_end_matches('s').to_string(),
         name: arg.to_string(),
         known: known_names(kind, shipped),
     })

@@ -114,7 +114,8 @@ pub fn vectorize(
     let traced = trace::trace(bits, cfg.smooth);
     let mut rings: Vec<Vec<[f64; 2]>> = traced.iter().map(|r| r.pts.clone()).collect();
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
-    let simplify = simplify::simplify_rings(&mut rings, tol_px);
+    let guards: Vec<Vec<trace::Guard>> = traced.iter().map(|r| r.guards.clone()).collect();
+    let simplify = simplify::simplify_rings(&mut rings, Some(&guards), tol_px);
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
@@ -212,22 +213,54 @@ mod tests {
     use super::*;
     use geo::Area;
 
+    /// Every pixel centre lies in a design cut region exactly when the pixel is cut.
+    fn samples_back_to(geo: &CutGeometry, g: &BitGrid, mm: f64) {
+        use geo::Contains;
+        for y in 0..g.height {
+            for x in 0..g.width {
+                let p = geo::Point::new((x as f64 + 0.5) * mm, (y as f64 + 0.5) * mm);
+                assert_eq!(
+                    geo.design_cuts.contains(&p),
+                    !g.get(x, y),
+                    "pixel ({x}, {y})"
+                );
+            }
+        }
+    }
+
     #[test]
     fn a_square_hole_becomes_one_cut_loop_in_mm() {
         let g = BitGrid::from_fn(20, 20, |x, y| {
             !((5..15).contains(&x) && (5..15).contains(&y))
         });
-        let cfg = VectorConfig {
-            smooth: false,
-            ..Default::default()
-        };
-        let (geo, st) = vectorize(&g, &[], &cfg).unwrap();
-        assert_eq!(st.cut_loops, 1);
-        assert_eq!(st.material_pieces, 1);
-        // 10 x 10 px at 0.1 mm: 1 mm², less the four chamfered corners (1/8 px² each).
-        let a = geo.design_cuts.unsigned_area();
-        assert!((a - (1.0 - 0.5 * 0.01)).abs() < 1e-3, "{a}");
-        assert!((geo.width_mm - 2.0).abs() < 1e-12);
+        for smooth in [false, true] {
+            let cfg = VectorConfig {
+                smooth,
+                ..Default::default()
+            };
+            let (geo, st) = vectorize(&g, &[], &cfg).unwrap();
+            assert_eq!(st.cut_loops, 1);
+            assert_eq!(st.material_pieces, 1);
+            assert!(st.simplify.points_out < st.simplify.points_in / 4, "{st:?}");
+            // 10 x 10 px at 0.1 mm: 1 mm², within the tolerance (0.5 px) along the perimeter.
+            let a = geo.design_cuts.unsigned_area();
+            assert!((a - 1.0).abs() < 4.0 * 1.0 * 0.05, "{a}");
+            assert!((geo.width_mm - 2.0).abs() < 1e-12);
+            samples_back_to(&geo, &g, 0.1);
+        }
+    }
+
+    #[test]
+    fn simplified_blobs_sample_back_to_the_same_raster() {
+        let g = BitGrid::from_fn(120, 90, |x, y| {
+            let (x, y) = (x as f64, y as f64);
+            let a = ((x - 40.0).powi(2) / 600.0 + (y - 40.0).powi(2) / 200.0) > 1.0;
+            let b = ((x - 90.0) * 0.6 + (y - 50.0) * 0.8).abs() > 3.0 || (x - 90.0).abs() > 25.0;
+            a && b
+        });
+        let (geo, st) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
+        assert!(st.simplify.points_out < st.simplify.points_in / 2, "{st:?}");
+        samples_back_to(&geo, &g, 0.1);
     }
 
     #[test]

@@ -1,6 +1,11 @@
 //! Ring simplification (Douglas–Peucker) that never creates self-intersections and never lets two
 //! rings touch or cross (which would merge separate regions).
 //!
+//! Douglas–Peucker keeps a chord when every point it replaces is within the tolerance *and*, when
+//! guards are given, every replaced point's two pixel centres (material, cut) stay on their own
+//! sides of the chord: the simplified outline then samples to exactly the same raster at pixel
+//! centres, so simplification never changes which pixels are cut.
+//!
 //! Every ring is simplified on its own; then all segments go into a uniform grid and every pair that
 //! shares a cell is tested (touching counts as a conflict). A ring involved in a conflict falls back
 //! to its lossless form (only exactly collinear points removed), and the test repeats until no
@@ -9,7 +14,7 @@
 use geo::kernels::{Kernel, Orientation, RobustKernel};
 use geo::Coord;
 
-use super::trace::signed_area2;
+use super::trace::{signed_area2, Guard};
 
 /// What simplification did, for the report.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
@@ -22,8 +27,12 @@ pub struct SimplifyStats {
 }
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
-/// points).
-pub fn simplify_rings(rings: &mut [Vec<[f64; 2]>], tol: f64) -> SimplifyStats {
+/// points). `guards`: per ring, per point, the pixel centres to keep on their sides (or none).
+pub fn simplify_rings(
+    rings: &mut [Vec<[f64; 2]>],
+    guards: Option<&[Vec<Guard>]>,
+    tol: f64,
+) -> SimplifyStats {
     let mut stats = SimplifyStats {
         rings: rings.len(),
         points_in: rings.iter().map(Vec::len).sum(),
@@ -33,7 +42,11 @@ pub fn simplify_rings(rings: &mut [Vec<[f64; 2]>], tol: f64) -> SimplifyStats {
     let mut simplified = vec![false; rings.len()];
     for (i, r) in rings.iter_mut().enumerate() {
         let s = if tol > 0.0 {
-            dp_ring(&lossless[i], tol)
+            drop_collinear(&dp_ring(
+                r,
+                guards.and_then(|g| g.get(i)).map(Vec::as_slice),
+                tol,
+            ))
         } else {
             lossless[i].clone()
         };
@@ -102,12 +115,19 @@ fn seg_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     ex * ex + ey * ey
 }
 
+/// Whether a guard's material centre is left of chord a→b and its cut centre right of it.
+fn guard_ok(a: [f64; 2], b: [f64; 2], g: &Guard) -> bool {
+    let side = |p: [f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    side(g[0]) > 0.0 && side(g[1]) < 0.0
+}
+
 /// Douglas–Peucker on a closed ring: split at point 0 and the point farthest from it.
-fn dp_ring(r: &[[f64; 2]], tol: f64) -> Vec<[f64; 2]> {
+fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> {
     let n = r.len();
     if n < 4 {
         return r.to_vec();
     }
+    let guards = guards.filter(|g| g.len() == n);
     let far = (1..n)
         .max_by(|&i, &j| {
             let di = (r[i][0] - r[0][0]).powi(2) + (r[i][1] - r[0][1]).powi(2);
@@ -128,10 +148,25 @@ fn dp_ring(r: &[[f64; 2]], tol: f64) -> Vec<[f64; 2]> {
         }
         let (pa, pb) = (at(a), at(b));
         let mut best = (0.0, a);
+        let mut bad_guard = None;
         for i in a + 1..b {
             let d = seg_dist2(at(i), pa, pb);
             if d > best.0 {
                 best = (d, i);
+            }
+            if bad_guard.is_none() {
+                if let Some(g) = guards {
+                    if !guard_ok(pa, pb, &g[i % n]) {
+                        bad_guard = Some(i);
+                    }
+                }
+            }
+        }
+        if best.0 <= tol2 {
+            if let Some(i) = bad_guard {
+                // Within tolerance but a pixel centre would change sides: split the worst point.
+                best.1 = if best.1 > a { best.1 } else { i };
+                best.0 = f64::INFINITY;
             }
         }
         if best.0 > tol2 {
@@ -252,7 +287,7 @@ mod tests {
         }
         r.push([0.0, 20.0]);
         let mut rings = vec![r.clone()];
-        let s = simplify_rings(&mut rings, 1.0);
+        let s = simplify_rings(&mut rings, None, 1.0);
         assert!(rings[0].len() < 8, "{:?}", rings[0]);
         for p in &r {
             let n = rings[0].len();
@@ -284,7 +319,7 @@ mod tests {
         ];
         assert!(conflicts(&[a.clone(), b.clone()], 4.0).is_empty());
         let mut rings = vec![a.clone(), b.clone()];
-        let s = simplify_rings(&mut rings, 1.0);
+        let s = simplify_rings(&mut rings, None, 1.0);
         assert!(conflicts(&rings, 4.0).is_empty());
         assert_eq!(s.fallbacks, 1, "{s:?}");
         assert_eq!(rings[0], a);

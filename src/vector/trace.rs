@@ -24,10 +24,16 @@ use crate::raster::BitGrid;
 #[derive(Clone, Debug)]
 pub struct Ring {
     pub pts: Vec<[f64; 2]>,
+    /// Per point, the centres of the material and the cut pixel it lies between: simplification
+    /// keeps each on its own side, so the outline still samples to the same raster.
+    pub guards: Vec<Guard>,
     /// A material pixel just left of the ring (outside the image = the frame), to tell which
     /// material piece the ring bounds.
     pub material_px: (i64, i64),
 }
+
+/// The two pixel centres (material, cut) on either side of a ring point, in pixel coordinates.
+pub type Guard = [[f64; 2]; 2];
 
 /// Smallest and largest fraction of the way from the material centre to the cut centre.
 const CLAMP: (f64, f64) = (0.35, 0.65);
@@ -66,8 +72,9 @@ impl Padded<'_> {
         n as f64 / 9.0
     }
 
-    /// The crossing on edge `id` in pixel coordinates, and the material centre (padded coords).
-    fn crossing(&self, id: usize, smooth: bool) -> ([f64; 2], (usize, usize)) {
+    /// The crossing on edge `id` in pixel coordinates, the material centre (padded coords), and
+    /// the material and cut centres in pixel coordinates.
+    fn crossing(&self, id: usize, smooth: bool) -> ([f64; 2], (usize, usize), Guard) {
         let n = self.wp * self.hp;
         let (a, b) = if id < n {
             let (px, py) = (id % self.wp, id / self.wp);
@@ -89,9 +96,11 @@ impl Padded<'_> {
         let t = if a_mat { s } else { 1.0 - s };
         let ca = [a.0 as f64 - 0.5, a.1 as f64 - 0.5];
         let cb = [b.0 as f64 - 0.5, b.1 as f64 - 0.5];
+        let guard = if a_mat { [ca, cb] } else { [cb, ca] };
         (
             [ca[0] + t * (cb[0] - ca[0]), ca[1] + t * (cb[1] - ca[1])],
             m,
+            guard,
         )
     }
 }
@@ -146,8 +155,9 @@ pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
         if next[s as usize] == none {
             continue;
         }
-        let (_, m) = g.crossing(s as usize, smooth);
+        let (_, m, _) = g.crossing(s as usize, smooth);
         let mut pts = Vec::new();
+        let mut guards = Vec::new();
         let mut e = s;
         loop {
             let nx = next[e as usize];
@@ -155,11 +165,14 @@ pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
                 break;
             }
             next[e as usize] = none;
-            pts.push(g.crossing(e as usize, smooth).0);
+            let (p, _, guard) = g.crossing(e as usize, smooth);
+            pts.push(p);
+            guards.push(guard);
             e = nx;
         }
         rings.push(Ring {
             pts,
+            guards,
             material_px: (m.0 as i64 - 1, m.1 as i64 - 1),
         });
     }
@@ -202,7 +215,10 @@ mod tests {
         let smooth = trace(&g, true);
         let a = signed_area2(&smooth[0].pts) / 2.0;
         assert!(a > -8.5 && a < -7.0, "area {a}");
-        assert!(smooth[0].pts.iter().any(|p| p[0] == 1.0 && p[1] == 2.5));
+        assert!(smooth[0]
+            .pts
+            .iter()
+            .any(|p| (p[0] - 1.0).abs() < 1e-9 && p[1] == 2.5));
     }
 
     #[test]
