@@ -160,7 +160,9 @@ struct Rings {
     len: Vec<f64>,
 }
 
-fn rings_of(material: &MultiPolygon<f64>) -> Rings {
+/// The rings of the material, with edges longer than `spacing` split so that long straight sides
+/// carry vertices in their middle (a chord across the middle of a long thin slot needs them).
+fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
     let mut pts = Vec::new();
     for p in &material.0 {
         for ls in std::iter::once(p.exterior()).chain(p.interiors()) {
@@ -175,7 +177,7 @@ fn rings_of(material: &MultiPolygon<f64>) -> Rings {
                 r.pop();
             }
             if r.len() >= 3 {
-                pts.push(r);
+                pts.push(densify(&r, spacing));
             }
         }
     }
@@ -192,6 +194,21 @@ fn rings_of(material: &MultiPolygon<f64>) -> Rings {
         len.push(s);
     }
     Rings { pts, cum, len }
+}
+
+fn densify(r: &[[f64; 2]], spacing: f64) -> Vec<[f64; 2]> {
+    let n = r.len();
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let (a, b) = (r[i], r[(i + 1) % n]);
+        out.push(a);
+        let k = (dist(a, b) / spacing).ceil() as usize;
+        for j in 1..k.min(10_000) {
+            let t = j as f64 / k as f64;
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
 }
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -220,6 +237,49 @@ struct Candidate {
     mid: [f64; 2],
 }
 
+/// From vertex `w` straight across to ring edge `i → i+1` of `ring`, when the foot falls strictly
+/// inside the edge: the two chord ends, their points, and the length.
+/// `material_side`: which region the chord must cross (material lies left of every ring edge, as
+/// the rings are oriented: exteriors counter-clockwise, holes clockwise).
+fn perpendicular(
+    r: &Rings,
+    w: V,
+    ring: u32,
+    i: u32,
+    material_side: bool,
+) -> Option<(End, End, [f64; 2], [f64; 2], f64)> {
+    let pts = &r.pts[ring as usize];
+    let n = pts.len() as u32;
+    if w.ring == ring && (w.idx == i || w.idx == (i + 1) % n) {
+        return None;
+    }
+    let (pu, pv) = (pts[i as usize], pts[((i + 1) % n) as usize]);
+    let pw = [w.p.x, w.p.y];
+    let (ex, ey) = (pv[0] - pu[0], pv[1] - pu[1]);
+    let l2 = ex * ex + ey * ey;
+    if l2 == 0.0 {
+        return None;
+    }
+    let t = ((pw[0] - pu[0]) * ex + (pw[1] - pu[1]) * ey) / l2;
+    if t <= 1e-9 || t >= 1.0 - 1e-9 {
+        return None;
+    }
+    let left = ex * (pw[1] - pu[1]) - ey * (pw[0] - pu[0]) > 0.0;
+    if left != material_side {
+        return None;
+    }
+    let foot = [pu[0] + t * ex, pu[1] + t * ey];
+    let a = End {
+        ring: w.ring,
+        arc: r.cum[w.ring as usize][w.idx as usize],
+    };
+    let b = End {
+        ring,
+        arc: r.cum[ring as usize][i as usize] + t * l2.sqrt(),
+    };
+    Some((a, b, pw, foot, dist(pw, foot)))
+}
+
 /// Check a stencil's geometry against a material. `bridges_known`: whether `geom.bridges` lists
 /// every bridge (false for a bare PNG: then same-ring material necks count as bridges).
 pub fn check(
@@ -227,7 +287,8 @@ pub fn check(
     material: &Material,
     bridges_known: bool,
 ) -> Result<CheckReport, CheckError> {
-    let rings = rings_of(&geom.material);
+    let spacing = material.min_bridge_mm.max(material.min_feature_mm);
+    let rings = rings_of(&geom.material, spacing);
     let mut verts = Vec::new();
     let mut edges = Vec::new();
     for (ri, r) in rings.pts.iter().enumerate() {
@@ -323,38 +384,25 @@ pub fn check(
         for e in f.adjacent_edges() {
             let (u, v) = (e.from(), e.to());
             let (du, dv) = (*u.data(), *v.data());
-            let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
             if cdt.is_constraint_edge(e.fix().as_undirected()) {
-                let Some(w) = e.opposite_vertex() else {
-                    continue;
-                };
-                let dw = *w.data();
-                let pw = [dw.p.x, dw.p.y];
-                let (ex, ey) = (pv[0] - pu[0], pv[1] - pu[1]);
-                let l2 = ex * ex + ey * ey;
-                if l2 == 0.0 {
-                    continue;
-                }
-                let t = ((pw[0] - pu[0]) * ex + (pw[1] - pu[1]) * ey) / l2;
-                if t <= 1e-9 || t >= 1.0 - 1e-9 {
-                    continue;
-                }
-                let foot = [pu[0] + t * ex, pu[1] + t * ey];
-                let seg = l2.sqrt();
-                let ring = du.ring as usize;
-                let n = rings.pts[ring].len() as u32;
-                let arc = if dv.idx == (du.idx + 1) % n {
-                    rings.cum[ring][du.idx as usize] + t * seg
+                // The vertex opposite a boundary edge, straight across to it.
+                let n = rings.pts[du.ring as usize].len() as u32;
+                let i = if dv.idx == (du.idx + 1) % n {
+                    du.idx
                 } else {
-                    rings.cum[ring][dv.idx as usize] + (1.0 - t) * seg
+                    dv.idx
                 };
-                let a = End {
-                    ring: dw.ring,
-                    arc: rings.cum[dw.ring as usize][dw.idx as usize],
-                };
-                let b = End { ring: du.ring, arc };
-                consider(material_side, a, b, pw, foot, dist(pw, foot));
+                if let Some(w) = e.opposite_vertex() {
+                    if let Some((a, b, pa, pb, d)) =
+                        perpendicular(&rings, *w.data(), du.ring, i, material_side)
+                    {
+                        consider(material_side, a, b, pa, pb, d);
+                    }
+                }
             } else if u.fix().index() < v.fix().index() {
+                // A chord between two vertices, and from each end straight across to the boundary
+                // edges at the other end (where two long sides run parallel, these are the width).
+                let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
                 let a = End {
                     ring: du.ring,
                     arc: rings.cum[du.ring as usize][du.idx as usize],
@@ -364,6 +412,16 @@ pub fn check(
                     arc: rings.cum[dv.ring as usize][dv.idx as usize],
                 };
                 consider(material_side, a, b, pu, pv, dist(pu, pv));
+                for (x, y) in [(du, dv), (dv, du)] {
+                    let n = rings.pts[y.ring as usize].len() as u32;
+                    for start in [y.idx, (y.idx + n - 1) % n] {
+                        if let Some((a, b, pa, pb, d)) =
+                            perpendicular(&rings, x, y.ring, start, material_side)
+                        {
+                            consider(material_side, a, b, pa, pb, d);
+                        }
+                    }
+                }
             }
         }
     }
@@ -437,13 +495,20 @@ fn cluster(mut cands: Vec<Candidate>, material: &Material) -> Vec<Violation> {
     out
 }
 
-/// The raster cross-check: for every width violation, open (material) or close (holes) the
-/// raster with a disc of half the required width and see whether the neck at the reported position
-/// goes. Also counts the raster's pieces (4-connected, frame included), returned.
+/// The raster cross-check: for every width violation, open (material) or close (holes) the raster
+/// with a disc of half the required width; the violation is confirmed when that removes the neck's
+/// pixels at the reported position. Confirmed violations of one kind lying in the same connected
+/// piece of removed pixels are one neck: only the narrowest is kept. Returns the raster's pieces
+/// (4-connected, frame included).
 pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> usize {
-    let mut cache: Vec<(u32, bool, BitGrid)> = Vec::new();
+    // Per (radius, material side): the removed pixels' component labels.
+    let mut cache: Vec<(u32, bool, Vec<u32>)> = Vec::new();
+    let mut neck_of: Vec<Option<(usize, u32)>> = Vec::new();
     for v in &mut report.violations {
-        let Some(_) = v.width_mm else { continue };
+        neck_of.push(None);
+        if v.width_mm.is_none() {
+            continue;
+        }
         let r = (scale.to_px(Mm(v.required_mm)).0 / 2.0).ceil().max(1.0) as u32;
         let material_side = v.kind != ViolationKind::ThinHole;
         let idx = match cache
@@ -457,32 +522,52 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
                 } else {
                     filter::close(bits, r)
                 };
-                cache.push((r, material_side, g));
+                // Pixels the operation flipped: material it removed, or cut it filled.
+                let changed = BitGrid {
+                    width: bits.width,
+                    height: bits.height,
+                    data: bits.data.iter().zip(&g.data).map(|(a, b)| a != b).collect(),
+                };
+                cache.push((r, material_side, islands::components(&changed, true).0));
                 cache.len() - 1
             }
         };
-        let g = &cache[idx].2;
+        let labels = &cache[idx].2;
         let (cx, cy) = (
             (scale.to_px(Mm(v.x_mm)).0).floor() as i64,
             (scale.to_px(Mm(v.y_mm)).0).floor() as i64,
         );
-        let mut gone = true;
-        for dy in -1..=1 {
-            for dx in -1..=1 {
+        let mut found = None;
+        'search: for dy in [0, -1, 1] {
+            for dx in [0, -1, 1] {
                 let (x, y) = (cx + dx, cy + dy);
                 if x < 0 || y < 0 || x >= bits.width as i64 || y >= bits.height as i64 {
                     continue;
                 }
-                let before = bits.get(x as u32, y as u32);
-                let after = g.get(x as u32, y as u32);
-                // The neck's own pixels must flip: material that the opening removes, or cut that
-                // the closing fills.
-                if before == material_side && after == material_side {
-                    gone = false;
+                let l = labels[y as usize * bits.width as usize + x as usize];
+                if l != islands::CUT {
+                    found = Some(l);
+                    break 'search;
                 }
             }
         }
-        v.confirmed_by_opening = Some(gone);
+        v.confirmed_by_opening = Some(found.is_some());
+        *neck_of.last_mut().expect("pushed above") = found.map(|l| (idx, l));
     }
+    // Keep the narrowest violation per (kind, neck); report order is narrowest first already.
+    let mut seen: Vec<(ViolationKind, usize, u32)> = Vec::new();
+    let mut keep = Vec::with_capacity(report.violations.len());
+    for (v, n) in report.violations.iter().zip(&neck_of) {
+        match n {
+            Some((i, l)) if seen.contains(&(v.kind, *i, *l)) => keep.push(false),
+            Some((i, l)) => {
+                seen.push((v.kind, *i, *l));
+                keep.push(true);
+            }
+            None => keep.push(true),
+        }
+    }
+    let mut k = keep.into_iter();
+    report.violations.retain(|_| k.next().unwrap_or(true));
     1 + islands::label(bits).island_count()
 }
