@@ -12,6 +12,7 @@ use stencil::pipeline::{self, MakeConfig};
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
+use super::material::PhysicalArgs;
 use super::mesh::MeshArgs;
 
 fn parse_threshold(s: &str) -> Result<Threshold, String> {
@@ -150,8 +151,11 @@ impl BridgeArgs {
 #[command(after_help = "\
 Example:
   stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
-  writes out/rings/twotone.png, stencil.png, preview.png and report.json; the run fails (and writes
-  nothing) if any island cannot be joined to the frame.")]
+  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; the run fails
+  (and writes nothing) if any island cannot be joined to the frame.
+  stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
+  sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
+  default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.")]
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
@@ -166,6 +170,8 @@ pub struct MakeArgs {
     pub filter: FilterArgs,
     #[command(flatten)]
     pub bridge: BridgeArgs,
+    #[command(flatten)]
+    pub physical: PhysicalArgs,
 }
 
 impl ImageArgs {
@@ -199,8 +205,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
+        physical: a.physical.to_config()?,
     };
-    let (made, _) = pipeline::make(&cfg)?;
+    let (made, written) = pipeline::make(&cfg)?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -214,6 +221,20 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         r.floating_after,
         total_ms
     );
+    println!(
+        "{:.1} x {:.1} mm at {:.3} mm/px, material {}; files: {}",
+        made.geometry.width_mm,
+        made.geometry.height_mm,
+        made.scale.mm_per_px,
+        cfg.physical.material.name,
+        written
+            .iter()
+            .filter_map(|p| p.file_name())
+            .map(|n| n.to_string_lossy())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    super::material::print_check(&made.check);
     Ok(ExitCode::SUCCESS)
 }
 
