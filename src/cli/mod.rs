@@ -2,6 +2,7 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod make;
+mod material;
 mod mesh;
 mod send;
 
@@ -27,6 +28,11 @@ pub enum Command {
     Send(send::SendArgs),
     /// Draw what a G-code file makes the machine do (PNG) and estimate its running time.
     Simulate(send::SimulateArgs),
+    /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
+    /// widths. Exits 0 only when there are no violations.
+    Check(material::CheckArgs),
+    /// List the material profiles with their key numbers.
+    Profiles(material::ProfilesArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -35,5 +41,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Tone(a) => make::run_tone(a),
         Command::Send(a) => send::run_send(a),
         Command::Simulate(a) => send::run_simulate(a),
+        Command::Check(a) => material::run_check(a),
+        Command::Profiles(a) => material::run_profiles(a),
     }
 }
