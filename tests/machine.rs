@@ -484,6 +484,31 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
     assert_eq!(program_received(&r, 0), texts(&job, 1));
 }
 
+#[test]
+fn settings_lines_go_alone_and_percent_lines_are_dropped() {
+    // A `$32=1` (laser mode) written mid-job: Grbl stops listening while it writes EEPROM, so
+    // nothing may travel behind it; `%` program markers are not sent at all.
+    let text = job_text().replacen("G21 G90\n", "%\nG21 G90\n$32=1\n", 1) + "%\n";
+    let job = Job::parse("settings.gcode", &text).unwrap();
+    assert!(job.lines.iter().all(|l| l.text != "%"));
+    let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    let c = StreamConfig {
+        check_first: true,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert_eq!(r.eeprom_lost_bytes, 0);
+    assert_eq!(r.overflow_bytes, 0);
+    let run: Vec<&str> = r
+        .run_lines()
+        .into_iter()
+        .filter(|l| *l != "$I" && *l != "$C")
+        .collect();
+    let expected: Vec<&str> = job.lines.iter().map(|l| l.text.as_str()).collect();
+    assert_eq!(run, expected);
+}
+
 fn stencil() -> Command {
     Command::new(env!("CARGO_BIN_EXE_stencil"))
 }

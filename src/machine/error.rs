@@ -1,8 +1,6 @@
 //! Everything that stops a stream, with the file, line or port it concerns and what to do; the
 //! ones that stop a running job carry a [`Halt`]: how the laser was switched off and where to resume.
 
-use std::io;
-
 use super::gcode;
 use super::protocol::{self, MAX_LINE_BYTES};
 
@@ -84,19 +82,19 @@ pub enum MachineError {
         line: usize,
         total: usize,
     },
-    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {source}")]
+    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {cause}")]
     ResumeState {
         file: String,
         from_line: usize,
-        source: gcode::GcodeError,
+        cause: gcode::GcodeError,
     },
-    #[error("{file}: {source}")]
+    #[error("{file}: {cause}")]
     Gcode {
         file: String,
-        source: gcode::GcodeError,
+        cause: gcode::GcodeError,
     },
-    #[error("{port}: {source}")]
-    Io { port: String, source: io::Error },
+    #[error("{port}: {detail}")]
+    Io { port: String, detail: String },
     #[error("{port}: no Grbl banner within {secs:.1} s, even after a soft reset: check the port and the baud rate (Grbl 1.1 uses 115200)")]
     NoWelcome { port: String, secs: f64 },
     #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]

@@ -38,7 +38,9 @@ impl Job {
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
             let clean = gcode::clean_line(raw);
-            if clean.is_empty() {
+            // `%` marks the start and end of a program in many CAM outputs; Grbl 1.1 does not
+            // take it (error:1), so senders drop it.
+            if clean.is_empty() || clean == "%" {
                 continue;
             }
             if let Some(c) = clean
@@ -103,7 +105,7 @@ impl Job {
             gcode::step(&mut modal, &clean, i + 1).map_err(|e| MachineError::ResumeState {
                 file: self.name.clone(),
                 from_line,
-                source: e,
+                cause: e,
             })?;
             for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
                 if let Some(a) = "XYZ".find(l) {

@@ -22,9 +22,9 @@ pub struct Drawing {
 
 /// Interpret a program, naming the file in errors.
 pub fn moves(name: &str, text: &str) -> Result<Vec<Move>, super::MachineError> {
-    gcode::interpret(text).map_err(|source| super::MachineError::Gcode {
+    gcode::interpret(text).map_err(|cause| super::MachineError::Gcode {
         file: name.to_string(),
-        source,
+        cause,
     })
 }
 

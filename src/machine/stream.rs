@@ -258,6 +258,11 @@ struct Outgoing {
     preamble: bool,
 }
 
+/// A Grbl system command (`$x=value`, `$H`, `$X`...), not G-code.
+fn is_system(line: &str) -> bool {
+    line.starts_with('$')
+}
+
 /// The streamer's session with one controller.
 struct Session<'a, 'o> {
     link: Link<'a>,
@@ -359,7 +364,7 @@ impl Session<'_, '_> {
         match f {
             LinkFault::Lost(detail) => MachineError::Io {
                 port: self.port_name.clone(),
-                source: io::Error::other(detail),
+                detail,
             },
             LinkFault::Silent(secs) => MachineError::NoWelcome {
                 port: self.port_name.clone(),
@@ -534,8 +539,16 @@ impl Session<'_, '_> {
             .message("checking the program in Grbl's check mode ($C)");
         self.command("$C")?;
         self.obs.phase(true, body.len());
+        // Grbl refuses `$` commands in check mode (error:8): they are not G-code to vet.
+        let skipped = body.iter().filter(|l| is_system(&l.text)).count();
+        if skipped > 0 {
+            self.obs.message(&format!(
+                "{skipped} `$` command line(s) are not checked (Grbl does not run them in check mode)"
+            ));
+        }
         let lines: Vec<Outgoing> = body
             .iter()
+            .filter(|l| !is_system(&l.text))
             .map(|l| Outgoing {
                 number: l.number,
                 text: l.text.clone(),
@@ -647,7 +660,16 @@ impl Session<'_, '_> {
             // Fill Grbl's receive buffer.
             while next < lines.len() {
                 let len = lines[next].text.len() + 1;
+                // `$` commands (settings written to EEPROM, homing...) go alone: Grbl stops
+                // listening to the port while it writes EEPROM, so nothing may follow them until
+                // they are answered.
+                let after_system = f
+                    .in_flight
+                    .back()
+                    .is_some_and(|&(i, _)| is_system(&lines[i].text));
                 let fits = match self.cfg.flow {
+                    _ if after_system => false,
+                    _ if is_system(&lines[next].text) => f.in_flight.is_empty(),
                     FlowControl::CharacterCounting => f.in_flight_bytes + len <= rx_limit,
                     FlowControl::SendResponse => f.in_flight.is_empty(),
                 };

@@ -23,6 +23,9 @@ use super::protocol::{
     RT_STATUS, RX_BUFFER_DEFAULT,
 };
 
+/// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
+const EEPROM_WRITE: Duration = Duration::from_millis(20);
+
 /// How the simulated machine spends time on motion.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Motion {
@@ -113,6 +116,8 @@ pub struct Record {
     pub max_rx_used: usize,
     /// Bytes dropped because the receive buffer was full.
     pub overflow_bytes: usize,
+    /// Bytes lost because they arrived while Grbl wrote a `$x=` setting to its EEPROM.
+    pub eeprom_lost_bytes: usize,
     /// Laser armed: M3/M4 active with S > 0.
     pub laser_on: bool,
     pub position: [f64; 3],
@@ -233,6 +238,8 @@ struct Sim {
     line_buf: Vec<u8>,
     line_overflow: bool,
     comment: Comment,
+    /// A setting being written to EEPROM: until when, and its line (answered when done).
+    eeprom: Option<(Instant, usize)>,
     /// A motion line taken from the buffer, waiting for a planner slot (its `ok` waits too).
     pending: Option<(Move, usize)>,
     planner: VecDeque<Block>,
@@ -267,6 +274,7 @@ impl Sim {
             line_buf: Vec::new(),
             line_overflow: false,
             comment: Comment::None,
+            eeprom: None,
             pending: None,
             planner: VecDeque::new(),
             modal: Modal::default(),
@@ -334,6 +342,9 @@ impl Sim {
         if let Some((t, _)) = self.wire_out.front() {
             wait = wait.min(t.saturating_duration_since(now));
         }
+        if let Some((t, _)) = self.eeprom {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
         if let (Motion::Paced { .. }, false) = (self.cfg.motion, self.planner.is_empty()) {
             wait = wait.min(Duration::from_millis(2));
         }
@@ -347,6 +358,10 @@ impl Sim {
                 break;
             }
             self.wire_in.pop_front();
+            if self.eeprom.is_some_and(|(until, _)| t < until) {
+                lock(&self.shared).eeprom_lost_bytes += 1;
+                continue;
+            }
             if protocol::is_realtime(b) {
                 self.realtime(b);
                 continue;
@@ -366,11 +381,7 @@ impl Sim {
         lock(&self.shared).events.push(Event::Realtime(b));
         match b {
             RT_STATUS => self.status_requested = true,
-            RT_FEED_HOLD => {
-                if self.state == State::Idle {
-                    self.hold = true;
-                }
-            }
+            RT_FEED_HOLD if self.state == State::Idle => self.hold = true,
             RT_RESUME => self.hold = false,
             RT_SOFT_RESET => self.soft_reset(),
             _ => {}
@@ -385,6 +396,7 @@ impl Sim {
         self.line_buf.clear();
         self.line_overflow = false;
         self.comment = Comment::None;
+        self.eeprom = None;
         self.pending = None;
         self.planner.clear();
         self.hold = false;
@@ -490,6 +502,13 @@ impl Sim {
         loop {
             if self.state == State::Critical || self.port.is_none() {
                 return;
+            }
+            if let Some((until, idx)) = self.eeprom {
+                if Instant::now() < until {
+                    return;
+                }
+                self.eeprom = None;
+                self.done(idx);
             }
             if let Some((mv, idx)) = self.pending.take() {
                 if !self.plan(mv, idx) {
@@ -691,12 +710,16 @@ impl Sim {
                 }
                 self.done(idx);
             }
-            c if c.starts_with('$')
-                && c[1..]
-                    .split_once('=')
-                    .is_some_and(|(k, _)| k.parse::<u32>().is_ok()) =>
+            c if c[1..]
+                .split_once('=')
+                .is_some_and(|(k, _)| k.parse::<u32>().is_ok()) =>
             {
-                self.done(idx)
+                if self.check_mode || !idle {
+                    return self.reply_error(8);
+                }
+                // Writing EEPROM stops Grbl's serial interrupt: bytes that arrive meanwhile are
+                // lost, and the `ok` comes when the write is done.
+                self.eeprom = Some((Instant::now() + EEPROM_WRITE, idx));
             }
             _ => self.reply_error(3),
         }
