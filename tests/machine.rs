@@ -485,6 +485,20 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
 }
 
 #[test]
+fn a_job_that_leaves_the_laser_on_is_followed_by_m5() {
+    let text = job_text().replace("M5\n", "");
+    let job = Job::parse("no-m5.gcode", &text).unwrap();
+    assert!(job.may_end_laser_on);
+    let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert!(!r.laser_on);
+    assert_eq!(r.received.last().unwrap().text, "M5");
+    // Our usual jobs end with M5: nothing is added.
+    assert!(!self::job().may_end_laser_on);
+}
+
+#[test]
 fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     // A `$32=1` (laser mode) written mid-job: Grbl stops listening while it writes EEPROM, so
     // nothing may travel behind it; `%` program markers are not sent at all.

@@ -24,6 +24,9 @@ pub struct Job {
     pub lines: Vec<JobLine>,
     /// Moves as our interpreter reads them (lines it cannot read are skipped).
     pub moves: Vec<Move>,
+    /// The program may end with the laser still switched on (no final M5, or lines our
+    /// interpreter cannot follow): the streamer then sends M5 itself.
+    pub may_end_laser_on: bool,
     source: Vec<String>,
 }
 
@@ -34,6 +37,7 @@ impl Job {
         let mut lines = Vec::new();
         let mut moves = Vec::new();
         let mut modal = Modal::default();
+        let mut unreadable = false;
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
@@ -71,7 +75,10 @@ impl Job {
                         false
                     }
                 }
-                Err(_) => !clean.starts_with('$'),
+                Err(_) => {
+                    unreadable = true;
+                    !clean.starts_with('$')
+                }
             };
             lines.push(JobLine {
                 number,
@@ -83,6 +90,7 @@ impl Job {
             name: name.to_string(),
             lines,
             moves,
+            may_end_laser_on: modal.spindle_on || unreadable,
             source,
         })
     }

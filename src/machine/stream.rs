@@ -356,7 +356,13 @@ pub fn send(
     }
     s.obs
         .phase(false, lines.iter().filter(|l| !l.preamble).count());
-    s.stream(&lines, false, rx_limit, resume_point)
+    let summary = s.stream(&lines, false, rx_limit, resume_point)?;
+    if job.may_end_laser_on {
+        s.obs
+            .message("the program ends without switching the laser off: sending M5");
+        s.command("M5")?;
+    }
+    Ok(summary)
 }
 
 impl Session<'_, '_> {
