@@ -399,7 +399,13 @@ impl Session<'_, '_> {
         self.info.version = version;
         self.info.rx_buffer = RX_BUFFER_DEFAULT;
         self.info.planner_blocks = PLANNER_BLOCKS_DEFAULT;
-        let replies = self.command("$I")?;
+        // Build info: Grbl 1.1 tells its planner and buffer sizes here; older firmware and
+        // clones may not, or may refuse `$I`: then the stock sizes stand.
+        let replies = match self.command("$I") {
+            Ok(r) => r,
+            Err(MachineError::Setup { .. }) => Vec::new(),
+            Err(e) => return Err(e),
+        };
         for r in &replies {
             if let Reply::Feedback(f) = r {
                 if let Some((blocks, rx)) = protocol::parse_opt(f) {
