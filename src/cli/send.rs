@@ -215,10 +215,11 @@ struct Bar {
 
 impl Bar {
     fn new(moves: Vec<Move>, raw: bool) -> Bar {
-        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr_with_hz(5));
+        // Hidden until the job starts (shown by `phase`), so connecting draws no empty bar.
+        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
         bar.set_style(
             ProgressStyle::with_template(
-                "{spinner} {elapsed_precise} [{bar:28}] {pos}/{len} lines {percent}% {msg}",
+                "{spinner} {elapsed_precise} [{bar:20}] {pos}/{len} lines {percent}% {wide_msg}",
             )
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
@@ -255,6 +256,8 @@ impl Observer for Bar {
         self.say(text);
     }
     fn phase(&mut self, checking: bool, total: usize) {
+        self.bar
+            .set_draw_target(ProgressDrawTarget::stderr_with_hz(5));
         self.bar.set_length(total as u64);
         self.bar.set_position(0);
         self.bar
@@ -276,7 +279,7 @@ impl Observer for Bar {
         }
         if let Some(st) = &p.state {
             self.state = match p.position {
-                Some(pos) => format!("{st} X{:.2} Y{:.2} Z{:.2}", pos[0], pos[1], pos[2]),
+                Some(pos) => format!("{st} X{:.2} Y{:.2}", pos[0], pos[1]),
                 None => st.to_string(),
             };
         }
