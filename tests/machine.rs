@@ -523,6 +523,20 @@ fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     assert_eq!(run, expected);
 }
 
+#[test]
+fn a_port_without_grbl_is_reported_not_waited_on_forever() {
+    // Nobody answers on the far end of this pty.
+    let (_far, mut port) = serialport::TTYPort::pair().unwrap();
+    let c = StreamConfig {
+        boot_wait: Duration::from_millis(200),
+        timeout: Duration::from_millis(500),
+        ..StreamConfig::default()
+    };
+    let err = send(&mut port, &job(), &c, None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::NoWelcome { .. }), "{err}");
+    assert!(err.to_string().contains("baud rate"), "{err}");
+}
+
 fn stencil() -> Command {
     Command::new(env!("CARGO_BIN_EXE_stencil"))
 }
