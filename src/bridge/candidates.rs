@@ -66,6 +66,20 @@ impl Candidates {
         }
     }
 
+    /// Add a candidate on a chain of its own (for a strip found by search rather than a walk).
+    pub fn push_single(&mut self, node: u32, pixel: (u32, u32)) -> usize {
+        let id = self.pixels.len();
+        self.chain_of.push(self.chains.len() as u32);
+        self.chains.push(Chain {
+            node,
+            start: id,
+            len: 1,
+            closed: false,
+        });
+        self.pixels.push(pixel);
+        id
+    }
+
     /// The candidate id of a border pixel of `node`, if it is one.
     pub fn id_at(&self, map: &IslandMap, node: u32, x: u32, y: u32) -> Option<usize> {
         let border = &map.nodes.get(node as usize)?.border;

@@ -94,7 +94,9 @@ fn diff(a: &BitGrid, b: &BitGrid) -> usize {
 fn padded(bits: &BitGrid, pad: u32) -> BitGrid {
     let (w, h) = (bits.width + 2 * pad, bits.height + 2 * pad);
     let clamp = |v: u32, n: u32| v.saturating_sub(pad).min(n - 1);
-    BitGrid::from_fn(w, h, |x, y| bits.get(clamp(x, bits.width), clamp(y, bits.height)))
+    BitGrid::from_fn(w, h, |x, y| {
+        bits.get(clamp(x, bits.width), clamp(y, bits.height))
+    })
 }
 
 fn crop(bits: &BitGrid, pad: u32, w: u32, h: u32) -> BitGrid {
