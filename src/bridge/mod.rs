@@ -12,8 +12,9 @@
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
 //!
-//! Work is in proportion to the islands' total perimeter times the walk length, plus one O(pixels)
-//! pass for the summed-area table the walks steer by.
+//! Work is in proportion to the islands' total perimeter times the walk length: the fields the
+//! walks steer by are evaluated only where they walk. The only O(pixels) steps are copying the
+//! bit grid for the result and the caller's labelling.
 //!
 //! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
 //! added, names kept.
@@ -208,8 +209,7 @@ pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bri
     connect_timed(two, map, cfg).map(|(b, _)| b)
 }
 
-/// Wall-clock milliseconds per phase of [`connect`], in order: `fields` (summed-area table),
-/// `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
+/// Wall-clock milliseconds per phase of [`connect`], in order: `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
 /// fallback searches), `grow` (growing, support bridges, drawing).
 pub type PhaseTimes = Vec<(&'static str, f64)>;
 
@@ -235,7 +235,6 @@ pub fn connect_timed(
         clock = now;
     };
     let fields = strips::Fields::new(two, map);
-    lap("fields", &mut times);
     let cands = candidates::collect(map);
     lap("candidates", &mut times);
     let walked = walk_all(&fields, &cands, cfg);
