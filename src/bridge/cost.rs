@@ -215,12 +215,16 @@ pub fn score(
     let to = strips[id].as_ref()?.to;
     let mut best: Option<Scored> = None;
     let mut base = Vec::with_capacity(width as usize);
+    // Chain arithmetic once: `window` keeps offsets inside an open chain.
+    let chain = &c.chains[c.chain_of[id] as usize];
+    let (start, n, pos) = (chain.start, chain.len as isize, c.pos(id) as isize);
+    let at = |k: isize| start + (pos + k).rem_euclid(n) as usize;
     for align in [Align::Left, Align::Centre, Align::Right] {
         let (lo, hi) = window(c, id, width as usize, align);
         base.clear();
         let (mut i_sum, mut l_sum, mut raw_i, mut valid) = (0.0, 0.0, 0.0, 0usize);
         for k in lo..=hi {
-            let j = c.along(id, k)?;
+            let j = at(k);
             match (&strips[j], &costs[j]) {
                 (Some(s), Some(sc)) if s.to == to => {
                     i_sum += sc.intensity;

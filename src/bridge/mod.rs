@@ -303,11 +303,18 @@ pub fn connect_timed(
 
     lap("tree", &mut times);
 
-    // Stage 5: grow and draw the chosen bridges in tree order.
+    // Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
+    // them in tree order; a pixel two bridges share counts for the first.
+    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = prim
+        .chosen
+        .par_iter()
+        .map(|&(edge, _)| plan_bridge(two, &g, cfg, edge.candidate))
+        .collect();
     let mut bits = two.bits.clone();
-    let mut bridges = Vec::new();
-    for &(edge, _) in &prim.chosen {
-        grow_bridge(two, &g, cfg, edge.candidate, &mut bits, &mut bridges);
+    let mut bridges = Vec::with_capacity(planned.len());
+    for (mut bridge, pixels) in planned.into_iter().flatten() {
+        bridge.pixels = grow::commit(&mut bits, &pixels);
+        bridges.push(bridge);
     }
     lap("grow", &mut times);
     Ok((Bridged { bits, bridges }, times))
@@ -392,26 +399,20 @@ fn add_found_strip(
     id
 }
 
-/// Grow the bridge at candidate `id`, halve it and add a support bridge if its real error
-/// exceeds the estimate by more than the margin, and draw the result into `bits`.
-fn grow_bridge(
-    two: &TwoTone,
-    g: &Graph,
-    cfg: &BridgeConfig,
-    id: usize,
-    bits: &mut BitGrid,
-    out: &mut Vec<Bridge>,
-) {
+/// Grow the bridge at candidate `id` and plan its pixels; if its real error exceeds the estimate
+/// by more than the margin, halve it and add a support bridge. Returns the bridges with the
+/// pixels each would turn into material.
+fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(Bridge, Vec<u32>)> {
     let (Some(strip), Some(score)) = (g.strips[id].as_ref(), g.scores[id]) else {
-        return;
+        return Vec::new();
     };
     let nodes = {
         let (a, b) = pair(strip.from, strip.to);
         [a, b]
     };
-    let make = |members: &[usize], bits: &BitGrid| {
+    let make = |members: &[usize]| {
         grow::plan(
-            bits,
+            &two.bits,
             &two.gray,
             &g.cands,
             &g.strips,
@@ -420,29 +421,32 @@ fn grow_bridge(
         )
     };
     let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);
-    let mut plan = make(&members, bits);
+    let mut plan = make(&members);
     let half = (score.width / 2).max(cfg.min_width_px);
     let over = plan.real > (1.0 + cfg.support_margin) * score.estimate + 1e-9;
     let mut support_at = None;
     if over && half < score.width {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, id, half, cfg);
-        plan = make(&members, bits);
+        plan = make(&members);
         support_at = next_cheapest(g, id, &members, &plan, half);
     }
-    grow::commit(bits, &plan);
-    out.push(to_bridge(nodes, score, plan, false));
+    let mut out = vec![to_bridge(nodes, score, plan, false)];
     if let Some(sid) = support_at {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, sid, half, cfg);
-        let plan = make(&members, bits);
-        grow::commit(bits, &plan);
         if let Some(s) = g.scores[sid] {
-            out.push(to_bridge(nodes, s, plan, true));
+            out.push(to_bridge(nodes, s, make(&members), true));
         }
     }
+    out
 }
 
-fn to_bridge(nodes: [u32; 2], score: cost::Scored, plan: grow::Plan, support: bool) -> Bridge {
-    Bridge {
+fn to_bridge(
+    nodes: [u32; 2],
+    score: cost::Scored,
+    plan: grow::Plan,
+    support: bool,
+) -> (Bridge, Vec<u32>) {
+    let bridge = Bridge {
         nodes,
         width_px: plan.width,
         length_px: plan.length,
@@ -450,7 +454,8 @@ fn to_bridge(nodes: [u32; 2], score: cost::Scored, plan: grow::Plan, support: bo
         cost: score.terms,
         support,
         polygon: plan.polygon,
-    }
+    };
+    (bridge, plan.pixels)
 }
 
 /// The next cheapest place for a support bridge between the same two nodes as candidate `id`:

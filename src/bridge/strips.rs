@@ -57,8 +57,10 @@ const STEER: f32 = 0.5;
 /// A field direction more than 60° off the heading is ambiguous (near perpendicular its sign
 /// flips with noise) and would swing the walk sideways; it is ignored.
 const MIN_ALIGN: f32 = 0.5;
-/// Pixels checked for a revisit: a walk that comes back onto itself loops and is dropped.
-const LOOP_WINDOW: usize = 12;
+/// Pixels checked for a revisit: a walk that comes back onto itself loops and is dropped. (A walk
+/// that turns more than a right angle from its start is dropped first, so longer loops cannot
+/// form: its progress along the start direction only grows.)
+const LOOP_WINDOW: usize = 8;
 
 /// What the walks read: the two-tone, the grayscale and the labels. The steering fields (Sobel
 /// gradient of the gray, box-smoothed gradient of the two-tone) are evaluated on demand at the
@@ -181,15 +183,25 @@ impl<'a> Fields<'a> {
 
     /// The node other than `own` that material beside (x, y) belongs to, if any (edge neighbours).
     #[inline]
+    /// Reads the (small) bit grid first and the labels only beside material.
     fn arrival(&self, x: i64, y: i64, own: u32) -> Option<((i64, i64), u32)> {
         for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
+            if !self.material(nx, ny) {
+                continue;
+            }
             let l = self.label(nx, ny);
             if l != CUT && l != own {
                 return Some(((nx, ny), l));
             }
         }
         None
+    }
+
+    /// Material test; outside the image is the frame.
+    #[inline]
+    fn material(&self, x: i64, y: i64) -> bool {
+        !self.inside(x, y) || self.bits.data[(y * self.width + x) as usize]
     }
 }
 
@@ -294,6 +306,7 @@ pub fn walk(
     if d[0] * (px - cx) as f32 + d[1] * (py - cy) as f32 <= 0.0 {
         d = [(px - cx) as f32, (py - cy) as f32];
     }
+    let start = d;
     // Continuous position in pixel units: pixel (x, y) covers [x, x+1) × [y, y+1).
     let mut pos = [px as f32 + 0.5, py as f32 + 0.5];
     let w = f.width;
@@ -323,14 +336,17 @@ pub fn walk(
                 if m > 1e-6 {
                     d = [nd[0] / m, nd[1] / m];
                 }
+                if d[0] * start[0] + d[1] * start[1] <= 0.0 {
+                    // Turned back past a right angle: it would curl onto itself.
+                    return Err(WalkEnd::Looped);
+                }
             }
         }
         // Next pixel: where the ray leaves this one; never straight back to where it came from.
         let Some((nx, ny, npos)) = next_pixel(px, py, pos, d, prev) else {
             return Err(WalkEnd::Looped);
         };
-        let l = f.label(nx, ny);
-        if l != CUT {
+        if f.material(nx, ny) {
             // Material of another node would have been caught as an arrival: this is our own.
             return Err(WalkEnd::Returned);
         }
