@@ -155,13 +155,17 @@ impl<'a> Fields<'a> {
     /// gradient where it is not flat, else the smoothed two-tone's. `None` where both are flat.
     pub fn field(&self, x: i64, y: i64) -> Option<[f32; 2]> {
         let g = self.gray_gradient(x, y);
-        let m = (g[0] * g[0] + g[1] * g[1]).sqrt();
-        if m >= GRAY_FLAT {
+        let m2 = g[0] * g[0] + g[1] * g[1];
+        if m2 >= GRAY_FLAT * GRAY_FLAT {
+            let m = m2.sqrt();
             return Some([g[0] / m, g[1] / m]);
         }
         let t = self.twotone_gradient(x, y, STEER_RADIUS);
+        if t == [0.0, 0.0] {
+            return None;
+        }
         let m = (t[0] * t[0] + t[1] * t[1]).sqrt();
-        (m > 0.5).then(|| [t[0] / m, t[1] / m])
+        Some([t[0] / m, t[1] / m])
     }
 
     /// Cut-side sense at a border pixel: the sum of the offsets to its cut edge neighbours, or
