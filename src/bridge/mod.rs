@@ -411,7 +411,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
         let (a, b) = pair(strip.from, strip.to);
         [a, b]
     };
-    let make = |members: &[usize]| {
+    let make = |members: &[usize], want: u32| {
         grow::plan(
             &two.bits,
             &two.gray,
@@ -419,23 +419,24 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
             &g.strips,
             members,
             cfg.min_width_px,
+            want,
         )
     };
     let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);
-    let mut plan = make(&members);
+    let mut plan = make(&members, score.width);
     let half = (score.width / 2).max(cfg.min_width_px);
     let over = plan.real > (1.0 + cfg.support_margin) * score.estimate + 1e-9;
     let mut support_at = None;
     if over && half < score.width {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, id, half, cfg);
-        plan = make(&members);
+        plan = make(&members, half);
         support_at = next_cheapest(g, id, &members, &plan, half);
     }
     let mut out = vec![to_bridge(nodes, score, plan, false)];
     if let Some(sid) = support_at {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, sid, half, cfg);
         if let Some(s) = g.scores[sid] {
-            out.push(to_bridge(nodes, s, make(&members), true));
+            out.push(to_bridge(nodes, s, make(&members, half), true));
         }
     }
     out
