@@ -261,6 +261,23 @@ mod tests {
     use crate::islands::label;
     use crate::raster::TwoTone;
 
+    /// Labels, candidates and every candidate's strip (walks up to 40 px).
+    fn walk_all(
+        t: &TwoTone,
+    ) -> (
+        crate::islands::IslandMap,
+        candidates::Candidates,
+        Vec<Option<Strip>>,
+    ) {
+        let m = label(&t.bits);
+        let f = strips::Fields::new(t, &m);
+        let c = candidates::collect(&m);
+        let st = (0..c.len())
+            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
+            .collect();
+        (m, c, st)
+    }
+
     #[test]
     fn width_grows_with_the_smaller_area_and_is_clamped() {
         let cfg = BridgeConfig {
@@ -296,12 +313,7 @@ mod tests {
             gray.set(11, y, 0.9);
         }
         let t = TwoTone { bits, gray };
-        let m = label(&t.bits);
-        let f = strips::Fields::new(&t, &m);
-        let c = candidates::collect(&m);
-        let st: Vec<_> = (0..c.len())
-            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
-            .collect();
+        let (m, c, st) = walk_all(&t);
         let cfg = BridgeConfig::default();
         let norm = Norm::new(st.iter().flatten().map(|s| s.len()).collect(), &cfg);
         let costs: Vec<_> = st
@@ -351,12 +363,7 @@ mod tests {
             gray: Gray::new(9, 9, 0.0),
             bits,
         };
-        let m = label(&t.bits);
-        let f = strips::Fields::new(&t, &m);
-        let c = candidates::collect(&m);
-        let st: Vec<_> = (0..c.len())
-            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
-            .collect();
+        let (_, c, st) = walk_all(&t);
         let cfg = BridgeConfig::default();
         let costs = vec![None; c.len()];
         let members = grow(&c, &st, &costs, 0, 3, &cfg);

@@ -500,7 +500,8 @@ mod tests {
     use crate::islands::label;
     use crate::raster::Gray;
 
-    fn black_white(bits: BitGrid) -> TwoTone {
+    /// A two-tone whose gray is the bits themselves: white material, black cut.
+    pub(crate) fn black_white(bits: BitGrid) -> TwoTone {
         let gray = Gray {
             width: bits.width,
             height: bits.height,
@@ -658,7 +659,7 @@ mod tests {
                     let (cx, cy) = (w as f64 / 2.0, h as f64 / 2.0);
                     let band = 1.0 + r.next() * 4.0;
                     BitGrid::from_fn(w, h, |x, y| {
-                        ((x as f64 - cx).hypot(y as f64 - cy) / band) as u32 % 2 == 0
+                        (((x as f64 - cx).hypot(y as f64 - cy) / band) as u32).is_multiple_of(2)
                     })
                 }
             };
