@@ -12,6 +12,7 @@ use stencil::pipeline::{self, MakeConfig};
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
+use super::material::PhysicalArgs;
 use super::mesh::MeshArgs;
 
 fn parse_threshold(s: &str) -> Result<Threshold, String> {
@@ -77,9 +78,10 @@ pub struct ImageArgs {
 #[command(next_help_heading = "Topological filter")]
 pub struct FilterArgs {
     /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this.
-    #[arg(long, default_value_t = 1)]
-    pub filter_radius: u32,
+    /// cut features thinner than about twice this. Default: 1, raised to what the material's
+    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    #[arg(long)]
+    pub filter_radius: Option<u32>,
     /// Material or cut pieces smaller than this many pixels flip to the other tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
@@ -150,8 +152,11 @@ impl BridgeArgs {
 #[command(after_help = "\
 Example:
   stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
-  writes out/rings/twotone.png, stencil.png, preview.png and report.json; the run fails (and writes
-  nothing) if any island cannot be joined to the frame.")]
+  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; the run fails
+  (and writes nothing) if any island cannot be joined to the frame.
+  stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
+  sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
+  default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.")]
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
@@ -166,6 +171,8 @@ pub struct MakeArgs {
     pub filter: FilterArgs,
     #[command(flatten)]
     pub bridge: BridgeArgs,
+    #[command(flatten)]
+    pub physical: PhysicalArgs,
 }
 
 impl ImageArgs {
@@ -182,8 +189,9 @@ impl ImageArgs {
 impl FilterArgs {
     fn to_config(&self) -> FilterConfig {
         FilterConfig {
-            radius: self.filter_radius,
+            radius: self.filter_radius.unwrap_or(FilterConfig::default().radius),
             min_speck_px: self.min_speck_px,
+            auto_radius: self.filter_radius.is_none(),
         }
     }
 }
@@ -199,8 +207,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
+        physical: a.physical.to_config()?,
     };
-    let (made, _) = pipeline::make(&cfg)?;
+    let (made, written) = pipeline::make(&cfg)?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -214,6 +223,20 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         r.floating_after,
         total_ms
     );
+    println!(
+        "{:.1} x {:.1} mm at {:.3} mm/px, material {}; files: {}",
+        made.geometry.width_mm,
+        made.geometry.height_mm,
+        made.scale.mm_per_px,
+        cfg.physical.material.name,
+        written
+            .iter()
+            .filter_map(|p| p.file_name())
+            .map(|n| n.to_string_lossy())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    super::material::print_check(&made.check);
     Ok(ExitCode::SUCCESS)
 }
 
