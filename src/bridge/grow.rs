@@ -25,8 +25,13 @@ pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
 }
 
 /// Grow from candidate `id` strip by strip, always adding the cheaper of the two neighbouring
-/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until `width`
-/// strips or no neighbour can be added. Returns the members in chain order.
+/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until the
+/// bridge is `width` px wide or no neighbour can be added. Returns the members in chain order.
+///
+/// Width is measured, not counted: on a slanted edge the border pixels form a staircase, so `n`
+/// strips there span only about n/√2 px. The bridge grows until it has at least `width` strips
+/// and both its start edge and its end edge ([`span`]) are `width` px across (strips converging on
+/// a smaller island land closer together than they start), but never past 4 × `width` strips.
 pub fn grow(
     c: &Candidates,
     strips: &[Option<Strip>],
@@ -47,7 +52,14 @@ pub fn grow(
         }
     };
     let (mut lo, mut hi) = (0isize, 0isize);
-    while ((hi - lo + 1) as usize) < want {
+    let wide_enough = |lo: isize, hi: isize| match (c.along(id, lo), c.along(id, hi)) {
+        (Some(a), Some(b)) => span(c, strips, a, b) >= width as f64,
+        _ => false,
+    };
+    let most = (4 * want).min(chain_len);
+    while ((hi - lo + 1) as usize) < most
+        && (((hi - lo + 1) as usize) < want || !wide_enough(lo, hi))
+    {
         let left = c.along(id, lo - 1).and_then(usable);
         let right = c.along(id, hi + 1).and_then(usable);
         match (left, right) {
@@ -59,6 +71,18 @@ pub fn grow(
         }
     }
     (lo..=hi).filter_map(|k| c.along(id, k)).collect()
+}
+
+/// Width in pixels of a bridge whose outer strips are those of candidates `a` and `b`: the
+/// narrower of its two ends, each measured between pixel centres plus one pixel.
+pub fn span(c: &Candidates, strips: &[Option<Strip>], a: usize, b: usize) -> f64 {
+    let (pa, pb) = (c.pixels[a], c.pixels[b]);
+    let start = (pa.0 as f64 - pb.0 as f64).hypot(pa.1 as f64 - pb.1 as f64);
+    let end = match (&strips[a], &strips[b]) {
+        (Some(sa), Some(sb)) => ((sa.end.0 - sb.end.0) as f64).hypot((sa.end.1 - sb.end.1) as f64),
+        _ => start,
+    };
+    start.min(end) + 1.0
 }
 
 /// What drawing a bridge would change, computed before committing it.
@@ -108,8 +132,12 @@ pub fn plan(
     ];
 
     // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
-    let brush = if (member_strips.len() as u32) < min_width {
-        (min_width - member_strips.len() as u32).div_ceil(2) as i64
+    let achieved = match (members.first(), members.last()) {
+        (Some(&a), Some(&b)) => span(c, strips, a, b).floor() as u32,
+        _ => 0,
+    };
+    let brush = if achieved < min_width {
+        (min_width - achieved).div_ceil(2) as i64
     } else {
         0
     };
@@ -204,7 +232,7 @@ pub fn plan(
         pixels,
         polygon,
         real,
-        width: if brush > 0 { min_width } else { n as u32 },
+        width: if brush > 0 { min_width } else { achieved },
         length: member_strips
             .iter()
             .map(|(s, _)| s.len() as f64)
@@ -353,6 +381,54 @@ mod tests {
         }
         assert!(p.pixels.len() >= 12);
         assert!((p.real - real).abs() < 1e-9);
+    }
+
+    #[test]
+    fn converging_strips_grow_until_the_narrow_end_is_wide_enough() {
+        // A ring island around a disc island: strips from the ring's inner edge converge on the
+        // disc, so 8 strips are 8 px apart where they start but closer where they land.
+        let n = 81u32;
+        let r = |x: u32, y: u32| (x as f64 + 0.5 - 40.5).hypot(y as f64 + 0.5 - 40.5);
+        let bits = BitGrid::from_fn(n, n, |x, y| {
+            let d = r(x, y);
+            d <= 8.0 || (22.0..=30.0).contains(&d) || d >= 37.0
+        });
+        let t = TwoTone {
+            gray: Gray::new(n, n, 0.0),
+            bits,
+        };
+        let (m, c, st) = walk_all(&t);
+        assert_eq!(m.island_count(), 2);
+        let (ring, disc) = (m.label(40, 14), m.label(40, 40));
+        let id = (0..c.len())
+            .find(|&i| {
+                c.node(i) == ring
+                    && c.pixels[i].0 == 40
+                    && c.pixels[i].1 < 40
+                    && st[i].as_ref().is_some_and(|s| s.to == disc)
+            })
+            .unwrap();
+        let cfg = BridgeConfig::default();
+        let costs = vec![
+            Some(StripCost {
+                intensity: 1.0,
+                length: 1.0
+            });
+            c.len()
+        ];
+        let members = grow(&c, &st, &costs, id, 8, &cfg);
+        let (a, b) = (members[0], *members.last().unwrap());
+        assert!(span(&c, &st, a, b) >= 8.0, "{}", span(&c, &st, a, b));
+        assert!(
+            members.len() > 8 && members.len() <= 32,
+            "{}",
+            members.len()
+        );
+        // Counting strips alone would have stopped at 8, narrower than 8 px at the disc.
+        let eight = &members[..8];
+        assert!(span(&c, &st, eight[0], eight[7]) < 8.0);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
+        assert!(p.width >= 8);
     }
 
     #[test]

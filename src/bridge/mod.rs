@@ -535,7 +535,8 @@ mod tests {
         assert!(out.bridges.len() >= map.island_count());
         for b in &out.bridges {
             assert!(b.nodes[0] < b.nodes[1] && (b.nodes[1] as usize) < map.nodes.len());
-            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px);
+            // Measured width: may overshoot the target by a pixel on a staircase edge.
+            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px + 1);
             assert_eq!(b.polygon.len(), 4);
             assert!(b.cost.total.is_finite());
         }
