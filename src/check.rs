@@ -237,6 +237,84 @@ struct Candidate {
     mid: [f64; 2],
 }
 
+/// Bridge polygons bucketed on a uniform grid, so that "is this point in a bridge" costs O(1).
+struct BridgeIndex<'a> {
+    polys: &'a [Polygon<f64>],
+    origin: [f64; 2],
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    buckets: Vec<Vec<u32>>,
+}
+
+impl<'a> BridgeIndex<'a> {
+    fn new(polys: &'a [Polygon<f64>]) -> Self {
+        let boxes: Vec<Option<Rect<f64>>> = polys.iter().map(|b| b.bounding_rect()).collect();
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        let mut size = 0.0f64;
+        for b in boxes.iter().flatten() {
+            lo = [lo[0].min(b.min().x), lo[1].min(b.min().y)];
+            hi = [hi[0].max(b.max().x), hi[1].max(b.max().y)];
+            size = size.max(b.width()).max(b.height());
+        }
+        if !lo[0].is_finite() {
+            return BridgeIndex {
+                polys,
+                origin: [0.0; 2],
+                cell: 1.0,
+                cols: 0,
+                rows: 0,
+                buckets: Vec::new(),
+            };
+        }
+        let cell = size
+            .max((hi[0] - lo[0]).max(hi[1] - lo[1]) / 256.0)
+            .max(1e-6);
+        let cols = ((hi[0] - lo[0]) / cell).floor() as usize + 1;
+        let rows = ((hi[1] - lo[1]) / cell).floor() as usize + 1;
+        let mut buckets = vec![Vec::new(); cols * rows];
+        for (i, b) in boxes.iter().enumerate() {
+            let Some(b) = b else { continue };
+            let (x0, y0) = (
+                ((b.min().x - lo[0]) / cell) as usize,
+                ((b.min().y - lo[1]) / cell) as usize,
+            );
+            let (x1, y1) = (
+                ((b.max().x - lo[0]) / cell) as usize,
+                ((b.max().y - lo[1]) / cell) as usize,
+            );
+            for y in y0..=y1.min(rows - 1) {
+                for x in x0..=x1.min(cols - 1) {
+                    buckets[y * cols + x].push(i as u32);
+                }
+            }
+        }
+        BridgeIndex {
+            polys,
+            origin: lo,
+            cell,
+            cols,
+            rows,
+            buckets,
+        }
+    }
+
+    fn contains(&self, m: [f64; 2]) -> bool {
+        let (fx, fy) = (
+            (m[0] - self.origin[0]) / self.cell,
+            (m[1] - self.origin[1]) / self.cell,
+        );
+        if fx < 0.0 || fy < 0.0 || fx as usize >= self.cols || fy as usize >= self.rows {
+            return false;
+        }
+        let p = Point::new(m[0], m[1]);
+        self.buckets[fy as usize * self.cols + fx as usize]
+            .iter()
+            .any(|&i| self.polys[i as usize].contains(&p))
+    }
+}
+
 /// From vertex `w` straight across to ring edge `i → i+1` of `ring`, when the foot falls strictly
 /// inside the edge: the two chord ends, their points, and the length.
 /// `material_side`: which region the chord must cross (material lies left of every ring edge, as
@@ -338,17 +416,8 @@ pub fn check(
         }
     }
 
-    let bridge_boxes: Vec<Option<Rect<f64>>> =
-        geom.bridges.iter().map(|b| b.bounding_rect()).collect();
-    let in_bridge = |m: [f64; 2]| {
-        let p = Point::new(m[0], m[1]);
-        geom.bridges
-            .iter()
-            .zip(&bridge_boxes)
-            .any(|(b, bb): (&Polygon<f64>, _)| {
-                bb.is_some_and(|bb| bb.contains(&p)) && b.contains(&p)
-            })
-    };
+    let bridge_index = BridgeIndex::new(&geom.bridges);
+    let in_bridge = |m: [f64; 2]| bridge_index.contains(m);
     let mut narrowest = [f64::INFINITY; 3];
     let mut cands: Vec<Candidate> = Vec::new();
     let mut consider = |material_side: bool, a: End, b: End, pa: [f64; 2], pb: [f64; 2], d: f64| {

@@ -1,9 +1,8 @@
 //! Photo-etch masks: `mask.png` (1-bit, `--mask-dpi`, default 1200) and `mask.svg`.
 //!
-//! Polarity: by default black where metal stays (positive-acting resist exposed through the film
-//! hardens where the film is clear, so the film is black over the metal to keep... per the shops'
-//! summary in machines.md: "positive resist needs black where metal stays"); `--mask-invert` gives
-//! clear where metal stays, for negative-acting resist. `--mask-mirror` flips left-right for film
+//! Polarity: by default black where metal stays and clear where it is etched away (what a
+//! positive-acting resist needs); `--mask-invert` gives clear where metal stays, for
+//! negative-acting resist (dry-film photoresists are usually negative-acting: check with the shop). `--mask-mirror` flips left-right for film
 //! laid emulsion side down (and for the back of two-sided art). Optional registration marks (a
 //! ring and a cross in each corner of the margin, drawn in the etched tone) line up front and back
 //! films.

@@ -59,7 +59,8 @@ pub fn simplify_rings(
             *r = lossless[i].clone();
         }
     }
-    let cell = (4.0 * tol).max(1.0);
+    // Grid cells of 16 px (or 8 tolerances): few cells per segment, few segments per cell.
+    let cell = (8.0 * tol).max(16.0);
     for _ in 0..8 {
         let bad = conflicts(rings, cell);
         let mut changed = false;
