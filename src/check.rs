@@ -419,8 +419,25 @@ pub fn check(
     let bridge_index = BridgeIndex::new(&geom.bridges);
     let in_bridge = |m: [f64; 2]| bridge_index.contains(m);
     let mut narrowest = [f64::INFINITY; 3];
+    let max_required = spacing;
     let mut cands: Vec<Candidate> = Vec::new();
     let mut consider = |material_side: bool, a: End, b: End, pa: [f64; 2], pb: [f64; 2], d: f64| {
+        // Too wide to matter for a violation or for the narrowest of its region: skip early.
+        let could_be_bridge = if bridges_known {
+            !geom.bridges.is_empty()
+        } else {
+            a.ring == b.ring
+        };
+        let narrowest_here = if !material_side {
+            narrowest[2]
+        } else if could_be_bridge {
+            narrowest[0].max(narrowest[1])
+        } else {
+            narrowest[1]
+        };
+        if d >= max_required && d >= narrowest_here {
+            return;
+        }
         if !is_neck(&rings, a, b, d) {
             return;
         }
