@@ -137,14 +137,18 @@ impl PhysicalConfig {
         }
     }
 
-    /// The topological filter's options with the material's smallest feature: the opening and
-    /// closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
+    /// The topological filter's options with the material's smallest feature: unless the user set
+    /// the radius explicitly, the opening and closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
     /// and holes the material cannot hold are removed before bridging instead of failing the
     /// check later (an opening by radius r keeps features at least 2r + 1 pixels wide).
     pub fn filter_for(&self, user: &FilterConfig, scale: Scale) -> FilterConfig {
         let f = scale.to_px(Mm(self.material.min_feature_mm)).0 + self.allowance_px(scale);
         FilterConfig {
-            radius: user.radius.max((f / 2.0).ceil() as u32),
+            radius: if user.auto_radius {
+                user.radius.max((f / 2.0).ceil() as u32)
+            } else {
+                user.radius
+            },
             ..*user
         }
     }
@@ -172,17 +176,16 @@ impl Timings {
 }
 
 /// The two-tone stage, from a picture or a mesh, before the topological filter.
-/// Returns the two-tone and the threshold level used (pictures only).
+/// Returns the two-tone and the threshold level used.
 pub fn two_tone(
     input: &Path,
     tone: &ToneConfig,
     mesh: &MeshConfig,
 ) -> Result<(TwoTone, Option<u8>), Error> {
     if is_mesh(input) {
-        return Ok((
-            mesh::render(input, mesh).map_err(tone::ToneError::from)?,
-            None,
-        ));
+        let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
+            .map_err(tone::ToneError::from)?;
+        return Ok((tt, Some(level)));
     }
     if !(1..=8).contains(&tone.scale) {
         return Err(tone::ToneError::BadScale(tone.scale).into());
@@ -243,7 +246,10 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         gray: raw.gray,
     };
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    bridged.bits = timer.time("tidy", || {
+        bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius)
+    });
     let after = timer.time("verify", || islands::label(&bridged.bits));
     if after.island_count() > 0 {
         let node = &after.nodes[1];
@@ -321,6 +327,13 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
     let tt = &made.twotone;
     let geom = &made.geometry;
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    if phys.emit.png && is_mesh(Path::new(&made.report.input)) {
+        // The grayscale rendering: what the bridge cost's intensity term reads.
+        files.push((
+            "gray.png".into(),
+            png::encode_gray(tt.gray.width, tt.gray.height, &tt.gray.to_u8()),
+        ));
+    }
     if phys.emit.png {
         files.push(("twotone.png".into(), png::encode_bits(&tt.bits)));
         files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
@@ -354,10 +367,18 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
 
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 pub fn make(cfg: &MakeConfig) -> Result<(Made, Vec<PathBuf>), Error> {
-    let made = run(cfg)?;
-    let files = encode_outputs(&made, &cfg.physical)?;
-    let written = export::write_files(&cfg.out_dir, &files)?;
-    Ok((made, written))
+    let existed = cfg.out_dir.is_dir();
+    export::prepare_dir(&cfg.out_dir)?;
+    let result = run(cfg).and_then(|made| {
+        let files = encode_outputs(&made, &cfg.physical)?;
+        let written = export::write_files(&cfg.out_dir, &files)?;
+        Ok((made, written))
+    });
+    if result.is_err() && !existed {
+        // Leave no trace of a failed run: the folder we made is empty (remove_dir refuses otherwise).
+        let _ = std::fs::remove_dir(&cfg.out_dir);
+    }
+    result
 }
 
 /// The default output folder for an input: `out/<input stem>/`.

@@ -78,9 +78,10 @@ pub struct ImageArgs {
 #[command(next_help_heading = "Topological filter")]
 pub struct FilterArgs {
     /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this.
-    #[arg(long, default_value_t = 1)]
-    pub filter_radius: u32,
+    /// cut features thinner than about twice this. Default: 1, raised to what the material's
+    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    #[arg(long)]
+    pub filter_radius: Option<u32>,
     /// Material or cut pieces smaller than this many pixels flip to the other tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
@@ -90,16 +91,19 @@ pub struct FilterArgs {
 #[derive(Args, Debug, Clone)]
 #[command(next_help_heading = "Bridges")]
 pub struct BridgeArgs {
-    /// w0: weight of the intensity error (how much light the bridge blocks in the gray source).
+    /// w0: weight of the intensity error ΣI, how dark the gray source is under the bridge
+    /// (normalised: 1 = a strip of this image's typical length over black).
     #[arg(long, default_value_t = BridgeConfig::default().w_intensity, value_parser = parse_weight)]
     pub w_intensity: f64,
-    /// w1: weight of the length penalty L^alpha.
+    /// w1: weight of the length penalty L^alpha (normalised: 1 = this image's typical strip).
     #[arg(long, default_value_t = BridgeConfig::default().w_length, value_parser = parse_weight)]
     pub w_length: f64,
-    /// w2: weight of the local curvature of the island border at the bridge.
+    /// w2: weight of the island border's curvature at the bridge, κ from 0 (straight) to 1 (tight
+    /// bend); raise it to keep bridges off curves that carry the shape.
     #[arg(long, default_value_t = BridgeConfig::default().w_curvature, value_parser = parse_weight)]
     pub w_curvature: f64,
-    /// w3: weight of the variance of strip cost across the bridge's width.
+    /// w3: weight of σ², how unevenly the strips across the bridge's width cost (variance over
+    /// squared mean); raise it to avoid spots whose neighbours are much worse.
     #[arg(long, default_value_t = BridgeConfig::default().w_variance, value_parser = parse_weight)]
     pub w_variance: f64,
     /// Exponent of the length penalty, strictly between 1 and 2.
@@ -108,14 +112,16 @@ pub struct BridgeArgs {
     /// Walks through the cut longer than this many pixels are dropped.
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
-    /// Narrowest bridge, in pixels.
+    /// Narrowest bridge, in pixels. A bridge's width is ⌈√A / 4⌉ px for the area A of the smaller
+    /// island it joins, clamped to the narrowest..widest range.
     #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
     pub min_bridge_width_px: u32,
     /// Widest bridge, in pixels.
     #[arg(long, default_value_t = BridgeConfig::default().max_width_px)]
     pub max_bridge_width_px: u32,
-    /// If a grown bridge's real error exceeds its estimate by more than this fraction, halve its
-    /// width and add a support bridge at the next cheapest place.
+    /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
+    /// (its window's mean strip ΣI × width) by more than this fraction, halve its width and add a
+    /// support bridge at the next cheapest place.
     #[arg(long, default_value_t = BridgeConfig::default().support_margin)]
     pub support_margin: f64,
 }
@@ -183,8 +189,9 @@ impl ImageArgs {
 impl FilterArgs {
     fn to_config(&self) -> FilterConfig {
         FilterConfig {
-            radius: self.filter_radius,
+            radius: self.filter_radius.unwrap_or(FilterConfig::default().radius),
             min_speck_px: self.min_speck_px,
+            auto_radius: self.filter_radius.is_none(),
         }
     }
 }
