@@ -657,3 +657,54 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
     report.violations.retain(|_| k.next().unwrap_or(true));
     1 + islands::label(bits).island_count()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring_of(pts: &[[f64; 2]]) -> Rings {
+        let mp = MultiPolygon::new(vec![Polygon::new(
+            geo::LineString::from(pts.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>()),
+            vec![],
+        )]);
+        rings_of(&mp, 1e9)
+    }
+
+    #[test]
+    fn a_corner_chord_is_not_a_neck_but_a_waist_is() {
+        // An hourglass: 10 wide at top and bottom, 1 wide at the waist (y = 5).
+        let r = ring_of(&[
+            [0.0, 0.0],
+            [10.0, 0.0],
+            [5.5, 5.0],
+            [10.0, 10.0],
+            [0.0, 10.0],
+            [4.5, 5.0],
+        ]);
+        let cum = &r.cum[0];
+        // Across the waist: vertex 2 (5.5, 5) to vertex 5 (4.5, 5).
+        let a = End {
+            ring: 0,
+            arc: cum[2],
+        };
+        let b = End {
+            ring: 0,
+            arc: cum[5],
+        };
+        assert!(is_neck(&r, a, b, 1.0));
+        // Across the corner at (10, 0): vertex 0 to vertex 2 is not a neck.
+        let c = End {
+            ring: 0,
+            arc: cum[0],
+        };
+        assert!(!is_neck(&r, c, a, dist([0.0, 0.0], [5.5, 5.0])));
+    }
+
+    #[test]
+    fn densify_splits_long_edges_evenly() {
+        let d = densify(&[[0.0, 0.0], [10.0, 0.0], [10.0, 1.0]], 2.5);
+        // 10 → 4 pieces, 1 → 1, hypotenuse ≈ 10.05 → 5 pieces.
+        assert_eq!(d.len(), 4 + 1 + 5);
+        assert_eq!(d[1], [2.5, 0.0]);
+    }
+}
