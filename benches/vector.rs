@@ -112,9 +112,6 @@ fn breakdown(bits: &BitGrid, bridges: &[Vec<[f64; 2]>], vcfg: &VectorConfig, mat
         let guards: Vec<Vec<trace::Guard>> = rings.iter().map(|r| r.guards.clone()).collect();
         simplify::simplify_rings(&mut pts, Some(&guards), 0.5);
     });
-    t("islands::label (assembly)", &mut || {
-        stencil::islands::label(bits);
-    });
     t("union bridges (Clipper)", &mut || {
         union::union_bridges(geom.material.clone(), &geom.bridges);
     });
