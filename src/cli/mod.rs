@@ -1,6 +1,7 @@
 //! Command-line definitions (clap derive) and the thin dispatch into the library.
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
+mod gcode;
 mod make;
 mod mesh;
 
@@ -22,11 +23,17 @@ pub enum Command {
     Make(make::MakeArgs),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
+    /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
+    Gcode(gcode::GcodeArgs),
+    /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
+    Estimate(gcode::EstimateArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Make(a) => make::run_make(a),
         Command::Tone(a) => make::run_tone(a),
+        Command::Gcode(a) => gcode::run_gcode(a),
+        Command::Estimate(a) => gcode::run_estimate(a),
     }
 }

@@ -8,6 +8,7 @@
 pub mod estimate;
 pub mod gcode;
 pub mod order;
+pub mod svg;
 pub mod toolpath;
 pub mod travel;
 

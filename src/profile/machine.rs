@@ -435,13 +435,23 @@ pub fn load_file(path: &Path) -> Result<Machine, MachineError> {
     parse(&text, &path.display().to_string())
 }
 
-/// Resolve `--machine`: a path to a `.toml` file (anything with a path separator or ending in
-/// `.toml`), else a built-in name; `None` gives [`DEFAULT_MACHINE`].
+/// Resolve `--machine`, first hit wins (the same order as material profiles):
+/// 1. a path to a `.toml` file (anything with a path separator or ending in `.toml`);
+/// 2. `./profiles/machines/<name>.toml` (a user's edited copy);
+/// 3. the profile compiled into the binary.
+///
+/// `None` gives [`DEFAULT_MACHINE`].
 pub fn load(name_or_path: Option<&str>) -> Result<Machine, MachineError> {
     let name = name_or_path.unwrap_or(DEFAULT_MACHINE);
     let looks_like_path = name.ends_with(".toml") || name.contains('/') || name.contains('\\');
     if looks_like_path {
         return load_file(Path::new(name));
+    }
+    let local = Path::new("profiles")
+        .join("machines")
+        .join(format!("{name}.toml"));
+    if local.is_file() {
+        return load_file(&local);
     }
     match BUILTIN.iter().find(|(n, _)| *n == name) {
         Some((n, text)) => parse(text, &format!("built-in machine '{n}'")),

@@ -1,0 +1,242 @@
+//! `stencil gcode` and `stencil estimate`, and the machine options `make --emit gcode` shares.
+//! OWNER: the G-code issue.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::Args;
+
+use stencil::export;
+use stencil::machine::gcode::interpret;
+use stencil::plan::estimate::format_duration;
+use stencil::plan::svg::cut_geometry_from_svg;
+use stencil::plan::{self, Anchor, CutSettings, GcodeSummary, PlanConfig};
+use stencil::profile::machine::{self as machine_profile, Machine};
+
+fn parse_offset(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    let x: f64 = x.trim().parse().map_err(|_| bad())?;
+    let y: f64 = y.trim().parse().map_err(|_| bad())?;
+    if x.is_finite() && y.is_finite() {
+        Ok([x, y])
+    } else {
+        Err(bad())
+    }
+}
+
+/// Which machine, and where the job goes on its bed.
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Machine (G-code)")]
+pub struct MachineArgs {
+    /// Machine profile: a name (diode-400, co2-600x400, pen-a3, pen-servo, drag-knife) or a path to a
+    /// .toml file. Default: diode-400, a generic GRBL 1.1 diode laser with a 400 x 400 mm bed.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+    /// The job point placed at --offset: bottom-left, bottom-right, top-left, top-right or center
+    /// (as seen from above, rear at the top). Default: the corner at the machine's origin.
+    #[arg(long, value_name = "CORNER", value_parser = |s: &str| s.parse::<Anchor>())]
+    pub origin: Option<Anchor>,
+    /// Machine coordinates of that point, mm.
+    #[arg(long, value_name = "X,Y", default_value = "0,0", value_parser = parse_offset, allow_hyphen_values = true)]
+    pub offset: [f64; 2],
+    /// Also cut the sheet's outline (a rectangle), after everything inside it.
+    #[arg(long)]
+    pub cut_outline: bool,
+}
+
+impl MachineArgs {
+    pub fn machine(&self) -> anyhow::Result<Machine> {
+        Ok(machine_profile::load(self.machine.as_deref())?)
+    }
+
+    pub fn plan_config(&self, settings: CutSettings) -> PlanConfig {
+        PlanConfig {
+            anchor: self.origin,
+            offset: self.offset,
+            cut_outline: self.cut_outline,
+            settings,
+        }
+    }
+}
+
+/// Cut settings given on the command line; each overrides the material's.
+#[derive(Args, Debug, Clone, Default)]
+#[command(next_help_heading = "Cut settings (override the material)")]
+pub struct CutArgs {
+    /// Laser power, % of full ($30).
+    #[arg(long, value_name = "PCT")]
+    pub power: Option<f64>,
+    /// Cutting feed, mm/min.
+    #[arg(long, value_name = "MM_MIN")]
+    pub speed: Option<f64>,
+    /// Times each loop is cut.
+    #[arg(long)]
+    pub passes: Option<u32>,
+}
+
+impl CutArgs {
+    /// Apply the overrides to `base` (from the material), or build settings from the flags alone.
+    pub fn settings(&self, base: Option<CutSettings>) -> anyhow::Result<CutSettings> {
+        let s = match base {
+            Some(b) => CutSettings {
+                power_pct: self.power.unwrap_or(b.power_pct),
+                speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
+                passes: self.passes.unwrap_or(b.passes),
+            },
+            None => {
+                let (Some(power), Some(speed)) = (self.power, self.speed) else {
+                    bail!(
+                        "no cut settings: name a material (--material) or give --power PCT and --speed MM_MIN"
+                    );
+                };
+                CutSettings {
+                    power_pct: power,
+                    speed_mm_min: speed,
+                    passes: self.passes.unwrap_or(1),
+                }
+            }
+        };
+        Ok(s)
+    }
+}
+
+/// Print what a job costs (shared by `make --emit gcode` and `gcode`).
+pub fn print_summary(path: &Path, s: &GcodeSummary) {
+    let e = &s.estimate;
+    println!(
+        "{}: {} ({}), {} loops; cut {:.0} mm, travel {:.0} mm (input order {:.0} mm); about {} \
+         (cut {}, travel {})",
+        path.display(),
+        s.machine,
+        s.tool,
+        s.path.loops,
+        s.path.cut_mm,
+        s.path.travel_mm,
+        s.path.naive_travel_mm,
+        format_duration(e.total_s),
+        format_duration(e.cut_s),
+        format_duration(e.travel_s),
+    );
+}
+
+/// `stencil gcode STENCIL_DIR_OR_SVG -o job.gcode`.
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Examples:
+  stencil gcode out/rings -o rings.gcode --machine diode-400
+  stencil gcode drawing.svg --power 80 --speed 600 --passes 2 --cut-outline --offset 10,10
+From a folder written by `stencil make`, reads stencil.svg and the material named in report.json.")]
+pub struct GcodeArgs {
+    /// A `stencil make` output folder (uses its stencil.svg and report.json) or an SVG file.
+    pub input: PathBuf,
+    /// The G-code file to write [default: stencil.gcode in the folder, or the SVG's name with .gcode].
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Material profile (name or .toml path) for power, speed and passes; default: the one recorded
+    /// in report.json.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub material: Option<String>,
+    #[command(flatten)]
+    pub cut: CutArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+}
+
+/// The material name a `stencil make` run recorded in its report.json, if any.
+fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
+    let p = dir.join("report.json");
+    if !p.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", p.display()))?;
+    Ok(match v.get("material") {
+        Some(serde_json::Value::String(s)) => Some(s.clone()),
+        Some(m) => m.get("name").and_then(|n| n.as_str()).map(str::to_string),
+        None => None,
+    })
+}
+
+/// Cut settings of a material profile. Wired to `profile::material` at integration.
+pub fn material_settings(name: &str, _machine: &Machine) -> anyhow::Result<CutSettings> {
+    bail!("material '{name}': material profiles are not available in this build; give --power and --speed")
+}
+
+pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
+    let (svg_path, dir) = if a.input.is_dir() {
+        (a.input.join("stencil.svg"), Some(a.input.clone()))
+    } else {
+        (a.input.clone(), None)
+    };
+    let text = std::fs::read_to_string(&svg_path).with_context(|| {
+        if dir.is_some() {
+            format!(
+                "{}: cannot read the stencil's SVG; run `stencil make` with SVG output first",
+                svg_path.display()
+            )
+        } else {
+            format!("{}: cannot read", svg_path.display())
+        }
+    })?;
+    let geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
+    let machine = a.machine.machine()?;
+    let material = match (&a.material, &dir) {
+        (Some(m), _) => Some(m.clone()),
+        (None, Some(d)) => material_in_report(d)?,
+        (None, None) => None,
+    };
+    let base = match &material {
+        // Flags alone are enough: do not fail on a material we cannot read if they cover it.
+        Some(m) if !(a.cut.power.is_some() && a.cut.speed.is_some() && a.cut.passes.is_some()) => {
+            Some(material_settings(m, &machine)?)
+        }
+        _ => None,
+    };
+    let settings = a.cut.settings(base)?;
+    let out = a.out.clone().unwrap_or_else(|| match &dir {
+        Some(d) => d.join("stencil.gcode"),
+        None => svg_path.with_extension("gcode"),
+    });
+    let mut notes = vec![format!("from {}", svg_path.display())];
+    if let Some(m) = &material {
+        notes.push(format!("material {m}"));
+    }
+    let cfg = a.machine.plan_config(settings);
+    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
+    export::write_atomic(&out, gcode.as_bytes())?;
+    print_summary(&out, &summary);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `stencil estimate job.gcode`: time and distances of any G-code file.
+#[derive(Args, Debug)]
+pub struct EstimateArgs {
+    /// The G-code file.
+    pub file: PathBuf,
+    /// Machine profile whose motion limits to use (name or .toml path) [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+}
+
+pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let text = std::fs::read_to_string(&a.file)
+        .with_context(|| format!("{}: cannot read", a.file.display()))?;
+    let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let e = plan::estimate(&moves, &machine.limits());
+    println!(
+        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm",
+        a.file.display(),
+        format_duration(e.total_s),
+        machine.name,
+        format_duration(e.cut_s),
+        format_duration(e.travel_s),
+        moves.len(),
+        e.cut_mm,
+        e.travel_mm
+    );
+    Ok(ExitCode::SUCCESS)
+}

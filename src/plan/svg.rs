@@ -1,0 +1,275 @@
+//! Cut geometry back from an SVG (`stencil gcode job.svg`): straight-line path data only.
+//!
+//! Reads our own `stencil.svg` (paths of `M`/`L`/`H`/`V`/`Z`, width and height in mm with a viewBox
+//! in mm) and the same subset from other tools. If any element's `id` or `class` mentions "cut",
+//! only paths inside such elements are cut (so preview layers such as bridges or material are
+//! skipped); otherwise every path is. Curves, arcs and transforms are refused with a message
+//! naming them, rather than cut wrongly.
+
+use geo::{LineString, MultiPolygon, Polygon};
+use svg::node::element::path::{Command, Data, Position};
+use svg::node::element::tag::Type;
+use svg::parser::Event;
+
+use crate::vector::CutGeometry;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SvgError {
+    #[error("{file}: {msg}")]
+    Bad { file: String, msg: String },
+}
+
+/// A length attribute in mm: `12mm`, `1.2cm`, `2in`, `10pt`, `96px` or a bare number (CSS px).
+fn length_mm(v: &str) -> Option<f64> {
+    let v = v.trim();
+    let split = v
+        .find(|c: char| c.is_ascii_alphabetic() || c == '%')
+        .unwrap_or(v.len());
+    let (n, unit) = v.split_at(split);
+    let n: f64 = n.trim().parse().ok()?;
+    let f = match unit.trim() {
+        "mm" => 1.0,
+        "cm" => 10.0,
+        "in" => 25.4,
+        "pt" => 25.4 / 72.0,
+        "pc" => 25.4 / 6.0,
+        "" | "px" => 25.4 / 96.0,
+        _ => return None,
+    };
+    Some(n * f)
+}
+
+fn mentions_cut(attrs: &svg::node::Attributes) -> bool {
+    ["id", "class", "inkscape:label"].iter().any(|k| {
+        attrs
+            .get(*k)
+            .is_some_and(|v| v.to_ascii_lowercase().contains("cut"))
+    })
+}
+
+/// Rings of one path's data, in user units.
+fn rings(data: &Data, file: &str) -> Result<Vec<Vec<[f64; 2]>>, SvgError> {
+    let bad = |msg: String| SvgError::Bad {
+        file: file.to_string(),
+        msg,
+    };
+    let mut out = Vec::new();
+    let mut cur: Vec<[f64; 2]> = Vec::new();
+    let mut pos = [0.0f64, 0.0];
+    let mut start = pos;
+    for cmd in data.iter() {
+        match cmd {
+            Command::Move(p, params) => {
+                if cur.len() > 1 {
+                    out.push(std::mem::take(&mut cur));
+                }
+                cur.clear();
+                for (k, xy) in params.chunks(2).enumerate() {
+                    let [x, y] = [xy[0] as f64, *xy.get(1).unwrap_or(&0.0) as f64];
+                    pos = match p {
+                        Position::Absolute => [x, y],
+                        Position::Relative => [pos[0] + x, pos[1] + y],
+                    };
+                    if k == 0 {
+                        start = pos;
+                    }
+                    cur.push(pos); // extra pairs after M are line-tos
+                }
+            }
+            Command::Line(p, params) => {
+                for xy in params.chunks(2) {
+                    let [x, y] = [xy[0] as f64, *xy.get(1).unwrap_or(&0.0) as f64];
+                    pos = match p {
+                        Position::Absolute => [x, y],
+                        Position::Relative => [pos[0] + x, pos[1] + y],
+                    };
+                    cur.push(pos);
+                }
+            }
+            Command::HorizontalLine(p, params) => {
+                for &x in params.iter() {
+                    pos[0] = match p {
+                        Position::Absolute => x as f64,
+                        Position::Relative => pos[0] + x as f64,
+                    };
+                    cur.push(pos);
+                }
+            }
+            Command::VerticalLine(p, params) => {
+                for &y in params.iter() {
+                    pos[1] = match p {
+                        Position::Absolute => y as f64,
+                        Position::Relative => pos[1] + y as f64,
+                    };
+                    cur.push(pos);
+                }
+            }
+            Command::Close => {
+                if cur.len() > 2 {
+                    out.push(std::mem::take(&mut cur));
+                }
+                cur.clear();
+                pos = start;
+                cur.push(pos);
+            }
+            other => {
+                let name = match other {
+                    Command::CubicCurve(..) | Command::SmoothCubicCurve(..) => "C/S (cubic curve)",
+                    Command::QuadraticCurve(..) | Command::SmoothQuadraticCurve(..) => {
+                        "Q/T (quadratic curve)"
+                    }
+                    _ => "A (arc)",
+                };
+                return Err(bad(format!(
+                    "path data uses {name}; only straight segments (M, L, H, V, Z) are supported: \
+                     convert curves to lines first (e.g. Inkscape: Extensions > Modify Path > Flatten)"
+                )));
+            }
+        }
+    }
+    if cur.len() > 2 {
+        out.push(cur); // an unclosed subpath is cut as a closed loop
+    }
+    Ok(out)
+}
+
+/// Parse SVG text into cut geometry in mm (y down, origin top-left). `file` names it in errors.
+pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgError> {
+    let bad = |msg: String| SvgError::Bad {
+        file: file.to_string(),
+        msg,
+    };
+    let mut size_mm: Option<[f64; 2]> = None;
+    // user unit → mm: scale and viewBox origin.
+    let mut scale = [25.4 / 96.0; 2];
+    let mut vb_origin = [0.0, 0.0];
+    // Open elements: whether each is (inside) a "cut" element.
+    let mut stack: Vec<bool> = Vec::new();
+    let mut all: Vec<(bool, Vec<Vec<[f64; 2]>>)> = Vec::new();
+    for ev in svg::read(text).map_err(|e| bad(e.to_string()))? {
+        match ev {
+            Event::Error(e) => return Err(bad(format!("not valid SVG: {e}"))),
+            Event::Tag(name, ty, attrs) => {
+                let inside_cut = stack.last().copied().unwrap_or(false);
+                let here_cut = inside_cut || mentions_cut(&attrs);
+                if matches!(ty, Type::Start | Type::Empty) {
+                    if let Some(t) = attrs.get("transform") {
+                        return Err(bad(format!(
+                            "<{name}> has transform=\"{}\"; transforms are not supported: \
+                             apply them to the paths first",
+                            &**t
+                        )));
+                    }
+                }
+                if name == "svg" && matches!(ty, Type::Start | Type::Empty) && size_mm.is_none() {
+                    let w = attrs.get("width").and_then(|v| length_mm(v));
+                    let h = attrs.get("height").and_then(|v| length_mm(v));
+                    let vb: Option<Vec<f64>> = attrs.get("viewBox").map(|v| {
+                        v.split(|c: char| c == ',' || c.is_whitespace())
+                            .filter(|s| !s.is_empty())
+                            .filter_map(|s| s.parse().ok())
+                            .collect()
+                    });
+                    let vb = vb.filter(|v| v.len() == 4 && v[2] > 0.0 && v[3] > 0.0);
+                    let (w, h) = match (w, h, &vb) {
+                        (Some(w), Some(h), _) => (w, h),
+                        (_, _, Some(v)) => (v[2] * 25.4 / 96.0, v[3] * 25.4 / 96.0),
+                        _ => {
+                            return Err(bad(
+                                "the <svg> element has neither width/height nor a viewBox".into(),
+                            ))
+                        }
+                    };
+                    if !(w > 0.0 && h > 0.0) {
+                        return Err(bad(format!("the <svg> size {w} x {h} mm is not positive")));
+                    }
+                    if let Some(v) = &vb {
+                        scale = [w / v[2], h / v[3]];
+                        vb_origin = [v[0], v[1]];
+                    }
+                    size_mm = Some([w, h]);
+                }
+                if name == "path" && matches!(ty, Type::Start | Type::Empty) {
+                    if let Some(d) = attrs.get("d") {
+                        let data =
+                            Data::parse(d).map_err(|e| bad(format!("bad path data: {e}")))?;
+                        all.push((here_cut, rings(&data, file)?));
+                    }
+                }
+                match ty {
+                    Type::Start => stack.push(here_cut),
+                    Type::End => {
+                        stack.pop();
+                    }
+                    Type::Empty => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    let [w, h] = size_mm.ok_or_else(|| bad("no <svg> element".into()))?;
+    let any_cut = all.iter().any(|(c, _)| *c);
+    let to_mm = |p: [f64; 2]| {
+        (
+            (p[0] - vb_origin[0]) * scale[0],
+            (p[1] - vb_origin[1]) * scale[1],
+        )
+    };
+    let polys: Vec<Polygon<f64>> = all
+        .into_iter()
+        .filter(|(c, _)| *c || !any_cut)
+        .flat_map(|(_, rs)| rs)
+        .map(|r| {
+            Polygon::new(
+                LineString::from(r.into_iter().map(to_mm).collect::<Vec<_>>()),
+                vec![],
+            )
+        })
+        .collect();
+    if polys.is_empty() {
+        return Err(bad(
+            "no closed paths to cut (expected <path d=\"M ... Z\"> elements)".into(),
+        ));
+    }
+    Ok(CutGeometry {
+        width_mm: w,
+        height_mm: h,
+        cuts: MultiPolygon(polys),
+        material: MultiPolygon(vec![]),
+        bridges: vec![],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geo::Area;
+
+    #[test]
+    fn reads_mm_viewbox_and_hv_relative_commands() {
+        let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="50mm" viewBox="0 0 200 100">
+  <g id="bridges"><path d="M0 0 L10 0 L10 10 Z"/></g>
+  <g id="cuts"><path d="M 20 20 H 60 V 40 H 20 Z m 100 0 h 10 v 10 h -10 z"/></g>
+</svg>"#;
+        let g = cut_geometry_from_svg(svg, "t.svg").unwrap();
+        assert_eq!((g.width_mm, g.height_mm), (100.0, 50.0));
+        assert_eq!(g.cuts.0.len(), 2, "bridges layer skipped");
+        // 40 x 20 user units at 0.5 mm/unit = 20 x 10 mm; 10 x 10 units = 5 x 5 mm.
+        assert!((g.cuts.0[0].unsigned_area() - 200.0).abs() < 1e-6);
+        assert!((g.cuts.0[1].unsigned_area() - 25.0).abs() < 1e-6);
+        let first = g.cuts.0[1].exterior().0[0];
+        assert_eq!((first.x, first.y), (60.0, 10.0));
+    }
+
+    #[test]
+    fn curves_and_transforms_are_refused() {
+        let c = r#"<svg width="10mm" height="10mm"><path d="M0 0 C1 1 2 2 3 3 Z"/></svg>"#;
+        let e = cut_geometry_from_svg(c, "c.svg").unwrap_err().to_string();
+        assert!(e.starts_with("c.svg:") && e.contains("cubic"), "{e}");
+        let t = r#"<svg width="10mm" height="10mm"><g transform="scale(2)"><path d="M0 0 L1 0 L1 1 Z"/></g></svg>"#;
+        let e = cut_geometry_from_svg(t, "t.svg").unwrap_err().to_string();
+        assert!(e.contains("transform"), "{e}");
+        let n = r#"<svg width="10mm" height="10mm"></svg>"#;
+        assert!(cut_geometry_from_svg(n, "n.svg").is_err());
+    }
+}
