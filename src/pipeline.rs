@@ -142,10 +142,18 @@ pub fn encode_outputs(made: &Made) -> Result<Vec<(String, Vec<u8>)>, Error> {
 
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 pub fn make(cfg: &MakeConfig) -> Result<(Made, Vec<PathBuf>), Error> {
-    let made = run(cfg)?;
-    let files = encode_outputs(&made)?;
-    let written = export::write_files(&cfg.out_dir, &files)?;
-    Ok((made, written))
+    let existed = cfg.out_dir.is_dir();
+    export::prepare_dir(&cfg.out_dir)?;
+    let result = run(cfg).and_then(|made| {
+        let files = encode_outputs(&made)?;
+        let written = export::write_files(&cfg.out_dir, &files)?;
+        Ok((made, written))
+    });
+    if result.is_err() && !existed {
+        // Leave no trace of a failed run: the folder we made is empty (remove_dir refuses otherwise).
+        let _ = std::fs::remove_dir(&cfg.out_dir);
+    }
+    result
 }
 
 /// The default output folder for an input: `out/<input stem>/`.

@@ -24,6 +24,14 @@ pub enum ExportError {
     Encode { path: PathBuf, msg: String },
 }
 
+/// Create the output folder (if missing) up front, so a run fails before its work, not after.
+pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
+        path: dir.to_path_buf(),
+        source,
+    })
+}
+
 /// Write a set of files into `dir` (created if missing), all or nothing: each file is written
 /// atomically, and if one fails the ones this call already wrote are removed again.
 pub fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>, ExportError> {
