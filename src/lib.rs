@@ -36,6 +36,10 @@ pub enum Error {
     Bridge(#[from] bridge::BridgeError),
     #[error(transparent)]
     Export(#[from] export::ExportError),
+    #[error(transparent)]
+    Plan(#[from] plan::PlanError),
+    #[error(transparent)]
+    Machine(#[from] profile::machine::MachineError),
     #[error(
         "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
          raise --max-bridge-length-px or --filter-radius"

@@ -83,6 +83,7 @@ fn settings() -> CutSettings {
         power_pct: 60.0,
         speed_mm_min: 1500.0,
         passes: 1,
+        blade_offset_mm: 0.0,
     }
 }
 
@@ -337,6 +338,40 @@ fn every_shipped_machine_gets_a_valid_program() {
             );
         }
     }
+}
+
+#[test]
+fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
+    let m = machine::load(Some("drag-knife")).unwrap();
+    let g = scattered(3, 4, 4); // convex circles and squares
+    let mut s = settings();
+    s.blade_offset_mm = 0.5;
+    let mut cfg = PlanConfig::new(s);
+    cfg.cut_outline = true;
+    // The outline at X0/Y0 would need the axis at -0.5 mm: refused, not clipped by soft limits.
+    let e = gcode_for(&g, &m, &cfg, &[]).unwrap_err().to_string();
+    assert!(e.contains("X -0.5") && e.contains("--offset"), "{e}");
+    cfg.offset = [1.0, 1.0];
+    let (text, _) = make(&g, &m, &cfg);
+    let r = check_program(&text, &m);
+    // Each convex loop turns 2π in total; the axis swings r·2π around its corners (chords of
+    // 10° arcs are 0.03 % shorter), plus the overcut.
+    let loops = g.cuts.0.len() + 1;
+    let (overcut, blade) = match m.tool {
+        Tool::Knife { overcut_mm, .. } => (overcut_mm, 0.5),
+        _ => unreachable!(),
+    };
+    let perim: f64 = g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (g.width_mm + g.height_mm);
+    let want = perim + loops as f64 * (blade * std::f64::consts::TAU + overcut);
+    assert!(
+        (r.cut_mm - want).abs() / want < 0.01,
+        "cut {} vs {want} (perimeter alone {perim})",
+        r.cut_mm
+    );
+    assert!(
+        (r.cut_mm - perim).abs() / perim > 0.05,
+        "compensation changes the path"
+    );
 }
 
 #[test]

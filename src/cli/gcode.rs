@@ -74,6 +74,9 @@ pub struct CutArgs {
     /// Times each loop is cut.
     #[arg(long)]
     pub passes: Option<u32>,
+    /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation).
+    #[arg(long, value_name = "MM")]
+    pub blade_offset: Option<f64>,
 }
 
 impl CutArgs {
@@ -84,6 +87,7 @@ impl CutArgs {
                 power_pct: self.power.unwrap_or(b.power_pct),
                 speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
                 passes: self.passes.unwrap_or(b.passes),
+                blade_offset_mm: self.blade_offset.unwrap_or(b.blade_offset_mm),
             },
             None => {
                 let (Some(power), Some(speed)) = (self.power, self.speed) else {
@@ -95,6 +99,7 @@ impl CutArgs {
                     power_pct: power,
                     speed_mm_min: speed,
                     passes: self.passes.unwrap_or(1),
+                    blade_offset_mm: self.blade_offset.unwrap_or(0.0),
                 }
             }
         };

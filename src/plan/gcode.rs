@@ -95,6 +95,51 @@ fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
     out
 }
 
+/// Corners turning less than this (degrees) are cut without swivelling the drag knife.
+const SWIVEL_MIN_DEG: f64 = 10.0;
+/// Largest angle step of a swivel arc, degrees (arcs are written as G1 chords, not G2/G3).
+const SWIVEL_STEP_DEG: f64 = 10.0;
+
+/// The path of a drag knife's axis that drags its blade tip, `r` mm behind, along the closed
+/// loop `points`: each segment is shifted `r` along its own direction (the axis leads the tip), and
+/// at each corner the axis swings on a circle of radius `r` around the corner, turning the blade
+/// to the new direction. Starts (and implicitly ends) with the tip at `points[0]`, the blade
+/// pointing along the loop's last segment.
+pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
+    let n = points.len();
+    if r <= 0.0 || n < 2 {
+        return points.to_vec();
+    }
+    let dir = |a: [f64; 2], b: [f64; 2]| {
+        let d = super::toolpath::dist(a, b).max(1e-12);
+        [(b[0] - a[0]) / d, (b[1] - a[1]) / d]
+    };
+    let mut out = Vec::with_capacity(n * 3);
+    for i in 0..n {
+        let p = points[i];
+        let d_in = dir(points[(i + n - 1) % n], p);
+        let d_out = dir(p, points[(i + 1) % n]);
+        out.push([p[0] + r * d_in[0], p[1] + r * d_in[1]]);
+        let a0 = d_in[1].atan2(d_in[0]);
+        let mut turn = d_out[1].atan2(d_out[0]) - a0;
+        // The shorter way round, in (-π, π].
+        while turn > std::f64::consts::PI {
+            turn -= std::f64::consts::TAU;
+        }
+        while turn <= -std::f64::consts::PI {
+            turn += std::f64::consts::TAU;
+        }
+        if turn.abs().to_degrees() >= SWIVEL_MIN_DEG {
+            let steps = (turn.abs().to_degrees() / SWIVEL_STEP_DEG).ceil() as usize;
+            for k in 1..=steps {
+                let a = a0 + turn * k as f64 / steps as f64;
+                out.push([p[0] + r * a.cos(), p[1] + r * a.sin()]);
+            }
+        }
+    }
+    out
+}
+
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
 pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
     let s = &job.settings;
@@ -203,7 +248,11 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, job: &Job) {
     let s = &job.settings;
     let feed = format!(" F{}", num(s.speed_mm_min));
-    let start = l.points[0];
+    let points = match machine.tool {
+        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
+        _ => l.points.clone(),
+    };
+    let start = points[0];
     // Travel, tool off, then tool on.
     match machine.tool {
         Tool::Laser { .. } => {
@@ -225,16 +274,16 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, job: &Job) {
         Tool::Laser { s_max, .. } => format!(" S{}{feed}", num(laser_s(s.power_pct, s_max))),
         _ => feed.clone(),
     };
-    let n = l.points.len();
+    let n = points.len();
     for _ in 0..s.passes {
         for i in 1..=n {
-            w.go(1, l.points[i % n], &first);
+            w.go(1, points[i % n], &first);
             first.clear();
         }
     }
     if let Tool::Knife { overcut_mm, .. } = machine.tool {
         if overcut_mm > 0.0 {
-            for p in walk(&l.points, overcut_mm) {
+            for p in walk(&points, overcut_mm) {
                 w.go(1, p, "");
             }
         }
@@ -271,6 +320,25 @@ mod tests {
         let sq = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
         assert_eq!(walk(&sq, 4.0), vec![[4.0, 0.0]]);
         assert_eq!(walk(&sq, 12.0), vec![[10.0, 0.0], [10.0, 2.0]]);
+    }
+
+    #[test]
+    fn drag_knife_overshoots_and_swivels_around_corners() {
+        let sq = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        let p = drag_knife_path(&sq, 0.5);
+        // Tip at (0,0) arriving from (0,10) heading down: the axis is 0.5 below the corner.
+        assert_eq!(p[0], [0.0, -0.5]);
+        // Every point is the corner it swivels around plus r, or a shifted edge point.
+        let near_corner = |q: [f64; 2]| {
+            sq.iter()
+                .any(|c| (super::super::toolpath::dist(*c, q) - 0.5).abs() < 1e-9)
+        };
+        assert!(p.iter().all(|&q| near_corner(q)), "{p:?}");
+        // A 90° turn in 10° steps: 9 arc points per corner plus the arrival point.
+        assert_eq!(p.len(), 4 * 10);
+        // The axis overshoots (10, 0) to (10.5, 0) before swivelling.
+        assert!(p.contains(&[10.5, 0.0]));
+        assert_eq!(drag_knife_path(&sq, 0.0), sq.to_vec());
     }
 
     #[test]

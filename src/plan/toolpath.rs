@@ -18,6 +18,10 @@ pub struct CutSettings {
     pub speed_mm_min: f64,
     /// How many times each loop is cut.
     pub passes: u32,
+    /// Drag knife only: how far the blade tip trails the knife's axis, mm (0 = no compensation).
+    /// The writer then overshoots each corner by this much and swivels the blade around it.
+    #[serde(default)]
+    pub blade_offset_mm: f64,
 }
 
 /// Which point of the job sits at `--offset`.
@@ -155,6 +159,12 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanErro
         return bad(format!(
             "cutting speed {} mm/min is above the max feed of '{}' ({} mm/min); lower the speed",
             s.speed_mm_min, machine.name, machine.motion.max_feed_mm_min
+        ));
+    }
+    if !(s.blade_offset_mm.is_finite() && (0.0..=5.0).contains(&s.blade_offset_mm)) {
+        return bad(format!(
+            "blade offset must be 0..5 mm, got {}",
+            s.blade_offset_mm
         ));
     }
     if s.passes == 0 || s.passes > 100 {
@@ -301,6 +311,12 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
             max[a] = max[a].max(p[a]);
         }
     }
+    // A drag knife's axis runs up to the blade offset outside the cut lines.
+    if let Tool::Knife { .. } = machine.tool {
+        let r = cfg.settings.blade_offset_mm;
+        min = [min[0] - r, min[1] - r];
+        max = [max[0] + r, max[1] + r];
+    }
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;
     if min[0] < -eps || min[1] < -eps || max[0] > bw + eps || max[1] > bh + eps {
@@ -380,6 +396,7 @@ mod tests {
             power_pct: 80.0,
             speed_mm_min: 600.0,
             passes: 1,
+            blade_offset_mm: 0.0,
         }
     }
 
