@@ -193,9 +193,17 @@ pub fn laser_s(power_pct: f64, s_max: f64) -> f64 {
     (power_pct / 100.0 * s_max * 10.0).round() / 10.0
 }
 
-/// Sheet mm (x right, y down) → machine mm, for a sheet of `size` placed per `cfg` on `machine`.
+/// The sheet's rectangle in sheet mm (y down): `[x0, y0, x1, y1]`.
+pub fn sheet_rect(geom: &CutGeometry) -> [f64; 4] {
+    [0.0, 0.0, geom.width_mm, geom.height_mm]
+}
+
+/// Sheet mm (x right, y down) → machine mm, for the sheet `rect` placed per `cfg` on `machine`.
 #[derive(Clone, Copy, Debug)]
 struct Placement {
+    /// The sheet's left and bottom (largest y-down) edges.
+    x0: f64,
+    y1: f64,
     w: f64,
     h: f64,
     flip_x: bool,
@@ -204,10 +212,12 @@ struct Placement {
 }
 
 impl Placement {
-    fn new(size: [f64; 2], machine: &Machine, cfg: &PlanConfig) -> Self {
-        let [w, h] = size;
+    fn new(rect: [f64; 4], machine: &Machine, cfg: &PlanConfig) -> Self {
+        let (w, h) = (rect[2] - rect[0], rect[3] - rect[1]);
         let origin = machine.bed.origin;
         let mut p = Placement {
+            x0: rect[0],
+            y1: rect[3],
             w,
             h,
             flip_x: origin.right(),
@@ -236,7 +246,7 @@ impl Placement {
     }
 
     fn map(&self, x: f64, y_down: f64) -> [f64; 2] {
-        let [mx, my] = self.orient(x, self.h - y_down);
+        let [mx, my] = self.orient(x - self.x0, self.y1 - y_down);
         [mx + self.shift[0], my + self.shift[1]]
     }
 }
@@ -259,8 +269,9 @@ fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
-    let size = [geom.width_mm, geom.height_mm];
-    let place = Placement::new(size, machine, cfg);
+    let rect = sheet_rect(geom);
+    let size = [rect[2] - rect[0], rect[3] - rect[1]];
+    let place = Placement::new(rect, machine, cfg);
 
     // Cut loops, in input order: each polygon's holes (islands, which must not exist after
     // bridging but are cut if they do), then its exterior.
@@ -283,16 +294,16 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
         }
     }
     let frame = [
-        place.map(0.0, 0.0),
-        place.map(geom.width_mm, 0.0),
-        place.map(geom.width_mm, geom.height_mm),
-        place.map(0.0, geom.height_mm),
+        place.map(rect[0], rect[1]),
+        place.map(rect[2], rect[1]),
+        place.map(rect[2], rect[3]),
+        place.map(rect[0], rect[3]),
     ];
     if cfg.cut_outline {
         loops.push(Loop {
             points: frame.to_vec(),
             outline: true,
-            area_mm2: geom.width_mm * geom.height_mm,
+            area_mm2: size[0] * size[1],
         });
     }
     if loops.is_empty() {
