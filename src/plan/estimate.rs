@@ -286,6 +286,18 @@ mod tests {
     }
 
     #[test]
+    fn z_tool_programs_count_xy_feed_moves_as_cut() {
+        let p = "G0 Z3\nG0 X10\nG1 Z-0.3 F300\nG1 X20 F1000\nG0 Z3\nG0 X0\n";
+        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        assert!((e.cut_mm - 10.0).abs() < 1e-9, "{e:?}");
+        assert!((e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9, "{e:?}");
+        // A laser program: only powered moves cut, even if G1 moves without power exist.
+        let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
+        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        assert!((e.cut_mm - 10.0).abs() < 1e-9 && (e.travel_mm - 30.0).abs() < 1e-9);
+    }
+
+    #[test]
     fn durations_read_well() {
         assert_eq!(format_duration(3723.4), "1 h 02 min 03 s");
         assert_eq!(format_duration(65.0), "1 min 05 s");
