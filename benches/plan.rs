@@ -2,7 +2,7 @@
 //! `cargo bench --bench plan`
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use geo::{LineString, MultiPolygon, Polygon};
+use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use stencil::machine::gcode::interpret;
 use stencil::plan::{estimate, gcode_for, CutSettings, MotionLimits, PlanConfig};
 use stencil::profile::machine;
@@ -22,9 +22,12 @@ fn grid(n: usize) -> CutGeometry {
             .collect();
         cuts.push(Polygon::new(LineString::from(pts), vec![]));
     }
+    let (w, h) = (10.0 * n as f64, 10.0 * n as f64);
     CutGeometry {
-        width_mm: 10.0 * n as f64,
-        height_mm: 10.0 * n as f64,
+        width_mm: w,
+        height_mm: h,
+        outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
+        design_cuts: MultiPolygon(cuts.clone()),
         cuts: MultiPolygon(cuts),
         material: MultiPolygon(vec![]),
         bridges: vec![],

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use geo::{LineString, MultiPolygon, Polygon};
+use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use stencil::machine::gcode::interpret;
 use stencil::plan::estimate::{estimate, MotionLimits};
 use stencil::plan::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
@@ -34,6 +34,8 @@ fn sheet(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutGeometry {
     CutGeometry {
         width_mm: w,
         height_mm: h,
+        outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
+        design_cuts: MultiPolygon(cuts.clone()),
         cuts: MultiPolygon(cuts),
         material: MultiPolygon(vec![]),
         bridges: vec![],

@@ -3,6 +3,7 @@
 
 mod gcode;
 mod make;
+mod material;
 mod mesh;
 
 use std::process::ExitCode;
@@ -23,6 +24,11 @@ pub enum Command {
     Make(make::MakeArgs),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
+    /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
+    /// widths. Exits 0 only when there are no violations.
+    Check(material::CheckArgs),
+    /// List the material profiles with their key numbers.
+    Profiles(material::ProfilesArgs),
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
     Gcode(gcode::GcodeArgs),
     /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
@@ -33,6 +39,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Make(a) => make::run_make(a),
         Command::Tone(a) => make::run_tone(a),
+        Command::Check(a) => material::run_check(a),
+        Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => gcode::run_estimate(a),
     }

@@ -2,7 +2,10 @@
 //! file is written atomically ([`atomic::write_atomic`]).
 
 pub mod atomic;
+pub mod dxf;
+pub mod mask;
 pub mod png;
+pub mod svg;
 
 use std::path::{Path, PathBuf};
 

@@ -290,7 +290,10 @@ mod tests {
         let p = "G0 Z3\nG0 X10\nG1 Z-0.3 F300\nG1 X20 F1000\nG0 Z3\nG0 X0\n";
         let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
         assert!((e.cut_mm - 10.0).abs() < 1e-9, "{e:?}");
-        assert!((e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9, "{e:?}");
+        assert!(
+            (e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9,
+            "{e:?}"
+        );
         // A laser program: only powered moves cut, even if G1 moves without power exist.
         let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
         let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());

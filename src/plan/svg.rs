@@ -6,7 +6,7 @@
 //! skipped); otherwise every path is. Curves, arcs and transforms are refused with a message
 //! naming them, rather than cut wrongly.
 
-use geo::{LineString, MultiPolygon, Polygon};
+use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use svg::node::element::path::{Command, Data, Position};
 use svg::node::element::tag::Type;
 use svg::parser::Event;
@@ -140,9 +140,9 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
         msg,
     };
     let mut size_mm: Option<[f64; 2]> = None;
-    // user unit → mm: scale and viewBox origin.
+    // user unit → mm, and the sheet (the viewBox, or the whole canvas) in user units.
     let mut scale = [25.4 / 96.0; 2];
-    let mut vb_origin = [0.0, 0.0];
+    let mut view = [0.0, 0.0, 0.0, 0.0];
     // Open elements: whether each is (inside) a "cut" element.
     let mut stack: Vec<bool> = Vec::new();
     let mut all: Vec<(bool, Vec<Vec<[f64; 2]>>)> = Vec::new();
@@ -183,9 +183,12 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
                     if !(w > 0.0 && h > 0.0) {
                         return Err(bad(format!("the <svg> size {w} x {h} mm is not positive")));
                     }
-                    if let Some(v) = &vb {
-                        scale = [w / v[2], h / v[3]];
-                        vb_origin = [v[0], v[1]];
+                    match &vb {
+                        Some(v) => {
+                            scale = [w / v[2], h / v[3]];
+                            view = [v[0], v[1], v[0] + v[2], v[1] + v[3]];
+                        }
+                        None => view = [0.0, 0.0, w / scale[0], h / scale[1]],
                     }
                     size_mm = Some([w, h]);
                 }
@@ -209,12 +212,7 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
     }
     let [w, h] = size_mm.ok_or_else(|| bad("no <svg> element".into()))?;
     let any_cut = all.iter().any(|(c, _)| *c);
-    let to_mm = |p: [f64; 2]| {
-        (
-            (p[0] - vb_origin[0]) * scale[0],
-            (p[1] - vb_origin[1]) * scale[1],
-        )
-    };
+    let to_mm = |p: [f64; 2]| (p[0] * scale[0], p[1] * scale[1]);
     let polys: Vec<Polygon<f64>> = all
         .into_iter()
         .filter(|(c, _)| *c || !any_cut)
@@ -231,10 +229,24 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
             "no closed paths to cut (expected <path d=\"M ... Z\"> elements)".into(),
         ));
     }
+    let cuts = MultiPolygon(polys);
     Ok(CutGeometry {
+        // The SVG knows the sheet only: the picture is taken to be the whole sheet.
         width_mm: w,
         height_mm: h,
-        cuts: MultiPolygon(polys),
+        outline: Rect::new(
+            Coord {
+                x: view[0] * scale[0],
+                y: view[1] * scale[1],
+            },
+            Coord {
+                x: view[2] * scale[0],
+                y: view[3] * scale[1],
+            },
+        ),
+        // As drawn (our SVG carries the design line; `stencil gcode` applies the material's kerf).
+        design_cuts: cuts.clone(),
+        cuts,
         material: MultiPolygon(vec![]),
         bridges: vec![],
     })
@@ -259,6 +271,40 @@ mod tests {
         assert!((g.cuts.0[1].unsigned_area() - 25.0).abs() < 1e-6);
         let first = g.cuts.0[1].exterior().0[0];
         assert_eq!((first.x, first.y), (60.0, 10.0));
+        let o = g.outline;
+        assert_eq!(
+            (o.min().x, o.min().y, o.max().x, o.max().y),
+            (0.0, 0.0, 100.0, 50.0)
+        );
+    }
+
+    #[test]
+    fn reads_our_own_svg_back() {
+        let ring = |x0: f64, y0: f64, x1: f64, y1: f64| {
+            Polygon::new(
+                LineString::from(vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]),
+                vec![],
+            )
+        };
+        let cuts = MultiPolygon(vec![ring(1.0, 1.0, 4.0, 3.0), ring(6.0, 2.0, 9.5, 7.25)]);
+        let geom = CutGeometry {
+            width_mm: 10.0,
+            height_mm: 8.0,
+            outline: Rect::new(Coord { x: -2.0, y: -2.0 }, Coord { x: 12.0, y: 10.0 }),
+            cuts: cuts.clone(),
+            design_cuts: cuts,
+            material: MultiPolygon(vec![]),
+            bridges: vec![ring(4.0, 1.5, 6.0, 2.5)],
+        };
+        let text = String::from_utf8(crate::export::svg::encode(&geom)).unwrap();
+        let back = cut_geometry_from_svg(&text, "stencil.svg").unwrap();
+        assert_eq!(back.outline, geom.outline);
+        assert_eq!(back.cuts.0.len(), 2, "the bridges layer is not cut");
+        for (a, b) in back.cuts.0.iter().zip(&geom.design_cuts.0) {
+            assert!((a.unsigned_area() - b.unsigned_area()).abs() < 1e-9);
+            let (p, q) = (a.exterior().0[0], b.exterior().0[0]);
+            assert!((p.x - q.x).abs() < 1e-6 && (p.y - q.y).abs() < 1e-6);
+        }
     }
 
     #[test]

@@ -195,7 +195,8 @@ pub fn laser_s(power_pct: f64, s_max: f64) -> f64 {
 
 /// The sheet's rectangle in sheet mm (y down): `[x0, y0, x1, y1]`.
 pub fn sheet_rect(geom: &CutGeometry) -> [f64; 4] {
-    [0.0, 0.0, geom.width_mm, geom.height_mm]
+    let o = geom.outline;
+    [o.min().x, o.min().y, o.max().x, o.max().y]
 }
 
 /// Sheet mm (x right, y down) → machine mm, for the sheet `rect` placed per `cfg` on `machine`.
@@ -383,7 +384,7 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
 mod tests {
     use super::*;
     use crate::profile::machine;
-    use geo::{MultiPolygon, Polygon};
+    use geo::{Coord, MultiPolygon, Polygon, Rect};
 
     pub(crate) fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Polygon<f64> {
         Polygon::new(
@@ -396,6 +397,8 @@ mod tests {
         CutGeometry {
             width_mm: w,
             height_mm: h,
+            outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
+            design_cuts: MultiPolygon(cuts.clone()),
             cuts: MultiPolygon(cuts),
             material: MultiPolygon(vec![]),
             bridges: vec![],

@@ -1,8 +1,8 @@
 //! The topological filter: morphological opening and closing by a disc, then removal of specks.
 //!
 //! Lone pixels and thin spurs would each become an island needing its own bridge; the paper removes
-//! them with dilation and erosion before bridging. Everything here treats the area outside the image
-//! as material, because the sheet continues beyond the picture.
+//! them with dilation and erosion before bridging. Morphology extends the image by repeating its edge
+//! pixels; speck removal treats material touching the border as the frame (never a speck).
 
 use serde::{Deserialize, Serialize};
 
@@ -88,16 +88,14 @@ fn diff(a: &BitGrid, b: &BitGrid) -> usize {
     a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
 }
 
-/// Pad by `pad` material pixels on every side (the frame), so that erosion and dilation behave at
-/// the image border as they would on the whole sheet.
+/// Pad by `pad` pixels on every side, repeating the edge pixels, so erosion and dilation neither
+/// eat into nor grow out of the image border: an all-cut picture stays all cut, and a region running
+/// off the edge keeps its width there.
 fn padded(bits: &BitGrid, pad: u32) -> BitGrid {
     let (w, h) = (bits.width + 2 * pad, bits.height + 2 * pad);
+    let clamp = |v: u32, n: u32| v.saturating_sub(pad).min(n - 1);
     BitGrid::from_fn(w, h, |x, y| {
-        if x < pad || y < pad || x >= pad + bits.width || y >= pad + bits.height {
-            true
-        } else {
-            bits.get(x - pad, y - pad)
-        }
+        bits.get(clamp(x, bits.width), clamp(y, bits.height))
     })
 }
 
@@ -174,6 +172,17 @@ mod tests {
         let c = close(&g, 1);
         assert!(c.get(5, 5));
         assert!(c.data.iter().zip(&g.data).all(|(a, b)| *a || !*b));
+    }
+
+    #[test]
+    fn uniform_images_are_left_alone() {
+        for fill in [true, false] {
+            let g = BitGrid::new(9, 7, fill);
+            for r in 1..4 {
+                assert_eq!(open(&g, r), g);
+                assert_eq!(close(&g, r), g);
+            }
+        }
     }
 
     #[test]

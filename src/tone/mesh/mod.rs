@@ -1,24 +1,437 @@
-//! Stage 1 from a mesh: load an OBJ, render it with a point light and toon shading, draw silhouettes
-//! and suggestive contours. OWNER: the mesh issue. Placeholder until then.
+//! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load`]), orbit a camera around its
+//! bounding sphere ([`camera`]), rasterise a visibility buffer ([`raster`]), shade it with a point
+//! light close to the model ([`shade`]), draw silhouettes and suggestive contours ([`lines`], from
+//! the curvature of [`curvature`]), downsample the supersampled result, and threshold it.
+//!
+//! The two tones: a model pixel brighter than the threshold is material, darker is cut (swapped by
+//! `invert`); lines are always cut; the background, the sheet around the model, is always
+//! material, so the model's outline is part of the stencil.
+
+pub mod camera;
+pub mod curvature;
+pub mod lines;
+pub mod load;
+pub mod raster;
+pub mod shade;
+pub mod shapes;
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use crate::raster::TwoTone;
+use glam::Vec3;
+use rayon::prelude::*;
 
-/// Options of the mesh renderer.
-#[derive(Clone, Debug, Default)]
-pub struct MeshConfig {}
+use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::tone::{otsu_level, Threshold};
+
+pub use camera::{Camera, Size};
+pub use lines::LineMode;
+pub use load::{load, Mesh};
+
+/// Refuse renders with more working pixels (size × supersample²) than this.
+pub const MAX_WORKING_PIXELS: u64 = 80_000_000;
+
+/// Options of the mesh renderer. Lengths are in bounding radii of the model, angles in degrees.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshConfig {
+    /// Camera azimuth around the vertical (Y) axis; 0 looks from +Z towards -Z.
+    pub azimuth_deg: f32,
+    /// Camera elevation above the horizontal plane, -90..90.
+    pub elevation_deg: f32,
+    /// Eye distance from the centre of the bounding sphere, > 1. `None`: the distance at which the
+    /// bounding sphere just fills the field of view.
+    pub distance: Option<f32>,
+    /// Field of view of the perspective lens; `None` = orthographic projection.
+    pub fov_deg: Option<f32>,
+    pub size: Size,
+    /// Point light in the camera's frame (x right, y up, z towards the viewer) relative to the
+    /// model's centre.
+    pub light: [f32; 3],
+    pub specular: f32,
+    pub shininess: f32,
+    pub lines: LineMode,
+    /// Line thickness in output pixels.
+    pub line_px: f32,
+    /// Render at this many times the size, then average down (anti-aliasing), 1..=4.
+    pub supersample: u32,
+    /// Suggestive contours are kept where D_w κr·radius² exceeds this (DeCarlo's t_d): higher =
+    /// fewer, stronger contours.
+    pub contour_threshold: f32,
+}
+
+impl Default for MeshConfig {
+    fn default() -> Self {
+        MeshConfig {
+            azimuth_deg: 30.0,
+            elevation_deg: 20.0,
+            distance: None,
+            fov_deg: Some(30.0),
+            size: Size::LongSide(1024),
+            light: [-1.5, 1.5, 1.5],
+            specular: 0.3,
+            shininess: 32.0,
+            lines: LineMode::Suggestive,
+            line_px: 3.0,
+            supersample: 2,
+            contour_threshold: 1.0,
+        }
+    }
+}
+
+impl MeshConfig {
+    /// Check every setting; the error names the command-line flag.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        let bad = |flag: &'static str, msg: String| Err(MeshError::Setting { flag, msg });
+        if !self.azimuth_deg.is_finite() || !(-90.0..=90.0).contains(&self.elevation_deg) {
+            return bad(
+                "--view",
+                format!(
+                    "{},{} is not a view: azimuth any finite angle, elevation -90..90 degrees",
+                    self.azimuth_deg, self.elevation_deg
+                ),
+            );
+        }
+        if let Some(d) = self.distance {
+            if !(d.is_finite() && d > 1.0 && d <= 1000.0) {
+                return bad(
+                    "--distance",
+                    format!("{d} must be above 1 and at most 1000 bounding radii (the camera stays outside the model)"),
+                );
+            }
+        }
+        if let Some(f) = self.fov_deg {
+            if !(f.is_finite() && f > 0.5 && f < 170.0) {
+                return bad(
+                    "--fov",
+                    format!("{f} degrees is not a lens: use 0.5..170 or --ortho"),
+                );
+            }
+        }
+        let (w, h) = match self.size {
+            Size::LongSide(n) => (n, n),
+            Size::Exact { width, height } => (width, height),
+        };
+        if w < 16 || h < 16 {
+            return bad(
+                "--size",
+                format!("{w}x{h} is too small: at least 16 pixels a side"),
+            );
+        }
+        if !(1..=4).contains(&self.supersample) {
+            return bad(
+                "--supersample",
+                format!("{} is out of range: use 1 to 4", self.supersample),
+            );
+        }
+        let working = w as u64 * h as u64 * (self.supersample as u64).pow(2);
+        if working > MAX_WORKING_PIXELS {
+            return bad(
+                "--size",
+                format!(
+                    "{w}x{h} at --supersample {} is {:.0} megapixels of work, above the limit of {:.0}: lower --size or --supersample",
+                    self.supersample,
+                    working as f64 / 1e6,
+                    MAX_WORKING_PIXELS as f64 / 1e6
+                ),
+            );
+        }
+        if !self
+            .light
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= 1000.0)
+        {
+            return bad(
+                "--light",
+                format!(
+                    "{:?} must be three finite numbers (bounding radii)",
+                    self.light
+                ),
+            );
+        }
+        if !(self.specular.is_finite() && (0.0..=10.0).contains(&self.specular)) {
+            return bad(
+                "--specular",
+                format!("{} is out of range: use 0 (matte) to 10", self.specular),
+            );
+        }
+        if !(self.shininess.is_finite() && (1.0..=10_000.0).contains(&self.shininess)) {
+            return bad(
+                "--shininess",
+                format!("{} is out of range: use 1 to 10000", self.shininess),
+            );
+        }
+        if !(self.line_px.is_finite() && (0.5..=64.0).contains(&self.line_px)) {
+            return bad(
+                "--line-px",
+                format!("{} is out of range: use 0.5 to 64 pixels", self.line_px),
+            );
+        }
+        if !(self.contour_threshold.is_finite() && self.contour_threshold >= 0.0) {
+            return bad(
+                "--contour-threshold",
+                format!("{} must be a finite number >= 0", self.contour_threshold),
+            );
+        }
+        Ok(())
+    }
+
+    /// The default distance for the lens, or the chosen one.
+    pub fn eye_distance(&self) -> f32 {
+        self.distance.unwrap_or_else(|| match self.fov_deg {
+            // The bounding sphere just fills the lens.
+            Some(f) => 1.0 / (0.5 * f.to_radians()).sin(),
+            None => 4.0,
+        })
+    }
+}
 
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    #[error("{path}: mesh input is not implemented yet")]
-    NotImplemented { path: PathBuf },
+    #[error("{path}: cannot open the mesh: {source}")]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a text OBJ file (invalid UTF-8 at byte {offset}); export the model as Wavefront OBJ")]
+    NotText { path: PathBuf, offset: usize },
+    #[error("{}:{line}: {msg}; fix or re-export the file", path.display())]
+    Malformed {
+        path: PathBuf,
+        line: usize,
+        msg: String,
+    },
+    #[error("{}:{line}: {msg}; the file is truncated or damaged", path.display())]
+    BadIndex {
+        path: PathBuf,
+        line: usize,
+        msg: String,
+    },
+    #[error("{}:{line}: coordinate '{token}' is not a finite number; fix or re-export the file", path.display())]
+    NonFinite {
+        path: PathBuf,
+        line: usize,
+        token: String,
+    },
+    #[error("{path}: the OBJ parser failed: {msg}")]
+    Parse { path: PathBuf, msg: String },
+    #[error("{path}: the mesh is empty: {detail}; nothing to render")]
+    Empty { path: PathBuf, detail: String },
+    #[error("{flag}: {msg}")]
+    Setting { flag: &'static str, msg: String },
 }
 
-/// Render a mesh file into a two-tone image whose gray is the shaded rendering.
-pub fn render(path: &Path, cfg: &MeshConfig) -> Result<TwoTone, MeshError> {
-    let _ = cfg;
-    Err(MeshError::NotImplemented {
-        path: path.to_path_buf(),
-    })
+/// Time spent in each step of [`render_mesh`], in milliseconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Timings {
+    pub curvature: f64,
+    pub raster: f64,
+    pub shade: f64,
+    pub lines: f64,
+    pub compose: f64,
+}
+
+/// A rendered view at output resolution, before thresholding.
+#[derive(Clone, Debug)]
+pub struct Rendering {
+    /// The grayscale picture as a user sees it: shaded model, lines black, background white.
+    pub gray: Gray,
+    /// The model's shading alone (mean over its samples; 1 where no model is seen).
+    pub shade: Gray,
+    /// Pixels mostly covered by the model.
+    pub model: BitGrid,
+    /// Pixels mostly covered by a line.
+    pub lines: BitGrid,
+    /// The camera at output resolution.
+    pub camera: Camera,
+    pub timings: Timings,
+}
+
+/// Load `path`, render it and threshold it: the mesh path of stage 1. Returns the two-tone (its
+/// gray is the rendering) and the threshold level used.
+pub fn render(
+    path: &Path,
+    cfg: &MeshConfig,
+    threshold: Threshold,
+    invert: bool,
+) -> Result<(TwoTone, u8), MeshError> {
+    cfg.validate()?;
+    let mesh = load(path)?;
+    let r = render_mesh(&mesh, cfg)?;
+    Ok(two_tone(&r, threshold, invert))
+}
+
+/// Render a mesh (no thresholding).
+pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError> {
+    cfg.validate()?;
+    let mut tm = Timings::default();
+    let (center, radius) = mesh.bounding_sphere();
+    let orbit = camera::Orbit {
+        azimuth_deg: cfg.azimuth_deg,
+        elevation_deg: cfg.elevation_deg,
+        distance: cfg.eye_distance(),
+        orthographic: cfg.fov_deg.is_none(),
+    };
+    let out_cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
+    let k = cfg.supersample;
+    let cam = out_cam.scaled(k);
+
+    let clock = Instant::now();
+    let normals = mesh.vertex_normals();
+    let view = (cfg.lines == LineMode::Suggestive).then(|| {
+        let c = curvature::estimate(mesh, &normals);
+        curvature::view_dependent(mesh, &normals, &c, |p| cam.view_dir(p), radius)
+    });
+    tm.curvature = ms(clock);
+
+    let clock = Instant::now();
+    let vb = raster::rasterize(mesh, &cam, mesh.is_closed());
+    tm.raster = ms(clock);
+
+    let clock = Instant::now();
+    let light = shade::Light {
+        position: cam.from_view_frame(Vec3::from_array(cfg.light)),
+        specular: cfg.specular,
+        shininess: cfg.shininess,
+    };
+    let frags = shade::shade(mesh, &normals, &vb, &cam, &light, view.as_ref());
+    tm.shade = ms(clock);
+
+    let clock = Instant::now();
+    let params = lines::LineParams {
+        mode: cfg.lines,
+        width_px: if k > 1 {
+            cfg.line_px * k as f32 - 1.0
+        } else {
+            cfg.line_px
+        },
+        contour_threshold: cfg.contour_threshold,
+        max_ndotv: 20f32.to_radians().cos(),
+        min_run_px: (4.0 * cfg.line_px * k as f32).round() as usize,
+        depth_tolerance: 0.02 * radius,
+    };
+    let (line_mask, _) = lines::find(mesh, &cam, &vb, &frags, &params);
+    tm.lines = ms(clock);
+
+    let clock = Instant::now();
+    let r = compose(&frags, &line_mask, &cam, k, out_cam, tm);
+    let mut r = r;
+    r.timings.compose = ms(clock);
+    Ok(r)
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Average k×k blocks of the working image into the output: gray, model shade, coverage.
+fn compose(
+    frags: &[shade::Fragment],
+    line_mask: &[bool],
+    cam: &Camera,
+    k: u32,
+    out_cam: Camera,
+    timings: Timings,
+) -> Rendering {
+    let (w, h) = (out_cam.width as usize, out_cam.height as usize);
+    let kw = cam.width as usize;
+    let k = k as usize;
+    let n = (k * k) as f32;
+    let mut flat = vec![(1f32, 1f32, false, false); w * h];
+    flat.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, out) in row.iter_mut().enumerate() {
+            let (mut gray, mut shade, mut model, mut line) = (0f32, 0f32, 0usize, 0usize);
+            for sy in y * k..y * k + k {
+                for sx in x * k..x * k + k {
+                    let i = sy * kw + sx;
+                    let f = frags[i];
+                    let is_line = line_mask[i];
+                    line += is_line as usize;
+                    if f.is_model() {
+                        model += 1;
+                        shade += f.shade;
+                    }
+                    gray += if is_line {
+                        0.0
+                    } else if f.is_model() {
+                        f.shade
+                    } else {
+                        1.0
+                    };
+                }
+            }
+            let shade = if model > 0 { shade / model as f32 } else { 1.0 };
+            *out = (gray / n, shade, 2 * model >= k * k, 2 * line >= k * k);
+        }
+    });
+    let (w32, h32) = (w as u32, h as u32);
+    Rendering {
+        gray: Gray {
+            width: w32,
+            height: h32,
+            data: flat.iter().map(|p| p.0).collect(),
+        },
+        shade: Gray {
+            width: w32,
+            height: h32,
+            data: flat.iter().map(|p| p.1).collect(),
+        },
+        model: BitGrid {
+            width: w32,
+            height: h32,
+            data: flat.iter().map(|p| p.2).collect(),
+        },
+        lines: BitGrid {
+            width: w32,
+            height: h32,
+            data: flat.iter().map(|p| p.3).collect(),
+        },
+        camera: out_cam,
+        timings,
+    }
+}
+
+/// Threshold a rendering: lines are cut, the background is material, model pixels are material
+/// when at or above the level (swapped by `invert`). Otsu looks at the model's own pixels only.
+/// Returns the two-tone (its gray is the rendering) and the level used.
+pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+    let level = match threshold {
+        Threshold::Level(l) => l,
+        Threshold::Otsu => {
+            let data: Vec<f32> = (0..r.shade.data.len())
+                .filter(|&i| r.model.data[i] && !r.lines.data[i])
+                .map(|i| r.shade.data[i])
+                .collect();
+            if data.is_empty() {
+                128
+            } else {
+                otsu_level(&Gray {
+                    width: data.len() as u32,
+                    height: 1,
+                    data,
+                })
+            }
+        }
+    };
+    let bits = BitGrid {
+        width: r.gray.width,
+        height: r.gray.height,
+        data: (0..r.gray.data.len())
+            .map(|i| {
+                if r.lines.data[i] {
+                    false
+                } else if !r.model.data[i] {
+                    true
+                } else {
+                    ((r.shade.data[i] * 255.0).round() >= level as f32) != invert
+                }
+            })
+            .collect(),
+    };
+    (
+        TwoTone {
+            bits,
+            gray: r.gray.clone(),
+        },
+        level,
+    )
 }

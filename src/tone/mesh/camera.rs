@@ -1,0 +1,290 @@
+//! The camera: an orbit around the model's bounding sphere, framed so the model fills the image
+//! with a margin.
+//!
+//! World space is the OBJ's (Y up). Camera space: x right, y up, z forward (depth). Pixel space:
+//! x right, y down, pixel (i, j) covers [i, i+1) × [j, j+1), its centre is (i + 0.5, j + 0.5).
+
+use glam::Vec3;
+
+/// Fraction of the long side left empty around the model on each side.
+pub const MARGIN: f32 = 0.05;
+
+/// A pinhole (or orthographic) camera with its image plane already fitted to the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    pub orthographic: bool,
+    /// Pixels per unit of x/z (perspective) or per world unit (orthographic).
+    pub focal_px: f32,
+    /// The principal point (where the view axis meets the image), in pixels. The framing shifts it
+    /// off the image centre so the model, not its bounding sphere, is centred.
+    pub cx: f32,
+    pub cy: f32,
+    pub width: u32,
+    pub height: u32,
+    /// The bounding sphere the camera orbits.
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+/// Where the camera stands and how it sees, before framing.
+#[derive(Clone, Copy, Debug)]
+pub struct Orbit {
+    pub azimuth_deg: f32,
+    pub elevation_deg: f32,
+    /// Eye distance from the centre, in bounding radii (> 1).
+    pub distance: f32,
+    pub orthographic: bool,
+}
+
+/// The image size to fit the model into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Size {
+    /// This many pixels on the long side; the other side follows the model's outline.
+    LongSide(u32),
+    Exact {
+        width: u32,
+        height: u32,
+    },
+}
+
+impl Camera {
+    /// Place the camera on its orbit and fit the image plane to the projected `positions`.
+    pub fn frame(
+        center: Vec3,
+        radius: f32,
+        orbit: &Orbit,
+        size: Size,
+        positions: &[Vec3],
+    ) -> Camera {
+        let (az, el) = (
+            orbit.azimuth_deg.to_radians(),
+            orbit.elevation_deg.to_radians(),
+        );
+        let dir = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
+        let eye = center + dir * orbit.distance * radius;
+        let forward = -dir;
+        // Looking straight down or up: keep "up" on the image pointing away from the viewer's side.
+        let right = forward
+            .cross(Vec3::Y)
+            .try_normalize()
+            .unwrap_or_else(|| Vec3::new(az.cos(), 0.0, -az.sin()));
+        let up = right.cross(forward);
+        let mut cam = Camera {
+            eye,
+            right,
+            up,
+            forward,
+            orthographic: orbit.orthographic,
+            focal_px: 1.0,
+            cx: 0.0,
+            cy: 0.0,
+            width: 1,
+            height: 1,
+            center,
+            radius,
+        };
+        // Bounding box of the outline on the unit image plane.
+        let (mut lo, mut hi) = (
+            glam::Vec2::splat(f32::INFINITY),
+            glam::Vec2::splat(f32::NEG_INFINITY),
+        );
+        for &p in positions {
+            let q = cam.plane(p);
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        // A flat model seen edge-on still gets a sensible extent.
+        let sphere = if orbit.orthographic {
+            radius
+        } else {
+            (1.0 / (orbit.distance * orbit.distance - 1.0).max(1e-6)).sqrt()
+        };
+        let ext = (hi - lo).max(glam::Vec2::splat(sphere * 1e-3));
+        let mid = (lo + hi) * 0.5;
+        let (w, h, f) = match size {
+            Size::LongSide(n) => {
+                let n = n as f32;
+                let m = (MARGIN * n).round();
+                let f = (n - 2.0 * m) / ext.x.max(ext.y);
+                let (w, h) = if ext.x >= ext.y {
+                    (n, (ext.y * f + 2.0 * m).round())
+                } else {
+                    ((ext.x * f + 2.0 * m).round(), n)
+                };
+                (w.max(1.0), h.max(1.0), f)
+            }
+            Size::Exact { width, height } => {
+                let (w, h) = (width as f32, height as f32);
+                let m = (MARGIN * w.max(h)).round();
+                let f = ((w - 2.0 * m) / ext.x).min((h - 2.0 * m) / ext.y).max(1e-6);
+                (w, h, f)
+            }
+        };
+        cam.width = w as u32;
+        cam.height = h as u32;
+        cam.focal_px = f;
+        cam.cx = w * 0.5 - f * mid.x;
+        cam.cy = h * 0.5 + f * mid.y;
+        cam
+    }
+
+    /// Camera-space coordinates (x right, y up, z depth).
+    #[inline]
+    pub fn to_camera(&self, p: Vec3) -> Vec3 {
+        let d = p - self.eye;
+        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// Position on the unit image plane (before the pixel scale and offset).
+    #[inline]
+    fn plane(&self, p: Vec3) -> glam::Vec2 {
+        let c = self.to_camera(p);
+        if self.orthographic {
+            glam::Vec2::new(c.x, c.y)
+        } else {
+            glam::Vec2::new(c.x / c.z, c.y / c.z)
+        }
+    }
+
+    /// Pixel coordinates (x right, y down) and depth of a world point.
+    #[inline]
+    pub fn project(&self, p: Vec3) -> Vec3 {
+        let c = self.to_camera(p);
+        let q = if self.orthographic {
+            glam::Vec2::new(c.x, c.y)
+        } else {
+            glam::Vec2::new(c.x / c.z, c.y / c.z)
+        };
+        Vec3::new(
+            self.cx + self.focal_px * q.x,
+            self.cy - self.focal_px * q.y,
+            c.z,
+        )
+    }
+
+    /// The ray through pixel position (sx, sy): origin and direction, with `dir · forward = 1`, so
+    /// the ray parameter is the depth.
+    #[inline]
+    pub fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
+        let u = (sx - self.cx) / self.focal_px;
+        let v = (self.cy - sy) / self.focal_px;
+        let off = self.right * u + self.up * v;
+        if self.orthographic {
+            (self.eye + off, self.forward)
+        } else {
+            (self.eye, self.forward + off)
+        }
+    }
+
+    /// Unit vector from a world point towards the viewer.
+    #[inline]
+    pub fn view_dir(&self, p: Vec3) -> Vec3 {
+        if self.orthographic {
+            -self.forward
+        } else {
+            (self.eye - p).normalize_or_zero()
+        }
+    }
+
+    /// A point given in the camera's frame (x right, y up, z towards the viewer) relative to the
+    /// bounding sphere's centre, in bounding radii, as a world point.
+    pub fn from_view_frame(&self, v: Vec3) -> Vec3 {
+        self.center + (self.right * v.x + self.up * v.y - self.forward * v.z) * self.radius
+    }
+
+    /// The same view at `k` times the resolution (supersampling).
+    pub fn scaled(&self, k: u32) -> Camera {
+        let kf = k as f32;
+        Camera {
+            focal_px: self.focal_px * kf,
+            cx: self.cx * kf,
+            cy: self.cy * kf,
+            width: self.width * k,
+            height: self.height * k,
+            ..*self
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube() -> Vec<Vec3> {
+        let mut v = Vec::new();
+        for i in 0..8 {
+            v.push(Vec3::new(
+                (i & 1) as f32 * 2.0 - 1.0,
+                ((i >> 1) & 1) as f32 * 2.0 - 1.0,
+                ((i >> 2) & 1) as f32 * 2.0 - 1.0,
+            ));
+        }
+        v
+    }
+
+    #[test]
+    fn orbit_zero_looks_down_minus_z() {
+        let o = Orbit {
+            azimuth_deg: 0.0,
+            elevation_deg: 0.0,
+            distance: 4.0,
+            orthographic: false,
+        };
+        let c = Camera::frame(Vec3::ZERO, 3f32.sqrt(), &o, Size::LongSide(200), &cube());
+        assert!((c.eye - Vec3::new(0.0, 0.0, 4.0 * 3f32.sqrt())).length() < 1e-4);
+        assert!((c.right - Vec3::X).length() < 1e-6 && (c.up - Vec3::Y).length() < 1e-6);
+        // The model fills the long side minus the margins.
+        let xs: Vec<f32> = cube().iter().map(|&p| c.project(p).x).collect();
+        let (lo, hi) = xs
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(
+            (lo - 10.0).abs() < 1e-3 && (hi - 190.0).abs() < 1e-3,
+            "{lo} {hi}"
+        );
+        assert_eq!((c.width, c.height), (200, 200));
+    }
+
+    #[test]
+    fn rays_go_through_projected_points() {
+        let o = Orbit {
+            azimuth_deg: 30.0,
+            elevation_deg: 20.0,
+            distance: 3.0,
+            orthographic: false,
+        };
+        let c = Camera::frame(
+            Vec3::ZERO,
+            1.8,
+            &o,
+            Size::Exact {
+                width: 300,
+                height: 200,
+            },
+            &cube(),
+        );
+        for p in cube() {
+            let s = c.project(p);
+            let (o, d) = c.ray(s.x, s.y);
+            assert!((o + d * s.z - p).length() < 1e-4);
+        }
+        assert!(c.from_view_frame(Vec3::new(0.0, 0.0, 3.0)).distance(c.eye) < 1e-4);
+    }
+
+    #[test]
+    fn elevation_ninety_is_not_degenerate() {
+        let o = Orbit {
+            azimuth_deg: 0.0,
+            elevation_deg: 90.0,
+            distance: 3.0,
+            orthographic: true,
+        };
+        let c = Camera::frame(Vec3::ZERO, 1.8, &o, Size::LongSide(100), &cube());
+        assert!(c.right.is_finite() && c.up.is_finite());
+        assert!(c.right.dot(c.forward).abs() < 1e-5 && c.up.dot(c.forward).abs() < 1e-5);
+    }
+}

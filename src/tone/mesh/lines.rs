@@ -1,0 +1,269 @@
+//! Lines drawn as cuts: silhouettes (occluding contours) and suggestive contours (DeCarlo,
+//! Finkelstein, Rusinkiewicz & Santella, "Suggestive Contours for Conveying Shape", SIGGRAPH 2003).
+//!
+//! Both are found in image space on the shaded fragments, so visibility comes from the z-buffer:
+//! - silhouette: a model pixel next to the background, or the near side of a depth discontinuity
+//!   (the neighbour is farther than the plane of its own triangle, extended to this pixel's ray,
+//!   could explain: the surface folds away behind an occluding contour);
+//! - suggestive contour: a zero crossing of the radial curvature κr between two neighbouring
+//!   pixels of the same surface, kept only where D_w κr exceeds a threshold and the surface does
+//!   not face the viewer head-on (DeCarlo's t_d and θ_c trims), and only as runs of some length.
+//!
+//! One-pixel seeds are then thickened to the line width with a disc.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::camera::Camera;
+use super::load::Mesh;
+use super::raster::{VisBuffer, NONE};
+use super::shade::Fragment;
+
+/// Which lines to draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LineMode {
+    None,
+    Silhouette,
+    #[default]
+    Suggestive,
+}
+
+/// Line settings at the working (supersampled) resolution.
+#[derive(Clone, Copy, Debug)]
+pub struct LineParams {
+    pub mode: LineMode,
+    /// Line width in working pixels.
+    pub width_px: f32,
+    /// DeCarlo's t_d on the scale-free D_w κr·radius².
+    pub contour_threshold: f32,
+    /// Cosine of DeCarlo's θ_c: no suggestive contour where n·v is above it (facing the viewer).
+    pub max_ndotv: f32,
+    /// Suggestive contour runs shorter than this many working pixels are dropped.
+    pub min_run_px: usize,
+    /// Depth gap that counts as a discontinuity, in world units.
+    pub depth_tolerance: f32,
+}
+
+const SILHOUETTE: u8 = 1;
+const SUGGESTIVE: u8 = 2;
+
+/// The line mask (true = line) at the working resolution, and the seeds (1 = silhouette,
+/// 2 = suggestive contour) before thickening.
+pub fn find(
+    mesh: &Mesh,
+    cam: &Camera,
+    vb: &VisBuffer,
+    frags: &[Fragment],
+    p: &LineParams,
+) -> (Vec<bool>, Vec<u8>) {
+    let (w, h) = (vb.width as usize, vb.height as usize);
+    if p.mode == LineMode::None {
+        return (vec![false; w * h], vec![0; w * h]);
+    }
+    let mut seeds = vec![0u8; w * h];
+    seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, s) in row.iter_mut().enumerate() {
+            *s = seed(mesh, cam, vb, frags, p, x, y);
+        }
+    });
+    if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
+        drop_short_runs(&mut seeds, w, h, p.min_run_px);
+    }
+    let mask = thicken(&seeds, w, h, p.width_px);
+    (mask, seeds)
+}
+
+/// Classify one pixel.
+#[inline]
+fn seed(
+    mesh: &Mesh,
+    cam: &Camera,
+    vb: &VisBuffer,
+    frags: &[Fragment],
+    p: &LineParams,
+    x: usize,
+    y: usize,
+) -> u8 {
+    let (w, h) = (vb.width as usize, vb.height as usize);
+    let i = y * w + x;
+    let f = frags[i];
+    if !f.is_model() {
+        return 0;
+    }
+    let neighbours = [
+        (x.wrapping_sub(1), y),
+        (x + 1, y),
+        (x, y.wrapping_sub(1)),
+        (x, y + 1),
+    ];
+    let mut ray = None;
+    let mut contour = false;
+    for &(nx, ny) in &neighbours {
+        if nx >= w || ny >= h {
+            return SILHOUETTE;
+        }
+        let j = ny * w + nx;
+        let g = frags[j];
+        if !g.is_model() {
+            return SILHOUETTE;
+        }
+        let gap = g.depth - f.depth;
+        if gap > p.depth_tolerance {
+            let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));
+            if behind_plane(mesh, vb.tri[j], o, d, f.depth, p.depth_tolerance) {
+                return SILHOUETTE;
+            }
+        }
+        if p.mode == LineMode::Suggestive
+            && !contour
+            && (f.kr <= 0.0) != (g.kr <= 0.0)
+            && f.kr.abs() <= g.kr.abs()
+            && gap.abs() <= p.depth_tolerance.max(continuity_gap(cam, f.depth))
+        {
+            contour = f.dwkr > p.contour_threshold && f.ndotv < p.max_ndotv && f.ndotv > 0.0;
+        }
+    }
+    if contour {
+        SUGGESTIVE
+    } else {
+        0
+    }
+}
+
+/// How far apart in depth two neighbouring pixels of one smooth surface may plausibly be: a few
+/// pixel footprints at that depth (the surface may be steep there).
+#[inline]
+fn continuity_gap(cam: &Camera, depth: f32) -> f32 {
+    let footprint = if cam.orthographic {
+        1.0 / cam.focal_px
+    } else {
+        depth / cam.focal_px
+    };
+    8.0 * footprint
+}
+
+/// Whether the plane of triangle `t`, extended to the ray (o, d), lies more than `tol` behind
+/// `depth`: then the surface there cannot continue to this pixel and the step is an occluding
+/// contour. Planes seen nearly edge-on cannot tell and say no.
+#[inline]
+fn behind_plane(mesh: &Mesh, t: u32, o: Vec3, d: Vec3, depth: f32, tol: f32) -> bool {
+    if t == NONE {
+        return true;
+    }
+    let [a, b, c] = mesh.triangles[t as usize].map(|i| mesh.positions[i as usize]);
+    let n = (b - a).cross(c - a);
+    let nd = n.dot(d);
+    if nd.abs() < 0.2 * n.length() * d.length() {
+        return false;
+    }
+    let z = n.dot(a - o) / nd;
+    z > depth + tol
+}
+
+/// Remove suggestive-contour runs (8-connected) shorter than `min` pixels: a stencil wants a few
+/// meaningful strokes, not dust.
+fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
+    let mut seen = vec![false; seeds.len()];
+    let mut stack = Vec::new();
+    let mut comp = Vec::new();
+    for start in 0..seeds.len() {
+        if seeds[start] != SUGGESTIVE || seen[start] {
+            continue;
+        }
+        comp.clear();
+        stack.push(start);
+        seen[start] = true;
+        while let Some(i) = stack.pop() {
+            comp.push(i);
+            let (x, y) = ((i % w) as isize, (i / w) as isize);
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if seeds[j] == SUGGESTIVE && !seen[j] {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        if comp.len() < min {
+            for &i in &comp {
+                seeds[i] = 0;
+            }
+        }
+    }
+}
+
+/// Dilate the seeds by a disc of diameter `width` pixels (parallel over output rows).
+fn thicken(seeds: &[u8], w: usize, h: usize, width: f32) -> Vec<bool> {
+    let r = (width * 0.5).max(0.5);
+    let ri = r.floor() as isize;
+    // Half-width of the disc on each row offset.
+    let half: Vec<isize> = (-ri..=ri)
+        .map(|dy| ((r * r - (dy * dy) as f32).max(0.0)).sqrt().floor() as isize)
+        .collect();
+    let rows: Vec<Vec<usize>> = seeds
+        .par_chunks(w)
+        .map(|row| {
+            row.iter()
+                .enumerate()
+                .filter(|(_, &s)| s != 0)
+                .map(|(x, _)| x)
+                .collect()
+        })
+        .collect();
+    let mut out = vec![false; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, line)| {
+        for (k, dy) in (-ri..=ri).enumerate() {
+            let sy = y as isize + dy;
+            if sy < 0 || sy >= h as isize {
+                continue;
+            }
+            let hw = half[k];
+            for &x in &rows[sy as usize] {
+                let lo = (x as isize - hw).max(0) as usize;
+                let hi = ((x as isize + hw) as usize).min(w - 1);
+                line[lo..=hi].fill(true);
+            }
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_runs_go_long_runs_stay() {
+        let (w, h) = (20, 5);
+        let mut s = vec![0u8; w * h];
+        s[w + 2] = SUGGESTIVE; // a lone dot
+        for x in 5..15 {
+            s[3 * w + x] = SUGGESTIVE; // a run of 10
+        }
+        s[0] = SILHOUETTE; // silhouettes are never trimmed
+        drop_short_runs(&mut s, w, h, 5);
+        assert_eq!(s[w + 2], 0);
+        assert_eq!(s.iter().filter(|&&v| v == SUGGESTIVE).count(), 10);
+        assert_eq!(s[0], SILHOUETTE);
+    }
+
+    #[test]
+    fn thickening_makes_a_line_of_the_requested_width() {
+        let (w, h) = (30, 30);
+        let mut s = vec![0u8; w * h];
+        for x in 0..w {
+            s[15 * w + x] = SILHOUETTE;
+        }
+        for width in [1.0f32, 3.0, 5.0] {
+            let m = thicken(&s, w, h, width);
+            let col: usize = (0..h).filter(|&y| m[y * w + 10]).count();
+            assert_eq!(col, width as usize, "width {width}");
+        }
+    }
+}

@@ -1,0 +1,144 @@
+//! Per-pixel shading: a point light close to the model, Lambert diffuse plus a Blinn-Phong
+//! highlight. Each visible pixel's ray is intersected with its triangle, so the barycentric
+//! weights (and everything interpolated with them: normal, κr, D_w κr) are perspective-correct.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::camera::Camera;
+use super::curvature::ViewCurvature;
+use super::load::Mesh;
+use super::raster::{VisBuffer, NONE};
+
+/// The light and the material's highlight.
+#[derive(Clone, Copy, Debug)]
+pub struct Light {
+    /// World position of the point light.
+    pub position: Vec3,
+    /// Weight of the Blinn-Phong highlight (0 = matte).
+    pub specular: f32,
+    /// Blinn-Phong exponent: larger = smaller, sharper highlight.
+    pub shininess: f32,
+}
+
+/// What the line finder needs to know about a pixel, beyond its brightness.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fragment {
+    /// Intensity 0..1 (meaningless where `depth` is infinite).
+    pub shade: f32,
+    /// Camera-space depth; `f32::INFINITY` where no model is seen.
+    pub depth: f32,
+    /// Interpolated radial curvature (sign as seen: flipped on the back side of open surfaces).
+    pub kr: f32,
+    /// Interpolated D_w κr (scale-free), same sign convention.
+    pub dwkr: f32,
+    /// Cosine between the shading normal and the direction to the viewer.
+    pub ndotv: f32,
+}
+
+impl Fragment {
+    #[inline]
+    pub fn is_model(&self) -> bool {
+        self.depth.is_finite()
+    }
+}
+
+/// Shade every visible pixel. `normals` are the smooth vertex normals (used unless the mesh has
+/// per-corner normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
+pub fn shade(
+    mesh: &Mesh,
+    normals: &[Vec3],
+    vb: &VisBuffer,
+    cam: &Camera,
+    light: &Light,
+    view: Option<&ViewCurvature>,
+) -> Vec<Fragment> {
+    let w = vb.width as usize;
+    let mut out = vec![
+        Fragment {
+            depth: f32::INFINITY,
+            ..Default::default()
+        };
+        vb.tri.len()
+    ];
+    // Below this n·h the highlight is under 1/1024: skip the pow.
+    let spec_cut = if light.specular > 0.0 {
+        (1.0f32 / 1024.0 / light.specular).powf(1.0 / light.shininess.max(1e-3))
+    } else {
+        f32::INFINITY
+    };
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let sy = y as f32 + 0.5;
+        for (x, frag) in row.iter_mut().enumerate() {
+            let t = vb.tri[y * w + x];
+            if t == NONE {
+                continue;
+            }
+            let idx = mesh.triangles[t as usize];
+            let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
+            let (o, d) = cam.ray(x as f32 + 0.5, sy);
+            // Möller–Trumbore: the ray's parameter is the depth (dir · forward = 1).
+            let e1 = p1 - p0;
+            let e2 = p2 - p0;
+            let pvec = d.cross(e2);
+            let det = e1.dot(pvec);
+            let (b1, b2, depth) = if det.abs() > 1e-20 {
+                let inv = 1.0 / det;
+                let tv = o - p0;
+                let qv = tv.cross(e1);
+                (tv.dot(pvec) * inv, d.dot(qv) * inv, e2.dot(qv) * inv)
+            } else {
+                // Seen exactly edge-on: take the centroid.
+                let c = (p0 + p1 + p2) / 3.0;
+                (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward))
+            };
+            // Pixel centres a hair outside the triangle (the raster's tolerance): clamp.
+            let b1 = b1.clamp(0.0, 1.0);
+            let b2 = b2.clamp(0.0, 1.0 - b1);
+            let b0 = 1.0 - b1 - b2;
+            let p = p0 * b0 + p1 * b1 + p2 * b2;
+            let cn = match &mesh.corner_normals {
+                Some(cn) => cn[t as usize],
+                None => idx.map(|i| normals[i as usize]),
+            };
+            let mut n = (cn[0] * b0 + cn[1] * b1 + cn[2] * b2).normalize_or_zero();
+            // The side we see: on open surfaces the back is visible and lit as a front.
+            let back = e1.cross(e2).dot(d) > 0.0;
+            let sign = if back { -1.0 } else { 1.0 };
+            n *= sign;
+            let v = if cam.orthographic {
+                -cam.forward
+            } else {
+                (cam.eye - p).normalize_or_zero()
+            };
+            let l = (light.position - p).normalize_or_zero();
+            let ndl = n.dot(l);
+            let mut i = ndl.max(0.0);
+            if ndl > 0.0 {
+                let ndh = n.dot((l + v).normalize_or_zero());
+                if ndh > spec_cut {
+                    i += light.specular * ndh.powf(light.shininess);
+                }
+            }
+            let (kr, dwkr) = match view {
+                Some(vc) => {
+                    let k = idx.map(|i| vc.kr[i as usize]);
+                    let dk = idx.map(|i| vc.dwkr[i as usize]);
+                    (
+                        sign * (k[0] * b0 + k[1] * b1 + k[2] * b2),
+                        sign * (dk[0] * b0 + dk[1] * b1 + dk[2] * b2),
+                    )
+                }
+                None => (0.0, 0.0),
+            };
+            *frag = Fragment {
+                shade: i.min(1.0),
+                depth: depth.max(0.0),
+                kr,
+                dwkr,
+                ndotv: n.dot(v),
+            };
+        }
+    });
+    out
+}
