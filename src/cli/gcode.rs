@@ -11,8 +11,11 @@ use stencil::export;
 use stencil::machine::gcode::interpret;
 use stencil::plan::estimate::format_duration;
 use stencil::plan::svg::cut_geometry_from_svg;
-use stencil::plan::{self, Anchor, CutSettings, GcodeSummary, PlanConfig};
+use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 use stencil::profile::machine::{self as machine_profile, Machine};
+use stencil::profile::Material;
+use stencil::report::Report;
+use stencil::vector::kerf::offset_cuts;
 
 fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
@@ -149,25 +152,58 @@ pub struct GcodeArgs {
     pub machine: MachineArgs,
 }
 
-/// The material name a `stencil make` run recorded in its report.json, if any.
+/// The material a `stencil make` run recorded in its report.json, if any: its source file when
+/// that still exists (a user's own .toml), else its name.
 fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
     let p = dir.join("report.json");
     if !p.is_file() {
         return Ok(None);
     }
     let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", p.display()))?;
-    Ok(match v.get("material") {
-        Some(serde_json::Value::String(s)) => Some(s.clone()),
-        Some(m) => m.get("name").and_then(|n| n.as_str()).map(str::to_string),
-        None => None,
+    let r: Report = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a stencil report", p.display()))?;
+    Ok(match (r.material_source, r.material) {
+        (Some(src), _) if Path::new(&src).is_file() => Some(src),
+        (_, name) => name,
     })
 }
 
-/// Cut settings of a material profile. Wired to `profile::material` at integration.
-pub fn material_settings(name: &str, _machine: &Machine) -> anyhow::Result<CutSettings> {
-    bail!("material '{name}': material profiles are not available in this build; give --power and --speed")
+impl CutArgs {
+    fn any(&self) -> bool {
+        self.power.is_some()
+            || self.speed.is_some()
+            || self.passes.is_some()
+            || self.blade_offset.is_some()
+    }
+}
+
+/// The G-code part of `make`: `Some` with `--emit gcode`; machine or cut options without it are a
+/// mistake worth saying (the user expects a G-code file).
+pub fn make_gcode_config(
+    m: &MachineArgs,
+    cut: &CutArgs,
+    material: &Material,
+    emit: bool,
+) -> anyhow::Result<Option<GcodeConfig>> {
+    if !emit {
+        if m.machine.is_some() || m.origin.is_some() || m.cut_outline || cut.any() {
+            bail!(
+                "machine and cut options only apply to G-code: add gcode to --emit \
+                 (e.g. --emit png,svg,gcode)"
+            );
+        }
+        return Ok(None);
+    }
+    let machine = m.machine()?;
+    let base = if cut.power.is_some() && cut.speed.is_some() && cut.passes.is_some() {
+        None
+    } else {
+        Some(plan::settings_for(material, &machine)?)
+    };
+    Ok(Some(GcodeConfig {
+        plan: m.plan_config(cut.settings(base)?),
+        machine,
+    }))
 }
 
 pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
@@ -188,18 +224,25 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     })?;
     let geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
     let machine = a.machine.machine()?;
-    let material = match (&a.material, &dir) {
+    let mut geom = geom;
+    let material_arg = match (&a.material, &dir) {
         (Some(m), _) => Some(m.clone()),
         (None, Some(d)) => material_in_report(d)?,
         (None, None) => None,
     };
+    let material = match &material_arg {
+        Some(m) => Some(Material::find(m)?.0),
+        None => None,
+    };
+    let flags_cover_all = a.cut.power.is_some() && a.cut.speed.is_some() && a.cut.passes.is_some();
     let base = match &material {
-        // Flags alone are enough: do not fail on a material we cannot read if they cover it.
-        Some(m) if !(a.cut.power.is_some() && a.cut.speed.is_some() && a.cut.passes.is_some()) => {
-            Some(material_settings(m, &machine)?)
-        }
+        Some(m) if !flags_cover_all => Some(plan::settings_for(m, &machine)?),
         _ => None,
     };
+    // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
+    if let Some(m) = &material {
+        geom.cuts = offset_cuts(&geom.design_cuts, m.kerf_mm);
+    }
     let settings = a.cut.settings(base)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {
         Some(d) => d.join("stencil.gcode"),
@@ -207,7 +250,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     });
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {
-        notes.push(format!("material {m}"));
+        notes.push(format!("material {}", m.name));
     }
     let cfg = a.machine.plan_config(settings);
     let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
