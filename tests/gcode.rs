@@ -647,3 +647,165 @@ s_max = 1000
     let (ok, _, err) = stencil(&["estimate", "bad.gcode"], dir.path());
     assert!(!ok && err.contains("line 2"), "{err}");
 }
+
+// ---- the samples, through the whole pipeline ----------------------------------------------------
+
+fn samples_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
+}
+
+/// Run `make` in memory on a sample at 150 mm wide with G-code for `machine`.
+fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil::pipeline::Made {
+    use stencil::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+    let physical = PhysicalConfig {
+        size: Size::WidthMm(150.0),
+        // The samples are about the G-code here, not about the material check.
+        allow_thin: true,
+        ..Default::default()
+    };
+    let settings = stencil::plan::settings_for(&physical.material, machine).unwrap();
+    let mut plan = PlanConfig::new(settings);
+    plan.cut_outline = cut_outline;
+    let cfg = MakeConfig {
+        input: samples_dir().join(format!("{name}.png")),
+        physical,
+        gcode: Some(stencil::plan::GcodeConfig {
+            machine: machine.clone(),
+            plan,
+        }),
+        ..Default::default()
+    };
+    pipeline::run(&cfg).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
+    let m = machine::load(None).unwrap();
+    for name in ["rings", "letters", "blobs"] {
+        let made = make_sample(name, &m, true);
+        let text = made.gcode.as_deref().expect("G-code asked for");
+        let r = check_program(text, &m);
+        let g = &made.geometry;
+        let o = g.outline;
+        let perim: f64 =
+            g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (o.width() + o.height());
+        assert!(
+            (r.cut_mm - perim).abs() / perim < 0.01,
+            "{name}: cut {} vs perimeter {perim}",
+            r.cut_mm
+        );
+        let s = made.report.gcode.as_ref().expect("summary in the report");
+        assert!(
+            s.path.travel_mm < s.path.naive_travel_mm,
+            "{name}: optimised {} vs input order {}",
+            s.path.travel_mm,
+            s.path.naive_travel_mm
+        );
+        assert!(
+            s.estimate.total_s > perim / (1500.0 / 60.0),
+            "{name}: slower than feed"
+        );
+    }
+}
+
+#[test]
+fn make_emit_gcode_and_gcode_from_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample = samples_dir().join("rings.png");
+    let out = dir.path().join("rings");
+    let (ok, stdout, err) = stencil(
+        &[
+            "make",
+            sample.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--width-mm",
+            "150",
+            "--material",
+            "cardstock",
+            "--emit",
+            "svg,gcode",
+            "--machine",
+            "diode-400",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("stencil.gcode") && stdout.contains("about"),
+        "{stdout}"
+    );
+    let m = machine::load(None).unwrap();
+    let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+    let r = check_program(&text, &m);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let g = &report["gcode"];
+    assert_eq!(g["machine"], "diode-400");
+    assert!((g["cut_mm"].as_f64().unwrap() - r.cut_mm).abs() < 0.01 * r.cut_mm);
+    assert!(g["estimate"]["total_s"].as_f64().unwrap() > 0.0);
+    assert!(report["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|f| f == "stencil.gcode"));
+    // cardstock: 20 % of $30=1000, 1500 mm/min.
+    assert!(text.contains(" S200 F1500"), "material settings used");
+
+    // The same folder again through `stencil gcode`, on another machine: material from the report.
+    let (ok, _, err) = stencil(
+        &[
+            "gcode",
+            out.to_str().unwrap(),
+            "-o",
+            "again.gcode",
+            "--machine",
+            "co2-600x400",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    let again = std::fs::read_to_string(dir.path().join("again.gcode")).unwrap();
+    assert!(again.contains("material cardstock") && again.contains(" S200 F1500"));
+    let m2 = machine::load(Some("co2-600x400")).unwrap();
+    let r2 = check_program(&again, &m2);
+    // Read back from the SVG with the kerf applied again: the same cut length within 1 %.
+    assert!(
+        (r2.cut_mm - r.cut_mm).abs() / r.cut_mm < 0.01,
+        "{} vs {}",
+        r2.cut_mm,
+        r.cut_mm
+    );
+
+    // A laser material on a knife: refused, nothing written.
+    let (ok, _, err) = stencil(
+        &[
+            "gcode",
+            out.to_str().unwrap(),
+            "-o",
+            "k.gcode",
+            "--machine",
+            "drag-knife",
+        ],
+        dir.path(),
+    );
+    assert!(
+        !ok && err.contains("laser") && err.contains("knife"),
+        "{err}"
+    );
+    assert!(!dir.path().join("k.gcode").exists());
+
+    // Machine options without --emit gcode are a mistake, said plainly.
+    let (ok, _, err) = stencil(
+        &[
+            "make",
+            sample.to_str().unwrap(),
+            "-o",
+            "x",
+            "--machine",
+            "diode-400",
+        ],
+        dir.path(),
+    );
+    assert!(!ok && err.contains("--emit"), "{err}");
+}

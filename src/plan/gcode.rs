@@ -240,8 +240,9 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
         Tool::Laser { .. } => w.line("M5 S0"),
         _ => w.line("M5"),
     }
+    // The return move, written even if the head is already there (the file always ends with it).
     let home = job.home;
-    w.go(0, home, "");
+    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
     w.out
 }
 
