@@ -311,24 +311,25 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
         return Err(PlanError::Empty);
     }
 
-    // Bounds: the sheet and every cut point must lie on the bed.
+    // Bounds: the sheet and everywhere the head goes must lie on the bed. A drag knife's axis runs
+    // up to the blade offset outside the cut lines.
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
+    };
     let mut min = [f64::INFINITY; 2];
     let mut max = [f64::NEG_INFINITY; 2];
-    for p in frame
-        .iter()
-        .chain(loops.iter().flat_map(|l| l.points.iter()))
-    {
+    let mut grow = |p: &[f64; 2], r: f64| {
         for a in 0..2 {
-            min[a] = min[a].min(p[a]);
-            max[a] = max[a].max(p[a]);
+            min[a] = min[a].min(p[a] - r);
+            max[a] = max[a].max(p[a] + r);
         }
-    }
-    // A drag knife's axis runs up to the blade offset outside the cut lines.
-    if let Tool::Knife { .. } = machine.tool {
-        let r = cfg.settings.blade_offset_mm;
-        min = [min[0] - r, min[1] - r];
-        max = [max[0] + r, max[1] + r];
-    }
+    };
+    frame.iter().for_each(|p| grow(p, 0.0));
+    loops
+        .iter()
+        .flat_map(|l| l.points.iter())
+        .for_each(|p| grow(p, reach));
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;
     if min[0] < -eps || min[1] < -eps || max[0] > bw + eps || max[1] > bh + eps {
