@@ -140,14 +140,18 @@ impl PhysicalConfig {
         }
     }
 
-    /// The topological filter's options with the material's smallest feature: the opening and
-    /// closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
+    /// The topological filter's options with the material's smallest feature: unless the user set
+    /// the radius explicitly, the opening and closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
     /// and holes the material cannot hold are removed before bridging instead of failing the
     /// check later (an opening by radius r keeps features at least 2r + 1 pixels wide).
     pub fn filter_for(&self, user: &FilterConfig, scale: Scale) -> FilterConfig {
         let f = scale.to_px(Mm(self.material.min_feature_mm)).0 + self.allowance_px(scale);
         FilterConfig {
-            radius: user.radius.max((f / 2.0).ceil() as u32),
+            radius: if user.auto_radius {
+                user.radius.max((f / 2.0).ceil() as u32)
+            } else {
+                user.radius
+            },
             ..*user
         }
     }
@@ -247,7 +251,10 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         gray: raw.gray,
     };
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    bridged.bits = timer.time("tidy", || {
+        bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius)
+    });
     let after = timer.time("verify", || islands::label(&bridged.bits));
     if after.island_count() > 0 {
         let node = &after.nodes[1];

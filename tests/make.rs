@@ -83,8 +83,15 @@ fn nested_rings_five_deep() {
         r < 60.0 && ((60.0 - r) / 5.0) as i64 % 2 == 0
     });
     let out = dir.path().join("out");
-    let r = make_ok(&input, &out, &[]);
+    // At 50 dpi the 5 px bands are 2.5 mm: sound in the default cardstock.
+    let r = make_ok(&input, &out, &["--dpi", "50"]);
     assert_eq!(r["islands"], 6, "five rings and the centre disc: {r}");
+    assert_eq!(
+        r["check"]["violations"].as_array().unwrap().len(),
+        0,
+        "{}",
+        r["check"]
+    );
     // Every island needs at least one bridge; the tree has one edge per island.
     assert!(r["bridges"].as_array().unwrap().len() >= 6);
 }
@@ -103,11 +110,21 @@ fn checkerboard_corners_are_bridged() {
         (i + j) % 2 == 1
     });
     let out = dir.path().join("out");
-    // No filter: closing would itself fill the corner contacts.
+    // No filter: closing would itself fill the corner contacts. The cut squares still meet at
+    // zero-width corners, which the width check rightly reports: --allow-thin writes it anyway,
+    // since this test is about connectivity.
     let r = make_ok(
         &input,
         &out,
-        &["--filter-radius", "0", "--min-speck-px", "0"],
+        &[
+            "--filter-radius",
+            "0",
+            "--min-speck-px",
+            "0",
+            "--allow-thin",
+            "--dpi",
+            "50",
+        ],
     );
     // Paper squares on the board's edge touch the margin; the inner 6x6 hold 18 paper squares.
     assert_eq!(r["islands"], 18, "{r}");
@@ -124,10 +141,26 @@ fn one_pixel_cut_ring_is_bridged() {
         on_x || on_y
     });
     let out = dir.path().join("out");
+    // A 1 px cut is thinner than any material allows: the check reports it, --allow-thin keeps it.
     let r = make_ok(
         &input,
         &out,
-        &["--filter-radius", "0", "--min-speck-px", "0"],
+        &[
+            "--filter-radius",
+            "0",
+            "--min-speck-px",
+            "0",
+            "--allow-thin",
+        ],
+    );
+    assert!(
+        r["check"]["violations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|v| v["kind"] == "thin_hole"),
+        "{}",
+        r["check"]
     );
     assert_eq!(r["islands"], 1);
     let b = &r["bridges"][0];
@@ -302,13 +335,34 @@ fn tone_command_writes_the_same_two_tone_as_make() {
     let dir = tmp();
     let input = samples().join("letters.png");
     let png = dir.path().join("t.png");
-    let o = stencil(&["tone", s(&input), "-o", s(&png), "--threshold", "otsu"]);
+    // `tone` knows no material, so pin the filter radius that `make` would otherwise derive.
+    let o = stencil(&[
+        "tone",
+        s(&input),
+        "-o",
+        s(&png),
+        "--threshold",
+        "otsu",
+        "--filter-radius",
+        "2",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = dir.path().join("make");
-    let o = stencil(&["make", s(&input), "-o", s(&out), "--threshold", "otsu"]);
-    if o.status.success() {
-        assert_eq!(read_bits(&png), read_bits(&out.join("twotone.png")));
-    }
+    let o = stencil(&[
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--threshold",
+        "otsu",
+        "--filter-radius",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        differing(&read_bits(&png), &read_bits(&out.join("twotone.png"))),
+        0
+    );
     let bits = read_bits(&png);
     assert_eq!((bits.width, bits.height), (480, 160));
     // The letters' counters are islands in the two-tone: O, A, two in B, two in 8.

@@ -22,6 +22,7 @@ pub mod candidates;
 pub mod cost;
 pub mod grow;
 pub mod strips;
+pub mod tidy;
 pub mod tree;
 
 use std::collections::{HashMap, HashSet};

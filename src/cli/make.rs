@@ -79,9 +79,10 @@ pub struct ImageArgs {
 #[command(next_help_heading = "Topological filter")]
 pub struct FilterArgs {
     /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this.
-    #[arg(long, default_value_t = 1)]
-    pub filter_radius: u32,
+    /// cut features thinner than about twice this. Default: 1, raised to what the material's
+    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    #[arg(long)]
+    pub filter_radius: Option<u32>,
     /// Material or cut pieces smaller than this many pixels flip to the other tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
@@ -195,8 +196,9 @@ impl ImageArgs {
 impl FilterArgs {
     fn to_config(&self) -> FilterConfig {
         FilterConfig {
-            radius: self.filter_radius,
+            radius: self.filter_radius.unwrap_or(FilterConfig::default().radius),
             min_speck_px: self.min_speck_px,
+            auto_radius: self.filter_radius.is_none(),
         }
     }
 }

@@ -17,6 +17,9 @@ pub struct FilterConfig {
     pub radius: u32,
     /// Connected pieces (material or cut) smaller than this many pixels flip to the other tone.
     pub min_speck_px: usize,
+    /// Whether the pipeline may raise `radius` to what the material's smallest feature needs.
+    /// False when the user set the radius explicitly: their value is used as given.
+    pub auto_radius: bool,
 }
 
 impl Default for FilterConfig {
@@ -24,6 +27,7 @@ impl Default for FilterConfig {
         FilterConfig {
             radius: 1,
             min_speck_px: 8,
+            auto_radius: true,
         }
     }
 }
@@ -201,6 +205,7 @@ mod tests {
             &FilterConfig {
                 radius: 0,
                 min_speck_px: 4,
+                auto_radius: false,
             },
         );
         assert_eq!(s.material_specks, 1);

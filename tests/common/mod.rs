@@ -103,3 +103,9 @@ pub fn s(p: &Path) -> &str {
 pub fn samples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
 }
+
+/// Pixels that differ between two grids of the same size (a count, so failures stay readable).
+pub fn differing(a: &BitGrid, b: &BitGrid) -> usize {
+    assert_eq!((a.width, a.height), (b.width, b.height), "sizes differ");
+    a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
+}
