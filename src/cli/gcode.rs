@@ -12,7 +12,7 @@ use stencil::machine::gcode::interpret;
 use stencil::plan::estimate::format_duration;
 use stencil::plan::svg::cut_geometry_from_svg;
 use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
-use stencil::profile::machine::{self as machine_profile, Machine};
+use stencil::profile::machine::{self as machine_profile, Machine, Tool};
 use stencil::profile::Material;
 use stencil::report::Report;
 use stencil::vector::kerf::offset_cuts;
@@ -83,8 +83,20 @@ pub struct CutArgs {
 }
 
 impl CutArgs {
-    /// Apply the overrides to `base` (from the material), or build settings from the flags alone.
-    pub fn settings(&self, base: Option<CutSettings>) -> anyhow::Result<CutSettings> {
+    /// Whether the flags alone give every setting the tool uses (then no material is needed).
+    pub fn covers_all(&self, machine: &Machine) -> bool {
+        let laser = matches!(machine.tool, Tool::Laser { .. });
+        self.speed.is_some() && self.passes.is_some() && (!laser || self.power.is_some())
+    }
+
+    /// Apply the overrides to `base` (from the material), or build settings from the flags alone
+    /// (power only matters to a laser).
+    pub fn settings(
+        &self,
+        base: Option<CutSettings>,
+        machine: &Machine,
+    ) -> anyhow::Result<CutSettings> {
+        let laser = matches!(machine.tool, Tool::Laser { .. });
         let s = match base {
             Some(b) => CutSettings {
                 power_pct: self.power.unwrap_or(b.power_pct),
@@ -93,10 +105,15 @@ impl CutArgs {
                 blade_offset_mm: self.blade_offset.unwrap_or(b.blade_offset_mm),
             },
             None => {
-                let (Some(power), Some(speed)) = (self.power, self.speed) else {
+                let (power, Some(speed)) = (self.power.or((!laser).then_some(100.0)), self.speed)
+                else {
                     bail!(
-                        "no cut settings: name a material (--material) or give --power PCT and --speed MM_MIN"
+                        "no cut settings: name a material (--material) or give --speed MM_MIN{}",
+                        if laser { " and --power PCT" } else { "" }
                     );
+                };
+                let Some(power) = power else {
+                    bail!("no laser power: name a material (--material) or give --power PCT");
                 };
                 CutSettings {
                     power_pct: power,
@@ -195,13 +212,13 @@ pub fn make_gcode_config(
         return Ok(None);
     }
     let machine = m.machine()?;
-    let base = if cut.power.is_some() && cut.speed.is_some() && cut.passes.is_some() {
+    let base = if cut.covers_all(&machine) {
         None
     } else {
         Some(plan::settings_for(material, &machine)?)
     };
     Ok(Some(GcodeConfig {
-        plan: m.plan_config(cut.settings(base)?),
+        plan: m.plan_config(cut.settings(base, &machine)?),
         machine,
     }))
 }
@@ -234,16 +251,15 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         Some(m) => Some(Material::find(m)?.0),
         None => None,
     };
-    let flags_cover_all = a.cut.power.is_some() && a.cut.speed.is_some() && a.cut.passes.is_some();
     let base = match &material {
-        Some(m) if !flags_cover_all => Some(plan::settings_for(m, &machine)?),
+        Some(m) if !a.cut.covers_all(&machine) => Some(plan::settings_for(m, &machine)?),
         _ => None,
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
         geom.cuts = offset_cuts(&geom.design_cuts, m.kerf_mm);
     }
-    let settings = a.cut.settings(base)?;
+    let settings = a.cut.settings(base, &machine)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {
         Some(d) => d.join("stencil.gcode"),
         None => svg_path.with_extension("gcode"),
