@@ -39,8 +39,6 @@ pub enum Error {
     #[error(transparent)]
     Plan(#[from] plan::PlanError),
     #[error(transparent)]
-    Machine(#[from] profile::machine::MachineError),
-    #[error(transparent)]
     Profile(#[from] profile::ProfileError),
     #[error(transparent)]
     Vector(#[from] vector::VectorError),

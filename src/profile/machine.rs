@@ -6,40 +6,41 @@
 //! time estimate. The shipped profiles are compiled into the binary, so `--machine diode-400` works
 //! from any folder; a path to a `.toml` file loads a user's own.
 //!
-//! NOTE: the TOML reading here is private to this module (`parse_toml`); the material profiles have
-//! their own. The lead may unify them into one helper in `profile/mod.rs`.
+//! Reading and name lookup go through the shared loader in `profile/mod.rs` (the same as
+//! materials): a path, `./profiles/machines/<name>.toml`, the checkout's copy, the embedded copy.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
+
+use super::{parse_toml, resolve, ProfileError, Shipped};
 
 use crate::plan::estimate::MotionLimits;
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
 pub const DEFAULT_MACHINE: &str = "diode-400";
 
-/// The shipped profiles, by name (file stem), compiled in.
-const BUILTIN: &[(&str, &str)] = &[
-    (
-        "diode-400",
-        include_str!("../../profiles/machines/diode-400.toml"),
-    ),
-    (
-        "co2-600x400",
-        include_str!("../../profiles/machines/co2-600x400.toml"),
-    ),
-    (
-        "pen-a3",
-        include_str!("../../profiles/machines/pen-a3.toml"),
-    ),
-    (
-        "pen-servo",
-        include_str!("../../profiles/machines/pen-servo.toml"),
-    ),
-    (
-        "drag-knife",
-        include_str!("../../profiles/machines/drag-knife.toml"),
-    ),
+macro_rules! shipped {
+    ($name:literal) => {
+        Shipped {
+            name: $name,
+            text: include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/profiles/machines/",
+                $name,
+                ".toml"
+            )),
+        }
+    };
+}
+
+/// The shipped profiles, embedded so an installed binary has them.
+pub const SHIPPED: &[Shipped] = &[
+    shipped!("diode-400"),
+    shipped!("co2-600x400"),
+    shipped!("pen-a3"),
+    shipped!("pen-servo"),
+    shipped!("drag-knife"),
 ];
 
 /// A corner of the bed, as seen from above with the rear (far side, +Y on most machines) at the top.
@@ -171,28 +172,6 @@ impl Machine {
     }
 }
 
-/// A profile that cannot be used, naming the file (or built-in name) and the field.
-#[derive(Debug, thiserror::Error)]
-pub enum MachineError {
-    #[error("{path}: cannot read the machine profile: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{source_name}: {msg}")]
-    Parse { source_name: String, msg: String },
-    #[error("{source_name}: `{field}` {msg}")]
-    Invalid {
-        source_name: String,
-        field: &'static str,
-        msg: String,
-    },
-    #[error(
-        "no machine profile named '{name}'; built-in: {known}; or give a path to a .toml file"
-    )]
-    Unknown { name: String, known: String },
-}
-
 // ---- raw TOML shape -------------------------------------------------------------------------
 
 #[derive(Deserialize)]
@@ -239,45 +218,27 @@ struct RawTool {
     overcut_mm: Option<f64>,
 }
 
-/// Parse TOML into `T`, with the error naming the source (file or built-in name).
-fn parse_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    source_name: &str,
-) -> Result<T, MachineError> {
-    toml::from_str(text).map_err(|e| MachineError::Parse {
-        source_name: source_name.to_string(),
-        // toml's message spans several lines (with a caret excerpt); keep it to one.
-        msg: e
-            .to_string()
-            .lines()
-            .filter(|l| !l.trim().is_empty())
-            .map(str::trim)
-            .collect::<Vec<_>>()
-            .join(" "),
-    })
+/// Parse and validate a profile's text. `origin` (the file) is used in errors.
+pub fn parse(text: &str, origin: &Path) -> Result<Machine, ProfileError> {
+    validate(parse_toml(text, origin)?, origin)
 }
 
-/// Parse and validate a profile's text. `source_name` is used in errors.
-pub fn parse(text: &str, source_name: &str) -> Result<Machine, MachineError> {
-    let raw: RawMachine = parse_toml(text, source_name)?;
-    validate(raw, source_name)
-}
-
-fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
-    let bad = |field: &'static str, msg: String| MachineError::Invalid {
-        source_name: src.to_string(),
-        field,
-        msg,
+fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
+    let bad = |field: &str, value: String, why: String| ProfileError::Invalid {
+        path: origin.to_path_buf(),
+        field: field.to_string(),
+        value,
+        why,
     };
     let positive = |field: &'static str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            Err(bad(field, format!("must be a number > 0, got {v}")))
+            Err(bad(field, v.to_string(), "must be a number > 0".into()))
         }
     };
     if raw.name.trim().is_empty() {
-        return Err(bad("name", "must not be empty".into()));
+        return Err(bad("name", "\"\"".into(), "must not be empty".into()));
     }
     positive("bed.width_mm", raw.bed.width_mm)?;
     positive("bed.height_mm", raw.bed.height_mm)?;
@@ -321,14 +282,21 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
         if *present && !kinds.contains(&kind) {
             return Err(bad(
                 field,
+                "set".into(),
                 format!("does not apply to a {} tool; remove it", kind_name(kind)),
             ));
         }
     }
     let need = |field: &'static str, v: Option<f64>| {
-        v.ok_or_else(|| bad(field, format!("is required for a {} tool", kind_name(kind))))
+        v.ok_or_else(|| {
+            bad(
+                field,
+                "missing".into(),
+                format!("is required for a {} tool", kind_name(kind)),
+            )
+        })
     };
-    let z_lift = || -> Result<ZLift, MachineError> {
+    let z_lift = || -> Result<ZLift, ProfileError> {
         let up = need("tool.z_up_mm", t.z_up_mm)?;
         let down = need("tool.z_down_mm", t.z_down_mm)?;
         let plunge = positive(
@@ -338,7 +306,8 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
         if !(up.is_finite() && down.is_finite()) || up <= down {
             return Err(bad(
                 "tool.z_up_mm",
-                format!("({up}) must be above tool.z_down_mm ({down})"),
+                up.to_string(),
+                format!("must be above tool.z_down_mm ({down})"),
             ));
         }
         Ok(ZLift {
@@ -354,7 +323,8 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
             if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
                 return Err(bad(
                     "tool.s_min",
-                    format!("must be >= 0 and below tool.s_max ({s_max}), got {s_min}"),
+                    s_min.to_string(),
+                    format!("must be >= 0 and below tool.s_max ({s_max})"),
                 ));
             }
             Tool::Laser { s_max, s_min }
@@ -367,7 +337,11 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
                     ("tool.plunge_mm_min", t.plunge_mm_min),
                 ] {
                     if v.is_some() {
-                        return Err(bad(f, "does not apply with lift = \"spindle\"".into()));
+                        return Err(bad(
+                            f,
+                            "set".into(),
+                            "does not apply with lift = \"spindle\"".into(),
+                        ));
                     }
                 }
                 Tool::Pen(PenLift::Spindle {
@@ -378,6 +352,7 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
                 if t.pen_down_s.is_some() {
                     return Err(bad(
                         "tool.pen_down_s",
+                        "set".into(),
                         "does not apply with lift = \"z\"".into(),
                     ));
                 }
@@ -386,6 +361,7 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
             None => {
                 return Err(bad(
                     "tool.lift",
+                    "missing".into(),
                     "is required for a pen: \"spindle\" (M3/M5) or \"z\"".into(),
                 ))
             }
@@ -395,7 +371,8 @@ fn validate(raw: RawMachine, src: &str) -> Result<Machine, MachineError> {
             if !(overcut.is_finite() && overcut >= 0.0) {
                 return Err(bad(
                     "tool.overcut_mm",
-                    format!("must be >= 0, got {overcut}"),
+                    overcut.to_string(),
+                    "must be >= 0".into(),
                 ));
             }
             Tool::Knife {
@@ -421,45 +398,22 @@ fn kind_name(k: ToolKind) -> &'static str {
     }
 }
 
-/// Names of the built-in profiles.
+/// Names of the shipped profiles.
 pub fn builtin_names() -> Vec<&'static str> {
-    BUILTIN.iter().map(|(n, _)| *n).collect()
+    SHIPPED.iter().map(|s| s.name).collect()
 }
 
 /// Load a profile file.
-pub fn load_file(path: &Path) -> Result<Machine, MachineError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MachineError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse(&text, &path.display().to_string())
+pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
+    validate(super::load_toml(path)?, path)
 }
 
-/// Resolve `--machine`, first hit wins (the same order as material profiles):
-/// 1. a path to a `.toml` file (anything with a path separator or ending in `.toml`);
-/// 2. `./profiles/machines/<name>.toml` (a user's edited copy);
-/// 3. the profile compiled into the binary.
-///
-/// `None` gives [`DEFAULT_MACHINE`].
-pub fn load(name_or_path: Option<&str>) -> Result<Machine, MachineError> {
-    let name = name_or_path.unwrap_or(DEFAULT_MACHINE);
-    let looks_like_path = name.ends_with(".toml") || name.contains('/') || name.contains('\\');
-    if looks_like_path {
-        return load_file(Path::new(name));
-    }
-    let local = Path::new("profiles")
-        .join("machines")
-        .join(format!("{name}.toml"));
-    if local.is_file() {
-        return load_file(&local);
-    }
-    match BUILTIN.iter().find(|(n, _)| *n == name) {
-        Some((n, text)) => parse(text, &format!("built-in machine '{n}'")),
-        None => Err(MachineError::Unknown {
-            name: name.to_string(),
-            known: builtin_names().join(", "),
-        }),
-    }
+/// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
+/// `profile::resolve`). `None` gives [`DEFAULT_MACHINE`].
+pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
+    let (raw, origin): (RawMachine, _) =
+        resolve(name_or_path.unwrap_or(DEFAULT_MACHINE), "machines", SHIPPED)?;
+    validate(raw, &origin)
 }
 
 #[cfg(test)]
@@ -494,7 +448,7 @@ s_max = 255
 
     #[test]
     fn good_profile_fields() {
-        let m = parse(GOOD, "t.toml").unwrap();
+        let m = parse(GOOD, Path::new("t.toml")).unwrap();
         assert_eq!(m.bed.origin, Corner::TopLeft);
         assert_eq!(m.motion.junction_deviation_mm, 0.01);
         assert_eq!(
@@ -507,7 +461,7 @@ s_max = 255
     }
 
     fn err(text: &str) -> String {
-        parse(text, "my.toml").unwrap_err().to_string()
+        parse(text, Path::new("my.toml")).unwrap_err().to_string()
     }
 
     #[test]
