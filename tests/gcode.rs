@@ -811,3 +811,74 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
     );
     assert!(!ok && err.contains("--emit"), "{err}");
 }
+
+// ---- any input, any shipped machine -------------------------------------------------------------
+
+mod prop {
+    use super::*;
+    use proptest::prelude::*;
+    use stencil::plan::{Anchor, PlanError};
+    use stencil::profile::machine::Corner;
+
+    fn anchor() -> impl Strategy<Value = Option<Anchor>> {
+        prop_oneof![
+            Just(None),
+            Just(Some(Anchor::Center)),
+            Just(Some(Anchor::Corner(Corner::TopRight))),
+            Just(Some(Anchor::Corner(Corner::BottomLeft))),
+            Just(Some(Anchor::Corner(Corner::TopLeft))),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+        /// Either the program is valid and cuts every loop `passes` times, or the job is refused
+        /// because it really leaves the bed.
+        #[test]
+        fn valid_program_or_a_true_refusal(
+            seed in 0u64..1000,
+            cols in 1usize..6,
+            rows in 1usize..5,
+            machine_idx in 0usize..5,
+            passes in 1u32..4,
+            outline in any::<bool>(),
+            anchor in anchor(),
+            fx in -0.05f64..0.8,
+            fy in -0.05f64..0.8,
+        ) {
+            let m = machine::load(Some(machine::builtin_names()[machine_idx])).unwrap();
+            let g = scattered(seed, cols, rows);
+            let mut s = settings();
+            s.passes = passes;
+            // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
+            let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
+            let cfg = PlanConfig { anchor, offset, cut_outline: outline, settings: s };
+            match gcode_for(&g, &m, &cfg, &[]) {
+                Ok((text, _)) => {
+                    let r = check_program(&text, &m);
+                    let mut perim: f64 = g.cuts.0.iter().map(perimeter).sum();
+                    let mut loops = g.cuts.0.len();
+                    if outline {
+                        perim += 2.0 * (g.width_mm + g.height_mm);
+                        loops += 1;
+                    }
+                    let overcut = match m.tool {
+                        Tool::Knife { overcut_mm, .. } => overcut_mm * loops as f64,
+                        _ => 0.0,
+                    };
+                    let want = passes as f64 * perim + overcut;
+                    prop_assert!((r.cut_mm - want).abs() / want < 0.01, "cut {} vs {want}", r.cut_mm);
+                }
+                Err(PlanError::DoesNotFit { x0, x1, y0, y1, .. }) => {
+                    // The sheet at that placement really sticks out of the bed.
+                    let (bw, bh) = (m.bed.width_mm, m.bed.height_mm);
+                    prop_assert!(x0 < 0.0 || y0 < 0.0 || x1 > bw || y1 > bh);
+                    prop_assert!((x1 - x0 - g.width_mm).abs() < 1e-6);
+                    prop_assert!((y1 - y0 - g.height_mm).abs() < 1e-6);
+                }
+                Err(e) => prop_assert!(false, "unexpected error: {e}"),
+            }
+        }
+    }
+}
