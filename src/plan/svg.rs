@@ -3,7 +3,9 @@
 //! Reads our own `stencil.svg` (paths of `M`/`L`/`H`/`V`/`Z`, width and height in mm with a viewBox
 //! in mm) and the same subset from other tools. If any element's `id` or `class` mentions "cut",
 //! only paths inside such elements are cut (so preview layers such as bridges or material are
-//! skipped); otherwise every path is. Curves, arcs and transforms are refused with a message
+//! skipped); otherwise every path is. `transform` attributes (matrix, translate, scale, rotate,
+//! skewX, skewY, as Inkscape writes on layers) are applied; paths inside `<defs>`, clip paths,
+//! masks, markers, patterns and symbols are not cut. Curves and arcs are refused with a message
 //! naming them, rather than cut wrongly.
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
@@ -38,6 +40,97 @@ fn length_mm(v: &str) -> Option<f64> {
     };
     Some(n * f)
 }
+
+/// A 2-D affine map `[a, b, c, d, e, f]`: x' = a·x + c·y + e, y' = b·x + d·y + f (SVG's matrix).
+type Affine = [f64; 6];
+const IDENTITY: Affine = [1.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+
+/// `m ∘ n`: apply `n` first, then `m`.
+fn compose(m: &Affine, n: &Affine) -> Affine {
+    [
+        m[0] * n[0] + m[2] * n[1],
+        m[1] * n[0] + m[3] * n[1],
+        m[0] * n[2] + m[2] * n[3],
+        m[1] * n[2] + m[3] * n[3],
+        m[0] * n[4] + m[2] * n[5] + m[4],
+        m[1] * n[4] + m[3] * n[5] + m[5],
+    ]
+}
+
+fn apply(m: &Affine, p: [f64; 2]) -> [f64; 2] {
+    [
+        m[0] * p[0] + m[2] * p[1] + m[4],
+        m[1] * p[0] + m[3] * p[1] + m[5],
+    ]
+}
+
+/// Parse an SVG transform list, e.g. `translate(10,20) rotate(45 5 5)`.
+fn parse_transform(t: &str) -> Result<Affine, String> {
+    let mut m = IDENTITY;
+    let mut rest = t.trim();
+    while !rest.is_empty() {
+        let open = rest
+            .find('(')
+            .ok_or_else(|| format!("bad transform '{t}'"))?;
+        let close = rest[open..]
+            .find(')')
+            .map(|c| open + c)
+            .ok_or_else(|| format!("bad transform '{t}'"))?;
+        let name = rest[..open].trim().trim_start_matches(',').trim();
+        let args: Vec<f64> = rest[open + 1..close]
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("bad numbers in transform '{t}'"))?;
+        let n = args.len();
+        let f: Affine = match (name, n) {
+            ("matrix", 6) => [args[0], args[1], args[2], args[3], args[4], args[5]],
+            ("translate", 1 | 2) => [
+                1.0,
+                0.0,
+                0.0,
+                1.0,
+                args[0],
+                if n == 2 { args[1] } else { 0.0 },
+            ],
+            ("scale", 1 | 2) => [
+                args[0],
+                0.0,
+                0.0,
+                if n == 2 { args[1] } else { args[0] },
+                0.0,
+                0.0,
+            ],
+            ("rotate", 1 | 3) => {
+                let (s, c) = args[0].to_radians().sin_cos();
+                let r = [c, s, -s, c, 0.0, 0.0];
+                if n == 3 {
+                    let (cx, cy) = (args[1], args[2]);
+                    compose(
+                        &compose(&[1.0, 0.0, 0.0, 1.0, cx, cy], &r),
+                        &[1.0, 0.0, 0.0, 1.0, -cx, -cy],
+                    )
+                } else {
+                    r
+                }
+            }
+            ("skewX", 1) => [1.0, 0.0, args[0].to_radians().tan(), 1.0, 0.0, 0.0],
+            ("skewY", 1) => [1.0, args[0].to_radians().tan(), 0.0, 1.0, 0.0, 0.0],
+            _ => {
+                return Err(format!(
+                    "unsupported transform '{name}' with {n} numbers in '{t}'"
+                ))
+            }
+        };
+        m = compose(&m, &f);
+        rest = rest[close + 1..].trim_start();
+    }
+    Ok(m)
+}
+
+/// Elements whose paths are never drawn directly.
+const HIDDEN: &[&str] = &["defs", "clipPath", "mask", "marker", "pattern", "symbol"];
 
 fn mentions_cut(attrs: &svg::node::Attributes) -> bool {
     ["id", "class", "inkscape:label"].iter().any(|k| {
@@ -143,24 +236,24 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
     // user unit → mm, and the sheet (the viewBox, or the whole canvas) in user units.
     let mut scale = [25.4 / 96.0; 2];
     let mut view = [0.0, 0.0, 0.0, 0.0];
-    // Open elements: whether each is (inside) a "cut" element.
-    let mut stack: Vec<bool> = Vec::new();
+    // Open elements: whether each is (inside) a "cut" element, hidden, and its transform.
+    let mut stack: Vec<(bool, bool, Affine)> = Vec::new();
     let mut all: Vec<(bool, Vec<Vec<[f64; 2]>>)> = Vec::new();
     for ev in svg::read(text).map_err(|e| bad(e.to_string()))? {
         match ev {
             Event::Error(e) => return Err(bad(format!("not valid SVG: {e}"))),
             Event::Tag(name, ty, attrs) => {
-                let inside_cut = stack.last().copied().unwrap_or(false);
+                let (inside_cut, inside_hidden, parent) =
+                    stack.last().copied().unwrap_or((false, false, IDENTITY));
                 let here_cut = inside_cut || mentions_cut(&attrs);
-                if matches!(ty, Type::Start | Type::Empty) {
-                    if let Some(t) = attrs.get("transform") {
-                        return Err(bad(format!(
-                            "<{name}> has transform=\"{}\"; transforms are not supported: \
-                             apply them to the paths first",
-                            &**t
-                        )));
+                let hidden = inside_hidden || HIDDEN.contains(&name);
+                let here = match attrs.get("transform") {
+                    Some(t) if matches!(ty, Type::Start | Type::Empty) => {
+                        let own = parse_transform(t).map_err(|e| bad(format!("<{name}>: {e}")))?;
+                        compose(&parent, &own)
                     }
-                }
+                    _ => parent,
+                };
                 if name == "svg" && matches!(ty, Type::Start | Type::Empty) && size_mm.is_none() {
                     let w = attrs.get("width").and_then(|v| length_mm(v));
                     let h = attrs.get("height").and_then(|v| length_mm(v));
@@ -192,15 +285,19 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
                     }
                     size_mm = Some([w, h]);
                 }
-                if name == "path" && matches!(ty, Type::Start | Type::Empty) {
+                if name == "path" && !hidden && matches!(ty, Type::Start | Type::Empty) {
                     if let Some(d) = attrs.get("d") {
                         let data =
                             Data::parse(d).map_err(|e| bad(format!("bad path data: {e}")))?;
-                        all.push((here_cut, rings(&data, file)?));
+                        let mut rs = rings(&data, file)?;
+                        for r in &mut rs {
+                            r.iter_mut().for_each(|p| *p = apply(&here, *p));
+                        }
+                        all.push((here_cut, rs));
                     }
                 }
                 match ty {
-                    Type::Start => stack.push(here_cut),
+                    Type::Start => stack.push((here_cut, hidden, here)),
                     Type::End => {
                         stack.pop();
                     }
@@ -308,13 +405,37 @@ mod tests {
     }
 
     #[test]
-    fn curves_and_transforms_are_refused() {
+    fn transforms_apply_and_defs_are_skipped() {
+        let t = r#"<svg width="100mm" height="100mm" viewBox="0 0 100 100">
+<defs><path d="M0 0 L50 0 L50 50 Z"/></defs>
+<g transform="translate(10,20)"><g transform="scale(2) rotate(90)">
+<path d="M0 0 L5 0 L5 1 Z" transform="translate(1 0)"/></g></g></svg>"#;
+        let g = cut_geometry_from_svg(t, "t.svg").unwrap();
+        assert_eq!(g.cuts.0.len(), 1, "the path in <defs> is not cut");
+        // (0,0) → translate(1 0): (1,0) → rotate 90°: (0,1) → scale 2: (0,2) → translate: (10,22).
+        let pts: Vec<(f64, f64)> = g.cuts.0[0]
+            .exterior()
+            .0
+            .iter()
+            .map(|c| (c.x, c.y))
+            .collect();
+        let want = [(10.0, 22.0), (10.0, 32.0), (8.0, 32.0)];
+        for (p, w) in pts.iter().zip(want) {
+            assert!(
+                (p.0 - w.0).abs() < 1e-9 && (p.1 - w.1).abs() < 1e-9,
+                "{pts:?}"
+            );
+        }
+        let bad = r#"<svg width="10mm" height="10mm"><g transform="perspective(2)"><path d="M0 0 L1 0 L1 1 Z"/></g></svg>"#;
+        let e = cut_geometry_from_svg(bad, "b.svg").unwrap_err().to_string();
+        assert!(e.contains("perspective"), "{e}");
+    }
+
+    #[test]
+    fn curves_are_refused() {
         let c = r#"<svg width="10mm" height="10mm"><path d="M0 0 C1 1 2 2 3 3 Z"/></svg>"#;
         let e = cut_geometry_from_svg(c, "c.svg").unwrap_err().to_string();
         assert!(e.starts_with("c.svg:") && e.contains("cubic"), "{e}");
-        let t = r#"<svg width="10mm" height="10mm"><g transform="scale(2)"><path d="M0 0 L1 0 L1 1 Z"/></g></svg>"#;
-        let e = cut_geometry_from_svg(t, "t.svg").unwrap_err().to_string();
-        assert!(e.contains("transform"), "{e}");
         let n = r#"<svg width="10mm" height="10mm"></svg>"#;
         assert!(cut_geometry_from_svg(n, "n.svg").is_err());
     }
