@@ -92,11 +92,7 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = gcode::write(&job, machine, notes);
-    let moves = interpret(&text).map_err(|e| {
-        PlanError::Settings(format!(
-            "internal error: the written G-code does not run ({e}); please report this"
-        ))
-    })?;
+    let moves = interpret(&text).map_err(|e| PlanError::Internal(e.to_string()))?;
     let est = estimate(&moves, &machine.limits());
     Ok((
         text,

@@ -140,6 +140,9 @@ pub enum PlanError {
     Empty,
     #[error("{0}")]
     Settings(String),
+    /// Our own output failed our own interpreter: a bug, reported rather than written.
+    #[error("internal error: the written G-code does not run ({0}); please report this")]
+    Internal(String),
 }
 
 pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
