@@ -239,9 +239,8 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read", svg_path.display())
         }
     })?;
-    let geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
+    let mut geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
     let machine = a.machine.machine()?;
-    let mut geom = geom;
     let material_arg = match (&a.material, &dir) {
         (Some(m), _) => Some(m.clone()),
         (None, Some(d)) => material_in_report(d)?,
@@ -266,7 +265,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     });
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {
-        notes.push(format!("material {}", m.name));
+        notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
     let cfg = a.machine.plan_config(settings);
     let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
