@@ -213,11 +213,18 @@ pub fn plan(
     }
 }
 
-/// Turn the planned pixels into material.
-pub fn commit(bits: &mut BitGrid, plan: &Plan) {
-    for &p in &plan.pixels {
-        bits.data[p as usize] = true;
+/// Turn the planned pixels into material; returns how many were still cut (a pixel an earlier
+/// bridge already took counts for that one).
+pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> usize {
+    let mut turned = 0;
+    for &p in pixels {
+        let cell = &mut bits.data[p as usize];
+        if !*cell {
+            *cell = true;
+            turned += 1;
+        }
     }
+    turned
 }
 
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
@@ -311,7 +318,7 @@ mod tests {
         let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
-        commit(&mut b, &p);
+        commit(&mut b, &p.pixels);
         assert_eq!(label(&b).island_count(), 0);
         // Solid: every pixel between the outer strips in the gap is material.
         let xmin = *xs.iter().min().unwrap();
@@ -357,7 +364,7 @@ mod tests {
         let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
-        commit(&mut b, &p);
+        commit(&mut b, &p.pixels);
         assert_eq!(label(&b).island_count(), 0);
         // 3 px wide across the whole gap.
         assert!(p.pixels.len() >= 3 * st[0].as_ref().unwrap().len());
