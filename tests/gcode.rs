@@ -797,6 +797,26 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
     );
     assert!(!dir.path().join("k.gcode").exists());
 
+    // A stencil larger than the bed fails the whole run: no folder, no files.
+    let (ok, _, err) = stencil(
+        &[
+            "make",
+            sample.to_str().unwrap(),
+            "-o",
+            "big",
+            "--width-mm",
+            "400",
+            "--allow-thin",
+            "--emit",
+            "svg,gcode",
+            "--machine",
+            "pen-servo",
+        ],
+        dir.path(),
+    );
+    assert!(!ok && err.contains("does not fit") && err.contains("300.0 x 220.0"), "{err}");
+    assert!(!dir.path().join("big").exists(), "nothing written");
+
     // Machine options without --emit gcode are a mistake, said plainly.
     let (ok, _, err) = stencil(
         &[
