@@ -809,12 +809,14 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
             "--allow-thin",
             "--emit",
             "svg,gcode",
-            "--machine",
-            "pen-servo",
         ],
         dir.path(),
     );
-    assert!(!ok && err.contains("does not fit") && err.contains("300.0 x 220.0"), "{err}");
+    // 400 mm plus a 5 mm margin on each side: 410 mm on the default 400 x 400 mm bed.
+    assert!(
+        !ok && err.contains("410.0 x 410.0") && err.contains("400.0 x 400.0"),
+        "{err}"
+    );
     assert!(!dir.path().join("big").exists(), "nothing written");
 
     // Machine options without --emit gcode are a mistake, said plainly.
