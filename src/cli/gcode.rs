@@ -9,7 +9,7 @@ use clap::Args;
 
 use stencil::export;
 use stencil::machine::gcode::interpret;
-use stencil::plan::estimate::format_duration;
+use stencil::plan::estimate::{format_duration, length_over_feed_s};
 use stencil::plan::svg::cut_geometry_from_svg;
 use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 use stencil::profile::machine::{self as machine_profile, Machine, Tool};
@@ -291,7 +291,8 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let e = plan::estimate(&moves, &machine.limits());
     println!(
-        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm",
+        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
+         length / feed alone would say {}",
         a.file.display(),
         format_duration(e.total_s),
         machine.name,
@@ -299,7 +300,8 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
         format_duration(e.travel_s),
         moves.len(),
         e.cut_mm,
-        e.travel_mm
+        e.travel_mm,
+        format_duration(length_over_feed_s(&moves, &machine.limits())),
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -231,6 +231,25 @@ pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
     e
 }
 
+/// What length ÷ feed says (no acceleration): the number many senders show, for comparison.
+pub fn length_over_feed_s(moves: &[Move], limits: &MotionLimits) -> f64 {
+    moves
+        .iter()
+        .map(|m| {
+            let d = ((m.to[0] - m.from[0]).powi(2)
+                + (m.to[1] - m.from[1]).powi(2)
+                + (m.to[2] - m.from[2]).powi(2))
+            .sqrt();
+            let rate = if m.rapid {
+                limits.rapid_mm_min
+            } else {
+                m.feed.min(limits.max_feed_mm_min).max(1.0)
+            };
+            d / rate * 60.0
+        })
+        .sum()
+}
+
 /// `1 h 02 min 03 s` style, for people.
 pub fn format_duration(s: f64) -> String {
     let t = s.max(0.0).round() as u64;
@@ -298,6 +317,17 @@ mod tests {
         let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
         let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
         assert!((e.cut_mm - 10.0).abs() < 1e-9 && (e.travel_mm - 30.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn acceleration_only_adds_time() {
+        let p = "G1 X10 Y0 F3000\nG1 X10 Y10\nG0 X0 Y0\n";
+        let m = interpret(p).unwrap();
+        let l = MotionLimits::default();
+        let naive = length_over_feed_s(&m, &l);
+        // 20 mm at 50 mm/s plus 14.14 mm at 100 mm/s.
+        assert!((naive - (0.4 + 200f64.sqrt() / 100.0)).abs() < 1e-9);
+        assert!(estimate(&m, &l).total_s > naive);
     }
 
     #[test]
