@@ -195,18 +195,25 @@ pub fn load(path: &Path) -> Result<Mesh, MeshError> {
 
 /// Parse OBJ text (`path` only names it in errors).
 pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
-    let counts = prescan(path, text)?;
     let opts = tobj::LoadOptions {
         single_index: false,
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
-        // Materials do not matter to a toon render: never read .mtl files.
-        Err(tobj::LoadError::GenericFailure)
-    })
-    .map_err(|e| MeshError::Parse {
+    // The check and the parse read the same text independently: run them side by side, and
+    // report the check's error (it names the line) before any of tobj's.
+    let (counts, parsed) = rayon::join(
+        || prescan(path, text),
+        || {
+            tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+                // Materials do not matter to a toon render: never read .mtl files.
+                Err(tobj::LoadError::GenericFailure)
+            })
+        },
+    );
+    let counts = counts?;
+    let (models, _materials) = parsed.map_err(|e| MeshError::Parse {
         path: path.to_path_buf(),
         msg: e.to_string(),
     })?;
@@ -317,6 +324,7 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
     let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
     // Positive indices may point forward; they are checked against the final counts.
     let mut forward: Vec<(usize, usize, char)> = Vec::new();
+    let mut args: Vec<&str> = Vec::with_capacity(8);
     let malformed = |line: usize, msg: String| MeshError::Malformed {
         path: path.to_path_buf(),
         line,
@@ -330,7 +338,9 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
         }
         let mut words = content.split_whitespace();
         let Some(kw) = words.next() else { continue };
-        let args: Vec<&str> = words.collect();
+        // Reused across lines: no allocation per line.
+        args.clear();
+        args.extend(words);
         match kw {
             "v" | "vn" | "vt" => {
                 let need = if kw == "vt" { 1 } else { 3 };
@@ -408,7 +418,7 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                             if (-idx) as usize > count {
                                 return Err(bad_index(path, line, idx, count, kind));
                             }
-                        } else {
+                        } else if idx as usize > count {
                             forward.push((line, idx as usize, kind));
                         }
                     }

@@ -336,54 +336,64 @@ fn compose(
     let kw = cam.width as usize;
     let k = k as usize;
     let n = (k * k) as f32;
-    let mut flat = vec![(1f32, 1f32, false, false); w * h];
-    flat.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, out) in row.iter_mut().enumerate() {
-            let (mut gray, mut shade, mut model, mut line) = (0f32, 0f32, 0usize, 0usize);
-            for sy in y * k..y * k + k {
-                for sx in x * k..x * k + k {
-                    let i = sy * kw + sx;
-                    let f = frags[i];
-                    let is_line = line_mask[i];
-                    line += is_line as usize;
-                    if f.is_model() {
-                        model += 1;
-                        shade += f.shade;
+    let mut gray = vec![1f32; w * h];
+    let mut shade = vec![1f32; w * h];
+    let mut model = vec![false; w * h];
+    let mut lines = vec![false; w * h];
+    gray.par_chunks_mut(w)
+        .zip(shade.par_chunks_mut(w))
+        .zip(model.par_chunks_mut(w))
+        .zip(lines.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (((gray, shade), model), lines))| {
+            for x in 0..w {
+                let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
+                for sy in y * k..y * k + k {
+                    for sx in x * k..x * k + k {
+                        let i = sy * kw + sx;
+                        let f = &frags[i];
+                        let is_line = line_mask[i];
+                        l += is_line as usize;
+                        if f.is_model() {
+                            m += 1;
+                            s += f.shade;
+                        }
+                        g += if is_line {
+                            0.0
+                        } else if f.is_model() {
+                            f.shade
+                        } else {
+                            1.0
+                        };
                     }
-                    gray += if is_line {
-                        0.0
-                    } else if f.is_model() {
-                        f.shade
-                    } else {
-                        1.0
-                    };
                 }
+                gray[x] = g / n;
+                shade[x] = if m > 0 { s / m as f32 } else { 1.0 };
+                model[x] = 2 * m >= k * k;
+                lines[x] = 2 * l >= k * k;
             }
-            let shade = if model > 0 { shade / model as f32 } else { 1.0 };
-            *out = (gray / n, shade, 2 * model >= k * k, 2 * line >= k * k);
-        }
-    });
+        });
     let (w32, h32) = (w as u32, h as u32);
     Rendering {
         gray: Gray {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.0).collect(),
+            data: gray,
         },
         shade: Gray {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.1).collect(),
+            data: shade,
         },
         model: BitGrid {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.2).collect(),
+            data: model,
         },
         lines: BitGrid {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.3).collect(),
+            data: lines,
         },
         camera: out_cam,
         timings,
