@@ -1,2 +1,573 @@
-//! Physical checks on the cut geometry: one piece, bridge and feature widths against a material.
-//! OWNER: the vectors issue.
+//! Physical checks on the cut geometry against a [`Material`]: the material is one piece, every
+//! bridge is at least `min_bridge_mm` at its narrowest, every web (material) and hole (cut) at least
+//! `min_feature_mm`. OWNER: the vectors issue.
+//!
+//! ## How widths are measured
+//! A constrained Delaunay triangulation (spade) of every ring of the sheet (outline, holes, island
+//! outlines) splits the sheet into triangles that lie wholly in material or wholly in a cut (told
+//! apart by the parity of constraint edges crossed from outside). Inside a region, the *chords* are
+//! the triangle edges that are not boundary edges (vertex to vertex), and the perpendiculars from a
+//! vertex to the boundary edge opposite it in its triangle when the foot falls inside that edge.
+//! A chord is a *neck* when its ends lie on two different rings (a web between two holes, or
+//! between a hole and the sheet's edge), or on the same ring with more than [`NECK_RATIO`] times its
+//! length of boundary between them either way round (so cutting across a corner, or across the tip
+//! of a round end, is not a neck, but the neck of a bridge or a long spur is). The narrowest neck of
+//! a region is its shortest neck chord.
+//!
+//! A material neck is a *bridge* when its midpoint lies in a bridge polygon (when the bridges are
+//! known, as in `make` and `check` on an output folder); without the bridge list (a bare PNG), every
+//! material neck whose two ends lie on the same ring (it holds a part that would fall out if it
+//! broke) is checked as a bridge. Other material necks are webs; cut necks are holes.
+//!
+//! ## Discretisation
+//! Marching squares puts the edges of a straight run of pixels on the pixel boundaries, so a raster
+//! neck exactly N pixels wide measures exactly N × mm_per_px; diagonal necks measure their Euclidean
+//! width within about ±0.7 px, and simplification may move each side by up to `--tolerance-mm`.
+//! A width passes when it is at least the requirement (no slack here); the pipeline instead asks the
+//! bridge stage and the filter for [`allowance_px`] more than the material's minimum, so what it
+//! produces passes.
+//!
+//! ## Cross-check
+//! Each violation is confirmed on the raster by a morphological opening (material necks) or closing
+//! (holes) with a disc of half the required width: it must remove the neck at the reported position.
+
+use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
+use serde::{Deserialize, Serialize};
+use spade::{ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
+
+use crate::islands;
+use crate::profile::Material;
+use crate::raster::BitGrid;
+use crate::tone::filter;
+use crate::units::{Mm, Scale};
+use crate::vector::CutGeometry;
+
+/// Boundary length between a same-ring chord's ends, in chord lengths, above which it is a neck.
+/// Cutting a right-angle corner gives at most √2, a semicircular end π/2; a spike sharper than
+/// about 39° (cot(θ/2) > 3) counts as thin near its tip.
+pub const NECK_RATIO: f64 = 3.0;
+
+/// Extra pixels the pipeline adds to the material's minimum widths: one pixel for a diagonal
+/// staircase, plus twice the simplification tolerance (each side may move by that much).
+pub fn allowance_px(tolerance_px: f64) -> f64 {
+    1.0 + 2.0 * tolerance_px
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CheckError {
+    #[error("cannot triangulate the cut geometry for the width check: {0}")]
+    Triangulate(String),
+}
+
+/// What is wrong.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViolationKind {
+    /// A piece of material not joined to the sheet.
+    Floating,
+    /// A bridge narrower than `min_bridge_mm`.
+    ThinBridge,
+    /// A web of material narrower than `min_feature_mm`.
+    ThinWeb,
+    /// A hole (cut) narrower than `min_feature_mm`.
+    ThinHole,
+}
+
+impl std::fmt::Display for ViolationKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ViolationKind::Floating => "floating piece",
+            ViolationKind::ThinBridge => "thin bridge",
+            ViolationKind::ThinWeb => "thin web",
+            ViolationKind::ThinHole => "thin hole",
+        })
+    }
+}
+
+/// One violation: where (mm, y down from the picture's top-left) and how wide.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Violation {
+    pub kind: ViolationKind,
+    pub x_mm: f64,
+    pub y_mm: f64,
+    /// The measured width (none for a floating piece).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    pub required_mm: f64,
+    /// Whether the raster cross-check (opening/closing by half the required width) removes it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmed_by_opening: Option<bool>,
+}
+
+impl std::fmt::Display for Violation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.width_mm {
+            Some(w) => write!(
+                f,
+                "{} at ({:.2}, {:.2}) mm: {:.3} mm wide, needs {:.3} mm",
+                self.kind, self.x_mm, self.y_mm, w, self.required_mm
+            ),
+            None => write!(
+                f,
+                "{} at ({:.2}, {:.2}) mm: not joined to the sheet",
+                self.kind, self.x_mm, self.y_mm
+            ),
+        }
+    }
+}
+
+/// The result of the check, as recorded in `report.json`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CheckReport {
+    pub material: String,
+    pub min_bridge_mm: f64,
+    pub min_feature_mm: f64,
+    /// Pieces of material (1 for a valid stencil).
+    pub pieces: usize,
+    /// Narrowest neck measured per kind (bridges are only told apart when the bridges are known).
+    pub narrowest_bridge_mm: Option<f64>,
+    pub narrowest_web_mm: Option<f64>,
+    pub narrowest_hole_mm: Option<f64>,
+    pub violations: Vec<Violation>,
+    /// Size of the triangulation, for the curious.
+    pub triangles: usize,
+}
+
+impl CheckReport {
+    pub fn passed(&self) -> bool {
+        self.violations.is_empty()
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct V {
+    p: Point2<f64>,
+    ring: u32,
+    idx: u32,
+}
+
+impl HasPosition for V {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.p
+    }
+}
+
+struct Rings {
+    pts: Vec<Vec<[f64; 2]>>,
+    /// Boundary length from vertex 0 to each vertex, and the ring's total length.
+    cum: Vec<Vec<f64>>,
+    len: Vec<f64>,
+}
+
+/// The rings of the material, with edges longer than `spacing` split so that long straight sides
+/// carry vertices in their middle (a chord across the middle of a long thin slot needs them).
+fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
+    let mut pts = Vec::new();
+    for p in &material.0 {
+        for ls in std::iter::once(p.exterior()).chain(p.interiors()) {
+            let mut r: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
+            for c in &ls.0 {
+                let q = [c.x, c.y];
+                if r.last() != Some(&q) {
+                    r.push(q);
+                }
+            }
+            while r.len() > 1 && r.first() == r.last() {
+                r.pop();
+            }
+            if r.len() >= 3 {
+                pts.push(densify(&r, spacing));
+            }
+        }
+    }
+    let mut cum = Vec::with_capacity(pts.len());
+    let mut len = Vec::with_capacity(pts.len());
+    for r in &pts {
+        let mut c = Vec::with_capacity(r.len());
+        let mut s = 0.0;
+        for i in 0..r.len() {
+            c.push(s);
+            s += dist(r[i], r[(i + 1) % r.len()]);
+        }
+        cum.push(c);
+        len.push(s);
+    }
+    Rings { pts, cum, len }
+}
+
+fn densify(r: &[[f64; 2]], spacing: f64) -> Vec<[f64; 2]> {
+    let n = r.len();
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let (a, b) = (r[i], r[(i + 1) % n]);
+        out.push(a);
+        let k = (dist(a, b) / spacing).ceil() as usize;
+        for j in 1..k.min(10_000) {
+            let t = j as f64 / k as f64;
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// A chord end: which ring, and how far along it.
+#[derive(Clone, Copy)]
+struct End {
+    ring: u32,
+    arc: f64,
+}
+
+fn is_neck(r: &Rings, a: End, b: End, d: f64) -> bool {
+    if a.ring != b.ring {
+        return true;
+    }
+    let l = r.len[a.ring as usize];
+    let along = (a.arc - b.arc).abs();
+    along.min(l - along) > NECK_RATIO * d
+}
+
+struct Candidate {
+    kind: ViolationKind,
+    d: f64,
+    mid: [f64; 2],
+}
+
+/// From vertex `w` straight across to ring edge `i → i+1` of `ring`, when the foot falls strictly
+/// inside the edge: the two chord ends, their points, and the length.
+/// `material_side`: which region the chord must cross (material lies left of every ring edge, as
+/// the rings are oriented: exteriors counter-clockwise, holes clockwise).
+fn perpendicular(
+    r: &Rings,
+    w: V,
+    ring: u32,
+    i: u32,
+    material_side: bool,
+) -> Option<(End, End, [f64; 2], [f64; 2], f64)> {
+    let pts = &r.pts[ring as usize];
+    let n = pts.len() as u32;
+    if w.ring == ring && (w.idx == i || w.idx == (i + 1) % n) {
+        return None;
+    }
+    let (pu, pv) = (pts[i as usize], pts[((i + 1) % n) as usize]);
+    let pw = [w.p.x, w.p.y];
+    let (ex, ey) = (pv[0] - pu[0], pv[1] - pu[1]);
+    let l2 = ex * ex + ey * ey;
+    if l2 == 0.0 {
+        return None;
+    }
+    let t = ((pw[0] - pu[0]) * ex + (pw[1] - pu[1]) * ey) / l2;
+    if t <= 1e-9 || t >= 1.0 - 1e-9 {
+        return None;
+    }
+    let left = ex * (pw[1] - pu[1]) - ey * (pw[0] - pu[0]) > 0.0;
+    if left != material_side {
+        return None;
+    }
+    let foot = [pu[0] + t * ex, pu[1] + t * ey];
+    let a = End {
+        ring: w.ring,
+        arc: r.cum[w.ring as usize][w.idx as usize],
+    };
+    let b = End {
+        ring,
+        arc: r.cum[ring as usize][i as usize] + t * l2.sqrt(),
+    };
+    Some((a, b, pw, foot, dist(pw, foot)))
+}
+
+/// Check a stencil's geometry against a material. `bridges_known`: whether `geom.bridges` lists
+/// every bridge (false for a bare PNG: then same-ring material necks count as bridges).
+pub fn check(
+    geom: &CutGeometry,
+    material: &Material,
+    bridges_known: bool,
+) -> Result<CheckReport, CheckError> {
+    let spacing = material.min_bridge_mm.max(material.min_feature_mm);
+    let rings = rings_of(&geom.material, spacing);
+    let mut verts = Vec::new();
+    let mut edges = Vec::new();
+    for (ri, r) in rings.pts.iter().enumerate() {
+        let start = verts.len();
+        for (i, p) in r.iter().enumerate() {
+            verts.push(V {
+                p: Point2::new(p[0], p[1]),
+                ring: ri as u32,
+                idx: i as u32,
+            });
+        }
+        for i in 0..r.len() {
+            edges.push([start + i, start + (i + 1) % r.len()]);
+        }
+    }
+    let cdt = ConstrainedDelaunayTriangulation::<V>::try_bulk_load_cdt(verts, edges, |_| {})
+        .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
+
+    // Material or cut: parity of constraint edges crossed from outside the sheet.
+    let nf = cdt.num_all_faces();
+    let mut depth = vec![u32::MAX; nf];
+    let mut queue = std::collections::VecDeque::new();
+    for f in cdt.inner_faces() {
+        for e in f.adjacent_edges() {
+            if e.rev().face().is_outer() {
+                let c = cdt.is_constraint_edge(e.fix().as_undirected());
+                let i = f.fix().index();
+                if depth[i] == u32::MAX {
+                    depth[i] = u32::from(c);
+                    queue.push_back(f.fix());
+                }
+            }
+        }
+    }
+    while let Some(ff) = queue.pop_front() {
+        let f = cdt.face(ff);
+        let d = depth[ff.index()];
+        for e in f.adjacent_edges() {
+            if let Some(g) = e.rev().face().as_inner() {
+                let gi = g.fix().index();
+                if depth[gi] == u32::MAX {
+                    let c = cdt.is_constraint_edge(e.fix().as_undirected());
+                    depth[gi] = d + u32::from(c);
+                    queue.push_back(g.fix());
+                }
+            }
+        }
+    }
+
+    let bridge_boxes: Vec<Option<Rect<f64>>> =
+        geom.bridges.iter().map(|b| b.bounding_rect()).collect();
+    let in_bridge = |m: [f64; 2]| {
+        let p = Point::new(m[0], m[1]);
+        geom.bridges
+            .iter()
+            .zip(&bridge_boxes)
+            .any(|(b, bb): (&Polygon<f64>, _)| {
+                bb.is_some_and(|bb| bb.contains(&p)) && b.contains(&p)
+            })
+    };
+    let mut narrowest = [f64::INFINITY; 3];
+    let mut cands: Vec<Candidate> = Vec::new();
+    let mut consider = |material_side: bool, a: End, b: End, pa: [f64; 2], pb: [f64; 2], d: f64| {
+        if !is_neck(&rings, a, b, d) {
+            return;
+        }
+        let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
+        let kind = if !material_side {
+            ViolationKind::ThinHole
+        } else if (bridges_known && in_bridge(mid)) || (!bridges_known && a.ring == b.ring) {
+            ViolationKind::ThinBridge
+        } else {
+            ViolationKind::ThinWeb
+        };
+        let (slot, req) = match kind {
+            ViolationKind::ThinBridge => (0, material.min_bridge_mm),
+            ViolationKind::ThinWeb => (1, material.min_feature_mm),
+            _ => (2, material.min_feature_mm),
+        };
+        narrowest[slot] = narrowest[slot].min(d);
+        if d < req {
+            cands.push(Candidate { kind, d, mid });
+        }
+    };
+    let mut triangles = 0;
+    for f in cdt.inner_faces() {
+        let dpt = depth[f.fix().index()];
+        if dpt == u32::MAX || dpt == 0 {
+            continue;
+        }
+        triangles += 1;
+        let material_side = dpt % 2 == 1;
+        for e in f.adjacent_edges() {
+            let (u, v) = (e.from(), e.to());
+            let (du, dv) = (*u.data(), *v.data());
+            if cdt.is_constraint_edge(e.fix().as_undirected()) {
+                // The vertex opposite a boundary edge, straight across to it.
+                let n = rings.pts[du.ring as usize].len() as u32;
+                let i = if dv.idx == (du.idx + 1) % n {
+                    du.idx
+                } else {
+                    dv.idx
+                };
+                if let Some(w) = e.opposite_vertex() {
+                    if let Some((a, b, pa, pb, d)) =
+                        perpendicular(&rings, *w.data(), du.ring, i, material_side)
+                    {
+                        consider(material_side, a, b, pa, pb, d);
+                    }
+                }
+            } else if u.fix().index() < v.fix().index() {
+                // A chord between two vertices, and from each end straight across to the boundary
+                // edges at the other end (where two long sides run parallel, these are the width).
+                let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
+                let a = End {
+                    ring: du.ring,
+                    arc: rings.cum[du.ring as usize][du.idx as usize],
+                };
+                let b = End {
+                    ring: dv.ring,
+                    arc: rings.cum[dv.ring as usize][dv.idx as usize],
+                };
+                consider(material_side, a, b, pu, pv, dist(pu, pv));
+                for (x, y) in [(du, dv), (dv, du)] {
+                    let n = rings.pts[y.ring as usize].len() as u32;
+                    for start in [y.idx, (y.idx + n - 1) % n] {
+                        if let Some((a, b, pa, pb, d)) =
+                            perpendicular(&rings, x, y.ring, start, material_side)
+                        {
+                            consider(material_side, a, b, pa, pb, d);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    let mut violations = cluster(cands, material);
+    // Pieces: the sheet is the largest; every other material polygon floats.
+    let pieces = geom.material.0.len();
+    let mut order: Vec<usize> = (0..pieces).collect();
+    use geo::Area;
+    order.sort_by(|&a, &b| {
+        geom.material.0[b]
+            .unsigned_area()
+            .total_cmp(&geom.material.0[a].unsigned_area())
+    });
+    for &i in order.iter().skip(1) {
+        let c = geom.material.0[i]
+            .exterior()
+            .0
+            .first()
+            .copied()
+            .unwrap_or(Coord { x: 0.0, y: 0.0 });
+        violations.insert(
+            0,
+            Violation {
+                kind: ViolationKind::Floating,
+                x_mm: c.x,
+                y_mm: c.y,
+                width_mm: None,
+                required_mm: 0.0,
+                confirmed_by_opening: None,
+            },
+        );
+    }
+    let fin = |v: f64| v.is_finite().then_some(v);
+    Ok(CheckReport {
+        material: material.name.clone(),
+        min_bridge_mm: material.min_bridge_mm,
+        min_feature_mm: material.min_feature_mm,
+        pieces,
+        narrowest_bridge_mm: fin(narrowest[0]),
+        narrowest_web_mm: fin(narrowest[1]),
+        narrowest_hole_mm: fin(narrowest[2]),
+        violations,
+        triangles,
+    })
+}
+
+/// Many chords cross one thin neck: report the narrowest per place (one per `2 × required` radius).
+fn cluster(mut cands: Vec<Candidate>, material: &Material) -> Vec<Violation> {
+    cands.sort_by(|a, b| a.d.total_cmp(&b.d));
+    let mut out: Vec<Violation> = Vec::new();
+    for c in cands {
+        let req = match c.kind {
+            ViolationKind::ThinBridge => material.min_bridge_mm,
+            _ => material.min_feature_mm,
+        };
+        let near = out
+            .iter()
+            .any(|v| v.kind == c.kind && dist([v.x_mm, v.y_mm], c.mid) < 2.0 * req);
+        if !near {
+            out.push(Violation {
+                kind: c.kind,
+                x_mm: c.mid[0],
+                y_mm: c.mid[1],
+                width_mm: Some(c.d),
+                required_mm: req,
+                confirmed_by_opening: None,
+            });
+        }
+    }
+    out
+}
+
+/// The raster cross-check: for every width violation, open (material) or close (holes) the raster
+/// with a disc of half the required width; the violation is confirmed when that removes the neck's
+/// pixels at the reported position. Confirmed violations of one kind lying in the same connected
+/// piece of removed pixels are one neck: only the narrowest is kept. Returns the raster's pieces
+/// (4-connected, frame included).
+pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> usize {
+    // Per (radius, material side): the removed pixels' component labels.
+    let mut cache: Vec<(u32, bool, Vec<u32>)> = Vec::new();
+    let mut neck_of: Vec<Option<(usize, u32)>> = Vec::new();
+    for v in &mut report.violations {
+        neck_of.push(None);
+        if v.width_mm.is_none() {
+            continue;
+        }
+        let r = (scale.to_px(Mm(v.required_mm)).0 / 2.0).ceil().max(1.0) as u32;
+        let material_side = v.kind != ViolationKind::ThinHole;
+        let idx = match cache
+            .iter()
+            .position(|(cr, cm, _)| *cr == r && *cm == material_side)
+        {
+            Some(i) => i,
+            None => {
+                let g = if material_side {
+                    filter::open(bits, r)
+                } else {
+                    filter::close(bits, r)
+                };
+                // Pixels the operation flipped: material it removed, or cut it filled.
+                let changed = BitGrid {
+                    width: bits.width,
+                    height: bits.height,
+                    data: bits.data.iter().zip(&g.data).map(|(a, b)| a != b).collect(),
+                };
+                cache.push((r, material_side, islands::components(&changed, true).0));
+                cache.len() - 1
+            }
+        };
+        let labels = &cache[idx].2;
+        let (cx, cy) = (
+            (scale.to_px(Mm(v.x_mm)).0).floor() as i64,
+            (scale.to_px(Mm(v.y_mm)).0).floor() as i64,
+        );
+        let mut found = None;
+        'search: for dy in [0, -1, 1] {
+            for dx in [0, -1, 1] {
+                let (x, y) = (cx + dx, cy + dy);
+                if x < 0 || y < 0 || x >= bits.width as i64 || y >= bits.height as i64 {
+                    continue;
+                }
+                let l = labels[y as usize * bits.width as usize + x as usize];
+                if l != islands::CUT {
+                    found = Some(l);
+                    break 'search;
+                }
+            }
+        }
+        v.confirmed_by_opening = Some(found.is_some());
+        *neck_of.last_mut().expect("pushed above") = found.map(|l| (idx, l));
+    }
+    // Keep the narrowest violation per (kind, neck); report order is narrowest first already.
+    let mut seen: Vec<(ViolationKind, usize, u32)> = Vec::new();
+    let mut keep = Vec::with_capacity(report.violations.len());
+    for (v, n) in report.violations.iter().zip(&neck_of) {
+        match n {
+            Some((i, l)) if seen.contains(&(v.kind, *i, *l)) => keep.push(false),
+            Some((i, l)) => {
+                seen.push((v.kind, *i, *l));
+                keep.push(true);
+            }
+            None => keep.push(true),
+        }
+    }
+    let mut k = keep.into_iter();
+    report.violations.retain(|_| k.next().unwrap_or(true));
+    1 + islands::label(bits).island_count()
+}

@@ -36,6 +36,23 @@ pub enum Error {
     Bridge(#[from] bridge::BridgeError),
     #[error(transparent)]
     Export(#[from] export::ExportError),
+    #[error(transparent)]
+    Profile(#[from] profile::ProfileError),
+    #[error(transparent)]
+    Vector(#[from] vector::VectorError),
+    #[error(transparent)]
+    Check(#[from] check::CheckError),
+    #[error("{0}")]
+    Size(String),
+    #[error(
+        "{count} width or connectivity violation(s) for material '{material}': {list}; \
+         widen the design, choose another --material, or pass --allow-thin to write the outputs anyway"
+    )]
+    Thin {
+        count: usize,
+        material: String,
+        list: String,
+    },
     #[error(
         "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
          raise --max-bridge-length-px or --filter-radius"

@@ -1,4 +1,5 @@
-//! The whole job, stage by stage: input → two-tone → filter → islands → bridges → outputs.
+//! The whole job, stage by stage: input → two-tone → filter → islands → bridges → vectors → check
+//! → outputs.
 //!
 //! Stages are pure functions on plain data; this module times them, gathers the report and hands
 //! the results to `export` at the very end, so a failure anywhere leaves no output behind.
@@ -8,13 +9,18 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::bridge::{self, BridgeConfig, Bridged};
-use crate::export::{self, png};
+use crate::check::{self, CheckReport};
+use crate::export::mask::MaskConfig;
+use crate::export::{self, dxf, mask, png, svg};
 use crate::islands;
-use crate::raster::TwoTone;
+use crate::profile::Material;
+use crate::raster::{BitGrid, TwoTone};
 use crate::report::Report;
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
 use crate::tone::{self, image::load_gray, ToneConfig};
+use crate::units::{Mm, Scale};
+use crate::vector::{self, CutGeometry, VectorConfig};
 use crate::Error;
 
 /// Everything `stencil make` needs, as plain data (the CLI builds it; tests build it by hand).
@@ -26,6 +32,126 @@ pub struct MakeConfig {
     pub mesh: MeshConfig,
     pub filter: FilterConfig,
     pub bridge: BridgeConfig,
+    pub physical: PhysicalConfig,
+}
+
+/// How big the picture is on the sheet.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Size {
+    /// 0.1 mm per working pixel ([`Scale::default`]).
+    #[default]
+    Default,
+    /// The picture's width in mm (the height follows).
+    WidthMm(f64),
+    /// Working pixels per inch.
+    Dpi(f64),
+}
+
+/// Which files `make` writes (report.json always). Default: `png,svg`: the images to look at and
+/// the one vector file every laser and plotter program opens; DXF and masks on request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Emit {
+    /// twotone.png, stencil.png, preview.png.
+    pub png: bool,
+    pub svg: bool,
+    pub dxf: bool,
+    /// mask.png and mask.svg.
+    pub mask: bool,
+}
+
+impl Default for Emit {
+    fn default() -> Self {
+        Emit {
+            png: true,
+            svg: true,
+            dxf: false,
+            mask: false,
+        }
+    }
+}
+
+/// Physical size, material, vectors, check and export options.
+#[derive(Clone, Debug)]
+pub struct PhysicalConfig {
+    pub size: Size,
+    pub material: Material,
+    /// Where the material profile came from (for the report).
+    pub material_source: String,
+    pub vector: VectorConfig,
+    /// Write the outputs even when the check finds violations.
+    pub allow_thin: bool,
+    pub emit: Emit,
+    pub mask: MaskConfig,
+    pub dxf_r12: bool,
+}
+
+impl Default for PhysicalConfig {
+    fn default() -> Self {
+        PhysicalConfig {
+            size: Size::Default,
+            material: Material::default(),
+            material_source: format!(
+                "<embedded>/materials/{}.toml",
+                crate::profile::material::DEFAULT_MATERIAL
+            ),
+            vector: VectorConfig::default(),
+            allow_thin: false,
+            emit: Emit::default(),
+            mask: MaskConfig::default(),
+            dxf_r12: false,
+        }
+    }
+}
+
+impl PhysicalConfig {
+    /// Millimetres per working pixel for a picture `width_px` wide.
+    pub fn scale(&self, width_px: u32) -> Result<Scale, Error> {
+        let bad = |what: &str, v: f64| {
+            Error::Size(format!("{what} must be a finite number > 0, got {v}"))
+        };
+        match self.size {
+            Size::Default => Ok(Scale::default()),
+            Size::WidthMm(w) if w.is_finite() && w > 0.0 => Ok(Scale::from_width(width_px, w)),
+            Size::WidthMm(w) => Err(bad("--width-mm", w)),
+            Size::Dpi(d) if d.is_finite() && d > 0.0 => Ok(Scale::from_dpi(d)),
+            Size::Dpi(d) => Err(bad("--dpi", d)),
+        }
+    }
+
+    /// The check's allowance in pixels (see [`check::allowance_px`]).
+    fn allowance_px(&self, scale: Scale) -> f64 {
+        check::allowance_px(scale.to_px(Mm(self.vector.tolerance_mm)).0)
+    }
+
+    /// The bridge stage's options with the material's minimum bridge width: never narrower than the
+    /// material allows, `min_bridge_mm` in pixels plus the check's allowance, or the user's value
+    /// if that is wider.
+    pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
+        let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
+            as u32;
+        let min = user.min_width_px.max(px);
+        BridgeConfig {
+            min_width_px: min,
+            max_width_px: user.max_width_px.max(min),
+            ..user.clone()
+        }
+    }
+
+    /// The topological filter's options with the material's smallest feature: unless the user set
+    /// the radius explicitly, the opening and closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
+    /// and holes the material cannot hold are removed before bridging instead of failing the
+    /// check later (an opening by radius r keeps features at least 2r + 1 pixels wide).
+    pub fn filter_for(&self, user: &FilterConfig, scale: Scale) -> FilterConfig {
+        let f = scale.to_px(Mm(self.material.min_feature_mm)).0 + self.allowance_px(scale);
+        FilterConfig {
+            radius: if user.auto_radius {
+                user.radius.max((f / 2.0).ceil() as u32)
+            } else {
+                user.radius
+            },
+            ..*user
+        }
+    }
 }
 
 /// Whether a path is a mesh (by extension) rather than a picture.
@@ -37,10 +163,10 @@ pub fn is_mesh(path: &Path) -> bool {
 
 /// Stage timings, in milliseconds, keyed by stage name.
 #[derive(Default)]
-struct Timer(BTreeMap<String, f64>);
+pub struct Timings(pub BTreeMap<String, f64>);
 
-impl Timer {
-    fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+impl Timings {
+    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
         let t = Instant::now();
         let r = f();
         self.0
@@ -76,20 +202,54 @@ pub struct Made {
     pub twotone: TwoTone,
     pub filter: FilterStats,
     pub bridged: Bridged,
+    pub scale: Scale,
+    /// The stencil in millimetres (cut loops for G-code, material, bridges).
+    pub geometry: CutGeometry,
+    pub check: CheckReport,
     pub report: Report,
+}
+
+/// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
+/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG).
+pub fn vectorize_and_check(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats) = timer.time("vector", || {
+        vector::vectorize(bits, bridges_px.unwrap_or(&[]), vcfg)
+    })?;
+    let mut chk = timer.time("check", || {
+        check::check(&geom, material, bridges_px.is_some())
+    })?;
+    if !chk.passed() {
+        timer.time("check_opening", || {
+            check::cross_check(&mut chk, bits, vcfg.scale)
+        });
+    }
+    Ok((geom, vstats, chk))
 }
 
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
-    let mut timer = Timer::default();
+    let mut timer = Timings::default();
+    let phys = &cfg.physical;
     let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &cfg.mesh))?;
-    let (bits, filter_stats) = timer.time("filter", || filter::filter(&raw.bits, &cfg.filter));
+    let scale = phys.scale(raw.bits.width)?;
+    let filter_cfg = phys.filter_for(&cfg.filter, scale);
+    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
+    let (bits, filter_stats) = timer.time("filter", || filter::filter(&raw.bits, &filter_cfg));
     let twotone = TwoTone {
         bits,
         gray: raw.gray,
     };
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &cfg.bridge))?;
+    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    bridged.bits = timer.time("tidy", || {
+        bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius)
+    });
     let after = timer.time("verify", || islands::label(&bridged.bits));
     if after.island_count() > 0 {
         let node = &after.nodes[1];
@@ -101,7 +261,45 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             area: node.area,
         });
     }
+    let vcfg = VectorConfig {
+        scale,
+        kerf_mm: phys.material.kerf_mm,
+        ..phys.vector
+    };
+    let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
+    let (geometry, vstats, chk) = vectorize_and_check(
+        &bridged.bits,
+        Some(&polys),
+        &vcfg,
+        &phys.material,
+        &mut timer,
+    )?;
+    if !chk.passed() && !phys.allow_thin {
+        return Err(Error::Thin {
+            count: chk.violations.len(),
+            material: phys.material.name.clone(),
+            list: chk
+                .violations
+                .iter()
+                .take(5)
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join("; "),
+        });
+    }
     let report = Report {
+        material: Some(phys.material.name.clone()),
+        material_source: Some(phys.material_source.clone()),
+        mm_per_px: Some(scale.mm_per_px),
+        width_mm: Some(geometry.width_mm),
+        height_mm: Some(geometry.height_mm),
+        margin_mm: Some(vcfg.margin_mm),
+        tolerance_mm: Some(vcfg.tolerance_mm),
+        min_bridge_px: Some(bridge_cfg.min_width_px),
+        filter_radius_px: Some(filter_cfg.radius),
+        vector: Some(vstats),
+        check: Some(chk.clone()),
+        files: Vec::new(),
         input: cfg.input.display().to_string(),
         width_px: twotone.bits.width,
         height_px: twotone.bits.height,
@@ -116,44 +314,71 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         twotone,
         filter: filter_stats,
         bridged,
+        scale,
+        geometry,
+        check: chk,
         report,
     })
 }
 
-/// Files `make` writes, by name, encoded in memory.
-pub fn encode_outputs(made: &Made) -> Result<Vec<(String, Vec<u8>)>, Error> {
+/// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
+/// (which lists them).
+pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
     let tt = &made.twotone;
-    let report =
-        serde_json::to_vec_pretty(&made.report).map_err(|e| export::ExportError::Encode {
-            path: PathBuf::from("report.json"),
-            msg: e.to_string(),
-        })?;
+    let geom = &made.geometry;
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
-    if is_mesh(Path::new(&made.report.input)) {
+    if phys.emit.png && is_mesh(Path::new(&made.report.input)) {
         // The grayscale rendering: what the bridge cost's intensity term reads.
         files.push((
             "gray.png".into(),
             png::encode_gray(tt.gray.width, tt.gray.height, &tt.gray.to_u8()),
         ));
     }
-    files.extend([
-        ("twotone.png".into(), png::encode_bits(&tt.bits)),
-        ("stencil.png".into(), png::encode_bits(&made.bridged.bits)),
-        (
+    if phys.emit.png {
+        files.push(("twotone.png".into(), png::encode_bits(&tt.bits)));
+        files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
+        files.push((
             "preview.png".into(),
             png::preview(&tt.gray, &tt.bits, &made.bridged.bits),
-        ),
-        ("report.json".into(), report),
-    ]);
+        ));
+    }
+    if phys.emit.svg {
+        files.push(("stencil.svg".into(), svg::encode(geom)));
+    }
+    if phys.emit.dxf {
+        files.push(("stencil.dxf".into(), dxf::encode(geom, phys.dxf_r12)?));
+    }
+    if phys.emit.mask {
+        let mut m = phys.mask;
+        m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
+        files.push(("mask.png".into(), mask::encode_png(geom, &m)?));
+        files.push(("mask.svg".into(), mask::encode_svg(geom, &m)));
+    }
+    let mut report = made.report.clone();
+    report.files = files.iter().map(|(n, _)| n.clone()).collect();
+    report.files.push("report.json".into());
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| export::ExportError::Encode {
+        path: PathBuf::from("report.json"),
+        msg: e.to_string(),
+    })?;
+    files.push(("report.json".into(), json));
     Ok(files)
 }
 
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 pub fn make(cfg: &MakeConfig) -> Result<(Made, Vec<PathBuf>), Error> {
-    let made = run(cfg)?;
-    let files = encode_outputs(&made)?;
-    let written = export::write_files(&cfg.out_dir, &files)?;
-    Ok((made, written))
+    let existed = cfg.out_dir.is_dir();
+    export::prepare_dir(&cfg.out_dir)?;
+    let result = run(cfg).and_then(|made| {
+        let files = encode_outputs(&made, &cfg.physical)?;
+        let written = export::write_files(&cfg.out_dir, &files)?;
+        Ok((made, written))
+    });
+    if result.is_err() && !existed {
+        // Leave no trace of a failed run: the folder we made is empty (remove_dir refuses otherwise).
+        let _ = std::fs::remove_dir(&cfg.out_dir);
+    }
+    result
 }
 
 /// The default output folder for an input: `out/<input stem>/`.

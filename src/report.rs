@@ -5,7 +5,9 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::bridge::{Bridge, CostTerms};
+use crate::check::CheckReport;
 use crate::tone::filter::FilterStats;
+use crate::vector::VectorStats;
 
 /// One bridge as reported.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -18,6 +20,9 @@ pub struct BridgeReport {
     pub pixels: usize,
     pub cost: CostTerms,
     pub support: bool,
+    /// Outline in pixel coordinates (so `stencil check` on an output folder knows the bridges).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub polygon_px: Vec<[f64; 2]>,
 }
 
 impl From<&Bridge> for BridgeReport {
@@ -29,6 +34,7 @@ impl From<&Bridge> for BridgeReport {
             pixels: b.pixels,
             cost: b.cost,
             support: b.support,
+            polygon_px: b.polygon.clone(),
         }
     }
 }
@@ -52,4 +58,34 @@ pub struct Report {
     pub floating_after: usize,
     /// Wall time per stage in milliseconds.
     pub timings_ms: BTreeMap<String, f64>,
+    /// The material profile used (name) and where it was read from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material_source: Option<String>,
+    /// Physical size: millimetres per working pixel, the picture's size, the sheet margin, and
+    /// the simplification tolerance used by the vectors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mm_per_px: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub margin_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance_mm: Option<f64>,
+    /// The material's limits in pixels as given to the stages (after the check's allowance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_bridge_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filter_radius_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vector: Option<VectorStats>,
+    /// The width and connectivity check against the material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check: Option<CheckReport>,
+    /// Files written, by name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<String>,
 }

@@ -1,26 +1,69 @@
 //! Stages 3–5: bridge strips, their cost, the spanning tree over island groups, growing bridges.
 //!
-//! OWNER NOTE (remove when implemented): the public contract below is used by `pipeline.rs` and
-//! `report.rs`; fields may be added, but keep these names.
+//! [`connect`] runs the paper's method (Bronson, Rheingans & Olano, NPAR 2008; see paper.md):
+//! 1. [`candidates`]: every island border pixel, chained along the island's contours;
+//! 2. [`strips`]: from each, a walk through the cut along the grayscale gradient (the smoothed
+//!    two-tone's where the gray is flat) to material of another node;
+//! 3. [`cost`]: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
+//!    as wide as the bridge needs, cheapest kept;
+//! 4. [`tree`]: Prim from the frame over island groups, edge cost = cheapest window between them,
+//!    with a breadth-first search as the fallback when no walk leaves a group;
+//! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
+//!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
+//!    estimate by more than the margin.
+//!
+//! Work is in proportion to the islands' total perimeter times the walk length, plus one O(pixels)
+//! pass for the summed-area table the walks steer by.
+//!
+//! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
+//! added, names kept.
 
-use crate::islands::IslandMap;
+pub mod candidates;
+pub mod cost;
+pub mod grow;
+pub mod strips;
+pub mod tidy;
+pub mod tree;
+
+use std::collections::{HashMap, HashSet};
+
+use rayon::prelude::*;
+
+use crate::islands::{self, IslandMap};
 use crate::raster::{BitGrid, TwoTone};
 
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
+///
+/// The terms are normalised so that each is about 1 for a typical strip of the image (see
+/// [`cost`]): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
+/// in 0 (straight) .. 1 (round), σ² is the variance of strip costs over the window divided by
+/// their squared mean. The defaults therefore weigh them about equally, with curvature ×4: κ over
+/// a 15-candidate window is about 0.2 on a 10 px radius bend and 0.5 on a 5 px one, so w2 = 4 makes
+/// a bend cost about as much as one typical strip more (a gentle 20 px bend about 0.4).
 #[derive(Clone, Debug)]
 pub struct BridgeConfig {
+    /// w0, default 1: intensity error ΣI (a typical-length strip over black = 1).
     pub w_intensity: f64,
+    /// w1, default 1: length penalty L^α (a typical strip = 1).
     pub w_length: f64,
+    /// w2, default 4: border curvature κ at the bridge (0 straight .. 1 round).
     pub w_curvature: f64,
+    /// w3, default 1: relative variance σ² of the strip costs across the bridge's window.
     pub w_variance: f64,
-    /// Exponent of the length penalty, 1 < α < 2.
+    /// Exponent of the length penalty, 1 < α < 2; default 1.5.
     pub alpha: f64,
-    /// Walks longer than this are dropped.
+    /// Walks longer than this are dropped; default 200 px.
     pub max_length_px: u32,
+    /// Narrowest bridge, default 3 px: never thinner, even after halving.
     pub min_width_px: u32,
+    /// Widest bridge, default 40 px.
     pub max_width_px: u32,
-    /// If a grown bridge's real error exceeds its estimate by more than this fraction, halve it and
-    /// add a support bridge.
+    /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
+    /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
+    /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
+    /// polygon fill, thickening). If real > (1 + margin) × estimate, the bridge is halved (not
+    /// below `min_width_px`) and a support bridge of the same halved width is added at the next
+    /// cheapest place between the same two nodes.
     pub support_margin: f64,
 }
 
@@ -29,7 +72,7 @@ impl Default for BridgeConfig {
         BridgeConfig {
             w_intensity: 1.0,
             w_length: 1.0,
-            w_curvature: 1.0,
+            w_curvature: 4.0,
             w_variance: 1.0,
             alpha: 1.5,
             max_length_px: 200,
@@ -62,7 +105,9 @@ pub struct Bridge {
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
     pub support: bool,
-    /// Outline in pixel coordinates (x right, y down), from the end points of its outer strips.
+    /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
+    /// points are pixel centres), from the end points of its outer strips: start of the first
+    /// strip, its end, end of the last strip, its start.
     pub polygon: Vec<[f64; 2]>,
 }
 
@@ -82,22 +127,657 @@ pub enum BridgeError {
         y: u32,
         reason: String,
     },
+    #[error("bridge setting {name} = {value} is invalid: {why}")]
+    BadSetting {
+        name: &'static str,
+        value: String,
+        why: &'static str,
+    },
+}
+
+impl BridgeConfig {
+    /// Check the settings a library caller (not only the CLI) may get wrong.
+    pub fn validate(&self) -> Result<(), BridgeError> {
+        let bad = |name, value: String, why| Err(BridgeError::BadSetting { name, value, why });
+        for (name, w) in [
+            ("w_intensity", self.w_intensity),
+            ("w_length", self.w_length),
+            ("w_curvature", self.w_curvature),
+            ("w_variance", self.w_variance),
+        ] {
+            if !(w.is_finite() && w >= 0.0) {
+                return bad(name, w.to_string(), "weights must be finite and >= 0");
+            }
+        }
+        if !(self.alpha > 1.0 && self.alpha < 2.0) {
+            return bad(
+                "alpha",
+                self.alpha.to_string(),
+                "it must lie strictly between 1 and 2",
+            );
+        }
+        if self.min_width_px < 1 || self.min_width_px > self.max_width_px {
+            return bad(
+                "min_width_px",
+                self.min_width_px.to_string(),
+                "it must be at least 1 and at most max_width_px",
+            );
+        }
+        if self.max_length_px < 1 {
+            return bad("max_length_px", "0".into(), "it must be at least 1 px");
+        }
+        if !(self.support_margin.is_finite() && self.support_margin >= 0.0) {
+            return bad(
+                "support_margin",
+                self.support_margin.to_string(),
+                "it must be a finite fraction >= 0",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Everything computed about the candidates before the tree: strips, their costs and scores.
+struct Graph {
+    cands: candidates::Candidates,
+    strips: Vec<Option<strips::Strip>>,
+    costs: Vec<Option<cost::StripCost>>,
+    scores: Vec<Option<cost::Scored>>,
+    norm: cost::Norm,
+    /// Candidates by the (sorted) pair of nodes their strip joins.
+    by_pair: HashMap<(u32, u32), Vec<usize>>,
+}
+
+fn pair(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+/// Area of the smaller of two nodes, the frame counting as infinite.
+fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
+    let area = |n: u32| {
+        if n == islands::FRAME {
+            usize::MAX
+        } else {
+            map.nodes[n as usize].area
+        }
+    };
+    area(a).min(area(b))
 }
 
 /// Join every island to the frame with bridges.
 pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bridged, BridgeError> {
-    let _ = cfg;
+    connect_timed(two, map, cfg).map(|(b, _)| b)
+}
+
+/// Wall-clock milliseconds per phase of [`connect`], in order: `fields` (summed-area table),
+/// `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
+/// fallback searches), `grow` (growing, support bridges, drawing).
+pub type PhaseTimes = Vec<(&'static str, f64)>;
+
+/// [`connect`], also returning where the time went (for the benchmark and diagnostics).
+pub fn connect_timed(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+) -> Result<(Bridged, PhaseTimes), BridgeError> {
+    cfg.validate()?;
+    let mut times = PhaseTimes::new();
     if map.island_count() == 0 {
-        return Ok(Bridged {
+        let bridged = Bridged {
             bits: two.bits.clone(),
             bridges: Vec::new(),
+        };
+        return Ok((bridged, times));
+    }
+    let mut clock = std::time::Instant::now();
+    let mut lap = |name: &'static str, times: &mut PhaseTimes| {
+        let now = std::time::Instant::now();
+        times.push((name, (now - clock).as_secs_f64() * 1e3));
+        clock = now;
+    };
+    let fields = strips::Fields::new(two, map);
+    lap("fields", &mut times);
+    let cands = candidates::collect(map);
+    lap("candidates", &mut times);
+    let walked = walk_all(&fields, &cands, cfg);
+    lap("walks", &mut times);
+    let mut g = build_graph(cands, walked, map, cfg);
+    lap("scores", &mut times);
+
+    // Stage 4: Prim from the frame, with the search as fallback for stranded groups.
+    let mut prim = tree::Prim::new(map.nodes.len());
+    let mut best: HashMap<(u32, u32), usize> = HashMap::new();
+    for (&p, ids) in &g.by_pair {
+        if let Some(&id) = ids
+            .iter()
+            .min_by(|&&a, &&b| total(&g, a).total_cmp(&total(&g, b)))
+        {
+            best.insert(p, id);
+        }
+    }
+    let mut best: Vec<_> = best.into_iter().collect();
+    best.sort_unstable();
+    for ((a, b), id) in best {
+        prim.add(tree::Edge {
+            a,
+            b,
+            cost: total(&g, id),
+            candidate: id,
         });
     }
-    let (x, y) = map.nodes[1].border.first().copied().unwrap_or((0, 0));
-    Err(BridgeError::Unreachable {
-        island: 1,
-        x,
-        y,
-        reason: "bridging is not implemented yet".into(),
-    })
+    prim.grow();
+    while let Some(group) = prim.stranded() {
+        let found = strips::search(&fields, map, &group, cfg.max_length_px as usize);
+        let Some(((sx, sy), strip)) = found else {
+            let island = group.iter().position(|&m| m).unwrap_or(1) as u32;
+            let (x, y) = map.nodes[island as usize]
+                .border
+                .first()
+                .copied()
+                .unwrap_or((0, 0));
+            let others = group.iter().filter(|&&m| m).count() - 1;
+            let with = if others > 0 {
+                format!(" (nor from the {others} island(s) it can already reach)")
+            } else {
+                String::new()
+            };
+            return Err(BridgeError::Unreachable {
+                island,
+                x,
+                y,
+                reason: format!(
+                    "no path through the cut of at most {} px from its border{with} reaches the frame \
+                     or another island; raise --max-bridge-length-px",
+                    cfg.max_length_px
+                ),
+            });
+        };
+        let Some(id) = g.cands.id_at(map, strip.from, sx, sy) else {
+            return Err(BridgeError::Unreachable {
+                island: strip.from,
+                x: sx,
+                y: sy,
+                reason:
+                    "the fallback search started from a pixel that is not on the island's border \
+                         (internal error; please report it)"
+                        .into(),
+            });
+        };
+        let (a, b) = (strip.from, strip.to);
+        set_strip(&mut g, map, cfg, id, strip);
+        prim.add(tree::Edge {
+            a,
+            b,
+            cost: total(&g, id),
+            candidate: id,
+        });
+        prim.grow();
+    }
+
+    lap("tree", &mut times);
+
+    // Stage 5: grow and draw the chosen bridges in tree order.
+    let mut bits = two.bits.clone();
+    let mut bridges = Vec::new();
+    for &(edge, _) in &prim.chosen {
+        grow_bridge(two, &g, cfg, edge.candidate, &mut bits, &mut bridges);
+    }
+    lap("grow", &mut times);
+    Ok((Bridged { bits, bridges }, times))
+}
+
+fn total(g: &Graph, id: usize) -> f64 {
+    g.scores[id].map_or(f64::INFINITY, |s| s.terms.total)
+}
+
+/// A walk from every candidate, in parallel.
+fn walk_all(
+    fields: &strips::Fields,
+    cands: &candidates::Candidates,
+    cfg: &BridgeConfig,
+) -> Vec<Option<strips::Strip>> {
+    let max_len = cfg.max_length_px as usize;
+    (0..cands.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map_init(Vec::new, |scratch, id| {
+            strips::walk_candidate_with(fields, cands, id, max_len, scratch).ok()
+        })
+        .collect()
+}
+
+/// Normalisation, strip costs and window scores, in parallel; candidates grouped by node pair.
+fn build_graph(
+    cands: candidates::Candidates,
+    strips: Vec<Option<strips::Strip>>,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+) -> Graph {
+    let norm = cost::Norm::new(strips.iter().flatten().map(|s| s.len()).collect(), cfg);
+    let costs: Vec<_> = strips
+        .iter()
+        .map(|s| s.as_ref().map(|s| norm.strip(s)))
+        .collect();
+    let mut g = Graph {
+        cands,
+        strips,
+        costs,
+        scores: Vec::new(),
+        norm,
+        by_pair: HashMap::new(),
+    };
+    g.scores = (0..g.cands.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|id| score_one(&g, map, cfg, id))
+        .collect();
+    for (id, s) in g.strips.iter().enumerate() {
+        if let (Some(s), Some(_)) = (s, g.scores[id]) {
+            g.by_pair.entry(pair(s.from, s.to)).or_default().push(id);
+        }
+    }
+    g
+}
+
+fn score_one(g: &Graph, map: &IslandMap, cfg: &BridgeConfig, id: usize) -> Option<cost::Scored> {
+    let s = g.strips[id].as_ref()?;
+    let width = grow::width_for(smaller_area(map, s.from, s.to), cfg);
+    cost::score(&g.cands, &g.strips, &g.costs, id, width, cfg, &g.norm)
+}
+
+/// Put a strip found by the fallback search on its candidate and score it.
+fn set_strip(g: &mut Graph, map: &IslandMap, cfg: &BridgeConfig, id: usize, strip: strips::Strip) {
+    g.costs[id] = Some(g.norm.strip(&strip));
+    let p = pair(strip.from, strip.to);
+    g.strips[id] = Some(strip);
+    g.scores[id] = score_one(g, map, cfg, id);
+    g.by_pair.entry(p).or_default().push(id);
+}
+
+/// Grow the bridge at candidate `id`, halve it and add a support bridge if its real error
+/// exceeds the estimate by more than the margin, and draw the result into `bits`.
+fn grow_bridge(
+    two: &TwoTone,
+    g: &Graph,
+    cfg: &BridgeConfig,
+    id: usize,
+    bits: &mut BitGrid,
+    out: &mut Vec<Bridge>,
+) {
+    let (Some(strip), Some(score)) = (g.strips[id].as_ref(), g.scores[id]) else {
+        return;
+    };
+    let nodes = {
+        let (a, b) = pair(strip.from, strip.to);
+        [a, b]
+    };
+    let make = |members: &[usize], bits: &BitGrid| {
+        grow::plan(
+            bits,
+            &two.gray,
+            &g.cands,
+            &g.strips,
+            members,
+            cfg.min_width_px,
+        )
+    };
+    let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);
+    let mut plan = make(&members, bits);
+    let half = (score.width / 2).max(cfg.min_width_px);
+    let over = plan.real > (1.0 + cfg.support_margin) * score.estimate + 1e-9;
+    let mut support_at = None;
+    if over && half < score.width {
+        let members = grow::grow(&g.cands, &g.strips, &g.costs, id, half, cfg);
+        plan = make(&members, bits);
+        support_at = next_cheapest(g, id, &members, &plan, half);
+    }
+    grow::commit(bits, &plan);
+    out.push(to_bridge(nodes, score, plan, false));
+    if let Some(sid) = support_at {
+        let members = grow::grow(&g.cands, &g.strips, &g.costs, sid, half, cfg);
+        let plan = make(&members, bits);
+        grow::commit(bits, &plan);
+        if let Some(s) = g.scores[sid] {
+            out.push(to_bridge(nodes, s, plan, true));
+        }
+    }
+}
+
+fn to_bridge(nodes: [u32; 2], score: cost::Scored, plan: grow::Plan, support: bool) -> Bridge {
+    Bridge {
+        nodes,
+        width_px: plan.width,
+        length_px: plan.length,
+        pixels: plan.pixels.len(),
+        cost: score.terms,
+        support,
+        polygon: plan.polygon,
+    }
+}
+
+/// The next cheapest place for a support bridge between the same two nodes as candidate `id`:
+/// the cheapest scored candidate of that pair whose strip neither shares a pixel with the first
+/// bridge nor starts within `width` candidates of it along the same contour.
+fn next_cheapest(
+    g: &Graph,
+    id: usize,
+    members: &[usize],
+    first: &grow::Plan,
+    width: u32,
+) -> Option<usize> {
+    let s = g.strips[id].as_ref()?;
+    let taken: HashSet<u32> = first.pixels.iter().copied().collect();
+    let chain = g.cands.chain_of[id];
+    let c = &g.cands.chains[chain as usize];
+    let near = |j: usize| {
+        g.cands.chain_of[j] == chain
+            && members.iter().any(|&m| {
+                let d = g.cands.pos(j).abs_diff(g.cands.pos(m));
+                let d = if c.closed { d.min(c.len - d) } else { d };
+                d <= width as usize
+            })
+    };
+    g.by_pair
+        .get(&pair(s.from, s.to))?
+        .iter()
+        .copied()
+        .filter(|&j| j != id && !near(j))
+        .filter(|&j| {
+            g.strips[j].as_ref().is_some_and(|sj| {
+                pair(sj.from, sj.to) == pair(s.from, s.to)
+                    && !sj.pixels.iter().any(|p| taken.contains(p))
+            })
+        })
+        .min_by(|&a, &b| total(g, a).total_cmp(&total(g, b)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::islands::label;
+    use crate::raster::Gray;
+
+    fn black_white(bits: BitGrid) -> TwoTone {
+        let gray = Gray {
+            width: bits.width,
+            height: bits.height,
+            data: bits
+                .data
+                .iter()
+                .map(|&b| if b { 1.0 } else { 0.0 })
+                .collect(),
+        };
+        TwoTone { bits, gray }
+    }
+
+    /// Connect, then check what a user relies on: no floating piece, nothing cut that was
+    /// material, every bridge reported with its pixels.
+    fn connect_and_check(two: &TwoTone, cfg: &BridgeConfig) -> Bridged {
+        let map = label(&two.bits);
+        let out = connect(two, &map, cfg).unwrap();
+        assert_eq!(label(&out.bits).island_count(), 0, "pieces still float");
+        for (i, (&before, &after)) in two.bits.data.iter().zip(&out.bits.data).enumerate() {
+            assert!(!before || after, "pixel {i} was material and is cut now");
+        }
+        let added = out
+            .bits
+            .data
+            .iter()
+            .zip(&two.bits.data)
+            .filter(|(a, b)| **a && !**b)
+            .count();
+        assert_eq!(added, out.bridges.iter().map(|b| b.pixels).sum::<usize>());
+        assert!(out.bridges.len() >= map.island_count());
+        for b in &out.bridges {
+            assert!(b.nodes[0] < b.nodes[1] && (b.nodes[1] as usize) < map.nodes.len());
+            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px);
+            assert_eq!(b.polygon.len(), 4);
+            assert!(b.cost.total.is_finite());
+        }
+        out
+    }
+
+    fn rings(n: u32, depth: u32, band: u32) -> BitGrid {
+        let c = n as f64 / 2.0;
+        BitGrid::from_fn(n, n, |x, y| {
+            let r = ((x as f64 + 0.5 - c).powi(2) + (y as f64 + 0.5 - c).powi(2)).sqrt();
+            // Frame outside radius c - band; then alternating cut / material bands inwards.
+            let k = ((c - r) / band as f64).floor() as i64;
+            k <= 0 || (k % 2 == 0 && k <= 2 * depth as i64)
+        })
+    }
+
+    #[test]
+    fn nested_rings_five_deep_are_all_joined() {
+        let bits = rings(160, 5, 7);
+        let two = black_white(bits);
+        let islands = label(&two.bits).island_count();
+        assert_eq!(islands, 5);
+        let out = connect_and_check(&two, &BridgeConfig::default());
+        // A tree over 6 nodes needs at least 5 bridges.
+        assert!(out.bridges.iter().filter(|b| !b.support).count() >= 5);
+    }
+
+    #[test]
+    fn checkerboard_squares_touching_at_corners_are_bridged() {
+        let bits = BitGrid::from_fn(96, 96, |x, y| {
+            if x < 4 || y < 4 || x >= 92 || y >= 92 {
+                return true;
+            }
+            if !(8..88).contains(&x) || !(8..88).contains(&y) {
+                return false;
+            }
+            ((x - 8) / 8 + (y - 8) / 8) % 2 == 0
+        });
+        let two = black_white(bits);
+        assert_eq!(label(&two.bits).island_count(), 50);
+        connect_and_check(&two, &BridgeConfig::default());
+    }
+
+    /// Small deterministic generator (64-bit LCG) for random blobs.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    pub(crate) fn blobs(w: u32, h: u32, count: usize, seed: u64) -> BitGrid {
+        let mut rng = Lcg(seed);
+        let discs: Vec<(f64, f64, f64)> = (0..count)
+            .map(|_| {
+                (
+                    rng.next() * w as f64,
+                    rng.next() * h as f64,
+                    2.0 + rng.next() * 9.0,
+                )
+            })
+            .collect();
+        let mut bits = BitGrid::new(w, h, false);
+        for &(cx, cy, r) in &discs {
+            let (x0, x1) = ((cx - r).max(0.0) as u32, ((cx + r) as u32).min(w - 1));
+            let (y0, y1) = ((cy - r).max(0.0) as u32, ((cy + r) as u32).min(h - 1));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    if (x as f64 + 0.5 - cx).powi(2) + (y as f64 + 0.5 - cy).powi(2) <= r * r {
+                        bits.set(x, y, true);
+                    }
+                }
+            }
+        }
+        bits
+    }
+
+    #[test]
+    fn random_blobs_are_all_joined() {
+        for seed in [1u64, 7, 42] {
+            let bits = blobs(200, 150, 60, seed);
+            let two = black_white(bits);
+            assert!(label(&two.bits).island_count() > 10, "seed {seed}");
+            connect_and_check(&two, &BridgeConfig::default());
+        }
+    }
+
+    #[test]
+    fn shaded_gray_and_one_pixel_islands_are_joined() {
+        // Single-pixel islands on a gray ramp: walks steer by the gray, fallbacks thicken.
+        let bits = BitGrid::from_fn(60, 40, |x, y| (x % 6 == 3 && y % 6 == 3) || y == 0);
+        let gray = Gray {
+            width: 60,
+            height: 40,
+            data: (0..60 * 40)
+                .map(|i| {
+                    if bits.data[i] {
+                        1.0
+                    } else {
+                        (i % 60) as f32 / 120.0
+                    }
+                })
+                .collect(),
+        };
+        connect_and_check(&TwoTone { bits, gray }, &BridgeConfig::default());
+    }
+
+    #[test]
+    fn an_island_beyond_the_length_limit_is_named_in_the_error() {
+        let bits = BitGrid::from_fn(60, 60, |x, y| {
+            (25..35).contains(&x) && (25..35).contains(&y)
+        });
+        let two = black_white(bits);
+        let map = label(&two.bits);
+        let cfg = BridgeConfig {
+            max_length_px: 10,
+            ..Default::default()
+        };
+        match connect(&two, &map, &cfg) {
+            Err(BridgeError::Unreachable {
+                island,
+                x,
+                y,
+                reason,
+            }) => {
+                assert_eq!(island, 1);
+                assert!((25..35).contains(&x) && (25..35).contains(&y));
+                assert!(reason.contains("10 px"), "{reason}");
+            }
+            other => panic!("expected Unreachable, got {other:?}"),
+        }
+        // With a long enough limit the same island is joined.
+        connect_and_check(&two, &BridgeConfig::default());
+    }
+
+    #[test]
+    fn fallback_search_joins_an_island_whose_walks_all_fail() {
+        // A one-pixel bar whose normals all run more than 16 px to the frame, and a frame tooth
+        // hanging from the top whose tip is 14 cut pixels away diagonally: no walk finds it,
+        // the breadth-first search does.
+        let bits = BitGrid::from_fn(60, 60, |x, y| {
+            (y == 30 && (20..=40).contains(&x)) || (x == 10 && y <= 25)
+        });
+        let two = black_white(bits);
+        let map = label(&two.bits);
+        assert_eq!(map.island_count(), 1);
+        let cfg = BridgeConfig {
+            max_length_px: 16,
+            ..Default::default()
+        };
+        let fields = strips::Fields::new(&two, &map);
+        let c = candidates::collect(&map);
+        assert!((0..c.len()).all(|id| strips::walk_candidate(&fields, &c, id, 16).is_err()));
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 1);
+        let p = &out.bridges[0].polygon;
+        assert!(
+            p.iter()
+                .all(|q| (9.0..=21.0).contains(&q[0]) && (25.0..=31.0).contains(&q[1])),
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn a_fanning_bridge_is_halved_and_gets_a_support() {
+        // A disc of radius 12 far from the frame: its strips fan out, so the drawn bridge covers
+        // far more dark pixels than its strips promised.
+        let n = 110u32;
+        let disc = |x: u32, y: u32| {
+            (x as f64 + 0.5 - 55.0).powi(2) + (y as f64 + 0.5 - 55.0).powi(2) <= 144.0
+        };
+        let two = black_white(BitGrid::from_fn(n, n, disc));
+        let cfg = BridgeConfig {
+            min_width_px: 2,
+            ..Default::default()
+        };
+        let map = label(&two.bits);
+        let need = grow::width_for(map.nodes[1].area, &cfg);
+        assert!(need >= 4, "{need}");
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 2);
+        assert!(!out.bridges[0].support && out.bridges[1].support);
+        assert_eq!(out.bridges[0].width_px, need / 2);
+        assert_eq!(out.bridges[1].width_px, need / 2);
+        // Apart from each other.
+        let c = |b: &Bridge| b.polygon[0];
+        let (a, b) = (c(&out.bridges[0]), c(&out.bridges[1]));
+        assert!((a[0] - b[0]).hypot(a[1] - b[1]) > need as f64);
+
+        // With a wide margin the same bridge stays whole and alone.
+        let relaxed = BridgeConfig {
+            support_margin: 1000.0,
+            ..cfg.clone()
+        };
+        let out = connect_and_check(&two, &relaxed);
+        assert_eq!(out.bridges.len(), 1);
+        assert_eq!(out.bridges[0].width_px, need);
+    }
+
+    #[test]
+    fn a_square_bridge_across_a_straight_gap_needs_no_support() {
+        // Straight parallel strips: the drawn bridge is exactly its strips.
+        let bits = BitGrid::from_fn(80, 80, |x, y| {
+            y < 4 || ((10..70).contains(&x) && (10..70).contains(&y))
+        });
+        let two = black_white(bits);
+        let cfg = BridgeConfig {
+            min_width_px: 2,
+            ..Default::default()
+        };
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 1);
+        assert!(!out.bridges[0].support);
+    }
+
+    #[test]
+    fn bad_settings_are_refused_by_name() {
+        let two = black_white(BitGrid::new(4, 4, true));
+        let map = label(&two.bits);
+        for cfg in [
+            BridgeConfig {
+                alpha: 2.0,
+                ..Default::default()
+            },
+            BridgeConfig {
+                w_length: -1.0,
+                ..Default::default()
+            },
+            BridgeConfig {
+                min_width_px: 50,
+                ..Default::default()
+            },
+        ] {
+            let e = connect(&two, &map, &cfg).unwrap_err();
+            assert!(matches!(e, BridgeError::BadSetting { .. }), "{e}");
+        }
+    }
+
+    #[test]
+    fn no_islands_means_no_bridges() {
+        let two = black_white(BitGrid::from_fn(10, 10, |x, _| x < 3));
+        let out = connect_and_check(&two, &BridgeConfig::default());
+        assert!(out.bridges.is_empty());
+        assert_eq!(out.bits, two.bits);
+    }
 }

@@ -12,6 +12,7 @@ use stencil::pipeline::{self, MakeConfig};
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
+use super::material::PhysicalArgs;
 use super::mesh::MeshArgs;
 
 fn parse_threshold(s: &str) -> Result<Threshold, String> {
@@ -77,9 +78,10 @@ pub struct ImageArgs {
 #[command(next_help_heading = "Topological filter")]
 pub struct FilterArgs {
     /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this.
-    #[arg(long, default_value_t = 1)]
-    pub filter_radius: u32,
+    /// cut features thinner than about twice this. Default: 1, raised to what the material's
+    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    #[arg(long)]
+    pub filter_radius: Option<u32>,
     /// Material or cut pieces smaller than this many pixels flip to the other tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
@@ -89,16 +91,19 @@ pub struct FilterArgs {
 #[derive(Args, Debug, Clone)]
 #[command(next_help_heading = "Bridges")]
 pub struct BridgeArgs {
-    /// w0: weight of the intensity error (how much light the bridge blocks in the gray source).
+    /// w0: weight of the intensity error ΣI, how dark the gray source is under the bridge
+    /// (normalised: 1 = a strip of this image's typical length over black).
     #[arg(long, default_value_t = BridgeConfig::default().w_intensity, value_parser = parse_weight)]
     pub w_intensity: f64,
-    /// w1: weight of the length penalty L^alpha.
+    /// w1: weight of the length penalty L^alpha (normalised: 1 = this image's typical strip).
     #[arg(long, default_value_t = BridgeConfig::default().w_length, value_parser = parse_weight)]
     pub w_length: f64,
-    /// w2: weight of the local curvature of the island border at the bridge.
+    /// w2: weight of the island border's curvature at the bridge, κ from 0 (straight) to 1 (tight
+    /// bend); raise it to keep bridges off curves that carry the shape.
     #[arg(long, default_value_t = BridgeConfig::default().w_curvature, value_parser = parse_weight)]
     pub w_curvature: f64,
-    /// w3: weight of the variance of strip cost across the bridge's width.
+    /// w3: weight of σ², how unevenly the strips across the bridge's width cost (variance over
+    /// squared mean); raise it to avoid spots whose neighbours are much worse.
     #[arg(long, default_value_t = BridgeConfig::default().w_variance, value_parser = parse_weight)]
     pub w_variance: f64,
     /// Exponent of the length penalty, strictly between 1 and 2.
@@ -107,14 +112,16 @@ pub struct BridgeArgs {
     /// Walks through the cut longer than this many pixels are dropped.
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
-    /// Narrowest bridge, in pixels.
+    /// Narrowest bridge, in pixels. A bridge's width is ⌈√A / 4⌉ px for the area A of the smaller
+    /// island it joins, clamped to the narrowest..widest range.
     #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
     pub min_bridge_width_px: u32,
     /// Widest bridge, in pixels.
     #[arg(long, default_value_t = BridgeConfig::default().max_width_px)]
     pub max_bridge_width_px: u32,
-    /// If a grown bridge's real error exceeds its estimate by more than this fraction, halve its
-    /// width and add a support bridge at the next cheapest place.
+    /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
+    /// (its window's mean strip ΣI × width) by more than this fraction, halve its width and add a
+    /// support bridge at the next cheapest place.
     #[arg(long, default_value_t = BridgeConfig::default().support_margin)]
     pub support_margin: f64,
 }
@@ -145,8 +152,11 @@ impl BridgeArgs {
 #[command(after_help = "\
 Example:
   stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
-  writes out/rings/twotone.png, stencil.png, preview.png and report.json; the run fails (and writes
-  nothing) if any island cannot be joined to the frame.")]
+  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; the run fails
+  (and writes nothing) if any island cannot be joined to the frame.
+  stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
+  sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
+  default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.")]
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
@@ -161,6 +171,8 @@ pub struct MakeArgs {
     pub filter: FilterArgs,
     #[command(flatten)]
     pub bridge: BridgeArgs,
+    #[command(flatten)]
+    pub physical: PhysicalArgs,
 }
 
 impl ImageArgs {
@@ -177,8 +189,9 @@ impl ImageArgs {
 impl FilterArgs {
     fn to_config(&self) -> FilterConfig {
         FilterConfig {
-            radius: self.filter_radius,
+            radius: self.filter_radius.unwrap_or(FilterConfig::default().radius),
             min_speck_px: self.min_speck_px,
+            auto_radius: self.filter_radius.is_none(),
         }
     }
 }
@@ -194,8 +207,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
+        physical: a.physical.to_config()?,
     };
-    let (made, _) = pipeline::make(&cfg)?;
+    let (made, written) = pipeline::make(&cfg)?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -209,6 +223,20 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         r.floating_after,
         total_ms
     );
+    println!(
+        "{:.1} x {:.1} mm at {:.3} mm/px, material {}; files: {}",
+        made.geometry.width_mm,
+        made.geometry.height_mm,
+        made.scale.mm_per_px,
+        cfg.physical.material.name,
+        written
+            .iter()
+            .filter_map(|p| p.file_name())
+            .map(|n| n.to_string_lossy())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    super::material::print_check(&made.check);
     Ok(ExitCode::SUCCESS)
 }
 

@@ -2,6 +2,7 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod make;
+mod material;
 mod mesh;
 
 use std::process::ExitCode;
@@ -22,11 +23,18 @@ pub enum Command {
     Make(make::MakeArgs),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
+    /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
+    /// widths. Exits 0 only when there are no violations.
+    Check(material::CheckArgs),
+    /// List the material profiles with their key numbers.
+    Profiles(material::ProfilesArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Make(a) => make::run_make(a),
         Command::Tone(a) => make::run_tone(a),
+        Command::Check(a) => material::run_check(a),
+        Command::Profiles(a) => material::run_profiles(a),
     }
 }

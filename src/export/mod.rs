@@ -2,7 +2,10 @@
 //! file is written atomically ([`atomic::write_atomic`]).
 
 pub mod atomic;
+pub mod dxf;
+pub mod mask;
 pub mod png;
+pub mod svg;
 
 use std::path::{Path, PathBuf};
 
@@ -22,6 +25,14 @@ pub enum ExportError {
     },
     #[error("{path}: cannot encode: {msg}")]
     Encode { path: PathBuf, msg: String },
+}
+
+/// Create the output folder (if missing) up front, so a run fails before its work, not after.
+pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
+        path: dir.to_path_buf(),
+        source,
+    })
 }
 
 /// Write a set of files into `dir` (created if missing), all or nothing: each file is written

@@ -1,8 +1,8 @@
 //! The topological filter: morphological opening and closing by a disc, then removal of specks.
 //!
 //! Lone pixels and thin spurs would each become an island needing its own bridge; the paper removes
-//! them with dilation and erosion before bridging. Everything here treats the area outside the image
-//! as material, because the sheet continues beyond the picture.
+//! them with dilation and erosion before bridging. Morphology extends the image by repeating its edge
+//! pixels; speck removal treats material touching the border as the frame (never a speck).
 
 use serde::{Deserialize, Serialize};
 
@@ -17,6 +17,9 @@ pub struct FilterConfig {
     pub radius: u32,
     /// Connected pieces (material or cut) smaller than this many pixels flip to the other tone.
     pub min_speck_px: usize,
+    /// Whether the pipeline may raise `radius` to what the material's smallest feature needs.
+    /// False when the user set the radius explicitly: their value is used as given.
+    pub auto_radius: bool,
 }
 
 impl Default for FilterConfig {
@@ -24,6 +27,7 @@ impl Default for FilterConfig {
         FilterConfig {
             radius: 1,
             min_speck_px: 8,
+            auto_radius: true,
         }
     }
 }
@@ -88,16 +92,14 @@ fn diff(a: &BitGrid, b: &BitGrid) -> usize {
     a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
 }
 
-/// Pad by `pad` material pixels on every side (the frame), so that erosion and dilation behave at
-/// the image border as they would on the whole sheet.
+/// Pad by `pad` pixels on every side, repeating the edge pixels, so erosion and dilation neither
+/// eat into nor grow out of the image border: an all-cut picture stays all cut, and a region running
+/// off the edge keeps its width there.
 fn padded(bits: &BitGrid, pad: u32) -> BitGrid {
     let (w, h) = (bits.width + 2 * pad, bits.height + 2 * pad);
+    let clamp = |v: u32, n: u32| v.saturating_sub(pad).min(n - 1);
     BitGrid::from_fn(w, h, |x, y| {
-        if x < pad || y < pad || x >= pad + bits.width || y >= pad + bits.height {
-            true
-        } else {
-            bits.get(x - pad, y - pad)
-        }
+        bits.get(clamp(x, bits.width), clamp(y, bits.height))
     })
 }
 
@@ -177,6 +179,17 @@ mod tests {
     }
 
     #[test]
+    fn uniform_images_are_left_alone() {
+        for fill in [true, false] {
+            let g = BitGrid::new(9, 7, fill);
+            for r in 1..4 {
+                assert_eq!(open(&g, r), g);
+                assert_eq!(close(&g, r), g);
+            }
+        }
+    }
+
+    #[test]
     fn specks_flip_and_are_counted() {
         let g = grid(&[
             "##########",
@@ -192,6 +205,7 @@ mod tests {
             &FilterConfig {
                 radius: 0,
                 min_speck_px: 4,
+                auto_radius: false,
             },
         );
         assert_eq!(s.material_specks, 1);

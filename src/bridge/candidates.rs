@@ -1,0 +1,267 @@
+//! Bridge candidates: every island border pixel, ordered along the island's contours.
+//!
+//! The islands stage lists border pixels in scan order; the cost windows run *along* the border, so
+//! here they are chained: from a border pixel, step to an unvisited border pixel of the same node
+//! among its 8 neighbours (edge neighbours first, so the chain follows the contour rather than
+//! cutting corners), first forwards, then backwards from the seed. An island with a hole gets at
+//! least two chains (outer contour and hole); a chain whose ends touch is closed and its windows wrap.
+
+use rayon::prelude::*;
+
+use crate::islands::{IslandMap, FRAME};
+
+/// One run of candidates along a contour of one node.
+#[derive(Clone, Debug)]
+pub struct Chain {
+    pub node: u32,
+    /// First candidate id of the chain in [`Candidates::pixels`].
+    pub start: usize,
+    pub len: usize,
+    /// The last candidate touches the first: windows wrap around.
+    pub closed: bool,
+}
+
+/// All candidates of all islands, chain after chain. A candidate id is an index into `pixels`.
+#[derive(Clone, Debug, Default)]
+pub struct Candidates {
+    pub pixels: Vec<(u32, u32)>,
+    /// Chain index of each candidate.
+    pub chain_of: Vec<u32>,
+    pub chains: Vec<Chain>,
+    /// Per node, the candidate id of each pixel of `IslandMap::nodes[n].border` (same order), so a
+    /// border pixel found by a search maps back to its candidate. Empty for the frame.
+    pub id_of_border: Vec<Vec<u32>>,
+}
+
+impl Candidates {
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+
+    pub fn node(&self, id: usize) -> u32 {
+        self.chains[self.chain_of[id] as usize].node
+    }
+
+    /// Position of `id` within its chain.
+    pub fn pos(&self, id: usize) -> usize {
+        id - self.chains[self.chain_of[id] as usize].start
+    }
+
+    /// The candidate `offset` steps along the chain from `id`, wrapping on closed chains, `None`
+    /// past the ends of an open chain.
+    pub fn along(&self, id: usize, offset: isize) -> Option<usize> {
+        let c = &self.chains[self.chain_of[id] as usize];
+        let p = (id - c.start) as isize + offset;
+        let n = c.len as isize;
+        if c.closed {
+            Some(c.start + p.rem_euclid(n) as usize)
+        } else if (0..n).contains(&p) {
+            Some(c.start + p as usize)
+        } else {
+            None
+        }
+    }
+
+    /// The candidate id of a border pixel of `node`, if it is one.
+    pub fn id_at(&self, map: &IslandMap, node: u32, x: u32, y: u32) -> Option<usize> {
+        let border = &map.nodes.get(node as usize)?.border;
+        let k = border
+            .binary_search_by(|&(bx, by)| (by, bx).cmp(&(y, x)))
+            .ok()?;
+        self.id_of_border
+            .get(node as usize)
+            .and_then(|v| v.get(k))
+            .map(|&i| i as usize)
+    }
+}
+
+/// Chain every island's border pixels (the frame's are not candidates: bridges start on islands).
+/// O(total island perimeter); islands are chained in parallel.
+pub fn collect(map: &IslandMap) -> Candidates {
+    let per_node: Vec<Vec<Vec<u32>>> = map
+        .nodes
+        .par_iter()
+        .enumerate()
+        .map(|(n, node)| {
+            if n as u32 == FRAME {
+                Vec::new()
+            } else {
+                chain_node(map, n as u32, &node.border)
+            }
+        })
+        .collect();
+
+    let mut out = Candidates {
+        id_of_border: vec![Vec::new(); map.nodes.len()],
+        ..Default::default()
+    };
+    for (n, chains) in per_node.into_iter().enumerate() {
+        let border = &map.nodes[n].border;
+        if !chains.is_empty() {
+            out.id_of_border[n] = vec![u32::MAX; border.len()];
+        }
+        for chain in chains {
+            let start = out.pixels.len();
+            let ci = out.chains.len() as u32;
+            for &k in &chain {
+                out.id_of_border[n][k as usize] = out.pixels.len() as u32;
+                out.pixels.push(border[k as usize]);
+                out.chain_of.push(ci);
+            }
+            let first = border[chain[0] as usize];
+            let last = border[*chain.last().unwrap_or(&chain[0]) as usize];
+            let closed = chain.len() >= 3 && touches8(first, last);
+            out.chains.push(Chain {
+                node: n as u32,
+                start,
+                len: chain.len(),
+                closed,
+            });
+        }
+    }
+    out
+}
+
+fn touches8(a: (u32, u32), b: (u32, u32)) -> bool {
+    a.0.abs_diff(b.0) <= 1 && a.1.abs_diff(b.1) <= 1
+}
+
+/// Edge neighbours first, then corners, in a fixed turning order so chains follow the contour.
+const STEPS: [(i64, i64); 8] = [
+    (1, 0),
+    (0, 1),
+    (-1, 0),
+    (0, -1),
+    (1, 1),
+    (-1, 1),
+    (-1, -1),
+    (1, -1),
+];
+
+/// Chains of one node as lists of indices into its (scan-ordered) border list.
+fn chain_node(map: &IslandMap, node: u32, border: &[(u32, u32)]) -> Vec<Vec<u32>> {
+    let find = |x: i64, y: i64| -> Option<usize> {
+        if x < 0 || y < 0 || x >= map.width as i64 || y >= map.height as i64 {
+            return None;
+        }
+        let (x, y) = (x as u32, y as u32);
+        if map.label(x, y) != node {
+            return None;
+        }
+        border
+            .binary_search_by(|&(bx, by)| (by, bx).cmp(&(y, x)))
+            .ok()
+    };
+    let mut visited = vec![false; border.len()];
+    let mut chains = Vec::new();
+    for seed in 0..border.len() {
+        if visited[seed] {
+            continue;
+        }
+        visited[seed] = true;
+        let mut forward = vec![seed as u32];
+        extend(&mut forward, border, &mut visited, &find);
+        let mut backward = vec![seed as u32];
+        extend(&mut backward, border, &mut visited, &find);
+        backward.reverse();
+        backward.pop(); // the seed, already first in `forward`
+        backward.extend(forward);
+        chains.push(backward);
+    }
+    chains
+}
+
+fn extend(
+    chain: &mut Vec<u32>,
+    border: &[(u32, u32)],
+    visited: &mut [bool],
+    find: &impl Fn(i64, i64) -> Option<usize>,
+) {
+    loop {
+        let (x, y) = border[*chain.last().unwrap_or(&0) as usize];
+        let next = STEPS
+            .iter()
+            .find_map(|&(dx, dy)| find(x as i64 + dx, y as i64 + dy).filter(|&k| !visited[k]));
+        match next {
+            Some(k) => {
+                visited[k] = true;
+                chain.push(k as u32);
+            }
+            None => return,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::islands::label;
+    use crate::raster::BitGrid;
+
+    fn grid(rows: &[&str]) -> BitGrid {
+        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
+            rows[y as usize].as_bytes()[x as usize] == b'#'
+        })
+    }
+
+    #[test]
+    fn square_island_is_one_closed_chain_in_contour_order() {
+        let g = grid(&[
+            "........", "........", "..####..", "..####..", "..####..", "..####..", "........",
+            "........",
+        ]);
+        let m = label(&g);
+        let c = collect(&m);
+        assert_eq!(c.chains.len(), 1);
+        assert!(c.chains[0].closed);
+        assert_eq!(c.len(), 12);
+        // Consecutive candidates are 8-neighbours: the chain follows the contour.
+        for i in 0..c.len() {
+            let j = c.along(i, 1).unwrap();
+            assert!(touches8(c.pixels[i], c.pixels[j]), "{i} -> {j}");
+        }
+    }
+
+    #[test]
+    fn ring_island_has_outer_and_inner_chains_and_lookup_works() {
+        let g = grid(&[
+            ".........",
+            ".#######.",
+            ".#.....#.",
+            ".#.....#.",
+            ".#.....#.",
+            ".#######.",
+            ".........",
+        ]);
+        let m = label(&g);
+        let c = collect(&m);
+        // A one-pixel ring: every pixel is a border pixel of both sides; one chain covers it.
+        assert_eq!(c.len(), m.nodes[1].border.len());
+        for (k, &(x, y)) in m.nodes[1].border.iter().enumerate() {
+            let id = c.id_at(&m, 1, x, y).unwrap();
+            assert_eq!(c.pixels[id], (x, y));
+            assert_eq!(c.id_of_border[1][k] as usize, id);
+        }
+        assert_eq!(c.id_at(&m, 1, 0, 0), None);
+    }
+
+    #[test]
+    fn open_chain_stops_at_its_ends() {
+        let g = grid(&["......", ".####.", "......"]);
+        let m = label(&g);
+        let c = collect(&m);
+        assert_eq!(c.chains.len(), 1);
+        assert!(!c.chains[0].closed);
+        let first = c.chains[0].start;
+        assert_eq!(c.along(first, -1), None);
+        assert_eq!(
+            c.along(first, 3)
+                .map(|i| c.pixels[i].0.abs_diff(c.pixels[first].0)),
+            Some(3)
+        );
+    }
+}

@@ -1,0 +1,336 @@
+//! The cost `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` of a bridge placed at a candidate: one function per
+//! term, named after it, and [`score`], which evaluates them over the leftward, centred and
+//! rightward windows along the border and keeps the cheapest.
+//!
+//! Normalisation (so that a weight of 1 means "as much as a typical strip"): let `L̃` be the median
+//! strip length (pixels) over the image.
+//! - ΣI is divided by `L̃`: 1 = a typical-length strip over pure black, 0 = over pure white.
+//! - L^α is divided by `L̃^α`: 1 = a typical strip.
+//! - κ = √(λmin/λmax) of the candidates' coordinate covariance, already in 0 (straight) .. 1 (round).
+//! - σ² is the variance of the strips' cost (normalised ΣI + L^α, unweighted, so the four weights
+//!   stay independent) divided by the squared mean: 0 = all neighbours alike, about 1 when one
+//!   neighbour in a window of three costs several times the others. A neighbour with no strip to
+//!   the same node counts as a strip of the maximum length over black: it cannot be part of a
+//!   bridge there, which is exactly what σ² is meant to warn about.
+//!
+//! The intensity and length terms of a window are the means over its strips that reach the same
+//! node as the candidate's strip.
+
+use super::candidates::Candidates;
+use super::strips::Strip;
+use super::{BridgeConfig, CostTerms};
+use crate::raster::Gray;
+
+/// Smallest window for the curvature term, in candidates. A digital straight edge at an odd angle
+/// is a staircase whose pixels stray ±½ px from the line; over n candidates that alone gives
+/// κ ≈ 0.8/n, so with fewer than ~15 a staircase looks as curved as a 20 px radius bend. κ
+/// therefore uses `max(width, 15)` candidates (same alignment as the other terms' window).
+pub const KAPPA_MIN_WINDOW: usize = 15;
+
+/// ΣI: sum over the strip's pixels of the squared difference between the grayscale and white
+/// (the bridge turns them white).
+pub fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
+    pixels
+        .iter()
+        .map(|&p| {
+            let d = 1.0 - gray.data[p as usize] as f64;
+            d * d
+        })
+        .sum()
+}
+
+/// L^α: small for short strips, growing faster than linearly for long ones (1 < α < 2).
+pub fn length(len_px: f64, alpha: f64) -> f64 {
+    len_px.powf(alpha)
+}
+
+/// κ: curvature of the border through `points` from the eigenvalues of their 2×2 coordinate
+/// covariance: √(λmin/λmax), 0 on a straight edge (all spread along one axis) rising to 1 where the
+/// points spread equally both ways (a tight curve). For points on an arc of small angle θ it grows
+/// in proportion to θ, i.e. to curvature × window length. Fewer than 3 points: 0.
+pub fn curvature(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    if points.len() < 3 {
+        return 0.0;
+    }
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(x, y)| (a + x / n, b + y / n));
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for &(x, y) in points {
+        let (dx, dy) = (x - mx, y - my);
+        sxx += dx * dx / n;
+        syy += dy * dy / n;
+        sxy += dx * dy / n;
+    }
+    let half_tr = (sxx + syy) / 2.0;
+    let root = (((sxx - syy) / 2.0).powi(2) + sxy * sxy).sqrt();
+    let (big, small) = (half_tr + root, (half_tr - root).max(0.0));
+    if big <= 1e-12 {
+        return 0.0;
+    }
+    (small / big).sqrt()
+}
+
+/// σ²: variance of strip costs relative to their squared mean (scale free). 0 for fewer than two.
+pub fn variance(costs: &[f64]) -> f64 {
+    if costs.len() < 2 {
+        return 0.0;
+    }
+    let n = costs.len() as f64;
+    let mean = costs.iter().sum::<f64>() / n;
+    if mean <= 1e-12 {
+        return 0.0;
+    }
+    let var = costs.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / n;
+    var / (mean * mean)
+}
+
+/// Normalised intensity and length of one strip.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StripCost {
+    pub intensity: f64,
+    pub length: f64,
+}
+
+impl StripCost {
+    /// The unweighted strip cost whose spread σ² measures.
+    pub fn base(&self) -> f64 {
+        self.intensity + self.length
+    }
+
+    /// The weighted strip cost: which neighbour is cheaper when a bridge grows.
+    pub fn weighted(&self, cfg: &BridgeConfig) -> f64 {
+        cfg.w_intensity * self.intensity + cfg.w_length * self.length
+    }
+}
+
+/// The image's scale for the terms (see the module doc).
+#[derive(Clone, Copy, Debug)]
+pub struct Norm {
+    /// Median strip length L̃, at least 1.
+    pub typical_len: f64,
+    pub alpha: f64,
+    /// What a missing neighbour counts as in σ².
+    pub missing: StripCost,
+}
+
+impl Norm {
+    /// From all strip lengths of the image (any order; may be empty).
+    pub fn new(mut lengths: Vec<usize>, cfg: &BridgeConfig) -> Self {
+        let typical = if lengths.is_empty() {
+            1.0
+        } else {
+            let mid = lengths.len() / 2;
+            *lengths.select_nth_unstable(mid).1 as f64
+        }
+        .max(1.0);
+        let mut n = Norm {
+            typical_len: typical,
+            alpha: cfg.alpha,
+            missing: StripCost {
+                intensity: 0.0,
+                length: 0.0,
+            },
+        };
+        let m = cfg.max_length_px.max(1) as f64;
+        n.missing = StripCost {
+            intensity: m / typical,
+            length: n.length_of(m),
+        };
+        n
+    }
+
+    fn length_of(&self, len: f64) -> f64 {
+        length(len, self.alpha) / length(self.typical_len, self.alpha)
+    }
+
+    pub fn strip(&self, s: &Strip) -> StripCost {
+        StripCost {
+            intensity: s.intensity / self.typical_len,
+            length: self.length_of(s.len() as f64),
+        }
+    }
+}
+
+/// Where a window lies relative to its candidate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Align {
+    /// The candidate is the window's last strip (the bridge extends backwards along the border).
+    Left,
+    Centre,
+    /// The candidate is the window's first strip.
+    Right,
+}
+
+/// Offsets (inclusive) along the chain of a window of `size` candidates around `id`. Clamped to
+/// the chain: a closed chain shorter than `size` is taken whole; on an open chain the window is
+/// shifted to lie inside it (near an end, the three alignments may coincide).
+pub fn window(c: &Candidates, id: usize, size: usize, align: Align) -> (isize, isize) {
+    let chain = &c.chains[c.chain_of[id] as usize];
+    let size = size.clamp(1, chain.len) as isize;
+    let mut lo = match align {
+        Align::Left => -(size - 1),
+        Align::Centre => -((size - 1) / 2),
+        Align::Right => 0,
+    };
+    if !chain.closed {
+        let pos = c.pos(id) as isize;
+        let n = chain.len as isize;
+        lo = lo.clamp(-pos, n - pos - size);
+    }
+    (lo, lo + size - 1)
+}
+
+/// The cheapest window of a candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scored {
+    /// Weighted terms and total.
+    pub terms: CostTerms,
+    /// The window's offsets along the chain.
+    pub window: (isize, isize),
+    pub align: Align,
+    /// Bridge width needed there, px.
+    pub width: u32,
+    /// Intensity error the bridge is expected to add: mean ΣI of the window's strips × width.
+    pub estimate: f64,
+}
+
+/// Score candidate `id` (which must have a strip): each term over the leftward, centred and
+/// rightward windows of `width` candidates; the cheapest total is kept.
+pub fn score(
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    costs: &[Option<StripCost>],
+    id: usize,
+    width: u32,
+    cfg: &BridgeConfig,
+    norm: &Norm,
+) -> Option<Scored> {
+    let to = strips[id].as_ref()?.to;
+    let mut best: Option<Scored> = None;
+    let mut base = Vec::with_capacity(width as usize);
+    let mut pts = Vec::with_capacity(KAPPA_MIN_WINDOW.max(width as usize));
+    for align in [Align::Left, Align::Centre, Align::Right] {
+        let (lo, hi) = window(c, id, width as usize, align);
+        base.clear();
+        let (mut i_sum, mut l_sum, mut raw_i, mut valid) = (0.0, 0.0, 0.0, 0usize);
+        for k in lo..=hi {
+            let j = c.along(id, k)?;
+            match (&strips[j], &costs[j]) {
+                (Some(s), Some(sc)) if s.to == to => {
+                    i_sum += sc.intensity;
+                    l_sum += sc.length;
+                    raw_i += s.intensity;
+                    valid += 1;
+                    base.push(sc.base());
+                }
+                _ => base.push(norm.missing.base()),
+            }
+        }
+        let valid_f = valid.max(1) as f64;
+        let (klo, khi) = window(c, id, KAPPA_MIN_WINDOW.max(width as usize), align);
+        pts.clear();
+        for k in klo..=khi {
+            let j = c.along(id, k)?;
+            let (x, y) = c.pixels[j];
+            pts.push((x as f64, y as f64));
+        }
+        let mut terms = CostTerms {
+            intensity: cfg.w_intensity * i_sum / valid_f,
+            length: cfg.w_length * l_sum / valid_f,
+            curvature: cfg.w_curvature * curvature(&pts),
+            variance: cfg.w_variance * variance(&base),
+            total: 0.0,
+        };
+        terms.total = terms.intensity + terms.length + terms.curvature + terms.variance;
+        if best.is_none_or(|b| terms.total < b.terms.total) {
+            best = Some(Scored {
+                terms,
+                window: (lo, hi),
+                align,
+                width,
+                estimate: raw_i / valid_f * width as f64,
+            });
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn intensity_is_the_squared_distance_from_white() {
+        let gray = Gray {
+            width: 4,
+            height: 1,
+            data: vec![0.0, 0.5, 1.0, 0.25],
+        };
+        let v = intensity(&gray, &[0, 1, 2, 3]);
+        assert!((v - (1.0 + 0.25 + 0.0 + 0.5625)).abs() < 1e-9);
+        assert_eq!(intensity(&gray, &[2]), 0.0);
+    }
+
+    #[test]
+    fn length_penalty_grows_faster_than_linear() {
+        assert!((length(4.0, 1.5) - 8.0).abs() < 1e-9);
+        assert!(length(20.0, 1.5) / length(10.0, 1.5) > 2.0);
+    }
+
+    #[test]
+    fn curvature_is_zero_on_a_line_and_one_on_a_full_circle() {
+        let line: Vec<_> = (0..9).map(|i| (i as f64, 3.0)).collect();
+        assert!(curvature(&line) < 1e-9);
+        let diagonal: Vec<_> = (0..9).map(|i| (i as f64, i as f64)).collect();
+        assert!(curvature(&diagonal) < 1e-6);
+        let circle: Vec<_> = (0..36)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 36.0;
+                (5.0 * a.cos(), 5.0 * a.sin())
+            })
+            .collect();
+        assert!((curvature(&circle) - 1.0).abs() < 1e-6);
+        // A tighter arc of the same length is curvier.
+        let arc = |r: f64| -> Vec<(f64, f64)> {
+            (0..9)
+                .map(|i| {
+                    let a = (i as f64 - 4.0) / r;
+                    (r * a.sin(), r * (1.0 - a.cos()))
+                })
+                .collect()
+        };
+        let (gentle, tight) = (curvature(&arc(40.0)), curvature(&arc(6.0)));
+        assert!(gentle < tight, "{gentle} vs {tight}");
+        assert!(gentle < 0.05 && tight > 0.15, "{gentle} {tight}");
+    }
+
+    #[test]
+    fn variance_is_relative_to_the_mean() {
+        assert_eq!(variance(&[2.0, 2.0, 2.0]), 0.0);
+        // [1, 3]: mean 2, variance 1 → 1/4.
+        assert!((variance(&[1.0, 3.0]) - 0.25).abs() < 1e-12);
+        // Scale free.
+        assert!((variance(&[10.0, 30.0]) - 0.25).abs() < 1e-12);
+        assert_eq!(variance(&[5.0]), 0.0);
+    }
+
+    #[test]
+    fn norm_uses_the_median_length() {
+        let cfg = BridgeConfig::default();
+        let n = Norm::new(vec![4, 10, 100], &cfg);
+        assert_eq!(n.typical_len, 10.0);
+        let s = Strip {
+            from: 1,
+            to: 0,
+            pixels: (0..10).collect(),
+            end: (0, 0),
+            intensity: 5.0,
+        };
+        let sc = n.strip(&s);
+        assert!((sc.intensity - 0.5).abs() < 1e-12);
+        assert!((sc.length - 1.0).abs() < 1e-12);
+        assert!(n.missing.length > 1.0);
+    }
+}

@@ -1,0 +1,365 @@
+//! Growing a chosen strip into a bridge of the width its island needs, and drawing it.
+
+use super::candidates::Candidates;
+use super::cost::StripCost;
+use super::strips::Strip;
+use super::BridgeConfig;
+use crate::raster::{BitGrid, Gray};
+
+/// Width of the bridge between two nodes, in pixels:
+///
+/// `width = clamp(⌈√A / 4⌉, min_width_px, max_width_px)`, where `A` is the area in pixels of the
+/// **smaller** of the two nodes (the frame's area counts as infinite, so for a bridge to the frame
+/// `A` is the island's area).
+///
+/// Why: an island hangs from its bridges; its weight grows with its area and a bridge's strength
+/// with its width, while a bridge wider than about a quarter of the island's side would smother its
+/// shape. √A/4 is a quarter of the side of a square of that area: a 10×10 px island gets the
+/// minimum, a 100×100 px island 25 px (clamped to the maximum).
+pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
+    let w = ((smaller_area as f64).sqrt() / 4.0).ceil() as u32;
+    w.clamp(
+        cfg.min_width_px.max(1),
+        cfg.max_width_px.max(cfg.min_width_px.max(1)),
+    )
+}
+
+/// Grow from candidate `id` strip by strip, always adding the cheaper of the two neighbouring
+/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until `width`
+/// strips or no neighbour can be added. Returns the members in chain order.
+pub fn grow(
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    costs: &[Option<StripCost>],
+    id: usize,
+    width: u32,
+    cfg: &BridgeConfig,
+) -> Vec<usize> {
+    let Some(to) = strips[id].as_ref().map(|s| s.to) else {
+        return Vec::new();
+    };
+    let chain_len = c.chains[c.chain_of[id] as usize].len;
+    let want = (width as usize).min(chain_len).max(1);
+    let usable = |j: usize| -> Option<f64> {
+        match (&strips[j], &costs[j]) {
+            (Some(s), Some(sc)) if s.to == to => Some(sc.weighted(cfg)),
+            _ => None,
+        }
+    };
+    let (mut lo, mut hi) = (0isize, 0isize);
+    while ((hi - lo + 1) as usize) < want {
+        let left = c.along(id, lo - 1).and_then(usable);
+        let right = c.along(id, hi + 1).and_then(usable);
+        match (left, right) {
+            (Some(l), Some(r)) if l <= r => lo -= 1,
+            (Some(_), Some(_)) => hi += 1,
+            (Some(_), None) => lo -= 1,
+            (None, Some(_)) => hi += 1,
+            (None, None) => break,
+        }
+    }
+    (lo..=hi).filter_map(|k| c.along(id, k)).collect()
+}
+
+/// What drawing a bridge would change, computed before committing it.
+#[derive(Clone, Debug, Default)]
+pub struct Plan {
+    /// Cut pixels (linear indices) it turns into material.
+    pub pixels: Vec<u32>,
+    /// Outline: start and end points of the outer strips, in pixel coordinates where pixel (x, y)
+    /// covers [x, x+1) × [y, y+1) (points are pixel centres).
+    pub polygon: Vec<[f64; 2]>,
+    /// Real intensity error: Σ (1 − gray)² over `pixels`.
+    pub real: f64,
+    /// Achieved width in pixels (strips, or the minimum width when it had to be thickened).
+    pub width: u32,
+    /// Mean strip length, px.
+    pub length: f64,
+}
+
+/// Plan the bridge made of `members`' strips: every strip pixel, plus the cut pixels whose centres
+/// lie inside the polygon of the outer strips' end points (kept only where 4-connected to a strip,
+/// so the fill can never leave a loose speck), and, when fewer strips than `min_width` could be
+/// grown, the strips thickened by a square brush to that width.
+pub fn plan(
+    bits: &BitGrid,
+    gray: &Gray,
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    members: &[usize],
+    min_width: u32,
+) -> Plan {
+    let w = bits.width as i64;
+    let h = bits.height as i64;
+    let member_strips: Vec<(&Strip, (u32, u32))> = members
+        .iter()
+        .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
+        .collect();
+    let (Some(first), Some(last)) = (member_strips.first(), member_strips.last()) else {
+        return Plan::default();
+    };
+    let centre = |(x, y): (i64, i64)| [x as f64 + 0.5, y as f64 + 0.5];
+    let start = |p: (u32, u32)| centre((p.0 as i64, p.1 as i64));
+    let polygon = vec![
+        start(first.1),
+        centre(first.0.end),
+        centre(last.0.end),
+        start(last.1),
+    ];
+
+    // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
+    let brush = if (member_strips.len() as u32) < min_width {
+        (min_width - member_strips.len() as u32).div_ceil(2) as i64
+    } else {
+        0
+    };
+    let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
+    let mut include = |x: i64, y: i64| {
+        x0 = x0.min(x);
+        y0 = y0.min(y);
+        x1 = x1.max(x);
+        y1 = y1.max(y);
+    };
+    for p in &polygon {
+        include(p[0].floor() as i64, p[1].floor() as i64);
+    }
+    for (s, _) in &member_strips {
+        for &p in &s.pixels {
+            include(p as i64 % w, p as i64 / w);
+        }
+    }
+    let (x0, y0) = ((x0 - brush).max(0), (y0 - brush).max(0));
+    let (x1, y1) = ((x1 + brush).min(w - 1), (y1 + brush).min(h - 1));
+    if x0 > x1 || y0 > y1 {
+        return Plan::default();
+    }
+    let (lw, lh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+    // 0 = untouched, 1 = fill candidate, 2 = taken.
+    let mut state = vec![0u8; lw * lh];
+    let local = |x: i64, y: i64| (y - y0) as usize * lw + (x - x0) as usize;
+    let mut stack = Vec::new();
+    for (s, _) in &member_strips {
+        for &p in &s.pixels {
+            let (x, y) = (p as i64 % w, p as i64 / w);
+            let l = local(x, y);
+            if state[l] != 2 {
+                state[l] = 2;
+                stack.push((x, y));
+            }
+        }
+    }
+    if polygon_area(&polygon).abs() > 0.0 {
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let l = local(x, y);
+                if state[l] == 0
+                    && !bits.get(x as u32, y as u32)
+                    && inside(&polygon, x as f64 + 0.5, y as f64 + 0.5)
+                {
+                    state[l] = 1;
+                }
+            }
+        }
+        // Keep fill pixels 4-connected to a strip.
+        while let Some((x, y)) = stack.pop() {
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < x0 || ny < y0 || nx > x1 || ny > y1 {
+                    continue;
+                }
+                let l = local(nx, ny);
+                if state[l] == 1 {
+                    state[l] = 2;
+                    stack.push((nx, ny));
+                }
+            }
+        }
+    }
+    if brush > 0 {
+        for (s, _) in &member_strips {
+            for &p in &s.pixels {
+                let (x, y) = (p as i64 % w, p as i64 / w);
+                for yy in (y - brush).max(y0)..=(y + brush).min(y1) {
+                    for xx in (x - brush).max(x0)..=(x + brush).min(x1) {
+                        state[local(xx, yy)] = 2;
+                    }
+                }
+            }
+        }
+    }
+    let mut pixels = Vec::new();
+    let mut real = 0.0;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            if state[local(x, y)] == 2 && !bits.get(x as u32, y as u32) {
+                let i = (y * w + x) as u32;
+                pixels.push(i);
+                let d = 1.0 - gray.data[i as usize] as f64;
+                real += d * d;
+            }
+        }
+    }
+    let n = member_strips.len();
+    Plan {
+        pixels,
+        polygon,
+        real,
+        width: if brush > 0 { min_width } else { n as u32 },
+        length: member_strips
+            .iter()
+            .map(|(s, _)| s.len() as f64)
+            .sum::<f64>()
+            / n as f64,
+    }
+}
+
+/// Turn the planned pixels into material.
+pub fn commit(bits: &mut BitGrid, plan: &Plan) {
+    for &p in &plan.pixels {
+        bits.data[p as usize] = true;
+    }
+}
+
+fn polygon_area(p: &[[f64; 2]]) -> f64 {
+    let n = p.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (p[i], p[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum::<f64>()
+        / 2.0
+}
+
+/// Even-odd point-in-polygon test.
+fn inside(p: &[[f64; 2]], x: f64, y: f64) -> bool {
+    let n = p.len();
+    let mut c = false;
+    let mut j = n - 1;
+    for i in 0..n {
+        let (a, b) = (p[i], p[j]);
+        if (a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0] {
+            c = !c;
+        }
+        j = i;
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bridge::cost::Norm;
+    use crate::bridge::{candidates, strips};
+    use crate::islands::label;
+    use crate::raster::TwoTone;
+
+    #[test]
+    fn width_grows_with_the_smaller_area_and_is_clamped() {
+        let cfg = BridgeConfig {
+            min_width_px: 3,
+            max_width_px: 20,
+            ..Default::default()
+        };
+        assert_eq!(width_for(4, &cfg), 3); // ⌈2/4⌉ = 1 → min
+        assert_eq!(width_for(1600, &cfg), 10); // √1600 / 4
+        assert_eq!(width_for(1601, &cfg), 11);
+        assert_eq!(width_for(1_000_000, &cfg), 20); // max
+        assert!(width_for(400, &cfg) <= width_for(900, &cfg));
+    }
+
+    #[test]
+    fn point_in_polygon() {
+        let sq = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
+        assert!(inside(&sq, 2.0, 2.0));
+        assert!(!inside(&sq, 5.0, 2.0));
+        assert_eq!(polygon_area(&sq), 16.0);
+    }
+
+    /// A 6×6 island 4 px below the frame's top band, black everywhere: grow to 3 and draw.
+    #[test]
+    fn grows_cheaper_neighbours_first_and_fills_a_solid_bridge() {
+        let w = 20u32;
+        let bits = BitGrid::from_fn(w, 16, |x, y| {
+            y < 2 || ((7..13).contains(&x) && (6..12).contains(&y))
+        });
+        let mut gray = Gray::new(w, 16, 0.0);
+        // Light column over x = 11: the strip there is cheaper than the one at x = 9.
+        for y in 2..6 {
+            gray.set(11, y, 0.9);
+        }
+        let t = TwoTone { bits, gray };
+        let m = label(&t.bits);
+        let f = strips::Fields::new(&t, &m);
+        let c = candidates::collect(&m);
+        let st: Vec<_> = (0..c.len())
+            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
+            .collect();
+        let cfg = BridgeConfig::default();
+        let norm = Norm::new(st.iter().flatten().map(|s| s.len()).collect(), &cfg);
+        let costs: Vec<_> = st
+            .iter()
+            .map(|s| s.as_ref().map(|s| norm.strip(s)))
+            .collect();
+        let id = c.id_at(&m, 1, 10, 6).unwrap();
+        assert_eq!(st[id].as_ref().unwrap().to, 0);
+        let members = grow(&c, &st, &costs, id, 3, &cfg);
+        let xs: Vec<u32> = members.iter().map(|&i| c.pixels[i].0).collect();
+        // From x = 10 the cheaper side (x = 11, light) comes first, then x = 9 or 12.
+        assert_eq!(members.len(), 3);
+        assert!(xs.contains(&10) && xs.contains(&11), "{xs:?}");
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
+        assert_eq!(p.width, 3);
+        let mut b = t.bits.clone();
+        commit(&mut b, &p);
+        assert_eq!(label(&b).island_count(), 0);
+        // Solid: every pixel between the outer strips in the gap is material.
+        let xmin = *xs.iter().min().unwrap();
+        for y in 2..6 {
+            for x in xmin..xmin + 3 {
+                assert!(b.get(x, y), "({x}, {y})");
+            }
+        }
+        // Every planned pixel is a member strip's pixel or lies inside the polygon, and the real
+        // error is Σ (1 − gray)² over exactly those pixels.
+        let strip_px: Vec<u32> = members
+            .iter()
+            .flat_map(|&m| st[m].as_ref().unwrap().pixels.clone())
+            .collect();
+        let mut real = 0.0;
+        for &q in &p.pixels {
+            let (x, y) = ((q % w) as f64 + 0.5, (q / w) as f64 + 0.5);
+            assert!(strip_px.contains(&q) || inside(&p.polygon, x, y), "{q}");
+            real += (1.0 - t.gray.data[q as usize] as f64).powi(2);
+        }
+        assert!(p.pixels.len() >= 12);
+        assert!((p.real - real).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_lone_strip_is_thickened_to_the_minimum_width() {
+        // A one-pixel island: one strip per side; the bridge must still be 3 wide.
+        let bits = BitGrid::from_fn(9, 9, |x, y| y == 0 || (x == 4 && y == 4));
+        let t = TwoTone {
+            gray: Gray::new(9, 9, 0.0),
+            bits,
+        };
+        let m = label(&t.bits);
+        let f = strips::Fields::new(&t, &m);
+        let c = candidates::collect(&m);
+        let st: Vec<_> = (0..c.len())
+            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
+            .collect();
+        let cfg = BridgeConfig::default();
+        let costs = vec![None; c.len()];
+        let members = grow(&c, &st, &costs, 0, 3, &cfg);
+        assert_eq!(members.len(), 1);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
+        assert_eq!(p.width, 3);
+        let mut b = t.bits.clone();
+        commit(&mut b, &p);
+        assert_eq!(label(&b).island_count(), 0);
+        // 3 px wide across the whole gap.
+        assert!(p.pixels.len() >= 3 * st[0].as_ref().unwrap().len());
+    }
+}

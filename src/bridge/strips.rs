@@ -1,0 +1,608 @@
+//! Strips: one-pixel-wide walks through the cut from a candidate to material of another node.
+//!
+//! A walk starts on the cut pixel beside the candidate that faces away from the island (the normal
+//! of the smoothed two-tone), then steps pixel by pixel along a direction that follows the
+//! grayscale gradient, or, where the grayscale is flat (a pure black-and-white input), the gradient
+//! of the smoothed two-tone, so walks leave and meet edges at right angles. Steps are exact ray
+//! traversals (Amanatides & Woo), one edge neighbour at a time, so a strip is 4-connected by
+//! construction, and it ends on a cut pixel that has material of another node (or the sheet beyond
+//! the image) as an edge neighbour, so setting its pixels to material joins both nodes 4-connectedly.
+//!
+//! [`search`] is the fallback: a breadth-first search through the cut from a group of nodes,
+//! which finds the shortest connection whenever one exists within the length limit.
+
+use std::collections::{HashMap, VecDeque};
+
+use super::candidates::Candidates;
+use crate::islands::{IslandMap, CUT, FRAME};
+use crate::raster::{BitGrid, Gray, TwoTone};
+
+/// A one-pixel-wide chain of cut pixels from a candidate of `from` to material of `to`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Strip {
+    pub from: u32,
+    pub to: u32,
+    /// Linear pixel indices (`y * width + x`), 4-connected, first beside the candidate.
+    pub pixels: Vec<u32>,
+    /// Where the strip lands: the material pixel of `to` beside its last pixel (may lie one pixel
+    /// outside the image when `to` is the sheet beyond the image).
+    pub end: (i64, i64),
+    /// ΣI, the intensity error of its pixels (see [`super::cost::intensity`]).
+    pub intensity: f64,
+}
+
+impl Strip {
+    /// L: the number of pixels the strip turns into material.
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+}
+
+/// Radius of the box filter that smooths the two-tone for steering (3×3): it turns walks only
+/// within a pixel or two of material, so walks meet edges square and run straight in between.
+const STEER_RADIUS: i64 = 1;
+/// Radius of the box filter for the start direction when the contour gives none.
+const NORMAL_RADIUS: i64 = 2;
+/// Half-length, in candidates, of the stretch of contour whose chord gives the edge tangent.
+const TANGENT_REACH: isize = 3;
+/// Below this grayscale gradient (gray levels per pixel, Sobel) the gray source counts as flat
+/// and the smoothed two-tone steers instead.
+const GRAY_FLAT: f32 = 0.02;
+/// How strongly the local field turns the heading at each step (0 = straight lines).
+const STEER: f32 = 0.5;
+/// A field direction more than 60° off the heading is ambiguous (near perpendicular its sign
+/// flips with noise) and would swing the walk sideways; it is ignored.
+const MIN_ALIGN: f32 = 0.5;
+/// Pixels checked for a revisit: a walk that comes back onto itself loops and is dropped.
+const LOOP_WINDOW: usize = 12;
+
+/// Per-image fields the walks read, built once in O(pixels).
+pub struct Fields<'a> {
+    pub bits: &'a BitGrid,
+    pub gray: &'a Gray,
+    pub labels: &'a [u32],
+    pub width: i64,
+    pub height: i64,
+    /// Summed-area table of material, (w+1)×(h+1): box sums of the two-tone in O(1).
+    integral: Vec<u32>,
+}
+
+impl<'a> Fields<'a> {
+    pub fn new(two: &'a TwoTone, map: &'a IslandMap) -> Self {
+        let (w, h) = (two.bits.width as usize, two.bits.height as usize);
+        let mut integral = vec![0u32; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = 0u32;
+            let src = &two.bits.data[y * w..(y + 1) * w];
+            let (above, cur) = integral.split_at_mut((y + 1) * (w + 1));
+            let above = &above[y * (w + 1)..];
+            for x in 0..w {
+                row += src[x] as u32;
+                cur[x + 1] = above[x + 1] + row;
+            }
+        }
+        Fields {
+            bits: &two.bits,
+            gray: &two.gray,
+            labels: &map.labels,
+            width: w as i64,
+            height: h as i64,
+            integral,
+        }
+    }
+
+    #[inline]
+    fn inside(&self, x: i64, y: i64) -> bool {
+        x >= 0 && y >= 0 && x < self.width && y < self.height
+    }
+
+    /// Label of a pixel; outside the image is the frame (the sheet continues).
+    #[inline]
+    pub fn label(&self, x: i64, y: i64) -> u32 {
+        if self.inside(x, y) {
+            self.labels[(y * self.width + x) as usize]
+        } else {
+            FRAME
+        }
+    }
+
+    /// Material pixels in the box [x0, x1]×[y0, y1]; pixels outside the image count as material.
+    fn material_in(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> f32 {
+        let total = (x1 - x0 + 1) * (y1 - y0 + 1);
+        let (cx0, cy0) = (x0.max(0), y0.max(0));
+        let (cx1, cy1) = (x1.min(self.width - 1), y1.min(self.height - 1));
+        if cx0 > cx1 || cy0 > cy1 {
+            return total as f32;
+        }
+        let stride = self.width + 1;
+        let at = |x: i64, y: i64| self.integral[(y * stride + x) as usize] as i64;
+        let inside = at(cx1 + 1, cy1 + 1) - at(cx0, cy1 + 1) - at(cx1 + 1, cy0) + at(cx0, cy0);
+        let area_in = (cx1 - cx0 + 1) * (cy1 - cy0 + 1);
+        (inside + (total - area_in)) as f32
+    }
+
+    /// Gradient of the two-tone smoothed by a (2r+1)² box at a pixel: points towards material,
+    /// zero farther than r from it.
+    pub fn twotone_gradient(&self, x: i64, y: i64, r: i64) -> [f32; 2] {
+        let gx = self.material_in(x + 1, y - r, x + r, y + r)
+            - self.material_in(x - r, y - r, x - 1, y + r);
+        let gy = self.material_in(x - r, y + 1, x + r, y + r)
+            - self.material_in(x - r, y - r, x + r, y - 1);
+        [gx, gy]
+    }
+
+    /// Sobel gradient of the grayscale (levels per pixel), clamped at the image edge.
+    pub fn gray_gradient(&self, x: i64, y: i64) -> [f32; 2] {
+        let g = |dx: i64, dy: i64| {
+            let xx = (x + dx).clamp(0, self.width - 1) as u32;
+            let yy = (y + dy).clamp(0, self.height - 1) as u32;
+            self.gray.get(xx, yy)
+        };
+        let gx = (g(1, -1) + 2.0 * g(1, 0) + g(1, 1)) - (g(-1, -1) + 2.0 * g(-1, 0) + g(-1, 1));
+        let gy = (g(-1, 1) + 2.0 * g(0, 1) + g(1, 1)) - (g(-1, -1) + 2.0 * g(0, -1) + g(1, -1));
+        [gx / 8.0, gy / 8.0]
+    }
+
+    /// The direction field a walk follows at a pixel, unoriented (a line field): the grayscale
+    /// gradient where it is not flat, else the smoothed two-tone's. `None` where both are flat.
+    pub fn field(&self, x: i64, y: i64) -> Option<[f32; 2]> {
+        let g = self.gray_gradient(x, y);
+        let m = (g[0] * g[0] + g[1] * g[1]).sqrt();
+        if m >= GRAY_FLAT {
+            return Some([g[0] / m, g[1] / m]);
+        }
+        let t = self.twotone_gradient(x, y, STEER_RADIUS);
+        let m = (t[0] * t[0] + t[1] * t[1]).sqrt();
+        (m > 0.5).then(|| [t[0] / m, t[1] / m])
+    }
+
+    /// Cut-side sense at a border pixel: the sum of the offsets to its cut edge neighbours, or
+    /// where those balance (a one-pixel line), away from the smoothed material around it.
+    fn cut_side(&self, x: i64, y: i64) -> [f32; 2] {
+        let mut cut = [0f32; 2];
+        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            if self.label(x + dx, y + dy) == CUT {
+                cut[0] += dx as f32;
+                cut[1] += dy as f32;
+            }
+        }
+        if cut == [0.0, 0.0] {
+            let t = self.twotone_gradient(x, y, NORMAL_RADIUS);
+            cut = [-t[0], -t[1]];
+        }
+        cut
+    }
+
+    /// The node other than `own` that material beside (x, y) belongs to, if any (edge neighbours).
+    #[inline]
+    fn arrival(&self, x: i64, y: i64, own: u32) -> Option<((i64, i64), u32)> {
+        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            let l = self.label(nx, ny);
+            if l != CUT && l != own {
+                return Some(((nx, ny), l));
+            }
+        }
+        None
+    }
+}
+
+/// Why a walk produced no strip (kept for counting in tests and diagnostics).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WalkEnd {
+    /// Longer than the limit.
+    TooLong,
+    /// Walked back into its own node.
+    Returned,
+    /// Came back onto a pixel it had crossed, or could not move.
+    Looped,
+    /// No cut pixel beside the candidate.
+    NoStart,
+}
+
+/// Outward normal of the border at candidate `id`: perpendicular to the chord between the
+/// candidates [`TANGENT_REACH`] steps before and after it along the contour, on the cut side. So
+/// a walk leaves a straight edge at right angles even on a digital staircase.
+pub fn normal(f: &Fields, c: &Candidates, id: usize) -> [f32; 2] {
+    let (x, y) = c.pixels[id];
+    let (x, y) = (x as i64, y as i64);
+    let side = f.cut_side(x, y);
+    let at = |k: isize| {
+        (1..=TANGENT_REACH.abs())
+            .rev()
+            .find_map(|r| c.along(id, r * k.signum()))
+            .map(|j| c.pixels[j])
+    };
+    let mut n = side;
+    if let (Some(a), Some(b)) = (at(-1), at(1)) {
+        let t = [b.0 as f32 - a.0 as f32, b.1 as f32 - a.1 as f32];
+        let perp = [-t[1], t[0]];
+        if perp != [0.0, 0.0] {
+            let dot = perp[0] * side[0] + perp[1] * side[1];
+            n = if dot >= 0.0 {
+                perp
+            } else {
+                [-perp[0], -perp[1]]
+            };
+        }
+    }
+    let m = (n[0] * n[0] + n[1] * n[1]).sqrt();
+    if m == 0.0 {
+        [1.0, 0.0]
+    } else {
+        [n[0] / m, n[1] / m]
+    }
+}
+
+/// The strip of candidate `id`: a walk from it along its [`normal`].
+pub fn walk_candidate(
+    f: &Fields,
+    c: &Candidates,
+    id: usize,
+    max_len: usize,
+) -> Result<Strip, WalkEnd> {
+    walk_candidate_with(f, c, id, max_len, &mut Vec::new())
+}
+
+/// [`walk_candidate`] with a reusable scratch buffer (no allocation for walks that fail).
+pub fn walk_candidate_with(
+    f: &Fields,
+    c: &Candidates,
+    id: usize,
+    max_len: usize,
+    scratch: &mut Vec<u32>,
+) -> Result<Strip, WalkEnd> {
+    let (x, y) = c.pixels[id];
+    walk(f, x, y, c.node(id), normal(f, c, id), max_len, scratch)
+}
+
+/// Walk from candidate (x, y) of node `own`, starting along `n` (see [`normal`]); at most
+/// `max_len` pixels.
+pub fn walk(
+    f: &Fields,
+    x: u32,
+    y: u32,
+    own: u32,
+    n: [f32; 2],
+    max_len: usize,
+    pixels: &mut Vec<u32>,
+) -> Result<Strip, WalkEnd> {
+    pixels.clear();
+    let (cx, cy) = (x as i64, y as i64);
+    // First pixel: the cut edge neighbour most in line with the normal.
+    let mut best: Option<((i64, i64), f32)> = None;
+    for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+        let (nx, ny) = (cx + dx, cy + dy);
+        if f.inside(nx, ny) && f.label(nx, ny) == CUT {
+            let dot = n[0] * dx as f32 + n[1] * dy as f32;
+            if best.is_none_or(|(_, b)| dot > b) {
+                best = Some(((nx, ny), dot));
+            }
+        }
+    }
+    let Some(((mut px, mut py), _)) = best else {
+        return Err(WalkEnd::NoStart);
+    };
+    // Heading: the normal, or the step to the first pixel if the normal points elsewhere.
+    let mut d = n;
+    if d[0] * (px - cx) as f32 + d[1] * (py - cy) as f32 <= 0.0 {
+        d = [(px - cx) as f32, (py - cy) as f32];
+    }
+    // Continuous position in pixel units: pixel (x, y) covers [x, x+1) × [y, y+1).
+    let mut pos = [px as f32 + 0.5, py as f32 + 0.5];
+    let w = f.width;
+    let mut prev: Option<(i64, i64)> = Some((cx, cy));
+    loop {
+        pixels.push((py * w + px) as u32);
+        if let Some((end, to)) = f.arrival(px, py, own) {
+            let intensity = super::cost::intensity(f.gray, pixels);
+            return Ok(Strip {
+                from: own,
+                to,
+                pixels: pixels.clone(),
+                end,
+                intensity,
+            });
+        }
+        if pixels.len() >= max_len {
+            return Err(WalkEnd::TooLong);
+        }
+        // Steer along the field, oriented to agree with the heading.
+        if let Some(g) = f.field(px, py) {
+            let dot = g[0] * d[0] + g[1] * d[1];
+            if dot.abs() >= MIN_ALIGN {
+                let s = dot.signum() * STEER;
+                let nd = [d[0] + s * g[0], d[1] + s * g[1]];
+                let m = (nd[0] * nd[0] + nd[1] * nd[1]).sqrt();
+                if m > 1e-6 {
+                    d = [nd[0] / m, nd[1] / m];
+                }
+            }
+        }
+        // Next pixel: where the ray leaves this one; never straight back to where it came from.
+        let Some((nx, ny, npos)) = next_pixel(px, py, pos, d, prev) else {
+            return Err(WalkEnd::Looped);
+        };
+        let l = f.label(nx, ny);
+        if l != CUT {
+            // Material of another node would have been caught as an arrival: this is our own.
+            return Err(WalkEnd::Returned);
+        }
+        let ni = (ny * w + nx) as u32;
+        if pixels.iter().rev().take(LOOP_WINDOW).any(|&p| p == ni) {
+            return Err(WalkEnd::Looped);
+        }
+        prev = Some((px, py));
+        (px, py, pos) = (nx, ny, npos);
+    }
+}
+
+/// One ray-traversal step from pixel (px, py) at continuous `pos` along `d`: the edge neighbour
+/// the ray enters next and the crossing point. If that is `prev`, the component of `d` pointing
+/// back is dropped and the other axis is taken.
+fn next_pixel(
+    px: i64,
+    py: i64,
+    pos: [f32; 2],
+    d: [f32; 2],
+    prev: Option<(i64, i64)>,
+) -> Option<(i64, i64, [f32; 2])> {
+    let step = |d: [f32; 2]| -> Option<(i64, i64, [f32; 2])> {
+        let t = |p: f32, lo: i64, v: f32| -> f32 {
+            if v > 1e-6 {
+                ((lo + 1) as f32 - p) / v
+            } else if v < -1e-6 {
+                (lo as f32 - p) / v
+            } else {
+                f32::INFINITY
+            }
+        };
+        let tx = t(pos[0], px, d[0]).max(0.0);
+        let ty = t(pos[1], py, d[1]).max(0.0);
+        if !tx.is_finite() && !ty.is_finite() {
+            return None;
+        }
+        if tx <= ty {
+            let sx = if d[0] > 0.0 { 1 } else { -1 };
+            let nx = px + sx;
+            let y = (pos[1] + d[1] * tx).clamp(py as f32, py as f32 + 0.999);
+            let x = if sx > 0 { nx as f32 } else { px as f32 - 1e-4 };
+            Some((nx, py, [x, y]))
+        } else {
+            let sy = if d[1] > 0.0 { 1 } else { -1 };
+            let ny = py + sy;
+            let x = (pos[0] + d[0] * ty).clamp(px as f32, px as f32 + 0.999);
+            let y = if sy > 0 { ny as f32 } else { py as f32 - 1e-4 };
+            Some((px, ny, [x, y]))
+        }
+    };
+    let first = step(d)?;
+    if Some((first.0, first.1)) != prev {
+        return Some(first);
+    }
+    // Turned back: keep only the sideways component of the heading.
+    let side = if first.0 != px {
+        [0.0, d[1]]
+    } else {
+        [d[0], 0.0]
+    };
+    let r = step(side)?;
+    (Some((r.0, r.1)) != prev).then_some(r)
+}
+
+/// Breadth-first search through the cut from the border of every node in `group` (a mask over
+/// nodes) to the nearest material of a node outside it, or to the image edge (the frame) when the
+/// frame is not in the group. Returns the start candidate pixel and the strip, or `None` when no
+/// cut path of at most `max_len` pixels exists. Explores only the cut within `max_len` of the group.
+pub fn search(
+    f: &Fields,
+    map: &IslandMap,
+    group: &[bool],
+    max_len: usize,
+) -> Option<((u32, u32), Strip)> {
+    if max_len == 0 {
+        return None;
+    }
+    let w = f.width;
+    // pixel -> predecessor (a cut pixel, or for the first pixel the candidate's index).
+    let mut parent: HashMap<u32, u32> = HashMap::new();
+    let mut queue: VecDeque<(u32, u32)> = VecDeque::new();
+    for (n, node) in map.nodes.iter().enumerate() {
+        if !group[n] {
+            continue;
+        }
+        for &(x, y) in &node.border {
+            let (x, y) = (x as i64, y as i64);
+            for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if f.inside(nx, ny) && f.label(nx, ny) == CUT {
+                    let i = (ny * w + nx) as u32;
+                    if let std::collections::hash_map::Entry::Vacant(e) = parent.entry(i) {
+                        e.insert((y * w + x) as u32);
+                        queue.push_back((i, 1));
+                    }
+                }
+            }
+        }
+    }
+    let in_group = |l: u32| (l as usize) < group.len() && group[l as usize];
+    while let Some((i, depth)) = queue.pop_front() {
+        let (x, y) = ((i as i64) % w, (i as i64) / w);
+        for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            let l = f.label(nx, ny);
+            if l != CUT && !in_group(l) {
+                // Arrived: walk the parents back to the start.
+                let mut pixels = vec![i];
+                let mut cur = i;
+                let start = loop {
+                    let p = parent[&cur];
+                    if f.labels[p as usize] != CUT {
+                        break p;
+                    }
+                    pixels.push(p);
+                    cur = p;
+                };
+                pixels.reverse();
+                let (sx, sy) = ((start as i64 % w) as u32, (start as i64 / w) as u32);
+                let from = f.labels[start as usize];
+                let intensity = super::cost::intensity(f.gray, &pixels);
+                return Some((
+                    (sx, sy),
+                    Strip {
+                        from,
+                        to: l,
+                        pixels,
+                        end: (nx, ny),
+                        intensity,
+                    },
+                ));
+            }
+            if l == CUT && f.inside(nx, ny) && (depth as usize) < max_len {
+                let j = (ny * w + nx) as u32;
+                if let std::collections::hash_map::Entry::Vacant(e) = parent.entry(j) {
+                    e.insert(i);
+                    queue.push_back((j, depth + 1));
+                }
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bridge::candidates::collect;
+    use crate::islands::label;
+
+    pub(crate) fn two(rows: &[&str]) -> TwoTone {
+        let bits = BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
+            rows[y as usize].as_bytes()[x as usize] == b'#'
+        });
+        let gray = Gray {
+            width: bits.width,
+            height: bits.height,
+            data: bits
+                .data
+                .iter()
+                .map(|&b| if b { 1.0 } else { 0.0 })
+                .collect(),
+        };
+        TwoTone { bits, gray }
+    }
+
+    fn four_connected(pixels: &[u32], w: u32) -> bool {
+        pixels.windows(2).all(|p| {
+            let (a, b) = (p[0], p[1]);
+            let (ax, ay, bx, by) = (a % w, a / w, b % w, b / w);
+            ax.abs_diff(bx) + ay.abs_diff(by) == 1
+        })
+    }
+
+    #[test]
+    fn walk_leaves_a_straight_edge_at_right_angles_and_lands_on_the_frame() {
+        let t = two(&[
+            "###############",
+            "#.............#",
+            "#.............#",
+            "#.............#",
+            "#....#####....#",
+            "#....#####....#",
+            "#....#####....#",
+            "#.............#",
+            "#.............#",
+            "#.............#",
+            "###############",
+        ]);
+        let m = label(&t.bits);
+        let f = Fields::new(&t, &m);
+        // Middle of the island's top edge: straight up to the frame, 3 pixels.
+        let c = collect(&m);
+        let s = walk_candidate(&f, &c, c.id_at(&m, 1, 7, 4).unwrap(), 50).unwrap();
+        assert_eq!(s.to, FRAME);
+        let w = t.bits.width;
+        let xy: Vec<_> = s.pixels.iter().map(|&p| (p % w, p / w)).collect();
+        assert_eq!(xy, vec![(7, 3), (7, 2), (7, 1)]);
+        assert_eq!(s.end, (7, 0));
+        assert!((s.intensity - 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn strips_are_four_connected_even_on_diagonals() {
+        // A diamond island: walks from its slanted edges run diagonally.
+        let n = 41i64;
+        let bits = BitGrid::from_fn(n as u32, n as u32, |x, y| {
+            (x as i64 - 20).abs() + (y as i64 - 20).abs() <= 6
+        });
+        let gray = Gray::new(bits.width, bits.height, 0.0);
+        let t = TwoTone { bits, gray };
+        let m = label(&t.bits);
+        let f = Fields::new(&t, &m);
+        let mut ok = 0;
+        let c = collect(&m);
+        for (id, &(x, y)) in c.pixels.iter().enumerate() {
+            if let Ok(s) = walk_candidate(&f, &c, id, 100) {
+                ok += 1;
+                assert!(four_connected(&s.pixels, t.bits.width));
+                // First pixel beside the candidate, end beside the last pixel.
+                let p0 = s.pixels[0];
+                assert_eq!((p0 % 41).abs_diff(x) + (p0 / 41).abs_diff(y), 1);
+                let pl = *s.pixels.last().unwrap() as i64;
+                assert_eq!((pl % 41 - s.end.0).abs() + (pl / 41 - s.end.1).abs(), 1);
+                assert_eq!(s.to, FRAME);
+            }
+        }
+        assert_eq!(ok, m.nodes[1].border.len());
+    }
+
+    #[test]
+    fn too_long_walks_are_dropped_and_search_finds_the_shortest_path() {
+        let t = two(&[
+            "############",
+            "#..........#",
+            "#..........#",
+            "#...##.....#",
+            "#...##.....#",
+            "#..........#",
+            "############",
+        ]);
+        let m = label(&t.bits);
+        let f = Fields::new(&t, &m);
+        let c = collect(&m);
+        let id = c.id_at(&m, 1, 4, 3).unwrap();
+        assert_eq!(walk_candidate(&f, &c, id, 1), Err(WalkEnd::TooLong));
+        let mut group = vec![false; m.nodes.len()];
+        group[1] = true;
+        let (start, s) = search(&f, &m, &group, 10).unwrap();
+        assert_eq!(s.to, FRAME);
+        // The island's bottom row is one cut pixel above the frame's bottom row.
+        assert_eq!(s.len(), 1, "{start:?}");
+        assert_eq!(start.1, 4);
+        assert!(search(&f, &m, &group, 0).is_none());
+    }
+
+    #[test]
+    fn walks_stop_on_another_island_not_their_own() {
+        let t = two(&[
+            "..........",
+            "..........",
+            "..##..##..",
+            "..##..##..",
+            "..........",
+            "..........",
+        ]);
+        let m = label(&t.bits);
+        assert_eq!(m.island_count(), 2);
+        let f = Fields::new(&t, &m);
+        // From the right edge of the left island straight into the right one.
+        let c = collect(&m);
+        let s = walk_candidate(&f, &c, c.id_at(&m, 1, 3, 2).unwrap(), 20).unwrap();
+        assert_eq!(s.to, 2);
+        assert_eq!(s.len(), 2);
+    }
+}

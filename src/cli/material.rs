@@ -1,0 +1,289 @@
+//! Size, material, vector, check and export options of `stencil make`, and the `stencil check`
+//! and `stencil profiles` commands.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+
+use stencil::check::CheckReport;
+use stencil::export::mask::MaskConfig;
+use stencil::pipeline::{self, Emit, PhysicalConfig, Size, Timings};
+use stencil::profile::material::DEFAULT_MATERIAL;
+use stencil::profile::{Material, Process};
+use stencil::raster::BitGrid;
+use stencil::report::Report;
+use stencil::vector::VectorConfig;
+
+/// A file kind for `--emit`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EmitKind {
+    /// twotone.png, stencil.png and preview.png.
+    Png,
+    /// stencil.svg (mm, layers OUTLINE, CUT, BRIDGES).
+    Svg,
+    /// stencil.dxf (R2000 LWPOLYLINE, or R12 with --dxf-r12).
+    Dxf,
+    /// mask.png (1-bit) and mask.svg for photo-etch.
+    Mask,
+}
+
+/// Physical size, material and outputs.
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Size, material and outputs")]
+pub struct PhysicalArgs {
+    /// Width of the picture on the sheet in mm (the height follows). Without it and without
+    /// --dpi, one working pixel is 0.1 mm.
+    #[arg(long, conflicts_with = "dpi")]
+    pub width_mm: Option<f64>,
+    /// Working pixels per inch (instead of --width-mm).
+    #[arg(long)]
+    pub dpi: Option<f64>,
+    /// Material profile: a shipped name (see `stencil profiles`), a name in
+    /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
+    /// drive the bridges, the filter and the check.
+    #[arg(long, default_value = DEFAULT_MATERIAL)]
+    pub material: String,
+    /// Largest distance (mm) simplification may move an outline.
+    #[arg(long, default_value_t = 0.05)]
+    pub tolerance_mm: f64,
+    /// Sheet left around the picture on every side, in mm (the sheet continues beyond the picture).
+    #[arg(long, default_value_t = 5.0)]
+    pub margin_mm: f64,
+    /// Files to write, comma separated (report.json is always written).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "png,svg")]
+    pub emit: Vec<EmitKind>,
+    /// Write the outputs even if bridges, webs or holes are thinner than the material allows
+    /// (the violations are still listed in report.json).
+    #[arg(long)]
+    pub allow_thin: bool,
+    /// Write DXF R12 (POLYLINE/VERTEX/SEQEND) instead of R2000 LWPOLYLINEs, for old software.
+    #[arg(long)]
+    pub dxf_r12: bool,
+    /// Resolution of mask.png in dots per inch.
+    #[arg(long, default_value_t = 1200.0)]
+    pub mask_dpi: f64,
+    /// Mask polarity: clear where metal stays (negative-acting resist) instead of black.
+    #[arg(long)]
+    pub mask_invert: bool,
+    /// Mirror the mask left-right (film emulsion side down). Etch profiles with `mirror = true`
+    /// mirror it anyway.
+    #[arg(long)]
+    pub mask_mirror: bool,
+    /// Add registration marks in the corners of the margin.
+    #[arg(long)]
+    pub mask_marks: bool,
+}
+
+fn size(width_mm: Option<f64>, dpi: Option<f64>) -> Size {
+    match (width_mm, dpi) {
+        (Some(w), _) => Size::WidthMm(w),
+        (None, Some(d)) => Size::Dpi(d),
+        _ => Size::Default,
+    }
+}
+
+impl PhysicalArgs {
+    pub fn to_config(&self) -> anyhow::Result<PhysicalConfig> {
+        let (material, source) = Material::find(&self.material)?;
+        let has = |k: EmitKind| self.emit.contains(&k);
+        Ok(PhysicalConfig {
+            size: size(self.width_mm, self.dpi),
+            material,
+            material_source: source.display().to_string(),
+            vector: VectorConfig {
+                tolerance_mm: self.tolerance_mm,
+                margin_mm: self.margin_mm,
+                ..Default::default()
+            },
+            allow_thin: self.allow_thin,
+            emit: Emit {
+                png: has(EmitKind::Png),
+                svg: has(EmitKind::Svg),
+                dxf: has(EmitKind::Dxf),
+                mask: has(EmitKind::Mask),
+            },
+            mask: MaskConfig {
+                dpi: self.mask_dpi,
+                invert: self.mask_invert,
+                mirror: self.mask_mirror,
+                marks: self.mask_marks,
+            },
+            dxf_r12: self.dxf_r12,
+        })
+    }
+}
+
+/// Print the check's findings, one violation per line.
+pub fn print_check(c: &CheckReport) {
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3} mm"));
+    println!(
+        "check against '{}' (bridges >= {} mm, webs and holes >= {} mm): {} piece(s); narrowest bridge {}, web {}, hole {}",
+        c.material,
+        c.min_bridge_mm,
+        c.min_feature_mm,
+        c.pieces,
+        f(c.narrowest_bridge_mm),
+        f(c.narrowest_web_mm),
+        f(c.narrowest_hole_mm)
+    );
+    for v in &c.violations {
+        let conf = match v.confirmed_by_opening {
+            Some(true) => " (confirmed by opening)",
+            Some(false) => " (not confirmed by the raster opening)",
+            None => "",
+        };
+        println!("  {v}{conf}");
+    }
+}
+
+/// `stencil check INPUT`.
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Examples:
+  stencil check out/rings                 # an output folder: material, size and bridges from its report.json
+  stencil check stencil.png --material mylar-0.19 --width-mm 200
+Exits 0 only when the stencil is one piece and every bridge, web and hole is wide enough.")]
+pub struct CheckArgs {
+    /// A stencil PNG (white = material) or an output folder of `stencil make`.
+    pub input: PathBuf,
+    /// Material profile (default: the one the folder's report.json names, else cardstock).
+    #[arg(long)]
+    pub material: Option<String>,
+    /// Width of the picture in mm (default: from report.json, else 0.1 mm per pixel).
+    #[arg(long, conflicts_with = "dpi")]
+    pub width_mm: Option<f64>,
+    /// Pixels per inch (instead of --width-mm).
+    #[arg(long)]
+    pub dpi: Option<f64>,
+    /// Simplification tolerance in mm (default: from report.json, else 0.05).
+    #[arg(long)]
+    pub tolerance_mm: Option<f64>,
+    /// Print the check report as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn load_bits(path: &Path) -> anyhow::Result<BitGrid> {
+    let g = stencil::tone::image::load_gray(path, 400_000_000)?;
+    Ok(BitGrid {
+        width: g.width,
+        height: g.height,
+        data: g.data.iter().map(|&v| v >= 0.5).collect(),
+    })
+}
+
+pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
+    let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
+        let rp = a.input.join("report.json");
+        let text = std::fs::read_to_string(&rp).with_context(|| {
+            format!(
+                "{}: cannot read (is this a `stencil make` output folder?)",
+                rp.display()
+            )
+        })?;
+        let r: Report = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a stencil report", rp.display()))?;
+        (a.input.join("stencil.png"), Some(r))
+    } else {
+        (a.input.clone(), None)
+    };
+    let bits = load_bits(&png)?;
+    let name = a
+        .material
+        .clone()
+        .or_else(|| report.as_ref().and_then(|r| r.material.clone()))
+        .unwrap_or_else(|| DEFAULT_MATERIAL.to_string());
+    let (material, _) = Material::find(&name)?;
+    let phys = PhysicalConfig {
+        size: match (a.width_mm, a.dpi, report.as_ref().and_then(|r| r.mm_per_px)) {
+            (None, None, Some(mm)) => Size::Dpi(25.4 / mm),
+            (w, d, _) => size(w, d),
+        },
+        ..Default::default()
+    };
+    let scale = phys.scale(bits.width)?;
+    let vcfg = VectorConfig {
+        scale,
+        kerf_mm: material.kerf_mm,
+        tolerance_mm: a
+            .tolerance_mm
+            .or_else(|| report.as_ref().and_then(|r| r.tolerance_mm))
+            .unwrap_or(0.05),
+        margin_mm: report.as_ref().and_then(|r| r.margin_mm).unwrap_or(5.0),
+        ..Default::default()
+    };
+    let bridges: Option<Vec<Vec<[f64; 2]>>> = report
+        .as_ref()
+        .map(|r| r.bridges.iter().map(|b| b.polygon_px.clone()).collect());
+    let mut timer = Timings::default();
+    let (_, _, chk) =
+        pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&chk)?);
+    } else {
+        println!(
+            "{}: {}x{} px at {:.4} mm/px",
+            png.display(),
+            bits.width,
+            bits.height,
+            scale.mm_per_px
+        );
+        print_check(&chk);
+        println!("{}", if chk.passed() { "OK" } else { "FAILED" });
+    }
+    Ok(if chk.passed() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// `stencil profiles`.
+#[derive(Args, Debug)]
+pub struct ProfilesArgs {}
+
+pub fn run_profiles(_: ProfilesArgs) -> anyhow::Result<ExitCode> {
+    println!(
+        "{:<20} {:<6} {:>8} {:>10} {:>11} {:>7}  settings",
+        "material", "process", "thick", "bridge>=", "feature>=", "kerf"
+    );
+    for name in stencil::profile::known_names("materials", stencil::profile::material::SHIPPED) {
+        match Material::find(&name) {
+            Ok((m, src)) => {
+                let settings = match &m.process {
+                    Process::Laser(l) => {
+                        format!("{}% {} mm/min x{}", l.power_pct, l.speed_mm_min, l.passes)
+                    }
+                    Process::Knife(k) => {
+                        format!("{} g {} mm/s x{}", k.force_g, k.speed_mm_s, k.passes)
+                    }
+                    Process::Pen(p) => {
+                        format!("{} mm/min, {} mm pen", p.speed_mm_min, p.pen_width_mm)
+                    }
+                    Process::Etch(e) => format!(
+                        "etch factor {}{}{}",
+                        e.etch_factor,
+                        if e.mirror { ", mirror" } else { "" },
+                        if e.two_sided { ", two-sided" } else { "" }
+                    ),
+                };
+                println!(
+                    "{:<20} {:<6} {:>5} mm {:>7} mm {:>8} mm {:>4} mm  {}  [{}]",
+                    m.name,
+                    m.process.kind(),
+                    m.thickness_mm,
+                    m.min_bridge_mm,
+                    m.min_feature_mm,
+                    m.kerf_mm,
+                    settings,
+                    src.display()
+                );
+            }
+            Err(e) => println!("{name:<20} error: {e}"),
+        }
+    }
+    println!("default: {DEFAULT_MATERIAL}; copy a profile into ./profiles/materials/ to edit it, or pass a path to --material");
+    Ok(ExitCode::SUCCESS)
+}

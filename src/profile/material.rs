@@ -1,0 +1,372 @@
+//! Material profiles: what a sheet can hold (bridge and feature widths), how wide the tool cuts
+//! (kerf), and how to cut it (laser, knife, pen or photo-etch, with that process's settings).
+//!
+//! A profile is a TOML file (see `profiles/materials/*.toml`; `stencil profiles` lists them).
+//! It is validated once, here, at load: unknown fields, missing fields, negative or absurd numbers
+//! and a missing process section are errors naming the file and the field. Everything downstream
+//! (pipeline, check, G-code) can then trust a [`Material`].
+//!
+//! Without `--material`, [`DEFAULT_MATERIAL`] (cardstock) is used; `report.json` records which.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::{check_range, parse_toml, resolve, ProfileError, Shipped};
+
+/// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
+pub const DEFAULT_MATERIAL: &str = "cardstock";
+
+macro_rules! shipped {
+    ($name:literal) => {
+        Shipped {
+            name: $name,
+            text: include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/profiles/materials/",
+                $name,
+                ".toml"
+            )),
+        }
+    };
+}
+
+/// The material profiles shipped with the crate, embedded so an installed binary has them.
+pub const SHIPPED: &[Shipped] = &[
+    shipped!("copy-paper"),
+    shipped!("cardstock"),
+    shipped!("mylar-0.19"),
+    shipped!("poster-board"),
+    shipped!("plywood-3mm"),
+    shipped!("acrylic-3mm"),
+    shipped!("stainless-0.5-etch"),
+    shipped!("brass-0.3-etch"),
+    shipped!("aluminium-gobo"),
+];
+
+/// How the sheet is cut, with that process's settings.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub enum Process {
+    Laser(LaserSettings),
+    Knife(KnifeSettings),
+    Pen(PenSettings),
+    Etch(EtchSettings),
+}
+
+impl Process {
+    pub fn kind(&self) -> ProcessKind {
+        match self {
+            Process::Laser(_) => ProcessKind::Laser,
+            Process::Knife(_) => ProcessKind::Knife,
+            Process::Pen(_) => ProcessKind::Pen,
+            Process::Etch(_) => ProcessKind::Etch,
+        }
+    }
+}
+
+/// The `process = "..."` key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProcessKind {
+    Laser,
+    Knife,
+    Pen,
+    Etch,
+}
+
+impl std::fmt::Display for ProcessKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ProcessKind::Laser => "laser",
+            ProcessKind::Knife => "knife",
+            ProcessKind::Pen => "pen",
+            ProcessKind::Etch => "etch",
+        })
+    }
+}
+
+/// `[laser]`: what a G-code laser job uses (`S` from power, `F` from speed, repeated passes).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserSettings {
+    /// Laser power in percent of the machine's maximum (0 < p ≤ 100).
+    pub power_pct: f64,
+    /// Cutting feed in mm/min.
+    pub speed_mm_min: f64,
+    /// Passes over each loop (1..=50).
+    pub passes: u32,
+}
+
+/// `[knife]`: a drag-knife cutting plotter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnifeSettings {
+    /// Blade force in grams.
+    pub force_g: f64,
+    /// Cutting speed in mm/s.
+    pub speed_mm_s: f64,
+    pub passes: u32,
+    /// Drag-knife blade offset in mm (tip behind the axis).
+    pub blade_offset_mm: f64,
+}
+
+/// `[pen]`: a pen plotter drawing the outlines to cut by hand.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PenSettings {
+    pub speed_mm_min: f64,
+    pub pen_width_mm: f64,
+}
+
+/// `[etch]`: photo-etching (the mask goes to the etching shop or onto the resist).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EtchSettings {
+    /// Etch factor: depth etched per unit of sideways undercut.
+    pub etch_factor: f64,
+    /// Mirror the mask by default (film emulsion side down on the metal).
+    pub mirror: bool,
+    /// Etched from both sides (front and back art mirror each other).
+    pub two_sided: bool,
+}
+
+/// The file layout: flat numbers plus one section per process. Only this type touches serde.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    name: String,
+    #[serde(default)]
+    description: String,
+    thickness_mm: f64,
+    min_bridge_mm: f64,
+    min_feature_mm: f64,
+    kerf_mm: f64,
+    process: ProcessKind,
+    laser: Option<LaserSettings>,
+    knife: Option<KnifeSettings>,
+    pen: Option<PenSettings>,
+    etch: Option<EtchSettings>,
+}
+
+/// A validated material profile. Public for every stage that needs the sheet's numbers (the
+/// pipeline converts the widths to pixels, `check` measures against them, the G-code planner reads
+/// [`Process::Laser`] for power, speed and passes).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Material {
+    /// The profile's name (shipped profiles: the file stem, e.g. `cardstock`).
+    pub name: String,
+    pub description: String,
+    /// Sheet thickness.
+    pub thickness_mm: f64,
+    /// Narrowest bridge the sheet holds (bridges are checked against this).
+    pub min_bridge_mm: f64,
+    /// Narrowest web (material) or hole (cut) that survives cutting.
+    pub min_feature_mm: f64,
+    /// Width of material the tool removes; cut loops are offset by half of it into the hole.
+    pub kerf_mm: f64,
+    pub process: Process,
+}
+
+impl Default for Material {
+    /// The shipped [`DEFAULT_MATERIAL`] (its validity is unit-tested).
+    fn default() -> Self {
+        let s = SHIPPED
+            .iter()
+            .find(|s| s.name == DEFAULT_MATERIAL)
+            .expect("the default material is in SHIPPED");
+        Material::parse(s.text, Path::new("<embedded>/materials/cardstock.toml"))
+            .expect("the shipped default material is valid (unit-tested)")
+    }
+}
+
+impl Material {
+    /// Find a material by shipped name, a name in `./profiles/materials/`, or a path.
+    pub fn find(arg: &str) -> Result<(Material, PathBuf), ProfileError> {
+        let (file, origin): (MaterialFile, PathBuf) = resolve(arg, "materials", SHIPPED)?;
+        Ok((Material::validate(file, &origin)?, origin))
+    }
+
+    /// Load a material profile from a TOML file.
+    pub fn load(path: &Path) -> Result<Material, ProfileError> {
+        Material::validate(super::load_toml(path)?, path)
+    }
+
+    /// Parse a material profile from TOML text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
+        Material::validate(parse_toml(text, origin)?, origin)
+    }
+
+    /// The shipped profiles, parsed (for `stencil profiles`).
+    pub fn shipped() -> Vec<Result<Material, ProfileError>> {
+        SHIPPED
+            .iter()
+            .map(|s| Material::find(s.name).map(|(m, _)| m))
+            .collect()
+    }
+
+    /// Laser settings, when the process is laser cutting.
+    pub fn laser(&self) -> Option<&LaserSettings> {
+        match &self.process {
+            Process::Laser(l) => Some(l),
+            _ => None,
+        }
+    }
+
+    /// Etch settings, when the process is photo-etching.
+    pub fn etch(&self) -> Option<&EtchSettings> {
+        match &self.process {
+            Process::Etch(e) => Some(e),
+            _ => None,
+        }
+    }
+
+    fn validate(f: MaterialFile, origin: &Path) -> Result<Material, ProfileError> {
+        let invalid = |field: &str, value: String, why: &str| ProfileError::Invalid {
+            path: origin.to_path_buf(),
+            field: field.into(),
+            value,
+            why: why.into(),
+        };
+        if f.name.trim().is_empty() {
+            return Err(invalid("name", "\"\"".into(), "must not be empty"));
+        }
+        // Ranges: anything outside is a typo (a unit mix-up, a missing decimal point).
+        check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
+        check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+        check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
+        check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
+        if f.kerf_mm >= f.min_feature_mm {
+            return Err(invalid(
+                "kerf_mm",
+                f.kerf_mm.to_string(),
+                "must be smaller than min_feature_mm: the tool would remove whole features",
+            ));
+        }
+        let sections = [
+            ("laser", f.laser.is_some(), ProcessKind::Laser),
+            ("knife", f.knife.is_some(), ProcessKind::Knife),
+            ("pen", f.pen.is_some(), ProcessKind::Pen),
+            ("etch", f.etch.is_some(), ProcessKind::Etch),
+        ];
+        for (sec, present, kind) in sections {
+            if present && kind != f.process {
+                return Err(invalid(
+                    sec,
+                    format!("[{sec}]"),
+                    &format!(
+                        "section given but process = \"{}\"; remove it or change process",
+                        f.process
+                    ),
+                ));
+            }
+        }
+        let missing = |sec: &str| {
+            invalid(
+                sec,
+                "(missing)".into(),
+                &format!("process = \"{sec}\" needs a [{sec}] section with its settings"),
+            )
+        };
+        let process = match f.process {
+            ProcessKind::Laser => {
+                let l = f.laser.ok_or_else(|| missing("laser"))?;
+                check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
+                check_range(
+                    origin,
+                    "laser.speed_mm_min",
+                    l.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
+                check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
+                Process::Laser(l)
+            }
+            ProcessKind::Knife => {
+                let k = f.knife.ok_or_else(|| missing("knife"))?;
+                check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
+                check_range(
+                    origin,
+                    "knife.speed_mm_s",
+                    k.speed_mm_s,
+                    1.0,
+                    2000.0,
+                    "mm/s",
+                )?;
+                check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
+                check_range(
+                    origin,
+                    "knife.blade_offset_mm",
+                    k.blade_offset_mm,
+                    0.0,
+                    2.0,
+                    "mm",
+                )?;
+                Process::Knife(k)
+            }
+            ProcessKind::Pen => {
+                let p = f.pen.ok_or_else(|| missing("pen"))?;
+                check_range(
+                    origin,
+                    "pen.speed_mm_min",
+                    p.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
+                check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
+                Process::Pen(p)
+            }
+            ProcessKind::Etch => {
+                let e = f.etch.ok_or_else(|| missing("etch"))?;
+                check_range(origin, "etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
+                Process::Etch(e)
+            }
+        };
+        Ok(Material {
+            name: f.name,
+            description: f.description,
+            thickness_mm: f.thickness_mm,
+            min_bridge_mm: f.min_bridge_mm,
+            min_feature_mm: f.min_feature_mm,
+            kerf_mm: f.kerf_mm,
+            process,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_shipped_profile_is_valid_and_named_after_its_file() {
+        for s in SHIPPED {
+            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
+            assert_eq!(m.name, s.name);
+            assert!(m.kerf_mm < m.min_feature_mm);
+        }
+        assert_eq!(Material::default().name, DEFAULT_MATERIAL);
+    }
+
+    #[test]
+    fn photo_etch_profiles_follow_the_thickness_rule() {
+        for s in SHIPPED {
+            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
+            if m.etch().is_some() {
+                assert!(m.min_feature_mm >= m.thickness_mm, "{}", m.name);
+                assert!(m.min_bridge_mm >= m.thickness_mm, "{}", m.name);
+            }
+        }
+    }
+
+    #[test]
+    fn a_section_for_another_process_is_an_error() {
+        let text = SHIPPED[1].text.to_string()
+            + "\n[etch]\netch_factor = 2.0\nmirror = false\ntwo_sided = false\n";
+        let e = Material::parse(&text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("x.toml") && e.contains("etch"), "{e}");
+    }
+}

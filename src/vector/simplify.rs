@@ -1,0 +1,349 @@
+//! Ring simplification (Douglas–Peucker) that never creates self-intersections and never lets two
+//! rings touch or cross (which would merge separate regions).
+//!
+//! Douglas–Peucker keeps a chord when every point it replaces is within the tolerance *and*, when
+//! guards are given, every replaced point's two pixel centres (material, cut) stay on their own
+//! sides of the chord: the simplified outline then samples to exactly the same raster at pixel
+//! centres, so simplification never changes which pixels are cut.
+//!
+//! Every ring is simplified on its own; then all segments go into a uniform grid and every pair that
+//! shares a cell is tested (touching counts as a conflict). A ring involved in a conflict falls back
+//! to its lossless form (only exactly collinear points removed), and the test repeats until no
+//! conflict remains. The traced rings never touch each other, so this always ends.
+
+use geo::kernels::{Kernel, Orientation, RobustKernel};
+use geo::Coord;
+
+use super::trace::{signed_area2, Guard};
+
+/// What simplification did, for the report.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct SimplifyStats {
+    pub rings: usize,
+    pub points_in: usize,
+    pub points_out: usize,
+    /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
+    pub fallbacks: usize,
+}
+
+/// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
+/// points). `guards`: per ring, per point, the pixel centres to keep on their sides (or none).
+pub fn simplify_rings(
+    rings: &mut [Vec<[f64; 2]>],
+    guards: Option<&[Vec<Guard>]>,
+    tol: f64,
+) -> SimplifyStats {
+    let mut stats = SimplifyStats {
+        rings: rings.len(),
+        points_in: rings.iter().map(Vec::len).sum(),
+        ..Default::default()
+    };
+    let lossless: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| drop_collinear(r)).collect();
+    let mut simplified = vec![false; rings.len()];
+    for (i, r) in rings.iter_mut().enumerate() {
+        let s = if tol > 0.0 {
+            drop_collinear(&dp_ring(
+                r,
+                guards.and_then(|g| g.get(i)).map(Vec::as_slice),
+                tol,
+            ))
+        } else {
+            lossless[i].clone()
+        };
+        let a0 = signed_area2(&lossless[i]);
+        let a1 = signed_area2(&s);
+        if s.len() >= 3 && a0.signum() == a1.signum() && a1 != 0.0 && s.len() < lossless[i].len() {
+            *r = s;
+            simplified[i] = true;
+        } else {
+            *r = lossless[i].clone();
+        }
+    }
+    let cell = (4.0 * tol).max(1.0);
+    for _ in 0..8 {
+        let bad = conflicts(rings, cell);
+        let mut changed = false;
+        for i in bad {
+            if simplified[i] {
+                rings[i] = lossless[i].clone();
+                simplified[i] = false;
+                stats.fallbacks += 1;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    stats.points_out = rings.iter().map(Vec::len).sum();
+    stats
+}
+
+/// Remove points lying exactly on the line through their neighbours (lossless).
+pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let n = r.len();
+    if n < 4 {
+        return r.to_vec();
+    }
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let p = r[(i + n - 1) % n];
+        let q = r[i];
+        let s = r[(i + 1) % n];
+        let cross = (q[0] - p[0]) * (s[1] - q[1]) - (q[1] - p[1]) * (s[0] - q[0]);
+        let dot = (q[0] - p[0]) * (s[0] - q[0]) + (q[1] - p[1]) * (s[1] - q[1]);
+        if cross != 0.0 || dot < 0.0 {
+            out.push(q);
+        }
+    }
+    if out.len() < 3 {
+        r.to_vec()
+    } else {
+        out
+    }
+}
+
+fn seg_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (ex, ey) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
+    ex * ex + ey * ey
+}
+
+/// Whether a guard's material centre is left of chord a→b and its cut centre right of it.
+fn guard_ok(a: [f64; 2], b: [f64; 2], g: &Guard) -> bool {
+    let side = |p: [f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    side(g[0]) > 0.0 && side(g[1]) < 0.0
+}
+
+/// Douglas–Peucker on a closed ring: split at point 0 and the point farthest from it.
+fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> {
+    let n = r.len();
+    if n < 4 {
+        return r.to_vec();
+    }
+    let guards = guards.filter(|g| g.len() == n);
+    let far = (1..n)
+        .max_by(|&i, &j| {
+            let di = (r[i][0] - r[0][0]).powi(2) + (r[i][1] - r[0][1]).powi(2);
+            let dj = (r[j][0] - r[0][0]).powi(2) + (r[j][1] - r[0][1]).powi(2);
+            di.total_cmp(&dj)
+        })
+        .unwrap_or(n / 2);
+    let mut keep = vec![false; n + 1];
+    keep[0] = true;
+    keep[far] = true;
+    keep[n] = true;
+    let at = |i: usize| r[i % n];
+    let tol2 = tol * tol;
+    let mut stack = vec![(0usize, far), (far, n)];
+    while let Some((a, b)) = stack.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let (pa, pb) = (at(a), at(b));
+        let mut best = (0.0, a);
+        let mut bad_guard = None;
+        for i in a + 1..b {
+            let d = seg_dist2(at(i), pa, pb);
+            if d > best.0 {
+                best = (d, i);
+            }
+            if bad_guard.is_none() {
+                if let Some(g) = guards {
+                    if !guard_ok(pa, pb, &g[i % n]) {
+                        bad_guard = Some(i);
+                    }
+                }
+            }
+        }
+        if best.0 <= tol2 {
+            if let Some(i) = bad_guard {
+                // Within tolerance but a pixel centre would change sides: split the worst point.
+                best.1 = if best.1 > a { best.1 } else { i };
+                best.0 = f64::INFINITY;
+            }
+        }
+        if best.0 > tol2 {
+            keep[best.1] = true;
+            stack.push((a, best.1));
+            stack.push((best.1, b));
+        }
+    }
+    (0..n).filter(|&i| keep[i]).map(|i| r[i]).collect()
+}
+
+fn c(p: [f64; 2]) -> Coord<f64> {
+    Coord { x: p[0], y: p[1] }
+}
+
+/// Whether closed segments ab and cd share any point (robust orientation tests).
+pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
+    let o1 = RobustKernel::orient2d(c(a), c(b), c(cc));
+    let o2 = RobustKernel::orient2d(c(a), c(b), c(d));
+    let o3 = RobustKernel::orient2d(c(cc), c(d), c(a));
+    let o4 = RobustKernel::orient2d(c(cc), c(d), c(b));
+    let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
+    };
+    use Orientation::Collinear as C;
+    if o1 != o2 && o3 != o4 && o1 != C && o2 != C && o3 != C && o4 != C {
+        return true;
+    }
+    (o1 == C && on(a, b, cc))
+        || (o2 == C && on(a, b, d))
+        || (o3 == C && on(cc, d, a))
+        || (o4 == C && on(cc, d, b))
+}
+
+/// Rings that cross or touch themselves or another ring.
+fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
+    let mut entries: Vec<(u64, u32, u32)> = Vec::new();
+    for (ri, r) in rings.iter().enumerate() {
+        let n = r.len();
+        for i in 0..n {
+            let (a, b) = (r[i], r[(i + 1) % n]);
+            let x0 = (a[0].min(b[0]) / cell).floor() as i64;
+            let x1 = (a[0].max(b[0]) / cell).floor() as i64;
+            let y0 = (a[1].min(b[1]) / cell).floor() as i64;
+            let y1 = (a[1].max(b[1]) / cell).floor() as i64;
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let key = (((y + (1 << 30)) as u64) << 32) | (x + (1 << 30)) as u64;
+                    entries.push((key, ri as u32, i as u32));
+                }
+            }
+        }
+    }
+    entries.sort_unstable();
+    let mut bad = vec![false; rings.len()];
+    let mut s = 0;
+    while s < entries.len() {
+        let mut e = s + 1;
+        while e < entries.len() && entries[e].0 == entries[s].0 {
+            e += 1;
+        }
+        for i in s..e {
+            for j in i + 1..e {
+                let (_, ra, ia) = entries[i];
+                let (_, rb, ib) = entries[j];
+                let (ra, rb, ia, ib) = (ra as usize, rb as usize, ia as usize, ib as usize);
+                let r1 = &rings[ra];
+                let r2 = &rings[rb];
+                let (a, b) = (r1[ia], r1[(ia + 1) % r1.len()]);
+                let (p, q) = (r2[ib], r2[(ib + 1) % r2.len()]);
+                if ra == rb {
+                    let n = r1.len();
+                    if ia == ib {
+                        continue;
+                    }
+                    let adjacent = (ia + 1) % n == ib || (ib + 1) % n == ia;
+                    if adjacent {
+                        // Neighbouring segments share one end; they conflict only if they fold back.
+                        let (shared, x, y) = if (ia + 1) % n == ib {
+                            (b, a, q)
+                        } else {
+                            (a, b, p)
+                        };
+                        let o = RobustKernel::orient2d(c(x), c(shared), c(y));
+                        let back = (x[0] - shared[0]) * (y[0] - shared[0])
+                            + (x[1] - shared[1]) * (y[1] - shared[1]);
+                        if o == Orientation::Collinear && back > 0.0 {
+                            bad[ra] = true;
+                        }
+                        continue;
+                    }
+                }
+                if segments_touch(a, b, p, q) {
+                    bad[ra] = true;
+                    bad[rb] = true;
+                }
+            }
+        }
+        s = e;
+    }
+    (0..rings.len()).filter(|&i| bad[i]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_staircase_becomes_a_line_within_tolerance() {
+        // A ring with a staircase side.
+        let mut r = vec![[0.0, 0.0]];
+        for i in 0..20 {
+            r.push([i as f64 + 1.0, i as f64]);
+            r.push([i as f64 + 1.0, i as f64 + 1.0]);
+        }
+        r.push([0.0, 20.0]);
+        let mut rings = vec![r.clone()];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert!(rings[0].len() < 8, "{:?}", rings[0]);
+        for p in &r {
+            let n = rings[0].len();
+            let d = (0..n)
+                .map(|i| seg_dist2(*p, rings[0][i], rings[0][(i + 1) % n]))
+                .fold(f64::MAX, f64::min);
+            assert!(d <= 1.0 + 1e-9);
+        }
+        assert_eq!(s.fallbacks, 0);
+    }
+
+    #[test]
+    fn rings_that_would_cross_keep_their_detail() {
+        // Dropping a's notch vertex (10, 0) (0.9 from the chord, under tolerance 1.0) would put
+        // a's edge at y = 0.9 across b's tip at (10, 0.5).
+        let a = vec![
+            [0.0, -10.0],
+            [20.0, -10.0],
+            [20.0, 0.9],
+            [10.0, 0.0],
+            [0.0, 0.9],
+        ];
+        let b = vec![
+            [0.0, 2.0],
+            [10.0, 0.5],
+            [20.0, 2.0],
+            [20.0, 12.0],
+            [0.0, 12.0],
+        ];
+        assert!(conflicts(&[a.clone(), b.clone()], 4.0).is_empty());
+        let mut rings = vec![a.clone(), b.clone()];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert!(conflicts(&rings, 4.0).is_empty());
+        assert_eq!(s.fallbacks, 1, "{s:?}");
+        assert_eq!(rings[0], a);
+    }
+
+    #[test]
+    fn touching_segments_are_detected() {
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 5.0]
+        ));
+        assert!(!segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.1],
+            [1.0, 5.0]
+        ));
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 2.0],
+            [0.0, 2.0],
+            [2.0, 0.0]
+        ));
+    }
+}

@@ -1,0 +1,264 @@
+//! Marching squares on the stencil bits: closed rings with material on their left.
+//!
+//! The samples are the pixel centres, on a grid padded with one ring of material (the frame: the
+//! sheet continues beyond the picture, as in `islands`). A contour crosses the segment between two
+//! neighbouring centres exactly when one is material and the other is cut, so the rings separate
+//! material from cut exactly as the raster does whatever sub-pixel position each crossing gets.
+//!
+//! Sub-pixel edges: the crossing sits where a 3×3 box blur of the bits crosses one half, clamped to
+//! `[0.35, 0.65]` of the way between the two centres. A straight run of edge pixels has blur 2/3 and
+//! 1/3 on its two sides, so its crossing stays exactly on the pixel boundary (a neck N pixels wide
+//! measures exactly N pixels); staircases get smoothed, and the clamp keeps every crossing well
+//! inside its pixel pair, so no pixel's coverage passes one half and the raster is unchanged.
+//!
+//! Saddles (material at two diagonal corners only) always separate the two material corners: material
+//! is 4-connected (as in `islands::label`), so material touching at a corner stays two pieces.
+//!
+//! Orientation: walking a ring, material is on the left in the numeric (x, y) plane, so material
+//! outlines have positive shoelace area and the outlines of holes in material have negative area.
+
+use crate::raster::BitGrid;
+
+/// A closed ring in pixel coordinates (x right, y down; pixel (i, j) covers `[i, i+1] × [j, j+1]`),
+/// without a repeated closing point.
+#[derive(Clone, Debug)]
+pub struct Ring {
+    pub pts: Vec<[f64; 2]>,
+    /// Per point, the centres of the material and the cut pixel it lies between: simplification
+    /// keeps each on its own side, so the outline still samples to the same raster.
+    pub guards: Vec<Guard>,
+    /// A material pixel just left of the ring (outside the image = the frame), to tell which
+    /// material piece the ring bounds.
+    pub material_px: (i64, i64),
+}
+
+/// The two pixel centres (material, cut) on either side of a ring point, in pixel coordinates.
+pub type Guard = [[f64; 2]; 2];
+
+/// Smallest and largest fraction of the way from the material centre to the cut centre.
+const CLAMP: (f64, f64) = (0.35, 0.65);
+
+struct Padded<'a> {
+    bits: &'a BitGrid,
+    wp: usize,
+    hp: usize,
+}
+
+impl Padded<'_> {
+    #[inline]
+    fn at(&self, px: usize, py: usize) -> bool {
+        if px == 0 || py == 0 || px + 1 == self.wp || py + 1 == self.hp {
+            true
+        } else {
+            self.bits.data[(py - 1) * self.bits.width as usize + px - 1]
+        }
+    }
+
+    fn inside(&self, px: usize, py: usize) -> bool {
+        !(px == 0 || py == 0 || px + 1 == self.wp || py + 1 == self.hp)
+    }
+
+    /// 3×3 box blur of the bits at a padded centre (outside the image counts as material).
+    fn blur(&self, px: usize, py: usize) -> f64 {
+        let (x, y) = (px as i64 - 1, py as i64 - 1);
+        let mut n = 0;
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                if self.bits.get_or_frame(x + dx, y + dy) {
+                    n += 1;
+                }
+            }
+        }
+        n as f64 / 9.0
+    }
+
+    /// The crossing on edge `id` in pixel coordinates, the material centre (padded coords), and
+    /// the material and cut centres in pixel coordinates.
+    fn crossing(&self, id: usize, smooth: bool) -> ([f64; 2], (usize, usize), Guard) {
+        let n = self.wp * self.hp;
+        let (a, b) = if id < n {
+            let (px, py) = (id % self.wp, id / self.wp);
+            ((px, py), (px + 1, py))
+        } else {
+            let id = id - n;
+            let (px, py) = (id % self.wp, id / self.wp);
+            ((px, py), (px, py + 1))
+        };
+        let a_mat = self.at(a.0, a.1);
+        let (m, c) = if a_mat { (a, b) } else { (b, a) };
+        let mut s = 0.5;
+        if smooth && self.inside(m.0, m.1) && self.inside(c.0, c.1) {
+            let (fm, fc) = (self.blur(m.0, m.1), self.blur(c.0, c.1));
+            if fm > fc {
+                s = ((fm - 0.5) / (fm - fc)).clamp(CLAMP.0, CLAMP.1);
+            }
+        }
+        let t = if a_mat { s } else { 1.0 - s };
+        let ca = [a.0 as f64 - 0.5, a.1 as f64 - 0.5];
+        let cb = [b.0 as f64 - 0.5, b.1 as f64 - 0.5];
+        let guard = if a_mat { [ca, cb] } else { [cb, ca] };
+        (
+            [ca[0] + t * (cb[0] - ca[0]), ca[1] + t * (cb[1] - ca[1])],
+            m,
+            guard,
+        )
+    }
+}
+
+/// Trace every boundary between material and cut. `smooth` places crossings by the blurred bits
+/// (see the module doc); without it every crossing is at the midpoint between centres.
+pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
+    let (wp, hp) = (bits.width as usize + 2, bits.height as usize + 2);
+    let g = Padded { bits, wp, hp };
+    let n = wp * hp;
+    let none = u32::MAX;
+    // next[crossing edge] = the crossing the contour goes to next.
+    let mut next = vec![none; 2 * n];
+    let mut starts: Vec<u32> = Vec::new();
+    let h = |px: usize, py: usize| py * wp + px;
+    let v = |px: usize, py: usize| n + py * wp + px;
+    let mut row_a: Vec<bool> = (0..wp).map(|x| g.at(x, 0)).collect();
+    let mut row_b: Vec<bool> = vec![true; wp];
+    for py in 0..hp - 1 {
+        for (x, slot) in row_b.iter_mut().enumerate() {
+            *slot = g.at(x, py + 1);
+        }
+        for px in 0..wp - 1 {
+            let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
+            if c[0] == c[1] && c[1] == c[2] && c[2] == c[3] {
+                continue;
+            }
+            // Cell edges in counter-clockwise order (numerically): top, right, bottom, left;
+            // edge k runs from corner k to corner k+1.
+            let ids = [h(px, py), v(px + 1, py), h(px, py + 1), v(px, py)];
+            for k in 0..4 {
+                let exit = c[k] && !c[(k + 1) % 4];
+                if !exit {
+                    continue;
+                }
+                // The entry that opens this exit's material arc: walk back to it. Pairing each exit
+                // with its own arc separates diagonal material corners in a saddle.
+                for back in 1..4 {
+                    let j = (k + 4 - back) % 4;
+                    if !c[j] && c[(j + 1) % 4] {
+                        next[ids[k]] = ids[j] as u32;
+                        starts.push(ids[k] as u32);
+                        break;
+                    }
+                }
+            }
+        }
+        std::mem::swap(&mut row_a, &mut row_b);
+    }
+    let mut rings = Vec::new();
+    for s in starts {
+        if next[s as usize] == none {
+            continue;
+        }
+        let (_, m, _) = g.crossing(s as usize, smooth);
+        let mut pts = Vec::new();
+        let mut guards = Vec::new();
+        let mut e = s;
+        loop {
+            let nx = next[e as usize];
+            if nx == none {
+                break;
+            }
+            next[e as usize] = none;
+            let (p, _, guard) = g.crossing(e as usize, smooth);
+            pts.push(p);
+            guards.push(guard);
+            e = nx;
+        }
+        rings.push(Ring {
+            pts,
+            guards,
+            material_px: (m.0 as i64 - 1, m.1 as i64 - 1),
+        });
+    }
+    rings
+}
+
+/// Twice the signed shoelace area of a ring (positive = material on the left of the walk).
+pub fn signed_area2(pts: &[[f64; 2]]) -> f64 {
+    let n = pts.len();
+    let mut a = 0.0;
+    for i in 0..n {
+        let p = pts[i];
+        let q = pts[(i + 1) % n];
+        a += p[0] * q[1] - q[0] * p[1];
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(rows: &[&str]) -> BitGrid {
+        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
+            rows[y as usize].as_bytes()[x as usize] == b'#'
+        })
+    }
+
+    #[test]
+    fn a_square_hole_is_one_negative_ring_on_pixel_boundaries() {
+        let g = grid(&["#####", "#...#", "#...#", "#...#", "#####"]);
+        let rings = trace(&g, false);
+        assert_eq!(rings.len(), 1);
+        let a = signed_area2(&rings[0].pts) / 2.0;
+        // Midpoint crossings chamfer each of the 4 corners by 1/8 px: 9 - 4/8.
+        assert!((a + 8.5).abs() < 1e-9, "area {a}");
+        let xs: Vec<f64> = rings[0].pts.iter().map(|p| p[0]).collect();
+        assert!(xs.iter().all(|&x| x >= 1.0 - 1e-9 && x <= 4.0 + 1e-9));
+        // Smoothing rounds the corners more but keeps straight runs on the pixel boundary.
+        let smooth = trace(&g, true);
+        let a = signed_area2(&smooth[0].pts) / 2.0;
+        assert!(a > -8.5 && a < -7.0, "area {a}");
+        assert!(smooth[0]
+            .pts
+            .iter()
+            .any(|p| (p[0] - 1.0).abs() < 1e-9 && p[1] == 2.5));
+    }
+
+    #[test]
+    fn an_island_gives_a_positive_ring_inside_a_negative_one() {
+        let g = grid(&[
+            "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
+        ]);
+        let rings = trace(&g, false);
+        assert_eq!(rings.len(), 2);
+        let mut areas: Vec<f64> = rings.iter().map(|r| signed_area2(&r.pts) / 2.0).collect();
+        areas.sort_by(f64::total_cmp);
+        assert!(areas[0] < 0.0 && areas[1] > 0.0, "{areas:?}");
+        let island = rings.iter().find(|r| signed_area2(&r.pts) > 0.0).unwrap();
+        assert_eq!(island.material_px.0.clamp(2, 4), island.material_px.0);
+    }
+
+    #[test]
+    fn diagonal_material_stays_two_pieces() {
+        // Two material pixels touching at a corner inside a cut region.
+        let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
+        let rings = trace(&g, true);
+        let pos = rings.iter().filter(|r| signed_area2(&r.pts) > 0.0).count();
+        assert_eq!(
+            pos, 2,
+            "corner-touching material must trace as two outlines"
+        );
+        // And the cut around them is one region (cut joins through the saddle).
+        assert_eq!(
+            rings.iter().filter(|r| signed_area2(&r.pts) < 0.0).count(),
+            1
+        );
+    }
+
+    #[test]
+    fn cut_touching_the_image_border_closes_along_it() {
+        let g = grid(&["..##", "..##", "####"]);
+        let rings = trace(&g, false);
+        assert_eq!(rings.len(), 1);
+        let a = signed_area2(&rings[0].pts) / 2.0;
+        // 2x2 cut block at the corner: its four convex corners are chamfered by 1/8 px each.
+        assert!((a + 3.5).abs() < 1e-9, "area {a}");
+    }
+}

@@ -1,0 +1,152 @@
+//! Bad input gives one clear line naming the file and the problem, a non-zero exit, and no output.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+/// Run make on `input` into a fresh folder; assert failure, a one-line message containing every
+/// `needle`, and that nothing was written.
+fn fails_cleanly(input: &Path, needles: &[&str]) {
+    let dir = tmp();
+    let out = dir.path().join("out");
+    let o = stencil(&["make", s(input), "-o", s(&out)]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "should fail: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("error: "), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "message should contain {n:?}: {err}");
+    }
+    assert!(
+        files_in(&out).is_empty(),
+        "partial output left: {:?}",
+        files_in(&out)
+    );
+    assert!(!err.contains("panicked"));
+}
+
+#[test]
+fn missing_file() {
+    let dir = tmp();
+    let p = dir.path().join("nope.png");
+    fails_cleanly(&p, &["nope.png", "cannot open"]);
+}
+
+#[test]
+fn not_an_image() {
+    let dir = tmp();
+    let p = dir.path().join("notes.png");
+    std::fs::write(&p, "this is a text file, not a picture\n").unwrap();
+    fails_cleanly(&p, &["notes.png", "not an image"]);
+}
+
+#[test]
+fn truncated_png() {
+    let dir = tmp();
+    let bytes = std::fs::read(samples().join("rings.png")).unwrap();
+    let p = dir.path().join("cut.png");
+    std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
+    fails_cleanly(&p, &["cut.png", "damaged or truncated"]);
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+#[test]
+fn header_claiming_ten_gigapixels_is_refused_before_decoding() {
+    let dir = tmp();
+    let p = dir.path().join("huge.png");
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 0, 0, 0, 0]); // 8-bit gray
+    png.extend_from_slice(&13u32.to_be_bytes());
+    png.extend_from_slice(&ihdr);
+    png.extend_from_slice(&crc32(&ihdr).to_be_bytes());
+    // A few bytes of (bogus) pixel data and the end chunk, as a doctored real file would have.
+    for (kind, body) in [
+        (
+            &b"IDAT"[..],
+            &[0x78u8, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01][..],
+        ),
+        (&b"IEND"[..], &[][..]),
+    ] {
+        let mut chunk = kind.to_vec();
+        chunk.extend_from_slice(body);
+        png.extend_from_slice(&(body.len() as u32).to_be_bytes());
+        png.extend_from_slice(&chunk);
+        png.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    }
+    std::fs::write(&p, &png).unwrap();
+    fails_cleanly(&p, &["huge.png", "100000x100000", "--max-pixels"]);
+}
+
+#[test]
+fn max_pixels_is_a_setting() {
+    let dir = tmp();
+    let out = dir.path().join("out");
+    let o = stencil(&[
+        "make",
+        s(&samples().join("rings.png")),
+        "-o",
+        s(&out),
+        "--max-pixels",
+        "1000",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("320x320"), "{}", stderr(&o));
+    assert!(files_in(&out).is_empty());
+}
+
+#[test]
+fn unwritable_output_dir() {
+    let dir = tmp();
+    // A folder cannot be made below a regular file (root ignores permission bits, this does not).
+    let file = dir.path().join("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    let out = file.join("out");
+    let o = stencil(&["make", s(&samples().join("rings.png")), "-o", s(&out)]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("plain-file/out") && err.contains("output folder"),
+        "{err}"
+    );
+    assert!(!file.join("out").exists());
+}
+
+#[test]
+fn bad_settings_name_the_flag() {
+    for (args, flag) in [
+        (vec!["--alpha", "2.5"], "alpha"),
+        (vec!["--threshold", "300"], "threshold"),
+        (vec!["--threshold", "1.5"], "threshold"),
+        (vec!["--w-length=-1"], "w-length"),
+        (vec!["--scale", "20"], "scale"),
+    ] {
+        let dir = tmp();
+        let out = dir.path().join("out");
+        let mut a = vec!["make", "samples/rings.png", "-o", s(&out)];
+        a.extend(args.iter().copied());
+        let o = stencil(&a);
+        assert!(!o.status.success(), "{a:?} should fail");
+        assert!(stderr(&o).contains(flag), "{a:?}: {}", stderr(&o));
+        assert!(files_in(&out).is_empty());
+    }
+}

@@ -1,0 +1,202 @@
+//! The width and connectivity check: thin bridges, webs and holes are flagged at the right place
+//! with the right width; proper ones pass; the raster opening agrees.
+
+use std::path::Path;
+use std::process::Command;
+
+use stencil::check::{CheckReport, ViolationKind};
+use stencil::islands;
+use stencil::pipeline::{self, Timings};
+use stencil::profile::Material;
+use stencil::raster::BitGrid;
+use stencil::tone::filter;
+use stencil::vector::VectorConfig;
+
+const MM: f64 = 0.1; // mm per pixel in every fixture
+const PX: f64 = MM; // "within a pixel"
+
+fn rect(x0: u32, y0: u32, x1: u32, y1: u32) -> impl Fn(u32, u32) -> bool {
+    move |x, y| x >= x0 && x < x1 && y >= y0 && y < y1
+}
+
+/// Frame, a cut ring around an island, and a horizontal bridge `w` px wide from the island's right
+/// side (x = 130) to the cut's right edge (x = 160), centred on y = 80.
+fn bridged(w: u32) -> BitGrid {
+    let cut = rect(40, 30, 160, 130);
+    let island = rect(70, 60, 130, 100);
+    let bridge = rect(130, 80 - w / 2, 160, 80 - w / 2 + w);
+    BitGrid::from_fn(200, 160, |x, y| !cut(x, y) || island(x, y) || bridge(x, y))
+}
+
+/// Two rectangular holes separated by a web `w` px wide starting at x = 90.
+fn web(w: u32) -> BitGrid {
+    let a = rect(40, 40, 90, 120);
+    let b = rect(90 + w, 40, 150, 120);
+    BitGrid::from_fn(200, 160, |x, y| !(a(x, y) || b(x, y)))
+}
+
+fn check(bits: &BitGrid, material: &str) -> CheckReport {
+    let (m, _) = Material::find(material).unwrap();
+    let vcfg = VectorConfig {
+        scale: stencil::units::Scale { mm_per_px: MM },
+        kerf_mm: m.kerf_mm,
+        ..Default::default()
+    };
+    let (_, _, c) =
+        pipeline::vectorize_and_check(bits, None, &vcfg, &m, &mut Timings::default()).unwrap();
+    c
+}
+
+#[test]
+fn a_thin_bridge_is_flagged_where_it_is_and_as_wide_as_it_is() {
+    let c = check(&bridged(6), "cardstock");
+    assert!(!c.passed());
+    assert_eq!(c.violations.len(), 1, "{:#?}", c.violations);
+    let v = &c.violations[0];
+    assert_eq!(v.kind, ViolationKind::ThinBridge);
+    let w = v.width_mm.unwrap();
+    assert!((w - 0.6).abs() <= PX, "width {w}");
+    assert!(v.x_mm >= 13.0 - PX && v.x_mm <= 16.0 + PX, "x {}", v.x_mm);
+    assert!((v.y_mm - 8.0).abs() <= PX, "y {}", v.y_mm);
+    assert_eq!(v.required_mm, 1.0);
+    assert_eq!(v.confirmed_by_opening, Some(true));
+}
+
+#[test]
+fn the_same_stencil_with_a_proper_bridge_passes() {
+    let c = check(&bridged(12), "cardstock");
+    assert!(c.passed(), "{:#?}", c.violations);
+    let b = c.narrowest_bridge_mm.unwrap();
+    assert!((b - 1.2).abs() <= PX, "narrowest bridge {b}");
+    // A stricter material fails the same bridge.
+    let c = check(&bridged(12), "mylar-0.19");
+    assert_eq!(
+        c.violations
+            .iter()
+            .filter(|v| v.kind == ViolationKind::ThinBridge)
+            .count(),
+        1
+    );
+}
+
+#[test]
+fn the_raster_opening_agrees_with_the_measured_bridges() {
+    // Opening by half the required width (10 px) removes the 6 px bridge, keeps the 12 px one.
+    for (w, floats) in [(6, true), (12, false)] {
+        let opened = filter::open(&bridged(w), 5);
+        assert_eq!(
+            islands::label(&opened).island_count() > 0,
+            floats,
+            "bridge {w} px"
+        );
+    }
+}
+
+#[test]
+fn a_thin_web_is_flagged_and_a_proper_one_passes() {
+    let c = check(&web(3), "cardstock");
+    let webs: Vec<_> = c
+        .violations
+        .iter()
+        .filter(|v| v.kind == ViolationKind::ThinWeb)
+        .collect();
+    assert_eq!(webs.len(), 1, "{:#?}", c.violations);
+    let v = webs[0];
+    assert!((v.width_mm.unwrap() - 0.3).abs() <= PX, "{v:?}");
+    assert!((v.x_mm - 9.15).abs() <= PX, "{v:?}");
+    assert!(v.y_mm >= 4.0 - PX && v.y_mm <= 12.0 + PX, "{v:?}");
+    assert_eq!(v.required_mm, 0.5);
+    assert_eq!(v.confirmed_by_opening, Some(true));
+    let c = check(&web(6), "cardstock");
+    assert!(c.passed(), "{:#?}", c.violations);
+    assert!((c.narrowest_web_mm.unwrap() - 0.6).abs() <= PX);
+}
+
+#[test]
+fn a_thin_hole_is_flagged() {
+    let slot = rect(40, 50, 100, 53);
+    let bits = BitGrid::from_fn(160, 120, |x, y| !slot(x, y));
+    let c = check(&bits, "cardstock");
+    assert_eq!(c.violations.len(), 1, "{:#?}", c.violations);
+    let v = &c.violations[0];
+    assert_eq!(v.kind, ViolationKind::ThinHole);
+    assert!((v.width_mm.unwrap() - 0.3).abs() <= PX, "{v:?}");
+    assert!(
+        (v.y_mm - 5.15).abs() <= PX && v.x_mm > 4.0 && v.x_mm < 10.0,
+        "{v:?}"
+    );
+}
+
+#[test]
+fn a_floating_island_is_flagged() {
+    let cut = rect(40, 30, 160, 130);
+    let island = rect(70, 60, 130, 100);
+    let bits = BitGrid::from_fn(200, 160, |x, y| !cut(x, y) || island(x, y));
+    let c = check(&bits, "cardstock");
+    assert_eq!(c.pieces, 2);
+    let f: Vec<_> = c
+        .violations
+        .iter()
+        .filter(|v| v.kind == ViolationKind::Floating)
+        .collect();
+    assert_eq!(f.len(), 1);
+    assert!(
+        f[0].x_mm >= 7.0 - PX
+            && f[0].x_mm <= 13.0 + PX
+            && f[0].y_mm >= 6.0 - PX
+            && f[0].y_mm <= 10.0 + PX,
+        "{:?}",
+        f[0]
+    );
+}
+
+fn write_png(path: &Path, bits: &BitGrid) {
+    std::fs::write(path, stencil::export::png::encode_bits(bits)).unwrap();
+}
+
+fn run(args: &[&str]) -> (bool, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.success(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+    )
+}
+
+#[test]
+fn check_command_exit_code_follows_the_violations() {
+    let dir = tempfile::tempdir().unwrap();
+    let thin = dir.path().join("thin.png");
+    let good = dir.path().join("good.png");
+    write_png(&thin, &bridged(6));
+    write_png(&good, &bridged(12));
+    let (ok, out) = run(&["check", thin.to_str().unwrap(), "--material", "cardstock"]);
+    assert!(!ok, "{out}");
+    assert!(out.contains("thin bridge at ("), "{out}");
+    let (ok, out) = run(&["check", good.to_str().unwrap(), "--material", "cardstock"]);
+    assert!(ok, "{out}");
+}
+
+#[test]
+fn check_on_an_output_folder_uses_the_material_of_its_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("web.png");
+    write_png(&input, &web(10)); // 1.0 mm web: fine for cardstock, too thin for plywood (1.5 mm)
+    let out = dir.path().join("out");
+    let (ok, text) = run(&["make", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let report: stencil::report::Report =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report.material.as_deref(), Some("cardstock"));
+    assert!(report.check.as_ref().unwrap().passed());
+    let (ok, text) = run(&["check", out.to_str().unwrap()]);
+    assert!(ok && text.contains("'cardstock'"), "{text}");
+    let (ok, text) = run(&["check", out.to_str().unwrap(), "--material", "plywood-3mm"]);
+    assert!(!ok && text.contains("thin web"), "{text}");
+}

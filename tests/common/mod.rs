@@ -1,0 +1,111 @@
+//! Helpers shared by the end-to-end tests: make pictures, run the binary, read outputs back.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use stencil::raster::BitGrid;
+
+/// Write an 8-bit gray PNG.
+pub fn write_gray_png(path: &Path, w: u32, h: u32, data: &[u8]) {
+    image::save_buffer(path, data, w, h, image::ExtendedColorType::L8).unwrap();
+}
+
+/// A picture from a predicate: `true` = ink (dark, to be cut), on white paper.
+pub fn ink_png(path: &Path, w: u32, h: u32, ink: impl Fn(u32, u32) -> bool) {
+    let mut data = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            data.push(if ink(x, y) { 0 } else { 255 });
+        }
+    }
+    write_gray_png(path, w, h, &data);
+}
+
+/// Read an output PNG back as material bits (>= 128 is material).
+pub fn read_bits(path: &Path) -> BitGrid {
+    let img = image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_luma8();
+    BitGrid::from_u8(img.width(), img.height(), img.as_raw())
+}
+
+/// Run the `stencil` binary.
+pub fn stencil(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .args(args)
+        .output()
+        .expect("run stencil")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Files in a folder (names), sorted; empty if the folder does not exist.
+pub fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = match std::fs::read_dir(dir) {
+        Ok(rd) => rd
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    v.sort();
+    v
+}
+
+/// Assert the stencil's validity as a user would see it in the PNGs: material is one 4-connected
+/// piece joined to the frame (no floating islands), and the stencil differs from the two-tone only
+/// where cut became material.
+pub fn assert_valid_stencil(out: &Path) {
+    let two = read_bits(&out.join("twotone.png"));
+    let st = read_bits(&out.join("stencil.png"));
+    assert_eq!((two.width, two.height), (st.width, st.height));
+    let floating = stencil::islands::floating_count(&st);
+    assert_eq!(
+        floating,
+        0,
+        "{}: {floating} material pieces float",
+        out.display()
+    );
+    for (i, (&a, &b)) in two.data.iter().zip(&st.data).enumerate() {
+        assert!(
+            !a || b,
+            "{}: pixel {i} was material and became cut",
+            out.display()
+        );
+    }
+}
+
+/// The number of material pixels bridges added.
+pub fn added_pixels(out: &Path) -> usize {
+    let two = read_bits(&out.join("twotone.png"));
+    let st = read_bits(&out.join("stencil.png"));
+    two.data
+        .iter()
+        .zip(&st.data)
+        .filter(|(a, b)| !**a && **b)
+        .count()
+}
+
+pub fn report(out: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
+}
+
+pub fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+pub fn samples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
+}
+
+/// Pixels that differ between two grids of the same size (a count, so failures stay readable).
+pub fn differing(a: &BitGrid, b: &BitGrid) -> usize {
+    assert_eq!((a.width, a.height), (b.width, b.height), "sizes differ");
+    a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
+}

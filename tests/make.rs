@@ -1,0 +1,370 @@
+//! End-to-end tests of `stencil make` on pictures: run the binary, read the PNGs back, check the
+//! stencil as a user would (one 4-connected sheet, only cut turned to material).
+
+mod common;
+
+use common::*;
+
+fn make_ok(input: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["make", s(input), "-o", s(out)];
+    args.extend_from_slice(extra);
+    let o = stencil(&args);
+    assert!(
+        o.status.success(),
+        "stencil {args:?} failed: {}",
+        stderr(&o)
+    );
+    assert_valid_stencil(out);
+    report(out)
+}
+
+#[test]
+fn every_sample_becomes_one_sheet() {
+    let dir = tmp();
+    let mut checked = 0;
+    for entry in std::fs::read_dir(samples()).unwrap() {
+        let p = entry.unwrap().path();
+        if p.extension().and_then(|e| e.to_str()) != Some("png") {
+            continue;
+        }
+        let out = dir.path().join(p.file_stem().unwrap());
+        let r = make_ok(&p, &out, &[]);
+        // The report agrees with the PNGs it sits beside.
+        let two = read_bits(&out.join("twotone.png"));
+        assert_eq!(
+            r["islands"].as_u64().unwrap() as usize,
+            stencil::islands::label(&two).island_count()
+        );
+        assert_eq!(r["floating_after"], 0);
+        assert_eq!(r["width_px"].as_u64().unwrap() as u32, two.width);
+        let bridges = r["bridges"].as_array().unwrap();
+        if r["islands"].as_u64().unwrap() > 0 {
+            assert!(
+                bridges.len() as u64 >= r["islands"].as_u64().unwrap(),
+                "{}: too few bridges",
+                p.display()
+            );
+            assert!(added_pixels(&out) > 0);
+        }
+        for b in bridges {
+            let c = &b["cost"];
+            let sum: f64 = ["intensity", "length", "curvature", "variance"]
+                .iter()
+                .map(|k| c[k].as_f64().unwrap())
+                .sum();
+            assert!(
+                (sum - c["total"].as_f64().unwrap()).abs() <= 1e-6 * sum.abs().max(1.0),
+                "cost terms must add up: {c}"
+            );
+            assert!(
+                b["width_px"].as_u64().unwrap() >= 3,
+                "narrower than the default minimum: {b}"
+            );
+        }
+        for f in ["twotone.png", "stencil.png", "preview.png", "report.json"] {
+            assert!(out.join(f).is_file(), "{f} missing for {}", p.display());
+        }
+        checked += 1;
+    }
+    assert!(
+        checked >= 5,
+        "expected the five sample pictures, found {checked}"
+    );
+}
+
+#[test]
+fn nested_rings_five_deep() {
+    let dir = tmp();
+    let input = dir.path().join("rings.png");
+    // Ink bands of 5 px separate paper bands of 5 px: five paper rings (plus the centre disc)
+    // nested inside each other, each an island.
+    ink_png(&input, 130, 130, |x, y| {
+        let r = ((x as f64 - 64.5).powi(2) + (y as f64 - 64.5).powi(2)).sqrt();
+        r < 60.0 && ((60.0 - r) / 5.0) as i64 % 2 == 0
+    });
+    let out = dir.path().join("out");
+    // At 50 dpi the 5 px bands are 2.5 mm: sound in the default cardstock.
+    let r = make_ok(&input, &out, &["--dpi", "50"]);
+    assert_eq!(r["islands"], 6, "five rings and the centre disc: {r}");
+    assert_eq!(
+        r["check"]["violations"].as_array().unwrap().len(),
+        0,
+        "{}",
+        r["check"]
+    );
+    // Every island needs at least one bridge; the tree has one edge per island.
+    assert!(r["bridges"].as_array().unwrap().len() >= 6);
+}
+
+#[test]
+fn checkerboard_corners_are_bridged() {
+    let dir = tmp();
+    let input = dir.path().join("checker.png");
+    // A 10 px paper margin (the frame) around an 8x8 board of 10 px squares. Paper squares inside
+    // the board touch each other only at corners, which holds nothing: each is an island.
+    ink_png(&input, 100, 100, |x, y| {
+        if !(10..90).contains(&x) || !(10..90).contains(&y) {
+            return false;
+        }
+        let (i, j) = ((x - 10) / 10, (y - 10) / 10);
+        (i + j) % 2 == 1
+    });
+    let out = dir.path().join("out");
+    // No filter: closing would itself fill the corner contacts. The cut squares still meet at
+    // zero-width corners, which the width check rightly reports: --allow-thin writes it anyway,
+    // since this test is about connectivity.
+    let r = make_ok(
+        &input,
+        &out,
+        &[
+            "--filter-radius",
+            "0",
+            "--min-speck-px",
+            "0",
+            "--allow-thin",
+            "--dpi",
+            "50",
+        ],
+    );
+    // Paper squares on the board's edge touch the margin; the inner 6x6 hold 18 paper squares.
+    assert_eq!(r["islands"], 18, "{r}");
+    assert!(r["bridges"].as_array().unwrap().len() >= 18);
+}
+
+#[test]
+fn one_pixel_cut_ring_is_bridged() {
+    let dir = tmp();
+    let input = dir.path().join("ring.png");
+    ink_png(&input, 60, 60, |x, y| {
+        let on_x = (x == 15 || x == 44) && (15..=44).contains(&y);
+        let on_y = (y == 15 || y == 44) && (15..=44).contains(&x);
+        on_x || on_y
+    });
+    let out = dir.path().join("out");
+    // A 1 px cut is thinner than any material allows: the check reports it, --allow-thin keeps it.
+    let r = make_ok(
+        &input,
+        &out,
+        &[
+            "--filter-radius",
+            "0",
+            "--min-speck-px",
+            "0",
+            "--allow-thin",
+        ],
+    );
+    assert!(
+        r["check"]["violations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|v| v["kind"] == "thin_hole"),
+        "{}",
+        r["check"]
+    );
+    assert_eq!(r["islands"], 1);
+    let b = &r["bridges"][0];
+    assert_eq!(
+        b["length_px"].as_f64().unwrap().round() as i64,
+        1,
+        "a one-pixel gap: {b}"
+    );
+    assert!(b["width_px"].as_u64().unwrap() >= 3);
+}
+
+#[test]
+fn no_islands_means_no_bridges() {
+    let dir = tmp();
+    let input = dir.path().join("disc.png");
+    ink_png(&input, 80, 60, |x, y| {
+        (x as i64 - 40).pow(2) + (y as i64 - 30).pow(2) < 400
+    });
+    let out = dir.path().join("out");
+    let r = make_ok(&input, &out, &[]);
+    assert_eq!(r["islands"], 0);
+    assert_eq!(r["bridges"].as_array().unwrap().len(), 0);
+    assert_eq!(
+        read_bits(&out.join("twotone.png")),
+        read_bits(&out.join("stencil.png"))
+    );
+    assert!(
+        read_bits(&out.join("twotone.png")).count_material() < 80 * 60,
+        "the disc is cut"
+    );
+}
+
+#[test]
+fn all_material_and_all_cut() {
+    let dir = tmp();
+    for (name, ink) in [("white", false), ("black", true)] {
+        let input = dir.path().join(format!("{name}.png"));
+        ink_png(&input, 40, 30, |_, _| ink);
+        let out = dir.path().join(name);
+        let r = make_ok(&input, &out, &[]);
+        assert_eq!(r["islands"], 0);
+        assert_eq!(r["bridges"].as_array().unwrap().len(), 0);
+        let st = read_bits(&out.join("stencil.png"));
+        assert_eq!(st.count_material(), if ink { 0 } else { 40 * 30 });
+    }
+}
+
+#[test]
+fn threshold_invert_and_scale_options() {
+    let dir = tmp();
+    let input = dir.path().join("halves.png");
+    // Left half gray 60, right half gray 200.
+    let data: Vec<u8> = (0..40 * 20)
+        .map(|i| if i % 40 < 20 { 60 } else { 200 })
+        .collect();
+    write_gray_png(&input, 40, 20, &data);
+
+    let out = dir.path().join("otsu");
+    let r = make_ok(&input, &out, &["--threshold", "otsu"]);
+    let level = r["threshold_level"].as_u64().unwrap();
+    assert!(
+        (61..=200).contains(&level),
+        "otsu level {level} must separate 60 from 200"
+    );
+    let bits = read_bits(&out.join("twotone.png"));
+    assert!(!bits.get(5, 10) && bits.get(35, 10), "light is material");
+
+    let out = dir.path().join("inv");
+    make_ok(&input, &out, &["--threshold", "0.5", "--invert"]);
+    let bits = read_bits(&out.join("twotone.png"));
+    assert!(
+        bits.get(5, 10) && !bits.get(35, 10),
+        "--invert makes dark material"
+    );
+
+    let out = dir.path().join("high");
+    make_ok(&input, &out, &["--threshold", "250"]);
+    assert_eq!(read_bits(&out.join("twotone.png")).count_material(), 0);
+
+    let out = dir.path().join("scaled");
+    let r = make_ok(&input, &out, &["--scale", "3"]);
+    assert_eq!(
+        (r["width_px"].as_u64(), r["height_px"].as_u64()),
+        (Some(120), Some(60))
+    );
+}
+
+#[test]
+fn supersampling_smooths_a_diagonal_edge() {
+    let dir = tmp();
+    let input = dir.path().join("diag.png");
+    // An anti-aliased diagonal half-plane: gray is the covered fraction of each pixel.
+    let (w, h) = (24u32, 24u32);
+    let data: Vec<u8> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            let d = (x + 0.5) * 0.8 - (y + 0.5) * 0.6 - 2.0; // signed distance-ish to a slanted line
+            ((d + 0.5).clamp(0.0, 1.0) * 255.0) as u8
+        })
+        .collect();
+    write_gray_png(&input, w, h, &data);
+    let out = dir.path().join("s4");
+    make_ok(
+        &input,
+        &out,
+        &[
+            "--scale",
+            "4",
+            "--filter-radius",
+            "0",
+            "--min-speck-px",
+            "0",
+        ],
+    );
+    let bits = read_bits(&out.join("twotone.png"));
+    // The edge row by row: at 4x the boundary column moves in steps that track the slope
+    // (0.6/0.8 = 0.75 px per row at 1x, 3 px per 4 rows at 4x) rather than in whole-pixel jumps of 4.
+    let edge: Vec<u32> = (0..bits.height)
+        .map(|y| {
+            (0..bits.width)
+                .find(|&x| bits.get(x, y))
+                .unwrap_or(bits.width)
+        })
+        .collect();
+    let steps: Vec<i64> = edge
+        .windows(2)
+        .map(|p| p[1] as i64 - p[0] as i64)
+        .filter(|d| *d != 0)
+        .collect();
+    assert!(
+        steps.iter().all(|d| d.abs() <= 2),
+        "upsampled edge moves smoothly: {steps:?}"
+    );
+}
+
+#[test]
+fn help_has_a_worked_example() {
+    let o = stencil(&["make", "--help"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    assert!(
+        text.trim_end()
+            .lines()
+            .rev()
+            .take(4)
+            .any(|l| l.contains("stencil make samples/")),
+        "{text}"
+    );
+    for flag in [
+        "--threshold",
+        "--invert",
+        "--scale",
+        "--max-pixels",
+        "--filter-radius",
+        "--min-speck-px",
+        "--w-intensity",
+        "--w-length",
+        "--w-curvature",
+        "--w-variance",
+        "--alpha",
+        "--max-bridge-length-px",
+        "--min-bridge-width-px",
+        "--max-bridge-width-px",
+        "--support-margin",
+    ] {
+        assert!(text.contains(flag), "{flag} missing from --help");
+    }
+}
+
+#[test]
+fn tone_command_writes_the_same_two_tone_as_make() {
+    let dir = tmp();
+    let input = samples().join("letters.png");
+    let png = dir.path().join("t.png");
+    // `tone` knows no material, so pin the filter radius that `make` would otherwise derive.
+    let o = stencil(&[
+        "tone",
+        s(&input),
+        "-o",
+        s(&png),
+        "--threshold",
+        "otsu",
+        "--filter-radius",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("make");
+    let o = stencil(&[
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--threshold",
+        "otsu",
+        "--filter-radius",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        differing(&read_bits(&png), &read_bits(&out.join("twotone.png"))),
+        0
+    );
+    let bits = read_bits(&png);
+    assert_eq!((bits.width, bits.height), (480, 160));
+    // The letters' counters are islands in the two-tone: O, A, two in B, two in 8.
+    assert!(stencil::islands::label(&bits).island_count() >= 6);
+}

@@ -1,0 +1,162 @@
+//! Material profiles: every bad-profile case gives a clear error naming the file and the field.
+
+use std::path::Path;
+use std::process::Command;
+
+use stencil::profile::material::{DEFAULT_MATERIAL, SHIPPED};
+use stencil::profile::{Material, ProfileError};
+
+const GOOD: &str = r#"
+name = "test-card"
+thickness_mm = 0.3
+min_bridge_mm = 1.0
+min_feature_mm = 0.5
+kerf_mm = 0.1
+process = "laser"
+
+[laser]
+power_pct = 20
+speed_mm_min = 1500
+passes = 1
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn load_err(text: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "bad.toml", text);
+    let e = Material::load(&p).unwrap_err().to_string();
+    assert!(e.contains("bad.toml"), "error must name the file: {e}");
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
+#[test]
+fn a_good_profile_loads_from_a_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "mine.toml", GOOD);
+    let (m, src) = Material::find(p.to_str().unwrap()).unwrap();
+    assert_eq!(m.name, "test-card");
+    assert_eq!(src, p);
+    assert_eq!(m.laser().unwrap().speed_mm_min, 1500.0);
+}
+
+#[test]
+fn unknown_field_is_named() {
+    let e = load_err(&GOOD.replace("kerf_mm = 0.1", "kerf_mm = 0.1\nbridge_mm = 2"));
+    assert!(
+        e.contains("bridge_mm") && e.contains("unknown field"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_field_in_a_process_section_is_named() {
+    let e = load_err(&GOOD.replace("passes = 1", "passes = 1\nwatts = 40"));
+    assert!(e.contains("watts"), "{e}");
+}
+
+#[test]
+fn missing_field_is_named() {
+    let e = load_err(&GOOD.replace("min_bridge_mm = 1.0\n", ""));
+    assert!(e.contains("min_bridge_mm") && e.contains("missing"), "{e}");
+}
+
+#[test]
+fn missing_process_section_is_named() {
+    let text = GOOD.split("[laser]").next().unwrap().to_string();
+    let e = load_err(&text);
+    assert!(e.contains("[laser]"), "{e}");
+}
+
+#[test]
+fn negative_value_is_named() {
+    let e = load_err(&GOOD.replace("kerf_mm = 0.1", "kerf_mm = -0.1"));
+    assert!(e.contains("kerf_mm") && e.contains("negative"), "{e}");
+}
+
+#[test]
+fn absurd_value_is_named() {
+    let e = load_err(&GOOD.replace("thickness_mm = 0.3", "thickness_mm = 300"));
+    assert!(
+        e.contains("thickness_mm") && e.contains("out of range"),
+        "{e}"
+    );
+    let e = load_err(&GOOD.replace("power_pct = 20", "power_pct = 2000"));
+    assert!(e.contains("laser.power_pct"), "{e}");
+}
+
+#[test]
+fn kerf_wider_than_the_smallest_feature_is_refused() {
+    let e = load_err(&GOOD.replace("kerf_mm = 0.1", "kerf_mm = 0.6"));
+    assert!(e.contains("kerf_mm") && e.contains("min_feature_mm"), "{e}");
+}
+
+#[test]
+fn unknown_name_lists_the_known_names() {
+    let e = Material::find("cardboard-9000").unwrap_err();
+    assert!(matches!(e, ProfileError::Unknown { .. }));
+    let msg = e.to_string();
+    assert!(msg.contains("cardboard-9000"), "{msg}");
+    for s in SHIPPED {
+        assert!(msg.contains(s.name), "{msg} lacks {}", s.name);
+    }
+}
+
+#[test]
+fn every_shipped_profile_is_found_by_name() {
+    for s in SHIPPED {
+        let (m, _) = Material::find(s.name).unwrap();
+        assert_eq!(m.name, s.name);
+    }
+    assert_eq!(Material::default().name, DEFAULT_MATERIAL);
+}
+
+#[test]
+fn cli_rejects_an_unknown_material_before_doing_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("in.png");
+    let bits = stencil::raster::BitGrid::new(20, 20, true);
+    std::fs::write(&img, stencil::export::png::encode_bits(&bits)).unwrap();
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .args([
+            "make",
+            img.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--material",
+            "tinfoil",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("tinfoil") && err.contains("cardstock") && err.contains("mylar-0.19"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn cli_lists_the_shipped_profiles() {
+    let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .arg("profiles")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for s in SHIPPED {
+        let m = Material::find(s.name).unwrap().0;
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(s.name))
+            .unwrap_or_else(|| panic!("{} missing:\n{text}", s.name));
+        assert!(line.contains(&format!("{} mm", m.min_bridge_mm)), "{line}");
+    }
+}

@@ -1,0 +1,89 @@
+//! Property: whatever the picture, the stencil is one 4-connected sheet joined to the frame, and it
+//! differs from the two-tone only where cut became material.
+
+mod common;
+
+use common::*;
+use proptest::prelude::*;
+
+/// A random picture: blobs with holes, rings, or noise of a given density.
+#[derive(Debug, Clone)]
+enum Pic {
+    Blobs { discs: Vec<(f64, f64, f64, bool)> },
+    Rings { cx: f64, cy: f64, band: f64 },
+    Noise { density: f64, block: u32, seed: u64 },
+}
+
+fn pic() -> impl Strategy<Value = Pic> {
+    prop_oneof![
+        prop::collection::vec(
+            (0.0..96.0f64, 0.0..72.0f64, 3.0..18.0f64, any::<bool>()),
+            1..14
+        )
+        .prop_map(|discs| Pic::Blobs { discs }),
+        (30.0..66.0f64, 25.0..47.0f64, 3.0..9.0f64).prop_map(|(cx, cy, band)| Pic::Rings {
+            cx,
+            cy,
+            band
+        }),
+        (0.2..0.8f64, 1u32..5, any::<u64>()).prop_map(|(density, block, seed)| Pic::Noise {
+            density,
+            block,
+            seed
+        }),
+    ]
+}
+
+fn ink(p: &Pic, x: u32, y: u32) -> bool {
+    let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
+    match p {
+        // Later discs paint over earlier ones: ink (true) or paper (false), so paper discs
+        // inside ink ones make islands.
+        Pic::Blobs { discs } => discs
+            .iter()
+            .rev()
+            .find(|(cx, cy, r, _)| (fx - cx).powi(2) + (fy - cy).powi(2) < r * r)
+            .is_some_and(|d| d.3),
+        Pic::Rings { cx, cy, band } => {
+            let r = ((fx - cx).powi(2) + (fy - cy).powi(2)).sqrt();
+            r < 5.0 * band && ((r / band) as i64) % 2 == 1
+        }
+        Pic::Noise {
+            density,
+            block,
+            seed,
+        } => {
+            let (bx, by) = ((x / block) as u64, (y / block) as u64);
+            let mut h = seed
+                ^ (bx.wrapping_mul(0x9e37_79b9_7f4a_7c15))
+                ^ (by.wrapping_mul(0xc2b2_ae3d_27d4_eb4f));
+            h ^= h >> 31;
+            h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h ^= h >> 29;
+            (h % 1000) as f64 / 1000.0 < *density
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, .. ProptestConfig::default() })]
+
+    #[test]
+    fn every_output_is_one_sheet(p in pic(), radius in 0u32..2, speck in prop::sample::select(vec![0usize, 8])) {
+        let dir = tmp();
+        let input = dir.path().join("in.png");
+        ink_png(&input, 96, 72, |x, y| ink(&p, x, y));
+        let out = dir.path().join("out");
+        let cfg = stencil::MakeConfig {
+            input: input.clone(),
+            out_dir: out.clone(),
+            filter: stencil::tone::filter::FilterConfig { radius, min_speck_px: speck, auto_radius: false },
+            // Connectivity is the property here; random noise is full of features thinner than any
+            // material, which the width check reports (its own tests live in tests/check.rs).
+            physical: stencil::pipeline::PhysicalConfig { allow_thin: true, ..Default::default() },
+            ..Default::default()
+        };
+        stencil::make(&cfg).map_err(|e| TestCaseError::fail(format!("{p:?}: {e}")))?;
+        assert_valid_stencil(&out);
+    }
+}
