@@ -52,6 +52,10 @@ pub struct MeshConfig {
     pub lines: LineMode,
     /// Line thickness in output pixels.
     pub line_px: f32,
+    /// Lines are drawn at least this wide (output pixels). `make` sets it from the material's
+    /// smallest feature, so the topological filter, which removes cuts thinner than the material
+    /// can hold, keeps the lines. 0 = no minimum.
+    pub min_line_px: f32,
     /// Render at this many times the size, then average down (anti-aliasing), 1..=4.
     pub supersample: u32,
     /// Suggestive contours are kept where D_w κr·radius² exceeds this (DeCarlo's t_d): higher =
@@ -72,6 +76,7 @@ impl Default for MeshConfig {
             shininess: 32.0,
             lines: LineMode::Suggestive,
             line_px: 3.0,
+            min_line_px: 0.0,
             supersample: 2,
             contour_threshold: 1.0,
         }
@@ -173,6 +178,14 @@ impl MeshConfig {
             );
         }
         Ok(())
+    }
+
+    /// The output width the image will have at most (the long side, or the exact width).
+    pub fn max_width_px(&self) -> u32 {
+        match self.size {
+            Size::LongSide(n) => n,
+            Size::Exact { width, .. } => width,
+        }
     }
 
     /// The default distance for the lens, or the chosen one.
@@ -297,16 +310,17 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
     tm.shade = ms(clock);
 
     let clock = Instant::now();
+    let line_px = cfg.line_px.max(cfg.min_line_px);
     let params = lines::LineParams {
         mode: cfg.lines,
         width_px: if k > 1 {
-            cfg.line_px * k as f32 - 1.0
+            line_px * k as f32 - 1.0
         } else {
-            cfg.line_px
+            line_px
         },
         contour_threshold: cfg.contour_threshold,
         max_ndotv: 20f32.to_radians().cos(),
-        min_run_px: (4.0 * cfg.line_px * k as f32).round() as usize,
+        min_run_px: (4.0 * line_px * k as f32).round() as usize,
         depth_tolerance: 0.02 * radius,
     };
     let (line_mask, _) = lines::find(mesh, &cam, &vb, &frags, &params);
