@@ -31,6 +31,9 @@ pub struct Candidates {
     /// Per node, the candidate id of each pixel of `IslandMap::nodes[n].border` (same order), so a
     /// border pixel found by a search maps back to its candidate. Empty for the frame.
     pub id_of_border: Vec<Vec<u32>>,
+    /// Prefix sums of (1, x, y, x², y², xy) over candidates in id order (one more entry than
+    /// candidates): the coordinate covariance of any run along a chain in O(1).
+    moments: Vec<[f64; 6]>,
 }
 
 impl Candidates {
@@ -66,6 +69,54 @@ impl Candidates {
         }
     }
 
+    fn push_moment(&mut self, (x, y): (u32, u32)) {
+        let (x, y) = (x as f64, y as f64);
+        let last = *self.moments.last().unwrap_or(&[0.0; 6]);
+        let add = [1.0, x, y, x * x, y * y, x * y];
+        self.moments.push(std::array::from_fn(|k| last[k] + add[k]));
+    }
+
+    /// Sums of (1, x, y, x², y², xy) over the candidates at offsets `lo..=hi` from `id` along its
+    /// chain (wrapping on a closed chain; the run must not be longer than the chain).
+    pub fn moments(&self, id: usize, lo: isize, hi: isize) -> [f64; 6] {
+        let c = &self.chains[self.chain_of[id] as usize];
+        let n = c.len as isize;
+        let pos = (id - c.start) as isize;
+        let range = |a: isize, b: isize| -> [f64; 6] {
+            let (p, q) = (
+                &self.moments[c.start + a as usize],
+                &self.moments[c.start + b as usize + 1],
+            );
+            std::array::from_fn(|k| q[k] - p[k])
+        };
+        let (a, b) = (pos + lo, pos + hi);
+        if !c.closed {
+            return range(a.clamp(0, n - 1), b.clamp(0, n - 1));
+        }
+        let (a, b) = (a.rem_euclid(n), b.rem_euclid(n));
+        if a <= b && hi - lo < n {
+            range(a, b)
+        } else {
+            let (u, v) = (range(a, n - 1), range(0, b));
+            std::array::from_fn(|k| u[k] + v[k])
+        }
+    }
+
+    /// Add a candidate on a chain of its own (for a strip found by search rather than a walk).
+    pub fn push_single(&mut self, node: u32, pixel: (u32, u32)) -> usize {
+        let id = self.pixels.len();
+        self.push_moment(pixel);
+        self.chain_of.push(self.chains.len() as u32);
+        self.chains.push(Chain {
+            node,
+            start: id,
+            len: 1,
+            closed: false,
+        });
+        self.pixels.push(pixel);
+        id
+    }
+
     /// The candidate id of a border pixel of `node`, if it is one.
     pub fn id_at(&self, map: &IslandMap, node: u32, x: u32, y: u32) -> Option<usize> {
         let border = &map.nodes.get(node as usize)?.border;
@@ -97,6 +148,7 @@ pub fn collect(map: &IslandMap) -> Candidates {
 
     let mut out = Candidates {
         id_of_border: vec![Vec::new(); map.nodes.len()],
+        moments: vec![[0.0; 6]],
         ..Default::default()
     };
     for (n, chains) in per_node.into_iter().enumerate() {
@@ -109,6 +161,7 @@ pub fn collect(map: &IslandMap) -> Candidates {
             let ci = out.chains.len() as u32;
             for &k in &chain {
                 out.id_of_border[n][k as usize] = out.pixels.len() as u32;
+                out.push_moment(border[k as usize]);
                 out.pixels.push(border[k as usize]);
                 out.chain_of.push(ci);
             }
@@ -247,6 +300,28 @@ mod tests {
             assert_eq!(c.id_of_border[1][k] as usize, id);
         }
         assert_eq!(c.id_at(&m, 1, 0, 0), None);
+    }
+
+    #[test]
+    fn window_moments_match_a_direct_sum_including_wrap_around() {
+        let g = grid(&[
+            "........", "........", "..####..", "..####..", "..####..", "..####..", "........",
+            "........",
+        ]);
+        let c = collect(&label(&g));
+        for id in 0..c.len() {
+            for (lo, hi) in [(-4isize, 0isize), (-2, 2), (0, 4), (-11, 0)] {
+                let mut want = [0.0; 6];
+                for k in lo..=hi {
+                    let (x, y) = c.pixels[c.along(id, k).unwrap()];
+                    let (x, y) = (x as f64, y as f64);
+                    for (w, v) in want.iter_mut().zip([1.0, x, y, x * x, y * y, x * y]) {
+                        *w += v;
+                    }
+                }
+                assert_eq!(c.moments(id, lo, hi), want, "id {id} window {lo}..={hi}");
+            }
+        }
     }
 
     #[test]

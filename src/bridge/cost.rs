@@ -49,20 +49,25 @@ pub fn length(len_px: f64, alpha: f64) -> f64 {
 /// points spread equally both ways (a tight curve). For points on an arc of small angle θ it grows
 /// in proportion to θ, i.e. to curvature × window length. Fewer than 3 points: 0.
 pub fn curvature(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    if points.len() < 3 {
+    let mut m = [0.0; 6];
+    for &(x, y) in points {
+        for (s, v) in m.iter_mut().zip([1.0, x, y, x * x, y * y, x * y]) {
+            *s += v;
+        }
+    }
+    curvature_from_moments(m)
+}
+
+/// [`curvature`] from the sums (n, Σx, Σy, Σx², Σy², Σxy) of the points.
+pub fn curvature_from_moments([n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> f64 {
+    if n < 3.0 {
         return 0.0;
     }
-    let (mx, my) = points
-        .iter()
-        .fold((0.0, 0.0), |(a, b), &(x, y)| (a + x / n, b + y / n));
-    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
-    for &(x, y) in points {
-        let (dx, dy) = (x - mx, y - my);
-        sxx += dx * dx / n;
-        syy += dy * dy / n;
-        sxy += dx * dy / n;
-    }
+    let (mx, my) = (sx / n, sy / n);
+    let vxx = (sxx / n - mx * mx).max(0.0);
+    let vyy = (syy / n - my * my).max(0.0);
+    let vxy = sxy / n - mx * my;
+    let (sxx, syy, sxy) = (vxx, vyy, vxy);
     let half_tr = (sxx + syy) / 2.0;
     let root = (((sxx - syy) / 2.0).powi(2) + sxy * sxy).sqrt();
     let (big, small) = (half_tr + root, (half_tr - root).max(0.0));
@@ -210,13 +215,16 @@ pub fn score(
     let to = strips[id].as_ref()?.to;
     let mut best: Option<Scored> = None;
     let mut base = Vec::with_capacity(width as usize);
-    let mut pts = Vec::with_capacity(KAPPA_MIN_WINDOW.max(width as usize));
+    // Chain arithmetic once: `window` keeps offsets inside an open chain.
+    let chain = &c.chains[c.chain_of[id] as usize];
+    let (start, n, pos) = (chain.start, chain.len as isize, c.pos(id) as isize);
+    let at = |k: isize| start + (pos + k).rem_euclid(n) as usize;
     for align in [Align::Left, Align::Centre, Align::Right] {
         let (lo, hi) = window(c, id, width as usize, align);
         base.clear();
         let (mut i_sum, mut l_sum, mut raw_i, mut valid) = (0.0, 0.0, 0.0, 0usize);
         for k in lo..=hi {
-            let j = c.along(id, k)?;
+            let j = at(k);
             match (&strips[j], &costs[j]) {
                 (Some(s), Some(sc)) if s.to == to => {
                     i_sum += sc.intensity;
@@ -230,16 +238,10 @@ pub fn score(
         }
         let valid_f = valid.max(1) as f64;
         let (klo, khi) = window(c, id, KAPPA_MIN_WINDOW.max(width as usize), align);
-        pts.clear();
-        for k in klo..=khi {
-            let j = c.along(id, k)?;
-            let (x, y) = c.pixels[j];
-            pts.push((x as f64, y as f64));
-        }
         let mut terms = CostTerms {
             intensity: cfg.w_intensity * i_sum / valid_f,
             length: cfg.w_length * l_sum / valid_f,
-            curvature: cfg.w_curvature * curvature(&pts),
+            curvature: cfg.w_curvature * curvature_from_moments(c.moments(id, klo, khi)),
             variance: cfg.w_variance * variance(&base),
             total: 0.0,
         };

@@ -47,7 +47,17 @@ pub fn grow(
         }
     };
     let (mut lo, mut hi) = (0isize, 0isize);
-    while ((hi - lo + 1) as usize) < want {
+    // Grow until the band is `want` pixels wide across, not merely `want` strips: strips that
+    // leave a staircase or a slanted edge sit closer than one pixel apart across the bridge.
+    let across = |lo: isize, hi: isize| {
+        let members: Vec<usize> = (lo..=hi).filter_map(|k| c.along(id, k)).collect();
+        band_width(c, strips, &members)
+    };
+    let mut steps = 0;
+    while ((hi - lo + 1) as usize) < want
+        || (across(lo, hi) < want as f64 - ACROSS_SLACK && steps < chain_len)
+    {
+        steps += 1;
         let left = c.along(id, lo - 1).and_then(usable);
         let right = c.along(id, hi + 1).and_then(usable);
         match (left, right) {
@@ -59,6 +69,48 @@ pub fn grow(
         }
     }
     (lo..=hi).filter_map(|k| c.along(id, k)).collect()
+}
+
+/// Widths across a bridge within this many pixels of the target count as reached: strips that fan
+/// out by a pixel tilt the mean direction and shave thousandths off an exact width.
+const ACROSS_SLACK: f64 = 0.05;
+
+/// The narrowest width across a bridge made of `members` (in chain order), in pixels: the spread
+/// of the outer strips' start points and of their end points, measured at right angles to the
+/// bridge's mean direction, plus one pixel for the strips' own width; the smaller of the two ends.
+pub fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -> f64 {
+    let ends: Vec<([f64; 2], [f64; 2])> = members
+        .iter()
+        .filter_map(|&m| {
+            strips[m].as_ref().map(|s| {
+                let (x, y) = c.pixels[m];
+                ([x as f64, y as f64], [s.end.0 as f64, s.end.1 as f64])
+            })
+        })
+        .collect();
+    if ends.len() < 2 {
+        return ends.len() as f64;
+    }
+    let (mut dx, mut dy) = (0.0, 0.0);
+    for (a, b) in &ends {
+        dx += b[0] - a[0];
+        dy += b[1] - a[1];
+    }
+    let len = (dx * dx + dy * dy).sqrt();
+    if len == 0.0 {
+        return ends.len() as f64;
+    }
+    // Unit normal to the mean direction.
+    let (nx, ny) = (-dy / len, dx / len);
+    let spread = |pick: fn(&([f64; 2], [f64; 2])) -> [f64; 2]| {
+        let proj = ends.iter().map(|e| {
+            let p = pick(e);
+            p[0] * nx + p[1] * ny
+        });
+        let (lo, hi) = proj.fold((f64::MAX, f64::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        hi - lo + 1.0
+    };
+    spread(|e| e.0).min(spread(|e| e.1))
 }
 
 /// What drawing a bridge would change, computed before committing it.
@@ -80,7 +132,8 @@ pub struct Plan {
 /// Plan the bridge made of `members`' strips: every strip pixel, plus the cut pixels whose centres
 /// lie inside the polygon of the outer strips' end points (kept only where 4-connected to a strip,
 /// so the fill can never leave a loose speck), and, when fewer strips than `min_width` could be
-/// grown, the strips thickened by a square brush to that width.
+/// grown, the strips thickened by a square brush to that width. `want` is the width the island
+/// asked for: a fanning bridge (see below) is drawn that wide.
 pub fn plan(
     bits: &BitGrid,
     gray: &Gray,
@@ -88,6 +141,7 @@ pub fn plan(
     strips: &[Option<Strip>],
     members: &[usize],
     min_width: u32,
+    want: u32,
 ) -> Plan {
     let w = bits.width as i64;
     let h = bits.height as i64;
@@ -100,16 +154,35 @@ pub fn plan(
     };
     let centre = |(x, y): (i64, i64)| [x as f64 + 0.5, y as f64 + 0.5];
     let start = |p: (u32, u32)| centre((p.0 as i64, p.1 as i64));
-    let polygon = vec![
+    let mut polygon = vec![
         start(first.1),
         centre(first.0.end),
         centre(last.0.end),
         start(last.1),
     ];
+    let n = member_strips.len();
+    let target = want.max(min_width);
+    // A fan gone wrong: strips leaving a small or sharply curved island cross on their way, or spread
+    // so far apart that their outline is no band, and the fill between them would leave loose
+    // spokes. Such a bridge is drawn instead as its middle strip thickened to the full width: a
+    // straight solid band. (A moderate fan keeps its filled outline; if that costs more than the
+    // strips promised, the support rule halves it.)
+    let fan = n > 1
+        && (crosses(&polygon)
+            || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
+            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
+    let (member_strips, across) = if fan {
+        let mid = member_strips[n / 2];
+        polygon = band_outline(start(mid.1), centre(mid.0.end), target as f64 / 2.0);
+        (vec![mid], 1.0)
+    } else {
+        (member_strips, band_width(c, strips, members))
+    };
+    let goal = if fan { target } else { min_width };
 
     // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
-    let brush = if (member_strips.len() as u32) < min_width {
-        (min_width - member_strips.len() as u32).div_ceil(2) as i64
+    let brush = if across < goal as f64 - ACROSS_SLACK {
+        ((goal as f64 - across) / 2.0).ceil() as i64
     } else {
         0
     };
@@ -204,7 +277,11 @@ pub fn plan(
         pixels,
         polygon,
         real,
-        width: if brush > 0 { min_width } else { n as u32 },
+        width: if brush > 0 {
+            goal
+        } else {
+            (across + ACROSS_SLACK).floor() as u32
+        },
         length: member_strips
             .iter()
             .map(|(s, _)| s.len() as f64)
@@ -213,11 +290,63 @@ pub fn plan(
     }
 }
 
-/// Turn the planned pixels into material.
-pub fn commit(bits: &mut BitGrid, plan: &Plan) {
-    for &p in &plan.pixels {
-        bits.data[p as usize] = true;
+/// Turn the planned pixels into material; returns how many were still cut (a pixel an earlier
+/// bridge already took counts for that one).
+pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> usize {
+    let mut turned = 0;
+    for &p in pixels {
+        let cell = &mut bits.data[p as usize];
+        if !*cell {
+            *cell = true;
+            turned += 1;
+        }
     }
+    turned
+}
+
+/// Outer strips whose directions differ by more than this are a fan to be redrawn as a band.
+const MAX_FAN_DEGREES: f64 = 60.0;
+
+/// The angle between the first and the last strip of the outline `[s0, e0, e1, s1]`, radians.
+fn diverge(q: &[[f64; 2]]) -> f64 {
+    let (a, b) = (
+        [q[1][0] - q[0][0], q[1][1] - q[0][1]],
+        [q[2][0] - q[3][0], q[2][1] - q[3][1]],
+    );
+    let (la, lb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+    if la == 0.0 || lb == 0.0 {
+        return 0.0;
+    }
+    ((a[0] * b[0] + a[1] * b[1]) / (la * lb))
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// Whether the quadrilateral's opposite sides cross (a bow-tie: the outer strips crossed).
+fn crosses(q: &[[f64; 2]]) -> bool {
+    fn side(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
+        (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+    }
+    let cut = |a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]| {
+        side(a, b, c) * side(a, b, d) < 0.0 && side(c, d, a) * side(c, d, b) < 0.0
+    };
+    q.len() == 4 && (cut(q[0], q[1], q[2], q[3]) || cut(q[1], q[2], q[3], q[0]))
+}
+
+/// The rectangle of half-width `half` around the segment from `a` to `b`.
+fn band_outline(a: [f64; 2], b: [f64; 2], half: f64) -> Vec<[f64; 2]> {
+    let len = dist(a, b).max(1e-9);
+    let (nx, ny) = (-(b[1] - a[1]) / len * half, (b[0] - a[0]) / len * half);
+    vec![
+        [a[0] + nx, a[1] + ny],
+        [b[0] + nx, b[1] + ny],
+        [b[0] - nx, b[1] - ny],
+        [a[0] - nx, a[1] - ny],
+    ]
 }
 
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
@@ -308,10 +437,10 @@ mod tests {
         // From x = 10 the cheaper side (x = 11, light) comes first, then x = 9 or 12.
         assert_eq!(members.len(), 3);
         assert!(xs.contains(&10) && xs.contains(&11), "{xs:?}");
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
-        commit(&mut b, &p);
+        commit(&mut b, &p.pixels);
         assert_eq!(label(&b).island_count(), 0);
         // Solid: every pixel between the outer strips in the gap is material.
         let xmin = *xs.iter().min().unwrap();
@@ -354,12 +483,29 @@ mod tests {
         let costs = vec![None; c.len()];
         let members = grow(&c, &st, &costs, 0, 3, &cfg);
         assert_eq!(members.len(), 1);
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
-        commit(&mut b, &p);
+        commit(&mut b, &p.pixels);
         assert_eq!(label(&b).island_count(), 0);
         // 3 px wide across the whole gap.
         assert!(p.pixels.len() >= 3 * st[0].as_ref().unwrap().len());
+    }
+
+    #[test]
+    fn fan_geometry() {
+        // Parallel strips: no crossing, no divergence.
+        let band = [[0.0, 0.0], [0.0, 10.0], [5.0, 10.0], [5.0, 0.0]];
+        assert!(!crosses(&band));
+        assert!(diverge(&band) < 1e-9);
+        // Outer strips that cross make a bow-tie.
+        let bow = [[0.0, 0.0], [5.0, 10.0], [0.0, 10.0], [5.0, 0.0]];
+        assert!(crosses(&bow));
+        // Strips leaving in opposite directions diverge by 180 degrees.
+        let opposite = [[1.0, 0.0], [10.0, 0.0], [-10.0, 0.0], [-1.0, 0.0]];
+        assert!((diverge(&opposite) - std::f64::consts::PI).abs() < 1e-9);
+        // A band outline is a rectangle of the given half-width.
+        let r = band_outline([0.0, 0.0], [10.0, 0.0], 3.0);
+        assert!((dist(r[0], r[3]) - 6.0).abs() < 1e-9 && (dist(r[0], r[1]) - 10.0).abs() < 1e-9);
     }
 }

@@ -57,41 +57,31 @@ const STEER: f32 = 0.5;
 /// A field direction more than 60° off the heading is ambiguous (near perpendicular its sign
 /// flips with noise) and would swing the walk sideways; it is ignored.
 const MIN_ALIGN: f32 = 0.5;
-/// Pixels checked for a revisit: a walk that comes back onto itself loops and is dropped.
-const LOOP_WINDOW: usize = 12;
+/// Pixels checked for a revisit: a walk that comes back onto itself loops and is dropped. (A walk
+/// that turns more than a right angle from its start is dropped first, so longer loops cannot
+/// form: its progress along the start direction only grows.)
+const LOOP_WINDOW: usize = 8;
 
-/// Per-image fields the walks read, built once in O(pixels).
+/// What the walks read: the two-tone, the grayscale and the labels. The steering fields (Sobel
+/// gradient of the gray, box-smoothed gradient of the two-tone) are evaluated on demand at the
+/// pixels walks cross, so their cost follows the islands' perimeter × walk length, never the
+/// image area.
 pub struct Fields<'a> {
     pub bits: &'a BitGrid,
     pub gray: &'a Gray,
     pub labels: &'a [u32],
     pub width: i64,
     pub height: i64,
-    /// Summed-area table of material, (w+1)×(h+1): box sums of the two-tone in O(1).
-    integral: Vec<u32>,
 }
 
 impl<'a> Fields<'a> {
     pub fn new(two: &'a TwoTone, map: &'a IslandMap) -> Self {
-        let (w, h) = (two.bits.width as usize, two.bits.height as usize);
-        let mut integral = vec![0u32; (w + 1) * (h + 1)];
-        for y in 0..h {
-            let mut row = 0u32;
-            let src = &two.bits.data[y * w..(y + 1) * w];
-            let (above, cur) = integral.split_at_mut((y + 1) * (w + 1));
-            let above = &above[y * (w + 1)..];
-            for x in 0..w {
-                row += src[x] as u32;
-                cur[x + 1] = above[x + 1] + row;
-            }
-        }
         Fields {
             bits: &two.bits,
             gray: &two.gray,
             labels: &map.labels,
-            width: w as i64,
-            height: h as i64,
-            integral,
+            width: two.bits.width as i64,
+            height: two.bits.height as i64,
         }
     }
 
@@ -110,33 +100,47 @@ impl<'a> Fields<'a> {
         }
     }
 
-    /// Material pixels in the box [x0, x1]×[y0, y1]; pixels outside the image count as material.
-    fn material_in(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> f32 {
-        let total = (x1 - x0 + 1) * (y1 - y0 + 1);
-        let (cx0, cy0) = (x0.max(0), y0.max(0));
-        let (cx1, cy1) = (x1.min(self.width - 1), y1.min(self.height - 1));
-        if cx0 > cx1 || cy0 > cy1 {
-            return total as f32;
-        }
-        let stride = self.width + 1;
-        let at = |x: i64, y: i64| self.integral[(y * stride + x) as usize] as i64;
-        let inside = at(cx1 + 1, cy1 + 1) - at(cx0, cy1 + 1) - at(cx1 + 1, cy0) + at(cx0, cy0);
-        let area_in = (cx1 - cx0 + 1) * (cy1 - cy0 + 1);
-        (inside + (total - area_in)) as f32
-    }
-
     /// Gradient of the two-tone smoothed by a (2r+1)² box at a pixel: points towards material,
-    /// zero farther than r from it.
+    /// zero farther than r from it. Outside the image counts as material (the frame).
     pub fn twotone_gradient(&self, x: i64, y: i64, r: i64) -> [f32; 2] {
-        let gx = self.material_in(x + 1, y - r, x + r, y + r)
-            - self.material_in(x - r, y - r, x - 1, y + r);
-        let gy = self.material_in(x - r, y + 1, x + r, y + r)
-            - self.material_in(x - r, y - r, x + r, y - 1);
-        [gx, gy]
+        let w = self.width;
+        let data = &self.bits.data;
+        let (mut gx, mut gy) = (0i32, 0i32);
+        if x >= r && y >= r && x + r < w && y + r < self.height {
+            for dy in -r..=r {
+                let row = ((y + dy) * w + x) as usize;
+                for dx in -r..=r {
+                    if data[(row as i64 + dx) as usize] {
+                        gx += dx.signum() as i32;
+                        gy += dy.signum() as i32;
+                    }
+                }
+            }
+        } else {
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    if self.bits.get_or_frame(x + dx, y + dy) {
+                        gx += dx.signum() as i32;
+                        gy += dy.signum() as i32;
+                    }
+                }
+            }
+        }
+        [gx as f32, gy as f32]
     }
 
     /// Sobel gradient of the grayscale (levels per pixel), clamped at the image edge.
     pub fn gray_gradient(&self, x: i64, y: i64) -> [f32; 2] {
+        let w = self.width;
+        if x >= 1 && y >= 1 && x + 1 < w && y + 1 < self.height {
+            let d = &self.gray.data;
+            let c = (y * w + x) as usize;
+            let (u, dn) = (c - w as usize, c + w as usize);
+            let gx =
+                (d[u + 1] + 2.0 * d[c + 1] + d[dn + 1]) - (d[u - 1] + 2.0 * d[c - 1] + d[dn - 1]);
+            let gy = (d[dn - 1] + 2.0 * d[dn] + d[dn + 1]) - (d[u - 1] + 2.0 * d[u] + d[u + 1]);
+            return [gx / 8.0, gy / 8.0];
+        }
         let g = |dx: i64, dy: i64| {
             let xx = (x + dx).clamp(0, self.width - 1) as u32;
             let yy = (y + dy).clamp(0, self.height - 1) as u32;
@@ -151,13 +155,17 @@ impl<'a> Fields<'a> {
     /// gradient where it is not flat, else the smoothed two-tone's. `None` where both are flat.
     pub fn field(&self, x: i64, y: i64) -> Option<[f32; 2]> {
         let g = self.gray_gradient(x, y);
-        let m = (g[0] * g[0] + g[1] * g[1]).sqrt();
-        if m >= GRAY_FLAT {
+        let m2 = g[0] * g[0] + g[1] * g[1];
+        if m2 >= GRAY_FLAT * GRAY_FLAT {
+            let m = m2.sqrt();
             return Some([g[0] / m, g[1] / m]);
         }
         let t = self.twotone_gradient(x, y, STEER_RADIUS);
+        if t == [0.0, 0.0] {
+            return None;
+        }
         let m = (t[0] * t[0] + t[1] * t[1]).sqrt();
-        (m > 0.5).then(|| [t[0] / m, t[1] / m])
+        Some([t[0] / m, t[1] / m])
     }
 
     /// Cut-side sense at a border pixel: the sum of the offsets to its cut edge neighbours, or
@@ -179,15 +187,25 @@ impl<'a> Fields<'a> {
 
     /// The node other than `own` that material beside (x, y) belongs to, if any (edge neighbours).
     #[inline]
+    /// Reads the (small) bit grid first and the labels only beside material.
     fn arrival(&self, x: i64, y: i64, own: u32) -> Option<((i64, i64), u32)> {
         for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
+            if !self.material(nx, ny) {
+                continue;
+            }
             let l = self.label(nx, ny);
             if l != CUT && l != own {
                 return Some(((nx, ny), l));
             }
         }
         None
+    }
+
+    /// Material test; outside the image is the frame.
+    #[inline]
+    fn material(&self, x: i64, y: i64) -> bool {
+        !self.inside(x, y) || self.bits.data[(y * self.width + x) as usize]
     }
 }
 
@@ -292,6 +310,7 @@ pub fn walk(
     if d[0] * (px - cx) as f32 + d[1] * (py - cy) as f32 <= 0.0 {
         d = [(px - cx) as f32, (py - cy) as f32];
     }
+    let start = d;
     // Continuous position in pixel units: pixel (x, y) covers [x, x+1) × [y, y+1).
     let mut pos = [px as f32 + 0.5, py as f32 + 0.5];
     let w = f.width;
@@ -321,14 +340,17 @@ pub fn walk(
                 if m > 1e-6 {
                     d = [nd[0] / m, nd[1] / m];
                 }
+                if d[0] * start[0] + d[1] * start[1] <= 0.0 {
+                    // Turned back past a right angle: it would curl onto itself.
+                    return Err(WalkEnd::Looped);
+                }
             }
         }
         // Next pixel: where the ray leaves this one; never straight back to where it came from.
         let Some((nx, ny, npos)) = next_pixel(px, py, pos, d, prev) else {
             return Err(WalkEnd::Looped);
         };
-        let l = f.label(nx, ny);
-        if l != CUT {
+        if f.material(nx, ny) {
             // Material of another node would have been caught as an arrival: this is our own.
             return Err(WalkEnd::Returned);
         }
