@@ -200,3 +200,76 @@ fn moller_trumbore(
         (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tone::mesh::camera::{Orbit, Size};
+    use crate::tone::mesh::{raster, shapes};
+
+    fn setup(m: &Mesh, el: f32) -> Camera {
+        let (c, r) = m.bounding_sphere();
+        let o = Orbit {
+            azimuth_deg: 20.0,
+            elevation_deg: el,
+            distance: 2.0,
+            orthographic: false,
+        };
+        Camera::frame(c, r, &o, Size::LongSide(120), &m.positions)
+    }
+
+    #[test]
+    fn interpolation_is_perspective_correct() {
+        // A strongly foreshortened plane: each pixel's depth must put its point back on the
+        // pixel centre and on the surface (y = 0.3 x).
+        let m = shapes::height_field(4, |x, _| 0.3 * x);
+        let cam = setup(&m, 35.0);
+        let vb = raster::rasterize(&m, &cam, false);
+        let light = Light {
+            position: cam.eye,
+            specular: 0.0,
+            shininess: 1.0,
+        };
+        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let w = cam.width as usize;
+        let mut checked = 0;
+        for (i, f) in frags.iter().enumerate().filter(|(_, f)| f.is_model()) {
+            let (sx, sy) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            let (o, d) = cam.ray(sx, sy);
+            let p = o + d * f.depth;
+            let back = cam.project(p);
+            assert!((back.x - sx).abs() < 1e-2 && (back.y - sy).abs() < 1e-2);
+            if p.x.abs() < 0.98 && p.z.abs() < 0.98 {
+                assert!((p.y - 0.3 * p.x).abs() < 1e-3, "{p}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000);
+    }
+
+    #[test]
+    fn open_surfaces_are_lit_on_the_side_seen() {
+        // A flat sheet seen from below, lit from below: the visible side faces the light.
+        let m = shapes::height_field(8, |_, _| 0.0);
+        let cam = setup(&m, -40.0);
+        let vb = raster::rasterize(&m, &cam, false);
+        let light = Light {
+            position: Vec3::new(0.0, -2.0, 0.0),
+            specular: 0.0,
+            shininess: 1.0,
+        };
+        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let lit: Vec<f32> = frags
+            .iter()
+            .filter(|f| f.is_model())
+            .map(|f| f.shade)
+            .collect();
+        assert!(lit.len() > 1000);
+        assert!(
+            lit.iter().all(|&s| s > 0.3),
+            "min {:?}",
+            lit.iter().cloned().fold(1.0, f32::min)
+        );
+        assert!(frags.iter().filter(|f| f.is_model()).all(|f| f.ndotv > 0.0));
+    }
+}
