@@ -237,6 +237,84 @@ struct Candidate {
     mid: [f64; 2],
 }
 
+/// Bridge polygons bucketed on a uniform grid, so that "is this point in a bridge" costs O(1).
+struct BridgeIndex<'a> {
+    polys: &'a [Polygon<f64>],
+    origin: [f64; 2],
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    buckets: Vec<Vec<u32>>,
+}
+
+impl<'a> BridgeIndex<'a> {
+    fn new(polys: &'a [Polygon<f64>]) -> Self {
+        let boxes: Vec<Option<Rect<f64>>> = polys.iter().map(|b| b.bounding_rect()).collect();
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        let mut size = 0.0f64;
+        for b in boxes.iter().flatten() {
+            lo = [lo[0].min(b.min().x), lo[1].min(b.min().y)];
+            hi = [hi[0].max(b.max().x), hi[1].max(b.max().y)];
+            size = size.max(b.width()).max(b.height());
+        }
+        if !lo[0].is_finite() {
+            return BridgeIndex {
+                polys,
+                origin: [0.0; 2],
+                cell: 1.0,
+                cols: 0,
+                rows: 0,
+                buckets: Vec::new(),
+            };
+        }
+        let cell = size
+            .max((hi[0] - lo[0]).max(hi[1] - lo[1]) / 256.0)
+            .max(1e-6);
+        let cols = ((hi[0] - lo[0]) / cell).floor() as usize + 1;
+        let rows = ((hi[1] - lo[1]) / cell).floor() as usize + 1;
+        let mut buckets = vec![Vec::new(); cols * rows];
+        for (i, b) in boxes.iter().enumerate() {
+            let Some(b) = b else { continue };
+            let (x0, y0) = (
+                ((b.min().x - lo[0]) / cell) as usize,
+                ((b.min().y - lo[1]) / cell) as usize,
+            );
+            let (x1, y1) = (
+                ((b.max().x - lo[0]) / cell) as usize,
+                ((b.max().y - lo[1]) / cell) as usize,
+            );
+            for y in y0..=y1.min(rows - 1) {
+                for x in x0..=x1.min(cols - 1) {
+                    buckets[y * cols + x].push(i as u32);
+                }
+            }
+        }
+        BridgeIndex {
+            polys,
+            origin: lo,
+            cell,
+            cols,
+            rows,
+            buckets,
+        }
+    }
+
+    fn contains(&self, m: [f64; 2]) -> bool {
+        let (fx, fy) = (
+            (m[0] - self.origin[0]) / self.cell,
+            (m[1] - self.origin[1]) / self.cell,
+        );
+        if fx < 0.0 || fy < 0.0 || fx as usize >= self.cols || fy as usize >= self.rows {
+            return false;
+        }
+        let p = Point::new(m[0], m[1]);
+        self.buckets[fy as usize * self.cols + fx as usize]
+            .iter()
+            .any(|&i| self.polys[i as usize].contains(&p))
+    }
+}
+
 /// From vertex `w` straight across to ring edge `i → i+1` of `ring`, when the foot falls strictly
 /// inside the edge: the two chord ends, their points, and the length.
 /// `material_side`: which region the chord must cross (material lies left of every ring edge, as
@@ -338,20 +416,28 @@ pub fn check(
         }
     }
 
-    let bridge_boxes: Vec<Option<Rect<f64>>> =
-        geom.bridges.iter().map(|b| b.bounding_rect()).collect();
-    let in_bridge = |m: [f64; 2]| {
-        let p = Point::new(m[0], m[1]);
-        geom.bridges
-            .iter()
-            .zip(&bridge_boxes)
-            .any(|(b, bb): (&Polygon<f64>, _)| {
-                bb.is_some_and(|bb| bb.contains(&p)) && b.contains(&p)
-            })
-    };
+    let bridge_index = BridgeIndex::new(&geom.bridges);
+    let in_bridge = |m: [f64; 2]| bridge_index.contains(m);
     let mut narrowest = [f64::INFINITY; 3];
+    let max_required = spacing;
     let mut cands: Vec<Candidate> = Vec::new();
     let mut consider = |material_side: bool, a: End, b: End, pa: [f64; 2], pb: [f64; 2], d: f64| {
+        // Too wide to matter for a violation or for the narrowest of its region: skip early.
+        let could_be_bridge = if bridges_known {
+            !geom.bridges.is_empty()
+        } else {
+            a.ring == b.ring
+        };
+        let narrowest_here = if !material_side {
+            narrowest[2]
+        } else if could_be_bridge {
+            narrowest[0].max(narrowest[1])
+        } else {
+            narrowest[1]
+        };
+        if d >= max_required && d >= narrowest_here {
+            return;
+        }
         if !is_neck(&rings, a, b, d) {
             return;
         }
@@ -570,4 +656,55 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
     let mut k = keep.into_iter();
     report.violations.retain(|_| k.next().unwrap_or(true));
     1 + islands::label(bits).island_count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring_of(pts: &[[f64; 2]]) -> Rings {
+        let mp = MultiPolygon::new(vec![Polygon::new(
+            geo::LineString::from(pts.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>()),
+            vec![],
+        )]);
+        rings_of(&mp, 1e9)
+    }
+
+    #[test]
+    fn a_corner_chord_is_not_a_neck_but_a_waist_is() {
+        // An hourglass: 10 wide at top and bottom, 1 wide at the waist (y = 5).
+        let r = ring_of(&[
+            [0.0, 0.0],
+            [10.0, 0.0],
+            [5.5, 5.0],
+            [10.0, 10.0],
+            [0.0, 10.0],
+            [4.5, 5.0],
+        ]);
+        let cum = &r.cum[0];
+        // Across the waist: vertex 2 (5.5, 5) to vertex 5 (4.5, 5).
+        let a = End {
+            ring: 0,
+            arc: cum[2],
+        };
+        let b = End {
+            ring: 0,
+            arc: cum[5],
+        };
+        assert!(is_neck(&r, a, b, 1.0));
+        // Across the corner at (10, 0): vertex 0 to vertex 2 is not a neck.
+        let c = End {
+            ring: 0,
+            arc: cum[0],
+        };
+        assert!(!is_neck(&r, c, a, dist([0.0, 0.0], [5.5, 5.0])));
+    }
+
+    #[test]
+    fn densify_splits_long_edges_evenly() {
+        let d = densify(&[[0.0, 0.0], [10.0, 0.0], [10.0, 1.0]], 2.5);
+        // 10 → 4 pieces, 1 → 1, hypotenuse ≈ 10.05 → 5 pieces.
+        assert_eq!(d.len(), 4 + 1 + 5);
+        assert_eq!(d[1], [2.5, 0.0]);
+    }
 }

@@ -404,3 +404,59 @@ pub fn default_out_dir(input: &Path) -> PathBuf {
         .unwrap_or_else(|| "stencil".into());
     PathBuf::from("out").join(stem)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn material_widths_become_pixel_minimums() {
+        // Cardstock: bridges 1.0 mm, features 0.5 mm; 0.1 mm/px; tolerance 0.05 mm = 0.5 px, so
+        // the allowance is 1 + 2 × 0.5 = 2 px.
+        let phys = PhysicalConfig::default();
+        let s = Scale::default();
+        let b = phys.bridge_for(&BridgeConfig::default(), s);
+        assert_eq!(b.min_width_px, 12);
+        assert!(b.max_width_px >= 12);
+        let wide = BridgeConfig {
+            min_width_px: 20,
+            max_width_px: 30,
+            ..Default::default()
+        };
+        assert_eq!(
+            phys.bridge_for(&wide, s).min_width_px,
+            20,
+            "a wider user value wins"
+        );
+        // At 0.05 mm/px the same millimetres are twice the pixels.
+        let fine = Scale { mm_per_px: 0.05 };
+        assert_eq!(
+            phys.bridge_for(&BridgeConfig::default(), fine).min_width_px,
+            20 + 3
+        );
+        // Filter: ceil((5 + 2) / 2) = 4 px, unless the user set a radius explicitly.
+        assert_eq!(phys.filter_for(&FilterConfig::default(), s).radius, 4);
+        let explicit = FilterConfig {
+            radius: 1,
+            auto_radius: false,
+            ..Default::default()
+        };
+        assert_eq!(phys.filter_for(&explicit, s).radius, 1);
+    }
+
+    #[test]
+    fn size_options_give_the_scale() {
+        let mut phys = PhysicalConfig::default();
+        assert_eq!(phys.scale(400).unwrap().mm_per_px, 0.1);
+        phys.size = Size::WidthMm(200.0);
+        assert!((phys.scale(400).unwrap().mm_per_px - 0.5).abs() < 1e-12);
+        phys.size = Size::Dpi(254.0);
+        assert!((phys.scale(400).unwrap().mm_per_px - 0.1).abs() < 1e-12);
+        phys.size = Size::WidthMm(-3.0);
+        assert!(phys
+            .scale(400)
+            .unwrap_err()
+            .to_string()
+            .contains("--width-mm"));
+    }
+}

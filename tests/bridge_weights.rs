@@ -154,7 +154,7 @@ fn raising_w_curvature_moves_the_bridge_from_a_curved_edge_to_a_straight_one() {
         px >= cx && (px - cx).powi(2) + (py - cy).powi(2) <= r * r
     };
     let two = scene(
-        move |x, y| x < 38 || x >= 82 || d(x, y),
+        move |x, y| !(38..82).contains(&x) || d(x, y),
         |x, _| if x < 60 { 0.0 } else { 0.6 },
     );
     let low = BridgeConfig {

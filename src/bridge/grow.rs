@@ -25,8 +25,13 @@ pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
 }
 
 /// Grow from candidate `id` strip by strip, always adding the cheaper of the two neighbouring
-/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until `width`
-/// strips or no neighbour can be added. Returns the members in chain order.
+/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until the
+/// bridge is `width` px wide or no neighbour can be added. Returns the members in chain order.
+///
+/// Width is measured, not counted: on a slanted edge the border pixels form a staircase, so `n`
+/// strips there span only about n/√2 px. The bridge grows until it has at least `width` strips
+/// and both its start edge and its end edge ([`span`]) are `width` px across (strips converging on
+/// a smaller island land closer together than they start), but never past 4 × `width` strips.
 pub fn grow(
     c: &Candidates,
     strips: &[Option<Strip>],
@@ -53,11 +58,12 @@ pub fn grow(
         let members: Vec<usize> = (lo..=hi).filter_map(|k| c.along(id, k)).collect();
         band_width(c, strips, &members)
     };
-    let mut steps = 0;
-    while ((hi - lo + 1) as usize) < want
-        || (across(lo, hi) < want as f64 - ACROSS_SLACK && steps < chain_len)
+    // At most four times the strips asked for: past that the border is too curved to carry a
+    // band of this width, and `plan` thickens or straightens what there is.
+    let most = (4 * want).min(chain_len);
+    while ((hi - lo + 1) as usize) < most
+        && (((hi - lo + 1) as usize) < want || across(lo, hi) < want as f64 - ACROSS_SLACK)
     {
-        steps += 1;
         let left = c.along(id, lo - 1).and_then(usable);
         let right = c.along(id, hi + 1).and_then(usable);
         match (left, right) {
@@ -383,6 +389,23 @@ mod tests {
     use crate::islands::label;
     use crate::raster::TwoTone;
 
+    /// Labels, candidates and every candidate's strip (walks up to 40 px).
+    fn walk_all(
+        t: &TwoTone,
+    ) -> (
+        crate::islands::IslandMap,
+        candidates::Candidates,
+        Vec<Option<Strip>>,
+    ) {
+        let m = label(&t.bits);
+        let f = strips::Fields::new(t, &m);
+        let c = candidates::collect(&m);
+        let st = (0..c.len())
+            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
+            .collect();
+        (m, c, st)
+    }
+
     #[test]
     fn width_grows_with_the_smaller_area_and_is_clamped() {
         let cfg = BridgeConfig {
@@ -418,12 +441,7 @@ mod tests {
             gray.set(11, y, 0.9);
         }
         let t = TwoTone { bits, gray };
-        let m = label(&t.bits);
-        let f = strips::Fields::new(&t, &m);
-        let c = candidates::collect(&m);
-        let st: Vec<_> = (0..c.len())
-            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
-            .collect();
+        let (m, c, st) = walk_all(&t);
         let cfg = BridgeConfig::default();
         let norm = Norm::new(st.iter().flatten().map(|s| s.len()).collect(), &cfg);
         let costs: Vec<_> = st
@@ -466,6 +484,54 @@ mod tests {
     }
 
     #[test]
+    fn converging_strips_grow_until_the_narrow_end_is_wide_enough() {
+        // A ring island around a disc island: strips from the ring's inner edge converge on the
+        // disc, so 8 strips are 8 px apart where they start but closer where they land.
+        let n = 81u32;
+        let r = |x: u32, y: u32| (x as f64 + 0.5 - 40.5).hypot(y as f64 + 0.5 - 40.5);
+        let bits = BitGrid::from_fn(n, n, |x, y| {
+            let d = r(x, y);
+            d <= 8.0 || (22.0..=30.0).contains(&d) || d >= 37.0
+        });
+        let t = TwoTone {
+            gray: Gray::new(n, n, 0.0),
+            bits,
+        };
+        let (m, c, st) = walk_all(&t);
+        assert_eq!(m.island_count(), 2);
+        let (ring, disc) = (m.label(40, 14), m.label(40, 40));
+        let id = (0..c.len())
+            .find(|&i| {
+                c.node(i) == ring
+                    && c.pixels[i].0 == 40
+                    && c.pixels[i].1 < 40
+                    && st[i].as_ref().is_some_and(|s| s.to == disc)
+            })
+            .unwrap();
+        let cfg = BridgeConfig::default();
+        let costs = vec![
+            Some(StripCost {
+                intensity: 1.0,
+                length: 1.0
+            });
+            c.len()
+        ];
+        let members = grow(&c, &st, &costs, id, 8, &cfg);
+        let across = band_width(&c, &st, &members);
+        assert!(across >= 8.0 - ACROSS_SLACK, "{across}");
+        assert!(
+            members.len() > 8 && members.len() <= 32,
+            "{}",
+            members.len()
+        );
+        // Counting strips alone would have stopped at 8, narrower than 8 px at the disc.
+        let eight = &members[..8];
+        assert!(band_width(&c, &st, eight) < 8.0);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 8);
+        assert!(p.width >= 8);
+    }
+
+    #[test]
     fn a_lone_strip_is_thickened_to_the_minimum_width() {
         // A one-pixel island: one strip per side; the bridge must still be 3 wide.
         let bits = BitGrid::from_fn(9, 9, |x, y| y == 0 || (x == 4 && y == 4));
@@ -473,12 +539,7 @@ mod tests {
             gray: Gray::new(9, 9, 0.0),
             bits,
         };
-        let m = label(&t.bits);
-        let f = strips::Fields::new(&t, &m);
-        let c = candidates::collect(&m);
-        let st: Vec<_> = (0..c.len())
-            .map(|i| strips::walk_candidate(&f, &c, i, 40).ok())
-            .collect();
+        let (_, c, st) = walk_all(&t);
         let cfg = BridgeConfig::default();
         let costs = vec![None; c.len()];
         let members = grow(&c, &st, &costs, 0, 3, &cfg);

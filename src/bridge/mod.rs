@@ -502,7 +502,8 @@ mod tests {
     use crate::islands::label;
     use crate::raster::Gray;
 
-    fn black_white(bits: BitGrid) -> TwoTone {
+    /// A two-tone whose gray is the bits themselves: white material, black cut.
+    pub(crate) fn black_white(bits: BitGrid) -> TwoTone {
         let gray = Gray {
             width: bits.width,
             height: bits.height,
@@ -535,7 +536,8 @@ mod tests {
         assert!(out.bridges.len() >= map.island_count());
         for b in &out.bridges {
             assert!(b.nodes[0] < b.nodes[1] && (b.nodes[1] as usize) < map.nodes.len());
-            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px);
+            // Measured width: may overshoot the target by a pixel on a staircase edge.
+            assert!(b.width_px >= cfg.min_width_px && b.width_px <= cfg.max_width_px + 1);
             assert_eq!(b.polygon.len(), 4);
             assert!(b.cost.total.is_finite());
         }
@@ -660,7 +662,7 @@ mod tests {
                     let (cx, cy) = (w as f64 / 2.0, h as f64 / 2.0);
                     let band = 1.0 + r.next() * 4.0;
                     BitGrid::from_fn(w, h, |x, y| {
-                        ((x as f64 - cx).hypot(y as f64 - cy) / band) as u32 % 2 == 0
+                        (((x as f64 - cx).hypot(y as f64 - cy) / band) as u32).is_multiple_of(2)
                     })
                 }
             };

@@ -502,20 +502,12 @@ mod tests {
     use crate::bridge::candidates::collect;
     use crate::islands::label;
 
-    pub(crate) fn two(rows: &[&str]) -> TwoTone {
-        let bits = BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
-            rows[y as usize].as_bytes()[x as usize] == b'#'
-        });
-        let gray = Gray {
-            width: bits.width,
-            height: bits.height,
-            data: bits
-                .data
-                .iter()
-                .map(|&b| if b { 1.0 } else { 0.0 })
-                .collect(),
-        };
-        TwoTone { bits, gray }
+    fn two(rows: &[&str]) -> TwoTone {
+        crate::bridge::tests::black_white(BitGrid::from_fn(
+            rows[0].len() as u32,
+            rows.len() as u32,
+            |x, y| rows[y as usize].as_bytes()[x as usize] == b'#',
+        ))
     }
 
     fn four_connected(pixels: &[u32], w: u32) -> bool {

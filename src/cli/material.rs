@@ -189,7 +189,16 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     } else {
         (a.input.clone(), None)
     };
-    let bits = load_bits(&png)?;
+    let bits = load_bits(&png).with_context(|| {
+        if report.is_some() {
+            format!(
+                "{}: the folder has no readable stencil.png (make writes it with --emit png)",
+                a.input.display()
+            )
+        } else {
+            format!("{}: cannot read the stencil picture", png.display())
+        }
+    })?;
     let name = a
         .material
         .clone()

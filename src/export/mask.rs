@@ -1,9 +1,8 @@
 //! Photo-etch masks: `mask.png` (1-bit, `--mask-dpi`, default 1200) and `mask.svg`.
 //!
-//! Polarity: by default black where metal stays (positive-acting resist exposed through the film
-//! hardens where the film is clear, so the film is black over the metal to keep... per the shops'
-//! summary in machines.md: "positive resist needs black where metal stays"); `--mask-invert` gives
-//! clear where metal stays, for negative-acting resist. `--mask-mirror` flips left-right for film
+//! Polarity: by default black where metal stays and clear where it is etched away (what a
+//! positive-acting resist needs); `--mask-invert` gives clear where metal stays, for
+//! negative-acting resist (dry-film photoresists are usually negative-acting: check with the shop). `--mask-mirror` flips left-right for film
 //! laid emulsion side down (and for the back of two-sided art). Optional registration marks (a
 //! ring and a cross in each corner of the margin, drawn in the etched tone) line up front and back
 //! films.
@@ -228,4 +227,37 @@ pub fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig) -> Vec<u8> {
         y = num(o.min().y),
     );
     s.into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::BitGrid;
+    use crate::vector::{vectorize, VectorConfig};
+
+    #[test]
+    fn the_etched_area_matches_the_cut_area() {
+        // A 100 x 60 px cut rectangle at 0.1 mm/px: 10 x 6 mm = 60 mm².
+        let g = BitGrid::from_fn(200, 100, |x, y| {
+            !((50..150).contains(&x) && (20..80).contains(&y))
+        });
+        let (geom, _) = vectorize(
+            &g,
+            &[],
+            &VectorConfig {
+                smooth: false,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let cfg = MaskConfig {
+            dpi: 254.0,
+            ..Default::default()
+        }; // 10 px per mm
+        let png = encode_png(&geom, &cfg).unwrap();
+        let img = image::load_from_memory(&png).unwrap().to_luma8();
+        assert_eq!((img.width(), img.height()), (300, 200)); // (20 + 10) mm x (10 + 10) mm
+        let white = img.pixels().filter(|p| p.0[0] > 127).count() as f64;
+        assert!((white - 6000.0).abs() < 6000.0 * 0.01, "{white}");
+    }
 }

@@ -196,14 +196,6 @@ impl Material {
         Material::validate(parse_toml(text, origin)?, origin)
     }
 
-    /// The shipped profiles, parsed (for `stencil profiles`).
-    pub fn shipped() -> Vec<Result<Material, ProfileError>> {
-        SHIPPED
-            .iter()
-            .map(|s| Material::find(s.name).map(|(m, _)| m))
-            .collect()
-    }
-
     /// Laser settings, when the process is laser cutting.
     pub fn laser(&self) -> Option<&LaserSettings> {
         match &self.process {

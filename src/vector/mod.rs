@@ -15,7 +15,6 @@ use geo::orient::{Direction, Orient};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use serde::{Deserialize, Serialize};
 
-use crate::islands;
 use crate::raster::BitGrid;
 use crate::units::{Mm, Scale};
 
@@ -119,7 +118,7 @@ pub fn vectorize(
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
-    let material = assemble(bits, &traced, &rings, mm, outline);
+    let material = assemble(&rings, mm, outline);
     let bridges: Vec<Polygon<f64>> = bridges
         .iter()
         .filter(|b| b.len() >= 3)
@@ -165,47 +164,74 @@ fn to_polygon(pts: &[[f64; 2]], mm: f64) -> Polygon<f64> {
     Polygon::new(to_ring(pts, mm), vec![])
 }
 
-/// Group rings into material pieces: each ring bounds exactly one 4-connected material piece (the
-/// one on its left); a piece's positive ring is its outline, its negative rings its holes. The
-/// frame piece's outline is the sheet's edge.
-fn assemble(
-    bits: &BitGrid,
-    traced: &[trace::Ring],
-    rings: &[Vec<[f64; 2]>],
-    mm: f64,
-    outline: Rect<f64>,
-) -> MultiPolygon<f64> {
-    let map = islands::label(bits);
-    let node_of = |(x, y): (i64, i64)| -> usize {
-        if x < 0 || y < 0 || x >= bits.width as i64 || y >= bits.height as i64 {
-            0
-        } else {
-            let l = map.label(x as u32, y as u32);
-            if l == islands::CUT {
-                0
-            } else {
-                l as usize
-            }
-        }
+/// Group rings into material pieces. Rings never touch, so they nest as a tree: a positive ring
+/// (material on its left, counter-clockwise) is an island's outline, and each negative ring (the
+/// outline of a cut region) is a hole of the innermost island outline around it, or of the sheet
+/// (whose outline is the sheet's edge). After bridging there are no island outlines at all.
+fn assemble(rings: &[Vec<[f64; 2]>], mm: f64, outline: Rect<f64>) -> MultiPolygon<f64> {
+    let area: Vec<f64> = rings.iter().map(|r| trace::signed_area2(r)).collect();
+    let bbox = |r: &[[f64; 2]]| {
+        r.iter().fold(
+            [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ],
+            |b, p| {
+                [
+                    b[0].min(p[0]),
+                    b[1].min(p[1]),
+                    b[2].max(p[0]),
+                    b[3].max(p[1]),
+                ]
+            },
+        )
     };
-    let n = map.nodes.len().max(1);
-    let mut ext: Vec<Option<LineString<f64>>> = vec![None; n];
-    let mut holes: Vec<Vec<LineString<f64>>> = vec![Vec::new(); n];
-    for (t, r) in traced.iter().zip(rings) {
-        let node = node_of(t.material_px).min(n - 1);
-        if trace::signed_area2(r) > 0.0 {
-            ext[node] = Some(to_ring(r, mm));
-        } else {
-            holes[node].push(to_ring(r, mm));
+    let outlines: Vec<usize> = (0..rings.len()).filter(|&i| area[i] > 0.0).collect();
+    let boxes: Vec<[f64; 4]> = outlines.iter().map(|&i| bbox(&rings[i])).collect();
+    // Piece 0 is the sheet; piece k + 1 is the island with outline `outlines[k]`.
+    let mut holes: Vec<Vec<LineString<f64>>> = vec![Vec::new(); outlines.len() + 1];
+    for (i, r) in rings.iter().enumerate() {
+        if area[i] > 0.0 {
+            continue;
+        }
+        let b = bbox(r);
+        let p = r[0];
+        let owner = outlines
+            .iter()
+            .zip(&boxes)
+            .enumerate()
+            .filter(|(_, (_, ob))| ob[0] <= b[0] && ob[1] <= b[1] && ob[2] >= b[2] && ob[3] >= b[3])
+            .filter(|(_, (&o, _))| inside(&rings[o], p))
+            .min_by(|a, b| area[*a.1 .0].total_cmp(&area[*b.1 .0]))
+            .map_or(0, |(k, _)| k + 1);
+        holes[owner].push(to_ring(r, mm));
+    }
+    let mut holes = holes.into_iter();
+    let mut polys = vec![Polygon::new(
+        outline.to_polygon().exterior().clone(),
+        holes.next().unwrap_or_default(),
+    )];
+    for (&o, h) in outlines.iter().zip(holes) {
+        polys.push(Polygon::new(to_ring(&rings[o], mm), h));
+    }
+    MultiPolygon::new(polys).orient(Direction::Default)
+}
+
+/// Even-odd point-in-ring test.
+fn inside(ring: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut c = false;
+    let n = ring.len();
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0])
+        {
+            c = !c;
         }
     }
-    ext[0] = Some(outline.to_polygon().exterior().clone());
-    let polys = ext
-        .into_iter()
-        .zip(holes)
-        .filter_map(|(e, h)| e.map(|e| Polygon::new(e, h)))
-        .collect();
-    MultiPolygon::new(polys).orient(Direction::Default)
+    c
 }
 
 #[cfg(test)]

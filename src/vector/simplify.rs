@@ -13,6 +13,7 @@
 
 use geo::kernels::{Kernel, Orientation, RobustKernel};
 use geo::Coord;
+use rayon::prelude::*;
 
 use super::trace::{signed_area2, Guard};
 
@@ -38,28 +39,39 @@ pub fn simplify_rings(
         points_in: rings.iter().map(Vec::len).sum(),
         ..Default::default()
     };
-    let lossless: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| drop_collinear(r)).collect();
-    let mut simplified = vec![false; rings.len()];
-    for (i, r) in rings.iter_mut().enumerate() {
-        let s = if tol > 0.0 {
-            drop_collinear(&dp_ring(
-                r,
-                guards.and_then(|g| g.get(i)).map(Vec::as_slice),
-                tol,
-            ))
-        } else {
-            lossless[i].clone()
-        };
-        let a0 = signed_area2(&lossless[i]);
-        let a1 = signed_area2(&s);
-        if s.len() >= 3 && a0.signum() == a1.signum() && a1 != 0.0 && s.len() < lossless[i].len() {
-            *r = s;
-            simplified[i] = true;
-        } else {
-            *r = lossless[i].clone();
-        }
-    }
-    let cell = (4.0 * tol).max(1.0);
+    let lossless: Vec<Vec<[f64; 2]>> = rings.par_iter().map(|r| drop_collinear(r)).collect();
+    // Each ring on its own, in parallel.
+    let simplified: Vec<bool> = rings
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, r)| {
+            let s = if tol > 0.0 {
+                drop_collinear(&dp_ring(
+                    r,
+                    guards.and_then(|g| g.get(i)).map(Vec::as_slice),
+                    tol,
+                ))
+            } else {
+                lossless[i].clone()
+            };
+            let a0 = signed_area2(&lossless[i]);
+            let a1 = signed_area2(&s);
+            if s.len() >= 3
+                && a0.signum() == a1.signum()
+                && a1 != 0.0
+                && s.len() < lossless[i].len()
+            {
+                *r = s;
+                true
+            } else {
+                *r = lossless[i].clone();
+                false
+            }
+        })
+        .collect();
+    let mut simplified = simplified;
+    // Grid cells of 16 px (or 8 tolerances): few cells per segment, few segments per cell.
+    let cell = (8.0 * tol).max(16.0);
     for _ in 0..8 {
         let bad = conflicts(rings, cell);
         let mut changed = false;

@@ -120,14 +120,24 @@ pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
     let mut row_a: Vec<bool> = (0..wp).map(|x| g.at(x, 0)).collect();
     let mut row_b: Vec<bool> = vec![true; wp];
     for py in 0..hp - 1 {
-        for (x, slot) in row_b.iter_mut().enumerate() {
-            *slot = g.at(x, py + 1);
+        if py + 2 == hp || py == 0 {
+            for (x, slot) in row_b.iter_mut().enumerate() {
+                *slot = g.at(x, py + 1);
+            }
+        } else {
+            // An image row framed by material on both sides.
+            let w = bits.width as usize;
+            row_b[1..=w].copy_from_slice(&bits.data[py * w..(py + 1) * w]);
         }
         for px in 0..wp - 1 {
-            let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
-            if c[0] == c[1] && c[1] == c[2] && c[2] == c[3] {
+            let code = row_a[px] as u8
+                | (row_a[px + 1] as u8) << 1
+                | (row_b[px + 1] as u8) << 2
+                | (row_b[px] as u8) << 3;
+            if code == 0 || code == 15 {
                 continue;
             }
+            let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
             // Cell edges in counter-clockwise order (numerically): top, right, bottom, left;
             // edge k runs from corner k to corner k+1.
             let ids = [h(px, py), v(px + 1, py), h(px, py + 1), v(px, py)];
