@@ -237,11 +237,26 @@ pub fn vectorize_and_check(
     Ok((geom, vstats, chk))
 }
 
+/// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
+/// the material's smallest feature would be filtered away). The scale is taken at the widest
+/// image the mesh can render to, which can only over-estimate the pixels needed.
+fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
+    let mut m = cfg.mesh.clone();
+    if let Ok(scale) = cfg.physical.scale(m.max_width_px()) {
+        let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
+        if r > 0 {
+            m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
+        }
+    }
+    m
+}
+
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings::default();
     let phys = &cfg.physical;
-    let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &cfg.mesh))?;
+    let mesh_cfg = mesh_lines_for(cfg);
+    let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg))?;
     let scale = phys.scale(raw.bits.width)?;
     let filter_cfg = phys.filter_for(&cfg.filter, scale);
     let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
