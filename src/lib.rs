@@ -37,6 +37,8 @@ pub enum Error {
     #[error(transparent)]
     Export(#[from] export::ExportError),
     #[error(transparent)]
+    Plan(#[from] plan::PlanError),
+    #[error(transparent)]
     Profile(#[from] profile::ProfileError),
     #[error(transparent)]
     Vector(#[from] vector::VectorError),

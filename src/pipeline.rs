@@ -33,6 +33,9 @@ pub struct MakeConfig {
     pub filter: FilterConfig,
     pub bridge: BridgeConfig,
     pub physical: PhysicalConfig,
+    /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
+    /// report. A job that does not fit the machine's bed fails the run before anything is written.
+    pub gcode: Option<crate::plan::GcodeConfig>,
 }
 
 /// How big the picture is on the sheet.
@@ -207,6 +210,8 @@ pub struct Made {
     pub geometry: CutGeometry,
     pub check: CheckReport,
     pub report: Report,
+    /// The G-code text, when asked for.
+    pub gcode: Option<String>,
 }
 
 /// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
@@ -232,11 +237,26 @@ pub fn vectorize_and_check(
     Ok((geom, vstats, chk))
 }
 
+/// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
+/// the material's smallest feature would be filtered away). The scale is taken at the widest
+/// image the mesh can render to, which can only over-estimate the pixels needed.
+fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
+    let mut m = cfg.mesh.clone();
+    if let Ok(scale) = cfg.physical.scale(m.max_width_px()) {
+        let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
+        if r > 0 {
+            m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
+        }
+    }
+    m
+}
+
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings::default();
     let phys = &cfg.physical;
-    let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &cfg.mesh))?;
+    let mesh_cfg = mesh_lines_for(cfg);
+    let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg))?;
     let scale = phys.scale(raw.bits.width)?;
     let filter_cfg = phys.filter_for(&cfg.filter, scale);
     let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
@@ -287,7 +307,25 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 .join("; "),
         });
     }
+    let gcode = match &cfg.gcode {
+        Some(g) => {
+            let notes = [
+                format!("from {}", cfg.input.display()),
+                format!("material {}", phys.material.name),
+            ];
+            let (text, summary) = timer.time("gcode", || {
+                crate::plan::gcode_for(&geometry, &g.machine, &g.plan, &notes)
+            })?;
+            Some((text, summary))
+        }
+        None => None,
+    };
+    let (gcode, gcode_summary) = match gcode {
+        Some((t, s)) => (Some(t), Some(s)),
+        None => (None, None),
+    };
     let report = Report {
+        gcode: gcode_summary,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         mm_per_px: Some(scale.mm_per_px),
@@ -318,6 +356,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         geometry,
         check: chk,
         report,
+        gcode,
     })
 }
 
@@ -353,6 +392,9 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
         m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
         files.push(("mask.png".into(), mask::encode_png(geom, &m)?));
         files.push(("mask.svg".into(), mask::encode_svg(geom, &m)));
+    }
+    if let Some(text) = &made.gcode {
+        files.push(("stencil.gcode".into(), text.as_bytes().to_vec()));
     }
     let mut report = made.report.clone();
     report.files = files.iter().map(|(n, _)| n.clone()).collect();

@@ -88,4 +88,7 @@ pub struct Report {
     /// Files written, by name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub files: Vec<String>,
+    /// The G-code job (`--emit gcode`): machine, lengths, travel vs input order, time estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gcode: Option<crate::plan::GcodeSummary>,
 }

@@ -324,6 +324,27 @@ fn every_sample_mesh_makes_a_stencil_without_floating_pieces() {
         });
         let map = stencil::islands::label(&bits);
         assert_eq!(map.island_count(), 0, "{}: floating pieces", obj.display());
+        // The lines survive filtering and bridging: the centre of every line the renderer draws
+        // (same settings, thin lines) is cut in the stencil, bar the few pixels bridges cross.
+        let r = render_mesh(
+            &mesh::load(&obj).unwrap(),
+            &MeshConfig {
+                size: Size::LongSide(512),
+                ..MeshConfig::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(r.lines.width, stencil.width());
+        let line_px = r.lines.data.iter().filter(|&&l| l).count();
+        let cut = (0..line_px.max(1))
+            .zip(r.lines.data.iter().enumerate().filter(|(_, &l)| l))
+            .filter(|(_, (i, _))| !bits.data[*i])
+            .count();
+        assert!(
+            cut as f64 > 0.9 * line_px as f64,
+            "{}: only {cut} of {line_px} line pixels are cut",
+            obj.display()
+        );
         let gray = image::open(out.join("gray.png")).unwrap().to_luma8();
         assert_eq!(gray.dimensions(), stencil.dimensions());
         // The rendering has both light and dark parts of the model.

@@ -12,7 +12,8 @@ use stencil::pipeline::{self, MakeConfig};
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
-use super::material::PhysicalArgs;
+use super::gcode::{CutArgs, MachineArgs};
+use super::material::{EmitKind, PhysicalArgs};
 use super::mesh::MeshArgs;
 
 fn parse_threshold(s: &str) -> Result<Threshold, String> {
@@ -156,7 +157,9 @@ Example:
   (and writes nothing) if any island cannot be joined to the frame.
   stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
   sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
-  default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.")]
+  default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.
+  stencil make samples/rings.png --material cardstock --emit png,svg,gcode --machine diode-400
+  also writes stencil.gcode for a GRBL 1.1 laser and prints its time estimate.")]
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
@@ -173,6 +176,10 @@ pub struct MakeArgs {
     pub bridge: BridgeArgs,
     #[command(flatten)]
     pub physical: PhysicalArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    #[command(flatten)]
+    pub cut: CutArgs,
 }
 
 impl ImageArgs {
@@ -208,6 +215,16 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
         physical: a.physical.to_config()?,
+        gcode: None,
+    };
+    let cfg = MakeConfig {
+        gcode: super::gcode::make_gcode_config(
+            &a.machine,
+            &a.cut,
+            &cfg.physical.material,
+            a.physical.emit.contains(&EmitKind::Gcode),
+        )?,
+        ..cfg
     };
     let (made, written) = pipeline::make(&cfg)?;
     let r = &made.report;
@@ -237,6 +254,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             .join(", ")
     );
     super::material::print_check(&made.check);
+    if let Some(g) = &made.report.gcode {
+        super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
+    }
     Ok(ExitCode::SUCCESS)
 }
 

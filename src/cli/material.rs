@@ -27,6 +27,8 @@ pub enum EmitKind {
     Dxf,
     /// mask.png (1-bit) and mask.svg for photo-etch.
     Mask,
+    /// stencil.gcode for the --machine (GRBL 1.1 laser, pen or knife), with a time estimate.
+    Gcode,
 }
 
 /// Physical size, material and outputs.

@@ -51,7 +51,8 @@ pub struct MeshArgs {
     /// suggestive contours (DeCarlo et al. 2003).
     #[arg(long, value_enum, default_value = "suggestive")]
     pub lines: LinesArg,
-    /// Line thickness in output pixels.
+    /// Line thickness in output pixels. `make` widens lines that are thinner than the material's
+    /// smallest feature (see --filter-radius), so the filter does not erase them.
     #[arg(long, value_name = "PX", default_value_t = 3.0)]
     pub line_px: f32,
     /// Render at K times the size and average down before thresholding (1..4; anti-aliasing).
@@ -128,6 +129,7 @@ impl MeshArgs {
                 LinesArg::Suggestive => LineMode::Suggestive,
             },
             line_px: self.line_px,
+            min_line_px: 0.0,
             supersample: self.supersample,
             contour_threshold: self.contour_threshold,
         };

@@ -1,6 +1,7 @@
 //! Command-line definitions (clap derive) and the thin dispatch into the library.
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
+mod gcode;
 mod make;
 mod material;
 mod mesh;
@@ -33,6 +34,10 @@ pub enum Command {
     Check(material::CheckArgs),
     /// List the material profiles with their key numbers.
     Profiles(material::ProfilesArgs),
+    /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
+    Gcode(gcode::GcodeArgs),
+    /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
+    Estimate(gcode::EstimateArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -43,5 +48,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Simulate(a) => send::run_simulate(a),
         Command::Check(a) => material::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
+        Command::Gcode(a) => gcode::run_gcode(a),
+        Command::Estimate(a) => gcode::run_estimate(a),
     }
 }

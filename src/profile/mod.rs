@@ -11,6 +11,7 @@
 //! 3. `<checkout>/profiles/<kind>/<name>.toml` (`CARGO_MANIFEST_DIR` at build time);
 //! 4. the copy embedded in the binary with `include_str!` (so an installed binary has them too).
 
+pub mod machine;
 pub mod material;
 
 use std::path::{Path, PathBuf};

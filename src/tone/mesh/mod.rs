@@ -52,6 +52,10 @@ pub struct MeshConfig {
     pub lines: LineMode,
     /// Line thickness in output pixels.
     pub line_px: f32,
+    /// Lines are drawn at least this wide (output pixels). `make` sets it from the material's
+    /// smallest feature, so the topological filter, which removes cuts thinner than the material
+    /// can hold, keeps the lines. 0 = no minimum.
+    pub min_line_px: f32,
     /// Render at this many times the size, then average down (anti-aliasing), 1..=4.
     pub supersample: u32,
     /// Suggestive contours are kept where D_w κr·radius² exceeds this (DeCarlo's t_d): higher =
@@ -72,6 +76,7 @@ impl Default for MeshConfig {
             shininess: 32.0,
             lines: LineMode::Suggestive,
             line_px: 3.0,
+            min_line_px: 0.0,
             supersample: 2,
             contour_threshold: 1.0,
         }
@@ -173,6 +178,14 @@ impl MeshConfig {
             );
         }
         Ok(())
+    }
+
+    /// The output width the image will have at most (the long side, or the exact width).
+    pub fn max_width_px(&self) -> u32 {
+        match self.size {
+            Size::LongSide(n) => n,
+            Size::Exact { width, .. } => width,
+        }
     }
 
     /// The default distance for the lens, or the chosen one.
@@ -297,16 +310,17 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
     tm.shade = ms(clock);
 
     let clock = Instant::now();
+    let line_px = cfg.line_px.max(cfg.min_line_px);
     let params = lines::LineParams {
         mode: cfg.lines,
         width_px: if k > 1 {
-            cfg.line_px * k as f32 - 1.0
+            line_px * k as f32 - 1.0
         } else {
-            cfg.line_px
+            line_px
         },
         contour_threshold: cfg.contour_threshold,
         max_ndotv: 20f32.to_radians().cos(),
-        min_run_px: (4.0 * cfg.line_px * k as f32).round() as usize,
+        min_run_px: (4.0 * line_px * k as f32).round() as usize,
         depth_tolerance: 0.02 * radius,
     };
     let (line_mask, _) = lines::find(mesh, &cam, &vb, &frags, &params);
@@ -336,54 +350,64 @@ fn compose(
     let kw = cam.width as usize;
     let k = k as usize;
     let n = (k * k) as f32;
-    let mut flat = vec![(1f32, 1f32, false, false); w * h];
-    flat.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, out) in row.iter_mut().enumerate() {
-            let (mut gray, mut shade, mut model, mut line) = (0f32, 0f32, 0usize, 0usize);
-            for sy in y * k..y * k + k {
-                for sx in x * k..x * k + k {
-                    let i = sy * kw + sx;
-                    let f = frags[i];
-                    let is_line = line_mask[i];
-                    line += is_line as usize;
-                    if f.is_model() {
-                        model += 1;
-                        shade += f.shade;
+    let mut gray = vec![1f32; w * h];
+    let mut shade = vec![1f32; w * h];
+    let mut model = vec![false; w * h];
+    let mut lines = vec![false; w * h];
+    gray.par_chunks_mut(w)
+        .zip(shade.par_chunks_mut(w))
+        .zip(model.par_chunks_mut(w))
+        .zip(lines.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (((gray, shade), model), lines))| {
+            for x in 0..w {
+                let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
+                for sy in y * k..y * k + k {
+                    for sx in x * k..x * k + k {
+                        let i = sy * kw + sx;
+                        let f = &frags[i];
+                        let is_line = line_mask[i];
+                        l += is_line as usize;
+                        if f.is_model() {
+                            m += 1;
+                            s += f.shade;
+                        }
+                        g += if is_line {
+                            0.0
+                        } else if f.is_model() {
+                            f.shade
+                        } else {
+                            1.0
+                        };
                     }
-                    gray += if is_line {
-                        0.0
-                    } else if f.is_model() {
-                        f.shade
-                    } else {
-                        1.0
-                    };
                 }
+                gray[x] = g / n;
+                shade[x] = if m > 0 { s / m as f32 } else { 1.0 };
+                model[x] = 2 * m >= k * k;
+                lines[x] = 2 * l >= k * k;
             }
-            let shade = if model > 0 { shade / model as f32 } else { 1.0 };
-            *out = (gray / n, shade, 2 * model >= k * k, 2 * line >= k * k);
-        }
-    });
+        });
     let (w32, h32) = (w as u32, h as u32);
     Rendering {
         gray: Gray {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.0).collect(),
+            data: gray,
         },
         shade: Gray {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.1).collect(),
+            data: shade,
         },
         model: BitGrid {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.2).collect(),
+            data: model,
         },
         lines: BitGrid {
             width: w32,
             height: h32,
-            data: flat.iter().map(|p| p.3).collect(),
+            data: lines,
         },
         camera: out_cam,
         timings,

@@ -58,7 +58,7 @@ pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
         }
         let r0 = (ylo - 0.5).ceil().max(0.0) as usize;
         let r1 = ((yhi - 0.5).floor().max(-1.0) as isize).min(h as isize - 1);
-        if (r1 as isize) < r0 as isize {
+        if r1 < r0 as isize {
             continue;
         }
         for band in bins.iter_mut().take(r1 as usize / BAND + 1).skip(r0 / BAND) {

@@ -67,6 +67,24 @@ pub fn shade(
     } else {
         f32::INFINITY
     };
+    // A perspective camera's rays share their origin, so most of Möller–Trumbore is per triangle.
+    let setup: Option<Vec<TriSetup>> = (!cam.orthographic).then(|| {
+        mesh.triangles
+            .par_iter()
+            .map(|t| {
+                let [p0, p1, p2] = t.map(|i| mesh.positions[i as usize]);
+                let (e1, e2) = (p1 - p0, p2 - p0);
+                let tv = cam.eye - p0;
+                let v = tv.cross(e1);
+                TriSetup {
+                    u: e2.cross(tv),
+                    v,
+                    d: e2.cross(e1),
+                    c: e2.dot(v),
+                }
+            })
+            .collect()
+    });
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let sy = y as f32 + 0.5;
         for (x, frag) in row.iter_mut().enumerate() {
@@ -77,20 +95,20 @@ pub fn shade(
             let idx = mesh.triangles[t as usize];
             let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
             let (o, d) = cam.ray(x as f32 + 0.5, sy);
-            // Möller–Trumbore: the ray's parameter is the depth (dir · forward = 1).
-            let e1 = p1 - p0;
-            let e2 = p2 - p0;
-            let pvec = d.cross(e2);
-            let det = e1.dot(pvec);
-            let (b1, b2, depth) = if det.abs() > 1e-20 {
-                let inv = 1.0 / det;
-                let tv = o - p0;
-                let qv = tv.cross(e1);
-                (tv.dot(pvec) * inv, d.dot(qv) * inv, e2.dot(qv) * inv)
-            } else {
-                // Seen exactly edge-on: take the centroid.
-                let c = (p0 + p1 + p2) / 3.0;
-                (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward))
+            let (b1, b2, depth, back) = match &setup {
+                Some(setup) => {
+                    // Möller–Trumbore with the pixel-independent parts folded per triangle.
+                    let s = &setup[t as usize];
+                    let det = d.dot(s.d);
+                    if det.abs() > 1e-20 {
+                        let inv = 1.0 / det;
+                        (d.dot(s.u) * inv, d.dot(s.v) * inv, s.c * inv, det < 0.0)
+                    } else {
+                        let c = (p0 + p1 + p2) / 3.0;
+                        (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
+                    }
+                }
+                None => moller_trumbore(o, d, p0, p1, p2, cam),
             };
             // Pixel centres a hair outside the triangle (the raster's tolerance): clamp.
             let b1 = b1.clamp(0.0, 1.0);
@@ -103,7 +121,6 @@ pub fn shade(
             };
             let mut n = (cn[0] * b0 + cn[1] * b1 + cn[2] * b2).normalize_or_zero();
             // The side we see: on open surfaces the back is visible and lit as a front.
-            let back = e1.cross(e2).dot(d) > 0.0;
             let sign = if back { -1.0 } else { 1.0 };
             n *= sign;
             let v = if cam.orthographic {
@@ -141,4 +158,118 @@ pub fn shade(
         }
     });
     out
+}
+
+/// Per-triangle constants of Möller–Trumbore for rays from one origin: for a ray direction d,
+/// det = d·D, u = d·U / det, v = d·V / det, t = c / det.
+struct TriSetup {
+    u: Vec3,
+    v: Vec3,
+    d: Vec3,
+    c: f32,
+}
+
+/// Ray-triangle intersection: barycentric weights of p1 and p2, the ray parameter (the depth, as
+/// `d · forward = 1`) and whether the triangle's back faces the ray.
+#[inline]
+fn moller_trumbore(
+    o: Vec3,
+    d: Vec3,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    cam: &Camera,
+) -> (f32, f32, f32, bool) {
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det.abs() > 1e-20 {
+        let inv = 1.0 / det;
+        let tv = o - p0;
+        let qv = tv.cross(e1);
+        (
+            tv.dot(pvec) * inv,
+            d.dot(qv) * inv,
+            e2.dot(qv) * inv,
+            det < 0.0,
+        )
+    } else {
+        // Seen exactly edge-on: take the centroid.
+        let c = (p0 + p1 + p2) / 3.0;
+        (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tone::mesh::camera::{Orbit, Size};
+    use crate::tone::mesh::{raster, shapes};
+
+    fn setup(m: &Mesh, el: f32) -> Camera {
+        let (c, r) = m.bounding_sphere();
+        let o = Orbit {
+            azimuth_deg: 20.0,
+            elevation_deg: el,
+            distance: 2.0,
+            orthographic: false,
+        };
+        Camera::frame(c, r, &o, Size::LongSide(120), &m.positions)
+    }
+
+    #[test]
+    fn interpolation_is_perspective_correct() {
+        // A strongly foreshortened plane: each pixel's depth must put its point back on the
+        // pixel centre and on the surface (y = 0.3 x).
+        let m = shapes::height_field(4, |x, _| 0.3 * x);
+        let cam = setup(&m, 35.0);
+        let vb = raster::rasterize(&m, &cam, false);
+        let light = Light {
+            position: cam.eye,
+            specular: 0.0,
+            shininess: 1.0,
+        };
+        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let w = cam.width as usize;
+        let mut checked = 0;
+        for (i, f) in frags.iter().enumerate().filter(|(_, f)| f.is_model()) {
+            let (sx, sy) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            let (o, d) = cam.ray(sx, sy);
+            let p = o + d * f.depth;
+            let back = cam.project(p);
+            assert!((back.x - sx).abs() < 1e-2 && (back.y - sy).abs() < 1e-2);
+            if p.x.abs() < 0.98 && p.z.abs() < 0.98 {
+                assert!((p.y - 0.3 * p.x).abs() < 1e-3, "{p}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000);
+    }
+
+    #[test]
+    fn open_surfaces_are_lit_on_the_side_seen() {
+        // A flat sheet seen from below, lit from below: the visible side faces the light.
+        let m = shapes::height_field(8, |_, _| 0.0);
+        let cam = setup(&m, -40.0);
+        let vb = raster::rasterize(&m, &cam, false);
+        let light = Light {
+            position: Vec3::new(0.0, -2.0, 0.0),
+            specular: 0.0,
+            shininess: 1.0,
+        };
+        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let lit: Vec<f32> = frags
+            .iter()
+            .filter(|f| f.is_model())
+            .map(|f| f.shade)
+            .collect();
+        assert!(lit.len() > 1000);
+        assert!(
+            lit.iter().all(|&s| s > 0.3),
+            "min {:?}",
+            lit.iter().cloned().fold(1.0, f32::min)
+        );
+        assert!(frags.iter().filter(|f| f.is_model()).all(|f| f.ndotv > 0.0));
+    }
 }

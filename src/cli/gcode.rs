@@ -1,0 +1,307 @@
+//! `stencil gcode` and `stencil estimate`, and the machine options `make --emit gcode` shares.
+//! OWNER: the G-code issue.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::Args;
+
+use stencil::export;
+use stencil::machine::gcode::interpret;
+use stencil::plan::estimate::{format_duration, length_over_feed_s};
+use stencil::plan::svg::cut_geometry_from_svg;
+use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
+use stencil::profile::machine::{self as machine_profile, Machine, Tool};
+use stencil::profile::Material;
+use stencil::report::Report;
+use stencil::vector::kerf::offset_cuts;
+
+fn parse_offset(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    let x: f64 = x.trim().parse().map_err(|_| bad())?;
+    let y: f64 = y.trim().parse().map_err(|_| bad())?;
+    if x.is_finite() && y.is_finite() {
+        Ok([x, y])
+    } else {
+        Err(bad())
+    }
+}
+
+/// Which machine, and where the job goes on its bed.
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Machine (G-code)")]
+pub struct MachineArgs {
+    /// Machine profile: a name (diode-400, co2-600x400, pen-a3, pen-servo, drag-knife) or a path to a
+    /// .toml file. Default: diode-400, a generic GRBL 1.1 diode laser with a 400 x 400 mm bed.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+    /// The job point placed at --offset: bottom-left, bottom-right, top-left, top-right or center
+    /// (as seen from above, rear at the top). Default: the corner at the machine's origin.
+    #[arg(long, value_name = "CORNER", value_parser = |s: &str| s.parse::<Anchor>())]
+    pub origin: Option<Anchor>,
+    /// Machine coordinates of that point, mm.
+    #[arg(long, value_name = "X,Y", default_value = "0,0", value_parser = parse_offset, allow_hyphen_values = true)]
+    pub offset: [f64; 2],
+    /// Also cut the sheet's outline (a rectangle), after everything inside it.
+    #[arg(long)]
+    pub cut_outline: bool,
+}
+
+impl MachineArgs {
+    pub fn machine(&self) -> anyhow::Result<Machine> {
+        Ok(machine_profile::load(self.machine.as_deref())?)
+    }
+
+    pub fn plan_config(&self, settings: CutSettings) -> PlanConfig {
+        PlanConfig {
+            anchor: self.origin,
+            offset: self.offset,
+            cut_outline: self.cut_outline,
+            settings,
+        }
+    }
+}
+
+/// Cut settings given on the command line; each overrides the material's.
+#[derive(Args, Debug, Clone, Default)]
+#[command(next_help_heading = "Cut settings (override the material)")]
+pub struct CutArgs {
+    /// Laser power, % of full ($30).
+    #[arg(long, value_name = "PCT")]
+    pub power: Option<f64>,
+    /// Cutting feed, mm/min.
+    #[arg(long, value_name = "MM_MIN")]
+    pub speed: Option<f64>,
+    /// Times each loop is cut.
+    #[arg(long)]
+    pub passes: Option<u32>,
+    /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation).
+    #[arg(long, value_name = "MM")]
+    pub blade_offset: Option<f64>,
+}
+
+impl CutArgs {
+    /// Whether the flags alone give every setting the tool uses (then no material is needed).
+    pub fn covers_all(&self, machine: &Machine) -> bool {
+        let laser = matches!(machine.tool, Tool::Laser { .. });
+        self.speed.is_some() && self.passes.is_some() && (!laser || self.power.is_some())
+    }
+
+    /// Apply the overrides to `base` (from the material), or build settings from the flags alone
+    /// (power only matters to a laser).
+    pub fn settings(
+        &self,
+        base: Option<CutSettings>,
+        machine: &Machine,
+    ) -> anyhow::Result<CutSettings> {
+        let laser = matches!(machine.tool, Tool::Laser { .. });
+        let s = match base {
+            Some(b) => CutSettings {
+                power_pct: self.power.unwrap_or(b.power_pct),
+                speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
+                passes: self.passes.unwrap_or(b.passes),
+                blade_offset_mm: self.blade_offset.unwrap_or(b.blade_offset_mm),
+            },
+            None => {
+                let (power, Some(speed)) = (self.power.or((!laser).then_some(100.0)), self.speed)
+                else {
+                    bail!(
+                        "no cut settings: name a material (--material) or give --speed MM_MIN{}",
+                        if laser { " and --power PCT" } else { "" }
+                    );
+                };
+                let Some(power) = power else {
+                    bail!("no laser power: name a material (--material) or give --power PCT");
+                };
+                CutSettings {
+                    power_pct: power,
+                    speed_mm_min: speed,
+                    passes: self.passes.unwrap_or(1),
+                    blade_offset_mm: self.blade_offset.unwrap_or(0.0),
+                }
+            }
+        };
+        Ok(s)
+    }
+}
+
+/// Print what a job costs (shared by `make --emit gcode` and `gcode`).
+pub fn print_summary(path: &Path, s: &GcodeSummary) {
+    let e = &s.estimate;
+    println!(
+        "{}: {} ({}), {} loops; cut {:.0} mm, travel {:.0} mm (input order {:.0} mm); about {} \
+         (cut {}, travel {})",
+        path.display(),
+        s.machine,
+        s.tool,
+        s.path.loops,
+        s.path.cut_mm,
+        s.path.travel_mm,
+        s.path.naive_travel_mm,
+        format_duration(e.total_s),
+        format_duration(e.cut_s),
+        format_duration(e.travel_s),
+    );
+}
+
+/// `stencil gcode STENCIL_DIR_OR_SVG -o job.gcode`.
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Examples:
+  stencil gcode out/rings -o rings.gcode --machine diode-400
+  stencil gcode drawing.svg --power 80 --speed 600 --passes 2 --cut-outline --offset 10,10
+From a folder written by `stencil make`, reads stencil.svg and the material named in report.json.")]
+pub struct GcodeArgs {
+    /// A `stencil make` output folder (uses its stencil.svg and report.json) or an SVG file.
+    pub input: PathBuf,
+    /// The G-code file to write [default: stencil.gcode in the folder, or the SVG's name with .gcode].
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Material profile (name or .toml path) for power, speed and passes; default: the one recorded
+    /// in report.json.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub material: Option<String>,
+    #[command(flatten)]
+    pub cut: CutArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+}
+
+/// The material a `stencil make` run recorded in its report.json, if any: its source file when
+/// that still exists (a user's own .toml), else its name.
+fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
+    let p = dir.join("report.json");
+    if !p.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+    let r: Report = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a stencil report", p.display()))?;
+    Ok(match (r.material_source, r.material) {
+        (Some(src), _) if Path::new(&src).is_file() => Some(src),
+        (_, name) => name,
+    })
+}
+
+impl CutArgs {
+    fn any(&self) -> bool {
+        self.power.is_some()
+            || self.speed.is_some()
+            || self.passes.is_some()
+            || self.blade_offset.is_some()
+    }
+}
+
+/// The G-code part of `make`: `Some` with `--emit gcode`; machine or cut options without it are a
+/// mistake worth saying (the user expects a G-code file).
+pub fn make_gcode_config(
+    m: &MachineArgs,
+    cut: &CutArgs,
+    material: &Material,
+    emit: bool,
+) -> anyhow::Result<Option<GcodeConfig>> {
+    if !emit {
+        if m.machine.is_some() || m.origin.is_some() || m.cut_outline || cut.any() {
+            bail!(
+                "machine and cut options only apply to G-code: add gcode to --emit \
+                 (e.g. --emit png,svg,gcode)"
+            );
+        }
+        return Ok(None);
+    }
+    let machine = m.machine()?;
+    let base = if cut.covers_all(&machine) {
+        None
+    } else {
+        Some(plan::settings_for(material, &machine)?)
+    };
+    Ok(Some(GcodeConfig {
+        plan: m.plan_config(cut.settings(base, &machine)?),
+        machine,
+    }))
+}
+
+pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
+    let (svg_path, dir) = if a.input.is_dir() {
+        (a.input.join("stencil.svg"), Some(a.input.clone()))
+    } else {
+        (a.input.clone(), None)
+    };
+    let text = std::fs::read_to_string(&svg_path).with_context(|| {
+        if dir.is_some() {
+            format!(
+                "{}: cannot read the stencil's SVG; run `stencil make` with SVG output first",
+                svg_path.display()
+            )
+        } else {
+            format!("{}: cannot read", svg_path.display())
+        }
+    })?;
+    let mut geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
+    let machine = a.machine.machine()?;
+    let material_arg = match (&a.material, &dir) {
+        (Some(m), _) => Some(m.clone()),
+        (None, Some(d)) => material_in_report(d)?,
+        (None, None) => None,
+    };
+    let material = match &material_arg {
+        Some(m) => Some(Material::find(m)?.0),
+        None => None,
+    };
+    let base = match &material {
+        Some(m) if !a.cut.covers_all(&machine) => Some(plan::settings_for(m, &machine)?),
+        _ => None,
+    };
+    // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
+    if let Some(m) = &material {
+        geom.cuts = offset_cuts(&geom.design_cuts, m.kerf_mm);
+    }
+    let settings = a.cut.settings(base, &machine)?;
+    let out = a.out.clone().unwrap_or_else(|| match &dir {
+        Some(d) => d.join("stencil.gcode"),
+        None => svg_path.with_extension("gcode"),
+    });
+    let mut notes = vec![format!("from {}", svg_path.display())];
+    if let Some(m) = &material {
+        notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
+    }
+    let cfg = a.machine.plan_config(settings);
+    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
+    export::write_atomic(&out, gcode.as_bytes())?;
+    print_summary(&out, &summary);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `stencil estimate job.gcode`: time and distances of any G-code file.
+#[derive(Args, Debug)]
+pub struct EstimateArgs {
+    /// The G-code file.
+    pub file: PathBuf,
+    /// Machine profile whose motion limits to use (name or .toml path) [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+}
+
+pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let text = std::fs::read_to_string(&a.file)
+        .with_context(|| format!("{}: cannot read", a.file.display()))?;
+    let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let e = plan::estimate(&moves, &machine.limits());
+    println!(
+        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
+         length / feed alone would say {}",
+        a.file.display(),
+        format_duration(e.total_s),
+        machine.name,
+        format_duration(e.cut_s),
+        format_duration(e.travel_s),
+        moves.len(),
+        e.cut_mm,
+        e.travel_mm,
+        format_duration(length_over_feed_s(&moves, &machine.limits())),
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,526 @@
+//! Machine profiles: the bed, the motion limits and the tool of a GRBL 1.1 machine, read from TOML
+//! (`profiles/machines/*.toml`) and validated once at load.
+//!
+//! A profile names where machine (0, 0) is on the bed (`origin`), so the planner can place a job
+//! right-reading on any machine; the S range mirrors Grbl's `$30`/`$31`; the motion limits feed the
+//! time estimate. The shipped profiles are compiled into the binary, so `--machine diode-400` works
+//! from any folder; a path to a `.toml` file loads a user's own.
+//!
+//! Reading and name lookup go through the shared loader in `profile/mod.rs` (the same as
+//! materials): a path, `./profiles/machines/<name>.toml`, the checkout's copy, the embedded copy.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::{parse_toml, resolve, ProfileError, Shipped};
+
+use crate::plan::estimate::MotionLimits;
+
+/// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
+pub const DEFAULT_MACHINE: &str = "diode-400";
+
+macro_rules! shipped {
+    ($name:literal) => {
+        Shipped {
+            name: $name,
+            text: include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/profiles/machines/",
+                $name,
+                ".toml"
+            )),
+        }
+    };
+}
+
+/// The shipped profiles, embedded so an installed binary has them.
+pub const SHIPPED: &[Shipped] = &[
+    shipped!("diode-400"),
+    shipped!("co2-600x400"),
+    shipped!("pen-a3"),
+    shipped!("pen-servo"),
+    shipped!("drag-knife"),
+];
+
+/// A corner of the bed, as seen from above with the rear (far side, +Y on most machines) at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Corner {
+    #[default]
+    BottomLeft,
+    BottomRight,
+    TopLeft,
+    TopRight,
+}
+
+impl Corner {
+    /// The name used in profiles and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Corner::BottomLeft => "bottom-left",
+            Corner::BottomRight => "bottom-right",
+            Corner::TopLeft => "top-left",
+            Corner::TopRight => "top-right",
+        }
+    }
+    /// Whether this corner is on the right (high bed-view X) side.
+    pub fn right(self) -> bool {
+        matches!(self, Corner::BottomRight | Corner::TopRight)
+    }
+    /// Whether this corner is on the top (rear, high bed-view Y) side.
+    pub fn top(self) -> bool {
+        matches!(self, Corner::TopLeft | Corner::TopRight)
+    }
+}
+
+/// The bed: the area the head can reach, in machine millimetres from the origin corner.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bed {
+    pub width_mm: f64,
+    pub height_mm: f64,
+    /// Where machine (0, 0) is; axes point away from it (into the bed).
+    #[serde(default)]
+    pub origin: Corner,
+}
+
+/// Motion limits, as set in Grbl (`$110`/`$111` max rates, `$120`/`$121` accelerations, `$11`).
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motion {
+    /// Highest feed the machine cuts at, mm/min; programmed feeds above it are refused.
+    pub max_feed_mm_min: f64,
+    /// Rate of G0 travel, mm/min (Grbl's max rate, `$110`).
+    pub rapid_mm_min: f64,
+    /// Acceleration, mm/s² (`$120`).
+    pub accel_mm_s2: f64,
+    /// Junction deviation, mm (`$11`, Grbl's default 0.010).
+    #[serde(default = "default_jd")]
+    pub junction_deviation_mm: f64,
+}
+
+fn default_jd() -> f64 {
+    0.01
+}
+
+/// How a pen is raised and lowered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PenLift {
+    /// A servo or solenoid on the spindle output: `M3 S<down_s>` lowers, `M5` raises.
+    Spindle { down_s: f64 },
+    /// A Z axis: `G0 Z<up>` raises, `G1 Z<down> F<plunge>` lowers.
+    Z(ZLift),
+}
+
+/// Z heights of a tool on a Z axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZLift {
+    pub up_mm: f64,
+    pub down_mm: f64,
+    /// Feed for lowering the tool, mm/min.
+    pub plunge_mm_min: f64,
+}
+
+/// The tool, and how it is switched on and off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tool {
+    /// A laser in Grbl laser mode (`$32=1`): `M4` dynamic power, S from the material's power %
+    /// scaled to `s_max` (`$30`); never below `s_min` (`$31`) while cutting.
+    Laser {
+        s_max: f64,
+        s_min: f64,
+    },
+    Pen(PenLift),
+    /// A drag knife on a Z axis; `overcut_mm` continues past the start of each loop so the cut
+    /// closes cleanly.
+    Knife {
+        z: ZLift,
+        overcut_mm: f64,
+    },
+}
+
+impl Tool {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Tool::Laser { .. } => "laser",
+            Tool::Pen(_) => "pen",
+            Tool::Knife { .. } => "knife",
+        }
+    }
+}
+
+/// A validated machine profile.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Machine {
+    pub name: String,
+    pub description: String,
+    pub bed: Bed,
+    pub motion: Motion,
+    pub tool: Tool,
+}
+
+impl Machine {
+    /// The limits the time estimate needs.
+    pub fn limits(&self) -> MotionLimits {
+        MotionLimits {
+            rapid_mm_min: self.motion.rapid_mm_min,
+            max_feed_mm_min: self.motion.max_feed_mm_min,
+            accel_mm_s2: self.motion.accel_mm_s2,
+            junction_deviation_mm: self.motion.junction_deviation_mm,
+        }
+    }
+}
+
+// ---- raw TOML shape -------------------------------------------------------------------------
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMachine {
+    name: String,
+    #[serde(default)]
+    description: String,
+    bed: Bed,
+    motion: Motion,
+    tool: RawTool,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum ToolKind {
+    Laser,
+    Pen,
+    Knife,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum LiftKind {
+    Spindle,
+    Z,
+}
+
+/// All tool fields, checked against `kind` in [`validate`] (one flat table is what users edit).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    kind: ToolKind,
+    /// Laser: `$30`. Pen on the spindle output: the S that lowers it.
+    s_max: Option<f64>,
+    /// Laser: `$31`.
+    s_min: Option<f64>,
+    /// Pen: "spindle" or "z".
+    lift: Option<LiftKind>,
+    pen_down_s: Option<f64>,
+    z_up_mm: Option<f64>,
+    z_down_mm: Option<f64>,
+    plunge_mm_min: Option<f64>,
+    overcut_mm: Option<f64>,
+}
+
+/// Parse and validate a profile's text. `origin` (the file) is used in errors.
+pub fn parse(text: &str, origin: &Path) -> Result<Machine, ProfileError> {
+    validate(parse_toml(text, origin)?, origin)
+}
+
+fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
+    let bad = |field: &str, value: String, why: String| ProfileError::Invalid {
+        path: origin.to_path_buf(),
+        field: field.to_string(),
+        value,
+        why,
+    };
+    let positive = |field: &'static str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(bad(field, v.to_string(), "must be a number > 0".into()))
+        }
+    };
+    if raw.name.trim().is_empty() {
+        return Err(bad("name", "\"\"".into(), "must not be empty".into()));
+    }
+    positive("bed.width_mm", raw.bed.width_mm)?;
+    positive("bed.height_mm", raw.bed.height_mm)?;
+    positive("motion.max_feed_mm_min", raw.motion.max_feed_mm_min)?;
+    positive("motion.rapid_mm_min", raw.motion.rapid_mm_min)?;
+    positive("motion.accel_mm_s2", raw.motion.accel_mm_s2)?;
+    positive(
+        "motion.junction_deviation_mm",
+        raw.motion.junction_deviation_mm,
+    )?;
+    let t = &raw.tool;
+    let kind = t.kind;
+    // Fields that belong to other tool kinds are mistakes worth naming.
+    let foreign: &[(&'static str, bool, &[ToolKind])] = &[
+        ("tool.s_max", t.s_max.is_some(), &[ToolKind::Laser]),
+        ("tool.s_min", t.s_min.is_some(), &[ToolKind::Laser]),
+        ("tool.lift", t.lift.is_some(), &[ToolKind::Pen]),
+        ("tool.pen_down_s", t.pen_down_s.is_some(), &[ToolKind::Pen]),
+        (
+            "tool.z_up_mm",
+            t.z_up_mm.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.z_down_mm",
+            t.z_down_mm.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.plunge_mm_min",
+            t.plunge_mm_min.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.overcut_mm",
+            t.overcut_mm.is_some(),
+            &[ToolKind::Knife],
+        ),
+    ];
+    for (field, present, kinds) in foreign {
+        if *present && !kinds.contains(&kind) {
+            return Err(bad(
+                field,
+                "set".into(),
+                format!("does not apply to a {} tool; remove it", kind_name(kind)),
+            ));
+        }
+    }
+    let need = |field: &'static str, v: Option<f64>| {
+        v.ok_or_else(|| {
+            bad(
+                field,
+                "missing".into(),
+                format!("is required for a {} tool", kind_name(kind)),
+            )
+        })
+    };
+    let z_lift = || -> Result<ZLift, ProfileError> {
+        let up = need("tool.z_up_mm", t.z_up_mm)?;
+        let down = need("tool.z_down_mm", t.z_down_mm)?;
+        let plunge = positive(
+            "tool.plunge_mm_min",
+            need("tool.plunge_mm_min", t.plunge_mm_min)?,
+        )?;
+        if !(up.is_finite() && down.is_finite()) || up <= down {
+            return Err(bad(
+                "tool.z_up_mm",
+                up.to_string(),
+                format!("must be above tool.z_down_mm ({down})"),
+            ));
+        }
+        Ok(ZLift {
+            up_mm: up,
+            down_mm: down,
+            plunge_mm_min: plunge,
+        })
+    };
+    let tool = match kind {
+        ToolKind::Laser => {
+            let s_max = positive("tool.s_max", t.s_max.unwrap_or(1000.0))?;
+            let s_min = t.s_min.unwrap_or(0.0);
+            if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
+                return Err(bad(
+                    "tool.s_min",
+                    s_min.to_string(),
+                    format!("must be >= 0 and below tool.s_max ({s_max})"),
+                ));
+            }
+            Tool::Laser { s_max, s_min }
+        }
+        ToolKind::Pen => match t.lift {
+            Some(LiftKind::Spindle) => {
+                for (f, v) in [
+                    ("tool.z_up_mm", t.z_up_mm),
+                    ("tool.z_down_mm", t.z_down_mm),
+                    ("tool.plunge_mm_min", t.plunge_mm_min),
+                ] {
+                    if v.is_some() {
+                        return Err(bad(
+                            f,
+                            "set".into(),
+                            "does not apply with lift = \"spindle\"".into(),
+                        ));
+                    }
+                }
+                Tool::Pen(PenLift::Spindle {
+                    down_s: positive("tool.pen_down_s", need("tool.pen_down_s", t.pen_down_s)?)?,
+                })
+            }
+            Some(LiftKind::Z) => {
+                if t.pen_down_s.is_some() {
+                    return Err(bad(
+                        "tool.pen_down_s",
+                        "set".into(),
+                        "does not apply with lift = \"z\"".into(),
+                    ));
+                }
+                Tool::Pen(PenLift::Z(z_lift()?))
+            }
+            None => {
+                return Err(bad(
+                    "tool.lift",
+                    "missing".into(),
+                    "is required for a pen: \"spindle\" (M3/M5) or \"z\"".into(),
+                ))
+            }
+        },
+        ToolKind::Knife => {
+            let overcut = t.overcut_mm.unwrap_or(0.0);
+            if !(overcut.is_finite() && overcut >= 0.0) {
+                return Err(bad(
+                    "tool.overcut_mm",
+                    overcut.to_string(),
+                    "must be >= 0".into(),
+                ));
+            }
+            Tool::Knife {
+                z: z_lift()?,
+                overcut_mm: overcut,
+            }
+        }
+    };
+    Ok(Machine {
+        name: raw.name,
+        description: raw.description,
+        bed: raw.bed,
+        motion: raw.motion,
+        tool,
+    })
+}
+
+fn kind_name(k: ToolKind) -> &'static str {
+    match k {
+        ToolKind::Laser => "laser",
+        ToolKind::Pen => "pen",
+        ToolKind::Knife => "knife",
+    }
+}
+
+/// Names of the shipped profiles.
+pub fn builtin_names() -> Vec<&'static str> {
+    SHIPPED.iter().map(|s| s.name).collect()
+}
+
+/// Load a profile file.
+pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
+    validate(super::load_toml(path)?, path)
+}
+
+/// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
+/// `profile::resolve`). `None` gives [`DEFAULT_MACHINE`].
+pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
+    let (raw, origin): (RawMachine, _) =
+        resolve(name_or_path.unwrap_or(DEFAULT_MACHINE), "machines", SHIPPED)?;
+    validate(raw, &origin)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+name = "t"
+[bed]
+width_mm = 300
+height_mm = 200
+origin = "top-left"
+[motion]
+max_feed_mm_min = 5000
+rapid_mm_min = 8000
+accel_mm_s2 = 800
+[tool]
+kind = "laser"
+s_max = 255
+"#;
+
+    #[test]
+    fn every_builtin_profile_loads() {
+        for name in builtin_names() {
+            let m = load(Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(m.name, name, "the profile's name matches its file");
+        }
+        let d = load(None).unwrap();
+        assert_eq!((d.bed.width_mm, d.bed.height_mm), (400.0, 400.0));
+        assert!(matches!(d.tool, Tool::Laser { .. }));
+    }
+
+    #[test]
+    fn good_profile_fields() {
+        let m = parse(GOOD, Path::new("t.toml")).unwrap();
+        assert_eq!(m.bed.origin, Corner::TopLeft);
+        assert_eq!(m.motion.junction_deviation_mm, 0.01);
+        assert_eq!(
+            m.tool,
+            Tool::Laser {
+                s_max: 255.0,
+                s_min: 0.0
+            }
+        );
+    }
+
+    fn err(text: &str) -> String {
+        parse(text, Path::new("my.toml")).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let e = err(&GOOD.replace("accel_mm_s2", "acceleration"));
+        assert!(e.starts_with("my.toml:"), "{e}");
+        assert!(e.contains("acceleration"), "{e}");
+        assert!(!e.contains('\n'), "one line: {e}");
+    }
+
+    #[test]
+    fn negative_bed_is_named() {
+        let e = err(&GOOD.replace("width_mm = 300", "width_mm = -3"));
+        assert!(e.contains("bed.width_mm") && e.contains("-3"), "{e}");
+    }
+
+    #[test]
+    fn s_min_above_s_max_is_refused() {
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\ns_min = 300"));
+        assert!(e.contains("tool.s_min"), "{e}");
+    }
+
+    #[test]
+    fn field_of_another_tool_is_refused() {
+        let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
+        assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
+    }
+
+    #[test]
+    fn knife_needs_z_heights() {
+        let text = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = 3",
+        );
+        let e = err(&text);
+        assert!(
+            e.contains("tool.z_down_mm") && e.contains("required"),
+            "{e}"
+        );
+        let text = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = -1\nz_down_mm = 0\nplunge_mm_min = 300",
+        );
+        assert!(err(&text).contains("above"));
+    }
+
+    #[test]
+    fn bad_origin_and_unknown_kind() {
+        let e = err(&GOOD.replace("top-left", "middle"));
+        assert!(e.contains("middle") || e.contains("origin"), "{e}");
+        let e = err(&GOOD.replace("\"laser\"", "\"plasma\""));
+        assert!(e.contains("plasma"), "{e}");
+    }
+
+    #[test]
+    fn unknown_name_lists_builtins() {
+        let e = load(Some("nope")).unwrap_err().to_string();
+        assert!(e.contains("nope") && e.contains("diode-400"), "{e}");
+        let e = load(Some("/no/such/m.toml")).unwrap_err().to_string();
+        assert!(e.contains("/no/such/m.toml"), "{e}");
+    }
+}
