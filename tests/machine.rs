@@ -537,6 +537,82 @@ fn a_port_without_grbl_is_reported_not_waited_on_forever() {
     assert!(err.to_string().contains("baud rate"), "{err}");
 }
 
+/// `stencil::plan`'s G-code for a sample, as `make --emit gcode` writes it.
+fn planned_sample(name: &str) -> String {
+    use stencil::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+    use stencil::plan::{GcodeConfig, PlanConfig};
+    let machine = stencil::profile::machine::load(None).unwrap();
+    let physical = PhysicalConfig {
+        size: Size::WidthMm(150.0),
+        // Bridge widths are not the point here.
+        allow_thin: true,
+        ..Default::default()
+    };
+    let settings = stencil::plan::settings_for(&physical.material, &machine).unwrap();
+    let cfg = MakeConfig {
+        input: std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("samples")
+            .join(format!("{name}.png")),
+        physical,
+        gcode: Some(GcodeConfig {
+            machine,
+            plan: PlanConfig::new(settings),
+        }),
+        ..Default::default()
+    };
+    pipeline::run(&cfg).unwrap().gcode.unwrap()
+}
+
+#[test]
+fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
+    let text = planned_sample("rings");
+    let job = Job::parse("rings.gcode", &text).unwrap();
+    assert!(job.lines.len() > 100, "{}", job.lines.len());
+    assert!(!job.may_end_laser_on);
+
+    // Straight through, 128-byte buffer.
+    let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert_eq!(program_received(&r, 0), texts(&job, 1));
+    assert_eq!(r.overflow_bytes, 0);
+    assert!(!r.laser_on);
+
+    // Rejected half way (checked first), then resumed: the rest arrives once each, after the
+    // preamble our interpreter computed from the planner's own output.
+    let k = job.lines.len() / 2;
+    let vcfg = VirtualConfig {
+        faults: vec![Fault {
+            at_job_line: k,
+            kind: FaultKind::Error(20),
+        }],
+        ..VirtualConfig::default()
+    };
+    let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
+    let c = StreamConfig {
+        check_first: true,
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    let halt = err.halt().unwrap().clone();
+    assert_eq!(halt.resume_from, file_line(&job, k), "{err}");
+    let r = vg.record();
+    laser_stopped_after_fault(&r);
+    let before = r.received.len();
+    let c = StreamConfig {
+        from_line: halt.resume_from,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    let mut expected = job.resume_preamble(halt.resume_from).unwrap();
+    expected.extend(texts(&job, halt.resume_from));
+    assert_eq!(program_received(&r, before), expected);
+    // The resumed machine ends where the whole program ends.
+    let whole = stencil::machine::gcode::interpret(&text).unwrap();
+    assert_eq!(r.position, whole.last().unwrap().to);
+}
+
 fn stencil() -> Command {
     Command::new(env!("CARGO_BIN_EXE_stencil"))
 }

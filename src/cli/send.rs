@@ -21,7 +21,8 @@ use stencil::machine::stream::{
     self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
 };
 use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
-use stencil::plan::estimate::{estimate, MotionLimits};
+use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
+use stencil::profile::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -63,6 +64,10 @@ pub struct SendArgs {
     /// Count against a receive buffer of this many bytes instead of the one Grbl reports.
     #[arg(long)]
     pub rx_buffer: Option<usize>,
+    /// Machine profile whose motion limits the remaining-time estimate (and a --realtime dry run)
+    /// use (name or .toml path) [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
 }
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
@@ -76,6 +81,10 @@ pub struct SimulateArgs {
     /// Longer side of the picture, in pixels.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(16..=20000))]
     pub size_px: u32,
+    /// Machine profile whose motion limits the time estimate uses (name or .toml path)
+    /// [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
 }
 
 fn read_program(path: &PathBuf) -> anyhow::Result<String> {
@@ -90,30 +99,23 @@ fn read_program(path: &PathBuf) -> anyhow::Result<String> {
     })
 }
 
-fn fmt_duration(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
-    if s >= 3600 {
-        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
-    } else {
-        format!("{}:{:02}", s / 60, s % 60)
-    }
-}
-
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let moves = simulate::moves(&name, &text)?;
-    let est = estimate(&moves, &MotionLimits::default());
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let est = estimate(&moves, &machine.limits());
     let d = simulate::draw(&moves, a.size_px);
     export::write_atomic(
         &a.output,
         &export::png::encode_rgb(d.width, d.height, &d.rgb),
     )?;
     println!(
-        "estimated time {} (cutting {}, travel {}); cut {:.0} mm, travel {:.0} mm, {} moves",
-        fmt_duration(est.total_s),
-        fmt_duration(est.cut_s),
-        fmt_duration(est.travel_s),
+        "estimated time {} on {} (cutting {}, travel {}); cut {:.0} mm, travel {:.0} mm, {} moves",
+        format_duration(est.total_s),
+        machine.name,
+        format_duration(est.cut_s),
+        format_duration(est.travel_s),
         est.cut_mm,
         est.travel_mm,
         moves.len()
@@ -214,7 +216,7 @@ struct Bar {
 }
 
 impl Bar {
-    fn new(moves: Vec<Move>, raw: bool) -> Bar {
+    fn new(moves: Vec<Move>, limits: MotionLimits, raw: bool) -> Bar {
         // Hidden until the job starts (shown by `phase`), so connecting draws no empty bar.
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
         bar.set_style(
@@ -227,7 +229,7 @@ impl Bar {
         Bar {
             bar,
             moves,
-            limits: MotionLimits::default(),
+            limits,
             raw,
             last_estimate: None,
             remaining: String::new(),
@@ -275,7 +277,7 @@ impl Observer for Bar {
             self.last_estimate = Some(Instant::now());
             let k = self.moves.partition_point(|m| m.line < p.unexecuted_from);
             let e = estimate(&self.moves[k..], &self.limits);
-            self.remaining = format!("~{} left", fmt_duration(e.total_s));
+            self.remaining = format!("~{} left", format_duration(e.total_s));
         }
         if let Some(st) = &p.state {
             self.state = match p.position {
@@ -304,6 +306,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
+    let limits = machine_profile::load(a.machine.as_deref())?.limits();
     if !(a.timeout_s.is_finite() && a.timeout_s > 0.0) {
         bail!(
             "--timeout-s must be a positive number of seconds, got {}",
@@ -333,6 +336,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
                 Motion::Instant
             },
             baud: a.realtime.then_some(a.baud),
+            rapid_mm_min: limits.rapid_mm_min,
             ..VirtualConfig::default()
         };
         let (vg, host) = VirtualGrbl::spawn(vcfg)
@@ -359,7 +363,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
 
     let (tx, rx) = channel();
     let keys = Keys::start(tx);
-    let mut bar = Bar::new(job.moves.clone(), keys.raw);
+    let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
     if keys.raw {
         bar.say("keys: ! or h = feed hold, ~ or r = resume, a / q / Esc / Ctrl-C = abort");
     }
@@ -392,7 +396,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         sum.bytes,
         secs,
         if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
-        fmt_duration(sum.total.as_secs_f64()),
+        format_duration(sum.total.as_secs_f64()),
         sum.info.version,
         sum.rx_limit,
         sum.max_in_flight
