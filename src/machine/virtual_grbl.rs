@@ -909,6 +909,11 @@ mod tests {
         read_until(&mut host, "for help]", Duration::from_secs(5));
         host.write_all(b"M4S500\nG1X100F60\n").unwrap();
         read_until(&mut host, "ok\r\nok\r\n", Duration::from_secs(5));
+        // `ok` means queued: the simulated planner starts the move (and the laser) a moment later.
+        let t0 = std::time::Instant::now();
+        while !vg.record().laser_on && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
         assert!(vg.record().laser_on);
         host.write_all(&[RT_SOFT_RESET]).unwrap();
         let s = read_until(&mut host, "to unlock]", Duration::from_secs(5));
