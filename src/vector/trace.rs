@@ -245,15 +245,9 @@ pub fn signed_area2(pts: &[[f64; 2]]) -> f64 {
 mod tests {
     use super::*;
 
-    fn grid(rows: &[&str]) -> BitGrid {
-        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
-            rows[y as usize].as_bytes()[x as usize] == b'#'
-        })
-    }
-
     #[test]
     fn a_square_hole_is_one_negative_ring_on_pixel_boundaries() {
-        let g = grid(&["#####", "#...#", "#...#", "#...#", "#####"]);
+        let g = BitGrid::from_rows(&["#####", "#...#", "#...#", "#...#", "#####"]);
         let rings = trace(&g, false);
         assert_eq!(rings.len(), 1);
         let a = signed_area2(&rings[0].pts) / 2.0;
@@ -273,7 +267,7 @@ mod tests {
 
     #[test]
     fn an_island_gives_a_positive_ring_inside_a_negative_one() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
         ]);
         let rings = trace(&g, false);
@@ -288,7 +282,7 @@ mod tests {
     #[test]
     fn diagonal_material_stays_two_pieces() {
         // Two material pixels touching at a corner inside a cut region.
-        let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
+        let g = BitGrid::from_rows(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
         let rings = trace(&g, true);
         let pos = rings.iter().filter(|r| signed_area2(&r.pts) > 0.0).count();
         assert_eq!(
@@ -304,7 +298,7 @@ mod tests {
 
     #[test]
     fn cut_touching_the_image_border_closes_along_it() {
-        let g = grid(&["..##", "..##", "####"]);
+        let g = BitGrid::from_rows(&["..##", "..##", "####"]);
         let rings = trace(&g, false);
         assert_eq!(rings.len(), 1);
         let a = signed_area2(&rings[0].pts) / 2.0;
