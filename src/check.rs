@@ -501,6 +501,17 @@ pub fn check(
     material: &Material,
     bridges_known: bool,
 ) -> Result<CheckReport, CheckError> {
+    check_in_chunks(geom, material, bridges_known, None)
+}
+
+/// [`check`], searching the faces in chunks of `chunk` faces (None: a few chunks per thread); any
+/// chunk size gives the same report.
+fn check_in_chunks(
+    geom: &CutGeometry,
+    material: &Material,
+    bridges_known: bool,
+    chunk: Option<usize>,
+) -> Result<CheckReport, CheckError> {
     let spacing = material.min_bridge_mm.max(material.min_feature_mm);
     let rings = rings_of(&geom.material, spacing);
     let mut verts = Vec::new();
@@ -576,10 +587,14 @@ pub fn check(
     // minimum, the early skip in `consider` only drops chords that could change neither that
     // minimum nor the violations, and the chunks' candidates are concatenated in face order (the
     // stable sort in `cluster` then sees them in the sequential order).
-    let chunk = faces
-        .len()
-        .div_ceil(4 * rayon::current_num_threads())
-        .max(256);
+    let chunk = chunk
+        .unwrap_or_else(|| {
+            faces
+                .len()
+                .div_ceil(4 * rayon::current_num_threads())
+                .max(256)
+        })
+        .max(1);
     let found: Vec<Found> = faces
         .par_chunks(chunk)
         .map(|part| {
@@ -787,6 +802,25 @@ mod tests {
             arc: cum[0],
         };
         assert!(!is_neck(&r, c, a, dist([0.0, 0.0], [5.5, 5.0])));
+    }
+
+    #[test]
+    fn the_chunk_size_does_not_change_the_report() {
+        use crate::vector::{vectorize, VectorConfig};
+        // Holes and islands of many widths: thin and wide webs, holes and (unknown) bridges.
+        let g = BitGrid::from_fn(120, 80, |x, y| {
+            let (cx, cy) = (x % 20, y % 20);
+            let w = 1 + (x / 20 + y / 20) % 4;
+            !(cx >= 3 && cx < 3 + 3 * w && cy >= 4 && cy < 16) || (cx == 4 + w && cy % 5 != 0)
+        });
+        let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
+        let material = Material::default();
+        let whole = check_in_chunks(&geom, &material, false, Some(usize::MAX)).unwrap();
+        assert!(!whole.violations.is_empty() && whole.triangles > 100);
+        for chunk in [1, 7, 64] {
+            let parts = check_in_chunks(&geom, &material, false, Some(chunk)).unwrap();
+            assert_eq!(parts, whole, "chunk {chunk}");
+        }
     }
 
     #[test]

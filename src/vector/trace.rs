@@ -115,11 +115,19 @@ impl Padded<'_> {
 /// (cheap: it only follows links), and finally each ring's sub-pixel points are placed in parallel.
 /// The rings, their order and their starting points are those of one row-major pass.
 pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
+    // Rows of cells per band: a few bands per thread, so uneven bands still balance.
+    let band = (bits.height as usize + 1)
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(16);
+    trace_in_bands(bits, smooth, band)
+}
+
+/// [`trace`] with the cells classified in bands of `band` rows (any size gives the same rings).
+fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
     let (wp, hp) = (bits.width as usize + 2, bits.height as usize + 2);
     let g = Padded { bits, wp, hp };
     let n = wp * hp;
-    // Rows of cells per band: a few bands per thread, so uneven bands still balance.
-    let band = (hp - 1).div_ceil(4 * rayon::current_num_threads()).max(16);
+    let band = band.max(1);
     let links: Vec<Vec<(u32, u32)>> = (0..hp - 1)
         .into_par_iter()
         .step_by(band)
@@ -294,6 +302,22 @@ mod tests {
             rings.iter().filter(|r| signed_area2(&r.pts) < 0.0).count(),
             1
         );
+    }
+
+    #[test]
+    fn the_band_size_does_not_change_the_rings() {
+        // Rings crossing many band boundaries, saddles included.
+        let g = BitGrid::from_fn(37, 41, |x, y| (x * 7 + y * 3) % 11 < 6 || (x + y) % 5 == 0);
+        let whole = trace_in_bands(&g, true, 1000);
+        for band in [1, 2, 3, 16] {
+            let banded = trace_in_bands(&g, true, band);
+            assert_eq!(banded.len(), whole.len(), "band {band}");
+            for (a, b) in banded.iter().zip(&whole) {
+                assert_eq!(a.pts, b.pts, "band {band}");
+                assert_eq!(a.guards, b.guards, "band {band}");
+                assert_eq!(a.material_px, b.material_px, "band {band}");
+            }
+        }
     }
 
     #[test]
