@@ -123,10 +123,13 @@ pub fn vectorize_with<R: Send>(
         return Err(VectorError::Empty);
     }
     let mm = cfg.scale.mm_per_px;
-    let traced = trace::trace(bits, cfg.smooth);
-    let mut rings: Vec<Vec<[f64; 2]>> = traced.iter().map(|r| r.pts.clone()).collect();
+    // Points and guards are moved out of the traced rings, not copied.
+    let (mut rings, guards): (Vec<Vec<[f64; 2]>>, Vec<Vec<trace::Guard>>) =
+        trace::trace(bits, cfg.smooth)
+            .into_iter()
+            .map(|r| (r.pts, r.guards))
+            .unzip();
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
-    let guards: Vec<Vec<trace::Guard>> = traced.iter().map(|r| r.guards.clone()).collect();
     let simplify = simplify::simplify_rings(&mut rings, Some(&guards), tol_px);
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
