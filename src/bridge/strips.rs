@@ -203,6 +203,24 @@ impl<'a> Fields<'a> {
     #[inline]
     /// Reads the (small) bit grid first and the labels only beside material.
     fn arrival(&self, x: i64, y: i64, own: u32) -> Option<((i64, i64), u32)> {
+        if x >= 1 && y >= 1 && x + 1 < self.width && y + 1 < self.height {
+            // Away from the image edge (nearly every step): plain indexing, same order.
+            let (c, w) = ((y * self.width + x) as usize, self.width as usize);
+            for (i, (dx, dy)) in [
+                (c + 1, (1, 0)),
+                (c - 1, (-1, 0)),
+                (c + w, (0, 1)),
+                (c - w, (0, -1)),
+            ] {
+                if self.bits.data[i] {
+                    let l = self.labels[i];
+                    if l != CUT && l != own {
+                        return Some(((x + dx, y + dy), l));
+                    }
+                }
+            }
+            return None;
+        }
         for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
             if !self.material(nx, ny) {
@@ -369,7 +387,7 @@ pub fn walk(
             return Err(WalkEnd::Returned);
         }
         let ni = (ny * w + nx) as u32;
-        if pixels.iter().rev().take(LOOP_WINDOW).any(|&p| p == ni) {
+        if pixels[pixels.len().saturating_sub(LOOP_WINDOW)..].contains(&ni) {
             return Err(WalkEnd::Looped);
         }
         prev = Some((px, py));
