@@ -197,17 +197,33 @@ const STEPS: [(i64, i64); 8] = [
 
 /// Chains of one node as lists of indices into its (scan-ordered) border list.
 fn chain_node(map: &IslandMap, node: u32, border: &[(u32, u32)]) -> Vec<Vec<u32>> {
+    // Where each row of the (scan-ordered) border starts, so a lookup searches only its row:
+    // every chain step tries up to eight neighbours.
+    let y0 = border.first().map_or(0, |p| p.1);
+    let rows = border.last().map_or(0, |p| p.1 - y0 + 1) as usize;
+    let mut row_start = vec![0usize; rows + 1];
+    for &(_, y) in border {
+        row_start[(y - y0) as usize + 1] += 1;
+    }
+    for r in 0..rows {
+        row_start[r + 1] += row_start[r];
+    }
     let find = |x: i64, y: i64| -> Option<usize> {
         if x < 0 || y < 0 || x >= map.width as i64 || y >= map.height as i64 {
             return None;
         }
         let (x, y) = (x as u32, y as u32);
-        if map.label(x, y) != node {
+        if map.label(x, y) != node || y < y0 || (y - y0) as usize >= rows {
             return None;
         }
-        border
-            .binary_search_by(|&(bx, by)| (by, bx).cmp(&(y, x)))
+        let (a, b) = (
+            row_start[(y - y0) as usize],
+            row_start[(y - y0) as usize + 1],
+        );
+        border[a..b]
+            .binary_search_by(|&(bx, _)| bx.cmp(&x))
             .ok()
+            .map(|k| a + k)
     };
     let mut visited = vec![false; border.len()];
     let mut chains = Vec::new();

@@ -118,6 +118,9 @@ pub struct Norm {
     pub alpha: f64,
     /// What a missing neighbour counts as in σ².
     pub missing: StripCost,
+    /// `L̃^α`, the divisor of every strip's length term, computed once (`powf` per strip was a
+    /// visible share of the scoring phase).
+    typical_pow: f64,
 }
 
 impl Norm {
@@ -137,6 +140,7 @@ impl Norm {
                 intensity: 0.0,
                 length: 0.0,
             },
+            typical_pow: length(typical, cfg.alpha),
         };
         let m = cfg.max_length_px.max(1) as f64;
         n.missing = StripCost {
@@ -147,7 +151,7 @@ impl Norm {
     }
 
     fn length_of(&self, len: f64) -> f64 {
-        length(len, self.alpha) / length(self.typical_len, self.alpha)
+        length(len, self.alpha) / self.typical_pow
     }
 
     pub fn strip(&self, s: &Strip) -> StripCost {
@@ -212,9 +216,24 @@ pub fn score(
     cfg: &BridgeConfig,
     norm: &Norm,
 ) -> Option<Scored> {
+    score_with(c, strips, costs, id, width, cfg, norm, &mut Vec::new())
+}
+
+/// [`score`] with a reusable buffer for the window's strip costs: scoring runs once per
+/// candidate (tens of thousands), and a fresh allocation each time showed up in profiles.
+#[allow(clippy::too_many_arguments)]
+pub fn score_with(
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    costs: &[Option<StripCost>],
+    id: usize,
+    width: u32,
+    cfg: &BridgeConfig,
+    norm: &Norm,
+    base: &mut Vec<f64>,
+) -> Option<Scored> {
     let to = strips[id].as_ref()?.to;
     let mut best: Option<Scored> = None;
-    let mut base = Vec::with_capacity(width as usize);
     // Chain arithmetic once: `window` keeps offsets inside an open chain.
     let chain = &c.chains[c.chain_of[id] as usize];
     let (start, n, pos) = (chain.start, chain.len as isize, c.pos(id) as isize);
@@ -242,7 +261,7 @@ pub fn score(
             intensity: cfg.w_intensity * i_sum / valid_f,
             length: cfg.w_length * l_sum / valid_f,
             curvature: cfg.w_curvature * curvature_from_moments(c.moments(id, klo, khi)),
-            variance: cfg.w_variance * variance(&base),
+            variance: cfg.w_variance * variance(base),
             total: 0.0,
         };
         terms.total = terms.intensity + terms.length + terms.curvature + terms.variance;

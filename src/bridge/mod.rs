@@ -350,7 +350,8 @@ fn build_graph(
 ) -> Graph {
     let norm = cost::Norm::new(strips.iter().flatten().map(|s| s.len()).collect(), cfg);
     let costs: Vec<_> = strips
-        .iter()
+        .par_iter()
+        .with_min_len(1024)
         .map(|s| s.as_ref().map(|s| norm.strip(s)))
         .collect();
     let mut g = Graph {
@@ -364,20 +365,40 @@ fn build_graph(
     g.scores = (0..g.cands.len())
         .into_par_iter()
         .with_min_len(256)
-        .map(|id| score_one(&g, map, cfg, id))
+        .map_init(Vec::new, |scratch, id| score_one(&g, map, cfg, id, scratch))
         .collect();
-    for (id, s) in g.strips.iter().enumerate() {
-        if let (Some(s), Some(_)) = (s, g.scores[id]) {
-            g.by_pair.entry(pair(s.from, s.to)).or_default().push(id);
-        }
+    // Grouped by sorting (pair, id) rather than one hash update per candidate: tens of
+    // thousands of candidates share about one pair per island. Ids stay ascending in each group.
+    let mut keyed: Vec<((u32, u32), usize)> = g
+        .strips
+        .iter()
+        .enumerate()
+        .filter_map(|(id, s)| match (s, g.scores[id]) {
+            (Some(s), Some(_)) => Some((pair(s.from, s.to), id)),
+            _ => None,
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    g.by_pair.reserve(keyed.len().min(map.nodes.len() * 2));
+    for group in keyed.chunk_by(|a, b| a.0 == b.0) {
+        g.by_pair
+            .insert(group[0].0, group.iter().map(|&(_, id)| id).collect());
     }
     g
 }
 
-fn score_one(g: &Graph, map: &IslandMap, cfg: &BridgeConfig, id: usize) -> Option<cost::Scored> {
+fn score_one(
+    g: &Graph,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+    id: usize,
+    scratch: &mut Vec<f64>,
+) -> Option<cost::Scored> {
     let s = g.strips[id].as_ref()?;
     let width = grow::width_for(smaller_area(map, s.from, s.to), cfg);
-    cost::score(&g.cands, &g.strips, &g.costs, id, width, cfg, &g.norm)
+    cost::score_with(
+        &g.cands, &g.strips, &g.costs, id, width, cfg, &g.norm, scratch,
+    )
 }
 
 /// Add a strip found by the fallback search as a candidate of its own (a one-candidate chain at
@@ -395,7 +416,7 @@ fn add_found_strip(
     g.costs.push(Some(g.norm.strip(&strip)));
     g.strips.push(Some(strip));
     g.scores.push(None);
-    g.scores[id] = score_one(g, map, cfg, id);
+    g.scores[id] = score_one(g, map, cfg, id, &mut Vec::new());
     g.by_pair.entry(p).or_default().push(id);
     id
 }
