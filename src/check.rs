@@ -32,8 +32,9 @@
 //! (holes) with a disc of half the required width: it must remove the neck at the reported position.
 
 use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use spade::{ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
+use spade::{CdtEdge, ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::islands;
 use crate::profile::Material;
@@ -358,12 +359,158 @@ fn perpendicular(
     Some((a, b, pw, foot, dist(pw, foot)))
 }
 
+/// What the neck search needs to know besides the triangulation.
+struct Search<'a> {
+    rings: &'a Rings,
+    material: &'a Material,
+    bridges_known: bool,
+    any_bridges: bool,
+    bridge_index: &'a BridgeIndex<'a>,
+    /// The widest requirement: wider chords matter only as a region's narrowest.
+    max_required: f64,
+}
+
+/// What the neck search found in some faces: the narrowest neck per kind (bridge, web, hole) and
+/// the violations, in the order found.
+struct Found {
+    narrowest: [f64; 3],
+    cands: Vec<Candidate>,
+}
+
+impl Default for Found {
+    fn default() -> Self {
+        Found {
+            narrowest: [f64::INFINITY; 3],
+            cands: Vec::new(),
+        }
+    }
+}
+
+type Cdt = ConstrainedDelaunayTriangulation<V>;
+
+impl Search<'_> {
+    /// Measure a chord and record it when it is a neck.
+    fn consider(
+        &self,
+        out: &mut Found,
+        material_side: bool,
+        (a, b): (End, End),
+        (pa, pb): ([f64; 2], [f64; 2]),
+        d: f64,
+    ) {
+        let narrowest = &mut out.narrowest;
+        // Too wide to matter for a violation or for the narrowest of its region: skip early.
+        let could_be_bridge = if self.bridges_known {
+            self.any_bridges
+        } else {
+            a.ring == b.ring
+        };
+        let narrowest_here = if !material_side {
+            narrowest[2]
+        } else if could_be_bridge {
+            narrowest[0].max(narrowest[1])
+        } else {
+            narrowest[1]
+        };
+        if d >= self.max_required && d >= narrowest_here {
+            return;
+        }
+        if !is_neck(self.rings, a, b, d) {
+            return;
+        }
+        let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
+        let kind = if !material_side {
+            ViolationKind::ThinHole
+        } else if (self.bridges_known && self.bridge_index.contains(mid))
+            || (!self.bridges_known && a.ring == b.ring)
+        {
+            ViolationKind::ThinBridge
+        } else {
+            ViolationKind::ThinWeb
+        };
+        let (slot, req) = match kind {
+            ViolationKind::ThinBridge => (0, self.material.min_bridge_mm),
+            ViolationKind::ThinWeb => (1, self.material.min_feature_mm),
+            _ => (2, self.material.min_feature_mm),
+        };
+        narrowest[slot] = narrowest[slot].min(d);
+        if d < req {
+            out.cands.push(Candidate { kind, d, mid });
+        }
+    }
+
+    /// The chords of one face of the sheet (see the module doc).
+    fn face(
+        &self,
+        cdt: &Cdt,
+        f: spade::handles::FaceHandle<'_, spade::handles::InnerTag, V, (), CdtEdge<()>, ()>,
+        material_side: bool,
+        out: &mut Found,
+    ) {
+        let rings = self.rings;
+        for e in f.adjacent_edges() {
+            let (u, v) = (e.from(), e.to());
+            let (du, dv) = (*u.data(), *v.data());
+            if cdt.is_constraint_edge(e.fix().as_undirected()) {
+                // The vertex opposite a boundary edge, straight across to it.
+                let n = rings.pts[du.ring as usize].len() as u32;
+                let i = if dv.idx == (du.idx + 1) % n {
+                    du.idx
+                } else {
+                    dv.idx
+                };
+                if let Some(w) = e.opposite_vertex() {
+                    if let Some((a, b, pa, pb, d)) =
+                        perpendicular(rings, *w.data(), du.ring, i, material_side)
+                    {
+                        self.consider(out, material_side, (a, b), (pa, pb), d);
+                    }
+                }
+            } else if u.fix().index() < v.fix().index() {
+                // A chord between two vertices, and from each end straight across to the boundary
+                // edges at the other end (where two long sides run parallel, these are the width).
+                let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
+                let a = End {
+                    ring: du.ring,
+                    arc: rings.cum[du.ring as usize][du.idx as usize],
+                };
+                let b = End {
+                    ring: dv.ring,
+                    arc: rings.cum[dv.ring as usize][dv.idx as usize],
+                };
+                self.consider(out, material_side, (a, b), (pu, pv), dist(pu, pv));
+                for (x, y) in [(du, dv), (dv, du)] {
+                    let n = rings.pts[y.ring as usize].len() as u32;
+                    for start in [y.idx, (y.idx + n - 1) % n] {
+                        if let Some((a, b, pa, pb, d)) =
+                            perpendicular(rings, x, y.ring, start, material_side)
+                        {
+                            self.consider(out, material_side, (a, b), (pa, pb), d);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Check a stencil's geometry against a material. `bridges_known`: whether `geom.bridges` lists
 /// every bridge (false for a bare PNG: then same-ring material necks count as bridges).
 pub fn check(
     geom: &CutGeometry,
     material: &Material,
     bridges_known: bool,
+) -> Result<CheckReport, CheckError> {
+    check_in_chunks(geom, material, bridges_known, None)
+}
+
+/// [`check`], searching the faces in chunks of `chunk` faces (None: a few chunks per thread); any
+/// chunk size gives the same report.
+fn check_in_chunks(
+    geom: &CutGeometry,
+    material: &Material,
+    bridges_known: bool,
+    chunk: Option<usize>,
 ) -> Result<CheckReport, CheckError> {
     let spacing = material.min_bridge_mm.max(material.min_feature_mm);
     let rings = rings_of(&geom.material, spacing);
@@ -382,7 +529,7 @@ pub fn check(
             edges.push([start + i, start + (i + 1) % r.len()]);
         }
     }
-    let cdt = ConstrainedDelaunayTriangulation::<V>::try_bulk_load_cdt(verts, edges, |_| {})
+    let cdt = Cdt::try_bulk_load_cdt(verts, edges, |_| {})
         .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
 
     // Material or cut: parity of constraint edges crossed from outside the sheet.
@@ -417,99 +564,56 @@ pub fn check(
     }
 
     let bridge_index = BridgeIndex::new(&geom.bridges);
-    let in_bridge = |m: [f64; 2]| bridge_index.contains(m);
-    let mut narrowest = [f64::INFINITY; 3];
-    let max_required = spacing;
-    let mut cands: Vec<Candidate> = Vec::new();
-    let mut consider = |material_side: bool, a: End, b: End, pa: [f64; 2], pb: [f64; 2], d: f64| {
-        // Too wide to matter for a violation or for the narrowest of its region: skip early.
-        let could_be_bridge = if bridges_known {
-            !geom.bridges.is_empty()
-        } else {
-            a.ring == b.ring
-        };
-        let narrowest_here = if !material_side {
-            narrowest[2]
-        } else if could_be_bridge {
-            narrowest[0].max(narrowest[1])
-        } else {
-            narrowest[1]
-        };
-        if d >= max_required && d >= narrowest_here {
-            return;
-        }
-        if !is_neck(&rings, a, b, d) {
-            return;
-        }
-        let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
-        let kind = if !material_side {
-            ViolationKind::ThinHole
-        } else if (bridges_known && in_bridge(mid)) || (!bridges_known && a.ring == b.ring) {
-            ViolationKind::ThinBridge
-        } else {
-            ViolationKind::ThinWeb
-        };
-        let (slot, req) = match kind {
-            ViolationKind::ThinBridge => (0, material.min_bridge_mm),
-            ViolationKind::ThinWeb => (1, material.min_feature_mm),
-            _ => (2, material.min_feature_mm),
-        };
-        narrowest[slot] = narrowest[slot].min(d);
-        if d < req {
-            cands.push(Candidate { kind, d, mid });
-        }
+    let ctx = Search {
+        rings: &rings,
+        material,
+        bridges_known,
+        any_bridges: !geom.bridges.is_empty(),
+        bridge_index: &bridge_index,
+        max_required: spacing,
     };
-    let mut triangles = 0;
-    for f in cdt.inner_faces() {
-        let dpt = depth[f.fix().index()];
-        if dpt == u32::MAX || dpt == 0 {
-            continue;
-        }
-        triangles += 1;
-        let material_side = dpt % 2 == 1;
-        for e in f.adjacent_edges() {
-            let (u, v) = (e.from(), e.to());
-            let (du, dv) = (*u.data(), *v.data());
-            if cdt.is_constraint_edge(e.fix().as_undirected()) {
-                // The vertex opposite a boundary edge, straight across to it.
-                let n = rings.pts[du.ring as usize].len() as u32;
-                let i = if dv.idx == (du.idx + 1) % n {
-                    du.idx
-                } else {
-                    dv.idx
-                };
-                if let Some(w) = e.opposite_vertex() {
-                    if let Some((a, b, pa, pb, d)) =
-                        perpendicular(&rings, *w.data(), du.ring, i, material_side)
-                    {
-                        consider(material_side, a, b, pa, pb, d);
-                    }
-                }
-            } else if u.fix().index() < v.fix().index() {
-                // A chord between two vertices, and from each end straight across to the boundary
-                // edges at the other end (where two long sides run parallel, these are the width).
-                let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
-                let a = End {
-                    ring: du.ring,
-                    arc: rings.cum[du.ring as usize][du.idx as usize],
-                };
-                let b = End {
-                    ring: dv.ring,
-                    arc: rings.cum[dv.ring as usize][dv.idx as usize],
-                };
-                consider(material_side, a, b, pu, pv, dist(pu, pv));
-                for (x, y) in [(du, dv), (dv, du)] {
-                    let n = rings.pts[y.ring as usize].len() as u32;
-                    for start in [y.idx, (y.idx + n - 1) % n] {
-                        if let Some((a, b, pa, pb, d)) =
-                            perpendicular(&rings, x, y.ring, start, material_side)
-                        {
-                            consider(material_side, a, b, pa, pb, d);
-                        }
-                    }
-                }
+    // The faces inside the sheet (material or cut), in the triangulation's order.
+    let faces: Vec<_> = cdt
+        .inner_faces()
+        .filter(|f| {
+            let d = depth[f.fix().index()];
+            d != u32::MAX && d != 0
+        })
+        .map(|f| f.fix())
+        .collect();
+    let triangles = faces.len();
+    // Each face's chords are measured independently of the others, so the faces are searched in
+    // parallel chunks. The result is the same as one sequential pass: the narrowest per kind is a
+    // minimum, the early skip in `consider` only drops chords that could change neither that
+    // minimum nor the violations, and the chunks' candidates are concatenated in face order (the
+    // stable sort in `cluster` then sees them in the sequential order).
+    let chunk = chunk
+        .unwrap_or_else(|| {
+            faces
+                .len()
+                .div_ceil(4 * rayon::current_num_threads())
+                .max(256)
+        })
+        .max(1);
+    let found: Vec<Found> = faces
+        .par_chunks(chunk)
+        .map(|part| {
+            let mut out = Found::default();
+            for &ff in part {
+                let f = cdt.face(ff);
+                let material_side = depth[ff.index()] % 2 == 1;
+                ctx.face(&cdt, f, material_side, &mut out);
             }
+            out
+        })
+        .collect();
+    let mut narrowest = [f64::INFINITY; 3];
+    let mut cands: Vec<Candidate> = Vec::new();
+    for f in found {
+        for (n, m) in narrowest.iter_mut().zip(f.narrowest) {
+            *n = n.min(m);
         }
+        cands.extend(f.cands);
     }
 
     let mut violations = cluster(cands, material);
@@ -698,6 +802,25 @@ mod tests {
             arc: cum[0],
         };
         assert!(!is_neck(&r, c, a, dist([0.0, 0.0], [5.5, 5.0])));
+    }
+
+    #[test]
+    fn the_chunk_size_does_not_change_the_report() {
+        use crate::vector::{vectorize, VectorConfig};
+        // Holes and islands of many widths: thin and wide webs, holes and (unknown) bridges.
+        let g = BitGrid::from_fn(120, 80, |x, y| {
+            let (cx, cy) = (x % 20, y % 20);
+            let w = 1 + (x / 20 + y / 20) % 4;
+            !(cx >= 3 && cx < 3 + 3 * w && cy >= 4 && cy < 16) || (cx == 4 + w && cy % 5 != 0)
+        });
+        let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
+        let material = Material::default();
+        let whole = check_in_chunks(&geom, &material, false, Some(usize::MAX)).unwrap();
+        assert!(!whole.violations.is_empty() && whole.triangles > 100);
+        for chunk in [1, 7, 64] {
+            let parts = check_in_chunks(&geom, &material, false, Some(chunk)).unwrap();
+            assert_eq!(parts, whole, "chunk {chunk}");
+        }
     }
 
     #[test]

@@ -168,15 +168,9 @@ pub fn floating_count(bits: &BitGrid) -> usize {
 mod tests {
     use super::*;
 
-    fn grid(rows: &[&str]) -> BitGrid {
-        let h = rows.len() as u32;
-        let w = rows[0].len() as u32;
-        BitGrid::from_fn(w, h, |x, y| rows[y as usize].as_bytes()[x as usize] == b'#')
-    }
-
     #[test]
     fn frame_and_one_island() {
-        let g = grid(&["#####", "#...#", "#.#.#", "#...#", "#####"]);
+        let g = BitGrid::from_rows(&["#####", "#...#", "#.#.#", "#...#", "#####"]);
         let m = label(&g);
         assert_eq!(m.island_count(), 1);
         assert_eq!(m.nodes[0].area, 16);
@@ -188,14 +182,14 @@ mod tests {
     #[test]
     fn corner_touch_is_not_joined() {
         // The two inner pixels touch only at a corner: two islands, not one.
-        let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
+        let g = BitGrid::from_rows(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
         assert_eq!(label(&g).island_count(), 2);
     }
 
     #[test]
     fn material_touching_border_is_frame_even_if_split() {
         // Two separate pieces touch the border: both are the frame (the sheet continues outside).
-        let g = grid(&["#...#", ".....", "#...#"]);
+        let g = BitGrid::from_rows(&["#...#", ".....", "#...#"]);
         let m = label(&g);
         assert_eq!(m.island_count(), 0);
         assert_eq!(m.nodes[0].area, 4);
@@ -203,7 +197,7 @@ mod tests {
 
     #[test]
     fn border_pixels_are_material_next_to_cut() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
         ]);
         let m = label(&g);

@@ -97,6 +97,15 @@ impl BitGrid {
         }
     }
 
+    /// Build from text rows, `#` = material, anything else = cut: a grid a reader can see, for
+    /// tests and examples. All rows must have the same length.
+    pub fn from_rows(rows: &[&str]) -> Self {
+        let w = rows.first().map_or(0, |r| r.len()) as u32;
+        BitGrid::from_fn(w, rows.len() as u32, |x, y| {
+            rows[y as usize].as_bytes()[x as usize] == b'#'
+        })
+    }
+
     #[inline]
     pub fn idx(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize

@@ -277,15 +277,9 @@ mod tests {
     use crate::islands::label;
     use crate::raster::BitGrid;
 
-    fn grid(rows: &[&str]) -> BitGrid {
-        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
-            rows[y as usize].as_bytes()[x as usize] == b'#'
-        })
-    }
-
     #[test]
     fn square_island_is_one_closed_chain_in_contour_order() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "........", "........", "..####..", "..####..", "..####..", "..####..", "........",
             "........",
         ]);
@@ -303,7 +297,7 @@ mod tests {
 
     #[test]
     fn ring_island_has_outer_and_inner_chains_and_lookup_works() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             ".........",
             ".#######.",
             ".#.....#.",
@@ -326,7 +320,7 @@ mod tests {
 
     #[test]
     fn window_moments_match_a_direct_sum_including_wrap_around() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "........", "........", "..####..", "..####..", "..####..", "..####..", "........",
             "........",
         ]);
@@ -348,7 +342,7 @@ mod tests {
 
     #[test]
     fn open_chain_stops_at_its_ends() {
-        let g = grid(&["......", ".####.", "......"]);
+        let g = BitGrid::from_rows(&["......", ".####.", "......"]);
         let m = label(&g);
         let c = collect(&m);
         assert_eq!(c.chains.len(), 1);

@@ -13,34 +13,20 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::{parse_toml, resolve, ProfileError, Shipped};
+use super::{parse_toml, resolve, shipped, ProfileError, Shipped};
 
 use crate::plan::estimate::MotionLimits;
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
 pub const DEFAULT_MACHINE: &str = "diode-400";
 
-macro_rules! shipped {
-    ($name:literal) => {
-        Shipped {
-            name: $name,
-            text: include_str!(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/profiles/machines/",
-                $name,
-                ".toml"
-            )),
-        }
-    };
-}
-
 /// The shipped profiles, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
-    shipped!("diode-400"),
-    shipped!("co2-600x400"),
-    shipped!("pen-a3"),
-    shipped!("pen-servo"),
-    shipped!("drag-knife"),
+    shipped!("machines", "diode-400"),
+    shipped!("machines", "co2-600x400"),
+    shipped!("machines", "pen-a3"),
+    shipped!("machines", "pen-servo"),
+    shipped!("machines", "drag-knife"),
 ];
 
 /// A corner of the bed, as seen from above with the rear (far side, +Y on most machines) at the top.

@@ -12,36 +12,22 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::{check_range, parse_toml, resolve, ProfileError, Shipped};
+use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
 
-macro_rules! shipped {
-    ($name:literal) => {
-        Shipped {
-            name: $name,
-            text: include_str!(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/profiles/materials/",
-                $name,
-                ".toml"
-            )),
-        }
-    };
-}
-
 /// The material profiles shipped with the crate, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
-    shipped!("copy-paper"),
-    shipped!("cardstock"),
-    shipped!("mylar-0.19"),
-    shipped!("poster-board"),
-    shipped!("plywood-3mm"),
-    shipped!("acrylic-3mm"),
-    shipped!("stainless-0.5-etch"),
-    shipped!("brass-0.3-etch"),
-    shipped!("aluminium-gobo"),
+    shipped!("materials", "copy-paper"),
+    shipped!("materials", "cardstock"),
+    shipped!("materials", "mylar-0.19"),
+    shipped!("materials", "poster-board"),
+    shipped!("materials", "plywood-3mm"),
+    shipped!("materials", "acrylic-3mm"),
+    shipped!("materials", "stainless-0.5-etch"),
+    shipped!("materials", "brass-0.3-etch"),
+    shipped!("materials", "aluminium-gobo"),
 ];
 
 /// How the sheet is cut, with that process's settings.

@@ -48,6 +48,25 @@ pub enum ProfileError {
     },
 }
 
+/// A shipped profile, `shipped!("materials", "cardstock")`: its text embedded at build time from
+/// `profiles/<kind>/<name>.toml`, so an installed binary has every profile.
+macro_rules! shipped {
+    ($kind:literal, $name:literal) => {
+        $crate::profile::Shipped {
+            name: $name,
+            text: include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/profiles/",
+                $kind,
+                "/",
+                $name,
+                ".toml"
+            )),
+        }
+    };
+}
+pub(crate) use shipped;
+
 /// A profile shipped with the crate: its name (the file stem) and its TOML text.
 #[derive(Clone, Copy, Debug)]
 pub struct Shipped {

@@ -147,12 +147,6 @@ pub fn close(bits: &BitGrid, r: u32) -> BitGrid {
 mod tests {
     use super::*;
 
-    fn grid(rows: &[&str]) -> BitGrid {
-        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
-            rows[y as usize].as_bytes()[x as usize] == b'#'
-        })
-    }
-
     #[test]
     fn opening_removes_a_lone_pixel_and_keeps_a_block() {
         let mut g = BitGrid::new(20, 20, false);
@@ -191,7 +185,7 @@ mod tests {
 
     #[test]
     fn specks_flip_and_are_counted() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "##########",
             "#........#",
             "#.#......#",

@@ -100,6 +100,19 @@ pub fn vectorize(
     bridges: &[Vec<[f64; 2]>],
     cfg: &VectorConfig,
 ) -> Result<(CutGeometry, VectorStats), VectorError> {
+    vectorize_with(bits, bridges, cfg, |_| ()).map(|(g, s, ())| (g, s))
+}
+
+/// [`vectorize`], running `during_kerf` on the geometry as designed while the kerf offset is
+/// computed on another thread. Why: the width check reads only the material and the bridges, which
+/// are final before the kerf, so the two can overlap. `during_kerf` sees every field final except
+/// `cuts`, which is still empty.
+pub fn vectorize_with<R: Send>(
+    bits: &BitGrid,
+    bridges: &[Vec<[f64; 2]>],
+    cfg: &VectorConfig,
+    during_kerf: impl FnOnce(&CutGeometry) -> R + Send,
+) -> Result<(CutGeometry, VectorStats, R), VectorError> {
     if !cfg.tolerance_mm.is_finite() || cfg.tolerance_mm < 0.0 {
         return Err(VectorError::Tolerance(cfg.tolerance_mm));
     }
@@ -126,24 +139,26 @@ pub fn vectorize(
         .collect();
     let material = union::union_bridges(material, &bridges);
     let design_cuts = union::cuts_of(&material);
-    let cuts = kerf::offset_cuts(&design_cuts, cfg.kerf_mm);
+    let mut geom = CutGeometry {
+        width_mm: w,
+        height_mm: h,
+        outline,
+        cuts: MultiPolygon::new(Vec::new()),
+        design_cuts,
+        material,
+        bridges,
+    };
+    let (cuts, during) = rayon::join(
+        || kerf::offset_cuts(&geom.design_cuts, cfg.kerf_mm),
+        || during_kerf(&geom),
+    );
+    geom.cuts = cuts;
     let stats = VectorStats {
         simplify,
-        cut_loops: cuts.0.len(),
-        material_pieces: material.0.len(),
+        cut_loops: geom.cuts.0.len(),
+        material_pieces: geom.material.0.len(),
     };
-    Ok((
-        CutGeometry {
-            width_mm: w,
-            height_mm: h,
-            outline,
-            cuts,
-            design_cuts,
-            material,
-            bridges,
-        },
-        stats,
-    ))
+    Ok((geom, stats, during))
 }
 
 fn to_ring(pts: &[[f64; 2]], mm: f64) -> LineString<f64> {

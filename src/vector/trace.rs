@@ -17,6 +17,8 @@
 //! Orientation: walking a ring, material is on the left in the numeric (x, y) plane, so material
 //! outlines have positive shoelace area and the outlines of holes in material have negative area.
 
+use rayon::prelude::*;
+
 use crate::raster::BitGrid;
 
 /// A closed ring in pixel coordinates (x right, y down; pixel (i, j) covers `[i, i+1] × [j, j+1]`),
@@ -107,86 +109,132 @@ impl Padded<'_> {
 
 /// Trace every boundary between material and cut. `smooth` places crossings by the blurred bits
 /// (see the module doc); without it every crossing is at the midpoint between centres.
+///
+/// Why it is done in three passes: the cells are classified in parallel bands of rows (each cell
+/// only reads its own four corners), then the links are chained into rings in one sequential walk
+/// (cheap: it only follows links), and finally each ring's sub-pixel points are placed in parallel.
+/// The rings, their order and their starting points are those of one row-major pass.
 pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
+    // Rows of cells per band: a few bands per thread, so uneven bands still balance.
+    let band = (bits.height as usize + 1)
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(16);
+    trace_in_bands(bits, smooth, band)
+}
+
+/// [`trace`] with the cells classified in bands of `band` rows (any size gives the same rings).
+fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
     let (wp, hp) = (bits.width as usize + 2, bits.height as usize + 2);
     let g = Padded { bits, wp, hp };
     let n = wp * hp;
-    let none = u32::MAX;
-    // next[crossing edge] = the crossing the contour goes to next.
-    let mut next = vec![none; 2 * n];
-    let mut starts: Vec<u32> = Vec::new();
-    let h = |px: usize, py: usize| py * wp + px;
-    let v = |px: usize, py: usize| n + py * wp + px;
-    let mut row_a: Vec<bool> = (0..wp).map(|x| g.at(x, 0)).collect();
-    let mut row_b: Vec<bool> = vec![true; wp];
-    for py in 0..hp - 1 {
-        if py + 2 == hp || py == 0 {
-            for (x, slot) in row_b.iter_mut().enumerate() {
-                *slot = g.at(x, py + 1);
-            }
-        } else {
-            // An image row framed by material on both sides.
-            let w = bits.width as usize;
-            row_b[1..=w].copy_from_slice(&bits.data[py * w..(py + 1) * w]);
-        }
-        for px in 0..wp - 1 {
-            let code = row_a[px] as u8
-                | (row_a[px + 1] as u8) << 1
-                | (row_b[px + 1] as u8) << 2
-                | (row_b[px] as u8) << 3;
-            if code == 0 || code == 15 {
-                continue;
-            }
-            let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
-            // Cell edges in counter-clockwise order (numerically): top, right, bottom, left;
-            // edge k runs from corner k to corner k+1.
-            let ids = [h(px, py), v(px + 1, py), h(px, py + 1), v(px, py)];
-            for k in 0..4 {
-                let exit = c[k] && !c[(k + 1) % 4];
-                if !exit {
-                    continue;
-                }
-                // The entry that opens this exit's material arc: walk back to it. Pairing each exit
-                // with its own arc separates diagonal material corners in a saddle.
-                for back in 1..4 {
-                    let j = (k + 4 - back) % 4;
-                    if !c[j] && c[(j + 1) % 4] {
-                        next[ids[k]] = ids[j] as u32;
-                        starts.push(ids[k] as u32);
-                        break;
-                    }
-                }
-            }
-        }
-        std::mem::swap(&mut row_a, &mut row_b);
+    let band = band.max(1);
+    let links: Vec<Vec<(u32, u32)>> = (0..hp - 1)
+        .into_par_iter()
+        .step_by(band)
+        .map(|py0| g.links(py0..(py0 + band).min(hp - 1)))
+        .collect();
+    // next[crossing edge] = 1 + the crossing the contour goes to next (0: none). Zeroed memory is
+    // handed out lazily by the allocator, so only the pages near contours are ever touched.
+    let mut next = vec![0u32; 2 * n];
+    for &(exit, entry) in links.iter().flatten() {
+        next[exit as usize] = entry + 1;
     }
-    let mut rings = Vec::new();
-    for s in starts {
-        if next[s as usize] == none {
+    let mut chains: Vec<Vec<u32>> = Vec::new();
+    for &(s, _) in links.iter().flatten() {
+        if next[s as usize] == 0 {
             continue;
         }
-        let (_, m, _) = g.crossing(s as usize, smooth);
-        let mut pts = Vec::new();
-        let mut guards = Vec::new();
+        let mut chain = Vec::new();
         let mut e = s;
         loop {
             let nx = next[e as usize];
-            if nx == none {
+            if nx == 0 {
                 break;
             }
-            next[e as usize] = none;
-            let (p, _, guard) = g.crossing(e as usize, smooth);
-            pts.push(p);
-            guards.push(guard);
-            e = nx;
+            next[e as usize] = 0;
+            chain.push(e);
+            e = nx - 1;
         }
-        rings.push(Ring {
-            pts,
-            guards,
-            material_px: (m.0 as i64 - 1, m.1 as i64 - 1),
-        });
+        chains.push(chain);
     }
-    rings
+    chains
+        .par_iter()
+        .map(|chain| {
+            let (_, m, _) = g.crossing(chain[0] as usize, smooth);
+            let mut pts = Vec::with_capacity(chain.len());
+            let mut guards = Vec::with_capacity(chain.len());
+            for &e in chain {
+                let (p, _, guard) = g.crossing(e as usize, smooth);
+                pts.push(p);
+                guards.push(guard);
+            }
+            Ring {
+                pts,
+                guards,
+                material_px: (m.0 as i64 - 1, m.1 as i64 - 1),
+            }
+        })
+        .collect()
+}
+
+impl Padded<'_> {
+    /// Padded row `py` of the bits into `row`.
+    fn row(&self, py: usize, row: &mut [bool]) {
+        if py == 0 || py + 1 == self.hp {
+            row.fill(true);
+        } else {
+            // An image row framed by material on both sides.
+            let w = self.bits.width as usize;
+            row[0] = true;
+            row[w + 1] = true;
+            row[1..=w].copy_from_slice(&self.bits.data[(py - 1) * w..py * w]);
+        }
+    }
+
+    /// The contour links (exit crossing, entry crossing it goes to) of the cells in rows `rows`,
+    /// in row-major order and, within a cell, in edge order.
+    fn links(&self, rows: std::ops::Range<usize>) -> Vec<(u32, u32)> {
+        let (wp, n) = (self.wp, self.wp * self.hp);
+        let h = |px: usize, py: usize| py * wp + px;
+        let v = |px: usize, py: usize| n + py * wp + px;
+        let mut out = Vec::new();
+        let mut row_a = vec![true; wp];
+        let mut row_b = vec![true; wp];
+        self.row(rows.start, &mut row_a);
+        for py in rows {
+            self.row(py + 1, &mut row_b);
+            for px in 0..wp - 1 {
+                let code = row_a[px] as u8
+                    | (row_a[px + 1] as u8) << 1
+                    | (row_b[px + 1] as u8) << 2
+                    | (row_b[px] as u8) << 3;
+                if code == 0 || code == 15 {
+                    continue;
+                }
+                let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
+                // Cell edges in counter-clockwise order (numerically): top, right, bottom, left;
+                // edge k runs from corner k to corner k+1.
+                let ids = [h(px, py), v(px + 1, py), h(px, py + 1), v(px, py)];
+                for k in 0..4 {
+                    let exit = c[k] && !c[(k + 1) % 4];
+                    if !exit {
+                        continue;
+                    }
+                    // The entry that opens this exit's material arc: walk back to it. Pairing each
+                    // exit with its own arc separates diagonal material corners in a saddle.
+                    for back in 1..4 {
+                        let j = (k + 4 - back) % 4;
+                        if !c[j] && c[(j + 1) % 4] {
+                            out.push((ids[k] as u32, ids[j] as u32));
+                            break;
+                        }
+                    }
+                }
+            }
+            std::mem::swap(&mut row_a, &mut row_b);
+        }
+        out
+    }
 }
 
 /// Twice the signed shoelace area of a ring (positive = material on the left of the walk).
@@ -205,15 +253,9 @@ pub fn signed_area2(pts: &[[f64; 2]]) -> f64 {
 mod tests {
     use super::*;
 
-    fn grid(rows: &[&str]) -> BitGrid {
-        BitGrid::from_fn(rows[0].len() as u32, rows.len() as u32, |x, y| {
-            rows[y as usize].as_bytes()[x as usize] == b'#'
-        })
-    }
-
     #[test]
     fn a_square_hole_is_one_negative_ring_on_pixel_boundaries() {
-        let g = grid(&["#####", "#...#", "#...#", "#...#", "#####"]);
+        let g = BitGrid::from_rows(&["#####", "#...#", "#...#", "#...#", "#####"]);
         let rings = trace(&g, false);
         assert_eq!(rings.len(), 1);
         let a = signed_area2(&rings[0].pts) / 2.0;
@@ -233,7 +275,7 @@ mod tests {
 
     #[test]
     fn an_island_gives_a_positive_ring_inside_a_negative_one() {
-        let g = grid(&[
+        let g = BitGrid::from_rows(&[
             "#######", "#.....#", "#.###.#", "#.###.#", "#.###.#", "#.....#", "#######",
         ]);
         let rings = trace(&g, false);
@@ -248,7 +290,7 @@ mod tests {
     #[test]
     fn diagonal_material_stays_two_pieces() {
         // Two material pixels touching at a corner inside a cut region.
-        let g = grid(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
+        let g = BitGrid::from_rows(&["######", "#....#", "#.#..#", "#..#.#", "#....#", "######"]);
         let rings = trace(&g, true);
         let pos = rings.iter().filter(|r| signed_area2(&r.pts) > 0.0).count();
         assert_eq!(
@@ -263,8 +305,24 @@ mod tests {
     }
 
     #[test]
+    fn the_band_size_does_not_change_the_rings() {
+        // Rings crossing many band boundaries, saddles included.
+        let g = BitGrid::from_fn(37, 41, |x, y| (x * 7 + y * 3) % 11 < 6 || (x + y) % 5 == 0);
+        let whole = trace_in_bands(&g, true, 1000);
+        for band in [1, 2, 3, 16] {
+            let banded = trace_in_bands(&g, true, band);
+            assert_eq!(banded.len(), whole.len(), "band {band}");
+            for (a, b) in banded.iter().zip(&whole) {
+                assert_eq!(a.pts, b.pts, "band {band}");
+                assert_eq!(a.guards, b.guards, "band {band}");
+                assert_eq!(a.material_px, b.material_px, "band {band}");
+            }
+        }
+    }
+
+    #[test]
     fn cut_touching_the_image_border_closes_along_it() {
-        let g = grid(&["..##", "..##", "####"]);
+        let g = BitGrid::from_rows(&["..##", "..##", "####"]);
         let rings = trace(&g, false);
         assert_eq!(rings.len(), 1);
         let a = signed_area2(&rings[0].pts) / 2.0;
