@@ -146,9 +146,15 @@ pub fn collect(map: &IslandMap) -> Candidates {
         })
         .collect();
 
+    // Every island border pixel becomes one candidate: size the per-candidate arrays once.
+    let total: usize = per_node.iter().flatten().map(Vec::len).sum();
+    let mut moments = Vec::with_capacity(total + 1);
+    moments.push([0.0; 6]);
     let mut out = Candidates {
+        pixels: Vec::with_capacity(total),
+        chain_of: Vec::with_capacity(total),
         id_of_border: vec![Vec::new(); map.nodes.len()],
-        moments: vec![[0.0; 6]],
+        moments,
         ..Default::default()
     };
     for (n, chains) in per_node.into_iter().enumerate() {
