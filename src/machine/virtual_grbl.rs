@@ -918,6 +918,11 @@ mod tests {
         host.write_all(&[RT_SOFT_RESET]).unwrap();
         let s = read_until(&mut host, "to unlock]", Duration::from_secs(5));
         assert!(s.contains("ALARM:3") && s.contains("Grbl 1.1h"), "{s:?}");
+        // The record is a snapshot the simulator publishes after its replies: wait for it.
+        let t0 = std::time::Instant::now();
+        while vg.record().laser_on && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
         assert!(!vg.record().laser_on);
         host.write_all(b"G0X1\n").unwrap();
         assert_eq!(
