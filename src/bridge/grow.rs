@@ -30,8 +30,9 @@ pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
 ///
 /// Width is measured, not counted: on a slanted edge the border pixels form a staircase, so `n`
 /// strips there span only about n/√2 px. The bridge grows until it has at least `width` strips
-/// and both its start edge and its end edge ([`span`]) are `width` px across (strips converging on
-/// a smaller island land closer together than they start), but never past 4 × `width` strips.
+/// and both its start and its end are `width` px across, measured at right angles to the bridge
+/// ([`band_width`]; strips converging on a smaller island land closer together than they start),
+/// but never past 4 × `width` strips.
 pub fn grow(
     c: &Candidates,
     strips: &[Option<Strip>],
