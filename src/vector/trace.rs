@@ -62,6 +62,15 @@ impl Padded<'_> {
 
     /// 3×3 box blur of the bits at a padded centre (outside the image counts as material).
     fn blur(&self, px: usize, py: usize) -> f64 {
+        let (w, h) = (self.bits.width as usize, self.bits.height as usize);
+        if px >= 2 && py >= 2 && px < w && py < h {
+            // Wholly inside the image: index the rows directly.
+            let d = &self.bits.data;
+            let n: u32 = (py - 2..=py)
+                .map(|y| d[y * w + px - 2..=y * w + px].iter().map(|&b| b as u32).sum::<u32>())
+                .sum();
+            return n as f64 / 9.0;
+        }
         let (x, y) = (px as i64 - 1, py as i64 - 1);
         let mut n = 0;
         for dy in -1..=1 {
@@ -133,25 +142,27 @@ fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
         .step_by(band)
         .map(|py0| g.links(py0..(py0 + band).min(hp - 1)))
         .collect();
-    // next[crossing edge] = 1 + the crossing the contour goes to next (0: none). Zeroed memory is
-    // handed out lazily by the allocator, so only the pages near contours are ever touched.
-    let mut next = vec![0u32; 2 * n];
+    // next[crossing] = 1 + the crossing the contour goes to next (0: none), indexed compactly:
+    // every crossing is the exit of exactly one link, so the exits number them all.
+    let index = CrossingIndex::new(2 * n, links.iter().flatten().map(|&(exit, _)| exit));
+    let mut next = vec![0u32; index.len()];
     for &(exit, entry) in links.iter().flatten() {
-        next[exit as usize] = entry + 1;
+        next[index.of(exit)] = entry + 1;
     }
     let mut chains: Vec<Vec<u32>> = Vec::new();
     for &(s, _) in links.iter().flatten() {
-        if next[s as usize] == 0 {
+        if next[index.of(s)] == 0 {
             continue;
         }
         let mut chain = Vec::new();
         let mut e = s;
         loop {
-            let nx = next[e as usize];
+            let k = index.of(e);
+            let nx = next[k];
             if nx == 0 {
                 break;
             }
-            next[e as usize] = 0;
+            next[k] = 0;
             chain.push(e);
             e = nx - 1;
         }
@@ -203,12 +214,25 @@ impl Padded<'_> {
         self.row(rows.start, &mut row_a);
         for py in rows {
             self.row(py + 1, &mut row_b);
-            for px in 0..wp - 1 {
+            let mut px = 0;
+            while px < wp - 1 {
+                // Skip runs of cells whose four corners are all alike (most of a stencil), eight
+                // cells at a time: corners px ..= px + 8 of both rows equal one value.
+                if px + 9 <= wp {
+                    let a = u64::from_ne_bytes(bool_bytes(&row_a[px..px + 8]));
+                    let b = u64::from_ne_bytes(bool_bytes(&row_b[px..px + 8]));
+                    let same = if row_a[px] { 0x0101_0101_0101_0101 } else { 0 };
+                    if a == same && b == same && row_a[px + 8] == row_a[px] && row_b[px + 8] == row_a[px] {
+                        px += 8;
+                        continue;
+                    }
+                }
                 let code = row_a[px] as u8
                     | (row_a[px + 1] as u8) << 1
                     | (row_b[px + 1] as u8) << 2
                     | (row_b[px] as u8) << 3;
                 if code == 0 || code == 15 {
+                    px += 1;
                     continue;
                 }
                 let c = [row_a[px], row_a[px + 1], row_b[px + 1], row_b[px]];
@@ -230,11 +254,59 @@ impl Padded<'_> {
                         }
                     }
                 }
+                px += 1;
             }
             std::mem::swap(&mut row_a, &mut row_b);
         }
         out
     }
+}
+
+/// Dense numbers for a sparse set of edge ids: a bitmap over all ids with a running count per
+/// 64-bit word (rank). Why: a contour touches few of the grid's 2·(w+2)·(h+2) edges, and an array
+/// over all of them costs page faults on every call; this costs one bit per edge.
+struct CrossingIndex {
+    bits: Vec<u64>,
+    rank: Vec<u32>,
+}
+
+impl CrossingIndex {
+    fn new(ids: usize, members: impl Iterator<Item = u32>) -> Self {
+        let mut bits = vec![0u64; ids.div_ceil(64)];
+        for m in members {
+            bits[m as usize / 64] |= 1 << (m % 64);
+        }
+        let mut rank = Vec::with_capacity(bits.len() + 1);
+        let mut total = 0u32;
+        for w in &bits {
+            rank.push(total);
+            total += w.count_ones();
+        }
+        rank.push(total);
+        CrossingIndex { bits, rank }
+    }
+
+    fn len(&self) -> usize {
+        *self.rank.last().unwrap_or(&0) as usize
+    }
+
+    /// The dense number of member `id`.
+    #[inline]
+    fn of(&self, id: u32) -> usize {
+        let (w, b) = (id as usize / 64, id % 64);
+        debug_assert!(self.bits[w] >> b & 1 == 1, "edge {id} is not a crossing");
+        (self.rank[w] + (self.bits[w] & ((1u64 << b) - 1)).count_ones()) as usize
+    }
+}
+
+/// Eight bools as their bytes (a bool is one byte, 0 or 1).
+#[inline]
+fn bool_bytes(b: &[bool]) -> [u8; 8] {
+    let mut out = [0u8; 8];
+    for (o, &v) in out.iter_mut().zip(b) {
+        *o = v as u8;
+    }
+    out
 }
 
 /// Twice the signed shoelace area of a ring (positive = material on the left of the walk).
