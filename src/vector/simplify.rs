@@ -161,14 +161,15 @@ fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> 
         let (pa, pb) = (at(a), at(b));
         let mut best = (0.0, a);
         let mut bad_guard = None;
-        for i in a + 1..b {
-            let d = seg_dist2(at(i), pa, pb);
+        // b <= n, so every i here is below n and indexes the ring directly.
+        for (i, &p) in r.iter().enumerate().take(b).skip(a + 1) {
+            let d = seg_dist2(p, pa, pb);
             if d > best.0 {
                 best = (d, i);
             }
             if bad_guard.is_none() {
                 if let Some(g) = guards {
-                    if !guard_ok(pa, pb, &g[i % n]) {
+                    if !guard_ok(pa, pb, &g[i]) {
                         bad_guard = Some(i);
                     }
                 }
@@ -218,71 +219,103 @@ pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bo
 
 /// Rings that cross or touch themselves or another ring.
 fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
-    let mut entries: Vec<(u64, u32, u32)> = Vec::new();
-    for (ri, r) in rings.iter().enumerate() {
-        let n = r.len();
-        for i in 0..n {
-            let (a, b) = (r[i], r[(i + 1) % n]);
-            let x0 = (a[0].min(b[0]) / cell).floor() as i64;
-            let x1 = (a[0].max(b[0]) / cell).floor() as i64;
-            let y0 = (a[1].min(b[1]) / cell).floor() as i64;
-            let y1 = (a[1].max(b[1]) / cell).floor() as i64;
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let key = (((y + (1 << 30)) as u64) << 32) | (x + (1 << 30)) as u64;
-                    entries.push((key, ri as u32, i as u32));
-                }
-            }
-        }
-    }
-    entries.sort_unstable();
-    let mut bad = vec![false; rings.len()];
+    // (cell key, ring, segment) for every grid cell a segment's bounding box covers.
+    let mut entries: Vec<(u64, u32, u32)> = rings
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(ri, r)| {
+            let n = r.len();
+            (0..n).flat_map(move |i| {
+                let (a, b) = (r[i], r[(i + 1) % n]);
+                let x0 = (a[0].min(b[0]) / cell).floor() as i64;
+                let x1 = (a[0].max(b[0]) / cell).floor() as i64;
+                let y0 = (a[1].min(b[1]) / cell).floor() as i64;
+                let y1 = (a[1].max(b[1]) / cell).floor() as i64;
+                (y0..=y1).flat_map(move |y| {
+                    (x0..=x1).map(move |x| {
+                        let key = (((y + (1 << 30)) as u64) << 32) | (x + (1 << 30)) as u64;
+                        (key, ri as u32, i as u32)
+                    })
+                })
+            })
+        })
+        .collect();
+    entries.par_sort_unstable();
+    // The runs of one cell, each checked pair by pair, in parallel.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
     let mut s = 0;
     while s < entries.len() {
         let mut e = s + 1;
         while e < entries.len() && entries[e].0 == entries[s].0 {
             e += 1;
         }
-        for i in s..e {
-            for j in i + 1..e {
-                let (_, ra, ia) = entries[i];
-                let (_, rb, ib) = entries[j];
-                let (ra, rb, ia, ib) = (ra as usize, rb as usize, ia as usize, ib as usize);
-                let r1 = &rings[ra];
-                let r2 = &rings[rb];
-                let (a, b) = (r1[ia], r1[(ia + 1) % r1.len()]);
-                let (p, q) = (r2[ib], r2[(ib + 1) % r2.len()]);
-                if ra == rb {
-                    let n = r1.len();
-                    if ia == ib {
-                        continue;
-                    }
-                    let adjacent = (ia + 1) % n == ib || (ib + 1) % n == ia;
-                    if adjacent {
-                        // Neighbouring segments share one end; they conflict only if they fold back.
-                        let (shared, x, y) = if (ia + 1) % n == ib {
-                            (b, a, q)
-                        } else {
-                            (a, b, p)
-                        };
-                        let o = RobustKernel::orient2d(c(x), c(shared), c(y));
-                        let back = (x[0] - shared[0]) * (y[0] - shared[0])
-                            + (x[1] - shared[1]) * (y[1] - shared[1]);
-                        if o == Orientation::Collinear && back > 0.0 {
-                            bad[ra] = true;
-                        }
-                        continue;
-                    }
-                }
-                if segments_touch(a, b, p, q) {
-                    bad[ra] = true;
-                    bad[rb] = true;
-                }
-            }
+        if e - s > 1 {
+            runs.push((s, e));
         }
         s = e;
     }
+    let bad_rings: Vec<u32> = runs
+        .par_iter()
+        .flat_map_iter(|&(s, e)| {
+            let mut bad = Vec::new();
+            let cell = &entries[s..e];
+            for (k, &(_, ra, ia)) in cell.iter().enumerate() {
+                for &(_, rb, ib) in &cell[k + 1..] {
+                    if let Some(pair) = conflict(rings, (ra, ia), (rb, ib)) {
+                        bad.extend_from_slice(&pair);
+                    }
+                }
+            }
+            bad
+        })
+        .collect();
+    let mut bad = vec![false; rings.len()];
+    for r in bad_rings {
+        bad[r as usize] = true;
+    }
     (0..rings.len()).filter(|&i| bad[i]).collect()
+}
+
+/// Whether segment `ia` of ring `ra` and segment `ib` of ring `rb` conflict (cross, touch, or
+/// fold back on each other), and which rings are to blame.
+fn conflict(
+    rings: &[Vec<[f64; 2]>],
+    (ra, ia): (u32, u32),
+    (rb, ib): (u32, u32),
+) -> Option<[u32; 2]> {
+    let (ra_, rb_, ia, ib) = (ra as usize, rb as usize, ia as usize, ib as usize);
+    let r1 = &rings[ra_];
+    let r2 = &rings[rb_];
+    let (a, b) = (r1[ia], r1[(ia + 1) % r1.len()]);
+    let (p, q) = (r2[ib], r2[(ib + 1) % r2.len()]);
+    if ra == rb {
+        let n = r1.len();
+        if ia == ib {
+            return None;
+        }
+        let adjacent = (ia + 1) % n == ib || (ib + 1) % n == ia;
+        if adjacent {
+            // Neighbouring segments share one end; they conflict only if they fold back.
+            let (shared, x, y) = if (ia + 1) % n == ib {
+                (b, a, q)
+            } else {
+                (a, b, p)
+            };
+            let o = RobustKernel::orient2d(c(x), c(shared), c(y));
+            let back =
+                (x[0] - shared[0]) * (y[0] - shared[0]) + (x[1] - shared[1]) * (y[1] - shared[1]);
+            return (o == Orientation::Collinear && back > 0.0).then_some([ra, ra]);
+        }
+    }
+    // Disjoint bounding boxes cannot touch: the cheap test first.
+    if a[0].max(b[0]) < p[0].min(q[0])
+        || p[0].max(q[0]) < a[0].min(b[0])
+        || a[1].max(b[1]) < p[1].min(q[1])
+        || p[1].max(q[1]) < a[1].min(b[1])
+    {
+        return None;
+    }
+    segments_touch(a, b, p, q).then_some([ra, rb])
 }
 
 #[cfg(test)]

@@ -67,7 +67,12 @@ impl Padded<'_> {
             // Wholly inside the image: index the rows directly.
             let d = &self.bits.data;
             let n: u32 = (py - 2..=py)
-                .map(|y| d[y * w + px - 2..=y * w + px].iter().map(|&b| b as u32).sum::<u32>())
+                .map(|y| {
+                    d[y * w + px - 2..=y * w + px]
+                        .iter()
+                        .map(|&b| b as u32)
+                        .sum::<u32>()
+                })
                 .sum();
             return n as f64 / 9.0;
         }
@@ -222,7 +227,11 @@ impl Padded<'_> {
                     let a = u64::from_ne_bytes(bool_bytes(&row_a[px..px + 8]));
                     let b = u64::from_ne_bytes(bool_bytes(&row_b[px..px + 8]));
                     let same = if row_a[px] { 0x0101_0101_0101_0101 } else { 0 };
-                    if a == same && b == same && row_a[px + 8] == row_a[px] && row_b[px + 8] == row_a[px] {
+                    if a == same
+                        && b == same
+                        && row_a[px + 8] == row_a[px]
+                        && row_b[px + 8] == row_a[px]
+                    {
                         px += 8;
                         continue;
                     }
