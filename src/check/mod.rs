@@ -5,7 +5,8 @@
 //! ## How widths are measured
 //! A constrained Delaunay triangulation (spade) of every ring of the sheet (outline, holes, island
 //! outlines) splits the sheet into triangles that lie wholly in material or wholly in a cut (told
-//! apart by the parity of constraint edges crossed from outside). Inside a region, the *chords* are
+//! apart by which side of a ring they lie on: material is left of every ring). On a large sheet it
+//! is built in parallel slabs and checked to tile the sheet (module `cdt`). Inside a region, the *chords* are
 //! the triangle edges that are not boundary edges (vertex to vertex), and the perpendiculars from a
 //! vertex to the boundary edge opposite it in its triangle when the foot falls inside that edge.
 //! A chord is a *neck* when its ends lie on two different rings (a web between two holes, or
@@ -34,7 +35,11 @@
 use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use spade::{CdtEdge, ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
+use spade::Point2;
+
+mod cdt;
+
+use cdt::{Method, RingSizes, Tri, V};
 
 use crate::islands;
 use crate::profile::Material;
@@ -137,20 +142,6 @@ pub struct CheckReport {
 impl CheckReport {
     pub fn passed(&self) -> bool {
         self.violations.is_empty()
-    }
-}
-
-#[derive(Clone, Copy, Debug)]
-struct V {
-    p: Point2<f64>,
-    ring: u32,
-    idx: u32,
-}
-
-impl HasPosition for V {
-    type Scalar = f64;
-    fn position(&self) -> Point2<f64> {
-        self.p
     }
 }
 
@@ -386,8 +377,6 @@ impl Default for Found {
     }
 }
 
-type Cdt = ConstrainedDelaunayTriangulation<V>;
-
 impl Search<'_> {
     /// Measure a chord and record it when it is a neck.
     fn consider(
@@ -439,36 +428,22 @@ impl Search<'_> {
         }
     }
 
-    /// The chords of one face of the sheet (see the module doc).
-    fn face(
-        &self,
-        cdt: &Cdt,
-        f: spade::handles::FaceHandle<'_, spade::handles::InnerTag, V, (), CdtEdge<()>, ()>,
-        material_side: bool,
-        out: &mut Found,
-    ) {
+    /// The chords of one triangle of the sheet (see the module doc).
+    fn face(&self, sizes: &RingSizes, t: &Tri, out: &mut Found) {
         let rings = self.rings;
-        for e in f.adjacent_edges() {
-            let (u, v) = (e.from(), e.to());
-            let (du, dv) = (*u.data(), *v.data());
-            if cdt.is_constraint_edge(e.fix().as_undirected()) {
+        let material_side = t.material;
+        for k in 0..3 {
+            let (du, dv, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
+            if let Some((i, _)) = sizes.edge(du, dv) {
                 // The vertex opposite a boundary edge, straight across to it.
-                let n = rings.pts[du.ring as usize].len() as u32;
-                let i = if dv.idx == (du.idx + 1) % n {
-                    du.idx
-                } else {
-                    dv.idx
-                };
-                if let Some(w) = e.opposite_vertex() {
-                    if let Some((a, b, pa, pb, d)) =
-                        perpendicular(rings, *w.data(), du.ring, i, material_side)
-                    {
-                        self.consider(out, material_side, (a, b), (pa, pb), d);
-                    }
+                if let Some((a, b, pa, pb, d)) = perpendicular(rings, w, du.ring, i, material_side)
+                {
+                    self.consider(out, material_side, (a, b), (pa, pb), d);
                 }
-            } else if u.fix().index() < v.fix().index() {
-                // A chord between two vertices, and from each end straight across to the boundary
-                // edges at the other end (where two long sides run parallel, these are the width).
+            } else if du.gid < dv.gid {
+                // A chord between two vertices (once: the triangle across it sees it reversed),
+                // and from each end straight across to the boundary edges at the other end
+                // (where two long sides run parallel, these are the width).
                 let (pu, pv) = ([du.p.x, du.p.y], [dv.p.x, dv.p.y]);
                 let a = End {
                     ring: du.ring,
@@ -501,67 +476,63 @@ pub fn check(
     material: &Material,
     bridges_known: bool,
 ) -> Result<CheckReport, CheckError> {
-    check_in_chunks(geom, material, bridges_known, None)
+    check_tuned(geom, material, bridges_known, Tuning::default()).map(|(r, _)| r)
 }
 
-/// [`check`], searching the faces in chunks of `chunk` faces (None: a few chunks per thread); any
-/// chunk size gives the same report.
-fn check_in_chunks(
+/// Below this many vertices the sheet is triangulated at once (slabs would not pay).
+const SLAB_MIN_VERTICES: usize = 20_000;
+
+/// How the work is split; any choice gives a valid report (and tests check that they agree).
+#[derive(Clone, Copy, Debug, Default)]
+struct Tuning {
+    /// Triangles per parallel chunk of the neck search (None: a few chunks per thread).
+    chunk: Option<usize>,
+    /// Slabs to triangulate in parallel (None: one per thread on a large sheet).
+    slabs: Option<usize>,
+}
+
+fn check_tuned(
     geom: &CutGeometry,
     material: &Material,
     bridges_known: bool,
-    chunk: Option<usize>,
-) -> Result<CheckReport, CheckError> {
+    tuning: Tuning,
+) -> Result<(CheckReport, Method), CheckError> {
     let spacing = material.min_bridge_mm.max(material.min_feature_mm);
     let rings = rings_of(&geom.material, spacing);
     let mut verts = Vec::new();
-    let mut edges = Vec::new();
+    let mut sizes = RingSizes {
+        len: Vec::with_capacity(rings.pts.len()),
+        start: Vec::with_capacity(rings.pts.len()),
+        outline: 0,
+    };
+    let mut leftmost = [f64::INFINITY; 2];
     for (ri, r) in rings.pts.iter().enumerate() {
-        let start = verts.len();
+        sizes.start.push(verts.len() as u32);
+        sizes.len.push(r.len() as u32);
         for (i, p) in r.iter().enumerate() {
+            if (p[0], p[1]) < (leftmost[0], leftmost[1]) {
+                leftmost = *p;
+                sizes.outline = ri as u32;
+            }
             verts.push(V {
                 p: Point2::new(p[0], p[1]),
                 ring: ri as u32,
                 idx: i as u32,
+                gid: verts.len() as u32,
             });
         }
-        for i in 0..r.len() {
-            edges.push([start + i, start + (i + 1) % r.len()]);
-        }
     }
-    let cdt = Cdt::try_bulk_load_cdt(verts, edges, |_| {})
-        .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
-
-    // Material or cut: parity of constraint edges crossed from outside the sheet.
-    let nf = cdt.num_all_faces();
-    let mut depth = vec![u32::MAX; nf];
-    let mut queue = std::collections::VecDeque::new();
-    for f in cdt.inner_faces() {
-        for e in f.adjacent_edges() {
-            if e.rev().face().is_outer() {
-                let c = cdt.is_constraint_edge(e.fix().as_undirected());
-                let i = f.fix().index();
-                if depth[i] == u32::MAX {
-                    depth[i] = u32::from(c);
-                    queue.push_back(f.fix());
-                }
-            }
-        }
-    }
-    while let Some(ff) = queue.pop_front() {
-        let f = cdt.face(ff);
-        let d = depth[ff.index()];
-        for e in f.adjacent_edges() {
-            if let Some(g) = e.rev().face().as_inner() {
-                let gi = g.fix().index();
-                if depth[gi] == u32::MAX {
-                    let c = cdt.is_constraint_edge(e.fix().as_undirected());
-                    depth[gi] = d + u32::from(c);
-                    queue.push_back(g.fix());
-                }
-            }
-        }
-    }
+    let threads = rayon::current_num_threads();
+    let slabs = tuning.slabs.unwrap_or(if verts.len() >= SLAB_MIN_VERTICES {
+        threads.clamp(1, 8)
+    } else {
+        1
+    });
+    // Reach of a slab into its neighbours: wide enough for the empty circles of a sheet's open
+    // areas (its margin, blank parts of the picture); a circle wider than that sends the whole
+    // sheet to one triangulation, which is slower but the same check.
+    let guard = (0.05 * geom.outline.width()).max(8.0 * spacing);
+    let (tris, method) = cdt::triangulate(&sizes, &verts, slabs, guard)?;
 
     let bridge_index = BridgeIndex::new(&geom.bridges);
     let ctx = Search {
@@ -572,37 +543,21 @@ fn check_in_chunks(
         bridge_index: &bridge_index,
         max_required: spacing,
     };
-    // The faces inside the sheet (material or cut), in the triangulation's order.
-    let faces: Vec<_> = cdt
-        .inner_faces()
-        .filter(|f| {
-            let d = depth[f.fix().index()];
-            d != u32::MAX && d != 0
-        })
-        .map(|f| f.fix())
-        .collect();
-    let triangles = faces.len();
-    // Each face's chords are measured independently of the others, so the faces are searched in
-    // parallel chunks. The result is the same as one sequential pass: the narrowest per kind is a
-    // minimum, the early skip in `consider` only drops chords that could change neither that
-    // minimum nor the violations, and the chunks' candidates are concatenated in face order (the
-    // stable sort in `cluster` then sees them in the sequential order).
-    let chunk = chunk
-        .unwrap_or_else(|| {
-            faces
-                .len()
-                .div_ceil(4 * rayon::current_num_threads())
-                .max(256)
-        })
+    let triangles = tris.len();
+    // Each triangle's chords are measured independently of the others, so the triangles are
+    // searched in parallel chunks. The narrowest per kind is a minimum, the early skip in
+    // `consider` only drops chords that could change neither that minimum nor the violations,
+    // and `cluster` orders the candidates completely: the report does not depend on the order.
+    let chunk = tuning
+        .chunk
+        .unwrap_or_else(|| triangles.div_ceil(4 * threads).max(256))
         .max(1);
-    let found: Vec<Found> = faces
+    let found: Vec<Found> = tris
         .par_chunks(chunk)
         .map(|part| {
             let mut out = Found::default();
-            for &ff in part {
-                let f = cdt.face(ff);
-                let material_side = depth[ff.index()] % 2 == 1;
-                ctx.face(&cdt, f, material_side, &mut out);
+            for t in part {
+                ctx.face(&sizes, t, &mut out);
             }
             out
         })
@@ -646,7 +601,7 @@ fn check_in_chunks(
         );
     }
     let fin = |v: f64| v.is_finite().then_some(v);
-    Ok(CheckReport {
+    let report = CheckReport {
         material: material.name.clone(),
         min_bridge_mm: material.min_bridge_mm,
         min_feature_mm: material.min_feature_mm,
@@ -656,12 +611,20 @@ fn check_in_chunks(
         narrowest_hole_mm: fin(narrowest[2]),
         violations,
         triangles,
-    })
+    };
+    Ok((report, method))
 }
 
 /// Many chords cross one thin neck: report the narrowest per place (one per `2 × required` radius).
 fn cluster(mut cands: Vec<Candidate>, material: &Material) -> Vec<Violation> {
-    cands.sort_by(|a, b| a.d.total_cmp(&b.d));
+    // A total order (width, then place, then kind), so the result does not depend on the order
+    // the triangles were searched in.
+    cands.sort_by(|a, b| {
+        a.d.total_cmp(&b.d)
+            .then(a.mid[0].total_cmp(&b.mid[0]))
+            .then(a.mid[1].total_cmp(&b.mid[1]))
+            .then((a.kind as u8).cmp(&(b.kind as u8)))
+    });
     let mut out: Vec<Violation> = Vec::new();
     for c in cands {
         let req = match c.kind {
@@ -815,12 +778,71 @@ mod tests {
         });
         let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
         let material = Material::default();
-        let whole = check_in_chunks(&geom, &material, false, Some(usize::MAX)).unwrap();
+        let tuned = |chunk| Tuning {
+            chunk: Some(chunk),
+            slabs: Some(1),
+        };
+        let (whole, _) = check_tuned(&geom, &material, false, tuned(usize::MAX)).unwrap();
         assert!(!whole.violations.is_empty() && whole.triangles > 100);
         for chunk in [1, 7, 64] {
-            let parts = check_in_chunks(&geom, &material, false, Some(chunk)).unwrap();
+            let (parts, _) = check_tuned(&geom, &material, false, tuned(chunk)).unwrap();
             assert_eq!(parts, whole, "chunk {chunk}");
         }
+    }
+
+    /// Holes and islands of many widths, round and slanted, over a whole sheet.
+    fn busy_sheet(w: u32, h: u32) -> CutGeometry {
+        use crate::vector::{vectorize, VectorConfig};
+        let g = BitGrid::from_fn(w, h, |x, y| {
+            let (cx, cy) = (x % 23, y % 19);
+            let r2 = (cx as i32 - 11).pow(2) + (cy as i32 - 9).pow(2);
+            let slant = (x + 2 * y) % 37 < 2 + (x / 40) % 3;
+            !(r2 < 40 + ((x / 23 + y / 19) % 5) as i32 * 12) && !slant || r2 < 6
+        });
+        vectorize(&g, &[], &VectorConfig::default()).unwrap().0
+    }
+
+    #[test]
+    fn slabs_tile_the_sheet_and_give_the_same_report_as_one_triangulation() {
+        let geom = busy_sheet(420, 260);
+        let material = Material::default();
+        let one = |slabs| Tuning {
+            chunk: None,
+            slabs: Some(slabs),
+        };
+        let (whole, m) = check_tuned(&geom, &material, false, one(1)).unwrap();
+        assert_eq!(m, Method::Whole);
+        assert!(
+            !whole.violations.is_empty() && whole.triangles > 5_000,
+            "{}",
+            whole.triangles
+        );
+        for slabs in [2, 3, 5] {
+            let (r, m) = check_tuned(&geom, &material, false, one(slabs)).unwrap();
+            assert_eq!(m, Method::Slabs(slabs));
+            assert_eq!(r, whole, "{slabs} slabs");
+        }
+    }
+
+    #[test]
+    fn an_open_sheet_too_wide_for_its_slabs_is_triangulated_at_once() {
+        use crate::vector::{vectorize, VectorConfig};
+        // 60 × 60 mm of material with one small hole: the empty circles are far wider than the
+        // slabs' reach into each other.
+        let g = BitGrid::from_fn(600, 600, |x, y| {
+            !((20..40).contains(&x) && (20..40).contains(&y))
+        });
+        let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
+        let material = Material::default();
+        let tuned = |slabs| Tuning {
+            chunk: None,
+            slabs: Some(slabs),
+        };
+        let (whole, _) = check_tuned(&geom, &material, false, tuned(1)).unwrap();
+        let (r, m) = check_tuned(&geom, &material, false, tuned(3)).unwrap();
+        assert_eq!(m, Method::WholeAfterSlabs);
+        assert_eq!(r, whole);
+        assert!(r.passed(), "{:?}", r.violations);
     }
 
     #[test]

@@ -1,0 +1,346 @@
+//! The sheet's constrained Delaunay triangulation (spade) as plain triangles, each marked material
+//! or cut, built in parallel vertical slabs when the sheet is large.
+//!
+//! ## Why slabs, and why they give a true CDT
+//! spade triangulates on one thread, and at a few ten thousand vertices the triangulation is most
+//! of the check's time. So the vertices are cut into `k` vertical slabs by x; slab `s` owns the
+//! triangles whose circumcentre lies in `[x_s, x_{s+1})`, and it triangulates every vertex within
+//! a guard band `g` either side (with every ring edge between two such vertices as a constraint).
+//! A slab keeps one of its triangles only when the triangle's circumcircle lies at least one ring
+//! edge's length inside its band. Then every vertex inside that circle, and every ring edge that
+//! crosses it, is in the slab, and since more constraints only hide vertices, the triangle's
+//! circle holds no vertex visible from it in the whole sheet either, and no ring edge crosses it:
+//! it is a triangle of a CDT of the whole sheet.
+//!
+//! Kept triangles tile the sheet exactly when (a) every edge a slab leaves unmatched (its other
+//! side was not kept by the same slab) is matched by the reversed edge from another slab, once,
+//! apart from the sheet's outline, and (b) there are `2V − h − 2` of them (V vertices, h of them
+//! on the outline, which is the convex hull). Both are checked; if either fails (a triangle too
+//! big for its band, as in a wide empty area, or a degenerate tie read differently by two slabs)
+//! the whole sheet is triangulated at once instead. Cocircular vertices (frequent in pixel
+//! geometry) have more than one CDT; every triangle kept is one of a valid CDT, and the check
+//! measures chords of that one.
+
+use rayon::prelude::*;
+use spade::{ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
+
+use super::CheckError;
+
+/// A vertex of the sheet: where, which ring, its index on the ring, and its index over all rings.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct V {
+    pub p: Point2<f64>,
+    pub ring: u32,
+    pub idx: u32,
+    pub gid: u32,
+}
+
+impl HasPosition for V {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.p
+    }
+}
+
+/// A triangle inside the sheet: corners counter-clockwise (numerically), and whether it lies in
+/// material (else in a cut).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tri {
+    pub v: [V; 3],
+    pub material: bool,
+}
+
+/// How the triangles were made (for tests and the curious).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Method {
+    Whole,
+    Slabs(usize),
+    /// Slabs were tried and did not tile the sheet.
+    WholeAfterSlabs,
+}
+
+/// The rings, as the triangulation needs them: each ring's vertex count and first global index.
+pub(super) struct RingSizes {
+    pub len: Vec<u32>,
+    pub start: Vec<u32>,
+    /// The ring of the sheet's outline (the convex hull of everything).
+    pub outline: u32,
+}
+
+impl RingSizes {
+    /// If `a → b` is an edge of a ring: the index of its first vertex along the ring, and
+    /// whether `a → b` runs along the ring's direction.
+    #[inline]
+    pub fn edge(&self, a: V, b: V) -> Option<(u32, bool)> {
+        if a.ring != b.ring {
+            return None;
+        }
+        let n = self.len[a.ring as usize];
+        if b.idx == (a.idx + 1) % n {
+            Some((a.idx, true))
+        } else if a.idx == (b.idx + 1) % n {
+            Some((b.idx, false))
+        } else {
+            None
+        }
+    }
+
+    fn next_gid(&self, v: V) -> u32 {
+        self.start[v.ring as usize] + (v.idx + 1) % self.len[v.ring as usize]
+    }
+}
+
+/// Triangulate the sheet whose vertices are `verts` (in global index order) and whose ring edges
+/// are the constraints. `slabs`: how many slabs to try (1: the whole sheet at once); `guard`:
+/// how far each slab reaches into its neighbours, in the vertices' unit.
+pub(super) fn triangulate(
+    sizes: &RingSizes,
+    verts: &[V],
+    slabs: usize,
+    guard: f64,
+) -> Result<(Vec<Tri>, Method), CheckError> {
+    if slabs > 1 && verts.len() >= 3 * slabs {
+        if let Some(tris) = in_slabs(sizes, verts, slabs, guard)? {
+            return Ok((tris, Method::Slabs(slabs)));
+        }
+        let part = triangulate_part(sizes, verts, None)?;
+        return Ok((part.tris, Method::WholeAfterSlabs));
+    }
+    Ok((triangulate_part(sizes, verts, None)?.tris, Method::Whole))
+}
+
+/// Which triangles a slab keeps: circumcentre x in `[x0, x1)`, circle inside `(lo, hi)`.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    x0: f64,
+    x1: f64,
+    lo: f64,
+    hi: f64,
+}
+
+struct Part {
+    tris: Vec<Tri>,
+    /// Edges (global indices, from → to) of kept triangles whose other side this part did not
+    /// keep, the outline excepted.
+    open: Vec<(u32, u32)>,
+    /// Every kept triangle got its side (material or cut).
+    labelled: bool,
+}
+
+fn in_slabs(
+    sizes: &RingSizes,
+    verts: &[V],
+    slabs: usize,
+    guard: f64,
+) -> Result<Option<Vec<Tri>>, CheckError> {
+    let mut xs: Vec<f64> = verts.iter().map(|v| v.p.x).collect();
+    xs.sort_unstable_by(f64::total_cmp);
+    // The longest ring edge: a ring edge crossing a circle has both ends within this of it.
+    let reach = verts
+        .iter()
+        .map(|&v| {
+            let w = verts[sizes.next_gid(v) as usize];
+            (v.p.x - w.p.x).hypot(v.p.y - w.p.y)
+        })
+        .fold(0.0f64, f64::max);
+    let margin = reach + 1e-9 * (xs[xs.len() - 1] - xs[0]).abs().max(1.0);
+    let cut = |s: usize| xs[s * xs.len() / slabs];
+    let windows: Vec<Window> = (0..slabs)
+        .map(|s| {
+            let x0 = if s == 0 { f64::NEG_INFINITY } else { cut(s) };
+            let x1 = if s + 1 == slabs {
+                f64::INFINITY
+            } else {
+                cut(s + 1)
+            };
+            Window {
+                x0,
+                x1,
+                lo: x0 - guard,
+                hi: x1 + guard,
+            }
+        })
+        .collect();
+    let parts: Vec<Part> = windows
+        .par_iter()
+        .map(|w| {
+            let mine: Vec<V> = verts
+                .iter()
+                .filter(|v| v.p.x >= w.lo && v.p.x <= w.hi)
+                .copied()
+                .collect();
+            let keep = Window {
+                lo: w.lo + margin,
+                hi: w.hi - margin,
+                ..*w
+            };
+            triangulate_part(sizes, &mine, Some(keep))
+        })
+        .collect::<Result<_, _>>()?;
+    // (b) the count: V vertices, h on the hull (the outline ring) give 2V − h − 2 triangles.
+    let h = sizes.len[sizes.outline as usize] as usize;
+    let expected = (2 * verts.len()).checked_sub(h + 2);
+    let kept: usize = parts.iter().map(|p| p.tris.len()).sum();
+    if Some(kept) != expected || parts.iter().any(|p| !p.labelled) {
+        return Ok(None);
+    }
+    // (a) the seams: each open edge once each way.
+    let mut open: Vec<(u32, u32, bool)> = parts
+        .iter()
+        .flat_map(|p| p.open.iter())
+        .map(|&(a, b)| (a.min(b), a.max(b), a < b))
+        .collect();
+    open.sort_unstable();
+    if !open.len().is_multiple_of(2)
+        || open
+            .chunks_exact(2)
+            .any(|c| (c[0].0, c[0].1) != (c[1].0, c[1].1) || c[0].2 == c[1].2)
+    {
+        return Ok(None);
+    }
+    Ok(Some(parts.into_iter().flat_map(|p| p.tris).collect()))
+}
+
+/// Circumcentre x and radius of a triangle.
+fn circle(a: Point2<f64>, b: Point2<f64>, c: Point2<f64>) -> (f64, f64) {
+    let (bx, by) = (b.x - a.x, b.y - a.y);
+    let (cx, cy) = (c.x - a.x, c.y - a.y);
+    let d = 2.0 * (bx * cy - by * cx);
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let ux = (cy * b2 - by * c2) / d;
+    let uy = (bx * c2 - cx * b2) / d;
+    (a.x + ux, ux.hypot(uy))
+}
+
+const UNKEPT: u8 = 0;
+const MATERIAL: u8 = 1;
+const CUT: u8 = 2;
+const PENDING: u8 = 3;
+
+/// Triangulate `verts` with the ring edges among them as constraints; keep the triangles the
+/// window allows (all when none), each marked material or cut: a triangle on a ring edge lies
+/// left of the ring's direction (material) or right (cut); the others take the side of a kept
+/// neighbour across an edge that is not a ring edge.
+fn triangulate_part(
+    sizes: &RingSizes,
+    verts: &[V],
+    window: Option<Window>,
+) -> Result<Part, CheckError> {
+    // Local indices by global index (verts are in global order, so the last is the largest).
+    let dense = window.is_none();
+    let mut local = Vec::new();
+    if !dense {
+        local = vec![u32::MAX; verts.last().map_or(0, |v| v.gid as usize + 1)];
+        for (i, v) in verts.iter().enumerate() {
+            local[v.gid as usize] = i as u32;
+        }
+    }
+    let mut edges = Vec::with_capacity(verts.len());
+    for (i, &v) in verts.iter().enumerate() {
+        let next = sizes.next_gid(v) as usize;
+        let j = if dense {
+            Some(next)
+        } else {
+            local
+                .get(next)
+                .filter(|&&j| j != u32::MAX)
+                .map(|&j| j as usize)
+        };
+        if let Some(j) = j {
+            edges.push([i, j]);
+        }
+    }
+    let cdt =
+        ConstrainedDelaunayTriangulation::<V>::try_bulk_load_cdt(verts.to_vec(), edges, |_| {})
+            .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
+
+    // One pass over spade's faces into plain arrays: each face's corners, and the face across
+    // each edge k (corner k to corner k + 1) as spade numbers faces (0: outside). Walking spade's
+    // handles face by face costs a cache miss per step; everything after walks these arrays.
+    let n = cdt.num_inner_faces();
+    let mut corner: Vec<[V; 3]> = Vec::with_capacity(n);
+    let mut across: Vec<[u32; 3]> = Vec::with_capacity(n);
+    // spade keeps the input order of the vertices (when none repeat, as rings never touch), so
+    // a corner is read from `verts` by index: one cache miss fewer per corner than its data.
+    let by_index = cdt.num_vertices() == verts.len();
+    for f in cdt.inner_faces() {
+        // spade numbers its inner faces 1.., in this order.
+        debug_assert_eq!(f.fix().index(), corner.len() + 1);
+        let es = f.adjacent_edges();
+        corner.push(es.map(|e| {
+            let v = e.from();
+            if by_index {
+                verts[v.fix().index()]
+            } else {
+                *v.data()
+            }
+        }));
+        across.push(es.map(|e| e.rev().face().fix().index() as u32));
+    }
+    drop(cdt);
+
+    let mut label = vec![UNKEPT; n];
+    let mut queue = Vec::new();
+    for (i, c) in corner.iter().enumerate() {
+        if let Some(w) = window {
+            let (cx, r) = circle(c[0].p, c[1].p, c[2].p);
+            if !(cx >= w.x0 && cx < w.x1 && cx - r > w.lo && cx + r < w.hi) {
+                continue;
+            }
+        }
+        label[i] = PENDING;
+        for k in 0..3 {
+            if let Some((_, forward)) = sizes.edge(c[k], c[(k + 1) % 3]) {
+                label[i] = if forward { MATERIAL } else { CUT };
+                queue.push(i);
+                break;
+            }
+        }
+    }
+    while let Some(i) = queue.pop() {
+        let c = &corner[i];
+        for k in 0..3 {
+            let g = across[i][k] as usize;
+            if g == 0 || sizes.edge(c[k], c[(k + 1) % 3]).is_some() {
+                continue;
+            }
+            if label[g - 1] == PENDING {
+                label[g - 1] = label[i];
+                queue.push(g - 1);
+            }
+        }
+    }
+    let mut tris = Vec::with_capacity(n);
+    let mut open = Vec::new();
+    let mut labelled = true;
+    for (i, c) in corner.iter().enumerate() {
+        match label[i] {
+            UNKEPT => continue,
+            PENDING => {
+                labelled = false;
+                continue;
+            }
+            _ => {}
+        }
+        tris.push(Tri {
+            v: *c,
+            material: label[i] == MATERIAL,
+        });
+        if window.is_some() {
+            for k in 0..3 {
+                let (u, v) = (c[k], c[(k + 1) % 3]);
+                let g = across[i][k] as usize;
+                let other_kept = g != 0 && label[g - 1] != UNKEPT;
+                let on_outline = u.ring == sizes.outline && sizes.edge(u, v).is_some();
+                if !other_kept && !on_outline {
+                    open.push((u.gid, v.gid));
+                }
+            }
+        }
+    }
+    Ok(Part {
+        tris,
+        open,
+        labelled,
+    })
+}
