@@ -117,7 +117,7 @@ fn breakdown(bits: &BitGrid, bridges: &[Vec<[f64; 2]>], vcfg: &VectorConfig, mat
         let guards: Vec<Vec<trace::Guard>> = rings.iter().map(|r| r.guards.clone()).collect();
         simplify::simplify_rings(&mut pts, Some(&guards), 0.5);
     });
-    t("union bridges (Clipper)", &mut || {
+    t("union bridges (Clipper, by region)", &mut || {
         union::union_bridges(geom.material.clone(), &geom.bridges);
     });
     t("cuts_of", &mut || {

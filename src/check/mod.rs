@@ -572,16 +572,11 @@ fn check_tuned(
     }
 
     let mut violations = cluster(cands, material);
-    // Pieces: the sheet is the largest; every other material polygon floats.
+    // Pieces: every material polygon but the sheet floats.
     let pieces = geom.material.0.len();
-    let mut order: Vec<usize> = (0..pieces).collect();
-    use geo::Area;
-    order.sort_by(|&a, &b| {
-        geom.material.0[b]
-            .unsigned_area()
-            .total_cmp(&geom.material.0[a].unsigned_area())
-    });
-    for &i in order.iter().skip(1) {
+    let sheet = crate::vector::union::sheet_of(&geom.material);
+    let order: Vec<usize> = (0..pieces).filter(|&i| Some(i) != sheet).collect();
+    for &i in &order {
         let c = geom.material.0[i]
             .exterior()
             .0

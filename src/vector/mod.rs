@@ -140,8 +140,7 @@ pub fn vectorize_with<R: Send>(
         .filter(|b| b.len() >= 3)
         .map(|b| to_polygon(b, mm).orient(Direction::Default))
         .collect();
-    let material = union::union_bridges(material, &bridges);
-    let design_cuts = union::cuts_of(&material);
+    let (material, design_cuts) = union::union_bridges(material, &bridges);
     let mut geom = CutGeometry {
         width_mm: w,
         height_mm: h,
@@ -255,7 +254,7 @@ fn inside(ring: &[[f64; 2]], p: [f64; 2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use geo::Area;
+    use geo::{Area, BoundingRect};
 
     /// Every pixel centre lies in a design cut region exactly when the pixel is cut.
     fn samples_back_to(geo: &CutGeometry, g: &BitGrid, mm: f64) {
@@ -316,6 +315,59 @@ mod tests {
         });
         let (geo, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
         assert_eq!(geo.material.0.len(), 2);
+        assert_eq!(geo.design_cuts.0.len(), 1);
+        assert_eq!(geo.design_cuts.0[0].interiors().len(), 1);
+    }
+
+    #[test]
+    fn bridges_joining_two_islands_only_make_one_floating_piece_around_a_new_hole() {
+        // One cut square with two islands; two bridges join the islands to each other (not to
+        // the sheet) and close off the cut between them.
+        let g = BitGrid::from_fn(50, 50, |x, y| {
+            let cut = (5..45).contains(&x) && (5..45).contains(&y);
+            let a = (10..18).contains(&x) && (12..38).contains(&y);
+            let b = (30..38).contains(&x) && (12..38).contains(&y);
+            !cut || a || b
+        });
+        let top = vec![[17.0, 13.0], [31.0, 13.0], [31.0, 17.0], [17.0, 17.0]];
+        let bottom = vec![[17.0, 33.0], [31.0, 33.0], [31.0, 37.0], [17.0, 37.0]];
+        let (geo, st) = vectorize(&g, &[top, bottom], &VectorConfig::default()).unwrap();
+        assert_eq!(st.material_pieces, 2, "{:?}", geo.material);
+        let sheet = union::sheet_of(&geo.material).unwrap();
+        let group = 1 - sheet;
+        // The sheet has the big cut as its hole; the joined islands hold the cut between them.
+        assert_eq!(geo.material.0[sheet].interiors().len(), 1);
+        assert_eq!(geo.material.0[group].interiors().len(), 1);
+        let inner = &geo.material.0[group].interiors()[0];
+        let b = inner.bounding_rect().unwrap();
+        assert!((b.min().x - 1.8).abs() < 0.06 && (b.max().x - 3.0).abs() < 0.06, "{b:?}");
+        assert_eq!(geo.design_cuts.0.len(), 2);
+        // Material + cuts fill the picture's 5 x 5 mm exactly once.
+        let outline = geo.outline.to_polygon().unsigned_area();
+        let total = geo.material.unsigned_area() + geo.design_cuts.unsigned_area();
+        assert!((total - outline).abs() < 1e-9, "{total} vs {outline}");
+    }
+
+    #[test]
+    fn the_sheet_is_the_outermost_piece_not_the_largest() {
+        // A thin cut ring close to the picture's edge: the island inside it has more material
+        // than the sheet (margin and picture edge) around it.
+        let g = BitGrid::from_fn(200, 200, |x, y| {
+            let outer = (2..198).contains(&x) && (2..198).contains(&y);
+            let inner = (4..196).contains(&x) && (4..196).contains(&y);
+            !outer || inner
+        });
+        let cfg = VectorConfig {
+            margin_mm: 0.5,
+            ..Default::default()
+        };
+        let (geo, _) = vectorize(&g, &[], &cfg).unwrap();
+        assert_eq!(geo.material.0.len(), 2);
+        let sheet = union::sheet_of(&geo.material).unwrap();
+        let island = 1 - sheet;
+        assert!(geo.material.0[island].unsigned_area() > geo.material.0[sheet].unsigned_area());
+        assert_eq!(geo.material.0[sheet].exterior(), geo.outline.to_polygon().exterior());
+        // The one cut region holds the island as its hole.
         assert_eq!(geo.design_cuts.0.len(), 1);
         assert_eq!(geo.design_cuts.0[0].interiors().len(), 1);
     }
