@@ -215,7 +215,8 @@ pub struct Made {
 }
 
 /// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
-/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG).
+/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG). The kerf is not
+/// applied (see [`vector::vectorize_design`]).
 pub fn vectorize_and_check(
     bits: &BitGrid,
     bridges_px: Option<&[Vec<[f64; 2]>]>,
@@ -223,14 +224,12 @@ pub fn vectorize_and_check(
     material: &Material,
     timer: &mut Timings,
 ) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
-    // The check overlaps the kerf offset (it does not read the tool paths): "vector" includes the
-    // overlap, "check" is the check's own time.
+    // The check runs on the geometry as designed: "vector" includes it, "check" is its own time.
     let (geom, vstats, (chk, check_ms)) = timer.time("vector", || {
-        vector::vectorize_with(bits, bridges_px.unwrap_or(&[]), vcfg, |geom| {
-            let t = Instant::now();
-            let chk = check::check(geom, material, bridges_px.is_some());
-            (chk, t.elapsed().as_secs_f64() * 1e3)
-        })
+        let (geom, vstats) = vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)?;
+        let t = Instant::now();
+        let chk = check::check(&geom, material, bridges_px.is_some());
+        Ok::<_, Error>((geom, vstats, (chk, t.elapsed().as_secs_f64() * 1e3)))
     })?;
     timer.0.insert("check".to_string(), check_ms);
     let mut chk = chk?;
@@ -292,7 +291,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         ..phys.vector
     };
     let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
-    let (geometry, vstats, chk) = vectorize_and_check(
+    let (mut geometry, vstats, chk) = vectorize_and_check(
         &bridged.bits,
         Some(&polys),
         &vcfg,
@@ -318,6 +317,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 format!("from {}", cfg.input.display()),
                 format!("material {}", phys.material.name),
             ];
+            timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm));
             let (text, summary) = timer.time("gcode", || {
                 crate::plan::gcode_for(&geometry, &g.machine, &g.plan, &notes)
             })?;

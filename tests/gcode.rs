@@ -694,6 +694,17 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
             "{name}: cut {} vs perimeter {perim}",
             r.cut_mm
         );
+        // The tool paths are the design cuts moved half a kerf inward (cardstock: 0.15 mm).
+        use geo::Area;
+        let design_perim: f64 = g.design_cuts.0.iter().map(perimeter).sum();
+        let shrunk = g.design_cuts.unsigned_area() - g.cuts.unsigned_area();
+        let kerf = stencil::profile::Material::default().kerf_mm;
+        assert!(kerf > 0.0);
+        let expected = design_perim * kerf / 2.0;
+        assert!(
+            (shrunk - expected).abs() / expected < 0.1,
+            "{name}: kerf took {shrunk} mm², expected about {expected}"
+        );
         let s = made.report.gcode.as_ref().expect("summary in the report");
         assert!(
             s.path.travel_mm < s.path.naive_travel_mm,

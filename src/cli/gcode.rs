@@ -15,7 +15,6 @@ use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanCo
 use stencil::profile::machine::{self as machine_profile, Machine, Tool};
 use stencil::profile::Material;
 use stencil::report::Report;
-use stencil::vector::kerf::offset_cuts;
 
 fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
@@ -256,7 +255,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
-        geom.cuts = offset_cuts(&geom.design_cuts, m.kerf_mm);
+        geom.apply_kerf(m.kerf_mm);
     }
     let settings = a.cut.settings(base, &machine)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {

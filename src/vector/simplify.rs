@@ -160,24 +160,18 @@ fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> 
         }
         let (pa, pb) = (at(a), at(b));
         let mut best = (0.0, a);
-        let mut bad_guard = None;
         // b <= n, so every i here is below n and indexes the ring directly.
         for (i, &p) in r.iter().enumerate().take(b).skip(a + 1) {
             let d = seg_dist2(p, pa, pb);
             if d > best.0 {
                 best = (d, i);
             }
-            if bad_guard.is_none() {
-                if let Some(g) = guards {
-                    if !guard_ok(pa, pb, &g[i]) {
-                        bad_guard = Some(i);
-                    }
-                }
-            }
         }
         if best.0 <= tol2 {
+            // Within tolerance: the guards are only read now (a split needs no guard test).
+            let bad_guard = guards.and_then(|g| (a + 1..b).find(|&i| !guard_ok(pa, pb, &g[i])));
             if let Some(i) = bad_guard {
-                // Within tolerance but a pixel centre would change sides: split the worst point.
+                // A pixel centre would change sides: split at the worst point.
                 best.1 = if best.1 > a { best.1 } else { i };
                 best.0 = f64::INFINITY;
             }
