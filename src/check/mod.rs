@@ -543,7 +543,7 @@ fn check_tuned(
         bridge_index: &bridge_index,
         max_required: spacing,
     };
-    let triangles = tris.len();
+    let triangles = tris.iter().map(Vec::len).sum::<usize>();
     // Each triangle's chords are measured independently of the others, so the triangles are
     // searched in parallel chunks. The narrowest per kind is a minimum, the early skip in
     // `consider` only drops chords that could change neither that minimum nor the violations,
@@ -553,7 +553,8 @@ fn check_tuned(
         .unwrap_or_else(|| triangles.div_ceil(4 * threads).max(256))
         .max(1);
     let found: Vec<Found> = tris
-        .par_chunks(chunk)
+        .par_iter()
+        .flat_map(|slab| slab.par_chunks(chunk))
         .map(|part| {
             let mut out = Found::default();
             for t in part {
@@ -792,7 +793,7 @@ mod tests {
             let (cx, cy) = (x % 23, y % 19);
             let r2 = (cx as i32 - 11).pow(2) + (cy as i32 - 9).pow(2);
             let slant = (x + 2 * y) % 37 < 2 + (x / 40) % 3;
-            !(r2 < 40 + ((x / 23 + y / 19) % 5) as i32 * 12) && !slant || r2 < 6
+            (r2 >= 40 + ((x / 23 + y / 19) % 5) as i32 * 12) && !slant || r2 < 6
         });
         vectorize(&g, &[], &VectorConfig::default()).unwrap().0
     }
