@@ -70,8 +70,8 @@ fn bench(c: &mut Criterion) {
         report.triangles
     );
 
-    // The whole stage as `make` runs it, ten times: the spread shows how noisy this machine is.
-    let mut runs: Vec<(f64, f64, f64)> = (0..10)
+    // The whole stage as `make` runs it, 30 times: the spread shows how noisy this machine is.
+    let mut runs: Vec<(f64, f64, f64)> = (0..30)
         .map(|_| {
             let mut tm = Timings::default();
             let s = std::time::Instant::now();
@@ -83,8 +83,8 @@ fn bench(c: &mut Criterion) {
         .collect();
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));
     eprintln!(
-        "vectorize_and_check, 10 runs: best {:.1} ms, median {:.1} ms (of which the check {:.1} ms)",
-        runs[0].0, runs[5].0, runs[5].2
+        "vectorize_and_check, 30 runs: best {:.1} ms, median {:.1} ms (of which the check {:.1} ms)",
+        runs[0].0, runs[15].0, runs[15].2
     );
     breakdown(&bits, &bridges, &vcfg, &material);
     let mut g = c.benchmark_group("vector_2000px_1024_islands");

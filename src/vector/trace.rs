@@ -147,29 +147,36 @@ fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
         .step_by(band)
         .map(|py0| g.links(py0..(py0 + band).min(hp - 1)))
         .collect();
-    // next[crossing] = 1 + the crossing the contour goes to next (0: none), indexed compactly:
-    // every crossing is the exit of exactly one link, so the exits number them all.
+    // The crossings, numbered densely: every crossing is the exit of exactly one link, so the
+    // exits number them all; next[k] is the crossing the contour goes to from crossing k.
     let index = CrossingIndex::new(2 * n, links.iter().flatten().map(|&(exit, _)| exit));
-    let mut next = vec![0u32; index.len()];
-    for &(exit, entry) in links.iter().flatten() {
-        next[index.of(exit)] = entry + 1;
+    // Per link, in parallel: the dense numbers of its exit and entry (the walk then reads plain
+    // arrays only), in row-major order.
+    let numbered: Vec<(u32, u32, u32)> = links
+        .par_iter()
+        .flat_map_iter(|band| {
+            band.iter()
+                .map(|&(exit, entry)| (index.of(exit) as u32, index.of(entry) as u32, exit))
+        })
+        .collect();
+    let mut next = vec![u32::MAX; index.len()];
+    let mut edge = vec![0u32; index.len()];
+    for &(kx, ke, exit) in &numbered {
+        next[kx as usize] = ke;
+        edge[kx as usize] = exit;
     }
     let mut chains: Vec<Vec<u32>> = Vec::new();
-    for &(s, _) in links.iter().flatten() {
-        if next[index.of(s)] == 0 {
+    for &(ks, _, _) in &numbered {
+        if next[ks as usize] == u32::MAX {
             continue;
         }
         let mut chain = Vec::new();
-        let mut e = s;
-        loop {
-            let k = index.of(e);
-            let nx = next[k];
-            if nx == 0 {
-                break;
-            }
-            next[k] = 0;
-            chain.push(e);
-            e = nx - 1;
+        let mut k = ks as usize;
+        while next[k] != u32::MAX {
+            let nk = next[k];
+            next[k] = u32::MAX;
+            chain.push(edge[k]);
+            k = nk as usize;
         }
         chains.push(chain);
     }
