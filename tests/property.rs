@@ -65,14 +65,24 @@ fn ink(p: &Pic, x: u32, y: u32) -> bool {
     }
 }
 
+/// A number from the environment (so `PROPTEST_CASES` and `PROPTEST_RNG_SEED` still work with
+/// the fixed defaults below), or the default.
+fn env_or(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
 proptest! {
     // A fixed seed: CI must not fail by the luck of the draw. Explore more with
     // `PROPTEST_CASES=300` and another `PROPTEST_RNG_SEED`; a failure found that way is a bug to fix
-    // (one known: a slanted bridge ending at the image border can measure a little under the
-    // minimum where it meets the sheet's margin).
+    // (one known, see the closing note: `PROPTEST_RNG_SEED=1` finds rings whose bands are at the
+    // material's smallest feature, where bridges crowding a centre island narrower than a bridge
+    // leave thin material inside the bridges; the check reports it and `make` refuses).
     #![proptest_config(ProptestConfig {
-        cases: 40,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5713_c11),
+        cases: env_or("PROPTEST_CASES", 40) as u32,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(env_or("PROPTEST_RNG_SEED", 0x5713_c11)),
         .. ProptestConfig::default()
     })]
 
@@ -104,19 +114,11 @@ proptest! {
         // KNOWN ISSUE: on dense noise the check still finds bridge necks (some not confirmed by its
         // raster cross-check); the width property holds for structured pictures only, for now.
         if radius.is_none() && !matches!(p, Pic::Noise { .. }) {
-            // KNOWN ISSUE (see the closing note): a slanted bridge that ends on the image border can
-            // measure up to ~15 % under the minimum where it meets the sheet's margin. Violations
-            // within one bridge width of the border are left out here until that is fixed.
-            let (w_mm, h_mm) = (made.geometry.width_mm, made.geometry.height_mm);
-            let near_border = |x: f64, y: f64| {
-                let d = 1.0; // cardstock's min_bridge_mm
-                x < d || y < d || x > w_mm - d || y > h_mm - d
-            };
             let thin: Vec<_> = made
                 .check
                 .violations
                 .iter()
-                .filter(|v| v.to_string().contains("bridge") && !near_border(v.x_mm, v.y_mm))
+                .filter(|v| v.to_string().contains("bridge"))
                 .collect();
             prop_assert!(thin.is_empty(), "{p:?}: {thin:?}");
         }
