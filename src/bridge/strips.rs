@@ -255,7 +255,7 @@ pub enum WalkEnd {
 }
 
 /// Outward normal of the border at candidate `id`: perpendicular to the chord between the
-/// candidates [`TANGENT_REACH`] steps before and after it along the contour, on the cut side. So
+/// candidates `TANGENT_REACH` steps before and after it along the contour, on the cut side. So
 /// a walk leaves a straight edge at right angles even on a digital staircase.
 pub fn normal(f: &Fields, c: &Candidates, id: usize) -> [f32; 2] {
     let (x, y) = c.pixels[id];

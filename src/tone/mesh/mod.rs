@@ -1,4 +1,4 @@
-//! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load`]), orbit a camera around its
+//! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load()`]), orbit a camera around its
 //! bounding sphere ([`camera`]), rasterise a visibility buffer ([`raster`]), shade it with a point
 //! light close to the model ([`shade`]), draw silhouettes and suggestive contours ([`lines`], from
 //! the curvature of [`curvature`]), downsample the supersampled result, and threshold it.
