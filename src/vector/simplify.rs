@@ -39,32 +39,37 @@ pub fn simplify_rings(
         points_in: rings.iter().map(Vec::len).sum(),
         ..Default::default()
     };
-    let lossless: Vec<Vec<[f64; 2]>> = rings.par_iter().map(|r| drop_collinear(r)).collect();
+    // The rings as traced are kept (moved, not copied): a ring that must fall back to full detail
+    // is made from its original then, so the lossless version is built for those rings only.
+    let originals: Vec<Vec<[f64; 2]>> = rings.iter_mut().map(std::mem::take).collect();
     // Each ring on its own, in parallel.
     let simplified: Vec<bool> = rings
         .par_iter_mut()
+        .zip(originals.par_iter())
         .enumerate()
-        .map(|(i, r)| {
+        .map(|(i, (r, orig))| {
             let s = if tol > 0.0 {
                 drop_collinear(&dp_ring(
-                    r,
+                    orig,
                     guards.and_then(|g| g.get(i)).map(Vec::as_slice),
                     tol,
                 ))
             } else {
-                lossless[i].clone()
+                drop_collinear(orig)
             };
-            let a0 = signed_area2(&lossless[i]);
+            // Dropping collinear points changes no area, so the original's sign is the lossless one.
+            let a0 = signed_area2(orig);
             let a1 = signed_area2(&s);
-            if s.len() >= 3
+            if tol > 0.0
+                && s.len() >= 3
                 && a0.signum() == a1.signum()
                 && a1 != 0.0
-                && s.len() < lossless[i].len()
+                && s.len() < kept_by_drop_collinear(orig)
             {
                 *r = s;
                 true
             } else {
-                *r = lossless[i].clone();
+                *r = if tol > 0.0 { drop_collinear(orig) } else { s };
                 false
             }
         })
@@ -77,7 +82,7 @@ pub fn simplify_rings(
         let mut changed = false;
         for i in bad {
             if simplified[i] {
-                rings[i] = lossless[i].clone();
+                rings[i] = drop_collinear(&originals[i]);
                 simplified[i] = false;
                 stats.fallbacks += 1;
                 changed = true;
@@ -91,6 +96,29 @@ pub fn simplify_rings(
     stats
 }
 
+/// How many points [`drop_collinear`] keeps, without building the ring.
+fn kept_by_drop_collinear(r: &[[f64; 2]]) -> usize {
+    let n = r.len();
+    if n < 4 {
+        return n;
+    }
+    let kept = (0..n)
+        .filter(|&i| !collinear_between(r[(i + n - 1) % n], r[i], r[(i + 1) % n]))
+        .count();
+    if kept < 3 {
+        n
+    } else {
+        kept
+    }
+}
+
+/// Whether `q` lies on the segment from `p` to `s` (exactly), so dropping it loses nothing.
+fn collinear_between(p: [f64; 2], q: [f64; 2], s: [f64; 2]) -> bool {
+    let cross = (q[0] - p[0]) * (s[1] - q[1]) - (q[1] - p[1]) * (s[0] - q[0]);
+    let dot = (q[0] - p[0]) * (s[0] - q[0]) + (q[1] - p[1]) * (s[1] - q[1]);
+    cross == 0.0 && dot >= 0.0
+}
+
 /// Remove points lying exactly on the line through their neighbours (lossless).
 pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let n = r.len();
@@ -99,13 +127,8 @@ pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
     }
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
-        let p = r[(i + n - 1) % n];
-        let q = r[i];
-        let s = r[(i + 1) % n];
-        let cross = (q[0] - p[0]) * (s[1] - q[1]) - (q[1] - p[1]) * (s[0] - q[0]);
-        let dot = (q[0] - p[0]) * (s[0] - q[0]) + (q[1] - p[1]) * (s[1] - q[1]);
-        if cross != 0.0 || dot < 0.0 {
-            out.push(q);
+        if !collinear_between(r[(i + n - 1) % n], r[i], r[(i + 1) % n]) {
+            out.push(r[i]);
         }
     }
     if out.len() < 3 {
