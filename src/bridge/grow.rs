@@ -177,6 +177,7 @@ pub fn plan(
     let fan = n > 1
         && (crosses(&polygon)
             || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
+            || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
             || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
     let (member_strips, across) = if fan {
         let mid = member_strips[n / 2];
@@ -331,6 +332,24 @@ fn diverge(q: &[[f64; 2]]) -> f64 {
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// The angle between the most diverging member strips, radians, measured from the middle strip.
+/// Why not only the outer two (see [`diverge`]): around an island smaller than the bridge the
+/// members can wrap all the way round, so the first and the last strip leave side by side while
+/// the ones between point every way.
+fn spread(members: &[(&Strip, (u32, u32))]) -> f64 {
+    let dir =
+        |(s, p): &(&Strip, (u32, u32))| [s.end.0 as f64 - p.0 as f64, s.end.1 as f64 - p.1 as f64];
+    let m = dir(&members[members.len() / 2]);
+    let (lo, hi) = members
+        .iter()
+        .map(|x| {
+            let d = dir(x);
+            (m[0] * d[1] - m[1] * d[0]).atan2(m[0] * d[0] + m[1] * d[1])
+        })
+        .fold((0.0f64, 0.0f64), |(lo, hi), a| (lo.min(a), hi.max(a)));
+    hi - lo
 }
 
 /// Whether the quadrilateral's opposite sides cross (a bow-tie: the outer strips crossed).
