@@ -12,8 +12,9 @@ use crate::raster::{squared_distance_to, BitGrid};
 use crate::tone::filter::{close, open};
 
 /// Clean the bridged grid `after` (bridges drawn into `before`) within `radius + 2` pixels of the
-/// pixels the bridges added. Returns `after` unchanged when `radius` is 0, or when tidying would
-/// break the sheet into pieces (it never should; connectivity is what the stencil is for).
+/// pixels the bridges added. Returns `after` unchanged when `radius` is 0; when the opening would
+/// break the sheet into pieces (a bridge narrower than the opening's disc somewhere), only the
+/// closing is applied, and nothing if even that would (connectivity is what the stencil is for).
 pub fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
     if radius == 0 || before == after {
         return after.clone();
@@ -32,7 +33,28 @@ pub fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
     // `squared_distance_to` counts the area outside the image as a target; measure from the
     // bridges only by padding the reach test with the real distance to the added pixels.
     let reach = ((radius + 2) * (radius + 2)) as f32;
-    let cleaned = close(&open(after, radius), radius);
+    let opened = open(after, radius);
+    // Opening and closing (spurs and slivers) if that keeps one sheet; else closing alone (it only
+    // fills slivers of cut, so it cannot cut a bridge through); else nothing.
+    for cleaned in [close(&opened, radius), close(after, radius)] {
+        let out = apply_near(before, after, &added, &near, &cleaned, reach, radius);
+        if islands::floating_count(&out) == 0 {
+            return out;
+        }
+    }
+    after.clone()
+}
+
+/// `after`, with every pixel near a bridge (and not original material) taken from `cleaned`.
+fn apply_near(
+    before: &BitGrid,
+    after: &BitGrid,
+    added: &BitGrid,
+    near: &[f32],
+    cleaned: &BitGrid,
+    reach: f32,
+    radius: u32,
+) -> BitGrid {
     let mut out = after.clone();
     let (w, h) = (after.width as usize, after.height as usize);
     for i in 0..out.data.len() {
@@ -42,13 +64,10 @@ pub fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
         // Pixels at the image border count as near only through a real bridge pixel.
         let (x, y) = (i % w, i / w);
         let edge_dist2 = (x.min(w - 1 - x).min(y).min(h - 1 - y) + 1).pow(2) as f32;
-        if near[i] >= edge_dist2 && !added_within(&added, x, y, radius + 2) {
+        if near[i] >= edge_dist2 && !added_within(added, x, y, radius + 2) {
             continue;
         }
         out.data[i] = cleaned.data[i];
-    }
-    if islands::floating_count(&out) > 0 {
-        return after.clone();
     }
     out
 }
@@ -105,6 +124,29 @@ mod tests {
         // Opening removes it; a digital disc's tip may keep the single pixel next to the bridge.
         assert!(!t.get(8, 2) && !t.get(8, 3) && !t.get(8, 4), "spur removed");
         assert!(t.get(8, 9), "bridge kept");
+    }
+
+    #[test]
+    fn beside_a_bridge_the_opening_would_cut_slivers_are_still_filled() {
+        // An island (x 14..20, y 4..16) held by a bridge three pixels wide (an opening of radius 2
+        // would remove it, and the island would fall) that stops one pixel short of the island on
+        // its top row.
+        let before = BitGrid::from_fn(24, 20, |x, y| {
+            x < 4 || ((14..20).contains(&x) && (4..16).contains(&y))
+        });
+        let mut after = before.clone();
+        for y in 8..11 {
+            for x in 4..14 {
+                if !(x == 13 && y == 8) {
+                    after.set(x, y, true);
+                }
+            }
+        }
+        let t = tidy(&before, &after, 2);
+        assert!(t.get(13, 8), "sliver filled by the closing alone");
+        assert!((4..14).all(|x| t.get(x, 9)), "bridge kept");
+        assert!(before.data.iter().zip(&t.data).all(|(&b, &a)| !b || a));
+        assert_eq!(islands::floating_count(&t), 0);
     }
 
     #[test]
