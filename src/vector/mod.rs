@@ -13,6 +13,7 @@ pub mod union;
 
 use geo::orient::{Direction, Orient};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::raster::BitGrid;
@@ -191,7 +192,6 @@ fn to_polygon(pts: &[[f64; 2]], mm: f64) -> Polygon<f64> {
 /// outline of a cut region) is a hole of the innermost island outline around it, or of the sheet
 /// (whose outline is the sheet's edge). After bridging there are no island outlines at all.
 fn assemble(rings: &[Vec<[f64; 2]>], mm: f64, outline: Rect<f64>) -> MultiPolygon<f64> {
-    let area: Vec<f64> = rings.iter().map(|r| trace::signed_area2(r)).collect();
     let bbox = |r: &[[f64; 2]]| {
         r.iter().fold(
             [
@@ -210,35 +210,56 @@ fn assemble(rings: &[Vec<[f64; 2]>], mm: f64, outline: Rect<f64>) -> MultiPolygo
             },
         )
     };
+    let area: Vec<f64> = rings.par_iter().map(|r| trace::signed_area2(r)).collect();
     let outlines: Vec<usize> = (0..rings.len()).filter(|&i| area[i] > 0.0).collect();
     let boxes: Vec<[f64; 4]> = outlines.iter().map(|&i| bbox(&rings[i])).collect();
-    // Piece 0 is the sheet; piece k + 1 is the island with outline `outlines[k]`.
+    // Each cut outline's owner (0: the sheet; k + 1: the island with outline `outlines[k]`), and
+    // the outline in mm, in parallel.
+    let owned: Vec<(usize, LineString<f64>)> = (0..rings.len())
+        .into_par_iter()
+        .filter(|&i| area[i] <= 0.0)
+        .map(|i| {
+            let r = &rings[i];
+            let b = bbox(r);
+            let p = r[0];
+            let owner = outlines
+                .iter()
+                .zip(&boxes)
+                .enumerate()
+                .filter(|(_, (_, ob))| {
+                    ob[0] <= b[0] && ob[1] <= b[1] && ob[2] >= b[2] && ob[3] >= b[3]
+                })
+                .filter(|(_, (&o, _))| inside(&rings[o], p))
+                .min_by(|a, b| area[*a.1 .0].total_cmp(&area[*b.1 .0]))
+                .map_or(0, |(k, _)| k + 1);
+            (owner, to_ring(r, mm))
+        })
+        .collect();
     let mut holes: Vec<Vec<LineString<f64>>> = vec![Vec::new(); outlines.len() + 1];
-    for (i, r) in rings.iter().enumerate() {
-        if area[i] > 0.0 {
-            continue;
-        }
-        let b = bbox(r);
-        let p = r[0];
-        let owner = outlines
-            .iter()
-            .zip(&boxes)
-            .enumerate()
-            .filter(|(_, (_, ob))| ob[0] <= b[0] && ob[1] <= b[1] && ob[2] >= b[2] && ob[3] >= b[3])
-            .filter(|(_, (&o, _))| inside(&rings[o], p))
-            .min_by(|a, b| area[*a.1 .0].total_cmp(&area[*b.1 .0]))
-            .map_or(0, |(k, _)| k + 1);
-        holes[owner].push(to_ring(r, mm));
+    for (owner, ring) in owned {
+        holes[owner].push(ring);
     }
+    let island_outlines: Vec<LineString<f64>> = outlines
+        .par_iter()
+        .map(|&o| to_ring(&rings[o], mm))
+        .collect();
+    // The traced rings are already oriented as geo's default wants (material on the left:
+    // outlines counter-clockwise, holes clockwise); only the sheet's edge is oriented here.
+    let sheet_edge = outline
+        .to_polygon()
+        .orient(Direction::Default)
+        .exterior()
+        .clone();
     let mut holes = holes.into_iter();
-    let mut polys = vec![Polygon::new(
-        outline.to_polygon().exterior().clone(),
-        holes.next().unwrap_or_default(),
-    )];
-    for (&o, h) in outlines.iter().zip(holes) {
-        polys.push(Polygon::new(to_ring(&rings[o], mm), h));
+    let mut polys = vec![Polygon::new(sheet_edge, holes.next().unwrap_or_default())];
+    for (o, h) in island_outlines.into_iter().zip(holes) {
+        polys.push(Polygon::new(o, h));
     }
-    MultiPolygon::new(polys).orient(Direction::Default)
+    debug_assert_eq!(
+        MultiPolygon::new(polys.clone()).orient(Direction::Default),
+        MultiPolygon::new(polys.clone())
+    );
+    MultiPolygon::new(polys)
 }
 
 /// Even-odd point-in-ring test.

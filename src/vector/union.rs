@@ -101,7 +101,11 @@ fn material_around(sheet: LineString<f64>, cuts: &MultiPolygon<f64>) -> MultiPol
     for (o, h) in outlines.into_iter().zip(holes) {
         polys.push(Polygon::new(o.exterior().clone(), h));
     }
-    MultiPolygon::new(polys).orient(Direction::Default)
+    // Already oriented (cut exteriors counter-clockwise, reversed into clockwise holes, and the
+    // other way round): no copy through `orient`.
+    let m = MultiPolygon::new(polys);
+    debug_assert_eq!(m.clone().orient(Direction::Default), m);
+    m
 }
 
 /// Which material piece is the sheet: the one whose outline encloses the largest area. (Not the
@@ -155,5 +159,9 @@ pub fn cuts_of(material: &MultiPolygon<f64>) -> MultiPolygon<f64> {
         .zip(holes)
         .map(|(c, hs)| Polygon::new(c.exterior().clone(), hs))
         .collect();
-    MultiPolygon::new(polys).orient(Direction::Default)
+    // Already oriented when `material` is (its holes reversed are counter-clockwise exteriors,
+    // its islands' outlines reversed clockwise holes): no copy through `orient`.
+    let m = MultiPolygon::new(polys);
+    debug_assert_eq!(m.clone().orient(Direction::Default), m);
+    m
 }
