@@ -42,6 +42,8 @@ pub(super) struct V {
 pub(super) struct Tri {
     pub v: [u32; 3],
     pub material: bool,
+    /// Bit k: edge k (corner k to corner k + 1) is a ring edge (a constraint of the CDT).
+    pub ring_edges: u8,
 }
 
 /// How the triangles were made (for tests and the curious).
@@ -258,6 +260,7 @@ fn triangulate_part(
             edges.push([i, j]);
         }
     }
+    let n_edges = edges.len();
     let cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(
         verts.iter().map(|v| v.p).collect(),
         edges,
@@ -288,7 +291,20 @@ fn triangulate_part(
             })
             .collect()
     };
-    // Each face: its corners, whether the window keeps it, and its side when it lies on a ring.
+    // Ring edges are the constraints; when no vertex repeated and no constraint was split or
+    // dropped (rings never touch, so normally), they are exactly the pairs of consecutive ring
+    // vertices, whose direction gives a triangle's side. Otherwise a slab gives up (the sheet is
+    // then triangulated at once, where sides come from parity, which needs no direction).
+    let clean = cdt.num_vertices() == verts.len() && cdt.num_constraints() == n_edges;
+    if window.is_some() && !clean {
+        return Ok(Part {
+            tris: Vec::new(),
+            open: Vec::new(),
+            labelled: false,
+        });
+    }
+    // Each face: its corners, its ring edges, whether the window keeps it, and (in a slab) its side
+    // when it lies on a ring.
     let mut label = Vec::with_capacity(n);
     let mut queue = Vec::new();
     for f in cdt.inner_faces() {
@@ -296,9 +312,11 @@ fn triangulate_part(
         debug_assert_eq!(f.fix().index(), tris.len() + 1);
         let es = f.adjacent_edges();
         let c = es.map(|e| verts[of[e.from().fix().index()] as usize]);
+        let ring = es.map(|e| cdt.is_constraint_edge(e.fix().as_undirected()));
         tris.push(Tri {
             v: c.map(|v| v.gid),
             material: false,
+            ring_edges: (ring[0] as u8) | (ring[1] as u8) << 1 | (ring[2] as u8) << 2,
         });
         across.push(es.map(|e| e.rev().face().fix().index() as u32));
         let kept = window.is_none_or(|w| {
@@ -306,8 +324,11 @@ fn triangulate_part(
             cx >= w.x0 && cx < w.x1 && cx - r > w.lo && cx + r < w.hi
         });
         let mut side = if kept { PENDING } else { UNKEPT };
-        if kept {
-            if let Some((_, forward)) = (0..3).find_map(|k| sizes.edge(c[k], c[(k + 1) % 3])) {
+        if kept && window.is_some() {
+            let seed = (0..3)
+                .filter(|&k| ring[k])
+                .find_map(|k| sizes.edge(c[k], c[(k + 1) % 3]));
+            if let Some((_, forward)) = seed {
                 side = if forward { MATERIAL } else { CUT };
                 queue.push(label.len());
             }
@@ -317,17 +338,51 @@ fn triangulate_part(
     drop(cdt);
 
     let corners = |t: &Tri| t.v.map(|g| all[g as usize]);
-    while let Some(i) = queue.pop() {
-        let c = corners(&tris[i]);
-        for k in 0..3 {
-            let g = across[i][k] as usize;
-            if g == 0 || sizes.edge(c[k], c[(k + 1) % 3]).is_some() {
-                continue;
+    if window.is_some() {
+        // A slab: sides spread from the seeded triangles across edges that are not ring edges.
+        while let Some(i) = queue.pop() {
+            for k in 0..3 {
+                let g = across[i][k] as usize;
+                if g == 0 || tris[i].ring_edges & (1 << k) != 0 {
+                    continue;
+                }
+                if label[g - 1] == PENDING {
+                    label[g - 1] = label[i];
+                    queue.push(g - 1);
+                }
             }
-            if label[g - 1] == PENDING {
-                label[g - 1] = label[i];
-                queue.push(g - 1);
+        }
+    } else {
+        // The whole sheet: the parity of ring edges crossed from outside (odd: material, even:
+        // a cut, none: outside the sheet). Needs no ring direction.
+        let mut depth = vec![u32::MAX; tris.len()];
+        for i in 0..tris.len() {
+            for k in 0..3 {
+                if across[i][k] == 0 && depth[i] == u32::MAX {
+                    depth[i] = u32::from(tris[i].ring_edges & (1 << k) != 0);
+                    queue.push(i);
+                }
             }
+        }
+        let mut head = 0;
+        while head < queue.len() {
+            let i = queue[head];
+            head += 1;
+            for k in 0..3 {
+                let g = across[i][k] as usize;
+                if g != 0 && depth[g - 1] == u32::MAX {
+                    depth[g - 1] = depth[i] + u32::from(tris[i].ring_edges & (1 << k) != 0);
+                    queue.push(g - 1);
+                }
+            }
+        }
+        for (l, d) in label.iter_mut().zip(&depth) {
+            *l = match *d {
+                u32::MAX => PENDING,
+                0 => UNKEPT,
+                d if d % 2 == 1 => MATERIAL,
+                _ => CUT,
+            };
         }
     }
     // Keep the kept triangles, in place.
@@ -344,8 +399,8 @@ fn triangulate_part(
             _ => {}
         }
         tris[w] = Tri {
-            v: tris[i].v,
             material: label[i] == MATERIAL,
+            ..tris[i]
         };
         w += 1;
         if window.is_some() {
@@ -354,7 +409,7 @@ fn triangulate_part(
                 let (u, v) = (c[k], c[(k + 1) % 3]);
                 let g = across[i][k] as usize;
                 let other_kept = g != 0 && label[g - 1] != UNKEPT;
-                let on_outline = u.ring == sizes.outline && sizes.edge(u, v).is_some();
+                let on_outline = u.ring == sizes.outline && tris[w - 1].ring_edges & (1 << k) != 0;
                 if !other_kept && !on_outline {
                     open.push((u.gid, v.gid));
                 }
@@ -420,6 +475,29 @@ mod tests {
             .map(|t| area(&verts, t))
             .sum();
         assert!((cut - 8.0).abs() < 1e-9, "{cut}");
+    }
+
+    #[test]
+    fn sides_are_right_where_a_ring_loses_its_corner_to_another() {
+        // Hole b shares the corner (4, 4) with hole a; spade keeps a's vertex, so b's edges at
+        // that corner are no pair of consecutive b vertices (found in review: sides were then
+        // taken from ring order and could spread across b's edge).
+        let outline: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        let a: &[[f64; 2]] = &[[2.0, 2.0], [2.0, 4.0], [4.0, 4.0], [4.0, 2.0]];
+        let b: &[[f64; 2]] = &[[4.0, 4.0], [4.0, 6.0], [7.0, 7.0], [6.0, 4.0]];
+        let (sizes, verts) = sheet(&[outline, a, b]);
+        for slabs in [1, 2] {
+            let (parts, _) = triangulate(&sizes, &verts, slabs, 3.0).unwrap();
+            let total: f64 = parts.iter().flatten().map(|t| area(&verts, t)).sum();
+            assert!((total - 100.0).abs() < 1e-9, "{total}");
+            let cut: f64 = parts
+                .iter()
+                .flatten()
+                .filter(|t| !t.material)
+                .map(|t| area(&verts, t))
+                .sum();
+            assert!((cut - 10.0).abs() < 1e-9, "{slabs} slabs: cut {cut}");
+        }
     }
 
     #[test]

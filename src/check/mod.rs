@@ -171,6 +171,12 @@ fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
                 r.pop();
             }
             if r.len() >= 3 {
+                // Material left of every ring: outlines counter-clockwise, holes clockwise
+                // (the vector stage builds them so; this keeps the check right whatever it is given).
+                let outline = std::ptr::eq(ls, p.exterior());
+                if (shoelace(&r) > 0.0) != outline {
+                    r.reverse();
+                }
                 pts.push(densify(&r, spacing));
             }
         }
@@ -188,6 +194,16 @@ fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
         len.push(s);
     }
     Rings { pts, cum, len }
+}
+
+/// Twice the signed area of a ring (positive: counter-clockwise in the numeric plane).
+fn shoelace(r: &[[f64; 2]]) -> f64 {
+    (0..r.len())
+        .map(|i| {
+            let (p, q) = (r[i], r[(i + 1) % r.len()]);
+            p[0] * q[1] - q[0] * p[1]
+        })
+        .sum()
 }
 
 fn densify(r: &[[f64; 2]], spacing: f64) -> Vec<[f64; 2]> {
@@ -445,11 +461,16 @@ impl Search<'_> {
         let c = t.v.map(|g| self.verts[g as usize]);
         for k in 0..3 {
             let (du, dv, w) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
-            if let Some((i, _)) = sizes.edge(du, dv) {
-                // The vertex opposite a boundary edge, straight across to it.
-                if let Some((a, b, pa, pb, d)) = perpendicular(rings, w, du.ring, i, material_side)
-                {
-                    self.consider(out, material_side, (a, b), (pa, pb), d);
+            if t.ring_edges & (1 << k) != 0 {
+                // The vertex opposite a boundary edge, straight across to it. (A ring edge that
+                // is not between consecutive vertices, where rings touch, has no place on a ring
+                // to measure from: the chords around it still are measured.)
+                if let Some((i, _)) = sizes.edge(du, dv) {
+                    if let Some((a, b, pa, pb, d)) =
+                        perpendicular(rings, w, du.ring, i, material_side)
+                    {
+                        self.consider(out, material_side, (a, b), (pa, pb), d);
+                    }
                 }
             } else if du.gid < dv.gid {
                 // A chord between two vertices (once: the triangle across it sees it reversed),
