@@ -450,6 +450,14 @@ mod tests {
         (sizes, verts)
     }
 
+    /// The area the triangles cover, and the part of it marked cut.
+    fn areas<'a>(verts: &[V], tris: impl IntoIterator<Item = &'a Tri>) -> (f64, f64) {
+        tris.into_iter().fold((0.0, 0.0), |(all, cut), t| {
+            let a = area(verts, t);
+            (all + a, if t.material { cut } else { cut + a })
+        })
+    }
+
     fn area(verts: &[V], t: &Tri) -> f64 {
         let [a, b, c] = t.v.map(|g| verts[g as usize].p);
         ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)) / 2.0
@@ -467,13 +475,8 @@ mod tests {
         let tris: Vec<&Tri> = parts.iter().flatten().collect();
         // Every triangle counter-clockwise, the sheet covered once, the holes' area cut.
         assert!(tris.iter().all(|t| area(&verts, t) > 0.0));
-        let total: f64 = tris.iter().map(|t| area(&verts, t)).sum();
+        let (total, cut) = areas(&verts, tris.iter().copied());
         assert!((total - 100.0).abs() < 1e-9, "{total}");
-        let cut: f64 = tris
-            .iter()
-            .filter(|t| !t.material)
-            .map(|t| area(&verts, t))
-            .sum();
         assert!((cut - 8.0).abs() < 1e-9, "{cut}");
     }
 
@@ -488,14 +491,8 @@ mod tests {
         let (sizes, verts) = sheet(&[outline, a, b]);
         for slabs in [1, 2] {
             let (parts, _) = triangulate(&sizes, &verts, slabs, 3.0).unwrap();
-            let total: f64 = parts.iter().flatten().map(|t| area(&verts, t)).sum();
+            let (total, cut) = areas(&verts, parts.iter().flatten());
             assert!((total - 100.0).abs() < 1e-9, "{total}");
-            let cut: f64 = parts
-                .iter()
-                .flatten()
-                .filter(|t| !t.material)
-                .map(|t| area(&verts, t))
-                .sum();
             assert!((cut - 10.0).abs() < 1e-9, "{slabs} slabs: cut {cut}");
         }
     }
@@ -519,19 +516,13 @@ mod tests {
         let (sizes, verts) = sheet(&rings);
         let (parts, m) = triangulate(&sizes, &verts, 3, 12.0).unwrap();
         assert_eq!(m, Method::Slabs(3));
-        let total: f64 = parts.iter().flatten().map(|t| area(&verts, t)).sum();
+        let (total, cut) = areas(&verts, parts.iter().flatten());
         assert!((total - 1800.0).abs() < 1e-9, "{total}");
-        let cut: f64 = parts
-            .iter()
-            .flatten()
-            .filter(|t| !t.material)
-            .map(|t| area(&verts, t))
-            .sum();
         assert!((cut - 72.0 * 4.0).abs() < 1e-9, "{cut}");
         // With a reach too short for the sheet's open margin, the slabs don't tile: at once.
         let (parts, m) = triangulate(&sizes, &verts, 3, 0.5).unwrap();
         assert_eq!(m, Method::WholeAfterSlabs);
-        let total: f64 = parts.iter().flatten().map(|t| area(&verts, t)).sum();
+        let (total, _) = areas(&verts, parts.iter().flatten());
         assert!((total - 1800.0).abs() < 1e-9, "{total}");
     }
 }

@@ -46,6 +46,7 @@ use crate::profile::Material;
 use crate::raster::BitGrid;
 use crate::tone::filter;
 use crate::units::{Mm, Scale};
+use crate::vector::trace::signed_area2;
 use crate::vector::CutGeometry;
 
 /// Boundary length between a same-ring chord's ends, in chord lengths, above which it is a neck.
@@ -174,7 +175,7 @@ fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
                 // Material left of every ring: outlines counter-clockwise, holes clockwise
                 // (the vector stage builds them so; this keeps the check right whatever it is given).
                 let outline = std::ptr::eq(ls, p.exterior());
-                if (shoelace(&r) > 0.0) != outline {
+                if (signed_area2(&r) > 0.0) != outline {
                     r.reverse();
                 }
                 pts.push(densify(&r, spacing));
@@ -194,16 +195,6 @@ fn rings_of(material: &MultiPolygon<f64>, spacing: f64) -> Rings {
         len.push(s);
     }
     Rings { pts, cum, len }
-}
-
-/// Twice the signed area of a ring (positive: counter-clockwise in the numeric plane).
-fn shoelace(r: &[[f64; 2]]) -> f64 {
-    (0..r.len())
-        .map(|i| {
-            let (p, q) = (r[i], r[(i + 1) % r.len()]);
-            p[0] * q[1] - q[0] * p[1]
-        })
-        .sum()
 }
 
 fn densify(r: &[[f64; 2]], spacing: f64) -> Vec<[f64; 2]> {

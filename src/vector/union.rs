@@ -74,38 +74,53 @@ fn material_around(sheet: LineString<f64>, cuts: &MultiPolygon<f64>) -> MultiPol
         .0
         .iter()
         .flat_map(|c| c.interiors())
-        .map(|r| {
-            let mut r = r.clone();
-            r.0.reverse();
-            Polygon::new(r, vec![])
-        })
+        .map(|r| Polygon::new(reversed(r), vec![]))
         .collect();
-    let areas: Vec<f64> = outlines.iter().map(|p| p.unsigned_area()).collect();
-    let boxes: Vec<Option<Rect<f64>>> = outlines.iter().map(|p| p.bounding_rect()).collect();
+    let owners = innermost(&outlines, cuts.0.iter().map(|c| c.exterior()));
     let mut holes: Vec<Vec<LineString<f64>>> = vec![Vec::new(); outlines.len() + 1];
-    for c in &cuts.0 {
-        let Some(&first) = c.exterior().0.first() else {
-            continue;
-        };
-        let pt = Point::from(first);
-        let owner = (0..outlines.len())
-            .filter(|&i| boxes[i].is_some_and(|b| b.contains(&pt)) && outlines[i].contains(&pt))
-            .min_by(|&a, &b| areas[a].total_cmp(&areas[b]))
-            .map_or(0, |i| i + 1);
-        let mut ring = c.exterior().clone();
-        ring.0.reverse();
-        holes[owner].push(ring);
+    for (c, owner) in cuts.0.iter().zip(owners) {
+        if !c.exterior().0.is_empty() {
+            holes[owner.map_or(0, |i| i + 1)].push(reversed(c.exterior()));
+        }
     }
     let mut holes = holes.into_iter();
     let mut polys = vec![Polygon::new(sheet, holes.next().unwrap_or_default())];
     for (o, h) in outlines.into_iter().zip(holes) {
-        polys.push(Polygon::new(o.exterior().clone(), h));
+        polys.push(Polygon::new(o.into_inner().0, h));
     }
     // Already oriented (cut exteriors counter-clockwise, reversed into clockwise holes, and the
     // other way round): no copy through `orient`.
     let m = MultiPolygon::new(polys);
     debug_assert_eq!(m.clone().orient(Direction::Default), m);
     m
+}
+
+/// A ring walked the other way (a hole of a cut region is the outline of a material piece, and
+/// the other way round).
+fn reversed(r: &LineString<f64>) -> LineString<f64> {
+    let mut r = r.clone();
+    r.0.reverse();
+    r
+}
+
+/// For each of `rings`, the smallest of `containers` holding its first point (rings never cross
+/// the containers, so one point decides), if any.
+fn innermost<'a>(
+    containers: &[Polygon<f64>],
+    rings: impl Iterator<Item = &'a LineString<f64>>,
+) -> Vec<Option<usize>> {
+    let boxes: Vec<Option<Rect<f64>>> = containers.iter().map(|c| c.bounding_rect()).collect();
+    let areas: Vec<f64> = containers.iter().map(|c| c.unsigned_area()).collect();
+    rings
+        .map(|r| {
+            let pt = Point::from(*r.0.first()?);
+            (0..containers.len())
+                .filter(|&c| {
+                    boxes[c].is_some_and(|b| b.contains(&pt)) && containers[c].contains(&pt)
+                })
+                .min_by(|&a, &b| areas[a].total_cmp(&areas[b]))
+        })
+        .collect()
 }
 
 /// Which material piece is the sheet: the one whose outline encloses the largest area. (Not the
@@ -125,33 +140,22 @@ pub fn sheet_of(material: &MultiPolygon<f64>) -> Option<usize> {
 /// of a material piece is a cut region; a piece that is not the sheet itself (an island, before
 /// bridging) becomes a hole in the cut region around it.
 pub fn cuts_of(material: &MultiPolygon<f64>) -> MultiPolygon<f64> {
-    let mut cuts: Vec<Polygon<f64>> = Vec::new();
-    for p in &material.0 {
-        for h in p.interiors() {
-            let mut ring: LineString<f64> = h.clone();
-            ring.0.reverse();
-            cuts.push(Polygon::new(ring, vec![]));
-        }
-    }
+    let cuts: Vec<Polygon<f64>> = material
+        .0
+        .iter()
+        .flat_map(|p| p.interiors())
+        .map(|h| Polygon::new(reversed(h), vec![]))
+        .collect();
     let sheet = sheet_of(material);
-    let boxes: Vec<Option<Rect<f64>>> = cuts.iter().map(|c| c.bounding_rect()).collect();
-    let areas: Vec<f64> = cuts.iter().map(|c| c.unsigned_area()).collect();
+    let islands: Vec<&Polygon<f64>> = (0..material.0.len())
+        .filter(|&i| Some(i) != sheet)
+        .map(|i| &material.0[i])
+        .collect();
+    let owners = innermost(&cuts, islands.iter().map(|p| p.exterior()));
     let mut holes: Vec<Vec<LineString<f64>>> = vec![Vec::new(); cuts.len()];
-    for (i, p) in material.0.iter().enumerate() {
-        if Some(i) == sheet {
-            continue;
-        }
-        let Some(first) = p.exterior().0.first() else {
-            continue;
-        };
-        let pt = Point::from(*first);
-        let best = (0..cuts.len())
-            .filter(|&c| boxes[c].is_some_and(|b| b.contains(&pt)) && cuts[c].contains(&pt))
-            .min_by(|&a, &b| areas[a].total_cmp(&areas[b]));
-        if let Some(c) = best {
-            let mut ring = p.exterior().clone();
-            ring.0.reverse();
-            holes[c].push(ring);
+    for (p, owner) in islands.iter().zip(owners) {
+        if let Some(c) = owner {
+            holes[c].push(reversed(p.exterior()));
         }
     }
     let polys = cuts
