@@ -23,15 +23,8 @@ fn grid(n: usize) -> CutGeometry {
         cuts.push(Polygon::new(LineString::from(pts), vec![]));
     }
     let (w, h) = (10.0 * n as f64, 10.0 * n as f64);
-    CutGeometry {
-        width_mm: w,
-        height_mm: h,
-        outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
-        design_cuts: MultiPolygon(cuts.clone()),
-        cuts: MultiPolygon(cuts),
-        material: MultiPolygon(vec![]),
-        bridges: vec![],
-    }
+    let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
+    CutGeometry::from_cuts(w, h, outline, MultiPolygon(cuts))
 }
 
 fn bench(c: &mut Criterion) {

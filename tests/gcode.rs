@@ -31,15 +31,8 @@ fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Polygon<f64> {
 }
 
 fn sheet(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutGeometry {
-    CutGeometry {
-        width_mm: w,
-        height_mm: h,
-        outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
-        design_cuts: MultiPolygon(cuts.clone()),
-        cuts: MultiPolygon(cuts),
-        material: MultiPolygon(vec![]),
-        bridges: vec![],
-    }
+    let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
+    CutGeometry::from_cuts(w, h, outline, MultiPolygon(cuts))
 }
 
 /// A deterministic pseudo-random stream (no test depends on luck or on the clock).

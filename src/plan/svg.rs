@@ -327,26 +327,19 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
         ));
     }
     let cuts = MultiPolygon(polys);
-    Ok(CutGeometry {
-        // The SVG knows the sheet only: the picture is taken to be the whole sheet.
-        width_mm: w,
-        height_mm: h,
-        outline: Rect::new(
-            Coord {
-                x: view[0] * scale[0],
-                y: view[1] * scale[1],
-            },
-            Coord {
-                x: view[2] * scale[0],
-                y: view[3] * scale[1],
-            },
-        ),
-        // As drawn (our SVG carries the design line; `stencil gcode` applies the material's kerf).
-        design_cuts: cuts.clone(),
-        cuts,
-        material: MultiPolygon(vec![]),
-        bridges: vec![],
-    })
+    // The SVG knows the sheet only: the picture is taken to be the whole sheet. The cuts are as
+    // drawn (our SVG carries the design line; `stencil gcode` applies the material's kerf).
+    let outline = Rect::new(
+        Coord {
+            x: view[0] * scale[0],
+            y: view[1] * scale[1],
+        },
+        Coord {
+            x: view[2] * scale[0],
+            y: view[3] * scale[1],
+        },
+    );
+    Ok(CutGeometry::from_cuts(w, h, outline, cuts))
 }
 
 #[cfg(test)]

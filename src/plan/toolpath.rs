@@ -398,15 +398,8 @@ mod tests {
     }
 
     fn geom(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutGeometry {
-        CutGeometry {
-            width_mm: w,
-            height_mm: h,
-            outline: Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h }),
-            design_cuts: MultiPolygon(cuts.clone()),
-            cuts: MultiPolygon(cuts),
-            material: MultiPolygon(vec![]),
-            bridges: vec![],
-        }
+        let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
+        CutGeometry::from_cuts(w, h, outline, MultiPolygon(cuts))
     }
 
     fn settings() -> CutSettings {

@@ -163,6 +163,25 @@ pub fn vectorize_design(
 }
 
 impl CutGeometry {
+    /// A sheet known only by its cut regions (as an SVG gives it): no material and no bridges;
+    /// the tool paths are the design line until [`CutGeometry::apply_kerf`].
+    pub fn from_cuts(
+        width_mm: f64,
+        height_mm: f64,
+        outline: Rect<f64>,
+        cuts: MultiPolygon<f64>,
+    ) -> Self {
+        CutGeometry {
+            width_mm,
+            height_mm,
+            outline,
+            design_cuts: cuts.clone(),
+            cuts,
+            material: MultiPolygon::new(Vec::new()),
+            bridges: Vec::new(),
+        }
+    }
+
     /// Set the tool paths: the design cuts offset by half of `kerf_mm` (see [`kerf`]).
     pub fn apply_kerf(&mut self, kerf_mm: f64) {
         self.cuts = kerf::offset_cuts(&self.design_cuts, kerf_mm);
