@@ -22,11 +22,12 @@
 //! measures chords of that one.
 //!
 //! ## How spade is asked
-//! Not with its constrained bulk load but with the bare points, then only the ring edges the
-//! Delaunay triangulation lacks as constraints (rings are sampled densely compared with the gaps
-//! between them, so few or none), which is about a fifth faster; the points are handed over in
-//! the order spade inserts them. Ring edges are then told by ring indices, not spade's flags.
-//! Where rings touch or a vertex repeats, spade's constrained bulk load is used as before.
+//! Not with its constrained bulk load but with the bare points, which is about a fifth faster;
+//! the points are handed over in the order spade inserts them. Rings are sampled densely compared
+//! with the gaps between them, so the Delaunay triangulation normally holds every ring edge: the
+//! ring edges are counted while the faces are read (told by ring indices, not spade's flags), and
+//! only the ones it lacks are then added as constraints. Where rings touch or cross or a vertex
+//! repeats, spade's constrained bulk load is used as before.
 
 use rayon::prelude::*;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -240,21 +241,83 @@ struct Built {
     cdt: Cdt,
     /// spade's vertex j is `verts[of[j]]`.
     of: Vec<u32>,
-    /// No vertex repeated and every ring edge is an edge of the triangulation, whole: the ring
-    /// edges are exactly the edges between consecutive vertices of a ring, and their direction
-    /// gives each side. (Rings never touch, so normally.)
+    /// No vertex repeated and no ring edge split: the ring edges in the triangulation are exactly
+    /// its edges between consecutive vertices of a ring, and their direction gives each side.
+    /// (Rings never touch, so normally.)
     clean: bool,
+    /// Every ring edge is known to be in the triangulation (spade was given them as constraints).
+    /// Otherwise they are counted while the faces are read.
+    constrained: bool,
 }
 
-/// Triangulate `verts` with the ring edges `edges` (indices into `verts`) as constraints.
-fn build(verts: &[V], edges: Vec<[usize; 2]>) -> Result<Built, CheckError> {
-    if let Some(b) = build_delaunay_first(verts, &edges)? {
-        return Ok(b);
+/// Triangulate `verts`, in the usual case without the ring edges `edges` (indices into `verts`):
+/// the Delaunay triangulation of the bare points, handed to spade in its own insertion order
+/// ([`insertion_order`]). Rings are sampled densely compared with the gaps between them, so it
+/// normally holds every ring edge already, at about a fifth less than spade's constrained bulk
+/// load; whether it does is counted while the faces are read, and [`complete`] adds any it lacks.
+/// A repeated vertex: spade's constrained bulk load at once.
+fn build(verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
+    let of = insertion_order(verts);
+    let cdt = Cdt::bulk_load_cdt(
+        of.iter().map(|&i| verts[i as usize].p).collect(),
+        Vec::new(),
+    )
+    .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
+    if cdt.num_vertices() != verts.len() {
+        return build_constrained(verts, edges);
     }
-    // Rings touching or crossing, or a repeated vertex: spade's own constrained bulk load, which
-    // splits constraints at vertices lying on them and drops repeats.
-    let n_edges = edges.len();
-    let cdt = Cdt::try_bulk_load_cdt(verts.iter().map(|v| v.p).collect(), edges, |_| {})
+    Ok(Built {
+        cdt,
+        of,
+        clean: true,
+        constrained: false,
+    })
+}
+
+/// A triangulation from [`build`] lacks some ring edges: add them as constraints. A
+/// triangulation holding every ring edge whose other edges are all locally Delaunay is the
+/// constrained Delaunay triangulation. If they cannot all be there, whole (rings crossing or
+/// touching, a vertex on a ring edge), spade's constrained bulk load instead.
+fn complete(mut b: Built, verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
+    use spade::handles::FixedVertexHandle as H;
+    let mut inv = vec![0u32; verts.len()];
+    for (j, &i) in b.of.iter().enumerate() {
+        inv[i as usize] = j as u32;
+    }
+    let handle = |[i, j]: [usize; 2]| {
+        [
+            H::from_index(inv[i] as usize),
+            H::from_index(inv[j] as usize),
+        ]
+    };
+    let missing: Vec<[H; 2]> = edges
+        .iter()
+        .map(|&e| handle(e))
+        .filter(|&[u, v]| b.cdt.get_edge_from_neighbors(u, v).is_none())
+        .collect();
+    for &[u, v] in &missing {
+        // Empty: it would cross a constraint added before (rings crossing).
+        if b.cdt.try_add_constraint(u, v).is_empty() {
+            return build_constrained(verts, edges);
+        }
+    }
+    // Adding one may flip away a ring edge that was there but not marked as a constraint (only
+    // where rings touch or cross): every ring edge must be there, whole.
+    let whole = edges.iter().all(|&e| {
+        let [u, v] = handle(e);
+        b.cdt.get_edge_from_neighbors(u, v).is_some()
+    });
+    if !whole {
+        return build_constrained(verts, edges);
+    }
+    b.constrained = true;
+    Ok(b)
+}
+
+/// spade's constrained bulk load, which drops repeated vertices and splits constraints at
+/// vertices lying on them.
+fn build_constrained(verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
+    let cdt = Cdt::try_bulk_load_cdt(verts.iter().map(|v| v.p).collect(), edges.to_vec(), |_| {})
         .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
     // spade keeps the points' order, dropping repeats: spade's vertex j is `verts[of[j]]`, found
     // by walking both in order.
@@ -272,69 +335,13 @@ fn build(verts: &[V], edges: Vec<[usize; 2]>) -> Result<Built, CheckError> {
             })
             .collect()
     };
-    let clean = cdt.num_vertices() == verts.len() && cdt.num_constraints() == n_edges;
-    Ok(Built { cdt, of, clean })
-}
-
-/// The usual case, about a fifth faster than spade's constrained bulk load: the Delaunay
-/// triangulation of the bare points, in spade's insertion order (see [`insertion_order`]), then
-/// only the ring edges it lacks added as constraints. Rings are sampled densely compared with the
-/// gaps between them, so it rarely lacks any. A triangulation holding every ring edge whose other
-/// edges are all locally Delaunay is the constrained Delaunay triangulation. None (the caller
-/// then uses spade's constrained bulk load) when a vertex repeats or a ring edge does not end
-/// up whole in the triangulation (rings crossing or touching, a vertex on a ring edge).
-fn build_delaunay_first(verts: &[V], edges: &[[usize; 2]]) -> Result<Option<Built>, CheckError> {
-    use spade::handles::FixedVertexHandle as H;
-    let of = insertion_order(verts);
-    let mut cdt = Cdt::bulk_load_cdt(
-        of.iter().map(|&i| verts[i as usize].p).collect(),
-        Vec::new(),
-    )
-    .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
-    if cdt.num_vertices() != verts.len() {
-        return Ok(None);
-    }
-    let mut inv = vec![0u32; verts.len()];
-    for (j, &i) in of.iter().enumerate() {
-        inv[i as usize] = j as u32;
-    }
-    let handle = |[i, j]: [usize; 2]| {
-        [
-            H::from_index(inv[i] as usize),
-            H::from_index(inv[j] as usize),
-        ]
-    };
-    let missing: Vec<[H; 2]> = edges
-        .iter()
-        .map(|&e| handle(e))
-        .filter(|&[a, b]| cdt.get_edge_from_neighbors(a, b).is_none())
-        .collect();
-    if missing.is_empty() {
-        return Ok(Some(Built {
-            cdt,
-            of,
-            clean: true,
-        }));
-    }
-    for &[a, b] in &missing {
-        // Empty: it would cross a constraint added before (rings crossing).
-        if cdt.try_add_constraint(a, b).is_empty() {
-            return Ok(None);
-        }
-    }
-    // Adding one may flip away a ring edge that was present but not marked as a constraint
-    // (only if rings touch or cross): every ring edge must be there, whole.
-    if edges.iter().any(|&e| {
-        let [a, b] = handle(e);
-        cdt.get_edge_from_neighbors(a, b).is_none()
-    }) {
-        return Ok(None);
-    }
-    Ok(Some(Built {
+    let clean = cdt.num_vertices() == verts.len() && cdt.num_constraints() == edges.len();
+    Ok(Built {
         cdt,
         of,
-        clean: true,
-    }))
+        clean,
+        constrained: true,
+    })
 }
 
 /// The order spade's bulk load inserts points in: by distance from their centroid, farthest
@@ -381,6 +388,87 @@ fn insertion_order(verts: &[V]) -> Vec<u32> {
     order
 }
 
+/// spade's faces read into plain arrays.
+struct Faces {
+    tris: Vec<Tri>,
+    /// The face across each edge k (corner k to corner k + 1), as spade numbers faces (0: outside).
+    across: Vec<[u32; 3]>,
+    /// Each face's side so far: UNKEPT, PENDING, or (in a slab, on a ring edge) MATERIAL / CUT.
+    label: Vec<u8>,
+    /// The faces labelled so far.
+    queue: Vec<usize>,
+    /// How many ring edges the triangulation holds (only counted when it is clean).
+    ring_edges: usize,
+}
+
+/// One pass over spade's faces: each face's corners, its ring edges, the faces across, whether
+/// the window keeps it, and (in a slab) its side when it lies on a ring. Walking spade's handles
+/// face by face costs a cache miss per step; everything after walks these arrays.
+fn read_faces(b: &Built, sizes: &RingSizes, verts: &[V], window: Option<Window>) -> Faces {
+    let n = b.cdt.num_inner_faces();
+    let mut tris: Vec<Tri> = Vec::with_capacity(n);
+    let mut across: Vec<[u32; 3]> = Vec::with_capacity(n);
+    let mut label = Vec::with_capacity(n);
+    let mut queue = Vec::new();
+    // Ring edges seen, by their first vertex.
+    let mut seen = vec![false; if b.clean { verts.len() } else { 0 }];
+    let mut ring_edges = 0;
+    for f in b.cdt.inner_faces() {
+        // spade numbers its inner faces 1.., in this order.
+        debug_assert_eq!(f.fix().index(), tris.len() + 1);
+        let es = f.adjacent_edges();
+        let li = es.map(|e| b.of[e.from().fix().index()] as usize);
+        let c = li.map(|i| verts[i]);
+        // Clean: the ring edges are the pairs of consecutive ring vertices (cheaper to tell than
+        // asking spade). Otherwise they are spade's constraint edges.
+        let mut ring = [false; 3];
+        let mut seed = None;
+        for k in 0..3 {
+            if b.clean {
+                if let Some((_, forward)) = sizes.edge(c[k], c[(k + 1) % 3]) {
+                    ring[k] = true;
+                    seed = seed.or(Some(forward));
+                    let first = if forward { li[k] } else { li[(k + 1) % 3] };
+                    if !seen[first] {
+                        seen[first] = true;
+                        ring_edges += 1;
+                    }
+                }
+            } else {
+                ring[k] = b.cdt.is_constraint_edge(es[k].fix().as_undirected());
+                if ring[k] {
+                    seed = seed.or(sizes.edge(c[k], c[(k + 1) % 3]).map(|(_, f)| f));
+                }
+            }
+        }
+        tris.push(Tri {
+            v: c.map(|v| v.gid),
+            material: false,
+            ring_edges: (ring[0] as u8) | (ring[1] as u8) << 1 | (ring[2] as u8) << 2,
+        });
+        across.push(es.map(|e| e.rev().face().fix().index() as u32));
+        let kept = window.is_none_or(|w| {
+            let (cx, r) = circle(c[0].p, c[1].p, c[2].p);
+            cx >= w.x0 && cx < w.x1 && cx - r > w.lo && cx + r < w.hi
+        });
+        let mut side = if kept { PENDING } else { UNKEPT };
+        if kept && window.is_some() {
+            if let Some(forward) = seed {
+                side = if forward { MATERIAL } else { CUT };
+                queue.push(label.len());
+            }
+        }
+        label.push(side);
+    }
+    Faces {
+        tris,
+        across,
+        label,
+        queue,
+        ring_edges,
+    }
+}
+
 /// Triangulate `verts` with the ring edges among them as constraints; keep the triangles the
 /// window allows (all when none), each marked material or cut: a triangle on a ring edge lies
 /// left of the ring's direction (material) or right (cut); the others take the side of a kept
@@ -415,60 +503,28 @@ fn triangulate_part(
             edges.push([i, j]);
         }
     }
-    let Built { cdt, of, clean } = build(verts, edges)?;
-    if window.is_some() && !clean {
-        return Ok(Part {
-            tris: Vec::new(),
-            open: Vec::new(),
-            labelled: false,
-        });
-    }
-
-    // One pass over spade's faces into plain arrays: each face's corners, and the face across
-    // each edge k (corner k to corner k + 1) as spade numbers faces (0: outside). Walking spade's
-    // handles face by face costs a cache miss per step; everything after walks these arrays.
-    let n = cdt.num_inner_faces();
-    let mut tris: Vec<Tri> = Vec::with_capacity(n);
-    let mut across: Vec<[u32; 3]> = Vec::with_capacity(n);
-    // Each face: its corners, its ring edges, whether the window keeps it, and (in a slab) its side
-    // when it lies on a ring.
-    let mut label = Vec::with_capacity(n);
-    let mut queue = Vec::new();
-    for f in cdt.inner_faces() {
-        // spade numbers its inner faces 1.., in this order.
-        debug_assert_eq!(f.fix().index(), tris.len() + 1);
-        let es = f.adjacent_edges();
-        let c = es.map(|e| verts[of[e.from().fix().index()] as usize]);
-        // Clean: the ring edges are the pairs of consecutive ring vertices (cheaper to tell than
-        // asking spade). Otherwise they are spade's constraint edges.
-        let ring = if clean {
-            [0, 1, 2].map(|k| sizes.edge(c[k], c[(k + 1) % 3]).is_some())
-        } else {
-            es.map(|e| cdt.is_constraint_edge(e.fix().as_undirected()))
-        };
-        tris.push(Tri {
-            v: c.map(|v| v.gid),
-            material: false,
-            ring_edges: (ring[0] as u8) | (ring[1] as u8) << 1 | (ring[2] as u8) << 2,
-        });
-        across.push(es.map(|e| e.rev().face().fix().index() as u32));
-        let kept = window.is_none_or(|w| {
-            let (cx, r) = circle(c[0].p, c[1].p, c[2].p);
-            cx >= w.x0 && cx < w.x1 && cx - r > w.lo && cx + r < w.hi
-        });
-        let mut side = if kept { PENDING } else { UNKEPT };
-        if kept && window.is_some() {
-            let seed = (0..3)
-                .filter(|&k| ring[k])
-                .find_map(|k| sizes.edge(c[k], c[(k + 1) % 3]));
-            if let Some((_, forward)) = seed {
-                side = if forward { MATERIAL } else { CUT };
-                queue.push(label.len());
-            }
+    let mut built = build(verts, &edges)?;
+    let Faces {
+        mut tris,
+        across,
+        mut label,
+        mut queue,
+        ..
+    } = loop {
+        if window.is_some() && !built.clean {
+            return Ok(Part {
+                tris: Vec::new(),
+                open: Vec::new(),
+                labelled: false,
+            });
         }
-        label.push(side);
-    }
-    drop(cdt);
+        let faces = read_faces(&built, sizes, verts, window);
+        if built.constrained || faces.ring_edges == edges.len() {
+            break faces;
+        }
+        built = complete(built, verts, &edges)?;
+    };
+    drop(built);
 
     let corners = |t: &Tri| t.v.map(|g| all[g as usize]);
     if window.is_some() {
@@ -583,6 +639,14 @@ mod tests {
         (sizes, verts)
     }
 
+    /// Every ring edge, by global index.
+    fn ring_edges(sizes: &RingSizes, verts: &[V]) -> Vec<[usize; 2]> {
+        verts
+            .iter()
+            .map(|&v| [v.gid as usize, sizes.next_gid(v) as usize])
+            .collect()
+    }
+
     /// The area the triangles cover, and the part of it marked cut.
     fn areas<'a>(verts: &[V], tris: impl IntoIterator<Item = &'a Tri>) -> (f64, f64) {
         tris.into_iter().fold((0.0, 0.0), |(all, cut), t| {
@@ -638,20 +702,17 @@ mod tests {
         let slot: &[[f64; 2]] = &[[1.0, 4.0], [1.0, 4.5], [9.0, 4.5], [9.0, 4.0]];
         let tip: &[[f64; 2]] = &[[4.0, 1.0], [5.0, 3.9], [6.0, 1.0]];
         let (sizes, verts) = sheet(&[outline, slot, tip]);
-        let plain = Cdt::bulk_load_cdt(verts.iter().map(|v| v.p).collect(), Vec::new()).unwrap();
-        let h = spade::handles::FixedVertexHandle::from_index;
-        assert!(
-            plain.get_edge_from_neighbors(h(7), h(4)).is_none(),
-            "test premise"
+        let edges = ring_edges(&sizes, &verts);
+        let built = build(&verts, &edges).unwrap();
+        assert!(!built.constrained && built.clean);
+        let seen = read_faces(&built, &sizes, &verts, None).ring_edges;
+        assert!(seen < edges.len(), "test premise: ring edges missing");
+        let built = complete(built, &verts, &edges).unwrap();
+        assert!(built.constrained && built.clean);
+        assert_eq!(
+            read_faces(&built, &sizes, &verts, None).ring_edges,
+            edges.len()
         );
-        let edges: Vec<[usize; 2]> = verts
-            .iter()
-            .map(|&v| [v.gid as usize, sizes.next_gid(v) as usize])
-            .collect();
-        let built = build_delaunay_first(&verts, &edges)
-            .unwrap()
-            .expect("recovered");
-        assert!(built.clean);
         for slabs in [1, 2] {
             let (parts, _) = triangulate(&sizes, &verts, slabs, 5.0).unwrap();
             let (total, cut) = areas(&verts, parts.iter().flatten());
@@ -668,13 +729,11 @@ mod tests {
         let a: &[[f64; 2]] = &[[2.0, 2.0], [2.0, 6.0], [6.0, 6.0], [6.0, 2.0]];
         let b: &[[f64; 2]] = &[[4.0, 4.0], [4.0, 8.0], [8.0, 8.0], [8.0, 4.0]];
         let (sizes, verts) = sheet(&[outline, a, b]);
-        let edges: Vec<[usize; 2]> = verts
-            .iter()
-            .map(|&v| [v.gid as usize, sizes.next_gid(v) as usize])
-            .collect();
-        assert!(build_delaunay_first(&verts, &edges).unwrap().is_none());
-        let built = build(&verts, edges).unwrap();
-        assert!(!built.clean);
+        let edges = ring_edges(&sizes, &verts);
+        let built = build(&verts, &edges).unwrap();
+        assert!(read_faces(&built, &sizes, &verts, None).ring_edges < edges.len());
+        let built = complete(built, &verts, &edges).unwrap();
+        assert!(built.constrained && !built.clean);
         let (parts, _) = triangulate(&sizes, &verts, 1, 1.0).unwrap();
         let (total, _) = areas(&verts, parts.iter().flatten());
         assert!((total - 100.0).abs() < 1e-9, "{total}");
