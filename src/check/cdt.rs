@@ -34,13 +34,16 @@ use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
 use super::CheckError;
 
-/// A vertex of the sheet: where, which ring, its index on the ring, and its index over all rings.
+/// A vertex of the sheet: where, which ring, its index on the ring, its index over all rings, and
+/// the index over all rings of the next vertex on its ring (ring edges are told without looking
+/// anything up).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct V {
     pub p: Point2<f64>,
     pub ring: u32,
     pub idx: u32,
     pub gid: u32,
+    pub next: u32,
 }
 
 /// A triangle inside the sheet: its corners' global indices, counter-clockwise (numerically), and
@@ -76,13 +79,9 @@ impl RingSizes {
     /// whether `a → b` runs along the ring's direction.
     #[inline]
     pub fn edge(&self, a: V, b: V) -> Option<(u32, bool)> {
-        if a.ring != b.ring {
-            return None;
-        }
-        let n = self.len[a.ring as usize];
-        if b.idx == (a.idx + 1) % n {
+        if a.next == b.gid {
             Some((a.idx, true))
-        } else if a.idx == (b.idx + 1) % n {
+        } else if b.next == a.gid {
             Some((b.idx, false))
         } else {
             None
@@ -90,7 +89,21 @@ impl RingSizes {
     }
 
     fn next_gid(&self, v: V) -> u32 {
-        self.start[v.ring as usize] + (v.idx + 1) % self.len[v.ring as usize]
+        v.next
+    }
+
+    /// Append a ring (at least three points) as the next ring, its vertices to `verts`.
+    pub fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
+        let (ring, start, n) = (self.len.len() as u32, verts.len() as u32, pts.len() as u32);
+        self.start.push(start);
+        self.len.push(n);
+        verts.extend(pts.iter().zip(0..).map(|(p, i)| V {
+            p: Point2::new(p[0], p[1]),
+            ring,
+            idx: i,
+            gid: start + i,
+            next: start + (i + 1) % n,
+        }));
     }
 }
 
@@ -609,17 +622,8 @@ mod tests {
             outline: 0,
         };
         let mut verts = Vec::new();
-        for (ri, r) in rings.iter().enumerate() {
-            sizes.start.push(verts.len() as u32);
-            sizes.len.push(r.len() as u32);
-            for (i, p) in r.iter().enumerate() {
-                verts.push(V {
-                    p: Point2::new(p[0], p[1]),
-                    ring: ri as u32,
-                    idx: i as u32,
-                    gid: verts.len() as u32,
-                });
-            }
+        for r in rings {
+            sizes.push_ring(&mut verts, r);
         }
         (sizes, verts)
     }

@@ -35,7 +35,6 @@
 use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use spade::Point2;
 
 mod cdt;
 
@@ -530,20 +529,13 @@ fn check_tuned(
     };
     let mut leftmost = [f64::INFINITY; 2];
     for (ri, r) in rings.pts.iter().enumerate() {
-        sizes.start.push(verts.len() as u32);
-        sizes.len.push(r.len() as u32);
-        for (i, p) in r.iter().enumerate() {
+        for p in r {
             if (p[0], p[1]) < (leftmost[0], leftmost[1]) {
                 leftmost = *p;
                 sizes.outline = ri as u32;
             }
-            verts.push(V {
-                p: Point2::new(p[0], p[1]),
-                ring: ri as u32,
-                idx: i as u32,
-                gid: verts.len() as u32,
-            });
         }
+        sizes.push_ring(&mut verts, r);
     }
     let threads = rayon::current_num_threads();
     let slabs = tuning.slabs.unwrap_or(if verts.len() >= SLAB_MIN_VERTICES {
