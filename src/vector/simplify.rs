@@ -138,16 +138,38 @@ pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
     }
 }
 
+#[cfg(test)]
 fn seg_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let l2 = dx * dx + dy * dy;
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let (ex, ey) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
-    ex * ex + ey * ey
+    Span::new(a, b).dist2(p)
+}
+
+/// A chord, ready for many squared-distance queries (no division each).
+struct Span {
+    a: [f64; 2],
+    d: [f64; 2],
+    /// 1 / |d|², or 0 for a chord of length 0.
+    inv: f64,
+}
+
+impl Span {
+    fn new(a: [f64; 2], b: [f64; 2]) -> Self {
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let l2 = d[0] * d[0] + d[1] * d[1];
+        Span {
+            a,
+            d,
+            inv: if l2 > 0.0 { 1.0 / l2 } else { 0.0 },
+        }
+    }
+
+    /// Squared distance from `p` to the chord.
+    #[inline]
+    fn dist2(&self, p: [f64; 2]) -> f64 {
+        let (px, py) = (p[0] - self.a[0], p[1] - self.a[1]);
+        let t = ((px * self.d[0] + py * self.d[1]) * self.inv).clamp(0.0, 1.0);
+        let (ex, ey) = (t * self.d[0] - px, t * self.d[1] - py);
+        ex * ex + ey * ey
+    }
 }
 
 /// Whether a guard's material centre is left of chord a→b and its cut centre right of it.
@@ -184,10 +206,11 @@ fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> 
         let (pa, pb) = (at(a), at(b));
         let mut best = (0.0, a);
         // b <= n, so every i here is below n and indexes the ring directly.
-        for (i, &p) in r.iter().enumerate().take(b).skip(a + 1) {
-            let d = seg_dist2(p, pa, pb);
+        let span = Span::new(pa, pb);
+        for (i, &p) in r[a + 1..b].iter().enumerate() {
+            let d = span.dist2(p);
             if d > best.0 {
-                best = (d, i);
+                best = (d, a + 1 + i);
             }
         }
         if best.0 <= tol2 {
@@ -257,27 +280,64 @@ fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
             })
         })
         .collect();
-    entries.par_sort_unstable();
-    // The runs of one cell, each checked pair by pair, in parallel.
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut s = 0;
-    while s < entries.len() {
-        let mut e = s + 1;
-        while e < entries.len() && entries[e].0 == entries[s].0 {
-            e += 1;
-        }
-        if e - s > 1 {
-            runs.push((s, e));
-        }
-        s = e;
+    // Entries grouped by cell: a counting sort over the cells the entries span (linear; a
+    // comparison sort of the entries was a third of this function's time), or a sort when the
+    // cells would be many more than the entries.
+    let (mut lo, mut hi) = ([u64::MAX; 2], [0u64; 2]);
+    for &(key, _, _) in &entries {
+        let (x, y) = (key & 0xffff_ffff, key >> 32);
+        lo = [lo[0].min(x), lo[1].min(y)];
+        hi = [hi[0].max(x), hi[1].max(y)];
     }
+    let cols = hi[0].saturating_sub(lo[0]) + 1;
+    let cells = cols.saturating_mul(hi[1].saturating_sub(lo[1]) + 1);
+    let (slots, runs): (Vec<(u32, u32)>, Vec<(usize, usize)>) = if !entries.is_empty()
+        && cells <= 4 * entries.len() as u64 + (1 << 16)
+    {
+        let cell = |key: u64| (((key >> 32) - lo[1]) * cols + (key & 0xffff_ffff) - lo[0]) as usize;
+        let mut start = vec![0u32; cells as usize + 1];
+        for &(key, _, _) in &entries {
+            start[cell(key) + 1] += 1;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut fill = start.clone();
+        let mut slots = vec![(0u32, 0u32); entries.len()];
+        for &(key, ring, seg) in &entries {
+            let c = cell(key);
+            slots[fill[c] as usize] = (ring, seg);
+            fill[c] += 1;
+        }
+        let runs = start
+            .windows(2)
+            .filter(|w| w[1] - w[0] > 1)
+            .map(|w| (w[0] as usize, w[1] as usize))
+            .collect();
+        (slots, runs)
+    } else {
+        entries.par_sort_unstable();
+        let mut runs = Vec::new();
+        let mut s = 0;
+        while s < entries.len() {
+            let mut e = s + 1;
+            while e < entries.len() && entries[e].0 == entries[s].0 {
+                e += 1;
+            }
+            if e - s > 1 {
+                runs.push((s, e));
+            }
+            s = e;
+        }
+        (entries.iter().map(|&(_, r, i)| (r, i)).collect(), runs)
+    };
     let bad_rings: Vec<u32> = runs
         .par_iter()
         .flat_map_iter(|&(s, e)| {
             let mut bad = Vec::new();
-            let cell = &entries[s..e];
-            for (k, &(_, ra, ia)) in cell.iter().enumerate() {
-                for &(_, rb, ib) in &cell[k + 1..] {
+            let cell = &slots[s..e];
+            for (k, &(ra, ia)) in cell.iter().enumerate() {
+                for &(rb, ib) in &cell[k + 1..] {
                     if let Some(pair) = conflict(rings, (ra, ia), (rb, ib)) {
                         bad.extend_from_slice(&pair);
                     }
@@ -385,6 +445,16 @@ mod tests {
         assert!(conflicts(&rings, 4.0).is_empty());
         assert_eq!(s.fallbacks, 1, "{s:?}");
         assert_eq!(rings[0], a);
+        // The same with a ring far away (cells too many to count: the entries are sorted).
+        let far = vec![[1e6, 1e6], [1e6 + 1.0, 1e6], [1e6, 1e6 + 1.0]];
+        let mut rings = vec![a.clone(), b.clone(), far];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert_eq!(s.fallbacks, 1, "{s:?}");
+        assert_eq!(rings[0], a);
+        // Without the notch, a crosses b: found either way.
+        let cut = vec![[0.0, -10.0], [20.0, -10.0], [20.0, 0.9], [0.0, 0.9]];
+        assert_eq!(conflicts(&[cut.clone(), b.clone()], 4.0), vec![0, 1]);
+        assert_eq!(conflicts(&[cut, b, rings[2].clone()], 4.0), vec![0, 1]);
     }
 
     #[test]
