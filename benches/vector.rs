@@ -44,6 +44,8 @@ fn stencil() -> (BitGrid, Vec<Vec<[f64; 2]>>) {
 }
 
 fn bench(c: &mut Criterion) {
+    // As the `stencil` binary runs.
+    stencil::alloc::keep_freed_memory();
     let (bits, bridges) = stencil();
     let material = Material::default();
     let vcfg = VectorConfig {

@@ -11,6 +11,7 @@
 //! Stages before `vector` work in pixels; millimetres appear only through [`units::Scale`]. Only
 //! `export` and `machine` touch files and devices (plus input loading in `tone`).
 
+pub mod alloc;
 pub mod bridge;
 pub mod check;
 pub mod export;
