@@ -322,7 +322,8 @@ impl<'a> BridgeIndex<'a> {
 }
 
 /// From vertex `w` straight across to ring edge `i → i+1` of `ring`, when the foot falls strictly
-/// inside the edge: the two chord ends, their points, and the length.
+/// inside the edge and the chord is shorter than `bound`: the two chord ends, their points, and
+/// the length.
 /// `material_side`: which region the chord must cross (material lies left of every ring edge, as
 /// the rings are oriented: exteriors counter-clockwise, holes clockwise).
 fn perpendicular(
@@ -331,6 +332,7 @@ fn perpendicular(
     ring: u32,
     i: u32,
     material_side: bool,
+    bound: f64,
 ) -> Option<(End, End, [f64; 2], [f64; 2], f64)> {
     let pts = &r.pts[ring as usize];
     let n = pts.len() as u32;
@@ -344,12 +346,16 @@ fn perpendicular(
     if l2 == 0.0 {
         return None;
     }
-    let t = ((pw[0] - pu[0]) * ex + (pw[1] - pu[1]) * ey) / l2;
-    if t <= 1e-9 || t >= 1.0 - 1e-9 {
+    let cross = ex * (pw[1] - pu[1]) - ey * (pw[0] - pu[0]);
+    if (cross > 0.0) != material_side {
         return None;
     }
-    let left = ex * (pw[1] - pu[1]) - ey * (pw[0] - pu[0]) > 0.0;
-    if left != material_side {
+    // Too long to matter (the slack keeps rounding from dropping a chord at the bound itself).
+    if cross * cross >= bound * bound * l2 * (1.0 + 1e-9) {
+        return None;
+    }
+    let t = ((pw[0] - pu[0]) * ex + (pw[1] - pu[1]) * ey) / l2;
+    if t <= 1e-9 || t >= 1.0 - 1e-9 {
         return None;
     }
     let foot = [pu[0] + t * ex, pu[1] + t * ey];
@@ -448,6 +454,11 @@ impl Search<'_> {
     fn face(&self, sizes: &RingSizes, t: &Tri, out: &mut Found) {
         let rings = self.rings;
         let material_side = t.material;
+        // No chord at least this long can change the narrowest or be a violation (see `consider`).
+        let n = &out.narrowest;
+        let bound = self
+            .max_required
+            .max(if material_side { n[0].max(n[1]) } else { n[2] });
         let c = t.v.map(|g| self.verts[g as usize]);
         for k in 0..3 {
             let (du, dv, w) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
@@ -457,7 +468,7 @@ impl Search<'_> {
                 // to measure from: the chords around it still are measured.)
                 if let Some((i, _)) = sizes.edge(du, dv) {
                     if let Some((a, b, pa, pb, d)) =
-                        perpendicular(rings, w, du.ring, i, material_side)
+                        perpendicular(rings, w, du.ring, i, material_side, bound)
                     {
                         self.consider(out, material_side, (a, b), (pa, pb), d);
                     }
@@ -480,7 +491,7 @@ impl Search<'_> {
                     let n = rings.pts[y.ring as usize].len() as u32;
                     for start in [y.idx, (y.idx + n - 1) % n] {
                         if let Some((a, b, pa, pb, d)) =
-                            perpendicular(rings, x, y.ring, start, material_side)
+                            perpendicular(rings, x, y.ring, start, material_side, bound)
                         {
                             self.consider(out, material_side, (a, b), (pa, pb), d);
                         }
