@@ -46,6 +46,21 @@ pub(super) struct V {
     pub next: u32,
 }
 
+impl V {
+    /// If `self → b` is an edge of a ring: the index of its first vertex along the ring, and
+    /// whether `self → b` runs along the ring's direction.
+    #[inline]
+    pub fn ring_edge(self, b: V) -> Option<(u32, bool)> {
+        if self.next == b.gid {
+            Some((self.idx, true))
+        } else if b.next == self.gid {
+            Some((b.idx, false))
+        } else {
+            None
+        }
+    }
+}
+
 /// A triangle inside the sheet: its corners' global indices, counter-clockwise (numerically), and
 /// whether it lies in material (else in a cut). Indices, not vertices: a sixth of the bytes to
 /// write and read for each of the ~100,000 triangles of a large sheet.
@@ -66,36 +81,17 @@ pub(super) enum Method {
     WholeAfterSlabs,
 }
 
-/// The rings, as the triangulation needs them: each ring's vertex count and first global index.
+/// The rings, as the triangulation needs them: each ring's vertex count.
 pub(super) struct RingSizes {
     pub len: Vec<u32>,
-    pub start: Vec<u32>,
     /// The ring of the sheet's outline (the convex hull of everything).
     pub outline: u32,
 }
 
 impl RingSizes {
-    /// If `a → b` is an edge of a ring: the index of its first vertex along the ring, and
-    /// whether `a → b` runs along the ring's direction.
-    #[inline]
-    pub fn edge(&self, a: V, b: V) -> Option<(u32, bool)> {
-        if a.next == b.gid {
-            Some((a.idx, true))
-        } else if b.next == a.gid {
-            Some((b.idx, false))
-        } else {
-            None
-        }
-    }
-
-    fn next_gid(&self, v: V) -> u32 {
-        v.next
-    }
-
     /// Append a ring (at least three points) as the next ring, its vertices to `verts`.
     pub fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
         let (ring, start, n) = (self.len.len() as u32, verts.len() as u32, pts.len() as u32);
-        self.start.push(start);
         self.len.push(n);
         verts.extend(pts.iter().zip(0..).map(|(p, i)| V {
             p: Point2::new(p[0], p[1]),
@@ -168,7 +164,7 @@ fn in_slabs(
     let reach = verts
         .iter()
         .map(|&v| {
-            let w = verts[sizes.next_gid(v) as usize];
+            let w = verts[v.next as usize];
             ((v.p.x - w.p.x).powi(2) + (v.p.y - w.p.y).powi(2)).sqrt()
         })
         .fold(0.0f64, f64::max);
@@ -402,7 +398,7 @@ struct Faces {
 /// One pass over spade's faces: each face's corners, its ring edges, the faces across, whether
 /// the window keeps it, and (in a slab) its side when it lies on a ring. Walking spade's handles
 /// face by face costs a cache miss per step; everything after walks these arrays.
-fn read_faces(b: &Built, sizes: &RingSizes, verts: &[V], window: Option<Window>) -> Faces {
+fn read_faces(b: &Built, verts: &[V], window: Option<Window>) -> Faces {
     let n = b.cdt.num_inner_faces();
     let mut tris: Vec<Tri> = Vec::with_capacity(n);
     let mut across: Vec<[u32; 3]> = Vec::with_capacity(n);
@@ -423,7 +419,7 @@ fn read_faces(b: &Built, sizes: &RingSizes, verts: &[V], window: Option<Window>)
         let mut seed = None;
         for k in 0..3 {
             if b.clean {
-                if let Some((_, forward)) = sizes.edge(c[k], c[(k + 1) % 3]) {
+                if let Some((_, forward)) = c[k].ring_edge(c[(k + 1) % 3]) {
                     ring[k] = true;
                     seed = seed.or(Some(forward));
                     let first = if forward { li[k] } else { li[(k + 1) % 3] };
@@ -435,7 +431,7 @@ fn read_faces(b: &Built, sizes: &RingSizes, verts: &[V], window: Option<Window>)
             } else {
                 ring[k] = b.cdt.is_constraint_edge(es[k].fix().as_undirected());
                 if ring[k] {
-                    seed = seed.or(sizes.edge(c[k], c[(k + 1) % 3]).map(|(_, f)| f));
+                    seed = seed.or(c[k].ring_edge(c[(k + 1) % 3]).map(|(_, f)| f));
                 }
             }
         }
@@ -488,7 +484,7 @@ fn triangulate_part(
     }
     let mut edges = Vec::with_capacity(verts.len());
     for (i, &v) in verts.iter().enumerate() {
-        let next = sizes.next_gid(v) as usize;
+        let next = v.next as usize;
         let j = if dense {
             Some(next)
         } else {
@@ -516,7 +512,7 @@ fn triangulate_part(
                 labelled: false,
             });
         }
-        let faces = read_faces(&built, sizes, verts, window);
+        let faces = read_faces(&built, verts, window);
         if built.constrained || faces.ring_edges == edges.len() {
             break faces;
         }
@@ -618,7 +614,6 @@ mod tests {
     fn sheet(rings: &[&[[f64; 2]]]) -> (RingSizes, Vec<V>) {
         let mut sizes = RingSizes {
             len: Vec::new(),
-            start: Vec::new(),
             outline: 0,
         };
         let mut verts = Vec::new();
@@ -628,11 +623,14 @@ mod tests {
         (sizes, verts)
     }
 
+    /// The outline of a 10 × 10 sheet, counter-clockwise.
+    const SQUARE: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+
     /// Every ring edge, by global index.
-    fn ring_edges(sizes: &RingSizes, verts: &[V]) -> Vec<[usize; 2]> {
+    fn ring_edges(verts: &[V]) -> Vec<[usize; 2]> {
         verts
             .iter()
-            .map(|&v| [v.gid as usize, sizes.next_gid(v) as usize])
+            .map(|&v| [v.gid as usize, v.next as usize])
             .collect()
     }
 
@@ -652,10 +650,9 @@ mod tests {
     #[test]
     fn holes_touching_at_a_corner_are_read_back_by_position() {
         // Two square holes (clockwise) sharing the vertex (4, 4): spade keeps one of the two.
-        let outline: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
         let a: &[[f64; 2]] = &[[2.0, 2.0], [2.0, 4.0], [4.0, 4.0], [4.0, 2.0]];
         let b: &[[f64; 2]] = &[[4.0, 4.0], [4.0, 6.0], [6.0, 6.0], [6.0, 4.0]];
-        let (sizes, verts) = sheet(&[outline, a, b]);
+        let (sizes, verts) = sheet(&[SQUARE, a, b]);
         let (parts, m) = triangulate(&sizes, &verts, 1, 1.0).unwrap();
         assert_eq!(m, Method::Whole);
         let tris: Vec<&Tri> = parts.iter().flatten().collect();
@@ -671,10 +668,9 @@ mod tests {
         // Hole b shares the corner (4, 4) with hole a; spade keeps a's vertex, so b's edges at
         // that corner are no pair of consecutive b vertices (found in review: sides were then
         // taken from ring order and could spread across b's edge).
-        let outline: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
         let a: &[[f64; 2]] = &[[2.0, 2.0], [2.0, 4.0], [4.0, 4.0], [4.0, 2.0]];
         let b: &[[f64; 2]] = &[[4.0, 4.0], [4.0, 6.0], [7.0, 7.0], [6.0, 4.0]];
-        let (sizes, verts) = sheet(&[outline, a, b]);
+        let (sizes, verts) = sheet(&[SQUARE, a, b]);
         for slabs in [1, 2] {
             let (parts, _) = triangulate(&sizes, &verts, slabs, 3.0).unwrap();
             let (total, cut) = areas(&verts, parts.iter().flatten());
@@ -687,21 +683,17 @@ mod tests {
     fn a_ring_edge_the_delaunay_triangulation_lacks_is_added() {
         // A long slot whose lower side (1, 4) -> (9, 4) passes just above the tip of a triangle
         // hole: the plain Delaunay triangulation joins the tip to the slot's corners across it.
-        let outline: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
         let slot: &[[f64; 2]] = &[[1.0, 4.0], [1.0, 4.5], [9.0, 4.5], [9.0, 4.0]];
         let tip: &[[f64; 2]] = &[[4.0, 1.0], [5.0, 3.9], [6.0, 1.0]];
-        let (sizes, verts) = sheet(&[outline, slot, tip]);
-        let edges = ring_edges(&sizes, &verts);
+        let (sizes, verts) = sheet(&[SQUARE, slot, tip]);
+        let edges = ring_edges(&verts);
         let built = build(&verts, &edges).unwrap();
         assert!(!built.constrained && built.clean);
-        let seen = read_faces(&built, &sizes, &verts, None).ring_edges;
+        let seen = read_faces(&built, &verts, None).ring_edges;
         assert!(seen < edges.len(), "test premise: ring edges missing");
         let built = complete(built, &verts, &edges).unwrap();
         assert!(built.constrained && built.clean);
-        assert_eq!(
-            read_faces(&built, &sizes, &verts, None).ring_edges,
-            edges.len()
-        );
+        assert_eq!(read_faces(&built, &verts, None).ring_edges, edges.len());
         for slabs in [1, 2] {
             let (parts, _) = triangulate(&sizes, &verts, slabs, 5.0).unwrap();
             let (total, cut) = areas(&verts, parts.iter().flatten());
@@ -714,13 +706,12 @@ mod tests {
     fn crossing_rings_fall_back_to_spades_constrained_bulk_load() {
         // Two holes crossing (bad input): the ring edges cannot all be whole; the sheet is still
         // triangulated, by spade's constrained bulk load, which splits them.
-        let outline: &[[f64; 2]] = &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
         let a: &[[f64; 2]] = &[[2.0, 2.0], [2.0, 6.0], [6.0, 6.0], [6.0, 2.0]];
         let b: &[[f64; 2]] = &[[4.0, 4.0], [4.0, 8.0], [8.0, 8.0], [8.0, 4.0]];
-        let (sizes, verts) = sheet(&[outline, a, b]);
-        let edges = ring_edges(&sizes, &verts);
+        let (sizes, verts) = sheet(&[SQUARE, a, b]);
+        let edges = ring_edges(&verts);
         let built = build(&verts, &edges).unwrap();
-        assert!(read_faces(&built, &sizes, &verts, None).ring_edges < edges.len());
+        assert!(read_faces(&built, &verts, None).ring_edges < edges.len());
         let built = complete(built, &verts, &edges).unwrap();
         assert!(built.constrained && !built.clean);
         let (parts, _) = triangulate(&sizes, &verts, 1, 1.0).unwrap();

@@ -409,23 +409,15 @@ impl Search<'_> {
         (pa, pb): ([f64; 2], [f64; 2]),
         d: f64,
     ) {
-        let narrowest = &mut out.narrowest;
-        // Too wide to matter for a violation or for the narrowest of its region: skip early.
         let could_be_bridge = if self.bridges_known {
             self.any_bridges
         } else {
             a.ring == b.ring
         };
-        let narrowest_here = if !material_side {
-            narrowest[2]
-        } else if could_be_bridge {
-            narrowest[0].max(narrowest[1])
-        } else {
-            narrowest[1]
-        };
-        if d >= self.max_required && d >= narrowest_here {
+        if d >= self.skip_from(&out.narrowest, material_side, could_be_bridge) {
             return;
         }
+        let narrowest = &mut out.narrowest;
         if !is_neck(self.rings, a, b, d) {
             return;
         }
@@ -450,15 +442,26 @@ impl Search<'_> {
         }
     }
 
+    /// Chords at least this long are too wide to matter: for a violation, or for the narrowest
+    /// of their kind so far. `could_be_bridge`: whether a material chord may be a bridge (then it
+    /// may count as either kind).
+    fn skip_from(&self, narrowest: &[f64; 3], material_side: bool, could_be_bridge: bool) -> f64 {
+        let here = if !material_side {
+            narrowest[2]
+        } else if could_be_bridge {
+            narrowest[0].max(narrowest[1])
+        } else {
+            narrowest[1]
+        };
+        self.max_required.max(here)
+    }
+
     /// The chords of one triangle of the sheet (see the module doc).
-    fn face(&self, sizes: &RingSizes, t: &Tri, out: &mut Found) {
+    fn face(&self, t: &Tri, out: &mut Found) {
         let rings = self.rings;
         let material_side = t.material;
-        // No chord at least this long can change the narrowest or be a violation (see `consider`).
-        let n = &out.narrowest;
-        let bound = self
-            .max_required
-            .max(if material_side { n[0].max(n[1]) } else { n[2] });
+        // Before a perpendicular's ends are looked up: whatever kind its chord turns out to be.
+        let bound = self.skip_from(&out.narrowest, material_side, true);
         let c = t.v.map(|g| self.verts[g as usize]);
         for k in 0..3 {
             let (du, dv, w) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
@@ -466,7 +469,7 @@ impl Search<'_> {
                 // The vertex opposite a boundary edge, straight across to it. (A ring edge that
                 // is not between consecutive vertices, where rings touch, has no place on a ring
                 // to measure from: the chords around it still are measured.)
-                if let Some((i, _)) = sizes.edge(du, dv) {
+                if let Some((i, _)) = du.ring_edge(dv) {
                     if let Some((a, b, pa, pb, d)) =
                         perpendicular(rings, w, du.ring, i, material_side, bound)
                     {
@@ -535,7 +538,6 @@ fn check_tuned(
     let mut verts = Vec::new();
     let mut sizes = RingSizes {
         len: Vec::with_capacity(rings.pts.len()),
-        start: Vec::with_capacity(rings.pts.len()),
         outline: 0,
     };
     let mut leftmost = [f64::INFINITY; 2];
@@ -585,7 +587,7 @@ fn check_tuned(
         .map(|part| {
             let mut out = Found::default();
             for t in part {
-                ctx.face(&sizes, t, &mut out);
+                ctx.face(t, &mut out);
             }
             out
         })
@@ -681,8 +683,8 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
     let mut cache: Vec<(u32, bool, Vec<u32>)> = Vec::new();
     let mut neck_of: Vec<Option<(usize, u32)>> = Vec::new();
     for v in &mut report.violations {
-        neck_of.push(None);
         if v.width_mm.is_none() {
+            neck_of.push(None);
             continue;
         }
         let r = (scale.to_px(Mm(v.required_mm)).0 / 2.0).ceil().max(1.0) as u32;
@@ -728,7 +730,7 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
             }
         }
         v.confirmed_by_opening = Some(found.is_some());
-        *neck_of.last_mut().expect("pushed above") = found.map(|l| (idx, l));
+        neck_of.push(found.map(|l| (idx, l)));
     }
     // Keep the narrowest violation per (kind, neck); report order is narrowest first already.
     let mut seen: Vec<(ViolationKind, usize, u32)> = Vec::new();

@@ -43,38 +43,33 @@ pub fn simplify_rings(
     // is made from its original then, so the lossless version is built for those rings only.
     let originals: Vec<Vec<[f64; 2]>> = rings.iter_mut().map(std::mem::take).collect();
     // Each ring on its own, in parallel.
-    let simplified: Vec<bool> = rings
+    let mut simplified: Vec<bool> = rings
         .par_iter_mut()
         .zip(originals.par_iter())
         .enumerate()
         .map(|(i, (r, orig))| {
-            let s = if tol > 0.0 {
-                drop_collinear(&dp_ring(
+            if tol > 0.0 {
+                let s = drop_collinear(&dp_ring(
                     orig,
                     guards.and_then(|g| g.get(i)).map(Vec::as_slice),
                     tol,
-                ))
-            } else {
-                drop_collinear(orig)
-            };
-            // Dropping collinear points changes no area, so the original's sign is the lossless one.
-            let a0 = signed_area2(orig);
-            let a1 = signed_area2(&s);
-            if tol > 0.0
-                && s.len() >= 3
-                && a0.signum() == a1.signum()
-                && a1 != 0.0
-                && s.len() < kept_by_drop_collinear(orig)
-            {
-                *r = s;
-                true
-            } else {
-                *r = if tol > 0.0 { drop_collinear(orig) } else { s };
-                false
+                ));
+                // Dropping collinear points changes no area, so the original's sign is the
+                // lossless one.
+                let a1 = signed_area2(&s);
+                if s.len() >= 3
+                    && signed_area2(orig).signum() == a1.signum()
+                    && a1 != 0.0
+                    && s.len() < kept_by_drop_collinear(orig)
+                {
+                    *r = s;
+                    return true;
+                }
             }
+            *r = drop_collinear(orig);
+            false
         })
         .collect();
-    let mut simplified = simplified;
     // Grid cells of 16 px (or 8 tolerances): few cells per segment, few segments per cell.
     let cell = (8.0 * tol).max(16.0);
     for _ in 0..8 {
@@ -260,7 +255,7 @@ pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bo
 /// Rings that cross or touch themselves or another ring.
 fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
     // (cell key, ring, segment) for every grid cell a segment's bounding box covers.
-    let mut entries: Vec<(u64, u32, u32)> = rings
+    let entries: Vec<(u64, u32, u32)> = rings
         .par_iter()
         .enumerate()
         .flat_map_iter(|(ri, r)| {
@@ -280,9 +275,41 @@ fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
             })
         })
         .collect();
-    // Entries grouped by cell: a counting sort over the cells the entries span (linear; a
-    // comparison sort of the entries was a third of this function's time), or a sort when the
-    // cells would be many more than the entries.
+    let Cells { slots, runs } = by_cell(entries);
+    let bad_rings: Vec<u32> = runs
+        .par_iter()
+        .flat_map_iter(|&(s, e)| {
+            let mut bad = Vec::new();
+            let cell = &slots[s..e];
+            for (k, &(ra, ia)) in cell.iter().enumerate() {
+                for &(rb, ib) in &cell[k + 1..] {
+                    if let Some(pair) = conflict(rings, (ra, ia), (rb, ib)) {
+                        bad.extend_from_slice(&pair);
+                    }
+                }
+            }
+            bad
+        })
+        .collect();
+    let mut bad = vec![false; rings.len()];
+    for r in bad_rings {
+        bad[r as usize] = true;
+    }
+    (0..rings.len()).filter(|&i| bad[i]).collect()
+}
+
+/// Conflict-grid entries grouped by cell: (ring, segment) per entry, cell by cell, and the
+/// ranges of the cells holding more than one.
+struct Cells {
+    slots: Vec<(u32, u32)>,
+    runs: Vec<(usize, usize)>,
+}
+
+/// Group (cell key, ring, segment) entries by cell.
+fn by_cell(mut entries: Vec<(u64, u32, u32)>) -> Cells {
+    // A counting sort over the cells the entries span (linear; a comparison sort of the entries
+    // was a third of the conflict search), or a sort when the cells would be many more than the
+    // entries.
     let (mut lo, mut hi) = ([u64::MAX; 2], [0u64; 2]);
     for &(key, _, _) in &entries {
         let (x, y) = (key & 0xffff_ffff, key >> 32);
@@ -291,9 +318,7 @@ fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
     }
     let cols = hi[0].saturating_sub(lo[0]) + 1;
     let cells = cols.saturating_mul(hi[1].saturating_sub(lo[1]) + 1);
-    let (slots, runs): (Vec<(u32, u32)>, Vec<(usize, usize)>) = if !entries.is_empty()
-        && cells <= 4 * entries.len() as u64 + (1 << 16)
-    {
+    let (slots, runs) = if !entries.is_empty() && cells <= 4 * entries.len() as u64 + (1 << 16) {
         let cell = |key: u64| (((key >> 32) - lo[1]) * cols + (key & 0xffff_ffff) - lo[0]) as usize;
         let mut start = vec![0u32; cells as usize + 1];
         for &(key, _, _) in &entries {
@@ -331,26 +356,7 @@ fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
         }
         (entries.iter().map(|&(_, r, i)| (r, i)).collect(), runs)
     };
-    let bad_rings: Vec<u32> = runs
-        .par_iter()
-        .flat_map_iter(|&(s, e)| {
-            let mut bad = Vec::new();
-            let cell = &slots[s..e];
-            for (k, &(ra, ia)) in cell.iter().enumerate() {
-                for &(rb, ib) in &cell[k + 1..] {
-                    if let Some(pair) = conflict(rings, (ra, ia), (rb, ib)) {
-                        bad.extend_from_slice(&pair);
-                    }
-                }
-            }
-            bad
-        })
-        .collect();
-    let mut bad = vec![false; rings.len()];
-    for r in bad_rings {
-        bad[r as usize] = true;
-    }
-    (0..rings.len()).filter(|&i| bad[i]).collect()
+    Cells { slots, runs }
 }
 
 /// Whether segment `ia` of ring `ra` and segment `ib` of ring `rb` conflict (cross, touch, or
