@@ -15,7 +15,7 @@ use crate::export::{self, dxf, mask, png, svg};
 use crate::islands;
 use crate::profile::Material;
 use crate::raster::{BitGrid, TwoTone};
-use crate::report::Report;
+use crate::report::{BridgeReport, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
 use crate::tone::{self, image::load_gray, ToneConfig};
@@ -31,11 +31,25 @@ pub struct MakeConfig {
     pub tone: ToneConfig,
     pub mesh: MeshConfig,
     pub filter: FilterConfig,
+    /// The bridge optimizer's weights and limits; its widths (`min_width_px`, `max_width_px`) are
+    /// replaced by the material's, see [`PhysicalConfig::bridge_for`].
     pub bridge: BridgeConfig,
+    /// Bridge widths given in working pixels, overriding the material's millimetres.
+    pub bridge_width_px: BridgeWidthPx,
     pub physical: PhysicalConfig,
     /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
     /// report. A job that does not fit the machine's bed fails the run before anything is written.
     pub gcode: Option<crate::plan::GcodeConfig>,
+}
+
+/// Bridge widths in working pixels that override the material's (`--min-bridge-width-px`,
+/// `--max-bridge-width-px`); `None` = from the material profile.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BridgeWidthPx {
+    /// Narrowest bridge: never below what the material's `min_bridge_mm` needs.
+    pub min: Option<u32>,
+    /// Widest bridge: never below the narrowest.
+    pub max: Option<u32>,
 }
 
 /// How big the picture is on the sheet.
@@ -126,16 +140,19 @@ impl PhysicalConfig {
         check::allowance_px(scale.to_px(Mm(self.vector.tolerance_mm)).0)
     }
 
-    /// The bridge stage's options with the material's minimum bridge width: never narrower than the
-    /// material allows, `min_bridge_mm` in pixels plus the check's allowance, or the user's value
-    /// if that is wider.
-    pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
-        let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
-            as u32;
-        let min = user.min_width_px.max(px);
+    /// The bridge stage's options with the material's bridge widths in pixels at this scale:
+    /// the narrowest is `min_bridge_mm` plus the check's allowance (so what is drawn passes the
+    /// check), rounded up; the widest is `max_bridge_mm`, rounded down (never below the narrowest).
+    /// `px` overrides either (the narrowest never below the material's).
+    pub fn bridge_for(&self, user: &BridgeConfig, px: BridgeWidthPx, scale: Scale) -> BridgeConfig {
+        let m = &self.material;
+        let floor = (scale.to_px(Mm(m.min_bridge_mm)).0 + self.allowance_px(scale)).ceil() as u32;
+        let min = px.min.map_or(floor, |p| p.max(floor)).max(1);
+        // A hair under a whole pixel counts as one (5.0 mm / 0.1 mm is 49.99... in floating point).
+        let widest = (scale.to_px(Mm(m.max_bridge_mm)).0 + 1e-6).floor() as u32;
         BridgeConfig {
             min_width_px: min,
-            max_width_px: user.max_width_px.max(min),
+            max_width_px: px.max.unwrap_or(widest).max(min),
             ..user.clone()
         }
     }
@@ -263,7 +280,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg))?;
     let scale = phys.scale(raw.bits.width)?;
     let filter_cfg = phys.filter_for(&cfg.filter, scale);
-    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
+    let bridge_cfg = phys.bridge_for(&cfg.bridge, cfg.bridge_width_px, scale);
     let (bits, filter_stats) = timer.time("filter", || filter::filter(&raw.bits, &filter_cfg));
     let twotone = TwoTone {
         bits,
@@ -339,6 +356,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         margin_mm: Some(vcfg.margin_mm),
         tolerance_mm: Some(vcfg.tolerance_mm),
         min_bridge_px: Some(bridge_cfg.min_width_px),
+        max_bridge_px: Some(bridge_cfg.max_width_px),
         filter_radius_px: Some(filter_cfg.radius),
         vector: Some(vstats),
         check: Some(chk.clone()),
@@ -349,7 +367,11 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         threshold_level: level,
         filter: filter_stats,
         islands: map.island_count(),
-        bridges: bridged.bridges.iter().map(Into::into).collect(),
+        bridges: bridged
+            .bridges
+            .iter()
+            .map(|b| BridgeReport::new(b, scale.mm_per_px))
+            .collect(),
         floating_after: after.island_count(),
         timings_ms: timer.0,
     };
@@ -443,29 +465,41 @@ mod tests {
 
     #[test]
     fn material_widths_become_pixel_minimums() {
-        // Cardstock: bridges 1.0 mm, features 0.5 mm; 0.1 mm/px; tolerance 0.05 mm = 0.5 px, so
-        // the allowance is 1 + 2 × 0.5 = 2 px.
+        // Cardstock: bridges 1.0 to 5.0 mm, features 0.5 mm; 0.1 mm/px; tolerance 0.05 mm = 0.5 px,
+        // so the allowance is 1 + 2 × 0.5 = 2 px.
         let phys = PhysicalConfig::default();
         let s = Scale::default();
-        let b = phys.bridge_for(&BridgeConfig::default(), s);
-        assert_eq!(b.min_width_px, 12);
-        assert!(b.max_width_px >= 12);
-        let wide = BridgeConfig {
-            min_width_px: 20,
-            max_width_px: 30,
-            ..Default::default()
+        let none = BridgeWidthPx::default();
+        let b = phys.bridge_for(&BridgeConfig::default(), none, s);
+        assert_eq!((b.min_width_px, b.max_width_px), (12, 50));
+        let wide = BridgeWidthPx {
+            min: Some(20),
+            max: Some(30),
         };
+        let b = phys.bridge_for(&BridgeConfig::default(), wide, s);
         assert_eq!(
-            phys.bridge_for(&wide, s).min_width_px,
-            20,
-            "a wider user value wins"
+            (b.min_width_px, b.max_width_px),
+            (20, 30),
+            "user pixels win"
+        );
+        let narrow = BridgeWidthPx {
+            min: Some(3),
+            max: Some(3),
+        };
+        let b = phys.bridge_for(&BridgeConfig::default(), narrow, s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (12, 12),
+            "never below the material's minimum"
         );
         // At 0.05 mm/px the same millimetres are twice the pixels.
         let fine = Scale { mm_per_px: 0.05 };
-        assert_eq!(
-            phys.bridge_for(&BridgeConfig::default(), fine).min_width_px,
-            20 + 3
-        );
+        let b = phys.bridge_for(&BridgeConfig::default(), none, fine);
+        assert_eq!((b.min_width_px, b.max_width_px), (20 + 3, 100));
+        // At 0.625 mm/px (320 px at 200 mm): ⌈1.6 + 1.16⌉ = 3 px .. ⌊8⌋ px; 5 mm stays 5 mm.
+        let coarse = Scale { mm_per_px: 0.625 };
+        let b = phys.bridge_for(&BridgeConfig::default(), none, coarse);
+        assert_eq!((b.min_width_px, b.max_width_px), (3, 8));
         // Filter: ceil((5 + 2) / 2) = 4 px, unless the user set a radius explicitly.
         assert_eq!(phys.filter_for(&FilterConfig::default(), s).radius, 4);
         let explicit = FilterConfig {

@@ -14,7 +14,13 @@ use crate::vector::VectorStats;
 pub struct BridgeReport {
     /// The two nodes it joins (0 = frame).
     pub nodes: [u32; 2],
+    /// Width at right angles to the bridge, at its narrowest, in working pixels (see
+    /// [`Bridge::width_px`]).
     pub width_px: u32,
+    /// The same in millimetres on the sheet: `width_px` × `mm_per_px`. Absent from reports
+    /// written before widths were in millimetres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
     pub length_px: f64,
     /// Cut pixels it turned into material.
     pub pixels: usize,
@@ -25,11 +31,13 @@ pub struct BridgeReport {
     pub polygon_px: Vec<[f64; 2]>,
 }
 
-impl From<&Bridge> for BridgeReport {
-    fn from(b: &Bridge) -> Self {
+impl BridgeReport {
+    /// The report of a bridge drawn at `mm_per_px` millimetres per working pixel.
+    pub fn new(b: &Bridge, mm_per_px: f64) -> Self {
         BridgeReport {
             nodes: b.nodes,
             width_px: b.width_px,
+            width_mm: Some(b.width_px as f64 * mm_per_px),
             length_px: b.length_px,
             pixels: b.pixels,
             cost: b.cost,
@@ -78,6 +86,8 @@ pub struct Report {
     /// The material's limits in pixels as given to the stages (after the check's allowance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_bridge_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_bridge_px: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub filter_radius_px: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

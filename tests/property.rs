@@ -77,10 +77,9 @@ fn env_or(name: &str, default: u64) -> u64 {
 proptest! {
     // A fixed seed: CI must not fail by the luck of the draw. Explore more with
     // `PROPTEST_CASES=300` and another `PROPTEST_RNG_SEED`; a failure found that way is a bug to fix
-    // (one known, see the closing note: `PROPTEST_RNG_SEED=9 PROPTEST_CASES=200` finds a bridge
-    // ending at the image's right edge measured 0.19 mm wide where cardstock asks 1 mm, not
-    // confirmed by the raster opening; the check reports it and `make` refuses without
-    // --allow-thin).
+    // (`PROPTEST_RNG_SEED=9 PROPTEST_CASES=200` found a bridge ending at the image's right edge
+    // 0.19 mm wide along the edge where cardstock asks 1 mm; bridges are now measured along the
+    // edge too, and the case is in property.proptest-regressions).
     #![proptest_config(ProptestConfig {
         cases: env_or("PROPTEST_CASES", 40) as u32,
         rng_seed: proptest::test_runner::RngSeed::Fixed(env_or("PROPTEST_RNG_SEED", 0x5713_c11)),

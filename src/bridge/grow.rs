@@ -4,20 +4,31 @@ use super::candidates::Candidates;
 use super::cost::StripCost;
 use super::strips::Strip;
 use super::BridgeConfig;
+use crate::islands;
 use crate::raster::{BitGrid, Gray};
+
+/// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
+/// side of a square of that area (the paper's ⌈√A / 4⌉).
+pub const WIDTH_PER_SIDE: f64 = 0.25;
 
 /// Width of the bridge between two nodes, in pixels:
 ///
-/// `width = clamp(⌈√A / 4⌉, min_width_px, max_width_px)`, where `A` is the area in pixels of the
-/// **smaller** of the two nodes (the frame's area counts as infinite, so for a bridge to the frame
-/// `A` is the island's area).
+/// `width = clamp(⌈k·√A⌉, min_width_px, max_width_px)`, `k` = [`WIDTH_PER_SIDE`], where `A` is the
+/// area in pixels of the **smaller** of the two nodes (the frame's area counts as infinite, so for a
+/// bridge to the frame `A` is the island's area).
 ///
-/// Why: an island hangs from its bridges; its weight grows with its area and a bridge's strength
-/// with its width, while a bridge wider than about a quarter of the island's side would smother its
-/// shape. √A/4 is a quarter of the side of a square of that area: a 10×10 px island gets the
-/// minimum, a 100×100 px island 25 px (clamped to the maximum).
+/// The rule is physical: in millimetres it reads `clamp(k·√A_mm², min_bridge_mm, max_bridge_mm)`,
+/// and since `√A` scales with the pixel size, `k·√A` pixels *are* `k·√A_mm²` millimetres; only the
+/// range is converted, by the pipeline (`PhysicalConfig::bridge_for`: the material's
+/// `min_bridge_mm` plus the check's tracing allowance, rounded up; its `max_bridge_mm`, rounded
+/// down). So a picture made four times larger keeps bridges within the same millimetre range
+/// instead of getting them four times wider in pixels' worth of clamp.
+///
+/// Why √A/4: an island hangs from its bridges and its weight grows with its area, while a bridge
+/// wider than about a quarter of the island's side would smother its shape. With cardstock
+/// (1..5 mm) an island 4 mm across gets 1 mm, one 20 mm across or larger 5 mm.
 pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
-    let w = ((smaller_area as f64).sqrt() / 4.0).ceil() as u32;
+    let w = (WIDTH_PER_SIDE * (smaller_area as f64).sqrt()).ceil() as u32;
     w.clamp(
         cfg.min_width_px.max(1),
         cfg.max_width_px.max(cfg.min_width_px.max(1)),
@@ -125,75 +136,249 @@ pub fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -
 pub struct Plan {
     /// Cut pixels (linear indices) it turns into material.
     pub pixels: Vec<u32>,
-    /// Outline: start and end points of the outer strips, in pixel coordinates where pixel (x, y)
-    /// covers [x, x+1) × [y, y+1) (points are pixel centres).
+    /// Outline: start and end points of the outer strips (or the corners of the straight band it
+    /// was drawn as), in pixel coordinates where pixel (x, y) covers [x, x+1) × [y, y+1) (points
+    /// are pixel centres).
     pub polygon: Vec<[f64; 2]>,
     /// Real intensity error: Σ (1 − gray)² over `pixels`.
     pub real: f64,
-    /// Achieved width in pixels (strips, or the minimum width when it had to be thickened).
+    /// Width at right angles to the bridge at its narrowest, in pixels: what the strips span, the
+    /// minimum width when they had to be thickened, the band's width when drawn as a band, and no
+    /// more than the narrowest run of material measured across the drawn bridge plus one pixel
+    /// (the staircase pixel the check's allowance counts too).
     pub width: u32,
     /// Mean strip length, px.
     pub length: f64,
 }
 
-/// Plan the bridge made of `members`' strips: every strip pixel, plus the cut pixels whose centres
-/// lie inside the polygon of the outer strips' end points (kept only where 4-connected to a strip,
-/// so the fill can never leave a loose speck), and, when fewer strips than `min_width` could be
-/// grown, the strips thickened by a square brush to that width. `want` is the width the island
-/// asked for: a fanning bridge (see below) is drawn that wide.
+/// Plan the bridge made of `members`' strips, at least `cfg.min_width_px` and at most
+/// `cfg.max_width_px` wide. `want` is the width the island asked for.
+///
+/// Drawn as every strip pixel plus the cut pixels whose centres lie inside the polygon of the
+/// outer strips' end points (kept only where 4-connected to a strip, so the fill can never leave a
+/// loose speck), and, when fewer strips than the minimum width could be grown, the strips thickened
+/// by a square brush to that width. The result is then measured at right angles to the bridge
+/// ([`measure`]). A bridge is drawn instead as a straight band `want` wide (clamped to the range)
+/// along its middle strip ([`band`]) when it is
+/// - a fan gone wrong: strips leaving a small or sharply curved island cross on their way, or
+///   spread so far apart that their outline is no band, and the fill between them would leave
+///   loose spokes;
+/// - narrower than the minimum somewhere (an outline corner running into a pocket of cut, say at
+///   the image's edge, leaves a wedge of material that tapers to nothing);
+/// - wider than the maximum somewhere (strips converging on a small island start far apart).
+///
+/// A moderate fan keeps its filled outline; if that costs more than the strips promised, the
+/// support rule halves it.
 pub fn plan(
     bits: &BitGrid,
     gray: &Gray,
     c: &Candidates,
     strips: &[Option<Strip>],
     members: &[usize],
-    min_width: u32,
+    cfg: &BridgeConfig,
     want: u32,
 ) -> Plan {
-    let w = bits.width as i64;
-    let h = bits.height as i64;
-    let member_strips: Vec<(&Strip, (u32, u32))> = members
+    let ids: Vec<usize> = members
+        .iter()
+        .copied()
+        .filter(|&m| strips[m].is_some())
+        .collect();
+    let member_strips: Vec<(&Strip, (u32, u32))> = ids
         .iter()
         .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
         .collect();
-    let (Some(first), Some(last)) = (member_strips.first(), member_strips.last()) else {
-        return Plan::default();
-    };
-    let centre = |(x, y): (i64, i64)| [x as f64 + 0.5, y as f64 + 0.5];
-    let start = |p: (u32, u32)| centre((p.0 as i64, p.1 as i64));
-    let mut polygon = vec![
-        start(first.1),
-        centre(first.0.end),
-        centre(last.0.end),
-        start(last.1),
-    ];
     let n = member_strips.len();
-    let target = want.max(min_width);
-    // A fan gone wrong: strips leaving a small or sharply curved island cross on their way, or spread
-    // so far apart that their outline is no band, and the fill between them would leave loose
-    // spokes. Such a bridge is drawn instead as its middle strip thickened to the full width: a
-    // straight solid band. (A moderate fan keeps its filled outline; if that costs more than the
-    // strips promised, the support rule halves it.)
+    if n == 0 {
+        return Plan::default();
+    }
+    let min_width = cfg.min_width_px.max(1);
+    let max_width = cfg.max_width_px.max(min_width);
+    let target = want.clamp(min_width, max_width);
+    let outline = |lo: usize, hi: usize| {
+        let (first, last) = (member_strips[lo], member_strips[hi]);
+        vec![
+            start(first.1),
+            centre(first.0.end),
+            centre(last.0.end),
+            start(last.1),
+        ]
+    };
+    let length = member_strips
+        .iter()
+        .map(|(s, _)| s.len() as f64)
+        .sum::<f64>()
+        / n as f64;
+    let polygon = outline(0, n - 1);
     let fan = n > 1
         && (crosses(&polygon)
             || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
             || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
             || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
-    let (member_strips, across) = if fan {
-        let mid = member_strips[n / 2];
-        polygon = band_outline(start(mid.1), centre(mid.0.end), target as f64 / 2.0);
-        (vec![mid], 1.0)
-    } else {
-        (member_strips, band_width(c, strips, members))
-    };
-    let goal = if fan { target } else { min_width };
+    if !fan {
+        // Never wider than the maximum: strips converging on a smaller island start farther apart
+        // than they land, and a moderate fan spreads; drop outer strips, from the side that
+        // narrows the outline more, until no chord across it is too wide.
+        let too_wide = |lo: usize, hi: usize| widest(&outline(lo, hi)) > max_width as f64 + 0.5;
+        let (mut lo, mut hi) = (0, n - 1);
+        while hi > lo && too_wide(lo, hi) {
+            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
+                lo += 1;
+            } else {
+                hi -= 1;
+            }
+        }
+        // Outer strips may bulge out of the outline: what is drawn is measured, and trimmed
+        // further (a few times at most, each a full drawing) if it is still too wide.
+        for _ in 0..MAX_TRIMS {
+            let polygon = outline(lo, hi);
+            let across = band_width(c, strips, &ids[lo..=hi]);
+            let brush = if across < min_width as f64 - ACROSS_SLACK {
+                ((min_width as f64 - across) / 2.0).ceil() as i64
+            } else {
+                0
+            };
+            let seeds: Vec<&Strip> = member_strips[lo..=hi].iter().map(|(s, _)| *s).collect();
+            let seal = (min_width as usize).pow(2);
+            let (pixels, real) = draw(bits, gray, &polygon, &seeds, brush, seal);
+            let m = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
+            // A run across measures up to a pixel less than the strips it crosses at a slant.
+            let narrowest = m.narrowest + 1.0;
+            if narrowest < min_width as f64 - ACROSS_SLACK {
+                break;
+            }
+            if m.widest <= max_width as f64 + 0.5 {
+                let drawn = if brush > 0 { min_width as f64 } else { across };
+                return Plan {
+                    pixels,
+                    polygon,
+                    real,
+                    width: (drawn.min(narrowest) + ACROSS_SLACK).floor() as u32,
+                    length,
+                };
+            }
+            if hi == lo {
+                break;
+            }
+            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
+                lo += 1;
+            } else {
+                hi -= 1;
+            }
+        }
+    }
+    let (mid, from) = member_strips[n / 2];
+    band(
+        bits,
+        gray,
+        [start(from), centre(mid.end)],
+        target,
+        min_width,
+        length,
+    )
+}
 
-    // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
-    let brush = if across < goal as f64 - ACROSS_SLACK {
-        ((goal as f64 - across) / 2.0).ceil() as i64
+/// The centre of pixel (x, y).
+fn centre((x, y): (i64, i64)) -> [f64; 2] {
+    [x as f64 + 0.5, y as f64 + 0.5]
+}
+
+fn start(p: (u32, u32)) -> [f64; 2] {
+    centre((p.0 as i64, p.1 as i64))
+}
+
+/// A bridge drawn as a straight band `width` px wide from pixel centre `ends[0]` (on one node) to
+/// `ends[1]` (on the other): every cut pixel whose centre lies in the rectangle, which is solid, so
+/// it joins the two nodes and is `width` wide everywhere at right angles to it.
+///
+/// Each end reaches on into its node, as long as the node's material continues along the axis, by
+/// up to half the width: a band ending where it first touches a round island would rest on it by
+/// less than its width (a neck between the cut on either side of the joint), while one reaching
+/// in meets it across its whole width, or swallows an island smaller than itself. It stops at
+/// the node's far edge, so a band never sticks out beyond a thin node. A band is also never
+/// shorter than `min_width` along its axis: a short, wide band between two islands would otherwise
+/// hang beside them as a flap thinner than a bridge may be.
+fn band(
+    bits: &BitGrid,
+    gray: &Gray,
+    ends: [[f64; 2]; 2],
+    width: u32,
+    min_width: u32,
+    length: f64,
+) -> Plan {
+    let [a, b] = ends;
+    let len = dist(a, b);
+    let d = if len > 1e-9 {
+        [(b[0] - a[0]) / len, (b[1] - a[1]) / len]
     } else {
-        0
+        [1.0, 0.0]
     };
+    // How far the material at `p` continues in direction `dir`, by half pixels, up to half the
+    // width (at least the half pixel of the end pixel itself).
+    let reach = |p: [f64; 2], dir: [f64; 2]| {
+        let mut e = 0.5;
+        while e < width as f64 / 2.0 {
+            let q = [p[0] + dir[0] * (e + 0.5), p[1] + dir[1] * (e + 0.5)];
+            if !bits.get_or_frame(q[0].floor() as i64, q[1].floor() as i64) {
+                break;
+            }
+            e += 0.5;
+        }
+        e
+    };
+    let short = ((min_width as f64 - 1.0 - len) / 2.0).max(0.0);
+    let back = reach(a, [-d[0], -d[1]]).max(short);
+    let on = reach(b, d).max(short);
+    // Pixel centres lie at whole offsets from the axis through `a`: an even width is centred half
+    // a pixel aside so that exactly `width` rows of centres fall inside.
+    let shift = if width.is_multiple_of(2) { 0.5 } else { 0.0 };
+    let (nx, ny) = (-d[1] * shift, d[0] * shift);
+    // At least 1.5 px: the centres within 0.75 px of a segment are 4-connected along it.
+    let half = (width as f64 / 2.0).max(0.75);
+    let outline = |back: f64, on: f64| {
+        band_outline(
+            [a[0] - d[0] * back + nx, a[1] - d[1] * back + ny],
+            [b[0] + d[0] * on + nx, b[1] + d[1] * on + ny],
+            half,
+        )
+    };
+    let (pixels, real) = draw(
+        bits,
+        gray,
+        &outline(back, on),
+        &[],
+        0,
+        (min_width as usize).pow(2),
+    );
+    // The outline reported stops at the nodes' edges: the check takes a neck inside a bridge's
+    // outline for part of the bridge, and the nodes' own webs are not.
+    let polygon = outline(short.max(0.5), short.max(0.5));
+    Plan {
+        pixels,
+        polygon,
+        real,
+        width,
+        length,
+    }
+}
+
+/// The cut pixels a bridge turns into material, in raster order, and Σ (1 − gray)² over them:
+/// every pixel of `seeds`, the cut pixels whose centres lie inside `polygon` (kept only where
+/// 4-connected to a seed; all of them when there are no seeds, for a convex band), the seeds
+/// thickened by a square brush of radius `brush`, and any pocket of the cut of at most `seal`
+/// pixels that this closes off (an outer strip that bulges out of the outline, or an outline that
+/// meets a hollow edge, would otherwise leave a hole in or beside the bridge, a sliver no material
+/// holds).
+fn draw(
+    bits: &BitGrid,
+    gray: &Gray,
+    polygon: &[[f64; 2]],
+    seeds: &[&Strip],
+    brush: i64,
+    seal: usize,
+) -> (Vec<u32>, f64) {
+    let w = bits.width as i64;
+    let h = bits.height as i64;
+    // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
     let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
     let mut include = |x: i64, y: i64| {
         x0 = x0.min(x);
@@ -201,10 +386,10 @@ pub fn plan(
         x1 = x1.max(x);
         y1 = y1.max(y);
     };
-    for p in &polygon {
+    for p in polygon {
         include(p[0].floor() as i64, p[1].floor() as i64);
     }
-    for (s, _) in &member_strips {
+    for s in seeds {
         for &p in &s.pixels {
             include(p as i64 % w, p as i64 / w);
         }
@@ -212,14 +397,14 @@ pub fn plan(
     let (x0, y0) = ((x0 - brush).max(0), (y0 - brush).max(0));
     let (x1, y1) = ((x1 + brush).min(w - 1), (y1 + brush).min(h - 1));
     if x0 > x1 || y0 > y1 {
-        return Plan::default();
+        return (Vec::new(), 0.0);
     }
     let (lw, lh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
     // 0 = untouched, 1 = fill candidate, 2 = taken.
     let mut state = vec![0u8; lw * lh];
     let local = |x: i64, y: i64| (y - y0) as usize * lw + (x - x0) as usize;
     let mut stack = Vec::new();
-    for (s, _) in &member_strips {
+    for s in seeds {
         for &p in &s.pixels {
             let (x, y) = (p as i64 % w, p as i64 / w);
             let l = local(x, y);
@@ -229,15 +414,16 @@ pub fn plan(
             }
         }
     }
-    if polygon_area(&polygon).abs() > 0.0 {
+    let fill = if seeds.is_empty() { 2 } else { 1 };
+    if polygon_area(polygon).abs() > 0.0 {
         for y in y0..=y1 {
             for x in x0..=x1 {
                 let l = local(x, y);
                 if state[l] == 0
                     && !bits.get(x as u32, y as u32)
-                    && inside(&polygon, x as f64 + 0.5, y as f64 + 0.5)
+                    && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
                 {
-                    state[l] = 1;
+                    state[l] = fill;
                 }
             }
         }
@@ -257,7 +443,7 @@ pub fn plan(
         }
     }
     if brush > 0 {
-        for (s, _) in &member_strips {
+        for s in seeds {
             for &p in &s.pixels {
                 let (x, y) = (p as i64 % w, p as i64 / w);
                 for yy in (y - brush).max(y0)..=(y + brush).min(y1) {
@@ -268,6 +454,8 @@ pub fn plan(
             }
         }
     }
+    let cut = |l: usize| !bits.data[((y0 + (l / lw) as i64) * w + x0 + (l % lw) as i64) as usize];
+    seal_pockets(&mut state, lw, lh, seal, cut);
     let mut pixels = Vec::new();
     let mut real = 0.0;
     for y in y0..=y1 {
@@ -280,22 +468,306 @@ pub fn plan(
             }
         }
     }
-    let n = member_strips.len();
-    Plan {
-        pixels,
-        polygon,
-        real,
-        width: if brush > 0 {
-            goal
-        } else {
-            (across + ACROSS_SLACK).floor() as u32
-        },
-        length: member_strips
-            .iter()
-            .map(|(s, _)| s.len() as f64)
-            .sum::<f64>()
-            / n as f64,
+    (pixels, real)
+}
+
+/// Mark as taken (`state` 2) every pocket of at most `seal` cut pixels that the taken pixels close
+/// off inside the `lw` × `lh` box: cut that no longer reaches the box's edge but did before.
+/// (A hole of the picture itself never reached it and is left alone.)
+fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl Fn(usize) -> bool) {
+    let (w, h) = (lw as u32, lh as u32);
+    let grid = |f: &dyn Fn(usize) -> bool| BitGrid {
+        width: w,
+        height: h,
+        data: (0..lw * lh).map(f).collect(),
+    };
+    let after = grid(&|l| cut(l) && state[l] != 2);
+    let (labels, areas) = islands::components(&after, true);
+    let open = islands::touches_border(&labels, w, h, areas.len());
+    if open.iter().all(|&o| o) {
+        return;
     }
+    let (was, was_areas) = islands::components(&grid(&cut), true);
+    let was_open = islands::touches_border(&was, w, h, was_areas.len());
+    for l in 0..lw * lh {
+        let k = labels[l];
+        if k != islands::CUT
+            && !open[k as usize]
+            && areas[k as usize] <= seal
+            && was_open[was[l] as usize]
+        {
+            state[l] = 2;
+        }
+    }
+}
+
+/// Widths across a drawn bridge at right angles to its axis, in pixels (see [`measure`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Across {
+    /// The shortest run of material across it (infinite when every run reaches on into material).
+    pub narrowest: f64,
+    /// The longest chord of its outline plus one pixel for the pixels' own width, or the longest
+    /// run across of the bridge's own pixels if that is longer (outer strips bulging out of the
+    /// outline, thickening).
+    pub widest: f64,
+}
+
+/// Sample step along a line across a bridge, px.
+const SAMPLE_STEP: f64 = 0.25;
+
+/// Points closer than this to an end of the outline may lie in a pixel the fill left out (its
+/// centre is outside): they do not anchor a run.
+const END_MARGIN: f64 = 0.75;
+
+/// Measure a drawn bridge at right angles to its axis, the line from the middle of its start (the
+/// outline's first and last points) to the middle of its end (the second and third), once a pixel
+/// along it. At each station the line across is sampled every [`SAMPLE_STEP`] px from `reach` px
+/// before the outline's chord to `reach` px past it, in the material after drawing (`bits` plus
+/// `pixels`; outside the image is the sheet); a run of material counts when it covers a point of
+/// the chord at least [`END_MARGIN`] from the outline's ends, and the station's width is the
+/// longest such run (infinite when it runs past `reach`, as where the bridge meets an island at a
+/// slant). The narrowest is the smallest station width: a wedge of the fill tapering into a
+/// pocket of cut shows there, while the island material beside a slanted end counts as the width
+/// it is. The widest is the longest run of the bridge's own pixels on any of these lines, or the
+/// outline's widest chord. Runs are measured through the pixel squares, so a band at a slant measures up to a
+/// pixel less than its count of strips (the staircase pixel of [`crate::check::allowance_px`]).
+pub fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Across {
+    let mut widest = widest(polygon);
+    let Some(axis) = Axis::new(polygon) else {
+        return Across {
+            narrowest: f64::INFINITY,
+            widest,
+        };
+    };
+    let [s0, e0, e1, s1] = [polygon[0], polygon[1], polygon[2], polygon[3]];
+    let (d, nv) = (axis.d, axis.nv);
+
+    // The drawn pixels on a local grid over the outline's box plus the reach.
+    let (w, h) = (bits.width as i64, bits.height as i64);
+    let m = reach.ceil() as i64 + 2;
+    let (bx0, by0, bx1, by1) = polygon.iter().fold(
+        (i64::MAX, i64::MAX, i64::MIN, i64::MIN),
+        |(x0, y0, x1, y1), p| {
+            let (x, y) = (p[0].floor() as i64, p[1].floor() as i64);
+            (x0.min(x), y0.min(y), x1.max(x), y1.max(y))
+        },
+    );
+    let (x0, y0) = ((bx0 - m).max(0), (by0 - m).max(0));
+    let (x1, y1) = ((bx1 + m).min(w - 1), (by1 + m).min(h - 1));
+    let lw = (x1 - x0 + 1).max(0) as usize;
+    let mut drawn = vec![false; lw * (y1 - y0 + 1).max(0) as usize];
+    for &p in pixels {
+        let (x, y) = (p as i64 % w, p as i64 / w);
+        if (x0..=x1).contains(&x) && (y0..=y1).contains(&y) {
+            drawn[(y - y0) as usize * lw + (x - x0) as usize] = true;
+        }
+    }
+    let drawn_at = |p: [f64; 2]| {
+        let (x, y) = (p[0].floor() as i64, p[1].floor() as i64);
+        (x0..=x1).contains(&x)
+            && (y0..=y1).contains(&y)
+            && drawn[(y - y0) as usize * lw + (x - x0) as usize]
+    };
+    let material =
+        |p: [f64; 2]| bits.get_or_frame(p[0].floor() as i64, p[1].floor() as i64) || drawn_at(p);
+    let anchor =
+        |p: [f64; 2]| seg_dist(p, s0, s1) >= END_MARGIN && seg_dist(p, e0, e1) >= END_MARGIN;
+
+    let mut narrowest = f64::INFINITY;
+    let mut stations: Vec<f64> = (0..)
+        .map(|k| axis.tmin + 0.5 + k as f64)
+        .take_while(|&t| t <= axis.tmax - 0.5)
+        .collect();
+    if stations.is_empty() {
+        stations.push((axis.tmin + axis.tmax) / 2.0);
+    }
+    for t in stations {
+        let Some((lo, hi)) = axis.chord(t) else {
+            continue;
+        };
+        let u0 = lo - reach;
+        let count = ((hi - lo + 2.0 * reach) / SAMPLE_STEP).ceil() as usize + 1;
+        let mut best: Option<f64> = None;
+        // The current run: samples, whether it began at the first sample, whether anchored.
+        let (mut run, mut open, mut anchored) = (0usize, false, false);
+        // The current run of the bridge's own pixels.
+        let mut own = 0usize;
+        for i in 0..=count {
+            let u = u0 + i as f64 * SAMPLE_STEP;
+            let p = [t * d[0] + u * nv[0], t * d[1] + u * nv[1]];
+            if i < count && drawn_at(p) {
+                own += 1;
+                widest = widest.max(own as f64 * SAMPLE_STEP);
+            } else {
+                own = 0;
+            }
+            if i < count && material(p) {
+                if run == 0 {
+                    open = i == 0;
+                    anchored = false;
+                }
+                run += 1;
+                anchored |= (lo..=hi).contains(&u) && anchor(p);
+                continue;
+            }
+            if run > 0 && anchored {
+                let len = if open || i == count {
+                    f64::INFINITY
+                } else {
+                    run as f64 * SAMPLE_STEP
+                };
+                best = Some(best.map_or(len, |b: f64| b.max(len)));
+            }
+            run = 0;
+        }
+        if let Some(b) = best {
+            narrowest = narrowest.min(b);
+        }
+    }
+    narrowest = narrowest.min(along_edges(bits, pixels, |x, y| {
+        drawn_at([x as f64 + 0.5, y as f64 + 0.5])
+    }));
+    Across { narrowest, widest }
+}
+
+/// Where a bridge reaches the image's edge, the cut on either side of it meets the sheet beyond
+/// the picture there: the material between them along the edge is a width of the bridge too
+/// (however it is slanted). The shortest run of material along an edge row or column through a
+/// pixel the bridge drew (`drawn`), in pixels; infinite when there is none, or when the run turns
+/// the image's corner.
+fn along_edges(bits: &BitGrid, pixels: &[u32], drawn: impl Fn(i64, i64) -> bool) -> f64 {
+    let (w, h) = (bits.width as i64, bits.height as i64);
+    let material = |x: i64, y: i64| bits.get(x as u32, y as u32) || drawn(x, y);
+    let mut narrowest = f64::INFINITY;
+    // Each edge as (fixed coordinate, is a column, length).
+    for (fixed, column, n) in [
+        (0, true, h),
+        (w - 1, true, h),
+        (0, false, w),
+        (h - 1, false, w),
+    ] {
+        let at = |k: i64| if column { (fixed, k) } else { (k, fixed) };
+        let mut done = i64::MIN;
+        for &p in pixels {
+            let (x, y) = (p as i64 % w, p as i64 / w);
+            let (f, k) = if column { (x, y) } else { (y, x) };
+            if f != fixed || k <= done {
+                continue;
+            }
+            let (mut lo, mut hi) = (k, k);
+            while lo > 0 && {
+                let (x, y) = at(lo - 1);
+                material(x, y)
+            } {
+                lo -= 1;
+            }
+            while hi < n - 1 && {
+                let (x, y) = at(hi + 1);
+                material(x, y)
+            } {
+                hi += 1;
+            }
+            done = hi;
+            if lo > 0 && hi < n - 1 {
+                narrowest = narrowest.min((hi - lo + 1) as f64);
+            }
+        }
+    }
+    narrowest
+}
+
+/// A bridge outline `[s0, e0, e1, s1]` in coordinates along its axis (from the middle of its start
+/// `s0`–`s1` to the middle of its end `e0`–`e1`) and across it.
+struct Axis {
+    /// Unit vectors along and across.
+    d: [f64; 2],
+    nv: [f64; 2],
+    /// The outline's points as (along, across).
+    q: Vec<(f64, f64)>,
+    tmin: f64,
+    tmax: f64,
+}
+
+impl Axis {
+    /// `None` when the start and the end have the same middle.
+    fn new(polygon: &[[f64; 2]]) -> Option<Axis> {
+        let (a, b) = (
+            halfway(polygon[0], polygon[3]),
+            halfway(polygon[1], polygon[2]),
+        );
+        let len = dist(a, b);
+        if len < 1e-9 {
+            return None;
+        }
+        let d = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+        let nv = [-d[1], d[0]];
+        let q: Vec<(f64, f64)> = polygon
+            .iter()
+            .map(|p| (p[0] * d[0] + p[1] * d[1], p[0] * nv[0] + p[1] * nv[1]))
+            .collect();
+        let (tmin, tmax) = q.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+            (lo.min(p.0), hi.max(p.0))
+        });
+        Some(Axis {
+            d,
+            nv,
+            q,
+            tmin,
+            tmax,
+        })
+    }
+
+    /// The outline's extent across the axis at `t` along it.
+    fn chord(&self, t: f64) -> Option<(f64, f64)> {
+        let q = &self.q;
+        let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+        for i in 0..q.len() {
+            let (p, r) = (q[i], q[(i + 1) % q.len()]);
+            if (p.0 - t) * (r.0 - t) > 0.0 {
+                continue;
+            }
+            if (r.0 - p.0).abs() < 1e-12 {
+                lo = lo.min(p.1).min(r.1);
+                hi = hi.max(p.1).max(r.1);
+            } else {
+                let u = p.1 + (r.1 - p.1) * (t - p.0) / (r.0 - p.0);
+                lo = lo.min(u);
+                hi = hi.max(u);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// The widest a bridge outline `[s0, e0, e1, s1]` is at right angles to its axis, plus one pixel
+/// for the pixels' own width (the chord's length is piecewise linear along the axis, so its
+/// maximum is at a corner).
+fn widest(polygon: &[[f64; 2]]) -> f64 {
+    let Some(axis) = Axis::new(polygon) else {
+        return dist(polygon[0], polygon[3]).max(dist(polygon[1], polygon[2])) + 1.0;
+    };
+    axis.q
+        .iter()
+        .filter_map(|p| axis.chord(p.0.clamp(axis.tmin + 1e-9, axis.tmax - 1e-9)))
+        .map(|(lo, hi)| hi - lo)
+        .fold(0.0, f64::max)
+        + 1.0
+}
+
+fn halfway(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0]
+}
+
+/// Distance from `p` to the segment from `a` to `b`.
+fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    dist(p, [a[0] + t * dx, a[1] + t * dy])
 }
 
 /// Turn the planned pixels into material; returns how many were still cut (a pixel an earlier
@@ -311,6 +783,10 @@ pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> usize {
     }
     turned
 }
+
+/// Drawings of a bridge's outline at most, each with an outer strip fewer, before it is drawn as a
+/// band for being too wide.
+const MAX_TRIMS: usize = 4;
 
 /// Outer strips whose directions differ by more than this are a fan to be redrawn as a band.
 const MAX_FAN_DEGREES: f64 = 60.0;
@@ -475,7 +951,7 @@ mod tests {
         // From x = 10 the cheaper side (x = 11, light) comes first, then x = 9 or 12.
         assert_eq!(members.len(), 3);
         assert!(xs.contains(&10) && xs.contains(&11), "{xs:?}");
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, &cfg, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
         commit(&mut b, &p.pixels);
@@ -503,20 +979,36 @@ mod tests {
         assert!((p.real - real).abs() < 1e-9);
     }
 
-    #[test]
-    fn converging_strips_grow_until_the_narrow_end_is_wide_enough() {
-        // A ring island around a disc island: strips from the ring's inner edge converge on the
-        // disc, so 8 strips are 8 px apart where they start but closer where they land.
+    /// A ring island (radii 22..30) around a disc island (radius 8), inside the frame (from 37).
+    fn ring_and_disc() -> TwoTone {
         let n = 81u32;
         let r = |x: u32, y: u32| (x as f64 + 0.5 - 40.5).hypot(y as f64 + 0.5 - 40.5);
         let bits = BitGrid::from_fn(n, n, |x, y| {
             let d = r(x, y);
             d <= 8.0 || (22.0..=30.0).contains(&d) || d >= 37.0
         });
-        let t = TwoTone {
+        TwoTone {
             gray: Gray::new(n, n, 0.0),
             bits,
-        };
+        }
+    }
+
+    /// The same cost for every strip.
+    fn flat_costs(n: usize) -> Vec<Option<StripCost>> {
+        vec![
+            Some(StripCost {
+                intensity: 1.0,
+                length: 1.0
+            });
+            n
+        ]
+    }
+
+    #[test]
+    fn converging_strips_grow_until_the_narrow_end_is_wide_enough() {
+        // A ring island around a disc island: strips from the ring's inner edge converge on the
+        // disc, so 8 strips are 8 px apart where they start but closer where they land.
+        let t = ring_and_disc();
         let (m, c, st) = walk_all(&t);
         assert_eq!(m.island_count(), 2);
         let (ring, disc) = (m.label(40, 14), m.label(40, 40));
@@ -529,13 +1021,7 @@ mod tests {
             })
             .unwrap();
         let cfg = BridgeConfig::default();
-        let costs = vec![
-            Some(StripCost {
-                intensity: 1.0,
-                length: 1.0
-            });
-            c.len()
-        ];
+        let costs = flat_costs(c.len());
         let members = grow(&c, &st, &costs, id, 8, &cfg);
         let across = band_width(&c, &st, &members);
         assert!(across >= 8.0 - ACROSS_SLACK, "{across}");
@@ -547,7 +1033,7 @@ mod tests {
         // Counting strips alone would have stopped at 8, narrower than 8 px at the disc.
         let eight = &members[..8];
         assert!(band_width(&c, &st, eight) < 8.0);
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 8);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, &cfg, 8);
         assert!(p.width >= 8);
     }
 
@@ -564,7 +1050,7 @@ mod tests {
         let costs = vec![None; c.len()];
         let members = grow(&c, &st, &costs, 0, 3, &cfg);
         assert_eq!(members.len(), 1);
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, &cfg, 3);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
         commit(&mut b, &p.pixels);
@@ -588,5 +1074,166 @@ mod tests {
         // A band outline is a rectangle of the given half-width.
         let r = band_outline([0.0, 0.0], [10.0, 0.0], 3.0);
         assert!((dist(r[0], r[3]) - 6.0).abs() < 1e-9 && (dist(r[0], r[1]) - 10.0).abs() < 1e-9);
+    }
+
+    /// Extent of a set of pixels at right angles to their own principal axis (not the outline's):
+    /// the pixel centres binned a pixel at a time along the axis, each bin's spread across plus
+    /// one pixel. Returns (narrowest, widest) over the bins, leaving out `ends` bins at each end.
+    fn extent_across(pixels: &[u32], width: u32, ends: usize) -> (f64, f64) {
+        let pts: Vec<[f64; 2]> = pixels
+            .iter()
+            .map(|&p| [(p % width) as f64 + 0.5, (p / width) as f64 + 0.5])
+            .collect();
+        let n = pts.len() as f64;
+        let (mx, my) = (
+            pts.iter().map(|p| p[0]).sum::<f64>() / n,
+            pts.iter().map(|p| p[1]).sum::<f64>() / n,
+        );
+        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+        for p in &pts {
+            let (dx, dy) = (p[0] - mx, p[1] - my);
+            sxx += dx * dx;
+            sxy += dx * dy;
+            syy += dy * dy;
+        }
+        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (d, nv) = ([angle.cos(), angle.sin()], [-angle.sin(), angle.cos()]);
+        let mut bins: std::collections::BTreeMap<i64, (f64, f64)> = Default::default();
+        for p in &pts {
+            let t = (p[0] * d[0] + p[1] * d[1]).floor() as i64;
+            let u = p[0] * nv[0] + p[1] * nv[1];
+            let e = bins.entry(t).or_insert((u, u));
+            *e = (e.0.min(u), e.1.max(u));
+        }
+        let spans: Vec<f64> = bins.values().map(|(lo, hi)| hi - lo + 1.0).collect();
+        let inner = &spans[ends.min(spans.len() / 2)..spans.len() - ends.min(spans.len() / 2)];
+        (
+            inner.iter().copied().fold(f64::INFINITY, f64::min),
+            inner.iter().copied().fold(0.0, f64::max),
+        )
+    }
+
+    /// A small round island in the open: strips leave it in every direction. Whichever border
+    /// pixel the bridge grows from, and however wide the island asks it to be, what is drawn is
+    /// never wider than the maximum at right angles to it (measured on its pixels, about their
+    /// own axis), holds the island, and is no narrower than the minimum.
+    #[test]
+    fn a_fan_around_a_small_round_island_is_never_wider_than_the_maximum() {
+        let n = 64u32;
+        let disc = |x: u32, y: u32| (x as f64 + 0.5 - 32.0).hypot(y as f64 + 0.5 - 32.0) <= 4.5;
+        let t = TwoTone {
+            gray: Gray::new(n, n, 0.0),
+            bits: BitGrid::from_fn(n, n, disc),
+        };
+        let (m, c, st) = walk_all(&t);
+        assert_eq!(m.island_count(), 1);
+        let cfg = BridgeConfig {
+            min_width_px: 3,
+            max_width_px: 8,
+            ..Default::default()
+        };
+        let costs = flat_costs(c.len());
+        let mut tried = 0;
+        for id in (0..c.len()).filter(|&i| st[i].is_some()) {
+            // The island asks for more than the maximum: width_for clamps, plan must hold it.
+            for want in [8, 20] {
+                let members = grow(&c, &st, &costs, id, want, &cfg);
+                let p = plan(&t.bits, &t.gray, &c, &st, &members, &cfg, want);
+                let mut b = t.bits.clone();
+                commit(&mut b, &p.pixels);
+                assert_eq!(label(&b).island_count(), 0, "candidate {id}: not joined");
+                let (narrowest, widest) = extent_across(&p.pixels, n, 2);
+                assert!(
+                    widest <= 8.0 + 1.5,
+                    "candidate {id} at {:?}, want {want}: {widest:.2} px across, {} members, polygon {:?}",
+                    c.pixels[id],
+                    members.len(),
+                    p.polygon
+                );
+                assert!(narrowest >= 3.0 - 1.5, "candidate {id}: {narrowest:.2}");
+                assert!((3..=8).contains(&p.width), "{}", p.width);
+                tried += 1;
+            }
+        }
+        assert!(tried >= 30, "{tried}");
+    }
+
+    #[test]
+    fn strips_converging_on_a_small_island_are_kept_within_the_maximum() {
+        // The ring and disc of `converging_strips_grow_until_the_narrow_end_is_wide_enough`: grown
+        // to 8 px at the disc, the strips start 12 or more apart on the ring.
+        let t = ring_and_disc();
+        let (m, c, st) = walk_all(&t);
+        let (ring, disc) = (m.label(40, 14), m.label(40, 40));
+        let costs = flat_costs(c.len());
+        let cfg = BridgeConfig {
+            min_width_px: 3,
+            max_width_px: 8,
+            ..Default::default()
+        };
+        let mut tried = 0;
+        for id in (0..c.len())
+            .filter(|&i| c.node(i) == ring && st[i].as_ref().is_some_and(|s| s.to == disc))
+        {
+            let members = grow(&c, &st, &costs, id, 8, &cfg);
+            let p = plan(&t.bits, &t.gray, &c, &st, &members, &cfg, 8);
+            let mut b = t.bits.clone();
+            commit(&mut b, &p.pixels);
+            assert!(
+                label(&b).nodes.len() < m.nodes.len(),
+                "{id}: nothing joined"
+            );
+            let (narrowest, widest) = extent_across(&p.pixels, t.bits.width, 1);
+            assert!(
+                widest <= 8.0 + 1.5,
+                "{id}: {widest:.2} px, polygon {:?}",
+                p.polygon
+            );
+            assert!(narrowest >= 3.0 - 1.5, "{id}: {narrowest:.2} px");
+            tried += 1;
+        }
+        assert!(tried >= 20, "{tried}");
+    }
+
+    #[test]
+    fn a_wedge_tapering_into_the_cut_measures_thin_and_a_band_does_not() {
+        // Material above (y < 5) and a block at the lower right; an outline from the top to the
+        // block's corner and to the image's bottom edge tapers to a point there.
+        let (w, h) = (40u32, 40u32);
+        let bits = BitGrid::from_fn(w, h, |x, y| y < 5 || (x >= 25 && y >= 20));
+        let fill = |polygon: &[[f64; 2]]| -> Vec<u32> {
+            (0..w * h)
+                .filter(|&i| {
+                    let (x, y) = (i % w, i / w);
+                    !bits.get(x, y) && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
+                })
+                .collect()
+        };
+        let wedge = [[10.5, 4.5], [25.5, 20.5], [5.5, 40.5], [17.5, 4.5]];
+        let m = measure(&bits, &fill(&wedge), &wedge, 9.0);
+        assert!(m.narrowest < 4.0, "{m:?}");
+        // A straight band 8 px wide from the top material to the block: 8 across everywhere.
+        let band = [[26.0, 4.5], [26.0, 30.5], [34.0, 30.5], [34.0, 4.5]];
+        let m = measure(&bits, &fill(&band), &band, 9.0);
+        assert!((7.5..=8.5).contains(&m.narrowest), "{m:?}");
+        assert!((7.5..=9.5).contains(&m.widest), "{m:?}");
+    }
+
+    #[test]
+    fn at_the_image_edge_the_run_along_the_edge_is_a_width() {
+        // A bridge reaching the bottom edge over columns 5..8: the cut on either side meets the
+        // sheet beyond the picture 3 px apart, however wide the bridge is above.
+        let bits = BitGrid::new(20, 10, false);
+        let drawn = |x: i64, y: i64| y >= 6 && (5..8).contains(&x) || y < 6 && (2..12).contains(&x);
+        let pixels: Vec<u32> = (0..200u32)
+            .filter(|&i| drawn((i % 20) as i64, (i / 20) as i64))
+            .collect();
+        assert_eq!(along_edges(&bits, &pixels, drawn), 3.0);
+        // Running into the image's corner it joins the sheet on two sides: no neck.
+        let corner = |x: i64, y: i64| y >= 6 && x < 3;
+        let pixels: Vec<u32> = (0..200u32)
+            .filter(|&i| corner((i % 20) as i64, (i / 20) as i64))
+            .collect();
+        assert_eq!(along_edges(&bits, &pixels, corner), f64::INFINITY);
     }
 }

@@ -55,9 +55,12 @@ pub struct BridgeConfig {
     pub alpha: f64,
     /// Walks longer than this are dropped; default 200 px.
     pub max_length_px: u32,
-    /// Narrowest bridge, default 3 px: never thinner, even after halving.
+    /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
+    /// to it at its narrowest. `stencil make` sets it from the material's `min_bridge_mm` (see
+    /// `PhysicalConfig::bridge_for`).
     pub min_width_px: u32,
-    /// Widest bridge, default 40 px.
+    /// Widest bridge, default 40 px: none is drawn wider, at right angles to it. `stencil make`
+    /// sets it from the material's `max_bridge_mm`.
     pub max_width_px: u32,
     /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
     /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
@@ -99,6 +102,7 @@ pub struct CostTerms {
 pub struct Bridge {
     /// The two nodes it joins (0 = frame).
     pub nodes: [u32; 2],
+    /// Width at right angles to it at its narrowest, px (see [`grow::Plan::width`]).
     pub width_px: u32,
     pub length_px: f64,
     /// Cut pixels it turns into material.
@@ -434,13 +438,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
     };
     let make = |members: &[usize], want: u32| {
         grow::plan(
-            &two.bits,
-            &two.gray,
-            &g.cands,
-            &g.strips,
-            members,
-            cfg.min_width_px,
-            want,
+            &two.bits, &two.gray, &g.cands, &g.strips, members, cfg, want,
         )
     };
     let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);

@@ -8,7 +8,7 @@ use clap::Args;
 
 use stencil::bridge::BridgeConfig;
 use stencil::export;
-use stencil::pipeline::{self, MakeConfig};
+use stencil::pipeline::{self, BridgeWidthPx, MakeConfig};
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
@@ -113,13 +113,15 @@ pub struct BridgeArgs {
     /// Walks through the cut longer than this many pixels are dropped.
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
-    /// Narrowest bridge, in pixels. A bridge's width is ⌈√A / 4⌉ px for the area A of the smaller
-    /// island it joins, clamped to the narrowest..widest range.
-    #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
-    pub min_bridge_width_px: u32,
-    /// Widest bridge, in pixels.
-    #[arg(long, default_value_t = BridgeConfig::default().max_width_px)]
-    pub max_bridge_width_px: u32,
+    /// Narrowest bridge in working pixels, overriding the material's `min_bridge_mm` (never below
+    /// it). By default a bridge is a quarter of the smaller island's side, √A / 4 for its area A in
+    /// mm², clamped to the material profile's min_bridge_mm..max_bridge_mm (max: 5 × min unless
+    /// the profile sets it), the same millimetres at any --width-mm.
+    #[arg(long)]
+    pub min_bridge_width_px: Option<u32>,
+    /// Widest bridge in working pixels, overriding the material's `max_bridge_mm`.
+    #[arg(long)]
+    pub max_bridge_width_px: Option<u32>,
     /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
     /// (its window's mean strip ΣI × width) by more than this fraction, halve its width and add a
     /// support bridge at the next cheapest place.
@@ -128,24 +130,34 @@ pub struct BridgeArgs {
 }
 
 impl BridgeArgs {
-    pub fn to_config(&self) -> anyhow::Result<BridgeConfig> {
-        anyhow::ensure!(
-            self.min_bridge_width_px >= 1 && self.min_bridge_width_px <= self.max_bridge_width_px,
-            "--min-bridge-width-px ({}) must be at least 1 and at most --max-bridge-width-px ({})",
-            self.min_bridge_width_px,
-            self.max_bridge_width_px
-        );
-        Ok(BridgeConfig {
+    pub fn to_config(&self) -> BridgeConfig {
+        BridgeConfig {
             w_intensity: self.w_intensity,
             w_length: self.w_length,
             w_curvature: self.w_curvature,
             w_variance: self.w_variance,
             alpha: self.alpha,
             max_length_px: self.max_bridge_length_px,
-            min_width_px: self.min_bridge_width_px,
-            max_width_px: self.max_bridge_width_px,
             support_margin: self.support_margin,
-        })
+            // The widths come from the material (or the pixel overrides) in the pipeline.
+            ..BridgeConfig::default()
+        }
+    }
+
+    /// The pixel overrides of the material's bridge widths.
+    pub fn width_px(&self) -> anyhow::Result<BridgeWidthPx> {
+        let (min, max) = (self.min_bridge_width_px, self.max_bridge_width_px);
+        anyhow::ensure!(
+            min != Some(0) && max != Some(0),
+            "--min-bridge-width-px and --max-bridge-width-px must be at least 1"
+        );
+        if let (Some(lo), Some(hi)) = (min, max) {
+            anyhow::ensure!(
+                lo <= hi,
+                "--min-bridge-width-px ({lo}) must be at most --max-bridge-width-px ({hi})"
+            );
+        }
+        Ok(BridgeWidthPx { min, max })
     }
 }
 
@@ -213,7 +225,8 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         tone: a.image.to_config(),
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
-        bridge: a.bridge.to_config()?,
+        bridge: a.bridge.to_config(),
+        bridge_width_px: a.bridge.width_px()?,
         physical: a.physical.to_config()?,
         gcode: None,
     };

@@ -30,6 +30,16 @@ pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "aluminium-gobo"),
 ];
 
+/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 5.
+///
+/// Why 5: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
+/// so a bridge many times wider adds strength that handling never calls on while it hides more of
+/// the picture. Five times the minimum still lets the width follow the island (the rule gives an
+/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 20 mm across get 1 to 5 mm,
+/// larger ones 5 mm), and keeps bridges in the range laser-service and stencil guides draw (1–5 mm
+/// in card and film, up to 15 mm in 3 mm plywood).
+pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 5.0;
+
 /// How the sheet is cut, with that process's settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub enum Process {
@@ -125,6 +135,8 @@ struct MaterialFile {
     description: String,
     thickness_mm: f64,
     min_bridge_mm: f64,
+    #[serde(default)]
+    max_bridge_mm: Option<f64>,
     min_feature_mm: f64,
     kerf_mm: f64,
     process: ProcessKind,
@@ -146,6 +158,10 @@ pub struct Material {
     pub thickness_mm: f64,
     /// Narrowest bridge the sheet holds (bridges are checked against this).
     pub min_bridge_mm: f64,
+    /// Widest bridge the bridge stage draws: an island's bridge is `k·√A` wide for its area `A`
+    /// in mm² (a quarter of its side), clamped to `min_bridge_mm..=max_bridge_mm`. Optional in a
+    /// profile; default [`DEFAULT_MAX_BRIDGE_RATIO`] × `min_bridge_mm`.
+    pub max_bridge_mm: f64,
     /// Narrowest web (material) or hole (cut) that survives cutting.
     pub min_feature_mm: f64,
     /// Width of material the tool removes; cut loops are offset by half of it into the hole.
@@ -211,6 +227,17 @@ impl Material {
         // Ranges: anything outside is a typo (a unit mix-up, a missing decimal point).
         check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
         check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+        let max_bridge_mm = f
+            .max_bridge_mm
+            .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
+        check_range(
+            origin,
+            "max_bridge_mm",
+            max_bridge_mm,
+            f.min_bridge_mm,
+            DEFAULT_MAX_BRIDGE_RATIO * 50.0,
+            "mm (at least min_bridge_mm)",
+        )?;
         check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
         check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
         if f.kerf_mm >= f.min_feature_mm {
@@ -306,6 +333,7 @@ impl Material {
             description: f.description,
             thickness_mm: f.thickness_mm,
             min_bridge_mm: f.min_bridge_mm,
+            max_bridge_mm,
             min_feature_mm: f.min_feature_mm,
             kerf_mm: f.kerf_mm,
             process,
@@ -336,6 +364,22 @@ mod tests {
                 assert!(m.min_bridge_mm >= m.thickness_mm, "{}", m.name);
             }
         }
+    }
+
+    #[test]
+    fn the_widest_bridge_defaults_to_five_times_the_narrowest_and_is_checked() {
+        let card = Material::default();
+        assert_eq!(card.max_bridge_mm, 5.0 * card.min_bridge_mm);
+        let with = |line: &str| {
+            let text = SHIPPED[1].text.replace(
+                "min_feature_mm = 0.5",
+                &format!("min_feature_mm = 0.5\n{line}"),
+            );
+            Material::parse(&text, Path::new("x.toml"))
+        };
+        assert_eq!(with("max_bridge_mm = 3.0").unwrap().max_bridge_mm, 3.0);
+        let e = with("max_bridge_mm = 0.5").unwrap_err().to_string();
+        assert!(e.contains("x.toml") && e.contains("max_bridge_mm"), "{e}");
     }
 
     #[test]
