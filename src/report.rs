@@ -51,6 +51,10 @@ pub struct Report {
     pub threshold_level: Option<u8>,
     /// What the topological filter removed.
     pub filter: FilterStats,
+    /// What the design-rule regularisation changed (the default clean-up; absent when the user
+    /// asked for the open-close filter with `--filter-radius`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub regularize: Option<crate::tone::regularize::RegularizeStats>,
     /// Islands before bridging.
     pub islands: usize,
     pub bridges: Vec<BridgeReport>,

@@ -4,6 +4,7 @@
 pub mod filter;
 pub mod image;
 pub mod mesh;
+pub mod regularize;
 
 use std::path::PathBuf;
 

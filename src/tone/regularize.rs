@@ -1,0 +1,690 @@
+//! Design-rule regularisation: the two-tone clean-up that makes every web of material and every
+//! hole of cut at least as wide as the material can hold, changing the picture as little as it can.
+//!
+//! ## The rule
+//! A phase (material or cut) is *wide enough* at a pixel when some disc of the required width that
+//! lies wholly in that phase covers the pixel: the pixel survives the morphological opening of its
+//! phase by that disc. A pixel that does not is *thin*. When neither phase has a thin pixel, every
+//! boundary point has a disc of the required width on both sides of it, so no neck of material
+//! (web) or of cut (hole) is narrower than the disc: at the narrowest chord across a region, the
+//! disc touching one end would reach past the other end. The disc is the digital disc
+//! `dx² + dy² ≤ k² + k` (`k` = half its odd span), whose rows span `2k + 1` pixels: the smallest
+//! odd number of pixels at least the required width, so a straight line or hole of the required
+//! width or more is wide enough as it is, and one pixel narrower is not.
+//!
+//! The outside of the picture is material (the sheet continues past the border, as in `islands`
+//! and the tracer): discs of material may lie partly outside, discs of cut may not.
+//!
+//! ## Deciding
+//! Thin pixels are grouped into features (8-connected). A thin feature can be *removed* (its
+//! pixels take the other tone: a web dropped, a hole filled) or *widened* (the other tone's pixels
+//! within the disc's radius of its ridge, the pixels farthest from its edges, take its tone, so a
+//! disc fits along it). Each choice is priced on the gray picture: a flipped pixel costs
+//! `0.1 + |gray − threshold|` (a pixel whose gray sits on the threshold could go either way; one far
+//! from it is plainly one tone), and the cheaper choice is made. Features that are wide enough are
+//! never touched, except where a neighbour's widening reaches into them.
+//!
+//! ## Why it ends
+//! Deciding runs in rounds, all features of a round at once. In the first phase (at most
+//! [`FREE_ROUNDS`] rounds) a pixel that has changed tone is locked: a choice that would change it
+//! back is not available, so no pixel flips twice and nothing oscillates. What is still thin after
+//! that is settled by a second, *monotone* phase: thin holes are filled and thin webs widened, both
+//! of which only add material. Opening is increasing, so a material pixel that is wide enough stays
+//! so when material is added; and each round adds at least one pixel (a thin web's ridge pixel
+//! farthest from the cut is thin, so its disc still holds a cut pixel, which widening fills; a thin
+//! hole's pixels are filled). Material grows strictly every round, so the second phase ends after at
+//! most as many rounds as there are cut pixels, with nothing thin left; in practice in a few.
+
+use serde::{Deserialize, Serialize};
+
+use crate::raster::{BitGrid, Gray};
+
+/// Rounds of cost-based deciding before the monotone phase settles what is left.
+pub const FREE_ROUNDS: usize = 8;
+
+/// Options of the regularisation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegularizeConfig {
+    /// The narrowest web of material and hole of cut, in working pixels.
+    pub min_width_px: f64,
+    /// The gray level (0..1) the two-tone was cut at: a flip costs more the farther its gray is.
+    pub threshold: f32,
+    /// True when material is the dark side (`--invert`): only for the cost, which is symmetric.
+    pub invert: bool,
+}
+
+/// What the regularisation changed, for the report.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct RegularizeStats {
+    /// The disc's span in pixels (the smallest odd number at least the required width).
+    pub disc_px: u32,
+    /// Thin webs of material removed and widened, and thin holes of cut filled and widened.
+    pub webs_removed: usize,
+    pub webs_widened: usize,
+    pub holes_filled: usize,
+    pub holes_widened: usize,
+    /// Material pixels that became cut, and cut pixels that became material (net, against the
+    /// input two-tone).
+    pub material_removed_px: usize,
+    pub material_added_px: usize,
+    /// Rounds of the cost-based phase and of the monotone phase.
+    pub rounds: usize,
+    pub monotone_rounds: usize,
+}
+
+/// The disc: `span` pixels across, centred on a pixel (odd span) or on a pixel corner (even
+/// span), holding the pixels whose centres lie within `span / 2` of its centre.
+#[derive(Clone, Copy, Debug)]
+struct Disc {
+    span: u32,
+    /// Squared radius, `(span / 2)²` and a hair, so pixels exactly on the circle count.
+    r2: f32,
+}
+
+impl Disc {
+    fn for_width(px: f64) -> Disc {
+        let span = if px.is_finite() && px > 1.0 {
+            px.ceil().min(u32::MAX as f64 / 4.0) as u32
+        } else {
+            1
+        };
+        let r = span as f32 / 2.0;
+        Disc {
+            span,
+            r2: r * r + 1e-3,
+        }
+    }
+    /// Centres sit on pixel corners: the lattice is offset by half a pixel.
+    fn on_corners(&self) -> bool {
+        self.span % 2 == 0
+    }
+    /// How far a disc's pixels reach from its centre pixel, in whole pixels.
+    fn reach(&self) -> i64 {
+        self.span as i64 / 2
+    }
+}
+
+/// Squared Euclidean distance from lattice points to the nearest target of another lattice. Targets
+/// are `targets[y * tw + x]` at positions `(x, y)`; queries are the `qw × qh` points at
+/// `(q0 + i, q0 + j)` in the same coordinates. Exact (lower envelope of parabolas, Felzenszwalb &
+/// Huttenlocher), O(targets + queries) per row and column. No target anywhere: `f32::INFINITY`.
+fn lattice_distance(targets: &[bool], tw: usize, th: usize, q0: f32, qw: usize, qh: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    // Along x: for every target row, the distance to the nearest target in that row, at each query
+    // x. Stored column-major (one column of th values per query x) for the pass along y.
+    let mut cols = vec![f32::INFINITY; qw * th];
+    let rows: Vec<Vec<f32>> = (0..th)
+        .into_par_iter()
+        .map(|y| {
+            let f: Vec<f32> = (0..tw)
+                .map(|x| if targets[y * tw + x] { 0.0 } else { f32::INFINITY })
+                .collect();
+            let mut out = vec![0f32; qw];
+            envelope(&f, q0, &mut out);
+            out
+        })
+        .collect();
+    for (y, row) in rows.iter().enumerate() {
+        for (x, &v) in row.iter().enumerate() {
+            cols[x * th + y] = v;
+        }
+    }
+    let out_cols: Vec<Vec<f32>> = (0..qw)
+        .into_par_iter()
+        .map(|x| {
+            let mut out = vec![0f32; qh];
+            envelope(&cols[x * th..(x + 1) * th], q0, &mut out);
+            out
+        })
+        .collect();
+    let mut d = vec![0f32; qw * qh];
+    for (x, col) in out_cols.iter().enumerate() {
+        for (y, &v) in col.iter().enumerate() {
+            d[y * qw + x] = v;
+        }
+    }
+    d
+}
+
+/// `out[j] = min_p (q0 + j − p)² + f[p]` over the finite samples `f[p]` at positions `p`.
+fn envelope(f: &[f32], q0: f32, out: &mut [f32]) {
+    let pts: Vec<(f32, f32)> = f
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_finite())
+        .map(|(p, &v)| (p as f32, v))
+        .collect();
+    if pts.is_empty() {
+        out.iter_mut().for_each(|o| *o = f32::INFINITY);
+        return;
+    }
+    // Lower envelope: parabolas `v[k]`, parabola k lowest on [z[k], z[k+1]).
+    let mut v: Vec<(f32, f32)> = Vec::with_capacity(pts.len());
+    let mut z: Vec<f32> = Vec::with_capacity(pts.len() + 1);
+    for &(p, fp) in &pts {
+        loop {
+            match v.last() {
+                None => {
+                    v.push((p, fp));
+                    z.clear();
+                    z.push(f32::NEG_INFINITY);
+                    break;
+                }
+                Some(&(r, fr)) => {
+                    let s = ((fp + p * p) - (fr + r * r)) / (2.0 * (p - r));
+                    if s <= *z.last().unwrap() {
+                        v.pop();
+                        z.pop();
+                        if v.is_empty() {
+                            continue;
+                        }
+                    } else {
+                        v.push((p, fp));
+                        z.push(s);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    let mut k = 0;
+    for (j, o) in out.iter_mut().enumerate() {
+        let q = q0 + j as f32;
+        while k + 1 < v.len() && z[k + 1] < q {
+            k += 1;
+        }
+        let (p, fp) = v[k];
+        *o = (q - p) * (q - p) + fp;
+    }
+}
+
+/// A working grid: a window of the picture padded by more than the disc's reach with material on
+/// every side (the frame: discs of material may reach past the picture's border), and which of its
+/// pixels may change.
+struct Work {
+    bits: BitGrid,
+    /// Per pixel: cost of flipping it (infinite where it may not change).
+    price: Vec<f32>,
+    /// Per pixel: changed tone in the cost-based phase (may not change back there).
+    locked: Vec<bool>,
+    pad: u32,
+}
+
+impl Work {
+    /// The window `x0..x1 × y0..y1` of `bits`, padded; pixels in `core` (window coordinates,
+    /// `[x0, y0, x1, y1)`) may change, priced by `price(x, y)` in picture coordinates.
+    fn new(
+        bits: &BitGrid,
+        window: [u32; 4],
+        core: [u32; 4],
+        disc: Disc,
+        price: impl Fn(u32, u32) -> f32,
+    ) -> Work {
+        let pad = disc.reach() as u32 + 1;
+        let [x0, y0, x1, y1] = window;
+        let (pw, ph) = (x1 - x0 + 2 * pad, y1 - y0 + 2 * pad);
+        let inside = |x: u32, y: u32| x >= pad && y >= pad && x < x1 - x0 + pad && y < y1 - y0 + pad;
+        let padded = BitGrid::from_fn(pw, ph, |x, y| {
+            !inside(x, y) || bits.get(x - pad + x0, y - pad + y0)
+        });
+        let prices = (0..pw * ph)
+            .map(|i| {
+                let (x, y) = (i % pw, i / pw);
+                let (wx, wy) = (x.wrapping_sub(pad), y.wrapping_sub(pad));
+                if inside(x, y) && wx >= core[0] && wy >= core[1] && wx < core[2] && wy < core[3] {
+                    price(wx + x0, wy + y0)
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
+        Work {
+            locked: vec![false; (pw * ph) as usize],
+            bits: padded,
+            price: prices,
+            pad,
+        }
+    }
+
+    fn changeable(&self, i: usize) -> bool {
+        self.price[i].is_finite()
+    }
+
+    /// The window without its padding.
+    fn window(&self) -> BitGrid {
+        let p = self.pad;
+        BitGrid::from_fn(self.bits.width - 2 * p, self.bits.height - 2 * p, |x, y| {
+            self.bits.get(x + p, y + p)
+        })
+    }
+}
+
+/// The thin pixels of one phase, and per pixel how far the nearest disc centre could sit from the
+/// other phase (the ridge finder reads it).
+struct Thin {
+    mask: Vec<bool>,
+    /// Per pixel: the largest squared distance to the other phase over the pixel's candidate
+    /// centres (itself, or its four corners for an even span).
+    depth: Vec<f32>,
+    /// Per centre-lattice point: squared distance to the other phase.
+    d_centre: Vec<f32>,
+}
+
+/// Pixels of `phase` that no disc lying wholly in `phase` covers. The grid is padded with material
+/// by more than the disc's reach, so discs of material may lie partly outside the picture and discs
+/// of cut may not.
+fn thin(bits: &BitGrid, phase: bool, disc: Disc) -> Thin {
+    let (w, h) = (bits.width as usize, bits.height as usize);
+    let other: Vec<bool> = bits.data.iter().map(|&b| b != phase).collect();
+    // Centre lattice: pixels, or corners (w + 1) × (h + 1) at positions −0.5 … w − 0.5.
+    let (cw, ch, c0) = if disc.on_corners() {
+        (w + 1, h + 1, -0.5)
+    } else {
+        (w, h, 0.0)
+    };
+    let d_centre = lattice_distance(&other, w, h, c0, cw, ch);
+    let centres: Vec<bool> = d_centre.iter().map(|&d| d > disc.r2).collect();
+    // Pixel (x, y) sits at x − c0 in centre-lattice indices.
+    let d_cover = lattice_distance(&centres, cw, ch, -c0, w, h);
+    let mask = bits
+        .data
+        .iter()
+        .zip(&d_cover)
+        .map(|(&b, &d)| b == phase && d > disc.r2)
+        .collect();
+    let depth = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if disc.on_corners() {
+                let c = |xx: usize, yy: usize| d_centre[yy * cw + xx];
+                c(x, y).max(c(x + 1, y)).max(c(x, y + 1)).max(c(x + 1, y + 1))
+            } else {
+                d_centre[i]
+            }
+        })
+        .collect();
+    Thin {
+        mask,
+        depth,
+        d_centre,
+    }
+}
+
+/// 8-connected groups of `mask` pixels: a list of pixel indices per group.
+fn groups(mask: &[bool], width: usize) -> Vec<Vec<usize>> {
+    let h = mask.len() / width.max(1);
+    let mut seen = vec![false; mask.len()];
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for seed in 0..mask.len() {
+        if !mask[seed] || seen[seed] {
+            continue;
+        }
+        seen[seed] = true;
+        stack.push(seed);
+        let mut g = Vec::new();
+        while let Some(i) = stack.pop() {
+            g.push(i);
+            let (x, y) = ((i % width) as i64, (i / width) as i64);
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= width as i64 || ny >= h as i64 {
+                        continue;
+                    }
+                    let j = ny as usize * width + nx as usize;
+                    if mask[j] && !seen[j] {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        out.push(g);
+    }
+    out
+}
+
+/// One thin feature and what each way of resolving it would flip.
+struct Feature {
+    /// The tone of its pixels.
+    phase: bool,
+    pixels: Vec<usize>,
+    /// The other tone's pixels a widening turns to `phase`.
+    widen: Vec<usize>,
+}
+
+/// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its pixels
+/// whose depth is at least each of their 8-neighbours' in the feature. The disc is centred on the
+/// pixel (odd span) or on its deepest corner (even span), so once painted that centre is a valid
+/// one and covers the ridge pixel.
+fn widening(
+    bits: &BitGrid,
+    feature: &[usize],
+    in_feature: &[u32],
+    id: u32,
+    t: &Thin,
+    disc: Disc,
+    stamp: &mut [u32],
+) -> Vec<usize> {
+    let w = bits.width as i64;
+    let h = bits.height as i64;
+    let phase = bits.data[feature[0]];
+    let mut out = Vec::new();
+    let k = disc.reach();
+    for &i in feature {
+        let (x, y) = ((i as i64) % w, (i as i64) / w);
+        let mut ridge = true;
+        'n: for dy in -1..=1i64 {
+            for dx in -1..=1i64 {
+                let (nx, ny) = (x + dx, y + dy);
+                if (dx, dy) == (0, 0) || nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    continue;
+                }
+                let j = (ny * w + nx) as usize;
+                if in_feature[j] == id && t.depth[j] > t.depth[i] {
+                    ridge = false;
+                    break 'n;
+                }
+            }
+        }
+        if !ridge {
+            continue;
+        }
+        // The centre, in doubled coordinates (pixel centres at odd values for a corner lattice).
+        let (cx2, cy2) = if disc.on_corners() {
+            let cw = w + 1;
+            let mut best = (2 * x, 2 * y, f32::NEG_INFINITY);
+            for (ox, oy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let d = t.d_centre[((y + oy) * cw + x + ox) as usize];
+                if d > best.2 {
+                    best = (2 * (x + ox) - 1, 2 * (y + oy) - 1, d);
+                }
+            }
+            (best.0, best.1)
+        } else {
+            (2 * x, 2 * y)
+        };
+        for dy in -k - 1..=k + 1 {
+            for dx in -k - 1..=k + 1 {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    continue;
+                }
+                let (ex, ey) = ((2 * nx - cx2) as f32 / 2.0, (2 * ny - cy2) as f32 / 2.0);
+                if ex * ex + ey * ey > disc.r2 {
+                    continue;
+                }
+                let j = (ny * w + nx) as usize;
+                if bits.data[j] != phase && stamp[j] != id {
+                    stamp[j] = id;
+                    out.push(j);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Every thin feature of both phases, with its widening.
+fn features(work: &Work, disc: Disc) -> Vec<Feature> {
+    let bits = &work.bits;
+    let w = bits.width as usize;
+    let mut out = Vec::new();
+    let mut in_feature = vec![u32::MAX; bits.len()];
+    let mut stamp = vec![u32::MAX; bits.len()];
+    let mut next_id = 0u32;
+    for phase in [true, false] {
+        let t = thin(bits, phase, disc);
+        for g in groups(&t.mask, w) {
+            let id = next_id;
+            next_id += 1;
+            for &i in &g {
+                in_feature[i] = id;
+            }
+            let widen = widening(bits, &g, &in_feature, id, &t, disc, &mut stamp);
+            out.push(Feature {
+                phase,
+                pixels: g,
+                widen,
+            });
+        }
+    }
+    out
+}
+
+/// The price of flipping a picture pixel: `0.1 + |gray − threshold|`.
+fn pricer<'a>(gray: &'a Gray, cfg: &RegularizeConfig) -> impl Fn(u32, u32) -> f32 + 'a {
+    let t = cfg.threshold;
+    move |x, y| 0.1 + (gray.get(x, y) - t).abs()
+}
+
+/// Regularise `bits` (material = true) so that no web or hole is narrower than
+/// `cfg.min_width_px`, deciding each thin feature by the gray picture. See the module comment.
+pub fn regularize(bits: &BitGrid, gray: &Gray, cfg: &RegularizeConfig) -> (BitGrid, RegularizeStats) {
+    let disc = Disc::for_width(cfg.min_width_px);
+    let mut stats = RegularizeStats {
+        disc_px: disc.span,
+        ..Default::default()
+    };
+    if disc.span <= 1 || bits.is_empty() {
+        return (bits.clone(), stats);
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let mut work = Work::new(bits, all, all, disc, pricer(gray, cfg));
+    decide(&mut work, disc, &mut stats);
+    settle(&mut work, disc, &mut stats);
+    let out = work.window();
+    for (a, b) in bits.data.iter().zip(&out.data) {
+        match (a, b) {
+            (true, false) => stats.material_removed_px += 1,
+            (false, true) => stats.material_added_px += 1,
+            _ => {}
+        }
+    }
+    (out, stats)
+}
+
+/// The cost-based phase: each round, every thin feature is removed or widened, whichever costs
+/// less; a pixel that changed may not change back; at most [`FREE_ROUNDS`] rounds.
+fn decide(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
+    for _ in 0..FREE_ROUNDS {
+        let feats = features(work, disc);
+        if feats.is_empty() {
+            break;
+        }
+        stats.rounds += 1;
+        let mut changed = vec![false; work.bits.len()];
+        let mut any = false;
+        // Cheapest first, so where two features' choices meet the cheaper one's stands.
+        let mut choices: Vec<(f32, usize, bool)> = Vec::new();
+        for (n, f) in feats.iter().enumerate() {
+            let cost = |px: &[usize]| -> Option<f32> {
+                let mut c = 0.0;
+                for &i in px {
+                    if work.locked[i] || !work.changeable(i) {
+                        return None;
+                    }
+                    c += work.price[i];
+                }
+                Some(c)
+            };
+            let remove = cost(&f.pixels);
+            let widen = if f.widen.is_empty() {
+                None
+            } else {
+                cost(&f.widen)
+            };
+            match (remove, widen) {
+                (Some(r), Some(wd)) if wd < r => choices.push((wd, n, true)),
+                (Some(r), _) => choices.push((r, n, false)),
+                (None, Some(wd)) => choices.push((wd, n, true)),
+                (None, None) => {}
+            }
+        }
+        choices.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, n, widen) in choices {
+            let f = &feats[n];
+            let px = if widen { &f.widen } else { &f.pixels };
+            if px.iter().any(|&i| changed[i]) {
+                continue;
+            }
+            for &i in px {
+                work.bits.data[i] = !work.bits.data[i];
+                work.locked[i] = true;
+                changed[i] = true;
+            }
+            any = true;
+            match (f.phase, widen) {
+                (true, false) => stats.webs_removed += 1,
+                (true, true) => stats.webs_widened += 1,
+                (false, false) => stats.holes_filled += 1,
+                (false, true) => stats.holes_widened += 1,
+            }
+        }
+        if !any {
+            break;
+        }
+    }
+}
+
+/// The monotone phase: fill thin holes and widen thin webs (both only add material) until nothing
+/// that may change is thin. Ends: see the module comment.
+fn settle(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
+    loop {
+        let feats: Vec<Feature> = features(work, disc)
+            .into_iter()
+            .filter(|f| f.pixels.iter().any(|&i| work.changeable(i)))
+            .collect();
+        if feats.is_empty() {
+            break;
+        }
+        stats.monotone_rounds += 1;
+        let mut added = 0usize;
+        for f in &feats {
+            let px = if f.phase { &f.widen } else { &f.pixels };
+            for &i in px {
+                if work.changeable(i) && !work.bits.data[i] {
+                    work.bits.data[i] = true;
+                    added += 1;
+                }
+            }
+            if f.phase {
+                stats.webs_widened += 1;
+            } else {
+                stats.holes_filled += 1;
+            }
+        }
+        // Cannot happen over the whole picture (see the module comment); in a window a widening
+        // may lie outside the part that may change. Either way, stop rather than spin.
+        if added == 0 {
+            break;
+        }
+    }
+}
+
+/// How many pixels of material and of cut are thin for a web or hole `min_width_px` wide: both 0
+/// for what [`regularize`] returns.
+pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return [0, 0];
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    [true, false].map(|p| thin(&work.bits, p, disc).mask.iter().filter(|&&t| t).count())
+}
+
+/// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes
+/// (`[x0, y0, x1, y1)` in pixels), only adding material, so no cut sliver and no web narrower than
+/// the material's smallest feature is left beside a bridge. Each box is settled in a window large
+/// enough that thinness inside the box's reach is measured exactly (a pixel's thinness depends on
+/// the pixels within two disc spans of it). Returns the number of pixels added.
+pub fn settle_near(bits: &mut BitGrid, boxes: &[[u32; 4]], min_width_px: f64) -> usize {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return 0;
+    }
+    let reach = disc.span + 1;
+    let (w, h) = (bits.width, bits.height);
+    let grow = |b: [u32; 4], m: u32| {
+        [
+            b[0].saturating_sub(m),
+            b[1].saturating_sub(m),
+            (b[2] + m).min(w),
+            (b[3] + m).min(h),
+        ]
+    };
+    let mut added = 0;
+    let mut stats = RegularizeStats::default();
+    for &b in boxes {
+        // Pixels within two spans of the window's cut edges may be misjudged (the padding stands
+        // in for what lies beyond): only the part inside that margin may change, and it reaches
+        // three spans past the box, so what a widening there pushes outward is settled too.
+        let window = grow(b, 5 * reach);
+        let m = 2 * reach;
+        let core = [
+            if window[0] == 0 { 0 } else { window[0] + m },
+            if window[1] == 0 { 0 } else { window[1] + m },
+            if window[2] == w { w } else { window[2] - m },
+            if window[3] == h { h } else { window[3] - m },
+        ];
+        let rel = [
+            core[0] - window[0],
+            core[1] - window[1],
+            core[2] - window[0],
+            core[3] - window[1],
+        ];
+        let mut work = Work::new(bits, window, rel, disc, |_, _| 1.0);
+        settle(&mut work, disc, &mut stats);
+        let out = work.window();
+        for y in core[1]..core[3] {
+            for x in core[0]..core[2] {
+                let v = out.get(x - window[0], y - window[1]);
+                if v && !bits.get(x, y) {
+                    bits.set(x, y, true);
+                    added += 1;
+                }
+            }
+        }
+    }
+    added
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(px: f64) -> RegularizeConfig {
+        RegularizeConfig {
+            min_width_px: px,
+            threshold: 0.5,
+            invert: false,
+        }
+    }
+
+    fn any_thin(bits: &BitGrid, px: f64) -> bool {
+        thin_count(bits, px) != [0, 0]
+    }
+
+    #[test]
+    fn disc_spans_the_smallest_odd_width() {
+        assert_eq!(Disc::for_width(5.0).span, 5);
+        assert_eq!(Disc::for_width(4.2).span, 5);
+        assert_eq!(Disc::for_width(6.0).span, 6);
+        assert_eq!(Disc::for_width(0.5).span, 1);
+    }
+
+    #[test]
+    fn noise_ends_with_nothing_thin() {
+        // Pseudo-random noise: the hardest case for deciding; the monotone phase must finish it.
+        let mut s = 12345u64;
+        let bits = BitGrid::from_fn(80, 60, |_, _| {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 33) & 1 == 1
+        });
+        let gray = Gray::new(80, 60, 0.5);
+        let (out, stats) = regularize(&bits, &gray, &cfg(5.0));
+        assert!(!any_thin(&out, 5.0), "{stats:?}");
+    }
+}
