@@ -68,4 +68,15 @@ pub enum Error {
         y: u32,
         area: usize,
     },
+    /// The stencil differs from the thresholded picture by more than the limit the caller set
+    /// ([`pipeline::PhysicalConfig::max_change_pct`]); nothing was written.
+    #[error(
+        "the clean-up and the bridges changed {:.2} % of the picture, more than the limit of {limit_pct} %",
+        fidelity.changed_pct
+    )]
+    TooMuchChange {
+        /// What was measured (all of it, so a caller can say what changed most).
+        fidelity: report::Fidelity,
+        limit_pct: f64,
+    },
 }

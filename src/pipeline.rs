@@ -15,7 +15,7 @@ use crate::export::{self, dxf, mask, png, svg};
 use crate::islands;
 use crate::profile::Material;
 use crate::raster::{BitGrid, TwoTone};
-use crate::report::Report;
+use crate::report::{Fidelity, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
 use crate::tone::regularize::{regularize, settle_near, RegularizeConfig};
@@ -87,6 +87,10 @@ pub struct PhysicalConfig {
     pub vector: VectorConfig,
     /// Write the outputs even when the check finds violations.
     pub allow_thin: bool,
+    /// Fail (and write nothing) when the stencil differs from the thresholded picture in more
+    /// than this percentage of its pixels (`--max-change`; finite, 0..=100). See
+    /// [`crate::report::Fidelity`].
+    pub max_change_pct: Option<f64>,
     pub emit: Emit,
     pub mask: MaskConfig,
     pub dxf_r12: bool,
@@ -103,6 +107,7 @@ impl Default for PhysicalConfig {
             ),
             vector: VectorConfig::default(),
             allow_thin: false,
+            max_change_pct: None,
             emit: Emit::default(),
             mask: MaskConfig::default(),
             dxf_r12: false,
@@ -248,6 +253,8 @@ pub fn two_tone(
 
 /// What `make` computed, before anything is written.
 pub struct Made {
+    /// The picture thresholded, before the clean-up (what fidelity is measured against).
+    pub picture: BitGrid,
     /// After the topological filter, before bridges.
     pub twotone: TwoTone,
     pub filter: FilterStats,
@@ -349,6 +356,17 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             y,
             area: node.area,
         });
+    }
+    let fidelity = timer.time("fidelity", || {
+        Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)
+    });
+    if let Some(limit_pct) = phys.max_change_pct {
+        if fidelity.changed_pct > limit_pct {
+            return Err(Error::TooMuchChange {
+                fidelity,
+                limit_pct,
+            });
+        }
     }
     let vcfg = VectorConfig {
         scale,
@@ -452,9 +470,11 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         islands: map.island_count(),
         bridges: bridged.bridges.iter().map(Into::into).collect(),
         floating_after: after.island_count(),
+        fidelity: Some(fidelity),
         timings_ms: timer.0,
     };
     Ok(Made {
+        picture: raw.bits,
         twotone,
         filter: filter_stats,
         bridged,
@@ -484,7 +504,7 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
         files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
         files.push((
             "preview.png".into(),
-            png::preview(&tt.gray, &tt.bits, &made.bridged.bits),
+            png::preview(&tt.gray, &made.picture, &tt.bits, &made.bridged.bits),
         ));
     }
     if phys.emit.svg {

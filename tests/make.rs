@@ -352,6 +352,7 @@ fn help_has_a_worked_example() {
         "--min-bridge-width-px",
         "--max-bridge-width-px",
         "--support-margin",
+        "--max-change",
     ] {
         assert!(text.contains(flag), "{flag} missing from --help");
     }
@@ -394,4 +395,213 @@ fn tone_command_writes_the_same_two_tone_as_make() {
     assert_eq!((bits.width, bits.height), (480, 160));
     // The letters' counters are islands in the two-tone: O, A, two in B, two in 8.
     assert!(stencil::islands::label(&bits).island_count() >= 6);
+}
+
+/// A picture whose clean-up is known: a black frame 15 px wide around a paper square (an island,
+/// so there are bridges), a paper line 1 px wide inside the black frame (material the clean-up must
+/// remove: no material holds at 0.1 mm) and an ink line 1 px wide on the paper outside (cut the
+/// clean-up must fill). 150 x 150 px, at the default 0.1 mm/px in cardstock (0.5 mm features).
+fn thin_lines_png(path: &std::path::Path) {
+    ink_png(path, 150, 150, |x, y| {
+        let frame = (30..120).contains(&x)
+            && (30..120).contains(&y)
+            && !((45..105).contains(&x) && (45..105).contains(&y));
+        let paper_line = y == 37 && (40..110).contains(&x);
+        let ink_line = x == 10 && (10..140).contains(&y);
+        (frame && !paper_line) || ink_line
+    });
+}
+
+/// `make` on [`thin_lines_png`] at the defaults: the temp folder (kept alive), the output folder,
+/// what the command printed, and three grids: the picture thresholded as `make` does (level 128),
+/// twotone.png and stencil.png.
+fn make_thin_lines() -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    std::process::Output,
+    [stencil::raster::BitGrid; 3],
+) {
+    let dir = tmp();
+    let input = dir.path().join("thin.png");
+    thin_lines_png(&input);
+    let out = dir.path().join("out");
+    let o = stencil(&["make", s(&input), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_valid_stencil(&out);
+    let grids = [
+        read_bits(&input),
+        read_bits(&out.join("twotone.png")),
+        read_bits(&out.join("stencil.png")),
+    ];
+    (dir, out, o, grids)
+}
+
+/// Pixels where `f(picture, twotone, stencil)` holds.
+fn count3(
+    picture: &stencil::raster::BitGrid,
+    two: &stencil::raster::BitGrid,
+    st: &stencil::raster::BitGrid,
+    f: impl Fn(bool, bool, bool) -> bool,
+) -> usize {
+    (0..st.len())
+        .filter(|&i| f(picture.data[i], two.data[i], st.data[i]))
+        .count()
+}
+
+#[test]
+fn report_measures_what_the_clean_up_and_the_bridges_changed() {
+    let (_dir, out, o, [picture, two, st]) = make_thin_lines();
+    assert!(
+        (40..110).all(|x| !two.get(x, 37)),
+        "the clean-up removes the paper line"
+    );
+    assert!(
+        (10..140).all(|y| two.get(10, y)),
+        "the clean-up fills the ink line"
+    );
+    let r = report(&out);
+    let f = &r["fidelity"];
+    let n = 150 * 150;
+    let expect = [
+        (
+            "cleanup_removed",
+            count3(&picture, &two, &st, |p, t, _| p && !t),
+        ),
+        (
+            "cleanup_added",
+            count3(&picture, &two, &st, |p, t, _| !p && t),
+        ),
+        ("bridges", count3(&picture, &two, &st, |_, t, s| !t && s)),
+        ("changed", count3(&picture, &two, &st, |p, _, s| p != s)),
+    ];
+    assert_eq!(f["pixels"], n, "{f}");
+    for (name, px) in expect {
+        assert_eq!(f[format!("{name}_px")], px, "{name}: {f}");
+        let pct = f[format!("{name}_pct")].as_f64().unwrap();
+        assert!(
+            (pct - 100.0 * px as f64 / n as f64).abs() < 1e-9,
+            "{name}: {f}"
+        );
+    }
+    // The known lines are in the counts; the bridges are there too.
+    assert!(expect[0].1 >= 70 && expect[1].1 >= 130, "{f}");
+    assert!(expect[2].1 > 0 && expect[2].1 == added_pixels(&out), "{f}");
+    // `make` says it on one line, without a warning at this small a change.
+    let text = String::from_utf8_lossy(&o.stdout);
+    let line = format!(
+        "changed {:.2} % of the picture: clean-up removed {:.2} % material, added {:.2} %; bridges {:.2} %",
+        f["changed_pct"].as_f64().unwrap(),
+        f["cleanup_removed_pct"].as_f64().unwrap(),
+        f["cleanup_added_pct"].as_f64().unwrap(),
+        f["bridges_pct"].as_f64().unwrap()
+    );
+    assert!(text.contains(&line), "{line:?} not in {text}");
+    assert!(f["changed_pct"].as_f64().unwrap() < 5.0, "{f}");
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+}
+
+#[test]
+fn preview_is_large_and_shows_bridges_and_what_the_clean_up_changed() {
+    use stencil::export::png::{ADDED_RGB, BRIDGE_RGB, REMOVED_RGB};
+    let (_dir, out, _, [picture, two, st]) = make_thin_lines();
+    let preview = image::open(out.join("preview.png")).unwrap().to_rgb8();
+    let (w, h) = (preview.width(), preview.height());
+    assert!(w.max(h) >= 1000, "preview {w}x{h}");
+    // Enlarged by a whole factor, and no more than needed.
+    let k = w / st.width;
+    assert_eq!((w, h), (st.width * k, st.height * k), "a whole factor");
+    assert!(w.max(h) < 1000 + st.width.max(st.height));
+    let mut seen = [0usize; 3];
+    for y in 0..st.height {
+        for x in 0..st.width {
+            let i = st.idx(x, y);
+            let want = match (picture.data[i], two.data[i], st.data[i]) {
+                (_, false, true) => (0, BRIDGE_RGB),
+                (false, true, true) => (1, ADDED_RGB),
+                (true, _, false) => (2, REMOVED_RGB),
+                _ => continue,
+            };
+            seen[want.0] += 1;
+            // Every pixel of the enlarged square (nearest-neighbour).
+            for (dx, dy) in [(0, 0), (k - 1, 0), (0, k - 1), (k - 1, k - 1)] {
+                assert_eq!(
+                    preview.get_pixel(x * k + dx, y * k + dy).0,
+                    want.1,
+                    "pixel ({x}, {y})"
+                );
+            }
+        }
+    }
+    assert!(
+        seen.iter().all(|&n| n > 0),
+        "bridges, added, removed: {seen:?}"
+    );
+    // Unchanged pixels are none of the three colours.
+    for (x, y) in [(2, 2), (75, 75), (35, 50)] {
+        let c = preview.get_pixel(x * k, y * k).0;
+        assert!(
+            ![BRIDGE_RGB, ADDED_RGB, REMOVED_RGB].contains(&c),
+            "({x}, {y}): {c:?}"
+        );
+    }
+}
+
+#[test]
+fn max_change_fails_the_run_and_writes_nothing() {
+    let dir = tmp();
+    let input = dir.path().join("thin.png");
+    thin_lines_png(&input);
+    let out = dir.path().join("out");
+    let o = stencil(&["make", s(&input), "-o", s(&out), "--max-change", "0.01"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    for word in [
+        "--max-change",
+        "0.01 %",
+        "--width-mm",
+        "--material",
+        "--threshold",
+        "--scale",
+        "thin.png",
+    ] {
+        assert!(err.contains(word), "{word:?} not in {err}");
+    }
+    assert!(!out.exists(), "no output folder: {:?}", files_in(&out));
+    // A limit above the change lets the run through.
+    let o = stencil(&["make", s(&input), "-o", s(&out), "--max-change", "50"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Not a percentage: refused, naming the option.
+    for bad in ["101", "-1", "nan", "inf", "x"] {
+        let arg = format!("--max-change={bad}");
+        let o = stencil(&["make", s(&input), "-o", s(&out), &arg]);
+        assert!(!o.status.success(), "--max-change {bad}");
+        assert!(stderr(&o).contains("--max-change"), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn a_large_change_is_warned_about() {
+    let dir = tmp();
+    let input = dir.path().join("hatch.png");
+    // Ink lines 1 px wide, 4 px apart, over 60 x 60 px of a 100 x 100 picture: 9 % of it, all
+    // thinner than any material holds.
+    ink_png(&input, 100, 100, |x, y| {
+        (20..80).contains(&x) && (20..80).contains(&y) && y % 4 == 0
+    });
+    let out = dir.path().join("out");
+    let o = stencil(&["make", s(&input), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let f = &report(&out)["fidelity"];
+    assert!(f["changed_pct"].as_f64().unwrap() > 5.0, "{f}");
+    let err = stderr(&o);
+    assert!(err.contains("warning"), "{err}");
+    for word in [
+        "--width-mm",
+        "--dpi",
+        "--material",
+        "--threshold",
+        "--scale",
+    ] {
+        assert!(err.contains(word), "{word:?} not in {err}");
+    }
 }

@@ -9,6 +9,7 @@ use clap::Args;
 use stencil::bridge::BridgeConfig;
 use stencil::export;
 use stencil::pipeline::{self, MakeConfig};
+use stencil::report::Fidelity;
 use stencil::tone::filter::{self, FilterConfig};
 use stencil::tone::{Threshold, ToneConfig};
 
@@ -203,6 +204,31 @@ impl FilterArgs {
     }
 }
 
+/// Above this share of the picture changed, `make` warns.
+const WARN_CHANGE_PCT: f64 = 5.0;
+
+/// What a user can do when the stencil strays from the picture.
+const CHANGE_HINTS: &str = "to keep closer to the picture, make it larger (--width-mm or --dpi), \
+     choose a material with a smaller min_feature_mm (--material; `stencil profiles` lists them), \
+     move --threshold, or supersample with --scale 2..4";
+
+/// The fidelity figures on one line.
+fn change_line(f: &Fidelity) -> String {
+    format!(
+        "changed {:.2} % of the picture: {}",
+        f.changed_pct,
+        change_parts(f)
+    )
+}
+
+/// What changed it, stage by stage.
+fn change_parts(f: &Fidelity) -> String {
+    format!(
+        "clean-up removed {:.2} % material, added {:.2} %; bridges {:.2} %",
+        f.cleanup_removed_pct, f.cleanup_added_pct, f.bridges_pct
+    )
+}
+
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = MakeConfig {
         out_dir: a
@@ -226,7 +252,19 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         )?,
         ..cfg
     };
-    let (made, written) = pipeline::make(&cfg)?;
+    let (made, written) = pipeline::make(&cfg).map_err(|e| match e {
+        stencil::Error::TooMuchChange {
+            fidelity,
+            limit_pct,
+        } => anyhow::anyhow!(
+            "{}: {:.2} % of the picture changed, over the --max-change limit of {limit_pct} %, \
+             so nothing was written ({}); {CHANGE_HINTS}",
+            cfg.input.display(),
+            fidelity.changed_pct,
+            change_parts(&fidelity),
+        ),
+        e => e.into(),
+    })?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -253,6 +291,14 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    if let Some(f) = &r.fidelity {
+        println!("{}", change_line(f));
+        if f.changed_pct > WARN_CHANGE_PCT {
+            eprintln!(
+                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {CHANGE_HINTS}"
+            );
+        }
+    }
     super::material::print_check(&made.check);
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
