@@ -357,17 +357,6 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             area: node.area,
         });
     }
-    let fidelity = timer.time("fidelity", || {
-        Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)
-    });
-    if let Some(limit_pct) = phys.max_change_pct {
-        if fidelity.changed_pct > limit_pct {
-            return Err(Error::TooMuchChange {
-                fidelity,
-                limit_pct,
-            });
-        }
-    }
     let vcfg = VectorConfig {
         scale,
         kerf_mm: phys.material.kerf_mm,
@@ -415,6 +404,18 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             &phys.material,
             &mut timer,
         )?;
+    }
+    // Measured on the stencil as it will be written (after the repairs).
+    let fidelity = timer.time("fidelity", || {
+        Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)
+    });
+    if let Some(limit_pct) = phys.max_change_pct {
+        if fidelity.changed_pct > limit_pct {
+            return Err(Error::TooMuchChange {
+                fidelity,
+                limit_pct,
+            });
+        }
     }
     if !chk.passed() && !phys.allow_thin {
         return Err(Error::Thin {

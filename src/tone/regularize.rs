@@ -208,6 +208,9 @@ struct Work {
     /// Per pixel: changed tone in the cost-based phase (may not change back there).
     locked: Vec<bool>,
     pad: u32,
+    /// Top-left corners (padded coordinates) of the span × span blocks at the picture's own
+    /// corners that lie in this window (see [`Work::corner_caps`]).
+    corners: Vec<(u32, u32)>,
 }
 
 impl Work {
@@ -238,11 +241,34 @@ impl Work {
                 }
             })
             .collect();
+        let (iw, ih) = (x1 - x0, y1 - y0);
+        let sp = disc.span.min(iw).min(ih);
+        let mut corners = Vec::new();
+        for (cx, cy) in [(0, 0), (bits.width - sp, 0), (0, bits.height - sp), (bits.width - sp, bits.height - sp)] {
+            if cx >= x0 && cy >= y0 && cx + sp <= x1 && cy + sp <= y1 {
+                corners.push((cx - x0 + pad, cy - y0 + pad));
+            }
+        }
         Work {
             locked: vec![false; (pw * ph) as usize],
             bits: padded,
             price: prices,
             pad,
+            corners,
+        }
+    }
+
+    /// A cut that fills a corner of the picture has a square corner against the sheet's margin,
+    /// which no round disc covers, yet it is no neck (the width check does not count cutting
+    /// across a corner). Where the span × span block at a picture corner is all cut, its pixels
+    /// are not thin.
+    fn corner_caps(&self, mask: &mut [bool], span: u32) {
+        let w = self.bits.width;
+        for &(cx, cy) in &self.corners {
+            let block = || (cy..cy + span).flat_map(move |y| (cx..cx + span).map(move |x| (y * w + x) as usize));
+            if block().all(|i| !self.bits.data[i]) {
+                block().for_each(|i| mask[i] = false);
+            }
         }
     }
 
@@ -435,7 +461,10 @@ fn features(work: &Work, disc: Disc) -> Vec<Feature> {
     let mut stamp = vec![u32::MAX; bits.len()];
     let mut next_id = 0u32;
     for phase in [true, false] {
-        let t = thin(bits, phase, disc);
+        let mut t = thin(bits, phase, disc);
+        if !phase {
+            work.corner_caps(&mut t.mask, disc.span);
+        }
         for g in groups(&t.mask, w) {
             let id = next_id;
             next_id += 1;
@@ -592,7 +621,13 @@ pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
     }
     let all = [0, 0, bits.width, bits.height];
     let work = Work::new(bits, all, all, disc, |_, _| 1.0);
-    [true, false].map(|p| thin(&work.bits, p, disc).mask.iter().filter(|&&t| t).count())
+    [true, false].map(|p| {
+        let mut mask = thin(&work.bits, p, disc).mask;
+        if !p {
+            work.corner_caps(&mut mask, disc.span);
+        }
+        mask.iter().filter(|&&t| t).count()
+    })
 }
 
 /// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes
