@@ -42,15 +42,16 @@ pub struct MakeConfig {
     pub gcode: Option<crate::plan::GcodeConfig>,
 }
 
-/// How big the picture is on the sheet.
+/// How big the picture is on the sheet. Sizes are of the input picture: supersampling (`--scale`,
+/// automatic or given) makes the working pixels finer, never the picture larger.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Size {
-    /// 0.1 mm per working pixel ([`Scale::default`]).
+    /// 0.1 mm per input pixel ([`Scale::default`]).
     #[default]
     Default,
     /// The picture's width in mm (the height follows).
     WidthMm(f64),
-    /// Working pixels per inch.
+    /// Input pixels per inch.
     Dpi(f64),
 }
 
@@ -116,7 +117,8 @@ impl Default for PhysicalConfig {
 }
 
 impl PhysicalConfig {
-    /// Millimetres per working pixel for a picture `width_px` wide.
+    /// Millimetres per pixel of a picture `width_px` wide, before supersampling (a working pixel
+    /// of a picture supersampled K times is this divided by K; see [`Working`]).
     pub fn scale(&self, width_px: u32) -> Result<Scale, Error> {
         let bad = |what: &str, v: f64| {
             Error::Size(format!("{what} must be a finite number > 0, got {v}"))
@@ -128,6 +130,12 @@ impl PhysicalConfig {
             Size::Dpi(d) if d.is_finite() && d > 0.0 => Ok(Scale::from_dpi(d)),
             Size::Dpi(d) => Err(bad("--dpi", d)),
         }
+    }
+
+    /// The coarsest working pixel, in mm, that the material and the tolerance accept (the
+    /// automatic supersampling's target, [`tone::resolution::target_mm_per_px`]).
+    pub fn target_mm_per_px(&self) -> f64 {
+        tone::resolution::target_mm_per_px(self.material.min_feature_mm, self.vector.tolerance_mm)
     }
 
     /// The check's allowance in pixels (see [`check::allowance_px`]).
@@ -230,25 +238,93 @@ impl Timings {
     }
 }
 
-/// The two-tone stage, from a picture or a mesh, before the topological filter.
-/// Returns the two-tone and the threshold level used.
+/// The working resolution: how many times the picture was supersampled, and what a working pixel
+/// measures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Working {
+    /// Working pixels per input pixel along each axis (1 for a mesh, which renders at its own size).
+    pub factor: u32,
+    /// How the factor was chosen, when it was automatic (no `--scale`).
+    pub auto: Option<tone::resolution::AutoScale>,
+    /// Millimetres per working pixel.
+    pub scale: Scale,
+}
+
+/// The two-tone stage, from a picture or a mesh, before the topological filter: the two-tone, the
+/// threshold level used and the working resolution.
+///
+/// A picture is supersampled by `tone.scale`, or when that is `None` by the smallest factor that
+/// makes a working pixel fine enough for the material and the tolerance
+/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
 pub fn two_tone(
     input: &Path,
     tone: &ToneConfig,
     mesh: &MeshConfig,
-) -> Result<(TwoTone, Option<u8>), Error> {
+    phys: &PhysicalConfig,
+) -> Result<(TwoTone, Option<u8>, Working), Error> {
     if is_mesh(input) {
         let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
             .map_err(tone::ToneError::from)?;
-        return Ok((tt, Some(level)));
+        let scale = phys.scale(tt.bits.width)?;
+        let working = Working {
+            factor: 1,
+            auto: None,
+            scale,
+        };
+        return Ok((tt, Some(level), working));
     }
-    if !(1..=8).contains(&tone.scale) {
-        return Err(tone::ToneError::BadScale(tone.scale).into());
+    if let Some(k) = tone.scale {
+        if !(1..=tone::resolution::MAX_FACTOR).contains(&k) {
+            return Err(tone::ToneError::BadScale(k).into());
+        }
     }
     let gray = load_gray(input, tone.max_pixels)?;
-    let gray = tone::image::upsample(&gray, tone.scale);
+    let per_input = phys.scale(gray.width)?;
+    let pixels = u64::from(gray.width) * u64::from(gray.height);
+    let (factor, auto) = match tone.scale {
+        Some(k) => {
+            let (w, h) = (
+                u64::from(gray.width) * u64::from(k),
+                u64::from(gray.height) * u64::from(k),
+            );
+            if w * h > tone.max_pixels {
+                return Err(tone::ToneError::ScaleTooLarge {
+                    path: input.to_path_buf(),
+                    factor: k,
+                    width: w,
+                    height: h,
+                    mp: (w * h) as f64 / 1e6,
+                    limit_mp: tone.max_pixels as f64 / 1e6,
+                }
+                .into());
+            }
+            (k, None)
+        }
+        None => {
+            let (k, a) = tone::resolution::auto(
+                per_input.mm_per_px,
+                phys.target_mm_per_px(),
+                pixels,
+                tone.max_pixels,
+            );
+            (k, Some(a))
+        }
+    };
+    // Upsampling by 1 would only copy the picture.
+    let gray = if factor > 1 {
+        tone::image::upsample(&gray, factor)
+    } else {
+        gray
+    };
     let (tt, level) = tone::threshold(gray, tone.threshold, tone.invert);
-    Ok((tt, Some(level)))
+    let working = Working {
+        factor,
+        auto,
+        scale: Scale {
+            mm_per_px: per_input.mm_per_px / f64::from(factor),
+        },
+    };
+    Ok((tt, Some(level), working))
 }
 
 /// What `make` computed, before anything is written.
@@ -314,8 +390,9 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings::default();
     let phys = &cfg.physical;
     let mesh_cfg = mesh_lines_for(cfg);
-    let (raw, level) = timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg))?;
-    let scale = phys.scale(raw.bits.width)?;
+    let (raw, level, working) =
+        timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg, phys))?;
+    let scale = working.scale;
     let filter_cfg = phys.filter_for(&cfg.filter, scale);
     let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
     let (bits, filter_stats, reg_stats) = timer.time("filter", || {
@@ -453,6 +530,8 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         mm_per_px: Some(scale.mm_per_px),
+        scale_factor: Some(working.factor),
+        scale_auto: working.auto,
         width_mm: Some(geometry.width_mm),
         height_mm: Some(geometry.height_mm),
         margin_mm: Some(vcfg.margin_mm),

@@ -139,6 +139,13 @@ pub struct Report {
     /// the simplification tolerance used by the vectors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mm_per_px: Option<f64>,
+    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none) and,
+    /// when it was chosen automatically (no `--scale`), how: the target pixel size, the factor
+    /// the rule asked for and any cap that lowered it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_factor: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_auto: Option<crate::tone::resolution::AutoScale>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -11,6 +11,7 @@ use stencil::export;
 use stencil::pipeline::{self, MakeConfig};
 use stencil::report::Fidelity;
 use stencil::tone::filter::{self, FilterConfig};
+use stencil::tone::resolution::ScaleCap;
 use stencil::tone::{Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
@@ -67,10 +68,15 @@ pub struct ImageArgs {
     #[arg(long, alias = "lit")]
     pub invert: bool,
     /// Supersample: upsample the picture smoothly by this factor (1..8) before thresholding, so
-    /// edges follow the picture rather than its pixels. The working image is this much larger.
-    #[arg(long, default_value_t = 1)]
-    pub scale: u32,
-    /// Refuse pictures with more pixels than this (checked from the header, before decoding).
+    /// edges follow the picture rather than its pixels; the working image has this many times
+    /// the pixels across, the picture keeps its size in mm. 1 turns supersampling off.
+    /// [default: automatic: the smallest factor that makes a working pixel at most a fifth of the
+    /// material's smallest feature and at most twice --tolerance-mm, within 16 megapixels and
+    /// --max-pixels; none at the default 0.1 mm per pixel with cardstock]
+    #[arg(long)]
+    pub scale: Option<u32>,
+    /// Refuse pictures with more pixels than this (checked from the header, before decoding),
+    /// and working images (after --scale) larger than this.
     #[arg(long, default_value_t = 100_000_000)]
     pub max_pixels: u64,
 }
@@ -291,6 +297,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    print_working_scale(r);
     if let Some(f) = &r.fidelity {
         println!("{}", change_line(f));
         if f.changed_pct > WARN_CHANGE_PCT {
@@ -304,6 +311,37 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One line when the picture was supersampled, or when a cap kept it coarser than the material
+/// and the tolerance ask for.
+fn print_working_scale(r: &stencil::report::Report) {
+    let (Some(k), Some(mm)) = (r.scale_factor, r.mm_per_px) else {
+        return;
+    };
+    let auto = r.scale_auto.as_ref();
+    if k > 1 {
+        let why = if auto.is_some() {
+            "so edges follow the picture"
+        } else {
+            "as --scale asked"
+        };
+        println!("supersampled {k}x ({mm:.3} mm per working pixel) {why}");
+    }
+    if let Some(a) = auto {
+        if let Some(cap) = a.capped_by {
+            let help = match cap {
+                ScaleCap::MaxFactor => "use a picture with more pixels",
+                ScaleCap::Memory => "use a picture with more pixels, or give --scale",
+                ScaleCap::MaxPixels => "raise --max-pixels",
+            };
+            println!(
+                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {cap}; \
+                 edges may show the picture's pixels ({help})",
+                a.target_mm_per_px, a.wanted
+            );
+        }
+    }
 }
 
 /// `stencil tone INPUT -o twotone.png`.
@@ -323,7 +361,13 @@ pub struct ToneCmdArgs {
 }
 
 pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
-    let (tt, _) = pipeline::two_tone(&a.input, &a.image.to_config(), &a.mesh.to_config()?)?;
+    // `tone` knows no size or material: the defaults choose the automatic factor.
+    let (tt, _, _) = pipeline::two_tone(
+        &a.input,
+        &a.image.to_config(),
+        &a.mesh.to_config()?,
+        &pipeline::PhysicalConfig::default(),
+    )?;
     let (bits, _) = filter::filter(&tt.bits, &a.filter.to_config());
     export::write_atomic(&a.out, &export::png::encode_bits(&bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;

@@ -36,10 +36,10 @@ pub enum EmitKind {
 #[command(next_help_heading = "Size, material and outputs")]
 pub struct PhysicalArgs {
     /// Width of the picture on the sheet in mm (the height follows). Without it and without
-    /// --dpi, one working pixel is 0.1 mm.
+    /// --dpi, one pixel of the picture is 0.1 mm (whatever --scale does to the working pixels).
     #[arg(long, conflicts_with = "dpi")]
     pub width_mm: Option<f64>,
-    /// Working pixels per inch (instead of --width-mm).
+    /// Pixels of the picture per inch (instead of --width-mm).
     #[arg(long)]
     pub dpi: Option<f64>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
