@@ -59,8 +59,8 @@ pub enum Error {
     #[error(transparent)]
     Machine(#[from] machine::MachineError),
     #[error(
-        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
-         raise --max-bridge-length-px or --filter-radius"
+        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}) \
+         (every island should have been joined: this is a bug, please report it with the picture)"
     )]
     Floating {
         count: usize,

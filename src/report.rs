@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::bridge::{Bridge, CostTerms};
+use crate::bridge::{Bridge, CostTerms, Via};
 use crate::check::CheckReport;
 use crate::raster::BitGrid;
 use crate::tone::filter::FilterStats;
@@ -21,6 +21,11 @@ pub struct BridgeReport {
     pub pixels: usize,
     pub cost: CostTerms,
     pub support: bool,
+    /// `"walk"`, or `"search"` when no walk under `--max-bridge-length-px` left the island's group
+    /// and it was joined by the cheapest path through the cut, of any length (absent in older
+    /// reports: a walk).
+    #[serde(default)]
+    pub via: Via,
     /// Outline in pixel coordinates (so `stencil check` on an output folder knows the bridges).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub polygon_px: Vec<[f64; 2]>,
@@ -35,6 +40,7 @@ impl From<&Bridge> for BridgeReport {
             pixels: b.pixels,
             cost: b.cost,
             support: b.support,
+            via: b.via,
             polygon_px: b.polygon.clone(),
         }
     }

@@ -326,6 +326,58 @@ fn supersampling_smooths_a_diagonal_edge() {
 }
 
 #[test]
+fn an_island_500_px_from_anything_is_joined_and_the_report_says_so() {
+    // White paper, a black field from 50 px in, and a 40 x 40 px white island in its middle:
+    // 530 px of black between the island and the frame on every side, far beyond the 200 px
+    // walks. The run succeeds (the check included), the stencil is one sheet, and the long join
+    // is marked in the report and noted on the terminal.
+    let dir = tmp();
+    let (n, margin) = (1200u32, 50u32);
+    let island = |v: u32| (580..620).contains(&v);
+    let input = dir.path().join("far.png");
+    ink_png(&input, n, n, |x, y| {
+        let field = (margin..n - margin).contains(&x) && (margin..n - margin).contains(&y);
+        field && !(island(x) && island(y))
+    });
+    let out = dir.path().join("far");
+    let o = stencil(&["make", s(&input), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_valid_stencil(&out);
+    let st = read_bits(&out.join("stencil.png"));
+    assert_eq!(stencil::islands::label(&st).island_count(), 0);
+    let r = report(&out);
+    assert_eq!(
+        (r["islands"].as_u64(), r["floating_after"].as_u64()),
+        (Some(1), Some(0))
+    );
+    let bridges = r["bridges"].as_array().unwrap();
+    let long: Vec<_> = bridges.iter().filter(|b| b["via"] == "search").collect();
+    assert_eq!(long.len(), 1, "{bridges:?}");
+    assert!(
+        long[0]["length_px"].as_f64().unwrap() >= 500.0,
+        "{:?}",
+        long[0]
+    );
+    assert_eq!(long[0]["nodes"], serde_json::json!([0, 1]));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("note:") && text.contains("--max-bridge-length-px"),
+        "{text}"
+    );
+    // A picture whose islands are near gets no such note, and its bridges are walks.
+    let near = samples().join("rings.png");
+    let out = dir.path().join("rings");
+    let o = stencil(&["make", s(&near), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("note:"));
+    assert!(report(&out)["bridges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|b| b["via"] == "walk"));
+}
+
+#[test]
 fn help_has_a_worked_example() {
     let o = stencil(&["make", "--help"]);
     let text = String::from_utf8_lossy(&o.stdout);

@@ -363,6 +363,33 @@ fn crosses(q: &[[f64; 2]]) -> bool {
     q.len() == 4 && (cut(q[0], q[1], q[2], q[3]) || cut(q[1], q[2], q[3], q[0]))
 }
 
+/// The outline of a bridge drawn as one thickened strip (a path of the fallback search), when that
+/// strip runs straight (every pixel within a pixel of the line through its first and last): the
+/// band `width` wide from its candidate `start` to where it lands, as a fan is drawn, so that the
+/// check knows it for a bridge. The band lies inside the thickened pixels (the brush reaches
+/// `⌈(width − 1)/2⌉ + ½` px either side of the strip). `None` for a bent strip, whose outline stays
+/// the segment [`plan`] gives it.
+pub fn straight_band(
+    start: (u32, u32),
+    strip: &Strip,
+    width: u32,
+    image_width: u32,
+) -> Option<Vec<[f64; 2]>> {
+    let xy = |p: u32| [(p % image_width) as f64, (p / image_width) as f64];
+    let (a, b) = (xy(*strip.pixels.first()?), xy(*strip.pixels.last()?));
+    let len = dist(a, b);
+    let off = |q: [f64; 2]| ((q[0] - a[0]) * (b[1] - a[1]) - (q[1] - a[1]) * (b[0] - a[0])).abs();
+    if len > 0.0 && strip.pixels.iter().any(|&p| off(xy(p)) > len) {
+        return None;
+    }
+    let centre = |x: f64, y: f64| [x + 0.5, y + 0.5];
+    Some(band_outline(
+        centre(start.0 as f64, start.1 as f64),
+        centre(strip.end.0 as f64, strip.end.1 as f64),
+        width as f64 / 2.0,
+    ))
+}
+
 /// The rectangle of half-width `half` around the segment from `a` to `b`.
 fn band_outline(a: [f64; 2], b: [f64; 2], half: f64) -> Vec<[f64; 2]> {
     let len = dist(a, b).max(1e-9);

@@ -117,7 +117,10 @@ pub struct BridgeArgs {
     /// Exponent of the length penalty, strictly between 1 and 2.
     #[arg(long, default_value_t = BridgeConfig::default().alpha, value_parser = parse_alpha)]
     pub alpha: f64,
-    /// Walks through the cut longer than this many pixels are dropped.
+    /// Preferred longest bridge, in pixels: walks through the cut longer than this are dropped, so
+    /// an island is bridged under it where it can be. An island with no walk under it is still
+    /// joined, by the cheapest path through the cut of any length (a note says so, and the bridge
+    /// is marked "via": "search" in report.json).
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
     /// Narrowest bridge, in pixels. A bridge's width is ⌈√A / 4⌉ px for the area A of the smaller
@@ -160,8 +163,8 @@ impl BridgeArgs {
 #[command(after_help = "\
 Example:
   stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
-  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; the run fails
-  (and writes nothing) if any island cannot be joined to the frame.
+  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; every island
+  is joined to the frame, by a longer path through the cut where no bridge is short enough.
   stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
   sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
   default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.
@@ -306,6 +309,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
+    print_long_joins(r, cfg.bridge.max_length_px);
     super::material::print_check(&made.check);
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
@@ -341,6 +345,23 @@ fn print_working_scale(r: &stencil::report::Report) {
                 a.target_mm_per_px, a.wanted
             );
         }
+    }
+}
+
+/// A note when some island had no walk under the length limit and was joined by the search.
+fn print_long_joins(r: &stencil::report::Report, limit: u32) {
+    let searched: Vec<_> = r
+        .bridges
+        .iter()
+        .filter(|b| b.via == stencil::bridge::Via::Search && !b.support)
+        .collect();
+    if let Some(longest) = searched.iter().map(|b| b.length_px).reduce(f64::max) {
+        println!(
+            "note: {} island group(s) had no bridge under --max-bridge-length-px ({limit} px) and \
+             were joined by the cheapest path through the cut instead (longest {longest:.0} px; \
+             \"via\": \"search\" in report.json)",
+            searched.len()
+        );
     }
 }
 
