@@ -104,97 +104,77 @@ impl Disc {
     }
 }
 
-/// Squared Euclidean distance from lattice points to the nearest target of another lattice. Targets
-/// are `targets[y * tw + x]` at positions `(x, y)`; queries are the `qw × qh` points at
-/// `(q0 + i, q0 + j)` in the same coordinates. Exact (lower envelope of parabolas, Felzenszwalb &
-/// Huttenlocher), O(targets + queries) per row and column. No target anywhere: `f32::INFINITY`.
-fn lattice_distance(targets: &[bool], tw: usize, th: usize, q0: f32, qw: usize, qh: usize) -> Vec<f32> {
-    use rayon::prelude::*;
-    // Along x: for every target row, the distance to the nearest target in that row, at each query
-    // x. Stored column-major (one column of th values per query x) for the pass along y.
-    let mut cols = vec![f32::INFINITY; qw * th];
-    let rows: Vec<Vec<f32>> = (0..th)
-        .into_par_iter()
-        .map(|y| {
-            let f: Vec<f32> = (0..tw)
-                .map(|x| if targets[y * tw + x] { 0.0 } else { f32::INFINITY })
-                .collect();
-            let mut out = vec![0f32; qw];
-            envelope(&f, q0, &mut out);
-            out
-        })
-        .collect();
-    for (y, row) in rows.iter().enumerate() {
-        for (x, &v) in row.iter().enumerate() {
-            cols[x * th + y] = v;
-        }
+/// Squared Euclidean distance from lattice points to the nearest target of another lattice, exact
+/// up to `(k + 1)²` (a larger distance is reported as some value above `k²`). Targets are
+/// `targets[y * tw + x]` at positions `(x, y)`; queries are the `qw × qh` points at
+/// `(q0 + i, q0 + j)`, `q0` a whole or half number. Along rows the nearest target left and right of
+/// each query; along columns the minimum over the target rows within `k` of the query row, a few
+/// straight passes over whole rows. O((targets + queries) · k).
+fn lattice_distance(
+    targets: &[bool],
+    tw: usize,
+    th: usize,
+    q0: f32,
+    qw: usize,
+    qh: usize,
+    k: usize,
+) -> Vec<f32> {
+    let mut rows = vec![0f32; th * qw];
+    for y in 0..th {
+        nearest_in_row(&targets[y * tw..(y + 1) * tw], q0, &mut rows[y * qw..(y + 1) * qw]);
     }
-    let out_cols: Vec<Vec<f32>> = (0..qw)
-        .into_par_iter()
-        .map(|x| {
-            let mut out = vec![0f32; qh];
-            envelope(&cols[x * th..(x + 1) * th], q0, &mut out);
-            out
-        })
-        .collect();
-    let mut d = vec![0f32; qw * qh];
-    for (x, col) in out_cols.iter().enumerate() {
-        for (y, &v) in col.iter().enumerate() {
-            d[y * qw + x] = v;
+    let mut d = vec![f32::INFINITY; qw * qh];
+    let kf = k as f32;
+    for j in 0..qh {
+        let q = q0 + j as f32;
+        let t0 = (q - kf).ceil().max(0.0) as usize;
+        let t1 = ((q + kf).floor() as i64).min(th as i64 - 1);
+        let out = &mut d[j * qw..(j + 1) * qw];
+        let mut t = t0 as i64;
+        while t <= t1 {
+            let dy = q - t as f32;
+            let dy2 = dy * dy;
+            let src = &rows[t as usize * qw..(t as usize + 1) * qw];
+            for (o, &r) in out.iter_mut().zip(src) {
+                *o = o.min(r + dy2);
+            }
+            t += 1;
         }
     }
     d
 }
 
-/// `out[j] = min_p (q0 + j − p)² + f[p]` over the finite samples `f[p]` at positions `p`.
-fn envelope(f: &[f32], q0: f32, out: &mut [f32]) {
-    let pts: Vec<(f32, f32)> = f
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.is_finite())
-        .map(|(p, &v)| (p as f32, v))
-        .collect();
-    if pts.is_empty() {
-        out.iter_mut().for_each(|o| *o = f32::INFINITY);
-        return;
-    }
-    // Lower envelope: parabolas `v[k]`, parabola k lowest on [z[k], z[k+1]).
-    let mut v: Vec<(f32, f32)> = Vec::with_capacity(pts.len());
-    let mut z: Vec<f32> = Vec::with_capacity(pts.len() + 1);
-    for &(p, fp) in &pts {
-        loop {
-            match v.last() {
-                None => {
-                    v.push((p, fp));
-                    z.clear();
-                    z.push(f32::NEG_INFINITY);
-                    break;
-                }
-                Some(&(r, fr)) => {
-                    let s = ((fp + p * p) - (fr + r * r)) / (2.0 * (p - r));
-                    if s <= *z.last().unwrap() {
-                        v.pop();
-                        z.pop();
-                        if v.is_empty() {
-                            continue;
-                        }
-                    } else {
-                        v.push((p, fp));
-                        z.push(s);
-                        break;
-                    }
-                }
-            }
-        }
-    }
-    let mut k = 0;
+/// Squared distance from each query `q0 + j` to the nearest `true` of `row` (positions 0..n).
+fn nearest_in_row(row: &[bool], q0: f32, out: &mut [f32]) {
+    let n = row.len() as i64;
+    // Left to right: the last target at or before each query.
+    let mut last: i64 = i64::MIN / 4;
+    let mut p = 0i64;
     for (j, o) in out.iter_mut().enumerate() {
         let q = q0 + j as f32;
-        while k + 1 < v.len() && z[k + 1] < q {
-            k += 1;
+        while p < n && (p as f32) <= q {
+            if row[p as usize] {
+                last = p;
+            }
+            p += 1;
         }
-        let (p, fp) = v[k];
-        *o = (q - p) * (q - p) + fp;
+        let d = q - last as f32;
+        *o = if last < 0 && last == i64::MIN / 4 { f32::INFINITY } else { d * d };
+    }
+    let mut next: i64 = i64::MAX / 4;
+    let mut p = n - 1;
+    for (j, o) in out.iter_mut().enumerate().rev() {
+        let q = q0 + j as f32;
+        while p >= 0 && (p as f32) >= q {
+            if row[p as usize] {
+                next = p;
+            }
+            p -= 1;
+        }
+        if next != i64::MAX / 4 {
+            let d = next as f32 - q;
+            *o = o.min(d * d);
+        }
     }
 }
 
@@ -211,6 +191,8 @@ struct Work {
     /// Top-left corners (padded coordinates) of the span × span blocks at the picture's own
     /// corners that lie in this window (see [`Work::corner_caps`]).
     corners: Vec<(u32, u32)>,
+    maps: Maps,
+    disc: Disc,
 }
 
 impl Work {
@@ -251,10 +233,12 @@ impl Work {
         }
         Work {
             locked: vec![false; (pw * ph) as usize],
+            maps: Maps::new(&padded, disc),
             bits: padded,
             price: prices,
             pad,
             corners,
+            disc,
         }
     }
 
@@ -272,6 +256,15 @@ impl Work {
         }
     }
 
+    /// Flip pixel `i` to `v`, marking the maps near it for recomputation.
+    fn set(&mut self, i: usize, v: bool) {
+        if self.bits.data[i] != v {
+            self.bits.data[i] = v;
+            let (w, h) = (self.bits.width as usize, self.bits.height as usize);
+            self.maps.touch(i, w, h, self.disc);
+        }
+    }
+
     fn changeable(&self, i: usize) -> bool {
         self.price[i].is_finite()
     }
@@ -285,20 +278,30 @@ impl Work {
     }
 }
 
-/// The thin pixels of one phase, and per pixel how far the nearest disc centre could sit from the
-/// other phase (the ridge finder reads it).
+/// The thin pixels of one phase, and per centre-lattice point its squared distance to the other
+/// phase (the ridge finder reads it).
 struct Thin {
     mask: Vec<bool>,
-    /// Per pixel: the largest squared distance to the other phase over the pixel's candidate
-    /// centres (itself, or its four corners for an even span).
-    depth: Vec<f32>,
-    /// Per centre-lattice point: squared distance to the other phase.
+    /// Per centre-lattice point (pixels, or corners `(w + 1) × (h + 1)` for an even span).
     d_centre: Vec<f32>,
 }
 
-/// Pixels of `phase` that no disc lying wholly in `phase` covers. The grid is padded with material
-/// by more than the disc's reach, so discs of material may lie partly outside the picture and discs
-/// of cut may not.
+impl Thin {
+    /// The largest squared distance to the other phase over a pixel's candidate centres (itself,
+    /// or its four corners for an even span): how deep in its phase the pixel lies.
+    fn depth(&self, x: usize, y: usize, w: usize, disc: Disc) -> f32 {
+        if disc.on_corners() {
+            let cw = w + 1;
+            let c = |xx: usize, yy: usize| self.d_centre[yy * cw + xx];
+            c(x, y).max(c(x + 1, y)).max(c(x, y + 1)).max(c(x + 1, y + 1))
+        } else {
+            self.d_centre[y * w + x]
+        }
+    }
+}
+
+/// Pixels of `phase` that no disc lying wholly in `phase` covers, in `bits` alone (what lies past
+/// its edges counts as neither phase: callers pad or take margins).
 fn thin(bits: &BitGrid, phase: bool, disc: Disc) -> Thin {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let other: Vec<bool> = bits.data.iter().map(|&b| b != phase).collect();
@@ -308,31 +311,116 @@ fn thin(bits: &BitGrid, phase: bool, disc: Disc) -> Thin {
     } else {
         (w, h, 0.0)
     };
-    let d_centre = lattice_distance(&other, w, h, c0, cw, ch);
+    // Exact to beyond the radius: what a centre needs, and all a thin pixel's corners can hold.
+    let k = disc.reach() as usize + 2;
+    let d_centre = lattice_distance(&other, w, h, c0, cw, ch, k);
     let centres: Vec<bool> = d_centre.iter().map(|&d| d > disc.r2).collect();
     // Pixel (x, y) sits at x − c0 in centre-lattice indices.
-    let d_cover = lattice_distance(&centres, cw, ch, -c0, w, h);
+    let d_cover = lattice_distance(&centres, cw, ch, -c0, w, h, k);
     let mask = bits
         .data
         .iter()
         .zip(&d_cover)
         .map(|(&b, &d)| b == phase && d > disc.r2)
         .collect();
-    let depth = (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            if disc.on_corners() {
-                let c = |xx: usize, yy: usize| d_centre[yy * cw + xx];
-                c(x, y).max(c(x + 1, y)).max(c(x, y + 1)).max(c(x + 1, y + 1))
-            } else {
-                d_centre[i]
+    Thin { mask, d_centre }
+}
+
+/// Side of the square tiles the thin maps are kept up to date in.
+const TILE: usize = 64;
+
+/// Both phases' thin maps over a whole working grid, recomputed only in tiles near what changed.
+struct Maps {
+    phases: [Thin; 2],
+    /// Per tile: something within reach changed since the maps were computed there.
+    dirty: Vec<bool>,
+    tiles_x: usize,
+    tiles_y: usize,
+}
+
+impl Maps {
+    fn new(bits: &BitGrid, disc: Disc) -> Maps {
+        let (w, h) = (bits.width as usize, bits.height as usize);
+        let (cw, ch) = if disc.on_corners() { (w + 1, h + 1) } else { (w, h) };
+        let blank = || Thin {
+            mask: vec![false; w * h],
+            d_centre: vec![0.0; cw * ch],
+        };
+        let (tiles_x, tiles_y) = (w.div_ceil(TILE), h.div_ceil(TILE));
+        Maps {
+            phases: [blank(), blank()],
+            dirty: vec![true; tiles_x * tiles_y],
+            tiles_x,
+            tiles_y,
+        }
+    }
+
+    /// How far a change reaches: a pixel's thinness depends on the pixels within two disc radii
+    /// (a centre within a radius, its disc within another), plus a pixel for the corner lattice.
+    fn reach(disc: Disc) -> usize {
+        disc.span as usize + 2
+    }
+
+    /// Mark the tiles whose maps a change at pixel `i` may alter.
+    fn touch(&mut self, i: usize, w: usize, h: usize, disc: Disc) {
+        let r = Self::reach(disc);
+        let (x, y) = (i % w, i / w);
+        let (tx0, tx1) = (x.saturating_sub(r) / TILE, (x + r).min(w - 1) / TILE);
+        let (ty0, ty1) = (y.saturating_sub(r) / TILE, (y + r).min(h - 1) / TILE);
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                self.dirty[ty * self.tiles_x + tx] = true;
             }
-        })
-        .collect();
-    Thin {
-        mask,
-        depth,
-        d_centre,
+        }
+    }
+
+    /// Recompute the maps in every dirty tile (in parallel), each from a window with a margin wide
+    /// enough that the tile's values are exact.
+    fn refresh(&mut self, bits: &BitGrid, disc: Disc) {
+        use rayon::prelude::*;
+        let (w, h) = (bits.width as usize, bits.height as usize);
+        let m = Self::reach(disc);
+        let corners = disc.on_corners() as usize;
+        let (cw, ch) = (w + corners, h + corners);
+        let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
+        let results: Vec<(usize, [Thin; 2], [usize; 4])> = tiles
+            .par_iter()
+            .map(|&t| {
+                let (tx, ty) = (t % self.tiles_x, t / self.tiles_x);
+                let (x0, y0) = (tx * TILE, ty * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let ext = [x0.saturating_sub(m), y0.saturating_sub(m), (x1 + m).min(w), (y1 + m).min(h)];
+                let sub = BitGrid::from_fn((ext[2] - ext[0]) as u32, (ext[3] - ext[1]) as u32, |x, y| {
+                    bits.get(x + ext[0] as u32, y + ext[1] as u32)
+                });
+                (t, [thin(&sub, true, disc), thin(&sub, false, disc)], ext)
+            })
+            .collect();
+        for (t, th, ext) in results {
+            let (tx, ty) = (t % self.tiles_x, t / self.tiles_x);
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+            let sw = ext[2] - ext[0];
+            let scw = sw + corners;
+            // Centre-lattice points owned by this tile: its pixels' own, plus the last row and
+            // column of corners at the grid's far edges.
+            let (cx1, cy1) = (if x1 == w { cw } else { x1 }, if y1 == h { ch } else { y1 });
+            for (p, sub) in th.into_iter().enumerate() {
+                let dst = &mut self.phases[p];
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        dst.mask[y * w + x] = sub.mask[(y - ext[1]) * sw + x - ext[0]];
+                    }
+                }
+                for y in y0..cy1 {
+                    for x in x0..cx1 {
+                        dst.d_centre[y * cw + x] = sub.d_centre[(y - ext[1]) * scw + x - ext[0]];
+                    }
+                }
+            }
+            self.dirty[t] = false;
+        }
+        let _ = self.tiles_y;
     }
 }
 
@@ -408,7 +496,10 @@ fn widening(
                     continue;
                 }
                 let j = (ny * w + nx) as usize;
-                if in_feature[j] == id && t.depth[j] > t.depth[i] {
+                if in_feature[j] == id
+                    && t.depth(nx as usize, ny as usize, w as usize, disc)
+                        > t.depth(x as usize, y as usize, w as usize, disc)
+                {
                     ridge = false;
                     break 'n;
                 }
@@ -453,25 +544,26 @@ fn widening(
 }
 
 /// Every thin feature of both phases, with its widening.
-fn features(work: &Work, disc: Disc) -> Vec<Feature> {
+fn features(work: &mut Work, disc: Disc) -> Vec<Feature> {
+    work.maps.refresh(&work.bits, disc);
+    let mut caps = work.maps.phases[1].mask.clone();
+    work.corner_caps(&mut caps, disc.span);
     let bits = &work.bits;
     let w = bits.width as usize;
     let mut out = Vec::new();
     let mut in_feature = vec![u32::MAX; bits.len()];
     let mut stamp = vec![u32::MAX; bits.len()];
     let mut next_id = 0u32;
-    for phase in [true, false] {
-        let mut t = thin(bits, phase, disc);
-        if !phase {
-            work.corner_caps(&mut t.mask, disc.span);
-        }
-        for g in groups(&t.mask, w) {
+    for (p, phase) in [true, false].into_iter().enumerate() {
+        let t = &work.maps.phases[p];
+        let mask = if phase { &t.mask } else { &caps };
+        for g in groups(mask, w) {
             let id = next_id;
             next_id += 1;
             for &i in &g {
                 in_feature[i] = id;
             }
-            let widen = widening(bits, &g, &in_feature, id, &t, disc, &mut stamp);
+            let widen = widening(bits, &g, &in_feature, id, t, disc, &mut stamp);
             out.push(Feature {
                 phase,
                 pixels: g,
@@ -559,7 +651,8 @@ fn decide(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
                 continue;
             }
             for &i in px {
-                work.bits.data[i] = !work.bits.data[i];
+                let v = !work.bits.data[i];
+                work.set(i, v);
                 work.locked[i] = true;
                 changed[i] = true;
             }
@@ -594,7 +687,7 @@ fn settle(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
             let px = if f.phase { &f.widen } else { &f.pixels };
             for &i in px {
                 if work.changeable(i) && !work.bits.data[i] {
-                    work.bits.data[i] = true;
+                    work.set(i, true);
                     added += 1;
                 }
             }
@@ -620,14 +713,11 @@ pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
         return [0, 0];
     }
     let all = [0, 0, bits.width, bits.height];
-    let work = Work::new(bits, all, all, disc, |_, _| 1.0);
-    [true, false].map(|p| {
-        let mut mask = thin(&work.bits, p, disc).mask;
-        if !p {
-            work.corner_caps(&mut mask, disc.span);
-        }
-        mask.iter().filter(|&&t| t).count()
-    })
+    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    work.maps.refresh(&work.bits, disc);
+    let mut caps = work.maps.phases[1].mask.clone();
+    work.corner_caps(&mut caps, disc.span);
+    [&work.maps.phases[0].mask, &caps].map(|m| m.iter().filter(|&&t| t).count())
 }
 
 /// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes
