@@ -84,7 +84,7 @@ struct Disc {
 impl Disc {
     fn for_width(px: f64) -> Disc {
         let span = if px.is_finite() && px > 1.0 {
-            px.ceil().min(u32::MAX as f64 / 4.0) as u32
+            (px - 1e-6).ceil().min(u32::MAX as f64 / 4.0) as u32
         } else {
             1
         };
@@ -508,6 +508,21 @@ fn widening(
         if !ridge {
             continue;
         }
+        // A ridge two pixels thick (a line an even number of pixels wide) keeps one of its rows
+        // or columns: discs on both would widen the line by a pixel more than it needs.
+        let depth_at = |nx: i64, ny: i64| -> f32 {
+            if nx < 0 || ny < 0 || nx >= w || ny >= h || in_feature[(ny * w + nx) as usize] != id {
+                f32::NEG_INFINITY
+            } else {
+                t.depth(nx as usize, ny as usize, w as usize, disc)
+            }
+        };
+        let d = depth_at(x, y);
+        if (depth_at(x, y - 1) == d && depth_at(x, y + 1) < d)
+            || (depth_at(x - 1, y) == d && depth_at(x + 1, y) < d)
+        {
+            continue;
+        }
         // The centre, in doubled coordinates (pixel centres at odd values for a corner lattice).
         let (cx2, cy2) = if disc.on_corners() {
             let cw = w + 1;
@@ -620,21 +635,25 @@ fn decide(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
         // Cheapest first, so where two features' choices meet the cheaper one's stands.
         let mut choices: Vec<(f32, usize, bool)> = Vec::new();
         for (n, f) in feats.iter().enumerate() {
-            let cost = |px: &[usize]| -> Option<f32> {
+            // Removing needs every pixel of the feature; a widening paints what it may (the frame
+            // past the picture's border is material already, and cut may not reach into it).
+            let cost = |px: &[usize], all: bool| -> Option<f32> {
                 let mut c = 0.0;
                 for &i in px {
-                    if work.locked[i] || !work.changeable(i) {
+                    if work.locked[i] || (all && !work.changeable(i)) {
                         return None;
                     }
-                    c += work.price[i];
+                    if work.changeable(i) {
+                        c += work.price[i];
+                    }
                 }
                 Some(c)
             };
-            let remove = cost(&f.pixels);
+            let remove = cost(&f.pixels, true);
             let widen = if f.widen.is_empty() {
                 None
             } else {
-                cost(&f.widen)
+                cost(&f.widen, false)
             };
             match (remove, widen) {
                 (Some(r), Some(wd)) if wd < r => choices.push((wd, n, true)),
@@ -651,6 +670,9 @@ fn decide(work: &mut Work, disc: Disc, stats: &mut RegularizeStats) {
                 continue;
             }
             for &i in px {
+                if !work.changeable(i) {
+                    continue;
+                }
                 let v = !work.bits.data[i];
                 work.set(i, v);
                 work.locked[i] = true;
