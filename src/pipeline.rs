@@ -18,7 +18,7 @@ use crate::raster::{BitGrid, TwoTone};
 use crate::report::{Fidelity, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
-use crate::tone::regularize::{regularize, settle_near, RegularizeConfig};
+use crate::tone::regularize::{regularize, settle_all, settle_near, RegularizeConfig};
 use crate::tone::{self, image::load_gray, ToneConfig};
 use crate::units::{Mm, Scale};
 use crate::vector::{self, CutGeometry, VectorConfig};
@@ -26,6 +26,9 @@ use crate::Error;
 
 /// How many times `make` widens the necks the vector check still finds and traces again.
 const REPAIR_ROUNDS: usize = 3;
+
+/// How far (in disc spans past the neck) a repair may change the stencil.
+const REPAIR_SPREAD: u32 = 1;
 
 /// Everything `stencil make` needs, as plain data (the CLI builds it; tests build it by hand).
 #[derive(Clone, Debug, Default)]
@@ -180,41 +183,6 @@ impl PhysicalConfig {
             ..*user
         }
     }
-}
-
-/// Bounding boxes `[x0, y0, x1, y1)` of the 8-connected pieces of material `after` has and
-/// `before` lacks (the bridges as drawn).
-fn added_boxes(before: &BitGrid, after: &BitGrid) -> Vec<[u32; 4]> {
-    let (w, h) = (after.width as usize, after.height as usize);
-    let added: Vec<bool> = before.data.iter().zip(&after.data).map(|(&b, &a)| a && !b).collect();
-    let mut seen = vec![false; added.len()];
-    let mut boxes = Vec::new();
-    let mut stack = Vec::new();
-    for seed in 0..added.len() {
-        if !added[seed] || seen[seed] {
-            continue;
-        }
-        seen[seed] = true;
-        stack.push(seed);
-        let mut b = [u32::MAX, u32::MAX, 0, 0];
-        while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            b = [b[0].min(x as u32), b[1].min(y as u32), b[2].max(x as u32 + 1), b[3].max(y as u32 + 1)];
-            for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
-                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if added[j] && !seen[j] {
-                    seen[j] = true;
-                    stack.push(j);
-                }
-            }
-        }
-        boxes.push(b);
-    }
-    boxes
 }
 
 /// Whether a path is a mesh (by extension) rather than a picture.
@@ -417,8 +385,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
     timer.time("tidy", || {
         if reg_stats.is_some() {
-            let boxes = added_boxes(&twotone.bits, &bridged.bits);
-            settle_near(&mut bridged.bits, &boxes, phys.feature_px(scale));
+            settle_all(&mut bridged.bits, phys.feature_px(scale));
         } else {
             bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
         }
@@ -469,8 +436,10 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             );
             let r = px.ceil() as u32;
             let bx = [x.saturating_sub(r), y.saturating_sub(r), x + r + 1, y + r + 1];
-            settle_near(&mut bridged.bits, &[bx], px);
+            settle_near(&mut bridged.bits, &[bx], px, REPAIR_SPREAD);
         }
+        // The larger disc may leave thin bits at the edge of what it changed.
+        settle_all(&mut bridged.bits, phys.feature_px(scale));
         if bridged.bits.count_material() == before {
             break;
         }

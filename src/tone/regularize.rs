@@ -742,12 +742,32 @@ pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
     [&work.maps.phases[0].mask, &caps].map(|m| m.iter().filter(|&&t| t).count())
 }
 
+/// Settle the whole stencil with the monotone phase alone: fill thin holes and widen thin webs,
+/// only adding material, until nothing is thin. After bridges are drawn into a regularised
+/// two-tone, every thin pixel is one a bridge made (a cut sliver beside it, a notch in its edge),
+/// so this tidies exactly where bridges meet the picture; being monotone it never cuts a bridge
+/// and ends (see the module comment). Returns the number of pixels added.
+pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return 0;
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    let mut stats = RegularizeStats::default();
+    settle(&mut work, disc, &mut stats);
+    let out = work.window();
+    let added = out.count_material() - bits.count_material();
+    *bits = out;
+    added
+}
+
 /// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes
 /// (`[x0, y0, x1, y1)` in pixels), only adding material, so no cut sliver and no web narrower than
 /// the material's smallest feature is left beside a bridge. Each box is settled in a window large
 /// enough that thinness inside the box's reach is measured exactly (a pixel's thinness depends on
 /// the pixels within two disc spans of it). Returns the number of pixels added.
-pub fn settle_near(bits: &mut BitGrid, boxes: &[[u32; 4]], min_width_px: f64) -> usize {
+pub fn settle_near(bits: &mut BitGrid, boxes: &[[u32; 4]], min_width_px: f64, spread: u32) -> usize {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {
         return 0;
@@ -767,8 +787,8 @@ pub fn settle_near(bits: &mut BitGrid, boxes: &[[u32; 4]], min_width_px: f64) ->
     for &b in boxes {
         // Pixels within two spans of the window's cut edges may be misjudged (the padding stands
         // in for what lies beyond): only the part inside that margin may change, and it reaches
-        // three spans past the box, so what a widening there pushes outward is settled too.
-        let window = grow(b, 5 * reach);
+        // `spread` spans past the box, so what a widening there pushes outward is settled too.
+        let window = grow(b, (2 + spread) * reach);
         let m = 2 * reach;
         let core = [
             if window[0] == 0 { 0 } else { window[0] + m },
