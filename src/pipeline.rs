@@ -322,6 +322,19 @@ pub fn vectorize_and_check(
     material: &Material,
     timer: &mut Timings,
 ) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats, mut chk) = vectorize_and_measure(bits, bridges_px, vcfg, material, timer)?;
+    confirm(&mut chk, bits, vcfg, timer);
+    Ok((geom, vstats, chk))
+}
+
+/// [`vectorize_and_check`] without the raster cross-check of the violations (see [`confirm`]).
+fn vectorize_and_measure(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
     // The check runs on the geometry as designed: "vector" includes it, "check" is its own time.
     let (geom, vstats, (chk, check_ms)) = timer.time("vector", || {
         let (geom, vstats) = vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)?;
@@ -330,13 +343,14 @@ pub fn vectorize_and_check(
         Ok::<_, Error>((geom, vstats, (chk, t.elapsed().as_secs_f64() * 1e3)))
     })?;
     timer.0.insert("check".to_string(), check_ms);
-    let mut chk = chk?;
+    Ok((geom, vstats, chk?))
+}
+
+/// Confirm each violation on the raster (for the report), when there are any.
+fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &mut Timings) {
     if !chk.passed() {
-        timer.time("check_opening", || {
-            check::cross_check(&mut chk, bits, vcfg.scale)
-        });
+        timer.time("check_opening", || check::cross_check(chk, bits, vcfg.scale));
     }
-    Ok((geom, vstats, chk))
 }
 
 /// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
@@ -385,7 +399,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
     timer.time("tidy", || {
         if reg_stats.is_some() {
-            settle_all(&mut bridged.bits, phys.feature_px(scale));
+            settle_all(&mut bridged.bits, &twotone.bits, phys.feature_px(scale));
         } else {
             bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
         }
@@ -407,7 +421,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         ..phys.vector
     };
     let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
-    let (mut geometry, mut vstats, mut chk) = vectorize_and_check(
+    let (mut geometry, mut vstats, mut chk) = vectorize_and_measure(
         &bridged.bits,
         Some(&polys),
         &vcfg,
@@ -421,6 +435,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut repairs = 0;
     while reg_stats.is_some() && !chk.passed() && repairs < REPAIR_ROUNDS {
         repairs += 1;
+        let settled = bridged.bits.clone();
         let before = bridged.bits.count_material();
         for v in &chk.violations {
             let need_mm = match v.kind {
@@ -439,11 +454,11 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             settle_near(&mut bridged.bits, &[bx], px, REPAIR_SPREAD);
         }
         // The larger disc may leave thin bits at the edge of what it changed.
-        settle_all(&mut bridged.bits, phys.feature_px(scale));
+        settle_all(&mut bridged.bits, &settled, phys.feature_px(scale));
         if bridged.bits.count_material() == before {
             break;
         }
-        (geometry, vstats, chk) = vectorize_and_check(
+        (geometry, vstats, chk) = vectorize_and_measure(
             &bridged.bits,
             Some(&polys),
             &vcfg,
@@ -451,6 +466,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             &mut timer,
         )?;
     }
+    confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {
         Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)

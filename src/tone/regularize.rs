@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::raster::{BitGrid, Gray};
 
 /// Rounds of cost-based deciding before the monotone phase settles what is left.
-pub const FREE_ROUNDS: usize = 8;
+pub const FREE_ROUNDS: usize = 4;
 
 /// Options of the regularisation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -311,8 +311,10 @@ fn thin(bits: &BitGrid, phase: bool, disc: Disc) -> Thin {
     } else {
         (w, h, 0.0)
     };
-    // Exact to beyond the radius: what a centre needs, and all a thin pixel's corners can hold.
-    let k = disc.reach() as usize + 2;
+    // Exact up to the radius, which is all the rule reads: whether a centre is farther than the
+    // radius from the other phase, whether a pixel is within the radius of a centre, and the
+    // depths of thin pixels' candidate centres (none of which is farther than the radius).
+    let k = (disc.span as usize).div_ceil(2);
     let d_centre = lattice_distance(&other, w, h, c0, cw, ch, k);
     let centres: Vec<bool> = d_centre.iter().map(|&d| d > disc.r2).collect();
     // Pixel (x, y) sits at x − c0 in centre-lattice indices.
@@ -743,17 +745,28 @@ pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
 }
 
 /// Settle the whole stencil with the monotone phase alone: fill thin holes and widen thin webs,
-/// only adding material, until nothing is thin. After bridges are drawn into a regularised
+/// only adding material, until nothing is thin. `clean` is a grid with nothing thin (the
+/// regularised two-tone, or the stencil after the last settle) that `bits` only adds material to. After bridges are drawn into a regularised
 /// two-tone, every thin pixel is one a bridge made (a cut sliver beside it, a notch in its edge),
 /// so this tidies exactly where bridges meet the picture; being monotone it never cuts a bridge
 /// and ends (see the module comment). Returns the number of pixels added.
-pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
+pub fn settle_all(bits: &mut BitGrid, clean: &BitGrid, min_width_px: f64) -> usize {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {
         return 0;
     }
     let all = [0, 0, bits.width, bits.height];
     let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    // `clean` has nothing thin: only the tiles near where `bits` differs from it can.
+    work.maps.dirty.iter_mut().for_each(|d| *d = false);
+    let (w, pad) = (bits.width as usize, work.pad as usize);
+    let (pw, ph) = (work.bits.width as usize, work.bits.height as usize);
+    for (i, (a, b)) in bits.data.iter().zip(&clean.data).enumerate() {
+        if a != b {
+            let (x, y) = (i % w + pad, i / w + pad);
+            work.maps.touch(y * pw + x, pw, ph, disc);
+        }
+    }
     let mut stats = RegularizeStats::default();
     settle(&mut work, disc, &mut stats);
     let out = work.window();
