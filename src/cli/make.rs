@@ -81,16 +81,17 @@ pub struct ImageArgs {
     pub max_pixels: u64,
 }
 
-/// Topological filter options.
+/// Clean-up options.
 #[derive(Args, Debug, Clone)]
-#[command(next_help_heading = "Topological filter")]
+#[command(next_help_heading = "Clean-up")]
 pub struct FilterArgs {
-    /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this. Default: 1, raised to what the material's
-    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    /// Instead of the default design-rule regularisation (every web and hole made at least the
+    /// material's min_feature_mm wide, each thin feature removed or widened, whichever changes the
+    /// picture less), apply the old morphological opening then closing by a disc of this radius in
+    /// pixels (0 = off) and --min-speck-px, as given (the width check still applies).
     #[arg(long)]
     pub filter_radius: Option<u32>,
-    /// Material or cut pieces smaller than this many pixels flip to the other tone.
+    /// With --filter-radius: material or cut pieces smaller than this many pixels flip tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
 }

@@ -856,6 +856,88 @@ mod tests {
     }
 
     #[test]
+    fn lattice_distance_matches_brute_force_up_to_its_reach() {
+        let (w, h) = (23usize, 17usize);
+        let mut seed = 7u64;
+        let targets: Vec<bool> = (0..w * h)
+            .map(|_| {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+                (seed >> 60) == 0
+            })
+            .collect();
+        for (q0, qw, qh) in [(0.0f32, w, h), (-0.5, w + 1, h + 1), (0.5, w - 1, h - 1)] {
+            for k in [2usize, 4, 30] {
+                let d = lattice_distance(&targets, w, h, q0, qw, qh, k);
+                for j in 0..qh {
+                    for i in 0..qw {
+                        let (qx, qy) = (q0 + i as f32, q0 + j as f32);
+                        let mut best = f32::INFINITY;
+                        for y in 0..h {
+                            for x in 0..w {
+                                if targets[y * w + x] {
+                                    let (dx, dy) = (qx - x as f32, qy - y as f32);
+                                    best = best.min(dx * dx + dy * dy);
+                                }
+                            }
+                        }
+                        let got = d[j * qw + i];
+                        let kk = (k * k) as f32;
+                        if best <= kk {
+                            assert_eq!(got, best, "q0 {q0} k {k} at ({i}, {j})");
+                        } else {
+                            assert!(got > kk, "q0 {q0} k {k} at ({i}, {j}): {got} vs {best}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn checkerboards_end_with_nothing_thin_and_wide_ones_are_kept() {
+        for cell in [1u32, 2, 3, 5, 8, 13] {
+            let bits = BitGrid::from_fn(90, 70, |x, y| ((x / cell) + (y / cell)) % 2 == 0);
+            let gray = Gray::new(90, 70, 0.5);
+            let (out, _) = regularize(&bits, &gray, &cfg(6.0));
+            assert!(!any_thin(&out, 6.0), "cell {cell}");
+        }
+        // Squares wider than the disc touching only at corners: the corners are thin (no width
+        // there), the squares' middles stay.
+        let bits = BitGrid::from_fn(80, 80, |x, y| ((x / 20) + (y / 20)) % 2 == 0);
+        let (out, _) = regularize(&bits, &Gray::new(80, 80, 0.5), &cfg(6.0));
+        assert!(!any_thin(&out, 6.0));
+        for (x, y) in [(10, 10), (30, 30), (50, 10), (10, 50)] {
+            assert_eq!(out.get(x, y), bits.get(x, y), "({x}, {y})");
+        }
+    }
+
+    #[test]
+    fn the_gray_picture_decides_between_removing_and_widening() {
+        // A cut line 4 px wide (the disc is 6) across paper. Same bits, two pictures.
+        let bits = BitGrid::from_fn(60, 40, |_, y| !(18..22).contains(&y));
+        let line_width = |out: &BitGrid| (0..40).filter(|&y| !out.get(30, y)).count();
+        // A black line on paper that is barely light: widening (into near-threshold paper) is
+        // cheaper than erasing a plainly dark line.
+        let mut gray = Gray::new(60, 40, 0.55);
+        for y in 18..22 {
+            for x in 0..60 {
+                gray.set(x, y, 0.0);
+            }
+        }
+        let (out, s) = regularize(&bits, &gray, &cfg(6.0));
+        assert_eq!(line_width(&out), 6, "{s:?}");
+        // A faint line (just under the threshold) on white paper: erasing it changes less.
+        let mut gray = Gray::new(60, 40, 1.0);
+        for y in 18..22 {
+            for x in 0..60 {
+                gray.set(x, y, 0.45);
+            }
+        }
+        let (out, s) = regularize(&bits, &gray, &cfg(6.0));
+        assert_eq!(line_width(&out), 0, "{s:?}");
+    }
+
+    #[test]
     fn noise_ends_with_nothing_thin() {
         // Pseudo-random noise: the hardest case for deciding; the monotone phase must finish it.
         let mut s = 12345u64;
