@@ -15,7 +15,7 @@ use crate::export::{self, dxf, mask, png, svg};
 use crate::islands;
 use crate::profile::Material;
 use crate::raster::{BitGrid, TwoTone};
-use crate::report::{Fidelity, Report};
+use crate::report::{BridgeReport, Fidelity, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
 use crate::tone::regularize::{regularize, settle_all, settle_near, RegularizeConfig};
@@ -146,16 +146,24 @@ impl PhysicalConfig {
         check::allowance_px(scale.to_px(Mm(self.vector.tolerance_mm)).0)
     }
 
-    /// The bridge stage's options with the material's minimum bridge width: never narrower than the
-    /// material allows, `min_bridge_mm` in pixels plus the check's allowance, or the user's value
-    /// if that is wider.
+    /// The bridge stage's options in pixels from the material's millimetres: never narrower than
+    /// `min_bridge_mm` (plus the check's allowance) or the user's `min_width_px` if wider, never
+    /// wider than `max_bridge_mm` unless the user set `max_width_px`. The width rule itself,
+    /// `⌈√A / 4⌉` px for the smaller island's area A in px², is `√A / 4` mm for its area in mm²
+    /// whatever the scale, so with both bounds in millimetres the same design gets bridges of the
+    /// same physical width at any size.
     pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
         let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
             as u32;
         let min = user.min_width_px.max(px);
+        let max = if user.max_width_given {
+            user.max_width_px
+        } else {
+            scale.to_px(Mm(self.material.max_bridge_mm)).0.floor().min(u32::MAX as f64 / 2.0) as u32
+        };
         BridgeConfig {
             min_width_px: min,
-            max_width_px: user.max_width_px.max(min),
+            max_width_px: max.max(min),
             ..user.clone()
         }
     }
@@ -533,7 +541,14 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         filter: filter_stats,
         regularize: reg_stats,
         islands: map.island_count(),
-        bridges: bridged.bridges.iter().map(Into::into).collect(),
+        bridges: bridged
+            .bridges
+            .iter()
+            .map(|b| BridgeReport {
+                width_mm: Some(b.width_px as f64 * scale.mm_per_px),
+                ..b.into()
+            })
+            .collect(),
         floating_after: after.island_count(),
         fidelity: Some(fidelity),
         timings_ms: timer.0,

@@ -26,6 +26,9 @@ pub struct BridgeReport {
     /// reports: a walk).
     #[serde(default)]
     pub via: Via,
+    /// `width_px` in millimetres at the working scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
     /// Outline in pixel coordinates (so `stencil check` on an output folder knows the bridges).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub polygon_px: Vec<[f64; 2]>,
@@ -41,6 +44,7 @@ impl From<&Bridge> for BridgeReport {
             cost: b.cost,
             support: b.support,
             via: b.via,
+            width_mm: None,
             polygon_px: b.polygon.clone(),
         }
     }

@@ -114,3 +114,54 @@ fn lines_and_holes_around_the_minimum_cardstock() {
 fn lines_and_holes_around_the_minimum_plywood() {
     check_material("plywood-3mm", 1.5);
 }
+
+/// The same picture at `--width-mm 50` and `200`: every bridge's width in millimetres (from the
+/// report, and the check's narrowest measured bridge) lies in the material's range at both sizes,
+/// so the larger stencil does not get bridges four times wider, and `stencil check` passes.
+fn bridges_in_material_range(material: &str, min_mm: f64, max_mm: f64) {
+    let dir = tmp();
+    let mut widest = Vec::new();
+    for w in ["50", "200"] {
+        let out = dir.path().join(w);
+        let o = stencil(&[
+            "make",
+            s(&samples().join("rings.png")),
+            "-o",
+            s(&out),
+            "--material",
+            material,
+            "--width-mm",
+            w,
+            // Working pixels as coarse as the picture's (0.16 and 0.63 mm): a width rule in
+            // pixels would give four times wider bridges at 200 mm.
+            "--scale",
+            "1",
+        ]);
+        assert!(o.status.success(), "{material} {w}: {}", stderr(&o));
+        let r = report(&out);
+        let mm_px = r["mm_per_px"].as_f64().unwrap();
+        let bridges = r["bridges"].as_array().unwrap();
+        assert!(!bridges.is_empty());
+        let mut top: f64 = 0.0;
+        for b in bridges {
+            let mm = b["width_mm"].as_f64().unwrap();
+            assert!((mm - b["width_px"].as_f64().unwrap() * mm_px).abs() < 1e-9);
+            assert!(mm >= min_mm, "{material} {w}: bridge {mm} mm under {min_mm}");
+            assert!(mm <= max_mm + mm_px, "{material} {w}: bridge {mm} mm over {max_mm}");
+            top = top.max(mm);
+        }
+        let narrowest = r["check"]["narrowest_bridge_mm"].as_f64().unwrap();
+        assert!(narrowest >= min_mm, "{material} {w}: narrowest {narrowest}");
+        let o = stencil(&["check", s(&out), "--material", material]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        widest.push(top);
+    }
+    // Four times the size: the widest bridge is not four times wider.
+    assert!(widest[1] < 2.0 * widest[0], "{material}: {widest:?}");
+}
+
+#[test]
+fn bridge_widths_stay_in_the_material_range_at_two_sizes() {
+    bridges_in_material_range("cardstock", 1.0, 4.0);
+    bridges_in_material_range("mylar-0.19", 1.5, 6.0);
+}

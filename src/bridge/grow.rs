@@ -140,7 +140,10 @@ pub struct Plan {
 /// lie inside the polygon of the outer strips' end points (kept only where 4-connected to a strip,
 /// so the fill can never leave a loose speck), and, when fewer strips than `min_width` could be
 /// grown, the strips thickened by a square brush to that width. `want` is the width the island
-/// asked for: a fanning bridge (see below) is drawn that wide.
+/// asked for: a fanning bridge (see below) is drawn that wide. `max_width`: an outline wider than
+/// this at either end is drawn as a straight band of `want` instead (a fan never grows past the
+/// material's widest bridge).
+#[allow(clippy::too_many_arguments)]
 pub fn plan(
     bits: &BitGrid,
     gray: &Gray,
@@ -149,6 +152,7 @@ pub fn plan(
     members: &[usize],
     min_width: u32,
     want: u32,
+    max_width: u32,
 ) -> Plan {
     let w = bits.width as i64;
     let h = bits.height as i64;
@@ -178,7 +182,9 @@ pub fn plan(
         && (crosses(&polygon)
             || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
             || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
-            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
+            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64)
+            || dist(polygon[1], polygon[2]).max(dist(polygon[0], polygon[3]))
+                > max_width.max(target) as f64 + 1.0);
     let (member_strips, across) = if fan {
         let mid = member_strips[n / 2];
         polygon = band_outline(start(mid.1), centre(mid.0.end), target as f64 / 2.0);
@@ -502,7 +508,7 @@ mod tests {
         // From x = 10 the cheaper side (x = 11, light) comes first, then x = 9 or 12.
         assert_eq!(members.len(), 3);
         assert!(xs.contains(&10) && xs.contains(&11), "{xs:?}");
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3, 40);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
         commit(&mut b, &p.pixels);
@@ -574,7 +580,7 @@ mod tests {
         // Counting strips alone would have stopped at 8, narrower than 8 px at the disc.
         let eight = &members[..8];
         assert!(band_width(&c, &st, eight) < 8.0);
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 8);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 8, 40);
         assert!(p.width >= 8);
     }
 
@@ -591,7 +597,7 @@ mod tests {
         let costs = vec![None; c.len()];
         let members = grow(&c, &st, &costs, 0, 3, &cfg);
         assert_eq!(members.len(), 1);
-        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3);
+        let p = plan(&t.bits, &t.gray, &c, &st, &members, 3, 3, 40);
         assert_eq!(p.width, 3);
         let mut b = t.bits.clone();
         commit(&mut b, &p.pixels);

@@ -66,6 +66,9 @@ pub struct BridgeConfig {
     pub min_width_px: u32,
     /// Widest bridge, default 40 px.
     pub max_width_px: u32,
+    /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
+    /// `max_bridge_mm`).
+    pub max_width_given: bool,
     /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
     /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
     /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
@@ -86,6 +89,7 @@ impl Default for BridgeConfig {
             max_length_px: 200,
             min_width_px: 3,
             max_width_px: 40,
+            max_width_given: false,
             support_margin: 0.5,
         }
     }
@@ -456,6 +460,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
             members,
             cfg.min_width_px,
             want,
+            cfg.max_width_px,
         )
     };
     let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);

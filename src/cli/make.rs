@@ -124,13 +124,15 @@ pub struct BridgeArgs {
     /// is marked "via": "search" in report.json).
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
-    /// Narrowest bridge, in pixels. A bridge's width is ⌈√A / 4⌉ px for the area A of the smaller
-    /// island it joins, clamped to the narrowest..widest range.
+    /// Narrowest bridge, in pixels, if wider than the material's min_bridge_mm. A bridge's width is
+    /// ⌈√A / 4⌉ px for the area A of the smaller island it joins (√A / 4 mm for its area in mm²,
+    /// whatever the size), clamped to the narrowest..widest range.
     #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
     pub min_bridge_width_px: u32,
-    /// Widest bridge, in pixels.
-    #[arg(long, default_value_t = BridgeConfig::default().max_width_px)]
-    pub max_bridge_width_px: u32,
+    /// Widest bridge, in pixels. Default: the material's max_bridge_mm (4 × min_bridge_mm unless
+    /// the profile says otherwise).
+    #[arg(long)]
+    pub max_bridge_width_px: Option<u32>,
     /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
     /// (its window's mean strip ΣI × width) by more than this fraction, halve its width and add a
     /// support bridge at the next cheapest place.
@@ -140,11 +142,12 @@ pub struct BridgeArgs {
 
 impl BridgeArgs {
     pub fn to_config(&self) -> anyhow::Result<BridgeConfig> {
+        let max = self.max_bridge_width_px.unwrap_or(u32::MAX);
         anyhow::ensure!(
-            self.min_bridge_width_px >= 1 && self.min_bridge_width_px <= self.max_bridge_width_px,
+            self.min_bridge_width_px >= 1 && self.min_bridge_width_px <= max,
             "--min-bridge-width-px ({}) must be at least 1 and at most --max-bridge-width-px ({})",
             self.min_bridge_width_px,
-            self.max_bridge_width_px
+            max
         );
         Ok(BridgeConfig {
             w_intensity: self.w_intensity,
@@ -154,7 +157,10 @@ impl BridgeArgs {
             alpha: self.alpha,
             max_length_px: self.max_bridge_length_px,
             min_width_px: self.min_bridge_width_px,
-            max_width_px: self.max_bridge_width_px,
+            max_width_px: self
+                .max_bridge_width_px
+                .unwrap_or(BridgeConfig::default().max_width_px),
+            max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
         })
     }

@@ -17,6 +17,10 @@ use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
 
+/// A profile without `max_bridge_mm` gets this many times its `min_bridge_mm` (cardstock: 4 mm,
+/// the 40 px the bridge stage allowed at the default 0.1 mm per pixel).
+pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
+
 /// The material profiles shipped with the crate, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "copy-paper"),
@@ -125,6 +129,8 @@ struct MaterialFile {
     description: String,
     thickness_mm: f64,
     min_bridge_mm: f64,
+    #[serde(default)]
+    max_bridge_mm: Option<f64>,
     min_feature_mm: f64,
     kerf_mm: f64,
     process: ProcessKind,
@@ -146,6 +152,9 @@ pub struct Material {
     pub thickness_mm: f64,
     /// Narrowest bridge the sheet holds (bridges are checked against this).
     pub min_bridge_mm: f64,
+    /// Widest bridge `make` draws (optional in a profile: [`DEFAULT_MAX_BRIDGE_RATIO`] times
+    /// `min_bridge_mm`). A bridge wider than this hides more of the picture than it adds strength.
+    pub max_bridge_mm: f64,
     /// Narrowest web (material) or hole (cut) that survives cutting.
     pub min_feature_mm: f64,
     /// Width of material the tool removes; cut loops are offset by half of it into the hole.
@@ -212,6 +221,10 @@ impl Material {
         check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
         check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
         check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
+        let max_bridge_mm = f
+            .max_bridge_mm
+            .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
+        check_range(origin, "max_bridge_mm", max_bridge_mm, f.min_bridge_mm, 200.0, "mm")?;
         check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
         if f.kerf_mm >= f.min_feature_mm {
             return Err(invalid(
@@ -306,6 +319,7 @@ impl Material {
             description: f.description,
             thickness_mm: f.thickness_mm,
             min_bridge_mm: f.min_bridge_mm,
+            max_bridge_mm,
             min_feature_mm: f.min_feature_mm,
             kerf_mm: f.kerf_mm,
             process,
