@@ -18,7 +18,9 @@ use crate::raster::{BitGrid, TwoTone};
 use crate::report::{BridgeReport, Fidelity, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
-use crate::tone::regularize::{regularize, settle_all, settle_near, RegularizeConfig};
+use crate::tone::regularize::{
+    fill_sealed_pockets, regularize, settle_all, settle_near, RegularizeConfig,
+};
 use crate::tone::{self, image::load_gray, ToneConfig};
 use crate::units::{Mm, Scale};
 use crate::vector::{self, CutGeometry, VectorConfig};
@@ -408,6 +410,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     timer.time("tidy", || {
         if reg_stats.is_some() {
             settle_all(&mut bridged.bits, &twotone.bits, phys.feature_px(scale));
+            fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
         } else {
             bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
         }

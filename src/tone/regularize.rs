@@ -120,8 +120,10 @@ fn lattice_distance(
     k: usize,
 ) -> Vec<f32> {
     let mut rows = vec![0f32; th * qw];
+    let (mut prev, mut next) = (vec![0i32; tw], vec![0i32; tw]);
     for y in 0..th {
-        nearest_in_row(&targets[y * tw..(y + 1) * tw], q0, &mut rows[y * qw..(y + 1) * qw]);
+        let row = &targets[y * tw..(y + 1) * tw];
+        nearest_in_row(row, q0, &mut rows[y * qw..(y + 1) * qw], &mut prev, &mut next);
     }
     let mut d = vec![f32::INFINITY; qw * qh];
     let kf = k as f32;
@@ -144,37 +146,37 @@ fn lattice_distance(
     d
 }
 
-/// Squared distance from each query `q0 + j` to the nearest `true` of `row` (positions 0..n).
-fn nearest_in_row(row: &[bool], q0: f32, out: &mut [f32]) {
-    let n = row.len() as i64;
-    // Left to right: the last target at or before each query.
-    let mut last: i64 = i64::MIN / 4;
-    let mut p = 0i64;
-    for (j, o) in out.iter_mut().enumerate() {
-        let q = q0 + j as f32;
-        while p < n && (p as f32) <= q {
-            if row[p as usize] {
-                last = p;
-            }
-            p += 1;
+/// Squared distance from each query `q0 + j` to the nearest `true` of `row` (positions 0..n);
+/// `prev` and `next` are scratch of the row's length.
+fn nearest_in_row(row: &[bool], q0: f32, out: &mut [f32], prev: &mut [i32], next: &mut [i32]) {
+    const NONE: i32 = i32::MIN / 2;
+    let n = row.len();
+    let mut last = NONE;
+    for (x, (&r, p)) in row.iter().zip(prev.iter_mut()).enumerate() {
+        if r {
+            last = x as i32;
         }
-        let d = q - last as f32;
-        *o = if last < 0 && last == i64::MIN / 4 { f32::INFINITY } else { d * d };
+        *p = last;
     }
-    let mut next: i64 = i64::MAX / 4;
-    let mut p = n - 1;
-    for (j, o) in out.iter_mut().enumerate().rev() {
+    let mut first = i32::MAX / 2;
+    for x in (0..n).rev() {
+        if row[x] {
+            first = x as i32;
+        }
+        next[x] = first;
+    }
+    let (n, o) = (n as i64, q0.floor() as i64);
+    let half = q0 != q0.floor();
+    for (j, d) in out.iter_mut().enumerate() {
+        // Whole query positions look at their own pixel both ways; half ones at the pixels on
+        // either side.
+        let (lx, rx) = (j as i64 + o, j as i64 + o + half as i64);
         let q = q0 + j as f32;
-        while p >= 0 && (p as f32) >= q {
-            if row[p as usize] {
-                next = p;
-            }
-            p -= 1;
-        }
-        if next != i64::MAX / 4 {
-            let d = next as f32 - q;
-            *o = o.min(d * d);
-        }
+        let l = if (0..n).contains(&lx) { prev[lx as usize] } else if lx >= n { prev[n as usize - 1] } else { NONE };
+        let r = if (0..n).contains(&rx) { next[rx as usize] } else if rx < 0 { next[0] } else { i32::MAX / 2 };
+        let dl = if l == NONE { f32::INFINITY } else { q - l as f32 };
+        let dr = if r == i32::MAX / 2 { f32::INFINITY } else { r as f32 - q };
+        *d = (dl * dl).min(dr * dr);
     }
 }
 
@@ -773,6 +775,43 @@ pub fn settle_all(bits: &mut BitGrid, clean: &BitGrid, min_width_px: f64) -> usi
     let added = out.count_material() - bits.count_material();
     *bits = out;
     added
+}
+
+/// Fill the pockets of cut that bridges sealed off: cut pieces of `after` whose every material
+/// neighbour is material `after` added to `before` (overlapping bridges enclose a piece of the
+/// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
+/// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
+pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
+    let (labels, areas) = crate::islands::components(after, false);
+    let (w, h) = (after.width as usize, after.height as usize);
+    // Per cut piece: touches original material, or the picture's border (the frame).
+    let mut open = vec![false; areas.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let l = labels[i];
+            if l == crate::islands::CUT || open[l as usize] {
+                continue;
+            }
+            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                open[l as usize] = true;
+                continue;
+            }
+            for j in [i - 1, i + 1, i - w, i + w] {
+                if after.data[j] && before.data[j] {
+                    open[l as usize] = true;
+                }
+            }
+        }
+    }
+    let mut filled = 0;
+    for (i, &l) in labels.iter().enumerate() {
+        if l != crate::islands::CUT && !open[l as usize] {
+            after.data[i] = true;
+            filled += 1;
+        }
+    }
+    filled
 }
 
 /// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes

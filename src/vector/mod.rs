@@ -139,12 +139,19 @@ pub fn vectorize_design(
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
     let material = assemble(&rings, mm, outline);
+    // A bridge outline with no area (a bent searched path is drawn as its pixels and outlined as a
+    // line) adds nothing to the material but a zero-width spike to the union: left out.
     let bridges: Vec<Polygon<f64>> = bridges
         .iter()
-        .filter(|b| b.len() >= 3)
+        .filter(|b| b.len() >= 3 && trace::signed_area2(b).abs() >= 1.0)
         .map(|b| to_polygon(b, mm).orient(Direction::Default))
         .collect();
-    let (material, design_cuts) = union::union_bridges(material, &bridges);
+    // The bridges are in the raster already, as drawn and then settled where they meet the picture;
+    // their outlines (the end points of their outer strips) are kept to tell bridge necks apart in
+    // the check and for the SVG's BRIDGES layer, not unioned in: an outline that strays from the
+    // pixels it was drawn as (a fan's corner, an outline the settle has since widened around)
+    // would add a sliver of material no pixel holds.
+    let (material, design_cuts) = union::union_bridges(material, &[]);
     let geom = CutGeometry {
         width_mm: w,
         height_mm: h,
