@@ -279,7 +279,16 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             fidelity.changed_pct,
             change_parts(&fidelity),
         ),
-        e => e.into(),
+        // Every other error names the input too (most already do, from the stage that read it).
+        e => {
+            let input = cfg.input.display().to_string();
+            let msg = e.to_string();
+            if msg.contains(&input) {
+                e.into()
+            } else {
+                anyhow::anyhow!("{input}: {msg}")
+            }
+        }
     })?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
