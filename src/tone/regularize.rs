@@ -195,6 +195,11 @@ struct Work {
     corners: Vec<(u32, u32)>,
     maps: Maps,
     disc: Disc,
+    /// Per pixel: the id of the thin feature holding it, and the last feature whose widening
+    /// counted it. Ids grow across rounds, so neither needs clearing.
+    in_feature: Vec<u32>,
+    stamp: Vec<u32>,
+    next_id: u32,
 }
 
 impl Work {
@@ -241,6 +246,9 @@ impl Work {
             pad,
             corners,
             disc,
+            in_feature: vec![u32::MAX; (pw * ph) as usize],
+            stamp: vec![u32::MAX; (pw * ph) as usize],
+            next_id: 0,
         }
     }
 
@@ -387,17 +395,26 @@ impl Maps {
         let corners = disc.on_corners() as usize;
         let (cw, ch) = (w + corners, h + corners);
         let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
-        let results: Vec<(usize, [Thin; 2], [usize; 4])> = tiles
+        let results: Vec<(usize, Option<[Thin; 2]>, [usize; 4])> = tiles
             .par_iter()
             .map(|&t| {
                 let (tx, ty) = (t % self.tiles_x, t / self.tiles_x);
                 let (x0, y0) = (tx * TILE, ty * TILE);
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let ext = [x0.saturating_sub(m), y0.saturating_sub(m), (x1 + m).min(w), (y1 + m).min(h)];
+                // A window of one tone holds no thin pixel in its tile: every tile pixel is the
+                // centre of a disc of that tone (the margin is wider than the disc). Photos are
+                // mostly such windows.
+                let first = bits.data[ext[1] * w + ext[0]];
+                let uniform = (ext[1]..ext[3])
+                    .all(|y| bits.data[y * w + ext[0]..y * w + ext[2]].iter().all(|&b| b == first));
+                if uniform {
+                    return (t, None, ext);
+                }
                 let sub = BitGrid::from_fn((ext[2] - ext[0]) as u32, (ext[3] - ext[1]) as u32, |x, y| {
                     bits.get(x + ext[0] as u32, y + ext[1] as u32)
                 });
-                (t, [thin(&sub, true, disc), thin(&sub, false, disc)], ext)
+                (t, Some([thin(&sub, true, disc), thin(&sub, false, disc)]), ext)
             })
             .collect();
         for (t, th, ext) in results {
@@ -409,6 +426,19 @@ impl Maps {
             // Centre-lattice points owned by this tile: its pixels' own, plus the last row and
             // column of corners at the grid's far edges.
             let (cx1, cy1) = (if x1 == w { cw } else { x1 }, if y1 == h { ch } else { y1 });
+            let Some(th) = th else {
+                // Nothing thin; depths are only read on thin pixels.
+                for dst in &mut self.phases {
+                    for y in y0..y1 {
+                        dst.mask[y * w + x0..y * w + x1].fill(false);
+                    }
+                    for y in y0..cy1 {
+                        dst.d_centre[y * cw + x0..y * cw + cx1].fill(f32::INFINITY);
+                    }
+                }
+                self.dirty[t] = false;
+                continue;
+            };
             for (p, sub) in th.into_iter().enumerate() {
                 let dst = &mut self.phases[p];
                 for y in y0..y1 {
@@ -565,24 +595,22 @@ fn widening(
 /// Every thin feature of both phases, with its widening.
 fn features(work: &mut Work, disc: Disc) -> Vec<Feature> {
     work.maps.refresh(&work.bits, disc);
-    let mut caps = work.maps.phases[1].mask.clone();
-    work.corner_caps(&mut caps, disc.span);
+    // In place: a corner block that stops being all cut changed, so its tile is recomputed.
+    let mut cut_mask = std::mem::take(&mut work.maps.phases[1].mask);
+    work.corner_caps(&mut cut_mask, disc.span);
+    work.maps.phases[1].mask = cut_mask;
     let bits = &work.bits;
     let w = bits.width as usize;
     let mut out = Vec::new();
-    let mut in_feature = vec![u32::MAX; bits.len()];
-    let mut stamp = vec![u32::MAX; bits.len()];
-    let mut next_id = 0u32;
     for (p, phase) in [true, false].into_iter().enumerate() {
         let t = &work.maps.phases[p];
-        let mask = if phase { &t.mask } else { &caps };
-        for g in groups(mask, w) {
-            let id = next_id;
-            next_id += 1;
+        for g in groups(&t.mask, w) {
+            let id = work.next_id;
+            work.next_id += 1;
             for &i in &g {
-                in_feature[i] = id;
+                work.in_feature[i] = id;
             }
-            let widen = widening(bits, &g, &in_feature, id, t, disc, &mut stamp);
+            let widen = widening(bits, &g, &work.in_feature, id, t, disc, &mut work.stamp);
             out.push(Feature {
                 phase,
                 pixels: g,
