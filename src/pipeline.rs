@@ -195,6 +195,38 @@ impl PhysicalConfig {
     }
 }
 
+/// Widen, in `bits`, each neck the check found, with a disc `round` pixels larger than the
+/// pipeline's own (only adding material, so the sheet stays one piece), then settle what that
+/// left thin at the edges of the change. Returns whether anything changed.
+fn widen_necks(
+    bits: &mut BitGrid,
+    chk: &CheckReport,
+    phys: &PhysicalConfig,
+    scale: Scale,
+    round: usize,
+) -> bool {
+    let settled = bits.clone();
+    let before = bits.count_material();
+    let (w, h) = (bits.width, bits.height);
+    for v in &chk.violations {
+        let need_mm = match v.kind {
+            check::ViolationKind::Floating => continue,
+            check::ViolationKind::ThinBridge => phys.material.min_bridge_mm,
+            _ => phys.material.min_feature_mm,
+        };
+        let px = scale.to_px(Mm(need_mm)).0 + 1.0 + round as f64;
+        let (x, y) = (
+            (scale.to_px(Mm(v.x_mm)).0.max(0.0) as u32).min(w - 1),
+            (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
+        );
+        let r = px.ceil() as u32;
+        let bx = [x.saturating_sub(r), y.saturating_sub(r), x + r + 1, y + r + 1];
+        settle_near(bits, &[bx], px, REPAIR_SPREAD);
+    }
+    settle_all(bits, &settled, phys.feature_px(scale));
+    bits.count_material() != before
+}
+
 /// Whether a path is a mesh (by extension) rather than a picture.
 pub fn is_mesh(path: &Path) -> bool {
     path.extension()
@@ -432,51 +464,26 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         ..phys.vector
     };
     let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
-    let (mut geometry, mut vstats, mut chk) = vectorize_and_measure(
-        &bridged.bits,
-        Some(&polys),
-        &vcfg,
-        &phys.material,
-        &mut timer,
-    )?;
     // The raster rule holds exactly; the traced and simplified outline may still measure a neck
     // up to about a pixel narrower (a diagonal staircase, simplification within the tolerance).
-    // Such necks are widened where the check found them, with a disc one pixel larger each time
-    // (only adding material, so the sheet stays one piece), and the stencil traced again.
+    // Such necks are widened where the check found them and the stencil traced again.
     let mut repairs = 0;
-    while reg_stats.is_some() && !chk.passed() && repairs < REPAIR_ROUNDS {
-        repairs += 1;
-        let settled = bridged.bits.clone();
-        let before = bridged.bits.count_material();
-        for v in &chk.violations {
-            let need_mm = match v.kind {
-                check::ViolationKind::Floating => continue,
-                check::ViolationKind::ThinBridge => phys.material.min_bridge_mm,
-                _ => phys.material.min_feature_mm,
-            };
-            let px = scale.to_px(Mm(need_mm)).0 + 1.0 + repairs as f64;
-            let (w, h) = (bridged.bits.width, bridged.bits.height);
-            let (x, y) = (
-                (scale.to_px(Mm(v.x_mm)).0.max(0.0) as u32).min(w - 1),
-                (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
-            );
-            let r = px.ceil() as u32;
-            let bx = [x.saturating_sub(r), y.saturating_sub(r), x + r + 1, y + r + 1];
-            settle_near(&mut bridged.bits, &[bx], px, REPAIR_SPREAD);
-        }
-        // The larger disc may leave thin bits at the edge of what it changed.
-        settle_all(&mut bridged.bits, &settled, phys.feature_px(scale));
-        if bridged.bits.count_material() == before {
-            break;
-        }
-        (geometry, vstats, chk) = vectorize_and_measure(
+    let (mut geometry, vstats, mut chk) = loop {
+        let measured = vectorize_and_measure(
             &bridged.bits,
             Some(&polys),
             &vcfg,
             &phys.material,
             &mut timer,
         )?;
-    }
+        if reg_stats.is_none() || measured.2.passed() || repairs == REPAIR_ROUNDS {
+            break measured;
+        }
+        repairs += 1;
+        if !widen_necks(&mut bridged.bits, &measured.2, phys, scale, repairs) {
+            break measured;
+        }
+    };
     confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {

@@ -96,7 +96,7 @@ impl Disc {
     }
     /// Centres sit on pixel corners: the lattice is offset by half a pixel.
     fn on_corners(&self) -> bool {
-        self.span % 2 == 0
+        self.span.is_multiple_of(2)
     }
     /// How far a disc's pixels reach from its centre pixel, in whole pixels.
     fn reach(&self) -> i64 {
