@@ -7,13 +7,23 @@
 //! phase by that disc. A pixel that does not is *thin*. When neither phase has a thin pixel, every
 //! boundary point has a disc of the required width on both sides of it, so no neck of material
 //! (web) or of cut (hole) is narrower than the disc: at the narrowest chord across a region, the
-//! disc touching one end would reach past the other end. The disc is the digital disc
-//! `dx² + dy² ≤ k² + k` (`k` = half its odd span), whose rows span `2k + 1` pixels: the smallest
-//! odd number of pixels at least the required width, so a straight line or hole of the required
-//! width or more is wide enough as it is, and one pixel narrower is not.
+//! disc touching one end would reach past the other end. The disc holds the pixels whose centres
+//! lie within `span / 2` of its centre, `span` the required width rounded up to whole pixels; it
+//! is centred on a pixel for an odd span and on a pixel corner for an even one, so its rows and
+//! columns span exactly `span` pixels: a straight line or hole `span` pixels wide or more is wide
+//! enough as it is, and one pixel narrower is not. (On a pixel grid this is the rule up to about
+//! a pixel: the pipeline asks for the material's smallest feature plus one pixel, and widens what
+//! the width check of the traced outline still finds.)
 //!
 //! The outside of the picture is material (the sheet continues past the border, as in `islands`
-//! and the tracer): discs of material may lie partly outside, discs of cut may not.
+//! and the tracer): discs of material may lie partly outside, discs of cut may not. One exception:
+//! a cut filling a corner of the picture keeps its square corner (see `Work::corner_caps`); other
+//! square corners are rounded by the disc, a pixel or two, as any opening rounds them.
+//!
+//! ## Cost
+//! Thinness is kept per 64-pixel tile and recomputed only in tiles near what a round changed
+//! (a pixel's thinness depends only on the pixels within two disc radii), from distances exact up
+//! to the disc's radius; tiles whose window is one tone hold nothing thin and are skipped.
 //!
 //! ## Deciding
 //! Thin pixels are grouped into features (8-connected). A thin feature can be *removed* (its
