@@ -496,7 +496,7 @@ impl SearchScratch {
 /// border of every node in `group` (a mask over nodes) to material of a node outside it or to the
 /// image edge (the sheet continues beyond the picture, and the frame is never in a stranded
 /// group), of any length. Dijkstra over the cut pixels, each priced by `step` (darker and longer
-/// costs more, see [`StepCost`]), then straightened ([`straighten`]). Returns the start candidate
+/// costs more, see [`StepCost`]), then straightened (`straighten`). Returns the start candidate
 /// pixel and the strip.
 ///
 /// Such a path always exists: the rightmost group pixel of any row has cut to its right, and that
