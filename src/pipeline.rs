@@ -161,7 +161,11 @@ impl PhysicalConfig {
         let max = if user.max_width_given {
             user.max_width_px
         } else {
-            scale.to_px(Mm(self.material.max_bridge_mm)).0.floor().min(u32::MAX as f64 / 2.0) as u32
+            scale
+                .to_px(Mm(self.material.max_bridge_mm))
+                .0
+                .floor()
+                .min(u32::MAX as f64 / 2.0) as u32
         };
         BridgeConfig {
             min_width_px: min,
@@ -220,7 +224,12 @@ fn widen_necks(
             (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
         );
         let r = px.ceil() as u32;
-        let bx = [x.saturating_sub(r), y.saturating_sub(r), x + r + 1, y + r + 1];
+        let bx = [
+            x.saturating_sub(r),
+            y.saturating_sub(r),
+            x + r + 1,
+            y + r + 1,
+        ];
         settle_near(bits, &[bx], px, REPAIR_SPREAD);
     }
     settle_all(bits, &settled, phys.feature_px(scale));
@@ -391,7 +400,9 @@ fn vectorize_and_measure(
 /// Confirm each violation on the raster (for the report), when there are any.
 fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &mut Timings) {
     if !chk.passed() {
-        timer.time("check_opening", || check::cross_check(chk, bits, vcfg.scale));
+        timer.time("check_opening", || {
+            check::cross_check(chk, bits, vcfg.scale)
+        });
     }
 }
 

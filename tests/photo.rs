@@ -35,7 +35,12 @@ fn make_photo(material: &str, extra: &[&str]) {
     let f = &r["fidelity"];
     let two = read_bits(&out.join("twotone.png"));
     let st = read_bits(&out.join("stencil.png"));
-    let bridges = two.data.iter().zip(&st.data).filter(|(a, b)| !**a && **b).count();
+    let bridges = two
+        .data
+        .iter()
+        .zip(&st.data)
+        .filter(|(a, b)| !**a && **b)
+        .count();
     assert_eq!(f["bridges_px"].as_u64().unwrap() as usize, bridges);
     assert_eq!(f["pixels"].as_u64().unwrap() as usize, st.len());
     // The independent check of the written folder agrees.
@@ -50,5 +55,8 @@ fn photo_makes_a_valid_cardstock_stencil_at_the_default_size() {
 
 #[test]
 fn photo_makes_a_valid_plywood_stencil_at_150_mm() {
-    make_photo("plywood-3mm", &["--width-mm", "150", "--machine", "co2-600x400"]);
+    make_photo(
+        "plywood-3mm",
+        &["--width-mm", "150", "--machine", "co2-600x400"],
+    );
 }

@@ -10,12 +10,26 @@ use proptest::prelude::*;
 /// checkerboard.
 #[derive(Debug, Clone)]
 enum Pic {
-    Blobs { discs: Vec<(f64, f64, f64, bool)> },
-    Rings { cx: f64, cy: f64, band: f64 },
-    Noise { density: f64, block: u32, seed: u64 },
+    Blobs {
+        discs: Vec<(f64, f64, f64, bool)>,
+    },
+    Rings {
+        cx: f64,
+        cy: f64,
+        band: f64,
+    },
+    Noise {
+        density: f64,
+        block: u32,
+        seed: u64,
+    },
     /// Thin straight strokes (x0, y0, x1, y1, half width), ink on paper, like lettering.
-    Strokes { lines: Vec<(f64, f64, f64, f64, f64)> },
-    Checker { cell: u32 },
+    Strokes {
+        lines: Vec<(f64, f64, f64, f64, f64)>,
+    },
+    Checker {
+        cell: u32,
+    },
 }
 
 fn pic() -> impl Strategy<Value = Pic> {
@@ -36,7 +50,13 @@ fn pic() -> impl Strategy<Value = Pic> {
             seed
         }),
         prop::collection::vec(
-            (0.0..96.0f64, 0.0..72.0f64, 0.0..96.0f64, 0.0..72.0f64, 0.4..3.0f64),
+            (
+                0.0..96.0f64,
+                0.0..72.0f64,
+                0.0..96.0f64,
+                0.0..72.0f64,
+                0.4..3.0f64
+            ),
             1..12
         )
         .prop_map(|lines| Pic::Strokes { lines }),

@@ -89,7 +89,10 @@ fn check_material(material: &str, min_feature_mm: f64) {
         let f = FACTORS[n % FACTORS.len()];
         let w = b - a;
         let mid = (a + b) / 2;
-        let what = format!("{material}: {} {f}x ({w} px)", if web { "web" } else { "hole" });
+        let what = format!(
+            "{material}: {} {f}x ({w} px)",
+            if web { "web" } else { "hole" }
+        );
         if st.get(x, mid) != web {
             // Removed: only allowed for lines narrower than the minimum.
             assert!(f < 1.0, "{what} was removed");
@@ -98,7 +101,10 @@ fn check_material(material: &str, min_feature_mm: f64) {
         let (ra, rb) = run(&st, x, mid);
         let got = rb - ra;
         if f < 1.0 {
-            assert!(got as f64 >= min_px, "{what}: kept at {got} px, under the minimum");
+            assert!(
+                got as f64 >= min_px,
+                "{what}: kept at {got} px, under the minimum"
+            );
         } else {
             assert!(got.abs_diff(w) <= 1, "{what}: now {got} px");
         }
@@ -146,8 +152,14 @@ fn bridges_in_material_range(material: &str, min_mm: f64, max_mm: f64) {
         for b in bridges {
             let mm = b["width_mm"].as_f64().unwrap();
             assert!((mm - b["width_px"].as_f64().unwrap() * mm_px).abs() < 1e-9);
-            assert!(mm >= min_mm, "{material} {w}: bridge {mm} mm under {min_mm}");
-            assert!(mm <= max_mm + mm_px, "{material} {w}: bridge {mm} mm over {max_mm}");
+            assert!(
+                mm >= min_mm,
+                "{material} {w}: bridge {mm} mm under {min_mm}"
+            );
+            assert!(
+                mm <= max_mm + mm_px,
+                "{material} {w}: bridge {mm} mm over {max_mm}"
+            );
             top = top.max(mm);
         }
         let narrowest = r["check"]["narrowest_bridge_mm"].as_f64().unwrap();

@@ -224,7 +224,14 @@ impl Material {
         let max_bridge_mm = f
             .max_bridge_mm
             .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
-        check_range(origin, "max_bridge_mm", max_bridge_mm, f.min_bridge_mm, 200.0, "mm")?;
+        check_range(
+            origin,
+            "max_bridge_mm",
+            max_bridge_mm,
+            f.min_bridge_mm,
+            200.0,
+            "mm",
+        )?;
         check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
         if f.kerf_mm >= f.min_feature_mm {
             return Err(invalid(

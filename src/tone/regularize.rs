@@ -133,7 +133,13 @@ fn lattice_distance(
     let (mut prev, mut next) = (vec![0i32; tw], vec![0i32; tw]);
     for y in 0..th {
         let row = &targets[y * tw..(y + 1) * tw];
-        nearest_in_row(row, q0, &mut rows[y * qw..(y + 1) * qw], &mut prev, &mut next);
+        nearest_in_row(
+            row,
+            q0,
+            &mut rows[y * qw..(y + 1) * qw],
+            &mut prev,
+            &mut next,
+        );
     }
     let mut d = vec![f32::INFINITY; qw * qh];
     let kf = k as f32;
@@ -182,10 +188,30 @@ fn nearest_in_row(row: &[bool], q0: f32, out: &mut [f32], prev: &mut [i32], next
         // either side.
         let (lx, rx) = (j as i64 + o, j as i64 + o + half as i64);
         let q = q0 + j as f32;
-        let l = if (0..n).contains(&lx) { prev[lx as usize] } else if lx >= n { prev[n as usize - 1] } else { NONE };
-        let r = if (0..n).contains(&rx) { next[rx as usize] } else if rx < 0 { next[0] } else { i32::MAX / 2 };
-        let dl = if l == NONE { f32::INFINITY } else { q - l as f32 };
-        let dr = if r == i32::MAX / 2 { f32::INFINITY } else { r as f32 - q };
+        let l = if (0..n).contains(&lx) {
+            prev[lx as usize]
+        } else if lx >= n {
+            prev[n as usize - 1]
+        } else {
+            NONE
+        };
+        let r = if (0..n).contains(&rx) {
+            next[rx as usize]
+        } else if rx < 0 {
+            next[0]
+        } else {
+            i32::MAX / 2
+        };
+        let dl = if l == NONE {
+            f32::INFINITY
+        } else {
+            q - l as f32
+        };
+        let dr = if r == i32::MAX / 2 {
+            f32::INFINITY
+        } else {
+            r as f32 - q
+        };
         *d = (dl * dl).min(dr * dr);
     }
 }
@@ -225,7 +251,8 @@ impl Work {
         let pad = disc.reach() as u32 + 1;
         let [x0, y0, x1, y1] = window;
         let (pw, ph) = (x1 - x0 + 2 * pad, y1 - y0 + 2 * pad);
-        let inside = |x: u32, y: u32| x >= pad && y >= pad && x < x1 - x0 + pad && y < y1 - y0 + pad;
+        let inside =
+            |x: u32, y: u32| x >= pad && y >= pad && x < x1 - x0 + pad && y < y1 - y0 + pad;
         let padded = BitGrid::from_fn(pw, ph, |x, y| {
             !inside(x, y) || bits.get(x - pad + x0, y - pad + y0)
         });
@@ -243,7 +270,12 @@ impl Work {
         let (iw, ih) = (x1 - x0, y1 - y0);
         let sp = disc.span.min(iw).min(ih);
         let mut corners = Vec::new();
-        for (cx, cy) in [(0, 0), (bits.width - sp, 0), (0, bits.height - sp), (bits.width - sp, bits.height - sp)] {
+        for (cx, cy) in [
+            (0, 0),
+            (bits.width - sp, 0),
+            (0, bits.height - sp),
+            (bits.width - sp, bits.height - sp),
+        ] {
             if cx >= x0 && cy >= y0 && cx + sp <= x1 && cy + sp <= y1 {
                 corners.push((cx - x0 + pad, cy - y0 + pad));
             }
@@ -269,7 +301,10 @@ impl Work {
     fn corner_caps(&self, mask: &mut [bool], span: u32) {
         let w = self.bits.width;
         for &(cx, cy) in &self.corners {
-            let block = || (cy..cy + span).flat_map(move |y| (cx..cx + span).map(move |x| (y * w + x) as usize));
+            let block = || {
+                (cy..cy + span)
+                    .flat_map(move |y| (cx..cx + span).map(move |x| (y * w + x) as usize))
+            };
             if block().all(|i| !self.bits.data[i]) {
                 block().for_each(|i| mask[i] = false);
             }
@@ -313,7 +348,10 @@ impl Thin {
         if disc.on_corners() {
             let cw = w + 1;
             let c = |xx: usize, yy: usize| self.d_centre[yy * cw + xx];
-            c(x, y).max(c(x + 1, y)).max(c(x, y + 1)).max(c(x + 1, y + 1))
+            c(x, y)
+                .max(c(x + 1, y))
+                .max(c(x, y + 1))
+                .max(c(x + 1, y + 1))
         } else {
             self.d_centre[y * w + x]
         }
@@ -357,13 +395,16 @@ struct Maps {
     /// Per tile: something within reach changed since the maps were computed there.
     dirty: Vec<bool>,
     tiles_x: usize,
-    tiles_y: usize,
 }
 
 impl Maps {
     fn new(bits: &BitGrid, disc: Disc) -> Maps {
         let (w, h) = (bits.width as usize, bits.height as usize);
-        let (cw, ch) = if disc.on_corners() { (w + 1, h + 1) } else { (w, h) };
+        let (cw, ch) = if disc.on_corners() {
+            (w + 1, h + 1)
+        } else {
+            (w, h)
+        };
         let blank = || Thin {
             mask: vec![false; w * h],
             d_centre: vec![0.0; cw * ch],
@@ -373,7 +414,6 @@ impl Maps {
             phases: [blank(), blank()],
             dirty: vec![true; tiles_x * tiles_y],
             tiles_x,
-            tiles_y,
         }
     }
 
@@ -411,20 +451,34 @@ impl Maps {
                 let (tx, ty) = (t % self.tiles_x, t / self.tiles_x);
                 let (x0, y0) = (tx * TILE, ty * TILE);
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-                let ext = [x0.saturating_sub(m), y0.saturating_sub(m), (x1 + m).min(w), (y1 + m).min(h)];
+                let ext = [
+                    x0.saturating_sub(m),
+                    y0.saturating_sub(m),
+                    (x1 + m).min(w),
+                    (y1 + m).min(h),
+                ];
                 // A window of one tone holds no thin pixel in its tile: every tile pixel is the
                 // centre of a disc of that tone (the margin is wider than the disc). Photos are
                 // mostly such windows.
                 let first = bits.data[ext[1] * w + ext[0]];
-                let uniform = (ext[1]..ext[3])
-                    .all(|y| bits.data[y * w + ext[0]..y * w + ext[2]].iter().all(|&b| b == first));
+                let uniform = (ext[1]..ext[3]).all(|y| {
+                    bits.data[y * w + ext[0]..y * w + ext[2]]
+                        .iter()
+                        .all(|&b| b == first)
+                });
                 if uniform {
                     return (t, None, ext);
                 }
-                let sub = BitGrid::from_fn((ext[2] - ext[0]) as u32, (ext[3] - ext[1]) as u32, |x, y| {
-                    bits.get(x + ext[0] as u32, y + ext[1] as u32)
-                });
-                (t, Some([thin(&sub, true, disc), thin(&sub, false, disc)]), ext)
+                let sub = BitGrid::from_fn(
+                    (ext[2] - ext[0]) as u32,
+                    (ext[3] - ext[1]) as u32,
+                    |x, y| bits.get(x + ext[0] as u32, y + ext[1] as u32),
+                );
+                (
+                    t,
+                    Some([thin(&sub, true, disc), thin(&sub, false, disc)]),
+                    ext,
+                )
             })
             .collect();
         for (t, th, ext) in results {
@@ -464,7 +518,6 @@ impl Maps {
             }
             self.dirty[t] = false;
         }
-        let _ = self.tiles_y;
     }
 }
 
@@ -639,7 +692,11 @@ fn pricer<'a>(gray: &'a Gray, cfg: &RegularizeConfig) -> impl Fn(u32, u32) -> f3
 
 /// Regularise `bits` (material = true) so that no web or hole is narrower than
 /// `cfg.min_width_px`, deciding each thin feature by the gray picture. See the module comment.
-pub fn regularize(bits: &BitGrid, gray: &Gray, cfg: &RegularizeConfig) -> (BitGrid, RegularizeStats) {
+pub fn regularize(
+    bits: &BitGrid,
+    gray: &Gray,
+    cfg: &RegularizeConfig,
+) -> (BitGrid, RegularizeStats) {
     let disc = Disc::for_width(cfg.min_width_px);
     let mut stats = RegularizeStats {
         disc_px: disc.span,
@@ -857,7 +914,12 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
 /// the material's smallest feature is left beside a bridge. Each box is settled in a window large
 /// enough that thinness inside the box's reach is measured exactly (a pixel's thinness depends on
 /// the pixels within two disc spans of it). Returns the number of pixels added.
-pub fn settle_near(bits: &mut BitGrid, boxes: &[[u32; 4]], min_width_px: f64, spread: u32) -> usize {
+pub fn settle_near(
+    bits: &mut BitGrid,
+    boxes: &[[u32; 4]],
+    min_width_px: f64,
+    spread: u32,
+) -> usize {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {
         return 0;
@@ -1019,7 +1081,9 @@ mod tests {
         // Pseudo-random noise: the hardest case for deciding; the monotone phase must finish it.
         let mut s = 12345u64;
         let bits = BitGrid::from_fn(80, 60, |_, _| {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 33) & 1 == 1
         });
         let gray = Gray::new(80, 60, 0.5);

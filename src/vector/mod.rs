@@ -443,11 +443,16 @@ mod tests {
             })
         };
         let outline = vec![[13.0, 4.0], [17.0, 4.0], [17.0, 13.0], [13.0, 13.0]];
-        let (geo, _) = vectorize(&with(true), &[outline.clone()], &VectorConfig::default()).unwrap();
+        let (geo, _) =
+            vectorize(&with(true), &[outline.clone()], &VectorConfig::default()).unwrap();
         assert_eq!(geo.material.0.len(), 1, "{:?}", geo.material);
         assert_eq!(geo.design_cuts.0.len(), 1);
         assert!(geo.design_cuts.0[0].interiors().is_empty());
-        assert_eq!(geo.bridges.len(), 1, "the outline is kept for the check and the SVG");
+        assert_eq!(
+            geo.bridges.len(),
+            1,
+            "the outline is kept for the check and the SVG"
+        );
         // The raster is the truth: an outline with no pixels under it joins nothing.
         let (geo, _) = vectorize(&with(false), &[outline], &VectorConfig::default()).unwrap();
         assert_eq!(geo.material.0.len(), 2);
