@@ -397,14 +397,13 @@ fn vectorize_and_measure(
     material: &Material,
     timer: &mut Timings,
 ) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
-    // The check runs on the geometry as designed: "vector" includes it, "check" is its own time.
-    let (geom, vstats, (chk, check_ms)) = timer.time("vector", || {
-        let (geom, vstats) = vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)?;
-        let t = Instant::now();
-        let chk = check::check(&geom, material, bridges_px.is_some());
-        Ok::<_, Error>((geom, vstats, (chk, t.elapsed().as_secs_f64() * 1e3)))
+    let (geom, vstats) = timer.time("vector", || {
+        vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)
     })?;
-    timer.add("check", check_ms);
+    // The check runs on the geometry as designed (before kerf).
+    let chk = timer.time("check", || {
+        check::check(&geom, material, bridges_px.is_some())
+    });
     Ok((geom, vstats, chk?))
 }
 
