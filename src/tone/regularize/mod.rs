@@ -182,6 +182,8 @@ struct Work<'a> {
     /// the ones set in `allowed` when there is one.
     core: [usize; 4],
     allowed: Option<Packed>,
+    /// When set, only thin features holding one of these pixels are resolved.
+    seeds: Option<Packed>,
     /// The picture coordinates of padded pixel `(pad, pad)`.
     origin: (u32, u32),
     /// Per pixel: changed tone in the cost-based phase (may not change back there).
@@ -223,10 +225,7 @@ impl<'a> Work<'a> {
         let mut padded = Packed::new(pw, ph, true);
         for y in y0..y1 {
             let row = &bits.data[bits.idx(x0, y)..bits.idx(x0, y) + (x1 - x0) as usize];
-            let py = (y - y0 + pad) as usize;
-            for (x, _) in row.iter().enumerate().filter(|(_, &b)| !b) {
-                padded.set(x + pad as usize, py, false);
-            }
+            padded.put_row((y - y0 + pad) as usize, pad as usize, row);
         }
         let (iw, ih) = (x1 - x0, y1 - y0);
         let sp = disc.span.min(iw).min(ih);
@@ -246,6 +245,7 @@ impl<'a> Work<'a> {
             price: Box::new(price),
             core: core.map(|c| (c + pad) as usize),
             allowed: None,
+            seeds: None,
             origin: (x0, y0),
             locked: Packed::new(pw, ph, false),
             pad,
@@ -268,11 +268,14 @@ impl<'a> Work<'a> {
         };
         self.corner_caps(&mut cut);
         self.thin = [material, cut];
-        self.refresh_depths();
+        let corners = disc.on_corners() as usize;
+        let (w, h) = (self.bits.width, self.bits.height);
+        self.refresh_depths(0, h + corners, 0, w + corners);
     }
 
-    /// Recompute [`Work::depth2`] at every centre next to a thin pixel.
-    fn refresh_depths(&mut self) {
+    /// Recompute [`Work::depth2`] at every centre next to a thin pixel in lattice rows `a..b`,
+    /// columns `x0..x1`.
+    fn refresh_depths(&mut self, a: usize, b: usize, x0: usize, x1: usize) {
         let corners = self.disc.on_corners() as usize;
         let (w, h) = (self.bits.width, self.bits.height);
         let lw = w + corners;
@@ -284,8 +287,9 @@ impl<'a> Work<'a> {
             let [a, b] = &work.thin;
             a.row(y).iter().zip(b.row(y)).map(|(p, q)| p | q).collect()
         };
-        let par = packed::parallel(w * h);
-        packed::rows_mut(&mut depth2, lw, par, |(cy, row)| {
+        let par = packed::parallel(w * (b - a));
+        packed::rows_mut(&mut depth2[a * lw..b * lw], lw, par, |(cy, row)| {
+            let cy = cy + a;
             // The lattice points holding a thin pixel: the pixel itself, or the corners of
             // the pixels in the rows above and below the corner row.
             let mut m = vec![0u64; stride + corners];
@@ -310,7 +314,7 @@ impl<'a> Work<'a> {
                 while word != 0 {
                     let cx = k * 64 + word.trailing_zeros() as usize;
                     word &= word - 1;
-                    if cx < lw {
+                    if (x0..x1.min(lw)).contains(&cx) {
                         row[cx] = work.lattice_depth(cx as i64, cy as i64);
                     }
                 }
@@ -366,7 +370,9 @@ impl<'a> Work<'a> {
     }
 
     fn set(&mut self, i: usize, v: bool) {
-        self.bits.put(i, v);
+        if self.bits.at(i) != v {
+            self.bits.put(i, v);
+        }
     }
 
     fn changeable(&self, i: usize) -> bool {
@@ -410,11 +416,12 @@ impl<'a> Work<'a> {
     /// The window without its padding.
     fn window(&self) -> BitGrid {
         let p = self.pad as usize;
-        BitGrid::from_fn(
-            (self.bits.width - 2 * p) as u32,
-            (self.bits.height - 2 * p) as u32,
-            |x, y| self.bits.get(x as usize + p, y as usize + p),
-        )
+        let (w, h) = (self.bits.width - 2 * p, self.bits.height - 2 * p);
+        let mut out = BitGrid::new(w as u32, h as u32, false);
+        for (y, row) in out.data.chunks_mut(w.max(1)).enumerate() {
+            self.bits.get_row(y + p, p, row);
+        }
+        out
     }
 }
 
@@ -537,7 +544,7 @@ fn features(work: &mut Work) -> Vec<Feature> {
         }
     };
     let of_phase = |phase: bool| -> Vec<Feature> {
-        let groups = groups(&work.thin[!phase as usize], work.allowed.as_ref());
+        let groups = groups(&work.thin[!phase as usize], work.seeds.as_ref());
         if packed::parallel(w * h) {
             groups
                 .into_par_iter()
@@ -855,15 +862,18 @@ pub fn settle_near(
             .iter()
             .map(|&i| grow(boxes[i], spread * reach))
             .collect();
-        added += settle_window(bits, window, &near, disc, reach);
+        let own: Vec<[u32; 4]> = members.iter().map(|&i| grow(boxes[i], 0)).collect();
+        added += settle_window(bits, window, &own, &near, disc, reach);
     }
     added
 }
 
-/// [`settle_near`] in one window: only the pixels in `near` (picture coordinates) may change.
+/// [`settle_near`] in one window: the thin features holding a pixel of `boxes` are resolved, and
+/// only the pixels in `near` may change (both in picture coordinates).
 fn settle_window(
     bits: &mut BitGrid,
     window: [u32; 4],
+    boxes: &[[u32; 4]],
     near: &[[u32; 4]],
     disc: Disc,
     reach: u32,
@@ -885,20 +895,24 @@ fn settle_window(
     let mut work = Work::new(bits, window, rel, disc, |_, _| 1.0);
     // What may change: each box and `spread` spans around it, so what a widening there pushes
     // outward is settled too.
-    let mut allowed = Packed::new(work.bits.width, work.bits.height, false);
     let pad = work.pad;
-    for &g in near {
-        for y in g[1]..g[3] {
-            for x in g[0]..g[2] {
-                allowed.set(
-                    (x - window[0] + pad) as usize,
-                    (y - window[1] + pad) as usize,
-                    true,
-                );
+    let mask = |rects: &[[u32; 4]]| {
+        let mut m = Packed::new(work.bits.width, work.bits.height, false);
+        for &g in rects {
+            for y in g[1]..g[3] {
+                for x in g[0]..g[2] {
+                    m.set(
+                        (x - window[0] + pad) as usize,
+                        (y - window[1] + pad) as usize,
+                        true,
+                    );
+                }
             }
         }
-    }
-    work.allowed = Some(allowed);
+        m
+    };
+    work.seeds = Some(mask(boxes));
+    work.allowed = Some(mask(near));
     settle(&mut work, &mut RegularizeStats::default());
     let out = work.window();
     let mut added = 0;

@@ -53,6 +53,34 @@ impl Packed {
         self.set(i % self.width, i / self.width, v);
     }
 
+    /// Columns `x0..x0 + src.len()` of row `y` set from `src`.
+    pub fn put_row(&mut self, y: usize, x0: usize, src: &[bool]) {
+        let base = y * self.stride;
+        let (mut x, mut k) = (x0, 0);
+        while k < src.len() {
+            let (word, bit) = (x / 64, x % 64);
+            let n = (64 - bit).min(src.len() - k);
+            let mut v = 0u64;
+            for (j, &b) in src[k..k + n].iter().enumerate() {
+                v |= (b as u64) << j;
+            }
+            let mask = if n == 64 { !0 } else { (1u64 << n) - 1 } << bit;
+            let d = &mut self.data[base + word];
+            *d = (*d & !mask) | (v << bit);
+            x += n;
+            k += n;
+        }
+    }
+
+    /// Columns `x0..x0 + out.len()` of row `y`.
+    pub fn get_row(&self, y: usize, x0: usize, out: &mut [bool]) {
+        let row = self.row(y);
+        for (k, o) in out.iter_mut().enumerate() {
+            let x = x0 + k;
+            *o = row[x / 64] >> (x % 64) & 1 == 1;
+        }
+    }
+
     pub fn row(&self, y: usize) -> &[u64] {
         &self.data[y * self.stride..(y + 1) * self.stride]
     }
@@ -130,19 +158,6 @@ pub(super) fn rows_mut<T: Send>(
     }
 }
 
-/// `f` on each item, on threads when `par`.
-pub(super) fn map_all<T: Sync, U: Send>(
-    items: &[T],
-    par: bool,
-    f: impl Fn(&T) -> U + Sync + Send,
-) -> Vec<U> {
-    if par {
-        items.par_iter().map(f).collect()
-    } else {
-        items.iter().map(f).collect()
-    }
-}
-
 fn word_of(v: bool) -> u64 {
     if v {
         !0
@@ -154,7 +169,7 @@ fn word_of(v: bool) -> u64 {
 /// `out[x] = row[x + s]`, bit by bit; what lies past either end of `row` reads as `fill`.
 fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
     let (q, r) = (s.div_euclid(64), s.rem_euclid(64) as u32);
-    let n = row.len() as i64;
+    let (n, m) = (row.len() as i64, out.len() as i64);
     let word = |j: i64| {
         if (0..n).contains(&j) {
             row[j as usize]
@@ -162,48 +177,67 @@ fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
             fill
         }
     };
-    for (i, o) in out.iter_mut().enumerate() {
-        let j = i as i64 + q;
-        *o = if r == 0 {
+    let edge = |i: i64| {
+        let j = i + q;
+        if r == 0 {
             word(j)
         } else {
             (word(j) >> r) | (word(j + 1) << (64 - r))
-        };
+        }
+    };
+    // The words whose sources `j` and `j + 1` both lie in the row, without the checks.
+    let lo = (-q).clamp(0, m);
+    let hi = (n - 1 - q).clamp(lo, m);
+    for i in 0..lo {
+        out[i as usize] = edge(i);
+    }
+    let (lo, hi) = (lo as usize, hi as usize);
+    if lo < hi {
+        let from = (lo as i64 + q) as usize;
+        if r == 0 {
+            out[lo..hi].copy_from_slice(&row[from..from + hi - lo]);
+        } else {
+            let src = &row[from..from + hi - lo + 1];
+            for (o, w) in out[lo..hi].iter_mut().zip(src.windows(2)) {
+                *o = (w[0] >> r) | (w[1] << (64 - r));
+            }
+        }
+    }
+    for i in hi..out.len() {
+        out[i] = edge(i as i64);
     }
 }
 
-/// `out[x] = row[x + a] ∘ … ∘ row[x + b]` for `∘` AND (`and`) or OR, by doubling runs; what lies
-/// past either end reads as `fill`. `tmp` and `acc` are scratch at least as long as `out`.
-fn run(
-    row: &[u64],
-    (a, b): (i64, i64),
-    and: bool,
-    fill: u64,
-    out: &mut [u64],
-    acc: &mut Vec<u64>,
-    tmp: &mut Vec<u64>,
-) {
-    let len = b - a + 1;
-    // acc[x] = row[x + a], far enough past the output's end that the runs read no stand-in.
-    let n = out.len() + (len as usize).div_ceil(64) + 1;
-    acc.resize(n, 0);
-    tmp.resize(n, 0);
-    shift(row, a, fill, acc);
-    let combine = |acc: &mut Vec<u64>, tmp: &mut Vec<u64>, s: i64| {
-        shift(acc, s, fill, tmp);
-        for (x, &t) in acc.iter_mut().zip(tmp.iter()) {
-            *x = if and { *x & t } else { *x | t };
+/// For each span `(a, b)` of `spans`, `out[k · n..(k + 1) · n] = row[x + a] ∘ … ∘ row[x + b]`
+/// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans are the rows of one disc:
+/// by length, each one longer at both ends than the one before (`a + b` the same for all), so
+/// each is the one before it combined with two shifted rows.
+fn runs_of(row: &[u64], spans: &[(i64, i64)], and: bool, fill: u64, n: usize, out: &mut [u64]) {
+    let op = |x: &mut [u64], y: &[u64]| {
+        for (p, &q) in x.iter_mut().zip(y) {
+            *p = if and { *p & q } else { *p | q };
         }
     };
-    let mut m = 1;
-    while 2 * m <= len {
-        combine(acc, tmp, m);
-        m *= 2;
+    let (mut cur, mut tmp) = (vec![0u64; n], vec![0u64; n]);
+    let (a0, b0) = spans[0];
+    shift(row, a0, fill, &mut cur);
+    for t in a0 + 1..=b0 {
+        shift(row, t, fill, &mut tmp);
+        op(&mut cur, &tmp);
     }
-    if m < len {
-        combine(acc, tmp, len - m);
+    let (mut a, mut b) = (a0, b0);
+    for (k, &(sa, sb)) in spans.iter().enumerate() {
+        debug_assert_eq!(sa + sb, a0 + b0, "the spans of a disc share their centre");
+        while b < sb {
+            a -= 1;
+            b += 1;
+            shift(row, a, fill, &mut tmp);
+            op(&mut cur, &tmp);
+            shift(row, b, fill, &mut tmp);
+            op(&mut cur, &tmp);
+        }
+        out[k * n..(k + 1) * n].copy_from_slice(&cur);
     }
-    out.copy_from_slice(&acc[..out.len()]);
 }
 
 /// The disc as rows of offsets: for a centre on the lattice point `(cx, cy)` it holds the pixels
@@ -254,37 +288,31 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
     let ls = centres.stride;
     // Each tone row run-ANDed once per distinct disc row.
     let mut spans: Vec<(i64, i64)> = shape.rows.clone();
-    spans.sort_unstable();
+    spans.sort_unstable_by_key(|&(a, b)| b - a);
     spans.dedup();
+    let ns = spans.len();
     let par = parallel(w * h);
-    let runs: Vec<Vec<u64>> = map_all(&spans, par, |&ab| {
-        let mut out = vec![0u64; h * ls];
-        let (mut acc, mut tmp) = (Vec::new(), Vec::new());
-        for y in 0..h {
-            run(
-                tone.row(y),
-                ab,
-                true,
-                fill,
-                &mut out[y * ls..(y + 1) * ls],
-                &mut acc,
-                &mut tmp,
-            );
-        }
-        out
+    let mut runs = vec![0u64; h * ns * ls];
+    rows_mut(&mut runs, ns * ls, par, |(y, out)| {
+        runs_of(tone.row(y), &spans, true, fill, ls, out);
     });
     let which: Vec<usize> = shape
         .rows
         .iter()
-        .map(|ab| spans.binary_search(ab).expect("every disc row has its run"))
+        .map(|ab| {
+            spans
+                .iter()
+                .position(|s| s == ab)
+                .expect("every disc row has its run")
+        })
         .collect();
     rows_mut(&mut centres.data, ls, par, |(cy, out)| {
         out.fill(!0);
         for (r, &s) in which.iter().enumerate() {
             let y = cy as i64 + shape.dy0 + r as i64;
             if (0..h as i64).contains(&y) {
-                let src = &runs[s][y as usize * ls..(y as usize + 1) * ls];
-                for (o, &v) in out.iter_mut().zip(src) {
+                let at = (y as usize * ns + s) * ls;
+                for (o, &v) in out.iter_mut().zip(&runs[at..at + ls]) {
                     *o &= v;
                 }
             } else if !phase {
@@ -296,34 +324,19 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
     drop(runs);
     // Dilation: the pixels some valid centre's disc holds. Pixel (x, y) is held by centre
     // (x − dx, y − dy), so each centre row is run-ORed over the mirrored disc row.
-    let mirrored: Vec<(i64, i64)> = {
-        let mut m: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
-        m.sort_unstable();
-        m
-    };
+    let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
     let ps = bits.stride;
-    let runs: Vec<Vec<u64>> = map_all(&mirrored, par, |&ab| {
-        let mut out = vec![0u64; lh * ps];
-        let (mut acc, mut tmp) = (Vec::new(), Vec::new());
-        for cy in 0..lh {
-            run(
-                centres.row(cy),
-                ab,
-                false,
-                0,
-                &mut out[cy * ps..(cy + 1) * ps],
-                &mut acc,
-                &mut tmp,
-            );
-        }
-        out
+    let mut runs = vec![0u64; lh * ns * ps];
+    rows_mut(&mut runs, ns * ps, par, |(cy, out)| {
+        runs_of(centres.row(cy), &mirrored, false, 0, ps, out);
     });
     let which: Vec<usize> = shape
         .rows
         .iter()
         .map(|&(a, b)| {
             mirrored
-                .binary_search(&(-b, -a))
+                .iter()
+                .position(|&m| m == (-b, -a))
                 .expect("every disc row has its mirror")
         })
         .collect();
@@ -333,8 +346,8 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
         for (r, &s) in which.iter().enumerate() {
             let cy = y as i64 - shape.dy0 - r as i64;
             if (0..lh as i64).contains(&cy) {
-                let src = &runs[s][cy as usize * ps..(cy as usize + 1) * ps];
-                for (c, &v) in covered.iter_mut().zip(src) {
+                let at = (cy as usize * ns + s) * ps;
+                for (c, &v) in covered.iter_mut().zip(&runs[at..at + ps]) {
                     *c |= v;
                 }
             }
@@ -431,6 +444,37 @@ mod tests {
     }
 
     #[test]
+    fn shifts_match_bit_by_bit() {
+        let mut seed = 5u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed
+        };
+        for n in [1usize, 2, 3, 5] {
+            let row: Vec<u64> = (0..n).map(|_| next()).collect();
+            for m in [1usize, n, n + 2] {
+                for s in -200i64..200 {
+                    for fill in [0u64, !0] {
+                        let mut out = vec![0u64; m];
+                        shift(&row, s, fill, &mut out);
+                        for x in 0..m * 64 {
+                            let j = x as i64 + s;
+                            let want = if (0..(n * 64) as i64).contains(&j) {
+                                row[j as usize / 64] >> (j % 64) & 1
+                            } else {
+                                fill & 1
+                            };
+                            assert_eq!(out[x / 64] >> (x % 64) & 1, want, "n {n} m {m} s {s}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn runs_and_shifts_read_fill_past_the_ends() {
         let row = [0b1011u64, 1 << 63];
         let mut out = [0u64; 2];
@@ -440,26 +484,9 @@ mod tests {
         assert_eq!(out, [0b10111, 0]);
         shift(&row, 64, 0, &mut out);
         assert_eq!(out, [1 << 63, 0]);
-        let (mut a, mut t) = (Vec::new(), Vec::new());
-        run(
-            &[0b0111_0110u64],
-            (0, 2),
-            true,
-            0,
-            &mut out[..1],
-            &mut a,
-            &mut t,
-        );
-        assert_eq!(out[0], 0b0001_0000);
-        run(
-            &[0b1000_0001u64],
-            (-1, 1),
-            false,
-            0,
-            &mut out[..1],
-            &mut a,
-            &mut t,
-        );
-        assert_eq!(out[0], 0b1_1100_0011);
+        runs_of(&[0b0111_0110u64], &[(1, 1), (0, 2)], true, 0, 1, &mut out);
+        assert_eq!(out, [0b0111_0110 >> 1, 0b0001_0000]);
+        runs_of(&[0b1000_0001u64], &[(0, 0), (-1, 1)], false, 0, 1, &mut out);
+        assert_eq!(out, [0b1000_0001, 0b1_1100_0011]);
     }
 }
