@@ -59,13 +59,24 @@ pub enum Error {
     #[error(transparent)]
     Machine(#[from] machine::MachineError),
     #[error(
-        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}); \
-         raise --max-bridge-length-px or --filter-radius"
+        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}) \
+         (every island should have been joined: this is a bug, please report it with the picture)"
     )]
     Floating {
         count: usize,
         x: u32,
         y: u32,
         area: usize,
+    },
+    /// The stencil differs from the thresholded picture by more than the limit the caller set
+    /// ([`pipeline::PhysicalConfig::max_change_pct`]); nothing was written.
+    #[error(
+        "the clean-up and the bridges changed {:.2} % of the picture, more than the limit of {limit_pct} %",
+        fidelity.changed_pct
+    )]
+    TooMuchChange {
+        /// What was measured (all of it, so a caller can say what changed most).
+        fidelity: report::Fidelity,
+        limit_pct: f64,
     },
 }

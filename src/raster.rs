@@ -175,6 +175,14 @@ pub struct TwoTone {
 /// Used by the topological filter (dilation and erosion by a disc) and by the bridge stage, whose
 /// walks follow the distance field's gradient where the grayscale source is flat.
 pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
+    squared_distance(bits, target, target)
+}
+
+/// [`squared_distance_to`] with the outside of the grid chosen explicitly: `frame_is_target` makes
+/// a virtual target row and column one step outside every border, `false` makes the outside count
+/// as nothing (distances are measured to targets inside the grid only; `INF`-like 1e20 where there
+/// is none).
+pub fn squared_distance(bits: &BitGrid, target: bool, frame_is_target: bool) -> Vec<f32> {
     let (w, h) = (bits.width as usize, bits.height as usize);
     const INF: f32 = 1e20;
     let mut d: Vec<f32> = bits
@@ -182,8 +190,8 @@ pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
         .iter()
         .map(|&b| if b == target { 0.0 } else { INF })
         .collect();
-    // The frame outside the image is material: a virtual target row/column one step outside.
-    let frame = target;
+    // The frame outside the image: a virtual target row/column one step outside.
+    let frame = frame_is_target;
     let mut f = vec![0f32; w.max(h) + 2];
     let mut out = vec![0f32; w.max(h) + 2];
     let mut v = vec![0usize; w.max(h) + 2];

@@ -17,8 +17,8 @@ pub struct Scale {
 }
 
 impl Default for Scale {
-    /// 0.1 mm per working pixel (254 dpi): the documented default when neither `--width-mm` nor
-    /// `--dpi` is given.
+    /// 0.1 mm per pixel (254 dpi): the documented default when neither `--width-mm` nor `--dpi`
+    /// is given (per pixel of the picture; supersampling divides it).
     fn default() -> Self {
         Scale { mm_per_px: 0.1 }
     }

@@ -108,8 +108,8 @@ fn across(out: &std::path::Path, r: &serde_json::Value) -> Vec<Measured> {
         .collect()
 }
 
-/// The same picture at `--width-mm 50` and `200`, in cardstock (bridges 1–5 mm) and in Mylar
-/// (1.5–7.5 mm). Before widths were in millimetres the 200 mm stencil got bridges four times as
+/// The same picture at `--width-mm 50` and `200`, in cardstock (bridges 1–4 mm) and in Mylar
+/// (1.5–6 mm). Before widths were in millimetres the 200 mm stencil got bridges four times as
 /// wide as the 50 mm one, up to 17.5 mm in cardstock, and some narrower than the minimum.
 #[test]
 fn the_same_picture_at_two_sizes_gets_bridges_in_the_materials_range() {

@@ -810,6 +810,9 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
             "big",
             "--width-mm",
             "400",
+            // The bed does not care how finely the picture is worked: skip the supersampling.
+            "--scale",
+            "1",
             "--allow-thin",
             "--emit",
             "svg,gcode",

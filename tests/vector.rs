@@ -274,7 +274,14 @@ fn width_mm_sets_the_size() {
     );
     assert!((r.width_mm.unwrap() - 120.0).abs() < 1e-9);
     assert!((r.height_mm.unwrap() - 60.0).abs() < 1e-9);
-    assert!((r.mm_per_px.unwrap() - 0.4).abs() < 1e-12);
+    // 0.4 mm per picture pixel; the working pixel is that over the automatic supersampling.
+    let k = r.scale_factor.unwrap() as f64;
+    assert!(
+        k > 1.0,
+        "0.4 mm pixels are coarse for cardstock's 0.5 mm features"
+    );
+    assert!((r.mm_per_px.unwrap() * k - 0.4).abs() < 1e-12);
+    assert!((r.mm_per_px.unwrap() * r.width_px as f64 - 120.0).abs() < 1e-9);
     assert_eq!(r.material.as_deref(), Some("cardstock"));
 }
 

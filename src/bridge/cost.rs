@@ -150,6 +150,17 @@ impl Norm {
         n
     }
 
+    /// Per-pixel prices of the fallback search's paths (see [`StepCost`]).
+    pub fn step_cost(&self, cfg: &BridgeConfig) -> StepCost {
+        let limit = cfg.max_length_px.max(1) as f64;
+        StepCost {
+            intensity: cfg.w_intensity as f32,
+            length: (cfg.w_length * self.alpha * (limit / self.typical_len).powf(self.alpha - 1.0))
+                as f32
+                + STEP_FLOOR,
+        }
+    }
+
     fn length_of(&self, len: f64) -> f64 {
         length(len, self.alpha) / self.typical_pow
     }
@@ -159,6 +170,35 @@ impl Norm {
             intensity: s.intensity / self.typical_len,
             length: self.length_of(s.len() as f64),
         }
+    }
+}
+
+/// What every pixel of a searched path costs at least, in the units of [`StepCost`], so that with
+/// both weights 0 the search still finds a shortest path (and never a zero-cost detour).
+const STEP_FLOOR: f32 = 1e-3;
+
+/// The cost of one pixel of a path found by the fallback search ([`super::strips::search`]),
+/// which runs Dijkstra and so needs a cost that adds up pixel by pixel. It is the strip cost's
+/// intensity and length terms per pixel, in units of ΣI (both multiplied by L̃):
+/// `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)`. L^α itself does not add up; its slope at the length
+/// limit `L_max` (`--max-bridge-length-px`) is what one more pixel of a strip that long costs, so
+/// a searched path, which is needed only where no walk under the limit exists, prices its length
+/// as the cost function does there. With the default weights and L̃ ≈ 10 px a pixel of length
+/// costs about 6.7 pixels of black: a detour over light gray is taken only when it is short.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepCost {
+    /// w0: the price of a pixel of pure black.
+    pub intensity: f32,
+    /// What each pixel costs for its length (never 0).
+    pub length: f32,
+}
+
+impl StepCost {
+    /// The cost of cut pixel `p` (linear index) as part of a path.
+    #[inline]
+    pub fn at(&self, gray: &Gray, p: u32) -> f32 {
+        let d = 1.0 - gray.data[p as usize];
+        self.intensity * d * d + self.length
     }
 }
 
@@ -365,5 +405,29 @@ mod tests {
         assert!((sc.intensity - 0.5).abs() < 1e-12);
         assert!((sc.length - 1.0).abs() < 1e-12);
         assert!(n.missing.length > 1.0);
+    }
+
+    #[test]
+    fn a_search_step_prices_darkness_and_length() {
+        let cfg = BridgeConfig::default();
+        let n = Norm::new(vec![10; 5], &cfg);
+        let step = n.step_cost(&cfg);
+        // Length: the slope of (L/10)^1.5 at L = 200, times 10: 1.5 × √20.
+        assert!((step.length - (1.5 * 20f32.sqrt() + STEP_FLOOR)).abs() < 1e-4);
+        let gray = Gray {
+            width: 3,
+            height: 1,
+            data: vec![0.0, 0.5, 1.0],
+        };
+        assert!((step.at(&gray, 0) - step.length - 1.0).abs() < 1e-6);
+        assert!((step.at(&gray, 1) - step.length - 0.25).abs() < 1e-6);
+        assert_eq!(step.at(&gray, 2), step.length);
+        // No weights: still a positive price per pixel.
+        let zero = BridgeConfig {
+            w_intensity: 0.0,
+            w_length: 0.0,
+            ..cfg
+        };
+        assert!(n.step_cost(&zero).at(&gray, 0) > 0.0);
     }
 }

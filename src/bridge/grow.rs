@@ -165,7 +165,14 @@ pub struct Plan {
 ///   loose spokes;
 /// - narrower than the minimum somewhere (an outline corner running into a pocket of cut, say at
 ///   the image's edge, leaves a wedge of material that tapers to nothing);
-/// - wider than the maximum somewhere (strips converging on a small island start far apart).
+/// - still wider than the maximum somewhere after dropping outer strips: a bridge wider than the
+///   maximum anywhere (strips converging on a small island start far apart, a moderate fan
+///   spreads, outer strips bulge out of the outline) first loses outer strips, from the side that
+///   narrows it more, so a fan never grows past the material's widest bridge.
+///
+/// A single strip that does not run straight (a path of the fallback search, which may bend
+/// around material on its way) is only thickened to the minimum width: a straight band between
+/// its ends could cross the picture elsewhere.
 ///
 /// A moderate fan keeps its filled outline; if that costs more than the strips promised, the
 /// support rule halves it.
@@ -214,6 +221,20 @@ pub fn plan(
             || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
             || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
             || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
+    if n == 1 && !runs_straight(member_strips[0].0, bits.width) {
+        // A bent path: its outline is no axis to measure across, nor to draw a band along.
+        let (s, _) = member_strips[0];
+        let brush = ((min_width as f64 - 1.0) / 2.0).ceil().max(0.0) as i64;
+        let seal = (min_width as usize).pow(2);
+        let (pixels, real) = draw(bits, gray, &polygon, &[s], brush, seal);
+        return Plan {
+            pixels,
+            polygon,
+            real,
+            width: min_width,
+            length,
+        };
+    }
     if !fan {
         // Never wider than the maximum: strips converging on a smaller island start farther apart
         // than they land, and a moderate fan spreads; drop outer strips, from the side that
@@ -243,7 +264,7 @@ pub fn plan(
             let m = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
             // A run across measures up to a pixel less than the strips it crosses at a slant.
             let narrowest = m.narrowest + 1.0;
-            if narrowest < min_width as f64 - ACROSS_SLACK {
+            if narrowest < min_width as f64 - ACROSS_SLACK || m.middle.is_infinite() {
                 break;
             }
             if m.widest <= max_width as f64 + 0.5 {
@@ -350,8 +371,38 @@ fn band(
         (min_width as usize).pow(2),
     );
     // The outline reported stops at the nodes' edges: the check takes a neck inside a bridge's
-    // outline for part of the bridge, and the nodes' own webs are not.
-    let polygon = outline(short.max(0.5), short.max(0.5));
+    // outline for part of the bridge, and the nodes' own webs are not. Where a node's edge is
+    // hollow across the band (the inside of a ring seen from within it, a step of the picture's
+    // pixels), its material reaches toward the other end beside the axis: the outline stops where
+    // the band first meets it, in its own rows or the rows just beside it (pixels 4-adjacent to
+    // the band). Material that runs on alongside the band (another island beside it) is no edge.
+    let reported = |p: [f64; 2], dir: [f64; 2]| {
+        if short > 0.0 {
+            return short;
+        }
+        let limit = (len / 2.0 - 0.5).max(0.0);
+        let (ux, uy) = (-d[1], d[0]);
+        let material = |q: [f64; 2]| bits.get_or_frame(q[0].floor() as i64, q[1].floor() as i64);
+        let mut pull = 0.0f64;
+        let mut u = -(half + 0.5);
+        while u <= half + 0.5 + 1e-9 {
+            let q0 = [p[0] + ux * u + nx, p[1] + uy * u + ny];
+            if material(q0) {
+                let mut e = 0.5;
+                while e - 0.5 < limit
+                    && material([q0[0] + dir[0] * (e + 0.5), q0[1] + dir[1] * (e + 0.5)])
+                {
+                    e += 0.5;
+                }
+                if e - 0.5 < limit {
+                    pull = pull.max(e - 0.5);
+                }
+            }
+            u += 1.0;
+        }
+        0.5 - pull
+    };
+    let polygon = outline(reported(a, d), reported(b, [-d[0], -d[1]]));
     Plan {
         pixels,
         polygon,
@@ -510,6 +561,11 @@ pub struct Across {
     /// run across of the bridge's own pixels if that is longer (outer strips bulging out of the
     /// outline, thickening).
     pub widest: f64,
+    /// The run of material across it at the middle of its axis: infinite when that line leaves
+    /// through the bridge's ends into the nodes without meeting the cut on either side (a short,
+    /// wide fan whose ends are slanted to its axis), so that no width at right angles to the
+    /// bridge can be told there.
+    pub middle: f64,
 }
 
 /// Sample step along a line across a bridge, px.
@@ -529,14 +585,17 @@ const END_MARGIN: f64 = 0.75;
 /// slant). The narrowest is the smallest station width: a wedge of the fill tapering into a
 /// pocket of cut shows there, while the island material beside a slanted end counts as the width
 /// it is. The widest is the longest run of the bridge's own pixels on any of these lines, or the
-/// outline's widest chord. Runs are measured through the pixel squares, so a band at a slant measures up to a
-/// pixel less than its count of strips (the staircase pixel of [`crate::check::allowance_px`]).
+/// outline's widest chord. Runs are measured through the pixel squares, so a band at a slant
+/// measures up to a pixel less than its count of strips (the staircase pixel of
+/// [`crate::check::allowance_px`]). The station at the middle of the axis is also kept on its
+/// own ([`Across::middle`]).
 pub fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Across {
     let mut widest = widest(polygon);
     let Some(axis) = Axis::new(polygon) else {
         return Across {
             narrowest: f64::INFINITY,
             widest,
+            middle: f64::INFINITY,
         };
     };
     let [s0, e0, e1, s1] = [polygon[0], polygon[1], polygon[2], polygon[3]];
@@ -581,7 +640,12 @@ pub fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64)
     if stations.is_empty() {
         stations.push((axis.tmin + axis.tmax) / 2.0);
     }
-    for t in stations {
+    // The middle of the axis, halfway from the middle of the start to the middle of the end: the
+    // last station.
+    stations.push(axis.mid);
+    let at_mid = stations.len() - 1;
+    let mut middle = f64::INFINITY;
+    for (k, t) in stations.into_iter().enumerate() {
         let Some((lo, hi)) = axis.chord(t) else {
             continue;
         };
@@ -622,12 +686,19 @@ pub fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64)
         }
         if let Some(b) = best {
             narrowest = narrowest.min(b);
+            if k == at_mid {
+                middle = b;
+            }
         }
     }
     narrowest = narrowest.min(along_edges(bits, pixels, |x, y| {
         drawn_at([x as f64 + 0.5, y as f64 + 0.5])
     }));
-    Across { narrowest, widest }
+    Across {
+        narrowest,
+        widest,
+        middle,
+    }
 }
 
 /// Where a bridge reaches the image's edge, the cut on either side of it meets the sheet beyond
@@ -686,6 +757,8 @@ struct Axis {
     q: Vec<(f64, f64)>,
     tmin: f64,
     tmax: f64,
+    /// Where along it the middle of the axis lies.
+    mid: f64,
 }
 
 impl Axis {
@@ -708,12 +781,14 @@ impl Axis {
         let (tmin, tmax) = q.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
             (lo.min(p.0), hi.max(p.0))
         });
+        let m = halfway(a, b);
         Some(Axis {
             d,
             nv,
             q,
             tmin,
             tmax,
+            mid: m[0] * d[0] + m[1] * d[1],
         })
     }
 
@@ -837,6 +912,42 @@ fn crosses(q: &[[f64; 2]]) -> bool {
         side(a, b, c) * side(a, b, d) < 0.0 && side(c, d, a) * side(c, d, b) < 0.0
     };
     q.len() == 4 && (cut(q[0], q[1], q[2], q[3]) || cut(q[1], q[2], q[3], q[0]))
+}
+
+/// Whether every pixel of `strip` lies within a pixel of the line through its first and last
+/// pixels (a strip as the walks make it, or a search path that was straightened).
+fn runs_straight(strip: &Strip, image_width: u32) -> bool {
+    let xy = |p: u32| [(p % image_width) as f64, (p / image_width) as f64];
+    let (Some(&first), Some(&last)) = (strip.pixels.first(), strip.pixels.last()) else {
+        return true;
+    };
+    let (a, b) = (xy(first), xy(last));
+    let len = dist(a, b);
+    let off = |q: [f64; 2]| ((q[0] - a[0]) * (b[1] - a[1]) - (q[1] - a[1]) * (b[0] - a[0])).abs();
+    len == 0.0 || strip.pixels.iter().all(|&p| off(xy(p)) <= len)
+}
+
+/// The outline of a bridge drawn as one thickened strip (a path of the fallback search), when that
+/// strip runs straight (every pixel within a pixel of the line through its first and last): the
+/// band `width` wide from its candidate `start` to where it lands, as a fan is drawn, so that the
+/// check knows it for a bridge. The band lies inside the thickened pixels (the brush reaches
+/// `⌈(width − 1)/2⌉ + ½` px either side of the strip). `None` for a bent strip, whose outline stays
+/// the segment [`plan`] gives it.
+pub fn straight_band(
+    start: (u32, u32),
+    strip: &Strip,
+    width: u32,
+    image_width: u32,
+) -> Option<Vec<[f64; 2]>> {
+    if strip.pixels.is_empty() || !runs_straight(strip, image_width) {
+        return None;
+    }
+    let centre = |x: f64, y: f64| [x + 0.5, y + 0.5];
+    Some(band_outline(
+        centre(start.0 as f64, start.1 as f64),
+        centre(strip.end.0 as f64, strip.end.1 as f64),
+        width as f64 / 2.0,
+    ))
 }
 
 /// The rectangle of half-width `half` around the segment from `a` to `b`.
@@ -1235,5 +1346,81 @@ mod tests {
             .filter(|&i| corner((i % 20) as i64, (i / 20) as i64))
             .collect();
         assert_eq!(along_edges(&bits, &pixels, corner), f64::INFINITY);
+    }
+
+    #[test]
+    fn a_bent_single_strip_is_thickened_along_its_path_not_drawn_as_a_straight_band() {
+        // An island at the lower right and a block of material between it and the top edge; a
+        // path of the fallback search leaves the island to the left, then runs up past the
+        // block's left end to the sheet beyond the top edge.
+        let (w, h) = (40u32, 40u32);
+        let island = |x: u32, y: u32| (30..35).contains(&x) && (30..35).contains(&y);
+        let block = |x: u32, y: u32| (10..38).contains(&x) && (15..20).contains(&y);
+        let t = TwoTone {
+            gray: Gray::new(w, h, 0.0),
+            bits: BitGrid::from_fn(w, h, |x, y| island(x, y) || block(x, y)),
+        };
+        let (m, c, mut st) = walk_all(&t);
+        let node = m.label(32, 32);
+        let id = c.id_at(&m, node, 30, 30).unwrap();
+        let mut pixels: Vec<u32> = (5..30).rev().map(|x| 30 * w + x).collect();
+        pixels.extend((0..30).rev().map(|y| y * w + 5));
+        st[id] = Some(Strip {
+            from: node,
+            to: 0,
+            pixels: pixels.clone(),
+            end: (5, -1),
+            intensity: 0.0,
+        });
+        let cfg = BridgeConfig {
+            min_width_px: 5,
+            max_width_px: 20,
+            ..Default::default()
+        };
+        let p = plan(&t.bits, &t.gray, &c, &st, &[id], &cfg, 5);
+        assert_eq!(p.width, 5);
+        // Every pixel drawn lies within the brush (2 px) of the path.
+        for &q in &p.pixels {
+            let (x, y) = ((q % w) as i64, (q / w) as i64);
+            let near = pixels.iter().any(|&s| {
+                let (sx, sy) = ((s % w) as i64, (s / w) as i64);
+                (x - sx).abs().max((y - sy).abs()) <= 2
+            });
+            assert!(near, "({x}, {y}) is off the path");
+        }
+        let mut b = t.bits.clone();
+        commit(&mut b, &p.pixels);
+        let after = label(&b);
+        assert_eq!(after.label(32, 32), 0, "the island is joined to the frame");
+    }
+
+    #[test]
+    fn a_band_reaching_a_hollow_edge_is_outlined_from_where_it_first_meets_it() {
+        // Material above (y < 5); below, a node whose edge is hollow toward the band (9 px wide,
+        // columns 16..25): at y = 30 under it, from y = 26 right beside it. The band's pixels of
+        // row 26 are the first to touch it; a flat edge is met at row 30 across the whole band.
+        let (w, h) = (41u32, 40u32);
+        let hollow = |x: u32, y: u32| y < 5 || y >= 30 || (y >= 26 && !(16..25).contains(&x));
+        let flat = |_: u32, y: u32| y < 5 || y >= 30;
+        let cases: [(&str, &dyn Fn(u32, u32) -> bool, f64); 2] =
+            [("hollow", &hollow, 27.0), ("flat", &flat, 31.0)];
+        for (name, f, end) in cases {
+            let bits = BitGrid::from_fn(w, h, f);
+            let gray = Gray::new(w, h, 0.0);
+            // The axis from the last pixel of the top node to the first of the bottom one.
+            let p = band(&bits, &gray, [[20.5, 4.5], [20.5, 30.5]], 9, 3, 25.0);
+            let ys: Vec<f64> = p.polygon.iter().map(|q| q[1]).collect();
+            let (top, bottom) = (
+                ys.iter().copied().fold(f64::INFINITY, f64::min),
+                ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            );
+            assert_eq!(top, 4.0, "{name}: {:?}", p.polygon);
+            assert_eq!(bottom, end, "{name}: {:?}", p.polygon);
+            // Drawn, it joins the two nodes across its whole width.
+            let mut b = bits.clone();
+            commit(&mut b, &p.pixels);
+            assert!((16..25).all(|x| (5..30).all(|y| b.get(x, y))), "{name}");
+            assert_eq!(label(&b).island_count(), 0, "{name}");
+        }
     }
 }

@@ -6,15 +6,18 @@
 //!    two-tone's where the gray is flat) to material of another node;
 //! 3. [`cost`]: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
 //!    as wide as the bridge needs, cheapest kept;
-//! 4. [`tree`]: Prim from the frame over island groups, edge cost = cheapest window between them,
-//!    with a breadth-first search as the fallback when no walk leaves a group;
+//! 4. [`tree`]: Prim from the frame over island groups, edge cost = cheapest window between them;
+//!    a group no walk leaves is joined by the cheapest path through the cut of any length
+//!    ([`strips::search`]), so every island is joined: the length limit is a preference (walks
+//!    under it come first), not a cut-off;
 //! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
 //!
 //! Work is in proportion to the islands' total perimeter times the walk length: the fields the
 //! walks steer by are evaluated only where they walk. The only O(pixels) steps are copying the
-//! bit grid for the result and the caller's labelling.
+//! bit grid for the result, the caller's labelling and, only when some group needs it, the
+//! fallback search (each search explores at most the cut, and stops at its first arrival).
 //!
 //! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
 //! added, names kept.
@@ -53,7 +56,11 @@ pub struct BridgeConfig {
     pub w_variance: f64,
     /// Exponent of the length penalty, 1 < α < 2; default 1.5.
     pub alpha: f64,
-    /// Walks longer than this are dropped; default 200 px.
+    /// Length limit of the walks, default 200 px: a preference, not a cut-off. Walks longer than
+    /// this are dropped, so an island is joined by a strip under it when one exists; a group of
+    /// islands left with none is joined by the cheapest path through the cut of any length
+    /// ([`strips::search`], whose per-pixel length price is the L^α term's slope at this limit,
+    /// see [`cost::StepCost`]), and its bridge is marked [`Via::Search`].
     pub max_length_px: u32,
     /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
     /// to it at its narrowest. `stencil make` sets it from the material's `min_bridge_mm` (see
@@ -62,6 +69,9 @@ pub struct BridgeConfig {
     /// Widest bridge, default 40 px: none is drawn wider, at right angles to it. `stencil make`
     /// sets it from the material's `max_bridge_mm`.
     pub max_width_px: u32,
+    /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
+    /// `max_bridge_mm`).
+    pub max_width_given: bool,
     /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
     /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
     /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
@@ -82,6 +92,7 @@ impl Default for BridgeConfig {
             max_length_px: 200,
             min_width_px: 3,
             max_width_px: 40,
+            max_width_given: false,
             support_margin: 0.5,
         }
     }
@@ -97,6 +108,18 @@ pub struct CostTerms {
     pub total: f64,
 }
 
+/// How a bridge's strip was found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Via {
+    /// A walk along the gradient, under the length limit (the paper's strips).
+    #[default]
+    Walk,
+    /// The fallback search: no walk under the length limit left the island's group, so it is
+    /// joined by the cheapest path through the cut, of any length.
+    Search,
+}
+
 /// One bridge: a run of neighbouring strips, drawn as material.
 #[derive(Clone, Debug)]
 pub struct Bridge {
@@ -110,9 +133,12 @@ pub struct Bridge {
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
     pub support: bool,
+    /// Whether its strip is a walk or the fallback search's path.
+    pub via: Via,
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
-    /// strip, its end, end of the last strip, its start.
+    /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
+    /// outlined as the band of its width instead; see [`grow::straight_band`]).
     pub polygon: Vec<[f64; 2]>,
 }
 
@@ -125,13 +151,14 @@ pub struct Bridged {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BridgeError {
-    #[error("island {island} at pixel ({x}, {y}) could not be joined: {reason}")]
-    Unreachable {
-        island: u32,
-        x: u32,
-        y: u32,
-        reason: String,
-    },
+    /// No path through the cut leaves the island's group. Never for a labelling of the bit grid
+    /// given (a path to another node or to the image edge always exists): the island map passed
+    /// in does not describe the bits.
+    #[error(
+        "island {island} at pixel ({x}, {y}) has no path through the cut to the frame or another \
+         island: the island map does not match the bit grid"
+    )]
+    Unreachable { island: u32, x: u32, y: u32 },
     #[error("bridge setting {name} = {value} is invalid: {why}")]
     BadSetting {
         name: &'static str,
@@ -191,6 +218,8 @@ struct Graph {
     norm: cost::Norm,
     /// Candidates by the (sorted) pair of nodes their strip joins.
     by_pair: HashMap<(u32, u32), Vec<usize>>,
+    /// Candidates from this id on were added by the fallback search ([`add_found_strip`]).
+    walked: usize,
 }
 
 fn pair(a: u32, b: u32) -> (u32, u32) {
@@ -269,8 +298,10 @@ pub fn connect_timed(
         });
     }
     prim.grow();
+    let step = g.norm.step_cost(cfg);
+    let mut scratch = strips::SearchScratch::default();
     while let Some(group) = prim.stranded() {
-        let found = strips::search(&fields, map, &group, cfg.max_length_px as usize);
+        let found = strips::search(&fields, map, &group, &step, &mut scratch);
         let Some(((sx, sy), strip)) = found else {
             let island = group.iter().position(|&m| m).unwrap_or(1) as u32;
             let (x, y) = map.nodes[island as usize]
@@ -278,22 +309,7 @@ pub fn connect_timed(
                 .first()
                 .copied()
                 .unwrap_or((0, 0));
-            let others = group.iter().filter(|&&m| m).count() - 1;
-            let with = if others > 0 {
-                format!(" (nor from the {others} island(s) it can already reach)")
-            } else {
-                String::new()
-            };
-            return Err(BridgeError::Unreachable {
-                island,
-                x,
-                y,
-                reason: format!(
-                    "no path through the cut of at most {} px from its border{with} reaches the frame \
-                     or another island; raise --max-bridge-length-px",
-                    cfg.max_length_px
-                ),
-            });
+            return Err(BridgeError::Unreachable { island, x, y });
         };
         let (a, b) = (strip.from, strip.to);
         let id = add_found_strip(&mut g, map, cfg, (sx, sy), strip);
@@ -358,6 +374,7 @@ fn build_graph(
         .with_min_len(1024)
         .map(|s| s.as_ref().map(|s| norm.strip(s)))
         .collect();
+    let walked = cands.len();
     let mut g = Graph {
         cands,
         strips,
@@ -365,6 +382,7 @@ fn build_graph(
         scores: Vec::new(),
         norm,
         by_pair: HashMap::new(),
+        walked,
     };
     g.scores = (0..g.cands.len())
         .into_par_iter()
@@ -407,7 +425,8 @@ fn score_one(
 
 /// Add a strip found by the fallback search as a candidate of its own (a one-candidate chain at
 /// its start pixel), so it never replaces a walked strip another edge may still need, and score
-/// it. Such a bridge cannot grow along the border; it is thickened to the minimum width instead.
+/// it. Such a bridge cannot grow along the border; [`grow::plan`] thickens it to the minimum width
+/// instead, whatever its length.
 fn add_found_strip(
     g: &mut Graph,
     map: &IslandMap,
@@ -451,11 +470,22 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
         plan = make(&members, half);
         support_at = next_cheapest(g, id, &members, &plan, half);
     }
-    let mut out = vec![to_bridge(nodes, score, plan, false)];
+    let via = |id: usize| {
+        if id < g.walked {
+            Via::Walk
+        } else {
+            Via::Search
+        }
+    };
+    if via(id) == Via::Search {
+        let band = grow::straight_band(g.cands.pixels[id], strip, plan.width, two.bits.width);
+        plan.polygon = band.unwrap_or(plan.polygon);
+    }
+    let mut out = vec![to_bridge(nodes, score, plan, false, via(id))];
     if let Some(sid) = support_at {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, sid, half, cfg);
         if let Some(s) = g.scores[sid] {
-            out.push(to_bridge(nodes, s, make(&members, half), true));
+            out.push(to_bridge(nodes, s, make(&members, half), true, via(sid)));
         }
     }
     out
@@ -466,6 +496,7 @@ fn to_bridge(
     score: cost::Scored,
     plan: grow::Plan,
     support: bool,
+    via: Via,
 ) -> (Bridge, Vec<u32>) {
     let bridge = Bridge {
         nodes,
@@ -474,6 +505,7 @@ fn to_bridge(
         pixels: plan.pixels.len(),
         cost: score.terms,
         support,
+        via,
         polygon: plan.polygon,
     };
     (bridge, plan.pixels)
@@ -727,38 +759,99 @@ mod tests {
     }
 
     #[test]
-    fn an_island_beyond_the_length_limit_is_named_in_the_error() {
+    fn an_island_beyond_the_length_limit_is_joined_by_the_search() {
         let bits = BitGrid::from_fn(60, 60, |x, y| {
             (25..35).contains(&x) && (25..35).contains(&y)
         });
         let two = black_white(bits);
-        let map = label(&two.bits);
         let cfg = BridgeConfig {
             max_length_px: 10,
             ..Default::default()
         };
-        match connect(&two, &map, &cfg) {
-            Err(BridgeError::Unreachable {
-                island,
-                x,
-                y,
-                reason,
-            }) => {
-                assert_eq!(island, 1);
-                assert!((25..35).contains(&x) && (25..35).contains(&y));
-                assert!(reason.contains("10 px"), "{reason}");
-            }
-            other => panic!("expected Unreachable, got {other:?}"),
+        // No walk of at most 10 px reaches the image edge 25 px away: once a cut-off, now the
+        // search joins it, by a bridge longer than the limit, marked as such.
+        let out = connect_and_check(&two, &cfg);
+        assert_eq!(out.bridges.len(), 1);
+        let b = &out.bridges[0];
+        assert_eq!(b.via, Via::Search);
+        assert!(b.length_px > 10.0, "{b:?}");
+        // With the default limit a walk joins it.
+        let out = connect_and_check(&two, &BridgeConfig::default());
+        assert!(out.bridges.iter().all(|b| b.via == Via::Walk));
+    }
+
+    #[test]
+    fn an_island_500_px_from_anything_is_joined() {
+        // A frame band 10 px wide round a black field; a 20 × 20 island in the middle, 500 px from
+        // the band on every side (and from the image edge beyond it): no walk of 200 px gets out.
+        let n = 10 + 500 + 20 + 500 + 10;
+        let island = |v: u32| (510..530).contains(&v);
+        let bits = BitGrid::from_fn(n, n, |x, y| {
+            x < 10 || y < 10 || x >= n - 10 || y >= n - 10 || (island(x) && island(y))
+        });
+        let two = black_white(bits);
+        let map = label(&two.bits);
+        assert_eq!(map.island_count(), 1);
+        let cfg = BridgeConfig::default();
+        let out = connect(&two, &map, &cfg).unwrap();
+        assert_eq!(
+            islands::floating_count(&out.bits),
+            0,
+            "the island still floats"
+        );
+        assert_eq!(label(&out.bits).island_count(), 0);
+        for (&before, &after) in two.bits.data.iter().zip(&out.bits.data) {
+            assert!(!before || after, "material was cut");
         }
-        // With a long enough limit the same island is joined.
-        connect_and_check(&two, &BridgeConfig::default());
+        assert_eq!(out.bridges.len(), 1);
+        let b = &out.bridges[0];
+        assert_eq!((b.nodes, b.via, b.support), ([0, 1], Via::Search, false));
+        assert!(b.length_px >= 500.0, "{b:?}");
+        // Straight (along a row or a column, the shortest way over flat black) and as wide as
+        // the minimum all along: its added pixels fill a band min_width..min_width + 2 across.
+        let (w, min) = (n as usize, cfg.min_width_px as usize);
+        let added: Vec<(usize, usize)> = (0..two.bits.len())
+            .filter(|&i| out.bits.data[i] && !two.bits.data[i])
+            .map(|i| (i % w, i / w))
+            .collect();
+        assert_eq!(added.len(), b.pixels);
+        let span = |k: fn(&(usize, usize)) -> usize| {
+            added.iter().map(k).max().unwrap() - added.iter().map(k).min().unwrap() + 1
+        };
+        let across = span(|p| p.0).min(span(|p| p.1));
+        assert!((min..=min + 2).contains(&across), "{across} px across");
+        assert!(added.len() >= 500 * min, "{} pixels", added.len());
+        // Outlined as a band of the minimum width (so the check measures it as a bridge), lying
+        // on material: here an axis-aligned rectangle, every pixel centre inside it material.
+        let p = &b.polygon;
+        assert!(((p[0][0] - p[3][0]).hypot(p[0][1] - p[3][1]) - min as f64).abs() < 1e-9);
+        let (lo, hi) = p
+            .iter()
+            .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), q| {
+                (
+                    [lo[0].min(q[0]), lo[1].min(q[1])],
+                    [hi[0].max(q[0]), hi[1].max(q[1])],
+                )
+            });
+        assert!(
+            (hi[0] - lo[0]).min(hi[1] - lo[1]) >= min as f64 - 1e-9,
+            "{p:?}"
+        );
+        for y in lo[1].floor() as u32..=(hi[1].ceil() as u32).min(n - 1) {
+            for x in lo[0].floor() as u32..=(hi[0].ceil() as u32).min(n - 1) {
+                let c = (x as f64 + 0.5, y as f64 + 0.5);
+                if c.0 > lo[0] && c.0 < hi[0] && c.1 > lo[1] && c.1 < hi[1] {
+                    assert!(out.bits.get(x, y), "({x}, {y}) in the outline is cut");
+                }
+            }
+        }
     }
 
     #[test]
     fn fallback_search_joins_an_island_whose_walks_all_fail() {
         // A one-pixel bar whose normals all run more than 16 px to the frame, and a frame tooth
         // hanging from the top whose tip is 14 cut pixels away diagonally: no walk finds it,
-        // the breadth-first search does.
+        // the search does.
         let bits = BitGrid::from_fn(60, 60, |x, y| {
             (y == 30 && (20..=40).contains(&x)) || (x == 10 && y <= 25)
         });
@@ -774,10 +867,12 @@ mod tests {
         assert!((0..c.len()).all(|id| strips::walk_candidate(&fields, &c, id, 16).is_err()));
         let out = connect_and_check(&two, &cfg);
         assert_eq!(out.bridges.len(), 1);
+        assert_eq!(out.bridges[0].via, Via::Search);
+        // From the bar's left end to the tooth's tip: a straight band 3 px wide between them.
         let p = &out.bridges[0].polygon;
         assert!(
             p.iter()
-                .all(|q| (9.0..=21.0).contains(&q[0]) && (25.0..=31.0).contains(&q[1])),
+                .all(|q| (8.0..=22.0).contains(&q[0]) && (24.0..=32.0).contains(&q[1])),
             "{p:?}"
         );
     }

@@ -8,8 +8,10 @@ use clap::Args;
 
 use stencil::bridge::BridgeConfig;
 use stencil::export;
-use stencil::pipeline::{self, BridgeWidthPx, MakeConfig};
+use stencil::pipeline::{self, MakeConfig};
+use stencil::report::Fidelity;
 use stencil::tone::filter::{self, FilterConfig};
+use stencil::tone::resolution::ScaleCap;
 use stencil::tone::{Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
@@ -66,24 +68,30 @@ pub struct ImageArgs {
     #[arg(long, alias = "lit")]
     pub invert: bool,
     /// Supersample: upsample the picture smoothly by this factor (1..8) before thresholding, so
-    /// edges follow the picture rather than its pixels. The working image is this much larger.
-    #[arg(long, default_value_t = 1)]
-    pub scale: u32,
-    /// Refuse pictures with more pixels than this (checked from the header, before decoding).
+    /// edges follow the picture rather than its pixels; the working image has this many times
+    /// the pixels across, the picture keeps its size in mm. 1 turns supersampling off.
+    /// [default: automatic: the smallest factor that makes a working pixel at most a fifth of the
+    /// material's smallest feature and at most twice --tolerance-mm, within 16 megapixels and
+    /// --max-pixels; none at the default 0.1 mm per pixel with cardstock]
+    #[arg(long)]
+    pub scale: Option<u32>,
+    /// Refuse pictures with more pixels than this (checked from the header, before decoding),
+    /// and working images (after --scale) larger than this.
     #[arg(long, default_value_t = 100_000_000)]
     pub max_pixels: u64,
 }
 
-/// Topological filter options.
+/// Clean-up options.
 #[derive(Args, Debug, Clone)]
-#[command(next_help_heading = "Topological filter")]
+#[command(next_help_heading = "Clean-up")]
 pub struct FilterArgs {
-    /// Radius in pixels of the morphological opening and closing (0 = off): removes material and
-    /// cut features thinner than about twice this. Default: 1, raised to what the material's
-    /// smallest feature needs; a value given here is used as is (the width check still applies).
+    /// Instead of the default design-rule regularisation (every web and hole made at least the
+    /// material's min_feature_mm wide, each thin feature removed or widened, whichever changes the
+    /// picture less), apply the old morphological opening then closing by a disc of this radius in
+    /// pixels (0 = off) and --min-speck-px, as given (the width check still applies).
     #[arg(long)]
     pub filter_radius: Option<u32>,
-    /// Material or cut pieces smaller than this many pixels flip to the other tone.
+    /// With --filter-radius: material or cut pieces smaller than this many pixels flip tone.
     #[arg(long, default_value_t = 8)]
     pub min_speck_px: usize,
 }
@@ -110,16 +118,19 @@ pub struct BridgeArgs {
     /// Exponent of the length penalty, strictly between 1 and 2.
     #[arg(long, default_value_t = BridgeConfig::default().alpha, value_parser = parse_alpha)]
     pub alpha: f64,
-    /// Walks through the cut longer than this many pixels are dropped.
+    /// Preferred longest bridge, in pixels: walks through the cut longer than this are dropped, so
+    /// an island is bridged under it where it can be. An island with no walk under it is still
+    /// joined, by the cheapest path through the cut of any length (a note says so, and the bridge
+    /// is marked "via": "search" in report.json).
     #[arg(long, default_value_t = BridgeConfig::default().max_length_px)]
     pub max_bridge_length_px: u32,
-    /// Narrowest bridge in working pixels, overriding the material's `min_bridge_mm` (never below
-    /// it). By default a bridge is a quarter of the smaller island's side, √A / 4 for its area A in
-    /// mm², clamped to the material profile's min_bridge_mm..max_bridge_mm (max: 5 × min unless
-    /// the profile sets it), the same millimetres at any --width-mm.
-    #[arg(long)]
-    pub min_bridge_width_px: Option<u32>,
-    /// Widest bridge in working pixels, overriding the material's `max_bridge_mm`.
+    /// Narrowest bridge, in pixels, if wider than the material's min_bridge_mm. A bridge's width is
+    /// ⌈√A / 4⌉ px for the area A of the smaller island it joins (√A / 4 mm for its area in mm²,
+    /// whatever the size), clamped to the narrowest..widest range.
+    #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
+    pub min_bridge_width_px: u32,
+    /// Widest bridge, in pixels. Default: the material's max_bridge_mm (4 × min_bridge_mm unless
+    /// the profile says otherwise).
     #[arg(long)]
     pub max_bridge_width_px: Option<u32>,
     /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
@@ -130,34 +141,28 @@ pub struct BridgeArgs {
 }
 
 impl BridgeArgs {
-    pub fn to_config(&self) -> BridgeConfig {
-        BridgeConfig {
+    pub fn to_config(&self) -> anyhow::Result<BridgeConfig> {
+        let max = self.max_bridge_width_px.unwrap_or(u32::MAX);
+        anyhow::ensure!(
+            self.min_bridge_width_px >= 1 && self.min_bridge_width_px <= max,
+            "--min-bridge-width-px ({}) must be at least 1 and at most --max-bridge-width-px ({})",
+            self.min_bridge_width_px,
+            max
+        );
+        Ok(BridgeConfig {
             w_intensity: self.w_intensity,
             w_length: self.w_length,
             w_curvature: self.w_curvature,
             w_variance: self.w_variance,
             alpha: self.alpha,
             max_length_px: self.max_bridge_length_px,
+            min_width_px: self.min_bridge_width_px,
+            max_width_px: self
+                .max_bridge_width_px
+                .unwrap_or(BridgeConfig::default().max_width_px),
+            max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
-            // The widths come from the material (or the pixel overrides) in the pipeline.
-            ..BridgeConfig::default()
-        }
-    }
-
-    /// The pixel overrides of the material's bridge widths.
-    pub fn width_px(&self) -> anyhow::Result<BridgeWidthPx> {
-        let (min, max) = (self.min_bridge_width_px, self.max_bridge_width_px);
-        anyhow::ensure!(
-            min != Some(0) && max != Some(0),
-            "--min-bridge-width-px and --max-bridge-width-px must be at least 1"
-        );
-        if let (Some(lo), Some(hi)) = (min, max) {
-            anyhow::ensure!(
-                lo <= hi,
-                "--min-bridge-width-px ({lo}) must be at most --max-bridge-width-px ({hi})"
-            );
-        }
-        Ok(BridgeWidthPx { min, max })
+        })
     }
 }
 
@@ -165,8 +170,8 @@ impl BridgeArgs {
 #[command(after_help = "\
 Example:
   stencil make samples/rings.png -o out/rings --threshold otsu --w-curvature 2
-  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; the run fails
-  (and writes nothing) if any island cannot be joined to the frame.
+  writes out/rings/twotone.png, stencil.png, preview.png, stencil.svg and report.json; every island
+  is joined to the frame, by a longer path through the cut where no bridge is short enough.
   stencil make samples/rings.png --material mylar-0.19 --width-mm 200 --emit png,svg,dxf,mask
   sizes it to 200 mm, takes bridge and feature widths from the profile (see `stencil profiles`;
   default: cardstock) and fails if the check finds a bridge, web or hole too thin for it.
@@ -215,6 +220,31 @@ impl FilterArgs {
     }
 }
 
+/// Above this share of the picture changed, `make` warns.
+const WARN_CHANGE_PCT: f64 = 5.0;
+
+/// What a user can do when the stencil strays from the picture.
+const CHANGE_HINTS: &str = "to keep closer to the picture, make it larger (--width-mm or --dpi), \
+     choose a material with a smaller min_feature_mm (--material; `stencil profiles` lists them), \
+     move --threshold, or supersample with --scale 2..4";
+
+/// The fidelity figures on one line.
+fn change_line(f: &Fidelity) -> String {
+    format!(
+        "changed {:.2} % of the picture: {}",
+        f.changed_pct,
+        change_parts(f)
+    )
+}
+
+/// What changed it, stage by stage.
+fn change_parts(f: &Fidelity) -> String {
+    format!(
+        "clean-up removed {:.2} % material, added {:.2} %; bridges {:.2} %",
+        f.cleanup_removed_pct, f.cleanup_added_pct, f.bridges_pct
+    )
+}
+
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = MakeConfig {
         out_dir: a
@@ -225,8 +255,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         tone: a.image.to_config(),
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
-        bridge: a.bridge.to_config(),
-        bridge_width_px: a.bridge.width_px()?,
+        bridge: a.bridge.to_config()?,
         physical: a.physical.to_config()?,
         gcode: None,
     };
@@ -239,7 +268,28 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         )?,
         ..cfg
     };
-    let (made, written) = pipeline::make(&cfg)?;
+    let (made, written) = pipeline::make(&cfg).map_err(|e| match e {
+        stencil::Error::TooMuchChange {
+            fidelity,
+            limit_pct,
+        } => anyhow::anyhow!(
+            "{}: {:.2} % of the picture changed, over the --max-change limit of {limit_pct} %, \
+             so nothing was written ({}); {CHANGE_HINTS}",
+            cfg.input.display(),
+            fidelity.changed_pct,
+            change_parts(&fidelity),
+        ),
+        // Every other error names the input too (most already do, from the stage that read it).
+        e => {
+            let input = cfg.input.display().to_string();
+            let msg = e.to_string();
+            if msg.contains(&input) {
+                e.into()
+            } else {
+                anyhow::anyhow!("{input}: {msg}")
+            }
+        }
+    })?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -266,11 +316,69 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    print_working_scale(r);
+    if let Some(f) = &r.fidelity {
+        println!("{}", change_line(f));
+        if f.changed_pct > WARN_CHANGE_PCT {
+            eprintln!(
+                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {CHANGE_HINTS}"
+            );
+        }
+    }
+    print_long_joins(r, cfg.bridge.max_length_px);
     super::material::print_check(&made.check);
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One line when the picture was supersampled, or when a cap kept it coarser than the material
+/// and the tolerance ask for.
+fn print_working_scale(r: &stencil::report::Report) {
+    let (Some(k), Some(mm)) = (r.scale_factor, r.mm_per_px) else {
+        return;
+    };
+    let auto = r.scale_auto.as_ref();
+    if k > 1 {
+        let why = if auto.is_some() {
+            "so edges follow the picture"
+        } else {
+            "as --scale asked"
+        };
+        println!("supersampled {k}x ({mm:.3} mm per working pixel) {why}");
+    }
+    if let Some(a) = auto {
+        if let Some(cap) = a.capped_by {
+            let help = match cap {
+                ScaleCap::MaxFactor => "use a picture with more pixels",
+                ScaleCap::Memory => "use a picture with more pixels, or give --scale",
+                ScaleCap::MaxPixels => "raise --max-pixels",
+            };
+            println!(
+                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {cap}; \
+                 edges may show the picture's pixels ({help})",
+                a.target_mm_per_px, a.wanted
+            );
+        }
+    }
+}
+
+/// A note when some island had no walk under the length limit and was joined by the search.
+fn print_long_joins(r: &stencil::report::Report, limit: u32) {
+    let searched: Vec<_> = r
+        .bridges
+        .iter()
+        .filter(|b| b.via == stencil::bridge::Via::Search && !b.support)
+        .collect();
+    if let Some(longest) = searched.iter().map(|b| b.length_px).reduce(f64::max) {
+        println!(
+            "note: {} island group(s) had no bridge under --max-bridge-length-px ({limit} px) and \
+             were joined by the cheapest path through the cut instead (longest {longest:.0} px; \
+             \"via\": \"search\" in report.json)",
+            searched.len()
+        );
+    }
 }
 
 /// `stencil tone INPUT -o twotone.png`.
@@ -290,7 +398,13 @@ pub struct ToneCmdArgs {
 }
 
 pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
-    let (tt, _) = pipeline::two_tone(&a.input, &a.image.to_config(), &a.mesh.to_config()?)?;
+    // `tone` knows no size or material: the defaults choose the automatic factor.
+    let (tt, _, _) = pipeline::two_tone(
+        &a.input,
+        &a.image.to_config(),
+        &a.mesh.to_config()?,
+        &pipeline::PhysicalConfig::default(),
+    )?;
     let (bits, _) = filter::filter(&tt.bits, &a.filter.to_config());
     export::write_atomic(&a.out, &export::png::encode_bits(&bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;

@@ -36,10 +36,10 @@ pub enum EmitKind {
 #[command(next_help_heading = "Size, material and outputs")]
 pub struct PhysicalArgs {
     /// Width of the picture on the sheet in mm (the height follows). Without it and without
-    /// --dpi, one working pixel is 0.1 mm.
+    /// --dpi, one pixel of the picture is 0.1 mm (whatever --scale does to the working pixels).
     #[arg(long, conflicts_with = "dpi")]
     pub width_mm: Option<f64>,
-    /// Working pixels per inch (instead of --width-mm).
+    /// Pixels of the picture per inch (instead of --width-mm).
     #[arg(long)]
     pub dpi: Option<f64>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
@@ -60,6 +60,10 @@ pub struct PhysicalArgs {
     /// (the violations are still listed in report.json).
     #[arg(long)]
     pub allow_thin: bool,
+    /// Fail, writing nothing, if the clean-up and the bridges change more than PCT % of the
+    /// picture's pixels (the `changed` figure `make` prints; 0..100).
+    #[arg(long, value_name = "PCT", value_parser = parse_percent)]
+    pub max_change: Option<f64>,
     /// Write DXF R12 (POLYLINE/VERTEX/SEQEND) instead of R2000 LWPOLYLINEs, for old software.
     #[arg(long)]
     pub dxf_r12: bool,
@@ -76,6 +80,15 @@ pub struct PhysicalArgs {
     /// Add registration marks in the corners of the margin.
     #[arg(long)]
     pub mask_marks: bool,
+}
+
+fn parse_percent(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(p) if p.is_finite() && (0.0..=100.0).contains(&p) => Ok(p),
+        _ => Err(format!(
+            "'{s}' is not a percentage: use a number from 0 to 100"
+        )),
+    }
 }
 
 fn size(width_mm: Option<f64>, dpi: Option<f64>) -> Size {
@@ -100,6 +113,7 @@ impl PhysicalArgs {
                 ..Default::default()
             },
             allow_thin: self.allow_thin,
+            max_change_pct: self.max_change,
             emit: Emit {
                 png: has(EmitKind::Png),
                 svg: has(EmitKind::Svg),

@@ -29,24 +29,104 @@ pub fn encode_bits(bits: &BitGrid) -> Vec<u8> {
     encode_gray(bits.width, bits.height, &bits.to_u8())
 }
 
-/// Bridge colour in the preview: a saturated orange that no gray can be mistaken for.
+/// Preview colours (documented in the README's table of outputs). Bridges: a saturated orange
+/// that no gray can be mistaken for.
 pub const BRIDGE_RGB: [u8; 3] = [255, 110, 0];
+/// Material of the picture that the stencil cuts away (the clean-up removed it): magenta.
+pub const REMOVED_RGB: [u8; 3] = [230, 0, 160];
+/// Cut of the picture that the clean-up filled with material: bright blue.
+pub const ADDED_RGB: [u8; 3] = [0, 150, 255];
 
-/// The preview for a person: the source dimmed, cut regions dark, bridges bright.
-pub fn preview(gray: &Gray, before: &BitGrid, after: &BitGrid) -> Vec<u8> {
-    let mut rgb = Vec::with_capacity(before.len() * 3);
-    for i in 0..before.len() {
+/// The preview's long side is at least this many pixels: a small picture is enlarged by a whole
+/// factor, nearest-neighbour, so every working pixel stays a visible square.
+pub const PREVIEW_MIN_LONG_SIDE: u32 = 1000;
+
+/// The whole factor by which the preview enlarges a `width` × `height` picture: the smallest that
+/// brings its long side to [`PREVIEW_MIN_LONG_SIDE`], 1 for a picture already that large. The
+/// preview's long side is then under `PREVIEW_MIN_LONG_SIDE + long side`.
+pub fn preview_factor(width: u32, height: u32) -> u32 {
+    PREVIEW_MIN_LONG_SIDE.div_ceil(width.max(height).max(1))
+}
+
+/// The preview for a person, at working size times [`preview_factor`]: the source picture dimmed,
+/// light where the stencil has material and dark where it is cut, and in colour what the stencil
+/// changed: [`BRIDGE_RGB`] for bridges (material in `stencil` that is cut in `twotone`),
+/// [`ADDED_RGB`] for material the clean-up added (cut in `picture`, material in `twotone`), and
+/// [`REMOVED_RGB`] for material of the picture the stencil cuts away. `picture` is the thresholded
+/// picture, `twotone` the same after the clean-up, `stencil` after bridges.
+pub fn preview(gray: &Gray, picture: &BitGrid, twotone: &BitGrid, stencil: &BitGrid) -> Vec<u8> {
+    let (w, h) = (stencil.width as usize, stencil.height as usize);
+    let f = preview_factor(stencil.width, stencil.height) as usize;
+    let colour = |i: usize| -> [u8; 3] {
         let g = gray.data[i].clamp(0.0, 1.0);
-        let px = if after.data[i] && !before.data[i] {
-            BRIDGE_RGB
-        } else if after.data[i] {
-            let v = (140.0 + 115.0 * g) as u8;
-            [v, v, v]
-        } else {
-            let v = (20.0 + 50.0 * g) as u8;
-            [v, v, (v as f32 * 1.3) as u8]
-        };
-        rgb.extend_from_slice(&px);
+        match (picture.data[i], twotone.data[i], stencil.data[i]) {
+            (_, false, true) => BRIDGE_RGB,
+            (false, true, true) => ADDED_RGB,
+            (true, _, false) => REMOVED_RGB,
+            (_, _, true) => {
+                let v = (140.0 + 115.0 * g) as u8;
+                [v, v, v]
+            }
+            (_, _, false) => {
+                let v = (20.0 + 50.0 * g) as u8;
+                [v, v, (v as f32 * 1.3) as u8]
+            }
+        }
+    };
+    let row_len = w * f * 3;
+    let mut rgb = Vec::with_capacity(row_len * h * f);
+    for y in 0..h {
+        let start = rgb.len();
+        for i in y * w..(y + 1) * w {
+            let c = colour(i);
+            for _ in 0..f {
+                rgb.extend_from_slice(&c);
+            }
+        }
+        for _ in 1..f {
+            rgb.extend_from_within(start..start + row_len);
+        }
     }
-    encode_rgb(before.width, before.height, &rgb)
+    encode_rgb((w * f) as u32, (h * f) as u32, &rgb)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preview_factor_reaches_the_minimum_without_overshooting() {
+        assert_eq!(preview_factor(100, 40), 10);
+        assert_eq!(preview_factor(40, 101), 10, "1010 px");
+        assert_eq!(preview_factor(999, 10), 2);
+        assert_eq!(preview_factor(1000, 10), 1);
+        assert_eq!(
+            preview_factor(5000, 4000),
+            1,
+            "a large picture is not enlarged"
+        );
+        assert_eq!(preview_factor(0, 0), PREVIEW_MIN_LONG_SIDE);
+        for long in 1..3000 {
+            let side = long * preview_factor(long, 1);
+            assert!(side >= PREVIEW_MIN_LONG_SIDE && side < PREVIEW_MIN_LONG_SIDE + long);
+        }
+    }
+
+    #[test]
+    fn preview_paints_each_change_in_its_colour() {
+        // Columns: unchanged material, unchanged cut, bridge, added by the clean-up, removed.
+        let picture = BitGrid::from_rows(&["#...#"]);
+        let twotone = BitGrid::from_rows(&["#..#."]);
+        let stencil = BitGrid::from_rows(&["#.##."]);
+        let gray = Gray::new(5, 1, 1.0);
+        let png = preview(&gray, &picture, &twotone, &stencil);
+        let img = image::load_from_memory(&png).unwrap().to_rgb8();
+        assert_eq!((img.width(), img.height()), (1000, 200));
+        let at = |col: u32| img.get_pixel(col * 200 + 199, 199).0;
+        assert_eq!(at(0), [255, 255, 255]);
+        assert!(at(1)[0] < 80, "cut is dark: {:?}", at(1));
+        assert_eq!(at(2), BRIDGE_RGB);
+        assert_eq!(at(3), ADDED_RGB);
+        assert_eq!(at(4), REMOVED_RGB);
+    }
 }

@@ -17,6 +17,17 @@ use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
 
+/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4.
+///
+/// Why 4: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
+/// so a bridge many times wider adds strength that handling never calls on while it hides more of
+/// the picture. Four times the minimum still lets the width follow the island (the rule gives an
+/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 16 mm across get 1 to 4 mm,
+/// larger ones 4 mm, the 40 px the bridge stage allowed at the default 0.1 mm per pixel), and
+/// keeps bridges in the range laser-service and stencil guides draw (1–5 mm in card and film, up
+/// to 15 mm in 3 mm plywood).
+pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
+
 /// The material profiles shipped with the crate, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "copy-paper"),
@@ -29,16 +40,6 @@ pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "brass-0.3-etch"),
     shipped!("materials", "aluminium-gobo"),
 ];
-
-/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 5.
-///
-/// Why 5: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
-/// so a bridge many times wider adds strength that handling never calls on while it hides more of
-/// the picture. Five times the minimum still lets the width follow the island (the rule gives an
-/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 20 mm across get 1 to 5 mm,
-/// larger ones 5 mm), and keeps bridges in the range laser-service and stencil guides draw (1–5 mm
-/// in card and film, up to 15 mm in 3 mm plywood).
-pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 5.0;
 
 /// How the sheet is cut, with that process's settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -158,9 +159,11 @@ pub struct Material {
     pub thickness_mm: f64,
     /// Narrowest bridge the sheet holds (bridges are checked against this).
     pub min_bridge_mm: f64,
-    /// Widest bridge the bridge stage draws: an island's bridge is `k·√A` wide for its area `A`
-    /// in mm² (a quarter of its side), clamped to `min_bridge_mm..=max_bridge_mm`. Optional in a
-    /// profile; default [`DEFAULT_MAX_BRIDGE_RATIO`] × `min_bridge_mm`.
+    /// Widest bridge the bridge stage draws, measured at right angles to it: an island's bridge
+    /// is `k·√A` wide for its area `A` in mm² (a quarter of its side), clamped to
+    /// `min_bridge_mm..=max_bridge_mm`. Optional in a profile; default
+    /// [`DEFAULT_MAX_BRIDGE_RATIO`] × `min_bridge_mm`. A bridge wider than this hides more of the
+    /// picture than it adds strength.
     pub max_bridge_mm: f64,
     /// Narrowest web (material) or hole (cut) that survives cutting.
     pub min_feature_mm: f64,
@@ -227,6 +230,7 @@ impl Material {
         // Ranges: anything outside is a typo (a unit mix-up, a missing decimal point).
         check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
         check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+        check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
         let max_bridge_mm = f
             .max_bridge_mm
             .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
@@ -235,10 +239,9 @@ impl Material {
             "max_bridge_mm",
             max_bridge_mm,
             f.min_bridge_mm,
-            DEFAULT_MAX_BRIDGE_RATIO * 50.0,
+            200.0,
             "mm (at least min_bridge_mm)",
         )?;
-        check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
         check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
         if f.kerf_mm >= f.min_feature_mm {
             return Err(invalid(
@@ -367,9 +370,9 @@ mod tests {
     }
 
     #[test]
-    fn the_widest_bridge_defaults_to_five_times_the_narrowest_and_is_checked() {
+    fn the_widest_bridge_defaults_to_four_times_the_narrowest_and_is_checked() {
         let card = Material::default();
-        assert_eq!(card.max_bridge_mm, 5.0 * card.min_bridge_mm);
+        assert_eq!(card.max_bridge_mm, 4.0 * card.min_bridge_mm);
         let with = |line: &str| {
             let text = SHIPPED[1].text.replace(
                 "min_feature_mm = 0.5",

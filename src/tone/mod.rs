@@ -4,6 +4,8 @@
 pub mod filter;
 pub mod image;
 pub mod mesh;
+pub mod regularize;
+pub mod resolution;
 
 use std::path::PathBuf;
 
@@ -36,6 +38,19 @@ pub enum ToneError {
     Empty { path: PathBuf },
     #[error("--scale {0} is out of range: use 1 to 8")]
     BadScale(u32),
+    #[error(
+        "{path}: --scale {factor} makes {width}x{height} working pixels ({mp:.1} megapixels), above the \
+         limit of {limit_mp:.1} megapixels; lower --scale (or leave it out to let stencil choose) or \
+         raise --max-pixels"
+    )]
+    ScaleTooLarge {
+        path: PathBuf,
+        factor: u32,
+        width: u64,
+        height: u64,
+        mp: f64,
+        limit_mp: f64,
+    },
     #[error(transparent)]
     Mesh(#[from] mesh::MeshError),
 }
@@ -62,10 +77,12 @@ pub struct ToneConfig {
     /// Light is material by default (paint or light passes through the dark parts, which are cut).
     /// `invert` makes the dark parts material instead: the paper's "connect the lit regions".
     pub invert: bool,
-    /// Supersampling factor: the gray is upsampled smoothly by this factor before thresholding, so
-    /// edges follow the picture instead of its pixel staircase. 1 = off.
-    pub scale: u32,
-    /// Refuse images with more pixels than this, before decoding them.
+    /// Supersampling factor: the gray is upsampled smoothly by this factor (1..=8) before
+    /// thresholding, so edges follow the picture instead of its pixel staircase. 1 = off; `None`
+    /// = chosen from the material and the tolerance ([`resolution::auto`]).
+    pub scale: Option<u32>,
+    /// Refuse images with more pixels than this, before decoding them; a working image (after
+    /// supersampling) is never larger either.
     pub max_pixels: u64,
 }
 
@@ -74,7 +91,7 @@ impl Default for ToneConfig {
         ToneConfig {
             threshold: Threshold::default(),
             invert: false,
-            scale: 1,
+            scale: None,
             max_pixels: 100_000_000,
         }
     }

@@ -139,12 +139,19 @@ pub fn vectorize_design(
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
     let material = assemble(&rings, mm, outline);
+    // A bridge outline with no area (a bent searched path is drawn as its pixels and outlined as a
+    // line) adds nothing to the material but a zero-width spike to the union: left out.
     let bridges: Vec<Polygon<f64>> = bridges
         .iter()
-        .filter(|b| b.len() >= 3)
+        .filter(|b| b.len() >= 3 && trace::signed_area2(b).abs() >= 1.0)
         .map(|b| to_polygon(b, mm).orient(Direction::Default))
         .collect();
-    let (material, design_cuts) = union::union_bridges(material, &bridges);
+    // The bridges are in the raster already, as drawn and then settled where they meet the picture;
+    // their outlines (the end points of their outer strips) are kept to tell bridge necks apart in
+    // the check and for the SVG's BRIDGES layer, not unioned in: an outline that strays from the
+    // pixels it was drawn as (a fan's corner, an outline the settle has since widened around)
+    // would add a sliver of material no pixel holds.
+    let (material, design_cuts) = union::union_bridges(material, &[]);
     let geom = CutGeometry {
         width_mm: w,
         height_mm: h,
@@ -372,7 +379,9 @@ mod tests {
             let cut = (5..45).contains(&x) && (5..45).contains(&y);
             let a = (10..18).contains(&x) && (12..38).contains(&y);
             let b = (30..38).contains(&x) && (12..38).contains(&y);
-            !cut || a || b
+            // The bridges, drawn as the bridge stage draws them.
+            let bridges = (18..30).contains(&x) && ((13..17).contains(&y) || (33..37).contains(&y));
+            !cut || a || b || bridges
         });
         let top = vec![[17.0, 13.0], [31.0, 13.0], [31.0, 17.0], [17.0, 17.0]];
         let bottom = vec![[17.0, 33.0], [31.0, 33.0], [31.0, 37.0], [17.0, 37.0]];
@@ -424,16 +433,28 @@ mod tests {
     }
 
     #[test]
-    fn a_bridge_polygon_joins_the_island() {
-        let g = BitGrid::from_fn(30, 30, |x, y| {
-            let ring = (5..25).contains(&x) && (5..25).contains(&y);
-            let island = (12..18).contains(&x) && (12..18).contains(&y);
-            !ring || island
-        });
-        let bridge = vec![[13.0, 4.0], [17.0, 4.0], [17.0, 13.0], [13.0, 13.0]];
-        let (geo, _) = vectorize(&g, &[bridge], &VectorConfig::default()).unwrap();
+    fn a_drawn_bridge_joins_the_island_and_an_outline_alone_adds_nothing() {
+        let with = |drawn: bool| {
+            BitGrid::from_fn(30, 30, move |x, y| {
+                let ring = (5..25).contains(&x) && (5..25).contains(&y);
+                let island = (12..18).contains(&x) && (12..18).contains(&y);
+                let bridge = drawn && (13..17).contains(&x) && (5..12).contains(&y);
+                !ring || island || bridge
+            })
+        };
+        let outline = vec![[13.0, 4.0], [17.0, 4.0], [17.0, 13.0], [13.0, 13.0]];
+        let (geo, _) =
+            vectorize(&with(true), &[outline.clone()], &VectorConfig::default()).unwrap();
         assert_eq!(geo.material.0.len(), 1, "{:?}", geo.material);
         assert_eq!(geo.design_cuts.0.len(), 1);
         assert!(geo.design_cuts.0[0].interiors().is_empty());
+        assert_eq!(
+            geo.bridges.len(),
+            1,
+            "the outline is kept for the check and the SVG"
+        );
+        // The raster is the truth: an outline with no pixels under it joins nothing.
+        let (geo, _) = vectorize(&with(false), &[outline], &VectorConfig::default()).unwrap();
+        assert_eq!(geo.material.0.len(), 2);
     }
 }

@@ -22,6 +22,27 @@ pub fn ink_png(path: &Path, w: u32, h: u32, ink: impl Fn(u32, u32) -> bool) {
     write_gray_png(path, w, h, &data);
 }
 
+/// A picture anti-aliased as a scan or an export would be: `light` gives the gray (0 = ink, 1 =
+/// paper) at a point in pixel coordinates, and each pixel averages 16 × 16 samples of it.
+pub fn smooth_png(path: &Path, w: u32, h: u32, light: impl Fn(f64, f64) -> f64) {
+    const N: u32 = 16;
+    let mut data = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = 0.0;
+            for j in 0..N {
+                for i in 0..N {
+                    let sx = x as f64 + (i as f64 + 0.5) / N as f64;
+                    let sy = y as f64 + (j as f64 + 0.5) / N as f64;
+                    sum += light(sx, sy);
+                }
+            }
+            data.push((sum / (N * N) as f64 * 255.0).round().clamp(0.0, 255.0) as u8);
+        }
+    }
+    write_gray_png(path, w, h, &data);
+}
+
 /// Read an output PNG back as material bits (>= 128 is material).
 pub fn read_bits(path: &Path) -> BitGrid {
     let img = image::open(path)
