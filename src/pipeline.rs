@@ -195,9 +195,10 @@ fn widen_necks(
     scale: Scale,
     round: usize,
 ) -> bool {
-    let settled = bits.clone();
     let before = bits.count_material();
     let (w, h) = (bits.width, bits.height);
+    // Boxes around the necks, by the width they need: one settle per width.
+    let mut by_width: Vec<(f64, Vec<[u32; 4]>)> = Vec::new();
     for v in &chk.violations {
         let need_mm = match v.kind {
             check::ViolationKind::Floating => continue,
@@ -216,9 +217,15 @@ fn widen_necks(
             x + r + 1,
             y + r + 1,
         ];
-        settle_near(bits, &[bx], px, REPAIR_SPREAD);
+        match by_width.iter_mut().find(|(p, _)| *p == px) {
+            Some((_, boxes)) => boxes.push(bx),
+            None => by_width.push((px, vec![bx])),
+        }
     }
-    settle_all(bits, &settled, phys.feature_px(scale));
+    for (px, boxes) in &by_width {
+        settle_near(bits, boxes, *px, REPAIR_SPREAD);
+    }
+    settle_all(bits, phys.feature_px(scale));
     bits.count_material() != before
 }
 
@@ -242,7 +249,8 @@ impl std::fmt::Debug for dyn Progress {
     }
 }
 
-/// Stage timings, in milliseconds, keyed by stage name, and who to tell when a stage starts.
+/// Stage timings, in milliseconds, keyed by stage name (a stage that runs more than once, such as
+/// the trace and check after each neck repair, adds up), and who to tell when a stage starts.
 #[derive(Default)]
 pub struct Timings(pub BTreeMap<String, f64>, pub Option<Arc<dyn Progress>>);
 
@@ -253,9 +261,12 @@ impl Timings {
         }
         let t = Instant::now();
         let r = f();
-        self.0
-            .insert(name.to_string(), t.elapsed().as_secs_f64() * 1e3);
+        self.add(name, t.elapsed().as_secs_f64() * 1e3);
         r
+    }
+
+    pub fn add(&mut self, name: &str, ms: f64) {
+        *self.0.entry(name.to_string()).or_default() += ms;
     }
 }
 
@@ -388,14 +399,13 @@ fn vectorize_and_measure(
     material: &Material,
     timer: &mut Timings,
 ) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
-    // The check runs on the geometry as designed: "vector" includes it, "check" is its own time.
-    let (geom, vstats, (chk, check_ms)) = timer.time("vector", || {
-        let (geom, vstats) = vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)?;
-        let t = Instant::now();
-        let chk = check::check(&geom, material, bridges_px.is_some());
-        Ok::<_, Error>((geom, vstats, (chk, t.elapsed().as_secs_f64() * 1e3)))
+    let (geom, vstats) = timer.time("vector", || {
+        vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)
     })?;
-    timer.0.insert("check".to_string(), check_ms);
+    // The check runs on the geometry as designed (before kerf).
+    let chk = timer.time("check", || {
+        check::check(&geom, material, bridges_px.is_some())
+    });
     Ok((geom, vstats, chk?))
 }
 
@@ -467,7 +477,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
     timer.time("tidy", || {
         if reg_stats.is_some() {
-            settle_all(&mut bridged.bits, &twotone.bits, phys.feature_px(scale));
+            settle_all(&mut bridged.bits, phys.feature_px(scale));
             fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
         } else {
             bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
@@ -506,7 +516,9 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             break measured;
         }
         repairs += 1;
-        if !widen_necks(&mut bridged.bits, &measured.2, phys, scale, repairs) {
+        if !timer.time("repair", || {
+            widen_necks(&mut bridged.bits, &measured.2, phys, scale, repairs)
+        }) {
             break measured;
         }
     };

@@ -1,0 +1,999 @@
+//! Design-rule regularisation: the two-tone clean-up that makes every web of material and every
+//! hole of cut at least as wide as the material can hold, changing the picture as little as it can.
+//!
+//! ## The rule
+//! A phase (material or cut) is *wide enough* at a pixel when some disc of the required width that
+//! lies wholly in that phase covers the pixel: the pixel survives the morphological opening of its
+//! phase by that disc. A pixel that does not is *thin*. When neither phase has a thin pixel, every
+//! boundary point has a disc of the required width on both sides of it, so no neck of material
+//! (web) or of cut (hole) is narrower than the disc: at the narrowest chord across a region, the
+//! disc touching one end would reach past the other end. The disc holds the pixels whose centres
+//! lie within `span / 2` of its centre, `span` the required width rounded up to whole pixels; it
+//! is centred on a pixel for an odd span and on a pixel corner for an even one, so its rows and
+//! columns span exactly `span` pixels: a straight line or hole `span` pixels wide or more is wide
+//! enough as it is, and one pixel narrower is not. (On a pixel grid this is the rule up to about
+//! a pixel: the pipeline asks for the material's smallest feature plus one pixel, and widens what
+//! the width check of the traced outline still finds.)
+//!
+//! The outside of the picture is material (the sheet continues past the border, as in `islands`
+//! and the tracer): discs of material may lie partly outside, discs of cut may not. One exception:
+//! a cut filling a corner of the picture keeps its square corner (see `Work::corner_caps`); other
+//! square corners are rounded by the disc, a pixel or two, as any opening rounds them.
+//!
+//! ## Cost
+//! Each round recomputes thinness over the whole grid as the opening itself, an erosion and a
+//! dilation by the disc on bit-packed rows (64 pixels a word: a few shifts, ANDs and ORs per
+//! word and disc row; see `packed`), a millisecond or so a megapixel. How deep a thin pixel lies
+//! in its tone (which the ridge finder reads) is searched outward from its candidate centres only
+//! where a thin pixel is, nearest pixels first, and ends within the disc's radius.
+//!
+//! ## Deciding
+//! Thin pixels are grouped into features (8-connected). A thin feature can be *removed* (its
+//! pixels take the other tone: a web dropped, a hole filled) or *widened* (the other tone's pixels
+//! within the disc's radius of its ridge, the pixels farthest from its edges, take its tone, so a
+//! disc fits along it). Each choice is priced on the gray picture: a flipped pixel costs
+//! `0.1 + |gray − threshold|` (a pixel whose gray sits on the threshold could go either way; one far
+//! from it is plainly one tone), and the cheaper choice is made. Features that are wide enough are
+//! never touched, except where a neighbour's widening reaches into them.
+//!
+//! ## Why it ends
+//! Deciding runs in rounds, all features of a round at once. In the first phase (at most
+//! [`FREE_ROUNDS`] rounds) a pixel that has changed tone is locked: a choice that would change it
+//! back is not available, so no pixel flips twice and nothing oscillates. What is still thin after
+//! that is settled by a second, *monotone* phase: thin holes are filled and thin webs widened, both
+//! of which only add material. Opening is increasing, so a material pixel that is wide enough stays
+//! so when material is added; and each round adds at least one pixel (a thin web's ridge pixel
+//! farthest from the cut is thin, so its disc still holds a cut pixel, which widening fills; a thin
+//! hole's pixels are filled). Material grows strictly every round, so the second phase ends after at
+//! most as many rounds as there are cut pixels, with nothing thin left; in practice in a few.
+
+use serde::{Deserialize, Serialize};
+
+use rayon::prelude::*;
+
+use crate::raster::{BitGrid, Gray};
+
+mod packed;
+use packed::{thin, Packed};
+
+/// Rounds of cost-based deciding before the monotone phase settles what is left.
+pub const FREE_ROUNDS: usize = 4;
+
+/// Options of the regularisation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegularizeConfig {
+    /// The narrowest web of material and hole of cut, in working pixels.
+    pub min_width_px: f64,
+    /// The gray level (0..1) the two-tone was cut at: a flip costs more the farther its gray is.
+    pub threshold: f32,
+    /// True when material is the dark side (`--invert`): only for the cost, which is symmetric.
+    pub invert: bool,
+}
+
+/// What the regularisation changed, for the report.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct RegularizeStats {
+    /// The disc's span in pixels (the smallest odd number at least the required width).
+    pub disc_px: u32,
+    /// Thin webs of material removed and widened, and thin holes of cut filled and widened.
+    pub webs_removed: usize,
+    pub webs_widened: usize,
+    pub holes_filled: usize,
+    pub holes_widened: usize,
+    /// Material pixels that became cut, and cut pixels that became material (net, against the
+    /// input two-tone).
+    pub material_removed_px: usize,
+    pub material_added_px: usize,
+    /// Rounds of the cost-based phase and of the monotone phase.
+    pub rounds: usize,
+    pub monotone_rounds: usize,
+}
+
+/// The disc: `span` pixels across, centred on a pixel (odd span) or on a pixel corner (even
+/// span), holding the pixels whose centres lie within `span / 2` of its centre.
+#[derive(Clone, Copy, Debug)]
+struct Disc {
+    span: u32,
+    /// Squared radius, `(span / 2)²` and a hair, so pixels exactly on the circle count.
+    r2: f32,
+}
+
+impl Disc {
+    fn for_width(px: f64) -> Disc {
+        let span = if px.is_finite() && px > 1.0 {
+            (px - 1e-6).ceil().min(u32::MAX as f64 / 4.0) as u32
+        } else {
+            1
+        };
+        let r = span as f32 / 2.0;
+        Disc {
+            span,
+            r2: r * r + 1e-3,
+        }
+    }
+    /// Centres sit on pixel corners: the lattice is offset by half a pixel.
+    fn on_corners(&self) -> bool {
+        self.span.is_multiple_of(2)
+    }
+    /// How far a disc's pixels reach from its centre pixel, in whole pixels.
+    fn reach(&self) -> i64 {
+        self.span as i64 / 2
+    }
+}
+
+/// Offsets from a lattice point (a pixel, or a pixel corner for an even span) to the pixels its
+/// disc holds, nearest first, with their squared distances: the search for how deep a lattice
+/// point lies in its tone.
+fn ring(disc: Disc) -> Vec<(i64, i64, f32)> {
+    let k = disc.reach() + 1;
+    let half = if disc.on_corners() { 0.5f32 } else { 0.0 };
+    let mut v: Vec<(i64, i64, f32)> = (-k..=k)
+        .flat_map(|dy| (-k..=k).map(move |dx| (dx, dy)))
+        .map(|(dx, dy)| {
+            let (ex, ey) = (dx as f32 + half, dy as f32 + half);
+            (dx, dy, ex * ex + ey * ey)
+        })
+        .filter(|&(_, _, d)| d <= disc.r2)
+        .collect();
+    v.sort_by(|a, b| a.2.total_cmp(&b.2));
+    v
+}
+
+/// Per candidate centre of a pixel's widening (the pixel, or its corners in [`CORNERS`] order),
+/// the rows of pixels that centre's disc holds: `(dy, a, b)`, offsets `a..=b` along row `dy`
+/// from the pixel.
+fn paint(disc: Disc) -> Vec<Vec<(i64, i64, i64)>> {
+    let k = disc.reach() + 1;
+    let centres: Vec<(f32, f32)> = if disc.on_corners() {
+        CORNERS
+            .iter()
+            .map(|&(ox, oy)| (ox as f32 - 0.5, oy as f32 - 0.5))
+            .collect()
+    } else {
+        vec![(0.0, 0.0)]
+    };
+    centres
+        .into_iter()
+        .map(|(cx, cy)| {
+            (-k..=k)
+                .filter_map(|dy| {
+                    let inside = |dx: i64| {
+                        let (ex, ey) = (dx as f32 - cx, dy as f32 - cy);
+                        ex * ex + ey * ey <= disc.r2
+                    };
+                    let a = (-k..=k).find(|&dx| inside(dx))?;
+                    let b = (-k..=k).rev().find(|&dx| inside(dx))?;
+                    Some((dy, a, b))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// A working grid: a window of the picture padded by more than the disc's reach with material on
+/// every side (the frame: discs of material may reach past the picture's border), which of its
+/// pixels may change and what changing them costs, and both tones' thin pixels.
+struct Work<'a> {
+    /// Material, bit-packed; past the padded grid lies material too.
+    bits: Packed,
+    /// The price of flipping a pixel, in picture coordinates.
+    price: Box<dyn Fn(u32, u32) -> f32 + Sync + 'a>,
+    /// The pixels that may change, `[x0, y0, x1, y1)` in padded coordinates, and of those only
+    /// the ones set in `allowed` when there is one.
+    core: [usize; 4],
+    allowed: Option<Packed>,
+    /// The picture coordinates of padded pixel `(pad, pad)`.
+    origin: (u32, u32),
+    /// Per pixel: changed tone in the cost-based phase (may not change back there).
+    locked: Packed,
+    pad: u32,
+    /// Top-left corners (padded coordinates) of the span × span blocks at the picture's own
+    /// corners that lie in this window (see [`Work::corner_caps`]).
+    corners: Vec<(u32, u32)>,
+    disc: Disc,
+    ring: Vec<(i64, i64, f32)>,
+    /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
+    /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
+    paint: Vec<Vec<(i64, i64, i64)>>,
+    /// The thin pixels of material and of cut, as of the last [`Work::refresh`].
+    thin: [Packed; 2],
+    /// Per centre-lattice point next to a thin pixel, as of the last refresh: how deep it lies
+    /// in its tone, as twice its squared distance to the nearest pixel of another tone (a corner
+    /// between pixels of both tones: 1), or `u16::MAX` past the disc's radius. Points next to no
+    /// thin pixel hold stale values: only thin pixels' centres are read.
+    depth2: Vec<u16>,
+}
+
+/// The order in which a pixel's corners are tried as the centre of its widening.
+const CORNERS: [(i64, i64); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
+
+impl<'a> Work<'a> {
+    /// The window `x0..x1 × y0..y1` of `bits`, padded; pixels in `core` (window coordinates,
+    /// `[x0, y0, x1, y1)`) may change, priced by `price(x, y)` in picture coordinates.
+    fn new(
+        bits: &BitGrid,
+        window: [u32; 4],
+        core: [u32; 4],
+        disc: Disc,
+        price: impl Fn(u32, u32) -> f32 + Sync + 'a,
+    ) -> Work<'a> {
+        let pad = disc.reach() as u32 + 1;
+        let [x0, y0, x1, y1] = window;
+        let (pw, ph) = ((x1 - x0 + 2 * pad) as usize, (y1 - y0 + 2 * pad) as usize);
+        let mut padded = Packed::new(pw, ph, true);
+        for y in y0..y1 {
+            let row = &bits.data[bits.idx(x0, y)..bits.idx(x0, y) + (x1 - x0) as usize];
+            let py = (y - y0 + pad) as usize;
+            for (x, _) in row.iter().enumerate().filter(|(_, &b)| !b) {
+                padded.set(x + pad as usize, py, false);
+            }
+        }
+        let (iw, ih) = (x1 - x0, y1 - y0);
+        let sp = disc.span.min(iw).min(ih);
+        let mut corners = Vec::new();
+        for (cx, cy) in [
+            (0, 0),
+            (bits.width - sp, 0),
+            (0, bits.height - sp),
+            (bits.width - sp, bits.height - sp),
+        ] {
+            if cx >= x0 && cy >= y0 && cx + sp <= x1 && cy + sp <= y1 {
+                corners.push((cx - x0 + pad, cy - y0 + pad));
+            }
+        }
+        Work {
+            bits: padded,
+            price: Box::new(price),
+            core: core.map(|c| (c + pad) as usize),
+            allowed: None,
+            origin: (x0, y0),
+            locked: Packed::new(pw, ph, false),
+            pad,
+            corners,
+            disc,
+            ring: ring(disc),
+            paint: paint(disc),
+            thin: [Packed::new(pw, ph, false), Packed::new(pw, ph, false)],
+            depth2: Vec::new(),
+        }
+    }
+
+    /// Recompute both tones' thin pixels over the whole grid.
+    fn refresh(&mut self) {
+        let (bits, disc) = (&self.bits, self.disc);
+        let (material, mut cut) = if packed::parallel(bits.width * bits.height) {
+            rayon::join(|| thin(bits, true, disc), || thin(bits, false, disc))
+        } else {
+            (thin(bits, true, disc), thin(bits, false, disc))
+        };
+        self.corner_caps(&mut cut);
+        self.thin = [material, cut];
+        self.refresh_depths();
+    }
+
+    /// Recompute [`Work::depth2`] at every centre next to a thin pixel.
+    fn refresh_depths(&mut self) {
+        let corners = self.disc.on_corners() as usize;
+        let (w, h) = (self.bits.width, self.bits.height);
+        let lw = w + corners;
+        let mut depth2 = std::mem::take(&mut self.depth2);
+        depth2.resize(lw * (h + corners), u16::MAX);
+        let work = &*self;
+        let stride = work.bits.stride;
+        let any = |y: usize| -> Vec<u64> {
+            let [a, b] = &work.thin;
+            a.row(y).iter().zip(b.row(y)).map(|(p, q)| p | q).collect()
+        };
+        let par = packed::parallel(w * h);
+        packed::rows_mut(&mut depth2, lw, par, |(cy, row)| {
+            // The lattice points holding a thin pixel: the pixel itself, or the corners of
+            // the pixels in the rows above and below the corner row.
+            let mut m = vec![0u64; stride + corners];
+            for y in [cy.checked_sub(corners), Some(cy)].into_iter().flatten() {
+                if y < h && (corners == 1 || y == cy) {
+                    for (a, b) in m.iter_mut().zip(any(y)) {
+                        *a |= b;
+                    }
+                }
+            }
+            if corners == 1 {
+                // Pixel x has corners x and x + 1.
+                let mut carry = 0;
+                for a in m.iter_mut() {
+                    let next = *a >> 63;
+                    *a |= (*a << 1) | carry;
+                    carry = next;
+                }
+            }
+            for (k, &word) in m.iter().enumerate() {
+                let mut word = word;
+                while word != 0 {
+                    let cx = k * 64 + word.trailing_zeros() as usize;
+                    word &= word - 1;
+                    if cx < lw {
+                        row[cx] = work.lattice_depth(cx as i64, cy as i64);
+                    }
+                }
+            }
+        });
+        self.depth2 = depth2;
+    }
+
+    /// Twice the squared distance from lattice point `(cx, cy)` to the nearest pixel of another
+    /// tone than its own (a corner whose four pixels are not all one tone: 1), or `u16::MAX` when
+    /// that is farther than the disc's radius.
+    fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
+        let tone = |x: i64, y: i64| {
+            x < 0
+                || y < 0
+                || x >= self.bits.width as i64
+                || y >= self.bits.height as i64
+                || self.bits.get(x as usize, y as usize)
+        };
+        let phase = if self.disc.on_corners() {
+            let t = tone(cx, cy);
+            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
+                .iter()
+                .any(|&(x, y)| tone(x, y) != t)
+            {
+                return 1;
+            }
+            t
+        } else {
+            tone(cx, cy)
+        };
+        for &(dx, dy, d) in &self.ring {
+            if tone(cx + dx, cy + dy) != phase {
+                return (2.0 * d) as u16;
+            }
+        }
+        u16::MAX
+    }
+
+    /// A cut that fills a corner of the picture has a square corner against the sheet's margin,
+    /// which no round disc covers, yet it is no neck (the width check does not count cutting
+    /// across a corner). Where the span × span block at a picture corner is all cut, its pixels
+    /// are not thin.
+    fn corner_caps(&self, mask: &mut Packed) {
+        let span = self.disc.span as usize;
+        for &(cx, cy) in &self.corners {
+            let (cx, cy) = (cx as usize, cy as usize);
+            let block = || (cy..cy + span).flat_map(move |y| (cx..cx + span).map(move |x| (x, y)));
+            if block().all(|(x, y)| !self.bits.get(x, y)) {
+                block().for_each(|(x, y)| mask.set(x, y, false));
+            }
+        }
+    }
+
+    fn set(&mut self, i: usize, v: bool) {
+        self.bits.put(i, v);
+    }
+
+    fn changeable(&self, i: usize) -> bool {
+        let (x, y) = (i % self.bits.width, i / self.bits.width);
+        x >= self.core[0]
+            && y >= self.core[1]
+            && x < self.core[2]
+            && y < self.core[3]
+            && self.allowed.as_ref().is_none_or(|a| a.get(x, y))
+    }
+
+    /// The price of flipping pixel `i`, which must be changeable.
+    fn price(&self, i: usize) -> f32 {
+        let (x, y) = (i % self.bits.width, i / self.bits.width);
+        let p = self.pad as usize;
+        (self.price)(
+            (x - p) as u32 + self.origin.0,
+            (y - p) as u32 + self.origin.1,
+        )
+    }
+
+    /// How deep thin pixel `i` lies in its tone (see [`Work::depth2`]): the largest depth over
+    /// its candidate centres (itself, or its four corners for an even span), and which of them
+    /// (an index into [`Work::paint`]).
+    fn depth(&self, i: usize) -> (u16, usize) {
+        let w = self.bits.width;
+        if !self.disc.on_corners() {
+            return (self.depth2[i], 0);
+        }
+        let (x, y) = (i % w, i / w);
+        let mut best = (0, 0);
+        for (n, &(ox, oy)) in CORNERS.iter().enumerate() {
+            let d = self.depth2[(y + oy as usize) * (w + 1) + x + ox as usize];
+            if n == 0 || d > best.0 {
+                best = (d, n);
+            }
+        }
+        best
+    }
+
+    /// The window without its padding.
+    fn window(&self) -> BitGrid {
+        let p = self.pad as usize;
+        BitGrid::from_fn(
+            (self.bits.width - 2 * p) as u32,
+            (self.bits.height - 2 * p) as u32,
+            |x, y| self.bits.get(x as usize + p, y as usize + p),
+        )
+    }
+}
+
+/// 8-connected groups of the set pixels of `mask` (those holding a pixel of `seeds`, when given):
+/// a list of pixel indices per group.
+fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
+    let (w, h) = (mask.width as i64, mask.height as i64);
+    let mut todo = mask.clone();
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for seed in seeds.unwrap_or(mask).ones() {
+        if !todo.at(seed) {
+            continue;
+        }
+        todo.put(seed, false);
+        stack.push(seed);
+        let mut g = Vec::new();
+        while let Some(i) = stack.pop() {
+            g.push(i);
+            let (x, y) = ((i as i64) % w, (i as i64) / w);
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w || ny >= h || !todo.get(nx as usize, ny as usize)
+                    {
+                        continue;
+                    }
+                    todo.set(nx as usize, ny as usize, false);
+                    stack.push((ny * w + nx) as usize);
+                }
+            }
+        }
+        out.push(g);
+    }
+    out
+}
+
+/// One thin feature and what each way of resolving it would flip.
+struct Feature {
+    /// The tone of its pixels.
+    phase: bool,
+    pixels: Vec<usize>,
+    /// The other tone's pixels a widening turns to `phase`.
+    widen: Vec<usize>,
+}
+
+/// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its pixels whose depth is at least each of their 8-neighbours' in the feature. The
+/// disc is centred on the pixel (odd span) or on its deepest corner (even span), so once painted
+/// that centre is a valid one and covers the ridge pixel. `seen` is all clear scratch the size of
+/// the grid, left clear.
+fn widening(work: &Work, feature: &[usize], phase: bool, seen: &mut Packed) -> Vec<usize> {
+    let bits = &work.bits;
+    let mask = &work.thin[!phase as usize];
+    let (w, h) = (bits.width as i64, bits.height as i64);
+    // A neighbour's depth, or none when it is not in the feature (a thin pixel of the same tone
+    // next to one of the feature is in it: features are 8-connected).
+    let depth_at = |nx: i64, ny: i64| -> Option<u16> {
+        if nx < 0 || ny < 0 || nx >= w || ny >= h || !mask.get(nx as usize, ny as usize) {
+            return None;
+        }
+        Some(work.depth((ny * w + nx) as usize).0)
+    };
+    let mut out = Vec::new();
+    for &i in feature {
+        let (x, y) = ((i as i64) % w, (i as i64) / w);
+        let (d, centre) = work.depth(i);
+        let ridge = (-1..=1i64)
+            .flat_map(|dy| (-1..=1i64).map(move |dx| (dx, dy)))
+            .all(|(dx, dy)| (dx, dy) == (0, 0) || depth_at(x + dx, y + dy) <= Some(d));
+        if !ridge {
+            continue;
+        }
+        // A ridge two pixels thick (a line an even number of pixels wide) keeps one of its rows
+        // or columns: discs on both would widen the line by a pixel more than it needs.
+        if (depth_at(x, y - 1) == Some(d) && depth_at(x, y + 1) < Some(d))
+            || (depth_at(x - 1, y) == Some(d) && depth_at(x + 1, y) < Some(d))
+        {
+            continue;
+        }
+        // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
+        for &(dy, a, b) in &work.paint[centre] {
+            let ny = y + dy;
+            let (x0, x1) = ((x + a).max(0), (x + b).min(w - 1));
+            if ny < 0 || ny >= h || x0 > x1 {
+                continue;
+            }
+            let (x0, x1, ny) = (x0 as usize, x1 as usize, ny as usize);
+            for k in x0 / 64..=x1 / 64 {
+                let lo = if k == x0 / 64 { x0 % 64 } else { 0 };
+                let hi = if k == x1 / 64 { x1 % 64 } else { 63 };
+                let span = (!0u64 << lo) & (!0u64 >> (63 - hi));
+                let word = bits.row(ny)[k];
+                let other = if phase { !word } else { word };
+                let mut hits = other & span & !seen.row(ny)[k];
+                seen.data[ny * seen.stride + k] |= hits;
+                while hits != 0 {
+                    out.push(ny * w as usize + k * 64 + hits.trailing_zeros() as usize);
+                    hits &= hits - 1;
+                }
+            }
+        }
+    }
+    for &j in &out {
+        seen.put(j, false);
+    }
+    out
+}
+
+/// Every thin feature of both tones, with its widening.
+fn features(work: &mut Work) -> Vec<Feature> {
+    work.refresh();
+    let work = &*work;
+    let (w, h) = (work.bits.width, work.bits.height);
+    let feature = |phase: bool, pixels: Vec<usize>, seen: &mut Packed| {
+        let widen = widening(work, &pixels, phase, seen);
+        Feature {
+            phase,
+            pixels,
+            widen,
+        }
+    };
+    let of_phase = |phase: bool| -> Vec<Feature> {
+        let groups = groups(&work.thin[!phase as usize], work.allowed.as_ref());
+        if packed::parallel(w * h) {
+            groups
+                .into_par_iter()
+                .map_init(
+                    || Packed::new(w, h, false),
+                    |seen, pixels| feature(phase, pixels, seen),
+                )
+                .collect()
+        } else {
+            let mut seen = Packed::new(w, h, false);
+            groups
+                .into_iter()
+                .map(|pixels| feature(phase, pixels, &mut seen))
+                .collect()
+        }
+    };
+    let (mut material, cut) = if packed::parallel(w * h) {
+        rayon::join(|| of_phase(true), || of_phase(false))
+    } else {
+        (of_phase(true), of_phase(false))
+    };
+    material.extend(cut);
+    material
+}
+
+/// The price of flipping a picture pixel: `0.1 + |gray − threshold|`.
+fn pricer<'a>(gray: &'a Gray, cfg: &RegularizeConfig) -> impl Fn(u32, u32) -> f32 + Sync + 'a {
+    let t = cfg.threshold;
+    move |x, y| 0.1 + (gray.get(x, y) - t).abs()
+}
+
+/// Regularise `bits` (material = true) so that no web or hole is narrower than
+/// `cfg.min_width_px`, deciding each thin feature by the gray picture. See the module comment.
+pub fn regularize(
+    bits: &BitGrid,
+    gray: &Gray,
+    cfg: &RegularizeConfig,
+) -> (BitGrid, RegularizeStats) {
+    let disc = Disc::for_width(cfg.min_width_px);
+    let mut stats = RegularizeStats {
+        disc_px: disc.span,
+        ..Default::default()
+    };
+    if disc.span <= 1 || bits.is_empty() {
+        return (bits.clone(), stats);
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let mut work = Work::new(bits, all, all, disc, pricer(gray, cfg));
+    decide(&mut work, &mut stats);
+    settle(&mut work, &mut stats);
+    let out = work.window();
+    for (a, b) in bits.data.iter().zip(&out.data) {
+        match (a, b) {
+            (true, false) => stats.material_removed_px += 1,
+            (false, true) => stats.material_added_px += 1,
+            _ => {}
+        }
+    }
+    (out, stats)
+}
+
+/// The cost-based phase: each round, every thin feature is removed or widened, whichever costs
+/// less; a pixel that changed may not change back; at most [`FREE_ROUNDS`] rounds.
+fn decide(work: &mut Work, stats: &mut RegularizeStats) {
+    for _ in 0..FREE_ROUNDS {
+        let feats = features(work);
+        if feats.is_empty() {
+            break;
+        }
+        stats.rounds += 1;
+        let mut changed = Packed::new(work.bits.width, work.bits.height, false);
+        let mut any = false;
+        // Cheapest first, so where two features' choices meet the cheaper one's stands.
+        let mut choices: Vec<(f32, usize, bool)> = Vec::new();
+        for (n, f) in feats.iter().enumerate() {
+            // Removing needs every pixel of the feature; a widening paints what it may (the frame
+            // past the picture's border is material already, and cut may not reach into it).
+            let cost = |px: &[usize], all: bool| -> Option<f32> {
+                let mut c = 0.0;
+                for &i in px {
+                    if work.locked.at(i) || (all && !work.changeable(i)) {
+                        return None;
+                    }
+                    if work.changeable(i) {
+                        c += work.price(i);
+                    }
+                }
+                Some(c)
+            };
+            let remove = cost(&f.pixels, true);
+            let widen = if f.widen.is_empty() {
+                None
+            } else {
+                cost(&f.widen, false)
+            };
+            match (remove, widen) {
+                (Some(r), Some(wd)) if wd < r => choices.push((wd, n, true)),
+                (Some(r), _) => choices.push((r, n, false)),
+                (None, Some(wd)) => choices.push((wd, n, true)),
+                (None, None) => {}
+            }
+        }
+        choices.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, n, widen) in choices {
+            let f = &feats[n];
+            let px = if widen { &f.widen } else { &f.pixels };
+            if px.iter().any(|&i| changed.at(i)) {
+                continue;
+            }
+            for &i in px {
+                if !work.changeable(i) {
+                    continue;
+                }
+                let v = !work.bits.at(i);
+                work.set(i, v);
+                work.locked.put(i, true);
+                changed.put(i, true);
+            }
+            any = true;
+            match (f.phase, widen) {
+                (true, false) => stats.webs_removed += 1,
+                (true, true) => stats.webs_widened += 1,
+                (false, false) => stats.holes_filled += 1,
+                (false, true) => stats.holes_widened += 1,
+            }
+        }
+        if !any {
+            break;
+        }
+    }
+}
+
+/// The monotone phase: fill thin holes and widen thin webs (both only add material) until nothing
+/// that may change is thin. Ends: see the module comment.
+fn settle(work: &mut Work, stats: &mut RegularizeStats) {
+    loop {
+        let feats: Vec<Feature> = features(work)
+            .into_iter()
+            .filter(|f| f.pixels.iter().any(|&i| work.changeable(i)))
+            .collect();
+        if feats.is_empty() {
+            break;
+        }
+        stats.monotone_rounds += 1;
+        let mut added = 0usize;
+        for f in &feats {
+            let px = if f.phase { &f.widen } else { &f.pixels };
+            for &i in px {
+                if work.changeable(i) && !work.bits.at(i) {
+                    work.set(i, true);
+                    added += 1;
+                }
+            }
+            if f.phase {
+                stats.webs_widened += 1;
+            } else {
+                stats.holes_filled += 1;
+            }
+        }
+        // Cannot happen over the whole picture (see the module comment); in a window a widening
+        // may lie outside the part that may change. Either way, stop rather than spin.
+        if added == 0 {
+            break;
+        }
+    }
+}
+
+/// How many pixels of material and of cut are thin for a web or hole `min_width_px` wide: both 0
+/// for what [`regularize`] returns.
+pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return [0, 0];
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    work.refresh();
+    work.thin.each_ref().map(|m| m.count())
+}
+
+/// Settle the whole stencil with the monotone phase alone: fill thin holes and widen thin webs,
+/// only adding material, until nothing is thin. After bridges are drawn into a regularised
+/// two-tone, every thin pixel is one a bridge made (a cut sliver beside it, a notch in its edge),
+/// so this tidies exactly where bridges meet the picture; being monotone it never cuts a bridge
+/// and ends (see the module comment). Returns the number of pixels added.
+pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return 0;
+    }
+    let all = [0, 0, bits.width, bits.height];
+    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    settle(&mut work, &mut RegularizeStats::default());
+    let out = work.window();
+    let added = out.count_material() - bits.count_material();
+    *bits = out;
+    added
+}
+
+/// Fill the pockets of cut that bridges sealed off: cut pieces of `after` whose every material
+/// neighbour is material `after` added to `before` (overlapping bridges enclose a piece of the
+/// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
+/// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
+pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
+    let (labels, areas) = crate::islands::components(after, false);
+    let (w, h) = (after.width as usize, after.height as usize);
+    // Per cut piece: touches original material, or the picture's border (the frame).
+    let mut open = vec![false; areas.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let l = labels[i];
+            if l == crate::islands::CUT || open[l as usize] {
+                continue;
+            }
+            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                open[l as usize] = true;
+                continue;
+            }
+            for j in [i - 1, i + 1, i - w, i + w] {
+                if after.data[j] && before.data[j] {
+                    open[l as usize] = true;
+                }
+            }
+        }
+    }
+    let mut filled = 0;
+    for (i, &l) in labels.iter().enumerate() {
+        if l != crate::islands::CUT && !open[l as usize] {
+            after.data[i] = true;
+            filled += 1;
+        }
+    }
+    filled
+}
+
+/// Where bridges meet the picture: settle the pixels within reach of the bridges' bounding boxes
+/// (`[x0, y0, x1, y1)` in pixels), only adding material, so no cut sliver and no web narrower than
+/// the material's smallest feature is left beside a bridge. Only the pixels within `spread` disc
+/// spans of a box may change; thin features holding none of them are left as they are. Returns
+/// the number of pixels added.
+pub fn settle_near(
+    bits: &mut BitGrid,
+    boxes: &[[u32; 4]],
+    min_width_px: f64,
+    spread: u32,
+) -> usize {
+    let disc = Disc::for_width(min_width_px);
+    if disc.span <= 1 || bits.is_empty() {
+        return 0;
+    }
+    let reach = disc.span + 1;
+    let (w, h) = (bits.width, bits.height);
+    let grow = |b: [u32; 4], m: u32| {
+        [
+            b[0].saturating_sub(m),
+            b[1].saturating_sub(m),
+            (b[2] + m).min(w),
+            (b[3] + m).min(h),
+        ]
+    };
+    // Boxes whose windows overlap are settled together, in one window holding them all with a
+    // margin of two spans past the reach `spread` spans around each (a pixel's thinness depends
+    // on the pixels within two spans), so thinness in the part that may change is measured
+    // exactly; pixels within the margin of the window's cut edges may be misjudged (the padding
+    // stands in for what lies beyond) and may not change.
+    let windows: Vec<[u32; 4]> = boxes
+        .iter()
+        .map(|&b| grow(b, (2 + spread) * reach))
+        .collect();
+    let meets = |a: [u32; 4], b: [u32; 4]| a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+    let mut cluster: Vec<usize> = (0..boxes.len()).collect();
+    // Past a few hundred necks one window for all: clustering would cost more than it saves.
+    if boxes.len() <= 512 {
+        loop {
+            let mut merged = false;
+            for i in 0..boxes.len() {
+                for j in 0..i {
+                    if cluster[i] != cluster[j] && meets(windows[i], windows[j]) {
+                        let (from, to) = (cluster[i].max(cluster[j]), cluster[i].min(cluster[j]));
+                        cluster
+                            .iter_mut()
+                            .filter(|c| **c == from)
+                            .for_each(|c| *c = to);
+                        merged = true;
+                    }
+                }
+            }
+            if !merged {
+                break;
+            }
+        }
+    } else {
+        cluster.fill(0);
+    }
+    let mut ids = cluster.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut added = 0;
+    for id in ids {
+        let members: Vec<usize> = (0..boxes.len()).filter(|&i| cluster[i] == id).collect();
+        let window = members
+            .iter()
+            .map(|&i| windows[i])
+            .reduce(|a, b| {
+                [
+                    a[0].min(b[0]),
+                    a[1].min(b[1]),
+                    a[2].max(b[2]),
+                    a[3].max(b[3]),
+                ]
+            })
+            .expect("a cluster has a box");
+        let near: Vec<[u32; 4]> = members
+            .iter()
+            .map(|&i| grow(boxes[i], spread * reach))
+            .collect();
+        added += settle_window(bits, window, &near, disc, reach);
+    }
+    added
+}
+
+/// [`settle_near`] in one window: only the pixels in `near` (picture coordinates) may change.
+fn settle_window(
+    bits: &mut BitGrid,
+    window: [u32; 4],
+    near: &[[u32; 4]],
+    disc: Disc,
+    reach: u32,
+) -> usize {
+    let (w, h) = (bits.width, bits.height);
+    let m = 2 * reach;
+    let core = [
+        if window[0] == 0 { 0 } else { window[0] + m },
+        if window[1] == 0 { 0 } else { window[1] + m },
+        if window[2] == w { w } else { window[2] - m },
+        if window[3] == h { h } else { window[3] - m },
+    ];
+    let rel = [
+        core[0] - window[0],
+        core[1] - window[1],
+        core[2].max(core[0]) - window[0],
+        core[3].max(core[1]) - window[1],
+    ];
+    let mut work = Work::new(bits, window, rel, disc, |_, _| 1.0);
+    // What may change: each box and `spread` spans around it, so what a widening there pushes
+    // outward is settled too.
+    let mut allowed = Packed::new(work.bits.width, work.bits.height, false);
+    let pad = work.pad;
+    for &g in near {
+        for y in g[1]..g[3] {
+            for x in g[0]..g[2] {
+                allowed.set(
+                    (x - window[0] + pad) as usize,
+                    (y - window[1] + pad) as usize,
+                    true,
+                );
+            }
+        }
+    }
+    work.allowed = Some(allowed);
+    settle(&mut work, &mut RegularizeStats::default());
+    let out = work.window();
+    let mut added = 0;
+    for y in core[1]..core[3] {
+        for x in core[0]..core[2] {
+            let v = out.get(x - window[0], y - window[1]);
+            if v && !bits.get(x, y) {
+                bits.set(x, y, true);
+                added += 1;
+            }
+        }
+    }
+    added
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(px: f64) -> RegularizeConfig {
+        RegularizeConfig {
+            min_width_px: px,
+            threshold: 0.5,
+            invert: false,
+        }
+    }
+
+    fn any_thin(bits: &BitGrid, px: f64) -> bool {
+        thin_count(bits, px) != [0, 0]
+    }
+
+    #[test]
+    fn disc_spans_the_smallest_odd_width() {
+        assert_eq!(Disc::for_width(5.0).span, 5);
+        assert_eq!(Disc::for_width(4.2).span, 5);
+        assert_eq!(Disc::for_width(6.0).span, 6);
+        assert_eq!(Disc::for_width(0.5).span, 1);
+    }
+
+    #[test]
+    fn checkerboards_end_with_nothing_thin_and_wide_ones_are_kept() {
+        for cell in [1u32, 2, 3, 5, 8, 13] {
+            let bits = BitGrid::from_fn(90, 70, |x, y| ((x / cell) + (y / cell)) % 2 == 0);
+            let gray = Gray::new(90, 70, 0.5);
+            let (out, _) = regularize(&bits, &gray, &cfg(6.0));
+            assert!(!any_thin(&out, 6.0), "cell {cell}");
+        }
+        // Squares wider than the disc touching only at corners: the corners are thin (no width
+        // there), the squares' middles stay.
+        let bits = BitGrid::from_fn(80, 80, |x, y| ((x / 20) + (y / 20)) % 2 == 0);
+        let (out, _) = regularize(&bits, &Gray::new(80, 80, 0.5), &cfg(6.0));
+        assert!(!any_thin(&out, 6.0));
+        for (x, y) in [(10, 10), (30, 30), (50, 10), (10, 50)] {
+            assert_eq!(out.get(x, y), bits.get(x, y), "({x}, {y})");
+        }
+    }
+
+    #[test]
+    fn the_gray_picture_decides_between_removing_and_widening() {
+        // A cut line 4 px wide (the disc is 6) across paper. Same bits, two pictures.
+        let bits = BitGrid::from_fn(60, 40, |_, y| !(18..22).contains(&y));
+        let line_width = |out: &BitGrid| (0..40).filter(|&y| !out.get(30, y)).count();
+        // A black line on paper that is barely light: widening (into near-threshold paper) is
+        // cheaper than erasing a plainly dark line.
+        let mut gray = Gray::new(60, 40, 0.55);
+        for y in 18..22 {
+            for x in 0..60 {
+                gray.set(x, y, 0.0);
+            }
+        }
+        let (out, s) = regularize(&bits, &gray, &cfg(6.0));
+        assert_eq!(line_width(&out), 6, "{s:?}");
+        // A faint line (just under the threshold) on white paper: erasing it changes less.
+        let mut gray = Gray::new(60, 40, 1.0);
+        for y in 18..22 {
+            for x in 0..60 {
+                gray.set(x, y, 0.45);
+            }
+        }
+        let (out, s) = regularize(&bits, &gray, &cfg(6.0));
+        assert_eq!(line_width(&out), 0, "{s:?}");
+    }
+
+    #[test]
+    fn noise_ends_with_nothing_thin() {
+        // Pseudo-random noise: the hardest case for deciding; the monotone phase must finish it.
+        let mut s = 12345u64;
+        let bits = BitGrid::from_fn(80, 60, |_, _| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 33) & 1 == 1
+        });
+        let gray = Gray::new(80, 60, 0.5);
+        let (out, stats) = regularize(&bits, &gray, &cfg(5.0));
+        assert!(!any_thin(&out, 5.0), "{stats:?}");
+    }
+}
