@@ -10,31 +10,38 @@
 //!   triangulation's fixed-point and floating-point ranges hold.
 //! - A pixel is at least [`MIN_PIXEL_MM`] (1 µm): finer than any laser, knife or etch resolves.
 //! - With the design-rule clean-up (the default), the material's smallest feature is at most
-//!   [`MAX_PX_PER_FEATURE`] working pixels: the clean-up's time grows with the square of that
-//!   width (measured on a 2000 × 2000 photo: 25 px 1.7 s, 50 px 5.3 s, 100 px 20 s; a 320 px
-//!   picture 0.32 mm wide, 500 px, 52 s), and the automatic supersampling aims for 5.
+//!   [`MAX_PX_PER_FEATURE`] working pixels: the clean-up's time grows with the pixels times the
+//!   square of that width (a 2000 × 2000 photo: 25 px 0.3 s, 50 px 0.75 s, 100 px 2.8 s, 200 px
+//!   10 s; rings.png supersampled to 2560 × 2560 at 1.25 µm pixels, 400 px, 30 s), and the
+//!   automatic supersampling aims for 5.
 //! - `--margin-mm` is at most [`MAX_MARGIN_MM`], `--tolerance-mm` at most [`MAX_TOLERANCE_MM`] (or
 //!   0), `--mask-dpi` within [`MASK_DPI`].
 //!
 //! ## Pictures, time and memory
 //!
-//! `make` needs about 35–50 bytes per working pixel and about 2–3 µs per pixel on one core of
-//! the 2-core test machine (before the regularisation speed-up under way); `tone` about 20 bytes
-//! before this module's decoder change, `check` about 20. Measured with `/usr/bin/time` on a photo
-//! and on a tiled ring pattern (the worse of the two, many islands):
+//! Measured with `/usr/bin/time -f "%e s %M KB"` on the 2-core test machine, on a photo
+//! (grace_hopper.jpg enlarged) and on rings.png tiled (many islands, the slower of the two), at
+//! the default 0.1 mm per pixel with cardstock; `check` on make's output folder:
 //!
-//! | pixels | make time | make peak RSS |
-//! | --- | --- | --- |
-//! | 2000² (4 MP) | 0.8 s | 0.22 GB |
-//! | 4000² (16 MP) | 3.1 s | 0.83 GB |
-//! | 6000² (36 MP) | 10.8 s | 1.8 GB |
-//! | 8000² (64 MP) | 20.6 s | 3.2 GB |
-//! | 10000² (100 MP, the old default limit) | 34 s | 5.0 GB |
+//! | pixels | make: photo | make: rings | tone | check |
+//! | --- | --- | --- | --- | --- |
+//! | 2000² (4 MP) | 0.5 s, 0.10 GB | 0.6 s, 0.10 GB | | |
+//! | 4000² (16 MP) | 2.0 s, 0.36 GB | 2.2 s, 0.40 GB | 2.4 s, 0.26 GB | 0.8 s, 0.16 GB |
+//! | 6000² (36 MP) | 4.4 s, 0.77 GB | 5.2 s, 0.87 GB | 5.7 s, 0.52 GB | 1.5 s, 0.32 GB |
+//! | 8000² (64 MP) | 7.9 s, 1.37 GB | 9.6 s, 1.55 GB | | |
+//! | 10000² (100 MP, the old default) | 13.3 s, 2.1 GB | 16.1 s, 2.4 GB | 22 s, 1.5 GB | 4.1 s, 0.94 GB |
+//! | 14000² (196 MP) | | 24 s, 4.5 GB | 53 s, 3.1 GB | 4.9 s, 1.8 GB |
 //!
-//! So the default `--max-pixels` is [`DEFAULT_MAX_PIXELS`] (40 MP: a 36 MP camera picture in about
-//! 11 s and under 2 GB), `--max-pixels` can be raised up to [`MAX_PIXELS_CEILING`], and whatever it
-//! says, a picture whose decoded buffers would need more than [`MAX_DECODE_BYTES`] is refused from
-//! its header, before any pixel is decoded.
+//! (Before this module's decoder change and the regularisation speed-up, 10000² rings took 34 s
+//! and 5.0 GB in make, 2.1 GB in tone and check.) `tone` is the slowest per pixel: it applies the
+//! old morphological filter (exact distance transforms), not the regularisation.
+//!
+//! So the default `--max-pixels` of `make` and `tone` is [`DEFAULT_MAX_PIXELS`] (50 MP: a 45 MP
+//! camera picture in under 10 s and about 1.3 GB in make, 11 s in tone), `check`'s is
+//! [`CHECK_DEFAULT_MAX_PIXELS`] (100 MP, 4 s and 1 GB), `--max-pixels` can be raised up to
+//! [`MAX_PIXELS_CEILING`] (200 MP: 25 s and 4.5 GB in make, a minute in tone), and whatever it
+//! says, a picture whose decoded buffers would need more than [`MAX_DECODE_BYTES`] is refused
+//! from its header, before any pixel is decoded. Runs past half a second show a progress line.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -61,13 +68,14 @@ pub const MAX_TOLERANCE_MM: f64 = 10.0;
 pub const MASK_DPI: std::ops::RangeInclusive<f64> = 25.4..=25_400.0;
 
 /// The default `--max-pixels` of `make` and `tone` (see the module notes).
-pub const DEFAULT_MAX_PIXELS: u64 = 40_000_000;
+pub const DEFAULT_MAX_PIXELS: u64 = 50_000_000;
 
 /// The default `--max-pixels` of `check` (it vectorises and triangulates but does not clean up or
-/// bridge: about 6 bytes per pixel; a 100 MP stencil in a few seconds).
+/// bridge: about 9 bytes per pixel; a 100 MP stencil in about 4 s).
 pub const CHECK_DEFAULT_MAX_PIXELS: u64 = 100_000_000;
 
-/// The largest `--max-pixels` accepted: 200 MP needs about 10 GB and minutes in `make`.
+/// The largest `--max-pixels` accepted: 200 MP needs about 4.5 GB and 25 s in `make`, a minute
+/// in `tone`.
 pub const MAX_PIXELS_CEILING: u64 = 200_000_000;
 
 /// A picture whose decoded buffers (the decoder's output at its bit depth, plus the gray in f32)

@@ -170,6 +170,14 @@ fn check_refuses_absurd_sizes_and_report_values() {
         &["margin_mm", "0.001 to 1000"],
     );
     r["margin_mm"] = serde_json::json!(5.0);
+    let bridge = r["bridges"][0]["polygon_px"][0].clone();
+    r["bridges"][0]["polygon_px"][0] = serde_json::json!([1e30, 1.0]);
+    std::fs::write(&rp, serde_json::to_string(&r).unwrap()).unwrap();
+    refused(
+        &stencil(&["check", s(&out)]),
+        &["report.json", "bridge 1", "1e30"],
+    );
+    r["bridges"][0]["polygon_px"][0] = bridge;
     r["mm_per_px"] = serde_json::json!(1e30);
     std::fs::write(&rp, serde_json::to_string(&r).unwrap()).unwrap();
     refused(
@@ -203,9 +211,9 @@ fn huge_headers_are_refused_before_decoding_whatever_max_pixels_says() {
         }
         refused(&stencil(&a), &["huge.png", "15000x13000", "GB to decode"]);
     }
-    // Over the default limits of make (40 MP) and check (100 MP), from the header.
-    std::fs::write(&p, png_header_only(7000, 6000, 8, 0)).unwrap();
-    make_refused_input(&p, &["huge.png", "7000x6000", "--max-pixels"]);
+    // Over the default limits of make (50 MP) and check (100 MP), from the header.
+    std::fs::write(&p, png_header_only(8000, 7000, 8, 0)).unwrap();
+    make_refused_input(&p, &["huge.png", "8000x7000", "--max-pixels"]);
     std::fs::write(&p, png_header_only(11_000, 10_000, 1, 0)).unwrap();
     let o = stencil(&["check", s(&p)]);
     refused(&o, &["huge.png", "11000x10000", "--max-pixels"]);
@@ -237,7 +245,7 @@ fn help(cmd: &str) -> String {
 fn help_states_the_limits() {
     let make = help("make");
     for needle in [
-        "40 megapixels",
+        "50 megapixels",
         "200000000",
         "10 m",
         "0.001 mm",
@@ -246,7 +254,7 @@ fn help_states_the_limits() {
         assert!(make.contains(needle), "make --help should say {needle:?}");
     }
     assert!(help("check").contains("100 megapixels"));
-    assert!(help("tone").contains("40 megapixels"));
+    assert!(help("tone").contains("50 megapixels"));
 }
 
 #[test]

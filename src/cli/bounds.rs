@@ -87,8 +87,8 @@ pub fn max_pixels(s: &str) -> Result<u64, String> {
         Ok(v)
     } else {
         Err(format!(
-            "'{s}' is out of range: use 1 to {} ({} megapixels need about 10 GB of memory and \
-             minutes in make)",
+            "'{s}' is out of range: use 1 to {} (at {} megapixels make needs about 4.5 GB of \
+             memory and half a minute)",
             limits::MAX_PIXELS_CEILING,
             limits::MAX_PIXELS_CEILING / 1_000_000
         ))

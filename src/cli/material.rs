@@ -310,6 +310,26 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bridges: Option<Vec<Vec<[f64; 2]>>> = report
         .as_ref()
         .map(|r| r.bridges.iter().map(|b| b.polygon_px.clone()).collect());
+    // A bridge drawn far off the stencil belongs to another picture (or a damaged report), and
+    // its coordinates would reach the geometry code unchecked.
+    let reach = f64::from(bits.width.max(bits.height));
+    for (i, poly) in bridges.iter().flatten().enumerate() {
+        if let Some(p) = poly.iter().find(|p| {
+            !p.iter()
+                .all(|v| v.is_finite() && (-reach..=2.0 * reach).contains(v))
+        }) {
+            anyhow::bail!(
+                "{}: report.json's bridge {} has a point at ({}, {}) px, far outside the {}x{} px \
+                 stencil.png; the report does not belong to this stencil (run make again)",
+                a.input.display(),
+                i + 1,
+                stencil::limits::num(p[0]),
+                stencil::limits::num(p[1]),
+                bits.width,
+                bits.height
+            );
+        }
+    }
     let mut timer = Timings(Default::default(), Some(bar.clone()));
     let (_, _, chk) =
         pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)

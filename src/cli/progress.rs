@@ -26,6 +26,7 @@ fn describe(stage: &str) -> String {
         "verify" => "checking the stencil is one piece",
         "vector" => "tracing the outlines",
         "check" | "check_opening" => "checking widths against the material",
+        "repair" => "widening necks the check found",
         "fidelity" => "measuring what changed",
         "kerf" => "offsetting for the kerf",
         "gcode" => "planning the G-code",
