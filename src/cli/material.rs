@@ -248,7 +248,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bits = load_bits(&png, a.max_pixels).with_context(|| {
         if report.is_some() {
             format!(
-                "{}: the folder has no readable stencil.png (make writes it with --emit png)",
+                "{}: cannot read the folder's stencil.png (make writes it with --emit png)",
                 a.input.display()
             )
         } else {
