@@ -207,6 +207,15 @@ fn round_sig(v: f64, up: bool) -> f64 {
     r / p
 }
 
+/// `value` of `option` if it is a finite number > 0.
+fn positive(option: &'static str, value: f64) -> Result<f64, SizeError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SizeError::NotPositive { option, value })
+    }
+}
+
 /// Millimetres per pixel of a `width_px` × `height_px` picture at `size`, refused when the picture
 /// would be larger than [`MAX_PICTURE_MM`] or its pixels finer than [`MIN_PIXEL_MM`].
 pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale, SizeError> {
@@ -222,32 +231,16 @@ pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale,
             // Given as --width-mm.
             Some((w * MIN_PIXEL_MM, MAX_PICTURE_MM * w / long)),
         ),
-        Size::WidthMm(v) => {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(SizeError::NotPositive {
-                    option: "--width-mm",
-                    value: v,
-                });
-            }
-            (
-                format!("--width-mm {}", num(v)),
-                Scale::from_width(width_px, v),
-                Some((w * MIN_PIXEL_MM, MAX_PICTURE_MM * w / long)),
-            )
-        }
-        Size::Dpi(v) => {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(SizeError::NotPositive {
-                    option: "--dpi",
-                    value: v,
-                });
-            }
-            (
-                format!("--dpi {}", num(v)),
-                Scale::from_dpi(v),
-                Some((long * 25.4 / MAX_PICTURE_MM, 25.4 / MIN_PIXEL_MM)),
-            )
-        }
+        Size::WidthMm(v) => (
+            format!("--width-mm {}", num(positive("--width-mm", v)?)),
+            Scale::from_width(width_px, v),
+            Some((w * MIN_PIXEL_MM, MAX_PICTURE_MM * w / long)),
+        ),
+        Size::Dpi(v) => (
+            format!("--dpi {}", num(positive("--dpi", v)?)),
+            Scale::from_dpi(v),
+            Some((long * 25.4 / MAX_PICTURE_MM, 25.4 / MIN_PIXEL_MM)),
+        ),
     };
     let mm = scale.mm_per_px;
     // A hair of slack so that the printed bounds themselves are accepted.
