@@ -16,6 +16,7 @@ pub mod bridge;
 pub mod check;
 pub mod export;
 pub mod islands;
+pub mod limits;
 pub mod machine;
 pub mod pipeline;
 pub mod plan;
@@ -45,8 +46,8 @@ pub enum Error {
     Vector(#[from] vector::VectorError),
     #[error(transparent)]
     Check(#[from] check::CheckError),
-    #[error("{0}")]
-    Size(String),
+    #[error(transparent)]
+    Limit(#[from] limits::SizeError),
     #[error(
         "{count} width or connectivity violation(s) for material '{material}': {list}; \
          widen the design, choose another --material, or pass --allow-thin to write the outputs anyway"

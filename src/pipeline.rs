@@ -6,6 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use crate::bridge::{self, BridgeConfig, Bridged};
@@ -45,20 +46,11 @@ pub struct MakeConfig {
     /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
     /// report. A job that does not fit the machine's bed fails the run before anything is written.
     pub gcode: Option<crate::plan::GcodeConfig>,
+    /// Told each stage as it starts (see [`Progress`]).
+    pub progress: Option<Arc<dyn Progress>>,
 }
 
-/// How big the picture is on the sheet. Sizes are of the input picture: supersampling (`--scale`,
-/// automatic or given) makes the working pixels finer, never the picture larger.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum Size {
-    /// 0.1 mm per input pixel ([`Scale::default`]).
-    #[default]
-    Default,
-    /// The picture's width in mm (the height follows).
-    WidthMm(f64),
-    /// Input pixels per inch.
-    Dpi(f64),
-}
+pub use crate::units::Size;
 
 /// Which files `make` writes (report.json always). Default: `png,svg`: the images to look at and
 /// the one vector file every laser and plotter program opens; DXF and masks on request.
@@ -122,19 +114,13 @@ impl Default for PhysicalConfig {
 }
 
 impl PhysicalConfig {
-    /// Millimetres per pixel of a picture `width_px` wide, before supersampling (a working pixel
-    /// of a picture supersampled K times is this divided by K; see [`Working`]).
-    pub fn scale(&self, width_px: u32) -> Result<Scale, Error> {
-        let bad = |what: &str, v: f64| {
-            Error::Size(format!("{what} must be a finite number > 0, got {v}"))
-        };
-        match self.size {
-            Size::Default => Ok(Scale::default()),
-            Size::WidthMm(w) if w.is_finite() && w > 0.0 => Ok(Scale::from_width(width_px, w)),
-            Size::WidthMm(w) => Err(bad("--width-mm", w)),
-            Size::Dpi(d) if d.is_finite() && d > 0.0 => Ok(Scale::from_dpi(d)),
-            Size::Dpi(d) => Err(bad("--dpi", d)),
-        }
+    /// Millimetres per pixel of a `width_px` × `height_px` picture, before supersampling (a
+    /// working pixel of a picture supersampled K times is this divided by K; see [`Working`]).
+    /// Refused outside [`crate::limits::picture_scale`]'s bounds.
+    pub fn scale(&self, width_px: u32, height_px: u32) -> Result<Scale, Error> {
+        Ok(crate::limits::picture_scale(
+            self.size, width_px, height_px,
+        )?)
     }
 
     /// The coarsest working pixel, in mm, that the material and the tolerance accept (the
@@ -250,13 +236,29 @@ pub fn is_mesh(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
 }
 
-/// Stage timings, in milliseconds, keyed by stage name; a stage that runs more than once (the
-/// trace and check after each neck repair) adds up.
+/// Told the name of each stage of `make` as it starts: the keys of the report's `timings_ms`
+/// ("tone", "filter", "islands", "bridge", ...), then "write" (encoding and writing the files).
+/// The CLI draws a progress bar from it; the library draws nothing.
+pub trait Progress: Send + Sync {
+    fn stage(&self, name: &str);
+}
+
+impl std::fmt::Debug for dyn Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress")
+    }
+}
+
+/// Stage timings, in milliseconds, keyed by stage name (a stage that runs more than once, such as
+/// the trace and check after each neck repair, adds up), and who to tell when a stage starts.
 #[derive(Default)]
-pub struct Timings(pub BTreeMap<String, f64>);
+pub struct Timings(pub BTreeMap<String, f64>, pub Option<Arc<dyn Progress>>);
 
 impl Timings {
     pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        if let Some(p) = &self.1 {
+            p.stage(name);
+        }
         let t = Instant::now();
         let r = f();
         self.add(name, t.elapsed().as_secs_f64() * 1e3);
@@ -295,7 +297,7 @@ pub fn two_tone(
     if is_mesh(input) {
         let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
             .map_err(tone::ToneError::from)?;
-        let scale = phys.scale(tt.bits.width)?;
+        let scale = phys.scale(tt.bits.width, tt.bits.height)?;
         let working = Working {
             factor: 1,
             auto: None,
@@ -309,7 +311,7 @@ pub fn two_tone(
         }
     }
     let gray = load_gray(input, tone.max_pixels)?;
-    let per_input = phys.scale(gray.width)?;
+    let per_input = phys.scale(gray.width, gray.height)?;
     let pixels = u64::from(gray.width) * u64::from(gray.height);
     let (factor, auto) = match tone.scale {
         Some(k) => {
@@ -421,7 +423,7 @@ fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &m
 /// image the mesh can render to, which can only over-estimate the pixels needed.
 fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
     let mut m = cfg.mesh.clone();
-    if let Ok(scale) = cfg.physical.scale(m.max_width_px()) {
+    if let Ok(scale) = cfg.physical.scale(m.max_width_px(), 1) {
         let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
         if r > 0 {
             m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
@@ -432,13 +434,26 @@ fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
 
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
-    let mut timer = Timings::default();
+    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
     let phys = &cfg.physical;
     let mesh_cfg = mesh_lines_for(cfg);
     let (raw, level, working) =
         timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg, phys))?;
     let scale = working.scale;
     let filter_cfg = phys.filter_for(&cfg.filter, scale);
+    // Options that only make sense against the working image (see `crate::limits`).
+    if filter_cfg.auto_radius {
+        crate::limits::check_working_pixel(
+            phys.size,
+            raw.bits.width / working.factor,
+            scale,
+            working.factor,
+            cfg.tone.scale.is_some(),
+            phys.material.min_feature_mm,
+        )?;
+    } else {
+        crate::limits::check_filter_radius(filter_cfg.radius, raw.bits.width, raw.bits.height)?;
+    }
     let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
     let (bits, filter_stats, reg_stats) = timer.time("filter", || {
         if filter_cfg.auto_radius {
@@ -647,14 +662,34 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
     Ok(files)
 }
 
+/// Every name [`encode_outputs`] can write: `make` owns these names in its output folder, and
+/// removes those a run does not write (an earlier run's `stencil.gcode` must not sit beside a new
+/// stencil, where `send` would stream it).
+pub const OUTPUT_NAMES: &[&str] = &[
+    "gray.png",
+    "twotone.png",
+    "stencil.png",
+    "preview.png",
+    "stencil.svg",
+    "stencil.dxf",
+    "mask.png",
+    "mask.svg",
+    "stencil.gcode",
+    "report.json",
+];
+
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
-pub fn make(cfg: &MakeConfig) -> Result<(Made, Vec<PathBuf>), Error> {
+/// Files of [`OUTPUT_NAMES`] this run did not write are removed (listed in the result).
+pub fn make(cfg: &MakeConfig) -> Result<(Made, export::Replaced), Error> {
     let existed = cfg.out_dir.is_dir();
     export::prepare_dir(&cfg.out_dir)?;
     let result = run(cfg).and_then(|made| {
+        if let Some(p) = &cfg.progress {
+            p.stage("write");
+        }
         let files = encode_outputs(&made, &cfg.physical)?;
-        let written = export::write_files(&cfg.out_dir, &files)?;
-        Ok((made, written))
+        let replaced = export::write_files(&cfg.out_dir, &files, OUTPUT_NAMES)?;
+        Ok((made, replaced))
     });
     if result.is_err() && !existed {
         // Leave no trace of a failed run: the folder we made is empty (remove_dir refuses otherwise).
@@ -735,14 +770,14 @@ mod tests {
     #[test]
     fn size_options_give_the_scale() {
         let mut phys = PhysicalConfig::default();
-        assert_eq!(phys.scale(400).unwrap().mm_per_px, 0.1);
+        assert_eq!(phys.scale(400, 300).unwrap().mm_per_px, 0.1);
         phys.size = Size::WidthMm(200.0);
-        assert!((phys.scale(400).unwrap().mm_per_px - 0.5).abs() < 1e-12);
+        assert!((phys.scale(400, 300).unwrap().mm_per_px - 0.5).abs() < 1e-12);
         phys.size = Size::Dpi(254.0);
-        assert!((phys.scale(400).unwrap().mm_per_px - 0.1).abs() < 1e-12);
+        assert!((phys.scale(400, 300).unwrap().mm_per_px - 0.1).abs() < 1e-12);
         phys.size = Size::WidthMm(-3.0);
         assert!(phys
-            .scale(400)
+            .scale(400, 300)
             .unwrap_err()
             .to_string()
             .contains("--width-mm"));

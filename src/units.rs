@@ -10,6 +10,19 @@ pub struct Mm(pub f64);
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Default, Serialize, Deserialize)]
 pub struct Px(pub f64);
 
+/// How big the picture is on the sheet. Sizes are of the input picture: supersampling (`--scale`,
+/// automatic or given) makes the working pixels finer, never the picture larger.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Size {
+    /// 0.1 mm per input pixel ([`Scale::default`]).
+    #[default]
+    Default,
+    /// The picture's width in mm (the height follows).
+    WidthMm(f64),
+    /// Input pixels per inch.
+    Dpi(f64),
+}
+
 /// Millimetres per working pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scale {

@@ -272,8 +272,8 @@ fn build(verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
     let of = spatial_order(verts);
     let mut cdt = Cdt::new();
     for &i in &of {
-        cdt.insert(verts[i as usize].p)
-            .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
+        let p = verts[i as usize].p;
+        cdt.insert(p).map_err(|e| coordinate_error(p, e))?;
     }
     if cdt.num_vertices() != verts.len() {
         return build_constrained(verts, edges);
@@ -326,11 +326,32 @@ fn complete(mut b: Built, verts: &[V], edges: &[[usize; 2]]) -> Result<Built, Ch
     Ok(b)
 }
 
+/// The check's error for a point the triangulation refuses.
+fn coordinate_error(p: Point2<f64>, e: spade::InsertionError) -> CheckError {
+    CheckError::Coordinate {
+        x_mm: p.x,
+        y_mm: p.y,
+        problem: match e {
+            spade::InsertionError::TooSmall => "too close to zero but not zero",
+            spade::InsertionError::TooLarge => "too large",
+            spade::InsertionError::NAN => "not a number",
+        },
+    }
+}
+
 /// spade's constrained bulk load, which drops repeated vertices and splits constraints at
 /// vertices lying on them.
 fn build_constrained(verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
     let cdt = Cdt::try_bulk_load_cdt(verts.iter().map(|v| v.p).collect(), edges.to_vec(), |_| {})
-        .map_err(|e| CheckError::Triangulate(format!("{e:?}")))?;
+        .map_err(|e| {
+        // The point spade refused (the first one that fails its test).
+        let p = verts
+            .iter()
+            .map(|v| v.p)
+            .find(|p| spade::validate_vertex(p).is_err())
+            .unwrap_or(Point2::new(f64::NAN, f64::NAN));
+        coordinate_error(p, e)
+    })?;
     // spade keeps the points' order, dropping repeats: spade's vertex j is `verts[of[j]]`, found
     // by walking both in order.
     let of: Vec<u32> = if cdt.num_vertices() == verts.len() {

@@ -61,8 +61,17 @@ pub fn allowance_px(tolerance_px: f64) -> f64 {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CheckError {
-    #[error("cannot triangulate the cut geometry for the width check: {0}")]
-    Triangulate(String),
+    /// A point of the outline the triangulation cannot take (only an absurd size, which the
+    /// size limits refuse first, can make one).
+    #[error(
+        "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is {problem}; \
+         check the size (--width-mm, --dpi, --margin-mm)"
+    )]
+    Coordinate {
+        x_mm: f64,
+        y_mm: f64,
+        problem: &'static str,
+    },
 }
 
 /// What is wrong.

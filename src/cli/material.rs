@@ -16,6 +16,8 @@ use stencil::raster::BitGrid;
 use stencil::report::Report;
 use stencil::vector::VectorConfig;
 
+use super::progress::StageBar;
+
 /// A file kind for `--emit`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EmitKind {
@@ -37,21 +39,26 @@ pub enum EmitKind {
 pub struct PhysicalArgs {
     /// Width of the picture on the sheet in mm (the height follows). Without it and without
     /// --dpi, one pixel of the picture is 0.1 mm (whatever --scale does to the working pixels).
-    #[arg(long, conflicts_with = "dpi")]
+    /// The picture may be at most 10 m (10000 mm) on its longer side, with pixels of at least
+    /// 0.001 mm; with the default clean-up, the material's smallest feature may be at most 50
+    /// working pixels wide (so at most 0.01 mm pixels for cardstock).
+    #[arg(long, conflicts_with = "dpi", value_parser = super::bounds::positive)]
     pub width_mm: Option<f64>,
-    /// Pixels of the picture per inch (instead of --width-mm).
-    #[arg(long)]
+    /// Pixels of the picture per inch (instead of --width-mm); at most 25400 (0.001 mm pixels),
+    /// and low enough that the picture is at most 10 m on its longer side.
+    #[arg(long, value_parser = super::bounds::positive)]
     pub dpi: Option<f64>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
     /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
     /// drive the bridges, the filter and the check.
     #[arg(long, default_value = DEFAULT_MATERIAL)]
     pub material: String,
-    /// Largest distance (mm) simplification may move an outline.
-    #[arg(long, default_value_t = 0.05)]
+    /// Largest distance (mm) simplification may move an outline: 0 (off) or 0.001 to 10.
+    #[arg(long, default_value_t = 0.05, value_parser = super::bounds::tolerance_mm)]
     pub tolerance_mm: f64,
-    /// Sheet left around the picture on every side, in mm (the sheet continues beyond the picture).
-    #[arg(long, default_value_t = 5.0)]
+    /// Sheet left around the picture on every side, in mm (the sheet continues beyond the
+    /// picture): 0.001 to 1000.
+    #[arg(long, default_value_t = 5.0, value_parser = super::bounds::margin_mm)]
     pub margin_mm: f64,
     /// Files to write, comma separated (report.json is always written).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "png,svg")]
@@ -67,8 +74,8 @@ pub struct PhysicalArgs {
     /// Write DXF R12 (POLYLINE/VERTEX/SEQEND) instead of R2000 LWPOLYLINEs, for old software.
     #[arg(long)]
     pub dxf_r12: bool,
-    /// Resolution of mask.png in dots per inch.
-    #[arg(long, default_value_t = 1200.0)]
+    /// Resolution of mask.png in dots per inch: 25.4 to 25400.
+    #[arg(long, default_value_t = 1200.0, value_parser = super::bounds::mask_dpi)]
     pub mask_dpi: f64,
     /// Mask polarity: clear where metal stays (negative-acting resist) instead of black.
     #[arg(long)]
@@ -131,8 +138,12 @@ impl PhysicalArgs {
     }
 }
 
-/// Print the check's findings, one violation per line.
-pub fn print_check(c: &CheckReport) {
+/// At most this many violations are listed one per line; the rest are counted by kind.
+pub const LISTED_VIOLATIONS: usize = 30;
+
+/// Print the check's findings, one violation per line up to [`LISTED_VIOLATIONS`], then a count
+/// of the rest by kind; `all_in` says where the whole list is.
+pub fn print_check(c: &CheckReport, all_in: &str) {
     let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3} mm"));
     println!(
         "check against '{}' (bridges >= {} mm, webs and holes >= {} mm): {} piece(s); narrowest bridge {}, web {}, hole {}",
@@ -144,13 +155,30 @@ pub fn print_check(c: &CheckReport) {
         f(c.narrowest_web_mm),
         f(c.narrowest_hole_mm)
     );
-    for v in &c.violations {
+    for v in c.violations.iter().take(LISTED_VIOLATIONS) {
         let conf = match v.confirmed_by_opening {
             Some(true) => " (confirmed by opening)",
             Some(false) => " (not confirmed by the raster opening)",
             None => "",
         };
         println!("  {v}{conf}");
+    }
+    let rest = &c.violations[c.violations.len().min(LISTED_VIOLATIONS)..];
+    if !rest.is_empty() {
+        let mut by_kind: Vec<(String, usize)> = Vec::new();
+        for v in rest {
+            let k = v.kind.to_string();
+            match by_kind.iter_mut().find(|(n, _)| *n == k) {
+                Some((_, count)) => *count += 1,
+                None => by_kind.push((k, 1)),
+            }
+        }
+        let kinds: Vec<String> = by_kind.iter().map(|(k, n)| format!("{n} {k}")).collect();
+        println!(
+            "  ... and {} more ({}); {all_in}",
+            rest.len(),
+            kinds.join(", ")
+        );
     }
 }
 
@@ -167,22 +195,28 @@ pub struct CheckArgs {
     /// Material profile (default: the one the folder's report.json names, else cardstock).
     #[arg(long)]
     pub material: Option<String>,
-    /// Width of the picture in mm (default: from report.json, else 0.1 mm per pixel).
-    #[arg(long, conflicts_with = "dpi")]
+    /// Width of the picture in mm (default: from report.json, else 0.1 mm per pixel). At most
+    /// 10 m (10000 mm) on the picture's longer side, with pixels of at least 0.001 mm.
+    #[arg(long, conflicts_with = "dpi", value_parser = super::bounds::positive)]
     pub width_mm: Option<f64>,
-    /// Pixels per inch (instead of --width-mm).
-    #[arg(long)]
+    /// Pixels per inch (instead of --width-mm); at most 25400.
+    #[arg(long, value_parser = super::bounds::positive)]
     pub dpi: Option<f64>,
-    /// Simplification tolerance in mm (default: from report.json, else 0.05).
-    #[arg(long)]
+    /// Simplification tolerance in mm (default: from report.json, else 0.05): 0 or 0.001 to 10.
+    #[arg(long, value_parser = super::bounds::tolerance_mm)]
     pub tolerance_mm: Option<f64>,
+    /// Refuse stencil pictures with more pixels than this (checked from the header, before
+    /// decoding). The default, 100 megapixels, checks in seconds and under 1 GB; at most
+    /// 200000000.
+    #[arg(long, default_value_t = stencil::limits::CHECK_DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
+    pub max_pixels: u64,
     /// Print the check report as JSON instead of text.
     #[arg(long)]
     pub json: bool,
 }
 
-fn load_bits(path: &Path) -> anyhow::Result<BitGrid> {
-    let g = stencil::tone::image::load_gray(path, 400_000_000)?;
+fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
+    let g = stencil::tone::image::load_gray(path, max_pixels)?;
     Ok(BitGrid {
         width: g.width,
         height: g.height,
@@ -190,25 +224,31 @@ fn load_bits(path: &Path) -> anyhow::Result<BitGrid> {
     })
 }
 
-pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
-    let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
-        let rp = a.input.join("report.json");
-        let text = std::fs::read_to_string(&rp).with_context(|| {
+/// A `stencil make` output folder's report.json.
+pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
+    let rp = folder.join("report.json");
+    let text = stencil::limits::read_text(&rp, stencil::limits::MAX_REPORT_BYTES, "stencil report")
+        .with_context(|| {
             format!(
-                "{}: cannot read (is this a `stencil make` output folder?)",
-                rp.display()
+                "{}: is this a `stencil make` output folder?",
+                folder.display()
             )
         })?;
-        let r: Report = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a stencil report", rp.display()))?;
-        (a.input.join("stencil.png"), Some(r))
+    serde_json::from_str(&text).with_context(|| format!("{}: not a stencil report", rp.display()))
+}
+
+pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
+    let bar = StageBar::start();
+    bar.set("read");
+    let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
+        (a.input.join("stencil.png"), Some(read_report(&a.input)?))
     } else {
         (a.input.clone(), None)
     };
-    let bits = load_bits(&png).with_context(|| {
+    let bits = load_bits(&png, a.max_pixels).with_context(|| {
         if report.is_some() {
             format!(
-                "{}: the folder has no readable stencil.png (make writes it with --emit png)",
+                "{}: cannot read the folder's stencil.png (make writes it with --emit png)",
                 a.input.display()
             )
         } else {
@@ -221,6 +261,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
         .or_else(|| report.as_ref().and_then(|r| r.material.clone()))
         .unwrap_or_else(|| DEFAULT_MATERIAL.to_string());
     let (material, _) = Material::find(&name)?;
+    let from_report = report.is_some() && a.width_mm.is_none() && a.dpi.is_none();
     let phys = PhysicalConfig {
         size: match (a.width_mm, a.dpi, report.as_ref().and_then(|r| r.mm_per_px)) {
             (None, None, Some(mm)) => Size::Dpi(25.4 / mm),
@@ -228,23 +269,72 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
         },
         ..Default::default()
     };
-    let scale = phys.scale(bits.width)?;
+    let scale = phys.scale(bits.width, bits.height).with_context(|| {
+        if from_report {
+            format!(
+                "{}: report.json's mm_per_px is not a size stencil accepts (give --width-mm or --dpi)",
+                a.input.display()
+            )
+        } else {
+            png.display().to_string()
+        }
+    })?;
+    let report_value = |what: &str, v: Option<f64>, ok: fn(f64) -> Result<f64, String>| {
+        v.map(|v| {
+            ok(v).map_err(|e| anyhow::anyhow!("{}: report.json's {what}: {e}", a.input.display()))
+        })
+        .transpose()
+    };
+    let tolerance_mm = match a.tolerance_mm {
+        Some(t) => t,
+        None => report_value(
+            "tolerance_mm",
+            report.as_ref().and_then(|r| r.tolerance_mm),
+            super::bounds::tolerance_value,
+        )?
+        .unwrap_or(0.05),
+    };
+    let margin_mm = report_value(
+        "margin_mm",
+        report.as_ref().and_then(|r| r.margin_mm),
+        super::bounds::margin_value,
+    )?
+    .unwrap_or(5.0);
     let vcfg = VectorConfig {
         scale,
         kerf_mm: material.kerf_mm,
-        tolerance_mm: a
-            .tolerance_mm
-            .or_else(|| report.as_ref().and_then(|r| r.tolerance_mm))
-            .unwrap_or(0.05),
-        margin_mm: report.as_ref().and_then(|r| r.margin_mm).unwrap_or(5.0),
+        tolerance_mm,
+        margin_mm,
         ..Default::default()
     };
     let bridges: Option<Vec<Vec<[f64; 2]>>> = report
         .as_ref()
         .map(|r| r.bridges.iter().map(|b| b.polygon_px.clone()).collect());
-    let mut timer = Timings::default();
+    // A bridge drawn far off the stencil belongs to another picture (or a damaged report), and
+    // its coordinates would reach the geometry code unchecked.
+    let reach = f64::from(bits.width.max(bits.height));
+    for (i, poly) in bridges.iter().flatten().enumerate() {
+        if let Some(p) = poly.iter().find(|p| {
+            !p.iter()
+                .all(|v| v.is_finite() && (-reach..=2.0 * reach).contains(v))
+        }) {
+            anyhow::bail!(
+                "{}: report.json's bridge {} has a point at ({}, {}) px, far outside the {}x{} px \
+                 stencil.png; the report does not belong to this stencil (run make again)",
+                a.input.display(),
+                i + 1,
+                stencil::limits::num(p[0]),
+                stencil::limits::num(p[1]),
+                bits.width,
+                bits.height
+            );
+        }
+    }
+    let mut timer = Timings(Default::default(), Some(bar.clone()));
     let (_, _, chk) =
-        pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)?;
+        pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)
+            .with_context(|| png.display().to_string())?;
+    bar.finish();
     if a.json {
         println!("{}", serde_json::to_string_pretty(&chk)?);
     } else {
@@ -255,7 +345,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             bits.height,
             scale.mm_per_px
         );
-        print_check(&chk);
+        print_check(&chk, "`stencil check --json` lists them all");
         println!("{}", if chk.passed() { "OK" } else { "FAILED" });
     }
     Ok(if chk.passed() {

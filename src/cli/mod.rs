@@ -1,10 +1,12 @@
 //! Command-line definitions (clap derive) and the thin dispatch into the library.
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
+mod bounds;
 mod gcode;
 mod make;
 mod material;
 mod mesh;
+mod progress;
 mod send;
 
 use std::process::ExitCode;

@@ -9,7 +9,7 @@ pub mod svg;
 
 use std::path::{Path, PathBuf};
 
-pub use atomic::{write_atomic, write_atomic_with};
+pub use atomic::{plain_io, write_atomic, write_atomic_with, Replaced};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
@@ -23,6 +23,11 @@ pub enum ExportError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error("{path}: cannot remove this file of an earlier run: {source}; remove it yourself or choose another folder with -o")]
+    Remove {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: cannot encode: {msg}")]
     Encode { path: PathBuf, msg: String },
 }
@@ -31,27 +36,18 @@ pub enum ExportError {
 pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
     std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
         path: dir.to_path_buf(),
-        source,
+        source: plain_io(source),
     })
 }
 
-/// Write a set of files into `dir` (created if missing), all or nothing: each file is written
-/// atomically, and if one fails the ones this call already wrote are removed again.
-pub fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>, ExportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let mut written = Vec::new();
-    for (name, bytes) in files {
-        let path = dir.join(name);
-        if let Err(e) = write_atomic(&path, bytes) {
-            for p in &written {
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(e);
-        }
-        written.push(path);
-    }
-    Ok(written)
+/// Write a set of files into `dir` (created if missing), all or nothing, and remove the files
+/// named in `stale` that this set does not write: see [`atomic::replace_all`]. If anything fails,
+/// the folder is left as it was, old files included.
+pub fn write_files(
+    dir: &Path,
+    files: &[(String, Vec<u8>)],
+    stale: &[&str],
+) -> Result<Replaced, ExportError> {
+    prepare_dir(dir)?;
+    atomic::replace_all(dir, files, stale)
 }

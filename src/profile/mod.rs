@@ -24,11 +24,8 @@ pub use material::{Material, Process};
 /// and, where there is one, the field.
 #[derive(Debug, thiserror::Error)]
 pub enum ProfileError {
-    #[error("{path}: cannot read profile: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Read(#[from] crate::limits::ReadError),
     /// TOML syntax, a missing field, an unknown field or a wrong type (toml's message names the
     /// field and the line).
     #[error("{path}: {msg}")]
@@ -74,12 +71,10 @@ pub struct Shipped {
     pub text: &'static str,
 }
 
-/// Read and parse a TOML file into `T`.
+/// Read and parse a TOML file into `T`. At most [`crate::limits::MAX_PROFILE_BYTES`] are read:
+/// a huge file or a device such as /dev/zero is refused instead of read forever.
 pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<T, ProfileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::limits::read_text(path, crate::limits::MAX_PROFILE_BYTES, "profile")?;
     parse_toml(&text, path)
 }
 

@@ -25,7 +25,7 @@ pub enum ToneError {
     Decode { path: PathBuf, msg: String },
     #[error(
         "{path}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} megapixels; \
-         downscale the image or raise --max-pixels"
+         downscale the image or raise --max-pixels (at most {})", crate::limits::MAX_PIXELS_CEILING
     )]
     TooLarge {
         path: PathBuf,
@@ -34,6 +34,21 @@ pub enum ToneError {
         mp: f64,
         limit_mp: f64,
     },
+    #[error("{path}: the {format} file is truncated (it ends before its end-of-image marker, so part of the picture is missing); download or export it again")]
+    Truncated { path: PathBuf, format: &'static str },
+    #[error(
+        "{path}: {width}x{height} pixels would need {gb:.1} GB to decode, more than the {limit_gb:.1} GB \
+         stencil allows whatever --max-pixels says; downscale the image"
+    )]
+    TooMuchMemory {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        gb: f64,
+        limit_gb: f64,
+    },
+    #[error("{path}: the decoder needed more than the {limit_gb:.1} GB of memory stencil allows for a picture; the file may be damaged, or downscale the image")]
+    DecoderLimit { path: PathBuf, limit_gb: f64 },
     #[error("{path}: the image has no pixels")]
     Empty { path: PathBuf },
     #[error("--scale {0} is out of range: use 1 to 8")]
@@ -92,7 +107,7 @@ impl Default for ToneConfig {
             threshold: Threshold::default(),
             invert: false,
             scale: None,
-            max_pixels: 100_000_000,
+            max_pixels: crate::limits::DEFAULT_MAX_PIXELS,
         }
     }
 }

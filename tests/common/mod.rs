@@ -130,3 +130,45 @@ pub fn differing(a: &BitGrid, b: &BitGrid) -> usize {
     assert_eq!((a.width, a.height), (b.width, b.height), "sizes differ");
     a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
 }
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// One PNG chunk: length, kind, body, CRC.
+pub fn png_chunk(kind: &[u8; 4], body: &[u8]) -> Vec<u8> {
+    let mut chunk = kind.to_vec();
+    chunk.extend_from_slice(body);
+    let mut out = (body.len() as u32).to_be_bytes().to_vec();
+    out.extend_from_slice(&chunk);
+    out.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    out
+}
+
+/// A PNG whose header claims `w` x `h` pixels (`depth` bits, PNG colour type `color`: 0 gray,
+/// 2 RGB, 6 RGBA) over a few bytes of bogus pixel data, as a doctored real file would have: tiny
+/// on disk, huge if decoded.
+pub fn png_header_only(w: u32, h: u32, depth: u8, color: u8) -> Vec<u8> {
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = w.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[depth, color, 0, 0, 0]);
+    png.extend(png_chunk(b"IHDR", &ihdr));
+    png.extend(png_chunk(
+        b"IDAT",
+        &[0x78u8, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    ));
+    png.extend(png_chunk(b"IEND", &[]));
+    png
+}

@@ -29,7 +29,7 @@ pub use lines::LineMode;
 pub use load::{load, Mesh};
 
 /// Refuse renders with more working pixels (size × supersample²) than this.
-pub const MAX_WORKING_PIXELS: u64 = 80_000_000;
+pub use crate::limits::MESH_MAX_WORKING_PIXELS as MAX_WORKING_PIXELS;
 
 /// Options of the mesh renderer. Lengths are in bounding radii of the model, angles in degrees.
 #[derive(Clone, Debug, PartialEq)]

@@ -268,14 +268,11 @@ impl<'a> Work<'a> {
         };
         self.corner_caps(&mut cut);
         self.thin = [material, cut];
-        let corners = disc.on_corners() as usize;
-        let (w, h) = (self.bits.width, self.bits.height);
-        self.refresh_depths(0, h + corners, 0, w + corners);
+        self.refresh_depths();
     }
 
-    /// Recompute [`Work::depth2`] at every centre next to a thin pixel in lattice rows `a..b`,
-    /// columns `x0..x1`.
-    fn refresh_depths(&mut self, a: usize, b: usize, x0: usize, x1: usize) {
+    /// Recompute [`Work::depth2`] at every centre next to a thin pixel.
+    fn refresh_depths(&mut self) {
         let corners = self.disc.on_corners() as usize;
         let (w, h) = (self.bits.width, self.bits.height);
         let lw = w + corners;
@@ -283,38 +280,28 @@ impl<'a> Work<'a> {
         depth2.resize(lw * (h + corners), u16::MAX);
         let work = &*self;
         let stride = work.bits.stride;
-        let any = |y: usize| -> Vec<u64> {
-            let [a, b] = &work.thin;
-            a.row(y).iter().zip(b.row(y)).map(|(p, q)| p | q).collect()
-        };
-        let par = packed::parallel(w * (b - a));
-        packed::rows_mut(&mut depth2[a * lw..b * lw], lw, par, |(cy, row)| {
-            let cy = cy + a;
-            // The lattice points holding a thin pixel: the pixel itself, or the corners of
-            // the pixels in the rows above and below the corner row.
-            let mut m = vec![0u64; stride + corners];
-            for y in [cy.checked_sub(corners), Some(cy)].into_iter().flatten() {
-                if y < h && (corners == 1 || y == cy) {
-                    for (a, b) in m.iter_mut().zip(any(y)) {
-                        *a |= b;
+        let [t0, t1] = &work.thin;
+        packed::rows_mut(&mut depth2, lw, packed::parallel(w * h), |(cy, row)| {
+            // The lattice points holding a thin pixel: the pixel itself, or the corners of the
+            // pixels in the rows above and below the corner row (pixel x has corners x, x + 1).
+            let rows = [cy.checked_sub(corners), (cy < h).then_some(cy)];
+            let mut carry = 0u64;
+            for k in 0..stride + corners {
+                let mut word = 0u64;
+                if k < stride {
+                    for y in rows.iter().flatten() {
+                        word |= t0.row(*y)[k] | t1.row(*y)[k];
                     }
                 }
-            }
-            if corners == 1 {
-                // Pixel x has corners x and x + 1.
-                let mut carry = 0;
-                for a in m.iter_mut() {
-                    let next = *a >> 63;
-                    *a |= (*a << 1) | carry;
+                if corners == 1 {
+                    let next = word >> 63;
+                    word |= (word << 1) | carry;
                     carry = next;
                 }
-            }
-            for (k, &word) in m.iter().enumerate() {
-                let mut word = word;
                 while word != 0 {
                     let cx = k * 64 + word.trailing_zeros() as usize;
                     word &= word - 1;
-                    if (x0..x1.min(lw)).contains(&cx) {
+                    if cx < lw {
                         row[cx] = work.lattice_depth(cx as i64, cy as i64);
                     }
                 }
@@ -426,35 +413,89 @@ impl<'a> Work<'a> {
 }
 
 /// 8-connected groups of the set pixels of `mask` (those holding a pixel of `seeds`, when given):
-/// a list of pixel indices per group.
+/// a list of pixel indices per group, in raster order, the groups in the order of their first
+/// pixel. By runs along rows joined to the runs they touch in the row above (union-find), not
+/// pixel by pixel.
 fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
-    let (w, h) = (mask.width as i64, mask.height as i64);
-    let mut todo = mask.clone();
-    let mut out = Vec::new();
-    let mut stack = Vec::new();
-    for seed in seeds.unwrap_or(mask).ones() {
-        if !todo.at(seed) {
-            continue;
-        }
-        todo.put(seed, false);
-        stack.push(seed);
-        let mut g = Vec::new();
-        while let Some(i) = stack.pop() {
-            g.push(i);
-            let (x, y) = ((i as i64) % w, (i as i64) / w);
-            for dy in -1..=1i64 {
-                for dx in -1..=1i64 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= w || ny >= h || !todo.get(nx as usize, ny as usize)
-                    {
-                        continue;
+    let (w, h) = (mask.width, mask.height);
+    // Runs (row, first x, last x, parent).
+    let mut runs: Vec<(u32, u32, u32, u32)> = Vec::new();
+    let mut row_first = Vec::with_capacity(h + 1);
+    for y in 0..h {
+        row_first.push(runs.len());
+        for (k, &word) in mask.row(y).iter().enumerate() {
+            let mut word = word;
+            while word != 0 {
+                let start = word.trailing_zeros();
+                let len = (!(word >> start)).trailing_zeros();
+                let (x0, x1) = (k as u32 * 64 + start, k as u32 * 64 + start + len - 1);
+                match runs.last_mut() {
+                    // A run that goes on from the word before.
+                    Some(last) if last.0 == y as u32 && last.2 + 1 == x0 => last.2 = x1,
+                    _ => {
+                        let id = runs.len() as u32;
+                        runs.push((y as u32, x0, x1, id));
                     }
-                    todo.set(nx as usize, ny as usize, false);
-                    stack.push((ny * w + nx) as usize);
                 }
+                let end = start + len;
+                word = if end >= 64 { 0 } else { word & (!0u64 << end) };
             }
         }
-        out.push(g);
+    }
+    row_first.push(runs.len());
+    fn root(runs: &mut [(u32, u32, u32, u32)], mut r: usize) -> usize {
+        while runs[r].3 as usize != r {
+            let p = runs[r].3 as usize;
+            runs[r].3 = runs[p].3;
+            r = p;
+        }
+        r
+    }
+    for y in 1..h {
+        let (mut a, a_end) = (row_first[y - 1], row_first[y]);
+        let (mut b, b_end) = (row_first[y], row_first[y + 1]);
+        while a < a_end && b < b_end {
+            let (sa, ea) = (runs[a].1 as i64, runs[a].2 as i64);
+            let (sb, eb) = (runs[b].1 as i64, runs[b].2 as i64);
+            // 8-connected: touching diagonally counts.
+            if sa <= eb + 1 && sb <= ea + 1 {
+                let (ra, rb) = (root(&mut runs, a), root(&mut runs, b));
+                if ra != rb {
+                    let (lo, hi) = (ra.min(rb), ra.max(rb));
+                    runs[hi].3 = lo as u32;
+                }
+            }
+            if ea <= eb {
+                a += 1;
+            } else {
+                b += 1;
+            }
+        }
+    }
+    let mut group_of = vec![u32::MAX; runs.len()];
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut wanted = vec![seeds.is_none(); runs.len()];
+    if let Some(seeds) = seeds {
+        for r in 0..runs.len() {
+            let (y, x0, x1, _) = runs[r];
+            if (x0..=x1).any(|x| seeds.get(x as usize, y as usize)) {
+                let root = root(&mut runs, r);
+                wanted[root] = true;
+            }
+        }
+    }
+    for r in 0..runs.len() {
+        let root = root(&mut runs, r);
+        if !wanted[root] {
+            continue;
+        }
+        if group_of[root] == u32::MAX {
+            group_of[root] = out.len() as u32;
+            out.push(Vec::new());
+        }
+        let (y, x0, x1, _) = runs[r];
+        let base = y as usize * w;
+        out[group_of[root] as usize].extend((x0..=x1).map(|x| base + x as usize));
     }
     out
 }
@@ -950,6 +991,60 @@ mod tests {
         assert_eq!(Disc::for_width(4.2).span, 5);
         assert_eq!(Disc::for_width(6.0).span, 6);
         assert_eq!(Disc::for_width(0.5).span, 1);
+    }
+
+    #[test]
+    fn groups_are_the_8_connected_pieces() {
+        let mut seed = 3u64;
+        for (w, h, density) in [
+            (70usize, 9usize, 6u64),
+            (130, 20, 9),
+            (64, 64, 3),
+            (1, 5, 8),
+        ] {
+            let mut mask = Packed::new(w, h, false);
+            let mut seeds = Packed::new(w, h, false);
+            for y in 0..h {
+                for x in 0..w {
+                    seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+                    mask.set(x, y, (seed >> 60) < density);
+                    seeds.set(x, y, (seed >> 40) & 31 == 0);
+                }
+            }
+            // Flood fill, pixel by pixel.
+            let mut label = vec![usize::MAX; w * h];
+            let mut want: Vec<Vec<usize>> = Vec::new();
+            for i in 0..w * h {
+                if !mask.at(i) || label[i] != usize::MAX {
+                    continue;
+                }
+                let mut stack = vec![i];
+                label[i] = want.len();
+                let mut g = Vec::new();
+                while let Some(j) = stack.pop() {
+                    g.push(j);
+                    let (x, y) = ((j % w) as i64, (j / w) as i64);
+                    for (dx, dy) in (-1..=1).flat_map(|a| (-1..=1).map(move |b| (a, b))) {
+                        let (nx, ny) = (x + dx, y + dy);
+                        if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                            let k = ny as usize * w + nx as usize;
+                            if mask.at(k) && label[k] == usize::MAX {
+                                label[k] = want.len();
+                                stack.push(k);
+                            }
+                        }
+                    }
+                }
+                g.sort_unstable();
+                want.push(g);
+            }
+            assert_eq!(groups(&mask, None), want, "{w}x{h}");
+            let seeded: Vec<Vec<usize>> = want
+                .into_iter()
+                .filter(|g| g.iter().any(|&i| seeds.at(i)))
+                .collect();
+            assert_eq!(groups(&mask, Some(&seeds)), seeded, "{w}x{h} seeded");
+        }
     }
 
     #[test]

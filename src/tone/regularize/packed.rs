@@ -116,32 +116,29 @@ impl Packed {
         c.tail(false);
         c.data.iter().map(|w| w.count_ones() as usize).sum()
     }
-
-    /// The indices `y · width + x` of the set bits inside the grid, in order.
-    pub fn ones(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..self.height).flat_map(move |y| {
-            self.row(y).iter().enumerate().flat_map(move |(k, &w)| {
-                let mut w = w;
-                std::iter::from_fn(move || {
-                    while w != 0 {
-                        let b = w.trailing_zeros() as usize;
-                        w &= w - 1;
-                        let x = k * 64 + b;
-                        if x < self.width {
-                            return Some(y * self.width + x);
-                        }
-                    }
-                    None
-                })
-            })
-        })
-    }
 }
 
 /// Whether work over a grid of this many pixels is worth spreading over threads: a small window
 /// (a repair around one neck) is done sooner on one.
 pub(super) fn parallel(pixels: usize) -> bool {
     pixels >= 1 << 16
+}
+
+/// `f` on each `n`-long chunk of `data` with its index and scratch from `init` (one per thread
+/// or piece of work, not per chunk), on threads when `par`.
+pub(super) fn rows_mut_with<T: Send, S>(
+    data: &mut [T],
+    n: usize,
+    par: bool,
+    init: impl Fn() -> S + Sync + Send,
+    f: impl Fn(&mut S, (usize, &mut [T])) + Sync + Send,
+) {
+    if par {
+        data.par_chunks_mut(n).enumerate().for_each_init(init, f)
+    } else {
+        let mut s = init();
+        data.chunks_mut(n).enumerate().for_each(|c| f(&mut s, c))
+    }
 }
 
 /// `f` on each `n`-long chunk of `data` with its index, on threads when `par`.
@@ -188,8 +185,8 @@ fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
     // The words whose sources `j` and `j + 1` both lie in the row, without the checks.
     let lo = (-q).clamp(0, m);
     let hi = (n - 1 - q).clamp(lo, m);
-    for i in 0..lo {
-        out[i as usize] = edge(i);
+    for (i, o) in out.iter_mut().enumerate().take(lo as usize) {
+        *o = edge(i as i64);
     }
     let (lo, hi) = (lo as usize, hi as usize);
     if lo < hi {
@@ -203,8 +200,8 @@ fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
             }
         }
     }
-    for i in hi..out.len() {
-        out[i] = edge(i as i64);
+    for (i, o) in out.iter_mut().enumerate().skip(hi) {
+        *o = edge(i as i64);
     }
 }
 
@@ -212,18 +209,28 @@ fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
 /// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans are the rows of one disc:
 /// by length, each one longer at both ends than the one before (`a + b` the same for all), so
 /// each is the one before it combined with two shifted rows.
-fn runs_of(row: &[u64], spans: &[(i64, i64)], and: bool, fill: u64, n: usize, out: &mut [u64]) {
+fn runs_of(
+    row: &[u64],
+    spans: &[(i64, i64)],
+    and: bool,
+    fill: u64,
+    n: usize,
+    out: &mut [u64],
+    (cur, tmp): &mut (Vec<u64>, Vec<u64>),
+) {
     let op = |x: &mut [u64], y: &[u64]| {
         for (p, &q) in x.iter_mut().zip(y) {
             *p = if and { *p & q } else { *p | q };
         }
     };
-    let (mut cur, mut tmp) = (vec![0u64; n], vec![0u64; n]);
+    cur.resize(n, 0);
+    tmp.resize(n, 0);
+    let (cur, tmp) = (&mut cur[..n], &mut tmp[..n]);
     let (a0, b0) = spans[0];
-    shift(row, a0, fill, &mut cur);
+    shift(row, a0, fill, cur);
     for t in a0 + 1..=b0 {
-        shift(row, t, fill, &mut tmp);
-        op(&mut cur, &tmp);
+        shift(row, t, fill, tmp);
+        op(cur, tmp);
     }
     let (mut a, mut b) = (a0, b0);
     for (k, &(sa, sb)) in spans.iter().enumerate() {
@@ -231,12 +238,12 @@ fn runs_of(row: &[u64], spans: &[(i64, i64)], and: bool, fill: u64, n: usize, ou
         while b < sb {
             a -= 1;
             b += 1;
-            shift(row, a, fill, &mut tmp);
-            op(&mut cur, &tmp);
-            shift(row, b, fill, &mut tmp);
-            op(&mut cur, &tmp);
+            shift(row, a, fill, tmp);
+            op(cur, tmp);
+            shift(row, b, fill, tmp);
+            op(cur, tmp);
         }
-        out[k * n..(k + 1) * n].copy_from_slice(&cur);
+        out[k * n..(k + 1) * n].copy_from_slice(cur);
     }
 }
 
@@ -293,8 +300,9 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
     let ns = spans.len();
     let par = parallel(w * h);
     let mut runs = vec![0u64; h * ns * ls];
-    rows_mut(&mut runs, ns * ls, par, |(y, out)| {
-        runs_of(tone.row(y), &spans, true, fill, ls, out);
+    let scratch = || (Vec::new(), Vec::new());
+    rows_mut_with(&mut runs, ns * ls, par, scratch, |s, (y, out)| {
+        runs_of(tone.row(y), &spans, true, fill, ls, out, s);
     });
     let which: Vec<usize> = shape
         .rows
@@ -327,8 +335,8 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
     let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
     let ps = bits.stride;
     let mut runs = vec![0u64; lh * ns * ps];
-    rows_mut(&mut runs, ns * ps, par, |(cy, out)| {
-        runs_of(centres.row(cy), &mirrored, false, 0, ps, out);
+    rows_mut_with(&mut runs, ns * ps, par, scratch, |s, (cy, out)| {
+        runs_of(centres.row(cy), &mirrored, false, 0, ps, out, s);
     });
     let which: Vec<usize> = shape
         .rows
@@ -341,8 +349,9 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
         })
         .collect();
     let mut out = tone;
-    rows_mut(&mut out.data, ps, par, |(y, row)| {
-        let mut covered = vec![0u64; ps];
+    let scratch = || vec![0u64; ps];
+    rows_mut_with(&mut out.data, ps, par, scratch, |covered, (y, row)| {
+        covered.fill(0);
         for (r, &s) in which.iter().enumerate() {
             let cy = y as i64 - shape.dy0 - r as i64;
             if (0..lh as i64).contains(&cy) {
@@ -352,7 +361,7 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
                 }
             }
         }
-        for (o, c) in row.iter_mut().zip(covered) {
+        for (o, c) in row.iter_mut().zip(covered.iter()) {
             *o &= !c;
         }
     });
@@ -484,9 +493,26 @@ mod tests {
         assert_eq!(out, [0b10111, 0]);
         shift(&row, 64, 0, &mut out);
         assert_eq!(out, [1 << 63, 0]);
-        runs_of(&[0b0111_0110u64], &[(1, 1), (0, 2)], true, 0, 1, &mut out);
+        let mut s = (Vec::new(), Vec::new());
+        runs_of(
+            &[0b0111_0110u64],
+            &[(1, 1), (0, 2)],
+            true,
+            0,
+            1,
+            &mut out,
+            &mut s,
+        );
         assert_eq!(out, [0b0111_0110 >> 1, 0b0001_0000]);
-        runs_of(&[0b1000_0001u64], &[(0, 0), (-1, 1)], false, 0, 1, &mut out);
+        runs_of(
+            &[0b1000_0001u64],
+            &[(0, 0), (-1, 1)],
+            false,
+            0,
+            1,
+            &mut out,
+            &mut s,
+        );
         assert_eq!(out, [0b1000_0001, 0b1_1100_0011]);
     }
 }
