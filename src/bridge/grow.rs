@@ -26,7 +26,7 @@ pub const WIDTH_PER_SIDE: f64 = 0.25;
 ///
 /// Why √A/4: an island hangs from its bridges and its weight grows with its area, while a bridge
 /// wider than about a quarter of the island's side would smother its shape. With cardstock
-/// (1..5 mm) an island 4 mm across gets 1 mm, one 20 mm across or larger 5 mm.
+/// (1..4 mm) an island 4 mm across gets 1 mm, one 16 mm across or larger 4 mm.
 pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
     let w = (WIDTH_PER_SIDE * (smaller_area as f64).sqrt()).ceil() as u32;
     w.clamp(
@@ -1400,12 +1400,12 @@ mod tests {
         // columns 16..25): at y = 30 under it, from y = 26 right beside it. The band's pixels of
         // row 26 are the first to touch it; a flat edge is met at row 30 across the whole band.
         let (w, h) = (41u32, 40u32);
-        let hollow = |x: u32, y: u32| y < 5 || y >= 30 || (y >= 26 && !(16..25).contains(&x));
-        let flat = |_: u32, y: u32| y < 5 || y >= 30;
-        let cases: [(&str, &dyn Fn(u32, u32) -> bool, f64); 2] =
-            [("hollow", &hollow, 27.0), ("flat", &flat, 31.0)];
-        for (name, f, end) in cases {
-            let bits = BitGrid::from_fn(w, h, f);
+        let nodes = |hollow: bool| {
+            BitGrid::from_fn(w, h, move |x, y| {
+                !(5..30).contains(&y) || (hollow && y >= 26 && !(16..25).contains(&x))
+            })
+        };
+        for (name, bits, end) in [("hollow", nodes(true), 27.0), ("flat", nodes(false), 31.0)] {
             let gray = Gray::new(w, h, 0.0);
             // The axis from the last pixel of the top node to the first of the bottom one.
             let p = band(&bits, &gray, [[20.5, 4.5], [20.5, 30.5]], 9, 3, 25.0);
