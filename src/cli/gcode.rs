@@ -255,7 +255,8 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
-        geom.apply_kerf(m.kerf_mm);
+        geom.apply_kerf(m.kerf_mm)
+            .with_context(|| format!("{}", svg_path.display()))?;
     }
     let settings = a.cut.settings(base, &machine)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {
