@@ -3,6 +3,8 @@
 //! Used by the time estimate (`plan`), the simulator and the virtual Grbl, so all three agree on
 //! what a program does.
 
+use crate::text::excerpt;
+
 /// One straight move, in millimetres, absolute machine coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Move {
@@ -70,16 +72,6 @@ pub struct GcodeError {
     pub out_of_range: bool,
 }
 
-/// A word's number as written, cut for a message.
-fn shown(s: &str) -> String {
-    const MAX: usize = 20;
-    if s.len() <= MAX {
-        s.to_string()
-    } else {
-        format!("{}… ({} characters)", &s[..MAX], s.len())
-    }
-}
-
 /// Strip a `;` comment and `( )` comments, spaces, and upper-case: what Grbl keeps of a line.
 pub fn clean_line(line: &str) -> String {
     let mut out = String::with_capacity(line.len());
@@ -107,7 +99,7 @@ pub fn words(clean: &str, line_no: usize) -> Result<Vec<(char, f64)>, GcodeError
             return Err(GcodeError {
                 line: line_no,
                 code: 1,
-                msg: format!("expected a letter at '{}'", shown(&clean[i..])),
+                msg: format!("expected a letter at '{}'", excerpt(&clean[i..])),
                 out_of_range: false,
             });
         }
@@ -130,7 +122,7 @@ pub fn words(clean: &str, line_no: usize) -> Result<Vec<(char, f64)>, GcodeError
                 code: 2,
                 msg: format!(
                     "the number after '{letter}' ({}) is too large to be a number",
-                    shown(text)
+                    excerpt(text)
                 ),
                 out_of_range: true,
             });

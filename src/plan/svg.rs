@@ -16,6 +16,7 @@ use svg::node::element::path::{Command, Data, Position};
 use svg::node::element::tag::Type;
 use svg::parser::Event;
 
+use crate::text::excerpt;
 use crate::vector::{clip, CutGeometry};
 
 #[derive(Debug, thiserror::Error)]
@@ -82,14 +83,14 @@ fn length_mm(attr: &str, v: &str) -> Result<f64, String> {
     let n: f64 = n.parse().map_err(|_| {
         format!(
             "{attr}=\"{}\" is not a length: give a number and a unit, e.g. 100mm",
-            cut(v)
+            excerpt(v)
         )
     })?;
     if RELATIVE_UNITS.contains(&unit.as_str()) {
         return Err(format!(
             "{attr}=\"{}\" is relative ({unit}) and gives the drawing no physical size: set \
              width and height in mm, cm, in, pt, pc or px (e.g. in Inkscape: Document Properties)",
-            cut(v)
+            excerpt(v)
         ));
     }
     let f = UNITS_MM
@@ -100,28 +101,18 @@ fn length_mm(attr: &str, v: &str) -> Result<f64, String> {
             format!(
                 "{attr}=\"{}\" has the unit '{}', which is not a length: use mm, cm, Q, in, \
                  pt, pc or px",
-                cut(v),
-                cut(&unit)
+                excerpt(v),
+                excerpt(&unit)
             )
         })?;
     let mm = n * f;
     if !(mm.is_finite() && mm > 0.0) {
         return Err(format!(
             "{attr}=\"{}\" is not a size: it must be more than 0",
-            cut(v)
+            excerpt(v)
         ));
     }
     Ok(mm)
-}
-
-/// A value from the file, cut for a message.
-fn cut(v: &str) -> String {
-    const MAX: usize = 40;
-    if v.chars().count() <= MAX {
-        v.to_string()
-    } else {
-        format!("{}…", v.chars().take(MAX).collect::<String>())
-    }
 }
 
 /// Numbers separated by commas and/or spaces, each finite.
@@ -148,7 +139,7 @@ fn aspect(v: Option<&str>) -> Result<Option<([f64; 2], bool)>, String> {
         "Max" => Some(1.0),
         _ => None,
     };
-    let bad = || format!("preserveAspectRatio=\"{}\" is not understood", cut(v));
+    let bad = || format!("preserveAspectRatio=\"{}\" is not understood", excerpt(v));
     let (fx, fy) = match (align.get(..1), align.get(4..5)) {
         (Some("x"), Some("Y")) => (
             frac(align.get(1..4).unwrap_or("")).ok_or_else(bad)?,
@@ -194,18 +185,23 @@ fn parse_transform(t: &str) -> Result<Affine, String> {
     while !rest.is_empty() {
         let open = rest
             .find('(')
-            .ok_or_else(|| format!("bad transform '{}'", cut(t)))?;
+            .ok_or_else(|| format!("bad transform '{}'", excerpt(t)))?;
         let close = rest[open..]
             .find(')')
             .map(|c| open + c)
-            .ok_or_else(|| format!("bad transform '{}'", cut(t)))?;
+            .ok_or_else(|| format!("bad transform '{}'", excerpt(t)))?;
         let name = rest[..open].trim().trim_start_matches(',').trim();
         let args: Vec<f64> = rest[open + 1..close]
             .split(|c: char| c == ',' || c.is_whitespace())
             .filter(|s| !s.is_empty())
             .map(|s| s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or(()))
             .collect::<Result<_, _>>()
-            .map_err(|_| format!("transform '{}' holds a number that is not finite", cut(t)))?;
+            .map_err(|_| {
+                format!(
+                    "transform '{}' holds a number that is not finite",
+                    excerpt(t)
+                )
+            })?;
         let n = args.len();
         let f: Affine = match (name, n) {
             ("matrix", 6) => [args[0], args[1], args[2], args[3], args[4], args[5]],
@@ -243,8 +239,8 @@ fn parse_transform(t: &str) -> Result<Affine, String> {
             _ => {
                 return Err(format!(
                     "unsupported transform '{}' with {n} numbers in '{}'",
-                    cut(name),
-                    cut(t)
+                    excerpt(name),
+                    excerpt(t)
                 ))
             }
         };
@@ -252,7 +248,7 @@ fn parse_transform(t: &str) -> Result<Affine, String> {
         if m.iter().any(|v| !v.is_finite()) {
             return Err(format!(
                 "transform '{}' does not give finite coordinates",
-                cut(t)
+                excerpt(t)
             ));
         }
         rest = rest[close + 1..].trim_start();
@@ -388,7 +384,7 @@ fn sheet(attrs: &svg::node::Attributes) -> Result<Sheet, String> {
                 return Err(format!(
                     "viewBox=\"{}\" is not four finite numbers (x, y, width, height) with a \
                      width and height above 0",
-                    cut(v)
+                    excerpt(v)
                 ))
             }
         },
@@ -475,7 +471,7 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
                 if name == "path" && !hidden && matches!(ty, Type::Start | Type::Empty) {
                     if let Some(d) = attrs.get("d") {
                         let label = match attrs.get("id") {
-                            Some(id) => format!("<path id=\"{}\"> (path {paths})", cut(id)),
+                            Some(id) => format!("<path id=\"{}\"> (path {paths})", excerpt(id)),
                             None => format!("path {paths}"),
                         };
                         let data = Data::parse(d)
