@@ -87,19 +87,10 @@ pub struct SimulateArgs {
     pub machine: Option<String>,
 }
 
-/// The range of `--timeout-s`, seconds: from a tenth of a second (a reply takes milliseconds) to
-/// an hour (Grbl answers a status query within a fraction of a second, even mid-move).
-const TIMEOUT_S: std::ops::RangeInclusive<f64> = 0.1..=3600.0;
-
+/// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
+/// a status query within a fraction of a second, even mid-move).
 fn parse_timeout(s: &str) -> Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(v) if TIMEOUT_S.contains(&v) => Ok(v),
-        _ => Err(format!(
-            "'{s}' is not a timeout: give {} to {} seconds",
-            TIMEOUT_S.start(),
-            TIMEOUT_S.end()
-        )),
-    }
+    super::number_in(s, 0.1..=3600.0, " seconds")
 }
 
 fn read_program(path: &PathBuf) -> anyhow::Result<String> {
