@@ -26,6 +26,12 @@ pub fn union_bridges(
     if bridges.is_empty() {
         return Ok((material, cuts));
     }
+    // Every bridge, also those the boxes below would skip (a NaN box overlaps nothing).
+    clip::check_rings(
+        bridges
+            .iter()
+            .flat_map(|b| std::iter::once(b.exterior()).chain(b.interiors())),
+    )?;
     let Some(sheet) = sheet_of(&material).map(|i| material.0[i].exterior().clone()) else {
         return Ok((material, cuts));
     };
