@@ -267,8 +267,11 @@ fn mentions_cut(attrs: &svg::node::Attributes) -> bool {
     })
 }
 
+/// Closed rings of points.
+type Rings = Vec<Vec<[f64; 2]>>;
+
 /// Rings of one path's data, in user units.
-fn rings(data: &Data, file: &str) -> Result<Vec<Vec<[f64; 2]>>, SvgError> {
+fn rings(data: &Data, file: &str) -> Result<Rings, SvgError> {
     let bad = |msg: String| SvgError::Bad {
         file: file.to_string(),
         msg,
@@ -445,7 +448,7 @@ pub fn cut_geometry_from_svg(text: &str, file: &str) -> Result<CutGeometry, SvgE
     // Open elements: whether each is (inside) a "cut" element, hidden, and its transform.
     let mut stack: Vec<(bool, bool, Affine)> = Vec::new();
     // Each path: inside a "cut" element, its name for messages, its rings in user units.
-    let mut all: Vec<(bool, String, Vec<Vec<[f64; 2]>>)> = Vec::new();
+    let mut all: Vec<(bool, String, Rings)> = Vec::new();
     let mut paths = 0usize;
     for ev in svg::read(text).map_err(|e| bad(e.to_string()))? {
         match ev {

@@ -329,22 +329,15 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             )
         })
     };
+    let required = |field: &'static str, v: Option<f64>, r, unit: &str| {
+        within(field, need(field, v)?, r, unit)
+    };
     let z_lift = || -> Result<ZLift, ProfileError> {
-        let up = within(
-            "tool.z_up_mm",
-            need("tool.z_up_mm", t.z_up_mm)?,
-            bounds::Z_MM,
-            "mm",
-        )?;
-        let down = within(
-            "tool.z_down_mm",
-            need("tool.z_down_mm", t.z_down_mm)?,
-            bounds::Z_MM,
-            "mm",
-        )?;
-        let plunge = within(
+        let up = required("tool.z_up_mm", t.z_up_mm, bounds::Z_MM, "mm")?;
+        let down = required("tool.z_down_mm", t.z_down_mm, bounds::Z_MM, "mm")?;
+        let plunge = required(
             "tool.plunge_mm_min",
-            need("tool.plunge_mm_min", t.plunge_mm_min)?,
+            t.plunge_mm_min,
             bounds::FEED_MM_MIN,
             "mm/min",
         )?;
@@ -390,12 +383,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
                     }
                 }
                 Tool::Pen(PenLift::Spindle {
-                    down_s: within(
-                        "tool.pen_down_s",
-                        need("tool.pen_down_s", t.pen_down_s)?,
-                        bounds::S,
-                        "",
-                    )?,
+                    down_s: required("tool.pen_down_s", t.pen_down_s, bounds::S, "")?,
                 })
             }
             Some(LiftKind::Z) => {

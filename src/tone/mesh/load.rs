@@ -831,7 +831,7 @@ mod tests {
                 "material name",
             ),
             (
-                format!("v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+                "v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0\nf 1 2 3\n".to_string(),
                 "test.obj:3:",
                 "colour",
             ),

@@ -146,7 +146,7 @@ fn raster_triangle(
                 hi = lo - 1.0;
             }
         }
-        if !(lo <= hi) {
+        if lo.is_nan() || hi.is_nan() || lo > hi {
             continue;
         }
         let (xa, xb) = (lo as usize, hi as usize);
