@@ -139,13 +139,13 @@ fn breakdown(bits: &BitGrid, bridges: &[Vec<[f64; 2]>], vcfg: &VectorConfig, mat
         simplify::simplify_rings(&mut pts, Some(&guards), 0.5);
     });
     t("union bridges (Clipper, by region)", &mut || {
-        union::union_bridges(geom.material.clone(), &geom.bridges);
+        union::union_bridges(geom.material.clone(), &geom.bridges).unwrap();
     });
     t("cuts_of", &mut || {
         union::cuts_of(&geom.material);
     });
     t("kerf offset (Clipper)", &mut || {
-        kerf::offset_cuts(&geom.design_cuts, vcfg.kerf_mm);
+        kerf::offset_cuts(&geom.design_cuts, vcfg.kerf_mm).unwrap();
     });
     t("vectorize_design (all but kerf)", &mut || {
         vector::vectorize_design(bits, bridges, vcfg).unwrap();

@@ -23,6 +23,7 @@ pub mod plan;
 pub mod profile;
 pub mod raster;
 pub mod report;
+pub mod text;
 pub mod tone;
 pub mod units;
 pub mod vector;

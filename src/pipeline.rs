@@ -554,7 +554,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 format!("from {}", cfg.input.display()),
                 format!("material {}", phys.material.name),
             ];
-            timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm));
+            timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
             let (text, summary) = timer.time("gcode", || {
                 crate::plan::gcode_for(&geometry, &g.machine, &g.plan, &notes)
             })?;

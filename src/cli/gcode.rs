@@ -63,21 +63,38 @@ impl MachineArgs {
     }
 }
 
+/// `--power`: as a material's `laser.power_pct`.
+fn parse_power(s: &str) -> Result<f64, String> {
+    super::number_in(s, 0.1..=100.0, " %")
+}
+
+/// `--speed`: what a machine profile's feeds may be (the machine's own max feed is checked when
+/// the job is planned).
+fn parse_speed(s: &str) -> Result<f64, String> {
+    super::number_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min")
+}
+
+/// `--blade-offset`: as the planner accepts it.
+fn parse_blade_offset(s: &str) -> Result<f64, String> {
+    super::number_in(s, 0.0..=plan::MAX_BLADE_OFFSET_MM, " mm")
+}
+
 /// Cut settings given on the command line; each overrides the material's.
 #[derive(Args, Debug, Clone, Default)]
 #[command(next_help_heading = "Cut settings (override the material)")]
 pub struct CutArgs {
-    /// Laser power, % of full ($30).
-    #[arg(long, value_name = "PCT")]
+    /// Laser power, % of full ($30): 0.1 to 100.
+    #[arg(long, value_name = "PCT", value_parser = parse_power)]
     pub power: Option<f64>,
-    /// Cutting feed, mm/min.
-    #[arg(long, value_name = "MM_MIN")]
+    /// Cutting feed, mm/min: 1 to 200000, and at most the machine's max feed.
+    #[arg(long, value_name = "MM_MIN", value_parser = parse_speed)]
     pub speed: Option<f64>,
-    /// Times each loop is cut.
-    #[arg(long)]
+    /// Times each loop is cut: 1 to 100.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
     pub passes: Option<u32>,
-    /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation).
-    #[arg(long, value_name = "MM")]
+    /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation; at
+    /// most 5).
+    #[arg(long, value_name = "MM", value_parser = parse_blade_offset)]
     pub blade_offset: Option<f64>,
 }
 
@@ -255,7 +272,8 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
-        geom.apply_kerf(m.kerf_mm);
+        geom.apply_kerf(m.kerf_mm)
+            .with_context(|| format!("{}", svg_path.display()))?;
     }
     let settings = a.cut.settings(base, &machine)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {

@@ -58,8 +58,8 @@ pub struct SendArgs {
     /// With --dry-run: pace the simulated machine and link as the real ones would run.
     #[arg(long, requires = "dry_run")]
     pub realtime: bool,
-    /// Report the controller as silent after this many seconds without an answer.
-    #[arg(long, default_value_t = 10.0)]
+    /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
+    #[arg(long, default_value_t = 10.0, value_parser = parse_timeout)]
     pub timeout_s: f64,
     /// Count against a receive buffer of this many bytes instead of the one Grbl reports.
     #[arg(long)]
@@ -85,6 +85,12 @@ pub struct SimulateArgs {
     /// [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+}
+
+/// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
+/// a status query within a fraction of a second, even mid-move).
+fn parse_timeout(s: &str) -> Result<f64, String> {
+    super::number_in(s, 0.1..=3600.0, " seconds")
 }
 
 fn read_program(path: &PathBuf) -> anyhow::Result<String> {
@@ -307,12 +313,6 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
     let limits = machine_profile::load(a.machine.as_deref())?.limits();
-    if !(a.timeout_s.is_finite() && a.timeout_s > 0.0) {
-        bail!(
-            "--timeout-s must be a positive number of seconds, got {}",
-            a.timeout_s
-        );
-    }
     let cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse

@@ -3,6 +3,8 @@
 //! Used by the time estimate (`plan`), the simulator and the virtual Grbl, so all three agree on
 //! what a program does.
 
+use crate::text::excerpt;
+
 /// One straight move, in millimetres, absolute machine coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Move {
@@ -49,13 +51,25 @@ impl Default for Modal {
     }
 }
 
+/// The largest coordinate (absolute value, mm, after inches are converted) a program may reach:
+/// 1 km, more than any machine's travel. Beyond it estimates overflow into nonsense (a 400-digit
+/// number reads as infinity).
+pub const MAX_COORD_MM: f64 = 1e6;
+
+/// The largest feed (mm/min) and S value a program may give: far above any machine's.
+pub const MAX_FEED_MM_MIN: f64 = 1e6;
+pub const MAX_S: f64 = 1e6;
+
 /// A line the interpreter cannot run, with Grbl's error code where Grbl has one.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("line {line}: {msg} (Grbl error:{code})")]
+#[error("line {line}: {msg}{}", if *out_of_range { String::new() } else { format!(" (Grbl error:{code})") })]
 pub struct GcodeError {
     pub line: usize,
     pub code: u8,
     pub msg: String,
+    /// A number beyond what any machine can do ([`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`],
+    /// [`MAX_S`]), or not finite: the program is refused whole, not passed on to Grbl.
+    pub out_of_range: bool,
 }
 
 /// Strip a `;` comment and `( )` comments, spaces, and upper-case: what Grbl keeps of a line.
@@ -85,7 +99,8 @@ pub fn words(clean: &str, line_no: usize) -> Result<Vec<(char, f64)>, GcodeError
             return Err(GcodeError {
                 line: line_no,
                 code: 1,
-                msg: format!("expected a letter at '{}'", &clean[i..]),
+                msg: format!("expected a letter at '{}'", excerpt(&clean[i..])),
+                out_of_range: false,
             });
         }
         let start = i + 1;
@@ -94,11 +109,24 @@ pub fn words(clean: &str, line_no: usize) -> Result<Vec<(char, f64)>, GcodeError
         {
             j += 1;
         }
-        let v: f64 = clean[start..j].parse().map_err(|_| GcodeError {
+        let text = &clean[start..j];
+        let v: f64 = text.parse().map_err(|_| GcodeError {
             line: line_no,
             code: 2,
             msg: format!("'{letter}' has no valid number"),
+            out_of_range: false,
         })?;
+        if !v.is_finite() {
+            return Err(GcodeError {
+                line: line_no,
+                code: 2,
+                msg: format!(
+                    "the number after '{letter}' ({}) is too large to be a number",
+                    excerpt(text)
+                ),
+                out_of_range: true,
+            });
+        }
         out.push((letter, v));
         i = j;
     }
@@ -117,6 +145,20 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
         line: line_no,
         code,
         msg,
+        out_of_range: false,
+    };
+    let range = |what: &str, v: f64, max: f64, unit: &str| GcodeError {
+        line: line_no,
+        code: 2,
+        msg: format!(
+            "{what} {} is beyond what any machine does (at most {max}{unit})",
+            if v.abs() < 1e9 {
+                v.to_string()
+            } else {
+                format!("{v:.3e}")
+            }
+        ),
+        out_of_range: true,
     };
     let mut target = [None::<f64>; 3];
     let mut motion = None;
@@ -151,11 +193,18 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
                 if v <= 0.0 {
                     return Err(err(4, "F must be positive".into()));
                 }
-                modal.feed = Some(if modal.metric { v } else { v * 25.4 });
+                let f = if modal.metric { v } else { v * 25.4 };
+                if f > MAX_FEED_MM_MIN {
+                    return Err(range("feed", f, MAX_FEED_MM_MIN, " mm/min"));
+                }
+                modal.feed = Some(f);
             }
             'S' => {
                 if v < 0.0 {
                     return Err(err(4, "S must not be negative".into()));
+                }
+                if v > MAX_S {
+                    return Err(range("S", v, MAX_S, ""));
                 }
                 modal.s = v;
             }
@@ -188,6 +237,10 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
             } else {
                 from[a] + v * unit
             };
+            if to[a].abs() > MAX_COORD_MM {
+                let axis = ["X", "Y", "Z"][a];
+                return Err(range(axis, to[a], MAX_COORD_MM, " mm"));
+            }
         }
     }
     modal.pos = to;
@@ -241,6 +294,34 @@ mod tests {
         let e = interpret("G1 X1").unwrap_err();
         assert_eq!(e.code, 22);
         assert_eq!(e.line, 1);
+    }
+
+    #[test]
+    fn numbers_beyond_any_machine_are_refused_by_line() {
+        let huge = "9".repeat(400);
+        for (p, want) in [
+            (format!("G0 X1\nG0 X{huge}"), "too large"),
+            (format!("G1 F{huge} X1"), "too large"),
+            ("G0 X2000000".to_string(), "X 2000000 is beyond"),
+            ("G20\nG0 Y50000".to_string(), "Y 1270000 is beyond"),
+            (
+                "G91\nG0 Z600000\nG0 Z600000".to_string(),
+                "Z 1200000 is beyond",
+            ),
+            ("G1 F2000000 X1".to_string(), "feed 2000000 is beyond"),
+            ("M3 S2000000".to_string(), "S 2000000 is beyond"),
+        ] {
+            let e = interpret(&p).unwrap_err();
+            assert!(e.out_of_range, "{p}: {e}");
+            let m = e.to_string();
+            let line = p.lines().count();
+            assert!(m.starts_with(&format!("line {line}: ")), "{m}");
+            assert!(
+                m.contains(want) && !m.contains("Grbl error") && m.len() < 200,
+                "{m}"
+            );
+        }
+        assert!(interpret("G0 X999999 Y-999999").is_ok());
     }
 
     #[test]

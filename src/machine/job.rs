@@ -75,6 +75,14 @@ impl Job {
                         false
                     }
                 }
+                // A number no machine can do is refused before anything is sent; a line our
+                // subset does not know is left for Grbl to judge.
+                Err(cause) if cause.out_of_range => {
+                    return Err(MachineError::Gcode {
+                        file: name.to_string(),
+                        cause,
+                    })
+                }
                 Err(_) => {
                     unreadable = true;
                     !clean.starts_with('$')
@@ -183,8 +191,16 @@ mod tests {
         let e = Job::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
         assert!(e.to_string().contains("line 2"), "{e}");
         // 79 characters fit Grbl's line buffer, 80 do not.
-        assert!(Job::parse("a.gcode", &format!("G0X{}\n", "1".repeat(76))).is_ok());
-        assert!(Job::parse("a.gcode", &format!("G0X{}\n", "1".repeat(77))).is_err());
+        assert!(Job::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(74))).is_ok());
+        assert!(Job::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(75))).is_err());
+        // A number no machine reaches is refused before anything is sent, naming its line.
+        let e = Job::parse("a.gcode", &format!("G0X1\nG0X{}\n", "1".repeat(70))).unwrap_err();
+        assert!(matches!(e, MachineError::Gcode { .. }), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("a.gcode: line 2: X 1.111e69 is beyond"),
+            "{e}"
+        );
         // Comments and spaces do not count.
         let ok = format!("G1 X1 ({})\n", "c".repeat(100));
         let j = Job::parse("a.gcode", &ok).unwrap();

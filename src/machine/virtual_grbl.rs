@@ -859,7 +859,7 @@ mod tests {
             "{s:?}"
         );
         // Comments and spaces do not count; 79 characters fit, 80 do not.
-        let fits = format!("g0 x1 (a comment){}\n", "0".repeat(75));
+        let fits = format!("g0 x1. (a comment){}\n", "0".repeat(74));
         let long = format!("G0X1{}\n", "0".repeat(76));
         host.write_all(fits.as_bytes()).unwrap();
         assert_eq!(

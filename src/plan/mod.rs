@@ -13,7 +13,10 @@ pub mod toolpath;
 pub mod travel;
 
 pub use estimate::{estimate, Estimate, MotionLimits};
-pub use toolpath::{plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, PlanError};
+pub use toolpath::{
+    plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, PlanError, MAX_BLADE_OFFSET_MM,
+    MAX_PASSES,
+};
 
 use crate::machine::gcode::interpret;
 use crate::profile::machine::{Machine, Tool};

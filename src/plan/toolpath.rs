@@ -149,12 +149,20 @@ pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
+/// The most passes a job may make.
+pub const MAX_PASSES: u32 = 100;
+
+/// The largest drag-knife blade offset, mm.
+pub const MAX_BLADE_OFFSET_MM: f64 = 5.0;
+
 /// Check cut settings against the machine (feed within its limit, laser S within its range).
 pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanError> {
     let bad = |m: String| Err(PlanError::Settings(m));
-    if !(s.speed_mm_min.is_finite() && s.speed_mm_min > 0.0) {
+    let feeds = crate::profile::machine::bounds::FEED_MM_MIN;
+    if !(s.speed_mm_min.is_finite() && s.speed_mm_min >= *feeds.start()) {
         return bad(format!(
-            "cutting speed must be > 0 mm/min, got {}",
+            "cutting speed must be at least {} mm/min, got {}",
+            feeds.start(),
             s.speed_mm_min
         ));
     }
@@ -164,14 +172,15 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanErro
             s.speed_mm_min, machine.name, machine.motion.max_feed_mm_min
         ));
     }
-    if !(s.blade_offset_mm.is_finite() && (0.0..=5.0).contains(&s.blade_offset_mm)) {
+    if !(s.blade_offset_mm.is_finite() && (0.0..=MAX_BLADE_OFFSET_MM).contains(&s.blade_offset_mm))
+    {
         return bad(format!(
-            "blade offset must be 0..5 mm, got {}",
+            "blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {}",
             s.blade_offset_mm
         ));
     }
-    if s.passes == 0 || s.passes > 100 {
-        return bad(format!("passes must be 1..100, got {}", s.passes));
+    if s.passes == 0 || s.passes > MAX_PASSES {
+        return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
     }
     if let Tool::Laser { s_max, s_min } = machine.tool {
         if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
@@ -181,6 +190,13 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanErro
             ));
         }
         let sv = laser_s(s.power_pct, s_max);
+        if sv <= 0.0 {
+            return bad(format!(
+                "laser power {} % gives S0 on '{}' ($30={s_max}): the laser would not fire; \
+                 raise the power",
+                s.power_pct, machine.name
+            ));
+        }
         if sv < s_min {
             return bad(format!(
                 "laser power {} % gives S{sv}, below the minimum S of '{}' ($31={s_min}); raise the power",

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::{parse_toml, resolve, shipped, ProfileError, Shipped};
+use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 
 use crate::plan::estimate::MotionLimits;
 
@@ -204,6 +204,29 @@ struct RawTool {
     overcut_mm: Option<f64>,
 }
 
+/// What a GRBL machine can be, field by field: every number in a profile must lie in its range
+/// (a `z_up_mm = 1e9` was written as `Z1000000000`, a feed of 1e308 broke the writer).
+pub mod bounds {
+    use std::ops::RangeInclusive;
+    /// Bed width and height, mm: up to 10 m.
+    pub const BED_MM: RangeInclusive<f64> = 1.0..=10_000.0;
+    /// Feeds and rates (max feed, rapid, plunge; also a cut's speed), mm/min: 1 mm/min to
+    /// 200 m/min.
+    pub const FEED_MM_MIN: RangeInclusive<f64> = 1.0..=200_000.0;
+    /// Acceleration, mm/s²: up to about 10 g.
+    pub const ACCEL_MM_S2: RangeInclusive<f64> = 1.0..=100_000.0;
+    /// Junction deviation (`$11`), mm.
+    pub const JUNCTION_DEVIATION_MM: RangeInclusive<f64> = 0.0001..=10.0;
+    /// Spindle S values (`$30`, a pen's down S): up to 100,000 (spindle RPM).
+    pub const S: RangeInclusive<f64> = 0.1..=100_000.0;
+    /// Z heights, mm: within a metre of zero.
+    pub const Z_MM: RangeInclusive<f64> = -1000.0..=1000.0;
+    /// A drag knife's overcut, mm.
+    pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
+    /// The longest profile name, characters (it is printed in G-code comments and messages).
+    pub const NAME_CHARS: usize = 100;
+}
+
 /// Parse and validate a profile's text. `origin` (the file) is used in errors.
 pub fn parse(text: &str, origin: &Path) -> Result<Machine, ProfileError> {
     validate(parse_toml(text, origin)?, origin)
@@ -216,24 +239,48 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         value,
         why,
     };
-    let positive = |field: &'static str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(bad(field, v.to_string(), "must be a number > 0".into()))
-        }
+    let within = |field: &str, v: f64, r: std::ops::RangeInclusive<f64>, unit: &str| {
+        check_range(origin, field, v, *r.start(), *r.end(), unit).map(|_| v)
     };
     if raw.name.trim().is_empty() {
         return Err(bad("name", "\"\"".into(), "must not be empty".into()));
     }
-    positive("bed.width_mm", raw.bed.width_mm)?;
-    positive("bed.height_mm", raw.bed.height_mm)?;
-    positive("motion.max_feed_mm_min", raw.motion.max_feed_mm_min)?;
-    positive("motion.rapid_mm_min", raw.motion.rapid_mm_min)?;
-    positive("motion.accel_mm_s2", raw.motion.accel_mm_s2)?;
-    positive(
+    if raw.name.chars().count() > bounds::NAME_CHARS || raw.name.chars().any(char::is_control) {
+        return Err(bad(
+            "name",
+            format!("\"{}\"", crate::text::excerpt(&raw.name)),
+            format!(
+                "must be one line of at most {} characters",
+                bounds::NAME_CHARS
+            ),
+        ));
+    }
+    within("bed.width_mm", raw.bed.width_mm, bounds::BED_MM, "mm")?;
+    within("bed.height_mm", raw.bed.height_mm, bounds::BED_MM, "mm")?;
+    let m = &raw.motion;
+    within(
+        "motion.max_feed_mm_min",
+        m.max_feed_mm_min,
+        bounds::FEED_MM_MIN,
+        "mm/min",
+    )?;
+    within(
+        "motion.rapid_mm_min",
+        m.rapid_mm_min,
+        bounds::FEED_MM_MIN,
+        "mm/min",
+    )?;
+    within(
+        "motion.accel_mm_s2",
+        m.accel_mm_s2,
+        bounds::ACCEL_MM_S2,
+        "mm/s²",
+    )?;
+    within(
         "motion.junction_deviation_mm",
-        raw.motion.junction_deviation_mm,
+        m.junction_deviation_mm,
+        bounds::JUNCTION_DEVIATION_MM,
+        "mm",
     )?;
     let t = &raw.tool;
     let kind = t.kind;
@@ -282,14 +329,19 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             )
         })
     };
+    let required = |field: &'static str, v: Option<f64>, r, unit: &str| {
+        within(field, need(field, v)?, r, unit)
+    };
     let z_lift = || -> Result<ZLift, ProfileError> {
-        let up = need("tool.z_up_mm", t.z_up_mm)?;
-        let down = need("tool.z_down_mm", t.z_down_mm)?;
-        let plunge = positive(
+        let up = required("tool.z_up_mm", t.z_up_mm, bounds::Z_MM, "mm")?;
+        let down = required("tool.z_down_mm", t.z_down_mm, bounds::Z_MM, "mm")?;
+        let plunge = required(
             "tool.plunge_mm_min",
-            need("tool.plunge_mm_min", t.plunge_mm_min)?,
+            t.plunge_mm_min,
+            bounds::FEED_MM_MIN,
+            "mm/min",
         )?;
-        if !(up.is_finite() && down.is_finite()) || up <= down {
+        if up <= down {
             return Err(bad(
                 "tool.z_up_mm",
                 up.to_string(),
@@ -304,7 +356,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
     };
     let tool = match kind {
         ToolKind::Laser => {
-            let s_max = positive("tool.s_max", t.s_max.unwrap_or(1000.0))?;
+            let s_max = within("tool.s_max", t.s_max.unwrap_or(1000.0), bounds::S, "")?;
             let s_min = t.s_min.unwrap_or(0.0);
             if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
                 return Err(bad(
@@ -331,7 +383,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
                     }
                 }
                 Tool::Pen(PenLift::Spindle {
-                    down_s: positive("tool.pen_down_s", need("tool.pen_down_s", t.pen_down_s)?)?,
+                    down_s: required("tool.pen_down_s", t.pen_down_s, bounds::S, "")?,
                 })
             }
             Some(LiftKind::Z) => {
@@ -353,14 +405,12 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             }
         },
         ToolKind::Knife => {
-            let overcut = t.overcut_mm.unwrap_or(0.0);
-            if !(overcut.is_finite() && overcut >= 0.0) {
-                return Err(bad(
-                    "tool.overcut_mm",
-                    overcut.to_string(),
-                    "must be >= 0".into(),
-                ));
-            }
+            let overcut = within(
+                "tool.overcut_mm",
+                t.overcut_mm.unwrap_or(0.0),
+                bounds::OVERCUT_MM,
+                "mm",
+            )?;
             Tool::Knife {
                 z: z_lift()?,
                 overcut_mm: overcut,
@@ -508,5 +558,99 @@ s_max = 255
         assert!(e.contains("nope") && e.contains("diode-400"), "{e}");
         let e = load(Some("/no/such/m.toml")).unwrap_err().to_string();
         assert!(e.contains("/no/such/m.toml"), "{e}");
+    }
+
+    #[test]
+    fn every_number_is_bounded_by_what_a_machine_can_be() {
+        let knife = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = 3\nz_down_mm = -0.3\nplunge_mm_min = 300\novercut_mm = 1",
+        );
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30",
+        );
+        assert!(parse(&knife, Path::new("k.toml")).is_ok());
+        assert!(parse(&pen, Path::new("p.toml")).is_ok());
+        for (base, from, to, field) in [
+            (GOOD, "width_mm = 300", "width_mm = 1e308", "bed.width_mm"),
+            (
+                GOOD,
+                "height_mm = 200",
+                "height_mm = 0.001",
+                "bed.height_mm",
+            ),
+            (
+                GOOD,
+                "max_feed_mm_min = 5000",
+                "max_feed_mm_min = 1e308",
+                "motion.max_feed_mm_min",
+            ),
+            (
+                GOOD,
+                "max_feed_mm_min = 5000",
+                "max_feed_mm_min = 1e-300",
+                "motion.max_feed_mm_min",
+            ),
+            (
+                GOOD,
+                "rapid_mm_min = 8000",
+                "rapid_mm_min = 1e9",
+                "motion.rapid_mm_min",
+            ),
+            (
+                GOOD,
+                "accel_mm_s2 = 800",
+                "accel_mm_s2 = 1e12",
+                "motion.accel_mm_s2",
+            ),
+            (
+                GOOD,
+                "accel_mm_s2 = 800",
+                "accel_mm_s2 = 800\njunction_deviation_mm = 1e-300",
+                "motion.junction_deviation_mm",
+            ),
+            (GOOD, "s_max = 255", "s_max = 1e308", "tool.s_max"),
+            (&knife, "z_up_mm = 3", "z_up_mm = 1e9", "tool.z_up_mm"),
+            (
+                &knife,
+                "z_down_mm = -0.3",
+                "z_down_mm = -1e9",
+                "tool.z_down_mm",
+            ),
+            (
+                &knife,
+                "plunge_mm_min = 300",
+                "plunge_mm_min = 1e300",
+                "tool.plunge_mm_min",
+            ),
+            (
+                &knife,
+                "overcut_mm = 1",
+                "overcut_mm = 1e6",
+                "tool.overcut_mm",
+            ),
+            (
+                &pen,
+                "pen_down_s = 30",
+                "pen_down_s = 1e300",
+                "tool.pen_down_s",
+            ),
+            (
+                GOOD,
+                "name = \"t\"",
+                &format!("name = \"{}\"", "n".repeat(500)),
+                "name",
+            ),
+        ] {
+            let text = base.replace(from, to);
+            assert_ne!(text, base, "{from}");
+            let e = err(&text);
+            assert!(
+                e.starts_with("my.toml: field `") && e.contains(field),
+                "{to}: {e}"
+            );
+            assert!(e.len() < 300 && !e.contains("00000000000"), "{e}");
+        }
     }
 }

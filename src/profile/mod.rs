@@ -173,15 +173,21 @@ pub fn check_range(
     unit: &str,
 ) -> Result<(), ProfileError> {
     if !v.is_finite() || v < lo || v > hi {
+        let range = format!("{lo}..={hi} {unit}");
         let why = if v < 0.0 && lo >= 0.0 {
-            format!("must not be negative (allowed {lo}..={hi} {unit})")
+            format!("must not be negative (allowed {})", range.trim_end())
         } else {
-            format!("out of range: allowed {lo}..={hi} {unit}")
+            format!("out of range: allowed {}", range.trim_end())
         };
         return Err(ProfileError::Invalid {
             path: origin.to_path_buf(),
             field: field.to_string(),
-            value: v.to_string(),
+            // 1e308 as written, not as 309 digits.
+            value: if v != 0.0 && !(1e-4..1e9).contains(&v.abs()) {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            },
             why,
         });
     }

@@ -4,10 +4,8 @@
 
 use geo::orient::{Direction, Orient};
 use geo::MultiPolygon;
-use geo_clipper::{Clipper, EndType, JoinType};
-use rayon::prelude::*;
 
-use super::union::CLIPPER_FACTOR;
+use super::clip::{self, ClipError};
 
 /// Arc tolerance of the round joins, in mm (a tenth of the default pixel: far below any kerf's
 /// own variation).
@@ -15,25 +13,18 @@ const ARC_TOLERANCE_MM: f64 = 0.01;
 
 /// The tool paths for the design cut regions `design`: each region shrunk by `kerf_mm / 2`.
 /// A region narrower than the kerf disappears (the material's `min_feature_mm` is larger than its
-/// kerf, and `check` flags holes narrower than that).
-pub fn offset_cuts(design: &MultiPolygon<f64>, kerf_mm: f64) -> MultiPolygon<f64> {
+/// kerf, and `check` flags holes narrower than that). Fails when Clipper cannot take the geometry
+/// (see [`clip`]).
+pub fn offset_cuts(
+    design: &MultiPolygon<f64>,
+    kerf_mm: f64,
+) -> Result<MultiPolygon<f64>, ClipError> {
     if kerf_mm <= 0.0 {
-        return design.clone();
+        return Ok(design.clone());
     }
     // Cut regions are disjoint and only shrink, so each is offset on its own, in parallel.
-    let parts: Vec<MultiPolygon<f64>> = design
-        .0
-        .par_iter()
-        .map(|p| {
-            p.offset(
-                -kerf_mm / 2.0,
-                JoinType::Round(ARC_TOLERANCE_MM * CLIPPER_FACTOR),
-                EndType::ClosedPolygon,
-                CLIPPER_FACTOR,
-            )
-        })
-        .collect();
-    MultiPolygon::new(parts.into_iter().flat_map(|m| m.0).collect()).orient(Direction::Default)
+    let parts = clip::offset_each(&design.0, -kerf_mm / 2.0, ARC_TOLERANCE_MM)?;
+    Ok(MultiPolygon::new(parts.into_iter().flat_map(|m| m.0).collect()).orient(Direction::Default))
 }
 
 #[cfg(test)]
@@ -44,7 +35,7 @@ mod tests {
     #[test]
     fn a_square_hole_shrinks_by_half_the_kerf_on_each_side() {
         let sq: Polygon<f64> = Rect::new((0.0, 0.0), (10.0, 10.0)).to_polygon();
-        let out = offset_cuts(&MultiPolygon::new(vec![sq]), 0.2);
+        let out = offset_cuts(&MultiPolygon::new(vec![sq]), 0.2).unwrap();
         let b = out.bounding_rect().unwrap();
         assert!(
             (b.min().x - 0.1).abs() < 1e-3 && (b.max().x - 9.9).abs() < 1e-3,

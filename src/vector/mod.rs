@@ -6,6 +6,7 @@
 //! ([`VectorConfig::margin_mm`]), so that cut regions touching the picture's edge stay holes in one
 //! sheet, exactly as the raster stages saw them.
 
+pub mod clip;
 pub mod kerf;
 pub mod simplify;
 pub mod trace;
@@ -94,6 +95,13 @@ pub enum VectorError {
     Margin(f64),
     #[error("the stencil image is empty (0 pixels)")]
     Empty,
+    /// The geometry cannot go through the polygon clipper (see [`clip`]).
+    #[error("{what}: {cause}")]
+    Clip {
+        /// What was being computed, e.g. "the kerf offset".
+        what: &'static str,
+        cause: clip::ClipError,
+    },
 }
 
 /// Vectorise a (bridged) stencil, kerf applied. `bridges` are bridge outlines in pixel
@@ -104,7 +112,7 @@ pub fn vectorize(
     cfg: &VectorConfig,
 ) -> Result<(CutGeometry, VectorStats), VectorError> {
     let (mut geom, stats) = vectorize_design(bits, bridges, cfg)?;
-    geom.apply_kerf(cfg.kerf_mm);
+    geom.apply_kerf(cfg.kerf_mm)?;
     Ok((geom, stats))
 }
 
@@ -151,7 +159,11 @@ pub fn vectorize_design(
     // the check and for the SVG's BRIDGES layer, not unioned in: an outline that strays from the
     // pixels it was drawn as (a fan's corner, an outline the settle has since widened around)
     // would add a sliver of material no pixel holds.
-    let (material, design_cuts) = union::union_bridges(material, &[]);
+    let (material, design_cuts) =
+        union::union_bridges(material, &[]).map_err(|cause| VectorError::Clip {
+            what: "the bridges' union",
+            cause,
+        })?;
     let geom = CutGeometry {
         width_mm: w,
         height_mm: h,
@@ -190,8 +202,13 @@ impl CutGeometry {
     }
 
     /// Set the tool paths: the design cuts offset by half of `kerf_mm` (see [`kerf`]).
-    pub fn apply_kerf(&mut self, kerf_mm: f64) {
-        self.cuts = kerf::offset_cuts(&self.design_cuts, kerf_mm);
+    pub fn apply_kerf(&mut self, kerf_mm: f64) -> Result<(), VectorError> {
+        self.cuts =
+            kerf::offset_cuts(&self.design_cuts, kerf_mm).map_err(|cause| VectorError::Clip {
+                what: "the kerf offset",
+                cause,
+            })?;
+        Ok(())
     }
 }
 

@@ -1,4 +1,4 @@
-//! Boolean operations on the traced geometry, with Clipper (geo-clipper).
+//! Boolean operations on the traced geometry, with Clipper (through [`super::clip`]).
 //!
 //! Why Clipper rather than geo's `BooleanOps`: it works on integer coordinates (here 0.1 µm), so
 //! unions of thousands of touching bridge and outline edges are exact and cannot fail on
@@ -7,14 +7,12 @@
 
 use geo::orient::{Direction, Orient};
 use geo::{Area, BoundingRect, Contains, LineString, MultiPolygon, Point, Polygon, Rect};
-use geo_clipper::Clipper;
 use rayon::prelude::*;
 
-/// Clipper's integer scale: coordinates in mm are multiplied by this (1 unit = 0.1 µm).
-pub const CLIPPER_FACTOR: f64 = 1e4;
+use super::clip::{self, ClipError};
 
 /// Union the bridge polygons into the material; returns the material and its cut regions (as
-/// [`cuts_of`] gives them).
+/// [`cuts_of`] gives them), or why Clipper cannot take them.
 ///
 /// Why region by region: a bridge only changes the cut regions it crosses, so each cut region
 /// loses what the bridges over it cover (a small Clipper difference), all regions in parallel, and
@@ -23,13 +21,19 @@ pub const CLIPPER_FACTOR: f64 = 1e4;
 pub fn union_bridges(
     material: MultiPolygon<f64>,
     bridges: &[Polygon<f64>],
-) -> (MultiPolygon<f64>, MultiPolygon<f64>) {
+) -> Result<(MultiPolygon<f64>, MultiPolygon<f64>), ClipError> {
     let cuts = cuts_of(&material);
     if bridges.is_empty() {
-        return (material, cuts);
+        return Ok((material, cuts));
     }
+    // Every bridge, also those the boxes below would skip (a NaN box overlaps nothing).
+    clip::check_rings(
+        bridges
+            .iter()
+            .flat_map(|b| std::iter::once(b.exterior()).chain(b.interiors())),
+    )?;
     let Some(sheet) = sheet_of(&material).map(|i| material.0[i].exterior().clone()) else {
-        return (material, cuts);
+        return Ok((material, cuts));
     };
     let boxes: Vec<Option<Rect<f64>>> = bridges.iter().map(|b| b.bounding_rect()).collect();
     let overlap = |a: &Rect<f64>, b: &Rect<f64>| {
@@ -38,30 +42,41 @@ pub fn union_bridges(
             && a.min().y <= b.max().y
             && b.min().y <= a.max().y
     };
-    let pieces: Vec<Vec<Polygon<f64>>> = cuts
+    // Each cut region with the bridges over it (by bounding box); regions no bridge reaches stay.
+    let over: Vec<Option<MultiPolygon<f64>>> = cuts
         .0
         .par_iter()
         .map(|cut| {
-            let Some(cb) = cut.bounding_rect() else {
-                return Vec::new();
-            };
+            let cb = cut.bounding_rect()?;
             let over: Vec<Polygon<f64>> = bridges
                 .iter()
                 .zip(&boxes)
                 .filter(|(_, b)| b.is_some_and(|b| overlap(&b, &cb)))
                 .map(|(p, _)| p.clone())
                 .collect();
-            if over.is_empty() {
-                return vec![cut.clone()];
-            }
-            let over = MultiPolygon::new(over).orient(Direction::Default);
-            Clipper::difference(cut, &over, CLIPPER_FACTOR)
-                .orient(Direction::Default)
-                .0
+            (!over.is_empty()).then(|| MultiPolygon::new(over).orient(Direction::Default))
         })
         .collect();
-    let cuts = MultiPolygon::new(pieces.into_iter().flatten().collect());
-    (material_around(sheet, &cuts), cuts)
+    let pairs: Vec<(&Polygon<f64>, MultiPolygon<f64>)> = cuts
+        .0
+        .iter()
+        .zip(&over)
+        .filter_map(|(c, o)| Some((c, o.clone()?)))
+        .collect();
+    let mut clipped = clip::difference_each(&pairs)?.into_iter();
+    let mut pieces: Vec<Polygon<f64>> = Vec::with_capacity(cuts.0.len());
+    for (cut, o) in cuts.0.iter().zip(&over) {
+        match o {
+            None => pieces.push(cut.clone()),
+            Some(_) => {
+                if let Some(m) = clipped.next() {
+                    pieces.extend(m.orient(Direction::Default).0);
+                }
+            }
+        }
+    }
+    let cuts = MultiPolygon::new(pieces);
+    Ok((material_around(sheet, &cuts), cuts))
 }
 
 /// The material of a sheet with outline `sheet` from which the disjoint regions `cuts` are cut

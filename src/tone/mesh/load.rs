@@ -2,12 +2,13 @@
 //! tobj for the parsing proper (triangulation, objects and groups, polygon normals), then one
 //! welded triangle soup with smooth vertex normals.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 use glam::Vec3;
 
 use super::MeshError;
+use crate::text::excerpt;
 
 /// A triangle mesh ready to render: welded positions, triangles, and optionally the file's own
 /// normals per triangle corner.
@@ -53,6 +54,11 @@ impl Mesh {
             .collect();
         let mut tris = Vec::with_capacity(triangles.len());
         let mut normals = corner_normals.as_ref().map(|_| Vec::new());
+        // A triangle repeated (the same corners the same way round, once welded) draws nothing
+        // new, but every copy is rasterised and counted in every edge: 13,000 copies of one face
+        // took minutes. Each is kept once (both sides of a sheet are two different triangles).
+        let mut seen: HashSet<[u32; 3], BuildFx> =
+            HashSet::with_capacity_and_hasher(triangles.len(), BuildFx);
         for (i, t) in triangles.iter().enumerate() {
             let t = t.map(|v| remap[v as usize]);
             let (a, b, c) = (
@@ -61,6 +67,11 @@ impl Mesh {
                 welded[t[2] as usize],
             );
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || (b - a).cross(c - a) == Vec3::ZERO {
+                continue;
+            }
+            // The same triangle starting from its smallest corner.
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+            if !seen.insert([t[k], t[(k + 1) % 3], t[(k + 2) % 3]]) {
                 continue;
             }
             tris.push(t);
@@ -230,6 +241,8 @@ pub fn load(path: &Path) -> Result<Mesh, MeshError> {
 
 /// Parse OBJ text (`path` only names it in errors).
 pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
+    // A byte-order mark (some Windows editors write one) is not part of the first statement.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let opts = tobj::LoadOptions {
         single_index: false,
         triangulate: true,
@@ -298,7 +311,93 @@ pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
             detail: "every face has zero area".into(),
         });
     }
+    check_spread(path, text, &mesh)?;
     Ok(mesh)
+}
+
+/// How much larger the whole model may be than the bulk of its vertices (the 90 % between the 5th
+/// and 95th percentile along each axis): the picture frames the whole model, so at 500 times the
+/// bulk is under 2 pixels of a 1024-pixel picture, a blank stencil.
+pub const MAX_SPREAD: f32 = 500.0;
+
+/// Refuse a model whose extent is a few stray vertices (a vertex at 1e20 among ones within a
+/// metre), naming the farthest.
+fn check_spread(path: &Path, text: &str, mesh: &Mesh) -> Result<(), MeshError> {
+    let p = &mesh.positions;
+    let n = p.len();
+    // Too few vertices to tell a stray one from the shape.
+    if n < 8 {
+        return Ok(());
+    }
+    let trim = (n / 20).max(1);
+    let (mut bulk, mut whole) = (0f32, 0f32);
+    let mut boxed = [[0f32; 2]; 3];
+    let mut c: Vec<f32> = Vec::with_capacity(n);
+    for axis in 0..3 {
+        c.clear();
+        c.extend(p.iter().map(|v| v[axis]));
+        let (lo, hi) = c
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        let a = *c.select_nth_unstable_by(trim, f32::total_cmp).1;
+        let b = *c.select_nth_unstable_by(n - 1 - trim, f32::total_cmp).1;
+        boxed[axis] = [a, b];
+        bulk = bulk.max(b - a);
+        whole = whole.max(hi - lo);
+    }
+    if whole <= bulk * MAX_SPREAD {
+        return Ok(());
+    }
+    // The vertex farthest outside the bulk's box.
+    let outside = |v: &Vec3| {
+        (0..3)
+            .map(|k| (boxed[k][0] - v[k]).max(v[k] - boxed[k][1]).max(0.0))
+            .fold(0f32, f32::max)
+    };
+    let far = p
+        .iter()
+        .copied()
+        .max_by(|a, b| outside(a).total_cmp(&outside(b)))
+        .unwrap_or(Vec3::ZERO);
+    Err(MeshError::Outlier {
+        path: path.to_path_buf(),
+        line: line_of_vertex(text, far),
+        msg: format!(
+            "vertex ({}, {}, {}) is {} away from the rest of the model, most of whose vertices lie \
+             within {} of each other: framing it would shrink the model to a dot in the picture; \
+             remove the stray vertex or fix its coordinates",
+            short(far.x),
+            short(far.y),
+            short(far.z),
+            short(outside(&far)),
+            short(bulk)
+        ),
+    })
+}
+
+/// A coordinate for a message: plain, or in exponent form when huge or tiny.
+fn short(v: f32) -> String {
+    if v == 0.0 || (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// The line of the first `v` statement at `pos` (as tobj reads it: f32, divided by w).
+fn line_of_vertex(text: &str, pos: Vec3) -> Option<usize> {
+    text.lines().enumerate().find_map(|(i, raw)| {
+        let mut w = raw.split('#').next()?.split_whitespace();
+        if w.next()? != "v" {
+            return None;
+        }
+        let n: Vec<f32> = w.map(|t| t.parse().ok()).collect::<Option<_>>()?;
+        // x y z w: divided by w; x y z r g b: a colour.
+        let s = if n.len() == 4 { n[3] } else { 1.0 };
+        (n.len() >= 3 && Vec3::new(n[0] / s, n[1] / s, n[2] / s) == pos).then_some(i + 1)
+    })
 }
 
 /// What the pre-scan counted.
@@ -351,19 +450,54 @@ const KNOWN: &[&str] = &[
     "csh",
 ];
 
-/// Check every line tobj will read, so errors name the line: numbers that do not parse or are not
-/// finite, faces with too few corners or indices pointing at vertices that do not exist, unknown
-/// statements (a binary file renamed .obj).
+/// Check every line tobj will read, so errors name the line (tobj's own errors name none):
+/// numbers that do not parse or are not finite, vertices with a number of values tobj refuses (it
+/// takes x y z, x y z w or x y z r g b), faces and lines with too few corners or indices pointing
+/// at elements that do not exist, unknown statements (a binary file renamed .obj). Text quoted
+/// back is cut short ([`excerpt`]).
 fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
     let mut counts = Counts::default();
     let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
-    // Positive indices may point forward; they are checked against the final counts.
+    // Vertices with a colour and without: tobj reads a colour per vertex only when every vertex
+    // has one (the first line of each kind, for the message).
+    let (mut coloured, mut plain) = (None::<usize>, None::<usize>);
+    // Positive indices may point forward: tobj resolves them when an object or group ends (an
+    // `o` or `g` after faces) and at the end of the file, so they are checked then.
     let mut forward: Vec<(usize, usize, char)> = Vec::new();
+    let mut faces_pending = false;
     let mut args: Vec<&str> = Vec::with_capacity(8);
     let malformed = |line: usize, msg: String| MeshError::Malformed {
         path: path.to_path_buf(),
         line,
         msg,
+    };
+    let resolve = |forward: &mut Vec<(usize, usize, char)>, nv, nt, nn| {
+        for &(line, idx, kind) in forward.iter() {
+            let count = match kind {
+                'v' => nv,
+                't' => nt,
+                _ => nn,
+            };
+            if idx > count {
+                return Err(bad_index(path, line, idx as i64, count, kind));
+            }
+        }
+        forward.clear();
+        Ok(())
+    };
+    // A coordinate as tobj reads it (f32): a number, finite.
+    let coordinate = |line: usize, what: &str, tok: &str| -> Result<f32, MeshError> {
+        let x: f64 = tok
+            .parse()
+            .map_err(|_| malformed(line, format!("{what} '{}' is not a number", excerpt(tok))))?;
+        if !x.is_finite() || x.abs() > f32::MAX as f64 {
+            return Err(MeshError::NonFinite {
+                path: path.to_path_buf(),
+                line,
+                token: excerpt(tok),
+            });
+        }
+        Ok(x as f32)
     };
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
@@ -377,48 +511,88 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
         args.clear();
         args.extend(words);
         match kw {
-            "v" | "vn" | "vt" => {
-                let need = if kw == "vt" { 1 } else { 3 };
-                let what = match kw {
-                    "v" => "vertex",
-                    "vn" => "normal",
-                    _ => "texture coordinate",
+            "v" => {
+                if args.len() < 3 {
+                    return Err(malformed(
+                        line,
+                        format!(
+                            "'v' needs 3 numbers (x y z), found {}: \"{}\"",
+                            args.len(),
+                            excerpt(content)
+                        ),
+                    ));
+                }
+                if !matches!(args.len(), 3 | 4 | 6) {
+                    return Err(malformed(
+                        line,
+                        format!(
+                            "a vertex ('v') with {} numbers: give x y z, x y z w or x y z r g b",
+                            args.len()
+                        ),
+                    ));
+                }
+                let mut p = [0f32; 3];
+                for (k, tok) in args.iter().take(3).enumerate() {
+                    p[k] = coordinate(line, "vertex coordinate", tok)?;
+                }
+                if args.len() == 4 {
+                    // tobj divides x, y and z by w.
+                    let w = coordinate(line, "vertex weight w", args[3])?;
+                    if w == 0.0 || p.iter().any(|c| !(c / w).is_finite()) {
+                        return Err(malformed(
+                            line,
+                            format!(
+                                "vertex weight w = {} divides the coordinates to nothing or to \
+                                 infinity",
+                                excerpt(args[3])
+                            ),
+                        ));
+                    }
+                }
+                let kind = if args.len() == 6 {
+                    &mut coloured
+                } else {
+                    &mut plain
+                };
+                kind.get_or_insert(line);
+                nv += 1;
+            }
+            "vn" | "vt" => {
+                // tobj reads three numbers of a normal and two of a texture coordinate.
+                let (need, what) = if kw == "vn" {
+                    (3, "normal")
+                } else {
+                    (2, "texture coordinate")
                 };
                 if args.len() < need {
                     return Err(malformed(
                         line,
                         format!(
-                            "'{kw}' needs {need} number(s), found {}: \"{content}\"",
-                            args.len()
+                            "'{kw}' needs {need} numbers, found {}: \"{}\"",
+                            args.len(),
+                            excerpt(content)
                         ),
                     ));
                 }
-                for tok in args
-                    .iter()
-                    .take(if kw == "vt" { args.len().min(3) } else { 3 })
-                {
-                    let x: f64 = tok.parse().map_err(|_| {
-                        malformed(line, format!("{what} coordinate '{tok}' is not a number"))
-                    })?;
-                    if !x.is_finite() || x.abs() > f32::MAX as f64 {
-                        return Err(MeshError::NonFinite {
-                            path: path.to_path_buf(),
-                            line,
-                            token: tok.to_string(),
-                        });
-                    }
+                for tok in args.iter().take(need) {
+                    coordinate(line, what, tok)?;
                 }
-                match kw {
-                    "v" => nv += 1,
-                    "vn" => nn += 1,
-                    _ => nt += 1,
+                if kw == "vn" {
+                    nn += 1;
+                } else {
+                    nt += 1;
                 }
             }
-            "f" => {
-                if args.len() < 3 {
+            "f" | "l" => {
+                let min = if kw == "f" { 3 } else { 2 };
+                if args.len() < min {
                     return Err(malformed(
                         line,
-                        format!("a face needs at least 3 corners, found {}", args.len()),
+                        format!(
+                            "a {} needs at least {min} corners, found {}",
+                            if kw == "f" { "face" } else { "line" },
+                            args.len()
+                        ),
                     ));
                 }
                 for corner in &args {
@@ -426,7 +600,10 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                         if k > 2 || (part.is_empty() && k == 0) {
                             return Err(malformed(
                                 line,
-                                format!("face corner '{corner}' is not v, v/vt, v//vn or v/vt/vn"),
+                                format!(
+                                    "face corner '{}' is not v, v/vt, v//vn or v/vt/vn",
+                                    excerpt(corner)
+                                ),
                             ));
                         }
                         if part.is_empty() {
@@ -440,17 +617,24 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                         let idx: i64 = part.parse().map_err(|_| {
                             malformed(
                                 line,
-                                format!("face index '{part}' in '{corner}' is not an integer"),
+                                format!(
+                                    "face index '{}' in '{}' is not an integer",
+                                    excerpt(part),
+                                    excerpt(corner)
+                                ),
                             )
                         })?;
                         if idx == 0 {
                             return Err(malformed(
                                 line,
-                                format!("face index 0 in '{corner}': OBJ indices start at 1"),
+                                format!(
+                                    "face index 0 in '{}': OBJ indices start at 1",
+                                    excerpt(corner)
+                                ),
                             ));
                         }
                         if idx < 0 {
-                            if (-idx) as usize > count {
+                            if idx.unsigned_abs() as usize > count {
                                 return Err(bad_index(path, line, idx, count, kind));
                             }
                         } else if idx as usize > count {
@@ -458,27 +642,41 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
                         }
                     }
                 }
-                counts.faces += 1;
+                faces_pending = true;
+                if kw == "f" {
+                    counts.faces += 1;
+                }
+            }
+            "o" | "g" => {
+                if faces_pending {
+                    resolve(&mut forward, nv, nt, nn)?;
+                    faces_pending = false;
+                }
+            }
+            "usemtl" if args.is_empty() => {
+                return Err(malformed(line, "'usemtl' without a material name".into()));
             }
             _ if KNOWN.contains(&kw) => {}
             _ => {
-                let shown: String = kw.chars().take(20).collect();
                 return Err(malformed(
                     line,
-                    format!("unknown statement '{shown}' (is this an OBJ text file?)"),
+                    format!(
+                        "unknown statement '{}' (is this an OBJ text file?)",
+                        excerpt(kw)
+                    ),
                 ));
             }
         }
     }
-    for (line, idx, kind) in forward {
-        let count = match kind {
-            'v' => nv,
-            't' => nt,
-            _ => nn,
-        };
-        if idx > count {
-            return Err(bad_index(path, line, idx as i64, count, kind));
-        }
+    resolve(&mut forward, nv, nt, nn)?;
+    if let (Some(c), Some(p)) = (coloured, plain) {
+        return Err(malformed(
+            c.max(p),
+            format!(
+                "vertices with a colour (first at line {c}) and without (first at line {p}): \
+                 give every vertex a colour or none"
+            ),
+        ));
     }
     counts.vertices = nv;
     Ok(counts)
@@ -586,5 +784,126 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("zero area"), "{e}");
+    }
+
+    #[test]
+    fn what_tobj_refuses_is_refused_first_with_the_line() {
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        let cases = [
+            (
+                format!("{tri}v 1 1 1 1 2 3 4\nf 1 2 3\n"),
+                "test.obj:4:",
+                "7 numbers",
+            ),
+            (
+                format!("{tri}v 1 1 1 0.5 0.5\nf 1 2 3\n"),
+                "test.obj:4:",
+                "5 numbers",
+            ),
+            (
+                format!("{tri}v 1 1 1 0\nf 1 2 3\n"),
+                "test.obj:4:",
+                "weight",
+            ),
+            (
+                format!("{tri}v 1e30 1 1 1e-30\nf 1 2 3\n"),
+                "test.obj:4:",
+                "weight",
+            ),
+            (
+                format!("{tri}vt 0.5\nf 1 2 3\n"),
+                "test.obj:4:",
+                "'vt' needs 2",
+            ),
+            (
+                format!("{tri}vn 0 0\nf 1 2 3\n"),
+                "test.obj:4:",
+                "'vn' needs 3",
+            ),
+            (
+                format!("{tri}l 1\nf 1 2 3\n"),
+                "test.obj:4:",
+                "line needs at least 2",
+            ),
+            (
+                format!("{tri}usemtl\nf 1 2 3\n"),
+                "test.obj:4:",
+                "material name",
+            ),
+            (
+                "v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0\nf 1 2 3\n".to_string(),
+                "test.obj:3:",
+                "colour",
+            ),
+            // tobj resolves a face when its object ends: a vertex after that is too late.
+            (
+                format!("o a\n{tri}f 1 2 4\no b\nv 1 1 0\nf 1 2 4\n"),
+                "test.obj:5:",
+                "index 4",
+            ),
+        ];
+        for (text, at, what) in cases {
+            let e = parse(p(), &text).unwrap_err().to_string();
+            assert!(e.starts_with(at) && e.contains(what), "{text:?} gave {e}");
+        }
+        // A forward reference within one object is fine.
+        assert!(parse(p(), &format!("f 1 2 3\n{tri}")).is_ok());
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_not_a_statement() {
+        let m = parse(p(), "\u{feff}v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_eq!((m.positions.len(), m.triangles.len()), (3, 1));
+    }
+
+    #[test]
+    fn long_values_are_quoted_short() {
+        let big = "1".repeat(1_000_000);
+        for text in [
+            format!("v 0 0 0\nv 1 0 {big}\nv 0 1 0\nf 1 2 3\n"),
+            format!("v 0 0 0\nv 1 0 x{big}\n"),
+            format!("v 0 0 0\nf 1 2 {big}\n"),
+            format!("{big}x 1 2\n"),
+        ] {
+            let e = parse(p(), &text).unwrap_err().to_string();
+            assert!(
+                e.len() < 300 && e.contains("characters)"),
+                "{}",
+                &e[..e.len().min(300)]
+            );
+        }
+    }
+
+    #[test]
+    fn repeated_triangles_are_kept_once() {
+        let mut text = "v 0 0 0\nv 1 0 0\nv 0 1 0\n".to_string();
+        for _ in 0..1000 {
+            text += "f 1 2 3\nf 2 3 1\n";
+        }
+        text += "f 1 3 2\n";
+        let m = parse(p(), &text).unwrap();
+        assert_eq!(m.triangles.len(), 2, "one each way round");
+    }
+
+    #[test]
+    fn a_stray_far_vertex_is_refused_with_its_line() {
+        let mut text = String::new();
+        for (x, y, z) in [
+            (0, 0, 0),
+            (1, 0, 0),
+            (0, 1, 0),
+            (1, 1, 0),
+            (0, 0, 1),
+            (1, 0, 1),
+            (0, 1, 1),
+        ] {
+            text += &format!("v {x} {y} {z}\n");
+        }
+        text += "v 3 1e20 0\nf 1 2 4\nf 1 4 3\nf 5 6 7\nf 1 2 8\n";
+        let e = parse(p(), &text).unwrap_err().to_string();
+        assert!(e.starts_with("test.obj:8: vertex (3, 1.00e20, 0)"), "{e}");
+        // A model 400 times larger than its bulk still loads.
+        let ok = text.replace("v 3 1e20 0", "v 3 400 0");
+        assert!(parse(p(), &ok).is_ok());
     }
 }

@@ -225,6 +225,18 @@ pub enum MeshError {
         line: usize,
         token: String,
     },
+    /// A few vertices so far from the rest that framing the whole model would shrink the rest to
+    /// a dot (the line of the farthest one, when it can be found).
+    #[error(
+        "{}{}: {msg}",
+        path.display(),
+        line.map(|l| format!(":{l}")).unwrap_or_default()
+    )]
+    Outlier {
+        path: PathBuf,
+        line: Option<usize>,
+        msg: String,
+    },
     #[error("{path}: the OBJ parser failed: {msg}")]
     Parse { path: PathBuf, msg: String },
     #[error("{path}: the mesh is empty: {detail}; nothing to render")]

@@ -131,9 +131,28 @@ fn raster_triangle(
     for y in ylo..=yhi {
         let py = y as f32 + 0.5;
         let row = (y - y0) * w;
-        let px0 = xlo as f32 + 0.5;
+        // The row's span inside all three edges (each edge function is linear in x), a pixel wider
+        // on each side for rounding; the test per pixel below decides. Without it a long thin
+        // triangle (a fan of a many-sided polygon) cost its whole bounding box, quadratic in the
+        // polygon's size.
+        let (mut lo, mut hi) = (xlo as f32, xhi as f32);
+        for &(ex, ey, e0) in &coef {
+            let c = ey * py + e0;
+            if ex > 0.0 {
+                lo = lo.max((-c / ex - 0.5).floor() - 1.0);
+            } else if ex < 0.0 {
+                hi = hi.min((-c / ex - 0.5).ceil() + 1.0);
+            } else if c < 0.0 {
+                hi = lo - 1.0;
+            }
+        }
+        if lo.is_nan() || hi.is_nan() || lo > hi {
+            continue;
+        }
+        let (xa, xb) = (lo as usize, hi as usize);
+        let px0 = xa as f32 + 0.5;
         let mut e = coef.map(|(ex, ey, e0)| ex * px0 + ey * py + e0);
-        for x in xlo..=xhi {
+        for x in xa..=xb {
             if e[0] >= 0.0 && e[1] >= 0.0 && e[2] >= 0.0 {
                 // Barycentric weight of a is e[0] (edge bc), of b is e[1], of c is e[2].
                 let z = (e[0] * k[0] + e[1] * k[1] + e[2] * k[2]) * inv;
