@@ -192,9 +192,7 @@ fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
     if !p.is_file() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
-    let r: Report = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a stencil report", p.display()))?;
+    let r: Report = super::material::read_report(dir)?;
     Ok(match (r.material_source, r.material) {
         (Some(src), _) if Path::new(&src).is_file() => Some(src),
         (_, name) => name,
