@@ -4,7 +4,7 @@
 //! because a corner has no width and would tear. The sheet continues beyond the image, so every
 //! material region that touches the image border belongs to the frame (node 0).
 
-use crate::raster::BitGrid;
+use crate::raster::{join_runs, BitGrid, Run};
 
 /// Label of a cut pixel in [`IslandMap::labels`].
 pub const CUT: u32 = u32::MAX;
@@ -46,20 +46,10 @@ impl IslandMap {
 /// 4-connected components of the pixels equal to `value`: a label per pixel (`CUT` where the pixel
 /// is not `value`), and the area of each component. O(pixels).
 pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
-    // Runs of `value` along each row, joined to the runs they overlap in the row above by
-    // union-find, then numbered in the order their first pixel is met: a few passes over the
-    // pixels and a union per touching pair of runs, instead of a stack push per pixel.
+    // Runs of `value` along each row, joined to the runs they overlap in the row above.
     let (w, h) = (bits.width as usize, bits.height as usize);
-    let mut runs: Vec<(u32, u32, u32)> = Vec::new(); // (row start index, length, parent)
+    let mut runs: Vec<Run> = Vec::new();
     let mut row_first = Vec::with_capacity(h + 1);
-    fn root(runs: &mut [(u32, u32, u32)], mut r: usize) -> usize {
-        while runs[r].2 as usize != r {
-            let p = runs[r].2 as usize;
-            runs[r].2 = runs[p].2;
-            r = p;
-        }
-        r
-    }
     for y in 0..h {
         row_first.push(runs.len());
         let row = &bits.data[y * w..(y + 1) * w];
@@ -73,45 +63,21 @@ pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
             while x < w && row[x] == value {
                 x += 1;
             }
-            let id = runs.len();
-            runs.push(((y * w + start) as u32, (x - start) as u32, id as u32));
+            runs.push(Run {
+                y: y as u32,
+                x0: start as u32,
+                x1: x as u32 - 1,
+            });
         }
     }
     row_first.push(runs.len());
-    for y in 1..h {
-        let (mut a, a_end) = (row_first[y - 1], row_first[y]);
-        let (mut b, b_end) = (row_first[y], row_first[y + 1]);
-        while a < a_end && b < b_end {
-            let (sa, la) = ((runs[a].0 as usize) - (y - 1) * w, runs[a].1 as usize);
-            let (sb, lb) = ((runs[b].0 as usize) - y * w, runs[b].1 as usize);
-            if sa < sb + lb && sb < sa + la {
-                let (ra, rb) = (root(&mut runs, a), root(&mut runs, b));
-                if ra != rb {
-                    // The earlier run stays the root, so roots are first runs in scan order.
-                    let (lo, hi) = (ra.min(rb), ra.max(rb));
-                    runs[hi].2 = lo as u32;
-                }
-            }
-            if sa + la <= sb + lb {
-                a += 1;
-            } else {
-                b += 1;
-            }
-        }
-    }
+    let (piece, count) = join_runs(&runs, &row_first, false);
     let mut labels = vec![CUT; w * h];
-    let mut areas: Vec<usize> = Vec::new();
-    let mut id_of = vec![CUT; runs.len()];
-    for r in 0..runs.len() {
-        let root = root(&mut runs, r);
-        if id_of[root] == CUT {
-            id_of[root] = areas.len() as u32;
-            areas.push(0);
-        }
-        let id = id_of[root];
-        let (s, l) = (runs[r].0 as usize, runs[r].1 as usize);
-        labels[s..s + l].fill(id);
-        areas[id as usize] += l;
+    let mut areas = vec![0usize; count];
+    for (r, &id) in runs.iter().zip(&piece) {
+        let s = r.y as usize * w;
+        labels[s + r.x0 as usize..=s + r.x1 as usize].fill(id);
+        areas[id as usize] += (r.x1 - r.x0 + 1) as usize;
     }
     (labels, areas)
 }

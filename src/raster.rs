@@ -276,6 +276,63 @@ fn dt1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
     }
 }
 
+/// A run of pixels along row `y`, columns `x0..=x1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    pub y: u32,
+    pub x0: u32,
+    pub x1: u32,
+}
+
+/// The connected pieces of runs listed row by row, left to right (`row_first[y]` is the index of
+/// row `y`'s first run, with one entry past the last row): runs in neighbouring rows join where
+/// they overlap, and also where they touch only at a corner when `corners` (8-connectivity).
+/// Returns each run's piece and the number of pieces, numbered in the order of their first run,
+/// which is the order of their first pixel in raster order. Union-find over the runs: a pass over
+/// the runs, not a stack push per pixel.
+pub fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Vec<u32>, usize) {
+    let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
+    fn root(parent: &mut [u32], mut r: usize) -> usize {
+        while parent[r] as usize != r {
+            let p = parent[r] as usize;
+            parent[r] = parent[p];
+            r = p;
+        }
+        r
+    }
+    let slack = corners as i64;
+    for y in 1..row_first.len().saturating_sub(1) {
+        let (mut a, a_end) = (row_first[y - 1], row_first[y]);
+        let (mut b, b_end) = (row_first[y], row_first[y + 1]);
+        while a < a_end && b < b_end {
+            let (ra, rb) = (runs[a], runs[b]);
+            if ra.x0 as i64 <= rb.x1 as i64 + slack && rb.x0 as i64 <= ra.x1 as i64 + slack {
+                let (pa, pb) = (root(&mut parent, a), root(&mut parent, b));
+                if pa != pb {
+                    // The earlier run stays the root, so roots are first runs in scan order.
+                    parent[pa.max(pb)] = pa.min(pb) as u32;
+                }
+            }
+            if ra.x1 <= rb.x1 {
+                a += 1;
+            } else {
+                b += 1;
+            }
+        }
+    }
+    let mut piece = vec![u32::MAX; runs.len()];
+    let mut count = 0;
+    for r in 0..runs.len() {
+        let root = root(&mut parent, r);
+        if piece[root] == u32::MAX {
+            piece[root] = count;
+            count += 1;
+        }
+        piece[r] = piece[root];
+    }
+    (piece, count as usize)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -51,7 +51,7 @@ use serde::{Deserialize, Serialize};
 
 use rayon::prelude::*;
 
-use crate::raster::{BitGrid, Gray};
+use crate::raster::{join_runs, BitGrid, Gray, Run};
 
 mod packed;
 use packed::{thin, Packed};
@@ -357,9 +357,7 @@ impl<'a> Work<'a> {
     }
 
     fn set(&mut self, i: usize, v: bool) {
-        if self.bits.at(i) != v {
-            self.bits.put(i, v);
-        }
+        self.bits.put(i, v);
     }
 
     fn changeable(&self, i: usize) -> bool {
@@ -418,8 +416,7 @@ impl<'a> Work<'a> {
 /// pixel by pixel.
 fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
     let (w, h) = (mask.width, mask.height);
-    // Runs (row, first x, last x, parent).
-    let mut runs: Vec<(u32, u32, u32, u32)> = Vec::new();
+    let mut runs: Vec<Run> = Vec::new();
     let mut row_first = Vec::with_capacity(h + 1);
     for y in 0..h {
         row_first.push(runs.len());
@@ -431,11 +428,12 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
                 let (x0, x1) = (k as u32 * 64 + start, k as u32 * 64 + start + len - 1);
                 match runs.last_mut() {
                     // A run that goes on from the word before.
-                    Some(last) if last.0 == y as u32 && last.2 + 1 == x0 => last.2 = x1,
-                    _ => {
-                        let id = runs.len() as u32;
-                        runs.push((y as u32, x0, x1, id));
-                    }
+                    Some(last) if last.y == y as u32 && last.x1 + 1 == x0 => last.x1 = x1,
+                    _ => runs.push(Run {
+                        y: y as u32,
+                        x0,
+                        x1,
+                    }),
                 }
                 let end = start + len;
                 word = if end >= 64 { 0 } else { word & (!0u64 << end) };
@@ -443,59 +441,28 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
         }
     }
     row_first.push(runs.len());
-    fn root(runs: &mut [(u32, u32, u32, u32)], mut r: usize) -> usize {
-        while runs[r].3 as usize != r {
-            let p = runs[r].3 as usize;
-            runs[r].3 = runs[p].3;
-            r = p;
-        }
-        r
-    }
-    for y in 1..h {
-        let (mut a, a_end) = (row_first[y - 1], row_first[y]);
-        let (mut b, b_end) = (row_first[y], row_first[y + 1]);
-        while a < a_end && b < b_end {
-            let (sa, ea) = (runs[a].1 as i64, runs[a].2 as i64);
-            let (sb, eb) = (runs[b].1 as i64, runs[b].2 as i64);
-            // 8-connected: touching diagonally counts.
-            if sa <= eb + 1 && sb <= ea + 1 {
-                let (ra, rb) = (root(&mut runs, a), root(&mut runs, b));
-                if ra != rb {
-                    let (lo, hi) = (ra.min(rb), ra.max(rb));
-                    runs[hi].3 = lo as u32;
-                }
-            }
-            if ea <= eb {
-                a += 1;
-            } else {
-                b += 1;
-            }
-        }
-    }
-    let mut group_of = vec![u32::MAX; runs.len()];
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    let mut wanted = vec![seeds.is_none(); runs.len()];
+    let (piece, count) = join_runs(&runs, &row_first, true);
+    let mut wanted = vec![seeds.is_none(); count];
     if let Some(seeds) = seeds {
-        for r in 0..runs.len() {
-            let (y, x0, x1, _) = runs[r];
-            if (x0..=x1).any(|x| seeds.get(x as usize, y as usize)) {
-                let root = root(&mut runs, r);
-                wanted[root] = true;
+        for (r, &p) in runs.iter().zip(&piece) {
+            if (r.x0..=r.x1).any(|x| seeds.get(x as usize, r.y as usize)) {
+                wanted[p as usize] = true;
             }
         }
     }
-    for r in 0..runs.len() {
-        let root = root(&mut runs, r);
-        if !wanted[root] {
+    // Wanted pieces, in the order of their first pixel.
+    let mut group_of = vec![u32::MAX; count];
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (r, &p) in runs.iter().zip(&piece) {
+        if !wanted[p as usize] {
             continue;
         }
-        if group_of[root] == u32::MAX {
-            group_of[root] = out.len() as u32;
+        if group_of[p as usize] == u32::MAX {
+            group_of[p as usize] = out.len() as u32;
             out.push(Vec::new());
         }
-        let (y, x0, x1, _) = runs[r];
-        let base = y as usize * w;
-        out[group_of[root] as usize].extend((x0..=x1).map(|x| base + x as usize));
+        let base = r.y as usize * w;
+        out[group_of[p as usize] as usize].extend((r.x0..=r.x1).map(|x| base + x as usize));
     }
     out
 }
