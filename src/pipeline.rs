@@ -140,7 +140,14 @@ impl PhysicalConfig {
     /// `⌈√A / 4⌉` px for the smaller island's area A in px², is `√A / 4` mm for its area in mm²
     /// whatever the scale, so with both bounds in millimetres the same design gets bridges of the
     /// same physical width at any size.
+    ///
+    /// With `allow_thin` and an explicit `max_width_px`, the user's pixel widths are taken as
+    /// given: they have asked for bridges of that width and to keep a stencil the check finds
+    /// thin (a measurement at fixed pixel widths, such as the corpus's quality comparison).
     pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
+        if user.max_width_given && self.allow_thin {
+            return user.clone();
+        }
         let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
             as u32;
         let min = user.min_width_px.max(px);
@@ -743,6 +750,22 @@ mod tests {
             (b.min_width_px, b.max_width_px),
             (12, 12),
             "never below the material's minimum"
+        );
+        let thin = PhysicalConfig {
+            allow_thin: true,
+            ..phys.clone()
+        };
+        let b = thin.bridge_for(&narrow, s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (3, 3),
+            "explicit pixels with --allow-thin are taken as given"
+        );
+        let b = thin.bridge_for(&BridgeConfig::default(), s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (12, 40),
+            "--allow-thin alone keeps the material's widths"
         );
         // At 0.05 mm/px the same millimetres are twice the pixels.
         let fine = Scale { mm_per_px: 0.05 };

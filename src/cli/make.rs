@@ -135,7 +135,8 @@ pub struct BridgeArgs {
     #[arg(long, default_value_t = BridgeConfig::default().min_width_px)]
     pub min_bridge_width_px: u32,
     /// Widest bridge, in pixels. Default: the material's max_bridge_mm (4 × min_bridge_mm unless
-    /// the profile says otherwise).
+    /// the profile says otherwise). With --allow-thin, both pixel widths are taken exactly as
+    /// given, even below the material's minimum (the check then reports the thin bridges).
     #[arg(long)]
     pub max_bridge_width_px: Option<u32>,
     /// If a grown bridge's real error (Σ(1 − gray)² over the pixels it fills) exceeds its estimate
