@@ -34,6 +34,9 @@ pub struct Candidates {
     /// Prefix sums of (1, x, y, x², y², xy) over candidates in id order (one more entry than
     /// candidates): the coordinate covariance of any run along a chain in O(1).
     moments: Vec<[f64; 6]>,
+    /// Ids `twins.0..twins.1` are twins ([`Candidates::add_twins`]): the candidate at `id` sits on
+    /// the same pixel, in the same place of a copy of the same chain, as `id - twins.0`.
+    pub twins: (usize, usize),
 }
 
 impl Candidates {
@@ -115,6 +118,47 @@ impl Candidates {
         });
         self.pixels.push(pixel);
         id
+    }
+
+    /// Append a copy of every chain (same pixels, same order, same closure) and return the range
+    /// of the copies' ids. The copies carry another kind of strip from the same border pixels
+    /// (the shortest gaps, [`super::gaps`]); as chains of their own, their windows and growth run
+    /// along the border exactly as the originals', over strips of their own kind.
+    pub fn add_twins(&mut self) -> (usize, usize) {
+        let n = self.pixels.len();
+        let chains = self.chains.len() as u32;
+        for id in 0..n {
+            let p = self.pixels[id];
+            self.push_moment(p);
+            self.pixels.push(p);
+            self.chain_of.push(self.chain_of[id] + chains);
+        }
+        for c in 0..chains as usize {
+            let mut twin = self.chains[c].clone();
+            twin.start += n;
+            self.chains.push(twin);
+        }
+        self.twins = (n, 2 * n);
+        self.twins
+    }
+
+    /// How many candidates are originals (one per island border pixel, before any twins).
+    pub fn originals(&self) -> usize {
+        if self.twins.1 > 0 {
+            self.twins.0
+        } else {
+            self.id_of_border.iter().map(Vec::len).sum()
+        }
+    }
+
+    /// The original of a twin, or `id` itself: the same border pixel has one `base` whichever
+    /// kind of strip leaves it.
+    pub fn base(&self, id: usize) -> usize {
+        if (self.twins.0..self.twins.1).contains(&id) {
+            id - self.twins.0
+        } else {
+            id
+        }
     }
 
     /// The candidate id of a border pixel of `node`, if it is one.

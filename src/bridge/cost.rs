@@ -419,8 +419,10 @@ mod tests {
             height: 1,
             data: vec![0.0, 0.5, 1.0],
         };
-        assert!((step.at(&gray, 0) - step.length - 1.0).abs() < 1e-6);
-        assert!((step.at(&gray, 1) - step.length - 0.25).abs() < 1e-6);
+        // Darkness: w0 (2 by default) × (1 − gray)².
+        let w0 = cfg.w_intensity as f32;
+        assert!((step.at(&gray, 0) - step.length - w0).abs() < 1e-6);
+        assert!((step.at(&gray, 1) - step.length - 0.25 * w0).abs() < 1e-6);
         assert_eq!(step.at(&gray, 2), step.length);
         // No weights: still a positive price per pixel.
         let zero = BridgeConfig {

@@ -324,6 +324,33 @@ pub fn walk(
     max_len: usize,
     pixels: &mut Vec<u32>,
 ) -> Result<Strip, WalkEnd> {
+    walk_steered(f, (x, y), own, n, STEER, max_len, pixels)
+}
+
+/// A straight walk from candidate (x, y) of node `own` along `d`, never steered: the ray
+/// traversal of the same walk, for the shortest-gap candidates ([`super::gaps`]), whose direction
+/// is already the one wanted. At most `max_len` pixels.
+pub fn walk_straight(
+    f: &Fields,
+    (x, y): (u32, u32),
+    own: u32,
+    d: [f32; 2],
+    max_len: usize,
+    pixels: &mut Vec<u32>,
+) -> Result<Strip, WalkEnd> {
+    walk_steered(f, (x, y), own, d, 0.0, max_len, pixels)
+}
+
+/// The walk, turned towards the field by `steer` at every step (0: a straight ray).
+fn walk_steered(
+    f: &Fields,
+    (x, y): (u32, u32),
+    own: u32,
+    n: [f32; 2],
+    steer: f32,
+    max_len: usize,
+    pixels: &mut Vec<u32>,
+) -> Result<Strip, WalkEnd> {
     pixels.clear();
     let (cx, cy) = (x as i64, y as i64);
     // First pixel: the cut edge neighbour most in line with the normal.
@@ -366,10 +393,10 @@ pub fn walk(
             return Err(WalkEnd::TooLong);
         }
         // Steer along the field, oriented to agree with the heading.
-        if let Some(g) = f.field(px, py) {
+        if let Some(g) = (steer > 0.0).then(|| f.field(px, py)).flatten() {
             let dot = g[0] * d[0] + g[1] * d[1];
             if dot.abs() >= MIN_ALIGN {
-                let s = dot.signum() * STEER;
+                let s = dot.signum() * steer;
                 let nd = [d[0] + s * g[0], d[1] + s * g[1]];
                 let m = (nd[0] * nd[0] + nd[1] * nd[1]).sqrt();
                 if m > 1e-6 {

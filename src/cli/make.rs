@@ -144,6 +144,10 @@ pub struct BridgeArgs {
     /// support bridge at the next cheapest place.
     #[arg(long, default_value_t = BridgeConfig::default().support_margin)]
     pub support_margin: f64,
+    /// Offer only the paper's gradient walks as bridge candidates, not also the straight
+    /// shortest gaps between neighbouring pieces (for comparison with the paper's method).
+    #[arg(long)]
+    pub walks_only: bool,
 }
 
 impl BridgeArgs {
@@ -168,6 +172,7 @@ impl BridgeArgs {
                 .unwrap_or(BridgeConfig::default().max_width_px),
             max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
+            gaps: !self.walks_only,
         })
     }
 }

@@ -1,0 +1,479 @@
+//! Shortest-gap candidates: straight connections across the narrowest cut between two pieces.
+//!
+//! The paper's strips leave the border at right angles and follow the gradient, so where two
+//! pieces come closest at a slant, or touch only at a corner, the short connection between them
+//! is often not among the walks at all, and no cost can choose what is not offered. These
+//! candidates offer it, from the same border pixels (as twins of their chains, see
+//! [`Candidates::add_twins`]), costed by the same four terms over the same windows; the tree
+//! chooses between both kinds.
+//!
+//! Where they come from: the nearest material pixel of every pixel of the cut
+//! ([`crate::raster::NearestMaterial`], the frame beyond the image included). Two edge-neighbouring
+//! cut pixels whose nearest material belongs to different pieces lie on the boundary between the
+//! pieces' regions of the cut; the segment between their two nearest points crosses only cut (each
+//! half lies in a disc around its cut pixel that holds no material) and is the shortest connection
+//! there. Each border pixel keeps the shortest such segment that starts on it; two pieces meeting
+//! only at a corner (diagonal material of different pieces, the other two pixels cut) give a
+//! segment of one pixel's diagonal. A border pixel that starts no segment takes the direction of
+//! the nearest one along its contour within [`REACH`] candidates (so a bridge can grow to its
+//! width beside a shortest gap with strips parallel to it); farther away it has no such strip.
+//!
+//! Each strip is then a straight walk ([`strips::walk_straight`]) from its pixel in that direction:
+//! the same ray traversal as the walks, so it is 4-connected, ends beside material of another node,
+//! and is dropped if it runs back into its own piece or past the length limit.
+//!
+//! Cost: one pass over the image for the nearest-material map (4 bytes a pixel, rows in parallel)
+//! and one for the boundary pairs; the strips themselves are in proportion to the islands'
+//! perimeter times the gap length, like the walks.
+
+use rayon::prelude::*;
+
+use super::candidates::Candidates;
+use super::strips::{self, Fields, Strip};
+use crate::islands::{IslandMap, FRAME};
+use crate::raster::BitGrid;
+
+/// How far along a contour, in candidates, a border pixel without a shortest gap of its own
+/// borrows the direction of the nearest one. Wider than any bridge's strips on either side of
+/// the gap it grows from (the widest bridges of the shipped materials are a few dozen pixels).
+pub const REACH: usize = 48;
+
+/// The shortest gap leaving one border pixel: its length (between pixel centres) and the other
+/// end, in image pixel coordinates (may lie one pixel outside the image: the frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Gap {
+    len: f32,
+    to: (i32, i32),
+}
+
+/// Where a candidate's straight strip heads: a unit direction and the length of the shortest
+/// gap it comes from (its own, or the one it borrowed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Heading {
+    pub d: [f32; 2],
+    pub gap: f32,
+}
+
+/// Shortest gaps are looked up from every this many candidates along a contour (and from every
+/// pixel where two pieces meet at a corner); the others borrow the nearest one's heading. Gaps
+/// change slowly along a contour, and neighbouring strips of one bridge should run parallel
+/// anyway; looking them all up cost as much as all the walks.
+pub const SEED_STEP: usize = 1;
+
+/// For every candidate of the (original) chains, the heading of its straight strip, if it has
+/// one: towards the other end of its own shortest gap, or borrowed from the nearest gap along its
+/// contour within [`REACH`]. Gaps longer than `max_len` pixels are ignored.
+pub fn directions(
+    bits: &BitGrid,
+    map: &IslandMap,
+    cands: &Candidates,
+    max_len: usize,
+) -> Vec<Option<Heading>> {
+    let n = cands.originals();
+    let gaps = shortest_gaps(bits, map, cands, n, max_len as f32);
+    let own: Vec<Option<Heading>> = (0..n)
+        .map(|id| {
+            gaps[id].map(|g| {
+                let (x, y) = cands.pixels[id];
+                let d = [g.to.0 as f32 - x as f32, g.to.1 as f32 - y as f32];
+                let m = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-6);
+                Heading {
+                    d: [d[0] / m, d[1] / m],
+                    gap: g.len,
+                }
+            })
+        })
+        .collect();
+    borrow_along_chains(cands, &own, n)
+}
+
+/// Every candidate without a direction takes the one of the nearest candidate along its chain
+/// that has one, within [`REACH`] (the earlier one on a tie), wrapping on closed chains.
+fn borrow_along_chains(
+    cands: &Candidates,
+    own: &[Option<Heading>],
+    n: usize,
+) -> Vec<Option<Heading>> {
+    let mut out = own.to_vec();
+    for chain in cands.chains.iter().filter(|c| c.start < n) {
+        let len = chain.len;
+        let at = |k: usize| chain.start + k % len;
+        // Distance (in candidates) to the nearest own direction, from both sides.
+        let mut best: Vec<(usize, Option<Heading>)> = vec![(usize::MAX, None); len];
+        let laps = if chain.closed { 2 } else { 1 };
+        for forward in [true, false] {
+            let mut last: Option<(usize, Heading)> = None;
+            for step in 0..laps * len {
+                let k = if forward { step } else { laps * len - 1 - step };
+                let pos = k % len;
+                if let Some(d) = own[at(k)] {
+                    last = Some((step, d));
+                }
+                if let Some((s, d)) = last {
+                    let dist = step - s;
+                    if dist < best[pos].0 {
+                        best[pos] = (dist, Some(d));
+                    }
+                }
+            }
+        }
+        for (pos, (dist, d)) in best.into_iter().enumerate() {
+            if out[at(pos)].is_none() && dist <= REACH {
+                out[at(pos)] = d;
+            }
+        }
+    }
+    out
+}
+
+/// Every piece's border pixels (material with a cut edge neighbour), row by row and sorted along
+/// each row, with the frame beyond the image as points one step outside it beside cut pixels on
+/// the image's edge: the shores of the cut, where every shortest gap starts and ends.
+struct Shores {
+    /// Row `y` (-1..=height) is `points[first[y + 1]..first[y + 2]]`.
+    first: Vec<usize>,
+    /// (x, node).
+    points: Vec<(i32, u32)>,
+}
+
+impl Shores {
+    fn new(bits: &BitGrid, map: &IslandMap) -> Self {
+        let (w, h) = (map.width as i32, map.height as i32);
+        let cut = |x: i32, y: i32| !bits.data[(y * w + x) as usize];
+        let mut outside: Vec<(i32, i32)> = Vec::new();
+        for x in 0..w {
+            for (y, out) in [(0, -1), (h - 1, h)] {
+                if cut(x, y) {
+                    outside.push((x, out));
+                }
+            }
+        }
+        for y in 0..h {
+            for (x, out) in [(0, -1), (w - 1, w)] {
+                if cut(x, y) {
+                    outside.push((out, y));
+                }
+            }
+        }
+        let rows = (h + 2) as usize;
+        let mut first = vec![0usize; rows + 1];
+        let all = || {
+            map.nodes
+                .iter()
+                .enumerate()
+                .flat_map(|(n, node)| {
+                    node.border
+                        .iter()
+                        .map(move |&(x, y)| (x as i32, y as i32, n as u32))
+                })
+                .chain(outside.iter().map(|&(x, y)| (x, y, FRAME)))
+        };
+        for (_, y, _) in all() {
+            first[(y + 1) as usize + 1] += 1;
+        }
+        for r in 0..rows {
+            first[r + 1] += first[r];
+        }
+        let mut fill = first.clone();
+        let mut points = vec![(0i32, 0u32); first[rows]];
+        for (x, y, n) in all() {
+            let r = (y + 1) as usize;
+            points[fill[r]] = (x, n);
+            fill[r] += 1;
+        }
+        let mut rest = points.as_mut_slice();
+        let mut slices = Vec::with_capacity(rows);
+        for r in 0..rows {
+            let (row, tail) = rest.split_at_mut(first[r + 1] - first[r]);
+            slices.push(row);
+            rest = tail;
+        }
+        slices.into_par_iter().for_each(|row| row.sort_unstable());
+        Shores { first, points }
+    }
+
+    fn row(&self, y: i32) -> &[(i32, u32)] {
+        if y < -1 || (y + 2) as usize >= self.first.len() {
+            return &[];
+        }
+        let r = (y + 1) as usize;
+        &self.points[self.first[r]..self.first[r + 1]]
+    }
+
+    /// The nearest shore point of a node other than `own` to (x, y), nearer than `limit`, on the
+    /// cut side of it: in the open half-plane the offset `side` points to (a point behind the
+    /// pixel's own material is no gap it could bridge).
+    fn nearest_other(
+        &self,
+        (x, y): (i32, i32),
+        own: u32,
+        side: (i32, i32),
+        limit: f32,
+    ) -> Option<Gap> {
+        let mut best = limit * limit;
+        let mut to = None;
+        let scan = |yy: i32, dy2: f32, best: &mut f32, to: &mut Option<(i32, i32)>| {
+            let row = self.row(yy);
+            let k = row.partition_point(|&(px, _)| px < x);
+            let ahead = |px: i32| (px - x) * side.0 + (yy - y) * side.1 > 0;
+            for &(px, n) in &row[k..] {
+                let dx = (px - x) as f32;
+                if dx * dx + dy2 >= *best {
+                    break;
+                }
+                if n != own && ahead(px) {
+                    *best = dx * dx + dy2;
+                    *to = Some((px, yy));
+                }
+            }
+            for &(px, n) in row[..k].iter().rev() {
+                let dx = (x - px) as f32;
+                if dx * dx + dy2 >= *best {
+                    break;
+                }
+                if n != own && ahead(px) {
+                    *best = dx * dx + dy2;
+                    *to = Some((px, yy));
+                }
+            }
+        };
+        scan(y, 0.0, &mut best, &mut to);
+        let mut r = 1i32;
+        while ((r * r) as f32) < best {
+            let dy2 = (r * r) as f32;
+            scan(y - r, dy2, &mut best, &mut to);
+            scan(y + r, dy2, &mut best, &mut to);
+            r += 1;
+        }
+        to.map(|to| Gap {
+            len: best.sqrt(),
+            to,
+        })
+    }
+}
+
+/// The shortest gap starting on each of the first `n` candidates (see the module doc): its
+/// nearest shore point of another piece, if nearer than `max_len`.
+fn shortest_gaps(
+    bits: &BitGrid,
+    map: &IslandMap,
+    cands: &Candidates,
+    n: usize,
+    max_len: f32,
+) -> Vec<Option<Gap>> {
+    let shores = Shores::new(bits, map);
+    let (w, h) = (map.width as i32, map.height as i32);
+    let cut =
+        |x: i32, y: i32| x >= 0 && y >= 0 && x < w && y < h && !bits.data[(y * w + x) as usize];
+    (0..n)
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|id| {
+            let (x, y) = cands.pixels[id];
+            let (x, y) = (x as i32, y as i32);
+            let node = cands.node(id);
+            let material = |x: i32, y: i32| {
+                x < 0 || y < 0 || x >= w || y >= h || bits.data[(y * w + x) as usize]
+            };
+            // A corner where another piece meets this one diagonally is always looked up.
+            let corner = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
+                .iter()
+                .any(|&(dx, dy)| {
+                    material(x + dx, y + dy)
+                        && !material(x + dx, y)
+                        && !material(x, y + dy)
+                        && (x + dx) >= 0
+                        && (y + dy) >= 0
+                        && (x + dx) < w
+                        && (y + dy) < h
+                        && map.labels[((y + dy) * w + x + dx) as usize] != node
+                });
+            if cands.pos(id) % SEED_STEP != 0 && !corner {
+                return None;
+            }
+            // Towards its cut edge neighbours (a one-pixel line may have them on both sides,
+            // then either side will do).
+            let mut side = (0, 0);
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                if cut(x + dx, y + dy) {
+                    side = (side.0 + dx, side.1 + dy);
+                }
+            }
+            if side == (0, 0) {
+                return [(1, 0), (-1, 0), (0, 1), (0, -1)]
+                    .iter()
+                    .find_map(|&s| shores.nearest_other((x, y), node, s, max_len));
+            }
+            shores.nearest_other((x, y), node, side, max_len)
+        })
+        .collect()
+}
+
+/// The straight strip of every twin candidate (ids `cands.twins`), in parallel: a straight walk
+/// along its heading ([`directions`]), at most `max_len` pixels. Where the original's walk is
+/// already no longer than the straight strip would be (about `gap · (|cos| + |sin|)` pixels, a
+/// 4-connected line's count), the twin takes a copy of it instead of walking, and is marked in
+/// the second vector: a copy adds nothing to choose from, so it is not scored on its own, but it
+/// keeps the twin chain whole for its neighbours' windows and growth.
+pub fn walk_twins(
+    fields: &Fields,
+    cands: &Candidates,
+    heads: &[Option<Heading>],
+    walks: &[Option<Strip>],
+    max_len: usize,
+) -> (Vec<Option<Strip>>, Vec<bool>) {
+    (cands.twins.0..cands.twins.1)
+        .into_par_iter()
+        .with_min_len(256)
+        .map_init(Vec::new, |scratch, id| {
+            let base = cands.base(id);
+            let Some(h) = heads.get(base).copied().flatten() else {
+                return (None, false);
+            };
+            let straight = h.gap * (h.d[0].abs() + h.d[1].abs());
+            if let Some(w) = walks.get(base).and_then(|w| w.as_ref()) {
+                if w.len() as f32 <= straight {
+                    return (Some(w.clone()), true);
+                }
+            }
+            let s = strips::walk_straight(
+                fields,
+                cands.pixels[id],
+                cands.node(id),
+                h.d,
+                max_len,
+                scratch,
+            );
+            (s.ok(), false)
+        })
+        .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::islands::label;
+    use crate::raster::BitGrid;
+
+    #[test]
+    fn a_gap_runs_to_the_nearest_piece_not_along_the_normal() {
+        // Two pieces closest along a diagonal: an island and a block of the frame.
+        let g = BitGrid::from_rows(&[
+            "##########",
+            "#.........",
+            "#.........",
+            "#.........",
+            "#.........",
+            "#.....##..",
+            "#.....##..",
+            "#.........",
+            "#.........",
+            "##########",
+        ]);
+        let m = label(&g);
+        let mut c = super::super::candidates::collect(&m);
+        let dirs = directions(&g, &m, &c, 50);
+        // The island's top-left pixel is closest to the frame's top row (5 px; the left column
+        // is 6): straight up, not along its normal.
+        let id = c.id_at(&m, 1, 6, 5).unwrap();
+        let d = dirs[id].unwrap().d;
+        assert!(d[1] < -0.99, "{d:?}");
+        c.add_twins();
+        let two = crate::raster::TwoTone {
+            bits: g.clone(),
+            gray: crate::raster::Gray::new(10, 10, 1.0),
+        };
+        let f = Fields::new(&two, &m);
+        let s = walk_twins(&f, &c, &dirs, &[], 50).0;
+        let strip = s[id].as_ref().unwrap();
+        assert_eq!(strip.to, FRAME);
+        assert_eq!(strip.len(), 4, "pixels y = 4..=1 of column 6");
+    }
+
+    #[test]
+    fn nearest_shore_matches_a_brute_force_search() {
+        let mut seed = 99u64;
+        for round in 0..20 {
+            let (w, h) = (17 + round % 5, 13 + round % 4);
+            let g = BitGrid::from_fn(w, h, |_, _| {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (seed >> 33) % 4 == 0
+            });
+            let m = label(&g);
+            let shores = Shores::new(&g, &m);
+            // Every shore point: border pixels of all nodes, and the frame one step outside
+            // beside cut pixels on the edge.
+            let mut all: Vec<(i32, i32, u32)> = Vec::new();
+            for (n, node) in m.nodes.iter().enumerate() {
+                all.extend(
+                    node.border
+                        .iter()
+                        .map(|&(x, y)| (x as i32, y as i32, n as u32)),
+                );
+            }
+            let (wi, hi) = (w as i32, h as i32);
+            for y in -1..=hi {
+                for x in -1..=wi {
+                    let outside = x < 0 || y < 0 || x >= wi || y >= hi;
+                    let beside_cut = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().any(|&(dx, dy)| {
+                        let (u, v) = (x + dx, y + dy);
+                        u >= 0 && v >= 0 && u < wi && v < hi && !g.get(u as u32, v as u32)
+                    });
+                    if outside && beside_cut {
+                        all.push((x, y, FRAME));
+                    }
+                }
+            }
+            for (n, node) in m.nodes.iter().enumerate().skip(1) {
+                for &(x, y) in &node.border {
+                    let (x, y) = (x as i32, y as i32);
+                    for side in [(1, 0), (0, -1), (-1, 1)] {
+                        let want = all
+                            .iter()
+                            .filter(|p| p.2 != n as u32)
+                            .filter(|p| (p.0 - x) * side.0 + (p.1 - y) * side.1 > 0)
+                            .map(|p| (((p.0 - x).pow(2) + (p.1 - y).pow(2)) as f32).sqrt())
+                            .filter(|&d| d < 9.0)
+                            .fold(f32::INFINITY, f32::min);
+                        let got = shores.nearest_other((x, y), n as u32, side, 9.0);
+                        assert_eq!(got.map_or(f32::INFINITY, |g| g.len), want, "({x}, {y})");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pieces_touching_at_a_corner_get_a_one_pixel_patch() {
+        let g = BitGrid::from_rows(&[
+            "..........",
+            "..........",
+            "..###.....",
+            "..###.....",
+            "..###.....",
+            ".....###..",
+            ".....###..",
+            ".....###..",
+            "..........",
+            "..........",
+        ]);
+        let m = label(&g);
+        assert_eq!(m.island_count(), 2);
+        let mut c = super::super::candidates::collect(&m);
+        let dirs = directions(&g, &m, &c, 50);
+        let a = m.labels[4 * 10 + 4];
+        let id = c.id_at(&m, a, 4, 4).unwrap();
+        c.add_twins();
+        let two = crate::raster::TwoTone {
+            bits: g.clone(),
+            gray: crate::raster::Gray::new(10, 10, 1.0),
+        };
+        let f = Fields::new(&two, &m);
+        let s = walk_twins(&f, &c, &dirs, &[], 50).0;
+        let strip = s[id].as_ref().unwrap();
+        assert_eq!(strip.len(), 1);
+        assert_eq!(strip.to, m.labels[5 * 10 + 5]);
+    }
+}
