@@ -1,6 +1,7 @@
 //! Bridging speed on generated pictures: 1280×720 and 1920×1080, about 100 and about 1,000 islands.
-//! `cargo bench --bench bridge`. Labelling is measured on its own; before the criterion runs, one
-//! run per image prints where `connect`'s time goes (phase by phase).
+//! `cargo bench --bench bridge`. Labelling is measured on its own, and `connect` with the default
+//! candidates and with the paper's walks alone (`connect-walks-only`); before the criterion runs,
+//! one run per image prints where `connect`'s time goes (phase by phase).
 //!
 //! The pictures: paper (material) with ink donuts (cut) on a jittered grid, each holding a paper
 //! spot (the island); sizes vary with a fixed seed. The gray is the two-tone with a faint
@@ -107,6 +108,14 @@ fn bench(c: &mut Criterion) {
             });
             group.bench_function(BenchmarkId::new("connect", &id), |b| {
                 b.iter(|| connect(&two, &map, &cfg).expect("bridging succeeds"))
+            });
+            // The paper's candidates alone, for what the shortest gaps cost in the same run.
+            let walks = BridgeConfig {
+                gaps: false,
+                ..cfg.clone()
+            };
+            group.bench_function(BenchmarkId::new("connect-walks-only", &id), |b| {
+                b.iter(|| connect(&two, &map, &walks).expect("bridging succeeds"))
             });
         }
     }

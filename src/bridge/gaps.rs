@@ -58,7 +58,7 @@ pub struct Heading {
 /// pixel where two pieces meet at a corner); the others borrow the nearest one's heading. Gaps
 /// change slowly along a contour, and neighbouring strips of one bridge should run parallel
 /// anyway; looking them all up cost as much as all the walks.
-pub const SEED_STEP: usize = 1;
+pub const SEED_STEP: usize = 3;
 
 /// For every candidate of the (original) chains, the heading of its straight strip, if it has
 /// one: towards the other end of its own shortest gap, or borrowed from the nearest gap along its
@@ -85,6 +85,27 @@ pub fn directions(
         })
         .collect();
     borrow_along_chains(cands, &own, n)
+}
+
+/// For each place of a chain, how many steps along it the nearest flagged place is (`usize::MAX`
+/// if none), wrapping on a closed chain.
+fn along_chain_distance(flag: &[bool], closed: bool) -> Vec<usize> {
+    let n = flag.len();
+    let mut d = vec![usize::MAX; n];
+    let laps = if closed { 2 } else { 1 };
+    for forward in [true, false] {
+        let mut last: Option<usize> = None;
+        for step in 0..laps * n {
+            let k = if forward { step } else { laps * n - 1 - step } % n;
+            if flag[k] {
+                last = Some(step);
+            }
+            if let Some(s) = last {
+                d[k] = d[k].min(step - s);
+            }
+        }
+    }
+    d
 }
 
 /// Every candidate without a direction takes the one of the nearest candidate along its chain
@@ -321,8 +342,9 @@ pub fn walk_twins(
     heads: &[Option<Heading>],
     walks: &[Option<Strip>],
     max_len: usize,
+    keep: usize,
 ) -> (Vec<Option<Strip>>, Vec<bool>) {
-    (cands.twins.0..cands.twins.1)
+    let (mut strips, copies): (Vec<Option<Strip>>, Vec<bool>) = (cands.twins.0..cands.twins.1)
         .into_par_iter()
         .with_min_len(256)
         .map_init(Vec::new, |scratch, id| {
@@ -346,7 +368,30 @@ pub fn walk_twins(
             );
             (s.ok(), false)
         })
-        .unzip()
+        .unzip();
+    // Copies matter only to the windows and growth of the twins that walked, at most
+    // `keep` candidates away along the contour; farther ones are dropped (on round islands in
+    // flat gray, walks already run straight across, and copying them all cost more allocations
+    // than the new walks).
+    let t0 = cands.twins.0;
+    for chain in cands
+        .chains
+        .iter()
+        .filter(|c| c.start >= t0 && c.start < cands.twins.1)
+    {
+        let range = chain.start - t0..chain.start - t0 + chain.len;
+        let walked: Vec<bool> = range
+            .clone()
+            .map(|k| strips[k].is_some() && !copies[k])
+            .collect();
+        let dist = along_chain_distance(&walked, chain.closed);
+        for (k, d) in range.zip(dist) {
+            if copies[k] && d > keep {
+                strips[k] = None;
+            }
+        }
+    }
+    (strips, copies)
 }
 
 #[cfg(test)]
@@ -384,7 +429,7 @@ mod tests {
             gray: crate::raster::Gray::new(10, 10, 1.0),
         };
         let f = Fields::new(&two, &m);
-        let s = walk_twins(&f, &c, &dirs, &[], 50).0;
+        let s = walk_twins(&f, &c, &dirs, &[], 50, 10).0;
         let strip = s[id].as_ref().unwrap();
         assert_eq!(strip.to, FRAME);
         assert_eq!(strip.len(), 4, "pixels y = 4..=1 of column 6");
@@ -471,7 +516,7 @@ mod tests {
             gray: crate::raster::Gray::new(10, 10, 1.0),
         };
         let f = Fields::new(&two, &m);
-        let s = walk_twins(&f, &c, &dirs, &[], 50).0;
+        let s = walk_twins(&f, &c, &dirs, &[], 50, 10).0;
         let strip = s[id].as_ref().unwrap();
         assert_eq!(strip.len(), 1);
         assert_eq!(strip.to, m.labels[5 * 10 + 5]);

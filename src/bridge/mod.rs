@@ -296,7 +296,9 @@ pub fn connect_timed(
     };
     lap("gaps", &mut times);
     let mut walked = walk_all(&fields, &cands, cfg);
-    let (twins, copies) = gaps::walk_twins(&fields, &cands, &dirs, &walked, max_len);
+    // Copies are kept as far along the contour as a bridge grows (four times its width).
+    let keep = 4 * cfg.max_width_px.min(gaps::REACH as u32) as usize;
+    let (twins, copies) = gaps::walk_twins(&fields, &cands, &dirs, &walked, max_len, keep);
     walked.extend(twins);
     lap("walks", &mut times);
     let mut g = build_graph(cands, walked, &copies, map, cfg);
@@ -500,24 +502,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
     let members = grow::grow(&g.cands, &g.strips, &g.costs, id, score.width, cfg);
     let mut plan = make(&members, score.width);
     let half = (score.width / 2).max(cfg.min_width_px);
-    let mut over = plan.real > (1.0 + cfg.support_margin) * score.estimate + 1e-9;
-    let (mut id, mut strip, mut score) = (id, strip, score);
-    if over && half >= score.width {
-        // Already as narrow as allowed, so halving cannot help: the next few cheapest places
-        // between the same two nodes are drawn too, and the one whose drawing really costs
-        // least is kept (the window's estimate missed what drawing it fills in).
-        for alt in alternatives(g, id, &members, score.width, ALTERNATIVES) {
-            let (Some(s), Some(sc)) = (g.strips[alt].as_ref(), g.scores[alt]) else {
-                continue;
-            };
-            let m = grow::grow(&g.cands, &g.strips, &g.costs, alt, sc.width, cfg);
-            let p = make(&m, sc.width);
-            if p.real < plan.real && !p.pixels.is_empty() {
-                (id, strip, score, plan) = (alt, s, sc, p);
-            }
-        }
-        over = false;
-    }
+    let over = plan.real > (1.0 + cfg.support_margin) * score.estimate + 1e-9;
     let mut support_at = None;
     if over && half < score.width {
         let members = grow::grow(&g.cands, &g.strips, &g.costs, id, half, cfg);
@@ -565,32 +550,6 @@ fn to_bridge(
         polygon: plan.polygon,
     };
     (bridge, plan.pixels)
-}
-
-/// How many other places [`plan_bridge`] draws for a bridge whose drawing costs more than its
-/// estimate by the support margin and which cannot be halved.
-const ALTERNATIVES: usize = 2;
-
-/// The `k` cheapest scored candidates between the same two nodes as `id`, other than those
-/// within `width` candidates of its members along the same contour (the same place).
-fn alternatives(g: &Graph, id: usize, members: &[usize], width: u32, k: usize) -> Vec<usize> {
-    let Some(s) = g.strips[id].as_ref() else {
-        return Vec::new();
-    };
-    let near = near_members(g, id, members, width);
-    let mut alts: Vec<usize> = g
-        .by_pair
-        .get(&pair(s.from, s.to))
-        .map(|ids| {
-            ids.iter()
-                .copied()
-                .filter(|&j| j != id && g.scores[j].is_some() && !near(j))
-                .collect()
-        })
-        .unwrap_or_default();
-    alts.sort_by(|&a, &b| total(g, a).total_cmp(&total(g, b)));
-    alts.truncate(k);
-    alts
 }
 
 /// Whether a candidate starts within `width` candidates of `members` along the same contour as
