@@ -10,6 +10,8 @@
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
 //!    ([`strips::search`]), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
+//!    then [`strength`]: islands whose size, shape or sag estimate asks for more than the tree's
+//!    bridge get more, from their own candidates, spread apart;
 //! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
@@ -25,6 +27,7 @@
 pub mod candidates;
 pub mod cost;
 pub mod grow;
+pub mod strength;
 pub mod strips;
 pub mod tidy;
 pub mod tree;
@@ -79,6 +82,9 @@ pub struct BridgeConfig {
     /// below `min_width_px`) and a support bridge of the same halved width is added at the next
     /// cheapest place between the same two nodes.
     pub support_margin: f64,
+    /// The strength rules after the tree (see [`strength`]): bridges per island, the material's
+    /// stiffness and weight, its sag limit and the scale.
+    pub strength: strength::StrengthConfig,
 }
 
 impl Default for BridgeConfig {
@@ -94,6 +100,7 @@ impl Default for BridgeConfig {
             max_width_px: 40,
             max_width_given: false,
             support_margin: 0.5,
+            strength: strength::StrengthConfig::default(),
         }
     }
 }
@@ -135,6 +142,8 @@ pub struct Bridge {
     pub support: bool,
     /// Whether its strip is a walk or the fallback search's path.
     pub via: Via,
+    /// Added after the tree for strength (see [`strength`]), not to join the island.
+    pub strength: bool,
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
     /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
@@ -147,6 +156,8 @@ pub struct Bridge {
 pub struct Bridged {
     pub bits: BitGrid,
     pub bridges: Vec<Bridge>,
+    /// Per island, in node order: its bridges, span and sag estimate (see [`strength`]).
+    pub strength: Vec<strength::IslandStrength>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -205,6 +216,9 @@ impl BridgeConfig {
                 "it must be a finite fraction >= 0",
             );
         }
+        if let Err((name, v, why)) = self.strength.check() {
+            return bad(name, v.to_string(), why);
+        }
         Ok(())
     }
 }
@@ -244,7 +258,8 @@ pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bri
 }
 
 /// Wall-clock milliseconds per phase of [`connect`], in order: `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
-/// fallback searches), `grow` (growing, support bridges, drawing).
+/// fallback searches), `strength` (extra bridges for strength), `grow` (growing, support bridges,
+/// drawing).
 pub type PhaseTimes = Vec<(&'static str, f64)>;
 
 /// [`connect`], also returning where the time went (for the benchmark and diagnostics).
@@ -259,6 +274,7 @@ pub fn connect_timed(
         let bridged = Bridged {
             bits: two.bits.clone(),
             bridges: Vec::new(),
+            strength: Vec::new(),
         };
         return Ok((bridged, times));
     }
@@ -324,12 +340,28 @@ pub fn connect_timed(
 
     lap("tree", &mut times);
 
+    // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
+    let tree_ids: Vec<usize> = prim.chosen.iter().map(|(e, _)| e.candidate).collect();
+    let (extra, strength) = strength::reinforce(&g, map, &tree_ids, &cfg.strength);
+    lap("strength", &mut times);
+
     // Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
-    // them in tree order; a pixel two bridges share counts for the first.
-    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = prim
-        .chosen
+    // them in tree order, the strength bridges last; a pixel two bridges share counts for the
+    // first.
+    let jobs: Vec<(usize, bool)> = tree_ids
+        .iter()
+        .map(|&id| (id, false))
+        .chain(extra.iter().map(|&id| (id, true)))
+        .collect();
+    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = jobs
         .par_iter()
-        .map(|&(edge, _)| plan_bridge(two, &g, cfg, edge.candidate))
+        .map(|&(id, strong)| {
+            let mut out = plan_bridge(two, &g, cfg, id);
+            for (b, _) in &mut out {
+                b.strength = strong;
+            }
+            out
+        })
         .collect();
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
@@ -338,7 +370,14 @@ pub fn connect_timed(
         bridges.push(bridge);
     }
     lap("grow", &mut times);
-    Ok((Bridged { bits, bridges }, times))
+    Ok((
+        Bridged {
+            bits,
+            bridges,
+            strength,
+        },
+        times,
+    ))
 }
 
 fn total(g: &Graph, id: usize) -> f64 {
@@ -506,6 +545,7 @@ fn to_bridge(
         cost: score.terms,
         support,
         via,
+        strength: false,
         polygon: plan.polygon,
     };
     (bridge, plan.pixels)
