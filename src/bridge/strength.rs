@@ -9,15 +9,17 @@
 //! 1. **Count**: at least `bridges_per_island` (`--bridges-per-island`, default 1), and at least
 //!    two for an island longer (along its main axis) than the material's `two_bridges_above_mm`.
 //!    Each added bridge lies at least `min(90°, 360° / count)` from every other bridge of the
-//!    island as seen from its centre (its pixels' centroid), the cheapest such candidate; where
-//!    the shape has none that far round, the one farthest round.
+//!    island as seen from its centre (its pixels' centroid), edge to edge (so the bridge may grow
+//!    to either side of where it was scored and still be that far round), the cheapest such
+//!    candidate; where the shape has none that far round, the one farthest round.
 //! 2. **Ends**: a long thin island (length at least [`THIN_RATIO`] times its breadth, and longer
-//!    than `two_bridges_above_mm`) is held near both ends: within a quarter of its length of
-//!    each end (the supports that minimise a uniformly loaded beam's sag lie 0.22 of its length
-//!    in from the ends, the Bessel and Airy points).
+//!    than `two_bridges_above_mm`) is held near both ends: within [`END_REACH`] (a fifth) of its
+//!    length of each end (the supports that minimise a uniformly loaded beam's sag lie 0.21–0.22
+//!    of its length in from the ends, the Airy and Bessel points), the cheapest there.
 //! 3. **Sag**: while the sag estimate exceeds the material's `max_sag_mm`, a bridge near the
-//!    island's farthest point from its bridges: the cheapest candidate within half the span of
-//!    that point, or the nearest one if none is. It stops when the sag is within the limit, when
+//!    island's farthest point from its bridges: of the [`TRIALS`] cheapest candidates within half
+//!    the span of that point, the one that shortens the span most; the nearest one if none is
+//!    that near. It stops when the sag is within the limit, when
 //!    no candidate lies nearer than 0.9 of the span to the farthest point (the farthest material
 //!    is out of reach of any bridge: a large island's middle), or at [`MAX_FOR_SAG`] bridges.
 //!
@@ -57,9 +59,15 @@ const G: f64 = 9.806_65;
 /// An island is long and thin when its length is at least this many times its breadth.
 pub const THIN_RATIO: f64 = 4.0;
 
+/// How near an end of a long thin island a bridge must touch it, as a fraction of its length.
+pub const END_REACH: f64 = 0.2;
+
 /// The sag rule adds bridges up to this many per island (more bridges than this hide the picture
 /// more than they help: a large island's middle is out of reach of any bridge anyway).
 pub const MAX_FOR_SAG: usize = 12;
+
+/// How many candidates near the farthest point the sag rule tries, cheapest first.
+pub const TRIALS: usize = 8;
 
 /// Most bridges `--bridges-per-island` may ask for.
 pub const MAX_PER_ISLAND: u32 = 12;
@@ -361,16 +369,27 @@ struct Option_ {
     id: usize,
     at: usize,
     angle: f64,
+    /// Half the angle its width covers seen from the centre, degrees.
+    half: f64,
     /// Along the island's main axis, px from its centre.
     along: f64,
     cost: f64,
     width: u32,
 }
 
-/// Where candidate `id`'s strip touches node `n`: its start pixel when it starts on `n`, else the
-/// material pixel of `n` where it lands (or one beside it).
+/// Where candidate `id`'s bridge touches node `n`: at the middle of its scored window along the
+/// border (the bridge grows over the window, which may lie to one side of the candidate), that
+/// strip's start pixel when it starts on `n`, else the material pixel of `n` where it lands (or
+/// one beside it).
 fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
     let s = g.strips[id].as_ref()?;
+    let mid = g.scores[id].map_or(0, |sc| (sc.window.0 + sc.window.1) / 2);
+    let (id, s) = g
+        .cands
+        .along(id, mid)
+        .and_then(|m| Some((m, g.strips[m].as_ref()?)))
+        .filter(|(_, m)| (m.from, m.to) == (s.from, s.to))
+        .unwrap_or((id, s));
     if s.from == n {
         return Some(g.cands.pixels[id]);
     }
@@ -380,10 +399,13 @@ fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
     let (ex, ey) = s.end;
     for (dx, dy) in [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)] {
         let (x, y) = (ex + dx, ey + dy);
-        if x >= 0 && y >= 0 && (x as u32) < map.width && (y as u32) < map.height {
-            if map.label(x as u32, y as u32) == n {
-                return Some((x as u32, y as u32));
-            }
+        if x >= 0
+            && y >= 0
+            && (x as u32) < map.width
+            && (y as u32) < map.height
+            && map.label(x as u32, y as u32) == n
+        {
+            return Some((x as u32, y as u32));
         }
     }
     None
@@ -506,6 +528,7 @@ fn island(
             id,
             at,
             angle: dy.atan2(dx).to_degrees(),
+            half: (score.width as f64 / 2.0).atan2(dx.hypot(dy)).to_degrees(),
             along: dx * ux + dy * uy,
             cost: score.terms.total,
             width: score.width,
@@ -562,7 +585,7 @@ fn island(
         let round = |o: &Option_| {
             held_by
                 .iter()
-                .map(|h| apart(o.angle, h.angle))
+                .map(|h| apart(o.angle, h.angle) - o.half - h.half)
                 .fold(180.0, f64::min)
         };
         // Cheapest at least `gap` round (options are sorted by cost), else the farthest round.
@@ -588,9 +611,9 @@ fn island(
         take(k, reason, &mut options, &mut held_by, &mut dist, &mut steps);
     }
 
-    // 2. Ends of a long thin island: a bridge within a quarter of its length of each end.
+    // 2. Ends of a long thin island: a bridge within a fifth of its length of each end.
     if long && length_px >= THIN_RATIO * breadth_px {
-        let quarter = 0.25 * length_px;
+        let quarter = END_REACH * length_px;
         for end in [-1.0f64, 1.0] {
             let near_end = |o: &Option_| {
                 if end < 0.0 {
@@ -636,10 +659,21 @@ fn island(
             break;
         };
         let _ = d_near;
+        // Of the cheapest few within half the span of the farthest point, the one that shortens
+        // the span most (a tie to the cheaper); the nearest one if none is that near.
+        let mut trial = dist.clone();
         let k = options
             .iter()
-            .position(|o| 2 * from_far[o.at] <= span)
-            .unwrap_or(k_near);
+            .enumerate()
+            .filter(|(_, o)| 2 * from_far[o.at] <= span)
+            .take(TRIALS)
+            .map(|(k, o)| {
+                trial.copy_from_slice(&dist);
+                local.relax(&mut trial, &[o.at]);
+                (local.farthest(&trial).1, k)
+            })
+            .min()
+            .map_or(k_near, |(_, k)| k);
         take(k, Why::Sag, &mut options, &mut held_by, &mut dist, &mut steps);
     }
     let sag = *steps.last().unwrap_or(&0.0);
