@@ -78,8 +78,10 @@ fn seen(out: &std::path::Path) -> Seen {
         touches: touch
             .iter()
             .map(|m| {
-                let mut v: Vec<(u32, (f64, f64))> =
-                    m.iter().map(|(&k, s)| (k, (s.0 / s.2, s.1 / s.2))).collect();
+                let mut v: Vec<(u32, (f64, f64))> = m
+                    .iter()
+                    .map(|(&k, s)| (k, (s.0 / s.2, s.1 / s.2)))
+                    .collect();
                 v.sort_by_key(|e| e.0);
                 v.into_iter().map(|e| e.1).collect()
             })
@@ -147,7 +149,10 @@ fn a_300_mm_island_is_not_held_by_one_corner_bridge() {
     // 300 mm of cardstock cannot be held within 1 mm from its edge: said, with where.
     assert_eq!(i["held"], false, "{i}");
     let note = i["note"].as_str().unwrap();
-    assert!(note.contains("island 1 at (") && note.contains("out of reach"), "{note}");
+    assert!(
+        note.contains("island 1 at (") && note.contains("out of reach"),
+        "{note}"
+    );
     // make says how many islands needed extra bridges.
     let o = stencil(&[
         "make",
@@ -180,7 +185,10 @@ fn a_150_by_2_mm_strip_is_held_near_both_ends() {
     let r = make(&input, &out, &["--width-mm", "170", "--scale", "1"]);
     assert_eq!(r["islands"], 1);
     let i = island(&r, 1);
-    assert!((i["length_mm"].as_f64().unwrap() - 150.0).abs() < 1.0, "{i}");
+    assert!(
+        (i["length_mm"].as_f64().unwrap() - 150.0).abs() < 1.0,
+        "{i}"
+    );
     assert_eq!(i["held"], true, "{i}");
     // On the stencil: a bridge touches the strip within a quarter of its length of each end.
     let v = seen(&out);
@@ -308,7 +316,11 @@ fn bridges_per_island_gives_every_island_that_many_spread_apart() {
             bad,
         ]);
         assert!(!o.status.success(), "{bad}");
-        assert!(stderr(&o).contains("--bridges-per-island"), "{bad}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--bridges-per-island"),
+            "{bad}: {}",
+            stderr(&o)
+        );
     }
 }
 
@@ -316,7 +328,9 @@ fn bridges_per_island_gives_every_island_that_many_spread_apart() {
 fn a_profile_with_an_absurd_stiffness_is_refused_naming_the_field() {
     let dir = tmp();
     let input = dir.path().join("dot.png");
-    ink_png(&input, 40, 40, |x, y| (10..30).contains(&x) && (10..30).contains(&y));
+    ink_png(&input, 40, 40, |x, y| {
+        (10..30).contains(&x) && (10..30).contains(&y)
+    });
     let text = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles/materials/cardstock.toml"),
     )
@@ -334,5 +348,8 @@ fn a_profile_with_an_absurd_stiffness_is_refused_naming_the_field() {
     ]);
     assert!(!o.status.success());
     let e = stderr(&o);
-    assert!(e.contains("youngs_modulus_gpa") && e.contains("stiff.toml"), "{e}");
+    assert!(
+        e.contains("youngs_modulus_gpa") && e.contains("stiff.toml"),
+        "{e}"
+    );
 }

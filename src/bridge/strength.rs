@@ -282,10 +282,18 @@ fn moments(map: &IslandMap) -> Vec<Moments> {
     m
 }
 
-/// One island's pixels in its bounding box, and path lengths over them.
+/// Most cells of the grid path lengths are measured on (see [`Local`]).
+const MAX_CELLS: usize = 1 << 16;
+
+/// One island over its bounding box, in cells of `k` × `k` pixels (a cell is the island's when
+/// any of its pixels is), and path lengths over them. `k` is 1 (pixels) unless the box has more
+/// than [`MAX_CELLS`] pixels: then the smallest that brings it under (a 2000 px ring is measured
+/// on 8 px cells, an error of a cell in a span of hundreds; a cut narrower than a cell between
+/// two parts of the island may be stepped over).
 struct Local {
     x0: u32,
     y0: u32,
+    k: u32,
     w: usize,
     h: usize,
     inside: Vec<bool>,
@@ -293,8 +301,25 @@ struct Local {
 
 impl Local {
     fn index(&self, x: u32, y: u32) -> Option<usize> {
-        let (lx, ly) = (x.checked_sub(self.x0)? as usize, y.checked_sub(self.y0)? as usize);
+        let (lx, ly) = (
+            (x.checked_sub(self.x0)? / self.k) as usize,
+            (y.checked_sub(self.y0)? / self.k) as usize,
+        );
         (lx < self.w && ly < self.h && self.inside[ly * self.w + lx]).then_some(ly * self.w + lx)
+    }
+
+    /// A path length in pixels.
+    fn px(&self, d: u32) -> f64 {
+        d as f64 / STEP as f64 * self.k as f64
+    }
+
+    /// A cell's centre in pixels.
+    fn centre(&self, i: usize) -> (f64, f64) {
+        let k = self.k as f64;
+        (
+            self.x0 as f64 + ((i % self.w) as f64 + 0.5) * k,
+            self.y0 as f64 + ((i / self.w) as f64 + 0.5) * k,
+        )
     }
 
     /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what
@@ -365,7 +390,7 @@ impl Local {
 
 /// A candidate bridge of one island: where it touches the island, seen from the island's centre.
 #[derive(Clone, Copy)]
-struct Option_ {
+struct Place {
     id: usize,
     at: usize,
     angle: f64,
@@ -492,15 +517,16 @@ fn island(
     );
     let theta = 0.5 * (2.0 * vxy).atan2(vxx - vyy);
     let (ux, uy) = (theta.cos(), theta.sin());
-    let w = (m.x1 - m.x0 + 1) as usize;
-    let h = (m.y1 - m.y0 + 1) as usize;
+    let (bw, bh) = ((m.x1 - m.x0 + 1) as usize, (m.y1 - m.y0 + 1) as usize);
+    let k = ((bw * bh) as f64 / MAX_CELLS as f64).sqrt().ceil().max(1.0) as usize;
+    let (w, h) = (bw.div_ceil(k), bh.div_ceil(k));
     let mut inside = vec![false; w * h];
     let (mut lo, mut hi, mut blo, mut bhi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for ly in 0..h {
-        for lx in 0..w {
+    for ly in 0..bh {
+        for lx in 0..bw {
             let (x, y) = (m.x0 + lx as u32, m.y0 + ly as u32);
             if map.label(x, y) == n {
-                inside[ly * w + lx] = true;
+                inside[ly / k * w + lx / k] = true;
                 let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
                 let (a, b) = (dx * ux + dy * uy, -dx * uy + dy * ux);
                 lo = lo.min(a);
@@ -513,18 +539,19 @@ fn island(
     let local = Local {
         x0: m.x0,
         y0: m.y0,
+        k: k as u32,
         w,
         h,
         inside,
     };
     // Extents: pixel centres span one pixel less than the material.
     let (length_px, breadth_px) = (hi - lo + 1.0, bhi - blo + 1.0);
-    let option = |id: usize| -> Option<Option_> {
+    let option = |id: usize| -> Option<Place> {
         let (x, y) = touch(g, map, id, n)?;
         let at = local.index(x, y)?;
         let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
         let score = g.scores[id]?;
-        Some(Option_ {
+        Some(Place {
             id,
             at,
             angle: dy.atan2(dx).to_degrees(),
@@ -534,8 +561,8 @@ fn island(
             width: score.width,
         })
     };
-    let mut held_by: Vec<Option_> = tree_ids.iter().filter_map(|&id| option(id)).collect();
-    let mut options: Vec<Option_> = touching
+    let mut held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
+    let mut options: Vec<Place> = touching
         .iter()
         .filter(|id| !tree_ids.contains(id))
         .filter_map(|&id| option(id))
@@ -544,7 +571,7 @@ fn island(
 
     let sources: Vec<usize> = held_by.iter().map(|o| o.at).collect();
     let mut dist = local.field(&sources);
-    let span_mm = |dist: &[u32]| local.farthest(dist).1 as f64 / STEP as f64 * mm;
+    let span_mm = |dist: &[u32]| local.px(local.farthest(dist).1) * mm;
     let mut steps = vec![cfg.sag_mm(span_mm(&dist))];
     let mut extra: Vec<usize> = Vec::new();
     let mut why: Vec<Why> = Vec::new();
@@ -555,8 +582,8 @@ fn island(
     // Take option k: it holds the island from now on.
     let mut take = |k: usize,
                     reason: Why,
-                    options: &mut Vec<Option_>,
-                    held_by: &mut Vec<Option_>,
+                    options: &mut Vec<Place>,
+                    held_by: &mut Vec<Place>,
                     dist: &mut Vec<u32>,
                     steps: &mut Vec<f64>| {
         let o = options.remove(k);
@@ -570,7 +597,7 @@ fn island(
     };
     // An option is apart from the bridges holding the island when it lies more than its own width
     // from the nearest of them (inside the island).
-    let clear = |o: &Option_, dist: &[u32]| dist[o.at] > o.width * STEP;
+    let clear = |o: &Place, dist: &[u32]| local.px(dist[o.at]) > o.width as f64;
 
     // 1. Count.
     let long = length_px * mm > cfg.two_bridges_above_mm;
@@ -582,7 +609,7 @@ fn island(
     };
     let gap = 90f64.min(360.0 / need as f64);
     while held_by.len() < need {
-        let round = |o: &Option_| {
+        let round = |o: &Place| {
             held_by
                 .iter()
                 .map(|h| apart(o.angle, h.angle) - o.half - h.half)
@@ -615,7 +642,7 @@ fn island(
     if long && length_px >= THIN_RATIO * breadth_px {
         let quarter = END_REACH * length_px;
         for end in [-1.0f64, 1.0] {
-            let near_end = |o: &Option_| {
+            let near_end = |o: &Place| {
                 if end < 0.0 {
                     o.along <= lo + quarter
                 } else {
@@ -626,7 +653,14 @@ fn island(
                 continue;
             }
             match options.iter().position(|o| near_end(o) && clear(o, &dist)) {
-                Some(k) => take(k, Why::Ends, &mut options, &mut held_by, &mut dist, &mut steps),
+                Some(k) => take(
+                    k,
+                    Why::Ends,
+                    &mut options,
+                    &mut held_by,
+                    &mut dist,
+                    &mut steps,
+                ),
                 None => notes.push(format!(
                     "{where_} is long and thin but no bridge fits near one of its ends: widen \
                      the cut beside that end"
@@ -646,19 +680,17 @@ fn island(
             .enumerate()
             .min_by_key(|(k, o)| (from_far[o.at], *k))
             .map(|(k, o)| (k, from_far[o.at]));
-        let Some((k_near, d_near)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64)
-        else {
+        let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64) else {
             notes.push(format!(
                 "{where_} sags {:.2} mm (limit {limit} mm): its farthest material, at ({:.1}, \
                  {:.1}) mm, is out of reach of any bridge; use a stiffer or thicker material \
                  (or raise max_sag_mm in the profile)",
                 steps.last().unwrap_or(&0.0),
-                (m.x0 as f64 + (far % w) as f64 + 0.5) * mm,
-                (m.y0 as f64 + (far / w) as f64 + 0.5) * mm,
+                local.centre(far).0 * mm,
+                local.centre(far).1 * mm,
             ));
             break;
         };
-        let _ = d_near;
         // Of the cheapest few within half the span of the farthest point, the one that shortens
         // the span most (a tie to the cheaper); the nearest one if none is that near.
         let mut trial = dist.clone();
@@ -674,7 +706,14 @@ fn island(
             })
             .min()
             .map_or(k_near, |(_, k)| k);
-        take(k, Why::Sag, &mut options, &mut held_by, &mut dist, &mut steps);
+        take(
+            k,
+            Why::Sag,
+            &mut options,
+            &mut held_by,
+            &mut dist,
+            &mut steps,
+        );
     }
     let sag = *steps.last().unwrap_or(&0.0);
     if sag > limit && held_by.len() >= cap && notes.is_empty() {
@@ -745,6 +784,7 @@ mod tests {
         let l = Local {
             x0: 0,
             y0: 0,
+            k: 1,
             w,
             h,
             inside,

@@ -313,7 +313,14 @@ impl Material {
             25_000.0,
             "kg/m³",
         )?;
-        check_range(origin, "max_sag_mm", strength.max_sag_mm, 0.001, 1000.0, "mm")?;
+        check_range(
+            origin,
+            "max_sag_mm",
+            strength.max_sag_mm,
+            0.001,
+            1000.0,
+            "mm",
+        )?;
         check_range(
             origin,
             "two_bridges_above_mm",
@@ -468,7 +475,11 @@ mod tests {
                 "max_sag_mm",
                 "two_bridges_above_mm",
             ] {
-                assert!(s.text.contains(&format!("\n{field} = ")), "{} {field}", s.name);
+                assert!(
+                    s.text.contains(&format!("\n{field} = ")),
+                    "{} {field}",
+                    s.name
+                );
             }
         }
         let without: String = SHIPPED[1]
@@ -497,7 +508,10 @@ mod tests {
             let e = Material::parse(&text, Path::new("x.toml"))
                 .unwrap_err()
                 .to_string();
-            assert!(e.contains("x.toml") && e.contains(field), "{field} = {bad}: {e}");
+            assert!(
+                e.contains("x.toml") && e.contains(field),
+                "{field} = {bad}: {e}"
+            );
         }
     }
 
