@@ -341,16 +341,16 @@ pub fn connect_timed(
     lap("tree", &mut times);
 
     // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
-    let tree_ids: Vec<usize> = prim.chosen.iter().map(|(e, _)| e.candidate).collect();
-    let (extra, strength) = strength::reinforce(&g, map, &tree_ids, &cfg.strength);
+    let tree: Vec<(usize, u32)> = prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+    let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
     lap("strength", &mut times);
 
     // Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
     // them in tree order, the strength bridges last; a pixel two bridges share counts for the
     // first.
-    let jobs: Vec<(usize, bool)> = tree_ids
+    let jobs: Vec<(usize, bool)> = tree
         .iter()
-        .map(|&id| (id, false))
+        .map(|&(id, _)| (id, false))
         .chain(extra.iter().map(|&id| (id, true)))
         .collect();
     let planned: Vec<Vec<(Bridge, Vec<u32>)>> = jobs

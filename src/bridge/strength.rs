@@ -175,7 +175,8 @@ pub struct IslandStrength {
     /// Extent along its main axis and across it, mm.
     pub length_mm: f64,
     pub breadth_mm: f64,
-    /// Bridges the estimate counts: the tree's and those added here.
+    /// Bridges holding it in the estimate: the tree's bridge that brought it in (towards the
+    /// frame) and those added here (a tree bridge to an island hanging from it is not counted).
     pub bridges: usize,
     /// Of those, added here for strength.
     pub extra: usize,
@@ -437,11 +438,16 @@ fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
 }
 
 /// Choose extra bridges (candidate ids, in island order, none twice) for the islands of `map`,
-/// given the candidates the tree chose; and each island's strength as reported.
+/// given the tree's bridges (candidate, and the island it brought into the tree); and each
+/// island's strength as reported.
+///
+/// An island is held by the tree's bridge that brought it in (towards the frame) and by those
+/// added here; a tree bridge to an island that hangs from it loads it rather than holds it, and
+/// is not counted.
 pub(super) fn reinforce(
     g: &Graph,
     map: &IslandMap,
-    chosen: &[usize],
+    chosen: &[(usize, u32)],
     cfg: &StrengthConfig,
 ) -> (Vec<usize>, Vec<IslandStrength>) {
     let nodes = map.nodes.len();
@@ -455,16 +461,13 @@ pub(super) fn reinforce(
         }
     }
     let mut tree: HashMap<u32, Vec<usize>> = HashMap::new();
-    for &id in chosen {
-        if let Some(s) = g.strips[id].as_ref() {
-            for n in [s.from, s.to] {
-                if n != FRAME {
-                    tree.entry(n).or_default().push(id);
-                }
-            }
+    for &(id, n) in chosen {
+        if n != FRAME {
+            tree.entry(n).or_default().push(id);
         }
     }
     let moments = moments(map);
+    let chosen_ids: std::collections::HashSet<usize> = chosen.iter().map(|c| c.0).collect();
     let results: Vec<(Vec<usize>, IslandStrength)> = (1..nodes as u32)
         .into_par_iter()
         .with_min_len(16)
@@ -477,6 +480,7 @@ pub(super) fn reinforce(
                 &moments[n as usize],
                 tree.get(&n).unwrap_or(&none),
                 &touching[n as usize],
+                &chosen_ids,
                 cfg,
             )
         })
@@ -505,6 +509,7 @@ fn island(
     m: &Moments,
     tree_ids: &[usize],
     touching: &[usize],
+    chosen_ids: &std::collections::HashSet<usize>,
     cfg: &StrengthConfig,
 ) -> (Vec<usize>, IslandStrength) {
     let mm = cfg.mm_per_px;
@@ -564,7 +569,7 @@ fn island(
     let mut held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
     let mut options: Vec<Place> = touching
         .iter()
-        .filter(|id| !tree_ids.contains(id))
+        .filter(|id| !chosen_ids.contains(id))
         .filter_map(|&id| option(id))
         .collect();
     options.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
