@@ -144,9 +144,25 @@ impl PhysicalConfig {
     /// With `allow_thin` and an explicit `max_width_px`, the user's pixel widths are taken as
     /// given: they have asked for bridges of that width and to keep a stencil the check finds
     /// thin (a measurement at fixed pixel widths, such as the corpus's quality comparison).
+    ///
+    /// The strength rules get the material's stiffness, weight and limits and the scale, keeping
+    /// the user's bridges per island.
     pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
+        let m = &self.material;
+        let strength = bridge::strength::StrengthConfig {
+            per_island: user.strength.per_island,
+            mm_per_px: scale.mm_per_px,
+            thickness_mm: m.thickness_mm,
+            youngs_modulus_gpa: m.strength.youngs_modulus_gpa,
+            density_kg_m3: m.strength.density_kg_m3,
+            max_sag_mm: m.strength.max_sag_mm,
+            two_bridges_above_mm: m.strength.two_bridges_above_mm,
+        };
         if user.max_width_given && self.allow_thin {
-            return user.clone();
+            return BridgeConfig {
+                strength,
+                ..user.clone()
+            };
         }
         let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
             as u32;
@@ -163,6 +179,7 @@ impl PhysicalConfig {
         BridgeConfig {
             min_width_px: min,
             max_width_px: max.max(min),
+            strength,
             ..user.clone()
         }
     }
@@ -605,6 +622,10 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 ..b.into()
             })
             .collect(),
+        strength: Some(bridge::strength::StrengthReport::new(
+            bridged.strength.clone(),
+            &bridge_cfg.strength,
+        )),
         floating_after: after.island_count(),
         fidelity: Some(fidelity),
         timings_ms: timer.0,

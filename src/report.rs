@@ -28,6 +28,10 @@ pub struct BridgeReport {
     /// reports: a walk).
     #[serde(default)]
     pub via: Via,
+    /// Added after the tree for strength (an island's size, shape or sag asked for it; see
+    /// `strength` in the report). Absent in older reports: false.
+    #[serde(default)]
+    pub strength: bool,
     /// `width_px` in millimetres on the sheet (`width_px` × `mm_per_px`). Absent from reports
     /// written before widths were in millimetres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -48,6 +52,7 @@ impl From<&Bridge> for BridgeReport {
             cost: b.cost,
             support: b.support,
             via: b.via,
+            strength: b.strength,
             width_mm: None,
             polygon_px: b.polygon.clone(),
         }
@@ -136,6 +141,10 @@ pub struct Report {
     /// Islands before bridging.
     pub islands: usize,
     pub bridges: Vec<BridgeReport>,
+    /// Per island: bridges, span and sag estimate against the material's limit, why any were
+    /// added for strength; totals (see `bridge::strength`). Absent in older reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength: Option<crate::bridge::strength::StrengthReport>,
     /// Material pieces not joined to the frame after bridging: 0 for a valid stencil.
     pub floating_after: usize,
     /// What the clean-up and the bridges changed in the picture (absent in reports written before

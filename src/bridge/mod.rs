@@ -10,6 +10,8 @@
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
 //!    ([`strips::search`]), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
+//!    then [`strength`]: islands whose size, shape or sag estimate asks for more than the tree's
+//!    bridge get more, from their own candidates, spread apart;
 //! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
@@ -26,6 +28,7 @@ pub mod candidates;
 pub mod cost;
 pub mod gaps;
 pub mod grow;
+pub mod strength;
 pub mod strips;
 pub mod tidy;
 pub mod tree;
@@ -91,6 +94,9 @@ pub struct BridgeConfig {
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
     /// true; see [`gaps`]). Off, the candidates are the paper's alone.
     pub gaps: bool,
+    /// The strength rules after the tree (see [`strength`]): bridges per island, the material's
+    /// stiffness and weight, its sag limit and the scale.
+    pub strength: strength::StrengthConfig,
 }
 
 impl Default for BridgeConfig {
@@ -107,6 +113,7 @@ impl Default for BridgeConfig {
             max_width_given: false,
             support_margin: 0.5,
             gaps: true,
+            strength: strength::StrengthConfig::default(),
         }
     }
 }
@@ -150,6 +157,8 @@ pub struct Bridge {
     pub support: bool,
     /// Whether its strip is a walk, a shortest gap or the fallback search's path.
     pub via: Via,
+    /// Added after the tree for strength (see [`strength`]), not to join the island.
+    pub strength: bool,
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
     /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
@@ -162,6 +171,8 @@ pub struct Bridge {
 pub struct Bridged {
     pub bits: BitGrid,
     pub bridges: Vec<Bridge>,
+    /// Per island, in node order: its bridges, span and sag estimate (see [`strength`]).
+    pub strength: Vec<strength::IslandStrength>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -220,6 +231,9 @@ impl BridgeConfig {
                 "it must be a finite fraction >= 0",
             );
         }
+        if let Err((name, v, why)) = self.strength.check() {
+            return bad(name, v.to_string(), why);
+        }
         Ok(())
     }
 }
@@ -259,7 +273,8 @@ pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bri
 }
 
 /// Wall-clock milliseconds per phase of [`connect`], in order: `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
-/// fallback searches), `grow` (growing, support bridges, drawing).
+/// fallback searches), `strength` (extra bridges for strength), `grow` (growing, support bridges,
+/// drawing).
 pub type PhaseTimes = Vec<(&'static str, f64)>;
 
 /// [`connect`], also returning where the time went (for the benchmark and diagnostics).
@@ -274,6 +289,7 @@ pub fn connect_timed(
         let bridged = Bridged {
             bits: two.bits.clone(),
             bridges: Vec::new(),
+            strength: Vec::new(),
         };
         return Ok((bridged, times));
     }
@@ -352,12 +368,28 @@ pub fn connect_timed(
 
     lap("tree", &mut times);
 
+    // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
+    let tree: Vec<(usize, u32)> = prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+    let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
+    lap("strength", &mut times);
+
     // Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
-    // them in tree order; a pixel two bridges share counts for the first.
-    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = prim
-        .chosen
+    // them in tree order, the strength bridges last; a pixel two bridges share counts for the
+    // first.
+    let jobs: Vec<(usize, bool)> = tree
+        .iter()
+        .map(|&(id, _)| (id, false))
+        .chain(extra.iter().map(|&id| (id, true)))
+        .collect();
+    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = jobs
         .par_iter()
-        .map(|&(edge, _)| plan_bridge(two, &g, cfg, edge.candidate))
+        .map(|&(id, strong)| {
+            let mut out = plan_bridge(two, &g, cfg, id);
+            for (b, _) in &mut out {
+                b.strength = strong;
+            }
+            out
+        })
         .collect();
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
@@ -366,7 +398,14 @@ pub fn connect_timed(
         bridges.push(bridge);
     }
     lap("grow", &mut times);
-    Ok((Bridged { bits, bridges }, times))
+    Ok((
+        Bridged {
+            bits,
+            bridges,
+            strength,
+        },
+        times,
+    ))
 }
 
 fn total(g: &Graph, id: usize) -> f64 {
@@ -547,6 +586,7 @@ fn to_bridge(
         cost: score.terms,
         support,
         via,
+        strength: false,
         polygon: plan.polygon,
     };
     (bridge, plan.pixels)

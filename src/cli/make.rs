@@ -148,6 +148,12 @@ pub struct BridgeArgs {
     /// shortest gaps between neighbouring pieces (for comparison with the paper's method).
     #[arg(long)]
     pub walks_only: bool,
+    /// At least this many bridges for every island (1 to 12), spread apart: at least 90° (or
+    /// 360°/N when N > 4) from each other as seen from the island's centre, where the island's
+    /// shape allows. Islands also get more where their size or sag asks (see the material's
+    /// two_bridges_above_mm and max_sag_mm).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil::bridge::strength::MAX_PER_ISLAND as i64))]
+    pub bridges_per_island: u32,
 }
 
 impl BridgeArgs {
@@ -173,6 +179,10 @@ impl BridgeArgs {
             max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
+            strength: stencil::bridge::strength::StrengthConfig {
+                per_island: self.bridges_per_island,
+                ..Default::default()
+            },
         })
     }
 }
@@ -351,6 +361,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         }
     }
     print_long_joins(r, cfg.bridge.max_length_px);
+    print_strength(r);
     super::material::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
@@ -396,6 +407,41 @@ fn print_working_scale(r: &stencil::report::Report) {
                 a.target_mm_per_px, a.wanted
             );
         }
+    }
+}
+
+/// How many islands needed extra bridges for strength, and a warning naming the islands some
+/// rule could not be met for (the sheet is still one piece: these are advice, not errors).
+fn print_strength(r: &stencil::report::Report) {
+    let Some(s) = &r.strength else {
+        return;
+    };
+    if !(s.max_span_mm.is_finite() || s.two_bridges_above_mm.is_finite()) {
+        println!(
+            "strength: not judged: material '{}' gives no strength data (youngs_modulus_gpa, \
+             density_kg_m3, max_sag_mm, two_bridges_above_mm); add them to its profile to have \
+             islands held against sagging",
+            r.material.as_deref().unwrap_or("?")
+        );
+        return;
+    }
+    println!(
+        "strength: {} of {} islands needed extra bridges for strength ({} bridges added); sag \
+         limit {} mm = spans up to {:.0} mm",
+        s.islands_with_extra,
+        s.islands.len(),
+        s.extra_bridges,
+        s.islands.first().map_or(0.0, |i| i.limit_mm),
+        s.max_span_mm
+    );
+    let notes: Vec<&str> = s.islands.iter().filter_map(|i| i.note.as_deref()).collect();
+    if !notes.is_empty() {
+        eprintln!(
+            "warning: {} island(s) not held as the material asks (strength in report.json): {}{}",
+            notes.len(),
+            notes[..notes.len().min(3)].join("; "),
+            if notes.len() > 3 { "; ..." } else { "" }
+        );
     }
 }
 

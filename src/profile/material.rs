@@ -28,6 +28,42 @@ pub const DEFAULT_MATERIAL: &str = "cardstock";
 /// to 15 mm in 3 mm plywood).
 pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 
+/// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
+/// commonly cut from, so an unknown material is judged as if it were floppy rather than stiff
+/// (bending modulus 3 GPa and density 900 kg/m³, as `cardstock.toml`; sag limit 1 mm; two bridges
+/// for islands longer than 40 mm). See [`Material::youngs_modulus_gpa`].
+pub const DEFAULT_STRENGTH: Strength = Strength {
+    youngs_modulus_gpa: 3.0,
+    density_kg_m3: 900.0,
+    max_sag_mm: 1.0,
+    two_bridges_above_mm: 40.0,
+};
+
+/// What the bridge stage needs to judge whether an island's bridges hold it (see
+/// `bridge::strength`). All four are optional in a profile file: one that gives some of them gets
+/// [`DEFAULT_STRENGTH`]'s value for the others; one that gives none is not judged at all (its sag
+/// limit and two-bridge size are infinite, and `make` says so): strength numbers are not invented
+/// for a material nothing is known of (the corpus's "pixel" material, with no physical limits).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Strength {
+    /// Bending (Young's) modulus of the sheet, GPa (paper 2–6, PET 4, plywood 8, steel 193).
+    pub youngs_modulus_gpa: f64,
+    /// Density, kg/m³ (paper 700–900, PMMA 1190, aluminium 2700, steel 8000).
+    pub density_kg_m3: f64,
+    /// The most an island may sag under its own weight on its bridges, mm.
+    pub max_sag_mm: f64,
+    /// Islands longer than this (along their main axis) get at least two bridges, mm: one bridge
+    /// is a hinge.
+    pub two_bridges_above_mm: f64,
+}
+
+impl Strength {
+    /// Whether the profile gave strength data to judge islands by (see [`Strength`]).
+    pub fn judged(&self) -> bool {
+        self.max_sag_mm.is_finite() || self.two_bridges_above_mm.is_finite()
+    }
+}
+
 /// The material profiles shipped with the crate, embedded so an installed binary has them.
 pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "copy-paper"),
@@ -140,6 +176,14 @@ struct MaterialFile {
     max_bridge_mm: Option<f64>,
     min_feature_mm: f64,
     kerf_mm: f64,
+    #[serde(default)]
+    youngs_modulus_gpa: Option<f64>,
+    #[serde(default)]
+    density_kg_m3: Option<f64>,
+    #[serde(default)]
+    max_sag_mm: Option<f64>,
+    #[serde(default)]
+    two_bridges_above_mm: Option<f64>,
     process: ProcessKind,
     laser: Option<LaserSettings>,
     knife: Option<KnifeSettings>,
@@ -169,6 +213,9 @@ pub struct Material {
     pub min_feature_mm: f64,
     /// Width of material the tool removes; cut loops are offset by half of it into the hole.
     pub kerf_mm: f64,
+    /// Stiffness, weight and the limits the bridge stage holds islands to (optional fields of the
+    /// file; see [`Strength`]).
+    pub strength: Strength,
     pub process: Process,
 }
 
@@ -249,6 +296,62 @@ impl Material {
                 f.kerf_mm.to_string(),
                 "must be smaller than min_feature_mm: the tool would remove whole features",
             ));
+        }
+        let d = DEFAULT_STRENGTH;
+        let given = f.youngs_modulus_gpa.is_some()
+            || f.density_kg_m3.is_some()
+            || f.max_sag_mm.is_some()
+            || f.two_bridges_above_mm.is_some();
+        let d = if given {
+            d
+        } else {
+            Strength {
+                max_sag_mm: f64::INFINITY,
+                two_bridges_above_mm: f64::INFINITY,
+                ..d
+            }
+        };
+        let strength = Strength {
+            youngs_modulus_gpa: f.youngs_modulus_gpa.unwrap_or(d.youngs_modulus_gpa),
+            density_kg_m3: f.density_kg_m3.unwrap_or(d.density_kg_m3),
+            max_sag_mm: f.max_sag_mm.unwrap_or(d.max_sag_mm),
+            two_bridges_above_mm: f.two_bridges_above_mm.unwrap_or(d.two_bridges_above_mm),
+        };
+        // Tissue paper is about 0.5 GPa, diamond 1000; the lightest foam board 30 kg/m³, osmium
+        // 22,600.
+        check_range(
+            origin,
+            "youngs_modulus_gpa",
+            strength.youngs_modulus_gpa,
+            0.01,
+            1200.0,
+            "GPa",
+        )?;
+        check_range(
+            origin,
+            "density_kg_m3",
+            strength.density_kg_m3,
+            10.0,
+            25_000.0,
+            "kg/m³",
+        )?;
+        if given {
+            check_range(
+                origin,
+                "max_sag_mm",
+                strength.max_sag_mm,
+                0.001,
+                1000.0,
+                "mm",
+            )?;
+            check_range(
+                origin,
+                "two_bridges_above_mm",
+                strength.two_bridges_above_mm,
+                0.1,
+                100_000.0,
+                "mm",
+            )?;
         }
         let sections = [
             ("laser", f.laser.is_some(), ProcessKind::Laser),
@@ -339,6 +442,7 @@ impl Material {
             max_bridge_mm,
             min_feature_mm: f.min_feature_mm,
             kerf_mm: f.kerf_mm,
+            strength,
             process,
         })
     }
@@ -383,6 +487,68 @@ mod tests {
         assert_eq!(with("max_bridge_mm = 3.0").unwrap().max_bridge_mm, 3.0);
         let e = with("max_bridge_mm = 0.5").unwrap_err().to_string();
         assert!(e.contains("x.toml") && e.contains("max_bridge_mm"), "{e}");
+    }
+
+    #[test]
+    fn strength_fields_default_and_absurd_values_name_the_field() {
+        // Every shipped profile gives its own numbers (with sources in its comments).
+        for s in SHIPPED {
+            for field in [
+                "youngs_modulus_gpa",
+                "density_kg_m3",
+                "max_sag_mm",
+                "two_bridges_above_mm",
+            ] {
+                assert!(
+                    s.text.contains(&format!("\n{field} = ")),
+                    "{} {field}",
+                    s.name
+                );
+            }
+        }
+        let without: String = SHIPPED[1]
+            .text
+            .lines()
+            .filter(|l| {
+                !["youngs", "density", "max_sag", "two_bridges"]
+                    .iter()
+                    .any(|k| l.starts_with(k))
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let m = Material::parse(&without, Path::new("x.toml")).unwrap();
+        assert!(!m.strength.judged(), "no strength data: not judged");
+        let one = without.replace(
+            "min_feature_mm = 0.5",
+            "min_feature_mm = 0.5\nmax_sag_mm = 2",
+        );
+        let m = Material::parse(&one, Path::new("x.toml")).unwrap();
+        assert_eq!(
+            m.strength,
+            Strength {
+                max_sag_mm: 2.0,
+                ..DEFAULT_STRENGTH
+            }
+        );
+        for (field, bad) in [
+            ("youngs_modulus_gpa", "0"),
+            ("youngs_modulus_gpa", "1e9"),
+            ("density_kg_m3", "-5"),
+            ("max_sag_mm", "0"),
+            ("two_bridges_above_mm", "1e300"),
+        ] {
+            let text = without.replace(
+                "min_feature_mm = 0.5",
+                &format!("min_feature_mm = 0.5\n{field} = {bad}"),
+            );
+            let e = Material::parse(&text, Path::new("x.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("x.toml") && e.contains(field),
+                "{field} = {bad}: {e}"
+            );
+        }
     }
 
     #[test]
