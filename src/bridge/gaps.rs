@@ -286,48 +286,73 @@ fn shortest_gaps(
     let (w, h) = (map.width as i32, map.height as i32);
     let cut =
         |x: i32, y: i32| x >= 0 && y >= 0 && x < w && y < h && !bits.data[(y * w + x) as usize];
-    (0..n)
-        .into_par_iter()
-        .with_min_len(256)
-        .map(|id| {
-            let (x, y) = cands.pixels[id];
-            let (x, y) = (x as i32, y as i32);
-            let node = cands.node(id);
-            let material = |x: i32, y: i32| {
-                x < 0 || y < 0 || x >= w || y >= h || bits.data[(y * w + x) as usize]
-            };
-            // A corner where another piece meets this one diagonally is always looked up.
-            let corner = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
-                .iter()
-                .any(|&(dx, dy)| {
-                    material(x + dx, y + dy)
-                        && !material(x + dx, y)
-                        && !material(x, y + dy)
-                        && (x + dx) >= 0
-                        && (y + dy) >= 0
-                        && (x + dx) < w
-                        && (y + dy) < h
-                        && map.labels[((y + dy) * w + x + dx) as usize] != node
-                });
-            if cands.pos(id) % SEED_STEP != 0 && !corner {
-                return None;
+    let lookup = |id: usize, hint: Option<(i32, i32)>| -> Option<Gap> {
+        let (x, y) = cands.pixels[id];
+        let (x, y) = (x as i32, y as i32);
+        let node = cands.node(id);
+        let material =
+            |x: i32, y: i32| x < 0 || y < 0 || x >= w || y >= h || bits.data[(y * w + x) as usize];
+        // A corner where another piece meets this one diagonally is always looked up.
+        let corner = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
+            .iter()
+            .any(|&(dx, dy)| {
+                material(x + dx, y + dy)
+                    && !material(x + dx, y)
+                    && !material(x, y + dy)
+                    && (x + dx) >= 0
+                    && (y + dy) >= 0
+                    && (x + dx) < w
+                    && (y + dy) < h
+                    && map.labels[((y + dy) * w + x + dx) as usize] != node
+            });
+        if !cands.pos(id).is_multiple_of(SEED_STEP) && !corner {
+            return None;
+        }
+        // Towards its cut edge neighbours (a one-pixel line may have them on both sides, then
+        // either side will do).
+        let mut side = (0, 0);
+        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            if cut(x + dx, y + dy) {
+                side = (side.0 + dx, side.1 + dy);
             }
-            // Towards its cut edge neighbours (a one-pixel line may have them on both sides,
-            // then either side will do).
-            let mut side = (0, 0);
-            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
-                if cut(x + dx, y + dy) {
-                    side = (side.0 + dx, side.1 + dy);
+        }
+        let sides: &[(i32, i32)] = if side == (0, 0) {
+            &[(1, 0), (-1, 0), (0, 1), (0, -1)]
+        } else {
+            std::slice::from_ref(&side)
+        };
+        sides.iter().find_map(|&s| {
+            // The previous gap's far end bounds the search, which then stops rows early (the
+            // nearest shore moves little from one border pixel to the next); without it, or if
+            // it is not on this pixel's side, the length limit does.
+            hint.map(|(bx, by)| ((bx - x) as f32).hypot((by - y) as f32) + 0.01)
+                .filter(|&d| d < max_len)
+                .and_then(|d| shores.nearest_other((x, y), node, s, d))
+                .or_else(|| shores.nearest_other((x, y), node, s, max_len))
+        })
+    };
+    // Chain by chain (in parallel), in order along each, so each lookup starts from the last.
+    let per_chain: Vec<Vec<(usize, Gap)>> = cands
+        .chains
+        .par_iter()
+        .filter(|c| c.start < n)
+        .map(|c| {
+            let mut out = Vec::new();
+            let mut hint = None;
+            for id in c.start..c.start + c.len {
+                if let Some(g) = lookup(id, hint) {
+                    hint = Some(g.to);
+                    out.push((id, g));
                 }
             }
-            if side == (0, 0) {
-                return [(1, 0), (-1, 0), (0, 1), (0, -1)]
-                    .iter()
-                    .find_map(|&s| shores.nearest_other((x, y), node, s, max_len));
-            }
-            shores.nearest_other((x, y), node, side, max_len)
+            out
         })
-        .collect()
+        .collect();
+    let mut best = vec![None; n];
+    for (id, g) in per_chain.into_iter().flatten() {
+        best[id] = Some(g);
+    }
+    best
 }
 
 /// The straight strip of every twin candidate (ids `cands.twins`), in parallel: a straight walk

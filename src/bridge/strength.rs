@@ -458,12 +458,13 @@ pub(super) fn reinforce(
     cfg: &StrengthConfig,
 ) -> (Vec<usize>, Vec<IslandStrength>) {
     let nodes = map.nodes.len();
-    // Candidates by island they touch (both ends of each pair).
-    let mut touching: Vec<Vec<usize>> = vec![Vec::new(); nodes];
-    for (&(a, b), ids) in &g.by_pair {
+    // The node pairs each island is in (both ends of each pair); their candidates are listed only
+    // for an island that needs more bridges.
+    let mut touching: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nodes];
+    for &(a, b) in g.by_pair.keys() {
         for n in [a, b] {
             if n != FRAME && (n as usize) < nodes {
-                touching[n as usize].extend_from_slice(ids);
+                touching[n as usize].push((a, b));
             }
         }
     }
@@ -515,7 +516,7 @@ fn island(
     n: u32,
     m: &Moments,
     tree_ids: &[usize],
-    touching: &[usize],
+    touching: &[(u32, u32)],
     chosen_ids: &std::collections::HashSet<usize>,
     cfg: &StrengthConfig,
 ) -> (Vec<usize>, IslandStrength) {
@@ -574,17 +575,28 @@ fn island(
         })
     };
     let mut held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
-    let mut options: Vec<Place> = touching
-        .iter()
-        .filter(|id| !chosen_ids.contains(id))
-        .filter_map(|&id| option(id))
-        .collect();
-    options.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
-
     let sources: Vec<usize> = held_by.iter().map(|o| o.at).collect();
     let mut dist = local.field(&sources);
     let span_mm = |dist: &[u32]| local.px(local.farthest(dist).1) * mm;
     let mut steps = vec![cfg.sag_mm(span_mm(&dist))];
+    let long = length_px * mm > cfg.two_bridges_above_mm;
+    let need = (cfg.per_island as usize).max(if long { 2 } else { 1 });
+    // The places to add bridges at, only for an island some rule asks more of (most islands are
+    // small and held by their one tree bridge: listing and sorting their candidates was most of
+    // this stage's time).
+    let more = held_by.len() < need || long || steps[0] > cfg.max_sag_mm;
+    let mut options: Vec<Place> = if more {
+        touching
+            .iter()
+            .filter_map(|p| g.by_pair.get(p))
+            .flatten()
+            .filter(|id| !chosen_ids.contains(id))
+            .filter_map(|&id| option(id))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    options.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
     let mut extra: Vec<usize> = Vec::new();
     let mut why: Vec<Why> = Vec::new();
     let mut notes: Vec<String> = Vec::new();
@@ -612,8 +624,6 @@ fn island(
     let clear = |o: &Place, dist: &[u32]| local.px(dist[o.at]) > o.width as f64;
 
     // 1. Count.
-    let long = length_px * mm > cfg.two_bridges_above_mm;
-    let need = (cfg.per_island as usize).max(if long { 2 } else { 1 });
     let reason = if cfg.per_island as usize >= need && cfg.per_island > 1 {
         Why::BridgesPerIsland
     } else {
