@@ -456,6 +456,84 @@ fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
     m
 }
 
+/// The user's bridge options on the working image (see `bridge::constraints`): islands under
+/// `min_island_mm2` cut away (they become cut in the two-tone, so the report and the preview count
+/// them as material the picture lost), the keep-out mask and discs made a grid of forbidden
+/// pixels, `--bridge-at` points made pixels. `None` when no option was given.
+fn user_bridges(
+    two: &mut TwoTone,
+    bridge: &mut BridgeConfig,
+    scale: Scale,
+    max_pixels: u64,
+) -> Result<Option<crate::report::UserBridgesReport>, Error> {
+    let u = &mut bridge.user;
+    if u.keep_out_mask.is_none()
+        && u.no_bridge_near_mm.is_empty()
+        && u.at_mm.is_empty()
+        && u.min_island_mm2 <= 0.0
+    {
+        return Ok(None);
+    }
+    let mm = scale.mm_per_px;
+    let (w, h) = (two.bits.width, two.bits.height);
+    let mut report = crate::report::UserBridgesReport {
+        min_island_mm2: u.min_island_mm2,
+        ..Default::default()
+    };
+    if u.min_island_mm2 > 0.0 {
+        let map = islands::label(&two.bits);
+        let small: Vec<bool> = map
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(n, node)| {
+                n as u32 != islands::FRAME && (node.area as f64) * mm * mm < u.min_island_mm2
+            })
+            .collect();
+        for (i, &l) in map.labels.iter().enumerate() {
+            if l != islands::CUT && small[l as usize] {
+                two.bits.data[i] = false;
+                report.cut_away_mm2 += mm * mm;
+            }
+        }
+        report.islands_cut_away = small.iter().filter(|&&s| s).count();
+    }
+    if u.keep_out_mask.is_some() || !u.no_bridge_near_mm.is_empty() {
+        let mut grid = BitGrid::new(w, h, false);
+        if let Some(path) = &u.keep_out_mask {
+            let mask = crate::tone::image::load_gray(path, max_pixels)?;
+            // Nearest sample of the mask at each working pixel's centre.
+            for y in 0..h {
+                let my = (((y as f64 + 0.5) / h as f64) * mask.height as f64) as u32;
+                for x in 0..w {
+                    let mx = (((x as f64 + 0.5) / w as f64) * mask.width as f64) as u32;
+                    if mask.get(mx.min(mask.width - 1), my.min(mask.height - 1)) < 0.5 {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        for &[cx, cy, r] in &u.no_bridge_near_mm {
+            let (cx, cy, r) = (cx / mm, cy / mm, r / mm);
+            let y0 = (cy - r).floor().max(0.0) as u32;
+            let y1 = ((cy + r).ceil().max(0.0) as u32).min(h);
+            let x0 = (cx - r).floor().max(0.0) as u32;
+            let x1 = ((cx + r).ceil().max(0.0) as u32).min(w);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) <= r {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        report.kept_out_px = grid.count_material();
+        u.keep_out = Some(Arc::new(grid));
+    }
+    u.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
+    Ok(Some(report))
+}
+
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
@@ -493,10 +571,14 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             (bits, stats, None)
         }
     });
-    let twotone = TwoTone {
+    let mut twotone = TwoTone {
         bits,
         gray: raw.gray,
     };
+    let mut bridge_cfg = bridge_cfg;
+    let user = timer.time("user_bridges", || {
+        user_bridges(&mut twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
+    })?;
     let map = timer.time("islands", || islands::label(&twotone.bits));
     let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
     timer.time("tidy", || {
@@ -507,6 +589,14 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
         }
     });
+    // The clean-up may round a bridge's corners into a keep-out area: what it added there goes.
+    if let Some(f) = &bridge_cfg.user.keep_out {
+        for (i, b) in bridged.bits.data.iter_mut().enumerate() {
+            if *b && f.data[i] && !twotone.bits.data[i] {
+                *b = false;
+            }
+        }
+    }
     let after = timer.time("verify", || islands::label(&bridged.bits));
     if after.island_count() > 0 {
         let node = &after.nodes[1];
@@ -626,6 +716,20 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             bridged.strength.clone(),
             &bridge_cfg.strength,
         )),
+        user_bridges: user.map(|mut u| {
+            let mm = scale.mm_per_px;
+            u.bridge_at = bridged
+                .requests
+                .iter()
+                .map(|r| crate::report::BridgeAtReport {
+                    at_mm: [r.at_px[0] * mm, r.at_px[1] * mm],
+                    island: r.island,
+                    start_mm: r.start_px.map(|p| [p[0] * mm, p[1] * mm]),
+                    distance_mm: r.distance_px.map(|d| d * mm),
+                })
+                .collect();
+            u
+        }),
         floating_after: after.island_count(),
         fidelity: Some(fidelity),
         timings_ms: timer.0,

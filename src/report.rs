@@ -145,6 +145,10 @@ pub struct Report {
     /// added for strength; totals (see `bridge::strength`). Absent in older reports.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength: Option<crate::bridge::strength::StrengthReport>,
+    /// What the user's bridge options did (`--min-island-mm2`, `--bridge-at`, `--keep-out`,
+    /// `--no-bridge-near`). Absent when none was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user_bridges: Option<UserBridgesReport>,
     /// Material pieces not joined to the frame after bridging: 0 for a valid stencil.
     pub floating_after: usize,
     /// What the clean-up and the bridges changed in the picture (absent in reports written before
@@ -230,4 +234,27 @@ mod tests {
         let r: Report = serde_json::from_value(json).unwrap();
         assert!(r.fidelity.is_none());
     }
+}
+
+/// What the user's bridge options did (see `bridge::constraints`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct UserBridgesReport {
+    /// `--min-island-mm2` and the islands it cut away: how many, their total area.
+    pub min_island_mm2: f64,
+    pub islands_cut_away: usize,
+    pub cut_away_mm2: f64,
+    /// Pixels of the working image no bridge could cross (`--keep-out`, `--no-bridge-near`).
+    pub kept_out_px: usize,
+    /// Each `--bridge-at` place: the point, the island taken, where its bridge starts and how far
+    /// from the point, mm.
+    pub bridge_at: Vec<BridgeAtReport>,
+}
+
+/// One `--bridge-at` place (mm from the picture's top left corner).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct BridgeAtReport {
+    pub at_mm: [f64; 2],
+    pub island: u32,
+    pub start_mm: Option<[f64; 2]>,
+    pub distance_mm: Option<f64>,
 }

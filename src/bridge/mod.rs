@@ -25,6 +25,7 @@
 //! added, names kept.
 
 pub mod candidates;
+pub mod constraints;
 pub mod cost;
 pub mod gaps;
 pub mod grow;
@@ -94,6 +95,8 @@ pub struct BridgeConfig {
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
     /// true; see [`gaps`]). Off, the candidates are the paper's alone.
     pub gaps: bool,
+    /// Where bridges may not go and where they should (see [`constraints`]).
+    pub user: constraints::UserBridges,
     /// The strength rules after the tree (see [`strength`]): bridges per island, the material's
     /// stiffness and weight, its sag limit and the scale.
     pub strength: strength::StrengthConfig,
@@ -113,6 +116,7 @@ impl Default for BridgeConfig {
             max_width_given: false,
             support_margin: 0.5,
             gaps: true,
+            user: constraints::UserBridges::default(),
             strength: strength::StrengthConfig::default(),
         }
     }
@@ -173,6 +177,8 @@ pub struct Bridged {
     pub bridges: Vec<Bridge>,
     /// Per island, in node order: its bridges, span and sag estimate (see [`strength`]).
     pub strength: Vec<strength::IslandStrength>,
+    /// What became of each `--bridge-at` place (see [`constraints`]).
+    pub requests: Vec<constraints::Request>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -185,6 +191,12 @@ pub enum BridgeError {
          island: the island map does not match the bit grid"
     )]
     Unreachable { island: u32, x: u32, y: u32 },
+    /// The island can be joined only through pixels the user forbade (`--keep-out`,
+    /// `--no-bridge-near`). Its position is in millimetres from the picture's top left corner.
+    #[error(
+        "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept          free of bridges (--keep-out, --no-bridge-near): lighten the keep-out mask or move the          disc there, or cut such islands away with --min-island-mm2"
+    )]
+    KeptOut { island: u32, x_mm: f64, y_mm: f64 },
     #[error("bridge setting {name} = {value} is invalid: {why}")]
     BadSetting {
         name: &'static str,
@@ -290,6 +302,7 @@ pub fn connect_timed(
             bits: two.bits.clone(),
             bridges: Vec::new(),
             strength: Vec::new(),
+            requests: Vec::new(),
         };
         return Ok((bridged, times));
     }
@@ -299,7 +312,7 @@ pub fn connect_timed(
         times.push((name, (now - clock).as_secs_f64() * 1e3));
         clock = now;
     };
-    let fields = strips::Fields::new(two, map);
+    let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
     let mut cands = candidates::collect(map);
     lap("candidates", &mut times);
     let max_len = cfg.max_length_px as usize;
@@ -353,6 +366,14 @@ pub fn connect_timed(
                 .first()
                 .copied()
                 .unwrap_or((0, 0));
+            if cfg.user.keep_out.is_some() {
+                let mm = cfg.strength.mm_per_px;
+                return Err(BridgeError::KeptOut {
+                    island,
+                    x_mm: (x as f64 + 0.5) * mm,
+                    y_mm: (y as f64 + 0.5) * mm,
+                });
+            }
             return Err(BridgeError::Unreachable { island, x, y });
         };
         let (a, b) = (strip.from, strip.to);
@@ -369,7 +390,15 @@ pub fn connect_timed(
     lap("tree", &mut times);
 
     // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
-    let tree: Vec<(usize, u32)> = prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+    let mut tree: Vec<(usize, u32)> = prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+    // The user's places: a bridge each, holding its island like the tree's.
+    let mut requests = Vec::new();
+    for (id, req) in constraints::requested(&g, map, &cfg.user.at) {
+        if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
+            tree.push((id, req.island));
+        }
+        requests.push(req);
+    }
     let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
     lap("strength", &mut times);
 
@@ -393,7 +422,12 @@ pub fn connect_timed(
         .collect();
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
-    for (mut bridge, pixels) in planned.into_iter().flatten() {
+    for (mut bridge, mut pixels) in planned.into_iter().flatten() {
+        // Strips never cross a forbidden pixel, but a fill or a thickening beside one may: those
+        // pixels stay cut (the strips themselves still join the two nodes).
+        if let Some(f) = &cfg.user.keep_out {
+            pixels.retain(|&p| !f.data[p as usize]);
+        }
         bridge.pixels = grow::commit(&mut bits, &pixels);
         bridges.push(bridge);
     }
@@ -403,6 +437,7 @@ pub fn connect_timed(
             bits,
             bridges,
             strength,
+            requests,
         },
         times,
     ))

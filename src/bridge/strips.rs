@@ -77,6 +77,8 @@ pub struct Fields<'a> {
     pub labels: &'a [u32],
     pub width: i64,
     pub height: i64,
+    /// Cut pixels no strip may cross (the user's keep-out areas), if any.
+    pub forbidden: Option<&'a BitGrid>,
 }
 
 impl<'a> Fields<'a> {
@@ -87,7 +89,20 @@ impl<'a> Fields<'a> {
             labels: &map.labels,
             width: two.bits.width as i64,
             height: two.bits.height as i64,
+            forbidden: None,
         }
+    }
+
+    /// The same fields with cut pixels no strip may cross (a grid of the image's size).
+    pub fn with_forbidden(self, forbidden: Option<&'a BitGrid>) -> Self {
+        Fields { forbidden, ..self }
+    }
+
+    /// Whether a strip may not cross pixel (x, y) (inside the image).
+    #[inline]
+    fn blocked(&self, x: i64, y: i64) -> bool {
+        self.forbidden
+            .is_some_and(|f| self.inside(x, y) && f.data[(y * self.width + x) as usize])
     }
 
     #[inline]
@@ -255,6 +270,8 @@ pub enum WalkEnd {
     Looped,
     /// No cut pixel beside the candidate.
     NoStart,
+    /// Ran into a pixel no strip may cross (`--keep-out`, `--no-bridge-near`).
+    Blocked,
 }
 
 /// Outward normal of the border at candidate `id`: perpendicular to the chord between the
@@ -357,7 +374,7 @@ fn walk_steered(
     let mut best: Option<((i64, i64), f32)> = None;
     for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
         let (nx, ny) = (cx + dx, cy + dy);
-        if !f.material(nx, ny) {
+        if !f.material(nx, ny) && !f.blocked(nx, ny) {
             let dot = n[0] * dx as f32 + n[1] * dy as f32;
             if best.is_none_or(|(_, b)| dot > b) {
                 best = Some(((nx, ny), dot));
@@ -415,6 +432,9 @@ fn walk_steered(
         if f.material(nx, ny) {
             // Material of another node would have been caught as an arrival: this is our own.
             return Err(WalkEnd::Returned);
+        }
+        if f.blocked(nx, ny) {
+            return Err(WalkEnd::Blocked);
         }
         let ni = (ny * w + nx) as u32;
         if pixels[pixels.len().saturating_sub(LOOP_WINDOW)..].contains(&ni) {
@@ -549,7 +569,7 @@ pub fn search(
             let (x, y) = (x as i64, y as i64);
             for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
                 let (nx, ny) = (x + dx, y + dy);
-                if f.inside(nx, ny) && f.label(nx, ny) == CUT {
+                if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
                     let i = (ny * w + nx) as u32;
                     scratch.relax(i, cost(i), (y * w + x) as u32);
                 }
@@ -597,7 +617,7 @@ pub fn search(
         }
         for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
-            if f.inside(nx, ny) && f.label(nx, ny) == CUT {
+            if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
                 let j = (ny * w + nx) as u32;
                 scratch.relax(j, d + cost(j), i);
             }
@@ -629,7 +649,7 @@ fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
         let budget = prefix[b + 1] - prefix[a] + 1e-6;
         let mut cost = 0.0f64;
         line4(xy(path[a]), xy(path[b]), |x, y| {
-            if f.material(x, y) {
+            if f.material(x, y) || f.blocked(x, y) {
                 cost = f64::INFINITY;
                 return false;
             }

@@ -47,6 +47,42 @@ fn parse_alpha(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `N` comma-separated millimetre values (a position within ±10 m, a radius above 0).
+fn parse_mm<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "'{s}' should be {N} numbers in mm separated by commas ({})",
+            if N == 2 { "X,Y" } else { "X,Y,R" }
+        ));
+    }
+    let mut out = [0.0; N];
+    for (k, p) in parts.iter().enumerate() {
+        let v: f64 = p
+            .parse()
+            .map_err(|_| format!("'{p}' in '{s}' is not a number"))?;
+        if !v.is_finite() || v.abs() > stencil::limits::MAX_PICTURE_MM {
+            return Err(format!(
+                "'{p}' in '{s}' is not a position on a sheet (mm, within ±10 m)"
+            ));
+        }
+        out[k] = v;
+    }
+    if N == 3 && out[2] <= 0.0 {
+        return Err(format!("the radius in '{s}' must be above 0 mm"));
+    }
+    Ok(out)
+}
+
+fn parse_area(s: &str) -> Result<f64, String> {
+    let a: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if a.is_finite() && (0.0..=1e8).contains(&a) {
+        Ok(a)
+    } else {
+        Err(format!("an area must be 0 to 1e8 mm², got {s}"))
+    }
+}
+
 fn parse_weight(s: &str) -> Result<f64, String> {
     let w: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
     if w.is_finite() && w >= 0.0 {
@@ -154,6 +190,22 @@ pub struct BridgeArgs {
     /// two_bridges_above_mm and max_sag_mm).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil::bridge::strength::MAX_PER_ISLAND as i64))]
     pub bridges_per_island: u32,
+    /// A picture marking where no bridge may go (a face, a signature): dark (under half gray) =
+    /// keep out. Any size: it is scaled to the picture. An island that can only be joined through
+    /// the dark areas is an error naming it.
+    #[arg(long, value_name = "MASK")]
+    pub keep_out: Option<std::path::PathBuf>,
+    /// A bridge from the island under (or nearest) this point, as close to it as the material
+    /// allows: X,Y in mm from the picture's top left corner (x right, y down). Repeatable.
+    #[arg(long, value_name = "X,Y", value_parser = parse_mm::<2>)]
+    pub bridge_at: Vec<[f64; 2]>,
+    /// No bridge within R mm of X,Y (mm from the picture's top left corner). Repeatable.
+    #[arg(long, value_name = "X,Y,R", value_parser = parse_mm::<3>)]
+    pub no_bridge_near: Vec<[f64; 3]>,
+    /// Islands smaller than this many mm² are cut away instead of bridged (specks); counted in
+    /// report.json and shown in the preview as material cut away. Default 0: none.
+    #[arg(long, value_name = "A", default_value_t = 0.0, value_parser = parse_area)]
+    pub min_island_mm2: f64,
 }
 
 impl BridgeArgs {
@@ -179,6 +231,13 @@ impl BridgeArgs {
             max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
+            user: stencil::bridge::constraints::UserBridges {
+                keep_out_mask: self.keep_out.clone(),
+                no_bridge_near_mm: self.no_bridge_near.clone(),
+                at_mm: self.bridge_at.clone(),
+                min_island_mm2: self.min_island_mm2,
+                ..Default::default()
+            },
             strength: stencil::bridge::strength::StrengthConfig {
                 per_island: self.bridges_per_island,
                 ..Default::default()
