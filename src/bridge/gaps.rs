@@ -7,24 +7,25 @@
 //! [`Candidates::add_twins`]), costed by the same four terms over the same windows; the tree
 //! chooses between both kinds.
 //!
-//! Where they come from: the nearest material pixel of every pixel of the cut
-//! ([`crate::raster::NearestMaterial`], the frame beyond the image included). Two edge-neighbouring
-//! cut pixels whose nearest material belongs to different pieces lie on the boundary between the
-//! pieces' regions of the cut; the segment between their two nearest points crosses only cut (each
-//! half lies in a disc around its cut pixel that holds no material) and is the shortest connection
-//! there. Each border pixel keeps the shortest such segment that starts on it; two pieces meeting
-//! only at a corner (diagonal material of different pieces, the other two pixels cut) give a
-//! segment of one pixel's diagonal. A border pixel that starts no segment takes the direction of
-//! the nearest one along its contour within [`REACH`] candidates (so a bridge can grow to its
-//! width beside a shortest gap with strips parallel to it); farther away it has no such strip.
+//! Where they come from: every border pixel of every piece is a *shore* of the cut; the frame
+//! adds points one step beyond the image beside cut pixels on its edge (the sheet continues).
+//! From a border pixel, the nearest shore point of *another* piece on the pixel's cut side (the
+//! open half-plane its cut edge neighbours point to) is the other end of its shortest gap
+//! ([`Shores::nearest_other`], rows searched outwards until no nearer point can remain). Two
+//! pieces meeting only at a corner (diagonal material of different pieces, the other two pixels
+//! cut) give a gap of one pixel's diagonal. Gaps are looked up from every [`SEED_STEP`]th
+//! candidate along a contour and from every corner pixel; a border pixel without a gap of its own
+//! takes the direction of the nearest one along its contour within [`REACH`] candidates (so a
+//! bridge can grow to its width beside a shortest gap with strips parallel to it); farther away it
+//! has no such strip.
 //!
 //! Each strip is then a straight walk ([`strips::walk_straight`]) from its pixel in that direction:
 //! the same ray traversal as the walks, so it is 4-connected, ends beside material of another node,
 //! and is dropped if it runs back into its own piece or past the length limit.
 //!
-//! Cost: one pass over the image for the nearest-material map (4 bytes a pixel, rows in parallel)
-//! and one for the boundary pairs; the strips themselves are in proportion to the islands'
-//! perimeter times the gap length, like the walks.
+//! Cost: the shores are the nodes' borders sorted by row (no pass over the image's area); each
+//! lookup reads a few rows around its pixel, bounded by the previous gap along the chain; the
+//! strips are in proportion to the islands' perimeter times the gap length, like the walks.
 
 use rayon::prelude::*;
 
@@ -178,30 +179,33 @@ impl Shores {
         }
         let rows = (h + 2) as usize;
         let mut first = vec![0usize; rows + 1];
-        let all = || {
-            map.nodes
-                .iter()
-                .enumerate()
-                .flat_map(|(n, node)| {
-                    node.border
-                        .iter()
-                        .map(move |&(x, y)| (x as i32, y as i32, n as u32))
-                })
-                .chain(outside.iter().map(|&(x, y)| (x, y, FRAME)))
-        };
-        for (_, y, _) in all() {
-            first[(y + 1) as usize + 1] += 1;
+        for node in &map.nodes {
+            for &(_, y) in &node.border {
+                first[y as usize + 2] += 1;
+            }
+        }
+        for &(_, y) in &outside {
+            first[(y + 2) as usize] += 1;
         }
         for r in 0..rows {
             first[r + 1] += first[r];
         }
         let mut fill = first.clone();
         let mut points = vec![(0i32, 0u32); first[rows]];
-        for (x, y, n) in all() {
+        for (n, node) in map.nodes.iter().enumerate() {
+            for &(x, y) in &node.border {
+                let r = y as usize + 1;
+                points[fill[r]] = (x as i32, n as u32);
+                fill[r] += 1;
+            }
+        }
+        for &(x, y) in &outside {
             let r = (y + 1) as usize;
-            points[fill[r]] = (x, n);
+            points[fill[r]] = (x, FRAME);
             fill[r] += 1;
         }
+        // Each node's border comes in scan order, so a row is a few already sorted runs, which
+        // the (stable, run-detecting) sort merges.
         let mut rest = points.as_mut_slice();
         let mut slices = Vec::with_capacity(rows);
         for r in 0..rows {
@@ -209,7 +213,7 @@ impl Shores {
             slices.push(row);
             rest = tail;
         }
-        slices.into_par_iter().for_each(|row| row.sort_unstable());
+        slices.into_par_iter().for_each(|row| row.sort());
         Shores { first, points }
     }
 
