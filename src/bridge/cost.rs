@@ -308,11 +308,17 @@ pub fn score_with(
             }
         }
         let valid_f = valid.max(1) as f64;
-        let (klo, khi) = window(c, id, KAPPA_MIN_WINDOW.max(width as usize), align);
+        // With no weight on it (the default) the curvature is not measured at all.
+        let curvature = if cfg.w_curvature == 0.0 {
+            0.0
+        } else {
+            let (klo, khi) = window(c, id, KAPPA_MIN_WINDOW.max(width as usize), align);
+            cfg.w_curvature * curvature_from_moments(c.moments(id, klo, khi))
+        };
         let mut terms = CostTerms {
             intensity: cfg.w_intensity * i_sum / valid_f,
             length: cfg.w_length * l_sum / valid_f,
-            curvature: cfg.w_curvature * curvature_from_moments(c.moments(id, klo, khi)),
+            curvature,
             variance: cfg.w_variance * variance(base),
             total: 0.0,
         };

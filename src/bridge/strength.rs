@@ -323,10 +323,13 @@ const MAX_CELLS: usize = 1 << 16;
 /// than [`MAX_CELLS`] pixels: then the smallest that brings it under (a 2000 px ring is measured
 /// on 8 px cells, an error of a cell in a span of hundreds; a cut narrower than a cell between
 /// two parts of the island may be stepped over).
+///
+/// The grid has a margin of one empty cell all round, so the path search never tests bounds.
 struct Local {
     x0: u32,
     y0: u32,
     k: u32,
+    /// Row stride and rows, the margin included.
     w: usize,
     h: usize,
     inside: Vec<bool>,
@@ -338,7 +341,8 @@ impl Local {
             (x.checked_sub(self.x0)? / self.k) as usize,
             (y.checked_sub(self.y0)? / self.k) as usize,
         );
-        (lx < self.w && ly < self.h && self.inside[ly * self.w + lx]).then_some(ly * self.w + lx)
+        let i = (ly + 1) * self.w + lx + 1;
+        (lx + 2 < self.w && ly + 2 < self.h && self.inside[i]).then_some(i)
     }
 
     /// A path length in pixels.
@@ -350,8 +354,8 @@ impl Local {
     fn centre(&self, i: usize) -> (f64, f64) {
         let k = self.k as f64;
         (
-            self.x0 as f64 + ((i % self.w) as f64 + 0.5) * k,
-            self.y0 as f64 + ((i / self.w) as f64 + 0.5) * k,
+            self.x0 as f64 + ((i % self.w) as f64 - 0.5) * k,
+            self.y0 as f64 + ((i / self.w) as f64 - 0.5) * k,
         )
     }
 
@@ -370,7 +374,8 @@ impl Local {
             buckets[0].push(s);
             pending += 1;
         }
-        let (w, h) = (self.w as isize, self.h as isize);
+        let w = self.w as isize;
+        let inside = &self.inside;
         let mut d = 0u32;
         while pending > 0 {
             let b = d as usize % BUCKETS;
@@ -380,11 +385,7 @@ impl Local {
                 if dist[i] != d {
                     continue;
                 }
-                let (x, y) = ((i % self.w) as isize, (i / self.w) as isize);
-                let at = |x: isize, y: isize| {
-                    (x >= 0 && y >= 0 && x < w && y < h && self.inside[(y * w + x) as usize])
-                        .then_some((y * w + x) as usize)
-                };
+                let at = |dx: isize, dy: isize| (i as isize + dx + dy * w) as usize;
                 for (dx, dy) in [
                     (1, 0),
                     (-1, 0),
@@ -395,12 +396,13 @@ impl Local {
                     (-1, 1),
                     (-1, -1),
                 ] {
-                    let Some(j) = at(x + dx, y + dy) else {
+                    let j = at(dx, dy);
+                    if !inside[j] {
                         continue;
-                    };
+                    }
                     let step = if dx != 0 && dy != 0 {
                         // Across a corner only where both side pixels are material too.
-                        if at(x + dx, y).is_none() || at(x, y + dy).is_none() {
+                        if !inside[at(dx, 0)] || !inside[at(0, dy)] {
                             continue;
                         }
                         DIAG
@@ -571,14 +573,14 @@ fn island(
     let (ux, uy) = (theta.cos(), theta.sin());
     let (bw, bh) = ((m.x1 - m.x0 + 1) as usize, (m.y1 - m.y0 + 1) as usize);
     let k = ((bw * bh) as f64 / MAX_CELLS as f64).sqrt().ceil().max(1.0) as usize;
-    let (w, h) = (bw.div_ceil(k), bh.div_ceil(k));
+    let (w, h) = (bw.div_ceil(k) + 2, bh.div_ceil(k) + 2);
     let mut inside = vec![false; w * h];
     let (mut lo, mut hi, mut blo, mut bhi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for (y, x0, x1) in runs(map, n) {
         let (ly, ca, cb) = (
-            (y - m.y0) as usize / k,
-            (x0 - m.x0) as usize / k,
-            (x1 - m.x0) as usize / k,
+            (y - m.y0) as usize / k + 1,
+            (x0 - m.x0) as usize / k + 1,
+            (x1 - m.x0) as usize / k + 1,
         );
         inside[ly * w + ca..=ly * w + cb].fill(true);
         // Projections are linear along the run: its ends hold the extremes.
@@ -838,11 +840,16 @@ mod tests {
     fn path_lengths_run_inside_the_island() {
         // A U: from the top of its left arm to the top of its right arm the path runs down and
         // round (27 px), not the 9 px straight across the gap.
-        let (w, h) = (10usize, 10usize);
+        // The grid carries a margin of one empty cell all round: island pixel (x, y) is cell
+        // (x + 1, y + 1).
+        let (w, h) = (12usize, 12usize);
+        let cell = |x: usize, y: usize| (y + 1) * w + x + 1;
         let inside: Vec<bool> = (0..w * h)
             .map(|i| {
                 let (x, y) = (i % w, i / w);
-                x == 0 || x == 9 || y == 9
+                let inner = (1..=10).contains(&x) && (1..=10).contains(&y);
+                let (x, y) = (x.wrapping_sub(1), y.wrapping_sub(1));
+                inner && (x == 0 || x == 9 || y == 9)
             })
             .collect();
         let l = Local {
@@ -853,18 +860,24 @@ mod tests {
             h,
             inside,
         };
-        let d = l.field(&[0]);
+        let d = l.field(&[cell(0, 0)]);
         // From (0, 0) to (9, 0): 9 down, 9 across, 9 up; no corner cut at the U's bends (the
         // pixel inside each bend is cut).
-        assert_eq!(d[9], 27 * STEP);
-        assert_eq!(d[5], u32::MAX, "(5, 0) is cut: unreached");
-        assert_eq!(l.farthest(&d), (9, 27 * STEP));
+        assert_eq!(d[cell(9, 0)], 27 * STEP);
+        assert_eq!(d[cell(5, 0)], u32::MAX, "(5, 0) is cut: unreached");
+        assert_eq!(l.farthest(&d), (cell(9, 0), 27 * STEP));
+        assert_eq!(l.index(9, 0), Some(cell(9, 0)));
+        assert_eq!(l.index(5, 0), None);
+        assert_eq!(l.index(10, 0), None, "beyond the box");
+        assert_eq!(l.centre(cell(9, 0)), (9.5, 0.5));
         // A solid square's far corner is reached diagonally: 9 diagonal steps.
         let solid = Local {
-            inside: vec![true; w * h],
+            inside: (0..w * h)
+                .map(|i| (1..=10).contains(&(i % w)) && (1..=10).contains(&(i / w)))
+                .collect(),
             ..l
         };
-        assert_eq!(solid.field(&[0])[w * h - 1], 9 * DIAG);
+        assert_eq!(solid.field(&[cell(0, 0)])[cell(9, 9)], 9 * DIAG);
     }
 
     #[test]
