@@ -18,7 +18,8 @@ use stencil::export;
 use stencil::machine::gcode::Move;
 use stencil::machine::simulate;
 use stencil::machine::stream::{
-    self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
+    self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, ResumeLift,
+    StreamConfig,
 };
 use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
 use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
@@ -43,7 +44,8 @@ pub struct SendArgs {
     #[arg(long)]
     pub send_response: bool,
     /// Resume at this line of the file (as printed after a stop): restores units, distance mode,
-    /// position, feed and laser state first.
+    /// position, feed, air and laser state first; a pen or knife on Z is lifted (to the machine
+    /// profile's up height) before the travel and lowered at its plunge feed after it.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     pub from_line: u64,
     /// Run the file through Grbl's check mode ($C) first; cut nothing if any line is rejected.
@@ -296,6 +298,19 @@ impl Observer for Bar {
     }
 }
 
+/// What the machine profile says about lifting the tool for a resume's travel (a pen or knife on
+/// Z); lasers and servo pens need none beyond the `M5` the restore starts with.
+fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
+    use machine_profile::{PenLift, Tool};
+    match machine.tool {
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => ResumeLift {
+            z_up_mm: Some(z.up_mm),
+            plunge_mm_min: Some(z.plunge_mm_min),
+        },
+        Tool::Laser { .. } | Tool::Pen(PenLift::Spindle { .. }) => ResumeLift::default(),
+    }
+}
+
 fn list_ports() -> String {
     match serialport::available_ports() {
         Ok(ports) if !ports.is_empty() => ports
@@ -312,7 +327,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
-    let limits = machine_profile::load(a.machine.as_deref())?.limits();
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let limits = machine.limits();
     let cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse
@@ -324,6 +340,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         unlock: a.unlock,
         check_first: a.check,
         from_line: a.from_line as usize,
+        lift: resume_lift(&machine),
         ..StreamConfig::default()
     };
 

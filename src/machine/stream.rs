@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 pub use super::error::{CheckError, Halt, MachineError};
-pub use super::job::{Job, JobLine};
+pub use super::job::{Job, JobLine, ResumeLift};
 use super::protocol::{
     self, MachineState, Reply, Status, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME,
     RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
@@ -83,6 +83,8 @@ pub struct StreamConfig {
     pub check_first: bool,
     /// Start at this 1-based line of the file, after restoring the modal state it needs.
     pub from_line: usize,
+    /// How the tool is lifted for the travel to a resume point (from the machine profile).
+    pub lift: ResumeLift,
 }
 
 impl Default for StreamConfig {
@@ -96,6 +98,7 @@ impl Default for StreamConfig {
             unlock: false,
             check_first: false,
             from_line: 1,
+            lift: ResumeLift::default(),
         }
     }
 }
@@ -288,7 +291,7 @@ pub fn send(
     obs: &mut dyn Observer,
 ) -> Result<Summary, MachineError> {
     let port_name = port.describe();
-    let preamble = job.resume_preamble(cfg.from_line.max(1))?;
+    let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
     let mut s = Session {
         link: Link {
             port,
@@ -361,6 +364,11 @@ pub fn send(
         s.obs
             .message("the program ends without switching the laser off: sending M5");
         s.command("M5")?;
+    }
+    if job.may_end_air_on {
+        s.obs
+            .message("the program ends without switching the air (coolant) off: sending M9");
+        s.command("M9")?;
     }
     Ok(summary)
 }
