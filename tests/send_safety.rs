@@ -234,3 +234,244 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
         }
     }
 }
+
+// ---- every stop path: laser and air off -------------------------------------------------------
+
+#[path = "common/job.rs"]
+mod common_job;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{channel, Sender};
+use std::sync::Arc;
+
+use stencil::machine::stall::{Clock, ClockRef};
+use stencil::machine::stream::{Control, Observer, Progress};
+use stencil::machine::virtual_grbl::{Event, Motion};
+
+/// The standard test job with air assist: M8 after the laser is armed, M9 before the end.
+fn air_job() -> Job {
+    let text = common_job::job_text_scaled(1)
+        .replacen("M4 S0\n", "M4 S0\nM8\n", 1)
+        .replacen("M5\nG0 X0 Y0\n", "M9\nM5\nG0 X0 Y0\n", 1);
+    Job::parse("air.gcode", &text).unwrap()
+}
+
+/// A clock that jumps `step` seconds each time it is read: stall bounds pass in a few status
+/// reports, and nothing depends on how fast the test machine is.
+struct StepClock {
+    t: AtomicU64,
+    step: u64,
+}
+impl Clock for StepClock {
+    fn now(&self) -> Duration {
+        Duration::from_secs(self.t.fetch_add(self.step, Ordering::SeqCst))
+    }
+}
+
+fn step_clock(step: u64) -> ClockRef {
+    ClockRef(Arc::new(StepClock {
+        t: AtomicU64::new(0),
+        step,
+    }))
+}
+
+/// Lines the machine received after its last soft reset.
+fn after_last_reset(r: &Record) -> Vec<String> {
+    let k = r
+        .events
+        .iter()
+        .rposition(|e| *e == Event::SoftReset)
+        .expect("no soft reset");
+    r.events[k..]
+        .iter()
+        .filter_map(|e| match e {
+            Event::Line(i) => Some(r.received[*i].text.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The air was really on during the job (so "off at the stop" means something), and is off now.
+fn air_was_on_and_is_off(r: &Record, what: &str) {
+    assert!(
+        r.moves.iter().any(|m| m.air),
+        "{what}: the air never came on"
+    );
+    assert!(!r.air_on, "{what}: air still on");
+    assert!(!r.laser_on, "{what}: laser still on");
+}
+
+/// Aborts (as Ctrl-C does) once `at` lines are acknowledged.
+struct AbortAt {
+    tx: Sender<Control>,
+    at: Option<usize>,
+}
+impl Observer for AbortAt {
+    fn progress(&mut self, p: &Progress) {
+        if self.at.is_some_and(|a| p.acked >= a) {
+            self.at = None;
+            self.tx.send(Control::Abort).unwrap();
+        }
+    }
+}
+
+fn faulty(kind: FaultKind, at: usize) -> VirtualConfig {
+    VirtualConfig {
+        faults: vec![Fault {
+            at_job_line: at,
+            kind,
+        }],
+        ..VirtualConfig::default()
+    }
+}
+
+#[test]
+fn every_stop_path_ends_with_laser_and_air_off() {
+    let job = air_job();
+    assert!(job.may_end_air_on == false);
+
+    // error:N - soft reset, then M9 and M5 (M5 last).
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Error(22), 60)).unwrap();
+    let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::Rejected { .. }), "{err}");
+    assert!(err.to_string().contains("M9 and M5 acknowledged"), "{err}");
+    let r = vg.stop();
+    air_was_on_and_is_off(&r, "error");
+    assert_eq!(after_last_reset(&r), ["M9", "M5"], "error");
+
+    // ALARM:N - the alarm and the reset kill both; G-code is locked out.
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Alarm(1), 60)).unwrap();
+    let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::Alarm { .. }), "{err}");
+    assert!(err.to_string().contains("laser and air off"), "{err}");
+    air_was_on_and_is_off(&vg.stop(), "alarm");
+
+    // The port vanishes (the board lost power): nothing can be sent; the message says to check.
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::ClosePort, 60)).unwrap();
+    let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::PortLost { .. }), "{err}");
+    assert!(err.to_string().contains("air"), "{err}");
+    air_was_on_and_is_off(&vg.stop(), "port lost");
+
+    // Silent controller: reset, then M9 and M5 sent blind.
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Silence, 60)).unwrap();
+    let c = StreamConfig {
+        timeout: Duration::from_secs(1),
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::Silent { .. }), "{err}");
+    for _ in 0..200 {
+        if vg.record().received.last().is_some_and(|l| l.text == "M5") {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let r = vg.stop();
+    air_was_on_and_is_off(&r, "silent");
+    assert_eq!(after_last_reset(&r), ["M9", "M5"], "silent");
+
+    // Operator abort (a / q / Esc / Ctrl-C) while moving.
+    let vcfg = VirtualConfig {
+        motion: Motion::Paced { speedup: 20.0 },
+        ..VirtualConfig::default()
+    };
+    let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
+    let (tx, rx) = channel();
+    let mut op = AbortAt { tx, at: Some(60) };
+    let err = send(&mut port, &job, &cfg(), Some(&rx), &mut op).unwrap_err();
+    assert!(matches!(err, MachineError::Aborted { .. }), "{err}");
+    let r = vg.stop();
+    air_was_on_and_is_off(&r, "abort");
+    assert_eq!(after_last_reset(&r), ["M9", "M5"], "abort");
+
+    // Stall (frozen in Run while answering status).
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Freeze, 60)).unwrap();
+    let c = StreamConfig {
+        clock: step_clock(10),
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::Stalled { .. }), "{err}");
+    let r = vg.stop();
+    air_was_on_and_is_off(&r, "stall");
+    assert_eq!(after_last_reset(&r), ["M9", "M5"], "stall");
+
+    // A job that ends with the air still on gets M9 after it.
+    let text = common_job::job_text_scaled(1).replacen("M4 S0\n", "M4 S0\nM8\n", 1);
+    let open_air = Job::parse("open-air.gcode", &text).unwrap();
+    assert!(open_air.may_end_air_on);
+    let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    send(&mut port, &open_air, &cfg(), None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    air_was_on_and_is_off(&r, "job without M9");
+    assert_eq!(r.received.last().unwrap().text, "M9");
+}
+
+#[test]
+fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
+    let job = common_job::job_text_scaled(1);
+    let job = Job::parse("frozen.gcode", &job).unwrap();
+    let k = 90;
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Freeze, k)).unwrap();
+    let c = StreamConfig {
+        clock: step_clock(1),
+        rapid_mm_min: Some(6000.0),
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    let MachineError::Stalled {
+        still_s,
+        bound_s,
+        halt,
+        ..
+    } = &err
+    else {
+        panic!("{msg}")
+    };
+    // The bound is the job's own: its longest move (a 10 mm square side in 5 segments at
+    // 1200 mm/min is 0.1 s; the longest is a G0 of ~58 mm at 6000 mm/min, 0.58 s) x 1.5 + 5 s.
+    let slowest = stencil::machine::stall::slowest_step(&job, Some(6000.0)).as_secs_f64();
+    assert!((0.5..0.7).contains(&slowest), "{slowest}");
+    assert!((*bound_s - (slowest * 1.5 + 5.0)).abs() < 1e-6, "{bound_s}");
+    assert!(*still_s > *bound_s, "{msg}");
+    // The frozen line never ran: resume there (or before).
+    let frozen_line = job.lines[k - 1].number;
+    assert!(halt.resume_from <= frozen_line, "{msg}");
+    assert!(halt.last_acked.unwrap() < frozen_line, "{msg}");
+    assert!(
+        msg.contains(&format!("--from-line {}", halt.resume_from)),
+        "{msg}"
+    );
+    assert!(msg.contains("stall"), "{msg}");
+    let r = vg.stop();
+    // Feed hold, then soft reset; then laser off.
+    let hold = r
+        .events
+        .iter()
+        .rposition(|e| *e == Event::Realtime(b'!'))
+        .unwrap();
+    let reset = r
+        .events
+        .iter()
+        .rposition(|e| *e == Event::SoftReset)
+        .unwrap();
+    assert!(hold < reset);
+    assert!(!r.frozen && !r.laser_on);
+    assert_eq!(after_last_reset(&r).last().map(String::as_str), Some("M5"));
+
+    // A slow machine that keeps moving is never a stall, whatever the clock says.
+    let vcfg = VirtualConfig {
+        motion: Motion::Paced { speedup: 30.0 },
+        ..VirtualConfig::default()
+    };
+    let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
+    let c = StreamConfig {
+        clock: step_clock(1),
+        rapid_mm_min: Some(6000.0),
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    drop(vg);
+}

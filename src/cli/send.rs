@@ -341,6 +341,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         check_first: a.check,
         from_line: a.from_line as usize,
         lift: resume_lift(&machine),
+        rapid_mm_min: Some(limits.rapid_mm_min),
         ..StreamConfig::default()
     };
 

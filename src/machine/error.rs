@@ -125,6 +125,14 @@ pub enum MachineError {
         detail: String,
         halt: Halt,
     },
+    #[error("{port}: the machine stood still at X{:.3} Y{:.3} Z{:.3} in Run with work queued for {still_s:.1} s, longer than this job's slowest step allows ({bound_s:.1} s): a stall (frozen controller or driver); stopped: {halt}", position[0], position[1], position[2])]
+    Stalled {
+        port: String,
+        still_s: f64,
+        bound_s: f64,
+        position: [f64; 3],
+        halt: Halt,
+    },
     #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
     Restarted { halt: Halt },
     #[error("aborted by the operator; {halt}")]
@@ -138,6 +146,7 @@ impl MachineError {
             MachineError::Rejected { halt, .. }
             | MachineError::Alarm { halt, .. }
             | MachineError::Silent { halt, .. }
+            | MachineError::Stalled { halt, .. }
             | MachineError::PortLost { halt, .. }
             | MachineError::Restarted { halt }
             | MachineError::Aborted { halt } => Some(halt),

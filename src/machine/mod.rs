@@ -7,6 +7,7 @@ pub mod gcode;
 pub mod job;
 pub mod protocol;
 pub mod simulate;
+pub mod stall;
 pub mod stream;
 pub mod virtual_grbl;
 

@@ -19,6 +19,7 @@ use super::protocol::{
     self, MachineState, Reply, Status, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME,
     RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
 };
+use super::stall::{self, ClockRef, StallWatch};
 
 /// A byte link to a controller: read with a timeout, write. Implemented for serial ports and ptys.
 pub trait BytePort: Read + Write + Send {
@@ -85,6 +86,11 @@ pub struct StreamConfig {
     pub from_line: usize,
     /// How the tool is lifted for the travel to a resume point (from the machine profile).
     pub lift: ResumeLift,
+    /// The machine's G0 rate, mm/min (from its profile), for the stall bound; `None` = time G0
+    /// at the job's slowest feed (a looser bound).
+    pub rapid_mm_min: Option<f64>,
+    /// Time for stall detection (a test's clock, or the system's).
+    pub clock: ClockRef,
 }
 
 impl Default for StreamConfig {
@@ -99,6 +105,8 @@ impl Default for StreamConfig {
             check_first: false,
             from_line: 1,
             lift: ResumeLift::default(),
+            rapid_mm_min: None,
+            clock: ClockRef::default(),
         }
     }
 }
@@ -276,6 +284,7 @@ struct Session<'a, 'o> {
     info: ControllerInfo,
     last_status: Option<Status>,
     started: Instant,
+    stall: StallWatch,
 }
 
 /// Stream `job` to the controller on `port` and wait until every line is acknowledged.
@@ -306,6 +315,10 @@ pub fn send(
         info: ControllerInfo::default(),
         last_status: None,
         started: Instant::now(),
+        stall: StallWatch::new(stall::stall_bound(stall::slowest_step(
+            job,
+            cfg.rapid_mm_min,
+        ))),
     };
     s.connect()?;
     let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
@@ -775,7 +788,8 @@ impl Session<'_, '_> {
                     let halt = Halt {
                         last_acked: f.run.last_acked,
                         resume_from: f.resume_at(None),
-                        laser: "the controller reset itself, which turns the laser off".into(),
+                        laser: "the controller reset itself, which turns the laser and the air off"
+                            .into(),
                         locked: false,
                     };
                     return Err(MachineError::Restarted { halt });
@@ -783,6 +797,25 @@ impl Session<'_, '_> {
                 Reply::Status(st) => {
                     finished |= f.acked_total == lines.len() && st.state == MachineState::Idle;
                     f.status(&st);
+                    if !checking {
+                        // Work is queued: lines in flight, or planner blocks in use (unknown
+                        // without `Bf:`, then assumed).
+                        let busy = !f.in_flight.is_empty()
+                            || st
+                                .buffer
+                                .is_none_or(|(free, _)| (free as usize) < self.info.planner_blocks);
+                        if let Some(stuck) = self.stall.observe(self.cfg.clock.0.now(), &st, busy) {
+                            self.settle(&mut f);
+                            let halt = self.halt(f.run.last_acked, f.resume_at(None));
+                            return Err(MachineError::Stalled {
+                                port: self.port_name.clone(),
+                                still_s: stuck.still_for.as_secs_f64(),
+                                bound_s: stuck.bound.as_secs_f64(),
+                                position: stuck.position,
+                                halt,
+                            });
+                        }
+                    }
                     f.progress.elapsed = self.started.elapsed();
                     self.last_status = Some(st);
                     self.obs.progress(&f.progress);
@@ -844,8 +877,8 @@ impl Session<'_, '_> {
                 halt: Halt {
                     last_acked,
                     resume_from: resume,
-                    laser: "the laser could not be switched off from here: make sure it is off \
-                            (a board that lost its USB power is off)"
+                    laser: "the laser could not be switched off from here: make sure it is off, \
+                            and the air too (a board that lost its USB power is off)"
                         .into(),
                     locked: false,
                 },
@@ -877,7 +910,7 @@ impl Session<'_, '_> {
     fn stop_laser(&mut self) -> (String, bool) {
         if self.link.write(&[RT_SOFT_RESET]).is_err() {
             return (
-                "the soft reset could not be sent: make sure the laser is off".into(),
+                "the soft reset could not be sent: make sure the laser and the air are off".into(),
                 false,
             );
         }
@@ -888,9 +921,12 @@ impl Session<'_, '_> {
             Ok(Some(_))
         );
         if !welcomed {
-            let _ = self.link.write(b"M5\n");
+            // Air off, then the laser: M5 goes last, whatever else the board still takes.
+            let _ = self.link.write(b"M9\nM5\n");
             return (
-                "soft reset and M5 sent but Grbl did not answer: make sure the laser is off".into(),
+                "soft reset, M9 and M5 sent but Grbl did not answer: make sure the laser and the \
+                 air are off"
+                    .into(),
                 false,
             );
         }
@@ -909,16 +945,29 @@ impl Session<'_, '_> {
         }
         if hinted || alarm.is_some() {
             return (
-                "laser off (soft reset); the machine is locked: check it, then home it or \
-                 unlock it (--unlock sends $X)"
+                "laser and air off (soft reset); the machine is locked: check it, then home it \
+                 or unlock it (--unlock sends $X)"
                     .into(),
                 true,
             );
         }
-        match self.command("M5") {
-            Ok(_) => ("laser off (soft reset, M5 acknowledged)".into(), false),
-            Err(_) => (
-                "laser off (soft reset; M5 was not acknowledged)".into(),
+        // A soft reset already stops the spindle and the coolant; M9 (air assist) and M5 (laser)
+        // say so to the controller's modal state too, air first so M5 is the last word.
+        let air = self.command("M9").is_ok();
+        match (air, self.command("M5").is_ok()) {
+            (true, true) => (
+                "laser and air off (soft reset, M9 and M5 acknowledged)".into(),
+                false,
+            ),
+            (a, l) => (
+                format!(
+                    "laser and air off (soft reset; {} not acknowledged)",
+                    match (a, l) {
+                        (false, false) => "M9 and M5 were",
+                        (false, _) => "M9 was",
+                        _ => "M5 was",
+                    }
+                ),
                 false,
             ),
         }
