@@ -475,3 +475,138 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     send(&mut port, &job, &c, None, &mut Quiet).unwrap();
     drop(vg);
 }
+
+// ---- laser mode ($32) -------------------------------------------------------------------------
+
+use stencil::machine::stream::LaserMode;
+
+fn laser_off_grbl() -> VirtualConfig {
+    VirtualConfig {
+        settings: vec![(32, "0".into())],
+        ..VirtualConfig::default()
+    }
+}
+
+#[test]
+fn a_laser_job_is_refused_without_laser_mode_or_sets_it_when_asked() {
+    let job = Job::parse("laser.gcode", &common_job::job_text_scaled(1)).unwrap();
+
+    // Why it matters, on the simulated machine: with $32=0 the beam stays on through G0 moves.
+    let (vg, mut port) = VirtualGrbl::spawn(laser_off_grbl()).unwrap();
+    send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert!(
+        r.moves.iter().any(|m| m.rapid && m.beam),
+        "no dark-move burn modelled"
+    );
+
+    // Refused before anything is sent, naming the setting and the fix.
+    let (vg, mut port) = VirtualGrbl::spawn(laser_off_grbl()).unwrap();
+    let c = StreamConfig {
+        laser_mode: LaserMode::Require,
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    assert!(matches!(err, MachineError::LaserModeOff { .. }), "{err}");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("$32=0") && msg.contains("--set-laser-mode"),
+        "{msg}"
+    );
+    let r = vg.stop();
+    assert_eq!(r.run_lines(), ["$I", "$$"], "something was sent");
+    assert!(!r.laser_mode);
+
+    // With --set-laser-mode: $32=1 is written (alone, before the job), then the job runs dark
+    // in every G0.
+    let (vg, mut port) = VirtualGrbl::spawn(laser_off_grbl()).unwrap();
+    let c = StreamConfig {
+        laser_mode: LaserMode::Set,
+        ..cfg()
+    };
+    let mut notes = Notes::default();
+    send(&mut port, &job, &c, None, &mut notes).unwrap();
+    let r = vg.stop();
+    assert!(r.laser_mode);
+    assert_eq!(r.run_lines()[..4], ["$I", "$$", "$32=1", "$$"]);
+    assert_eq!(r.eeprom_lost_bytes, 0);
+    assert!(!r.moves.iter().any(|m| m.rapid && m.beam));
+    assert!(
+        notes.0.iter().any(|n| n.contains("set $32=1")),
+        "{:?}",
+        notes.0
+    );
+
+    // Already on: checked and left alone.
+    let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    let c = StreamConfig {
+        laser_mode: LaserMode::Set,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert!(!r.run_lines().contains(&"$32=1"));
+    assert_eq!(r.run_lines()[..2], ["$I", "$$"]);
+}
+
+/// Collects the streamer's messages.
+#[derive(Default)]
+struct Notes(Vec<String>);
+impl Observer for Notes {
+    fn message(&mut self, text: &str) {
+        self.0.push(text.to_string());
+    }
+}
+
+fn stencil() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_stencil"))
+}
+
+#[test]
+fn cli_laser_mode_check_in_a_dry_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("laser.gcode");
+    std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
+    let run = |args: &[&str]| {
+        let out = stencil()
+            .arg("send")
+            .arg(&file)
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let (ok, so, se) = run(&["--dry-run", "--dry-run-setting", "$32=0"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("$32=0") && se.contains("--set-laser-mode"),
+        "{se}"
+    );
+    assert!(!so.contains("sent "), "{so}");
+    let (ok, so, se) = run(&[
+        "--dry-run",
+        "--dry-run-setting",
+        "$32=0",
+        "--set-laser-mode",
+    ]);
+    assert!(ok, "{so}{se}");
+    assert!(se.contains("set $32=1"), "{se}");
+    assert!(so.contains("$32=1"), "{so}");
+    // A pen machine's job is not a laser job: $32 is left alone.
+    let (ok, so, se) = run(&[
+        "--dry-run",
+        "--dry-run-setting",
+        "$32=0",
+        "--machine",
+        "pen-servo",
+    ]);
+    assert!(ok, "{so}{se}");
+    assert!(so.contains("$32=0"), "{so}");
+    // A bad setting is named.
+    let (ok, _, se) = run(&["--dry-run", "--dry-run-setting", "32"]);
+    assert!(!ok && se.contains("$N=VALUE"), "{se}");
+}

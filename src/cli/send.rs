@@ -18,10 +18,10 @@ use stencil::export;
 use stencil::machine::gcode::Move;
 use stencil::machine::simulate;
 use stencil::machine::stream::{
-    self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, ResumeLift,
-    StreamConfig,
+    self, BytePort, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
+    ResumeLift, StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
+use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig, VirtualGrbl};
 use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
@@ -70,6 +70,66 @@ pub struct SendArgs {
     /// use (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// A laser job needs Grbl's laser mode ($32=1): if it is off, set it (instead of refusing).
+    #[arg(long)]
+    pub set_laser_mode: bool,
+    /// With --dry-run: start the simulated Grbl with this setting, e.g. `$32=0` (laser mode off),
+    /// to rehearse what happens on such a machine. Repeatable.
+    #[arg(long, value_name = "$N=V", requires = "dry_run", value_parser = parse_setting)]
+    pub dry_run_setting: Vec<(u32, String)>,
+    /// With --dry-run: make the simulated Grbl fail when the N-th G-code line of the run arrives:
+    /// `close@N` (port dies), `silence@N`, `freeze@N` (stuck in Run, still answering status),
+    /// `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
+    #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
+    pub dry_run_fault: Vec<Fault>,
+}
+
+/// `--dry-run-setting $32=0`.
+fn parse_setting(s: &str) -> Result<(u32, String), String> {
+    let t = s.trim().trim_start_matches('$');
+    let (k, v) = t
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}`: expected $N=VALUE, e.g. $32=0"))?;
+    let k: u32 = k
+        .parse()
+        .map_err(|_| format!("`{s}`: the setting number must be a whole number, e.g. $32=0"))?;
+    let x: f64 = v
+        .parse()
+        .map_err(|_| format!("`{s}`: the value must be a number, e.g. $32=0"))?;
+    if !x.is_finite() {
+        return Err(format!("`{s}`: the value must be a finite number"));
+    }
+    Ok((k, v.to_string()))
+}
+
+/// `--dry-run-fault close@60`.
+fn parse_fault(s: &str) -> Result<Fault, String> {
+    let usage = "expected KIND@N with KIND one of close, silence, freeze, error:C, alarm:C \
+                 and N the G-code line (1 or more), e.g. close@60";
+    let (kind, at) = s.split_once('@').ok_or_else(|| format!("`{s}`: {usage}"))?;
+    let at: usize = at
+        .parse()
+        .ok()
+        .filter(|&n| n >= 1)
+        .ok_or_else(|| format!("`{s}`: {usage}"))?;
+    let code = |c: &str, range: std::ops::RangeInclusive<u8>| {
+        c.parse::<u8>()
+            .ok()
+            .filter(|n| range.contains(n))
+            .ok_or_else(|| format!("`{s}`: the code must be in {range:?}"))
+    };
+    let kind = match kind.split_once(':') {
+        None if kind == "close" => FaultKind::ClosePort,
+        None if kind == "silence" => FaultKind::Silence,
+        None if kind == "freeze" => FaultKind::Freeze,
+        Some(("error", c)) => FaultKind::Error(code(c, 1..=38)?),
+        Some(("alarm", c)) => FaultKind::Alarm(code(c, 1..=9)?),
+        _ => return Err(format!("`{s}`: {usage}")),
+    };
+    Ok(Fault {
+        at_job_line: at,
+        kind,
+    })
 }
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
@@ -311,6 +371,17 @@ fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
     }
 }
 
+/// A laser machine running a job that switches the beam on needs laser mode; anything else
+/// leaves `$32` alone (a pen servo or a spindle must not be put in laser mode).
+fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> LaserMode {
+    let fires = job.moves.iter().any(|m| m.power > 0.0);
+    match machine.tool {
+        machine_profile::Tool::Laser { .. } if fires && set => LaserMode::Set,
+        machine_profile::Tool::Laser { .. } if fires => LaserMode::Require,
+        _ => LaserMode::Ignore,
+    }
+}
+
 fn list_ports() -> String {
     match serialport::available_ports() {
         Ok(ports) if !ports.is_empty() => ports
@@ -342,6 +413,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         from_line: a.from_line as usize,
         lift: resume_lift(&machine),
         rapid_mm_min: Some(limits.rapid_mm_min),
+        laser_mode: laser_mode(&machine, &job, a.set_laser_mode),
         ..StreamConfig::default()
     };
 
@@ -355,6 +427,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             },
             baud: a.realtime.then_some(a.baud),
             rapid_mm_min: limits.rapid_mm_min,
+            settings: a.dry_run_setting.clone(),
+            faults: a.dry_run_fault.clone(),
             ..VirtualConfig::default()
         };
         let (vg, host) = VirtualGrbl::spawn(vcfg)
@@ -422,11 +496,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if let Some(vg) = virtual_grbl {
         let r = vg.stop();
         println!(
-            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}",
+            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}",
             r.received.len(),
             r.max_rx_used,
             r.overflow_bytes,
-            if r.laser_on { "ON" } else { "off" }
+            if r.laser_on { "ON" } else { "off" },
+            if r.air_on { "ON" } else { "off" },
+            u8::from(r.laser_mode)
         );
     }
     Ok(ExitCode::SUCCESS)

@@ -103,6 +103,10 @@ pub enum MachineError {
     Busy { port: String, state: String },
     #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
     Setup { port: String, cmd: String, code: u8 },
+    #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Run again with --set-laser-mode (sends $32=1, kept in Grbl's settings), or send $32=1 yourself; if this machine is not a laser, name its profile with --machine")]
+    LaserModeOff { port: String, value: String },
+    #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
+    LaserModeNotSet { port: String, value: String },
     #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
     CheckFailed {
         file: String,

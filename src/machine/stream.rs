@@ -65,6 +65,18 @@ pub enum Control {
     Abort,
 }
 
+/// What to do about Grbl's laser mode (`$32`) before a job.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LaserMode {
+    /// Not a laser job: leave `$32` alone.
+    #[default]
+    Ignore,
+    /// A laser job: read `$$` and refuse if `$32=0`.
+    Require,
+    /// A laser job: read `$$` and set `$32=1` if it is off (`--set-laser-mode`).
+    Set,
+}
+
 /// Streaming settings.
 #[derive(Clone, Debug)]
 pub struct StreamConfig {
@@ -91,6 +103,8 @@ pub struct StreamConfig {
     pub rapid_mm_min: Option<f64>,
     /// Time for stall detection (a test's clock, or the system's).
     pub clock: ClockRef,
+    /// Check (or set) laser mode before anything is sent.
+    pub laser_mode: LaserMode,
 }
 
 impl Default for StreamConfig {
@@ -107,6 +121,7 @@ impl Default for StreamConfig {
             lift: ResumeLift::default(),
             rapid_mm_min: None,
             clock: ClockRef::default(),
+            laser_mode: LaserMode::Ignore,
         }
     }
 }
@@ -321,6 +336,7 @@ pub fn send(
         ))),
     };
     s.connect()?;
+    s.laser_mode()?;
     let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
     for l in &job.lines {
         if l.text.len() + 1 > rx_limit && cfg.flow == FlowControl::CharacterCounting {
@@ -498,6 +514,55 @@ impl Session<'_, '_> {
         };
         self.link.timeout = saved;
         result
+    }
+
+    /// `$32` as `$$` lists it (`None`: not listed, as on Grbl before 1.1).
+    fn read_laser_mode(&mut self) -> Result<Option<String>, MachineError> {
+        let replies = self.command("$$")?;
+        Ok(replies.iter().find_map(|r| match r {
+            Reply::Other(o) => o.strip_prefix("$32=").map(|v| v.trim().to_string()),
+            _ => None,
+        }))
+    }
+
+    /// Before a laser job: Grbl must be in laser mode (`$32=1`), or it pauses at every power
+    /// change and fires through G0. Refuse, or set it when asked, and say which.
+    fn laser_mode(&mut self) -> Result<(), MachineError> {
+        let set = match self.cfg.laser_mode {
+            LaserMode::Ignore => return Ok(()),
+            LaserMode::Require => false,
+            LaserMode::Set => true,
+        };
+        let on = |v: &str| v.parse::<f64>().is_ok_and(|x| x != 0.0);
+        match self.read_laser_mode()? {
+            None => self.obs.message(
+                "the controller does not list $32 (laser mode) in $$: make sure it is a laser \
+                 build in laser mode, or the beam stays on through G0 moves",
+            ),
+            Some(v) if on(&v) => self.obs.message("laser mode is on ($32=1)"),
+            Some(v) if !set => {
+                return Err(MachineError::LaserModeOff {
+                    port: self.port_name.clone(),
+                    value: v,
+                })
+            }
+            Some(v) => {
+                self.command("$32=1")?;
+                match self.read_laser_mode()? {
+                    Some(now) if on(&now) => self.obs.message(&format!(
+                        "laser mode was off ($32={v}): set $32=1 as asked (--set-laser-mode); \
+                         Grbl keeps it"
+                    )),
+                    now => {
+                        return Err(MachineError::LaserModeNotSet {
+                            port: self.port_name.clone(),
+                            value: now.unwrap_or_else(|| "(not listed)".into()),
+                        })
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Send one setup command and wait for its answer (send-response).

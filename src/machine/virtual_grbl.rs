@@ -82,6 +82,8 @@ pub struct VirtualConfig {
     /// Report `Ln:` (the N number of the block being executed), as Grbl built with
     /// `USE_LINE_NUMBERS` does; stock Grbl does not.
     pub line_numbers: bool,
+    /// Settings that differ from the simulated defaults (`$$` lists them), e.g. `(32, "0")`.
+    pub settings: Vec<(u32, String)>,
 }
 
 impl Default for VirtualConfig {
@@ -95,6 +97,7 @@ impl Default for VirtualConfig {
             faults: Vec::new(),
             laser_mode: true,
             line_numbers: false,
+            settings: Vec::new(),
         }
     }
 }
@@ -376,6 +379,12 @@ impl Sim {
         .iter()
         .map(|&(k, v)| (k, v.to_string()))
         .collect();
+        for (k, v) in sim.cfg.settings.clone() {
+            match sim.settings.iter_mut().find(|(n, _)| *n == k) {
+                Some(e) => e.1 = v,
+                None => sim.settings.push((k, v)),
+            }
+        }
         sim.say("");
         sim.say("Grbl 1.1h ['$' for help]");
         sim.publish();
