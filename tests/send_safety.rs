@@ -610,3 +610,114 @@ fn cli_laser_mode_check_in_a_dry_run() {
     let (ok, _, se) = run(&["--dry-run", "--dry-run-setting", "32"]);
     assert!(!ok && se.contains("$N=VALUE"), "{se}");
 }
+
+// ---- overrides from keys ----------------------------------------------------------------------
+
+use stencil::machine::keys::{self, Key, KeySource};
+
+/// Keys typed by a test: each one once the observer has opened its gate (phase), then the
+/// source ends.
+struct TypedKeys {
+    keys: Vec<(u64, Key)>,
+    phase: Arc<AtomicU64>,
+}
+impl KeySource for TypedKeys {
+    fn next_key(&mut self, wait: Duration) -> std::io::Result<Option<Key>> {
+        let Some(&(gate, k)) = self.keys.first() else {
+            return Err(std::io::ErrorKind::UnexpectedEof.into());
+        };
+        if self.phase.load(Ordering::SeqCst) < gate {
+            std::thread::sleep(wait.min(Duration::from_millis(5)));
+            return Ok(None);
+        }
+        self.keys.remove(0);
+        Ok(Some(k))
+    }
+}
+
+/// Records the overrides the progress line would show, and opens the key gates: phase 1 once
+/// 30 lines are acknowledged, phase 2 once the first keys' overrides were reported.
+struct Watch {
+    phase: Arc<AtomicU64>,
+    shown: Vec<String>,
+}
+impl Observer for Watch {
+    fn progress(&mut self, p: &Progress) {
+        if p.acked >= 30 {
+            self.phase.fetch_max(1, Ordering::SeqCst);
+        }
+        if let Some(ov) = p.overrides {
+            let t = keys::overrides_text(ov);
+            if t == "Ov F120% S90%" {
+                self.phase.fetch_max(2, Ordering::SeqCst);
+            }
+            if self.shown.last() != Some(&t) {
+                self.shown.push(t);
+            }
+        }
+    }
+}
+
+#[test]
+fn override_keys_during_send_reach_grbl_and_show_in_progress() {
+    let job = Job::parse("ov.gcode", &common_job::job_text_scaled(3)).unwrap();
+    let vcfg = VirtualConfig {
+        motion: Motion::Paced { speedup: 20.0 },
+        ..VirtualConfig::default()
+    };
+    let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
+    let phase = Arc::new(AtomicU64::new(0));
+    let typed = vec![
+        (1, Key::Char('+')),
+        (1, Key::Char('+')),
+        (1, Key::Char('[')),
+        (2, Key::Char('0')),
+        (2, Key::Char('-')),
+        (2, Key::Char(']')),
+    ];
+    let mut source = TypedKeys {
+        keys: typed,
+        phase: phase.clone(),
+    };
+    let (tx, rx) = channel();
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let pump = std::thread::spawn(move || keys::pump(&mut source, &tx, &stop2));
+    let mut watch = Watch {
+        phase,
+        shown: Vec::new(),
+    };
+    send(&mut port, &job, &cfg(), Some(&rx), &mut watch).unwrap();
+    stop.store(true, Ordering::SeqCst);
+    pump.join().unwrap();
+    let r = vg.stop();
+    let bytes: Vec<u8> = r
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Realtime(b) if *b >= 0x90 => Some(*b),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(bytes, [0x91, 0x91, 0x9B, 0x90, 0x99, 0x92, 0x9A]);
+    // The progress line showed Grbl's own Ov: after each burst of keys.
+    assert!(
+        watch.shown.contains(&"Ov F120% S90%".to_string()),
+        "{:?}",
+        watch.shown
+    );
+    assert!(
+        watch.shown.contains(&"Ov F90% S110%".to_string()),
+        "{:?}",
+        watch.shown
+    );
+    assert_eq!(r.overrides, [90, 100, 110]);
+    // Overrides change no line: the program arrived whole, once.
+    let got: Vec<&str> = r
+        .run_lines()
+        .into_iter()
+        .filter(|l| !l.starts_with('$'))
+        .collect();
+    let want: Vec<&str> = job.lines.iter().map(|l| l.text.as_str()).collect();
+    assert_eq!(got, want);
+}

@@ -16,6 +16,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use stencil::export;
 use stencil::machine::gcode::Move;
+use stencil::machine::keys::{self, Key, KeySource};
 use stencil::machine::simulate;
 use stencil::machine::stream::{
     self, BytePort, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
@@ -28,8 +29,9 @@ use stencil::profile::machine as machine_profile;
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "While streaming: ! or h = feed hold, ~ or r = resume, a / q / Esc / Ctrl-C = \
-abort (soft reset, laser off, prints the line to resume from)."
+    after_help = "While streaming: ! or h = feed hold, ~ or r = resume, + / - = feed override \
+±10 %, ] / [ = power (spindle) override ±10 %, 0 = both back to 100 %, a / q / Esc / Ctrl-C = \
+abort (feed hold, soft reset, laser and air off, prints the line to resume from)."
 )]
 pub struct SendArgs {
     /// The G-code file.
@@ -211,7 +213,7 @@ impl Keys {
         let stop = Arc::new(AtomicBool::new(false));
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || key_loop(&tx, &stop2));
+            let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
             return Keys {
                 stop,
                 thread: Some(thread),
@@ -243,31 +245,28 @@ impl Drop for Keys {
     }
 }
 
-fn key_loop(tx: &Sender<Control>, stop: &AtomicBool) {
-    use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
-    while !stop.load(Ordering::SeqCst) {
-        match event::poll(Duration::from_millis(100)) {
-            Ok(true) => {}
-            Ok(false) => continue,
-            Err(_) => return,
+/// The terminal in raw mode as a key source (crossterm: already how raw mode is entered here, and
+/// it reads keys the same way on Unix and Windows).
+struct Terminal;
+
+impl KeySource for Terminal {
+    fn next_key(&mut self, wait: Duration) -> std::io::Result<Option<Key>> {
+        use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+        if !event::poll(wait)? {
+            return Ok(None);
         }
-        let Ok(Event::Key(k)) = event::read() else {
-            continue;
+        let Event::Key(k) = event::read()? else {
+            return Ok(None);
         };
         if k.kind == KeyEventKind::Release {
-            continue;
+            return Ok(None);
         }
-        let ctrl_c = k.modifiers.contains(KeyModifiers::CONTROL) && k.code == KeyCode::Char('c');
-        let c = match k.code {
-            _ if ctrl_c => Control::Abort,
-            KeyCode::Char('!') | KeyCode::Char('h') | KeyCode::Char(' ') => Control::FeedHold,
-            KeyCode::Char('~') | KeyCode::Char('r') => Control::Resume,
-            KeyCode::Char('a') | KeyCode::Char('q') | KeyCode::Esc => Control::Abort,
-            _ => continue,
-        };
-        if tx.send(c).is_err() {
-            return;
-        }
+        Ok(match k.code {
+            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Some(Key::CtrlC),
+            KeyCode::Char(c) => Some(Key::Char(c)),
+            KeyCode::Esc => Some(Key::Esc),
+            _ => None,
+        })
     }
 }
 
@@ -352,6 +351,9 @@ impl Observer for Bar {
                 Some(pos) => format!("{st} X{:.2} Y{:.2}", pos[0], pos[1]),
                 None => st.to_string(),
             };
+            if let Some(ov) = p.overrides {
+                self.state = format!("{} {}", self.state, keys::overrides_text(ov));
+            }
         }
         self.bar
             .set_message(format!("{} {}", self.state, self.remaining));
@@ -457,7 +459,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let keys = Keys::start(tx);
     let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
     if keys.raw {
-        bar.say("keys: ! or h = feed hold, ~ or r = resume, a / q / Esc / Ctrl-C = abort");
+        bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
     let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut bar);
     bar.bar.finish_and_clear();

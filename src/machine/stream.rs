@@ -63,6 +63,34 @@ pub enum Control {
     Resume,
     /// Stop now: soft reset, laser off, report the resume line.
     Abort,
+    /// Change a feed or power override (Grbl's real-time bytes; the job keeps running).
+    Override(Override),
+}
+
+/// The overrides an operator changes while cutting: feed and spindle (laser power) in 10 %
+/// steps within Grbl's 10..200 %, or back to 100 %.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Override {
+    FeedPlus10,
+    FeedMinus10,
+    FeedReset,
+    PowerPlus10,
+    PowerMinus10,
+    PowerReset,
+}
+
+impl Override {
+    /// Grbl's real-time byte for it.
+    pub fn byte(self) -> u8 {
+        match self {
+            Override::FeedPlus10 => protocol::RT_FEED_OV_PLUS_10,
+            Override::FeedMinus10 => protocol::RT_FEED_OV_MINUS_10,
+            Override::FeedReset => protocol::RT_FEED_OV_RESET,
+            Override::PowerPlus10 => protocol::RT_SPINDLE_OV_PLUS_10,
+            Override::PowerMinus10 => protocol::RT_SPINDLE_OV_MINUS_10,
+            Override::PowerReset => protocol::RT_SPINDLE_OV_RESET,
+        }
+    }
 }
 
 /// What to do about Grbl's laser mode (`$32`) before a job.
@@ -148,6 +176,11 @@ pub struct Progress {
     pub unexecuted_from: usize,
     pub state: Option<MachineState>,
     pub position: Option<[f64; 3]>,
+    /// Feed, rapid and spindle overrides in percent, as the last `Ov:` field said (Grbl sends it
+    /// every few reports and right after a change).
+    pub overrides: Option<[u32; 3]>,
+    /// The N number Grbl last reported executing (`Ln:`, firmware built with line numbers).
+    pub status_line: Option<u32>,
     pub elapsed: Duration,
 }
 
@@ -740,6 +773,7 @@ impl Session<'_, '_> {
                     let byte = match c {
                         Control::FeedHold => RT_FEED_HOLD,
                         Control::Resume => RT_RESUME,
+                        Control::Override(o) => o.byte(),
                         Control::Abort => {
                             self.settle(&mut f);
                             let halt = self.halt(f.run.last_acked, f.resume_at(None));
@@ -749,10 +783,14 @@ impl Session<'_, '_> {
                     if let Err(e) = self.link.write(&[byte]) {
                         return Err(self.fault(e, &f));
                     }
-                    self.obs.message(match c {
-                        Control::FeedHold => "feed hold (!): press r to resume, a to abort",
-                        _ => "resuming (~)",
-                    });
+                    match c {
+                        Control::FeedHold => self
+                            .obs
+                            .message("feed hold (!): press r to resume, a to abort"),
+                        Control::Resume => self.obs.message("resuming (~)"),
+                        // The new values show in the progress line from the next `Ov:`.
+                        _ => {}
+                    }
                 }
             }
             // Fill Grbl's receive buffer.
@@ -1091,6 +1129,8 @@ impl<'l> Flight<'l> {
         self.tracker.status(st);
         self.progress.state = Some(st.state.clone());
         self.progress.position = st.position().or(self.progress.position);
+        self.progress.overrides = st.overrides.or(self.progress.overrides);
+        self.progress.status_line = st.line.or(self.progress.status_line);
         self.progress.unexecuted_from = self.resume_at(None);
     }
 

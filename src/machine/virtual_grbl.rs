@@ -925,7 +925,8 @@ impl Sim {
         // the accessory states (spindle CW/CCW, flood) when any is on.
         if self.reports % 10 == 1 {
             s.push_str("|WCO:0.000,0.000,0.000");
-        } else if self.reports % 10 == 2 || self.ov_changed {
+        }
+        if self.reports % 10 == 2 || self.ov_changed {
             self.ov_changed = false;
             s.push_str(&format!("|Ov:{feed_ov},{rapid_ov},{spindle_ov}"));
             let mut a = String::new();
@@ -1065,6 +1066,55 @@ mod tests {
         assert_eq!(r.run_lines()[..4], ["G1X1", "G5X1", "$I", "G0X3Y4F100"]);
         assert_eq!(r.run_lines()[4].len(), 79);
         assert_eq!(r.overflow_bytes, 0);
+    }
+
+    #[test]
+    fn overrides_scale_feed_and_power_and_are_reported() {
+        let cfg = VirtualConfig {
+            motion: Motion::Paced { speedup: 1.0 },
+            ..VirtualConfig::default()
+        };
+        let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        host.write_all(b"M3S500\nM8\nG1X100F600\n").unwrap();
+        read_until(&mut host, "ok\r\nok\r\nok\r\n", Duration::from_secs(5));
+        // +10 % twice, -10 % once on the feed; -10 % on the power; Ov comes at once.
+        host.write_all(&[0x91, 0x91, 0x92, 0x9B, b'?']).unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|FS:660,450|"), "{s:?}");
+        assert!(s.contains("|Ov:110,100,90|A:SF>"), "{s:?}");
+        // Limits: 200 % at most; resets.
+        host.write_all(&[0x91; 15]).unwrap();
+        host.write_all(&[0x90, 0x99, b'?']).unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|FS:600,500|"), "{s:?}");
+        for _ in 0..200 {
+            if vg.record().overrides == [100; 3] {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let r = vg.stop();
+        assert_eq!(r.overrides, [100; 3]);
+        assert!(r.air_on);
+        let ov = r
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::Realtime(b) if *b >= 0x90))
+            .count();
+        assert_eq!(ov, 4 + 15 + 2);
+    }
+
+    #[test]
+    fn overrides_stop_at_their_limits() {
+        let (vg, mut host) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        host.write_all(&[0x91; 15]).unwrap();
+        host.write_all(&[0x9B; 15]).unwrap();
+        host.write_all(b"?").unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|Ov:200,100,10"), "{s:?}");
+        drop(vg);
     }
 
     #[test]
