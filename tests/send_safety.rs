@@ -721,3 +721,206 @@ fn override_keys_during_send_reach_grbl_and_show_in_progress() {
     let want: Vec<&str> = job.lines.iter().map(|l| l.text.as_str()).collect();
     assert_eq!(got, want);
 }
+
+// ---- job recovery: the journal and --recover ---------------------------------------------------
+
+use stencil::machine::journal::{self, Journal, RunState};
+
+fn run_send(file: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    let out = stencil().arg("send").arg(file).args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    )
+}
+
+/// "sent N lines" from `send`'s summary.
+fn lines_sent(stdout: &str) -> usize {
+    let rest = stdout.split("sent ").nth(1).expect(stdout);
+    rest.split(' ').next().unwrap().parse().expect(stdout)
+}
+
+#[test]
+fn a_run_whose_port_dies_leaves_a_journal_and_recover_resumes_from_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    let text = common_job::job_text_scaled(1);
+    std::fs::write(&file, &text).unwrap();
+    let job = Job::parse("job.gcode", &text).unwrap();
+    let jpath = journal::path_for(&file);
+
+    // No journal yet: --recover says so, and sends nothing.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(
+        !ok && se.contains("no journal") && !so.contains("sent "),
+        "{so}{se}"
+    );
+
+    let k = 120;
+    let (ok, so, se) = run_send(
+        &file,
+        &["--dry-run", "--dry-run-fault", &format!("close@{k}")],
+    );
+    assert!(!ok, "{so}{se}");
+    assert!(se.contains("went away") && se.contains("--recover"), "{se}");
+    let j = Journal::read(&jpath).unwrap();
+    assert_eq!(j.state, RunState::Stopped);
+    assert!(j.stop_reason.as_deref().unwrap().contains("went away"));
+    let dead = job.lines[k - 1].number;
+    let acked = j.last_acked_line.unwrap();
+    assert!(acked < dead, "{acked} {dead}");
+    assert!(j.resume_from <= acked + 1, "{j:?}");
+    assert_eq!(j.machine, "diode-400");
+    // The modal state recorded is the program's before the resume line.
+    let st = job.state_before(j.resume_from).unwrap().modal;
+    assert_eq!(j.modal.position_mm, st.pos);
+    assert_eq!(j.modal.feed_mm_min, st.feed);
+    assert_eq!(j.modal.spindle, if st.spindle_on { "M4" } else { "M5" });
+    // The hint printed at the stop matches the journal.
+    assert!(
+        se.contains(&format!("--from-line {}", j.resume_from)),
+        "{se}"
+    );
+
+    // --recover --dry-run: says what it knows, resumes from the proposed line.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(ok, "{so}{se}");
+    assert!(
+        so.contains(&format!("last acknowledged line: {acked}")),
+        "{so}"
+    );
+    assert!(so.contains("acknowledged means queued"), "{so}");
+    assert!(
+        so.contains(&format!("resuming from line {}", j.resume_from)),
+        "{so}"
+    );
+    let rest = job
+        .lines
+        .iter()
+        .filter(|l| l.number >= j.resume_from)
+        .count();
+    assert_eq!(lines_sent(&so), rest, "{so}");
+    assert!(
+        se.contains(&format!("resuming at line {}", j.resume_from)),
+        "{se}"
+    );
+    // A finished job leaves no journal.
+    assert!(!jpath.exists());
+
+    // A journal for another version of the file is refused, naming both, and nothing is sent.
+    let (ok, ..) = run_send(
+        &file,
+        &["--dry-run", "--dry-run-fault", &format!("close@{k}")],
+    );
+    assert!(!ok);
+    std::fs::write(&file, format!("{text}; edited\n")).unwrap();
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("different") && se.contains("job.gcode.journal"),
+        "{se}"
+    );
+    assert!(
+        se.contains("nothing was sent") && !so.contains("sent "),
+        "{so}{se}"
+    );
+    // Not a journal at all.
+    std::fs::write(&jpath, "{\"hello\": 1}").unwrap();
+    let (ok, _, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok && se.contains("not a stencil send journal"), "{se}");
+}
+
+#[test]
+fn a_killed_sender_leaves_a_running_journal_that_recover_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    let text = common_job::job_text_scaled(1);
+    std::fs::write(&file, &text).unwrap();
+    let jpath = journal::path_for(&file);
+    // Paced like the machine (about 20 s): killed once the journal shows progress.
+    let mut child = stencil()
+        .args(["send", "--dry-run", "--realtime"])
+        .arg(&file)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut seen = None;
+    for _ in 0..600 {
+        if let Ok(j) = Journal::read(&jpath) {
+            if j.last_acked_line.is_some() {
+                seen = Some(j);
+                break;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let j = seen.expect("no journal with progress within 30 s");
+    let j2 = Journal::read(&jpath).unwrap();
+    assert_eq!(j2.state, RunState::Running, "{j2:?}");
+    assert!(j2.last_acked_line >= j.last_acked_line);
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(ok, "{so}{se}");
+    assert!(so.contains("did not end"), "{so}");
+    assert!(
+        so.contains(&format!("resuming from line {}", j2.resume_from)),
+        "{so}"
+    );
+}
+
+#[test]
+fn recover_homes_first_when_the_profile_says_the_machine_homes() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = dir.path().join("homing-laser.toml");
+    let diode = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles/machines/diode-400.toml"),
+    )
+    .unwrap();
+    let homing = diode
+        .replace("name = \"diode-400\"", "name = \"homing-laser\"")
+        .replace(
+            "junction_deviation_mm = 0.01",
+            "junction_deviation_mm = 0.01\nhoming = true",
+        );
+    std::fs::write(&profile, homing).unwrap();
+    let file = dir.path().join("job.gcode");
+    std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
+    let p = profile.to_str().unwrap();
+    let (ok, ..) = run_send(
+        &file,
+        &[
+            "--dry-run",
+            "--machine",
+            p,
+            "--dry-run-fault",
+            "error:20@100",
+        ],
+    );
+    assert!(!ok);
+    // The journal names the profile; --recover picks it up without --machine.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(ok, "{so}{se}");
+    assert!(so.contains("homes") && se.contains("homed"), "{so}{se}");
+
+    // In the streamer: $H goes right after connecting, before the restore; an alarm-locked
+    // machine is homed, not refused.
+    let job = Job::parse("job.gcode", &common_job::job_text_scaled(1)).unwrap();
+    let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Alarm(1), 50)).unwrap();
+    assert!(send(&mut port, &job, &cfg(), None, &mut Quiet).is_err());
+    let before = vg.record().received.len();
+    let c = StreamConfig {
+        from_line: 100,
+        home_first: true,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    let got: Vec<&str> = r.received[before..]
+        .iter()
+        .map(|l| l.text.as_str())
+        .collect();
+    assert_eq!(got[..3], ["$I", "$H", "M5"], "{got:?}");
+}

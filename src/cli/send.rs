@@ -16,8 +16,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use stencil::export;
 use stencil::machine::gcode::Move;
+use stencil::machine::journal::{self, Journal, JournalWriter, RunState};
 use stencil::machine::keys::{self, Key, KeySource};
 use stencil::machine::simulate;
+use stencil::machine::stall::ClockRef;
 use stencil::machine::stream::{
     self, BytePort, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
     ResumeLift, StreamConfig,
@@ -50,6 +52,11 @@ pub struct SendArgs {
     /// profile's up height) before the travel and lowered at its plunge feed after it.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     pub from_line: u64,
+    /// Resume after a crash, a pulled cable or a power loss from the journal the last run left
+    /// beside the file (FILE.journal): says what it knows, proposes the last line surely executed,
+    /// homes first if the machine profile says it homes, then resumes as --from-line does.
+    #[arg(long, conflicts_with = "from_line")]
+    pub recover: bool,
     /// Run the file through Grbl's check mode ($C) first; cut nothing if any line is rejected.
     #[arg(long)]
     pub check: bool,
@@ -384,6 +391,59 @@ fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> Laser
     }
 }
 
+/// Tell the user what the journal knows and where the job will resume; `None` if there is
+/// nothing left to do.
+fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usize> {
+    let age = j.age().as_secs_f64();
+    let how = match j.state {
+        RunState::Running => {
+            "did not end (the sender was killed, crashed, or the power went)".to_string()
+        }
+        RunState::Stopped => format!(
+            "stopped: {}",
+            j.stop_reason.as_deref().unwrap_or("(no reason recorded)")
+        ),
+        RunState::Complete => "finished".to_string(),
+    };
+    println!(
+        "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
+        path.display(),
+        j.file,
+        j.from_line,
+        j.machine,
+        format_duration(age)
+    );
+    let end = job.source_lines();
+    let p = j.proposal(job);
+    if j.state == RunState::Complete || p.line > end {
+        println!("every line of the job ran: nothing to recover");
+        return None;
+    }
+    match j.last_acked_line {
+        Some(l) => println!("last acknowledged line: {l}"),
+        None => println!("no line was acknowledged"),
+    }
+    let m = &j.modal;
+    println!(
+        "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3} (lifted, travelled, then lowered)",
+        p.why,
+        p.line,
+        m.units,
+        m.distance,
+        match m.feed_mm_min {
+            Some(f) => format!("F{f}"),
+            None => "no feed yet".into(),
+        },
+        m.spindle,
+        if m.spindle != "M5" { format!(" S{}", m.s) } else { String::new() },
+        if m.air { "on" } else { "off" },
+        m.position_mm[0],
+        m.position_mm[1],
+        m.position_mm[2]
+    );
+    Some(p.line)
+}
+
 fn list_ports() -> String {
     match serialport::available_ports() {
         Ok(ports) if !ports.is_empty() => ports
@@ -400,8 +460,34 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
-    let machine = machine_profile::load(a.machine.as_deref())?;
+    let journal_path = journal::path_for(&a.file);
+    let mut from_line = a.from_line as usize;
+    let mut machine_arg = a.machine.clone();
+    if a.recover {
+        let j = Journal::read(&journal_path)?;
+        j.check_file(&journal_path, text.as_bytes())?;
+        match &a.machine {
+            Some(m) if *m != j.machine => println!(
+                "the journal's run used machine {}; you named {m}: using {m}",
+                j.machine
+            ),
+            Some(_) => {}
+            None => machine_arg = Some(j.machine.clone()),
+        }
+        let Some(line) = recovery_report(&j, &job, &journal_path) else {
+            return Ok(ExitCode::SUCCESS);
+        };
+        from_line = line;
+    }
+    let machine = machine_profile::load(machine_arg.as_deref())?;
     let limits = machine.limits();
+    let home_first = a.recover && machine.motion.homing;
+    if home_first {
+        println!(
+            "machine {} homes ($22=1 in its profile): homing ($H) before anything moves",
+            machine.name
+        );
+    }
     let cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse
@@ -412,7 +498,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,
         check_first: a.check,
-        from_line: a.from_line as usize,
+        from_line,
+        home_first,
         lift: resume_lift(&machine),
         rapid_mm_min: Some(limits.rapid_mm_min),
         laser_mode: laser_mode(&machine, &job, a.set_laser_mode),
@@ -461,7 +548,23 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if keys.raw {
         bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
-    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut bar);
+    let started = Journal::new(
+        &a.file,
+        text.as_bytes(),
+        &job,
+        machine_arg.as_deref().unwrap_or(&machine.name),
+        from_line,
+    );
+    let mut journal = JournalWriter::new(
+        &mut bar,
+        started,
+        journal_path.clone(),
+        &job,
+        ClockRef::default(),
+        journal::EVERY,
+    );
+    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
+    journal.finish(&result);
     bar.bar.finish_and_clear();
     drop(keys);
     let sum = match result {
@@ -469,14 +572,27 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         Err(e) => {
             let hint = match e.halt() {
                 Some(h) => format!(
-                    "\nto resume: stencil send {} --from-line {}{}{}",
+                    "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
+                     after a crash or power loss: stencil send {} --recover{})",
                     a.file.display(),
                     h.resume_from,
                     match &a.port {
                         Some(p) => format!(" --port {p}"),
+                        None if a.dry_run => " --dry-run".into(),
                         None => String::new(),
                     },
-                    if h.locked { " --unlock" } else { "" }
+                    if h.locked { " --unlock" } else { "" },
+                    match &a.machine {
+                        Some(m) => format!(" --machine {m}"),
+                        None => String::new(),
+                    },
+                    journal_path.display(),
+                    a.file.display(),
+                    match &a.port {
+                        Some(p) => format!(" --port {p}"),
+                        None if a.dry_run => " --dry-run".into(),
+                        None => String::new(),
+                    },
                 ),
                 None => String::new(),
             };

@@ -99,6 +99,8 @@ pub enum MachineError {
     NoWelcome { port: String, secs: f64 },
     #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
     Locked { port: String, alarm: Option<u8> },
+    #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), home the machine by hand, then resume with --from-line")]
+    Homing { port: String, detail: String },
     #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
     Busy { port: String, state: String },
     #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]

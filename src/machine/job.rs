@@ -107,6 +107,11 @@ impl Job {
         })
     }
 
+    /// Lines in the file (comments and blank lines included): line numbers run 1..=this.
+    pub fn source_lines(&self) -> usize {
+        self.source.len()
+    }
+
     /// Lines that restore, before line `from_line`, the state the program had built up, with the
     /// tool lift read from the program alone (see [`Job::resume_preamble_with`]).
     pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {

@@ -5,6 +5,7 @@
 pub mod error;
 pub mod gcode;
 pub mod job;
+pub mod journal;
 pub mod keys;
 pub mod protocol;
 pub mod simulate;

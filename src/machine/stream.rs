@@ -105,6 +105,9 @@ pub enum LaserMode {
     Set,
 }
 
+/// The longest a homing cycle may take before the sender gives up on it.
+pub const HOMING_LIMIT: Duration = Duration::from_secs(300);
+
 /// Streaming settings.
 #[derive(Clone, Debug)]
 pub struct StreamConfig {
@@ -133,6 +136,10 @@ pub struct StreamConfig {
     pub clock: ClockRef,
     /// Check (or set) laser mode before anything is sent.
     pub laser_mode: LaserMode,
+    /// Home (`$H`) after connecting, before anything else moves: a recovery after a crash or a
+    /// power loss cannot trust the machine's position. Also clears the alarm a homing machine
+    /// boots in.
+    pub home_first: bool,
 }
 
 impl Default for StreamConfig {
@@ -150,6 +157,7 @@ impl Default for StreamConfig {
             rapid_mm_min: None,
             clock: ClockRef::default(),
             laser_mode: LaserMode::Ignore,
+            home_first: false,
         }
     }
 }
@@ -491,6 +499,8 @@ impl Session<'_, '_> {
         let st = self.query_status(&mut hinted)?;
         match st.state {
             MachineState::Idle => {}
+            // A machine with homing switches boots locked: homing is what unlocks it.
+            MachineState::Alarm if self.cfg.home_first => {}
             MachineState::Alarm => {
                 if !self.cfg.unlock {
                     return Err(MachineError::Locked {
@@ -510,7 +520,62 @@ impl Session<'_, '_> {
                 })
             }
         }
+        if self.cfg.home_first {
+            self.home()?;
+        }
         self.obs.connected(&self.info);
+        Ok(())
+    }
+
+    /// `$H`, waiting for its `ok` as long as homing may take (the machine answers status queries
+    /// meanwhile, in `Home`), at most [`HOMING_LIMIT`].
+    fn home(&mut self) -> Result<(), MachineError> {
+        self.obs
+            .message("homing ($H) first: the position after a stop or power loss is not trusted");
+        self.link.write(b"$H\n").map_err(|f| self.lost(f))?;
+        let end = Instant::now() + HOMING_LIMIT;
+        let saved = self.link.timeout;
+        self.link.timeout = HOMING_LIMIT;
+        self.link.last_heard = Instant::now();
+        let mut next_ask = Instant::now() + Duration::from_secs(1);
+        let result = loop {
+            if Instant::now() >= end {
+                break Err(MachineError::Homing {
+                    port: self.port_name.clone(),
+                    detail: format!("no answer within {} s", HOMING_LIMIT.as_secs()),
+                });
+            }
+            if Instant::now() >= next_ask {
+                if let Err(f) = self.link.write(&[RT_STATUS]) {
+                    break Err(self.lost(f));
+                }
+                next_ask = Instant::now() + Duration::from_secs(1);
+            }
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Ok => break Ok(()),
+                    Reply::Error(code) => {
+                        break Err(MachineError::Homing {
+                            port: self.port_name.clone(),
+                            detail: format!("error:{code} ({})", protocol::error_meaning(code)),
+                        })
+                    }
+                    Reply::Alarm(code) => {
+                        break Err(MachineError::Homing {
+                            port: self.port_name.clone(),
+                            detail: format!("ALARM:{code} ({})", protocol::alarm_meaning(code)),
+                        })
+                    }
+                    Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(f) => break Err(self.lost(f)),
+            }
+        };
+        self.link.timeout = saved;
+        result?;
+        self.obs.message("homed");
         Ok(())
     }
 
