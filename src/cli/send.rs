@@ -425,7 +425,7 @@ fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usi
     }
     let m = &j.modal;
     println!(
-        "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3} (lifted, travelled, then lowered)",
+        "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3}",
         p.why,
         p.line,
         m.units,
