@@ -190,19 +190,20 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
                 .collect();
             assert_eq!(&got[n..], &body[..], "{what}");
         }
-        // Stopped by an error with the tool down in the first square, resumed in the last one:
-        // the tool (a knife left at cutting depth) must come up before the long travel.
+        // Stopped by an alarm (a limit switch) with the tool down in the first square, resumed in
+        // the last one: the tool (a knife left at cutting depth) must come up before the long
+        // travel. (An alarm drops the buffered lines at once, so the stop is where it happened.)
         let k = job.lines.iter().position(|l| l.number == down[3]).unwrap() + 1;
         let vcfg = VirtualConfig {
             faults: vec![Fault {
                 at_job_line: k,
-                kind: FaultKind::Error(20),
+                kind: FaultKind::Alarm(1),
             }],
             ..VirtualConfig::default()
         };
         let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
         let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
-        assert!(matches!(err, MachineError::Rejected { .. }), "{err}");
+        assert!(matches!(err, MachineError::Alarm { .. }), "{err}");
         let r = vg.record();
         if let Tool::Knife { z, .. } | Tool::Pen(PenLift::Z(z)) = machine.tool {
             assert!(
@@ -216,6 +217,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
         let c = StreamConfig {
             from_line: from,
             lift,
+            unlock: true,
             ..cfg()
         };
         send(&mut port, &job, &c, None, &mut Quiet).unwrap();
@@ -881,10 +883,8 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
     .unwrap();
     let homing = diode
         .replace("name = \"diode-400\"", "name = \"homing-laser\"")
-        .replace(
-            "junction_deviation_mm = 0.01",
-            "junction_deviation_mm = 0.01\nhoming = true",
-        );
+        .replace("homing = false", "homing = true");
+    assert!(homing.contains("homing = true"));
     std::fs::write(&profile, homing).unwrap();
     let file = dir.path().join("job.gcode");
     std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
