@@ -16,19 +16,24 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use stencil::export;
 use stencil::machine::gcode::Move;
+use stencil::machine::journal::{self, Journal, JournalWriter, RunState};
+use stencil::machine::keys::{self, Key, KeySource};
 use stencil::machine::simulate;
+use stencil::machine::stall::ClockRef;
 use stencil::machine::stream::{
-    self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
+    self, BytePort, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
+    ResumeLift, StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
+use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig, VirtualGrbl};
 use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "While streaming: ! or h = feed hold, ~ or r = resume, a / q / Esc / Ctrl-C = \
-abort (soft reset, laser off, prints the line to resume from)."
+    after_help = "While streaming: ! or h = feed hold, ~ or r = resume, + / - = feed override \
+±10 %, ] / [ = power (spindle) override ±10 %, 0 = both back to 100 %, a / q / Esc / Ctrl-C = \
+abort (feed hold, soft reset, laser and air off, prints the line to resume from)."
 )]
 pub struct SendArgs {
     /// The G-code file.
@@ -43,9 +48,15 @@ pub struct SendArgs {
     #[arg(long)]
     pub send_response: bool,
     /// Resume at this line of the file (as printed after a stop): restores units, distance mode,
-    /// position, feed and laser state first.
+    /// position, feed, air and laser state first; a pen or knife on Z is lifted (to the machine
+    /// profile's up height) before the travel and lowered at its plunge feed after it.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     pub from_line: u64,
+    /// Resume after a crash, a pulled cable or a power loss from the journal the last run left
+    /// beside the file (FILE.journal): says what it knows, proposes the last line surely executed,
+    /// homes first if the machine profile says it homes, then resumes as --from-line does.
+    #[arg(long, conflicts_with = "from_line")]
+    pub recover: bool,
     /// Run the file through Grbl's check mode ($C) first; cut nothing if any line is rejected.
     #[arg(long)]
     pub check: bool,
@@ -68,6 +79,66 @@ pub struct SendArgs {
     /// use (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// A laser job needs Grbl's laser mode ($32=1): if it is off, set it (instead of refusing).
+    #[arg(long)]
+    pub set_laser_mode: bool,
+    /// With --dry-run: start the simulated Grbl with this setting, e.g. `$32=0` (laser mode off),
+    /// to rehearse what happens on such a machine. Repeatable.
+    #[arg(long, value_name = "$N=V", requires = "dry_run", value_parser = parse_setting)]
+    pub dry_run_setting: Vec<(u32, String)>,
+    /// With --dry-run: make the simulated Grbl fail when the N-th G-code line of the run arrives:
+    /// `close@N` (port dies), `silence@N`, `freeze@N` (stuck in Run, still answering status),
+    /// `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
+    #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
+    pub dry_run_fault: Vec<Fault>,
+}
+
+/// `--dry-run-setting $32=0`.
+fn parse_setting(s: &str) -> Result<(u32, String), String> {
+    let t = s.trim().trim_start_matches('$');
+    let (k, v) = t
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}`: expected $N=VALUE, e.g. $32=0"))?;
+    let k: u32 = k
+        .parse()
+        .map_err(|_| format!("`{s}`: the setting number must be a whole number, e.g. $32=0"))?;
+    let x: f64 = v
+        .parse()
+        .map_err(|_| format!("`{s}`: the value must be a number, e.g. $32=0"))?;
+    if !x.is_finite() {
+        return Err(format!("`{s}`: the value must be a finite number"));
+    }
+    Ok((k, v.to_string()))
+}
+
+/// `--dry-run-fault close@60`.
+fn parse_fault(s: &str) -> Result<Fault, String> {
+    let usage = "expected KIND@N with KIND one of close, silence, freeze, error:C, alarm:C \
+                 and N the G-code line (1 or more), e.g. close@60";
+    let (kind, at) = s.split_once('@').ok_or_else(|| format!("`{s}`: {usage}"))?;
+    let at: usize = at
+        .parse()
+        .ok()
+        .filter(|&n| n >= 1)
+        .ok_or_else(|| format!("`{s}`: {usage}"))?;
+    let code = |c: &str, range: std::ops::RangeInclusive<u8>| {
+        c.parse::<u8>()
+            .ok()
+            .filter(|n| range.contains(n))
+            .ok_or_else(|| format!("`{s}`: the code must be in {range:?}"))
+    };
+    let kind = match kind.split_once(':') {
+        None if kind == "close" => FaultKind::ClosePort,
+        None if kind == "silence" => FaultKind::Silence,
+        None if kind == "freeze" => FaultKind::Freeze,
+        Some(("error", c)) => FaultKind::Error(code(c, 1..=38)?),
+        Some(("alarm", c)) => FaultKind::Alarm(code(c, 1..=9)?),
+        _ => return Err(format!("`{s}`: {usage}")),
+    };
+    Ok(Fault {
+        at_job_line: at,
+        kind,
+    })
 }
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
@@ -149,7 +220,7 @@ impl Keys {
         let stop = Arc::new(AtomicBool::new(false));
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || key_loop(&tx, &stop2));
+            let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
             return Keys {
                 stop,
                 thread: Some(thread),
@@ -181,31 +252,28 @@ impl Drop for Keys {
     }
 }
 
-fn key_loop(tx: &Sender<Control>, stop: &AtomicBool) {
-    use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
-    while !stop.load(Ordering::SeqCst) {
-        match event::poll(Duration::from_millis(100)) {
-            Ok(true) => {}
-            Ok(false) => continue,
-            Err(_) => return,
+/// The terminal in raw mode as a key source (crossterm: already how raw mode is entered here, and
+/// it reads keys the same way on Unix and Windows).
+struct Terminal;
+
+impl KeySource for Terminal {
+    fn next_key(&mut self, wait: Duration) -> std::io::Result<Option<Key>> {
+        use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+        if !event::poll(wait)? {
+            return Ok(None);
         }
-        let Ok(Event::Key(k)) = event::read() else {
-            continue;
+        let Event::Key(k) = event::read()? else {
+            return Ok(None);
         };
         if k.kind == KeyEventKind::Release {
-            continue;
+            return Ok(None);
         }
-        let ctrl_c = k.modifiers.contains(KeyModifiers::CONTROL) && k.code == KeyCode::Char('c');
-        let c = match k.code {
-            _ if ctrl_c => Control::Abort,
-            KeyCode::Char('!') | KeyCode::Char('h') | KeyCode::Char(' ') => Control::FeedHold,
-            KeyCode::Char('~') | KeyCode::Char('r') => Control::Resume,
-            KeyCode::Char('a') | KeyCode::Char('q') | KeyCode::Esc => Control::Abort,
-            _ => continue,
-        };
-        if tx.send(c).is_err() {
-            return;
-        }
+        Ok(match k.code {
+            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Some(Key::CtrlC),
+            KeyCode::Char(c) => Some(Key::Char(c)),
+            KeyCode::Esc => Some(Key::Esc),
+            _ => None,
+        })
     }
 }
 
@@ -290,10 +358,90 @@ impl Observer for Bar {
                 Some(pos) => format!("{st} X{:.2} Y{:.2}", pos[0], pos[1]),
                 None => st.to_string(),
             };
+            if let Some(ov) = p.overrides {
+                self.state = format!("{} {}", self.state, keys::overrides_text(ov));
+            }
         }
         self.bar
             .set_message(format!("{} {}", self.state, self.remaining));
     }
+}
+
+/// What the machine profile says about lifting the tool for a resume's travel (a pen or knife on
+/// Z); lasers and servo pens need none beyond the `M5` the restore starts with.
+fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
+    use machine_profile::{PenLift, Tool};
+    match machine.tool {
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => ResumeLift {
+            z_up_mm: Some(z.up_mm),
+            plunge_mm_min: Some(z.plunge_mm_min),
+        },
+        Tool::Laser { .. } | Tool::Pen(PenLift::Spindle { .. }) => ResumeLift::default(),
+    }
+}
+
+/// A laser machine running a job that switches the beam on needs laser mode; anything else
+/// leaves `$32` alone (a pen servo or a spindle must not be put in laser mode).
+fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> LaserMode {
+    let fires = job.moves.iter().any(|m| m.power > 0.0);
+    match machine.tool {
+        machine_profile::Tool::Laser { .. } if fires && set => LaserMode::Set,
+        machine_profile::Tool::Laser { .. } if fires => LaserMode::Require,
+        _ => LaserMode::Ignore,
+    }
+}
+
+/// Tell the user what the journal knows and where the job will resume; `None` if there is
+/// nothing left to do.
+fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usize> {
+    let age = j.age().as_secs_f64();
+    let how = match j.state {
+        RunState::Running => {
+            "did not end (the sender was killed, crashed, or the power went)".to_string()
+        }
+        RunState::Stopped => format!(
+            "stopped: {}",
+            j.stop_reason.as_deref().unwrap_or("(no reason recorded)")
+        ),
+        RunState::Complete => "finished".to_string(),
+    };
+    println!(
+        "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
+        path.display(),
+        j.file,
+        j.from_line,
+        j.machine,
+        format_duration(age)
+    );
+    let end = job.source_lines();
+    let p = j.proposal(job);
+    if j.state == RunState::Complete || p.line > end {
+        println!("every line of the job ran: nothing to recover");
+        return None;
+    }
+    match j.last_acked_line {
+        Some(l) => println!("last acknowledged line: {l}"),
+        None => println!("no line was acknowledged"),
+    }
+    let m = &j.modal;
+    println!(
+        "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3}",
+        p.why,
+        p.line,
+        m.units,
+        m.distance,
+        match m.feed_mm_min {
+            Some(f) => format!("F{f}"),
+            None => "no feed yet".into(),
+        },
+        m.spindle,
+        if m.spindle != "M5" { format!(" S{}", m.s) } else { String::new() },
+        if m.air { "on" } else { "off" },
+        m.position_mm[0],
+        m.position_mm[1],
+        m.position_mm[2]
+    );
+    Some(p.line)
 }
 
 fn list_ports() -> String {
@@ -312,7 +460,34 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
-    let limits = machine_profile::load(a.machine.as_deref())?.limits();
+    let journal_path = journal::path_for(&a.file);
+    let mut from_line = a.from_line as usize;
+    let mut machine_arg = a.machine.clone();
+    if a.recover {
+        let j = Journal::read(&journal_path)?;
+        j.check_file(&journal_path, text.as_bytes())?;
+        match &a.machine {
+            Some(m) if *m != j.machine => println!(
+                "the journal's run used machine {}; you named {m}: using {m}",
+                j.machine
+            ),
+            Some(_) => {}
+            None => machine_arg = Some(j.machine.clone()),
+        }
+        let Some(line) = recovery_report(&j, &job, &journal_path) else {
+            return Ok(ExitCode::SUCCESS);
+        };
+        from_line = line;
+    }
+    let machine = machine_profile::load(machine_arg.as_deref())?;
+    let limits = machine.limits();
+    let home_first = a.recover && machine.motion.homing;
+    if home_first {
+        println!(
+            "machine {} homes ($22=1 in its profile): homing ($H) before anything moves",
+            machine.name
+        );
+    }
     let cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse
@@ -323,7 +498,11 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,
         check_first: a.check,
-        from_line: a.from_line as usize,
+        from_line,
+        home_first,
+        lift: resume_lift(&machine),
+        rapid_mm_min: Some(limits.rapid_mm_min),
+        laser_mode: laser_mode(&machine, &job, a.set_laser_mode),
         ..StreamConfig::default()
     };
 
@@ -337,6 +516,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             },
             baud: a.realtime.then_some(a.baud),
             rapid_mm_min: limits.rapid_mm_min,
+            settings: a.dry_run_setting.clone(),
+            faults: a.dry_run_fault.clone(),
             ..VirtualConfig::default()
         };
         let (vg, host) = VirtualGrbl::spawn(vcfg)
@@ -365,9 +546,25 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let keys = Keys::start(tx);
     let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
     if keys.raw {
-        bar.say("keys: ! or h = feed hold, ~ or r = resume, a / q / Esc / Ctrl-C = abort");
+        bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
-    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut bar);
+    let started = Journal::new(
+        &a.file,
+        text.as_bytes(),
+        &job,
+        machine_arg.as_deref().unwrap_or(&machine.name),
+        from_line,
+    );
+    let mut journal = JournalWriter::new(
+        &mut bar,
+        started,
+        journal_path.clone(),
+        &job,
+        ClockRef::default(),
+        journal::EVERY,
+    );
+    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
+    journal.finish(&result);
     bar.bar.finish_and_clear();
     drop(keys);
     let sum = match result {
@@ -375,14 +572,27 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         Err(e) => {
             let hint = match e.halt() {
                 Some(h) => format!(
-                    "\nto resume: stencil send {} --from-line {}{}{}",
+                    "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
+                     after a crash or power loss: stencil send {} --recover{})",
                     a.file.display(),
                     h.resume_from,
                     match &a.port {
                         Some(p) => format!(" --port {p}"),
+                        None if a.dry_run => " --dry-run".into(),
                         None => String::new(),
                     },
-                    if h.locked { " --unlock" } else { "" }
+                    if h.locked { " --unlock" } else { "" },
+                    match &a.machine {
+                        Some(m) => format!(" --machine {m}"),
+                        None => String::new(),
+                    },
+                    journal_path.display(),
+                    a.file.display(),
+                    match &a.port {
+                        Some(p) => format!(" --port {p}"),
+                        None if a.dry_run => " --dry-run".into(),
+                        None => String::new(),
+                    },
                 ),
                 None => String::new(),
             };
@@ -404,11 +614,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if let Some(vg) = virtual_grbl {
         let r = vg.stop();
         println!(
-            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}",
+            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}",
             r.received.len(),
             r.max_rx_used,
             r.overflow_bytes,
-            if r.laser_on { "ON" } else { "off" }
+            if r.laser_on { "ON" } else { "off" },
+            if r.air_on { "ON" } else { "off" },
+            u8::from(r.laser_mode)
         );
     }
     Ok(ExitCode::SUCCESS)

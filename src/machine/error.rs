@@ -99,10 +99,16 @@ pub enum MachineError {
     NoWelcome { port: String, secs: f64 },
     #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
     Locked { port: String, alarm: Option<u8> },
+    #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), home the machine by hand, then resume with --from-line")]
+    Homing { port: String, detail: String },
     #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
     Busy { port: String, state: String },
     #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
     Setup { port: String, cmd: String, code: u8 },
+    #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Run again with --set-laser-mode (sends $32=1, kept in Grbl's settings), or send $32=1 yourself; if this machine is not a laser, name its profile with --machine")]
+    LaserModeOff { port: String, value: String },
+    #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
+    LaserModeNotSet { port: String, value: String },
     #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
     CheckFailed {
         file: String,
@@ -125,6 +131,14 @@ pub enum MachineError {
         detail: String,
         halt: Halt,
     },
+    #[error("{port}: the machine stood still at X{:.3} Y{:.3} Z{:.3} in Run with work queued for {still_s:.1} s, longer than this job's slowest step allows ({bound_s:.1} s): a stall (frozen controller or driver); stopped: {halt}", position[0], position[1], position[2])]
+    Stalled {
+        port: String,
+        still_s: f64,
+        bound_s: f64,
+        position: [f64; 3],
+        halt: Halt,
+    },
     #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
     Restarted { halt: Halt },
     #[error("aborted by the operator; {halt}")]
@@ -138,6 +152,7 @@ impl MachineError {
             MachineError::Rejected { halt, .. }
             | MachineError::Alarm { halt, .. }
             | MachineError::Silent { halt, .. }
+            | MachineError::Stalled { halt, .. }
             | MachineError::PortLost { halt, .. }
             | MachineError::Restarted { halt }
             | MachineError::Aborted { halt } => Some(halt),

@@ -34,6 +34,8 @@ pub struct Modal {
     pub spindle_on: bool,
     /// The last spindle command was M4 (laser mode: power scaled with speed) rather than M3.
     pub dynamic: bool,
+    /// Coolant output on (M8, flood: air assist on a laser), off with M9.
+    pub coolant: bool,
 }
 
 impl Default for Modal {
@@ -47,6 +49,7 @@ impl Default for Modal {
             s: 0.0,
             spindle_on: false,
             dynamic: false,
+            coolant: false,
         }
     }
 }
@@ -186,7 +189,14 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
                     modal.dynamic = v as u32 == 4;
                 }
                 5 => modal.spindle_on = false,
-                2 | 30 | 0 | 1 | 8 | 9 => {}
+                8 => modal.coolant = true,
+                9 => modal.coolant = false,
+                // Grbl ends a program (M2/M30) with the spindle and coolant off.
+                2 | 30 => {
+                    modal.spindle_on = false;
+                    modal.coolant = false;
+                }
+                0 | 1 => {}
                 _ => return Err(err(20, format!("M{v} is not supported"))),
             },
             'F' => {

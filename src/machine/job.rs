@@ -27,6 +27,9 @@ pub struct Job {
     /// The program may end with the laser still switched on (no final M5, or lines our
     /// interpreter cannot follow): the streamer then sends M5 itself.
     pub may_end_laser_on: bool,
+    /// The program may end with the coolant output (air assist) still on: the streamer then
+    /// sends M9 itself.
+    pub may_end_air_on: bool,
     source: Vec<String>,
 }
 
@@ -99,14 +102,33 @@ impl Job {
             lines,
             moves,
             may_end_laser_on: modal.spindle_on || unreadable,
+            may_end_air_on: modal.coolant || unreadable,
             source,
         })
     }
 
-    /// Lines that restore, before line `from_line`, the state the program had built up: laser off,
-    /// travel (G0, mm, absolute) to where the tool was, feed, motion mode, units, distance mode,
-    /// then laser mode and power.
+    /// Lines in the file (comments and blank lines included): line numbers run 1..=this.
+    pub fn source_lines(&self) -> usize {
+        self.source.len()
+    }
+
+    /// Lines that restore, before line `from_line`, the state the program had built up, with the
+    /// tool lift read from the program alone (see [`Job::resume_preamble_with`]).
     pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {
+        self.resume_preamble_with(from_line, &ResumeLift::default())
+    }
+
+    /// Lines that restore, before line `from_line`, the state the program had built up: tool off
+    /// (`M5`: laser off, a servo pen up), mm and absolute, then a tool on Z is lifted first
+    /// (`G0 Z<up>`), travels in XY (`G0 X Y`), and is lowered only there at the plunge feed
+    /// (`G1 Z<down> F<plunge>`): one `G0 X Y Z` would drag a knife left down through the sheet and
+    /// push a blade from Z0 below the surface on the way. Then feed, motion mode, units, distance
+    /// mode, coolant (air assist), and last the spindle/laser state (a servo pen goes down there).
+    pub fn resume_preamble_with(
+        &self,
+        from_line: usize,
+        lift: &ResumeLift,
+    ) -> Result<Vec<String>, MachineError> {
         if from_line == 0 || from_line > self.source.len() {
             return Err(MachineError::FromLine {
                 file: self.name.clone(),
@@ -114,45 +136,58 @@ impl Job {
                 total: self.source.len(),
             });
         }
-        let mut modal = Modal::default();
-        let mut used = [false; 3];
-        for (i, raw) in self.source.iter().enumerate().take(from_line - 1) {
-            let clean = gcode::clean_line(raw);
-            gcode::step(&mut modal, &clean, i + 1).map_err(|e| MachineError::ResumeState {
-                file: self.name.clone(),
-                from_line,
-                cause: e,
-            })?;
-            for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
-                if let Some(a) = "XYZ".find(l) {
-                    used[a] = true;
-                }
-            }
-        }
+        let st = self.state_before(from_line)?;
         if from_line == 1 {
             return Ok(Vec::new());
         }
+        let modal = st.modal;
         let mut out = vec!["M5".to_string(), "G21G90".to_string()];
+        // The height to travel at: the profile's, or the highest Z the program itself had reached
+        // (its own travel height), whichever is higher.
+        let z_restore = st.used[2].then(|| {
+            let up = match lift.z_up_mm {
+                Some(u) => u.max(st.max_z),
+                None => st.max_z,
+            };
+            (up, modal.pos[2])
+        });
+        if let Some((up, _)) = z_restore {
+            out.push(format!("G0Z{}", num(up)));
+        }
         let mut travel = String::from("G0");
-        for (a, letter) in "XYZ".chars().enumerate() {
-            if used[a] {
+        for (a, letter) in "XY".chars().enumerate() {
+            if st.used[a] {
                 travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
             }
         }
         if travel.len() > 2 {
             out.push(travel);
         }
+        if let Some((up, z)) = z_restore {
+            if z < up {
+                match lift.plunge_mm_min.or(st.plunge_feed).or(modal.feed) {
+                    Some(f) => out.push(format!("G1Z{}F{}", num(z), num(f))),
+                    // The program never gave a feed: it only ever moved with G0.
+                    None => out.push(format!("G0Z{}", num(z))),
+                }
+            }
+        }
         if let Some(f) = modal.feed {
             out.push(format!("F{}", num(f)));
             if modal.motion == 1 {
                 out.push("G1".into());
             }
+        } else if modal.motion == 1 {
+            out.push("G1".into());
         }
         if !modal.metric {
             out.push("G20".into());
         }
         if !modal.absolute {
             out.push("G91".into());
+        }
+        if modal.coolant {
+            out.push("M8".into());
         }
         if modal.spindle_on {
             let m = if modal.dynamic { "M4" } else { "M3" };
@@ -162,6 +197,72 @@ impl Job {
         }
         Ok(out)
     }
+
+    /// The modal state the program has built up before line `before` (1-based), with what a
+    /// restore needs to know about how it got there.
+    pub fn state_before(&self, before: usize) -> Result<StateBefore, MachineError> {
+        let mut st = StateBefore {
+            modal: Modal::default(),
+            used: [false; 3],
+            max_z: f64::NEG_INFINITY,
+            plunge_feed: None,
+        };
+        for (i, raw) in self
+            .source
+            .iter()
+            .enumerate()
+            .take(before.saturating_sub(1))
+        {
+            let clean = gcode::clean_line(raw);
+            let mv = gcode::step(&mut st.modal, &clean, i + 1).map_err(|e| {
+                MachineError::ResumeState {
+                    file: self.name.clone(),
+                    from_line: before,
+                    cause: e,
+                }
+            })?;
+            for (l, _) in gcode::words(&clean, i + 1).unwrap_or_default() {
+                if let Some(a) = "XYZ".find(l) {
+                    st.used[a] = true;
+                }
+            }
+            if let Some(mv) = mv {
+                st.max_z = st.max_z.max(mv.to[2]).max(mv.from[2]);
+                let z_only = mv.from[0] == mv.to[0] && mv.from[1] == mv.to[1];
+                if z_only && mv.to[2] < mv.from[2] && !mv.rapid {
+                    st.plunge_feed = Some(mv.feed);
+                }
+            }
+        }
+        if !st.max_z.is_finite() {
+            st.max_z = st.modal.pos[2];
+        }
+        Ok(st)
+    }
+}
+
+/// How the machine lifts its tool, as far as a resume needs it. The machine side knows no
+/// profiles: the caller fills this from one (or leaves it empty, and the program is read).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResumeLift {
+    /// Z clear of the work (a pen or knife lifted), mm; the restore travels at this height or
+    /// the highest Z the program reached before, whichever is higher.
+    pub z_up_mm: Option<f64>,
+    /// Feed for lowering the tool back to the resume line's Z, mm/min; without it, the feed of
+    /// the program's last Z-only feed move down, else its feed.
+    pub plunge_mm_min: Option<f64>,
+}
+
+/// The state a program has built up before some line (see [`Job::state_before`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StateBefore {
+    pub modal: Modal,
+    /// Axes the program has named.
+    pub used: [bool; 3],
+    /// The highest Z any move reached (its own travel height); the current Z if none moved.
+    pub max_z: f64,
+    /// Feed of the last Z-only feed move down (a plunge).
+    pub plunge_feed: Option<f64>,
 }
 
 /// A number as G-code: at most 4 decimals, no trailing zeros.
@@ -241,6 +342,44 @@ mod tests {
         }
         assert_eq!(m.pos, whole.last().unwrap().to);
         assert!(m.spindle_on && !m.dynamic && !m.metric);
+    }
+
+    #[test]
+    fn preamble_lifts_a_z_tool_before_travel_and_plunges_after() {
+        // A knife job: travel at Z3, plunge to -0.3 at F300, cut at F1200, air on.
+        let p = "G21 G90\nM8\nG0 Z3 F1200\nG0 X10 Y10\nG1 Z-0.3 F300\nG1 X20 F1200\nX30\n";
+        let j = Job::parse("k", p).unwrap();
+        assert_eq!(
+            j.resume_preamble(7).unwrap(),
+            vec![
+                "M5",
+                "G21G90",
+                "G0Z3",
+                "G0X20Y10",
+                "G1Z-0.3F300",
+                "F1200",
+                "G1",
+                "M8"
+            ]
+        );
+        // The profile's up height wins when higher; its plunge feed is used.
+        let lift = ResumeLift {
+            z_up_mm: Some(5.0),
+            plunge_mm_min: Some(150.0),
+        };
+        let pre = j.resume_preamble_with(7, &lift).unwrap();
+        assert_eq!(pre[2..5], ["G0Z5", "G0X20Y10", "G1Z-0.3F150"]);
+        // Resuming where the program had the tool up at Z3: back to its own Z3 after the travel.
+        let pre = j.resume_preamble_with(5, &lift).unwrap();
+        assert_eq!(pre[2..5], ["G0Z5", "G0X10Y10", "G1Z3F150"]);
+        // Without the profile, the program's travel height: no Z move after the travel.
+        let pre = j.resume_preamble(5).unwrap();
+        assert_eq!(pre[2..5], ["G0Z3", "G0X10Y10", "F1200"]);
+        // The program's state at a line.
+        let st = j.state_before(7).unwrap();
+        assert_eq!((st.max_z, st.plunge_feed), (3.0, Some(300.0)));
+        assert!(st.modal.coolant);
+        assert!(j.may_end_air_on && !j.may_end_laser_on);
     }
 
     #[test]

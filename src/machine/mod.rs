@@ -5,8 +5,11 @@
 pub mod error;
 pub mod gcode;
 pub mod job;
+pub mod journal;
+pub mod keys;
 pub mod protocol;
 pub mod simulate;
+pub mod stall;
 pub mod stream;
 pub mod virtual_grbl;
 

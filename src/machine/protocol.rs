@@ -22,6 +22,19 @@ pub const RT_RESUME: u8 = b'~';
 /// Real-time command: soft reset (stops motion and the spindle/laser at once, flushes all buffers).
 pub const RT_SOFT_RESET: u8 = 0x18;
 
+/// Real-time command: feed override back to 100 %.
+pub const RT_FEED_OV_RESET: u8 = 0x90;
+/// Real-time command: feed override +10 % (at most 200 %).
+pub const RT_FEED_OV_PLUS_10: u8 = 0x91;
+/// Real-time command: feed override −10 % (at least 10 %).
+pub const RT_FEED_OV_MINUS_10: u8 = 0x92;
+/// Real-time command: spindle (laser power) override back to 100 %.
+pub const RT_SPINDLE_OV_RESET: u8 = 0x99;
+/// Real-time command: spindle (laser power) override +10 % (at most 200 %).
+pub const RT_SPINDLE_OV_PLUS_10: u8 = 0x9A;
+/// Real-time command: spindle (laser power) override −10 % (at least 10 %).
+pub const RT_SPINDLE_OV_MINUS_10: u8 = 0x9B;
+
 /// True for bytes Grbl acts on immediately instead of buffering them: `?`, `!`, `~`, 0x18 and the
 /// extended set (0x80 and up: safety door, jog cancel, overrides).
 pub fn is_realtime(b: u8) -> bool {

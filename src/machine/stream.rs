@@ -14,11 +14,12 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 pub use super::error::{CheckError, Halt, MachineError};
-pub use super::job::{Job, JobLine};
+pub use super::job::{Job, JobLine, ResumeLift};
 use super::protocol::{
     self, MachineState, Reply, Status, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME,
     RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
 };
+use super::stall::{self, ClockRef, StallWatch};
 
 /// A byte link to a controller: read with a timeout, write. Implemented for serial ports and ptys.
 pub trait BytePort: Read + Write + Send {
@@ -62,7 +63,50 @@ pub enum Control {
     Resume,
     /// Stop now: soft reset, laser off, report the resume line.
     Abort,
+    /// Change a feed or power override (Grbl's real-time bytes; the job keeps running).
+    Override(Override),
 }
+
+/// The overrides an operator changes while cutting: feed and spindle (laser power) in 10 %
+/// steps within Grbl's 10..200 %, or back to 100 %.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Override {
+    FeedPlus10,
+    FeedMinus10,
+    FeedReset,
+    PowerPlus10,
+    PowerMinus10,
+    PowerReset,
+}
+
+impl Override {
+    /// Grbl's real-time byte for it.
+    pub fn byte(self) -> u8 {
+        match self {
+            Override::FeedPlus10 => protocol::RT_FEED_OV_PLUS_10,
+            Override::FeedMinus10 => protocol::RT_FEED_OV_MINUS_10,
+            Override::FeedReset => protocol::RT_FEED_OV_RESET,
+            Override::PowerPlus10 => protocol::RT_SPINDLE_OV_PLUS_10,
+            Override::PowerMinus10 => protocol::RT_SPINDLE_OV_MINUS_10,
+            Override::PowerReset => protocol::RT_SPINDLE_OV_RESET,
+        }
+    }
+}
+
+/// What to do about Grbl's laser mode (`$32`) before a job.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LaserMode {
+    /// Not a laser job: leave `$32` alone.
+    #[default]
+    Ignore,
+    /// A laser job: read `$$` and refuse if `$32=0`.
+    Require,
+    /// A laser job: read `$$` and set `$32=1` if it is off (`--set-laser-mode`).
+    Set,
+}
+
+/// The longest a homing cycle may take before the sender gives up on it.
+pub const HOMING_LIMIT: Duration = Duration::from_secs(300);
 
 /// Streaming settings.
 #[derive(Clone, Debug)]
@@ -83,6 +127,19 @@ pub struct StreamConfig {
     pub check_first: bool,
     /// Start at this 1-based line of the file, after restoring the modal state it needs.
     pub from_line: usize,
+    /// How the tool is lifted for the travel to a resume point (from the machine profile).
+    pub lift: ResumeLift,
+    /// The machine's G0 rate, mm/min (from its profile), for the stall bound; `None` = time G0
+    /// at the job's slowest feed (a looser bound).
+    pub rapid_mm_min: Option<f64>,
+    /// Time for stall detection (a test's clock, or the system's).
+    pub clock: ClockRef,
+    /// Check (or set) laser mode before anything is sent.
+    pub laser_mode: LaserMode,
+    /// Home (`$H`) after connecting, before anything else moves: a recovery after a crash or a
+    /// power loss cannot trust the machine's position. Also clears the alarm a homing machine
+    /// boots in.
+    pub home_first: bool,
 }
 
 impl Default for StreamConfig {
@@ -96,6 +153,11 @@ impl Default for StreamConfig {
             unlock: false,
             check_first: false,
             from_line: 1,
+            lift: ResumeLift::default(),
+            rapid_mm_min: None,
+            clock: ClockRef::default(),
+            laser_mode: LaserMode::Ignore,
+            home_first: false,
         }
     }
 }
@@ -122,6 +184,11 @@ pub struct Progress {
     pub unexecuted_from: usize,
     pub state: Option<MachineState>,
     pub position: Option<[f64; 3]>,
+    /// Feed, rapid and spindle overrides in percent, as the last `Ov:` field said (Grbl sends it
+    /// every few reports and right after a change).
+    pub overrides: Option<[u32; 3]>,
+    /// The N number Grbl last reported executing (`Ln:`, firmware built with line numbers).
+    pub status_line: Option<u32>,
     pub elapsed: Duration,
 }
 
@@ -273,6 +340,7 @@ struct Session<'a, 'o> {
     info: ControllerInfo,
     last_status: Option<Status>,
     started: Instant,
+    stall: StallWatch,
 }
 
 /// Stream `job` to the controller on `port` and wait until every line is acknowledged.
@@ -288,7 +356,7 @@ pub fn send(
     obs: &mut dyn Observer,
 ) -> Result<Summary, MachineError> {
     let port_name = port.describe();
-    let preamble = job.resume_preamble(cfg.from_line.max(1))?;
+    let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
     let mut s = Session {
         link: Link {
             port,
@@ -303,8 +371,13 @@ pub fn send(
         info: ControllerInfo::default(),
         last_status: None,
         started: Instant::now(),
+        stall: StallWatch::new(stall::stall_bound(stall::slowest_step(
+            job,
+            cfg.rapid_mm_min,
+        ))),
     };
     s.connect()?;
+    s.laser_mode()?;
     let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
     for l in &job.lines {
         if l.text.len() + 1 > rx_limit && cfg.flow == FlowControl::CharacterCounting {
@@ -361,6 +434,11 @@ pub fn send(
         s.obs
             .message("the program ends without switching the laser off: sending M5");
         s.command("M5")?;
+    }
+    if job.may_end_air_on {
+        s.obs
+            .message("the program ends without switching the air (coolant) off: sending M9");
+        s.command("M9")?;
     }
     Ok(summary)
 }
@@ -421,6 +499,8 @@ impl Session<'_, '_> {
         let st = self.query_status(&mut hinted)?;
         match st.state {
             MachineState::Idle => {}
+            // A machine with homing switches boots locked: homing is what unlocks it.
+            MachineState::Alarm if self.cfg.home_first => {}
             MachineState::Alarm => {
                 if !self.cfg.unlock {
                     return Err(MachineError::Locked {
@@ -440,7 +520,62 @@ impl Session<'_, '_> {
                 })
             }
         }
+        if self.cfg.home_first {
+            self.home()?;
+        }
         self.obs.connected(&self.info);
+        Ok(())
+    }
+
+    /// `$H`, waiting for its `ok` as long as homing may take (the machine answers status queries
+    /// meanwhile, in `Home`), at most [`HOMING_LIMIT`].
+    fn home(&mut self) -> Result<(), MachineError> {
+        self.obs
+            .message("homing ($H) first: the position after a stop or power loss is not trusted");
+        self.link.write(b"$H\n").map_err(|f| self.lost(f))?;
+        let end = Instant::now() + HOMING_LIMIT;
+        let saved = self.link.timeout;
+        self.link.timeout = HOMING_LIMIT;
+        self.link.last_heard = Instant::now();
+        let mut next_ask = Instant::now() + Duration::from_secs(1);
+        let result = loop {
+            if Instant::now() >= end {
+                break Err(MachineError::Homing {
+                    port: self.port_name.clone(),
+                    detail: format!("no answer within {} s", HOMING_LIMIT.as_secs()),
+                });
+            }
+            if Instant::now() >= next_ask {
+                if let Err(f) = self.link.write(&[RT_STATUS]) {
+                    break Err(self.lost(f));
+                }
+                next_ask = Instant::now() + Duration::from_secs(1);
+            }
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Ok => break Ok(()),
+                    Reply::Error(code) => {
+                        break Err(MachineError::Homing {
+                            port: self.port_name.clone(),
+                            detail: format!("error:{code} ({})", protocol::error_meaning(code)),
+                        })
+                    }
+                    Reply::Alarm(code) => {
+                        break Err(MachineError::Homing {
+                            port: self.port_name.clone(),
+                            detail: format!("ALARM:{code} ({})", protocol::alarm_meaning(code)),
+                        })
+                    }
+                    Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(f) => break Err(self.lost(f)),
+            }
+        };
+        self.link.timeout = saved;
+        result?;
+        self.obs.message("homed");
         Ok(())
     }
 
@@ -477,6 +612,55 @@ impl Session<'_, '_> {
         };
         self.link.timeout = saved;
         result
+    }
+
+    /// `$32` as `$$` lists it (`None`: not listed, as on Grbl before 1.1).
+    fn read_laser_mode(&mut self) -> Result<Option<String>, MachineError> {
+        let replies = self.command("$$")?;
+        Ok(replies.iter().find_map(|r| match r {
+            Reply::Other(o) => o.strip_prefix("$32=").map(|v| v.trim().to_string()),
+            _ => None,
+        }))
+    }
+
+    /// Before a laser job: Grbl must be in laser mode (`$32=1`), or it pauses at every power
+    /// change and fires through G0. Refuse, or set it when asked, and say which.
+    fn laser_mode(&mut self) -> Result<(), MachineError> {
+        let set = match self.cfg.laser_mode {
+            LaserMode::Ignore => return Ok(()),
+            LaserMode::Require => false,
+            LaserMode::Set => true,
+        };
+        let on = |v: &str| v.parse::<f64>().is_ok_and(|x| x != 0.0);
+        match self.read_laser_mode()? {
+            None => self.obs.message(
+                "the controller does not list $32 (laser mode) in $$: make sure it is a laser \
+                 build in laser mode, or the beam stays on through G0 moves",
+            ),
+            Some(v) if on(&v) => self.obs.message("laser mode is on ($32=1)"),
+            Some(v) if !set => {
+                return Err(MachineError::LaserModeOff {
+                    port: self.port_name.clone(),
+                    value: v,
+                })
+            }
+            Some(v) => {
+                self.command("$32=1")?;
+                match self.read_laser_mode()? {
+                    Some(now) if on(&now) => self.obs.message(&format!(
+                        "laser mode was off ($32={v}): set $32=1 as asked (--set-laser-mode); \
+                         Grbl keeps it"
+                    )),
+                    now => {
+                        return Err(MachineError::LaserModeNotSet {
+                            port: self.port_name.clone(),
+                            value: now.unwrap_or_else(|| "(not listed)".into()),
+                        })
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Send one setup command and wait for its answer (send-response).
@@ -654,6 +838,7 @@ impl Session<'_, '_> {
                     let byte = match c {
                         Control::FeedHold => RT_FEED_HOLD,
                         Control::Resume => RT_RESUME,
+                        Control::Override(o) => o.byte(),
                         Control::Abort => {
                             self.settle(&mut f);
                             let halt = self.halt(f.run.last_acked, f.resume_at(None));
@@ -663,10 +848,14 @@ impl Session<'_, '_> {
                     if let Err(e) = self.link.write(&[byte]) {
                         return Err(self.fault(e, &f));
                     }
-                    self.obs.message(match c {
-                        Control::FeedHold => "feed hold (!): press r to resume, a to abort",
-                        _ => "resuming (~)",
-                    });
+                    match c {
+                        Control::FeedHold => self
+                            .obs
+                            .message("feed hold (!): press r to resume, a to abort"),
+                        Control::Resume => self.obs.message("resuming (~)"),
+                        // The new values show in the progress line from the next `Ov:`.
+                        _ => {}
+                    }
                 }
             }
             // Fill Grbl's receive buffer.
@@ -767,7 +956,8 @@ impl Session<'_, '_> {
                     let halt = Halt {
                         last_acked: f.run.last_acked,
                         resume_from: f.resume_at(None),
-                        laser: "the controller reset itself, which turns the laser off".into(),
+                        laser: "the controller reset itself, which turns the laser and the air off"
+                            .into(),
                         locked: false,
                     };
                     return Err(MachineError::Restarted { halt });
@@ -775,6 +965,25 @@ impl Session<'_, '_> {
                 Reply::Status(st) => {
                     finished |= f.acked_total == lines.len() && st.state == MachineState::Idle;
                     f.status(&st);
+                    if !checking {
+                        // Work is queued: lines in flight, or planner blocks in use (unknown
+                        // without `Bf:`, then assumed).
+                        let busy = !f.in_flight.is_empty()
+                            || st
+                                .buffer
+                                .is_none_or(|(free, _)| (free as usize) < self.info.planner_blocks);
+                        if let Some(stuck) = self.stall.observe(self.cfg.clock.0.now(), &st, busy) {
+                            self.settle(&mut f);
+                            let halt = self.halt(f.run.last_acked, f.resume_at(None));
+                            return Err(MachineError::Stalled {
+                                port: self.port_name.clone(),
+                                still_s: stuck.still_for.as_secs_f64(),
+                                bound_s: stuck.bound.as_secs_f64(),
+                                position: stuck.position,
+                                halt,
+                            });
+                        }
+                    }
                     f.progress.elapsed = self.started.elapsed();
                     self.last_status = Some(st);
                     self.obs.progress(&f.progress);
@@ -836,8 +1045,8 @@ impl Session<'_, '_> {
                 halt: Halt {
                     last_acked,
                     resume_from: resume,
-                    laser: "the laser could not be switched off from here: make sure it is off \
-                            (a board that lost its USB power is off)"
+                    laser: "the laser could not be switched off from here: make sure it is off, \
+                            and the air too (a board that lost its USB power is off)"
                         .into(),
                     locked: false,
                 },
@@ -869,7 +1078,7 @@ impl Session<'_, '_> {
     fn stop_laser(&mut self) -> (String, bool) {
         if self.link.write(&[RT_SOFT_RESET]).is_err() {
             return (
-                "the soft reset could not be sent: make sure the laser is off".into(),
+                "the soft reset could not be sent: make sure the laser and the air are off".into(),
                 false,
             );
         }
@@ -880,9 +1089,12 @@ impl Session<'_, '_> {
             Ok(Some(_))
         );
         if !welcomed {
-            let _ = self.link.write(b"M5\n");
+            // Air off, then the laser: M5 goes last, whatever else the board still takes.
+            let _ = self.link.write(b"M9\nM5\n");
             return (
-                "soft reset and M5 sent but Grbl did not answer: make sure the laser is off".into(),
+                "soft reset, M9 and M5 sent but Grbl did not answer: make sure the laser and the \
+                 air are off"
+                    .into(),
                 false,
             );
         }
@@ -901,16 +1113,29 @@ impl Session<'_, '_> {
         }
         if hinted || alarm.is_some() {
             return (
-                "laser off (soft reset); the machine is locked: check it, then home it or \
-                 unlock it (--unlock sends $X)"
+                "laser and air off (soft reset); the machine is locked: check it, then home it \
+                 or unlock it (--unlock sends $X)"
                     .into(),
                 true,
             );
         }
-        match self.command("M5") {
-            Ok(_) => ("laser off (soft reset, M5 acknowledged)".into(), false),
-            Err(_) => (
-                "laser off (soft reset; M5 was not acknowledged)".into(),
+        // A soft reset already stops the spindle and the coolant; M9 (air assist) and M5 (laser)
+        // say so to the controller's modal state too, air first so M5 is the last word.
+        let air = self.command("M9").is_ok();
+        match (air, self.command("M5").is_ok()) {
+            (true, true) => (
+                "laser and air off (soft reset, M9 and M5 acknowledged)".into(),
+                false,
+            ),
+            (a, l) => (
+                format!(
+                    "laser and air off (soft reset; {} not acknowledged)",
+                    match (a, l) {
+                        (false, false) => "M9 and M5 were",
+                        (false, _) => "M9 was",
+                        _ => "M5 was",
+                    }
+                ),
                 false,
             ),
         }
@@ -969,6 +1194,8 @@ impl<'l> Flight<'l> {
         self.tracker.status(st);
         self.progress.state = Some(st.state.clone());
         self.progress.position = st.position().or(self.progress.position);
+        self.progress.overrides = st.overrides.or(self.progress.overrides);
+        self.progress.status_line = st.line.or(self.progress.status_line);
         self.progress.unexecuted_from = self.resume_at(None);
     }
 

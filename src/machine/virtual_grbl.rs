@@ -47,6 +47,12 @@ pub enum FaultKind {
     Silence,
     /// Close the port when this line arrives (a cable pulled; the board loses power, laser off).
     ClosePort,
+    /// Freeze when this line arrives: the line is never answered, nothing more is taken from the
+    /// receive buffer and nothing moves, yet status queries are still answered, in `Run` at a
+    /// fixed position (a stalled planner or stepper driver: the firmware's serial interrupt
+    /// lives on). A feed hold then reports a completed hold (nothing moves); a soft reset thaws
+    /// it.
+    Freeze,
 }
 
 /// A fault that fires once, when the `at_job_line`-th G-code line arrives (counting lines that are
@@ -70,6 +76,14 @@ pub struct VirtualConfig {
     /// G0 rate, mm/min.
     pub rapid_mm_min: f64,
     pub faults: Vec<Fault>,
+    /// Laser mode, `$32` (settable with `$32=0|1`): on, the beam never fires in G0 and M3/M4
+    /// act as a laser; off, a switched-on spindle stays on through G0 moves too.
+    pub laser_mode: bool,
+    /// Report `Ln:` (the N number of the block being executed), as Grbl built with
+    /// `USE_LINE_NUMBERS` does; stock Grbl does not.
+    pub line_numbers: bool,
+    /// Settings that differ from the simulated defaults (`$$` lists them), e.g. `(32, "0")`.
+    pub settings: Vec<(u32, String)>,
 }
 
 impl Default for VirtualConfig {
@@ -81,6 +95,9 @@ impl Default for VirtualConfig {
             baud: None,
             rapid_mm_min: 6000.0,
             faults: Vec::new(),
+            laser_mode: true,
+            line_numbers: false,
+            settings: Vec::new(),
         }
     }
 }
@@ -125,6 +142,40 @@ pub struct Record {
     pub closed: bool,
     /// Status reports sent (for checking the poll rate).
     pub status_reports: usize,
+    /// Coolant output (M8; air assist on a laser) on.
+    pub air_on: bool,
+    /// Every move the planner accepted outside check mode, in order, with the tool's state
+    /// during it (a test checks Z and the spindle during every XY move of a resume).
+    pub moves: Vec<PlannedMove>,
+    /// `$32` as it stands now.
+    pub laser_mode: bool,
+    /// Feed, rapid and spindle overrides in percent, as the last real-time bytes left them.
+    pub overrides: [u32; 3],
+    /// Frozen by [`FaultKind::Freeze`] (until a soft reset).
+    pub frozen: bool,
+}
+
+/// One move as the simulated planner took it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlannedMove {
+    pub from: [f64; 3],
+    pub to: [f64; 3],
+    pub rapid: bool,
+    /// M3/M4 on (a servo pen on the spindle output is down).
+    pub spindle_on: bool,
+    /// The beam fires during this move: spindle on with S > 0, and not a G0 in laser mode.
+    pub beam: bool,
+    /// Coolant (air assist) on during this move.
+    pub air: bool,
+    /// Index into [`Record::received`] of the line that made it.
+    pub idx: usize,
+}
+
+impl PlannedMove {
+    /// The move changes X or Y.
+    pub fn moves_xy(&self) -> bool {
+        self.from[0] != self.to[0] || self.from[1] != self.to[1]
+    }
 }
 
 impl Record {
@@ -197,6 +248,15 @@ impl Drop for VirtualGrbl {
     }
 }
 
+/// The N number a line starts with (`N120G1X5` → 120).
+fn line_number(text: &str) -> Option<u32> {
+    let rest = text.strip_prefix('N').or_else(|| text.strip_prefix('n'))?;
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
 fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
     // A panic in the simulator thread must not hide its record from the test.
     m.lock().unwrap_or_else(|p| p.into_inner())
@@ -219,6 +279,8 @@ enum Comment {
 
 struct Block {
     mv: Move,
+    /// The line's N number, if it has one (reported as `Ln:`).
+    n: Option<u32>,
     /// Index into the record's `received`.
     idx: usize,
     remaining_s: f64,
@@ -252,6 +314,15 @@ struct Sim {
     reports: u64,
     job_lines: usize,
     last_tick: Instant,
+    /// Grbl settings as `$$` lists them (number, value text).
+    settings: Vec<(u32, String)>,
+    /// A `$N=V` setting waiting for its EEPROM write.
+    setting_pending: Option<(u32, String)>,
+    /// Feed, rapid, spindle override %.
+    ov: [u32; 3],
+    /// The next status report carries `Ov:` (Grbl sends it at once after a change).
+    ov_changed: bool,
+    frozen: bool,
 }
 
 impl Sim {
@@ -286,7 +357,34 @@ impl Sim {
             reports: 0,
             job_lines: 0,
             last_tick: now,
+            settings: Vec::new(),
+            setting_pending: None,
+            ov: [100; 3],
+            ov_changed: false,
+            frozen: false,
         };
+        let rapid = format!("{:.3}", sim.cfg.rapid_mm_min);
+        sim.settings = [
+            (10, "2"),
+            (11, "0.010"),
+            (22, "1"),
+            (30, "1000"),
+            (31, "0"),
+            (32, if sim.cfg.laser_mode { "1" } else { "0" }),
+            (110, rapid.as_str()),
+            (111, rapid.as_str()),
+            (120, "1000.000"),
+            (121, "1000.000"),
+        ]
+        .iter()
+        .map(|&(k, v)| (k, v.to_string()))
+        .collect();
+        for (k, v) in sim.cfg.settings.clone() {
+            match sim.settings.iter_mut().find(|(n, _)| *n == k) {
+                Some(e) => e.1 = v,
+                None => sim.settings.push((k, v)),
+            }
+        }
         sim.say("");
         sim.say("Grbl 1.1h ['$' for help]");
         sim.publish();
@@ -384,8 +482,34 @@ impl Sim {
             RT_FEED_HOLD if self.state == State::Idle => self.hold = true,
             RT_RESUME => self.hold = false,
             RT_SOFT_RESET => self.soft_reset(),
+            b @ 0x90..=0x9D => self.override_byte(b),
             _ => {}
         }
+    }
+
+    /// Grbl's override bytes: feed 0x90 (100 %), 0x91/0x92 (±10), 0x93/0x94 (±1), 10..200 %;
+    /// rapid 0x95/0x96/0x97 (100/50/25 %); spindle 0x99 (100 %), 0x9A/0x9B (±10), 0x9C/0x9D
+    /// (±1), 10..200 %.
+    fn override_byte(&mut self, b: u8) {
+        let [f, r, s] = self.ov;
+        let step = |v: u32, d: i32| (v as i32 + d).clamp(10, 200) as u32;
+        self.ov = match b {
+            0x90 => [100, r, s],
+            0x91 => [step(f, 10), r, s],
+            0x92 => [step(f, -10), r, s],
+            0x93 => [step(f, 1), r, s],
+            0x94 => [step(f, -1), r, s],
+            0x95 => [f, 100, s],
+            0x96 => [f, 50, s],
+            0x97 => [f, 25, s],
+            0x99 => [f, r, 100],
+            0x9A => [f, r, step(s, 10)],
+            0x9B => [f, r, step(s, -10)],
+            0x9C => [f, r, step(s, 1)],
+            0x9D => [f, r, step(s, -1)],
+            _ => return,
+        };
+        self.ov_changed = true;
     }
 
     fn soft_reset(&mut self) {
@@ -401,6 +525,10 @@ impl Sim {
         self.planner.clear();
         self.hold = false;
         self.check_mode = false;
+        self.frozen = false;
+        self.setting_pending = None;
+        // A reset brings the overrides back to 100 %, as Grbl does.
+        self.ov = [100; 3];
         let pos = self.modal.pos;
         self.modal = Modal {
             pos,
@@ -428,19 +556,22 @@ impl Sim {
         let Motion::Paced { speedup } = self.cfg.motion else {
             return;
         };
-        if self.hold || self.state != State::Idle {
+        if self.hold || self.frozen || self.state != State::Idle {
             return;
         }
         let mut budget = dt * speedup.max(1e-9);
+        let [feed_ov, rapid_ov, _] = self.ov;
         while budget > 0.0 {
             let Some(b) = self.planner.front_mut() else {
                 break;
             };
-            if b.remaining_s > budget {
-                b.remaining_s -= budget;
+            // Overrides scale the rate: a block at 110 % takes 1/1.1 of its programmed time.
+            let k = if b.mv.rapid { rapid_ov } else { feed_ov } as f64 / 100.0;
+            if b.remaining_s > budget * k {
+                b.remaining_s -= budget * k;
                 break;
             }
-            budget -= b.remaining_s;
+            budget -= b.remaining_s / k;
             let done = self.planner.pop_front();
             if let Some(done) = done {
                 lock(&self.shared).executed.push(done.idx);
@@ -472,6 +603,17 @@ impl Sim {
         if self.planner.len() >= self.cfg.planner_blocks {
             return false;
         }
+        let m = &self.modal;
+        let beam = m.spindle_on && m.s > 0.0 && !(mv.rapid && self.laser_mode());
+        lock(&self.shared).moves.push(PlannedMove {
+            from: mv.from,
+            to: mv.to,
+            rapid: mv.rapid,
+            spindle_on: m.spindle_on,
+            beam,
+            air: m.coolant,
+            idx,
+        });
         match self.cfg.motion {
             Motion::Instant => lock(&self.shared).executed.push(idx),
             Motion::Paced { .. } => {
@@ -485,8 +627,13 @@ impl Sim {
                     mv.feed
                 };
                 let t = if rate > 0.0 { d / rate * 60.0 } else { 0.0 };
+                let n = lock(&self.shared)
+                    .received
+                    .get(idx)
+                    .and_then(|r| line_number(&r.text));
                 self.planner.push_back(Block {
                     mv,
+                    n,
                     idx,
                     remaining_s: t,
                     duration_s: t,
@@ -500,7 +647,7 @@ impl Sim {
     /// pulling while a motion line waits for a free planner block.
     fn process_lines(&mut self) {
         loop {
-            if self.state == State::Critical || self.port.is_none() {
+            if self.state == State::Critical || self.port.is_none() || self.frozen {
                 return;
             }
             if let Some((until, idx)) = self.eeprom {
@@ -508,6 +655,12 @@ impl Sim {
                     return;
                 }
                 self.eeprom = None;
+                if let Some((k, v)) = self.setting_pending.take() {
+                    match self.settings.iter_mut().find(|(n, _)| *n == k) {
+                        Some(e) => e.1 = v,
+                        None => self.settings.push((k, v)),
+                    }
+                }
                 self.done(idx);
             }
             if let Some((mv, idx)) = self.pending.take() {
@@ -580,6 +733,10 @@ impl Sim {
                     FaultKind::Alarm(code) => return self.alarm(code),
                     FaultKind::Silence => self.silent = true,
                     FaultKind::ClosePort => return self.close(),
+                    FaultKind::Freeze => {
+                        self.frozen = true;
+                        return;
+                    }
                 }
             }
         }
@@ -616,7 +773,9 @@ impl Sim {
         self.pending = None;
         self.rx.clear();
         self.hold = false;
+        // An alarm kills the spindle and the coolant at once.
         self.modal.spindle_on = false;
+        self.modal.coolant = false;
         self.state = State::Critical;
         lock(&self.shared).events.push(Event::Alarm(code));
         self.say(&format!("ALARM:{code}"));
@@ -626,7 +785,9 @@ impl Sim {
     fn close(&mut self) {
         // Bytes already on the wire still arrive.
         self.flush_out(Instant::now() + Duration::from_secs(3600));
+        // The board lost power: its outputs are off.
         self.modal.spindle_on = false;
+        self.modal.coolant = false;
         self.planner.clear();
         {
             let mut r = lock(&self.shared);
@@ -694,29 +855,25 @@ impl Sim {
                 self.done(idx);
             }
             "$$" => {
-                for s in [
-                    "$10=2",
-                    "$11=0.010",
-                    "$22=1",
-                    "$30=1000",
-                    "$31=0",
-                    "$32=1",
-                    "$110=6000.000",
-                    "$111=6000.000",
-                    "$120=1000.000",
-                    "$121=1000.000",
-                ] {
-                    self.say(s);
+                let dump: Vec<String> = self
+                    .settings
+                    .iter()
+                    .map(|(k, v)| format!("${k}={v}"))
+                    .collect();
+                for l in dump {
+                    self.say(&l);
                 }
                 self.done(idx);
             }
             c if c[1..]
                 .split_once('=')
-                .is_some_and(|(k, _)| k.parse::<u32>().is_ok()) =>
+                .is_some_and(|(k, v)| k.parse::<u32>().is_ok() && v.parse::<f64>().is_ok()) =>
             {
                 if self.check_mode || !idle {
                     return self.reply_error(8);
                 }
+                let (k, v) = c[1..].split_once('=').unwrap_or_default();
+                self.setting_pending = k.parse().ok().map(|k| (k, v.to_string()));
                 // Writing EEPROM stops Grbl's serial interrupt: bytes that arrive meanwhile are
                 // lost, and the `ok` comes when the write is done.
                 self.eeprom = Some((Instant::now() + EEPROM_WRITE, idx));
@@ -731,20 +888,24 @@ impl Sim {
             State::Alarm | State::Critical => "Alarm".to_string(),
             State::Idle if self.check_mode => "Check".to_string(),
             State::Idle if self.hold => "Hold:0".to_string(),
-            State::Idle if !self.planner.is_empty() => "Run".to_string(),
+            State::Idle if self.frozen || !self.planner.is_empty() => "Run".to_string(),
             State::Idle => "Idle".to_string(),
         };
         let p = self.position();
         let running = !self.planner.is_empty() && !self.hold && self.state == State::Idle;
+        let [feed_ov, rapid_ov, spindle_ov] = self.ov;
         let (feed, speed) = match self.planner.front() {
             Some(b) if running => (
                 if b.mv.rapid {
-                    self.cfg.rapid_mm_min
+                    self.cfg.rapid_mm_min * rapid_ov as f64 / 100.0
                 } else {
-                    b.mv.feed
+                    b.mv.feed * feed_ov as f64 / 100.0
                 },
-                b.mv.power,
+                b.mv.power * spindle_ov as f64 / 100.0,
             ),
+            // A frozen machine still claims its programmed feed: nothing in the report gives
+            // the stall away but the position standing still.
+            _ if self.frozen && !self.hold => (self.modal.feed.unwrap_or(0.0), 0.0),
             _ => (0.0, 0.0),
         };
         let mut s = format!(
@@ -755,14 +916,40 @@ impl Sim {
             self.cfg.planner_blocks - self.planner.len(),
             self.cfg.rx_buffer - self.rx.len(),
         );
+        if self.cfg.line_numbers {
+            if let Some(n) = self.planner.front().and_then(|b| b.n) {
+                s.push_str(&format!("|Ln:{n}"));
+            }
+        }
+        // As Grbl: WCO every 10 reports, Ov every 10 reports and at once after a change, with
+        // the accessory states (spindle CW/CCW, flood) when any is on.
         if self.reports % 10 == 1 {
             s.push_str("|WCO:0.000,0.000,0.000");
-        } else if self.reports % 10 == 2 {
-            s.push_str("|Ov:100,100,100");
+        }
+        if self.reports % 10 == 2 || self.ov_changed {
+            self.ov_changed = false;
+            s.push_str(&format!("|Ov:{feed_ov},{rapid_ov},{spindle_ov}"));
+            let mut a = String::new();
+            if self.modal.spindle_on {
+                a.push(if self.modal.dynamic { 'C' } else { 'S' });
+            }
+            if self.modal.coolant {
+                a.push('F');
+            }
+            if !a.is_empty() {
+                s.push_str(&format!("|A:{a}"));
+            }
         }
         s.push('>');
         lock(&self.shared).status_reports += 1;
         self.say(&s);
+    }
+
+    fn laser_mode(&self) -> bool {
+        self.settings
+            .iter()
+            .find(|(k, _)| *k == 32)
+            .is_some_and(|(_, v)| v.parse::<f64>().is_ok_and(|v| v != 0.0))
     }
 
     /// Queue a line for the host (`\r\n` ended, as Grbl sends), paced at the baud rate if set.
@@ -805,6 +992,8 @@ impl Sim {
     fn publish(&mut self) {
         let pos = self.position();
         let laser = self.modal.spindle_on && self.modal.s > 0.0;
+        let air = self.modal.coolant;
+        let laser_mode = self.laser_mode();
         let state = match self.state {
             State::Idle if self.check_mode => "Check",
             State::Idle if self.hold => "Hold",
@@ -815,6 +1004,10 @@ impl Sim {
         let mut r = lock(&self.shared);
         r.position = pos;
         r.laser_on = laser;
+        r.air_on = air;
+        r.laser_mode = laser_mode;
+        r.overrides = self.ov;
+        r.frozen = self.frozen;
         if r.state != state {
             r.state = state.to_string();
         }
@@ -873,6 +1066,55 @@ mod tests {
         assert_eq!(r.run_lines()[..4], ["G1X1", "G5X1", "$I", "G0X3Y4F100"]);
         assert_eq!(r.run_lines()[4].len(), 79);
         assert_eq!(r.overflow_bytes, 0);
+    }
+
+    #[test]
+    fn overrides_scale_feed_and_power_and_are_reported() {
+        let cfg = VirtualConfig {
+            motion: Motion::Paced { speedup: 1.0 },
+            ..VirtualConfig::default()
+        };
+        let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        host.write_all(b"M3S500\nM8\nG1X100F600\n").unwrap();
+        read_until(&mut host, "ok\r\nok\r\nok\r\n", Duration::from_secs(5));
+        // +10 % twice, -10 % once on the feed; -10 % on the power; Ov comes at once.
+        host.write_all(&[0x91, 0x91, 0x92, 0x9B, b'?']).unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|FS:660,450|"), "{s:?}");
+        assert!(s.contains("|Ov:110,100,90|A:SF>"), "{s:?}");
+        // Limits: 200 % at most; resets.
+        host.write_all(&[0x91; 15]).unwrap();
+        host.write_all(&[0x90, 0x99, b'?']).unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|FS:600,500|"), "{s:?}");
+        for _ in 0..200 {
+            if vg.record().overrides == [100; 3] {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let r = vg.stop();
+        assert_eq!(r.overrides, [100; 3]);
+        assert!(r.air_on);
+        let ov = r
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::Realtime(b) if *b >= 0x90))
+            .count();
+        assert_eq!(ov, 4 + 15 + 2);
+    }
+
+    #[test]
+    fn overrides_stop_at_their_limits() {
+        let (vg, mut host) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+        read_until(&mut host, "for help]", Duration::from_secs(5));
+        host.write_all(&[0x91; 15]).unwrap();
+        host.write_all(&[0x9B; 15]).unwrap();
+        host.write_all(b"?").unwrap();
+        let s = read_until(&mut host, ">", Duration::from_secs(5));
+        assert!(s.contains("|Ov:200,100,10"), "{s:?}");
+        drop(vg);
     }
 
     #[test]

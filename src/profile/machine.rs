@@ -84,6 +84,10 @@ pub struct Motion {
     /// Junction deviation, mm (`$11`, Grbl's default 0.010).
     #[serde(default = "default_jd")]
     pub junction_deviation_mm: f64,
+    /// The machine has homing switches and homes with `$H` (Grbl `$22=1`): `send --recover`
+    /// homes it first, since a crash or power loss loses the position.
+    #[serde(default)]
+    pub homing: bool,
 }
 
 fn default_jd() -> f64 {
