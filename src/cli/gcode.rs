@@ -304,7 +304,7 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("{}: cannot read", a.file.display()))?;
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
-    let e = plan::estimate(&moves, &machine.limits());
+    let e = plan::estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
     println!(
         "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
          length / feed alone would say {}",

@@ -21,7 +21,7 @@ use stencil::machine::stream::{
     self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
 };
 use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
-use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
+use stencil::plan::estimate::{estimate, estimate_with, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
@@ -110,8 +110,9 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let moves = simulate::moves(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let est = estimate(&moves, &machine.limits());
-    let d = simulate::draw(&moves, a.size_px);
+    let rule = machine.cut_rule(&moves);
+    let est = estimate_with(&moves, &machine.limits(), rule);
+    let d = simulate::draw(&moves, a.size_px, rule);
     export::write_atomic(
         &a.output,
         &export::png::encode_rgb(d.width, d.height, &d.rgb),
@@ -127,7 +128,7 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         moves.len()
     );
     println!(
-        "wrote {} ({}×{} px, {:.3} mm per px; red = laser on, blue = travel)",
+        "wrote {} ({}×{} px, {:.3} mm per px; red = cutting (laser on, pen or blade down), blue = travel)",
         a.output.display(),
         d.width,
         d.height,

@@ -96,7 +96,7 @@ pub fn gcode_for(
     let job = plan(geom, machine, cfg)?;
     let text = gcode::write(&job, machine, notes);
     let moves = interpret(&text).map_err(|e| PlanError::Internal(e.to_string()))?;
-    let est = estimate(&moves, &machine.limits());
+    let est = estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
     Ok((
         text,
         GcodeSummary {

@@ -15,6 +15,7 @@ use serde::Deserialize;
 
 use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 
+use crate::machine::gcode::{CutRule, Move};
 use crate::plan::estimate::MotionLimits;
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
@@ -147,6 +148,16 @@ pub struct Machine {
 }
 
 impl Machine {
+    /// Which moves of `moves` cut on this machine: the rule the program itself shows
+    /// ([`CutRule::infer`]), except that a pen servo on the spindle output draws in G0 too.
+    pub fn cut_rule(&self, moves: &[Move]) -> CutRule {
+        let rule = CutRule::infer(moves);
+        match self.tool {
+            Tool::Pen(PenLift::Spindle { .. }) => rule.for_spindle_pen(),
+            _ => rule,
+        }
+    }
+
     /// The limits the time estimate needs.
     pub fn limits(&self) -> MotionLimits {
         MotionLimits {
