@@ -63,7 +63,48 @@ pub fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(u
         }
         out.extend(seq);
     }
+    refine_starts(loops, &mut out, home);
     out
+}
+
+/// Start-vertex sweeps over the whole sequence: each loop starts at the vertex that makes the
+/// way in from the previous loop plus the way on to the next (or back home) shortest. Groups are
+/// optimised one at a time, each greedily from where the last ended; this lets a loop's start
+/// also look ahead, across group borders (where one-loop groups, as nested rings give, would
+/// otherwise each start just at the nearest vertex to the last).
+fn refine_starts(loops: &[Loop], seq: &mut [(usize, usize)], home: [f64; 2]) {
+    let n = seq.len();
+    for _sweep in 0..3 {
+        let mut changed = false;
+        for k in 0..n {
+            let prev = if k == 0 {
+                home
+            } else {
+                loops[seq[k - 1].0].points[seq[k - 1].1]
+            };
+            let next = if k + 1 == n {
+                home
+            } else {
+                loops[seq[k + 1].0].points[seq[k + 1].1]
+            };
+            let (i, s) = seq[k];
+            let cost = |v: usize| dist(prev, loops[i].points[v]) + dist(loops[i].points[v], next);
+            let mut best = (s, cost(s));
+            for v in 0..loops[i].points.len() {
+                let c = cost(v);
+                if c < best.1 - 1e-9 {
+                    best = (v, c);
+                }
+            }
+            if best.0 != s {
+                seq[k].1 = best.0;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
 }
 
 fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize, usize)> {
