@@ -178,3 +178,107 @@ fn islands_inside_islands_are_cut_before_what_holds_them() {
         "outline last"
     );
 }
+
+/// The first "`key`N mm" in `text` ("cut 241 mm" -> 241).
+fn mm_after(text: &str, key: &str) -> f64 {
+    text.match_indices(key)
+        .find_map(|(at, _)| {
+            let rest = &text[at + key.len()..];
+            rest[..rest.find(" mm")?].trim().parse().ok()
+        })
+        .unwrap_or_else(|| panic!("no '{key}N mm' in {text}"))
+}
+
+/// `make` letters.png for `machine` with no --material; the output folder.
+fn make_for(dir: &Path, machine: &str) -> PathBuf {
+    let out = dir.join(machine);
+    let (ok, _, err) = run(&[
+        "make",
+        s(&samples().join("letters.png")),
+        "-o",
+        s(&out),
+        "--emit",
+        "svg,gcode",
+        "--machine",
+        machine,
+    ]);
+    assert!(ok, "{machine}: {err}");
+    out
+}
+
+#[test]
+fn naming_only_a_machine_picks_a_material_for_its_tool() {
+    let dir = tempfile::tempdir().unwrap();
+    for (machine, material, tool_on) in [
+        ("pen-a3", "plotter-paper", "G1 Z0 F1500"),
+        ("drag-knife", "cardstock-knife", "G1 Z-0.3 F300"),
+        ("pen-servo", "plotter-paper", "M3 S1000"),
+        ("diode-400", "cardstock", "M4 S0"),
+    ] {
+        let out = make_for(dir.path(), machine);
+        let report = std::fs::read_to_string(out.join("report.json")).unwrap();
+        assert!(
+            report.contains(&format!("\"material\": \"{material}\"")),
+            "{machine}: {report:.300}"
+        );
+        let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+        assert!(
+            text.contains(&format!("; material {material}")),
+            "{machine}"
+        );
+        assert!(
+            text.lines().any(|l| l.starts_with(tool_on)),
+            "{machine}: no '{tool_on}'"
+        );
+        let laser = text.contains("M4");
+        assert_eq!(laser, machine == "diode-400", "{machine}: laser words");
+    }
+    // A folder made for a laser, drawn with a pen: the pen's material, said in a note.
+    let laser_dir = dir.path().join("diode-400");
+    let pen = dir.path().join("pen.gcode");
+    let (ok, _, err) = run(&["gcode", s(&laser_dir), "--machine", "pen-a3", "-o", s(&pen)]);
+    assert!(ok && err.contains("'plotter-paper'"), "{err}");
+    // A material the user names for the wrong tool is still an error that says so.
+    let (ok, _, err) = run(&[
+        "gcode",
+        s(&laser_dir),
+        "--machine",
+        "pen-a3",
+        "--material",
+        "cardstock",
+        "-o",
+        s(&pen),
+    ]);
+    assert!(!ok && err.contains("set up for a laser"), "{err}");
+}
+
+#[test]
+fn simulate_and_estimate_agree_on_pen_and_knife_cuts() {
+    let dir = tempfile::tempdir().unwrap();
+    for machine in ["pen-a3", "drag-knife", "pen-servo"] {
+        let out = make_for(dir.path(), machine);
+        let job = out.join("stencil.gcode");
+        let (ok, est, err) = run(&["estimate", s(&job), "--machine", machine]);
+        assert!(ok, "{err}");
+        let png = out.join("sim.png");
+        let (ok, sim, err) = run(&["simulate", s(&job), "-o", s(&png), "--machine", machine]);
+        assert!(ok, "{err}");
+        let (e_cut, s_cut) = (mm_after(&est, "cut "), mm_after(&sim, "cut "));
+        assert!(e_cut > 100.0, "{machine}: estimate cut {e_cut} mm: {est}");
+        assert_eq!(e_cut, s_cut, "{machine}: estimate {est} vs simulate {sim}");
+        // The picture shows the cuts in cut colour, not as travel.
+        let img = image::open(&png).unwrap().to_rgb8();
+        let red = img
+            .pixels()
+            .filter(|p| p.0 == stencil::machine::simulate::CUT_RGB)
+            .count();
+        let blue = img
+            .pixels()
+            .filter(|p| p.0 == stencil::machine::simulate::TRAVEL_RGB)
+            .count();
+        assert!(
+            red > 1000 && blue > 0,
+            "{machine}: {red} cut px, {blue} travel px"
+        );
+    }
+}

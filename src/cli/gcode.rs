@@ -260,10 +260,28 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         (None, Some(d)) => material_in_report(d)?,
         (None, None) => None,
     };
-    let material = match &material_arg {
+    let mut material = match &material_arg {
         Some(m) => Some(Material::find(m)?.0),
         None => None,
     };
+    // The folder was made for another tool (a laser stencil drawn with a pen, say): its material
+    // has no settings for this machine; take the tool's default material instead and say so. A
+    // material the user named is used as named (and a mismatch is an error).
+    if let (None, Some(m)) = (&a.material, &material) {
+        if m.process.kind() != machine.tool.process() && !a.cut.covers_all(&machine) {
+            let (d, _) = Material::find(machine.default_material())?;
+            eprintln!(
+                "note: report.json's material '{}' is set up for a {}; {} has a {}, so its cut \
+                 settings and kerf come from '{}' (give --material to choose another)",
+                m.name,
+                m.process.kind(),
+                machine.name,
+                machine.tool.kind(),
+                d.name
+            );
+            material = Some(d);
+        }
+    }
     let base = match &material {
         Some(m) if !a.cut.covers_all(&machine) => Some(plan::settings_for(m, &machine)?),
         _ => None,

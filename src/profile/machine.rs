@@ -13,6 +13,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::material::ProcessKind;
 use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 
 use crate::machine::gcode::{CutRule, Move};
@@ -128,6 +129,15 @@ pub enum Tool {
 }
 
 impl Tool {
+    /// The material process this tool runs (a pen draws, a knife cuts, a laser burns).
+    pub fn process(&self) -> ProcessKind {
+        match self {
+            Tool::Laser { .. } => ProcessKind::Laser,
+            Tool::Pen(_) => ProcessKind::Pen,
+            Tool::Knife { .. } => ProcessKind::Knife,
+        }
+    }
+
     pub fn kind(&self) -> &'static str {
         match self {
             Tool::Laser { .. } => "laser",
@@ -156,6 +166,11 @@ impl Machine {
             Tool::Pen(PenLift::Spindle { .. }) => rule.for_spindle_pen(),
             _ => rule,
         }
+    }
+
+    /// The material used when the user names only this machine: one set up for its tool.
+    pub fn default_material(&self) -> &'static str {
+        super::material::default_for(self.tool.process())
     }
 
     /// The limits the time estimate needs.
