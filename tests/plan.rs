@@ -233,23 +233,26 @@ fn naming_only_a_machine_picks_a_material_for_its_tool() {
         let laser = text.contains("M4");
         assert_eq!(laser, machine == "diode-400", "{machine}: laser words");
     }
-    // A folder made for a laser, drawn with a pen: the pen's material, said in a note.
+    // A folder made for a laser, drawn with a pen: its material does not fit the tool, and the
+    // error names the one that does; naming it works.
     let laser_dir = dir.path().join("diode-400");
     let pen = dir.path().join("pen.gcode");
     let (ok, _, err) = run(&["gcode", s(&laser_dir), "--machine", "pen-a3", "-o", s(&pen)]);
-    assert!(ok && err.contains("'plotter-paper'"), "{err}");
-    // A material the user names for the wrong tool is still an error that says so.
+    assert!(
+        !ok && err.contains("set up for a laser") && err.contains("plotter-paper"),
+        "{err}"
+    );
     let (ok, _, err) = run(&[
         "gcode",
         s(&laser_dir),
         "--machine",
         "pen-a3",
         "--material",
-        "cardstock",
+        "plotter-paper",
         "-o",
         s(&pen),
     ]);
-    assert!(!ok && err.contains("set up for a laser"), "{err}");
+    assert!(ok, "{err}");
 }
 
 #[test]
@@ -281,4 +284,132 @@ fn simulate_and_estimate_agree_on_pen_and_knife_cuts() {
             "{machine}: {red} cut px, {blue} travel px"
         );
     }
+}
+
+/// The header's comment lines, joined back into words.
+fn header_words(text: &str) -> String {
+    text.lines()
+        .take_while(|l| l.starts_with(';'))
+        .map(|l| l.trim_start_matches(';').trim())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[test]
+fn programs_end_with_m2_and_header_comments_wrap_whole_and_legal() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in stencil::profile::machine::builtin_names() {
+        let machine = stencil::profile::machine::load(Some(name)).unwrap();
+        let out = make_for(dir.path(), name);
+        let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+        assert_eq!(text.lines().last(), Some("M2"), "{name}: ends with M2");
+        assert_eq!(text.matches("M2").count(), 1, "{name}: one program end");
+        for (i, l) in text.lines().enumerate() {
+            // Grbl's line buffer: 80 bytes with the newline.
+            assert!(l.len() <= 79, "{name} line {}: {} chars", i + 1, l.len());
+            if l.starts_with(';') {
+                assert!(
+                    !l.contains('(') && !l.contains(')'),
+                    "{name} line {}: parenthesis in a comment: {l}",
+                    i + 1
+                );
+            }
+        }
+        // The machine's description is all there, parentheses as brackets, not cut off.
+        let want = machine.description.replace('(', "[").replace(')', "]");
+        let words = header_words(&text);
+        assert!(words.contains(&want), "{name}: '{want}' not in '{words}'");
+    }
+    // The pen plotter's "(420 x 297 mm)" keeps its brackets instead of turning into spaces.
+    let pen = std::fs::read_to_string(dir.path().join("pen-a3/stencil.gcode")).unwrap();
+    assert!(
+        pen.contains("A3 bed [420 x 297 mm], pen on Z"),
+        "{pen:.300}"
+    );
+}
+
+/// `make` letters.png for `machine` with extra options; the G-code text (or the error).
+fn gcode_with(dir: &Path, tag: &str, args: &[&str]) -> Result<String, String> {
+    let out = dir.join(tag);
+    let pic = samples().join("letters.png");
+    let mut all = vec!["make", s(&pic), "--emit", "svg,gcode", "-o", s(&out)];
+    all.extend_from_slice(args);
+    let (ok, _, err) = run(&all);
+    if ok {
+        Ok(std::fs::read_to_string(out.join("stencil.gcode")).unwrap())
+    } else {
+        Err(err)
+    }
+}
+
+/// Where air assist goes on and off: the line indices of M8 and M9 and the first and last cut.
+fn air_lines(text: &str) -> (Vec<usize>, Vec<usize>, usize, usize) {
+    let lines: Vec<&str> = text.lines().collect();
+    let at = |w: &str| -> Vec<usize> { (0..lines.len()).filter(|&i| lines[i] == w).collect() };
+    let cuts: Vec<usize> = (0..lines.len())
+        .filter(|&i| lines[i].starts_with("G1"))
+        .collect();
+    (at("M8"), at("M9"), cuts[0], *cuts.last().unwrap())
+}
+
+#[test]
+fn air_assist_goes_on_before_the_first_cut_and_off_with_the_beam() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The CO2 profile has air assist: M8 once, right before the first cut (after the travel to
+    // it), M9 once, right after the final M5, before the return and M2.
+    let co2 = gcode_with(d, "co2", &["--machine", "co2-600x400"]).unwrap();
+    let lines: Vec<&str> = co2.lines().collect();
+    let (m8, m9, first, last) = air_lines(&co2);
+    assert_eq!(m8, vec![first - 1], "M8 right before the first cut");
+    assert!(lines[first - 2].starts_with("G0 ") && lines[first - 2].ends_with(" S0"));
+    assert_eq!(m9.len(), 1);
+    assert!(m9[0] > last);
+    assert_eq!(
+        &lines[m9[0] - 1..],
+        &["M5 S0", "M9", "G0 X0 Y0", "M2"],
+        "beam off, air off, home, end"
+    );
+    // The diode profile has none; --air-assist decides for one job either way.
+    let diode = gcode_with(d, "diode", &["--machine", "diode-400"]).unwrap();
+    assert!(!diode.contains("M8") && !diode.contains("M9"));
+    let on = gcode_with(d, "on", &["--machine", "diode-400", "--air-assist", "on"]).unwrap();
+    assert_eq!(air_lines(&on).0.len(), 1);
+    let off = gcode_with(
+        d,
+        "off",
+        &["--machine", "co2-600x400", "--air-assist", "off"],
+    )
+    .unwrap();
+    assert!(!off.contains("M8") && !off.contains("M9"));
+    // A material may turn it off (light paper the air would lift).
+    let card = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles/materials/cardstock.toml"),
+    )
+    .unwrap();
+    let still = d.join("still-card.toml");
+    std::fs::write(
+        &still,
+        card.replace("name = \"cardstock\"", "name = \"still-card\"")
+            .replace("passes = 1", "passes = 1\nair_assist = false"),
+    )
+    .unwrap();
+    let quiet = gcode_with(
+        d,
+        "quiet",
+        &["--machine", "co2-600x400", "--material", s(&still)],
+    )
+    .unwrap();
+    assert!(!quiet.contains("M8") && !quiet.contains("M9"));
+    // Air assist is a laser's: refused on a pen, naming the option's subject.
+    let e = gcode_with(d, "pen", &["--machine", "pen-a3", "--air-assist", "on"]).unwrap_err();
+    assert!(e.contains("air assist is for a laser"), "{e}");
+    // The virtual Grbl runs the air-assisted program to the end, laser off.
+    let job = d.join("co2/stencil.gcode");
+    let (ok, out, err) = run(&["send", s(&job), "--dry-run", "--machine", "co2-600x400"]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("laser off") && out.contains("0 bytes overflowed"),
+        "{out}"
+    );
 }

@@ -96,6 +96,10 @@ pub struct CutArgs {
     /// most 5).
     #[arg(long, value_name = "MM", value_parser = parse_blade_offset)]
     pub blade_offset: Option<f64>,
+    /// Laser: air assist (on Grbl's coolant output) on with the beam, M8 before the first cut and
+    /// M9 at the end: on or off [default: the material's air_assist, else the machine's].
+    #[arg(long, value_name = "on|off", value_parser = clap::builder::BoolishValueParser::new())]
+    pub air_assist: Option<bool>,
 }
 
 impl CutArgs {
@@ -119,6 +123,7 @@ impl CutArgs {
                 speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
                 passes: self.passes.unwrap_or(b.passes),
                 blade_offset_mm: self.blade_offset.unwrap_or(b.blade_offset_mm),
+                air_assist: self.air_assist.unwrap_or(b.air_assist),
             },
             None => {
                 let (power, Some(speed)) = (self.power.or((!laser).then_some(100.0)), self.speed)
@@ -136,6 +141,7 @@ impl CutArgs {
                     speed_mm_min: speed,
                     passes: self.passes.unwrap_or(1),
                     blade_offset_mm: self.blade_offset.unwrap_or(0.0),
+                    air_assist: self.air_assist.unwrap_or(laser && machine.air_assist),
                 }
             }
         };
@@ -205,6 +211,7 @@ impl CutArgs {
             || self.speed.is_some()
             || self.passes.is_some()
             || self.blade_offset.is_some()
+            || self.air_assist.is_some()
     }
 }
 
@@ -260,28 +267,10 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         (None, Some(d)) => material_in_report(d)?,
         (None, None) => None,
     };
-    let mut material = match &material_arg {
+    let material = match &material_arg {
         Some(m) => Some(Material::find(m)?.0),
         None => None,
     };
-    // The folder was made for another tool (a laser stencil drawn with a pen, say): its material
-    // has no settings for this machine; take the tool's default material instead and say so. A
-    // material the user named is used as named (and a mismatch is an error).
-    if let (None, Some(m)) = (&a.material, &material) {
-        if m.process.kind() != machine.tool.process() && !a.cut.covers_all(&machine) {
-            let (d, _) = Material::find(machine.default_material())?;
-            eprintln!(
-                "note: report.json's material '{}' is set up for a {}; {} has a {}, so its cut \
-                 settings and kerf come from '{}' (give --material to choose another)",
-                m.name,
-                m.process.kind(),
-                machine.name,
-                machine.tool.kind(),
-                d.name
-            );
-            material = Some(d);
-        }
-    }
     let base = match &material {
         Some(m) if !a.cut.covers_all(&machine) => Some(plan::settings_for(m, &machine)?),
         _ => None,

@@ -22,6 +22,9 @@ pub struct CutSettings {
     /// The writer then overshoots each corner by this much and swivels the blade around it.
     #[serde(default)]
     pub blade_offset_mm: f64,
+    /// Laser only: air assist on with the beam (`M8` before the first cut, `M9` at the end).
+    #[serde(default)]
+    pub air_assist: bool,
 }
 
 /// Which point of the job sits at `--offset`.
@@ -181,6 +184,13 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanErro
     }
     if s.passes == 0 || s.passes > MAX_PASSES {
         return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
+    }
+    if s.air_assist && !matches!(machine.tool, Tool::Laser { .. }) {
+        return bad(format!(
+            "air assist is for a laser; '{}' has a {}: turn it off",
+            machine.name,
+            machine.tool.kind()
+        ));
     }
     if let Tool::Laser { s_max, s_min } = machine.tool {
         if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
@@ -424,6 +434,7 @@ mod tests {
             speed_mm_min: 600.0,
             passes: 1,
             blade_offset_mm: 0.0,
+            air_assist: false,
         }
     }
 

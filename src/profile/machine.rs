@@ -155,6 +155,9 @@ pub struct Machine {
     pub bed: Bed,
     pub motion: Motion,
     pub tool: Tool,
+    /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
+    /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
+    pub air_assist: bool,
 }
 
 impl Machine {
@@ -228,6 +231,8 @@ struct RawTool {
     z_down_mm: Option<f64>,
     plunge_mm_min: Option<f64>,
     overcut_mm: Option<f64>,
+    /// Laser: air assist wired to the coolant output (M8 on, M9 off).
+    air_assist: Option<bool>,
 }
 
 /// What a GRBL machine can be, field by field: every number in a profile must lie in its range
@@ -335,6 +340,11 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             "tool.overcut_mm",
             t.overcut_mm.is_some(),
             &[ToolKind::Knife],
+        ),
+        (
+            "tool.air_assist",
+            t.air_assist.is_some(),
+            &[ToolKind::Laser],
         ),
     ];
     for (field, present, kinds) in foreign {
@@ -449,6 +459,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         bed: raw.bed,
         motion: raw.motion,
         tool,
+        air_assist: t.air_assist.unwrap_or(false),
     })
 }
 
@@ -550,6 +561,17 @@ s_max = 255
     fn field_of_another_tool_is_refused() {
         let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
         assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nair_assist = true",
+        );
+        let e = err(&pen);
+        assert!(e.contains("tool.air_assist") && e.contains("pen"), "{e}");
+        let air = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nair_assist = true"),
+            Path::new("a"),
+        );
+        assert!(air.unwrap().air_assist);
     }
 
     #[test]

@@ -148,6 +148,11 @@ pub struct LaserSettings {
     pub speed_mm_min: f64,
     /// Passes over each loop (1..=50).
     pub passes: u32,
+    /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
+    /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
+    /// paper it can lift the sheet.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub air_assist: Option<bool>,
 }
 
 /// `[knife]`: a drag-knife cutting plotter.
