@@ -413,3 +413,66 @@ fn air_assist_goes_on_before_the_first_cut_and_off_with_the_beam() {
         "{out}"
     );
 }
+
+/// A laser program whose line 4 cuts to X 612, past the 600 mm bed of co2-600x400.
+const OFF_BED: &str =
+    "G21 G90\nM4 S0 F1000\nG0 X10 Y10\nG1 X612 S500\nG1 X100\nG1 Y50\nM5\nG0 X0 Y0\nM2\n";
+
+#[test]
+fn send_estimate_and_simulate_refuse_a_job_off_the_bed() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("wide.gcode");
+    std::fs::write(&job, OFF_BED).unwrap();
+    let png = dir.path().join("sim.png");
+    let want = "job reaches X 612.0 mm at line 4; the bed of co2-600x400 is 600 mm wide (X 0..600)";
+    for cmd in [
+        vec!["send", s(&job), "--dry-run"],
+        vec!["estimate", s(&job)],
+        vec!["simulate", s(&job), "-o", s(&png)],
+    ] {
+        let mut args = cmd.clone();
+        args.extend_from_slice(&["--machine", "co2-600x400"]);
+        let (ok, out, err) = run(&args);
+        assert!(!ok, "{cmd:?}: accepted: {out}");
+        assert!(
+            err.contains(want) && err.contains("wide.gcode"),
+            "{cmd:?}: {err}"
+        );
+        // Refused before anything ran: no connection, no stream, no picture.
+        assert!(
+            !err.contains("connected") && !out.contains("sent") && !png.exists(),
+            "{cmd:?}: {out} {err}"
+        );
+        // --no-bed-check lets it through (a work zero set elsewhere).
+        args.push("--no-bed-check");
+        let (ok, _, err) = run(&args);
+        assert!(ok, "{cmd:?} --no-bed-check: {err}");
+    }
+    // Below zero, on the default machine: the side and the line are named.
+    let low = dir.path().join("low.gcode");
+    std::fs::write(&low, "G21 G90\nG0 X10 Y10\nG1 Y-5 F500\nG0 X0 Y0\n").unwrap();
+    let (ok, _, err) = run(&["estimate", s(&low)]);
+    assert!(
+        !ok && err.contains(
+            "job reaches Y -5.0 mm at line 3; the bed of diode-400 is 400 mm deep (Y 0..400)"
+        ),
+        "{err}"
+    );
+    // Resuming after the part that leaves the bed, from a point on it, is allowed: only the
+    // moves that will run are checked (the restore goes to X100 Y10).
+    let (ok, out, err) = run(&[
+        "send",
+        s(&job),
+        "--dry-run",
+        "--machine",
+        "co2-600x400",
+        "--from-line",
+        "6",
+    ]);
+    assert!(ok && out.contains("sent"), "{out} {err}");
+    // The same job 12 mm shorter fits: streamed whole, without any flag.
+    let fits = dir.path().join("fits.gcode");
+    std::fs::write(&fits, OFF_BED.replace("X612", "X600")).unwrap();
+    let (ok, out, err) = run(&["send", s(&fits), "--dry-run", "--machine", "co2-600x400"]);
+    assert!(ok && out.contains("laser off"), "{out} {err}");
+}

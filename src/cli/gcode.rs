@@ -296,14 +296,42 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Refuse a program whose moves leave the machine's bed, before anything moves: the bed check
+/// `send`, `estimate` and `simulate` share (`make` and `gcode` check while planning). A file's
+/// coordinates are taken as machine coordinates, work zero at the machine's origin, as stencil
+/// writes them; `skip` (`--no-bed-check`) is for a work zero set elsewhere.
+pub fn check_bed(
+    file: &Path,
+    moves: &[stencil::machine::gcode::Move],
+    machine: &Machine,
+    skip: bool,
+) -> anyhow::Result<()> {
+    if skip {
+        return Ok(());
+    }
+    machine.check_moves(moves).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: {e}; refused. Name the machine it was made for with --machine, or move the job; \
+             if your work zero is set away from the machine's origin, --no-bed-check skips this \
+             check",
+            file.display()
+        )
+    })
+}
+
 /// `stencil estimate job.gcode`: time and distances of any G-code file.
 #[derive(Args, Debug)]
 pub struct EstimateArgs {
     /// The G-code file.
     pub file: PathBuf,
-    /// Machine profile whose motion limits to use (name or .toml path) [default: diode-400].
+    /// Machine profile whose motion limits to use, and whose bed the job must stay on (name or
+    /// .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
@@ -311,6 +339,7 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("{}: cannot read", a.file.display()))?;
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let e = plan::estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
     println!(
         "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \

@@ -65,9 +65,13 @@ pub struct SendArgs {
     #[arg(long)]
     pub rx_buffer: Option<usize>,
     /// Machine profile whose motion limits the remaining-time estimate (and a --realtime dry run)
-    /// use (name or .toml path) [default: diode-400].
+    /// use, and whose bed the job must stay on (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
@@ -81,10 +85,14 @@ pub struct SimulateArgs {
     /// Longer side of the picture, in pixels.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(16..=20000))]
     pub size_px: u32,
-    /// Machine profile whose motion limits the time estimate uses (name or .toml path)
-    /// [default: diode-400].
+    /// Machine profile whose motion limits the time estimate uses, and whose bed the job must
+    /// stay on (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 /// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
@@ -110,6 +118,7 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let moves = simulate::moves(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
+    super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let rule = machine.cut_rule(&moves);
     let est = estimate_with(&moves, &machine.limits(), rule);
     let d = simulate::draw(&moves, a.size_px, rule);
@@ -313,7 +322,18 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
-    let limits = machine_profile::load(a.machine.as_deref())?.limits();
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    // The moves that will run (from --from-line on) must stay on the bed: checked before the
+    // port is opened.
+    let from = a.from_line as usize;
+    let to_run: Vec<Move> = job
+        .moves
+        .iter()
+        .filter(|m| m.line >= from)
+        .copied()
+        .collect();
+    super::gcode::check_bed(&a.file, &to_run, &machine, a.no_bed_check)?;
+    let limits = machine.limits();
     let cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse

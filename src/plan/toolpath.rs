@@ -361,7 +361,7 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
         .for_each(|p| grow(p, reach));
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;
-    if min[0] < -eps || min[1] < -eps || max[0] > bw + eps || max[1] > bh + eps {
+    if machine.check_extent(min, max, None).is_err() {
         let too_big = max[0] - min[0] > bw + eps || max[1] - min[1] > bh + eps;
         return Err(PlanError::DoesNotFit {
             machine: machine.name.clone(),

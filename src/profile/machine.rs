@@ -160,7 +160,73 @@ pub struct Machine {
     pub air_assist: bool,
 }
 
+/// A job that leaves the bed: the first side it crosses, how far it reaches, and the line of the
+/// move that reaches there (for G-code files).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "job reaches {axis} {reached:.1} mm{}; the bed of {machine} is {size} mm {dim} ({axis} 0..{size})",
+    line.map(|l| format!(" at line {l}")).unwrap_or_default()
+)]
+pub struct OffBed {
+    pub machine: String,
+    pub axis: char,
+    pub reached: f64,
+    /// The bed's width (X) or depth (Y), mm.
+    pub size: f64,
+    pub dim: &'static str,
+    pub line: Option<usize>,
+}
+
+/// How far past the bed's edge still counts as on it (rounding of written coordinates), mm.
+pub const BED_EPS_MM: f64 = 1e-3;
+
 impl Machine {
+    /// Check that everything from `min` to `max` (machine mm; the axes point into the bed from
+    /// its origin corner, so the bed is X 0..width, Y 0..height) lies on the bed: the one check
+    /// `make`, `gcode`, `send`, `estimate` and `simulate` share. `lines` names the program lines
+    /// reaching `min` and `max` per axis, where known. The side exceeded most is reported.
+    pub fn check_extent(
+        &self,
+        min: [f64; 2],
+        max: [f64; 2],
+        lines: Option<([usize; 2], [usize; 2])>,
+    ) -> Result<(), OffBed> {
+        let size = [self.bed.width_mm, self.bed.height_mm];
+        let mut worst: Option<(f64, OffBed)> = None;
+        for a in 0..2 {
+            for (reached, over, line) in [
+                (min[a], -min[a], lines.map(|l| l.0[a])),
+                (max[a], max[a] - size[a], lines.map(|l| l.1[a])),
+            ] {
+                if over > BED_EPS_MM && worst.as_ref().is_none_or(|w| over > w.0) {
+                    worst = Some((
+                        over,
+                        OffBed {
+                            machine: self.name.clone(),
+                            axis: ['X', 'Y'][a],
+                            reached,
+                            size: size[a],
+                            dim: ["wide", "deep"][a],
+                            line: line.filter(|&l| l > 0),
+                        },
+                    ));
+                }
+            }
+        }
+        match worst {
+            Some((_, e)) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// [`Machine::check_extent`] for the moves of a G-code program.
+    pub fn check_moves(&self, moves: &[Move]) -> Result<(), OffBed> {
+        match crate::machine::gcode::extent(moves) {
+            Some(e) => self.check_extent(e.min, e.max, Some((e.min_line, e.max_line))),
+            None => Ok(()),
+        }
+    }
+
     /// Which moves of `moves` cut on this machine: the rule the program itself shows
     /// ([`CutRule::infer`]), except that a pen servo on the spindle output draws in G0 too.
     pub fn cut_rule(&self, moves: &[Move]) -> CutRule {
