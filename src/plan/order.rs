@@ -155,6 +155,43 @@ pub fn depths(loops: &[Loop]) -> Vec<usize> {
     containers(loops).iter().map(Vec::len).collect()
 }
 
+/// For each loop, the loops that must be cut before it: those lying in its freed region; for the
+/// largest outermost region, every other region; for the sheet's outline, every region. These are
+/// the true constraints; [`groups`] layers them (and adds some).
+pub fn before(loops: &[Loop], groups: &[Vec<usize>]) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new(); loops.len()];
+    for (i, cs) in containers(loops).into_iter().enumerate() {
+        for j in cs {
+            out[j].push(i);
+        }
+    }
+    let regions: Vec<usize> = (0..loops.len()).filter(|&i| !loops[i].outline).collect();
+    // The group after the last region group is the outline; the largest region is alone just
+    // before it when it was moved there.
+    let last_regions = groups
+        .iter()
+        .rev()
+        .find(|g| g.iter().all(|&i| !loops[i].outline));
+    if let Some(g) = last_regions {
+        if g.len() == 1
+            && groups
+                .iter()
+                .filter(|g| g.iter().all(|&i| !loops[i].outline))
+                .count()
+                > 1
+        {
+            let largest = g[0];
+            out[largest] = regions.iter().copied().filter(|&i| i != largest).collect();
+        }
+    }
+    for i in 0..loops.len() {
+        if loops[i].outline {
+            out[i] = regions.clone();
+        }
+    }
+    out
+}
+
 /// Groups of loop indices, to be cut group after group.
 pub fn groups(loops: &[Loop]) -> Vec<Vec<usize>> {
     let depth = depths(loops);

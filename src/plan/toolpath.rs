@@ -383,8 +383,30 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
 
     let home = [0.0, 0.0];
     let naive_travel_mm = travel::naive_travel(&loops, home);
+    // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
+    // depth layers optimised one by one, nearest neighbour under the constraints, and the input
+    // order itself where it keeps them.
     let groups = order::groups(&loops);
-    let sequence = travel::optimise(&loops, &groups, home);
+    let before = order::before(&loops, &groups);
+    let mut candidates = vec![
+        travel::optimise(&loops, &groups, home),
+        travel::greedy_constrained(&loops, &before, home),
+    ];
+    let mut input: Vec<(usize, usize)> = (0..loops.len()).map(|i| (i, 0)).collect();
+    if travel::respects(&input, &before) {
+        travel::refine_starts(&loops, &mut input, home);
+        candidates.push(input);
+    }
+    // The layered order always keeps them (first in the list); the others are checked.
+    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(&loops, c, home);
+    let mut sequence = candidates.swap_remove(0);
+    let mut best = travel_of_seq(&sequence);
+    for c in candidates {
+        let t = travel_of_seq(&c);
+        if t < best - 1e-9 && travel::respects(&c, &before) {
+            (sequence, best) = (c, t);
+        }
+    }
     let mut ordered = Vec::with_capacity(loops.len());
     for (i, start) in sequence {
         let mut l = loops[i].clone();
