@@ -34,6 +34,7 @@ fn bench(c: &mut Criterion) {
         speed_mm_min: 1500.0,
         passes: 1,
         blade_offset_mm: 0.0,
+        air_assist: false,
     });
     for n in [10, 30] {
         let g = grid(n);

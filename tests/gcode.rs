@@ -79,6 +79,7 @@ fn settings() -> CutSettings {
         speed_mm_min: 1500.0,
         passes: 1,
         blade_offset_mm: 0.0,
+        air_assist: false,
     }
 }
 
@@ -261,10 +262,19 @@ fn check_program(text: &str, machine: &Machine) -> Run {
             "tool on during G0 {from:?} -> {to:?}"
         );
     }
-    // The end: the tool switched off with M5, then only the return move.
+    // The end: the tool switched off with M5 (and air off with M9), the return move, M2.
     let last_m5 = r.commands.iter().rposition(|c| c == "M5").expect("an M5");
-    let after: Vec<&String> = r.commands[last_m5 + 1..].iter().collect();
-    assert_eq!(after, vec!["G0"], "after the last M5 only the return move");
+    let after: Vec<&str> = r.commands[last_m5 + 1..]
+        .iter()
+        .map(String::as_str)
+        .filter(|c| *c != "M9")
+        .collect();
+    assert_eq!(
+        after,
+        vec!["G0", "M2"],
+        "after the last M5 only the return and M2"
+    );
+    assert_eq!(text.lines().last(), Some("M2"), "the program ends with M2");
     let (_, end, rapid, on) = r.moves.last().unwrap();
     assert!(
         *rapid && !on && end[0] == 0.0 && end[1] == 0.0,

@@ -46,6 +46,7 @@ fn planned(machine: &Machine) -> String {
         } else {
             0.0
         },
+        air_assist: false,
     };
     gcode_for(&geom, machine, &PlanConfig::new(settings), &[])
         .unwrap()

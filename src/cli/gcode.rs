@@ -96,6 +96,10 @@ pub struct CutArgs {
     /// most 5).
     #[arg(long, value_name = "MM", value_parser = parse_blade_offset)]
     pub blade_offset: Option<f64>,
+    /// Laser: air assist (on Grbl's coolant output) on with the beam, M8 before the first cut and
+    /// M9 at the end: on or off [default: the material's air_assist, else the machine's].
+    #[arg(long, value_name = "on|off", value_parser = clap::builder::BoolishValueParser::new())]
+    pub air_assist: Option<bool>,
 }
 
 impl CutArgs {
@@ -119,6 +123,7 @@ impl CutArgs {
                 speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
                 passes: self.passes.unwrap_or(b.passes),
                 blade_offset_mm: self.blade_offset.unwrap_or(b.blade_offset_mm),
+                air_assist: self.air_assist.unwrap_or(b.air_assist),
             },
             None => {
                 let (power, Some(speed)) = (self.power.or((!laser).then_some(100.0)), self.speed)
@@ -136,6 +141,7 @@ impl CutArgs {
                     speed_mm_min: speed,
                     passes: self.passes.unwrap_or(1),
                     blade_offset_mm: self.blade_offset.unwrap_or(0.0),
+                    air_assist: self.air_assist.unwrap_or(laser && machine.air_assist),
                 }
             }
         };
@@ -205,6 +211,7 @@ impl CutArgs {
             || self.speed.is_some()
             || self.passes.is_some()
             || self.blade_offset.is_some()
+            || self.air_assist.is_some()
     }
 }
 
@@ -289,14 +296,42 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Refuse a program whose moves leave the machine's bed, before anything moves: the bed check
+/// `send`, `estimate` and `simulate` share (`make` and `gcode` check while planning). A file's
+/// coordinates are taken as machine coordinates, work zero at the machine's origin, as stencil
+/// writes them; `skip` (`--no-bed-check`) is for a work zero set elsewhere.
+pub fn check_bed(
+    file: &Path,
+    moves: &[stencil::machine::gcode::Move],
+    machine: &Machine,
+    skip: bool,
+) -> anyhow::Result<()> {
+    if skip {
+        return Ok(());
+    }
+    machine.check_moves(moves).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: {e}; refused. Name the machine it was made for with --machine, or move the job; \
+             if your work zero is set away from the machine's origin, --no-bed-check skips this \
+             check",
+            file.display()
+        )
+    })
+}
+
 /// `stencil estimate job.gcode`: time and distances of any G-code file.
 #[derive(Args, Debug)]
 pub struct EstimateArgs {
     /// The G-code file.
     pub file: PathBuf,
-    /// Machine profile whose motion limits to use (name or .toml path) [default: diode-400].
+    /// Machine profile whose motion limits to use, and whose bed the job must stay on (name or
+    /// .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
@@ -304,7 +339,8 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("{}: cannot read", a.file.display()))?;
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
-    let e = plan::estimate(&moves, &machine.limits());
+    check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
+    let e = plan::estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
     println!(
         "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
          length / feed alone would say {}",

@@ -326,6 +326,13 @@ fn change_parts(f: &Fidelity) -> String {
 }
 
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
+    let emit_gcode = a.physical.emit.contains(&EmitKind::Gcode);
+    // Without --material, a G-code job gets a material set up for the machine's tool.
+    let default_material = if emit_gcode {
+        a.machine.machine()?.default_material()
+    } else {
+        stencil::profile::material::DEFAULT_MATERIAL
+    };
     let cfg = MakeConfig {
         out_dir: a
             .out
@@ -336,7 +343,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
-        physical: a.physical.to_config()?,
+        physical: a.physical.to_config(default_material)?,
         gcode: None,
         progress: None,
     };
@@ -347,7 +354,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             &a.machine,
             &a.cut,
             &cfg.physical.material,
-            a.physical.emit.contains(&EmitKind::Gcode),
+            emit_gcode,
         )?,
         ..cfg
     };

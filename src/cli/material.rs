@@ -50,9 +50,11 @@ pub struct PhysicalArgs {
     pub dpi: Option<f64>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
     /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
-    /// drive the bridges, the filter and the check.
-    #[arg(long, default_value = DEFAULT_MATERIAL)]
-    pub material: String,
+    /// drive the bridges, the filter and the check. [default: cardstock; with --emit gcode, one
+    /// set up for the machine's tool: cardstock for a laser, cardstock-knife for a drag knife,
+    /// plotter-paper for a pen]
+    #[arg(long, value_name = "NAME|FILE")]
+    pub material: Option<String>,
     /// Largest distance (mm) simplification may move an outline: 0 (off) or 0.001 to 10.
     #[arg(long, default_value_t = 0.05, value_parser = super::bounds::tolerance_mm)]
     pub tolerance_mm: f64,
@@ -107,8 +109,10 @@ fn size(width_mm: Option<f64>, dpi: Option<f64>) -> Size {
 }
 
 impl PhysicalArgs {
-    pub fn to_config(&self) -> anyhow::Result<PhysicalConfig> {
-        let (material, source) = Material::find(&self.material)?;
+    /// The configuration, with `default_material` when --material is not given.
+    pub fn to_config(&self, default_material: &str) -> anyhow::Result<PhysicalConfig> {
+        let (material, source) =
+            Material::find(self.material.as_deref().unwrap_or(default_material))?;
         let has = |k: EmitKind| self.emit.contains(&k);
         Ok(PhysicalConfig {
             size: size(self.width_mm, self.dpi),

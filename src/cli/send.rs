@@ -25,7 +25,7 @@ use stencil::machine::stream::{
     ResumeLift, StreamConfig,
 };
 use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig, VirtualGrbl};
-use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
+use stencil::plan::estimate::{estimate, estimate_with, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
@@ -76,7 +76,7 @@ pub struct SendArgs {
     #[arg(long)]
     pub rx_buffer: Option<usize>,
     /// Machine profile whose motion limits the remaining-time estimate (and a --realtime dry run)
-    /// use (name or .toml path) [default: diode-400].
+    /// use, and whose bed the job must stay on (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
     /// A laser job needs Grbl's laser mode ($32=1): if it is off, set it (instead of refusing).
@@ -91,6 +91,10 @@ pub struct SendArgs {
     /// `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
     #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
     pub dry_run_fault: Vec<Fault>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 /// `--dry-run-setting $32=0`.
@@ -152,10 +156,14 @@ pub struct SimulateArgs {
     /// Longer side of the picture, in pixels.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(16..=20000))]
     pub size_px: u32,
-    /// Machine profile whose motion limits the time estimate uses (name or .toml path)
-    /// [default: diode-400].
+    /// Machine profile whose motion limits the time estimate uses, and whose bed the job must
+    /// stay on (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
 }
 
 /// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
@@ -181,8 +189,10 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let moves = simulate::moves(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let est = estimate(&moves, &machine.limits());
-    let d = simulate::draw(&moves, a.size_px);
+    super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
+    let rule = machine.cut_rule(&moves);
+    let est = estimate_with(&moves, &machine.limits(), rule);
+    let d = simulate::draw(&moves, a.size_px, rule);
     export::write_atomic(
         &a.output,
         &export::png::encode_rgb(d.width, d.height, &d.rgb),
@@ -198,7 +208,7 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         moves.len()
     );
     println!(
-        "wrote {} ({}×{} px, {:.3} mm per px; red = laser on, blue = travel)",
+        "wrote {} ({}×{} px, {:.3} mm per px; red = cutting (laser on, pen or blade down), blue = travel)",
         a.output.display(),
         d.width,
         d.height,
@@ -480,6 +490,15 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         from_line = line;
     }
     let machine = machine_profile::load(machine_arg.as_deref())?;
+    // The moves that will run (from --from-line or the recovered line on) must stay on the bed:
+    // checked before the port is opened.
+    let to_run: Vec<Move> = job
+        .moves
+        .iter()
+        .filter(|m| m.line >= from_line)
+        .copied()
+        .collect();
+    super::gcode::check_bed(&a.file, &to_run, &machine, a.no_bed_check)?;
     let limits = machine.limits();
     let home_first = a.recover && machine.motion.homing;
     if home_first {

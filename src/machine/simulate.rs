@@ -1,12 +1,13 @@
 //! `stencil simulate`: draw what a G-code program would make the machine do, without a machine.
-//! Laser-on moves in one colour, travel in another, Y up (machine convention) flipped to image rows,
-//! scaled to the job's extent.
+//! Cutting moves (laser firing, pen or blade down: one [`CutRule`] with the time estimate) in one
+//! colour, travel in another, Y up (machine convention) flipped to image rows, scaled to the
+//! job's extent.
 
-use super::gcode::{self, Move};
+use super::gcode::{self, CutRule, Move};
 
-/// Colour of moves with the laser firing.
+/// Colour of cutting moves (laser firing, pen or blade down).
 pub const CUT_RGB: [u8; 3] = [200, 20, 20];
-/// Colour of travel (G0, or G1 with the laser off).
+/// Colour of travel (G0, or any move with the tool off or lifted).
 pub const TRAVEL_RGB: [u8; 3] = [120, 170, 235];
 const BACKGROUND: [u8; 3] = [255, 255, 255];
 
@@ -28,8 +29,9 @@ pub fn moves(name: &str, text: &str) -> Result<Vec<Move>, super::MachineError> {
     })
 }
 
-/// Draw the moves into a picture whose longer side is `max_px` pixels (plus a margin).
-pub fn draw(moves: &[Move], max_px: u32) -> Drawing {
+/// Draw the moves into a picture whose longer side is `max_px` pixels (plus a margin); `rule`
+/// says which moves cut (the one the estimate uses, so the picture and the numbers agree).
+pub fn draw(moves: &[Move], max_px: u32, rule: CutRule) -> Drawing {
     let margin = 8u32;
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for m in moves {
@@ -60,7 +62,7 @@ pub fn draw(moves: &[Move], max_px: u32) -> Drawing {
     // Travel first, so cuts are drawn over it.
     for cut in [false, true] {
         let colour = if cut { CUT_RGB } else { TRAVEL_RGB };
-        for m in moves.iter().filter(|m| is_cut(m) == cut) {
+        for m in moves.iter().filter(|m| rule.cuts(m) == cut) {
             let (a, b) = (to_px(m.from), to_px(m.to));
             line(&mut rgb, width, height, a, b, colour);
         }
@@ -71,11 +73,6 @@ pub fn draw(moves: &[Move], max_px: u32) -> Drawing {
         rgb,
         mm_per_px,
     }
-}
-
-/// The laser fires on this move (laser mode: only feed moves with power).
-pub fn is_cut(m: &Move) -> bool {
-    !m.rapid && m.power > 0.0
 }
 
 fn line(rgb: &mut [u8], w: u32, h: u32, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
@@ -105,7 +102,7 @@ mod tests {
     fn cut_and_travel_colours_y_up() {
         // Travel along y = 0 (bottom), cut along y = 10 (top).
         let m = moves("t", "G0 X0 Y0\nG0 X10\nM4 S500\nG0 Y10\nG1 X0 F600\nM5\n").unwrap();
-        let d = draw(&m, 101);
+        let d = draw(&m, 101, CutRule::infer(&m));
         assert_eq!((d.width, d.height), (117, 117));
         // Bottom edge of the job (y = 0) is near the bottom of the image: travel colour.
         assert_eq!(px(&d, 58, 108), TRAVEL_RGB);
@@ -113,6 +110,28 @@ mod tests {
         assert_eq!(px(&d, 58, 8), CUT_RGB);
         // The middle is empty.
         assert_eq!(px(&d, 58, 58), BACKGROUND);
+    }
+
+    /// A pen on Z (no spindle at all): the lines drawn with the pen down are cut colour, the
+    /// lifted travel is not. Before one rule served both, simulate drew such jobs as all travel.
+    #[test]
+    fn pen_on_z_is_drawn_as_cutting() {
+        let m = moves(
+            "t",
+            "G0 Z5\nG0 X0 Y0\nG0 X10\nG1 Z0 F500\nG1 Y10 F1000\nG0 Z5\nG0 X0\n",
+        )
+        .unwrap();
+        let rule = CutRule::infer(&m);
+        assert_eq!(
+            rule,
+            CutRule::ZDown {
+                down_at_or_below: 0.0
+            }
+        );
+        let d = draw(&m, 101, rule);
+        // The pen-down line X = 10 is the image's right edge; the lifted return along Y = 10 the top.
+        assert_eq!(px(&d, 108, 58), CUT_RGB);
+        assert_eq!(px(&d, 58, 8), TRAVEL_RGB);
     }
 
     #[test]

@@ -19,7 +19,7 @@
 //! Not modelled: dwells, spindle-synchronised stops (M3/M5 stop motion; laser S changes do not),
 //! overrides, and the serial link (a slow sender can starve the planner on tiny segments).
 
-use crate::machine::gcode::Move;
+use crate::machine::gcode::{CutRule, Move};
 
 /// Blocks in Grbl's planner buffer (the look-ahead window).
 pub const PLANNER_BLOCKS: usize = 15;
@@ -99,22 +99,15 @@ pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
     }
 }
 
-/// Whether a move cuts. Programs that switch a spindle/laser on: moves with power. Programs that
-/// never do (a pen or knife on Z): feed moves that go somewhere in X/Y.
-fn cutting_rule(moves: &[Move]) -> impl Fn(&Move) -> bool {
-    let uses_spindle = moves.iter().any(|m| m.power > 0.0);
-    move |m: &Move| {
-        if uses_spindle {
-            m.power > 0.0
-        } else {
-            !m.rapid && ((m.to[0] - m.from[0]).abs() > 1e-12 || (m.to[1] - m.from[1]).abs() > 1e-12)
-        }
-    }
+/// Estimate a program's run time; which moves cut is [`CutRule::infer`]red from the program.
+pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
+    estimate_with(moves, limits, CutRule::infer(moves))
 }
 
-/// Estimate a program's run time.
-pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
-    let is_cut = cutting_rule(moves);
+/// Estimate with a given cut rule (a machine profile may refine the inferred one, see
+/// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
+pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Estimate {
+    let is_cut = |m: &Move| rule.cuts(m);
     let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
     let mut prev: Option<(usize, [f64; 3])> = None;
     let mut e = Estimate::default();

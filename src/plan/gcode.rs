@@ -2,9 +2,16 @@
 //!
 //! Rules (from Grbl 1.1h's parser and the users' complaints, see shared/machines.md):
 //! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
-//! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, without
-//! parentheses; every line far below Grbl's 80-character limit; the tool off on every G0 (laser:
-//! `S0` on the G0 line, pen/knife: lifted); `M5` and a return to X0 Y0 at the end.
+//! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
+//! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
+//! them; brackets mean nothing to any reader) and wrapped at word breaks onto further `;` lines
+//! rather than cut off; every line within Grbl's 80-character limit; the tool off on every G0
+//! (laser: `S0` on the G0 line, pen/knife: lifted); at the end `M5` (and `M9` with air assist), a
+//! return to X0 Y0 and `M2`, the program end Grbl and G-code checkers expect.
+//!
+//! Air assist (laser, `air_assist` in the machine or material profile): `M8` (Grbl's flood coolant
+//! output, where air assist pumps are wired) right before the first cut, `M9` with the final `M5`.
+//! `M2` turns both off again in Grbl, so a program cut short still ends dark and quiet.
 //!
 //! Laser jobs use `M4` (dynamic power) and change power with S words on G0/G1 lines, which Grbl's
 //! laser mode (`$32=1`) applies without stopping motion; M3/M4/M5 changes would stop the planner.
@@ -29,20 +36,49 @@ pub fn num(v: f64) -> String {
     s.to_string()
 }
 
-/// A comment line: `; text`, printable ASCII without parentheses, cut to fit [`MAX_LINE`].
+/// Comment lines: `; text`, printable ASCII with parentheses as brackets, wrapped at spaces so
+/// each line fits [`MAX_LINE`] (a word longer than a line is split); nothing is cut off.
 fn comment(out: &mut String, text: &str) {
     let clean: String = text
         .chars()
         .map(|c| match c {
-            '(' | ')' => ' ',
+            '(' => '[',
+            ')' => ']',
             c if c.is_ascii_graphic() || c == ' ' => c,
             _ => '?',
         })
-        .take(MAX_LINE - 2)
         .collect();
-    out.push_str("; ");
-    out.push_str(clean.trim_end());
-    out.push('\n');
+    let width = MAX_LINE - 2;
+    let mut line = String::new();
+    let mut flush = |line: &mut String| {
+        out.push_str("; ");
+        out.push_str(line.trim_end());
+        out.push('\n');
+        line.clear();
+    };
+    for word in clean.split(' ').filter(|w| !w.is_empty()) {
+        let mut word = word;
+        if !line.is_empty() && line.len() + 1 + word.len() > width {
+            flush(&mut line);
+        }
+        // A word longer than a line (a long path): split it.
+        while word.len() > width {
+            if !line.is_empty() {
+                flush(&mut line);
+            }
+            let (head, tail) = word.split_at(width);
+            line.push_str(head);
+            flush(&mut line);
+            word = tail;
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() || clean.trim().is_empty() {
+        flush(&mut line);
+    }
 }
 
 /// Emits moves, skipping those that round to where the head already is.
@@ -50,6 +86,8 @@ struct Writer {
     out: String,
     /// The head position as written (rounded strings).
     at: (String, String),
+    /// Air assist is to be turned on before the next cut (`M8`).
+    air_pending: bool,
 }
 
 impl Writer {
@@ -144,9 +182,12 @@ pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
 pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
     let s = &job.settings;
     let feed = num(s.speed_mm_min);
+    let laser = matches!(machine.tool, Tool::Laser { .. });
+    let air = laser && s.air_assist;
     let mut w = Writer {
         out: String::new(),
         at: (String::new(), String::new()),
+        air_pending: air,
     };
     let o = &mut w.out;
     comment(
@@ -174,6 +215,12 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
                 o,
                 "laser: set Grbl laser mode $32=1 first; M4 dynamic power, off in G0",
             );
+            if air {
+                comment(
+                    o,
+                    "air assist: M8 on before the first cut, M9 off at the end",
+                );
+            }
             comment(
                 o,
                 &format!(
@@ -240,9 +287,13 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
         Tool::Laser { .. } => w.line("M5 S0"),
         _ => w.line("M5"),
     }
-    // The return move, written even if the head is already there (the file always ends with it).
+    if air {
+        w.line("M9");
+    }
+    // The return move, written even if the head is already there, then the program end.
     let home = job.home;
     w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
+    w.line("M2");
     w.out
 }
 
@@ -269,6 +320,10 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, job: &Job) {
     }
     if let Tool::Pen(PenLift::Spindle { down_s }) = machine.tool {
         w.line(&format!("M3 S{}", num(down_s)));
+    }
+    if w.air_pending {
+        w.line("M8");
+        w.air_pending = false;
     }
     // The first cutting move carries the power and the feed.
     let mut first = match machine.tool {
@@ -343,9 +398,32 @@ mod tests {
     }
 
     #[test]
-    fn comments_are_clean_and_short() {
+    fn comments_wrap_whole_words_and_keep_brackets() {
         let mut s = String::new();
-        comment(&mut s, &format!("a (b) {}\n", "x".repeat(200)));
-        assert!(s.len() <= MAX_LINE + 1 && !s.contains('(') && s.matches('\n').count() == 1);
+        let text = format!(
+            "Pen plotter, A3 bed (420 x 297 mm), pen on Z; {} end",
+            "word ".repeat(30)
+        );
+        comment(&mut s, &text);
+        let lines: Vec<&str> = s.lines().collect();
+        assert!(lines.len() >= 2, "{s}");
+        for l in &lines {
+            assert!(l.starts_with("; ") && l.len() <= MAX_LINE, "{l}");
+        }
+        assert!(s.contains("A3 bed [420 x 297 mm], pen on Z"), "{s}");
+        // Nothing lost: the words, joined back, are the text.
+        let back: Vec<&str> = lines.iter().flat_map(|l| l[2..].split(' ')).collect();
+        let want: Vec<String> = text
+            .replace('(', "[")
+            .replace(')', "]")
+            .split_whitespace()
+            .map(String::from)
+            .collect();
+        assert_eq!(back, want);
+        // A word longer than a line is split, not cut.
+        let mut s = String::new();
+        comment(&mut s, &format!("from /{}", "p".repeat(200)));
+        assert_eq!(s.matches('p').count(), 200);
+        assert!(s.lines().all(|l| l.len() <= MAX_LINE));
     }
 }

@@ -39,18 +39,21 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
             speed_mm_min: l.speed_mm_min,
             passes: l.passes,
             blade_offset_mm: 0.0,
+            air_assist: l.air_assist.unwrap_or(machine.air_assist),
         },
         (Process::Knife(k), Tool::Knife { .. }) => CutSettings {
             power_pct: 100.0,
             speed_mm_min: k.speed_mm_s * 60.0,
             passes: k.passes,
             blade_offset_mm: k.blade_offset_mm,
+            air_assist: false,
         },
         (Process::Pen(p), Tool::Pen(_)) => CutSettings {
             power_pct: 100.0,
             speed_mm_min: p.speed_mm_min,
             passes: 1,
             blade_offset_mm: 0.0,
+            air_assist: false,
         },
         (Process::Etch(_), _) => {
             return Err(PlanError::Settings(format!(
@@ -62,11 +65,14 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
         (p, t) => {
             return Err(PlanError::Settings(format!(
                 "material '{}' is set up for a {} but machine '{}' has a {}; choose a matching \
-                 --material or --machine, or give --power, --speed and --passes",
+                 --material (for a {}: {}, or see `stencil profiles`) or --machine, or give \
+                 --power, --speed and --passes",
                 material.name,
                 p.kind(),
                 machine.name,
-                t.kind()
+                t.kind(),
+                t.kind(),
+                machine.default_material()
             )))
         }
     };
@@ -96,7 +102,7 @@ pub fn gcode_for(
     let job = plan(geom, machine, cfg)?;
     let text = gcode::write(&job, machine, notes);
     let moves = interpret(&text).map_err(|e| PlanError::Internal(e.to_string()))?;
-    let est = estimate(&moves, &machine.limits());
+    let est = estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
     Ok((
         text,
         GcodeSummary {

@@ -22,6 +22,9 @@ pub struct CutSettings {
     /// The writer then overshoots each corner by this much and swivels the blade around it.
     #[serde(default)]
     pub blade_offset_mm: f64,
+    /// Laser only: air assist on with the beam (`M8` before the first cut, `M9` at the end).
+    #[serde(default)]
+    pub air_assist: bool,
 }
 
 /// Which point of the job sits at `--offset`.
@@ -181,6 +184,13 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanErro
     }
     if s.passes == 0 || s.passes > MAX_PASSES {
         return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
+    }
+    if s.air_assist && !matches!(machine.tool, Tool::Laser { .. }) {
+        return bad(format!(
+            "air assist is for a laser; '{}' has a {}: turn it off",
+            machine.name,
+            machine.tool.kind()
+        ));
     }
     if let Tool::Laser { s_max, s_min } = machine.tool {
         if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
@@ -351,7 +361,7 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
         .for_each(|p| grow(p, reach));
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;
-    if min[0] < -eps || min[1] < -eps || max[0] > bw + eps || max[1] > bh + eps {
+    if machine.check_extent(min, max, None).is_err() {
         let too_big = max[0] - min[0] > bw + eps || max[1] - min[1] > bh + eps;
         return Err(PlanError::DoesNotFit {
             machine: machine.name.clone(),
@@ -373,8 +383,30 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
 
     let home = [0.0, 0.0];
     let naive_travel_mm = travel::naive_travel(&loops, home);
+    // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
+    // depth layers optimised one by one, nearest neighbour under the constraints, and the input
+    // order itself where it keeps them.
     let groups = order::groups(&loops);
-    let sequence = travel::optimise(&loops, &groups, home);
+    let before = order::before(&loops, &groups);
+    let mut candidates = vec![
+        travel::optimise(&loops, &groups, home),
+        travel::greedy_constrained(&loops, &before, home),
+    ];
+    let mut input: Vec<(usize, usize)> = (0..loops.len()).map(|i| (i, 0)).collect();
+    if travel::respects(&input, &before) {
+        travel::refine_starts(&loops, &mut input, home);
+        candidates.push(input);
+    }
+    // The layered order always keeps them (first in the list); the others are checked.
+    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(&loops, c, home);
+    let mut sequence = candidates.swap_remove(0);
+    let mut best = travel_of_seq(&sequence);
+    for c in candidates {
+        let t = travel_of_seq(&c);
+        if t < best - 1e-9 && travel::respects(&c, &before) {
+            (sequence, best) = (c, t);
+        }
+    }
     let mut ordered = Vec::with_capacity(loops.len());
     for (i, start) in sequence {
         let mut l = loops[i].clone();
@@ -424,6 +456,7 @@ mod tests {
             speed_mm_min: 600.0,
             passes: 1,
             blade_offset_mm: 0.0,
+            air_assist: false,
         }
     }
 

@@ -63,7 +63,142 @@ pub fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(u
         }
         out.extend(seq);
     }
+    refine_starts(loops, &mut out, home);
     out
+}
+
+/// Nearest neighbour under precedence: from `home`, go to the nearest loop (nearest vertex) whose
+/// every `before` loop is cut. Finishes what lies inside a region before moving on, where
+/// [`optimise`] over depth layers must visit every inner loop of the job first.
+pub fn greedy_constrained(
+    loops: &[Loop],
+    before: &[Vec<usize>],
+    home: [f64; 2],
+) -> Vec<(usize, usize)> {
+    let n = loops.len();
+    let boxes: Vec<[f64; 4]> = loops
+        .iter()
+        .map(|l| {
+            l.points.iter().fold(
+                [
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NEG_INFINITY,
+                ],
+                |b, p| {
+                    [
+                        b[0].min(p[0]),
+                        b[1].min(p[1]),
+                        b[2].max(p[0]),
+                        b[3].max(p[1]),
+                    ]
+                },
+            )
+        })
+        .collect();
+    let mut waiting: Vec<usize> = before.iter().map(Vec::len).collect();
+    let mut after: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (j, b) in before.iter().enumerate() {
+        for &i in b {
+            after[i].push(j);
+        }
+    }
+    let mut ready: Vec<usize> = (0..n).filter(|&i| waiting[i] == 0).collect();
+    let mut out = Vec::with_capacity(n);
+    let mut cur = home;
+    while !ready.is_empty() {
+        let mut best = (0usize, 0usize, f64::INFINITY);
+        for (r, &k) in ready.iter().enumerate() {
+            if box_dist(&boxes[k], cur) >= best.2 {
+                continue;
+            }
+            let (v, d) = nearest_vertex(&loops[k], cur);
+            if d < best.2 {
+                best = (r, v, d);
+            }
+        }
+        let k = ready.swap_remove(best.0);
+        out.push((k, best.1));
+        cur = loops[k].points[best.1];
+        for &j in &after[k] {
+            waiting[j] -= 1;
+            if waiting[j] == 0 {
+                ready.push(j);
+            }
+        }
+    }
+    // A cycle cannot happen (the constraints follow a strict key), but never drop a loop.
+    if out.len() < n {
+        let mut seen = vec![false; n];
+        out.iter().for_each(|&(i, _)| seen[i] = true);
+        out.extend((0..n).filter(|&i| !seen[i]).map(|i| (i, 0)));
+    }
+    refine_starts(loops, &mut out, home);
+    out
+}
+
+/// Whether a sequence cuts every loop after all its `before` loops.
+pub fn respects(seq: &[(usize, usize)], before: &[Vec<usize>]) -> bool {
+    let mut pos = vec![usize::MAX; before.len()];
+    for (k, &(i, _)) in seq.iter().enumerate() {
+        pos[i] = k;
+    }
+    before
+        .iter()
+        .enumerate()
+        .all(|(j, b)| b.iter().all(|&i| pos[i] < pos[j]))
+}
+
+/// Travel of a sequence of (loop, start vertex) from and back to `home`.
+pub fn sequence_travel(loops: &[Loop], seq: &[(usize, usize)], home: [f64; 2]) -> f64 {
+    let mut cur = home;
+    let mut t = 0.0;
+    for &(i, s) in seq {
+        t += dist(cur, loops[i].points[s]);
+        cur = loops[i].points[s];
+    }
+    t + dist(cur, home)
+}
+
+/// Start-vertex sweeps over the whole sequence: each loop starts at the vertex that makes the
+/// way in from the previous loop plus the way on to the next (or back home) shortest. Groups are
+/// optimised one at a time, each greedily from where the last ended; this lets a loop's start
+/// also look ahead, across group borders (where one-loop groups, as nested rings give, would
+/// otherwise each start just at the nearest vertex to the last).
+pub fn refine_starts(loops: &[Loop], seq: &mut [(usize, usize)], home: [f64; 2]) {
+    let n = seq.len();
+    for _sweep in 0..3 {
+        let mut changed = false;
+        for k in 0..n {
+            let prev = if k == 0 {
+                home
+            } else {
+                loops[seq[k - 1].0].points[seq[k - 1].1]
+            };
+            let next = if k + 1 == n {
+                home
+            } else {
+                loops[seq[k + 1].0].points[seq[k + 1].1]
+            };
+            let (i, s) = seq[k];
+            let cost = |v: usize| dist(prev, loops[i].points[v]) + dist(loops[i].points[v], next);
+            let mut best = (s, cost(s));
+            for v in 0..loops[i].points.len() {
+                let c = cost(v);
+                if c < best.1 - 1e-9 {
+                    best = (v, c);
+                }
+            }
+            if best.0 != s {
+                seq[k].1 = best.0;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
 }
 
 fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize, usize)> {
@@ -354,6 +489,18 @@ mod tests {
         let mut sorted = order.clone();
         sorted.sort_by(f64::total_cmp);
         assert_eq!(order, sorted);
+    }
+
+    #[test]
+    fn nearest_neighbour_waits_for_what_must_come_first() {
+        // Loop 0 is nearest home but must wait for loop 2 (far away); 1 has no constraint.
+        let loops = vec![tiny(1.0, 1.0), tiny(10.0, 0.0), tiny(100.0, 0.0)];
+        let before = vec![vec![2], vec![], vec![]];
+        let seq = greedy_constrained(&loops, &before, [0.0, 0.0]);
+        let order: Vec<usize> = seq.iter().map(|s| s.0).collect();
+        assert_eq!(order, vec![1, 2, 0]);
+        assert!(respects(&seq, &before));
+        assert!(!respects(&[(0, 0), (1, 0), (2, 0)], &before));
     }
 
     #[test]

@@ -13,8 +13,10 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::material::ProcessKind;
 use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 
+use crate::machine::gcode::{CutRule, Move};
 use crate::plan::estimate::MotionLimits;
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
@@ -131,6 +133,15 @@ pub enum Tool {
 }
 
 impl Tool {
+    /// The material process this tool runs (a pen draws, a knife cuts, a laser burns).
+    pub fn process(&self) -> ProcessKind {
+        match self {
+            Tool::Laser { .. } => ProcessKind::Laser,
+            Tool::Pen(_) => ProcessKind::Pen,
+            Tool::Knife { .. } => ProcessKind::Knife,
+        }
+    }
+
     pub fn kind(&self) -> &'static str {
         match self {
             Tool::Laser { .. } => "laser",
@@ -148,9 +159,93 @@ pub struct Machine {
     pub bed: Bed,
     pub motion: Motion,
     pub tool: Tool,
+    /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
+    /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
+    pub air_assist: bool,
 }
 
+/// A job that leaves the bed: the first side it crosses, how far it reaches, and the line of the
+/// move that reaches there (for G-code files).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "job reaches {axis} {reached:.1} mm{}; the bed of {machine} is {size} mm {dim} ({axis} 0..{size})",
+    line.map(|l| format!(" at line {l}")).unwrap_or_default()
+)]
+pub struct OffBed {
+    pub machine: String,
+    pub axis: char,
+    pub reached: f64,
+    /// The bed's width (X) or depth (Y), mm.
+    pub size: f64,
+    pub dim: &'static str,
+    pub line: Option<usize>,
+}
+
+/// How far past the bed's edge still counts as on it (rounding of written coordinates), mm.
+pub const BED_EPS_MM: f64 = 1e-3;
+
 impl Machine {
+    /// Check that everything from `min` to `max` (machine mm; the axes point into the bed from
+    /// its origin corner, so the bed is X 0..width, Y 0..height) lies on the bed: the one check
+    /// `make`, `gcode`, `send`, `estimate` and `simulate` share. `lines` names the program lines
+    /// reaching `min` and `max` per axis, where known. The side exceeded most is reported.
+    pub fn check_extent(
+        &self,
+        min: [f64; 2],
+        max: [f64; 2],
+        lines: Option<([usize; 2], [usize; 2])>,
+    ) -> Result<(), OffBed> {
+        let size = [self.bed.width_mm, self.bed.height_mm];
+        let mut worst: Option<(f64, OffBed)> = None;
+        for a in 0..2 {
+            for (reached, over, line) in [
+                (min[a], -min[a], lines.map(|l| l.0[a])),
+                (max[a], max[a] - size[a], lines.map(|l| l.1[a])),
+            ] {
+                if over > BED_EPS_MM && worst.as_ref().is_none_or(|w| over > w.0) {
+                    worst = Some((
+                        over,
+                        OffBed {
+                            machine: self.name.clone(),
+                            axis: ['X', 'Y'][a],
+                            reached,
+                            size: size[a],
+                            dim: ["wide", "deep"][a],
+                            line: line.filter(|&l| l > 0),
+                        },
+                    ));
+                }
+            }
+        }
+        match worst {
+            Some((_, e)) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// [`Machine::check_extent`] for the moves of a G-code program.
+    pub fn check_moves(&self, moves: &[Move]) -> Result<(), OffBed> {
+        match crate::machine::gcode::extent(moves) {
+            Some(e) => self.check_extent(e.min, e.max, Some((e.min_line, e.max_line))),
+            None => Ok(()),
+        }
+    }
+
+    /// Which moves of `moves` cut on this machine: the rule the program itself shows
+    /// ([`CutRule::infer`]), except that a pen servo on the spindle output draws in G0 too.
+    pub fn cut_rule(&self, moves: &[Move]) -> CutRule {
+        let rule = CutRule::infer(moves);
+        match self.tool {
+            Tool::Pen(PenLift::Spindle { .. }) => rule.for_spindle_pen(),
+            _ => rule,
+        }
+    }
+
+    /// The material used when the user names only this machine: one set up for its tool.
+    pub fn default_material(&self) -> &'static str {
+        super::material::default_for(self.tool.process())
+    }
+
     /// The limits the time estimate needs.
     pub fn limits(&self) -> MotionLimits {
         MotionLimits {
@@ -206,6 +301,8 @@ struct RawTool {
     z_down_mm: Option<f64>,
     plunge_mm_min: Option<f64>,
     overcut_mm: Option<f64>,
+    /// Laser: air assist wired to the coolant output (M8 on, M9 off).
+    air_assist: Option<bool>,
 }
 
 /// What a GRBL machine can be, field by field: every number in a profile must lie in its range
@@ -313,6 +410,11 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             "tool.overcut_mm",
             t.overcut_mm.is_some(),
             &[ToolKind::Knife],
+        ),
+        (
+            "tool.air_assist",
+            t.air_assist.is_some(),
+            &[ToolKind::Laser],
         ),
     ];
     for (field, present, kinds) in foreign {
@@ -427,6 +529,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         bed: raw.bed,
         motion: raw.motion,
         tool,
+        air_assist: t.air_assist.unwrap_or(false),
     })
 }
 
@@ -528,6 +631,17 @@ s_max = 255
     fn field_of_another_tool_is_refused() {
         let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
         assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nair_assist = true",
+        );
+        let e = err(&pen);
+        assert!(e.contains("tool.air_assist") && e.contains("pen"), "{e}");
+        let air = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nair_assist = true"),
+            Path::new("a"),
+        );
+        assert!(air.unwrap().air_assist);
     }
 
     #[test]

@@ -17,6 +17,23 @@ use super::{check_range, parse_toml, resolve, shipped, ProfileError, Shipped};
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
 
+/// The profile used when none is named and the machine draws with a pen: drawing paper.
+pub const DEFAULT_PEN_MATERIAL: &str = "plotter-paper";
+
+/// The profile used when none is named and the machine cuts with a drag knife: cardstock, as for
+/// a laser, with knife settings.
+pub const DEFAULT_KNIFE_MATERIAL: &str = "cardstock-knife";
+
+/// The material used when none is named, for a machine whose tool runs `process`: a laser
+/// material for a laser, and so on, so `--machine pen-a3` alone works.
+pub fn default_for(process: ProcessKind) -> &'static str {
+    match process {
+        ProcessKind::Pen => DEFAULT_PEN_MATERIAL,
+        ProcessKind::Knife => DEFAULT_KNIFE_MATERIAL,
+        ProcessKind::Laser | ProcessKind::Etch => DEFAULT_MATERIAL,
+    }
+}
+
 /// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4.
 ///
 /// Why 4: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
@@ -70,6 +87,9 @@ pub const SHIPPED: &[Shipped] = &[
     shipped!("materials", "cardstock"),
     shipped!("materials", "mylar-0.19"),
     shipped!("materials", "poster-board"),
+    shipped!("materials", "cardstock-knife"),
+    shipped!("materials", "vinyl-0.08"),
+    shipped!("materials", "plotter-paper"),
     shipped!("materials", "plywood-3mm"),
     shipped!("materials", "acrylic-3mm"),
     shipped!("materials", "stainless-0.5-etch"),
@@ -128,6 +148,11 @@ pub struct LaserSettings {
     pub speed_mm_min: f64,
     /// Passes over each loop (1..=50).
     pub passes: u32,
+    /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
+    /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
+    /// paper it can lift the sheet.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub air_assist: Option<bool>,
 }
 
 /// `[knife]`: a drag-knife cutting plotter.
@@ -460,6 +485,11 @@ mod tests {
             assert!(m.kerf_mm < m.min_feature_mm);
         }
         assert_eq!(Material::default().name, DEFAULT_MATERIAL);
+        // The default for each tool is shipped and set up for that tool.
+        for kind in [ProcessKind::Laser, ProcessKind::Knife, ProcessKind::Pen] {
+            let (m, _) = Material::find(default_for(kind)).unwrap();
+            assert_eq!(m.process.kind(), kind, "{}", m.name);
+        }
     }
 
     #[test]
