@@ -81,6 +81,8 @@ fn picture(w: u32, h: u32, islands: usize, seed: u64) -> TwoTone {
 }
 
 fn bench(c: &mut Criterion) {
+    // As the `stencil` binary runs (see `stencil::alloc`).
+    stencil::alloc::keep_freed_memory();
     let cfg = BridgeConfig::default();
     let mut group = c.benchmark_group("bridge");
     group.sample_size(20);
