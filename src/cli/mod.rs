@@ -2,10 +2,12 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod bounds;
+mod frame;
 mod gcode;
 mod make;
 mod material;
 mod mesh;
+mod port;
 mod progress;
 mod send;
 
@@ -54,6 +56,8 @@ pub enum Command {
     Gcode(gcode::GcodeArgs),
     /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
     Estimate(gcode::EstimateArgs),
+    /// Trace the outline of what a G-code file cuts (tool off or a dim laser), then come back.
+    Frame(frame::FrameArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -66,5 +70,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => gcode::run_estimate(a),
+        Command::Frame(a) => frame::run_frame(a),
     }
 }

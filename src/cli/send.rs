@@ -18,9 +18,9 @@ use stencil::export;
 use stencil::machine::gcode::Move;
 use stencil::machine::simulate;
 use stencil::machine::stream::{
-    self, BytePort, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
+    self, Control, ControllerInfo, FlowControl, Job, Observer, Progress, StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Motion, VirtualConfig, VirtualGrbl};
+use stencil::machine::virtual_grbl::{Motion, VirtualConfig};
 use stencil::plan::estimate::{estimate, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
@@ -68,6 +68,16 @@ pub struct SendArgs {
     /// use (name or .toml path) [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
+    /// Frame the job first (as `stencil frame` does: its outline traced with the tool off, or
+    /// at the profile's frame_power_pct), then ask on the terminal whether to start.
+    #[arg(long)]
+    pub frame: bool,
+    /// With --frame: start after framing without asking (needed when stdin is not a terminal).
+    #[arg(long, requires = "frame")]
+    pub yes: bool,
+    /// With --frame: framing feed, mm/min [default: 3000, at most the machine's max feed].
+    #[arg(long, value_name = "MM_MIN", requires = "frame", value_parser = super::frame::parse_feed)]
+    pub frame_feed: Option<f64>,
 }
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
@@ -89,11 +99,11 @@ pub struct SimulateArgs {
 
 /// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
 /// a status query within a fraction of a second, even mid-move).
-fn parse_timeout(s: &str) -> Result<f64, String> {
+pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
     super::number_in(s, 0.1..=3600.0, " seconds")
 }
 
-fn read_program(path: &PathBuf) -> anyhow::Result<String> {
+pub(super) fn read_program(path: &PathBuf) -> anyhow::Result<String> {
     let bytes = std::fs::read(path)
         .with_context(|| format!("{}: cannot read the G-code file", path.display()))?;
     String::from_utf8(bytes).map_err(|e| {
@@ -138,14 +148,14 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
 
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
 /// terminal when dropped, also on error paths.
-struct Keys {
+pub(super) struct Keys {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
-    raw: bool,
+    pub(super) raw: bool,
 }
 
 impl Keys {
-    fn start(tx: Sender<Control>) -> Keys {
+    pub(super) fn start(tx: Sender<Control>) -> Keys {
         let stop = Arc::new(AtomicBool::new(false));
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
@@ -296,24 +306,21 @@ impl Observer for Bar {
     }
 }
 
-fn list_ports() -> String {
-    match serialport::available_ports() {
-        Ok(ports) if !ports.is_empty() => ports
-            .iter()
-            .map(|p| p.port_name.clone())
-            .collect::<Vec<_>>()
-            .join(", "),
-        Ok(_) => "none found".into(),
-        Err(e) => format!("cannot list them: {e}"),
-    }
-}
-
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Job::parse(&name, &text)?;
-    let limits = machine_profile::load(a.machine.as_deref())?.limits();
-    let cfg = StreamConfig {
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let limits = machine.limits();
+    let frame = match a.frame {
+        false => None,
+        true if !a.yes && !super::frame::can_ask() => bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal:              pass --yes to start right after framing, or frame first with `stencil frame`"
+        ),
+        // The frame is of the whole file (a resumed job still lands where the file says).
+        true => Some(super::frame::setup(&a.file, &job, &machine, a.frame_feed, false)?),
+    };
+    let mut cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse
         } else {
@@ -327,41 +334,36 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         ..StreamConfig::default()
     };
 
-    let mut virtual_grbl = None;
-    let (mut port, label): (Box<dyn BytePort>, String) = if a.dry_run {
-        let vcfg = VirtualConfig {
-            motion: if a.realtime {
-                Motion::Paced { speedup: 1.0 }
-            } else {
-                Motion::Instant
-            },
-            baud: a.realtime.then_some(a.baud),
-            rapid_mm_min: limits.rapid_mm_min,
-            ..VirtualConfig::default()
-        };
-        let (vg, host) = VirtualGrbl::spawn(vcfg)
-            .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
-        virtual_grbl = Some(vg);
-        (Box::new(host), "the virtual Grbl (dry run)".into())
-    } else if let Some(p) = &a.port {
-        let sp = serialport::new(p, a.baud)
-            .timeout(Duration::from_millis(100))
-            .open()
-            .map_err(|e| {
-                anyhow::anyhow!(
-                    "{p}: cannot open the serial port: {e}; ports found: {}",
-                    list_ports()
-                )
-            })?;
-        (Box::new(sp), p.clone())
-    } else {
-        bail!(
-            "no machine given: pass --port PATH (ports found: {}) or --dry-run to stream to a simulated Grbl",
-            list_ports()
-        );
+    let vcfg = VirtualConfig {
+        motion: if a.realtime {
+            Motion::Paced { speedup: 1.0 }
+        } else {
+            Motion::Instant
+        },
+        baud: a.realtime.then_some(a.baud),
+        rapid_mm_min: limits.rapid_mm_min,
+        ..VirtualConfig::default()
     };
+    let super::port::Opened {
+        mut port,
+        label,
+        virtual_grbl,
+    } = super::port::open_machine(a.dry_run, a.port.as_deref(), a.baud, vcfg)?;
 
     let (tx, rx) = channel();
+    if let Some(s) = &frame {
+        let keys = Keys::start(tx.clone());
+        let mut say = super::frame::Say { raw: keys.raw };
+        let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s);
+        drop(keys);
+        eprintln!("{}", super::frame::framed_line(&framed?, &label));
+        if !a.yes && !super::frame::ask_start(&mut std::io::stdin().lock())? {
+            eprintln!("not started: nothing was cut");
+            return Ok(ExitCode::SUCCESS);
+        }
+        // The controller is awake and idle: no need to wait for a boot banner.
+        cfg.boot_wait = Duration::from_millis(300);
+    }
     let keys = Keys::start(tx);
     let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
     if keys.raw {

@@ -144,6 +144,10 @@ pub struct Machine {
     pub bed: Bed,
     pub motion: Motion,
     pub tool: Tool,
+    /// Laser only: the power, % of `s_max`, at which `stencil frame` traces a job's outline so
+    /// the user sees it (`tool.frame_power_pct`, default 0: the frame is traced dark). Kept low
+    /// ([`bounds::FRAME_POWER_PCT`]): it must show the beam, not mark the sheet.
+    pub frame_power_pct: f64,
 }
 
 impl Machine {
@@ -202,6 +206,8 @@ struct RawTool {
     z_down_mm: Option<f64>,
     plunge_mm_min: Option<f64>,
     overcut_mm: Option<f64>,
+    /// Laser: power % for framing.
+    frame_power_pct: Option<f64>,
 }
 
 /// What a GRBL machine can be, field by field: every number in a profile must lie in its range
@@ -223,6 +229,8 @@ pub mod bounds {
     pub const Z_MM: RangeInclusive<f64> = -1000.0..=1000.0;
     /// A drag knife's overcut, mm.
     pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
+    /// Framing power, % of full: a glimmer to see the outline by, never enough to mark.
+    pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
     /// The longest profile name, characters (it is printed in G-code comments and messages).
     pub const NAME_CHARS: usize = 100;
 }
@@ -309,6 +317,11 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             "tool.overcut_mm",
             t.overcut_mm.is_some(),
             &[ToolKind::Knife],
+        ),
+        (
+            "tool.frame_power_pct",
+            t.frame_power_pct.is_some(),
+            &[ToolKind::Laser],
         ),
     ];
     for (field, present, kinds) in foreign {
@@ -417,12 +430,19 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             }
         }
     };
+    let frame_power_pct = within(
+        "tool.frame_power_pct",
+        t.frame_power_pct.unwrap_or(0.0),
+        bounds::FRAME_POWER_PCT,
+        "%",
+    )?;
     Ok(Machine {
         name: raw.name,
         description: raw.description,
         bed: raw.bed,
         motion: raw.motion,
         tool,
+        frame_power_pct,
     })
 }
 
@@ -524,6 +544,24 @@ s_max = 255
     fn field_of_another_tool_is_refused() {
         let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
         assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
+    }
+
+    #[test]
+    fn frame_power_is_a_low_laser_setting() {
+        let m = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 1.5"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(m.frame_power_pct, 1.5);
+        assert_eq!(parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct, 0.0);
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 40"));
+        assert!(e.contains("tool.frame_power_pct") && e.contains("10"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nframe_power_pct = 1",
+        );
+        assert!(err(&pen).contains("tool.frame_power_pct"), "{}", err(&pen));
     }
 
     #[test]
