@@ -4,6 +4,7 @@
 mod bounds;
 mod frame;
 mod gcode;
+mod jog;
 mod make;
 mod material;
 mod mesh;
@@ -58,6 +59,8 @@ pub enum Command {
     Estimate(gcode::EstimateArgs),
     /// Trace the outline of what a G-code file cuts (tool off or a dim laser), then come back.
     Frame(frame::FrameArgs),
+    /// Jog the head with the arrow keys ($J=), home ($H), unlock ($X) and set work zero.
+    Jog(jog::JogArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -71,5 +74,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => gcode::run_estimate(a),
         Command::Frame(a) => frame::run_frame(a),
+        Command::Jog(a) => jog::run_jog(a),
     }
 }

@@ -315,7 +315,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let frame = match a.frame {
         false => None,
         true if !a.yes && !super::frame::can_ask() => bail!(
-            "--frame asks on the terminal before starting the job, but stdin is not a terminal:              pass --yes to start right after framing, or frame first with `stencil frame`"
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
         ),
         // The frame is of the whole file (a resumed job still lands where the file says).
         true => Some(super::frame::setup(&a.file, &job, &machine, a.frame_feed, false)?),
