@@ -259,3 +259,15 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_yes_starts_the_job() {
+        for (answer, start) in [("y\n", true), ("YES\n", true), ("n\n", false), ("\n", false), ("", false), ("maybe\n", false)] {
+            assert_eq!(ask_start(&mut answer.as_bytes()).unwrap(), start, "{answer:?}");
+        }
+    }
+}

@@ -161,6 +161,20 @@ pub enum FrameError {
     Alarm { code: u8, laser: String },
     #[error("framing aborted by the operator; {laser}")]
     Aborted { laser: String },
+    #[error("framing stopped: {port}: the port went away ({detail}); {laser}")]
+    PortLost {
+        port: String,
+        detail: String,
+        laser: String,
+    },
+    #[error("framing stopped: {port}: Grbl has not answered for {secs:.1} s; {laser}")]
+    Silent {
+        port: String,
+        secs: f64,
+        laser: String,
+    },
+    #[error("framing stopped: Grbl restarted (power or reset); {laser}")]
+    Restarted { laser: String },
     #[error("framing stopped: {0}")]
     Machine(MachineError),
 }
@@ -181,6 +195,17 @@ impl From<MachineError> for FrameError {
                 laser: halt.laser,
             },
             MachineError::Aborted { halt } => FrameError::Aborted { laser: halt.laser },
+            MachineError::PortLost { port, detail, halt } => FrameError::PortLost {
+                port,
+                detail,
+                laser: halt.laser,
+            },
+            MachineError::Silent { port, secs, halt } => FrameError::Silent {
+                port,
+                secs,
+                laser: halt.laser,
+            },
+            MachineError::Restarted { halt } => FrameError::Restarted { laser: halt.laser },
             e => FrameError::Machine(e),
         }
     }
