@@ -154,6 +154,8 @@ impl Piped {
                     }
                 }
             }
+            // The end of input quits (the Ctrl-C handler keeps the channel open).
+            let _ = tx.send(JogKey::Char('q'));
         });
         Piped { rx }
     }
