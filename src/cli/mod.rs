@@ -4,6 +4,7 @@
 mod bounds;
 mod frame;
 mod gcode;
+mod grid;
 mod jog;
 mod make;
 mod material;
@@ -61,6 +62,9 @@ pub enum Command {
     Frame(frame::FrameArgs),
     /// Jog the head with the arrow keys ($J=), home ($H), unlock ($X) and set work zero.
     Jog(jog::JogArgs),
+    /// Write a grid of test squares over power x speed (laser), depth x speed (knife) or speed
+    /// (pen), with a labelled SVG preview, to find the settings a material needs.
+    TestGrid(grid::TestGridArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -75,5 +79,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Estimate(a) => gcode::run_estimate(a),
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),
+        Command::TestGrid(a) => grid::run_test_grid(a),
     }
 }
