@@ -23,7 +23,7 @@ impl Observer for Log {
 fn cfg() -> StreamConfig {
     StreamConfig {
         boot_wait: Duration::from_millis(300),
-        timeout: Duration::from_secs(5),
+        timeout: Duration::from_millis(1500),
         ..StreamConfig::default()
     }
 }

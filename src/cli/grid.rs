@@ -52,23 +52,11 @@ pub struct TestGridArgs {
     #[arg(long, default_value_t = 5.0, value_parser = |s: &str| super::number_in(s, 0.0..=100.0, " mm"))]
     pub gap: f64,
     /// Machine coordinates of the grid's lower-left corner, mm.
-    #[arg(long, value_name = "X,Y", default_value = "5,5", value_parser = parse_xy, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y", default_value = "5,5", value_parser = super::gcode::parse_offset, allow_hyphen_values = true)]
     pub offset: [f64; 2],
     /// Passes per square [default: the material's].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
     pub passes: Option<u32>,
-}
-
-fn parse_xy(s: &str) -> Result<[f64; 2], String> {
-    let bad = || format!("'{s}' is not a position: use X,Y in mm, e.g. 5,5");
-    let (x, y) = s.split_once(',').ok_or_else(bad)?;
-    let x: f64 = x.trim().parse().map_err(|_| bad())?;
-    let y: f64 = y.trim().parse().map_err(|_| bad())?;
-    if x.is_finite() && y.is_finite() {
-        Ok([x, y])
-    } else {
-        Err(bad())
-    }
 }
 
 /// Half to one and a half times `v`, in 5 steps, within `lo..=hi`.

@@ -87,7 +87,7 @@ pub struct FramePlan {
 }
 
 /// A number as G-code: at most 3 decimals, no trailing zeros, no `-0`.
-fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     let r = (v * 1000.0).round() / 1000.0;
     if r == 0.0 {
         return "0".into();

@@ -11,6 +11,7 @@ use std::io;
 use std::time::Duration;
 
 use super::error::MachineError;
+use super::frame::num;
 use super::protocol::{self, MachineState, RT_JOG_CANCEL};
 use super::stream::console::{Console, Position};
 
@@ -148,21 +149,11 @@ pub struct Jogger<'c, 'a> {
     last: Option<Position>,
 }
 
-/// A number as G-code: at most 3 decimals, no trailing zeros, no `-0`.
-fn num(v: f64) -> String {
-    let r = (v * 1000.0).round() / 1000.0;
-    if r == 0.0 {
-        return "0".into();
-    }
-    let s = format!("{r:.3}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
-}
-
 /// A jog session stopped by a fault: what happened, and what was done about the laser.
 #[derive(Debug, thiserror::Error)]
 #[error("{cause}; {laser}")]
 pub struct JogError {
-    pub cause: MachineError,
+    pub cause: Box<MachineError>,
     pub laser: String,
 }
 
@@ -392,7 +383,10 @@ pub fn run(
             }
             _ => j.console.stop(),
         };
-        JogError { cause, laser }
+        JogError {
+            cause: Box::new(cause),
+            laser,
+        }
     })
 }
 

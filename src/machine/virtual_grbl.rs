@@ -5,7 +5,8 @@
 //! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
 //! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
 //! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
-//! `$$`, and injected faults. It records every line it received and what it executed, so a test can
+//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without homing),
+//! `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records every line it received and what it executed, so a test can
 //! check the machine got exactly the program, once each, in order.
 
 use std::collections::VecDeque;
@@ -917,8 +918,8 @@ impl Sim {
             return self.reply_error(28);
         };
         let l20 = match l {
-            Some(v) if v == 20.0 => true,
-            Some(v) if v == 2.0 => false,
+            Some(20.0) => true,
+            Some(2.0) => false,
             _ => return self.reply_error(28),
         };
         if !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {

@@ -135,7 +135,7 @@ pub struct Grid {
 /// settings against the machine and the whole grid against its bed.
 pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
     let bad = |m: String| PlanError::Settings(m);
-    if !(spec.size_mm.is_finite() && spec.size_mm > 0.0) || !(spec.gap_mm >= 0.0) {
+    if !(spec.size_mm.is_finite() && spec.size_mm > 0.0 && spec.gap_mm.is_finite() && spec.gap_mm >= 0.0) {
         return Err(bad("the squares need a size > 0 and a gap >= 0".into()));
     }
     let (nr, nc) = (spec.rows.len().max(1), spec.speeds.len());
