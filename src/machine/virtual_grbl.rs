@@ -5,9 +5,10 @@
 //! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
 //! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
 //! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
-//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without homing),
-//! `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records every line it received and what it executed, so a test can
-//! check the machine got exactly the program, once each, in order.
+//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without
+//! homing), `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records
+//! every line it received, what it executed and every move it planned, so a test can check the
+//! machine got exactly the program, once each, in order, and where the head went.
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
