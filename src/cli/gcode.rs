@@ -16,7 +16,7 @@ use stencil::profile::machine::{self as machine_profile, Machine, Tool};
 use stencil::profile::Material;
 use stencil::report::Report;
 
-fn parse_offset(s: &str) -> Result<[f64; 2], String> {
+pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
     let (x, y) = s.split_once(',').ok_or_else(bad)?;
     let x: f64 = x.trim().parse().map_err(|_| bad())?;

@@ -2,10 +2,14 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod bounds;
+mod frame;
 mod gcode;
+mod grid;
+mod jog;
 mod make;
 mod material;
 mod mesh;
+mod port;
 mod progress;
 mod send;
 
@@ -54,6 +58,13 @@ pub enum Command {
     Gcode(gcode::GcodeArgs),
     /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
     Estimate(gcode::EstimateArgs),
+    /// Trace the outline of what a G-code file cuts (tool off or a dim laser), then come back.
+    Frame(frame::FrameArgs),
+    /// Jog the head with the arrow keys ($J=), home ($H), unlock ($X) and set work zero.
+    Jog(jog::JogArgs),
+    /// Write a grid of test squares over power x speed (laser), depth x speed (knife) or speed
+    /// (pen), with a labelled SVG preview, to find the settings a material needs.
+    TestGrid(grid::TestGridArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -66,5 +77,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => gcode::run_estimate(a),
+        Command::Frame(a) => frame::run_frame(a),
+        Command::Jog(a) => jog::run_jog(a),
+        Command::TestGrid(a) => grid::run_test_grid(a),
     }
 }

@@ -21,10 +21,10 @@ use stencil::machine::keys::{self, Key, KeySource};
 use stencil::machine::simulate;
 use stencil::machine::stall::ClockRef;
 use stencil::machine::stream::{
-    self, BytePort, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
+    self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
     ResumeLift, StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig, VirtualGrbl};
+use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
 use stencil::plan::estimate::{estimate, estimate_with, format_duration, MotionLimits};
 use stencil::profile::machine as machine_profile;
 
@@ -95,6 +95,16 @@ pub struct SendArgs {
     /// from the machine's origin).
     #[arg(long)]
     pub no_bed_check: bool,
+    /// Frame the job first (as `stencil frame` does: its outline traced with the tool off, or
+    /// at the profile's frame_power_pct), then ask on the terminal whether to start.
+    #[arg(long)]
+    pub frame: bool,
+    /// With --frame: start after framing without asking (needed when stdin is not a terminal).
+    #[arg(long, requires = "frame")]
+    pub yes: bool,
+    /// With --frame: framing feed, mm/min [default: 3000, at most the machine's max feed].
+    #[arg(long, value_name = "MM_MIN", requires = "frame", value_parser = super::frame::parse_feed)]
+    pub frame_feed: Option<f64>,
 }
 
 /// `--dry-run-setting $32=0`.
@@ -168,11 +178,11 @@ pub struct SimulateArgs {
 
 /// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
 /// a status query within a fraction of a second, even mid-move).
-fn parse_timeout(s: &str) -> Result<f64, String> {
+pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
     super::number_in(s, 0.1..=3600.0, " seconds")
 }
 
-fn read_program(path: &PathBuf) -> anyhow::Result<String> {
+pub(super) fn read_program(path: &PathBuf) -> anyhow::Result<String> {
     let bytes = std::fs::read(path)
         .with_context(|| format!("{}: cannot read the G-code file", path.display()))?;
     String::from_utf8(bytes).map_err(|e| {
@@ -219,14 +229,14 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
 
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
 /// terminal when dropped, also on error paths.
-struct Keys {
+pub(super) struct Keys {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
-    raw: bool,
+    pub(super) raw: bool,
 }
 
 impl Keys {
-    fn start(tx: Sender<Control>) -> Keys {
+    pub(super) fn start(tx: Sender<Control>) -> Keys {
         let stop = Arc::new(AtomicBool::new(false));
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
@@ -454,18 +464,6 @@ fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usi
     Some(p.line)
 }
 
-fn list_ports() -> String {
-    match serialport::available_ports() {
-        Ok(ports) if !ports.is_empty() => ports
-            .iter()
-            .map(|p| p.port_name.clone())
-            .collect::<Vec<_>>()
-            .join(", "),
-        Ok(_) => "none found".into(),
-        Err(e) => format!("cannot list them: {e}"),
-    }
-}
-
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
@@ -507,7 +505,16 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             machine.name
         );
     }
-    let cfg = StreamConfig {
+    let frame = match a.frame {
+        false => None,
+        true if !a.yes && !super::frame::can_ask() => bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
+        ),
+        // The frame is of the whole file (a resumed job still lands where the file says).
+        true => Some(super::frame::setup(&a.file, &job, &machine, a.frame_feed, false)?),
+    };
+    let mut cfg = StreamConfig {
         flow: if a.send_response {
             FlowControl::SendResponse
         } else {
@@ -525,43 +532,38 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         ..StreamConfig::default()
     };
 
-    let mut virtual_grbl = None;
-    let (mut port, label): (Box<dyn BytePort>, String) = if a.dry_run {
-        let vcfg = VirtualConfig {
-            motion: if a.realtime {
-                Motion::Paced { speedup: 1.0 }
-            } else {
-                Motion::Instant
-            },
-            baud: a.realtime.then_some(a.baud),
-            rapid_mm_min: limits.rapid_mm_min,
-            settings: a.dry_run_setting.clone(),
-            faults: a.dry_run_fault.clone(),
-            ..VirtualConfig::default()
-        };
-        let (vg, host) = VirtualGrbl::spawn(vcfg)
-            .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
-        virtual_grbl = Some(vg);
-        (Box::new(host), "the virtual Grbl (dry run)".into())
-    } else if let Some(p) = &a.port {
-        let sp = serialport::new(p, a.baud)
-            .timeout(Duration::from_millis(100))
-            .open()
-            .map_err(|e| {
-                anyhow::anyhow!(
-                    "{p}: cannot open the serial port: {e}; ports found: {}",
-                    list_ports()
-                )
-            })?;
-        (Box::new(sp), p.clone())
-    } else {
-        bail!(
-            "no machine given: pass --port PATH (ports found: {}) or --dry-run to stream to a simulated Grbl",
-            list_ports()
-        );
+    let vcfg = VirtualConfig {
+        motion: if a.realtime {
+            Motion::Paced { speedup: 1.0 }
+        } else {
+            Motion::Instant
+        },
+        baud: a.realtime.then_some(a.baud),
+        rapid_mm_min: limits.rapid_mm_min,
+        settings: a.dry_run_setting.clone(),
+        faults: a.dry_run_fault.clone(),
+        ..VirtualConfig::default()
     };
+    let super::port::Opened {
+        mut port,
+        label,
+        virtual_grbl,
+    } = super::port::open_machine(a.dry_run, a.port.as_deref(), a.baud, vcfg)?;
 
     let (tx, rx) = channel();
+    if let Some(s) = &frame {
+        let keys = Keys::start(tx.clone());
+        let mut say = super::frame::Say { raw: keys.raw };
+        let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s);
+        drop(keys);
+        eprintln!("{}", super::frame::framed_line(&framed?, &label));
+        if !a.yes && !super::frame::ask_start(&mut std::io::stdin().lock())? {
+            eprintln!("not started: nothing was cut");
+            return Ok(ExitCode::SUCCESS);
+        }
+        // The controller is awake and idle: no need to wait for a boot banner.
+        cfg.boot_wait = Duration::from_millis(300);
+    }
     let keys = Keys::start(tx);
     let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
     if keys.raw {

@@ -3,10 +3,12 @@
 //! OWNER: the machine issue (the G-code interpreter in `gcode.rs` is shared with `plan`'s estimator).
 
 pub mod error;
+pub mod frame;
 pub mod gcode;
 pub mod job;
 pub mod journal;
 pub mod keys;
+pub mod jog;
 pub mod protocol;
 pub mod simulate;
 pub mod stall;

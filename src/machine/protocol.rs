@@ -21,6 +21,9 @@ pub const RT_FEED_HOLD: u8 = b'!';
 pub const RT_RESUME: u8 = b'~';
 /// Real-time command: soft reset (stops motion and the spindle/laser at once, flushes all buffers).
 pub const RT_SOFT_RESET: u8 = 0x18;
+/// Real-time command: cancel the running jog (decelerate to a stop and drop the queued jog
+/// motions); ignored unless the machine is in the `Jog` state.
+pub const RT_JOG_CANCEL: u8 = 0x85;
 
 /// Real-time command: feed override back to 100 %.
 pub const RT_FEED_OV_RESET: u8 = 0x90;

@@ -13,6 +13,8 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 
+pub mod console;
+
 pub use super::error::{CheckError, Halt, MachineError};
 pub use super::job::{Job, JobLine, ResumeLift};
 use super::protocol::{

@@ -5,8 +5,10 @@
 //! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
 //! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
 //! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
-//! `$$`, and injected faults. It records every line it received and what it executed, so a test can
-//! check the machine got exactly the program, once each, in order.
+//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without
+//! homing), `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records
+//! every line it received, what it executed and every move it planned, so a test can check the
+//! machine got exactly the program, once each, in order, and where the head went.
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
@@ -19,8 +21,8 @@ use serialport::{SerialPort, TTYPort};
 
 use super::gcode::{self, Modal, Move};
 use super::protocol::{
-    self, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME, RT_SOFT_RESET,
-    RT_STATUS, RX_BUFFER_DEFAULT,
+    self, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME,
+    RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
 };
 
 /// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
@@ -84,6 +86,9 @@ pub struct VirtualConfig {
     pub line_numbers: bool,
     /// Settings that differ from the simulated defaults (`$$` lists them), e.g. `(32, "0")`.
     pub settings: Vec<(u32, String)>,
+    /// Homing enabled (`$22=1`): `$H` homes to machine zero and clears an alarm; disabled, `$H`
+    /// answers `error:5` as Grbl does.
+    pub homing: bool,
 }
 
 impl Default for VirtualConfig {
@@ -98,6 +103,7 @@ impl Default for VirtualConfig {
             laser_mode: true,
             line_numbers: false,
             settings: Vec::new(),
+            homing: true,
         }
     }
 }
@@ -144,8 +150,9 @@ pub struct Record {
     pub status_reports: usize,
     /// Coolant output (M8; air assist on a laser) on.
     pub air_on: bool,
-    /// Every move the planner accepted outside check mode, in order, with the tool's state
-    /// during it (a test checks Z and the spindle during every XY move of a resume).
+    /// Every move the planner accepted outside check mode (jogs too), in order, with the tool's
+    /// state during it, in machine coordinates: what the head really went through (a test checks
+    /// Z and the spindle during every XY move of a resume).
     pub moves: Vec<PlannedMove>,
     /// `$32` as it stands now.
     pub laser_mode: bool,
@@ -153,9 +160,11 @@ pub struct Record {
     pub overrides: [u32; 3],
     /// Frozen by [`FaultKind::Freeze`] (until a soft reset).
     pub frozen: bool,
+    /// Work coordinate offset (G54, set with `G10 L20 P1` or `G10 L2 P1`): work = machine - WCO.
+    pub wco: [f64; 3],
 }
 
-/// One move as the simulated planner took it.
+/// One move as the simulated planner took it (machine coordinates).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlannedMove {
     pub from: [f64; 3],
@@ -163,7 +172,8 @@ pub struct PlannedMove {
     pub rapid: bool,
     /// M3/M4 on (a servo pen on the spindle output is down).
     pub spindle_on: bool,
-    /// The beam fires during this move: spindle on with S > 0, and not a G0 in laser mode.
+    /// The beam fires during this move: spindle on with S > 0, and not a G0 or a jog in laser
+    /// mode.
     pub beam: bool,
     /// Coolant (air assist) on during this move.
     pub air: bool,
@@ -257,6 +267,10 @@ fn line_number(text: &str) -> Option<u32> {
     rest[..end].parse().ok()
 }
 
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
 fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
     // A panic in the simulator thread must not hide its record from the test.
     m.lock().unwrap_or_else(|p| p.into_inner())
@@ -285,6 +299,8 @@ struct Block {
     idx: usize,
     remaining_s: f64,
     duration_s: f64,
+    /// A `$J=` jog: shown as `Jog`, dropped by a jog cancel (0x85).
+    jog: bool,
 }
 
 struct Sim {
@@ -323,6 +339,11 @@ struct Sim {
     /// The next status report carries `Ov:` (Grbl sends it at once after a change).
     ov_changed: bool,
     frozen: bool,
+    /// Work coordinate offset (G54): `modal.pos` is in work coordinates, planner blocks and
+    /// reports in machine coordinates.
+    wco: [f64; 3],
+    /// The next status report carries `WCO:` (Grbl sends it at once after a change).
+    wco_changed: bool,
 }
 
 impl Sim {
@@ -362,12 +383,14 @@ impl Sim {
             ov: [100; 3],
             ov_changed: false,
             frozen: false,
+            wco: [0.0; 3],
+            wco_changed: false,
         };
         let rapid = format!("{:.3}", sim.cfg.rapid_mm_min);
         sim.settings = [
             (10, "2"),
             (11, "0.010"),
-            (22, "1"),
+            (22, if sim.cfg.homing { "1" } else { "0" }),
             (30, "1000"),
             (31, "0"),
             (32, if sim.cfg.laser_mode { "1" } else { "0" }),
@@ -483,6 +506,7 @@ impl Sim {
             RT_RESUME => self.hold = false,
             RT_SOFT_RESET => self.soft_reset(),
             b @ 0x90..=0x9D => self.override_byte(b),
+            RT_JOG_CANCEL => self.jog_cancel(),
             _ => {}
         }
     }
@@ -595,7 +619,7 @@ impl Sim {
                 }
                 p
             }
-            None => self.modal.pos,
+            None => add(self.modal.pos, self.wco),
         }
     }
 
@@ -603,17 +627,28 @@ impl Sim {
         if self.planner.len() >= self.cfg.planner_blocks {
             return false;
         }
-        let m = &self.modal;
-        let beam = m.spindle_on && m.s > 0.0 && !(mv.rapid && self.laser_mode());
-        lock(&self.shared).moves.push(PlannedMove {
-            from: mv.from,
-            to: mv.to,
-            rapid: mv.rapid,
-            spindle_on: m.spindle_on,
-            beam,
-            air: m.coolant,
-            idx,
-        });
+        // Blocks run in machine coordinates: the work offset in force when the line was parsed.
+        let mv = Move {
+            from: add(mv.from, self.wco),
+            to: add(mv.to, self.wco),
+            ..mv
+        };
+        let laser_mode = self.laser_mode();
+        let jog = {
+            let mut r = lock(&self.shared);
+            let jog = r.received.get(idx).is_some_and(|l| l.text.starts_with("$J"));
+            let m = &self.modal;
+            r.moves.push(PlannedMove {
+                from: mv.from,
+                to: mv.to,
+                rapid: mv.rapid,
+                spindle_on: m.spindle_on,
+                beam: m.spindle_on && m.s > 0.0 && !((mv.rapid || jog) && laser_mode),
+                air: m.coolant,
+                idx,
+            });
+            jog
+        };
         match self.cfg.motion {
             Motion::Instant => lock(&self.shared).executed.push(idx),
             Motion::Paced { .. } => {
@@ -637,6 +672,7 @@ impl Sim {
                     idx,
                     remaining_s: t,
                     duration_s: t,
+                    jog,
                 });
             }
         }
@@ -740,6 +776,9 @@ impl Sim {
                 }
             }
         }
+        if clean.starts_with("G10") {
+            return self.set_work_offset(&clean, idx);
+        }
         let mut modal = self.modal;
         match gcode::step(&mut modal, &clean, idx + 1) {
             Err(e) => self.reply_error(e.code),
@@ -829,10 +868,14 @@ impl Sim {
                 self.done(idx);
             }
             "$H" => {
+                if !self.cfg.homing {
+                    return self.reply_error(5);
+                }
                 if !idle {
                     return self.reply_error(8);
                 }
-                self.modal.pos = [0.0; 3];
+                // Homed: machine zero (work coordinates keep their offset).
+                self.modal.pos = [-self.wco[0], -self.wco[1], -self.wco[2]];
                 self.state = State::Idle;
                 self.done(idx);
             }
@@ -865,6 +908,7 @@ impl Sim {
                 }
                 self.done(idx);
             }
+            c if c.starts_with("$J") => self.jog(c, idx),
             c if c[1..]
                 .split_once('=')
                 .is_some_and(|(k, v)| k.parse::<u32>().is_ok() && v.parse::<f64>().is_ok()) =>
@@ -882,13 +926,157 @@ impl Sim {
         }
     }
 
+    /// The planner runs a jog (`$J=`): Grbl's `Jog` state.
+    fn jogging(&self) -> bool {
+        self.planner.front().is_some_and(|b| b.jog)
+    }
+
+    /// `$J=...`: a jog motion, as Grbl 1.1 takes it (system.c, gcode.c, jog.c): only while Idle
+    /// or already jogging (else `error:8`, so never in an alarm), F required (`error:22`), only
+    /// G20/G21, G90/G91 and G53 besides X/Y/Z, F and N (`error:16`). The parser's modes are
+    /// left as they were; its position moves to the jog's target, as Grbl's does.
+    fn jog(&mut self, cmd: &str, idx: usize) {
+        let busy = self.pending.is_some() || self.planner.iter().any(|b| !b.jog) || self.hold;
+        if self.state != State::Idle || self.check_mode || busy {
+            return self.reply_error(8);
+        }
+        let Some(body) = cmd.strip_prefix("$J=") else {
+            return self.reply_error(3);
+        };
+        let words = match gcode::words(body, idx + 1) {
+            Ok(w) => w,
+            Err(e) => return self.reply_error(e.code),
+        };
+        let (mut metric, mut absolute, mut machine) =
+            (self.modal.metric, self.modal.absolute, false);
+        let (mut feed, mut target) = (None, [None::<f64>; 3]);
+        for (l, v) in words {
+            match l {
+                'G' if v == 20.0 || v == 21.0 => metric = v == 21.0,
+                'G' if v == 90.0 || v == 91.0 => absolute = v == 90.0,
+                'G' if v == 53.0 => machine = true,
+                'G' | 'M' => return self.reply_error(16),
+                'F' => feed = Some(v),
+                'X' => target[0] = Some(v),
+                'Y' => target[1] = Some(v),
+                'Z' => target[2] = Some(v),
+                'N' => {}
+                'S' | 'T' => return self.reply_error(36),
+                _ => return self.reply_error(20),
+            }
+        }
+        let unit = if metric { 1.0 } else { 25.4 };
+        let Some(feed) = feed.filter(|f| *f > 0.0) else {
+            return self.reply_error(22);
+        };
+        if target.iter().all(Option::is_none) {
+            return self.reply_error(26);
+        }
+        let from = self.modal.pos;
+        let mut to = from;
+        for a in 0..3 {
+            if let Some(v) = target[a] {
+                to[a] = match (machine, absolute) {
+                    (true, _) => v * unit - self.wco[a],
+                    (false, true) => v * unit,
+                    (false, false) => from[a] + v * unit,
+                };
+            }
+        }
+        if to.iter().any(|v| !v.is_finite() || v.abs() > gcode::MAX_COORD_MM) {
+            return self.reply_error(15);
+        }
+        self.modal.pos = to;
+        let mv = Move {
+            from,
+            to,
+            rapid: false,
+            feed: feed * unit,
+            power: 0.0,
+            spindle_s: 0.0,
+            line: idx + 1,
+        };
+        if self.plan(mv, idx) {
+            self.say("ok");
+        } else {
+            self.pending = Some((mv, idx));
+        }
+    }
+
+    /// 0x85: stop the running jog where it is and drop the queued jog motions; the parser's
+    /// position follows the machine's (Grbl's `gc_sync_position`). Ignored unless jogging.
+    fn jog_cancel(&mut self) {
+        if !self.jogging() || self.state != State::Idle {
+            return;
+        }
+        let pos = self.position();
+        self.planner.retain(|b| !b.jog);
+        if self.pending.is_some() {
+            // A jog still waiting for a planner slot: dropped, but it was not answered yet.
+            self.pending = None;
+            self.say("ok");
+        }
+        for (a, p) in pos.iter().enumerate() {
+            self.modal.pos[a] = p - self.wco[a];
+        }
+    }
+
+    /// `G10 L20 P1 X.. Y..` (the current position becomes these work coordinates) and
+    /// `G10 L2 P1 X..` (G54's offset itself). P0 is the active system, here always G54; P2..P6
+    /// are taken and kept nowhere (nothing here selects them). The offset counts from the end
+    /// of the queued motion, as Grbl (which waits for the queue to empty first) would see it.
+    fn set_work_offset(&mut self, clean: &str, idx: usize) {
+        let words = match gcode::words(clean, idx + 1) {
+            Ok(w) => w,
+            Err(e) => return self.reply_error(e.code),
+        };
+        let (mut l, mut p, mut axes) = (None, None, [None::<f64>; 3]);
+        for (w, v) in words {
+            match w {
+                'G' if v == 10.0 => {}
+                'L' => l = Some(v),
+                'P' => p = Some(v),
+                'X' => axes[0] = Some(v),
+                'Y' => axes[1] = Some(v),
+                'Z' => axes[2] = Some(v),
+                _ => return self.reply_error(20),
+            }
+        }
+        let Some(p) = p else {
+            return self.reply_error(28);
+        };
+        let l20 = match l {
+            Some(20.0) => true,
+            Some(2.0) => false,
+            _ => return self.reply_error(28),
+        };
+        if !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
+            return self.reply_error(29);
+        }
+        if self.check_mode || p > 1.0 {
+            return self.done(idx);
+        }
+        let unit = if self.modal.metric { 1.0 } else { 25.4 };
+        for a in 0..3 {
+            if let Some(v) = axes[a] {
+                let machine = self.modal.pos[a] + self.wco[a];
+                self.wco[a] = if l20 { machine - v * unit } else { v * unit };
+                self.modal.pos[a] = machine - self.wco[a];
+            }
+        }
+        self.wco_changed = true;
+        self.done(idx);
+    }
+
     fn status_report(&mut self) {
         self.reports += 1;
         let state = match self.state {
             State::Alarm | State::Critical => "Alarm".to_string(),
             State::Idle if self.check_mode => "Check".to_string(),
             State::Idle if self.hold => "Hold:0".to_string(),
-            State::Idle if self.frozen || !self.planner.is_empty() => "Run".to_string(),
+            State::Idle if self.frozen => "Run".to_string(),
+            State::Idle if self.jogging() => "Jog".to_string(),
+            State::Idle if !self.planner.is_empty() => "Run".to_string(),
             State::Idle => "Idle".to_string(),
         };
         let p = self.position();
@@ -921,12 +1109,15 @@ impl Sim {
                 s.push_str(&format!("|Ln:{n}"));
             }
         }
-        // As Grbl: WCO every 10 reports, Ov every 10 reports and at once after a change, with
-        // the accessory states (spindle CW/CCW, flood) when any is on.
-        if self.reports % 10 == 1 {
-            s.push_str("|WCO:0.000,0.000,0.000");
-        }
-        if self.reports % 10 == 2 || self.ov_changed {
+        // As Grbl: WCO every 10 reports and at once after a change; Ov every 10 reports and at
+        // once after a change (never in the same report as WCO), with the accessory states
+        // (spindle CW/CCW, flood) when any is on.
+        // A change of overrides is reported at once, ahead of a periodic WCO.
+        if self.wco_changed || (self.reports % 10 == 1 && !self.ov_changed) {
+            self.wco_changed = false;
+            let w = self.wco;
+            s.push_str(&format!("|WCO:{:.3},{:.3},{:.3}", w[0], w[1], w[2]));
+        } else if self.reports % 10 == 2 || self.ov_changed {
             self.ov_changed = false;
             s.push_str(&format!("|Ov:{feed_ov},{rapid_ov},{spindle_ov}"));
             let mut a = String::new();
@@ -997,12 +1188,14 @@ impl Sim {
         let state = match self.state {
             State::Idle if self.check_mode => "Check",
             State::Idle if self.hold => "Hold",
+            State::Idle if self.jogging() => "Jog",
             State::Idle if !self.planner.is_empty() => "Run",
             State::Idle => "Idle",
             State::Alarm | State::Critical => "Alarm",
         };
         let mut r = lock(&self.shared);
         r.position = pos;
+        r.wco = self.wco;
         r.laser_on = laser;
         r.air_on = air;
         r.laser_mode = laser_mode;

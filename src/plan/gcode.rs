@@ -20,7 +20,17 @@ use std::fmt::Write as _;
 
 use crate::profile::machine::{Machine, PenLift, Tool, ZLift};
 
-use super::toolpath::{laser_s, Job, Loop};
+use super::toolpath::{laser_s, CutSettings, Job, Loop};
+
+/// One loop's own settings and a comment line written before it (the test grid cuts each square
+/// at its own power and speed, and a knife's at its own depth).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopSettings {
+    pub settings: CutSettings,
+    /// Knife or pen on Z: the depth this loop is cut at instead of the profile's `z_down_mm`.
+    pub z_down_mm: Option<f64>,
+    pub comment: String,
+}
 
 /// Longest line the writer emits (Grbl's limit is 80 after stripping spaces).
 pub const MAX_LINE: usize = 78;
@@ -180,6 +190,12 @@ pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
 
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
 pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
+    write_each(job, machine, notes, &[])
+}
+
+/// [`write`] with loop `i` cut as `each[i]` says (loops past its end use the job's settings).
+/// Same header, laser mode and end as every job.
+pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
     let s = &job.settings;
     let feed = num(s.speed_mm_min);
     let laser = matches!(machine.tool, Tool::Laser { .. });
@@ -280,8 +296,20 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
             w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
         }
     }
-    for l in &job.loops {
-        write_loop(&mut w, l, machine, job);
+    for (i, l) in job.loops.iter().enumerate() {
+        match each.get(i) {
+            Some(e) => {
+                comment(&mut w.out, &e.comment);
+                let mut m = machine.clone();
+                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
+                    (e.z_down_mm, &mut m.tool)
+                {
+                    z.down_mm = d;
+                }
+                write_loop(&mut w, l, &m, &e.settings);
+            }
+            None => write_loop(&mut w, l, machine, &job.settings),
+        }
     }
     match machine.tool {
         Tool::Laser { .. } => w.line("M5 S0"),
@@ -297,8 +325,7 @@ pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
     w.out
 }
 
-fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, job: &Job) {
-    let s = &job.settings;
+fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
     let feed = format!(" F{}", num(s.speed_mm_min));
     let points = match machine.tool {
         Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),

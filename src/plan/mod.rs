@@ -7,6 +7,7 @@
 
 pub mod estimate;
 pub mod gcode;
+pub mod grid;
 pub mod order;
 pub mod svg;
 pub mod toolpath;

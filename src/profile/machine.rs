@@ -162,6 +162,10 @@ pub struct Machine {
     /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
     /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
     pub air_assist: bool,
+    /// Laser only: the power, % of `s_max`, at which `stencil frame` traces a job's outline so
+    /// the user sees it (`tool.frame_power_pct`, default 0: the frame is traced dark). Kept low
+    /// ([`bounds::FRAME_POWER_PCT`]): it must show the beam, not mark the sheet.
+    pub frame_power_pct: f64,
 }
 
 /// A job that leaves the bed: the first side it crosses, how far it reaches, and the line of the
@@ -303,6 +307,8 @@ struct RawTool {
     overcut_mm: Option<f64>,
     /// Laser: air assist wired to the coolant output (M8 on, M9 off).
     air_assist: Option<bool>,
+    /// Laser: power % for framing.
+    frame_power_pct: Option<f64>,
 }
 
 /// What a GRBL machine can be, field by field: every number in a profile must lie in its range
@@ -324,6 +330,8 @@ pub mod bounds {
     pub const Z_MM: RangeInclusive<f64> = -1000.0..=1000.0;
     /// A drag knife's overcut, mm.
     pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
+    /// Framing power, % of full: a glimmer to see the outline by, never enough to mark.
+    pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
     /// The longest profile name, characters (it is printed in G-code comments and messages).
     pub const NAME_CHARS: usize = 100;
 }
@@ -414,6 +422,11 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         (
             "tool.air_assist",
             t.air_assist.is_some(),
+            &[ToolKind::Laser],
+        ),
+        (
+            "tool.frame_power_pct",
+            t.frame_power_pct.is_some(),
             &[ToolKind::Laser],
         ),
     ];
@@ -523,6 +536,12 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             }
         }
     };
+    let frame_power_pct = within(
+        "tool.frame_power_pct",
+        t.frame_power_pct.unwrap_or(0.0),
+        bounds::FRAME_POWER_PCT,
+        "%",
+    )?;
     Ok(Machine {
         name: raw.name,
         description: raw.description,
@@ -530,6 +549,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         motion: raw.motion,
         tool,
         air_assist: t.air_assist.unwrap_or(false),
+        frame_power_pct,
     })
 }
 
@@ -642,6 +662,24 @@ s_max = 255
             Path::new("a"),
         );
         assert!(air.unwrap().air_assist);
+    }
+
+    #[test]
+    fn frame_power_is_a_low_laser_setting() {
+        let m = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 1.5"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(m.frame_power_pct, 1.5);
+        assert_eq!(parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct, 0.0);
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 40"));
+        assert!(e.contains("tool.frame_power_pct") && e.contains("10"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nframe_power_pct = 1",
+        );
+        assert!(err(&pen).contains("tool.frame_power_pct"), "{}", err(&pen));
     }
 
     #[test]

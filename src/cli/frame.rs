@@ -1,0 +1,273 @@
+//! `stencil frame JOB.gcode`: trace the outline of what a G-code file cuts, tool off or a laser at
+//! a glimmer, and come back; and the framing step of `send --frame`. Machine side: reads any
+//! G-code file, knows nothing of stencils.
+
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::mpsc::{channel, Receiver};
+use std::time::Duration;
+
+use anyhow::bail;
+use clap::Args;
+
+use stencil::machine::frame::{self, cut_extent, Extent, FrameTool, Framed};
+use stencil::machine::stream::console::Console;
+use stencil::machine::stream::{BytePort, Control, ControllerInfo, Job, Observer, StreamConfig};
+use stencil::machine::virtual_grbl::VirtualConfig;
+use stencil::profile::machine::{self as machine_profile, Machine, PenLift, Tool};
+
+/// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
+/// to follow the head with the eye, fast enough not to bore.
+pub const DEFAULT_FRAME_FEED: f64 = 3000.0;
+
+/// Trace the outline of a G-code job on the machine.
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Traces the rectangle around the job's cutting moves with the laser off (or at the machine \
+profile's frame_power_pct, in M4 so the beam is dim and lit only while moving; a pen or knife \
+stays up), then returns to where the head was. While framing: a / q / Esc / Ctrl-C = abort \
+(soft reset, laser off).
+Example: stencil frame job.gcode --dry-run --machine diode-400")]
+pub struct FrameArgs {
+    /// The G-code file (any GRBL program: ours or another program's).
+    pub file: PathBuf,
+    /// Serial port of the controller (e.g. /dev/ttyUSB0, COM3).
+    #[arg(long)]
+    pub port: Option<String>,
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// Frame on a simulated Grbl on a pseudo-terminal instead of a machine.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Machine profile: its bed, its max feed, its tool and frame_power_pct (name or .toml path)
+    /// [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+    /// Framing feed, mm/min [default: 3000, at most the machine's max feed].
+    #[arg(long, value_name = "MM_MIN", value_parser = parse_feed)]
+    pub feed: Option<f64>,
+    /// Unlock ($X) a machine that is locked in alarm first.
+    #[arg(long)]
+    pub unlock: bool,
+    /// Do not refuse a job that leaves the machine's bed (for a work zero set away from the
+    /// machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
+    /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
+    #[arg(long, default_value_t = 10.0, value_parser = super::send::parse_timeout)]
+    pub timeout_s: f64,
+}
+
+/// `--feed` / `--frame-feed`: what a profile's feeds may be (the machine's own max is checked
+/// once the profile is loaded).
+pub fn parse_feed(s: &str) -> Result<f64, String> {
+    super::number_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min")
+}
+
+/// What to trace and how, from the file and the machine profile.
+#[derive(Clone, Copy, Debug)]
+pub struct Setup {
+    pub extent: Extent,
+    pub tool: FrameTool,
+    pub feed: f64,
+}
+
+impl Setup {
+    /// One line for the user.
+    pub fn describe(&self) -> String {
+        let e = &self.extent;
+        format!(
+            "X {:.2}..{:.2} Y {:.2}..{:.2} ({:.1} x {:.1} mm) at {:.0} mm/min, {}",
+            e.min[0],
+            e.max[0],
+            e.min[1],
+            e.max[1],
+            e.width(),
+            e.height(),
+            self.feed,
+            match self.tool {
+                FrameTool::Laser { s } if s > 0.0 => format!("laser dim at S{s:.0} (M4)"),
+                FrameTool::Laser { .. } => "laser off".into(),
+                FrameTool::ZUp { up_mm } => format!("tool up at Z{up_mm}"),
+                FrameTool::SpindlePen => "pen up (M5)".into(),
+            }
+        )
+    }
+}
+
+/// The frame of `job` on `machine`: the extent of its cutting moves (on the bed unless
+/// `no_bed_check`), how the tool stays dark, and the feed.
+pub fn setup(
+    file: &Path,
+    job: &Job,
+    machine: &Machine,
+    feed: Option<f64>,
+    no_bed_check: bool,
+) -> anyhow::Result<Setup> {
+    let Some(extent) = cut_extent(&job.moves) else {
+        bail!(
+            "{}: nothing to frame: no move in the file cuts (no powered G1 for a laser, no G1 in \
+             X/Y for a pen or knife)",
+            file.display()
+        );
+    };
+    if !no_bed_check {
+        let (w, h) = (machine.bed.width_mm, machine.bed.height_mm);
+        let eps = 1e-3;
+        if extent.min[0] < -eps
+            || extent.min[1] < -eps
+            || extent.max[0] > w + eps
+            || extent.max[1] > h + eps
+        {
+            bail!(
+                "{}: the job cuts at X {:.2}..{:.2} Y {:.2}..{:.2} mm, outside the bed of {} \
+                 (X 0..{w} Y 0..{h} mm); nothing was moved. Place the job on the bed, or pass \
+                 --no-bed-check if its work zero is set away from the machine's origin",
+                file.display(),
+                extent.min[0],
+                extent.max[0],
+                extent.min[1],
+                extent.max[1],
+                machine.name
+            );
+        }
+    }
+    let max = machine.motion.max_feed_mm_min;
+    let feed = match feed {
+        Some(f) if f > max => bail!(
+            "--feed {f} is above the max feed of {} ({max} mm/min)",
+            machine.name
+        ),
+        Some(f) => f,
+        None => DEFAULT_FRAME_FEED.min(max),
+    };
+    let tool = match machine.tool {
+        Tool::Laser { s_max, .. } => FrameTool::Laser {
+            s: machine.frame_power_pct / 100.0 * s_max,
+        },
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => FrameTool::ZUp { up_mm: z.up_mm },
+        Tool::Pen(PenLift::Spindle { .. }) => FrameTool::SpindlePen,
+    };
+    Ok(Setup { extent, tool, feed })
+}
+
+/// Prints what the controller and the framing say, on stderr (`\r\n` in raw mode).
+pub struct Say {
+    pub raw: bool,
+}
+
+impl Say {
+    pub fn line(&self, text: &str) {
+        let end = if self.raw { "\r\n" } else { "\n" };
+        eprint!("{text}{end}");
+    }
+}
+
+impl Observer for Say {
+    fn connected(&mut self, info: &ControllerInfo) {
+        self.line(&format!(
+            "connected to Grbl {}{}",
+            info.version,
+            if info.unlocked { ", unlocked" } else { "" }
+        ));
+    }
+    fn message(&mut self, text: &str) {
+        self.line(text);
+    }
+}
+
+/// Connect on `port` and frame; the operator's aborts come on `controls`.
+pub fn frame_on(
+    port: &mut dyn BytePort,
+    cfg: &StreamConfig,
+    controls: &Receiver<Control>,
+    obs: &mut dyn Observer,
+    s: &Setup,
+) -> anyhow::Result<Framed> {
+    let mut console = Console::connect(port, cfg, Some(controls), obs)?;
+    console.say(&format!("framing {}", s.describe()));
+    Ok(frame::frame(&mut console, s.extent, s.tool, s.feed)?)
+}
+
+/// What framing did, for the user.
+pub fn framed_line(f: &Framed, label: &str) -> String {
+    format!(
+        "framed on {label}: the job cuts within X {:.2}..{:.2} Y {:.2}..{:.2} mm; the head is \
+         back at X {:.2} Y {:.2}",
+        f.plan.extent.min[0],
+        f.plan.extent.max[0],
+        f.plan.extent.min[1],
+        f.plan.extent.max[1],
+        f.end[0],
+        f.end[1]
+    )
+}
+
+/// `send --frame` asks before cutting; answered from `input` (the terminal). Yes only for `y`
+/// or `yes`; anything else, or no answer, is no.
+pub fn ask_start(input: &mut dyn BufRead) -> anyhow::Result<bool> {
+    eprint!("Start the job? [y/N] ");
+    let _ = std::io::stderr().flush();
+    let mut line = String::new();
+    input.read_line(&mut line)?;
+    let a = line.trim().to_ascii_lowercase();
+    Ok(a == "y" || a == "yes")
+}
+
+/// `send --frame` without `--yes` needs someone at a terminal to answer.
+pub fn can_ask() -> bool {
+    std::io::stdin().is_terminal()
+}
+
+pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
+    let text = super::send::read_program(&a.file)?;
+    let job = Job::parse(&a.file.display().to_string(), &text)?;
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
+    let vcfg = VirtualConfig {
+        rapid_mm_min: machine.motion.rapid_mm_min,
+        ..VirtualConfig::default()
+    };
+    let mut opened = super::port::open_machine(a.dry_run, a.port.as_deref(), a.baud, vcfg)?;
+    let cfg = StreamConfig {
+        timeout: Duration::from_secs_f64(a.timeout_s),
+        unlock: a.unlock,
+        ..StreamConfig::default()
+    };
+    let (tx, rx) = channel();
+    let keys = super::send::Keys::start(tx);
+    let mut say = Say { raw: keys.raw };
+    if keys.raw {
+        say.line("keys: a / q / Esc / Ctrl-C = abort");
+    }
+    let result = frame_on(opened.port.as_mut(), &cfg, &rx, &mut say, &s);
+    drop(keys);
+    let framed = result?;
+    println!("{}", framed_line(&framed, &opened.label));
+    if let Some(vg) = opened.virtual_grbl.take() {
+        let r = vg.stop();
+        let beam = r.moves.iter().filter(|m| m.beam).count();
+        println!(
+            "virtual Grbl: {} moves, {} with the beam on; laser {} at the end, machine at X {:.3} Y {:.3}",
+            r.moves.len(),
+            beam,
+            if r.laser_on { "ON" } else { "off" },
+            r.position[0],
+            r.position[1]
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_yes_starts_the_job() {
+        for (answer, start) in [("y\n", true), ("YES\n", true), ("n\n", false), ("\n", false), ("", false), ("maybe\n", false)] {
+            assert_eq!(ask_start(&mut answer.as_bytes()).unwrap(), start, "{answer:?}");
+        }
+    }
+}

@@ -1,0 +1,69 @@
+//! Opening the machine for `send`, `frame` and `jog`: a serial port, or the virtual Grbl on a
+//! pseudo-terminal for `--dry-run`.
+
+use std::time::Duration;
+
+use anyhow::{bail, Context};
+
+use stencil::machine::stream::BytePort;
+use stencil::machine::virtual_grbl::{VirtualConfig, VirtualGrbl};
+
+/// An open link to a controller.
+pub struct Opened {
+    pub port: Box<dyn BytePort>,
+    /// What it is, for messages: the port's path, or "the virtual Grbl (dry run)".
+    pub label: String,
+    /// The simulated controller behind a dry run (its record is printed at the end).
+    pub virtual_grbl: Option<VirtualGrbl>,
+}
+
+/// The serial ports the system lists, for error messages.
+pub fn list_ports() -> String {
+    match serialport::available_ports() {
+        Ok(ports) if !ports.is_empty() => ports
+            .iter()
+            .map(|p| p.port_name.clone())
+            .collect::<Vec<_>>()
+            .join(", "),
+        Ok(_) => "none found".into(),
+        Err(e) => format!("cannot list them: {e}"),
+    }
+}
+
+/// Open `port` at `baud`, or with `dry_run` start a virtual Grbl built as `vcfg` says.
+pub fn open_machine(
+    dry_run: bool,
+    port: Option<&str>,
+    baud: u32,
+    vcfg: VirtualConfig,
+) -> anyhow::Result<Opened> {
+    if dry_run {
+        let (vg, host) = VirtualGrbl::spawn(vcfg)
+            .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
+        return Ok(Opened {
+            port: Box::new(host),
+            label: "the virtual Grbl (dry run)".into(),
+            virtual_grbl: Some(vg),
+        });
+    }
+    let Some(p) = port else {
+        bail!(
+            "no machine given: pass --port PATH (ports found: {}) or --dry-run to use a simulated Grbl",
+            list_ports()
+        );
+    };
+    let sp = serialport::new(p, baud)
+        .timeout(Duration::from_millis(100))
+        .open()
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{p}: cannot open the serial port: {e}; ports found: {}",
+                list_ports()
+            )
+        })?;
+    Ok(Opened {
+        port: Box::new(sp),
+        label: p.to_string(),
+        virtual_grbl: None,
+    })
+}
