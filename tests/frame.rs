@@ -32,7 +32,11 @@ fn extent() -> Extent {
 }
 
 /// Frame on a fresh virtual Grbl whose head first travels to `start` (work coordinates).
-fn frame_from(start: [f64; 2], tool: FrameTool, vcfg: VirtualConfig) -> (Result<[f64; 3], String>, Record, usize) {
+fn frame_from(
+    start: [f64; 2],
+    tool: FrameTool,
+    vcfg: VirtualConfig,
+) -> (Result<[f64; 3], String>, Record, usize) {
     let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();
     let (_tx, rx) = channel::<Control>();
     let mut quiet = Quiet;
@@ -55,7 +59,13 @@ fn xy(p: [f64; 3]) -> [f64; 2] {
 }
 
 fn corners() -> Vec<[f64; 2]> {
-    vec![[20.0, 30.0], [60.0, 30.0], [60.0, 70.0], [20.0, 70.0], [20.0, 30.0]]
+    vec![
+        [20.0, 30.0],
+        [60.0, 30.0],
+        [60.0, 70.0],
+        [20.0, 70.0],
+        [20.0, 30.0],
+    ]
 }
 
 #[test]
@@ -66,14 +76,21 @@ fn the_extent_is_that_of_the_cutting_moves_only() {
 
 #[test]
 fn a_dark_frame_visits_the_corners_and_returns_with_the_beam_off() {
-    let (end, r, before) = frame_from([5.0, 7.0], FrameTool::Laser { s: 0.0 }, VirtualConfig::default());
+    let (end, r, before) = frame_from(
+        [5.0, 7.0],
+        FrameTool::Laser { s: 0.0 },
+        VirtualConfig::default(),
+    );
     assert_eq!(end.unwrap(), [5.0, 7.0, 0.0]);
     let moves: Vec<&PlannedMove> = r.moves[before..].iter().filter(|m| m.moves_xy()).collect();
     let visited: Vec<[f64; 2]> = moves.iter().map(|m| xy(m.to)).collect();
     let mut want = corners();
     want.push([5.0, 7.0]);
     assert_eq!(visited, want);
-    assert!(moves.iter().all(|m| !m.beam), "the beam fired while framing dark");
+    assert!(
+        moves.iter().all(|m| !m.beam),
+        "the beam fired while framing dark"
+    );
     assert!(!r.laser_on);
     assert_eq!(xy(r.position), [5.0, 7.0]);
     let last: Vec<&str> = r.run_lines().into_iter().rev().take(2).collect();
@@ -82,7 +99,11 @@ fn a_dark_frame_visits_the_corners_and_returns_with_the_beam_off() {
 
 #[test]
 fn a_dim_frame_lights_the_beam_only_along_the_frame() {
-    let (end, r, before) = frame_from([0.0, 0.0], FrameTool::Laser { s: 10.0 }, VirtualConfig::default());
+    let (end, r, before) = frame_from(
+        [0.0, 0.0],
+        FrameTool::Laser { s: 10.0 },
+        VirtualConfig::default(),
+    );
     assert_eq!(end.unwrap(), [0.0, 0.0, 0.0]);
     let moves: Vec<&PlannedMove> = r.moves[before..].iter().filter(|m| m.moves_xy()).collect();
     let beams: Vec<bool> = moves.iter().map(|m| m.beam).collect();
@@ -96,7 +117,11 @@ fn a_dim_frame_lights_the_beam_only_along_the_frame() {
 
 #[test]
 fn pen_and_knife_frames_keep_the_tool_up() {
-    let (end, r, before) = frame_from([0.0, 0.0], FrameTool::ZUp { up_mm: 3.0 }, VirtualConfig::default());
+    let (end, r, before) = frame_from(
+        [0.0, 0.0],
+        FrameTool::ZUp { up_mm: 3.0 },
+        VirtualConfig::default(),
+    );
     assert_eq!(xy(end.unwrap()), [0.0, 0.0]);
     let moves = &r.moves[before..];
     // Lifted before any X/Y move, and never lowered.
@@ -146,7 +171,10 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
         drop(console);
         let m = e.to_string();
         assert!(m.contains(want), "{kind:?}: {m}");
-        assert!(!m.contains("--from-line"), "a frame has no resume line: {m}");
+        assert!(
+            !m.contains("--from-line"),
+            "a frame has no resume line: {m}"
+        );
         assert_dark_after_stop(&vg.stop());
     }
     // The operator aborts (a / q / Esc / Ctrl-C).
@@ -202,9 +230,16 @@ fn cli_frames_refuses_off_bed_jobs_and_asks_before_sending() {
     let j = job.to_str().unwrap();
     let out = stencil().args(["frame", j, "--dry-run"]).output().unwrap();
     let so = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(so.contains("X 20.00..60.00 Y 30.00..70.00"), "{so}");
-    assert!(so.contains("6 moves, 0 with the beam on; laser off"), "{so}");
+    assert!(
+        so.contains("6 moves, 0 with the beam on; laser off"),
+        "{so}"
+    );
     // A profile with frame_power_pct: M4 at that share of s_max, lit only along the frame.
     let diode = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -222,19 +257,30 @@ fn cli_frames_refuses_off_bed_jobs_and_asks_before_sending() {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr),
     );
-    assert!(so.contains("6 moves, 4 with the beam on; laser off"), "{so}{se}");
+    assert!(
+        so.contains("6 moves, 4 with the beam on; laser off"),
+        "{so}{se}"
+    );
     assert!(se.contains("laser dim at S15 (M4)"), "{se}");
     // Off the bed of a 300 x 220 mm plotter.
     let far = dir.path().join("far.gcode");
     std::fs::write(&far, JOB.replace("X60", "X360")).unwrap();
     let out = stencil()
-        .args(["frame", far.to_str().unwrap(), "--dry-run", "--machine", "pen-servo"])
+        .args([
+            "frame",
+            far.to_str().unwrap(),
+            "--dry-run",
+            "--machine",
+            "pen-servo",
+        ])
         .output()
         .unwrap();
     let se = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1));
     assert!(
-        se.contains("outside the bed of pen-servo") && se.contains("X 0..300") && se.contains("360"),
+        se.contains("the bed of pen-servo is 300 mm wide")
+            && se.contains("X 0..300")
+            && se.contains("360"),
         "{se}"
     );
     // Nothing that cuts: nothing to frame.
@@ -253,7 +299,10 @@ fn cli_frames_refuses_off_bed_jobs_and_asks_before_sending() {
         .unwrap();
     let se = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1));
-    assert!(se.contains("stdin is not a terminal") && se.contains("--yes"), "{se}");
+    assert!(
+        se.contains("stdin is not a terminal") && se.contains("--yes"),
+        "{se}"
+    );
     assert!(out.stdout.is_empty());
     // With --yes: framed, then the job streamed.
     let out = stencil()
@@ -265,5 +314,8 @@ fn cli_frames_refuses_off_bed_jobs_and_asks_before_sending() {
     let so = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{se}");
     assert!(se.contains("framed on the virtual Grbl"), "{se}");
-    assert!(so.contains("sent 14 lines") && so.contains("laser off"), "{so}");
+    assert!(
+        so.contains("sent 14 lines") && so.contains("laser off"),
+        "{so}"
+    );
 }

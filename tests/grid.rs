@@ -21,7 +21,9 @@ fn squares(gcode: &str) -> Vec<(f64, f64, Vec<[f64; 2]>)> {
     assert_eq!(cuts.len() % 4, 0);
     cuts.chunks(4)
         .map(|c| {
-            assert!(c.iter().all(|m| m.power == c[0].power && m.feed == c[0].feed));
+            assert!(c
+                .iter()
+                .all(|m| m.power == c[0].power && m.feed == c[0].feed));
             (
                 c[0].power,
                 c[0].feed,
@@ -33,7 +35,10 @@ fn squares(gcode: &str) -> Vec<(f64, f64, Vec<[f64; 2]>)> {
 
 /// The `; square ...` comments.
 fn comments(gcode: &str) -> Vec<&str> {
-    gcode.lines().filter(|l| l.starts_with("; square ")).collect()
+    gcode
+        .lines()
+        .filter(|l| l.starts_with("; square "))
+        .collect()
 }
 
 /// The SVG's square labels: (row, col, text).
@@ -61,8 +66,17 @@ fn laser_grid_has_the_requested_squares_labelled_and_on_the_bed() {
     let out = dir.path().join("grid.gcode");
     let o = out.to_str().unwrap();
     let r = stencil(&[
-        "test-grid", "--machine", "diode-400", "--material", "cardstock", "-o", o, "--power",
-        "20..100:5", "--speed", "300..1500:4",
+        "test-grid",
+        "--machine",
+        "diode-400",
+        "--material",
+        "cardstock",
+        "-o",
+        o,
+        "--power",
+        "20..100:5",
+        "--speed",
+        "300..1500:4",
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let g = std::fs::read_to_string(&out).unwrap();
@@ -77,7 +91,10 @@ fn laser_grid_has_the_requested_squares_labelled_and_on_the_bed() {
         assert_eq!(*f, speeds[col], "square {i}");
         // A 10 mm square at 15 mm pitch from (5, 5).
         let (x, y) = (5.0 + 15.0 * col as f64, 5.0 + 15.0 * row as f64);
-        assert_eq!(corners, &vec![[x + 10.0, y], [x + 10.0, y + 10.0], [x, y + 10.0], [x, y]]);
+        assert_eq!(
+            corners,
+            &vec![[x + 10.0, y], [x + 10.0, y + 10.0], [x, y + 10.0], [x, y]]
+        );
     }
     // Nothing leaves the bed, and the travel is dark.
     for m in interpret(&g).unwrap() {
@@ -88,10 +105,16 @@ fn laser_grid_has_the_requested_squares_labelled_and_on_the_bed() {
     }
     let c = comments(&g);
     assert_eq!(c.len(), 20);
-    assert_eq!(c[6], "; square 7 of 20, row 2 column 3: power 40 % S400, speed 1100 mm/min");
+    assert_eq!(
+        c[6],
+        "; square 7 of 20, row 2 column 3: power 40 % S400, speed 1100 mm/min"
+    );
     // The program's end: beam off, then home and M2 (the writer's end for every job).
     let tail: Vec<&str> = g.trim_end().lines().rev().take(4).collect();
-    assert!(g.contains("M4 S0") && tail[0] == "M2" && tail.contains(&"M5 S0"), "{g}");
+    assert!(
+        g.contains("M4 S0") && tail[0] == "M2" && tail.contains(&"M5 S0"),
+        "{g}"
+    );
     // The preview beside it labels every square with what it is cut at.
     let svg = std::fs::read_to_string(dir.path().join("grid.svg")).unwrap();
     let labels = svg_labels(&svg);
@@ -119,7 +142,13 @@ fn laser_grid_has_the_requested_squares_labelled_and_on_the_bed() {
 fn defaults_centre_on_the_material() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("g.gcode");
-    let r = stencil(&["test-grid", "--material", "cardstock", "-o", out.to_str().unwrap()]);
+    let r = stencil(&[
+        "test-grid",
+        "--material",
+        "cardstock",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let sq = squares(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(sq.len(), 25);
@@ -134,13 +163,25 @@ fn an_oversized_grid_is_refused_naming_the_size_and_the_bed() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("big.gcode");
     let r = stencil(&[
-        "test-grid", "--machine", "pen-servo", "--speed", "500..5000:20", "--size", "12", "-o",
+        "test-grid",
+        "--machine",
+        "pen-servo",
+        "--speed",
+        "500..5000:20",
+        "--size",
+        "12",
+        "-o",
         out.to_str().unwrap(),
     ]);
     let se = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1));
     // 20 x 12 + 19 x 5 = 335 mm wide on a 300 x 220 mm bed.
-    assert!(se.contains("335.0 x 12.0 mm") && se.contains("pen-servo") && se.contains("300.0 x 220.0 mm"), "{se}");
+    assert!(
+        se.contains("335.0 x 12.0 mm")
+            && se.contains("pen-servo")
+            && se.contains("300.0 x 220.0 mm"),
+        "{se}"
+    );
     assert!(!out.exists() && !dir.path().join("big.svg").exists());
 }
 
@@ -149,8 +190,15 @@ fn knife_grid_varies_depth_and_pen_grid_speed_only() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k.gcode");
     let r = stencil(&[
-        "test-grid", "--machine", "drag-knife", "--speed", "300..900:3", "--depth", "-0.1..-0.3:3",
-        "-o", out.to_str().unwrap(),
+        "test-grid",
+        "--machine",
+        "drag-knife",
+        "--speed",
+        "300..900:3",
+        "--depth",
+        "-0.1..-0.3:3",
+        "-o",
+        out.to_str().unwrap(),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let g = std::fs::read_to_string(&out).unwrap();
@@ -161,16 +209,41 @@ fn knife_grid_varies_depth_and_pen_grid_speed_only() {
         assert_eq!(*p, format!("G1 Z{d} F300"), "square {i}");
     }
     let svg = std::fs::read_to_string(dir.path().join("k.svg")).unwrap();
-    assert!(svg_labels(&svg).contains(&(2, 3, "Z-0.2 F900".to_string())), "{svg}");
+    assert!(
+        svg_labels(&svg).contains(&(2, 3, "Z-0.2 F900".to_string())),
+        "{svg}"
+    );
     assert!(svg.contains(">depth Z-0.3</text>"));
     // Every cutting move of a square runs at its depth.
     let moves = interpret(&g).unwrap();
-    assert!(moves.iter().filter(|m| !m.rapid && m.to[0] != m.from[0]).all(|m| m.to[2] < 0.0));
-    let r = stencil(&["test-grid", "--machine", "pen-a3", "--power", "10..50", "-o", out.to_str().unwrap()]);
+    assert!(moves
+        .iter()
+        .filter(|m| !m.rapid && m.to[0] != m.from[0])
+        .all(|m| m.to[2] < 0.0));
+    let r = stencil(&[
+        "test-grid",
+        "--machine",
+        "pen-a3",
+        "--power",
+        "10..50",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     let se = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1));
-    assert!(se.contains("--power") && se.contains("has no power") && se.contains("--speed"), "{se}");
-    let r = stencil(&["test-grid", "--machine", "pen-a3", "--speed", "1000..4000:4", "-o", out.to_str().unwrap()]);
+    assert!(
+        se.contains("--power") && se.contains("has no power") && se.contains("--speed"),
+        "{se}"
+    );
+    let r = stencil(&[
+        "test-grid",
+        "--machine",
+        "pen-a3",
+        "--speed",
+        "1000..4000:4",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(Path::new(&out).exists());
     let g = std::fs::read_to_string(&out).unwrap();

@@ -11,7 +11,7 @@ use std::time::Duration;
 use anyhow::bail;
 use clap::Args;
 
-use stencil::machine::frame::{self, cut_extent, Extent, FrameTool, Framed};
+use stencil::machine::frame::{self, cut_extent_with, Extent, FrameTool, Framed};
 use stencil::machine::stream::console::Console;
 use stencil::machine::stream::{BytePort, Control, ControllerInfo, Job, Observer, StreamConfig};
 use stencil::machine::virtual_grbl::VirtualConfig;
@@ -105,31 +105,20 @@ pub fn setup(
     feed: Option<f64>,
     no_bed_check: bool,
 ) -> anyhow::Result<Setup> {
-    let Some(extent) = cut_extent(&job.moves) else {
+    let Some(extent) = cut_extent_with(&job.moves, machine.cut_rule(&job.moves)) else {
         bail!(
             "{}: nothing to frame: no move in the file cuts (no powered G1 for a laser, no G1 in \
              X/Y for a pen or knife)",
             file.display()
         );
     };
+    // The bed check `send`, `estimate` and `simulate` make, on the rectangle to be traced.
     if !no_bed_check {
-        let (w, h) = (machine.bed.width_mm, machine.bed.height_mm);
-        let eps = 1e-3;
-        if extent.min[0] < -eps
-            || extent.min[1] < -eps
-            || extent.max[0] > w + eps
-            || extent.max[1] > h + eps
-        {
+        if let Err(e) = machine.check_extent(extent.min, extent.max, None) {
             bail!(
-                "{}: the job cuts at X {:.2}..{:.2} Y {:.2}..{:.2} mm, outside the bed of {} \
-                 (X 0..{w} Y 0..{h} mm); nothing was moved. Place the job on the bed, or pass \
-                 --no-bed-check if its work zero is set away from the machine's origin",
-                file.display(),
-                extent.min[0],
-                extent.max[0],
-                extent.min[1],
-                extent.max[1],
-                machine.name
+                "{}: {e}; nothing was moved. Place the job on the bed, or pass --no-bed-check if \
+                 its work zero is set away from the machine's origin",
+                file.display()
             );
         }
     }
@@ -266,8 +255,19 @@ mod tests {
 
     #[test]
     fn only_yes_starts_the_job() {
-        for (answer, start) in [("y\n", true), ("YES\n", true), ("n\n", false), ("\n", false), ("", false), ("maybe\n", false)] {
-            assert_eq!(ask_start(&mut answer.as_bytes()).unwrap(), start, "{answer:?}");
+        for (answer, start) in [
+            ("y\n", true),
+            ("YES\n", true),
+            ("n\n", false),
+            ("\n", false),
+            ("", false),
+            ("maybe\n", false),
+        ] {
+            assert_eq!(
+                ask_start(&mut answer.as_bytes()).unwrap(),
+                start,
+                "{answer:?}"
+            );
         }
     }
 }

@@ -131,8 +131,14 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| around(base.speed_mm_min, 1.0, max_feed));
     let (row_kind, rows, row_text) = match machine.tool {
         Tool::Laser { .. } => {
-            let p = a.power.unwrap_or_else(|| around(base.power_pct, 0.1, 100.0));
-            (RowKind::Power, p.values(), format!("power {}", describe(&p, " %")))
+            let p = a
+                .power
+                .unwrap_or_else(|| around(base.power_pct, 0.1, 100.0));
+            (
+                RowKind::Power,
+                p.values(),
+                format!("power {}", describe(&p, " %")),
+            )
         }
         Tool::Knife { z, .. } => {
             let d = a.depth.unwrap_or(Steps {
@@ -140,7 +146,11 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
                 to: z.down_mm - 0.2,
                 steps: 5,
             });
-            (RowKind::Depth, d.values(), format!("depth Z {}", describe(&d, " mm")))
+            (
+                RowKind::Depth,
+                d.values(),
+                format!("depth Z {}", describe(&d, " mm")),
+            )
         }
         Tool::Pen(_) => (RowKind::None, Vec::new(), String::new()),
     };

@@ -78,10 +78,8 @@ impl Terminal {
 impl Drop for Terminal {
     fn drop(&mut self) {
         if self.enhanced {
-            let _ = crossterm::execute!(
-                io::stderr(),
-                crossterm::event::PopKeyboardEnhancementFlags
-            );
+            let _ =
+                crossterm::execute!(io::stderr(), crossterm::event::PopKeyboardEnhancementFlags);
         }
         let _ = crossterm::terminal::disable_raw_mode();
     }

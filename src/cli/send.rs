@@ -21,8 +21,8 @@ use stencil::machine::keys::{self, Key, KeySource};
 use stencil::machine::simulate;
 use stencil::machine::stall::ClockRef;
 use stencil::machine::stream::{
-    self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress,
-    ResumeLift, StreamConfig,
+    self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress, ResumeLift,
+    StreamConfig,
 };
 use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
 use stencil::plan::estimate::{estimate, estimate_with, format_duration, MotionLimits};
@@ -512,7 +512,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
              pass --yes to start right after framing, or frame first with `stencil frame`"
         ),
         // The frame is of the whole file (a resumed job still lands where the file says).
-        true => Some(super::frame::setup(&a.file, &job, &machine, a.frame_feed, false)?),
+        true => Some(super::frame::setup(
+            &a.file,
+            &job,
+            &machine,
+            a.frame_feed,
+            a.no_bed_check,
+        )?),
     };
     let mut cfg = StreamConfig {
         flow: if a.send_response {

@@ -8,7 +8,7 @@
 //! like a job, so it has every stop a job has (error, alarm, lost port, abort: laser off).
 
 use super::error::MachineError;
-use super::gcode::Move;
+use super::gcode::{CutRule, Move};
 use super::job::Job;
 use super::protocol::MachineState;
 use super::stream::console::Console;
@@ -31,22 +31,16 @@ impl Extent {
     }
 }
 
-/// Whether a move cuts. Programs that switch a spindle/laser on: moves with power. Programs that
-/// never do (a pen or knife on Z): feed moves that go somewhere in X/Y. (The rule the time
-/// estimate uses.)
-fn cuts(uses_spindle: bool, m: &Move) -> bool {
-    if uses_spindle {
-        m.power > 0.0
-    } else {
-        !m.rapid && (m.to[0] != m.from[0] || m.to[1] != m.from[1])
-    }
+/// The extent of the cutting moves, by the rule the program itself shows
+/// ([`CutRule::infer`], the rule `simulate` and `estimate` use); `None` when nothing cuts.
+pub fn cut_extent(moves: &[Move]) -> Option<Extent> {
+    cut_extent_with(moves, CutRule::infer(moves))
 }
 
-/// The extent of the cutting moves; `None` when nothing cuts.
-pub fn cut_extent(moves: &[Move]) -> Option<Extent> {
-    let uses_spindle = moves.iter().any(|m| m.power > 0.0);
+/// [`cut_extent`] by a given rule (a machine profile's, e.g. a servo pen drawing in G0).
+pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
     let mut e: Option<Extent> = None;
-    for m in moves.iter().filter(|m| cuts(uses_spindle, m)) {
+    for m in moves.iter().filter(|m| rule.cuts(m)) {
         let x = e.get_or_insert(Extent {
             min: [m.from[0], m.from[1]],
             max: [m.from[0], m.from[1]],

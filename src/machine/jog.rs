@@ -94,7 +94,10 @@ impl JogKeys for Script {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Action {
     /// Jog one step along axis 0/1/2 (X/Y/Z) in direction `sign`.
-    Jog { axis: usize, sign: f64 },
+    Jog {
+        axis: usize,
+        sign: f64,
+    },
     Cancel,
     Home,
     Unlock,
@@ -110,12 +113,21 @@ pub enum Action {
 /// The key map.
 pub fn action(key: JogKey) -> Action {
     match key {
-        JogKey::Left => Action::Jog { axis: 0, sign: -1.0 },
+        JogKey::Left => Action::Jog {
+            axis: 0,
+            sign: -1.0,
+        },
         JogKey::Right => Action::Jog { axis: 0, sign: 1.0 },
         JogKey::Up => Action::Jog { axis: 1, sign: 1.0 },
-        JogKey::Down => Action::Jog { axis: 1, sign: -1.0 },
+        JogKey::Down => Action::Jog {
+            axis: 1,
+            sign: -1.0,
+        },
         JogKey::PageUp => Action::Jog { axis: 2, sign: 1.0 },
-        JogKey::PageDown => Action::Jog { axis: 2, sign: -1.0 },
+        JogKey::PageDown => Action::Jog {
+            axis: 2,
+            sign: -1.0,
+        },
         JogKey::Released | JogKey::Char(' ') => Action::Cancel,
         JogKey::Char('h') | JogKey::Char('H') => Action::Home,
         JogKey::Char('u') | JogKey::Char('U') => Action::Unlock,
@@ -263,7 +275,10 @@ impl<'c, 'a> Jogger<'c, 'a> {
                 // one waits behind the running one.
                 if let Some(p) = &self.last {
                     let queued = p.status.buffer.map(|(free, _)| {
-                        self.console.info().planner_blocks.saturating_sub(free as usize)
+                        self.console
+                            .info()
+                            .planner_blocks
+                            .saturating_sub(free as usize)
                     });
                     if self.jogging() && queued.is_some_and(|q| q >= 2) {
                         return Ok(false);
@@ -293,8 +308,9 @@ impl<'c, 'a> Jogger<'c, 'a> {
             }
             Action::Unlock => {
                 if self.send("$X")? {
-                    self.console
-                        .say("unlocked ($X): the position may be wrong after an alarm; home if unsure");
+                    self.console.say(
+                        "unlocked ($X): the position may be wrong after an alarm; home if unsure",
+                    );
                 }
             }
             Action::Zero => {
@@ -304,7 +320,11 @@ impl<'c, 'a> Jogger<'c, 'a> {
                 }
             }
             Action::SetStep(i) => {
-                if let Some(k) = self.steps.iter().position(|s| (s - STEPS_MM[i]).abs() < 1e-9) {
+                if let Some(k) = self
+                    .steps
+                    .iter()
+                    .position(|s| (s - STEPS_MM[i]).abs() < 1e-9)
+                {
                     self.step = k;
                 }
             }
@@ -409,7 +429,13 @@ mod tests {
         );
         let e = parse_keys("right,jump").unwrap_err();
         assert!(e.contains("'jump'") && e.contains("pgup"), "{e}");
-        assert_eq!(action(JogKey::Left), Action::Jog { axis: 0, sign: -1.0 });
+        assert_eq!(
+            action(JogKey::Left),
+            Action::Jog {
+                axis: 0,
+                sign: -1.0
+            }
+        );
         assert_eq!(action(JogKey::PageUp), Action::Jog { axis: 2, sign: 1.0 });
         assert_eq!(action(JogKey::Char('3')), Action::SetStep(2));
         assert_eq!(action(JogKey::Esc), Action::Quit);

@@ -636,7 +636,10 @@ impl Sim {
         let laser_mode = self.laser_mode();
         let jog = {
             let mut r = lock(&self.shared);
-            let jog = r.received.get(idx).is_some_and(|l| l.text.starts_with("$J"));
+            let jog = r
+                .received
+                .get(idx)
+                .is_some_and(|l| l.text.starts_with("$J"));
             let m = &self.modal;
             r.moves.push(PlannedMove {
                 from: mv.from,
@@ -983,7 +986,10 @@ impl Sim {
                 };
             }
         }
-        if to.iter().any(|v| !v.is_finite() || v.abs() > gcode::MAX_COORD_MM) {
+        if to
+            .iter()
+            .any(|v| !v.is_finite() || v.abs() > gcode::MAX_COORD_MM)
+        {
             return self.reply_error(15);
         }
         self.modal.pos = to;

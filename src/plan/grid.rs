@@ -24,9 +24,8 @@ pub const MAX_STEPS: usize = 20;
 impl Steps {
     /// `A..B:N` (N values from A to B, both included), `A..B` (5 values) or `A` (one value).
     pub fn parse(s: &str) -> Result<Steps, String> {
-        let bad = || {
-            format!("'{s}' is not a range: use FROM..TO:STEPS (e.g. 20..100:5) or one number")
-        };
+        let bad =
+            || format!("'{s}' is not a range: use FROM..TO:STEPS (e.g. 20..100:5) or one number");
         let num = |t: &str| -> Result<f64, String> {
             t.trim()
                 .parse::<f64>()
@@ -47,10 +46,14 @@ impl Steps {
             None => return Err(bad()),
         };
         if !(1..=MAX_STEPS).contains(&steps) {
-            return Err(format!("'{s}': the number of steps must be 1 to {MAX_STEPS}"));
+            return Err(format!(
+                "'{s}': the number of steps must be 1 to {MAX_STEPS}"
+            ));
         }
         if steps == 1 && from != to {
-            return Err(format!("'{s}': one step cannot cover {from}..{to}; use 2 or more"));
+            return Err(format!(
+                "'{s}': one step cannot cover {from}..{to}; use 2 or more"
+            ));
         }
         Ok(Steps { from, to, steps })
     }
@@ -135,7 +138,11 @@ pub struct Grid {
 /// settings against the machine and the whole grid against its bed.
 pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
     let bad = |m: String| PlanError::Settings(m);
-    if !(spec.size_mm.is_finite() && spec.size_mm > 0.0 && spec.gap_mm.is_finite() && spec.gap_mm >= 0.0) {
+    if !(spec.size_mm.is_finite()
+        && spec.size_mm > 0.0
+        && spec.gap_mm.is_finite()
+        && spec.gap_mm >= 0.0)
+    {
         return Err(bad("the squares need a size > 0 and a gap >= 0".into()));
     }
     let (nr, nc) = (spec.rows.len().max(1), spec.speeds.len());
@@ -167,7 +174,8 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
             x1,
             y0,
             y1,
-            hint: "use fewer steps, smaller squares (--size) or gaps (--gap), or move it (--offset)",
+            hint:
+                "use fewer steps, smaller squares (--size) or gaps (--gap), or move it (--offset)",
         });
     }
     let mut cells = Vec::with_capacity(nr * nc);
@@ -338,7 +346,12 @@ pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
         .map(|c| {
             let p = view(c.min);
             let q = view([c.min[0] + a, c.min[1] + a]);
-            [p[0].min(q[0]), p[1].min(q[1]), p[0].max(q[0]), p[1].max(q[1])]
+            [
+                p[0].min(q[0]),
+                p[1].min(q[1]),
+                p[0].max(q[0]),
+                p[1].max(q[1]),
+            ]
         })
         .collect();
     let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
@@ -419,11 +432,19 @@ mod tests {
 
     #[test]
     fn ranges_parse_and_step() {
-        assert_eq!(Steps::parse("20..100:5").unwrap().values(), [20.0, 40.0, 60.0, 80.0, 100.0]);
+        assert_eq!(
+            Steps::parse("20..100:5").unwrap().values(),
+            [20.0, 40.0, 60.0, 80.0, 100.0]
+        );
         assert_eq!(Steps::parse("300..1500").unwrap().values().len(), 5);
         assert_eq!(Steps::parse("7").unwrap().values(), [7.0]);
-        assert_eq!(Steps::parse("-0.1..-0.5:3").unwrap().values(), [-0.1, -0.3, -0.5]);
-        for bad in ["", "a..b", "1..2:0", "1..2:99", "1..2:x", "1..5:1", "inf..2"] {
+        assert_eq!(
+            Steps::parse("-0.1..-0.5:3").unwrap().values(),
+            [-0.1, -0.3, -0.5]
+        );
+        for bad in [
+            "", "a..b", "1..2:0", "1..2:99", "1..2:x", "1..5:1", "inf..2",
+        ] {
             assert!(Steps::parse(bad).is_err(), "{bad}");
         }
     }

@@ -672,9 +672,15 @@ s_max = 255
         )
         .unwrap();
         assert_eq!(m.frame_power_pct, 1.5);
-        assert_eq!(parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct, 0.0);
+        assert_eq!(
+            parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct,
+            0.0
+        );
         let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 40"));
-        assert!(e.contains("tool.frame_power_pct") && e.contains("10"), "{e}");
+        assert!(
+            e.contains("tool.frame_power_pct") && e.contains("10"),
+            "{e}"
+        );
         let pen = GOOD.replace(
             "kind = \"laser\"\ns_max = 255",
             "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nframe_power_pct = 1",

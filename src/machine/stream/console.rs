@@ -11,8 +11,8 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use super::{
-    BytePort, Control, ControllerInfo, Job, MachineError, Observer, Outgoing,
-    Session, StreamConfig, Summary,
+    BytePort, Control, ControllerInfo, Job, MachineError, Observer, Outgoing, Session,
+    StreamConfig, Summary,
 };
 use crate::machine::protocol::{MachineState, Reply, Status, RT_STATUS};
 
@@ -91,7 +91,8 @@ impl<'a> Console<'a> {
                         )
                     })
                     .unwrap_or_default();
-                s.obs.message(&format!("the machine is locked in alarm{why}"));
+                s.obs
+                    .message(&format!("the machine is locked in alarm{why}"));
                 true
             }
             Err(e) => return Err(e),
