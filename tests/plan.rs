@@ -476,3 +476,106 @@ fn send_estimate_and_simulate_refuse_a_job_off_the_bed() {
     let (ok, out, err) = run(&["send", s(&fits), "--dry-run", "--machine", "co2-600x400"]);
     assert!(ok && out.contains("laser off"), "{out} {err}");
 }
+
+/// A target on a 400 px square (ink is cut): an ink ring (r 150..170 px) around a paper disc,
+/// an ink ring (r 60..80) on that disc around a paper ring, and an ink dot (r < 20) in the middle.
+/// The paper disc and the paper ring are islands.
+fn target(path: &Path) {
+    common::smooth_png(path, 400, 400, |x, y| {
+        let d = ((x - 200.0).powi(2) + (y - 200.0).powi(2)).sqrt();
+        if (150.0..=170.0).contains(&d) || (60.0..=80.0).contains(&d) || d < 20.0 {
+            0.0
+        } else {
+            1.0
+        }
+    });
+}
+
+/// Whether every cut lying wholly within `r_in` of the centre comes before every cut lying wholly
+/// beyond `r_out`: the cuts inside an island before the arcs around it. Returns (inner, outer)
+/// loop counts; panics with the first loop out of order.
+fn inside_radius_first(
+    loops: &[Vec<[f64; 2]>],
+    centre: [f64; 2],
+    r_in: f64,
+    r_out: f64,
+    what: &str,
+) -> (usize, usize) {
+    let radii = |l: &[[f64; 2]]| {
+        l.iter()
+            .map(|p| ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)).sqrt())
+            .fold((f64::MAX, f64::MIN), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    };
+    let inner: Vec<usize> = (0..loops.len())
+        .filter(|&i| radii(&loops[i]).1 < r_in)
+        .collect();
+    let outer: Vec<usize> = (0..loops.len())
+        .filter(|&i| radii(&loops[i]).0 > r_out)
+        .collect();
+    for &i in &inner {
+        for &o in &outer {
+            assert!(
+                i < o,
+                "{what}: loop {i} lies inside the island (within {r_in:.1} mm of its centre) but \
+                 is cut after loop {o}, one of the arcs around it; order {inner:?} / {outer:?}"
+            );
+        }
+    }
+    (inner.len(), outer.len())
+}
+
+#[test]
+fn islands_held_by_several_bridges_drop_only_after_the_cuts_inside_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let pic = dir.path().join("target.png");
+    target(&pic);
+    for n in ["2", "3"] {
+        let out = dir.path().join(format!("t{n}"));
+        let (ok, _, err) = run(&[
+            "make",
+            s(&pic),
+            "-o",
+            s(&out),
+            "--emit",
+            "gcode",
+            "--bridges-per-island",
+            n,
+        ]);
+        assert!(ok, "{err}");
+        let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+        let loops = laser_loops(&text);
+        // The design is symmetric about its centre: the middle of everything cut.
+        let all: Vec<[f64; 2]> = loops.iter().flatten().copied().collect();
+        let (lo, hi) = all
+            .iter()
+            .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+                (
+                    [lo[0].min(p[0]), lo[1].min(p[1])],
+                    [hi[0].max(p[0]), hi[1].max(p[1])],
+                )
+            });
+        let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        // 0.1 mm per picture pixel: the outer ring's inner edge is at 15 mm, the middle ring
+        // spans 6..8 mm, the dot 2 mm.
+        let what = format!("--bridges-per-island {n}");
+        // The big paper disc: the middle ring's arcs and the dot, before the outer ring's arcs.
+        let (inner, outer) = inside_radius_first(&loops, c, 11.0, 14.0, &what);
+        assert_eq!(
+            inner,
+            loops.len() - outer,
+            "{what}: every loop is inside or around"
+        );
+        assert!(
+            outer >= 2,
+            "{what}: the disc is held by {outer} arc(s), not several"
+        );
+        assert!(
+            inner >= 3,
+            "{what}: the middle ring is cut in {} arc(s)",
+            inner - 1
+        );
+        // The paper ring: the dot before the middle ring's arcs.
+        let (dot, arcs) = inside_radius_first(&loops, c, 4.0, 5.0, &what);
+        assert_eq!((dot, arcs), (1, loops.len() - 1), "{what}");
+    }
+}
