@@ -579,3 +579,97 @@ fn islands_held_by_several_bridges_drop_only_after_the_cuts_inside_them() {
         assert_eq!((dot, arcs), (1, loops.len() - 1), "{what}");
     }
 }
+
+/// The part of the ring `r_in..r_out` around (`cx`, `cy`) from angle `a0` to `a1` (radians), as
+/// SVG path data: a cut arc, as bridges break a ring.
+fn arc_path(cx: f64, cy: f64, r_in: f64, r_out: f64, a0: f64, a1: f64) -> String {
+    let pt = |r: f64, a: f64| format!("{:.4} {:.4}", cx + r * a.cos(), cy + r * a.sin());
+    let steps = 48;
+    let mut d = String::new();
+    for k in 0..=steps {
+        let a = a0 + (a1 - a0) * k as f64 / steps as f64;
+        d += &format!("{}{} ", if k == 0 { "M" } else { "L" }, pt(r_out, a));
+    }
+    for k in (0..=steps).rev() {
+        let a = a0 + (a1 - a0) * k as f64 / steps as f64;
+        d += &format!("L{} ", pt(r_in, a));
+    }
+    d + "Z"
+}
+
+#[test]
+fn a_drawing_without_bridge_data_keeps_islands_held_by_several_gaps_until_last() {
+    // A target drawn by hand in another program: the outer cut ring (15..17 mm) broken by two
+    // 2 mm gaps (its bridges) at left and right, the middle one (6..8 mm) by two at top and
+    // bottom, and a dot of 2 mm in the middle. The paper disc and the paper ring are islands,
+    // each held by two bridges.
+    let (c, tau) = (25.0, std::f64::consts::TAU);
+    let gap = |r: f64| 2.0 / r; // radians for a 2 mm chord, about
+    let mut paths = Vec::new();
+    for (r_in, r_out, start) in [(15.0, 17.0, 0.0), (6.0, 8.0, tau / 4.0)] {
+        let g = gap((r_in + r_out) / 2.0) / 2.0;
+        for half in [0.0, tau / 2.0] {
+            let (a0, a1) = (start + half + g, start + half + tau / 2.0 - g);
+            paths.push(arc_path(c, c, r_in, r_out, a0, a1));
+        }
+    }
+    let dot: String = (0..32)
+        .map(|k| {
+            let a = tau * k as f64 / 32.0;
+            format!(
+                "{}{:.4} {:.4} ",
+                if k == 0 { "M" } else { "L" },
+                c + 2.0 * a.cos(),
+                c + 2.0 * a.sin()
+            )
+        })
+        .collect::<String>()
+        + "Z";
+    paths.push(dot);
+    let body: String = paths
+        .iter()
+        .map(|d| format!("<path d=\"{d}\"/>\n"))
+        .collect();
+    let svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"50mm\" height=\"50mm\" \
+         viewBox=\"0 0 50 50\">\n{body}</svg>\n"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("drawing.svg");
+    std::fs::write(&file, svg).unwrap();
+    let out = dir.path().join("drawing.gcode");
+    let (ok, _, err) = run(&[
+        "gcode",
+        s(&file),
+        "-o",
+        s(&out),
+        "--power",
+        "50",
+        "--speed",
+        "1200",
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    let loops = laser_loops(&text);
+    assert_eq!(loops.len(), 5);
+    let all: Vec<[f64; 2]> = loops.iter().flatten().copied().collect();
+    let (lo, hi) = all
+        .iter()
+        .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        });
+    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    // The disc: the middle ring's two arcs and the dot before the outer ring's two arcs.
+    assert_eq!(
+        inside_radius_first(&loops, centre, 11.0, 14.0, "the paper disc"),
+        (3, 2)
+    );
+    // The paper ring: the dot before the middle ring's arcs.
+    assert_eq!(
+        inside_radius_first(&loops, centre, 4.0, 5.0, "the paper ring"),
+        (1, 4)
+    );
+}

@@ -1,21 +1,27 @@
-//! Cut order constraints: what must be cut before what, so nothing falls out or shifts before the
-//! cuts around it are finished.
+//! Cut order constraints: what must be cut before what, so no piece drops or shifts before the
+//! cuts inside it are finished.
 //!
-//! - A loop lying inside the region another loop frees is cut first (innermost first). After
-//!   bridging, the cut around an island is not a closed ring around it but a C: the ring broken
-//!   by the bridge. A C contains nothing, yet cutting it leaves the island hanging on its bridge,
-//!   free to tilt and shift under the cuts still to come inside it. So the region a loop frees is
-//!   taken as its convex hull (the C with its opening closed, which holds the island and all
-//!   that lies on it), and a loop lying wholly inside another's hull is cut before it.
-//! - Of the outermost cut regions, the largest is cut last: it weakens the sheet the most.
+//! - **Pieces** ([`pieces`]): an island the cuts free is held, once they are done, by its bridges
+//!   alone, free to tilt and shift under cuts still to come inside it. After bridging, the cut
+//!   around an island is not a ring but one arc per bridge, none of which contains anything. So
+//!   the pieces come from what `make` knew before bridging (each island a hole in the cut region
+//!   around it: every arc lying in that region is around the island), or, for a drawing that says
+//!   nothing of bridges, from closing bridge-wide gaps between loops. Every loop inside a piece is
+//!   cut before every loop around it, however many bridges there are.
+//! - **Hulls** ([`containers`]): a loop lying wholly inside another's convex hull (a C with its
+//!   opening closed) is cut before it: this orders nesting without bridges and single broken
+//!   rings whose gap is wider than the closing.
+//! - Of the loops nothing must follow, the largest is cut last: it weakens the sheet the most.
 //! - The sheet's outline (`--cut-outline`) comes after everything inside it.
 //!
-//! The result is a sequence of groups; the travel optimiser orders loops freely within a group.
+//! The result ([`order`]) is the constraints and a sequence of groups that keeps them (by the
+//! longest chain of loops that must follow each); the travel optimiser orders loops freely within
+//! a group, or walks the constraints directly.
 //!
-//! Hull containment is transitive (A in hull(B) and B in hull(C) puts A in hull(C)), so counting
-//! the hulls around a loop gives a depth that orders every such pair: the containing loop always
-//! has fewer hulls around it. Equal hulls (two loops with the same hull) are ordered by a strict
-//! key (hull area, then index), so the order never cycles.
+//! Hull containment is transitive (A in hull(B) and B in hull(C) puts A in hull(C)); equal hulls
+//! (two loops with the same hull) are ordered by a strict key (hull area, then index). Piece
+//! constraints go from a loop in more pieces to one in fewer, and a hull constraint is kept only
+//! where it does not go the other way, so the two together never cycle (see [`order`]).
 
 use super::toolpath::Loop;
 use crate::vector::clip::{self, ClipError};
@@ -589,5 +595,180 @@ mod tests {
         assert!(point_in_ring([5.0, 5.0], &r));
         assert!(!point_in_ring([15.0, 5.0], &r));
         assert!(!point_in_ring([-1.0, 5.0], &r));
+    }
+
+    /// A part of the ring `r_in..r_out` from angle `a0` to `a1`: a cut arc, as bridges leave it.
+    fn arc(c: [f64; 2], r_in: f64, r_out: f64, a0: f64, a1: f64) -> Loop {
+        let at = |r: f64, k: usize| {
+            let a = a0 + (a1 - a0) * k as f64 / 24.0;
+            [c[0] + r * a.cos(), c[1] + r * a.sin()]
+        };
+        let mut points: Vec<[f64; 2]> = (0..=24).map(|k| at(r_out, k)).collect();
+        points.extend((0..=24).rev().map(|k| at(r_in, k)));
+        Loop {
+            points,
+            outline: false,
+            area_mm2: (a1 - a0) / 2.0 * (r_out * r_out - r_in * r_in),
+        }
+    }
+
+    fn circle(c: [f64; 2], r: f64, n: usize) -> Vec<[f64; 2]> {
+        (0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                [c[0] + r * a.cos(), c[1] + r * a.sin()]
+            })
+            .collect()
+    }
+
+    /// A target: the outer ring (15..17) and the middle ring (6..8) each broken into two arcs by
+    /// two bridges, a dot (r 2) in the middle. Loops 0, 1: outer arcs; 2, 3: middle arcs; 4: dot.
+    fn two_bridge_target() -> Vec<Loop> {
+        use std::f64::consts::PI;
+        let c = [50.0, 50.0];
+        // Half of a 2 mm gap, as an angle at the ring's middle.
+        let (g, h) = (1.0 / 16.0, 1.0 / 7.0);
+        vec![
+            arc(c, 15.0, 17.0, g, PI - g),
+            arc(c, 15.0, 17.0, PI + g, 2.0 * PI - g),
+            arc(c, 6.0, 8.0, PI / 2.0 + h, 1.5 * PI - h),
+            arc(c, 6.0, 8.0, -PI / 2.0 + h, PI / 2.0 - h),
+            Loop {
+                points: circle(c, 2.0, 24),
+                outline: false,
+                area_mm2: 12.5,
+            },
+        ]
+    }
+
+    fn respects(order: &Order, n: usize) -> bool {
+        let seq: Vec<usize> = order.groups.iter().flatten().copied().collect();
+        let mut pos = vec![usize::MAX; n];
+        seq.iter().enumerate().for_each(|(k, &i)| pos[i] = k);
+        seq.len() == n
+            && order
+                .before
+                .iter()
+                .enumerate()
+                .all(|(j, b)| b.iter().all(|&i| pos[i] < pos[j]))
+    }
+
+    #[test]
+    fn what_lies_in_an_island_held_by_two_bridges_comes_before_both_arcs() {
+        let loops = two_bridge_target();
+        let c = [50.0, 50.0];
+        // As `make` knows it: before bridging, each cut ring is one region with its island as a
+        // hole (the paper disc inside the outer ring, the paper ring inside the middle one).
+        let regions = vec![
+            Region {
+                exterior: circle(c, 17.0, 64),
+                holes: vec![circle(c, 15.0, 64)],
+            },
+            Region {
+                exterior: circle(c, 8.0, 64),
+                holes: vec![circle(c, 6.0, 64)],
+            },
+        ];
+        // Without pieces, the hull rule alone cannot see it: the dot lies in neither half.
+        let hulls = containers(&loops);
+        assert!(
+            !hulls[4].contains(&0) && !hulls[4].contains(&1),
+            "{hulls:?}"
+        );
+        for gaps in [Gaps::Regions(regions), Gaps::Closing { r_mm: 1.5 }] {
+            let o = order(&loops, &gaps);
+            let mut p: Vec<(Vec<usize>, Vec<usize>)> = o
+                .pieces
+                .iter()
+                .map(|p| (p.inside.clone(), p.around.clone()))
+                .collect();
+            p.sort();
+            assert_eq!(
+                p,
+                vec![(vec![2, 3, 4], vec![0, 1]), (vec![4], vec![2, 3])],
+                "{gaps:?}"
+            );
+            for outer in [0, 1] {
+                for inner in [2, 3, 4] {
+                    assert!(o.before[outer].contains(&inner), "{outer} after {inner}");
+                }
+            }
+            assert!(o.before[2].contains(&4) && o.before[3].contains(&4));
+            assert!(respects(&o, loops.len()), "{:?}", o.groups);
+            assert_eq!(o.groups[0], vec![4], "the dot first");
+        }
+        // Gaps wider than the closing: nothing is taken for a piece.
+        assert!(pieces(&loops, &Gaps::Closing { r_mm: 0.5 })
+            .unwrap()
+            .is_empty());
+    }
+
+    #[test]
+    fn a_hull_that_contradicts_a_piece_gives_way() {
+        // A U-shaped island (a hole in the square region) with a U-shaped cut in it, and a small
+        // cut in the U's notch, which is part of the region around the island: the piece says
+        // the U cut first, the U cut's hull (which holds the small cut) says the other way.
+        let sq = |x0: f64, y0: f64, x1: f64, y1: f64| vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        let u = |x0: f64, y0: f64, x1: f64, y1: f64, nx0: f64, nx1: f64, ny: f64| {
+            vec![
+                [x0, y0],
+                [x1, y0],
+                [x1, y1],
+                [nx1, y1],
+                [nx1, ny],
+                [nx0, ny],
+                [nx0, y1],
+                [x0, y1],
+            ]
+        };
+        let region = Region {
+            exterior: sq(0.0, 0.0, 100.0, 100.0),
+            holes: vec![u(10.0, 10.0, 90.0, 90.0, 40.0, 60.0, 30.0)],
+        };
+        let lp = |points: Vec<[f64; 2]>| Loop {
+            area_mm2: area(&points),
+            points,
+            outline: false,
+        };
+        let loops = vec![
+            lp(sq(45.0, 60.0, 55.0, 70.0)), // in the notch: around
+            lp(u(20.0, 20.0, 80.0, 80.0, 35.0, 65.0, 25.0)), // in the island
+            lp(sq(0.0, 0.0, 100.0, 5.0)),   // around too
+        ];
+        assert_eq!(
+            containers(&loops)[0],
+            vec![1],
+            "the small cut lies in the U's hull"
+        );
+        let o = order(&loops, &Gaps::Regions(vec![region]));
+        assert_eq!(o.pieces.len(), 1);
+        assert_eq!(
+            (o.pieces[0].inside.clone(), o.pieces[0].around.clone()),
+            (vec![1], vec![0, 2])
+        );
+        assert!(o.before[0].contains(&1) && !o.before[1].contains(&0));
+        assert!(respects(&o, loops.len()), "{:?}", o.groups);
+    }
+
+    #[test]
+    fn interior_points_lie_well_inside() {
+        for l in [
+            c_shape(0.0, 0.0, 10.0, 8.0),
+            sq(3.0, 4.0, 0.5, false),
+            two_bridge_target()[2].clone(),
+        ] {
+            let p = interior_point(&l.points).unwrap();
+            assert!(point_in_ring(p, &l.points), "{p:?}");
+            let h = convex_hull(&l.points);
+            // Not on an edge: a little way in every direction is still inside.
+            for d in [[0.05, 0.0], [-0.05, 0.0], [0.0, 0.05], [0.0, -0.05]] {
+                let q = [p[0] + d[0], p[1] + d[1]];
+                assert!(
+                    point_in_ring(q, &l.points) && in_convex(q, &h, 0.0),
+                    "{q:?}"
+                );
+            }
+        }
+        assert_eq!(interior_point(&[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), None);
     }
 }
