@@ -124,6 +124,29 @@ fn rings_are_cut_from_the_inside_out() {
     assert_eq!(nesting_depth(5, &pairs), 5, "{pairs:?}");
 }
 
+/// `make` the picture `pic` into `out` with G-code and `extra` options; the program's text.
+fn make_gcode(pic: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec!["make", s(pic), "-o", s(out), "--emit", "svg,gcode"];
+    args.extend_from_slice(extra);
+    let (ok, _, err) = run(&args);
+    assert!(ok, "{err}");
+    std::fs::read_to_string(out.join("stencil.gcode")).unwrap()
+}
+
+/// The middle of the box around everything cut (the centre of a symmetric design).
+fn centre_of(loops: &[Vec<[f64; 2]>]) -> [f64; 2] {
+    let (lo, hi) = loops
+        .iter()
+        .flatten()
+        .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        });
+    [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
+}
+
 /// A target whose paper disc holds two smaller targets side by side, each with a paper disc
 /// holding a ring around a paper dot with an ink dot in it: islands three deep, siblings at each
 /// level, and a lone dot on the big island.
@@ -152,18 +175,7 @@ fn islands_inside_islands_are_cut_before_what_holds_them() {
     let dir = tempfile::tempdir().unwrap();
     let pic = dir.path().join("targets.png");
     nested_targets(&pic);
-    let out = dir.path().join("t");
-    let (ok, _, err) = run(&[
-        "make",
-        s(&pic),
-        "-o",
-        s(&out),
-        "--emit",
-        "svg,gcode",
-        "--cut-outline",
-    ]);
-    assert!(ok, "{err}");
-    let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+    let text = make_gcode(&pic, &dir.path().join("t"), &["--cut-outline"]);
     let loops = laser_loops(&text);
     // 1 outer ring + 1 lone dot + 2 x (ring, ring, dot) + the sheet outline.
     assert_eq!(loops.len(), 9, "loops");
@@ -531,30 +543,9 @@ fn islands_held_by_several_bridges_drop_only_after_the_cuts_inside_them() {
     target(&pic);
     for n in ["2", "3"] {
         let out = dir.path().join(format!("t{n}"));
-        let (ok, _, err) = run(&[
-            "make",
-            s(&pic),
-            "-o",
-            s(&out),
-            "--emit",
-            "gcode",
-            "--bridges-per-island",
-            n,
-        ]);
-        assert!(ok, "{err}");
-        let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
-        let loops = laser_loops(&text);
-        // The design is symmetric about its centre: the middle of everything cut.
-        let all: Vec<[f64; 2]> = loops.iter().flatten().copied().collect();
-        let (lo, hi) = all
-            .iter()
-            .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
-                (
-                    [lo[0].min(p[0]), lo[1].min(p[1])],
-                    [hi[0].max(p[0]), hi[1].max(p[1])],
-                )
-            });
-        let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let loops = laser_loops(&make_gcode(&pic, &out, &["--bridges-per-island", n]));
+        // The design is symmetric about its centre.
+        let c = centre_of(&loops);
         // 0.1 mm per picture pixel: the outer ring's inner edge is at 15 mm, the middle ring
         // spans 6..8 mm, the dot 2 mm.
         let what = format!("--bridges-per-island {n}");
@@ -652,16 +643,7 @@ fn a_drawing_without_bridge_data_keeps_islands_held_by_several_gaps_until_last()
     let text = std::fs::read_to_string(&out).unwrap();
     let loops = laser_loops(&text);
     assert_eq!(loops.len(), 5);
-    let all: Vec<[f64; 2]> = loops.iter().flatten().copied().collect();
-    let (lo, hi) = all
-        .iter()
-        .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        });
-    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let centre = centre_of(&loops);
     // The disc: the middle ring's two arcs and the dot before the outer ring's two arcs.
     assert_eq!(
         inside_radius_first(&loops, centre, 11.0, 14.0, "the paper disc"),
