@@ -200,7 +200,7 @@ const ARC_TOLERANCE_MM: f64 = 0.01;
 pub fn interior_point(ring: &[[f64; 2]]) -> Option<[f64; 2]> {
     let b = bbox(ring);
     let h = b[3] - b[1];
-    if !(h > 0.0) {
+    if h.is_nan() || h <= 0.0 {
         return None;
     }
     let mut best: Option<([f64; 2], f64)> = None;
