@@ -668,6 +668,9 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 format!("from {}", cfg.input.display()),
                 format!("material {}", phys.material.name),
             ];
+            if map.island_count() > 0 {
+                timer.time("pieces", || geometry.set_unbridged(&twotone.bits, &vcfg))?;
+            }
             timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
             let (text, summary) = timer.time("gcode", || {
                 crate::plan::gcode_for(&geometry, &g.machine, &g.plan, &notes)

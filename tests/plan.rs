@@ -124,6 +124,29 @@ fn rings_are_cut_from_the_inside_out() {
     assert_eq!(nesting_depth(5, &pairs), 5, "{pairs:?}");
 }
 
+/// `make` the picture `pic` into `out` with G-code and `extra` options; the program's text.
+fn make_gcode(pic: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec!["make", s(pic), "-o", s(out), "--emit", "svg,gcode"];
+    args.extend_from_slice(extra);
+    let (ok, _, err) = run(&args);
+    assert!(ok, "{err}");
+    std::fs::read_to_string(out.join("stencil.gcode")).unwrap()
+}
+
+/// The middle of the box around everything cut (the centre of a symmetric design).
+fn centre_of(loops: &[Vec<[f64; 2]>]) -> [f64; 2] {
+    let (lo, hi) = loops
+        .iter()
+        .flatten()
+        .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        });
+    [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
+}
+
 /// A target whose paper disc holds two smaller targets side by side, each with a paper disc
 /// holding a ring around a paper dot with an ink dot in it: islands three deep, siblings at each
 /// level, and a lone dot on the big island.
@@ -152,18 +175,7 @@ fn islands_inside_islands_are_cut_before_what_holds_them() {
     let dir = tempfile::tempdir().unwrap();
     let pic = dir.path().join("targets.png");
     nested_targets(&pic);
-    let out = dir.path().join("t");
-    let (ok, _, err) = run(&[
-        "make",
-        s(&pic),
-        "-o",
-        s(&out),
-        "--emit",
-        "svg,gcode",
-        "--cut-outline",
-    ]);
-    assert!(ok, "{err}");
-    let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+    let text = make_gcode(&pic, &dir.path().join("t"), &["--cut-outline"]);
     let loops = laser_loops(&text);
     // 1 outer ring + 1 lone dot + 2 x (ring, ring, dot) + the sheet outline.
     assert_eq!(loops.len(), 9, "loops");
@@ -475,4 +487,171 @@ fn send_estimate_and_simulate_refuse_a_job_off_the_bed() {
     std::fs::write(&fits, OFF_BED.replace("X612", "X600")).unwrap();
     let (ok, out, err) = run(&["send", s(&fits), "--dry-run", "--machine", "co2-600x400"]);
     assert!(ok && out.contains("laser off"), "{out} {err}");
+}
+
+/// A target on a 400 px square (ink is cut): an ink ring (r 150..170 px) around a paper disc,
+/// an ink ring (r 60..80) on that disc around a paper ring, and an ink dot (r < 20) in the middle.
+/// The paper disc and the paper ring are islands.
+fn target(path: &Path) {
+    common::smooth_png(path, 400, 400, |x, y| {
+        let d = ((x - 200.0).powi(2) + (y - 200.0).powi(2)).sqrt();
+        if (150.0..=170.0).contains(&d) || (60.0..=80.0).contains(&d) || d < 20.0 {
+            0.0
+        } else {
+            1.0
+        }
+    });
+}
+
+/// Whether every cut lying wholly within `r_in` of the centre comes before every cut lying wholly
+/// beyond `r_out`: the cuts inside an island before the arcs around it. Returns (inner, outer)
+/// loop counts; panics with the first loop out of order.
+fn inside_radius_first(
+    loops: &[Vec<[f64; 2]>],
+    centre: [f64; 2],
+    r_in: f64,
+    r_out: f64,
+    what: &str,
+) -> (usize, usize) {
+    let radii = |l: &[[f64; 2]]| {
+        l.iter()
+            .map(|p| ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)).sqrt())
+            .fold((f64::MAX, f64::MIN), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    };
+    let inner: Vec<usize> = (0..loops.len())
+        .filter(|&i| radii(&loops[i]).1 < r_in)
+        .collect();
+    let outer: Vec<usize> = (0..loops.len())
+        .filter(|&i| radii(&loops[i]).0 > r_out)
+        .collect();
+    for &i in &inner {
+        for &o in &outer {
+            assert!(
+                i < o,
+                "{what}: loop {i} lies inside the island (within {r_in:.1} mm of its centre) but \
+                 is cut after loop {o}, one of the arcs around it; order {inner:?} / {outer:?}"
+            );
+        }
+    }
+    (inner.len(), outer.len())
+}
+
+#[test]
+fn islands_held_by_several_bridges_drop_only_after_the_cuts_inside_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let pic = dir.path().join("target.png");
+    target(&pic);
+    for n in ["2", "3"] {
+        let out = dir.path().join(format!("t{n}"));
+        let loops = laser_loops(&make_gcode(&pic, &out, &["--bridges-per-island", n]));
+        // The design is symmetric about its centre.
+        let c = centre_of(&loops);
+        // 0.1 mm per picture pixel: the outer ring's inner edge is at 15 mm, the middle ring
+        // spans 6..8 mm, the dot 2 mm.
+        let what = format!("--bridges-per-island {n}");
+        // The big paper disc: the middle ring's arcs and the dot, before the outer ring's arcs.
+        let (inner, outer) = inside_radius_first(&loops, c, 11.0, 14.0, &what);
+        assert_eq!(
+            inner,
+            loops.len() - outer,
+            "{what}: every loop is inside or around"
+        );
+        assert!(
+            outer >= 2,
+            "{what}: the disc is held by {outer} arc(s), not several"
+        );
+        assert!(
+            inner >= 3,
+            "{what}: the middle ring is cut in {} arc(s)",
+            inner - 1
+        );
+        // The paper ring: the dot before the middle ring's arcs.
+        let (dot, arcs) = inside_radius_first(&loops, c, 4.0, 5.0, &what);
+        assert_eq!((dot, arcs), (1, loops.len() - 1), "{what}");
+    }
+}
+
+/// The part of the ring `r_in..r_out` around (`cx`, `cy`) from angle `a0` to `a1` (radians), as
+/// SVG path data: a cut arc, as bridges break a ring.
+fn arc_path(cx: f64, cy: f64, r_in: f64, r_out: f64, a0: f64, a1: f64) -> String {
+    let pt = |r: f64, a: f64| format!("{:.4} {:.4}", cx + r * a.cos(), cy + r * a.sin());
+    let steps = 48;
+    let mut d = String::new();
+    for k in 0..=steps {
+        let a = a0 + (a1 - a0) * k as f64 / steps as f64;
+        d += &format!("{}{} ", if k == 0 { "M" } else { "L" }, pt(r_out, a));
+    }
+    for k in (0..=steps).rev() {
+        let a = a0 + (a1 - a0) * k as f64 / steps as f64;
+        d += &format!("L{} ", pt(r_in, a));
+    }
+    d + "Z"
+}
+
+#[test]
+fn a_drawing_without_bridge_data_keeps_islands_held_by_several_gaps_until_last() {
+    // A target drawn by hand in another program: the outer cut ring (15..17 mm) broken by two
+    // 2 mm gaps (its bridges) at left and right, the middle one (6..8 mm) by two at top and
+    // bottom, and a dot of 2 mm in the middle. The paper disc and the paper ring are islands,
+    // each held by two bridges.
+    let (c, tau) = (25.0, std::f64::consts::TAU);
+    let gap = |r: f64| 2.0 / r; // radians for a 2 mm chord, about
+    let mut paths = Vec::new();
+    for (r_in, r_out, start) in [(15.0, 17.0, 0.0), (6.0, 8.0, tau / 4.0)] {
+        let g = gap((r_in + r_out) / 2.0) / 2.0;
+        for half in [0.0, tau / 2.0] {
+            let (a0, a1) = (start + half + g, start + half + tau / 2.0 - g);
+            paths.push(arc_path(c, c, r_in, r_out, a0, a1));
+        }
+    }
+    let dot: String = (0..32)
+        .map(|k| {
+            let a = tau * k as f64 / 32.0;
+            format!(
+                "{}{:.4} {:.4} ",
+                if k == 0 { "M" } else { "L" },
+                c + 2.0 * a.cos(),
+                c + 2.0 * a.sin()
+            )
+        })
+        .collect::<String>()
+        + "Z";
+    paths.push(dot);
+    let body: String = paths
+        .iter()
+        .map(|d| format!("<path d=\"{d}\"/>\n"))
+        .collect();
+    let svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"50mm\" height=\"50mm\" \
+         viewBox=\"0 0 50 50\">\n{body}</svg>\n"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("drawing.svg");
+    std::fs::write(&file, svg).unwrap();
+    let out = dir.path().join("drawing.gcode");
+    let (ok, _, err) = run(&[
+        "gcode",
+        s(&file),
+        "-o",
+        s(&out),
+        "--power",
+        "50",
+        "--speed",
+        "1200",
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    let loops = laser_loops(&text);
+    assert_eq!(loops.len(), 5);
+    let centre = centre_of(&loops);
+    // The disc: the middle ring's two arcs and the dot before the outer ring's two arcs.
+    assert_eq!(
+        inside_radius_first(&loops, centre, 11.0, 14.0, "the paper disc"),
+        (3, 2)
+    );
+    // The paper ring: the dot before the middle ring's arcs.
+    assert_eq!(
+        inside_radius_first(&loops, centre, 4.0, 5.0, "the paper ring"),
+        (1, 4)
+    );
 }

@@ -566,6 +566,8 @@ mod tests {
             design_cuts: cuts,
             material: MultiPolygon(vec![]),
             bridges: vec![ring(4.0, 1.5, 6.0, 2.5)],
+            unbridged_cuts: MultiPolygon(vec![]),
+            kerf_mm: 0.0,
         };
         let text = String::from_utf8(crate::export::svg::encode(&geom)).unwrap();
         let back = cut_geometry_from_svg(&text, "stencil.svg").unwrap();

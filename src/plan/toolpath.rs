@@ -296,6 +296,41 @@ fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
     pts
 }
 
+/// Without bridge data (a drawing from another program), gaps between cut loops up to this wide
+/// (besides the kerf) are taken for bridges: about the widths makers draw bridges at. Pieces
+/// narrower than this are not told apart from their surroundings (the hull rule still orders
+/// what lies in a single broken ring).
+pub const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
+
+/// What the planner knows of the pieces the cuts free: the cut regions before bridging when
+/// `make` passed them; nothing to find when `make` had no islands; otherwise (a drawing) a
+/// geometric closing of bridge-wide gaps.
+fn gaps(geom: &CutGeometry, place: &Placement) -> order::Gaps {
+    if !geom.unbridged_cuts.0.is_empty() {
+        order::Gaps::Regions(
+            geom.unbridged_cuts
+                .0
+                .iter()
+                .filter(|p| !p.interiors().is_empty())
+                .map(|p| order::Region {
+                    exterior: ring_points(p.exterior(), place),
+                    holes: p
+                        .interiors()
+                        .iter()
+                        .map(|h| ring_points(h, place))
+                        .collect(),
+                })
+                .collect(),
+        )
+    } else if !geom.material.0.is_empty() {
+        order::Gaps::None
+    } else {
+        order::Gaps::Closing {
+            r_mm: (DRAWN_BRIDGE_MAX_MM + geom.kerf_mm) / 2.0,
+        }
+    }
+}
+
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
@@ -386,8 +421,7 @@ pub fn plan(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> Result<J
     // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
     // depth layers optimised one by one, nearest neighbour under the constraints, and the input
     // order itself where it keeps them.
-    let groups = order::groups(&loops);
-    let before = order::before(&loops, &groups);
+    let order::Order { groups, before, .. } = order::order(&loops, &gaps(geom, &place));
     let mut candidates = vec![
         travel::optimise(&loops, &groups, home),
         travel::greedy_constrained(&loops, &before, home),

@@ -460,6 +460,35 @@ pub fn difference_each(
         .collect())
 }
 
+/// The union of each group of polygons, in parallel (Clipper's integer union with the non-zero
+/// fill rule: the polygons of a group must wind the same way, as `Orient` leaves them).
+pub fn union_each(groups: &[Vec<Polygon<f64>>]) -> Result<Vec<MultiPolygon<f64>>, ClipError> {
+    for g in groups {
+        check_rings(g.iter().flat_map(rings_of))?;
+    }
+    let jobs: Vec<Job> = groups
+        .iter()
+        .map(|g| Job {
+            shapes: g.iter().collect(),
+            offset: None,
+        })
+        .collect();
+    let turns = plan(&jobs)?;
+    let none = MultiPolygon::new(Vec::new());
+    Ok(groups
+        .par_iter()
+        .zip(turns)
+        .map(|(g, t)| {
+            let m = MultiPolygon::new(g.clone());
+            if t {
+                turn_all(&turn_all(&m, false).union(&none, CLIPPER_FACTOR), true)
+            } else {
+                m.union(&none, CLIPPER_FACTOR)
+            }
+        })
+        .collect())
+}
+
 /// Each of `polys` grown by `delta_mm` (shrunk when negative) with round joins within
 /// `arc_tolerance_mm` of the true arc, in parallel (Clipper's offset).
 pub fn offset_each(

@@ -47,6 +47,14 @@ pub struct CutGeometry {
     pub material: MultiPolygon<f64>,
     /// Bridge polygons as placed by the bridge stage, in mm.
     pub bridges: Vec<Polygon<f64>>,
+    /// The cut regions as designed before bridging (no kerf), each island a hole in the region
+    /// around it: which cuts surround which island, for the planner's cut order (every cut inside
+    /// an island before the cuts around it). Empty when not known (read from an SVG) or not asked
+    /// for (see [`CutGeometry::set_unbridged`]).
+    pub unbridged_cuts: MultiPolygon<f64>,
+    /// The kerf `cuts` were offset for (0 until [`CutGeometry::apply_kerf`]): the planner widens
+    /// the gaps it takes for bridges by it.
+    pub kerf_mm: f64,
 }
 
 /// Options of the vector stage, in millimetres.
@@ -172,6 +180,8 @@ pub fn vectorize_design(
         design_cuts,
         material,
         bridges,
+        unbridged_cuts: MultiPolygon::new(Vec::new()),
+        kerf_mm: 0.0,
     };
     let stats = VectorStats {
         simplify,
@@ -198,7 +208,22 @@ impl CutGeometry {
             cuts,
             material: MultiPolygon::new(Vec::new()),
             bridges: Vec::new(),
+            unbridged_cuts: MultiPolygon::new(Vec::new()),
+            kerf_mm: 0.0,
         }
+    }
+
+    /// Record the cut regions of `unbridged`, the bit grid before bridging (the same size and
+    /// scale), as [`CutGeometry::unbridged_cuts`]. Why a second trace: after bridging the cuts
+    /// around an island are arcs with nothing to say they belong together; before it, the island
+    /// is a hole in one region.
+    pub fn set_unbridged(
+        &mut self,
+        unbridged: &BitGrid,
+        cfg: &VectorConfig,
+    ) -> Result<(), VectorError> {
+        self.unbridged_cuts = vectorize_design(unbridged, &[], cfg)?.0.design_cuts;
+        Ok(())
     }
 
     /// Set the tool paths: the design cuts offset by half of `kerf_mm` (see [`kerf`]).
@@ -208,6 +233,7 @@ impl CutGeometry {
                 what: "the kerf offset",
                 cause,
             })?;
+        self.kerf_mm = kerf_mm.max(0.0);
         Ok(())
     }
 }
