@@ -357,27 +357,9 @@ pub fn send(
     controls: Option<&Receiver<Control>>,
     obs: &mut dyn Observer,
 ) -> Result<Summary, MachineError> {
-    let port_name = port.describe();
     let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
-    let mut s = Session {
-        link: Link {
-            port,
-            buf: Vec::new(),
-            last_heard: Instant::now(),
-            timeout: cfg.timeout,
-        },
-        cfg,
-        obs,
-        controls,
-        port_name,
-        info: ControllerInfo::default(),
-        last_status: None,
-        started: Instant::now(),
-        stall: StallWatch::new(stall::stall_bound(stall::slowest_step(
-            job,
-            cfg.rapid_mm_min,
-        ))),
-    };
+    let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
+    let mut s = Session::new(port, cfg, controls, obs, stall);
     s.connect()?;
     s.laser_mode()?;
     let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
@@ -443,6 +425,35 @@ pub fn send(
         s.command("M9")?;
     }
     Ok(summary)
+}
+
+impl<'a, 'o> Session<'a, 'o> {
+    /// A session on `port`, not yet connected; a machine standing still in `Run` longer than
+    /// `stall_bound` counts as stalled.
+    fn new(
+        port: &'a mut dyn BytePort,
+        cfg: &'a StreamConfig,
+        controls: Option<&'a Receiver<Control>>,
+        obs: &'o mut dyn Observer,
+        stall_bound: Duration,
+    ) -> Self {
+        Session {
+            port_name: port.describe(),
+            link: Link {
+                port,
+                buf: Vec::new(),
+                last_heard: Instant::now(),
+                timeout: cfg.timeout,
+            },
+            cfg,
+            obs,
+            controls,
+            info: ControllerInfo::default(),
+            last_status: None,
+            started: Instant::now(),
+            stall: StallWatch::new(stall_bound),
+        }
+    }
 }
 
 impl Session<'_, '_> {

@@ -58,28 +58,11 @@ impl<'a> Console<'a> {
         controls: Option<&'a Receiver<Control>>,
         obs: &'a mut dyn Observer,
     ) -> Result<Console<'a>, MachineError> {
-        let port_name = port.describe();
-        let mut s = Session {
-            link: super::Link {
-                port,
-                buf: Vec::new(),
-                last_heard: Instant::now(),
-                timeout: cfg.timeout,
-            },
-            cfg,
-            obs,
-            controls,
-            port_name,
-            info: ControllerInfo::default(),
-            last_status: None,
-            started: Instant::now(),
-            // No program to time here: a frame or a jog is a few long moves, whose position
-            // changes in every report while they run, so only a machine standing still in Run
-            // for half a minute (plus the margin) counts as stalled.
-            stall: super::stall::StallWatch::new(super::stall::stall_bound(Duration::from_secs(
-                30,
-            ))),
-        };
+        // No program to time here: a frame or a jog is a few long moves, whose position changes
+        // in every report while they run, so only a machine standing still in Run for half a
+        // minute (plus the margin) counts as stalled.
+        let stall = super::stall::stall_bound(Duration::from_secs(30));
+        let mut s = Session::new(port, cfg, controls, obs, stall);
         let locked = match s.connect() {
             Ok(()) => false,
             Err(MachineError::Locked { alarm, .. }) => {
