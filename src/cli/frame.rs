@@ -32,14 +32,8 @@ Example: stencil frame job.gcode --dry-run --machine diode-400")]
 pub struct FrameArgs {
     /// The G-code file (any GRBL program: ours or another program's).
     pub file: PathBuf,
-    /// Serial port of the controller (e.g. /dev/ttyUSB0, COM3).
-    #[arg(long)]
-    pub port: Option<String>,
-    #[arg(long, default_value_t = 115_200)]
-    pub baud: u32,
-    /// Frame on a simulated Grbl on a pseudo-terminal instead of a machine.
-    #[arg(long)]
-    pub dry_run: bool,
+    #[command(flatten)]
+    pub link: super::port::PortArgs,
     /// Machine profile: its bed, its max feed, its tool and frame_power_pct (name or .toml path)
     /// [default: diode-400].
     #[arg(long, value_name = "NAME|FILE")]
@@ -218,7 +212,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
         rapid_mm_min: machine.motion.rapid_mm_min,
         ..VirtualConfig::default()
     };
-    let mut opened = super::port::open_machine(a.dry_run, a.port.as_deref(), a.baud, vcfg)?;
+    let mut opened = a.link.open(vcfg)?;
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,

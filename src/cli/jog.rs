@@ -25,14 +25,8 @@ Without a terminal, key names are read from stdin (one or more per line) or give
 left, right, up, down, pgup, pgdn, 1, 2, 3, +, -, space, h, u, 0, release, wait, q.
 Example: stencil jog --dry-run --keys \"right,right,up,wait,0,q\"")]
 pub struct JogArgs {
-    /// Serial port of the controller (e.g. /dev/ttyUSB0, COM3).
-    #[arg(long)]
-    pub port: Option<String>,
-    #[arg(long, default_value_t = 115_200)]
-    pub baud: u32,
-    /// Jog a simulated Grbl on a pseudo-terminal instead of a machine.
-    #[arg(long)]
-    pub dry_run: bool,
+    #[command(flatten)]
+    pub link: super::port::PortArgs,
     /// Step per key press, mm (0.001 to 1000); 1, 2, 3 pick 0.1, 1 and 10 mm.
     #[arg(long, default_value_t = 1.0, value_parser = parse_step)]
     pub step: f64,
@@ -194,12 +188,7 @@ impl Observer for Screen {
 }
 
 pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
-    let mut opened = super::port::open_machine(
-        a.dry_run,
-        a.port.as_deref(),
-        a.baud,
-        VirtualConfig::default(),
-    )?;
+    let mut opened = a.link.open(VirtualConfig::default())?;
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
         ..StreamConfig::default()

@@ -8,6 +8,27 @@ use anyhow::{bail, Context};
 use stencil::machine::stream::BytePort;
 use stencil::machine::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
+/// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
+/// `send`, `frame` and `jog`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct PortArgs {
+    /// Serial port of the controller (e.g. /dev/ttyUSB0, /dev/ttyACM0, COM3).
+    #[arg(long)]
+    pub port: Option<String>,
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// Talk to a simulated Grbl on a pseudo-terminal instead of a machine.
+    #[arg(long)]
+    pub dry_run: bool,
+}
+
+impl PortArgs {
+    /// Open the port, or with `--dry-run` start a virtual Grbl built as `vcfg` says.
+    pub fn open(&self, vcfg: VirtualConfig) -> anyhow::Result<Opened> {
+        open_machine(self.dry_run, self.port.as_deref(), self.baud, vcfg)
+    }
+}
+
 /// An open link to a controller.
 pub struct Opened {
     pub port: Box<dyn BytePort>,
@@ -31,7 +52,7 @@ pub fn list_ports() -> String {
 }
 
 /// Open `port` at `baud`, or with `dry_run` start a virtual Grbl built as `vcfg` says.
-pub fn open_machine(
+fn open_machine(
     dry_run: bool,
     port: Option<&str>,
     baud: u32,

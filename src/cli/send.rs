@@ -38,11 +38,8 @@ abort (feed hold, soft reset, laser and air off, prints the line to resume from)
 pub struct SendArgs {
     /// The G-code file.
     pub file: PathBuf,
-    /// Serial port of the controller (e.g. /dev/ttyUSB0, /dev/ttyACM0, COM3).
-    #[arg(long)]
-    pub port: Option<String>,
-    #[arg(long, default_value_t = 115_200)]
-    pub baud: u32,
+    #[command(flatten)]
+    pub link: super::port::PortArgs,
     /// Send one line at a time, each after the previous `ok` (slower; for boards that overflow
     /// with character counting).
     #[arg(long)]
@@ -63,9 +60,6 @@ pub struct SendArgs {
     /// Unlock ($X) a machine that is locked in alarm before streaming.
     #[arg(long)]
     pub unlock: bool,
-    /// Stream to a simulated Grbl on a pseudo-terminal instead of a machine.
-    #[arg(long)]
-    pub dry_run: bool,
     /// With --dry-run: pace the simulated machine and link as the real ones would run.
     #[arg(long, requires = "dry_run")]
     pub realtime: bool,
@@ -544,7 +538,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         } else {
             Motion::Instant
         },
-        baud: a.realtime.then_some(a.baud),
+        baud: a.realtime.then_some(a.link.baud),
         rapid_mm_min: limits.rapid_mm_min,
         settings: a.dry_run_setting.clone(),
         faults: a.dry_run_fault.clone(),
@@ -554,7 +548,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         mut port,
         label,
         virtual_grbl,
-    } = super::port::open_machine(a.dry_run, a.port.as_deref(), a.baud, vcfg)?;
+    } = a.link.open(vcfg)?;
 
     let (tx, rx) = channel();
     if let Some(s) = &frame {
@@ -603,9 +597,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
                      after a crash or power loss: stencil send {} --recover{})",
                     a.file.display(),
                     h.resume_from,
-                    match &a.port {
+                    match &a.link.port {
                         Some(p) => format!(" --port {p}"),
-                        None if a.dry_run => " --dry-run".into(),
+                        None if a.link.dry_run => " --dry-run".into(),
                         None => String::new(),
                     },
                     if h.locked { " --unlock" } else { "" },
@@ -615,9 +609,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
                     },
                     journal_path.display(),
                     a.file.display(),
-                    match &a.port {
+                    match &a.link.port {
                         Some(p) => format!(" --port {p}"),
-                        None if a.dry_run => " --dry-run".into(),
+                        None if a.link.dry_run => " --dry-run".into(),
                         None => String::new(),
                     },
                 ),
