@@ -24,23 +24,8 @@
 //! where it does not go the other way, so the two together never cycle (see [`order`]).
 
 use super::toolpath::Loop;
+use crate::vector::bbox;
 use crate::vector::clip::{self, ClipError};
-
-fn bbox(points: &[[f64; 2]]) -> [f64; 4] {
-    let mut b = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for p in points {
-        b[0] = b[0].min(p[0]);
-        b[1] = b[1].min(p[1]);
-        b[2] = b[2].max(p[0]);
-        b[3] = b[3].max(p[1]);
-    }
-    b
-}
 
 /// Even-odd ray cast: whether `p` lies inside the closed ring `poly`.
 pub fn point_in_ring(p: [f64; 2], poly: &[[f64; 2]]) -> bool {

@@ -10,6 +10,7 @@
 //! Round two repeats both with the new start points.
 
 use super::toolpath::{dist, Loop};
+use crate::vector::bbox;
 
 /// Candidate neighbours per point for 2-opt and Or-opt.
 const K: usize = 12;
@@ -76,27 +77,7 @@ pub fn greedy_constrained(
     home: [f64; 2],
 ) -> Vec<(usize, usize)> {
     let n = loops.len();
-    let boxes: Vec<[f64; 4]> = loops
-        .iter()
-        .map(|l| {
-            l.points.iter().fold(
-                [
-                    f64::INFINITY,
-                    f64::INFINITY,
-                    f64::NEG_INFINITY,
-                    f64::NEG_INFINITY,
-                ],
-                |b, p| {
-                    [
-                        b[0].min(p[0]),
-                        b[1].min(p[1]),
-                        b[2].max(p[0]),
-                        b[3].max(p[1]),
-                    ]
-                },
-            )
-        })
-        .collect();
+    let boxes: Vec<[f64; 4]> = loops.iter().map(|l| bbox(&l.points)).collect();
     let mut waiting: Vec<usize> = before.iter().map(Vec::len).collect();
     let mut after: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (j, b) in before.iter().enumerate() {
@@ -207,26 +188,7 @@ fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize
         return vec![];
     }
     // Nearest neighbour over the nearest vertex of each remaining loop, pruned by bounding boxes.
-    let boxes: Vec<[f64; 4]> = group
-        .iter()
-        .map(|&i| {
-            let mut b = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for p in &loops[i].points {
-                b = [
-                    b[0].min(p[0]),
-                    b[1].min(p[1]),
-                    b[2].max(p[0]),
-                    b[3].max(p[1]),
-                ];
-            }
-            b
-        })
-        .collect();
+    let boxes: Vec<[f64; 4]> = group.iter().map(|&i| bbox(&loops[i].points)).collect();
     let mut remaining: Vec<usize> = (0..n).collect();
     let mut seq: Vec<usize> = Vec::with_capacity(n);
     let mut start = vec![0usize; n];

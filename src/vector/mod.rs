@@ -256,29 +256,32 @@ fn to_polygon(pts: &[[f64; 2]], mm: f64) -> Polygon<f64> {
     Polygon::new(to_ring(pts, mm), vec![])
 }
 
+/// The bounding box `[min x, min y, max x, max y]` of points (infinite and inverted when there
+/// are none).
+pub(crate) fn bbox(points: &[[f64; 2]]) -> [f64; 4] {
+    points.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
 /// Group rings into material pieces. Rings never touch, so they nest as a tree: a positive ring
 /// (material on its left, counter-clockwise) is an island's outline, and each negative ring (the
 /// outline of a cut region) is a hole of the innermost island outline around it, or of the sheet
 /// (whose outline is the sheet's edge). After bridging there are no island outlines at all.
 fn assemble(rings: &[Vec<[f64; 2]>], mm: f64, outline: Rect<f64>) -> MultiPolygon<f64> {
-    let bbox = |r: &[[f64; 2]]| {
-        r.iter().fold(
-            [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ],
-            |b, p| {
-                [
-                    b[0].min(p[0]),
-                    b[1].min(p[1]),
-                    b[2].max(p[0]),
-                    b[3].max(p[1]),
-                ]
-            },
-        )
-    };
     let area: Vec<f64> = rings.par_iter().map(|r| trace::signed_area2(r)).collect();
     let outlines: Vec<usize> = (0..rings.len()).filter(|&i| area[i] > 0.0).collect();
     let boxes: Vec<[f64; 4]> = outlines.iter().map(|&i| bbox(&rings[i])).collect();
