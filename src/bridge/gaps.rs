@@ -429,6 +429,22 @@ mod tests {
     use crate::islands::label;
     use crate::raster::BitGrid;
 
+    /// The twins' straight strips over a flat white picture of `g` (no walks to copy).
+    fn twin_strips(
+        g: &BitGrid,
+        m: &IslandMap,
+        c: &mut Candidates,
+        dirs: &[Option<Heading>],
+    ) -> Vec<Option<Strip>> {
+        c.add_twins();
+        let two = crate::raster::TwoTone {
+            bits: g.clone(),
+            gray: crate::raster::Gray::new(g.width, g.height, 1.0),
+        };
+        let f = Fields::new(&two, m);
+        walk_twins(&f, c, dirs, &[], 50, 10).0
+    }
+
     #[test]
     fn a_gap_runs_to_the_nearest_piece_not_along_the_normal() {
         // Two pieces closest along a diagonal: an island and a block of the frame.
@@ -452,13 +468,7 @@ mod tests {
         let id = c.id_at(&m, 1, 6, 5).unwrap();
         let d = dirs[id].unwrap().d;
         assert!(d[1] < -0.99, "{d:?}");
-        c.add_twins();
-        let two = crate::raster::TwoTone {
-            bits: g.clone(),
-            gray: crate::raster::Gray::new(10, 10, 1.0),
-        };
-        let f = Fields::new(&two, &m);
-        let s = walk_twins(&f, &c, &dirs, &[], 50, 10).0;
+        let s = twin_strips(&g, &m, &mut c, &dirs);
         let strip = s[id].as_ref().unwrap();
         assert_eq!(strip.to, FRAME);
         assert_eq!(strip.len(), 4, "pixels y = 4..=1 of column 6");
@@ -539,13 +549,7 @@ mod tests {
         let dirs = directions(&g, &m, &c, 50);
         let a = m.labels[4 * 10 + 4];
         let id = c.id_at(&m, a, 4, 4).unwrap();
-        c.add_twins();
-        let two = crate::raster::TwoTone {
-            bits: g.clone(),
-            gray: crate::raster::Gray::new(10, 10, 1.0),
-        };
-        let f = Fields::new(&two, &m);
-        let s = walk_twins(&f, &c, &dirs, &[], 50, 10).0;
+        let s = twin_strips(&g, &m, &mut c, &dirs);
         let strip = s[id].as_ref().unwrap();
         assert_eq!(strip.len(), 1);
         assert_eq!(strip.to, m.labels[5 * 10 + 5]);
