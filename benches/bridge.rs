@@ -7,10 +7,14 @@
 //! spot (the island); sizes vary with a fixed seed. The gray is the two-tone with a faint
 //! left-to-right shading in the ink, as from a scanned print.
 
+/// The binary's allocator settings, so that the bench measures what `stencil` runs.
+#[path = "../src/alloc.rs"]
+mod alloc;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use stencil::bridge::{connect, connect_timed, BridgeConfig};
-use stencil::islands::label;
-use stencil::raster::{BitGrid, Gray, TwoTone};
+use stencil_core::bridge::{connect, connect_timed, BridgeConfig};
+use stencil_core::islands::label;
+use stencil_core::raster::{BitGrid, Gray, TwoTone};
 
 struct Lcg(u64);
 impl Lcg {
@@ -81,8 +85,8 @@ fn picture(w: u32, h: u32, islands: usize, seed: u64) -> TwoTone {
 }
 
 fn bench(c: &mut Criterion) {
-    // As the `stencil` binary runs (see `stencil::alloc`).
-    stencil::alloc::keep_freed_memory();
+    // As the `stencil` binary runs (see `crate::alloc`).
+    alloc::keep_freed_memory();
     let cfg = BridgeConfig::default();
     let mut group = c.benchmark_group("bridge");
     group.sample_size(20);

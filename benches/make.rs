@@ -4,12 +4,17 @@
 //! cardstock) and supersampled 2× (about 1 megapixel working, the yardstick). Before the
 //! criterion runs, one run per case prints where the time goes, stage by stage.
 
+/// The binary's allocator settings, so that the bench measures what `stencil` runs.
+#[path = "../src/alloc.rs"]
+mod alloc;
+
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use stencil::pipeline::{run, MakeConfig};
-use stencil::plan::{settings_for, GcodeConfig, PlanConfig};
-use stencil::profile::machine;
+use stencil_core::pipeline::{run, MakeConfig};
+use stencil_core::material::settings_for;
+use stencil_gcode::{GcodeConfig, PlanConfig};
+use stencil_gcode::machine;
 
 fn photos() -> Vec<PathBuf> {
     let mut v = vec![PathBuf::from("samples/grace_hopper.jpg")];
@@ -38,7 +43,7 @@ fn config(input: PathBuf, scale: u32) -> MakeConfig {
 }
 
 fn bench(c: &mut Criterion) {
-    stencil::alloc::keep_freed_memory();
+    alloc::keep_freed_memory();
     let mut g = c.benchmark_group("make");
     g.sample_size(10);
     for p in photos() {

@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use stencil::tone::mesh::{self, shapes, LineMode, MeshConfig, Size};
-use stencil::tone::Threshold;
+use stencil_core::tone::mesh::{self, shapes, LineMode, MeshConfig, Size};
+use stencil_core::tone::Threshold;
 
 fn config() -> MeshConfig {
     MeshConfig {

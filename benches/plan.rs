@@ -3,10 +3,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil::machine::gcode::interpret;
-use stencil::plan::{estimate, gcode_for, CutSettings, MotionLimits, PlanConfig};
-use stencil::profile::machine;
-use stencil::vector::CutGeometry;
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::{estimate, gcode_for, CutSettings, MotionLimits, PlanConfig};
+use stencil_gcode::machine;
+use stencil_core::vector::CutGeometry;
 
 /// `n × n` circles of 32 vertices on a 10 mm grid, in a scrambled order.
 fn grid(n: usize) -> CutGeometry {
@@ -37,12 +37,12 @@ fn bench(c: &mut Criterion) {
         air_assist: false,
     });
     for n in [10, 30] {
-        let g = grid(n);
+        let g = grid(n).loops();
         c.bench_function(&format!("plan+write {} loops", n * n), |b| {
             b.iter(|| gcode_for(&g, &m, &cfg, &[]).unwrap())
         });
     }
-    let (text, _) = gcode_for(&grid(30), &m, &cfg, &[]).unwrap();
+    let (text, _) = gcode_for(&grid(30).loops(), &m, &cfg, &[]).unwrap();
     let moves = interpret(&text).unwrap();
     c.bench_function(&format!("estimate {} moves", moves.len()), |b| {
         b.iter(|| estimate(&moves, &MotionLimits::default()))

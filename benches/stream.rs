@@ -5,9 +5,9 @@
 
 use std::time::Duration;
 
-use stencil::machine::stream::{send, FlowControl, Job, Quiet, StreamConfig};
-use stencil::machine::virtual_grbl::Motion;
-use stencil::machine::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::stream::{send, FlowControl, Job, Quiet, StreamConfig};
+use stencil_grbl::virtual_grbl::Motion;
+use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 #[path = "../tests/common/job.rs"]
 mod job;

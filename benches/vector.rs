@@ -5,13 +5,18 @@
 //! `vectorize_and_check` (what `make` and `check` run); the stage benches show where the time
 //! goes. The kerf offset, made only for G-code, is timed on its own.
 
+/// The binary's allocator settings, so that the bench measures what `stencil` runs.
+#[path = "../src/alloc.rs"]
+mod alloc;
+
 use criterion::{criterion_group, criterion_main, Criterion};
 
-use stencil::check;
-use stencil::pipeline::{self, Timings};
-use stencil::profile::Material;
-use stencil::raster::BitGrid;
-use stencil::vector::{self, kerf, simplify, trace, union, VectorConfig};
+use stencil_core::check;
+use stencil_core::pipeline::{self, Timings};
+use stencil_core::material::Material;
+use stencil_core::raster::BitGrid;
+use stencil_core::vector::{self, simplify, trace, union, VectorConfig};
+use stencil_geom::kerf;
 
 const SIZE: u32 = 2000;
 const CELLS: u32 = 32; // 32 × 32 = 1,024 islands
@@ -45,7 +50,7 @@ fn stencil() -> (BitGrid, Vec<Vec<[f64; 2]>>) {
 
 fn bench(c: &mut Criterion) {
     // As the `stencil` binary runs.
-    stencil::alloc::keep_freed_memory();
+    alloc::keep_freed_memory();
     let (bits, bridges) = stencil();
     let material = Material::default();
     let vcfg = VectorConfig {

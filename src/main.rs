@@ -1,5 +1,6 @@
 //! The `stencil` command: argument parsing (in `cli/`) and calls into the library, nothing else.
 
+mod alloc;
 mod cli;
 
 use std::process::ExitCode;
@@ -13,7 +14,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    stencil::alloc::keep_freed_memory();
+    alloc::keep_freed_memory();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(code) => code,

@@ -5,9 +5,9 @@
 //! Scenes are hand-made two-tone images with a hand-made grayscale: one island between a frame
 //! band on the left and one on the right, each gap with its own gray.
 
-use stencil::bridge::{connect, Bridge, BridgeConfig, Bridged};
-use stencil::islands::label;
-use stencil::raster::{BitGrid, Gray, TwoTone};
+use stencil_core::bridge::{connect, Bridge, BridgeConfig, Bridged};
+use stencil_core::islands::label;
+use stencil_core::raster::{BitGrid, Gray, TwoTone};
 
 const W: u32 = 140;
 const H: u32 = 110;

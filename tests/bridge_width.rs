@@ -5,8 +5,8 @@
 mod common;
 
 use common::*;
-use stencil::profile::Material;
-use stencil::raster::BitGrid;
+use stencil_core::material::Material;
+use stencil_core::raster::BitGrid;
 
 /// Paper discs of five sizes, each inside a ring of ink: five islands, each to be bridged across
 /// its ring (to the paper outside it, the frame).

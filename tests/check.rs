@@ -4,13 +4,13 @@
 use std::path::Path;
 use std::process::Command;
 
-use stencil::check::{CheckReport, ViolationKind};
-use stencil::islands;
-use stencil::pipeline::{self, Timings};
-use stencil::profile::Material;
-use stencil::raster::BitGrid;
-use stencil::tone::filter;
-use stencil::vector::VectorConfig;
+use stencil_core::check::{CheckReport, ViolationKind};
+use stencil_core::islands;
+use stencil_core::pipeline::{self, Timings};
+use stencil_core::material::Material;
+use stencil_core::raster::BitGrid;
+use stencil_core::tone::filter;
+use stencil_core::vector::VectorConfig;
 
 const MM: f64 = 0.1; // mm per pixel in every fixture
 const PX: f64 = MM; // "within a pixel"
@@ -38,7 +38,7 @@ fn web(w: u32) -> BitGrid {
 fn check(bits: &BitGrid, material: &str) -> CheckReport {
     let (m, _) = Material::find(material).unwrap();
     let vcfg = VectorConfig {
-        scale: stencil::units::Scale { mm_per_px: MM },
+        scale: stencil_core::units::Scale { mm_per_px: MM },
         kerf_mm: m.kerf_mm,
         ..Default::default()
     };
@@ -151,7 +151,7 @@ fn a_floating_island_is_flagged() {
 }
 
 fn write_png(path: &Path, bits: &BitGrid) {
-    std::fs::write(path, stencil::export::png::encode_bits(bits)).unwrap();
+    std::fs::write(path, stencil_core::export::png::encode_bits(bits)).unwrap();
 }
 
 fn run(args: &[&str]) -> (bool, String) {
@@ -191,7 +191,7 @@ fn check_on_an_output_folder_uses_the_material_of_its_report() {
     let out = dir.path().join("out");
     let (ok, text) = run(&["make", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(ok, "{text}");
-    let report: stencil::report::Report =
+    let report: stencil_core::report::Report =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report.material.as_deref(), Some("cardstock"));
     assert!(report.check.as_ref().unwrap().passed());

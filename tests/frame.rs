@@ -8,10 +8,10 @@ use std::process::Command;
 use std::sync::mpsc::channel;
 use std::time::Duration;
 
-use stencil::machine::frame::{cut_extent, frame, Extent, FrameError, FrameTool};
-use stencil::machine::stream::console::Console;
-use stencil::machine::stream::{Control, Job, Quiet, StreamConfig};
-use stencil::machine::virtual_grbl::{
+use stencil_grbl::frame::{cut_extent, frame, Extent, FrameError, FrameTool};
+use stencil_grbl::stream::console::Console;
+use stencil_grbl::stream::{Control, Job, Quiet, StreamConfig};
+use stencil_grbl::virtual_grbl::{
     Event, Fault, FaultKind, PlannedMove, Record, VirtualConfig, VirtualGrbl,
 };
 
@@ -194,7 +194,7 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
 #[test]
 fn a_locked_machine_is_not_framed() {
     let vcfg = VirtualConfig {
-        motion: stencil::machine::virtual_grbl::Motion::Paced { speedup: 1.0 },
+        motion: stencil_grbl::virtual_grbl::Motion::Paced { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();

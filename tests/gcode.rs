@@ -5,11 +5,11 @@ use std::path::Path;
 use std::process::Command;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil::machine::gcode::interpret;
-use stencil::plan::estimate::{estimate, MotionLimits};
-use stencil::plan::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
-use stencil::profile::machine::{self, Machine, PenLift, Tool};
-use stencil::vector::CutGeometry;
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::estimate::{estimate, MotionLimits};
+use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
+use stencil_gcode::machine::{self, Machine, PenLift, Tool};
+use stencil_core::vector::CutGeometry;
 
 // ---- inputs -----------------------------------------------------------------------------------
 
@@ -284,7 +284,7 @@ fn check_program(text: &str, machine: &Machine) -> Run {
 }
 
 fn make(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> (String, GcodeSummary) {
-    gcode_for(geom, machine, cfg, &["test".into()]).unwrap()
+    gcode_for(&geom.loops(), machine, cfg, &["test".into()]).unwrap()
 }
 
 // ---- tests ------------------------------------------------------------------------------------
@@ -354,7 +354,7 @@ fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
     let mut cfg = PlanConfig::new(s);
     cfg.cut_outline = true;
     // The outline at X0/Y0 would need the axis at -0.5 mm: refused, not clipped by soft limits.
-    let e = gcode_for(&g, &m, &cfg, &[]).unwrap_err().to_string();
+    let e = gcode_for(&g.loops(), &m, &cfg, &[]).unwrap_err().to_string();
     assert!(e.contains("X -0.5") && e.contains("--offset"), "{e}");
     cfg.offset = [1.0, 1.0];
     let (text, _) = make(&g, &m, &cfg);
@@ -521,7 +521,7 @@ fn square_time_matches_a_hand_calculation() {
 fn a_job_larger_than_the_bed_is_refused() {
     let m = machine::load(None).unwrap();
     let g = sheet(420.0, 300.0, vec![rect(10.0, 10.0, 50.0, 50.0)]);
-    let e = gcode_for(&g, &m, &PlanConfig::new(settings()), &[])
+    let e = gcode_for(&g.loops(), &m, &PlanConfig::new(settings()), &[])
         .unwrap_err()
         .to_string();
     assert!(
@@ -658,21 +658,21 @@ fn samples_dir() -> std::path::PathBuf {
 }
 
 /// Run `make` in memory on a sample at 150 mm wide with G-code for `machine`.
-fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil::pipeline::Made {
-    use stencil::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil_core::pipeline::Made {
+    use stencil_core::pipeline::{self, MakeConfig, PhysicalConfig, Size};
     let physical = PhysicalConfig {
         size: Size::WidthMm(150.0),
         // The samples are about the G-code here, not about the material check.
         allow_thin: true,
         ..Default::default()
     };
-    let settings = stencil::plan::settings_for(&physical.material, machine).unwrap();
+    let settings = stencil_core::material::settings_for(&physical.material, machine).unwrap();
     let mut plan = PlanConfig::new(settings);
     plan.cut_outline = cut_outline;
     let cfg = MakeConfig {
         input: samples_dir().join(format!("{name}.png")),
         physical,
-        gcode: Some(stencil::plan::GcodeConfig {
+        gcode: Some(stencil_gcode::GcodeConfig {
             machine: machine.clone(),
             plan,
         }),
@@ -701,7 +701,7 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
         use geo::Area;
         let design_perim: f64 = g.design_cuts.0.iter().map(perimeter).sum();
         let shrunk = g.design_cuts.unsigned_area() - g.cuts.unsigned_area();
-        let kerf = stencil::profile::Material::default().kerf_mm;
+        let kerf = stencil_core::material::Material::default().kerf_mm;
         assert!(kerf > 0.0);
         let expected = design_perim * kerf / 2.0;
         assert!(
@@ -856,8 +856,8 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
 mod prop {
     use super::*;
     use proptest::prelude::*;
-    use stencil::plan::{Anchor, PlanError};
-    use stencil::profile::machine::Corner;
+    use stencil_gcode::{Anchor, PlanError};
+    use stencil_gcode::machine::Corner;
 
     fn anchor() -> impl Strategy<Value = Option<Anchor>> {
         prop_oneof![
@@ -893,7 +893,7 @@ mod prop {
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
             let cfg = PlanConfig { anchor, offset, cut_outline: outline, settings: s };
-            match gcode_for(&g, &m, &cfg, &[]) {
+            match gcode_for(&g.loops(), &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);
                     let mut perim: f64 = g.cuts.0.iter().map(perimeter).sum();

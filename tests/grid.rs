@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use stencil::machine::gcode::interpret;
+use stencil_gcode::interpret::interpret;
 
 fn stencil(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_stencil"))

@@ -348,7 +348,7 @@ fn make_removes_its_own_files_an_earlier_run_left() {
     let first = files_in(&out);
     for n in &first {
         assert!(
-            stencil::pipeline::OUTPUT_NAMES.contains(&n.as_str()),
+            stencil_core::pipeline::OUTPUT_NAMES.contains(&n.as_str()),
             "{n} is not in OUTPUT_NAMES"
         );
     }
@@ -420,7 +420,7 @@ fn check_summarises_long_lists_of_violations() {
 /// Records the stages `make` reports.
 struct Stages(Mutex<Vec<String>>);
 
-impl stencil::pipeline::Progress for Stages {
+impl stencil_core::pipeline::Progress for Stages {
     fn stage(&self, name: &str) {
         self.0.lock().unwrap().push(name.to_string());
     }
@@ -430,13 +430,13 @@ impl stencil::pipeline::Progress for Stages {
 fn make_reports_its_stages_through_the_progress_hook() {
     let dir = tmp();
     let stages = Arc::new(Stages(Mutex::new(Vec::new())));
-    let cfg = stencil::MakeConfig {
+    let cfg = stencil_core::MakeConfig {
         input: rings(),
         out_dir: dir.path().join("out"),
         progress: Some(stages.clone()),
         ..Default::default()
     };
-    stencil::make(&cfg).unwrap();
+    stencil_core::make(&cfg).unwrap();
     let seen = stages.0.lock().unwrap().clone();
     assert_eq!(seen.first().map(String::as_str), Some("tone"), "{seen:?}");
     assert_eq!(seen.last().map(String::as_str), Some("write"), "{seen:?}");

@@ -123,7 +123,7 @@ fn svg_coordinates_clipper_cannot_take_are_refused_naming_file_and_path() {
 #[test]
 fn bridges_far_outside_clipper_range_are_an_error_not_an_abort() {
     use geo::{LineString, MultiPolygon, Polygon, Rect};
-    use stencil::vector::clip::ClipError;
+    use stencil_geom::clip::ClipError;
     let sheet = Polygon::new(
         Rect::new((0.0, 0.0), (100.0, 100.0))
             .to_polygon()
@@ -139,7 +139,7 @@ fn bridges_far_outside_clipper_range_are_an_error_not_an_abort() {
     );
     for far in [1e30, f64::NAN, f64::INFINITY] {
         let bridge = Rect::new((5.0, 40.0), (far, 60.0)).to_polygon();
-        let e = stencil::vector::union::union_bridges(
+        let e = stencil_core::vector::union::union_bridges(
             MultiPolygon::new(vec![sheet.clone()]),
             &[bridge],
         )

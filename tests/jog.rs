@@ -7,10 +7,10 @@ use std::io::Write;
 use std::process::Command;
 use std::time::Duration;
 
-use stencil::machine::jog::{parse_keys, run, JogKey, Jogger, Script};
-use stencil::machine::stream::console::Console;
-use stencil::machine::stream::{Observer, StreamConfig};
-use stencil::machine::virtual_grbl::{
+use stencil_grbl::jog::{parse_keys, run, JogKey, Jogger, Script};
+use stencil_grbl::stream::console::Console;
+use stencil_grbl::stream::{Observer, StreamConfig};
+use stencil_grbl::virtual_grbl::{
     Event, Fault, FaultKind, Motion, Record, VirtualConfig, VirtualGrbl,
 };
 

@@ -5,11 +5,11 @@ use std::process::Command;
 use std::sync::mpsc::{channel, Sender};
 use std::time::Duration;
 
-use stencil::machine::stream::{
+use stencil_grbl::stream::{
     send, Control, FlowControl, Job, MachineError, Observer, Progress, Quiet, StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Event, Fault, FaultKind, Motion, Record};
-use stencil::machine::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::virtual_grbl::{Event, Fault, FaultKind, Motion, Record};
+use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 #[path = "common/job.rs"]
 mod common_job;
@@ -356,7 +356,7 @@ impl Observer for Operator {
         if !self.held
             && matches!(
                 p.state,
-                Some(stencil::machine::protocol::MachineState::Hold(_))
+                Some(stencil_grbl::protocol::MachineState::Hold(_))
             )
         {
             self.held = true;
@@ -537,18 +537,18 @@ fn a_port_without_grbl_is_reported_not_waited_on_forever() {
     assert!(err.to_string().contains("baud rate"), "{err}");
 }
 
-/// `stencil::plan`'s G-code for a sample, as `make --emit gcode` writes it.
+/// `stencil_gcode`'s G-code for a sample, as `make --emit gcode` writes it.
 fn planned_sample(name: &str) -> String {
-    use stencil::pipeline::{self, MakeConfig, PhysicalConfig, Size};
-    use stencil::plan::{GcodeConfig, PlanConfig};
-    let machine = stencil::profile::machine::load(None).unwrap();
+    use stencil_core::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+    use stencil_gcode::{GcodeConfig, PlanConfig};
+    let machine = stencil_gcode::machine::load(None).unwrap();
     let physical = PhysicalConfig {
         size: Size::WidthMm(150.0),
         // Bridge widths are not the point here.
         allow_thin: true,
         ..Default::default()
     };
-    let settings = stencil::plan::settings_for(&physical.material, &machine).unwrap();
+    let settings = stencil_core::material::settings_for(&physical.material, &machine).unwrap();
     let cfg = MakeConfig {
         input: std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("samples")
@@ -609,7 +609,7 @@ fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
     expected.extend(texts(&job, halt.resume_from));
     assert_eq!(program_received(&r, before), expected);
     // The resumed machine ends where the whole program ends.
-    let whole = stencil::machine::gcode::interpret(&text).unwrap();
+    let whole = stencil_gcode::interpret::interpret(&text).unwrap();
     assert_eq!(r.position, whole.last().unwrap().to);
 }
 
@@ -650,10 +650,10 @@ fn cli_dry_run_and_simulate() {
     let img = image::open(&png).unwrap().to_rgb8();
     assert!(img
         .pixels()
-        .any(|p| p.0 == stencil::machine::simulate::CUT_RGB));
+        .any(|p| p.0 == stencil_gcode::simulate::CUT_RGB));
     assert!(img
         .pixels()
-        .any(|p| p.0 == stencil::machine::simulate::TRAVEL_RGB));
+        .any(|p| p.0 == stencil_gcode::simulate::TRAVEL_RGB));
 
     // No port and no dry run: a clear error.
     let out = stencil().arg("send").arg(&file).output().unwrap();

@@ -33,7 +33,7 @@ fn every_sample_becomes_one_sheet() {
         let two = read_bits(&out.join("twotone.png"));
         assert_eq!(
             r["islands"].as_u64().unwrap() as usize,
-            stencil::islands::label(&two).island_count()
+            stencil_core::islands::label(&two).island_count()
         );
         assert_eq!(r["floating_after"], 0);
         assert_eq!(r["width_px"].as_u64().unwrap() as u32, two.width);
@@ -344,7 +344,7 @@ fn an_island_500_px_from_anything_is_joined_and_the_report_says_so() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_valid_stencil(&out);
     let st = read_bits(&out.join("stencil.png"));
-    assert_eq!(stencil::islands::label(&st).island_count(), 0);
+    assert_eq!(stencil_core::islands::label(&st).island_count(), 0);
     let r = report(&out);
     assert_eq!(
         (r["islands"].as_u64(), r["floating_after"].as_u64()),
@@ -452,7 +452,7 @@ fn tone_command_writes_the_same_two_tone_as_make() {
     let bits = read_bits(&png);
     assert_eq!((bits.width, bits.height), (480, 160));
     // The letters' counters are islands in the two-tone: O, A, two in B, two in 8.
-    assert!(stencil::islands::label(&bits).island_count() >= 6);
+    assert!(stencil_core::islands::label(&bits).island_count() >= 6);
 }
 
 /// A picture whose clean-up is known: a black frame 15 px wide around a paper square (an island,
@@ -477,7 +477,7 @@ fn make_thin_lines() -> (
     tempfile::TempDir,
     std::path::PathBuf,
     std::process::Output,
-    [stencil::raster::BitGrid; 3],
+    [stencil_core::raster::BitGrid; 3],
 ) {
     let dir = tmp();
     let input = dir.path().join("thin.png");
@@ -496,9 +496,9 @@ fn make_thin_lines() -> (
 
 /// Pixels where `f(picture, twotone, stencil)` holds.
 fn count3(
-    picture: &stencil::raster::BitGrid,
-    two: &stencil::raster::BitGrid,
-    st: &stencil::raster::BitGrid,
+    picture: &stencil_core::raster::BitGrid,
+    two: &stencil_core::raster::BitGrid,
+    st: &stencil_core::raster::BitGrid,
     f: impl Fn(bool, bool, bool) -> bool,
 ) -> usize {
     (0..st.len())
@@ -560,7 +560,7 @@ fn report_measures_what_the_clean_up_and_the_bridges_changed() {
 
 #[test]
 fn preview_is_large_and_shows_bridges_and_what_the_clean_up_changed() {
-    use stencil::export::png::{ADDED_RGB, BRIDGE_RGB, REMOVED_RGB};
+    use stencil_core::export::png::{ADDED_RGB, BRIDGE_RGB, REMOVED_RGB};
     let (_dir, out, _, [picture, two, st]) = make_thin_lines();
     let preview = image::open(out.join("preview.png")).unwrap().to_rgb8();
     let (w, h) = (preview.width(), preview.height());

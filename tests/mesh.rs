@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
-use stencil::tone::mesh::{self, render_mesh, shapes, LineMode, MeshConfig, Rendering, Size};
+use stencil_core::tone::mesh::{self, render_mesh, shapes, LineMode, MeshConfig, Rendering, Size};
 
 fn cfg(lines: LineMode) -> MeshConfig {
     MeshConfig {
@@ -255,8 +255,8 @@ fn suggestive_contours_on_a_torus_and_a_wavy_surface_not_on_a_sphere() {
 fn invert_swaps_the_model_tones_but_not_lines_or_background() {
     let m = shapes::torus(1.0, 0.4, 64, 24);
     let r = render_mesh(&m, &cfg(LineMode::Suggestive)).unwrap();
-    let (a, _) = mesh::two_tone(&r, stencil::tone::Threshold::Level(128), false);
-    let (b, _) = mesh::two_tone(&r, stencil::tone::Threshold::Level(128), true);
+    let (a, _) = mesh::two_tone(&r, stencil_core::tone::Threshold::Level(128), false);
+    let (b, _) = mesh::two_tone(&r, stencil_core::tone::Threshold::Level(128), true);
     for i in 0..a.bits.data.len() {
         if r.lines.data[i] {
             assert!(!a.bits.data[i] && !b.bits.data[i], "lines are cut");
@@ -319,10 +319,10 @@ fn every_sample_mesh_makes_a_stencil_without_floating_pieces() {
             String::from_utf8_lossy(&run.stderr)
         );
         let stencil = image::open(out.join("stencil.png")).unwrap().to_luma8();
-        let bits = stencil::raster::BitGrid::from_fn(stencil.width(), stencil.height(), |x, y| {
+        let bits = stencil_core::raster::BitGrid::from_fn(stencil.width(), stencil.height(), |x, y| {
             stencil.get_pixel(x, y)[0] > 127
         });
-        let map = stencil::islands::label(&bits);
+        let map = stencil_core::islands::label(&bits);
         assert_eq!(map.island_count(), 0, "{}: floating pieces", obj.display());
         // The lines survive filtering and bridging: the centre of every line the renderer draws
         // (same settings, thin lines) is cut in the stencil, bar the few pixels bridges cross.

@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use geo::{ConvexHull, Coord, Intersects, MultiPoint, Point, Polygon};
-use stencil::machine::gcode::interpret;
+use stencil_gcode::interpret::interpret;
 
 fn samples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
@@ -285,11 +285,11 @@ fn simulate_and_estimate_agree_on_pen_and_knife_cuts() {
         let img = image::open(&png).unwrap().to_rgb8();
         let red = img
             .pixels()
-            .filter(|p| p.0 == stencil::machine::simulate::CUT_RGB)
+            .filter(|p| p.0 == stencil_gcode::simulate::CUT_RGB)
             .count();
         let blue = img
             .pixels()
-            .filter(|p| p.0 == stencil::machine::simulate::TRAVEL_RGB)
+            .filter(|p| p.0 == stencil_gcode::simulate::TRAVEL_RGB)
             .count();
         assert!(
             red > 1000 && blue > 0,
@@ -310,8 +310,8 @@ fn header_words(text: &str) -> String {
 #[test]
 fn programs_end_with_m2_and_header_comments_wrap_whole_and_legal() {
     let dir = tempfile::tempdir().unwrap();
-    for name in stencil::profile::machine::builtin_names() {
-        let machine = stencil::profile::machine::load(Some(name)).unwrap();
+    for name in stencil_gcode::machine::builtin_names() {
+        let machine = stencil_gcode::machine::load(Some(name)).unwrap();
         let out = make_for(dir.path(), name);
         let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
         assert_eq!(text.lines().last(), Some("M2"), "{name}: ends with M2");

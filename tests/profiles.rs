@@ -3,8 +3,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use stencil::profile::material::{DEFAULT_MATERIAL, SHIPPED};
-use stencil::profile::{Material, ProfileError};
+use stencil_core::material::{DEFAULT_MATERIAL, SHIPPED};
+use {stencil_core::material::Material, stencil_io::profile::ProfileError};
 
 const GOOD: &str = r#"
 name = "test-card"
@@ -120,8 +120,8 @@ fn every_shipped_profile_is_found_by_name() {
 fn cli_rejects_an_unknown_material_before_doing_anything() {
     let dir = tempfile::tempdir().unwrap();
     let img = dir.path().join("in.png");
-    let bits = stencil::raster::BitGrid::new(20, 20, true);
-    std::fs::write(&img, stencil::export::png::encode_bits(&bits)).unwrap();
+    let bits = stencil_core::raster::BitGrid::new(20, 20, true);
+    std::fs::write(&img, stencil_core::export::png::encode_bits(&bits)).unwrap();
     let out = dir.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
         .args([

@@ -114,7 +114,7 @@ fn env_or(name: &str, default: u64) -> u64 {
 
 /// Every shipped material, by name.
 fn materials() -> Vec<&'static str> {
-    stencil::profile::material::SHIPPED
+    stencil_core::material::SHIPPED
         .iter()
         .map(|m| m.name)
         .collect()
@@ -138,13 +138,13 @@ proptest! {
         let input = dir.path().join("in.png");
         ink_png(&input, 96, 72, |x, y| ink(&p, x, y));
         for name in materials() {
-            let (material, origin) = stencil::profile::Material::find(name).unwrap();
-            for size in [stencil::pipeline::Size::Default, stencil::pipeline::Size::WidthMm(40.0)] {
+            let (material, origin) = stencil_core::material::Material::find(name).unwrap();
+            for size in [stencil_core::pipeline::Size::Default, stencil_core::pipeline::Size::WidthMm(40.0)] {
                 let out = dir.path().join(format!("{name}-{size:?}"));
-                let cfg = stencil::MakeConfig {
+                let cfg = stencil_core::MakeConfig {
                     input: input.clone(),
                     out_dir: out.clone(),
-                    physical: stencil::pipeline::PhysicalConfig {
+                    physical: stencil_core::pipeline::PhysicalConfig {
                         size,
                         material: material.clone(),
                         material_source: origin.display().to_string(),
@@ -153,7 +153,7 @@ proptest! {
                     ..Default::default()
                 };
                 let what = format!("{p:?} {name} {size:?}");
-                let (made, _) = stencil::make(&cfg).map_err(|e| TestCaseError::fail(format!("{what}: {e}")))?;
+                let (made, _) = stencil_core::make(&cfg).map_err(|e| TestCaseError::fail(format!("{what}: {e}")))?;
                 prop_assert!(made.check.violations.is_empty(), "{what}: {:?}", made.check.violations);
                 assert_valid_stencil(&out);
                 let r = report(&out);

@@ -31,7 +31,7 @@ fn layout(min_px: f64) -> (Vec<(u32, u32, bool)>, u32) {
 }
 
 /// The run of equal pixels through row `y` at column `x`, as `[start, end)`.
-fn run(bits: &stencil::raster::BitGrid, x: u32, y: u32) -> (u32, u32) {
+fn run(bits: &stencil_core::raster::BitGrid, x: u32, y: u32) -> (u32, u32) {
     let v = bits.get(x, y);
     let (mut a, mut b) = (y, y + 1);
     while a > 0 && bits.get(x, a - 1) == v {

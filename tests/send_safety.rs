@@ -5,12 +5,12 @@
 use std::time::Duration;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil::machine::stream::{send, Job, MachineError, Quiet, ResumeLift, StreamConfig};
-use stencil::machine::virtual_grbl::{Fault, FaultKind, PlannedMove, Record};
-use stencil::machine::{VirtualConfig, VirtualGrbl};
-use stencil::plan::{gcode_for, CutSettings, PlanConfig};
-use stencil::profile::machine::{self as machine_profile, Machine, PenLift, Tool};
-use stencil::vector::CutGeometry;
+use stencil_grbl::stream::{send, Job, MachineError, Quiet, ResumeLift, StreamConfig};
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, PlannedMove, Record};
+use stencil_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
+use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+use stencil_core::vector::CutGeometry;
 
 fn cfg() -> StreamConfig {
     StreamConfig {
@@ -48,7 +48,7 @@ fn planned(machine: &Machine) -> String {
         },
         air_assist: false,
     };
-    gcode_for(&geom, machine, &PlanConfig::new(settings), &[])
+    gcode_for(&geom.loops(), machine, &PlanConfig::new(settings), &[])
         .unwrap()
         .0
 }
@@ -247,9 +247,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Sender};
 use std::sync::Arc;
 
-use stencil::machine::stall::{Clock, ClockRef};
-use stencil::machine::stream::{Control, Observer, Progress};
-use stencil::machine::virtual_grbl::{Event, Motion};
+use stencil_grbl::stall::{Clock, ClockRef};
+use stencil_grbl::stream::{Control, Observer, Progress};
+use stencil_grbl::virtual_grbl::{Event, Motion};
 
 /// The standard test job with air assist: M8 after the laser is armed, M9 before the end.
 fn air_job() -> Job {
@@ -435,7 +435,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     };
     // The bound is the job's own: its longest move (a 10 mm square side in 5 segments at
     // 1200 mm/min is 0.1 s; the longest is a G0 of ~58 mm at 6000 mm/min, 0.58 s) x 1.5 + 5 s.
-    let slowest = stencil::machine::stall::slowest_step(&job, Some(6000.0)).as_secs_f64();
+    let slowest = stencil_grbl::stall::slowest_step(&job, Some(6000.0)).as_secs_f64();
     assert!((0.5..0.7).contains(&slowest), "{slowest}");
     assert!((*bound_s - (slowest * 1.5 + 5.0)).abs() < 1e-6, "{bound_s}");
     assert!(*still_s > *bound_s, "{msg}");
@@ -481,7 +481,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
 
 // ---- laser mode ($32) -------------------------------------------------------------------------
 
-use stencil::machine::stream::LaserMode;
+use stencil_grbl::stream::LaserMode;
 
 fn laser_off_grbl() -> VirtualConfig {
     VirtualConfig {
@@ -616,7 +616,7 @@ fn cli_laser_mode_check_in_a_dry_run() {
 
 // ---- overrides from keys ----------------------------------------------------------------------
 
-use stencil::machine::keys::{self, Key, KeySource};
+use stencil_grbl::keys::{self, Key, KeySource};
 
 /// Keys typed by a test: each one once the observer has opened its gate (phase), then the
 /// source ends.
@@ -727,7 +727,7 @@ fn override_keys_during_send_reach_grbl_and_show_in_progress() {
 
 // ---- job recovery: the journal and --recover ---------------------------------------------------
 
-use stencil::machine::journal::{self, Journal, RunState};
+use stencil_grbl::journal::{self, Journal, RunState};
 
 fn run_send(file: &std::path::Path, args: &[&str]) -> (bool, String, String) {
     let out = stencil().arg("send").arg(file).args(args).output().unwrap();

@@ -6,8 +6,8 @@
 mod common;
 
 use common::*;
-use stencil::islands::{self, CUT};
-use stencil::raster::BitGrid;
+use stencil_core::islands::{self, CUT};
+use stencil_core::raster::BitGrid;
 
 /// Run make; panic with its error output if it fails.
 fn make(input: &std::path::Path, out: &std::path::Path, args: &[&str]) -> serde_json::Value {

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use resvg::tiny_skia;
 use resvg::usvg;
-use stencil::pipeline::{self, Emit, MakeConfig, PhysicalConfig};
-use stencil::raster::BitGrid;
-use stencil::report::Report;
+use stencil_core::pipeline::{self, Emit, MakeConfig, PhysicalConfig};
+use stencil_core::raster::BitGrid;
+use stencil_core::report::Report;
 
 /// Deterministic pseudo-random numbers (xorshift), so the pictures are the same on every run.
 struct Rng(u64);
@@ -74,7 +74,7 @@ fn inputs(dir: &Path) -> Vec<PathBuf> {
         let p = dir.join(format!("gen{i}.png"));
         std::fs::write(
             &p,
-            stencil::export::png::encode_bits(&picture(7 + i as u64, w, h)),
+            stencil_core::export::png::encode_bits(&picture(7 + i as u64, w, h)),
         )
         .unwrap();
         v.push(p);
@@ -176,7 +176,7 @@ fn svg_matches_stencil_png_and_dxf_matches_svg() {
         assert!(
             text.contains(&format!(
                 "width=\"{}mm\"",
-                stencil::export::svg::num(sheet_w)
+                stencil_core::export::svg::num(sheet_w)
             )),
             "{text:.300}"
         );
@@ -223,7 +223,7 @@ fn dxf_r12_writes_closed_polylines_with_the_same_loops() {
     let input = dir.path().join("in.png");
     std::fs::write(
         &input,
-        stencil::export::png::encode_bits(&picture(3, 240, 200)),
+        stencil_core::export::png::encode_bits(&picture(3, 240, 200)),
     )
     .unwrap();
     let out = dir.path().join("o");
@@ -260,7 +260,7 @@ fn width_mm_sets_the_size() {
     let input = dir.path().join("in.png");
     std::fs::write(
         &input,
-        stencil::export::png::encode_bits(&picture(5, 300, 150)),
+        stencil_core::export::png::encode_bits(&picture(5, 300, 150)),
     )
     .unwrap();
     let out = dir.path().join("o");
@@ -302,7 +302,7 @@ fn mask_size_invert_and_mirror() {
     let bits = BitGrid::from_fn(200, 100, |x, y| {
         ((x as f64 - 50.0).powi(2) + (y as f64 - 50.0).powi(2)).sqrt() > 20.0
     });
-    std::fs::write(&input, stencil::export::png::encode_bits(&bits)).unwrap();
+    std::fs::write(&input, stencil_core::export::png::encode_bits(&bits)).unwrap();
     let emit = Emit {
         png: false,
         svg: false,
@@ -329,7 +329,7 @@ fn mask_size_invert_and_mirror() {
         let svg = std::fs::read_to_string(out.join("mask.svg")).unwrap();
         assert!(svg.contains(&format!(
             "width=\"{}mm\"",
-            stencil::export::svg::num(sheet.0)
+            stencil_core::export::svg::num(sheet.0)
         )));
         runs.push((w, h, data));
     }

@@ -1,7 +1,7 @@
-//! Option parsers that hold numbers to [`stencil::limits`]: each refusal names the range. (Ranges
+//! Option parsers that hold numbers to [`stencil_core::limits`]: each refusal names the range. (Ranges
 //! that depend on the picture, such as --width-mm's, are checked once its size is known.)
 
-use stencil::limits::{self, num};
+use stencil_core::limits::{self, num};
 
 /// A finite number > 0 (a size whose range depends on the picture).
 pub fn positive(s: &str) -> Result<f64, String> {

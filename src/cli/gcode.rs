@@ -7,14 +7,13 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil::export;
-use stencil::machine::gcode::interpret;
-use stencil::plan::estimate::{format_duration, length_over_feed_s};
-use stencil::plan::svg::cut_geometry_from_svg;
-use stencil::plan::{self, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
-use stencil::profile::machine::{self as machine_profile, Machine, Tool};
-use stencil::profile::Material;
-use stencil::report::Report;
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::estimate::{format_duration, length_over_feed_s};
+use stencil_gcode::read_svg::cut_loops_from_svg;
+use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
+use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
+use stencil_core::material::Material;
+use stencil_core::report::Report;
 
 pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
@@ -236,7 +235,7 @@ pub fn make_gcode_config(
     let base = if cut.covers_all(&machine) {
         None
     } else {
-        Some(plan::settings_for(material, &machine)?)
+        Some(stencil_core::material::settings_for(material, &machine)?)
     };
     Ok(Some(GcodeConfig {
         plan: m.plan_config(cut.settings(base, &machine)?),
@@ -260,7 +259,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read", svg_path.display())
         }
     })?;
-    let mut geom = cut_geometry_from_svg(&text, &svg_path.display().to_string())?;
+    let mut geom = cut_loops_from_svg(&text, &svg_path.display().to_string())?;
     let machine = a.machine.machine()?;
     let material_arg = match (&a.material, &dir) {
         (Some(m), _) => Some(m.clone()),
@@ -272,13 +271,13 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let base = match &material {
-        Some(m) if !a.cut.covers_all(&machine) => Some(plan::settings_for(m, &machine)?),
+        Some(m) if !a.cut.covers_all(&machine) => Some(stencil_core::material::settings_for(m, &machine)?),
         _ => None,
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
         geom.apply_kerf(m.kerf_mm)
-            .with_context(|| format!("{}", svg_path.display()))?;
+            .with_context(|| format!("{}: the kerf offset", svg_path.display()))?;
     }
     let settings = a.cut.settings(base, &machine)?;
     let out = a.out.clone().unwrap_or_else(|| match &dir {
@@ -291,7 +290,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     }
     let cfg = a.machine.plan_config(settings);
     let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
-    export::write_atomic(&out, gcode.as_bytes())?;
+    stencil_io::write_atomic(&out, gcode.as_bytes())?;
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)
 }
@@ -302,7 +301,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
 /// writes them; `skip` (`--no-bed-check`) is for a work zero set elsewhere.
 pub fn check_bed(
     file: &Path,
-    moves: &[stencil::machine::gcode::Move],
+    moves: &[stencil_gcode::interpret::Move],
     machine: &Machine,
     skip: bool,
 ) -> anyhow::Result<()> {

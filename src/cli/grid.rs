@@ -7,12 +7,11 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil::export;
-use stencil::plan::gcode::num;
-use stencil::plan::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
-use stencil::plan::{self, CutSettings};
-use stencil::profile::machine::{self as machine_profile, Tool};
-use stencil::profile::Material;
+use stencil_gcode::write::num;
+use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
+use stencil_gcode::{self as plan, CutSettings};
+use stencil_gcode::machine::{self as machine_profile, Tool};
+use stencil_core::material::Material;
 
 /// Write a grid of test squares over power and speed, with a labelled SVG preview.
 #[derive(Args, Debug)]
@@ -101,11 +100,11 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     // Without --material, the machine's tool picks one (as `make` does).
     let material = Some(match &a.material {
         Some(m) => Material::find(m)?.0,
-        None => Material::find(machine.default_material())?.0,
+        None => Material::find(stencil_core::material::default_for(&machine.tool))?.0,
     });
     let max_feed = machine.motion.max_feed_mm_min;
     let mut base = match &material {
-        Some(m) => plan::settings_for(m, &machine)?,
+        Some(m) => stencil_core::material::settings_for(m, &machine)?,
         None => {
             let Some(s) = &a.speed else {
                 bail!(
@@ -205,9 +204,9 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
             .map(|m| format!(", {}", m.name))
             .unwrap_or_default()
     );
-    export::write_atomic(&svg_path, grid_svg(&grid, &machine, &title).as_bytes())
+    stencil_io::write_atomic(&svg_path, grid_svg(&grid, &machine, &title).as_bytes())
         .with_context(|| format!("{}: cannot write the preview", svg_path.display()))?;
-    export::write_atomic(&a.output, gcode.as_bytes())?;
+    stencil_io::write_atomic(&a.output, gcode.as_bytes())?;
     println!(
         "wrote {} ({} squares, {layout}; {} x {} mm at X{} Y{} on {}) and {}",
         a.output.display(),

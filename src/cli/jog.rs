@@ -10,10 +10,10 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
-use stencil::machine::jog::{self, parse_key, parse_keys, JogKey, JogKeys, Jogger, Script};
-use stencil::machine::stream::console::Console;
-use stencil::machine::stream::{ControllerInfo, Observer, StreamConfig};
-use stencil::machine::virtual_grbl::VirtualConfig;
+use stencil_grbl::jog::{self, parse_key, parse_keys, JogKey, JogKeys, Jogger, Script};
+use stencil_grbl::stream::console::Console;
+use stencil_grbl::stream::{ControllerInfo, Observer, StreamConfig};
+use stencil_grbl::virtual_grbl::VirtualConfig;
 
 /// Jog, home, unlock and zero the machine from the keyboard.
 #[derive(Args, Debug)]

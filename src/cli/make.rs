@@ -6,13 +6,13 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
-use stencil::bridge::BridgeConfig;
-use stencil::export;
-use stencil::pipeline::{self, MakeConfig};
-use stencil::report::Fidelity;
-use stencil::tone::filter::{self, FilterConfig};
-use stencil::tone::resolution::ScaleCap;
-use stencil::tone::{Threshold, ToneConfig};
+use stencil_core::bridge::BridgeConfig;
+use stencil_core::export;
+use stencil_core::pipeline::{self, MakeConfig};
+use stencil_core::report::Fidelity;
+use stencil_core::tone::filter::{self, FilterConfig};
+use stencil_core::tone::resolution::ScaleCap;
+use stencil_core::tone::{Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
 use super::material::{EmitKind, PhysicalArgs};
@@ -61,7 +61,7 @@ fn parse_mm<const N: usize>(s: &str) -> Result<[f64; N], String> {
         let v: f64 = p
             .parse()
             .map_err(|_| format!("'{p}' in '{s}' is not a number"))?;
-        if !v.is_finite() || v.abs() > stencil::limits::MAX_PICTURE_MM {
+        if !v.is_finite() || v.abs() > stencil_core::limits::MAX_PICTURE_MM {
             return Err(format!(
                 "'{p}' in '{s}' is not a position on a sheet (mm, within ±10 m)"
             ));
@@ -117,7 +117,7 @@ pub struct ImageArgs {
     /// `make` in under 10 s and about 1.3 GB on two cores; at most 200000000 (about 25 s and
     /// 4.5 GB in make, a minute in tone).
     /// Whatever it says, a picture whose decoding needs more than 2 GiB is refused.
-    #[arg(long, default_value_t = stencil::limits::DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
+    #[arg(long, default_value_t = stencil_core::limits::DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
     pub max_pixels: u64,
 }
 
@@ -188,7 +188,7 @@ pub struct BridgeArgs {
     /// 360°/N when N > 4) from each other as seen from the island's centre, where the island's
     /// shape allows. Islands also get more where their size or sag asks (see the material's
     /// two_bridges_above_mm and max_sag_mm).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil::bridge::strength::MAX_PER_ISLAND as i64))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil_core::bridge::strength::MAX_PER_ISLAND as i64))]
     pub bridges_per_island: u32,
     /// A picture marking where no bridge may go (a face, a signature): dark (under half gray) =
     /// keep out. Any size: it is scaled to the picture. An island that can only be joined through
@@ -231,14 +231,14 @@ impl BridgeArgs {
             max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
-            user: stencil::bridge::constraints::UserBridges {
+            user: stencil_core::bridge::constraints::UserBridges {
                 keep_out_mask: self.keep_out.clone(),
                 no_bridge_near_mm: self.no_bridge_near.clone(),
                 at_mm: self.bridge_at.clone(),
                 min_island_mm2: self.min_island_mm2,
                 ..Default::default()
             },
-            strength: stencil::bridge::strength::StrengthConfig {
+            strength: stencil_core::bridge::strength::StrengthConfig {
                 per_island: self.bridges_per_island,
                 ..Default::default()
             },
@@ -329,9 +329,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let emit_gcode = a.physical.emit.contains(&EmitKind::Gcode);
     // Without --material, a G-code job gets a material set up for the machine's tool.
     let default_material = if emit_gcode {
-        a.machine.machine()?.default_material()
+        stencil_core::material::default_for(&a.machine.machine()?.tool)
     } else {
-        stencil::profile::material::DEFAULT_MATERIAL
+        stencil_core::material::DEFAULT_MATERIAL
     };
     let cfg = MakeConfig {
         out_dir: a
@@ -361,7 +361,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let result = pipeline::make(&cfg);
     bar.finish();
     let (made, replaced) = result.map_err(|e| match e {
-        stencil::Error::TooMuchChange {
+        stencil_core::Error::TooMuchChange {
             fidelity,
             limit_pct,
         } => anyhow::anyhow!(
@@ -447,7 +447,7 @@ fn file_names(paths: &[std::path::PathBuf]) -> String {
 
 /// One line when the picture was supersampled, or when a cap kept it coarser than the material
 /// and the tolerance ask for.
-fn print_working_scale(r: &stencil::report::Report) {
+fn print_working_scale(r: &stencil_core::report::Report) {
     let (Some(k), Some(mm)) = (r.scale_factor, r.mm_per_px) else {
         return;
     };
@@ -478,7 +478,7 @@ fn print_working_scale(r: &stencil::report::Report) {
 
 /// How many islands needed extra bridges for strength, and a warning naming the islands some
 /// rule could not be met for (the sheet is still one piece: these are advice, not errors).
-fn print_strength(r: &stencil::report::Report) {
+fn print_strength(r: &stencil_core::report::Report) {
     let Some(s) = &r.strength else {
         return;
     };
@@ -512,11 +512,11 @@ fn print_strength(r: &stencil::report::Report) {
 }
 
 /// A note when some island had no walk under the length limit and was joined by the search.
-fn print_long_joins(r: &stencil::report::Report, limit: u32) {
+fn print_long_joins(r: &stencil_core::report::Report, limit: u32) {
     let searched: Vec<_> = r
         .bridges
         .iter()
-        .filter(|b| b.via == stencil::bridge::Via::Search && !b.support)
+        .filter(|b| b.via == stencil_core::bridge::Via::Search && !b.support)
         .collect();
     if let Some(longest) = searched.iter().map(|b| b.length_px).reduce(f64::max) {
         println!(
@@ -556,12 +556,12 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         &pipeline::PhysicalConfig::default(),
     )?;
     let fcfg = a.filter.to_config();
-    stencil::limits::check_filter_radius(fcfg.radius, tt.bits.width, tt.bits.height)
+    stencil_core::limits::check_filter_radius(fcfg.radius, tt.bits.width, tt.bits.height)
         .with_context(|| a.input.display().to_string())?;
     bar.set("filter");
     let (bits, _) = filter::filter(&tt.bits, &fcfg);
     bar.set("write");
-    export::write_atomic(&a.out, &export::png::encode_bits(&bits))
+    stencil_io::write_atomic(&a.out, &export::png::encode_bits(&bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
     bar.finish();
     println!("{}: {}x{} px", a.out.display(), bits.width, bits.height);

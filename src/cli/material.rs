@@ -7,14 +7,14 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
-use stencil::check::CheckReport;
-use stencil::export::mask::MaskConfig;
-use stencil::pipeline::{self, Emit, PhysicalConfig, Size, Timings};
-use stencil::profile::material::DEFAULT_MATERIAL;
-use stencil::profile::{Material, Process};
-use stencil::raster::BitGrid;
-use stencil::report::Report;
-use stencil::vector::VectorConfig;
+use stencil_core::check::CheckReport;
+use stencil_core::export::mask::MaskConfig;
+use stencil_core::pipeline::{self, Emit, PhysicalConfig, Size, Timings};
+use stencil_core::material::DEFAULT_MATERIAL;
+use stencil_core::material::{Material, Process};
+use stencil_core::raster::BitGrid;
+use stencil_core::report::Report;
+use stencil_core::vector::VectorConfig;
 
 use super::progress::StageBar;
 
@@ -212,7 +212,7 @@ pub struct CheckArgs {
     /// Refuse stencil pictures with more pixels than this (checked from the header, before
     /// decoding). The default, 100 megapixels, checks in seconds and under 1 GB; at most
     /// 200000000.
-    #[arg(long, default_value_t = stencil::limits::CHECK_DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
+    #[arg(long, default_value_t = stencil_core::limits::CHECK_DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
     pub max_pixels: u64,
     /// Print the check report as JSON instead of text.
     #[arg(long)]
@@ -220,7 +220,7 @@ pub struct CheckArgs {
 }
 
 fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
-    let g = stencil::tone::image::load_gray(path, max_pixels)?;
+    let g = stencil_core::tone::image::load_gray(path, max_pixels)?;
     Ok(BitGrid {
         width: g.width,
         height: g.height,
@@ -231,7 +231,7 @@ fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
 /// A `stencil make` output folder's report.json.
 pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
     let rp = folder.join("report.json");
-    let text = stencil::limits::read_text(&rp, stencil::limits::MAX_REPORT_BYTES, "stencil report")
+    let text = stencil_io::read_text(&rp, stencil_core::limits::MAX_REPORT_BYTES, "stencil report")
         .with_context(|| {
             format!(
                 "{}: is this a `stencil make` output folder?",
@@ -327,8 +327,8 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
                  stencil.png; the report does not belong to this stencil (run make again)",
                 a.input.display(),
                 i + 1,
-                stencil::limits::num(p[0]),
-                stencil::limits::num(p[1]),
+                stencil_core::limits::num(p[0]),
+                stencil_core::limits::num(p[1]),
                 bits.width,
                 bits.height
             );
@@ -368,7 +368,7 @@ pub fn run_profiles(_: ProfilesArgs) -> anyhow::Result<ExitCode> {
         "{:<20} {:<6} {:>8} {:>10} {:>11} {:>7}  settings",
         "material", "process", "thick", "bridge>=", "feature>=", "kerf"
     );
-    for name in stencil::profile::known_names("materials", stencil::profile::material::SHIPPED) {
+    for name in stencil_io::profile::known_names("materials", stencil_core::material::SHIPPED) {
         match Material::find(&name) {
             Ok((m, src)) => {
                 let settings = match &m.process {

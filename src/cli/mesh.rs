@@ -2,7 +2,7 @@
 
 use clap::{Args, ValueEnum};
 
-use stencil::tone::mesh::{LineMode, MeshConfig, Size};
+use stencil_core::tone::mesh::{LineMode, MeshConfig, Size};
 
 /// Options that apply when the input is an OBJ mesh.
 #[derive(Args, Debug, Clone)]

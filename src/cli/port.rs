@@ -5,8 +5,8 @@ use std::time::Duration;
 
 use anyhow::{bail, Context};
 
-use stencil::machine::stream::BytePort;
-use stencil::machine::virtual_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::stream::BytePort;
+use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
 /// `send`, `frame` and `jog`).

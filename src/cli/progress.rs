@@ -1,7 +1,7 @@
 //! The progress line of `make`, `tone` and `check`: a spinner, the elapsed time and the stage, on
 //! stderr, only when stderr is a terminal, and only once a run has taken longer than
 //! [`SHOW_AFTER`] (a quick run shows nothing). The library reports stages through
-//! [`stencil::pipeline::Progress`]; this is the one implementation that draws.
+//! [`stencil_core::pipeline::Progress`]; this is the one implementation that draws.
 
 use std::io::IsTerminal;
 use std::sync::{Arc, Mutex};
@@ -84,7 +84,7 @@ impl StageBar {
     }
 }
 
-impl stencil::pipeline::Progress for StageBar {
+impl stencil_core::pipeline::Progress for StageBar {
     fn stage(&self, name: &str) {
         self.set(name);
     }

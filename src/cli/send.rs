@@ -14,19 +14,19 @@ use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use stencil::export;
-use stencil::machine::gcode::Move;
-use stencil::machine::journal::{self, Journal, JournalWriter, RunState};
-use stencil::machine::keys::{self, Key, KeySource};
-use stencil::machine::simulate;
-use stencil::machine::stall::ClockRef;
-use stencil::machine::stream::{
+use stencil_core::export;
+use stencil_gcode::interpret::Move;
+use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
+use stencil_grbl::keys::{self, Key, KeySource};
+use stencil_gcode::simulate;
+use stencil_grbl::stall::ClockRef;
+use stencil_grbl::stream::{
     self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress, ResumeLift,
     StreamConfig,
 };
-use stencil::machine::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
-use stencil::plan::estimate::{estimate, estimate_with, format_duration, MotionLimits};
-use stencil::profile::machine as machine_profile;
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
+use stencil_gcode::estimate::{estimate, estimate_with, format_duration, MotionLimits};
+use stencil_gcode::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -191,13 +191,14 @@ pub(super) fn read_program(path: &PathBuf) -> anyhow::Result<String> {
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
-    let moves = simulate::moves(&name, &text)?;
+    let moves = stencil_gcode::interpret::interpret(&text)
+        .map_err(|cause| stream::MachineError::Gcode { file: name, cause })?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let rule = machine.cut_rule(&moves);
     let est = estimate_with(&moves, &machine.limits(), rule);
     let d = simulate::draw(&moves, a.size_px, rule);
-    export::write_atomic(
+    stencil_io::write_atomic(
         &a.output,
         &export::png::encode_rgb(d.width, d.height, &d.rgb),
     )?;

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use stencil::raster::BitGrid;
+use stencil_core::raster::BitGrid;
 
 /// Write an 8-bit gray PNG.
 pub fn write_gray_png(path: &Path, w: u32, h: u32, data: &[u8]) {
@@ -82,7 +82,7 @@ pub fn assert_valid_stencil(out: &Path) {
     let two = read_bits(&out.join("twotone.png"));
     let st = read_bits(&out.join("stencil.png"));
     assert_eq!((two.width, two.height), (st.width, st.height));
-    let floating = stencil::islands::floating_count(&st);
+    let floating = stencil_core::islands::floating_count(&st);
     assert_eq!(
         floating,
         0,

@@ -1,0 +1,903 @@
+//! Bridges that hold: after the tree has joined every island, give islands the bridges their
+//! size, shape and weight need (issue 13).
+//!
+//! One bridge is a hinge: an island on it flaps under a spray can and tears in a gobo holder. For
+//! each island this module decides how many bridges it needs and adds them from the island's own
+//! scored candidates (any candidate whose strip starts or lands on the island, to the frame or to
+//! another island; see `Graph::by_pair`), in this order:
+//!
+//! 1. **Count**: at least `bridges_per_island` (`--bridges-per-island`, default 1), and at least
+//!    two for an island longer (along its main axis) than the material's `two_bridges_above_mm`.
+//!    Each added bridge lies at least `min(90°, 360° / count)` from every other bridge of the
+//!    island as seen from its centre (its pixels' centroid), edge to edge (so the bridge may grow
+//!    to either side of where it was scored and still be that far round), the cheapest such
+//!    candidate; where the shape has none that far round, the one farthest round.
+//! 2. **Ends**: a long thin island (length at least [`THIN_RATIO`] times its breadth, and longer
+//!    than `two_bridges_above_mm`) is held near both ends: within [`END_REACH`] (a fifth) of its
+//!    length of each end (the supports that minimise a uniformly loaded beam's sag lie 0.21–0.22
+//!    of its length in from the ends, the Airy and Bessel points), the cheapest there.
+//! 3. **Sag**: while the sag estimate exceeds the material's `max_sag_mm`, a bridge near the
+//!    island's farthest point from its bridges: of the [`TRIALS`] cheapest candidates within half
+//!    the span of that point, the one that shortens the span most; the nearest one if none is
+//!    that near. It stops when the sag is within the limit, when
+//!    no candidate lies nearer than 0.9 of the span to the farthest point (the farthest material
+//!    is out of reach of any bridge: a large island's middle), or at [`MAX_FOR_SAG`] bridges.
+//!
+//! **The sag model.** The *span* L of an island is the farthest any of its material lies from its
+//! nearest bridge, measured inside the island (8-neighbour paths over its pixels, diagonal steps
+//! √2 as 7/5, only across corners where both side pixels are material too; so a ring's span runs
+//! round the ring, not across its hole). The island is taken as a strip of unit width and span L
+//! under its own weight q = ρ·g·t per unit area, of stiffness E·I with I = t³/12 per unit width.
+//! Its sag is estimated as
+//!
+//! ```text
+//! δ = 5·q·(2L)⁴ / (384·E·I) = 5·ρ·g·L⁴ / (2·E·t²)
+//! ```
+//!
+//! the middle of a strip simply supported on two bridges 2L apart (every point of it within L of
+//! a bridge). The same L as a cantilever clamped at one bridge sags 3/5 of this (q·L⁴ / 8EI), so
+//! the estimate errs on the safe side for both the span between two bridges and an overhang past
+//! the last one. It is a strip estimate, not a plate one: a plate held along more of its edge is
+//! stiffer. It does not count the bridge itself bending (one bridge is a hinge: that is the count
+//! rule's business), nor an island hanging from another island that sags in turn.
+//!
+//! Support bridges the grow stage adds later ([`super::plan_bridge`]) are not counted: the
+//! estimate is for the bridges chosen here, which they only add to.
+
+use std::cmp::Reverse;
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::Graph;
+use crate::islands::{IslandMap, FRAME};
+
+/// Standard gravity, m/s².
+const G: f64 = 9.806_65;
+
+/// An island is long and thin when its length is at least this many times its breadth.
+pub const THIN_RATIO: f64 = 4.0;
+
+/// How near an end of a long thin island a bridge must touch it, as a fraction of its length.
+pub const END_REACH: f64 = 0.2;
+
+/// The sag rule adds bridges up to this many per island (more bridges than this hide the picture
+/// more than they help: a large island's middle is out of reach of any bridge anyway).
+pub const MAX_FOR_SAG: usize = 12;
+
+/// How many candidates near the farthest point the sag rule tries, cheapest first.
+pub const TRIALS: usize = 8;
+
+/// Most bridges `--bridges-per-island` may ask for.
+pub const MAX_PER_ISLAND: u32 = 12;
+
+/// Path lengths inside an island in fifths of a pixel: a side step 5, a diagonal one 7 (√2 ≈ 1.4).
+const STEP: u32 = 5;
+const DIAG: u32 = 7;
+
+/// The material numbers and the scale the strength rules need (the pipeline fills them from the
+/// material profile; the default is cardstock at 0.1 mm per pixel, what `stencil make` uses
+/// without options).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StrengthConfig {
+    /// At least this many bridges for every island, spread apart (`--bridges-per-island`).
+    pub per_island: u32,
+    /// Millimetres per working pixel.
+    pub mm_per_px: f64,
+    pub thickness_mm: f64,
+    pub youngs_modulus_gpa: f64,
+    pub density_kg_m3: f64,
+    /// The most an island may sag, mm.
+    pub max_sag_mm: f64,
+    /// Islands longer than this get at least two bridges, mm.
+    pub two_bridges_above_mm: f64,
+}
+
+impl Default for StrengthConfig {
+    fn default() -> Self {
+        let s = crate::material::DEFAULT_STRENGTH;
+        StrengthConfig {
+            per_island: 1,
+            mm_per_px: 0.1,
+            thickness_mm: 0.3,
+            youngs_modulus_gpa: s.youngs_modulus_gpa,
+            density_kg_m3: s.density_kg_m3,
+            max_sag_mm: s.max_sag_mm,
+            two_bridges_above_mm: s.two_bridges_above_mm,
+        }
+    }
+}
+
+impl StrengthConfig {
+    /// The sag estimate, mm, of an island whose span is `span_mm` (see the module notes):
+    /// `5·ρ·g·L⁴ / (2·E·t²)`, in SI units then back to millimetres.
+    pub fn sag_mm(&self, span_mm: f64) -> f64 {
+        let (l, t) = (span_mm / 1e3, self.thickness_mm / 1e3);
+        let e = self.youngs_modulus_gpa * 1e9;
+        5.0 * self.density_kg_m3 * G * l.powi(4) / (2.0 * e * t * t) * 1e3
+    }
+
+    /// The longest span whose sag is within `max_sag_mm`.
+    pub fn max_span_mm(&self) -> f64 {
+        let (t, e) = (self.thickness_mm / 1e3, self.youngs_modulus_gpa * 1e9);
+        let l4 = self.max_sag_mm / 1e3 * 2.0 * e * t * t / (5.0 * self.density_kg_m3 * G);
+        l4.powf(0.25) * 1e3
+    }
+
+    /// The settings a library caller may get wrong, by name.
+    pub fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
+        if !(1..=MAX_PER_ISLAND).contains(&self.per_island) {
+            return Err((
+                "bridges_per_island",
+                self.per_island as f64,
+                "it must be 1 to 12",
+            ));
+        }
+        for (name, v) in [
+            ("mm_per_px", self.mm_per_px),
+            ("thickness_mm", self.thickness_mm),
+            ("youngs_modulus_gpa", self.youngs_modulus_gpa),
+            ("density_kg_m3", self.density_kg_m3),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err((name, v, "it must be a finite number above 0"));
+            }
+        }
+        // Infinite: that rule is off (a material with no strength data).
+        for (name, v) in [
+            ("max_sag_mm", self.max_sag_mm),
+            ("two_bridges_above_mm", self.two_bridges_above_mm),
+        ] {
+            if v.is_nan() || v <= 0.0 {
+                return Err((name, v, "it must be above 0 (infinite: the rule is off)"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why an island got bridges beyond the tree's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Why {
+    /// `--bridges-per-island` asked for more.
+    BridgesPerIsland,
+    /// Longer than the material's `two_bridges_above_mm`: one bridge is a hinge.
+    TwoBridges,
+    /// Long and thin: held near both ends.
+    Ends,
+    /// Its sag exceeded the material's `max_sag_mm`.
+    Sag,
+}
+
+/// One island's strength, as reported in `report.json`'s `strength.islands`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IslandStrength {
+    /// Node id (as in the bridges' `nodes`).
+    pub island: u32,
+    /// Centroid of its material, mm from the picture's top left corner (x right, y down).
+    pub centre_mm: [f64; 2],
+    pub area_mm2: f64,
+    /// Extent along its main axis and across it, mm.
+    pub length_mm: f64,
+    pub breadth_mm: f64,
+    /// Bridges holding it in the estimate: the tree's bridge that brought it in (towards the
+    /// frame) and those added here (a tree bridge to an island hanging from it is not counted).
+    pub bridges: usize,
+    /// Of those, added here for strength.
+    pub extra: usize,
+    /// Why they were added (empty when none were).
+    pub why: Vec<Why>,
+    /// The farthest its material lies from its nearest bridge, inside the island, mm.
+    pub span_mm: f64,
+    /// The sag estimate on all `bridges`, mm.
+    pub sag_mm: f64,
+    /// The sag estimate after each bridge: first on the tree's bridges alone, then after each one
+    /// added here, in order (so the last is `sag_mm`).
+    pub sag_steps_mm: Vec<f64>,
+    /// The material's `max_sag_mm`.
+    pub limit_mm: f64,
+    /// Whether every rule is met: sag within the limit, the count and both ends.
+    pub held: bool,
+    /// When not held: which rule could not be met and what to relax.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// `report.json`'s `strength`: the model's numbers, per island, and totals.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StrengthReport {
+    /// The sag model, in words.
+    pub model: String,
+    /// The longest span within the material's sag limit, mm.
+    pub max_span_mm: f64,
+    pub two_bridges_above_mm: f64,
+    pub bridges_per_island: u32,
+    /// Islands that got extra bridges for strength, and how many bridges that added in all.
+    pub islands_with_extra: usize,
+    pub extra_bridges: usize,
+    /// Islands some rule could not be met for (see their `note`).
+    pub not_held: usize,
+    pub islands: Vec<IslandStrength>,
+}
+
+impl StrengthReport {
+    pub fn new(islands: Vec<IslandStrength>, cfg: &StrengthConfig) -> Self {
+        StrengthReport {
+            model: "sag = 5·ρ·g·L⁴/(2·E·t²): a strip simply supported on bridges 2L apart, L = \
+                    span (farthest material from its nearest bridge, inside the island)"
+                .into(),
+            max_span_mm: cfg.max_span_mm(),
+            two_bridges_above_mm: cfg.two_bridges_above_mm,
+            bridges_per_island: cfg.per_island,
+            islands_with_extra: islands.iter().filter(|i| i.extra > 0).count(),
+            extra_bridges: islands.iter().map(|i| i.extra).sum(),
+            not_held: islands.iter().filter(|i| !i.held).count(),
+            islands,
+        }
+    }
+}
+
+/// An island's bounding box and pixel moments.
+#[derive(Clone, Copy)]
+struct Moments {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+    n: f64,
+    sx: f64,
+    sy: f64,
+    sxx: f64,
+    syy: f64,
+    sxy: f64,
+}
+
+/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone.
+///
+/// An island is one 4-connected piece that does not touch the image edge, so both ends of each of
+/// its row runs have a cut pixel beside them: every run starts and ends at a border pixel, and the
+/// border comes in scan order. Reading runs off the border keeps the strength stage in proportion
+/// to the islands' perimeter, not the image's area (a pass over the labels cost the 1280×720 bench
+/// 1.5 ms).
+fn runs(map: &IslandMap, n: u32) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
+    let mut start = None;
+    map.nodes[n as usize]
+        .border
+        .iter()
+        .filter_map(move |&(x, y)| {
+            if x == 0 || map.label(x - 1, y) != n {
+                start = Some(x);
+            }
+            let end = x + 1 >= map.width || map.label(x + 1, y) != n;
+            match (end, start) {
+                (true, Some(a)) => {
+                    start = None;
+                    Some((y, a, x))
+                }
+                _ => None,
+            }
+        })
+}
+
+fn moments(map: &IslandMap, n: u32) -> Moments {
+    // Σ_{x=0}^{m-1} (x + ½) and Σ (x + ½)², pixel centres.
+    let s1 = |m: f64| m * m / 2.0;
+    let s2 = |m: f64| (m - 1.0) * m * (2.0 * m - 1.0) / 6.0 + (m - 1.0) * m / 2.0 + m / 4.0;
+    let mut k = Moments {
+        x0: u32::MAX,
+        y0: u32::MAX,
+        x1: 0,
+        y1: 0,
+        n: 0.0,
+        sx: 0.0,
+        sy: 0.0,
+        sxx: 0.0,
+        syy: 0.0,
+        sxy: 0.0,
+    };
+    for (y, a, b) in runs(map, n) {
+        k.x0 = k.x0.min(a);
+        k.x1 = k.x1.max(b);
+        k.y0 = k.y0.min(y);
+        k.y1 = k.y1.max(y);
+        let (lo, hi) = (a as f64, b as f64 + 1.0);
+        let (c, fy) = (hi - lo, y as f64 + 0.5);
+        let sx = s1(hi) - s1(lo);
+        k.n += c;
+        k.sx += sx;
+        k.sy += c * fy;
+        k.sxx += s2(hi) - s2(lo);
+        k.syy += c * fy * fy;
+        k.sxy += sx * fy;
+    }
+    k
+}
+
+/// Most cells of the grid path lengths are measured on (see [`Local`]).
+const MAX_CELLS: usize = 1 << 16;
+
+/// One island over its bounding box, in cells of `k` × `k` pixels (a cell is the island's when
+/// any of its pixels is), and path lengths over them. `k` is 1 (pixels) unless the box has more
+/// than [`MAX_CELLS`] pixels: then the smallest that brings it under (a 2000 px ring is measured
+/// on 8 px cells, an error of a cell in a span of hundreds; a cut narrower than a cell between
+/// two parts of the island may be stepped over).
+///
+/// The grid has a margin of one empty cell all round, so the path search never tests bounds.
+struct Local {
+    x0: u32,
+    y0: u32,
+    k: u32,
+    /// Row stride and rows, the margin included.
+    w: usize,
+    h: usize,
+    inside: Vec<bool>,
+}
+
+impl Local {
+    fn index(&self, x: u32, y: u32) -> Option<usize> {
+        let (lx, ly) = (
+            (x.checked_sub(self.x0)? / self.k) as usize,
+            (y.checked_sub(self.y0)? / self.k) as usize,
+        );
+        let i = (ly + 1) * self.w + lx + 1;
+        (lx + 2 < self.w && ly + 2 < self.h && self.inside[i]).then_some(i)
+    }
+
+    /// A path length in pixels.
+    fn px(&self, d: u32) -> f64 {
+        d as f64 / STEP as f64 * self.k as f64
+    }
+
+    /// A cell's centre in pixels.
+    fn centre(&self, i: usize) -> (f64, f64) {
+        let k = self.k as f64;
+        (
+            self.x0 as f64 + ((i % self.w) as f64 - 0.5) * k,
+            self.y0 as f64 + ((i / self.w) as f64 - 0.5) * k,
+        )
+    }
+
+    /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what
+    /// they shorten (so adding a source to an earlier result updates it).
+    ///
+    /// Dijkstra with a bucket queue: steps cost [`STEP`] or [`DIAG`], so every pending distance
+    /// lies within `DIAG` of the one being settled and `DIAG + 1` buckets used round-robin hold
+    /// them all (a binary heap cost the bench's strength stage a third more).
+    fn relax(&self, dist: &mut [u32], sources: &[usize]) {
+        const BUCKETS: usize = DIAG as usize + 1;
+        let mut buckets: [Vec<usize>; BUCKETS] = Default::default();
+        let mut pending = 0usize;
+        for &s in sources {
+            dist[s] = 0;
+            buckets[0].push(s);
+            pending += 1;
+        }
+        let w = self.w as isize;
+        let inside = &self.inside;
+        let mut d = 0u32;
+        while pending > 0 {
+            let b = d as usize % BUCKETS;
+            while let Some(i) = buckets[b].pop() {
+                pending -= 1;
+                // Lowered since it was queued: settled already at its smaller distance.
+                if dist[i] != d {
+                    continue;
+                }
+                let at = |dx: isize, dy: isize| (i as isize + dx + dy * w) as usize;
+                for (dx, dy) in [
+                    (1, 0),
+                    (-1, 0),
+                    (0, 1),
+                    (0, -1),
+                    (1, 1),
+                    (1, -1),
+                    (-1, 1),
+                    (-1, -1),
+                ] {
+                    let j = at(dx, dy);
+                    if !inside[j] {
+                        continue;
+                    }
+                    let step = if dx != 0 && dy != 0 {
+                        // Across a corner only where both side pixels are material too.
+                        if !inside[at(dx, 0)] || !inside[at(0, dy)] {
+                            continue;
+                        }
+                        DIAG
+                    } else {
+                        STEP
+                    };
+                    let nd = d + step;
+                    if nd < dist[j] {
+                        dist[j] = nd;
+                        buckets[nd as usize % BUCKETS].push(j);
+                        pending += 1;
+                    }
+                }
+            }
+            d += 1;
+        }
+    }
+
+    fn field(&self, sources: &[usize]) -> Vec<u32> {
+        let mut d = vec![u32::MAX; self.inside.len()];
+        self.relax(&mut d, sources);
+        d
+    }
+
+    /// The farthest pixel and its distance (ignoring pixels no source reaches).
+    fn farthest(&self, dist: &[u32]) -> (usize, u32) {
+        dist.iter()
+            .enumerate()
+            .filter(|&(i, &d)| self.inside[i] && d != u32::MAX)
+            .map(|(i, &d)| (i, d))
+            .max_by_key(|&(i, d)| (d, Reverse(i)))
+            .unwrap_or((0, 0))
+    }
+}
+
+/// A candidate bridge of one island: where it touches the island, seen from the island's centre.
+#[derive(Clone, Copy)]
+struct Place {
+    id: usize,
+    at: usize,
+    angle: f64,
+    /// Half the angle its width covers seen from the centre, degrees.
+    half: f64,
+    /// Along the island's main axis, px from its centre.
+    along: f64,
+    cost: f64,
+    width: u32,
+}
+
+/// Where candidate `id`'s bridge touches node `n`: at the middle of its scored window along the
+/// border (the bridge grows over the window, which may lie to one side of the candidate), that
+/// strip's start pixel when it starts on `n`, else the material pixel of `n` where it lands (or
+/// one beside it).
+fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
+    let s = g.strips[id].as_ref()?;
+    let mid = g.scores[id].map_or(0, |sc| (sc.window.0 + sc.window.1) / 2);
+    let (id, s) = g
+        .cands
+        .along(id, mid)
+        .and_then(|m| Some((m, g.strips[m].as_ref()?)))
+        .filter(|(_, m)| (m.from, m.to) == (s.from, s.to))
+        .unwrap_or((id, s));
+    if s.from == n {
+        return Some(g.cands.pixels[id]);
+    }
+    if s.to != n {
+        return None;
+    }
+    let (ex, ey) = s.end;
+    for (dx, dy) in [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)] {
+        let (x, y) = (ex + dx, ey + dy);
+        if x >= 0
+            && y >= 0
+            && (x as u32) < map.width
+            && (y as u32) < map.height
+            && map.label(x as u32, y as u32) == n
+        {
+            return Some((x as u32, y as u32));
+        }
+    }
+    None
+}
+
+/// Choose extra bridges (candidate ids, in island order, none twice) for the islands of `map`,
+/// given the tree's bridges (candidate, and the island it brought into the tree); and each
+/// island's strength as reported.
+///
+/// An island is held by the tree's bridge that brought it in (towards the frame) and by those
+/// added here; a tree bridge to an island that hangs from it loads it rather than holds it, and
+/// is not counted.
+pub(super) fn reinforce(
+    g: &Graph,
+    map: &IslandMap,
+    chosen: &[(usize, u32)],
+    cfg: &StrengthConfig,
+) -> (Vec<usize>, Vec<IslandStrength>) {
+    let nodes = map.nodes.len();
+    // The node pairs each island is in (both ends of each pair); their candidates are listed only
+    // for an island that needs more bridges.
+    let mut touching: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nodes];
+    for &(a, b) in g.by_pair.keys() {
+        for n in [a, b] {
+            if n != FRAME && (n as usize) < nodes {
+                touching[n as usize].push((a, b));
+            }
+        }
+    }
+    let mut tree: HashMap<u32, Vec<usize>> = HashMap::new();
+    for &(id, n) in chosen {
+        if n != FRAME {
+            tree.entry(n).or_default().push(id);
+        }
+    }
+    let chosen_ids: std::collections::HashSet<usize> = chosen.iter().map(|c| c.0).collect();
+    let results: Vec<(Vec<usize>, IslandStrength)> = (1..nodes as u32)
+        .into_par_iter()
+        .with_min_len(16)
+        .map(|n| {
+            let none = Vec::new();
+            island(
+                g,
+                map,
+                n,
+                &moments(map, n),
+                tree.get(&n).unwrap_or(&none),
+                &touching[n as usize],
+                &chosen_ids,
+                cfg,
+            )
+        })
+        .collect();
+    let mut extras = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let mut report = Vec::with_capacity(results.len());
+    for (ids, s) in results {
+        extras.extend(ids.into_iter().filter(|&id| seen.insert(id)));
+        report.push(s);
+    }
+    (extras, report)
+}
+
+/// Smallest angle between two directions, degrees.
+fn apart(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(360.0);
+    d.min(360.0 - d)
+}
+
+/// One island: the rules in order (see the module notes).
+fn island(
+    g: &Graph,
+    map: &IslandMap,
+    n: u32,
+    m: &Moments,
+    tree_ids: &[usize],
+    touching: &[(u32, u32)],
+    chosen_ids: &std::collections::HashSet<usize>,
+    cfg: &StrengthConfig,
+) -> (Vec<usize>, IslandStrength) {
+    let mm = cfg.mm_per_px;
+    let (cx, cy) = (m.sx / m.n.max(1.0), m.sy / m.n.max(1.0));
+    // Main axis from the pixel covariance.
+    let (vxx, vyy, vxy) = (
+        m.sxx / m.n.max(1.0) - cx * cx,
+        m.syy / m.n.max(1.0) - cy * cy,
+        m.sxy / m.n.max(1.0) - cx * cy,
+    );
+    let theta = 0.5 * (2.0 * vxy).atan2(vxx - vyy);
+    let (ux, uy) = (theta.cos(), theta.sin());
+    let (bw, bh) = ((m.x1 - m.x0 + 1) as usize, (m.y1 - m.y0 + 1) as usize);
+    let k = ((bw * bh) as f64 / MAX_CELLS as f64).sqrt().ceil().max(1.0) as usize;
+    let (w, h) = (bw.div_ceil(k) + 2, bh.div_ceil(k) + 2);
+    let mut inside = vec![false; w * h];
+    let (mut lo, mut hi, mut blo, mut bhi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (y, x0, x1) in runs(map, n) {
+        let (ly, ca, cb) = (
+            (y - m.y0) as usize / k + 1,
+            (x0 - m.x0) as usize / k + 1,
+            (x1 - m.x0) as usize / k + 1,
+        );
+        inside[ly * w + ca..=ly * w + cb].fill(true);
+        // Projections are linear along the run: its ends hold the extremes.
+        for x in [x0, x1] {
+            let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
+            let (a, b) = (dx * ux + dy * uy, -dx * uy + dy * ux);
+            lo = lo.min(a);
+            hi = hi.max(a);
+            blo = blo.min(b);
+            bhi = bhi.max(b);
+        }
+    }
+    let local = Local {
+        x0: m.x0,
+        y0: m.y0,
+        k: k as u32,
+        w,
+        h,
+        inside,
+    };
+    // Extents: pixel centres span one pixel less than the material.
+    let (length_px, breadth_px) = (hi - lo + 1.0, bhi - blo + 1.0);
+    let option = |id: usize| -> Option<Place> {
+        let (x, y) = touch(g, map, id, n)?;
+        let at = local.index(x, y)?;
+        let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
+        let score = g.scores[id]?;
+        Some(Place {
+            id,
+            at,
+            angle: dy.atan2(dx).to_degrees(),
+            half: (score.width as f64 / 2.0).atan2(dx.hypot(dy)).to_degrees(),
+            along: dx * ux + dy * uy,
+            cost: score.terms.total,
+            width: score.width,
+        })
+    };
+    let mut held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
+    let sources: Vec<usize> = held_by.iter().map(|o| o.at).collect();
+    let mut dist = local.field(&sources);
+    let span_mm = |dist: &[u32]| local.px(local.farthest(dist).1) * mm;
+    let mut steps = vec![cfg.sag_mm(span_mm(&dist))];
+    let long = length_px * mm > cfg.two_bridges_above_mm;
+    let need = (cfg.per_island as usize).max(if long { 2 } else { 1 });
+    // The places to add bridges at, only for an island some rule asks more of (most islands are
+    // small and held by their one tree bridge: listing and sorting their candidates was most of
+    // this stage's time).
+    let more = held_by.len() < need || long || steps[0] > cfg.max_sag_mm;
+    let mut options: Vec<Place> = if more {
+        touching
+            .iter()
+            .filter_map(|p| g.by_pair.get(p))
+            .flatten()
+            .filter(|id| !chosen_ids.contains(id))
+            .filter_map(|&id| option(id))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    options.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
+    let mut extra: Vec<usize> = Vec::new();
+    let mut why: Vec<Why> = Vec::new();
+    let mut notes: Vec<String> = Vec::new();
+    let centre = [cx * mm, cy * mm];
+    let where_ = format!("island {n} at ({:.1}, {:.1}) mm", centre[0], centre[1]);
+
+    // Take option k: it holds the island from now on.
+    let mut take = |k: usize,
+                    reason: Why,
+                    options: &mut Vec<Place>,
+                    held_by: &mut Vec<Place>,
+                    dist: &mut Vec<u32>,
+                    steps: &mut Vec<f64>| {
+        let o = options.remove(k);
+        local.relax(dist, &[o.at]);
+        held_by.push(o);
+        extra.push(o.id);
+        if !why.contains(&reason) {
+            why.push(reason);
+        }
+        steps.push(cfg.sag_mm(span_mm(dist)));
+    };
+    // An option is apart from the bridges holding the island when it lies more than its own width
+    // from the nearest of them (inside the island).
+    let clear = |o: &Place, dist: &[u32]| local.px(dist[o.at]) > o.width as f64;
+
+    // 1. Count.
+    let reason = if cfg.per_island as usize >= need && cfg.per_island > 1 {
+        Why::BridgesPerIsland
+    } else {
+        Why::TwoBridges
+    };
+    let gap = 90f64.min(360.0 / need as f64);
+    while held_by.len() < need {
+        let round = |o: &Place| {
+            held_by
+                .iter()
+                .map(|h| apart(o.angle, h.angle) - o.half - h.half)
+                .fold(180.0, f64::min)
+        };
+        // Cheapest at least `gap` round (options are sorted by cost), else the farthest round.
+        let pick = options
+            .iter()
+            .position(|o| clear(o, &dist) && round(o) >= gap - 1e-9)
+            .or_else(|| {
+                options
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| clear(o, &dist))
+                    .max_by(|a, b| round(a.1).total_cmp(&round(b.1)).then(b.0.cmp(&a.0)))
+                    .map(|(k, _)| k)
+            });
+        let Some(k) = pick else {
+            notes.push(format!(
+                "{where_} has room for {} bridge(s), not {need}: lower --bridges-per-island or \
+                 widen the cut around it",
+                held_by.len()
+            ));
+            break;
+        };
+        take(k, reason, &mut options, &mut held_by, &mut dist, &mut steps);
+    }
+
+    // 2. Ends of a long thin island: a bridge within a fifth of its length of each end.
+    if long && length_px >= THIN_RATIO * breadth_px {
+        let quarter = END_REACH * length_px;
+        for end in [-1.0f64, 1.0] {
+            let near_end = |o: &Place| {
+                if end < 0.0 {
+                    o.along <= lo + quarter
+                } else {
+                    o.along >= hi - quarter
+                }
+            };
+            if held_by.iter().any(near_end) {
+                continue;
+            }
+            match options.iter().position(|o| near_end(o) && clear(o, &dist)) {
+                Some(k) => take(
+                    k,
+                    Why::Ends,
+                    &mut options,
+                    &mut held_by,
+                    &mut dist,
+                    &mut steps,
+                ),
+                None => notes.push(format!(
+                    "{where_} is long and thin but no bridge fits near one of its ends: widen \
+                     the cut beside that end"
+                )),
+            }
+        }
+    }
+
+    // 3. Sag.
+    let limit = cfg.max_sag_mm;
+    let cap = MAX_FOR_SAG.max(need);
+    while *steps.last().unwrap_or(&0.0) > limit && held_by.len() < cap {
+        let (far, span) = local.farthest(&dist);
+        let from_far = local.field(&[far]);
+        let nearest = options
+            .iter()
+            .enumerate()
+            .min_by_key(|(k, o)| (from_far[o.at], *k))
+            .map(|(k, o)| (k, from_far[o.at]));
+        let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64) else {
+            notes.push(format!(
+                "{where_} sags {:.2} mm (limit {limit} mm): its farthest material, at ({:.1}, \
+                 {:.1}) mm, is out of reach of any bridge; use a stiffer or thicker material \
+                 (or raise max_sag_mm in the profile)",
+                steps.last().unwrap_or(&0.0),
+                local.centre(far).0 * mm,
+                local.centre(far).1 * mm,
+            ));
+            break;
+        };
+        // Of the cheapest few within half the span of the farthest point, the one that shortens
+        // the span most (a tie to the cheaper); the nearest one if none is that near.
+        let mut trial = dist.clone();
+        let k = options
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| 2 * from_far[o.at] <= span)
+            .take(TRIALS)
+            .map(|(k, o)| {
+                trial.copy_from_slice(&dist);
+                local.relax(&mut trial, &[o.at]);
+                (local.farthest(&trial).1, k)
+            })
+            .min()
+            .map_or(k_near, |(_, k)| k);
+        take(
+            k,
+            Why::Sag,
+            &mut options,
+            &mut held_by,
+            &mut dist,
+            &mut steps,
+        );
+    }
+    let sag = *steps.last().unwrap_or(&0.0);
+    if sag > limit && held_by.len() >= cap && notes.is_empty() {
+        notes.push(format!(
+            "{where_} sags {sag:.2} mm (limit {limit} mm) on {cap} bridges, the most the sag rule \
+             adds; use a stiffer or thicker material (or raise max_sag_mm in the profile)"
+        ));
+    }
+    let held = notes.is_empty() && sag <= limit;
+    let report = IslandStrength {
+        island: n,
+        centre_mm: centre,
+        area_mm2: m.n * mm * mm,
+        length_mm: length_px * mm,
+        breadth_mm: breadth_px * mm,
+        bridges: held_by.len(),
+        extra: extra.len(),
+        why,
+        span_mm: span_mm(&dist),
+        sag_mm: sag,
+        sag_steps_mm: steps,
+        limit_mm: limit,
+        held,
+        note: (!notes.is_empty()).then(|| notes.join("; ")),
+    };
+    (extra, report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sag_follows_the_strip_formula_and_its_inverse() {
+        // 3 mm plywood, E 8 GPa, 680 kg/m³: 5·680·9.80665·0.1⁴ / (2·8e9·0.003²) m = 0.0232 mm.
+        let ply = StrengthConfig {
+            thickness_mm: 3.0,
+            youngs_modulus_gpa: 8.0,
+            density_kg_m3: 680.0,
+            ..Default::default()
+        };
+        let want = 5.0 * 680.0 * G * 1e-4 / (2.0 * 8e9 * 9e-6) * 1e3;
+        assert!((ply.sag_mm(100.0) - want).abs() < 1e-12);
+        assert!((want - 0.0232).abs() < 1e-3, "{want}");
+        // Four times the span, 256 times the sag; the longest span within the limit sags it.
+        assert!((ply.sag_mm(400.0) / ply.sag_mm(100.0) - 256.0).abs() < 1e-9);
+        let l = ply.max_span_mm();
+        assert!((ply.sag_mm(l) - ply.max_sag_mm).abs() < 1e-9, "{l}");
+        // Paper a tenth of the thickness sags a hundred times more (at the same E and ρ).
+        let thin = StrengthConfig {
+            thickness_mm: 0.3,
+            ..ply.clone()
+        };
+        assert!((thin.sag_mm(100.0) / ply.sag_mm(100.0) - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn path_lengths_run_inside_the_island() {
+        // A U: from the top of its left arm to the top of its right arm the path runs down and
+        // round (27 px), not the 9 px straight across the gap.
+        // The grid carries a margin of one empty cell all round: island pixel (x, y) is cell
+        // (x + 1, y + 1).
+        let (w, h) = (12usize, 12usize);
+        let cell = |x: usize, y: usize| (y + 1) * w + x + 1;
+        let inside: Vec<bool> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let inner = (1..=10).contains(&x) && (1..=10).contains(&y);
+                let (x, y) = (x.wrapping_sub(1), y.wrapping_sub(1));
+                inner && (x == 0 || x == 9 || y == 9)
+            })
+            .collect();
+        let l = Local {
+            x0: 0,
+            y0: 0,
+            k: 1,
+            w,
+            h,
+            inside,
+        };
+        let d = l.field(&[cell(0, 0)]);
+        // From (0, 0) to (9, 0): 9 down, 9 across, 9 up; no corner cut at the U's bends (the
+        // pixel inside each bend is cut).
+        assert_eq!(d[cell(9, 0)], 27 * STEP);
+        assert_eq!(d[cell(5, 0)], u32::MAX, "(5, 0) is cut: unreached");
+        assert_eq!(l.farthest(&d), (cell(9, 0), 27 * STEP));
+        assert_eq!(l.index(9, 0), Some(cell(9, 0)));
+        assert_eq!(l.index(5, 0), None);
+        assert_eq!(l.index(10, 0), None, "beyond the box");
+        assert_eq!(l.centre(cell(9, 0)), (9.5, 0.5));
+        // A solid square's far corner is reached diagonally: 9 diagonal steps.
+        let solid = Local {
+            inside: (0..w * h)
+                .map(|i| (1..=10).contains(&(i % w)) && (1..=10).contains(&(i / w)))
+                .collect(),
+            ..l
+        };
+        assert_eq!(solid.field(&[cell(0, 0)])[cell(9, 9)], 9 * DIAG);
+    }
+
+    #[test]
+    fn angles_apart_wrap_round() {
+        assert_eq!(apart(170.0, -170.0), 20.0);
+        assert_eq!(apart(0.0, 90.0), 90.0);
+        assert_eq!(apart(-90.0, 90.0), 180.0);
+    }
+
+    #[test]
+    fn bad_settings_are_named() {
+        let c = StrengthConfig {
+            per_island: 0,
+            ..Default::default()
+        };
+        assert_eq!(c.check().unwrap_err().0, "bridges_per_island");
+        let c = StrengthConfig {
+            max_sag_mm: f64::NAN,
+            ..Default::default()
+        };
+        assert_eq!(c.check().unwrap_err().0, "max_sag_mm");
+    }
+}

@@ -1,0 +1,45 @@
+//! Output files. Everything that touches the file system for output goes through here, and every
+//! file is written atomically ([`stencil_io::write_atomic`], [`stencil_io::replace_all`]).
+
+pub mod dxf;
+pub mod mask;
+pub mod png;
+pub mod svg;
+
+use std::path::{Path, PathBuf};
+
+pub use stencil_io::Replaced;
+use stencil_io::{plain_io, WriteError};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    #[error("{path}: cannot create the output folder: {source}; choose another with -o")]
+    CreateDir {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: cannot encode: {msg}")]
+    Encode { path: PathBuf, msg: String },
+}
+
+/// Create the output folder (if missing) up front, so a run fails before its work, not after.
+pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
+        path: dir.to_path_buf(),
+        source: plain_io(source),
+    })
+}
+
+/// Write a set of files into `dir` (created if missing), all or nothing, and remove the files
+/// named in `stale` that this set does not write: see [`stencil_io::replace_all`]. If anything fails,
+/// the folder is left as it was, old files included.
+pub fn write_files(
+    dir: &Path,
+    files: &[(String, Vec<u8>)],
+    stale: &[&str],
+) -> Result<Replaced, ExportError> {
+    prepare_dir(dir)?;
+    Ok(stencil_io::replace_all(dir, files, stale)?)
+}

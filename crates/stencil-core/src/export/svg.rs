@@ -1,0 +1,160 @@
+//! `stencil.svg`: the stencil at its real size for laser software, plotters and Inkscape.
+//!
+//! Width and height are in `mm` with a viewBox in millimetres (without units Inkscape assumes
+//! 96 px per inch: the classic 25.4/96 scale error). Three layers (Inkscape layers, i.e. groups
+//! with `inkscape:groupmode="layer"`): `OUTLINE` (the sheet's edge, red hairline), `CUT` (the cut
+//! regions as designed, filled black with the even-odd rule so islands show as holes) and `BRIDGES`
+//! (bridge outlines, blue hairline, for reference). The design line is written, not the kerf
+//! offset: laser software applies its own kerf.
+
+use std::fmt::Write;
+
+use geo::{LineString, MultiPolygon, Polygon};
+
+use crate::vector::CutGeometry;
+
+/// Millimetres with 4 decimals (0.1 µm), trailing zeros dropped.
+pub fn num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}
+
+/// Path data for closed rings (each `M … Z`).
+pub fn path_data<'a>(rings: impl IntoIterator<Item = &'a LineString<f64>>) -> String {
+    let mut d = String::new();
+    for r in rings {
+        let pts = &r.0;
+        let n = if pts.len() > 1 && pts.first() == pts.last() {
+            pts.len() - 1
+        } else {
+            pts.len()
+        };
+        if n < 3 {
+            continue;
+        }
+        for (i, c) in pts[..n].iter().enumerate() {
+            let _ = write!(
+                d,
+                "{}{} {}",
+                if i == 0 { "M" } else { "L" },
+                num(c.x),
+                num(c.y)
+            );
+        }
+        d.push('Z');
+    }
+    d
+}
+
+/// All rings of a polygon set (exteriors and holes).
+pub fn rings(mp: &MultiPolygon<f64>) -> impl Iterator<Item = &LineString<f64>> {
+    mp.0.iter()
+        .flat_map(|p: &Polygon<f64>| std::iter::once(p.exterior()).chain(p.interiors()))
+}
+
+fn layer(id: &str, label: &str, body: &str) -> svg::node::element::Group {
+    svg::node::element::Group::new()
+        .set("id", id)
+        .set("inkscape:groupmode", "layer")
+        .set("inkscape:label", label)
+        .add(svg::node::Blob::new(body.to_string()))
+}
+
+/// Encode the stencil as SVG.
+pub fn encode(geom: &CutGeometry) -> Vec<u8> {
+    use svg::node::element::{Path, Rectangle};
+    let o = geom.outline;
+    let (w, h) = (o.width(), o.height());
+    let outline = Rectangle::new()
+        .set("x", num(o.min().x))
+        .set("y", num(o.min().y))
+        .set("width", num(w))
+        .set("height", num(h))
+        .set("fill", "none")
+        .set("stroke", "#ff0000")
+        .set("stroke-width", "0.02");
+    let mut cut = String::new();
+    for p in &geom.design_cuts.0 {
+        let d = path_data(std::iter::once(p.exterior()).chain(p.interiors()));
+        let path = Path::new()
+            .set("d", d)
+            .set("fill", "#000000")
+            .set("fill-rule", "evenodd")
+            .set("stroke", "none");
+        cut.push_str(&path.to_string());
+    }
+    let mut bridges = String::new();
+    for b in &geom.bridges {
+        let path = Path::new()
+            .set("d", path_data(std::iter::once(b.exterior())))
+            .set("fill", "none")
+            .set("stroke", "#0077ff")
+            .set("stroke-width", "0.02");
+        bridges.push_str(&path.to_string());
+    }
+    let doc = svg::Document::new()
+        .set(
+            "xmlns:inkscape",
+            "http://www.inkscape.org/namespaces/inkscape",
+        )
+        .set("width", format!("{}mm", num(w)))
+        .set("height", format!("{}mm", num(h)))
+        .set(
+            "viewBox",
+            format!(
+                "{} {} {} {}",
+                num(o.min().x),
+                num(o.min().y),
+                num(w),
+                num(h)
+            ),
+        )
+        .add(layer("outline", "OUTLINE", &outline.to_string()))
+        .add(layer("cut", "CUT", &cut))
+        .add(layer("bridges", "BRIDGES", &bridges));
+    doc.to_string().into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geo::{Area, Coord, LineString, MultiPolygon, Polygon, Rect};
+
+    /// What `make` writes, `stencil gcode` reads back: the same outline and the cut layer only.
+    #[test]
+    fn reads_our_own_svg_back() {
+        let ring = |x0: f64, y0: f64, x1: f64, y1: f64| {
+            Polygon::new(
+                LineString::from(vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]),
+                vec![],
+            )
+        };
+        let cuts = MultiPolygon(vec![ring(1.0, 1.0, 4.0, 3.0), ring(6.0, 2.0, 9.5, 7.25)]);
+        let geom = CutGeometry {
+            width_mm: 10.0,
+            height_mm: 8.0,
+            outline: Rect::new(Coord { x: -2.0, y: -2.0 }, Coord { x: 12.0, y: 10.0 }),
+            cuts: cuts.clone(),
+            design_cuts: cuts,
+            material: MultiPolygon(vec![]),
+            bridges: vec![ring(4.0, 1.5, 6.0, 2.5)],
+            unbridged_cuts: MultiPolygon(vec![]),
+            kerf_mm: 0.0,
+        };
+        let text = String::from_utf8(encode(&geom)).unwrap();
+        let back = stencil_gcode::read_svg::cut_loops_from_svg(&text, "stencil.svg").unwrap();
+        assert_eq!(back.outline, geom.outline);
+        assert_eq!(back.cuts.0.len(), 2, "the bridges layer is not cut");
+        for (a, b) in back.cuts.0.iter().zip(&geom.design_cuts.0) {
+            assert!((a.unsigned_area() - b.unsigned_area()).abs() < 1e-9);
+            let (p, q) = (a.exterior().0[0], b.exterior().0[0]);
+            assert!((p.x - q.x).abs() < 1e-6 && (p.y - q.y).abs() < 1e-6);
+        }
+    }
+
+}

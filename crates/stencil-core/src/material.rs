@@ -1,0 +1,648 @@
+//! Material profiles: what a sheet can hold (bridge and feature widths), how wide the tool cuts
+//! (kerf), and how to cut it (laser, knife, pen or photo-etch, with that process's settings).
+//!
+//! A profile is a TOML file (see `profiles/materials/*.toml`; `stencil profiles` lists them).
+//! It is validated once, here, at load: unknown fields, missing fields, negative or absurd numbers
+//! and a missing process section are errors naming the file and the field. Everything downstream
+//! (pipeline, check, G-code) can then trust a [`Material`].
+//!
+//! Without `--material`, [`DEFAULT_MATERIAL`] (cardstock) is used; `report.json` records which.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileError, Shipped};
+use stencil_io::shipped;
+
+use stencil_gcode::machine::{Machine, Tool};
+use stencil_gcode::{CutSettings, PlanError};
+
+/// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
+pub const DEFAULT_MATERIAL: &str = "cardstock";
+
+/// The profile used when none is named and the machine draws with a pen: drawing paper.
+pub const DEFAULT_PEN_MATERIAL: &str = "plotter-paper";
+
+/// The profile used when none is named and the machine cuts with a drag knife: cardstock, as for
+/// a laser, with knife settings.
+pub const DEFAULT_KNIFE_MATERIAL: &str = "cardstock-knife";
+
+/// The material used when none is named, for a machine with this tool: a laser material for a
+/// laser, and so on, so `--machine pen-a3` alone works.
+pub fn default_for(tool: &Tool) -> &'static str {
+    match tool {
+        Tool::Pen(_) => DEFAULT_PEN_MATERIAL,
+        Tool::Knife { .. } => DEFAULT_KNIFE_MATERIAL,
+        Tool::Laser { .. } => DEFAULT_MATERIAL,
+    }
+}
+
+/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4.
+///
+/// Why 4: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
+/// so a bridge many times wider adds strength that handling never calls on while it hides more of
+/// the picture. Four times the minimum still lets the width follow the island (the rule gives an
+/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 16 mm across get 1 to 4 mm,
+/// larger ones 4 mm, the 40 px the bridge stage allowed at the default 0.1 mm per pixel), and
+/// keeps bridges in the range laser-service and stencil guides draw (1–5 mm in card and film, up
+/// to 15 mm in 3 mm plywood).
+pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
+
+/// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
+/// commonly cut from, so an unknown material is judged as if it were floppy rather than stiff
+/// (bending modulus 3 GPa and density 900 kg/m³, as `cardstock.toml`; sag limit 1 mm; two bridges
+/// for islands longer than 40 mm). See [`Material::youngs_modulus_gpa`].
+pub const DEFAULT_STRENGTH: Strength = Strength {
+    youngs_modulus_gpa: 3.0,
+    density_kg_m3: 900.0,
+    max_sag_mm: 1.0,
+    two_bridges_above_mm: 40.0,
+};
+
+/// What the bridge stage needs to judge whether an island's bridges hold it (see
+/// `bridge::strength`). All four are optional in a profile file: one that gives some of them gets
+/// [`DEFAULT_STRENGTH`]'s value for the others; one that gives none is not judged at all (its sag
+/// limit and two-bridge size are infinite, and `make` says so): strength numbers are not invented
+/// for a material nothing is known of (the corpus's "pixel" material, with no physical limits).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Strength {
+    /// Bending (Young's) modulus of the sheet, GPa (paper 2–6, PET 4, plywood 8, steel 193).
+    pub youngs_modulus_gpa: f64,
+    /// Density, kg/m³ (paper 700–900, PMMA 1190, aluminium 2700, steel 8000).
+    pub density_kg_m3: f64,
+    /// The most an island may sag under its own weight on its bridges, mm.
+    pub max_sag_mm: f64,
+    /// Islands longer than this (along their main axis) get at least two bridges, mm: one bridge
+    /// is a hinge.
+    pub two_bridges_above_mm: f64,
+}
+
+impl Strength {
+    /// Whether the profile gave strength data to judge islands by (see [`Strength`]).
+    pub fn judged(&self) -> bool {
+        self.max_sag_mm.is_finite() || self.two_bridges_above_mm.is_finite()
+    }
+}
+
+/// The material profiles shipped with the crate, embedded so an installed binary has them.
+pub const SHIPPED: &[Shipped] = &[
+    shipped!("materials", "copy-paper"),
+    shipped!("materials", "cardstock"),
+    shipped!("materials", "mylar-0.19"),
+    shipped!("materials", "poster-board"),
+    shipped!("materials", "cardstock-knife"),
+    shipped!("materials", "vinyl-0.08"),
+    shipped!("materials", "plotter-paper"),
+    shipped!("materials", "plywood-3mm"),
+    shipped!("materials", "acrylic-3mm"),
+    shipped!("materials", "stainless-0.5-etch"),
+    shipped!("materials", "brass-0.3-etch"),
+    shipped!("materials", "aluminium-gobo"),
+];
+
+/// How the sheet is cut, with that process's settings.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub enum Process {
+    Laser(LaserSettings),
+    Knife(KnifeSettings),
+    Pen(PenSettings),
+    Etch(EtchSettings),
+}
+
+impl Process {
+    pub fn kind(&self) -> ProcessKind {
+        match self {
+            Process::Laser(_) => ProcessKind::Laser,
+            Process::Knife(_) => ProcessKind::Knife,
+            Process::Pen(_) => ProcessKind::Pen,
+            Process::Etch(_) => ProcessKind::Etch,
+        }
+    }
+}
+
+/// The `process = "..."` key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProcessKind {
+    Laser,
+    Knife,
+    Pen,
+    Etch,
+}
+
+impl std::fmt::Display for ProcessKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ProcessKind::Laser => "laser",
+            ProcessKind::Knife => "knife",
+            ProcessKind::Pen => "pen",
+            ProcessKind::Etch => "etch",
+        })
+    }
+}
+
+/// `[laser]`: what a G-code laser job uses (`S` from power, `F` from speed, repeated passes).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserSettings {
+    /// Laser power in percent of the machine's maximum (0 < p ≤ 100).
+    pub power_pct: f64,
+    /// Cutting feed in mm/min.
+    pub speed_mm_min: f64,
+    /// Passes over each loop (1..=50).
+    pub passes: u32,
+    /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
+    /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
+    /// paper it can lift the sheet.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub air_assist: Option<bool>,
+}
+
+/// `[knife]`: a drag-knife cutting plotter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnifeSettings {
+    /// Blade force in grams.
+    pub force_g: f64,
+    /// Cutting speed in mm/s.
+    pub speed_mm_s: f64,
+    pub passes: u32,
+    /// Drag-knife blade offset in mm (tip behind the axis).
+    pub blade_offset_mm: f64,
+}
+
+/// `[pen]`: a pen plotter drawing the outlines to cut by hand.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PenSettings {
+    pub speed_mm_min: f64,
+    pub pen_width_mm: f64,
+}
+
+/// `[etch]`: photo-etching (the mask goes to the etching shop or onto the resist).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EtchSettings {
+    /// Etch factor: depth etched per unit of sideways undercut.
+    pub etch_factor: f64,
+    /// Mirror the mask by default (film emulsion side down on the metal).
+    pub mirror: bool,
+    /// Etched from both sides (front and back art mirror each other).
+    pub two_sided: bool,
+}
+
+/// The file layout: flat numbers plus one section per process. Only this type touches serde.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    name: String,
+    #[serde(default)]
+    description: String,
+    thickness_mm: f64,
+    min_bridge_mm: f64,
+    #[serde(default)]
+    max_bridge_mm: Option<f64>,
+    min_feature_mm: f64,
+    kerf_mm: f64,
+    #[serde(default)]
+    youngs_modulus_gpa: Option<f64>,
+    #[serde(default)]
+    density_kg_m3: Option<f64>,
+    #[serde(default)]
+    max_sag_mm: Option<f64>,
+    #[serde(default)]
+    two_bridges_above_mm: Option<f64>,
+    process: ProcessKind,
+    laser: Option<LaserSettings>,
+    knife: Option<KnifeSettings>,
+    pen: Option<PenSettings>,
+    etch: Option<EtchSettings>,
+}
+
+/// A validated material profile. Public for every stage that needs the sheet's numbers (the
+/// pipeline converts the widths to pixels, `check` measures against them, the G-code planner reads
+/// [`Process::Laser`] for power, speed and passes).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Material {
+    /// The profile's name (shipped profiles: the file stem, e.g. `cardstock`).
+    pub name: String,
+    pub description: String,
+    /// Sheet thickness.
+    pub thickness_mm: f64,
+    /// Narrowest bridge the sheet holds (bridges are checked against this).
+    pub min_bridge_mm: f64,
+    /// Widest bridge the bridge stage draws, measured at right angles to it: an island's bridge
+    /// is `k·√A` wide for its area `A` in mm² (a quarter of its side), clamped to
+    /// `min_bridge_mm..=max_bridge_mm`. Optional in a profile; default
+    /// [`DEFAULT_MAX_BRIDGE_RATIO`] × `min_bridge_mm`. A bridge wider than this hides more of the
+    /// picture than it adds strength.
+    pub max_bridge_mm: f64,
+    /// Narrowest web (material) or hole (cut) that survives cutting.
+    pub min_feature_mm: f64,
+    /// Width of material the tool removes; cut loops are offset by half of it into the hole.
+    pub kerf_mm: f64,
+    /// Stiffness, weight and the limits the bridge stage holds islands to (optional fields of the
+    /// file; see [`Strength`]).
+    pub strength: Strength,
+    pub process: Process,
+}
+
+impl Default for Material {
+    /// The shipped [`DEFAULT_MATERIAL`] (its validity is unit-tested).
+    fn default() -> Self {
+        let s = SHIPPED
+            .iter()
+            .find(|s| s.name == DEFAULT_MATERIAL)
+            .expect("the default material is in SHIPPED");
+        Material::parse(s.text, Path::new("<embedded>/materials/cardstock.toml"))
+            .expect("the shipped default material is valid (unit-tested)")
+    }
+}
+
+impl Material {
+    /// Find a material by shipped name, a name in `./profiles/materials/`, or a path.
+    pub fn find(arg: &str) -> Result<(Material, PathBuf), ProfileError> {
+        let (file, origin): (MaterialFile, PathBuf) = resolve(arg, "materials", SHIPPED)?;
+        Ok((Material::validate(file, &origin)?, origin))
+    }
+
+    /// Load a material profile from a TOML file.
+    pub fn load(path: &Path) -> Result<Material, ProfileError> {
+        Material::validate(load_toml(path)?, path)
+    }
+
+    /// Parse a material profile from TOML text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
+        Material::validate(parse_toml(text, origin)?, origin)
+    }
+
+    /// Laser settings, when the process is laser cutting.
+    pub fn laser(&self) -> Option<&LaserSettings> {
+        match &self.process {
+            Process::Laser(l) => Some(l),
+            _ => None,
+        }
+    }
+
+    /// Etch settings, when the process is photo-etching.
+    pub fn etch(&self) -> Option<&EtchSettings> {
+        match &self.process {
+            Process::Etch(e) => Some(e),
+            _ => None,
+        }
+    }
+
+    fn validate(f: MaterialFile, origin: &Path) -> Result<Material, ProfileError> {
+        let invalid = |field: &str, value: String, why: &str| ProfileError::Invalid {
+            path: origin.to_path_buf(),
+            field: field.into(),
+            value,
+            why: why.into(),
+        };
+        if f.name.trim().is_empty() {
+            return Err(invalid("name", "\"\"".into(), "must not be empty"));
+        }
+        // Ranges: anything outside is a typo (a unit mix-up, a missing decimal point).
+        check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
+        check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+        check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
+        let max_bridge_mm = f
+            .max_bridge_mm
+            .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
+        check_range(
+            origin,
+            "max_bridge_mm",
+            max_bridge_mm,
+            f.min_bridge_mm,
+            200.0,
+            "mm (at least min_bridge_mm)",
+        )?;
+        check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
+        if f.kerf_mm >= f.min_feature_mm {
+            return Err(invalid(
+                "kerf_mm",
+                f.kerf_mm.to_string(),
+                "must be smaller than min_feature_mm: the tool would remove whole features",
+            ));
+        }
+        let d = DEFAULT_STRENGTH;
+        let given = f.youngs_modulus_gpa.is_some()
+            || f.density_kg_m3.is_some()
+            || f.max_sag_mm.is_some()
+            || f.two_bridges_above_mm.is_some();
+        let d = if given {
+            d
+        } else {
+            Strength {
+                max_sag_mm: f64::INFINITY,
+                two_bridges_above_mm: f64::INFINITY,
+                ..d
+            }
+        };
+        let strength = Strength {
+            youngs_modulus_gpa: f.youngs_modulus_gpa.unwrap_or(d.youngs_modulus_gpa),
+            density_kg_m3: f.density_kg_m3.unwrap_or(d.density_kg_m3),
+            max_sag_mm: f.max_sag_mm.unwrap_or(d.max_sag_mm),
+            two_bridges_above_mm: f.two_bridges_above_mm.unwrap_or(d.two_bridges_above_mm),
+        };
+        // Tissue paper is about 0.5 GPa, diamond 1000; the lightest foam board 30 kg/m³, osmium
+        // 22,600.
+        check_range(
+            origin,
+            "youngs_modulus_gpa",
+            strength.youngs_modulus_gpa,
+            0.01,
+            1200.0,
+            "GPa",
+        )?;
+        check_range(
+            origin,
+            "density_kg_m3",
+            strength.density_kg_m3,
+            10.0,
+            25_000.0,
+            "kg/m³",
+        )?;
+        if given {
+            check_range(
+                origin,
+                "max_sag_mm",
+                strength.max_sag_mm,
+                0.001,
+                1000.0,
+                "mm",
+            )?;
+            check_range(
+                origin,
+                "two_bridges_above_mm",
+                strength.two_bridges_above_mm,
+                0.1,
+                100_000.0,
+                "mm",
+            )?;
+        }
+        let sections = [
+            ("laser", f.laser.is_some(), ProcessKind::Laser),
+            ("knife", f.knife.is_some(), ProcessKind::Knife),
+            ("pen", f.pen.is_some(), ProcessKind::Pen),
+            ("etch", f.etch.is_some(), ProcessKind::Etch),
+        ];
+        for (sec, present, kind) in sections {
+            if present && kind != f.process {
+                return Err(invalid(
+                    sec,
+                    format!("[{sec}]"),
+                    &format!(
+                        "section given but process = \"{}\"; remove it or change process",
+                        f.process
+                    ),
+                ));
+            }
+        }
+        let missing = |sec: &str| {
+            invalid(
+                sec,
+                "(missing)".into(),
+                &format!("process = \"{sec}\" needs a [{sec}] section with its settings"),
+            )
+        };
+        let process = match f.process {
+            ProcessKind::Laser => {
+                let l = f.laser.ok_or_else(|| missing("laser"))?;
+                check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
+                check_range(
+                    origin,
+                    "laser.speed_mm_min",
+                    l.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
+                check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
+                Process::Laser(l)
+            }
+            ProcessKind::Knife => {
+                let k = f.knife.ok_or_else(|| missing("knife"))?;
+                check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
+                check_range(
+                    origin,
+                    "knife.speed_mm_s",
+                    k.speed_mm_s,
+                    1.0,
+                    2000.0,
+                    "mm/s",
+                )?;
+                check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
+                check_range(
+                    origin,
+                    "knife.blade_offset_mm",
+                    k.blade_offset_mm,
+                    0.0,
+                    2.0,
+                    "mm",
+                )?;
+                Process::Knife(k)
+            }
+            ProcessKind::Pen => {
+                let p = f.pen.ok_or_else(|| missing("pen"))?;
+                check_range(
+                    origin,
+                    "pen.speed_mm_min",
+                    p.speed_mm_min,
+                    1.0,
+                    100_000.0,
+                    "mm/min",
+                )?;
+                check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
+                Process::Pen(p)
+            }
+            ProcessKind::Etch => {
+                let e = f.etch.ok_or_else(|| missing("etch"))?;
+                check_range(origin, "etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
+                Process::Etch(e)
+            }
+        };
+        Ok(Material {
+            name: f.name,
+            description: f.description,
+            thickness_mm: f.thickness_mm,
+            min_bridge_mm: f.min_bridge_mm,
+            max_bridge_mm,
+            min_feature_mm: f.min_feature_mm,
+            kerf_mm: f.kerf_mm,
+            strength,
+            process,
+        })
+    }
+}
+
+/// A material's cut settings for a machine. The material's process must match the machine's tool:
+/// a laser material's power means nothing to a knife, and an etch material has no cut settings.
+pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, PlanError> {
+    let s = match (&material.process, &machine.tool) {
+        (Process::Laser(l), Tool::Laser { .. }) => CutSettings {
+            power_pct: l.power_pct,
+            speed_mm_min: l.speed_mm_min,
+            passes: l.passes,
+            blade_offset_mm: 0.0,
+            air_assist: l.air_assist.unwrap_or(machine.air_assist),
+        },
+        (Process::Knife(k), Tool::Knife { .. }) => CutSettings {
+            power_pct: 100.0,
+            speed_mm_min: k.speed_mm_s * 60.0,
+            passes: k.passes,
+            blade_offset_mm: k.blade_offset_mm,
+            air_assist: false,
+        },
+        (Process::Pen(p), Tool::Pen(_)) => CutSettings {
+            power_pct: 100.0,
+            speed_mm_min: p.speed_mm_min,
+            passes: 1,
+            blade_offset_mm: 0.0,
+            air_assist: false,
+        },
+        (Process::Etch(_), _) => {
+            return Err(PlanError::Settings(format!(
+                "material '{}' is for photo-etching and has no cut settings for G-code; \
+                 use --emit mask, or choose a laser, knife or pen material",
+                material.name
+            )))
+        }
+        (p, t) => {
+            return Err(PlanError::Settings(format!(
+                "material '{}' is set up for a {} but machine '{}' has a {}; choose a matching \
+                 --material (for a {}: {}, or see `stencil profiles`) or --machine, or give \
+                 --power, --speed and --passes",
+                material.name,
+                p.kind(),
+                machine.name,
+                t.kind(),
+                t.kind(),
+                default_for(&machine.tool)
+            )))
+        }
+    };
+    Ok(s)
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_shipped_profile_is_valid_and_named_after_its_file() {
+        for s in SHIPPED {
+            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
+            assert_eq!(m.name, s.name);
+            assert!(m.kerf_mm < m.min_feature_mm);
+        }
+        assert_eq!(Material::default().name, DEFAULT_MATERIAL);
+        // The default for each shipped machine's tool is shipped and set up for that tool.
+        for s in stencil_gcode::machine::SHIPPED {
+            let machine = stencil_gcode::machine::load(Some(s.name)).unwrap();
+            let (m, _) = Material::find(default_for(&machine.tool)).unwrap();
+            assert_eq!(m.process.kind().to_string(), machine.tool.kind(), "{}", m.name);
+        }
+    }
+
+    #[test]
+    fn photo_etch_profiles_follow_the_thickness_rule() {
+        for s in SHIPPED {
+            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
+            if m.etch().is_some() {
+                assert!(m.min_feature_mm >= m.thickness_mm, "{}", m.name);
+                assert!(m.min_bridge_mm >= m.thickness_mm, "{}", m.name);
+            }
+        }
+    }
+
+    #[test]
+    fn the_widest_bridge_defaults_to_four_times_the_narrowest_and_is_checked() {
+        let card = Material::default();
+        assert_eq!(card.max_bridge_mm, 4.0 * card.min_bridge_mm);
+        let with = |line: &str| {
+            let text = SHIPPED[1].text.replace(
+                "min_feature_mm = 0.5",
+                &format!("min_feature_mm = 0.5\n{line}"),
+            );
+            Material::parse(&text, Path::new("x.toml"))
+        };
+        assert_eq!(with("max_bridge_mm = 3.0").unwrap().max_bridge_mm, 3.0);
+        let e = with("max_bridge_mm = 0.5").unwrap_err().to_string();
+        assert!(e.contains("x.toml") && e.contains("max_bridge_mm"), "{e}");
+    }
+
+    #[test]
+    fn strength_fields_default_and_absurd_values_name_the_field() {
+        // Every shipped profile gives its own numbers (with sources in its comments).
+        for s in SHIPPED {
+            for field in [
+                "youngs_modulus_gpa",
+                "density_kg_m3",
+                "max_sag_mm",
+                "two_bridges_above_mm",
+            ] {
+                assert!(
+                    s.text.contains(&format!("\n{field} = ")),
+                    "{} {field}",
+                    s.name
+                );
+            }
+        }
+        let without: String = SHIPPED[1]
+            .text
+            .lines()
+            .filter(|l| {
+                !["youngs", "density", "max_sag", "two_bridges"]
+                    .iter()
+                    .any(|k| l.starts_with(k))
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let m = Material::parse(&without, Path::new("x.toml")).unwrap();
+        assert!(!m.strength.judged(), "no strength data: not judged");
+        let one = without.replace(
+            "min_feature_mm = 0.5",
+            "min_feature_mm = 0.5\nmax_sag_mm = 2",
+        );
+        let m = Material::parse(&one, Path::new("x.toml")).unwrap();
+        assert_eq!(
+            m.strength,
+            Strength {
+                max_sag_mm: 2.0,
+                ..DEFAULT_STRENGTH
+            }
+        );
+        for (field, bad) in [
+            ("youngs_modulus_gpa", "0"),
+            ("youngs_modulus_gpa", "1e9"),
+            ("density_kg_m3", "-5"),
+            ("max_sag_mm", "0"),
+            ("two_bridges_above_mm", "1e300"),
+        ] {
+            let text = without.replace(
+                "min_feature_mm = 0.5",
+                &format!("min_feature_mm = 0.5\n{field} = {bad}"),
+            );
+            let e = Material::parse(&text, Path::new("x.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("x.toml") && e.contains(field),
+                "{field} = {bad}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_section_for_another_process_is_an_error() {
+        let text = SHIPPED[1].text.to_string()
+            + "\n[etch]\netch_factor = 2.0\nmirror = false\ntwo_sided = false\n";
+        let e = Material::parse(&text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("x.toml") && e.contains("etch"), "{e}");
+    }
+}

@@ -1,0 +1,936 @@
+//! The whole job, stage by stage: input → two-tone → filter → islands → bridges → vectors → check
+//! → outputs.
+//!
+//! Stages are pure functions on plain data; this module times them, gathers the report and hands
+//! the results to `export` at the very end, so a failure anywhere leaves no output behind.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::bridge::{self, BridgeConfig, Bridged};
+use crate::check::{self, CheckReport};
+use crate::export::mask::MaskConfig;
+use crate::export::{self, dxf, mask, png, svg};
+use crate::islands;
+use crate::material::Material;
+use crate::raster::{BitGrid, TwoTone};
+use crate::report::{BridgeReport, Fidelity, Report};
+use crate::tone::filter::{self, FilterConfig, FilterStats};
+use crate::tone::mesh::{self, MeshConfig};
+use crate::tone::regularize::{
+    fill_sealed_pockets, regularize, settle_all, settle_near, RegularizeConfig,
+};
+use crate::tone::{self, image::load_gray, ToneConfig};
+use crate::units::{Mm, Scale};
+use crate::vector::{self, CutGeometry, VectorConfig};
+use crate::Error;
+
+/// How many times `make` widens the necks the vector check still finds and traces again.
+const REPAIR_ROUNDS: usize = 3;
+
+/// How far (in disc spans past the neck) a repair may change the stencil.
+const REPAIR_SPREAD: u32 = 1;
+
+/// Everything `stencil make` needs, as plain data (the CLI builds it; tests build it by hand).
+#[derive(Clone, Debug, Default)]
+pub struct MakeConfig {
+    pub input: PathBuf,
+    pub out_dir: PathBuf,
+    pub tone: ToneConfig,
+    pub mesh: MeshConfig,
+    pub filter: FilterConfig,
+    pub bridge: BridgeConfig,
+    pub physical: PhysicalConfig,
+    /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
+    /// report. A job that does not fit the machine's bed fails the run before anything is written.
+    pub gcode: Option<stencil_gcode::GcodeConfig>,
+    /// Told each stage as it starts (see [`Progress`]).
+    pub progress: Option<Arc<dyn Progress>>,
+}
+
+pub use crate::units::Size;
+
+/// Which files `make` writes (report.json always). Default: `png,svg`: the images to look at and
+/// the one vector file every laser and plotter program opens; DXF and masks on request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Emit {
+    /// twotone.png, stencil.png, preview.png.
+    pub png: bool,
+    pub svg: bool,
+    pub dxf: bool,
+    /// mask.png and mask.svg.
+    pub mask: bool,
+}
+
+impl Default for Emit {
+    fn default() -> Self {
+        Emit {
+            png: true,
+            svg: true,
+            dxf: false,
+            mask: false,
+        }
+    }
+}
+
+/// Physical size, material, vectors, check and export options.
+#[derive(Clone, Debug)]
+pub struct PhysicalConfig {
+    pub size: Size,
+    pub material: Material,
+    /// Where the material profile came from (for the report).
+    pub material_source: String,
+    pub vector: VectorConfig,
+    /// Write the outputs even when the check finds violations.
+    pub allow_thin: bool,
+    /// Fail (and write nothing) when the stencil differs from the thresholded picture in more
+    /// than this percentage of its pixels (`--max-change`; finite, 0..=100). See
+    /// [`crate::report::Fidelity`].
+    pub max_change_pct: Option<f64>,
+    pub emit: Emit,
+    pub mask: MaskConfig,
+    pub dxf_r12: bool,
+}
+
+impl Default for PhysicalConfig {
+    fn default() -> Self {
+        PhysicalConfig {
+            size: Size::Default,
+            material: Material::default(),
+            material_source: format!(
+                "<embedded>/materials/{}.toml",
+                crate::material::DEFAULT_MATERIAL
+            ),
+            vector: VectorConfig::default(),
+            allow_thin: false,
+            max_change_pct: None,
+            emit: Emit::default(),
+            mask: MaskConfig::default(),
+            dxf_r12: false,
+        }
+    }
+}
+
+impl PhysicalConfig {
+    /// Millimetres per pixel of a `width_px` × `height_px` picture, before supersampling (a
+    /// working pixel of a picture supersampled K times is this divided by K; see [`Working`]).
+    /// Refused outside [`crate::limits::picture_scale`]'s bounds.
+    pub fn scale(&self, width_px: u32, height_px: u32) -> Result<Scale, Error> {
+        Ok(crate::limits::picture_scale(
+            self.size, width_px, height_px,
+        )?)
+    }
+
+    /// The coarsest working pixel, in mm, that the material and the tolerance accept (the
+    /// automatic supersampling's target, [`tone::resolution::target_mm_per_px`]).
+    pub fn target_mm_per_px(&self) -> f64 {
+        tone::resolution::target_mm_per_px(self.material.min_feature_mm, self.vector.tolerance_mm)
+    }
+
+    /// The check's allowance in pixels (see [`check::allowance_px`]).
+    fn allowance_px(&self, scale: Scale) -> f64 {
+        check::allowance_px(scale.to_px(Mm(self.vector.tolerance_mm)).0)
+    }
+
+    /// The bridge stage's options in pixels from the material's millimetres: never narrower than
+    /// `min_bridge_mm` (plus the check's allowance) or the user's `min_width_px` if wider, never
+    /// wider than `max_bridge_mm` unless the user set `max_width_px`. The width rule itself,
+    /// `⌈√A / 4⌉` px for the smaller island's area A in px², is `√A / 4` mm for its area in mm²
+    /// whatever the scale, so with both bounds in millimetres the same design gets bridges of the
+    /// same physical width at any size.
+    ///
+    /// With `allow_thin` and an explicit `max_width_px`, the user's pixel widths are taken as
+    /// given: they have asked for bridges of that width and to keep a stencil the check finds
+    /// thin (a measurement at fixed pixel widths, such as the corpus's quality comparison).
+    ///
+    /// The strength rules get the material's stiffness, weight and limits and the scale, keeping
+    /// the user's bridges per island.
+    pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
+        let m = &self.material;
+        let strength = bridge::strength::StrengthConfig {
+            per_island: user.strength.per_island,
+            mm_per_px: scale.mm_per_px,
+            thickness_mm: m.thickness_mm,
+            youngs_modulus_gpa: m.strength.youngs_modulus_gpa,
+            density_kg_m3: m.strength.density_kg_m3,
+            max_sag_mm: m.strength.max_sag_mm,
+            two_bridges_above_mm: m.strength.two_bridges_above_mm,
+        };
+        if user.max_width_given && self.allow_thin {
+            return BridgeConfig {
+                strength,
+                ..user.clone()
+            };
+        }
+        let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
+            as u32;
+        let min = user.min_width_px.max(px);
+        let max = if user.max_width_given {
+            user.max_width_px
+        } else {
+            // A hair under a whole pixel counts as one (1.2 mm / 0.1 mm is 11.99... in floating
+            // point).
+            (scale.to_px(Mm(self.material.max_bridge_mm)).0 + 1e-6)
+                .floor()
+                .min(u32::MAX as f64 / 2.0) as u32
+        };
+        BridgeConfig {
+            min_width_px: min,
+            max_width_px: max.max(min),
+            strength,
+            ..user.clone()
+        }
+    }
+
+    /// The narrowest web or hole the regularisation keeps, in working pixels: the material's
+    /// `min_feature_mm` plus one pixel. The raster rule holds exactly, but the traced outline of
+    /// a diagonal neck measures up to about a pixel less than its pixels (see `check`'s
+    /// discretisation notes); a line already at the minimum is widened by at most that pixel.
+    pub fn feature_px(&self, scale: Scale) -> f64 {
+        scale.to_px(Mm(self.material.min_feature_mm)).0 + 1.0
+    }
+
+    /// The topological filter's options with the material's smallest feature: unless the user set
+    /// the radius explicitly, the opening and closing radius is at least half of `min_feature_mm` (plus the allowance) in pixels, so webs
+    /// and holes the material cannot hold are removed before bridging instead of failing the
+    /// check later (an opening by radius r keeps features at least 2r + 1 pixels wide).
+    pub fn filter_for(&self, user: &FilterConfig, scale: Scale) -> FilterConfig {
+        let f = scale.to_px(Mm(self.material.min_feature_mm)).0 + self.allowance_px(scale);
+        FilterConfig {
+            radius: if user.auto_radius {
+                user.radius.max((f / 2.0).ceil() as u32)
+            } else {
+                user.radius
+            },
+            ..*user
+        }
+    }
+}
+
+/// Widen, in `bits`, each neck the check found, with a disc `round` pixels larger than the
+/// pipeline's own (only adding material, so the sheet stays one piece), then settle what that
+/// left thin at the edges of the change. Returns whether anything changed.
+fn widen_necks(
+    bits: &mut BitGrid,
+    chk: &CheckReport,
+    phys: &PhysicalConfig,
+    scale: Scale,
+    round: usize,
+) -> bool {
+    let before = bits.count_material();
+    let (w, h) = (bits.width, bits.height);
+    // Boxes around the necks, by the width they need: one settle per width.
+    let mut by_width: Vec<(f64, Vec<[u32; 4]>)> = Vec::new();
+    for v in &chk.violations {
+        let need_mm = match v.kind {
+            check::ViolationKind::Floating => continue,
+            check::ViolationKind::ThinBridge => phys.material.min_bridge_mm,
+            _ => phys.material.min_feature_mm,
+        };
+        let px = scale.to_px(Mm(need_mm)).0 + 1.0 + round as f64;
+        let (x, y) = (
+            (scale.to_px(Mm(v.x_mm)).0.max(0.0) as u32).min(w - 1),
+            (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
+        );
+        let r = px.ceil() as u32;
+        let bx = [
+            x.saturating_sub(r),
+            y.saturating_sub(r),
+            x + r + 1,
+            y + r + 1,
+        ];
+        match by_width.iter_mut().find(|(p, _)| *p == px) {
+            Some((_, boxes)) => boxes.push(bx),
+            None => by_width.push((px, vec![bx])),
+        }
+    }
+    for (px, boxes) in &by_width {
+        settle_near(bits, boxes, *px, REPAIR_SPREAD);
+    }
+    settle_all(bits, phys.feature_px(scale));
+    bits.count_material() != before
+}
+
+/// Whether a path is a mesh (by extension) rather than a picture.
+pub fn is_mesh(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+}
+
+/// Told the name of each stage of `make` as it starts: the keys of the report's `timings_ms`
+/// ("tone", "filter", "islands", "bridge", ...), then "write" (encoding and writing the files).
+/// The CLI draws a progress bar from it; the library draws nothing.
+pub trait Progress: Send + Sync {
+    fn stage(&self, name: &str);
+}
+
+impl std::fmt::Debug for dyn Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress")
+    }
+}
+
+/// Stage timings, in milliseconds, keyed by stage name (a stage that runs more than once, such as
+/// the trace and check after each neck repair, adds up), and who to tell when a stage starts.
+#[derive(Default)]
+pub struct Timings(pub BTreeMap<String, f64>, pub Option<Arc<dyn Progress>>);
+
+impl Timings {
+    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        if let Some(p) = &self.1 {
+            p.stage(name);
+        }
+        let t = Instant::now();
+        let r = f();
+        self.add(name, t.elapsed().as_secs_f64() * 1e3);
+        r
+    }
+
+    pub fn add(&mut self, name: &str, ms: f64) {
+        *self.0.entry(name.to_string()).or_default() += ms;
+    }
+}
+
+/// The working resolution: how many times the picture was supersampled, and what a working pixel
+/// measures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Working {
+    /// Working pixels per input pixel along each axis (1 for a mesh, which renders at its own size).
+    pub factor: u32,
+    /// How the factor was chosen, when it was automatic (no `--scale`).
+    pub auto: Option<tone::resolution::AutoScale>,
+    /// Millimetres per working pixel.
+    pub scale: Scale,
+}
+
+/// The two-tone stage, from a picture or a mesh, before the topological filter: the two-tone, the
+/// threshold level used and the working resolution.
+///
+/// A picture is supersampled by `tone.scale`, or when that is `None` by the smallest factor that
+/// makes a working pixel fine enough for the material and the tolerance
+/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
+pub fn two_tone(
+    input: &Path,
+    tone: &ToneConfig,
+    mesh: &MeshConfig,
+    phys: &PhysicalConfig,
+) -> Result<(TwoTone, Option<u8>, Working), Error> {
+    if is_mesh(input) {
+        let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
+            .map_err(tone::ToneError::from)?;
+        let scale = phys.scale(tt.bits.width, tt.bits.height)?;
+        let working = Working {
+            factor: 1,
+            auto: None,
+            scale,
+        };
+        return Ok((tt, Some(level), working));
+    }
+    if let Some(k) = tone.scale {
+        if !(1..=tone::resolution::MAX_FACTOR).contains(&k) {
+            return Err(tone::ToneError::BadScale(k).into());
+        }
+    }
+    let gray = load_gray(input, tone.max_pixels)?;
+    let per_input = phys.scale(gray.width, gray.height)?;
+    let pixels = u64::from(gray.width) * u64::from(gray.height);
+    let (factor, auto) = match tone.scale {
+        Some(k) => {
+            let (w, h) = (
+                u64::from(gray.width) * u64::from(k),
+                u64::from(gray.height) * u64::from(k),
+            );
+            if w * h > tone.max_pixels {
+                return Err(tone::ToneError::ScaleTooLarge {
+                    path: input.to_path_buf(),
+                    factor: k,
+                    width: w,
+                    height: h,
+                    mp: (w * h) as f64 / 1e6,
+                    limit_mp: tone.max_pixels as f64 / 1e6,
+                }
+                .into());
+            }
+            (k, None)
+        }
+        None => {
+            let (k, a) = tone::resolution::auto(
+                per_input.mm_per_px,
+                phys.target_mm_per_px(),
+                pixels,
+                tone.max_pixels,
+            );
+            (k, Some(a))
+        }
+    };
+    // Upsampling by 1 would only copy the picture.
+    let gray = if factor > 1 {
+        tone::image::upsample(&gray, factor)
+    } else {
+        gray
+    };
+    let (tt, level) = tone::threshold(gray, tone.threshold, tone.invert);
+    let working = Working {
+        factor,
+        auto,
+        scale: Scale {
+            mm_per_px: per_input.mm_per_px / f64::from(factor),
+        },
+    };
+    Ok((tt, Some(level), working))
+}
+
+/// What `make` computed, before anything is written.
+pub struct Made {
+    /// The picture thresholded, before the clean-up (what fidelity is measured against).
+    pub picture: BitGrid,
+    /// After the topological filter, before bridges.
+    pub twotone: TwoTone,
+    pub filter: FilterStats,
+    pub bridged: Bridged,
+    pub scale: Scale,
+    /// The stencil in millimetres (cut loops for G-code, material, bridges).
+    pub geometry: CutGeometry,
+    pub check: CheckReport,
+    pub report: Report,
+    /// The G-code text, when asked for.
+    pub gcode: Option<String>,
+}
+
+/// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
+/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG). The kerf is not
+/// applied (see [`vector::vectorize_design`]).
+pub fn vectorize_and_check(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats, mut chk) = vectorize_and_measure(bits, bridges_px, vcfg, material, timer)?;
+    confirm(&mut chk, bits, vcfg, timer);
+    Ok((geom, vstats, chk))
+}
+
+/// [`vectorize_and_check`] without the raster cross-check of the violations (see [`confirm`]).
+fn vectorize_and_measure(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats) = timer.time("vector", || {
+        vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)
+    })?;
+    // The check runs on the geometry as designed (before kerf).
+    let chk = timer.time("check", || {
+        check::check(&geom, material, bridges_px.is_some())
+    });
+    Ok((geom, vstats, chk?))
+}
+
+/// Confirm each violation on the raster (for the report), when there are any.
+fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &mut Timings) {
+    if !chk.passed() {
+        timer.time("check_opening", || {
+            check::cross_check(chk, bits, vcfg.scale)
+        });
+    }
+}
+
+/// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
+/// the material's smallest feature would be filtered away). The scale is taken at the widest
+/// image the mesh can render to, which can only over-estimate the pixels needed.
+fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
+    let mut m = cfg.mesh.clone();
+    if let Ok(scale) = cfg.physical.scale(m.max_width_px(), 1) {
+        let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
+        if r > 0 {
+            m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
+        }
+    }
+    m
+}
+
+/// The user's bridge options on the working image (see `bridge::constraints`): islands under
+/// `min_island_mm2` cut away (they become cut in the two-tone, so the report and the preview count
+/// them as material the picture lost), the keep-out mask and discs made a grid of forbidden
+/// pixels, `--bridge-at` points made pixels. `None` when no option was given.
+fn user_bridges(
+    two: &mut TwoTone,
+    bridge: &mut BridgeConfig,
+    scale: Scale,
+    max_pixels: u64,
+) -> Result<Option<crate::report::UserBridgesReport>, Error> {
+    let u = &mut bridge.user;
+    if u.keep_out_mask.is_none()
+        && u.no_bridge_near_mm.is_empty()
+        && u.at_mm.is_empty()
+        && u.min_island_mm2 <= 0.0
+    {
+        return Ok(None);
+    }
+    let mm = scale.mm_per_px;
+    let (w, h) = (two.bits.width, two.bits.height);
+    let mut report = crate::report::UserBridgesReport {
+        min_island_mm2: u.min_island_mm2,
+        ..Default::default()
+    };
+    if u.min_island_mm2 > 0.0 {
+        let map = islands::label(&two.bits);
+        let small: Vec<bool> = map
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(n, node)| {
+                n as u32 != islands::FRAME && (node.area as f64) * mm * mm < u.min_island_mm2
+            })
+            .collect();
+        for (i, &l) in map.labels.iter().enumerate() {
+            if l != islands::CUT && small[l as usize] {
+                two.bits.data[i] = false;
+                report.cut_away_mm2 += mm * mm;
+            }
+        }
+        report.islands_cut_away = small.iter().filter(|&&s| s).count();
+    }
+    if u.keep_out_mask.is_some() || !u.no_bridge_near_mm.is_empty() {
+        let mut grid = BitGrid::new(w, h, false);
+        if let Some(path) = &u.keep_out_mask {
+            let mask = crate::tone::image::load_gray(path, max_pixels)?;
+            // Nearest sample of the mask at each working pixel's centre.
+            for y in 0..h {
+                let my = (((y as f64 + 0.5) / h as f64) * mask.height as f64) as u32;
+                for x in 0..w {
+                    let mx = (((x as f64 + 0.5) / w as f64) * mask.width as f64) as u32;
+                    if mask.get(mx.min(mask.width - 1), my.min(mask.height - 1)) < 0.5 {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        for &[cx, cy, r] in &u.no_bridge_near_mm {
+            let (cx, cy, r) = (cx / mm, cy / mm, r / mm);
+            let y0 = (cy - r).floor().max(0.0) as u32;
+            let y1 = ((cy + r).ceil().max(0.0) as u32).min(h);
+            let x0 = (cx - r).floor().max(0.0) as u32;
+            let x1 = ((cx + r).ceil().max(0.0) as u32).min(w);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) <= r {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        report.kept_out_px = grid.count_material();
+        u.keep_out = Some(Arc::new(grid));
+    }
+    u.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
+    Ok(Some(report))
+}
+
+/// Run the pipeline in memory: nothing is written.
+pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
+    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+    let phys = &cfg.physical;
+    let mesh_cfg = mesh_lines_for(cfg);
+    let (raw, level, working) =
+        timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg, phys))?;
+    let scale = working.scale;
+    let filter_cfg = phys.filter_for(&cfg.filter, scale);
+    // Options that only make sense against the working image (see `crate::limits`).
+    if filter_cfg.auto_radius {
+        crate::limits::check_working_pixel(
+            phys.size,
+            raw.bits.width / working.factor,
+            scale,
+            working.factor,
+            cfg.tone.scale.is_some(),
+            phys.material.min_feature_mm,
+        )?;
+    } else {
+        crate::limits::check_filter_radius(filter_cfg.radius, raw.bits.width, raw.bits.height)?;
+    }
+    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
+    let (bits, filter_stats, reg_stats) = timer.time("filter", || {
+        if filter_cfg.auto_radius {
+            let rcfg = RegularizeConfig {
+                min_width_px: phys.feature_px(scale),
+                threshold: level.map_or(0.5, |l| l as f32 / 255.0),
+                invert: cfg.tone.invert,
+            };
+            let (bits, stats) = regularize(&raw.bits, &raw.gray, &rcfg);
+            (bits, FilterStats::default(), Some(stats))
+        } else {
+            let (bits, stats) = filter::filter(&raw.bits, &filter_cfg);
+            (bits, stats, None)
+        }
+    });
+    let mut twotone = TwoTone {
+        bits,
+        gray: raw.gray,
+    };
+    let mut bridge_cfg = bridge_cfg;
+    let user = timer.time("user_bridges", || {
+        user_bridges(&mut twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
+    })?;
+    let map = timer.time("islands", || islands::label(&twotone.bits));
+    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    timer.time("tidy", || {
+        if reg_stats.is_some() {
+            settle_all(&mut bridged.bits, phys.feature_px(scale));
+            fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
+        } else {
+            bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
+        }
+    });
+    // The clean-up may round a bridge's corners into a keep-out area: what it added there goes.
+    if let Some(f) = &bridge_cfg.user.keep_out {
+        for (i, b) in bridged.bits.data.iter_mut().enumerate() {
+            if *b && f.data[i] && !twotone.bits.data[i] {
+                *b = false;
+            }
+        }
+    }
+    let after = timer.time("verify", || islands::label(&bridged.bits));
+    if after.island_count() > 0 {
+        let node = &after.nodes[1];
+        let (x, y) = node.border.first().copied().unwrap_or((0, 0));
+        return Err(Error::Floating {
+            count: after.island_count(),
+            x,
+            y,
+            area: node.area,
+        });
+    }
+    let vcfg = VectorConfig {
+        scale,
+        kerf_mm: phys.material.kerf_mm,
+        ..phys.vector
+    };
+    let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
+    // The raster rule holds exactly; the traced and simplified outline may still measure a neck
+    // up to about a pixel narrower (a diagonal staircase, simplification within the tolerance).
+    // Such necks are widened where the check found them and the stencil traced again.
+    let mut repairs = 0;
+    let (mut geometry, vstats, mut chk) = loop {
+        let measured = vectorize_and_measure(
+            &bridged.bits,
+            Some(&polys),
+            &vcfg,
+            &phys.material,
+            &mut timer,
+        )?;
+        if reg_stats.is_none() || measured.2.passed() || repairs == REPAIR_ROUNDS {
+            break measured;
+        }
+        repairs += 1;
+        if !timer.time("repair", || {
+            widen_necks(&mut bridged.bits, &measured.2, phys, scale, repairs)
+        }) {
+            break measured;
+        }
+    };
+    confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
+    // Measured on the stencil as it will be written (after the repairs).
+    let fidelity = timer.time("fidelity", || {
+        Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)
+    });
+    if let Some(limit_pct) = phys.max_change_pct {
+        if fidelity.changed_pct > limit_pct {
+            return Err(Error::TooMuchChange {
+                fidelity,
+                limit_pct,
+            });
+        }
+    }
+    if !chk.passed() && !phys.allow_thin {
+        return Err(Error::Thin {
+            count: chk.violations.len(),
+            material: phys.material.name.clone(),
+            list: chk
+                .violations
+                .iter()
+                .take(5)
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join("; "),
+        });
+    }
+    let gcode = match &cfg.gcode {
+        Some(g) => {
+            let notes = [
+                format!("from {}", cfg.input.display()),
+                format!("material {}", phys.material.name),
+            ];
+            if map.island_count() > 0 {
+                timer.time("pieces", || geometry.set_unbridged(&twotone.bits, &vcfg))?;
+            }
+            timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
+            let (text, summary) = timer.time("gcode", || {
+                stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
+            })?;
+            Some((text, summary))
+        }
+        None => None,
+    };
+    let (gcode, gcode_summary) = match gcode {
+        Some((t, s)) => (Some(t), Some(s)),
+        None => (None, None),
+    };
+    let report = Report {
+        gcode: gcode_summary,
+        material: Some(phys.material.name.clone()),
+        material_source: Some(phys.material_source.clone()),
+        mm_per_px: Some(scale.mm_per_px),
+        scale_factor: Some(working.factor),
+        scale_auto: working.auto,
+        width_mm: Some(geometry.width_mm),
+        height_mm: Some(geometry.height_mm),
+        margin_mm: Some(vcfg.margin_mm),
+        tolerance_mm: Some(vcfg.tolerance_mm),
+        min_bridge_px: Some(bridge_cfg.min_width_px),
+        max_bridge_px: Some(bridge_cfg.max_width_px),
+        filter_radius_px: Some(filter_cfg.radius),
+        vector: Some(vstats),
+        check: Some(chk.clone()),
+        files: Vec::new(),
+        input: cfg.input.display().to_string(),
+        width_px: twotone.bits.width,
+        height_px: twotone.bits.height,
+        threshold_level: level,
+        filter: filter_stats,
+        regularize: reg_stats,
+        islands: map.island_count(),
+        bridges: bridged
+            .bridges
+            .iter()
+            .map(|b| BridgeReport {
+                width_mm: Some(b.width_px as f64 * scale.mm_per_px),
+                ..b.into()
+            })
+            .collect(),
+        strength: Some(bridge::strength::StrengthReport::new(
+            bridged.strength.clone(),
+            &bridge_cfg.strength,
+        )),
+        user_bridges: user.map(|mut u| {
+            let mm = scale.mm_per_px;
+            u.bridge_at = bridged
+                .requests
+                .iter()
+                .map(|r| crate::report::BridgeAtReport {
+                    at_mm: [r.at_px[0] * mm, r.at_px[1] * mm],
+                    island: r.island,
+                    start_mm: r.start_px.map(|p| [p[0] * mm, p[1] * mm]),
+                    distance_mm: r.distance_px.map(|d| d * mm),
+                })
+                .collect();
+            u
+        }),
+        floating_after: after.island_count(),
+        fidelity: Some(fidelity),
+        timings_ms: timer.0,
+    };
+    Ok(Made {
+        picture: raw.bits,
+        twotone,
+        filter: filter_stats,
+        bridged,
+        scale,
+        geometry,
+        check: chk,
+        report,
+        gcode,
+    })
+}
+
+/// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
+/// (which lists them).
+pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    let tt = &made.twotone;
+    let geom = &made.geometry;
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    if phys.emit.png && is_mesh(Path::new(&made.report.input)) {
+        // The grayscale rendering: what the bridge cost's intensity term reads.
+        files.push((
+            "gray.png".into(),
+            png::encode_gray(tt.gray.width, tt.gray.height, &tt.gray.to_u8()),
+        ));
+    }
+    if phys.emit.png {
+        files.push(("twotone.png".into(), png::encode_bits(&tt.bits)));
+        files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
+        files.push((
+            "preview.png".into(),
+            png::preview(&tt.gray, &made.picture, &tt.bits, &made.bridged.bits),
+        ));
+    }
+    if phys.emit.svg {
+        files.push(("stencil.svg".into(), svg::encode(geom)));
+    }
+    if phys.emit.dxf {
+        files.push(("stencil.dxf".into(), dxf::encode(geom, phys.dxf_r12)?));
+    }
+    if phys.emit.mask {
+        let mut m = phys.mask;
+        m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
+        files.push(("mask.png".into(), mask::encode_png(geom, &m)?));
+        files.push(("mask.svg".into(), mask::encode_svg(geom, &m)));
+    }
+    if let Some(text) = &made.gcode {
+        files.push(("stencil.gcode".into(), text.as_bytes().to_vec()));
+    }
+    let mut report = made.report.clone();
+    report.files = files.iter().map(|(n, _)| n.clone()).collect();
+    report.files.push("report.json".into());
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| export::ExportError::Encode {
+        path: PathBuf::from("report.json"),
+        msg: e.to_string(),
+    })?;
+    files.push(("report.json".into(), json));
+    Ok(files)
+}
+
+/// Every name [`encode_outputs`] can write: `make` owns these names in its output folder, and
+/// removes those a run does not write (an earlier run's `stencil.gcode` must not sit beside a new
+/// stencil, where `send` would stream it).
+pub const OUTPUT_NAMES: &[&str] = &[
+    "gray.png",
+    "twotone.png",
+    "stencil.png",
+    "preview.png",
+    "stencil.svg",
+    "stencil.dxf",
+    "mask.png",
+    "mask.svg",
+    "stencil.gcode",
+    "report.json",
+];
+
+/// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
+/// Files of [`OUTPUT_NAMES`] this run did not write are removed (listed in the result).
+pub fn make(cfg: &MakeConfig) -> Result<(Made, export::Replaced), Error> {
+    let existed = cfg.out_dir.is_dir();
+    export::prepare_dir(&cfg.out_dir)?;
+    let result = run(cfg).and_then(|made| {
+        if let Some(p) = &cfg.progress {
+            p.stage("write");
+        }
+        let files = encode_outputs(&made, &cfg.physical)?;
+        let replaced = export::write_files(&cfg.out_dir, &files, OUTPUT_NAMES)?;
+        Ok((made, replaced))
+    });
+    if result.is_err() && !existed {
+        // Leave no trace of a failed run: the folder we made is empty (remove_dir refuses otherwise).
+        let _ = std::fs::remove_dir(&cfg.out_dir);
+    }
+    result
+}
+
+/// The default output folder for an input: `out/<input stem>/`.
+pub fn default_out_dir(input: &Path) -> PathBuf {
+    let stem = input
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "stencil".into());
+    PathBuf::from("out").join(stem)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn material_widths_become_pixel_minimums() {
+        // Cardstock: bridges 1.0 mm, features 0.5 mm; 0.1 mm/px; tolerance 0.05 mm = 0.5 px, so
+        // the allowance is 1 + 2 × 0.5 = 2 px.
+        let phys = PhysicalConfig::default();
+        let s = Scale::default();
+        // Widest: max_bridge_mm, 4 × 1.0 mm by default, rounded down.
+        let b = phys.bridge_for(&BridgeConfig::default(), s);
+        assert_eq!((b.min_width_px, b.max_width_px), (12, 40));
+        let wide = BridgeConfig {
+            min_width_px: 20,
+            max_width_px: 30,
+            max_width_given: true,
+            ..Default::default()
+        };
+        let b = phys.bridge_for(&wide, s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (20, 30),
+            "user pixels win"
+        );
+        let narrow = BridgeConfig {
+            min_width_px: 3,
+            max_width_px: 3,
+            max_width_given: true,
+            ..Default::default()
+        };
+        let b = phys.bridge_for(&narrow, s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (12, 12),
+            "never below the material's minimum"
+        );
+        let thin = PhysicalConfig {
+            allow_thin: true,
+            ..phys.clone()
+        };
+        let b = thin.bridge_for(&narrow, s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (3, 3),
+            "explicit pixels with --allow-thin are taken as given"
+        );
+        let b = thin.bridge_for(&BridgeConfig::default(), s);
+        assert_eq!(
+            (b.min_width_px, b.max_width_px),
+            (12, 40),
+            "--allow-thin alone keeps the material's widths"
+        );
+        // At 0.05 mm/px the same millimetres are twice the pixels.
+        let fine = Scale { mm_per_px: 0.05 };
+        let b = phys.bridge_for(&BridgeConfig::default(), fine);
+        assert_eq!((b.min_width_px, b.max_width_px), (20 + 3, 80));
+        // At 0.625 mm/px (320 px at 200 mm): ⌈1.6 + 1.16⌉ = 3 px .. ⌊6.4⌋ = 6 px.
+        let coarse = Scale { mm_per_px: 0.625 };
+        let b = phys.bridge_for(&BridgeConfig::default(), coarse);
+        assert_eq!((b.min_width_px, b.max_width_px), (3, 6));
+        // A maximum that is a whole number of pixels is not lost to rounding (1.2 / 0.1 is
+        // 11.99... in floating point).
+        let mut m = phys.clone();
+        m.material.max_bridge_mm = 1.2;
+        assert_eq!(m.bridge_for(&BridgeConfig::default(), s).max_width_px, 12);
+        // Filter: ceil((5 + 2) / 2) = 4 px, unless the user set a radius explicitly.
+        assert_eq!(phys.filter_for(&FilterConfig::default(), s).radius, 4);
+        let explicit = FilterConfig {
+            radius: 1,
+            auto_radius: false,
+            ..Default::default()
+        };
+        assert_eq!(phys.filter_for(&explicit, s).radius, 1);
+    }
+
+    #[test]
+    fn size_options_give_the_scale() {
+        let mut phys = PhysicalConfig::default();
+        assert_eq!(phys.scale(400, 300).unwrap().mm_per_px, 0.1);
+        phys.size = Size::WidthMm(200.0);
+        assert!((phys.scale(400, 300).unwrap().mm_per_px - 0.5).abs() < 1e-12);
+        phys.size = Size::Dpi(254.0);
+        assert!((phys.scale(400, 300).unwrap().mm_per_px - 0.1).abs() < 1e-12);
+        phys.size = Size::WidthMm(-3.0);
+        assert!(phys
+            .scale(400, 300)
+            .unwrap_err()
+            .to_string()
+            .contains("--width-mm"));
+    }
+}

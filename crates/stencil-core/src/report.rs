@@ -1,0 +1,260 @@
+//! `report.json`: what a run measured, for a person and for later commands (`check`, `gcode`).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::bridge::{Bridge, CostTerms, Via};
+use crate::check::CheckReport;
+use crate::raster::BitGrid;
+use crate::tone::filter::FilterStats;
+use crate::vector::VectorStats;
+
+/// One bridge as reported.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct BridgeReport {
+    /// The two nodes it joins (0 = frame).
+    pub nodes: [u32; 2],
+    /// Width at right angles to the bridge, at its narrowest, in working pixels (see
+    /// [`Bridge::width_px`]).
+    pub width_px: u32,
+    pub length_px: f64,
+    /// Cut pixels it turned into material.
+    pub pixels: usize,
+    pub cost: CostTerms,
+    pub support: bool,
+    /// `"walk"`, or `"search"` when no walk under `--max-bridge-length-px` left the island's group
+    /// and it was joined by the cheapest path through the cut, of any length (absent in older
+    /// reports: a walk).
+    #[serde(default)]
+    pub via: Via,
+    /// Added after the tree for strength (an island's size, shape or sag asked for it; see
+    /// `strength` in the report). Absent in older reports: false.
+    #[serde(default)]
+    pub strength: bool,
+    /// `width_px` in millimetres on the sheet (`width_px` × `mm_per_px`). Absent from reports
+    /// written before widths were in millimetres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    /// Outline in pixel coordinates (so `stencil check` on an output folder knows the bridges).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub polygon_px: Vec<[f64; 2]>,
+}
+
+/// Without the scale: `width_mm` is left empty (the pipeline fills it in).
+impl From<&Bridge> for BridgeReport {
+    fn from(b: &Bridge) -> Self {
+        BridgeReport {
+            nodes: b.nodes,
+            width_px: b.width_px,
+            length_px: b.length_px,
+            pixels: b.pixels,
+            cost: b.cost,
+            support: b.support,
+            via: b.via,
+            strength: b.strength,
+            width_mm: None,
+            polygon_px: b.polygon.clone(),
+        }
+    }
+}
+
+/// How far the stencil is from the picture: what the two-tone clean-up and the bridges changed,
+/// counted on three grids of the working size (material = light, the sheet that stays):
+/// the picture thresholded (before any clean-up), the two-tone after the clean-up (`twotone.png`)
+/// and the stencil after bridges (`stencil.png`). Each count comes with its share of the picture's
+/// pixels in percent.
+///
+/// A pixel the clean-up cut and a bridge then filled counts in both `cleanup_removed` and
+/// `bridges`, and not in `changed`: `changed` is the net difference, at most the sum of the others.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Fidelity {
+    /// The picture's pixels at working size (the denominator of every `_pct`).
+    pub pixels: usize,
+    /// Material of the thresholded picture that the clean-up cut away.
+    pub cleanup_removed_px: usize,
+    pub cleanup_removed_pct: f64,
+    /// Cut of the thresholded picture that the clean-up filled with material.
+    pub cleanup_added_px: usize,
+    pub cleanup_added_pct: f64,
+    /// Material the bridges added (cut in the two-tone, material in the stencil).
+    pub bridges_px: usize,
+    pub bridges_pct: f64,
+    /// Pixels where the stencil differs from the thresholded picture, whatever changed them.
+    pub changed_px: usize,
+    pub changed_pct: f64,
+}
+
+impl Fidelity {
+    /// Count the changes between the thresholded picture, the cleaned two-tone and the stencil
+    /// (three grids of the same size).
+    pub fn measure(picture: &BitGrid, twotone: &BitGrid, stencil: &BitGrid) -> Fidelity {
+        assert!(
+            picture.len() == twotone.len() && twotone.len() == stencil.len(),
+            "fidelity is measured on grids of the same size"
+        );
+        let (mut removed, mut added, mut bridges, mut changed) = (0, 0, 0, 0);
+        for ((&p, &t), &s) in picture.data.iter().zip(&twotone.data).zip(&stencil.data) {
+            removed += (p && !t) as usize;
+            added += (!p && t) as usize;
+            bridges += (!t && s) as usize;
+            changed += (p != s) as usize;
+        }
+        let pixels = picture.len();
+        let pct = |n: usize| {
+            if pixels == 0 {
+                0.0
+            } else {
+                100.0 * n as f64 / pixels as f64
+            }
+        };
+        Fidelity {
+            pixels,
+            cleanup_removed_px: removed,
+            cleanup_removed_pct: pct(removed),
+            cleanup_added_px: added,
+            cleanup_added_pct: pct(added),
+            bridges_px: bridges,
+            bridges_pct: pct(bridges),
+            changed_px: changed,
+            changed_pct: pct(changed),
+        }
+    }
+}
+
+/// The whole report. Fields added by later stages are optional so older reports still load.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Report {
+    /// The input file.
+    pub input: String,
+    pub width_px: u32,
+    pub height_px: u32,
+    /// The 8-bit threshold level used (after `otsu`, the level it chose); absent for a mesh.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold_level: Option<u8>,
+    /// What the topological filter removed.
+    pub filter: FilterStats,
+    /// What the design-rule regularisation changed (the default clean-up; absent when the user
+    /// asked for the open-close filter with `--filter-radius`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub regularize: Option<crate::tone::regularize::RegularizeStats>,
+    /// Islands before bridging.
+    pub islands: usize,
+    pub bridges: Vec<BridgeReport>,
+    /// Per island: bridges, span and sag estimate against the material's limit, why any were
+    /// added for strength; totals (see `bridge::strength`). Absent in older reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength: Option<crate::bridge::strength::StrengthReport>,
+    /// What the user's bridge options did (`--min-island-mm2`, `--bridge-at`, `--keep-out`,
+    /// `--no-bridge-near`). Absent when none was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user_bridges: Option<UserBridgesReport>,
+    /// Material pieces not joined to the frame after bridging: 0 for a valid stencil.
+    pub floating_after: usize,
+    /// What the clean-up and the bridges changed in the picture (absent in reports written before
+    /// it was measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fidelity: Option<Fidelity>,
+    /// Wall time per stage in milliseconds.
+    pub timings_ms: BTreeMap<String, f64>,
+    /// The material profile used (name) and where it was read from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material_source: Option<String>,
+    /// Physical size: millimetres per working pixel, the picture's size, the sheet margin, and
+    /// the simplification tolerance used by the vectors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mm_per_px: Option<f64>,
+    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none) and,
+    /// when it was chosen automatically (no `--scale`), how: the target pixel size, the factor
+    /// the rule asked for and any cap that lowered it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_factor: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_auto: Option<crate::tone::resolution::AutoScale>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub margin_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance_mm: Option<f64>,
+    /// The material's limits in pixels as given to the stages (after the check's allowance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_bridge_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_bridge_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filter_radius_px: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vector: Option<VectorStats>,
+    /// The width and connectivity check against the material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check: Option<CheckReport>,
+    /// Files written, by name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<String>,
+    /// The G-code job (`--emit gcode`): machine, lengths, travel vs input order, time estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gcode: Option<stencil_gcode::GcodeSummary>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fidelity_counts_each_kind_of_change() {
+        // Picture (thresholded), two-tone after the clean-up, stencil; one column per case.
+        let picture = BitGrid::from_rows(&["##..###"]);
+        let twotone = BitGrid::from_rows(&["#.#.#.."]);
+        let stencil = BitGrid::from_rows(&["#.####."]);
+        let f = Fidelity::measure(&picture, &twotone, &stencil);
+        assert_eq!(f.pixels, 7);
+        assert_eq!(f.cleanup_removed_px, 3, "columns 1, 5 and 6");
+        assert_eq!(f.cleanup_added_px, 1, "column 2");
+        assert_eq!(f.bridges_px, 2, "columns 3 and 5");
+        // Column 5 was cut by the clean-up and filled again by a bridge: no net change.
+        assert_eq!(f.changed_px, 4, "columns 1, 2, 3 and 6");
+        assert!((f.changed_pct - 400.0 / 7.0).abs() < 1e-9);
+        assert!((f.cleanup_removed_pct - 300.0 / 7.0).abs() < 1e-9);
+        assert!((f.bridges_pct - 200.0 / 7.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_report_without_fidelity_still_loads() {
+        let mut json = serde_json::to_value(Report {
+            fidelity: Some(Fidelity::default()),
+            ..Default::default()
+        })
+        .unwrap();
+        assert!(json.as_object_mut().unwrap().remove("fidelity").is_some());
+        let r: Report = serde_json::from_value(json).unwrap();
+        assert!(r.fidelity.is_none());
+    }
+}
+
+/// What the user's bridge options did (see `bridge::constraints`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct UserBridgesReport {
+    /// `--min-island-mm2` and the islands it cut away: how many, their total area.
+    pub min_island_mm2: f64,
+    pub islands_cut_away: usize,
+    pub cut_away_mm2: f64,
+    /// Pixels of the working image no bridge could cross (`--keep-out`, `--no-bridge-near`).
+    pub kept_out_px: usize,
+    /// Each `--bridge-at` place: the point, the island taken, where its bridge starts and how far
+    /// from the point, mm.
+    pub bridge_at: Vec<BridgeAtReport>,
+}
+
+/// One `--bridge-at` place (mm from the picture's top left corner).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct BridgeAtReport {
+    pub at_mm: [f64; 2],
+    pub island: u32,
+    pub start_mm: Option<[f64; 2]>,
+    pub distance_mm: Option<f64>,
+}

@@ -1,0 +1,348 @@
+//! Loading a picture as grayscale, refusing huge ones before they are decoded, and supersampling.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use image::{ColorType, ImageDecoder, ImageFormat, ImageReader};
+use rayon::prelude::*;
+
+use super::ToneError;
+use crate::limits;
+use crate::raster::Gray;
+
+/// Load PNG, JPEG, BMP or TIFF of any colour type as a gray in 0..1 (alpha composited over white,
+/// since a transparent pixel of a drawing is paper, not ink).
+///
+/// The dimensions are read from the header first: an image over `max_pixels`, or one whose
+/// decoded buffers would need more than [`limits::MAX_DECODE_BYTES`] whatever `max_pixels` says, is
+/// refused before any pixel buffer is allocated, so a hostile header that claims 100000x100000
+/// costs nothing. The decoder's buffer is allocated fallibly and decoded straight into gray (no
+/// wider copy of the picture in between: 5 bytes per pixel for an 8-bit gray picture). A JPEG that
+/// ends before its end-of-image marker is refused as truncated (the decoder would fill the missing
+/// part with gray).
+pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
+    let open_err = |source: std::io::Error| ToneError::Open {
+        path: path.to_path_buf(),
+        source: plain_io(source),
+    };
+    let file = std::fs::File::open(path).map_err(open_err)?;
+    let mut reader = ImageReader::new(BufReader::new(file))
+        .with_guessed_format()
+        .map_err(open_err)?;
+    let format = match reader.format() {
+        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Bmp | ImageFormat::Tiff)) => {
+            f
+        }
+        other => {
+            let detail = match other {
+                Some(f) => format!("; it looks like {f:?}, which stencil does not read"),
+                None => String::new(),
+            };
+            return Err(ToneError::UnknownFormat {
+                path: path.to_path_buf(),
+                detail,
+            });
+        }
+    };
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(limits::MAX_DECODE_BYTES);
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    let (width, height) = decoder.dimensions();
+    let pixels = width as u64 * height as u64;
+    if pixels == 0 {
+        return Err(ToneError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    if pixels > max_pixels {
+        return Err(ToneError::TooLarge {
+            path: path.to_path_buf(),
+            width,
+            height,
+            mp: pixels as f64 / 1e6,
+            limit_mp: max_pixels as f64 / 1e6,
+        });
+    }
+    let color = decoder.color_type();
+    let decoded = decoder.total_bytes();
+    let need = decoded.saturating_add(pixels.saturating_mul(4));
+    if need > limits::MAX_DECODE_BYTES {
+        return Err(ToneError::TooMuchMemory {
+            path: path.to_path_buf(),
+            width,
+            height,
+            gb: need as f64 / 1e9,
+            limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
+        });
+    }
+    if format == ImageFormat::Jpeg && !jpeg_is_complete(path).map_err(open_err)? {
+        return Err(ToneError::Truncated {
+            path: path.to_path_buf(),
+            format: "JPEG",
+        });
+    }
+    let out_of_memory = || ToneError::TooMuchMemory {
+        path: path.to_path_buf(),
+        width,
+        height,
+        gb: need as f64 / 1e9,
+        limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
+    };
+    let mut buf: Vec<u8> = Vec::new();
+    buf.try_reserve_exact(decoded as usize)
+        .map_err(|_| out_of_memory())?;
+    buf.resize(decoded as usize, 0);
+    decoder
+        .read_image(&mut buf)
+        .map_err(|e| decode_error(path, e))?;
+    let mut data: Vec<f32> = Vec::new();
+    data.try_reserve_exact(pixels as usize)
+        .map_err(|_| out_of_memory())?;
+    to_gray(&buf, color, &mut data);
+    drop(buf);
+    Ok(Gray {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Decoded pixels of any colour type as gray in 0..1: Rec. 709 luma, composited over white.
+fn to_gray(buf: &[u8], color: ColorType, out: &mut Vec<f32>) {
+    let channels = usize::from(color.channel_count());
+    let bytes = usize::from(color.bytes_per_pixel()) / channels;
+    // Samples in native byte order, as the decoders write them.
+    let sample = move |b: &[u8]| -> f32 {
+        match bytes {
+            1 => f32::from(b[0]) / 255.0,
+            2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
+            _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+        }
+    };
+    out.par_extend(buf.par_chunks_exact(channels * bytes).map(move |p| {
+        let c = |i: usize| sample(&p[i * bytes..]);
+        let (r, g, b, a) = match channels {
+            1 => (c(0), c(0), c(0), 1.0),
+            2 => (c(0), c(0), c(0), c(1)),
+            3 => (c(0), c(1), c(2), 1.0),
+            _ => (c(0), c(1), c(2), c(3)),
+        };
+        let l = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+        (l * a + (1.0 - a)).clamp(0.0, 1.0)
+    }));
+}
+
+/// A decoder's error, worded for a person: a failed allocation or limit says so; a decoding error
+/// keeps the decoder's words without the Rust type dumps some decoders put in them.
+fn decode_error(path: &Path, e: image::ImageError) -> ToneError {
+    match e {
+        image::ImageError::Limits(_) => ToneError::DecoderLimit {
+            path: path.to_path_buf(),
+            limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
+        },
+        image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+            ToneError::Decode {
+                path: path.to_path_buf(),
+                msg: "the file ends too early".to_string(),
+            }
+        }
+        image::ImageError::IoError(source) => ToneError::Open {
+            path: path.to_path_buf(),
+            source: plain_io(source),
+        },
+        e => ToneError::Decode {
+            path: path.to_path_buf(),
+            msg: without_type_dumps(&e.to_string()),
+        },
+    }
+}
+
+/// `text` with each Rust `Debug` struct dump (`ChunkType { type: IDAT, critical: true, .. }`)
+/// replaced by its `type` field when it has one (`IDAT`), else by the type's name.
+pub fn without_type_dumps(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(open) = rest.find(" { ") {
+        // The name before the brace: the identifier ending at `open`.
+        let head = &rest[..open];
+        let name_start = head
+            .rfind(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .map_or(0, |i| i + 1);
+        let name = &head[name_start..];
+        // The matching closing brace.
+        let mut depth = 0;
+        let mut close = None;
+        for (i, c) in rest[open + 1..].char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        close = Some(open + 1 + i);
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let (Some(close), false) = (close, name.is_empty()) else {
+            out.push_str(&rest[..open + 3]);
+            rest = &rest[open + 3..];
+            continue;
+        };
+        let body = &rest[open + 3..close];
+        let shown = body
+            .split(',')
+            .find_map(|f| f.trim().strip_prefix("type:"))
+            .map_or(name, str::trim);
+        out.push_str(&head[..name_start]);
+        out.push_str(shown);
+        rest = &rest[close + 1..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// An I/O error as the operating system words it, once: without the context some libraries wrap
+/// around it (a temp file's name) and with no source chain to print it a second time.
+fn plain_io(e: std::io::Error) -> std::io::Error {
+    stencil_io::plain_io(e)
+}
+
+/// Whether a JPEG file reaches its end-of-image marker: the marker segments are followed from the
+/// start (their lengths skipped, entropy-coded data scanned for the next marker), so an EOI inside
+/// an embedded thumbnail does not count. Streams the file; data after the EOI is ignored.
+pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
+    let mut r = BufReader::new(std::fs::File::open(path)?);
+    let byte = |r: &mut BufReader<std::fs::File>| -> std::io::Result<Option<u8>> {
+        let mut b = [0u8];
+        Ok(match r.read(&mut b)? {
+            0 => None,
+            _ => Some(b[0]),
+        })
+    };
+    if (byte(&mut r)?, byte(&mut r)?) != (Some(0xFF), Some(0xD8)) {
+        return Ok(false);
+    }
+    // `pending`: a marker already read by the entropy-data scan.
+    let mut pending: Option<u8> = None;
+    loop {
+        let marker = match pending.take() {
+            Some(m) => m,
+            None => {
+                // A marker: 0xFF (any number of fill bytes), then its code.
+                let Some(b) = byte(&mut r)? else {
+                    return Ok(false);
+                };
+                if b != 0xFF {
+                    return Ok(false);
+                }
+                let mut m = 0xFF;
+                while m == 0xFF {
+                    match byte(&mut r)? {
+                        Some(c) => m = c,
+                        None => return Ok(false),
+                    }
+                }
+                m
+            }
+        };
+        match marker {
+            0xD9 => return Ok(true),
+            0x01 | 0xD0..=0xD7 => continue,
+            _ => {}
+        }
+        let (Some(hi), Some(lo)) = (byte(&mut r)?, byte(&mut r)?) else {
+            return Ok(false);
+        };
+        let len = u64::from(u16::from_be_bytes([hi, lo]));
+        if len < 2 {
+            return Ok(false);
+        }
+        let skip = len - 2;
+        if std::io::copy(&mut (&mut r).take(skip), &mut std::io::sink())? < skip {
+            return Ok(false);
+        }
+        if marker != 0xDA {
+            continue;
+        }
+        // Entropy-coded data after a start of scan: runs to the next marker that is neither a
+        // stuffed 0xFF 0x00 nor a restart.
+        loop {
+            let buf = r.fill_buf()?;
+            if buf.is_empty() {
+                return Ok(false);
+            }
+            let Some(i) = buf.iter().position(|&b| b == 0xFF) else {
+                let n = buf.len();
+                r.consume(n);
+                continue;
+            };
+            r.consume(i + 1);
+            let mut m = 0xFF;
+            while m == 0xFF {
+                match byte(&mut r)? {
+                    Some(c) => m = c,
+                    None => return Ok(false),
+                }
+            }
+            if m == 0x00 || (0xD0..=0xD7).contains(&m) {
+                continue;
+            }
+            pending = Some(m);
+            break;
+        }
+    }
+}
+
+/// Upsample by an integer factor with bilinear interpolation (the paper's supersampling: thresholding
+/// the smooth upsampled gray gives edges that follow the picture, not its pixel staircase).
+pub fn upsample(gray: &Gray, k: u32) -> Gray {
+    if k <= 1 {
+        return gray.clone();
+    }
+    let (w, h) = (gray.width * k, gray.height * k);
+    let mut out = Gray::new(w, h, 0.0);
+    let kf = k as f32;
+    for y in 0..h {
+        // Pixel centres: output centre (y + 0.5)/k maps to input coordinate minus half a pixel.
+        let sy = (y as f32 + 0.5) / kf - 0.5;
+        for x in 0..w {
+            let sx = (x as f32 + 0.5) / kf - 0.5;
+            out.set(x, y, gray.sample(sx, sy));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn type_dumps_are_cut_from_decoder_messages() {
+        assert_eq!(
+            without_type_dumps(
+                "CRC error: expected 0x1 have 0x2 while decoding ChunkType { type: IDAT, critical: true, private: false } chunk."
+            ),
+            "CRC error: expected 0x1 have 0x2 while decoding IDAT chunk."
+        );
+        assert_eq!(
+            without_type_dumps("bad Thing { a: Inner { b: 1 } } here"),
+            "bad Thing here"
+        );
+        assert_eq!(without_type_dumps("no dumps { here"), "no dumps { here");
+    }
+
+    #[test]
+    fn upsample_keeps_size_and_range() {
+        let mut g = Gray::new(3, 2, 0.0);
+        g.set(2, 1, 1.0);
+        let u = upsample(&g, 4);
+        assert_eq!((u.width, u.height), (12, 8));
+        assert!(u.data.iter().all(|v| (0.0..=1.0).contains(v)));
+        assert_eq!(u.get(11, 7), 1.0);
+        assert_eq!(u.get(0, 0), 0.0);
+    }
+}

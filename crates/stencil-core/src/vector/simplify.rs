@@ -1,0 +1,489 @@
+//! Ring simplification (Douglas–Peucker) that never creates self-intersections and never lets two
+//! rings touch or cross (which would merge separate regions).
+//!
+//! Douglas–Peucker keeps a chord when every point it replaces is within the tolerance *and*, when
+//! guards are given, every replaced point's two pixel centres (material, cut) stay on their own
+//! sides of the chord: the simplified outline then samples to exactly the same raster at pixel
+//! centres, so simplification never changes which pixels are cut.
+//!
+//! Every ring is simplified on its own; then all segments go into a uniform grid and every pair that
+//! shares a cell is tested (touching counts as a conflict). A ring involved in a conflict falls back
+//! to its lossless form (only exactly collinear points removed), and the test repeats until no
+//! conflict remains. The traced rings never touch each other, so this always ends.
+
+use geo::kernels::{Kernel, Orientation, RobustKernel};
+use geo::Coord;
+use rayon::prelude::*;
+
+use stencil_geom::ring::signed_area2;
+
+use super::trace::Guard;
+
+/// What simplification did, for the report.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct SimplifyStats {
+    pub rings: usize,
+    pub points_in: usize,
+    pub points_out: usize,
+    /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
+    pub fallbacks: usize,
+}
+
+/// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
+/// points). `guards`: per ring, per point, the pixel centres to keep on their sides (or none).
+pub fn simplify_rings(
+    rings: &mut [Vec<[f64; 2]>],
+    guards: Option<&[Vec<Guard>]>,
+    tol: f64,
+) -> SimplifyStats {
+    let mut stats = SimplifyStats {
+        rings: rings.len(),
+        points_in: rings.iter().map(Vec::len).sum(),
+        ..Default::default()
+    };
+    // The rings as traced are kept (moved, not copied): a ring that must fall back to full detail
+    // is made from its original then, so the lossless version is built for those rings only.
+    let originals: Vec<Vec<[f64; 2]>> = rings.iter_mut().map(std::mem::take).collect();
+    // Each ring on its own, in parallel.
+    let mut simplified: Vec<bool> = rings
+        .par_iter_mut()
+        .zip(originals.par_iter())
+        .enumerate()
+        .map(|(i, (r, orig))| {
+            if tol > 0.0 {
+                let s = drop_collinear(&dp_ring(
+                    orig,
+                    guards.and_then(|g| g.get(i)).map(Vec::as_slice),
+                    tol,
+                ));
+                // Dropping collinear points changes no area, so the original's sign is the
+                // lossless one.
+                let a1 = signed_area2(&s);
+                if s.len() >= 3
+                    && signed_area2(orig).signum() == a1.signum()
+                    && a1 != 0.0
+                    && s.len() < kept_by_drop_collinear(orig)
+                {
+                    *r = s;
+                    return true;
+                }
+            }
+            *r = drop_collinear(orig);
+            false
+        })
+        .collect();
+    // Grid cells of 16 px (or 8 tolerances): few cells per segment, few segments per cell.
+    let cell = (8.0 * tol).max(16.0);
+    for _ in 0..8 {
+        let bad = conflicts(rings, cell);
+        let mut changed = false;
+        for i in bad {
+            if simplified[i] {
+                rings[i] = drop_collinear(&originals[i]);
+                simplified[i] = false;
+                stats.fallbacks += 1;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    stats.points_out = rings.iter().map(Vec::len).sum();
+    stats
+}
+
+/// How many points [`drop_collinear`] keeps, without building the ring.
+fn kept_by_drop_collinear(r: &[[f64; 2]]) -> usize {
+    let n = r.len();
+    if n < 4 {
+        return n;
+    }
+    let kept = (0..n)
+        .filter(|&i| !collinear_between(r[(i + n - 1) % n], r[i], r[(i + 1) % n]))
+        .count();
+    if kept < 3 {
+        n
+    } else {
+        kept
+    }
+}
+
+/// Whether `q` lies on the segment from `p` to `s` (exactly), so dropping it loses nothing.
+fn collinear_between(p: [f64; 2], q: [f64; 2], s: [f64; 2]) -> bool {
+    let cross = (q[0] - p[0]) * (s[1] - q[1]) - (q[1] - p[1]) * (s[0] - q[0]);
+    let dot = (q[0] - p[0]) * (s[0] - q[0]) + (q[1] - p[1]) * (s[1] - q[1]);
+    cross == 0.0 && dot >= 0.0
+}
+
+/// Remove points lying exactly on the line through their neighbours (lossless).
+pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let n = r.len();
+    if n < 4 {
+        return r.to_vec();
+    }
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        if !collinear_between(r[(i + n - 1) % n], r[i], r[(i + 1) % n]) {
+            out.push(r[i]);
+        }
+    }
+    if out.len() < 3 {
+        r.to_vec()
+    } else {
+        out
+    }
+}
+
+#[cfg(test)]
+fn seg_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    Span::new(a, b).dist2(p)
+}
+
+/// A chord, ready for many squared-distance queries (no division each).
+struct Span {
+    a: [f64; 2],
+    d: [f64; 2],
+    /// 1 / |d|², or 0 for a chord of length 0.
+    inv: f64,
+}
+
+impl Span {
+    fn new(a: [f64; 2], b: [f64; 2]) -> Self {
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let l2 = d[0] * d[0] + d[1] * d[1];
+        Span {
+            a,
+            d,
+            inv: if l2 > 0.0 { 1.0 / l2 } else { 0.0 },
+        }
+    }
+
+    /// Squared distance from `p` to the chord.
+    #[inline]
+    fn dist2(&self, p: [f64; 2]) -> f64 {
+        let (px, py) = (p[0] - self.a[0], p[1] - self.a[1]);
+        let t = ((px * self.d[0] + py * self.d[1]) * self.inv).clamp(0.0, 1.0);
+        let (ex, ey) = (t * self.d[0] - px, t * self.d[1] - py);
+        ex * ex + ey * ey
+    }
+}
+
+/// Whether a guard's material centre is left of chord a→b and its cut centre right of it.
+fn guard_ok(a: [f64; 2], b: [f64; 2], g: &Guard) -> bool {
+    let side = |p: [f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    side(g[0]) > 0.0 && side(g[1]) < 0.0
+}
+
+/// Douglas–Peucker on a closed ring: split at point 0 and the point farthest from it.
+fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> {
+    let n = r.len();
+    if n < 4 {
+        return r.to_vec();
+    }
+    let guards = guards.filter(|g| g.len() == n);
+    let far = (1..n)
+        .max_by(|&i, &j| {
+            let di = (r[i][0] - r[0][0]).powi(2) + (r[i][1] - r[0][1]).powi(2);
+            let dj = (r[j][0] - r[0][0]).powi(2) + (r[j][1] - r[0][1]).powi(2);
+            di.total_cmp(&dj)
+        })
+        .unwrap_or(n / 2);
+    let mut keep = vec![false; n + 1];
+    keep[0] = true;
+    keep[far] = true;
+    keep[n] = true;
+    let at = |i: usize| r[i % n];
+    let tol2 = tol * tol;
+    let mut stack = vec![(0usize, far), (far, n)];
+    while let Some((a, b)) = stack.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let (pa, pb) = (at(a), at(b));
+        let mut best = (0.0, a);
+        // b <= n, so every i here is below n and indexes the ring directly.
+        let span = Span::new(pa, pb);
+        for (i, &p) in r[a + 1..b].iter().enumerate() {
+            let d = span.dist2(p);
+            if d > best.0 {
+                best = (d, a + 1 + i);
+            }
+        }
+        if best.0 <= tol2 {
+            // Within tolerance: the guards are only read now (a split needs no guard test).
+            let bad_guard = guards.and_then(|g| (a + 1..b).find(|&i| !guard_ok(pa, pb, &g[i])));
+            if let Some(i) = bad_guard {
+                // A pixel centre would change sides: split at the worst point.
+                best.1 = if best.1 > a { best.1 } else { i };
+                best.0 = f64::INFINITY;
+            }
+        }
+        if best.0 > tol2 {
+            keep[best.1] = true;
+            stack.push((a, best.1));
+            stack.push((best.1, b));
+        }
+    }
+    (0..n).filter(|&i| keep[i]).map(|i| r[i]).collect()
+}
+
+fn c(p: [f64; 2]) -> Coord<f64> {
+    Coord { x: p[0], y: p[1] }
+}
+
+/// Whether closed segments ab and cd share any point (robust orientation tests).
+pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
+    let o1 = RobustKernel::orient2d(c(a), c(b), c(cc));
+    let o2 = RobustKernel::orient2d(c(a), c(b), c(d));
+    let o3 = RobustKernel::orient2d(c(cc), c(d), c(a));
+    let o4 = RobustKernel::orient2d(c(cc), c(d), c(b));
+    let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
+    };
+    use Orientation::Collinear as C;
+    if o1 != o2 && o3 != o4 && o1 != C && o2 != C && o3 != C && o4 != C {
+        return true;
+    }
+    (o1 == C && on(a, b, cc))
+        || (o2 == C && on(a, b, d))
+        || (o3 == C && on(cc, d, a))
+        || (o4 == C && on(cc, d, b))
+}
+
+/// Rings that cross or touch themselves or another ring.
+fn conflicts(rings: &[Vec<[f64; 2]>], cell: f64) -> Vec<usize> {
+    // (cell key, ring, segment) for every grid cell a segment's bounding box covers.
+    let entries: Vec<(u64, u32, u32)> = rings
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(ri, r)| {
+            let n = r.len();
+            (0..n).flat_map(move |i| {
+                let (a, b) = (r[i], r[(i + 1) % n]);
+                let x0 = (a[0].min(b[0]) / cell).floor() as i64;
+                let x1 = (a[0].max(b[0]) / cell).floor() as i64;
+                let y0 = (a[1].min(b[1]) / cell).floor() as i64;
+                let y1 = (a[1].max(b[1]) / cell).floor() as i64;
+                (y0..=y1).flat_map(move |y| {
+                    (x0..=x1).map(move |x| {
+                        let key = (((y + (1 << 30)) as u64) << 32) | (x + (1 << 30)) as u64;
+                        (key, ri as u32, i as u32)
+                    })
+                })
+            })
+        })
+        .collect();
+    let Cells { slots, runs } = by_cell(entries);
+    let bad_rings: Vec<u32> = runs
+        .par_iter()
+        .flat_map_iter(|&(s, e)| {
+            let mut bad = Vec::new();
+            let cell = &slots[s..e];
+            for (k, &(ra, ia)) in cell.iter().enumerate() {
+                for &(rb, ib) in &cell[k + 1..] {
+                    if let Some(pair) = conflict(rings, (ra, ia), (rb, ib)) {
+                        bad.extend_from_slice(&pair);
+                    }
+                }
+            }
+            bad
+        })
+        .collect();
+    let mut bad = vec![false; rings.len()];
+    for r in bad_rings {
+        bad[r as usize] = true;
+    }
+    (0..rings.len()).filter(|&i| bad[i]).collect()
+}
+
+/// Conflict-grid entries grouped by cell: (ring, segment) per entry, cell by cell, and the
+/// ranges of the cells holding more than one.
+struct Cells {
+    slots: Vec<(u32, u32)>,
+    runs: Vec<(usize, usize)>,
+}
+
+/// Group (cell key, ring, segment) entries by cell.
+fn by_cell(mut entries: Vec<(u64, u32, u32)>) -> Cells {
+    // A counting sort over the cells the entries span (linear; a comparison sort of the entries
+    // was a third of the conflict search), or a sort when the cells would be many more than the
+    // entries.
+    let (mut lo, mut hi) = ([u64::MAX; 2], [0u64; 2]);
+    for &(key, _, _) in &entries {
+        let (x, y) = (key & 0xffff_ffff, key >> 32);
+        lo = [lo[0].min(x), lo[1].min(y)];
+        hi = [hi[0].max(x), hi[1].max(y)];
+    }
+    let cols = hi[0].saturating_sub(lo[0]) + 1;
+    let cells = cols.saturating_mul(hi[1].saturating_sub(lo[1]) + 1);
+    let (slots, runs) = if !entries.is_empty() && cells <= 4 * entries.len() as u64 + (1 << 16) {
+        let cell = |key: u64| (((key >> 32) - lo[1]) * cols + (key & 0xffff_ffff) - lo[0]) as usize;
+        let mut start = vec![0u32; cells as usize + 1];
+        for &(key, _, _) in &entries {
+            start[cell(key) + 1] += 1;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut fill = start.clone();
+        let mut slots = vec![(0u32, 0u32); entries.len()];
+        for &(key, ring, seg) in &entries {
+            let c = cell(key);
+            slots[fill[c] as usize] = (ring, seg);
+            fill[c] += 1;
+        }
+        let runs = start
+            .windows(2)
+            .filter(|w| w[1] - w[0] > 1)
+            .map(|w| (w[0] as usize, w[1] as usize))
+            .collect();
+        (slots, runs)
+    } else {
+        entries.par_sort_unstable();
+        let mut runs = Vec::new();
+        let mut s = 0;
+        while s < entries.len() {
+            let mut e = s + 1;
+            while e < entries.len() && entries[e].0 == entries[s].0 {
+                e += 1;
+            }
+            if e - s > 1 {
+                runs.push((s, e));
+            }
+            s = e;
+        }
+        (entries.iter().map(|&(_, r, i)| (r, i)).collect(), runs)
+    };
+    Cells { slots, runs }
+}
+
+/// Whether segment `ia` of ring `ra` and segment `ib` of ring `rb` conflict (cross, touch, or
+/// fold back on each other), and which rings are to blame.
+fn conflict(
+    rings: &[Vec<[f64; 2]>],
+    (ra, ia): (u32, u32),
+    (rb, ib): (u32, u32),
+) -> Option<[u32; 2]> {
+    let (ra_, rb_, ia, ib) = (ra as usize, rb as usize, ia as usize, ib as usize);
+    let r1 = &rings[ra_];
+    let r2 = &rings[rb_];
+    let (a, b) = (r1[ia], r1[(ia + 1) % r1.len()]);
+    let (p, q) = (r2[ib], r2[(ib + 1) % r2.len()]);
+    if ra == rb {
+        let n = r1.len();
+        if ia == ib {
+            return None;
+        }
+        let adjacent = (ia + 1) % n == ib || (ib + 1) % n == ia;
+        if adjacent {
+            // Neighbouring segments share one end; they conflict only if they fold back.
+            let (shared, x, y) = if (ia + 1) % n == ib {
+                (b, a, q)
+            } else {
+                (a, b, p)
+            };
+            let o = RobustKernel::orient2d(c(x), c(shared), c(y));
+            let back =
+                (x[0] - shared[0]) * (y[0] - shared[0]) + (x[1] - shared[1]) * (y[1] - shared[1]);
+            return (o == Orientation::Collinear && back > 0.0).then_some([ra, ra]);
+        }
+    }
+    // Disjoint bounding boxes cannot touch: the cheap test first.
+    if a[0].max(b[0]) < p[0].min(q[0])
+        || p[0].max(q[0]) < a[0].min(b[0])
+        || a[1].max(b[1]) < p[1].min(q[1])
+        || p[1].max(q[1]) < a[1].min(b[1])
+    {
+        return None;
+    }
+    segments_touch(a, b, p, q).then_some([ra, rb])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_staircase_becomes_a_line_within_tolerance() {
+        // A ring with a staircase side.
+        let mut r = vec![[0.0, 0.0]];
+        for i in 0..20 {
+            r.push([i as f64 + 1.0, i as f64]);
+            r.push([i as f64 + 1.0, i as f64 + 1.0]);
+        }
+        r.push([0.0, 20.0]);
+        let mut rings = vec![r.clone()];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert!(rings[0].len() < 8, "{:?}", rings[0]);
+        for p in &r {
+            let n = rings[0].len();
+            let d = (0..n)
+                .map(|i| seg_dist2(*p, rings[0][i], rings[0][(i + 1) % n]))
+                .fold(f64::MAX, f64::min);
+            assert!(d <= 1.0 + 1e-9);
+        }
+        assert_eq!(s.fallbacks, 0);
+    }
+
+    #[test]
+    fn rings_that_would_cross_keep_their_detail() {
+        // Dropping a's notch vertex (10, 0) (0.9 from the chord, under tolerance 1.0) would put
+        // a's edge at y = 0.9 across b's tip at (10, 0.5).
+        let a = vec![
+            [0.0, -10.0],
+            [20.0, -10.0],
+            [20.0, 0.9],
+            [10.0, 0.0],
+            [0.0, 0.9],
+        ];
+        let b = vec![
+            [0.0, 2.0],
+            [10.0, 0.5],
+            [20.0, 2.0],
+            [20.0, 12.0],
+            [0.0, 12.0],
+        ];
+        assert!(conflicts(&[a.clone(), b.clone()], 4.0).is_empty());
+        let mut rings = vec![a.clone(), b.clone()];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert!(conflicts(&rings, 4.0).is_empty());
+        assert_eq!(s.fallbacks, 1, "{s:?}");
+        assert_eq!(rings[0], a);
+        // The same with a ring far away (cells too many to count: the entries are sorted).
+        let far = vec![[1e6, 1e6], [1e6 + 1.0, 1e6], [1e6, 1e6 + 1.0]];
+        let mut rings = vec![a.clone(), b.clone(), far];
+        let s = simplify_rings(&mut rings, None, 1.0);
+        assert_eq!(s.fallbacks, 1, "{s:?}");
+        assert_eq!(rings[0], a);
+        // Without the notch, a crosses b: found either way.
+        let cut = vec![[0.0, -10.0], [20.0, -10.0], [20.0, 0.9], [0.0, 0.9]];
+        assert_eq!(conflicts(&[cut.clone(), b.clone()], 4.0), vec![0, 1]);
+        assert_eq!(conflicts(&[cut, b, rings[2].clone()], 4.0), vec![0, 1]);
+    }
+
+    #[test]
+    fn touching_segments_are_detected() {
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 5.0]
+        ));
+        assert!(!segments_touch(
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.1],
+            [1.0, 5.0]
+        ));
+        assert!(segments_touch(
+            [0.0, 0.0],
+            [2.0, 2.0],
+            [0.0, 2.0],
+            [2.0, 0.0]
+        ));
+    }
+}

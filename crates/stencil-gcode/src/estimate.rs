@@ -1,0 +1,330 @@
+//! Job time estimate from the moves of a G-code program, the way Grbl 1.1 plans motion.
+//!
+//! CONTRACT (used by `stencil estimate`, `stencil simulate` and the virtual Grbl): keep these names.
+//!
+//! Each move is a block with a nominal speed (its feed, clamped to the machine's max feed, or the
+//! rapid rate for G0) and an acceleration. As in Grbl's `planner.c`:
+//! - the speed through the junction between two blocks is limited by the junction deviation δ:
+//!   with θ the angle between the directions and `sin(θ/2) = sqrt((1 - cos θ)/2)` where
+//!   `cos θ = -u_prev·u`, `v_j² = a_j · δ · sin(θ/2) / (1 - sin(θ/2))` (a reversal stops; a
+//!   straight continuation is not limited), and by both blocks' nominal speeds;
+//! - a backward pass from the final stop and a forward pass from the first start make every entry
+//!   speed reachable by accelerating or braking at `a` over the block's length;
+//! - each block then runs a trapezoid (accelerate, cruise, decelerate) or a triangle if short.
+//!
+//! Per-axis limits are equal in our profiles; like Grbl, a diagonal block may use
+//! `a / max|u_axis|` and `rate / max|u_axis|`. Grbl looks only 15 blocks ahead (`[OPT:V,15,128]`), so
+//! every block's entry speed is also capped so it could stop within the next 15 blocks.
+//!
+//! Not modelled: dwells, spindle-synchronised stops (M3/M5 stop motion; laser S changes do not),
+//! overrides, and the serial link (a slow sender can starve the planner on tiny segments).
+
+use crate::interpret::{CutRule, Move};
+use crate::limits::PLANNER_BLOCKS;
+
+/// The motion limits the estimate needs (from a machine profile).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionLimits {
+    /// Rate of G0 moves, mm/min.
+    pub rapid_mm_min: f64,
+    /// Highest feed the machine runs, mm/min (programmed feeds above it are clamped).
+    pub max_feed_mm_min: f64,
+    /// Acceleration, mm/s².
+    pub accel_mm_s2: f64,
+    /// Grbl's junction deviation ($11), mm.
+    pub junction_deviation_mm: f64,
+}
+
+impl Default for MotionLimits {
+    /// A generic GRBL 1.1 diode laser (the `diode-400` profile).
+    fn default() -> Self {
+        MotionLimits {
+            rapid_mm_min: 6000.0,
+            max_feed_mm_min: 6000.0,
+            accel_mm_s2: 1000.0,
+            junction_deviation_mm: 0.01,
+        }
+    }
+}
+
+/// What a job costs in time and distance.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Estimate {
+    pub total_s: f64,
+    pub cut_s: f64,
+    pub travel_s: f64,
+    /// Length of moves with the tool on, mm.
+    pub cut_mm: f64,
+    /// Length of moves with the tool off, mm.
+    pub travel_mm: f64,
+}
+
+/// One planned block.
+struct Block {
+    len: f64,
+    /// Nominal speed, mm/s.
+    v_nom: f64,
+    /// Acceleration along the block, mm/s².
+    accel: f64,
+    /// Highest entry speed², from the junction and the nominal speeds.
+    max_entry_sq: f64,
+    entry_sq: f64,
+    cut: bool,
+}
+
+/// `limit` for one axis, scaled to a direction as Grbl does: the tightest axis wins.
+fn limit_by_axis(limit: f64, unit: &[f64; 3]) -> f64 {
+    unit.iter()
+        .filter(|c| c.abs() > 1e-12)
+        .map(|c| limit / c.abs())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Time to run `len` mm entering at `v0`, leaving at `v1`, cruising at most at `vn`, accelerating
+/// at `a` (all speeds in mm/s).
+pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
+    if len <= 0.0 {
+        return 0.0;
+    }
+    let d_acc = (vn * vn - v0 * v0).max(0.0) / (2.0 * a);
+    let d_dec = (vn * vn - v1 * v1).max(0.0) / (2.0 * a);
+    if d_acc + d_dec <= len {
+        (vn - v0).max(0.0) / a + (vn - v1).max(0.0) / a + (len - d_acc - d_dec) / vn
+    } else {
+        // Triangle: the peak speed where the acceleration and braking ramps meet.
+        let vp = ((2.0 * a * len + v0 * v0 + v1 * v1) / 2.0).sqrt();
+        (vp - v0).max(0.0) / a + (vp - v1).max(0.0) / a
+    }
+}
+
+/// Estimate a program's run time; which moves cut is [`CutRule::infer`]red from the program.
+pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
+    estimate_with(moves, limits, CutRule::infer(moves))
+}
+
+/// Estimate with a given cut rule (a machine profile may refine the inferred one, see
+/// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
+pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Estimate {
+    let is_cut = |m: &Move| rule.cuts(m);
+    let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
+    let mut prev: Option<(usize, [f64; 3])> = None;
+    let mut e = Estimate::default();
+    for m in moves {
+        let d = [
+            m.to[0] - m.from[0],
+            m.to[1] - m.from[1],
+            m.to[2] - m.from[2],
+        ];
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        if len < 1e-9 {
+            continue; // Grbl drops zero-length blocks.
+        }
+        let unit = [d[0] / len, d[1] / len, d[2] / len];
+        let rate = if m.rapid {
+            limit_by_axis(limits.rapid_mm_min, &unit)
+        } else {
+            m.feed
+                .min(limit_by_axis(limits.max_feed_mm_min, &unit))
+                .max(1.0) // Grbl's minimum feed rate, 1 mm/min.
+        };
+        let v_nom = rate / 60.0;
+        let accel = limit_by_axis(limits.accel_mm_s2, &unit);
+        let max_entry_sq = match prev {
+            None => 0.0,
+            Some((pi, pu)) => {
+                let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
+                let vj_sq = if cos_theta > 0.999_999 {
+                    0.0 // reversal: stop
+                } else if cos_theta < -0.999_999 {
+                    f64::INFINITY // straight on
+                } else {
+                    let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
+                    let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
+                    ju.iter_mut().for_each(|c| *c /= jl);
+                    let ja = limit_by_axis(limits.accel_mm_s2, &ju);
+                    let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
+                    ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
+                };
+                let pv = blocks[pi].v_nom;
+                vj_sq.min(v_nom * v_nom).min(pv * pv)
+            }
+        };
+        let cut = is_cut(m);
+        if cut {
+            e.cut_mm += len;
+        } else {
+            e.travel_mm += len;
+        }
+        prev = Some((blocks.len(), unit));
+        blocks.push(Block {
+            len,
+            v_nom,
+            accel,
+            max_entry_sq,
+            entry_sq: 0.0,
+            cut,
+        });
+    }
+    let n = blocks.len();
+    if n == 0 {
+        return e;
+    }
+    // Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
+    // holds after it (a sliding sum of 2·a·len over the next PLANNER_BLOCKS blocks).
+    let mut window = 0.0;
+    let reach: Vec<f64> = (0..n)
+        .rev()
+        .map(|i| {
+            window += 2.0 * blocks[i].accel * blocks[i].len;
+            if i + PLANNER_BLOCKS < n {
+                let j = i + PLANNER_BLOCKS;
+                window -= 2.0 * blocks[j].accel * blocks[j].len;
+            }
+            window.max(0.0)
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect();
+    // Backward pass: from a stop after the last block.
+    let mut next_entry_sq = 0.0;
+    for i in (0..n).rev() {
+        let b = &mut blocks[i];
+        b.entry_sq = b
+            .max_entry_sq
+            .min(next_entry_sq + 2.0 * b.accel * b.len)
+            .min(reach[i]);
+        next_entry_sq = b.entry_sq;
+    }
+    // Forward pass: from a stop before the first block.
+    blocks[0].entry_sq = 0.0;
+    for i in 0..n - 1 {
+        let reachable = blocks[i].entry_sq + 2.0 * blocks[i].accel * blocks[i].len;
+        if blocks[i + 1].entry_sq > reachable {
+            blocks[i + 1].entry_sq = reachable;
+        }
+    }
+    for i in 0..n {
+        let b = &blocks[i];
+        let exit_sq = if i + 1 < n {
+            blocks[i + 1].entry_sq
+        } else {
+            0.0
+        };
+        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
+        if b.cut {
+            e.cut_s += t;
+        } else {
+            e.travel_s += t;
+        }
+    }
+    e.total_s = e.cut_s + e.travel_s;
+    e
+}
+
+/// What length ÷ feed says (no acceleration): the number many senders show, for comparison.
+pub fn length_over_feed_s(moves: &[Move], limits: &MotionLimits) -> f64 {
+    moves
+        .iter()
+        .map(|m| {
+            let d = ((m.to[0] - m.from[0]).powi(2)
+                + (m.to[1] - m.from[1]).powi(2)
+                + (m.to[2] - m.from[2]).powi(2))
+            .sqrt();
+            let rate = if m.rapid {
+                limits.rapid_mm_min
+            } else {
+                m.feed.min(limits.max_feed_mm_min).max(1.0)
+            };
+            d / rate * 60.0
+        })
+        .sum()
+}
+
+/// `1 h 02 min 03 s` style, for people.
+pub fn format_duration(s: f64) -> String {
+    let t = s.max(0.0).round() as u64;
+    let (h, m, sec) = (t / 3600, (t % 3600) / 60, t % 60);
+    if h > 0 {
+        format!("{h} h {m:02} min {sec:02} s")
+    } else if m > 0 {
+        format!("{m} min {sec:02} s")
+    } else {
+        format!("{sec} s")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interpret::interpret;
+
+    #[test]
+    fn block_time_trapezoid_and_triangle() {
+        // 100 mm from rest to rest at 10 mm/s, a = 100: ramps 0.1 s and 0.5 mm each, cruise 99 mm.
+        let t = block_time(100.0, 0.0, 0.0, 10.0, 100.0);
+        assert!((t - (0.2 + 9.9)).abs() < 1e-9, "{t}");
+        // 1 mm at up to 100 mm/s, a = 100: triangle with peak sqrt(100) = 10 mm/s, 0.2 s.
+        let t = block_time(1.0, 0.0, 0.0, 100.0, 100.0);
+        assert!((t - 0.2).abs() < 1e-9, "{t}");
+    }
+
+    #[test]
+    fn straight_line_split_in_two_does_not_stop_in_the_middle() {
+        let l = MotionLimits::default();
+        let one = estimate(&interpret("G1 X100 F3000").unwrap(), &l);
+        let two = estimate(&interpret("G1 X50 F3000\nG1 X100").unwrap(), &l);
+        assert!((one.total_s - two.total_s).abs() < 1e-9);
+        let back = estimate(&interpret("G1 X50 F3000\nG1 X0").unwrap(), &l);
+        // A reversal stops: two full trapezoids.
+        let t = 2.0 * block_time(50.0, 0.0, 0.0, 50.0, 1000.0);
+        assert!((back.total_s - t).abs() < 1e-9);
+    }
+
+    #[test]
+    fn look_ahead_limits_speed_on_tiny_segments() {
+        // 2000 collinear 0.05 mm segments at a high rapid: without the window the head would
+        // reach 100 mm/s; with 15 blocks (0.75 mm) it may only reach sqrt(2·1000·0.75) ≈ 38.7 mm/s.
+        let mut p = String::from("G1 F6000\n");
+        for i in 1..=2000 {
+            p.push_str(&format!("X{:.2}\n", i as f64 * 0.05));
+        }
+        let e = estimate(&interpret(&p).unwrap(), &MotionLimits::default());
+        let unlimited = block_time(100.0, 0.0, 0.0, 100.0, 1000.0);
+        assert!(e.total_s > unlimited * 2.0, "{} vs {unlimited}", e.total_s);
+        assert!((e.travel_mm + e.cut_mm - 100.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn z_tool_programs_count_xy_feed_moves_as_cut() {
+        let p = "G0 Z3\nG0 X10\nG1 Z-0.3 F300\nG1 X20 F1000\nG0 Z3\nG0 X0\n";
+        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        assert!((e.cut_mm - 10.0).abs() < 1e-9, "{e:?}");
+        assert!(
+            (e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9,
+            "{e:?}"
+        );
+        // A laser program: only powered moves cut, even if G1 moves without power exist.
+        let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
+        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        assert!((e.cut_mm - 10.0).abs() < 1e-9 && (e.travel_mm - 30.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn acceleration_only_adds_time() {
+        let p = "G1 X10 Y0 F3000\nG1 X10 Y10\nG0 X0 Y0\n";
+        let m = interpret(p).unwrap();
+        let l = MotionLimits::default();
+        let naive = length_over_feed_s(&m, &l);
+        // 20 mm at 50 mm/s plus 14.14 mm at 100 mm/s.
+        assert!((naive - (0.4 + 200f64.sqrt() / 100.0)).abs() < 1e-9);
+        assert!(estimate(&m, &l).total_s > naive);
+    }
+
+    #[test]
+    fn durations_read_well() {
+        assert_eq!(format_duration(3723.4), "1 h 02 min 03 s");
+        assert_eq!(format_duration(65.0), "1 min 05 s");
+        assert_eq!(format_duration(4.4), "4 s");
+    }
+}

@@ -1,0 +1,451 @@
+//! The test grid: small squares cut over a range of power × speed (a laser), depth × speed (a
+//! drag knife) or speed alone (a pen), each labelled in the G-code and in an SVG preview, so a
+//! user finds the setting that cuts their sheet cleanly and writes it into the material profile.
+//!
+//! The squares are a [`Job`] written by the one G-code writer ([`crate::write::write_each`]):
+//! same header, laser mode and end as every job, each square at its own settings.
+
+use crate::machine::{Machine, Tool};
+
+use crate::write::{num, write_each, LoopSettings};
+use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats, PlanError};
+
+/// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Steps {
+    pub from: f64,
+    pub to: f64,
+    pub steps: usize,
+}
+
+/// The most values along one side of the grid.
+pub const MAX_STEPS: usize = 20;
+
+impl Steps {
+    /// `A..B:N` (N values from A to B, both included), `A..B` (5 values) or `A` (one value).
+    pub fn parse(s: &str) -> Result<Steps, String> {
+        let bad =
+            || format!("'{s}' is not a range: use FROM..TO:STEPS (e.g. 20..100:5) or one number");
+        let num = |t: &str| -> Result<f64, String> {
+            t.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(bad)
+        };
+        let (range, steps) = match s.split_once(':') {
+            Some((r, n)) => (r, Some(n.trim().parse::<usize>().map_err(|_| bad())?)),
+            None => (s, None),
+        };
+        let (from, to, steps) = match range.split_once("..") {
+            Some((a, b)) => (num(a)?, num(b)?, steps.unwrap_or(5)),
+            None if steps.is_none() => {
+                let v = num(range)?;
+                (v, v, 1)
+            }
+            None => return Err(bad()),
+        };
+        if !(1..=MAX_STEPS).contains(&steps) {
+            return Err(format!(
+                "'{s}': the number of steps must be 1 to {MAX_STEPS}"
+            ));
+        }
+        if steps == 1 && from != to {
+            return Err(format!(
+                "'{s}': one step cannot cover {from}..{to}; use 2 or more"
+            ));
+        }
+        Ok(Steps { from, to, steps })
+    }
+
+    /// The values, from `from` to `to`.
+    pub fn values(&self) -> Vec<f64> {
+        if self.steps == 1 {
+            return vec![self.from];
+        }
+        (0..self.steps)
+            .map(|i| self.from + (self.to - self.from) * i as f64 / (self.steps - 1) as f64)
+            .map(|v| (v * 1000.0).round() / 1000.0)
+            .collect()
+    }
+}
+
+/// What the rows vary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowKind {
+    /// Laser power, %.
+    Power,
+    /// Knife (or pen on Z) depth: the Z the tool is lowered to, mm.
+    Depth,
+    /// One row: only the speed varies (a pen).
+    None,
+}
+
+/// A test grid to cut.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridSpec {
+    pub row_kind: RowKind,
+    /// Power % or depth per row (one `NaN`-free value per row; one row for [`RowKind::None`]).
+    pub rows: Vec<f64>,
+    /// Speed per column, mm/min.
+    pub speeds: Vec<f64>,
+    /// Side of each square, mm.
+    pub size_mm: f64,
+    /// Space between squares, mm.
+    pub gap_mm: f64,
+    /// Machine coordinates of the grid's lower-left corner, mm.
+    pub offset: [f64; 2],
+    /// Passes and blade offset (and the header's power and speed: the material's own).
+    pub base: CutSettings,
+}
+
+/// One square.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    pub row: usize,
+    pub col: usize,
+    pub settings: CutSettings,
+    /// The S word (laser) or the depth (knife), as written.
+    pub s: Option<f64>,
+    pub depth: Option<f64>,
+    /// Lower-left corner, machine mm.
+    pub min: [f64; 2],
+}
+
+impl Cell {
+    /// The square's label: `40% F900`, `Z-0.3 F900` or `F900`.
+    pub fn label(&self) -> String {
+        let f = format!("F{}", num(self.settings.speed_mm_min));
+        match (self.s, self.depth) {
+            (Some(_), _) => format!("{}% {f}", num(self.settings.power_pct)),
+            (_, Some(d)) => format!("Z{} {f}", num(d)),
+            _ => f,
+        }
+    }
+}
+
+/// A planned grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    pub spec: GridSpec,
+    pub cells: Vec<Cell>,
+    pub job: Job,
+    /// Width and height of the squares together, mm.
+    pub size: [f64; 2],
+}
+
+/// Lay the squares out (rows along +Y, columns along +X from `offset`), check every square's
+/// settings against the machine and the whole grid against its bed.
+pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
+    let bad = |m: String| PlanError::Settings(m);
+    if !(spec.size_mm.is_finite()
+        && spec.size_mm > 0.0
+        && spec.gap_mm.is_finite()
+        && spec.gap_mm >= 0.0)
+    {
+        return Err(bad("the squares need a size > 0 and a gap >= 0".into()));
+    }
+    let (nr, nc) = (spec.rows.len().max(1), spec.speeds.len());
+    if nc == 0 {
+        return Err(bad("the grid needs at least one speed".into()));
+    }
+    let pitch = spec.size_mm + spec.gap_mm;
+    let size = [
+        nc as f64 * spec.size_mm + (nc - 1) as f64 * spec.gap_mm,
+        nr as f64 * spec.size_mm + (nr - 1) as f64 * spec.gap_mm,
+    ];
+    // A drag knife's axis swings out by the blade offset at every corner.
+    let reach = spec.base.blade_offset_mm.max(0.0);
+    let (x0, y0) = (spec.offset[0] - reach, spec.offset[1] - reach);
+    let (x1, y1) = (
+        spec.offset[0] + size[0] + reach,
+        spec.offset[1] + size[1] + reach,
+    );
+    let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
+    let eps = 1e-6;
+    if x0 < -eps || y0 < -eps || x1 > bw + eps || y1 > bh + eps {
+        return Err(PlanError::DoesNotFit {
+            machine: machine.name.clone(),
+            w: size[0],
+            h: size[1],
+            bw,
+            bh,
+            x0,
+            x1,
+            y0,
+            y1,
+            hint:
+                "use fewer steps, smaller squares (--size) or gaps (--gap), or move it (--offset)",
+        });
+    }
+    let mut cells = Vec::with_capacity(nr * nc);
+    for r in 0..nr {
+        for (c, &speed) in spec.speeds.iter().enumerate() {
+            let row = spec.rows.get(r).copied();
+            let mut settings = CutSettings {
+                speed_mm_min: speed,
+                ..spec.base
+            };
+            let (mut s, mut depth) = (None, None);
+            match (spec.row_kind, machine.tool, row) {
+                (RowKind::Power, Tool::Laser { s_max, .. }, Some(p)) => {
+                    settings.power_pct = p;
+                    s = Some(laser_s(p, s_max));
+                }
+                (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
+                    if d >= z.up_mm {
+                        return Err(bad(format!(
+                            "depth Z{} is not below the blade's up height Z{} of '{}'",
+                            num(d),
+                            num(z.up_mm),
+                            machine.name
+                        )));
+                    }
+                    depth = Some(d);
+                }
+                (RowKind::None, _, _) => {}
+                (kind, tool, _) => {
+                    return Err(bad(format!(
+                        "a grid over {kind:?} does not apply to the {} of '{}'",
+                        tool.kind(),
+                        machine.name
+                    )))
+                }
+            }
+            check_settings(&settings, machine).map_err(|e| {
+                bad(format!(
+                    "square at row {} column {} ({}): {e}",
+                    r + 1,
+                    c + 1,
+                    Cell {
+                        row: r,
+                        col: c,
+                        settings,
+                        s,
+                        depth,
+                        min: [0.0; 2],
+                    }
+                    .label()
+                ))
+            })?;
+            cells.push(Cell {
+                row: r,
+                col: c,
+                settings,
+                s,
+                depth,
+                min: [
+                    spec.offset[0] + c as f64 * pitch,
+                    spec.offset[1] + r as f64 * pitch,
+                ],
+            });
+        }
+    }
+    let a = spec.size_mm;
+    let loops: Vec<Loop> = cells
+        .iter()
+        .map(|c| {
+            let [x, y] = c.min;
+            Loop {
+                points: vec![[x, y], [x + a, y], [x + a, y + a], [x, y + a]],
+                outline: false,
+                area_mm2: a * a,
+            }
+        })
+        .collect();
+    let home = [0.0, 0.0];
+    let mut travel = 0.0;
+    let mut at = home;
+    for l in &loops {
+        travel += crate::toolpath::dist(at, l.points[0]);
+        at = l.points[0];
+    }
+    travel += crate::toolpath::dist(at, home);
+    let cut_mm = loops
+        .iter()
+        .map(|l| l.perimeter_mm() * spec.base.passes as f64)
+        .sum();
+    let job = Job {
+        loops,
+        home,
+        settings: spec.base,
+        sheet_mm: size,
+        min: spec.offset,
+        max: [spec.offset[0] + size[0], spec.offset[1] + size[1]],
+        stats: PathStats {
+            loops: cells.len(),
+            cut_mm,
+            travel_mm: travel,
+            naive_travel_mm: travel,
+        },
+    };
+    Ok(Grid {
+        spec: spec.clone(),
+        cells,
+        job,
+        size,
+    })
+}
+
+/// The square's comment line in the G-code: `square 3 of 25, row 1 column 3: power 40 % S400,
+/// speed 900 mm/min` (a knife: `depth Z-0.3`).
+pub fn cell_comment(c: &Cell, total: usize, ncols: usize) -> String {
+    let what = match (c.s, c.depth) {
+        (Some(s), _) => format!("power {} % S{}, ", num(c.settings.power_pct), num(s)),
+        (_, Some(d)) => format!("depth Z{}, ", num(d)),
+        _ => String::new(),
+    };
+    format!(
+        "square {} of {total}, row {} column {}: {what}speed {} mm/min",
+        c.row * ncols + c.col + 1,
+        c.row + 1,
+        c.col + 1,
+        num(c.settings.speed_mm_min)
+    )
+}
+
+/// The grid's G-code: the job's header with `notes`, then each square after its comment.
+pub fn grid_gcode(g: &Grid, machine: &Machine, notes: &[String]) -> String {
+    let n = g.cells.len();
+    let each: Vec<LoopSettings> = g
+        .cells
+        .iter()
+        .map(|c| LoopSettings {
+            settings: c.settings,
+            z_down_mm: c.depth,
+            comment: cell_comment(c, n, g.spec.speeds.len()),
+        })
+        .collect();
+    write_each(&g.job, machine, notes, &each)
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// An SVG preview in millimetres, as seen from above (rear at the top, mirrored as the machine's
+/// origin corner says): each square with its label (`40% F900`), the rows' values on the left,
+/// the columns' speeds below, and a title.
+pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
+    let o = machine.bed.origin;
+    let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
+    // Bed view: x to the right, y to the rear.
+    let view = |p: [f64; 2]| {
+        [
+            if o.right() { bw - p[0] } else { p[0] },
+            if o.top() { bh - p[1] } else { p[1] },
+        ]
+    };
+    let a = g.spec.size_mm;
+    let rects: Vec<[f64; 4]> = g
+        .cells
+        .iter()
+        .map(|c| {
+            let p = view(c.min);
+            let q = view([c.min[0] + a, c.min[1] + a]);
+            [
+                p[0].min(q[0]),
+                p[1].min(q[1]),
+                p[0].max(q[0]),
+                p[1].max(q[1]),
+            ]
+        })
+        .collect();
+    let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
+    let vy1 = rects.iter().map(|r| r[3]).fold(f64::NEG_INFINITY, f64::max);
+    let (left, top, bottom, right) = (30.0, 12.0, 14.0, 6.0);
+    let w = left + g.size[0] + right;
+    let h = top + g.size[1] + bottom;
+    let sx = |vx: f64| left + vx - vx0;
+    let sy = |vy: f64| top + vy1 - vy;
+    let mut out = String::new();
+    out.push_str(&format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}mm\" height=\"{}mm\" viewBox=\"0 0 {} {}\" font-family=\"sans-serif\">\n",
+        num(w), num(h), num(w), num(h)
+    ));
+    out.push_str(&format!(
+        "<text class=\"title\" x=\"{}\" y=\"6\" font-size=\"3.5\">{}</text>\n",
+        num(left),
+        escape(title)
+    ));
+    let font = (a / 5.0).clamp(1.0, 2.5);
+    for (c, r) in g.cells.iter().zip(&rects) {
+        out.push_str(&format!(
+            "<rect class=\"square\" x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"red\" stroke-width=\"0.2\"/>\n",
+            num(sx(r[0])), num(sy(r[3])), num(a), num(a)
+        ));
+        out.push_str(&format!(
+            "<text class=\"cell\" data-row=\"{}\" data-col=\"{}\" x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"middle\" textLength=\"{}\" lengthAdjust=\"spacingAndGlyphs\">{}</text>\n",
+            c.row + 1,
+            c.col + 1,
+            num(sx((r[0] + r[2]) / 2.0)),
+            num(sy((r[1] + r[3]) / 2.0) + font / 3.0),
+            num(font),
+            num(a * 0.9),
+            escape(&c.label())
+        ));
+    }
+    // Row labels: the row's value, left of its leftmost square.
+    let ncols = g.spec.speeds.len();
+    for (ri, v) in g.spec.rows.iter().enumerate() {
+        let r = &rects[ri * ncols];
+        let text = match g.spec.row_kind {
+            RowKind::Power => {
+                let s = g.cells[ri * ncols].s.unwrap_or(0.0);
+                format!("power {} % (S{})", num(*v), num(s))
+            }
+            RowKind::Depth => format!("depth Z{}", num(*v)),
+            RowKind::None => continue,
+        };
+        out.push_str(&format!(
+            "<text class=\"row\" x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"end\">{}</text>\n",
+            num(left - 2.0),
+            num(sy((r[1] + r[3]) / 2.0) + 0.8),
+            text
+        ));
+    }
+    // Column labels: the speed, under the grid.
+    for (ci, v) in g.spec.speeds.iter().enumerate() {
+        let r = &rects[ci];
+        out.push_str(&format!(
+            "<text class=\"col\" x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"middle\">F{}</text>\n",
+            num(sx((r[0] + r[2]) / 2.0)),
+            num(top + g.size[1] + 5.0),
+            num(*v)
+        ));
+    }
+    out.push_str(&format!(
+        "<text x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"middle\">speed, mm/min</text>\n",
+        num(left + g.size[0] / 2.0),
+        num(top + g.size[1] + 10.0)
+    ));
+    out.push_str("</svg>\n");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_parse_and_step() {
+        assert_eq!(
+            Steps::parse("20..100:5").unwrap().values(),
+            [20.0, 40.0, 60.0, 80.0, 100.0]
+        );
+        assert_eq!(Steps::parse("300..1500").unwrap().values().len(), 5);
+        assert_eq!(Steps::parse("7").unwrap().values(), [7.0]);
+        assert_eq!(
+            Steps::parse("-0.1..-0.5:3").unwrap().values(),
+            [-0.1, -0.3, -0.5]
+        );
+        for bad in [
+            "", "a..b", "1..2:0", "1..2:99", "1..2:x", "1..5:1", "inf..2",
+        ] {
+            assert!(Steps::parse(bad).is_err(), "{bad}");
+        }
+    }
+}

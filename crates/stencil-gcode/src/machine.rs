@@ -1,0 +1,804 @@
+//! Machine profiles: the bed, the motion limits and the tool of a GRBL 1.1 machine, read from TOML
+//! (`profiles/machines/*.toml`) and validated once at load.
+//!
+//! A profile names where machine (0, 0) is on the bed (`origin`), so the planner can place a job
+//! right-reading on any machine; the S range mirrors Grbl's `$30`/`$31`; the motion limits feed the
+//! time estimate. The shipped profiles are compiled into the binary, so `--machine diode-400` works
+//! from any folder; a path to a `.toml` file loads a user's own.
+//!
+//! Reading and name lookup go through the shared loader, `stencil_io::profile` (the same as
+//! materials): a path, `./profiles/machines/<name>.toml`, the embedded copy.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileError, Shipped};
+use stencil_io::shipped;
+
+use crate::estimate::MotionLimits;
+use crate::interpret::{CutRule, Move};
+
+/// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
+pub const DEFAULT_MACHINE: &str = "diode-400";
+
+/// The shipped profiles, embedded so an installed binary has them.
+pub const SHIPPED: &[Shipped] = &[
+    shipped!("machines", "diode-400"),
+    shipped!("machines", "co2-600x400"),
+    shipped!("machines", "pen-a3"),
+    shipped!("machines", "pen-servo"),
+    shipped!("machines", "drag-knife"),
+];
+
+/// A corner of the bed, as seen from above with the rear (far side, +Y on most machines) at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Corner {
+    #[default]
+    BottomLeft,
+    BottomRight,
+    TopLeft,
+    TopRight,
+}
+
+impl Corner {
+    /// The name used in profiles and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Corner::BottomLeft => "bottom-left",
+            Corner::BottomRight => "bottom-right",
+            Corner::TopLeft => "top-left",
+            Corner::TopRight => "top-right",
+        }
+    }
+    /// Whether this corner is on the right (high bed-view X) side.
+    pub fn right(self) -> bool {
+        matches!(self, Corner::BottomRight | Corner::TopRight)
+    }
+    /// Whether this corner is on the top (rear, high bed-view Y) side.
+    pub fn top(self) -> bool {
+        matches!(self, Corner::TopLeft | Corner::TopRight)
+    }
+}
+
+/// The bed: the area the head can reach, in machine millimetres from the origin corner.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bed {
+    pub width_mm: f64,
+    pub height_mm: f64,
+    /// Where machine (0, 0) is; axes point away from it (into the bed).
+    #[serde(default)]
+    pub origin: Corner,
+}
+
+/// Motion limits, as set in Grbl (`$110`/`$111` max rates, `$120`/`$121` accelerations, `$11`).
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motion {
+    /// Highest feed the machine cuts at, mm/min; programmed feeds above it are refused.
+    pub max_feed_mm_min: f64,
+    /// Rate of G0 travel, mm/min (Grbl's max rate, `$110`).
+    pub rapid_mm_min: f64,
+    /// Acceleration, mm/s² (`$120`).
+    pub accel_mm_s2: f64,
+    /// Junction deviation, mm (`$11`, Grbl's default 0.010).
+    #[serde(default = "default_jd")]
+    pub junction_deviation_mm: f64,
+    /// The machine has homing switches and homes with `$H` (Grbl `$22=1`): `send --recover`
+    /// homes it first, since a crash or power loss loses the position.
+    #[serde(default)]
+    pub homing: bool,
+}
+
+fn default_jd() -> f64 {
+    0.01
+}
+
+/// How a pen is raised and lowered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PenLift {
+    /// A servo or solenoid on the spindle output: `M3 S<down_s>` lowers, `M5` raises.
+    Spindle { down_s: f64 },
+    /// A Z axis: `G0 Z<up>` raises, `G1 Z<down> F<plunge>` lowers.
+    Z(ZLift),
+}
+
+/// Z heights of a tool on a Z axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZLift {
+    pub up_mm: f64,
+    pub down_mm: f64,
+    /// Feed for lowering the tool, mm/min.
+    pub plunge_mm_min: f64,
+}
+
+/// The tool, and how it is switched on and off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tool {
+    /// A laser in Grbl laser mode (`$32=1`): `M4` dynamic power, S from the material's power %
+    /// scaled to `s_max` (`$30`); never below `s_min` (`$31`) while cutting.
+    Laser {
+        s_max: f64,
+        s_min: f64,
+    },
+    Pen(PenLift),
+    /// A drag knife on a Z axis; `overcut_mm` continues past the start of each loop so the cut
+    /// closes cleanly.
+    Knife {
+        z: ZLift,
+        overcut_mm: f64,
+    },
+}
+
+impl Tool {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Tool::Laser { .. } => "laser",
+            Tool::Pen(_) => "pen",
+            Tool::Knife { .. } => "knife",
+        }
+    }
+}
+
+/// A validated machine profile.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Machine {
+    pub name: String,
+    pub description: String,
+    pub bed: Bed,
+    pub motion: Motion,
+    pub tool: Tool,
+    /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
+    /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
+    pub air_assist: bool,
+    /// Laser only: the power, % of `s_max`, at which `stencil frame` traces a job's outline so
+    /// the user sees it (`tool.frame_power_pct`, default 0: the frame is traced dark). Kept low
+    /// ([`bounds::FRAME_POWER_PCT`]): it must show the beam, not mark the sheet.
+    pub frame_power_pct: f64,
+}
+
+/// A job that leaves the bed: the first side it crosses, how far it reaches, and the line of the
+/// move that reaches there (for G-code files).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "job reaches {axis} {reached:.1} mm{}; the bed of {machine} is {size} mm {dim} ({axis} 0..{size})",
+    line.map(|l| format!(" at line {l}")).unwrap_or_default()
+)]
+pub struct OffBed {
+    pub machine: String,
+    pub axis: char,
+    pub reached: f64,
+    /// The bed's width (X) or depth (Y), mm.
+    pub size: f64,
+    pub dim: &'static str,
+    pub line: Option<usize>,
+}
+
+/// How far past the bed's edge still counts as on it (rounding of written coordinates), mm.
+pub const BED_EPS_MM: f64 = 1e-3;
+
+impl Machine {
+    /// Check that everything from `min` to `max` (machine mm; the axes point into the bed from
+    /// its origin corner, so the bed is X 0..width, Y 0..height) lies on the bed: the one check
+    /// `make`, `gcode`, `send`, `estimate` and `simulate` share. `lines` names the program lines
+    /// reaching `min` and `max` per axis, where known. The side exceeded most is reported.
+    pub fn check_extent(
+        &self,
+        min: [f64; 2],
+        max: [f64; 2],
+        lines: Option<([usize; 2], [usize; 2])>,
+    ) -> Result<(), OffBed> {
+        let size = [self.bed.width_mm, self.bed.height_mm];
+        let mut worst: Option<(f64, OffBed)> = None;
+        for a in 0..2 {
+            for (reached, over, line) in [
+                (min[a], -min[a], lines.map(|l| l.0[a])),
+                (max[a], max[a] - size[a], lines.map(|l| l.1[a])),
+            ] {
+                if over > BED_EPS_MM && worst.as_ref().is_none_or(|w| over > w.0) {
+                    worst = Some((
+                        over,
+                        OffBed {
+                            machine: self.name.clone(),
+                            axis: ['X', 'Y'][a],
+                            reached,
+                            size: size[a],
+                            dim: ["wide", "deep"][a],
+                            line: line.filter(|&l| l > 0),
+                        },
+                    ));
+                }
+            }
+        }
+        match worst {
+            Some((_, e)) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// [`Machine::check_extent`] for the moves of a G-code program.
+    pub fn check_moves(&self, moves: &[Move]) -> Result<(), OffBed> {
+        match crate::interpret::extent(moves) {
+            Some(e) => self.check_extent(e.min, e.max, Some((e.min_line, e.max_line))),
+            None => Ok(()),
+        }
+    }
+
+    /// Which moves of `moves` cut on this machine: the rule the program itself shows
+    /// ([`CutRule::infer`]), except that a pen servo on the spindle output draws in G0 too.
+    pub fn cut_rule(&self, moves: &[Move]) -> CutRule {
+        let rule = CutRule::infer(moves);
+        match self.tool {
+            Tool::Pen(PenLift::Spindle { .. }) => rule.for_spindle_pen(),
+            _ => rule,
+        }
+    }
+
+    /// The limits the time estimate needs.
+    pub fn limits(&self) -> MotionLimits {
+        MotionLimits {
+            rapid_mm_min: self.motion.rapid_mm_min,
+            max_feed_mm_min: self.motion.max_feed_mm_min,
+            accel_mm_s2: self.motion.accel_mm_s2,
+            junction_deviation_mm: self.motion.junction_deviation_mm,
+        }
+    }
+}
+
+// ---- raw TOML shape -------------------------------------------------------------------------
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMachine {
+    name: String,
+    #[serde(default)]
+    description: String,
+    bed: Bed,
+    motion: Motion,
+    tool: RawTool,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum ToolKind {
+    Laser,
+    Pen,
+    Knife,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum LiftKind {
+    Spindle,
+    Z,
+}
+
+/// All tool fields, checked against `kind` in [`validate`] (one flat table is what users edit).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    kind: ToolKind,
+    /// Laser: `$30`. Pen on the spindle output: the S that lowers it.
+    s_max: Option<f64>,
+    /// Laser: `$31`.
+    s_min: Option<f64>,
+    /// Pen: "spindle" or "z".
+    lift: Option<LiftKind>,
+    pen_down_s: Option<f64>,
+    z_up_mm: Option<f64>,
+    z_down_mm: Option<f64>,
+    plunge_mm_min: Option<f64>,
+    overcut_mm: Option<f64>,
+    /// Laser: air assist wired to the coolant output (M8 on, M9 off).
+    air_assist: Option<bool>,
+    /// Laser: power % for framing.
+    frame_power_pct: Option<f64>,
+}
+
+/// What a GRBL machine can be, field by field: every number in a profile must lie in its range
+/// (a `z_up_mm = 1e9` was written as `Z1000000000`, a feed of 1e308 broke the writer).
+pub mod bounds {
+    use std::ops::RangeInclusive;
+    /// Bed width and height, mm: up to 10 m.
+    pub const BED_MM: RangeInclusive<f64> = 1.0..=10_000.0;
+    /// Feeds and rates (max feed, rapid, plunge; also a cut's speed), mm/min: 1 mm/min to
+    /// 200 m/min.
+    pub const FEED_MM_MIN: RangeInclusive<f64> = 1.0..=200_000.0;
+    /// Acceleration, mm/s²: up to about 10 g.
+    pub const ACCEL_MM_S2: RangeInclusive<f64> = 1.0..=100_000.0;
+    /// Junction deviation (`$11`), mm.
+    pub const JUNCTION_DEVIATION_MM: RangeInclusive<f64> = 0.0001..=10.0;
+    /// Spindle S values (`$30`, a pen's down S): up to 100,000 (spindle RPM).
+    pub const S: RangeInclusive<f64> = 0.1..=100_000.0;
+    /// Z heights, mm: within a metre of zero.
+    pub const Z_MM: RangeInclusive<f64> = -1000.0..=1000.0;
+    /// A drag knife's overcut, mm.
+    pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
+    /// Framing power, % of full: a glimmer to see the outline by, never enough to mark.
+    pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
+    /// The longest profile name, characters (it is printed in G-code comments and messages).
+    pub const NAME_CHARS: usize = 100;
+}
+
+/// Parse and validate a profile's text. `origin` (the file) is used in errors.
+pub fn parse(text: &str, origin: &Path) -> Result<Machine, ProfileError> {
+    validate(parse_toml(text, origin)?, origin)
+}
+
+fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
+    let bad = |field: &str, value: String, why: String| ProfileError::Invalid {
+        path: origin.to_path_buf(),
+        field: field.to_string(),
+        value,
+        why,
+    };
+    let within = |field: &str, v: f64, r: std::ops::RangeInclusive<f64>, unit: &str| {
+        check_range(origin, field, v, *r.start(), *r.end(), unit).map(|_| v)
+    };
+    if raw.name.trim().is_empty() {
+        return Err(bad("name", "\"\"".into(), "must not be empty".into()));
+    }
+    if raw.name.chars().count() > bounds::NAME_CHARS || raw.name.chars().any(char::is_control) {
+        return Err(bad(
+            "name",
+            format!("\"{}\"", stencil_io::excerpt(&raw.name)),
+            format!(
+                "must be one line of at most {} characters",
+                bounds::NAME_CHARS
+            ),
+        ));
+    }
+    within("bed.width_mm", raw.bed.width_mm, bounds::BED_MM, "mm")?;
+    within("bed.height_mm", raw.bed.height_mm, bounds::BED_MM, "mm")?;
+    let m = &raw.motion;
+    within(
+        "motion.max_feed_mm_min",
+        m.max_feed_mm_min,
+        bounds::FEED_MM_MIN,
+        "mm/min",
+    )?;
+    within(
+        "motion.rapid_mm_min",
+        m.rapid_mm_min,
+        bounds::FEED_MM_MIN,
+        "mm/min",
+    )?;
+    within(
+        "motion.accel_mm_s2",
+        m.accel_mm_s2,
+        bounds::ACCEL_MM_S2,
+        "mm/s²",
+    )?;
+    within(
+        "motion.junction_deviation_mm",
+        m.junction_deviation_mm,
+        bounds::JUNCTION_DEVIATION_MM,
+        "mm",
+    )?;
+    let t = &raw.tool;
+    let kind = t.kind;
+    // Fields that belong to other tool kinds are mistakes worth naming.
+    let foreign: &[(&'static str, bool, &[ToolKind])] = &[
+        ("tool.s_max", t.s_max.is_some(), &[ToolKind::Laser]),
+        ("tool.s_min", t.s_min.is_some(), &[ToolKind::Laser]),
+        ("tool.lift", t.lift.is_some(), &[ToolKind::Pen]),
+        ("tool.pen_down_s", t.pen_down_s.is_some(), &[ToolKind::Pen]),
+        (
+            "tool.z_up_mm",
+            t.z_up_mm.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.z_down_mm",
+            t.z_down_mm.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.plunge_mm_min",
+            t.plunge_mm_min.is_some(),
+            &[ToolKind::Pen, ToolKind::Knife],
+        ),
+        (
+            "tool.overcut_mm",
+            t.overcut_mm.is_some(),
+            &[ToolKind::Knife],
+        ),
+        (
+            "tool.air_assist",
+            t.air_assist.is_some(),
+            &[ToolKind::Laser],
+        ),
+        (
+            "tool.frame_power_pct",
+            t.frame_power_pct.is_some(),
+            &[ToolKind::Laser],
+        ),
+    ];
+    for (field, present, kinds) in foreign {
+        if *present && !kinds.contains(&kind) {
+            return Err(bad(
+                field,
+                "set".into(),
+                format!("does not apply to a {} tool; remove it", kind_name(kind)),
+            ));
+        }
+    }
+    let need = |field: &'static str, v: Option<f64>| {
+        v.ok_or_else(|| {
+            bad(
+                field,
+                "missing".into(),
+                format!("is required for a {} tool", kind_name(kind)),
+            )
+        })
+    };
+    let required = |field: &'static str, v: Option<f64>, r, unit: &str| {
+        within(field, need(field, v)?, r, unit)
+    };
+    let z_lift = || -> Result<ZLift, ProfileError> {
+        let up = required("tool.z_up_mm", t.z_up_mm, bounds::Z_MM, "mm")?;
+        let down = required("tool.z_down_mm", t.z_down_mm, bounds::Z_MM, "mm")?;
+        let plunge = required(
+            "tool.plunge_mm_min",
+            t.plunge_mm_min,
+            bounds::FEED_MM_MIN,
+            "mm/min",
+        )?;
+        if up <= down {
+            return Err(bad(
+                "tool.z_up_mm",
+                up.to_string(),
+                format!("must be above tool.z_down_mm ({down})"),
+            ));
+        }
+        Ok(ZLift {
+            up_mm: up,
+            down_mm: down,
+            plunge_mm_min: plunge,
+        })
+    };
+    let tool = match kind {
+        ToolKind::Laser => {
+            let s_max = within("tool.s_max", t.s_max.unwrap_or(1000.0), bounds::S, "")?;
+            let s_min = t.s_min.unwrap_or(0.0);
+            if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
+                return Err(bad(
+                    "tool.s_min",
+                    s_min.to_string(),
+                    format!("must be >= 0 and below tool.s_max ({s_max})"),
+                ));
+            }
+            Tool::Laser { s_max, s_min }
+        }
+        ToolKind::Pen => match t.lift {
+            Some(LiftKind::Spindle) => {
+                for (f, v) in [
+                    ("tool.z_up_mm", t.z_up_mm),
+                    ("tool.z_down_mm", t.z_down_mm),
+                    ("tool.plunge_mm_min", t.plunge_mm_min),
+                ] {
+                    if v.is_some() {
+                        return Err(bad(
+                            f,
+                            "set".into(),
+                            "does not apply with lift = \"spindle\"".into(),
+                        ));
+                    }
+                }
+                Tool::Pen(PenLift::Spindle {
+                    down_s: required("tool.pen_down_s", t.pen_down_s, bounds::S, "")?,
+                })
+            }
+            Some(LiftKind::Z) => {
+                if t.pen_down_s.is_some() {
+                    return Err(bad(
+                        "tool.pen_down_s",
+                        "set".into(),
+                        "does not apply with lift = \"z\"".into(),
+                    ));
+                }
+                Tool::Pen(PenLift::Z(z_lift()?))
+            }
+            None => {
+                return Err(bad(
+                    "tool.lift",
+                    "missing".into(),
+                    "is required for a pen: \"spindle\" (M3/M5) or \"z\"".into(),
+                ))
+            }
+        },
+        ToolKind::Knife => {
+            let overcut = within(
+                "tool.overcut_mm",
+                t.overcut_mm.unwrap_or(0.0),
+                bounds::OVERCUT_MM,
+                "mm",
+            )?;
+            Tool::Knife {
+                z: z_lift()?,
+                overcut_mm: overcut,
+            }
+        }
+    };
+    let frame_power_pct = within(
+        "tool.frame_power_pct",
+        t.frame_power_pct.unwrap_or(0.0),
+        bounds::FRAME_POWER_PCT,
+        "%",
+    )?;
+    Ok(Machine {
+        name: raw.name,
+        description: raw.description,
+        bed: raw.bed,
+        motion: raw.motion,
+        tool,
+        air_assist: t.air_assist.unwrap_or(false),
+        frame_power_pct,
+    })
+}
+
+fn kind_name(k: ToolKind) -> &'static str {
+    match k {
+        ToolKind::Laser => "laser",
+        ToolKind::Pen => "pen",
+        ToolKind::Knife => "knife",
+    }
+}
+
+/// Names of the shipped profiles.
+pub fn builtin_names() -> Vec<&'static str> {
+    SHIPPED.iter().map(|s| s.name).collect()
+}
+
+/// Load a profile file.
+pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
+    validate(load_toml(path)?, path)
+}
+
+/// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
+/// `profile::resolve`). `None` gives [`DEFAULT_MACHINE`].
+pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
+    let (raw, origin): (RawMachine, _) =
+        resolve(name_or_path.unwrap_or(DEFAULT_MACHINE), "machines", SHIPPED)?;
+    validate(raw, &origin)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+name = "t"
+[bed]
+width_mm = 300
+height_mm = 200
+origin = "top-left"
+[motion]
+max_feed_mm_min = 5000
+rapid_mm_min = 8000
+accel_mm_s2 = 800
+[tool]
+kind = "laser"
+s_max = 255
+"#;
+
+    #[test]
+    fn every_builtin_profile_loads() {
+        for name in builtin_names() {
+            let m = load(Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(m.name, name, "the profile's name matches its file");
+        }
+        let d = load(None).unwrap();
+        assert_eq!((d.bed.width_mm, d.bed.height_mm), (400.0, 400.0));
+        assert!(matches!(d.tool, Tool::Laser { .. }));
+    }
+
+    #[test]
+    fn good_profile_fields() {
+        let m = parse(GOOD, Path::new("t.toml")).unwrap();
+        assert_eq!(m.bed.origin, Corner::TopLeft);
+        assert_eq!(m.motion.junction_deviation_mm, 0.01);
+        assert_eq!(
+            m.tool,
+            Tool::Laser {
+                s_max: 255.0,
+                s_min: 0.0
+            }
+        );
+    }
+
+    fn err(text: &str) -> String {
+        parse(text, Path::new("my.toml")).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let e = err(&GOOD.replace("accel_mm_s2", "acceleration"));
+        assert!(e.starts_with("my.toml:"), "{e}");
+        assert!(e.contains("acceleration"), "{e}");
+        assert!(!e.contains('\n'), "one line: {e}");
+    }
+
+    #[test]
+    fn negative_bed_is_named() {
+        let e = err(&GOOD.replace("width_mm = 300", "width_mm = -3"));
+        assert!(e.contains("bed.width_mm") && e.contains("-3"), "{e}");
+    }
+
+    #[test]
+    fn s_min_above_s_max_is_refused() {
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\ns_min = 300"));
+        assert!(e.contains("tool.s_min"), "{e}");
+    }
+
+    #[test]
+    fn field_of_another_tool_is_refused() {
+        let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
+        assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nair_assist = true",
+        );
+        let e = err(&pen);
+        assert!(e.contains("tool.air_assist") && e.contains("pen"), "{e}");
+        let air = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nair_assist = true"),
+            Path::new("a"),
+        );
+        assert!(air.unwrap().air_assist);
+    }
+
+    #[test]
+    fn frame_power_is_a_low_laser_setting() {
+        let m = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 1.5"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(m.frame_power_pct, 1.5);
+        assert_eq!(
+            parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct,
+            0.0
+        );
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 40"));
+        assert!(
+            e.contains("tool.frame_power_pct") && e.contains("10"),
+            "{e}"
+        );
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nframe_power_pct = 1",
+        );
+        assert!(err(&pen).contains("tool.frame_power_pct"), "{}", err(&pen));
+    }
+
+    #[test]
+    fn knife_needs_z_heights() {
+        let text = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = 3",
+        );
+        let e = err(&text);
+        assert!(
+            e.contains("tool.z_down_mm") && e.contains("required"),
+            "{e}"
+        );
+        let text = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = -1\nz_down_mm = 0\nplunge_mm_min = 300",
+        );
+        assert!(err(&text).contains("above"));
+    }
+
+    #[test]
+    fn bad_origin_and_unknown_kind() {
+        let e = err(&GOOD.replace("top-left", "middle"));
+        assert!(e.contains("middle") || e.contains("origin"), "{e}");
+        let e = err(&GOOD.replace("\"laser\"", "\"plasma\""));
+        assert!(e.contains("plasma"), "{e}");
+    }
+
+    #[test]
+    fn unknown_name_lists_builtins() {
+        let e = load(Some("nope")).unwrap_err().to_string();
+        assert!(e.contains("nope") && e.contains("diode-400"), "{e}");
+        let e = load(Some("/no/such/m.toml")).unwrap_err().to_string();
+        assert!(e.contains("/no/such/m.toml"), "{e}");
+    }
+
+    #[test]
+    fn every_number_is_bounded_by_what_a_machine_can_be() {
+        let knife = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"knife\"\nz_up_mm = 3\nz_down_mm = -0.3\nplunge_mm_min = 300\novercut_mm = 1",
+        );
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30",
+        );
+        assert!(parse(&knife, Path::new("k.toml")).is_ok());
+        assert!(parse(&pen, Path::new("p.toml")).is_ok());
+        for (base, from, to, field) in [
+            (GOOD, "width_mm = 300", "width_mm = 1e308", "bed.width_mm"),
+            (
+                GOOD,
+                "height_mm = 200",
+                "height_mm = 0.001",
+                "bed.height_mm",
+            ),
+            (
+                GOOD,
+                "max_feed_mm_min = 5000",
+                "max_feed_mm_min = 1e308",
+                "motion.max_feed_mm_min",
+            ),
+            (
+                GOOD,
+                "max_feed_mm_min = 5000",
+                "max_feed_mm_min = 1e-300",
+                "motion.max_feed_mm_min",
+            ),
+            (
+                GOOD,
+                "rapid_mm_min = 8000",
+                "rapid_mm_min = 1e9",
+                "motion.rapid_mm_min",
+            ),
+            (
+                GOOD,
+                "accel_mm_s2 = 800",
+                "accel_mm_s2 = 1e12",
+                "motion.accel_mm_s2",
+            ),
+            (
+                GOOD,
+                "accel_mm_s2 = 800",
+                "accel_mm_s2 = 800\njunction_deviation_mm = 1e-300",
+                "motion.junction_deviation_mm",
+            ),
+            (GOOD, "s_max = 255", "s_max = 1e308", "tool.s_max"),
+            (&knife, "z_up_mm = 3", "z_up_mm = 1e9", "tool.z_up_mm"),
+            (
+                &knife,
+                "z_down_mm = -0.3",
+                "z_down_mm = -1e9",
+                "tool.z_down_mm",
+            ),
+            (
+                &knife,
+                "plunge_mm_min = 300",
+                "plunge_mm_min = 1e300",
+                "tool.plunge_mm_min",
+            ),
+            (
+                &knife,
+                "overcut_mm = 1",
+                "overcut_mm = 1e6",
+                "tool.overcut_mm",
+            ),
+            (
+                &pen,
+                "pen_down_s = 30",
+                "pen_down_s = 1e300",
+                "tool.pen_down_s",
+            ),
+            (
+                GOOD,
+                "name = \"t\"",
+                &format!("name = \"{}\"", "n".repeat(500)),
+                "name",
+            ),
+        ] {
+            let text = base.replace(from, to);
+            assert_ne!(text, base, "{from}");
+            let e = err(&text);
+            assert!(
+                e.starts_with("my.toml: field `") && e.contains(field),
+                "{to}: {e}"
+            );
+            assert!(e.len() < 300 && !e.contains("00000000000"), "{e}");
+        }
+    }
+}

@@ -1,0 +1,569 @@
+//! From cut geometry (sheet millimetres, y down) to a job: closed loops in machine millimetres,
+//! placed on the bed, checked against it, in cut order with a start vertex each.
+
+use geo::{Area, LineString};
+
+use crate::cuts::{CutLoops, Pieces};
+use crate::machine::{Corner, Machine, Tool};
+
+use crate::{order, travel};
+
+/// How the material is cut: the planner's view of a material profile (the CLI maps a `Material`
+/// onto it, or the user gives `--power/--speed/--passes`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CutSettings {
+    /// Laser power in percent of full (`$30`); ignored by pens and knives.
+    pub power_pct: f64,
+    /// Cutting feed, mm/min.
+    pub speed_mm_min: f64,
+    /// How many times each loop is cut.
+    pub passes: u32,
+    /// Drag knife only: how far the blade tip trails the knife's axis, mm (0 = no compensation).
+    /// The writer then overshoots each corner by this much and swivels the blade around it.
+    #[serde(default)]
+    pub blade_offset_mm: f64,
+    /// Laser only: air assist on with the beam (`M8` before the first cut, `M9` at the end).
+    #[serde(default)]
+    pub air_assist: bool,
+}
+
+/// Which point of the job sits at `--offset`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Anchor {
+    Corner(Corner),
+    Center,
+}
+
+impl std::str::FromStr for Anchor {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "bottom-left" | "bl" => Anchor::Corner(Corner::BottomLeft),
+            "bottom-right" | "br" => Anchor::Corner(Corner::BottomRight),
+            "top-left" | "tl" => Anchor::Corner(Corner::TopLeft),
+            "top-right" | "tr" => Anchor::Corner(Corner::TopRight),
+            "center" | "centre" => Anchor::Center,
+            _ => {
+                return Err(format!(
+                    "'{s}' is not a job origin: use bottom-left, bottom-right, top-left, top-right or center"
+                ))
+            }
+        })
+    }
+}
+
+/// Where the job goes on the bed and what is cut.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanConfig {
+    /// The job point placed at `offset`; `None` = the corner at the machine's origin.
+    pub anchor: Option<Anchor>,
+    /// Machine coordinates (mm) of the anchor.
+    pub offset: [f64; 2],
+    /// Also cut the sheet's rectangle, after everything inside it.
+    pub cut_outline: bool,
+    pub settings: CutSettings,
+}
+
+impl PlanConfig {
+    pub fn new(settings: CutSettings) -> Self {
+        PlanConfig {
+            anchor: None,
+            offset: [0.0, 0.0],
+            cut_outline: false,
+            settings,
+        }
+    }
+}
+
+/// One closed loop in machine mm, rotated so that `points[0]` is where the cut starts and ends.
+/// The closing segment back to `points[0]` is implied.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Loop {
+    pub points: Vec<[f64; 2]>,
+    /// The sheet's outline (the frame cut), not a cut region.
+    pub outline: bool,
+    /// Enclosed area, mm².
+    pub area_mm2: f64,
+}
+
+impl Loop {
+    pub fn perimeter_mm(&self) -> f64 {
+        let n = self.points.len();
+        (0..n)
+            .map(|i| dist(self.points[i], self.points[(i + 1) % n]))
+            .sum()
+    }
+}
+
+/// Travel of a job, compared with cutting the loops in input order from their first vertex.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PathStats {
+    pub loops: usize,
+    /// Length cut, all passes, mm.
+    pub cut_mm: f64,
+    /// Tool-off travel of the optimised order, from the start point, back to it, mm.
+    pub travel_mm: f64,
+    /// The same for the input order with each loop started at its first vertex, mm.
+    pub naive_travel_mm: f64,
+}
+
+/// A planned job: loops in cut order, ready for the G-code writer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    pub loops: Vec<Loop>,
+    /// Where the head starts and returns to (machine 0, 0).
+    pub home: [f64; 2],
+    pub settings: CutSettings,
+    /// The sheet's size and its placed lower-left / upper-right corners in machine mm.
+    pub sheet_mm: [f64; 2],
+    pub min: [f64; 2],
+    pub max: [f64; 2],
+    pub stats: PathStats,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error(
+        "the job ({w:.1} x {h:.1} mm) does not fit on the bed of '{machine}' ({bw:.1} x {bh:.1} mm): \
+         at this placement it spans X {x0:.1}..{x1:.1}, Y {y0:.1}..{y1:.1} mm; {hint}"
+    )]
+    DoesNotFit {
+        machine: String,
+        w: f64,
+        h: f64,
+        bw: f64,
+        bh: f64,
+        x0: f64,
+        x1: f64,
+        y0: f64,
+        y1: f64,
+        hint: &'static str,
+    },
+    #[error("nothing to cut: the geometry has no cut regions (and --cut-outline is off)")]
+    Empty,
+    #[error("{0}")]
+    Settings(String),
+    /// Our own output failed our own interpreter: a bug, reported rather than written.
+    #[error("internal error: the written G-code does not run ({0}); please report this")]
+    Internal(String),
+}
+
+pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// The most passes a job may make.
+pub const MAX_PASSES: u32 = 100;
+
+/// The largest drag-knife blade offset, mm.
+pub const MAX_BLADE_OFFSET_MM: f64 = 5.0;
+
+/// Check cut settings against the machine (feed within its limit, laser S within its range).
+pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanError> {
+    let bad = |m: String| Err(PlanError::Settings(m));
+    let feeds = crate::machine::bounds::FEED_MM_MIN;
+    if !(s.speed_mm_min.is_finite() && s.speed_mm_min >= *feeds.start()) {
+        return bad(format!(
+            "cutting speed must be at least {} mm/min, got {}",
+            feeds.start(),
+            s.speed_mm_min
+        ));
+    }
+    if s.speed_mm_min > machine.motion.max_feed_mm_min {
+        return bad(format!(
+            "cutting speed {} mm/min is above the max feed of '{}' ({} mm/min); lower the speed",
+            s.speed_mm_min, machine.name, machine.motion.max_feed_mm_min
+        ));
+    }
+    if !(s.blade_offset_mm.is_finite() && (0.0..=MAX_BLADE_OFFSET_MM).contains(&s.blade_offset_mm))
+    {
+        return bad(format!(
+            "blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {}",
+            s.blade_offset_mm
+        ));
+    }
+    if s.passes == 0 || s.passes > MAX_PASSES {
+        return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
+    }
+    if s.air_assist && !matches!(machine.tool, Tool::Laser { .. }) {
+        return bad(format!(
+            "air assist is for a laser; '{}' has a {}: turn it off",
+            machine.name,
+            machine.tool.kind()
+        ));
+    }
+    if let Tool::Laser { s_max, s_min } = machine.tool {
+        if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
+            return bad(format!(
+                "laser power must be in (0, 100] %, got {}",
+                s.power_pct
+            ));
+        }
+        let sv = laser_s(s.power_pct, s_max);
+        if sv <= 0.0 {
+            return bad(format!(
+                "laser power {} % gives S0 on '{}' ($30={s_max}): the laser would not fire; \
+                 raise the power",
+                s.power_pct, machine.name
+            ));
+        }
+        if sv < s_min {
+            return bad(format!(
+                "laser power {} % gives S{sv}, below the minimum S of '{}' ($31={s_min}); raise the power",
+                s.power_pct, machine.name
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The S word for a power percentage: `% × $30`, rounded to 0.1.
+pub fn laser_s(power_pct: f64, s_max: f64) -> f64 {
+    (power_pct / 100.0 * s_max * 10.0).round() / 10.0
+}
+
+/// The sheet's rectangle in sheet mm (y down): `[x0, y0, x1, y1]`.
+pub fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
+    let o = geom.outline;
+    [o.min().x, o.min().y, o.max().x, o.max().y]
+}
+
+/// Sheet mm (x right, y down) → machine mm, for the sheet `rect` placed per `cfg` on `machine`.
+#[derive(Clone, Copy, Debug)]
+struct Placement {
+    /// The sheet's left and bottom (largest y-down) edges.
+    x0: f64,
+    y1: f64,
+    w: f64,
+    h: f64,
+    flip_x: bool,
+    flip_y: bool,
+    shift: [f64; 2],
+}
+
+impl Placement {
+    fn new(rect: [f64; 4], machine: &Machine, cfg: &PlanConfig) -> Self {
+        let (w, h) = (rect[2] - rect[0], rect[3] - rect[1]);
+        let origin = machine.bed.origin;
+        let mut p = Placement {
+            x0: rect[0],
+            y1: rect[3],
+            w,
+            h,
+            flip_x: origin.right(),
+            flip_y: origin.top(),
+            shift: [0.0, 0.0],
+        };
+        // The anchor in bed view (x right, y up, the sheet's lower-left at 0, 0).
+        let (au, av) = match cfg.anchor.unwrap_or(Anchor::Corner(origin)) {
+            Anchor::Center => (w / 2.0, h / 2.0),
+            Anchor::Corner(c) => (
+                if c.right() { w } else { 0.0 },
+                if c.top() { h } else { 0.0 },
+            ),
+        };
+        let a = p.orient(au, av);
+        p.shift = [cfg.offset[0] - a[0], cfg.offset[1] - a[1]];
+        p
+    }
+
+    /// Bed view (y up) → machine axes (which point away from the origin corner), unshifted.
+    fn orient(&self, u: f64, v: f64) -> [f64; 2] {
+        [
+            if self.flip_x { self.w - u } else { u },
+            if self.flip_y { self.h - v } else { v },
+        ]
+    }
+
+    fn map(&self, x: f64, y_down: f64) -> [f64; 2] {
+        let [mx, my] = self.orient(x - self.x0, self.y1 - y_down);
+        [mx + self.shift[0], my + self.shift[1]]
+    }
+}
+
+/// A ring as plain points: closing duplicate and repeated points removed.
+fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
+    for c in &ls.0 {
+        let p = place.map(c.x, c.y);
+        if pts.last().is_none_or(|&q| dist(p, q) > 1e-9) {
+            pts.push(p);
+        }
+    }
+    while pts.len() > 1 && dist(pts[0], pts[pts.len() - 1]) <= 1e-9 {
+        pts.pop();
+    }
+    pts
+}
+
+/// Without bridge data (a drawing from another program), gaps between cut loops up to this wide
+/// (besides the kerf) are taken for bridges: about the widths makers draw bridges at. Pieces
+/// narrower than this are not told apart from their surroundings (the hull rule still orders
+/// what lies in a single broken ring).
+pub const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
+
+/// What the planner knows of the pieces the cuts free: the cut regions before bridging when
+/// `make` passed them; nothing to find when `make` had no islands; otherwise (a drawing) a
+/// geometric closing of bridge-wide gaps.
+fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
+    match &geom.pieces {
+        Pieces::Regions(regions) => order::Gaps::Regions(
+            regions
+                .0
+                .iter()
+                .filter(|p| !p.interiors().is_empty())
+                .map(|p| order::Region {
+                    exterior: ring_points(p.exterior(), place),
+                    holes: p
+                        .interiors()
+                        .iter()
+                        .map(|h| ring_points(h, place))
+                        .collect(),
+                })
+                .collect(),
+        ),
+        Pieces::NoIslands => order::Gaps::None,
+        Pieces::Unknown => order::Gaps::Closing {
+            r_mm: (DRAWN_BRIDGE_MAX_MM + geom.kerf_mm) / 2.0,
+        },
+    }
+}
+
+/// Plan a job: place, check the bed, order the loops, pick start points.
+pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
+    check_settings(&cfg.settings, machine)?;
+    let rect = sheet_rect(geom);
+    let size = [rect[2] - rect[0], rect[3] - rect[1]];
+    let place = Placement::new(rect, machine, cfg);
+
+    // Cut loops, in input order: each polygon's holes (islands, which must not exist after
+    // bridging but are cut if they do), then its exterior.
+    let mut loops: Vec<Loop> = Vec::new();
+    for poly in &geom.cuts.0 {
+        for ring in poly
+            .interiors()
+            .iter()
+            .chain(std::iter::once(poly.exterior()))
+        {
+            let pts = ring_points(ring, &place);
+            let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
+            if pts.len() >= 3 && area > 1e-9 {
+                loops.push(Loop {
+                    points: pts,
+                    outline: false,
+                    area_mm2: area,
+                });
+            }
+        }
+    }
+    let frame = [
+        place.map(rect[0], rect[1]),
+        place.map(rect[2], rect[1]),
+        place.map(rect[2], rect[3]),
+        place.map(rect[0], rect[3]),
+    ];
+    if cfg.cut_outline {
+        loops.push(Loop {
+            points: frame.to_vec(),
+            outline: true,
+            area_mm2: size[0] * size[1],
+        });
+    }
+    if loops.is_empty() {
+        return Err(PlanError::Empty);
+    }
+
+    // Bounds: the sheet and everywhere the head goes must lie on the bed. A drag knife's axis runs
+    // up to the blade offset outside the cut lines.
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
+    };
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    let mut grow = |p: &[f64; 2], r: f64| {
+        for a in 0..2 {
+            min[a] = min[a].min(p[a] - r);
+            max[a] = max[a].max(p[a] + r);
+        }
+    };
+    frame.iter().for_each(|p| grow(p, 0.0));
+    loops
+        .iter()
+        .flat_map(|l| l.points.iter())
+        .for_each(|p| grow(p, reach));
+    let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
+    let eps = 1e-6;
+    if machine.check_extent(min, max, None).is_err() {
+        let too_big = max[0] - min[0] > bw + eps || max[1] - min[1] > bh + eps;
+        return Err(PlanError::DoesNotFit {
+            machine: machine.name.clone(),
+            w: max[0] - min[0],
+            h: max[1] - min[1],
+            bw,
+            bh,
+            x0: min[0],
+            x1: max[0],
+            y0: min[1],
+            y1: max[1],
+            hint: if too_big {
+                "scale the stencil down or use a larger machine"
+            } else {
+                "move it with --offset X,Y or --origin"
+            },
+        });
+    }
+
+    let home = [0.0, 0.0];
+    let naive_travel_mm = travel::naive_travel(&loops, home);
+    // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
+    // depth layers optimised one by one, nearest neighbour under the constraints, and the input
+    // order itself where it keeps them.
+    let order::Order { groups, before, .. } = order::order(&loops, &gaps(geom, &place));
+    let mut candidates = vec![
+        travel::optimise(&loops, &groups, home),
+        travel::greedy_constrained(&loops, &before, home),
+    ];
+    let mut input: Vec<(usize, usize)> = (0..loops.len()).map(|i| (i, 0)).collect();
+    if travel::respects(&input, &before) {
+        travel::refine_starts(&loops, &mut input, home);
+        candidates.push(input);
+    }
+    // The layered order always keeps them (first in the list); the others are checked.
+    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(&loops, c, home);
+    let mut sequence = candidates.swap_remove(0);
+    let mut best = travel_of_seq(&sequence);
+    for c in candidates {
+        let t = travel_of_seq(&c);
+        if t < best - 1e-9 && travel::respects(&c, &before) {
+            (sequence, best) = (c, t);
+        }
+    }
+    let mut ordered = Vec::with_capacity(loops.len());
+    for (i, start) in sequence {
+        let mut l = loops[i].clone();
+        l.points.rotate_left(start);
+        ordered.push(l);
+    }
+    let travel_mm = travel::travel_of(&ordered, home);
+    let passes = cfg.settings.passes;
+    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
+    Ok(Job {
+        stats: PathStats {
+            loops: ordered.len(),
+            cut_mm,
+            travel_mm,
+            naive_travel_mm,
+        },
+        loops: ordered,
+        home,
+        settings: cfg.settings,
+        sheet_mm: size,
+        min,
+        max,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine;
+    use geo::{Coord, MultiPolygon, Polygon, Rect};
+
+    pub(crate) fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Polygon<f64> {
+        Polygon::new(
+            LineString::from(vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]),
+            vec![],
+        )
+    }
+
+    fn geom(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutLoops {
+        let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
+        CutLoops::drawn(outline, MultiPolygon(cuts))
+    }
+
+    fn settings() -> CutSettings {
+        CutSettings {
+            power_pct: 80.0,
+            speed_mm_min: 600.0,
+            passes: 1,
+            blade_offset_mm: 0.0,
+            air_assist: false,
+        }
+    }
+
+    #[test]
+    fn flips_y_and_places_at_offset() {
+        let m = machine::load(None).unwrap();
+        let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
+        let mut cfg = PlanConfig::new(settings());
+        cfg.offset = [30.0, 40.0];
+        let job = plan(&g, &m, &cfg).unwrap();
+        let pts = &job.loops[0].points;
+        // y down 5..15 on a 50 mm sheet → y up 35..45, shifted by 40.
+        let ys: Vec<f64> = pts.iter().map(|p| p[1]).collect();
+        let xs: Vec<f64> = pts.iter().map(|p| p[0]).collect();
+        assert!(ys
+            .iter()
+            .all(|&y| (y - 75.0).abs() < 1e-9 || (y - 85.0).abs() < 1e-9));
+        assert!(xs
+            .iter()
+            .all(|&x| (x - 40.0).abs() < 1e-9 || (x - 50.0).abs() < 1e-9));
+        assert_eq!(job.min, [30.0, 40.0]);
+        assert_eq!(job.max, [130.0, 90.0]);
+    }
+
+    #[test]
+    fn top_left_origin_keeps_y_down_and_center_anchor() {
+        let mut m = machine::load(None).unwrap();
+        m.bed.origin = Corner::TopLeft;
+        let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
+        let job = plan(&g, &m, &PlanConfig::new(settings())).unwrap();
+        let ys: Vec<f64> = job.loops[0].points.iter().map(|p| p[1]).collect();
+        assert!(ys.iter().all(|&y| y == 5.0 || y == 15.0), "{ys:?}");
+        let mut cfg = PlanConfig::new(settings());
+        cfg.anchor = Some(Anchor::Center);
+        cfg.offset = [200.0, 200.0];
+        let job = plan(&g, &m, &cfg).unwrap();
+        assert_eq!(job.min, [150.0, 175.0]);
+        assert_eq!(job.max, [250.0, 225.0]);
+    }
+
+    #[test]
+    fn too_big_is_refused_with_sizes() {
+        let m = machine::load(None).unwrap();
+        let g = geom(500.0, 120.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
+        let e = plan(&g, &m, &PlanConfig::new(settings()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("500.0 x 120.0") && e.contains("400.0 x 400.0"),
+            "{e}"
+        );
+        assert!(e.contains("scale"), "{e}");
+        let g = geom(100.0, 100.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
+        let mut cfg = PlanConfig::new(settings());
+        cfg.offset = [350.0, 0.0];
+        let e = plan(&g, &m, &cfg).unwrap_err().to_string();
+        assert!(
+            e.contains("X 350.0..450.0") && e.contains("--offset"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn settings_are_checked() {
+        let m = machine::load(None).unwrap();
+        let g = geom(100.0, 100.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
+        let mut s = settings();
+        s.speed_mm_min = 60000.0;
+        let e = plan(&g, &m, &PlanConfig::new(s)).unwrap_err().to_string();
+        assert!(e.contains("max feed"), "{e}");
+        s = settings();
+        s.passes = 0;
+        assert!(plan(&g, &m, &PlanConfig::new(s)).is_err());
+        s = settings();
+        s.power_pct = 120.0;
+        assert!(plan(&g, &m, &PlanConfig::new(s)).is_err());
+    }
+}

@@ -1,0 +1,478 @@
+//! Travel optimisation: the order of the loops within a group and the vertex each starts at.
+//!
+//! A closed loop ends where it starts, so the travel between two loops is the distance between
+//! their start vertices. The optimiser alternates two steps:
+//! 1. order: nearest neighbour from the current head position, then 2-opt and Or-opt (moving runs
+//!    of 1–3 loops, either way round) on the start points, with fixed start and free end, using
+//!    K-nearest-neighbour candidate lists so large jobs stay fast;
+//! 2. start points: walking the order, each loop starts at its vertex nearest the previous end.
+//!
+//! Round two repeats both with the new start points.
+
+use crate::toolpath::{dist, Loop};
+use stencil_geom::ring::bbox;
+
+/// Candidate neighbours per point for 2-opt and Or-opt.
+const K: usize = 12;
+/// Improvement rounds per optimisation (each round is a full sweep of all moves).
+const MAX_ROUNDS: usize = 60;
+
+/// Travel of loops cut in this order from their `points[0]`, starting and ending at `home`.
+pub fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
+    let mut cur = home;
+    let mut t = 0.0;
+    for l in loops {
+        t += dist(cur, l.points[0]);
+        cur = l.points[0];
+    }
+    t + dist(cur, home)
+}
+
+/// The travel of the input order (each loop from its first vertex): the baseline we report.
+pub fn naive_travel(loops: &[Loop], home: [f64; 2]) -> f64 {
+    travel_of(loops, home)
+}
+
+/// The vertex of `l` nearest to `p`.
+fn nearest_vertex(l: &Loop, p: [f64; 2]) -> (usize, f64) {
+    let mut best = (0, f64::INFINITY);
+    for (k, &q) in l.points.iter().enumerate() {
+        let d = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+        if d < best.1 {
+            best = (k, d);
+        }
+    }
+    (best.0, best.1.sqrt())
+}
+
+/// Lower bound of the distance from `p` to any point of a box.
+fn box_dist(b: &[f64; 4], p: [f64; 2]) -> f64 {
+    let dx = (b[0] - p[0]).max(p[0] - b[2]).max(0.0);
+    let dy = (b[1] - p[1]).max(p[1] - b[3]).max(0.0);
+    (dx * dx + dy * dy).sqrt()
+}
+
+/// Order all groups, one after the other, from `home`. Returns (loop index, start vertex) in cut
+/// order.
+pub fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(usize, usize)> {
+    let mut out = Vec::with_capacity(loops.len());
+    let mut cur = home;
+    for g in groups {
+        let seq = optimise_group(loops, g, cur);
+        if let Some(&(i, s)) = seq.last() {
+            cur = loops[i].points[s];
+        }
+        out.extend(seq);
+    }
+    refine_starts(loops, &mut out, home);
+    out
+}
+
+/// Nearest neighbour under precedence: from `home`, go to the nearest loop (nearest vertex) whose
+/// every `before` loop is cut. Finishes what lies inside a region before moving on, where
+/// [`optimise`] over depth layers must visit every inner loop of the job first.
+pub fn greedy_constrained(
+    loops: &[Loop],
+    before: &[Vec<usize>],
+    home: [f64; 2],
+) -> Vec<(usize, usize)> {
+    let n = loops.len();
+    let boxes: Vec<[f64; 4]> = loops.iter().map(|l| bbox(&l.points)).collect();
+    let mut waiting: Vec<usize> = before.iter().map(Vec::len).collect();
+    let mut after: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (j, b) in before.iter().enumerate() {
+        for &i in b {
+            after[i].push(j);
+        }
+    }
+    let mut ready: Vec<usize> = (0..n).filter(|&i| waiting[i] == 0).collect();
+    let mut out = Vec::with_capacity(n);
+    let mut cur = home;
+    while !ready.is_empty() {
+        let mut best = (0usize, 0usize, f64::INFINITY);
+        for (r, &k) in ready.iter().enumerate() {
+            if box_dist(&boxes[k], cur) >= best.2 {
+                continue;
+            }
+            let (v, d) = nearest_vertex(&loops[k], cur);
+            if d < best.2 {
+                best = (r, v, d);
+            }
+        }
+        let k = ready.swap_remove(best.0);
+        out.push((k, best.1));
+        cur = loops[k].points[best.1];
+        for &j in &after[k] {
+            waiting[j] -= 1;
+            if waiting[j] == 0 {
+                ready.push(j);
+            }
+        }
+    }
+    // A cycle cannot happen (the constraints follow a strict key), but never drop a loop.
+    if out.len() < n {
+        let mut seen = vec![false; n];
+        out.iter().for_each(|&(i, _)| seen[i] = true);
+        out.extend((0..n).filter(|&i| !seen[i]).map(|i| (i, 0)));
+    }
+    refine_starts(loops, &mut out, home);
+    out
+}
+
+/// Whether a sequence cuts every loop after all its `before` loops.
+pub fn respects(seq: &[(usize, usize)], before: &[Vec<usize>]) -> bool {
+    let mut pos = vec![usize::MAX; before.len()];
+    for (k, &(i, _)) in seq.iter().enumerate() {
+        pos[i] = k;
+    }
+    before
+        .iter()
+        .enumerate()
+        .all(|(j, b)| b.iter().all(|&i| pos[i] < pos[j]))
+}
+
+/// Travel of a sequence of (loop, start vertex) from and back to `home`.
+pub fn sequence_travel(loops: &[Loop], seq: &[(usize, usize)], home: [f64; 2]) -> f64 {
+    let mut cur = home;
+    let mut t = 0.0;
+    for &(i, s) in seq {
+        t += dist(cur, loops[i].points[s]);
+        cur = loops[i].points[s];
+    }
+    t + dist(cur, home)
+}
+
+/// Start-vertex sweeps over the whole sequence: each loop starts at the vertex that makes the
+/// way in from the previous loop plus the way on to the next (or back home) shortest. Groups are
+/// optimised one at a time, each greedily from where the last ended; this lets a loop's start
+/// also look ahead, across group borders (where one-loop groups, as nested rings give, would
+/// otherwise each start just at the nearest vertex to the last).
+pub fn refine_starts(loops: &[Loop], seq: &mut [(usize, usize)], home: [f64; 2]) {
+    let n = seq.len();
+    for _sweep in 0..3 {
+        let mut changed = false;
+        for k in 0..n {
+            let prev = if k == 0 {
+                home
+            } else {
+                loops[seq[k - 1].0].points[seq[k - 1].1]
+            };
+            let next = if k + 1 == n {
+                home
+            } else {
+                loops[seq[k + 1].0].points[seq[k + 1].1]
+            };
+            let (i, s) = seq[k];
+            let cost = |v: usize| dist(prev, loops[i].points[v]) + dist(loops[i].points[v], next);
+            let mut best = (s, cost(s));
+            for v in 0..loops[i].points.len() {
+                let c = cost(v);
+                if c < best.1 - 1e-9 {
+                    best = (v, c);
+                }
+            }
+            if best.0 != s {
+                seq[k].1 = best.0;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+}
+
+fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize, usize)> {
+    let n = group.len();
+    if n == 0 {
+        return vec![];
+    }
+    // Nearest neighbour over the nearest vertex of each remaining loop, pruned by bounding boxes.
+    let boxes: Vec<[f64; 4]> = group.iter().map(|&i| bbox(&loops[i].points)).collect();
+    let mut remaining: Vec<usize> = (0..n).collect();
+    let mut seq: Vec<usize> = Vec::with_capacity(n);
+    let mut start = vec![0usize; n];
+    let mut cur = from;
+    while !remaining.is_empty() {
+        let mut best = (usize::MAX, 0usize, f64::INFINITY);
+        for (r, &k) in remaining.iter().enumerate() {
+            if box_dist(&boxes[k], cur) >= best.2 {
+                continue;
+            }
+            let (v, d) = nearest_vertex(&loops[group[k]], cur);
+            if d < best.2 {
+                best = (r, v, d);
+            }
+        }
+        let k = remaining.swap_remove(best.0);
+        start[k] = best.1;
+        cur = loops[group[k]].points[best.1];
+        seq.push(k);
+    }
+
+    let mut best_len = f64::INFINITY;
+    let mut best_seq = (seq.clone(), start.clone());
+    for _round in 0..2 {
+        let pts: Vec<[f64; 2]> = (0..n).map(|k| loops[group[k]].points[start[k]]).collect();
+        improve(&mut seq, &pts, from);
+        // Re-pick each start vertex nearest the previous end.
+        let mut cur = from;
+        for &k in &seq {
+            let (v, _) = nearest_vertex(&loops[group[k]], cur);
+            start[k] = v;
+            cur = loops[group[k]].points[v];
+        }
+        let len = open_len(
+            &seq,
+            &(0..n)
+                .map(|k| loops[group[k]].points[start[k]])
+                .collect::<Vec<_>>(),
+            from,
+        );
+        if len < best_len - 1e-9 {
+            best_len = len;
+            best_seq = (seq.clone(), start.clone());
+        } else {
+            break;
+        }
+    }
+    let (seq, start) = best_seq;
+    seq.into_iter().map(|k| (group[k], start[k])).collect()
+}
+
+fn open_len(seq: &[usize], pts: &[[f64; 2]], from: [f64; 2]) -> f64 {
+    let mut cur = from;
+    let mut t = 0.0;
+    for &k in seq {
+        t += dist(cur, pts[k]);
+        cur = pts[k];
+    }
+    t
+}
+
+/// K nearest neighbours of each point (brute force; fine for the few thousand loops of a stencil).
+fn knn(pts: &[[f64; 2]]) -> Vec<Vec<usize>> {
+    let n = pts.len();
+    let k = K.min(n.saturating_sub(1));
+    (0..n)
+        .map(|i| {
+            let mut c: Vec<(f64, usize)> = (0..n)
+                .filter(|&j| j != i)
+                .map(|j| (dist(pts[i], pts[j]), j))
+                .collect();
+            if k < c.len() {
+                c.select_nth_unstable_by(k, |a, b| a.0.total_cmp(&b.0));
+                c.truncate(k);
+            }
+            c.sort_by(|a, b| a.0.total_cmp(&b.0));
+            c.into_iter().map(|(_, j)| j).collect()
+        })
+        .collect()
+}
+
+/// 2-opt and Or-opt on an open path that starts at `from` and ends anywhere.
+fn improve(seq: &mut Vec<usize>, pts: &[[f64; 2]], from: [f64; 2]) {
+    let n = seq.len();
+    if n < 2 {
+        return;
+    }
+    let nb = knn(pts);
+    let mut pos = vec![0usize; n];
+    let reindex = |seq: &[usize], pos: &mut [usize]| {
+        for (i, &k) in seq.iter().enumerate() {
+            pos[k] = i;
+        }
+    };
+    reindex(seq, &mut pos);
+    // Point at sequence index i; index -1 is `from`.
+    let at = |seq: &[usize], i: isize| -> [f64; 2] {
+        if i < 0 {
+            from
+        } else {
+            pts[seq[i as usize]]
+        }
+    };
+    let eps = 1e-9;
+    for _ in 0..MAX_ROUNDS {
+        let mut improved = false;
+
+        // 2-opt: reverse seq[i..=j]; new edges (prev(i), seq[j]) and (seq[i], seq[j+1]).
+        let gain = |seq: &[usize], i: usize, j: usize| -> f64 {
+            let prev = at(seq, i as isize - 1);
+            let (a, b) = (pts[seq[i]], pts[seq[j]]);
+            let mut d = dist(prev, b) - dist(prev, a);
+            if j + 1 < seq.len() {
+                let next = pts[seq[j + 1]];
+                d += dist(a, next) - dist(b, next);
+            }
+            d
+        };
+        for i in 0..n {
+            // Candidates for the new edge from prev(i): neighbours of prev, or all points from the
+            // start (where prev is `from`, not a point with a neighbour list).
+            let cands: Vec<usize> = if i == 0 {
+                (0..n).collect()
+            } else {
+                nb[seq[i - 1]].clone()
+            };
+            for c in cands {
+                let j = pos[c];
+                if j > i && gain(seq, i, j) < -eps {
+                    seq[i..=j].reverse();
+                    reindex(seq, &mut pos);
+                    improved = true;
+                }
+            }
+        }
+        for j in 0..n.saturating_sub(1) {
+            // Candidates for the new edge to seq[j+1]: its neighbours, as seq[i].
+            for &c in &nb[seq[j + 1]] {
+                let i = pos[c];
+                if i < j && gain(seq, i, j) < -eps {
+                    seq[i..=j].reverse();
+                    reindex(seq, &mut pos);
+                    improved = true;
+                }
+            }
+        }
+
+        // Or-opt: move seq[i..i+len] between two neighbours elsewhere, maybe reversed.
+        for len in 1..=3usize {
+            let mut i = 0;
+            while i + len <= n {
+                let (first, last) = (seq[i], seq[i + len - 1]);
+                let prev = at(seq, i as isize - 1);
+                let next = (i + len < n).then(|| pts[seq[i + len]]);
+                let removed = dist(prev, pts[first])
+                    + next.map_or(0.0, |q| dist(pts[last], q) - dist(prev, q));
+                // Insertion between sequence positions k and k+1 (k = -1: right after `from`).
+                let mut best: Option<(f64, isize, bool)> = None;
+                for &c in nb[first].iter().chain(nb[last].iter()) {
+                    let pc = pos[c] as isize;
+                    for k in [pc - 1, pc] {
+                        if k >= i as isize - 1 && k < (i + len) as isize {
+                            continue;
+                        }
+                        let u = at(seq, k);
+                        let v = ((k + 1) < n as isize).then(|| pts[seq[(k + 1) as usize]]);
+                        for rev in [false, true] {
+                            let (x, y) = if rev { (last, first) } else { (first, last) };
+                            let added =
+                                dist(u, pts[x]) + v.map_or(0.0, |v| dist(pts[y], v) - dist(u, v));
+                            let d = added - removed;
+                            if d < -eps && best.is_none_or(|b| d < b.0) {
+                                best = Some((d, k, rev));
+                            }
+                        }
+                    }
+                }
+                if let Some((_, k, rev)) = best {
+                    let mut seg: Vec<usize> = seq.drain(i..i + len).collect();
+                    if rev {
+                        seg.reverse();
+                    }
+                    // Position k+1 in the old sequence, shifted if it was after the segment.
+                    let ins = if k >= (i + len) as isize {
+                        (k + 1) as usize - len
+                    } else {
+                        (k + 1) as usize
+                    };
+                    seq.splice(ins..ins, seg);
+                    reindex(seq, &mut pos);
+                    improved = true;
+                }
+                i += 1;
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny(x: f64, y: f64) -> Loop {
+        Loop {
+            points: vec![[x, y], [x + 1.0, y], [x + 1.0, y + 1.0], [x, y + 1.0]],
+            outline: false,
+            area_mm2: 1.0,
+        }
+    }
+
+    /// A deterministic scatter (a linear congruential generator; no test depends on luck).
+    fn scatter(n: usize, seed: u64) -> Vec<Loop> {
+        let mut s = seed;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 33) as f64) / (1u64 << 31) as f64
+        };
+        (0..n).map(|_| tiny(r() * 300.0, r() * 300.0)).collect()
+    }
+
+    #[test]
+    fn optimised_beats_naive_and_visits_every_loop_once() {
+        for (n, seed) in [(5, 1), (40, 2), (300, 3)] {
+            let loops = scatter(n, seed);
+            let group: Vec<usize> = (0..n).collect();
+            let seq = optimise(&loops, &[group], [0.0, 0.0]);
+            let mut seen: Vec<usize> = seq.iter().map(|s| s.0).collect();
+            seen.sort();
+            assert_eq!(seen, (0..n).collect::<Vec<_>>());
+            let ordered: Vec<Loop> = seq
+                .iter()
+                .map(|&(i, s)| {
+                    let mut l = loops[i].clone();
+                    l.points.rotate_left(s);
+                    l
+                })
+                .collect();
+            let opt = travel_of(&ordered, [0.0, 0.0]);
+            let naive = naive_travel(&loops, [0.0, 0.0]);
+            assert!(opt < naive, "n={n}: {opt} vs naive {naive}");
+            if n >= 40 {
+                // Random order on a square: ~0.52·side per hop; a good tour ~0.7·sqrt(n·area).
+                assert!(opt < 0.4 * naive, "n={n}: {opt} vs naive {naive}");
+            }
+        }
+    }
+
+    #[test]
+    fn points_on_a_line_are_visited_in_order() {
+        // Shuffled points on a line: the optimal open path from 0 is left to right.
+        let xs = [50.0, 10.0, 90.0, 30.0, 70.0, 20.0, 80.0, 40.0, 60.0];
+        let loops: Vec<Loop> = xs.iter().map(|&x| tiny(x, 0.0)).collect();
+        let seq = optimise(&loops, &[(0..xs.len()).collect()], [0.0, 0.0]);
+        let order: Vec<f64> = seq.iter().map(|&(i, s)| loops[i].points[s][0]).collect();
+        let mut sorted = order.clone();
+        sorted.sort_by(f64::total_cmp);
+        assert_eq!(order, sorted);
+    }
+
+    #[test]
+    fn nearest_neighbour_waits_for_what_must_come_first() {
+        // Loop 0 is nearest home but must wait for loop 2 (far away); 1 has no constraint.
+        let loops = vec![tiny(1.0, 1.0), tiny(10.0, 0.0), tiny(100.0, 0.0)];
+        let before = vec![vec![2], vec![], vec![]];
+        let seq = greedy_constrained(&loops, &before, [0.0, 0.0]);
+        let order: Vec<usize> = seq.iter().map(|s| s.0).collect();
+        assert_eq!(order, vec![1, 2, 0]);
+        assert!(respects(&seq, &before));
+        assert!(!respects(&[(0, 0), (1, 0), (2, 0)], &before));
+    }
+
+    #[test]
+    fn start_vertex_is_nearest_previous_end() {
+        let l = Loop {
+            points: vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0], [10.0, 20.0]],
+            outline: false,
+            area_mm2: 100.0,
+        };
+        let seq = optimise(&[l], &[vec![0]], [25.0, 25.0]);
+        assert_eq!(seq, vec![(0, 2)]);
+    }
+}

@@ -1,0 +1,457 @@
+//! The G-code writer: a planned [`Job`] as text Grbl 1.1 runs without error.
+//!
+//! Rules (from Grbl 1.1h's parser and the users' complaints, see shared/machines.md):
+//! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
+//! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
+//! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
+//! them; brackets mean nothing to any reader) and wrapped at word breaks onto further `;` lines
+//! rather than cut off; every line within Grbl's 79-character limit; the tool off on every G0
+//! (laser: `S0` on the G0 line, pen/knife: lifted); at the end `M5` (and `M9` with air assist), a
+//! return to X0 Y0 and `M2`, the program end Grbl and G-code checkers expect.
+//!
+//! Air assist (laser, `air_assist` in the machine or material profile): `M8` (Grbl's flood coolant
+//! output, where air assist pumps are wired) right before the first cut, `M9` with the final `M5`.
+//! `M2` turns both off again in Grbl, so a program cut short still ends dark and quiet.
+//!
+//! Laser jobs use `M4` (dynamic power) and change power with S words on G0/G1 lines, which Grbl's
+//! laser mode (`$32=1`) applies without stopping motion; M3/M4/M5 changes would stop the planner.
+
+use std::fmt::Write as _;
+
+use crate::machine::{Machine, PenLift, Tool, ZLift};
+
+use crate::toolpath::{laser_s, CutSettings, Job, Loop};
+
+/// One loop's own settings and a comment line written before it (the test grid cuts each square
+/// at its own power and speed, and a knife's at its own depth).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopSettings {
+    pub settings: CutSettings,
+    /// Knife or pen on Z: the depth this loop is cut at instead of the profile's `z_down_mm`.
+    pub z_down_mm: Option<f64>,
+    pub comment: String,
+}
+
+/// Longest line the writer emits: one under Grbl's [`crate::limits::MAX_LINE_BYTES`] (79), a
+/// margin for a sender that counts the line's end.
+pub const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
+
+/// A number with at most 3 decimals, no trailing zeros, no `-0`.
+pub fn num(v: f64) -> String {
+    let r = (v * 1000.0).round() / 1000.0;
+    if r == 0.0 {
+        return "0".into();
+    }
+    let s = format!("{r:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+/// Comment lines: `; text`, printable ASCII with parentheses as brackets, wrapped at spaces so
+/// each line fits [`MAX_LINE`] (a word longer than a line is split); nothing is cut off.
+fn comment(out: &mut String, text: &str) {
+    let clean: String = text
+        .chars()
+        .map(|c| match c {
+            '(' => '[',
+            ')' => ']',
+            c if c.is_ascii_graphic() || c == ' ' => c,
+            _ => '?',
+        })
+        .collect();
+    let width = MAX_LINE - 2;
+    let mut line = String::new();
+    let mut flush = |line: &mut String| {
+        out.push_str("; ");
+        out.push_str(line.trim_end());
+        out.push('\n');
+        line.clear();
+    };
+    for word in clean.split(' ').filter(|w| !w.is_empty()) {
+        let mut word = word;
+        if !line.is_empty() && line.len() + 1 + word.len() > width {
+            flush(&mut line);
+        }
+        // A word longer than a line (a long path): split it.
+        while word.len() > width {
+            if !line.is_empty() {
+                flush(&mut line);
+            }
+            let (head, tail) = word.split_at(width);
+            line.push_str(head);
+            flush(&mut line);
+            word = tail;
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() || clean.trim().is_empty() {
+        flush(&mut line);
+    }
+}
+
+/// Emits moves, skipping those that round to where the head already is.
+struct Writer {
+    out: String,
+    /// The head position as written (rounded strings).
+    at: (String, String),
+    /// Air assist is to be turned on before the next cut (`M8`).
+    air_pending: bool,
+}
+
+impl Writer {
+    fn line(&mut self, s: &str) {
+        self.out.push_str(s);
+        self.out.push('\n');
+    }
+
+    /// A move to `p`; `extra` words follow the coordinates. Returns false if it rounds to no move.
+    fn go(&mut self, g: u8, p: [f64; 2], extra: &str) -> bool {
+        let (x, y) = (num(p[0]), num(p[1]));
+        if (x.as_str(), y.as_str()) == (self.at.0.as_str(), self.at.1.as_str()) {
+            if !extra.is_empty() {
+                // Keep the words (power, feed) even if the move vanishes.
+                self.line(extra.trim_start());
+            }
+            return false;
+        }
+        let mut l = String::with_capacity(40);
+        let _ = write!(l, "G{g} X{x} Y{y}{extra}");
+        self.line(&l);
+        self.at = (x, y);
+        true
+    }
+}
+
+/// The point `len` mm along the closed loop from its start, and the vertices passed on the way.
+fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
+    let n = points.len();
+    let mut out = Vec::new();
+    let mut left = len;
+    for i in 0..n {
+        let (a, b) = (points[i], points[(i + 1) % n]);
+        let d = crate::toolpath::dist(a, b);
+        if d >= left {
+            let t = if d > 0.0 { left / d } else { 0.0 };
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+            return out;
+        }
+        left -= d;
+        out.push(b);
+    }
+    out
+}
+
+/// Corners turning less than this (degrees) are cut without swivelling the drag knife.
+const SWIVEL_MIN_DEG: f64 = 10.0;
+/// Largest angle step of a swivel arc, degrees (arcs are written as G1 chords, not G2/G3).
+const SWIVEL_STEP_DEG: f64 = 10.0;
+
+/// The path of a drag knife's axis that drags its blade tip, `r` mm behind, along the closed
+/// loop `points`: each segment is shifted `r` along its own direction (the axis leads the tip), and
+/// at each corner the axis swings on a circle of radius `r` around the corner, turning the blade
+/// to the new direction. Starts (and implicitly ends) with the tip at `points[0]`, the blade
+/// pointing along the loop's last segment.
+pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
+    let n = points.len();
+    if r <= 0.0 || n < 2 {
+        return points.to_vec();
+    }
+    let dir = |a: [f64; 2], b: [f64; 2]| {
+        let d = crate::toolpath::dist(a, b).max(1e-12);
+        [(b[0] - a[0]) / d, (b[1] - a[1]) / d]
+    };
+    let mut out = Vec::with_capacity(n * 3);
+    for i in 0..n {
+        let p = points[i];
+        let d_in = dir(points[(i + n - 1) % n], p);
+        let d_out = dir(p, points[(i + 1) % n]);
+        out.push([p[0] + r * d_in[0], p[1] + r * d_in[1]]);
+        let a0 = d_in[1].atan2(d_in[0]);
+        let mut turn = d_out[1].atan2(d_out[0]) - a0;
+        // The shorter way round, in (-π, π].
+        while turn > std::f64::consts::PI {
+            turn -= std::f64::consts::TAU;
+        }
+        while turn <= -std::f64::consts::PI {
+            turn += std::f64::consts::TAU;
+        }
+        if turn.abs().to_degrees() >= SWIVEL_MIN_DEG {
+            let steps = (turn.abs().to_degrees() / SWIVEL_STEP_DEG).ceil() as usize;
+            for k in 1..=steps {
+                let a = a0 + turn * k as f64 / steps as f64;
+                out.push([p[0] + r * a.cos(), p[1] + r * a.sin()]);
+            }
+        }
+    }
+    out
+}
+
+/// The G-code text of a job. `notes` become extra header comment lines (source, material).
+pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
+    write_each(job, machine, notes, &[])
+}
+
+/// [`write`] with loop `i` cut as `each[i]` says (loops past its end use the job's settings).
+/// Same header, laser mode and end as every job.
+pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
+    let s = &job.settings;
+    let feed = num(s.speed_mm_min);
+    let laser = matches!(machine.tool, Tool::Laser { .. });
+    let air = laser && s.air_assist;
+    let mut w = Writer {
+        out: String::new(),
+        at: (String::new(), String::new()),
+        air_pending: air,
+    };
+    let o = &mut w.out;
+    comment(
+        o,
+        &format!(
+            "stencil {} for {}: {}",
+            env!("CARGO_PKG_VERSION"),
+            machine.name,
+            machine.description
+        ),
+    );
+    for n in notes {
+        comment(o, n);
+    }
+    comment(
+        o,
+        &format!(
+            "mm G21, absolute G90; machine origin {}; Grbl 1.1, no arcs",
+            machine.bed.origin.name()
+        ),
+    );
+    match machine.tool {
+        Tool::Laser { s_max, s_min } => {
+            comment(
+                o,
+                "laser: set Grbl laser mode $32=1 first; M4 dynamic power, off in G0",
+            );
+            if air {
+                comment(
+                    o,
+                    "air assist: M8 on before the first cut, M9 off at the end",
+                );
+            }
+            comment(
+                o,
+                &format!(
+                    "$30={} $31={}; power {} % = S{}; feed {feed} mm/min; passes {}",
+                    num(s_max),
+                    num(s_min),
+                    num(s.power_pct),
+                    num(laser_s(s.power_pct, s_max)),
+                    s.passes
+                ),
+            );
+        }
+        Tool::Pen(PenLift::Spindle { down_s }) => comment(
+            o,
+            &format!(
+                "pen on the spindle output: M3 S{} down, M5 up; feed {feed} mm/min",
+                num(down_s)
+            ),
+        ),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => comment(
+            o,
+            &format!(
+                "{} on Z: up Z{}, down Z{} at F{}; feed {feed} mm/min; passes {}",
+                machine.tool.kind(),
+                num(z.up_mm),
+                num(z.down_mm),
+                num(z.plunge_mm_min),
+                s.passes
+            ),
+        ),
+    }
+    comment(
+        o,
+        &format!(
+            "job {} x {} mm at X{}..{} Y{}..{}; {} loops",
+            num(job.sheet_mm[0]),
+            num(job.sheet_mm[1]),
+            num(job.min[0]),
+            num(job.max[0]),
+            num(job.min[1]),
+            num(job.max[1]),
+            job.stats.loops
+        ),
+    );
+    comment(
+        o,
+        &format!(
+            "cut {:.1} mm; travel {:.1} mm, input order would be {:.1} mm",
+            job.stats.cut_mm, job.stats.travel_mm, job.stats.naive_travel_mm
+        ),
+    );
+    w.line("G21 G90 G94");
+    match machine.tool {
+        Tool::Laser { .. } => w.line(&format!("M4 S0 F{feed}")),
+        Tool::Pen(PenLift::Spindle { .. }) => w.line(&format!("M5 F{feed}")),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
+        }
+    }
+    for (i, l) in job.loops.iter().enumerate() {
+        match each.get(i) {
+            Some(e) => {
+                comment(&mut w.out, &e.comment);
+                let mut m = machine.clone();
+                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
+                    (e.z_down_mm, &mut m.tool)
+                {
+                    z.down_mm = d;
+                }
+                write_loop(&mut w, l, &m, &e.settings);
+            }
+            None => write_loop(&mut w, l, machine, &job.settings),
+        }
+    }
+    match machine.tool {
+        Tool::Laser { .. } => w.line("M5 S0"),
+        _ => w.line("M5"),
+    }
+    if air {
+        w.line("M9");
+    }
+    // The return move, written even if the head is already there, then the program end.
+    let home = job.home;
+    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
+    w.line("M2");
+    w.out
+}
+
+fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
+    let feed = format!(" F{}", num(s.speed_mm_min));
+    let points = match machine.tool {
+        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
+        _ => l.points.clone(),
+    };
+    let start = points[0];
+    // Travel, tool off, then tool on.
+    match machine.tool {
+        Tool::Laser { .. } => {
+            w.go(0, start, " S0");
+        }
+        Tool::Pen(PenLift::Spindle { .. }) => {
+            w.go(0, start, "");
+        }
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.go(0, start, "");
+            plunge(w, &z);
+        }
+    }
+    if let Tool::Pen(PenLift::Spindle { down_s }) = machine.tool {
+        w.line(&format!("M3 S{}", num(down_s)));
+    }
+    if w.air_pending {
+        w.line("M8");
+        w.air_pending = false;
+    }
+    // The first cutting move carries the power and the feed.
+    let mut first = match machine.tool {
+        Tool::Laser { s_max, .. } => format!(" S{}{feed}", num(laser_s(s.power_pct, s_max))),
+        _ => feed.clone(),
+    };
+    let n = points.len();
+    for _ in 0..s.passes {
+        for i in 1..=n {
+            w.go(1, points[i % n], &first);
+            first.clear();
+        }
+    }
+    if let Tool::Knife { overcut_mm, .. } = machine.tool {
+        if overcut_mm > 0.0 {
+            for p in walk(&points, overcut_mm) {
+                w.go(1, p, "");
+            }
+        }
+    }
+    // Tool off before any travel.
+    match machine.tool {
+        Tool::Laser { .. } => {}
+        Tool::Pen(PenLift::Spindle { .. }) => w.line("M5"),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.line(&format!("G0 Z{}", num(z.up_mm)));
+        }
+    }
+}
+
+fn plunge(w: &mut Writer, z: &ZLift) {
+    w.line(&format!("G1 Z{} F{}", num(z.down_mm), num(z.plunge_mm_min)));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_have_at_most_three_decimals() {
+        assert_eq!(num(1.0), "1");
+        assert_eq!(num(1.23456), "1.235");
+        assert_eq!(num(-0.0001), "0");
+        assert_eq!(num(-2.5), "-2.5");
+        assert_eq!(num(399.9999), "400");
+    }
+
+    #[test]
+    fn walk_follows_the_loop() {
+        let sq = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        assert_eq!(walk(&sq, 4.0), vec![[4.0, 0.0]]);
+        assert_eq!(walk(&sq, 12.0), vec![[10.0, 0.0], [10.0, 2.0]]);
+    }
+
+    #[test]
+    fn drag_knife_overshoots_and_swivels_around_corners() {
+        let sq = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        let p = drag_knife_path(&sq, 0.5);
+        // Tip at (0,0) arriving from (0,10) heading down: the axis is 0.5 below the corner.
+        assert_eq!(p[0], [0.0, -0.5]);
+        // Every point is the corner it swivels around plus r, or a shifted edge point.
+        let near_corner = |q: [f64; 2]| {
+            sq.iter()
+                .any(|c| (crate::toolpath::dist(*c, q) - 0.5).abs() < 1e-9)
+        };
+        assert!(p.iter().all(|&q| near_corner(q)), "{p:?}");
+        // A 90° turn in 10° steps: 9 arc points per corner plus the arrival point.
+        assert_eq!(p.len(), 4 * 10);
+        // The axis overshoots (10, 0) to (10.5, 0) before swivelling.
+        assert!(p.contains(&[10.5, 0.0]));
+        assert_eq!(drag_knife_path(&sq, 0.0), sq.to_vec());
+    }
+
+    #[test]
+    fn comments_wrap_whole_words_and_keep_brackets() {
+        let mut s = String::new();
+        let text = format!(
+            "Pen plotter, A3 bed (420 x 297 mm), pen on Z; {} end",
+            "word ".repeat(30)
+        );
+        comment(&mut s, &text);
+        let lines: Vec<&str> = s.lines().collect();
+        assert!(lines.len() >= 2, "{s}");
+        for l in &lines {
+            assert!(l.starts_with("; ") && l.len() <= MAX_LINE, "{l}");
+        }
+        assert!(s.contains("A3 bed [420 x 297 mm], pen on Z"), "{s}");
+        // Nothing lost: the words, joined back, are the text.
+        let back: Vec<&str> = lines.iter().flat_map(|l| l[2..].split(' ')).collect();
+        let want: Vec<String> = text
+            .replace('(', "[")
+            .replace(')', "]")
+            .split_whitespace()
+            .map(String::from)
+            .collect();
+        assert_eq!(back, want);
+        // A word longer than a line is split, not cut.
+        let mut s = String::new();
+        comment(&mut s, &format!("from /{}", "p".repeat(200)));
+        assert_eq!(s.matches('p').count(), 200);
+        assert!(s.lines().all(|l| l.len() <= MAX_LINE));
+    }
+}

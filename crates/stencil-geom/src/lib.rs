@@ -1,0 +1,22 @@
+//! Shared 2D geometry in millimetres for `stencil`'s stages: one place for what the vector stage,
+//! the checker and the toolpath planner all need.
+//!
+//! Public API:
+//! - [`clip`]: every call into Clipper (boolean operations and offsets of many polygons at once,
+//!   in parallel), behind a gate ([`clip::check_rings`], a work estimate) so that no input can
+//!   panic, abort or stall it; [`ClipError`] says why a shape was refused.
+//! - [`kerf::offset_cuts`]: cut regions shrunk by half the tool's kerf, so the removed strip's
+//!   edge lands on the design line.
+//! - [`ring`]: measures of a ring as a point list: [`ring::bbox`], [`ring::signed_area2`],
+//!   [`ring::area`], [`ring::point_in_ring`], [`ring::dist`].
+//!
+//! Shapes are `geo` types (`Polygon<f64>`, `MultiPolygon<f64>`) where they cross crates; `geo`'s
+//! own traits (`Contains`, `Area`, `BoundingRect`, ...) are used directly where they fit.
+
+#![forbid(unsafe_code)]
+
+pub mod clip;
+pub mod kerf;
+pub mod ring;
+
+pub use clip::ClipError;

@@ -1,0 +1,93 @@
+//! Rings as plain point lists (`[x, y]`, closing point not repeated): the few measures every stage
+//! takes of them. One copy of each, so that every stage measures the same way.
+
+/// The bounding box `[min x, min y, max x, max y]` of points (infinite and inverted when there
+/// are none).
+pub fn bbox(points: &[[f64; 2]]) -> [f64; 4] {
+    points.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+/// Twice the signed shoelace area of a ring: positive when it runs counter-clockwise in the
+/// numeric (x, y) plane (material on the left of the walk).
+pub fn signed_area2(ring: &[[f64; 2]]) -> f64 {
+    let n = ring.len();
+    let mut a = 0.0;
+    for i in 0..n {
+        let p = ring[i];
+        let q = ring[(i + 1) % n];
+        a += p[0] * q[1] - q[0] * p[1];
+    }
+    a
+}
+
+/// The area of a simple ring, whichever way it runs.
+pub fn area(ring: &[[f64; 2]]) -> f64 {
+    signed_area2(ring).abs() / 2.0
+}
+
+/// Even-odd ray cast: whether `p` lies inside the closed ring. A point exactly on an edge may
+/// fall either way; callers test points that are not on edges (pixel centres against outlines on
+/// pixel corners, or points of one loop against another that does not touch it).
+pub fn point_in_ring(p: [f64; 2], ring: &[[f64; 2]]) -> bool {
+    let n = ring.len();
+    if n == 0 {
+        return false;
+    }
+    let mut inside = false;
+    let mut j = n - 1;
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[j]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
+}
+
+/// The distance between two points.
+pub fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn measures_of_a_unit_square_and_an_l() {
+        let sq = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        assert_eq!(signed_area2(&sq), 2.0);
+        let cw: Vec<_> = sq.iter().rev().copied().collect();
+        assert_eq!(signed_area2(&cw), -2.0);
+        assert_eq!(area(&cw), 1.0);
+        assert_eq!(bbox(&sq), [0.0, 0.0, 1.0, 1.0]);
+        assert!(bbox(&[])[0].is_infinite());
+        // An L: the notch is outside.
+        let l = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]];
+        assert!(point_in_ring([0.5, 1.5], &l));
+        assert!(point_in_ring([1.5, 0.5], &l));
+        assert!(!point_in_ring([1.5, 1.5], &l));
+        assert!(!point_in_ring([3.0, 0.5], &l));
+        assert!(!point_in_ring([0.5, 0.5], &[]));
+        assert_eq!(dist([0.0, 0.0], [3.0, 4.0]), 5.0);
+    }
+}

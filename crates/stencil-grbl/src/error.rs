@@ -1,0 +1,162 @@
+//! Everything that stops a stream, with the file, line or port it concerns and what to do; the
+//! ones that stop a running job carry a [`Halt`]: how the laser was switched off and where to resume.
+
+use stencil_gcode::interpret as gcode;
+use super::protocol::{self, MAX_LINE_BYTES};
+
+/// How a stream that stopped early left the machine, and where to pick it up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halt {
+    /// File line of the last line Grbl acknowledged (queued).
+    pub last_acked: Option<usize>,
+    /// First file line that may not have run: resume here.
+    pub resume_from: usize,
+    /// What was done to make sure the laser is off.
+    pub laser: String,
+    /// Grbl is locked in alarm after the stop: unlock (`$X`, `--unlock`) or home before resuming.
+    pub locked: bool,
+}
+
+impl std::fmt::Display for Halt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.last_acked {
+            Some(l) => write!(f, "last acknowledged line {l}; ")?,
+            None => write!(f, "no line was acknowledged; ")?,
+        }
+        write!(
+            f,
+            "{}; resume with --from-line {}",
+            self.laser, self.resume_from
+        )
+    }
+}
+
+/// One line `$C` check mode rejected.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckError {
+    pub line: usize,
+    pub text: String,
+    pub code: u8,
+}
+
+fn list_check_errors(errors: &[CheckError]) -> String {
+    let mut s: Vec<String> = errors
+        .iter()
+        .take(10)
+        .map(|e| {
+            format!(
+                "line {} `{}`: error:{} ({})",
+                e.line,
+                e.text,
+                e.code,
+                protocol::error_meaning(e.code)
+            )
+        })
+        .collect();
+    if errors.len() > 10 {
+        s.push(format!("and {} more", errors.len() - 10));
+    }
+    s.join("; ")
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum MachineError {
+    #[error("{file}: line {line} is {len} bytes without spaces and comments; Grbl takes at most {max}: split it", max = MAX_LINE_BYTES)]
+    LineTooLong {
+        file: String,
+        line: usize,
+        len: usize,
+    },
+    #[error("{file}: line {line} holds {ch:?}, which Grbl cannot take in a line (non-ASCII or a real-time command character): remove it")]
+    BadChar { file: String, line: usize, ch: char },
+    #[error("{file}: line {line} is {len} bytes with its newline, more than the controller's {rx}-byte receive buffer holds: split it")]
+    LineExceedsBuffer {
+        file: String,
+        line: usize,
+        len: usize,
+        rx: usize,
+    },
+    #[error("{file}: --from-line {line} is outside the file (1..={total})")]
+    FromLine {
+        file: String,
+        line: usize,
+        total: usize,
+    },
+    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {cause}")]
+    ResumeState {
+        file: String,
+        from_line: usize,
+        cause: gcode::GcodeError,
+    },
+    #[error("{file}: {cause}")]
+    Gcode {
+        file: String,
+        cause: gcode::GcodeError,
+    },
+    #[error("{port}: {detail}")]
+    Io { port: String, detail: String },
+    #[error("{port}: no Grbl banner within {secs:.1} s, even after a soft reset: check the port and the baud rate (Grbl 1.1 uses 115200)")]
+    NoWelcome { port: String, secs: f64 },
+    #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
+    Locked { port: String, alarm: Option<u8> },
+    #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), home the machine by hand, then resume with --from-line")]
+    Homing { port: String, detail: String },
+    #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
+    Busy { port: String, state: String },
+    #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
+    Setup { port: String, cmd: String, code: u8 },
+    #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Run again with --set-laser-mode (sends $32=1, kept in Grbl's settings), or send $32=1 yourself; if this machine is not a laser, name its profile with --machine")]
+    LaserModeOff { port: String, value: String },
+    #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
+    LaserModeNotSet { port: String, value: String },
+    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
+    CheckFailed {
+        file: String,
+        errors: Vec<CheckError>,
+    },
+    #[error("Grbl rejected line {line} `{text}` with error:{code} ({}); stopped: {halt} (after fixing the line)", protocol::error_meaning(*code))]
+    Rejected {
+        line: usize,
+        text: String,
+        code: u8,
+        halt: Halt,
+    },
+    #[error("ALARM:{code} ({}); stopped: {halt}", protocol::alarm_meaning(*code))]
+    Alarm { code: u8, halt: Halt },
+    #[error("{port}: Grbl has not answered for {secs:.1} s; stopped: {halt}")]
+    Silent { port: String, secs: f64, halt: Halt },
+    #[error("{port}: the port went away ({detail}); {halt}")]
+    PortLost {
+        port: String,
+        detail: String,
+        halt: Halt,
+    },
+    #[error("{port}: the machine stood still at X{:.3} Y{:.3} Z{:.3} in Run with work queued for {still_s:.1} s, longer than this job's slowest step allows ({bound_s:.1} s): a stall (frozen controller or driver); stopped: {halt}", position[0], position[1], position[2])]
+    Stalled {
+        port: String,
+        still_s: f64,
+        bound_s: f64,
+        position: [f64; 3],
+        halt: Halt,
+    },
+    #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
+    Restarted { halt: Halt },
+    #[error("aborted by the operator; {halt}")]
+    Aborted { halt: Halt },
+}
+
+impl MachineError {
+    /// Where a stopped job can be resumed, for errors that stopped one.
+    pub fn halt(&self) -> Option<&Halt> {
+        match self {
+            MachineError::Rejected { halt, .. }
+            | MachineError::Alarm { halt, .. }
+            | MachineError::Silent { halt, .. }
+            | MachineError::Stalled { halt, .. }
+            | MachineError::PortLost { halt, .. }
+            | MachineError::Restarted { halt }
+            | MachineError::Aborted { halt } => Some(halt),
+            _ => None,
+        }
+    }
+}

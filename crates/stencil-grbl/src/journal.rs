@@ -1,0 +1,455 @@
+//! The job journal: a small file beside a job being streamed (`JOB.gcode.journal`) that says how
+//! far it got, so a crash, a pulled cable or a power cut can be resumed (`send --recover`).
+//!
+//! It is rewritten atomically (`export::atomic`) every few seconds while streaming and on every
+//! stop, and marked complete when the job finishes. What it records is what the host knows:
+//! Grbl acknowledges a line when it is queued, not when it has run, so besides the last
+//! acknowledged line it keeps the first line that may not have run (from the status reports' free
+//! planner blocks, or the whole planner depth when unknown) and Grbl's `Ln:` if it reports one.
+//! The file is JSON and names the job by size and FNV-1a hash: a journal is never applied to a
+//! file that changed.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use serde::{Deserialize, Serialize};
+
+use super::error::MachineError;
+use super::job::Job;
+use super::stall::ClockRef;
+use super::stream::{ControllerInfo, Observer, Progress, Summary};
+use stencil_io::write_atomic;
+
+/// The format tag the file starts with.
+pub const FORMAT: &str = "stencil-send-journal/1";
+
+/// How often the journal is rewritten while streaming.
+pub const EVERY: Duration = Duration::from_secs(2);
+
+/// Where the journal of `job` lives: beside it, `NAME.journal`.
+pub fn path_for(job: &Path) -> PathBuf {
+    let mut s = job.as_os_str().to_os_string();
+    s.push(".journal");
+    PathBuf::from(s)
+}
+
+/// FNV-1a, 64 bit: enough to tell a changed job file from the one journalled (not a security
+/// hash; the size is compared too).
+pub fn fnv1a64(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// How the run stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunState {
+    /// Streaming (or the sender died without a word: crash, kill, power loss).
+    Running,
+    /// Stopped by an error, an alarm, a lost or silent port, a stall or the operator.
+    Stopped,
+    /// Every line ran; nothing to recover.
+    Complete,
+}
+
+/// The modal state a resume must restore, as the program had built it before `resume_from`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModalRecord {
+    /// "G21" (mm) or "G20" (inches).
+    pub units: String,
+    /// "G90" (absolute) or "G91" (incremental).
+    pub distance: String,
+    pub feed_mm_min: Option<f64>,
+    /// "M3", "M4" or "M5".
+    pub spindle: String,
+    pub s: f64,
+    /// Coolant (air assist) on.
+    pub air: bool,
+    /// Tool position, mm, where the program had it.
+    pub position_mm: [f64; 3],
+}
+
+/// The journal file's content.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Journal {
+    pub format: String,
+    /// The job file as it was named.
+    pub file: String,
+    pub file_bytes: u64,
+    pub file_fnv1a64: String,
+    /// The machine profile the run used (name, or the path given).
+    pub machine: String,
+    pub state: RunState,
+    /// Why it stopped (the sender's own message), for `Stopped`.
+    pub stop_reason: Option<String>,
+    pub started_unix_s: u64,
+    pub updated_unix_s: u64,
+    /// The run started at this line (a resumed run starts later than 1).
+    pub from_line: usize,
+    /// The last file line Grbl acknowledged (queued; maybe not run).
+    pub last_acked_line: Option<usize>,
+    /// The last `Ln:` (N number being executed) a status report gave, if the firmware reports it.
+    pub status_ln: Option<u32>,
+    /// Grbl's planner depth: how many acknowledged moves may still wait.
+    pub planner_blocks: usize,
+    /// The first file line that may not have run (acknowledged lines still waiting in the
+    /// planner count as not run).
+    pub resume_from: usize,
+    /// The modal state before `resume_from`.
+    pub modal: ModalRecord,
+}
+
+/// Why a journal cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum JournalError {
+    #[error("{}: no journal beside the job (nothing was streamed from this file, or it finished and the journal was removed); resume with --from-line N instead", path.display())]
+    Missing { path: PathBuf },
+    #[error("{}: cannot read the journal: {detail}", path.display())]
+    Unreadable { path: PathBuf, detail: String },
+    #[error("{}: not a stencil send journal ({detail}); remove it, and resume with --from-line N", path.display())]
+    NotJournal { path: PathBuf, detail: String },
+    #[error("{}: the journal was written for a different {file} ({journal_bytes} bytes, hash {journal_hash}) than the one there now ({file_bytes} bytes, hash {file_hash}): the file changed since the run, so its line numbers cannot be trusted; nothing was sent. Send the file the run used with --recover, or resume with --from-line N after checking", path.display())]
+    Mismatch {
+        path: PathBuf,
+        file: String,
+        journal_bytes: u64,
+        journal_hash: String,
+        file_bytes: u64,
+        file_hash: String,
+    },
+    #[error("{}: cannot write the journal: {detail}", path.display())]
+    Write { path: PathBuf, detail: String },
+}
+
+fn unix_now() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
+}
+
+impl Journal {
+    /// A fresh journal for a run of `job` (its file's bytes) on `machine` from `from_line`.
+    pub fn new(file: &Path, bytes: &[u8], job: &Job, machine: &str, from_line: usize) -> Journal {
+        let now = unix_now();
+        let mut j = Journal {
+            format: FORMAT.into(),
+            file: file.display().to_string(),
+            file_bytes: bytes.len() as u64,
+            file_fnv1a64: fnv1a64(bytes),
+            machine: machine.to_string(),
+            state: RunState::Running,
+            stop_reason: None,
+            started_unix_s: now,
+            updated_unix_s: now,
+            from_line,
+            last_acked_line: None,
+            status_ln: None,
+            planner_blocks: super::protocol::PLANNER_BLOCKS_DEFAULT,
+            resume_from: from_line,
+            modal: ModalRecord {
+                units: "G21".into(),
+                distance: "G90".into(),
+                feed_mm_min: None,
+                spindle: "M5".into(),
+                s: 0.0,
+                air: false,
+                position_mm: [0.0; 3],
+            },
+        };
+        j.set_resume(job, from_line);
+        j
+    }
+
+    /// Move the resume point, and the modal state recorded with it.
+    pub fn set_resume(&mut self, job: &Job, line: usize) {
+        self.resume_from = line;
+        // A line past the end (everything ran) has the state at the end of the file.
+        let before = line.min(job.source_lines() + 1);
+        let Ok(st) = job.state_before(before.max(1)) else {
+            return;
+        };
+        let m = st.modal;
+        self.modal = ModalRecord {
+            units: if m.metric { "G21" } else { "G20" }.into(),
+            distance: if m.absolute { "G90" } else { "G91" }.into(),
+            feed_mm_min: m.feed,
+            spindle: match (m.spindle_on, m.dynamic) {
+                (false, _) => "M5",
+                (true, true) => "M4",
+                (true, false) => "M3",
+            }
+            .into(),
+            s: m.s,
+            air: m.coolant,
+            position_mm: m.pos,
+        };
+    }
+
+    /// Write it atomically to `path`.
+    pub fn write(&mut self, path: &Path) -> Result<(), JournalError> {
+        self.updated_unix_s = unix_now();
+        let text = serde_json::to_string_pretty(self).map_err(|e| JournalError::Write {
+            path: path.to_path_buf(),
+            detail: e.to_string(),
+        })?;
+        write_atomic(path, text.as_bytes()).map_err(|e| JournalError::Write {
+            path: path.to_path_buf(),
+            detail: e.to_string(),
+        })
+    }
+
+    /// Read the journal at `path`.
+    pub fn read(path: &Path) -> Result<Journal, JournalError> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(JournalError::Missing {
+                    path: path.to_path_buf(),
+                })
+            }
+            Err(e) => {
+                return Err(JournalError::Unreadable {
+                    path: path.to_path_buf(),
+                    detail: e.to_string(),
+                })
+            }
+        };
+        let j: Journal = serde_json::from_str(&text).map_err(|e| JournalError::NotJournal {
+            path: path.to_path_buf(),
+            detail: e.to_string(),
+        })?;
+        if j.format != FORMAT {
+            return Err(JournalError::NotJournal {
+                path: path.to_path_buf(),
+                detail: format!("format `{}`, expected `{FORMAT}`", j.format),
+            });
+        }
+        Ok(j)
+    }
+
+    /// Refuse a journal written for other bytes than `bytes` (the job file now).
+    pub fn check_file(&self, path: &Path, bytes: &[u8]) -> Result<(), JournalError> {
+        let hash = fnv1a64(bytes);
+        if hash == self.file_fnv1a64 && bytes.len() as u64 == self.file_bytes {
+            return Ok(());
+        }
+        Err(JournalError::Mismatch {
+            path: path.to_path_buf(),
+            file: self.file.clone(),
+            journal_bytes: self.file_bytes,
+            journal_hash: self.file_fnv1a64.clone(),
+            file_bytes: bytes.len() as u64,
+            file_hash: hash,
+        })
+    }
+
+    /// The line to resume from, and why: the line carrying the last `Ln:` Grbl reported (it was
+    /// running, so not surely done), else the first line that may not have run by the host's
+    /// count (acknowledged minus what the planner may still have held).
+    pub fn proposal(&self, job: &Job) -> Proposal {
+        if let Some(ln) = self.status_ln {
+            if let Some(l) = job.lines.iter().find(|l| n_word(&l.text) == Some(ln)) {
+                return Proposal {
+                    line: l.number,
+                    why: format!(
+                        "Grbl last reported executing N{ln} (line {}): lines before it surely ran",
+                        l.number
+                    ),
+                };
+            }
+        }
+        let why = match (self.state, self.last_acked_line) {
+            (RunState::Complete, _) => "the job finished".to_string(),
+            (_, None) => "no line was acknowledged".to_string(),
+            (_, Some(a)) if self.resume_from > a => {
+                format!("every acknowledged line (to {a}) had run when the machine stopped")
+            }
+            (_, Some(a)) => format!(
+                "line {a} was the last acknowledged, but acknowledged means queued, not run: \
+                 Grbl's planner holds up to {} moves, and by its last status report (free planner \
+                 blocks; lines acknowledged after it count as not run) line {} is the last surely \
+                 executed",
+                self.planner_blocks,
+                self.resume_from.saturating_sub(1)
+            ),
+        };
+        Proposal {
+            line: self.resume_from,
+            why,
+        }
+    }
+
+    /// How long ago it was last written.
+    pub fn age(&self) -> Duration {
+        Duration::from_secs(unix_now().saturating_sub(self.updated_unix_s))
+    }
+}
+
+/// Where `--recover` proposes to resume.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Proposal {
+    pub line: usize,
+    pub why: String,
+}
+
+/// The N number a cleaned line starts with.
+fn n_word(text: &str) -> Option<u32> {
+    let rest = text.strip_prefix('N')?;
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
+/// An observer that keeps the journal while passing everything on to the front end's.
+pub struct JournalWriter<'o, 'j> {
+    pub inner: &'o mut dyn Observer,
+    pub journal: Journal,
+    pub path: PathBuf,
+    job: &'j Job,
+    clock: ClockRef,
+    every: Duration,
+    last_write: Option<Duration>,
+    warned: bool,
+}
+
+impl<'o, 'j> JournalWriter<'o, 'j> {
+    pub fn new(
+        inner: &'o mut dyn Observer,
+        journal: Journal,
+        path: PathBuf,
+        job: &'j Job,
+        clock: ClockRef,
+        every: Duration,
+    ) -> Self {
+        JournalWriter {
+            inner,
+            journal,
+            path,
+            job,
+            clock,
+            every,
+            last_write: None,
+            warned: false,
+        }
+    }
+
+    fn save(&mut self) {
+        if let Err(e) = self.journal.write(&self.path) {
+            // The job goes on: a journal is a help, not a condition of cutting.
+            if !self.warned {
+                self.warned = true;
+                self.inner
+                    .message(&format!("{e}; the job goes on without it"));
+            }
+        }
+        self.last_write = Some(self.clock.0.now());
+    }
+
+    /// The run ended: a finished job's journal is removed (nothing is left to recover, and no
+    /// stale file lingers beside the job); a stopped one records the resume line and the reason.
+    /// Errors that stopped nothing (refused before streaming) leave the journal as it was.
+    pub fn finish(&mut self, result: &Result<Summary, MachineError>) {
+        match result {
+            Ok(_) => {
+                self.journal.state = RunState::Complete;
+                if let Err(e) = std::fs::remove_file(&self.path) {
+                    if e.kind() != std::io::ErrorKind::NotFound {
+                        self.inner.message(&format!(
+                            "{}: cannot remove the finished job's journal: {e}",
+                            self.path.display()
+                        ));
+                    }
+                }
+                return;
+            }
+            Err(e) => {
+                let Some(h) = e.halt() else {
+                    return;
+                };
+                self.journal.state = RunState::Stopped;
+                self.journal.stop_reason = Some(e.to_string());
+                self.journal.last_acked_line = h.last_acked.or(self.journal.last_acked_line);
+                self.journal.set_resume(self.job, h.resume_from);
+            }
+        }
+        self.save();
+    }
+}
+
+impl Observer for JournalWriter<'_, '_> {
+    fn connected(&mut self, info: &ControllerInfo) {
+        self.journal.planner_blocks = info.planner_blocks;
+        self.inner.connected(info);
+    }
+    fn message(&mut self, text: &str) {
+        self.inner.message(text);
+    }
+    fn phase(&mut self, checking: bool, total: usize) {
+        if !checking {
+            // The real run begins: the journal exists from its first line on.
+            self.save();
+        }
+        self.inner.phase(checking, total);
+    }
+    fn progress(&mut self, p: &Progress) {
+        self.journal.last_acked_line = p.last_acked_line.or(self.journal.last_acked_line);
+        self.journal.status_ln = p.status_line.or(self.journal.status_ln);
+        if p.unexecuted_from != self.journal.resume_from {
+            self.journal.resume_from = p.unexecuted_from;
+        }
+        let now = self.clock.0.now();
+        if self
+            .last_write
+            .is_none_or(|t| now.saturating_sub(t) >= self.every)
+        {
+            let line = self.journal.resume_from;
+            self.journal.set_resume(self.job, line);
+            self.save();
+        }
+        self.inner.progress(p);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hash_and_path() {
+        assert_eq!(fnv1a64(b""), "cbf29ce484222325");
+        assert_eq!(fnv1a64(b"a"), "af63dc4c8601ec8c");
+        assert_eq!(
+            path_for(Path::new("out/job.gcode")),
+            PathBuf::from("out/job.gcode.journal")
+        );
+    }
+
+    #[test]
+    fn proposal_prefers_ln_then_the_planner_count() {
+        let text = "G21 G90\nN10 M4 S100\nN20 G1 X1 F600\nN30 G1 X2\nN40 G1 X3\nN50 G1 X4\n";
+        let job = Job::parse("n.gcode", text).unwrap();
+        let mut j = Journal::new(Path::new("n.gcode"), text.as_bytes(), &job, "diode-400", 1);
+        j.last_acked_line = Some(6);
+        j.set_resume(&job, 4);
+        let p = j.proposal(&job);
+        assert_eq!(p.line, 4);
+        assert!(
+            p.why.contains("last acknowledged") && p.why.contains("line 3 is"),
+            "{}",
+            p.why
+        );
+        assert_eq!(j.modal.spindle, "M4");
+        assert_eq!(j.modal.feed_mm_min, Some(600.0));
+        assert_eq!(j.modal.position_mm, [1.0, 0.0, 0.0]);
+        j.status_ln = Some(40);
+        let p = j.proposal(&job);
+        assert_eq!(p.line, 5);
+        assert!(p.why.contains("N40"), "{}", p.why);
+    }
+}

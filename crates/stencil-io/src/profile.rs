@@ -1,0 +1,189 @@
+//! Profiles (materials, machines) read from TOML: the small loader every profile kind shares.
+//! [`load_toml`] / [`parse_toml`] turn a file into a typed value with an error that names the file
+//! and the field, and [`resolve`] finds a profile by name or path. Each kind validates its own
+//! fields once at load (`stencil-core`'s materials, `stencil-gcode`'s machines).
+//!
+//! Where a name is looked up, in order (the first hit wins):
+//! 1. a path to a `.toml` file (anything containing a `/` or ending in `.toml`);
+//! 2. `./profiles/<kind>/<name>.toml` in the current directory (a user's edited copy);
+//! 3. the copy embedded in the binary with `include_str!` (so an installed binary has them too).
+//!
+//! The library and the command resolve every name, the default ones included, through this one
+//! function, so the same name gives the same profile wherever it is asked for.
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+
+/// The largest material or machine profile read (1 MiB; the shipped ones are under 2 KB).
+pub const MAX_PROFILE_BYTES: u64 = 1 << 20;
+
+/// Errors reading or validating a profile. Every message names the file (or the name looked up)
+/// and, where there is one, the field.
+#[derive(Debug, thiserror::Error)]
+pub enum ProfileError {
+    #[error(transparent)]
+    Read(#[from] crate::read::ReadError),
+    /// TOML syntax, a missing field, an unknown field or a wrong type (toml's message names the
+    /// field and the line).
+    #[error("{path}: {msg}")]
+    Parse { path: PathBuf, msg: String },
+    #[error("{path}: field `{field}` = {value}: {why}")]
+    Invalid {
+        path: PathBuf,
+        field: String,
+        value: String,
+        why: String,
+    },
+    #[error("unknown {kind} '{name}'; known: {}; or give a path to a .toml file", known.join(", "))]
+    Unknown {
+        kind: String,
+        name: String,
+        known: Vec<String>,
+    },
+}
+
+/// A shipped profile, `shipped!("materials", "cardstock")`: its text embedded at build time from
+/// `profiles/<kind>/<name>.toml` at the workspace root (the calling crate lives in `crates/<name>/`),
+/// so an installed binary has every profile.
+#[macro_export]
+macro_rules! shipped {
+    ($kind:literal, $name:literal) => {
+        $crate::profile::Shipped {
+            name: $name,
+            text: include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../profiles/",
+                $kind,
+                "/",
+                $name,
+                ".toml"
+            )),
+        }
+    };
+}
+
+/// A profile shipped with the crate: its name (the file stem) and its TOML text.
+#[derive(Clone, Copy, Debug)]
+pub struct Shipped {
+    pub name: &'static str,
+    pub text: &'static str,
+}
+
+/// Read and parse a TOML file into `T`. At most [`MAX_PROFILE_BYTES`] are read:
+/// a huge file or a device such as /dev/zero is refused instead of read forever.
+pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<T, ProfileError> {
+    let text = crate::read::read_text(path, MAX_PROFILE_BYTES, "profile")?;
+    parse_toml(&text, path)
+}
+
+/// Parse TOML text into `T`; `origin` is the file (or embedded name) for error messages.
+pub fn parse_toml<T: DeserializeOwned>(text: &str, origin: &Path) -> Result<T, ProfileError> {
+    toml::from_str(text).map_err(|e| ProfileError::Parse {
+        path: origin.to_path_buf(),
+        // toml's message spans several lines (a snippet of the file); keep it on one.
+        msg: one_line(&e.to_string()),
+    })
+}
+
+fn one_line(s: &str) -> String {
+    s.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('|'))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Whether a `--material` / `--machine` argument is a path rather than a name.
+pub fn is_path(arg: &str) -> bool {
+    arg.contains('/') || arg.contains('\\') || arg.ends_with(".toml")
+}
+
+/// The folders searched for `profiles/<kind>/`: the current directory's only. (No folder baked in
+/// at build time: the binary behaves the same wherever it was built; the shipped profiles are
+/// embedded.)
+pub fn search_dirs(kind: &str) -> Vec<PathBuf> {
+    vec![Path::new("profiles").join(kind)]
+}
+
+/// Find a profile by name or path and parse it. Returns the value and where it came from (a path,
+/// or `<embedded>/<kind>/<name>.toml`).
+pub fn resolve<T: DeserializeOwned>(
+    arg: &str,
+    kind: &str,
+    shipped: &[Shipped],
+) -> Result<(T, PathBuf), ProfileError> {
+    if is_path(arg) {
+        let p = PathBuf::from(arg);
+        return Ok((load_toml(&p)?, p));
+    }
+    for dir in search_dirs(kind) {
+        let p = dir.join(format!("{arg}.toml"));
+        if p.is_file() {
+            return Ok((load_toml(&p)?, p));
+        }
+    }
+    if let Some(s) = shipped.iter().find(|s| s.name == arg) {
+        let origin = Path::new("<embedded>")
+            .join(kind)
+            .join(format!("{}.toml", s.name));
+        return Ok((parse_toml(s.text, &origin)?, origin));
+    }
+    Err(ProfileError::Unknown {
+        kind: kind.trim_end_matches('s').to_string(),
+        name: arg.to_string(),
+        known: known_names(kind, shipped),
+    })
+}
+
+/// Every profile name available: shipped ones plus `.toml` files in the search folders, sorted.
+pub fn known_names(kind: &str, shipped: &[Shipped]) -> Vec<String> {
+    let mut names: Vec<String> = shipped.iter().map(|s| s.name.to_string()).collect();
+    for dir in search_dirs(kind) {
+        let Ok(rd) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                if let Some(stem) = p.file_stem().and_then(|s| s.to_str()) {
+                    names.push(stem.to_string());
+                }
+            }
+        }
+    }
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// Check that a number lies in `lo..=hi` (finite); the error names the field and the range.
+pub fn check_range(
+    origin: &Path,
+    field: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> Result<(), ProfileError> {
+    if !v.is_finite() || v < lo || v > hi {
+        let range = format!("{lo}..={hi} {unit}");
+        let why = if v < 0.0 && lo >= 0.0 {
+            format!("must not be negative (allowed {})", range.trim_end())
+        } else {
+            format!("out of range: allowed {}", range.trim_end())
+        };
+        return Err(ProfileError::Invalid {
+            path: origin.to_path_buf(),
+            field: field.to_string(),
+            // 1e308 as written, not as 309 digits.
+            value: if v != 0.0 && !(1e-4..1e9).contains(&v.abs()) {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            },
+            why,
+        });
+    }
+    Ok(())
+}
