@@ -1,0 +1,162 @@
+//! The workspace's shape, checked from its sources: which crate may depend on which, and which
+//! module may use which. A new edge that runs backwards (the G-code side reaching into stencils,
+//! the Grbl side into anything but the interpreter, a stage into a later stage) fails here, with
+//! the file and the edge named, instead of slowly turning the layers into a knot.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The `stencil-*` crates a manifest's `[dependencies]` names (not dev-dependencies: tests may
+/// use anything).
+fn stencil_deps(manifest: &Path) -> BTreeSet<String> {
+    let text = std::fs::read_to_string(manifest).unwrap();
+    let mut out = BTreeSet::new();
+    let mut in_deps = false;
+    for line in text.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            in_deps = t == "[dependencies]";
+            continue;
+        }
+        if in_deps {
+            if let Some(name) = t.split(['.', ' ', '=']).next() {
+                if name.starts_with("stencil-") {
+                    out.insert(name.to_string());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The source of a file without its `#[cfg(test)]` module (tests may reach anywhere).
+fn non_test_source(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    match text.find("#[cfg(test)]\nmod tests") {
+        Some(i) => text[..i].to_string(),
+        None => text,
+    }
+}
+
+/// The crates each library crate may depend on. The G-code side knows cut loops, not stencils;
+/// the Grbl side knows G-code text and ports; the leaves know neither.
+fn allowed() -> BTreeMap<&'static str, BTreeSet<&'static str>> {
+    BTreeMap::from([
+        ("stencil-io", BTreeSet::new()),
+        ("stencil-geom", BTreeSet::new()),
+        ("stencil-gcode", BTreeSet::from(["stencil-io", "stencil-geom"])),
+        ("stencil-grbl", BTreeSet::from(["stencil-io", "stencil-gcode"])),
+        (
+            "stencil-core",
+            BTreeSet::from(["stencil-io", "stencil-geom", "stencil-gcode"]),
+        ),
+    ])
+}
+
+#[test]
+fn crates_depend_only_forwards() {
+    let allowed = allowed();
+    let mut seen = BTreeSet::new();
+    for e in std::fs::read_dir(root().join("crates")).unwrap() {
+        let dir = e.unwrap().path();
+        let name = dir.file_name().unwrap().to_str().unwrap().to_string();
+        let Some(ok) = allowed.get(name.as_str()) else {
+            panic!("crates/{name}: a crate this test does not know; add its allowed edges");
+        };
+        for dep in stencil_deps(&dir.join("Cargo.toml")) {
+            assert!(
+                ok.contains(dep.as_str()),
+                "crates/{name}/Cargo.toml depends on {dep}: not an allowed edge ({ok:?})"
+            );
+        }
+        // The sources use no workspace crate the manifest does not allow either (a path
+        // dependency slipped in through a dev-dependency would not show in [dependencies]).
+        for f in rust_files(&dir.join("src")) {
+            let src = non_test_source(&f);
+            for other in allowed.keys() {
+                let ident = format!("{}::", other.replace('-', "_"));
+                if *other != name && src.contains(&ident) {
+                    assert!(
+                        ok.contains(other),
+                        "{}: uses {ident} but {name} may not depend on {other}",
+                        f.display()
+                    );
+                }
+            }
+        }
+        seen.insert(name);
+    }
+    assert_eq!(seen.len(), allowed.len(), "crates found: {seen:?}");
+    // The binary uses them all; nothing depends on the binary (it has no library).
+    let bin = stencil_deps(&root().join("Cargo.toml"));
+    assert_eq!(bin.len(), allowed.len(), "{bin:?}");
+}
+
+#[test]
+fn libraries_forbid_unsafe_code_and_the_binary_keeps_it_in_one_file() {
+    for e in std::fs::read_dir(root().join("crates")).unwrap() {
+        let lib = e.unwrap().path().join("src/lib.rs");
+        let text = std::fs::read_to_string(&lib).unwrap();
+        assert!(
+            text.contains("#![forbid(unsafe_code)]"),
+            "{}: no #![forbid(unsafe_code)]",
+            lib.display()
+        );
+    }
+    // Process-wide settings (SIGPIPE, the allocator) are the binary's: main.rs and alloc.rs only.
+    for f in rust_files(&root().join("src")) {
+        let name = f.file_name().unwrap().to_str().unwrap();
+        let src = std::fs::read_to_string(&f).unwrap();
+        if src.contains("unsafe {") {
+            assert!(
+                name == "main.rs" || name == "alloc.rs",
+                "{}: unsafe outside main.rs and alloc.rs",
+                f.display()
+            );
+        }
+    }
+}
+
+/// The Grbl side uses the G-code crate for its interpreter and Grbl's fixed sizes only: it runs
+/// any program, not just ours, so it must not plan or write toolpaths.
+#[test]
+fn grbl_uses_only_the_interpreter_of_the_gcode_crate() {
+    let ok = ["interpret", "limits", "format"];
+    for f in rust_files(&root().join("crates/stencil-grbl/src")) {
+        let src = non_test_source(&f);
+        for (i, _) in src.match_indices("stencil_gcode::") {
+            let rest = &src[i + "stencil_gcode::".len()..];
+            let module: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            assert!(
+                ok.contains(&module.as_str()),
+                "{}: uses stencil_gcode::{module}; the Grbl side may use only {ok:?}",
+                f.display()
+            );
+        }
+    }
+}
