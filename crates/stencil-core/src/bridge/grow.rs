@@ -4,8 +4,7 @@ use super::candidates::Candidates;
 use super::cost::StripCost;
 use super::strips::Strip;
 use super::BridgeConfig;
-use crate::islands;
-use crate::raster::{BitGrid, Gray};
+use crate::raster::{self, BitGrid, Gray};
 
 /// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
 /// side of a square of that area (the paper's ⌈√A / 4⌉).
@@ -540,16 +539,16 @@ fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl F
         data: (0..lw * lh).map(f).collect(),
     };
     let after = grid(&|l| cut(l) && state[l] != 2);
-    let (labels, areas) = islands::components(&after, true);
-    let open = islands::touches_border(&labels, w, h, areas.len());
+    let (labels, areas) = raster::components(&after, true);
+    let open = raster::touches_border(&labels, w, h, areas.len());
     if open.iter().all(|&o| o) {
         return;
     }
-    let (was, was_areas) = islands::components(&grid(&cut), true);
-    let was_open = islands::touches_border(&was, w, h, was_areas.len());
+    let (was, was_areas) = raster::components(&grid(&cut), true);
+    let was_open = raster::touches_border(&was, w, h, was_areas.len());
     for l in 0..lw * lh {
         let k = labels[l];
-        if k != islands::CUT
+        if k != raster::NOT_LABELLED
             && !open[k as usize]
             && areas[k as usize] <= seal
             && was_open[was[l] as usize]
@@ -868,15 +867,15 @@ fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     dist(p, [a[0] + t * dx, a[1] + t * dy])
 }
 
-/// Turn the planned pixels into material; returns how many were still cut (a pixel an earlier
+/// Turn the planned pixels into material; returns those that were still cut (a pixel an earlier
 /// bridge already took counts for that one).
-pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> usize {
-    let mut turned = 0;
+pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> Vec<u32> {
+    let mut turned = Vec::new();
     for &p in pixels {
         let cell = &mut bits.data[p as usize];
         if !*cell {
             *cell = true;
-            turned += 1;
+            turned.push(p);
         }
     }
     turned

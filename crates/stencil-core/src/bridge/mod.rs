@@ -154,7 +154,8 @@ pub struct Bridge {
     /// Width at right angles to it at its narrowest, px (see [`grow::Plan::width`]).
     pub width_px: u32,
     pub length_px: f64,
-    /// Cut pixels it turns into material.
+    /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
+    /// final stencil (the clean-up around the bridges included).
     pub pixels: usize,
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
@@ -179,6 +180,71 @@ pub struct Bridged {
     pub strength: Vec<strength::IslandStrength>,
     /// What became of each `--bridge-at` place (see [`constraints`]).
     pub requests: Vec<constraints::Request>,
+    /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
+    /// share is the first one's). [`Bridged::recount`] starts from them.
+    drawn: Vec<Vec<u32>>,
+}
+
+/// No bridge owns the pixel (yet), in [`Bridged::recount`].
+const UNOWNED: u32 = u32::MAX;
+
+impl Bridged {
+    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
+    /// grid the bridges were drawn into. Why: the clean-up after bridging (the tidy pass, the
+    /// settle, the neck repairs) adds and removes material around the bridges, so the counts taken
+    /// when they were drawn no longer describe the stencil written.
+    ///
+    /// Every pixel that is material now and was cut in `before` counts for one bridge: the bridge
+    /// that drew it if it still stands; else the bridge it joins through such pixels (4-connected,
+    /// nearest first); else, for added material apart from every bridge (a widened neck), the
+    /// nearest bridge. The counts therefore add up to all the material added, whenever there is a
+    /// bridge. O(added pixels), plus O(pixels) only when some added material touches no bridge.
+    pub fn recount(&mut self, before: &BitGrid) {
+        let n = self.bits.data.len();
+        let added = |i: usize| self.bits.data[i] && !before.data[i];
+        let mut owner = vec![UNOWNED; n];
+        let mut queue = std::collections::VecDeque::new();
+        for (k, drawn) in self.drawn.iter().enumerate() {
+            for &p in drawn {
+                if added(p as usize) && owner[p as usize] == UNOWNED {
+                    owner[p as usize] = k as u32;
+                    queue.push_back(p as usize);
+                }
+            }
+        }
+        let (w, h) = (self.bits.width as usize, self.bits.height as usize);
+        let spread = |owner: &mut [u32], queue: &mut std::collections::VecDeque<usize>, through_all: bool| {
+            while let Some(i) = queue.pop_front() {
+                let (x, y) = (i % w, i / w);
+                let next = [
+                    (x > 0).then(|| i - 1),
+                    (x + 1 < w).then(|| i + 1),
+                    (y > 0).then(|| i - w),
+                    (y + 1 < h).then(|| i + w),
+                ];
+                for j in next.into_iter().flatten() {
+                    if owner[j] == UNOWNED && (through_all || added(j)) {
+                        owner[j] = owner[i];
+                        queue.push_back(j);
+                    }
+                }
+            }
+        };
+        spread(&mut owner, &mut queue, false);
+        let stray = (0..n).any(|i| added(i) && owner[i] == UNOWNED);
+        if stray && !self.drawn.is_empty() {
+            queue.extend((0..n).filter(|&i| owner[i] != UNOWNED));
+            spread(&mut owner, &mut queue, true);
+        }
+        for b in &mut self.bridges {
+            b.pixels = 0;
+        }
+        for i in (0..n).filter(|&i| added(i)) {
+            if let Some(b) = self.bridges.get_mut(owner[i] as usize) {
+                b.pixels += 1;
+            }
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -303,6 +369,7 @@ pub fn connect_timed(
             bridges: Vec::new(),
             strength: Vec::new(),
             requests: Vec::new(),
+            drawn: Vec::new(),
         };
         return Ok((bridged, times));
     }
@@ -424,14 +491,17 @@ pub fn connect_timed(
         .collect();
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
+    let mut drawn = Vec::with_capacity(planned.len());
     for (mut bridge, mut pixels) in planned.into_iter().flatten() {
         // Strips never cross a forbidden pixel, but a fill or a thickening beside one may: those
         // pixels stay cut (the strips themselves still join the two nodes).
         if let Some(f) = &cfg.user.keep_out {
             pixels.retain(|&p| !f.data[p as usize]);
         }
-        bridge.pixels = grow::commit(&mut bits, &pixels);
+        let turned = grow::commit(&mut bits, &pixels);
+        bridge.pixels = turned.len();
         bridges.push(bridge);
+        drawn.push(turned);
     }
     lap("grow", &mut times);
     Ok((
@@ -440,6 +510,7 @@ pub fn connect_timed(
             bridges,
             strength,
             requests,
+            drawn,
         },
         times,
     ))

@@ -8,8 +8,7 @@
 //! direction a bridge may change a stencil: original material always stays material.
 
 use crate::islands;
-use crate::raster::{squared_distance_to, BitGrid};
-use crate::tone::filter::{close, open};
+use crate::raster::{close, open, squared_distance_to, BitGrid};
 
 /// Clean the bridged grid `after` (bridges drawn into `before`) within `radius + 2` pixels of the
 /// pixels the bridges added. Returns `after` unchanged when `radius` is 0; when the opening would
