@@ -213,7 +213,9 @@ impl Bridged {
             }
         }
         let (w, h) = (self.bits.width as usize, self.bits.height as usize);
-        let spread = |owner: &mut [u32], queue: &mut std::collections::VecDeque<usize>, through_all: bool| {
+        let spread = |owner: &mut [u32],
+                      queue: &mut std::collections::VecDeque<usize>,
+                      through_all: bool| {
             while let Some(i) = queue.pop_front() {
                 let (x, y) = (i % w, i / w);
                 let next = [

@@ -121,4 +121,3 @@ pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Ve
     }
     (piece, count as usize)
 }
-
