@@ -1,18 +1,18 @@
 //! Stages 3–5: bridge strips, their cost, the spanning tree over island groups, growing bridges.
 //!
 //! [`connect`] runs the paper's method (Bronson, Rheingans & Olano, NPAR 2008; see paper.md):
-//! 1. [`candidates`]: every island border pixel, chained along the island's contours;
-//! 2. [`strips`]: from each, a walk through the cut along the grayscale gradient (the smoothed
+//! 1. `candidates`: every island border pixel, chained along the island's contours;
+//! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
 //!    two-tone's where the gray is flat) to material of another node;
-//! 3. [`cost`]: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
+//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
 //!    as wide as the bridge needs, cheapest kept;
-//! 4. [`tree`]: Prim from the frame over island groups, edge cost = cheapest window between them;
+//! 4. `tree`: Prim from the frame over island groups, edge cost = cheapest window between them;
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
-//!    ([`strips::search`]), so every island is joined: the length limit is a preference (walks
+//!    (`strips::search`), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
 //!    then [`strength`]: islands whose size, shape or sag estimate asks for more than the tree's
 //!    bridge get more, from their own candidates, spread apart;
-//! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
+//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
 //!
@@ -24,15 +24,15 @@
 //! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
 //! added, names kept.
 
-pub mod candidates;
+pub(crate) mod candidates;
 pub mod constraints;
-pub mod cost;
-pub mod gaps;
-pub mod grow;
+pub(crate) mod cost;
+pub(crate) mod gaps;
+pub(crate) mod grow;
 pub mod strength;
-pub mod strips;
-pub mod tidy;
-pub mod tree;
+pub(crate) mod strips;
+pub(crate) mod tidy;
+pub(crate) mod tree;
 
 use std::collections::{HashMap, HashSet};
 
@@ -44,7 +44,7 @@ use crate::raster::{BitGrid, TwoTone};
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
 ///
 /// The terms are normalised so that each is about 1 for a typical strip of the image (see
-/// [`cost`]): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
+/// `cost`): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
 /// in 0 (straight) .. 1 (round), σ² is the variance of strip costs over the window divided by
 /// their squared mean.
 ///
@@ -72,8 +72,8 @@ pub struct BridgeConfig {
     /// Length limit of the walks, default 200 px: a preference, not a cut-off. Walks longer than
     /// this are dropped, so an island is joined by a strip under it when one exists; a group of
     /// islands left with none is joined by the cheapest path through the cut of any length
-    /// ([`strips::search`], whose per-pixel length price is the L^α term's slope at this limit,
-    /// see [`cost::StepCost`]), and its bridge is marked [`Via::Search`].
+    /// (`strips::search`, whose per-pixel length price is the L^α term's slope at this limit,
+    /// see `cost::StepCost`), and its bridge is marked [`Via::Search`].
     pub max_length_px: u32,
     /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
     /// to it at its narrowest. `stencil make` sets it from the material's `min_bridge_mm` (see
@@ -93,7 +93,7 @@ pub struct BridgeConfig {
     /// cheapest place between the same two nodes.
     pub support_margin: f64,
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
-    /// true; see [`gaps`]). Off, the candidates are the paper's alone.
+    /// true; see `gaps`). Off, the candidates are the paper's alone.
     pub gaps: bool,
     /// Where bridges may not go and where they should (see [`constraints`]).
     pub user: constraints::UserBridges,
@@ -139,7 +139,7 @@ pub enum Via {
     /// A walk along the gradient, under the length limit (the paper's strips).
     #[default]
     Walk,
-    /// A straight strip across the shortest gap between two pieces ([`gaps`]).
+    /// A straight strip across the shortest gap between two pieces (`gaps`).
     Gap,
     /// The fallback search: no walk under the length limit left the island's group, so it is
     /// joined by the cheapest path through the cut, of any length.
@@ -151,7 +151,7 @@ pub enum Via {
 pub struct Bridge {
     /// The two nodes it joins (0 = frame).
     pub nodes: [u32; 2],
-    /// Width at right angles to it at its narrowest, px (see [`grow::Plan::width`]).
+    /// Width at right angles to it at its narrowest, px (see `grow::Plan::width`).
     pub width_px: u32,
     pub length_px: f64,
     /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
@@ -167,7 +167,7 @@ pub struct Bridge {
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
     /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
-    /// outlined as the band of its width instead; see [`grow::straight_band`]).
+    /// outlined as the band of its width instead; see `grow::straight_band`).
     pub polygon: Vec<[f64; 2]>,
 }
 

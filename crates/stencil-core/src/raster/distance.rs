@@ -101,13 +101,13 @@ fn dt1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
         z[k + 1] = f32::INFINITY;
     }
     k = 0;
-    for q in 0..n {
+    for (q, dq_out) in d.iter_mut().enumerate().take(n) {
         while z[k + 1] < q as f32 {
             k += 1;
         }
         let p = v[k];
         let dq = q as f32 - p as f32;
-        d[q] = dq * dq + f[p];
+        *dq_out = dq * dq + f[p];
     }
 }
 
@@ -150,7 +150,7 @@ mod tests {
                 seed = seed
                     .wrapping_mul(6364136223846793005)
                     .wrapping_add(1442695040888963407);
-                (seed >> 33) % 5 == 0
+                (seed >> 33).is_multiple_of(5)
             });
             for target in [true, false] {
                 let fast = squared_distance_to(&bits, target);

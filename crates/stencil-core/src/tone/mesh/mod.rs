@@ -429,7 +429,7 @@ fn compose(
 }
 
 /// Threshold a rendering: lines are cut, the background is material, model pixels are material
-/// when at or above the level (swapped by `invert`; the same test as a picture's, [`super::is_light`]).
+/// when at or above the level (swapped by `invert`; the same test as a picture's, `super::is_light`).
 /// Otsu looks at the model's own pixels only.
 /// Returns the two-tone (its gray is the rendering) and the level used.
 pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
