@@ -1,6 +1,7 @@
 //! Stages 3–5: bridge strips, their cost, the spanning tree over island groups, growing bridges.
 //!
-//! [`connect`] runs the paper's method (Bronson, Rheingans & Olano, NPAR 2008; see paper.md):
+//! [`connect`] runs the method of Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
+//! through Error Minimization" (NPAR 2008):
 //! 1. `candidates`: every island border pixel, chained along the island's contours;
 //! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
 //!    two-tone's where the gray is flat) to material of another node;
