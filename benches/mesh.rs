@@ -6,12 +6,15 @@
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use stencil_core::tone::mesh::{self, shapes, LineMode, MeshConfig, Size};
+use stencil_core::tone::mesh::{self, LineMode, Mesh, MeshConfig, RenderSize};
 use stencil_core::tone::Threshold;
+
+#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+mod shapes;
 
 fn config() -> MeshConfig {
     MeshConfig {
-        size: Size::Exact {
+        size: RenderSize::Exact {
             width: 1024,
             height: 1024,
         },

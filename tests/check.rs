@@ -9,7 +9,6 @@ use stencil_core::islands;
 use stencil_core::pipeline::{self, Timings};
 use stencil_core::material::Material;
 use stencil_core::raster::BitGrid;
-use stencil_core::tone::filter;
 use stencil_core::vector::VectorConfig;
 
 const MM: f64 = 0.1; // mm per pixel in every fixture
@@ -83,7 +82,7 @@ fn the_same_stencil_with_a_proper_bridge_passes() {
 fn the_raster_opening_agrees_with_the_measured_bridges() {
     // Opening by half the required width (10 px) removes the 6 px bridge, keeps the 12 px one.
     for (w, floats) in [(6, true), (12, false)] {
-        let opened = filter::open(&bridged(w), 5);
+        let opened = stencil_core::raster::open(&bridged(w), 5);
         assert_eq!(
             islands::label(&opened).island_count() > 0,
             floats,

@@ -6,11 +6,16 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
-use stencil_core::tone::mesh::{self, render_mesh, shapes, LineMode, MeshConfig, Rendering, Size};
+use stencil_core::tone::mesh::{
+    self, render_mesh, LineMode, Mesh, MeshConfig, RenderSize, Rendering,
+};
+
+#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+mod shapes;
 
 fn cfg(lines: LineMode) -> MeshConfig {
     MeshConfig {
-        size: Size::LongSide(400),
+        size: RenderSize::LongSide(400),
         supersample: 1,
         lines,
         specular: 0.0,
@@ -329,7 +334,7 @@ fn every_sample_mesh_makes_a_stencil_without_floating_pieces() {
         let r = render_mesh(
             &mesh::load(&obj).unwrap(),
             &MeshConfig {
-                size: Size::LongSide(512),
+                size: RenderSize::LongSide(512),
                 ..MeshConfig::default()
             },
         )

@@ -44,7 +44,7 @@ fn seen(out: &std::path::Path) -> Seen {
     let map = islands::label(&two);
     let added = BitGrid::from_fn(two.width, two.height, |x, y| st.get(x, y) && !two.get(x, y));
     let (bridge_of, count) = {
-        let (labels, areas) = islands::components(&added, true);
+        let (labels, areas) = stencil_core::raster::components(&added, true);
         (labels, areas.len())
     };
     let w = two.width as usize;

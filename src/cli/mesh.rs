@@ -2,7 +2,7 @@
 
 use clap::{Args, ValueEnum};
 
-use stencil_core::tone::mesh::{LineMode, MeshConfig, Size};
+use stencil_core::tone::mesh::{LineMode, MeshConfig, RenderSize};
 
 /// Options that apply when the input is an OBJ mesh.
 #[derive(Args, Debug, Clone)]
@@ -88,7 +88,7 @@ fn numbers<const N: usize>(flag: &str, s: &str, what: &str) -> anyhow::Result<[f
     Ok(out)
 }
 
-fn parse_size(s: &str) -> anyhow::Result<Size> {
+fn parse_size(s: &str) -> anyhow::Result<RenderSize> {
     let bad = || {
         anyhow::anyhow!(
             "--size '{s}': expected N (long side) or WxH in pixels, such as 1024 or 800x600"
@@ -97,12 +97,12 @@ fn parse_size(s: &str) -> anyhow::Result<Size> {
     if let Some((w, h)) = s.split_once(['x', 'X']) {
         let w: u32 = w.trim().parse().map_err(|_| bad())?;
         let h: u32 = h.trim().parse().map_err(|_| bad())?;
-        Ok(Size::Exact {
+        Ok(RenderSize::Exact {
             width: w,
             height: h,
         })
     } else {
-        Ok(Size::LongSide(s.trim().parse().map_err(|_| bad())?))
+        Ok(RenderSize::LongSide(s.trim().parse().map_err(|_| bad())?))
     }
 }
 

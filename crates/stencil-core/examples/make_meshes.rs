@@ -1,11 +1,14 @@
 //! Regenerate the sample meshes in `samples/`: `cargo run --example make_meshes`.
 //!
-//! Every model is procedural (see `stencil_core::tone::mesh::shapes`), so the repository carries its
+//! Every model is procedural (see `tests/support/shapes.rs`), so the repository carries its
 //! own test models and no third-party assets.
 
 use std::path::Path;
 
-use stencil_core::tone::mesh::shapes;
+use stencil_core::tone::mesh::Mesh;
+
+#[path = "../tests/support/shapes.rs"]
+mod shapes;
 
 fn main() -> anyhow::Result<()> {
     let dir = Path::new("samples");

@@ -4,10 +4,11 @@
 //! because a corner has no width and would tear. The sheet continues beyond the image, so every
 //! material region that touches the image border belongs to the frame (node 0).
 
-use crate::raster::{join_runs, BitGrid, Run};
+use crate::raster::{components, touches_border, BitGrid, NOT_LABELLED};
 
-/// Label of a cut pixel in [`IslandMap::labels`].
-pub const CUT: u32 = u32::MAX;
+/// Label of a cut pixel in [`IslandMap::labels`]: the pixels [`components`] of the material leaves
+/// unlabelled.
+pub const CUT: u32 = NOT_LABELLED;
 /// The frame's node id.
 pub const FRAME: u32 = 0;
 
@@ -41,65 +42,6 @@ impl IslandMap {
     pub fn label(&self, x: u32, y: u32) -> u32 {
         self.labels[y as usize * self.width as usize + x as usize]
     }
-}
-
-/// 4-connected components of the pixels equal to `value`: a label per pixel (`CUT` where the pixel
-/// is not `value`), and the area of each component. O(pixels).
-pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
-    // Runs of `value` along each row, joined to the runs they overlap in the row above.
-    let (w, h) = (bits.width as usize, bits.height as usize);
-    let mut runs: Vec<Run> = Vec::new();
-    let mut row_first = Vec::with_capacity(h + 1);
-    for y in 0..h {
-        row_first.push(runs.len());
-        let row = &bits.data[y * w..(y + 1) * w];
-        let mut x = 0;
-        while x < w {
-            if row[x] != value {
-                x += 1;
-                continue;
-            }
-            let start = x;
-            while x < w && row[x] == value {
-                x += 1;
-            }
-            runs.push(Run {
-                y: y as u32,
-                x0: start as u32,
-                x1: x as u32 - 1,
-            });
-        }
-    }
-    row_first.push(runs.len());
-    let (piece, count) = join_runs(&runs, &row_first, false);
-    let mut labels = vec![CUT; w * h];
-    let mut areas = vec![0usize; count];
-    for (r, &id) in runs.iter().zip(&piece) {
-        let s = r.y as usize * w;
-        labels[s + r.x0 as usize..=s + r.x1 as usize].fill(id);
-        areas[id as usize] += (r.x1 - r.x0 + 1) as usize;
-    }
-    (labels, areas)
-}
-
-/// Whether component labels touch the image border, indexed by label.
-pub fn touches_border(labels: &[u32], width: u32, height: u32, count: usize) -> Vec<bool> {
-    let (w, h) = (width as usize, height as usize);
-    let mut t = vec![false; count];
-    let mut mark = |i: usize| {
-        if labels[i] != CUT {
-            t[labels[i] as usize] = true;
-        }
-    };
-    for x in 0..w {
-        mark(x);
-        mark((h - 1) * w + x);
-    }
-    for y in 0..h {
-        mark(y * w);
-        mark(y * w + w - 1);
-    }
-    t
 }
 
 /// Label material pixels 4-connected into the frame (everything touching the image border) and

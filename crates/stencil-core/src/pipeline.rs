@@ -637,6 +637,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         }
     };
     confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
+    bridged.recount(&twotone.bits);
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {
         Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)

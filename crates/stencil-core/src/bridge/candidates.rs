@@ -12,54 +12,50 @@ use crate::islands::{IslandMap, FRAME};
 
 /// One run of candidates along a contour of one node.
 #[derive(Clone, Debug)]
-pub struct Chain {
-    pub node: u32,
+pub(crate) struct Chain {
+    pub(crate) node: u32,
     /// First candidate id of the chain in [`Candidates::pixels`].
-    pub start: usize,
-    pub len: usize,
+    pub(crate) start: usize,
+    pub(crate) len: usize,
     /// The last candidate touches the first: windows wrap around.
-    pub closed: bool,
+    pub(crate) closed: bool,
 }
 
 /// All candidates of all islands, chain after chain. A candidate id is an index into `pixels`.
 #[derive(Clone, Debug, Default)]
-pub struct Candidates {
-    pub pixels: Vec<(u32, u32)>,
+pub(crate) struct Candidates {
+    pub(crate) pixels: Vec<(u32, u32)>,
     /// Chain index of each candidate.
-    pub chain_of: Vec<u32>,
-    pub chains: Vec<Chain>,
+    pub(crate) chain_of: Vec<u32>,
+    pub(crate) chains: Vec<Chain>,
     /// Per node, the candidate id of each pixel of `IslandMap::nodes[n].border` (same order), so a
     /// border pixel found by a search maps back to its candidate. Empty for the frame.
-    pub id_of_border: Vec<Vec<u32>>,
+    pub(crate) id_of_border: Vec<Vec<u32>>,
     /// Prefix sums of (1, x, y, x², y², xy) over candidates in id order (one more entry than
     /// candidates): the coordinate covariance of any run along a chain in O(1).
     moments: Vec<[f64; 6]>,
     /// Ids `twins.0..twins.1` are twins ([`Candidates::add_twins`]): the candidate at `id` sits on
     /// the same pixel, in the same place of a copy of the same chain, as `id - twins.0`.
-    pub twins: (usize, usize),
+    pub(crate) twins: (usize, usize),
 }
 
 impl Candidates {
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.pixels.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.pixels.is_empty()
-    }
-
-    pub fn node(&self, id: usize) -> u32 {
+    pub(crate) fn node(&self, id: usize) -> u32 {
         self.chains[self.chain_of[id] as usize].node
     }
 
     /// Position of `id` within its chain.
-    pub fn pos(&self, id: usize) -> usize {
+    pub(crate) fn pos(&self, id: usize) -> usize {
         id - self.chains[self.chain_of[id] as usize].start
     }
 
     /// The candidate `offset` steps along the chain from `id`, wrapping on closed chains, `None`
     /// past the ends of an open chain.
-    pub fn along(&self, id: usize, offset: isize) -> Option<usize> {
+    pub(crate) fn along(&self, id: usize, offset: isize) -> Option<usize> {
         let c = &self.chains[self.chain_of[id] as usize];
         let p = (id - c.start) as isize + offset;
         let n = c.len as isize;
@@ -81,7 +77,7 @@ impl Candidates {
 
     /// Sums of (1, x, y, x², y², xy) over the candidates at offsets `lo..=hi` from `id` along its
     /// chain (wrapping on a closed chain; the run must not be longer than the chain).
-    pub fn moments(&self, id: usize, lo: isize, hi: isize) -> [f64; 6] {
+    pub(crate) fn moments(&self, id: usize, lo: isize, hi: isize) -> [f64; 6] {
         let c = &self.chains[self.chain_of[id] as usize];
         let n = c.len as isize;
         let pos = (id - c.start) as isize;
@@ -106,7 +102,7 @@ impl Candidates {
     }
 
     /// Add a candidate on a chain of its own (for a strip found by search rather than a walk).
-    pub fn push_single(&mut self, node: u32, pixel: (u32, u32)) -> usize {
+    pub(crate) fn push_single(&mut self, node: u32, pixel: (u32, u32)) -> usize {
         let id = self.pixels.len();
         self.push_moment(pixel);
         self.chain_of.push(self.chains.len() as u32);
@@ -124,7 +120,7 @@ impl Candidates {
     /// of the copies' ids. The copies carry another kind of strip from the same border pixels
     /// (the shortest gaps, [`super::gaps`]); as chains of their own, their windows and growth run
     /// along the border exactly as the originals', over strips of their own kind.
-    pub fn add_twins(&mut self) -> (usize, usize) {
+    pub(crate) fn add_twins(&mut self) -> (usize, usize) {
         let n = self.pixels.len();
         let chains = self.chains.len() as u32;
         for id in 0..n {
@@ -143,7 +139,7 @@ impl Candidates {
     }
 
     /// How many candidates are originals (one per island border pixel, before any twins).
-    pub fn originals(&self) -> usize {
+    pub(crate) fn originals(&self) -> usize {
         if self.twins.1 > 0 {
             self.twins.0
         } else {
@@ -153,7 +149,7 @@ impl Candidates {
 
     /// The original of a twin, or `id` itself: the same border pixel has one `base` whichever
     /// kind of strip leaves it.
-    pub fn base(&self, id: usize) -> usize {
+    pub(crate) fn base(&self, id: usize) -> usize {
         if (self.twins.0..self.twins.1).contains(&id) {
             id - self.twins.0
         } else {
@@ -161,8 +157,9 @@ impl Candidates {
         }
     }
 
-    /// The candidate id of a border pixel of `node`, if it is one.
-    pub fn id_at(&self, map: &IslandMap, node: u32, x: u32, y: u32) -> Option<usize> {
+    /// The candidate id of a border pixel of `node`, if it is one (tests place candidates by pixel).
+    #[cfg(test)]
+    pub(crate) fn id_at(&self, map: &IslandMap, node: u32, x: u32, y: u32) -> Option<usize> {
         let border = &map.nodes.get(node as usize)?.border;
         let k = border
             .binary_search_by(|&(bx, by)| (by, bx).cmp(&(y, x)))
@@ -176,7 +173,7 @@ impl Candidates {
 
 /// Chain every island's border pixels (the frame's are not candidates: bridges start on islands).
 /// O(total island perimeter); islands are chained in parallel.
-pub fn collect(map: &IslandMap) -> Candidates {
+pub(crate) fn collect(map: &IslandMap) -> Candidates {
     let per_node: Vec<Vec<Vec<u32>>> = map
         .nodes
         .par_iter()

@@ -1,7 +1,7 @@
 //! The user's say in where bridges go: areas no bridge may cross (`--keep-out`, `--no-bridge-near`)
 //! and places a bridge must start near (`--bridge-at`).
 //!
-//! Forbidden pixels are handed to every strip through [`super::strips::Fields::with_forbidden`]:
+//! Forbidden pixels are handed to every strip through `super::strips::Fields::with_forbidden`:
 //! a walk or a shortest-gap strip that runs into one is dropped, and the fallback search never
 //! steps on one, so the tree only ever chooses among allowed strips. An island that can only be
 //! joined through forbidden pixels is an error naming it and where it is

@@ -1,5 +1,5 @@
 //! The cost `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` of a bridge placed at a candidate: one function per
-//! term, named after it, and [`score`], which evaluates them over the leftward, centred and
+//! term, named after it, and [`score_with`], which evaluates them over the leftward, centred and
 //! rightward windows along the border and keeps the cheapest.
 //!
 //! Normalisation (so that a weight of 1 means "as much as a typical strip"): let `L̃` be the median
@@ -25,11 +25,11 @@ use crate::raster::Gray;
 /// is a staircase whose pixels stray ±½ px from the line; over n candidates that alone gives
 /// κ ≈ 0.8/n, so with fewer than ~15 a staircase looks as curved as a 20 px radius bend. κ
 /// therefore uses `max(width, 15)` candidates (same alignment as the other terms' window).
-pub const KAPPA_MIN_WINDOW: usize = 15;
+pub(crate) const KAPPA_MIN_WINDOW: usize = 15;
 
 /// ΣI: sum over the strip's pixels of the squared difference between the grayscale and white
 /// (the bridge turns them white).
-pub fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
+pub(crate) fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
     pixels
         .iter()
         .map(|&p| {
@@ -40,15 +40,17 @@ pub fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
 }
 
 /// L^α: small for short strips, growing faster than linearly for long ones (1 < α < 2).
-pub fn length(len_px: f64, alpha: f64) -> f64 {
+pub(crate) fn length(len_px: f64, alpha: f64) -> f64 {
     len_px.powf(alpha)
 }
 
 /// κ: curvature of the border through `points` from the eigenvalues of their 2×2 coordinate
 /// covariance: √(λmin/λmax), 0 on a straight edge (all spread along one axis) rising to 1 where the
 /// points spread equally both ways (a tight curve). For points on an arc of small angle θ it grows
-/// in proportion to θ, i.e. to curvature × window length. Fewer than 3 points: 0.
-pub fn curvature(points: &[(f64, f64)]) -> f64 {
+/// in proportion to θ, i.e. to curvature × window length. Fewer than 3 points: 0. (The stage
+/// keeps running moments and calls [`curvature_from_moments`]; this form is for the tests.)
+#[cfg(test)]
+pub(crate) fn curvature(points: &[(f64, f64)]) -> f64 {
     let mut m = [0.0; 6];
     for &(x, y) in points {
         for (s, v) in m.iter_mut().zip([1.0, x, y, x * x, y * y, x * y]) {
@@ -59,7 +61,7 @@ pub fn curvature(points: &[(f64, f64)]) -> f64 {
 }
 
 /// [`curvature`] from the sums (n, Σx, Σy, Σx², Σy², Σxy) of the points.
-pub fn curvature_from_moments([n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> f64 {
+pub(crate) fn curvature_from_moments([n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> f64 {
     if n < 3.0 {
         return 0.0;
     }
@@ -78,7 +80,7 @@ pub fn curvature_from_moments([n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> f64 {
 }
 
 /// σ²: variance of strip costs relative to their squared mean (scale free). 0 for fewer than two.
-pub fn variance(costs: &[f64]) -> f64 {
+pub(crate) fn variance(costs: &[f64]) -> f64 {
     if costs.len() < 2 {
         return 0.0;
     }
@@ -93,31 +95,31 @@ pub fn variance(costs: &[f64]) -> f64 {
 
 /// Normalised intensity and length of one strip.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StripCost {
-    pub intensity: f64,
-    pub length: f64,
+pub(crate) struct StripCost {
+    pub(crate) intensity: f64,
+    pub(crate) length: f64,
 }
 
 impl StripCost {
     /// The unweighted strip cost whose spread σ² measures.
-    pub fn base(&self) -> f64 {
+    pub(crate) fn base(&self) -> f64 {
         self.intensity + self.length
     }
 
     /// The weighted strip cost: which neighbour is cheaper when a bridge grows.
-    pub fn weighted(&self, cfg: &BridgeConfig) -> f64 {
+    pub(crate) fn weighted(&self, cfg: &BridgeConfig) -> f64 {
         cfg.w_intensity * self.intensity + cfg.w_length * self.length
     }
 }
 
 /// The image's scale for the terms (see the module doc).
 #[derive(Clone, Copy, Debug)]
-pub struct Norm {
+pub(crate) struct Norm {
     /// Median strip length L̃, at least 1.
-    pub typical_len: f64,
-    pub alpha: f64,
+    pub(crate) typical_len: f64,
+    pub(crate) alpha: f64,
     /// What a missing neighbour counts as in σ².
-    pub missing: StripCost,
+    pub(crate) missing: StripCost,
     /// `L̃^α`, the divisor of every strip's length term, computed once (`powf` per strip was a
     /// visible share of the scoring phase).
     typical_pow: f64,
@@ -125,7 +127,7 @@ pub struct Norm {
 
 impl Norm {
     /// From all strip lengths of the image (any order; may be empty).
-    pub fn new(mut lengths: Vec<usize>, cfg: &BridgeConfig) -> Self {
+    pub(crate) fn new(mut lengths: Vec<usize>, cfg: &BridgeConfig) -> Self {
         let typical = if lengths.is_empty() {
             1.0
         } else {
@@ -151,7 +153,7 @@ impl Norm {
     }
 
     /// Per-pixel prices of the fallback search's paths (see [`StepCost`]).
-    pub fn step_cost(&self, cfg: &BridgeConfig) -> StepCost {
+    pub(crate) fn step_cost(&self, cfg: &BridgeConfig) -> StepCost {
         let limit = cfg.max_length_px.max(1) as f64;
         StepCost {
             intensity: cfg.w_intensity as f32,
@@ -165,7 +167,7 @@ impl Norm {
         length(len, self.alpha) / self.typical_pow
     }
 
-    pub fn strip(&self, s: &Strip) -> StripCost {
+    pub(crate) fn strip(&self, s: &Strip) -> StripCost {
         StripCost {
             intensity: s.intensity / self.typical_len,
             length: self.length_of(s.len() as f64),
@@ -186,17 +188,17 @@ const STEP_FLOOR: f32 = 1e-3;
 /// as the cost function does there. With the default weights and L̃ ≈ 10 px a pixel of length
 /// costs about 6.7 pixels of black: a detour over light gray is taken only when it is short.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepCost {
+pub(crate) struct StepCost {
     /// w0: the price of a pixel of pure black.
-    pub intensity: f32,
+    pub(crate) intensity: f32,
     /// What each pixel costs for its length (never 0).
-    pub length: f32,
+    pub(crate) length: f32,
 }
 
 impl StepCost {
     /// The cost of cut pixel `p` (linear index) as part of a path.
     #[inline]
-    pub fn at(&self, gray: &Gray, p: u32) -> f32 {
+    pub(crate) fn at(&self, gray: &Gray, p: u32) -> f32 {
         let d = 1.0 - gray.data[p as usize];
         self.intensity * d * d + self.length
     }
@@ -204,7 +206,7 @@ impl StepCost {
 
 /// Where a window lies relative to its candidate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Align {
+pub(crate) enum Align {
     /// The candidate is the window's last strip (the bridge extends backwards along the border).
     Left,
     Centre,
@@ -215,7 +217,7 @@ pub enum Align {
 /// Offsets (inclusive) along the chain of a window of `size` candidates around `id`. Clamped to
 /// the chain: a closed chain shorter than `size` is taken whole; on an open chain the window is
 /// shifted to lie inside it (near an end, the three alignments may coincide).
-pub fn window(c: &Candidates, id: usize, size: usize, align: Align) -> (isize, isize) {
+pub(crate) fn window(c: &Candidates, id: usize, size: usize, align: Align) -> (isize, isize) {
     let chain = &c.chains[c.chain_of[id] as usize];
     let size = size.clamp(1, chain.len) as isize;
     let mut lo = match align {
@@ -233,36 +235,24 @@ pub fn window(c: &Candidates, id: usize, size: usize, align: Align) -> (isize, i
 
 /// The cheapest window of a candidate.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Scored {
+pub(crate) struct Scored {
     /// Weighted terms and total.
-    pub terms: CostTerms,
+    pub(crate) terms: CostTerms,
     /// The window's offsets along the chain.
-    pub window: (isize, isize),
-    pub align: Align,
+    pub(crate) window: (isize, isize),
+    pub(crate) align: Align,
     /// Bridge width needed there, px.
-    pub width: u32,
+    pub(crate) width: u32,
     /// Intensity error the bridge is expected to add: mean ΣI of the window's strips × width.
-    pub estimate: f64,
+    pub(crate) estimate: f64,
 }
 
 /// Score candidate `id` (which must have a strip): each term over the leftward, centred and
-/// rightward windows of `width` candidates; the cheapest total is kept.
-pub fn score(
-    c: &Candidates,
-    strips: &[Option<Strip>],
-    costs: &[Option<StripCost>],
-    id: usize,
-    width: u32,
-    cfg: &BridgeConfig,
-    norm: &Norm,
-) -> Option<Scored> {
-    score_with(c, strips, costs, id, width, cfg, norm, &mut Vec::new())
-}
-
-/// [`score`] with a reusable buffer for the window's strip costs: scoring runs once per
-/// candidate (tens of thousands), and a fresh allocation each time showed up in profiles.
+/// rightward windows of `width` candidates; the cheapest total is kept. `base` is a reusable
+/// buffer for the window's strip costs: scoring runs once per candidate (tens of thousands), and a
+/// fresh allocation each time showed up in profiles.
 #[allow(clippy::too_many_arguments)]
-pub fn score_with(
+pub(crate) fn score_with(
     c: &Candidates,
     strips: &[Option<Strip>],
     costs: &[Option<StripCost>],

@@ -37,7 +37,7 @@ use crate::raster::BitGrid;
 /// How far along a contour, in candidates, a border pixel without a shortest gap of its own
 /// borrows the direction of the nearest one. Wider than any bridge's strips on either side of
 /// the gap it grows from (the widest bridges of the shipped materials are a few dozen pixels).
-pub const REACH: usize = 48;
+pub(crate) const REACH: usize = 48;
 
 /// The shortest gap leaving one border pixel: its length (between pixel centres) and the other
 /// end, in image pixel coordinates (may lie one pixel outside the image: the frame).
@@ -50,21 +50,21 @@ struct Gap {
 /// Where a candidate's straight strip heads: a unit direction and the length of the shortest
 /// gap it comes from (its own, or the one it borrowed).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Heading {
-    pub d: [f32; 2],
-    pub gap: f32,
+pub(crate) struct Heading {
+    pub(crate) d: [f32; 2],
+    pub(crate) gap: f32,
 }
 
 /// Shortest gaps are looked up from every this many candidates along a contour (and from every
 /// pixel where two pieces meet at a corner); the others borrow the nearest one's heading. Gaps
 /// change slowly along a contour, and neighbouring strips of one bridge should run parallel
 /// anyway; looking them all up cost as much as all the walks.
-pub const SEED_STEP: usize = 3;
+pub(crate) const SEED_STEP: usize = 3;
 
 /// For every candidate of the (original) chains, the heading of its straight strip, if it has
 /// one: towards the other end of its own shortest gap, or borrowed from the nearest gap along its
 /// contour within [`REACH`]. Gaps longer than `max_len` pixels are ignored.
-pub fn directions(
+pub(crate) fn directions(
     bits: &BitGrid,
     map: &IslandMap,
     cands: &Candidates,
@@ -365,7 +365,7 @@ fn shortest_gaps(
 /// 4-connected line's count), the twin takes a copy of it instead of walking, and is marked in
 /// the second vector: a copy adds nothing to choose from, so it is not scored on its own, but it
 /// keeps the twin chain whole for its neighbours' windows and growth.
-pub fn walk_twins(
+pub(crate) fn walk_twins(
     fields: &Fields,
     cands: &Candidates,
     heads: &[Option<Heading>],
@@ -483,7 +483,7 @@ mod tests {
                 seed = seed
                     .wrapping_mul(6364136223846793005)
                     .wrapping_add(1442695040888963407);
-                (seed >> 33) % 4 == 0
+                (seed >> 33).is_multiple_of(4)
             });
             let m = label(&g);
             let shores = Shores::new(&g, &m);

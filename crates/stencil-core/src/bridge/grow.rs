@@ -4,12 +4,11 @@ use super::candidates::Candidates;
 use super::cost::StripCost;
 use super::strips::Strip;
 use super::BridgeConfig;
-use crate::islands;
-use crate::raster::{BitGrid, Gray};
+use crate::raster::{self, BitGrid, Gray};
 
 /// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
 /// side of a square of that area (the paper's ⌈√A / 4⌉).
-pub const WIDTH_PER_SIDE: f64 = 0.25;
+pub(crate) const WIDTH_PER_SIDE: f64 = 0.25;
 
 /// Width of the bridge between two nodes, in pixels:
 ///
@@ -27,7 +26,7 @@ pub const WIDTH_PER_SIDE: f64 = 0.25;
 /// Why √A/4: an island hangs from its bridges and its weight grows with its area, while a bridge
 /// wider than about a quarter of the island's side would smother its shape. With cardstock
 /// (1..4 mm) an island 4 mm across gets 1 mm, one 16 mm across or larger 4 mm.
-pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
+pub(crate) fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
     let w = (WIDTH_PER_SIDE * (smaller_area as f64).sqrt()).ceil() as u32;
     w.clamp(
         cfg.min_width_px.max(1),
@@ -44,7 +43,7 @@ pub fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
 /// and both its start and its end are `width` px across, measured at right angles to the bridge
 /// ([`band_width`]; strips converging on a smaller island land closer together than they start),
 /// but never past 4 × `width` strips.
-pub fn grow(
+pub(crate) fn grow(
     c: &Candidates,
     strips: &[Option<Strip>],
     costs: &[Option<StripCost>],
@@ -96,7 +95,7 @@ const ACROSS_SLACK: f64 = 0.05;
 /// The narrowest width across a bridge made of `members` (in chain order), in pixels: the spread
 /// of the outer strips' start points and of their end points, measured at right angles to the
 /// bridge's mean direction, plus one pixel for the strips' own width; the smaller of the two ends.
-pub fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -> f64 {
+pub(crate) fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -> f64 {
     let ends: Vec<([f64; 2], [f64; 2])> = members
         .iter()
         .filter_map(|&m| {
@@ -120,7 +119,8 @@ pub fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -
     }
     // Unit normal to the mean direction.
     let (nx, ny) = (-dy / len, dx / len);
-    let spread = |pick: fn(&([f64; 2], [f64; 2])) -> [f64; 2]| {
+    type Pick = fn(&([f64; 2], [f64; 2])) -> [f64; 2];
+    let spread = |pick: Pick| {
         let proj = ends.iter().map(|e| {
             let p = pick(e);
             p[0] * nx + p[1] * ny
@@ -133,22 +133,22 @@ pub fn band_width(c: &Candidates, strips: &[Option<Strip>], members: &[usize]) -
 
 /// What drawing a bridge would change, computed before committing it.
 #[derive(Clone, Debug, Default)]
-pub struct Plan {
+pub(crate) struct Plan {
     /// Cut pixels (linear indices) it turns into material.
-    pub pixels: Vec<u32>,
+    pub(crate) pixels: Vec<u32>,
     /// Outline: start and end points of the outer strips (or the corners of the straight band it
     /// was drawn as), in pixel coordinates where pixel (x, y) covers [x, x+1) × [y, y+1) (points
     /// are pixel centres).
-    pub polygon: Vec<[f64; 2]>,
+    pub(crate) polygon: Vec<[f64; 2]>,
     /// Real intensity error: Σ (1 − gray)² over `pixels`.
-    pub real: f64,
+    pub(crate) real: f64,
     /// Width at right angles to the bridge at its narrowest, in pixels: what the strips span, the
     /// minimum width when they had to be thickened, the band's width when drawn as a band, and no
     /// more than the narrowest run of material measured across the drawn bridge plus one pixel
     /// (the staircase pixel the check's allowance counts too).
-    pub width: u32,
+    pub(crate) width: u32,
     /// Mean strip length, px.
-    pub length: f64,
+    pub(crate) length: f64,
 }
 
 /// Plan the bridge made of `members`' strips, at least `cfg.min_width_px` and at most
@@ -176,7 +176,7 @@ pub struct Plan {
 ///
 /// A moderate fan keeps its filled outline; if that costs more than the strips promised, the
 /// support rule halves it.
-pub fn plan(
+pub(crate) fn plan(
     bits: &BitGrid,
     gray: &Gray,
     c: &Candidates,
@@ -540,16 +540,16 @@ fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl F
         data: (0..lw * lh).map(f).collect(),
     };
     let after = grid(&|l| cut(l) && state[l] != 2);
-    let (labels, areas) = islands::components(&after, true);
-    let open = islands::touches_border(&labels, w, h, areas.len());
+    let (labels, areas) = raster::components(&after, true);
+    let open = raster::touches_border(&labels, w, h, areas.len());
     if open.iter().all(|&o| o) {
         return;
     }
-    let (was, was_areas) = islands::components(&grid(&cut), true);
-    let was_open = islands::touches_border(&was, w, h, was_areas.len());
+    let (was, was_areas) = raster::components(&grid(&cut), true);
+    let was_open = raster::touches_border(&was, w, h, was_areas.len());
     for l in 0..lw * lh {
         let k = labels[l];
-        if k != islands::CUT
+        if k != raster::NOT_LABELLED
             && !open[k as usize]
             && areas[k as usize] <= seal
             && was_open[was[l] as usize]
@@ -561,18 +561,18 @@ fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl F
 
 /// Widths across a drawn bridge at right angles to its axis, in pixels (see [`measure`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Across {
+pub(crate) struct Across {
     /// The shortest run of material across it (infinite when every run reaches on into material).
-    pub narrowest: f64,
+    pub(crate) narrowest: f64,
     /// The longest chord of its outline plus one pixel for the pixels' own width, or the longest
     /// run across of the bridge's own pixels if that is longer (outer strips bulging out of the
     /// outline, thickening).
-    pub widest: f64,
+    pub(crate) widest: f64,
     /// The run of material across it at the middle of its axis: infinite when that line leaves
     /// through the bridge's ends into the nodes without meeting the cut on either side (a short,
     /// wide fan whose ends are slanted to its axis), so that no width at right angles to the
     /// bridge can be told there.
-    pub middle: f64,
+    pub(crate) middle: f64,
 }
 
 /// The pixel holding point `p`: its coordinates rounded down. Written out rather than with
@@ -608,7 +608,7 @@ const END_MARGIN: f64 = 0.75;
 /// measures up to a pixel less than its count of strips (the staircase pixel of
 /// [`crate::check::allowance_px`]). The station at the middle of the axis is also kept on its
 /// own ([`Across::middle`]).
-pub fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Across {
+pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Across {
     let mut widest = widest(polygon);
     let Some(axis) = Axis::new(polygon) else {
         return Across {
@@ -868,15 +868,15 @@ fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     dist(p, [a[0] + t * dx, a[1] + t * dy])
 }
 
-/// Turn the planned pixels into material; returns how many were still cut (a pixel an earlier
+/// Turn the planned pixels into material; returns those that were still cut (a pixel an earlier
 /// bridge already took counts for that one).
-pub fn commit(bits: &mut BitGrid, pixels: &[u32]) -> usize {
-    let mut turned = 0;
+pub(crate) fn commit(bits: &mut BitGrid, pixels: &[u32]) -> Vec<u32> {
+    let mut turned = Vec::new();
     for &p in pixels {
         let cell = &mut bits.data[p as usize];
         if !*cell {
             *cell = true;
-            turned += 1;
+            turned.push(p);
         }
     }
     turned
@@ -956,7 +956,7 @@ fn runs_straight(strip: &Strip, image_width: u32) -> bool {
 /// check knows it for a bridge. The band lies inside the thickened pixels (the brush reaches
 /// `⌈(width − 1)/2⌉ + ½` px either side of the strip). `None` for a bent strip, whose outline stays
 /// the segment [`plan`] gives it.
-pub fn straight_band(
+pub(crate) fn straight_band(
     start: (u32, u32),
     strip: &Strip,
     width: u32,

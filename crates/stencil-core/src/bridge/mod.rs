@@ -1,18 +1,19 @@
 //! Stages 3–5: bridge strips, their cost, the spanning tree over island groups, growing bridges.
 //!
-//! [`connect`] runs the paper's method (Bronson, Rheingans & Olano, NPAR 2008; see paper.md):
-//! 1. [`candidates`]: every island border pixel, chained along the island's contours;
-//! 2. [`strips`]: from each, a walk through the cut along the grayscale gradient (the smoothed
+//! [`connect`] runs the method of Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
+//! through Error Minimization" (NPAR 2008):
+//! 1. `candidates`: every island border pixel, chained along the island's contours;
+//! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
 //!    two-tone's where the gray is flat) to material of another node;
-//! 3. [`cost`]: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
+//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
 //!    as wide as the bridge needs, cheapest kept;
-//! 4. [`tree`]: Prim from the frame over island groups, edge cost = cheapest window between them;
+//! 4. `tree`: Prim from the frame over island groups, edge cost = cheapest window between them;
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
-//!    ([`strips::search`]), so every island is joined: the length limit is a preference (walks
+//!    (`strips::search`), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
 //!    then [`strength`]: islands whose size, shape or sag estimate asks for more than the tree's
 //!    bridge get more, from their own candidates, spread apart;
-//! 5. [`grow`]: each chosen strip grown to its width (cheaper neighbour first), drawn as the
+//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
 //!
@@ -24,15 +25,15 @@
 //! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
 //! added, names kept.
 
-pub mod candidates;
+pub(crate) mod candidates;
 pub mod constraints;
-pub mod cost;
-pub mod gaps;
-pub mod grow;
+pub(crate) mod cost;
+pub(crate) mod gaps;
+pub(crate) mod grow;
 pub mod strength;
-pub mod strips;
-pub mod tidy;
-pub mod tree;
+pub(crate) mod strips;
+pub(crate) mod tidy;
+pub(crate) mod tree;
 
 use std::collections::{HashMap, HashSet};
 
@@ -44,7 +45,7 @@ use crate::raster::{BitGrid, TwoTone};
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
 ///
 /// The terms are normalised so that each is about 1 for a typical strip of the image (see
-/// [`cost`]): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
+/// `cost`): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
 /// in 0 (straight) .. 1 (round), σ² is the variance of strip costs over the window divided by
 /// their squared mean.
 ///
@@ -72,8 +73,8 @@ pub struct BridgeConfig {
     /// Length limit of the walks, default 200 px: a preference, not a cut-off. Walks longer than
     /// this are dropped, so an island is joined by a strip under it when one exists; a group of
     /// islands left with none is joined by the cheapest path through the cut of any length
-    /// ([`strips::search`], whose per-pixel length price is the L^α term's slope at this limit,
-    /// see [`cost::StepCost`]), and its bridge is marked [`Via::Search`].
+    /// (`strips::search`, whose per-pixel length price is the L^α term's slope at this limit,
+    /// see `cost::StepCost`), and its bridge is marked [`Via::Search`].
     pub max_length_px: u32,
     /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
     /// to it at its narrowest. `stencil make` sets it from the material's `min_bridge_mm` (see
@@ -93,7 +94,7 @@ pub struct BridgeConfig {
     /// cheapest place between the same two nodes.
     pub support_margin: f64,
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
-    /// true; see [`gaps`]). Off, the candidates are the paper's alone.
+    /// true; see `gaps`). Off, the candidates are the paper's alone.
     pub gaps: bool,
     /// Where bridges may not go and where they should (see [`constraints`]).
     pub user: constraints::UserBridges,
@@ -139,7 +140,7 @@ pub enum Via {
     /// A walk along the gradient, under the length limit (the paper's strips).
     #[default]
     Walk,
-    /// A straight strip across the shortest gap between two pieces ([`gaps`]).
+    /// A straight strip across the shortest gap between two pieces (`gaps`).
     Gap,
     /// The fallback search: no walk under the length limit left the island's group, so it is
     /// joined by the cheapest path through the cut, of any length.
@@ -151,10 +152,11 @@ pub enum Via {
 pub struct Bridge {
     /// The two nodes it joins (0 = frame).
     pub nodes: [u32; 2],
-    /// Width at right angles to it at its narrowest, px (see [`grow::Plan::width`]).
+    /// Width at right angles to it at its narrowest, px (see `grow::Plan::width`).
     pub width_px: u32,
     pub length_px: f64,
-    /// Cut pixels it turns into material.
+    /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
+    /// final stencil (the clean-up around the bridges included).
     pub pixels: usize,
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
@@ -166,7 +168,7 @@ pub struct Bridge {
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
     /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
-    /// outlined as the band of its width instead; see [`grow::straight_band`]).
+    /// outlined as the band of its width instead; see `grow::straight_band`).
     pub polygon: Vec<[f64; 2]>,
 }
 
@@ -179,6 +181,73 @@ pub struct Bridged {
     pub strength: Vec<strength::IslandStrength>,
     /// What became of each `--bridge-at` place (see [`constraints`]).
     pub requests: Vec<constraints::Request>,
+    /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
+    /// share is the first one's). [`Bridged::recount`] starts from them.
+    drawn: Vec<Vec<u32>>,
+}
+
+/// No bridge owns the pixel (yet), in [`Bridged::recount`].
+const UNOWNED: u32 = u32::MAX;
+
+impl Bridged {
+    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
+    /// grid the bridges were drawn into. Why: the clean-up after bridging (the tidy pass, the
+    /// settle, the neck repairs) adds and removes material around the bridges, so the counts taken
+    /// when they were drawn no longer describe the stencil written.
+    ///
+    /// Every pixel that is material now and was cut in `before` counts for one bridge: the bridge
+    /// that drew it if it still stands; else the bridge it joins through such pixels (4-connected,
+    /// nearest first); else, for added material apart from every bridge (a widened neck), the
+    /// nearest bridge. The counts therefore add up to all the material added, whenever there is a
+    /// bridge. O(added pixels), plus O(pixels) only when some added material touches no bridge.
+    pub fn recount(&mut self, before: &BitGrid) {
+        let n = self.bits.data.len();
+        let added = |i: usize| self.bits.data[i] && !before.data[i];
+        let mut owner = vec![UNOWNED; n];
+        let mut queue = std::collections::VecDeque::new();
+        for (k, drawn) in self.drawn.iter().enumerate() {
+            for &p in drawn {
+                if added(p as usize) && owner[p as usize] == UNOWNED {
+                    owner[p as usize] = k as u32;
+                    queue.push_back(p as usize);
+                }
+            }
+        }
+        let (w, h) = (self.bits.width as usize, self.bits.height as usize);
+        let spread = |owner: &mut [u32],
+                      queue: &mut std::collections::VecDeque<usize>,
+                      through_all: bool| {
+            while let Some(i) = queue.pop_front() {
+                let (x, y) = (i % w, i / w);
+                let next = [
+                    (x > 0).then(|| i - 1),
+                    (x + 1 < w).then(|| i + 1),
+                    (y > 0).then(|| i - w),
+                    (y + 1 < h).then(|| i + w),
+                ];
+                for j in next.into_iter().flatten() {
+                    if owner[j] == UNOWNED && (through_all || added(j)) {
+                        owner[j] = owner[i];
+                        queue.push_back(j);
+                    }
+                }
+            }
+        };
+        spread(&mut owner, &mut queue, false);
+        let stray = (0..n).any(|i| added(i) && owner[i] == UNOWNED);
+        if stray && !self.drawn.is_empty() {
+            queue.extend((0..n).filter(|&i| owner[i] != UNOWNED));
+            spread(&mut owner, &mut queue, true);
+        }
+        for b in &mut self.bridges {
+            b.pixels = 0;
+        }
+        for i in (0..n).filter(|&i| added(i)) {
+            if let Some(b) = self.bridges.get_mut(owner[i] as usize) {
+                b.pixels += 1;
+            }
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -303,6 +372,7 @@ pub fn connect_timed(
             bridges: Vec::new(),
             strength: Vec::new(),
             requests: Vec::new(),
+            drawn: Vec::new(),
         };
         return Ok((bridged, times));
     }
@@ -424,14 +494,17 @@ pub fn connect_timed(
         .collect();
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
+    let mut drawn = Vec::with_capacity(planned.len());
     for (mut bridge, mut pixels) in planned.into_iter().flatten() {
         // Strips never cross a forbidden pixel, but a fill or a thickening beside one may: those
         // pixels stay cut (the strips themselves still join the two nodes).
         if let Some(f) = &cfg.user.keep_out {
             pixels.retain(|&p| !f.data[p as usize]);
         }
-        bridge.pixels = grow::commit(&mut bits, &pixels);
+        let turned = grow::commit(&mut bits, &pixels);
+        bridge.pixels = turned.len();
         bridges.push(bridge);
+        drawn.push(turned);
     }
     lap("grow", &mut times);
     Ok((
@@ -440,6 +513,7 @@ pub fn connect_timed(
             bridges,
             strength,
             requests,
+            drawn,
         },
         times,
     ))

@@ -12,16 +12,16 @@
 //!    island as seen from its centre (its pixels' centroid), edge to edge (so the bridge may grow
 //!    to either side of where it was scored and still be that far round), the cheapest such
 //!    candidate; where the shape has none that far round, the one farthest round.
-//! 2. **Ends**: a long thin island (length at least [`THIN_RATIO`] times its breadth, and longer
-//!    than `two_bridges_above_mm`) is held near both ends: within [`END_REACH`] (a fifth) of its
+//! 2. **Ends**: a long thin island (length at least `THIN_RATIO` times its breadth, and longer
+//!    than `two_bridges_above_mm`) is held near both ends: within `END_REACH` (a fifth) of its
 //!    length of each end (the supports that minimise a uniformly loaded beam's sag lie 0.21–0.22
 //!    of its length in from the ends, the Airy and Bessel points), the cheapest there.
 //! 3. **Sag**: while the sag estimate exceeds the material's `max_sag_mm`, a bridge near the
-//!    island's farthest point from its bridges: of the [`TRIALS`] cheapest candidates within half
+//!    island's farthest point from its bridges: of the `TRIALS` cheapest candidates within half
 //!    the span of that point, the one that shortens the span most; the nearest one if none is
 //!    that near. It stops when the sag is within the limit, when
 //!    no candidate lies nearer than 0.9 of the span to the farthest point (the farthest material
-//!    is out of reach of any bridge: a large island's middle), or at [`MAX_FOR_SAG`] bridges.
+//!    is out of reach of any bridge: a large island's middle), or at `MAX_FOR_SAG` bridges.
 //!
 //! **The sag model.** The *span* L of an island is the farthest any of its material lies from its
 //! nearest bridge, measured inside the island (8-neighbour paths over its pixels, diagonal steps
@@ -41,7 +41,7 @@
 //! stiffer. It does not count the bridge itself bending (one bridge is a hinge: that is the count
 //! rule's business), nor an island hanging from another island that sags in turn.
 //!
-//! Support bridges the grow stage adds later ([`super::plan_bridge`]) are not counted: the
+//! Support bridges the grow stage adds later (`super::plan_bridge`) are not counted: the
 //! estimate is for the bridges chosen here, which they only add to.
 
 use std::cmp::Reverse;
@@ -57,17 +57,17 @@ use crate::islands::{IslandMap, FRAME};
 const G: f64 = 9.806_65;
 
 /// An island is long and thin when its length is at least this many times its breadth.
-pub const THIN_RATIO: f64 = 4.0;
+const THIN_RATIO: f64 = 4.0;
 
 /// How near an end of a long thin island a bridge must touch it, as a fraction of its length.
-pub const END_REACH: f64 = 0.2;
+const END_REACH: f64 = 0.2;
 
 /// The sag rule adds bridges up to this many per island (more bridges than this hide the picture
 /// more than they help: a large island's middle is out of reach of any bridge anyway).
-pub const MAX_FOR_SAG: usize = 12;
+const MAX_FOR_SAG: usize = 12;
 
 /// How many candidates near the farthest point the sag rule tries, cheapest first.
-pub const TRIALS: usize = 8;
+const TRIALS: usize = 8;
 
 /// Most bridges `--bridges-per-island` may ask for.
 pub const MAX_PER_ISLAND: u32 = 12;
@@ -112,21 +112,21 @@ impl Default for StrengthConfig {
 impl StrengthConfig {
     /// The sag estimate, mm, of an island whose span is `span_mm` (see the module notes):
     /// `5·ρ·g·L⁴ / (2·E·t²)`, in SI units then back to millimetres.
-    pub fn sag_mm(&self, span_mm: f64) -> f64 {
+    pub(crate) fn sag_mm(&self, span_mm: f64) -> f64 {
         let (l, t) = (span_mm / 1e3, self.thickness_mm / 1e3);
         let e = self.youngs_modulus_gpa * 1e9;
         5.0 * self.density_kg_m3 * G * l.powi(4) / (2.0 * e * t * t) * 1e3
     }
 
     /// The longest span whose sag is within `max_sag_mm`.
-    pub fn max_span_mm(&self) -> f64 {
+    pub(crate) fn max_span_mm(&self) -> f64 {
         let (t, e) = (self.thickness_mm / 1e3, self.youngs_modulus_gpa * 1e9);
         let l4 = self.max_sag_mm / 1e3 * 2.0 * e * t * t / (5.0 * self.density_kg_m3 * G);
         l4.powf(0.25) * 1e3
     }
 
     /// The settings a library caller may get wrong, by name.
-    pub fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
+    pub(crate) fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
         if !(1..=MAX_PER_ISLAND).contains(&self.per_island) {
             return Err((
                 "bridges_per_island",
@@ -551,6 +551,7 @@ fn apart(a: f64, b: f64) -> f64 {
 }
 
 /// One island: the rules in order (see the module notes).
+#[allow(clippy::too_many_arguments)]
 fn island(
     g: &Graph,
     map: &IslandMap,

@@ -22,26 +22,22 @@ use crate::raster::{BitGrid, Gray, TwoTone};
 
 /// A one-pixel-wide chain of cut pixels from a candidate of `from` to material of `to`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Strip {
-    pub from: u32,
-    pub to: u32,
+pub(crate) struct Strip {
+    pub(crate) from: u32,
+    pub(crate) to: u32,
     /// Linear pixel indices (`y * width + x`), 4-connected, first beside the candidate.
-    pub pixels: Vec<u32>,
+    pub(crate) pixels: Vec<u32>,
     /// Where the strip lands: the material pixel of `to` beside its last pixel (may lie one pixel
     /// outside the image when `to` is the sheet beyond the image).
-    pub end: (i64, i64),
+    pub(crate) end: (i64, i64),
     /// ΣI, the intensity error of its pixels (see [`super::cost::intensity`]).
-    pub intensity: f64,
+    pub(crate) intensity: f64,
 }
 
 impl Strip {
     /// L: the number of pixels the strip turns into material.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.pixels.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.pixels.is_empty()
     }
 }
 
@@ -71,18 +67,18 @@ const LOOP_WINDOW: usize = 8;
 /// gradient of the gray, box-smoothed gradient of the two-tone) are evaluated on demand at the
 /// pixels walks cross, so their cost follows the islands' perimeter × walk length, never the
 /// image area.
-pub struct Fields<'a> {
-    pub bits: &'a BitGrid,
-    pub gray: &'a Gray,
-    pub labels: &'a [u32],
-    pub width: i64,
-    pub height: i64,
+pub(crate) struct Fields<'a> {
+    pub(crate) bits: &'a BitGrid,
+    pub(crate) gray: &'a Gray,
+    pub(crate) labels: &'a [u32],
+    pub(crate) width: i64,
+    pub(crate) height: i64,
     /// Cut pixels no strip may cross (the user's keep-out areas), if any.
-    pub forbidden: Option<&'a BitGrid>,
+    pub(crate) forbidden: Option<&'a BitGrid>,
 }
 
 impl<'a> Fields<'a> {
-    pub fn new(two: &'a TwoTone, map: &'a IslandMap) -> Self {
+    pub(crate) fn new(two: &'a TwoTone, map: &'a IslandMap) -> Self {
         Fields {
             bits: &two.bits,
             gray: &two.gray,
@@ -94,7 +90,7 @@ impl<'a> Fields<'a> {
     }
 
     /// The same fields with cut pixels no strip may cross (a grid of the image's size).
-    pub fn with_forbidden(self, forbidden: Option<&'a BitGrid>) -> Self {
+    pub(crate) fn with_forbidden(self, forbidden: Option<&'a BitGrid>) -> Self {
         Fields { forbidden, ..self }
     }
 
@@ -112,7 +108,7 @@ impl<'a> Fields<'a> {
 
     /// Label of a pixel; outside the image is the frame (the sheet continues).
     #[inline]
-    pub fn label(&self, x: i64, y: i64) -> u32 {
+    pub(crate) fn label(&self, x: i64, y: i64) -> u32 {
         if self.inside(x, y) {
             self.labels[(y * self.width + x) as usize]
         } else {
@@ -122,7 +118,7 @@ impl<'a> Fields<'a> {
 
     /// Gradient of the two-tone smoothed by a (2r+1)² box at a pixel: points towards material,
     /// zero farther than r from it. Outside the image counts as material (the frame).
-    pub fn twotone_gradient(&self, x: i64, y: i64, r: i64) -> [f32; 2] {
+    pub(crate) fn twotone_gradient(&self, x: i64, y: i64, r: i64) -> [f32; 2] {
         let w = self.width;
         let data = &self.bits.data;
         let (mut gx, mut gy) = (0i32, 0i32);
@@ -162,7 +158,7 @@ impl<'a> Fields<'a> {
     }
 
     /// Sobel gradient of the grayscale (levels per pixel), clamped at the image edge.
-    pub fn gray_gradient(&self, x: i64, y: i64) -> [f32; 2] {
+    pub(crate) fn gray_gradient(&self, x: i64, y: i64) -> [f32; 2] {
         let w = self.width;
         if x >= 1 && y >= 1 && x + 1 < w && y + 1 < self.height {
             let d = &self.gray.data;
@@ -185,7 +181,7 @@ impl<'a> Fields<'a> {
 
     /// The direction field a walk follows at a pixel, unoriented (a line field): the grayscale
     /// gradient where it is not flat, else the smoothed two-tone's. `None` where both are flat.
-    pub fn field(&self, x: i64, y: i64) -> Option<[f32; 2]> {
+    pub(crate) fn field(&self, x: i64, y: i64) -> Option<[f32; 2]> {
         let g = self.gray_gradient(x, y);
         let m2 = g[0] * g[0] + g[1] * g[1];
         if m2 >= GRAY_FLAT * GRAY_FLAT {
@@ -261,7 +257,7 @@ impl<'a> Fields<'a> {
 
 /// Why a walk produced no strip (kept for counting in tests and diagnostics).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum WalkEnd {
+pub(crate) enum WalkEnd {
     /// Longer than the limit.
     TooLong,
     /// Walked back into its own node.
@@ -277,7 +273,7 @@ pub enum WalkEnd {
 /// Outward normal of the border at candidate `id`: perpendicular to the chord between the
 /// candidates `TANGENT_REACH` steps before and after it along the contour, on the cut side. So
 /// a walk leaves a straight edge at right angles even on a digital staircase.
-pub fn normal(f: &Fields, c: &Candidates, id: usize) -> [f32; 2] {
+pub(crate) fn normal(f: &Fields, c: &Candidates, id: usize) -> [f32; 2] {
     let (x, y) = c.pixels[id];
     let (x, y) = (x as i64, y as i64);
     let side = f.cut_side(x, y);
@@ -308,8 +304,10 @@ pub fn normal(f: &Fields, c: &Candidates, id: usize) -> [f32; 2] {
     }
 }
 
-/// The strip of candidate `id`: a walk from it along its [`normal`].
-pub fn walk_candidate(
+/// The strip of candidate `id`: a walk from it along its [`normal`] (tests; the stage reuses a
+/// scratch buffer through [`walk_candidate_with`]).
+#[cfg(test)]
+pub(crate) fn walk_candidate(
     f: &Fields,
     c: &Candidates,
     id: usize,
@@ -318,8 +316,9 @@ pub fn walk_candidate(
     walk_candidate_with(f, c, id, max_len, &mut Vec::new())
 }
 
-/// [`walk_candidate`] with a reusable scratch buffer (no allocation for walks that fail).
-pub fn walk_candidate_with(
+/// The strip of candidate `id`, a walk from it along its [`normal`], with a reusable scratch
+/// buffer (no allocation for walks that fail).
+pub(crate) fn walk_candidate_with(
     f: &Fields,
     c: &Candidates,
     id: usize,
@@ -332,7 +331,7 @@ pub fn walk_candidate_with(
 
 /// Walk from candidate (x, y) of node `own`, starting along `n` (see [`normal`]); at most
 /// `max_len` pixels.
-pub fn walk(
+pub(crate) fn walk(
     f: &Fields,
     x: u32,
     y: u32,
@@ -347,7 +346,7 @@ pub fn walk(
 /// A straight walk from candidate (x, y) of node `own` along `d`, never steered: the ray
 /// traversal of the same walk, for the shortest-gap candidates ([`super::gaps`]), whose direction
 /// is already the one wanted. At most `max_len` pixels.
-pub fn walk_straight(
+pub(crate) fn walk_straight(
     f: &Fields,
     (x, y): (u32, u32),
     own: u32,
@@ -502,7 +501,7 @@ fn next_pixel(
 /// search of a run (8 bytes per pixel, only when some island needs the fallback) and reset only
 /// where a search wrote, so that many small searches cost what they explore, not the image.
 #[derive(Default)]
-pub struct SearchScratch {
+pub(crate) struct SearchScratch {
     dist: Vec<f32>,
     parent: Vec<u32>,
     touched: Vec<u32>,
@@ -551,7 +550,7 @@ impl SearchScratch {
 /// do not describe the bits. Work and memory are O(pixels) at worst (each cut pixel is settled
 /// once, a heap entry per improvement), and the search stops at the first arrival, so it explores
 /// only the cut closer (in cost) to the group than the nearest other node.
-pub fn search(
+pub(crate) fn search(
     f: &Fields,
     map: &IslandMap,
     group: &[bool],

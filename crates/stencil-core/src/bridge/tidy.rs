@@ -8,14 +8,13 @@
 //! direction a bridge may change a stencil: original material always stays material.
 
 use crate::islands;
-use crate::raster::{squared_distance_to, BitGrid};
-use crate::tone::filter::{close, open};
+use crate::raster::{close, open, squared_distance_to, BitGrid};
 
 /// Clean the bridged grid `after` (bridges drawn into `before`) within `radius + 2` pixels of the
 /// pixels the bridges added. Returns `after` unchanged when `radius` is 0; when the opening would
 /// break the sheet into pieces (a bridge narrower than the opening's disc somewhere), only the
 /// closing is applied, and nothing if even that would (connectivity is what the stencil is for).
-pub fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
+pub(crate) fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
     if radius == 0 || before == after {
         return after.clone();
     }
@@ -57,7 +56,7 @@ fn apply_near(
 ) -> BitGrid {
     let mut out = after.clone();
     let (w, h) = (after.width as usize, after.height as usize);
-    for i in 0..out.data.len() {
+    for (i, cell) in out.data.iter_mut().enumerate() {
         if before.data[i] || near[i] > reach {
             continue;
         }
@@ -67,7 +66,7 @@ fn apply_near(
         if near[i] >= edge_dist2 && !added_within(added, x, y, radius + 2) {
             continue;
         }
-        out.data[i] = cleaned.data[i];
+        *cell = cleaned.data[i];
     }
     out
 }
@@ -87,7 +86,7 @@ mod tests {
     #[test]
     fn fills_a_sliver_beside_a_bridge_and_keeps_original_material() {
         // Frame on the left (x < 4), island on the right (x >= 14), cut between.
-        let before = BitGrid::from_fn(24, 20, |x, _| x < 4 || x >= 14);
+        let before = BitGrid::from_fn(24, 20, |x, _| !(4..14).contains(&x));
         // A bridge across rows 6..14 that stops one pixel short of the island on rows 6..9:
         // a one-pixel cut sliver between bridge and island.
         let mut after = before.clone();
@@ -109,7 +108,7 @@ mod tests {
 
     #[test]
     fn removes_a_one_pixel_spur_of_bridge_material() {
-        let before = BitGrid::from_fn(24, 20, |x, _| x < 4 || x >= 14);
+        let before = BitGrid::from_fn(24, 20, |x, _| !(4..14).contains(&x));
         let mut after = before.clone();
         for y in 6..14 {
             for x in 4..14 {

@@ -13,11 +13,11 @@ use crate::islands::FRAME;
 
 /// An edge between two nodes, carrying the candidate (strip) that realises it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Edge {
-    pub a: u32,
-    pub b: u32,
-    pub cost: f64,
-    pub candidate: usize,
+pub(crate) struct Edge {
+    pub(crate) a: u32,
+    pub(crate) b: u32,
+    pub(crate) cost: f64,
+    pub(crate) candidate: usize,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -35,18 +35,18 @@ impl Ord for Key {
 }
 
 /// Prim's algorithm, resumable after adding edges.
-pub struct Prim {
+pub(crate) struct Prim {
     edges: Vec<Edge>,
     adj: Vec<Vec<usize>>,
     in_tree: Vec<bool>,
     heap: BinaryHeap<Reverse<Key>>,
     /// Chosen edges in the order they joined a node to the group: (edge, the node it brought in).
-    pub chosen: Vec<(Edge, u32)>,
+    pub(crate) chosen: Vec<(Edge, u32)>,
 }
 
 impl Prim {
     /// Start with the frame as the group.
-    pub fn new(nodes: usize) -> Self {
+    pub(crate) fn new(nodes: usize) -> Self {
         let mut in_tree = vec![false; nodes];
         if nodes > 0 {
             in_tree[FRAME as usize] = true;
@@ -60,7 +60,7 @@ impl Prim {
         }
     }
 
-    pub fn add(&mut self, e: Edge) {
+    pub(crate) fn add(&mut self, e: Edge) {
         let k = self.edges.len();
         self.edges.push(e);
         self.adj[e.a as usize].push(k);
@@ -71,7 +71,7 @@ impl Prim {
     }
 
     /// Grow until no edge leaves the group.
-    pub fn grow(&mut self) {
+    pub(crate) fn grow(&mut self) {
         while let Some(Reverse(Key(_, k))) = self.heap.pop() {
             let e = self.edges[k];
             let v = match (self.in_tree[e.a as usize], self.in_tree[e.b as usize]) {
@@ -91,18 +91,15 @@ impl Prim {
         }
     }
 
-    pub fn done(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn done(&self) -> bool {
         self.in_tree.iter().all(|&t| t)
-    }
-
-    pub fn in_tree(&self, node: u32) -> bool {
-        self.in_tree[node as usize]
     }
 
     /// After a stall: the lowest-numbered node outside the group together with every node it
     /// reaches through known edges (a mask over nodes), or `None` when all are joined. A
     /// connection must leave this whole set.
-    pub fn stranded(&self) -> Option<Vec<bool>> {
+    pub(crate) fn stranded(&self) -> Option<Vec<bool>> {
         let first = self.in_tree.iter().position(|&t| !t)?;
         let mut mask = vec![false; self.in_tree.len()];
         mask[first] = true;

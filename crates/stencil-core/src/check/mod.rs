@@ -42,8 +42,7 @@ use cdt::{Method, RingSizes, Tri, V};
 
 use crate::islands;
 use crate::material::Material;
-use crate::raster::BitGrid;
-use crate::tone::filter;
+use crate::raster::{self, BitGrid};
 use crate::units::{Mm, Scale};
 use stencil_geom::ring::signed_area2;
 use crate::vector::CutGeometry;
@@ -705,9 +704,9 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
             Some(i) => i,
             None => {
                 let g = if material_side {
-                    filter::open(bits, r)
+                    raster::open(bits, r)
                 } else {
-                    filter::close(bits, r)
+                    raster::close(bits, r)
                 };
                 // Pixels the operation flipped: material it removed, or cut it filled.
                 let changed = BitGrid {
@@ -715,7 +714,7 @@ pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> us
                     height: bits.height,
                     data: bits.data.iter().zip(&g.data).map(|(a, b)| a != b).collect(),
                 };
-                cache.push((r, material_side, islands::components(&changed, true).0));
+                cache.push((r, material_side, raster::components(&changed, true).0));
                 cache.len() - 1
             }
         };

@@ -6,8 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::islands::{components, touches_border};
-use crate::raster::{squared_distance_to, BitGrid};
+use crate::raster::{close, components, open, touches_border, BitGrid, NOT_LABELLED};
 
 /// Options of the topological filter.
 #[derive(Clone, Copy, Debug)]
@@ -68,7 +67,7 @@ pub fn filter(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
             .map(|(&a, &b)| !b && a < cfg.min_speck_px)
             .collect();
         for (i, l) in labels.iter().enumerate() {
-            if *l != crate::islands::CUT && small[*l as usize] {
+            if *l != NOT_LABELLED && small[*l as usize] {
                 out.data[i] = false;
                 stats.material_speck_px += 1;
             }
@@ -78,7 +77,7 @@ pub fn filter(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
         let (labels, areas) = components(&out, false);
         let small: Vec<bool> = areas.iter().map(|&a| a < cfg.min_speck_px).collect();
         for (i, l) in labels.iter().enumerate() {
-            if *l != crate::islands::CUT && small[*l as usize] {
+            if *l != NOT_LABELLED && small[*l as usize] {
                 out.data[i] = true;
                 stats.cut_speck_px += 1;
             }
@@ -92,96 +91,9 @@ fn diff(a: &BitGrid, b: &BitGrid) -> usize {
     a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
 }
 
-/// Pad by `pad` pixels on every side, repeating the edge pixels, so erosion and dilation neither
-/// eat into nor grow out of the image border: an all-cut picture stays all cut, and a region running
-/// off the edge keeps its width there.
-fn padded(bits: &BitGrid, pad: u32) -> BitGrid {
-    let (w, h) = (bits.width + 2 * pad, bits.height + 2 * pad);
-    let clamp = |v: u32, n: u32| v.saturating_sub(pad).min(n - 1);
-    BitGrid::from_fn(w, h, |x, y| {
-        bits.get(clamp(x, bits.width), clamp(y, bits.height))
-    })
-}
-
-fn crop(bits: &BitGrid, pad: u32, w: u32, h: u32) -> BitGrid {
-    BitGrid::from_fn(w, h, |x, y| bits.get(x + pad, y + pad))
-}
-
-/// Dilate material by a disc of radius r.
-fn dilate(bits: &BitGrid, r: u32) -> BitGrid {
-    let d = squared_distance_to(bits, true);
-    let r2 = (r * r) as f32;
-    BitGrid {
-        width: bits.width,
-        height: bits.height,
-        data: d.iter().map(|&v| v <= r2).collect(),
-    }
-}
-
-/// Erode material by a disc of radius r (dilate the cut).
-fn erode(bits: &BitGrid, r: u32) -> BitGrid {
-    let d = squared_distance_to(bits, false);
-    let r2 = (r * r) as f32;
-    BitGrid {
-        width: bits.width,
-        height: bits.height,
-        data: d.iter().map(|&v| v > r2).collect(),
-    }
-}
-
-/// Opening: removes material features thinner than the disc.
-pub fn open(bits: &BitGrid, r: u32) -> BitGrid {
-    let pad = r + 2;
-    let p = padded(bits, pad);
-    crop(&dilate(&erode(&p, r), r), pad, bits.width, bits.height)
-}
-
-/// Closing: fills cut features thinner than the disc.
-pub fn close(bits: &BitGrid, r: u32) -> BitGrid {
-    let pad = r + 2;
-    let p = padded(bits, pad);
-    crop(&erode(&dilate(&p, r), r), pad, bits.width, bits.height)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn opening_removes_a_lone_pixel_and_keeps_a_block() {
-        let mut g = BitGrid::new(20, 20, false);
-        g.set(3, 3, true);
-        for y in 8..16 {
-            for x in 8..16 {
-                g.set(x, y, true);
-            }
-        }
-        let o = open(&g, 1);
-        assert!(!o.get(3, 3));
-        assert!(o.get(10, 10) && o.get(8, 10));
-        // Opening never adds material, even at the image border.
-        assert!(o.data.iter().zip(&g.data).all(|(a, b)| !a || *b));
-    }
-
-    #[test]
-    fn closing_fills_a_pinhole_and_never_removes_material() {
-        let mut g = BitGrid::new(12, 12, true);
-        g.set(5, 5, false);
-        let c = close(&g, 1);
-        assert!(c.get(5, 5));
-        assert!(c.data.iter().zip(&g.data).all(|(a, b)| *a || !*b));
-    }
-
-    #[test]
-    fn uniform_images_are_left_alone() {
-        for fill in [true, false] {
-            let g = BitGrid::new(9, 7, fill);
-            for r in 1..4 {
-                assert_eq!(open(&g, r), g);
-                assert_eq!(close(&g, r), g);
-            }
-        }
-    }
 
     #[test]
     fn specks_flip_and_are_counted() {

@@ -147,6 +147,13 @@ pub fn otsu_level(gray: &Gray) -> u8 {
     best_t
 }
 
+/// Whether a gray value (0 = black .. 1 = white) is light at the 8-bit `level`, for both the
+/// picture's and the mesh's two tones. Compared on the 8-bit scale, so `--threshold 128` means what
+/// a user of an image editor expects; level 0 makes every value light, even one below 0 or NaN.
+pub(crate) fn is_light(v: f32, level: u8) -> bool {
+    (v * 255.0).round() >= level as f32 || level == 0
+}
+
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
 /// Returns the two-tone and the level used.
 pub fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
@@ -154,15 +161,13 @@ pub fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),
     };
-    let t = level as f32 / 255.0;
-    // Compare on the 8-bit scale so `--threshold 128` means what a user of an image editor expects.
     let bits = BitGrid {
         width: gray.width,
         height: gray.height,
         data: gray
             .data
             .iter()
-            .map(|&v| ((v * 255.0).round() >= level as f32 || t <= 0.0) != invert)
+            .map(|&v| is_light(v, level) != invert)
             .collect(),
     };
     (TwoTone { bits, gray }, level)

@@ -40,9 +40,10 @@ pub struct Orbit {
     pub orthographic: bool,
 }
 
-/// The image size to fit the model into.
+/// The rendered image's size in pixels, to fit the model into (named apart from
+/// [`crate::units::Size`], the sheet's size in millimetres).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Size {
+pub enum RenderSize {
     /// This many pixels on the long side; the other side follows the model's outline.
     LongSide(u32),
     Exact {
@@ -57,7 +58,7 @@ impl Camera {
         center: Vec3,
         radius: f32,
         orbit: &Orbit,
-        size: Size,
+        size: RenderSize,
         positions: &[Vec3],
     ) -> Camera {
         let (az, el) = (
@@ -106,7 +107,7 @@ impl Camera {
         let ext = (hi - lo).max(glam::Vec2::splat(sphere * 1e-3));
         let mid = (lo + hi) * 0.5;
         let (w, h, f) = match size {
-            Size::LongSide(n) => {
+            RenderSize::LongSide(n) => {
                 let n = n as f32;
                 let m = (MARGIN * n).round();
                 let f = (n - 2.0 * m) / ext.x.max(ext.y);
@@ -117,7 +118,7 @@ impl Camera {
                 };
                 (w.max(1.0), h.max(1.0), f)
             }
-            Size::Exact { width, height } => {
+            RenderSize::Exact { width, height } => {
                 let (w, h) = (width as f32, height as f32);
                 let m = (MARGIN * w.max(h)).round();
                 let f = ((w - 2.0 * m) / ext.x).min((h - 2.0 * m) / ext.y).max(1e-6);
@@ -234,7 +235,13 @@ mod tests {
             distance: 4.0,
             orthographic: false,
         };
-        let c = Camera::frame(Vec3::ZERO, 3f32.sqrt(), &o, Size::LongSide(200), &cube());
+        let c = Camera::frame(
+            Vec3::ZERO,
+            3f32.sqrt(),
+            &o,
+            RenderSize::LongSide(200),
+            &cube(),
+        );
         assert!((c.eye - Vec3::new(0.0, 0.0, 4.0 * 3f32.sqrt())).length() < 1e-4);
         assert!((c.right - Vec3::X).length() < 1e-6 && (c.up - Vec3::Y).length() < 1e-6);
         // The model fills the long side minus the margins.
@@ -261,7 +268,7 @@ mod tests {
             Vec3::ZERO,
             1.8,
             &o,
-            Size::Exact {
+            RenderSize::Exact {
                 width: 300,
                 height: 200,
             },
@@ -283,7 +290,7 @@ mod tests {
             distance: 3.0,
             orthographic: true,
         };
-        let c = Camera::frame(Vec3::ZERO, 1.8, &o, Size::LongSide(100), &cube());
+        let c = Camera::frame(Vec3::ZERO, 1.8, &o, RenderSize::LongSide(100), &cube());
         assert!(c.right.is_finite() && c.up.is_finite());
         assert!(c.right.dot(c.forward).abs() < 1e-5 && c.up.dot(c.forward).abs() < 1e-5);
     }

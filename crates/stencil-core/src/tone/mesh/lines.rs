@@ -16,8 +16,8 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::load::Mesh;
-use super::raster::{VisBuffer, NONE};
 use super::shade::Fragment;
+use super::visibility::{VisBuffer, NONE};
 
 /// Which lines to draw.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

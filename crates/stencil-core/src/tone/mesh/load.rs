@@ -698,6 +698,7 @@ fn bad_index(path: &Path, line: usize, idx: i64, count: usize, kind: char) -> Me
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tone::mesh::shapes;
 
     fn p() -> &'static Path {
         Path::new("test.obj")
@@ -905,5 +906,37 @@ mod tests {
         // A model 400 times larger than its bulk still loads.
         let ok = text.replace("v 3 1e20 0", "v 3 400 0");
         assert!(parse(p(), &ok).is_ok());
+    }
+
+    // The procedural test shapes (tests/support/shapes.rs) are right side out.
+    #[test]
+    fn closed_shapes_are_closed_and_outward() {
+        for (name, m) in [
+            ("sphere", shapes::uv_sphere(1.0, 16, 8)),
+            ("torus", shapes::torus(2.0, 0.5, 24, 12)),
+            ("cube", shapes::cube(1.0)),
+            ("bumpy", shapes::displaced_sphere(6)),
+            ("pawn", shapes::pawn()),
+            ("trefoil", shapes::trefoil()),
+        ] {
+            assert!(m.is_closed(), "{name} is not closed");
+            assert!(m.signed_volume() > 0.0, "{name}");
+        }
+        assert_eq!(shapes::cube(1.0).positions.len(), 8);
+        assert_eq!(shapes::displaced_sphere(76).triangles.len(), 69_312);
+        let s = shapes::uv_sphere(1.0, 16, 8);
+        assert_eq!(s.positions.len(), 16 * 7 + 2);
+        assert!(
+            (shapes::uv_sphere(1.0, 64, 32).signed_volume() - 4.0 / 3.0 * std::f64::consts::PI)
+                .abs()
+                < 0.03
+        );
+    }
+
+    #[test]
+    fn height_field_faces_up() {
+        let m = shapes::height_field(4, |_, _| 0.0);
+        assert!(!m.is_closed());
+        assert!(m.vertex_normals().iter().all(|n| n.y > 0.99));
     }
 }

@@ -1,5 +1,5 @@
 //! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load()`]), orbit a camera around its
-//! bounding sphere ([`camera`]), rasterise a visibility buffer ([`raster`]), shade it with a point
+//! bounding sphere ([`camera`]), rasterise a visibility buffer ([`visibility`]), shade it with a point
 //! light close to the model ([`shade`]), draw silhouettes and suggestive contours ([`lines`], from
 //! the curvature of [`curvature`]), downsample the supersampled result, and threshold it.
 //!
@@ -11,9 +11,11 @@ pub mod camera;
 pub mod curvature;
 pub mod lines;
 pub mod load;
-pub mod raster;
 pub mod shade;
-pub mod shapes;
+#[cfg(test)]
+#[path = "../../../tests/support/shapes.rs"]
+mod shapes;
+pub mod visibility;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,9 +24,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::raster::{BitGrid, Gray, TwoTone};
-use crate::tone::{otsu_level, Threshold};
+use crate::tone::{is_light, otsu_level, Threshold};
 
-pub use camera::{Camera, Size};
+pub use camera::{Camera, RenderSize};
 pub use lines::LineMode;
 pub use load::{load, Mesh};
 
@@ -43,7 +45,7 @@ pub struct MeshConfig {
     pub distance: Option<f32>,
     /// Field of view of the perspective lens; `None` = orthographic projection.
     pub fov_deg: Option<f32>,
-    pub size: Size,
+    pub size: RenderSize,
     /// Point light in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// model's centre.
     pub light: [f32; 3],
@@ -70,7 +72,7 @@ impl Default for MeshConfig {
             elevation_deg: 20.0,
             distance: None,
             fov_deg: Some(30.0),
-            size: Size::LongSide(1024),
+            size: RenderSize::LongSide(1024),
             light: [-1.5, 1.5, 1.5],
             specular: 0.3,
             shininess: 32.0,
@@ -113,8 +115,8 @@ impl MeshConfig {
             }
         }
         let (w, h) = match self.size {
-            Size::LongSide(n) => (n, n),
-            Size::Exact { width, height } => (width, height),
+            RenderSize::LongSide(n) => (n, n),
+            RenderSize::Exact { width, height } => (width, height),
         };
         if w < 16 || h < 16 {
             return bad(
@@ -183,8 +185,8 @@ impl MeshConfig {
     /// The output width the image will have at most (the long side, or the exact width).
     pub fn max_width_px(&self) -> u32 {
         match self.size {
-            Size::LongSide(n) => n,
-            Size::Exact { width, .. } => width,
+            RenderSize::LongSide(n) => n,
+            RenderSize::Exact { width, .. } => width,
         }
     }
 
@@ -309,7 +311,7 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
     tm.curvature = ms(clock);
 
     let clock = Instant::now();
-    let vb = raster::rasterize(mesh, &cam, mesh.is_closed());
+    let vb = visibility::rasterize(mesh, &cam, mesh.is_closed());
     tm.raster = ms(clock);
 
     let clock = Instant::now();
@@ -427,7 +429,8 @@ fn compose(
 }
 
 /// Threshold a rendering: lines are cut, the background is material, model pixels are material
-/// when at or above the level (swapped by `invert`). Otsu looks at the model's own pixels only.
+/// when at or above the level (swapped by `invert`; the same test as a picture's, `super::is_light`).
+/// Otsu looks at the model's own pixels only.
 /// Returns the two-tone (its gray is the rendering) and the level used.
 pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
@@ -458,7 +461,7 @@ pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, 
                 } else if !r.model.data[i] {
                     true
                 } else {
-                    ((r.shade.data[i] * 255.0).round() >= level as f32) != invert
+                    is_light(r.shade.data[i], level) != invert
                 }
             })
             .collect(),

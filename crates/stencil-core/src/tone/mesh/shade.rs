@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::camera::Camera;
 use super::curvature::ViewCurvature;
 use super::load::Mesh;
-use super::raster::{VisBuffer, NONE};
+use super::visibility::{VisBuffer, NONE};
 
 /// The light and the material's highlight.
 #[derive(Clone, Copy, Debug)]
@@ -204,8 +204,8 @@ fn moller_trumbore(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tone::mesh::camera::{Orbit, Size};
-    use crate::tone::mesh::{raster, shapes};
+    use crate::tone::mesh::camera::{Orbit, RenderSize};
+    use crate::tone::mesh::{shapes, visibility};
 
     fn setup(m: &Mesh, el: f32) -> Camera {
         let (c, r) = m.bounding_sphere();
@@ -215,7 +215,7 @@ mod tests {
             distance: 2.0,
             orthographic: false,
         };
-        Camera::frame(c, r, &o, Size::LongSide(120), &m.positions)
+        Camera::frame(c, r, &o, RenderSize::LongSide(120), &m.positions)
     }
 
     #[test]
@@ -224,7 +224,7 @@ mod tests {
         // pixel centre and on the surface (y = 0.3 x).
         let m = shapes::height_field(4, |x, _| 0.3 * x);
         let cam = setup(&m, 35.0);
-        let vb = raster::rasterize(&m, &cam, false);
+        let vb = visibility::rasterize(&m, &cam, false);
         let light = Light {
             position: cam.eye,
             specular: 0.0,
@@ -252,7 +252,7 @@ mod tests {
         // A flat sheet seen from below, lit from below: the visible side faces the light.
         let m = shapes::height_field(8, |_, _| 0.0);
         let cam = setup(&m, -40.0);
-        let vb = raster::rasterize(&m, &cam, false);
+        let vb = visibility::rasterize(&m, &cam, false);
         let light = Light {
             position: Vec3::new(0.0, -2.0, 0.0),
             specular: 0.0,

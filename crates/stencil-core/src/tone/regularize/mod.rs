@@ -757,7 +757,7 @@ pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
 /// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
 /// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
 pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
-    let (labels, areas) = crate::islands::components(after, false);
+    let (labels, areas) = crate::raster::components(after, false);
     let (w, h) = (after.width as usize, after.height as usize);
     // Per cut piece: touches original material, or the picture's border (the frame).
     let mut open = vec![false; areas.len()];

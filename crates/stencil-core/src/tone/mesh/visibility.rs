@@ -172,7 +172,7 @@ fn raster_triangle(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tone::mesh::camera::{Orbit, Size};
+    use crate::tone::mesh::camera::{Orbit, RenderSize};
     use glam::Vec3;
 
     fn quad_mesh() -> Mesh {
@@ -201,7 +201,7 @@ mod tests {
             c,
             r,
             &o,
-            Size::Exact {
+            RenderSize::Exact {
                 width: 100,
                 height: 100,
             },
@@ -257,7 +257,7 @@ mod tests {
             c,
             r,
             &o,
-            Size::Exact {
+            RenderSize::Exact {
                 width: 64,
                 height: 64,
             },

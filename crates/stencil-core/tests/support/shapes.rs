@@ -1,12 +1,17 @@
 //! Procedural meshes: the sample models (`cargo run --example make_meshes`), the benchmark's
 //! displaced sphere and the test shapes. Every closed shape comes out right side out (see
-//! [`Mesh::new`]), so generators need not care about winding.
+//! `Mesh::new`), so generators need not care about winding.
+//!
+//! Test support, not library API: the crate's unit tests, the example, and the root package's
+//! tests and benches include this file with `#[path]`; each includer has `Mesh` in scope (the
+//! crate's `tone::mesh::Mesh`), which the file takes from its parent module.
+#![allow(dead_code)]
 
 use std::f32::consts::{PI, TAU};
 
 use glam::Vec3;
 
-use super::load::Mesh;
+use super::Mesh;
 
 /// A grid of `nu × nv` quads over parameters (i, j), each split into two triangles. `wrap_u`
 /// joins the last column to the first; rows run j = 0..=nv. Coincident points (poles, axis
@@ -189,39 +194,4 @@ pub fn trefoil() -> Mesh {
         )
     };
     tube(curve, 0.45, 150, 16)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn closed_shapes_are_closed_and_outward() {
-        for (name, m) in [
-            ("sphere", uv_sphere(1.0, 16, 8)),
-            ("torus", torus(2.0, 0.5, 24, 12)),
-            ("cube", cube(1.0)),
-            ("bumpy", displaced_sphere(6)),
-            ("pawn", pawn()),
-            ("trefoil", trefoil()),
-        ] {
-            assert!(m.is_closed(), "{name} is not closed");
-            assert!(m.signed_volume() > 0.0, "{name}");
-        }
-        assert_eq!(cube(1.0).positions.len(), 8);
-        assert_eq!(displaced_sphere(76).triangles.len(), 69_312);
-        let s = uv_sphere(1.0, 16, 8);
-        assert_eq!(s.positions.len(), 16 * 7 + 2);
-        assert!(
-            (uv_sphere(1.0, 64, 32).signed_volume() - 4.0 / 3.0 * std::f64::consts::PI).abs()
-                < 0.03
-        );
-    }
-
-    #[test]
-    fn height_field_faces_up() {
-        let m = height_field(4, |_, _| 0.0);
-        assert!(!m.is_closed());
-        assert!(m.vertex_normals().iter().all(|n| n.y > 0.99));
-    }
 }

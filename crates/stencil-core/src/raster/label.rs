@@ -1,0 +1,123 @@
+//! Connected pieces of a bit grid: runs along rows joined by union-find. The islands stage builds
+//! the frame and the islands on it; the topological filter and the checks use it for specks.
+
+use super::BitGrid;
+
+/// Label of a pixel that [`components`] did not label (its bit is not the one asked for).
+pub const NOT_LABELLED: u32 = u32::MAX;
+
+/// 4-connected components of the pixels equal to `value`: a label per pixel ([`NOT_LABELLED`] where the pixel
+/// is not `value`), and the area of each component. O(pixels).
+pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
+    // Runs of `value` along each row, joined to the runs they overlap in the row above.
+    let (w, h) = (bits.width as usize, bits.height as usize);
+    let mut runs: Vec<Run> = Vec::new();
+    let mut row_first = Vec::with_capacity(h + 1);
+    for y in 0..h {
+        row_first.push(runs.len());
+        let row = &bits.data[y * w..(y + 1) * w];
+        let mut x = 0;
+        while x < w {
+            if row[x] != value {
+                x += 1;
+                continue;
+            }
+            let start = x;
+            while x < w && row[x] == value {
+                x += 1;
+            }
+            runs.push(Run {
+                y: y as u32,
+                x0: start as u32,
+                x1: x as u32 - 1,
+            });
+        }
+    }
+    row_first.push(runs.len());
+    let (piece, count) = join_runs(&runs, &row_first, false);
+    let mut labels = vec![NOT_LABELLED; w * h];
+    let mut areas = vec![0usize; count];
+    for (r, &id) in runs.iter().zip(&piece) {
+        let s = r.y as usize * w;
+        labels[s + r.x0 as usize..=s + r.x1 as usize].fill(id);
+        areas[id as usize] += (r.x1 - r.x0 + 1) as usize;
+    }
+    (labels, areas)
+}
+
+/// Whether component labels touch the image border, indexed by label.
+pub(crate) fn touches_border(labels: &[u32], width: u32, height: u32, count: usize) -> Vec<bool> {
+    let (w, h) = (width as usize, height as usize);
+    let mut t = vec![false; count];
+    let mut mark = |i: usize| {
+        if labels[i] != NOT_LABELLED {
+            t[labels[i] as usize] = true;
+        }
+    };
+    for x in 0..w {
+        mark(x);
+        mark((h - 1) * w + x);
+    }
+    for y in 0..h {
+        mark(y * w);
+        mark(y * w + w - 1);
+    }
+    t
+}
+
+/// A run of pixels along row `y`, columns `x0..=x1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Run {
+    pub y: u32,
+    pub x0: u32,
+    pub x1: u32,
+}
+
+/// The connected pieces of runs listed row by row, left to right (`row_first[y]` is the index of
+/// row `y`'s first run, with one entry past the last row): runs in neighbouring rows join where
+/// they overlap, and also where they touch only at a corner when `corners` (8-connectivity).
+/// Returns each run's piece and the number of pieces, numbered in the order of their first run,
+/// which is the order of their first pixel in raster order. Union-find over the runs: a pass over
+/// the runs, not a stack push per pixel.
+pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Vec<u32>, usize) {
+    let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
+    fn root(parent: &mut [u32], mut r: usize) -> usize {
+        while parent[r] as usize != r {
+            let p = parent[r] as usize;
+            parent[r] = parent[p];
+            r = p;
+        }
+        r
+    }
+    let slack = corners as i64;
+    for y in 1..row_first.len().saturating_sub(1) {
+        let (mut a, a_end) = (row_first[y - 1], row_first[y]);
+        let (mut b, b_end) = (row_first[y], row_first[y + 1]);
+        while a < a_end && b < b_end {
+            let (ra, rb) = (runs[a], runs[b]);
+            if ra.x0 as i64 <= rb.x1 as i64 + slack && rb.x0 as i64 <= ra.x1 as i64 + slack {
+                let (pa, pb) = (root(&mut parent, a), root(&mut parent, b));
+                if pa != pb {
+                    // The earlier run stays the root, so roots are first runs in scan order.
+                    parent[pa.max(pb)] = pa.min(pb) as u32;
+                }
+            }
+            if ra.x1 <= rb.x1 {
+                a += 1;
+            } else {
+                b += 1;
+            }
+        }
+    }
+    let mut piece = vec![u32::MAX; runs.len()];
+    let mut count = 0;
+    for r in 0..runs.len() {
+        let root = root(&mut parent, r);
+        if piece[root] == u32::MAX {
+            piece[root] = count;
+            count += 1;
+        }
+        piece[r] = piece[root];
+    }
+    (piece, count as usize)
+}
