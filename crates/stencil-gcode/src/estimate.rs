@@ -21,31 +21,7 @@
 
 use crate::interpret::{CutRule, Move};
 use crate::limits::PLANNER_BLOCKS;
-
-/// The motion limits the estimate needs (from a machine profile).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotionLimits {
-    /// Rate of G0 moves, mm/min.
-    pub rapid_mm_min: f64,
-    /// Highest feed the machine runs, mm/min (programmed feeds above it are clamped).
-    pub max_feed_mm_min: f64,
-    /// Acceleration, mm/s².
-    pub accel_mm_s2: f64,
-    /// Grbl's junction deviation ($11), mm.
-    pub junction_deviation_mm: f64,
-}
-
-impl Default for MotionLimits {
-    /// A generic GRBL 1.1 diode laser (the `diode-400` profile).
-    fn default() -> Self {
-        MotionLimits {
-            rapid_mm_min: 6000.0,
-            max_feed_mm_min: 6000.0,
-            accel_mm_s2: 1000.0,
-            junction_deviation_mm: 0.01,
-        }
-    }
-}
+use crate::machine::Motion;
 
 /// What a job costs in time and distance.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -98,13 +74,13 @@ pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
 }
 
 /// Estimate a program's run time; which moves cut is [`CutRule::infer`]red from the program.
-pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
+pub fn estimate(moves: &[Move], limits: &Motion) -> Estimate {
     estimate_with(moves, limits, CutRule::infer(moves))
 }
 
 /// Estimate with a given cut rule (a machine profile may refine the inferred one, see
 /// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
-pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Estimate {
+pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate {
     let is_cut = |m: &Move| rule.cuts(m);
     let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
     let mut prev: Option<(usize, [f64; 3])> = None;
@@ -223,7 +199,7 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
 }
 
 /// What length ÷ feed says (no acceleration): the number many senders show, for comparison.
-pub fn length_over_feed_s(moves: &[Move], limits: &MotionLimits) -> f64 {
+pub fn length_over_feed_s(moves: &[Move], limits: &Motion) -> f64 {
     moves
         .iter()
         .map(|m| {
@@ -259,6 +235,18 @@ mod tests {
     use super::*;
     use crate::interpret::interpret;
 
+    /// A generic GRBL 1.1 diode laser: 100 mm/s rapid and max feed, 1000 mm/s², Grbl's default
+    /// junction deviation.
+    fn diode() -> Motion {
+        Motion {
+            max_feed_mm_min: 6000.0,
+            rapid_mm_min: 6000.0,
+            accel_mm_s2: 1000.0,
+            junction_deviation_mm: 0.01,
+            homing: false,
+        }
+    }
+
     #[test]
     fn block_time_trapezoid_and_triangle() {
         // 100 mm from rest to rest at 10 mm/s, a = 100: ramps 0.1 s and 0.5 mm each, cruise 99 mm.
@@ -271,7 +259,7 @@ mod tests {
 
     #[test]
     fn straight_line_split_in_two_does_not_stop_in_the_middle() {
-        let l = MotionLimits::default();
+        let l = diode();
         let one = estimate(&interpret("G1 X100 F3000").unwrap(), &l);
         let two = estimate(&interpret("G1 X50 F3000\nG1 X100").unwrap(), &l);
         assert!((one.total_s - two.total_s).abs() < 1e-9);
@@ -289,7 +277,7 @@ mod tests {
         for i in 1..=2000 {
             p.push_str(&format!("X{:.2}\n", i as f64 * 0.05));
         }
-        let e = estimate(&interpret(&p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(&p).unwrap(), &diode());
         let unlimited = block_time(100.0, 0.0, 0.0, 100.0, 1000.0);
         assert!(e.total_s > unlimited * 2.0, "{} vs {unlimited}", e.total_s);
         assert!((e.travel_mm + e.cut_mm - 100.0).abs() < 1e-6);
@@ -298,7 +286,7 @@ mod tests {
     #[test]
     fn z_tool_programs_count_xy_feed_moves_as_cut() {
         let p = "G0 Z3\nG0 X10\nG1 Z-0.3 F300\nG1 X20 F1000\nG0 Z3\nG0 X0\n";
-        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(p).unwrap(), &diode());
         assert!((e.cut_mm - 10.0).abs() < 1e-9, "{e:?}");
         assert!(
             (e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9,
@@ -306,7 +294,7 @@ mod tests {
         );
         // A laser program: only powered moves cut, even if G1 moves without power exist.
         let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
-        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(p).unwrap(), &diode());
         assert!((e.cut_mm - 10.0).abs() < 1e-9 && (e.travel_mm - 30.0).abs() < 1e-9);
     }
 
@@ -314,7 +302,7 @@ mod tests {
     fn acceleration_only_adds_time() {
         let p = "G1 X10 Y0 F3000\nG1 X10 Y10\nG0 X0 Y0\n";
         let m = interpret(p).unwrap();
-        let l = MotionLimits::default();
+        let l = diode();
         let naive = length_over_feed_s(&m, &l);
         // 20 mm at 50 mm/s plus 14.14 mm at 100 mm/s.
         assert!((naive - (0.4 + 200f64.sqrt() / 100.0)).abs() < 1e-9);

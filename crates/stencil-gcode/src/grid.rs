@@ -6,9 +6,11 @@
 //! same header, laser mode and end as every job, each square at its own settings.
 
 use crate::machine::{Machine, Tool};
+use stencil_geom::ring::{bbox, dist};
 
 use crate::write::{num, write_each, LoopSettings};
-use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats, PlanError};
+use crate::error::{Fit, PlanError, SettingsError};
+use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats};
 
 /// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -137,17 +139,16 @@ pub struct Grid {
 /// Lay the squares out (rows along +Y, columns along +X from `offset`), check every square's
 /// settings against the machine and the whole grid against its bed.
 pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
-    let bad = |m: String| PlanError::Settings(m);
     if !(spec.size_mm.is_finite()
         && spec.size_mm > 0.0
         && spec.gap_mm.is_finite()
         && spec.gap_mm >= 0.0)
     {
-        return Err(bad("the squares need a size > 0 and a gap >= 0".into()));
+        return Err(SettingsError::GridSquares.into());
     }
     let (nr, nc) = (spec.rows.len().max(1), spec.speeds.len());
     if nc == 0 {
-        return Err(bad("the grid needs at least one speed".into()));
+        return Err(SettingsError::GridNoSpeed.into());
     }
     let pitch = spec.size_mm + spec.gap_mm;
     let size = [
@@ -174,8 +175,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
             x1,
             y0,
             y1,
-            hint:
-                "use fewer steps, smaller squares (--size) or gaps (--gap), or move it (--offset)",
+            fix: Fit::ShrinkGrid,
         });
     }
     let mut cells = Vec::with_capacity(nr * nc);
@@ -194,30 +194,29 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
                 }
                 (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
                     if d >= z.up_mm {
-                        return Err(bad(format!(
-                            "depth Z{} is not below the blade's up height Z{} of '{}'",
-                            num(d),
-                            num(z.up_mm),
-                            machine.name
-                        )));
+                        return Err(SettingsError::DepthAboveBlade {
+                            depth: d,
+                            up: z.up_mm,
+                            machine: machine.name.clone(),
+                        }
+                        .into());
                     }
                     depth = Some(d);
                 }
                 (RowKind::None, _, _) => {}
                 (kind, tool, _) => {
-                    return Err(bad(format!(
-                        "a grid over {kind:?} does not apply to the {} of '{}'",
-                        tool.kind(),
-                        machine.name
-                    )))
+                    return Err(SettingsError::GridKind {
+                        kind,
+                        tool: tool.kind(),
+                        machine: machine.name.clone(),
+                    }
+                    .into())
                 }
             }
-            check_settings(&settings, machine).map_err(|e| {
-                bad(format!(
-                    "square at row {} column {} ({}): {e}",
-                    r + 1,
-                    c + 1,
-                    Cell {
+            check_settings(&settings, machine).map_err(|cause| PlanError::GridSquare {
+                row: r + 1,
+                col: c + 1,
+                label: Cell {
                         row: r,
                         col: c,
                         settings,
@@ -225,8 +224,8 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
                         depth,
                         min: [0.0; 2],
                     }
-                    .label()
-                ))
+                .label(),
+                cause,
             })?;
             cells.push(Cell {
                 row: r,
@@ -257,10 +256,10 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
     let mut travel = 0.0;
     let mut at = home;
     for l in &loops {
-        travel += crate::toolpath::dist(at, l.points[0]);
+        travel += dist(at, l.points[0]);
         at = l.points[0];
     }
-    travel += crate::toolpath::dist(at, home);
+    travel += dist(at, home);
     let cut_mm = loops
         .iter()
         .map(|l| l.perimeter_mm() * spec.base.passes as f64)
@@ -346,12 +345,7 @@ pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
         .map(|c| {
             let p = view(c.min);
             let q = view([c.min[0] + a, c.min[1] + a]);
-            [
-                p[0].min(q[0]),
-                p[1].min(q[1]),
-                p[0].max(q[0]),
-                p[1].max(q[1]),
-            ]
+            bbox(&[p, q])
         })
         .collect();
     let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);

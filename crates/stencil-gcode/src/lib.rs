@@ -11,6 +11,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cuts;
+mod error;
 pub mod estimate;
 pub mod grid;
 pub mod interpret;
@@ -24,9 +25,10 @@ pub mod travel;
 pub mod write;
 
 pub use cuts::{CutLoops, Pieces};
-pub use estimate::{estimate, Estimate, MotionLimits};
+pub use error::{Fit, PlanError, SettingsError};
+pub use estimate::{estimate, Estimate};
 pub use toolpath::{
-    plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, PlanError, MAX_BLADE_OFFSET_MM,
+    plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, MAX_BLADE_OFFSET_MM,
     MAX_PASSES,
 };
 
@@ -62,8 +64,8 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = write::write(&job, machine, notes);
-    let moves = interpret(&text).map_err(|e| PlanError::Internal(e.to_string()))?;
-    let est = estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
+    let moves = interpret(&text).map_err(PlanError::Internal)?;
+    let est = estimate::estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
     Ok((
         text,
         GcodeSummary {

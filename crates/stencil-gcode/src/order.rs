@@ -24,26 +24,8 @@
 //! where it does not go the other way, so the two together never cycle (see [`order`]).
 
 use crate::toolpath::Loop;
-use stencil_geom::ring::bbox;
+use stencil_geom::ring::{area, bbox, point_in_ring};
 use stencil_geom::clip::{self, ClipError};
-
-/// Even-odd ray cast: whether `p` lies inside the closed ring `poly`.
-pub fn point_in_ring(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
-    let n = poly.len();
-    let mut inside = false;
-    let mut j = n - 1;
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-            if p[0] < x {
-                inside = !inside;
-            }
-        }
-        j = i;
-    }
-    inside
-}
 
 /// The convex hull of a ring, counter-clockwise, without a closing point (Andrew's monotone
 /// chain).
@@ -74,19 +56,6 @@ pub fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
         h.pop();
     }
     h
-}
-
-/// Area of a simple polygon (absolute value).
-fn area(ring: &[[f64; 2]]) -> f64 {
-    let n = ring.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (ring[i], ring[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        .abs()
-        / 2.0
 }
 
 /// Whether `p` lies in the counter-clockwise convex polygon `hull` (its edges count as inside,

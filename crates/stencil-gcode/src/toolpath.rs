@@ -4,9 +4,11 @@
 use geo::{Area, LineString};
 
 use crate::cuts::{CutLoops, Pieces};
+use crate::error::{Fit, PlanError, SettingsError};
 use crate::machine::{Corner, Machine, Tool};
 
 use crate::{order, travel};
+use stencil_geom::ring::dist;
 
 /// How the material is cut: the planner's view of a material profile (the CLI maps a `Material`
 /// onto it, or the user gives `--power/--speed/--passes`).
@@ -121,37 +123,6 @@ pub struct Job {
     pub stats: PathStats,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum PlanError {
-    #[error(
-        "the job ({w:.1} x {h:.1} mm) does not fit on the bed of '{machine}' ({bw:.1} x {bh:.1} mm): \
-         at this placement it spans X {x0:.1}..{x1:.1}, Y {y0:.1}..{y1:.1} mm; {hint}"
-    )]
-    DoesNotFit {
-        machine: String,
-        w: f64,
-        h: f64,
-        bw: f64,
-        bh: f64,
-        x0: f64,
-        x1: f64,
-        y0: f64,
-        y1: f64,
-        hint: &'static str,
-    },
-    #[error("nothing to cut: the geometry has no cut regions (and --cut-outline is off)")]
-    Empty,
-    #[error("{0}")]
-    Settings(String),
-    /// Our own output failed our own interpreter: a bug, reported rather than written.
-    #[error("internal error: the written G-code does not run ({0}); please report this")]
-    Internal(String),
-}
-
-pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 /// The most passes a job may make.
 pub const MAX_PASSES: u32 = 100;
 
@@ -159,59 +130,53 @@ pub const MAX_PASSES: u32 = 100;
 pub const MAX_BLADE_OFFSET_MM: f64 = 5.0;
 
 /// Check cut settings against the machine (feed within its limit, laser S within its range).
-pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanError> {
-    let bad = |m: String| Err(PlanError::Settings(m));
+pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), SettingsError> {
     let feeds = crate::machine::bounds::FEED_MM_MIN;
     if !(s.speed_mm_min.is_finite() && s.speed_mm_min >= *feeds.start()) {
-        return bad(format!(
-            "cutting speed must be at least {} mm/min, got {}",
-            feeds.start(),
-            s.speed_mm_min
-        ));
+        return Err(SettingsError::SpeedTooLow {
+            min: *feeds.start(),
+            got: s.speed_mm_min,
+        });
     }
     if s.speed_mm_min > machine.motion.max_feed_mm_min {
-        return bad(format!(
-            "cutting speed {} mm/min is above the max feed of '{}' ({} mm/min); lower the speed",
-            s.speed_mm_min, machine.name, machine.motion.max_feed_mm_min
-        ));
+        return Err(SettingsError::AboveMaxFeed {
+            speed: s.speed_mm_min,
+            machine: machine.name.clone(),
+            max: machine.motion.max_feed_mm_min,
+        });
     }
     if !(s.blade_offset_mm.is_finite() && (0.0..=MAX_BLADE_OFFSET_MM).contains(&s.blade_offset_mm))
     {
-        return bad(format!(
-            "blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {}",
-            s.blade_offset_mm
-        ));
+        return Err(SettingsError::BladeOffset(s.blade_offset_mm));
     }
     if s.passes == 0 || s.passes > MAX_PASSES {
-        return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
+        return Err(SettingsError::Passes(s.passes));
     }
     if s.air_assist && !matches!(machine.tool, Tool::Laser { .. }) {
-        return bad(format!(
-            "air assist is for a laser; '{}' has a {}: turn it off",
-            machine.name,
-            machine.tool.kind()
-        ));
+        return Err(SettingsError::AirAssistNotLaser {
+            machine: machine.name.clone(),
+            tool: machine.tool.kind(),
+        });
     }
     if let Tool::Laser { s_max, s_min } = machine.tool {
         if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
-            return bad(format!(
-                "laser power must be in (0, 100] %, got {}",
-                s.power_pct
-            ));
+            return Err(SettingsError::LaserPower(s.power_pct));
         }
         let sv = laser_s(s.power_pct, s_max);
         if sv <= 0.0 {
-            return bad(format!(
-                "laser power {} % gives S0 on '{}' ($30={s_max}): the laser would not fire; \
-                 raise the power",
-                s.power_pct, machine.name
-            ));
+            return Err(SettingsError::LaserDark {
+                power: s.power_pct,
+                machine: machine.name.clone(),
+                s_max,
+            });
         }
         if sv < s_min {
-            return bad(format!(
-                "laser power {} % gives S{sv}, below the minimum S of '{}' ($31={s_min}); raise the power",
-                s.power_pct, machine.name
-            ));
+            return Err(SettingsError::BelowSMin {
+                power: s.power_pct,
+                s: sv,
+                machine: machine.name.clone(),
+                s_min,
+            });
         }
     }
     Ok(())
@@ -406,11 +371,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             x1: max[0],
             y0: min[1],
             y1: max[1],
-            hint: if too_big {
-                "scale the stencil down or use a larger machine"
-            } else {
-                "move it with --offset X,Y or --origin"
-            },
+            fix: if too_big { Fit::ScaleDown } else { Fit::Move },
         });
     }
 
@@ -546,7 +507,7 @@ mod tests {
         cfg.offset = [350.0, 0.0];
         let e = plan(&g, &m, &cfg).unwrap_err().to_string();
         assert!(
-            e.contains("X 350.0..450.0") && e.contains("--offset"),
+            e.contains("X 350.0..450.0") && e.contains("move it on the bed"),
             "{e}"
         );
     }

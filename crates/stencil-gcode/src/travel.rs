@@ -9,8 +9,8 @@
 //!
 //! Round two repeats both with the new start points.
 
-use crate::toolpath::{dist, Loop};
-use stencil_geom::ring::bbox;
+use crate::toolpath::Loop;
+use stencil_geom::ring::{bbox, dist};
 
 /// Candidate neighbours per point for 2-opt and Or-opt.
 const K: usize = 12;

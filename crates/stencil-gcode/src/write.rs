@@ -1,6 +1,6 @@
 //! The G-code writer: a planned [`Job`] as text Grbl 1.1 runs without error.
 //!
-//! Rules (from Grbl 1.1h's parser and the users' complaints, see shared/machines.md):
+//! Rules (from Grbl 1.1h's parser, `gcode.c` and `protocol.c`, and what trips up other senders):
 //! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
 //! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
 //! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
@@ -19,6 +19,7 @@
 use std::fmt::Write as _;
 
 use crate::machine::{Machine, PenLift, Tool, ZLift};
+use stencil_geom::ring::dist;
 
 use crate::toolpath::{laser_s, CutSettings, Job, Loop};
 
@@ -132,7 +133,7 @@ fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
     let mut left = len;
     for i in 0..n {
         let (a, b) = (points[i], points[(i + 1) % n]);
-        let d = crate::toolpath::dist(a, b);
+        let d = dist(a, b);
         if d >= left {
             let t = if d > 0.0 { left / d } else { 0.0 };
             out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
@@ -160,7 +161,7 @@ pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
         return points.to_vec();
     }
     let dir = |a: [f64; 2], b: [f64; 2]| {
-        let d = crate::toolpath::dist(a, b).max(1e-12);
+        let d = dist(a, b).max(1e-12);
         [(b[0] - a[0]) / d, (b[1] - a[1]) / d]
     };
     let mut out = Vec::with_capacity(n * 3);
@@ -415,7 +416,7 @@ mod tests {
         // Every point is the corner it swivels around plus r, or a shifted edge point.
         let near_corner = |q: [f64; 2]| {
             sq.iter()
-                .any(|c| (crate::toolpath::dist(*c, q) - 0.5).abs() < 1e-9)
+                .any(|c| (dist(*c, q) - 0.5).abs() < 1e-9)
         };
         assert!(p.iter().all(|&q| near_corner(q)), "{p:?}");
         // A 90° turn in 10° steps: 9 arc points per corner plus the arrival point.
