@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil_gcode::write::num;
+use stencil_gcode::num;
 use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
 use stencil_gcode::{self as plan, CutSettings};
 use stencil_gcode::machine::{self as machine_profile, Tool};

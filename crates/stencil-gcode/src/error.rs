@@ -41,7 +41,7 @@ pub enum PlanError {
         row: usize,
         col: usize,
         label: String,
-        cause: SettingsError,
+        cause: Box<SettingsError>,
     },
     /// Our own output failed our own interpreter: a bug, reported rather than written.
     #[error("internal error: the written G-code does not run ({0}); please report this")]

@@ -58,7 +58,7 @@ fn limit_by_axis(limit: f64, unit: &[f64; 3]) -> f64 {
 
 /// Time to run `len` mm entering at `v0`, leaving at `v1`, cruising at most at `vn`, accelerating
 /// at `a` (all speeds in mm/s).
-pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
+fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
@@ -81,10 +81,36 @@ pub fn estimate(moves: &[Move], limits: &Motion) -> Estimate {
 /// Estimate with a given cut rule (a machine profile may refine the inferred one, see
 /// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
 pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate {
-    let is_cut = |m: &Move| rule.cuts(m);
+    let mut e = Estimate::default();
+    let mut blocks = blocks(moves, limits, rule, &mut e);
+    if blocks.is_empty() {
+        return e;
+    }
+    plan_entry_speeds(&mut blocks);
+    let n = blocks.len();
+    for i in 0..n {
+        let b = &blocks[i];
+        let exit_sq = if i + 1 < n {
+            blocks[i + 1].entry_sq
+        } else {
+            0.0
+        };
+        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
+        if b.cut {
+            e.cut_s += t;
+        } else {
+            e.travel_s += t;
+        }
+    }
+    e.total_s = e.cut_s + e.travel_s;
+    e
+}
+
+/// The moves as Grbl's planner blocks, each with its nominal speed, acceleration and the highest
+/// entry speed its junction allows; adds each block's length to `e`'s cut or travel.
+fn blocks(moves: &[Move], limits: &Motion, rule: CutRule, e: &mut Estimate) -> Vec<Block> {
     let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
     let mut prev: Option<(usize, [f64; 3])> = None;
-    let mut e = Estimate::default();
     for m in moves {
         let d = [
             m.to[0] - m.from[0],
@@ -108,24 +134,13 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
         let max_entry_sq = match prev {
             None => 0.0,
             Some((pi, pu)) => {
-                let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
-                let vj_sq = if cos_theta > 0.999_999 {
-                    0.0 // reversal: stop
-                } else if cos_theta < -0.999_999 {
-                    f64::INFINITY // straight on
-                } else {
-                    let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
-                    let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
-                    ju.iter_mut().for_each(|c| *c /= jl);
-                    let ja = limit_by_axis(limits.accel_mm_s2, &ju);
-                    let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
-                    ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
-                };
                 let pv = blocks[pi].v_nom;
-                vj_sq.min(v_nom * v_nom).min(pv * pv)
+                junction_sq(pu, unit, limits)
+                    .min(v_nom * v_nom)
+                    .min(pv * pv)
             }
         };
-        let cut = is_cut(m);
+        let cut = rule.cuts(m);
         if cut {
             e.cut_mm += len;
         } else {
@@ -141,14 +156,33 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
             cut,
         });
     }
-    let n = blocks.len();
-    if n == 0 {
-        return e;
+    blocks
+}
+
+/// The highest speed² through the junction from direction `pu` to `unit` that the junction
+/// deviation allows (a reversal stops; a straight continuation is not limited).
+fn junction_sq(pu: [f64; 3], unit: [f64; 3], limits: &Motion) -> f64 {
+    let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
+    if cos_theta > 0.999_999 {
+        0.0 // reversal: stop
+    } else if cos_theta < -0.999_999 {
+        f64::INFINITY // straight on
+    } else {
+        let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
+        let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
+        ju.iter_mut().for_each(|c| *c /= jl);
+        let ja = limit_by_axis(limits.accel_mm_s2, &ju);
+        let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
+        ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
     }
-    // Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
-    // holds after it (a sliding sum of 2·a·len over the next PLANNER_BLOCKS blocks).
+}
+
+/// Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
+/// holds after it (a sliding sum of 2·a·len over the next [`PLANNER_BLOCKS`] blocks).
+fn look_ahead_reach(blocks: &[Block]) -> Vec<f64> {
+    let n = blocks.len();
     let mut window = 0.0;
-    let reach: Vec<f64> = (0..n)
+    let mut reach: Vec<f64> = (0..n)
         .rev()
         .map(|i| {
             window += 2.0 * blocks[i].accel * blocks[i].len;
@@ -158,11 +192,17 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
             }
             window.max(0.0)
         })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .rev()
         .collect();
-    // Backward pass: from a stop after the last block.
+    reach.reverse();
+    reach
+}
+
+/// Every block's entry speed²: a backward pass from a stop after the last block, then a forward
+/// pass from a stop before the first, each within what accelerating or braking over the block
+/// allows. `blocks` is not empty.
+fn plan_entry_speeds(blocks: &mut [Block]) {
+    let n = blocks.len();
+    let reach = look_ahead_reach(blocks);
     let mut next_entry_sq = 0.0;
     for i in (0..n).rev() {
         let b = &mut blocks[i];
@@ -172,7 +212,6 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
             .min(reach[i]);
         next_entry_sq = b.entry_sq;
     }
-    // Forward pass: from a stop before the first block.
     blocks[0].entry_sq = 0.0;
     for i in 0..n - 1 {
         let reachable = blocks[i].entry_sq + 2.0 * blocks[i].accel * blocks[i].len;
@@ -180,22 +219,6 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
             blocks[i + 1].entry_sq = reachable;
         }
     }
-    for i in 0..n {
-        let b = &blocks[i];
-        let exit_sq = if i + 1 < n {
-            blocks[i + 1].entry_sq
-        } else {
-            0.0
-        };
-        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
-        if b.cut {
-            e.cut_s += t;
-        } else {
-            e.travel_s += t;
-        }
-    }
-    e.total_s = e.cut_s + e.travel_s;
-    e
 }
 
 /// What length ÷ feed says (no acceleration): the number many senders show, for comparison.

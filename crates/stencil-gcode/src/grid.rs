@@ -2,7 +2,7 @@
 //! drag knife) or speed alone (a pen), each labelled in the G-code and in an SVG preview, so a
 //! user finds the setting that cuts their sheet cleanly and writes it into the material profile.
 //!
-//! The squares are a [`Job`] written by the one G-code writer ([`crate::write::write_each`]):
+//! The squares are a [`Job`] written by the one G-code writer (`write_each`):
 //! same header, laser mode and end as every job, each square at its own settings.
 
 use crate::machine::{Machine, Tool};
@@ -21,7 +21,7 @@ pub struct Steps {
 }
 
 /// The most values along one side of the grid.
-pub const MAX_STEPS: usize = 20;
+pub(crate) const MAX_STEPS: usize = 20;
 
 impl Steps {
     /// `A..B:N` (N values from A to B, both included), `A..B` (5 values) or `A` (one value).
@@ -225,7 +225,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
                         min: [0.0; 2],
                     }
                 .label(),
-                cause,
+                cause: Box::new(cause),
             })?;
             cells.push(Cell {
                 row: r,
@@ -288,7 +288,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
 
 /// The square's comment line in the G-code: `square 3 of 25, row 1 column 3: power 40 % S400,
 /// speed 900 mm/min` (a knife: `depth Z-0.3`).
-pub fn cell_comment(c: &Cell, total: usize, ncols: usize) -> String {
+pub(crate) fn cell_comment(c: &Cell, total: usize, ncols: usize) -> String {
     let what = match (c.s, c.depth) {
         (Some(s), _) => format!("power {} % S{}, ", num(c.settings.power_pct), num(s)),
         (_, Some(d)) => format!("depth Z{}, ", num(d)),

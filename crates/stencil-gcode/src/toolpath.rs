@@ -89,7 +89,7 @@ pub struct Loop {
 }
 
 impl Loop {
-    pub fn perimeter_mm(&self) -> f64 {
+    pub(crate) fn perimeter_mm(&self) -> f64 {
         let n = self.points.len();
         (0..n)
             .map(|i| dist(self.points[i], self.points[(i + 1) % n]))
@@ -130,7 +130,7 @@ pub const MAX_PASSES: u32 = 100;
 pub const MAX_BLADE_OFFSET_MM: f64 = 5.0;
 
 /// Check cut settings against the machine (feed within its limit, laser S within its range).
-pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), SettingsError> {
+pub(crate) fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), SettingsError> {
     let feeds = crate::machine::bounds::FEED_MM_MIN;
     if !(s.speed_mm_min.is_finite() && s.speed_mm_min >= *feeds.start()) {
         return Err(SettingsError::SpeedTooLow {
@@ -183,12 +183,12 @@ pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), Settings
 }
 
 /// The S word for a power percentage: `% × $30`, rounded to 0.1.
-pub fn laser_s(power_pct: f64, s_max: f64) -> f64 {
+pub(crate) fn laser_s(power_pct: f64, s_max: f64) -> f64 {
     (power_pct / 100.0 * s_max * 10.0).round() / 10.0
 }
 
 /// The sheet's rectangle in sheet mm (y down): `[x0, y0, x1, y1]`.
-pub fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
+pub(crate) fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
     let o = geom.outline;
     [o.min().x, o.min().y, o.max().x, o.max().y]
 }
@@ -265,7 +265,7 @@ fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
 /// (besides the kerf) are taken for bridges: about the widths makers draw bridges at. Pieces
 /// narrower than this are not told apart from their surroundings (the hull rule still orders
 /// what lies in a single broken ring).
-pub const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
+pub(crate) const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
 
 /// What the planner knows of the pieces the cuts free: the cut regions before bridging when
 /// `make` passed them; nothing to find when `make` had no islands; otherwise (a drawing) a
@@ -301,26 +301,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
 
-    // Cut loops, in input order: each polygon's holes (islands, which must not exist after
-    // bridging but are cut if they do), then its exterior.
-    let mut loops: Vec<Loop> = Vec::new();
-    for poly in &geom.cuts.0 {
-        for ring in poly
-            .interiors()
-            .iter()
-            .chain(std::iter::once(poly.exterior()))
-        {
-            let pts = ring_points(ring, &place);
-            let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
-            if pts.len() >= 3 && area > 1e-9 {
-                loops.push(Loop {
-                    points: pts,
-                    outline: false,
-                    area_mm2: area,
-                });
-            }
-        }
-    }
+    let mut loops = cut_loops(geom, &place);
     let frame = [
         place.map(rect[0], rect[1]),
         place.map(rect[2], rect[1]),
@@ -338,8 +319,69 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         return Err(PlanError::Empty);
     }
 
-    // Bounds: the sheet and everywhere the head goes must lie on the bed. A drag knife's axis runs
-    // up to the blade offset outside the cut lines.
+    let (min, max) = check_on_bed(&frame, &loops, machine, cfg)?;
+
+    let home = [0.0, 0.0];
+    let naive_travel_mm = travel::naive_travel(&loops, home);
+    let sequence = shortest_sequence(&loops, &gaps(geom, &place), home);
+    let mut ordered = Vec::with_capacity(loops.len());
+    for (i, start) in sequence {
+        let mut l = loops[i].clone();
+        l.points.rotate_left(start);
+        ordered.push(l);
+    }
+    let travel_mm = travel::travel_of(&ordered, home);
+    let passes = cfg.settings.passes;
+    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
+    Ok(Job {
+        stats: PathStats {
+            loops: ordered.len(),
+            cut_mm,
+            travel_mm,
+            naive_travel_mm,
+        },
+        loops: ordered,
+        home,
+        settings: cfg.settings,
+        sheet_mm: size,
+        min,
+        max,
+    })
+}
+
+/// The loops to cut, placed on the bed, in input order: each polygon's holes (islands, which must
+/// not exist after bridging but are cut if they do), then its exterior. Degenerate rings are
+/// left out.
+fn cut_loops(geom: &CutLoops, place: &Placement) -> Vec<Loop> {
+    let mut loops: Vec<Loop> = Vec::new();
+    for poly in &geom.cuts.0 {
+        for ring in poly
+            .interiors()
+            .iter()
+            .chain(std::iter::once(poly.exterior()))
+        {
+            let pts = ring_points(ring, place);
+            let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
+            if pts.len() >= 3 && area > 1e-9 {
+                loops.push(Loop {
+                    points: pts,
+                    outline: false,
+                    area_mm2: area,
+                });
+            }
+        }
+    }
+    loops
+}
+
+/// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
+/// (`frame`) and every loop, which a drag knife's axis passes by up to the blade offset.
+fn check_on_bed(
+    frame: &[[f64; 2]; 4],
+    loops: &[Loop],
+    machine: &Machine,
+    cfg: &PlanConfig,
+) -> Result<([f64; 2], [f64; 2]), PlanError> {
     let reach = match machine.tool {
         Tool::Knife { .. } => cfg.settings.blade_offset_mm,
         _ => 0.0,
@@ -374,24 +416,25 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             fix: if too_big { Fit::ScaleDown } else { Fit::Move },
         });
     }
+    Ok((min, max))
+}
 
-    let home = [0.0, 0.0];
-    let naive_travel_mm = travel::naive_travel(&loops, home);
-    // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
-    // depth layers optimised one by one, nearest neighbour under the constraints, and the input
-    // order itself where it keeps them.
-    let order::Order { groups, before, .. } = order::order(&loops, &gaps(geom, &place));
+/// The cut sequence `(loop, start vertex)` with the least travel among candidate orders that all
+/// keep the cut-order constraints: the depth layers optimised one by one, nearest neighbour under
+/// the constraints, and the input order itself where it keeps them.
+fn shortest_sequence(loops: &[Loop], gaps: &order::Gaps, home: [f64; 2]) -> Vec<(usize, usize)> {
+    let order::Order { groups, before, .. } = order::order(loops, gaps);
     let mut candidates = vec![
-        travel::optimise(&loops, &groups, home),
-        travel::greedy_constrained(&loops, &before, home),
+        travel::optimise(loops, &groups, home),
+        travel::greedy_constrained(loops, &before, home),
     ];
     let mut input: Vec<(usize, usize)> = (0..loops.len()).map(|i| (i, 0)).collect();
     if travel::respects(&input, &before) {
-        travel::refine_starts(&loops, &mut input, home);
+        travel::refine_starts(loops, &mut input, home);
         candidates.push(input);
     }
     // The layered order always keeps them (first in the list); the others are checked.
-    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(&loops, c, home);
+    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(loops, c, home);
     let mut sequence = candidates.swap_remove(0);
     let mut best = travel_of_seq(&sequence);
     for c in candidates {
@@ -400,29 +443,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             (sequence, best) = (c, t);
         }
     }
-    let mut ordered = Vec::with_capacity(loops.len());
-    for (i, start) in sequence {
-        let mut l = loops[i].clone();
-        l.points.rotate_left(start);
-        ordered.push(l);
-    }
-    let travel_mm = travel::travel_of(&ordered, home);
-    let passes = cfg.settings.passes;
-    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
-    Ok(Job {
-        stats: PathStats {
-            loops: ordered.len(),
-            cut_mm,
-            travel_mm,
-            naive_travel_mm,
-        },
-        loops: ordered,
-        home,
-        settings: cfg.settings,
-        sheet_mm: size,
-        min,
-        max,
-    })
+    sequence
 }
 
 #[cfg(test)]

@@ -26,7 +26,7 @@ use crate::toolpath::{laser_s, CutSettings, Job, Loop};
 /// One loop's own settings and a comment line written before it (the test grid cuts each square
 /// at its own power and speed, and a knife's at its own depth).
 #[derive(Clone, Debug, PartialEq)]
-pub struct LoopSettings {
+pub(crate) struct LoopSettings {
     pub settings: CutSettings,
     /// Knife or pen on Z: the depth this loop is cut at instead of the profile's `z_down_mm`.
     pub z_down_mm: Option<f64>,
@@ -35,7 +35,7 @@ pub struct LoopSettings {
 
 /// Longest line the writer emits: one under Grbl's [`crate::limits::MAX_LINE_BYTES`] (79), a
 /// margin for a sender that counts the line's end.
-pub const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
+pub(crate) const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
 
 /// A number with at most 3 decimals, no trailing zeros, no `-0`.
 pub fn num(v: f64) -> String {
@@ -155,7 +155,7 @@ const SWIVEL_STEP_DEG: f64 = 10.0;
 /// at each corner the axis swings on a circle of radius `r` around the corner, turning the blade
 /// to the new direction. Starts (and implicitly ends) with the tip at `points[0]`, the blade
 /// pointing along the loop's last segment.
-pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
+pub(crate) fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
     let n = points.len();
     if r <= 0.0 || n < 2 {
         return points.to_vec();
@@ -191,13 +191,13 @@ pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
 }
 
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
-pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
+pub(crate) fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
     write_each(job, machine, notes, &[])
 }
 
 /// [`write`] with loop `i` cut as `each[i]` says (loops past its end use the job's settings).
 /// Same header, laser mode and end as every job.
-pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
+pub(crate) fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
     let s = &job.settings;
     let feed = num(s.speed_mm_min);
     let laser = matches!(machine.tool, Tool::Laser { .. });
@@ -207,7 +207,49 @@ pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSe
         at: (String::new(), String::new()),
         air_pending: air,
     };
-    let o = &mut w.out;
+    header_comments(&mut w.out, job, machine, notes, air);
+    w.line("G21 G90 G94");
+    match machine.tool {
+        Tool::Laser { .. } => w.line(&format!("M4 S0 F{feed}")),
+        Tool::Pen(PenLift::Spindle { .. }) => w.line(&format!("M5 F{feed}")),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
+        }
+    }
+    for (i, l) in job.loops.iter().enumerate() {
+        match each.get(i) {
+            Some(e) => {
+                comment(&mut w.out, &e.comment);
+                let mut m = machine.clone();
+                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
+                    (e.z_down_mm, &mut m.tool)
+                {
+                    z.down_mm = d;
+                }
+                write_loop(&mut w, l, &m, &e.settings);
+            }
+            None => write_loop(&mut w, l, machine, &job.settings),
+        }
+    }
+    match machine.tool {
+        Tool::Laser { .. } => w.line("M5 S0"),
+        _ => w.line("M5"),
+    }
+    if air {
+        w.line("M9");
+    }
+    // The return move, written even if the head is already there, then the program end.
+    let home = job.home;
+    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
+    w.line("M2");
+    w.out
+}
+
+/// The comment lines a program starts with: what made it, for which machine and tool, with what
+/// settings, and the job's size, place and lengths.
+fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String], air: bool) {
+    let s = &job.settings;
+    let feed = num(s.speed_mm_min);
     comment(
         o,
         &format!(
@@ -290,41 +332,6 @@ pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSe
             job.stats.cut_mm, job.stats.travel_mm, job.stats.naive_travel_mm
         ),
     );
-    w.line("G21 G90 G94");
-    match machine.tool {
-        Tool::Laser { .. } => w.line(&format!("M4 S0 F{feed}")),
-        Tool::Pen(PenLift::Spindle { .. }) => w.line(&format!("M5 F{feed}")),
-        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
-            w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
-        }
-    }
-    for (i, l) in job.loops.iter().enumerate() {
-        match each.get(i) {
-            Some(e) => {
-                comment(&mut w.out, &e.comment);
-                let mut m = machine.clone();
-                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
-                    (e.z_down_mm, &mut m.tool)
-                {
-                    z.down_mm = d;
-                }
-                write_loop(&mut w, l, &m, &e.settings);
-            }
-            None => write_loop(&mut w, l, machine, &job.settings),
-        }
-    }
-    match machine.tool {
-        Tool::Laser { .. } => w.line("M5 S0"),
-        _ => w.line("M5"),
-    }
-    if air {
-        w.line("M9");
-    }
-    // The return move, written even if the head is already there, then the program end.
-    let home = job.home;
-    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
-    w.line("M2");
-    w.out
 }
 
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
