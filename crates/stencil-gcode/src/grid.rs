@@ -136,6 +136,64 @@ pub struct Grid {
     pub size: [f64; 2],
 }
 
+/// The square at row `r`, column `c` (from 0) cut at `speed`, its lower-left corner at `min`:
+/// its row's power or depth applied to the base settings, and checked against the machine.
+fn cell(
+    spec: &GridSpec,
+    machine: &Machine,
+    (r, c): (usize, usize),
+    speed: f64,
+    min: [f64; 2],
+) -> Result<Cell, PlanError> {
+    let row = spec.rows.get(r).copied();
+    let mut settings = CutSettings {
+        speed_mm_min: speed,
+        ..spec.base
+    };
+    let (mut s, mut depth) = (None, None);
+    match (spec.row_kind, machine.tool, row) {
+        (RowKind::Power, Tool::Laser { s_max, .. }, Some(p)) => {
+            settings.power_pct = p;
+            s = Some(laser_s(p, s_max));
+        }
+        (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
+            if d >= z.up_mm {
+                return Err(SettingsError::DepthAboveBlade {
+                    depth: d,
+                    up: z.up_mm,
+                    machine: machine.name.clone(),
+                }
+                .into());
+            }
+            depth = Some(d);
+        }
+        (RowKind::None, _, _) => {}
+        (kind, tool, _) => {
+            return Err(SettingsError::GridKind {
+                kind,
+                tool: tool.kind(),
+                machine: machine.name.clone(),
+            }
+            .into())
+        }
+    }
+    let cell = Cell {
+        row: r,
+        col: c,
+        settings,
+        s,
+        depth,
+        min,
+    };
+    check_settings(&settings, machine).map_err(|cause| PlanError::GridSquare {
+        row: r + 1,
+        col: c + 1,
+        label: cell.label(),
+        cause: Box::new(cause),
+    })?;
+    Ok(cell)
+}
+
 /// Lay the squares out (rows along +Y, columns along +X from `offset`), check every square's
 /// settings against the machine and the whole grid against its bed.
 pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
@@ -181,63 +239,11 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
     let mut cells = Vec::with_capacity(nr * nc);
     for r in 0..nr {
         for (c, &speed) in spec.speeds.iter().enumerate() {
-            let row = spec.rows.get(r).copied();
-            let mut settings = CutSettings {
-                speed_mm_min: speed,
-                ..spec.base
-            };
-            let (mut s, mut depth) = (None, None);
-            match (spec.row_kind, machine.tool, row) {
-                (RowKind::Power, Tool::Laser { s_max, .. }, Some(p)) => {
-                    settings.power_pct = p;
-                    s = Some(laser_s(p, s_max));
-                }
-                (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
-                    if d >= z.up_mm {
-                        return Err(SettingsError::DepthAboveBlade {
-                            depth: d,
-                            up: z.up_mm,
-                            machine: machine.name.clone(),
-                        }
-                        .into());
-                    }
-                    depth = Some(d);
-                }
-                (RowKind::None, _, _) => {}
-                (kind, tool, _) => {
-                    return Err(SettingsError::GridKind {
-                        kind,
-                        tool: tool.kind(),
-                        machine: machine.name.clone(),
-                    }
-                    .into())
-                }
-            }
-            check_settings(&settings, machine).map_err(|cause| PlanError::GridSquare {
-                row: r + 1,
-                col: c + 1,
-                label: Cell {
-                        row: r,
-                        col: c,
-                        settings,
-                        s,
-                        depth,
-                        min: [0.0; 2],
-                    }
-                .label(),
-                cause: Box::new(cause),
-            })?;
-            cells.push(Cell {
-                row: r,
-                col: c,
-                settings,
-                s,
-                depth,
-                min: [
-                    spec.offset[0] + c as f64 * pitch,
-                    spec.offset[1] + r as f64 * pitch,
-                ],
-            });
+            let min = [
+                spec.offset[0] + c as f64 * pitch,
+                spec.offset[1] + r as f64 * pitch,
+            ];
+            cells.push(cell(spec, machine, (r, c), speed, min)?);
         }
     }
     let a = spec.size_mm;
