@@ -4,7 +4,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use stencil_gcode::interpret::interpret;
-use stencil_gcode::{estimate, gcode_for, CutSettings, MotionLimits, PlanConfig};
+use stencil_gcode::{estimate, gcode_for, CutSettings, PlanConfig};
 use stencil_gcode::machine;
 use stencil_core::vector::CutGeometry;
 
@@ -45,7 +45,7 @@ fn bench(c: &mut Criterion) {
     let (text, _) = gcode_for(&grid(30).loops(), &m, &cfg, &[]).unwrap();
     let moves = interpret(&text).unwrap();
     c.bench_function(&format!("estimate {} moves", moves.len()), |b| {
-        b.iter(|| estimate(&moves, &MotionLimits::default()))
+        b.iter(|| estimate(&moves, &m.motion))
     });
 }
 

@@ -6,7 +6,8 @@ use std::process::Command;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use stencil_gcode::interpret::interpret;
-use stencil_gcode::estimate::{estimate, MotionLimits};
+use stencil_gcode::estimate::estimate;
+use stencil_gcode::machine::Motion;
 use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
 use stencil_gcode::machine::{self, Machine, PenLift, Tool};
 use stencil_core::vector::CutGeometry;
@@ -355,7 +356,7 @@ fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
     cfg.cut_outline = true;
     // The outline at X0/Y0 would need the axis at -0.5 mm: refused, not clipped by soft limits.
     let e = gcode_for(&g.loops(), &m, &cfg, &[]).unwrap_err().to_string();
-    assert!(e.contains("X -0.5") && e.contains("--offset"), "{e}");
+    assert!(e.contains("X -0.5") && e.contains("move it on the bed"), "{e}");
     cfg.offset = [1.0, 1.0];
     let (text, _) = make(&g, &m, &cfg);
     let r = check_program(&text, &m);
@@ -500,11 +501,12 @@ fn square_time_matches_a_hand_calculation() {
     assert!((hand - 4.35247).abs() < 1e-4, "hand calculation {hand}");
 
     let program = "G21 G90\nM4 S1000\nG1 X50 Y0 F3000\nG1 X50 Y50\nG1 X0 Y50\nG1 X0 Y0\nM5\n";
-    let limits = MotionLimits {
+    let limits = Motion {
         rapid_mm_min: 6000.0,
         max_feed_mm_min: 6000.0,
         accel_mm_s2: a,
         junction_deviation_mm: d,
+        homing: false,
     };
     let e = estimate(&interpret(program).unwrap(), &limits);
     assert!(
@@ -602,6 +604,8 @@ fn cli_refuses_too_big_and_bad_inputs_with_clear_messages() {
         !ok && err.contains("does not fit") && err.contains("300.0 x 220.0"),
         "{err}"
     );
+    // The library says what to change; the command names the options that change it.
+    assert!(err.contains("move it on the bed with --offset X,Y or --origin"), "{err}");
     assert!(
         !dir.path().join("job.gcode").exists(),
         "no file after a refusal"

@@ -1,5 +1,5 @@
-//! `stencil gcode` and `stencil estimate`, and the machine options `make --emit gcode` shares.
-//! OWNER: the G-code issue.
+//! `stencil gcode`, the machine and cut options `make --emit gcode` shares, the bed check of
+//! `send`, `estimate` and `simulate`, and the words a planning error gets on the command line.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -7,10 +7,12 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil_gcode::interpret::interpret;
-use stencil_gcode::estimate::{format_duration, length_over_feed_s};
 use stencil_gcode::read_svg::cut_loops_from_svg;
-use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
+use stencil_gcode::{
+    self as plan, Anchor, CutSettings, Fit, GcodeConfig, GcodeSummary, PlanConfig, PlanError,
+    SettingsError,
+};
+use stencil_gcode::estimate::format_duration;
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_core::material::Material;
 use stencil_core::report::Report;
@@ -235,7 +237,7 @@ pub fn make_gcode_config(
     let base = if cut.covers_all(&machine) {
         None
     } else {
-        Some(stencil_core::material::settings_for(material, &machine)?)
+        Some(stencil_core::material::settings_for(material, &machine).map_err(plan_error)?)
     };
     Ok(Some(GcodeConfig {
         plan: m.plan_config(cut.settings(base, &machine)?),
@@ -271,7 +273,9 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let base = match &material {
-        Some(m) if !a.cut.covers_all(&machine) => Some(stencil_core::material::settings_for(m, &machine)?),
+        Some(m) if !a.cut.covers_all(&machine) => {
+            Some(stencil_core::material::settings_for(m, &machine).map_err(plan_error)?)
+        }
         _ => None,
     };
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
@@ -289,7 +293,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
     let cfg = a.machine.plan_config(settings);
-    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
+    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes).map_err(plan_error)?;
     stencil_io::write_atomic(&out, gcode.as_bytes())?;
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)
@@ -318,40 +322,30 @@ pub fn check_bed(
     })
 }
 
-/// `stencil estimate job.gcode`: time and distances of any G-code file.
-#[derive(Args, Debug)]
-pub struct EstimateArgs {
-    /// The G-code file.
-    pub file: PathBuf,
-    /// Machine profile whose motion limits to use, and whose bed the job must stay on (name or
-    /// .toml path) [default: diode-400].
-    #[arg(long, value_name = "NAME|FILE")]
-    pub machine: Option<String>,
-    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
-    /// from the machine's origin).
-    #[arg(long)]
-    pub no_bed_check: bool,
+/// A planning error in the words of the command line: the library says what to change, this adds
+/// the option that changes it.
+pub fn plan_message(e: &PlanError) -> String {
+    let hint = match e {
+        PlanError::Empty => {
+            return "nothing to cut: the geometry has no cut regions (and --cut-outline is off)"
+                .into()
+        }
+        PlanError::DoesNotFit { fix: Fit::Move, .. } => " with --offset X,Y or --origin",
+        PlanError::DoesNotFit {
+            fix: Fit::ShrinkGrid,
+            ..
+        } => " (--size, --gap, --offset)",
+        PlanError::Settings(SettingsError::EtchMaterial { .. }) => " (--emit mask)",
+        PlanError::Settings(SettingsError::WrongTool { .. }) => {
+            " (--material, or --machine, or --power, --speed and --passes; `stencil profiles` \
+             lists the materials)"
+        }
+        _ => "",
+    };
+    format!("{e}{hint}")
 }
 
-pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
-    let machine = machine_profile::load(a.machine.as_deref())?;
-    let text = std::fs::read_to_string(&a.file)
-        .with_context(|| format!("{}: cannot read", a.file.display()))?;
-    let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
-    check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
-    let e = plan::estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
-    println!(
-        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
-         length / feed alone would say {}",
-        a.file.display(),
-        format_duration(e.total_s),
-        machine.name,
-        format_duration(e.cut_s),
-        format_duration(e.travel_s),
-        moves.len(),
-        e.cut_mm,
-        e.travel_mm,
-        format_duration(length_over_feed_s(&moves, &machine.limits())),
-    );
-    Ok(ExitCode::SUCCESS)
+/// [`plan_message`] as an error.
+pub fn plan_error(e: PlanError) -> anyhow::Error {
+    anyhow::anyhow!(plan_message(&e))
 }

@@ -371,6 +371,9 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             fidelity.changed_pct,
             change_parts(&fidelity),
         ),
+        stencil_core::Error::Plan(p) => {
+            anyhow::anyhow!("{}: {}", cfg.input.display(), super::gcode::plan_message(&p))
+        }
         // Every other error names the input too (most already do, from the stage that read it).
         e => {
             let input = cfg.input.display().to_string();

@@ -2,6 +2,7 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod bounds;
+mod estimate;
 mod frame;
 mod gcode;
 mod grid;
@@ -57,7 +58,7 @@ pub enum Command {
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
     Gcode(gcode::GcodeArgs),
     /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
-    Estimate(gcode::EstimateArgs),
+    Estimate(estimate::EstimateArgs),
     /// Trace the outline of what a G-code file cuts (tool off or a dim laser), then come back.
     Frame(frame::FrameArgs),
     /// Jog the head with the arrow keys ($J=), home ($H), unlock ($X) and set work zero.
@@ -76,7 +77,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(a) => material::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
-        Command::Estimate(a) => gcode::run_estimate(a),
+        Command::Estimate(a) => estimate::run_estimate(a),
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),
         Command::TestGrid(a) => grid::run_test_grid(a),

@@ -25,7 +25,7 @@ use stencil_grbl::stream::{
     StreamConfig,
 };
 use stencil_grbl::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
-use stencil_gcode::estimate::{estimate, estimate_with, format_duration, MotionLimits};
+use stencil_gcode::estimate::{estimate, estimate_with, format_duration};
 use stencil_gcode::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
@@ -196,7 +196,7 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
     super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let rule = machine.cut_rule(&moves);
-    let est = estimate_with(&moves, &machine.limits(), rule);
+    let est = estimate_with(&moves, &machine.motion, rule);
     let d = simulate::draw(&moves, a.size_px, rule);
     stencil_io::write_atomic(
         &a.output,
@@ -297,7 +297,7 @@ impl KeySource for Terminal {
 struct Bar {
     bar: ProgressBar,
     moves: Vec<Move>,
-    limits: MotionLimits,
+    limits: machine_profile::Motion,
     raw: bool,
     last_estimate: Option<Instant>,
     remaining: String,
@@ -305,7 +305,7 @@ struct Bar {
 }
 
 impl Bar {
-    fn new(moves: Vec<Move>, limits: MotionLimits, raw: bool) -> Bar {
+    fn new(moves: Vec<Move>, limits: machine_profile::Motion, raw: bool) -> Bar {
         // Hidden until the job starts (shown by `phase`), so connecting draws no empty bar.
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
         bar.set_style(
@@ -492,7 +492,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         .copied()
         .collect();
     super::gcode::check_bed(&a.file, &to_run, &machine, a.no_bed_check)?;
-    let limits = machine.limits();
+    let limits = machine.motion;
     let home_first = a.recover && machine.motion.homing;
     if home_first {
         println!(

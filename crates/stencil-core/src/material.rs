@@ -16,7 +16,7 @@ use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileEr
 use stencil_io::shipped;
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_gcode::{CutSettings, PlanError};
+use stencil_gcode::{CutSettings, PlanError, SettingsError};
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
@@ -503,24 +503,20 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
             air_assist: false,
         },
         (Process::Etch(_), _) => {
-            return Err(PlanError::Settings(format!(
-                "material '{}' is for photo-etching and has no cut settings for G-code; \
-                 use --emit mask, or choose a laser, knife or pen material",
-                material.name
-            )))
+            return Err(SettingsError::EtchMaterial {
+                material: material.name.clone(),
+            }
+            .into())
         }
         (p, t) => {
-            return Err(PlanError::Settings(format!(
-                "material '{}' is set up for a {} but machine '{}' has a {}; choose a matching \
-                 --material (for a {}: {}, or see `stencil profiles`) or --machine, or give \
-                 --power, --speed and --passes",
-                material.name,
-                p.kind(),
-                machine.name,
-                t.kind(),
-                t.kind(),
-                default_for(&machine.tool)
-            )))
+            return Err(SettingsError::WrongTool {
+                material: material.name.clone(),
+                process: p.kind().to_string(),
+                machine: machine.name.clone(),
+                tool: t.kind(),
+                suggested: default_for(&machine.tool),
+            }
+            .into())
         }
     };
     Ok(s)

@@ -21,31 +21,7 @@
 
 use crate::interpret::{CutRule, Move};
 use crate::limits::PLANNER_BLOCKS;
-
-/// The motion limits the estimate needs (from a machine profile).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotionLimits {
-    /// Rate of G0 moves, mm/min.
-    pub rapid_mm_min: f64,
-    /// Highest feed the machine runs, mm/min (programmed feeds above it are clamped).
-    pub max_feed_mm_min: f64,
-    /// Acceleration, mm/s².
-    pub accel_mm_s2: f64,
-    /// Grbl's junction deviation ($11), mm.
-    pub junction_deviation_mm: f64,
-}
-
-impl Default for MotionLimits {
-    /// A generic GRBL 1.1 diode laser (the `diode-400` profile).
-    fn default() -> Self {
-        MotionLimits {
-            rapid_mm_min: 6000.0,
-            max_feed_mm_min: 6000.0,
-            accel_mm_s2: 1000.0,
-            junction_deviation_mm: 0.01,
-        }
-    }
-}
+use crate::machine::Motion;
 
 /// What a job costs in time and distance.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -82,7 +58,7 @@ fn limit_by_axis(limit: f64, unit: &[f64; 3]) -> f64 {
 
 /// Time to run `len` mm entering at `v0`, leaving at `v1`, cruising at most at `vn`, accelerating
 /// at `a` (all speeds in mm/s).
-pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
+fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
@@ -98,17 +74,43 @@ pub fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
 }
 
 /// Estimate a program's run time; which moves cut is [`CutRule::infer`]red from the program.
-pub fn estimate(moves: &[Move], limits: &MotionLimits) -> Estimate {
+pub fn estimate(moves: &[Move], limits: &Motion) -> Estimate {
     estimate_with(moves, limits, CutRule::infer(moves))
 }
 
 /// Estimate with a given cut rule (a machine profile may refine the inferred one, see
 /// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
-pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Estimate {
-    let is_cut = |m: &Move| rule.cuts(m);
+pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate {
+    let mut e = Estimate::default();
+    let mut blocks = blocks(moves, limits, rule, &mut e);
+    if blocks.is_empty() {
+        return e;
+    }
+    plan_entry_speeds(&mut blocks);
+    let n = blocks.len();
+    for i in 0..n {
+        let b = &blocks[i];
+        let exit_sq = if i + 1 < n {
+            blocks[i + 1].entry_sq
+        } else {
+            0.0
+        };
+        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
+        if b.cut {
+            e.cut_s += t;
+        } else {
+            e.travel_s += t;
+        }
+    }
+    e.total_s = e.cut_s + e.travel_s;
+    e
+}
+
+/// The moves as Grbl's planner blocks, each with its nominal speed, acceleration and the highest
+/// entry speed its junction allows; adds each block's length to `e`'s cut or travel.
+fn blocks(moves: &[Move], limits: &Motion, rule: CutRule, e: &mut Estimate) -> Vec<Block> {
     let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
     let mut prev: Option<(usize, [f64; 3])> = None;
-    let mut e = Estimate::default();
     for m in moves {
         let d = [
             m.to[0] - m.from[0],
@@ -132,24 +134,13 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
         let max_entry_sq = match prev {
             None => 0.0,
             Some((pi, pu)) => {
-                let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
-                let vj_sq = if cos_theta > 0.999_999 {
-                    0.0 // reversal: stop
-                } else if cos_theta < -0.999_999 {
-                    f64::INFINITY // straight on
-                } else {
-                    let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
-                    let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
-                    ju.iter_mut().for_each(|c| *c /= jl);
-                    let ja = limit_by_axis(limits.accel_mm_s2, &ju);
-                    let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
-                    ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
-                };
                 let pv = blocks[pi].v_nom;
-                vj_sq.min(v_nom * v_nom).min(pv * pv)
+                junction_sq(pu, unit, limits)
+                    .min(v_nom * v_nom)
+                    .min(pv * pv)
             }
         };
-        let cut = is_cut(m);
+        let cut = rule.cuts(m);
         if cut {
             e.cut_mm += len;
         } else {
@@ -165,14 +156,33 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
             cut,
         });
     }
-    let n = blocks.len();
-    if n == 0 {
-        return e;
+    blocks
+}
+
+/// The highest speed² through the junction from direction `pu` to `unit` that the junction
+/// deviation allows (a reversal stops; a straight continuation is not limited).
+fn junction_sq(pu: [f64; 3], unit: [f64; 3], limits: &Motion) -> f64 {
+    let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
+    if cos_theta > 0.999_999 {
+        0.0 // reversal: stop
+    } else if cos_theta < -0.999_999 {
+        f64::INFINITY // straight on
+    } else {
+        let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
+        let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
+        ju.iter_mut().for_each(|c| *c /= jl);
+        let ja = limit_by_axis(limits.accel_mm_s2, &ju);
+        let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
+        ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
     }
-    // Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
-    // holds after it (a sliding sum of 2·a·len over the next PLANNER_BLOCKS blocks).
+}
+
+/// Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
+/// holds after it (a sliding sum of 2·a·len over the next [`PLANNER_BLOCKS`] blocks).
+fn look_ahead_reach(blocks: &[Block]) -> Vec<f64> {
+    let n = blocks.len();
     let mut window = 0.0;
-    let reach: Vec<f64> = (0..n)
+    let mut reach: Vec<f64> = (0..n)
         .rev()
         .map(|i| {
             window += 2.0 * blocks[i].accel * blocks[i].len;
@@ -182,11 +192,17 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
             }
             window.max(0.0)
         })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .rev()
         .collect();
-    // Backward pass: from a stop after the last block.
+    reach.reverse();
+    reach
+}
+
+/// Every block's entry speed²: a backward pass from a stop after the last block, then a forward
+/// pass from a stop before the first, each within what accelerating or braking over the block
+/// allows. `blocks` is not empty.
+fn plan_entry_speeds(blocks: &mut [Block]) {
+    let n = blocks.len();
+    let reach = look_ahead_reach(blocks);
     let mut next_entry_sq = 0.0;
     for i in (0..n).rev() {
         let b = &mut blocks[i];
@@ -196,7 +212,6 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
             .min(reach[i]);
         next_entry_sq = b.entry_sq;
     }
-    // Forward pass: from a stop before the first block.
     blocks[0].entry_sq = 0.0;
     for i in 0..n - 1 {
         let reachable = blocks[i].entry_sq + 2.0 * blocks[i].accel * blocks[i].len;
@@ -204,26 +219,10 @@ pub fn estimate_with(moves: &[Move], limits: &MotionLimits, rule: CutRule) -> Es
             blocks[i + 1].entry_sq = reachable;
         }
     }
-    for i in 0..n {
-        let b = &blocks[i];
-        let exit_sq = if i + 1 < n {
-            blocks[i + 1].entry_sq
-        } else {
-            0.0
-        };
-        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
-        if b.cut {
-            e.cut_s += t;
-        } else {
-            e.travel_s += t;
-        }
-    }
-    e.total_s = e.cut_s + e.travel_s;
-    e
 }
 
 /// What length ÷ feed says (no acceleration): the number many senders show, for comparison.
-pub fn length_over_feed_s(moves: &[Move], limits: &MotionLimits) -> f64 {
+pub fn length_over_feed_s(moves: &[Move], limits: &Motion) -> f64 {
     moves
         .iter()
         .map(|m| {
@@ -259,6 +258,18 @@ mod tests {
     use super::*;
     use crate::interpret::interpret;
 
+    /// A generic GRBL 1.1 diode laser: 100 mm/s rapid and max feed, 1000 mm/s², Grbl's default
+    /// junction deviation.
+    fn diode() -> Motion {
+        Motion {
+            max_feed_mm_min: 6000.0,
+            rapid_mm_min: 6000.0,
+            accel_mm_s2: 1000.0,
+            junction_deviation_mm: 0.01,
+            homing: false,
+        }
+    }
+
     #[test]
     fn block_time_trapezoid_and_triangle() {
         // 100 mm from rest to rest at 10 mm/s, a = 100: ramps 0.1 s and 0.5 mm each, cruise 99 mm.
@@ -271,7 +282,7 @@ mod tests {
 
     #[test]
     fn straight_line_split_in_two_does_not_stop_in_the_middle() {
-        let l = MotionLimits::default();
+        let l = diode();
         let one = estimate(&interpret("G1 X100 F3000").unwrap(), &l);
         let two = estimate(&interpret("G1 X50 F3000\nG1 X100").unwrap(), &l);
         assert!((one.total_s - two.total_s).abs() < 1e-9);
@@ -289,7 +300,7 @@ mod tests {
         for i in 1..=2000 {
             p.push_str(&format!("X{:.2}\n", i as f64 * 0.05));
         }
-        let e = estimate(&interpret(&p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(&p).unwrap(), &diode());
         let unlimited = block_time(100.0, 0.0, 0.0, 100.0, 1000.0);
         assert!(e.total_s > unlimited * 2.0, "{} vs {unlimited}", e.total_s);
         assert!((e.travel_mm + e.cut_mm - 100.0).abs() < 1e-6);
@@ -298,7 +309,7 @@ mod tests {
     #[test]
     fn z_tool_programs_count_xy_feed_moves_as_cut() {
         let p = "G0 Z3\nG0 X10\nG1 Z-0.3 F300\nG1 X20 F1000\nG0 Z3\nG0 X0\n";
-        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(p).unwrap(), &diode());
         assert!((e.cut_mm - 10.0).abs() < 1e-9, "{e:?}");
         assert!(
             (e.travel_mm - (3.0 + 10.0 + 3.3 + 3.3 + 20.0)).abs() < 1e-9,
@@ -306,7 +317,7 @@ mod tests {
         );
         // A laser program: only powered moves cut, even if G1 moves without power exist.
         let p = "M4 S0 F1000\nG1 X10\nG1 X20 S500\nM5\nG0 X0\n";
-        let e = estimate(&interpret(p).unwrap(), &MotionLimits::default());
+        let e = estimate(&interpret(p).unwrap(), &diode());
         assert!((e.cut_mm - 10.0).abs() < 1e-9 && (e.travel_mm - 30.0).abs() < 1e-9);
     }
 
@@ -314,7 +325,7 @@ mod tests {
     fn acceleration_only_adds_time() {
         let p = "G1 X10 Y0 F3000\nG1 X10 Y10\nG0 X0 Y0\n";
         let m = interpret(p).unwrap();
-        let l = MotionLimits::default();
+        let l = diode();
         let naive = length_over_feed_s(&m, &l);
         // 20 mm at 50 mm/s plus 14.14 mm at 100 mm/s.
         assert!((naive - (0.4 + 200f64.sqrt() / 100.0)).abs() < 1e-9);

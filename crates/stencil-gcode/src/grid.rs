@@ -2,13 +2,15 @@
 //! drag knife) or speed alone (a pen), each labelled in the G-code and in an SVG preview, so a
 //! user finds the setting that cuts their sheet cleanly and writes it into the material profile.
 //!
-//! The squares are a [`Job`] written by the one G-code writer ([`crate::write::write_each`]):
+//! The squares are a [`Job`] written by the one G-code writer (`write_each`):
 //! same header, laser mode and end as every job, each square at its own settings.
 
 use crate::machine::{Machine, Tool};
+use stencil_geom::ring::{bbox, dist};
 
 use crate::write::{num, write_each, LoopSettings};
-use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats, PlanError};
+use crate::error::{Fit, PlanError, SettingsError};
+use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats};
 
 /// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,7 +21,7 @@ pub struct Steps {
 }
 
 /// The most values along one side of the grid.
-pub const MAX_STEPS: usize = 20;
+pub(crate) const MAX_STEPS: usize = 20;
 
 impl Steps {
     /// `A..B:N` (N values from A to B, both included), `A..B` (5 values) or `A` (one value).
@@ -134,20 +136,77 @@ pub struct Grid {
     pub size: [f64; 2],
 }
 
+/// The square at row `r`, column `c` (from 0) cut at `speed`, its lower-left corner at `min`:
+/// its row's power or depth applied to the base settings, and checked against the machine.
+fn cell(
+    spec: &GridSpec,
+    machine: &Machine,
+    (r, c): (usize, usize),
+    speed: f64,
+    min: [f64; 2],
+) -> Result<Cell, PlanError> {
+    let row = spec.rows.get(r).copied();
+    let mut settings = CutSettings {
+        speed_mm_min: speed,
+        ..spec.base
+    };
+    let (mut s, mut depth) = (None, None);
+    match (spec.row_kind, machine.tool, row) {
+        (RowKind::Power, Tool::Laser { s_max, .. }, Some(p)) => {
+            settings.power_pct = p;
+            s = Some(laser_s(p, s_max));
+        }
+        (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
+            if d >= z.up_mm {
+                return Err(SettingsError::DepthAboveBlade {
+                    depth: d,
+                    up: z.up_mm,
+                    machine: machine.name.clone(),
+                }
+                .into());
+            }
+            depth = Some(d);
+        }
+        (RowKind::None, _, _) => {}
+        (kind, tool, _) => {
+            return Err(SettingsError::GridKind {
+                kind,
+                tool: tool.kind(),
+                machine: machine.name.clone(),
+            }
+            .into())
+        }
+    }
+    let cell = Cell {
+        row: r,
+        col: c,
+        settings,
+        s,
+        depth,
+        min,
+    };
+    check_settings(&settings, machine).map_err(|cause| PlanError::GridSquare {
+        row: r + 1,
+        col: c + 1,
+        label: cell.label(),
+        cause: Box::new(cause),
+    })?;
+    Ok(cell)
+}
+
 /// Lay the squares out (rows along +Y, columns along +X from `offset`), check every square's
 /// settings against the machine and the whole grid against its bed.
 pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> {
-    let bad = |m: String| PlanError::Settings(m);
     if !(spec.size_mm.is_finite()
         && spec.size_mm > 0.0
         && spec.gap_mm.is_finite()
         && spec.gap_mm >= 0.0)
     {
-        return Err(bad("the squares need a size > 0 and a gap >= 0".into()));
+        return Err(SettingsError::GridSquares.into());
     }
     let (nr, nc) = (spec.rows.len().max(1), spec.speeds.len());
     if nc == 0 {
-        return Err(bad("the grid needs at least one speed".into()));
+        return Err(SettingsError::GridNoSpeed.into());
     }
     let pitch = spec.size_mm + spec.gap_mm;
     let size = [
@@ -174,71 +233,17 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
             x1,
             y0,
             y1,
-            hint:
-                "use fewer steps, smaller squares (--size) or gaps (--gap), or move it (--offset)",
+            fix: Fit::ShrinkGrid,
         });
     }
     let mut cells = Vec::with_capacity(nr * nc);
     for r in 0..nr {
         for (c, &speed) in spec.speeds.iter().enumerate() {
-            let row = spec.rows.get(r).copied();
-            let mut settings = CutSettings {
-                speed_mm_min: speed,
-                ..spec.base
-            };
-            let (mut s, mut depth) = (None, None);
-            match (spec.row_kind, machine.tool, row) {
-                (RowKind::Power, Tool::Laser { s_max, .. }, Some(p)) => {
-                    settings.power_pct = p;
-                    s = Some(laser_s(p, s_max));
-                }
-                (RowKind::Depth, Tool::Knife { z, .. }, Some(d)) => {
-                    if d >= z.up_mm {
-                        return Err(bad(format!(
-                            "depth Z{} is not below the blade's up height Z{} of '{}'",
-                            num(d),
-                            num(z.up_mm),
-                            machine.name
-                        )));
-                    }
-                    depth = Some(d);
-                }
-                (RowKind::None, _, _) => {}
-                (kind, tool, _) => {
-                    return Err(bad(format!(
-                        "a grid over {kind:?} does not apply to the {} of '{}'",
-                        tool.kind(),
-                        machine.name
-                    )))
-                }
-            }
-            check_settings(&settings, machine).map_err(|e| {
-                bad(format!(
-                    "square at row {} column {} ({}): {e}",
-                    r + 1,
-                    c + 1,
-                    Cell {
-                        row: r,
-                        col: c,
-                        settings,
-                        s,
-                        depth,
-                        min: [0.0; 2],
-                    }
-                    .label()
-                ))
-            })?;
-            cells.push(Cell {
-                row: r,
-                col: c,
-                settings,
-                s,
-                depth,
-                min: [
-                    spec.offset[0] + c as f64 * pitch,
-                    spec.offset[1] + r as f64 * pitch,
-                ],
-            });
+            let min = [
+                spec.offset[0] + c as f64 * pitch,
+                spec.offset[1] + r as f64 * pitch,
+            ];
+            cells.push(cell(spec, machine, (r, c), speed, min)?);
         }
     }
     let a = spec.size_mm;
@@ -257,10 +262,10 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
     let mut travel = 0.0;
     let mut at = home;
     for l in &loops {
-        travel += crate::toolpath::dist(at, l.points[0]);
+        travel += dist(at, l.points[0]);
         at = l.points[0];
     }
-    travel += crate::toolpath::dist(at, home);
+    travel += dist(at, home);
     let cut_mm = loops
         .iter()
         .map(|l| l.perimeter_mm() * spec.base.passes as f64)
@@ -289,7 +294,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
 
 /// The square's comment line in the G-code: `square 3 of 25, row 1 column 3: power 40 % S400,
 /// speed 900 mm/min` (a knife: `depth Z-0.3`).
-pub fn cell_comment(c: &Cell, total: usize, ncols: usize) -> String {
+pub(crate) fn cell_comment(c: &Cell, total: usize, ncols: usize) -> String {
     let what = match (c.s, c.depth) {
         (Some(s), _) => format!("power {} % S{}, ", num(c.settings.power_pct), num(s)),
         (_, Some(d)) => format!("depth Z{}, ", num(d)),
@@ -346,12 +351,7 @@ pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
         .map(|c| {
             let p = view(c.min);
             let q = view([c.min[0] + a, c.min[1] + a]);
-            [
-                p[0].min(q[0]),
-                p[1].min(q[1]),
-                p[0].max(q[0]),
-                p[1].max(q[1]),
-            ]
+            bbox(&[p, q])
         })
         .collect();
     let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);

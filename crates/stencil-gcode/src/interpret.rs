@@ -173,12 +173,12 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
     for &(l, v) in &ws {
         match l {
             'G' => match v {
-                v if v == 0.0 => motion = Some(0),
-                v if v == 1.0 => motion = Some(1),
-                v if v == 90.0 => modal.absolute = true,
-                v if v == 91.0 => modal.absolute = false,
-                v if v == 21.0 => modal.metric = true,
-                v if v == 20.0 => modal.metric = false,
+                0.0 => motion = Some(0),
+                1.0 => motion = Some(1),
+                90.0 => modal.absolute = true,
+                91.0 => modal.absolute = false,
+                21.0 => modal.metric = true,
+                20.0 => modal.metric = false,
                 // Plane selection, feed-rate mode, work coordinate systems, cancel modes: no motion.
                 v if [17.0, 94.0, 54.0, 40.0, 49.0, 80.0].contains(&v) => {}
                 v => {

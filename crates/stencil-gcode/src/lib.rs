@@ -2,33 +2,50 @@
 //! order and travel, the G-code writer, the G-code interpreter and the time estimate. Knows
 //! nothing of pictures or stencils: its input is [`CutLoops`].
 //!
-//! Modules: `machine` (machine profiles), `cuts` (the input), `toolpath` places the loops on the
-//! bed and builds the [`Job`]; `order` says what must be cut before what; `travel` orders loops
-//! and picks start points; `write` writes the text; `interpret` reads any G-code program the way
-//! Grbl does; `estimate` times it; `simulate` draws it; `read_svg` reads a drawing's cut loops;
-//! `grid` makes a test grid of power and speed.
+//! Public API:
+//! - [`gcode_for`] ([`GcodeConfig`], [`GcodeSummary`]): plan and write a job, and time it;
+//!   [`plan`] alone gives the [`Job`] ([`Loop`]s in cut order, [`PathStats`]) from [`CutLoops`]
+//!   ([`Pieces`]) under a [`PlanConfig`] ([`CutSettings`], [`Anchor`], [`MAX_PASSES`],
+//!   [`MAX_BLADE_OFFSET_MM`]). Refusals are [`PlanError`] ([`SettingsError`], [`Fit`]): data that
+//!   the command line words with its option names.
+//! - [`machine`]: machine profiles (bed, [`machine::Motion`] limits, tool) loaded and validated
+//!   from TOML, and the bed check of a program's moves.
+//! - [`interpret`](mod@interpret): reads any G-code program the way Grbl 1.1 does (moves, modal state, errors
+//!   with Grbl's codes) and says which moves cut ([`interpret::CutRule`]).
+//! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion; also
+//!   `estimate_with`, `length_over_feed_s`, `format_duration`.
+//! - [`simulate`]: a picture of a program's moves, cut and travel in two colours.
+//! - [`read_svg`]: the cut loops of an SVG drawing (ours or anyone's).
+//! - [`grid`]: a test grid of squares over power or depth and speed.
+//! - [`limits`]: Grbl 1.1's fixed sizes (line length, planner blocks, receive buffer).
+//! - [`num`]: a number as the writer prints it (at most 3 decimals, no `-0`).
+//!
+//! Inside: `toolpath` places the loops on the bed; `order` says what must be cut before what;
+//! `travel` orders the loops and picks start points; `write` writes the text.
 
 #![forbid(unsafe_code)]
 
-pub mod cuts;
+mod cuts;
+mod error;
 pub mod estimate;
 pub mod grid;
 pub mod interpret;
 pub mod limits;
 pub mod machine;
-pub mod order;
+mod order;
 pub mod read_svg;
 pub mod simulate;
-pub mod toolpath;
-pub mod travel;
-pub mod write;
+mod toolpath;
+mod travel;
+mod write;
 
 pub use cuts::{CutLoops, Pieces};
-pub use estimate::{estimate, Estimate, MotionLimits};
+pub use error::{Fit, PlanError, SettingsError};
+pub use estimate::{estimate, Estimate};
 pub use toolpath::{
-    plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, PlanError, MAX_BLADE_OFFSET_MM,
-    MAX_PASSES,
+    plan, Anchor, CutSettings, Job, Loop, PathStats, PlanConfig, MAX_BLADE_OFFSET_MM, MAX_PASSES,
 };
+pub use write::num;
 
 use crate::interpret::interpret;
 use crate::machine::Machine;
@@ -62,8 +79,8 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = write::write(&job, machine, notes);
-    let moves = interpret(&text).map_err(|e| PlanError::Internal(e.to_string()))?;
-    let est = estimate::estimate_with(&moves, &machine.limits(), machine.cut_rule(&moves));
+    let moves = interpret(&text).map_err(PlanError::Internal)?;
+    let est = estimate::estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
     Ok((
         text,
         GcodeSummary {

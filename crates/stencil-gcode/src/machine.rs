@@ -9,6 +9,7 @@
 //! Reading and name lookup go through the shared loader, `stencil_io::profile` (the same as
 //! materials): a path, `./profiles/machines/<name>.toml`, the embedded copy.
 
+use std::ops::RangeInclusive;
 use std::path::Path;
 
 use serde::Deserialize;
@@ -16,7 +17,6 @@ use serde::Deserialize;
 use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileError, Shipped};
 use stencil_io::shipped;
 
-use crate::estimate::MotionLimits;
 use crate::interpret::{CutRule, Move};
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
@@ -73,7 +73,8 @@ pub struct Bed {
     pub origin: Corner,
 }
 
-/// Motion limits, as set in Grbl (`$110`/`$111` max rates, `$120`/`$121` accelerations, `$11`).
+/// Motion limits, as set in Grbl (`$110`/`$111` max rates, `$120`/`$121` accelerations, `$11`):
+/// what the time estimate plans with.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motion {
@@ -235,16 +236,6 @@ impl Machine {
             _ => rule,
         }
     }
-
-    /// The limits the time estimate needs.
-    pub fn limits(&self) -> MotionLimits {
-        MotionLimits {
-            rapid_mm_min: self.motion.rapid_mm_min,
-            max_feed_mm_min: self.motion.max_feed_mm_min,
-            accel_mm_s2: self.motion.accel_mm_s2,
-            junction_deviation_mm: self.motion.junction_deviation_mm,
-        }
-    }
 }
 
 // ---- raw TOML shape -------------------------------------------------------------------------
@@ -328,126 +319,246 @@ pub fn parse(text: &str, origin: &Path) -> Result<Machine, ProfileError> {
 }
 
 fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
-    let bad = |field: &str, value: String, why: String| ProfileError::Invalid {
-        path: origin.to_path_buf(),
-        field: field.to_string(),
-        value,
-        why,
-    };
-    let within = |field: &str, v: f64, r: std::ops::RangeInclusive<f64>, unit: &str| {
-        check_range(origin, field, v, *r.start(), *r.end(), unit).map(|_| v)
-    };
-    if raw.name.trim().is_empty() {
-        return Err(bad("name", "\"\"".into(), "must not be empty".into()));
-    }
-    if raw.name.chars().count() > bounds::NAME_CHARS || raw.name.chars().any(char::is_control) {
-        return Err(bad(
-            "name",
-            format!("\"{}\"", stencil_io::excerpt(&raw.name)),
-            format!(
-                "must be one line of at most {} characters",
-                bounds::NAME_CHARS
-            ),
-        ));
-    }
-    within("bed.width_mm", raw.bed.width_mm, bounds::BED_MM, "mm")?;
-    within("bed.height_mm", raw.bed.height_mm, bounds::BED_MM, "mm")?;
-    let m = &raw.motion;
-    within(
-        "motion.max_feed_mm_min",
-        m.max_feed_mm_min,
-        bounds::FEED_MM_MIN,
-        "mm/min",
-    )?;
-    within(
-        "motion.rapid_mm_min",
-        m.rapid_mm_min,
-        bounds::FEED_MM_MIN,
-        "mm/min",
-    )?;
-    within(
-        "motion.accel_mm_s2",
-        m.accel_mm_s2,
-        bounds::ACCEL_MM_S2,
-        "mm/s²",
-    )?;
-    within(
-        "motion.junction_deviation_mm",
-        m.junction_deviation_mm,
-        bounds::JUNCTION_DEVIATION_MM,
-        "mm",
-    )?;
+    let c = Checker { origin };
+    c.name(&raw.name)?;
+    c.bed(&raw.bed)?;
+    c.motion(&raw.motion)?;
     let t = &raw.tool;
-    let kind = t.kind;
-    // Fields that belong to other tool kinds are mistakes worth naming.
-    let foreign: &[(&'static str, bool, &[ToolKind])] = &[
-        ("tool.s_max", t.s_max.is_some(), &[ToolKind::Laser]),
-        ("tool.s_min", t.s_min.is_some(), &[ToolKind::Laser]),
-        ("tool.lift", t.lift.is_some(), &[ToolKind::Pen]),
-        ("tool.pen_down_s", t.pen_down_s.is_some(), &[ToolKind::Pen]),
-        (
-            "tool.z_up_mm",
-            t.z_up_mm.is_some(),
-            &[ToolKind::Pen, ToolKind::Knife],
-        ),
-        (
-            "tool.z_down_mm",
-            t.z_down_mm.is_some(),
-            &[ToolKind::Pen, ToolKind::Knife],
-        ),
-        (
-            "tool.plunge_mm_min",
-            t.plunge_mm_min.is_some(),
-            &[ToolKind::Pen, ToolKind::Knife],
-        ),
-        (
-            "tool.overcut_mm",
-            t.overcut_mm.is_some(),
-            &[ToolKind::Knife],
-        ),
-        (
-            "tool.air_assist",
-            t.air_assist.is_some(),
-            &[ToolKind::Laser],
-        ),
-        (
-            "tool.frame_power_pct",
-            t.frame_power_pct.is_some(),
-            &[ToolKind::Laser],
-        ),
-    ];
-    for (field, present, kinds) in foreign {
-        if *present && !kinds.contains(&kind) {
-            return Err(bad(
-                field,
-                "set".into(),
-                format!("does not apply to a {} tool; remove it", kind_name(kind)),
-            ));
+    let tool = c.tool(t)?;
+    let frame_power_pct = c.within(
+        "tool.frame_power_pct",
+        t.frame_power_pct.unwrap_or(0.0),
+        bounds::FRAME_POWER_PCT,
+        "%",
+    )?;
+    Ok(Machine {
+        air_assist: t.air_assist.unwrap_or(false),
+        name: raw.name,
+        description: raw.description,
+        bed: raw.bed,
+        motion: raw.motion,
+        tool,
+        frame_power_pct,
+    })
+}
+
+/// The checks of one profile file, each naming the field it refuses.
+struct Checker<'a> {
+    origin: &'a Path,
+}
+
+impl Checker<'_> {
+    fn bad(&self, field: &str, value: String, why: String) -> ProfileError {
+        ProfileError::Invalid {
+            path: self.origin.to_path_buf(),
+            field: field.to_string(),
+            value,
+            why,
         }
     }
-    let need = |field: &'static str, v: Option<f64>| {
-        v.ok_or_else(|| {
-            bad(
+
+    fn within(
+        &self,
+        field: &str,
+        v: f64,
+        r: RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, ProfileError> {
+        check_range(self.origin, field, v, *r.start(), *r.end(), unit).map(|_| v)
+    }
+
+    /// A field the tool `kind` needs, within `r`.
+    fn required(
+        &self,
+        kind: ToolKind,
+        field: &'static str,
+        v: Option<f64>,
+        r: RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, ProfileError> {
+        let v = v.ok_or_else(|| {
+            self.bad(
                 field,
                 "missing".into(),
                 format!("is required for a {} tool", kind_name(kind)),
             )
-        })
-    };
-    let required = |field: &'static str, v: Option<f64>, r, unit: &str| {
-        within(field, need(field, v)?, r, unit)
-    };
-    let z_lift = || -> Result<ZLift, ProfileError> {
-        let up = required("tool.z_up_mm", t.z_up_mm, bounds::Z_MM, "mm")?;
-        let down = required("tool.z_down_mm", t.z_down_mm, bounds::Z_MM, "mm")?;
-        let plunge = required(
+        })?;
+        self.within(field, v, r, unit)
+    }
+
+    /// One line, not empty, not too long to print in a G-code comment.
+    fn name(&self, name: &str) -> Result<(), ProfileError> {
+        if name.trim().is_empty() {
+            return Err(self.bad("name", "\"\"".into(), "must not be empty".into()));
+        }
+        if name.chars().count() > bounds::NAME_CHARS || name.chars().any(char::is_control) {
+            return Err(self.bad(
+                "name",
+                format!("\"{}\"", stencil_io::excerpt(name)),
+                format!(
+                    "must be one line of at most {} characters",
+                    bounds::NAME_CHARS
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn bed(&self, bed: &Bed) -> Result<(), ProfileError> {
+        self.within("bed.width_mm", bed.width_mm, bounds::BED_MM, "mm")?;
+        self.within("bed.height_mm", bed.height_mm, bounds::BED_MM, "mm")?;
+        Ok(())
+    }
+
+    fn motion(&self, m: &Motion) -> Result<(), ProfileError> {
+        for (field, v, r, unit) in [
+            (
+                "motion.max_feed_mm_min",
+                m.max_feed_mm_min,
+                bounds::FEED_MM_MIN,
+                "mm/min",
+            ),
+            (
+                "motion.rapid_mm_min",
+                m.rapid_mm_min,
+                bounds::FEED_MM_MIN,
+                "mm/min",
+            ),
+            (
+                "motion.accel_mm_s2",
+                m.accel_mm_s2,
+                bounds::ACCEL_MM_S2,
+                "mm/s²",
+            ),
+            (
+                "motion.junction_deviation_mm",
+                m.junction_deviation_mm,
+                bounds::JUNCTION_DEVIATION_MM,
+                "mm",
+            ),
+        ] {
+            self.within(field, v, r, unit)?;
+        }
+        Ok(())
+    }
+
+    /// The tool of its kind, refusing fields that belong to other kinds.
+    fn tool(&self, t: &RawTool) -> Result<Tool, ProfileError> {
+        self.foreign_fields(t)?;
+        match t.kind {
+            ToolKind::Laser => self.laser(t),
+            ToolKind::Pen => self.pen(t),
+            ToolKind::Knife => Ok(Tool::Knife {
+                overcut_mm: self.within(
+                    "tool.overcut_mm",
+                    t.overcut_mm.unwrap_or(0.0),
+                    bounds::OVERCUT_MM,
+                    "mm",
+                )?,
+                z: self.z_lift(t)?,
+            }),
+        }
+    }
+
+    /// Fields that belong to other tool kinds are mistakes worth naming.
+    fn foreign_fields(&self, t: &RawTool) -> Result<(), ProfileError> {
+        use ToolKind::{Knife, Laser, Pen};
+        let fields: [(&str, bool, &[ToolKind]); 10] = [
+            ("tool.s_max", t.s_max.is_some(), &[Laser]),
+            ("tool.s_min", t.s_min.is_some(), &[Laser]),
+            ("tool.lift", t.lift.is_some(), &[Pen]),
+            ("tool.pen_down_s", t.pen_down_s.is_some(), &[Pen]),
+            ("tool.z_up_mm", t.z_up_mm.is_some(), &[Pen, Knife]),
+            ("tool.z_down_mm", t.z_down_mm.is_some(), &[Pen, Knife]),
+            ("tool.plunge_mm_min", t.plunge_mm_min.is_some(), &[Pen, Knife]),
+            ("tool.overcut_mm", t.overcut_mm.is_some(), &[Knife]),
+            ("tool.air_assist", t.air_assist.is_some(), &[Laser]),
+            ("tool.frame_power_pct", t.frame_power_pct.is_some(), &[Laser]),
+        ];
+        for (field, present, kinds) in fields {
+            if present && !kinds.contains(&t.kind) {
+                return Err(self.bad(
+                    field,
+                    "set".into(),
+                    format!("does not apply to a {} tool; remove it", kind_name(t.kind)),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn laser(&self, t: &RawTool) -> Result<Tool, ProfileError> {
+        let s_max = self.within("tool.s_max", t.s_max.unwrap_or(1000.0), bounds::S, "")?;
+        let s_min = t.s_min.unwrap_or(0.0);
+        if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
+            return Err(self.bad(
+                "tool.s_min",
+                s_min.to_string(),
+                format!("must be >= 0 and below tool.s_max ({s_max})"),
+            ));
+        }
+        Ok(Tool::Laser { s_max, s_min })
+    }
+
+    /// A pen lifted by the spindle output (a servo: Z fields do not apply) or by a Z axis (the
+    /// spindle's down S does not apply).
+    fn pen(&self, t: &RawTool) -> Result<Tool, ProfileError> {
+        match t.lift {
+            Some(LiftKind::Spindle) => {
+                for (f, v) in [
+                    ("tool.z_up_mm", t.z_up_mm),
+                    ("tool.z_down_mm", t.z_down_mm),
+                    ("tool.plunge_mm_min", t.plunge_mm_min),
+                ] {
+                    if v.is_some() {
+                        return Err(self.bad(
+                            f,
+                            "set".into(),
+                            "does not apply with lift = \"spindle\"".into(),
+                        ));
+                    }
+                }
+                Ok(Tool::Pen(PenLift::Spindle {
+                    down_s: self.required(
+                        t.kind,
+                        "tool.pen_down_s",
+                        t.pen_down_s,
+                        bounds::S,
+                        "",
+                    )?,
+                }))
+            }
+            Some(LiftKind::Z) => {
+                if t.pen_down_s.is_some() {
+                    return Err(self.bad(
+                        "tool.pen_down_s",
+                        "set".into(),
+                        "does not apply with lift = \"z\"".into(),
+                    ));
+                }
+                Ok(Tool::Pen(PenLift::Z(self.z_lift(t)?)))
+            }
+            None => Err(self.bad(
+                "tool.lift",
+                "missing".into(),
+                "is required for a pen: \"spindle\" (M3/M5) or \"z\"".into(),
+            )),
+        }
+    }
+
+    /// Up and down heights (up above down) and the plunge feed of a tool on a Z axis.
+    fn z_lift(&self, t: &RawTool) -> Result<ZLift, ProfileError> {
+        let up = self.required(t.kind, "tool.z_up_mm", t.z_up_mm, bounds::Z_MM, "mm")?;
+        let down = self.required(t.kind, "tool.z_down_mm", t.z_down_mm, bounds::Z_MM, "mm")?;
+        let plunge = self.required(
+            t.kind,
             "tool.plunge_mm_min",
             t.plunge_mm_min,
             bounds::FEED_MM_MIN,
             "mm/min",
         )?;
         if up <= down {
-            return Err(bad(
+            return Err(self.bad(
                 "tool.z_up_mm",
                 up.to_string(),
                 format!("must be above tool.z_down_mm ({down})"),
@@ -458,85 +569,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
             down_mm: down,
             plunge_mm_min: plunge,
         })
-    };
-    let tool = match kind {
-        ToolKind::Laser => {
-            let s_max = within("tool.s_max", t.s_max.unwrap_or(1000.0), bounds::S, "")?;
-            let s_min = t.s_min.unwrap_or(0.0);
-            if !(s_min.is_finite() && s_min >= 0.0 && s_min < s_max) {
-                return Err(bad(
-                    "tool.s_min",
-                    s_min.to_string(),
-                    format!("must be >= 0 and below tool.s_max ({s_max})"),
-                ));
-            }
-            Tool::Laser { s_max, s_min }
-        }
-        ToolKind::Pen => match t.lift {
-            Some(LiftKind::Spindle) => {
-                for (f, v) in [
-                    ("tool.z_up_mm", t.z_up_mm),
-                    ("tool.z_down_mm", t.z_down_mm),
-                    ("tool.plunge_mm_min", t.plunge_mm_min),
-                ] {
-                    if v.is_some() {
-                        return Err(bad(
-                            f,
-                            "set".into(),
-                            "does not apply with lift = \"spindle\"".into(),
-                        ));
-                    }
-                }
-                Tool::Pen(PenLift::Spindle {
-                    down_s: required("tool.pen_down_s", t.pen_down_s, bounds::S, "")?,
-                })
-            }
-            Some(LiftKind::Z) => {
-                if t.pen_down_s.is_some() {
-                    return Err(bad(
-                        "tool.pen_down_s",
-                        "set".into(),
-                        "does not apply with lift = \"z\"".into(),
-                    ));
-                }
-                Tool::Pen(PenLift::Z(z_lift()?))
-            }
-            None => {
-                return Err(bad(
-                    "tool.lift",
-                    "missing".into(),
-                    "is required for a pen: \"spindle\" (M3/M5) or \"z\"".into(),
-                ))
-            }
-        },
-        ToolKind::Knife => {
-            let overcut = within(
-                "tool.overcut_mm",
-                t.overcut_mm.unwrap_or(0.0),
-                bounds::OVERCUT_MM,
-                "mm",
-            )?;
-            Tool::Knife {
-                z: z_lift()?,
-                overcut_mm: overcut,
-            }
-        }
-    };
-    let frame_power_pct = within(
-        "tool.frame_power_pct",
-        t.frame_power_pct.unwrap_or(0.0),
-        bounds::FRAME_POWER_PCT,
-        "%",
-    )?;
-    Ok(Machine {
-        name: raw.name,
-        description: raw.description,
-        bed: raw.bed,
-        motion: raw.motion,
-        tool,
-        air_assist: t.air_assist.unwrap_or(false),
-        frame_power_pct,
-    })
+    }
 }
 
 fn kind_name(k: ToolKind) -> &'static str {

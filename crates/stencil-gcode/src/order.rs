@@ -24,30 +24,12 @@
 //! where it does not go the other way, so the two together never cycle (see [`order`]).
 
 use crate::toolpath::Loop;
-use stencil_geom::ring::bbox;
+use stencil_geom::ring::{area, bbox, point_in_ring};
 use stencil_geom::clip::{self, ClipError};
-
-/// Even-odd ray cast: whether `p` lies inside the closed ring `poly`.
-pub fn point_in_ring(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
-    let n = poly.len();
-    let mut inside = false;
-    let mut j = n - 1;
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-            if p[0] < x {
-                inside = !inside;
-            }
-        }
-        j = i;
-    }
-    inside
-}
 
 /// The convex hull of a ring, counter-clockwise, without a closing point (Andrew's monotone
 /// chain).
-pub fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(crate) fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let mut p: Vec<[f64; 2]> = points.to_vec();
     p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     p.dedup();
@@ -76,19 +58,6 @@ pub fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
     h
 }
 
-/// Area of a simple polygon (absolute value).
-fn area(ring: &[[f64; 2]]) -> f64 {
-    let n = ring.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (ring[i], ring[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        .abs()
-        / 2.0
-}
-
 /// Whether `p` lies in the counter-clockwise convex polygon `hull` (its edges count as inside,
 /// within `eps` mm).
 fn in_convex(p: [f64; 2], hull: &[[f64; 2]], eps: f64) -> bool {
@@ -107,7 +76,7 @@ fn in_convex(p: [f64; 2], hull: &[[f64; 2]], eps: f64) -> bool {
 
 /// For each loop, the loops whose freed region (convex hull) it lies in and that are cut after
 /// it: `inside[i]` lists j with loop i inside hull(j). Outline loops take no part.
-pub fn containers(loops: &[Loop]) -> Vec<Vec<usize>> {
+pub(crate) fn containers(loops: &[Loop]) -> Vec<Vec<usize>> {
     let hulls: Vec<Vec<[f64; 2]>> = loops.iter().map(|l| convex_hull(&l.points)).collect();
     let hull_area: Vec<f64> = hulls.iter().map(|h| area(h)).collect();
     let boxes: Vec<[f64; 4]> = loops.iter().map(|l| bbox(&l.points)).collect();
@@ -144,14 +113,14 @@ pub fn containers(loops: &[Loop]) -> Vec<Vec<usize>> {
 /// A cut region as designed before bridging, in machine mm: its outline and its holes (each the
 /// outline of an island lying in it).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Region {
+pub(crate) struct Region {
     pub exterior: Vec<[f64; 2]>,
     pub holes: Vec<Vec<[f64; 2]>>,
 }
 
 /// What the planner knows of the pieces the cuts free.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Gaps {
+pub(crate) enum Gaps {
     /// The cut regions before bridging (`make` knows them): each island is a hole in the region
     /// around it, and the cut loops lying in that region, whatever bridges break it into, are
     /// the cuts around the island.
@@ -168,7 +137,7 @@ pub enum Gaps {
 /// between them. Cutting the last of `around` leaves it hanging on its bridges alone; every loop
 /// in `inside` must be cut before then, while it is still held all round.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Piece {
+pub(crate) struct Piece {
     /// Its outer edge, machine mm.
     pub ring: Vec<[f64; 2]>,
     /// Loops lying inside it (at any depth), ascending.
@@ -182,7 +151,7 @@ const ARC_TOLERANCE_MM: f64 = 0.01;
 
 /// A point well inside a ring (not on its edge): the middle of the widest stretch inside it along
 /// one of a few horizontal lines across it. `None` for a ring with no inside.
-pub fn interior_point(ring: &[[f64; 2]]) -> Option<[f64; 2]> {
+pub(crate) fn interior_point(ring: &[[f64; 2]]) -> Option<[f64; 2]> {
     let b = bbox(ring);
     let h = b[3] - b[1];
     if h.is_nan() || h <= 0.0 {
@@ -319,7 +288,7 @@ fn closed_regions(loops: &[Loop], r: f64) -> Result<Vec<Region>, ClipError> {
 /// loop (see [`interior_point`]) lies in the hole, and is one of the loops around it when that
 /// point lies in the region's body (inside its outline, in none of its holes). A region with
 /// several islands in it counts all its loops as around each: they cut out the islands together.
-pub fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipError> {
+pub(crate) fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipError> {
     let closed;
     let regions: &[Region] = match gaps {
         Gaps::None => return Ok(Vec::new()),
@@ -376,7 +345,7 @@ pub fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipError> {
 
 /// The cut order: what must be cut before what, and the loops layered into groups that keep it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Order {
+pub(crate) struct Order {
     /// Groups of loop indices, to be cut group after group; the travel optimiser orders loops
     /// freely within a group.
     pub groups: Vec<Vec<usize>>,
@@ -396,7 +365,7 @@ pub struct Order {
 /// that of every loop around a piece it lies in; hull constraints are kept only from a piece depth
 /// to an equal or smaller one, and among equal depths they follow the strict key of
 /// [`containers`]. Every constraint so descends in (piece depth, -key), which never returns.
-pub fn order(loops: &[Loop], gaps: &Gaps) -> Order {
+pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     let n = loops.len();
     // Geometry Clipper refuses (see `clip`) only loses the piece constraints; hulls still order.
     let pieces = pieces(loops, gaps).unwrap_or_default();
@@ -484,20 +453,20 @@ pub fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     }
 }
 
-/// Nesting depth of each loop among the non-outline loops (0 = inside no other loop's convex
-/// hull): how many loops it must be cut before by hulls alone.
-pub fn depths(loops: &[Loop]) -> Vec<usize> {
-    containers(loops).iter().map(Vec::len).collect()
-}
-
-/// The groups of [`order`] without piece data (hulls only).
-pub fn groups(loops: &[Loop]) -> Vec<Vec<usize>> {
-    order(loops, &Gaps::None).groups
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Nesting depth of each loop among the non-outline loops (0 = inside no other loop's convex
+    /// hull): how many loops it must be cut before by hulls alone.
+    fn depths(loops: &[Loop]) -> Vec<usize> {
+        containers(loops).iter().map(Vec::len).collect()
+    }
+
+    /// The groups of [`order`] without piece data (hulls only).
+    fn groups(loops: &[Loop]) -> Vec<Vec<usize>> {
+        order(loops, &Gaps::None).groups
+    }
 
     fn sq(x: f64, y: f64, s: f64, outline: bool) -> Loop {
         Loop {

@@ -4,9 +4,11 @@
 use geo::{Area, LineString};
 
 use crate::cuts::{CutLoops, Pieces};
+use crate::error::{Fit, PlanError, SettingsError};
 use crate::machine::{Corner, Machine, Tool};
 
 use crate::{order, travel};
+use stencil_geom::ring::dist;
 
 /// How the material is cut: the planner's view of a material profile (the CLI maps a `Material`
 /// onto it, or the user gives `--power/--speed/--passes`).
@@ -87,7 +89,7 @@ pub struct Loop {
 }
 
 impl Loop {
-    pub fn perimeter_mm(&self) -> f64 {
+    pub(crate) fn perimeter_mm(&self) -> f64 {
         let n = self.points.len();
         (0..n)
             .map(|i| dist(self.points[i], self.points[(i + 1) % n]))
@@ -121,37 +123,6 @@ pub struct Job {
     pub stats: PathStats,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum PlanError {
-    #[error(
-        "the job ({w:.1} x {h:.1} mm) does not fit on the bed of '{machine}' ({bw:.1} x {bh:.1} mm): \
-         at this placement it spans X {x0:.1}..{x1:.1}, Y {y0:.1}..{y1:.1} mm; {hint}"
-    )]
-    DoesNotFit {
-        machine: String,
-        w: f64,
-        h: f64,
-        bw: f64,
-        bh: f64,
-        x0: f64,
-        x1: f64,
-        y0: f64,
-        y1: f64,
-        hint: &'static str,
-    },
-    #[error("nothing to cut: the geometry has no cut regions (and --cut-outline is off)")]
-    Empty,
-    #[error("{0}")]
-    Settings(String),
-    /// Our own output failed our own interpreter: a bug, reported rather than written.
-    #[error("internal error: the written G-code does not run ({0}); please report this")]
-    Internal(String),
-}
-
-pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 /// The most passes a job may make.
 pub const MAX_PASSES: u32 = 100;
 
@@ -159,71 +130,65 @@ pub const MAX_PASSES: u32 = 100;
 pub const MAX_BLADE_OFFSET_MM: f64 = 5.0;
 
 /// Check cut settings against the machine (feed within its limit, laser S within its range).
-pub fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), PlanError> {
-    let bad = |m: String| Err(PlanError::Settings(m));
+pub(crate) fn check_settings(s: &CutSettings, machine: &Machine) -> Result<(), SettingsError> {
     let feeds = crate::machine::bounds::FEED_MM_MIN;
     if !(s.speed_mm_min.is_finite() && s.speed_mm_min >= *feeds.start()) {
-        return bad(format!(
-            "cutting speed must be at least {} mm/min, got {}",
-            feeds.start(),
-            s.speed_mm_min
-        ));
+        return Err(SettingsError::SpeedTooLow {
+            min: *feeds.start(),
+            got: s.speed_mm_min,
+        });
     }
     if s.speed_mm_min > machine.motion.max_feed_mm_min {
-        return bad(format!(
-            "cutting speed {} mm/min is above the max feed of '{}' ({} mm/min); lower the speed",
-            s.speed_mm_min, machine.name, machine.motion.max_feed_mm_min
-        ));
+        return Err(SettingsError::AboveMaxFeed {
+            speed: s.speed_mm_min,
+            machine: machine.name.clone(),
+            max: machine.motion.max_feed_mm_min,
+        });
     }
     if !(s.blade_offset_mm.is_finite() && (0.0..=MAX_BLADE_OFFSET_MM).contains(&s.blade_offset_mm))
     {
-        return bad(format!(
-            "blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {}",
-            s.blade_offset_mm
-        ));
+        return Err(SettingsError::BladeOffset(s.blade_offset_mm));
     }
     if s.passes == 0 || s.passes > MAX_PASSES {
-        return bad(format!("passes must be 1..{MAX_PASSES}, got {}", s.passes));
+        return Err(SettingsError::Passes(s.passes));
     }
     if s.air_assist && !matches!(machine.tool, Tool::Laser { .. }) {
-        return bad(format!(
-            "air assist is for a laser; '{}' has a {}: turn it off",
-            machine.name,
-            machine.tool.kind()
-        ));
+        return Err(SettingsError::AirAssistNotLaser {
+            machine: machine.name.clone(),
+            tool: machine.tool.kind(),
+        });
     }
     if let Tool::Laser { s_max, s_min } = machine.tool {
         if !(s.power_pct.is_finite() && s.power_pct > 0.0 && s.power_pct <= 100.0) {
-            return bad(format!(
-                "laser power must be in (0, 100] %, got {}",
-                s.power_pct
-            ));
+            return Err(SettingsError::LaserPower(s.power_pct));
         }
         let sv = laser_s(s.power_pct, s_max);
         if sv <= 0.0 {
-            return bad(format!(
-                "laser power {} % gives S0 on '{}' ($30={s_max}): the laser would not fire; \
-                 raise the power",
-                s.power_pct, machine.name
-            ));
+            return Err(SettingsError::LaserDark {
+                power: s.power_pct,
+                machine: machine.name.clone(),
+                s_max,
+            });
         }
         if sv < s_min {
-            return bad(format!(
-                "laser power {} % gives S{sv}, below the minimum S of '{}' ($31={s_min}); raise the power",
-                s.power_pct, machine.name
-            ));
+            return Err(SettingsError::BelowSMin {
+                power: s.power_pct,
+                s: sv,
+                machine: machine.name.clone(),
+                s_min,
+            });
         }
     }
     Ok(())
 }
 
 /// The S word for a power percentage: `% × $30`, rounded to 0.1.
-pub fn laser_s(power_pct: f64, s_max: f64) -> f64 {
+pub(crate) fn laser_s(power_pct: f64, s_max: f64) -> f64 {
     (power_pct / 100.0 * s_max * 10.0).round() / 10.0
 }
 
 /// The sheet's rectangle in sheet mm (y down): `[x0, y0, x1, y1]`.
-pub fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
+pub(crate) fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
     let o = geom.outline;
     [o.min().x, o.min().y, o.max().x, o.max().y]
 }
@@ -300,7 +265,7 @@ fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
 /// (besides the kerf) are taken for bridges: about the widths makers draw bridges at. Pieces
 /// narrower than this are not told apart from their surroundings (the hull rule still orders
 /// what lies in a single broken ring).
-pub const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
+pub(crate) const DRAWN_BRIDGE_MAX_MM: f64 = 3.0;
 
 /// What the planner knows of the pieces the cuts free: the cut regions before bridging when
 /// `make` passed them; nothing to find when `make` had no islands; otherwise (a drawing) a
@@ -336,26 +301,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
 
-    // Cut loops, in input order: each polygon's holes (islands, which must not exist after
-    // bridging but are cut if they do), then its exterior.
-    let mut loops: Vec<Loop> = Vec::new();
-    for poly in &geom.cuts.0 {
-        for ring in poly
-            .interiors()
-            .iter()
-            .chain(std::iter::once(poly.exterior()))
-        {
-            let pts = ring_points(ring, &place);
-            let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
-            if pts.len() >= 3 && area > 1e-9 {
-                loops.push(Loop {
-                    points: pts,
-                    outline: false,
-                    area_mm2: area,
-                });
-            }
-        }
-    }
+    let mut loops = cut_loops(geom, &place);
     let frame = [
         place.map(rect[0], rect[1]),
         place.map(rect[2], rect[1]),
@@ -373,8 +319,69 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         return Err(PlanError::Empty);
     }
 
-    // Bounds: the sheet and everywhere the head goes must lie on the bed. A drag knife's axis runs
-    // up to the blade offset outside the cut lines.
+    let (min, max) = check_on_bed(&frame, &loops, machine, cfg)?;
+
+    let home = [0.0, 0.0];
+    let naive_travel_mm = travel::naive_travel(&loops, home);
+    let sequence = shortest_sequence(&loops, &gaps(geom, &place), home);
+    let mut ordered = Vec::with_capacity(loops.len());
+    for (i, start) in sequence {
+        let mut l = loops[i].clone();
+        l.points.rotate_left(start);
+        ordered.push(l);
+    }
+    let travel_mm = travel::travel_of(&ordered, home);
+    let passes = cfg.settings.passes;
+    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
+    Ok(Job {
+        stats: PathStats {
+            loops: ordered.len(),
+            cut_mm,
+            travel_mm,
+            naive_travel_mm,
+        },
+        loops: ordered,
+        home,
+        settings: cfg.settings,
+        sheet_mm: size,
+        min,
+        max,
+    })
+}
+
+/// The loops to cut, placed on the bed, in input order: each polygon's holes (islands, which must
+/// not exist after bridging but are cut if they do), then its exterior. Degenerate rings are
+/// left out.
+fn cut_loops(geom: &CutLoops, place: &Placement) -> Vec<Loop> {
+    let mut loops: Vec<Loop> = Vec::new();
+    for poly in &geom.cuts.0 {
+        for ring in poly
+            .interiors()
+            .iter()
+            .chain(std::iter::once(poly.exterior()))
+        {
+            let pts = ring_points(ring, place);
+            let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
+            if pts.len() >= 3 && area > 1e-9 {
+                loops.push(Loop {
+                    points: pts,
+                    outline: false,
+                    area_mm2: area,
+                });
+            }
+        }
+    }
+    loops
+}
+
+/// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
+/// (`frame`) and every loop, which a drag knife's axis passes by up to the blade offset.
+fn check_on_bed(
+    frame: &[[f64; 2]; 4],
+    loops: &[Loop],
+    machine: &Machine,
+    cfg: &PlanConfig,
+) -> Result<([f64; 2], [f64; 2]), PlanError> {
     let reach = match machine.tool {
         Tool::Knife { .. } => cfg.settings.blade_offset_mm,
         _ => 0.0,
@@ -406,31 +413,28 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             x1: max[0],
             y0: min[1],
             y1: max[1],
-            hint: if too_big {
-                "scale the stencil down or use a larger machine"
-            } else {
-                "move it with --offset X,Y or --origin"
-            },
+            fix: if too_big { Fit::ScaleDown } else { Fit::Move },
         });
     }
+    Ok((min, max))
+}
 
-    let home = [0.0, 0.0];
-    let naive_travel_mm = travel::naive_travel(&loops, home);
-    // Candidate orders that all keep the cut-order constraints; the shortest travel wins: the
-    // depth layers optimised one by one, nearest neighbour under the constraints, and the input
-    // order itself where it keeps them.
-    let order::Order { groups, before, .. } = order::order(&loops, &gaps(geom, &place));
+/// The cut sequence `(loop, start vertex)` with the least travel among candidate orders that all
+/// keep the cut-order constraints: the depth layers optimised one by one, nearest neighbour under
+/// the constraints, and the input order itself where it keeps them.
+fn shortest_sequence(loops: &[Loop], gaps: &order::Gaps, home: [f64; 2]) -> Vec<(usize, usize)> {
+    let order::Order { groups, before, .. } = order::order(loops, gaps);
     let mut candidates = vec![
-        travel::optimise(&loops, &groups, home),
-        travel::greedy_constrained(&loops, &before, home),
+        travel::optimise(loops, &groups, home),
+        travel::greedy_constrained(loops, &before, home),
     ];
     let mut input: Vec<(usize, usize)> = (0..loops.len()).map(|i| (i, 0)).collect();
     if travel::respects(&input, &before) {
-        travel::refine_starts(&loops, &mut input, home);
+        travel::refine_starts(loops, &mut input, home);
         candidates.push(input);
     }
     // The layered order always keeps them (first in the list); the others are checked.
-    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(&loops, c, home);
+    let travel_of_seq = |c: &Vec<(usize, usize)>| travel::sequence_travel(loops, c, home);
     let mut sequence = candidates.swap_remove(0);
     let mut best = travel_of_seq(&sequence);
     for c in candidates {
@@ -439,29 +443,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             (sequence, best) = (c, t);
         }
     }
-    let mut ordered = Vec::with_capacity(loops.len());
-    for (i, start) in sequence {
-        let mut l = loops[i].clone();
-        l.points.rotate_left(start);
-        ordered.push(l);
-    }
-    let travel_mm = travel::travel_of(&ordered, home);
-    let passes = cfg.settings.passes;
-    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
-    Ok(Job {
-        stats: PathStats {
-            loops: ordered.len(),
-            cut_mm,
-            travel_mm,
-            naive_travel_mm,
-        },
-        loops: ordered,
-        home,
-        settings: cfg.settings,
-        sheet_mm: size,
-        min,
-        max,
-    })
+    sequence
 }
 
 #[cfg(test)]
@@ -546,7 +528,7 @@ mod tests {
         cfg.offset = [350.0, 0.0];
         let e = plan(&g, &m, &cfg).unwrap_err().to_string();
         assert!(
-            e.contains("X 350.0..450.0") && e.contains("--offset"),
+            e.contains("X 350.0..450.0") && e.contains("move it on the bed"),
             "{e}"
         );
     }

@@ -9,8 +9,8 @@
 //!
 //! Round two repeats both with the new start points.
 
-use crate::toolpath::{dist, Loop};
-use stencil_geom::ring::bbox;
+use crate::toolpath::Loop;
+use stencil_geom::ring::{bbox, dist};
 
 /// Candidate neighbours per point for 2-opt and Or-opt.
 const K: usize = 12;
@@ -18,7 +18,7 @@ const K: usize = 12;
 const MAX_ROUNDS: usize = 60;
 
 /// Travel of loops cut in this order from their `points[0]`, starting and ending at `home`.
-pub fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
+pub(crate) fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
     let mut cur = home;
     let mut t = 0.0;
     for l in loops {
@@ -29,7 +29,7 @@ pub fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
 }
 
 /// The travel of the input order (each loop from its first vertex): the baseline we report.
-pub fn naive_travel(loops: &[Loop], home: [f64; 2]) -> f64 {
+pub(crate) fn naive_travel(loops: &[Loop], home: [f64; 2]) -> f64 {
     travel_of(loops, home)
 }
 
@@ -54,7 +54,7 @@ fn box_dist(b: &[f64; 4], p: [f64; 2]) -> f64 {
 
 /// Order all groups, one after the other, from `home`. Returns (loop index, start vertex) in cut
 /// order.
-pub fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(usize, usize)> {
+pub(crate) fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(usize, usize)> {
     let mut out = Vec::with_capacity(loops.len());
     let mut cur = home;
     for g in groups {
@@ -71,7 +71,7 @@ pub fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(u
 /// Nearest neighbour under precedence: from `home`, go to the nearest loop (nearest vertex) whose
 /// every `before` loop is cut. Finishes what lies inside a region before moving on, where
 /// [`optimise`] over depth layers must visit every inner loop of the job first.
-pub fn greedy_constrained(
+pub(crate) fn greedy_constrained(
     loops: &[Loop],
     before: &[Vec<usize>],
     home: [f64; 2],
@@ -120,7 +120,7 @@ pub fn greedy_constrained(
 }
 
 /// Whether a sequence cuts every loop after all its `before` loops.
-pub fn respects(seq: &[(usize, usize)], before: &[Vec<usize>]) -> bool {
+pub(crate) fn respects(seq: &[(usize, usize)], before: &[Vec<usize>]) -> bool {
     let mut pos = vec![usize::MAX; before.len()];
     for (k, &(i, _)) in seq.iter().enumerate() {
         pos[i] = k;
@@ -132,7 +132,7 @@ pub fn respects(seq: &[(usize, usize)], before: &[Vec<usize>]) -> bool {
 }
 
 /// Travel of a sequence of (loop, start vertex) from and back to `home`.
-pub fn sequence_travel(loops: &[Loop], seq: &[(usize, usize)], home: [f64; 2]) -> f64 {
+pub(crate) fn sequence_travel(loops: &[Loop], seq: &[(usize, usize)], home: [f64; 2]) -> f64 {
     let mut cur = home;
     let mut t = 0.0;
     for &(i, s) in seq {
@@ -147,7 +147,7 @@ pub fn sequence_travel(loops: &[Loop], seq: &[(usize, usize)], home: [f64; 2]) -
 /// optimised one at a time, each greedily from where the last ended; this lets a loop's start
 /// also look ahead, across group borders (where one-loop groups, as nested rings give, would
 /// otherwise each start just at the nearest vertex to the last).
-pub fn refine_starts(loops: &[Loop], seq: &mut [(usize, usize)], home: [f64; 2]) {
+pub(crate) fn refine_starts(loops: &[Loop], seq: &mut [(usize, usize)], home: [f64; 2]) {
     let n = seq.len();
     for _sweep in 0..3 {
         let mut changed = false;

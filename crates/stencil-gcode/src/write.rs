@@ -1,6 +1,6 @@
 //! The G-code writer: a planned [`Job`] as text Grbl 1.1 runs without error.
 //!
-//! Rules (from Grbl 1.1h's parser and the users' complaints, see shared/machines.md):
+//! Rules (from Grbl 1.1h's parser, `gcode.c` and `protocol.c`, and what trips up other senders):
 //! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
 //! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
 //! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
@@ -19,13 +19,14 @@
 use std::fmt::Write as _;
 
 use crate::machine::{Machine, PenLift, Tool, ZLift};
+use stencil_geom::ring::dist;
 
 use crate::toolpath::{laser_s, CutSettings, Job, Loop};
 
 /// One loop's own settings and a comment line written before it (the test grid cuts each square
 /// at its own power and speed, and a knife's at its own depth).
 #[derive(Clone, Debug, PartialEq)]
-pub struct LoopSettings {
+pub(crate) struct LoopSettings {
     pub settings: CutSettings,
     /// Knife or pen on Z: the depth this loop is cut at instead of the profile's `z_down_mm`.
     pub z_down_mm: Option<f64>,
@@ -34,7 +35,7 @@ pub struct LoopSettings {
 
 /// Longest line the writer emits: one under Grbl's [`crate::limits::MAX_LINE_BYTES`] (79), a
 /// margin for a sender that counts the line's end.
-pub const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
+pub(crate) const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
 
 /// A number with at most 3 decimals, no trailing zeros, no `-0`.
 pub fn num(v: f64) -> String {
@@ -132,7 +133,7 @@ fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
     let mut left = len;
     for i in 0..n {
         let (a, b) = (points[i], points[(i + 1) % n]);
-        let d = crate::toolpath::dist(a, b);
+        let d = dist(a, b);
         if d >= left {
             let t = if d > 0.0 { left / d } else { 0.0 };
             out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
@@ -154,13 +155,13 @@ const SWIVEL_STEP_DEG: f64 = 10.0;
 /// at each corner the axis swings on a circle of radius `r` around the corner, turning the blade
 /// to the new direction. Starts (and implicitly ends) with the tip at `points[0]`, the blade
 /// pointing along the loop's last segment.
-pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
+pub(crate) fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
     let n = points.len();
     if r <= 0.0 || n < 2 {
         return points.to_vec();
     }
     let dir = |a: [f64; 2], b: [f64; 2]| {
-        let d = crate::toolpath::dist(a, b).max(1e-12);
+        let d = dist(a, b).max(1e-12);
         [(b[0] - a[0]) / d, (b[1] - a[1]) / d]
     };
     let mut out = Vec::with_capacity(n * 3);
@@ -190,13 +191,13 @@ pub fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
 }
 
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
-pub fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
+pub(crate) fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
     write_each(job, machine, notes, &[])
 }
 
 /// [`write`] with loop `i` cut as `each[i]` says (loops past its end use the job's settings).
 /// Same header, laser mode and end as every job.
-pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
+pub(crate) fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
     let s = &job.settings;
     let feed = num(s.speed_mm_min);
     let laser = matches!(machine.tool, Tool::Laser { .. });
@@ -206,7 +207,49 @@ pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSe
         at: (String::new(), String::new()),
         air_pending: air,
     };
-    let o = &mut w.out;
+    header_comments(&mut w.out, job, machine, notes, air);
+    w.line("G21 G90 G94");
+    match machine.tool {
+        Tool::Laser { .. } => w.line(&format!("M4 S0 F{feed}")),
+        Tool::Pen(PenLift::Spindle { .. }) => w.line(&format!("M5 F{feed}")),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
+        }
+    }
+    for (i, l) in job.loops.iter().enumerate() {
+        match each.get(i) {
+            Some(e) => {
+                comment(&mut w.out, &e.comment);
+                let mut m = machine.clone();
+                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
+                    (e.z_down_mm, &mut m.tool)
+                {
+                    z.down_mm = d;
+                }
+                write_loop(&mut w, l, &m, &e.settings);
+            }
+            None => write_loop(&mut w, l, machine, &job.settings),
+        }
+    }
+    match machine.tool {
+        Tool::Laser { .. } => w.line("M5 S0"),
+        _ => w.line("M5"),
+    }
+    if air {
+        w.line("M9");
+    }
+    // The return move, written even if the head is already there, then the program end.
+    let home = job.home;
+    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
+    w.line("M2");
+    w.out
+}
+
+/// The comment lines a program starts with: what made it, for which machine and tool, with what
+/// settings, and the job's size, place and lengths.
+fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String], air: bool) {
+    let s = &job.settings;
+    let feed = num(s.speed_mm_min);
     comment(
         o,
         &format!(
@@ -289,41 +332,6 @@ pub fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSe
             job.stats.cut_mm, job.stats.travel_mm, job.stats.naive_travel_mm
         ),
     );
-    w.line("G21 G90 G94");
-    match machine.tool {
-        Tool::Laser { .. } => w.line(&format!("M4 S0 F{feed}")),
-        Tool::Pen(PenLift::Spindle { .. }) => w.line(&format!("M5 F{feed}")),
-        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
-            w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
-        }
-    }
-    for (i, l) in job.loops.iter().enumerate() {
-        match each.get(i) {
-            Some(e) => {
-                comment(&mut w.out, &e.comment);
-                let mut m = machine.clone();
-                if let (Some(d), Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. }) =
-                    (e.z_down_mm, &mut m.tool)
-                {
-                    z.down_mm = d;
-                }
-                write_loop(&mut w, l, &m, &e.settings);
-            }
-            None => write_loop(&mut w, l, machine, &job.settings),
-        }
-    }
-    match machine.tool {
-        Tool::Laser { .. } => w.line("M5 S0"),
-        _ => w.line("M5"),
-    }
-    if air {
-        w.line("M9");
-    }
-    // The return move, written even if the head is already there, then the program end.
-    let home = job.home;
-    w.line(&format!("G0 X{} Y{}", num(home[0]), num(home[1])));
-    w.line("M2");
-    w.out
 }
 
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
@@ -415,7 +423,7 @@ mod tests {
         // Every point is the corner it swivels around plus r, or a shifted edge point.
         let near_corner = |q: [f64; 2]| {
             sq.iter()
-                .any(|c| (crate::toolpath::dist(*c, q) - 0.5).abs() < 1e-9)
+                .any(|c| (dist(*c, q) - 0.5).abs() < 1e-9)
         };
         assert!(p.iter().all(|&q| near_corner(q)), "{p:?}");
         // A 90° turn in 10° steps: 9 arc points per corner plus the arrival point.

@@ -13,7 +13,7 @@
 //! and bubble-sorts them; each crossing of two edges becomes a vertex of its output, and its
 //! bookkeeping of output rings grows with their square. A path whose edges all span the sheet (a
 //! zigzag, a comb, a scribble) made that quadratic: 140,000 points took minutes and gigabytes.
-//! [`sweep`] counts Clipper's walks (on its integer grid, as it sees them) and the crossings,
+//! `sweep` counts Clipper's walks (on its integer grid, as it sees them) and the crossings,
 //! stopping at the limit, so that
 //! - a shape that is cheap to sweep the other way (edges all near-vertical) is turned a quarter
 //!   turn for Clipper and back (exact in floating point);
@@ -39,7 +39,7 @@ pub const CLIPPER_FACTOR: f64 = 1e4;
 /// offset and for its 128-bit products.
 pub const MAX_COORD_MM: f64 = 1e9;
 
-/// The most sweep steps (see [`sweep`]) one call may take, all its jobs together: a few seconds
+/// The most sweep steps (see `sweep`) one call may take, all its jobs together: a few seconds
 /// on the test machine. The stencils `make` writes need a few per vertex.
 pub const MAX_SWEEP_WORK: f64 = 1e8;
 
@@ -168,9 +168,9 @@ fn raw_offset(p: &Polygon<f64>, delta: f64, steps_per_rad: f64) -> Polygon<f64> 
     Polygon::new(ring(p.exterior()), p.interiors().iter().map(ring).collect())
 }
 
-/// What one Clipper sweep over some shapes costs (see [`sweep`]).
+/// What one Clipper sweep over some shapes costs (see `sweep`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Sweep {
+pub(crate) struct Sweep {
     /// Steps: edges walked per beam (once, once more per place the farthest-moving edge moves
     /// left in the bubble sort, and once per local minimum starting there), plus crossings. Past
     /// the cap when counting stopped there.
@@ -186,7 +186,7 @@ pub struct Sweep {
 /// Clipper's sweep over `polys`, counted as it would run it (on its integer grid); with `turned`,
 /// over the shapes turned a quarter turn (a sweep along x). Counting stops once the work passes
 /// `max_work` or the crossings pass `max_crossings`.
-pub fn sweep(polys: &[&Polygon<f64>], turned: bool, max_work: f64, max_crossings: usize) -> Sweep {
+pub(crate) fn sweep(polys: &[&Polygon<f64>], turned: bool, max_work: f64, max_crossings: usize) -> Sweep {
     // Non-horizontal edges as (y low, y high, x at low, x at high), in the sweep's frame.
     let mut edges: Vec<[f64; 4]> = Vec::new();
     let mut ys: Vec<f64> = Vec::new();

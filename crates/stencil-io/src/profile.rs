@@ -95,14 +95,14 @@ fn one_line(s: &str) -> String {
 }
 
 /// Whether a `--material` / `--machine` argument is a path rather than a name.
-pub fn is_path(arg: &str) -> bool {
+fn is_path(arg: &str) -> bool {
     arg.contains('/') || arg.contains('\\') || arg.ends_with(".toml")
 }
 
 /// The folders searched for `profiles/<kind>/`: the current directory's only. (No folder baked in
 /// at build time: the binary behaves the same wherever it was built; the shipped profiles are
 /// embedded.)
-pub fn search_dirs(kind: &str) -> Vec<PathBuf> {
+fn search_dirs(kind: &str) -> Vec<PathBuf> {
     vec![Path::new("profiles").join(kind)]
 }
 

@@ -1,0 +1,147 @@
+//! Why a job cannot be planned, as data: each variant holds the numbers and names its message
+//! needs. The messages say what to change in words; the command line adds its option names
+//! (`stencil`'s `cli/gcode.rs`), so this crate knows nothing of flags.
+
+use crate::grid::RowKind;
+use crate::interpret::GcodeError;
+use crate::toolpath::MAX_BLADE_OFFSET_MM;
+use crate::toolpath::MAX_PASSES;
+use crate::write::num;
+
+/// Why [`plan`](crate::plan), [`gcode_for`](crate::gcode_for) or
+/// [`grid::plan_grid`](crate::grid::plan_grid) refused a job.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error(
+        "the job ({w:.1} x {h:.1} mm) does not fit on the bed of '{machine}' ({bw:.1} x {bh:.1} mm): \
+         at this placement it spans X {x0:.1}..{x1:.1}, Y {y0:.1}..{y1:.1} mm; {fix}"
+    )]
+    DoesNotFit {
+        machine: String,
+        w: f64,
+        h: f64,
+        bw: f64,
+        bh: f64,
+        x0: f64,
+        x1: f64,
+        y0: f64,
+        y1: f64,
+        fix: Fit,
+    },
+    /// No loop to cut, and the sheet's outline is not cut either.
+    #[error("nothing to cut: the geometry has no cut regions (and the sheet's outline is not cut)")]
+    Empty,
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// A square of a test grid whose settings the machine refuses; `label` is the square's
+    /// caption (its power or depth and speed).
+    #[error("square at row {row} column {col} ({label}): {cause}")]
+    GridSquare {
+        /// Counted from 1, as printed.
+        row: usize,
+        col: usize,
+        label: String,
+        cause: Box<SettingsError>,
+    },
+    /// Our own output failed our own interpreter: a bug, reported rather than written.
+    #[error("internal error: the written G-code does not run ({0}); please report this")]
+    Internal(GcodeError),
+}
+
+/// What would make a job that leaves the bed fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fit {
+    /// The job is larger than the bed.
+    ScaleDown,
+    /// The job would fit, placed elsewhere.
+    Move,
+    /// A test grid: fewer or smaller squares, or placed elsewhere.
+    ShrinkGrid,
+}
+
+impl std::fmt::Display for Fit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Fit::ScaleDown => "scale the stencil down or use a larger machine",
+            Fit::Move => "move it on the bed",
+            Fit::ShrinkGrid => "use fewer steps, smaller squares or gaps, or move it",
+        })
+    }
+}
+
+/// Cut settings the machine cannot run, or a test grid that cannot be laid out.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    #[error("cutting speed must be at least {min} mm/min, got {got}")]
+    SpeedTooLow { min: f64, got: f64 },
+    #[error(
+        "cutting speed {speed} mm/min is above the max feed of '{machine}' ({max} mm/min); lower the speed"
+    )]
+    AboveMaxFeed {
+        speed: f64,
+        machine: String,
+        max: f64,
+    },
+    #[error("blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {0}")]
+    BladeOffset(f64),
+    #[error("passes must be 1..{MAX_PASSES}, got {0}")]
+    Passes(u32),
+    #[error("air assist is for a laser; '{machine}' has a {tool}: turn it off")]
+    AirAssistNotLaser { machine: String, tool: &'static str },
+    #[error("laser power must be in (0, 100] %, got {0}")]
+    LaserPower(f64),
+    #[error(
+        "laser power {power} % gives S0 on '{machine}' ($30={s_max}): the laser would not fire; \
+         raise the power"
+    )]
+    LaserDark {
+        power: f64,
+        machine: String,
+        s_max: f64,
+    },
+    #[error(
+        "laser power {power} % gives S{s}, below the minimum S of '{machine}' ($31={s_min}); raise the power"
+    )]
+    BelowSMin {
+        power: f64,
+        s: f64,
+        machine: String,
+        s_min: f64,
+    },
+    /// A material for photo-etching asked for G-code.
+    #[error(
+        "material '{material}' is for photo-etching and has no cut settings for G-code; \
+         emit a mask instead, or choose a laser, knife or pen material"
+    )]
+    EtchMaterial { material: String },
+    /// A material for one tool on a machine with another.
+    #[error(
+        "material '{material}' is set up for a {process} but machine '{machine}' has a {tool}; \
+         choose a matching material (for a {tool}: {suggested}) or machine, or give the power, \
+         speed and passes"
+    )]
+    WrongTool {
+        material: String,
+        process: String,
+        machine: String,
+        tool: &'static str,
+        /// A shipped material for the machine's tool.
+        suggested: &'static str,
+    },
+    #[error("the squares need a size > 0 and a gap >= 0")]
+    GridSquares,
+    #[error("the grid needs at least one speed")]
+    GridNoSpeed,
+    #[error("depth Z{} is not below the blade's up height Z{} of '{machine}'", num(*depth), num(*up))]
+    DepthAboveBlade {
+        depth: f64,
+        up: f64,
+        machine: String,
+    },
+    #[error("a grid over {kind:?} does not apply to the {tool} of '{machine}'")]
+    GridKind {
+        kind: RowKind,
+        tool: &'static str,
+        machine: String,
+    },
+}

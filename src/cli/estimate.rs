@@ -1,0 +1,51 @@
+//! `stencil estimate job.gcode`: how long any G-code file runs, the way Grbl plans its motion.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+
+use stencil_gcode::estimate::{estimate_with, format_duration, length_over_feed_s};
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::machine as machine_profile;
+
+use super::gcode::check_bed;
+
+/// `stencil estimate job.gcode`: time and distances of any G-code file.
+#[derive(Args, Debug)]
+pub struct EstimateArgs {
+    /// The G-code file.
+    pub file: PathBuf,
+    /// Machine profile whose motion limits to use, and whose bed the job must stay on (name or
+    /// .toml path) [default: diode-400].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: Option<String>,
+    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
+    /// from the machine's origin).
+    #[arg(long)]
+    pub no_bed_check: bool,
+}
+
+pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let text = std::fs::read_to_string(&a.file)
+        .with_context(|| format!("{}: cannot read", a.file.display()))?;
+    let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
+    let e = estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
+    println!(
+        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
+         length / feed alone would say {}",
+        a.file.display(),
+        format_duration(e.total_s),
+        machine.name,
+        format_duration(e.cut_s),
+        format_duration(e.travel_s),
+        moves.len(),
+        e.cut_mm,
+        e.travel_mm,
+        format_duration(length_over_feed_s(&moves, &machine.motion)),
+    );
+    Ok(ExitCode::SUCCESS)
+}
