@@ -2,6 +2,8 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod bounds;
+mod check;
+pub mod errors;
 mod frame;
 mod gcode;
 mod grid;
@@ -51,7 +53,7 @@ pub enum Command {
     Simulate(send::SimulateArgs),
     /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
     /// widths. Exits 0 only when there are no violations.
-    Check(material::CheckArgs),
+    Check(check::CheckArgs),
     /// List the material profiles with their key numbers.
     Profiles(material::ProfilesArgs),
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
@@ -73,7 +75,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Tone(a) => make::run_tone(a),
         Command::Send(a) => send::run_send(a),
         Command::Simulate(a) => send::run_simulate(a),
-        Command::Check(a) => material::run_check(a),
+        Command::Check(a) => check::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => gcode::run_estimate(a),

@@ -16,7 +16,7 @@ use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileEr
 use stencil_io::shipped;
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_gcode::{CutSettings, PlanError};
+use stencil_gcode::CutSettings;
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
@@ -477,9 +477,29 @@ impl Material {
     }
 }
 
+/// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
+/// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`...).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// An etch material: it makes a mask, not a cut.
+    #[error("material '{material}' is for photo-etching and has no cut settings for G-code")]
+    EtchOnly { material: String },
+    /// The material is set up for another tool than the machine has.
+    #[error("material '{material}' is set up for a {process} but machine '{machine}' has a {tool}")]
+    WrongTool {
+        material: String,
+        process: ProcessKind,
+        machine: String,
+        /// The machine's tool (`laser`, `knife`, `pen`).
+        tool: &'static str,
+        /// The shipped material set up for that tool ([`default_for`]).
+        suggested: &'static str,
+    },
+}
+
 /// A material's cut settings for a machine. The material's process must match the machine's tool:
 /// a laser material's power means nothing to a knife, and an etch material has no cut settings.
-pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, PlanError> {
+pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, SettingsError> {
     let s = match (&material.process, &machine.tool) {
         (Process::Laser(l), Tool::Laser { .. }) => CutSettings {
             power_pct: l.power_pct,
@@ -503,24 +523,18 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
             air_assist: false,
         },
         (Process::Etch(_), _) => {
-            return Err(PlanError::Settings(format!(
-                "material '{}' is for photo-etching and has no cut settings for G-code; \
-                 use --emit mask, or choose a laser, knife or pen material",
-                material.name
-            )))
+            return Err(SettingsError::EtchOnly {
+                material: material.name.clone(),
+            })
         }
         (p, t) => {
-            return Err(PlanError::Settings(format!(
-                "material '{}' is set up for a {} but machine '{}' has a {}; choose a matching \
-                 --material (for a {}: {}, or see `stencil profiles`) or --machine, or give \
-                 --power, --speed and --passes",
-                material.name,
-                p.kind(),
-                machine.name,
-                t.kind(),
-                t.kind(),
-                default_for(&machine.tool)
-            )))
+            return Err(SettingsError::WrongTool {
+                material: material.name.clone(),
+                process: p.kind(),
+                machine: machine.name.clone(),
+                tool: t.kind(),
+                suggested: default_for(&machine.tool),
+            })
         }
     };
     Ok(s)

@@ -65,7 +65,7 @@ pub enum CheckError {
     /// size limits refuse first, can make one).
     #[error(
         "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is {problem}; \
-         check the size (--width-mm, --dpi, --margin-mm)"
+         check the picture's size and the margin"
     )]
     Coordinate {
         x_mm: f64,

@@ -98,10 +98,12 @@ pub struct VectorStats {
 
 #[derive(Debug, thiserror::Error)]
 pub enum VectorError {
-    #[error("--tolerance-mm must be a finite number >= 0, got {0}")]
+    /// The simplification tolerance ([`VectorConfig::tolerance_mm`]) given.
+    #[error("the simplification tolerance must be a finite number >= 0 mm, got {0}")]
     Tolerance(f64),
+    /// The sheet's margin ([`VectorConfig::margin_mm`]) given.
     #[error(
-        "--margin-mm must be a finite number > 0 (the sheet continues beyond the picture), got {0}"
+        "the margin must be a finite number > 0 mm (the sheet continues beyond the picture), got {0}"
     )]
     Margin(f64),
     #[error("the stencil image is empty (0 pixels)")]
