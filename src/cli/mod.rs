@@ -44,7 +44,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Run the whole pipeline on a picture or an OBJ mesh: two-tone, islands, bridges, outputs.
-    Make(make::MakeArgs),
+    Make(Box<make::MakeArgs>),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
     /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
@@ -71,7 +71,7 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
-        Command::Make(a) => make::run_make(a),
+        Command::Make(a) => make::run_make(*a),
         Command::Tone(a) => make::run_tone(a),
         Command::Send(a) => send::run_send(a),
         Command::Simulate(a) => send::run_simulate(a),

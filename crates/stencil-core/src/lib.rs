@@ -1,15 +1,33 @@
-//! `stencil`: turn a picture or a 3D mesh into a stencil that holds together as one sheet, and drive
-//! the machine that cuts it.
+//! `stencil-core`: turn a picture or a 3D mesh into a stencil that holds together as one sheet.
 //!
 //! The crate reads as the pipeline (Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
 //! through Error Minimization", NPAR 2008). Data flows one way, stage to stage, as plain types:
 //!
 //! `tone` (picture or mesh → [`raster::TwoTone`]) → `islands` ([`islands::IslandMap`]) →
-//! `bridge` ([`bridge::Bridged`]) → `vector` (cut geometry in mm) → `check`; `export` writes files,
-//! `plan` makes toolpaths and G-code, `machine` streams G-code to Grbl.
+//! `bridge` ([`bridge::Bridged`]) → `vector` ([`vector::CutGeometry`], in mm) → `check`
+//! ([`check::CheckReport`]); `export` encodes and writes the files. Toolpaths and G-code are the
+//! `stencil-gcode` crate's, fed with [`vector::CutGeometry::loops`].
 //!
-//! Stages before `vector` work in pixels; millimetres appear only through [`units::Scale`]. Only
-//! `export` and `machine` touch files and devices (plus input loading in `tone`).
+//! Stages before `vector` work in pixels; every conversion to millimetres reads one
+//! [`units::Scale`] (the vector stage multiplies by its `mm_per_px`). Only `export` writes files
+//! (input loading in `tone` and [`material::Material::find`] read them).
+//!
+//! ## Public API (the stages after the two-tone)
+//! - The facade: [`make`] (run and write, all or nothing), [`pipeline::run`] (in memory), their
+//!   [`MakeConfig`] / [`pipeline::PhysicalConfig`] / [`pipeline::Emit`], the result
+//!   [`pipeline::Made`], and [`Error`] (every error they return, as data: values and ranges,
+//!   no option names; the `stencil` binary words them).
+//! - Stage functions the binary, tests and benches call: [`pipeline::two_tone`],
+//!   [`pipeline::vectorize_and_check`] (what `stencil check` runs), [`pipeline::encode_outputs`],
+//!   [`vector::vectorize`] / [`vector::vectorize_design`], [`check::check`] /
+//!   [`check::cross_check`], the encoders in [`export`] ([`export::svg::encode`],
+//!   [`export::dxf::encode`], [`export::png`], [`export::mask`]).
+//! - Plain types between stages: [`vector::CutGeometry`], [`vector::VectorConfig`],
+//!   [`check::CheckReport`] / [`check::Violation`], [`report::Report`], [`units::Scale`] /
+//!   [`units::Size`], [`material::Material`].
+//! - Limits the CLI's option parsers read: the constants and checks in [`limits`], with
+//!   [`limits::SizeError`].
+//! - Progress and timing: [`pipeline::Progress`] (told each stage) and [`pipeline::Timings`].
 
 #![forbid(unsafe_code)]
 

@@ -52,7 +52,7 @@ pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 /// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
 /// commonly cut from, so an unknown material is judged as if it were floppy rather than stiff
 /// (bending modulus 3 GPa and density 900 kg/m³, as `cardstock.toml`; sag limit 1 mm; two bridges
-/// for islands longer than 40 mm). See [`Material::youngs_modulus_gpa`].
+/// for islands longer than 40 mm). See [`Strength::youngs_modulus_gpa`].
 pub const DEFAULT_STRENGTH: Strength = Strength {
     youngs_modulus_gpa: 3.0,
     density_kg_m3: 900.0,

@@ -81,10 +81,10 @@ pub enum Error {
 }
 
 /// How many violations an error message lists.
-pub const LISTED_IN_ERROR: usize = 5;
+const LISTED_IN_ERROR: usize = 5;
 
 /// The first [`LISTED_IN_ERROR`] violations, `; ` between them.
-pub fn list_violations(violations: &[check::Violation]) -> String {
+fn list_violations(violations: &[check::Violation]) -> String {
     violations
         .iter()
         .take(LISTED_IN_ERROR)

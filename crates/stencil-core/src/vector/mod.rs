@@ -197,6 +197,12 @@ pub fn vectorize_design(
 }
 
 impl CutGeometry {
+    /// Which of [`CutGeometry::material`]'s pieces is the sheet (the one whose outline encloses
+    /// the most); the others float. `None` when there is no material.
+    pub fn sheet_index(&self) -> Option<usize> {
+        union::sheet_of(&self.material)
+    }
+
     /// A sheet known only by its cut regions (as an SVG gives it): no material and no bridges;
     /// the tool paths are the design line until [`CutGeometry::apply_kerf`].
     pub fn from_cuts(
@@ -478,7 +484,7 @@ mod tests {
         };
         let outline = vec![[13.0, 4.0], [17.0, 4.0], [17.0, 13.0], [13.0, 13.0]];
         let (geo, _) =
-            vectorize(&with(true), &[outline.clone()], &VectorConfig::default()).unwrap();
+            vectorize(&with(true), std::slice::from_ref(&outline), &VectorConfig::default()).unwrap();
         assert_eq!(geo.material.0.len(), 1, "{:?}", geo.material);
         assert_eq!(geo.design_cuts.0.len(), 1);
         assert!(geo.design_cuts.0[0].interiors().is_empty());
