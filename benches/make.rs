@@ -11,10 +11,10 @@ mod alloc;
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use stencil_core::pipeline::{run, MakeConfig};
 use stencil_core::material::settings_for;
-use stencil_gcode::{GcodeConfig, PlanConfig};
+use stencil_core::pipeline::{run, MakeConfig};
 use stencil_gcode::machine;
+use stencil_gcode::{GcodeConfig, PlanConfig};
 
 fn photos() -> Vec<PathBuf> {
     let mut v = vec![PathBuf::from("samples/grace_hopper.jpg")];

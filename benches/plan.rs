@@ -3,10 +3,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_gcode::interpret::interpret;
-use stencil_gcode::{estimate, gcode_for, CutSettings, PlanConfig};
-use stencil_gcode::machine;
 use stencil_core::vector::CutGeometry;
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::machine;
+use stencil_gcode::{estimate, gcode_for, CutSettings, PlanConfig};
 
 /// `n × n` circles of 32 vertices on a 10 mm grid, in a scrambled order.
 fn grid(n: usize) -> CutGeometry {

@@ -12,8 +12,8 @@ mod alloc;
 use criterion::{criterion_group, criterion_main, Criterion};
 
 use stencil_core::check;
-use stencil_core::pipeline::{self, Timings};
 use stencil_core::material::Material;
+use stencil_core::pipeline::{self, Timings};
 use stencil_core::raster::BitGrid;
 use stencil_core::vector::{self, simplify, trace, union, VectorConfig};
 use stencil_geom::kerf;

@@ -31,7 +31,7 @@ fn main() -> ExitCode {
 fn message(e: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in e.chain() {
-        let text = cause.to_string();
+        let text = cli::errors::describe(cause);
         if out.contains(&text) {
             continue;
         }

@@ -66,8 +66,14 @@ fn allowed() -> BTreeMap<&'static str, BTreeSet<&'static str>> {
     BTreeMap::from([
         ("stencil-io", BTreeSet::new()),
         ("stencil-geom", BTreeSet::new()),
-        ("stencil-gcode", BTreeSet::from(["stencil-io", "stencil-geom"])),
-        ("stencil-grbl", BTreeSet::from(["stencil-io", "stencil-gcode"])),
+        (
+            "stencil-gcode",
+            BTreeSet::from(["stencil-io", "stencil-geom"]),
+        ),
+        (
+            "stencil-grbl",
+            BTreeSet::from(["stencil-io", "stencil-gcode"]),
+        ),
         (
             "stencil-core",
             BTreeSet::from(["stencil-io", "stencil-geom", "stencil-gcode"]),

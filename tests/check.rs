@@ -6,8 +6,8 @@ use std::process::Command;
 
 use stencil_core::check::{CheckReport, ViolationKind};
 use stencil_core::islands;
-use stencil_core::pipeline::{self, Timings};
 use stencil_core::material::Material;
+use stencil_core::pipeline::{self, Timings};
 use stencil_core::raster::BitGrid;
 use stencil_core::vector::VectorConfig;
 

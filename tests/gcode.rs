@@ -5,12 +5,12 @@ use std::path::Path;
 use std::process::Command;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_gcode::interpret::interpret;
-use stencil_gcode::estimate::estimate;
-use stencil_gcode::machine::Motion;
-use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
-use stencil_gcode::machine::{self, Machine, PenLift, Tool};
 use stencil_core::vector::CutGeometry;
+use stencil_gcode::estimate::estimate;
+use stencil_gcode::interpret::interpret;
+use stencil_gcode::machine::Motion;
+use stencil_gcode::machine::{self, Machine, PenLift, Tool};
+use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
 
 // ---- inputs -----------------------------------------------------------------------------------
 
@@ -355,8 +355,13 @@ fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
     let mut cfg = PlanConfig::new(s);
     cfg.cut_outline = true;
     // The outline at X0/Y0 would need the axis at -0.5 mm: refused, not clipped by soft limits.
-    let e = gcode_for(&g.loops(), &m, &cfg, &[]).unwrap_err().to_string();
-    assert!(e.contains("X -0.5") && e.contains("move it on the bed"), "{e}");
+    let e = gcode_for(&g.loops(), &m, &cfg, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("X -0.5") && e.contains("move it on the bed"),
+        "{e}"
+    );
     cfg.offset = [1.0, 1.0];
     let (text, _) = make(&g, &m, &cfg);
     let r = check_program(&text, &m);
@@ -605,7 +610,10 @@ fn cli_refuses_too_big_and_bad_inputs_with_clear_messages() {
         "{err}"
     );
     // The library says what to change; the command names the options that change it.
-    assert!(err.contains("move it on the bed with --offset X,Y or --origin"), "{err}");
+    assert!(
+        err.contains("move it on the bed with --offset X,Y or --origin"),
+        "{err}"
+    );
     assert!(
         !dir.path().join("job.gcode").exists(),
         "no file after a refusal"
@@ -860,8 +868,8 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
 mod prop {
     use super::*;
     use proptest::prelude::*;
-    use stencil_gcode::{Anchor, PlanError};
     use stencil_gcode::machine::Corner;
+    use stencil_gcode::{Anchor, PlanError};
 
     fn anchor() -> impl Strategy<Value = Option<Anchor>> {
         prop_oneof![

@@ -353,12 +353,7 @@ impl Observer for Operator {
             self.hold_at = None;
             self.tx.send(Control::FeedHold).unwrap();
         }
-        if !self.held
-            && matches!(
-                p.state,
-                Some(stencil_grbl::protocol::MachineState::Hold(_))
-            )
-        {
+        if !self.held && matches!(p.state, Some(stencil_grbl::protocol::MachineState::Hold(_))) {
             self.held = true;
         }
         if self.held && !self.resumed {

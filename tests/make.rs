@@ -663,3 +663,41 @@ fn a_large_change_is_warned_about() {
         assert!(err.contains(word), "{word:?} not in {err}");
     }
 }
+
+/// The total `make` prints is the time of its stages, each counted once: the sum of report.json's
+/// `timings_ms` (the check and its raster confirmation are separate stages there). A picture too
+/// thin for the material runs both.
+#[test]
+fn printed_total_is_the_sum_of_the_stage_times() {
+    let dir = tmp();
+    let out = dir.path().join("letters");
+    let input = samples().join("letters.png");
+    let args = [
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--width-mm",
+        "20",
+        "--allow-thin",
+        "--filter-radius",
+        "0",
+    ];
+    let o = stencil(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    let t = r["timings_ms"].as_object().unwrap();
+    assert!(
+        t.contains_key("check") && t.contains_key("check_opening"),
+        "{t:?}"
+    );
+    let sum: f64 = t.values().map(|v| v.as_f64().unwrap()).sum();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let first = stdout.lines().next().unwrap();
+    let printed = first
+        .rsplit("; ")
+        .next()
+        .and_then(|t| t.strip_suffix(" ms"))
+        .unwrap_or_else(|| panic!("no total in {first:?}"));
+    assert_eq!(printed, format!("{sum:.0}"), "{first}");
+}

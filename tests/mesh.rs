@@ -324,9 +324,10 @@ fn every_sample_mesh_makes_a_stencil_without_floating_pieces() {
             String::from_utf8_lossy(&run.stderr)
         );
         let stencil = image::open(out.join("stencil.png")).unwrap().to_luma8();
-        let bits = stencil_core::raster::BitGrid::from_fn(stencil.width(), stencil.height(), |x, y| {
-            stencil.get_pixel(x, y)[0] > 127
-        });
+        let bits =
+            stencil_core::raster::BitGrid::from_fn(stencil.width(), stencil.height(), |x, y| {
+                stencil.get_pixel(x, y)[0] > 127
+            });
         let map = stencil_core::islands::label(&bits);
         assert_eq!(map.island_count(), 0, "{}: floating pieces", obj.display());
         // The lines survive filtering and bridging: the centre of every line the renderer draws

@@ -5,12 +5,12 @@
 use std::time::Duration;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
+use stencil_core::vector::CutGeometry;
+use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
 use stencil_grbl::stream::{send, Job, MachineError, Quiet, ResumeLift, StreamConfig};
 use stencil_grbl::virtual_grbl::{Fault, FaultKind, PlannedMove, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
-use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
-use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
-use stencil_core::vector::CutGeometry;
 
 fn cfg() -> StreamConfig {
     StreamConfig {

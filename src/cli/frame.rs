@@ -11,11 +11,11 @@ use std::time::Duration;
 use anyhow::bail;
 use clap::Args;
 
+use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameTool, Framed};
 use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Job, Observer, StreamConfig};
 use stencil_grbl::virtual_grbl::VirtualConfig;
-use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
 /// to follow the head with the eye, fast enough not to bore.

@@ -7,15 +7,12 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil_gcode::read_svg::cut_loops_from_svg;
-use stencil_gcode::{
-    self as plan, Anchor, CutSettings, Fit, GcodeConfig, GcodeSummary, PlanConfig, PlanError,
-    SettingsError,
-};
-use stencil_gcode::estimate::format_duration;
-use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_core::material::Material;
 use stencil_core::report::Report;
+use stencil_gcode::estimate::format_duration;
+use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
+use stencil_gcode::read_svg::cut_loops_from_svg;
+use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 
 pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
@@ -199,7 +196,7 @@ fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
     if !p.is_file() {
         return Ok(None);
     }
-    let r: Report = super::material::read_report(dir)?;
+    let r: Report = super::check::read_report(dir)?;
     Ok(match (r.material_source, r.material) {
         (Some(src), _) if Path::new(&src).is_file() => Some(src),
         (_, name) => name,
@@ -237,7 +234,7 @@ pub fn make_gcode_config(
     let base = if cut.covers_all(&machine) {
         None
     } else {
-        Some(stencil_core::material::settings_for(material, &machine).map_err(plan_error)?)
+        Some(stencil_core::material::settings_for(material, &machine)?)
     };
     Ok(Some(GcodeConfig {
         plan: m.plan_config(cut.settings(base, &machine)?),
@@ -274,7 +271,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     };
     let base = match &material {
         Some(m) if !a.cut.covers_all(&machine) => {
-            Some(stencil_core::material::settings_for(m, &machine).map_err(plan_error)?)
+            Some(stencil_core::material::settings_for(m, &machine)?)
         }
         _ => None,
     };
@@ -293,7 +290,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
     let cfg = a.machine.plan_config(settings);
-    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes).map_err(plan_error)?;
+    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
     stencil_io::write_atomic(&out, gcode.as_bytes())?;
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)
@@ -320,32 +317,4 @@ pub fn check_bed(
             file.display()
         )
     })
-}
-
-/// A planning error in the words of the command line: the library says what to change, this adds
-/// the option that changes it.
-pub fn plan_message(e: &PlanError) -> String {
-    let hint = match e {
-        PlanError::Empty => {
-            return "nothing to cut: the geometry has no cut regions (and --cut-outline is off)"
-                .into()
-        }
-        PlanError::DoesNotFit { fix: Fit::Move, .. } => " with --offset X,Y or --origin",
-        PlanError::DoesNotFit {
-            fix: Fit::ShrinkGrid,
-            ..
-        } => " (--size, --gap, --offset)",
-        PlanError::Settings(SettingsError::EtchMaterial { .. }) => " (--emit mask)",
-        PlanError::Settings(SettingsError::WrongTool { .. }) => {
-            " (--material, or --machine, or --power, --speed and --passes; `stencil profiles` \
-             lists the materials)"
-        }
-        _ => "",
-    };
-    format!("{e}{hint}")
-}
-
-/// [`plan_message`] as an error.
-pub fn plan_error(e: PlanError) -> anyhow::Error {
-    anyhow::anyhow!(plan_message(&e))
 }

@@ -7,11 +7,11 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use stencil_gcode::num;
-use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
-use stencil_gcode::{self as plan, CutSettings};
-use stencil_gcode::machine::{self as machine_profile, Tool};
 use stencil_core::material::Material;
+use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
+use stencil_gcode::machine::{self as machine_profile, Tool};
+use stencil_gcode::num;
+use stencil_gcode::{self as plan, CutSettings};
 
 /// Write a grid of test squares over power and speed, with a labelled SVG preview.
 #[derive(Args, Debug)]
@@ -104,7 +104,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     });
     let max_feed = machine.motion.max_feed_mm_min;
     let mut base = match &material {
-        Some(m) => stencil_core::material::settings_for(m, &machine).map_err(super::gcode::plan_error)?,
+        Some(m) => stencil_core::material::settings_for(m, &machine)?,
         None => {
             let Some(s) = &a.speed else {
                 bail!(
@@ -162,7 +162,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
         offset: a.offset,
         base,
     };
-    let grid = plan_grid(&spec, &machine).map_err(super::gcode::plan_error)?;
+    let grid = plan_grid(&spec, &machine)?;
     let speed_text = format!("speed {}", describe(&speeds, " mm/min"));
     let layout = if row_text.is_empty() {
         format!("one row over {speed_text}")

@@ -372,12 +372,12 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             change_parts(&fidelity),
         ),
         stencil_core::Error::Plan(p) => {
-            anyhow::anyhow!("{}: {}", cfg.input.display(), super::gcode::plan_message(&p))
+            anyhow::anyhow!("{}: {}", cfg.input.display(), super::errors::plan(&p))
         }
         // Every other error names the input too (most already do, from the stage that read it).
         e => {
             let input = cfg.input.display().to_string();
-            let msg = e.to_string();
+            let msg = super::errors::core(&e);
             if msg.contains(&input) {
                 e.into()
             } else {
@@ -431,7 +431,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     }
     print_long_joins(r, cfg.bridge.max_length_px);
     print_strength(r);
-    super::material::print_check(&made.check, "report.json lists them all");
+    super::check::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }

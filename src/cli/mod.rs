@@ -2,6 +2,8 @@
 //! Each area owns its argument struct in its own file; they are flattened into the commands here.
 
 mod bounds;
+mod check;
+pub mod errors;
 mod estimate;
 mod frame;
 mod gcode;
@@ -43,7 +45,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Run the whole pipeline on a picture or an OBJ mesh: two-tone, islands, bridges, outputs.
-    Make(make::MakeArgs),
+    Make(Box<make::MakeArgs>),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
     Tone(make::ToneCmdArgs),
     /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
@@ -52,7 +54,7 @@ pub enum Command {
     Simulate(send::SimulateArgs),
     /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
     /// widths. Exits 0 only when there are no violations.
-    Check(material::CheckArgs),
+    Check(check::CheckArgs),
     /// List the material profiles with their key numbers.
     Profiles(material::ProfilesArgs),
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
@@ -70,11 +72,11 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
-        Command::Make(a) => make::run_make(a),
+        Command::Make(a) => make::run_make(*a),
         Command::Tone(a) => make::run_tone(a),
         Command::Send(a) => send::run_send(a),
         Command::Simulate(a) => send::run_simulate(a),
-        Command::Check(a) => material::run_check(a),
+        Command::Check(a) => check::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
         Command::Estimate(a) => estimate::run_estimate(a),

@@ -15,18 +15,18 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use stencil_core::export;
+use stencil_gcode::estimate::{estimate, estimate_with, format_duration};
 use stencil_gcode::interpret::Move;
+use stencil_gcode::machine as machine_profile;
+use stencil_gcode::simulate;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
 use stencil_grbl::keys::{self, Key, KeySource};
-use stencil_gcode::simulate;
 use stencil_grbl::stall::ClockRef;
 use stencil_grbl::stream::{
     self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress, ResumeLift,
     StreamConfig,
 };
 use stencil_grbl::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
-use stencil_gcode::estimate::{estimate, estimate_with, format_duration};
-use stencil_gcode::machine as machine_profile;
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]

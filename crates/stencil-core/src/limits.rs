@@ -43,7 +43,6 @@
 //! says, a picture whose decoded buffers would need more than [`MAX_DECODE_BYTES`] is refused
 //! from its header, before any pixel is decoded. Runs past half a second show a progress line.
 
-
 use crate::units::{Scale, Size};
 
 /// The longest side of the picture on the sheet, in mm (10 m).
@@ -93,42 +92,49 @@ pub const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
 /// with 5,000 bridges writes about 3 MB).
 pub const MAX_REPORT_BYTES: u64 = 256 << 20;
 
-/// A size that makes no physical sense, or that stencil cannot work at; every message names the
-/// option and says what to use instead.
+/// A size that makes no physical sense, or that stencil cannot work at, as data: what set the size
+/// and the numbers that rule it out. The message here says what is wrong; the `stencil` binary
+/// words it with the option to change (`--width-mm`, `--dpi`, `--scale`, `--filter-radius`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SizeError {
-    #[error("{option} {value} is not a size: use a finite number > 0")]
-    NotPositive { option: &'static str, value: f64 },
+    /// A width or resolution that is not a finite number > 0 (`size` holds it).
+    #[error("{} is not a size: use a finite number > 0", size_value(*size))]
+    NotPositive { size: Size },
     #[error(
-        "{option} makes the {width_px}x{height_px} px picture {} x {} mm with pixels of {} mm; {}; {}",
-        num(*width_mm), num(*height_mm), num(*mm_per_px), why(*mm_per_px), accepted(option, *range)
+        "{} makes the {width_px}x{height_px} px picture {} x {} mm with pixels of {} mm; {}; {}",
+        size_name(*size), num(*width_mm), num(*height_mm), num(*mm_per_px), out_of_range_reason(*mm_per_px),
+        accepted_range(*size, *range)
     )]
     OutOfRange {
-        /// What set the size: `--width-mm 5`, `--dpi 1e6`, or the default.
-        option: String,
+        /// What set the size.
+        size: Size,
         width_px: u32,
         height_px: u32,
         width_mm: f64,
         height_mm: f64,
         mm_per_px: f64,
-        /// The values of the option that this picture accepts, if any.
+        /// The values this picture accepts, rounded inwards to 4 significant digits, if any: in
+        /// dots per inch for [`Size::Dpi`], else the picture's width in mm.
         range: Option<(f64, f64)>,
     },
     #[error(
-        "{option}: working pixels of {} mm make the material's smallest feature ({feature_mm} mm) \
+        "working pixels of {} mm make the material's smallest feature ({feature_mm} mm) \
          {} pixels wide, more than the {MAX_PX_PER_FEATURE} stencil works with (the clean-up's time \
-         grows with its square); {fix}",
-        num(*mm_per_px), num(*feature_px)
+         grows with its square); {}",
+        num(*mm_per_px), num(*feature_px), fix
     )]
     TooFine {
-        option: String,
+        /// What set the picture's size.
+        size: Size,
+        /// The supersampling factor.
+        factor: u32,
         mm_per_px: f64,
         feature_mm: f64,
         feature_px: f64,
-        /// What to do, e.g. "use --width-mm 64 or more".
-        fix: String,
+        /// What to change.
+        fix: FinerFix,
     },
-    #[error("--filter-radius {radius} is larger than this {width}x{height} px working image allows: use 0..={max} (a quarter of its shorter side)")]
+    #[error("a filter radius of {radius} px is larger than this {width}x{height} px working image allows: use 0..={max} (a quarter of its shorter side)")]
     FilterRadius {
         radius: u32,
         width: u32,
@@ -137,7 +143,44 @@ pub enum SizeError {
     },
 }
 
-fn why(mm_per_px: f64) -> String {
+/// What makes working pixels coarse enough again ([`SizeError::TooFine`]); the numbers are rounded
+/// to 4 significant digits on the accepted side.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum FinerFix {
+    /// Supersample by at most this factor (the factor was given and is the only cause).
+    #[error("supersample {0}x or less")]
+    ScaleAtMost(u32),
+    /// Size the picture at most this many dots per inch.
+    #[error("use {} dpi or less (or a picture with fewer pixels)", num(*.0))]
+    DpiAtMost(f64),
+    /// Make the picture at least this wide, in mm.
+    #[error("make the picture {} mm wide or more (or use a picture with fewer pixels)", num(*.0))]
+    WidthMmAtLeast(f64),
+}
+
+/// A size's value with its unit, for a message.
+fn size_value(size: Size) -> String {
+    match size {
+        Size::Default => format!("{} mm per pixel", Scale::default().mm_per_px),
+        Size::WidthMm(v) => format!("a width of {v} mm"),
+        Size::Dpi(v) => format!("{v} dpi"),
+    }
+}
+
+/// What set the size, for a message.
+fn size_name(size: Size) -> String {
+    match size {
+        Size::Default => format!(
+            "the default size of {} mm per pixel",
+            Scale::default().mm_per_px
+        ),
+        Size::WidthMm(v) => format!("a width of {} mm", num(v)),
+        Size::Dpi(v) => format!("{} dpi", num(v)),
+    }
+}
+
+/// Which bound a picture's size breaks: its pixels are too fine, or it is too large.
+pub fn out_of_range_reason(mm_per_px: f64) -> String {
     if mm_per_px < MIN_PIXEL_MM {
         format!("pixels must be at least {MIN_PIXEL_MM} mm (1 micron)")
     } else {
@@ -145,20 +188,13 @@ fn why(mm_per_px: f64) -> String {
     }
 }
 
-fn accepted(option: &str, range: Option<(f64, f64)>) -> String {
-    let flag = option.split_whitespace().next().unwrap_or("");
-    match range {
-        Some((lo, hi)) if flag.starts_with("--") => format!(
-            "use {flag} {} to {} for this picture",
-            num(round_sig(lo, true)),
-            num(round_sig(hi, false))
-        ),
-        Some((lo, hi)) => format!(
-            "give --width-mm {} to {} for this picture",
-            num(round_sig(lo, true)),
-            num(round_sig(hi, false))
-        ),
-        None => "no size fits a picture of this shape: crop or resize it".to_string(),
+fn accepted_range(size: Size, range: Option<(f64, f64)>) -> String {
+    match (size, range) {
+        (Size::Dpi(_), Some((lo, hi))) => {
+            format!("use {} to {} dpi for this picture", num(lo), num(hi))
+        }
+        (_, Some((lo, hi))) => format!("make the picture {} to {} mm wide", num(lo), num(hi)),
+        (_, None) => "no size fits a picture of this shape: crop or resize it".to_string(),
     }
 }
 
@@ -202,12 +238,12 @@ fn round_sig(v: f64, up: bool) -> f64 {
     r / p
 }
 
-/// `value` of `option` if it is a finite number > 0.
-fn positive(option: &'static str, value: f64) -> Result<f64, SizeError> {
+/// `value` of `size` if it is a finite number > 0.
+fn positive(size: Size, value: f64) -> Result<f64, SizeError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
-        Err(SizeError::NotPositive { option, value })
+        Err(SizeError::NotPositive { size })
     }
 }
 
@@ -216,24 +252,18 @@ fn positive(option: &'static str, value: f64) -> Result<f64, SizeError> {
 pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale, SizeError> {
     let (w, h) = (f64::from(width_px.max(1)), f64::from(height_px.max(1)));
     let long = w.max(h);
-    let (option, scale, range) = match size {
+    let (scale, range) = match size {
+        // The default is given as a width.
         Size::Default => (
-            format!(
-                "the default size of {} mm per pixel",
-                Scale::default().mm_per_px
-            ),
             Scale::default(),
-            // Given as --width-mm.
             Some((w * MIN_PIXEL_MM, MAX_PICTURE_MM * w / long)),
         ),
         Size::WidthMm(v) => (
-            format!("--width-mm {}", num(positive("--width-mm", v)?)),
-            Scale::from_width(width_px, v),
+            Scale::from_width(width_px, positive(size, v)?),
             Some((w * MIN_PIXEL_MM, MAX_PICTURE_MM * w / long)),
         ),
         Size::Dpi(v) => (
-            format!("--dpi {}", num(positive("--dpi", v)?)),
-            Scale::from_dpi(v),
+            Scale::from_dpi(positive(size, v)?),
             Some((long * 25.4 / MAX_PICTURE_MM, 25.4 / MIN_PIXEL_MM)),
         ),
     };
@@ -244,13 +274,15 @@ pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale,
         return Ok(scale);
     }
     Err(SizeError::OutOfRange {
-        option,
+        size,
         width_px,
         height_px,
         width_mm: w * mm,
         height_mm: h * mm,
         mm_per_px: mm,
-        range: range.filter(|(lo, hi)| lo <= hi),
+        range: range
+            .filter(|(lo, hi)| lo <= hi)
+            .map(|(lo, hi)| (round_sig(lo, true), round_sig(hi, false))),
     })
 }
 
@@ -275,34 +307,18 @@ pub fn check_working_pixel(
         return Ok(());
     }
     let input_mm = mm * f64::from(factor);
-    let (option, fix) = if factor_given && factor > 1 && input_mm >= finest {
-        let k = (input_mm / finest).floor().max(1.0) as u32;
-        (
-            format!("--scale {factor}"),
-            format!("use --scale {k} or less"),
-        )
+    let fix = if factor_given && factor > 1 && input_mm >= finest {
+        FinerFix::ScaleAtMost((input_mm / finest).floor().max(1.0) as u32)
     } else {
-        let w = f64::from(width_px.max(1));
         let need = finest * f64::from(factor);
-        let fix = match size {
-            Size::Dpi(_) => format!(
-                "use --dpi {} or less (or a picture with fewer pixels)",
-                num(round_sig(25.4 / need, false))
-            ),
-            _ => format!(
-                "use --width-mm {} or more (or a picture with fewer pixels)",
-                num(round_sig(need * w, true))
-            ),
-        };
-        let option = match size {
-            Size::Default => "the default size".to_string(),
-            Size::WidthMm(v) => format!("--width-mm {}", num(v)),
-            Size::Dpi(v) => format!("--dpi {}", num(v)),
-        };
-        (option, fix)
+        match size {
+            Size::Dpi(_) => FinerFix::DpiAtMost(round_sig(25.4 / need, false)),
+            _ => FinerFix::WidthMmAtLeast(round_sig(need * f64::from(width_px.max(1)), true)),
+        }
     };
     Err(SizeError::TooFine {
-        option,
+        size,
+        factor,
         mm_per_px: mm,
         feature_mm,
         feature_px,
@@ -346,24 +362,36 @@ mod tests {
         assert_eq!(round_sig(0.123456, false), 0.1234);
     }
 
+    /// The range a refused size carries (in the size's own unit).
+    fn range_of(size: Size, w: u32, h: u32) -> Option<(f64, f64)> {
+        match picture_scale(size, w, h) {
+            Err(SizeError::OutOfRange { range, .. }) => range,
+            other => panic!("{other:?}"),
+        }
+    }
+
     #[test]
-    fn picture_sizes_are_bounded_with_the_range_in_the_message() {
+    fn picture_sizes_are_bounded_with_the_range_in_the_error() {
         assert!(picture_scale(Size::WidthMm(200.0), 320, 320).is_ok());
         assert!(picture_scale(Size::Default, 100_000, 1).is_ok());
-        for (size, needle) in [
-            (Size::WidthMm(1e15), "--width-mm 0.32 to 10000"),
-            (Size::WidthMm(1e-6), "pixels must be at least"),
-            (Size::Dpi(1e-300), "--dpi 0.8128 to 25400"),
-            (Size::Dpi(1e6), "--dpi 0.8128 to 25400"),
-        ] {
-            let e = picture_scale(size, 320, 320).unwrap_err().to_string();
-            assert!(e.contains(needle), "{e}");
-        }
-        // The height counts too: a tall picture at 10 m wide is refused.
-        let e = picture_scale(Size::WidthMm(10_000.0), 100, 200)
+        assert_eq!(
+            range_of(Size::WidthMm(1e15), 320, 320),
+            Some((0.32, 10000.0))
+        );
+        assert_eq!(
+            range_of(Size::Dpi(1e-300), 320, 320),
+            Some((0.8128, 25400.0))
+        );
+        assert_eq!(range_of(Size::Dpi(1e6), 320, 320), Some((0.8128, 25400.0)));
+        let e = picture_scale(Size::WidthMm(1e-6), 320, 320)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("--width-mm 0.1 to 5000"), "{e}");
+        assert!(e.contains("pixels must be at least"), "{e}");
+        // The height counts too: a tall picture at 10 m wide is refused.
+        assert_eq!(
+            range_of(Size::WidthMm(10_000.0), 100, 200),
+            Some((0.1, 5000.0))
+        );
         // The printed bounds are accepted.
         assert!(picture_scale(Size::WidthMm(0.32), 320, 320).is_ok());
         assert!(picture_scale(Size::Dpi(0.8128), 320, 320).is_ok());
@@ -374,23 +402,45 @@ mod tests {
         ));
     }
 
+    /// The fix a refused working pixel carries.
+    fn fix_of(r: Result<(), SizeError>) -> FinerFix {
+        match r {
+            Err(SizeError::TooFine { fix, .. }) => fix,
+            other => panic!("{other:?}"),
+        }
+    }
+
     #[test]
     fn working_pixels_finer_than_the_material_needs_are_refused() {
         let ok = Scale { mm_per_px: 0.1 };
         assert!(check_working_pixel(Size::Default, 320, ok, 1, false, 0.5).is_ok());
         // 0.001 mm per pixel: cardstock's 0.5 mm is 500 px.
         let fine = Scale { mm_per_px: 0.001 };
-        let e = check_working_pixel(Size::WidthMm(0.32), 320, fine, 1, false, 0.5)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("--width-mm 3.2 or more"), "{e}");
+        assert_eq!(
+            fix_of(check_working_pixel(
+                Size::WidthMm(0.32),
+                320,
+                fine,
+                1,
+                false,
+                0.5
+            )),
+            FinerFix::WidthMmAtLeast(3.2)
+        );
         // Too fine only because of --scale: lower it.
         let s = Scale {
             mm_per_px: 0.02 / 8.0,
         };
-        let e = check_working_pixel(Size::WidthMm(6.4), 320, s, 8, true, 0.5)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("--scale 2 or less"), "{e}");
+        assert_eq!(
+            fix_of(check_working_pixel(
+                Size::WidthMm(6.4),
+                320,
+                s,
+                8,
+                true,
+                0.5
+            )),
+            FinerFix::ScaleAtMost(2)
+        );
     }
 }

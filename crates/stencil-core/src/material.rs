@@ -16,7 +16,7 @@ use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileEr
 use stencil_io::shipped;
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_gcode::{CutSettings, PlanError, SettingsError};
+use stencil_gcode::CutSettings;
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
@@ -52,7 +52,7 @@ pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 /// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
 /// commonly cut from, so an unknown material is judged as if it were floppy rather than stiff
 /// (bending modulus 3 GPa and density 900 kg/m³, as `cardstock.toml`; sag limit 1 mm; two bridges
-/// for islands longer than 40 mm). See [`Material::youngs_modulus_gpa`].
+/// for islands longer than 40 mm). See [`Strength::youngs_modulus_gpa`].
 pub const DEFAULT_STRENGTH: Strength = Strength {
     youngs_modulus_gpa: 3.0,
     density_kg_m3: 900.0,
@@ -477,9 +477,31 @@ impl Material {
     }
 }
 
+/// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
+/// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`...).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// An etch material: it makes a mask, not a cut.
+    #[error("material '{material}' is for photo-etching and has no cut settings for G-code")]
+    EtchOnly { material: String },
+    /// The material is set up for another tool than the machine has.
+    #[error(
+        "material '{material}' is set up for a {process} but machine '{machine}' has a {tool}"
+    )]
+    WrongTool {
+        material: String,
+        process: ProcessKind,
+        machine: String,
+        /// The machine's tool (`laser`, `knife`, `pen`).
+        tool: &'static str,
+        /// The shipped material set up for that tool ([`default_for`]).
+        suggested: &'static str,
+    },
+}
+
 /// A material's cut settings for a machine. The material's process must match the machine's tool:
 /// a laser material's power means nothing to a knife, and an etch material has no cut settings.
-pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, PlanError> {
+pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, SettingsError> {
     let s = match (&material.process, &machine.tool) {
         (Process::Laser(l), Tool::Laser { .. }) => CutSettings {
             power_pct: l.power_pct,
@@ -503,25 +525,22 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
             air_assist: false,
         },
         (Process::Etch(_), _) => {
-            return Err(SettingsError::EtchMaterial {
+            return Err(SettingsError::EtchOnly {
                 material: material.name.clone(),
-            }
-            .into())
+            })
         }
         (p, t) => {
             return Err(SettingsError::WrongTool {
                 material: material.name.clone(),
-                process: p.kind().to_string(),
+                process: p.kind(),
                 machine: machine.name.clone(),
                 tool: t.kind(),
                 suggested: default_for(&machine.tool),
-            }
-            .into())
+            })
         }
     };
     Ok(s)
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -539,7 +558,12 @@ mod tests {
         for s in stencil_gcode::machine::SHIPPED {
             let machine = stencil_gcode::machine::load(Some(s.name)).unwrap();
             let (m, _) = Material::find(default_for(&machine.tool)).unwrap();
-            assert_eq!(m.process.kind().to_string(), machine.tool.kind(), "{}", m.name);
+            assert_eq!(
+                m.process.kind().to_string(),
+                machine.tool.kind(),
+                "{}",
+                m.name
+            );
         }
     }
 

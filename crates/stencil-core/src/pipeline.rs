@@ -25,7 +25,73 @@ use crate::tone::regularize::{
 use crate::tone::{self, image::load_gray, ToneConfig};
 use crate::units::{Mm, Scale};
 use crate::vector::{self, CutGeometry, VectorConfig};
-use crate::Error;
+
+/// Every error [`run`] and [`make`] return (the stages' errors, and the pipeline's own findings),
+/// as data: the `stencil` binary words them with the options to change.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Tone(#[from] crate::tone::ToneError),
+    #[error(transparent)]
+    Bridge(#[from] crate::bridge::BridgeError),
+    #[error(transparent)]
+    Export(#[from] crate::export::ExportError),
+    #[error(transparent)]
+    Plan(#[from] stencil_gcode::PlanError),
+    #[error(transparent)]
+    Profile(#[from] stencil_io::profile::ProfileError),
+    #[error(transparent)]
+    Vector(#[from] crate::vector::VectorError),
+    #[error(transparent)]
+    Check(#[from] crate::check::CheckError),
+    #[error(transparent)]
+    Limit(#[from] crate::limits::SizeError),
+    /// The check found violations and the caller did not allow them
+    /// ([`PhysicalConfig::allow_thin`]); nothing was written.
+    #[error(
+        "{} width or connectivity violation(s) for material '{material}': {}",
+        violations.len(), list_violations(violations)
+    )]
+    Thin {
+        material: String,
+        /// All of them, as the check reported them.
+        violations: Vec<check::Violation>,
+    },
+    #[error(
+        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}) \
+         (every island should have been joined: this is a bug, please report it with the picture)"
+    )]
+    Floating {
+        count: usize,
+        x: u32,
+        y: u32,
+        area: usize,
+    },
+    /// The stencil differs from the thresholded picture by more than the limit the caller set
+    /// ([`PhysicalConfig::max_change_pct`]); nothing was written.
+    #[error(
+        "the clean-up and the bridges changed {:.2} % of the picture, more than the limit of {limit_pct} %",
+        fidelity.changed_pct
+    )]
+    TooMuchChange {
+        /// What was measured (all of it, so a caller can say what changed most).
+        fidelity: Fidelity,
+        limit_pct: f64,
+    },
+}
+
+/// How many violations an error message lists.
+const LISTED_IN_ERROR: usize = 5;
+
+/// The first [`LISTED_IN_ERROR`] violations, `; ` between them.
+fn list_violations(violations: &[check::Violation]) -> String {
+    violations
+        .iter()
+        .take(LISTED_IN_ERROR)
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join("; ")
+}
 
 /// How many times `make` widens the necks the vector check still finds and traces again.
 const REPAIR_ROUNDS: usize = 3;
@@ -652,15 +718,8 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     }
     if !chk.passed() && !phys.allow_thin {
         return Err(Error::Thin {
-            count: chk.violations.len(),
             material: phys.material.name.clone(),
-            list: chk
-                .violations
-                .iter()
-                .take(5)
-                .map(|v| v.to_string())
-                .collect::<Vec<_>>()
-                .join("; "),
+            violations: chk.violations.clone(),
         });
     }
     let gcode = match &cfg.gcode {
@@ -928,10 +987,11 @@ mod tests {
         phys.size = Size::Dpi(254.0);
         assert!((phys.scale(400, 300).unwrap().mm_per_px - 0.1).abs() < 1e-12);
         phys.size = Size::WidthMm(-3.0);
-        assert!(phys
-            .scale(400, 300)
-            .unwrap_err()
-            .to_string()
-            .contains("--width-mm"));
+        assert!(matches!(
+            phys.scale(400, 300),
+            Err(Error::Limit(crate::limits::SizeError::NotPositive {
+                size: Size::WidthMm(_)
+            }))
+        ));
     }
 }

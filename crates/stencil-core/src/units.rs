@@ -1,4 +1,6 @@
-//! Physical units. Pixels turn into millimetres in exactly one place: [`Scale`].
+//! Physical units. One [`Scale`] (millimetres per working pixel) says how pixels and millimetres
+//! relate; its methods convert single lengths, and the vector stage and the report multiply by
+//! [`Scale::mm_per_px`] directly where they convert whole outlines.
 
 use serde::{Deserialize, Serialize};
 

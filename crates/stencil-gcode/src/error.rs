@@ -29,7 +29,9 @@ pub enum PlanError {
         fix: Fit,
     },
     /// No loop to cut, and the sheet's outline is not cut either.
-    #[error("nothing to cut: the geometry has no cut regions (and the sheet's outline is not cut)")]
+    #[error(
+        "nothing to cut: the geometry has no cut regions (and the sheet's outline is not cut)"
+    )]
     Empty,
     #[error(transparent)]
     Settings(#[from] SettingsError),
@@ -107,26 +109,6 @@ pub enum SettingsError {
         s: f64,
         machine: String,
         s_min: f64,
-    },
-    /// A material for photo-etching asked for G-code.
-    #[error(
-        "material '{material}' is for photo-etching and has no cut settings for G-code; \
-         emit a mask instead, or choose a laser, knife or pen material"
-    )]
-    EtchMaterial { material: String },
-    /// A material for one tool on a machine with another.
-    #[error(
-        "material '{material}' is set up for a {process} but machine '{machine}' has a {tool}; \
-         choose a matching material (for a {tool}: {suggested}) or machine, or give the power, \
-         speed and passes"
-    )]
-    WrongTool {
-        material: String,
-        process: String,
-        machine: String,
-        tool: &'static str,
-        /// A shipped material for the machine's tool.
-        suggested: &'static str,
     },
     #[error("the squares need a size > 0 and a gap >= 0")]
     GridSquares,

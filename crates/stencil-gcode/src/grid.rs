@@ -8,9 +8,9 @@
 use crate::machine::{Machine, Tool};
 use stencil_geom::ring::{bbox, dist};
 
-use crate::write::{num, write_each, LoopSettings};
 use crate::error::{Fit, PlanError, SettingsError};
 use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats};
+use crate::write::{num, write_each, LoopSettings};
 
 /// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
 #[derive(Clone, Copy, Debug, PartialEq)]

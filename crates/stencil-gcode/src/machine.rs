@@ -470,10 +470,18 @@ impl Checker<'_> {
             ("tool.pen_down_s", t.pen_down_s.is_some(), &[Pen]),
             ("tool.z_up_mm", t.z_up_mm.is_some(), &[Pen, Knife]),
             ("tool.z_down_mm", t.z_down_mm.is_some(), &[Pen, Knife]),
-            ("tool.plunge_mm_min", t.plunge_mm_min.is_some(), &[Pen, Knife]),
+            (
+                "tool.plunge_mm_min",
+                t.plunge_mm_min.is_some(),
+                &[Pen, Knife],
+            ),
             ("tool.overcut_mm", t.overcut_mm.is_some(), &[Knife]),
             ("tool.air_assist", t.air_assist.is_some(), &[Laser]),
-            ("tool.frame_power_pct", t.frame_power_pct.is_some(), &[Laser]),
+            (
+                "tool.frame_power_pct",
+                t.frame_power_pct.is_some(),
+                &[Laser],
+            ),
         ];
         for (field, present, kinds) in fields {
             if present && !kinds.contains(&t.kind) {

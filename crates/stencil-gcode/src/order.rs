@@ -24,8 +24,8 @@
 //! where it does not go the other way, so the two together never cycle (see [`order`]).
 
 use crate::toolpath::Loop;
-use stencil_geom::ring::{area, bbox, point_in_ring};
 use stencil_geom::clip::{self, ClipError};
+use stencil_geom::ring::{area, bbox, point_in_ring};
 
 /// The convex hull of a ring, counter-clockwise, without a closing point (Andrew's monotone
 /// chain).

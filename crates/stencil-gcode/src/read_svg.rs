@@ -16,8 +16,8 @@ use svg::node::element::path::{Command, Data, Position};
 use svg::node::element::tag::Type;
 use svg::parser::Event;
 
-use stencil_io::excerpt;
 use stencil_geom::clip;
+use stencil_io::excerpt;
 
 use crate::cuts::CutLoops;
 

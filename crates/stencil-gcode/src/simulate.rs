@@ -109,10 +109,8 @@ mod tests {
     /// lifted travel is not. Before one rule served both, simulate drew such jobs as all travel.
     #[test]
     fn pen_on_z_is_drawn_as_cutting() {
-        let m = interpret(
-            "G0 Z5\nG0 X0 Y0\nG0 X10\nG1 Z0 F500\nG1 Y10 F1000\nG0 Z5\nG0 X0\n",
-        )
-        .unwrap();
+        let m =
+            interpret("G0 Z5\nG0 X0 Y0\nG0 X10\nG1 Z0 F500\nG1 Y10 F1000\nG0 Z5\nG0 X0\n").unwrap();
         let rule = CutRule::infer(&m);
         assert_eq!(
             rule,

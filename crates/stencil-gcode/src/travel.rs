@@ -54,7 +54,11 @@ fn box_dist(b: &[f64; 4], p: [f64; 2]) -> f64 {
 
 /// Order all groups, one after the other, from `home`. Returns (loop index, start vertex) in cut
 /// order.
-pub(crate) fn optimise(loops: &[Loop], groups: &[Vec<usize>], home: [f64; 2]) -> Vec<(usize, usize)> {
+pub(crate) fn optimise(
+    loops: &[Loop],
+    groups: &[Vec<usize>],
+    home: [f64; 2],
+) -> Vec<(usize, usize)> {
     let mut out = Vec::with_capacity(loops.len());
     let mut cur = home;
     for g in groups {

@@ -197,7 +197,12 @@ pub(crate) fn write(job: &Job, machine: &Machine, notes: &[String]) -> String {
 
 /// [`write`] with loop `i` cut as `each[i]` says (loops past its end use the job's settings).
 /// Same header, laser mode and end as every job.
-pub(crate) fn write_each(job: &Job, machine: &Machine, notes: &[String], each: &[LoopSettings]) -> String {
+pub(crate) fn write_each(
+    job: &Job,
+    machine: &Machine,
+    notes: &[String],
+    each: &[LoopSettings],
+) -> String {
     let s = &job.settings;
     let feed = num(s.speed_mm_min);
     let laser = matches!(machine.tool, Tool::Laser { .. });
@@ -421,10 +426,7 @@ mod tests {
         // Tip at (0,0) arriving from (0,10) heading down: the axis is 0.5 below the corner.
         assert_eq!(p[0], [0.0, -0.5]);
         // Every point is the corner it swivels around plus r, or a shifted edge point.
-        let near_corner = |q: [f64; 2]| {
-            sq.iter()
-                .any(|c| (dist(*c, q) - 0.5).abs() < 1e-9)
-        };
+        let near_corner = |q: [f64; 2]| sq.iter().any(|c| (dist(*c, q) - 0.5).abs() < 1e-9);
         assert!(p.iter().all(|&q| near_corner(q)), "{p:?}");
         // A 90° turn in 10° steps: 9 arc points per corner plus the arrival point.
         assert_eq!(p.len(), 4 * 10);

@@ -186,7 +186,12 @@ pub(crate) struct Sweep {
 /// Clipper's sweep over `polys`, counted as it would run it (on its integer grid); with `turned`,
 /// over the shapes turned a quarter turn (a sweep along x). Counting stops once the work passes
 /// `max_work` or the crossings pass `max_crossings`.
-pub(crate) fn sweep(polys: &[&Polygon<f64>], turned: bool, max_work: f64, max_crossings: usize) -> Sweep {
+pub(crate) fn sweep(
+    polys: &[&Polygon<f64>],
+    turned: bool,
+    max_work: f64,
+    max_crossings: usize,
+) -> Sweep {
     // Non-horizontal edges as (y low, y high, x at low, x at high), in the sweep's frame.
     let mut edges: Vec<[f64; 4]> = Vec::new();
     let mut ys: Vec<f64> = Vec::new();

@@ -82,7 +82,14 @@ mod tests {
         assert_eq!(bbox(&sq), [0.0, 0.0, 1.0, 1.0]);
         assert!(bbox(&[])[0].is_infinite());
         // An L: the notch is outside.
-        let l = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]];
+        let l = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ];
         assert!(point_in_ring([0.5, 1.5], &l));
         assert!(point_in_ring([1.5, 0.5], &l));
         assert!(!point_in_ring([1.5, 1.5], &l));

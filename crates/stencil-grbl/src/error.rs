@@ -1,8 +1,8 @@
 //! Everything that stops a stream, with the file, line or port it concerns and what to do; the
 //! ones that stop a running job carry a [`Halt`]: how the laser was switched off and where to resume.
 
-use stencil_gcode::interpret as gcode;
 use super::protocol::{self, MAX_LINE_BYTES};
+use stencil_gcode::interpret as gcode;
 
 /// How a stream that stopped early left the machine, and where to pick it up.
 #[derive(Clone, Debug, PartialEq)]

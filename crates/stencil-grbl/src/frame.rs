@@ -8,10 +8,10 @@
 //! like a job, so it has every stop a job has (error, alarm, lost port, abort: laser off).
 
 use super::error::MachineError;
-use stencil_gcode::interpret::{CutRule, Move};
 use super::job::Job;
 use super::protocol::MachineState;
 use super::stream::console::Console;
+use stencil_gcode::interpret::{CutRule, Move};
 
 /// The rectangle of the cutting moves, in program (work) millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]

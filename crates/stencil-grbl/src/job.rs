@@ -2,8 +2,8 @@
 //! with its moves (for the time estimate) and the state preamble that resumes it mid-way.
 
 use super::error::MachineError;
-use stencil_gcode::interpret::{self as gcode, Modal, Move};
 use super::protocol::{self, MAX_LINE_BYTES};
+use stencil_gcode::interpret::{self as gcode, Modal, Move};
 
 /// One line to send: its text as Grbl will see it, and where it came from.
 #[derive(Clone, Debug, PartialEq)]

@@ -13,9 +13,9 @@ use std::fmt;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use stencil_gcode::interpret as gcode;
 use super::job::Job;
 use super::protocol::{MachineState, Status};
+use stencil_gcode::interpret as gcode;
 
 /// Where time comes from: the system's monotonic clock, or a test's.
 pub trait Clock: Send + Sync {

@@ -19,11 +19,11 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 
-use stencil_gcode::interpret::{self as gcode, Modal, Move};
 use super::protocol::{
     self, MAX_LINE_BYTES, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME,
     RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
 };
+use stencil_gcode::interpret::{self as gcode, Modal, Move};
 
 /// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
 const EEPROM_WRITE: Duration = Duration::from_millis(20);

@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 
 use tempfile::{NamedTempFile, TempPath};
 
-
 /// A file that could not be written (or an old one removed); nothing half-written is left.
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {

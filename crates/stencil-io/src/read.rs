@@ -47,4 +47,3 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
         what,
     })
 }
-

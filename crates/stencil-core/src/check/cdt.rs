@@ -545,8 +545,8 @@ fn triangulate_part(
     if window.is_some() {
         // A slab: sides spread from the seeded triangles across edges that are not ring edges.
         while let Some(i) = queue.pop() {
-            for k in 0..3 {
-                let g = across[i][k] as usize;
+            for (k, &g) in across[i].iter().enumerate() {
+                let g = g as usize;
                 if g == 0 || tris[i].ring_edges & (1 << k) != 0 {
                     continue;
                 }
@@ -561,8 +561,8 @@ fn triangulate_part(
         // a cut, none: outside the sheet). Needs no ring direction.
         let mut depth = vec![u32::MAX; tris.len()];
         for i in 0..tris.len() {
-            for k in 0..3 {
-                if across[i][k] == 0 && depth[i] == u32::MAX {
+            for (k, &g) in across[i].iter().enumerate() {
+                if g == 0 && depth[i] == u32::MAX {
                     depth[i] = u32::from(tris[i].ring_edges & (1 << k) != 0);
                     queue.push(i);
                 }
@@ -572,8 +572,8 @@ fn triangulate_part(
         while head < queue.len() {
             let i = queue[head];
             head += 1;
-            for k in 0..3 {
-                let g = across[i][k] as usize;
+            for (k, &g) in across[i].iter().enumerate() {
+                let g = g as usize;
                 if g != 0 && depth[g - 1] == u32::MAX {
                     depth[g - 1] = depth[i] + u32::from(tris[i].ring_edges & (1 << k) != 0);
                     queue.push(g - 1);

@@ -1,6 +1,6 @@
 //! Physical checks on the cut geometry against a [`Material`]: the material is one piece, every
 //! bridge is at least `min_bridge_mm` at its narrowest, every web (material) and hole (cut) at least
-//! `min_feature_mm`. OWNER: the vectors issue.
+//! `min_feature_mm`.
 //!
 //! ## How widths are measured
 //! A constrained Delaunay triangulation (spade) of every ring of the sheet (outline, holes, island
@@ -44,8 +44,8 @@ use crate::islands;
 use crate::material::Material;
 use crate::raster::{self, BitGrid};
 use crate::units::{Mm, Scale};
-use stencil_geom::ring::signed_area2;
 use crate::vector::CutGeometry;
+use stencil_geom::ring::{dist, signed_area2};
 
 /// Boundary length between a same-ring chord's ends, in chord lengths, above which it is a neck.
 /// Cutting a right-angle corner gives at most √2, a semicircular end π/2; a spike sharper than
@@ -64,7 +64,7 @@ pub enum CheckError {
     /// size limits refuse first, can make one).
     #[error(
         "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is {problem}; \
-         check the size (--width-mm, --dpi, --margin-mm)"
+         check the picture's size and the margin"
     )]
     Coordinate {
         x_mm: f64,
@@ -225,9 +225,8 @@ fn densify(r: &[[f64; 2]], spacing: f64) -> Vec<[f64; 2]> {
     out
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
+/// A chord found: its two ends, their points and its length.
+type Chord = (End, End, [f64; 2], [f64; 2], f64);
 
 /// A chord end: which ring, and how far along it.
 #[derive(Clone, Copy)]
@@ -341,7 +340,7 @@ fn perpendicular(
     i: u32,
     material_side: bool,
     bound: f64,
-) -> Option<(End, End, [f64; 2], [f64; 2], f64)> {
+) -> Option<Chord> {
     let pts = &r.pts[ring as usize];
     let n = pts.len() as u32;
     if w.ring == ring && (w.idx == i || w.idx == (i + 1) % n) {
@@ -612,7 +611,7 @@ fn check_tuned(
     let mut violations = cluster(cands, material);
     // Pieces: every material polygon but the sheet floats.
     let pieces = geom.material.0.len();
-    let sheet = crate::vector::union::sheet_of(&geom.material);
+    let sheet = geom.sheet_index();
     let order: Vec<usize> = (0..pieces).filter(|&i| Some(i) != sheet).collect();
     for &i in &order {
         let c = geom.material.0[i]
@@ -807,7 +806,7 @@ mod tests {
         let g = BitGrid::from_fn(120, 80, |x, y| {
             let (cx, cy) = (x % 20, y % 20);
             let w = 1 + (x / 20 + y / 20) % 4;
-            !(cx >= 3 && cx < 3 + 3 * w && cy >= 4 && cy < 16) || (cx == 4 + w && cy % 5 != 0)
+            !((3..3 + 3 * w).contains(&cx) && (4..16).contains(&cy)) || (cx == 4 + w && cy % 5 != 0)
         });
         let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
         let material = Material::default();

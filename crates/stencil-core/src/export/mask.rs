@@ -116,14 +116,15 @@ pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, Expor
         msg,
     };
     if !cfg.dpi.is_finite() || cfg.dpi <= 0.0 {
-        return Err(err(format!("--mask-dpi must be > 0, got {}", cfg.dpi)));
+        return Err(ExportError::MaskDpi(cfg.dpi));
     }
     let (w, h) = mask_size(geom, cfg.dpi);
     if w as f64 * h as f64 > MAX_MASK_PIXELS {
-        return Err(err(format!(
-            "{w}x{h} pixels at {} dpi is too large; lower --mask-dpi",
-            cfg.dpi
-        )));
+        return Err(ExportError::MaskTooLarge {
+            width: w,
+            height: h,
+            dpi: cfg.dpi,
+        });
     }
     let f = cfg.dpi / 25.4;
     let (ox, oy) = (geom.outline.min().x, geom.outline.min().y);

@@ -13,7 +13,9 @@ use geo::{LineString, MultiPolygon, Polygon};
 
 use crate::vector::CutGeometry;
 
-/// Millimetres with 4 decimals (0.1 µm), trailing zeros dropped.
+/// Millimetres with 4 decimals (0.1 µm), trailing zeros dropped: a coordinate in a file, at a
+/// fixed resolution whatever its size (unlike [`crate::limits::num`], which gives a message's
+/// number 6 significant digits; the two cannot be one without changing the SVG's bytes).
 pub fn num(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
@@ -156,5 +158,4 @@ mod tests {
             assert!((p.x - q.x).abs() < 1e-6 && (p.y - q.y).abs() < 1e-6);
         }
     }
-
 }

@@ -15,10 +15,10 @@ use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use stencil_gcode::{CutLoops, Pieces};
 use stencil_geom::clip;
 use stencil_geom::kerf;
 use stencil_geom::ring::{bbox, point_in_ring, signed_area2};
-use stencil_gcode::{CutLoops, Pieces};
 
 use crate::raster::BitGrid;
 use crate::units::{Mm, Scale};
@@ -98,10 +98,12 @@ pub struct VectorStats {
 
 #[derive(Debug, thiserror::Error)]
 pub enum VectorError {
-    #[error("--tolerance-mm must be a finite number >= 0, got {0}")]
+    /// The simplification tolerance ([`VectorConfig::tolerance_mm`]) given.
+    #[error("the simplification tolerance must be a finite number >= 0 mm, got {0}")]
     Tolerance(f64),
+    /// The sheet's margin ([`VectorConfig::margin_mm`]) given.
     #[error(
-        "--margin-mm must be a finite number > 0 (the sheet continues beyond the picture), got {0}"
+        "the margin must be a finite number > 0 mm (the sheet continues beyond the picture), got {0}"
     )]
     Margin(f64),
     #[error("the stencil image is empty (0 pixels)")]
@@ -195,6 +197,12 @@ pub fn vectorize_design(
 }
 
 impl CutGeometry {
+    /// Which of [`CutGeometry::material`]'s pieces is the sheet (the one whose outline encloses
+    /// the most); the others float. `None` when there is no material.
+    pub fn sheet_index(&self) -> Option<usize> {
+        union::sheet_of(&self.material)
+    }
+
     /// A sheet known only by its cut regions (as an SVG gives it): no material and no bridges;
     /// the tool paths are the design line until [`CutGeometry::apply_kerf`].
     pub fn from_cuts(
@@ -475,8 +483,12 @@ mod tests {
             })
         };
         let outline = vec![[13.0, 4.0], [17.0, 4.0], [17.0, 13.0], [13.0, 13.0]];
-        let (geo, _) =
-            vectorize(&with(true), &[outline.clone()], &VectorConfig::default()).unwrap();
+        let (geo, _) = vectorize(
+            &with(true),
+            std::slice::from_ref(&outline),
+            &VectorConfig::default(),
+        )
+        .unwrap();
         assert_eq!(geo.material.0.len(), 1, "{:?}", geo.material);
         assert_eq!(geo.design_cuts.0.len(), 1);
         assert!(geo.design_cuts.0[0].interiors().is_empty());

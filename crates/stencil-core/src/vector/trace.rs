@@ -339,7 +339,7 @@ mod tests {
         // Midpoint crossings chamfer each of the 4 corners by 1/8 px: 9 - 4/8.
         assert!((a + 8.5).abs() < 1e-9, "area {a}");
         let xs: Vec<f64> = rings[0].pts.iter().map(|p| p[0]).collect();
-        assert!(xs.iter().all(|&x| x >= 1.0 - 1e-9 && x <= 4.0 + 1e-9));
+        assert!(xs.iter().all(|&x| (1.0 - 1e-9..=4.0 + 1e-9).contains(&x)));
         // Smoothing rounds the corners more but keeps straight runs on the pixel boundary.
         let smooth = trace(&g, true);
         let a = signed_area2(&smooth[0].pts) / 2.0;

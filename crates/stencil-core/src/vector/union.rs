@@ -141,7 +141,7 @@ fn innermost<'a>(
 /// Which material piece is the sheet: the one whose outline encloses the largest area. (Not the
 /// largest piece: a big island inside a thin cut ring can have more material than the sheet
 /// around it.)
-pub fn sheet_of(material: &MultiPolygon<f64>) -> Option<usize> {
+pub(crate) fn sheet_of(material: &MultiPolygon<f64>) -> Option<usize> {
     let enclosed = |p: &Polygon<f64>| Polygon::new(p.exterior().clone(), vec![]).unsigned_area();
     material
         .0

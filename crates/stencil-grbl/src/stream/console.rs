@@ -67,12 +67,7 @@ impl<'a> Console<'a> {
             Ok(()) => false,
             Err(MachineError::Locked { alarm, .. }) => {
                 let why = alarm
-                    .map(|a| {
-                        format!(
-                            " (ALARM:{a}: {})",
-                            crate::protocol::alarm_meaning(a)
-                        )
-                    })
+                    .map(|a| format!(" (ALARM:{a}: {})", crate::protocol::alarm_meaning(a)))
                     .unwrap_or_default();
                 s.obs
                     .message(&format!("the machine is locked in alarm{why}"));

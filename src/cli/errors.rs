@@ -1,0 +1,230 @@
+//! The library's errors in the words of this command line: the library says what is wrong, with the
+//! numbers; here each message gains the option that changes it (`--width-mm`, `-o`,
+//! `--allow-thin`...). [`describe`] is what `main` prints for every error and cause.
+
+use std::error::Error as StdError;
+
+use stencil_core::check::CheckError;
+use stencil_core::export::ExportError;
+use stencil_core::limits::{self, num, FinerFix, SizeError};
+use stencil_core::material::SettingsError;
+use stencil_core::units::{Scale, Size};
+use stencil_core::vector::VectorError;
+use stencil_gcode::{Fit, PlanError};
+
+/// One error (not its causes) as the user reads it: the library's errors worded with the options
+/// that change them, any other error as it displays itself.
+pub fn describe(e: &(dyn StdError + 'static)) -> String {
+    if let Some(e) = e.downcast_ref::<stencil_core::Error>() {
+        core(e)
+    } else if let Some(e) = e.downcast_ref::<SizeError>() {
+        size(e)
+    } else if let Some(e) = e.downcast_ref::<VectorError>() {
+        vector(e)
+    } else if let Some(e) = e.downcast_ref::<ExportError>() {
+        export(e)
+    } else if let Some(e) = e.downcast_ref::<CheckError>() {
+        check(e)
+    } else if let Some(e) = e.downcast_ref::<SettingsError>() {
+        settings(e)
+    } else if let Some(e) = e.downcast_ref::<PlanError>() {
+        plan(e)
+    } else {
+        e.to_string()
+    }
+}
+
+/// An error of `make`'s pipeline.
+pub fn core(e: &stencil_core::Error) -> String {
+    use stencil_core::Error;
+    match e {
+        Error::Limit(e) => size(e),
+        Error::Vector(e) => vector(e),
+        Error::Export(e) => export(e),
+        Error::Check(e) => check(e),
+        Error::Plan(e) => plan(e),
+        Error::Thin { .. } => format!(
+            "{e}; widen the design, choose another --material, or pass --allow-thin to write the \
+             outputs anyway"
+        ),
+        e => e.to_string(),
+    }
+}
+
+/// The option that set the picture's size, with its value.
+fn size_option(size: Size) -> String {
+    match size {
+        Size::Default => "the default size".to_string(),
+        Size::WidthMm(v) => format!("--width-mm {}", num(v)),
+        Size::Dpi(v) => format!("--dpi {}", num(v)),
+    }
+}
+
+fn size(e: &SizeError) -> String {
+    match *e {
+        SizeError::NotPositive { size } => {
+            let (option, value) = match size {
+                Size::Dpi(v) => ("--dpi", v),
+                Size::WidthMm(v) => ("--width-mm", v),
+                Size::Default => return e.to_string(),
+            };
+            format!("{option} {value} is not a size: use a finite number > 0")
+        }
+        SizeError::OutOfRange {
+            size,
+            width_px,
+            height_px,
+            width_mm,
+            height_mm,
+            mm_per_px,
+            range,
+        } => {
+            let option = match size {
+                Size::Default => format!(
+                    "the default size of {} mm per pixel",
+                    Scale::default().mm_per_px
+                ),
+                _ => size_option(size),
+            };
+            let accepted = match (size, range) {
+                (Size::Default, Some((lo, hi))) => {
+                    format!(
+                        "give --width-mm {} to {} for this picture",
+                        num(lo),
+                        num(hi)
+                    )
+                }
+                (Size::WidthMm(_), Some((lo, hi))) => {
+                    format!("use --width-mm {} to {} for this picture", num(lo), num(hi))
+                }
+                (Size::Dpi(_), Some((lo, hi))) => {
+                    format!("use --dpi {} to {} for this picture", num(lo), num(hi))
+                }
+                (_, None) => "no size fits a picture of this shape: crop or resize it".to_string(),
+            };
+            format!(
+                "{option} makes the {width_px}x{height_px} px picture {} x {} mm with pixels of {} \
+                 mm; {}; {accepted}",
+                num(width_mm),
+                num(height_mm),
+                num(mm_per_px),
+                limits::out_of_range_reason(mm_per_px)
+            )
+        }
+        SizeError::TooFine {
+            size,
+            factor,
+            mm_per_px,
+            feature_mm,
+            feature_px,
+            fix,
+        } => {
+            let (option, fix) = match fix {
+                FinerFix::ScaleAtMost(k) => (
+                    format!("--scale {factor}"),
+                    format!("use --scale {k} or less"),
+                ),
+                FinerFix::DpiAtMost(d) => (
+                    size_option(size),
+                    format!(
+                        "use --dpi {} or less (or a picture with fewer pixels)",
+                        num(d)
+                    ),
+                ),
+                FinerFix::WidthMmAtLeast(w) => (
+                    size_option(size),
+                    format!(
+                        "use --width-mm {} or more (or a picture with fewer pixels)",
+                        num(w)
+                    ),
+                ),
+            };
+            format!(
+                "{option}: working pixels of {} mm make the material's smallest feature \
+                 ({feature_mm} mm) {} pixels wide, more than the {} stencil works with (the \
+                 clean-up's time grows with its square); {fix}",
+                num(mm_per_px),
+                num(feature_px),
+                limits::MAX_PX_PER_FEATURE
+            )
+        }
+        SizeError::FilterRadius {
+            radius,
+            width,
+            height,
+            max,
+        } => format!(
+            "--filter-radius {radius} is larger than this {width}x{height} px working image \
+             allows: use 0..={max} (a quarter of its shorter side)"
+        ),
+    }
+}
+
+fn vector(e: &VectorError) -> String {
+    match e {
+        VectorError::Tolerance(v) => {
+            format!("--tolerance-mm must be a finite number >= 0, got {v}")
+        }
+        VectorError::Margin(v) => format!(
+            "--margin-mm must be a finite number > 0 (the sheet continues beyond the picture), \
+             got {v}"
+        ),
+        e => e.to_string(),
+    }
+}
+
+fn export(e: &ExportError) -> String {
+    match e {
+        ExportError::CreateDir { .. } => format!("{e}; choose another with -o"),
+        ExportError::MaskDpi(dpi) => {
+            format!("mask.png: cannot encode: --mask-dpi must be > 0, got {dpi}")
+        }
+        ExportError::MaskTooLarge { .. } => format!("{e}; lower --mask-dpi"),
+        e => e.to_string(),
+    }
+}
+
+fn check(e: &CheckError) -> String {
+    match e {
+        CheckError::Coordinate {
+            x_mm,
+            y_mm,
+            problem,
+        } => format!(
+            "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is \
+             {problem}; check the size (--width-mm, --dpi, --margin-mm)"
+        ),
+    }
+}
+
+fn settings(e: &SettingsError) -> String {
+    match e {
+        SettingsError::EtchOnly { .. } => {
+            format!("{e}; use --emit mask, or choose a laser, knife or pen material")
+        }
+        SettingsError::WrongTool {
+            tool, suggested, ..
+        } => format!(
+            "{e}; choose a matching --material (for a {tool}: {suggested}, or see `stencil \
+             profiles`) or --machine, or give --power, --speed and --passes"
+        ),
+    }
+}
+
+/// A planning error in the words of the command line: the library says what to change, this adds
+/// the option that changes it.
+pub fn plan(e: &PlanError) -> String {
+    let hint = match e {
+        PlanError::Empty => {
+            return "nothing to cut: the geometry has no cut regions (and --cut-outline is off)"
+                .into()
+        }
+        PlanError::DoesNotFit { fix: Fit::Move, .. } => " with --offset X,Y or --origin",
+        PlanError::DoesNotFit {
+            fix: Fit::ShrinkGrid,
+            ..
+        } => " (--size, --gap, --offset)",
+        _ => "",
+    };
+    format!("{e}{hint}")
+}
