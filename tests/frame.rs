@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use stencil_grbl::frame::{cut_extent, frame, Extent, FrameError, FrameTool};
 use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{Control, Job, Quiet, StreamConfig};
+use stencil_grbl::stream::{Control, Program, Quiet, StreamConfig};
 use stencil_grbl::virtual_grbl::{
     Event, Fault, FaultKind, PlannedMove, Record, VirtualConfig, VirtualGrbl,
 };
@@ -28,7 +28,7 @@ fn cfg() -> StreamConfig {
 }
 
 fn extent() -> Extent {
-    cut_extent(&Job::parse("job.gcode", JOB).unwrap().moves).unwrap()
+    cut_extent(&Program::parse("job.gcode", JOB).unwrap().moves).unwrap()
 }
 
 /// Frame on a fresh virtual Grbl whose head first travels to `start` (work coordinates).
@@ -194,7 +194,7 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
 #[test]
 fn a_locked_machine_is_not_framed() {
     let vcfg = VirtualConfig {
-        motion: stencil_grbl::virtual_grbl::Motion::Paced { speedup: 1.0 },
+        pace: stencil_grbl::virtual_grbl::Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();

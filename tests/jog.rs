@@ -11,7 +11,7 @@ use stencil_grbl::jog::{parse_keys, run, JogKey, Jogger, Script};
 use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{Observer, StreamConfig};
 use stencil_grbl::virtual_grbl::{
-    Event, Fault, FaultKind, Motion, Record, VirtualConfig, VirtualGrbl,
+    Event, Fault, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl,
 };
 
 #[derive(Default)]
@@ -144,7 +144,7 @@ fn zero_sets_work_zero_where_the_head_is() {
 #[test]
 fn unlock_clears_the_alarm_that_refused_the_jog() {
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 1.0 },
+        pace: Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     // A reset while moving leaves Grbl locked (ALARM:3).
@@ -201,7 +201,7 @@ fn home_homes_or_says_homing_is_disabled() {
 #[test]
 fn a_released_key_or_quit_cancels_the_running_jog() {
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 1.0 },
+        pace: Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     // 10 mm at 1000 mm/min takes 0.6 s: cancelled long before.

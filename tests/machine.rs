@@ -6,9 +6,9 @@ use std::sync::mpsc::{channel, Sender};
 use std::time::Duration;
 
 use stencil_grbl::stream::{
-    send, Control, FlowControl, Job, MachineError, Observer, Progress, Quiet, StreamConfig,
+    send, Control, FlowControl, Program, MachineError, Observer, Progress, Quiet, StreamConfig,
 };
-use stencil_grbl::virtual_grbl::{Event, Fault, FaultKind, Motion, Record};
+use stencil_grbl::virtual_grbl::{Event, Fault, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 #[path = "common/job.rs"]
@@ -20,8 +20,8 @@ fn job_text() -> String {
     job_text_scaled(1)
 }
 
-fn job() -> Job {
-    Job::parse("test.gcode", &job_text()).unwrap()
+fn job() -> Program {
+    Program::parse("test.gcode", &job_text()).unwrap()
 }
 
 fn cfg() -> StreamConfig {
@@ -41,7 +41,7 @@ fn program_received(r: &Record, from: usize) -> Vec<String> {
         .collect()
 }
 
-fn texts(job: &Job, from_line: usize) -> Vec<String> {
+fn texts(job: &Program, from_line: usize) -> Vec<String> {
     job.lines
         .iter()
         .filter(|l| l.number >= from_line)
@@ -50,12 +50,12 @@ fn texts(job: &Job, from_line: usize) -> Vec<String> {
 }
 
 /// The file line of the k-th (1-based) G-code line of the job.
-fn file_line(job: &Job, k: usize) -> usize {
+fn file_line(job: &Program, k: usize) -> usize {
     job.lines[k - 1].number
 }
 
 /// Every job line before `resume` reached the machine and finished there (no gap when resuming).
-fn assert_ran_everything_before(job: &Job, r: &Record, resume: usize) {
+fn assert_ran_everything_before(job: &Program, r: &Record, resume: usize) {
     let first_run: Vec<(usize, &str)> = r
         .received
         .iter()
@@ -111,7 +111,7 @@ fn tiny_buffer_and_slow_machine_never_overflow() {
     let job = job();
     let vcfg = VirtualConfig {
         rx_buffer: 32,
-        motion: Motion::Paced { speedup: 40.0 },
+        pace: Pace::Timed { speedup: 40.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -372,7 +372,7 @@ impl Observer for Operator {
 fn abort_while_moving_stops_and_resume_leaves_no_gap() {
     let job = job();
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 20.0 },
+        pace: Pace::Timed { speedup: 20.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -424,7 +424,7 @@ fn abort_while_moving_stops_and_resume_leaves_no_gap() {
 fn feed_hold_and_resume_from_the_operator() {
     let job = job();
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 40.0 },
+        pace: Pace::Timed { speedup: 40.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -450,17 +450,17 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
     let mut text = job_text();
     text = text.replacen("G21 G90\n", "G21 G90\nG1 X3 Y3\n", 1);
     text.push_str("G5 X1\n");
-    let bad = Job::parse("bad.gcode", &text).unwrap();
+    let bad = Program::parse("bad.gcode", &text).unwrap();
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     let c = StreamConfig {
         check_first: true,
         ..cfg()
     };
     let err = send(&mut port, &bad, &c, None, &mut Quiet).unwrap_err();
-    let MachineError::CheckFailed { errors, .. } = &err else {
+    let MachineError::CheckFailed { rejected, .. } = &err else {
         panic!("{err}")
     };
-    let got: Vec<(usize, u8)> = errors.iter().map(|e| (e.line, e.code)).collect();
+    let got: Vec<(usize, u8)> = rejected.iter().map(|e| (e.line, e.code)).collect();
     let last = text.lines().count();
     assert_eq!(got, vec![(3, 22), (last, 20)]);
     let msg = err.to_string();
@@ -487,7 +487,7 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
 #[test]
 fn a_job_that_leaves_the_laser_on_is_followed_by_m5() {
     let text = job_text().replace("M5\n", "");
-    let job = Job::parse("no-m5.gcode", &text).unwrap();
+    let job = Program::parse("no-m5.gcode", &text).unwrap();
     assert!(job.may_end_laser_on);
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap();
@@ -503,7 +503,7 @@ fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     // A `$32=1` (laser mode) written mid-job: Grbl stops listening while it writes EEPROM, so
     // nothing may travel behind it; `%` program markers are not sent at all.
     let text = job_text().replacen("G21 G90\n", "%\nG21 G90\n$32=1\n", 1) + "%\n";
-    let job = Job::parse("settings.gcode", &text).unwrap();
+    let job = Program::parse("settings.gcode", &text).unwrap();
     assert!(job.lines.iter().all(|l| l.text != "%"));
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     let c = StreamConfig {
@@ -566,7 +566,7 @@ fn planned_sample(name: &str) -> String {
 #[test]
 fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
     let text = planned_sample("rings");
-    let job = Job::parse("rings.gcode", &text).unwrap();
+    let job = Program::parse("rings.gcode", &text).unwrap();
     assert!(job.lines.len() > 100, "{}", job.lines.len());
     assert!(!job.may_end_laser_on);
 

@@ -13,7 +13,7 @@ use clap::Args;
 
 use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameTool, Framed};
 use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Job, Observer, StreamConfig};
+use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Program, Observer, StreamConfig};
 use stencil_grbl::virtual_grbl::VirtualConfig;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 
@@ -94,7 +94,7 @@ impl Setup {
 /// `no_bed_check`), how the tool stays dark, and the feed.
 pub fn setup(
     file: &Path,
-    job: &Job,
+    job: &Program,
     machine: &Machine,
     feed: Option<f64>,
     no_bed_check: bool,
@@ -205,7 +205,7 @@ pub fn can_ask() -> bool {
 
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let text = super::send::read_program(&a.file)?;
-    let job = Job::parse(&a.file.display().to_string(), &text)?;
+    let job = Program::parse(&a.file.display().to_string(), &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
     let vcfg = VirtualConfig {

@@ -21,10 +21,10 @@ use stencil_grbl::keys::{self, Key, KeySource};
 use stencil_gcode::simulate;
 use stencil_grbl::stall::ClockRef;
 use stencil_grbl::stream::{
-    self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress, ResumeLift,
+    self, Control, ControllerInfo, FlowControl, Program, LaserMode, Observer, Progress, ResumeLift,
     StreamConfig,
 };
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig};
 use stencil_gcode::estimate::{estimate, estimate_with, format_duration, MotionLimits};
 use stencil_gcode::machine as machine_profile;
 
@@ -397,7 +397,7 @@ fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
 
 /// A laser machine running a job that switches the beam on needs laser mode; anything else
 /// leaves `$32` alone (a pen servo or a spindle must not be put in laser mode).
-fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> LaserMode {
+fn laser_mode(machine: &machine_profile::Machine, job: &Program, set: bool) -> LaserMode {
     let fires = job.moves.iter().any(|m| m.power > 0.0);
     match machine.tool {
         machine_profile::Tool::Laser { .. } if fires && set => LaserMode::Set,
@@ -408,7 +408,7 @@ fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> Laser
 
 /// Tell the user what the journal knows and where the job will resume; `None` if there is
 /// nothing left to do.
-fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usize> {
+fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option<usize> {
     let age = j.age().as_secs_f64();
     let how = match j.state {
         RunState::Running => {
@@ -462,7 +462,7 @@ fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usi
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
-    let job = Job::parse(&name, &text)?;
+    let job = Program::parse(&name, &text)?;
     let journal_path = journal::path_for(&a.file);
     let mut from_line = a.from_line as usize;
     let mut machine_arg = a.machine.clone();
@@ -534,10 +534,10 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     };
 
     let vcfg = VirtualConfig {
-        motion: if a.realtime {
-            Motion::Paced { speedup: 1.0 }
+        pace: if a.realtime {
+            Pace::Timed { speedup: 1.0 }
         } else {
-            Motion::Instant
+            Pace::Instant
         },
         baud: a.realtime.then_some(a.link.baud),
         rapid_mm_min: limits.rapid_mm_min,

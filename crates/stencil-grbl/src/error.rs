@@ -33,14 +33,14 @@ impl std::fmt::Display for Halt {
 
 /// One line `$C` check mode rejected.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CheckError {
+pub struct CheckRejection {
     pub line: usize,
     pub text: String,
     pub code: u8,
 }
 
-fn list_check_errors(errors: &[CheckError]) -> String {
-    let mut s: Vec<String> = errors
+fn list_rejections(rejected: &[CheckRejection]) -> String {
+    let mut s: Vec<String> = rejected
         .iter()
         .take(10)
         .map(|e| {
@@ -53,8 +53,8 @@ fn list_check_errors(errors: &[CheckError]) -> String {
             )
         })
         .collect();
-    if errors.len() > 10 {
-        s.push(format!("and {} more", errors.len() - 10));
+    if rejected.len() > 10 {
+        s.push(format!("and {} more", rejected.len() - 10));
     }
     s.join("; ")
 }
@@ -109,10 +109,10 @@ pub enum MachineError {
     LaserModeOff { port: String, value: String },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },
-    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
+    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", rejected.len(), list_rejections(rejected))]
     CheckFailed {
         file: String,
-        errors: Vec<CheckError>,
+        rejected: Vec<CheckRejection>,
     },
     #[error("Grbl rejected line {line} `{text}` with error:{code} ({}); stopped: {halt} (after fixing the line)", protocol::error_meaning(*code))]
     Rejected {

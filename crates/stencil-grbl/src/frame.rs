@@ -9,7 +9,7 @@
 
 use super::error::MachineError;
 use stencil_gcode::interpret::{CutRule, Move};
-use super::job::Job;
+use super::program::Program;
 use super::protocol::MachineState;
 use super::stream::console::Console;
 
@@ -247,7 +247,7 @@ pub fn frame(
         feed_mm_min,
     };
     let program = frame_program(&plan);
-    let job = Job::parse("frame", &program)?;
+    let job = Program::parse("frame", &program)?;
     console.run(&job)?;
     let after = console.position()?;
     Ok(Framed {

@@ -15,7 +15,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use super::error::MachineError;
-use super::job::Job;
+use super::program::Program;
 use super::stall::ClockRef;
 use super::stream::{ControllerInfo, Observer, Progress, Summary};
 use stencil_io::write_atomic;
@@ -134,7 +134,7 @@ fn unix_now() -> u64 {
 
 impl Journal {
     /// A fresh journal for a run of `job` (its file's bytes) on `machine` from `from_line`.
-    pub fn new(file: &Path, bytes: &[u8], job: &Job, machine: &str, from_line: usize) -> Journal {
+    pub fn new(file: &Path, bytes: &[u8], job: &Program, machine: &str, from_line: usize) -> Journal {
         let now = unix_now();
         let mut j = Journal {
             format: FORMAT.into(),
@@ -166,7 +166,7 @@ impl Journal {
     }
 
     /// Move the resume point, and the modal state recorded with it.
-    pub fn set_resume(&mut self, job: &Job, line: usize) {
+    pub fn set_resume(&mut self, job: &Program, line: usize) {
         self.resume_from = line;
         // A line past the end (everything ran) has the state at the end of the file.
         let before = line.min(job.source_lines() + 1);
@@ -251,7 +251,7 @@ impl Journal {
     /// The line to resume from, and why: the line carrying the last `Ln:` Grbl reported (it was
     /// running, so not surely done), else the first line that may not have run by the host's
     /// count (acknowledged minus what the planner may still have held).
-    pub fn proposal(&self, job: &Job) -> Proposal {
+    pub fn proposal(&self, job: &Program) -> Proposal {
         if let Some(ln) = self.status_ln {
             if let Some(l) = job.lines.iter().find(|l| n_word(&l.text) == Some(ln)) {
                 return Proposal {
@@ -311,7 +311,7 @@ pub struct JournalWriter<'o, 'j> {
     pub inner: &'o mut dyn Observer,
     pub journal: Journal,
     pub path: PathBuf,
-    job: &'j Job,
+    job: &'j Program,
     clock: ClockRef,
     every: Duration,
     last_write: Option<Duration>,
@@ -323,7 +323,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
         inner: &'o mut dyn Observer,
         journal: Journal,
         path: PathBuf,
-        job: &'j Job,
+        job: &'j Program,
         clock: ClockRef,
         every: Duration,
     ) -> Self {
@@ -433,7 +433,7 @@ mod tests {
     #[test]
     fn proposal_prefers_ln_then_the_planner_count() {
         let text = "G21 G90\nN10 M4 S100\nN20 G1 X1 F600\nN30 G1 X2\nN40 G1 X3\nN50 G1 X4\n";
-        let job = Job::parse("n.gcode", text).unwrap();
+        let job = Program::parse("n.gcode", text).unwrap();
         let mut j = Journal::new(Path::new("n.gcode"), text.as_bytes(), &job, "diode-400", 1);
         j.last_acked_line = Some(6);
         j.set_resume(&job, 4);

@@ -7,7 +7,7 @@
 
 pub mod error;
 pub mod frame;
-pub mod job;
+pub mod program;
 pub mod jog;
 pub mod journal;
 pub mod keys;
@@ -16,5 +16,5 @@ pub mod stall;
 pub mod stream;
 pub mod virtual_grbl;
 
-pub use stream::{send, BytePort, Control, FlowControl, Job, MachineError, StreamConfig};
+pub use stream::{send, BytePort, Control, FlowControl, Program, MachineError, StreamConfig};
 pub use virtual_grbl::{VirtualConfig, VirtualGrbl};

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use stencil_gcode::interpret as gcode;
-use super::job::Job;
+use super::program::Program;
 use super::protocol::{MachineState, Status};
 
 /// Where time comes from: the system's monotonic clock, or a test's.
@@ -61,7 +61,7 @@ pub const STALL_MARGIN: Duration = Duration::from_secs(5);
 /// How long the job's slowest single step takes at 100 % feed: the longest move at its programmed
 /// feed (G0 at `rapid_mm_min`, or when that is unknown at the slowest feed the job uses, which
 /// overestimates), or the longest dwell (`G4 P<seconds>`).
-pub fn slowest_step(job: &Job, rapid_mm_min: Option<f64>) -> Duration {
+pub fn slowest_step(job: &Program, rapid_mm_min: Option<f64>) -> Duration {
     let slowest_feed = job
         .moves
         .iter()
@@ -212,17 +212,17 @@ mod tests {
     #[test]
     fn the_bound_comes_from_the_jobs_own_speeds() {
         // 100 mm at 600 mm/min = 10 s; a 30 mm G0 at 3000 mm/min = 0.6 s.
-        let job = Job::parse("j", "G0 X30\nG1 X130 F600\nG1 X131\n").unwrap();
+        let job = Program::parse("j", "G0 X30\nG1 X130 F600\nG1 X131\n").unwrap();
         assert_eq!(slowest_step(&job, Some(3000.0)), Duration::from_secs(10));
         assert_eq!(
             stall_bound(Duration::from_secs(10)),
             Duration::from_secs(20)
         );
         // Rapid rate unknown: G0 timed at the slowest feed (30 mm at 60 mm/min = 30 s).
-        let job = Job::parse("j", "G0 X30\nG1 X31 F60\n").unwrap();
+        let job = Program::parse("j", "G0 X30\nG1 X31 F60\n").unwrap();
         assert_eq!(slowest_step(&job, None), Duration::from_secs(30));
         // A dwell longer than any move counts.
-        let job = Job::parse("j", "G1 X1 F600\nG4 P12.5\n").unwrap();
+        let job = Program::parse("j", "G1 X1 F600\nG4 P12.5\n").unwrap();
         assert_eq!(slowest_step(&job, None), Duration::from_secs_f64(12.5));
     }
 }

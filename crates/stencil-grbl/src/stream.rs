@@ -15,8 +15,8 @@ use serialport::{SerialPort, TTYPort};
 
 pub mod console;
 
-pub use super::error::{CheckError, Halt, MachineError};
-pub use super::job::{Job, JobLine, ResumeLift};
+pub use super::error::{CheckRejection, Halt, MachineError};
+pub use super::program::{Program, ProgramLine, ResumeLift};
 use super::protocol::{
     self, MachineState, Reply, Status, PLANNER_BLOCKS_DEFAULT, RT_FEED_HOLD, RT_RESUME,
     RT_SOFT_RESET, RT_STATUS, RX_BUFFER_DEFAULT,
@@ -177,7 +177,7 @@ pub struct ControllerInfo {
 /// Where a running job stands.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Progress {
-    /// Job lines acknowledged (the resume preamble not counted) and in total.
+    /// Program lines acknowledged (the resume preamble not counted) and in total.
     pub acked: usize,
     pub total: usize,
     pub last_acked_line: Option<usize>,
@@ -352,7 +352,7 @@ struct Session<'a, 'o> {
 /// (soft reset, laser off) and returns an error carrying the resume line ([`MachineError::halt`]).
 pub fn send(
     port: &mut dyn BytePort,
-    job: &Job,
+    job: &Program,
     cfg: &StreamConfig,
     controls: Option<&Receiver<Control>>,
     obs: &mut dyn Observer,
@@ -743,7 +743,7 @@ impl Session<'_, '_> {
     }
 
     /// Run the lines through `$C` check mode; refuse if any errors.
-    fn check(&mut self, job: &Job, body: &[Outgoing]) -> Result<(), MachineError> {
+    fn check(&mut self, job: &Program, body: &[Outgoing]) -> Result<(), MachineError> {
         self.obs
             .message("checking the program in Grbl's check mode ($C)");
         self.command("$C")?;
@@ -766,8 +766,8 @@ impl Session<'_, '_> {
             })
             .collect();
         let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
-        let errors = match self.stream_inner(&lines, true, rx_limit, 1) {
-            Ok(run) => run.check_errors,
+        let rejected = match self.stream_inner(&lines, true, rx_limit, 1) {
+            Ok(run) => run.rejected,
             Err(e) => return Err(e),
         };
         // Leaving check mode soft-resets Grbl: wait for its banner.
@@ -782,10 +782,10 @@ impl Session<'_, '_> {
                 secs: self.cfg.timeout.as_secs_f64(),
             });
         }
-        if !errors.is_empty() {
+        if !rejected.is_empty() {
             return Err(MachineError::CheckFailed {
                 file: job.name.clone(),
-                errors,
+                rejected,
             });
         }
         self.obs
@@ -943,7 +943,7 @@ impl Session<'_, '_> {
                 Reply::Error(code) => {
                     let Some(l) = f.reject() else { continue };
                     if checking {
-                        f.run.check_errors.push(CheckError {
+                        f.run.rejected.push(CheckRejection {
                             line: l.number,
                             text: l.text.clone(),
                             code,
@@ -1237,7 +1237,7 @@ struct Run {
     bytes: u64,
     elapsed: Duration,
     max_in_flight: usize,
-    check_errors: Vec<CheckError>,
+    rejected: Vec<CheckRejection>,
 }
 
 #[cfg(test)]

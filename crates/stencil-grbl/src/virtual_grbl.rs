@@ -28,13 +28,13 @@ use super::protocol::{
 /// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
 const EEPROM_WRITE: Duration = Duration::from_millis(20);
 
-/// How the simulated machine spends time on motion.
+/// How the simulated machine spends time on motion (its pace; not a move).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Motion {
+pub enum Pace {
     /// Moves complete the moment they are planned: a dry run goes as fast as the link allows.
     Instant,
     /// Moves take their length ÷ feed, divided by `speedup` (1.0 = as the machine would).
-    Paced { speedup: f64 },
+    Timed { speedup: f64 },
 }
 
 /// What goes wrong, for tests.
@@ -71,7 +71,7 @@ pub struct VirtualConfig {
     /// Receive buffer size in bytes (128 in stock Grbl); reported in `$I` as `[OPT:V,blocks,rx]`.
     pub rx_buffer: usize,
     pub planner_blocks: usize,
-    pub motion: Motion,
+    pub pace: Pace,
     /// Pace the link at this baud rate (10 bits per byte, both directions); `None` = as fast as the
     /// pty goes.
     pub baud: Option<u32>,
@@ -96,7 +96,7 @@ impl Default for VirtualConfig {
         VirtualConfig {
             rx_buffer: RX_BUFFER_DEFAULT,
             planner_blocks: PLANNER_BLOCKS_DEFAULT,
-            motion: Motion::Instant,
+            pace: Pace::Instant,
             baud: None,
             rapid_mm_min: 6000.0,
             faults: Vec::new(),
@@ -466,7 +466,7 @@ impl Sim {
         if let Some((t, _)) = self.eeprom {
             wait = wait.min(t.saturating_duration_since(now));
         }
-        if let (Motion::Paced { .. }, false) = (self.cfg.motion, self.planner.is_empty()) {
+        if let (Pace::Timed { .. }, false) = (self.cfg.pace, self.planner.is_empty()) {
             wait = wait.min(Duration::from_millis(2));
         }
         wait
@@ -577,7 +577,7 @@ impl Sim {
     fn advance(&mut self, now: Instant) {
         let dt = now.saturating_duration_since(self.last_tick).as_secs_f64();
         self.last_tick = now;
-        let Motion::Paced { speedup } = self.cfg.motion else {
+        let Pace::Timed { speedup } = self.cfg.pace else {
             return;
         };
         if self.hold || self.frozen || self.state != State::Idle {
@@ -652,9 +652,9 @@ impl Sim {
             });
             jog
         };
-        match self.cfg.motion {
-            Motion::Instant => lock(&self.shared).executed.push(idx),
-            Motion::Paced { .. } => {
+        match self.cfg.pace {
+            Pace::Instant => lock(&self.shared).executed.push(idx),
+            Pace::Timed { .. } => {
                 let d = ((mv.to[0] - mv.from[0]).powi(2)
                     + (mv.to[1] - mv.from[1]).powi(2)
                     + (mv.to[2] - mv.from[2]).powi(2))
@@ -1270,7 +1270,7 @@ mod tests {
     #[test]
     fn overrides_scale_feed_and_power_and_are_reported() {
         let cfg = VirtualConfig {
-            motion: Motion::Paced { speedup: 1.0 },
+            pace: Pace::Timed { speedup: 1.0 },
             ..VirtualConfig::default()
         };
         let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
@@ -1320,7 +1320,7 @@ mod tests {
     fn overflowing_bytes_are_dropped_and_counted() {
         let cfg = VirtualConfig {
             rx_buffer: 16,
-            motion: Motion::Paced { speedup: 1.0 },
+            pace: Pace::Timed { speedup: 1.0 },
             ..VirtualConfig::default()
         };
         let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();
@@ -1343,7 +1343,7 @@ mod tests {
     #[test]
     fn reset_during_motion_locks_until_unlock() {
         let cfg = VirtualConfig {
-            motion: Motion::Paced { speedup: 1.0 },
+            pace: Pace::Timed { speedup: 1.0 },
             ..VirtualConfig::default()
         };
         let (vg, mut host) = VirtualGrbl::spawn(cfg).unwrap();

@@ -11,7 +11,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use super::{
-    BytePort, Control, ControllerInfo, Job, MachineError, Observer, Outgoing, Session,
+    BytePort, Control, ControllerInfo, Program, MachineError, Observer, Outgoing, Session,
     StreamConfig, Summary,
 };
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
@@ -224,7 +224,7 @@ impl<'a> Console<'a> {
     /// acknowledged, then wait until the machine is idle. Operator aborts (the `controls`
     /// channel), `error:N`, alarms, silence and a lost port end it as they end a job: feed hold,
     /// soft reset, laser off.
-    pub fn run(&mut self, job: &Job) -> Result<Summary, MachineError> {
+    pub fn run(&mut self, job: &Program) -> Result<Summary, MachineError> {
         let lines: Vec<Outgoing> = job
             .lines
             .iter()
