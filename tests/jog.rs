@@ -10,9 +10,10 @@ use std::time::Duration;
 use stencil_grbl::jog::{parse_keys, run, JogKey, Jogger, Script};
 use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::{
-    Event, Fault, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl,
-};
+use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl};
+
+mod common;
+use common::faulty;
 
 #[derive(Default)]
 struct Log(Vec<String>);
@@ -225,24 +226,12 @@ fn a_released_key_or_quit_cancels_the_running_jog() {
 #[test]
 fn a_lost_port_or_a_silent_machine_ends_the_session_saying_so() {
     // The first G-code line (the work zero) pulls the cable.
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: 1,
-            kind: FaultKind::ClosePort,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::ClosePort, 1);
     let (r, _, _, res) = jog(vcfg, &[], "right,0,right", 1.0);
     let e = res.unwrap_err();
     assert!(e.contains("make sure the laser and the air are off"), "{e}");
     assert!(r.closed && !r.laser_on);
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: 1,
-            kind: FaultKind::Silence,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Silence, 1);
     let (r, _, _, res) = jog(vcfg, &[], "right,0,right", 1.0);
     let e = res.unwrap_err();
     assert!(e.contains("laser"), "{e}");

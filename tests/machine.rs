@@ -6,11 +6,13 @@ use std::sync::mpsc::{channel, Sender};
 use std::time::Duration;
 
 use stencil_grbl::stream::{
-    send, Control, FlowControl, Program, MachineError, Observer, Progress, Quiet, StreamConfig,
+    send, Control, FlowControl, MachineError, Observer, Program, Progress, Quiet, StreamConfig,
 };
-use stencil_grbl::virtual_grbl::{Event, Fault, FaultKind, Pace, Record};
+use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
+mod common;
+use common::faulty;
 #[path = "common/job.rs"]
 mod common_job;
 use common_job::job_text_scaled;
@@ -147,13 +149,7 @@ fn send_response_sends_one_line_at_a_time() {
 fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
     let job = job();
     let k = 120;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Error(22),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Error(22), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let line = file_line(&job, k);
@@ -167,7 +163,7 @@ fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
     assert!(msg.contains("feed"), "meaning of error 22 missing: {msg}");
     let halt = err.halt().unwrap();
     assert_eq!(halt.resume_from, line);
-    assert!(msg.contains(&format!("--from-line {line}")), "{msg}");
+    assert!(msg.contains(&format!("resume from line {line}")), "{msg}");
     let r = vg.record();
     laser_stopped_after_fault(&r);
     assert_eq!(r.received.last().unwrap().text, "M5");
@@ -192,13 +188,7 @@ fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
 fn alarm_mid_job_stops_locks_and_resume_unlocks() {
     let job = job();
     let k = 150;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Alarm(1),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Alarm(1), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let msg = err.to_string();
@@ -218,7 +208,7 @@ fn alarm_mid_job_stops_locks_and_resume_unlocks() {
     let before = r.received.len();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     assert!(matches!(err, MachineError::Locked { .. }), "{err}");
-    assert!(err.to_string().contains("--unlock"), "{err}");
+    assert!(err.to_string().contains("unlock it ($X)"), "{err}");
 
     let c = StreamConfig {
         from_line: halt.resume_from,
@@ -242,13 +232,7 @@ fn alarm_mid_job_stops_locks_and_resume_unlocks() {
 fn silent_controller_is_reported_with_the_last_acknowledged_line() {
     let job = job();
     let k = 90;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Silence,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Silence, k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let c = StreamConfig {
         timeout: Duration::from_secs(1),
@@ -297,13 +281,7 @@ fn silent_controller_is_reported_with_the_last_acknowledged_line() {
 fn vanished_port_is_reported_with_the_resume_line() {
     let job = job();
     let k = 60;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::ClosePort,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::ClosePort, k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let msg = err.to_string();
@@ -353,12 +331,7 @@ impl Observer for Operator {
             self.hold_at = None;
             self.tx.send(Control::FeedHold).unwrap();
         }
-        if !self.held
-            && matches!(
-                p.state,
-                Some(stencil_grbl::protocol::MachineState::Hold(_))
-            )
-        {
+        if !self.held && matches!(p.state, Some(stencil_grbl::protocol::MachineState::Hold(_))) {
             self.held = true;
         }
         if self.held && !self.resumed {
@@ -581,13 +554,7 @@ fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
     // Rejected half way (checked first), then resumed: the rest arrives once each, after the
     // preamble our interpreter computed from the planner's own output.
     let k = job.lines.len() / 2;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Error(20),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Error(20), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let c = StreamConfig {
         check_first: true,

@@ -5,12 +5,15 @@
 use std::time::Duration;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_grbl::stream::{send, Program, MachineError, Quiet, ResumeLift, StreamConfig};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, PlannedMove, Record};
+use stencil_grbl::stream::{send, MachineError, Program, Quiet, ResumeLift, StreamConfig};
+use stencil_grbl::virtual_grbl::{FaultKind, PlannedMove, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
-use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
-use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+
+mod common;
+use common::faulty;
 use stencil_core::vector::CutGeometry;
+use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
 
 fn cfg() -> StreamConfig {
     StreamConfig {
@@ -195,13 +198,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
         // the last one: the tool (a knife left at cutting depth) must come up before the long
         // travel. (An alarm drops the buffered lines at once, so the stop is where it happened.)
         let k = job.lines.iter().position(|l| l.number == down[3]).unwrap() + 1;
-        let vcfg = VirtualConfig {
-            faults: vec![Fault {
-                at_job_line: k,
-                kind: FaultKind::Alarm(1),
-            }],
-            ..VirtualConfig::default()
-        };
+        let vcfg = faulty(FaultKind::Alarm(1), k);
         let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
         let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
         assert!(matches!(err, MachineError::Alarm { .. }), "{err}");
@@ -315,16 +312,6 @@ impl Observer for AbortAt {
             self.at = None;
             self.tx.send(Control::Abort).unwrap();
         }
-    }
-}
-
-fn faulty(kind: FaultKind, at: usize) -> VirtualConfig {
-    VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: at,
-            kind,
-        }],
-        ..VirtualConfig::default()
     }
 }
 
@@ -444,7 +431,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     assert!(halt.resume_from <= frozen_line, "{msg}");
     assert!(halt.last_acked.unwrap() < frozen_line, "{msg}");
     assert!(
-        msg.contains(&format!("--from-line {}", halt.resume_from)),
+        msg.contains(&format!("resume from line {}", halt.resume_from)),
         "{msg}"
     );
     assert!(msg.contains("stall"), "{msg}");
@@ -512,10 +499,7 @@ fn a_laser_job_is_refused_without_laser_mode_or_sets_it_when_asked() {
     let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
     assert!(matches!(err, MachineError::LaserModeOff { .. }), "{err}");
     let msg = err.to_string();
-    assert!(
-        msg.contains("$32=0") && msg.contains("--set-laser-mode"),
-        "{msg}"
-    );
+    assert!(msg.contains("$32=0") && msg.contains("Set $32=1"), "{msg}");
     let r = vg.stop();
     assert_eq!(r.run_lines(), ["$I", "$$"], "something was sent");
     assert!(!r.laser_mode);

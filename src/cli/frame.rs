@@ -11,11 +11,11 @@ use std::time::Duration;
 use anyhow::bail;
 use clap::Args;
 
-use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameTool, Framed};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Program, Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::VirtualConfig;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameError, FrameTool, Framed};
+use stencil_grbl::stream::console::Console;
+use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Observer, Program, StreamConfig};
+use stencil_grbl::virtual_grbl::VirtualConfig;
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
 /// to follow the head with the eye, fast enough not to bore.
@@ -170,7 +170,15 @@ pub fn frame_on(
 ) -> anyhow::Result<Framed> {
     let mut console = Console::connect(port, cfg, Some(controls), obs)?;
     console.say(&format!("framing {}", s.describe()));
-    Ok(frame::frame(&mut console, s.extent, s.tool, s.feed)?)
+    frame::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
+        let hint = match &e {
+            FrameError::Machine(m) => super::port::machine_hint(m),
+            // Locked before, or by the stop.
+            _ if console.locked() => "; run again with --unlock to send $X",
+            _ => "",
+        };
+        anyhow::anyhow!("{e}{hint}")
+    })
 }
 
 /// What framing did, for the user.

@@ -2,8 +2,10 @@
 //! with its moves (for the time estimate) and the state preamble that resumes it mid-way.
 
 use super::error::MachineError;
+use super::protocol;
 use stencil_gcode::interpret::{self as gcode, Modal, Move};
-use super::protocol::{self, MAX_LINE_BYTES};
+use stencil_gcode::limits::MAX_LINE_BYTES;
+use stencil_gcode::write::num;
 
 /// One line to send: its text as Grbl will see it, and where it came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -265,17 +267,6 @@ pub struct StateBefore {
     pub plunge_feed: Option<f64>,
 }
 
-/// A number as G-code: at most 4 decimals, no trailing zeros.
-fn num(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" {
-        "0".into()
-    } else {
-        s.to_string()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -383,10 +374,11 @@ mod tests {
     }
 
     #[test]
-    fn numbers() {
-        assert_eq!(num(25.4), "25.4");
-        assert_eq!(num(600.0), "600");
-        assert_eq!(num(-0.00001), "0");
-        assert_eq!(num(1.23456), "1.2346");
+    fn preamble_numbers_are_the_writers_micrometres() {
+        // The restore is written as the G-code writer writes numbers: mm to 3 decimals (Grbl's
+        // own precision in mm), no trailing zeros, no `-0`.
+        let p = "G21 G90\nG0 X1.23456 Y-0.00001 F600.00\nG1 X2\n";
+        let pre = Program::parse("p", p).unwrap().resume_preamble(3).unwrap();
+        assert_eq!(pre, vec!["M5", "G21G90", "G0X1.235Y0", "F600"]);
     }
 }

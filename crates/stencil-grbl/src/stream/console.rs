@@ -11,7 +11,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use super::{
-    BytePort, Control, ControllerInfo, Program, MachineError, Observer, Outgoing, Session,
+    BytePort, Control, ControllerInfo, MachineError, Observer, Outgoing, Program, Session,
     StreamConfig, Summary,
 };
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
@@ -67,12 +67,7 @@ impl<'a> Console<'a> {
             Ok(()) => false,
             Err(MachineError::Locked { alarm, .. }) => {
                 let why = alarm
-                    .map(|a| {
-                        format!(
-                            " (ALARM:{a}: {})",
-                            crate::protocol::alarm_meaning(a)
-                        )
-                    })
+                    .map(|a| format!(" (ALARM:{a}: {})", crate::protocol::alarm_meaning(a)))
                     .unwrap_or_default();
                 s.obs
                     .message(&format!("the machine is locked in alarm{why}"));
@@ -225,16 +220,7 @@ impl<'a> Console<'a> {
     /// channel), `error:N`, alarms, silence and a lost port end it as they end a job: feed hold,
     /// soft reset, laser off.
     pub fn run(&mut self, job: &Program) -> Result<Summary, MachineError> {
-        let lines: Vec<Outgoing> = job
-            .lines
-            .iter()
-            .map(|l| Outgoing {
-                number: l.number,
-                text: l.text.clone(),
-                motion: l.motion,
-                preamble: false,
-            })
-            .collect();
+        let lines: Vec<Outgoing> = job.lines.iter().map(Outgoing::program).collect();
         // As `send` counts (send-response ignores the limit).
         let rx_limit = self.s.info.rx_buffer.saturating_sub(1).max(1);
         let summary = self.s.stream(&lines, false, rx_limit, 1);
