@@ -5,8 +5,8 @@
 
 use std::time::Duration;
 
-use stencil_grbl::stream::{send, FlowControl, Job, Quiet, StreamConfig};
-use stencil_grbl::virtual_grbl::Motion;
+use stencil_grbl::stream::{send, FlowControl, Program, Quiet, StreamConfig};
+use stencil_grbl::virtual_grbl::Pace;
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 #[path = "../tests/common/job.rs"]
@@ -14,9 +14,9 @@ mod job;
 
 const BAUD: u32 = 115_200;
 
-fn run(job: &Job, flow: FlowControl) -> (f64, u64, usize) {
+fn run(job: &Program, flow: FlowControl) -> (f64, u64, usize) {
     let vcfg = VirtualConfig {
-        motion: Motion::Instant,
+        pace: Pace::Instant,
         baud: Some(BAUD),
         ..VirtualConfig::default()
     };
@@ -34,7 +34,7 @@ fn run(job: &Job, flow: FlowControl) -> (f64, u64, usize) {
 
 fn main() {
     let text = job::job_text_scaled(8);
-    let job = Job::parse("bench.gcode", &text).expect("job");
+    let job = Program::parse("bench.gcode", &text).expect("job");
     let wire = |bytes: u64| bytes as f64 * 10.0 / BAUD as f64;
     println!(
         "stream bench: {} lines, {} bytes, virtual Grbl at {BAUD} baud, instant planner",

@@ -10,9 +10,9 @@ use std::time::Duration;
 
 use stencil_grbl::frame::{cut_extent, frame, Extent, FrameError, FrameTool};
 use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{Control, Job, Quiet, StreamConfig};
+use stencil_grbl::stream::{Control, Program, Quiet, StreamConfig};
 use stencil_grbl::virtual_grbl::{
-    Event, Fault, FaultKind, PlannedMove, Record, VirtualConfig, VirtualGrbl,
+    Event, FaultKind, PlannedMove, Record, VirtualConfig, VirtualGrbl,
 };
 
 /// A third-party style laser job: travel far out before and after, cuts in X 20..60 Y 30..70.
@@ -28,7 +28,7 @@ fn cfg() -> StreamConfig {
 }
 
 fn extent() -> Extent {
-    cut_extent(&Job::parse("job.gcode", JOB).unwrap().moves).unwrap()
+    cut_extent(&Program::parse("job.gcode", JOB).unwrap().moves).unwrap()
 }
 
 /// Frame on a fresh virtual Grbl whose head first travels to `start` (work coordinates).
@@ -152,14 +152,8 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
         (FaultKind::ClosePort, "port"),
         (FaultKind::Silence, "not answered"),
     ] {
-        let vcfg = VirtualConfig {
-            faults: vec![Fault {
-                // One G-code line (the G0 to the start) ran before the frame.
-                at_job_line: 1 + 5,
-                kind,
-            }],
-            ..VirtualConfig::default()
-        };
+        // One G-code line (the G0 to the start) ran before the frame.
+        let vcfg = common::faulty(kind, 1 + 5);
         let mut c = cfg();
         c.timeout = Duration::from_millis(800);
         let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -194,7 +188,7 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
 #[test]
 fn a_locked_machine_is_not_framed() {
     let vcfg = VirtualConfig {
-        motion: stencil_grbl::virtual_grbl::Motion::Paced { speedup: 1.0 },
+        pace: stencil_grbl::virtual_grbl::Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -214,7 +208,7 @@ fn a_locked_machine_is_not_framed() {
     let e = frame(&mut console, extent(), FrameTool::Laser { s: 0.0 }, 3000.0).unwrap_err();
     drop(console);
     assert!(matches!(e, FrameError::Locked { .. }), "{e}");
-    assert!(e.to_string().contains("--unlock"), "{e}");
+    assert!(e.to_string().contains("unlock it ($X)"), "{e}");
     assert_eq!(vg.stop().moves.len(), moves, "a locked machine moved");
 }
 

@@ -10,9 +10,10 @@ use std::time::Duration;
 use stencil_grbl::jog::{parse_keys, run, JogKey, Jogger, Script};
 use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::{
-    Event, Fault, FaultKind, Motion, Record, VirtualConfig, VirtualGrbl,
-};
+use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl};
+
+mod common;
+use common::faulty;
 
 #[derive(Default)]
 struct Log(Vec<String>);
@@ -144,7 +145,7 @@ fn zero_sets_work_zero_where_the_head_is() {
 #[test]
 fn unlock_clears_the_alarm_that_refused_the_jog() {
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 1.0 },
+        pace: Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     // A reset while moving leaves Grbl locked (ALARM:3).
@@ -201,7 +202,7 @@ fn home_homes_or_says_homing_is_disabled() {
 #[test]
 fn a_released_key_or_quit_cancels_the_running_jog() {
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 1.0 },
+        pace: Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     // 10 mm at 1000 mm/min takes 0.6 s: cancelled long before.
@@ -225,24 +226,12 @@ fn a_released_key_or_quit_cancels_the_running_jog() {
 #[test]
 fn a_lost_port_or_a_silent_machine_ends_the_session_saying_so() {
     // The first G-code line (the work zero) pulls the cable.
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: 1,
-            kind: FaultKind::ClosePort,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::ClosePort, 1);
     let (r, _, _, res) = jog(vcfg, &[], "right,0,right", 1.0);
     let e = res.unwrap_err();
     assert!(e.contains("make sure the laser and the air are off"), "{e}");
     assert!(r.closed && !r.laser_on);
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: 1,
-            kind: FaultKind::Silence,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Silence, 1);
     let (r, _, _, res) = jog(vcfg, &[], "right,0,right", 1.0);
     let e = res.unwrap_err();
     assert!(e.contains("laser"), "{e}");

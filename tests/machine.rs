@@ -6,11 +6,13 @@ use std::sync::mpsc::{channel, Sender};
 use std::time::Duration;
 
 use stencil_grbl::stream::{
-    send, Control, FlowControl, Job, MachineError, Observer, Progress, Quiet, StreamConfig,
+    send, Control, FlowControl, MachineError, Observer, Program, Progress, Quiet, StreamConfig,
 };
-use stencil_grbl::virtual_grbl::{Event, Fault, FaultKind, Motion, Record};
+use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
+mod common;
+use common::faulty;
 #[path = "common/job.rs"]
 mod common_job;
 use common_job::job_text_scaled;
@@ -20,8 +22,8 @@ fn job_text() -> String {
     job_text_scaled(1)
 }
 
-fn job() -> Job {
-    Job::parse("test.gcode", &job_text()).unwrap()
+fn job() -> Program {
+    Program::parse("test.gcode", &job_text()).unwrap()
 }
 
 fn cfg() -> StreamConfig {
@@ -41,7 +43,7 @@ fn program_received(r: &Record, from: usize) -> Vec<String> {
         .collect()
 }
 
-fn texts(job: &Job, from_line: usize) -> Vec<String> {
+fn texts(job: &Program, from_line: usize) -> Vec<String> {
     job.lines
         .iter()
         .filter(|l| l.number >= from_line)
@@ -50,12 +52,12 @@ fn texts(job: &Job, from_line: usize) -> Vec<String> {
 }
 
 /// The file line of the k-th (1-based) G-code line of the job.
-fn file_line(job: &Job, k: usize) -> usize {
+fn file_line(job: &Program, k: usize) -> usize {
     job.lines[k - 1].number
 }
 
 /// Every job line before `resume` reached the machine and finished there (no gap when resuming).
-fn assert_ran_everything_before(job: &Job, r: &Record, resume: usize) {
+fn assert_ran_everything_before(job: &Program, r: &Record, resume: usize) {
     let first_run: Vec<(usize, &str)> = r
         .received
         .iter()
@@ -111,7 +113,7 @@ fn tiny_buffer_and_slow_machine_never_overflow() {
     let job = job();
     let vcfg = VirtualConfig {
         rx_buffer: 32,
-        motion: Motion::Paced { speedup: 40.0 },
+        pace: Pace::Timed { speedup: 40.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -147,13 +149,7 @@ fn send_response_sends_one_line_at_a_time() {
 fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
     let job = job();
     let k = 120;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Error(22),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Error(22), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let line = file_line(&job, k);
@@ -167,7 +163,7 @@ fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
     assert!(msg.contains("feed"), "meaning of error 22 missing: {msg}");
     let halt = err.halt().unwrap();
     assert_eq!(halt.resume_from, line);
-    assert!(msg.contains(&format!("--from-line {line}")), "{msg}");
+    assert!(msg.contains(&format!("resume from line {line}")), "{msg}");
     let r = vg.record();
     laser_stopped_after_fault(&r);
     assert_eq!(r.received.last().unwrap().text, "M5");
@@ -192,13 +188,7 @@ fn error_on_a_line_stops_safely_and_resume_finishes_the_job() {
 fn alarm_mid_job_stops_locks_and_resume_unlocks() {
     let job = job();
     let k = 150;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Alarm(1),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Alarm(1), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let msg = err.to_string();
@@ -218,7 +208,7 @@ fn alarm_mid_job_stops_locks_and_resume_unlocks() {
     let before = r.received.len();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     assert!(matches!(err, MachineError::Locked { .. }), "{err}");
-    assert!(err.to_string().contains("--unlock"), "{err}");
+    assert!(err.to_string().contains("unlock it ($X)"), "{err}");
 
     let c = StreamConfig {
         from_line: halt.resume_from,
@@ -242,13 +232,7 @@ fn alarm_mid_job_stops_locks_and_resume_unlocks() {
 fn silent_controller_is_reported_with_the_last_acknowledged_line() {
     let job = job();
     let k = 90;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Silence,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Silence, k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let c = StreamConfig {
         timeout: Duration::from_secs(1),
@@ -297,13 +281,7 @@ fn silent_controller_is_reported_with_the_last_acknowledged_line() {
 fn vanished_port_is_reported_with_the_resume_line() {
     let job = job();
     let k = 60;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::ClosePort,
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::ClosePort, k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
     let msg = err.to_string();
@@ -367,7 +345,7 @@ impl Observer for Operator {
 fn abort_while_moving_stops_and_resume_leaves_no_gap() {
     let job = job();
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 20.0 },
+        pace: Pace::Timed { speedup: 20.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -419,7 +397,7 @@ fn abort_while_moving_stops_and_resume_leaves_no_gap() {
 fn feed_hold_and_resume_from_the_operator() {
     let job = job();
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 40.0 },
+        pace: Pace::Timed { speedup: 40.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -445,17 +423,17 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
     let mut text = job_text();
     text = text.replacen("G21 G90\n", "G21 G90\nG1 X3 Y3\n", 1);
     text.push_str("G5 X1\n");
-    let bad = Job::parse("bad.gcode", &text).unwrap();
+    let bad = Program::parse("bad.gcode", &text).unwrap();
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     let c = StreamConfig {
         check_first: true,
         ..cfg()
     };
     let err = send(&mut port, &bad, &c, None, &mut Quiet).unwrap_err();
-    let MachineError::CheckFailed { errors, .. } = &err else {
+    let MachineError::CheckFailed { rejected, .. } = &err else {
         panic!("{err}")
     };
-    let got: Vec<(usize, u8)> = errors.iter().map(|e| (e.line, e.code)).collect();
+    let got: Vec<(usize, u8)> = rejected.iter().map(|e| (e.line, e.code)).collect();
     let last = text.lines().count();
     assert_eq!(got, vec![(3, 22), (last, 20)]);
     let msg = err.to_string();
@@ -482,7 +460,7 @@ fn check_mode_refuses_a_bad_file_and_names_the_line() {
 #[test]
 fn a_job_that_leaves_the_laser_on_is_followed_by_m5() {
     let text = job_text().replace("M5\n", "");
-    let job = Job::parse("no-m5.gcode", &text).unwrap();
+    let job = Program::parse("no-m5.gcode", &text).unwrap();
     assert!(job.may_end_laser_on);
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap();
@@ -498,7 +476,7 @@ fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     // A `$32=1` (laser mode) written mid-job: Grbl stops listening while it writes EEPROM, so
     // nothing may travel behind it; `%` program markers are not sent at all.
     let text = job_text().replacen("G21 G90\n", "%\nG21 G90\n$32=1\n", 1) + "%\n";
-    let job = Job::parse("settings.gcode", &text).unwrap();
+    let job = Program::parse("settings.gcode", &text).unwrap();
     assert!(job.lines.iter().all(|l| l.text != "%"));
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     let c = StreamConfig {
@@ -561,7 +539,7 @@ fn planned_sample(name: &str) -> String {
 #[test]
 fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
     let text = planned_sample("rings");
-    let job = Job::parse("rings.gcode", &text).unwrap();
+    let job = Program::parse("rings.gcode", &text).unwrap();
     assert!(job.lines.len() > 100, "{}", job.lines.len());
     assert!(!job.may_end_laser_on);
 
@@ -576,13 +554,7 @@ fn a_job_planned_from_a_sample_streams_exactly_and_resumes_after_an_error() {
     // Rejected half way (checked first), then resumed: the rest arrives once each, after the
     // preamble our interpreter computed from the planner's own output.
     let k = job.lines.len() / 2;
-    let vcfg = VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: k,
-            kind: FaultKind::Error(20),
-        }],
-        ..VirtualConfig::default()
-    };
+    let vcfg = faulty(FaultKind::Error(20), k);
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let c = StreamConfig {
         check_first: true,

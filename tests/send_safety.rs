@@ -5,12 +5,15 @@
 use std::time::Duration;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
+use stencil_grbl::stream::{send, MachineError, Program, Quiet, ResumeLift, StreamConfig};
+use stencil_grbl::virtual_grbl::{FaultKind, PlannedMove, Record};
+use stencil_grbl::{VirtualConfig, VirtualGrbl};
+
+mod common;
+use common::faulty;
 use stencil_core::vector::CutGeometry;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
-use stencil_grbl::stream::{send, Job, MachineError, Quiet, ResumeLift, StreamConfig};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, PlannedMove, Record};
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 fn cfg() -> StreamConfig {
     StreamConfig {
@@ -65,7 +68,7 @@ fn lift_of(machine: &Machine) -> ResumeLift {
 }
 
 /// The tool is down (cutting or drawing) when line `l` starts.
-fn tool_down_at(job: &Job, machine: &Machine, l: usize) -> bool {
+fn tool_down_at(job: &Program, machine: &Machine, l: usize) -> bool {
     let m = job.state_before(l).unwrap().modal;
     match machine.tool {
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => m.pos[2] < z.up_mm,
@@ -92,7 +95,7 @@ fn preamble_moves(r: &Record, from: usize, n: usize) -> Vec<PlannedMove> {
 /// back down where the program had it (a Z tool by a Z-only feed move at the plunge feed).
 fn assert_safe_restore(
     machine: &Machine,
-    job: &Job,
+    job: &Program,
     from: usize,
     moves: &[PlannedMove],
     what: &str,
@@ -153,7 +156,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
     for name in ["pen-a3", "drag-knife", "pen-servo"] {
         let machine = machine_profile::load(Some(name)).unwrap();
         let text = planned(&machine);
-        let job = Job::parse(&format!("{name}.gcode"), &text).unwrap();
+        let job = Program::parse(&format!("{name}.gcode"), &text).unwrap();
         let down: Vec<usize> = job
             .lines
             .iter()
@@ -195,13 +198,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
         // the last one: the tool (a knife left at cutting depth) must come up before the long
         // travel. (An alarm drops the buffered lines at once, so the stop is where it happened.)
         let k = job.lines.iter().position(|l| l.number == down[3]).unwrap() + 1;
-        let vcfg = VirtualConfig {
-            faults: vec![Fault {
-                at_job_line: k,
-                kind: FaultKind::Alarm(1),
-            }],
-            ..VirtualConfig::default()
-        };
+        let vcfg = faulty(FaultKind::Alarm(1), k);
         let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
         let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
         assert!(matches!(err, MachineError::Alarm { .. }), "{err}");
@@ -249,14 +246,14 @@ use std::sync::Arc;
 
 use stencil_grbl::stall::{Clock, ClockRef};
 use stencil_grbl::stream::{Control, Observer, Progress};
-use stencil_grbl::virtual_grbl::{Event, Motion};
+use stencil_grbl::virtual_grbl::{Event, Pace};
 
 /// The standard test job with air assist: M8 after the laser is armed, M9 before the end.
-fn air_job() -> Job {
+fn air_job() -> Program {
     let text = common_job::job_text_scaled(1)
         .replacen("M4 S0\n", "M4 S0\nM8\n", 1)
         .replacen("M5\nG0 X0 Y0\n", "M9\nM5\nG0 X0 Y0\n", 1);
-    Job::parse("air.gcode", &text).unwrap()
+    Program::parse("air.gcode", &text).unwrap()
 }
 
 /// A clock that jumps `step` seconds each time it is read: stall bounds pass in a few status
@@ -318,16 +315,6 @@ impl Observer for AbortAt {
     }
 }
 
-fn faulty(kind: FaultKind, at: usize) -> VirtualConfig {
-    VirtualConfig {
-        faults: vec![Fault {
-            at_job_line: at,
-            kind,
-        }],
-        ..VirtualConfig::default()
-    }
-}
-
 #[test]
 fn every_stop_path_ends_with_laser_and_air_off() {
     let job = air_job();
@@ -376,7 +363,7 @@ fn every_stop_path_ends_with_laser_and_air_off() {
 
     // Operator abort (a / q / Esc / Ctrl-C) while moving.
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 20.0 },
+        pace: Pace::Timed { speedup: 20.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -402,7 +389,7 @@ fn every_stop_path_ends_with_laser_and_air_off() {
 
     // A job that ends with the air still on gets M9 after it.
     let text = common_job::job_text_scaled(1).replacen("M4 S0\n", "M4 S0\nM8\n", 1);
-    let open_air = Job::parse("open-air.gcode", &text).unwrap();
+    let open_air = Program::parse("open-air.gcode", &text).unwrap();
     assert!(open_air.may_end_air_on);
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
     send(&mut port, &open_air, &cfg(), None, &mut Quiet).unwrap();
@@ -414,7 +401,7 @@ fn every_stop_path_ends_with_laser_and_air_off() {
 #[test]
 fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     let job = common_job::job_text_scaled(1);
-    let job = Job::parse("frozen.gcode", &job).unwrap();
+    let job = Program::parse("frozen.gcode", &job).unwrap();
     let k = 90;
     let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Freeze, k)).unwrap();
     let c = StreamConfig {
@@ -444,7 +431,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     assert!(halt.resume_from <= frozen_line, "{msg}");
     assert!(halt.last_acked.unwrap() < frozen_line, "{msg}");
     assert!(
-        msg.contains(&format!("--from-line {}", halt.resume_from)),
+        msg.contains(&format!("resume from line {}", halt.resume_from)),
         "{msg}"
     );
     assert!(msg.contains("stall"), "{msg}");
@@ -466,7 +453,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
 
     // A slow machine that keeps moving is never a stall, whatever the clock says.
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 30.0 },
+        pace: Pace::Timed { speedup: 30.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -492,7 +479,7 @@ fn laser_off_grbl() -> VirtualConfig {
 
 #[test]
 fn a_laser_job_is_refused_without_laser_mode_or_sets_it_when_asked() {
-    let job = Job::parse("laser.gcode", &common_job::job_text_scaled(1)).unwrap();
+    let job = Program::parse("laser.gcode", &common_job::job_text_scaled(1)).unwrap();
 
     // Why it matters, on the simulated machine: with $32=0 the beam stays on through G0 moves.
     let (vg, mut port) = VirtualGrbl::spawn(laser_off_grbl()).unwrap();
@@ -512,10 +499,7 @@ fn a_laser_job_is_refused_without_laser_mode_or_sets_it_when_asked() {
     let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
     assert!(matches!(err, MachineError::LaserModeOff { .. }), "{err}");
     let msg = err.to_string();
-    assert!(
-        msg.contains("$32=0") && msg.contains("--set-laser-mode"),
-        "{msg}"
-    );
+    assert!(msg.contains("$32=0") && msg.contains("Set $32=1"), "{msg}");
     let r = vg.stop();
     assert_eq!(r.run_lines(), ["$I", "$$"], "something was sent");
     assert!(!r.laser_mode);
@@ -663,9 +647,9 @@ impl Observer for Watch {
 
 #[test]
 fn override_keys_during_send_reach_grbl_and_show_in_progress() {
-    let job = Job::parse("ov.gcode", &common_job::job_text_scaled(3)).unwrap();
+    let job = Program::parse("ov.gcode", &common_job::job_text_scaled(3)).unwrap();
     let vcfg = VirtualConfig {
-        motion: Motion::Paced { speedup: 20.0 },
+        pace: Pace::Timed { speedup: 20.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
@@ -750,7 +734,7 @@ fn a_run_whose_port_dies_leaves_a_journal_and_recover_resumes_from_it() {
     let file = dir.path().join("job.gcode");
     let text = common_job::job_text_scaled(1);
     std::fs::write(&file, &text).unwrap();
-    let job = Job::parse("job.gcode", &text).unwrap();
+    let job = Program::parse("job.gcode", &text).unwrap();
     let jpath = journal::path_for(&file);
 
     // No journal yet: --recover says so, and sends nothing.
@@ -908,7 +892,7 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
 
     // In the streamer: $H goes right after connecting, before the restore; an alarm-locked
     // machine is homed, not refused.
-    let job = Job::parse("job.gcode", &common_job::job_text_scaled(1)).unwrap();
+    let job = Program::parse("job.gcode", &common_job::job_text_scaled(1)).unwrap();
     let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Alarm(1), 50)).unwrap();
     assert!(send(&mut port, &job, &cfg(), None, &mut Quiet).is_err());
     let before = vg.record().received.len();

@@ -12,9 +12,9 @@ use anyhow::bail;
 use clap::Args;
 
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
-use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameTool, Framed};
+use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameError, FrameTool, Framed};
 use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Job, Observer, StreamConfig};
+use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Observer, Program, StreamConfig};
 use stencil_grbl::virtual_grbl::VirtualConfig;
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
@@ -94,7 +94,7 @@ impl Setup {
 /// `no_bed_check`), how the tool stays dark, and the feed.
 pub fn setup(
     file: &Path,
-    job: &Job,
+    job: &Program,
     machine: &Machine,
     feed: Option<f64>,
     no_bed_check: bool,
@@ -170,7 +170,15 @@ pub fn frame_on(
 ) -> anyhow::Result<Framed> {
     let mut console = Console::connect(port, cfg, Some(controls), obs)?;
     console.say(&format!("framing {}", s.describe()));
-    Ok(frame::frame(&mut console, s.extent, s.tool, s.feed)?)
+    frame::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
+        let hint = match &e {
+            FrameError::Machine(m) => super::port::machine_hint(m),
+            // Locked before, or by the stop.
+            _ if console.locked() => "; run again with --unlock to send $X",
+            _ => "",
+        };
+        anyhow::anyhow!("{e}{hint}")
+    })
 }
 
 /// What framing did, for the user.
@@ -205,7 +213,7 @@ pub fn can_ask() -> bool {
 
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let text = super::send::read_program(&a.file)?;
-    let job = Job::parse(&a.file.display().to_string(), &text)?;
+    let job = Program::parse(&a.file.display().to_string(), &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
     let vcfg = VirtualConfig {

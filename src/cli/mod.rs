@@ -15,6 +15,7 @@ mod mesh;
 mod port;
 mod progress;
 mod send;
+mod simulate;
 
 use std::ops::RangeInclusive;
 use std::process::ExitCode;
@@ -51,7 +52,7 @@ pub enum Command {
     /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
     Send(send::SendArgs),
     /// Draw what a G-code file makes the machine do (PNG) and estimate its running time.
-    Simulate(send::SimulateArgs),
+    Simulate(simulate::SimulateArgs),
     /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
     /// widths. Exits 0 only when there are no violations.
     Check(check::CheckArgs),
@@ -75,7 +76,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Make(a) => make::run_make(*a),
         Command::Tone(a) => make::run_tone(a),
         Command::Send(a) => send::run_send(a),
-        Command::Simulate(a) => send::run_simulate(a),
+        Command::Simulate(a) => simulate::run_simulate(a),
         Command::Check(a) => check::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),

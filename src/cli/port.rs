@@ -5,7 +5,8 @@ use std::time::Duration;
 
 use anyhow::{bail, Context};
 
-use stencil_grbl::stream::BytePort;
+use stencil_grbl::journal::JournalError;
+use stencil_grbl::stream::{BytePort, MachineError};
 use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
@@ -20,6 +21,30 @@ pub struct PortArgs {
     /// Talk to a simulated Grbl on a pseudo-terminal instead of a machine.
     #[arg(long)]
     pub dry_run: bool,
+}
+
+/// The option that does what a machine error asks for. The library says what is wrong and what
+/// to do at the machine; the command line adds which option does it.
+pub(super) fn machine_hint(e: &MachineError) -> &'static str {
+    match e {
+        MachineError::Locked { .. } => "; run again with --unlock to send $X",
+        MachineError::LaserModeOff { .. } => {
+            "; run again with --set-laser-mode to send $32=1, or name the machine's profile with \
+             --machine"
+        }
+        MachineError::FromLine { .. } | MachineError::ResumeState { .. } => " (--from-line)",
+        MachineError::Homing { .. } => "; then resume with --from-line",
+        _ => "",
+    }
+}
+
+/// The options that resume without a usable journal.
+pub(super) fn journal_hint(e: &JournalError) -> &'static str {
+    match e {
+        JournalError::Missing { .. } | JournalError::NotJournal { .. } => " with --from-line N",
+        JournalError::Mismatch { .. } => " (--recover with that file, or --from-line N)",
+        _ => "",
+    }
 }
 
 impl PortArgs {

@@ -1,8 +1,7 @@
-//! `stencil send` (stream G-code to Grbl, or to the virtual Grbl with --dry-run) and
-//! `stencil simulate` (draw a program and estimate its time). OWNER: the machine issue.
+//! `stencil send`: stream G-code to Grbl, or to the virtual Grbl with --dry-run.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Sender};
@@ -14,19 +13,17 @@ use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use stencil_core::export;
-use stencil_gcode::estimate::{estimate, estimate_with, format_duration};
+use stencil_gcode::estimate::{estimate, format_duration};
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine as machine_profile;
-use stencil_gcode::simulate;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
 use stencil_grbl::keys::{self, Key, KeySource};
 use stencil_grbl::stall::ClockRef;
 use stencil_grbl::stream::{
-    self, Control, ControllerInfo, FlowControl, Job, LaserMode, Observer, Progress, ResumeLift,
-    StreamConfig,
+    self, Control, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
+    StreamConfig, Summary,
 };
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Motion, VirtualConfig};
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig, VirtualGrbl};
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -149,27 +146,6 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
     })
 }
 
-/// Draw what a G-code file makes the machine do, and estimate its time.
-#[derive(Args, Debug)]
-pub struct SimulateArgs {
-    /// The G-code file.
-    pub file: PathBuf,
-    /// Output picture (PNG).
-    #[arg(short = 'o', long, default_value = "sim.png")]
-    pub output: PathBuf,
-    /// Longer side of the picture, in pixels.
-    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(16..=20000))]
-    pub size_px: u32,
-    /// Machine profile whose motion limits the time estimate uses, and whose bed the job must
-    /// stay on (name or .toml path) [default: diode-400].
-    #[arg(long, value_name = "NAME|FILE")]
-    pub machine: Option<String>,
-    /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
-    /// from the machine's origin).
-    #[arg(long)]
-    pub no_bed_check: bool,
-}
-
 /// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
 /// a status query within a fraction of a second, even mid-move).
 pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
@@ -186,40 +162,6 @@ pub(super) fn read_program(path: &PathBuf) -> anyhow::Result<String> {
             e.utf8_error().valid_up_to()
         )
     })
-}
-
-pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let text = read_program(&a.file)?;
-    let name = a.file.display().to_string();
-    let moves = stencil_gcode::interpret::interpret(&text)
-        .map_err(|cause| stream::MachineError::Gcode { file: name, cause })?;
-    let machine = machine_profile::load(a.machine.as_deref())?;
-    super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
-    let rule = machine.cut_rule(&moves);
-    let est = estimate_with(&moves, &machine.motion, rule);
-    let d = simulate::draw(&moves, a.size_px, rule);
-    stencil_io::write_atomic(
-        &a.output,
-        &export::png::encode_rgb(d.width, d.height, &d.rgb),
-    )?;
-    println!(
-        "estimated time {} on {} (cutting {}, travel {}); cut {:.0} mm, travel {:.0} mm, {} moves",
-        format_duration(est.total_s),
-        machine.name,
-        format_duration(est.cut_s),
-        format_duration(est.travel_s),
-        est.cut_mm,
-        est.travel_mm,
-        moves.len()
-    );
-    println!(
-        "wrote {} ({}×{} px, {:.3} mm per px; red = cutting (laser on, pen or blade down), blue = travel)",
-        a.output.display(),
-        d.width,
-        d.height,
-        d.mm_per_px
-    );
-    Ok(ExitCode::SUCCESS)
 }
 
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
@@ -397,7 +339,7 @@ fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
 
 /// A laser machine running a job that switches the beam on needs laser mode; anything else
 /// leaves `$32` alone (a pen servo or a spindle must not be put in laser mode).
-fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> LaserMode {
+fn laser_mode(machine: &machine_profile::Machine, job: &Program, set: bool) -> LaserMode {
     let fires = job.moves.iter().any(|m| m.power > 0.0);
     match machine.tool {
         machine_profile::Tool::Laser { .. } if fires && set => LaserMode::Set,
@@ -408,7 +350,7 @@ fn laser_mode(machine: &machine_profile::Machine, job: &Job, set: bool) -> Laser
 
 /// Tell the user what the journal knows and where the job will resume; `None` if there is
 /// nothing left to do.
-fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usize> {
+fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option<usize> {
     let age = j.age().as_secs_f64();
     let how = match j.state {
         RunState::Running => {
@@ -459,29 +401,126 @@ fn recovery_report(j: &Journal, job: &Job, path: &std::path::Path) -> Option<usi
     Some(p.line)
 }
 
+/// `--recover`: read the journal beside the file, check it was written for this file, say what
+/// it knows, and propose where to resume: the line and the machine to use (the journal's unless
+/// one was named); `None` when nothing is left to do.
+fn recover(
+    a: &SendArgs,
+    job: &Program,
+    text: &str,
+    journal_path: &Path,
+) -> anyhow::Result<Option<(usize, Option<String>)>> {
+    let journal_error =
+        |e: journal::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
+    let j = Journal::read(journal_path).map_err(journal_error)?;
+    j.check_file(journal_path, text.as_bytes())
+        .map_err(journal_error)?;
+    let machine = match &a.machine {
+        Some(m) => {
+            if *m != j.machine {
+                println!(
+                    "the journal's run used machine {}; you named {m}: using {m}",
+                    j.machine
+                );
+            }
+            Some(m.clone())
+        }
+        None => Some(j.machine.clone()),
+    };
+    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine)))
+}
+
+/// The simulated Grbl of `--dry-run`: instant, or paced as the machine and link would run
+/// (`--realtime`), with the `--dry-run-setting`s and `--dry-run-fault`s asked for.
+fn virtual_config(a: &SendArgs, rapid_mm_min: f64) -> VirtualConfig {
+    VirtualConfig {
+        pace: if a.realtime {
+            Pace::Timed { speedup: 1.0 }
+        } else {
+            Pace::Instant
+        },
+        baud: a.realtime.then_some(a.link.baud),
+        rapid_mm_min,
+        settings: a.dry_run_setting.clone(),
+        faults: a.dry_run_fault.clone(),
+        ..VirtualConfig::default()
+    }
+}
+
+/// The options that reach the same machine again (`--port P` or `--dry-run`).
+fn link_options(a: &SendArgs) -> String {
+    match &a.link.port {
+        Some(p) => format!(" --port {p}"),
+        None if a.link.dry_run => " --dry-run".into(),
+        None => String::new(),
+    }
+}
+
+/// A stream that stopped, worded with the options that resume it: the command for the line to
+/// resume from (unlocking a machine the stop left locked), and `--recover` with the journal.
+fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow::Error {
+    let hint = match e.halt() {
+        Some(h) => format!(
+            "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
+             after a crash or power loss: stencil send {} --recover{})",
+            a.file.display(),
+            h.resume_from,
+            link_options(a),
+            if h.locked { " --unlock" } else { "" },
+            match &a.machine {
+                Some(m) => format!(" --machine {m}"),
+                None => String::new(),
+            },
+            journal_path.display(),
+            a.file.display(),
+            link_options(a),
+        ),
+        None => String::new(),
+    };
+    anyhow::anyhow!("{e}{}{hint}", super::port::machine_hint(&e))
+}
+
+/// What a finished stream did, and with `--dry-run` what the simulated machine saw.
+fn print_summary(sum: &Summary, label: &str, virtual_grbl: Option<VirtualGrbl>) {
+    let secs = sum.elapsed.as_secs_f64();
+    println!(
+        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; Grbl {}, counting against {} bytes, at most {} in flight",
+        sum.lines,
+        sum.bytes,
+        secs,
+        if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
+        format_duration(sum.total.as_secs_f64()),
+        sum.info.version,
+        sum.rx_limit,
+        sum.max_in_flight
+    );
+    if let Some(vg) = virtual_grbl {
+        let r = vg.stop();
+        println!(
+            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}",
+            r.received.len(),
+            r.max_rx_used,
+            r.overflow_bytes,
+            if r.laser_on { "ON" } else { "off" },
+            if r.air_on { "ON" } else { "off" },
+            u8::from(r.laser_mode)
+        );
+    }
+}
+
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
-    let job = Job::parse(&name, &text)?;
+    let job = Program::parse(&name, &text)?;
     let journal_path = journal::path_for(&a.file);
-    let mut from_line = a.from_line as usize;
-    let mut machine_arg = a.machine.clone();
-    if a.recover {
-        let j = Journal::read(&journal_path)?;
-        j.check_file(&journal_path, text.as_bytes())?;
-        match &a.machine {
-            Some(m) if *m != j.machine => println!(
-                "the journal's run used machine {}; you named {m}: using {m}",
-                j.machine
-            ),
-            Some(_) => {}
-            None => machine_arg = Some(j.machine.clone()),
+    let (from_line, machine_arg) = if a.recover {
+        match recover(&a, &job, &text, &journal_path)? {
+            Some(r) => r,
+            None => return Ok(ExitCode::SUCCESS),
         }
-        let Some(line) = recovery_report(&j, &job, &journal_path) else {
-            return Ok(ExitCode::SUCCESS);
-        };
-        from_line = line;
-    }
+    } else {
+        (a.from_line as usize, a.machine.clone())
+    };
     let machine = machine_profile::load(machine_arg.as_deref())?;
     // The moves that will run (from --from-line or the recovered line on) must stay on the bed:
     // checked before the port is opened.
@@ -533,23 +572,11 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         ..StreamConfig::default()
     };
 
-    let vcfg = VirtualConfig {
-        motion: if a.realtime {
-            Motion::Paced { speedup: 1.0 }
-        } else {
-            Motion::Instant
-        },
-        baud: a.realtime.then_some(a.link.baud),
-        rapid_mm_min: limits.rapid_mm_min,
-        settings: a.dry_run_setting.clone(),
-        faults: a.dry_run_fault.clone(),
-        ..VirtualConfig::default()
-    };
     let super::port::Opened {
         mut port,
         label,
         virtual_grbl,
-    } = a.link.open(vcfg)?;
+    } = a.link.open(virtual_config(&a, limits.rapid_mm_min))?;
 
     let (tx, rx) = channel();
     if let Some(s) = &frame {
@@ -591,59 +618,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     drop(keys);
     let sum = match result {
         Ok(s) => s,
-        Err(e) => {
-            let hint = match e.halt() {
-                Some(h) => format!(
-                    "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
-                     after a crash or power loss: stencil send {} --recover{})",
-                    a.file.display(),
-                    h.resume_from,
-                    match &a.link.port {
-                        Some(p) => format!(" --port {p}"),
-                        None if a.link.dry_run => " --dry-run".into(),
-                        None => String::new(),
-                    },
-                    if h.locked { " --unlock" } else { "" },
-                    match &a.machine {
-                        Some(m) => format!(" --machine {m}"),
-                        None => String::new(),
-                    },
-                    journal_path.display(),
-                    a.file.display(),
-                    match &a.link.port {
-                        Some(p) => format!(" --port {p}"),
-                        None if a.link.dry_run => " --dry-run".into(),
-                        None => String::new(),
-                    },
-                ),
-                None => String::new(),
-            };
-            return Err(anyhow::anyhow!("{e}{hint}"));
-        }
+        Err(e) => return Err(stopped(&a, &journal_path, e)),
     };
-    let secs = sum.elapsed.as_secs_f64();
-    println!(
-        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; Grbl {}, counting against {} bytes, at most {} in flight",
-        sum.lines,
-        sum.bytes,
-        secs,
-        if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
-        format_duration(sum.total.as_secs_f64()),
-        sum.info.version,
-        sum.rx_limit,
-        sum.max_in_flight
-    );
-    if let Some(vg) = virtual_grbl {
-        let r = vg.stop();
-        println!(
-            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}",
-            r.received.len(),
-            r.max_rx_used,
-            r.overflow_bytes,
-            if r.laser_on { "ON" } else { "off" },
-            if r.air_on { "ON" } else { "off" },
-            u8::from(r.laser_mode)
-        );
-    }
+    print_summary(&sum, &label, virtual_grbl);
     Ok(ExitCode::SUCCESS)
 }

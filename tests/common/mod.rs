@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use stencil_core::raster::BitGrid;
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, VirtualConfig};
 
 /// Write an 8-bit gray PNG.
 pub fn write_gray_png(path: &Path, w: u32, h: u32, data: &[u8]) {
@@ -171,4 +172,16 @@ pub fn png_header_only(w: u32, h: u32, depth: u8, color: u8) -> Vec<u8> {
     ));
     png.extend(png_chunk(b"IEND", &[]));
     png
+}
+
+/// A stock virtual Grbl that fails once, with `kind`, when the `at`-th G-code line of the run
+/// arrives (see [`Fault`]).
+pub fn faulty(kind: FaultKind, at: usize) -> VirtualConfig {
+    VirtualConfig {
+        faults: vec![Fault {
+            at_job_line: at,
+            kind,
+        }],
+        ..VirtualConfig::default()
+    }
 }

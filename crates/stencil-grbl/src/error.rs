@@ -1,8 +1,11 @@
-//! Everything that stops a stream, with the file, line or port it concerns and what to do; the
-//! ones that stop a running job carry a [`Halt`]: how the laser was switched off and where to resume.
+//! Everything that stops a stream, with the file, line or port it concerns and what to do at the
+//! machine; the ones that stop a running job carry a [`Halt`]: how the laser was switched off and
+//! where to resume. The messages name no command-line options: the binary adds those (which
+//! option resumes, unlocks or sets laser mode) from the fields.
 
-use super::protocol::{self, MAX_LINE_BYTES};
+use super::protocol;
 use stencil_gcode::interpret as gcode;
+use stencil_gcode::limits::MAX_LINE_BYTES;
 
 /// How a stream that stopped early left the machine, and where to pick it up.
 #[derive(Clone, Debug, PartialEq)]
@@ -13,7 +16,7 @@ pub struct Halt {
     pub resume_from: usize,
     /// What was done to make sure the laser is off.
     pub laser: String,
-    /// Grbl is locked in alarm after the stop: unlock (`$X`, `--unlock`) or home before resuming.
+    /// Grbl is locked in alarm after the stop: unlock (`$X`) or home before resuming.
     pub locked: bool,
 }
 
@@ -23,24 +26,20 @@ impl std::fmt::Display for Halt {
             Some(l) => write!(f, "last acknowledged line {l}; ")?,
             None => write!(f, "no line was acknowledged; ")?,
         }
-        write!(
-            f,
-            "{}; resume with --from-line {}",
-            self.laser, self.resume_from
-        )
+        write!(f, "{}; resume from line {}", self.laser, self.resume_from)
     }
 }
 
 /// One line `$C` check mode rejected.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CheckError {
+pub struct CheckRejection {
     pub line: usize,
     pub text: String,
     pub code: u8,
 }
 
-fn list_check_errors(errors: &[CheckError]) -> String {
-    let mut s: Vec<String> = errors
+fn list_rejections(rejected: &[CheckRejection]) -> String {
+    let mut s: Vec<String> = rejected
         .iter()
         .take(10)
         .map(|e| {
@@ -53,8 +52,8 @@ fn list_check_errors(errors: &[CheckError]) -> String {
             )
         })
         .collect();
-    if errors.len() > 10 {
-        s.push(format!("and {} more", errors.len() - 10));
+    if rejected.len() > 10 {
+        s.push(format!("and {} more", rejected.len() - 10));
     }
     s.join("; ")
 }
@@ -76,13 +75,13 @@ pub enum MachineError {
         len: usize,
         rx: usize,
     },
-    #[error("{file}: --from-line {line} is outside the file (1..={total})")]
+    #[error("{file}: line {line} to resume from is outside the file (1..={total})")]
     FromLine {
         file: String,
         line: usize,
         total: usize,
     },
-    #[error("{file}: cannot work out the machine state for --from-line {from_line}: {cause}")]
+    #[error("{file}: cannot work out the machine state to resume from line {from_line}: {cause}")]
     ResumeState {
         file: String,
         from_line: usize,
@@ -97,22 +96,22 @@ pub enum MachineError {
     Io { port: String, detail: String },
     #[error("{port}: no Grbl banner within {secs:.1} s, even after a soft reset: check the port and the baud rate (Grbl 1.1 uses 115200)")]
     NoWelcome { port: String, secs: f64 },
-    #[error("{port}: the machine is locked in alarm{}; check it, then home it or run again with --unlock (sends $X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
+    #[error("{port}: the machine is locked in alarm{}; check it, then home it ($H) or unlock it ($X)", alarm.map(|a| format!(" (ALARM:{a}: {})", protocol::alarm_meaning(a))).unwrap_or_default())]
     Locked { port: String, alarm: Option<u8> },
-    #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), home the machine by hand, then resume with --from-line")]
+    #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), and home the machine by hand before resuming")]
     Homing { port: String, detail: String },
     #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
     Busy { port: String, state: String },
     #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
     Setup { port: String, cmd: String, code: u8 },
-    #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Run again with --set-laser-mode (sends $32=1, kept in Grbl's settings), or send $32=1 yourself; if this machine is not a laser, name its profile with --machine")]
+    #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Set $32=1 (Grbl keeps it in its settings), or, if this machine is not a laser, use its own machine profile")]
     LaserModeOff { port: String, value: String },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },
-    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", errors.len(), list_check_errors(errors))]
+    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", rejected.len(), list_rejections(rejected))]
     CheckFailed {
         file: String,
-        errors: Vec<CheckError>,
+        rejected: Vec<CheckRejection>,
     },
     #[error("Grbl rejected line {line} `{text}` with error:{code} ({}); stopped: {halt} (after fixing the line)", protocol::error_meaning(*code))]
     Rejected {

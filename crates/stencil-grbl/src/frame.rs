@@ -8,10 +8,11 @@
 //! like a job, so it has every stop a job has (error, alarm, lost port, abort: laser off).
 
 use super::error::MachineError;
-use super::job::Job;
+use super::program::Program;
 use super::protocol::MachineState;
 use super::stream::console::Console;
 use stencil_gcode::interpret::{CutRule, Move};
+use stencil_gcode::num;
 
 /// The rectangle of the cutting moves, in program (work) millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,9 +48,9 @@ pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
             moves: 0,
         });
         for p in [m.from, m.to] {
-            for a in 0..2 {
-                x.min[a] = x.min[a].min(p[a]);
-                x.max[a] = x.max[a].max(p[a]);
+            for (a, &v) in p.iter().take(2).enumerate() {
+                x.min[a] = x.min[a].min(v);
+                x.max[a] = x.max[a].max(v);
             }
         }
         x.moves += 1;
@@ -80,20 +81,10 @@ pub struct FramePlan {
     pub feed_mm_min: f64,
 }
 
-/// A number as G-code: at most 3 decimals, no trailing zeros, no `-0`.
-pub(crate) fn num(v: f64) -> String {
-    let r = (v * 1000.0).round() / 1000.0;
-    if r == 0.0 {
-        return "0".into();
-    }
-    let s = format!("{r:.3}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
-}
-
 /// The frame as a G-code program: to the first corner at travel, around the rectangle at the
 /// framing feed (counter-clockwise from the lower-left corner), back to the start; the laser
 /// dark (`M5 S0`) at the end, and air (coolant) off (`M9`) with it.
-pub fn frame_program(p: &FramePlan) -> String {
+pub(crate) fn frame_program(p: &FramePlan) -> String {
     let e = &p.extent;
     let (x0, y0, x1, y1) = (num(e.min[0]), num(e.min[1]), num(e.max[0]), num(e.max[1]));
     let f = num(p.feed_mm_min);
@@ -141,7 +132,9 @@ pub fn frame_program(p: &FramePlan) -> String {
 /// Why a frame did not run, or stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
-    #[error("{port}: the machine is locked in alarm; check it, then home it or run again with --unlock (sends $X)")]
+    #[error(
+        "{port}: the machine is locked in alarm; check it, then home it ($H) or unlock it ($X)"
+    )]
     Locked { port: String },
     #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
     Busy { port: String, state: String },
@@ -247,7 +240,7 @@ pub fn frame(
         feed_mm_min,
     };
     let program = frame_program(&plan);
-    let job = Job::parse("frame", &program)?;
+    let job = Program::parse("frame", &program)?;
     console.run(&job)?;
     let after = console.position()?;
     Ok(Framed {

@@ -11,9 +11,9 @@ use std::io;
 use std::time::Duration;
 
 use super::error::MachineError;
-use super::frame::num;
 use super::protocol::{self, MachineState, RT_JOG_CANCEL};
 use super::stream::console::{Console, Position};
+use stencil_gcode::num;
 
 /// A key, as far as jogging cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,10 +39,11 @@ pub const KEY_HELP: &str = "arrows = jog X/Y, PgUp/PgDn = jog Z, 1/2/3 = step 0.
 X0 Y0 here, q / Esc / Ctrl-C = quit";
 
 /// The names a script (`--keys`) or a pipe uses, one per key.
-pub const KEY_NAMES: &str = "left, right, up, down, pgup, pgdn, 1, 2, 3, +, -, space, h, u, 0, \
+pub(crate) const KEY_NAMES: &str =
+    "left, right, up, down, pgup, pgdn, 1, 2, 3, +, -, space, h, u, 0, \
 release, wait, q, esc, ctrl-c";
 
-/// A key by name (case-insensitive), as in [`KEY_NAMES`].
+/// A key by name (case-insensitive), as in `KEY_NAMES`.
 pub fn parse_key(name: &str) -> Result<JogKey, String> {
     let n = name.trim().to_ascii_lowercase();
     Ok(match n.as_str() {
@@ -92,7 +93,7 @@ impl JogKeys for Script {
 
 /// What a key does.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Action {
+pub(crate) enum Action {
     /// Jog one step along axis 0/1/2 (X/Y/Z) in direction `sign`.
     Jog {
         axis: usize,
@@ -111,7 +112,7 @@ pub enum Action {
 }
 
 /// The key map.
-pub fn action(key: JogKey) -> Action {
+pub(crate) fn action(key: JogKey) -> Action {
     match key {
         JogKey::Left => Action::Jog {
             axis: 0,
@@ -143,10 +144,10 @@ pub fn action(key: JogKey) -> Action {
 }
 
 /// The steps `1`, `2`, `3` choose, mm.
-pub const STEPS_MM: [f64; 3] = [0.1, 1.0, 10.0];
+pub(crate) const STEPS_MM: [f64; 3] = [0.1, 1.0, 10.0];
 
 /// How long homing may take before it counts as a silent machine.
-pub const HOMING_LIMIT: Duration = Duration::from_secs(120);
+pub(crate) const HOMING_LIMIT: Duration = Duration::from_secs(120);
 
 /// How long to wait for a jog to finish before `0`, `h` or leaving.
 const STILL_LIMIT: Duration = Duration::from_secs(60);
@@ -190,7 +191,7 @@ impl<'c, 'a> Jogger<'c, 'a> {
         }
     }
 
-    pub fn step_mm(&self) -> f64 {
+    pub(crate) fn step_mm(&self) -> f64 {
         self.steps[self.step]
     }
 
@@ -200,7 +201,7 @@ impl<'c, 'a> Jogger<'c, 'a> {
     }
 
     /// Read the machine's status.
-    pub fn refresh(&mut self) -> Result<&Position, MachineError> {
+    pub(crate) fn refresh(&mut self) -> Result<&Position, MachineError> {
         let p = self.console.position()?;
         Ok(self.last.insert(p))
     }

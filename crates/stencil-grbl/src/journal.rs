@@ -15,13 +15,13 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use super::error::MachineError;
-use super::job::Job;
+use super::program::Program;
 use super::stall::ClockRef;
 use super::stream::{ControllerInfo, Observer, Progress, Summary};
 use stencil_io::write_atomic;
 
 /// The format tag the file starts with.
-pub const FORMAT: &str = "stencil-send-journal/1";
+pub(crate) const FORMAT: &str = "stencil-send-journal/1";
 
 /// How often the journal is rewritten while streaming.
 pub const EVERY: Duration = Duration::from_secs(2);
@@ -35,7 +35,7 @@ pub fn path_for(job: &Path) -> PathBuf {
 
 /// FNV-1a, 64 bit: enough to tell a changed job file from the one journalled (not a security
 /// hash; the size is compared too).
-pub fn fnv1a64(bytes: &[u8]) -> String {
+pub(crate) fn fnv1a64(bytes: &[u8]) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for &b in bytes {
         h ^= b as u64;
@@ -106,13 +106,13 @@ pub struct Journal {
 /// Why a journal cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
-    #[error("{}: no journal beside the job (nothing was streamed from this file, or it finished and the journal was removed); resume with --from-line N instead", path.display())]
+    #[error("{}: no journal beside the job (nothing was streamed from this file, or it finished and the journal was removed); resume from a line instead", path.display())]
     Missing { path: PathBuf },
     #[error("{}: cannot read the journal: {detail}", path.display())]
     Unreadable { path: PathBuf, detail: String },
-    #[error("{}: not a stencil send journal ({detail}); remove it, and resume with --from-line N", path.display())]
+    #[error("{}: not a stencil send journal ({detail}); remove it, and resume from a line", path.display())]
     NotJournal { path: PathBuf, detail: String },
-    #[error("{}: the journal was written for a different {file} ({journal_bytes} bytes, hash {journal_hash}) than the one there now ({file_bytes} bytes, hash {file_hash}): the file changed since the run, so its line numbers cannot be trusted; nothing was sent. Send the file the run used with --recover, or resume with --from-line N after checking", path.display())]
+    #[error("{}: the journal was written for a different {file} ({journal_bytes} bytes, hash {journal_hash}) than the one there now ({file_bytes} bytes, hash {file_hash}): the file changed since the run, so its line numbers cannot be trusted; nothing was sent. Recover with the file the run used, or resume from a line after checking", path.display())]
     Mismatch {
         path: PathBuf,
         file: String,
@@ -134,7 +134,13 @@ fn unix_now() -> u64 {
 
 impl Journal {
     /// A fresh journal for a run of `job` (its file's bytes) on `machine` from `from_line`.
-    pub fn new(file: &Path, bytes: &[u8], job: &Job, machine: &str, from_line: usize) -> Journal {
+    pub fn new(
+        file: &Path,
+        bytes: &[u8],
+        job: &Program,
+        machine: &str,
+        from_line: usize,
+    ) -> Journal {
         let now = unix_now();
         let mut j = Journal {
             format: FORMAT.into(),
@@ -149,7 +155,7 @@ impl Journal {
             from_line,
             last_acked_line: None,
             status_ln: None,
-            planner_blocks: super::protocol::PLANNER_BLOCKS_DEFAULT,
+            planner_blocks: stencil_gcode::limits::PLANNER_BLOCKS,
             resume_from: from_line,
             modal: ModalRecord {
                 units: "G21".into(),
@@ -166,7 +172,7 @@ impl Journal {
     }
 
     /// Move the resume point, and the modal state recorded with it.
-    pub fn set_resume(&mut self, job: &Job, line: usize) {
+    pub(crate) fn set_resume(&mut self, job: &Program, line: usize) {
         self.resume_from = line;
         // A line past the end (everything ran) has the state at the end of the file.
         let before = line.min(job.source_lines() + 1);
@@ -251,7 +257,7 @@ impl Journal {
     /// The line to resume from, and why: the line carrying the last `Ln:` Grbl reported (it was
     /// running, so not surely done), else the first line that may not have run by the host's
     /// count (acknowledged minus what the planner may still have held).
-    pub fn proposal(&self, job: &Job) -> Proposal {
+    pub fn proposal(&self, job: &Program) -> Proposal {
         if let Some(ln) = self.status_ln {
             if let Some(l) = job.lines.iter().find(|l| n_word(&l.text) == Some(ln)) {
                 return Proposal {
@@ -311,7 +317,7 @@ pub struct JournalWriter<'o, 'j> {
     pub inner: &'o mut dyn Observer,
     pub journal: Journal,
     pub path: PathBuf,
-    job: &'j Job,
+    job: &'j Program,
     clock: ClockRef,
     every: Duration,
     last_write: Option<Duration>,
@@ -323,7 +329,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
         inner: &'o mut dyn Observer,
         journal: Journal,
         path: PathBuf,
-        job: &'j Job,
+        job: &'j Program,
         clock: ClockRef,
         every: Duration,
     ) -> Self {
@@ -433,7 +439,7 @@ mod tests {
     #[test]
     fn proposal_prefers_ln_then_the_planner_count() {
         let text = "G21 G90\nN10 M4 S100\nN20 G1 X1 F600\nN30 G1 X2\nN40 G1 X3\nN50 G1 X4\n";
-        let job = Job::parse("n.gcode", text).unwrap();
+        let job = Program::parse("n.gcode", text).unwrap();
         let mut j = Journal::new(Path::new("n.gcode"), text.as_bytes(), &job, "diode-400", 1);
         j.last_acked_line = Some(6);
         j.set_resume(&job, 4);

@@ -4,38 +4,34 @@
 
 use std::fmt;
 
-pub use stencil_gcode::limits::{
-    MAX_LINE_BYTES, PLANNER_BLOCKS as PLANNER_BLOCKS_DEFAULT, RX_BUFFER_BYTES as RX_BUFFER_DEFAULT,
-};
-
 /// Real-time command: ask for a status report (never enters the receive buffer).
-pub const RT_STATUS: u8 = b'?';
+pub(crate) const RT_STATUS: u8 = b'?';
 /// Real-time command: feed hold (decelerate to a stop, keep the job).
-pub const RT_FEED_HOLD: u8 = b'!';
+pub(crate) const RT_FEED_HOLD: u8 = b'!';
 /// Real-time command: cycle start / resume after a feed hold.
-pub const RT_RESUME: u8 = b'~';
+pub(crate) const RT_RESUME: u8 = b'~';
 /// Real-time command: soft reset (stops motion and the spindle/laser at once, flushes all buffers).
-pub const RT_SOFT_RESET: u8 = 0x18;
+pub(crate) const RT_SOFT_RESET: u8 = 0x18;
 /// Real-time command: cancel the running jog (decelerate to a stop and drop the queued jog
 /// motions); ignored unless the machine is in the `Jog` state.
-pub const RT_JOG_CANCEL: u8 = 0x85;
+pub(crate) const RT_JOG_CANCEL: u8 = 0x85;
 
 /// Real-time command: feed override back to 100 %.
-pub const RT_FEED_OV_RESET: u8 = 0x90;
+pub(crate) const RT_FEED_OV_RESET: u8 = 0x90;
 /// Real-time command: feed override +10 % (at most 200 %).
-pub const RT_FEED_OV_PLUS_10: u8 = 0x91;
+pub(crate) const RT_FEED_OV_PLUS_10: u8 = 0x91;
 /// Real-time command: feed override −10 % (at least 10 %).
-pub const RT_FEED_OV_MINUS_10: u8 = 0x92;
+pub(crate) const RT_FEED_OV_MINUS_10: u8 = 0x92;
 /// Real-time command: spindle (laser power) override back to 100 %.
-pub const RT_SPINDLE_OV_RESET: u8 = 0x99;
+pub(crate) const RT_SPINDLE_OV_RESET: u8 = 0x99;
 /// Real-time command: spindle (laser power) override +10 % (at most 200 %).
-pub const RT_SPINDLE_OV_PLUS_10: u8 = 0x9A;
+pub(crate) const RT_SPINDLE_OV_PLUS_10: u8 = 0x9A;
 /// Real-time command: spindle (laser power) override −10 % (at least 10 %).
-pub const RT_SPINDLE_OV_MINUS_10: u8 = 0x9B;
+pub(crate) const RT_SPINDLE_OV_MINUS_10: u8 = 0x9B;
 
 /// True for bytes Grbl acts on immediately instead of buffering them: `?`, `!`, `~`, 0x18 and the
 /// extended set (0x80 and up: safety door, jog cancel, overrides).
-pub fn is_realtime(b: u8) -> bool {
+pub(crate) fn is_realtime(b: u8) -> bool {
     matches!(b, RT_STATUS | RT_FEED_HOLD | RT_RESUME | RT_SOFT_RESET) || b >= 0x80
 }
 
@@ -240,7 +236,7 @@ impl Reply {
 }
 
 /// `[OPT:V,15,128]` → (planner blocks, receive buffer bytes). Grbl 1.1 only; 0.9 has no OPT line.
-pub fn parse_opt(feedback: &str) -> Option<(usize, usize)> {
+pub(crate) fn parse_opt(feedback: &str) -> Option<(usize, usize)> {
     let body = feedback.strip_prefix("OPT:")?;
     let mut it = body.split(',');
     let _codes = it.next()?;
@@ -250,12 +246,12 @@ pub fn parse_opt(feedback: &str) -> Option<(usize, usize)> {
 }
 
 /// The unlock hint Grbl prints after boot or reset while the machine is locked in alarm.
-pub fn is_unlock_hint(msg: &str) -> bool {
+pub(crate) fn is_unlock_hint(msg: &str) -> bool {
     msg.contains("'$H'|'$X' to unlock")
 }
 
 /// What an `error:N` means (Grbl 1.1, codes 1..38), in our words.
-pub fn error_meaning(code: u8) -> &'static str {
+pub(crate) fn error_meaning(code: u8) -> &'static str {
     match code {
         1 => "a word without its letter: G-code words are a letter followed by a number",
         2 => "a number is missing or malformed",
@@ -300,7 +296,7 @@ pub fn error_meaning(code: u8) -> &'static str {
 }
 
 /// What an `ALARM:N` means (Grbl 1.1, codes 1..9), in our words.
-pub fn alarm_meaning(code: u8) -> &'static str {
+pub(crate) fn alarm_meaning(code: u8) -> &'static str {
     match code {
         1 => "hard limit: a limit switch was hit; position is lost, home the machine again",
         2 => "soft limit: a move would leave the machine's travel; position is kept",

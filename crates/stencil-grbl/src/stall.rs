@@ -13,7 +13,7 @@ use std::fmt;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::job::Job;
+use super::program::Program;
 use super::protocol::{MachineState, Status};
 use stencil_gcode::interpret as gcode;
 
@@ -24,7 +24,7 @@ pub trait Clock: Send + Sync {
 }
 
 /// The monotonic system clock.
-pub struct SystemClock(Instant);
+pub(crate) struct SystemClock(Instant);
 
 impl Default for SystemClock {
     fn default() -> Self {
@@ -56,12 +56,12 @@ impl fmt::Debug for ClockRef {
 
 /// Slack over the slowest step: status reports come every quarter second or so, a spindle or
 /// servo may take a moment, and a host under load reads late.
-pub const STALL_MARGIN: Duration = Duration::from_secs(5);
+pub(crate) const STALL_MARGIN: Duration = Duration::from_secs(5);
 
 /// How long the job's slowest single step takes at 100 % feed: the longest move at its programmed
 /// feed (G0 at `rapid_mm_min`, or when that is unknown at the slowest feed the job uses, which
 /// overestimates), or the longest dwell (`G4 P<seconds>`).
-pub fn slowest_step(job: &Job, rapid_mm_min: Option<f64>) -> Duration {
+pub fn slowest_step(job: &Program, rapid_mm_min: Option<f64>) -> Duration {
     let slowest_feed = job
         .moves
         .iter()
@@ -101,13 +101,13 @@ pub fn slowest_step(job: &Job, rapid_mm_min: Option<f64>) -> Duration {
 }
 
 /// The stall bound: 1.5 × the slowest step plus [`STALL_MARGIN`].
-pub fn stall_bound(slowest: Duration) -> Duration {
+pub(crate) fn stall_bound(slowest: Duration) -> Duration {
     slowest.mul_f64(1.5) + STALL_MARGIN
 }
 
 /// Watches status reports for a stall.
 #[derive(Clone, Debug)]
-pub struct StallWatch {
+pub(crate) struct StallWatch {
     /// The bound at 100 % feed; a lower feed override stretches it.
     pub bound: Duration,
     /// Since when (clock time) the machine has stood at this position in `Run`.
@@ -117,14 +117,14 @@ pub struct StallWatch {
 
 /// A stall: how long the machine stood still, where, and the bound it exceeded.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Stall {
+pub(crate) struct Stall {
     pub still_for: Duration,
     pub bound: Duration,
     pub position: [f64; 3],
 }
 
 impl StallWatch {
-    pub fn new(bound: Duration) -> StallWatch {
+    pub(crate) fn new(bound: Duration) -> StallWatch {
         StallWatch {
             bound,
             since: None,
@@ -133,20 +133,18 @@ impl StallWatch {
     }
 
     /// The bound under the feed override last reported (at 50 % a step takes twice as long).
-    pub fn effective_bound(&self) -> Duration {
+    pub(crate) fn effective_bound(&self) -> Duration {
         let k = 100.0 / self.feed_override.clamp(1, 200) as f64;
         self.bound.mul_f64(k.max(1.0))
     }
 
     /// Take a status report seen at `now`; `busy` = lines still in flight or planner blocks in
     /// use. Returns the stall once the machine has stood still in `Run` past the bound.
-    pub fn observe(&mut self, now: Duration, st: &Status, busy: bool) -> Option<Stall> {
+    pub(crate) fn observe(&mut self, now: Duration, st: &Status, busy: bool) -> Option<Stall> {
         if let Some([f, _, _]) = st.overrides {
             self.feed_override = f;
         }
-        let Some(pos) = st.position() else {
-            return None;
-        };
+        let pos = st.position()?;
         if st.state != MachineState::Run || !busy {
             self.since = None;
             return None;
@@ -212,17 +210,17 @@ mod tests {
     #[test]
     fn the_bound_comes_from_the_jobs_own_speeds() {
         // 100 mm at 600 mm/min = 10 s; a 30 mm G0 at 3000 mm/min = 0.6 s.
-        let job = Job::parse("j", "G0 X30\nG1 X130 F600\nG1 X131\n").unwrap();
+        let job = Program::parse("j", "G0 X30\nG1 X130 F600\nG1 X131\n").unwrap();
         assert_eq!(slowest_step(&job, Some(3000.0)), Duration::from_secs(10));
         assert_eq!(
             stall_bound(Duration::from_secs(10)),
             Duration::from_secs(20)
         );
         // Rapid rate unknown: G0 timed at the slowest feed (30 mm at 60 mm/min = 30 s).
-        let job = Job::parse("j", "G0 X30\nG1 X31 F60\n").unwrap();
+        let job = Program::parse("j", "G0 X30\nG1 X31 F60\n").unwrap();
         assert_eq!(slowest_step(&job, None), Duration::from_secs(30));
         // A dwell longer than any move counts.
-        let job = Job::parse("j", "G1 X1 F600\nG4 P12.5\n").unwrap();
+        let job = Program::parse("j", "G1 X1 F600\nG4 P12.5\n").unwrap();
         assert_eq!(slowest_step(&job, None), Duration::from_secs_f64(12.5));
     }
 }

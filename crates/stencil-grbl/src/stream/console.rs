@@ -11,7 +11,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use super::{
-    BytePort, Control, ControllerInfo, Job, MachineError, Observer, Outgoing, Session,
+    BytePort, Control, ControllerInfo, MachineError, Observer, Outgoing, Program, Session,
     StreamConfig, Summary,
 };
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
@@ -219,17 +219,8 @@ impl<'a> Console<'a> {
     /// acknowledged, then wait until the machine is idle. Operator aborts (the `controls`
     /// channel), `error:N`, alarms, silence and a lost port end it as they end a job: feed hold,
     /// soft reset, laser off.
-    pub fn run(&mut self, job: &Job) -> Result<Summary, MachineError> {
-        let lines: Vec<Outgoing> = job
-            .lines
-            .iter()
-            .map(|l| Outgoing {
-                number: l.number,
-                text: l.text.clone(),
-                motion: l.motion,
-                preamble: false,
-            })
-            .collect();
+    pub fn run(&mut self, job: &Program) -> Result<Summary, MachineError> {
+        let lines: Vec<Outgoing> = job.lines.iter().map(Outgoing::program).collect();
         // As `send` counts (send-response ignores the limit).
         let rx_limit = self.s.info.rx_buffer.saturating_sub(1).max(1);
         let summary = self.s.stream(&lines, false, rx_limit, 1);

@@ -2,12 +2,14 @@
 //! with its moves (for the time estimate) and the state preamble that resumes it mid-way.
 
 use super::error::MachineError;
-use super::protocol::{self, MAX_LINE_BYTES};
+use super::protocol;
 use stencil_gcode::interpret::{self as gcode, Modal, Move};
+use stencil_gcode::limits::MAX_LINE_BYTES;
+use stencil_gcode::num;
 
 /// One line to send: its text as Grbl will see it, and where it came from.
 #[derive(Clone, Debug, PartialEq)]
-pub struct JobLine {
+pub struct ProgramLine {
     /// 1-based line number in the file.
     pub number: usize,
     /// Cleaned text (no comments, no spaces, upper case), without the newline.
@@ -18,10 +20,10 @@ pub struct JobLine {
 
 /// A program ready to stream: vetted, cleaned, with its moves for the time estimate.
 #[derive(Clone, Debug)]
-pub struct Job {
+pub struct Program {
     /// File name for messages.
     pub name: String,
-    pub lines: Vec<JobLine>,
+    pub lines: Vec<ProgramLine>,
     /// Moves as our interpreter reads them (lines it cannot read are skipped).
     pub moves: Vec<Move>,
     /// The program may end with the laser still switched on (no final M5, or lines our
@@ -33,10 +35,10 @@ pub struct Job {
     source: Vec<String>,
 }
 
-impl Job {
+impl Program {
     /// Clean and vet a program before anything is sent: every line must fit Grbl's line buffer and
     /// hold only printable ASCII without real-time characters (which Grbl would act on mid-line).
-    pub fn parse(name: &str, text: &str) -> Result<Job, MachineError> {
+    pub fn parse(name: &str, text: &str) -> Result<Program, MachineError> {
         let mut lines = Vec::new();
         let mut moves = Vec::new();
         let mut modal = Modal::default();
@@ -91,13 +93,13 @@ impl Job {
                     !clean.starts_with('$')
                 }
             };
-            lines.push(JobLine {
+            lines.push(ProgramLine {
                 number,
                 text: clean,
                 motion,
             });
         }
-        Ok(Job {
+        Ok(Program {
             name: name.to_string(),
             lines,
             moves,
@@ -113,7 +115,7 @@ impl Job {
     }
 
     /// Lines that restore, before line `from_line`, the state the program had built up, with the
-    /// tool lift read from the program alone (see [`Job::resume_preamble_with`]).
+    /// tool lift read from the program alone (see [`Program::resume_preamble_with`]).
     pub fn resume_preamble(&self, from_line: usize) -> Result<Vec<String>, MachineError> {
         self.resume_preamble_with(from_line, &ResumeLift::default())
     }
@@ -253,7 +255,7 @@ pub struct ResumeLift {
     pub plunge_mm_min: Option<f64>,
 }
 
-/// The state a program has built up before some line (see [`Job::state_before`]).
+/// The state a program has built up before some line (see [`Program::state_before`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StateBefore {
     pub modal: Modal,
@@ -265,17 +267,6 @@ pub struct StateBefore {
     pub plunge_feed: Option<f64>,
 }
 
-/// A number as G-code: at most 4 decimals, no trailing zeros.
-fn num(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" {
-        "0".into()
-    } else {
-        s.to_string()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -283,19 +274,19 @@ mod tests {
     #[test]
     fn job_refuses_long_lines_and_realtime_characters() {
         let long = format!("G1X1Y1 ; ok\n(c)\nG1X{}\n", "1".repeat(80));
-        match Job::parse("a.gcode", &long) {
+        match Program::parse("a.gcode", &long) {
             Err(MachineError::LineTooLong {
                 line: 3, len: 83, ..
             }) => {}
             other => panic!("{other:?}"),
         }
-        let e = Job::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
+        let e = Program::parse("a.gcode", "G0X1\nG1X2?F100\n").unwrap_err();
         assert!(e.to_string().contains("line 2"), "{e}");
         // 79 characters fit Grbl's line buffer, 80 do not.
-        assert!(Job::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(74))).is_ok());
-        assert!(Job::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(75))).is_err());
+        assert!(Program::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(74))).is_ok());
+        assert!(Program::parse("a.gcode", &format!("G0X1.{}\n", "1".repeat(75))).is_err());
         // A number no machine reaches is refused before anything is sent, naming its line.
-        let e = Job::parse("a.gcode", &format!("G0X1\nG0X{}\n", "1".repeat(70))).unwrap_err();
+        let e = Program::parse("a.gcode", &format!("G0X1\nG0X{}\n", "1".repeat(70))).unwrap_err();
         assert!(matches!(e, MachineError::Gcode { .. }), "{e}");
         assert!(
             e.to_string()
@@ -304,14 +295,14 @@ mod tests {
         );
         // Comments and spaces do not count.
         let ok = format!("G1 X1 ({})\n", "c".repeat(100));
-        let j = Job::parse("a.gcode", &ok).unwrap();
+        let j = Program::parse("a.gcode", &ok).unwrap();
         assert_eq!(j.lines[0].text, "G1X1");
     }
 
     #[test]
     fn preamble_restores_state() {
         let p = "G21 G90\nM4 S300\nG0 X10 Y5\nG1 X20 F600\nG91\nX1\n";
-        let j = Job::parse("p", p).unwrap();
+        let j = Program::parse("p", p).unwrap();
         let pre = j.resume_preamble(6).unwrap();
         assert_eq!(
             pre,
@@ -321,7 +312,7 @@ mod tests {
         assert!(j.resume_preamble(99).is_err());
         // Inches: travel in mm, feed in mm/min, then back to G20.
         let p = "G20\nG0 X1\nM3 S100\nG1 Y1 F10\nY2\n";
-        let pre = Job::parse("p", p).unwrap().resume_preamble(5).unwrap();
+        let pre = Program::parse("p", p).unwrap().resume_preamble(5).unwrap();
         assert_eq!(
             pre,
             vec![
@@ -348,7 +339,7 @@ mod tests {
     fn preamble_lifts_a_z_tool_before_travel_and_plunges_after() {
         // A knife job: travel at Z3, plunge to -0.3 at F300, cut at F1200, air on.
         let p = "G21 G90\nM8\nG0 Z3 F1200\nG0 X10 Y10\nG1 Z-0.3 F300\nG1 X20 F1200\nX30\n";
-        let j = Job::parse("k", p).unwrap();
+        let j = Program::parse("k", p).unwrap();
         assert_eq!(
             j.resume_preamble(7).unwrap(),
             vec![
@@ -383,10 +374,11 @@ mod tests {
     }
 
     #[test]
-    fn numbers() {
-        assert_eq!(num(25.4), "25.4");
-        assert_eq!(num(600.0), "600");
-        assert_eq!(num(-0.00001), "0");
-        assert_eq!(num(1.23456), "1.2346");
+    fn preamble_numbers_are_the_writers_micrometres() {
+        // The restore is written as the G-code writer writes numbers: mm to 3 decimals (Grbl's
+        // own precision in mm), no trailing zeros, no `-0`.
+        let p = "G21 G90\nG0 X1.23456 Y-0.00001 F600.00\nG1 X2\n";
+        let pre = Program::parse("p", p).unwrap().resume_preamble(3).unwrap();
+        assert_eq!(pre, vec!["M5", "G21G90", "G0X1.235Y0", "F600"]);
     }
 }

@@ -1,0 +1,84 @@
+//! How a stream is run: flow control, laser mode, timeouts, where to start and how to resume.
+
+use std::time::Duration;
+
+use super::ResumeLift;
+use crate::stall::ClockRef;
+
+/// How lines are paced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlowControl {
+    /// Keep the receive buffer as full as Grbl allows (fast; the normal mode).
+    CharacterCounting,
+    /// One line at a time, each waiting for its `ok` (slow; for boards that overflow).
+    SendResponse,
+}
+
+/// What to do about Grbl's laser mode (`$32`) before a job.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LaserMode {
+    /// Not a laser job: leave `$32` alone.
+    #[default]
+    Ignore,
+    /// A laser job: read `$$` and refuse if `$32=0`.
+    Require,
+    /// A laser job: read `$$` and set `$32=1` if it is off (`--set-laser-mode`).
+    Set,
+}
+
+/// The longest a homing cycle may take before the sender gives up on it.
+pub(crate) const HOMING_LIMIT: Duration = Duration::from_secs(300);
+
+/// Streaming settings.
+#[derive(Clone, Debug)]
+pub struct StreamConfig {
+    pub flow: FlowControl,
+    /// Receive buffer size to count against; `None` = ask Grbl (`$I`), else 128.
+    pub rx_buffer: Option<usize>,
+    /// A controller that says nothing for this long (while being polled) is reported as silent.
+    pub timeout: Duration,
+    /// How long to wait for the banner of a board that resets when the port opens, before sending
+    /// a soft reset to wake it.
+    pub boot_wait: Duration,
+    /// Status poll period (Grbl asks for 5 Hz or less).
+    pub poll_interval: Duration,
+    /// Send `$X` if the machine is locked in alarm.
+    pub unlock: bool,
+    /// Run the whole program through `$C` check mode first; refuse to cut if any line errors.
+    pub check_first: bool,
+    /// Start at this 1-based line of the file, after restoring the modal state it needs.
+    pub from_line: usize,
+    /// How the tool is lifted for the travel to a resume point (from the machine profile).
+    pub lift: ResumeLift,
+    /// The machine's G0 rate, mm/min (from its profile), for the stall bound; `None` = time G0
+    /// at the job's slowest feed (a looser bound).
+    pub rapid_mm_min: Option<f64>,
+    /// Time for stall detection (a test's clock, or the system's).
+    pub clock: ClockRef,
+    /// Check (or set) laser mode before anything is sent.
+    pub laser_mode: LaserMode,
+    /// Home (`$H`) after connecting, before anything else moves: a recovery after a crash or a
+    /// power loss cannot trust the machine's position. Also clears the alarm a homing machine
+    /// boots in.
+    pub home_first: bool,
+}
+
+impl Default for StreamConfig {
+    fn default() -> Self {
+        StreamConfig {
+            flow: FlowControl::CharacterCounting,
+            rx_buffer: None,
+            timeout: Duration::from_secs(10),
+            boot_wait: Duration::from_millis(2500),
+            poll_interval: Duration::from_millis(250),
+            unlock: false,
+            check_first: false,
+            from_line: 1,
+            lift: ResumeLift::default(),
+            rapid_mm_min: None,
+            clock: ClockRef::default(),
+            laser_mode: LaserMode::Ignore,
+            home_first: false,
+        }
+    }
+}

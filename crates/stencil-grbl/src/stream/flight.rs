@@ -1,0 +1,411 @@
+//! Flow control: lines on their way to Grbl (character counting or send-response), their
+//! acknowledgements and rejections, status polling while they run, and the `$C` check pass.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use super::session::Session;
+use super::tracker::Tracker;
+use super::{
+    CheckRejection, FlowControl, Halt, MachineError, Program, ProgramLine, Progress, Summary,
+};
+use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
+
+/// A line as it goes out: program lines and the resume preamble.
+pub(super) struct Outgoing {
+    /// File line (the resume point for preamble lines).
+    pub(super) number: usize,
+    pub(super) text: String,
+    pub(super) motion: bool,
+    pub(super) preamble: bool,
+}
+
+impl Outgoing {
+    /// A program line, as it goes out.
+    pub(super) fn program(l: &ProgramLine) -> Outgoing {
+        Outgoing {
+            number: l.number,
+            text: l.text.clone(),
+            motion: l.motion,
+            preamble: false,
+        }
+    }
+}
+
+/// A Grbl system command (`$x=value`, `$H`, `$X`...), not G-code.
+pub(super) fn is_system(line: &str) -> bool {
+    line.starts_with('$')
+}
+
+impl Session<'_, '_> {
+    /// Run the lines through `$C` check mode; refuse if any errors.
+    pub(super) fn check(&mut self, job: &Program, body: &[Outgoing]) -> Result<(), MachineError> {
+        self.obs
+            .message("checking the program in Grbl's check mode ($C)");
+        self.command("$C")?;
+        self.obs.phase(true, body.len());
+        // Grbl refuses `$` commands in check mode (error:8): they are not G-code to vet.
+        let skipped = body.iter().filter(|l| is_system(&l.text)).count();
+        if skipped > 0 {
+            self.obs.message(&format!(
+                "{skipped} `$` command line(s) are not checked (Grbl does not run them in check mode)"
+            ));
+        }
+        let lines: Vec<Outgoing> = body
+            .iter()
+            .filter(|l| !is_system(&l.text))
+            .map(|l| Outgoing {
+                number: l.number,
+                text: l.text.clone(),
+                motion: false,
+                preamble: l.preamble,
+            })
+            .collect();
+        let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
+        let rejected = match self.stream_inner(&lines, true, rx_limit, 1) {
+            Ok(run) => run.rejected,
+            Err(e) => return Err(e),
+        };
+        // Leaving check mode soft-resets Grbl: wait for its banner.
+        self.command("$C")?;
+        let (mut alarm, mut hinted) = (None, false);
+        if self
+            .wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?
+            .is_none()
+        {
+            return Err(MachineError::NoWelcome {
+                port: self.port_name.clone(),
+                secs: self.cfg.timeout.as_secs_f64(),
+            });
+        }
+        if !rejected.is_empty() {
+            return Err(MachineError::CheckFailed {
+                file: job.name.clone(),
+                rejected,
+            });
+        }
+        self.obs
+            .message("check mode passed: every line was accepted");
+        Ok(())
+    }
+
+    pub(super) fn stream(
+        &mut self,
+        lines: &[Outgoing],
+        checking: bool,
+        rx_limit: usize,
+        start_line: usize,
+    ) -> Result<Summary, MachineError> {
+        let run = self.stream_inner(lines, checking, rx_limit, start_line)?;
+        Ok(Summary {
+            lines: run.acked,
+            bytes: run.bytes,
+            elapsed: run.elapsed,
+            rx_limit,
+            max_in_flight: run.max_in_flight,
+            total: self.started.elapsed(),
+            info: self.info.clone(),
+        })
+    }
+
+    /// Stream `lines` until every one is answered and, for a real run, the machine has finished
+    /// moving; in check mode (`checking`) rejected lines are collected instead of stopping.
+    fn stream_inner(
+        &mut self,
+        lines: &[Outgoing],
+        checking: bool,
+        rx_limit: usize,
+        start_line: usize,
+    ) -> Result<Run, MachineError> {
+        let mut f = Flight::new(lines, start_line, self.info.planner_blocks);
+        let mut last_poll = Instant::now() - self.cfg.poll_interval;
+        self.link.last_heard = Instant::now();
+        self.started = Instant::now();
+
+        loop {
+            self.apply_controls(&mut f)?;
+            self.fill(&mut f, rx_limit)?;
+            // Done when every line is acknowledged and, for a real run, the machine has finished
+            // moving (`ok` only means queued).
+            if f.acked_total == lines.len() && (checking || f.finished) {
+                break;
+            }
+            if last_poll.elapsed() >= self.cfg.poll_interval {
+                if let Err(e) = self.link.write(&[RT_STATUS]) {
+                    return Err(self.fault(e, &f));
+                }
+                last_poll = Instant::now();
+            }
+            let wait = self
+                .cfg
+                .poll_interval
+                .saturating_sub(last_poll.elapsed())
+                .min(Duration::from_millis(50));
+            let line = match self.link.line(wait) {
+                Ok(Some(l)) => l,
+                Ok(None) => continue,
+                Err(e) => return Err(self.fault(e, &f)),
+            };
+            self.on_reply(&mut f, &line, checking)?;
+        }
+        Ok(f.run)
+    }
+
+    /// Fill Grbl's receive buffer as far as the flow control allows.
+    fn fill(&mut self, f: &mut Flight<'_>, rx_limit: usize) -> Result<(), MachineError> {
+        let lines = f.lines;
+        while f.next < lines.len() {
+            let next = f.next;
+            let len = lines[next].text.len() + 1;
+            // `$` commands (settings written to EEPROM, homing...) go alone: Grbl stops
+            // listening to the port while it writes EEPROM, so nothing may follow them until
+            // they are answered.
+            let after_system = f
+                .in_flight
+                .back()
+                .is_some_and(|&(i, _)| is_system(&lines[i].text));
+            let fits = match self.cfg.flow {
+                _ if after_system => false,
+                _ if is_system(&lines[next].text) => f.in_flight.is_empty(),
+                FlowControl::CharacterCounting => f.in_flight_bytes + len <= rx_limit,
+                FlowControl::SendResponse => f.in_flight.is_empty(),
+            };
+            if !fits {
+                break;
+            }
+            let mut bytes = Vec::with_capacity(len);
+            bytes.extend_from_slice(lines[next].text.as_bytes());
+            bytes.push(b'\n');
+            if let Err(e) = self.link.write(&bytes) {
+                return Err(self.fault(e, f));
+            }
+            if !lines[next].preamble {
+                f.first_byte.get_or_insert_with(Instant::now);
+                f.run.bytes += len as u64;
+            }
+            f.in_flight.push_back((next, len));
+            f.in_flight_bytes += len;
+            f.run.max_in_flight = f.run.max_in_flight.max(f.in_flight_bytes);
+            f.next += 1;
+        }
+        Ok(())
+    }
+
+    /// Act on one line from Grbl: an answer to the oldest line in flight, a status report, an
+    /// alarm or a restart (which end the run), or a message for the front end.
+    fn on_reply(
+        &mut self,
+        f: &mut Flight<'_>,
+        line: &str,
+        checking: bool,
+    ) -> Result<(), MachineError> {
+        match Reply::parse(line) {
+            Reply::Ok | Reply::Error(_) if f.in_flight.is_empty() => {
+                self.obs.message(&format!(
+                    "Grbl answered `{line}` with no line waiting; ignored"
+                ));
+            }
+            Reply::Ok => {
+                f.ack();
+                if let Some(t) = f.first_byte {
+                    f.run.elapsed = t.elapsed();
+                }
+                f.progress.elapsed = self.started.elapsed();
+                self.obs.progress(&f.progress);
+            }
+            Reply::Error(code) => {
+                let Some(l) = f.reject() else { return Ok(()) };
+                if checking {
+                    f.run.rejected.push(CheckRejection {
+                        line: l.number,
+                        text: l.text.clone(),
+                        code,
+                    });
+                    return Ok(());
+                }
+                self.settle(f);
+                let halt = self.halt(f.run.last_acked, f.resume_at(Some(l.number)));
+                return Err(MachineError::Rejected {
+                    line: l.number,
+                    text: l.text.clone(),
+                    code,
+                    halt,
+                });
+            }
+            Reply::Alarm(code) => {
+                // Grbl has already stopped and dropped its planner: what it held is lost.
+                let halt = self.halt(f.run.last_acked, f.resume_at(None));
+                return Err(MachineError::Alarm { code, halt });
+            }
+            Reply::Welcome(_) => {
+                // Everything queued was lost with the reset; the laser is off.
+                let halt = Halt {
+                    last_acked: f.run.last_acked,
+                    resume_from: f.resume_at(None),
+                    laser: "the controller reset itself, which turns the laser and the air off"
+                        .into(),
+                    locked: false,
+                };
+                return Err(MachineError::Restarted { halt });
+            }
+            Reply::Status(st) => self.on_status(f, st, checking)?,
+            Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
+            Reply::Feedback(fb) => self.obs.message(&format!("Grbl: [{fb}]")),
+            Reply::Other(o) => self.obs.message(&format!("Grbl: {o}")),
+        }
+        Ok(())
+    }
+
+    /// A status report: progress, the end of the run (idle with every line answered), and the
+    /// stall watch while work is queued.
+    fn on_status(
+        &mut self,
+        f: &mut Flight<'_>,
+        st: Status,
+        checking: bool,
+    ) -> Result<(), MachineError> {
+        f.finished |= f.acked_total == f.lines.len() && st.state == MachineState::Idle;
+        f.status(&st);
+        if !checking {
+            // Work is queued: lines in flight, or planner blocks in use (unknown without `Bf:`,
+            // then assumed).
+            let busy = !f.in_flight.is_empty()
+                || st
+                    .buffer
+                    .is_none_or(|(free, _)| (free as usize) < self.info.planner_blocks);
+            if let Some(stuck) = self.stall.observe(self.cfg.clock.0.now(), &st, busy) {
+                self.settle(f);
+                let halt = self.halt(f.run.last_acked, f.resume_at(None));
+                return Err(MachineError::Stalled {
+                    port: self.port_name.clone(),
+                    still_s: stuck.still_for.as_secs_f64(),
+                    bound_s: stuck.bound.as_secs_f64(),
+                    position: stuck.position,
+                    halt,
+                });
+            }
+        }
+        f.progress.elapsed = self.started.elapsed();
+        self.last_status = Some(st);
+        self.obs.progress(&f.progress);
+        Ok(())
+    }
+}
+
+/// The state of lines on their way to Grbl.
+pub(super) struct Flight<'l> {
+    pub(super) lines: &'l [Outgoing],
+    pub(super) start_line: usize,
+    /// (index into `lines`, bytes) of lines sent and not yet answered, oldest first.
+    pub(super) in_flight: VecDeque<(usize, usize)>,
+    pub(super) in_flight_bytes: usize,
+    /// Lines answered, preamble included.
+    pub(super) acked_total: usize,
+    pub(super) run: Run,
+    pub(super) tracker: Tracker,
+    pub(super) progress: Progress,
+    /// Index into `lines` of the next line to send.
+    pub(super) next: usize,
+    /// When the first program byte went out (the run's elapsed time counts from here).
+    pub(super) first_byte: Option<Instant>,
+    /// Every line answered and the machine seen idle since.
+    pub(super) finished: bool,
+}
+
+impl<'l> Flight<'l> {
+    /// Nothing sent yet; `start_line` is where a stop before any answer resumes.
+    fn new(lines: &'l [Outgoing], start_line: usize, planner_blocks: usize) -> Self {
+        Flight {
+            lines,
+            start_line,
+            in_flight: VecDeque::new(),
+            in_flight_bytes: 0,
+            acked_total: 0,
+            run: Run::default(),
+            tracker: Tracker {
+                planner_blocks,
+                acked_motion: Vec::new(),
+                motion_at_status: 0,
+                planner_used_at_status: 0,
+            },
+            progress: Progress {
+                total: lines.iter().filter(|l| !l.preamble).count(),
+                unexecuted_from: start_line,
+                ..Progress::default()
+            },
+            next: 0,
+            first_byte: None,
+            finished: false,
+        }
+    }
+
+    /// The oldest line in flight was answered: free its bytes.
+    pub(super) fn pop(&mut self) -> Option<&'l Outgoing> {
+        let (idx, len) = self.in_flight.pop_front()?;
+        self.in_flight_bytes -= len;
+        Some(&self.lines[idx])
+    }
+
+    pub(super) fn ack(&mut self) {
+        let Some(l) = self.pop() else { return };
+        self.acked_total += 1;
+        if !l.preamble {
+            self.run.acked += 1;
+            self.run.last_acked = Some(l.number);
+            if l.motion {
+                self.tracker.acked_motion.push(l.number);
+            }
+        }
+        self.progress.acked = self.run.acked;
+        self.progress.last_acked_line = self.run.last_acked;
+        self.progress.unexecuted_from = self.resume_at(None);
+    }
+
+    /// The oldest line in flight was rejected (in check mode it counts as answered).
+    pub(super) fn reject(&mut self) -> Option<&'l Outgoing> {
+        let l = self.pop()?;
+        self.acked_total += 1;
+        if !l.preamble {
+            self.run.acked += 1;
+        }
+        self.progress.acked = self.run.acked;
+        Some(l)
+    }
+
+    pub(super) fn status(&mut self, st: &Status) {
+        self.tracker.status(st);
+        self.progress.state = Some(st.state.clone());
+        self.progress.position = st.position().or(self.progress.position);
+        self.progress.overrides = st.overrides.or(self.progress.overrides);
+        self.progress.status_line = st.line.or(self.progress.status_line);
+        self.progress.unexecuted_from = self.resume_at(None);
+    }
+
+    /// Where to resume if the job stops now: the first line not acknowledged (or the rejected
+    /// one), or an earlier acknowledged move that may still have been waiting in the planner.
+    pub(super) fn resume_at(&self, failed: Option<usize>) -> usize {
+        let first_unanswered = failed
+            .or_else(|| self.in_flight.front().map(|&(i, _)| self.lines[i].number))
+            .or_else(|| self.lines.get(self.acked_total).map(|l| l.number))
+            .unwrap_or_else(|| {
+                self.lines
+                    .last()
+                    .map(|l| l.number + 1)
+                    .unwrap_or(self.start_line)
+            });
+        self.tracker
+            .first_unexecuted()
+            .map_or(first_unanswered, |u| u.min(first_unanswered))
+    }
+}
+
+/// What a run (or a check pass) did.
+#[derive(Default)]
+pub(super) struct Run {
+    pub(super) acked: usize,
+    pub(super) last_acked: Option<usize>,
+    pub(super) bytes: u64,
+    pub(super) elapsed: Duration,
+    pub(super) max_in_flight: usize,
+    pub(super) rejected: Vec<CheckRejection>,
+}

@@ -1,0 +1,127 @@
+//! Streaming a G-code program to Grbl over any byte port.
+//!
+//! The same code runs against a serial port and against the virtual Grbl on a pty, so the tests
+//! exercise exactly what `stencil send` does. Flow control is Grbl's character counting (at most
+//! rx buffer − 1 bytes in flight, each line counted with its `\n`), or send-response as a fallback.
+//! Every way a stream can stop early ends with a soft reset (laser off), an `M5` when the controller
+//! accepts one, and the line to resume from.
+//!
+//! By concern: `link` (the byte port, read line by line), `session` (connect, setup commands,
+//! status queries), `flight` (flow control, acknowledgements, the `$C` pass), `tracker` (which
+//! acknowledged moves really ran), `control` (the operator's real-time commands and overrides),
+//! `halt` (every stop path), `config` and `observe` (what goes in and what comes out), and
+//! [`console`] (the same session held open for jogging and framing).
+
+use std::sync::mpsc::Receiver;
+
+pub mod console;
+
+mod config;
+mod control;
+mod flight;
+mod halt;
+mod link;
+mod observe;
+mod session;
+mod tracker;
+
+pub use self::config::{FlowControl, LaserMode, StreamConfig};
+pub use self::control::{Control, Override};
+pub use self::link::BytePort;
+pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
+pub use super::error::{CheckRejection, Halt, MachineError};
+pub use super::program::{Program, ProgramLine, ResumeLift};
+
+use self::flight::Outgoing;
+use self::session::Session;
+use super::stall;
+
+/// Stream `job` to the controller on `port` and wait until every line is acknowledged.
+///
+/// Connects (banner, `$I`, alarm check), optionally vets the job in check mode, restores the
+/// modal state for `--from-line`, then streams with status polling. Any fault stops the machine
+/// (soft reset, laser off) and returns an error carrying the resume line ([`MachineError::halt`]).
+pub fn send(
+    port: &mut dyn BytePort,
+    job: &Program,
+    cfg: &StreamConfig,
+    controls: Option<&Receiver<Control>>,
+    obs: &mut dyn Observer,
+) -> Result<Summary, MachineError> {
+    let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
+    let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
+    let mut s = Session::new(port, cfg, controls, obs, stall);
+    s.connect()?;
+    s.laser_mode()?;
+    let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
+    if cfg.flow == FlowControl::CharacterCounting {
+        fits_buffer(job, rx_limit, s.info.rx_buffer)?;
+    }
+    let from = cfg.from_line.max(1);
+    let (lines, resume_point) = outgoing(job, preamble, from);
+    if cfg.check_first {
+        // With the preamble, so a resumed job is checked in the state it will run in.
+        s.check(job, &lines)?;
+    }
+    let restore: Vec<&str> = lines
+        .iter()
+        .filter(|l| l.preamble)
+        .map(|l| l.text.as_str())
+        .collect();
+    if !restore.is_empty() {
+        s.obs.message(&format!(
+            "resuming at line {from}: restoring the machine state with {}",
+            restore.join(" ")
+        ));
+    }
+    s.obs
+        .phase(false, lines.iter().filter(|l| !l.preamble).count());
+    let summary = s.stream(&lines, false, rx_limit, resume_point)?;
+    if job.may_end_laser_on {
+        s.obs
+            .message("the program ends without switching the laser off: sending M5");
+        s.command("M5")?;
+    }
+    if job.may_end_air_on {
+        s.obs
+            .message("the program ends without switching the air (coolant) off: sending M9");
+        s.command("M9")?;
+    }
+    Ok(summary)
+}
+
+/// Character counting needs every line (with its newline) to fit the receive buffer at once.
+fn fits_buffer(job: &Program, rx_limit: usize, rx: usize) -> Result<(), MachineError> {
+    match job.lines.iter().find(|l| l.text.len() + 1 > rx_limit) {
+        Some(l) => Err(MachineError::LineExceedsBuffer {
+            file: job.name.clone(),
+            line: l.number,
+            len: l.text.len() + 1,
+            rx,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// What goes out: the resume preamble (numbered with the resume point), then the program's lines
+/// from line `from` on; and the resume point (the first program line sent).
+fn outgoing(job: &Program, preamble: Vec<String>, from: usize) -> (Vec<Outgoing>, usize) {
+    let body: Vec<Outgoing> = job
+        .lines
+        .iter()
+        .filter(|l| l.number >= from)
+        .map(Outgoing::program)
+        .collect();
+    let resume_point = body.first().map(|l| l.number).unwrap_or(from);
+    let mut lines: Vec<Outgoing> = preamble
+        .into_iter()
+        .map(|text| Outgoing {
+            number: resume_point,
+            text,
+            motion: false,
+            preamble: true,
+        })
+        .collect();
+    lines.extend(body);
+    (lines, resume_point)
+}

@@ -1,0 +1,65 @@
+//! What a stream tells a front end while it runs, and what it reports when done.
+
+use std::time::Duration;
+
+use crate::protocol::MachineState;
+
+/// What the controller told us on connect.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ControllerInfo {
+    pub version: String,
+    pub rx_buffer: usize,
+    pub planner_blocks: usize,
+    /// The machine was in alarm and `$X` unlocked it.
+    pub unlocked: bool,
+}
+
+/// Where a running job stands.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Progress {
+    /// Program lines acknowledged (the resume preamble not counted) and in total.
+    pub acked: usize,
+    pub total: usize,
+    pub last_acked_line: Option<usize>,
+    /// First file line that may not have run yet (acknowledged lines can still wait in the
+    /// planner): the remaining-time estimate starts here.
+    pub unexecuted_from: usize,
+    pub state: Option<MachineState>,
+    pub position: Option<[f64; 3]>,
+    /// Feed, rapid and spindle overrides in percent, as the last `Ov:` field said (Grbl sends it
+    /// every few reports and right after a change).
+    pub overrides: Option<[u32; 3]>,
+    /// The N number Grbl last reported executing (`Ln:`, firmware built with line numbers).
+    pub status_line: Option<u32>,
+    pub elapsed: Duration,
+}
+
+/// Things a front end may show. Every method has a do-nothing default.
+pub trait Observer {
+    fn connected(&mut self, _info: &ControllerInfo) {}
+    /// A `[MSG:..]` or other text from the controller, or a note from the streamer.
+    fn message(&mut self, _text: &str) {}
+    /// The check-mode pass (true) or the real run (false) begins.
+    fn phase(&mut self, _checking: bool, _total: usize) {}
+    fn progress(&mut self, _p: &Progress) {}
+}
+
+/// An observer that shows nothing.
+pub struct Quiet;
+impl Observer for Quiet {}
+
+/// What a finished stream did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    pub lines: usize,
+    /// Program bytes written (lines with their newlines, without the preamble).
+    pub bytes: u64,
+    /// From the first program byte to the last acknowledgement.
+    pub elapsed: Duration,
+    pub rx_limit: usize,
+    /// Most bytes ever in flight.
+    pub max_in_flight: usize,
+    /// From the start of streaming until the machine was idle with every line done.
+    pub total: Duration,
+    pub info: ControllerInfo,
+}

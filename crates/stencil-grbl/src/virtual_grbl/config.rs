@@ -1,0 +1,83 @@
+//! The simulated controller's build, its pace, and the faults a test injects.
+
+use stencil_gcode::limits::{PLANNER_BLOCKS, RX_BUFFER_BYTES};
+
+/// How the simulated machine spends time on motion (its pace; not a move).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pace {
+    /// Moves complete the moment they are planned: a dry run goes as fast as the link allows.
+    Instant,
+    /// Moves take their length ÷ feed, divided by `speedup` (1.0 = as the machine would).
+    Timed { speedup: f64 },
+}
+
+/// What goes wrong, for tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultKind {
+    /// Answer `error:N` instead of running the line.
+    Error(u8),
+    /// Stop everything with `ALARM:N` when the line arrives (like a limit switch): motion and laser
+    /// stop, buffers are dropped, and the controller waits for a soft reset, then stays locked.
+    Alarm(u8),
+    /// From this line on, read and act on everything but never answer.
+    Silence,
+    /// Close the port when this line arrives (a cable pulled; the board loses power, laser off).
+    ClosePort,
+    /// Freeze when this line arrives: the line is never answered, nothing more is taken from the
+    /// receive buffer and nothing moves, yet status queries are still answered, in `Run` at a
+    /// fixed position (a stalled planner or stepper driver: the firmware's serial interrupt
+    /// lives on). A feed hold then reports a completed hold (nothing moves); a soft reset thaws
+    /// it.
+    Freeze,
+}
+
+/// A fault that fires once, when the `at_job_line`-th G-code line arrives (counting lines that are
+/// not empty, not `$` commands, and not sent in check mode; 1-based).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fault {
+    pub at_job_line: usize,
+    pub kind: FaultKind,
+}
+
+/// The simulated controller's build.
+#[derive(Clone, Debug)]
+pub struct VirtualConfig {
+    /// Receive buffer size in bytes (128 in stock Grbl); reported in `$I` as `[OPT:V,blocks,rx]`.
+    pub rx_buffer: usize,
+    pub planner_blocks: usize,
+    pub pace: Pace,
+    /// Pace the link at this baud rate (10 bits per byte, both directions); `None` = as fast as the
+    /// pty goes.
+    pub baud: Option<u32>,
+    /// G0 rate, mm/min.
+    pub rapid_mm_min: f64,
+    pub faults: Vec<Fault>,
+    /// Laser mode, `$32` (settable with `$32=0|1`): on, the beam never fires in G0 and M3/M4
+    /// act as a laser; off, a switched-on spindle stays on through G0 moves too.
+    pub laser_mode: bool,
+    /// Report `Ln:` (the N number of the block being executed), as Grbl built with
+    /// `USE_LINE_NUMBERS` does; stock Grbl does not.
+    pub line_numbers: bool,
+    /// Settings that differ from the simulated defaults (`$$` lists them), e.g. `(32, "0")`.
+    pub settings: Vec<(u32, String)>,
+    /// Homing enabled (`$22=1`): `$H` homes to machine zero and clears an alarm; disabled, `$H`
+    /// answers `error:5` as Grbl does.
+    pub homing: bool,
+}
+
+impl Default for VirtualConfig {
+    fn default() -> Self {
+        VirtualConfig {
+            rx_buffer: RX_BUFFER_BYTES,
+            planner_blocks: PLANNER_BLOCKS,
+            pace: Pace::Instant,
+            baud: None,
+            rapid_mm_min: 6000.0,
+            faults: Vec::new(),
+            laser_mode: true,
+            line_numbers: false,
+            settings: Vec::new(),
+            homing: true,
+        }
+    }
+}

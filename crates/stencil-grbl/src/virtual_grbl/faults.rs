@@ -1,0 +1,60 @@
+//! Injected faults: an error, an alarm, silence, a pulled cable, a frozen planner.
+
+use std::time::{Duration, Instant};
+
+use super::sim::{Sim, State};
+use super::{lock, Event, FaultKind};
+
+impl Sim {
+    /// The fault set for the current G-code line fires (once). True when that settles the line
+    /// (answered with an error or an alarm, or never to be answered); a silenced controller still
+    /// runs it.
+    pub(super) fn fire_fault(&mut self) -> bool {
+        let n = self.job_lines;
+        let Some(pos) = self.cfg.faults.iter().position(|f| f.at_job_line == n) else {
+            return false;
+        };
+        let f = self.cfg.faults.remove(pos);
+        match f.kind {
+            FaultKind::Error(code) => self.reply_error(code),
+            FaultKind::Alarm(code) => self.alarm(code),
+            FaultKind::Silence => {
+                self.silent = true;
+                return false;
+            }
+            FaultKind::ClosePort => self.close(),
+            FaultKind::Freeze => self.frozen = true,
+        }
+        true
+    }
+
+    fn alarm(&mut self, code: u8) {
+        self.planner.clear();
+        self.pending = None;
+        self.rx.clear();
+        self.hold = false;
+        // An alarm kills the spindle and the coolant at once.
+        self.modal.spindle_on = false;
+        self.modal.coolant = false;
+        self.state = State::Critical;
+        lock(&self.shared).events.push(Event::Alarm(code));
+        self.say(&format!("ALARM:{code}"));
+        self.say("[MSG:Reset to continue]");
+    }
+
+    fn close(&mut self) {
+        // Bytes already on the wire still arrive.
+        self.flush_out(Instant::now() + Duration::from_secs(3600));
+        // The board lost power: its outputs are off.
+        self.modal.spindle_on = false;
+        self.modal.coolant = false;
+        self.planner.clear();
+        {
+            let mut r = lock(&self.shared);
+            r.events.push(Event::Closed);
+            r.closed = true;
+        }
+        self.publish();
+        self.port = None;
+    }
+}

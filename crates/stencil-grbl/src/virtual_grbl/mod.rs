@@ -1,0 +1,101 @@
+//! A simulated Grbl 1.1h on a pseudo-terminal, for dry runs and tests.
+//!
+//! It speaks the real protocol on the far end of a pty pair, so `stencil send` runs exactly the same
+//! code against it as against a board: welcome banner, a receive buffer of fixed size that drops
+//! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
+//! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
+//! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
+//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without
+//! homing), `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records
+//! every line it received, what it executed and every move it planned, so a test can check the
+//! machine got exactly the program, once each, in order, and where the head went.
+//!
+//! By concern: `config` (the build, its pace, injected faults), `record` (what it saw and did),
+//! `sim` (the board, its main loop and the wire), `parser` (line buffer and G-code lines),
+//! `planner` (motion and work offsets), `jog`, `realtime` (real-time bytes, status reports),
+//! `system` (`$` commands and settings) and `faults`.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+
+use serialport::TTYPort;
+
+mod config;
+mod faults;
+mod jog;
+mod parser;
+mod planner;
+mod realtime;
+mod record;
+mod sim;
+mod system;
+#[cfg(test)]
+mod tests;
+
+pub use self::config::{Fault, FaultKind, Pace, VirtualConfig};
+pub use self::record::{Event, PlannedMove, Received, Record};
+
+use self::sim::Sim;
+
+/// A running virtual Grbl. Dropping it stops the thread and closes its end of the pty.
+pub struct VirtualGrbl {
+    shared: Arc<Mutex<Record>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl VirtualGrbl {
+    /// Start a virtual Grbl on a new pty pair; returns it and the host end to stream to.
+    pub fn spawn(cfg: VirtualConfig) -> std::io::Result<(VirtualGrbl, TTYPort)> {
+        let (master, host) = TTYPort::pair().map_err(std::io::Error::from)?;
+        let shared = Arc::new(Mutex::new(Record::default()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut sim = Sim::new(cfg, master, shared.clone());
+        let stop2 = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("virtual-grbl".into())
+            .spawn(move || sim.run(&stop2))?;
+        Ok((
+            VirtualGrbl {
+                shared,
+                stop,
+                thread: Some(thread),
+            },
+            host,
+        ))
+    }
+
+    /// A snapshot of what the machine saw so far.
+    pub fn record(&self) -> Record {
+        lock(&self.shared).clone()
+    }
+
+    /// Stop the machine and return its final record.
+    pub fn stop(mut self) -> Record {
+        self.halt();
+        self.record()
+    }
+
+    fn halt(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for VirtualGrbl {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
+    // A panic in the simulator thread must not hide its record from the test.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}

@@ -1,0 +1,264 @@
+//! The simulated board: its state, the main loop, the wire (paced at the baud rate, both ways)
+//! and the record it publishes after every turn.
+
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+use stencil_gcode::interpret::{Modal, Move};
+
+use super::parser::Comment;
+use super::planner::Block;
+use super::{lock, Pace, Record, VirtualConfig};
+use crate::protocol;
+
+/// The controller's alarm state (motion states follow from the planner and the hold).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum State {
+    Idle,
+    Alarm,
+    /// Alarm that waits for a soft reset before anything else (hard/soft limit).
+    Critical,
+}
+
+/// The simulated controller, run on its own thread.
+pub(super) struct Sim {
+    pub(super) cfg: VirtualConfig,
+    pub(super) port: Option<TTYPort>,
+    pub(super) shared: Arc<Mutex<Record>>,
+    pub(super) byte_time: Option<Duration>,
+    pub(super) wire_in: VecDeque<(Instant, u8)>,
+    pub(super) in_clock: Instant,
+    pub(super) wire_out: VecDeque<(Instant, Vec<u8>)>,
+    pub(super) out_clock: Instant,
+    pub(super) rx: VecDeque<u8>,
+    pub(super) line_buf: Vec<u8>,
+    pub(super) line_overflow: bool,
+    pub(super) comment: Comment,
+    /// A setting being written to EEPROM: until when, and its line (answered when done).
+    pub(super) eeprom: Option<(Instant, usize)>,
+    /// A motion line taken from the buffer, waiting for a planner slot (its `ok` waits too).
+    pub(super) pending: Option<(Move, usize)>,
+    pub(super) planner: VecDeque<Block>,
+    pub(super) modal: Modal,
+    pub(super) state: State,
+    pub(super) check_mode: bool,
+    pub(super) hold: bool,
+    pub(super) silent: bool,
+    pub(super) status_requested: bool,
+    pub(super) reports: u64,
+    pub(super) job_lines: usize,
+    pub(super) last_tick: Instant,
+    /// Grbl settings as `$$` lists them (number, value text).
+    pub(super) settings: Vec<(u32, String)>,
+    /// A `$N=V` setting waiting for its EEPROM write.
+    pub(super) setting_pending: Option<(u32, String)>,
+    /// Feed, rapid, spindle override %.
+    pub(super) ov: [u32; 3],
+    /// The next status report carries `Ov:` (Grbl sends it at once after a change).
+    pub(super) ov_changed: bool,
+    pub(super) frozen: bool,
+    /// Work coordinate offset (G54): `modal.pos` is in work coordinates, planner blocks and
+    /// reports in machine coordinates.
+    pub(super) wco: [f64; 3],
+    /// The next status report carries `WCO:` (Grbl sends it at once after a change).
+    pub(super) wco_changed: bool,
+}
+
+impl Sim {
+    pub(super) fn new(cfg: VirtualConfig, port: TTYPort, shared: Arc<Mutex<Record>>) -> Sim {
+        let now = Instant::now();
+        let byte_time = cfg
+            .baud
+            .filter(|&b| b > 0)
+            .map(|b| Duration::from_secs_f64(10.0 / b as f64));
+        let mut sim = Sim {
+            cfg,
+            port: Some(port),
+            shared,
+            byte_time,
+            wire_in: VecDeque::new(),
+            in_clock: now,
+            wire_out: VecDeque::new(),
+            out_clock: now,
+            rx: VecDeque::new(),
+            line_buf: Vec::new(),
+            line_overflow: false,
+            comment: Comment::None,
+            eeprom: None,
+            pending: None,
+            planner: VecDeque::new(),
+            modal: Modal::default(),
+            state: State::Idle,
+            check_mode: false,
+            hold: false,
+            silent: false,
+            status_requested: false,
+            reports: 0,
+            job_lines: 0,
+            last_tick: now,
+            settings: Vec::new(),
+            setting_pending: None,
+            ov: [100; 3],
+            ov_changed: false,
+            frozen: false,
+            wco: [0.0; 3],
+            wco_changed: false,
+        };
+        sim.settings = super::system::initial_settings(&sim.cfg);
+        sim.say("");
+        sim.say("Grbl 1.1h ['$' for help]");
+        sim.publish();
+        sim
+    }
+
+    pub(super) fn run(&mut self, stop: &AtomicBool) {
+        let mut buf = [0u8; 512];
+        while !stop.load(Ordering::SeqCst) && self.port.is_some() {
+            let now = Instant::now();
+            self.deliver(now);
+            self.advance(now);
+            self.process_lines();
+            if self.status_requested {
+                self.status_requested = false;
+                self.status_report();
+            }
+            self.flush_out(Instant::now());
+            self.publish();
+            let wait = self.next_wait();
+            let Some(port) = self.port.as_mut() else {
+                break;
+            };
+            let _ = port.set_timeout(wait);
+            match port.read(&mut buf) {
+                Ok(0) => {}
+                Ok(n) => {
+                    let t = Instant::now();
+                    for &b in &buf[..n] {
+                        let at = match self.byte_time {
+                            Some(bt) => {
+                                self.in_clock = self.in_clock.max(t) + bt;
+                                self.in_clock
+                            }
+                            None => t,
+                        };
+                        self.wire_in.push_back((at, b));
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                // The host end is closed or not open: wait for it (or for stop).
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+    }
+
+    fn next_wait(&self) -> Duration {
+        let now = Instant::now();
+        let mut wait = Duration::from_millis(20);
+        if let Some(&(t, _)) = self.wire_in.front() {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
+        if let Some((t, _)) = self.wire_out.front() {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
+        if let Some((t, _)) = self.eeprom {
+            wait = wait.min(t.saturating_duration_since(now));
+        }
+        if let (Pace::Timed { .. }, false) = (self.cfg.pace, self.planner.is_empty()) {
+            wait = wait.min(Duration::from_millis(2));
+        }
+        wait
+    }
+
+    /// Move bytes that have finished crossing the wire into the receive buffer (or act on them).
+    fn deliver(&mut self, now: Instant) {
+        while let Some(&(t, b)) = self.wire_in.front() {
+            if t > now {
+                break;
+            }
+            self.wire_in.pop_front();
+            if self.eeprom.is_some_and(|(until, _)| t < until) {
+                lock(&self.shared).eeprom_lost_bytes += 1;
+                continue;
+            }
+            if protocol::is_realtime(b) {
+                self.realtime(b);
+                continue;
+            }
+            if self.rx.len() >= self.cfg.rx_buffer {
+                lock(&self.shared).overflow_bytes += 1;
+            } else {
+                self.rx.push_back(b);
+                let used = self.rx.len();
+                let mut r = lock(&self.shared);
+                r.max_rx_used = r.max_rx_used.max(used);
+            }
+        }
+    }
+
+    /// Queue a line for the host (`\r\n` ended, as Grbl sends), paced at the baud rate if set.
+    pub(super) fn say(&mut self, line: &str) {
+        if self.silent {
+            return;
+        }
+        let mut bytes = line.as_bytes().to_vec();
+        bytes.extend_from_slice(b"\r\n");
+        let now = Instant::now();
+        let at = match self.byte_time {
+            Some(bt) => {
+                self.out_clock = self.out_clock.max(now) + bt * bytes.len() as u32;
+                self.out_clock
+            }
+            None => now,
+        };
+        self.wire_out.push_back((at, bytes));
+    }
+
+    pub(super) fn flush_out(&mut self, now: Instant) {
+        let mut out = Vec::new();
+        while let Some((t, _)) = self.wire_out.front() {
+            if *t > now {
+                break;
+            }
+            if let Some((_, b)) = self.wire_out.pop_front() {
+                out.extend_from_slice(&b);
+            }
+        }
+        if out.is_empty() {
+            return;
+        }
+        if let Some(port) = self.port.as_mut() {
+            let _ = port.set_timeout(Duration::from_millis(200));
+            let _ = port.write_all(&out);
+        }
+    }
+
+    pub(super) fn publish(&mut self) {
+        let pos = self.position();
+        let laser = self.modal.spindle_on && self.modal.s > 0.0;
+        let air = self.modal.coolant;
+        let laser_mode = self.laser_mode();
+        let state = match self.state {
+            State::Idle if self.check_mode => "Check",
+            State::Idle if self.hold => "Hold",
+            State::Idle if self.jogging() => "Jog",
+            State::Idle if !self.planner.is_empty() => "Run",
+            State::Idle => "Idle",
+            State::Alarm | State::Critical => "Alarm",
+        };
+        let mut r = lock(&self.shared);
+        r.position = pos;
+        r.wco = self.wco;
+        r.laser_on = laser;
+        r.air_on = air;
+        r.laser_mode = laser_mode;
+        r.overrides = self.ov;
+        r.frozen = self.frozen;
+        if r.state != state {
+            r.state = state.to_string();
+        }
+    }
+}

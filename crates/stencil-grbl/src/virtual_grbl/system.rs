@@ -1,0 +1,154 @@
+//! Grbl's `$` commands: build info, check mode, unlock, homing, parser state, the settings
+//! (`$$`, and `$N=V` written to EEPROM) and jogs.
+
+use std::time::{Duration, Instant};
+
+use super::sim::{Sim, State};
+use super::VirtualConfig;
+
+/// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
+const EEPROM_WRITE: Duration = Duration::from_millis(20);
+
+/// The settings a stock laser build lists in `$$` (with the configured homing, laser mode and
+/// rapid rate), then the configured ones over them.
+pub(super) fn initial_settings(cfg: &VirtualConfig) -> Vec<(u32, String)> {
+    let rapid = format!("{:.3}", cfg.rapid_mm_min);
+    let mut settings: Vec<(u32, String)> = [
+        (10, "2"),
+        (11, "0.010"),
+        (22, if cfg.homing { "1" } else { "0" }),
+        (30, "1000"),
+        (31, "0"),
+        (32, if cfg.laser_mode { "1" } else { "0" }),
+        (110, rapid.as_str()),
+        (111, rapid.as_str()),
+        (120, "1000.000"),
+        (121, "1000.000"),
+    ]
+    .iter()
+    .map(|&(k, v)| (k, v.to_string()))
+    .collect();
+    for (k, v) in cfg.settings.clone() {
+        match settings.iter_mut().find(|(n, _)| *n == k) {
+            Some(e) => e.1 = v,
+            None => settings.push((k, v)),
+        }
+    }
+    settings
+}
+
+impl Sim {
+    /// A `$` line: Grbl's system commands, answered at once (a setting when written).
+    pub(super) fn system(&mut self, cmd: &str, idx: usize) {
+        let idle = self.planner.is_empty() && self.pending.is_none();
+        match cmd {
+            "$I" => {
+                self.say("[VER:1.1h.20190830:]");
+                let opt = format!("[OPT:V,{},{}]", self.cfg.planner_blocks, self.cfg.rx_buffer);
+                self.say(&opt);
+                self.done(idx);
+            }
+            "$C" => self.toggle_check_mode(idx, idle),
+            "$X" => {
+                if self.state == State::Alarm {
+                    self.state = State::Idle;
+                    self.say("[MSG:Caution: Unlocked]");
+                }
+                self.done(idx);
+            }
+            "$H" => self.home(idx, idle),
+            "$G" => {
+                let gc = self.parser_state();
+                self.say(&gc);
+                self.done(idx);
+            }
+            "$$" => {
+                let dump: Vec<String> = self
+                    .settings
+                    .iter()
+                    .map(|(k, v)| format!("${k}={v}"))
+                    .collect();
+                for l in dump {
+                    self.say(&l);
+                }
+                self.done(idx);
+            }
+            c if c.starts_with("$J") => self.jog(c, idx),
+            c if c[1..]
+                .split_once('=')
+                .is_some_and(|(k, v)| k.parse::<u32>().is_ok() && v.parse::<f64>().is_ok()) =>
+            {
+                self.write_setting(c, idx, idle)
+            }
+            _ => self.reply_error(3),
+        }
+    }
+
+    /// `$C`: into check mode, or out of it (which soft-resets, as Grbl does); only while idle.
+    fn toggle_check_mode(&mut self, idx: usize, idle: bool) {
+        if !idle || self.state == State::Alarm {
+            return self.reply_error(8);
+        }
+        if self.check_mode {
+            self.say("[MSG:Disabled]");
+            self.done(idx);
+            self.soft_reset();
+        } else {
+            self.check_mode = true;
+            self.say("[MSG:Enabled]");
+            self.done(idx);
+        }
+    }
+
+    /// `$H`: to machine zero (work coordinates keep their offset), clearing an alarm; `error:5`
+    /// without homing, `error:8` while moving.
+    fn home(&mut self, idx: usize, idle: bool) {
+        if !self.cfg.homing {
+            return self.reply_error(5);
+        }
+        if !idle {
+            return self.reply_error(8);
+        }
+        self.modal.pos = [-self.wco[0], -self.wco[1], -self.wco[2]];
+        self.state = State::Idle;
+        self.done(idx);
+    }
+
+    /// `$G`'s report of the parser's modes.
+    fn parser_state(&self) -> String {
+        let m = &self.modal;
+        format!(
+            "[GC:G{} G54 G17 {} {} G94 {} M9 T0 F{} S{}]",
+            m.motion,
+            if m.metric { "G21" } else { "G20" },
+            if m.absolute { "G90" } else { "G91" },
+            match (m.spindle_on, m.dynamic) {
+                (false, _) => "M5",
+                (true, true) => "M4",
+                (true, false) => "M3",
+            },
+            m.feed.unwrap_or(0.0),
+            m.s
+        )
+    }
+
+    /// `$N=V`: written to EEPROM, only while idle and not in check mode. Writing EEPROM stops
+    /// Grbl's serial interrupt: bytes that arrive meanwhile are lost, and the `ok` comes when the
+    /// write is done.
+    fn write_setting(&mut self, cmd: &str, idx: usize, idle: bool) {
+        if self.check_mode || !idle {
+            return self.reply_error(8);
+        }
+        let (k, v) = cmd[1..].split_once('=').unwrap_or_default();
+        self.setting_pending = k.parse().ok().map(|k| (k, v.to_string()));
+        self.eeprom = Some((Instant::now() + EEPROM_WRITE, idx));
+    }
+
+    /// `$32` (laser mode) as the settings stand.
+    pub(super) fn laser_mode(&self) -> bool {
+        self.settings
+            .iter()
+            .find(|(k, _)| *k == 32)
+            .is_some_and(|(_, v)| v.parse::<f64>().is_ok_and(|v| v != 0.0))
+    }
+}
