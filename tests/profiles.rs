@@ -160,3 +160,75 @@ fn cli_lists_the_shipped_profiles() {
         assert!(line.contains(&format!("{} mm", m.min_bridge_mm)), "{line}");
     }
 }
+
+/// A run that names no material or machine uses the shipped defaults wherever it starts: an
+/// edited copy in `./profiles/` changes a run only when the run names it. (Before, the command
+/// looked in the current folder first and the library did not, so `make`'s output depended on
+/// the folder it was started in.)
+#[test]
+fn the_default_profiles_do_not_depend_on_the_working_directory() {
+    let tmp = tempfile::tempdir().unwrap();
+    let picture = std::fs::canonicalize("samples/rings.png").unwrap();
+    let plain = tmp.path().join("plain");
+    let edited = tmp.path().join("edited");
+    std::fs::create_dir_all(&plain).unwrap();
+    std::fs::create_dir_all(edited.join("profiles/materials")).unwrap();
+    std::fs::create_dir_all(edited.join("profiles/machines")).unwrap();
+    // Copies that would change every output: wider bridges, another acceleration.
+    let card = std::fs::read_to_string("profiles/materials/cardstock.toml")
+        .unwrap()
+        .replace("min_bridge_mm = 1.0", "min_bridge_mm = 2.0");
+    assert!(card.contains("min_bridge_mm = 2.0"));
+    std::fs::write(edited.join("profiles/materials/cardstock.toml"), card).unwrap();
+    let diode = std::fs::read_to_string("profiles/machines/diode-400.toml").unwrap();
+    let slow = diode.replace("accel_mm_s2 = ", "accel_mm_s2 = 1");
+    assert_ne!(slow, diode);
+    std::fs::write(edited.join("profiles/machines/diode-400.toml"), slow).unwrap();
+
+    let make = |cwd: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "make",
+            picture.to_str().unwrap(),
+            "-o",
+            "out",
+            "--emit",
+            "png,gcode",
+        ];
+        args.extend_from_slice(extra);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_stencil"))
+            .args(&args)
+            .current_dir(cwd)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(cwd.join("out/report.json")).unwrap()).unwrap();
+        let png = std::fs::read(cwd.join("out/stencil.png")).unwrap();
+        let gcode = std::fs::read(cwd.join("out/stencil.gcode")).unwrap();
+        (report, png, gcode)
+    };
+    let (r1, png1, g1) = make(&plain, &[]);
+    let (r2, png2, g2) = make(&edited, &[]);
+    assert_eq!(png1, png2, "stencil.png differs with ./profiles/ present");
+    assert_eq!(g1, g2, "the G-code differs with ./profiles/ present");
+    for r in [&r1, &r2] {
+        assert_eq!(
+            r["material_source"], "<embedded>/materials/cardstock.toml",
+            "{r}"
+        );
+    }
+    assert_eq!(r1["gcode"]["estimate"], r2["gcode"]["estimate"]);
+    // Named, the edited copies are used: wider bridges, another time estimate.
+    let (r3, _, _) = make(
+        &edited,
+        &["--material", "cardstock", "--machine", "diode-400"],
+    );
+    assert_eq!(r3["material_source"], "profiles/materials/cardstock.toml");
+    assert!(
+        r3["min_bridge_px"].as_f64().unwrap() > r1["min_bridge_px"].as_f64().unwrap(),
+        "{} vs {}",
+        r3["min_bridge_px"],
+        r1["min_bridge_px"]
+    );
+    assert_ne!(r3["gcode"]["estimate"], r1["gcode"]["estimate"]);
+}

@@ -138,12 +138,11 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read the stencil picture", png.display())
         }
     })?;
-    let name = a
-        .material
-        .clone()
-        .or_else(|| report.as_ref().and_then(|r| r.material.clone()))
-        .unwrap_or_else(|| DEFAULT_MATERIAL.to_string());
-    let (material, _) = Material::find(&name)?;
+    let material = match (&a.material, report.as_ref().map(material_of_report)) {
+        (Some(name), _) => Material::find(name)?.0,
+        (None, Some(Some(found))) => found?,
+        (None, _) => Material::find_default(DEFAULT_MATERIAL)?.0,
+    };
     let from_report = report.is_some() && a.width_mm.is_none() && a.dpi.is_none();
     let phys = PhysicalConfig {
         size: match (a.width_mm, a.dpi, report.as_ref().and_then(|r| r.mm_per_px)) {
@@ -236,4 +235,17 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// The material a `make` run used, as its report records it: the file it was read from when that
+/// is still there, the shipped copy when it was the embedded one, else the name looked up again.
+/// `None` when the report names no material.
+pub fn material_of_report(r: &Report) -> Option<anyhow::Result<Material>> {
+    let name = r.material.as_deref()?;
+    let found = match r.material_source.as_deref() {
+        Some(src) if Path::new(src).is_file() => Material::load(Path::new(src)),
+        Some(src) if src.starts_with("<embedded>") => Material::find_default(name).map(|(m, _)| m),
+        _ => Material::find(name).map(|(m, _)| m),
+    };
+    Some(found.map_err(anyhow::Error::from))
 }

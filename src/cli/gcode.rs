@@ -8,7 +8,6 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_core::report::Report;
 use stencil_gcode::estimate::format_duration;
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_gcode::read_svg::cut_loops_from_svg;
@@ -189,20 +188,6 @@ pub struct GcodeArgs {
     pub machine: MachineArgs,
 }
 
-/// The material a `stencil make` run recorded in its report.json, if any: its source file when
-/// that still exists (a user's own .toml), else its name.
-fn material_in_report(dir: &Path) -> anyhow::Result<Option<String>> {
-    let p = dir.join("report.json");
-    if !p.is_file() {
-        return Ok(None);
-    }
-    let r: Report = super::check::read_report(dir)?;
-    Ok(match (r.material_source, r.material) {
-        (Some(src), _) if Path::new(&src).is_file() => Some(src),
-        (_, name) => name,
-    })
-}
-
 impl CutArgs {
     fn any(&self) -> bool {
         self.power.is_some()
@@ -260,14 +245,13 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     })?;
     let mut geom = cut_loops_from_svg(&text, &svg_path.display().to_string())?;
     let machine = a.machine.machine()?;
-    let material_arg = match (&a.material, &dir) {
-        (Some(m), _) => Some(m.clone()),
-        (None, Some(d)) => material_in_report(d)?,
-        (None, None) => None,
-    };
-    let material = match &material_arg {
-        Some(m) => Some(Material::find(m)?.0),
-        None => None,
+    let material = match (&a.material, &dir) {
+        (Some(m), _) => Some(Material::find(m)?.0),
+        (None, Some(d)) if d.join("report.json").is_file() => {
+            let r = super::check::read_report(d)?;
+            super::check::material_of_report(&r).transpose()?
+        }
+        (None, _) => None,
     };
     let base = match &material {
         Some(m) if !a.cut.covers_all(&machine) => {

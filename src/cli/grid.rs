@@ -100,7 +100,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     // Without --material, the machine's tool picks one (as `make` does).
     let material = Some(match &a.material {
         Some(m) => Material::find(m)?.0,
-        None => Material::find(stencil_core::material::default_for(&machine.tool))?.0,
+        None => Material::find_default(stencil_core::material::default_for(&machine.tool))?.0,
     });
     let max_feed = machine.motion.max_feed_mm_min;
     let mut base = match &material {

@@ -106,8 +106,12 @@ pub(super) fn size(width_mm: Option<f64>, dpi: Option<f64>) -> Size {
 impl PhysicalArgs {
     /// The configuration, with `default_material` when --material is not given.
     pub fn to_config(&self, default_material: &str) -> anyhow::Result<PhysicalConfig> {
-        let (material, source) =
-            Material::find(self.material.as_deref().unwrap_or(default_material))?;
+        // A named material is looked up (a path, ./profiles/materials/, shipped); without one the
+        // shipped default, so the output does not depend on the folder the run starts in.
+        let (material, source) = match self.material.as_deref() {
+            Some(name) => Material::find(name)?,
+            None => Material::find_default(default_material)?,
+        };
         let has = |k: EmitKind| self.emit.contains(&k);
         Ok(PhysicalConfig {
             size: size(self.width_mm, self.dpi),
@@ -181,6 +185,6 @@ pub fn run_profiles(_: ProfilesArgs) -> anyhow::Result<ExitCode> {
             Err(e) => println!("{name:<20} error: {e}"),
         }
     }
-    println!("default: {DEFAULT_MATERIAL}; copy a profile into ./profiles/materials/ to edit it, or pass a path to --material");
+    println!("default: {DEFAULT_MATERIAL} (as shipped); to use an edited copy, put it in ./profiles/materials/ and name it with --material, or pass its path");
     Ok(ExitCode::SUCCESS)
 }

@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileError, Shipped};
+use stencil_io::profile::{
+    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
+};
 use stencil_io::shipped;
 
 use stencil_gcode::machine::{Machine, Tool};
@@ -251,12 +253,9 @@ pub struct Material {
 impl Default for Material {
     /// The shipped [`DEFAULT_MATERIAL`] (its validity is unit-tested).
     fn default() -> Self {
-        let s = SHIPPED
-            .iter()
-            .find(|s| s.name == DEFAULT_MATERIAL)
-            .expect("the default material is in SHIPPED");
-        Material::parse(s.text, Path::new("<embedded>/materials/cardstock.toml"))
+        Material::find_default(DEFAULT_MATERIAL)
             .expect("the shipped default material is valid (unit-tested)")
+            .0
     }
 }
 
@@ -264,6 +263,14 @@ impl Material {
     /// Find a material by shipped name, a name in `./profiles/materials/`, or a path.
     pub fn find(arg: &str) -> Result<(Material, PathBuf), ProfileError> {
         let (file, origin): (MaterialFile, PathBuf) = resolve(arg, "materials", SHIPPED)?;
+        Ok((Material::validate(file, &origin)?, origin))
+    }
+
+    /// The material a run uses when the user names none: `name` (e.g. [`default_for`] a tool)
+    /// as shipped in the binary, whatever `./profiles/materials/` holds, so that such a run gives
+    /// the same output in every folder (the library's [`Material::default`] is the same).
+    pub fn find_default(name: &str) -> Result<(Material, PathBuf), ProfileError> {
+        let (file, origin): (MaterialFile, PathBuf) = embedded(name, "materials", SHIPPED)?;
         Ok((Material::validate(file, &origin)?, origin))
     }
 

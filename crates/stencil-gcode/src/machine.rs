@@ -14,7 +14,9 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use stencil_io::profile::{check_range, load_toml, parse_toml, resolve, ProfileError, Shipped};
+use stencil_io::profile::{
+    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
+};
 use stencil_io::shipped;
 
 use crate::interpret::{CutRule, Move};
@@ -599,10 +601,13 @@ pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
 }
 
 /// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
-/// `profile::resolve`). `None` gives [`DEFAULT_MACHINE`].
+/// `stencil_io::profile::resolve`). `None` gives the shipped [`DEFAULT_MACHINE`] as embedded,
+/// whatever `./profiles/` holds (see `stencil_io::profile::embedded`).
 pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
-    let (raw, origin): (RawMachine, _) =
-        resolve(name_or_path.unwrap_or(DEFAULT_MACHINE), "machines", SHIPPED)?;
+    let (raw, origin): (RawMachine, _) = match name_or_path {
+        Some(arg) => resolve(arg, "machines", SHIPPED)?,
+        None => embedded(DEFAULT_MACHINE, "machines", SHIPPED)?,
+    };
     validate(raw, &origin)
 }
 

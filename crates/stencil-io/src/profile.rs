@@ -8,8 +8,9 @@
 //! 2. `./profiles/<kind>/<name>.toml` in the current directory (a user's edited copy);
 //! 3. the copy embedded in the binary with `include_str!` (so an installed binary has them too).
 //!
-//! The library and the command resolve every name, the default ones included, through this one
-//! function, so the same name gives the same profile wherever it is asked for.
+//! A run that names no profile uses the shipped default as embedded ([`embedded`]), in the library
+//! and in the command alike: a copy in `./profiles/` is used only when named, so the output of a
+//! run without `--material`/`--machine` does not depend on the folder it is started in.
 
 use std::path::{Path, PathBuf};
 
@@ -123,7 +124,18 @@ pub fn resolve<T: DeserializeOwned>(
             return Ok((load_toml(&p)?, p));
         }
     }
-    if let Some(s) = shipped.iter().find(|s| s.name == arg) {
+    embedded(arg, kind, shipped)
+}
+
+/// The shipped profile `name` as embedded in the binary, whatever `./profiles/` holds: what a run
+/// uses when the user names no profile, so that a run's output does not depend on the folder it
+/// is started in. Its origin is `<embedded>/<kind>/<name>.toml`.
+pub fn embedded<T: DeserializeOwned>(
+    name: &str,
+    kind: &str,
+    shipped: &[Shipped],
+) -> Result<(T, PathBuf), ProfileError> {
+    if let Some(s) = shipped.iter().find(|s| s.name == name) {
         let origin = Path::new("<embedded>")
             .join(kind)
             .join(format!("{}.toml", s.name));
@@ -131,7 +143,7 @@ pub fn resolve<T: DeserializeOwned>(
     }
     Err(ProfileError::Unknown {
         kind: kind.trim_end_matches('s').to_string(),
-        name: arg.to_string(),
+        name: name.to_string(),
         known: known_names(kind, shipped),
     })
 }
