@@ -701,3 +701,34 @@ fn printed_total_is_the_sum_of_the_stage_times() {
         .unwrap_or_else(|| panic!("no total in {first:?}"));
     assert_eq!(printed, format!("{sum:.0}"), "{first}");
 }
+
+/// `stencil tone` writes the two-tone `make` bridges (its twotone.png), byte for byte, for the same
+/// picture, size and material: by default (the material's design-rule clean-up), with another
+/// material, another size, the explicit filter, and a mesh. Before, `tone` ignored the material
+/// and applied the old filter at a fixed radius, so by default it showed another picture.
+#[test]
+fn tone_writes_what_make_bridges() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (input, extra) in [
+        ("samples/letters.png", vec![]),
+        ("samples/letters.png", vec!["--material", "mylar-0.19"]),
+        ("samples/rings.png", vec!["--width-mm", "60"]),
+        ("samples/rings.png", vec!["--filter-radius", "2"]),
+        ("samples/torus.obj", vec![]),
+    ] {
+        let out = tmp.path().join("made");
+        let png = tmp.path().join("tone.png");
+        let mut make = vec!["make", input, "-o", out.to_str().unwrap()];
+        make.extend(&extra);
+        let o = stencil(&make);
+        assert!(o.status.success(), "{input} {extra:?}: {}", stderr(&o));
+        let mut tone = vec!["tone", input, "-o", png.to_str().unwrap()];
+        tone.extend(&extra);
+        let o = stencil(&tone);
+        assert!(o.status.success(), "{input} {extra:?}: {}", stderr(&o));
+        assert!(
+            std::fs::read(out.join("twotone.png")).unwrap() == std::fs::read(&png).unwrap(),
+            "{input} {extra:?}: tone's picture differs from make's twotone.png"
+        );
+    }
+}

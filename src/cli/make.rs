@@ -8,9 +8,10 @@ use clap::Args;
 
 use stencil_core::bridge::BridgeConfig;
 use stencil_core::export;
+use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::tone::filter::{self, FilterConfig};
+use stencil_core::tone::filter::FilterConfig;
 use stencil_core::tone::resolution::ScaleCap;
 use stencil_core::tone::{Threshold, ToneConfig};
 
@@ -545,28 +546,61 @@ pub struct ToneCmdArgs {
     pub mesh: MeshArgs,
     #[command(flatten)]
     pub filter: FilterArgs,
+    /// Width of the picture on the sheet in mm, as for `make` (it sets the working resolution
+    /// and the clean-up's widths in pixels).
+    #[arg(long, conflicts_with = "dpi", value_parser = super::bounds::positive)]
+    pub width_mm: Option<f64>,
+    /// Pixels of the picture per inch (instead of --width-mm), as for `make`.
+    #[arg(long, value_parser = super::bounds::positive)]
+    pub dpi: Option<f64>,
+    /// Material profile, as for `make` (its smallest feature sets the clean-up) [default:
+    /// cardstock]
+    #[arg(long)]
+    pub material: Option<String>,
 }
 
+/// `stencil tone`: the two-tone `make` would bridge for the same picture, size and material (its
+/// twotone.png), written alone.
 pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
-    // `tone` knows no size or material: the defaults choose the automatic factor.
-    let mesh = a.mesh.to_config()?;
+    let (material, source) = match a.material.as_deref() {
+        Some(name) => Material::find(name)?,
+        None => Material::find_default(stencil_core::material::DEFAULT_MATERIAL)?,
+    };
     let bar = StageBar::start();
-    bar.set("tone");
-    let (tt, _, _) = pipeline::two_tone(
-        &a.input,
-        &a.image.to_config(),
-        &mesh,
-        &pipeline::PhysicalConfig::default(),
-    )?;
-    let fcfg = a.filter.to_config();
-    stencil_core::limits::check_filter_radius(fcfg.radius, tt.bits.width, tt.bits.height)
-        .with_context(|| a.input.display().to_string())?;
-    bar.set("filter");
-    let (bits, _) = filter::filter(&tt.bits, &fcfg);
-    bar.set("write");
-    stencil_io::write_atomic(&a.out, &export::png::encode_bits(&bits))
-        .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
+    let cfg = MakeConfig {
+        out_dir: PathBuf::new(),
+        input: a.input.clone(),
+        tone: a.image.to_config(),
+        mesh: a.mesh.to_config()?,
+        filter: a.filter.to_config(),
+        bridge: BridgeConfig::default(),
+        physical: pipeline::PhysicalConfig {
+            size: super::material::size(a.width_mm, a.dpi),
+            material,
+            material_source: source.display().to_string(),
+            ..pipeline::PhysicalConfig::default()
+        },
+        gcode: None,
+        progress: Some(bar.clone()),
+    };
+    let result = pipeline::clean_two_tone(&cfg);
     bar.finish();
-    println!("{}: {}x{} px", a.out.display(), bits.width, bits.height);
+    let tt = result.map_err(|e| {
+        let input = cfg.input.display().to_string();
+        let msg = super::errors::core(&e);
+        if msg.contains(&input) {
+            anyhow::anyhow!(msg)
+        } else {
+            anyhow::anyhow!("{input}: {msg}")
+        }
+    })?;
+    stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
+        .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
+    println!(
+        "{}: {}x{} px",
+        a.out.display(),
+        tt.bits.width,
+        tt.bits.height
+    );
     Ok(ExitCode::SUCCESS)
 }

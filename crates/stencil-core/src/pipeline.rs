@@ -600,9 +600,23 @@ fn user_bridges(
     Ok(Some(report))
 }
 
-/// Run the pipeline in memory: nothing is written.
-pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
-    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+/// The two-tone after the clean-up, and what the clean-up measured.
+struct Cleaned {
+    /// The picture thresholded, before the clean-up (what fidelity is measured against).
+    picture: BitGrid,
+    twotone: TwoTone,
+    level: Option<u8>,
+    working: Working,
+    filter_cfg: FilterConfig,
+    filter_stats: FilterStats,
+    reg_stats: Option<crate::tone::regularize::RegularizeStats>,
+}
+
+/// The first two stages: the picture (or mesh) as a two-tone at the working resolution, then the
+/// clean-up the material needs (the design-rule regularisation to its smallest feature, or the
+/// morphological filter with an explicit radius). `make` bridges what this returns;
+/// [`clean_two_tone`] gives it alone.
+fn clean(cfg: &MakeConfig, timer: &mut Timings) -> Result<Cleaned, Error> {
     let phys = &cfg.physical;
     let mesh_cfg = mesh_lines_for(cfg);
     let (raw, level, working) =
@@ -622,7 +636,6 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     } else {
         crate::limits::check_filter_radius(filter_cfg.radius, raw.bits.width, raw.bits.height)?;
     }
-    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
     let (bits, filter_stats, reg_stats) = timer.time("filter", || {
         if filter_cfg.auto_radius {
             let rcfg = RegularizeConfig {
@@ -637,10 +650,43 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             (bits, stats, None)
         }
     });
-    let mut twotone = TwoTone {
-        bits,
-        gray: raw.gray,
-    };
+    Ok(Cleaned {
+        picture: raw.bits,
+        twotone: TwoTone {
+            bits,
+            gray: raw.gray,
+        },
+        level,
+        working,
+        filter_cfg,
+        filter_stats,
+        reg_stats,
+    })
+}
+
+/// The two-tone `make` writes as twotone.png (when no bridge is placed or kept out by hand): the
+/// picture at the working resolution after the clean-up for `cfg`'s material and size. What
+/// `stencil tone` writes, so that it shows exactly what `make` will bridge.
+pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
+    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+    Ok(clean(cfg, &mut timer)?.twotone)
+}
+
+/// Run the pipeline in memory: nothing is written.
+pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
+    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+    let phys = &cfg.physical;
+    let Cleaned {
+        picture,
+        mut twotone,
+        level,
+        working,
+        filter_cfg,
+        filter_stats,
+        reg_stats,
+    } = clean(cfg, &mut timer)?;
+    let scale = working.scale;
+    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
     let mut bridge_cfg = bridge_cfg;
     let user = timer.time("user_bridges", || {
         user_bridges(&mut twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
@@ -706,7 +752,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     bridged.recount(&twotone.bits);
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {
-        Fidelity::measure(&raw.bits, &twotone.bits, &bridged.bits)
+        Fidelity::measure(&picture, &twotone.bits, &bridged.bits)
     });
     if let Some(limit_pct) = phys.max_change_pct {
         if fidelity.changed_pct > limit_pct {
@@ -798,7 +844,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         timings_ms: timer.0,
     };
     Ok(Made {
-        picture: raw.bits,
+        picture,
         twotone,
         filter: filter_stats,
         bridged,
