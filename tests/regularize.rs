@@ -61,7 +61,7 @@ fn check_material(material: &str, min_feature_mm: f64) {
             if y < a {
                 // The block above this line: the other tone (the first hole's is split: cut,
                 // then material).
-                return !web && !(y + GAP < a && a >= 2 * GAP);
+                return !web && (y + GAP >= a || a < 2 * GAP);
             }
         }
         true

@@ -318,7 +318,7 @@ impl Observer for AbortAt {
 #[test]
 fn every_stop_path_ends_with_laser_and_air_off() {
     let job = air_job();
-    assert!(job.may_end_air_on == false);
+    assert!(!job.may_end_air_on);
 
     // error:N - soft reset, then M9 and M5 (M5 last).
     let (vg, mut port) = VirtualGrbl::spawn(faulty(FaultKind::Error(22), 60)).unwrap();

@@ -11,8 +11,6 @@ use stencil_core::material::{Material, Process};
 use stencil_core::pipeline::{Emit, PhysicalConfig, Size};
 use stencil_core::vector::VectorConfig;
 
-/// Where `gcode` found it before `check` had a file of its own.
-
 /// A file kind for `--emit`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EmitKind {

@@ -71,8 +71,6 @@ fn main() {
         let ring = (r / 22.0).floor() as i64;
         if r < 132.0 && ring % 2 == 1 {
             INK
-        } else if r < 132.0 {
-            PAPER
         } else {
             PAPER
         }
