@@ -8,8 +8,8 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, GridSpec, RowKind, Steps};
-use stencil_gcode::machine::{self as machine_profile, Tool};
+use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, Grid, GridSpec, RowKind, Steps};
+use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_gcode::num;
 use stencil_gcode::{self as plan, CutSettings};
 
@@ -76,83 +76,18 @@ fn describe(s: &Steps, unit: &str) -> String {
 
 pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let laser = matches!(machine.tool, Tool::Laser { .. });
-    let knife = matches!(machine.tool, Tool::Knife { .. });
-    if a.power.is_some() && !laser {
-        bail!(
-            "--power: '{}' has a {}, which has no power; the grid varies {}",
-            machine.name,
-            machine.tool.kind(),
-            if knife {
-                "the blade depth (--depth) and the speed (--speed)"
-            } else {
-                "the speed (--speed)"
-            }
-        );
-    }
-    if a.depth.is_some() && !knife {
-        bail!(
-            "--depth is for a drag knife; '{}' has a {}",
-            machine.name,
-            machine.tool.kind()
-        );
-    }
+    check_tool_options(&a, &machine)?;
     // Without --material, the machine's tool picks one (as `make` does).
     let material = Some(match &a.material {
         Some(m) => Material::find(m)?.0,
         None => Material::find_default(stencil_core::material::default_for(&machine.tool))?.0,
     });
+    let base = base_settings(&a, &machine, material.as_ref())?;
     let max_feed = machine.motion.max_feed_mm_min;
-    let mut base = match &material {
-        Some(m) => stencil_core::material::settings_for(m, &machine)?,
-        None => {
-            let Some(s) = &a.speed else {
-                bail!(
-                    "no settings to centre the grid on: name a {} material (--material) or give \
-                     --speed FROM..TO:STEPS",
-                    machine.tool.kind()
-                );
-            };
-            CutSettings {
-                power_pct: 100.0,
-                speed_mm_min: (s.from + s.to) / 2.0,
-                passes: 1,
-                blade_offset_mm: 0.0,
-                air_assist: false,
-            }
-        }
-    };
-    if let Some(p) = a.passes {
-        base.passes = p;
-    }
     let speeds = a
         .speed
         .unwrap_or_else(|| around(base.speed_mm_min, 1.0, max_feed));
-    let (row_kind, rows, row_text) = match machine.tool {
-        Tool::Laser { .. } => {
-            let p = a
-                .power
-                .unwrap_or_else(|| around(base.power_pct, 0.1, 100.0));
-            (
-                RowKind::Power,
-                p.values(),
-                format!("power {}", describe(&p, " %")),
-            )
-        }
-        Tool::Knife { z, .. } => {
-            let d = a.depth.unwrap_or(Steps {
-                from: z.down_mm + 0.2,
-                to: z.down_mm - 0.2,
-                steps: 5,
-            });
-            (
-                RowKind::Depth,
-                d.values(),
-                format!("depth Z {}", describe(&d, " mm")),
-            )
-        }
-        Tool::Pen(_) => (RowKind::None, Vec::new(), String::new()),
-    };
+    let (row_kind, rows, row_text) = rows_for(&a, &machine, &base);
     let spec = GridSpec {
         row_kind,
         rows,
@@ -169,25 +104,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     } else {
         format!("rows: {row_text}; columns: {speed_text}")
     };
-    let mut notes = vec![
-        format!(
-            "test grid: {} squares of {} mm, {} mm apart, {} x {} mm at X{} Y{}",
-            grid.cells.len(),
-            num(a.size),
-            num(a.gap),
-            num(grid.size[0]),
-            num(grid.size[1]),
-            num(a.offset[0]),
-            num(a.offset[1])
-        ),
-        layout.clone(),
-    ];
-    if let Some(m) = &material {
-        notes.push(format!(
-            "material {}: the header's settings are its own; each square sets its own, see the comment before it",
-            m.name
-        ));
-    }
+    let notes = header_notes(&a, &grid, &layout, material.as_ref());
     let gcode = grid_gcode(&grid, &machine, &notes);
     let svg_path = a.output.with_extension("svg");
     if svg_path == a.output {
@@ -219,4 +136,128 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
         svg_path.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Refuse a row option the machine's tool has no use for (--power without a laser, --depth
+/// without a drag knife), saying what the grid varies instead, rather than ignoring it.
+fn check_tool_options(a: &TestGridArgs, machine: &Machine) -> anyhow::Result<()> {
+    let laser = matches!(machine.tool, Tool::Laser { .. });
+    let knife = matches!(machine.tool, Tool::Knife { .. });
+    if a.power.is_some() && !laser {
+        bail!(
+            "--power: '{}' has a {}, which has no power; the grid varies {}",
+            machine.name,
+            machine.tool.kind(),
+            if knife {
+                "the blade depth (--depth) and the speed (--speed)"
+            } else {
+                "the speed (--speed)"
+            }
+        );
+    }
+    if a.depth.is_some() && !knife {
+        bail!(
+            "--depth is for a drag knife; '{}' has a {}",
+            machine.name,
+            machine.tool.kind()
+        );
+    }
+    Ok(())
+}
+
+/// The settings the grid centres on: the material's for this machine, or without one the middle
+/// of --speed at full power; --passes overrides either.
+fn base_settings(
+    a: &TestGridArgs,
+    machine: &Machine,
+    material: Option<&Material>,
+) -> anyhow::Result<CutSettings> {
+    let mut base = match material {
+        Some(m) => stencil_core::material::settings_for(m, machine)?,
+        None => {
+            let Some(s) = &a.speed else {
+                bail!(
+                    "no settings to centre the grid on: name a {} material (--material) or give \
+                     --speed FROM..TO:STEPS",
+                    machine.tool.kind()
+                );
+            };
+            CutSettings {
+                power_pct: 100.0,
+                speed_mm_min: (s.from + s.to) / 2.0,
+                passes: 1,
+                blade_offset_mm: 0.0,
+                air_assist: false,
+            }
+        }
+    };
+    if let Some(p) = a.passes {
+        base.passes = p;
+    }
+    Ok(base)
+}
+
+/// What the rows vary, by tool: power around the base for a laser, depth ±0.2 mm around the
+/// profile's for a drag knife, nothing for a pen (one row); with the rows' values and their
+/// description for the notes.
+fn rows_for(
+    a: &TestGridArgs,
+    machine: &Machine,
+    base: &CutSettings,
+) -> (RowKind, Vec<f64>, String) {
+    match machine.tool {
+        Tool::Laser { .. } => {
+            let p = a
+                .power
+                .unwrap_or_else(|| around(base.power_pct, 0.1, 100.0));
+            (
+                RowKind::Power,
+                p.values(),
+                format!("power {}", describe(&p, " %")),
+            )
+        }
+        Tool::Knife { z, .. } => {
+            let d = a.depth.unwrap_or(Steps {
+                from: z.down_mm + 0.2,
+                to: z.down_mm - 0.2,
+                steps: 5,
+            });
+            (
+                RowKind::Depth,
+                d.values(),
+                format!("depth Z {}", describe(&d, " mm")),
+            )
+        }
+        Tool::Pen(_) => (RowKind::None, Vec::new(), String::new()),
+    }
+}
+
+/// The G-code header's notes: the grid's size and place, its layout, and that each square sets
+/// its own settings (the header's are the material's).
+fn header_notes(
+    a: &TestGridArgs,
+    grid: &Grid,
+    layout: &str,
+    material: Option<&Material>,
+) -> Vec<String> {
+    let mut notes = vec![
+        format!(
+            "test grid: {} squares of {} mm, {} mm apart, {} x {} mm at X{} Y{}",
+            grid.cells.len(),
+            num(a.size),
+            num(a.gap),
+            num(grid.size[0]),
+            num(grid.size[1]),
+            num(a.offset[0]),
+            num(a.offset[1])
+        ),
+        layout.to_string(),
+    ];
+    if let Some(m) = material {
+        notes.push(format!(
+            "material {}: the header's settings are its own; each square sets its own, see the comment before it",
+            m.name
+        ));
+    }
+    notes
 }

@@ -213,7 +213,29 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
         nc as f64 * spec.size_mm + (nc - 1) as f64 * spec.gap_mm,
         nr as f64 * spec.size_mm + (nr - 1) as f64 * spec.gap_mm,
     ];
-    // A drag knife's axis swings out by the blade offset at every corner.
+    check_on_bed(spec, machine, size)?;
+    let mut cells = Vec::with_capacity(nr * nc);
+    for r in 0..nr {
+        for (c, &speed) in spec.speeds.iter().enumerate() {
+            let min = [
+                spec.offset[0] + c as f64 * pitch,
+                spec.offset[1] + r as f64 * pitch,
+            ];
+            cells.push(cell(spec, machine, (r, c), speed, min)?);
+        }
+    }
+    let job = squares_job(spec, &cells, size);
+    Ok(Grid {
+        spec: spec.clone(),
+        cells,
+        job,
+        size,
+    })
+}
+
+/// Refuse a grid of `size` (mm) at `spec.offset` that leaves the bed, counting the swing of a
+/// drag knife's axis (the blade offset) at every corner.
+fn check_on_bed(spec: &GridSpec, machine: &Machine, size: [f64; 2]) -> Result<(), PlanError> {
     let reach = spec.base.blade_offset_mm.max(0.0);
     let (x0, y0) = (spec.offset[0] - reach, spec.offset[1] - reach);
     let (x1, y1) = (
@@ -236,16 +258,13 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
             fix: Fit::ShrinkGrid,
         });
     }
-    let mut cells = Vec::with_capacity(nr * nc);
-    for r in 0..nr {
-        for (c, &speed) in spec.speeds.iter().enumerate() {
-            let min = [
-                spec.offset[0] + c as f64 * pitch,
-                spec.offset[1] + r as f64 * pitch,
-            ];
-            cells.push(cell(spec, machine, (r, c), speed, min)?);
-        }
-    }
+    Ok(())
+}
+
+/// The squares as a job the G-code writer takes: one loop per square in the cells' order (row by
+/// row, no travel optimisation, so the squares run in the order their comments number them),
+/// starting from and returning to the origin (0, 0), with the base settings.
+fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
     let a = spec.size_mm;
     let loops: Vec<Loop> = cells
         .iter()
@@ -270,7 +289,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
         .iter()
         .map(|l| l.perimeter_mm() * spec.base.passes as f64)
         .sum();
-    let job = Job {
+    Job {
         loops,
         home,
         settings: spec.base,
@@ -283,13 +302,7 @@ pub fn plan_grid(spec: &GridSpec, machine: &Machine) -> Result<Grid, PlanError> 
             travel_mm: travel,
             naive_travel_mm: travel,
         },
-    };
-    Ok(Grid {
-        spec: spec.clone(),
-        cells,
-        job,
-        size,
-    })
+    }
 }
 
 /// The square's comment line in the G-code: `square 3 of 25, row 1 column 3: power 40 % S400,
@@ -335,32 +348,9 @@ fn escape(s: &str) -> String {
 /// origin corner says): each square with its label (`40% F900`), the rows' values on the left,
 /// the columns' speeds below, and a title.
 pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
-    let o = machine.bed.origin;
-    let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
-    // Bed view: x to the right, y to the rear.
-    let view = |p: [f64; 2]| {
-        [
-            if o.right() { bw - p[0] } else { p[0] },
-            if o.top() { bh - p[1] } else { p[1] },
-        ]
-    };
-    let a = g.spec.size_mm;
-    let rects: Vec<[f64; 4]> = g
-        .cells
-        .iter()
-        .map(|c| {
-            let p = view(c.min);
-            let q = view([c.min[0] + a, c.min[1] + a]);
-            bbox(&[p, q])
-        })
-        .collect();
-    let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
-    let vy1 = rects.iter().map(|r| r[3]).fold(f64::NEG_INFINITY, f64::max);
-    let (left, top, bottom, right) = (30.0, 12.0, 14.0, 6.0);
-    let w = left + g.size[0] + right;
-    let h = top + g.size[1] + bottom;
-    let sx = |vx: f64| left + vx - vx0;
-    let sy = |vy: f64| top + vy1 - vy;
+    let page = Page::new(g, machine);
+    let w = page.left + g.size[0] + page.right;
+    let h = page.top + g.size[1] + page.bottom;
     let mut out = String::new();
     out.push_str(&format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}mm\" height=\"{}mm\" viewBox=\"0 0 {} {}\" font-family=\"sans-serif\">\n",
@@ -368,30 +358,102 @@ pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
     ));
     out.push_str(&format!(
         "<text class=\"title\" x=\"{}\" y=\"6\" font-size=\"3.5\">{}</text>\n",
-        num(left),
+        num(page.left),
         escape(title)
     ));
+    squares_svg(&mut out, g, &page);
+    row_labels_svg(&mut out, g, &page);
+    column_labels_svg(&mut out, g, &page);
+    out.push_str("</svg>\n");
+    out
+}
+
+/// Where the preview draws: each square's rectangle in the bed view (x to the right, y to the
+/// rear, mirrored as the machine's origin says), and the margins around the grid for the labels.
+struct Page {
+    rects: Vec<[f64; 4]>,
+    /// The grid's left and rear edges in the bed view.
+    vx0: f64,
+    vy1: f64,
+    left: f64,
+    top: f64,
+    bottom: f64,
+    right: f64,
+}
+
+impl Page {
+    fn new(g: &Grid, machine: &Machine) -> Page {
+        let o = machine.bed.origin;
+        let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
+        // Bed view: x to the right, y to the rear.
+        let view = |p: [f64; 2]| {
+            [
+                if o.right() { bw - p[0] } else { p[0] },
+                if o.top() { bh - p[1] } else { p[1] },
+            ]
+        };
+        let a = g.spec.size_mm;
+        let rects: Vec<[f64; 4]> = g
+            .cells
+            .iter()
+            .map(|c| {
+                let p = view(c.min);
+                let q = view([c.min[0] + a, c.min[1] + a]);
+                bbox(&[p, q])
+            })
+            .collect();
+        let vx0 = rects.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
+        let vy1 = rects.iter().map(|r| r[3]).fold(f64::NEG_INFINITY, f64::max);
+        Page {
+            rects,
+            vx0,
+            vy1,
+            left: 30.0,
+            top: 12.0,
+            bottom: 14.0,
+            right: 6.0,
+        }
+    }
+
+    /// SVG x of a bed-view x.
+    fn sx(&self, vx: f64) -> f64 {
+        self.left + vx - self.vx0
+    }
+
+    /// SVG y of a bed-view y (SVG's y runs down, the bed's to the rear).
+    fn sy(&self, vy: f64) -> f64 {
+        self.top + self.vy1 - vy
+    }
+}
+
+/// The squares, each outlined with its settings written inside (squeezed to the square's width).
+fn squares_svg(out: &mut String, g: &Grid, page: &Page) {
+    let a = g.spec.size_mm;
     let font = (a / 5.0).clamp(1.0, 2.5);
-    for (c, r) in g.cells.iter().zip(&rects) {
+    for (c, r) in g.cells.iter().zip(&page.rects) {
         out.push_str(&format!(
             "<rect class=\"square\" x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"red\" stroke-width=\"0.2\"/>\n",
-            num(sx(r[0])), num(sy(r[3])), num(a), num(a)
+            num(page.sx(r[0])), num(page.sy(r[3])), num(a), num(a)
         ));
         out.push_str(&format!(
             "<text class=\"cell\" data-row=\"{}\" data-col=\"{}\" x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"middle\" textLength=\"{}\" lengthAdjust=\"spacingAndGlyphs\">{}</text>\n",
             c.row + 1,
             c.col + 1,
-            num(sx((r[0] + r[2]) / 2.0)),
-            num(sy((r[1] + r[3]) / 2.0) + font / 3.0),
+            num(page.sx((r[0] + r[2]) / 2.0)),
+            num(page.sy((r[1] + r[3]) / 2.0) + font / 3.0),
             num(font),
             num(a * 0.9),
             escape(&c.label())
         ));
     }
-    // Row labels: the row's value, left of its leftmost square.
+}
+
+/// Row labels: the row's value (power with its S, or depth), left of its leftmost square; none
+/// when the rows vary nothing.
+fn row_labels_svg(out: &mut String, g: &Grid, page: &Page) {
     let ncols = g.spec.speeds.len();
     for (ri, v) in g.spec.rows.iter().enumerate() {
-        let r = &rects[ri * ncols];
+        let r = &page.rects[ri * ncols];
         let text = match g.spec.row_kind {
             RowKind::Power => {
                 let s = g.cells[ri * ncols].s.unwrap_or(0.0);
@@ -402,28 +464,29 @@ pub fn grid_svg(g: &Grid, machine: &Machine, title: &str) -> String {
         };
         out.push_str(&format!(
             "<text class=\"row\" x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"end\">{}</text>\n",
-            num(left - 2.0),
-            num(sy((r[1] + r[3]) / 2.0) + 0.8),
+            num(page.left - 2.0),
+            num(page.sy((r[1] + r[3]) / 2.0) + 0.8),
             text
         ));
     }
-    // Column labels: the speed, under the grid.
+}
+
+/// Column labels: each column's speed under the grid, and the axis name below them.
+fn column_labels_svg(out: &mut String, g: &Grid, page: &Page) {
     for (ci, v) in g.spec.speeds.iter().enumerate() {
-        let r = &rects[ci];
+        let r = &page.rects[ci];
         out.push_str(&format!(
             "<text class=\"col\" x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"middle\">F{}</text>\n",
-            num(sx((r[0] + r[2]) / 2.0)),
-            num(top + g.size[1] + 5.0),
+            num(page.sx((r[0] + r[2]) / 2.0)),
+            num(page.top + g.size[1] + 5.0),
             num(*v)
         ));
     }
     out.push_str(&format!(
         "<text x=\"{}\" y=\"{}\" font-size=\"2.5\" text-anchor=\"middle\">speed, mm/min</text>\n",
-        num(left + g.size[0] / 2.0),
-        num(top + g.size[1] + 10.0)
+        num(page.left + g.size[0] / 2.0),
+        num(page.top + g.size[1] + 10.0)
     ));
-    out.push_str("</svg>\n");
-    out
 }
 
 #[cfg(test)]

@@ -148,116 +148,38 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
         return Ok(None);
     }
     let ws = words(&clean, line_no)?;
-    let err = |code: u8, msg: String| GcodeError {
-        line: line_no,
-        code,
-        msg,
-        out_of_range: false,
-    };
-    let range = |what: &str, v: f64, max: f64, unit: &str| GcodeError {
-        line: line_no,
-        code: 2,
-        msg: format!(
-            "{what} {} is beyond what any machine does (at most {max}{unit})",
-            if v.abs() < 1e9 {
-                v.to_string()
-            } else {
-                format!("{v:.3e}")
-            }
-        ),
-        out_of_range: true,
-    };
-    let mut target = [None::<f64>; 3];
-    let mut motion = None;
-    let mut program_end = false;
+    let mut line_words = LineWords::default();
     for &(l, v) in &ws {
         match l {
-            'G' => match v {
-                0.0 => motion = Some(0),
-                1.0 => motion = Some(1),
-                90.0 => modal.absolute = true,
-                91.0 => modal.absolute = false,
-                21.0 => modal.metric = true,
-                20.0 => modal.metric = false,
-                // Plane selection, feed-rate mode, work coordinate systems, cancel modes: no motion.
-                v if [17.0, 94.0, 54.0, 40.0, 49.0, 80.0].contains(&v) => {}
-                v => {
-                    return Err(err(
-                        20,
-                        format!("G{v} is not supported by this program subset"),
-                    ))
-                }
-            },
-            'M' => match v as u32 {
-                3 | 4 => {
-                    modal.spindle_on = true;
-                    modal.dynamic = v as u32 == 4;
-                }
-                5 => modal.spindle_on = false,
-                8 => modal.coolant = true,
-                9 => modal.coolant = false,
-                // Program end: applied after the line's motion, as Grbl does.
-                2 | 30 => program_end = true,
-                0 | 1 | 7 => {}
-                _ => return Err(err(20, format!("M{v} is not supported"))),
-            },
-            'F' => {
-                if v <= 0.0 {
-                    return Err(err(4, "F must be positive".into()));
-                }
-                let f = if modal.metric { v } else { v * 25.4 };
-                if f > MAX_FEED_MM_MIN {
-                    return Err(range("feed", f, MAX_FEED_MM_MIN, " mm/min"));
-                }
-                modal.feed = Some(f);
-            }
-            'S' => {
-                if v < 0.0 {
-                    return Err(err(4, "S must not be negative".into()));
-                }
-                if v > MAX_S {
-                    return Err(range("S", v, MAX_S, ""));
-                }
-                modal.s = v;
-            }
-            'X' => target[0] = Some(v),
-            'Y' => target[1] = Some(v),
-            'Z' => target[2] = Some(v),
+            'G' => g_word(modal, &mut line_words, v, line_no)?,
+            'M' => m_word(modal, &mut line_words, v, line_no)?,
+            'F' => f_word(modal, v, line_no)?,
+            'S' => s_word(modal, v, line_no)?,
+            'X' => line_words.target[0] = Some(v),
+            'Y' => line_words.target[1] = Some(v),
+            'Z' => line_words.target[2] = Some(v),
             'N' => {}
-            l => return Err(err(20, format!("word '{l}' is not supported"))),
+            l => return Err(refused(line_no, 20, format!("word '{l}' is not supported"))),
         }
     }
-    if let Some(m) = motion {
+    if let Some(m) = line_words.motion {
         modal.motion = m;
     }
-    if target.iter().all(Option::is_none) {
-        if program_end {
+    if line_words.target.iter().all(Option::is_none) {
+        if line_words.program_end {
             end_program(modal);
         }
         return Ok(None);
     }
     if modal.motion == 1 && modal.feed.is_none() {
-        return Err(err(
+        return Err(refused(
+            line_no,
             22,
             "G1 before any F: the feed rate is undefined".into(),
         ));
     }
-    let unit = if modal.metric { 1.0 } else { 25.4 };
     let from = modal.pos;
-    let mut to = from;
-    for a in 0..3 {
-        if let Some(v) = target[a] {
-            to[a] = if modal.absolute {
-                v * unit
-            } else {
-                from[a] + v * unit
-            };
-            if to[a].abs() > MAX_COORD_MM {
-                let axis = ["X", "Y", "Z"][a];
-                return Err(range(axis, to[a], MAX_COORD_MM, " mm"));
-            }
-        }
-    }
+    let to = resolve_target(modal, &line_words.target, line_no)?;
     modal.pos = to;
     let rapid = modal.motion == 0;
     let spindle_s = if modal.spindle_on { modal.s } else { 0.0 };
@@ -270,10 +192,151 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move
         spindle_s,
         line: line_no,
     };
-    if program_end {
+    if line_words.program_end {
         end_program(modal);
     }
     Ok(Some(mv))
+}
+
+/// What one line asks for that takes effect only once all its words are read: the axis words
+/// (as written, in the line's units and distance mode), the motion mode and a program end.
+/// Grbl applies a line's words as a block, not left to right, so `X10 G0` moves in G0.
+#[derive(Default)]
+struct LineWords {
+    target: [Option<f64>; 3],
+    motion: Option<u8>,
+    program_end: bool,
+}
+
+/// A line Grbl itself would refuse, with Grbl's error code.
+fn refused(line: usize, code: u8, msg: String) -> GcodeError {
+    GcodeError {
+        line,
+        code,
+        msg,
+        out_of_range: false,
+    }
+}
+
+/// A number beyond [`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`] or [`MAX_S`]: the program is refused
+/// whole. Huge values are shown in scientific notation so the message stays one short line.
+fn beyond(line: usize, what: &str, v: f64, max: f64, unit: &str) -> GcodeError {
+    GcodeError {
+        line,
+        code: 2,
+        msg: format!(
+            "{what} {} is beyond what any machine does (at most {max}{unit})",
+            if v.abs() < 1e9 {
+                v.to_string()
+            } else {
+                format!("{v:.3e}")
+            }
+        ),
+        out_of_range: true,
+    }
+}
+
+/// A `G` word: motion mode (G0/G1, applied after the line), distance mode (G90/G91) and units
+/// (G21/G20) at once; the modal groups that never move the tool are accepted and ignored.
+fn g_word(
+    modal: &mut Modal,
+    line_words: &mut LineWords,
+    v: f64,
+    line_no: usize,
+) -> Result<(), GcodeError> {
+    match v {
+        0.0 => line_words.motion = Some(0),
+        1.0 => line_words.motion = Some(1),
+        90.0 => modal.absolute = true,
+        91.0 => modal.absolute = false,
+        21.0 => modal.metric = true,
+        20.0 => modal.metric = false,
+        // Plane selection, feed-rate mode, work coordinate systems, cancel modes: no motion.
+        v if [17.0, 94.0, 54.0, 40.0, 49.0, 80.0].contains(&v) => {}
+        v => {
+            return Err(refused(
+                line_no,
+                20,
+                format!("G{v} is not supported by this program subset"),
+            ))
+        }
+    }
+    Ok(())
+}
+
+/// An `M` word: spindle (M3/M4/M5, M4 being laser mode), coolant (M8/M9, air assist on a laser)
+/// and program end (M2/M30, applied after the line's motion, as Grbl does).
+fn m_word(
+    modal: &mut Modal,
+    line_words: &mut LineWords,
+    v: f64,
+    line_no: usize,
+) -> Result<(), GcodeError> {
+    match v as u32 {
+        3 | 4 => {
+            modal.spindle_on = true;
+            modal.dynamic = v as u32 == 4;
+        }
+        5 => modal.spindle_on = false,
+        8 => modal.coolant = true,
+        9 => modal.coolant = false,
+        2 | 30 => line_words.program_end = true,
+        0 | 1 | 7 => {}
+        _ => return Err(refused(line_no, 20, format!("M{v} is not supported"))),
+    }
+    Ok(())
+}
+
+/// An `F` word: the feed, kept in mm/min whatever the line's units, so every later move and the
+/// estimate read one unit.
+fn f_word(modal: &mut Modal, v: f64, line_no: usize) -> Result<(), GcodeError> {
+    if v <= 0.0 {
+        return Err(refused(line_no, 4, "F must be positive".into()));
+    }
+    let f = if modal.metric { v } else { v * 25.4 };
+    if f > MAX_FEED_MM_MIN {
+        return Err(beyond(line_no, "feed", f, MAX_FEED_MM_MIN, " mm/min"));
+    }
+    modal.feed = Some(f);
+    Ok(())
+}
+
+/// An `S` word: the spindle/laser value, used by the following moves while the spindle is on.
+fn s_word(modal: &mut Modal, v: f64, line_no: usize) -> Result<(), GcodeError> {
+    if v < 0.0 {
+        return Err(refused(line_no, 4, "S must not be negative".into()));
+    }
+    if v > MAX_S {
+        return Err(beyond(line_no, "S", v, MAX_S, ""));
+    }
+    modal.s = v;
+    Ok(())
+}
+
+/// The line's axis words as an absolute position in mm: inches converted, G91 offsets added to
+/// the current position, unnamed axes kept. Refuses a position beyond [`MAX_COORD_MM`].
+fn resolve_target(
+    modal: &Modal,
+    target: &[Option<f64>; 3],
+    line_no: usize,
+) -> Result<[f64; 3], GcodeError> {
+    let unit = if modal.metric { 1.0 } else { 25.4 };
+    let from = modal.pos;
+    let mut to = from;
+    for a in 0..3 {
+        if let Some(v) = target[a] {
+            to[a] = if modal.absolute {
+                v * unit
+            } else {
+                from[a] + v * unit
+            };
+            if to[a].abs() > MAX_COORD_MM {
+                let axis = ["X", "Y", "Z"][a];
+                return Err(beyond(line_no, axis, to[a], MAX_COORD_MM, " mm"));
+            }
+        }
+    }
+    Ok(to)
 }
 
 /// `M2` / `M30`: what Grbl 1.1 resets at a program end (gcode.c, `PROGRAM_FLOW_COMPLETED`):

@@ -369,12 +369,43 @@ pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     let n = loops.len();
     // Geometry Clipper refuses (see `clip`) only loses the piece constraints; hulls still order.
     let pieces = pieces(loops, gaps).unwrap_or_default();
+    let mut before = constraints(loops, &pieces);
+    let level = levels(&before);
+    let regions: Vec<usize> = (0..n).filter(|&i| !loops[i].outline).collect();
+    let max_level = regions.iter().map(|&i| level[i]).max().unwrap_or(0);
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for d in (0..=max_level).rev() {
+        let g: Vec<usize> = regions.iter().copied().filter(|&i| level[i] == d).collect();
+        if !g.is_empty() {
+            groups.push(g);
+        }
+    }
+    largest_last(loops, &regions, &mut groups, &mut before);
+    let outline: Vec<usize> = (0..n).filter(|&i| loops[i].outline).collect();
+    for &i in &outline {
+        before[i] = regions.clone();
+    }
+    if !outline.is_empty() {
+        groups.push(outline);
+    }
+    Order {
+        groups,
+        before,
+        pieces,
+    }
+}
+
+/// For each loop, the loops that must be cut before it (sorted, once each): those inside a piece
+/// it lies around, then those inside its convex hull where the piece depths allow (see [`order`]
+/// for why that cannot cycle).
+fn constraints(loops: &[Loop], pieces: &[Piece]) -> Vec<Vec<usize>> {
+    let n = loops.len();
     let mut depth = vec![0usize; n];
-    for p in &pieces {
+    for p in pieces {
         p.inside.iter().for_each(|&i| depth[i] += 1);
     }
     let mut before: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for p in &pieces {
+    for p in pieces {
         for &j in &p.around {
             for &i in &p.inside {
                 if depth[i] > depth[j] {
@@ -394,10 +425,16 @@ pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
         b.sort_unstable();
         b.dedup();
     }
-    // Layers: how long the longest chain of loops that must follow each one is (Kahn's order
-    // from the loops nothing follows).
+    before
+}
+
+/// Each loop's layer: how long the longest chain of loops that must follow it is (Kahn's order
+/// from the loops nothing follows). Cutting layer by layer, deepest first, keeps every constraint
+/// while leaving the travel optimiser free within a layer.
+fn levels(before: &[Vec<usize>]) -> Vec<usize> {
+    let n = before.len();
     let mut after_count: Vec<usize> = vec![0; n];
-    for b in &before {
+    for b in before {
         b.iter().for_each(|&i| after_count[i] += 1);
     }
     let mut level = vec![0usize; n];
@@ -411,45 +448,35 @@ pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
             }
         }
     }
-    let regions: Vec<usize> = (0..n).filter(|&i| !loops[i].outline).collect();
-    let max_level = regions.iter().map(|&i| level[i]).max().unwrap_or(0);
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    for d in (0..=max_level).rev() {
-        let g: Vec<usize> = regions.iter().copied().filter(|&i| level[i] == d).collect();
-        if !g.is_empty() {
-            groups.push(g);
-        }
-    }
-    // The largest of the loops nothing follows goes last among the regions: it weakens the sheet
-    // the most.
-    if let Some(top) = groups.last_mut() {
-        if top.len() > 1 {
-            let (k, _) = top
-                .iter()
-                .enumerate()
-                .fold((0, f64::NEG_INFINITY), |best, (k, &i)| {
-                    if loops[i].area_mm2 > best.1 {
-                        (k, loops[i].area_mm2)
-                    } else {
-                        best
-                    }
-                });
-            let largest = top.remove(k);
-            before[largest] = regions.iter().copied().filter(|&i| i != largest).collect();
-            groups.push(vec![largest]);
-        }
-    }
-    let outline: Vec<usize> = (0..n).filter(|&i| loops[i].outline).collect();
-    for &i in &outline {
-        before[i] = regions.clone();
-    }
-    if !outline.is_empty() {
-        groups.push(outline);
-    }
-    Order {
-        groups,
-        before,
-        pieces,
+    level
+}
+
+/// Move the largest of the loops nothing follows (the last group) into a group of its own after
+/// it, and make every other region come before it: it weakens the sheet the most, so it is cut
+/// when nothing else needs the sheet's support.
+fn largest_last(
+    loops: &[Loop],
+    regions: &[usize],
+    groups: &mut Vec<Vec<usize>>,
+    before: &mut [Vec<usize>],
+) {
+    let Some(top) = groups.last_mut() else {
+        return;
+    };
+    if top.len() > 1 {
+        let (k, _) = top
+            .iter()
+            .enumerate()
+            .fold((0, f64::NEG_INFINITY), |best, (k, &i)| {
+                if loops[i].area_mm2 > best.1 {
+                    (k, loops[i].area_mm2)
+                } else {
+                    best
+                }
+            });
+        let largest = top.remove(k);
+        before[largest] = regions.iter().copied().filter(|&i| i != largest).collect();
+        groups.push(vec![largest]);
     }
 }
 

@@ -274,88 +274,109 @@ type Rings = Vec<Vec<[f64; 2]>>;
 
 /// Rings of one path's data, in user units.
 fn rings(data: &Data, file: &str) -> Result<Rings, SvgError> {
-    let bad = |msg: String| SvgError::Bad {
-        file: file.to_string(),
-        msg,
-    };
-    let mut out = Vec::new();
-    let mut cur: Vec<[f64; 2]> = Vec::new();
-    let mut pos = [0.0f64, 0.0];
-    let mut start = pos;
+    let mut pen = Pen::default();
     for cmd in data.iter() {
         match cmd {
-            Command::Move(p, params) => {
-                if cur.len() > 1 {
-                    out.push(std::mem::take(&mut cur));
-                }
-                cur.clear();
-                for (k, xy) in params.chunks(2).enumerate() {
-                    let [x, y] = [xy[0] as f64, *xy.get(1).unwrap_or(&0.0) as f64];
-                    pos = match p {
-                        Position::Absolute => [x, y],
-                        Position::Relative => [pos[0] + x, pos[1] + y],
-                    };
-                    if k == 0 {
-                        start = pos;
-                    }
-                    cur.push(pos); // extra pairs after M are line-tos
-                }
-            }
+            Command::Move(p, params) => pen.move_to(p, params),
             Command::Line(p, params) => {
                 for xy in params.chunks(2) {
-                    let [x, y] = [xy[0] as f64, *xy.get(1).unwrap_or(&0.0) as f64];
-                    pos = match p {
-                        Position::Absolute => [x, y],
-                        Position::Relative => [pos[0] + x, pos[1] + y],
-                    };
-                    cur.push(pos);
+                    pen.line_to(p, xy);
                 }
             }
             Command::HorizontalLine(p, params) => {
                 for &x in params.iter() {
-                    pos[0] = match p {
-                        Position::Absolute => x as f64,
-                        Position::Relative => pos[0] + x as f64,
-                    };
-                    cur.push(pos);
+                    pen.pos[0] = along(p, pen.pos[0], x);
+                    pen.cur.push(pen.pos);
                 }
             }
             Command::VerticalLine(p, params) => {
                 for &y in params.iter() {
-                    pos[1] = match p {
-                        Position::Absolute => y as f64,
-                        Position::Relative => pos[1] + y as f64,
-                    };
-                    cur.push(pos);
+                    pen.pos[1] = along(p, pen.pos[1], y);
+                    pen.cur.push(pen.pos);
                 }
             }
-            Command::Close => {
-                if cur.len() > 2 {
-                    out.push(std::mem::take(&mut cur));
-                }
-                cur.clear();
-                pos = start;
-                cur.push(pos);
-            }
+            Command::Close => pen.close(),
             other => {
-                let name = match other {
-                    Command::CubicCurve(..) | Command::SmoothCubicCurve(..) => "C/S (cubic curve)",
-                    Command::QuadraticCurve(..) | Command::SmoothQuadraticCurve(..) => {
-                        "Q/T (quadratic curve)"
-                    }
-                    _ => "A (arc)",
-                };
-                return Err(bad(format!(
-                    "path data uses {name}; only straight segments (M, L, H, V, Z) are supported: \
-                     convert curves to lines first (e.g. Inkscape: Extensions > Modify Path > Flatten)"
-                )));
+                return Err(SvgError::Bad {
+                    file: file.to_string(),
+                    msg: format!(
+                        "path data uses {}; only straight segments (M, L, H, V, Z) are \
+                         supported: convert curves to lines first (e.g. Inkscape: Extensions > \
+                         Modify Path > Flatten)",
+                        curve_name(other)
+                    ),
+                })
             }
         }
     }
-    if cur.len() > 2 {
-        out.push(cur); // an unclosed subpath is cut as a closed loop
+    if pen.cur.len() > 2 {
+        pen.out.push(pen.cur); // an unclosed subpath is cut as a closed loop
     }
-    Ok(out)
+    Ok(pen.out)
+}
+
+/// The state of drawing one path's data: the rings finished, the subpath being drawn, the
+/// current point and where the subpath started (where `Z` returns to).
+#[derive(Default)]
+struct Pen {
+    out: Rings,
+    cur: Vec<[f64; 2]>,
+    pos: [f64; 2],
+    start: [f64; 2],
+}
+
+impl Pen {
+    /// `M`/`m`: end the subpath (kept if it has a segment) and start one; extra pairs after the
+    /// first are line-tos, as SVG says.
+    fn move_to(&mut self, p: &Position, params: &[f32]) {
+        if self.cur.len() > 1 {
+            self.out.push(std::mem::take(&mut self.cur));
+        }
+        self.cur.clear();
+        for (k, xy) in params.chunks(2).enumerate() {
+            self.line_to(p, xy);
+            if k == 0 {
+                self.start = self.pos;
+            }
+        }
+    }
+
+    /// `L`/`l` with one coordinate pair (a missing y reads as 0).
+    fn line_to(&mut self, p: &Position, xy: &[f32]) {
+        self.pos = [
+            along(p, self.pos[0], xy[0]),
+            along(p, self.pos[1], *xy.get(1).unwrap_or(&0.0)),
+        ];
+        self.cur.push(self.pos);
+    }
+
+    /// `Z`: the subpath is a ring if it has an area's worth of points; drawing goes on from where
+    /// it started.
+    fn close(&mut self) {
+        if self.cur.len() > 2 {
+            self.out.push(std::mem::take(&mut self.cur));
+        }
+        self.cur.clear();
+        self.pos = self.start;
+        self.cur.push(self.pos);
+    }
+}
+
+/// One coordinate after a command: `v` itself if absolute, `from + v` if relative.
+fn along(p: &Position, from: f64, v: f32) -> f64 {
+    match p {
+        Position::Absolute => v as f64,
+        Position::Relative => from + v as f64,
+    }
+}
+
+/// The name of a path command the reader refuses, for the message (curves and arcs).
+fn curve_name(cmd: &Command) -> &'static str {
+    match cmd {
+        Command::CubicCurve(..) | Command::SmoothCubicCurve(..) => "C/S (cubic curve)",
+        Command::QuadraticCurve(..) | Command::SmoothQuadraticCurve(..) => "Q/T (quadratic curve)",
+        _ => "A (arc)",
+    }
 }
 
 /// The outermost `<svg>`'s size and coordinate system.
@@ -443,67 +464,100 @@ pub fn cut_loops_from_svg(text: &str, file: &str) -> Result<CutLoops, SvgError> 
         file: file.to_string(),
         msg,
     };
+    let (found, all) = drawn_paths(text, file)?;
+    let sheet = found.ok_or_else(|| bad("no <svg> element".into()))?;
+    let cuts = MultiPolygon(cut_polygons(all, &sheet, file)?);
+    // The SVG knows the sheet only: the picture is taken to be the whole sheet. The cuts are as
+    // drawn (our SVG carries the design line; `stencil gcode` applies the material's kerf).
+    let o = sheet.outline;
+    let outline = Rect::new(Coord { x: o[0], y: o[1] }, Coord { x: o[2], y: o[3] });
+    Ok(CutLoops::drawn(outline, cuts))
+}
+
+/// One drawn `<path>`: whether it is inside a "cut" element, its name for messages, and its
+/// rings in the document's user units (its transforms applied).
+type DrawnPath = (bool, String, Rings);
+
+/// Walk the document: the outermost `<svg>`'s sheet (if any) and every path that is drawn (not
+/// inside `<defs>` and the like), with the transforms of the elements around it applied.
+fn drawn_paths(text: &str, file: &str) -> Result<(Option<Sheet>, Vec<DrawnPath>), SvgError> {
+    let bad = |msg: String| SvgError::Bad {
+        file: file.to_string(),
+        msg,
+    };
     let mut found: Option<Sheet> = None;
     // Open elements: whether each is (inside) a "cut" element, hidden, and its transform.
     let mut stack: Vec<(bool, bool, Affine)> = Vec::new();
-    // Each path: inside a "cut" element, its name for messages, its rings in user units.
-    let mut all: Vec<(bool, String, Rings)> = Vec::new();
+    let mut all: Vec<DrawnPath> = Vec::new();
     let mut paths = 0usize;
     for ev in svg::read(text).map_err(|e| bad(e.to_string()))? {
-        match ev {
+        let (name, ty, attrs) = match ev {
             Event::Error(e) => return Err(bad(format!("not valid SVG: {e}"))),
-            Event::Tag(name, ty, attrs) => {
-                let (inside_cut, inside_hidden, parent) =
-                    stack.last().copied().unwrap_or((false, false, IDENTITY));
-                let here_cut = inside_cut || mentions_cut(&attrs);
-                let hidden = inside_hidden || HIDDEN.contains(&name);
-                let here = match attrs.get("transform") {
-                    Some(t) if matches!(ty, Type::Start | Type::Empty) => {
-                        let own = parse_transform(t).map_err(|e| bad(format!("<{name}>: {e}")))?;
-                        compose(&parent, &own)
-                    }
-                    _ => parent,
-                };
-                if name == "svg" && matches!(ty, Type::Start | Type::Empty) && found.is_none() {
-                    found = Some(sheet(&attrs).map_err(bad)?);
-                }
-                if name == "path" && matches!(ty, Type::Start | Type::Empty) {
-                    paths += 1;
-                }
-                if name == "path" && !hidden && matches!(ty, Type::Start | Type::Empty) {
-                    if let Some(d) = attrs.get("d") {
-                        let label = match attrs.get("id") {
-                            Some(id) => format!("<path id=\"{}\"> (path {paths})", excerpt(id)),
-                            None => format!("path {paths}"),
-                        };
-                        let data = Data::parse(d)
-                            .map_err(|e| bad(format!("{label}: bad path data: {e}")))?;
-                        let mut rs = rings(&data, file)?;
-                        for r in &mut rs {
-                            r.iter_mut().for_each(|p| *p = apply(&here, *p));
-                        }
-                        all.push((here_cut, label, rs));
-                    }
-                }
-                match ty {
-                    Type::Start => stack.push((here_cut, hidden, here)),
-                    Type::End => {
-                        stack.pop();
-                    }
-                    Type::Empty => {}
-                }
+            Event::Tag(name, ty, attrs) => (name, ty, attrs),
+            _ => continue,
+        };
+        let opens = matches!(ty, Type::Start | Type::Empty);
+        let (inside_cut, inside_hidden, parent) =
+            stack.last().copied().unwrap_or((false, false, IDENTITY));
+        let here_cut = inside_cut || mentions_cut(&attrs);
+        let hidden = inside_hidden || HIDDEN.contains(&name);
+        let here = match attrs.get("transform") {
+            Some(t) if opens => {
+                let own = parse_transform(t).map_err(|e| bad(format!("<{name}>: {e}")))?;
+                compose(&parent, &own)
             }
-            _ => {}
+            _ => parent,
+        };
+        if name == "svg" && opens && found.is_none() {
+            found = Some(sheet(&attrs).map_err(bad)?);
+        }
+        if name == "path" && opens {
+            paths += 1;
+        }
+        if name == "path" && !hidden && opens {
+            if let Some(d) = attrs.get("d") {
+                let label = match attrs.get("id") {
+                    Some(id) => format!("<path id=\"{}\"> (path {paths})", excerpt(id)),
+                    None => format!("path {paths}"),
+                };
+                let data =
+                    Data::parse(d).map_err(|e| bad(format!("{label}: bad path data: {e}")))?;
+                let mut rs = rings(&data, file)?;
+                for r in &mut rs {
+                    r.iter_mut().for_each(|p| *p = apply(&here, *p));
+                }
+                all.push((here_cut, label, rs));
+            }
+        }
+        match ty {
+            Type::Start => stack.push((here_cut, hidden, here)),
+            Type::End => {
+                stack.pop();
+            }
+            Type::Empty => {}
         }
     }
-    let sheet = found.ok_or_else(|| bad("no <svg> element".into()))?;
+    Ok((found, all))
+}
+
+/// The paths to cut as polygons in mm: only those inside a "cut" element if any is, else all
+/// (so that preview layers of our own SVG are skipped). Every point is checked to be finite and
+/// in range, since every later stage computes with them.
+fn cut_polygons(
+    all: Vec<DrawnPath>,
+    sheet: &Sheet,
+    file: &str,
+) -> Result<Vec<Polygon<f64>>, SvgError> {
+    let bad = |msg: String| SvgError::Bad {
+        file: file.to_string(),
+        msg,
+    };
     let any_cut = all.iter().any(|(c, _, _)| *c);
     let to_mm = |p: [f64; 2]| (p[0] * sheet.scale[0], p[1] * sheet.scale[1]);
     let mut polys: Vec<Polygon<f64>> = Vec::new();
     for (_, label, rs) in all.into_iter().filter(|(c, _, _)| *c || !any_cut) {
         for r in rs {
             let ring = LineString::from(r.into_iter().map(to_mm).collect::<Vec<_>>());
-            // Every later stage computes with these: they must be finite and in range.
             clip::check_rings([&ring]).map_err(|e| bad(format!("{label}: {e}")))?;
             polys.push(Polygon::new(ring, vec![]));
         }
@@ -513,12 +567,7 @@ pub fn cut_loops_from_svg(text: &str, file: &str) -> Result<CutLoops, SvgError> 
             "no closed paths to cut (expected <path d=\"M ... Z\"> elements)".into(),
         ));
     }
-    let cuts = MultiPolygon(polys);
-    // The SVG knows the sheet only: the picture is taken to be the whole sheet. The cuts are as
-    // drawn (our SVG carries the design line; `stencil gcode` applies the material's kerf).
-    let o = sheet.outline;
-    let outline = Rect::new(Coord { x: o[0], y: o[1] }, Coord { x: o[2], y: o[3] });
-    Ok(CutLoops::drawn(outline, cuts))
+    Ok(polys)
 }
 
 #[cfg(test)]

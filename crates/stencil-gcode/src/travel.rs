@@ -280,117 +280,181 @@ fn improve(seq: &mut Vec<usize>, pts: &[[f64; 2]], from: [f64; 2]) {
     if n < 2 {
         return;
     }
-    let nb = knn(pts);
-    let mut pos = vec![0usize; n];
-    let reindex = |seq: &[usize], pos: &mut [usize]| {
-        for (i, &k) in seq.iter().enumerate() {
-            pos[k] = i;
-        }
+    let mut tour = Tour {
+        pos: vec![0usize; n],
+        nb: knn(pts),
+        seq,
+        pts,
+        from,
     };
-    reindex(seq, &mut pos);
-    // Point at sequence index i; index -1 is `from`.
-    let at = |seq: &[usize], i: isize| -> [f64; 2] {
-        if i < 0 {
-            from
-        } else {
-            pts[seq[i as usize]]
-        }
-    };
-    let eps = 1e-9;
+    tour.reindex();
     for _ in 0..MAX_ROUNDS {
-        let mut improved = false;
+        let two_opt = tour.two_opt();
+        let or_opt = tour.or_opt();
+        if !(two_opt || or_opt) {
+            break;
+        }
+    }
+}
 
-        // 2-opt: reverse seq[i..=j]; new edges (prev(i), seq[j]) and (seq[i], seq[j+1]).
-        let gain = |seq: &[usize], i: usize, j: usize| -> f64 {
-            let prev = at(seq, i as isize - 1);
-            let (a, b) = (pts[seq[i]], pts[seq[j]]);
-            let mut d = dist(prev, b) - dist(prev, a);
-            if j + 1 < seq.len() {
-                let next = pts[seq[j + 1]];
-                d += dist(a, next) - dist(b, next);
-            }
-            d
-        };
+/// A change shorter by less than this (mm) is no improvement: it keeps rounding noise from
+/// undoing and redoing the same move.
+const EPS: f64 = 1e-9;
+
+/// An open path being improved in place: the visiting order, where each point sits in it, and
+/// each point's nearest neighbours, the only new edges tried, so that a pass stays near-linear
+/// instead of quadratic in the number of loops.
+struct Tour<'a> {
+    seq: &'a mut Vec<usize>,
+    /// `pos[k]`: the index of point `k` in `seq`.
+    pos: Vec<usize>,
+    pts: &'a [[f64; 2]],
+    nb: Vec<Vec<usize>>,
+    from: [f64; 2],
+}
+
+impl Tour<'_> {
+    /// Bring `pos` back in line with `seq` after a move.
+    fn reindex(&mut self) {
+        for (i, &k) in self.seq.iter().enumerate() {
+            self.pos[k] = i;
+        }
+    }
+
+    /// Point at sequence index i; index -1 is `from`.
+    #[inline]
+    fn at(&self, i: isize) -> [f64; 2] {
+        if i < 0 {
+            self.from
+        } else {
+            self.pts[self.seq[i as usize]]
+        }
+    }
+
+    /// Length change of reversing seq[i..=j]: new edges (prev(i), seq[j]) and (seq[i], seq[j+1]).
+    #[inline]
+    fn reversal_gain(&self, i: usize, j: usize) -> f64 {
+        let prev = self.at(i as isize - 1);
+        let (a, b) = (self.pts[self.seq[i]], self.pts[self.seq[j]]);
+        let mut d = dist(prev, b) - dist(prev, a);
+        if j + 1 < self.seq.len() {
+            let next = self.pts[self.seq[j + 1]];
+            d += dist(a, next) - dist(b, next);
+        }
+        d
+    }
+
+    /// Reverse seq[i..=j] if that shortens the path; true if it did.
+    #[inline]
+    fn reverse_if_shorter(&mut self, i: usize, j: usize) -> bool {
+        if self.reversal_gain(i, j) < -EPS {
+            self.seq[i..=j].reverse();
+            self.reindex();
+            true
+        } else {
+            false
+        }
+    }
+
+    /// One 2-opt pass: reverse a stretch of the path where that uncrosses or shortens two edges.
+    /// Tried from both ends of the stretch, each time with the new edge going to a near neighbour.
+    /// True if anything changed.
+    fn two_opt(&mut self) -> bool {
+        let n = self.seq.len();
+        let mut improved = false;
         for i in 0..n {
             // Candidates for the new edge from prev(i): neighbours of prev, or all points from the
             // start (where prev is `from`, not a point with a neighbour list).
             let cands: Vec<usize> = if i == 0 {
                 (0..n).collect()
             } else {
-                nb[seq[i - 1]].clone()
+                self.nb[self.seq[i - 1]].clone()
             };
             for c in cands {
-                let j = pos[c];
-                if j > i && gain(seq, i, j) < -eps {
-                    seq[i..=j].reverse();
-                    reindex(seq, &mut pos);
-                    improved = true;
+                let j = self.pos[c];
+                if j > i {
+                    improved |= self.reverse_if_shorter(i, j);
                 }
             }
         }
         for j in 0..n.saturating_sub(1) {
             // Candidates for the new edge to seq[j+1]: its neighbours, as seq[i].
-            for &c in &nb[seq[j + 1]] {
-                let i = pos[c];
-                if i < j && gain(seq, i, j) < -eps {
-                    seq[i..=j].reverse();
-                    reindex(seq, &mut pos);
-                    improved = true;
+            // (Reversing seq[i..=j] leaves seq[j+1] where it is.)
+            let to = self.seq[j + 1];
+            for c_at in 0..self.nb[to].len() {
+                let i = self.pos[self.nb[to][c_at]];
+                if i < j {
+                    improved |= self.reverse_if_shorter(i, j);
                 }
             }
         }
+        improved
+    }
 
-        // Or-opt: move seq[i..i+len] between two neighbours elsewhere, maybe reversed.
+    /// One Or-opt pass: move each run of 1 to 3 consecutive loops, maybe reversed, to the best
+    /// place next to one of its ends' neighbours. True if anything changed.
+    fn or_opt(&mut self) -> bool {
+        let n = self.seq.len();
+        let mut improved = false;
         for len in 1..=3usize {
             let mut i = 0;
             while i + len <= n {
-                let (first, last) = (seq[i], seq[i + len - 1]);
-                let prev = at(seq, i as isize - 1);
-                let next = (i + len < n).then(|| pts[seq[i + len]]);
-                let removed = dist(prev, pts[first])
-                    + next.map_or(0.0, |q| dist(pts[last], q) - dist(prev, q));
-                // Insertion between sequence positions k and k+1 (k = -1: right after `from`).
-                let mut best: Option<(f64, isize, bool)> = None;
-                for &c in nb[first].iter().chain(nb[last].iter()) {
-                    let pc = pos[c] as isize;
-                    for k in [pc - 1, pc] {
-                        if k >= i as isize - 1 && k < (i + len) as isize {
-                            continue;
-                        }
-                        let u = at(seq, k);
-                        let v = ((k + 1) < n as isize).then(|| pts[seq[(k + 1) as usize]]);
-                        for rev in [false, true] {
-                            let (x, y) = if rev { (last, first) } else { (first, last) };
-                            let added =
-                                dist(u, pts[x]) + v.map_or(0.0, |v| dist(pts[y], v) - dist(u, v));
-                            let d = added - removed;
-                            if d < -eps && best.is_none_or(|b| d < b.0) {
-                                best = Some((d, k, rev));
-                            }
-                        }
-                    }
-                }
-                if let Some((_, k, rev)) = best {
-                    let mut seg: Vec<usize> = seq.drain(i..i + len).collect();
-                    if rev {
-                        seg.reverse();
-                    }
-                    // Position k+1 in the old sequence, shifted if it was after the segment.
-                    let ins = if k >= (i + len) as isize {
-                        (k + 1) as usize - len
-                    } else {
-                        (k + 1) as usize
-                    };
-                    seq.splice(ins..ins, seg);
-                    reindex(seq, &mut pos);
+                if let Some((k, rev)) = self.best_insertion(i, len) {
+                    self.move_run(i, len, k, rev);
                     improved = true;
                 }
                 i += 1;
             }
         }
-        if !improved {
-            break;
+        improved
+    }
+
+    /// Where moving seq[i..i+len] shortens the path most: between sequence positions k and k+1
+    /// (k = -1: right after `from`), and whether reversed; `None` if no place is shorter.
+    #[inline]
+    fn best_insertion(&self, i: usize, len: usize) -> Option<(isize, bool)> {
+        let (n, pts) = (self.seq.len(), self.pts);
+        let (first, last) = (self.seq[i], self.seq[i + len - 1]);
+        let prev = self.at(i as isize - 1);
+        let next = (i + len < n).then(|| pts[self.seq[i + len]]);
+        let removed =
+            dist(prev, pts[first]) + next.map_or(0.0, |q| dist(pts[last], q) - dist(prev, q));
+        let mut best: Option<(f64, isize, bool)> = None;
+        for &c in self.nb[first].iter().chain(self.nb[last].iter()) {
+            let pc = self.pos[c] as isize;
+            for k in [pc - 1, pc] {
+                if k >= i as isize - 1 && k < (i + len) as isize {
+                    continue;
+                }
+                let u = self.at(k);
+                let v = ((k + 1) < n as isize).then(|| pts[self.seq[(k + 1) as usize]]);
+                for rev in [false, true] {
+                    let (x, y) = if rev { (last, first) } else { (first, last) };
+                    let added = dist(u, pts[x]) + v.map_or(0.0, |v| dist(pts[y], v) - dist(u, v));
+                    let d = added - removed;
+                    if d < -EPS && best.is_none_or(|b| d < b.0) {
+                        best = Some((d, k, rev));
+                    }
+                }
+            }
         }
+        best.map(|(_, k, rev)| (k, rev))
+    }
+
+    /// Move seq[i..i+len] (reversed if `rev`) to between old positions k and k+1.
+    fn move_run(&mut self, i: usize, len: usize, k: isize, rev: bool) {
+        let mut seg: Vec<usize> = self.seq.drain(i..i + len).collect();
+        if rev {
+            seg.reverse();
+        }
+        // Position k+1 in the old sequence, shifted if it was after the segment.
+        let ins = if k >= (i + len) as isize {
+            (k + 1) as usize - len
+        } else {
+            (k + 1) as usize
+        };
+        self.seq.splice(ins..ins, seg);
+        self.reindex();
     }
 }
 

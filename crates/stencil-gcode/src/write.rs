@@ -253,8 +253,6 @@ pub(crate) fn write_each(
 /// The comment lines a program starts with: what made it, for which machine and tool, with what
 /// settings, and the job's size, place and lengths.
 fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String], air: bool) {
-    let s = &job.settings;
-    let feed = num(s.speed_mm_min);
     comment(
         o,
         &format!(
@@ -274,6 +272,34 @@ fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String
             machine.bed.origin.name()
         ),
     );
+    tool_comments(o, machine, &job.settings, air);
+    comment(
+        o,
+        &format!(
+            "job {} x {} mm at X{}..{} Y{}..{}; {} loops",
+            num(job.sheet_mm[0]),
+            num(job.sheet_mm[1]),
+            num(job.min[0]),
+            num(job.max[0]),
+            num(job.min[1]),
+            num(job.max[1]),
+            job.stats.loops
+        ),
+    );
+    comment(
+        o,
+        &format!(
+            "cut {:.1} mm; travel {:.1} mm, input order would be {:.1} mm",
+            job.stats.cut_mm, job.stats.travel_mm, job.stats.naive_travel_mm
+        ),
+    );
+}
+
+/// The tool's lines of the header: how it is switched (laser mode and power scale, pen lift,
+/// knife depth), its power or depth, feed and passes, so that whoever runs the file can check
+/// the machine is set up for it.
+fn tool_comments(o: &mut String, machine: &Machine, s: &CutSettings, air: bool) {
+    let feed = num(s.speed_mm_min);
     match machine.tool {
         Tool::Laser { s_max, s_min } => {
             comment(
@@ -317,26 +343,6 @@ fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String
             ),
         ),
     }
-    comment(
-        o,
-        &format!(
-            "job {} x {} mm at X{}..{} Y{}..{}; {} loops",
-            num(job.sheet_mm[0]),
-            num(job.sheet_mm[1]),
-            num(job.min[0]),
-            num(job.max[0]),
-            num(job.min[1]),
-            num(job.max[1]),
-            job.stats.loops
-        ),
-    );
-    comment(
-        o,
-        &format!(
-            "cut {:.1} mm; travel {:.1} mm, input order would be {:.1} mm",
-            job.stats.cut_mm, job.stats.travel_mm, job.stats.naive_travel_mm
-        ),
-    );
 }
 
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {

@@ -192,7 +192,47 @@ pub(crate) fn sweep(
     max_work: f64,
     max_crossings: usize,
 ) -> Sweep {
-    // Non-horizontal edges as (y low, y high, x at low, x at high), in the sweep's frame.
+    let (mut edges, ys) = sweep_edges(polys, turned);
+    let mut out = Sweep::default();
+    // First only the number of edges across each beam: if walking them once is already past the
+    // limit, stop here.
+    let (walks, max_active) = walks_per_beam(&edges, &ys);
+    out.max_active = max_active;
+    if walks > max_work {
+        out.work = walks;
+        return out;
+    }
+    // Then beam by beam as Clipper goes: the active edges in order along x at the beam's bottom,
+    // then sorted by x at its top (an insertion sort: each edge's swaps are crossings, and how far
+    // it moves left).
+    edges.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]));
+    let mut active = ActiveEdges::default();
+    let mut next = 0usize;
+    for w in ys.windows(2) {
+        let (y0, y1) = (w[0], w[1]);
+        active.order.retain(|&e| edges[e][1] > y0);
+        let first_new = next;
+        while next < edges.len() && edges[next][0] <= y0 {
+            next += 1;
+        }
+        if next > first_new {
+            active.insert_starting(&edges, first_new..next, y0, y1);
+        }
+        let farthest = active.sort_at_top(&edges, y0, y1, turned, &mut out);
+        out.work += active.order.len() as f64 * ((1 + farthest) as f64 + minima(next - first_new));
+        if out.work + out.crossings as f64 > max_work || out.crossings > max_crossings {
+            break;
+        }
+        active.take_top_order();
+    }
+    out.work += out.crossings as f64;
+    out
+}
+
+/// The non-horizontal edges of `polys` as (y low, y high, x at low, x at high), and every vertex
+/// height (sorted, once each: the beams' bounds), on Clipper's integer grid and in the sweep's
+/// frame (turned a quarter turn with `turned`), since that is what Clipper's cost depends on.
+fn sweep_edges(polys: &[&Polygon<f64>], turned: bool) -> (Vec<[f64; 4]>, Vec<f64>) {
     let mut edges: Vec<[f64; 4]> = Vec::new();
     let mut ys: Vec<f64> = Vec::new();
     let q = |v: f64| (v * CLIPPER_FACTOR).round();
@@ -218,77 +258,105 @@ pub(crate) fn sweep(
     }
     ys.sort_unstable_by(f64::total_cmp);
     ys.dedup();
-    let mut out = Sweep::default();
-    // First only the number of edges across each beam (started at or below its bottom, not ended
-    // there): if walking them once is already past the limit, stop here.
-    {
-        let mut lo: Vec<f64> = edges.iter().map(|e| e[0]).collect();
-        let mut hi: Vec<f64> = edges.iter().map(|e| e[1]).collect();
-        lo.sort_unstable_by(f64::total_cmp);
-        hi.sort_unstable_by(f64::total_cmp);
-        let (mut started, mut ended, mut walks) = (0usize, 0usize, 0.0f64);
-        for &y in &ys {
-            let before = started;
-            while started < lo.len() && lo[started] <= y {
-                started += 1;
-            }
-            while ended < hi.len() && hi[ended] <= y {
-                ended += 1;
-            }
-            let active = (started - ended) as f64;
-            out.max_active = out.max_active.max(started - ended);
-            walks += active * (1.0 + minima(started - before));
+    (edges, ys)
+}
+
+/// A lower bound of the sweep's work, cheap to count (sorting, no geometry): each beam's edges
+/// (started at or below its bottom, not ended there) walked once, plus the walks of the local
+/// minima starting there; and the most edges across one beam. A tangle is refused on this alone.
+fn walks_per_beam(edges: &[[f64; 4]], ys: &[f64]) -> (f64, usize) {
+    let mut lo: Vec<f64> = edges.iter().map(|e| e[0]).collect();
+    let mut hi: Vec<f64> = edges.iter().map(|e| e[1]).collect();
+    lo.sort_unstable_by(f64::total_cmp);
+    hi.sort_unstable_by(f64::total_cmp);
+    let (mut started, mut ended, mut walks) = (0usize, 0usize, 0.0f64);
+    let mut max_active = 0usize;
+    for &y in ys {
+        let before = started;
+        while started < lo.len() && lo[started] <= y {
+            started += 1;
         }
-        if walks > max_work {
-            out.work = walks;
-            return out;
+        while ended < hi.len() && hi[ended] <= y {
+            ended += 1;
         }
+        let active = (started - ended) as f64;
+        max_active = max_active.max(started - ended);
+        walks += active * (1.0 + minima(started - before));
     }
-    // Then beam by beam as Clipper goes: the active edges in order along x at the beam's bottom,
-    // then sorted by x at its top (an insertion sort: each edge's swaps are crossings, and how far
-    // it moves left).
-    edges.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]));
-    let x_at = |e: &[f64; 4], y: f64| {
-        if y <= e[0] {
-            e[2]
-        } else if y >= e[1] {
-            e[3]
-        } else {
-            e[2] + (e[3] - e[2]) * (y - e[0]) / (e[1] - e[0])
-        }
-    };
-    let mut order: Vec<usize> = Vec::new();
-    let mut next = 0usize;
-    let (mut top, mut idx, mut merged): (Vec<f64>, Vec<usize>, Vec<usize>) = Default::default();
-    for w in ys.windows(2) {
-        let (y0, y1) = (w[0], w[1]);
-        order.retain(|&e| edges[e][1] > y0);
-        let first_new = next;
-        while next < edges.len() && edges[next][0] <= y0 {
-            next += 1;
-        }
-        if next > first_new {
-            // Merge the edges starting here into the order at the beam's bottom.
-            let key = |e: usize| (x_at(&edges[e], y0), x_at(&edges[e], y1));
-            let mut fresh: Vec<usize> = (first_new..next).collect();
-            fresh.sort_unstable_by(|&a, &b| {
-                key(a)
-                    .partial_cmp(&key(b))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            merged.clear();
-            let (mut i, mut j) = (0, 0);
-            while i < order.len() || j < fresh.len() {
-                if j == fresh.len() || (i < order.len() && key(order[i]) <= key(fresh[j])) {
-                    merged.push(order[i]);
-                    i += 1;
-                } else {
-                    merged.push(fresh[j]);
-                    j += 1;
-                }
+    (walks, max_active)
+}
+
+/// Edge `e`'s x at height `y`, clamped to its ends.
+#[inline]
+fn x_at(e: &[f64; 4], y: f64) -> f64 {
+    if y <= e[0] {
+        e[2]
+    } else if y >= e[1] {
+        e[3]
+    } else {
+        e[2] + (e[3] - e[2]) * (y - e[0]) / (e[1] - e[0])
+    }
+}
+
+/// Clipper's active edge list as the sweep moves up: the edges across the current beam, in
+/// order along x at its bottom, with scratch buffers kept from beam to beam.
+#[derive(Default)]
+struct ActiveEdges {
+    /// Indices into the edges, left to right at the beam's bottom.
+    order: Vec<usize>,
+    /// Each active edge's x at the beam's top (indexed like `order`).
+    top: Vec<f64>,
+    /// `order`'s positions, sorted by x at the beam's top.
+    idx: Vec<usize>,
+    merged: Vec<usize>,
+}
+
+impl ActiveEdges {
+    /// Merge the edges `fresh` (starting at this beam's bottom `y0`) into the order, by x at the
+    /// bottom and then at the top, as Clipper inserts each local minimum.
+    #[inline]
+    fn insert_starting(
+        &mut self,
+        edges: &[[f64; 4]],
+        fresh: std::ops::Range<usize>,
+        y0: f64,
+        y1: f64,
+    ) {
+        let key = |e: usize| (x_at(&edges[e], y0), x_at(&edges[e], y1));
+        let mut fresh: Vec<usize> = fresh.collect();
+        fresh.sort_unstable_by(|&a, &b| {
+            key(a)
+                .partial_cmp(&key(b))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let order = &self.order;
+        self.merged.clear();
+        let (mut i, mut j) = (0, 0);
+        while i < order.len() || j < fresh.len() {
+            if j == fresh.len() || (i < order.len() && key(order[i]) <= key(fresh[j])) {
+                self.merged.push(order[i]);
+                i += 1;
+            } else {
+                self.merged.push(fresh[j]);
+                j += 1;
             }
-            std::mem::swap(&mut order, &mut merged);
         }
+        std::mem::swap(&mut self.order, &mut self.merged);
+    }
+
+    /// Insertion-sort the active edges by x at the beam's top `y1`, as Clipper's bubble sort of
+    /// its intersections does: every swap is a crossing (counted in `out`, the first one located),
+    /// and the return value is how far the farthest-moving edge moved left.
+    #[inline]
+    fn sort_at_top(
+        &mut self,
+        edges: &[[f64; 4]],
+        y0: f64,
+        y1: f64,
+        turned: bool,
+        out: &mut Sweep,
+    ) -> usize {
+        let (order, top, idx) = (&self.order, &mut self.top, &mut self.idx);
         top.clear();
         top.extend(order.iter().map(|&e| x_at(&edges[e], y1)));
         idx.clear();
@@ -298,13 +366,7 @@ pub(crate) fn sweep(
             let mut m = k;
             while m > 0 && top[idx[m - 1]] > top[idx[m]] {
                 if out.first_crossing.is_none() {
-                    let at = crossing(
-                        &edges[order[idx[m - 1]]],
-                        &edges[order[idx[m]]],
-                        y0,
-                        y1,
-                        x_at,
-                    );
+                    let at = crossing(&edges[order[idx[m - 1]]], &edges[order[idx[m]]], y0, y1);
                     let at = if turned { [at[1], -at[0]] } else { at };
                     out.first_crossing = Some(at.map(|v| v / CLIPPER_FACTOR));
                 }
@@ -314,16 +376,17 @@ pub(crate) fn sweep(
             }
             farthest = farthest.max(k - m);
         }
-        out.work += order.len() as f64 * ((1 + farthest) as f64 + minima(next - first_new));
-        if out.work + out.crossings as f64 > max_work || out.crossings > max_crossings {
-            break;
-        }
-        merged.clear();
-        merged.extend(idx.iter().map(|&k| order[k]));
-        std::mem::swap(&mut order, &mut merged);
+        farthest
     }
-    out.work += out.crossings as f64;
-    out
+
+    /// Take the order at the beam's top (what [`ActiveEdges::sort_at_top`] found) as the next
+    /// beam's order at its bottom.
+    #[inline]
+    fn take_top_order(&mut self) {
+        self.merged.clear();
+        self.merged.extend(self.idx.iter().map(|&k| self.order[k]));
+        std::mem::swap(&mut self.order, &mut self.merged);
+    }
 }
 
 /// Local minima among `starting` edges that start at one height (two edges each): Clipper inserts
@@ -334,13 +397,7 @@ fn minima(starting: usize) -> f64 {
 }
 
 /// Where edges `a` and `b` cross within the beam from `y0` to `y1` (their order along x swaps).
-fn crossing(
-    a: &[f64; 4],
-    b: &[f64; 4],
-    y0: f64,
-    y1: f64,
-    x_at: impl Fn(&[f64; 4], f64) -> f64,
-) -> [f64; 2] {
+fn crossing(a: &[f64; 4], b: &[f64; 4], y0: f64, y1: f64) -> [f64; 2] {
     let (d0, d1) = (x_at(a, y0) - x_at(b, y0), x_at(a, y1) - x_at(b, y1));
     let t = if d0 != d1 {
         (d0 / (d0 - d1)).clamp(0.0, 1.0)
