@@ -5,6 +5,7 @@ use super::cost::StripCost;
 use super::strips::Strip;
 use super::BridgeConfig;
 use crate::raster::{self, BitGrid, Gray};
+use stencil_geom::ring::{dist, point_in_ring, signed_area2};
 
 /// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
 /// side of a square of that area (the paper's ⌈√A / 4⌉).
@@ -185,117 +186,193 @@ pub(crate) fn plan(
     cfg: &BridgeConfig,
     want: u32,
 ) -> Plan {
-    let ids: Vec<usize> = members
-        .iter()
-        .copied()
-        .filter(|&m| strips[m].is_some())
-        .collect();
-    let member_strips: Vec<(&Strip, (u32, u32))> = ids
-        .iter()
-        .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
-        .collect();
-    let n = member_strips.len();
-    if n == 0 {
+    let Some(m) = Members::new(c, strips, members) else {
         return Plan::default();
-    }
+    };
+    let n = m.strips.len();
     let min_width = cfg.min_width_px.max(1);
     let max_width = cfg.max_width_px.max(min_width);
     let target = want.clamp(min_width, max_width);
-    let outline = |lo: usize, hi: usize| {
-        let (first, last) = (member_strips[lo], member_strips[hi]);
-        vec![
-            start(first.1),
-            centre(first.0.end),
-            centre(last.0.end),
-            start(last.1),
-        ]
-    };
-    let length = member_strips
-        .iter()
-        .map(|(s, _)| s.len() as f64)
-        .sum::<f64>()
-        / n as f64;
-    let polygon = outline(0, n - 1);
-    let fan = n > 1
-        && (crosses(&polygon)
-            || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
-            || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
-            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
-    if n == 1 && !runs_straight(member_strips[0].0, bits.width) {
+    let polygon = m.outline(0, n - 1);
+    if n == 1 && !runs_straight(m.strips[0].0, bits.width) {
         // A bent path: its outline is no axis to measure across, nor to draw a band along.
-        let (s, _) = member_strips[0];
-        let brush = ((min_width as f64 - 1.0) / 2.0).ceil().max(0.0) as i64;
-        let seal = (min_width as usize).pow(2);
-        let (pixels, real) = draw(bits, gray, &polygon, &[s], brush, seal);
-        return Plan {
-            pixels,
-            polygon,
-            real,
-            width: min_width,
-            length,
-        };
+        return thickened(bits, gray, polygon, m.strips[0].0, min_width, m.length);
     }
-    if !fan {
-        // Never wider than the maximum: strips converging on a smaller island start farther apart
-        // than they land, and a moderate fan spreads; drop outer strips, from the side that
-        // narrows the outline more, until no chord across it is too wide.
-        let too_wide = |lo: usize, hi: usize| widest(&outline(lo, hi)) > max_width as f64 + 0.5;
-        let (mut lo, mut hi) = (0, n - 1);
-        while hi > lo && too_wide(lo, hi) {
-            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
-                lo += 1;
-            } else {
-                hi -= 1;
-            }
-        }
-        // Outer strips may bulge out of the outline: what is drawn is measured, and trimmed
-        // further (a few times at most, each a full drawing) if it is still too wide.
-        for _ in 0..MAX_TRIMS {
-            let polygon = outline(lo, hi);
-            let across = band_width(c, strips, &ids[lo..=hi]);
-            let brush = if across < min_width as f64 - ACROSS_SLACK {
-                ((min_width as f64 - across) / 2.0).ceil() as i64
-            } else {
-                0
-            };
-            let seeds: Vec<&Strip> = member_strips[lo..=hi].iter().map(|(s, _)| *s).collect();
-            let seal = (min_width as usize).pow(2);
-            let (pixels, real) = draw(bits, gray, &polygon, &seeds, brush, seal);
-            let m = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
-            // A run across measures up to a pixel less than the strips it crosses at a slant.
-            let narrowest = m.narrowest + 1.0;
-            if narrowest < min_width as f64 - ACROSS_SLACK || m.middle.is_infinite() {
-                break;
-            }
-            if m.widest <= max_width as f64 + 0.5 {
-                let drawn = if brush > 0 { min_width as f64 } else { across };
-                return Plan {
-                    pixels,
-                    polygon,
-                    real,
-                    width: (drawn.min(narrowest) + ACROSS_SLACK).floor() as u32,
-                    length,
-                };
-            }
-            if hi == lo {
-                break;
-            }
-            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
-                lo += 1;
-            } else {
-                hi -= 1;
-            }
+    if !is_fan(&polygon, &m.strips, target) {
+        if let Some(plan) = filled_outline(bits, gray, c, strips, &m, cfg) {
+            return plan;
         }
     }
-    let (mid, from) = member_strips[n / 2];
+    let (mid, from) = m.strips[n / 2];
     band(
         bits,
         gray,
         [start(from), centre(mid.end)],
         target,
         min_width,
-        length,
+        m.length,
     )
+}
+
+/// The members of a bridge that have a strip, in chain order: what [`plan`] and its pieces draw
+/// from.
+struct Members<'a> {
+    /// Their candidate ids.
+    ids: Vec<usize>,
+    /// Their strips, each with its candidate's pixel (where the strip starts).
+    strips: Vec<(&'a Strip, (u32, u32))>,
+    /// Mean strip length, px.
+    length: f64,
+}
+
+impl<'a> Members<'a> {
+    /// `None` when no member has a strip (nothing to draw).
+    fn new(c: &Candidates, strips: &'a [Option<Strip>], members: &[usize]) -> Option<Members<'a>> {
+        let ids: Vec<usize> = members
+            .iter()
+            .copied()
+            .filter(|&m| strips[m].is_some())
+            .collect();
+        let member_strips: Vec<(&Strip, (u32, u32))> = ids
+            .iter()
+            .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
+            .collect();
+        let n = member_strips.len();
+        if n == 0 {
+            return None;
+        }
+        let length = member_strips
+            .iter()
+            .map(|(s, _)| s.len() as f64)
+            .sum::<f64>()
+            / n as f64;
+        Some(Members {
+            ids,
+            strips: member_strips,
+            length,
+        })
+    }
+
+    /// The outline `[s0, e0, e1, s1]` of members `lo..=hi`: the start and end points of the outer
+    /// two strips.
+    fn outline(&self, lo: usize, hi: usize) -> Vec<[f64; 2]> {
+        let (first, last) = (self.strips[lo], self.strips[hi]);
+        vec![
+            start(first.1),
+            centre(first.0.end),
+            centre(last.0.end),
+            start(last.1),
+        ]
+    }
+
+    /// Which outer strip to drop next from `lo..=hi` to narrow the outline: `true` for the first,
+    /// `false` for the last; the side whose loss leaves the narrower outline (a tie drops the
+    /// first).
+    fn drop_first(&self, lo: usize, hi: usize) -> bool {
+        widest(&self.outline(lo + 1, hi)) <= widest(&self.outline(lo, hi - 1))
+    }
+}
+
+/// Whether members with the outline `polygon` are a fan gone wrong, to be drawn as a band rather
+/// than filled: their outer strips cross, or diverge by more than [`MAX_FAN_DEGREES`], or any two
+/// of them do, or they land more than four times farther apart (plus the band's `target` width)
+/// than they start. A single strip is never a fan.
+fn is_fan(polygon: &[[f64; 2]], members: &[(&Strip, (u32, u32))], target: u32) -> bool {
+    members.len() > 1
+        && (crosses(polygon)
+            || diverge(polygon) > MAX_FAN_DEGREES.to_radians()
+            || spread(members) > MAX_FAN_DEGREES.to_radians()
+            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64))
+}
+
+/// A single strip that does not run straight, drawn thickened by a square brush to `min_width`
+/// and reported as that wide: a bent path has no axis to measure across nor to draw a band along.
+fn thickened(
+    bits: &BitGrid,
+    gray: &Gray,
+    polygon: Vec<[f64; 2]>,
+    s: &Strip,
+    min_width: u32,
+    length: f64,
+) -> Plan {
+    let brush = ((min_width as f64 - 1.0) / 2.0).ceil().max(0.0) as i64;
+    let seal = (min_width as usize).pow(2);
+    let (pixels, real) = draw(bits, gray, &polygon, &[s], brush, seal);
+    Plan {
+        pixels,
+        polygon,
+        real,
+        width: min_width,
+        length,
+    }
+}
+
+/// The members drawn as their filled outline (thickened when they span less than the minimum
+/// width), after dropping outer strips until no chord of the outline is wider than the maximum,
+/// then measured and trimmed further (at most [`MAX_TRIMS`] drawings) while what is drawn is still
+/// too wide. `None` when the drawing is narrower than the minimum somewhere, has no width at its
+/// middle, or stays too wide: [`plan`] then draws a band instead.
+fn filled_outline(
+    bits: &BitGrid,
+    gray: &Gray,
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    m: &Members,
+    cfg: &BridgeConfig,
+) -> Option<Plan> {
+    let min_width = cfg.min_width_px.max(1);
+    let max_width = cfg.max_width_px.max(min_width);
+    // Never wider than the maximum: strips converging on a smaller island start farther apart
+    // than they land, and a moderate fan spreads; drop outer strips, from the side that
+    // narrows the outline more, until no chord across it is too wide.
+    let too_wide = |lo: usize, hi: usize| widest(&m.outline(lo, hi)) > max_width as f64 + 0.5;
+    let (mut lo, mut hi) = (0, m.strips.len() - 1);
+    while hi > lo && too_wide(lo, hi) {
+        if m.drop_first(lo, hi) {
+            lo += 1;
+        } else {
+            hi -= 1;
+        }
+    }
+    // Outer strips may bulge out of the outline: what is drawn is measured, and trimmed
+    // further (a few times at most, each a full drawing) if it is still too wide.
+    for _ in 0..MAX_TRIMS {
+        let polygon = m.outline(lo, hi);
+        let across = band_width(c, strips, &m.ids[lo..=hi]);
+        let brush = if across < min_width as f64 - ACROSS_SLACK {
+            ((min_width as f64 - across) / 2.0).ceil() as i64
+        } else {
+            0
+        };
+        let seeds: Vec<&Strip> = m.strips[lo..=hi].iter().map(|(s, _)| *s).collect();
+        let seal = (min_width as usize).pow(2);
+        let (pixels, real) = draw(bits, gray, &polygon, &seeds, brush, seal);
+        let measured = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
+        // A run across measures up to a pixel less than the strips it crosses at a slant.
+        let narrowest = measured.narrowest + 1.0;
+        if narrowest < min_width as f64 - ACROSS_SLACK || measured.middle.is_infinite() {
+            return None;
+        }
+        if measured.widest <= max_width as f64 + 0.5 {
+            let drawn = if brush > 0 { min_width as f64 } else { across };
+            return Some(Plan {
+                pixels,
+                polygon,
+                real,
+                width: (drawn.min(narrowest) + ACROSS_SLACK).floor() as u32,
+                length: m.length,
+            });
+        }
+        if hi == lo {
+            return None;
+        }
+        if m.drop_first(lo, hi) {
+            lo += 1;
+        } else {
+            hi -= 1;
+        }
+    }
+    None
 }
 
 /// The centre of pixel (x, y).
@@ -473,13 +550,13 @@ fn draw(
         }
     }
     let fill = if seeds.is_empty() { 2 } else { 1 };
-    if polygon_area(polygon).abs() > 0.0 {
+    if signed_area2(polygon).abs() > 0.0 {
         for y in y0..=y1 {
             for x in x0..=x1 {
                 let l = local(x, y);
                 if state[l] == 0
                     && !bits.get(x as u32, y as u32)
-                    && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
+                    && point_in_ring([x as f64 + 0.5, y as f64 + 0.5], polygon)
                 {
                     state[l] = fill;
                 }
@@ -904,10 +981,6 @@ fn diverge(q: &[[f64; 2]]) -> f64 {
         .acos()
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 /// The angle between the most diverging member strips, radians, measured from the middle strip.
 /// Why not only the outer two (see [`diverge`]): around an island smaller than the bridge the
 /// members can wrap all the way round, so the first and the last strip leave side by side while
@@ -985,32 +1058,6 @@ fn band_outline(a: [f64; 2], b: [f64; 2], half: f64) -> Vec<[f64; 2]> {
     ]
 }
 
-fn polygon_area(p: &[[f64; 2]]) -> f64 {
-    let n = p.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (p[i], p[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        / 2.0
-}
-
-/// Even-odd point-in-polygon test.
-fn inside(p: &[[f64; 2]], x: f64, y: f64) -> bool {
-    let n = p.len();
-    let mut c = false;
-    let mut j = n - 1;
-    for i in 0..n {
-        let (a, b) = (p[i], p[j]);
-        if (a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0] {
-            c = !c;
-        }
-        j = i;
-    }
-    c
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1048,14 +1095,6 @@ mod tests {
         assert_eq!(width_for(1601, &cfg), 11);
         assert_eq!(width_for(1_000_000, &cfg), 20); // max
         assert!(width_for(400, &cfg) <= width_for(900, &cfg));
-    }
-
-    #[test]
-    fn point_in_polygon() {
-        let sq = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
-        assert!(inside(&sq, 2.0, 2.0));
-        assert!(!inside(&sq, 5.0, 2.0));
-        assert_eq!(polygon_area(&sq), 16.0);
     }
 
     /// A 6×6 island 4 px below the frame's top band, black everywhere: grow to 3 and draw.
@@ -1106,7 +1145,7 @@ mod tests {
         let mut real = 0.0;
         for &q in &p.pixels {
             let (x, y) = ((q % w) as f64 + 0.5, (q / w) as f64 + 0.5);
-            assert!(strip_px.contains(&q) || inside(&p.polygon, x, y), "{q}");
+            assert!(strip_px.contains(&q) || point_in_ring([x, y], &p.polygon), "{q}");
             real += (1.0 - t.gray.data[q as usize] as f64).powi(2);
         }
         assert!(p.pixels.len() >= 12);
@@ -1339,7 +1378,7 @@ mod tests {
             (0..w * h)
                 .filter(|&i| {
                     let (x, y) = (i % w, i / w);
-                    !bits.get(x, y) && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
+                    !bits.get(x, y) && point_in_ring([x as f64 + 0.5, y as f64 + 0.5], polygon)
                 })
                 .collect()
         };
