@@ -612,36 +612,10 @@ fn island(
         h.ends(&f);
     }
     // 3. Sag.
-    let limit = cfg.max_sag_mm;
     let cap = MAX_FOR_SAG.max(need);
     h.sag(cap);
 
-    let sag = *h.steps.last().unwrap_or(&0.0);
-    if sag > limit && h.held_by.len() >= cap && h.notes.is_empty() {
-        h.notes.push(format!(
-            "{} sags {sag:.2} mm (limit {limit} mm) on {cap} bridges, the most the sag rule \
-             adds; use a stiffer or thicker material (or raise max_sag_mm in the profile)",
-            h.where_
-        ));
-    }
-    let held = h.notes.is_empty() && sag <= limit;
-    let report = IslandStrength {
-        island: n,
-        centre_mm: centre,
-        area_mm2: m.n * mm * mm,
-        length_mm: f.length_px * mm,
-        breadth_mm: f.breadth_px * mm,
-        bridges: h.held_by.len(),
-        extra: h.extra.len(),
-        span_mm: h.span_mm(&h.dist),
-        why: h.why,
-        sag_mm: sag,
-        sag_steps_mm: h.steps,
-        limit_mm: limit,
-        held,
-        note: (!h.notes.is_empty()).then(|| h.notes.join("; ")),
-    };
-    (h.extra, report)
+    h.report(n, m.n * mm * mm, &f, centre, cap)
 }
 
 /// Where an island lies and how it is shaped, in pixels: its centroid, its main axis (from the
@@ -765,6 +739,46 @@ struct Holding<'a> {
 }
 
 impl Holding<'_> {
+    /// The island's report once the rules are done, and the candidates they added. Island `n`
+    /// covers `area_mm2` around `centre` (mm); `cap` is the most bridges the sag rule adds, named
+    /// in the note when the island still sags with that many.
+    fn report(
+        mut self,
+        n: u32,
+        area_mm2: f64,
+        f: &Frame,
+        centre: [f64; 2],
+        cap: usize,
+    ) -> (Vec<usize>, IslandStrength) {
+        let (limit, mm) = (self.cfg.max_sag_mm, self.cfg.mm_per_px);
+        let sag = *self.steps.last().unwrap_or(&0.0);
+        if sag > limit && self.held_by.len() >= cap && self.notes.is_empty() {
+            self.notes.push(format!(
+                "{} sags {sag:.2} mm (limit {limit} mm) on {cap} bridges, the most the sag rule \
+                 adds; use a stiffer or thicker material (or raise max_sag_mm in the profile)",
+                self.where_
+            ));
+        }
+        let held = self.notes.is_empty() && sag <= limit;
+        let report = IslandStrength {
+            island: n,
+            centre_mm: centre,
+            area_mm2,
+            length_mm: f.length_px * mm,
+            breadth_mm: f.breadth_px * mm,
+            bridges: self.held_by.len(),
+            extra: self.extra.len(),
+            span_mm: self.span_mm(&self.dist),
+            why: self.why,
+            sag_mm: sag,
+            sag_steps_mm: self.steps,
+            limit_mm: limit,
+            held,
+            note: (!self.notes.is_empty()).then(|| self.notes.join("; ")),
+        };
+        (self.extra, report)
+    }
+
     /// The island's span in millimetres for path lengths `dist`.
     fn span_mm(&self, dist: &[u32]) -> f64 {
         self.local.px(self.local.farthest(dist).1) * self.cfg.mm_per_px
