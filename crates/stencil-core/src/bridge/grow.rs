@@ -5,6 +5,7 @@ use super::cost::StripCost;
 use super::strips::Strip;
 use super::BridgeConfig;
 use crate::raster::{self, BitGrid, Gray};
+use stencil_geom::ring::{dist, point_in_ring, signed_area2};
 
 /// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
 /// side of a square of that area (the paper's ⌈√A / 4⌉).
@@ -185,117 +186,193 @@ pub(crate) fn plan(
     cfg: &BridgeConfig,
     want: u32,
 ) -> Plan {
-    let ids: Vec<usize> = members
-        .iter()
-        .copied()
-        .filter(|&m| strips[m].is_some())
-        .collect();
-    let member_strips: Vec<(&Strip, (u32, u32))> = ids
-        .iter()
-        .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
-        .collect();
-    let n = member_strips.len();
-    if n == 0 {
+    let Some(m) = Members::new(c, strips, members) else {
         return Plan::default();
-    }
+    };
+    let n = m.strips.len();
     let min_width = cfg.min_width_px.max(1);
     let max_width = cfg.max_width_px.max(min_width);
     let target = want.clamp(min_width, max_width);
-    let outline = |lo: usize, hi: usize| {
-        let (first, last) = (member_strips[lo], member_strips[hi]);
-        vec![
-            start(first.1),
-            centre(first.0.end),
-            centre(last.0.end),
-            start(last.1),
-        ]
-    };
-    let length = member_strips
-        .iter()
-        .map(|(s, _)| s.len() as f64)
-        .sum::<f64>()
-        / n as f64;
-    let polygon = outline(0, n - 1);
-    let fan = n > 1
-        && (crosses(&polygon)
-            || diverge(&polygon) > MAX_FAN_DEGREES.to_radians()
-            || spread(&member_strips) > MAX_FAN_DEGREES.to_radians()
-            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64));
-    if n == 1 && !runs_straight(member_strips[0].0, bits.width) {
+    let polygon = m.outline(0, n - 1);
+    if n == 1 && !runs_straight(m.strips[0].0, bits.width) {
         // A bent path: its outline is no axis to measure across, nor to draw a band along.
-        let (s, _) = member_strips[0];
-        let brush = ((min_width as f64 - 1.0) / 2.0).ceil().max(0.0) as i64;
-        let seal = (min_width as usize).pow(2);
-        let (pixels, real) = draw(bits, gray, &polygon, &[s], brush, seal);
-        return Plan {
-            pixels,
-            polygon,
-            real,
-            width: min_width,
-            length,
-        };
+        return thickened(bits, gray, polygon, m.strips[0].0, min_width, m.length);
     }
-    if !fan {
-        // Never wider than the maximum: strips converging on a smaller island start farther apart
-        // than they land, and a moderate fan spreads; drop outer strips, from the side that
-        // narrows the outline more, until no chord across it is too wide.
-        let too_wide = |lo: usize, hi: usize| widest(&outline(lo, hi)) > max_width as f64 + 0.5;
-        let (mut lo, mut hi) = (0, n - 1);
-        while hi > lo && too_wide(lo, hi) {
-            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
-                lo += 1;
-            } else {
-                hi -= 1;
-            }
-        }
-        // Outer strips may bulge out of the outline: what is drawn is measured, and trimmed
-        // further (a few times at most, each a full drawing) if it is still too wide.
-        for _ in 0..MAX_TRIMS {
-            let polygon = outline(lo, hi);
-            let across = band_width(c, strips, &ids[lo..=hi]);
-            let brush = if across < min_width as f64 - ACROSS_SLACK {
-                ((min_width as f64 - across) / 2.0).ceil() as i64
-            } else {
-                0
-            };
-            let seeds: Vec<&Strip> = member_strips[lo..=hi].iter().map(|(s, _)| *s).collect();
-            let seal = (min_width as usize).pow(2);
-            let (pixels, real) = draw(bits, gray, &polygon, &seeds, brush, seal);
-            let m = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
-            // A run across measures up to a pixel less than the strips it crosses at a slant.
-            let narrowest = m.narrowest + 1.0;
-            if narrowest < min_width as f64 - ACROSS_SLACK || m.middle.is_infinite() {
-                break;
-            }
-            if m.widest <= max_width as f64 + 0.5 {
-                let drawn = if brush > 0 { min_width as f64 } else { across };
-                return Plan {
-                    pixels,
-                    polygon,
-                    real,
-                    width: (drawn.min(narrowest) + ACROSS_SLACK).floor() as u32,
-                    length,
-                };
-            }
-            if hi == lo {
-                break;
-            }
-            if widest(&outline(lo + 1, hi)) <= widest(&outline(lo, hi - 1)) {
-                lo += 1;
-            } else {
-                hi -= 1;
-            }
+    if !is_fan(&polygon, &m.strips, target) {
+        if let Some(plan) = filled_outline(bits, gray, c, strips, &m, cfg) {
+            return plan;
         }
     }
-    let (mid, from) = member_strips[n / 2];
+    let (mid, from) = m.strips[n / 2];
     band(
         bits,
         gray,
         [start(from), centre(mid.end)],
         target,
         min_width,
-        length,
+        m.length,
     )
+}
+
+/// The members of a bridge that have a strip, in chain order: what [`plan`] and its pieces draw
+/// from.
+struct Members<'a> {
+    /// Their candidate ids.
+    ids: Vec<usize>,
+    /// Their strips, each with its candidate's pixel (where the strip starts).
+    strips: Vec<(&'a Strip, (u32, u32))>,
+    /// Mean strip length, px.
+    length: f64,
+}
+
+impl<'a> Members<'a> {
+    /// `None` when no member has a strip (nothing to draw).
+    fn new(c: &Candidates, strips: &'a [Option<Strip>], members: &[usize]) -> Option<Members<'a>> {
+        let ids: Vec<usize> = members
+            .iter()
+            .copied()
+            .filter(|&m| strips[m].is_some())
+            .collect();
+        let member_strips: Vec<(&Strip, (u32, u32))> = ids
+            .iter()
+            .filter_map(|&m| strips[m].as_ref().map(|s| (s, c.pixels[m])))
+            .collect();
+        let n = member_strips.len();
+        if n == 0 {
+            return None;
+        }
+        let length = member_strips
+            .iter()
+            .map(|(s, _)| s.len() as f64)
+            .sum::<f64>()
+            / n as f64;
+        Some(Members {
+            ids,
+            strips: member_strips,
+            length,
+        })
+    }
+
+    /// The outline `[s0, e0, e1, s1]` of members `lo..=hi`: the start and end points of the outer
+    /// two strips.
+    fn outline(&self, lo: usize, hi: usize) -> Vec<[f64; 2]> {
+        let (first, last) = (self.strips[lo], self.strips[hi]);
+        vec![
+            start(first.1),
+            centre(first.0.end),
+            centre(last.0.end),
+            start(last.1),
+        ]
+    }
+
+    /// Which outer strip to drop next from `lo..=hi` to narrow the outline: `true` for the first,
+    /// `false` for the last; the side whose loss leaves the narrower outline (a tie drops the
+    /// first).
+    fn drop_first(&self, lo: usize, hi: usize) -> bool {
+        widest(&self.outline(lo + 1, hi)) <= widest(&self.outline(lo, hi - 1))
+    }
+}
+
+/// Whether members with the outline `polygon` are a fan gone wrong, to be drawn as a band rather
+/// than filled: their outer strips cross, or diverge by more than [`MAX_FAN_DEGREES`], or any two
+/// of them do, or they land more than four times farther apart (plus the band's `target` width)
+/// than they start. A single strip is never a fan.
+fn is_fan(polygon: &[[f64; 2]], members: &[(&Strip, (u32, u32))], target: u32) -> bool {
+    members.len() > 1
+        && (crosses(polygon)
+            || diverge(polygon) > MAX_FAN_DEGREES.to_radians()
+            || spread(members) > MAX_FAN_DEGREES.to_radians()
+            || dist(polygon[1], polygon[2]) > 4.0 * (dist(polygon[0], polygon[3]) + target as f64))
+}
+
+/// A single strip that does not run straight, drawn thickened by a square brush to `min_width`
+/// and reported as that wide: a bent path has no axis to measure across nor to draw a band along.
+fn thickened(
+    bits: &BitGrid,
+    gray: &Gray,
+    polygon: Vec<[f64; 2]>,
+    s: &Strip,
+    min_width: u32,
+    length: f64,
+) -> Plan {
+    let brush = ((min_width as f64 - 1.0) / 2.0).ceil().max(0.0) as i64;
+    let seal = (min_width as usize).pow(2);
+    let (pixels, real) = draw(bits, gray, &polygon, &[s], brush, seal);
+    Plan {
+        pixels,
+        polygon,
+        real,
+        width: min_width,
+        length,
+    }
+}
+
+/// The members drawn as their filled outline (thickened when they span less than the minimum
+/// width), after dropping outer strips until no chord of the outline is wider than the maximum,
+/// then measured and trimmed further (at most [`MAX_TRIMS`] drawings) while what is drawn is still
+/// too wide. `None` when the drawing is narrower than the minimum somewhere, has no width at its
+/// middle, or stays too wide: [`plan`] then draws a band instead.
+fn filled_outline(
+    bits: &BitGrid,
+    gray: &Gray,
+    c: &Candidates,
+    strips: &[Option<Strip>],
+    m: &Members,
+    cfg: &BridgeConfig,
+) -> Option<Plan> {
+    let min_width = cfg.min_width_px.max(1);
+    let max_width = cfg.max_width_px.max(min_width);
+    // Never wider than the maximum: strips converging on a smaller island start farther apart
+    // than they land, and a moderate fan spreads; drop outer strips, from the side that
+    // narrows the outline more, until no chord across it is too wide.
+    let too_wide = |lo: usize, hi: usize| widest(&m.outline(lo, hi)) > max_width as f64 + 0.5;
+    let (mut lo, mut hi) = (0, m.strips.len() - 1);
+    while hi > lo && too_wide(lo, hi) {
+        if m.drop_first(lo, hi) {
+            lo += 1;
+        } else {
+            hi -= 1;
+        }
+    }
+    // Outer strips may bulge out of the outline: what is drawn is measured, and trimmed
+    // further (a few times at most, each a full drawing) if it is still too wide.
+    for _ in 0..MAX_TRIMS {
+        let polygon = m.outline(lo, hi);
+        let across = band_width(c, strips, &m.ids[lo..=hi]);
+        let brush = if across < min_width as f64 - ACROSS_SLACK {
+            ((min_width as f64 - across) / 2.0).ceil() as i64
+        } else {
+            0
+        };
+        let seeds: Vec<&Strip> = m.strips[lo..=hi].iter().map(|(s, _)| *s).collect();
+        let seal = (min_width as usize).pow(2);
+        let (pixels, real) = draw(bits, gray, &polygon, &seeds, brush, seal);
+        let measured = measure(bits, &pixels, &polygon, min_width as f64 + 1.0);
+        // A run across measures up to a pixel less than the strips it crosses at a slant.
+        let narrowest = measured.narrowest + 1.0;
+        if narrowest < min_width as f64 - ACROSS_SLACK || measured.middle.is_infinite() {
+            return None;
+        }
+        if measured.widest <= max_width as f64 + 0.5 {
+            let drawn = if brush > 0 { min_width as f64 } else { across };
+            return Some(Plan {
+                pixels,
+                polygon,
+                real,
+                width: (drawn.min(narrowest) + ACROSS_SLACK).floor() as u32,
+                length: m.length,
+            });
+        }
+        if hi == lo {
+            return None;
+        }
+        if m.drop_first(lo, hi) {
+            lo += 1;
+        } else {
+            hi -= 1;
+        }
+    }
+    None
 }
 
 /// The centre of pixel (x, y).
@@ -333,57 +410,98 @@ fn band(
     } else {
         [1.0, 0.0]
     };
-    // How far the material at `p` continues in direction `dir`, by half pixels, up to half the
-    // width (at least the half pixel of the end pixel itself).
-    let reach = |p: [f64; 2], dir: [f64; 2]| {
-        let mut e = 0.5;
-        while e < width as f64 / 2.0 {
-            let q = [p[0] + dir[0] * (e + 0.5), p[1] + dir[1] * (e + 0.5)];
-            if !{
-                let (x, y) = pixel_of(q);
-                bits.get_or_frame(x, y)
-            } {
-                break;
-            }
-            e += 0.5;
-        }
-        e
-    };
     let short = ((min_width as f64 - 1.0 - len) / 2.0).max(0.0);
-    let back = reach(a, [-d[0], -d[1]]).max(short);
-    let on = reach(b, d).max(short);
+    let back = reach(bits, a, [-d[0], -d[1]], width).max(short);
+    let on = reach(bits, b, d, width).max(short);
     // Pixel centres lie at whole offsets from the axis through `a`: an even width is centred half
     // a pixel aside so that exactly `width` rows of centres fall inside.
     let shift = if width.is_multiple_of(2) { 0.5 } else { 0.0 };
-    let (nx, ny) = (-d[1] * shift, d[0] * shift);
-    // At least 1.5 px: the centres within 0.75 px of a segment are 4-connected along it.
-    let half = (width as f64 / 2.0).max(0.75);
-    let outline = |back: f64, on: f64| {
-        band_outline(
-            [a[0] - d[0] * back + nx, a[1] - d[1] * back + ny],
-            [b[0] + d[0] * on + nx, b[1] + d[1] * on + ny],
-            half,
-        )
+    let axis = BandAxis {
+        a,
+        b,
+        d,
+        len,
+        off: [-d[1] * shift, d[0] * shift],
+        // At least 1.5 px: the centres within 0.75 px of a segment are 4-connected along it.
+        half: (width as f64 / 2.0).max(0.75),
     };
     let (pixels, real) = draw(
         bits,
         gray,
-        &outline(back, on),
+        &axis.outline(back, on),
         &[],
         0,
         (min_width as usize).pow(2),
     );
-    // The outline reported stops at the nodes' edges: the check takes a neck inside a bridge's
-    // outline for part of the bridge, and the nodes' own webs are not. Where a node's edge is
-    // hollow across the band (the inside of a ring seen from within it, a step of the picture's
-    // pixels), its material reaches toward the other end beside the axis: the outline stops where
-    // the band first meets it, in its own rows or the rows just beside it (pixels 4-adjacent to
-    // the band). Material that runs on alongside the band (another island beside it) is no edge.
+    // A band lengthened to `min_width` reports its whole length.
     let reported = |p: [f64; 2], dir: [f64; 2]| {
         if short > 0.0 {
-            return short;
+            short
+        } else {
+            axis.reported_end(bits, p, dir)
         }
-        let limit = (len / 2.0 - 0.5).max(0.0);
+    };
+    let polygon = axis.outline(reported(a, d), reported(b, [-d[0], -d[1]]));
+    Plan {
+        pixels,
+        polygon,
+        real,
+        width,
+        length,
+    }
+}
+
+/// How far the material at `p` continues in direction `dir`, by half pixels, up to half the
+/// `width` (at least the half pixel of the end pixel itself): how far a band's end reaches on
+/// into its node (see [`band`]).
+fn reach(bits: &BitGrid, p: [f64; 2], dir: [f64; 2], width: u32) -> f64 {
+    let mut e = 0.5;
+    while e < width as f64 / 2.0 {
+        let q = [p[0] + dir[0] * (e + 0.5), p[1] + dir[1] * (e + 0.5)];
+        if !{
+            let (x, y) = pixel_of(q);
+            bits.get_or_frame(x, y)
+        } {
+            break;
+        }
+        e += 0.5;
+    }
+    e
+}
+
+/// The axis of a band [`band`] draws: from `a` to `b`, unit direction `d`, `len` long, its
+/// outline offset by `off` (half a pixel aside for an even width) and `half` wide either side.
+struct BandAxis {
+    a: [f64; 2],
+    b: [f64; 2],
+    d: [f64; 2],
+    len: f64,
+    off: [f64; 2],
+    half: f64,
+}
+
+impl BandAxis {
+    /// The band's outline reaching `back` px before `a` and `on` px past `b`.
+    fn outline(&self, back: f64, on: f64) -> Vec<[f64; 2]> {
+        let (a, b, d, [nx, ny]) = (self.a, self.b, self.d, self.off);
+        band_outline(
+            [a[0] - d[0] * back + nx, a[1] - d[1] * back + ny],
+            [b[0] + d[0] * on + nx, b[1] + d[1] * on + ny],
+            self.half,
+        )
+    }
+
+    /// How far past its end at `p` (the band running on in direction `dir`) the reported outline
+    /// reaches: it stops at the node's edge, since the check takes a neck inside a bridge's
+    /// outline for part of the bridge, and the nodes' own webs are not. Where a node's edge is
+    /// hollow across the band (the inside of a ring seen from within it, a step of the picture's
+    /// pixels), its material reaches toward the other end beside the axis: the outline stops
+    /// where the band first meets it, in its own rows or the rows just beside it (pixels
+    /// 4-adjacent to the band). Material that runs on alongside the band (another island beside
+    /// it) is no edge.
+    fn reported_end(&self, bits: &BitGrid, p: [f64; 2], dir: [f64; 2]) -> f64 {
+        let (d, [nx, ny], half) = (self.d, self.off, self.half);
+        let limit = (self.len / 2.0 - 0.5).max(0.0);
         let (ux, uy) = (-d[1], d[0]);
         let material = |q: [f64; 2]| {
             let (x, y) = pixel_of(q);
@@ -407,14 +525,6 @@ fn band(
             u += 1.0;
         }
         0.5 - pull
-    };
-    let polygon = outline(reported(a, d), reported(b, [-d[0], -d[1]]));
-    Plan {
-        pixels,
-        polygon,
-        real,
-        width,
-        length,
     }
 }
 
@@ -434,38 +544,16 @@ fn draw(
     seal: usize,
 ) -> (Vec<u32>, f64) {
     let w = bits.width as i64;
-    let h = bits.height as i64;
-    // Local grid over the bounding box of the polygon and the strips (plus a brush margin).
-    let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
-    let mut include = |x: i64, y: i64| {
-        x0 = x0.min(x);
-        y0 = y0.min(y);
-        x1 = x1.max(x);
-        y1 = y1.max(y);
-    };
-    for p in polygon {
-        let (x, y) = pixel_of(*p);
-        include(x, y);
-    }
-    for s in seeds {
-        for &p in &s.pixels {
-            include(p as i64 % w, p as i64 / w);
-        }
-    }
-    let (x0, y0) = ((x0 - brush).max(0), (y0 - brush).max(0));
-    let (x1, y1) = ((x1 + brush).min(w - 1), (y1 + brush).min(h - 1));
-    if x0 > x1 || y0 > y1 {
+    let Some(win) = Window::around(bits, polygon, seeds, brush) else {
         return (Vec::new(), 0.0);
-    }
-    let (lw, lh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+    };
     // 0 = untouched, 1 = fill candidate, 2 = taken.
-    let mut state = vec![0u8; lw * lh];
-    let local = |x: i64, y: i64| (y - y0) as usize * lw + (x - x0) as usize;
+    let mut state = vec![0u8; win.lw * win.lh];
     let mut stack = Vec::new();
     for s in seeds {
         for &p in &s.pixels {
             let (x, y) = (p as i64 % w, p as i64 / w);
-            let l = local(x, y);
+            let l = win.local(x, y);
             if state[l] != 2 {
                 state[l] = 2;
                 stack.push((x, y));
@@ -473,52 +561,29 @@ fn draw(
         }
     }
     let fill = if seeds.is_empty() { 2 } else { 1 };
-    if polygon_area(polygon).abs() > 0.0 {
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let l = local(x, y);
-                if state[l] == 0
-                    && !bits.get(x as u32, y as u32)
-                    && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
-                {
-                    state[l] = fill;
-                }
-            }
-        }
-        // Keep fill pixels 4-connected to a strip.
-        while let Some((x, y)) = stack.pop() {
-            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx < x0 || ny < y0 || nx > x1 || ny > y1 {
-                    continue;
-                }
-                let l = local(nx, ny);
-                if state[l] == 1 {
-                    state[l] = 2;
-                    stack.push((nx, ny));
-                }
-            }
-        }
+    if signed_area2(polygon).abs() > 0.0 {
+        fill_polygon(&mut state, &win, bits, polygon, fill, stack);
     }
     if brush > 0 {
         for s in seeds {
             for &p in &s.pixels {
                 let (x, y) = (p as i64 % w, p as i64 / w);
-                for yy in (y - brush).max(y0)..=(y + brush).min(y1) {
-                    for xx in (x - brush).max(x0)..=(x + brush).min(x1) {
-                        state[local(xx, yy)] = 2;
+                for yy in (y - brush).max(win.y0)..=(y + brush).min(win.y1) {
+                    for xx in (x - brush).max(win.x0)..=(x + brush).min(win.x1) {
+                        state[win.local(xx, yy)] = 2;
                     }
                 }
             }
         }
     }
+    let (x0, y0, lw) = (win.x0, win.y0, win.lw);
     let cut = |l: usize| !bits.data[((y0 + (l / lw) as i64) * w + x0 + (l % lw) as i64) as usize];
-    seal_pockets(&mut state, lw, lh, seal, cut);
+    seal_pockets(&mut state, win.lw, win.lh, seal, cut);
     let mut pixels = Vec::new();
     let mut real = 0.0;
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            if state[local(x, y)] == 2 && !bits.get(x as u32, y as u32) {
+    for y in win.y0..=win.y1 {
+        for x in win.x0..=win.x1 {
+            if state[win.local(x, y)] == 2 && !bits.get(x as u32, y as u32) {
                 let i = (y * w + x) as u32;
                 pixels.push(i);
                 let d = 1.0 - gray.data[i as usize] as f64;
@@ -527,6 +592,99 @@ fn draw(
         }
     }
     (pixels, real)
+}
+
+/// The box of the image [`draw`] works in: pixels `x0..=x1` × `y0..=y1`, `lw` × `lh`, with
+/// local indices row by row.
+struct Window {
+    x0: i64,
+    y0: i64,
+    x1: i64,
+    y1: i64,
+    lw: usize,
+    lh: usize,
+}
+
+impl Window {
+    /// The bounding box of `polygon` and the `seeds`' pixels, widened by the `brush` radius and
+    /// clipped to the image; `None` when nothing of it lies in the image.
+    fn around(bits: &BitGrid, polygon: &[[f64; 2]], seeds: &[&Strip], brush: i64) -> Option<Window> {
+        let w = bits.width as i64;
+        let h = bits.height as i64;
+        let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
+        let mut include = |x: i64, y: i64| {
+            x0 = x0.min(x);
+            y0 = y0.min(y);
+            x1 = x1.max(x);
+            y1 = y1.max(y);
+        };
+        for p in polygon {
+            let (x, y) = pixel_of(*p);
+            include(x, y);
+        }
+        for s in seeds {
+            for &p in &s.pixels {
+                include(p as i64 % w, p as i64 / w);
+            }
+        }
+        let (x0, y0) = ((x0 - brush).max(0), (y0 - brush).max(0));
+        let (x1, y1) = ((x1 + brush).min(w - 1), (y1 + brush).min(h - 1));
+        if x0 > x1 || y0 > y1 {
+            return None;
+        }
+        Some(Window {
+            x0,
+            y0,
+            x1,
+            y1,
+            lw: (x1 - x0 + 1) as usize,
+            lh: (y1 - y0 + 1) as usize,
+        })
+    }
+
+    /// The local index of image pixel (x, y), which must lie in the box.
+    #[inline]
+    fn local(&self, x: i64, y: i64) -> usize {
+        (y - self.y0) as usize * self.lw + (x - self.x0) as usize
+    }
+}
+
+/// Mark the cut pixels whose centres lie inside `polygon` as `fill` (1, a candidate, when there
+/// are seeds; 2, taken, for a seedless band), then take the candidates 4-connected to the seeds
+/// on `stack` (already taken): a fill pixel no strip reaches would be a loose speck.
+fn fill_polygon(
+    state: &mut [u8],
+    win: &Window,
+    bits: &BitGrid,
+    polygon: &[[f64; 2]],
+    fill: u8,
+    mut stack: Vec<(i64, i64)>,
+) {
+    for y in win.y0..=win.y1 {
+        for x in win.x0..=win.x1 {
+            let l = win.local(x, y);
+            if state[l] == 0
+                && !bits.get(x as u32, y as u32)
+                && point_in_ring([x as f64 + 0.5, y as f64 + 0.5], polygon)
+            {
+                state[l] = fill;
+            }
+        }
+    }
+    // Keep fill pixels 4-connected to a strip.
+    while let Some((x, y)) = stack.pop() {
+        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            if nx < win.x0 || ny < win.y0 || nx > win.x1 || ny > win.y1 {
+                continue;
+            }
+            let l = win.local(nx, ny);
+            if state[l] == 1 {
+                state[l] = 2;
+                stack.push((nx, ny));
+            }
+        }
+    }
 }
 
 /// Mark as taken (`state` 2) every pocket of at most `seal` cut pixels that the taken pixels close
@@ -617,42 +775,15 @@ pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reac
             middle: f64::INFINITY,
         };
     };
-    let [s0, e0, e1, s1] = [polygon[0], polygon[1], polygon[2], polygon[3]];
-    let (d, nv) = (axis.d, axis.nv);
-
-    // The drawn pixels on a local grid over the outline's box plus the reach.
-    let (w, h) = (bits.width as i64, bits.height as i64);
-    let m = reach.ceil() as i64 + 2;
-    let (bx0, by0, bx1, by1) = polygon.iter().fold(
-        (i64::MAX, i64::MAX, i64::MIN, i64::MIN),
-        |(x0, y0, x1, y1), p| {
-            let (x, y) = pixel_of(*p);
-            (x0.min(x), y0.min(y), x1.max(x), y1.max(y))
-        },
-    );
-    let (x0, y0) = ((bx0 - m).max(0), (by0 - m).max(0));
-    let (x1, y1) = ((bx1 + m).min(w - 1), (by1 + m).min(h - 1));
-    let lw = (x1 - x0 + 1).max(0) as usize;
-    let mut drawn = vec![false; lw * (y1 - y0 + 1).max(0) as usize];
-    for &p in pixels {
-        let (x, y) = (p as i64 % w, p as i64 / w);
-        if (x0..=x1).contains(&x) && (y0..=y1).contains(&y) {
-            drawn[(y - y0) as usize * lw + (x - x0) as usize] = true;
-        }
-    }
-    let drawn_at = |p: [f64; 2]| {
-        let (x, y) = pixel_of(p);
-        (x0..=x1).contains(&x)
-            && (y0..=y1).contains(&y)
-            && drawn[(y - y0) as usize * lw + (x - x0) as usize]
+    let drawn = Drawn::new(bits, pixels, polygon, reach);
+    let scan = Scan {
+        bits,
+        drawn: &drawn,
+        d: axis.d,
+        nv: axis.nv,
+        ends: [polygon[0], polygon[1], polygon[2], polygon[3]],
+        reach,
     };
-    let in_bits = |p: [f64; 2]| {
-        let (x, y) = pixel_of(p);
-        bits.get_or_frame(x, y)
-    };
-    let anchor =
-        |p: [f64; 2]| seg_dist(p, s0, s1) >= END_MARGIN && seg_dist(p, e0, e1) >= END_MARGIN;
-
     let mut narrowest = f64::INFINITY;
     let mut stations: Vec<f64> = (0..)
         .map(|k| axis.tmin + 0.5 + k as f64)
@@ -670,8 +801,105 @@ pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reac
         let Some((lo, hi)) = axis.chord(t) else {
             continue;
         };
-        let u0 = lo - reach;
-        let count = ((hi - lo + 2.0 * reach) / SAMPLE_STEP).ceil() as usize + 1;
+        if let Some(b) = scan.station(t, lo, hi, &mut widest) {
+            narrowest = narrowest.min(b);
+            if k == at_mid {
+                middle = b;
+            }
+        }
+    }
+    narrowest = narrowest.min(along_edges(bits, pixels, |x, y| {
+        drawn.at([x as f64 + 0.5, y as f64 + 0.5])
+    }));
+    Across {
+        narrowest,
+        widest,
+        middle,
+    }
+}
+
+/// The pixels a bridge drew, on a local grid over its outline's box plus the `reach` [`measure`]
+/// samples to (a lookup per sample point, where a search of the pixel list would not do).
+struct Drawn {
+    x0: i64,
+    y0: i64,
+    x1: i64,
+    y1: i64,
+    lw: usize,
+    drawn: Vec<bool>,
+}
+
+impl Drawn {
+    fn new(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Drawn {
+        let (w, h) = (bits.width as i64, bits.height as i64);
+        let m = reach.ceil() as i64 + 2;
+        let (bx0, by0, bx1, by1) = polygon.iter().fold(
+            (i64::MAX, i64::MAX, i64::MIN, i64::MIN),
+            |(x0, y0, x1, y1), p| {
+                let (x, y) = pixel_of(*p);
+                (x0.min(x), y0.min(y), x1.max(x), y1.max(y))
+            },
+        );
+        let (x0, y0) = ((bx0 - m).max(0), (by0 - m).max(0));
+        let (x1, y1) = ((bx1 + m).min(w - 1), (by1 + m).min(h - 1));
+        let lw = (x1 - x0 + 1).max(0) as usize;
+        let mut drawn = vec![false; lw * (y1 - y0 + 1).max(0) as usize];
+        for &p in pixels {
+            let (x, y) = (p as i64 % w, p as i64 / w);
+            if (x0..=x1).contains(&x) && (y0..=y1).contains(&y) {
+                drawn[(y - y0) as usize * lw + (x - x0) as usize] = true;
+            }
+        }
+        Drawn {
+            x0,
+            y0,
+            x1,
+            y1,
+            lw,
+            drawn,
+        }
+    }
+
+    /// Whether the pixel holding point `p` was drawn (false outside the grid).
+    #[inline]
+    fn at(&self, p: [f64; 2]) -> bool {
+        let (x, y) = pixel_of(p);
+        (self.x0..=self.x1).contains(&x)
+            && (self.y0..=self.y1).contains(&y)
+            && self.drawn[(y - self.y0) as usize * self.lw + (x - self.x0) as usize]
+    }
+}
+
+/// What [`measure`] samples a line across a bridge with: the material (`bits` plus the `drawn`
+/// pixels), the axis's unit vectors along (`d`) and across (`nv`), the outline `[s0, e0, e1, s1]`
+/// whose ends keep runs from anchoring near them, and how far past the chord to sample.
+struct Scan<'a> {
+    bits: &'a BitGrid,
+    drawn: &'a Drawn,
+    d: [f64; 2],
+    nv: [f64; 2],
+    ends: [[f64; 2]; 4],
+    reach: f64,
+}
+
+impl Scan<'_> {
+    /// Whether a run of material covering point `p` of the chord counts: it lies at least
+    /// [`END_MARGIN`] from both ends of the outline.
+    #[inline]
+    fn anchor(&self, p: [f64; 2]) -> bool {
+        let [s0, e0, e1, s1] = self.ends;
+        seg_dist(p, s0, s1) >= END_MARGIN && seg_dist(p, e0, e1) >= END_MARGIN
+    }
+
+    /// The width at station `t` along the axis, whose chord runs from `lo` to `hi` across: the
+    /// longest anchored run of material on the line across, sampled every [`SAMPLE_STEP`] px from
+    /// `reach` before the chord to `reach` past it (infinite when it runs past either end);
+    /// `None` when no run is anchored. Raises `widest` to the longest run of the bridge's own
+    /// pixels on the line.
+    fn station(&self, t: f64, lo: f64, hi: f64, widest: &mut f64) -> Option<f64> {
+        let (d, nv) = (self.d, self.nv);
+        let u0 = lo - self.reach;
+        let count = ((hi - lo + 2.0 * self.reach) / SAMPLE_STEP).ceil() as usize + 1;
         let mut best: Option<f64> = None;
         // The current run: samples, whether it began at the first sample, whether anchored.
         let (mut run, mut open, mut anchored) = (0usize, false, false);
@@ -680,21 +908,26 @@ pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reac
         for i in 0..=count {
             let u = u0 + i as f64 * SAMPLE_STEP;
             let p = [t * d[0] + u * nv[0], t * d[1] + u * nv[1]];
-            let drawn = i < count && drawn_at(p);
+            let drawn = i < count && self.drawn.at(p);
             if drawn {
                 own += 1;
-                widest = widest.max(own as f64 * SAMPLE_STEP);
+                *widest = widest.max(own as f64 * SAMPLE_STEP);
             } else {
                 own = 0;
             }
-            if drawn || (i < count && in_bits(p)) {
+            if drawn
+                || (i < count && {
+                    let (x, y) = pixel_of(p);
+                    self.bits.get_or_frame(x, y)
+                })
+            {
                 if run == 0 {
                     open = i == 0;
                     anchored = false;
                 }
                 run += 1;
                 // The distances to the ends are asked only until one point anchors the run.
-                anchored = anchored || ((lo..=hi).contains(&u) && anchor(p));
+                anchored = anchored || ((lo..=hi).contains(&u) && self.anchor(p));
                 continue;
             }
             if run > 0 && anchored {
@@ -707,20 +940,7 @@ pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reac
             }
             run = 0;
         }
-        if let Some(b) = best {
-            narrowest = narrowest.min(b);
-            if k == at_mid {
-                middle = b;
-            }
-        }
-    }
-    narrowest = narrowest.min(along_edges(bits, pixels, |x, y| {
-        drawn_at([x as f64 + 0.5, y as f64 + 0.5])
-    }));
-    Across {
-        narrowest,
-        widest,
-        middle,
+        best
     }
 }
 
@@ -904,10 +1124,6 @@ fn diverge(q: &[[f64; 2]]) -> f64 {
         .acos()
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 /// The angle between the most diverging member strips, radians, measured from the middle strip.
 /// Why not only the outer two (see [`diverge`]): around an island smaller than the bridge the
 /// members can wrap all the way round, so the first and the last strip leave side by side while
@@ -985,32 +1201,6 @@ fn band_outline(a: [f64; 2], b: [f64; 2], half: f64) -> Vec<[f64; 2]> {
     ]
 }
 
-fn polygon_area(p: &[[f64; 2]]) -> f64 {
-    let n = p.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (p[i], p[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        / 2.0
-}
-
-/// Even-odd point-in-polygon test.
-fn inside(p: &[[f64; 2]], x: f64, y: f64) -> bool {
-    let n = p.len();
-    let mut c = false;
-    let mut j = n - 1;
-    for i in 0..n {
-        let (a, b) = (p[i], p[j]);
-        if (a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0] {
-            c = !c;
-        }
-        j = i;
-    }
-    c
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1048,14 +1238,6 @@ mod tests {
         assert_eq!(width_for(1601, &cfg), 11);
         assert_eq!(width_for(1_000_000, &cfg), 20); // max
         assert!(width_for(400, &cfg) <= width_for(900, &cfg));
-    }
-
-    #[test]
-    fn point_in_polygon() {
-        let sq = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
-        assert!(inside(&sq, 2.0, 2.0));
-        assert!(!inside(&sq, 5.0, 2.0));
-        assert_eq!(polygon_area(&sq), 16.0);
     }
 
     /// A 6×6 island 4 px below the frame's top band, black everywhere: grow to 3 and draw.
@@ -1106,7 +1288,7 @@ mod tests {
         let mut real = 0.0;
         for &q in &p.pixels {
             let (x, y) = ((q % w) as f64 + 0.5, (q / w) as f64 + 0.5);
-            assert!(strip_px.contains(&q) || inside(&p.polygon, x, y), "{q}");
+            assert!(strip_px.contains(&q) || point_in_ring([x, y], &p.polygon), "{q}");
             real += (1.0 - t.gray.data[q as usize] as f64).powi(2);
         }
         assert!(p.pixels.len() >= 12);
@@ -1339,7 +1521,7 @@ mod tests {
             (0..w * h)
                 .filter(|&i| {
                     let (x, y) = (i % w, i / w);
-                    !bits.get(x, y) && inside(polygon, x as f64 + 0.5, y as f64 + 0.5)
+                    !bits.get(x, y) && point_in_ring([x as f64 + 0.5, y as f64 + 0.5], polygon)
                 })
                 .collect()
         };

@@ -563,6 +563,82 @@ fn island(
     cfg: &StrengthConfig,
 ) -> (Vec<usize>, IslandStrength) {
     let mm = cfg.mm_per_px;
+    let (f, local) = frame_and_grid(map, n, m);
+    let option = |id: usize| place(g, map, n, id, &f, &local);
+    let held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
+    let sources: Vec<usize> = held_by.iter().map(|o| o.at).collect();
+    let dist = local.field(&sources);
+    let long = f.length_px * mm > cfg.two_bridges_above_mm;
+    let need = (cfg.per_island as usize).max(if long { 2 } else { 1 });
+    let centre = [f.cx * mm, f.cy * mm];
+    let mut h = Holding {
+        local: &local,
+        cfg,
+        options: Vec::new(),
+        held_by,
+        steps: Vec::new(),
+        dist,
+        extra: Vec::new(),
+        why: Vec::new(),
+        notes: Vec::new(),
+        where_: format!("island {n} at ({:.1}, {:.1}) mm", centre[0], centre[1]),
+    };
+    h.steps.push(cfg.sag_mm(h.span_mm(&h.dist)));
+    // The places to add bridges at, only for an island some rule asks more of (most islands are
+    // small and held by their one tree bridge: listing and sorting their candidates was most of
+    // this stage's time).
+    let more = h.held_by.len() < need || long || h.steps[0] > cfg.max_sag_mm;
+    if more {
+        h.options = touching
+            .iter()
+            .filter_map(|p| g.by_pair.get(p))
+            .flatten()
+            .filter(|id| !chosen_ids.contains(id))
+            .filter_map(|&id| option(id))
+            .collect();
+    }
+    h.options
+        .sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
+
+    // 1. Count.
+    let reason = if cfg.per_island as usize >= need && cfg.per_island > 1 {
+        Why::BridgesPerIsland
+    } else {
+        Why::TwoBridges
+    };
+    h.count(need, reason);
+    // 2. Ends of a long thin island.
+    if long && f.length_px >= THIN_RATIO * f.breadth_px {
+        h.ends(&f);
+    }
+    // 3. Sag.
+    let cap = MAX_FOR_SAG.max(need);
+    h.sag(cap);
+
+    h.report(n, m.n * mm * mm, &f, centre, cap)
+}
+
+/// Where an island lies and how it is shaped, in pixels: its centroid, its main axis (from the
+/// pixel covariance) and its extents along and across that axis, which the count and ends rules
+/// ask about.
+struct Frame {
+    cx: f64,
+    cy: f64,
+    /// Unit vector along the main axis.
+    ux: f64,
+    uy: f64,
+    /// The least and greatest projection of a pixel centre on the axis, px from the centroid.
+    lo: f64,
+    hi: f64,
+    /// Extents along and across the axis (pixel centres span one pixel less than the material).
+    length_px: f64,
+    breadth_px: f64,
+}
+
+/// Island `n`'s [`Frame`] and its cell grid ([`Local`]), from one pass over its runs: the grid
+/// marks the cells the runs cover, and since projections are linear along a run its ends hold
+/// the extremes.
+fn frame_and_grid(map: &IslandMap, n: u32, m: &Moments) -> (Frame, Local) {
     let (cx, cy) = (m.sx / m.n.max(1.0), m.sy / m.n.max(1.0));
     // Main axis from the pixel covariance.
     let (vxx, vyy, vxy) = (
@@ -584,7 +660,6 @@ fn island(
             (x1 - m.x0) as usize / k + 1,
         );
         inside[ly * w + ca..=ly * w + cb].fill(true);
-        // Projections are linear along the run: its ends hold the extremes.
         for x in [x0, x1] {
             let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
             let (a, b) = (dx * ux + dy * uy, -dx * uy + dy * ux);
@@ -602,211 +677,247 @@ fn island(
         h,
         inside,
     };
-    // Extents: pixel centres span one pixel less than the material.
-    let (length_px, breadth_px) = (hi - lo + 1.0, bhi - blo + 1.0);
-    let option = |id: usize| -> Option<Place> {
-        let (x, y) = touch(g, map, id, n)?;
-        let at = local.index(x, y)?;
-        let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
-        let score = g.scores[id]?;
-        Some(Place {
-            id,
-            at,
-            angle: dy.atan2(dx).to_degrees(),
-            half: (score.width as f64 / 2.0).atan2(dx.hypot(dy)).to_degrees(),
-            along: dx * ux + dy * uy,
-            cost: score.terms.total,
-            width: score.width,
-        })
+    let frame = Frame {
+        cx,
+        cy,
+        ux,
+        uy,
+        lo,
+        hi,
+        length_px: hi - lo + 1.0,
+        breadth_px: bhi - blo + 1.0,
     };
-    let mut held_by: Vec<Place> = tree_ids.iter().filter_map(|&id| option(id)).collect();
-    let sources: Vec<usize> = held_by.iter().map(|o| o.at).collect();
-    let mut dist = local.field(&sources);
-    let span_mm = |dist: &[u32]| local.px(local.farthest(dist).1) * mm;
-    let mut steps = vec![cfg.sag_mm(span_mm(&dist))];
-    let long = length_px * mm > cfg.two_bridges_above_mm;
-    let need = (cfg.per_island as usize).max(if long { 2 } else { 1 });
-    // The places to add bridges at, only for an island some rule asks more of (most islands are
-    // small and held by their one tree bridge: listing and sorting their candidates was most of
-    // this stage's time).
-    let more = held_by.len() < need || long || steps[0] > cfg.max_sag_mm;
-    let mut options: Vec<Place> = if more {
-        touching
-            .iter()
-            .filter_map(|p| g.by_pair.get(p))
-            .flatten()
-            .filter(|id| !chosen_ids.contains(id))
-            .filter_map(|&id| option(id))
-            .collect()
-    } else {
-        Vec::new()
-    };
-    options.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.id.cmp(&b.id)));
-    let mut extra: Vec<usize> = Vec::new();
-    let mut why: Vec<Why> = Vec::new();
-    let mut notes: Vec<String> = Vec::new();
-    let centre = [cx * mm, cy * mm];
-    let where_ = format!("island {n} at ({:.1}, {:.1}) mm", centre[0], centre[1]);
+    (frame, local)
+}
 
-    // Take option k: it holds the island from now on.
-    let mut take = |k: usize,
-                    reason: Why,
-                    options: &mut Vec<Place>,
-                    held_by: &mut Vec<Place>,
-                    dist: &mut Vec<u32>,
-                    steps: &mut Vec<f64>| {
-        let o = options.remove(k);
-        local.relax(dist, &[o.at]);
-        held_by.push(o);
-        extra.push(o.id);
-        if !why.contains(&reason) {
-            why.push(reason);
-        }
-        steps.push(cfg.sag_mm(span_mm(dist)));
-    };
-    // An option is apart from the bridges holding the island when it lies more than its own width
-    // from the nearest of them (inside the island).
-    let clear = |o: &Place, dist: &[u32]| local.px(dist[o.at]) > o.width as f64;
+/// Candidate `id` as a place to hold island `n` by: where it touches the island (a cell of
+/// `local`), seen from the island's centre and along its axis, with its cost and width. `None`
+/// when it does not touch `n`, touches it outside the grid, or was not scored.
+fn place(
+    g: &Graph,
+    map: &IslandMap,
+    n: u32,
+    id: usize,
+    f: &Frame,
+    local: &Local,
+) -> Option<Place> {
+    let (x, y) = touch(g, map, id, n)?;
+    let at = local.index(x, y)?;
+    let (dx, dy) = (x as f64 + 0.5 - f.cx, y as f64 + 0.5 - f.cy);
+    let score = g.scores[id]?;
+    Some(Place {
+        id,
+        at,
+        angle: dy.atan2(dx).to_degrees(),
+        half: (score.width as f64 / 2.0).atan2(dx.hypot(dy)).to_degrees(),
+        along: dx * f.ux + dy * f.uy,
+        cost: score.terms.total,
+        width: score.width,
+    })
+}
 
-    // 1. Count.
-    let reason = if cfg.per_island as usize >= need && cfg.per_island > 1 {
-        Why::BridgesPerIsland
-    } else {
-        Why::TwoBridges
-    };
-    let gap = 90f64.min(360.0 / need as f64);
-    while held_by.len() < need {
-        let round = |o: &Place| {
-            held_by
-                .iter()
-                .map(|h| apart(o.angle, h.angle) - o.half - h.half)
-                .fold(180.0, f64::min)
-        };
-        // Cheapest at least `gap` round (options are sorted by cost), else the farthest round.
-        let pick = options
-            .iter()
-            .position(|o| clear(o, &dist) && round(o) >= gap - 1e-9)
-            .or_else(|| {
-                options
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, o)| clear(o, &dist))
-                    .max_by(|a, b| round(a.1).total_cmp(&round(b.1)).then(b.0.cmp(&a.0)))
-                    .map(|(k, _)| k)
-            });
-        let Some(k) = pick else {
-            notes.push(format!(
-                "{where_} has room for {} bridge(s), not {need}: lower --bridges-per-island or \
-                 widen the cut around it",
-                held_by.len()
+/// One island while the rules add bridges to it: the bridges holding it, the candidates left
+/// (cheapest first), the path lengths from its nearest bridge, and the record its report is made
+/// of. Each rule is a method; [`Holding::take`] is the one way a bridge is added, so the span,
+/// the sag steps and the reasons always agree with the bridges.
+struct Holding<'a> {
+    local: &'a Local,
+    cfg: &'a StrengthConfig,
+    /// Candidates not taken, cheapest first (a tie to the lower id).
+    options: Vec<Place>,
+    held_by: Vec<Place>,
+    /// Path lengths inside the island from the nearest holding bridge (see [`Local::relax`]).
+    dist: Vec<u32>,
+    /// The sag estimate before any bridge was added, then after each.
+    steps: Vec<f64>,
+    /// Candidate ids added, in order.
+    extra: Vec<usize>,
+    why: Vec<Why>,
+    notes: Vec<String>,
+    /// "island N at (x, y) mm", how the notes name the island.
+    where_: String,
+}
+
+impl Holding<'_> {
+    /// The island's report once the rules are done, and the candidates they added. Island `n`
+    /// covers `area_mm2` around `centre` (mm); `cap` is the most bridges the sag rule adds, named
+    /// in the note when the island still sags with that many.
+    fn report(
+        mut self,
+        n: u32,
+        area_mm2: f64,
+        f: &Frame,
+        centre: [f64; 2],
+        cap: usize,
+    ) -> (Vec<usize>, IslandStrength) {
+        let (limit, mm) = (self.cfg.max_sag_mm, self.cfg.mm_per_px);
+        let sag = *self.steps.last().unwrap_or(&0.0);
+        if sag > limit && self.held_by.len() >= cap && self.notes.is_empty() {
+            self.notes.push(format!(
+                "{} sags {sag:.2} mm (limit {limit} mm) on {cap} bridges, the most the sag rule \
+                 adds; use a stiffer or thicker material (or raise max_sag_mm in the profile)",
+                self.where_
             ));
-            break;
+        }
+        let held = self.notes.is_empty() && sag <= limit;
+        let report = IslandStrength {
+            island: n,
+            centre_mm: centre,
+            area_mm2,
+            length_mm: f.length_px * mm,
+            breadth_mm: f.breadth_px * mm,
+            bridges: self.held_by.len(),
+            extra: self.extra.len(),
+            span_mm: self.span_mm(&self.dist),
+            why: self.why,
+            sag_mm: sag,
+            sag_steps_mm: self.steps,
+            limit_mm: limit,
+            held,
+            note: (!self.notes.is_empty()).then(|| self.notes.join("; ")),
         };
-        take(k, reason, &mut options, &mut held_by, &mut dist, &mut steps);
+        (self.extra, report)
     }
 
-    // 2. Ends of a long thin island: a bridge within a fifth of its length of each end.
-    if long && length_px >= THIN_RATIO * breadth_px {
-        let quarter = END_REACH * length_px;
+    /// The island's span in millimetres for path lengths `dist`.
+    fn span_mm(&self, dist: &[u32]) -> f64 {
+        self.local.px(self.local.farthest(dist).1) * self.cfg.mm_per_px
+    }
+
+    /// Take option `k` for `reason`: it holds the island from now on.
+    fn take(&mut self, k: usize, reason: Why) {
+        let o = self.options.remove(k);
+        self.local.relax(&mut self.dist, &[o.at]);
+        self.held_by.push(o);
+        self.extra.push(o.id);
+        if !self.why.contains(&reason) {
+            self.why.push(reason);
+        }
+        let sag = self.cfg.sag_mm(self.span_mm(&self.dist));
+        self.steps.push(sag);
+    }
+
+    /// Whether option `o` is apart from the bridges holding the island: it lies more than its own
+    /// width from the nearest of them (inside the island).
+    fn clear(&self, o: &Place) -> bool {
+        self.local.px(self.dist[o.at]) > o.width as f64
+    }
+
+    /// Rule 1: add bridges until `need` hold the island, each at least `min(90°, 360° / need)`
+    /// round from the others edge to edge, the cheapest such; else the one farthest round. Notes
+    /// when the island has no room for more.
+    fn count(&mut self, need: usize, reason: Why) {
+        let gap = 90f64.min(360.0 / need as f64);
+        while self.held_by.len() < need {
+            let round = |o: &Place| {
+                self.held_by
+                    .iter()
+                    .map(|h| apart(o.angle, h.angle) - o.half - h.half)
+                    .fold(180.0, f64::min)
+            };
+            // Cheapest at least `gap` round (options are sorted by cost), else the farthest round.
+            let pick = self
+                .options
+                .iter()
+                .position(|o| self.clear(o) && round(o) >= gap - 1e-9)
+                .or_else(|| {
+                    self.options
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, o)| self.clear(o))
+                        .max_by(|a, b| round(a.1).total_cmp(&round(b.1)).then(b.0.cmp(&a.0)))
+                        .map(|(k, _)| k)
+                });
+            let Some(k) = pick else {
+                self.notes.push(format!(
+                    "{} has room for {} bridge(s), not {need}: lower --bridges-per-island or \
+                     widen the cut around it",
+                    self.where_,
+                    self.held_by.len()
+                ));
+                break;
+            };
+            self.take(k, reason);
+        }
+    }
+
+    /// Rule 2, for a long thin island: a bridge within [`END_REACH`] of its length of each end,
+    /// the cheapest clear one there; a note for an end none fits near.
+    fn ends(&mut self, f: &Frame) {
+        let quarter = END_REACH * f.length_px;
         for end in [-1.0f64, 1.0] {
             let near_end = |o: &Place| {
                 if end < 0.0 {
-                    o.along <= lo + quarter
+                    o.along <= f.lo + quarter
                 } else {
-                    o.along >= hi - quarter
+                    o.along >= f.hi - quarter
                 }
             };
-            if held_by.iter().any(near_end) {
+            if self.held_by.iter().any(near_end) {
                 continue;
             }
-            match options.iter().position(|o| near_end(o) && clear(o, &dist)) {
-                Some(k) => take(
-                    k,
-                    Why::Ends,
-                    &mut options,
-                    &mut held_by,
-                    &mut dist,
-                    &mut steps,
-                ),
-                None => notes.push(format!(
-                    "{where_} is long and thin but no bridge fits near one of its ends: widen \
-                     the cut beside that end"
+            match self
+                .options
+                .iter()
+                .position(|o| near_end(o) && self.clear(o))
+            {
+                Some(k) => self.take(k, Why::Ends),
+                None => self.notes.push(format!(
+                    "{} is long and thin but no bridge fits near one of its ends: widen \
+                     the cut beside that end",
+                    self.where_
                 )),
             }
         }
     }
 
-    // 3. Sag.
-    let limit = cfg.max_sag_mm;
-    let cap = MAX_FOR_SAG.max(need);
-    while *steps.last().unwrap_or(&0.0) > limit && held_by.len() < cap {
-        let (far, span) = local.farthest(&dist);
-        let from_far = local.field(&[far]);
-        let nearest = options
-            .iter()
-            .enumerate()
-            .min_by_key(|(k, o)| (from_far[o.at], *k))
-            .map(|(k, o)| (k, from_far[o.at]));
-        let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64) else {
-            notes.push(format!(
-                "{where_} sags {:.2} mm (limit {limit} mm): its farthest material, at ({:.1}, \
-                 {:.1}) mm, is out of reach of any bridge; use a stiffer or thicker material \
-                 (or raise max_sag_mm in the profile)",
-                steps.last().unwrap_or(&0.0),
-                local.centre(far).0 * mm,
-                local.centre(far).1 * mm,
-            ));
-            break;
-        };
-        // Of the cheapest few within half the span of the farthest point, the one that shortens
-        // the span most (a tie to the cheaper); the nearest one if none is that near.
-        let mut trial = dist.clone();
-        let k = options
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| 2 * from_far[o.at] <= span)
-            .take(TRIALS)
-            .map(|(k, o)| {
-                trial.copy_from_slice(&dist);
-                local.relax(&mut trial, &[o.at]);
-                (local.farthest(&trial).1, k)
-            })
-            .min()
-            .map_or(k_near, |(_, k)| k);
-        take(
-            k,
-            Why::Sag,
-            &mut options,
-            &mut held_by,
-            &mut dist,
-            &mut steps,
-        );
+    /// Rule 3: while the island sags more than the material allows and fewer than `cap` bridges
+    /// hold it, a bridge near its farthest point; a note when that point is out of reach of any.
+    fn sag(&mut self, cap: usize) {
+        let limit = self.cfg.max_sag_mm;
+        let mm = self.cfg.mm_per_px;
+        let local = self.local;
+        while *self.steps.last().unwrap_or(&0.0) > limit && self.held_by.len() < cap {
+            let (far, span) = local.farthest(&self.dist);
+            let from_far = local.field(&[far]);
+            let nearest = self
+                .options
+                .iter()
+                .enumerate()
+                .min_by_key(|(k, o)| (from_far[o.at], *k))
+                .map(|(k, o)| (k, from_far[o.at]));
+            let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64)
+            else {
+                self.notes.push(format!(
+                    "{} sags {:.2} mm (limit {limit} mm): its farthest material, at ({:.1}, \
+                     {:.1}) mm, is out of reach of any bridge; use a stiffer or thicker material \
+                     (or raise max_sag_mm in the profile)",
+                    self.where_,
+                    self.steps.last().unwrap_or(&0.0),
+                    local.centre(far).0 * mm,
+                    local.centre(far).1 * mm,
+                ));
+                break;
+            };
+            // Of the cheapest few within half the span of the farthest point, the one that
+            // shortens the span most (a tie to the cheaper); the nearest one if none is that near.
+            let mut trial = self.dist.clone();
+            let k = self
+                .options
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| 2 * from_far[o.at] <= span)
+                .take(TRIALS)
+                .map(|(k, o)| {
+                    trial.copy_from_slice(&self.dist);
+                    local.relax(&mut trial, &[o.at]);
+                    (local.farthest(&trial).1, k)
+                })
+                .min()
+                .map_or(k_near, |(_, k)| k);
+            self.take(k, Why::Sag);
+        }
     }
-    let sag = *steps.last().unwrap_or(&0.0);
-    if sag > limit && held_by.len() >= cap && notes.is_empty() {
-        notes.push(format!(
-            "{where_} sags {sag:.2} mm (limit {limit} mm) on {cap} bridges, the most the sag rule \
-             adds; use a stiffer or thicker material (or raise max_sag_mm in the profile)"
-        ));
-    }
-    let held = notes.is_empty() && sag <= limit;
-    let report = IslandStrength {
-        island: n,
-        centre_mm: centre,
-        area_mm2: m.n * mm * mm,
-        length_mm: length_px * mm,
-        breadth_mm: breadth_px * mm,
-        bridges: held_by.len(),
-        extra: extra.len(),
-        why,
-        span_mm: span_mm(&dist),
-        sag_mm: sag,
-        sag_steps_mm: steps,
-        limit_mm: limit,
-        held,
-        note: (!notes.is_empty()).then(|| notes.join("; ")),
-    };
-    (extra, report)
 }
 
 #[cfg(test)]
