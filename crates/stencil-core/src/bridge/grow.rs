@@ -608,7 +608,12 @@ struct Window {
 impl Window {
     /// The bounding box of `polygon` and the `seeds`' pixels, widened by the `brush` radius and
     /// clipped to the image; `None` when nothing of it lies in the image.
-    fn around(bits: &BitGrid, polygon: &[[f64; 2]], seeds: &[&Strip], brush: i64) -> Option<Window> {
+    fn around(
+        bits: &BitGrid,
+        polygon: &[[f64; 2]],
+        seeds: &[&Strip],
+        brush: i64,
+    ) -> Option<Window> {
         let w = bits.width as i64;
         let h = bits.height as i64;
         let (mut x0, mut y0, mut x1, mut y1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
@@ -1288,7 +1293,10 @@ mod tests {
         let mut real = 0.0;
         for &q in &p.pixels {
             let (x, y) = ((q % w) as f64 + 0.5, (q / w) as f64 + 0.5);
-            assert!(strip_px.contains(&q) || point_in_ring([x, y], &p.polygon), "{q}");
+            assert!(
+                strip_px.contains(&q) || point_in_ring([x, y], &p.polygon),
+                "{q}"
+            );
             real += (1.0 - t.gray.data[q as usize] as f64).powi(2);
         }
         assert!(p.pixels.len() >= 12);

@@ -693,14 +693,7 @@ fn frame_and_grid(map: &IslandMap, n: u32, m: &Moments) -> (Frame, Local) {
 /// Candidate `id` as a place to hold island `n` by: where it touches the island (a cell of
 /// `local`), seen from the island's centre and along its axis, with its cost and width. `None`
 /// when it does not touch `n`, touches it outside the grid, or was not scored.
-fn place(
-    g: &Graph,
-    map: &IslandMap,
-    n: u32,
-    id: usize,
-    f: &Frame,
-    local: &Local,
-) -> Option<Place> {
+fn place(g: &Graph, map: &IslandMap, n: u32, id: usize, f: &Frame, local: &Local) -> Option<Place> {
     let (x, y) = touch(g, map, id, n)?;
     let at = local.index(x, y)?;
     let (dx, dy) = (x as f64 + 0.5 - f.cx, y as f64 + 0.5 - f.cy);
@@ -886,8 +879,7 @@ impl Holding<'_> {
                 .enumerate()
                 .min_by_key(|(k, o)| (from_far[o.at], *k))
                 .map(|(k, o)| (k, from_far[o.at]));
-            let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64)
-            else {
+            let Some((k_near, _)) = nearest.filter(|&(_, d)| (d as f64) < 0.9 * span as f64) else {
                 self.notes.push(format!(
                     "{} sags {:.2} mm (limit {limit} mm): its farthest material, at ({:.1}, \
                      {:.1}) mm, is out of reach of any bridge; use a stiffer or thicker material \
