@@ -8,8 +8,10 @@
 //!
 //! Every ring is simplified on its own; then all segments go into a uniform grid and every pair that
 //! shares a cell is tested (touching counts as a conflict). A ring involved in a conflict falls back
-//! to its lossless form (only exactly collinear points removed), and the test repeats until no
-//! conflict remains. The traced rings never touch each other, so this always ends.
+//! to its lossless form (only exactly collinear points removed), and the test repeats until a
+//! round reverts nothing, for at most 8 rounds. Each round can only revert rings, and the traced
+//! rings never touch each other, so conflicts run out; but a conflict first found in a ninth round
+//! would stay (the bound keeps the time bounded on adversarial input).
 
 use geo::kernels::{Kernel, Orientation, RobustKernel};
 use geo::Coord;
