@@ -27,6 +27,7 @@ fn describe(stage: &str) -> String {
         "vector" => "tracing the outlines",
         "check" | "check_opening" => "checking widths against the material",
         "repair" => "widening necks the check found",
+        "recount" => "counting each bridge's pixels",
         "fidelity" => "measuring what changed",
         "kerf" => "offsetting for the kerf",
         "gcode" => "planning the G-code",

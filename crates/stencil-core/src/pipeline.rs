@@ -749,7 +749,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         }
     };
     confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
-    bridged.recount(&twotone.bits);
+    timer.time("recount", || bridged.recount(&twotone.bits));
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {
         Fidelity::measure(&picture, &twotone.bits, &bridged.bits)
