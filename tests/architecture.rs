@@ -167,3 +167,60 @@ fn grbl_uses_only_the_interpreter_of_the_gcode_crate() {
         }
     }
 }
+
+/// Inside `stencil-core`, data flows one way, stage to stage: each module uses only the layers
+/// below it (`raster` under everything; a stage never reaches into a later one). Comments and test
+/// modules do not count.
+#[test]
+fn core_stages_use_only_earlier_layers() {
+    let allowed: BTreeMap<&str, &[&str]> = BTreeMap::from([
+        ("units", &[][..]),
+        ("material", &[][..]),
+        ("raster", &["units"][..]),
+        ("limits", &["units"][..]),
+        ("islands", &["raster"][..]),
+        ("tone", &["raster", "limits", "units"][..]),
+        ("bridge", &["raster", "islands", "material", "units"][..]),
+        ("vector", &["raster", "units"][..]),
+        (
+            "check",
+            &["raster", "islands", "material", "units", "vector"][..],
+        ),
+        ("export", &["raster", "vector", "limits", "units"][..]),
+        (
+            "report",
+            &["raster", "tone", "bridge", "vector", "check", "units"][..],
+        ),
+    ]);
+    let src = root().join("crates/stencil-core/src");
+    for f in rust_files(&src) {
+        let rel = f.strip_prefix(&src).unwrap();
+        let first = rel.iter().next().unwrap().to_str().unwrap();
+        let module = first.trim_end_matches(".rs");
+        if module == "lib" || module == "pipeline" {
+            continue; // the facade runs every stage
+        }
+        let Some(ok) = allowed.get(module) else {
+            panic!(
+                "{}: a module this test does not know; add its layer",
+                rel.display()
+            );
+        };
+        let code: String = non_test_source(&f)
+            .lines()
+            .filter(|l| !l.trim_start().starts_with("//"))
+            .collect::<Vec<_>>()
+            .join("\n");
+        for (i, _) in code.match_indices("crate::") {
+            let used: String = code[i + "crate::".len()..]
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            assert!(
+                used == module || ok.contains(&used.as_str()),
+                "{}: uses crate::{used}; {module} may use only {ok:?}",
+                rel.display()
+            );
+        }
+    }
+}

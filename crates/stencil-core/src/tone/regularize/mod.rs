@@ -765,7 +765,7 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
         for x in 0..w {
             let i = y * w + x;
             let l = labels[i];
-            if l == crate::islands::CUT || open[l as usize] {
+            if l == crate::raster::NOT_LABELLED || open[l as usize] {
                 continue;
             }
             if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
@@ -781,7 +781,7 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
     }
     let mut filled = 0;
     for (i, &l) in labels.iter().enumerate() {
-        if l != crate::islands::CUT && !open[l as usize] {
+        if l != crate::raster::NOT_LABELLED && !open[l as usize] {
             after.data[i] = true;
             filled += 1;
         }
