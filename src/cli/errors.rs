@@ -4,6 +4,7 @@
 
 use std::error::Error as StdError;
 
+use stencil_core::bridge::BridgeError;
 use stencil_core::check::CheckError;
 use stencil_core::export::ExportError;
 use stencil_core::limits::{self, num, FinerFix, SizeError};
@@ -27,6 +28,8 @@ pub fn describe(e: &(dyn StdError + 'static)) -> String {
         check(e)
     } else if let Some(e) = e.downcast_ref::<SettingsError>() {
         settings(e)
+    } else if let Some(e) = e.downcast_ref::<BridgeError>() {
+        bridge(e)
     } else if let Some(e) = e.downcast_ref::<PlanError>() {
         plan(e)
     } else {
@@ -43,6 +46,7 @@ pub fn core(e: &stencil_core::Error) -> String {
         Error::Export(e) => export(e),
         Error::Check(e) => check(e),
         Error::Plan(e) => plan(e),
+        Error::Bridge(e) => bridge(e),
         Error::Thin { .. } => format!(
             "{e}; widen the design, choose another --material, or pass --allow-thin to write the \
              outputs anyway"
@@ -227,4 +231,14 @@ pub fn plan(e: &PlanError) -> String {
         _ => "",
     };
     format!("{e}{hint}")
+}
+
+/// A bridge stage error, with the options that set what it names.
+fn bridge(e: &BridgeError) -> String {
+    match e {
+        BridgeError::KeptOut { .. } => {
+            format!("{e} (--keep-out, --no-bridge-near, --min-island-mm2)")
+        }
+        e => e.to_string(),
+    }
 }

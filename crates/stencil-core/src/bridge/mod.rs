@@ -274,7 +274,8 @@ pub enum BridgeError {
     /// The island can be joined only through pixels the user forbade (`--keep-out`,
     /// `--no-bridge-near`). Its position is in millimetres from the picture's top left corner.
     #[error(
-        "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept          free of bridges (--keep-out, --no-bridge-near): lighten the keep-out mask or move the          disc there, or cut such islands away with --min-island-mm2"
+        "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept \
+         free of bridges: lighten the keep-out mask or move the disc there, or cut such islands away"
     )]
     KeptOut { island: u32, x_mm: f64, y_mm: f64 },
     #[error("bridge setting {name} = {value} is invalid: {why}")]
