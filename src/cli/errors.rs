@@ -3,6 +3,7 @@
 //! `--allow-thin`...). [`describe`] is what `main` prints for every error and cause.
 
 use std::error::Error as StdError;
+use std::path::Path;
 
 use stencil_core::bridge::BridgeError;
 use stencil_core::check::CheckError;
@@ -34,6 +35,18 @@ pub fn describe(e: &(dyn StdError + 'static)) -> String {
         plan(e)
     } else {
         e.to_string()
+    }
+}
+
+/// An error of `make`'s pipeline that names the input: as it is when its message already does
+/// (most do, from the stage that read it), else with the input in front.
+pub fn naming_input(input: &Path, e: stencil_core::Error) -> anyhow::Error {
+    let input = input.display().to_string();
+    let msg = core(&e);
+    if msg.contains(&input) {
+        e.into()
+    } else {
+        anyhow::anyhow!("{input}: {msg}")
     }
 }
 

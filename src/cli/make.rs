@@ -375,16 +375,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         stencil_core::Error::Plan(p) => {
             anyhow::anyhow!("{}: {}", cfg.input.display(), super::errors::plan(&p))
         }
-        // Every other error names the input too (most already do, from the stage that read it).
-        e => {
-            let input = cfg.input.display().to_string();
-            let msg = super::errors::core(&e);
-            if msg.contains(&input) {
-                e.into()
-            } else {
-                anyhow::anyhow!("{input}: {msg}")
-            }
-        }
+        e => super::errors::naming_input(&cfg.input, e),
     })?;
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
@@ -585,15 +576,7 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
     };
     let result = pipeline::clean_two_tone(&cfg);
     bar.finish();
-    let tt = result.map_err(|e| {
-        let input = cfg.input.display().to_string();
-        let msg = super::errors::core(&e);
-        if msg.contains(&input) {
-            anyhow::anyhow!(msg)
-        } else {
-            anyhow::anyhow!("{input}: {msg}")
-        }
-    })?;
+    let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
     println!(
