@@ -214,14 +214,9 @@ impl Bridged {
             }
         }
         let (w, h) = (self.bits.width as usize, self.bits.height as usize);
-        // Breadth first from `queue`, through added pixels only or through all; with `strays`,
-        // stops once that many added pixels not yet owned have been reached (the ones counted:
-        // the owners of the others do not matter), which on a photo is long before the wave has
-        // crossed the whole picture.
         let spread = |owner: &mut [u32],
                       queue: &mut std::collections::VecDeque<usize>,
-                      through_all: bool,
-                      mut strays: usize| {
+                      through_all: bool| {
             while let Some(i) = queue.pop_front() {
                 let (x, y) = (i % w, i / w);
                 let next = [
@@ -234,21 +229,15 @@ impl Bridged {
                     if owner[j] == UNOWNED && (through_all || added(j)) {
                         owner[j] = owner[i];
                         queue.push_back(j);
-                        if through_all && added(j) {
-                            strays -= 1;
-                            if strays == 0 {
-                                return;
-                            }
-                        }
                     }
                 }
             }
         };
-        spread(&mut owner, &mut queue, false, 0);
-        let strays = (0..n).filter(|&i| added(i) && owner[i] == UNOWNED).count();
-        if strays > 0 && !self.drawn.is_empty() {
+        spread(&mut owner, &mut queue, false);
+        let stray = (0..n).any(|i| added(i) && owner[i] == UNOWNED);
+        if stray && !self.drawn.is_empty() {
             queue.extend((0..n).filter(|&i| owner[i] != UNOWNED));
-            spread(&mut owner, &mut queue, true, strays);
+            spread(&mut owner, &mut queue, true);
         }
         for b in &mut self.bridges {
             b.pixels = 0;
