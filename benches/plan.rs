@@ -3,13 +3,13 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_core::vector::CutGeometry;
 use stencil_gcode::interpret::interpret;
 use stencil_gcode::machine;
+use stencil_gcode::CutLoops;
 use stencil_gcode::{estimate, gcode_for, CutSettings, PlanConfig};
 
 /// `n × n` circles of 32 vertices on a 10 mm grid, in a scrambled order.
-fn grid(n: usize) -> CutGeometry {
+fn grid(n: usize) -> CutLoops {
     let mut cuts = Vec::new();
     for k in 0..n * n {
         let idx = (k * 7919) % (n * n);
@@ -24,7 +24,7 @@ fn grid(n: usize) -> CutGeometry {
     }
     let (w, h) = (10.0 * n as f64, 10.0 * n as f64);
     let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
-    CutGeometry::from_cuts(w, h, outline, MultiPolygon(cuts))
+    CutLoops::drawn(outline, MultiPolygon(cuts))
 }
 
 fn bench(c: &mut Criterion) {
@@ -37,12 +37,12 @@ fn bench(c: &mut Criterion) {
         air_assist: false,
     });
     for n in [10, 30] {
-        let g = grid(n).loops();
+        let g = grid(n);
         c.bench_function(&format!("plan+write {} loops", n * n), |b| {
             b.iter(|| gcode_for(&g, &m, &cfg, &[]).unwrap())
         });
     }
-    let (text, _) = gcode_for(&grid(30).loops(), &m, &cfg, &[]).unwrap();
+    let (text, _) = gcode_for(&grid(30), &m, &cfg, &[]).unwrap();
     let moves = interpret(&text).unwrap();
     c.bench_function(&format!("estimate {} moves", moves.len()), |b| {
         b.iter(|| estimate(&moves, &m.motion))

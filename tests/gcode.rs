@@ -5,11 +5,11 @@ use std::path::Path;
 use std::process::Command;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_core::vector::CutGeometry;
 use stencil_gcode::estimate::estimate;
 use stencil_gcode::interpret::interpret;
 use stencil_gcode::machine::Motion;
 use stencil_gcode::machine::{self, Machine, PenLift, Tool};
+use stencil_gcode::CutLoops;
 use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
 
 // ---- inputs -----------------------------------------------------------------------------------
@@ -31,9 +31,9 @@ fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Polygon<f64> {
     )
 }
 
-fn sheet(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutGeometry {
+fn sheet(w: f64, h: f64, cuts: Vec<Polygon<f64>>) -> CutLoops {
     let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: w, y: h });
-    CutGeometry::from_cuts(w, h, outline, MultiPolygon(cuts))
+    CutLoops::drawn(outline, MultiPolygon(cuts))
 }
 
 /// A deterministic pseudo-random stream (no test depends on luck or on the clock).
@@ -50,7 +50,7 @@ impl Lcg {
 
 /// Circles and squares on a jittered grid, listed in a shuffled order (like regions coming out of
 /// a contour tracer in no useful order).
-fn scattered(seed: u64, cols: usize, rows: usize) -> CutGeometry {
+fn scattered(seed: u64, cols: usize, rows: usize) -> CutLoops {
     let mut r = Lcg(seed);
     let cell = 25.0;
     let mut cuts = Vec::new();
@@ -284,8 +284,8 @@ fn check_program(text: &str, machine: &Machine) -> Run {
     r
 }
 
-fn make(geom: &CutGeometry, machine: &Machine, cfg: &PlanConfig) -> (String, GcodeSummary) {
-    gcode_for(&geom.loops(), machine, cfg, &["test".into()]).unwrap()
+fn make(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> (String, GcodeSummary) {
+    gcode_for(geom, machine, cfg, &["test".into()]).unwrap()
 }
 
 // ---- tests ------------------------------------------------------------------------------------
@@ -325,8 +325,8 @@ fn every_shipped_machine_gets_a_valid_program() {
         // The shipped origin corner decides the default anchor; place that corner at 5,5.
         let (text, _) = make(&g, &m, &cfg);
         let r = check_program(&text, &m);
-        let perim: f64 =
-            g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (g.width_mm + g.height_mm);
+        let perim: f64 = g.cuts.0.iter().map(perimeter).sum::<f64>()
+            + 2.0 * (g.outline.width() + g.outline.height());
         let overcut = match m.tool {
             Tool::Knife { overcut_mm, .. } => overcut_mm * (g.cuts.0.len() + 1) as f64,
             _ => 0.0,
@@ -355,9 +355,7 @@ fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
     let mut cfg = PlanConfig::new(s);
     cfg.cut_outline = true;
     // The outline at X0/Y0 would need the axis at -0.5 mm: refused, not clipped by soft limits.
-    let e = gcode_for(&g.loops(), &m, &cfg, &[])
-        .unwrap_err()
-        .to_string();
+    let e = gcode_for(&g, &m, &cfg, &[]).unwrap_err().to_string();
     assert!(
         e.contains("X -0.5") && e.contains("move it on the bed"),
         "{e}"
@@ -372,7 +370,8 @@ fn drag_knife_compensation_stays_on_the_bed_and_adds_the_swivels() {
         Tool::Knife { overcut_mm, .. } => (overcut_mm, 0.5),
         _ => unreachable!(),
     };
-    let perim: f64 = g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (g.width_mm + g.height_mm);
+    let perim: f64 = g.cuts.0.iter().map(perimeter).sum::<f64>()
+        + 2.0 * (g.outline.width() + g.outline.height());
     let want = perim + loops as f64 * (blade * std::f64::consts::TAU + overcut);
     assert!(
         (r.cut_mm - want).abs() / want < 0.01,
@@ -528,7 +527,7 @@ fn square_time_matches_a_hand_calculation() {
 fn a_job_larger_than_the_bed_is_refused() {
     let m = machine::load(None).unwrap();
     let g = sheet(420.0, 300.0, vec![rect(10.0, 10.0, 50.0, 50.0)]);
-    let e = gcode_for(&g.loops(), &m, &PlanConfig::new(settings()), &[])
+    let e = gcode_for(&g, &m, &PlanConfig::new(settings()), &[])
         .unwrap_err()
         .to_string();
     assert!(
@@ -905,13 +904,13 @@ mod prop {
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
             let cfg = PlanConfig { anchor, offset, cut_outline: outline, settings: s };
-            match gcode_for(&g.loops(), &m, &cfg, &[]) {
+            match gcode_for(&g, &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);
                     let mut perim: f64 = g.cuts.0.iter().map(perimeter).sum();
                     let mut loops = g.cuts.0.len();
                     if outline {
-                        perim += 2.0 * (g.width_mm + g.height_mm);
+                        perim += 2.0 * (g.outline.width() + g.outline.height());
                         loops += 1;
                     }
                     let overcut = match m.tool {
@@ -925,8 +924,8 @@ mod prop {
                     // The sheet at that placement really sticks out of the bed.
                     let (bw, bh) = (m.bed.width_mm, m.bed.height_mm);
                     prop_assert!(x0 < 0.0 || y0 < 0.0 || x1 > bw || y1 > bh);
-                    prop_assert!((x1 - x0 - g.width_mm).abs() < 1e-6);
-                    prop_assert!((y1 - y0 - g.height_mm).abs() < 1e-6);
+                    prop_assert!((x1 - x0 - g.outline.width()).abs() < 1e-6);
+                    prop_assert!((y1 - y0 - g.outline.height()).abs() < 1e-6);
                 }
                 Err(e) => prop_assert!(false, "unexpected error: {e}"),
             }

@@ -11,8 +11,8 @@ use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 mod common;
 use common::faulty;
-use stencil_core::vector::CutGeometry;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
+use stencil_gcode::CutLoops;
 use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
 
 fn cfg() -> StreamConfig {
@@ -39,7 +39,7 @@ fn planned(machine: &Machine) -> String {
         rect(10.0, 60.0, 30.0, 80.0),
     ];
     let outline = Rect::new(Coord { x: 0.0, y: 0.0 }, Coord { x: 120.0, y: 90.0 });
-    let geom = CutGeometry::from_cuts(120.0, 90.0, outline, MultiPolygon(cuts));
+    let geom = CutLoops::drawn(outline, MultiPolygon(cuts));
     let settings = CutSettings {
         power_pct: 100.0,
         speed_mm_min: 1200.0,
@@ -51,7 +51,7 @@ fn planned(machine: &Machine) -> String {
         },
         air_assist: false,
     };
-    gcode_for(&geom.loops(), machine, &PlanConfig::new(settings), &[])
+    gcode_for(&geom, machine, &PlanConfig::new(settings), &[])
         .unwrap()
         .0
 }

@@ -203,27 +203,6 @@ impl CutGeometry {
         union::sheet_of(&self.material)
     }
 
-    /// A sheet known only by its cut regions (as an SVG gives it): no material and no bridges;
-    /// the tool paths are the design line until [`CutGeometry::apply_kerf`].
-    pub fn from_cuts(
-        width_mm: f64,
-        height_mm: f64,
-        outline: Rect<f64>,
-        cuts: MultiPolygon<f64>,
-    ) -> Self {
-        CutGeometry {
-            width_mm,
-            height_mm,
-            outline,
-            design_cuts: cuts.clone(),
-            cuts,
-            material: MultiPolygon::new(Vec::new()),
-            bridges: Vec::new(),
-            unbridged_cuts: MultiPolygon::new(Vec::new()),
-            kerf_mm: 0.0,
-        }
-    }
-
     /// Record the cut regions of `unbridged`, the bit grid before bridging (the same size and
     /// scale), as [`CutGeometry::unbridged_cuts`]. Why a second trace: after bridging the cuts
     /// around an island are arcs with nothing to say they belong together; before it, the island
