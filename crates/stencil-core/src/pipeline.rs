@@ -749,10 +749,10 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         }
     };
     confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
-    timer.time("recount", || bridged.recount(&twotone.bits));
+    let apart = timer.time("recount", || bridged.recount(&twotone.bits));
     // Measured on the stencil as it will be written (after the repairs).
     let fidelity = timer.time("fidelity", || {
-        Fidelity::measure(&picture, &twotone.bits, &bridged.bits)
+        Fidelity::measure(&picture, &twotone.bits, &bridged.bits).with_apart_from_bridges(apart)
     });
     if let Some(limit_pct) = phys.max_change_pct {
         if fidelity.changed_pct > limit_pct {

@@ -77,9 +77,17 @@ pub struct Fidelity {
     /// Cut of the thresholded picture that the clean-up filled with material.
     pub cleanup_added_px: usize,
     pub cleanup_added_pct: f64,
-    /// Material the bridges added (cut in the two-tone, material in the stencil).
+    /// Material added after the two-tone (cut in the two-tone, material in the stencil): the
+    /// bridges, and the clean-up around them and after them.
     pub bridges_px: usize,
     pub bridges_pct: f64,
+    /// Of `bridges_px`, what the clean-up after bridging added apart from every bridge (a neck
+    /// widened, a pocket filled, joined to no bridge through added material); the rest is the
+    /// sum of the bridges' `pixels`. Absent (0) in reports written before it was counted.
+    #[serde(default)]
+    pub apart_from_bridges_px: usize,
+    #[serde(default)]
+    pub apart_from_bridges_pct: f64,
     /// Pixels where the stencil differs from the thresholded picture, whatever changed them.
     pub changed_px: usize,
     pub changed_pct: f64,
@@ -101,13 +109,7 @@ impl Fidelity {
             changed += (p != s) as usize;
         }
         let pixels = picture.len();
-        let pct = |n: usize| {
-            if pixels == 0 {
-                0.0
-            } else {
-                100.0 * n as f64 / pixels as f64
-            }
-        };
+        let pct = |n: usize| share_pct(n, pixels);
         Fidelity {
             pixels,
             cleanup_removed_px: removed,
@@ -116,9 +118,30 @@ impl Fidelity {
             cleanup_added_pct: pct(added),
             bridges_px: bridges,
             bridges_pct: pct(bridges),
+            apart_from_bridges_px: 0,
+            apart_from_bridges_pct: 0.0,
             changed_px: changed,
             changed_pct: pct(changed),
         }
+    }
+
+    /// Set how much of `bridges_px` no bridge holds (what [`crate::bridge::Bridged::recount`]
+    /// returns): the grids alone cannot tell it.
+    pub fn with_apart_from_bridges(self, px: usize) -> Fidelity {
+        Fidelity {
+            apart_from_bridges_px: px,
+            apart_from_bridges_pct: share_pct(px, self.pixels),
+            ..self
+        }
+    }
+}
+
+/// `n` of `pixels` in percent (0 for an empty picture).
+fn share_pct(n: usize, pixels: usize) -> f64 {
+    if pixels == 0 {
+        0.0
+    } else {
+        100.0 * n as f64 / pixels as f64
     }
 }
 

@@ -191,16 +191,21 @@ const UNOWNED: u32 = u32::MAX;
 
 impl Bridged {
     /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
-    /// grid the bridges were drawn into. Why: the clean-up after bridging (the tidy pass, the
-    /// settle, the neck repairs) adds and removes material around the bridges, so the counts taken
-    /// when they were drawn no longer describe the stencil written.
+    /// grid the bridges were drawn into, and return the added material that belongs to no
+    /// bridge. Why: the clean-up after bridging (the tidy pass, the settle, the neck repairs) adds
+    /// and removes material around the bridges, so the counts taken when they were drawn no
+    /// longer describe the stencil written.
     ///
-    /// Every pixel that is material now and was cut in `before` counts for one bridge: the bridge
-    /// that drew it if it still stands; else the bridge it joins through such pixels (4-connected,
-    /// nearest first); else, for added material apart from every bridge (a widened neck), the
-    /// nearest bridge. The counts therefore add up to all the material added, whenever there is a
-    /// bridge. O(added pixels), plus O(pixels) only when some added material touches no bridge.
-    pub fn recount(&mut self, before: &BitGrid) {
+    /// A pixel that is material now and was cut in `before` counts for the bridge that drew it if
+    /// it still stands there, else for the bridge it joins through such pixels (4-connected,
+    /// fewest steps first). Added material that touches no bridge that way (a neck widened in
+    /// the picture's own material, a pocket filled far from any bridge) is not a bridge's: it is
+    /// the number returned, so that the bridges' counts and it add up to all the material added.
+    /// O(added pixels) plus one pass over the picture. (Earlier, such material went to the
+    /// nearest bridge through a breadth-first search over the whole picture: 14-22 ms on a
+    /// 1.2-megapixel photo, whose thousands of such pixels lay mostly hundreds of pixels from
+    /// any bridge, so "nearest" said nothing.)
+    pub fn recount(&mut self, before: &BitGrid) -> usize {
         let n = self.bits.data.len();
         let added = |i: usize| self.bits.data[i] && !before.data[i];
         let mut owner = vec![UNOWNED; n];
@@ -214,39 +219,32 @@ impl Bridged {
             }
         }
         let (w, h) = (self.bits.width as usize, self.bits.height as usize);
-        let spread = |owner: &mut [u32],
-                      queue: &mut std::collections::VecDeque<usize>,
-                      through_all: bool| {
-            while let Some(i) = queue.pop_front() {
-                let (x, y) = (i % w, i / w);
-                let next = [
-                    (x > 0).then(|| i - 1),
-                    (x + 1 < w).then(|| i + 1),
-                    (y > 0).then(|| i - w),
-                    (y + 1 < h).then(|| i + w),
-                ];
-                for j in next.into_iter().flatten() {
-                    if owner[j] == UNOWNED && (through_all || added(j)) {
-                        owner[j] = owner[i];
-                        queue.push_back(j);
-                    }
+        while let Some(i) = queue.pop_front() {
+            let (x, y) = (i % w, i / w);
+            let next = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in next.into_iter().flatten() {
+                if owner[j] == UNOWNED && added(j) {
+                    owner[j] = owner[i];
+                    queue.push_back(j);
                 }
             }
-        };
-        spread(&mut owner, &mut queue, false);
-        let stray = (0..n).any(|i| added(i) && owner[i] == UNOWNED);
-        if stray && !self.drawn.is_empty() {
-            queue.extend((0..n).filter(|&i| owner[i] != UNOWNED));
-            spread(&mut owner, &mut queue, true);
         }
         for b in &mut self.bridges {
             b.pixels = 0;
         }
+        let mut apart = 0;
         for i in (0..n).filter(|&i| added(i)) {
-            if let Some(b) = self.bridges.get_mut(owner[i] as usize) {
-                b.pixels += 1;
+            match self.bridges.get_mut(owner[i] as usize) {
+                Some(b) => b.pixels += 1,
+                None => apart += 1,
             }
         }
+        apart
     }
 }
 
