@@ -14,6 +14,7 @@ mod alloc;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use stencil_core::bridge::{connect, connect_timed, BridgeConfig};
 use stencil_core::islands::label;
+use stencil_core::pipeline::Timings;
 use stencil_core::raster::{BitGrid, Gray, TwoTone};
 
 struct Lcg(u64);
@@ -94,7 +95,8 @@ fn bench(c: &mut Criterion) {
         for &n in &[100usize, 1000] {
             let two = picture(w, h, n, 7);
             let map = label(&two.bits);
-            let (out, times) = connect_timed(&two, &map, &cfg).expect("bridging succeeds");
+            let mut times = Timings::default();
+            let out = connect_timed(&two, &map, &cfg, &mut times).expect("bridging succeeds");
             let perimeter: usize = map.nodes[1..].iter().map(|n| n.border.len()).sum();
             println!(
                 "{w}x{h}: {} islands, perimeter {perimeter} px, {} bridges ({} support); phases ms: {}",

@@ -6,6 +6,7 @@
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use stencil_core::pipeline::Timings;
 use stencil_core::tone::mesh::{self, LineMode, Mesh, MeshConfig, RenderSize};
 use stencil_core::tone::Threshold;
 
@@ -34,28 +35,26 @@ fn bench(c: &mut Criterion) {
     // One run's breakdown, averaged over a few runs.
     let runs = 10;
     let mut load_ms = 0.0;
-    let mut t = mesh::Timings::default();
+    let mut t = Timings::default();
     for _ in 0..runs {
         let clock = Instant::now();
         let loaded = mesh::load(&path).unwrap();
         load_ms += clock.elapsed().as_secs_f64() * 1e3;
         let r = mesh::render_mesh(&loaded, &cfg).unwrap();
-        t.curvature += r.timings.curvature;
-        t.raster += r.timings.raster;
-        t.shade += r.timings.shade;
-        t.lines += r.timings.lines;
-        t.compose += r.timings.compose;
+        for (step, ms) in r.timings.iter() {
+            t.add(step, ms);
+        }
     }
     let n = runs as f64;
     eprintln!(
         "{} triangles, 1024x1024: load {:.1} ms, curvature {:.1}, raster {:.1}, shade {:.1}, lines {:.1}, compose {:.1}",
         m.triangles.len(),
         load_ms / n,
-        t.curvature / n,
-        t.raster / n,
-        t.shade / n,
-        t.lines / n,
-        t.compose / n
+        t.get("curvature") / n,
+        t.get("raster") / n,
+        t.get("shade") / n,
+        t.get("lines") / n,
+        t.get("compose") / n
     );
 
     let mut g = c.benchmark_group("mesh");

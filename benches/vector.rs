@@ -84,7 +84,7 @@ fn bench(c: &mut Criterion) {
             let s = std::time::Instant::now();
             pipeline::vectorize_and_check(&bits, Some(&bridges), &vcfg, &material, &mut tm)
                 .unwrap();
-            (s.elapsed().as_secs_f64() * 1e3, tm.0["check"])
+            (s.elapsed().as_secs_f64() * 1e3, tm.get("check"))
         })
         .collect();
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -175,12 +175,16 @@ fn grbl_uses_only_the_interpreter_of_the_gcode_crate() {
 fn core_stages_use_only_earlier_layers() {
     let allowed: BTreeMap<&str, &[&str]> = BTreeMap::from([
         ("units", &[][..]),
+        ("timing", &[][..]),
         ("material", &[][..]),
         ("raster", &["units"][..]),
         ("limits", &["units"][..]),
         ("islands", &["raster"][..]),
-        ("tone", &["raster", "limits", "units"][..]),
-        ("bridge", &["raster", "islands", "material", "units"][..]),
+        ("tone", &["raster", "limits", "units", "timing"][..]),
+        (
+            "bridge",
+            &["raster", "islands", "material", "units", "timing"][..],
+        ),
         ("vector", &["raster", "units"][..]),
         (
             "check",

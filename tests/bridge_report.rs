@@ -162,5 +162,8 @@ fn outline_box(polygon: &serde_json::Value, margin: f64) -> [f64; 4] {
 #[test]
 fn bridge_pixels_on_a_photo() {
     let far = bridges_count_the_final_stencil("grace_hopper.jpg", &[]);
-    assert!(far > 0, "the photo's clean-up adds material away from the bridges");
+    assert!(
+        far > 0,
+        "the photo's clean-up adds material away from the bridges"
+    );
 }

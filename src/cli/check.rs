@@ -212,7 +212,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    let mut timer = Timings(Default::default(), Some(bar.clone()));
+    let mut timer = Timings::new(Some(bar.clone()));
     let (_, _, chk) =
         pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)
             .with_context(|| png.display().to_string())?;

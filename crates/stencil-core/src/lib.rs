@@ -27,7 +27,9 @@
 //!   [`units::Size`], [`material::Material`].
 //! - Limits the CLI's option parsers read: the constants and checks in [`limits`], with
 //!   [`limits::SizeError`].
-//! - Progress and timing: [`pipeline::Progress`] (told each stage) and [`pipeline::Timings`].
+//! - Progress and timing: [`pipeline::Progress`] (told each stage) and [`pipeline::Timings`], the
+//!   one timing type of the crate (make's stages, [`bridge::connect_timed`]'s phases, the mesh
+//!   renderer's steps).
 
 #![forbid(unsafe_code)]
 
@@ -40,6 +42,7 @@ pub mod material;
 pub mod pipeline;
 pub mod raster;
 pub mod report;
+mod timing;
 pub mod tone;
 pub mod units;
 pub mod vector;

@@ -4,10 +4,8 @@
 //! Stages are pure functions on plain data; this module times them, gathers the report and hands
 //! the results to `export` at the very end, so a failure anywhere leaves no output behind.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 use crate::bridge::{self, BridgeConfig, Bridged};
 use crate::check::{self, CheckReport};
@@ -116,6 +114,7 @@ pub struct MakeConfig {
     pub progress: Option<Arc<dyn Progress>>,
 }
 
+pub use crate::timing::{Progress, Timings};
 pub use crate::units::Size;
 
 /// Which files `make` writes (report.json always). Default: `png,svg`: the images to look at and
@@ -324,40 +323,6 @@ pub fn is_mesh(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
-}
-
-/// Told the name of each stage of `make` as it starts: the keys of the report's `timings_ms`
-/// ("tone", "filter", "islands", "bridge", ...), then "write" (encoding and writing the files).
-/// The CLI draws a progress bar from it; the library draws nothing.
-pub trait Progress: Send + Sync {
-    fn stage(&self, name: &str);
-}
-
-impl std::fmt::Debug for dyn Progress {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Progress")
-    }
-}
-
-/// Stage timings, in milliseconds, keyed by stage name (a stage that runs more than once, such as
-/// the trace and check after each neck repair, adds up), and who to tell when a stage starts.
-#[derive(Default)]
-pub struct Timings(pub BTreeMap<String, f64>, pub Option<Arc<dyn Progress>>);
-
-impl Timings {
-    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
-        if let Some(p) = &self.1 {
-            p.stage(name);
-        }
-        let t = Instant::now();
-        let r = f();
-        self.add(name, t.elapsed().as_secs_f64() * 1e3);
-        r
-    }
-
-    pub fn add(&mut self, name: &str, ms: f64) {
-        *self.0.entry(name.to_string()).or_default() += ms;
-    }
 }
 
 /// The working resolution: how many times the picture was supersampled, and what a working pixel
@@ -668,13 +633,13 @@ fn clean(cfg: &MakeConfig, timer: &mut Timings) -> Result<Cleaned, Error> {
 /// picture at the working resolution after the clean-up for `cfg`'s material and size. What
 /// `stencil tone` writes, so that it shows exactly what `make` will bridge.
 pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
-    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+    let mut timer = Timings::new(cfg.progress.clone());
     Ok(clean(cfg, &mut timer)?.twotone)
 }
 
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
-    let mut timer = Timings(BTreeMap::new(), cfg.progress.clone());
+    let mut timer = Timings::new(cfg.progress.clone());
     let phys = &cfg.physical;
     let Cleaned {
         picture,
@@ -841,7 +806,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         }),
         floating_after: after.island_count(),
         fidelity: Some(fidelity),
-        timings_ms: timer.0,
+        timings_ms: timer.into_map(),
     };
     Ok(Made {
         picture,

@@ -41,6 +41,7 @@ use rayon::prelude::*;
 
 use crate::islands::{self, IslandMap};
 use crate::raster::{BitGrid, TwoTone};
+use crate::timing::Timings;
 
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
 ///
@@ -349,68 +350,96 @@ fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
 
 /// Join every island to the frame with bridges.
 pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bridged, BridgeError> {
-    connect_timed(two, map, cfg).map(|(b, _)| b)
+    connect_timed(two, map, cfg, &mut Timings::default())
 }
 
-/// Wall-clock milliseconds per phase of [`connect`], in order: `candidates` (contour chains), `walks`, `scores` (normalisation and windows), `tree` (Prim and
-/// fallback searches), `strength` (extra bridges for strength), `grow` (growing, support bridges,
-/// drawing).
-pub type PhaseTimes = Vec<(&'static str, f64)>;
-
-/// [`connect`], also returning where the time went (for the benchmark and diagnostics).
+/// [`connect`], adding the wall-clock time of each of its phases to `times` (for the benchmark
+/// and diagnostics): `candidates` (the walks' fields and the contour chains), `gaps` (shortest-gap directions), `walks`,
+/// `scores` (normalisation and windows), `tree` (Prim and fallback searches), `strength` (extra
+/// bridges for strength and the user's places), `grow` (growing, support bridges, drawing).
 pub fn connect_timed(
     two: &TwoTone,
     map: &IslandMap,
     cfg: &BridgeConfig,
-) -> Result<(Bridged, PhaseTimes), BridgeError> {
+    times: &mut Timings,
+) -> Result<Bridged, BridgeError> {
     cfg.validate()?;
-    let mut times = PhaseTimes::new();
     if map.island_count() == 0 {
-        let bridged = Bridged {
+        return Ok(Bridged {
             bits: two.bits.clone(),
             bridges: Vec::new(),
             strength: Vec::new(),
             requests: Vec::new(),
             drawn: Vec::new(),
-        };
-        return Ok((bridged, times));
+        });
     }
-    let mut clock = std::time::Instant::now();
-    let mut lap = |name: &'static str, times: &mut PhaseTimes| {
-        let now = std::time::Instant::now();
-        times.push((name, (now - clock).as_secs_f64() * 1e3));
-        clock = now;
-    };
-    let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
-    let mut cands = candidates::collect(map);
-    lap("candidates", &mut times);
+    let (fields, mut cands) = times.time("candidates", || {
+        let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
+        (fields, candidates::collect(map))
+    });
     let max_len = cfg.max_length_px as usize;
-    let dirs = if cfg.gaps {
-        let dirs = gaps::directions(&two.bits, map, &cands, max_len);
-        cands.add_twins();
-        dirs
-    } else {
-        Vec::new()
-    };
-    lap("gaps", &mut times);
-    let mut walked = walk_all(&fields, &cands, cfg);
-    // Copies are kept a little farther along the contour than a narrow bridge grows: a wide one
-    // beside a gap strip runs out of copies sooner and is thickened instead (keeping them as far
-    // as the widest bridge grows, 4 × max_width, cost the bench 2 ms and the corpus nothing).
-    let keep = 2 * cfg.min_width_px.max(8) as usize;
-    let (twins, copies) = gaps::walk_twins(&fields, &cands, &dirs, &walked, max_len, keep);
-    walked.extend(twins);
-    lap("walks", &mut times);
-    let mut g = build_graph(cands, walked, &copies, map, cfg);
-    lap("scores", &mut times);
+    let dirs = times.time("gaps", || {
+        if cfg.gaps {
+            let dirs = gaps::directions(&two.bits, map, &cands, max_len);
+            cands.add_twins();
+            dirs
+        } else {
+            Vec::new()
+        }
+    });
+    let (walked, copies) = times.time("walks", || {
+        let mut walked = walk_all(&fields, &cands, cfg);
+        // Copies are kept a little farther along the contour than a narrow bridge grows: a wide
+        // one beside a gap strip runs out of copies sooner and is thickened instead (keeping them
+        // as far as the widest bridge grows, 4 × max_width, cost the bench 2 ms and the corpus
+        // nothing).
+        let keep = 2 * cfg.min_width_px.max(8) as usize;
+        let (twins, copies) = gaps::walk_twins(&fields, &cands, &dirs, &walked, max_len, keep);
+        walked.extend(twins);
+        (walked, copies)
+    });
+    let mut g = times.time("scores", || build_graph(cands, walked, &copies, map, cfg));
+    let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
+    let (tree, extra, strength, requests) = times.time("strength", || {
+        // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
+        let mut tree: Vec<(usize, u32)> =
+            prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+        // The user's places: a bridge each, holding its island like the tree's.
+        let mut requests = Vec::new();
+        for (id, req) in constraints::requested(&g, map, &cfg.user.at) {
+            if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
+                tree.push((id, req.island));
+            }
+            requests.push(req);
+        }
+        let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
+        (tree, extra, strength, requests)
+    });
+    let (bits, bridges, drawn) = times.time("grow", || draw(two, &g, cfg, &tree, &extra));
+    Ok(Bridged {
+        bits,
+        bridges,
+        strength,
+        requests,
+        drawn,
+    })
+}
 
-    // Stage 4: Prim from the frame, with the search as fallback for stranded groups.
+/// Stage 4 of the paper: a minimum spanning tree (Prim, from the frame) over the cheapest
+/// candidate of every pair of nodes; an island group no walk under the length limit left is
+/// joined by the fallback search's path, added to the graph as a candidate of its own.
+fn span(
+    g: &mut Graph,
+    fields: &strips::Fields,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+) -> Result<tree::Prim, BridgeError> {
     let mut prim = tree::Prim::new(map.nodes.len());
     let mut best: HashMap<(u32, u32), usize> = HashMap::new();
     for (&p, ids) in &g.by_pair {
         if let Some(&id) = ids
             .iter()
-            .min_by(|&&a, &&b| total(&g, a).total_cmp(&total(&g, b)))
+            .min_by(|&&a, &&b| total(g, a).total_cmp(&total(g, b)))
         {
             best.insert(p, id);
         }
@@ -421,7 +450,7 @@ pub fn connect_timed(
         prim.add(tree::Edge {
             a,
             b,
-            cost: total(&g, id),
+            cost: total(g, id),
             candidate: id,
         });
     }
@@ -429,53 +458,53 @@ pub fn connect_timed(
     let step = g.norm.step_cost(cfg);
     let mut scratch = strips::SearchScratch::default();
     while let Some(group) = prim.stranded() {
-        let found = strips::search(&fields, map, &group, &step, &mut scratch);
+        let found = strips::search(fields, map, &group, &step, &mut scratch);
         let Some(((sx, sy), strip)) = found else {
-            let island = group.iter().position(|&m| m).unwrap_or(1) as u32;
-            let (x, y) = map.nodes[island as usize]
-                .border
-                .first()
-                .copied()
-                .unwrap_or((0, 0));
-            if cfg.user.keep_out.is_some() {
-                let mm = cfg.strength.mm_per_px;
-                return Err(BridgeError::KeptOut {
-                    island,
-                    x_mm: (x as f64 + 0.5) * mm,
-                    y_mm: (y as f64 + 0.5) * mm,
-                });
-            }
-            return Err(BridgeError::Unreachable { island, x, y });
+            return Err(stranded(&group, map, cfg));
         };
         let (a, b) = (strip.from, strip.to);
-        let id = add_found_strip(&mut g, map, cfg, (sx, sy), strip);
+        let id = add_found_strip(g, map, cfg, (sx, sy), strip);
         prim.add(tree::Edge {
             a,
             b,
-            cost: total(&g, id),
+            cost: total(g, id),
             candidate: id,
         });
         prim.grow();
     }
+    Ok(prim)
+}
 
-    lap("tree", &mut times);
-
-    // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
-    let mut tree: Vec<(usize, u32)> = prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
-    // The user's places: a bridge each, holding its island like the tree's.
-    let mut requests = Vec::new();
-    for (id, req) in constraints::requested(&g, map, &cfg.user.at) {
-        if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
-            tree.push((id, req.island));
-        }
-        requests.push(req);
+/// Why an island `group` no search could leave is stranded: the user's keep-out areas (when
+/// there are any; its position in mm), else a map that does not describe the bits.
+fn stranded(group: &[bool], map: &IslandMap, cfg: &BridgeConfig) -> BridgeError {
+    let island = group.iter().position(|&m| m).unwrap_or(1) as u32;
+    let (x, y) = map.nodes[island as usize]
+        .border
+        .first()
+        .copied()
+        .unwrap_or((0, 0));
+    if cfg.user.keep_out.is_some() {
+        let mm = cfg.strength.mm_per_px;
+        return BridgeError::KeptOut {
+            island,
+            x_mm: (x as f64 + 0.5) * mm,
+            y_mm: (y as f64 + 0.5) * mm,
+        };
     }
-    let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
-    lap("strength", &mut times);
+    BridgeError::Unreachable { island, x, y }
+}
 
-    // Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
-    // them in tree order, the strength bridges last; a pixel two bridges share counts for the
-    // first.
+/// Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
+/// them in tree order, the strength bridges (`extra`) last; a pixel two bridges share counts for
+/// the first. Returns the bridged bits, the bridges and the pixels each turned into material.
+fn draw(
+    two: &TwoTone,
+    g: &Graph,
+    cfg: &BridgeConfig,
+    tree: &[(usize, u32)],
+    extra: &[usize],
+) -> (BitGrid, Vec<Bridge>, Vec<Vec<u32>>) {
     let jobs: Vec<(usize, bool)> = tree
         .iter()
         .map(|&(id, _)| (id, false))
@@ -484,7 +513,7 @@ pub fn connect_timed(
     let planned: Vec<Vec<(Bridge, Vec<u32>)>> = jobs
         .par_iter()
         .map(|&(id, strong)| {
-            let mut out = plan_bridge(two, &g, cfg, id);
+            let mut out = plan_bridge(two, g, cfg, id);
             for (b, _) in &mut out {
                 b.strength = strong;
             }
@@ -505,17 +534,7 @@ pub fn connect_timed(
         bridges.push(bridge);
         drawn.push(turned);
     }
-    lap("grow", &mut times);
-    Ok((
-        Bridged {
-            bits,
-            bridges,
-            strength,
-            requests,
-            drawn,
-        },
-        times,
-    ))
+    (bits, bridges, drawn)
 }
 
 fn total(g: &Graph, id: usize) -> f64 {

@@ -18,12 +18,12 @@ mod shapes;
 pub mod visibility;
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::timing::Timings;
 use crate::tone::{is_light, otsu_level, Threshold};
 
 pub use camera::{Camera, RenderSize};
@@ -247,16 +247,6 @@ pub enum MeshError {
     Setting { flag: &'static str, msg: String },
 }
 
-/// Time spent in each step of [`render_mesh`], in milliseconds.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Timings {
-    pub curvature: f64,
-    pub raster: f64,
-    pub shade: f64,
-    pub lines: f64,
-    pub compose: f64,
-}
-
 /// A rendered view at output resolution, before thresholding.
 #[derive(Clone, Debug)]
 pub struct Rendering {
@@ -270,6 +260,7 @@ pub struct Rendering {
     pub lines: BitGrid,
     /// The camera at output resolution.
     pub camera: Camera,
+    /// Milliseconds per step: `curvature`, `raster`, `shade`, `lines`, `compose`.
     pub timings: Timings,
 }
 
@@ -302,53 +293,44 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
     let k = cfg.supersample;
     let cam = out_cam.scaled(k);
 
-    let clock = Instant::now();
-    let normals = mesh.vertex_normals();
-    let view = (cfg.lines == LineMode::Suggestive).then(|| {
-        let c = curvature::estimate(mesh, &normals);
-        curvature::view_dependent(mesh, &normals, &c, |p| cam.view_dir(p), radius)
+    let (normals, view) = tm.time("curvature", || {
+        let normals = mesh.vertex_normals();
+        let view = (cfg.lines == LineMode::Suggestive).then(|| {
+            let c = curvature::estimate(mesh, &normals);
+            curvature::view_dependent(mesh, &normals, &c, |p| cam.view_dir(p), radius)
+        });
+        (normals, view)
     });
-    tm.curvature = ms(clock);
-
-    let clock = Instant::now();
-    let vb = visibility::rasterize(mesh, &cam, mesh.is_closed());
-    tm.raster = ms(clock);
-
-    let clock = Instant::now();
-    let light = shade::Light {
-        position: cam.from_view_frame(Vec3::from_array(cfg.light)),
-        specular: cfg.specular,
-        shininess: cfg.shininess,
-    };
-    let frags = shade::shade(mesh, &normals, &vb, &cam, &light, view.as_ref());
-    tm.shade = ms(clock);
-
-    let clock = Instant::now();
-    let line_px = cfg.line_px.max(cfg.min_line_px);
-    let params = lines::LineParams {
-        mode: cfg.lines,
-        width_px: if k > 1 {
-            line_px * k as f32 - 1.0
-        } else {
-            line_px
-        },
-        contour_threshold: cfg.contour_threshold,
-        max_ndotv: 20f32.to_radians().cos(),
-        min_run_px: (4.0 * line_px * k as f32).round() as usize,
-        depth_tolerance: 0.02 * radius,
-    };
-    let (line_mask, _) = lines::find(mesh, &cam, &vb, &frags, &params);
-    tm.lines = ms(clock);
-
-    let clock = Instant::now();
-    let r = compose(&frags, &line_mask, &cam, k, out_cam, tm);
-    let mut r = r;
-    r.timings.compose = ms(clock);
+    let vb = tm.time("raster", || {
+        visibility::rasterize(mesh, &cam, mesh.is_closed())
+    });
+    let frags = tm.time("shade", || {
+        let light = shade::Light {
+            position: cam.from_view_frame(Vec3::from_array(cfg.light)),
+            specular: cfg.specular,
+            shininess: cfg.shininess,
+        };
+        shade::shade(mesh, &normals, &vb, &cam, &light, view.as_ref())
+    });
+    let line_mask = tm.time("lines", || {
+        let line_px = cfg.line_px.max(cfg.min_line_px);
+        let params = lines::LineParams {
+            mode: cfg.lines,
+            width_px: if k > 1 {
+                line_px * k as f32 - 1.0
+            } else {
+                line_px
+            },
+            contour_threshold: cfg.contour_threshold,
+            max_ndotv: 20f32.to_radians().cos(),
+            min_run_px: (4.0 * line_px * k as f32).round() as usize,
+            depth_tolerance: 0.02 * radius,
+        };
+        lines::find(mesh, &cam, &vb, &frags, &params).0
+    });
+    let mut r = tm.time("compose", || compose(&frags, &line_mask, &cam, k, out_cam));
+    r.timings = tm;
     Ok(r)
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Average k×k blocks of the working image into the output: gray, model shade, coverage.
@@ -358,7 +340,6 @@ fn compose(
     cam: &Camera,
     k: u32,
     out_cam: Camera,
-    timings: Timings,
 ) -> Rendering {
     let (w, h) = (out_cam.width as usize, out_cam.height as usize);
     let kw = cam.width as usize;
@@ -424,7 +405,7 @@ fn compose(
             data: lines,
         },
         camera: out_cam,
-        timings,
+        timings: Timings::default(),
     }
 }
 
