@@ -641,29 +641,94 @@ pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings::new(cfg.progress.clone());
     let phys = &cfg.physical;
-    let Cleaned {
-        picture,
-        mut twotone,
-        level,
-        working,
-        filter_cfg,
-        filter_stats,
-        reg_stats,
-    } = clean(cfg, &mut timer)?;
-    let scale = working.scale;
-    let bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
-    let mut bridge_cfg = bridge_cfg;
+    let mut cleaned = clean(cfg, &mut timer)?;
+    let scale = cleaned.working.scale;
+    let mut joined = join(cfg, &mut cleaned, &mut timer)?;
+    let vcfg = VectorConfig {
+        scale,
+        kerf_mm: phys.material.kerf_mm,
+        ..phys.vector
+    };
+    let repair = cleaned.reg_stats.is_some();
+    let (mut geometry, vstats, chk) =
+        trace_and_repair(&mut joined.bridged, &vcfg, phys, repair, &mut timer)?;
+    let apart = timer.time("recount", || joined.bridged.recount(&cleaned.twotone.bits));
+    // Measured on the stencil as it will be written (after the repairs).
+    let fidelity = timer.time("fidelity", || {
+        Fidelity::measure(
+            &cleaned.picture,
+            &cleaned.twotone.bits,
+            &joined.bridged.bits,
+        )
+        .with_apart_from_bridges(apart)
+    });
+    refuse(phys, fidelity, &chk)?;
+    let gcode = match &cfg.gcode {
+        Some(g) => Some(gcode(
+            cfg,
+            g,
+            &mut geometry,
+            &joined,
+            &cleaned,
+            &vcfg,
+            &mut timer,
+        )?),
+        None => None,
+    };
+    let (gcode, gcode_summary) = gcode.unzip();
+    let traced = Traced {
+        vcfg: &vcfg,
+        vstats,
+        check: &chk,
+        geometry: &geometry,
+        fidelity,
+    };
+    let report = report(cfg, &cleaned, &joined, traced, gcode_summary, timer);
+    Ok(Made {
+        picture: cleaned.picture,
+        twotone: cleaned.twotone,
+        filter: cleaned.filter_stats,
+        bridged: joined.bridged,
+        scale,
+        geometry,
+        check: chk,
+        report,
+        gcode,
+    })
+}
+
+/// The islands of the cleaned two-tone joined to the frame, and what went into it.
+struct Joined {
+    /// The bridge options in pixels for this material and scale, the user's places included.
+    bridge_cfg: BridgeConfig,
+    /// What the user's `--bridge-at` / keep-out requests became, when there were any.
+    user: Option<crate::report::UserBridgesReport>,
+    /// The islands before bridging.
+    map: islands::IslandMap,
+    bridged: Bridged,
+}
+
+/// Stage 2 and 3: label the islands, bridge them (with the user's places and keep-out areas),
+/// then the clean-up around the bridges (the settle and the sealed-pocket fill after the
+/// regularisation, else the tidy pass); material the clean-up put in a keep-out area goes again.
+/// Refused if anything floats afterwards (a bug, said as such, rather than a stencil in pieces).
+fn join(cfg: &MakeConfig, cleaned: &mut Cleaned, timer: &mut Timings) -> Result<Joined, Error> {
+    let phys = &cfg.physical;
+    let scale = cleaned.working.scale;
+    let twotone = &mut cleaned.twotone;
+    let mut bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
     let user = timer.time("user_bridges", || {
-        user_bridges(&mut twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
+        user_bridges(twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
     })?;
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &bridge_cfg))?;
+    let mut bridged = timer.time("bridge", || bridge::connect(twotone, &map, &bridge_cfg))?;
     timer.time("tidy", || {
-        if reg_stats.is_some() {
+        if cleaned.reg_stats.is_some() {
             settle_all(&mut bridged.bits, phys.feature_px(scale));
             fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
         } else {
-            bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, filter_cfg.radius);
+            bridged.bits =
+                bridge::tidy::tidy(&twotone.bits, &bridged.bits, cleaned.filter_cfg.radius);
         }
     });
     // The clean-up may round a bridge's corners into a keep-out area: what it added there goes.
@@ -685,40 +750,48 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             area: node.area,
         });
     }
-    let vcfg = VectorConfig {
-        scale,
-        kerf_mm: phys.material.kerf_mm,
-        ..phys.vector
-    };
+    Ok(Joined {
+        bridge_cfg,
+        user,
+        map,
+        bridged,
+    })
+}
+
+/// Stage 4 and the material check. The raster rule holds exactly; the traced and simplified
+/// outline may still measure a neck up to about a pixel narrower (a diagonal staircase,
+/// simplification within the tolerance). After the regularisation (`repair`), such necks are
+/// widened where the check found them and the stencil traced again, up to [`REPAIR_ROUNDS`]
+/// times; then the check's findings are confirmed on the raster.
+fn trace_and_repair(
+    bridged: &mut Bridged,
+    vcfg: &VectorConfig,
+    phys: &PhysicalConfig,
+    repair: bool,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
     let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
-    // The raster rule holds exactly; the traced and simplified outline may still measure a neck
-    // up to about a pixel narrower (a diagonal staircase, simplification within the tolerance).
-    // Such necks are widened where the check found them and the stencil traced again.
     let mut repairs = 0;
-    let (mut geometry, vstats, mut chk) = loop {
-        let measured = vectorize_and_measure(
-            &bridged.bits,
-            Some(&polys),
-            &vcfg,
-            &phys.material,
-            &mut timer,
-        )?;
-        if reg_stats.is_none() || measured.2.passed() || repairs == REPAIR_ROUNDS {
+    let (geometry, vstats, mut chk) = loop {
+        let measured =
+            vectorize_and_measure(&bridged.bits, Some(&polys), vcfg, &phys.material, timer)?;
+        if !repair || measured.2.passed() || repairs == REPAIR_ROUNDS {
             break measured;
         }
         repairs += 1;
         if !timer.time("repair", || {
-            widen_necks(&mut bridged.bits, &measured.2, phys, scale, repairs)
+            widen_necks(&mut bridged.bits, &measured.2, phys, vcfg.scale, repairs)
         }) {
             break measured;
         }
     };
-    confirm(&mut chk, &bridged.bits, &vcfg, &mut timer);
-    let apart = timer.time("recount", || bridged.recount(&twotone.bits));
-    // Measured on the stencil as it will be written (after the repairs).
-    let fidelity = timer.time("fidelity", || {
-        Fidelity::measure(&picture, &twotone.bits, &bridged.bits).with_apart_from_bridges(apart)
-    });
+    confirm(&mut chk, &bridged.bits, vcfg, timer);
+    Ok((geometry, vstats, chk))
+}
+
+/// Refuse a stencil that strays from the picture more than `--max-change` allows, or that the
+/// material cannot hold (unless thin features are allowed).
+fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> Result<(), Error> {
     if let Some(limit_pct) = phys.max_change_pct {
         if fidelity.changed_pct > limit_pct {
             return Err(Error::TooMuchChange {
@@ -733,51 +806,81 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             violations: chk.violations.clone(),
         });
     }
-    let gcode = match &cfg.gcode {
-        Some(g) => {
-            let notes = [
-                format!("from {}", cfg.input.display()),
-                format!("material {}", phys.material.name),
-            ];
-            if map.island_count() > 0 {
-                timer.time("pieces", || geometry.set_unbridged(&twotone.bits, &vcfg))?;
-            }
-            timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
-            let (text, summary) = timer.time("gcode", || {
-                stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
-            })?;
-            Some((text, summary))
-        }
-        None => None,
-    };
-    let (gcode, gcode_summary) = match gcode {
-        Some((t, s)) => (Some(t), Some(s)),
-        None => (None, None),
-    };
-    let report = Report {
-        gcode: gcode_summary,
+    Ok(())
+}
+
+/// The G-code and its summary: the pieces that stay unbridged cut out whole (when there were
+/// islands), the kerf applied, then the G-code crate's planner and writer on the cut loops.
+fn gcode(
+    cfg: &MakeConfig,
+    g: &stencil_gcode::GcodeConfig,
+    geometry: &mut CutGeometry,
+    joined: &Joined,
+    cleaned: &Cleaned,
+    vcfg: &VectorConfig,
+    timer: &mut Timings,
+) -> Result<(String, stencil_gcode::GcodeSummary), Error> {
+    let phys = &cfg.physical;
+    let notes = [
+        format!("from {}", cfg.input.display()),
+        format!("material {}", phys.material.name),
+    ];
+    if joined.map.island_count() > 0 {
+        timer.time("pieces", || {
+            geometry.set_unbridged(&cleaned.twotone.bits, vcfg)
+        })?;
+    }
+    timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
+    Ok(timer.time("gcode", || {
+        stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
+    })?)
+}
+
+/// What the vector stage and the check made, for the report.
+struct Traced<'a> {
+    vcfg: &'a VectorConfig,
+    vstats: vector::VectorStats,
+    check: &'a CheckReport,
+    geometry: &'a CutGeometry,
+    fidelity: Fidelity,
+}
+
+/// report.json's contents (the files written are added by [`make`]).
+fn report(
+    cfg: &MakeConfig,
+    cleaned: &Cleaned,
+    joined: &Joined,
+    traced: Traced,
+    gcode: Option<stencil_gcode::GcodeSummary>,
+    timer: Timings,
+) -> Report {
+    let phys = &cfg.physical;
+    let (scale, working) = (cleaned.working.scale, &cleaned.working);
+    let (bridged, bridge_cfg) = (&joined.bridged, &joined.bridge_cfg);
+    Report {
+        gcode,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         mm_per_px: Some(scale.mm_per_px),
         scale_factor: Some(working.factor),
         scale_auto: working.auto,
-        width_mm: Some(geometry.width_mm),
-        height_mm: Some(geometry.height_mm),
-        margin_mm: Some(vcfg.margin_mm),
-        tolerance_mm: Some(vcfg.tolerance_mm),
+        width_mm: Some(traced.geometry.width_mm),
+        height_mm: Some(traced.geometry.height_mm),
+        margin_mm: Some(traced.vcfg.margin_mm),
+        tolerance_mm: Some(traced.vcfg.tolerance_mm),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
-        filter_radius_px: Some(filter_cfg.radius),
-        vector: Some(vstats),
-        check: Some(chk.clone()),
+        filter_radius_px: Some(cleaned.filter_cfg.radius),
+        vector: Some(traced.vstats),
+        check: Some(traced.check.clone()),
         files: Vec::new(),
         input: cfg.input.display().to_string(),
-        width_px: twotone.bits.width,
-        height_px: twotone.bits.height,
-        threshold_level: level,
-        filter: filter_stats,
-        regularize: reg_stats,
-        islands: map.island_count(),
+        width_px: cleaned.twotone.bits.width,
+        height_px: cleaned.twotone.bits.height,
+        threshold_level: cleaned.level,
+        filter: cleaned.filter_stats,
+        regularize: cleaned.reg_stats,
+        islands: joined.map.island_count(),
         bridges: bridged
             .bridges
             .iter()
@@ -790,7 +893,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             bridged.strength.clone(),
             &bridge_cfg.strength,
         )),
-        user_bridges: user.map(|mut u| {
+        user_bridges: joined.user.clone().map(|mut u| {
             let mm = scale.mm_per_px;
             u.bridge_at = bridged
                 .requests
@@ -804,21 +907,11 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
                 .collect();
             u
         }),
-        floating_after: after.island_count(),
-        fidelity: Some(fidelity),
+        // `join` refuses a stencil with anything floating.
+        floating_after: 0,
+        fidelity: Some(traced.fidelity),
         timings_ms: timer.into_map(),
-    };
-    Ok(Made {
-        picture,
-        twotone,
-        filter: filter_stats,
-        bridged,
-        scale,
-        geometry,
-        check: chk,
-        report,
-        gcode,
-    })
+    }
 }
 
 /// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
