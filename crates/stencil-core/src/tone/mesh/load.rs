@@ -456,49 +456,8 @@ const KNOWN: &[&str] = &[
 /// at elements that do not exist, unknown statements (a binary file renamed .obj). Text quoted
 /// back is cut short ([`excerpt`]).
 fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
-    let mut counts = Counts::default();
-    let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
-    // Vertices with a colour and without: tobj reads a colour per vertex only when every vertex
-    // has one (the first line of each kind, for the message).
-    let (mut coloured, mut plain) = (None::<usize>, None::<usize>);
-    // Positive indices may point forward: tobj resolves them when an object or group ends (an
-    // `o` or `g` after faces) and at the end of the file, so they are checked then.
-    let mut forward: Vec<(usize, usize, char)> = Vec::new();
-    let mut faces_pending = false;
+    let mut scan = Prescan::new(path);
     let mut args: Vec<&str> = Vec::with_capacity(8);
-    let malformed = |line: usize, msg: String| MeshError::Malformed {
-        path: path.to_path_buf(),
-        line,
-        msg,
-    };
-    let resolve = |forward: &mut Vec<(usize, usize, char)>, nv, nt, nn| {
-        for &(line, idx, kind) in forward.iter() {
-            let count = match kind {
-                'v' => nv,
-                't' => nt,
-                _ => nn,
-            };
-            if idx > count {
-                return Err(bad_index(path, line, idx as i64, count, kind));
-            }
-        }
-        forward.clear();
-        Ok(())
-    };
-    // A coordinate as tobj reads it (f32): a number, finite.
-    let coordinate = |line: usize, what: &str, tok: &str| -> Result<f32, MeshError> {
-        let x: f64 = tok
-            .parse()
-            .map_err(|_| malformed(line, format!("{what} '{}' is not a number", excerpt(tok))))?;
-        if !x.is_finite() || x.abs() > f32::MAX as f64 {
-            return Err(MeshError::NonFinite {
-                path: path.to_path_buf(),
-                line,
-                token: excerpt(tok),
-            });
-        }
-        Ok(x as f32)
-    };
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let content = raw.split('#').next().unwrap_or("").trim();
@@ -511,154 +470,21 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
         args.clear();
         args.extend(words);
         match kw {
-            "v" => {
-                if args.len() < 3 {
-                    return Err(malformed(
-                        line,
-                        format!(
-                            "'v' needs 3 numbers (x y z), found {}: \"{}\"",
-                            args.len(),
-                            excerpt(content)
-                        ),
-                    ));
-                }
-                if !matches!(args.len(), 3 | 4 | 6) {
-                    return Err(malformed(
-                        line,
-                        format!(
-                            "a vertex ('v') with {} numbers: give x y z, x y z w or x y z r g b",
-                            args.len()
-                        ),
-                    ));
-                }
-                let mut p = [0f32; 3];
-                for (k, tok) in args.iter().take(3).enumerate() {
-                    p[k] = coordinate(line, "vertex coordinate", tok)?;
-                }
-                if args.len() == 4 {
-                    // tobj divides x, y and z by w.
-                    let w = coordinate(line, "vertex weight w", args[3])?;
-                    if w == 0.0 || p.iter().any(|c| !(c / w).is_finite()) {
-                        return Err(malformed(
-                            line,
-                            format!(
-                                "vertex weight w = {} divides the coordinates to nothing or to \
-                                 infinity",
-                                excerpt(args[3])
-                            ),
-                        ));
-                    }
-                }
-                let kind = if args.len() == 6 {
-                    &mut coloured
-                } else {
-                    &mut plain
-                };
-                kind.get_or_insert(line);
-                nv += 1;
-            }
-            "vn" | "vt" => {
-                // tobj reads three numbers of a normal and two of a texture coordinate.
-                let (need, what) = if kw == "vn" {
-                    (3, "normal")
-                } else {
-                    (2, "texture coordinate")
-                };
-                if args.len() < need {
-                    return Err(malformed(
-                        line,
-                        format!(
-                            "'{kw}' needs {need} numbers, found {}: \"{}\"",
-                            args.len(),
-                            excerpt(content)
-                        ),
-                    ));
-                }
-                for tok in args.iter().take(need) {
-                    coordinate(line, what, tok)?;
-                }
-                if kw == "vn" {
-                    nn += 1;
-                } else {
-                    nt += 1;
-                }
-            }
-            "f" | "l" => {
-                let min = if kw == "f" { 3 } else { 2 };
-                if args.len() < min {
-                    return Err(malformed(
-                        line,
-                        format!(
-                            "a {} needs at least {min} corners, found {}",
-                            if kw == "f" { "face" } else { "line" },
-                            args.len()
-                        ),
-                    ));
-                }
-                for corner in &args {
-                    for (k, part) in corner.split('/').enumerate() {
-                        if k > 2 || (part.is_empty() && k == 0) {
-                            return Err(malformed(
-                                line,
-                                format!(
-                                    "face corner '{}' is not v, v/vt, v//vn or v/vt/vn",
-                                    excerpt(corner)
-                                ),
-                            ));
-                        }
-                        if part.is_empty() {
-                            continue;
-                        }
-                        let (count, kind) = match k {
-                            0 => (nv, 'v'),
-                            1 => (nt, 't'),
-                            _ => (nn, 'n'),
-                        };
-                        let idx: i64 = part.parse().map_err(|_| {
-                            malformed(
-                                line,
-                                format!(
-                                    "face index '{}' in '{}' is not an integer",
-                                    excerpt(part),
-                                    excerpt(corner)
-                                ),
-                            )
-                        })?;
-                        if idx == 0 {
-                            return Err(malformed(
-                                line,
-                                format!(
-                                    "face index 0 in '{}': OBJ indices start at 1",
-                                    excerpt(corner)
-                                ),
-                            ));
-                        }
-                        if idx < 0 {
-                            if idx.unsigned_abs() as usize > count {
-                                return Err(bad_index(path, line, idx, count, kind));
-                            }
-                        } else if idx as usize > count {
-                            forward.push((line, idx as usize, kind));
-                        }
-                    }
-                }
-                faces_pending = true;
-                if kw == "f" {
-                    counts.faces += 1;
-                }
-            }
+            "v" => scan.vertex(line, content, &args)?,
+            "vn" | "vt" => scan.attribute(line, kw, content, &args)?,
+            "f" | "l" => scan.element(line, kw, &args)?,
             "o" | "g" => {
-                if faces_pending {
-                    resolve(&mut forward, nv, nt, nn)?;
-                    faces_pending = false;
+                if scan.faces_pending {
+                    scan.resolve()?;
+                    scan.faces_pending = false;
                 }
             }
             "usemtl" if args.is_empty() => {
-                return Err(malformed(line, "'usemtl' without a material name".into()));
+                return Err(scan.malformed(line, "'usemtl' without a material name".into()));
             }
             _ if KNOWN.contains(&kw) => {}
             _ => {
-                return Err(malformed(
+                return Err(scan.malformed(
                     line,
                     format!(
                         "unknown statement '{}' (is this an OBJ text file?)",
@@ -668,18 +494,255 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
             }
         }
     }
-    resolve(&mut forward, nv, nt, nn)?;
-    if let (Some(c), Some(p)) = (coloured, plain) {
-        return Err(malformed(
-            c.max(p),
-            format!(
-                "vertices with a colour (first at line {c}) and without (first at line {p}): \
-                 give every vertex a colour or none"
-            ),
-        ));
+    scan.finish()
+}
+
+/// What [`prescan`] has seen so far of one file.
+struct Prescan<'a> {
+    path: &'a Path,
+    faces: usize,
+    /// Vertices, texture coordinates and normals so far (what an index may point at).
+    nv: usize,
+    nt: usize,
+    nn: usize,
+    /// Vertices with a colour and without: tobj reads a colour per vertex only when every vertex
+    /// has one (the first line of each kind, for the message).
+    coloured: Option<usize>,
+    plain: Option<usize>,
+    /// Positive indices may point forward: tobj resolves them when an object or group ends (an
+    /// `o` or `g` after faces) and at the end of the file, so they are checked then: (line,
+    /// index, kind).
+    forward: Vec<(usize, usize, char)>,
+    faces_pending: bool,
+}
+
+impl<'a> Prescan<'a> {
+    fn new(path: &'a Path) -> Self {
+        Prescan {
+            path,
+            faces: 0,
+            nv: 0,
+            nt: 0,
+            nn: 0,
+            coloured: None,
+            plain: None,
+            forward: Vec::new(),
+            faces_pending: false,
+        }
     }
-    counts.vertices = nv;
-    Ok(counts)
+
+    fn malformed(&self, line: usize, msg: String) -> MeshError {
+        MeshError::Malformed {
+            path: self.path.to_path_buf(),
+            line,
+            msg,
+        }
+    }
+
+    /// A coordinate as tobj reads it (f32): a number, finite.
+    fn coordinate(&self, line: usize, what: &str, tok: &str) -> Result<f32, MeshError> {
+        let x: f64 = tok.parse().map_err(|_| {
+            self.malformed(line, format!("{what} '{}' is not a number", excerpt(tok)))
+        })?;
+        if !x.is_finite() || x.abs() > f32::MAX as f64 {
+            return Err(MeshError::NonFinite {
+                path: self.path.to_path_buf(),
+                line,
+                token: excerpt(tok),
+            });
+        }
+        Ok(x as f32)
+    }
+
+    /// `v x y z [w | r g b]`: the values tobj takes, finite, and a weight that keeps them so.
+    fn vertex(&mut self, line: usize, content: &str, args: &[&str]) -> Result<(), MeshError> {
+        if args.len() < 3 {
+            return Err(self.malformed(
+                line,
+                format!(
+                    "'v' needs 3 numbers (x y z), found {}: \"{}\"",
+                    args.len(),
+                    excerpt(content)
+                ),
+            ));
+        }
+        if !matches!(args.len(), 3 | 4 | 6) {
+            return Err(self.malformed(
+                line,
+                format!(
+                    "a vertex ('v') with {} numbers: give x y z, x y z w or x y z r g b",
+                    args.len()
+                ),
+            ));
+        }
+        let mut p = [0f32; 3];
+        for (k, tok) in args.iter().take(3).enumerate() {
+            p[k] = self.coordinate(line, "vertex coordinate", tok)?;
+        }
+        if args.len() == 4 {
+            // tobj divides x, y and z by w.
+            let w = self.coordinate(line, "vertex weight w", args[3])?;
+            if w == 0.0 || p.iter().any(|c| !(c / w).is_finite()) {
+                return Err(self.malformed(
+                    line,
+                    format!(
+                        "vertex weight w = {} divides the coordinates to nothing or to infinity",
+                        excerpt(args[3])
+                    ),
+                ));
+            }
+        }
+        let kind = if args.len() == 6 {
+            &mut self.coloured
+        } else {
+            &mut self.plain
+        };
+        kind.get_or_insert(line);
+        self.nv += 1;
+        Ok(())
+    }
+
+    /// `vn` (tobj reads three numbers) or `vt` (two).
+    fn attribute(
+        &mut self,
+        line: usize,
+        kw: &str,
+        content: &str,
+        args: &[&str],
+    ) -> Result<(), MeshError> {
+        let (need, what) = if kw == "vn" {
+            (3, "normal")
+        } else {
+            (2, "texture coordinate")
+        };
+        if args.len() < need {
+            return Err(self.malformed(
+                line,
+                format!(
+                    "'{kw}' needs {need} numbers, found {}: \"{}\"",
+                    args.len(),
+                    excerpt(content)
+                ),
+            ));
+        }
+        for tok in args.iter().take(need) {
+            self.coordinate(line, what, tok)?;
+        }
+        if kw == "vn" {
+            self.nn += 1;
+        } else {
+            self.nt += 1;
+        }
+        Ok(())
+    }
+
+    /// `f` (at least three corners) or `l` (two), each corner checked by [`Prescan::corner`].
+    fn element(&mut self, line: usize, kw: &str, args: &[&str]) -> Result<(), MeshError> {
+        let min = if kw == "f" { 3 } else { 2 };
+        if args.len() < min {
+            return Err(self.malformed(
+                line,
+                format!(
+                    "a {} needs at least {min} corners, found {}",
+                    if kw == "f" { "face" } else { "line" },
+                    args.len()
+                ),
+            ));
+        }
+        for corner in args {
+            self.corner(line, corner)?;
+        }
+        self.faces_pending = true;
+        if kw == "f" {
+            self.faces += 1;
+        }
+        Ok(())
+    }
+
+    /// One corner, `v`, `v/vt`, `v//vn` or `v/vt/vn`: integers, not 0, negative ones pointing at
+    /// an element seen, positive ones past the elements seen kept for [`Prescan::resolve`].
+    fn corner(&mut self, line: usize, corner: &str) -> Result<(), MeshError> {
+        for (k, part) in corner.split('/').enumerate() {
+            if k > 2 || (part.is_empty() && k == 0) {
+                return Err(self.malformed(
+                    line,
+                    format!(
+                        "face corner '{}' is not v, v/vt, v//vn or v/vt/vn",
+                        excerpt(corner)
+                    ),
+                ));
+            }
+            if part.is_empty() {
+                continue;
+            }
+            let (count, kind) = match k {
+                0 => (self.nv, 'v'),
+                1 => (self.nt, 't'),
+                _ => (self.nn, 'n'),
+            };
+            let idx: i64 = part.parse().map_err(|_| {
+                self.malformed(
+                    line,
+                    format!(
+                        "face index '{}' in '{}' is not an integer",
+                        excerpt(part),
+                        excerpt(corner)
+                    ),
+                )
+            })?;
+            if idx == 0 {
+                return Err(self.malformed(
+                    line,
+                    format!(
+                        "face index 0 in '{}': OBJ indices start at 1",
+                        excerpt(corner)
+                    ),
+                ));
+            }
+            if idx < 0 {
+                if idx.unsigned_abs() as usize > count {
+                    return Err(bad_index(self.path, line, idx, count, kind));
+                }
+            } else if idx as usize > count {
+                self.forward.push((line, idx as usize, kind));
+            }
+        }
+        Ok(())
+    }
+
+    /// Check the forward indices kept so far against the elements now seen.
+    fn resolve(&mut self) -> Result<(), MeshError> {
+        for &(line, idx, kind) in &self.forward {
+            let count = match kind {
+                'v' => self.nv,
+                't' => self.nt,
+                _ => self.nn,
+            };
+            if idx > count {
+                return Err(bad_index(self.path, line, idx as i64, count, kind));
+            }
+        }
+        self.forward.clear();
+        Ok(())
+    }
+
+    /// At the end of the file: the forward indices, and colours on every vertex or none.
+    fn finish(mut self) -> Result<Counts, MeshError> {
+        self.resolve()?;
+        if let (Some(c), Some(p)) = (self.coloured, self.plain) {
+            return Err(self.malformed(
+                c.max(p),
+                format!(
+                    "vertices with a colour (first at line {c}) and without (first at line {p}): \
+                     give every vertex a colour or none"
+                ),
+            ));
+        }
+        Ok(Counts {
+            vertices: self.nv,
+            faces: self.faces,
+        })
+    }
 }
 
 fn bad_index(path: &Path, line: usize, idx: i64, count: usize, kind: char) -> MeshError {
@@ -938,5 +1001,48 @@ mod tests {
         let m = shapes::height_field(4, |_, _| 0.0);
         assert!(!m.is_closed());
         assert!(m.vertex_normals().iter().all(|n| n.y > 0.99));
+    }
+
+    /// Every refusal of the pre-scan names its line and says what is wrong; forward indices are
+    /// checked when a group ends or at the end of the file, so their line is the face's.
+    #[test]
+    fn prescan_names_the_line_of_each_fault() {
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        for (body, line, what) in [
+            ("v 1 2\n", 4, "'v' needs 3 numbers (x y z), found 2"),
+            ("v 1 2 3 4 5\n", 4, "a vertex ('v') with 5 numbers"),
+            ("v 1 x 3\n", 4, "vertex coordinate 'x' is not a number"),
+            ("v 1 2 3 0\n", 4, "vertex weight w = 0 divides"),
+            ("vn 1 2\n", 4, "'vn' needs 3 numbers, found 2"),
+            ("vt 1\n", 4, "'vt' needs 2 numbers, found 1"),
+            ("vn 1 q 2\n", 4, "normal 'q' is not a number"),
+            ("f 1 2\n", 4, "a face needs at least 3 corners, found 2"),
+            ("l 1\n", 4, "a line needs at least 2 corners, found 1"),
+            ("f 1/2/3/4 2 3\n", 4, "face corner '1/2/3/4' is not v"),
+            ("f /1 2 3\n", 4, "face corner '/1' is not v"),
+            ("f 1 2 x\n", 4, "face index 'x' in 'x' is not an integer"),
+            ("f 1 2 0\n", 4, "face index 0 in '0'"),
+            ("f 1 2 -4\n", 4, "index -4"),
+            ("f 1 2 9\no x\nv 1 1 1\n", 4, "index 9"),
+            ("f 1 2 5\nv 1 1 1\n", 4, "index 5"),
+            ("f 1//5 2 3\n", 4, "index 5"),
+            ("usemtl\n", 4, "'usemtl' without a material name"),
+            ("zork 1\n", 4, "unknown statement 'zork'"),
+            (
+                "v 1 1 1 1 0 0\nf 1 2 3\n",
+                4,
+                "vertices with a colour (first at line 4)",
+            ),
+        ] {
+            let text = format!("{tri}{body}");
+            let e = prescan(p(), &text).expect_err(body).to_string();
+            assert!(
+                e.contains(&format!(":{line}:")) && e.contains(what),
+                "{body:?}: {e}"
+            );
+        }
+        // A forward index that a later vertex satisfies, before the group ends, is fine.
+        let counts = prescan(p(), &format!("{tri}f 1 2 4\nv 1 1 1\nl 1 4\n")).unwrap();
+        assert_eq!((counts.vertices, counts.faces), (4, 1));
     }
 }
