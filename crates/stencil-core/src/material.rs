@@ -300,176 +300,12 @@ impl Material {
         }
     }
 
-    fn validate(f: MaterialFile, origin: &Path) -> Result<Material, ProfileError> {
-        let invalid = |field: &str, value: String, why: &str| ProfileError::Invalid {
-            path: origin.to_path_buf(),
-            field: field.into(),
-            value,
-            why: why.into(),
-        };
-        if f.name.trim().is_empty() {
-            return Err(invalid("name", "\"\"".into(), "must not be empty"));
-        }
-        // Ranges: anything outside is a typo (a unit mix-up, a missing decimal point).
-        check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
-        check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
-        check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
-        let max_bridge_mm = f
-            .max_bridge_mm
-            .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
-        check_range(
-            origin,
-            "max_bridge_mm",
-            max_bridge_mm,
-            f.min_bridge_mm,
-            200.0,
-            "mm (at least min_bridge_mm)",
-        )?;
-        check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
-        if f.kerf_mm >= f.min_feature_mm {
-            return Err(invalid(
-                "kerf_mm",
-                f.kerf_mm.to_string(),
-                "must be smaller than min_feature_mm: the tool would remove whole features",
-            ));
-        }
-        let d = DEFAULT_STRENGTH;
-        let given = f.youngs_modulus_gpa.is_some()
-            || f.density_kg_m3.is_some()
-            || f.max_sag_mm.is_some()
-            || f.two_bridges_above_mm.is_some();
-        let d = if given {
-            d
-        } else {
-            Strength {
-                max_sag_mm: f64::INFINITY,
-                two_bridges_above_mm: f64::INFINITY,
-                ..d
-            }
-        };
-        let strength = Strength {
-            youngs_modulus_gpa: f.youngs_modulus_gpa.unwrap_or(d.youngs_modulus_gpa),
-            density_kg_m3: f.density_kg_m3.unwrap_or(d.density_kg_m3),
-            max_sag_mm: f.max_sag_mm.unwrap_or(d.max_sag_mm),
-            two_bridges_above_mm: f.two_bridges_above_mm.unwrap_or(d.two_bridges_above_mm),
-        };
-        // Tissue paper is about 0.5 GPa, diamond 1000; the lightest foam board 30 kg/m³, osmium
-        // 22,600.
-        check_range(
-            origin,
-            "youngs_modulus_gpa",
-            strength.youngs_modulus_gpa,
-            0.01,
-            1200.0,
-            "GPa",
-        )?;
-        check_range(
-            origin,
-            "density_kg_m3",
-            strength.density_kg_m3,
-            10.0,
-            25_000.0,
-            "kg/m³",
-        )?;
-        if given {
-            check_range(
-                origin,
-                "max_sag_mm",
-                strength.max_sag_mm,
-                0.001,
-                1000.0,
-                "mm",
-            )?;
-            check_range(
-                origin,
-                "two_bridges_above_mm",
-                strength.two_bridges_above_mm,
-                0.1,
-                100_000.0,
-                "mm",
-            )?;
-        }
-        let sections = [
-            ("laser", f.laser.is_some(), ProcessKind::Laser),
-            ("knife", f.knife.is_some(), ProcessKind::Knife),
-            ("pen", f.pen.is_some(), ProcessKind::Pen),
-            ("etch", f.etch.is_some(), ProcessKind::Etch),
-        ];
-        for (sec, present, kind) in sections {
-            if present && kind != f.process {
-                return Err(invalid(
-                    sec,
-                    format!("[{sec}]"),
-                    &format!(
-                        "section given but process = \"{}\"; remove it or change process",
-                        f.process
-                    ),
-                ));
-            }
-        }
-        let missing = |sec: &str| {
-            invalid(
-                sec,
-                "(missing)".into(),
-                &format!("process = \"{sec}\" needs a [{sec}] section with its settings"),
-            )
-        };
-        let process = match f.process {
-            ProcessKind::Laser => {
-                let l = f.laser.ok_or_else(|| missing("laser"))?;
-                check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
-                check_range(
-                    origin,
-                    "laser.speed_mm_min",
-                    l.speed_mm_min,
-                    1.0,
-                    100_000.0,
-                    "mm/min",
-                )?;
-                check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
-                Process::Laser(l)
-            }
-            ProcessKind::Knife => {
-                let k = f.knife.ok_or_else(|| missing("knife"))?;
-                check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
-                check_range(
-                    origin,
-                    "knife.speed_mm_s",
-                    k.speed_mm_s,
-                    1.0,
-                    2000.0,
-                    "mm/s",
-                )?;
-                check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
-                check_range(
-                    origin,
-                    "knife.blade_offset_mm",
-                    k.blade_offset_mm,
-                    0.0,
-                    2.0,
-                    "mm",
-                )?;
-                Process::Knife(k)
-            }
-            ProcessKind::Pen => {
-                let p = f.pen.ok_or_else(|| missing("pen"))?;
-                check_range(
-                    origin,
-                    "pen.speed_mm_min",
-                    p.speed_mm_min,
-                    1.0,
-                    100_000.0,
-                    "mm/min",
-                )?;
-                check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
-                Process::Pen(p)
-            }
-            ProcessKind::Etch => {
-                let e = f.etch.ok_or_else(|| missing("etch"))?;
-                check_range(origin, "etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
-                Process::Etch(e)
-            }
-        };
+    /// A material file checked field by field (a typo, a unit mix-up or a missing section is
+    /// refused with the field named), with the defaults filled in.
+    fn validate(mut f: MaterialFile, origin: &Path) -> Result<Material, ProfileError> {
+        let max_bridge_mm = check_dimensions(&f, origin)?;
+        let strength = strength_of(&f, origin)?;
+        let process = process_of(&mut f, origin)?;
         Ok(Material {
             name: f.name,
             description: f.description,
@@ -482,6 +318,199 @@ impl Material {
             process,
         })
     }
+}
+
+fn invalid(origin: &Path, field: &str, value: String, why: &str) -> ProfileError {
+    ProfileError::Invalid {
+        path: origin.to_path_buf(),
+        field: field.into(),
+        value,
+        why: why.into(),
+    }
+}
+
+/// The name and the sizes in mm, each in its range (anything outside is a typo: a unit mix-up, a
+/// missing decimal point), and a kerf that leaves the smallest feature standing. Returns the
+/// widest bridge (given, or [`DEFAULT_MAX_BRIDGE_RATIO`] × the narrowest).
+fn check_dimensions(f: &MaterialFile, origin: &Path) -> Result<f64, ProfileError> {
+    if f.name.trim().is_empty() {
+        return Err(invalid(origin, "name", "\"\"".into(), "must not be empty"));
+    }
+    check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
+    check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+    check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
+    let max_bridge_mm = f
+        .max_bridge_mm
+        .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
+    check_range(
+        origin,
+        "max_bridge_mm",
+        max_bridge_mm,
+        f.min_bridge_mm,
+        200.0,
+        "mm (at least min_bridge_mm)",
+    )?;
+    check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
+    if f.kerf_mm >= f.min_feature_mm {
+        return Err(invalid(
+            origin,
+            "kerf_mm",
+            f.kerf_mm.to_string(),
+            "must be smaller than min_feature_mm: the tool would remove whole features",
+        ));
+    }
+    Ok(max_bridge_mm)
+}
+
+/// The stiffness and weight the strength rules read. A file that gives none of the four keeps
+/// the defaults' stiffness and weight but no sag or span limit (of the strength rules only the
+/// bridges-per-island count applies); one that gives any gets the defaults for the rest, limits
+/// included.
+fn strength_of(f: &MaterialFile, origin: &Path) -> Result<Strength, ProfileError> {
+    let d = DEFAULT_STRENGTH;
+    let given = f.youngs_modulus_gpa.is_some()
+        || f.density_kg_m3.is_some()
+        || f.max_sag_mm.is_some()
+        || f.two_bridges_above_mm.is_some();
+    let d = if given {
+        d
+    } else {
+        Strength {
+            max_sag_mm: f64::INFINITY,
+            two_bridges_above_mm: f64::INFINITY,
+            ..d
+        }
+    };
+    let strength = Strength {
+        youngs_modulus_gpa: f.youngs_modulus_gpa.unwrap_or(d.youngs_modulus_gpa),
+        density_kg_m3: f.density_kg_m3.unwrap_or(d.density_kg_m3),
+        max_sag_mm: f.max_sag_mm.unwrap_or(d.max_sag_mm),
+        two_bridges_above_mm: f.two_bridges_above_mm.unwrap_or(d.two_bridges_above_mm),
+    };
+    // Tissue paper is about 0.5 GPa, diamond 1000; the lightest foam board 30 kg/m³, osmium
+    // 22,600.
+    check_range(
+        origin,
+        "youngs_modulus_gpa",
+        strength.youngs_modulus_gpa,
+        0.01,
+        1200.0,
+        "GPa",
+    )?;
+    check_range(
+        origin,
+        "density_kg_m3",
+        strength.density_kg_m3,
+        10.0,
+        25_000.0,
+        "kg/m³",
+    )?;
+    if given {
+        check_range(
+            origin,
+            "max_sag_mm",
+            strength.max_sag_mm,
+            0.001,
+            1000.0,
+            "mm",
+        )?;
+        check_range(
+            origin,
+            "two_bridges_above_mm",
+            strength.two_bridges_above_mm,
+            0.1,
+            100_000.0,
+            "mm",
+        )?;
+    }
+    Ok(strength)
+}
+
+/// The process's settings: its own section, present and in range, and no other process's.
+fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileError> {
+    let sections = [
+        ("laser", f.laser.is_some(), ProcessKind::Laser),
+        ("knife", f.knife.is_some(), ProcessKind::Knife),
+        ("pen", f.pen.is_some(), ProcessKind::Pen),
+        ("etch", f.etch.is_some(), ProcessKind::Etch),
+    ];
+    for (sec, present, kind) in sections {
+        if present && kind != f.process {
+            return Err(invalid(
+                origin,
+                sec,
+                format!("[{sec}]"),
+                &format!(
+                    "section given but process = \"{}\"; remove it or change process",
+                    f.process
+                ),
+            ));
+        }
+    }
+    let missing = |sec: &str| {
+        invalid(
+            origin,
+            sec,
+            "(missing)".into(),
+            &format!("process = \"{sec}\" needs a [{sec}] section with its settings"),
+        )
+    };
+    Ok(match f.process {
+        ProcessKind::Laser => {
+            let l = f.laser.take().ok_or_else(|| missing("laser"))?;
+            check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
+            check_range(
+                origin,
+                "laser.speed_mm_min",
+                l.speed_mm_min,
+                1.0,
+                100_000.0,
+                "mm/min",
+            )?;
+            check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
+            Process::Laser(l)
+        }
+        ProcessKind::Knife => {
+            let k = f.knife.take().ok_or_else(|| missing("knife"))?;
+            check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
+            check_range(
+                origin,
+                "knife.speed_mm_s",
+                k.speed_mm_s,
+                1.0,
+                2000.0,
+                "mm/s",
+            )?;
+            check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
+            check_range(
+                origin,
+                "knife.blade_offset_mm",
+                k.blade_offset_mm,
+                0.0,
+                2.0,
+                "mm",
+            )?;
+            Process::Knife(k)
+        }
+        ProcessKind::Pen => {
+            let p = f.pen.take().ok_or_else(|| missing("pen"))?;
+            check_range(
+                origin,
+                "pen.speed_mm_min",
+                p.speed_mm_min,
+                1.0,
+                100_000.0,
+                "mm/min",
+            )?;
+            check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
+            Process::Pen(p)
+        }
+        ProcessKind::Etch => {
+            let e = f.etch.take().ok_or_else(|| missing("etch"))?;
+            check_range(origin, "etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
+            Process::Etch(e)
+        }
+    })
 }
 
 /// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
