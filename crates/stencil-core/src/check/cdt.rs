@@ -104,8 +104,9 @@ impl RingSizes {
 }
 
 /// Triangulate the sheet whose vertices are `verts` (in global index order) and whose ring edges
-/// are the constraints: the triangles, in one list per slab. `slabs`: how many slabs to try (1: the whole sheet at once); `guard`:
-/// how far each slab reaches into its neighbours, in the vertices' unit.
+/// are the constraints: the triangles, in one list per slab. `slabs`: how many slabs to try (1:
+/// the whole sheet at once); `guard`: how far each slab reaches into its neighbours, in the
+/// vertices' unit.
 pub(super) fn triangulate(
     sizes: &RingSizes,
     verts: &[V],
@@ -143,49 +144,16 @@ struct Part {
     labelled: bool,
 }
 
+/// Triangulate in `slabs` vertical slabs in parallel, each reaching `guard` into its
+/// neighbours. `None` when the slabs do not add up to the whole sheet's triangulation (see
+/// [`slabs_agree`]): the caller triangulates the whole sheet instead.
 fn in_slabs(
     sizes: &RingSizes,
     verts: &[V],
     slabs: usize,
     guard: f64,
 ) -> Result<Option<Vec<Vec<Tri>>>, CheckError> {
-    // The slab boundaries: x quantiles of the vertices (selected, not sorted).
-    let mut xs: Vec<f64> = verts.iter().map(|v| v.p.x).collect();
-    let n = xs.len();
-    let cuts: Vec<f64> = (1..slabs)
-        .map(|s| *xs.select_nth_unstable_by(s * n / slabs, f64::total_cmp).1)
-        .collect();
-    let (lo_x, hi_x) = verts
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v.p.x), hi.max(v.p.x))
-        });
-    // The longest ring edge: a ring edge crossing a circle has both ends within this of it.
-    let reach = verts
-        .iter()
-        .map(|&v| {
-            let w = verts[v.next as usize];
-            ((v.p.x - w.p.x).powi(2) + (v.p.y - w.p.y).powi(2)).sqrt()
-        })
-        .fold(0.0f64, f64::max);
-    let margin = reach + 1e-9 * (hi_x - lo_x).abs().max(1.0);
-    let cut = |s: usize| cuts[s - 1];
-    let windows: Vec<Window> = (0..slabs)
-        .map(|s| {
-            let x0 = if s == 0 { f64::NEG_INFINITY } else { cut(s) };
-            let x1 = if s + 1 == slabs {
-                f64::INFINITY
-            } else {
-                cut(s + 1)
-            };
-            Window {
-                x0,
-                x1,
-                lo: x0 - guard,
-                hi: x1 + guard,
-            }
-        })
-        .collect();
+    let (windows, margin) = slab_windows(verts, slabs, guard);
     let parts: Vec<Part> = windows
         .par_iter()
         .map(|w| {
@@ -202,28 +170,75 @@ fn in_slabs(
             triangulate_part(sizes, verts, &mine, Some(keep))
         })
         .collect::<Result<_, _>>()?;
-    // (b) the count: V vertices, h on the hull (the outline ring) give 2V − h − 2 triangles.
-    let h = sizes.len[sizes.outline as usize] as usize;
-    let expected = (2 * verts.len()).checked_sub(h + 2);
-    let kept: usize = parts.iter().map(|p| p.tris.len()).sum();
-    if Some(kept) != expected || parts.iter().any(|p| !p.labelled) {
+    if !slabs_agree(sizes, verts.len(), &parts) {
         return Ok(None);
     }
-    // (a) the seams: each open edge once each way.
+    Ok(Some(parts.into_iter().map(|p| p.tris).collect()))
+}
+
+/// The slabs' windows, split at x quantiles of the vertices (selected, not sorted), each reaching
+/// `guard` beyond its own range; and the margin a kept triangle's circle must stay inside its
+/// window by (the longest ring edge: a ring edge crossing a circle has both ends within this of
+/// it, plus a rounding allowance).
+fn slab_windows(verts: &[V], slabs: usize, guard: f64) -> (Vec<Window>, f64) {
+    let mut xs: Vec<f64> = verts.iter().map(|v| v.p.x).collect();
+    let n = xs.len();
+    let cuts: Vec<f64> = (1..slabs)
+        .map(|s| *xs.select_nth_unstable_by(s * n / slabs, f64::total_cmp).1)
+        .collect();
+    let (lo_x, hi_x) = verts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v.p.x), hi.max(v.p.x))
+        });
+    let reach = verts
+        .iter()
+        .map(|&v| {
+            let w = verts[v.next as usize];
+            ((v.p.x - w.p.x).powi(2) + (v.p.y - w.p.y).powi(2)).sqrt()
+        })
+        .fold(0.0f64, f64::max);
+    let margin = reach + 1e-9 * (hi_x - lo_x).abs().max(1.0);
+    let cut = |s: usize| cuts[s - 1];
+    let windows = (0..slabs)
+        .map(|s| {
+            let x0 = if s == 0 { f64::NEG_INFINITY } else { cut(s) };
+            let x1 = if s + 1 == slabs {
+                f64::INFINITY
+            } else {
+                cut(s + 1)
+            };
+            Window {
+                x0,
+                x1,
+                lo: x0 - guard,
+                hi: x1 + guard,
+            }
+        })
+        .collect();
+    (windows, margin)
+}
+
+/// Whether the slabs' triangles are exactly the whole sheet's: (a) the count (V vertices, h on
+/// the hull, the outline ring, give 2V − h − 2 triangles), every triangle with its side; (b) the
+/// seams, each open edge met once each way.
+fn slabs_agree(sizes: &RingSizes, vertices: usize, parts: &[Part]) -> bool {
+    let h = sizes.len[sizes.outline as usize] as usize;
+    let expected = (2 * vertices).checked_sub(h + 2);
+    let kept: usize = parts.iter().map(|p| p.tris.len()).sum();
+    if Some(kept) != expected || parts.iter().any(|p| !p.labelled) {
+        return false;
+    }
     let mut open: Vec<(u32, u32, bool)> = parts
         .iter()
         .flat_map(|p| p.open.iter())
         .map(|&(a, b)| (a.min(b), a.max(b), a < b))
         .collect();
     open.sort_unstable();
-    if !open.len().is_multiple_of(2)
-        || open
+    open.len().is_multiple_of(2)
+        && open
             .chunks_exact(2)
-            .any(|c| (c[0].0, c[0].1) != (c[1].0, c[1].1) || c[0].2 == c[1].2)
-    {
-        return Ok(None);
-    }
-    Ok(Some(parts.into_iter().map(|p| p.tris).collect()))
+            .all(|c| (c[0].0, c[0].1) == (c[1].0, c[1].1) && c[0].2 != c[1].2)
 }
 
 /// Circumcentre x and radius of a triangle.
@@ -494,30 +509,7 @@ fn triangulate_part(
     verts: &[V],
     window: Option<Window>,
 ) -> Result<Part, CheckError> {
-    // Local indices by global index (verts are in global order, so the last is the largest).
-    let dense = window.is_none();
-    let mut local = Vec::new();
-    if !dense {
-        local = vec![u32::MAX; verts.last().map_or(0, |v| v.gid as usize + 1)];
-        for (i, v) in verts.iter().enumerate() {
-            local[v.gid as usize] = i as u32;
-        }
-    }
-    let mut edges = Vec::with_capacity(verts.len());
-    for (i, &v) in verts.iter().enumerate() {
-        let next = v.next as usize;
-        let j = if dense {
-            Some(next)
-        } else {
-            local
-                .get(next)
-                .filter(|&&j| j != u32::MAX)
-                .map(|&j| j as usize)
-        };
-        if let Some(j) = j {
-            edges.push([i, j]);
-        }
-    }
+    let edges = part_edges(verts, window.is_none());
     let mut built = build(verts, &edges)?;
     let Faces {
         mut tris,
@@ -540,56 +532,112 @@ fn triangulate_part(
         built = complete(built, verts, &edges)?;
     };
     drop(built);
-
-    let corners = |t: &Tri| t.v.map(|g| all[g as usize]);
     if window.is_some() {
-        // A slab: sides spread from the seeded triangles across edges that are not ring edges.
-        while let Some(i) = queue.pop() {
-            for (k, &g) in across[i].iter().enumerate() {
-                let g = g as usize;
-                if g == 0 || tris[i].ring_edges & (1 << k) != 0 {
-                    continue;
-                }
-                if label[g - 1] == PENDING {
-                    label[g - 1] = label[i];
-                    queue.push(g - 1);
-                }
-            }
-        }
+        spread_sides(&tris, &across, &mut label, &mut queue);
     } else {
-        // The whole sheet: the parity of ring edges crossed from outside (odd: material, even:
-        // a cut, none: outside the sheet). Needs no ring direction.
-        let mut depth = vec![u32::MAX; tris.len()];
-        for i in 0..tris.len() {
-            for (k, &g) in across[i].iter().enumerate() {
-                if g == 0 && depth[i] == u32::MAX {
-                    depth[i] = u32::from(tris[i].ring_edges & (1 << k) != 0);
-                    queue.push(i);
-                }
-            }
-        }
-        let mut head = 0;
-        while head < queue.len() {
-            let i = queue[head];
-            head += 1;
-            for (k, &g) in across[i].iter().enumerate() {
-                let g = g as usize;
-                if g != 0 && depth[g - 1] == u32::MAX {
-                    depth[g - 1] = depth[i] + u32::from(tris[i].ring_edges & (1 << k) != 0);
-                    queue.push(g - 1);
-                }
-            }
-        }
-        for (l, d) in label.iter_mut().zip(&depth) {
-            *l = match *d {
-                u32::MAX => PENDING,
-                0 => UNKEPT,
-                d if d % 2 == 1 => MATERIAL,
-                _ => CUT,
-            };
+        label_by_parity(&tris, &across, &mut label, &mut queue);
+    }
+    let (open, labelled) = keep_labelled(&mut tris, &across, &label, all, sizes, window);
+    Ok(Part {
+        tris,
+        open,
+        labelled,
+    })
+}
+
+/// The ring edges among `verts` in local indices (vertex i to its ring's next vertex). A slab's
+/// `verts` are a subset (not `dense`): an edge whose next vertex lies outside it is left out.
+fn part_edges(verts: &[V], dense: bool) -> Vec<[usize; 2]> {
+    // Local indices by global index (verts are in global order, so the last is the largest).
+    let mut local = Vec::new();
+    if !dense {
+        local = vec![u32::MAX; verts.last().map_or(0, |v| v.gid as usize + 1)];
+        for (i, v) in verts.iter().enumerate() {
+            local[v.gid as usize] = i as u32;
         }
     }
-    // Keep the kept triangles, in place.
+    let mut edges = Vec::with_capacity(verts.len());
+    for (i, &v) in verts.iter().enumerate() {
+        let next = v.next as usize;
+        let j = if dense {
+            Some(next)
+        } else {
+            local
+                .get(next)
+                .filter(|&&j| j != u32::MAX)
+                .map(|&j| j as usize)
+        };
+        if let Some(j) = j {
+            edges.push([i, j]);
+        }
+    }
+    edges
+}
+
+/// A slab: sides spread from the seeded triangles (`queue`, labelled on a ring edge) across
+/// edges that are not ring edges.
+fn spread_sides(tris: &[Tri], across: &[[u32; 3]], label: &mut [u8], queue: &mut Vec<usize>) {
+    while let Some(i) = queue.pop() {
+        for (k, &g) in across[i].iter().enumerate() {
+            let g = g as usize;
+            if g == 0 || tris[i].ring_edges & (1 << k) != 0 {
+                continue;
+            }
+            if label[g - 1] == PENDING {
+                label[g - 1] = label[i];
+                queue.push(g - 1);
+            }
+        }
+    }
+}
+
+/// The whole sheet: each triangle's side from the parity of ring edges crossed from outside
+/// (odd: material, even: a cut, none: outside the sheet). Needs no ring direction.
+fn label_by_parity(tris: &[Tri], across: &[[u32; 3]], label: &mut [u8], queue: &mut Vec<usize>) {
+    let mut depth = vec![u32::MAX; tris.len()];
+    for i in 0..tris.len() {
+        for (k, &g) in across[i].iter().enumerate() {
+            if g == 0 && depth[i] == u32::MAX {
+                depth[i] = u32::from(tris[i].ring_edges & (1 << k) != 0);
+                queue.push(i);
+            }
+        }
+    }
+    let mut head = 0;
+    while head < queue.len() {
+        let i = queue[head];
+        head += 1;
+        for (k, &g) in across[i].iter().enumerate() {
+            let g = g as usize;
+            if g != 0 && depth[g - 1] == u32::MAX {
+                depth[g - 1] = depth[i] + u32::from(tris[i].ring_edges & (1 << k) != 0);
+                queue.push(g - 1);
+            }
+        }
+    }
+    for (l, d) in label.iter_mut().zip(&depth) {
+        *l = match *d {
+            u32::MAX => PENDING,
+            0 => UNKEPT,
+            d if d % 2 == 1 => MATERIAL,
+            _ => CUT,
+        };
+    }
+}
+
+/// Keep the labelled triangles, in place, each marked material or cut. In a slab, also the edges
+/// of kept triangles that face neither another kept triangle nor the outline (where the slab
+/// meets its neighbours). Returns those edges (global vertex numbers) and whether every
+/// triangle got a side.
+fn keep_labelled(
+    tris: &mut Vec<Tri>,
+    across: &[[u32; 3]],
+    label: &[u8],
+    all: &[V],
+    sizes: &RingSizes,
+    window: Option<Window>,
+) -> (Vec<(u32, u32)>, bool) {
+    let corners = |t: &Tri| t.v.map(|g| all[g as usize]);
     let mut open = Vec::new();
     let mut labelled = true;
     let mut w = 0;
@@ -621,11 +669,7 @@ fn triangulate_part(
         }
     }
     tris.truncate(w);
-    Ok(Part {
-        tris,
-        open,
-        labelled,
-    })
+    (open, labelled)
 }
 
 #[cfg(test)]

@@ -542,21 +542,7 @@ fn check_tuned(
 ) -> Result<(CheckReport, Method), CheckError> {
     let spacing = material.min_bridge_mm.max(material.min_feature_mm);
     let rings = rings_of(&geom.material, spacing);
-    let mut verts = Vec::new();
-    let mut sizes = RingSizes {
-        len: Vec::with_capacity(rings.pts.len()),
-        outline: 0,
-    };
-    let mut leftmost = [f64::INFINITY; 2];
-    for (ri, r) in rings.pts.iter().enumerate() {
-        for p in r {
-            if (p[0], p[1]) < (leftmost[0], leftmost[1]) {
-                leftmost = *p;
-                sizes.outline = ri as u32;
-            }
-        }
-        sizes.push_ring(&mut verts, r);
-    }
+    let (verts, sizes) = ring_vertices(&rings);
     let threads = rayon::current_num_threads();
     let slabs = tuning.slabs.unwrap_or(if verts.len() >= SLAB_MIN_VERTICES {
         threads.clamp(1, 8)
@@ -580,14 +566,56 @@ fn check_tuned(
         max_required: spacing,
     };
     let triangles = tris.iter().map(Vec::len).sum::<usize>();
-    // Each triangle's chords are measured independently of the others, so the triangles are
-    // searched in parallel chunks. The narrowest per kind is a minimum, the early skip in
-    // `consider` only drops chords that could change neither that minimum nor the violations,
-    // and `cluster` orders the candidates completely: the report does not depend on the order.
     let chunk = tuning
         .chunk
         .unwrap_or_else(|| triangles.div_ceil(4 * threads).max(256))
         .max(1);
+    let (narrowest, cands) = search_necks(&ctx, &tris, chunk);
+    let mut violations = cluster(cands, material);
+    let pieces = geom.material.0.len();
+    add_floating(&mut violations, geom);
+    let fin = |v: f64| v.is_finite().then_some(v);
+    let report = CheckReport {
+        material: material.name.clone(),
+        min_bridge_mm: material.min_bridge_mm,
+        min_feature_mm: material.min_feature_mm,
+        pieces,
+        narrowest_bridge_mm: fin(narrowest[0]),
+        narrowest_web_mm: fin(narrowest[1]),
+        narrowest_hole_mm: fin(narrowest[2]),
+        violations,
+        triangles,
+    };
+    Ok((report, method))
+}
+
+/// Every ring's vertices in one list, and the ring sizes; the outline is the ring holding the
+/// leftmost (then lowest) vertex.
+fn ring_vertices(rings: &Rings) -> (Vec<V>, RingSizes) {
+    let mut verts = Vec::new();
+    let mut sizes = RingSizes {
+        len: Vec::with_capacity(rings.pts.len()),
+        outline: 0,
+    };
+    let mut leftmost = [f64::INFINITY; 2];
+    for (ri, r) in rings.pts.iter().enumerate() {
+        for p in r {
+            if (p[0], p[1]) < (leftmost[0], leftmost[1]) {
+                leftmost = *p;
+                sizes.outline = ri as u32;
+            }
+        }
+        sizes.push_ring(&mut verts, r);
+    }
+    (verts, sizes)
+}
+
+/// The narrowest bridge, web and hole, and every chord narrower than the material allows.
+/// Each triangle's chords are measured independently of the others, so the triangles are searched
+/// in parallel chunks of `chunk`. The narrowest per kind is a minimum, the early skip in
+/// `consider` only drops chords that could change neither that minimum nor the violations, and
+/// `cluster` orders the candidates completely: the report does not depend on the order.
+fn search_necks(ctx: &Search, tris: &[Vec<Tri>], chunk: usize) -> ([f64; 3], Vec<Candidate>) {
     let found: Vec<Found> = tris
         .par_iter()
         .flat_map(|slab| slab.par_chunks(chunk))
@@ -607,13 +635,14 @@ fn check_tuned(
         }
         cands.extend(f.cands);
     }
+    (narrowest, cands)
+}
 
-    let mut violations = cluster(cands, material);
-    // Pieces: every material polygon but the sheet floats.
-    let pieces = geom.material.0.len();
+/// Every material polygon but the sheet floats: a violation each, at its first outline point,
+/// put before the others (the last piece first).
+fn add_floating(violations: &mut Vec<Violation>, geom: &CutGeometry) {
     let sheet = geom.sheet_index();
-    let order: Vec<usize> = (0..pieces).filter(|&i| Some(i) != sheet).collect();
-    for &i in &order {
+    for i in (0..geom.material.0.len()).filter(|&i| Some(i) != sheet) {
         let c = geom.material.0[i]
             .exterior()
             .0
@@ -632,19 +661,6 @@ fn check_tuned(
             },
         );
     }
-    let fin = |v: f64| v.is_finite().then_some(v);
-    let report = CheckReport {
-        material: material.name.clone(),
-        min_bridge_mm: material.min_bridge_mm,
-        min_feature_mm: material.min_feature_mm,
-        pieces,
-        narrowest_bridge_mm: fin(narrowest[0]),
-        narrowest_web_mm: fin(narrowest[1]),
-        narrowest_hole_mm: fin(narrowest[2]),
-        violations,
-        triangles,
-    };
-    Ok((report, method))
 }
 
 /// Many chords cross one thin neck: report the narrowest per place (one per `2 × required` radius).
