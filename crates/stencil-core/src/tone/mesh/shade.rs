@@ -61,103 +61,136 @@ pub fn shade(
         };
         vb.tri.len()
     ];
-    // Below this n·h the highlight is under 1/1024: skip the pow.
-    let spec_cut = if light.specular > 0.0 {
-        (1.0f32 / 1024.0 / light.specular).powf(1.0 / light.shininess.max(1e-3))
-    } else {
-        f32::INFINITY
+    let shader = Shader {
+        mesh,
+        normals,
+        cam,
+        light,
+        view,
+        setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
+        spec_cut: specular_cutoff(light),
     };
-    // A perspective camera's rays share their origin, so most of Möller–Trumbore is per triangle.
-    let setup: Option<Vec<TriSetup>> = (!cam.orthographic).then(|| {
-        mesh.triangles
-            .par_iter()
-            .map(|t| {
-                let [p0, p1, p2] = t.map(|i| mesh.positions[i as usize]);
-                let (e1, e2) = (p1 - p0, p2 - p0);
-                let tv = cam.eye - p0;
-                let v = tv.cross(e1);
-                TriSetup {
-                    u: e2.cross(tv),
-                    v,
-                    d: e2.cross(e1),
-                    c: e2.dot(v),
-                }
-            })
-            .collect()
-    });
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let sy = y as f32 + 0.5;
         for (x, frag) in row.iter_mut().enumerate() {
             let t = vb.tri[y * w + x];
-            if t == NONE {
-                continue;
+            if t != NONE {
+                *frag = shader.fragment(t, x as f32 + 0.5, sy);
             }
-            let idx = mesh.triangles[t as usize];
-            let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
-            let (o, d) = cam.ray(x as f32 + 0.5, sy);
-            let (b1, b2, depth, back) = match &setup {
-                Some(setup) => {
-                    // Möller–Trumbore with the pixel-independent parts folded per triangle.
-                    let s = &setup[t as usize];
-                    let det = d.dot(s.d);
-                    if det.abs() > 1e-20 {
-                        let inv = 1.0 / det;
-                        (d.dot(s.u) * inv, d.dot(s.v) * inv, s.c * inv, det < 0.0)
-                    } else {
-                        let c = (p0 + p1 + p2) / 3.0;
-                        (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
-                    }
-                }
-                None => moller_trumbore(o, d, p0, p1, p2, cam),
-            };
-            // Pixel centres a hair outside the triangle (the raster's tolerance): clamp.
-            let b1 = b1.clamp(0.0, 1.0);
-            let b2 = b2.clamp(0.0, 1.0 - b1);
-            let b0 = 1.0 - b1 - b2;
-            let p = p0 * b0 + p1 * b1 + p2 * b2;
-            let cn = match &mesh.corner_normals {
-                Some(cn) => cn[t as usize],
-                None => idx.map(|i| normals[i as usize]),
-            };
-            let mut n = (cn[0] * b0 + cn[1] * b1 + cn[2] * b2).normalize_or_zero();
-            // The side we see: on open surfaces the back is visible and lit as a front.
-            let sign = if back { -1.0 } else { 1.0 };
-            n *= sign;
-            let v = if cam.orthographic {
-                -cam.forward
-            } else {
-                (cam.eye - p).normalize_or_zero()
-            };
-            let l = (light.position - p).normalize_or_zero();
-            let ndl = n.dot(l);
-            let mut i = ndl.max(0.0);
-            if ndl > 0.0 {
-                let ndh = n.dot((l + v).normalize_or_zero());
-                if ndh > spec_cut {
-                    i += light.specular * ndh.powf(light.shininess);
-                }
-            }
-            let (kr, dwkr) = match view {
-                Some(vc) => {
-                    let k = idx.map(|i| vc.kr[i as usize]);
-                    let dk = idx.map(|i| vc.dwkr[i as usize]);
-                    (
-                        sign * (k[0] * b0 + k[1] * b1 + k[2] * b2),
-                        sign * (dk[0] * b0 + dk[1] * b1 + dk[2] * b2),
-                    )
-                }
-                None => (0.0, 0.0),
-            };
-            *frag = Fragment {
-                shade: i.min(1.0),
-                depth: depth.max(0.0),
-                kr,
-                dwkr,
-                ndotv: n.dot(v),
-            };
         }
     });
     out
+}
+
+/// Below this n·h the highlight is under 1/1024: the pow is skipped.
+fn specular_cutoff(light: &Light) -> f32 {
+    if light.specular > 0.0 {
+        (1.0f32 / 1024.0 / light.specular).powf(1.0 / light.shininess.max(1e-3))
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// A perspective camera's rays share their origin, so most of Möller–Trumbore is per triangle.
+fn ray_setup(mesh: &Mesh, cam: &Camera) -> Vec<TriSetup> {
+    mesh.triangles
+        .par_iter()
+        .map(|t| {
+            let [p0, p1, p2] = t.map(|i| mesh.positions[i as usize]);
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let tv = cam.eye - p0;
+            let v = tv.cross(e1);
+            TriSetup {
+                u: e2.cross(tv),
+                v,
+                d: e2.cross(e1),
+                c: e2.dot(v),
+            }
+        })
+        .collect()
+}
+
+/// What [`shade`] reads for every pixel.
+struct Shader<'a> {
+    mesh: &'a Mesh,
+    normals: &'a [Vec3],
+    cam: &'a Camera,
+    light: &'a Light,
+    view: Option<&'a ViewCurvature>,
+    /// Per-triangle ray constants (perspective cameras only).
+    setup: Option<Vec<TriSetup>>,
+    spec_cut: f32,
+}
+
+impl Shader<'_> {
+    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`).
+    #[inline]
+    fn fragment(&self, t: u32, sx: f32, sy: f32) -> Fragment {
+        let (mesh, cam, light) = (self.mesh, self.cam, self.light);
+        let idx = mesh.triangles[t as usize];
+        let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
+        let (o, d) = cam.ray(sx, sy);
+        let (b1, b2, depth, back) = match &self.setup {
+            Some(setup) => {
+                // Möller–Trumbore with the pixel-independent parts folded per triangle.
+                let s = &setup[t as usize];
+                let det = d.dot(s.d);
+                if det.abs() > 1e-20 {
+                    let inv = 1.0 / det;
+                    (d.dot(s.u) * inv, d.dot(s.v) * inv, s.c * inv, det < 0.0)
+                } else {
+                    let c = (p0 + p1 + p2) / 3.0;
+                    (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
+                }
+            }
+            None => moller_trumbore(o, d, p0, p1, p2, cam),
+        };
+        // Pixel centres a hair outside the triangle (the raster's tolerance): clamp.
+        let b1 = b1.clamp(0.0, 1.0);
+        let b2 = b2.clamp(0.0, 1.0 - b1);
+        let b0 = 1.0 - b1 - b2;
+        let p = p0 * b0 + p1 * b1 + p2 * b2;
+        let cn = match &mesh.corner_normals {
+            Some(cn) => cn[t as usize],
+            None => idx.map(|i| self.normals[i as usize]),
+        };
+        let mut n = (cn[0] * b0 + cn[1] * b1 + cn[2] * b2).normalize_or_zero();
+        // The side we see: on open surfaces the back is visible and lit as a front.
+        let sign = if back { -1.0 } else { 1.0 };
+        n *= sign;
+        let v = if cam.orthographic {
+            -cam.forward
+        } else {
+            (cam.eye - p).normalize_or_zero()
+        };
+        let l = (light.position - p).normalize_or_zero();
+        let ndl = n.dot(l);
+        let mut i = ndl.max(0.0);
+        if ndl > 0.0 {
+            let ndh = n.dot((l + v).normalize_or_zero());
+            if ndh > self.spec_cut {
+                i += light.specular * ndh.powf(light.shininess);
+            }
+        }
+        let (kr, dwkr) = match self.view {
+            Some(vc) => {
+                let k = idx.map(|i| vc.kr[i as usize]);
+                let dk = idx.map(|i| vc.dwkr[i as usize]);
+                (
+                    sign * (k[0] * b0 + k[1] * b1 + k[2] * b2),
+                    sign * (dk[0] * b0 + dk[1] * b1 + dk[2] * b2),
+                )
+            }
+            None => (0.0, 0.0),
+        };
+        Fragment {
+            shade: i.min(1.0),
+            depth: depth.max(0.0),
+            kr,
+            dwkr,
+            ndotv: n.dot(v),
+        }
+    }
 }
 
 /// Per-triangle constants of Möller–Trumbore for rays from one origin: for a ray direction d,
