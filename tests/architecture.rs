@@ -228,3 +228,71 @@ fn core_stages_use_only_earlier_layers() {
         }
     }
 }
+
+/// Library messages say what is wrong with the values; the `stencil` binary names the option that
+/// changes them (`src/cli/errors.rs`). A string literal in library code (comments and tests
+/// aside) that names a command-line option (`--` and a letter) fails, with its file and line.
+#[test]
+fn libraries_name_no_command_line_options() {
+    // The strength notes are report.json text, not errors; they name the option the user sets.
+    let allowed = ["lower --bridges-per-island or"];
+    for f in rust_files(&root().join("crates")) {
+        if f.components().any(|c| c.as_os_str() == "tests") {
+            continue;
+        }
+        for (line, lit) in string_literals(&non_test_source(&f)) {
+            let named = lit
+                .match_indices("--")
+                .any(|(k, _)| lit[k + 2..].starts_with(|c: char| c.is_ascii_lowercase()));
+            assert!(
+                !named || allowed.iter().any(|a| lit.contains(a)),
+                "{}:{line}: a library string names an option: {lit:?}",
+                f.display()
+            );
+        }
+    }
+}
+
+/// The string literals of Rust source with the line each starts on (comments and character
+/// literals skipped; escapes kept as written).
+fn string_literals(code: &str) -> Vec<(usize, String)> {
+    let b = code.as_bytes();
+    let (mut out, mut i, mut line) = (Vec::new(), 0, 1);
+    while i < b.len() {
+        match b[i] {
+            b'\n' => line += 1,
+            b'/' if b.get(i + 1) == Some(&b'/') => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            b'\'' if b.get(i + 2) == Some(&b'\'') || b.get(i + 1) == Some(&b'\\') => {
+                // 'x' or '\x': skip to the closing quote.
+                i += 1;
+                while i < b.len() && b[i] != b'\'' {
+                    i += if b[i] == b'\\' { 2 } else { 1 };
+                }
+            }
+            b'"' => {
+                let (start, mut lit) = (line, Vec::new());
+                i += 1;
+                while i < b.len() && b[i] != b'"' {
+                    if b[i] == b'\\' {
+                        lit.push(b[i]);
+                        i += 1;
+                    }
+                    if let Some(&c) = b.get(i) {
+                        line += usize::from(c == b'\n');
+                        lit.push(c);
+                    }
+                    i += 1;
+                }
+                out.push((start, String::from_utf8_lossy(&lit).into_owned()));
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    out
+}

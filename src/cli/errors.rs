@@ -10,6 +10,8 @@ use stencil_core::check::CheckError;
 use stencil_core::export::ExportError;
 use stencil_core::limits::{self, num, FinerFix, SizeError};
 use stencil_core::material::SettingsError;
+use stencil_core::tone::mesh::{MeshError, MeshSetting};
+use stencil_core::tone::ToneError;
 use stencil_core::units::{Scale, Size};
 use stencil_core::vector::VectorError;
 use stencil_gcode::{Fit, PlanError};
@@ -33,6 +35,10 @@ pub fn describe(e: &(dyn StdError + 'static)) -> String {
         bridge(e)
     } else if let Some(e) = e.downcast_ref::<PlanError>() {
         plan(e)
+    } else if let Some(e) = e.downcast_ref::<ToneError>() {
+        tone(e)
+    } else if let Some(e) = e.downcast_ref::<MeshError>() {
+        mesh(e)
     } else {
         e.to_string()
     }
@@ -60,6 +66,7 @@ pub fn core(e: &stencil_core::Error) -> String {
         Error::Check(e) => check(e),
         Error::Plan(e) => plan(e),
         Error::Bridge(e) => bridge(e),
+        Error::Tone(e) => tone(e),
         Error::Thin { .. } => format!(
             "{e}; widen the design, choose another --material, or pass --allow-thin to write the \
              outputs anyway"
@@ -253,5 +260,107 @@ fn bridge(e: &BridgeError) -> String {
             format!("{e} (--keep-out, --no-bridge-near, --min-island-mm2)")
         }
         e => e.to_string(),
+    }
+}
+
+/// Reading the picture or rendering the mesh: the pixel limit is --max-pixels, the factor --scale.
+fn tone(e: &ToneError) -> String {
+    match e {
+        ToneError::TooLarge {
+            path,
+            width,
+            height,
+            mp,
+            limit_mp,
+        } => format!(
+            "{}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} \
+             megapixels; downscale the image or raise --max-pixels (at most {})",
+            path.display(),
+            limits::MAX_PIXELS_CEILING
+        ),
+        ToneError::TooMuchMemory {
+            path,
+            width,
+            height,
+            gb,
+            limit_gb,
+        } => format!(
+            "{}: {width}x{height} pixels would need {gb:.1} GB to decode, more than the \
+             {limit_gb:.1} GB stencil allows whatever --max-pixels says; downscale the image",
+            path.display()
+        ),
+        ToneError::BadScale(k) => format!("--scale {k} is out of range: use 1 to 8"),
+        ToneError::ScaleTooLarge {
+            path,
+            factor,
+            width,
+            height,
+            mp,
+            limit_mp,
+        } => format!(
+            "{}: --scale {factor} makes {width}x{height} working pixels ({mp:.1} megapixels), \
+             above the limit of {limit_mp:.1} megapixels; lower --scale (or leave it out to let \
+             stencil choose) or raise --max-pixels",
+            path.display()
+        ),
+        ToneError::Mesh(e) => mesh(e),
+        e => e.to_string(),
+    }
+}
+
+fn mesh(e: &MeshError) -> String {
+    match e {
+        MeshError::Setting(s) => mesh_setting(s),
+        e => e.to_string(),
+    }
+}
+
+/// A render setting with the option that sets it.
+fn mesh_setting(s: &MeshSetting) -> String {
+    match *s {
+        MeshSetting::View {
+            azimuth_deg,
+            elevation_deg,
+        } => format!(
+            "--view: {azimuth_deg},{elevation_deg} is not a view: azimuth any finite angle, \
+             elevation -90..90 degrees"
+        ),
+        MeshSetting::Distance(d) => format!(
+            "--distance: {d} must be above 1 and at most 1000 bounding radii (the camera stays \
+             outside the model)"
+        ),
+        MeshSetting::Fov(f) => {
+            format!("--fov: {f} degrees is not a lens: use 0.5..170 or --ortho")
+        }
+        MeshSetting::TooSmall { width, height } => {
+            format!("--size: {width}x{height} is too small: at least 16 pixels a side")
+        }
+        MeshSetting::Supersample(k) => {
+            format!("--supersample: {k} is out of range: use 1 to 4")
+        }
+        MeshSetting::TooMuchWork {
+            width,
+            height,
+            supersample,
+            megapixels,
+            limit_megapixels,
+        } => format!(
+            "--size: {width}x{height} at --supersample {supersample} is {megapixels:.0} \
+             megapixels of work, above the limit of {limit_megapixels:.0}: lower --size or \
+             --supersample"
+        ),
+        MeshSetting::Light(l) => {
+            format!("--light: {l:?} must be three finite numbers (bounding radii)")
+        }
+        MeshSetting::Specular(v) => {
+            format!("--specular: {v} is out of range: use 0 (matte) to 10")
+        }
+        MeshSetting::Shininess(v) => format!("--shininess: {v} is out of range: use 1 to 10000"),
+        MeshSetting::LinePx(v) => {
+            format!("--line-px: {v} is out of range: use 0.5 to 64 pixels")
+        }
+        MeshSetting::ContourThreshold(v) => {
+            format!("--contour-threshold: {v} must be a finite number >= 0")
+        }
     }
 }

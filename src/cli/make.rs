@@ -457,13 +457,17 @@ fn print_working_scale(r: &stencil_core::report::Report) {
     }
     if let Some(a) = auto {
         if let Some(cap) = a.capped_by {
-            let help = match cap {
-                ScaleCap::MaxFactor => "use a picture with more pixels",
-                ScaleCap::Memory => "use a picture with more pixels, or give --scale",
-                ScaleCap::MaxPixels => "raise --max-pixels",
+            // The library names the cap; the pixel limit is this command's --max-pixels.
+            let (by, help) = match cap {
+                ScaleCap::MaxFactor => (cap.to_string(), "use a picture with more pixels"),
+                ScaleCap::Memory => (
+                    cap.to_string(),
+                    "use a picture with more pixels, or give --scale",
+                ),
+                ScaleCap::MaxPixels => ("--max-pixels".to_string(), "raise --max-pixels"),
             };
             println!(
-                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {cap}; \
+                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {by}; \
                  edges may show the picture's pixels ({help})",
                 a.target_mm_per_px, a.wanted
             );

@@ -25,7 +25,7 @@ pub enum ToneError {
     Decode { path: PathBuf, msg: String },
     #[error(
         "{path}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} megapixels; \
-         downscale the image or raise --max-pixels (at most {})", crate::limits::MAX_PIXELS_CEILING
+         downscale the image or raise the pixel limit (at most {})", crate::limits::MAX_PIXELS_CEILING
     )]
     TooLarge {
         path: PathBuf,
@@ -38,7 +38,7 @@ pub enum ToneError {
     Truncated { path: PathBuf, format: &'static str },
     #[error(
         "{path}: {width}x{height} pixels would need {gb:.1} GB to decode, more than the {limit_gb:.1} GB \
-         stencil allows whatever --max-pixels says; downscale the image"
+         stencil allows whatever the pixel limit; downscale the image"
     )]
     TooMuchMemory {
         path: PathBuf,
@@ -51,12 +51,12 @@ pub enum ToneError {
     DecoderLimit { path: PathBuf, limit_gb: f64 },
     #[error("{path}: the image has no pixels")]
     Empty { path: PathBuf },
-    #[error("--scale {0} is out of range: use 1 to 8")]
+    #[error("scale factor {0} is out of range: use 1 to 8")]
     BadScale(u32),
     #[error(
-        "{path}: --scale {factor} makes {width}x{height} working pixels ({mp:.1} megapixels), above the \
-         limit of {limit_mp:.1} megapixels; lower --scale (or leave it out to let stencil choose) or \
-         raise --max-pixels"
+        "{path}: a scale factor of {factor} makes {width}x{height} working pixels ({mp:.1} \
+         megapixels), above the limit of {limit_mp:.1} megapixels; lower the factor (or let stencil \
+         choose it) or raise the pixel limit"
     )]
     ScaleTooLarge {
         path: PathBuf,

@@ -52,7 +52,7 @@ pub enum ScaleCap {
     MaxFactor,
     /// The memory budget, [`AUTO_MAX_WORKING_PIXELS`].
     Memory,
-    /// `--max-pixels`.
+    /// The caller's pixel limit (`--max-pixels` in the `stencil` binary).
     MaxPixels,
 }
 
@@ -65,7 +65,7 @@ impl std::fmt::Display for ScaleCap {
                 "the memory budget of {} megapixels",
                 AUTO_MAX_WORKING_PIXELS / 1_000_000
             ),
-            ScaleCap::MaxPixels => write!(f, "--max-pixels"),
+            ScaleCap::MaxPixels => write!(f, "the pixel limit"),
         }
     }
 }

@@ -86,98 +86,80 @@ impl Default for MeshConfig {
 }
 
 impl MeshConfig {
-    /// Check every setting; the error names the command-line flag.
+    /// Check every setting; the error holds the setting and its value ([`MeshSetting`]).
     pub fn validate(&self) -> Result<(), MeshError> {
-        let bad = |flag: &'static str, msg: String| Err(MeshError::Setting { flag, msg });
+        self.check_view()
+            .and_then(|()| self.check_size())
+            .and_then(|()| self.check_shading())
+            .map_err(MeshError::Setting)
+    }
+
+    /// The camera: a view, a distance outside the model, a lens.
+    fn check_view(&self) -> Result<(), MeshSetting> {
         if !self.azimuth_deg.is_finite() || !(-90.0..=90.0).contains(&self.elevation_deg) {
-            return bad(
-                "--view",
-                format!(
-                    "{},{} is not a view: azimuth any finite angle, elevation -90..90 degrees",
-                    self.azimuth_deg, self.elevation_deg
-                ),
-            );
+            return Err(MeshSetting::View {
+                azimuth_deg: self.azimuth_deg,
+                elevation_deg: self.elevation_deg,
+            });
         }
         if let Some(d) = self.distance {
             if !(d.is_finite() && d > 1.0 && d <= 1000.0) {
-                return bad(
-                    "--distance",
-                    format!("{d} must be above 1 and at most 1000 bounding radii (the camera stays outside the model)"),
-                );
+                return Err(MeshSetting::Distance(d));
             }
         }
         if let Some(f) = self.fov_deg {
             if !(f.is_finite() && f > 0.5 && f < 170.0) {
-                return bad(
-                    "--fov",
-                    format!("{f} degrees is not a lens: use 0.5..170 or --ortho"),
-                );
+                return Err(MeshSetting::Fov(f));
             }
         }
-        let (w, h) = match self.size {
+        Ok(())
+    }
+
+    /// The picture: large enough to draw, and a bounded amount of work once supersampled.
+    fn check_size(&self) -> Result<(), MeshSetting> {
+        let (width, height) = match self.size {
             RenderSize::LongSide(n) => (n, n),
             RenderSize::Exact { width, height } => (width, height),
         };
-        if w < 16 || h < 16 {
-            return bad(
-                "--size",
-                format!("{w}x{h} is too small: at least 16 pixels a side"),
-            );
+        if width < 16 || height < 16 {
+            return Err(MeshSetting::TooSmall { width, height });
         }
         if !(1..=4).contains(&self.supersample) {
-            return bad(
-                "--supersample",
-                format!("{} is out of range: use 1 to 4", self.supersample),
-            );
+            return Err(MeshSetting::Supersample(self.supersample));
         }
-        let working = w as u64 * h as u64 * (self.supersample as u64).pow(2);
+        let working = width as u64 * height as u64 * (self.supersample as u64).pow(2);
         if working > MAX_WORKING_PIXELS {
-            return bad(
-                "--size",
-                format!(
-                    "{w}x{h} at --supersample {} is {:.0} megapixels of work, above the limit of {:.0}: lower --size or --supersample",
-                    self.supersample,
-                    working as f64 / 1e6,
-                    MAX_WORKING_PIXELS as f64 / 1e6
-                ),
-            );
+            return Err(MeshSetting::TooMuchWork {
+                width,
+                height,
+                supersample: self.supersample,
+                megapixels: working as f64 / 1e6,
+                limit_megapixels: MAX_WORKING_PIXELS as f64 / 1e6,
+            });
         }
+        Ok(())
+    }
+
+    /// The light, the highlight and the lines.
+    fn check_shading(&self) -> Result<(), MeshSetting> {
         if !self
             .light
             .iter()
             .all(|v| v.is_finite() && v.abs() <= 1000.0)
         {
-            return bad(
-                "--light",
-                format!(
-                    "{:?} must be three finite numbers (bounding radii)",
-                    self.light
-                ),
-            );
+            return Err(MeshSetting::Light(self.light));
         }
         if !(self.specular.is_finite() && (0.0..=10.0).contains(&self.specular)) {
-            return bad(
-                "--specular",
-                format!("{} is out of range: use 0 (matte) to 10", self.specular),
-            );
+            return Err(MeshSetting::Specular(self.specular));
         }
         if !(self.shininess.is_finite() && (1.0..=10_000.0).contains(&self.shininess)) {
-            return bad(
-                "--shininess",
-                format!("{} is out of range: use 1 to 10000", self.shininess),
-            );
+            return Err(MeshSetting::Shininess(self.shininess));
         }
         if !(self.line_px.is_finite() && (0.5..=64.0).contains(&self.line_px)) {
-            return bad(
-                "--line-px",
-                format!("{} is out of range: use 0.5 to 64 pixels", self.line_px),
-            );
+            return Err(MeshSetting::LinePx(self.line_px));
         }
         if !(self.contour_threshold.is_finite() && self.contour_threshold >= 0.0) {
-            return bad(
-                "--contour-threshold",
-                format!("{} must be a finite number >= 0", self.contour_threshold),
-            );
+            return Err(MeshSetting::ContourThreshold(self.contour_threshold));
         }
         Ok(())
     }
@@ -198,6 +180,52 @@ impl MeshConfig {
             None => 4.0,
         })
     }
+}
+
+/// A render setting out of its range, with the value given (the `stencil` binary words it with
+/// the option that sets it).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum MeshSetting {
+    #[error(
+        "view {azimuth_deg},{elevation_deg} is not a view: azimuth any finite angle, elevation \
+         -90..90 degrees"
+    )]
+    View {
+        azimuth_deg: f32,
+        elevation_deg: f32,
+    },
+    #[error(
+        "camera distance {0} must be above 1 and at most 1000 bounding radii (the camera stays \
+         outside the model)"
+    )]
+    Distance(f32),
+    #[error("field of view {0} degrees is not a lens: use 0.5..170, or an orthographic view")]
+    Fov(f32),
+    #[error("render size {width}x{height} is too small: at least 16 pixels a side")]
+    TooSmall { width: u32, height: u32 },
+    #[error("supersampling {0} is out of range: use 1 to 4")]
+    Supersample(u32),
+    #[error(
+        "render size {width}x{height} supersampled {supersample} times is {megapixels:.0} \
+         megapixels of work, above the limit of {limit_megapixels:.0}"
+    )]
+    TooMuchWork {
+        width: u32,
+        height: u32,
+        supersample: u32,
+        megapixels: f64,
+        limit_megapixels: f64,
+    },
+    #[error("light position {0:?} must be three finite numbers (bounding radii)")]
+    Light([f32; 3]),
+    #[error("specular strength {0} is out of range: use 0 (matte) to 10")]
+    Specular(f32),
+    #[error("shininess {0} is out of range: use 1 to 10000")]
+    Shininess(f32),
+    #[error("line width {0} is out of range: use 0.5 to 64 pixels")]
+    LinePx(f32),
+    #[error("contour threshold {0} must be a finite number >= 0")]
+    ContourThreshold(f32),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -243,8 +271,9 @@ pub enum MeshError {
     Parse { path: PathBuf, msg: String },
     #[error("{path}: the mesh is empty: {detail}; nothing to render")]
     Empty { path: PathBuf, detail: String },
-    #[error("{flag}: {msg}")]
-    Setting { flag: &'static str, msg: String },
+    /// A render setting out of its range.
+    #[error("{0}")]
+    Setting(MeshSetting),
 }
 
 /// A rendered view at output resolution, before thresholding.
