@@ -458,38 +458,12 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
     Ok(match f.process {
         ProcessKind::Laser => {
             let l = f.laser.take().ok_or_else(|| missing("laser"))?;
-            check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
-            check_range(
-                origin,
-                "laser.speed_mm_min",
-                l.speed_mm_min,
-                1.0,
-                100_000.0,
-                "mm/min",
-            )?;
-            check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")?;
+            check_laser(&l, origin)?;
             Process::Laser(l)
         }
         ProcessKind::Knife => {
             let k = f.knife.take().ok_or_else(|| missing("knife"))?;
-            check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
-            check_range(
-                origin,
-                "knife.speed_mm_s",
-                k.speed_mm_s,
-                1.0,
-                2000.0,
-                "mm/s",
-            )?;
-            check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
-            check_range(
-                origin,
-                "knife.blade_offset_mm",
-                k.blade_offset_mm,
-                0.0,
-                2.0,
-                "mm",
-            )?;
+            check_knife(&k, origin)?;
             Process::Knife(k)
         }
         ProcessKind::Pen => {
@@ -511,6 +485,40 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
             Process::Etch(e)
         }
     })
+}
+
+fn check_laser(l: &LaserSettings, origin: &Path) -> Result<(), ProfileError> {
+    check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
+    check_range(
+        origin,
+        "laser.speed_mm_min",
+        l.speed_mm_min,
+        1.0,
+        100_000.0,
+        "mm/min",
+    )?;
+    check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")
+}
+
+fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
+    check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
+    check_range(
+        origin,
+        "knife.speed_mm_s",
+        k.speed_mm_s,
+        1.0,
+        2000.0,
+        "mm/s",
+    )?;
+    check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
+    check_range(
+        origin,
+        "knife.blade_offset_mm",
+        k.blade_offset_mm,
+        0.0,
+        2.0,
+        "mm",
+    )
 }
 
 /// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary

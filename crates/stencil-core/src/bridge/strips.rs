@@ -369,18 +369,7 @@ fn walk_steered(
 ) -> Result<Strip, WalkEnd> {
     pixels.clear();
     let (cx, cy) = (x as i64, y as i64);
-    // First pixel: the cut edge neighbour most in line with the normal.
-    let mut best: Option<((i64, i64), f32)> = None;
-    for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
-        let (nx, ny) = (cx + dx, cy + dy);
-        if !f.material(nx, ny) && !f.blocked(nx, ny) {
-            let dot = n[0] * dx as f32 + n[1] * dy as f32;
-            if best.is_none_or(|(_, b)| dot > b) {
-                best = Some(((nx, ny), dot));
-            }
-        }
-    }
-    let Some(((mut px, mut py), _)) = best else {
+    let Some((mut px, mut py)) = first_pixel(f, (cx, cy), n) else {
         return Err(WalkEnd::NoStart);
     };
     // Heading: the normal, or the step to the first pixel if the normal points elsewhere.
@@ -408,21 +397,8 @@ fn walk_steered(
         if pixels.len() >= max_len {
             return Err(WalkEnd::TooLong);
         }
-        // Steer along the field, oriented to agree with the heading.
         if let Some(g) = (steer > 0.0).then(|| f.field(px, py)).flatten() {
-            let dot = g[0] * d[0] + g[1] * d[1];
-            if dot.abs() >= MIN_ALIGN {
-                let s = dot.signum() * steer;
-                let nd = [d[0] + s * g[0], d[1] + s * g[1]];
-                let m = (nd[0] * nd[0] + nd[1] * nd[1]).sqrt();
-                if m > 1e-6 {
-                    d = [nd[0] / m, nd[1] / m];
-                }
-                if d[0] * start[0] + d[1] * start[1] <= 0.0 {
-                    // Turned back past a right angle: it would curl onto itself.
-                    return Err(WalkEnd::Looped);
-                }
-            }
+            d = steered(d, g, steer, start)?;
         }
         // Next pixel: where the ray leaves this one; never straight back to where it came from.
         let Some((nx, ny, npos)) = next_pixel(px, py, pos, d, prev) else {
@@ -442,6 +418,41 @@ fn walk_steered(
         prev = Some((px, py));
         (px, py, pos) = (nx, ny, npos);
     }
+}
+
+/// The walk's first pixel: the cut neighbour of the edge pixel `c` (4-connected, not forbidden)
+/// most in line with the normal `n`.
+fn first_pixel(f: &Fields, (cx, cy): (i64, i64), n: [f32; 2]) -> Option<(i64, i64)> {
+    let mut best: Option<((i64, i64), f32)> = None;
+    for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+        let (nx, ny) = (cx + dx, cy + dy);
+        if !f.material(nx, ny) && !f.blocked(nx, ny) {
+            let dot = n[0] * dx as f32 + n[1] * dy as f32;
+            if best.is_none_or(|(_, b)| dot > b) {
+                best = Some(((nx, ny), dot));
+            }
+        }
+    }
+    best.map(|(p, _)| p)
+}
+
+/// The heading `d` turned by `steer` towards the field direction `g` (oriented to agree with the
+/// heading; a field at nearly right angles, under [`MIN_ALIGN`], does not steer). A walk turned
+/// back past a right angle from its `start` heading would curl onto itself: it ends, looped.
+#[inline]
+fn steered(d: [f32; 2], g: [f32; 2], steer: f32, start: [f32; 2]) -> Result<[f32; 2], WalkEnd> {
+    let dot = g[0] * d[0] + g[1] * d[1];
+    if dot.abs() < MIN_ALIGN {
+        return Ok(d);
+    }
+    let s = dot.signum() * steer;
+    let nd = [d[0] + s * g[0], d[1] + s * g[1]];
+    let m = (nd[0] * nd[0] + nd[1] * nd[1]).sqrt();
+    let d = if m > 1e-6 { [nd[0] / m, nd[1] / m] } else { d };
+    if d[0] * start[0] + d[1] * start[1] <= 0.0 {
+        return Err(WalkEnd::Looped);
+    }
+    Ok(d)
 }
 
 /// One ray-traversal step from pixel (px, py) at continuous `pos` along `d`: the edge neighbour

@@ -111,10 +111,6 @@ fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
 
 /// Encode `mask.png`: 1-bit grayscale (1 = white).
 pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, ExportError> {
-    let err = |msg: String| ExportError::Encode {
-        path: "mask.png".into(),
-        msg,
-    };
     if !cfg.dpi.is_finite() || cfg.dpi <= 0.0 {
         return Err(ExportError::MaskDpi(cfg.dpi));
     }
@@ -126,9 +122,15 @@ pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, Expor
             dpi: cfg.dpi,
         });
     }
+    let data = scan_fill(&pixel_edges(geom, cfg, w), w, h, cfg.invert);
+    write_png(&data, w, h, cfg.dpi)
+}
+
+/// The etched rings' edges in pixel space, (x0, y0, x1, y1) with y0 < y1 (horizontal ones
+/// dropped, mirrored when asked), sorted by y0 for the scan.
+fn pixel_edges(geom: &CutGeometry, cfg: &MaskConfig, w: u32) -> Vec<[f64; 4]> {
     let f = cfg.dpi / 25.4;
     let (ox, oy) = (geom.outline.min().x, geom.outline.min().y);
-    // Edges in pixel space: (x0, y0, x1, y1) with y0 < y1.
     let mut edges: Vec<[f64; 4]> = Vec::new();
     for r in etched_rings(geom, cfg.marks) {
         for s in r.0.windows(2) {
@@ -148,10 +150,15 @@ pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, Expor
         }
     }
     edges.sort_by(|p, q| p[1].total_cmp(&q[1]));
+    edges
+}
+
+/// Even-odd scan fill of `edges` into 1-bit rows (`w` × `h`, each row padded to whole bytes):
+/// a pixel is etched when its centre lies inside. Metal stays black (0) unless `invert`; etched
+/// regions get the other tone.
+fn scan_fill(edges: &[[f64; 4]], w: u32, h: u32, invert: bool) -> Vec<u8> {
     let stride = (w as usize).div_ceil(8);
-    // Metal-stays tone: black (0) unless inverted; etched regions get the other tone.
-    let metal_white = cfg.invert;
-    let mut data = vec![if metal_white { 0xffu8 } else { 0 }; stride * h as usize];
+    let mut data = vec![if invert { 0xffu8 } else { 0 }; stride * h as usize];
     let mut active: Vec<usize> = Vec::new();
     let mut next = 0;
     let mut xs: Vec<f64> = Vec::new();
@@ -180,20 +187,29 @@ pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, Expor
             }
         }
     }
+    data
+}
+
+/// The 1-bit grayscale PNG, with its resolution in pixels per metre so the film plotter sees the
+/// intended dpi.
+fn write_png(data: &[u8], w: u32, h: u32, dpi: f64) -> Result<Vec<u8>, ExportError> {
+    let err = |msg: String| ExportError::Encode {
+        path: "mask.png".into(),
+        msg,
+    };
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, w, h);
         enc.set_color(png::ColorType::Grayscale);
         enc.set_depth(png::BitDepth::One);
-        // Pixels per metre, so the film plotter sees the intended dpi.
-        let ppm = (cfg.dpi / 0.0254).round() as u32;
+        let ppm = (dpi / 0.0254).round() as u32;
         enc.set_pixel_dims(Some(png::PixelDimensions {
             xppu: ppm,
             yppu: ppm,
             unit: png::Unit::Meter,
         }));
         let mut wr = enc.write_header().map_err(|e| err(e.to_string()))?;
-        wr.write_image_data(&data).map_err(|e| err(e.to_string()))?;
+        wr.write_image_data(data).map_err(|e| err(e.to_string()))?;
     }
     Ok(out)
 }

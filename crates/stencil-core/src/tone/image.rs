@@ -25,6 +25,54 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
         path: path.to_path_buf(),
         source: plain_io(source),
     };
+    let (reader, format) = open_picture(path)?;
+    let decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    let (width, height) = decoder.dimensions();
+    let need = decode_bytes(path, &decoder, max_pixels)?;
+    if format == ImageFormat::Jpeg && !jpeg_is_complete(path).map_err(open_err)? {
+        return Err(ToneError::Truncated {
+            path: path.to_path_buf(),
+            format: "JPEG",
+        });
+    }
+    let out_of_memory = || ToneError::TooMuchMemory {
+        path: path.to_path_buf(),
+        width,
+        height,
+        gb: need as f64 / 1e9,
+        limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
+    };
+    let color = decoder.color_type();
+    let decoded = decoder.total_bytes();
+    let mut buf: Vec<u8> = Vec::new();
+    buf.try_reserve_exact(decoded as usize)
+        .map_err(|_| out_of_memory())?;
+    buf.resize(decoded as usize, 0);
+    decoder
+        .read_image(&mut buf)
+        .map_err(|e| decode_error(path, e))?;
+    let pixels = width as u64 * height as u64;
+    let mut data: Vec<f32> = Vec::new();
+    data.try_reserve_exact(pixels as usize)
+        .map_err(|_| out_of_memory())?;
+    to_gray(&buf, color, &mut data);
+    drop(buf);
+    Ok(Gray {
+        width,
+        height,
+        data,
+    })
+}
+
+/// The file opened with its format guessed from its first bytes, if it is one stencil reads
+/// (PNG, JPEG, BMP, TIFF), and the decoder's allocations capped at [`limits::MAX_DECODE_BYTES`].
+fn open_picture(
+    path: &Path,
+) -> Result<(ImageReader<BufReader<std::fs::File>>, ImageFormat), ToneError> {
+    let open_err = |source: std::io::Error| ToneError::Open {
+        path: path.to_path_buf(),
+        source: plain_io(source),
+    };
     let file = std::fs::File::open(path).map_err(open_err)?;
     let mut reader = ImageReader::new(BufReader::new(file))
         .with_guessed_format()
@@ -47,7 +95,16 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(limits::MAX_DECODE_BYTES);
     reader.limits(limits);
-    let decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    Ok((reader, format))
+}
+
+/// The bytes decoding needs (the decoder's buffer and the gray picture), from the header alone:
+/// refused when the picture is empty, over `max_pixels`, or over [`limits::MAX_DECODE_BYTES`].
+fn decode_bytes(
+    path: &Path,
+    decoder: &impl ImageDecoder,
+    max_pixels: u64,
+) -> Result<u64, ToneError> {
     let (width, height) = decoder.dimensions();
     let pixels = width as u64 * height as u64;
     if pixels == 0 {
@@ -64,9 +121,9 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
             limit_mp: max_pixels as f64 / 1e6,
         });
     }
-    let color = decoder.color_type();
-    let decoded = decoder.total_bytes();
-    let need = decoded.saturating_add(pixels.saturating_mul(4));
+    let need = decoder
+        .total_bytes()
+        .saturating_add(pixels.saturating_mul(4));
     if need > limits::MAX_DECODE_BYTES {
         return Err(ToneError::TooMuchMemory {
             path: path.to_path_buf(),
@@ -76,36 +133,7 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
             limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
         });
     }
-    if format == ImageFormat::Jpeg && !jpeg_is_complete(path).map_err(open_err)? {
-        return Err(ToneError::Truncated {
-            path: path.to_path_buf(),
-            format: "JPEG",
-        });
-    }
-    let out_of_memory = || ToneError::TooMuchMemory {
-        path: path.to_path_buf(),
-        width,
-        height,
-        gb: need as f64 / 1e9,
-        limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
-    };
-    let mut buf: Vec<u8> = Vec::new();
-    buf.try_reserve_exact(decoded as usize)
-        .map_err(|_| out_of_memory())?;
-    buf.resize(decoded as usize, 0);
-    decoder
-        .read_image(&mut buf)
-        .map_err(|e| decode_error(path, e))?;
-    let mut data: Vec<f32> = Vec::new();
-    data.try_reserve_exact(pixels as usize)
-        .map_err(|_| out_of_memory())?;
-    to_gray(&buf, color, &mut data);
-    drop(buf);
-    Ok(Gray {
-        width,
-        height,
-        data,
-    })
+    Ok(need)
 }
 
 /// Decoded pixels of any colour type as gray in 0..1: Rec. 709 luma, composited over white.
@@ -215,13 +243,6 @@ fn plain_io(e: std::io::Error) -> std::io::Error {
 /// an embedded thumbnail does not count. Streams the file; data after the EOI is ignored.
 pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
     let mut r = BufReader::new(std::fs::File::open(path)?);
-    let byte = |r: &mut BufReader<std::fs::File>| -> std::io::Result<Option<u8>> {
-        let mut b = [0u8];
-        Ok(match r.read(&mut b)? {
-            0 => None,
-            _ => Some(b[0]),
-        })
-    };
     if (byte(&mut r)?, byte(&mut r)?) != (Some(0xFF), Some(0xD8)) {
         return Ok(false);
     }
@@ -232,20 +253,13 @@ pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
             Some(m) => m,
             None => {
                 // A marker: 0xFF (any number of fill bytes), then its code.
-                let Some(b) = byte(&mut r)? else {
-                    return Ok(false);
-                };
-                if b != 0xFF {
+                if byte(&mut r)? != Some(0xFF) {
                     return Ok(false);
                 }
-                let mut m = 0xFF;
-                while m == 0xFF {
-                    match byte(&mut r)? {
-                        Some(c) => m = c,
-                        None => return Ok(false),
-                    }
+                match marker_code(&mut r)? {
+                    Some(m) => m,
+                    None => return Ok(false),
                 }
-                m
             }
         };
         match marker {
@@ -267,32 +281,54 @@ pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
         if marker != 0xDA {
             continue;
         }
-        // Entropy-coded data after a start of scan: runs to the next marker that is neither a
-        // stuffed 0xFF 0x00 nor a restart.
-        loop {
-            let buf = r.fill_buf()?;
-            if buf.is_empty() {
-                return Ok(false);
-            }
-            let Some(i) = buf.iter().position(|&b| b == 0xFF) else {
-                let n = buf.len();
-                r.consume(n);
-                continue;
-            };
-            r.consume(i + 1);
-            let mut m = 0xFF;
-            while m == 0xFF {
-                match byte(&mut r)? {
-                    Some(c) => m = c,
-                    None => return Ok(false),
-                }
-            }
-            if m == 0x00 || (0xD0..=0xD7).contains(&m) {
-                continue;
-            }
-            pending = Some(m);
-            break;
+        match after_entropy_data(&mut r)? {
+            Some(m) => pending = Some(m),
+            None => return Ok(false),
         }
+    }
+}
+
+/// The next byte, or `None` at the end of the file.
+fn byte(r: &mut impl Read) -> std::io::Result<Option<u8>> {
+    let mut b = [0u8];
+    Ok(match r.read(&mut b)? {
+        0 => None,
+        _ => Some(b[0]),
+    })
+}
+
+/// After a marker's first 0xFF: skip fill bytes (more 0xFF) and return the marker's code, or
+/// `None` at the end of the file.
+fn marker_code(r: &mut impl Read) -> std::io::Result<Option<u8>> {
+    loop {
+        match byte(r)? {
+            Some(0xFF) => continue,
+            other => return Ok(other),
+        }
+    }
+}
+
+/// Entropy-coded data after a start of scan runs to the next marker that is neither a stuffed
+/// 0xFF 0x00 nor a restart: that marker's code, or `None` if the file ends first.
+fn after_entropy_data(r: &mut BufReader<std::fs::File>) -> std::io::Result<Option<u8>> {
+    loop {
+        let buf = r.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(None);
+        }
+        let Some(i) = buf.iter().position(|&b| b == 0xFF) else {
+            let n = buf.len();
+            r.consume(n);
+            continue;
+        };
+        r.consume(i + 1);
+        let Some(m) = marker_code(r)? else {
+            return Ok(None);
+        };
+        if m == 0x00 || (0xD0..=0xD7).contains(&m) {
+            continue;
+        }
+        return Ok(Some(m));
     }
 }
 

@@ -823,31 +823,7 @@ pub fn settle_near(
         .iter()
         .map(|&b| grow(b, (2 + spread) * reach))
         .collect();
-    let meets = |a: [u32; 4], b: [u32; 4]| a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
-    let mut cluster: Vec<usize> = (0..boxes.len()).collect();
-    // Past a few hundred necks one window for all: clustering would cost more than it saves.
-    if boxes.len() <= 512 {
-        loop {
-            let mut merged = false;
-            for i in 0..boxes.len() {
-                for j in 0..i {
-                    if cluster[i] != cluster[j] && meets(windows[i], windows[j]) {
-                        let (from, to) = (cluster[i].max(cluster[j]), cluster[i].min(cluster[j]));
-                        cluster
-                            .iter_mut()
-                            .filter(|c| **c == from)
-                            .for_each(|c| *c = to);
-                        merged = true;
-                    }
-                }
-            }
-            if !merged {
-                break;
-            }
-        }
-    } else {
-        cluster.fill(0);
-    }
+    let cluster = overlapping(&windows);
     let mut ids = cluster.clone();
     ids.sort_unstable();
     ids.dedup();
@@ -874,6 +850,36 @@ pub fn settle_near(
         added += settle_window(bits, window, &own, &near, disc, reach);
     }
     added
+}
+
+/// A cluster number per window: windows that overlap, directly or through others, share the
+/// smallest of their numbers. Past a few hundred windows, one cluster for all: clustering would
+/// cost more than it saves.
+fn overlapping(windows: &[[u32; 4]]) -> Vec<usize> {
+    let meets = |a: [u32; 4], b: [u32; 4]| a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+    let n = windows.len();
+    if n > 512 {
+        return vec![0; n];
+    }
+    let mut cluster: Vec<usize> = (0..n).collect();
+    loop {
+        let mut merged = false;
+        for i in 0..n {
+            for j in 0..i {
+                if cluster[i] != cluster[j] && meets(windows[i], windows[j]) {
+                    let (from, to) = (cluster[i].max(cluster[j]), cluster[i].min(cluster[j]));
+                    cluster
+                        .iter_mut()
+                        .filter(|c| **c == from)
+                        .for_each(|c| *c = to);
+                    merged = true;
+                }
+            }
+        }
+        if !merged {
+            return cluster;
+        }
+    }
 }
 
 /// [`settle_near`] in one window: the thin features holding a pixel of `boxes` are resolved, and

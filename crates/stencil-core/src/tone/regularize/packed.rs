@@ -284,25 +284,37 @@ impl Shape {
 /// material (its tail bits must be set), so a disc of material may reach past them and one of
 /// cut may not. The result's tail bits are clear.
 pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
-    let (w, h) = (bits.width, bits.height);
     let tone = if phase { bits.clone() } else { bits.not() };
-    let fill = word_of(phase);
     let shape = Shape::of(disc);
-    let corners = disc.on_corners() as usize;
-    // Erosion: the lattice points whose disc lies wholly in the tone.
-    let (lw, lh) = (w + corners, h + corners);
-    let mut centres = Packed::new(lw, lh, false);
-    let ls = centres.stride;
-    // Each tone row run-ANDed once per distinct disc row.
+    // Each row is run-combined once per distinct disc row.
     let mut spans: Vec<(i64, i64)> = shape.rows.clone();
     spans.sort_unstable_by_key(|&(a, b)| b - a);
     spans.dedup();
+    let centres = disc_centres(&tone, phase, &shape, &spans, disc.on_corners() as usize);
+    uncovered(tone, &centres, &shape, &spans)
+}
+
+/// Erosion: the lattice points (`corners` more per side than pixels when the disc's centre lies
+/// on pixel corners) whose disc, of `shape`'s rows (`spans` the distinct ones), lies wholly in
+/// `tone`. Past the grid's edges lies material: a disc of material may reach there (`phase`).
+fn disc_centres(
+    tone: &Packed,
+    phase: bool,
+    shape: &Shape,
+    spans: &[(i64, i64)],
+    corners: usize,
+) -> Packed {
+    let (w, h) = (tone.width, tone.height);
+    let fill = word_of(phase);
+    let (lw, lh) = (w + corners, h + corners);
+    let mut centres = Packed::new(lw, lh, false);
+    let ls = centres.stride;
     let ns = spans.len();
     let par = parallel(w * h);
     let mut runs = vec![0u64; h * ns * ls];
     let scratch = || (Vec::new(), Vec::new());
     rows_mut_with(&mut runs, ns * ls, par, scratch, |s, (y, out)| {
-        runs_of(tone.row(y), &spans, true, fill, ls, out, s);
+        runs_of(tone.row(y), spans, true, fill, ls, out, s);
     });
     let which: Vec<usize> = shape
         .rows
@@ -329,11 +341,19 @@ pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
         }
     });
     centres.tail(false);
-    drop(runs);
-    // Dilation: the pixels some valid centre's disc holds. Pixel (x, y) is held by centre
-    // (x − dx, y − dy), so each centre row is run-ORed over the mirrored disc row.
+    centres
+}
+
+/// Dilation, subtracted: `tone` minus the pixels some valid centre's disc holds. Pixel (x, y) is
+/// held by centre (x − dx, y − dy), so each centre row is run-ORed over the mirrored disc row.
+fn uncovered(tone: Packed, centres: &Packed, shape: &Shape, spans: &[(i64, i64)]) -> Packed {
+    let (w, h) = (tone.width, tone.height);
+    let lh = centres.height;
+    let ns = spans.len();
+    let par = parallel(w * h);
+    let scratch = || (Vec::new(), Vec::new());
     let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
-    let ps = bits.stride;
+    let ps = tone.stride;
     let mut runs = vec![0u64; lh * ns * ps];
     rows_mut_with(&mut runs, ns * ps, par, scratch, |s, (cy, out)| {
         runs_of(centres.row(cy), &mirrored, false, 0, ps, out, s);
