@@ -161,27 +161,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             png.display().to_string()
         }
     })?;
-    let report_value = |what: &str, v: Option<f64>, ok: fn(f64) -> Result<f64, String>| {
-        v.map(|v| {
-            ok(v).map_err(|e| anyhow::anyhow!("{}: report.json's {what}: {e}", a.input.display()))
-        })
-        .transpose()
-    };
-    let tolerance_mm = match a.tolerance_mm {
-        Some(t) => t,
-        None => report_value(
-            "tolerance_mm",
-            report.as_ref().and_then(|r| r.tolerance_mm),
-            super::bounds::tolerance_value,
-        )?
-        .unwrap_or(0.05),
-    };
-    let margin_mm = report_value(
-        "margin_mm",
-        report.as_ref().and_then(|r| r.margin_mm),
-        super::bounds::margin_value,
-    )?
-    .unwrap_or(5.0);
+    let (tolerance_mm, margin_mm) = tolerance_and_margin(&a, report.as_ref())?;
     let vcfg = VectorConfig {
         scale,
         kerf_mm: material.kerf_mm,
@@ -189,29 +169,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
         margin_mm,
         ..Default::default()
     };
-    let bridges: Option<Vec<Vec<[f64; 2]>>> = report
-        .as_ref()
-        .map(|r| r.bridges.iter().map(|b| b.polygon_px.clone()).collect());
-    // A bridge drawn far off the stencil belongs to another picture (or a damaged report), and
-    // its coordinates would reach the geometry code unchecked.
-    let reach = f64::from(bits.width.max(bits.height));
-    for (i, poly) in bridges.iter().flatten().enumerate() {
-        if let Some(p) = poly.iter().find(|p| {
-            !p.iter()
-                .all(|v| v.is_finite() && (-reach..=2.0 * reach).contains(v))
-        }) {
-            anyhow::bail!(
-                "{}: report.json's bridge {} has a point at ({}, {}) px, far outside the {}x{} px \
-                 stencil.png; the report does not belong to this stencil (run make again)",
-                a.input.display(),
-                i + 1,
-                stencil_core::limits::num(p[0]),
-                stencil_core::limits::num(p[1]),
-                bits.width,
-                bits.height
-            );
-        }
-    }
+    let bridges = report_bridges(&a.input, report.as_ref(), &bits)?;
     let mut timer = Timings::new(Some(bar.clone()));
     let (_, _, chk) =
         pipeline::vectorize_and_check(&bits, bridges.as_deref(), &vcfg, &material, &mut timer)
@@ -235,6 +193,64 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// The vector tolerance (--tolerance-mm, else the report's, else 0.05 mm) and the margin (the
+/// report's, else 5 mm); a report's value out of range is refused, naming it.
+fn tolerance_and_margin(a: &CheckArgs, report: Option<&Report>) -> anyhow::Result<(f64, f64)> {
+    let report_value = |what: &str, v: Option<f64>, ok: fn(f64) -> Result<f64, String>| {
+        v.map(|v| {
+            ok(v).map_err(|e| anyhow::anyhow!("{}: report.json's {what}: {e}", a.input.display()))
+        })
+        .transpose()
+    };
+    let tolerance_mm = match a.tolerance_mm {
+        Some(t) => t,
+        None => report_value(
+            "tolerance_mm",
+            report.and_then(|r| r.tolerance_mm),
+            super::bounds::tolerance_value,
+        )?
+        .unwrap_or(0.05),
+    };
+    let margin_mm = report_value(
+        "margin_mm",
+        report.and_then(|r| r.margin_mm),
+        super::bounds::margin_value,
+    )?
+    .unwrap_or(5.0);
+    Ok((tolerance_mm, margin_mm))
+}
+
+/// The bridges' outlines of a folder's report, in pixels. A bridge drawn far off the stencil
+/// belongs to another picture (or a damaged report), and its coordinates would reach the
+/// geometry code unchecked: refused.
+fn report_bridges(
+    input: &Path,
+    report: Option<&Report>,
+    bits: &BitGrid,
+) -> anyhow::Result<Option<Vec<Vec<[f64; 2]>>>> {
+    let bridges: Option<Vec<Vec<[f64; 2]>>> =
+        report.map(|r| r.bridges.iter().map(|b| b.polygon_px.clone()).collect());
+    let reach = f64::from(bits.width.max(bits.height));
+    for (i, poly) in bridges.iter().flatten().enumerate() {
+        if let Some(p) = poly.iter().find(|p| {
+            !p.iter()
+                .all(|v| v.is_finite() && (-reach..=2.0 * reach).contains(v))
+        }) {
+            anyhow::bail!(
+                "{}: report.json's bridge {} has a point at ({}, {}) px, far outside the {}x{} px \
+                 stencil.png; the report does not belong to this stencil (run make again)",
+                input.display(),
+                i + 1,
+                stencil_core::limits::num(p[0]),
+                stencil_core::limits::num(p[1]),
+                bits.width,
+                bits.height
+            );
+        }
+    }
+    Ok(bridges)
 }
 
 /// The material a `make` run used, as its report records it: the file it was read from when that

@@ -327,8 +327,24 @@ fn change_parts(f: &Fidelity) -> String {
 }
 
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
+    let cfg = make_config(&a)?;
+    let bar = StageBar::start();
+    let cfg = MakeConfig {
+        progress: Some(bar.clone()),
+        ..cfg
+    };
+    let result = pipeline::make(&cfg);
+    bar.finish();
+    let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
+    print_made(&cfg, &made, &replaced);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The pipeline's settings from the command line, each option checked in the order given here
+/// (the first bad one is the one reported). Without --material, a G-code job gets a material set
+/// up for the machine's tool.
+fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.physical.emit.contains(&EmitKind::Gcode);
-    // Without --material, a G-code job gets a material set up for the machine's tool.
     let default_material = if emit_gcode {
         stencil_core::material::default_for(&a.machine.machine()?.tool)
     } else {
@@ -348,9 +364,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         gcode: None,
         progress: None,
     };
-    let bar = StageBar::start();
-    let cfg = MakeConfig {
-        progress: Some(bar.clone()),
+    Ok(MakeConfig {
         gcode: super::gcode::make_gcode_config(
             &a.machine,
             &a.cut,
@@ -358,10 +372,13 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             emit_gcode,
         )?,
         ..cfg
-    };
-    let result = pipeline::make(&cfg);
-    bar.finish();
-    let (made, replaced) = result.map_err(|e| match e {
+    })
+}
+
+/// A failed run in this command's words: the fidelity limit with what helps, any other error
+/// naming the input.
+fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
+    match e {
         stencil_core::Error::TooMuchChange {
             fidelity,
             limit_pct,
@@ -376,7 +393,12 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
             anyhow::anyhow!("{}: {}", cfg.input.display(), super::errors::plan(&p))
         }
         e => super::errors::naming_input(&cfg.input, e),
-    })?;
+    }
+}
+
+/// What a successful run tells: the stencil in one line, its size and files, files of an earlier
+/// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
+fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replaced) {
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
     println!(
@@ -427,7 +449,6 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// File names, comma separated.

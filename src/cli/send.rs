@@ -539,38 +539,8 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             machine.name
         );
     }
-    let frame = match a.frame {
-        false => None,
-        true if !a.yes && !super::frame::can_ask() => bail!(
-            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
-             pass --yes to start right after framing, or frame first with `stencil frame`"
-        ),
-        // The frame is of the whole file (a resumed job still lands where the file says).
-        true => Some(super::frame::setup(
-            &a.file,
-            &job,
-            &machine,
-            a.frame_feed,
-            a.no_bed_check,
-        )?),
-    };
-    let mut cfg = StreamConfig {
-        flow: if a.send_response {
-            FlowControl::SendResponse
-        } else {
-            FlowControl::CharacterCounting
-        },
-        rx_buffer: a.rx_buffer,
-        timeout: Duration::from_secs_f64(a.timeout_s),
-        unlock: a.unlock,
-        check_first: a.check,
-        from_line,
-        home_first,
-        lift: resume_lift(&machine),
-        rapid_mm_min: Some(limits.rapid_mm_min),
-        laser_mode: laser_mode(&machine, &job, a.set_laser_mode),
-        ..StreamConfig::default()
-    };
+    let frame = frame_setup(&a, &job, &machine)?;
+    let mut cfg = stream_config(&a, &machine, &job, from_line, home_first);
 
     let super::port::Opened {
         mut port,
@@ -584,9 +554,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         let mut say = super::frame::Say { raw: keys.raw };
         let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s);
         drop(keys);
-        eprintln!("{}", super::frame::framed_line(&framed?, &label));
-        if !a.yes && !super::frame::ask_start(&mut std::io::stdin().lock())? {
-            eprintln!("not started: nothing was cut");
+        if !framed_and_started(framed, &label, a.yes)? {
             return Ok(ExitCode::SUCCESS);
         }
         // The controller is awake and idle: no need to wait for a boot banner.
@@ -622,4 +590,70 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     };
     print_summary(&sum, &label, virtual_grbl);
     Ok(ExitCode::SUCCESS)
+}
+
+/// After framing: say where the frame went, then (unless --yes) ask whether to start. False when
+/// the user says no: nothing was cut.
+fn framed_and_started(
+    framed: anyhow::Result<stencil_grbl::frame::Framed>,
+    label: &str,
+    yes: bool,
+) -> anyhow::Result<bool> {
+    eprintln!("{}", super::frame::framed_line(&framed?, label));
+    if !yes && !super::frame::ask_start(&mut std::io::stdin().lock())? {
+        eprintln!("not started: nothing was cut");
+        return Ok(false);
+    }
+    Ok(true)
+}
+
+/// With --frame, what to trace before the job: the whole file's extent (a resumed job still
+/// lands where the file says). Refused when the question before starting cannot be asked.
+fn frame_setup(
+    a: &SendArgs,
+    job: &Program,
+    machine: &machine_profile::Machine,
+) -> anyhow::Result<Option<super::frame::Setup>> {
+    match a.frame {
+        false => Ok(None),
+        true if !a.yes && !super::frame::can_ask() => bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
+        ),
+        true => Ok(Some(super::frame::setup(
+            &a.file,
+            job,
+            machine,
+            a.frame_feed,
+            a.no_bed_check,
+        )?)),
+    }
+}
+
+/// How the job is streamed: the flow control, Grbl's buffer, the timeout, what happens before
+/// the first line (unlock, check mode, homing, a resume's lift), the rapid feed and laser mode.
+fn stream_config(
+    a: &SendArgs,
+    machine: &machine_profile::Machine,
+    job: &Program,
+    from_line: usize,
+    home_first: bool,
+) -> StreamConfig {
+    StreamConfig {
+        flow: if a.send_response {
+            FlowControl::SendResponse
+        } else {
+            FlowControl::CharacterCounting
+        },
+        rx_buffer: a.rx_buffer,
+        timeout: Duration::from_secs_f64(a.timeout_s),
+        unlock: a.unlock,
+        check_first: a.check,
+        from_line,
+        home_first,
+        lift: resume_lift(machine),
+        rapid_mm_min: Some(machine.motion.rapid_mm_min),
+        laser_mode: laser_mode(machine, job, a.set_laser_mode),
+        ..StreamConfig::default()
+    }
 }

@@ -1,4 +1,4 @@
-//! Generate the sample pictures in `samples/` from geometry: `cargo run --example make_samples`.
+//! Generate the sample pictures in `samples/` from geometry: `cargo run -p stencil-core --example make_samples`.
 //!
 //! Each picture is a dark design (to be cut) on white paper (the sheet), drawn at 4×4 supersampling
 //! so edges are anti-aliased the way a real scan or export is. Deterministic: same bytes every run.
@@ -42,9 +42,17 @@ const INK: f64 = 0.08;
 const PAPER: f64 = 1.0;
 
 fn main() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("samples");
+    // The repository's samples/, two levels above this crate.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples");
     std::fs::create_dir_all(&dir).expect("samples dir");
+    rings(&dir);
+    target(&dir);
+    letters(&dir);
+    blobs(&dir);
+    shaded(&dir);
+}
 
+fn rings(dir: &Path) {
     // Nested rings five deep: alternating ink and paper rings around a paper disc. Each paper ring
     // inside an ink ring is an island; the innermost disc is an island inside five of them.
     render(&dir.join("rings.png"), 320, 320, |x, y| {
@@ -60,8 +68,10 @@ fn main() {
             PAPER
         }
     });
+}
 
-    // A target: three rings crossed by two ink bars, so each ring falls apart into four arcs.
+/// A target: three rings crossed by two ink bars, so each ring falls apart into four arcs.
+fn target(dir: &Path) {
     render(&dir.join("target.png"), 300, 300, |x, y| {
         let r = dist(x, y, 150.0, 150.0);
         let bar = (x - 150.0).abs() < 6.0 || (y - 150.0).abs() < 6.0;
@@ -75,9 +85,11 @@ fn main() {
             PAPER
         }
     });
+}
 
-    // Letters O A B 8 as thick strokes: their counters (the paper inside) are the islands a
-    // lettering stencil always has to bridge.
+/// Letters O A B 8 as thick strokes: their counters (the paper inside) are the islands a
+/// lettering stencil always has to bridge.
+fn letters(dir: &Path) {
     render(&dir.join("letters.png"), 480, 160, |x, y| {
         let stroke = 11.0;
         // O: an elliptical ring centred at (60, 80).
@@ -111,8 +123,10 @@ fn main() {
             PAPER
         }
     });
+}
 
-    // Random blobs: ink blobs, some with paper spots inside (islands), from a fixed seed.
+/// Random blobs: ink blobs, some with paper spots inside (islands), from a fixed seed.
+fn blobs(dir: &Path) {
     let mut seed = 0x5eed_u64;
     let mut rnd = move || {
         seed = seed
@@ -153,10 +167,12 @@ fn main() {
             PAPER
         }
     });
+}
 
-    // A shaded shape: a paper disc inside a ring whose ink is shaded from black (left) to dark
-    // gray (right, still below the default threshold). The ring is cut everywhere, but a bridge
-    // over its light side hides less of the picture: the intensity term's case.
+/// A shaded shape: a paper disc inside a ring whose ink is shaded from black (left) to dark
+/// gray (right, still below the default threshold). The ring is cut everywhere, but a bridge
+/// over its light side hides less of the picture: the intensity term's case.
+fn shaded(dir: &Path) {
     render(&dir.join("shaded.png"), 320, 240, |x, y| {
         let r = dist(x, y, 160.0, 120.0);
         if r < 55.0 {
