@@ -139,11 +139,9 @@ fn bridges_far_outside_clipper_range_are_an_error_not_an_abort() {
     );
     for far in [1e30, f64::NAN, f64::INFINITY] {
         let bridge = Rect::new((5.0, 40.0), (far, 60.0)).to_polygon();
-        let e = stencil_core::vector::union::union_bridges(
-            MultiPolygon::new(vec![sheet.clone()]),
-            &[bridge],
-        )
-        .unwrap_err();
+        let e =
+            stencil_core::vector::union_bridges(MultiPolygon::new(vec![sheet.clone()]), &[bridge])
+                .unwrap_err();
         assert!(
             matches!(
                 e,

@@ -11,9 +11,7 @@ use stencil_core::export;
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::tone::filter::FilterConfig;
-use stencil_core::tone::resolution::ScaleCap;
-use stencil_core::tone::{Threshold, ToneConfig};
+use stencil_core::tone::{FilterConfig, ScaleCap, Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
 use super::material::{EmitKind, PhysicalArgs};

@@ -12,19 +12,29 @@
 //! [`units::Scale`] (the vector stage multiplies by its `mm_per_px`). Only `export` writes files
 //! (input loading in `tone` and [`material::Material::find`] read them).
 //!
-//! ## Public API (the stages after the two-tone)
+//! ## Public API
+//! Eighteen public modules, one per stage or shared type; every other module is private and
+//! reached through re-exports. What outside callers (the `stencil` binary, the tests and benches)
+//! use:
 //! - The facade: [`make`] (run and write, all or nothing), [`pipeline::run`] (in memory), their
 //!   [`MakeConfig`] / [`pipeline::PhysicalConfig`] / [`pipeline::Emit`], the result
 //!   [`pipeline::Made`], and [`Error`] (every error they return, as data: values and ranges,
 //!   no option names; the `stencil` binary words them).
-//! - Stage functions the binary, tests and benches call: [`pipeline::two_tone`],
-//!   [`pipeline::vectorize_and_check`] (what `stencil check` runs), [`pipeline::encode_outputs`],
-//!   [`vector::vectorize`] / [`vector::vectorize_design`], [`check::check`] /
-//!   [`check::cross_check`], the encoders in [`export`] ([`export::svg::encode`],
-//!   [`export::dxf::encode`], [`export::png`], [`export::mask`]).
-//! - Plain types between stages: [`vector::CutGeometry`], [`vector::VectorConfig`],
-//!   [`check::CheckReport`] / [`check::Violation`], [`report::Report`], [`units::Scale`] /
-//!   [`units::Size`], [`material::Material`].
+//! - Stage functions: [`pipeline::two_tone`] and [`pipeline::clean_two_tone`] (`stencil tone`),
+//!   [`tone::load_gray`], [`tone::mesh`] (load and render a mesh), [`islands::label`],
+//!   [`bridge::connect`] / [`bridge::connect_timed`] with [`bridge::BridgeConfig`] (its
+//!   [`bridge::constraints`] and [`bridge::strength`] settings), [`vector::vectorize`] /
+//!   [`vector::vectorize_design`] and the vector stage's phases ([`vector::trace()`],
+//!   [`vector::simplify_rings`], [`vector::union_bridges`], [`vector::cuts_of`]),
+//!   [`pipeline::vectorize_and_check`] (what `stencil check` runs), [`check::check`] /
+//!   [`check::cross_check`], [`pipeline::encode_outputs`] and the encoders in [`export`]
+//!   ([`export::svg`], [`export::png`], [`export::mask`]; the DXF is written only through
+//!   `encode_outputs`).
+//! - Plain types between stages: [`raster::BitGrid`] / [`raster::Gray`] / [`raster::TwoTone`],
+//!   [`islands::IslandMap`], [`bridge::Bridged`], [`vector::CutGeometry`],
+//!   [`vector::VectorConfig`], [`check::CheckReport`] / [`check::Violation`],
+//!   [`report::Report`], [`units::Scale`] / [`units::Size`], [`material::Material`],
+//!   [`tone::ToneConfig`] / [`tone::FilterConfig`].
 //! - Limits the CLI's option parsers read: the constants and checks in [`limits`], with
 //!   [`limits::SizeError`].
 //! - Progress and timing: [`pipeline::Progress`] (told each stage) and [`pipeline::Timings`], the

@@ -82,7 +82,7 @@ pub const MAX_PIXELS_CEILING: u64 = 200_000_000;
 pub const MAX_DECODE_BYTES: u64 = 2 << 30;
 
 /// The automatic supersampling never makes the working image larger than this (16 MP; see
-/// [`crate::tone::resolution`]).
+/// `crate::tone::resolution`).
 pub const AUTO_MAX_WORKING_PIXELS: u64 = 16_000_000;
 
 /// A mesh is never rendered with more working pixels (size × supersample²) than this.

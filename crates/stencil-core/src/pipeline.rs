@@ -189,7 +189,7 @@ impl PhysicalConfig {
     }
 
     /// The coarsest working pixel, in mm, that the material and the tolerance accept (the
-    /// automatic supersampling's target, [`tone::resolution::target_mm_per_px`]).
+    /// automatic supersampling's target, `tone::resolution::target_mm_per_px`).
     pub fn target_mm_per_px(&self) -> f64 {
         tone::resolution::target_mm_per_px(self.material.min_feature_mm, self.vector.tolerance_mm)
     }
@@ -342,7 +342,7 @@ pub struct Working {
 ///
 /// A picture is supersampled by `tone.scale`, or when that is `None` by the smallest factor that
 /// makes a working pixel fine enough for the material and the tolerance
-/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
+/// (`tone::resolution::auto`), within the memory budget and `tone.max_pixels`.
 pub fn two_tone(
     input: &Path,
     tone: &ToneConfig,

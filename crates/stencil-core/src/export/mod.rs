@@ -1,7 +1,7 @@
 //! Output files. Everything that touches the file system for output goes through here, and every
 //! file is written atomically ([`stencil_io::write_atomic`], [`stencil_io::replace_all`]).
 
-pub mod dxf;
+pub(crate) mod dxf;
 pub mod mask;
 pub mod png;
 pub mod svg;

@@ -1,11 +1,15 @@
-//! Stage 1: the two-tone image, from a picture ([`image`]) or a mesh ([`mesh`]), then the
-//! topological filter ([`filter`]) that removes specks before islands are labelled.
+//! Stage 1: the two-tone image, from a picture ([`load_gray`]) or a mesh ([`mesh`]), then the
+//! topological filter ([`FilterConfig`]), or the design-rule regularisation, that removes specks before islands are labelled.
 
-pub mod filter;
-pub mod image;
+pub(crate) mod filter;
+pub(crate) mod image;
 pub mod mesh;
-pub mod regularize;
-pub mod resolution;
+pub(crate) mod regularize;
+pub(crate) mod resolution;
+
+pub use filter::{FilterConfig, FilterStats};
+pub use image::load_gray;
+pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
 
@@ -94,7 +98,7 @@ pub struct ToneConfig {
     pub invert: bool,
     /// Supersampling factor: the gray is upsampled smoothly by this factor (1..=8) before
     /// thresholding, so edges follow the picture instead of its pixel staircase. 1 = off; `None`
-    /// = chosen from the material and the tolerance ([`resolution::auto`]).
+    /// = chosen from the material and the tolerance (`resolution::auto`).
     pub scale: Option<u32>,
     /// Refuse images with more pixels than this, before decoding them; a working image (after
     /// supersampling) is never larger either.

@@ -1,21 +1,21 @@
 //! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load()`]), orbit a camera around its
-//! bounding sphere ([`camera`]), rasterise a visibility buffer ([`visibility`]), shade it with a point
-//! light close to the model ([`shade`]), draw silhouettes and suggestive contours ([`lines`], from
-//! the curvature of [`curvature`]), downsample the supersampled result, and threshold it.
+//! bounding sphere (`camera`), rasterise a visibility buffer (`visibility`), shade it with a point
+//! light close to the model (`shade`), draw silhouettes and suggestive contours (`lines`, from
+//! the curvature of `curvature`), downsample the supersampled result, and threshold it.
 //!
 //! The two tones: a model pixel brighter than the threshold is material, darker is cut (swapped by
 //! `invert`); lines are always cut; the background, the sheet around the model, is always
 //! material, so the model's outline is part of the stencil.
 
-pub mod camera;
-pub mod curvature;
-pub mod lines;
-pub mod load;
-pub mod shade;
+mod camera;
+mod curvature;
+mod lines;
+mod load;
+mod shade;
 #[cfg(test)]
 #[path = "../../../tests/support/shapes.rs"]
 mod shapes;
-pub mod visibility;
+mod visibility;
 
 use std::path::{Path, PathBuf};
 

@@ -22,8 +22,6 @@ pub struct VisBuffer {
     pub height: u32,
     /// Triangle index per pixel, or [`NONE`].
     pub tri: Vec<u32>,
-    /// Depth key per pixel: larger is nearer (1/z in perspective, -z orthographic).
-    pub key: Vec<f32>,
 }
 
 /// Rasterise every triangle into a visibility buffer. `cull_back` skips triangles that face away
@@ -66,6 +64,7 @@ pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
         }
     }
     let mut tri = vec![NONE; w * h];
+    // Depth key per pixel while drawing: larger is nearer (1/z in perspective, -z orthographic).
     let mut key = vec![f32::NEG_INFINITY; w * h];
     tri.par_chunks_mut(BAND * w)
         .zip(key.par_chunks_mut(BAND * w))
@@ -88,7 +87,6 @@ pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
         width: cam.width,
         height: cam.height,
         tri,
-        key,
     }
 }
 
