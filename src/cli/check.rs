@@ -95,7 +95,7 @@ pub struct CheckArgs {
 }
 
 fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
-    let g = stencil_core::tone::image::load_gray(path, max_pixels)?;
+    let g = stencil_core::tone::load_gray(path, max_pixels)?;
     Ok(BitGrid {
         width: g.width,
         height: g.height,

@@ -26,14 +26,17 @@
 //! added, names kept.
 
 pub(crate) mod candidates;
-pub mod constraints;
+mod constraints;
 pub(crate) mod cost;
 pub(crate) mod gaps;
 pub(crate) mod grow;
-pub mod strength;
+pub(crate) mod strength;
 pub(crate) mod strips;
 pub(crate) mod tidy;
 pub(crate) mod tree;
+
+pub use constraints::{Request, UserBridges};
+pub use strength::{IslandStrength, StrengthConfig, StrengthReport, Why, MAX_PER_ISLAND};
 
 use std::collections::{HashMap, HashSet};
 

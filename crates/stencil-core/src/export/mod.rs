@@ -1,13 +1,14 @@
 //! Output files. Everything that touches the file system for output goes through here, and every
 //! file is written atomically ([`stencil_io::write_atomic`], [`stencil_io::replace_all`]).
 
-pub mod dxf;
-pub mod mask;
+pub(crate) mod dxf;
+pub(crate) mod mask;
 pub mod png;
-pub mod svg;
+pub(crate) mod svg;
 
 use std::path::{Path, PathBuf};
 
+pub use mask::MaskConfig;
 pub use stencil_io::Replaced;
 use stencil_io::{plain_io, WriteError};
 

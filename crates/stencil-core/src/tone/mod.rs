@@ -1,11 +1,16 @@
 //! Stage 1: the two-tone image, from a picture ([`image`]) or a mesh ([`mesh`]), then the
 //! topological filter ([`filter`]) that removes specks before islands are labelled.
 
-pub mod filter;
-pub mod image;
+pub(crate) mod filter;
+pub(crate) mod image;
 pub mod mesh;
-pub mod regularize;
-pub mod resolution;
+pub(crate) mod regularize;
+pub(crate) mod resolution;
+
+pub use filter::{FilterConfig, FilterStats};
+pub use image::load_gray;
+pub use regularize::RegularizeStats;
+pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
 

@@ -6,9 +6,9 @@
 //! ([`VectorConfig::margin_mm`]), so that cut regions touching the picture's edge stay holes in one
 //! sheet, exactly as the raster stages saw them.
 
-pub mod simplify;
-pub mod trace;
-pub mod union;
+pub(crate) mod simplify;
+pub(crate) mod trace;
+pub(crate) mod union;
 
 use geo::orient::{Direction, Orient};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
@@ -24,6 +24,16 @@ use crate::raster::BitGrid;
 use crate::units::{Mm, Scale};
 
 pub use simplify::SimplifyStats;
+
+/// The steps of [`vectorize_design`] one by one, so that the `vector` bench can show where the
+/// stage's time goes. Not API: built only with the `bench-internals` feature, which only the root
+/// package's dev-dependency turns on.
+#[cfg(feature = "bench-internals")]
+pub mod steps {
+    pub use super::simplify::simplify_rings;
+    pub use super::trace::{trace, Guard, Ring};
+    pub use super::union::{cuts_of, union_bridges};
+}
 
 /// The stencil as physical geometry, in millimetres, x right and **y down** with the origin at the
 /// image's top-left corner (the raster and SVG convention; G-code flips to y up when it places the

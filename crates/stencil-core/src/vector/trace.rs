@@ -29,8 +29,9 @@ pub struct Ring {
     /// Per point, the centres of the material and the cut pixel it lies between: simplification
     /// keeps each on its own side, so the outline still samples to the same raster.
     pub guards: Vec<Guard>,
-    /// A material pixel just left of the ring (outside the image = the frame), to tell which
-    /// material piece the ring bounds.
+    /// A material pixel just left of the ring (outside the image = the frame): which material
+    /// piece the ring bounds. Only the tests read it, to check the tracing's orientation.
+    #[cfg(test)]
     pub material_px: (i64, i64),
 }
 
@@ -183,6 +184,7 @@ fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
     chains
         .par_iter()
         .map(|chain| {
+            #[cfg(test)]
             let (_, m, _) = g.crossing(chain[0] as usize, smooth);
             let mut pts = Vec::with_capacity(chain.len());
             let mut guards = Vec::with_capacity(chain.len());
@@ -194,6 +196,7 @@ fn trace_in_bands(bits: &BitGrid, smooth: bool, band: usize) -> Vec<Ring> {
             Ring {
                 pts,
                 guards,
+                #[cfg(test)]
                 material_px: (m.0 as i64 - 1, m.1 as i64 - 1),
             }
         })

@@ -7,15 +7,15 @@
 //! `invert`); lines are always cut; the background, the sheet around the model, is always
 //! material, so the model's outline is part of the stencil.
 
-pub mod camera;
-pub mod curvature;
-pub mod lines;
-pub mod load;
-pub mod shade;
+pub(crate) mod camera;
+pub(crate) mod curvature;
+pub(crate) mod lines;
+pub(crate) mod load;
+pub(crate) mod shade;
 #[cfg(test)]
 #[path = "../../../tests/support/shapes.rs"]
 mod shapes;
-pub mod visibility;
+pub(crate) mod visibility;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone::{is_light, otsu_level, Threshold};
 
-pub use camera::{Camera, RenderSize};
+pub use camera::{Camera, Orbit, RenderSize};
 pub use lines::LineMode;
 pub use load::{load, Mesh};
 

@@ -22,8 +22,6 @@ pub struct VisBuffer {
     pub height: u32,
     /// Triangle index per pixel, or [`NONE`].
     pub tri: Vec<u32>,
-    /// Depth key per pixel: larger is nearer (1/z in perspective, -z orthographic).
-    pub key: Vec<f32>,
 }
 
 /// Rasterise every triangle into a visibility buffer. `cull_back` skips triangles that face away
@@ -88,7 +86,6 @@ pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
         width: cam.width,
         height: cam.height,
         tri,
-        key,
     }
 }
 

@@ -721,7 +721,8 @@ fn settle(work: &mut Work, stats: &mut RegularizeStats) {
 }
 
 /// How many pixels of material and of cut are thin for a web or hole `min_width_px` wide: both 0
-/// for what [`regularize`] returns.
+/// for what [`regularize`] returns (the tests' measure of it).
+#[cfg(test)]
 pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {

@@ -111,6 +111,7 @@ impl Packed {
     }
 
     /// The number of set bits inside the grid (tail bits not counted).
+    #[cfg(test)]
     pub fn count(&self) -> usize {
         let mut c = self.clone();
         c.tail(false);
