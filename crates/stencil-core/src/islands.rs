@@ -6,11 +6,11 @@
 
 use crate::raster::{components, touches_border, BitGrid, NOT_LABELLED};
 
-/// Label of a cut pixel in [`IslandMap::labels`]: the pixels [`components`] of the material leaves
+/// Label of a cut pixel in [`IslandMap::labels`]: the pixels `components` of the material leaves
 /// unlabelled.
 pub const CUT: u32 = NOT_LABELLED;
 /// The frame's node id.
-pub const FRAME: u32 = 0;
+pub(crate) const FRAME: u32 = 0;
 
 /// One node of the bridge graph: the frame (id 0) or an island.
 #[derive(Clone, Debug, Default)]

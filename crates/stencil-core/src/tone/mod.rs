@@ -1,5 +1,5 @@
-//! Stage 1: the two-tone image, from a picture ([`image`]) or a mesh ([`mesh`]), then the
-//! topological filter ([`filter`]) that removes specks before islands are labelled.
+//! Stage 1: the two-tone image, from a picture (`image`) or a mesh ([`mesh`]), then the
+//! topological filter (`filter`) that removes specks before islands are labelled.
 
 pub(crate) mod filter;
 pub(crate) mod image;
@@ -99,7 +99,7 @@ pub struct ToneConfig {
     pub invert: bool,
     /// Supersampling factor: the gray is upsampled smoothly by this factor (1..=8) before
     /// thresholding, so edges follow the picture instead of its pixel staircase. 1 = off; `None`
-    /// = chosen from the material and the tolerance ([`resolution::auto`]).
+    /// = chosen from the material and the tolerance (`resolution::auto`).
     pub scale: Option<u32>,
     /// Refuse images with more pixels than this, before decoding them; a working image (after
     /// supersampling) is never larger either.
@@ -118,7 +118,7 @@ impl Default for ToneConfig {
 }
 
 /// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
-pub fn otsu_level(gray: &Gray) -> u8 {
+pub(crate) fn otsu_level(gray: &Gray) -> u8 {
     let mut hist = [0u64; 256];
     for &v in &gray.data {
         hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
@@ -161,7 +161,7 @@ pub(crate) fn is_light(v: f32, level: u8) -> bool {
 
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
 /// Returns the two-tone and the level used.
-pub fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),

@@ -42,15 +42,15 @@ pub const PX_PER_MIN_FEATURE: f64 = 5.0;
 
 /// The automatic factor never makes the working image larger than this many pixels (16 MP: about
 /// 0.6 GB at 40 bytes per working pixel; 4000 × 4000).
-pub use crate::limits::AUTO_MAX_WORKING_PIXELS;
+pub(crate) use crate::limits::AUTO_MAX_WORKING_PIXELS;
 
 /// What limited an automatic factor below what the rule asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ScaleCap {
-    /// The largest factor, [`MAX_FACTOR`].
+    /// The largest factor, `MAX_FACTOR`.
     MaxFactor,
-    /// The memory budget, [`AUTO_MAX_WORKING_PIXELS`].
+    /// The memory budget, `AUTO_MAX_WORKING_PIXELS`.
     Memory,
     /// `--max-pixels`.
     MaxPixels,
@@ -73,7 +73,7 @@ impl std::fmt::Display for ScaleCap {
 /// How an automatic factor was chosen (in the report as `scale_auto`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AutoScale {
-    /// The coarsest working pixel the rule accepts, in mm ([`target_mm_per_px`]).
+    /// The coarsest working pixel the rule accepts, in mm (`target_mm_per_px`).
     pub target_mm_per_px: f64,
     /// The factor the rule asked for, before any cap.
     pub wanted: u32,

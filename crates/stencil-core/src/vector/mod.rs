@@ -1,5 +1,5 @@
 //! Stage 4: from the bridged bit grid to cut geometry in millimetres: marching squares
-//! ([`trace`]), simplification ([`simplify`]), bridge union ([`union`]), kerf offset ([`kerf`]).
+//! (`trace`), simplification (`simplify`), bridge union (`union`), kerf offset ([`kerf`]).
 //!
 //! The sheet: the frame convention of `islands` (outside the picture is material) means the sheet
 //! continues beyond the picture. The physical sheet is the picture plus a margin on every side

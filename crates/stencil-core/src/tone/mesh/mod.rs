@@ -1,7 +1,7 @@
 //! Stage 1 from a mesh: a CPU toon renderer. Load an OBJ ([`load()`]), orbit a camera around its
-//! bounding sphere ([`camera`]), rasterise a visibility buffer ([`visibility`]), shade it with a point
-//! light close to the model ([`shade`]), draw silhouettes and suggestive contours ([`lines`], from
-//! the curvature of [`curvature`]), downsample the supersampled result, and threshold it.
+//! bounding sphere (`camera`), rasterise a visibility buffer (`visibility`), shade it with a point
+//! light close to the model (`shade`), draw silhouettes and suggestive contours (`lines`, from
+//! the curvature of `curvature`), downsample the supersampled result, and threshold it.
 //!
 //! The two tones: a model pixel brighter than the threshold is material, darker is cut (swapped by
 //! `invert`); lines are always cut; the background, the sheet around the model, is always
@@ -31,7 +31,7 @@ pub use lines::LineMode;
 pub use load::{load, Mesh};
 
 /// Refuse renders with more working pixels (size × supersample²) than this.
-pub use crate::limits::MESH_MAX_WORKING_PIXELS as MAX_WORKING_PIXELS;
+pub(crate) use crate::limits::MESH_MAX_WORKING_PIXELS as MAX_WORKING_PIXELS;
 
 /// Options of the mesh renderer. Lengths are in bounding radii of the model, angles in degrees.
 #[derive(Clone, Debug, PartialEq)]
