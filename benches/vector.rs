@@ -15,7 +15,7 @@ use stencil_core::check;
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, Timings};
 use stencil_core::raster::BitGrid;
-use stencil_core::vector::{self, VectorConfig};
+use stencil_core::vector::{self, steps, VectorConfig};
 use stencil_geom::kerf;
 
 const SIZE: u32 = 2000;
@@ -107,7 +107,7 @@ fn bench(c: &mut Criterion) {
             .unwrap()
         })
     });
-    g.bench_function("trace", |b| b.iter(|| vector::trace(&bits, true)));
+    g.bench_function("trace", |b| b.iter(|| steps::trace(&bits, true)));
     g.bench_function("vectorize_design", |b| {
         b.iter(|| vector::vectorize_design(&bits, &bridges, &vcfg).unwrap())
     });
@@ -132,22 +132,22 @@ fn breakdown(bits: &BitGrid, bridges: &[Vec<[f64; 2]>], vcfg: &VectorConfig, mat
             .fold(f64::INFINITY, f64::min);
         eprintln!("  {name:<28} {best:>8.1} ms");
     };
-    let rings = vector::trace(bits, true);
+    let rings = steps::trace(bits, true);
     let (geom, _) = vector::vectorize(bits, bridges, vcfg).unwrap();
     eprintln!("breakdown (best of five passes each):");
     t("trace (marching squares)", &mut || {
-        vector::trace(bits, true);
+        steps::trace(bits, true);
     });
     t("simplify", &mut || {
         let mut pts: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| r.pts.clone()).collect();
-        let guards: Vec<Vec<vector::Guard>> = rings.iter().map(|r| r.guards.clone()).collect();
-        vector::simplify_rings(&mut pts, Some(&guards), 0.5);
+        let guards: Vec<Vec<steps::Guard>> = rings.iter().map(|r| r.guards.clone()).collect();
+        steps::simplify_rings(&mut pts, Some(&guards), 0.5);
     });
     t("union bridges (Clipper, by region)", &mut || {
-        vector::union_bridges(geom.material.clone(), &geom.bridges).unwrap();
+        steps::union_bridges(geom.material.clone(), &geom.bridges).unwrap();
     });
     t("cuts_of", &mut || {
-        vector::cuts_of(&geom.material);
+        steps::cuts_of(&geom.material);
     });
     t("kerf offset (Clipper)", &mut || {
         kerf::offset_cuts(&geom.design_cuts, vcfg.kerf_mm).unwrap();

@@ -5,7 +5,6 @@ use std::path::Path;
 use std::process::Command;
 
 use stencil_core::check::{CheckReport, ViolationKind};
-use stencil_core::islands;
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, Timings};
 use stencil_core::raster::BitGrid;
@@ -76,19 +75,6 @@ fn the_same_stencil_with_a_proper_bridge_passes() {
             .count(),
         1
     );
-}
-
-#[test]
-fn the_raster_opening_agrees_with_the_measured_bridges() {
-    // Opening by half the required width (10 px) removes the 6 px bridge, keeps the 12 px one.
-    for (w, floats) in [(6, true), (12, false)] {
-        let opened = stencil_core::raster::open(&bridged(w), 5);
-        assert_eq!(
-            islands::label(&opened).island_count() > 0,
-            floats,
-            "bridge {w} px"
-        );
-    }
 }
 
 #[test]

@@ -187,7 +187,7 @@ pub struct BridgeArgs {
     /// 360°/N when N > 4) from each other as seen from the island's centre, where the island's
     /// shape allows. Islands also get more where their size or sag asks (see the material's
     /// two_bridges_above_mm and max_sag_mm).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil_core::bridge::strength::MAX_PER_ISLAND as i64))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil_core::bridge::MAX_PER_ISLAND as i64))]
     pub bridges_per_island: u32,
     /// A picture marking where no bridge may go (a face, a signature): dark (under half gray) =
     /// keep out. Any size: it is scaled to the picture. An island that can only be joined through
@@ -230,14 +230,14 @@ impl BridgeArgs {
             max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
-            user: stencil_core::bridge::constraints::UserBridges {
+            user: stencil_core::bridge::UserBridges {
                 keep_out_mask: self.keep_out.clone(),
                 no_bridge_near_mm: self.no_bridge_near.clone(),
                 at_mm: self.bridge_at.clone(),
                 min_island_mm2: self.min_island_mm2,
                 ..Default::default()
             },
-            strength: stencil_core::bridge::strength::StrengthConfig {
+            strength: stencil_core::bridge::StrengthConfig {
                 per_island: self.bridges_per_island,
                 ..Default::default()
             },

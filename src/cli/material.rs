@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 
-use stencil_core::export::mask::MaskConfig;
+use stencil_core::export::MaskConfig;
 use stencil_core::material::DEFAULT_MATERIAL;
 use stencil_core::material::{Material, Process};
 use stencil_core::pipeline::{Emit, PhysicalConfig, Size};

@@ -6,11 +6,11 @@
 
 use crate::raster::{components, touches_border, BitGrid, NOT_LABELLED};
 
-/// Label of a cut pixel in [`IslandMap::labels`]: the pixels [`components`] of the material leaves
+/// Label of a cut pixel in [`IslandMap::labels`]: the pixels `components` of the material leaves
 /// unlabelled.
 pub const CUT: u32 = NOT_LABELLED;
 /// The frame's node id.
-pub const FRAME: u32 = 0;
+pub(crate) const FRAME: u32 = 0;
 
 /// One node of the bridge graph: the frame (id 0) or an island.
 #[derive(Clone, Debug, Default)]
@@ -106,6 +106,25 @@ pub fn floating_count(bits: &BitGrid) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A cut ring around an island, and a horizontal bridge `w` px wide from the island's right
+    /// side (x = 130) to the cut's right edge (x = 160), centred on y = 80.
+    fn bridged(w: u32) -> BitGrid {
+        let rect = |x0, y0, x1, y1| move |x, y| x >= x0 && x < x1 && y >= y0 && y < y1;
+        let cut = rect(40, 30, 160, 130);
+        let island = rect(70, 60, 130, 100);
+        let bridge = rect(130, 80 - w / 2, 160, 80 - w / 2 + w);
+        BitGrid::from_fn(200, 160, |x, y| !cut(x, y) || island(x, y) || bridge(x, y))
+    }
+
+    #[test]
+    fn opening_by_half_the_width_floats_the_island_of_a_thinner_bridge() {
+        // Opening by half a 10 px width removes the 6 px bridge, keeps the 12 px one.
+        for (w, floats) in [(6, true), (12, false)] {
+            let opened = crate::raster::open(&bridged(w), 5);
+            assert_eq!(label(&opened).island_count() > 0, floats, "bridge {w} px");
+        }
+    }
 
     #[test]
     fn frame_and_one_island() {

@@ -12,34 +12,35 @@
 //! [`units::Scale`] (the vector stage multiplies by its `mm_per_px`). Only `export` writes files
 //! (input loading in `tone` and [`material::Material::find`] read them).
 //!
-//! ## Public API
-//! Eighteen public modules, one per stage or shared type; every other module is private and
-//! reached through re-exports. What outside callers (the `stencil` binary, the tests and benches)
-//! use:
+//! ## Public API (the stages after the two-tone)
+//! Everything else is `pub(crate)`: the stages' steps (bridge candidates, costs, tree and growth;
+//! tracing, simplification and union; morphology and labelling; the mesh renderer's camera,
+//! visibility, shading and lines; the SVG, DXF and mask encoders) are reached through the items
+//! below.
 //! - The facade: [`make`] (run and write, all or nothing), [`pipeline::run`] (in memory), their
 //!   [`MakeConfig`] / [`pipeline::PhysicalConfig`] / [`pipeline::Emit`], the result
 //!   [`pipeline::Made`], and [`Error`] (every error they return, as data: values and ranges,
-//!   no option names; the `stencil` binary words them).
-//! - Stage functions: [`pipeline::two_tone`] and [`pipeline::clean_two_tone`] (`stencil tone`),
-//!   [`tone::load_gray`], [`tone::mesh`] (load and render a mesh), [`islands::label`],
-//!   [`bridge::connect`] / [`bridge::connect_timed`] with [`bridge::BridgeConfig`] (its
-//!   [`bridge::constraints`] and [`bridge::strength`] settings), [`vector::vectorize`] /
-//!   [`vector::vectorize_design`] and the vector stage's phases ([`vector::trace()`],
-//!   [`vector::simplify_rings`], [`vector::union_bridges`], [`vector::cuts_of`]),
-//!   [`pipeline::vectorize_and_check`] (what `stencil check` runs), [`check::check`] /
-//!   [`check::cross_check`], [`pipeline::encode_outputs`] and the encoders in [`export`]
-//!   ([`export::svg`], [`export::png`], [`export::mask`]; the DXF is written only through
-//!   `encode_outputs`).
-//! - Plain types between stages: [`raster::BitGrid`] / [`raster::Gray`] / [`raster::TwoTone`],
-//!   [`islands::IslandMap`], [`bridge::Bridged`], [`vector::CutGeometry`],
-//!   [`vector::VectorConfig`], [`check::CheckReport`] / [`check::Violation`],
-//!   [`report::Report`], [`units::Scale`] / [`units::Size`], [`material::Material`],
-//!   [`tone::ToneConfig`] / [`tone::FilterConfig`].
+//!   no option names; the `stencil` binary words them). Around them: [`pipeline::clean_two_tone`]
+//!   (`stencil tone`), [`pipeline::default_out_dir`], [`pipeline::OUTPUT_NAMES`].
+//! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
+//!   `stencil check` runs), [`tone::load_gray`], [`tone::mesh::load`] / [`tone::mesh::render`] /
+//!   [`tone::mesh::render_mesh`] / [`tone::mesh::two_tone`], [`islands::label`] /
+//!   [`islands::floating_count`], [`bridge::connect`] / [`bridge::connect_timed`],
+//!   [`vector::vectorize`] / [`vector::vectorize_design`], [`check::check`], and the PNG encoders
+//!   in [`export::png`].
+//! - Plain types between stages, with the configs and stats they carry: [`raster::BitGrid`] /
+//!   [`raster::Gray`] / [`raster::TwoTone`], [`islands::IslandMap`], [`bridge::Bridged`],
+//!   [`vector::CutGeometry`], [`check::CheckReport`], [`report::Report`], [`units::Scale`] /
+//!   [`units::Size`], [`material::Material`]; each stage's config ([`tone::ToneConfig`],
+//!   [`tone::FilterConfig`], [`tone::mesh::MeshConfig`], [`bridge::BridgeConfig`],
+//!   [`vector::VectorConfig`], [`export::MaskConfig`]) and error enum.
 //! - Limits the CLI's option parsers read: the constants and checks in [`limits`], with
 //!   [`limits::SizeError`].
 //! - Progress and timing: [`pipeline::Progress`] (told each stage) and [`pipeline::Timings`], the
 //!   one timing type of the crate (make's stages, [`bridge::connect_timed`]'s phases, the mesh
 //!   renderer's steps).
+//! - Not API: `vector::steps`, the vector stage's steps one by one for the `vector` bench, built
+//!   only with the `bench-internals` feature.
 
 #![forbid(unsafe_code)]
 

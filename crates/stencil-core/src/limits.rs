@@ -40,7 +40,7 @@
 //! camera picture in under 10 s and about 1.3 GB in make, 11 s in tone), `check`'s is
 //! [`CHECK_DEFAULT_MAX_PIXELS`] (100 MP, 4 s and 1 GB), `--max-pixels` can be raised up to
 //! [`MAX_PIXELS_CEILING`] (200 MP: 25 s and 4.5 GB in make, a minute in tone), and whatever it
-//! says, a picture whose decoded buffers would need more than [`MAX_DECODE_BYTES`] is refused
+//! says, a picture whose decoded buffers would need more than `MAX_DECODE_BYTES` is refused
 //! from its header, before any pixel is decoded. Runs past half a second show a progress line.
 
 use crate::units::{Scale, Size};
@@ -79,14 +79,14 @@ pub const MAX_PIXELS_CEILING: u64 = 200_000_000;
 /// would need more than this (2 GiB) is refused from its header, whatever `--max-pixels` says: an
 /// 8-bit gray or RGB picture at [`MAX_PIXELS_CEILING`] fits (1.0 and 1.4 GB), a 16-bit RGBA one
 /// (2.4 GB) does not. The decoder is held to it too, and its buffer is allocated fallibly.
-pub const MAX_DECODE_BYTES: u64 = 2 << 30;
+pub(crate) const MAX_DECODE_BYTES: u64 = 2 << 30;
 
 /// The automatic supersampling never makes the working image larger than this (16 MP; see
-/// `crate::tone::resolution`).
-pub const AUTO_MAX_WORKING_PIXELS: u64 = 16_000_000;
+/// [`crate::tone::resolution`]).
+pub(crate) const AUTO_MAX_WORKING_PIXELS: u64 = 16_000_000;
 
 /// A mesh is never rendered with more working pixels (size × supersample²) than this.
-pub const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
+pub(crate) const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
 
 /// The largest `report.json` `check` and `gcode` read from an output folder (a 100 MP stencil
 /// with 5,000 bridges writes about 3 MB).
@@ -249,7 +249,7 @@ fn positive(size: Size, value: f64) -> Result<f64, SizeError> {
 
 /// Millimetres per pixel of a `width_px` × `height_px` picture at `size`, refused when the picture
 /// would be larger than [`MAX_PICTURE_MM`] or its pixels finer than [`MIN_PIXEL_MM`].
-pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale, SizeError> {
+pub(crate) fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale, SizeError> {
     let (w, h) = (f64::from(width_px.max(1)), f64::from(height_px.max(1)));
     let long = w.max(h);
     let (scale, range) = match size {
@@ -291,7 +291,7 @@ pub fn picture_scale(size: Size, width_px: u32, height_px: u32) -> Result<Scale,
 ///
 /// `size` and `width_px` say how the picture was sized (for the message), `factor` is the
 /// supersampling and whether it was given (`--scale`).
-pub fn check_working_pixel(
+pub(crate) fn check_working_pixel(
     size: Size,
     width_px: u32,
     working: Scale,
@@ -329,12 +329,12 @@ pub fn check_working_pixel(
 /// The largest `--filter-radius` for a working image: a quarter of its shorter side (at least 1).
 /// The filter pads the image by the radius on every side, so this keeps its copies within about
 /// 2.25 times the image.
-pub fn max_filter_radius(width: u32, height: u32) -> u32 {
+pub(crate) fn max_filter_radius(width: u32, height: u32) -> u32 {
     (width.min(height) / 4).max(1)
 }
 
 /// Refuse a filter radius over [`max_filter_radius`].
-pub fn check_filter_radius(radius: u32, width: u32, height: u32) -> Result<(), SizeError> {
+pub(crate) fn check_filter_radius(radius: u32, width: u32, height: u32) -> Result<(), SizeError> {
     let max = max_filter_radius(width, height);
     if radius > max {
         return Err(SizeError::FilterRadius {

@@ -24,11 +24,11 @@ use stencil_gcode::CutSettings;
 pub const DEFAULT_MATERIAL: &str = "cardstock";
 
 /// The profile used when none is named and the machine draws with a pen: drawing paper.
-pub const DEFAULT_PEN_MATERIAL: &str = "plotter-paper";
+pub(crate) const DEFAULT_PEN_MATERIAL: &str = "plotter-paper";
 
 /// The profile used when none is named and the machine cuts with a drag knife: cardstock, as for
 /// a laser, with knife settings.
-pub const DEFAULT_KNIFE_MATERIAL: &str = "cardstock-knife";
+pub(crate) const DEFAULT_KNIFE_MATERIAL: &str = "cardstock-knife";
 
 /// The material used when none is named, for a machine with this tool: a laser material for a
 /// laser, and so on, so `--machine pen-a3` alone works.
@@ -49,13 +49,13 @@ pub fn default_for(tool: &Tool) -> &'static str {
 /// larger ones 4 mm, the 40 px the bridge stage allowed at the default 0.1 mm per pixel), and
 /// keeps bridges in the range laser-service and stencil guides draw (1–5 mm in card and film, up
 /// to 15 mm in 3 mm plywood).
-pub const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
+pub(crate) const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 
 /// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
 /// commonly cut from, so an unknown material is judged as if it were floppy rather than stiff
 /// (bending modulus 3 GPa and density 900 kg/m³, as `cardstock.toml`; sag limit 1 mm; two bridges
 /// for islands longer than 40 mm). See [`Strength::youngs_modulus_gpa`].
-pub const DEFAULT_STRENGTH: Strength = Strength {
+pub(crate) const DEFAULT_STRENGTH: Strength = Strength {
     youngs_modulus_gpa: 3.0,
     density_kg_m3: 900.0,
     max_sag_mm: 1.0,
@@ -64,7 +64,7 @@ pub const DEFAULT_STRENGTH: Strength = Strength {
 
 /// What the bridge stage needs to judge whether an island's bridges hold it (see
 /// `bridge::strength`). All four are optional in a profile file: one that gives some of them gets
-/// [`DEFAULT_STRENGTH`]'s value for the others; one that gives none is not judged at all (its sag
+/// `DEFAULT_STRENGTH`'s value for the others; one that gives none is not judged at all (its sag
 /// limit and two-bridge size are infinite, and `make` says so): strength numbers are not invented
 /// for a material nothing is known of (the corpus's "pixel" material, with no physical limits).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -237,7 +237,7 @@ pub struct Material {
     /// Widest bridge the bridge stage draws, measured at right angles to it: an island's bridge
     /// is `k·√A` wide for its area `A` in mm² (a quarter of its side), clamped to
     /// `min_bridge_mm..=max_bridge_mm`. Optional in a profile; default
-    /// [`DEFAULT_MAX_BRIDGE_RATIO`] × `min_bridge_mm`. A bridge wider than this hides more of the
+    /// `DEFAULT_MAX_BRIDGE_RATIO` × `min_bridge_mm`. A bridge wider than this hides more of the
     /// picture than it adds strength.
     pub max_bridge_mm: f64,
     /// Narrowest web (material) or hole (cut) that survives cutting.

@@ -180,8 +180,8 @@ impl Default for PhysicalConfig {
 
 impl PhysicalConfig {
     /// Millimetres per pixel of a `width_px` × `height_px` picture, before supersampling (a
-    /// working pixel of a picture supersampled K times is this divided by K; see [`Working`]).
-    /// Refused outside [`crate::limits::picture_scale`]'s bounds.
+    /// working pixel of a picture supersampled K times is this divided by K; see `Working`).
+    /// Refused outside `crate::limits::picture_scale`'s bounds.
     pub fn scale(&self, width_px: u32, height_px: u32) -> Result<Scale, Error> {
         Ok(crate::limits::picture_scale(
             self.size, width_px, height_px,
@@ -319,7 +319,7 @@ fn widen_necks(
 }
 
 /// Whether a path is a mesh (by extension) rather than a picture.
-pub fn is_mesh(path: &Path) -> bool {
+pub(crate) fn is_mesh(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
@@ -328,7 +328,7 @@ pub fn is_mesh(path: &Path) -> bool {
 /// The working resolution: how many times the picture was supersampled, and what a working pixel
 /// measures.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Working {
+pub(crate) struct Working {
     /// Working pixels per input pixel along each axis (1 for a mesh, which renders at its own size).
     pub factor: u32,
     /// How the factor was chosen, when it was automatic (no `--scale`).
@@ -342,8 +342,8 @@ pub struct Working {
 ///
 /// A picture is supersampled by `tone.scale`, or when that is `None` by the smallest factor that
 /// makes a working pixel fine enough for the material and the tolerance
-/// (`tone::resolution::auto`), within the memory budget and `tone.max_pixels`.
-pub fn two_tone(
+/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
+pub(crate) fn two_tone(
     input: &Path,
     tone: &ToneConfig,
     mesh: &MeshConfig,
@@ -916,7 +916,10 @@ fn report(
 
 /// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
 /// (which lists them).
-pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
+pub(crate) fn encode_outputs(
+    made: &Made,
+    phys: &PhysicalConfig,
+) -> Result<Vec<(String, Vec<u8>)>, Error> {
     let tt = &made.twotone;
     let geom = &made.geometry;
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
@@ -961,7 +964,7 @@ pub fn encode_outputs(made: &Made, phys: &PhysicalConfig) -> Result<Vec<(String,
     Ok(files)
 }
 
-/// Every name [`encode_outputs`] can write: `make` owns these names in its output folder, and
+/// Every name `encode_outputs` can write: `make` owns these names in its output folder, and
 /// removes those a run does not write (an earlier run's `stencil.gcode` must not sit beside a new
 /// stencil, where `send` would stream it).
 pub const OUTPUT_NAMES: &[&str] = &[

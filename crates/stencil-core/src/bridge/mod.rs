@@ -11,7 +11,7 @@
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
 //!    (`strips::search`), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
-//!    then [`strength`]: islands whose size, shape or sag estimate asks for more than the tree's
+//!    then `strength`: islands whose size, shape or sag estimate asks for more than the tree's
 //!    bridge get more, from their own candidates, spread apart;
 //! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first), drawn as the
 //!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
@@ -26,14 +26,17 @@
 //! added, names kept.
 
 pub(crate) mod candidates;
-pub mod constraints;
+mod constraints;
 pub(crate) mod cost;
 pub(crate) mod gaps;
 pub(crate) mod grow;
-pub mod strength;
+pub(crate) mod strength;
 pub(crate) mod strips;
 pub(crate) mod tidy;
 pub(crate) mod tree;
+
+pub use constraints::{Request, UserBridges};
+pub use strength::{IslandStrength, StrengthConfig, StrengthReport, Why, MAX_PER_ISLAND};
 
 use std::collections::{HashMap, HashSet};
 
@@ -97,9 +100,9 @@ pub struct BridgeConfig {
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
     /// true; see `gaps`). Off, the candidates are the paper's alone.
     pub gaps: bool,
-    /// Where bridges may not go and where they should (see [`constraints`]).
+    /// Where bridges may not go and where they should (see `constraints`).
     pub user: constraints::UserBridges,
-    /// The strength rules after the tree (see [`strength`]): bridges per island, the material's
+    /// The strength rules after the tree (see `strength`): bridges per island, the material's
     /// stiffness and weight, its sag limit and the scale.
     pub strength: strength::StrengthConfig,
 }
@@ -164,7 +167,7 @@ pub struct Bridge {
     pub support: bool,
     /// Whether its strip is a walk, a shortest gap or the fallback search's path.
     pub via: Via,
-    /// Added after the tree for strength (see [`strength`]), not to join the island.
+    /// Added after the tree for strength (see `strength`), not to join the island.
     pub strength: bool,
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
@@ -178,9 +181,9 @@ pub struct Bridge {
 pub struct Bridged {
     pub bits: BitGrid,
     pub bridges: Vec<Bridge>,
-    /// Per island, in node order: its bridges, span and sag estimate (see [`strength`]).
+    /// Per island, in node order: its bridges, span and sag estimate (see `strength`).
     pub strength: Vec<strength::IslandStrength>,
-    /// What became of each `--bridge-at` place (see [`constraints`]).
+    /// What became of each `--bridge-at` place (see `constraints`).
     pub requests: Vec<constraints::Request>,
     /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
     /// share is the first one's). [`Bridged::recount`] starts from them.

@@ -10,7 +10,7 @@
 //! the triangle edges that are not boundary edges (vertex to vertex), and the perpendiculars from a
 //! vertex to the boundary edge opposite it in its triangle when the foot falls inside that edge.
 //! A chord is a *neck* when its ends lie on two different rings (a web between two holes, or
-//! between a hole and the sheet's edge), or on the same ring with more than [`NECK_RATIO`] times its
+//! between a hole and the sheet's edge), or on the same ring with more than `NECK_RATIO` times its
 //! length of boundary between them either way round (so cutting across a corner, or across the tip
 //! of a round end, is not a neck, but the neck of a bridge or a long spur is). The narrowest neck of
 //! a region is its shortest neck chord.
@@ -25,7 +25,7 @@
 //! neck exactly N pixels wide measures exactly N × mm_per_px; diagonal necks measure their Euclidean
 //! width within about ±0.7 px, and simplification may move each side by up to `--tolerance-mm`.
 //! A width passes when it is at least the requirement (no slack here); the pipeline instead asks the
-//! bridge stage and the filter for [`allowance_px`] more than the material's minimum, so what it
+//! bridge stage and the filter for `allowance_px` more than the material's minimum, so what it
 //! produces passes.
 //!
 //! ## Cross-check
@@ -50,11 +50,11 @@ use stencil_geom::ring::{dist, signed_area2};
 /// Boundary length between a same-ring chord's ends, in chord lengths, above which it is a neck.
 /// Cutting a right-angle corner gives at most √2, a semicircular end π/2; a spike sharper than
 /// about 39° (cot(θ/2) > 3) counts as thin near its tip.
-pub const NECK_RATIO: f64 = 3.0;
+pub(crate) const NECK_RATIO: f64 = 3.0;
 
 /// Extra pixels the pipeline adds to the material's minimum widths: one pixel for a diagonal
 /// staircase, plus twice the simplification tolerance (each side may move by that much).
-pub fn allowance_px(tolerance_px: f64) -> f64 {
+pub(crate) fn allowance_px(tolerance_px: f64) -> f64 {
     1.0 + 2.0 * tolerance_px
 }
 
@@ -701,7 +701,7 @@ fn cluster(mut cands: Vec<Candidate>, material: &Material) -> Vec<Violation> {
 /// pixels at the reported position. Confirmed violations of one kind lying in the same connected
 /// piece of removed pixels are one neck: only the narrowest is kept. Returns the raster's pieces
 /// (4-connected, frame included).
-pub fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> usize {
+pub(crate) fn cross_check(report: &mut CheckReport, bits: &BitGrid, scale: Scale) -> usize {
     // Per (radius, material side): the removed pixels' component labels.
     let mut cache: Vec<(u32, bool, Vec<u32>)> = Vec::new();
     let mut neck_of: Vec<Option<(usize, u32)>> = Vec::new();

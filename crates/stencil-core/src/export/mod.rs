@@ -2,12 +2,13 @@
 //! file is written atomically ([`stencil_io::write_atomic`], [`stencil_io::replace_all`]).
 
 pub(crate) mod dxf;
-pub mod mask;
+pub(crate) mod mask;
 pub mod png;
-pub mod svg;
+pub(crate) mod svg;
 
 use std::path::{Path, PathBuf};
 
+pub use mask::MaskConfig;
 pub use stencil_io::Replaced;
 use stencil_io::{plain_io, WriteError};
 
@@ -25,13 +26,13 @@ pub enum ExportError {
     /// A mask resolution that is not a finite number > 0 ([`mask::MaskConfig::dpi`]).
     #[error("mask.png: cannot encode: the mask resolution must be > 0 dpi, got {0}")]
     MaskDpi(f64),
-    /// The mask would have more pixels than [`mask::MAX_MASK_PIXELS`].
+    /// The mask would have more pixels than `mask::MAX_MASK_PIXELS`.
     #[error("mask.png: cannot encode: {width}x{height} pixels at {dpi} dpi is too large")]
     MaskTooLarge { width: u32, height: u32, dpi: f64 },
 }
 
 /// Create the output folder (if missing) up front, so a run fails before its work, not after.
-pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
+pub(crate) fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
     std::fs::create_dir_all(dir).map_err(|source| ExportError::CreateDir {
         path: dir.to_path_buf(),
         source: plain_io(source),
@@ -41,7 +42,7 @@ pub fn prepare_dir(dir: &Path) -> Result<(), ExportError> {
 /// Write a set of files into `dir` (created if missing), all or nothing, and remove the files
 /// named in `stale` that this set does not write: see [`stencil_io::replace_all`]. If anything fails,
 /// the folder is left as it was, old files included.
-pub fn write_files(
+pub(crate) fn write_files(
     dir: &Path,
     files: &[(String, Vec<u8>)],
     stale: &[&str],

@@ -1,4 +1,4 @@
-//! PNG encoding of grids and previews (in memory; [`super::write_files`] puts them on disk).
+//! PNG encoding of grids and previews (in memory; `super::write_files` puts them on disk).
 
 use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
@@ -6,7 +6,7 @@ use image::{ExtendedColorType, ImageEncoder};
 use crate::raster::{BitGrid, Gray};
 
 /// Encode 8-bit gray pixels.
-pub fn encode_gray(width: u32, height: u32, data: &[u8]) -> Vec<u8> {
+pub(crate) fn encode_gray(width: u32, height: u32, data: &[u8]) -> Vec<u8> {
     encode(width, height, data, ExtendedColorType::L8)
 }
 
@@ -39,12 +39,12 @@ pub const ADDED_RGB: [u8; 3] = [0, 150, 255];
 
 /// The preview's long side is at least this many pixels: a small picture is enlarged by a whole
 /// factor, nearest-neighbour, so every working pixel stays a visible square.
-pub const PREVIEW_MIN_LONG_SIDE: u32 = 1000;
+pub(crate) const PREVIEW_MIN_LONG_SIDE: u32 = 1000;
 
 /// The whole factor by which the preview enlarges a `width` × `height` picture: the smallest that
 /// brings its long side to [`PREVIEW_MIN_LONG_SIDE`], 1 for a picture already that large. The
 /// preview's long side is then under `PREVIEW_MIN_LONG_SIDE + long side`.
-pub fn preview_factor(width: u32, height: u32) -> u32 {
+pub(crate) fn preview_factor(width: u32, height: u32) -> u32 {
     PREVIEW_MIN_LONG_SIDE.div_ceil(width.max(height).max(1))
 }
 
@@ -54,7 +54,12 @@ pub fn preview_factor(width: u32, height: u32) -> u32 {
 /// [`ADDED_RGB`] for material the clean-up added (cut in `picture`, material in `twotone`), and
 /// [`REMOVED_RGB`] for material of the picture the stencil cuts away. `picture` is the thresholded
 /// picture, `twotone` the same after the clean-up, `stencil` after bridges.
-pub fn preview(gray: &Gray, picture: &BitGrid, twotone: &BitGrid, stencil: &BitGrid) -> Vec<u8> {
+pub(crate) fn preview(
+    gray: &Gray,
+    picture: &BitGrid,
+    twotone: &BitGrid,
+    stencil: &BitGrid,
+) -> Vec<u8> {
     let (w, h) = (stencil.width as usize, stencil.height as usize);
     let f = preview_factor(stencil.width, stencil.height) as usize;
     let colour = |i: usize| -> [u8; 3] {

@@ -7,10 +7,9 @@ mod distance;
 mod label;
 mod morph;
 
-pub use distance::{squared_distance, squared_distance_to};
-pub use label::{components, NOT_LABELLED};
-pub(crate) use label::{join_runs, touches_border, Run};
-pub use morph::{close, open};
+pub(crate) use distance::squared_distance_to;
+pub(crate) use label::{components, join_runs, touches_border, Run, NOT_LABELLED};
+pub(crate) use morph::{close, open};
 
 /// Luma at working resolution, 0.0 = black .. 1.0 = white.
 ///

@@ -14,7 +14,7 @@ use crate::raster::Gray;
 /// since a transparent pixel of a drawing is paper, not ink).
 ///
 /// The dimensions are read from the header first: an image over `max_pixels`, or one whose
-/// decoded buffers would need more than [`limits::MAX_DECODE_BYTES`] whatever `max_pixels` says, is
+/// decoded buffers would need more than `limits::MAX_DECODE_BYTES` whatever `max_pixels` says, is
 /// refused before any pixel buffer is allocated, so a hostile header that claims 100000x100000
 /// costs nothing. The decoder's buffer is allocated fallibly and decoded straight into gray (no
 /// wider copy of the picture in between: 5 bytes per pixel for an 8-bit gray picture). A JPEG that

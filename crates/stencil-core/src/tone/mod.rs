@@ -9,6 +9,7 @@ pub(crate) mod resolution;
 
 pub use filter::{FilterConfig, FilterStats};
 pub use image::load_gray;
+pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
@@ -117,7 +118,7 @@ impl Default for ToneConfig {
 }
 
 /// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
-pub fn otsu_level(gray: &Gray) -> u8 {
+pub(crate) fn otsu_level(gray: &Gray) -> u8 {
     let mut hist = [0u64; 256];
     for &v in &gray.data {
         hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
@@ -160,7 +161,7 @@ pub(crate) fn is_light(v: f32, level: u8) -> bool {
 
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
 /// Returns the two-tone and the level used.
-pub fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),

@@ -42,7 +42,7 @@ pub const PX_PER_MIN_FEATURE: f64 = 5.0;
 
 /// The automatic factor never makes the working image larger than this many pixels (16 MP: about
 /// 0.6 GB at 40 bytes per working pixel; 4000 × 4000).
-pub use crate::limits::AUTO_MAX_WORKING_PIXELS;
+pub(crate) use crate::limits::AUTO_MAX_WORKING_PIXELS;
 
 /// What limited an automatic factor below what the rule asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -50,7 +50,7 @@ pub use crate::limits::AUTO_MAX_WORKING_PIXELS;
 pub enum ScaleCap {
     /// The largest factor, `MAX_FACTOR`.
     MaxFactor,
-    /// The memory budget, [`AUTO_MAX_WORKING_PIXELS`].
+    /// The memory budget, `AUTO_MAX_WORKING_PIXELS`.
     Memory,
     /// The caller's pixel limit (`--max-pixels` in the `stencil` binary).
     MaxPixels,

@@ -1,14 +1,14 @@
 //! Stage 4: from the bridged bit grid to cut geometry in millimetres: marching squares
-//! ([`trace()`]), simplification ([`simplify_rings`]), bridge union ([`union_bridges`]), kerf offset ([`kerf`]).
+//! (`trace`), simplification (`simplify`), bridge union (`union`), kerf offset ([`kerf`]).
 //!
 //! The sheet: the frame convention of `islands` (outside the picture is material) means the sheet
 //! continues beyond the picture. The physical sheet is the picture plus a margin on every side
 //! ([`VectorConfig::margin_mm`]), so that cut regions touching the picture's edge stay holes in one
 //! sheet, exactly as the raster stages saw them.
 
-mod simplify;
-mod trace;
-mod union;
+pub(crate) mod simplify;
+pub(crate) mod trace;
+pub(crate) mod union;
 
 use geo::orient::{Direction, Orient};
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
@@ -23,14 +23,17 @@ use stencil_geom::ring::{bbox, point_in_ring, signed_area2};
 use crate::raster::BitGrid;
 use crate::units::{Mm, Scale};
 
-/// The stage's phases, for measuring them apart (the vector benchmark) or calling one alone:
-/// trace the material's outlines ([`trace()`]), simplify them ([`simplify_rings`]), union the
-/// bridges into the material ([`union_bridges`]), and the cut regions inside the sheet
-/// ([`cuts_of`]). [`vectorize`] runs them in order.
-pub use simplify::simplify_rings;
 pub use simplify::SimplifyStats;
-pub use trace::{trace, Guard, Ring};
-pub use union::{cuts_of, union_bridges};
+
+/// The steps of [`vectorize_design`] one by one, so that the `vector` bench can show where the
+/// stage's time goes. Not API: built only with the `bench-internals` feature, which only the root
+/// package's dev-dependency turns on.
+#[cfg(feature = "bench-internals")]
+pub mod steps {
+    pub use super::simplify::simplify_rings;
+    pub use super::trace::{trace, Guard, Ring};
+    pub use super::union::{cuts_of, union_bridges};
+}
 
 /// The stencil as physical geometry, in millimetres, x right and **y down** with the origin at the
 /// image's top-left corner (the raster and SVG convention; G-code flips to y up when it places the

@@ -29,8 +29,8 @@ pub struct Ring {
     /// Per point, the centres of the material and the cut pixel it lies between: simplification
     /// keeps each on its own side, so the outline still samples to the same raster.
     pub guards: Vec<Guard>,
-    /// A material pixel just left of the ring (outside the image = the frame), to tell which
-    /// material piece the ring bounds (the tests check the tracing with it).
+    /// A material pixel just left of the ring (outside the image = the frame): which material
+    /// piece the ring bounds. Only the tests read it, to check the tracing's orientation.
     #[cfg(test)]
     pub material_px: (i64, i64),
 }

@@ -184,3 +184,36 @@ pub fn cuts_of(material: &MultiPolygon<f64>) -> MultiPolygon<f64> {
     debug_assert_eq!(m.clone().orient(Direction::Default), m);
     m
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bridges_far_outside_clipper_range_are_an_error_not_an_abort() {
+        let sheet = Polygon::new(
+            Rect::new((0.0, 0.0), (100.0, 100.0))
+                .to_polygon()
+                .into_inner()
+                .0,
+            vec![LineString::from(vec![
+                (10.0, 10.0),
+                (10.0, 90.0),
+                (90.0, 90.0),
+                (90.0, 10.0),
+                (10.0, 10.0),
+            ])],
+        );
+        for far in [1e30, f64::NAN, f64::INFINITY] {
+            let bridge = Rect::new((5.0, 40.0), (far, 60.0)).to_polygon();
+            let e = union_bridges(MultiPolygon::new(vec![sheet.clone()]), &[bridge]).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    ClipError::OutOfRange { .. } | ClipError::NotFinite { .. }
+                ),
+                "{far}: {e}"
+            );
+        }
+    }
+}

@@ -21,13 +21,15 @@ pub struct Curvature {
     pub tensor: Vec<[f32; 3]>,
 }
 
-/// Principal curvatures and directions at one vertex (what the tests check the tensor against).
+/// Principal curvatures at one vertex and the direction of the larger (the tests check the
+/// tensor by them).
 #[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub struct Principal {
     /// The larger curvature in magnitude.
     pub k1: f32,
     pub k2: f32,
+    /// The direction of `k1`.
     pub dir1: Vec3,
 }
 
@@ -44,7 +46,8 @@ impl Curvature {
         (kuu * a * a + 2.0 * kuv * a * b + kvv * b * b) / len2
     }
 
-    /// Principal curvatures and directions at vertex `i` (eigen-decomposition of the 2×2 tensor).
+    /// Principal curvatures at vertex `i` and the direction of the larger (eigen-decomposition of
+    /// the 2×2 tensor).
     #[cfg(test)]
     pub fn principal(&self, i: usize) -> Principal {
         let [ku, kuv, kv] = self.tensor[i];
@@ -63,10 +66,9 @@ impl Curvature {
         let (mut k1, mut k2) = (ku - tt * kuv, kv + tt * kuv);
         let (u, v) = (self.u[i], self.v[i]);
         let mut dir1 = u * c - v * s;
-        let mut dir2 = u * s + v * c;
         if k1.abs() < k2.abs() {
             std::mem::swap(&mut k1, &mut k2);
-            std::mem::swap(&mut dir1, &mut dir2);
+            dir1 = u * s + v * c;
         }
         Principal { k1, k2, dir1 }
     }

@@ -7,15 +7,15 @@
 //! `invert`); lines are always cut; the background, the sheet around the model, is always
 //! material, so the model's outline is part of the stencil.
 
-mod camera;
-mod curvature;
-mod lines;
-mod load;
-mod shade;
+pub(crate) mod camera;
+pub(crate) mod curvature;
+pub(crate) mod lines;
+pub(crate) mod load;
+pub(crate) mod shade;
 #[cfg(test)]
 #[path = "../../../tests/support/shapes.rs"]
 mod shapes;
-mod visibility;
+pub(crate) mod visibility;
 
 use std::path::{Path, PathBuf};
 
@@ -26,12 +26,12 @@ use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::timing::Timings;
 use crate::tone::{is_light, otsu_level, Threshold};
 
-pub use camera::{Camera, RenderSize};
+pub use camera::{Camera, Orbit, RenderSize};
 pub use lines::LineMode;
 pub use load::{load, Mesh};
 
 /// Refuse renders with more working pixels (size × supersample²) than this.
-pub use crate::limits::MESH_MAX_WORKING_PIXELS as MAX_WORKING_PIXELS;
+pub(crate) use crate::limits::MESH_MAX_WORKING_PIXELS as MAX_WORKING_PIXELS;
 
 /// Options of the mesh renderer. Lengths are in bounding radii of the model, angles in degrees.
 #[derive(Clone, Debug, PartialEq)]
