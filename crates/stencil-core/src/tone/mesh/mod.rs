@@ -3,8 +3,8 @@
 //! light close to the model (`shade`), draw silhouettes and suggestive contours (`lines`, from
 //! the curvature of `curvature`), downsample the supersampled result, and threshold it.
 //!
-//! The two tones: a model pixel brighter than the threshold is material, darker is cut (swapped by
-//! `invert`); lines are always cut; the background, the sheet around the model, is always
+//! The two tones: a model pixel at or above the threshold level is material, one below it is cut
+//! (swapped by `invert`); lines are always cut; the background, the sheet around the model, is always
 //! material, so the model's outline is part of the stencil.
 
 pub(crate) mod camera;

@@ -73,7 +73,8 @@ pub struct RegularizeConfig {
 /// What the regularisation changed, for the report.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
 pub struct RegularizeStats {
-    /// The disc's span in pixels (the smallest odd number at least the required width).
+    /// The disc's span in pixels: the required width rounded up to a whole number of pixels (an
+    /// odd span is centred on a pixel, an even one on a pixel corner).
     pub disc_px: u32,
     /// Thin webs of material removed and widened, and thin holes of cut filled and widened.
     pub webs_removed: usize,
