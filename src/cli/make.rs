@@ -416,13 +416,7 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         made.geometry.height_mm,
         made.scale.mm_per_px,
         cfg.physical.material.name,
-        replaced
-            .written
-            .iter()
-            .filter_map(|p| p.file_name())
-            .map(|n| n.to_string_lossy())
-            .collect::<Vec<_>>()
-            .join(", ")
+        file_names(&replaced.written)
     );
     if !replaced.removed.is_empty() {
         eprintln!(
