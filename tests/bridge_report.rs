@@ -102,34 +102,14 @@ fn added_pieces(out: &std::path::Path) -> Vec<(u64, std::collections::HashSet<(u
     let two = read_bits(&out.join("twotone.png"));
     let st = read_bits(&out.join("stencil.png"));
     let (w, h) = (two.width as usize, two.height as usize);
-    let added = |x: usize, y: usize| !two.data[y * w + x] && st.data[y * w + x];
-    let mut seen = vec![false; w * h];
-    let mut pieces = Vec::new();
-    for start in 0..w * h {
-        if seen[start] || !added(start % w, start / w) {
-            continue;
+    let (label, count) = pieces_of(w, h, |i| !two.data[i] && st.data[i]);
+    let mut pieces = vec![std::collections::HashSet::new(); count];
+    for (i, &l) in label.iter().enumerate() {
+        if let Some(p) = pieces.get_mut(l as usize) {
+            p.insert((i % w, i / w));
         }
-        seen[start] = true;
-        let mut piece = std::collections::HashSet::new();
-        let mut stack = vec![(start % w, start / w)];
-        while let Some((x, y)) = stack.pop() {
-            piece.insert((x, y));
-            let next = [
-                (x.wrapping_sub(1), y),
-                (x + 1, y),
-                (x, y.wrapping_sub(1)),
-                (x, y + 1),
-            ];
-            for (nx, ny) in next {
-                if nx < w && ny < h && !seen[ny * w + nx] && added(nx, ny) {
-                    seen[ny * w + nx] = true;
-                    stack.push((nx, ny));
-                }
-            }
-        }
-        pieces.push((piece.len() as u64, piece));
     }
-    pieces
+    pieces.into_iter().map(|p| (p.len() as u64, p)).collect()
 }
 
 /// The pixel under the mean of a bridge's outline points (pixel centres, in pixels).

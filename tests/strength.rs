@@ -90,33 +90,10 @@ fn seen(out: &std::path::Path) -> Seen {
 /// pixel is not set) and how many pieces there are. A plain flood fill: scaffolding to read the
 /// output, not the library's labelling under test.
 fn pieces(bits: &BitGrid) -> (Vec<u32>, usize) {
-    let (w, h) = (bits.width as usize, bits.height as usize);
-    let mut label = vec![CUT; w * h];
-    let mut count = 0;
-    for start in 0..w * h {
-        if label[start] != CUT || !bits.get((start % w) as u32, (start / w) as u32) {
-            continue;
-        }
-        label[start] = count;
-        let mut stack = vec![start];
-        while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            let next = [
-                (x > 0).then(|| i - 1),
-                (x + 1 < w).then(|| i + 1),
-                (y > 0).then(|| i - w),
-                (y + 1 < h).then(|| i + w),
-            ];
-            for j in next.into_iter().flatten() {
-                if label[j] == CUT && bits.get((j % w) as u32, (j / w) as u32) {
-                    label[j] = count;
-                    stack.push(j);
-                }
-            }
-        }
-        count += 1;
-    }
-    (label, count as usize)
+    let w = bits.width as usize;
+    pieces_of(w, bits.height as usize, |i| {
+        bits.get((i % w) as u32, (i / w) as u32)
+    })
 }
 
 /// Angles (degrees) of the touches of island `n`, seen from its centre.

@@ -185,3 +185,35 @@ pub fn faulty(kind: FaultKind, at: usize) -> VirtualConfig {
         ..VirtualConfig::default()
     }
 }
+
+/// The 4-connected pieces of the pixels of a `w` × `h` grid (row-major) for which `inside` holds:
+/// a piece number per pixel (`u32::MAX` outside) and how many pieces there are. A plain flood
+/// fill: scaffolding to read outputs, not the library's labelling under test.
+pub fn pieces_of(w: usize, h: usize, inside: impl Fn(usize) -> bool) -> (Vec<u32>, usize) {
+    let mut label = vec![u32::MAX; w * h];
+    let mut count = 0u32;
+    for start in 0..w * h {
+        if label[start] != u32::MAX || !inside(start) {
+            continue;
+        }
+        label[start] = count;
+        let mut stack = vec![start];
+        while let Some(i) = stack.pop() {
+            let (x, y) = (i % w, i / w);
+            let next = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in next.into_iter().flatten() {
+                if label[j] == u32::MAX && inside(j) {
+                    label[j] = count;
+                    stack.push(j);
+                }
+            }
+        }
+        count += 1;
+    }
+    (label, count as usize)
+}
