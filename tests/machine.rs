@@ -222,7 +222,8 @@ fn alarm_mid_job_stops_locks_and_resume_unlocks() {
         .filter(|l| l.text.starts_with('$'))
         .map(|l| l.text.as_str())
         .collect();
-    assert_eq!(setup, ["$I", "$I", "$X"]);
+    // Each connection reads the build ($I) and the settings ($$, compared with the job's).
+    assert_eq!(setup, ["$I", "$$", "$I", "$$", "$X"]);
     let mut expected = job.resume_preamble(halt.resume_from).unwrap();
     expected.extend(texts(&job, halt.resume_from));
     assert_eq!(program_received(&r, before), expected);
@@ -296,7 +297,10 @@ fn vanished_port_is_reported_with_the_resume_line() {
         "{msg}"
     );
     assert!(halt.resume_from <= file_line(&job, k));
-    assert!(msg.contains("make sure it is off"), "{msg}");
+    assert!(
+        msg.contains("make sure the laser and the air are off"),
+        "{msg}"
+    );
     let r = vg.stop();
     laser_stopped_after_fault(&r);
     assert_ran_everything_before(&job, &r, halt.resume_from);
@@ -479,9 +483,21 @@ fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     let job = Program::parse("settings.gcode", &text).unwrap();
     assert!(job.lines.iter().all(|l| l.text != "%"));
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
+    // A job that writes a setting is refused unless the person allows it (issue 23).
     let c = StreamConfig {
         check_first: true,
         ..cfg()
+    };
+    let refused = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    assert!(
+        refused
+            .to_string()
+            .contains("line 4 `$32=1` writes Grbl setting $32"),
+        "{refused}"
+    );
+    let c = StreamConfig {
+        allow_machine_commands: true,
+        ..c
     };
     send(&mut port, &job, &c, None, &mut Quiet).unwrap();
     let r = vg.stop();
@@ -490,7 +506,7 @@ fn settings_lines_go_alone_and_percent_lines_are_dropped() {
     let run: Vec<&str> = r
         .run_lines()
         .into_iter()
-        .filter(|l| *l != "$I" && *l != "$C")
+        .filter(|l| *l != "$I" && *l != "$C" && *l != "$$")
         .collect();
     let expected: Vec<&str> = job.lines.iter().map(|l| l.text.as_str()).collect();
     assert_eq!(run, expected);

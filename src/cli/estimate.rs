@@ -31,6 +31,7 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("{}: cannot read", a.file.display()))?;
+    super::send::name_machine_changes_in(&a.file, &text);
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let e = estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));

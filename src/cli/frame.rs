@@ -15,7 +15,6 @@ use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameError, FrameTool, Framed};
 use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Observer, Program, StreamConfig};
-use stencil_grbl::virtual_grbl::VirtualConfig;
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
 /// to follow the head with the eye, fast enough not to bore.
@@ -216,14 +215,13 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let job = Program::parse(&a.file.display().to_string(), &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
-    let vcfg = VirtualConfig {
-        rapid_mm_min: machine.motion.rapid_mm_min,
-        ..VirtualConfig::default()
-    };
-    let mut opened = a.link.open(vcfg)?;
+    super::send::name_machine_changes(&job);
+    let mut opened = a.link.open(super::port::virtual_for(&machine, &[]))?;
+    // The frame may trace with the beam dimly on: the power scale is checked first too.
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,
+        expect: super::port::expected(&machine, &text, &job),
         ..StreamConfig::default()
     };
     let (tx, rx) = channel();

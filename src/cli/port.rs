@@ -5,8 +5,9 @@ use std::time::Duration;
 
 use anyhow::{bail, Context};
 
+use stencil_gcode::machine::{Machine, Tool};
 use stencil_grbl::journal::JournalError;
-use stencil_grbl::stream::{BytePort, MachineError};
+use stencil_grbl::stream::{BytePort, Expected, MachineError, PowerScale, Program};
 use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
@@ -34,6 +35,13 @@ pub(super) fn machine_hint(e: &MachineError) -> &'static str {
         }
         MachineError::FromLine { .. } | MachineError::ResumeState { .. } => " (--from-line)",
         MachineError::Homing { .. } => "; then resume with --from-line",
+        MachineError::PowerScale { .. } => {
+            " (--rescale-power rescales every S to the controller's scale for this run)"
+        }
+        MachineError::TravelShort { .. } => " (the profile is the --machine file)",
+        MachineError::MachineCommands { .. } => {
+            " (--allow-machine-commands lets the job change the machine)"
+        }
         _ => "",
     }
 }
@@ -112,4 +120,95 @@ fn open_machine(
         label: p.to_string(),
         virtual_grbl: None,
     })
+}
+
+/// What the machine profile and the job say Grbl's settings should be (see [`Expected`]): the
+/// power scale the job's S words were written for (its header's `$30=`/`$31=`, as `stencil`
+/// writes it, else the profile's), the profile's rates, acceleration, junction deviation and bed.
+pub fn expected(machine: &Machine, text: &str, job: &Program) -> Expected {
+    let fires = job.moves.iter().any(|m| m.power > 0.0);
+    let power = match machine.tool {
+        Tool::Laser { s_max, s_min } if fires => Some(match header_scale(text) {
+            Some((s_max, s_min)) => PowerScale {
+                s_max,
+                s_min,
+                source: "the job (its header)".into(),
+            },
+            None => PowerScale {
+                s_max,
+                s_min,
+                source: format!("the job (by machine profile {})", machine.name),
+            },
+        }),
+        _ => None,
+    };
+    Expected {
+        profile: machine.name.clone(),
+        power,
+        rapid_mm_min: Some(machine.motion.rapid_mm_min),
+        accel_mm_s2: Some(machine.motion.accel_mm_s2),
+        junction_mm: Some(machine.motion.junction_deviation_mm),
+        bed_mm: Some([machine.bed.width_mm, machine.bed.height_mm]),
+    }
+}
+
+/// `$30=` and `$31=` in a comment line of the job (the header `stencil` writes says
+/// `; $30=1000 $31=0; power ...`).
+fn header_scale(text: &str) -> Option<(f64, f64)> {
+    let value = |line: &str, key: &str| -> Option<f64> {
+        let rest = &line[line.find(key)? + key.len()..];
+        let end = rest
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(rest.len());
+        rest[..end].parse().ok()
+    };
+    text.lines()
+        .map(str::trim_start)
+        .filter(|l| l.starts_with(';') || l.starts_with('('))
+        .find_map(|l| Some((value(l, "$30=")?, value(l, "$31=").unwrap_or(0.0))))
+}
+
+/// The settings a virtual Grbl starts from for `machine`, as its controller would be set up
+/// for the profile (`$$`), so that a dry run by default passes the settings check.
+pub fn profile_settings(machine: &Machine) -> Vec<(u32, String)> {
+    let n = stencil_gcode::num;
+    let m = &machine.motion;
+    let mut v = vec![
+        (11, n(m.junction_deviation_mm)),
+        (22, u32::from(m.homing).to_string()),
+        (110, n(m.rapid_mm_min)),
+        (111, n(m.rapid_mm_min)),
+        (120, n(m.accel_mm_s2)),
+        (121, n(m.accel_mm_s2)),
+        (130, n(machine.bed.width_mm)),
+        (131, n(machine.bed.height_mm)),
+    ];
+    if let Tool::Laser { s_max, s_min } = machine.tool {
+        v.extend([(30, n(s_max)), (31, n(s_min))]);
+    }
+    v
+}
+
+/// The virtual Grbl for a dry run on `machine`: the profile's settings and homing, then
+/// `overrides` (`--dry-run-setting`) over them.
+pub fn virtual_for(machine: &Machine, overrides: &[(u32, String)]) -> VirtualConfig {
+    let mut settings = profile_settings(machine);
+    settings.extend(overrides.iter().cloned());
+    VirtualConfig {
+        rapid_mm_min: machine.motion.rapid_mm_min,
+        homing: machine.motion.homing,
+        settings,
+        ..VirtualConfig::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_header_says_the_power_scale() {
+        let t = "; stencil 0.1.0 for diode-400\n; $30=1000 $31=0; power 20 % = S200\nG0X1\n";
+        assert_eq!(super::header_scale(t), Some((1000.0, 0.0)));
+        assert_eq!(super::header_scale("(x $30=255)\nG0\n"), Some((255.0, 0.0)));
+        assert_eq!(super::header_scale("G0X1\n$30=1000\n"), None);
+    }
 }

@@ -96,6 +96,41 @@ pub struct SendArgs {
     /// With --frame: framing feed, mm/min [default: 3000, at most the machine's max feed].
     #[arg(long, value_name = "MM_MIN", requires = "frame", value_parser = super::frame::parse_feed)]
     pub frame_feed: Option<f64>,
+    /// When the controller's power scale ($30/$31) differs from the job's, rescale every S to
+    /// the controller's scale for this run (instead of refusing).
+    #[arg(long)]
+    pub rescale_power: bool,
+    /// Let the job's own lines change the machine: Grbl settings ($N=V), startup lines, $H, $X,
+    /// $C, $J=, $RST=, $SLP, and stored offsets (G10 L2/L20, G28.1, G30.1). Refused otherwise.
+    #[arg(long)]
+    pub allow_machine_commands: bool,
+}
+
+/// Say which lines of a job would change the machine itself (a `$` setting, homing, a stored
+/// offset...): `send` refuses them unless `--allow-machine-commands` is given.
+pub(super) fn name_machine_changes(job: &Program) {
+    for c in &job.machine_changes {
+        eprintln!(
+            "note: {}: line {} `{}` {}: `stencil send` refuses it unless \
+             --allow-machine-commands is given",
+            job.name, c.line, c.text, c.what
+        );
+    }
+}
+
+/// [`name_machine_changes`] for a file read as text.
+pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
+    for (i, raw) in text.lines().enumerate() {
+        let clean = stencil_gcode::interpret::clean_line(raw);
+        if let Some(what) = stream::machine_change(&clean) {
+            eprintln!(
+                "note: {}: line {} `{clean}` {what}: `stencil send` refuses it unless \
+                 --allow-machine-commands is given",
+                path.display(),
+                i + 1
+            );
+        }
+    }
 }
 
 /// `--dry-run-setting $32=0`.
@@ -175,6 +210,14 @@ pub(super) struct Keys {
 impl Keys {
     pub(super) fn start(tx: Sender<Control>) -> Keys {
         let stop = Arc::new(AtomicBool::new(false));
+        // SIGINT, SIGTERM and SIGHUP (the terminal closed, a service manager stopping us) take
+        // the abort's path: hold, wait until the machine stands, reset, laser and air off. One
+        // handler per process: `send --frame` starts keys twice on the same channel, so the
+        // first handler serves both.
+        let signal_tx = tx.clone();
+        let _ = ctrlc::set_handler(move || {
+            let _ = signal_tx.send(Control::Abort);
+        });
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
             let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
@@ -184,11 +227,6 @@ impl Keys {
                 raw: true,
             };
         }
-        // No terminal to read keys from: Ctrl-C (SIGINT) still aborts safely. A second handler
-        // cannot be installed in one process; then Ctrl-C keeps its default meaning.
-        let _ = ctrlc::set_handler(move || {
-            let _ = tx.send(Control::Abort);
-        });
         Keys {
             stop,
             thread: None,
@@ -277,6 +315,9 @@ impl Bar {
 
 impl Observer for Bar {
     fn connected(&mut self, info: &ControllerInfo) {
+        // The remaining time is estimated with the controller's own rates and accelerations
+        // (the settings check has said where they differ from the profile).
+        self.limits = controller_motion(self.limits, info);
         self.say(&format!(
             "connected to Grbl {} ({} planner blocks, {}-byte receive buffer){}",
             info.version,
@@ -322,6 +363,29 @@ impl Observer for Bar {
         self.bar
             .set_message(format!("{} {}", self.state, self.remaining));
     }
+}
+
+/// `limits` with the rapid rate, acceleration and junction deviation the controller reported in
+/// `$$` (the slower axis of X and Y), where it did.
+fn controller_motion(
+    mut limits: machine_profile::Motion,
+    info: &ControllerInfo,
+) -> machine_profile::Motion {
+    let lower = |a: u32, b: u32| match (info.setting(a), info.setting(b)) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, y) => x.or(y),
+    };
+    if let Some(r) = lower(110, 111).filter(|r| *r > 0.0) {
+        limits.rapid_mm_min = r;
+        limits.max_feed_mm_min = limits.max_feed_mm_min.min(r);
+    }
+    if let Some(a) = lower(120, 121).filter(|a| *a > 0.0) {
+        limits.accel_mm_s2 = a;
+    }
+    if let Some(j) = info.setting(11).filter(|j| *j > 0.0) {
+        limits.junction_deviation_mm = j;
+    }
+    limits
 }
 
 /// What the machine profile says about lifting the tool for a resume's travel (a pen or knife on
@@ -432,7 +496,7 @@ fn recover(
 
 /// The simulated Grbl of `--dry-run`: instant, or paced as the machine and link would run
 /// (`--realtime`), with the `--dry-run-setting`s and `--dry-run-fault`s asked for.
-fn virtual_config(a: &SendArgs, rapid_mm_min: f64) -> VirtualConfig {
+fn virtual_config(a: &SendArgs, machine: &machine_profile::Machine) -> VirtualConfig {
     VirtualConfig {
         pace: if a.realtime {
             Pace::Timed { speedup: 1.0 }
@@ -440,10 +504,8 @@ fn virtual_config(a: &SendArgs, rapid_mm_min: f64) -> VirtualConfig {
             Pace::Instant
         },
         baud: a.realtime.then_some(a.link.baud),
-        rapid_mm_min,
-        settings: a.dry_run_setting.clone(),
         faults: a.dry_run_fault.clone(),
-        ..VirtualConfig::default()
+        ..super::port::virtual_for(machine, &a.dry_run_setting)
     }
 }
 
@@ -495,23 +557,41 @@ fn print_summary(sum: &Summary, label: &str, virtual_grbl: Option<VirtualGrbl>) 
         sum.max_in_flight
     );
     if let Some(vg) = virtual_grbl {
-        let r = vg.stop();
-        println!(
-            "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}",
-            r.received.len(),
-            r.max_rx_used,
-            r.overflow_bytes,
-            if r.laser_on { "ON" } else { "off" },
-            if r.air_on { "ON" } else { "off" },
-            u8::from(r.laser_mode)
-        );
+        print_virtual(vg);
     }
+}
+
+/// What the simulated machine of a dry run saw, and how it was left (also after a stop).
+fn print_virtual(vg: VirtualGrbl) {
+    let r = vg.stop();
+    let alarms: Vec<String> = r
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            stencil_grbl::virtual_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
+            _ => None,
+        })
+        .collect();
+    println!(
+        "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}, state {}, alarms: {}",
+        r.received.len(),
+        r.max_rx_used,
+        r.overflow_bytes,
+        if r.laser_on { "ON" } else { "off" },
+        if r.air_on { "ON" } else { "off" },
+        u8::from(r.laser_mode),
+        r.state,
+        if alarms.is_empty() { "none".to_string() } else { alarms.join(" ") }
+    );
 }
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
+    if !a.allow_machine_commands {
+        name_machine_changes(&job);
+    }
     let journal_path = journal::path_for(&a.file);
     let (from_line, machine_arg) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {
@@ -541,12 +621,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     }
     let frame = frame_setup(&a, &job, &machine)?;
     let mut cfg = stream_config(&a, &machine, &job, from_line, home_first);
+    cfg.expect = super::port::expected(&machine, &text, &job);
 
     let super::port::Opened {
         mut port,
         label,
         virtual_grbl,
-    } = a.link.open(virtual_config(&a, limits.rapid_mm_min))?;
+    } = a.link.open(virtual_config(&a, &machine))?;
 
     let (tx, rx) = channel();
     if let Some(s) = &frame {
@@ -586,7 +667,12 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     drop(keys);
     let sum = match result {
         Ok(s) => s,
-        Err(e) => return Err(stopped(&a, &journal_path, e)),
+        Err(e) => {
+            if let Some(vg) = virtual_grbl {
+                print_virtual(vg);
+            }
+            return Err(stopped(&a, &journal_path, e));
+        }
     };
     print_summary(&sum, &label, virtual_grbl);
     Ok(ExitCode::SUCCESS)
@@ -654,6 +740,8 @@ fn stream_config(
         lift: resume_lift(machine),
         rapid_mm_min: Some(machine.motion.rapid_mm_min),
         laser_mode: laser_mode(machine, job, a.set_laser_mode),
+        rescale_power: a.rescale_power,
+        allow_machine_commands: a.allow_machine_commands,
         ..StreamConfig::default()
     }
 }

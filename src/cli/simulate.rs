@@ -36,6 +36,7 @@ pub struct SimulateArgs {
 
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
+    super::send::name_machine_changes_in(&a.file, &text);
     let name = a.file.display().to_string();
     let moves = stencil_gcode::interpret::interpret(&text)
         .map_err(|cause| stream::MachineError::Gcode { file: name, cause })?;

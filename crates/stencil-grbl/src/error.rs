@@ -18,6 +18,9 @@ pub struct Halt {
     pub laser: String,
     /// Grbl is locked in alarm after the stop: unlock (`$X`) or home before resuming.
     pub locked: bool,
+    /// Why the machine may have moved on while (or after) it was stopped, so that its position
+    /// can no longer be trusted; `None` when it was seen standing before the reset.
+    pub position_unsure: Option<Box<str>>,
 }
 
 impl std::fmt::Display for Halt {
@@ -26,7 +29,49 @@ impl std::fmt::Display for Halt {
             Some(l) => write!(f, "last acknowledged line {l}; ")?,
             None => write!(f, "no line was acknowledged; ")?,
         }
-        write!(f, "{}; resume from line {}", self.laser, self.resume_from)
+        write!(f, "{}; resume from line {}", self.laser, self.resume_from)?;
+        if let Some(why) = &self.position_unsure {
+            write!(
+                f,
+                "\nthe position may be lost: {why}. Before resuming, home the machine ($H), or \
+                 bring the head back onto the work and set its zero again"
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Lines whose answers never came although Grbl has read and handled them (see
+/// [`MachineError::RepliesLost`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Unanswered {
+    /// File lines of the first and last unanswered line, and how many.
+    pub first: usize,
+    pub last: usize,
+    pub count: usize,
+    /// Every line of the job had been sent.
+    pub all_sent: bool,
+    /// The first line not sent, if any.
+    pub next_unsent: Option<usize>,
+}
+
+impl std::fmt::Display for Unanswered {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} line(s) sent ({}..={}) were never answered: their `ok` was lost or garbled on \
+             the way, so Grbl has run or refused them and said so unheard; ",
+            self.count, self.first, self.last
+        )?;
+        match (self.all_sent, self.next_unsent) {
+            (true, _) => write!(
+                f,
+                "every line of the job was sent, so the job has most likely run to its end: look \
+                 at the work before resuming"
+            ),
+            (false, Some(n)) => write!(f, "nothing from line {n} on was sent"),
+            (false, None) => write!(f, "nothing after them was sent"),
+        }
     }
 }
 
@@ -54,6 +99,18 @@ fn list_rejections(rejected: &[CheckRejection]) -> String {
         .collect();
     if rejected.len() > 10 {
         s.push(format!("and {} more", rejected.len() - 10));
+    }
+    s.join("; ")
+}
+
+fn list_changes(changes: &[crate::program::MachineChange]) -> String {
+    let mut s: Vec<String> = changes
+        .iter()
+        .take(10)
+        .map(|c| format!("line {} `{}` {}", c.line, c.text, c.what))
+        .collect();
+    if changes.len() > 10 {
+        s.push(format!("and {} more", changes.len() - 10));
     }
     s.join("; ")
 }
@@ -106,6 +163,30 @@ pub enum MachineError {
     Setup { port: String, cmd: String, code: u8 },
     #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Set $32=1 (Grbl keeps it in its settings), or, if this machine is not a laser, use its own machine profile")]
     LaserModeOff { port: String, value: String },
+    #[error("{port}: the controller's power scale is ${setting}={} but {written_for} was written for ${setting}={}: {example}; nothing was sent. Set ${setting}={} on the controller (Grbl keeps it), or have every S rescaled to the controller's scale", stencil_gcode::num(*controller), stencil_gcode::num(*job), stencil_gcode::num(*job))]
+    PowerScale {
+        port: String,
+        setting: u32,
+        controller: f64,
+        job: f64,
+        written_for: String,
+        example: String,
+    },
+    #[error("{port}: the controller's ${setting}={} ({axis} max travel) is less than machine profile {profile}'s {bed} mm bed, and {why}: Grbl would stop the job with an alarm where the bed goes on; nothing was sent. Set ${setting}={bed} if the machine reaches it, or make the profile's bed match the machine", stencil_gcode::num(*travel))]
+    TravelShort {
+        port: String,
+        axis: char,
+        setting: u32,
+        travel: f64,
+        bed: f64,
+        profile: String,
+        why: String,
+    },
+    #[error("{file}: the job would change the machine itself, not only cut: {}; nothing was sent. Remove these lines, or allow them if you meant the job to do this", list_changes(changes))]
+    MachineCommands {
+        file: String,
+        changes: Vec<crate::program::MachineChange>,
+    },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },
     #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", rejected.len(), list_rejections(rejected))]
@@ -135,7 +216,13 @@ pub enum MachineError {
         port: String,
         still_s: f64,
         bound_s: f64,
-        position: [f64; 3],
+        position: Box<[f64; 3]>,
+        halt: Halt,
+    },
+    #[error("{port}: Grbl stands idle with its buffers empty, yet {lost}; stopped: {halt}")]
+    RepliesLost {
+        port: String,
+        lost: Box<Unanswered>,
         halt: Halt,
     },
     #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
@@ -153,6 +240,7 @@ impl MachineError {
             | MachineError::Silent { halt, .. }
             | MachineError::Stalled { halt, .. }
             | MachineError::PortLost { halt, .. }
+            | MachineError::RepliesLost { halt, .. }
             | MachineError::Restarted { halt }
             | MachineError::Aborted { halt } => Some(halt),
             _ => None,

@@ -163,7 +163,7 @@ pub enum FrameError {
     #[error("framing stopped: Grbl restarted (power or reset); {laser}")]
     Restarted { laser: String },
     #[error("framing stopped: {0}")]
-    Machine(MachineError),
+    Machine(Box<MachineError>),
 }
 
 impl From<MachineError> for FrameError {
@@ -193,7 +193,7 @@ impl From<MachineError> for FrameError {
                 laser: halt.laser,
             },
             MachineError::Restarted { halt } => FrameError::Restarted { laser: halt.laser },
-            e => FrameError::Machine(e),
+            e => FrameError::Machine(Box::new(e)),
         }
     }
 }

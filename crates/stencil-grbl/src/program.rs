@@ -32,7 +32,62 @@ pub struct Program {
     /// The program may end with the coolant output (air assist) still on: the streamer then
     /// sends M9 itself.
     pub may_end_air_on: bool,
+    /// Lines that would change the machine rather than cut: refused by `send` unless the person
+    /// asked for them ([`super::StreamConfig::allow_machine_commands`]).
+    pub machine_changes: Vec<MachineChange>,
+    /// Read-only `$` queries (`$$`, `$#`, `$G`, `$I`, `$N`): left out of the stream.
+    pub dropped: Vec<ProgramLine>,
     source: Vec<String>,
+}
+
+/// A line of a job that changes the machine itself: a Grbl setting, homing, unlocking, check
+/// mode, a jog, sleep, or a stored offset or position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineChange {
+    /// 1-based line in the file.
+    pub line: usize,
+    /// The line as Grbl would see it.
+    pub text: String,
+    /// What it does, e.g. "writes Grbl setting $32".
+    pub what: String,
+}
+
+/// The read-only `$` queries: they change nothing, and a sender does not stream them.
+const QUERIES: [&str; 5] = ["$$", "$#", "$G", "$I", "$N"];
+
+/// What a cleaned line does to the machine itself, if anything (see [`MachineChange`]).
+pub fn machine_change(clean: &str) -> Option<String> {
+    if let Some(rest) = clean.strip_prefix('$') {
+        if QUERIES.contains(&clean) {
+            return None;
+        }
+        let what = match rest {
+            "H" => "homes the machine ($H)".to_string(),
+            "X" => "unlocks an alarm ($X)".to_string(),
+            "C" => "switches check mode ($C)".to_string(),
+            "SLP" => "puts Grbl to sleep ($SLP)".to_string(),
+            r if r.starts_with("J=") => "jogs the machine ($J=)".to_string(),
+            r if r.starts_with("RST=") => "erases Grbl's settings ($RST=)".to_string(),
+            r if r.starts_with('N') && r[1..].contains('=') => {
+                "stores a startup line ($Nx=)".to_string()
+            }
+            r => match r.split_once('=') {
+                Some((k, _)) if k.parse::<u32>().is_ok() => format!("writes Grbl setting ${k}"),
+                _ => format!("is a Grbl system command ({clean})"),
+            },
+        };
+        return Some(what);
+    }
+    let words = gcode::words(clean, 0).ok()?;
+    let g = |v: f64| words.iter().any(|&(l, x)| l == 'G' && (x - v).abs() < 1e-9);
+    let l = words.iter().find(|(w, _)| *w == 'L').map(|&(_, v)| v);
+    if g(10.0) && matches!(l, Some(x) if x == 2.0 || x == 20.0) {
+        return Some("writes a stored work offset (G10 L2/L20)".to_string());
+    }
+    if g(28.1) || g(30.1) {
+        return Some("stores a G28/G30 position (G28.1/G30.1)".to_string());
+    }
+    None
 }
 
 impl Program {
@@ -43,6 +98,7 @@ impl Program {
         let mut moves = Vec::new();
         let mut modal = Modal::default();
         let mut unreadable = false;
+        let (mut machine_changes, mut dropped) = (Vec::new(), Vec::new());
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
@@ -67,6 +123,21 @@ impl Program {
                     file: name.to_string(),
                     line: number,
                     len: clean.len(),
+                });
+            }
+            if QUERIES.contains(&clean.as_str()) {
+                dropped.push(ProgramLine {
+                    number,
+                    text: clean,
+                    motion: false,
+                });
+                continue;
+            }
+            if let Some(what) = machine_change(&clean) {
+                machine_changes.push(MachineChange {
+                    line: number,
+                    text: clean.clone(),
+                    what,
                 });
             }
             let mut m = modal;
@@ -105,6 +176,8 @@ impl Program {
             moves,
             may_end_laser_on: modal.spindle_on || unreadable,
             may_end_air_on: modal.coolant || unreadable,
+            machine_changes,
+            dropped,
             source,
         })
     }

@@ -61,6 +61,42 @@ pub struct StreamConfig {
     /// power loss cannot trust the machine's position. Also clears the alarm a homing machine
     /// boots in.
     pub home_first: bool,
+    /// What the job and the machine profile expect of Grbl's settings; compared with `$$`
+    /// before anything moves.
+    pub expect: Expected,
+    /// A power scale (`$30`/`$31`) that differs from the job's is not refused: every S is
+    /// rescaled to the controller's scale, and the stream says so.
+    pub rescale_power: bool,
+    /// Let the job's own lines change the machine (`$` settings, homing, unlock, check mode,
+    /// jogs, stored offsets); otherwise they are refused before anything is sent.
+    pub allow_machine_commands: bool,
+}
+
+/// What a job and its machine profile expect of the controller's settings (`$$`). Every field
+/// left `None` is not compared.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Expected {
+    /// The machine profile's name, for messages.
+    pub profile: String,
+    /// The power scale the job's S words were written for.
+    pub power: Option<PowerScale>,
+    /// Rapid rate, mm/min (`$110`, `$111`).
+    pub rapid_mm_min: Option<f64>,
+    /// Acceleration, mm/s² (`$120`, `$121`).
+    pub accel_mm_s2: Option<f64>,
+    /// Junction deviation, mm (`$11`).
+    pub junction_mm: Option<f64>,
+    /// The bed, mm: max travel (`$130`, `$131`) must reach it.
+    pub bed_mm: Option<[f64; 2]>,
+}
+
+/// The S scale of a job: S at full power (`$30`) and at the lowest (`$31`), and where it was
+/// read (the job's header, or the machine profile for a job that does not say).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PowerScale {
+    pub s_max: f64,
+    pub s_min: f64,
+    pub source: String,
 }
 
 impl Default for StreamConfig {
@@ -79,6 +115,9 @@ impl Default for StreamConfig {
             clock: ClockRef::default(),
             laser_mode: LaserMode::Ignore,
             home_first: false,
+            expect: Expected::default(),
+            rescale_power: false,
+            allow_machine_commands: false,
         }
     }
 }

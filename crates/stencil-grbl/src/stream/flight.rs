@@ -4,12 +4,14 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
+use super::super::error::Unanswered;
 use super::session::Session;
 use super::tracker::Tracker;
 use super::{
     CheckRejection, FlowControl, Halt, MachineError, Program, ProgramLine, Progress, Summary,
 };
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
+use stencil_gcode::interpret as gcode;
 
 /// A line as it goes out: program lines and the resume preamble.
 pub(super) struct Outgoing {
@@ -245,6 +247,10 @@ impl Session<'_, '_> {
                     laser: "the controller reset itself, which turns the laser and the air off"
                         .into(),
                     locked: false,
+                    position_unsure: Some(
+                        "the controller restarted (power or reset) while it may have been moving"
+                            .into(),
+                    ),
                 };
                 return Err(MachineError::Restarted { halt });
             }
@@ -264,9 +270,33 @@ impl Session<'_, '_> {
         st: Status,
         checking: bool,
     ) -> Result<(), MachineError> {
-        f.finished |= f.acked_total == f.lines.len() && st.state == MachineState::Idle;
+        // Check mode (a job's own `$C`, when allowed) runs nothing: it is as done as Idle.
+        f.finished |= f.acked_total == f.lines.len()
+            && matches!(st.state, MachineState::Idle | MachineState::Check);
         f.status(&st);
         if !checking {
+            if f.lost_replies(&st, self.info.planner_blocks, self.info.rx_buffer) {
+                let unanswered: Vec<usize> = f
+                    .in_flight
+                    .iter()
+                    .map(|&(i, _)| f.lines[i].number)
+                    .collect();
+                let all_sent = f.next >= f.lines.len();
+                let next_unsent = f.lines.get(f.next).map(|l| l.number);
+                self.settle(f);
+                let halt = self.halt(f.run.last_acked, f.resume_at(None));
+                return Err(MachineError::RepliesLost {
+                    port: self.port_name.clone(),
+                    lost: Box::new(Unanswered {
+                        first: unanswered.first().copied().unwrap_or(0),
+                        last: unanswered.last().copied().unwrap_or(0),
+                        count: unanswered.len(),
+                        all_sent,
+                        next_unsent,
+                    }),
+                    halt,
+                });
+            }
             // Work is queued: lines in flight, or planner blocks in use (unknown without `Bf:`,
             // then assumed).
             let busy = !f.in_flight.is_empty()
@@ -280,7 +310,7 @@ impl Session<'_, '_> {
                     port: self.port_name.clone(),
                     still_s: stuck.still_for.as_secs_f64(),
                     bound_s: stuck.bound.as_secs_f64(),
-                    position: stuck.position,
+                    position: Box::new(stuck.position),
                     halt,
                 });
             }
@@ -310,6 +340,9 @@ pub(super) struct Flight<'l> {
     pub(super) first_byte: Option<Instant>,
     /// Every line answered and the machine seen idle since.
     pub(super) finished: bool,
+    /// Consecutive status reports showing Grbl idle with empty buffers while lines still wait
+    /// for their answer, and when the first of them came.
+    quiet: (u32, Option<Instant>),
 }
 
 impl<'l> Flight<'l> {
@@ -336,7 +369,32 @@ impl<'l> Flight<'l> {
             next: 0,
             first_byte: None,
             finished: false,
+            quiet: (0, None),
         }
+    }
+
+    /// Answers were lost: Grbl stands idle with nothing in its planner and nothing left in its
+    /// receive buffer (`Bf:`), so it has read and run every line sent, yet lines still wait for
+    /// their `ok` (dropped on the wire, or garbled into something that is no answer). Three
+    /// reports in a row over at least a second (answers always come before the next report);
+    /// without `Bf:` Idle alone, over three seconds. A dwell (G4) in flight is answered only
+    /// when it ends, so it is waited for.
+    fn lost_replies(&mut self, st: &Status, planner_blocks: usize, rx_buffer: usize) -> bool {
+        let dwell = self.in_flight.iter().any(|&(i, _)| {
+            gcode::words(&self.lines[i].text, 0)
+                .is_ok_and(|w| w.iter().any(|&(l, v)| l == 'G' && v == 4.0))
+        });
+        let empty = st
+            .buffer
+            .is_none_or(|(b, rx)| b as usize >= planner_blocks && rx as usize + 1 >= rx_buffer);
+        if self.in_flight.is_empty() || dwell || st.state != MachineState::Idle || !empty {
+            self.quiet = (0, None);
+            return false;
+        }
+        let since = *self.quiet.1.get_or_insert_with(Instant::now);
+        self.quiet.0 += 1;
+        let long = if st.buffer.is_some() { 1.0 } else { 3.0 };
+        self.quiet.0 >= 3 && since.elapsed().as_secs_f64() >= long
     }
 
     /// The oldest line in flight was answered: free its bytes.

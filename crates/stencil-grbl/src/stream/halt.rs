@@ -10,24 +10,39 @@ use super::{Halt, MachineError};
 use crate::protocol::{self, MachineState, Reply, RT_FEED_HOLD, RT_SOFT_RESET, RT_STATUS};
 
 impl Session<'_, '_> {
-    /// Before stopping on purpose: feed hold (`!`) and wait until the machine has stopped, reading
-    /// the acknowledgements still coming and a fresh status report. Stopping from a completed
-    /// hold keeps Grbl's position (a reset while moving loses it: ALARM:3), and the report's free
+    /// Before stopping on purpose: feed hold (`!`), then wait until the machine is known to
+    /// stand, reading the acknowledgements still coming. A soft reset while the head moves
+    /// loses Grbl's position (ALARM:3); from a completed hold it keeps it, and the report's free
     /// planner blocks tell exactly which acknowledged moves have not run.
+    ///
+    /// Known to stand means [`standing`]: a report that can only have been made after Grbl
+    /// acted on this hold. If none comes within the hold deadline the reset goes ahead anyway
+    /// and the halt says the position may be lost.
     pub(super) fn settle(&mut self, f: &mut Flight<'_>) {
         if self.link.write(&[RT_FEED_HOLD]).is_err() {
+            self.unsure = Some("the feed hold could not be sent".into());
             return;
         }
-        let end = Instant::now() + self.cfg.timeout.min(Duration::from_secs(5));
-        let mut next_ask = Instant::now();
+        let deadline = self.hold_deadline();
+        let end = Instant::now() + deadline;
+        let mut watch = Standstill::default();
+        // One question at a time: the next `?` goes out only once the last is answered (or
+        // after a while, in case a report was lost), so each report answers a `?` sent after
+        // the one before it arrived.
+        let mut asked = false;
+        let mut last_ask = Instant::now() - Duration::from_secs(1);
         while Instant::now() < end {
-            if Instant::now() >= next_ask {
+            let since = last_ask.elapsed();
+            if (!asked && since >= Duration::from_millis(20)) || since >= Duration::from_millis(250)
+            {
                 if self.link.write(&[RT_STATUS]).is_err() {
+                    self.unsure = Some("the port failed while waiting for the hold".into());
                     return;
                 }
-                next_ask = Instant::now() + Duration::from_millis(200);
+                asked = true;
+                last_ask = Instant::now();
             }
-            let Ok(Some(line)) = self.link.line(Duration::from_millis(50)) else {
+            let Ok(Some(line)) = self.link.line(Duration::from_millis(20)) else {
                 continue;
             };
             match Reply::parse(&line) {
@@ -36,18 +51,61 @@ impl Session<'_, '_> {
                     f.reject();
                 }
                 Reply::Status(st) => {
+                    asked = false;
                     f.status(&st);
-                    if matches!(
-                        st.state,
-                        MachineState::Hold(0) | MachineState::Idle | MachineState::Alarm
-                    ) {
+                    if watch.standing(&st) {
                         return;
                     }
                 }
+                // Grbl restarted (power, its own reset): it stands, with nothing queued.
                 Reply::Alarm(_) | Reply::Welcome(_) => return,
                 _ => {}
             }
         }
+        self.unsure = Some(
+            format!(
+                "the machine did not report a completed feed hold within {:.1} s, so it was reset \
+             while it may still have been moving",
+                deadline.as_secs_f64()
+            )
+            .into(),
+        );
+    }
+
+    /// A controller that stopped answering: still send the hold and give it its deadline (it
+    /// may be deaf only on the way back), then the reset follows.
+    fn settle_silent(&mut self) {
+        let _ = self.link.write(&[RT_FEED_HOLD]);
+        let end = Instant::now() + self.hold_deadline().min(Duration::from_secs(3));
+        let mut watch = Standstill::default();
+        while Instant::now() < end {
+            let _ = self.link.write(&[RT_STATUS]);
+            if let Ok(Some(line)) = self.link.line(Duration::from_millis(250)) {
+                if let Reply::Status(st) = Reply::parse(&line) {
+                    if watch.standing(&st) {
+                        return;
+                    }
+                }
+            }
+        }
+        self.unsure = Some(
+            "the controller stopped answering, so it could not say whether the machine stood \
+             before the reset"
+                .into(),
+        );
+    }
+
+    /// How long a feed hold may take to bring the head to rest: the fastest the controller
+    /// moves (`$110`/`$111`) over its gentlest acceleration (`$120`/`$121`), twice over, plus
+    /// a second for the reports; 2..30 s (5 s when the settings are not known).
+    fn hold_deadline(&self) -> Duration {
+        let max = |a: u32, b: u32| self.info.setting(a).into_iter().chain(self.info.setting(b));
+        let rate = max(110, 111).fold(f64::NAN, f64::max);
+        let accel = max(120, 121).filter(|a| *a > 0.0).fold(f64::NAN, f64::min);
+        if !(rate.is_finite() && accel.is_finite()) {
+            return Duration::from_secs(5);
+        }
+        Duration::from_secs_f64((2.0 * rate / 60.0 / accel + 1.0).clamp(2.0, 30.0))
     }
 
     pub(super) fn fault(&mut self, e: LinkFault, f: &Flight<'_>) -> MachineError {
@@ -59,13 +117,23 @@ impl Session<'_, '_> {
                 halt: Halt {
                     last_acked,
                     resume_from: resume,
-                    laser: "the laser could not be switched off from here: make sure it is off, \
-                            and the air too (a board that lost its USB power is off)"
-                        .into(),
+                    laser:
+                        "nothing can be sent to the machine any more, so the laser could not be \
+                            switched off from here: at the machine, press its stop button or \
+                            switch it off, and make sure the laser and the air are off (a board \
+                            that lost its USB power is off)"
+                            .into(),
                     locked: false,
+                    position_unsure: Some(
+                        "the port went away while the machine may have been moving".into(),
+                    ),
                 },
             },
             LinkFault::Silent(secs) => {
+                // The same way down as every stop: hold, wait (a silent controller will not
+                // say it stands, so this runs into the deadline), reset, M9, M5.
+                self.link.last_heard = Instant::now();
+                self.settle_silent();
                 let halt = self.halt(last_acked, resume);
                 MachineError::Silent {
                     port: self.port_name.clone(),
@@ -85,6 +153,7 @@ impl Session<'_, '_> {
             resume_from,
             laser,
             locked,
+            position_unsure: self.unsure.take(),
         }
     }
 
@@ -152,6 +221,42 @@ impl Session<'_, '_> {
                 ),
                 false,
             ),
+        }
+    }
+}
+
+/// Watches status reports after a feed hold for proof that the machine stands.
+///
+/// Grbl's `protocol_exec_rt_system` writes a requested status report *before* it acts on a
+/// feed hold handled in the same pass, and a report already on the wire when the `!` goes out
+/// is older still: an `Idle` or `Run` read after the `!` says nothing about now (the issue's
+/// `<Idle>`, then `<Hold:1>`: the head was moving). A `Hold` state can only come from a report
+/// made after Grbl handled a hold; `Hold:0` means that hold is complete, and a hold from Idle
+/// reports `Hold:0` at once. One `Hold:0` could still be left from an earlier hold the operator
+/// resumed a moment ago, so two reports in a row must say `Hold:0` at the same position, the
+/// second asked for after the first arrived. An alarm has already stopped the motion.
+#[derive(Default)]
+pub(crate) struct Standstill {
+    last_hold0: Option<[f64; 3]>,
+}
+
+impl Standstill {
+    /// Feed the next status report; true once the machine is known to stand.
+    pub(crate) fn standing(&mut self, st: &protocol::Status) -> bool {
+        match st.state {
+            MachineState::Alarm => true,
+            MachineState::Hold(0) => {
+                let pos = st.position().unwrap_or([f64::NAN; 3]);
+                let same = self
+                    .last_hold0
+                    .is_some_and(|p| p.iter().zip(pos).all(|(a, b)| (a - b).abs() < 1e-6));
+                self.last_hold0 = Some(pos);
+                same
+            }
+            _ => {
+                self.last_hold0 = None;
+                false
+            }
         }
     }
 }

@@ -23,14 +23,15 @@ mod halt;
 mod link;
 mod observe;
 mod session;
+mod settings;
 mod tracker;
 
-pub use self::config::{FlowControl, LaserMode, StreamConfig};
+pub use self::config::{Expected, FlowControl, LaserMode, PowerScale, StreamConfig};
 pub use self::control::{Control, Override};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
 pub use super::error::{CheckRejection, Halt, MachineError};
-pub use super::program::{Program, ProgramLine, ResumeLift};
+pub use super::program::{machine_change, MachineChange, Program, ProgramLine, ResumeLift};
 
 use self::flight::Outgoing;
 use self::session::Session;
@@ -48,17 +49,39 @@ pub fn send(
     controls: Option<&Receiver<Control>>,
     obs: &mut dyn Observer,
 ) -> Result<Summary, MachineError> {
+    if !job.machine_changes.is_empty() && !cfg.allow_machine_commands {
+        return Err(MachineError::MachineCommands {
+            file: job.name.clone(),
+            changes: job.machine_changes.clone(),
+        });
+    }
     let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
     let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
     let mut s = Session::new(port, cfg, controls, obs, stall);
     s.connect()?;
     s.laser_mode()?;
+    for d in &job.dropped {
+        s.obs.message(&format!(
+            "line {} `{}` only asks Grbl for information: left out of the stream",
+            d.number, d.text
+        ));
+    }
     let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
     if cfg.flow == FlowControl::CharacterCounting {
         fits_buffer(job, rx_limit, s.info.rx_buffer)?;
     }
     let from = cfg.from_line.max(1);
-    let (lines, resume_point) = outgoing(job, preamble, from);
+    let (mut lines, resume_point) = outgoing(job, preamble, from);
+    for l in &mut lines {
+        l.text = s.rescaled(&l.text);
+        if l.text.len() > stencil_gcode::limits::MAX_LINE_BYTES {
+            return Err(MachineError::LineTooLong {
+                file: job.name.clone(),
+                line: l.number,
+                len: l.text.len(),
+            });
+        }
+    }
     if cfg.check_first {
         // With the preamble, so a resumed job is checked in the state it will run in.
         s.check(job, &lines)?;

@@ -12,6 +12,15 @@ pub struct ControllerInfo {
     pub planner_blocks: usize,
     /// The machine was in alarm and `$X` unlocked it.
     pub unlocked: bool,
+    /// Grbl's settings as `$$` listed them on connect (number, value); empty if it did not.
+    pub settings: Vec<(u32, f64)>,
+}
+
+impl ControllerInfo {
+    /// Setting `$n` as the controller reported it.
+    pub fn setting(&self, n: u32) -> Option<f64> {
+        self.settings.iter().find(|(k, _)| *k == n).map(|&(_, v)| v)
+    }
 }
 
 /// Where a running job stands.

@@ -22,6 +22,12 @@ pub(super) struct Session<'a, 'o> {
     pub(super) last_status: Option<Status>,
     pub(super) started: Instant,
     pub(super) stall: StallWatch,
+    /// Why the position may be lost, noted by a stop path that could not see the machine stand
+    /// (taken by [`Session::halt`]).
+    pub(super) unsure: Option<Box<str>>,
+    /// Rescaling of S asked for by [`StreamConfig::rescale_power`]: (the job's S at its lowest,
+    /// the controller's, factor).
+    pub(super) power_map: Option<(f64, f64, f64)>,
 }
 
 impl<'a, 'o> Session<'a, 'o> {
@@ -49,6 +55,8 @@ impl<'a, 'o> Session<'a, 'o> {
             last_status: None,
             started: Instant::now(),
             stall: StallWatch::new(stall_bound),
+            unsure: None,
+            power_map: None,
         }
     }
 }
@@ -105,6 +113,7 @@ impl Session<'_, '_> {
         if let Some(rx) = self.cfg.rx_buffer {
             self.info.rx_buffer = rx;
         }
+        self.read_settings()?;
         // The banner may be followed by the unlock hint: collect it with the status.
         let st = self.query_status(&mut hinted)?;
         match st.state {
@@ -133,6 +142,7 @@ impl Session<'_, '_> {
         if self.cfg.home_first {
             self.home()?;
         }
+        self.check_settings()?;
         self.obs.connected(&self.info);
         Ok(())
     }
@@ -227,10 +237,22 @@ impl Session<'_, '_> {
     /// `$32` as `$$` lists it (`None`: not listed, as on Grbl before 1.1).
     fn read_laser_mode(&mut self) -> Result<Option<String>, MachineError> {
         let replies = self.command("$$")?;
+        self.info.settings = parse_settings(&replies);
         Ok(replies.iter().find_map(|r| match r {
             Reply::Other(o) => o.strip_prefix("$32=").map(|v| v.trim().to_string()),
             _ => None,
         }))
+    }
+
+    /// `$$` into [`ControllerInfo::settings`]; a controller that refuses it (in an alarm,
+    /// a clone) leaves them unknown, and nothing is compared.
+    fn read_settings(&mut self) -> Result<(), MachineError> {
+        match self.command("$$") {
+            Ok(replies) => self.info.settings = parse_settings(&replies),
+            Err(MachineError::Setup { .. }) => self.info.settings.clear(),
+            Err(e) => return Err(e),
+        }
+        Ok(())
     }
 
     /// Before a laser job: Grbl must be in laser mode (`$32=1`), or it pauses at every power
@@ -242,7 +264,13 @@ impl Session<'_, '_> {
             LaserMode::Set => true,
         };
         let on = |v: &str| v.parse::<f64>().is_ok_and(|x| x != 0.0);
-        match self.read_laser_mode()? {
+        // `$$` was read on connect; asked again only if it listed nothing.
+        let listed = match self.info.setting(32) {
+            Some(v) => Some(stencil_gcode::num(v)),
+            None if self.info.settings.is_empty() => self.read_laser_mode()?,
+            None => None,
+        };
+        match listed {
             None => self.obs.message(
                 "the controller does not list $32 (laser mode) in $$: make sure it is a laser \
                  build in laser mode, or the beam stays on through G0 moves",
@@ -337,4 +365,18 @@ impl Session<'_, '_> {
             secs: self.cfg.timeout.as_secs_f64(),
         })
     }
+}
+
+/// `$N=V` lines of a `$$` answer.
+fn parse_settings(replies: &[Reply]) -> Vec<(u32, f64)> {
+    replies
+        .iter()
+        .filter_map(|r| match r {
+            Reply::Other(o) => {
+                let (k, v) = o.strip_prefix('$')?.split_once('=')?;
+                Some((k.trim().parse().ok()?, v.trim().parse().ok()?))
+            }
+            _ => None,
+        })
+        .collect()
 }

@@ -29,6 +29,17 @@ pub enum FaultKind {
     /// lives on). A feed hold then reports a completed hold (nothing moves); a soft reset thaws
     /// it.
     Freeze,
+    /// The `ok` for this line is lost on the wire (noise, a USB glitch): Grbl runs the line but
+    /// the host never hears its answer.
+    DropOk,
+    /// The `ok` for this line arrives garbled (`okM`, as grbl-sim was once seen to send): Grbl
+    /// runs the line, the host reads a line that is no answer.
+    GarbleOk,
+    /// The board loses power when this line arrives and comes back at once: planner, G92 and
+    /// modal state gone, outputs off, the position read as machine zero (without homing
+    /// switches nothing tells it where the head is), the banner sent again; a board with homing
+    /// (`$22=1`) boots locked in alarm, as Grbl does.
+    PowerLoss,
 }
 
 /// A fault that fires once, when the `at_job_line`-th G-code line arrives (counting lines that are
@@ -63,6 +74,10 @@ pub struct VirtualConfig {
     /// Homing enabled (`$22=1`): `$H` homes to machine zero and clears an alarm; disabled, `$H`
     /// answers `error:5` as Grbl does.
     pub homing: bool,
+    /// Everything the board sends arrives this much later (a USB-serial adapter's latency
+    /// timer, 1..16 ms on FTDI and CH340 chips): a status report read by the host describes the
+    /// machine as it was, not as it is.
+    pub latency: std::time::Duration,
 }
 
 impl Default for VirtualConfig {
@@ -78,6 +93,7 @@ impl Default for VirtualConfig {
             line_numbers: false,
             settings: Vec::new(),
             homing: true,
+            latency: std::time::Duration::ZERO,
         }
     }
 }

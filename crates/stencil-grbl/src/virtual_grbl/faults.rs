@@ -24,8 +24,40 @@ impl Sim {
             }
             FaultKind::ClosePort => self.close(),
             FaultKind::Freeze => self.frozen = true,
+            // The line runs; only its answer goes wrong.
+            FaultKind::DropOk | FaultKind::GarbleOk => {
+                self.ok_fault = Some(f.kind);
+                return false;
+            }
+            FaultKind::PowerLoss => self.power_loss(),
         }
         true
+    }
+
+    /// Power gone and back: what Grbl keeps in EEPROM (settings, G54..G59) stays; everything
+    /// else starts over, the position at machine zero wherever the head really is.
+    fn power_loss(&mut self) {
+        lock(&self.shared).events.push(Event::PowerLoss);
+        self.planner.clear();
+        self.pending = None;
+        self.rx.clear();
+        self.line_buf.clear();
+        self.hold = false;
+        self.hold_decel = None;
+        self.rt_hold = false;
+        self.check_mode = false;
+        self.ov = [100; 3];
+        self.modal = stencil_gcode::interpret::Modal::default();
+        self.state = if self.cfg.homing {
+            State::Alarm
+        } else {
+            State::Idle
+        };
+        self.say("");
+        self.say("Grbl 1.1h ['$' for help]");
+        if self.state == State::Alarm {
+            self.say("[MSG:'$H'|'$X' to unlock]");
+        }
     }
 
     fn alarm(&mut self, code: u8) {

@@ -37,10 +37,26 @@ impl Sim {
         let Pace::Timed { speedup } = self.cfg.pace else {
             return;
         };
-        if self.hold || self.frozen || self.state != State::Idle {
+        if self.frozen || self.state != State::Idle {
             return;
         }
-        let mut budget = dt * speedup.max(1e-9);
+        let dt = dt * speedup.max(1e-9);
+        if self.hold {
+            // Slowing down to rest: the speed falls linearly to zero over the deceleration
+            // time, so the head covers the ramp's share of its programmed motion.
+            let Some((left, total)) = self.hold_decel else {
+                return;
+            };
+            let step = dt.min(left);
+            self.run_planner((left * step - step * step / 2.0) / total);
+            self.hold_decel = (left - step > 1e-9).then_some((left - step, total));
+            return;
+        }
+        self.run_planner(dt);
+    }
+
+    /// Run `budget` seconds of the queued motion at its programmed (overridden) rate.
+    fn run_planner(&mut self, mut budget: f64) {
         let [feed_ov, rapid_ov, _] = self.ov;
         while budget > 0.0 {
             let Some(b) = self.planner.front_mut() else {

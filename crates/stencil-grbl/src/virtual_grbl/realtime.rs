@@ -13,13 +13,60 @@ impl Sim {
         lock(&self.shared).events.push(Event::Realtime(b));
         match b {
             RT_STATUS => self.status_requested = true,
-            RT_FEED_HOLD if self.state == State::Idle => self.hold = true,
-            RT_RESUME => self.hold = false,
+            RT_FEED_HOLD => self.rt_hold = true,
+            // Cycle start resumes only a completed hold, and not in the pass that holds.
+            RT_RESUME if self.hold_decel.is_none() && !self.rt_hold => self.hold = false,
             RT_SOFT_RESET => self.soft_reset(),
             b @ 0x90..=0x9D => self.override_byte(b),
             RT_JOG_CANCEL => self.jog_cancel(),
             _ => {}
         }
+    }
+
+    /// One pass of Grbl's `protocol_exec_rt_system`: a status report asked for is written
+    /// *before* a feed hold that arrived in the same pass is acted on, so a `?` sent with (or
+    /// just after) a `!` can still describe the machine before the hold. A hold is ignored in
+    /// an alarm and in check mode; from Idle it is complete at once (`Hold:0`), from motion the
+    /// head slows down at `$120` first (`Hold:1`).
+    pub(super) fn rt_pass(&mut self) {
+        if std::mem::take(&mut self.status_requested) {
+            self.status_report();
+        }
+        if std::mem::take(&mut self.rt_hold) && self.state == State::Idle && !self.check_mode {
+            self.start_hold();
+        }
+    }
+
+    fn start_hold(&mut self) {
+        if self.hold {
+            return;
+        }
+        self.hold = true;
+        let Some(b) = self.planner.front() else {
+            return;
+        };
+        if self.frozen || !matches!(self.cfg.pace, super::Pace::Timed { .. }) {
+            return;
+        }
+        let [feed_ov, rapid_ov, _] = self.ov;
+        let mm_min = if b.mv.rapid {
+            self.cfg.rapid_mm_min * rapid_ov as f64 / 100.0
+        } else {
+            b.mv.feed * feed_ov as f64 / 100.0
+        };
+        let accel = self.setting(120).filter(|a| *a > 0.0).unwrap_or(1000.0);
+        let t = mm_min / 60.0 / accel;
+        if t > 0.0 {
+            self.hold_decel = Some((t, t));
+        }
+    }
+
+    /// A numeric setting as `$$` lists it.
+    pub(super) fn setting(&self, n: u32) -> Option<f64> {
+        self.settings
+            .iter()
+            .find(|(k, _)| *k == n)
+            .and_then(|(_, v)| v.parse().ok())
     }
 
     /// Grbl's override bytes: feed 0x90 (100 %), 0x91/0x92 (±10), 0x93/0x94 (±1), 10..200 %;
@@ -49,7 +96,8 @@ impl Sim {
 
     pub(super) fn soft_reset(&mut self) {
         // A completed feed hold keeps the position: only a reset while moving loses it.
-        let moving = (!self.planner.is_empty() || self.pending.is_some()) && !self.hold;
+        let moving = (!self.planner.is_empty() || self.pending.is_some())
+            && (!self.hold || self.hold_decel.is_some());
         lock(&self.shared).events.push(Event::SoftReset);
         self.rx.clear();
         self.line_buf.clear();
@@ -59,6 +107,10 @@ impl Sim {
         self.pending = None;
         self.planner.clear();
         self.hold = false;
+        self.hold_decel = None;
+        self.rt_hold = false;
+        self.status_requested = false;
+        self.ok_fault = None;
         self.check_mode = false;
         self.frozen = false;
         self.setting_pending = None;
@@ -90,6 +142,7 @@ impl Sim {
         let state = match self.state {
             State::Alarm | State::Critical => "Alarm".to_string(),
             State::Idle if self.check_mode => "Check".to_string(),
+            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1".to_string(),
             State::Idle if self.hold => "Hold:0".to_string(),
             State::Idle if self.frozen => "Run".to_string(),
             State::Idle if self.jogging() => "Jog".to_string(),

@@ -18,6 +18,8 @@ pub enum Event {
     SoftReset,
     Alarm(u8),
     Closed,
+    /// The board lost power and came back (an injected fault).
+    PowerLoss,
 }
 
 /// Everything the simulated machine saw and did.

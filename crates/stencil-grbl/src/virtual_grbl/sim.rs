@@ -46,7 +46,16 @@ pub(super) struct Sim {
     pub(super) modal: Modal,
     pub(super) state: State,
     pub(super) check_mode: bool,
+    /// A feed hold is in force (Grbl's `Hold` state): `hold_decel` says whether the head is
+    /// still slowing down (`Hold:1`) or stands (`Hold:0`).
     pub(super) hold: bool,
+    /// Seconds of deceleration left and in all, while a hold brings a moving head to rest.
+    pub(super) hold_decel: Option<(f64, f64)>,
+    /// A feed hold byte arrived and waits for the next real-time pass (after any status report
+    /// asked for in the same pass, as protocol_exec_rt_system orders them).
+    pub(super) rt_hold: bool,
+    /// The answer to the line being run goes wrong this way (an injected fault).
+    pub(super) ok_fault: Option<super::FaultKind>,
     pub(super) silent: bool,
     pub(super) status_requested: bool,
     pub(super) reports: u64,
@@ -95,6 +104,9 @@ impl Sim {
             state: State::Idle,
             check_mode: false,
             hold: false,
+            hold_decel: None,
+            rt_hold: false,
+            ok_fault: None,
             silent: false,
             status_requested: false,
             reports: 0,
@@ -122,10 +134,7 @@ impl Sim {
             self.deliver(now);
             self.advance(now);
             self.process_lines();
-            if self.status_requested {
-                self.status_requested = false;
-                self.status_report();
-            }
+            self.rt_pass();
             self.flush_out(Instant::now());
             self.publish();
             let wait = self.next_wait();
@@ -204,16 +213,28 @@ impl Sim {
         if self.silent {
             return;
         }
+        let line = match (line, self.ok_fault) {
+            ("ok", Some(super::FaultKind::DropOk)) => {
+                self.ok_fault = None;
+                return;
+            }
+            ("ok", Some(super::FaultKind::GarbleOk)) => {
+                self.ok_fault = None;
+                "okM"
+            }
+            (l, _) => l,
+        };
         let mut bytes = line.as_bytes().to_vec();
         bytes.extend_from_slice(b"\r\n");
-        let now = Instant::now();
+        let now = Instant::now() + self.cfg.latency;
         let at = match self.byte_time {
             Some(bt) => {
                 self.out_clock = self.out_clock.max(now) + bt * bytes.len() as u32;
                 self.out_clock
             }
-            None => now,
+            None => self.out_clock.max(now),
         };
+        self.out_clock = self.out_clock.max(at);
         self.wire_out.push_back((at, bytes));
     }
 
@@ -243,7 +264,8 @@ impl Sim {
         let laser_mode = self.laser_mode();
         let state = match self.state {
             State::Idle if self.check_mode => "Check",
-            State::Idle if self.hold => "Hold",
+            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1",
+            State::Idle if self.hold => "Hold:0",
             State::Idle if self.jogging() => "Jog",
             State::Idle if !self.planner.is_empty() => "Run",
             State::Idle => "Idle",

@@ -16,6 +16,7 @@ pub(super) fn initial_settings(cfg: &VirtualConfig) -> Vec<(u32, String)> {
     let mut settings: Vec<(u32, String)> = [
         (10, "2"),
         (11, "0.010"),
+        (20, "0"),
         (22, if cfg.homing { "1" } else { "0" }),
         (30, "1000"),
         (31, "0"),
@@ -24,6 +25,8 @@ pub(super) fn initial_settings(cfg: &VirtualConfig) -> Vec<(u32, String)> {
         (111, rapid.as_str()),
         (120, "1000.000"),
         (121, "1000.000"),
+        (130, "400.000"),
+        (131, "400.000"),
     ]
     .iter()
     .map(|&(k, v)| (k, v.to_string()))
