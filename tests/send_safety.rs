@@ -773,8 +773,26 @@ fn a_run_whose_port_dies_leaves_a_journal_and_recover_resumes_from_it() {
         "{se}"
     );
 
-    // --recover --dry-run: says what it knows, resumes from the proposed line.
+    // --recover --dry-run: a new virtual Grbl starts at machine zero, as a board without
+    // homing does after a power loss (issue 23): the journal last saw the head elsewhere, so
+    // nothing moves until the person says where the head is.
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("no longer knows where the head is") && se.contains("nothing was moved"),
+        "{se}"
+    );
+    assert!(
+        se.contains("--head-at-corner") && se.contains("--position-confirmed"),
+        "{se}"
+    );
+    assert!(!so.lines().any(|l| l.starts_with("sent ")), "{so}");
+    assert!(
+        so.contains("virtual Grbl: ") && so.contains("alarms: none"),
+        "{so}"
+    );
+    // Confirmed: says what it knows, resumes from the proposed line.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--position-confirmed"]);
     assert!(ok, "{so}{se}");
     assert!(
         so.contains(&format!("last acknowledged line: {acked}")),
@@ -852,7 +870,14 @@ fn a_killed_sender_leaves_a_running_journal_that_recover_resumes() {
     let j2 = Journal::read(&jpath).unwrap();
     assert_eq!(j2.state, RunState::Running, "{j2:?}");
     assert!(j2.last_acked_line >= j.last_acked_line);
+    // The killed run's virtual Grbl went with it: the new one stands at machine zero, which
+    // the journal's last position contradicts, so the resume waits for the person's word.
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(
+        !ok && se.contains("no longer knows where the head is"),
+        "{so}{se}"
+    );
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--position-confirmed"]);
     assert!(ok, "{so}{se}");
     assert!(so.contains("did not end"), "{so}");
     assert!(

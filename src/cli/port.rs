@@ -39,6 +39,11 @@ pub(super) fn machine_hint(e: &MachineError) -> &'static str {
             " (--rescale-power rescales every S to the controller's scale for this run)"
         }
         MachineError::TravelShort { .. } => " (the profile is the --machine file)",
+        MachineError::PositionLost { .. } => {
+            ": `stencil jog` moves the head; then resume with --head-at-corner (add --frame to \
+             trace the job first), or with --position-confirmed once the machine is homed or \
+             re-zeroed"
+        }
         MachineError::MachineCommands { .. } => {
             " (--allow-machine-commands lets the job change the machine)"
         }

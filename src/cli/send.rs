@@ -79,7 +79,8 @@ pub struct SendArgs {
     pub dry_run_setting: Vec<(u32, String)>,
     /// With --dry-run: make the simulated Grbl fail when the N-th G-code line of the run arrives:
     /// `close@N` (port dies), `silence@N`, `freeze@N` (stuck in Run, still answering status),
-    /// `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
+    /// `drop-ok@N` / `garble-ok@N` (its answer lost or garbled), `power-loss@N` (the board
+    /// restarts at machine zero), `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
     #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
     pub dry_run_fault: Vec<Fault>,
     /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
@@ -104,6 +105,15 @@ pub struct SendArgs {
     /// $C, $J=, $RST=, $SLP, and stored offsets (G10 L2/L20, G28.1, G30.1). Refused otherwise.
     #[arg(long)]
     pub allow_machine_commands: bool,
+    /// With --recover or --from-line: the controller's coordinates are right again (you homed
+    /// or re-zeroed the machine by hand), so its position is not compared with the journal's.
+    #[arg(long)]
+    pub position_confirmed: bool,
+    /// With --recover or --from-line: you jogged the head back to the job's start corner (its
+    /// lowest X and Y, where a frame starts, e.g. `stencil jog`): the controller's work position
+    /// is set there (G92) before the resume. Add --frame to trace the job first.
+    #[arg(long, conflicts_with = "position_confirmed")]
+    pub head_at_corner: bool,
 }
 
 /// Say which lines of a job would change the machine itself (a `$` setting, homing, a stored
@@ -153,8 +163,8 @@ fn parse_setting(s: &str) -> Result<(u32, String), String> {
 
 /// `--dry-run-fault close@60`.
 fn parse_fault(s: &str) -> Result<Fault, String> {
-    let usage = "expected KIND@N with KIND one of close, silence, freeze, error:C, alarm:C \
-                 and N the G-code line (1 or more), e.g. close@60";
+    let usage = "expected KIND@N with KIND one of close, silence, freeze, drop-ok, garble-ok, \
+                 power-loss, error:C, alarm:C and N the G-code line (1 or more), e.g. close@60";
     let (kind, at) = s.split_once('@').ok_or_else(|| format!("`{s}`: {usage}"))?;
     let at: usize = at
         .parse()
@@ -171,6 +181,9 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
         None if kind == "close" => FaultKind::ClosePort,
         None if kind == "silence" => FaultKind::Silence,
         None if kind == "freeze" => FaultKind::Freeze,
+        None if kind == "drop-ok" => FaultKind::DropOk,
+        None if kind == "garble-ok" => FaultKind::GarbleOk,
+        None if kind == "power-loss" => FaultKind::PowerLoss,
         Some(("error", c)) => FaultKind::Error(code(c, 1..=38)?),
         Some(("alarm", c)) => FaultKind::Alarm(code(c, 1..=9)?),
         _ => return Err(format!("`{s}`: {usage}")),
@@ -473,7 +486,7 @@ fn recover(
     job: &Program,
     text: &str,
     journal_path: &Path,
-) -> anyhow::Result<Option<(usize, Option<String>)>> {
+) -> anyhow::Result<Option<(usize, Option<String>, Journal)>> {
     let journal_error =
         |e: journal::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
     let j = Journal::read(journal_path).map_err(journal_error)?;
@@ -491,7 +504,7 @@ fn recover(
         }
         None => Some(j.machine.clone()),
     };
-    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine)))
+    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine, j)))
 }
 
 /// The simulated Grbl of `--dry-run`: instant, or paced as the machine and link would run
@@ -593,13 +606,19 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         name_machine_changes(&job);
     }
     let journal_path = journal::path_for(&a.file);
-    let (from_line, machine_arg) = if a.recover {
+    let (from_line, machine_arg, journal) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {
-            Some(r) => r,
+            Some((line, m, j)) => (line, m, Some(j)),
             None => return Ok(ExitCode::SUCCESS),
         }
     } else {
-        (a.from_line as usize, a.machine.clone())
+        // A resume from a line checks the controller's position against the journal too, when
+        // one for this very file is there.
+        let j = (a.from_line > 1)
+            .then(|| Journal::read(&journal_path).ok())
+            .flatten()
+            .filter(|j| j.check_file(&journal_path, text.as_bytes()).is_ok());
+        (a.from_line as usize, a.machine.clone(), j)
     };
     let machine = machine_profile::load(machine_arg.as_deref())?;
     // The moves that will run (from --from-line or the recovered line on) must stay on the bed:
@@ -622,6 +641,15 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let frame = frame_setup(&a, &job, &machine)?;
     let mut cfg = stream_config(&a, &machine, &job, from_line, home_first);
     cfg.expect = super::port::expected(&machine, &text, &job);
+    if a.recover || from_line > 1 {
+        cfg.recovery = Some(stream::Recovery {
+            last_position: journal.as_ref().and_then(|j| j.last_position),
+            last_acked: journal.as_ref().and_then(|j| j.last_acked_line),
+            confirmed: a.position_confirmed,
+            at_corner: a.head_at_corner.then(|| job.start_corner()),
+            follow: a.recover,
+        });
+    }
 
     let super::port::Opened {
         mut port,

@@ -225,6 +225,13 @@ pub enum MachineError {
         lost: Box<Unanswered>,
         halt: Halt,
     },
+    #[error("{port}: the controller puts the head at X{:.3} Y{:.3} (machine coordinates), but when the job stopped it was at X{:.3} Y{:.3}: the controller restarted without homing (a power loss?) and no longer knows where the head is; nothing was moved. Home the machine, or jog the head back to the job's start corner (X{:.3} Y{:.3} in the job's coordinates) and resume from there, or confirm that the coordinates are right again", now[0], now[1], then[0], then[1], corner[0], corner[1])]
+    PositionLost {
+        port: String,
+        now: Box<[f64; 3]>,
+        then: Box<[f64; 3]>,
+        corner: [f64; 2],
+    },
     #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
     Restarted { halt: Halt },
     #[error("aborted by the operator; {halt}")]

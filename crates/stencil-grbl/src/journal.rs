@@ -101,6 +101,10 @@ pub struct Journal {
     pub resume_from: usize,
     /// The modal state before `resume_from`.
     pub modal: ModalRecord,
+    /// Where the last status report put the head (machine coordinates), so that a recovery
+    /// can tell a controller that lost its position (a restart at MPos 0 without homing).
+    #[serde(default)]
+    pub last_position: Option<[f64; 3]>,
 }
 
 /// Why a journal cannot be used.
@@ -166,6 +170,7 @@ impl Journal {
                 air: false,
                 position_mm: [0.0; 3],
             },
+            last_position: None,
         };
         j.set_resume(job, from_line);
         j
@@ -406,6 +411,7 @@ impl Observer for JournalWriter<'_, '_> {
     fn progress(&mut self, p: &Progress) {
         self.journal.last_acked_line = p.last_acked_line.or(self.journal.last_acked_line);
         self.journal.status_ln = p.status_line.or(self.journal.status_ln);
+        self.journal.last_position = p.position.or(self.journal.last_position);
         if p.unexecuted_from != self.journal.resume_from {
             self.journal.resume_from = p.unexecuted_from;
         }

@@ -182,6 +182,23 @@ impl Program {
         })
     }
 
+    /// The job's start corner: the lowest X and Y any of its moves reaches (where a frame
+    /// starts), in the job's coordinates; the origin for a job without moves.
+    pub fn start_corner(&self) -> [f64; 2] {
+        let mut c = [f64::INFINITY; 2];
+        for m in &self.moves {
+            for p in [m.from, m.to] {
+                c[0] = c[0].min(p[0]);
+                c[1] = c[1].min(p[1]);
+            }
+        }
+        if c[0].is_finite() {
+            c
+        } else {
+            [0.0; 2]
+        }
+    }
+
     /// Lines in the file (comments and blank lines included): line numbers run 1..=this.
     pub fn source_lines(&self) -> usize {
         self.source.len()

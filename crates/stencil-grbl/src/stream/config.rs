@@ -67,6 +67,9 @@ pub struct StreamConfig {
     /// A power scale (`$30`/`$31`) that differs from the job's is not refused: every S is
     /// rescaled to the controller's scale, and the stream says so.
     pub rescale_power: bool,
+    /// A resume after a stop, crash or power loss: checked against the controller's own
+    /// position before anything moves.
+    pub recovery: Option<Recovery>,
     /// Let the job's own lines change the machine (`$` settings, homing, unlock, check mode,
     /// jogs, stored offsets); otherwise they are refused before anything is sent.
     pub allow_machine_commands: bool,
@@ -118,6 +121,26 @@ impl Default for StreamConfig {
             expect: Expected::default(),
             rescale_power: false,
             allow_machine_commands: false,
+            recovery: None,
         }
     }
+}
+
+/// What a recovery knows from the journal, and what the person has said since.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recovery {
+    /// Machine position of the last status report the journal kept.
+    pub last_position: Option<[f64; 3]>,
+    /// The journal's last acknowledged line: Grbl ran at least the lines before the resume
+    /// point, and after a sender crash it ran on through everything it had received.
+    pub last_acked: Option<usize>,
+    /// The person says the controller's coordinates are right again (homed, or re-zeroed by
+    /// hand): the position is not compared.
+    pub confirmed: bool,
+    /// The person brought the head back to this point of the job (work coordinates, its start
+    /// corner): the controller is told so (`G92`) before the resume.
+    pub at_corner: Option<[f64; 2]>,
+    /// A controller standing idle exactly where a later line ends ran on after the journal's
+    /// last record (the sender crashed, Grbl did not): resume after that line.
+    pub follow: bool,
 }

@@ -53,6 +53,8 @@ impl Session<'_, '_> {
                 Reply::Status(st) => {
                     asked = false;
                     f.status(&st);
+                    // The front end (and the journal) learns where the head came to rest.
+                    self.obs.progress(&f.progress);
                     if watch.standing(&st) {
                         return;
                     }

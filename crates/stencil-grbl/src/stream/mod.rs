@@ -22,11 +22,12 @@ mod flight;
 mod halt;
 mod link;
 mod observe;
+mod recover;
 mod session;
 mod settings;
 mod tracker;
 
-pub use self::config::{Expected, FlowControl, LaserMode, PowerScale, StreamConfig};
+pub use self::config::{Expected, FlowControl, LaserMode, PowerScale, Recovery, StreamConfig};
 pub use self::control::{Control, Override};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
@@ -55,11 +56,17 @@ pub fn send(
             changes: job.machine_changes.clone(),
         });
     }
-    let preamble = job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
+    // Checked before anything is sent; built again below if a recovery moves the line.
+    job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
     let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
     let mut s = Session::new(port, cfg, controls, obs, stall);
     s.connect()?;
     s.laser_mode()?;
+    let from = match &cfg.recovery {
+        Some(r) => s.recover(job, r, cfg.from_line.max(1))?,
+        None => cfg.from_line.max(1),
+    };
+    let preamble = job.resume_preamble_with(from, &cfg.lift)?;
     for d in &job.dropped {
         s.obs.message(&format!(
             "line {} `{}` only asks Grbl for information: left out of the stream",
@@ -70,7 +77,6 @@ pub fn send(
     if cfg.flow == FlowControl::CharacterCounting {
         fits_buffer(job, rx_limit, s.info.rx_buffer)?;
     }
-    let from = cfg.from_line.max(1);
     let (mut lines, resume_point) = outgoing(job, preamble, from);
     for l in &mut lines {
         l.text = s.rescaled(&l.text);
