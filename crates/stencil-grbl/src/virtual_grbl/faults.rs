@@ -47,7 +47,12 @@ impl Sim {
         self.rt_hold = false;
         self.check_mode = false;
         self.ov = [100; 3];
+        self.clear_g92();
+        // Machine zero is wherever the head stands now: the work position follows.
         self.modal = stencil_gcode::interpret::Modal::default();
+        for a in 0..3 {
+            self.modal.pos[a] = -self.wco[a];
+        }
         self.state = if self.cfg.homing {
             State::Alarm
         } else {

@@ -108,6 +108,9 @@ impl Sim {
         if clean.starts_with("G10") {
             return self.set_work_offset(&clean, idx);
         }
+        if clean.starts_with("G92") {
+            return self.set_g92(&clean, idx);
+        }
         let mut modal = self.modal;
         match gcode::step(&mut modal, &clean, idx + 1) {
             Err(e) => self.reply_error(e.code),

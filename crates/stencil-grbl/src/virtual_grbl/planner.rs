@@ -155,6 +155,56 @@ impl Sim {
         true
     }
 
+    /// `G92 X.. Y..`: the current position becomes these work coordinates, until a reset or a
+    /// power loss (Grbl 1.1 clears G92 in `gc_init`); only axis words are taken here.
+    pub(super) fn set_g92(&mut self, clean: &str, idx: usize) {
+        let words = match gcode::words(clean, idx + 1) {
+            Ok(w) => w,
+            Err(e) => return self.reply_error(e.code),
+        };
+        let mut axes = [None::<f64>; 3];
+        for (w, v) in words {
+            match w {
+                'G' if v == 92.0 => {}
+                'X' => axes[0] = Some(v),
+                'Y' => axes[1] = Some(v),
+                'Z' => axes[2] = Some(v),
+                _ => return self.reply_error(20),
+            }
+        }
+        if axes.iter().all(Option::is_none) {
+            return self.reply_error(26);
+        }
+        if self.check_mode {
+            return self.done(idx);
+        }
+        let unit = if self.modal.metric { 1.0 } else { 25.4 };
+        for (a, v) in axes.into_iter().enumerate() {
+            if let Some(v) = v {
+                let machine = self.modal.pos[a] + self.wco[a];
+                let wco = machine - v * unit;
+                self.g92[a] += wco - self.wco[a];
+                self.wco[a] = wco;
+                self.modal.pos[a] = v * unit;
+            }
+        }
+        self.wco_changed = true;
+        self.done(idx);
+    }
+
+    /// A reset or power loss drops the G92 part of the work offset.
+    pub(super) fn clear_g92(&mut self) {
+        for a in 0..3 {
+            let machine = self.modal.pos[a] + self.wco[a];
+            self.wco[a] -= self.g92[a];
+            self.modal.pos[a] = machine - self.wco[a];
+        }
+        if self.g92 != [0.0; 3] {
+            self.wco_changed = true;
+        }
+        self.g92 = [0.0; 3];
+    }
+
     /// `G10 L20 P1 X.. Y..` (the current position becomes these work coordinates) and
     /// `G10 L2 P1 X..` (G54's offset itself). P0 is the active system, here always G54; P2..P6
     /// are taken and kept nowhere (nothing here selects them). The offset counts from the end

@@ -121,6 +121,7 @@ impl Sim {
             pos,
             ..Modal::default()
         };
+        self.clear_g92();
         if moving && self.state == State::Idle {
             // Grbl: a reset during motion may have lost steps, so it locks until unlocked.
             self.say("ALARM:3");

@@ -75,6 +75,8 @@ pub(super) struct Sim {
     pub(super) wco: [f64; 3],
     /// The next status report carries `WCO:` (Grbl sends it at once after a change).
     pub(super) wco_changed: bool,
+    /// The part of `wco` that `G92` added: Grbl 1.1 keeps it only until a reset or power loss.
+    pub(super) g92: [f64; 3],
 }
 
 impl Sim {
@@ -119,6 +121,7 @@ impl Sim {
             frozen: false,
             wco: [0.0; 3],
             wco_changed: false,
+            g92: [0.0; 3],
         };
         sim.settings = super::system::initial_settings(&sim.cfg);
         sim.say("");
