@@ -166,8 +166,17 @@ pub fn frame_on(
     controls: &Receiver<Control>,
     obs: &mut dyn Observer,
     s: &Setup,
+    before: Option<&str>,
 ) -> anyhow::Result<Framed> {
     let mut console = Console::connect(port, cfg, Some(controls), obs)?;
+    // A resume with the head brought back to the job's corner sets the work position first,
+    // so the frame traces where the resume will cut.
+    if let Some(cmd) = before {
+        console.command(cmd)?;
+        console.say(&format!(
+            "work position set at the job's start corner ({cmd})"
+        ));
+    }
     console.say(&format!("framing {}", s.describe()));
     frame::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
         let hint = match &e {
@@ -230,7 +239,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     if keys.raw {
         say.line("keys: a / q / Esc / Ctrl-C = abort");
     }
-    let result = frame_on(opened.port.as_mut(), &cfg, &rx, &mut say, &s);
+    let result = frame_on(opened.port.as_mut(), &cfg, &rx, &mut say, &s, None);
     drop(keys);
     let framed = result?;
     println!("{}", framed_line(&framed, &opened.label));

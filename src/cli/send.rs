@@ -661,7 +661,15 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if let Some(s) = &frame {
         let keys = Keys::start(tx.clone());
         let mut say = super::frame::Say { raw: keys.raw };
-        let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s);
+        let corner = job.start_corner();
+        let g92 = a.head_at_corner.then(|| {
+            format!(
+                "G92X{}Y{}",
+                stencil_gcode::num(corner[0]),
+                stencil_gcode::num(corner[1])
+            )
+        });
+        let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s, g92.as_deref());
         drop(keys);
         if !framed_and_started(framed, &label, a.yes)? {
             return Ok(ExitCode::SUCCESS);

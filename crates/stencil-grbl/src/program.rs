@@ -182,9 +182,13 @@ impl Program {
         })
     }
 
-    /// The job's start corner: the lowest X and Y any of its moves reaches (where a frame
-    /// starts), in the job's coordinates; the origin for a job without moves.
+    /// The job's start corner: the lowest X and Y of what it cuts (the extent a frame traces,
+    /// [`crate::frame::cut_extent`]), in the job's coordinates; the lowest of all its moves
+    /// when nothing cuts, the origin when nothing moves.
     pub fn start_corner(&self) -> [f64; 2] {
+        if let Some(e) = crate::frame::cut_extent(&self.moves) {
+            return e.min;
+        }
         let mut c = [f64::INFINITY; 2];
         for m in &self.moves {
             for p in [m.from, m.to] {
