@@ -230,11 +230,19 @@ impl<'a> Console<'a> {
         summary
     }
 
-    /// Stop now: soft reset (motion and laser stop at once), then `M5` unless the reset left the
-    /// machine locked. Says what was done about the laser.
+    /// Stop now, as a job stops: feed hold, wait until the machine stands (or the deadline),
+    /// soft reset, then `M9` and `M5` unless the reset left the machine locked. Says what was
+    /// done about the laser, and whether the position may be lost.
     pub fn stop(&mut self) -> String {
+        self.s.settle(None);
         let (laser, locked) = self.s.stop_laser();
         self.locked = locked;
-        laser
+        match self.s.unsure.take() {
+            Some(why) => format!(
+                "{laser}; the position may be lost: {why}: home the machine ($H) or set its \
+                 zero again"
+            ),
+            None => laser,
+        }
     }
 }

@@ -55,7 +55,7 @@ impl Session<'_, '_> {
                 Control::Resume => RT_RESUME,
                 Control::Override(o) => o.byte(),
                 Control::Abort => {
-                    self.settle(f);
+                    self.settle(Some(f));
                     let halt = self.halt(f.run.last_acked, f.resume_at(None));
                     return Err(MachineError::Aborted { halt });
                 }

@@ -225,7 +225,7 @@ impl Session<'_, '_> {
                     });
                     return Ok(());
                 }
-                self.settle(f);
+                self.settle(Some(f));
                 let halt = self.halt(f.run.last_acked, f.resume_at(Some(l.number)));
                 return Err(MachineError::Rejected {
                     line: l.number,
@@ -283,7 +283,7 @@ impl Session<'_, '_> {
                     .collect();
                 let all_sent = f.next >= f.lines.len();
                 let next_unsent = f.lines.get(f.next).map(|l| l.number);
-                self.settle(f);
+                self.settle(Some(f));
                 let halt = self.halt(f.run.last_acked, f.resume_at(None));
                 return Err(MachineError::RepliesLost {
                     port: self.port_name.clone(),
@@ -304,7 +304,7 @@ impl Session<'_, '_> {
                     .buffer
                     .is_none_or(|(free, _)| (free as usize) < self.info.planner_blocks);
             if let Some(stuck) = self.stall.observe(self.cfg.clock.0.now(), &st, busy) {
-                self.settle(f);
+                self.settle(Some(f));
                 let halt = self.halt(f.run.last_acked, f.resume_at(None));
                 return Err(MachineError::Stalled {
                     port: self.port_name.clone(),

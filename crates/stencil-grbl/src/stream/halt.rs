@@ -18,7 +18,7 @@ impl Session<'_, '_> {
     /// Known to stand means [`standing`]: a report that can only have been made after Grbl
     /// acted on this hold. If none comes within the hold deadline the reset goes ahead anyway
     /// and the halt says the position may be lost.
-    pub(super) fn settle(&mut self, f: &mut Flight<'_>) {
+    pub(super) fn settle(&mut self, mut f: Option<&mut Flight<'_>>) {
         if self.link.write(&[RT_FEED_HOLD]).is_err() {
             self.unsure = Some("the feed hold could not be sent".into());
             return;
@@ -45,22 +45,24 @@ impl Session<'_, '_> {
             let Ok(Some(line)) = self.link.line(Duration::from_millis(20)) else {
                 continue;
             };
-            match Reply::parse(&line) {
-                Reply::Ok if !f.in_flight.is_empty() => f.ack(),
-                Reply::Error(_) if !f.in_flight.is_empty() => {
+            match (Reply::parse(&line), f.as_deref_mut()) {
+                (Reply::Ok, Some(f)) if !f.in_flight.is_empty() => f.ack(),
+                (Reply::Error(_), Some(f)) if !f.in_flight.is_empty() => {
                     f.reject();
                 }
-                Reply::Status(st) => {
+                (Reply::Status(st), f) => {
                     asked = false;
-                    f.status(&st);
-                    // The front end (and the journal) learns where the head came to rest.
-                    self.obs.progress(&f.progress);
+                    if let Some(f) = f {
+                        f.status(&st);
+                        // The front end (and the journal) learns where the head came to rest.
+                        self.obs.progress(&f.progress);
+                    }
                     if watch.standing(&st) {
                         return;
                     }
                 }
                 // Grbl restarted (power, its own reset): it stands, with nothing queued.
-                Reply::Alarm(_) | Reply::Welcome(_) => return,
+                (Reply::Alarm(_) | Reply::Welcome(_), _) => return,
                 _ => {}
             }
         }
@@ -236,29 +238,37 @@ impl Session<'_, '_> {
 /// made after Grbl handled a hold; `Hold:0` means that hold is complete, and a hold from Idle
 /// reports `Hold:0` at once. One `Hold:0` could still be left from an earlier hold the operator
 /// resumed a moment ago, so two reports in a row must say `Hold:0` at the same position, the
-/// second asked for after the first arrived. An alarm has already stopped the motion.
+/// second asked for after the first arrived. An alarm has already stopped the motion. A jog
+/// is cancelled by a hold and ends in `Idle`, not `Hold`: once `Jog` was seen, two `Idle`
+/// reports at the same position (newer than it) say the same.
 #[derive(Default)]
 pub(crate) struct Standstill {
-    last_hold0: Option<[f64; 3]>,
+    last_rest: Option<[f64; 3]>,
+    jogged: bool,
 }
 
 impl Standstill {
     /// Feed the next status report; true once the machine is known to stand.
     pub(crate) fn standing(&mut self, st: &protocol::Status) -> bool {
+        self.jogged |= st.state == MachineState::Jog;
         match st.state {
             MachineState::Alarm => true,
-            MachineState::Hold(0) => {
-                let pos = st.position().unwrap_or([f64::NAN; 3]);
-                let same = self
-                    .last_hold0
-                    .is_some_and(|p| p.iter().zip(pos).all(|(a, b)| (a - b).abs() < 1e-6));
-                self.last_hold0 = Some(pos);
-                same
-            }
+            MachineState::Hold(0) => self.at_rest(st),
+            MachineState::Idle if self.jogged => self.at_rest(st),
             _ => {
-                self.last_hold0 = None;
+                self.last_rest = None;
                 false
             }
         }
+    }
+
+    /// A resting report: true when the one before it rested at the same position.
+    fn at_rest(&mut self, st: &protocol::Status) -> bool {
+        let pos = st.position().unwrap_or([f64::NAN; 3]);
+        let same = self
+            .last_rest
+            .is_some_and(|p| p.iter().zip(pos).all(|(a, b)| (a - b).abs() < 1e-6));
+        self.last_rest = Some(pos);
+        same
     }
 }
