@@ -25,9 +25,11 @@
 
 #![forbid(unsafe_code)]
 
+mod arc;
 mod cuts;
 mod error;
 pub mod estimate;
+mod grbl;
 pub mod grid;
 pub mod interpret;
 pub mod limits;

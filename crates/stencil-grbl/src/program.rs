@@ -71,14 +71,22 @@ impl Program {
             }
             let mut m = modal;
             let motion = match gcode::step(&mut m, &clean, number) {
-                Ok(mv) => {
+                Ok(done) if moves.len() + done.moves.len() > gcode::MAX_MOVES => {
+                    return Err(MachineError::Gcode {
+                        file: name.to_string(),
+                        cause: gcode::GcodeError {
+                            line: number,
+                            code: 2,
+                            msg: format!("the program makes more than {} moves", gcode::MAX_MOVES),
+                            out_of_range: true,
+                        },
+                    })
+                }
+                Ok(done) => {
                     modal = m;
-                    if let Some(mv) = mv {
-                        moves.push(mv);
-                        true
-                    } else {
-                        false
-                    }
+                    let moved = !done.moves.is_empty();
+                    moves.extend(done.moves);
+                    moved
                 }
                 // A number no machine can do is refused before anything is sent; a line our
                 // subset does not know is left for Grbl to judge.
@@ -143,6 +151,10 @@ impl Program {
             return Ok(Vec::new());
         }
         let modal = st.modal;
+        // The interpreter's position is in machine coordinates; the preamble moves in the
+        // work coordinates of the line it resumes (the same when the job sets no offsets).
+        let wco = modal.wco();
+        let work = |a: usize| modal.pos[a] - wco[a];
         let mut out = vec!["M5".to_string(), "G21G90".to_string()];
         // The height to travel at: the profile's, or the highest Z the program itself had reached
         // (its own travel height), whichever is higher.
@@ -151,7 +163,7 @@ impl Program {
                 Some(u) => u.max(st.max_z),
                 None => st.max_z,
             };
-            (up, modal.pos[2])
+            (up, work(2))
         });
         if let Some((up, _)) = z_restore {
             out.push(format!("G0Z{}", num(up)));
@@ -159,7 +171,7 @@ impl Program {
         let mut travel = String::from("G0");
         for (a, letter) in "XY".chars().enumerate() {
             if st.used[a] {
-                travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
+                travel.push_str(&format!("{letter}{}", num(work(a))));
             }
         }
         if travel.len() > 2 {
@@ -216,7 +228,10 @@ impl Program {
             .take(before.saturating_sub(1))
         {
             let clean = gcode::clean_line(raw);
-            let mv = gcode::step(&mut st.modal, &clean, i + 1).map_err(|e| {
+            if clean == "%" {
+                continue;
+            }
+            let done = gcode::step(&mut st.modal, &clean, i + 1).map_err(|e| {
                 MachineError::ResumeState {
                     file: self.name.clone(),
                     from_line: before,
@@ -228,7 +243,7 @@ impl Program {
                     st.used[a] = true;
                 }
             }
-            if let Some(mv) = mv {
+            for mv in done.moves {
                 st.max_z = st.max_z.max(mv.to[2]).max(mv.from[2]);
                 let z_only = mv.from[0] == mv.to[0] && mv.from[1] == mv.to[1];
                 if z_only && mv.to[2] < mv.from[2] && !mv.rapid {

@@ -1,12 +1,12 @@
 //! The planner: moves queued in machine coordinates and run at their feeds (or at once, by the
-//! pace), the head's position along them, and the work offset (`G10 L2/L20 P1`).
+//! pace), and the head's position along them.
 
 use std::time::Instant;
 
-use stencil_gcode::interpret::{self as gcode, Move};
+use stencil_gcode::interpret::Move;
 
 use super::sim::{Sim, State};
-use super::{add, lock, Pace, PlannedMove};
+use super::{lock, Pace, PlannedMove};
 
 /// A move in the planner queue.
 pub(super) struct Block {
@@ -76,7 +76,7 @@ impl Sim {
                 }
                 p
             }
-            None => add(self.modal.pos, self.wco),
+            None => self.modal.pos,
         }
     }
 
@@ -84,12 +84,7 @@ impl Sim {
         if self.planner.len() >= self.cfg.planner_blocks {
             return false;
         }
-        // Blocks run in machine coordinates: the work offset in force when the line was parsed.
-        let mv = Move {
-            from: add(mv.from, self.wco),
-            to: add(mv.to, self.wco),
-            ..mv
-        };
+        // The parser's moves are in machine coordinates already, offsets applied.
         let laser_mode = self.laser_mode();
         let jog = {
             let mut r = lock(&self.shared);
@@ -137,52 +132,5 @@ impl Sim {
             }
         }
         true
-    }
-
-    /// `G10 L20 P1 X.. Y..` (the current position becomes these work coordinates) and
-    /// `G10 L2 P1 X..` (G54's offset itself). P0 is the active system, here always G54; P2..P6
-    /// are taken and kept nowhere (nothing here selects them). The offset counts from the end
-    /// of the queued motion, as Grbl (which waits for the queue to empty first) would see it.
-    pub(super) fn set_work_offset(&mut self, clean: &str, idx: usize) {
-        let words = match gcode::words(clean, idx + 1) {
-            Ok(w) => w,
-            Err(e) => return self.reply_error(e.code),
-        };
-        let (mut l, mut p, mut axes) = (None, None, [None::<f64>; 3]);
-        for (w, v) in words {
-            match w {
-                'G' if v == 10.0 => {}
-                'L' => l = Some(v),
-                'P' => p = Some(v),
-                'X' => axes[0] = Some(v),
-                'Y' => axes[1] = Some(v),
-                'Z' => axes[2] = Some(v),
-                _ => return self.reply_error(20),
-            }
-        }
-        let Some(p) = p else {
-            return self.reply_error(28);
-        };
-        let l20 = match l {
-            Some(20.0) => true,
-            Some(2.0) => false,
-            _ => return self.reply_error(28),
-        };
-        if !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
-            return self.reply_error(29);
-        }
-        if self.check_mode || p > 1.0 {
-            return self.done(idx);
-        }
-        let unit = if self.modal.metric { 1.0 } else { 25.4 };
-        for (a, v) in axes.into_iter().enumerate() {
-            if let Some(v) = v {
-                let machine = self.modal.pos[a] + self.wco[a];
-                self.wco[a] = if l20 { machine - v * unit } else { v * unit };
-                self.modal.pos[a] = machine - self.wco[a];
-            }
-        }
-        self.wco_changed = true;
-        self.done(idx);
     }
 }

@@ -109,7 +109,7 @@ impl Sim {
         if !idle {
             return self.reply_error(8);
         }
-        self.modal.pos = [-self.wco[0], -self.wco[1], -self.wco[2]];
+        self.modal.pos = [0.0; 3];
         self.state = State::Idle;
         self.done(idx);
     }
@@ -118,10 +118,13 @@ impl Sim {
     fn parser_state(&self) -> String {
         let m = &self.modal;
         format!(
-            "[GC:G{} G54 G17 {} {} G94 {} M9 T0 F{} S{}]",
-            m.motion,
+            "[GC:G{} G{} G{} {} {} G{} {} M9 T0 F{} S{}]",
+            stencil_gcode::interpret::motion_word(m.motion),
+            54 + m.coord_select,
+            17 + m.plane,
             if m.metric { "G21" } else { "G20" },
             if m.absolute { "G90" } else { "G91" },
+            if m.inverse_time { 93 } else { 94 },
             match (m.spindle_on, m.dynamic) {
                 (false, _) => "M5",
                 (true, true) => "M4",
