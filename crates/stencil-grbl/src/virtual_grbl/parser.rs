@@ -24,6 +24,8 @@ pub(super) enum Wait {
     Pause { held: bool },
     /// M2/M30: the queue runs out, then `[MSG:Pgm End]`.
     End,
+    /// G4 at the machine's pace: its standing-still block is queued.
+    Dwelling,
 }
 
 /// A line waiting, and which line it is.
@@ -31,6 +33,8 @@ pub(super) enum Wait {
 pub(super) struct WaitFor {
     pub(super) wait: Wait,
     pub(super) idx: usize,
+    /// The line queued motion (recorded as executed when that has run).
+    pub(super) moved: bool,
 }
 
 /// Where the line buffer is in a comment.
@@ -77,7 +81,7 @@ impl Sim {
                     self.pending = Some((next, idx));
                     continue;
                 }
-                self.finish_line(idx);
+                self.finish_line(idx, true);
                 continue;
             }
             if let Some(w) = self.waiting {
@@ -180,15 +184,27 @@ impl Sim {
                 self.pending_rest = moves.collect();
                 self.pending = Some((first, idx));
             }
-            _ => self.finish_line(idx),
+            _ => self.finish_line(idx, false),
         }
     }
 
-    /// The line's motion is queued: answer it, or first wait as it asks.
-    fn finish_line(&mut self, idx: usize) {
+    /// The line's motion is queued: answer it, or first wait as it asks. A line that moved is
+    /// recorded as executed when its last block has run, not here.
+    fn finish_line(&mut self, idx: usize, moved: bool) {
         match self.line_wait.take() {
+            None if moved => self.say("ok"),
             None => self.done(idx),
-            Some(wait) => self.waiting = Some(WaitFor { wait, idx }),
+            Some(wait) => self.waiting = Some(WaitFor { wait, idx, moved }),
+        }
+    }
+
+    /// A waiting line's `ok`, once what it waited for is over.
+    fn answer_waited(&mut self, w: WaitFor) {
+        self.waiting = None;
+        if w.moved {
+            self.say("ok");
+        } else {
+            self.done(w.idx);
         }
     }
 
@@ -198,19 +214,34 @@ impl Sim {
         let idle = self.planner.is_empty();
         match w.wait {
             Wait::Dwell(s) if idle => {
+                match self.cfg.pace {
+                    Pace::Timed { .. } => {
+                        // The dwell runs as a block that stands still; `ok` when it is over.
+                        self.dwell_block(s, w.idx);
+                        self.waiting = Some(WaitFor {
+                            wait: Wait::Dwelling,
+                            ..w
+                        });
+                        return false;
+                    }
+                    Pace::Instant => self.answer_waited(w),
+                }
+                true
+            }
+            Wait::Dwelling if idle => {
+                // The dwell block recorded the line as executed when it ran out.
                 self.waiting = None;
-                self.dwell(s, w.idx);
+                self.say("ok");
                 true
             }
             Wait::Probe(p) if idle => {
-                self.waiting = None;
                 if p == 382 || p == 384 {
                     // No probe answers: the move ran its length without contact.
                     self.say("ALARM:5");
                     lock(&self.shared).events.push(Event::Alarm(5));
                     self.state = State::Alarm;
                 }
-                self.done(w.idx);
+                self.answer_waited(w);
                 true
             }
             Wait::Pause { held: false } if idle => {
@@ -223,42 +254,37 @@ impl Sim {
                 false
             }
             Wait::Pause { held: true } if !self.hold => {
-                self.waiting = None;
-                self.done(w.idx);
+                self.answer_waited(w);
                 true
             }
             Wait::End if idle => {
-                self.waiting = None;
                 self.say("[MSG:Pgm End]");
-                self.done(w.idx);
+                self.answer_waited(w);
                 true
             }
             _ => false,
         }
     }
 
-    /// G4: the machine stands still for `s` seconds (at the pace's speed-up) before `ok`.
-    fn dwell(&mut self, s: f64, idx: usize) {
-        if let Pace::Timed { .. } = self.cfg.pace {
-            let here = self.modal.pos;
-            self.planner.push_back(Block {
-                mv: Move {
-                    from: here,
-                    to: here,
-                    rapid: false,
-                    feed: 0.0,
-                    power: 0.0,
-                    spindle_s: 0.0,
-                    line: idx + 1,
-                },
-                n: None,
-                idx,
-                remaining_s: s,
-                duration_s: s,
-                jog: false,
-            });
-        }
-        self.done(idx);
+    /// G4 at the machine's pace: a block that stands still for `s` seconds.
+    fn dwell_block(&mut self, s: f64, idx: usize) {
+        let here = self.modal.pos;
+        self.planner.push_back(Block {
+            mv: Move {
+                from: here,
+                to: here,
+                rapid: false,
+                feed: 0.0,
+                power: 0.0,
+                spindle_s: 0.0,
+                line: idx + 1,
+            },
+            n: None,
+            idx,
+            remaining_s: s,
+            duration_s: s,
+            jog: false,
+        });
     }
 
     /// The settings the parser reads: `$12`, the arc tolerance.
