@@ -32,6 +32,9 @@ pub struct Program {
     /// The program may end with the coolant output (air assist) still on: the streamer then
     /// sends M9 itself.
     pub may_end_air_on: bool,
+    /// `%` lines left out (the program delimiters of other controllers; Grbl 1.1 answers them
+    /// `error:1`, so senders strip them).
+    pub dropped_percent: usize,
     source: Vec<String>,
 }
 
@@ -43,13 +46,18 @@ impl Program {
         let mut moves = Vec::new();
         let mut modal = Modal::default();
         let mut unreadable = false;
+        let mut dropped_percent = 0;
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
             let clean = gcode::clean_line(raw);
             // `%` marks the start and end of a program in many CAM outputs; Grbl 1.1 does not
             // take it (error:1), so senders drop it.
-            if clean.is_empty() || clean == "%" {
+            if clean == "%" {
+                dropped_percent += 1;
+                continue;
+            }
+            if clean.is_empty() {
                 continue;
             }
             if let Some(c) = clean
@@ -113,6 +121,7 @@ impl Program {
             moves,
             may_end_laser_on: modal.spindle_on || unreadable,
             may_end_air_on: modal.coolant || unreadable,
+            dropped_percent,
             source,
         })
     }
