@@ -148,6 +148,13 @@ fn the_virtual_grbl_reports_offsets_and_cuts_arcs_as_grbl() {
         .fold(f64::NEG_INFINITY, f64::max);
     assert!((right - 26.0).abs() < 0.01, "{right}");
     assert_eq!(arc.last().unwrap().to, [6.0, 6.0, 0.0]);
+    // The arc is one line, executed once.
+    let arc_line = r
+        .received
+        .iter()
+        .position(|l| l.text.starts_with("G2"))
+        .unwrap();
+    assert_eq!(r.executed.iter().filter(|&&i| i == arc_line).count(), 1);
 
     // $12 = 0.1: coarser chords, as Grbl cuts them.
     let cfg = VirtualConfig {
@@ -160,4 +167,22 @@ fn the_virtual_grbl_reports_offsets_and_cuts_arcs_as_grbl() {
     read_until(&mut port, "ok\r\n");
     // floor(0.5 · 2π · 10 / sqrt(0.1 · 19.9)) = 22.
     assert_eq!(vg.stop().moves.len(), 22);
+}
+
+#[test]
+fn the_spindle_runs_at_s_clamped_to_its_settings() {
+    // $30 = 1000 (the virtual Grbl's max): S5000 runs, and is reported, at 1000.
+    let cfg = VirtualConfig {
+        pace: stencil_grbl::virtual_grbl::Pace::Timed { speedup: 1.0 },
+        ..VirtualConfig::default()
+    };
+    let (vg, mut port) = VirtualGrbl::spawn(cfg).unwrap();
+    read_until(&mut port, "for help]\r\n");
+    port.write_all(b"M3S5000\nG1X100F600\n").unwrap();
+    read_until(&mut port, "ok\r\nok\r\n");
+    port.write_all(b"?").unwrap();
+    let s = read_until(&mut port, ">");
+    assert!(s.contains("|FS:600,1000"), "{s}");
+    port.write_all(&[0x18]).unwrap();
+    drop(vg);
 }

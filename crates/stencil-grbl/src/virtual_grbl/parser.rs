@@ -284,6 +284,7 @@ impl Sim {
             remaining_s: s,
             duration_s: s,
             jog: false,
+            last: true,
         });
     }
 

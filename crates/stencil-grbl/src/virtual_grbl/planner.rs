@@ -19,6 +19,8 @@ pub(super) struct Block {
     pub(super) duration_s: f64,
     /// A `$J=` jog: shown as `Jog`, dropped by a jog cancel (0x85).
     pub(super) jog: bool,
+    /// The line's last block (an arc has one per chord): its line has run when this has.
+    pub(super) last: bool,
 }
 
 /// The N number a line starts with (`N120G1X5` → 120).
@@ -54,7 +56,7 @@ impl Sim {
             }
             budget -= b.remaining_s / k;
             let done = self.planner.pop_front();
-            if let Some(done) = done {
+            if let Some(done) = done.filter(|d| d.last) {
                 lock(&self.shared).executed.push(done.idx);
             }
         }
@@ -84,7 +86,14 @@ impl Sim {
         if self.planner.len() >= self.cfg.planner_blocks {
             return false;
         }
-        // The parser's moves are in machine coordinates already, offsets applied.
+        // The parser's moves are in machine coordinates already, offsets applied; the spindle
+        // runs at S clamped to $30/$31, as Grbl's PWM (and its `FS:` report) does.
+        let mv = Move {
+            power: self.spindle_clamp(mv.power),
+            spindle_s: self.spindle_clamp(mv.spindle_s),
+            ..mv
+        };
+        let last = self.pending_rest.is_empty();
         let laser_mode = self.laser_mode();
         let jog = {
             let mut r = lock(&self.shared);
@@ -105,7 +114,8 @@ impl Sim {
             jog
         };
         match self.cfg.pace {
-            Pace::Instant => lock(&self.shared).executed.push(idx),
+            Pace::Instant if last => lock(&self.shared).executed.push(idx),
+            Pace::Instant => {}
             Pace::Timed { .. } => {
                 let d = ((mv.to[0] - mv.from[0]).powi(2)
                     + (mv.to[1] - mv.from[1]).powi(2)
@@ -128,9 +138,32 @@ impl Sim {
                     remaining_s: t,
                     duration_s: t,
                     jog,
+                    last,
                 });
             }
         }
         true
+    }
+
+    /// S as Grbl's spindle runs it (spindle_control.c): 0 stays off, at or above `$30` runs at
+    /// `$30`, at or below `$31` at `$31`.
+    fn spindle_clamp(&self, s: f64) -> f64 {
+        let setting = |k: u32, default: f64| {
+            self.settings
+                .iter()
+                .find(|(n, _)| *n == k)
+                .and_then(|(_, v)| v.parse::<f64>().ok())
+                .unwrap_or(default)
+        };
+        let (max, min) = (setting(30, 1000.0), setting(31, 0.0));
+        if s <= 0.0 {
+            0.0
+        } else if s >= max {
+            max
+        } else if s <= min {
+            min
+        } else {
+            s
+        }
     }
 }
