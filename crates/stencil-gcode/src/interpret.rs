@@ -1,7 +1,9 @@
-//! A G-code interpreter for the subset Grbl 1.1 runs: one place that turns program text into moves.
+//! The one G-code interpreter: Grbl 1.1h's parser and motion (the `grbl` module rewrites
+//! `gc_execute_line`, `arc` cuts arcs as `mc_arc` does), turning program text into moves in
+//! machine coordinates with every work offset applied.
 //!
-//! Used by the time estimate (`plan`), the simulator and the virtual Grbl, so all three agree on
-//! what a program does.
+//! Used by the time estimate, the simulator, the bed check, framing, `send`'s preflight and the
+//! virtual Grbl, so all of them agree with each other and with the machine on what a program does.
 
 /// One straight move, in millimetres, absolute machine coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
