@@ -1,7 +1,10 @@
 //! The virtual Grbl answers every line as Grbl 1.1h does (issue 26). Each case is one line sent
 //! after a short setup, the answer Grbl 1.1h gives (`ok` or `error:N`), and the rule in Grbl's
 //! source it comes from (file, and the check there: gcode.c's `[G10 Errors]`-style headings,
-//! `STATUS_*` names from report.h). The answers were worked out from Grbl's code, not from ours.
+//! `STATUS_*` names from report.h). The answers were worked out from Grbl's code, not from ours,
+//! and then checked against Grbl 1.1h itself: gnea/grbl's source compiled on a PC with
+//! grbl-sim's validator (`gvalidate`, outside this repository), fed each case's setup and line,
+//! gives the same answer for all of them.
 //!
 //! Every case runs twice: through the shared interpreter (what `estimate`, `simulate`, `frame`
 //! and the bed check read) and through a virtual Grbl over its pty (what `send --dry-run` talks
