@@ -132,6 +132,19 @@ fn the_virtual_grbl_reports_offsets_and_cuts_arcs_as_grbl() {
         s.contains("MPos:6.000,6.000,0.000") && s.contains("WCO:5.000,5.000,0.000"),
         "{s}"
     );
+    port.write_all(b"G10L2P3X-7\nG28.1\n$#\n").unwrap();
+    let s = read_until(&mut port, "[PRB");
+    assert!(
+        s.contains(
+            "[G54:5.000,5.000,0.000]\r\n[G55:0.000,0.000,0.000]\r\n[G56:-7.000,0.000,0.000]"
+        ),
+        "{s}"
+    );
+    assert!(
+        s.contains("[G28:6.000,6.000,0.000]") && s.contains("[G92:0.000,0.000,0.000]"),
+        "{s}"
+    );
+    read_until(&mut port, "ok\r\n");
     port.write_all(b"G92X0Y0\n$G\n?").unwrap();
     let s = read_until(&mut port, ">");
     assert!(s.contains("[GC:G0 G54 G17 G21 G90 G94 M5"), "{s}");
