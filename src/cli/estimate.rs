@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 
 use stencil_gcode::estimate::{estimate_with, format_duration, length_over_feed_s};
-use stencil_gcode::interpret::interpret;
+use stencil_gcode::interpret::interpret_program;
 use stencil_gcode::machine as machine_profile;
 
 use super::gcode::check_bed;
@@ -32,9 +32,13 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("{}: cannot read", a.file.display()))?;
     super::send::name_machine_changes_in(&a.file, &text);
-    let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let program =
+        interpret_program(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let moves = program.moves;
     check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
-    let e = estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
+    let mut e = estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
+    // G4 dwells: the machine stands still (Grbl waits for the queue to empty first).
+    e.total_s += program.dwell_s;
     println!(
         "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
          length / feed alone would say {}",

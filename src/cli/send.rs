@@ -605,6 +605,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if !a.allow_machine_commands {
         name_machine_changes(&job);
     }
+    if job.dropped_percent > 0 {
+        println!(
+            "{name}: {} `%` line(s) left out: they mark a program's start and end for other \
+             controllers, and Grbl 1.1 answers them error:1",
+            job.dropped_percent
+        );
+    }
     let journal_path = journal::path_for(&a.file);
     let (from_line, machine_arg, journal) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {

@@ -38,12 +38,14 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     super::send::name_machine_changes_in(&a.file, &text);
     let name = a.file.display().to_string();
-    let moves = stencil_gcode::interpret::interpret(&text)
+    let program = stencil_gcode::interpret::interpret_program(&text)
         .map_err(|cause| stream::MachineError::Gcode { file: name, cause })?;
+    let moves = program.moves;
     let machine = machine_profile::load(a.machine.as_deref())?;
     super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let rule = machine.cut_rule(&moves);
-    let est = estimate_with(&moves, &machine.motion, rule);
+    let mut est = estimate_with(&moves, &machine.motion, rule);
+    est.total_s += program.dwell_s;
     let d = simulate::draw(&moves, a.size_px, rule);
     stencil_io::write_atomic(
         &a.output,

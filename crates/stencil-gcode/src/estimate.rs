@@ -16,7 +16,9 @@
 //! `a / max|u_axis|` and `rate / max|u_axis|`. Grbl looks only 15 blocks ahead (`[OPT:V,15,128]`), so
 //! every block's entry speed is also capped so it could stop within the next 15 blocks.
 //!
-//! Not modelled: dwells, spindle-synchronised stops (M3/M5 stop motion; laser S changes do not),
+//! Arcs come in as the chords Grbl cuts them into (`$12`), so their junctions are planned as
+//! Grbl plans them. G4 dwells are not moves: callers add [`crate::interpret::Program`]'s
+//! `dwell_s`. Not modelled: spindle-synchronised stops (M3/M5 stop motion; laser S changes do not),
 //! overrides, and the serial link (a slow sender can starve the planner on tiny segments).
 
 use crate::interpret::{CutRule, Move};

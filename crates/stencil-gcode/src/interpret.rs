@@ -1,9 +1,9 @@
-//! A G-code interpreter for the subset Grbl 1.1 runs: one place that turns program text into moves.
+//! The one G-code interpreter: Grbl 1.1h's parser and motion (the `grbl` module rewrites
+//! `gc_execute_line`, `arc` cuts arcs as `mc_arc` does), turning program text into moves in
+//! machine coordinates with every work offset applied.
 //!
-//! Used by the time estimate (`plan`), the simulator and the virtual Grbl, so all three agree on
-//! what a program does.
-
-use stencil_io::excerpt;
+//! Used by the time estimate, the simulator, the bed check, framing, `send`'s preflight and the
+//! virtual Grbl, so all of them agree with each other and with the machine on what a program does.
 
 /// One straight move, in millimetres, absolute machine coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,14 +24,36 @@ pub struct Move {
     pub line: usize,
 }
 
-/// Modal state carried from line to line.
+pub use crate::grbl::motion_word;
+
+/// Grbl's motion modes (modal group 1), numbered as their G words; a probe G38.x is 380 + x.
+pub const MOTION_SEEK: u16 = 0;
+pub const MOTION_LINEAR: u16 = 1;
+pub const MOTION_CW_ARC: u16 = 2;
+pub const MOTION_CCW_ARC: u16 = 3;
+pub const MOTION_NONE: u16 = 80;
+
+/// Grbl's `$12` default: the largest gap, mm, between an arc and the chords it is cut into.
+pub const DEFAULT_ARC_TOLERANCE_MM: f64 = 0.002;
+
+/// The parser's state carried from line to line, as Grbl 1.1's `gc_state` holds it: modes,
+/// position in machine coordinates, and the offsets that turn work coordinates into machine
+/// ones (the six work systems G10 writes to EEPROM, G92, the tool length offset, and the G28/G30
+/// positions).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Modal {
+    /// Where the parser has put the head, machine coordinates, mm.
     pub pos: [f64; 3],
-    /// 0 = G0, 1 = G1.
-    pub motion: u8,
+    /// [`MOTION_SEEK`] (G0), [`MOTION_LINEAR`] (G1), arcs (G2/G3), [`MOTION_NONE`] (G80), or a
+    /// probe (380 + x for G38.x).
+    pub motion: u16,
+    /// G17 (0, XY), G18 (1, ZX), G19 (2, YZ).
+    pub plane: u8,
     pub absolute: bool,
     pub metric: bool,
+    /// G93: F is moves per minute, given on every feed move.
+    pub inverse_time: bool,
+    /// The feed in mm/min (G94); `None` while undefined.
     pub feed: Option<f64>,
     pub s: f64,
     /// M3/M4 on, M5 off.
@@ -40,21 +62,82 @@ pub struct Modal {
     pub dynamic: bool,
     /// Coolant output on (M8, flood: air assist on a laser), off with M9.
     pub coolant: bool,
+    /// G54..G59 as 0..5.
+    pub coord_select: usize,
+    /// The six work coordinate systems' offsets (G10 L2/L20 write them; Grbl keeps them in
+    /// EEPROM, so they survive a reset).
+    pub coords: [[f64; 3]; 6],
+    /// G92's offset (cleared by G92.1 and by a reset).
+    pub g92: [f64; 3],
+    /// G43.1's tool length offset on Z.
+    pub tlo: f64,
+    /// G28.1 / G30.1's stored positions, machine coordinates.
+    pub g28: [f64; 3],
+    pub g30: [f64; 3],
+    /// `$12`, mm: how finely arcs are cut.
+    pub arc_tolerance: f64,
 }
 
 impl Default for Modal {
     fn default() -> Self {
         Modal {
             pos: [0.0; 3],
-            motion: 0,
+            motion: MOTION_SEEK,
+            plane: 0,
             absolute: true,
             metric: true,
+            inverse_time: false,
             feed: None,
             s: 0.0,
             spindle_on: false,
             dynamic: false,
             coolant: false,
+            coord_select: 0,
+            coords: [[0.0; 3]; 6],
+            g92: [0.0; 3],
+            tlo: 0.0,
+            g28: [0.0; 3],
+            g30: [0.0; 3],
+            arc_tolerance: DEFAULT_ARC_TOLERANCE_MM,
         }
+    }
+}
+
+impl Modal {
+    /// The work coordinate offset in force (Grbl's `WCO:`): the selected work system plus G92
+    /// plus the tool length offset on Z. Work position = machine position − this.
+    pub fn wco(&self) -> [f64; 3] {
+        let c = self.coords[self.coord_select];
+        [
+            c[0] + self.g92[0],
+            c[1] + self.g92[1],
+            c[2] + self.g92[2] + self.tlo,
+        ]
+    }
+
+    /// The state after a soft reset (`gc_init`): modes back to their defaults and G92 gone, but
+    /// the position, the work systems and G28/G30 positions (EEPROM) and `$12` kept.
+    pub fn after_reset(&self) -> Modal {
+        Modal {
+            pos: self.pos,
+            coords: self.coords,
+            g28: self.g28,
+            g30: self.g30,
+            arc_tolerance: self.arc_tolerance,
+            ..Modal::default()
+        }
+    }
+
+    /// `M2` / `M30`: what Grbl 1.1 resets at a program end (gcode.c, `PROGRAM_FLOW_COMPLETED`):
+    /// G1, G17, G90, G94, G54, spindle off (M5) and coolant off (M9); F, S, units and G92 kept.
+    pub fn end_program(&mut self) {
+        self.motion = MOTION_LINEAR;
+        self.plane = 0;
+        self.absolute = true;
+        self.inverse_time = false;
+        self.coord_select = 0;
+        self.spindle_on = false;
+        self.coolant = false;
     }
 }
 
@@ -66,6 +149,10 @@ pub const MAX_COORD_MM: f64 = 1e6;
 /// The largest feed (mm/min) and S value a program may give: far above any machine's.
 pub const MAX_FEED_MM_MIN: f64 = 1e6;
 pub const MAX_S: f64 = 1e6;
+
+/// The most moves (arc segments counted) one program may make: 4 million, far more than any
+/// job (a day of cutting), and a bound on memory (about 90 bytes a move).
+pub const MAX_MOVES: usize = 4_000_000;
 
 /// A line the interpreter cannot run, with Grbl's error code where Grbl has one.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -79,6 +166,31 @@ pub struct GcodeError {
     pub out_of_range: bool,
 }
 
+/// M0 or a program end: program flow (Grbl's modal group M4). M1 is read and ignored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Flow {
+    /// M0: Grbl finishes the queued motion, then holds until cycle start (`~`).
+    Pause,
+    /// M2 / M30: Grbl finishes the queued motion, resets some modes, says `[MSG:Pgm End]`.
+    End,
+}
+
+/// What one line did: its moves (an arc as Grbl's chords), a dwell, a pause or end, a probe.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Executed {
+    pub moves: Vec<Move>,
+    /// G4 P: seconds Grbl waits after the queued motion ends.
+    pub dwell_s: f64,
+    pub flow: Option<Flow>,
+    /// A probe move (380 + x for G38.x): on a machine without a probe it runs its whole length,
+    /// then G38.2 and G38.4 raise `ALARM:5` (no contact), G38.3 and G38.5 do not.
+    pub probe: Option<u16>,
+    /// The line's N number, if it has one.
+    pub n: Option<u32>,
+    /// The work coordinate offset changed (G10, G92, G54..G59, G43.1/G49, a program end).
+    pub offsets_changed: bool,
+}
+
 /// Strip a `;` comment and `( )` comments, spaces, and upper-case: what Grbl keeps of a line.
 pub fn clean_line(line: &str) -> String {
     let mut out = String::with_capacity(line.len());
@@ -88,264 +200,33 @@ pub fn clean_line(line: &str) -> String {
             '(' => in_paren = true,
             ')' if in_paren => in_paren = false,
             ';' if !in_paren => break,
-            c if in_paren || c.is_whitespace() || c.is_control() => {}
+            c if in_paren || c.is_whitespace() || c.is_control() || c == '/' => {}
             c => out.push(c.to_ascii_uppercase()),
         }
     }
     out
 }
 
-/// Split a cleaned line into (letter, value) words.
+/// Split a cleaned line into (letter, value) words, each read as Grbl reads it (a letter A–Z,
+/// then a number: sign, digits, at most one point).
 pub fn words(clean: &str, line_no: usize) -> Result<Vec<(char, f64)>, GcodeError> {
     let mut out = Vec::new();
-    let b = clean.as_bytes();
     let mut i = 0;
-    while i < b.len() {
-        let letter = b[i] as char;
-        if !letter.is_ascii_alphabetic() {
-            return Err(GcodeError {
-                line: line_no,
-                code: 1,
-                msg: format!("expected a letter at '{}'", excerpt(&clean[i..])),
-                out_of_range: false,
-            });
-        }
-        let start = i + 1;
-        let mut j = start;
-        while j < b.len() && (b[j].is_ascii_digit() || b[j] == b'.' || b[j] == b'-' || b[j] == b'+')
-        {
-            j += 1;
-        }
-        let text = &clean[start..j];
-        let v: f64 = text.parse().map_err(|_| GcodeError {
-            line: line_no,
-            code: 2,
-            msg: format!("'{letter}' has no valid number"),
-            out_of_range: false,
-        })?;
-        if !v.is_finite() {
-            return Err(GcodeError {
-                line: line_no,
-                code: 2,
-                msg: format!(
-                    "the number after '{letter}' ({}) is too large to be a number",
-                    excerpt(text)
-                ),
-                out_of_range: true,
-            });
-        }
-        out.push((letter, v));
-        i = j;
+    while let Some(w) = crate::grbl::next_word(clean, &mut i, line_no)? {
+        out.push(w);
     }
     Ok(out)
 }
 
-/// Run one line against the modal state; return the move it makes, if any.
+/// Run one line against the modal state as Grbl 1.1h's parser does: `Err` with Grbl's error
+/// code (and nothing changed) where Grbl answers `error:N`, else what the line did.
 /// `$`-commands and empty lines do nothing here.
-pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Option<Move>, GcodeError> {
+pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Executed, GcodeError> {
     let clean = clean_line(line);
     if clean.is_empty() || clean.starts_with('$') {
-        return Ok(None);
+        return Ok(Executed::default());
     }
-    let ws = words(&clean, line_no)?;
-    let mut line_words = LineWords::default();
-    for &(l, v) in &ws {
-        match l {
-            'G' => g_word(modal, &mut line_words, v, line_no)?,
-            'M' => m_word(modal, &mut line_words, v, line_no)?,
-            'F' => f_word(modal, v, line_no)?,
-            'S' => s_word(modal, v, line_no)?,
-            'X' => line_words.target[0] = Some(v),
-            'Y' => line_words.target[1] = Some(v),
-            'Z' => line_words.target[2] = Some(v),
-            'N' => {}
-            l => return Err(refused(line_no, 20, format!("word '{l}' is not supported"))),
-        }
-    }
-    if let Some(m) = line_words.motion {
-        modal.motion = m;
-    }
-    if line_words.target.iter().all(Option::is_none) {
-        if line_words.program_end {
-            end_program(modal);
-        }
-        return Ok(None);
-    }
-    if modal.motion == 1 && modal.feed.is_none() {
-        return Err(refused(
-            line_no,
-            22,
-            "G1 before any F: the feed rate is undefined".into(),
-        ));
-    }
-    let from = modal.pos;
-    let to = resolve_target(modal, &line_words.target, line_no)?;
-    modal.pos = to;
-    let rapid = modal.motion == 0;
-    let spindle_s = if modal.spindle_on { modal.s } else { 0.0 };
-    let mv = Move {
-        from,
-        to,
-        rapid,
-        feed: modal.feed.unwrap_or(0.0),
-        power: if rapid { 0.0 } else { spindle_s },
-        spindle_s,
-        line: line_no,
-    };
-    if line_words.program_end {
-        end_program(modal);
-    }
-    Ok(Some(mv))
-}
-
-/// What one line asks for that takes effect only once all its words are read: the axis words
-/// (as written, in the line's units and distance mode), the motion mode and a program end.
-/// Grbl applies a line's words as a block, not left to right, so `X10 G0` moves in G0.
-#[derive(Default)]
-struct LineWords {
-    target: [Option<f64>; 3],
-    motion: Option<u8>,
-    program_end: bool,
-}
-
-/// A line Grbl itself would refuse, with Grbl's error code.
-fn refused(line: usize, code: u8, msg: String) -> GcodeError {
-    GcodeError {
-        line,
-        code,
-        msg,
-        out_of_range: false,
-    }
-}
-
-/// A number beyond [`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`] or [`MAX_S`]: the program is refused
-/// whole. Huge values are shown in scientific notation so the message stays one short line.
-fn beyond(line: usize, what: &str, v: f64, max: f64, unit: &str) -> GcodeError {
-    GcodeError {
-        line,
-        code: 2,
-        msg: format!(
-            "{what} {} is beyond what any machine does (at most {max}{unit})",
-            if v.abs() < 1e9 {
-                v.to_string()
-            } else {
-                format!("{v:.3e}")
-            }
-        ),
-        out_of_range: true,
-    }
-}
-
-/// A `G` word: motion mode (G0/G1, applied after the line), distance mode (G90/G91) and units
-/// (G21/G20) at once; the modal groups that never move the tool are accepted and ignored.
-fn g_word(
-    modal: &mut Modal,
-    line_words: &mut LineWords,
-    v: f64,
-    line_no: usize,
-) -> Result<(), GcodeError> {
-    match v {
-        0.0 => line_words.motion = Some(0),
-        1.0 => line_words.motion = Some(1),
-        90.0 => modal.absolute = true,
-        91.0 => modal.absolute = false,
-        21.0 => modal.metric = true,
-        20.0 => modal.metric = false,
-        // Plane selection, feed-rate mode, work coordinate systems, cancel modes: no motion.
-        v if [17.0, 94.0, 54.0, 40.0, 49.0, 80.0].contains(&v) => {}
-        v => {
-            return Err(refused(
-                line_no,
-                20,
-                format!("G{v} is not supported by this program subset"),
-            ))
-        }
-    }
-    Ok(())
-}
-
-/// An `M` word: spindle (M3/M4/M5, M4 being laser mode), coolant (M8/M9, air assist on a laser)
-/// and program end (M2/M30, applied after the line's motion, as Grbl does).
-fn m_word(
-    modal: &mut Modal,
-    line_words: &mut LineWords,
-    v: f64,
-    line_no: usize,
-) -> Result<(), GcodeError> {
-    match v as u32 {
-        3 | 4 => {
-            modal.spindle_on = true;
-            modal.dynamic = v as u32 == 4;
-        }
-        5 => modal.spindle_on = false,
-        8 => modal.coolant = true,
-        9 => modal.coolant = false,
-        2 | 30 => line_words.program_end = true,
-        0 | 1 | 7 => {}
-        _ => return Err(refused(line_no, 20, format!("M{v} is not supported"))),
-    }
-    Ok(())
-}
-
-/// An `F` word: the feed, kept in mm/min whatever the line's units, so every later move and the
-/// estimate read one unit.
-fn f_word(modal: &mut Modal, v: f64, line_no: usize) -> Result<(), GcodeError> {
-    if v <= 0.0 {
-        return Err(refused(line_no, 4, "F must be positive".into()));
-    }
-    let f = if modal.metric { v } else { v * 25.4 };
-    if f > MAX_FEED_MM_MIN {
-        return Err(beyond(line_no, "feed", f, MAX_FEED_MM_MIN, " mm/min"));
-    }
-    modal.feed = Some(f);
-    Ok(())
-}
-
-/// An `S` word: the spindle/laser value, used by the following moves while the spindle is on.
-fn s_word(modal: &mut Modal, v: f64, line_no: usize) -> Result<(), GcodeError> {
-    if v < 0.0 {
-        return Err(refused(line_no, 4, "S must not be negative".into()));
-    }
-    if v > MAX_S {
-        return Err(beyond(line_no, "S", v, MAX_S, ""));
-    }
-    modal.s = v;
-    Ok(())
-}
-
-/// The line's axis words as an absolute position in mm: inches converted, G91 offsets added to
-/// the current position, unnamed axes kept. Refuses a position beyond [`MAX_COORD_MM`].
-fn resolve_target(
-    modal: &Modal,
-    target: &[Option<f64>; 3],
-    line_no: usize,
-) -> Result<[f64; 3], GcodeError> {
-    let unit = if modal.metric { 1.0 } else { 25.4 };
-    let from = modal.pos;
-    let mut to = from;
-    for a in 0..3 {
-        if let Some(v) = target[a] {
-            to[a] = if modal.absolute {
-                v * unit
-            } else {
-                from[a] + v * unit
-            };
-            if to[a].abs() > MAX_COORD_MM {
-                let axis = ["X", "Y", "Z"][a];
-                return Err(beyond(line_no, axis, to[a], MAX_COORD_MM, " mm"));
-            }
-        }
-    }
-    Ok(to)
-}
-
-/// `M2` / `M30`: what Grbl 1.1 resets at a program end (gcode.c, `PROGRAM_FLOW_COMPLETED`):
-/// G1, G90, G94, spindle off (M5) and coolant off (M9); F and S are kept.
-fn end_program(modal: &mut Modal) {
-    modal.motion = 1;
-    modal.absolute = true;
-    modal.spindle_on = false;
-    modal.coolant = false;
+    crate::grbl::execute(modal, &clean, line_no)
 }
 
 /// Which moves of a program cut (the laser fires, the pen draws, the blade is in the sheet),
@@ -469,16 +350,53 @@ pub fn extent(moves: &[Move]) -> Option<Extent> {
     Some(e)
 }
 
-/// Interpret a whole program into its moves.
-pub fn interpret(text: &str) -> Result<Vec<Move>, GcodeError> {
-    let mut modal = Modal::default();
-    let mut moves = Vec::new();
+/// A whole program as Grbl runs it: every move (arcs as their chords) in machine coordinates,
+/// and the time it stands still in dwells.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Program {
+    pub moves: Vec<Move>,
+    /// G4 dwells, seconds in all.
+    pub dwell_s: f64,
+    /// Lines with M0 (Grbl holds there until cycle start).
+    pub pauses: Vec<usize>,
+}
+
+/// Interpret a whole program from the power-on state.
+pub fn interpret_program(text: &str) -> Result<Program, GcodeError> {
+    interpret_from(text, Modal::default())
+}
+
+/// Interpret a whole program from a given state (a machine's offsets, `$12`).
+pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeError> {
+    let mut p = Program::default();
     for (i, line) in text.lines().enumerate() {
-        if let Some(m) = step(&mut modal, line, i + 1)? {
-            moves.push(m);
+        let clean = clean_line(line);
+        // `%` opens and closes a program in many CAM outputs; Grbl answers it error:1 and
+        // senders strip it, so the job as run has no such line.
+        if clean == "%" {
+            continue;
+        }
+        let done = step(&mut modal, line, i + 1)?;
+        if p.moves.len() + done.moves.len() > MAX_MOVES {
+            return Err(GcodeError {
+                line: i + 1,
+                code: 2,
+                msg: format!("the program makes more than {MAX_MOVES} moves"),
+                out_of_range: true,
+            });
+        }
+        p.moves.extend(done.moves);
+        p.dwell_s += done.dwell_s;
+        if done.flow == Some(Flow::Pause) {
+            p.pauses.push(i + 1);
         }
     }
-    Ok(moves)
+    Ok(p)
+}
+
+/// Interpret a whole program into its moves.
+pub fn interpret(text: &str) -> Result<Vec<Move>, GcodeError> {
+    interpret_program(text).map(|p| p.moves)
 }
 
 #[cfg(test)]
@@ -583,7 +501,7 @@ mod tests {
         for l in ["G91 G0 X1", "M4 S300", "M2"] {
             step(&mut m, l, 1).unwrap();
         }
-        assert!(!m.spindle_on && m.absolute && m.motion == 1);
+        assert!(!m.spindle_on && m.absolute && m.motion == MOTION_LINEAR);
         assert_eq!(m.s, 300.0, "S is kept");
     }
 

@@ -10,8 +10,9 @@
 //!   the command line words with its option names.
 //! - [`machine`]: machine profiles (bed, [`machine::Motion`] limits, tool) loaded and validated
 //!   from TOML, and the bed check of a program's moves.
-//! - [`interpret`](mod@interpret): reads any G-code program the way Grbl 1.1 does (moves, modal state, errors
-//!   with Grbl's codes) and says which moves cut ([`interpret::CutRule`]).
+//! - [`interpret`](mod@interpret): reads any G-code program the way Grbl 1.1h does (its parser's
+//!   `ok`/`error:N` for every line, arcs cut into Grbl's chords, work offsets, moves in machine
+//!   coordinates) and says which moves cut ([`interpret::CutRule`]).
 //! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion; also
 //!   `estimate_with`, `length_over_feed_s`, `format_duration`.
 //! - [`simulate`]: a picture of a program's moves, cut and travel in two colours.
@@ -20,14 +21,16 @@
 //! - [`limits`]: Grbl 1.1's fixed sizes (line length, planner blocks, receive buffer).
 //! - [`num`]: a number as the writer prints it (at most 3 decimals, no `-0`).
 //!
-//! Inside: `toolpath` places the loops on the bed; `order` says what must be cut before what;
+//! Inside: `grbl` is Grbl 1.1h's `gc_execute_line` rewritten, `arc` its `mc_arc`; `toolpath` places the loops on the bed; `order` says what must be cut before what;
 //! `travel` orders the loops and picks start points; `write` writes the text.
 
 #![forbid(unsafe_code)]
 
+mod arc;
 mod cuts;
 mod error;
 pub mod estimate;
+mod grbl;
 pub mod grid;
 pub mod interpret;
 pub mod limits;

@@ -14,7 +14,10 @@ use super::stream::console::Console;
 use stencil_gcode::interpret::{CutRule, Move};
 use stencil_gcode::num;
 
-/// The rectangle of the cutting moves, in program (work) millimetres.
+/// The rectangle of the cutting moves, mm, as the interpreter places them: machine coordinates
+/// from a zero work offset, the job's own offsets (G10, G92, G54..G59) applied and arcs
+/// followed to their true extent. The frame program traces it in the controller's work
+/// coordinates, which are those when its work offset is zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Extent {
     pub min: [f64; 2],

@@ -37,6 +37,9 @@ pub struct Program {
     pub machine_changes: Vec<MachineChange>,
     /// Read-only `$` queries (`$$`, `$#`, `$G`, `$I`, `$N`): left out of the stream.
     pub dropped: Vec<ProgramLine>,
+    /// `%` lines left out (the program delimiters of other controllers; Grbl 1.1 answers them
+    /// `error:1`, so senders strip them).
+    pub dropped_percent: usize,
     source: Vec<String>,
 }
 
@@ -99,13 +102,18 @@ impl Program {
         let mut modal = Modal::default();
         let mut unreadable = false;
         let (mut machine_changes, mut dropped) = (Vec::new(), Vec::new());
+        let mut dropped_percent = 0;
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
             let clean = gcode::clean_line(raw);
             // `%` marks the start and end of a program in many CAM outputs; Grbl 1.1 does not
             // take it (error:1), so senders drop it.
-            if clean.is_empty() || clean == "%" {
+            if clean == "%" {
+                dropped_percent += 1;
+                continue;
+            }
+            if clean.is_empty() {
                 continue;
             }
             if let Some(c) = clean
@@ -142,14 +150,22 @@ impl Program {
             }
             let mut m = modal;
             let motion = match gcode::step(&mut m, &clean, number) {
-                Ok(mv) => {
+                Ok(done) if moves.len() + done.moves.len() > gcode::MAX_MOVES => {
+                    return Err(MachineError::Gcode {
+                        file: name.to_string(),
+                        cause: gcode::GcodeError {
+                            line: number,
+                            code: 2,
+                            msg: format!("the program makes more than {} moves", gcode::MAX_MOVES),
+                            out_of_range: true,
+                        },
+                    })
+                }
+                Ok(done) => {
                     modal = m;
-                    if let Some(mv) = mv {
-                        moves.push(mv);
-                        true
-                    } else {
-                        false
-                    }
+                    let moved = !done.moves.is_empty();
+                    moves.extend(done.moves);
+                    moved
                 }
                 // A number no machine can do is refused before anything is sent; a line our
                 // subset does not know is left for Grbl to judge.
@@ -178,6 +194,7 @@ impl Program {
             may_end_air_on: modal.coolant || unreadable,
             machine_changes,
             dropped,
+            dropped_percent,
             source,
         })
     }
@@ -237,6 +254,10 @@ impl Program {
             return Ok(Vec::new());
         }
         let modal = st.modal;
+        // The interpreter's position is in machine coordinates; the preamble moves in the
+        // work coordinates of the line it resumes (the same when the job sets no offsets).
+        let wco = modal.wco();
+        let work = |a: usize| modal.pos[a] - wco[a];
         let mut out = vec!["M5".to_string(), "G21G90".to_string()];
         // The height to travel at: the profile's, or the highest Z the program itself had reached
         // (its own travel height), whichever is higher.
@@ -245,7 +266,7 @@ impl Program {
                 Some(u) => u.max(st.max_z),
                 None => st.max_z,
             };
-            (up, modal.pos[2])
+            (up, work(2))
         });
         if let Some((up, _)) = z_restore {
             out.push(format!("G0Z{}", num(up)));
@@ -253,7 +274,7 @@ impl Program {
         let mut travel = String::from("G0");
         for (a, letter) in "XY".chars().enumerate() {
             if st.used[a] {
-                travel.push_str(&format!("{letter}{}", num(modal.pos[a])));
+                travel.push_str(&format!("{letter}{}", num(work(a))));
             }
         }
         if travel.len() > 2 {
@@ -310,7 +331,10 @@ impl Program {
             .take(before.saturating_sub(1))
         {
             let clean = gcode::clean_line(raw);
-            let mv = gcode::step(&mut st.modal, &clean, i + 1).map_err(|e| {
+            if clean == "%" {
+                continue;
+            }
+            let done = gcode::step(&mut st.modal, &clean, i + 1).map_err(|e| {
                 MachineError::ResumeState {
                     file: self.name.clone(),
                     from_line: before,
@@ -322,7 +346,7 @@ impl Program {
                     st.used[a] = true;
                 }
             }
-            if let Some(mv) = mv {
+            for mv in done.moves {
                 st.max_z = st.max_z.max(mv.to[2]).max(mv.from[2]);
                 let z_only = mv.from[0] == mv.to[0] && mv.from[1] == mv.to[1];
                 if z_only && mv.to[2] < mv.from[2] && !mv.rapid {

@@ -47,12 +47,15 @@ impl Sim {
         self.rt_hold = false;
         self.check_mode = false;
         self.ov = [100; 3];
-        self.clear_g92();
-        // Machine zero is wherever the head stands now: the work position follows.
-        self.modal = stencil_gcode::interpret::Modal::default();
-        for a in 0..3 {
-            self.modal.pos[a] = -self.wco[a];
-        }
+        self.waiting = None;
+        self.line_wait = None;
+        // Machine zero is wherever the head stands now; the work systems (EEPROM) stay, G92
+        // and the modes go, as after a reset.
+        self.modal = stencil_gcode::interpret::Modal {
+            pos: [0.0; 3],
+            ..self.modal.after_reset()
+        };
+        self.sync_wco();
         self.state = if self.cfg.homing {
             State::Alarm
         } else {

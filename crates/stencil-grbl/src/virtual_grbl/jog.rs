@@ -55,9 +55,10 @@ impl Sim {
         let mut to = from;
         for a in 0..3 {
             if let Some(v) = target[a] {
+                // The parser's position is in machine coordinates.
                 to[a] = match (machine, absolute) {
-                    (true, _) => v * unit - self.wco[a],
-                    (false, true) => v * unit,
+                    (true, _) => v * unit,
+                    (false, true) => v * unit + self.wco[a],
                     (false, false) => from[a] + v * unit,
                 };
             }
@@ -98,8 +99,6 @@ impl Sim {
             self.pending = None;
             self.say("ok");
         }
-        for (a, p) in pos.iter().enumerate() {
-            self.modal.pos[a] = p - self.wco[a];
-        }
+        self.modal.pos = pos;
     }
 }

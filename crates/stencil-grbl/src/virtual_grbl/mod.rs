@@ -6,7 +6,7 @@
 //! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
 //! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
 //! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without
-//! homing), `G10 L20/L2 P1` work offsets (reported as `WCO:`), and injected faults. It records
+//! homing), work offsets (reported as `WCO:`), and injected faults. It records
 //! every line it received, what it executed and every move it planned, so a test can check the
 //! machine got exactly the program, once each, in order, and where the head went.
 //!
@@ -89,10 +89,6 @@ impl Drop for VirtualGrbl {
     fn drop(&mut self) {
         self.halt();
     }
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {

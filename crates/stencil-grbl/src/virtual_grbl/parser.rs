@@ -6,9 +6,36 @@ use std::time::Instant;
 use stencil_gcode::interpret as gcode;
 use stencil_gcode::limits::MAX_LINE_BYTES;
 
-use super::lock;
+use stencil_gcode::interpret::Move;
+
+use super::planner::Block;
 use super::record::{Event, Received};
 use super::sim::{Sim, State};
+use super::{lock, Pace};
+
+/// What a line waits for before its `ok`, once its motion is queued.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Wait {
+    /// G4 P: the queue runs out, then the dwell.
+    Dwell(f64),
+    /// G38.x (380 + x): the probe move runs out; no probe is wired.
+    Probe(u16),
+    /// M0: the queue runs out, then a hold until cycle start.
+    Pause { held: bool },
+    /// M2/M30: the queue runs out, then `[MSG:Pgm End]`.
+    End,
+    /// G4 at the machine's pace: its standing-still block is queued.
+    Dwelling,
+}
+
+/// A line waiting, and which line it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct WaitFor {
+    pub(super) wait: Wait,
+    pub(super) idx: usize,
+    /// The line queued motion (recorded as executed when that has run).
+    pub(super) moved: bool,
+}
 
 /// Where the line buffer is in a comment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,12 +66,28 @@ impl Sim {
                 }
                 self.done(idx);
             }
+            self.sync_wco();
+            if self.pending.is_none() {
+                // A reset dropped the line these belonged to.
+                self.pending_rest.clear();
+            }
             if let Some((mv, idx)) = self.pending.take() {
                 if !self.plan(mv, idx) {
                     self.pending = Some((mv, idx));
                     return;
                 }
-                self.say("ok");
+                // An arc's next chord, or the line's `ok` once all are queued.
+                if let Some(next) = self.pending_rest.pop_front() {
+                    self.pending = Some((next, idx));
+                    continue;
+                }
+                self.finish_line(idx, true);
+                continue;
+            }
+            if let Some(w) = self.waiting {
+                if !self.finish_wait(w) {
+                    return;
+                }
                 continue;
             }
             let Some(b) = self.rx.pop_front() else {
@@ -105,28 +148,166 @@ impl Sim {
                 return;
             }
         }
-        if clean.starts_with("G10") {
-            return self.set_work_offset(&clean, idx);
-        }
-        if clean.starts_with("G92") {
-            return self.set_g92(&clean, idx);
-        }
         let mut modal = self.modal;
         match gcode::step(&mut modal, &clean, idx + 1) {
             Err(e) => self.reply_error(e.code),
-            Ok(mv) => {
+            Ok(done) => {
                 self.modal = modal;
-                match mv {
-                    Some(mv) if !self.check_mode => {
-                        if self.plan(mv, idx) {
-                            self.say("ok");
-                        } else {
-                            self.pending = Some((mv, idx));
-                        }
-                    }
-                    _ => self.done(idx),
-                }
+                self.sync_wco();
+                self.run_line(done, idx);
             }
+        }
+    }
+
+    /// Queue what a line does, as Grbl's executor does it: motion into the planner (an arc chord
+    /// by chord), then a dwell, a probe, M0 or a program end after the queue has run out.
+    fn run_line(&mut self, done: gcode::Executed, idx: usize) {
+        self.line_wait = if self.check_mode {
+            None
+        } else if let Some(p) = done.probe {
+            Some(Wait::Probe(p))
+        } else if done.dwell_s > 0.0 {
+            Some(Wait::Dwell(done.dwell_s))
+        } else {
+            match done.flow {
+                Some(gcode::Flow::Pause) => Some(Wait::Pause { held: false }),
+                Some(gcode::Flow::End) => Some(Wait::End),
+                None => None,
+            }
+        };
+        if self.check_mode && done.flow == Some(gcode::Flow::End) {
+            self.say("[MSG:Pgm End]");
+        }
+        let mut moves = done.moves.into_iter();
+        match moves.next() {
+            Some(first) if !self.check_mode => {
+                self.pending_rest = moves.collect();
+                self.pending = Some((first, idx));
+            }
+            _ => self.finish_line(idx, false),
+        }
+    }
+
+    /// The line's motion is queued: answer it, or first wait as it asks. A line that moved is
+    /// recorded as executed when its last block has run, not here.
+    fn finish_line(&mut self, idx: usize, moved: bool) {
+        match self.line_wait.take() {
+            None if moved => self.say("ok"),
+            None => self.done(idx),
+            Some(wait) => self.waiting = Some(WaitFor { wait, idx, moved }),
+        }
+    }
+
+    /// A waiting line's `ok`, once what it waited for is over.
+    fn answer_waited(&mut self, w: WaitFor) {
+        self.waiting = None;
+        if w.moved {
+            self.say("ok");
+        } else {
+            self.done(w.idx);
+        }
+    }
+
+    /// A line waiting for the queue to run out (Grbl's `protocol_buffer_synchronize`): true
+    /// once it has been answered.
+    fn finish_wait(&mut self, w: WaitFor) -> bool {
+        let idle = self.planner.is_empty();
+        match w.wait {
+            Wait::Dwell(s) if idle => {
+                match self.cfg.pace {
+                    Pace::Timed { .. } => {
+                        // The dwell runs as a block that stands still; `ok` when it is over.
+                        self.dwell_block(s, w.idx);
+                        self.waiting = Some(WaitFor {
+                            wait: Wait::Dwelling,
+                            ..w
+                        });
+                        return false;
+                    }
+                    Pace::Instant => self.answer_waited(w),
+                }
+                true
+            }
+            Wait::Dwelling if idle => {
+                // The dwell block recorded the line as executed when it ran out.
+                self.waiting = None;
+                self.say("ok");
+                true
+            }
+            Wait::Probe(p) if idle => {
+                if p == 382 || p == 384 {
+                    // No probe answers: the move ran its length without contact.
+                    self.say("ALARM:5");
+                    lock(&self.shared).events.push(Event::Alarm(5));
+                    self.state = State::Alarm;
+                }
+                self.answer_waited(w);
+                true
+            }
+            Wait::Pause { held: false } if idle => {
+                // M0: a feed hold once the queue is empty; the `ok` comes with cycle start.
+                self.hold = true;
+                self.waiting = Some(WaitFor {
+                    wait: Wait::Pause { held: true },
+                    ..w
+                });
+                false
+            }
+            Wait::Pause { held: true } if !self.hold => {
+                self.answer_waited(w);
+                true
+            }
+            Wait::End if idle => {
+                self.say("[MSG:Pgm End]");
+                self.answer_waited(w);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// G4 at the machine's pace: a block that stands still for `s` seconds.
+    fn dwell_block(&mut self, s: f64, idx: usize) {
+        let here = self.modal.pos;
+        self.planner.push_back(Block {
+            mv: Move {
+                from: here,
+                to: here,
+                rapid: false,
+                feed: 0.0,
+                power: 0.0,
+                spindle_s: 0.0,
+                line: idx + 1,
+            },
+            n: None,
+            idx,
+            remaining_s: s,
+            duration_s: s,
+            jog: false,
+            last: true,
+        });
+    }
+
+    /// The settings the parser reads: `$12`, the arc tolerance.
+    pub(super) fn apply_settings(&mut self) {
+        if let Some(t) = self
+            .settings
+            .iter()
+            .find(|(k, _)| *k == 12)
+            .and_then(|(_, v)| v.parse::<f64>().ok())
+            .filter(|t| *t > 0.0)
+        {
+            self.modal.arc_tolerance = t;
+        }
+    }
+
+    /// Keep the reported work offset (`WCO:`) with the parser's, flagging a change for the next
+    /// status report as Grbl does.
+    pub(super) fn sync_wco(&mut self) {
+        let w = self.modal.wco();
+        if w != self.wco {
+            self.wco = w;
+            self.wco_changed = true;
         }
     }
 

@@ -1,12 +1,12 @@
 //! The planner: moves queued in machine coordinates and run at their feeds (or at once, by the
-//! pace), the head's position along them, and the work offset (`G10 L2/L20 P1`).
+//! pace), and the head's position along them.
 
 use std::time::Instant;
 
-use stencil_gcode::interpret::{self as gcode, Move};
+use stencil_gcode::interpret::Move;
 
 use super::sim::{Sim, State};
-use super::{add, lock, Pace, PlannedMove};
+use super::{lock, Pace, PlannedMove};
 
 /// A move in the planner queue.
 pub(super) struct Block {
@@ -19,6 +19,8 @@ pub(super) struct Block {
     pub(super) duration_s: f64,
     /// A `$J=` jog: shown as `Jog`, dropped by a jog cancel (0x85).
     pub(super) jog: bool,
+    /// The line's last block (an arc has one per chord): its line has run when this has.
+    pub(super) last: bool,
 }
 
 /// The N number a line starts with (`N120G1X5` → 120).
@@ -70,7 +72,7 @@ impl Sim {
             }
             budget -= b.remaining_s / k;
             let done = self.planner.pop_front();
-            if let Some(done) = done {
+            if let Some(done) = done.filter(|d| d.last) {
                 lock(&self.shared).executed.push(done.idx);
             }
         }
@@ -92,7 +94,7 @@ impl Sim {
                 }
                 p
             }
-            None => add(self.modal.pos, self.wco),
+            None => self.modal.pos,
         }
     }
 
@@ -100,12 +102,14 @@ impl Sim {
         if self.planner.len() >= self.cfg.planner_blocks {
             return false;
         }
-        // Blocks run in machine coordinates: the work offset in force when the line was parsed.
+        // The parser's moves are in machine coordinates already, offsets applied; the spindle
+        // runs at S clamped to $30/$31, as Grbl's PWM (and its `FS:` report) does.
         let mv = Move {
-            from: add(mv.from, self.wco),
-            to: add(mv.to, self.wco),
+            power: self.spindle_clamp(mv.power),
+            spindle_s: self.spindle_clamp(mv.spindle_s),
             ..mv
         };
+        let last = self.pending_rest.is_empty();
         let laser_mode = self.laser_mode();
         let jog = {
             let mut r = lock(&self.shared);
@@ -126,7 +130,8 @@ impl Sim {
             jog
         };
         match self.cfg.pace {
-            Pace::Instant => lock(&self.shared).executed.push(idx),
+            Pace::Instant if last => lock(&self.shared).executed.push(idx),
+            Pace::Instant => {}
             Pace::Timed { .. } => {
                 let d = ((mv.to[0] - mv.from[0]).powi(2)
                     + (mv.to[1] - mv.from[1]).powi(2)
@@ -149,106 +154,32 @@ impl Sim {
                     remaining_s: t,
                     duration_s: t,
                     jog,
+                    last,
                 });
             }
         }
         true
     }
 
-    /// `G92 X.. Y..`: the current position becomes these work coordinates, until a reset or a
-    /// power loss (Grbl 1.1 clears G92 in `gc_init`); only axis words are taken here.
-    pub(super) fn set_g92(&mut self, clean: &str, idx: usize) {
-        let words = match gcode::words(clean, idx + 1) {
-            Ok(w) => w,
-            Err(e) => return self.reply_error(e.code),
+    /// S as Grbl's spindle runs it (spindle_control.c): 0 stays off, at or above `$30` runs at
+    /// `$30`, at or below `$31` at `$31`.
+    fn spindle_clamp(&self, s: f64) -> f64 {
+        let setting = |k: u32, default: f64| {
+            self.settings
+                .iter()
+                .find(|(n, _)| *n == k)
+                .and_then(|(_, v)| v.parse::<f64>().ok())
+                .unwrap_or(default)
         };
-        let mut axes = [None::<f64>; 3];
-        for (w, v) in words {
-            match w {
-                'G' if v == 92.0 => {}
-                'X' => axes[0] = Some(v),
-                'Y' => axes[1] = Some(v),
-                'Z' => axes[2] = Some(v),
-                _ => return self.reply_error(20),
-            }
+        let (max, min) = (setting(30, 1000.0), setting(31, 0.0));
+        if s <= 0.0 {
+            0.0
+        } else if s >= max {
+            max
+        } else if s <= min {
+            min
+        } else {
+            s
         }
-        if axes.iter().all(Option::is_none) {
-            return self.reply_error(26);
-        }
-        if self.check_mode {
-            return self.done(idx);
-        }
-        let unit = if self.modal.metric { 1.0 } else { 25.4 };
-        for (a, v) in axes.into_iter().enumerate() {
-            if let Some(v) = v {
-                let machine = self.modal.pos[a] + self.wco[a];
-                let wco = machine - v * unit;
-                self.g92[a] += wco - self.wco[a];
-                self.wco[a] = wco;
-                self.modal.pos[a] = v * unit;
-            }
-        }
-        self.wco_changed = true;
-        self.done(idx);
-    }
-
-    /// A reset or power loss drops the G92 part of the work offset.
-    pub(super) fn clear_g92(&mut self) {
-        for a in 0..3 {
-            let machine = self.modal.pos[a] + self.wco[a];
-            self.wco[a] -= self.g92[a];
-            self.modal.pos[a] = machine - self.wco[a];
-        }
-        if self.g92 != [0.0; 3] {
-            self.wco_changed = true;
-        }
-        self.g92 = [0.0; 3];
-    }
-
-    /// `G10 L20 P1 X.. Y..` (the current position becomes these work coordinates) and
-    /// `G10 L2 P1 X..` (G54's offset itself). P0 is the active system, here always G54; P2..P6
-    /// are taken and kept nowhere (nothing here selects them). The offset counts from the end
-    /// of the queued motion, as Grbl (which waits for the queue to empty first) would see it.
-    pub(super) fn set_work_offset(&mut self, clean: &str, idx: usize) {
-        let words = match gcode::words(clean, idx + 1) {
-            Ok(w) => w,
-            Err(e) => return self.reply_error(e.code),
-        };
-        let (mut l, mut p, mut axes) = (None, None, [None::<f64>; 3]);
-        for (w, v) in words {
-            match w {
-                'G' if v == 10.0 => {}
-                'L' => l = Some(v),
-                'P' => p = Some(v),
-                'X' => axes[0] = Some(v),
-                'Y' => axes[1] = Some(v),
-                'Z' => axes[2] = Some(v),
-                _ => return self.reply_error(20),
-            }
-        }
-        let Some(p) = p else {
-            return self.reply_error(28);
-        };
-        let l20 = match l {
-            Some(20.0) => true,
-            Some(2.0) => false,
-            _ => return self.reply_error(28),
-        };
-        if !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
-            return self.reply_error(29);
-        }
-        if self.check_mode || p > 1.0 {
-            return self.done(idx);
-        }
-        let unit = if self.modal.metric { 1.0 } else { 25.4 };
-        for (a, v) in axes.into_iter().enumerate() {
-            if let Some(v) = v {
-                let machine = self.modal.pos[a] + self.wco[a];
-                self.wco[a] = if l20 { machine - v * unit } else { v * unit };
-                self.modal.pos[a] = machine - self.wco[a];
-            }
-        }
-        self.wco_changed = true;
-        self.done(idx);
     }
 }

@@ -1,8 +1,6 @@
 //! Real-time commands, acted on as they arrive: status reports, feed hold and resume, soft
 //! reset, overrides and the jog cancel.
 
-use stencil_gcode::interpret::Modal;
-
 use super::parser::Comment;
 use super::sim::{Sim, State};
 use super::{lock, Event};
@@ -116,12 +114,9 @@ impl Sim {
         self.setting_pending = None;
         // A reset brings the overrides back to 100 %, as Grbl does.
         self.ov = [100; 3];
-        let pos = self.modal.pos;
-        self.modal = Modal {
-            pos,
-            ..Modal::default()
-        };
-        self.clear_g92();
+        self.waiting = None;
+        self.line_wait = None;
+        self.modal = self.modal.after_reset();
         if moving && self.state == State::Idle {
             // Grbl: a reset during motion may have lost steps, so it locks until unlocked.
             self.say("ALARM:3");

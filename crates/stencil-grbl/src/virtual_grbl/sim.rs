@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{Modal, Move};
 
-use super::parser::Comment;
+use super::parser::{Comment, Wait, WaitFor};
 use super::planner::Block;
 use super::{lock, Pace, Record, VirtualConfig};
 use crate::protocol;
@@ -42,6 +42,12 @@ pub(super) struct Sim {
     pub(super) eeprom: Option<(Instant, usize)>,
     /// A motion line taken from the buffer, waiting for a planner slot (its `ok` waits too).
     pub(super) pending: Option<(Move, usize)>,
+    /// The rest of `pending`'s line: an arc's further chords.
+    pub(super) pending_rest: VecDeque<Move>,
+    /// What the line being queued waits for before its `ok` (a dwell, M0, a probe, M2).
+    pub(super) line_wait: Option<Wait>,
+    /// A line whose motion is queued, waiting for the queue to run out before its `ok`.
+    pub(super) waiting: Option<WaitFor>,
     pub(super) planner: VecDeque<Block>,
     pub(super) modal: Modal,
     pub(super) state: State,
@@ -75,8 +81,6 @@ pub(super) struct Sim {
     pub(super) wco: [f64; 3],
     /// The next status report carries `WCO:` (Grbl sends it at once after a change).
     pub(super) wco_changed: bool,
-    /// The part of `wco` that `G92` added: Grbl 1.1 keeps it only until a reset or power loss.
-    pub(super) g92: [f64; 3],
 }
 
 impl Sim {
@@ -101,6 +105,9 @@ impl Sim {
             comment: Comment::None,
             eeprom: None,
             pending: None,
+            pending_rest: VecDeque::new(),
+            line_wait: None,
+            waiting: None,
             planner: VecDeque::new(),
             modal: Modal::default(),
             state: State::Idle,
@@ -121,9 +128,9 @@ impl Sim {
             frozen: false,
             wco: [0.0; 3],
             wco_changed: false,
-            g92: [0.0; 3],
         };
         sim.settings = super::system::initial_settings(&sim.cfg);
+        sim.apply_settings();
         sim.say("");
         sim.say("Grbl 1.1h ['$' for help]");
         sim.publish();

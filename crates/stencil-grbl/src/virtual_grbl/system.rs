@@ -76,6 +76,18 @@ impl Sim {
                 }
                 self.done(idx);
             }
+            "$#" => {
+                for l in self.ngc_parameters() {
+                    self.say(&l);
+                }
+                self.done(idx);
+            }
+            "$N" => {
+                // No startup blocks are stored.
+                self.say("$N0=");
+                self.say("$N1=");
+                self.done(idx);
+            }
             c if c.starts_with("$J") => self.jog(c, idx),
             c if c[1..]
                 .split_once('=')
@@ -112,7 +124,7 @@ impl Sim {
         if !idle {
             return self.reply_error(8);
         }
-        self.modal.pos = [-self.wco[0], -self.wco[1], -self.wco[2]];
+        self.modal.pos = [0.0; 3];
         self.state = State::Idle;
         self.done(idx);
     }
@@ -121,10 +133,13 @@ impl Sim {
     fn parser_state(&self) -> String {
         let m = &self.modal;
         format!(
-            "[GC:G{} G54 G17 {} {} G94 {} M9 T0 F{} S{}]",
-            m.motion,
+            "[GC:G{} G{} G{} {} {} G{} {} M9 T0 F{} S{}]",
+            stencil_gcode::interpret::motion_word(m.motion),
+            54 + m.coord_select,
+            17 + m.plane,
             if m.metric { "G21" } else { "G20" },
             if m.absolute { "G90" } else { "G91" },
+            if m.inverse_time { 93 } else { 94 },
             match (m.spindle_on, m.dynamic) {
                 (false, _) => "M5",
                 (true, true) => "M4",
@@ -153,5 +168,22 @@ impl Sim {
             .iter()
             .find(|(k, _)| *k == 32)
             .is_some_and(|(_, v)| v.parse::<f64>().is_ok_and(|v| v != 0.0))
+    }
+
+    /// `$#`: the work systems G54..G59, the G28/G30 positions, G92, the tool length offset and
+    /// the last probe, as Grbl's `report_ngc_parameters` prints them (mm, 3 decimals).
+    fn ngc_parameters(&self) -> Vec<String> {
+        let m = &self.modal;
+        let xyz = |p: [f64; 3]| format!("{:.3},{:.3},{:.3}", p[0], p[1], p[2]);
+        let mut out: Vec<String> = (0..6)
+            .map(|k| format!("[G{}:{}]", 54 + k, xyz(m.coords[k])))
+            .collect();
+        out.push(format!("[G28:{}]", xyz(m.g28)));
+        out.push(format!("[G30:{}]", xyz(m.g30)));
+        out.push(format!("[G92:{}]", xyz(m.g92)));
+        out.push(format!("[TLO:{:.3}]", m.tlo));
+        // No probe is wired: no probe position was ever taken.
+        out.push("[PRB:0.000,0.000,0.000:0]".into());
+        out
     }
 }
