@@ -106,12 +106,7 @@ fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
 /// A `stencil make` output folder's report.json.
 pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
     let rp = folder.join("report.json");
-    let text = stencil_io::read_text(
-        &rp,
-        stencil_core::limits::MAX_REPORT_BYTES,
-        "stencil report",
-    )
-    .with_context(|| {
+    let text = stencil_io::read_text(&rp, stencil_io::Kind::Report).with_context(|| {
         format!(
             "{}: is this a `stencil make` output folder?",
             folder.display()
