@@ -324,8 +324,38 @@ fn change_parts(f: &Fidelity) -> String {
     )
 }
 
+/// `stencil make`. The output folder is checked first (an output over an input, or over what is
+/// not a file, is refused with the folder untouched). A run that fails after that leaves nothing
+/// that could be taken for its result: the earlier run's files are moved into `previous/` (see
+/// [`stencil_io::set_aside`]; a person's own files stay where they are), and the error says so
+/// and when they were made.
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
-    let cfg = make_config(&a)?;
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| pipeline::default_out_dir(&a.input));
+    let inputs = make_inputs(&a);
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    stencil_io::check_output_dir(&out_dir, pipeline::OUTPUT_NAMES, &inputs)?;
+    make_in(&a).map_err(|e| super::errors::after_failed_make(&out_dir, e))
+}
+
+/// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
+/// profiles given as paths.
+fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
+    let mut v = vec![a.input.clone()];
+    v.extend(a.bridge.keep_out.clone());
+    for p in [&a.physical.material, &a.machine.machine]
+        .into_iter()
+        .flatten()
+    {
+        v.push(PathBuf::from(p));
+    }
+    v
+}
+
+fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
+    let cfg = make_config(a)?;
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),
@@ -570,6 +600,9 @@ pub struct ToneCmdArgs {
 /// `stencil tone`: the two-tone `make` would bridge for the same picture, size and material (its
 /// twotone.png), written alone.
 pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![a.input.as_path()];
+    inputs.extend(a.material.as_deref().map(std::path::Path::new));
+    stencil_io::check_output(&a.out, &inputs)?;
     let (material, source) = match a.material.as_deref() {
         Some(name) => Material::find(name)?,
         None => Material::find_default(stencil_core::material::DEFAULT_MATERIAL)?,

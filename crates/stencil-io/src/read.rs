@@ -61,7 +61,7 @@ impl Kind {
 
 /// A size in words: "512 MB", "1 MB", "256 KB".
 pub fn size_words(bytes: u64) -> String {
-    if bytes >= 1 << 20 && bytes % (1 << 20) == 0 {
+    if bytes >= 1 << 20 && bytes.is_multiple_of(1 << 20) {
         format!("{} MB", bytes >> 20)
     } else if bytes >= 1 << 10 {
         format!("{} KB", bytes >> 10)
