@@ -50,7 +50,7 @@ impl Kind {
         match self {
             Kind::Picture => "picture",
             Kind::Mesh => "mesh (OBJ)",
-            Kind::Svg => "SVG drawing",
+            Kind::Svg => "drawing (SVG)",
             Kind::Gcode => "G-code file",
             Kind::Profile => "material or machine profile",
             Kind::Journal => "send journal",
