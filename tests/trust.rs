@@ -231,7 +231,8 @@ fn a_failed_run_moves_the_earlier_job_aside() {
     assert_eq!(hidden(&out), Vec::<String>::new());
 }
 
-/// Item 2: `estimate`, `send` and `frame` say where a job comes from before they start.
+/// Item 2: `estimate`, `send` and `frame` say where a job comes from before they start (on
+/// stderr, with the other notes, so that stdout keeps the result scripts read).
 #[test]
 fn jobs_say_where_they_come_from() {
     let dir = tmp();
@@ -256,7 +257,8 @@ fn jobs_say_where_they_come_from() {
         vec!["frame", s(&job), "--dry-run"],
     ] {
         let o = stencil(&args);
-        let text = String::from_utf8_lossy(&o.stdout);
+        // On stderr (stdout keeps the command's result), before anything else.
+        let text = stderr(&o);
         let first = text.lines().next().unwrap_or("");
         for n in [
             &format!("from {}", pic.display()) as &str,
@@ -275,7 +277,11 @@ fn jobs_say_where_they_come_from() {
     let foreign = dir.path().join("other.gcode");
     std::fs::write(&foreign, "G21 G90\nG0 X1 Y1\nM2\n").unwrap();
     let o = stencil(&["estimate", s(&foreign)]);
-    assert!(String::from_utf8_lossy(&o.stdout).contains("not written by stencil"));
+    assert!(
+        stderr(&o).contains("not written by stencil"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Item 3: no command's output replaces one of its inputs, or what is not a regular file; the

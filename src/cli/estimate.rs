@@ -29,7 +29,7 @@ pub struct EstimateArgs {
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
     let text = super::send::read_program(&a.file)?;
-    println!("{}", super::send::origin_line(&a.file, &text));
+    eprintln!("{}", super::send::origin_line(&a.file, &text));
     let moves = interpret(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
     let e = estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));

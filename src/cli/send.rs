@@ -575,7 +575,7 @@ fn print_summary(sum: &Summary, label: &str, virtual_grbl: Option<VirtualGrbl>) 
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
-    println!("{}", origin_line(&a.file, &text));
+    eprintln!("{}", origin_line(&a.file, &text));
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
     let journal_path = journal::path_for(&a.file);

@@ -213,7 +213,7 @@ impl Journal {
     pub fn read(path: &Path) -> Result<Journal, JournalError> {
         let text = match stencil_io::read_text(path, stencil_io::Kind::Journal) {
             Ok(t) => t,
-            Err(stencil_io::ReadError::Io { source, .. })
+            Err(stencil_io::ReadError::Open { source, .. })
                 if source.kind() == std::io::ErrorKind::NotFound =>
             {
                 return Err(JournalError::Missing {

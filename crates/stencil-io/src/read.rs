@@ -100,6 +100,12 @@ pub fn not_a_file(ft: &std::fs::FileType) -> Option<&'static str> {
 /// A file that could not be read within its kind's limits. No variant quotes the file's content.
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
+    #[error("{path}: cannot open this {what}: {source}")]
+    Open {
+        path: PathBuf,
+        what: &'static str,
+        source: std::io::Error,
+    },
     #[error("{path}: cannot read this {what}: {source}")]
     Io {
         path: PathBuf,
@@ -145,7 +151,11 @@ pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
         // it ours: neither, so that the type check below sees them and refuses.
         opts.custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY);
     }
-    let file = opts.open(path).map_err(io)?;
+    let file = opts.open(path).map_err(|source| ReadError::Open {
+        path: path.to_path_buf(),
+        what,
+        source: crate::atomic::plain_io(source),
+    })?;
     let meta = file.metadata().map_err(io)?;
     if let Some(is) = not_a_file(&meta.file_type()) {
         return Err(ReadError::NotAFile {
