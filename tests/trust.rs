@@ -525,6 +525,13 @@ fn received_folders_name_materials_not_files() {
     });
     let o = stencil(&["check", s(&out)]);
     refused(&o, &["material_values", "kerf_mm"]);
+    // A file that is not G-code given to `send`: refused before a port opens, nothing quoted.
+    let o = stencil(&["send", s(&secret), "--dry-run"]);
+    let err = refused(&o, &["not a G-code program", "nothing was sent"]);
+    assert!(
+        !err.contains("SECRET-LINE") && !err.to_lowercase().contains("root:x"),
+        "{err}"
+    );
     // A file that is not TOML given as --material: its first line is not printed.
     let o = stencil(&[
         "check",

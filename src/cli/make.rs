@@ -259,7 +259,9 @@ Example:
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
-    /// Output folder [default: out/<input stem>/].
+    /// Output folder [default: out/<input stem>/]. Its stencil files are replaced all at once; a
+    /// run that fails moves the earlier run's files into previous/ in it, so that they are not
+    /// taken for this run's result. Your own files in it are left alone.
     #[arg(short, long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]

@@ -187,6 +187,25 @@ pub(super) fn settle_folder(dir: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuse, before a port is opened, a file with no move at all whose first line stencil does not
+/// read as G-code: some other file given by mistake (`/etc/passwd`), which would otherwise be
+/// streamed for the controller to reject (and its first line quoted back in that error). A real
+/// program with commands stencil does not know still goes to Grbl to judge.
+fn refuse_non_gcode(path: &Path, job: &Program, text: &str) -> anyhow::Result<()> {
+    if !job.moves.is_empty() {
+        return Ok(());
+    }
+    if let Err(e) = stencil_gcode::interpret::interpret(text) {
+        bail!(
+            "{}: not a G-code program (line {} is not G-code, and no line moves the machine); \
+             nothing was sent",
+            path.display(),
+            e.line
+        );
+    }
+    Ok(())
+}
+
 /// The job's origin, from its header and the file's time, printed before anything moves: which
 /// picture, material, size and machine the file was made for, and when it was written, so that
 /// an old job is not taken for a new one. (When it was made is the file's time, not a header
@@ -578,6 +597,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     eprintln!("{}", origin_line(&a.file, &text));
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
+    refuse_non_gcode(&a.file, &job, &text)?;
     let journal_path = journal::path_for(&a.file);
     let (from_line, machine_arg) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {
