@@ -21,6 +21,8 @@ pub enum WriteError {
     },
     #[error("{path}: another stencil run is writing this folder now; wait for it to finish, or choose another folder with -o")]
     Busy { path: PathBuf },
+    #[error("{path}: not a plan stencil wrote, so it is not run; look at the folder {} and remove it yourself", path.parent().map_or(path.display(), |p| p.display()))]
+    BadPlan { path: PathBuf },
     #[error("{path}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
     NotAFile { path: PathBuf, is: &'static str },
 }

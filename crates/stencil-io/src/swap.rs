@@ -57,26 +57,46 @@ impl Step {
         }
     }
 
-    fn parse(line: &str) -> Option<Step> {
+    /// A plan line, if it is one this module writes for the `owned` names. A plan is a file in
+    /// the folder, and the folder may have come from someone else: a plan that names anything
+    /// else (a person's file, a path out of the folder) is not run.
+    fn parse(line: &str, owned: &[&str]) -> Option<Step> {
+        let file = |s: &str| {
+            let (folder, name) = s.rsplit_once('/').unwrap_or(("", s));
+            let folder_ok = matches!(
+                folder,
+                "" | PREVIOUS_DIR
+                    | ".stencil-swap/new"
+                    | ".stencil-swap/old"
+                    | ".stencil-swap/old-previous"
+            );
+            folder_ok && owned.contains(&name)
+        };
+        let folder = |s: &str| {
+            matches!(
+                s,
+                PREVIOUS_DIR | ".stencil-swap/old" | ".stencil-swap/old-previous"
+            )
+        };
         let mut f = line.split('\t');
         let step = match (f.next()?, f.next()?, f.next()) {
-            ("R", a, Some(b)) => Step::Rename(a.into(), b.into()),
-            ("M", a, None) => Step::MkDir(a.into()),
-            ("X", a, None) => Step::RmDirIfEmpty(a.into()),
+            ("R", a, Some(b)) if file(a) && file(b) => Step::Rename(a.into(), b.into()),
+            ("M", a, None) if folder(a) => Step::MkDir(a.into()),
+            ("X", PREVIOUS_DIR, None) => Step::RmDirIfEmpty(PREVIOUS_DIR.into()),
             _ => return None,
         };
-        // Only names this module writes: never an absolute path or a way out of the folder.
-        let ok = |s: &str| {
-            !s.is_empty() && !s.starts_with('/') && s.split('/').all(|c| !c.is_empty() && c != "..")
-        };
-        let fine = match &step {
-            Step::Rename(a, b) => ok(a) && ok(b),
-            Step::MkDir(a) | Step::RmDirIfEmpty(a) => ok(a),
-        };
-        fine.then_some(step)
+        Some(step)
     }
 
     fn run(&self, dir: &Path) -> std::io::Result<()> {
+        // previous/ is followed only as a real folder, never a link to somewhere else.
+        let through_previous = match self {
+            Step::Rename(a, b) => a.starts_with("previous/") || b.starts_with("previous/"),
+            _ => false,
+        };
+        if through_previous && !real_dir(&dir.join(PREVIOUS_DIR)) {
+            return Err(std::io::Error::other("previous is not a folder"));
+        }
         match self {
             Step::Rename(a, b) => match std::fs::rename(dir.join(a), dir.join(b)) {
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound && !exists(&dir.join(a)) => {
@@ -98,6 +118,11 @@ impl Step {
 
 fn exists(p: &Path) -> bool {
     std::fs::symlink_metadata(p).is_ok()
+}
+
+/// Whether `p` is a folder itself (not a link to one).
+fn real_dir(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir())
 }
 
 /// Where a test may stop the swap, as a kill would: the hook gets a running count of the points
@@ -207,11 +232,11 @@ pub enum Recovered {
     Discarded,
 }
 
-/// Finish or discard a swap an earlier, killed run left in `dir`, and delete the hidden temp files
-/// a killed single-file write left ([`crate::write_atomic`]). Commands that read a folder call it
-/// first, so that they never read a mix of two runs. A folder another run is writing now is
-/// refused ([`WriteError::Busy`]).
-pub fn recover(dir: &Path) -> Result<Recovered, WriteError> {
+/// Finish or discard a swap an earlier, killed run left in `dir` for the `owned` names, and delete
+/// the hidden temp files a killed single-file write left ([`crate::write_atomic`]). Commands that
+/// read a folder call it first, so that they never read a mix of two runs. A folder another run is
+/// writing now is refused ([`WriteError::Busy`]).
+pub fn recover(dir: &Path, owned: &[&str]) -> Result<Recovered, WriteError> {
     if !exists(&dir.join(SWAP_DIR)) {
         crate::atomic::sweep_temps(dir);
         return Ok(Recovered::Nothing);
@@ -219,14 +244,14 @@ pub fn recover(dir: &Path) -> Result<Recovered, WriteError> {
     let _lock = lock(dir)?;
     let mut h = process_hook();
     let mut pts = Points { hook: &mut h, n: 0 };
-    recover_locked(dir, &mut pts).map_err(unstop)
+    recover_locked(dir, owned, &mut pts).map_err(unstop)
 }
 
 #[cfg(test)]
-pub(crate) fn recover_hooked(dir: &Path, hook: Hook) -> Result<Recovered, Stop> {
+pub(crate) fn recover_hooked(dir: &Path, owned: &[&str], hook: Hook) -> Result<Recovered, Stop> {
     let _lock = lock(dir)?;
     let mut pts = Points { hook, n: 0 };
-    recover_locked(dir, &mut pts)
+    recover_locked(dir, owned, &mut pts)
 }
 
 fn unstop(s: Stop) -> WriteError {
@@ -239,15 +264,21 @@ fn unstop(s: Stop) -> WriteError {
     }
 }
 
-fn recover_locked(dir: &Path, pts: &mut Points) -> Result<Recovered, Stop> {
+fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recovered, Stop> {
     crate::atomic::sweep_temps(dir);
     let swap = dir.join(SWAP_DIR);
     if !exists(&swap) {
         return Ok(Recovered::Nothing);
     }
+    if !real_dir(&swap) {
+        return Err(Stop::Error(WriteError::NotAFile {
+            path: swap,
+            is: "not a folder stencil made",
+        }));
+    }
     let plan = swap.join(PLAN);
     if exists(&plan) {
-        run_plan(dir, pts)?;
+        run_plan(dir, owned, pts)?;
         finish(dir, pts)?;
         Ok(Recovered::Finished)
     } else {
@@ -258,23 +289,18 @@ fn recover_locked(dir: &Path, pts: &mut Points) -> Result<Recovered, Stop> {
 }
 
 /// Run the committed plan from its first unrecorded step.
-fn run_plan(dir: &Path, pts: &mut Points) -> Result<(), Stop> {
+fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
     let swap = dir.join(SWAP_DIR);
     let plan_path = swap.join(PLAN);
-    let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal)
-        .map_err(|e| io_err(&plan_path, std::io::Error::other(e.to_string())))?;
+    let bad = || {
+        Stop::Error(WriteError::BadPlan {
+            path: plan_path.clone(),
+        })
+    };
+    let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
     let steps: Vec<Step> = text
         .lines()
-        .map(|l| {
-            Step::parse(l).ok_or_else(|| {
-                io_err(
-                    &plan_path,
-                    std::io::Error::other(
-                        "not a plan stencil wrote; remove the folder .stencil-swap yourself",
-                    ),
-                )
-            })
-        })
+        .map(|l| Step::parse(l, owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
     let done = std::fs::symlink_metadata(&done_path).map_or(0, |m| m.len() as usize);
@@ -384,7 +410,7 @@ pub(crate) fn replace_all_hooked(
 ) -> Result<Replaced, Stop> {
     let mut pts = Points { hook, n: 0 };
     let _lock = lock(dir)?;
-    recover_locked(dir, &mut pts)?;
+    recover_locked(dir, owned, &mut pts)?;
     let mut owned: Vec<&str> = owned.to_vec();
     for (n, _) in files {
         if !owned.contains(&n.as_str()) {
@@ -418,7 +444,7 @@ pub(crate) fn replace_all_hooked(
         steps.push(Step::Rename(format!("{SWAP_DIR}/new/{n}"), n.clone()));
     }
     commit(dir, &steps, &mut pts)?;
-    run_plan(dir, &mut pts)?;
+    run_plan(dir, &owned, &mut pts)?;
     finish(dir, &mut pts)?;
     Ok(Replaced {
         written: files.iter().map(|(n, _)| dir.join(n)).collect(),
@@ -475,7 +501,7 @@ pub(crate) fn set_aside_hooked(
         return Ok(None);
     }
     let _lock = lock(dir)?;
-    recover_locked(dir, &mut pts)?;
+    recover_locked(dir, owned, &mut pts)?;
     let mut existing = Vec::new();
     let mut made: Option<SystemTime> = None;
     for n in owned {
@@ -509,7 +535,7 @@ pub(crate) fn set_aside_hooked(
     }
     new_swap(dir)?;
     commit(dir, &steps, &mut pts)?;
-    run_plan(dir, &mut pts)?;
+    run_plan(dir, &owned, &mut pts)?;
     finish(dir, &mut pts)?;
     Ok(Some(SetAside {
         names: existing.iter().map(|s| s.to_string()).collect(),

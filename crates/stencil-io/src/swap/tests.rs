@@ -232,10 +232,11 @@ fn a_kill_at_any_point_leaves_the_old_or_the_new_set() {
             // The next run (or a reader) recovers; sometimes it is killed too.
             if rng.below(2) == 0 {
                 let j = 1 + rng.below(8) as usize;
-                let _ = recover_hooked(t.dir.path(), &mut |n| n < j);
+                let _ = recover_hooked(t.dir.path(), OWNED, &mut |n| n < j);
                 nested += 1;
             }
-            recover_hooked(t.dir.path(), &mut |_| true).unwrap_or_else(|_| panic!("recovers"));
+            recover_hooked(t.dir.path(), OWNED, &mut |_| true)
+                .unwrap_or_else(|_| panic!("recovers"));
             let got = snapshot(t.dir.path());
             match which(&got, &t.old, &t.new) {
                 Some("old") => olds += 1,
@@ -292,4 +293,29 @@ fn a_second_writer_is_told_the_folder_is_busy() {
     );
     drop(held);
     replace_all(dir.path(), &files, OWNED).unwrap();
+}
+
+/// A plan is a file in the folder, and a received folder may carry a crafted one: a plan that
+/// would move a person's file (or reach out of the folder) is not run, and nothing moves.
+#[test]
+fn a_plan_naming_other_files_is_not_run() {
+    for line in [
+        "R\tnotes.txt\t.stencil-swap/old/notes.txt",
+        "R\t../outside/report.json\t.stencil-swap/old/report.json",
+        "R\treport.json\t/tmp/report.json",
+        "M\t/tmp/x",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "notes.txt", b"mine");
+        write(dir.path(), "report.json", b"theirs");
+        write(
+            dir.path(),
+            ".stencil-swap/plan",
+            format!("{line}\n").as_bytes(),
+        );
+        let before = snapshot(dir.path());
+        let e = recover(dir.path(), OWNED).unwrap_err().to_string();
+        assert!(e.contains("not a plan stencil wrote"), "{line}: {e}");
+        assert_eq!(snapshot(dir.path()), before, "{line}");
+    }
 }
