@@ -535,7 +535,7 @@ pub(crate) fn set_aside_hooked(
     }
     new_swap(dir)?;
     commit(dir, &steps, &mut pts)?;
-    run_plan(dir, &owned, &mut pts)?;
+    run_plan(dir, owned, &mut pts)?;
     finish(dir, &mut pts)?;
     Ok(Some(SetAside {
         names: existing.iter().map(|s| s.to_string()).collect(),
