@@ -53,6 +53,25 @@ fn ring(path: &Path, r: f64) {
     });
 }
 
+/// A ring picture in `d` and a `make` of it (PNG, SVG and G-code, 150 mm wide) into `d/name`.
+fn made(d: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let pic = d.join("photo.png");
+    ring(&pic, 18.0);
+    let out = d.join(name);
+    let ok = stencil(&[
+        "make",
+        s(&pic),
+        "-o",
+        s(&out),
+        "--emit",
+        "png,svg,gcode",
+        "--width-mm",
+        "150",
+    ]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    (pic, out)
+}
+
 /// The owned files of a folder and their bytes (report.json without its timings, which differ
 /// from run to run).
 fn owned_set(dir: &Path) -> BTreeMap<String, Vec<u8>> {
@@ -162,20 +181,7 @@ fn make_killed_at_every_step_of_the_swap_leaves_one_whole_set() {
 #[test]
 fn a_failed_run_moves_the_earlier_job_aside() {
     let dir = tmp();
-    let pic = dir.path().join("photo.png");
-    ring(&pic, 18.0);
-    let out = dir.path().join("out");
-    let ok = stencil(&[
-        "make",
-        s(&pic),
-        "-o",
-        s(&out),
-        "--emit",
-        "png,svg,gcode",
-        "--width-mm",
-        "150",
-    ]);
-    assert!(ok.status.success(), "{}", stderr(&ok));
+    let (pic, out) = made(dir.path(), "out");
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
     let earlier = std::fs::read(out.join("stencil.gcode")).unwrap();
     let o = stencil(&[
@@ -236,20 +242,7 @@ fn a_failed_run_moves_the_earlier_job_aside() {
 #[test]
 fn jobs_say_where_they_come_from() {
     let dir = tmp();
-    let pic = dir.path().join("photo.png");
-    ring(&pic, 18.0);
-    let out = dir.path().join("out");
-    let ok = stencil(&[
-        "make",
-        s(&pic),
-        "-o",
-        s(&out),
-        "--emit",
-        "png,svg,gcode",
-        "--width-mm",
-        "150",
-    ]);
-    assert!(ok.status.success(), "{}", stderr(&ok));
+    let (pic, out) = made(dir.path(), "out");
     let job = out.join("stencil.gcode");
     for args in [
         vec!["estimate", s(&job)],
@@ -290,11 +283,7 @@ fn jobs_say_where_they_come_from() {
 fn outputs_never_replace_inputs_or_what_is_not_a_file() {
     let dir = tmp();
     let d = dir.path();
-    let pic = d.join("photo.png");
-    ring(&pic, 18.0);
-    let out = d.join("out");
-    let ok = stencil(&["make", s(&pic), "-o", s(&out), "--emit", "png,svg,gcode"]);
-    assert!(ok.status.success(), "{}", stderr(&ok));
+    let (pic, out) = made(d, "out");
     let job = out.join("stencil.gcode");
     let svg = out.join("stencil.svg");
     let png = out.join("stencil.png");
@@ -453,11 +442,7 @@ fn fifos_devices_and_huge_files_are_refused_at_once() {
 /// A stencil folder with a report.json edited by `edit`.
 fn received_folder(d: &Path, edit: impl Fn(&mut serde_json::Value)) -> PathBuf {
     std::fs::create_dir_all(d).unwrap();
-    let pic = d.join("photo.png");
-    ring(&pic, 18.0);
-    let out = d.join("received");
-    let ok = stencil(&["make", s(&pic), "-o", s(&out), "--emit", "png,svg"]);
-    assert!(ok.status.success(), "{}", stderr(&ok));
+    let (_, out) = made(d, "received");
     let rp = out.join("report.json");
     let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rp).unwrap()).unwrap();
     edit(&mut r);
