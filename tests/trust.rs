@@ -530,3 +530,30 @@ fn received_folders_name_materials_not_files() {
         "{err}"
     );
 }
+
+/// Two runs into one folder at once: the swap holds the folder's lock, so the second is told the
+/// folder is busy and moves nothing aside; the folder ends with one whole set.
+#[test]
+fn a_run_that_finds_the_folder_busy_leaves_it_alone() {
+    let dir = tmp();
+    let (pic, out) = made(dir.path(), "out");
+    let before = owned_set(&out);
+    // Hold the lock as a running `make` would (an advisory lock on the folder itself).
+    let held = std::fs::File::open(&out).unwrap();
+    held.try_lock().unwrap();
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "-o",
+        s(&out),
+        "--emit",
+        "png,svg,gcode",
+        "--width-mm",
+        "150",
+    ]);
+    let err = refused(&o, &["another stencil run is writing this folder now"]);
+    assert!(!err.contains("previous"), "{err}");
+    drop(held);
+    assert_eq!(owned_set(&out), before);
+    assert!(!out.join("previous").exists());
+}

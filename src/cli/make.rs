@@ -419,6 +419,11 @@ fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
             fidelity.changed_pct,
             change_parts(&fidelity),
         ),
+        // Another run is writing the folder: said as it is (kept as its type, so that the failed
+        // run does not move that run's files aside).
+        stencil_core::Error::Export(export::ExportError::Write(
+            w @ stencil_io::WriteError::Busy { .. },
+        )) => anyhow::Error::new(w),
         stencil_core::Error::Plan(p) => {
             anyhow::anyhow!("{}: {}", cfg.input.display(), super::errors::plan(&p))
         }
