@@ -557,3 +557,57 @@ fn a_run_that_finds_the_folder_busy_leaves_it_alone() {
     assert_eq!(owned_set(&out), before);
     assert!(!out.join("previous").exists());
 }
+
+/// Item 2 under item 1: a failed `make` aborted at every point of moving the earlier set aside.
+/// After the next reader settles the folder, the earlier set is whole either where it was or in
+/// previous/, never split between them.
+#[test]
+fn a_failed_run_killed_while_moving_the_earlier_set_aside_leaves_it_whole() {
+    if !cfg!(debug_assertions) {
+        return;
+    }
+    let dir = tmp();
+    let (pic, reference) = made(dir.path(), "ref");
+    let old = owned_set(&reference);
+    let (mut kills, mut stayed, mut moved) = (0, 0, 0);
+    for k in 1.. {
+        let out = dir.path().join(format!("out{k}"));
+        std::fs::create_dir(&out).unwrap();
+        for n in files_in(&reference) {
+            std::fs::copy(reference.join(&n), out.join(&n)).unwrap();
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+            .args(["make", s(&pic), "-o", s(&out), "--emit", "png,svg,gcode"])
+            .args(["--width-mm", "500"])
+            .env("STENCIL_FAULT_SWAP_STEP", k.to_string())
+            .output()
+            .unwrap();
+        if o.status.code().is_some() {
+            // Past the last point: the failed run moved the set aside whole.
+            refused(&o, &["previous"]);
+            assert_eq!(owned_set(&out.join("previous")), old);
+            break;
+        }
+        kills += 1;
+        let c = stencil(&["estimate", s(&out.join("stencil.gcode"))]);
+        assert!(!stderr(&c).contains("panicked"));
+        let (here, aside) = (owned_set(&out), owned_set(&out.join("previous")));
+        if here == old && aside.is_empty() {
+            stayed += 1;
+        } else if here.is_empty() && aside == old {
+            moved += 1;
+        } else {
+            panic!(
+                "killed at {k}: split: here {:?}, previous {:?}",
+                here.keys().collect::<Vec<_>>(),
+                aside.keys().collect::<Vec<_>>()
+            );
+        }
+        assert_eq!(hidden(&out), Vec::<String>::new());
+    }
+    println!("failed make killed at {kills} points: {stayed} kept the set in place, {moved} in previous/");
+    assert!(
+        kills > 10 && stayed > 0 && moved > 0,
+        "{kills} {stayed} {moved}"
+    );
+}
