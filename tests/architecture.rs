@@ -193,7 +193,9 @@ fn core_stages_use_only_earlier_layers() {
         ("export", &["raster", "vector", "limits", "units"][..]),
         (
             "report",
-            &["raster", "tone", "bridge", "vector", "check", "units"][..],
+            &[
+                "raster", "tone", "bridge", "vector", "check", "units", "material",
+            ][..],
         ),
     ]);
     let src = root().join("crates/stencil-core/src");

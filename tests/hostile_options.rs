@@ -287,11 +287,12 @@ fn profiles_that_never_end_are_refused() {
     let dir = tmp();
     let big = dir.path().join("big.toml");
     std::fs::write(&big, " ".repeat(2 << 20)).unwrap();
-    for arg in ["/dev/zero", s(&big)] {
-        make_refused(&["--material", arg], &[arg, "profile", "1024 KB"]);
+    // A device is refused at once (not read up to the cap); a large file by its size.
+    for (arg, why) in [("/dev/zero", "a device"), (s(&big), "1 MB")] {
+        make_refused(&["--material", arg], &[arg, "profile", why]);
         make_refused(
             &["--emit", "png,gcode", "--machine", arg],
-            &[arg, "profile", "1024 KB"],
+            &[arg, "profile", why],
         );
     }
 }
@@ -315,8 +316,9 @@ fn a_failed_write_keeps_the_previous_run() {
     let o = stencil(&["make", s(&rings()), "-o", s(&out), "--emit", "png"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let before = snapshot(&out);
-    // stencil.svg cannot be put in place (a folder holds its name): the run fails after the PNGs,
-    // which come first, could already have replaced the old ones.
+    // stencil.svg cannot be put in place (a folder holds its name): refused before the run, so
+    // the earlier files stay as they were (a failure inside the swap is tested by the kills of
+    // tests/trust.rs and the swap's own fuzz).
     std::fs::create_dir_all(out.join("stencil.svg").join("inside")).unwrap();
     let o = stencil(&[
         "make",
@@ -328,7 +330,7 @@ fn a_failed_write_keeps_the_previous_run() {
         "--threshold",
         "200",
     ]);
-    let err = refused(&o, &["stencil.svg", "cannot write"]);
+    let err = refused(&o, &["stencil.svg", "is a folder"]);
     assert!(!err.contains(".stencil-"), "a temp file's name: {err}");
     assert_eq!(snapshot(&out), before, "the previous run's files are back");
     assert!(

@@ -106,12 +106,7 @@ fn load_bits(path: &Path, max_pixels: u64) -> anyhow::Result<BitGrid> {
 /// A `stencil make` output folder's report.json.
 pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
     let rp = folder.join("report.json");
-    let text = stencil_io::read_text(
-        &rp,
-        stencil_core::limits::MAX_REPORT_BYTES,
-        "stencil report",
-    )
-    .with_context(|| {
+    let text = stencil_io::read_text(&rp, stencil_io::Kind::Report).with_context(|| {
         format!(
             "{}: is this a `stencil make` output folder?",
             folder.display()
@@ -124,6 +119,7 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = StageBar::start();
     bar.set("read");
     let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
+        super::send::settle_folder(&a.input)?;
         (a.input.join("stencil.png"), Some(read_report(&a.input)?))
     } else {
         (a.input.clone(), None)
@@ -138,7 +134,10 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read the stencil picture", png.display())
         }
     })?;
-    let material = match (&a.material, report.as_ref().map(material_of_report)) {
+    let material = match (
+        &a.material,
+        report.as_ref().map(|r| material_of_report(r, &a.input)),
+    ) {
         (Some(name), _) => Material::find(name)?.0,
         (None, Some(Some(found))) => found?,
         (None, _) => Material::find_default(DEFAULT_MATERIAL)?.0,
@@ -256,12 +255,39 @@ fn report_bridges(
 /// The material a `make` run used, as its report records it: the file it was read from when that
 /// is still there, the shipped copy when it was the embedded one, else the name looked up again.
 /// `None` when the report names no material.
-pub fn material_of_report(r: &Report) -> Option<anyhow::Result<Material>> {
+/// The material a `make` folder's report.json carries: its values (checked like a profile file),
+/// or, in a report from before they were written, a shipped or `./profiles/` material by name.
+/// Never a file the report names: a received folder names materials, not files, so a report whose
+/// material is a path (`/etc/passwd`, `../../x.toml`) is refused without opening anything.
+pub fn material_of_report(r: &Report, folder: &Path) -> Option<anyhow::Result<Material>> {
+    let rp = folder.join("report.json");
+    if let Some(v) = &r.material_values {
+        let origin = PathBuf::from(format!("{} (material_values)", rp.display()));
+        return Some(Material::from_values(v.clone(), &origin).map_err(anyhow::Error::from));
+    }
     let name = r.material.as_deref()?;
-    let found = match r.material_source.as_deref() {
-        Some(src) if Path::new(src).is_file() => Material::load(Path::new(src)),
-        Some(src) if src.starts_with("<embedded>") => Material::find_default(name).map(|(m, _)| m),
-        _ => Material::find(name).map(|(m, _)| m),
+    let plain = !name.is_empty()
+        && !name.starts_with('.')
+        && !name.ends_with(".toml")
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if !plain {
+        return Some(Err(anyhow::anyhow!(
+            "{}: the material is given as \"{}\", which is not a material name; a received folder \
+             names its material, never a file to read: name one with --material",
+            rp.display(),
+            stencil_io::excerpt(name)
+        )));
+    }
+    let found = if r
+        .material_source
+        .as_deref()
+        .is_some_and(|s| s.starts_with("<embedded>"))
+    {
+        Material::find_default(name)
+    } else {
+        Material::find(name)
     };
-    Some(found.map_err(anyhow::Error::from))
+    Some(found.map(|(m, _)| m).map_err(anyhow::Error::from))
 }

@@ -364,3 +364,92 @@ fn mesh_setting(s: &MeshSetting) -> String {
         }
     }
 }
+
+/// An error and its causes on one line, outermost first, each cause said once: a cause whose
+/// text the message already holds (a library error that words its source into its own message)
+/// is not repeated. What `main` prints after "error: ".
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = describe(cause);
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
+/// A time as "2026-11-26 17:03 UTC" (no time zone database: the civil date from the day count,
+/// after Howard Hinnant's `civil_from_days`).
+pub fn utc(t: std::time::SystemTime) -> String {
+    let s = t
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs() as i64);
+    let (days, secs) = (s.div_euclid(86_400), s.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02} UTC",
+        secs / 3600,
+        secs % 3600 / 60
+    )
+}
+
+/// A failed `make` in full: the error, then what the output folder holds. The earlier run's files
+/// are moved into `previous/` ([`stencil_io::set_aside`]) so that `send` cannot stream them as
+/// this run's job; the message says which files, from when, and where they are. A run refused
+/// because another run is writing the folder leaves that run's files alone.
+pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
+    use stencil_io::WriteError;
+    let busy = |w: &WriteError| matches!(w, WriteError::Busy { .. });
+    let is_busy = e.chain().any(|c| {
+        c.downcast_ref::<WriteError>().is_some_and(busy)
+            || matches!(
+                c.downcast_ref::<stencil_core::Error>(),
+                Some(stencil_core::Error::Export(ExportError::Write(w))) if busy(w)
+            )
+    });
+    if is_busy {
+        return e;
+    }
+    let note = match stencil_io::set_aside(dir, stencil_core::pipeline::OUTPUT_NAMES) {
+        Ok(None) => return e,
+        Ok(Some(s)) => format!(
+            "nothing of this run was written; the earlier run's files in {} ({}{}) were moved to \
+             {}/ so that they are not taken for this run's result",
+            dir.display(),
+            s.names.join(", "),
+            s.made
+                .map_or(String::new(), |t| format!(", made {}", utc(t))),
+            s.into.display()
+        ),
+        Err(w) => format!(
+            "nothing of this run was written; {} still holds an earlier run's files, which are \
+             not this run's result (moving them aside failed: {w})",
+            dir.display()
+        ),
+    };
+    anyhow::anyhow!("{}; {note}", one_line(&e))
+}
+
+#[cfg(test)]
+mod time_tests {
+    #[test]
+    fn utc_dates() {
+        let t = |s: u64| super::utc(std::time::UNIX_EPOCH + std::time::Duration::from_secs(s));
+        assert_eq!(t(0), "1970-01-01 00:00 UTC");
+        assert_eq!(t(951_782_400), "2000-02-29 00:00 UTC");
+        assert_eq!(t(1_795_700_000), "2026-11-26 13:33 UTC");
+    }
+}

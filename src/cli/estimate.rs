@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
 use clap::Args;
 
 use stencil_gcode::estimate::{estimate_with, format_duration, length_over_feed_s};
@@ -29,8 +28,8 @@ pub struct EstimateArgs {
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let text = std::fs::read_to_string(&a.file)
-        .with_context(|| format!("{}: cannot read", a.file.display()))?;
+    let text = super::send::read_program(&a.file)?;
+    eprintln!("{}", super::send::origin_line(&a.file, &text));
     super::send::name_machine_changes_in(&a.file, &text);
     let program =
         interpret_program(&text).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;

@@ -221,6 +221,7 @@ pub fn can_ask() -> bool {
 
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let text = super::send::read_program(&a.file)?;
+    eprintln!("{}", super::send::origin_line(&a.file, &text));
     let job = Program::parse(&a.file.display().to_string(), &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;

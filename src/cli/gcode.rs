@@ -233,7 +233,21 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     } else {
         (a.input.clone(), None)
     };
-    let text = std::fs::read_to_string(&svg_path).with_context(|| {
+    if let Some(d) = &dir {
+        super::send::settle_folder(d)?;
+    }
+    let out = a.out.clone().unwrap_or_else(|| match &dir {
+        Some(d) => d.join("stencil.gcode"),
+        None => svg_path.with_extension("gcode"),
+    });
+    let report_path = dir.as_ref().map(|d| d.join("report.json"));
+    let mut inputs = vec![svg_path.as_path()];
+    inputs.extend(report_path.as_deref());
+    for p in [&a.material, &a.machine.machine].into_iter().flatten() {
+        inputs.push(Path::new(p));
+    }
+    stencil_io::check_output(&out, &inputs)?;
+    let text = stencil_io::read_text(&svg_path, stencil_io::Kind::Svg).with_context(|| {
         if dir.is_some() {
             format!(
                 "{}: cannot read the stencil's SVG; run `stencil make` with SVG output first",
@@ -249,7 +263,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         (Some(m), _) => Some(Material::find(m)?.0),
         (None, Some(d)) if d.join("report.json").is_file() => {
             let r = super::check::read_report(d)?;
-            super::check::material_of_report(&r).transpose()?
+            super::check::material_of_report(&r, d).transpose()?
         }
         (None, _) => None,
     };
@@ -265,10 +279,6 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("{}: the kerf offset", svg_path.display()))?;
     }
     let settings = a.cut.settings(base, &machine)?;
-    let out = a.out.clone().unwrap_or_else(|| match &dir {
-        Some(d) => d.join("stencil.gcode"),
-        None => svg_path.with_extension("gcode"),
-    });
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));

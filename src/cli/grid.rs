@@ -75,6 +75,11 @@ fn describe(s: &Steps, unit: &str) -> String {
 }
 
 pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs: Vec<&std::path::Path> = Vec::new();
+    inputs.extend(a.machine.as_deref().map(std::path::Path::new));
+    inputs.extend(a.material.as_deref().map(std::path::Path::new));
+    stencil_io::check_output(&a.output, &inputs)?;
+    stencil_io::check_output(&a.output.with_extension("svg"), &inputs)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     check_tool_options(&a, &machine)?;
     // Without --material, the machine's tool picks one (as `make` does).

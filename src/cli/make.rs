@@ -259,7 +259,9 @@ Example:
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
     pub input: PathBuf,
-    /// Output folder [default: out/<input stem>/].
+    /// Output folder [default: out/<input stem>/]. Its stencil files are replaced all at once; a
+    /// run that fails moves the earlier run's files into previous/ in it, so that they are not
+    /// taken for this run's result. Your own files in it are left alone.
     #[arg(short, long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -324,8 +326,38 @@ fn change_parts(f: &Fidelity) -> String {
     )
 }
 
+/// `stencil make`. The output folder is checked first (an output over an input, or over what is
+/// not a file, is refused with the folder untouched). A run that fails after that leaves nothing
+/// that could be taken for its result: the earlier run's files are moved into `previous/` (see
+/// [`stencil_io::set_aside`]; a person's own files stay where they are), and the error says so
+/// and when they were made.
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
-    let cfg = make_config(&a)?;
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| pipeline::default_out_dir(&a.input));
+    let inputs = make_inputs(&a);
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    stencil_io::check_output_dir(&out_dir, pipeline::OUTPUT_NAMES, &inputs)?;
+    make_in(&a).map_err(|e| super::errors::after_failed_make(&out_dir, e))
+}
+
+/// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
+/// profiles given as paths.
+fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
+    let mut v = vec![a.input.clone()];
+    v.extend(a.bridge.keep_out.clone());
+    for p in [&a.physical.material, &a.machine.machine]
+        .into_iter()
+        .flatten()
+    {
+        v.push(PathBuf::from(p));
+    }
+    v
+}
+
+fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
+    let cfg = make_config(a)?;
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),
@@ -387,6 +419,11 @@ fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
             fidelity.changed_pct,
             change_parts(&fidelity),
         ),
+        // Another run is writing the folder: said as it is (kept as its type, so that the failed
+        // run does not move that run's files aside).
+        stencil_core::Error::Export(export::ExportError::Write(
+            w @ stencil_io::WriteError::Busy { .. },
+        )) => anyhow::Error::new(w),
         stencil_core::Error::Plan(p) => {
             anyhow::anyhow!("{}: {}", cfg.input.display(), super::errors::plan(&p))
         }
@@ -570,6 +607,9 @@ pub struct ToneCmdArgs {
 /// `stencil tone`: the two-tone `make` would bridge for the same picture, size and material (its
 /// twotone.png), written alone.
 pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![a.input.as_path()];
+    inputs.extend(a.material.as_deref().map(std::path::Path::new));
+    stencil_io::check_output(&a.out, &inputs)?;
     let (material, source) = match a.material.as_deref() {
         Some(name) => Material::find(name)?,
         None => Material::find_default(stencil_core::material::DEFAULT_MATERIAL)?,

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -200,16 +200,100 @@ pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
     super::number_in(s, 0.1..=3600.0, " seconds")
 }
 
-pub(super) fn read_program(path: &PathBuf) -> anyhow::Result<String> {
-    let bytes = std::fs::read(path)
-        .with_context(|| format!("{}: cannot read the G-code file", path.display()))?;
-    String::from_utf8(bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: not a text file (invalid UTF-8 at byte {}); G-code must be ASCII",
+/// A G-code file, read through the bounded reader (at most 512 MB; a FIFO or a device is refused
+/// at once). A `stencil make` folder it lies in that a killed run left half-swapped is finished
+/// first ([`stencil_io::recover`]), so the program is never one run's beside another run's files.
+pub(super) fn read_program(path: &Path) -> anyhow::Result<String> {
+    settle_folder_of(path)?;
+    Ok(stencil_io::read_text(path, stencil_io::Kind::Gcode)?)
+}
+
+/// Finish or discard a half-finished swap of `make` in the folder `path` is in.
+pub(super) fn settle_folder_of(path: &Path) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    settle_folder(dir)
+}
+
+/// Finish or discard a half-finished swap of `make` in `dir`, saying so.
+pub(super) fn settle_folder(dir: &Path) -> anyhow::Result<()> {
+    match stencil_io::recover(dir, stencil_core::pipeline::OUTPUT_NAMES)? {
+        stencil_io::Recovered::Nothing => {}
+        stencil_io::Recovered::Finished => eprintln!(
+            "note: {}: finished writing the files of a `stencil make` that was stopped while it \
+             put them in place",
+            dir.display()
+        ),
+        stencil_io::Recovered::Discarded => eprintln!(
+            "note: {}: deleted the unfinished files of a `stencil make` that was stopped before \
+             it put them in place; the folder holds the run before it",
+            dir.display()
+        ),
+    }
+    Ok(())
+}
+
+/// Refuse, before a port is opened, a file with no move at all whose first line stencil does not
+/// read as G-code: some other file given by mistake (`/etc/passwd`), which would otherwise be
+/// streamed for the controller to reject (and its first line quoted back in that error). A real
+/// program with commands stencil does not know still goes to Grbl to judge.
+fn refuse_non_gcode(path: &Path, job: &Program, text: &str) -> anyhow::Result<()> {
+    if !job.moves.is_empty() {
+        return Ok(());
+    }
+    if let Err(e) = stencil_gcode::interpret::interpret(text) {
+        bail!(
+            "{}: not a G-code program (line {} is not G-code, and no line moves the machine); \
+             nothing was sent",
             path.display(),
-            e.utf8_error().valid_up_to()
-        )
-    })
+            e.line
+        );
+    }
+    Ok(())
+}
+
+/// The job's origin, from its header and the file's time, printed before anything moves: which
+/// picture, material, size and machine the file was made for, and when it was written, so that
+/// an old job is not taken for a new one. (When it was made is the file's time, not a header
+/// line: the same input and options still give the same bytes.)
+pub(super) fn origin_line(path: &Path, text: &str) -> String {
+    let header: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .take_while(|l| l.starts_with(';') || l.is_empty())
+        .filter_map(|l| l.strip_prefix(';').map(str::trim))
+        .collect();
+    let when = std::fs::metadata(path)
+        .and_then(|m| m.modified())
+        .map_or(String::new(), |t| {
+            format!("; file written {}", super::errors::utc(t))
+        });
+    let Some(first) = header.first().filter(|l| l.starts_with("stencil ")) else {
+        return format!(
+            "job {}: not written by stencil (no header saying what it was made from){when}",
+            path.display()
+        );
+    };
+    let machine = first
+        .split_once(" for ")
+        .map(|(_, m)| m.split(':').next().unwrap_or(m).trim());
+    let mut parts: Vec<String> = Vec::new();
+    for l in &header[1..] {
+        if let Some(from) = l.strip_prefix("from ") {
+            parts.push(format!("from {}", stencil_io::excerpt(from)));
+        } else if let Some(m) = l.strip_prefix("material ") {
+            parts.push(format!("material {}", stencil_io::excerpt(m)));
+        } else if let Some(job) = l.strip_prefix("job ") {
+            let size = job.split(" at ").next().unwrap_or(job);
+            parts.push(stencil_io::excerpt(size));
+        }
+    }
+    if let Some(m) = machine {
+        parts.push(format!("for {}", stencil_io::excerpt(m)));
+    }
+    format!("job {}: {}{when}", path.display(), parts.join(", "))
 }
 
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
@@ -600,8 +684,10 @@ fn print_virtual(vg: VirtualGrbl) {
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
+    eprintln!("{}", origin_line(&a.file, &text));
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
+    refuse_non_gcode(&a.file, &job, &text)?;
     if !a.allow_machine_commands {
         name_machine_changes(&job);
     }

@@ -35,6 +35,9 @@ pub struct SimulateArgs {
 }
 
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![a.file.as_path()];
+    inputs.extend(a.machine.as_deref().map(std::path::Path::new));
+    stencil_io::check_output(&a.output, &inputs)?;
     let text = read_program(&a.file)?;
     super::send::name_machine_changes_in(&a.file, &text);
     let name = a.file.display().to_string();

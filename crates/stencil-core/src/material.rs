@@ -195,7 +195,7 @@ pub struct EtchSettings {
 }
 
 /// The file layout: flat numbers plus one section per process. Only this type touches serde.
-#[derive(Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MaterialFile {
     name: String,
@@ -203,24 +203,35 @@ struct MaterialFile {
     description: String,
     thickness_mm: f64,
     min_bridge_mm: f64,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     max_bridge_mm: Option<f64>,
     min_feature_mm: f64,
     kerf_mm: f64,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     youngs_modulus_gpa: Option<f64>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     density_kg_m3: Option<f64>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     max_sag_mm: Option<f64>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     two_bridges_above_mm: Option<f64>,
     process: ProcessKind,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     laser: Option<LaserSettings>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     knife: Option<KnifeSettings>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pen: Option<PenSettings>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     etch: Option<EtchSettings>,
 }
+
+/// A material's values in the layout of its profile file: what `report.json` carries, so that a
+/// folder received from someone else names its material by value. Reading them back goes through
+/// the same checks as a profile file ([`Material::from_values`]); no file is opened.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct MaterialValues(MaterialFile);
 
 /// A validated material profile. Public for every stage that needs the sheet's numbers (the
 /// pipeline converts the widths to pixels, `check` measures against them, the G-code planner reads
@@ -282,6 +293,46 @@ impl Material {
     /// Parse a material profile from TOML text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
         Material::validate(parse_toml(text, origin)?, origin)
+    }
+
+    /// This material's values, as its profile file would hold them.
+    pub fn values(&self) -> MaterialValues {
+        let st = self.strength;
+        let judged = st.judged();
+        let given = |v: f64| judged.then_some(v);
+        let (mut laser, mut knife, mut pen, mut etch) = (None, None, None, None);
+        match self.process {
+            Process::Laser(l) => laser = Some(l),
+            Process::Knife(k) => knife = Some(k),
+            Process::Pen(p) => pen = Some(p),
+            Process::Etch(e) => etch = Some(e),
+        }
+        MaterialValues(MaterialFile {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            thickness_mm: self.thickness_mm,
+            min_bridge_mm: self.min_bridge_mm,
+            max_bridge_mm: Some(self.max_bridge_mm),
+            min_feature_mm: self.min_feature_mm,
+            kerf_mm: self.kerf_mm,
+            // A profile with no strength data keeps the default stiffness and no limits: giving
+            // none of the four reproduces it (and JSON has no infinity to write).
+            youngs_modulus_gpa: given(st.youngs_modulus_gpa),
+            density_kg_m3: given(st.density_kg_m3),
+            max_sag_mm: given(st.max_sag_mm),
+            two_bridges_above_mm: given(st.two_bridges_above_mm),
+            process: self.process.kind(),
+            laser,
+            knife,
+            pen,
+            etch,
+        })
+    }
+
+    /// A material from values a report carried, checked like a profile file (`origin` names
+    /// where they came from in errors).
+    pub fn from_values(v: MaterialValues, origin: &Path) -> Result<Material, ProfileError> {
+        Material::validate(v.0, origin)
     }
 
     /// Laser settings, when the process is laser cutting.

@@ -861,6 +861,7 @@ fn report(
         gcode,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
+        material_values: Some(phys.material.values()),
         mm_per_px: Some(scale.mm_per_px),
         scale_factor: Some(working.factor),
         scale_auto: working.auto,

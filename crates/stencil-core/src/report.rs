@@ -185,6 +185,11 @@ pub struct Report {
     pub material: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_source: Option<String>,
+    /// The material's values themselves (as its profile file holds them): what `gcode` and
+    /// `check` use for a folder, so that a received folder names a material, never a file to
+    /// open (`material_source` is only a note of where the values were read).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material_values: Option<crate::material::MaterialValues>,
     /// Physical size: millimetres per working pixel, the picture's size, the sheet margin, and
     /// the simplification tolerance used by the vectors.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -216,18 +216,22 @@ impl Journal {
 
     /// Read the journal at `path`.
     pub fn read(path: &Path) -> Result<Journal, JournalError> {
-        let text = match std::fs::read_to_string(path) {
+        let text = match stencil_io::read_text(path, stencil_io::Kind::Journal) {
             Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            Err(stencil_io::ReadError::Open { source, .. })
+                if source.kind() == std::io::ErrorKind::NotFound =>
+            {
                 return Err(JournalError::Missing {
                     path: path.to_path_buf(),
                 })
             }
             Err(e) => {
+                let text = e.to_string();
+                let prefix = format!("{}: ", path.display());
                 return Err(JournalError::Unreadable {
                     path: path.to_path_buf(),
-                    detail: e.to_string(),
-                })
+                    detail: text.strip_prefix(&prefix).unwrap_or(&text).to_string(),
+                });
             }
         };
         let j: Journal = serde_json::from_str(&text).map_err(|e| JournalError::NotJournal {

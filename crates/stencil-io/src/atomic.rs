@@ -1,13 +1,15 @@
 //! One way to write a file: into a temp file beside the target, then rename into place.
 //!
 //! A crash, a full disk or an error half-way never leaves a half-written output that a user (or a
-//! laser) could pick up. Every output file (stencil outputs, G-code, the send journal) is written
-//! through [`write_atomic`] or [`replace_all`].
+//! laser) could pick up. Every single output file (G-code, a simulation picture, the send
+//! journal) is written through [`write_atomic`]; a set of files (`make`'s folder) through
+//! [`crate::replace_all`], a transaction. A temp file is locked while it is written, so that the
+//! next write into the folder can tell a killed run's orphan from a live one and delete it.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use tempfile::{NamedTempFile, TempPath};
+use tempfile::NamedTempFile;
 
 /// A file that could not be written (or an old one removed); nothing half-written is left.
 #[derive(Debug, thiserror::Error)]
@@ -17,11 +19,12 @@ pub enum WriteError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{path}: cannot remove this file of an earlier run: {source}; remove it yourself or choose another folder with -o")]
-    Remove {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error("{path}: another stencil run is writing this folder now; wait for it to finish, or choose another folder with -o")]
+    Busy { path: PathBuf },
+    #[error("{path}: not a plan stencil wrote, so it is not run; look at the folder {} and remove it yourself", path.parent().map_or(path.display(), |p| p.display()))]
+    BadPlan { path: PathBuf },
+    #[error("{path}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
+    NotAFile { path: PathBuf, is: &'static str },
 }
 
 /// Temp files and set-aside old files start with this (hidden, and never an output's name).
@@ -37,8 +40,18 @@ pub fn write_atomic_with(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), WriteError> {
+    // A device, a FIFO or a folder (or a link to one) is never replaced by a file.
+    if let Ok(m) = std::fs::metadata(path) {
+        if let Some(is) = crate::read::not_a_file(&m.file_type()) {
+            return Err(WriteError::NotAFile {
+                path: path.to_path_buf(),
+                is,
+            });
+        }
+    }
     let tmp = staged(path, f)?;
     tmp.persist(path).map_err(|e| write_error(path, e.error))?;
+    sweep_temps(folder_of(path));
     Ok(())
 }
 
@@ -69,7 +82,10 @@ fn temp_in(dir: &Path) -> std::io::Result<NamedTempFile> {
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
-    builder.tempfile_in(dir)
+    let tmp = builder.tempfile_in(dir)?;
+    // Held until the temp file is closed (renamed into place or deleted): see `sweep_temps`.
+    let _ = tmp.as_file().try_lock();
+    Ok(tmp)
 }
 
 /// `path`'s new content, written in full to a temp file beside it (not yet in place).
@@ -114,121 +130,38 @@ pub fn plain_io(e: std::io::Error) -> std::io::Error {
     }
 }
 
-/// What [`replace_all`] did.
+/// What [`crate::replace_all`] did.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Replaced {
     /// The files written, in order.
     pub written: Vec<PathBuf>,
-    /// Files of the `stale` names that were there and are gone.
+    /// Files of the owned names that were there, were not written again, and are gone.
     pub removed: Vec<PathBuf>,
 }
 
-/// An old file moved aside (to a temp name in its folder) until the new set is in place; dropped,
-/// it is deleted.
-struct SetAside {
-    original: PathBuf,
-    backup: TempPath,
-}
-
-impl SetAside {
-    /// Move `path` aside, if it is there as a file (or a link).
-    fn take(path: &Path) -> std::io::Result<Option<SetAside>> {
-        match std::fs::symlink_metadata(path) {
-            Ok(m) if m.is_file() || m.file_type().is_symlink() => {}
-            Ok(_) => return Ok(None),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(e),
-        }
-        let backup = temp_in(folder_of(path))?.into_temp_path();
-        std::fs::rename(path, &backup)?;
-        Ok(Some(SetAside {
-            original: path.to_path_buf(),
-            backup,
-        }))
-    }
-
-    /// Put the old file back where it was.
-    fn restore(self) {
-        if std::fs::rename(&self.backup, &self.original).is_ok() {
-            // The temp name is gone: nothing left to delete.
-            let _ = self.backup.keep();
-        }
-    }
-}
-
-/// Write a set of files into `dir`, all or nothing, and remove the files named in `stale` that
-/// this set does not write (an earlier run's outputs that would otherwise sit beside the new ones).
-///
-/// Every new file is first written in full to a temp file; only when all are written are they
-/// renamed into place, each old file being set aside under a temp name first. If anything fails,
-/// the new files are removed and every old file is put back, so the folder is as it was. The old
-/// files are deleted only once every new file is in place.
-pub fn replace_all(
-    dir: &Path,
-    files: &[(String, Vec<u8>)],
-    stale: &[&str],
-) -> Result<Replaced, WriteError> {
-    let mut staged_files = Vec::with_capacity(files.len());
-    for (name, bytes) in files {
-        let path = dir.join(name);
-        let tmp = staged(&path, |w| w.write_all(bytes))?;
-        staged_files.push((path, tmp));
-    }
-    // New files in place, with the old file each replaced (if any).
-    let mut placed: Vec<(PathBuf, Option<SetAside>)> = Vec::new();
-    let mut removed: Vec<SetAside> = Vec::new();
-    let rollback = |placed: Vec<(PathBuf, Option<SetAside>)>, removed: Vec<SetAside>| {
-        for (path, old) in placed.into_iter().rev() {
-            match old {
-                Some(old) => old.restore(),
-                None => {
-                    let _ = std::fs::remove_file(&path);
-                }
-            }
-        }
-        for old in removed {
-            old.restore();
-        }
+/// Delete the hidden temp files in `dir` that a killed write left: a temp file is locked by the
+/// process writing it for as long as that process lives, so one that can be locked is an orphan.
+/// (A temp of an older stencil, which took no lock, is an orphan too.)
+pub(crate) fn sweep_temps(dir: &Path) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
     };
-    for (path, tmp) in staged_files {
-        let old = match SetAside::take(&path) {
-            Ok(old) => old,
-            Err(e) => {
-                rollback(placed, removed);
-                return Err(write_error(&path, e));
-            }
-        };
-        if let Err(e) = tmp.persist(&path) {
-            if let Some(old) = old {
-                old.restore();
-            }
-            rollback(placed, removed);
-            return Err(write_error(&path, e.error));
-        }
-        placed.push((path, old));
-    }
-    for name in stale {
-        if files.iter().any(|(n, _)| n == name) {
+    for e in rd.flatten() {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if !(name.starts_with(TEMP_PREFIX) && name.ends_with(".tmp")) {
             continue;
         }
-        let path = dir.join(name);
-        match SetAside::take(&path) {
-            Ok(Some(old)) => removed.push(old),
-            Ok(None) => {}
-            Err(e) => {
-                rollback(placed, removed);
-                return Err(WriteError::Remove {
-                    path,
-                    source: plain_io(e),
-                });
-            }
+        if !e.file_type().is_ok_and(|t| t.is_file()) {
+            continue;
+        }
+        let Ok(f) = std::fs::File::open(e.path()) else {
+            continue;
+        };
+        if f.try_lock().is_ok() {
+            let _ = std::fs::remove_file(e.path());
         }
     }
-    // Everything is in place: the old files (dropped here) are deleted.
-    Ok(Replaced {
-        written: placed.into_iter().map(|(p, _)| p).collect(),
-        removed: removed.into_iter().map(|old| old.original).collect(),
-    })
 }
 
 #[cfg(test)]

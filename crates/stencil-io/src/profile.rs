@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use serde::de::DeserializeOwned;
 
 /// The largest material or machine profile read (1 MiB; the shipped ones are under 2 KB).
-pub const MAX_PROFILE_BYTES: u64 = 1 << 20;
+pub const MAX_PROFILE_BYTES: u64 = crate::read::Kind::Profile.cap();
 
 /// Errors reading or validating a profile. Every message names the file (or the name looked up)
 /// and, where there is one, the field.
@@ -74,7 +74,7 @@ pub struct Shipped {
 /// Read and parse a TOML file into `T`. At most [`MAX_PROFILE_BYTES`] are read:
 /// a huge file or a device such as /dev/zero is refused instead of read forever.
 pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<T, ProfileError> {
-    let text = crate::read::read_text(path, MAX_PROFILE_BYTES, "profile")?;
+    let text = crate::read::read_text(path, crate::read::Kind::Profile)?;
     parse_toml(&text, path)
 }
 
@@ -82,15 +82,30 @@ pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<T, ProfileError> {
 pub fn parse_toml<T: DeserializeOwned>(text: &str, origin: &Path) -> Result<T, ProfileError> {
     toml::from_str(text).map_err(|e| ProfileError::Parse {
         path: origin.to_path_buf(),
-        // toml's message spans several lines (a snippet of the file); keep it on one.
-        msg: one_line(&e.to_string()),
+        msg: where_and_why(text, &e),
     })
+}
+
+/// toml's error as "line L, column C: what", on one line. toml's own text quotes the offending
+/// line of the file; that is not repeated: a file that is not a profile at all (`/etc/passwd`
+/// given as `--material`) must not have its content printed.
+fn where_and_why(text: &str, e: &toml::de::Error) -> String {
+    let what = one_line(e.message());
+    match e.span() {
+        Some(span) => {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            format!("line {line}, column {col}: {what}")
+        }
+        None => what,
+    }
 }
 
 fn one_line(s: &str) -> String {
     s.lines()
         .map(str::trim)
-        .filter(|l| !l.is_empty() && !l.starts_with('|'))
+        .filter(|l| !l.is_empty())
         .collect::<Vec<_>>()
         .join("; ")
 }

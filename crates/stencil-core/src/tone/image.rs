@@ -73,7 +73,7 @@ fn open_picture(
         path: path.to_path_buf(),
         source: plain_io(source),
     };
-    let file = std::fs::File::open(path).map_err(open_err)?;
+    let (file, _) = stencil_io::open_bounded(path, stencil_io::Kind::Picture)?;
     let mut reader = ImageReader::new(BufReader::new(file))
         .with_guessed_format()
         .map_err(open_err)?;

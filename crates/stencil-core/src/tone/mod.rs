@@ -19,6 +19,9 @@ use crate::raster::{BitGrid, Gray, TwoTone};
 /// Errors of the two-tone stage. Each names the file and says what to do.
 #[derive(Debug, thiserror::Error)]
 pub enum ToneError {
+    /// Refused by the bounded reader: too large for a picture, or not a regular file.
+    #[error(transparent)]
+    Read(#[from] stencil_io::ReadError),
     #[error("{path}: cannot open: {source}")]
     Open {
         path: PathBuf,

@@ -228,10 +228,7 @@ impl std::hash::Hasher for Fx {
 /// Load an OBJ file: check it line by line, parse it with tobj, merge every object and group into
 /// one welded mesh.
 pub fn load(path: &Path) -> Result<Mesh, MeshError> {
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Open {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = stencil_io::read_bytes(path, stencil_io::Kind::Mesh)?;
     let text = String::from_utf8(bytes).map_err(|e| MeshError::NotText {
         path: path.to_path_buf(),
         offset: e.utf8_error().valid_up_to(),

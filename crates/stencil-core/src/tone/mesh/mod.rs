@@ -230,6 +230,9 @@ pub enum MeshSetting {
 
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
+    /// Refused by the bounded reader: too large for a mesh, not a regular file, or not UTF-8.
+    #[error(transparent)]
+    Read(#[from] stencil_io::ReadError),
     #[error("{path}: cannot open the mesh: {source}")]
     Open {
         path: PathBuf,

@@ -1,0 +1,548 @@
+//! An output folder's set of files replaced as one transaction: whenever the process is killed,
+//! the folder holds the complete earlier set or the complete new set of the names the writer owns
+//! (once the half-finished swap is finished by the next run, or by any command that reads the
+//! folder), never a mix; every other file in the folder is left alone.
+//!
+//! How (a write-ahead plan, rolled forward):
+//! 1. The folder is locked (an advisory lock on the folder itself, so no lock file is left
+//!    behind); a swap an earlier, killed run left half-done is finished first ([`recover`]).
+//! 2. Every new file is written in full (and synced) into the hidden `.stencil-swap/new/`.
+//!    Killed here, the folder's own files are untouched; the next run deletes `.stencil-swap/`.
+//! 3. The plan (every rename, in order) is written to `.stencil-swap/plan` by a rename: the
+//!    commit point. From here on the swap is only ever finished, never undone: the new set is
+//!    complete on disk, so finishing it is always possible.
+//! 4. The plan's steps run one by one (old owned files into `.stencil-swap/old/`, new ones into
+//!    place), each recorded in `.stencil-swap/done` after it is made. A step found already made
+//!    (its source gone) on a re-run is skipped, so a kill between a rename and its record is
+//!    harmless, and no later step ever re-creates an earlier step's source.
+//! 5. The plan is deleted first (so a re-run never starts it over), then `.stencil-swap/` with
+//!    the old files in it.
+//!
+//! A failed run uses the same machinery to move the earlier set into `previous/` ([`set_aside`]),
+//! so that nothing in the folder can be taken for the failed run's result; the next successful
+//! run deletes what `previous/` holds of the owned names (and the folder, when that empties it).
+
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use crate::atomic::{plain_io, Replaced, WriteError};
+
+/// The hidden folder a swap works in.
+pub const SWAP_DIR: &str = ".stencil-swap";
+/// Where a failed run moves the earlier set ([`set_aside`]).
+pub const PREVIOUS_DIR: &str = "previous";
+
+const PLAN: &str = "plan";
+const DONE: &str = "done";
+
+/// One step of a plan; paths are relative to the output folder.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Step {
+    /// Rename `.0` to `.1` (skipped when `.0` is gone: made before a kill).
+    Rename(String, String),
+    /// Create this folder (nothing when it is there).
+    MkDir(String),
+    /// Remove this folder if it is empty (a person's files in it keep it).
+    RmDirIfEmpty(String),
+}
+
+impl Step {
+    fn line(&self) -> String {
+        match self {
+            Step::Rename(a, b) => format!("R\t{a}\t{b}"),
+            Step::MkDir(a) => format!("M\t{a}"),
+            Step::RmDirIfEmpty(a) => format!("X\t{a}"),
+        }
+    }
+
+    /// A plan line, if it is one this module writes for the `owned` names. A plan is a file in
+    /// the folder, and the folder may have come from someone else: a plan that names anything
+    /// else (a person's file, a path out of the folder) is not run.
+    fn parse(line: &str, owned: &[&str]) -> Option<Step> {
+        let file = |s: &str| {
+            let (folder, name) = s.rsplit_once('/').unwrap_or(("", s));
+            let folder_ok = matches!(
+                folder,
+                "" | PREVIOUS_DIR
+                    | ".stencil-swap/new"
+                    | ".stencil-swap/old"
+                    | ".stencil-swap/old-previous"
+            );
+            folder_ok && owned.contains(&name)
+        };
+        let folder = |s: &str| {
+            matches!(
+                s,
+                PREVIOUS_DIR | ".stencil-swap/old" | ".stencil-swap/old-previous"
+            )
+        };
+        let mut f = line.split('\t');
+        let step = match (f.next()?, f.next()?, f.next()) {
+            ("R", a, Some(b)) if file(a) && file(b) => Step::Rename(a.into(), b.into()),
+            ("M", a, None) if folder(a) => Step::MkDir(a.into()),
+            ("X", PREVIOUS_DIR, None) => Step::RmDirIfEmpty(PREVIOUS_DIR.into()),
+            _ => return None,
+        };
+        Some(step)
+    }
+
+    fn run(&self, dir: &Path) -> std::io::Result<()> {
+        // previous/ is followed only as a real folder, never a link to somewhere else.
+        let through_previous = match self {
+            Step::Rename(a, b) => a.starts_with("previous/") || b.starts_with("previous/"),
+            _ => false,
+        };
+        if through_previous && !real_dir(&dir.join(PREVIOUS_DIR)) {
+            return Err(std::io::Error::other("previous is not a folder"));
+        }
+        match self {
+            Step::Rename(a, b) => match std::fs::rename(dir.join(a), dir.join(b)) {
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound && !exists(&dir.join(a)) => {
+                    Ok(())
+                }
+                r => r,
+            },
+            Step::MkDir(a) => match std::fs::create_dir(dir.join(a)) {
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+                r => r,
+            },
+            Step::RmDirIfEmpty(a) => {
+                let _ = std::fs::remove_dir(dir.join(a));
+                Ok(())
+            }
+        }
+    }
+}
+
+fn exists(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok()
+}
+
+/// Whether `p` is a folder itself (not a link to one).
+fn real_dir(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir())
+}
+
+/// Where a test may stop the swap, as a kill would: the hook gets a running count of the points
+/// passed and returns `false` to stop there, with nothing undone or cleaned up.
+pub(crate) type Hook<'a> = &'a mut dyn FnMut(usize) -> bool;
+
+/// Why a swap stopped: an error, or (tests only) the hook.
+#[derive(Debug)]
+pub(crate) enum Stop {
+    Error(WriteError),
+    Hook,
+}
+
+impl From<WriteError> for Stop {
+    fn from(e: WriteError) -> Self {
+        Stop::Error(e)
+    }
+}
+
+struct Points<'a> {
+    hook: Hook<'a>,
+    n: usize,
+}
+
+impl Points<'_> {
+    fn pass(&mut self) -> Result<(), Stop> {
+        self.n += 1;
+        if (self.hook)(self.n) {
+            Ok(())
+        } else {
+            Err(Stop::Hook)
+        }
+    }
+}
+
+/// The hook of a real run. In a debug build, `STENCIL_FAULT_SWAP_STEP=N` aborts the process at
+/// the N-th point (as `kill -9` would stop it: no destructor, no clean-up), so that the tests can
+/// kill `stencil make` at every step of its swap; a release build has no such variable.
+fn process_hook() -> impl FnMut(usize) -> bool {
+    #[cfg(debug_assertions)]
+    let at: Option<usize> = std::env::var("STENCIL_FAULT_SWAP_STEP")
+        .ok()
+        .and_then(|s| s.parse().ok());
+    #[cfg(not(debug_assertions))]
+    let at: Option<usize> = None;
+    move |n| {
+        if Some(n) == at {
+            std::process::abort();
+        }
+        true
+    }
+}
+
+fn io_err(path: &Path, e: std::io::Error) -> WriteError {
+    WriteError::Write {
+        path: path.to_path_buf(),
+        source: plain_io(e),
+    }
+}
+
+/// The folder locked against other stencil runs for as long as the value lives.
+struct Lock(#[allow(dead_code)] File);
+
+fn lock(dir: &Path) -> Result<Lock, WriteError> {
+    let f = File::open(dir).map_err(|e| io_err(dir, e))?;
+    match f.try_lock() {
+        Ok(()) => Ok(Lock(f)),
+        Err(std::fs::TryLockError::WouldBlock) => Err(WriteError::Busy {
+            path: dir.to_path_buf(),
+        }),
+        // A file system without locks: go on unlocked rather than refuse to write at all.
+        Err(std::fs::TryLockError::Error(_)) => Ok(Lock(f)),
+    }
+}
+
+/// Whether files and folders are synced to disk. Syncing is for power loss, which a kill is not;
+/// the unit tests (which stop the swap thousands of times) skip it to run in seconds.
+const SYNC: bool = !cfg!(test);
+
+fn sync_file(f: &File) -> std::io::Result<()> {
+    if SYNC {
+        f.sync_all()
+    } else {
+        Ok(())
+    }
+}
+
+fn sync_dir(dir: &Path) {
+    // Durability against power loss; a kill does not need it, and some file systems refuse it.
+    if !SYNC {
+        return;
+    }
+    if let Ok(f) = File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+/// What [`recover`] found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recovered {
+    /// No half-finished swap.
+    Nothing,
+    /// A swap killed after its commit point was finished: the folder holds that run's set.
+    Finished,
+    /// A run killed before its commit point left new files that were deleted: the folder holds
+    /// the earlier set.
+    Discarded,
+}
+
+/// Finish or discard a swap an earlier, killed run left in `dir` for the `owned` names, and delete
+/// the hidden temp files a killed single-file write left ([`crate::write_atomic`]). Commands that
+/// read a folder call it first, so that they never read a mix of two runs. A folder another run is
+/// writing now is refused ([`WriteError::Busy`]).
+pub fn recover(dir: &Path, owned: &[&str]) -> Result<Recovered, WriteError> {
+    if !exists(&dir.join(SWAP_DIR)) {
+        crate::atomic::sweep_temps(dir);
+        return Ok(Recovered::Nothing);
+    }
+    let _lock = lock(dir)?;
+    let mut h = process_hook();
+    let mut pts = Points { hook: &mut h, n: 0 };
+    recover_locked(dir, owned, &mut pts).map_err(unstop)
+}
+
+#[cfg(test)]
+pub(crate) fn recover_hooked(dir: &Path, owned: &[&str], hook: Hook) -> Result<Recovered, Stop> {
+    let _lock = lock(dir)?;
+    let mut pts = Points { hook, n: 0 };
+    recover_locked(dir, owned, &mut pts)
+}
+
+fn unstop(s: Stop) -> WriteError {
+    match s {
+        Stop::Error(e) => e,
+        Stop::Hook => WriteError::Write {
+            path: PathBuf::from(SWAP_DIR),
+            source: std::io::Error::other("stopped by the test hook"),
+        },
+    }
+}
+
+fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recovered, Stop> {
+    crate::atomic::sweep_temps(dir);
+    let swap = dir.join(SWAP_DIR);
+    if !exists(&swap) {
+        return Ok(Recovered::Nothing);
+    }
+    if !real_dir(&swap) {
+        return Err(Stop::Error(WriteError::NotAFile {
+            path: swap,
+            is: "not a folder stencil made",
+        }));
+    }
+    let plan = swap.join(PLAN);
+    if exists(&plan) {
+        run_plan(dir, owned, pts)?;
+        finish(dir, pts)?;
+        Ok(Recovered::Finished)
+    } else {
+        std::fs::remove_dir_all(&swap).map_err(|e| io_err(&swap, e))?;
+        pts.pass()?;
+        Ok(Recovered::Discarded)
+    }
+}
+
+/// Run the committed plan from its first unrecorded step.
+fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
+    let swap = dir.join(SWAP_DIR);
+    let plan_path = swap.join(PLAN);
+    let bad = || {
+        Stop::Error(WriteError::BadPlan {
+            path: plan_path.clone(),
+        })
+    };
+    let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
+    let steps: Vec<Step> = text
+        .lines()
+        .map(|l| Step::parse(l, owned).ok_or_else(bad))
+        .collect::<Result<_, _>>()?;
+    let done_path = swap.join(DONE);
+    let done = std::fs::symlink_metadata(&done_path).map_or(0, |m| m.len() as usize);
+    let mut record = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&done_path)
+        .map_err(|e| io_err(&done_path, e))?;
+    for step in steps.iter().skip(done) {
+        step.run(dir).map_err(|e| io_err(dir, e))?;
+        pts.pass()?;
+        record.write_all(b".").map_err(|e| io_err(&done_path, e))?;
+        pts.pass()?;
+    }
+    Ok(())
+}
+
+/// Delete the plan (so that nothing starts it over), then the swap folder with the old files.
+fn finish(dir: &Path, pts: &mut Points) -> Result<(), Stop> {
+    let swap = dir.join(SWAP_DIR);
+    sync_dir(dir);
+    std::fs::remove_file(swap.join(PLAN)).map_err(|e| io_err(&swap, e))?;
+    pts.pass()?;
+    std::fs::remove_dir_all(&swap).map_err(|e| io_err(&swap, e))?;
+    pts.pass()?;
+    sync_dir(dir);
+    Ok(())
+}
+
+/// Write the plan and commit it (the rename of its temp name is the commit point).
+fn commit(dir: &Path, steps: &[Step], pts: &mut Points) -> Result<(), Stop> {
+    let swap = dir.join(SWAP_DIR);
+    let tmp = swap.join("plan.tmp");
+    let text: String = steps.iter().map(|s| s.line() + "\n").collect();
+    let mut f = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+    f.write_all(text.as_bytes())
+        .and_then(|()| sync_file(&f))
+        .map_err(|e| io_err(&tmp, e))?;
+    pts.pass()?;
+    std::fs::rename(&tmp, swap.join(PLAN)).map_err(|e| io_err(&tmp, e))?;
+    sync_dir(&swap);
+    pts.pass()
+}
+
+/// A fresh, empty swap folder (after [`recover_locked`], none is left).
+fn new_swap(dir: &Path) -> Result<PathBuf, WriteError> {
+    let swap = dir.join(SWAP_DIR);
+    std::fs::create_dir(&swap).map_err(|e| io_err(&swap, e))?;
+    Ok(swap)
+}
+
+/// What `path` is, if there and not a regular file or a link (which are moved as they are).
+fn refuse_odd(path: &Path) -> Result<bool, WriteError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_file() || m.file_type().is_symlink() => Ok(true),
+        Ok(m) => Err(WriteError::NotAFile {
+            path: path.to_path_buf(),
+            is: crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file"),
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(io_err(path, e)),
+    }
+}
+
+/// Steps that delete the owned files `previous/` holds (into the swap folder), and `previous/`
+/// itself if that empties it.
+fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(), WriteError> {
+    let prev = dir.join(PREVIOUS_DIR);
+    if !std::fs::symlink_metadata(&prev).is_ok_and(|m| m.is_dir()) {
+        return Ok(());
+    }
+    let mut any = false;
+    for n in owned {
+        if refuse_odd(&prev.join(n))? {
+            if !any {
+                steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous")));
+                any = true;
+            }
+            steps.push(Step::Rename(
+                format!("{PREVIOUS_DIR}/{n}"),
+                format!("{SWAP_DIR}/old-previous/{n}"),
+            ));
+        }
+    }
+    steps.push(Step::RmDirIfEmpty(PREVIOUS_DIR.into()));
+    Ok(())
+}
+
+/// Write a set of files into `dir` as one transaction (see the module notes): afterwards the
+/// folder's files of the `owned` names are exactly `files`; owned names this set does not write
+/// are removed (listed in the result), and so is what `previous/` holds of them. If anything
+/// fails before the commit point, the folder is as it was.
+pub fn replace_all(
+    dir: &Path,
+    files: &[(String, Vec<u8>)],
+    owned: &[&str],
+) -> Result<Replaced, WriteError> {
+    let mut h = process_hook();
+    replace_all_hooked(dir, files, owned, &mut h).map_err(unstop)
+}
+
+pub(crate) fn replace_all_hooked(
+    dir: &Path,
+    files: &[(String, Vec<u8>)],
+    owned: &[&str],
+    hook: Hook,
+) -> Result<Replaced, Stop> {
+    let mut pts = Points { hook, n: 0 };
+    let _lock = lock(dir)?;
+    recover_locked(dir, owned, &mut pts)?;
+    let mut owned: Vec<&str> = owned.to_vec();
+    for (n, _) in files {
+        if !owned.contains(&n.as_str()) {
+            owned.push(n);
+        }
+    }
+    // Refuse, before writing anything, to replace what is not a file.
+    let mut existing = Vec::new();
+    for n in &owned {
+        if refuse_odd(&dir.join(n))? {
+            existing.push(*n);
+        }
+    }
+    let mut steps = Vec::new();
+    clear_previous(dir, &owned, &mut steps)?;
+    let swap = new_swap(dir)?;
+    let staged = stage(&swap, files, &mut pts);
+    if let Err(e) = staged {
+        if matches!(e, Stop::Error(_)) {
+            let _ = std::fs::remove_dir_all(&swap);
+        }
+        return Err(e);
+    }
+    if !existing.is_empty() {
+        steps.push(Step::MkDir(format!("{SWAP_DIR}/old")));
+    }
+    for n in &existing {
+        steps.push(Step::Rename(n.to_string(), format!("{SWAP_DIR}/old/{n}")));
+    }
+    for (n, _) in files {
+        steps.push(Step::Rename(format!("{SWAP_DIR}/new/{n}"), n.clone()));
+    }
+    commit(dir, &steps, &mut pts)?;
+    run_plan(dir, &owned, &mut pts)?;
+    finish(dir, &mut pts)?;
+    Ok(Replaced {
+        written: files.iter().map(|(n, _)| dir.join(n)).collect(),
+        removed: existing
+            .iter()
+            .filter(|n| !files.iter().any(|(f, _)| f == *n))
+            .map(|n| dir.join(n))
+            .collect(),
+    })
+}
+
+/// Every new file written in full and synced into `.stencil-swap/new/`.
+fn stage(swap: &Path, files: &[(String, Vec<u8>)], pts: &mut Points) -> Result<(), Stop> {
+    let new = swap.join("new");
+    std::fs::create_dir(&new).map_err(|e| io_err(&new, e))?;
+    for (name, bytes) in files {
+        let p = new.join(name);
+        let mut f = File::create(&p).map_err(|e| io_err(&p, e))?;
+        f.write_all(bytes)
+            .and_then(|()| sync_file(&f))
+            .map_err(|e| io_err(&p, e))?;
+        pts.pass()?;
+    }
+    Ok(())
+}
+
+/// What [`set_aside`] moved.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SetAside {
+    /// The names moved, in the order given.
+    pub names: Vec<String>,
+    /// Where they are now (`<dir>/previous`).
+    pub into: PathBuf,
+    /// When the earlier set was written (its newest file's modification time).
+    pub made: Option<SystemTime>,
+}
+
+/// After a failed run: move the files of the `owned` names in `dir` into `dir/previous/` as one
+/// transaction (what `previous/` held of those names is deleted first), so that nothing in the
+/// folder can be taken for the failed run's result. `None` when there was nothing to move. A
+/// person's own files, in the folder or in `previous/`, stay where they are.
+pub fn set_aside(dir: &Path, owned: &[&str]) -> Result<Option<SetAside>, WriteError> {
+    let mut h = process_hook();
+    set_aside_hooked(dir, owned, &mut h).map_err(unstop)
+}
+
+pub(crate) fn set_aside_hooked(
+    dir: &Path,
+    owned: &[&str],
+    hook: Hook,
+) -> Result<Option<SetAside>, Stop> {
+    let mut pts = Points { hook, n: 0 };
+    if !std::fs::symlink_metadata(dir).is_ok_and(|m| m.is_dir()) {
+        return Ok(None);
+    }
+    let _lock = lock(dir)?;
+    recover_locked(dir, owned, &mut pts)?;
+    let mut existing = Vec::new();
+    let mut made: Option<SystemTime> = None;
+    for n in owned {
+        let p = dir.join(n);
+        if refuse_odd(&p)? {
+            existing.push(*n);
+            if let Ok(t) = std::fs::symlink_metadata(&p).and_then(|m| m.modified()) {
+                made = Some(made.map_or(t, |m| m.max(t)));
+            }
+        }
+    }
+    if existing.is_empty() {
+        return Ok(None);
+    }
+    let prev = dir.join(PREVIOUS_DIR);
+    match std::fs::symlink_metadata(&prev) {
+        Ok(m) if !m.is_dir() => {
+            return Err(Stop::Error(WriteError::NotAFile {
+                path: prev,
+                is: "not a folder",
+            }))
+        }
+        _ => {}
+    }
+    let mut steps = Vec::new();
+    clear_previous(dir, owned, &mut steps)?;
+    // clear_previous may remove an emptied previous/: make it again before filling it.
+    steps.push(Step::MkDir(PREVIOUS_DIR.into()));
+    for n in &existing {
+        steps.push(Step::Rename(n.to_string(), format!("{PREVIOUS_DIR}/{n}")));
+    }
+    new_swap(dir)?;
+    commit(dir, &steps, &mut pts)?;
+    run_plan(dir, owned, &mut pts)?;
+    finish(dir, &mut pts)?;
+    Ok(Some(SetAside {
+        names: existing.iter().map(|s| s.to_string()).collect(),
+        into: prev,
+        made,
+    }))
+}
+
+#[cfg(test)]
+mod tests;
