@@ -181,8 +181,9 @@ pub(crate) fn next_word(
             line,
             code: 2,
             msg: format!(
-                "the number after '{}' has {digits} digits: too large to be a number",
-                letter as char
+                "the number after '{}' ({}) is too large to be a number",
+                letter as char,
+                excerpt(&clean[*i + 1..j])
             ),
             out_of_range: true,
         });
