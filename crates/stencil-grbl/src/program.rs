@@ -35,6 +35,8 @@ pub struct Program {
     /// `%` lines left out (the program delimiters of other controllers; Grbl 1.1 answers them
     /// `error:1`, so senders strip them).
     pub dropped_percent: usize,
+    /// Lines with M0: Grbl finishes the queued motion there and holds until cycle start (`~`).
+    pub pauses: Vec<usize>,
     source: Vec<String>,
 }
 
@@ -47,6 +49,7 @@ impl Program {
         let mut modal = Modal::default();
         let mut unreadable = false;
         let mut dropped_percent = 0;
+        let mut pauses = Vec::new();
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
@@ -92,6 +95,9 @@ impl Program {
                 }
                 Ok(done) => {
                     modal = m;
+                    if done.flow == Some(gcode::Flow::Pause) {
+                        pauses.push(number);
+                    }
                     let moved = !done.moves.is_empty();
                     moves.extend(done.moves);
                     moved
@@ -122,6 +128,7 @@ impl Program {
             may_end_laser_on: modal.spindle_on || unreadable,
             may_end_air_on: modal.coolant || unreadable,
             dropped_percent,
+            pauses,
             source,
         })
     }
