@@ -17,6 +17,9 @@ use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{self as gcode, Modal};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
+mod common;
+use common::read_until;
+
 /// (setup lines, the line, Grbl 1.1h's answer, the rule).
 type Case = (&'static str, &'static str, &'static str, &'static str);
 
@@ -881,21 +884,9 @@ fn answer(port: &mut TTYPort, limit: Duration) -> Vec<String> {
     }
 }
 
-fn banner(port: &mut TTYPort) {
-    let end = Instant::now() + Duration::from_secs(5);
-    let mut got = String::new();
-    let mut buf = [0u8; 256];
-    port.set_timeout(Duration::from_millis(10)).unwrap();
-    while !got.contains("for help]\r\n") && Instant::now() < end {
-        if let Ok(n) = port.read(&mut buf) {
-            got.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
-    }
-}
-
 fn virtual_answer(setup: &str, line: &str) -> (String, Vec<String>) {
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
-    banner(&mut port);
+    read_until(&mut port, "for help]\r\n");
     for l in setup.lines() {
         port.write_all(format!("{l}\n").as_bytes()).unwrap();
         let a = answer(&mut port, Duration::from_secs(5));
@@ -963,7 +954,7 @@ fn a_probe_without_contact_alarms_as_grbl_does() {
     }
     // Locked in the alarm: G-code is refused with error:9 until $X.
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
-    banner(&mut port);
+    read_until(&mut port, "for help]\r\n");
     for (l, want) in [
         ("G38.2X1F100", "ok"),
         ("G0X0", "error:9"),
