@@ -2,15 +2,16 @@
 //! interpreter in machine coordinates, so the bed check, `frame`, `estimate` and the virtual Grbl
 //! see the same job the machine runs.
 
-use std::io::{Read, Write};
-use std::time::{Duration, Instant};
+use std::io::Write;
 
-use serialport::{SerialPort, TTYPort};
 use stencil_gcode::estimate::estimate_with;
 use stencil_gcode::interpret::{extent, interpret, interpret_program, CutRule};
 use stencil_gcode::machine;
 use stencil_grbl::frame::cut_extent;
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
+
+mod common;
+use common::read_until;
 
 fn last_to(p: &str) -> [f64; 3] {
     interpret(p).unwrap().last().unwrap().to
@@ -105,19 +106,6 @@ fn the_estimate_follows_arcs_dwells_and_inverse_time() {
     assert!((inv[0].feed - 20.0).abs() < 1e-9);
     let p = interpret_program("G4 P1.5\nG0 X1\nG4 P0.5\n%\n").unwrap();
     assert_eq!(p.dwell_s, 2.0);
-}
-
-fn read_until(port: &mut TTYPort, needle: &str) -> String {
-    let mut got = String::new();
-    let end = Instant::now() + Duration::from_secs(5);
-    let mut buf = [0u8; 256];
-    port.set_timeout(Duration::from_millis(10)).unwrap();
-    while !got.contains(needle) && Instant::now() < end {
-        if let Ok(n) = port.read(&mut buf) {
-            got.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
-    }
-    got
 }
 
 #[test]

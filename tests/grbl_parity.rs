@@ -17,6 +17,9 @@ use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{self as gcode, Modal};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
+mod common;
+use common::read_until;
+
 /// (setup lines, the line, Grbl 1.1h's answer, the rule).
 type Case = (&'static str, &'static str, &'static str, &'static str);
 
@@ -881,21 +884,9 @@ fn answer(port: &mut TTYPort, limit: Duration) -> Vec<String> {
     }
 }
 
-fn banner(port: &mut TTYPort) {
-    let end = Instant::now() + Duration::from_secs(5);
-    let mut got = String::new();
-    let mut buf = [0u8; 256];
-    port.set_timeout(Duration::from_millis(10)).unwrap();
-    while !got.contains("for help]\r\n") && Instant::now() < end {
-        if let Ok(n) = port.read(&mut buf) {
-            got.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
-    }
-}
-
 fn virtual_answer(setup: &str, line: &str) -> (String, Vec<String>) {
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
-    banner(&mut port);
+    read_until(&mut port, "for help]\r\n");
     for l in setup.lines() {
         port.write_all(format!("{l}\n").as_bytes()).unwrap();
         let a = answer(&mut port, Duration::from_secs(5));
@@ -963,7 +954,7 @@ fn a_probe_without_contact_alarms_as_grbl_does() {
     }
     // Locked in the alarm: G-code is refused with error:9 until $X.
     let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::default()).unwrap();
-    banner(&mut port);
+    read_until(&mut port, "for help]\r\n");
     for (l, want) in [
         ("G38.2X1F100", "ok"),
         ("G0X0", "error:9"),
@@ -982,4 +973,84 @@ fn a_program_end_says_so() {
     let (last, all) = virtual_answer("", "M2");
     assert_eq!(last, "ok");
     assert!(all.iter().any(|l| l == "[MSG:Pgm End]"), "{all:?}");
+}
+
+/// `$J=` jogs, answered by gc_execute_line with its jog flag (gcode.c `GC_PARSER_JOG_MOTION`);
+/// checked against Grbl 1.1h's own parser the same way as [`CASES`].
+const JOG_CASES: &[(&str, &str, &str)] = &[
+    ("$J=X1F100", "ok", "gcode.c: a jog in G1, G94"),
+    (
+        "$J=F100",
+        "ok",
+        "gcode.c: no axis words is no error (the target is machine zero)",
+    ),
+    ("$J=G91X1F100", "ok", "gcode.c jog: G91 allowed"),
+    ("$J=G53X1F100", "ok", "gcode.c jog: G53 allowed"),
+    ("$J=G20X1F10", "ok", "gcode.c jog: G20 allowed, F in inches"),
+    ("$J=N5X1F100", "ok", "gcode.c jog: N allowed"),
+    ("$J=X1", "error:22", "gcode.c [2.] jog: F required"),
+    ("$J=F0X1", "error:22", "gcode.c [20.]: F0 is no feed"),
+    ("$J=X1F-5", "error:4", "gcode.c STEP 2: F negative"),
+    (
+        "$J=M3X1",
+        "error:22",
+        "gcode.c: the F check comes before the jog's command check",
+    ),
+    (
+        "$J=M3X1F100",
+        "error:16",
+        "gcode.c jog: M commands -> INVALID_JOG_COMMAND",
+    ),
+    (
+        "$J=G1X1F100",
+        "error:16",
+        "gcode.c jog: motion commands not allowed",
+    ),
+    (
+        "$J=G28X1F10",
+        "error:16",
+        "gcode.c jog: non-modal other than G53",
+    ),
+    (
+        "$J=G4X1F100",
+        "error:28",
+        "gcode.c [10.]: G4's P check comes first",
+    ),
+    ("$J=X1I1F100", "error:36", "gcode.c: I unused"),
+    (
+        "$J=X1F100S1",
+        "error:36",
+        "gcode.c jog: S is unused on a jog",
+    ),
+    (
+        "$J=T1X1F10",
+        "error:36",
+        "gcode.c jog: T is unused on a jog",
+    ),
+    ("$J=G90G91X1F10", "error:21", "gcode.c: group 3 twice"),
+    ("$J=X1X2F10", "error:25", "gcode.c: X repeated"),
+];
+
+#[test]
+fn jogs_answer_as_grbl_1_1h() {
+    let mut wrong = Vec::new();
+    for &(line, want, rule) in JOG_CASES {
+        let body = line.strip_prefix("$J=").unwrap();
+        let offline = match gcode::jog(&Modal::default(), body, 1) {
+            Ok(_) => "ok".to_string(),
+            Err(e) => format!("error:{}", e.code),
+        };
+        if offline != want {
+            wrong.push(format!(
+                "interpreter: {line} -> {offline}, Grbl {want} ({rule})"
+            ));
+        }
+        let (got, _) = virtual_answer("", line);
+        if got != want {
+            wrong.push(format!(
+                "virtual Grbl: {line} -> {got}, Grbl {want} ({rule})"
+            ));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }

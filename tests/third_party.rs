@@ -149,3 +149,24 @@ fn every_job_streams_dry_estimates_and_simulates() {
         );
     }
 }
+
+#[test]
+fn a_job_with_m0_is_not_streamed_without_someone_to_resume_it() {
+    // Grbl holds at M0 until cycle start: without a terminal nobody can give it, so send says
+    // so up front instead of waiting for ever.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("pause.gcode");
+    std::fs::write(&file, "G21 G90\nG0 X1\nM0 (check the sheet)\nG0 X2\n").unwrap();
+    let out = stencil()
+        .args(["send", "--dry-run"])
+        .arg(&file)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let se = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        se.contains("line 3 has M0") && se.contains("terminal"),
+        "{se}"
+    );
+}

@@ -698,6 +698,19 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             job.dropped_percent
         );
     }
+    if let Some(&line) = job.pauses.first() {
+        // M0: Grbl holds until cycle start, which only someone at the terminal gives (`r`).
+        if !std::io::stdin().is_terminal() {
+            anyhow::bail!(
+                "{name}: line {line} has M0 (program pause): Grbl holds there until cycle start, \
+                 which send takes from the terminal (r); run it at a terminal, or take the M0 out"
+            );
+        }
+        println!(
+            "{name}: M0 at line(s) {:?}: the machine holds there; press r to go on",
+            job.pauses
+        );
+    }
     let journal_path = journal::path_for(&a.file);
     let (from_line, machine_arg, journal) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {

@@ -217,3 +217,19 @@ pub fn pieces_of(w: usize, h: usize, inside: impl Fn(usize) -> bool) -> (Vec<u32
     }
     (label, count as usize)
 }
+
+/// Read from a virtual Grbl's port until `needle` has come (or 5 s have passed): what came.
+pub fn read_until(port: &mut serialport::TTYPort, needle: &str) -> String {
+    use std::io::Read;
+    use std::time::{Duration, Instant};
+    let mut got = String::new();
+    let end = Instant::now() + Duration::from_secs(5);
+    let mut buf = [0u8; 256];
+    serialport::SerialPort::set_timeout(port, Duration::from_millis(10)).unwrap();
+    while !got.contains(needle) && Instant::now() < end {
+        if let Ok(n) = port.read(&mut buf) {
+            got.push_str(&String::from_utf8_lossy(&buf[..n]));
+        }
+    }
+    got
+}

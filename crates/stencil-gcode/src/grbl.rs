@@ -83,6 +83,8 @@ const WORD_Z: u16 = 1 << 12;
 struct Block {
     line: usize,
     modal: Modal,
+    /// A `$J=` jog (gcode.c's `GC_PARSER_JOG_MOTION`).
+    jog: bool,
     non_modal: NonModal,
     axis_command: AxisCommand,
     commands: u16,
@@ -181,8 +183,9 @@ pub(crate) fn next_word(
             line,
             code: 2,
             msg: format!(
-                "the number after '{}' has {digits} digits: too large to be a number",
-                letter as char
+                "the number after '{}' ({}) is too large to be a number",
+                letter as char,
+                excerpt(&clean[*i + 1..j])
             ),
             out_of_range: true,
         });
@@ -200,9 +203,35 @@ fn int_and_mantissa(v: f64) -> (i64, i64) {
 /// Run one cleaned line (no spaces or comments, upper case) against `modal`, as Grbl does. On an
 /// error nothing of the line takes effect.
 pub(crate) fn execute(modal: &mut Modal, clean: &str, line: usize) -> Result<Executed, GcodeError> {
+    let mut blk = read_block(modal, clean, line, false)?;
+    blk.check(modal)?;
+    Ok(blk.run(modal))
+}
+
+/// A `$J=` jog's words (after `$J=`), as `gc_execute_line` takes them with its jog flag: G1 and
+/// G94 forced, F required, only G20/G21, G90/G91 and G53 (`error:16` for any other command), S
+/// and T unused (`error:36`). The parser's state is not changed. Returns the target in machine
+/// coordinates (machine zero when no axis word is given, as Grbl's) and the feed in mm/min.
+pub(crate) fn jog(modal: &Modal, body: &str, line: usize) -> Result<([f64; 3], f64), GcodeError> {
+    let mut blk = read_block(modal, body, line, true)?;
+    blk.check(modal)?;
+    if blk.commands & !(GROUP_G3 | GROUP_G6 | GROUP_G0) != 0
+        || !matches!(blk.non_modal, NonModal::None | NonModal::AbsoluteOverride)
+    {
+        return Err(blk.err(
+            16,
+            "a jog takes only G20/G21, G90/G91, G53, axis words, F and N",
+        ));
+    }
+    Ok((blk.xyz, blk.f))
+}
+
+/// STEP 1 and 2: the block's words read against a copy of the modes.
+fn read_block(modal: &Modal, clean: &str, line: usize, jog: bool) -> Result<Block, GcodeError> {
     let mut blk = Block {
         line,
         modal: *modal,
+        jog,
         non_modal: NonModal::None,
         axis_command: AxisCommand::None,
         commands: 0,
@@ -223,12 +252,15 @@ pub(crate) fn execute(modal: &mut Modal, clean: &str, line: usize) -> Result<Exe
         coord_target: 0,
         block_coord: modal.coords[modal.coord_select],
     };
+    if jog {
+        blk.modal.motion = MOTION_LINEAR;
+        blk.modal.inverse_time = false;
+    }
     let mut i = 0;
     while let Some((letter, v)) = next_word(clean, &mut i, line)? {
         blk.word(letter, v)?;
     }
-    blk.check(modal)?;
-    Ok(blk.run(modal))
+    Ok(blk)
 }
 
 impl Block {
@@ -502,7 +534,12 @@ impl Block {
         self.block_coord = st.coords[self.modal.coord_select];
         self.check_non_modal(st)?;
         self.check_motion(st)?;
-        self.values &= !(WORD_N | WORD_F | WORD_S | WORD_T);
+        // A jog uses F and N only: S and T on it are unused words.
+        self.values &= if self.jog {
+            !(WORD_N | WORD_F)
+        } else {
+            !(WORD_N | WORD_F | WORD_S | WORD_T)
+        };
         if self.axis_command != AxisCommand::None {
             self.values &= !(WORD_X | WORD_Y | WORD_Z);
         }
@@ -523,7 +560,14 @@ impl Block {
 
     /// [2. Set feed rate mode] and [3. Set feed rate].
     fn check_feed(&mut self, st: &Modal) -> Result<(), GcodeError> {
-        if self.modal.inverse_time {
+        if self.jog {
+            if self.values & WORD_F == 0 {
+                return Err(self.err(22, "a jog needs its F"));
+            }
+            if !self.modal.metric {
+                self.f *= MM_PER_INCH;
+            }
+        } else if self.modal.inverse_time {
             if self.axis_command == AxisCommand::MotionMode
                 && self.modal.motion != MOTION_NONE
                 && self.modal.motion != MOTION_SEEK

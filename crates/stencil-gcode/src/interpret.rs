@@ -350,6 +350,13 @@ pub fn extent(moves: &[Move]) -> Option<Extent> {
     Some(e)
 }
 
+/// A `$J=` jog's words (the text after `$J=`, cleaned) as Grbl 1.1h checks them, against the
+/// parser's state (which a jog does not change): the target in machine coordinates and the feed
+/// in mm/min, or Grbl's `error:N`.
+pub fn jog(modal: &Modal, body: &str, line_no: usize) -> Result<([f64; 3], f64), GcodeError> {
+    crate::grbl::jog(modal, body, line_no)
+}
+
 /// A whole program as Grbl runs it: every move (arcs as their chords) in machine coordinates,
 /// and the time it stands still in dwells.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -40,6 +40,8 @@ pub struct Program {
     /// `%` lines left out (the program delimiters of other controllers; Grbl 1.1 answers them
     /// `error:1`, so senders strip them).
     pub dropped_percent: usize,
+    /// Lines with M0: Grbl finishes the queued motion there and holds until cycle start (`~`).
+    pub pauses: Vec<usize>,
     source: Vec<String>,
 }
 
@@ -103,6 +105,7 @@ impl Program {
         let mut unreadable = false;
         let (mut machine_changes, mut dropped) = (Vec::new(), Vec::new());
         let mut dropped_percent = 0;
+        let mut pauses = Vec::new();
         let source: Vec<String> = text.lines().map(str::to_string).collect();
         for (i, raw) in source.iter().enumerate() {
             let number = i + 1;
@@ -163,6 +166,9 @@ impl Program {
                 }
                 Ok(done) => {
                     modal = m;
+                    if done.flow == Some(gcode::Flow::Pause) {
+                        pauses.push(number);
+                    }
                     let moved = !done.moves.is_empty();
                     moves.extend(done.moves);
                     moved
@@ -195,6 +201,7 @@ impl Program {
             machine_changes,
             dropped,
             dropped_percent,
+            pauses,
             source,
         })
     }
