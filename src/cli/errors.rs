@@ -244,6 +244,9 @@ pub fn plan(e: &PlanError) -> String {
                 .into()
         }
         PlanError::DoesNotFit { fix: Fit::Move, .. } => " with --offset X,Y or --origin",
+        PlanError::OpenPaths { .. } => {
+            " with --cut-open-paths, or draw them with a pen (--machine pen-a3)"
+        }
         PlanError::DoesNotFit {
             fix: Fit::ShrinkGrid,
             ..

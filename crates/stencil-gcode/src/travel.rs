@@ -17,10 +17,26 @@ const K: usize = 12;
 /// Improvement rounds per optimisation (each round is a full sweep of all moves).
 const MAX_ROUNDS: usize = 60;
 
-/// Travel of loops cut in this order from their `points[0]`, starting and ending at `home`.
-pub(crate) fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
+/// Travel of open `lines` then `loops` drawn in this order (each loop from its `points[0]`,
+/// each line from its first point, `passes` times back and forth, so it ends at its last point
+/// after an odd number of passes and its first after an even one), starting and ending at
+/// `home`.
+pub(crate) fn travel_of(
+    lines: &[Vec<[f64; 2]>],
+    loops: &[Loop],
+    home: [f64; 2],
+    passes: u32,
+) -> f64 {
     let mut cur = home;
     let mut t = 0.0;
+    for l in lines {
+        t += dist(cur, l[0]);
+        cur = if passes % 2 == 1 {
+            l[l.len() - 1]
+        } else {
+            l[0]
+        };
+    }
     for l in loops {
         t += dist(cur, l.points[0]);
         cur = l.points[0];
@@ -29,8 +45,43 @@ pub(crate) fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
 }
 
 /// The travel of the input order (each loop from its first vertex): the baseline we report.
-pub(crate) fn naive_travel(loops: &[Loop], home: [f64; 2]) -> f64 {
-    travel_of(loops, home)
+pub(crate) fn naive_travel(lines: &[Vec<[f64; 2]>], loops: &[Loop], home: [f64; 2]) -> f64 {
+    travel_of(lines, loops, home, 1)
+}
+
+/// Open lines in drawing order: nearest neighbour from `home`, each line entered at whichever end
+/// is nearer (and then reversed to start there). Lines are drawn in a count a pen plot has
+/// (thousands), so a grid-free scan with box pruning is enough.
+pub(crate) fn order_lines(lines: Vec<Vec<[f64; 2]>>, home: [f64; 2]) -> Vec<Vec<[f64; 2]>> {
+    let mut left: Vec<Option<Vec<[f64; 2]>>> = lines.into_iter().map(Some).collect();
+    let boxes: Vec<[f64; 4]> = left.iter().flatten().map(|l| bbox(l)).collect();
+    let mut out = Vec::with_capacity(left.len());
+    let mut cur = home;
+    for _ in 0..left.len() {
+        let mut best = (usize::MAX, false, f64::INFINITY);
+        for (k, l) in left.iter().enumerate() {
+            let Some(l) = l else { continue };
+            if box_dist(&boxes[k], cur) >= best.2 {
+                continue;
+            }
+            let (a, b) = (dist(cur, l[0]), dist(cur, l[l.len() - 1]));
+            if a < best.2 {
+                best = (k, false, a);
+            }
+            if b < best.2 {
+                best = (k, true, b);
+            }
+        }
+        let Some(mut l) = left[best.0].take() else {
+            break;
+        };
+        if best.1 {
+            l.reverse();
+        }
+        cur = l[l.len() - 1];
+        out.push(l);
+    }
+    out
 }
 
 /// The vertex of `l` nearest to `p`.
@@ -558,8 +609,8 @@ mod tests {
                     l
                 })
                 .collect();
-            let opt = travel_of(&ordered, [0.0, 0.0]);
-            let naive = naive_travel(&loops, [0.0, 0.0]);
+            let opt = travel_of(&[], &ordered, [0.0, 0.0], 1);
+            let naive = naive_travel(&[], &loops, [0.0, 0.0]);
             assert!(opt < naive, "n={n}: {opt} vs naive {naive}");
             if n >= 40 {
                 // Random order on a square: ~0.52·side per hop; a good tour ~0.7·sqrt(n·area).
