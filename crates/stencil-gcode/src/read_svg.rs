@@ -40,6 +40,17 @@ pub const FLATTEN_TOLERANCE_MM: f64 = 0.01;
 /// shape would vanish without a word).
 const MAX_NUMBER: f64 = 1e30;
 
+/// The most points a drawing may flatten to: 10 million, about 160 MB as cut loops, far more than
+/// a sheet's worth of cutting (20,000 drawn circles of 10 mm are 1.3 million).
+const MAX_POINTS: usize = 10_000_000;
+
+fn too_many_points() -> String {
+    format!(
+        "the drawing flattens to more than {MAX_POINTS} points (curves at \
+         {FLATTEN_TOLERANCE_MM} mm); simplify it"
+    )
+}
+
 /// Why an SVG drawing cannot be read; each names the file and, where there is one, the line and
 /// column.
 #[derive(Debug, thiserror::Error)]
@@ -318,6 +329,7 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         shift: [sheet.outline[0], sheet.outline[1]],
         shapes: Vec::new(),
         count: 0,
+        points: 0,
     };
     walk.group(tree.root(), false)
         .map_err(|(label, e)| bad(format!("{label}: {e}")))?;
@@ -605,6 +617,8 @@ struct Walk<'a> {
     shapes: Vec<Shape>,
     /// Shapes seen, for their names in messages.
     count: usize,
+    /// Points flattened so far (bounded by [`MAX_POINTS`]).
+    points: usize,
 }
 
 impl Walk<'_> {
@@ -654,6 +668,43 @@ impl Walk<'_> {
                 S::Close => bez.close_path(),
             }
         }
+        // Every control point in range before flattening: a curve's segment count grows with the
+        // square root of its size over the tolerance, so a circle of radius 1e30 would never end.
+        if let Some(e) = bez
+            .elements()
+            .iter()
+            .flat_map(|el| match *el {
+                kurbo::PathEl::MoveTo(a) | kurbo::PathEl::LineTo(a) => vec![a],
+                kurbo::PathEl::QuadTo(a, b) => vec![a, b],
+                kurbo::PathEl::CurveTo(a, b, c) => vec![a, b, c],
+                kurbo::PathEl::ClosePath => vec![],
+            })
+            .find_map(|q| clip::check_point(q.x, q.y).err())
+        {
+            return Err((label, e.to_string()));
+        }
+        // An upper bound of the points flattening gives (a curve of control polygon length L
+        // gives fewer than sqrt(L / tolerance) + 1 segments), checked before it runs.
+        let mut last = kurbo::Point::ZERO;
+        let estimate: f64 = bez
+            .elements()
+            .iter()
+            .map(|el| {
+                let (len, end) = match *el {
+                    kurbo::PathEl::MoveTo(a) | kurbo::PathEl::LineTo(a) => (0.0, a),
+                    kurbo::PathEl::QuadTo(a, b) => (last.distance(a) + a.distance(b), b),
+                    kurbo::PathEl::CurveTo(a, b, c) => {
+                        (last.distance(a) + a.distance(b) + b.distance(c), c)
+                    }
+                    kurbo::PathEl::ClosePath => (0.0, last),
+                };
+                last = end;
+                (len / FLATTEN_TOLERANCE_MM).sqrt() + 1.0
+            })
+            .sum();
+        if self.points as f64 + estimate > 2.0 * MAX_POINTS as f64 {
+            return Err((label, too_many_points()));
+        }
         let mut shape = Shape {
             cut: inside_cut || self.is_cut(p.id()),
             rings: Vec::new(),
@@ -697,6 +748,15 @@ impl Walk<'_> {
         end(&mut cur, false, &mut shape);
         if let Some(e) = bad {
             return Err((label, e));
+        }
+        self.points += shape
+            .rings
+            .iter()
+            .chain(&shape.lines)
+            .map(|l| l.0.len())
+            .sum::<usize>();
+        if self.points > MAX_POINTS {
+            return Err((label, too_many_points()));
         }
         if !shape.rings.is_empty() || !shape.lines.is_empty() {
             self.shapes.push(shape);
@@ -919,6 +979,18 @@ mod tests {
         .is_ok());
     }
 
+    /// Found by the fuzz: a huge circle flattened at 0.01 mm never ended (and exhausted memory).
+    #[test]
+    fn curves_too_large_to_flatten_are_refused_before_flattening() {
+        let body: String = (0..200)
+            .map(|i| format!(r#"<circle cx="{i}" cy="0" r="5e8"/>"#))
+            .collect();
+        let e = read_body(&body).unwrap_err();
+        assert!(e.contains("flattens to more than"), "{e}");
+        let e = read_body(r#"<circle cx="0" cy="0" r="1e29"/>"#).unwrap_err();
+        assert!(e.contains("path 1") && e.contains("beyond"), "{e}");
+    }
+
     #[test]
     fn nothing_drawn_is_nothing_to_cut() {
         let e = read_body(r#"<rect width="5" height="5" display="none"/>"#).unwrap_err();
@@ -1035,6 +1107,131 @@ mod tests {
         for vb in ["0 0 inf 10", "0 0 10", "0 0 -1 10", "a b c d"] {
             let e = g(&format!(r#"width="10mm" height="10mm" viewBox="{vb}""#)).unwrap_err();
             assert!(e.to_string().contains("viewBox="), "{vb}: {e}");
+        }
+    }
+}
+
+/// A stable-Rust fuzz of the reader: documents built from random shapes, transforms, nested
+/// viewports, styles and deliberately broken numbers and tags. Every one must be read, or refused
+/// naming the file; what is read must lie in range; a plain grid of squares must come back as
+/// drawn. `PROPTEST_CASES=N` runs more.
+#[cfg(test)]
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn number() -> impl Strategy<Value = String> {
+        prop_oneof![
+            8 => (-200.0f64..200.0).prop_map(|v| format!("{v:.3}")),
+            1 => prop::sample::select(vec![
+                "1e39", "-1e400", "nan", "inf", "1x", "", ".", "1e", "--1", "0", "1e-300", "1e30",
+            ])
+            .prop_map(String::from),
+        ]
+    }
+
+    fn transform() -> impl Strategy<Value = String> {
+        prop_oneof![
+            3 => Just(String::new()),
+            1 => (number(), number()).prop_map(|(a, b)| format!(r#" transform="translate({a} {b})""#)),
+            1 => number().prop_map(|a| format!(r#" transform="rotate({a})""#)),
+            1 => (number(), number()).prop_map(|(a, b)| format!(r#" transform="scale({a},{b})""#)),
+            1 => number().prop_map(|a| format!(r#" transform="skewX({a})""#)),
+            1 => Just(r#" transform="matrix(1 2 3)""#.to_string()),
+        ]
+    }
+
+    fn style() -> impl Strategy<Value = &'static str> {
+        prop::sample::select(vec![
+            "",
+            r#" display="none""#,
+            r#" visibility="hidden""#,
+            r#" fill="none" stroke="black""#,
+            r#" style="display:none""#,
+            r#" class="cut""#,
+            r#" id="cut7""#,
+        ])
+    }
+
+    fn shape() -> impl Strategy<Value = String> {
+        let path = prop::collection::vec(
+            (
+                prop::sample::select(vec!["M", "L", "H", "V", "C", "Q", "A", "Z", "l", "c", "x"]),
+                prop::collection::vec(number(), 0..7),
+            ),
+            1..8,
+        )
+        .prop_map(|segs| {
+            let d: Vec<String> = segs
+                .into_iter()
+                .map(|(c, n)| format!("{c}{}", n.join(" ")))
+                .collect();
+            format!(r#"<path d="{}""#, d.join(" "))
+        });
+        let shape = prop_oneof![
+            path,
+            (number(), number(), number(), number()).prop_map(|(x, y, w, h)| format!(
+                r#"<rect x="{x}" y="{y}" width="{w}" height="{h}""#
+            )),
+            (number(), number(), number())
+                .prop_map(|(x, y, r)| format!(r#"<circle cx="{x}" cy="{y}" r="{r}""#)),
+            (number(), number(), number(), number())
+                .prop_map(|(a, b, c, d)| format!(r#"<line x1="{a}" y1="{b}" x2="{c}" y2="{d}""#)),
+            prop::collection::vec(number(), 0..9)
+                .prop_map(|p| format!(r#"<polygon points="{}""#, p.join(","))),
+        ];
+        (shape, transform(), style()).prop_map(|(s, t, st)| format!("{s}{t}{st}/>"))
+    }
+
+    fn element(depth: u32) -> BoxedStrategy<String> {
+        let leaf = shape().boxed();
+        if depth == 0 {
+            return leaf;
+        }
+        prop_oneof![
+            3 => leaf,
+            1 => (prop::collection::vec(element(depth - 1), 0..4), transform(), style())
+                .prop_map(|(kids, t, st)| format!("<g{t}{st}>{}</g>", kids.concat())),
+            1 => (prop::collection::vec(element(depth - 1), 0..3), number(), number())
+                .prop_map(|(kids, x, w)| format!(r#"<svg x="{x}" width="{w}" height="50" viewBox="0 0 10 10">{}</svg>"#, kids.concat())),
+            1 => Just(r##"<defs><rect id="u" width="3" height="3"/></defs><use href="#u" x="5"/>"##.to_string()),
+            1 => Just("<g><rect width='1' height='1'></g>".to_string()),
+        ]
+        .boxed()
+    }
+
+    fn in_range(g: &CutLoops) -> bool {
+        g.cuts
+            .0
+            .iter()
+            .flat_map(|p| p.exterior().0.iter())
+            .chain(g.lines.iter().flat_map(|l| l.0.iter()))
+            .all(|c| clip::check_point(c.x, c.y).is_ok())
+    }
+
+    proptest! {
+        #[test]
+        fn any_document_is_read_or_refused_by_name(
+            kids in prop::collection::vec(element(3), 0..6),
+            size in prop::sample::select(vec![r#"width="100mm" height="80mm""#, r#"width="4in""#, "", r#"width="10%" height="1""#]),
+            vb in prop::sample::select(vec![r#" viewBox="0 0 100 80""#, "", r#" viewBox="0 0 0 1""#]),
+        ) {
+            let t = format!(r#"<svg xmlns="http://www.w3.org/2000/svg" {size}{vb}>{}</svg>"#, kids.concat());
+            match read(&t, "f.svg") {
+                Ok(d) => prop_assert!(in_range(&d.geometry), "{t}"),
+                Err(e) => prop_assert!(e.to_string().starts_with("f.svg:"), "{e}"),
+            }
+        }
+
+        #[test]
+        fn a_grid_of_squares_comes_back_as_drawn(n in 1usize..40, s in 0.5f64..5.0) {
+            let body: String = (0..n)
+                .map(|i| format!(r#"<rect x="{}" y="{}" width="{s}" height="{s}"/>"#, (i % 7) as f64 * 10.0, (i / 7) as f64 * 10.0))
+                .collect();
+            let g = cut_loops_from_svg(&format!(r#"<svg width="100mm" height="100mm" viewBox="0 0 100 100">{body}</svg>"#), "g.svg").unwrap();
+            prop_assert_eq!(g.cuts.0.len(), n);
+            let total: f64 = g.cuts.0.iter().map(|p| p.unsigned_area()).sum();
+            prop_assert!((total - n as f64 * s * s).abs() < 1e-3 * n as f64, "{total}");
         }
     }
 }
