@@ -418,6 +418,13 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         cfg.physical.material.name,
         file_names(&replaced.written)
     );
+    if let Some(turn) = stencil_core::tone::orientation_note(&cfg.input) {
+        eprintln!(
+            "note: {}: its EXIF orientation was applied: the picture is {turn}, as a viewer \
+             shows it",
+            cfg.input.display()
+        );
+    }
     if !replaced.removed.is_empty() {
         eprintln!(
             "note: removed {} from an earlier run in {} (this run did not write {}; --emit says which files to write)",
