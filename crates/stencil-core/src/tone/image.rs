@@ -89,12 +89,15 @@ pub fn orientation_note(path: &Path) -> Option<&'static str> {
     })
 }
 
+/// Where an output pixel of a turned picture comes from.
+type SourceOf = dyn Fn(usize, usize) -> (usize, usize);
+
 /// `g` turned as an EXIF orientation says (as `DynamicImage::apply_orientation` does: the
 /// rotations are clockwise, a flip after a rotation is left to right).
 fn oriented(g: Gray, o: Orientation) -> Gray {
     let (w, h) = (g.width as usize, g.height as usize);
     // The source pixel of output pixel (x, y) in an output of `ow` columns.
-    let (ow, oh, src): (usize, usize, Box<dyn Fn(usize, usize) -> (usize, usize)>) = match o {
+    let (ow, oh, src): (usize, usize, Box<SourceOf>) = match o {
         Orientation::NoTransforms => return g,
         Orientation::Rotate90 => (h, w, Box::new(move |x, y| (y, h - 1 - x))),
         Orientation::Rotate180 => (w, h, Box::new(move |x, y| (w - 1 - x, h - 1 - y))),
