@@ -138,6 +138,8 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read the stencil picture", png.display())
         }
     })?;
+    stencil_core::check::bound_pieces(&bits)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
     let material = match (&a.material, report.as_ref().map(material_of_report)) {
         (Some(name), _) => Material::find(name)?.0,
         (None, Some(Some(found))) => found?,

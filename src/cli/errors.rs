@@ -218,6 +218,7 @@ fn check(e: &CheckError) -> String {
             "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is \
              {problem}; check the size (--width-mm, --dpi, --margin-mm)"
         ),
+        e => e.to_string(),
     }
 }
 
