@@ -445,6 +445,38 @@ fn obj_errors_name_the_line_and_quote_short() {
     ));
 }
 
+/// A small part 1e12 away from a tetrahedron: the view frames both and every part shrinks below
+/// a pixel. The stencil came out blank with exit 0 and no word; now both are warned about.
+#[test]
+fn a_part_far_from_the_model_is_warned_about_with_the_blank_stencil() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n\
+                v 1e12 1e12 1e12\nv 1e12 1e12 1.000001e12\nv 1e12 1.000001e12 1e12\nf 5 6 7\n";
+    let p = write(tmp.path(), "far.obj", text);
+    let out = tmp.path().join("far");
+    let o = stencil(&["make", s(&p), "-o", s(&out)]);
+    ok(&o);
+    let e = stderr(&o);
+    assert!(
+        e.contains("far.obj")
+            && e.contains("2 of the mesh's 2 parts come out smaller than a pixel"),
+        "{e}"
+    );
+    assert!(e.contains("the stencil is blank"), "{e}");
+    // The tetrahedron alone: one part, drawn, no part warning.
+    let p = write(tmp.path(), "near.obj", text.split("v 1e12").next().unwrap());
+    let e = ok(&stencil(&[
+        "make",
+        s(&p),
+        "-o",
+        s(&tmp.path().join("near")),
+    ]));
+    assert!(
+        !e.contains("smaller than a pixel") && !e.contains("blank"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_vertex_far_from_the_model_is_refused_not_drawn_as_a_blank_stencil() {
     let tmp = tempfile::tempdir().unwrap();
