@@ -168,6 +168,30 @@ fn check_command_exit_code_follows_the_violations() {
     assert!(ok, "{out}");
 }
 
+/// A 1-px checkerboard at 1000 x 1000 (a picture `make` accepts) took over 20 s and 1.1 GB to
+/// check; it breaks into a million pieces, over the limit, and is refused at once naming it.
+#[test]
+fn check_of_a_picture_in_a_million_pieces_is_refused_naming_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("checker.png");
+    let bits = BitGrid {
+        width: 1000,
+        height: 1000,
+        data: (0..1000 * 1000)
+            .map(|i| (i % 1000 + i / 1000) % 2 == 0)
+            .collect(),
+    };
+    write_png(&p, &bits);
+    let (ok, out) = run(&["check", p.to_str().unwrap()]);
+    assert!(!ok, "{out}");
+    assert!(
+        out.contains("checker.png")
+            && out.contains("500000 separate pieces of material and 500000 of cut")
+            && out.contains(&stencil_core::check::MAX_CHECK_PIECES.to_string()),
+        "{out}"
+    );
+}
+
 #[test]
 fn check_on_an_output_folder_uses_the_material_of_its_report() {
     let dir = tempfile::tempdir().unwrap();

@@ -583,6 +583,79 @@ fn cli_writes_gcode_from_an_svg_and_estimates_it() {
     assert!(ok && out.contains("cut 440 mm"), "{out} {err}");
 }
 
+/// An open path is drawn as the line it is by a pen (it was closed and cut as a triangle), and
+/// refused by a laser unless `--cut-open-paths`, which then cuts it open.
+#[test]
+fn open_paths_are_drawn_by_a_pen_and_refused_by_a_laser() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+<path d="M10 10 L50 10 L50 50" fill="none" stroke="black"/>
+<rect x="60" y="60" width="10" height="10"/></svg>"#;
+    std::fs::write(dir.path().join("o.svg"), svg).unwrap();
+    let (ok, out, err) = stencil(
+        &[
+            "gcode",
+            "o.svg",
+            "-o",
+            "pen.gcode",
+            "--machine",
+            "pen-a3",
+            "--speed",
+            "1000",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("1 loops and 1 open paths"), "{out}");
+    let m = machine::load(Some("pen-a3")).unwrap();
+    let text = std::fs::read_to_string(dir.path().join("pen.gcode")).unwrap();
+    let r = check_program(&text, &m);
+    // The line (40 + 40 mm, not closed back: that would add 56.6 mm) and the 40 mm square.
+    assert!((r.cut_mm - 120.0).abs() < 0.01, "{}", r.cut_mm);
+    let drawn: Vec<([f64; 3], [f64; 3])> = r
+        .moves
+        .iter()
+        .filter(|m| m.3 && !m.2)
+        .map(|m| (m.0, m.1))
+        .collect();
+    let has = |a: [f64; 2], b: [f64; 2]| {
+        drawn.iter().any(|(f, t)| {
+            let near = |p: &[f64; 3], q: [f64; 2]| {
+                (p[0] - q[0]).abs() < 1e-3 && (p[1] - q[1]).abs() < 1e-3
+            };
+            (near(f, a) && near(t, b)) || (near(f, b) && near(t, a))
+        })
+    };
+    // y up on the bed: sheet y 10 is bed y 90.
+    assert!(
+        has([10.0, 90.0], [50.0, 90.0]) && has([50.0, 90.0], [50.0, 50.0]),
+        "{drawn:?}"
+    );
+    assert!(
+        !has([50.0, 50.0], [10.0, 90.0]),
+        "the line is not closed: {drawn:?}"
+    );
+
+    let laser = [
+        "gcode", "o.svg", "-o", "l.gcode", "--power", "50", "--speed", "1000",
+    ];
+    let (ok, _, err) = stencil(&laser, dir.path());
+    assert!(
+        !ok && err.contains("o.svg")
+            && err.contains("1 open path")
+            && err.contains("--cut-open-paths"),
+        "{err}"
+    );
+    assert!(!dir.path().join("l.gcode").exists());
+    let mut open = laser.to_vec();
+    open.push("--cut-open-paths");
+    let (ok, _, err) = stencil(&open, dir.path());
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(dir.path().join("l.gcode")).unwrap();
+    let r = check_program(&text, &machine::load(None).unwrap());
+    assert!((r.cut_mm - 120.0).abs() < 0.01, "{}", r.cut_mm);
+}
+
 #[test]
 fn cli_refuses_too_big_and_bad_inputs_with_clear_messages() {
     let dir = tempfile::tempdir().unwrap();
@@ -903,7 +976,7 @@ mod prop {
             s.passes = passes;
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
-            let cfg = PlanConfig { anchor, offset, cut_outline: outline, settings: s };
+            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s };
             match gcode_for(&g, &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);

@@ -80,7 +80,7 @@ fn svg_coordinates_clipper_cannot_take_are_refused_naming_file_and_path() {
     let cases = [
         ("rotate.svg", g("rotate(nan)"), "transform"),
         ("matrix.svg", g("matrix(nan,0,0,1,0,0)"), "transform"),
-        ("scale.svg", g("scale(1e308)"), "path 1"),
+        ("scale.svg", g("scale(1e308)"), "transform=\"scale(1e308)\""),
         ("skew.svg", g("skewX(90)"), "path 1"),
         (
             "far.svg",
@@ -93,7 +93,7 @@ fn svg_coordinates_clipper_cannot_take_are_refused_naming_file_and_path() {
                 r#"width="100mm" height="100mm" viewBox="0 0 1e-300 1e-300""#,
                 SQUARE,
             ),
-            "path 1",
+            "viewBox",
         ),
         (
             "inf_viewbox.svg",
@@ -443,6 +443,38 @@ fn obj_errors_name_the_line_and_quote_short() {
         "bom.obj",
         &format!("\u{feff}{tri}f 1 2 3\n"),
     ));
+}
+
+/// A small part 1e12 away from a tetrahedron: the view frames both and every part shrinks below
+/// a pixel. The stencil came out blank with exit 0 and no word; now both are warned about.
+#[test]
+fn a_part_far_from_the_model_is_warned_about_with_the_blank_stencil() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n\
+                v 1e12 1e12 1e12\nv 1e12 1e12 1.000001e12\nv 1e12 1.000001e12 1e12\nf 5 6 7\n";
+    let p = write(tmp.path(), "far.obj", text);
+    let out = tmp.path().join("far");
+    let o = stencil(&["make", s(&p), "-o", s(&out)]);
+    ok(&o);
+    let e = stderr(&o);
+    assert!(
+        e.contains("far.obj")
+            && e.contains("2 of the mesh's 2 parts come out smaller than a pixel"),
+        "{e}"
+    );
+    assert!(e.contains("the stencil is blank"), "{e}");
+    // The tetrahedron alone: one part, drawn, no part warning.
+    let p = write(tmp.path(), "near.obj", text.split("v 1e12").next().unwrap());
+    let e = ok(&stencil(&[
+        "make",
+        s(&p),
+        "-o",
+        s(&tmp.path().join("near")),
+    ]));
+    assert!(
+        !e.contains("smaller than a pixel") && !e.contains("blank"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -134,6 +134,8 @@ pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read the stencil picture", png.display())
         }
     })?;
+    stencil_core::check::bound_pieces(&bits)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
     let material = match (
         &a.material,
         report.as_ref().map(|r| material_of_report(r, &a.input)),

@@ -218,6 +218,7 @@ fn check(e: &CheckError) -> String {
             "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is \
              {problem}; check the size (--width-mm, --dpi, --margin-mm)"
         ),
+        e => e.to_string(),
     }
 }
 
@@ -244,6 +245,9 @@ pub fn plan(e: &PlanError) -> String {
                 .into()
         }
         PlanError::DoesNotFit { fix: Fit::Move, .. } => " with --offset X,Y or --origin",
+        PlanError::OpenPaths { .. } => {
+            " with --cut-open-paths, or draw them with a pen (--machine pen-a3)"
+        }
         PlanError::DoesNotFit {
             fix: Fit::ShrinkGrid,
             ..

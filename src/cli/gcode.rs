@@ -10,7 +10,6 @@ use clap::Args;
 use stencil_core::material::Material;
 use stencil_gcode::estimate::format_duration;
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
-use stencil_gcode::read_svg::cut_loops_from_svg;
 use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 
 pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
@@ -43,6 +42,10 @@ pub struct MachineArgs {
     /// Also cut the sheet's outline (a rectangle), after everything inside it.
     #[arg(long)]
     pub cut_outline: bool,
+    /// Cut a drawing's open paths (lines, shapes not closed with Z) with a laser or knife, as
+    /// open cuts. A pen draws them anyway; without this a cutting tool refuses them.
+    #[arg(long)]
+    pub cut_open_paths: bool,
 }
 
 impl MachineArgs {
@@ -55,6 +58,7 @@ impl MachineArgs {
             anchor: self.origin,
             offset: self.offset,
             cut_outline: self.cut_outline,
+            cut_open_paths: self.cut_open_paths,
             settings,
         }
     }
@@ -150,12 +154,16 @@ impl CutArgs {
 pub fn print_summary(path: &Path, s: &GcodeSummary) {
     let e = &s.estimate;
     println!(
-        "{}: {} ({}), {} loops; cut {:.0} mm, travel {:.0} mm (input order {:.0} mm); about {} \
+        "{}: {} ({}), {} loops{}; cut {:.0} mm, travel {:.0} mm (input order {:.0} mm); about {} \
          (cut {}, travel {})",
         path.display(),
         s.machine,
         s.tool,
         s.path.loops,
+        match s.path.lines {
+            0 => String::new(),
+            n => format!(" and {n} open paths"),
+        },
         s.path.cut_mm,
         s.path.travel_mm,
         s.path.naive_travel_mm,
@@ -257,7 +265,11 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read", svg_path.display())
         }
     })?;
-    let mut geom = cut_loops_from_svg(&text, &svg_path.display().to_string())?;
+    let drawing = stencil_gcode::read_svg::read(&text, &svg_path.display().to_string())?;
+    for n in &drawing.notes {
+        eprintln!("{}: note: {n}", svg_path.display());
+    }
+    let mut geom = drawing.geometry;
     let machine = a.machine.machine()?;
     let material = match (&a.material, &dir) {
         (Some(m), _) => Some(Material::find(m)?.0),
@@ -284,7 +296,12 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
     let cfg = a.machine.plan_config(settings);
-    let (gcode, summary) = plan::gcode_for(&geom, &machine, &cfg, &notes)?;
+    let (gcode, summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
+        Err(e @ plan::PlanError::OpenPaths { .. }) => {
+            bail!("{}: {}", svg_path.display(), super::errors::plan(&e))
+        }
+        r => r?,
+    };
     stencil_io::write_atomic(&out, gcode.as_bytes())?;
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)

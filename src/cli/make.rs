@@ -455,6 +455,40 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         cfg.physical.material.name,
         file_names(&replaced.written)
     );
+    if made.geometry.design_cuts.0.is_empty() {
+        eprintln!(
+            "warning: {}: the stencil is blank: nothing is cut (see the preview; for a mesh, \
+             check its parts and the view)",
+            cfg.input.display()
+        );
+    }
+    let is_obj = cfg
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if let Some(mesh) = is_obj
+        .then(|| stencil_core::tone::mesh::load(&cfg.input).ok())
+        .flatten()
+    {
+        let p = stencil_core::tone::mesh::part_sizes(&mesh, &cfg.mesh);
+        if p.below_a_pixel > 0 {
+            eprintln!(
+                "warning: {}: {} of the mesh's {} parts come out smaller than a pixel and leave \
+                 no mark (a part far from the rest makes the view frame both, so everything \
+                 shrinks): remove stray parts, or raise the resolution",
+                cfg.input.display(),
+                p.below_a_pixel,
+                p.parts
+            );
+        }
+    }
+    if let Some(turn) = stencil_core::tone::orientation_note(&cfg.input) {
+        eprintln!(
+            "note: {}: its EXIF orientation was applied: the picture is {turn}, as a viewer \
+             shows it",
+            cfg.input.display()
+        );
+    }
     if !replaced.removed.is_empty() {
         eprintln!(
             "note: removed {} from an earlier run in {} (this run did not write {}; --emit says which files to write)",

@@ -1,7 +1,7 @@
 //! The planner's input: closed cut loops in sheet millimetres (x right, y down), from `make`'s
 //! stencil or from a drawing, and what is known of the pieces the cuts free.
 
-use geo::{MultiPolygon, Rect};
+use geo::{LineString, MultiPolygon, Rect};
 use stencil_geom::{kerf, ClipError};
 
 /// Closed loops to cut on a sheet.
@@ -17,6 +17,13 @@ pub struct CutLoops {
     pub kerf_mm: f64,
     /// What is known of the pieces of material the cuts free, for the cut order.
     pub pieces: Pieces,
+    /// Open paths of a drawing (lines, polylines, paths without `Z`), sheet mm: a pen draws them
+    /// as they are, which is what plotter drawings are made of. A cutting tool refuses them
+    /// unless told to cut them open ([`PlanConfig::cut_open_paths`](crate::PlanConfig)): a cut
+    /// that does not close frees nothing, and an open path in a stencil design is usually a
+    /// shape whose closing segment was lost. Cut or drawn before every closed loop, while the
+    /// sheet is still whole. `make` has none.
+    pub lines: Vec<LineString<f64>>,
 }
 
 /// What the planner knows of the pieces of material the cuts free (every cut inside a piece must
@@ -42,6 +49,7 @@ impl CutLoops {
             cuts,
             kerf_mm: 0.0,
             pieces: Pieces::Unknown,
+            lines: Vec::new(),
         }
     }
 

@@ -33,6 +33,17 @@ pub enum PlanError {
         "nothing to cut: the geometry has no cut regions (and the sheet's outline is not cut)"
     )]
     Empty,
+    /// A drawing's open paths on a tool that cuts (a pen draws them).
+    #[error(
+        "the drawing has {count} open path(s) (lines, or shapes not closed with Z), and '{machine}' \
+         has a {tool}: an open cut frees nothing, and an open path is often a shape whose closing \
+         segment was lost. Close them in the drawing, or cut them open on purpose"
+    )]
+    OpenPaths {
+        count: usize,
+        machine: String,
+        tool: &'static str,
+    },
     #[error(transparent)]
     Settings(#[from] SettingsError),
     /// A square of a test grid whose settings the machine refuses; `label` is the square's

@@ -290,6 +290,7 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
         .map(|l| l.perimeter_mm() * spec.base.passes as f64)
         .sum();
     Job {
+        lines: Vec::new(),
         loops,
         home,
         settings: spec.base,
@@ -297,6 +298,7 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
         min: spec.offset,
         max: [spec.offset[0] + size[0], spec.offset[1] + size[1]],
         stats: PathStats {
+            lines: 0,
             loops: cells.len(),
             cut_mm,
             travel_mm: travel,

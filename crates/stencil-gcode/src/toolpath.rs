@@ -63,6 +63,9 @@ pub struct PlanConfig {
     pub offset: [f64; 2],
     /// Also cut the sheet's rectangle, after everything inside it.
     pub cut_outline: bool,
+    /// Cut a drawing's open paths ([`CutLoops::lines`]) with a laser or knife, as open cuts.
+    /// A pen draws them anyway.
+    pub cut_open_paths: bool,
     pub settings: CutSettings,
 }
 
@@ -72,6 +75,7 @@ impl PlanConfig {
             anchor: None,
             offset: [0.0, 0.0],
             cut_outline: false,
+            cut_open_paths: false,
             settings,
         }
     }
@@ -101,6 +105,9 @@ impl Loop {
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PathStats {
     pub loops: usize,
+    /// Open paths drawn (or cut open), besides the loops.
+    #[serde(default)]
+    pub lines: usize,
     /// Length cut, all passes, mm.
     pub cut_mm: f64,
     /// Tool-off travel of the optimised order, from the start point, back to it, mm.
@@ -112,6 +119,9 @@ pub struct PathStats {
 /// A planned job: loops in cut order, ready for the G-code writer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {
+    /// Open paths in machine mm, in the order drawn, each from its first point to its last:
+    /// drawn before the loops, while the sheet is whole.
+    pub lines: Vec<Vec<[f64; 2]>>,
     pub loops: Vec<Loop>,
     /// Where the head starts and returns to (machine 0, 0).
     pub home: [f64; 2],
@@ -302,6 +312,14 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
     let place = Placement::new(rect, machine, cfg);
 
     let mut loops = cut_loops(geom, &place);
+    let lines = open_lines(geom, &place);
+    if !lines.is_empty() && !matches!(machine.tool, Tool::Pen(_)) && !cfg.cut_open_paths {
+        return Err(PlanError::OpenPaths {
+            count: lines.len(),
+            machine: machine.name.clone(),
+            tool: machine.tool.kind(),
+        });
+    }
     let frame = [
         place.map(rect[0], rect[1]),
         place.map(rect[2], rect[1]),
@@ -315,14 +333,15 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
             area_mm2: size[0] * size[1],
         });
     }
-    if loops.is_empty() {
+    if loops.is_empty() && lines.is_empty() {
         return Err(PlanError::Empty);
     }
 
-    let (min, max) = check_on_bed(&frame, &loops, machine, cfg)?;
+    let (min, max) = check_on_bed(&frame, &loops, &lines, machine, cfg)?;
 
     let home = [0.0, 0.0];
-    let naive_travel_mm = travel::naive_travel(&loops, home);
+    let naive_travel_mm = travel::naive_travel(&lines, &loops, home);
+    let lines = travel::order_lines(lines, home);
     let sequence = shortest_sequence(&loops, &gaps(geom, &place), home);
     let mut ordered = Vec::with_capacity(loops.len());
     for (i, start) in sequence {
@@ -330,16 +349,19 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         l.points.rotate_left(start);
         ordered.push(l);
     }
-    let travel_mm = travel::travel_of(&ordered, home);
+    let travel_mm = travel::travel_of(&lines, &ordered, home, cfg.settings.passes);
     let passes = cfg.settings.passes;
-    let cut_mm = ordered.iter().map(Loop::perimeter_mm).sum::<f64>() * passes as f64;
+    let line_mm: f64 = lines.iter().map(|l| line_len(l)).sum();
+    let cut_mm = (ordered.iter().map(Loop::perimeter_mm).sum::<f64>() + line_mm) * passes as f64;
     Ok(Job {
         stats: PathStats {
             loops: ordered.len(),
+            lines: lines.len(),
             cut_mm,
             travel_mm,
             naive_travel_mm,
         },
+        lines,
         loops: ordered,
         home,
         settings: cfg.settings,
@@ -374,11 +396,37 @@ fn cut_loops(geom: &CutLoops, place: &Placement) -> Vec<Loop> {
     loops
 }
 
+/// A drawing's open paths placed on the bed, as given (repeated points removed; a path with no
+/// length left out).
+fn open_lines(geom: &CutLoops, place: &Placement) -> Vec<Vec<[f64; 2]>> {
+    let mut out = Vec::new();
+    for ls in &geom.lines {
+        let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
+        for c in &ls.0 {
+            let p = place.map(c.x, c.y);
+            if pts.last().is_none_or(|&q| dist(p, q) > 1e-9) {
+                pts.push(p);
+            }
+        }
+        if pts.len() >= 2 {
+            out.push(pts);
+        }
+    }
+    out
+}
+
+/// The length of an open path, mm.
+pub(crate) fn line_len(l: &[[f64; 2]]) -> f64 {
+    l.windows(2).map(|w| dist(w[0], w[1])).sum()
+}
+
 /// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
-/// (`frame`) and every loop, which a drag knife's axis passes by up to the blade offset.
+/// (`frame`), every line and every loop, which a drag knife's axis passes by up to the blade
+/// offset.
 fn check_on_bed(
     frame: &[[f64; 2]; 4],
     loops: &[Loop],
+    lines: &[Vec<[f64; 2]>],
     machine: &Machine,
     cfg: &PlanConfig,
 ) -> Result<([f64; 2], [f64; 2]), PlanError> {
@@ -398,6 +446,7 @@ fn check_on_bed(
     loops
         .iter()
         .flat_map(|l| l.points.iter())
+        .chain(lines.iter().flatten())
         .for_each(|p| grow(p, reach));
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;

@@ -17,10 +17,26 @@ const K: usize = 12;
 /// Improvement rounds per optimisation (each round is a full sweep of all moves).
 const MAX_ROUNDS: usize = 60;
 
-/// Travel of loops cut in this order from their `points[0]`, starting and ending at `home`.
-pub(crate) fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
+/// Travel of open `lines` then `loops` drawn in this order (each loop from its `points[0]`,
+/// each line from its first point, `passes` times back and forth, so it ends at its last point
+/// after an odd number of passes and its first after an even one), starting and ending at
+/// `home`.
+pub(crate) fn travel_of(
+    lines: &[Vec<[f64; 2]>],
+    loops: &[Loop],
+    home: [f64; 2],
+    passes: u32,
+) -> f64 {
     let mut cur = home;
     let mut t = 0.0;
+    for l in lines {
+        t += dist(cur, l[0]);
+        cur = if passes % 2 == 1 {
+            l[l.len() - 1]
+        } else {
+            l[0]
+        };
+    }
     for l in loops {
         t += dist(cur, l.points[0]);
         cur = l.points[0];
@@ -29,8 +45,43 @@ pub(crate) fn travel_of(loops: &[Loop], home: [f64; 2]) -> f64 {
 }
 
 /// The travel of the input order (each loop from its first vertex): the baseline we report.
-pub(crate) fn naive_travel(loops: &[Loop], home: [f64; 2]) -> f64 {
-    travel_of(loops, home)
+pub(crate) fn naive_travel(lines: &[Vec<[f64; 2]>], loops: &[Loop], home: [f64; 2]) -> f64 {
+    travel_of(lines, loops, home, 1)
+}
+
+/// Open lines in drawing order: nearest neighbour from `home`, each line entered at whichever end
+/// is nearer (and then reversed to start there). Lines are drawn in a count a pen plot has
+/// (thousands), so a grid-free scan with box pruning is enough.
+pub(crate) fn order_lines(lines: Vec<Vec<[f64; 2]>>, home: [f64; 2]) -> Vec<Vec<[f64; 2]>> {
+    let mut left: Vec<Option<Vec<[f64; 2]>>> = lines.into_iter().map(Some).collect();
+    let boxes: Vec<[f64; 4]> = left.iter().flatten().map(|l| bbox(l)).collect();
+    let mut out = Vec::with_capacity(left.len());
+    let mut cur = home;
+    for _ in 0..left.len() {
+        let mut best = (usize::MAX, false, f64::INFINITY);
+        for (k, l) in left.iter().enumerate() {
+            let Some(l) = l else { continue };
+            if box_dist(&boxes[k], cur) >= best.2 {
+                continue;
+            }
+            let (a, b) = (dist(cur, l[0]), dist(cur, l[l.len() - 1]));
+            if a < best.2 {
+                best = (k, false, a);
+            }
+            if b < best.2 {
+                best = (k, true, b);
+            }
+        }
+        let Some(mut l) = left[best.0].take() else {
+            break;
+        };
+        if best.1 {
+            l.reverse();
+        }
+        cur = l[l.len() - 1];
+        out.push(l);
+    }
+    out
 }
 
 /// The vertex of `l` nearest to `p`.
@@ -254,22 +305,81 @@ fn open_len(seq: &[usize], pts: &[[f64; 2]], from: [f64; 2]) -> f64 {
     t
 }
 
-/// K nearest neighbours of each point (brute force; fine for the few thousand loops of a stencil).
+/// K nearest neighbours of each point, nearest first (ties by index). Points are binned in a
+/// uniform grid of about one point per cell and each search widens ring by ring until no cell
+/// left can hold a nearer point, so the cost grows with the number of points, not its square (a
+/// brute-force search over 20,000 loops took seconds and, keeping every candidate list's
+/// capacity, gigabytes).
 fn knn(pts: &[[f64; 2]]) -> Vec<Vec<usize>> {
     let n = pts.len();
     let k = K.min(n.saturating_sub(1));
+    if k == 0 {
+        return vec![Vec::new(); n];
+    }
+    let b = bbox(pts);
+    let (w, h) = ((b[2] - b[0]).max(0.0), (b[3] - b[1]).max(0.0));
+    // About one point per cell; a line of points gets one row of cells.
+    let area = (w * h).max((w.max(h) * w.max(h)) / n as f64);
+    let cell = if area > 0.0 && area.is_finite() {
+        (area / n as f64).sqrt()
+    } else {
+        1.0
+    };
+    let cols = ((w / cell).floor() as usize + 1).min(n.max(1));
+    let rows = ((h / cell).floor() as usize + 1).min(n.max(1));
+    let at = |p: [f64; 2]| {
+        let c = (((p[0] - b[0]) / cell).floor().max(0.0) as usize).min(cols - 1);
+        let r = (((p[1] - b[1]) / cell).floor().max(0.0) as usize).min(rows - 1);
+        (c, r)
+    };
+    let mut bins: Vec<Vec<usize>> = vec![Vec::new(); cols * rows];
+    for (i, &p) in pts.iter().enumerate() {
+        let (c, r) = at(p);
+        bins[r * cols + c].push(i);
+    }
+    let mut c: Vec<(f64, usize)> = Vec::new();
     (0..n)
         .map(|i| {
-            let mut c: Vec<(f64, usize)> = (0..n)
-                .filter(|&j| j != i)
-                .map(|j| (dist(pts[i], pts[j]), j))
-                .collect();
+            let (ci, ri) = at(pts[i]);
+            c.clear();
+            let mut ring = 0usize;
+            loop {
+                let (c0, c1) = (ci.saturating_sub(ring), (ci + ring).min(cols - 1));
+                let (r0, r1) = (ri.saturating_sub(ring), (ri + ring).min(rows - 1));
+                for r in r0..=r1 {
+                    for cc in c0..=c1 {
+                        // Only the cells on this ring's border are new.
+                        let border =
+                            r + ring == ri || r == ri + ring || cc + ring == ci || cc == ci + ring;
+                        if !border {
+                            continue;
+                        }
+                        for &j in &bins[r * cols + cc] {
+                            if j != i {
+                                c.push((dist(pts[i], pts[j]), j));
+                            }
+                        }
+                    }
+                }
+                let covered = c0 == 0 && r0 == 0 && c1 == cols - 1 && r1 == rows - 1;
+                // Every point outside the rings searched is at least `ring * cell` away.
+                if covered {
+                    break;
+                }
+                if c.len() >= k {
+                    c.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    if c[k - 1].0 <= ring as f64 * cell {
+                        break;
+                    }
+                }
+                ring += 1;
+            }
             if k < c.len() {
-                c.select_nth_unstable_by(k, |a, b| a.0.total_cmp(&b.0));
+                c.select_nth_unstable_by(k, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 c.truncate(k);
             }
-            c.sort_by(|a, b| a.0.total_cmp(&b.0));
-            c.into_iter().map(|(_, j)| j).collect()
+            c.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            c.iter().map(|&(_, j)| j).collect()
         })
         .collect()
 }
@@ -499,8 +609,8 @@ mod tests {
                     l
                 })
                 .collect();
-            let opt = travel_of(&ordered, [0.0, 0.0]);
-            let naive = naive_travel(&loops, [0.0, 0.0]);
+            let opt = travel_of(&[], &ordered, [0.0, 0.0], 1);
+            let naive = naive_travel(&[], &loops, [0.0, 0.0]);
             assert!(opt < naive, "n={n}: {opt} vs naive {naive}");
             if n >= 40 {
                 // Random order on a square: ~0.52·side per hop; a good tour ~0.7·sqrt(n·area).

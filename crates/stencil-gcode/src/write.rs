@@ -221,6 +221,9 @@ pub(crate) fn write_each(
             w.line(&format!("G0 Z{} F{feed}", num(z.up_mm)))
         }
     }
+    for l in &job.lines {
+        write_line(&mut w, l, machine, &job.settings);
+    }
     for (i, l) in job.loops.iter().enumerate() {
         match each.get(i) {
             Some(e) => {
@@ -276,14 +279,18 @@ fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String
     comment(
         o,
         &format!(
-            "job {} x {} mm at X{}..{} Y{}..{}; {} loops",
+            "job {} x {} mm at X{}..{} Y{}..{}; {} loops{}",
             num(job.sheet_mm[0]),
             num(job.sheet_mm[1]),
             num(job.min[0]),
             num(job.max[0]),
             num(job.min[1]),
             num(job.max[1]),
-            job.stats.loops
+            job.stats.loops,
+            match job.lines.len() {
+                0 => String::new(),
+                n => format!(", {n} open paths"),
+            }
         ),
     );
     comment(
@@ -345,14 +352,29 @@ fn tool_comments(o: &mut String, machine: &Machine, s: &CutSettings, air: bool) 
     }
 }
 
-fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
+/// An open path: travel to its start, tool on, along it, and back and forth for further passes
+/// (a drag knife's corners are not compensated on an open path: it has no inside to swivel
+/// around), tool off.
+fn write_line(w: &mut Writer, points: &[[f64; 2]], machine: &Machine, s: &CutSettings) {
+    let mut first = tool_on(w, points[0], machine, s);
+    for pass in 0..s.passes {
+        let along: Box<dyn Iterator<Item = &[f64; 2]>> = if pass % 2 == 0 {
+            Box::new(points.iter().skip(1))
+        } else {
+            Box::new(points.iter().rev().skip(1))
+        };
+        for &p in along {
+            w.go(1, p, &first);
+            first.clear();
+        }
+    }
+    tool_off(w, machine);
+}
+
+/// Travel to `start` with the tool off, then switch it on (lower the pen or knife); returns the
+/// words the first cutting move carries (the power and the feed).
+fn tool_on(w: &mut Writer, start: [f64; 2], machine: &Machine, s: &CutSettings) -> String {
     let feed = format!(" F{}", num(s.speed_mm_min));
-    let points = match machine.tool {
-        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
-        _ => l.points.clone(),
-    };
-    let start = points[0];
-    // Travel, tool off, then tool on.
     match machine.tool {
         Tool::Laser { .. } => {
             w.go(0, start, " S0");
@@ -372,11 +394,30 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
         w.line("M8");
         w.air_pending = false;
     }
-    // The first cutting move carries the power and the feed.
-    let mut first = match machine.tool {
+    match machine.tool {
         Tool::Laser { s_max, .. } => format!(" S{}{feed}", num(laser_s(s.power_pct, s_max))),
-        _ => feed.clone(),
+        _ => feed,
+    }
+}
+
+/// The tool off before any travel.
+fn tool_off(w: &mut Writer, machine: &Machine) {
+    match machine.tool {
+        Tool::Laser { .. } => {}
+        Tool::Pen(PenLift::Spindle { .. }) => w.line("M5"),
+        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
+            w.line(&format!("G0 Z{}", num(z.up_mm)));
+        }
+    }
+}
+
+fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
+    let points = match machine.tool {
+        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
+        _ => l.points.clone(),
     };
+    // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
+    let mut first = tool_on(w, points[0], machine, s);
     let n = points.len();
     for _ in 0..s.passes {
         for i in 1..=n {
@@ -391,14 +432,7 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
             }
         }
     }
-    // Tool off before any travel.
-    match machine.tool {
-        Tool::Laser { .. } => {}
-        Tool::Pen(PenLift::Spindle { .. }) => w.line("M5"),
-        Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
-            w.line(&format!("G0 Z{}", num(z.up_mm)));
-        }
-    }
+    tool_off(w, machine);
 }
 
 fn plunge(w: &mut Writer, z: &ZLift) {

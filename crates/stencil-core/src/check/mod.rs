@@ -71,6 +71,38 @@ pub enum CheckError {
         y_mm: f64,
         problem: &'static str,
     },
+    /// The picture breaks into too many pieces to measure ([`bound_pieces`]).
+    #[error(
+        "the picture breaks into {material} separate pieces of material and {cut} of cut \
+         (4-connected pixels), more than the {limit} the check measures; a sheet in that many \
+         pieces cannot hold together as a stencil (is it a stencil, with white for material?)"
+    )]
+    TooManyPieces {
+        material: usize,
+        cut: usize,
+        limit: usize,
+    },
+}
+
+/// The most pieces (of material and of cut, 4-connected) a picture may break into for `check` to
+/// measure it. The check's cost grows with the rings it traces and triangulates: 160,000 pieces (a
+/// 400 x 400 one-pixel checkerboard) took about 3 s, 1,000,000 (1000 x 1000) about 30 s and 1 GB;
+/// a sheet that breaks into more than 100,000 pieces cannot be a stencil that holds together.
+pub const MAX_CHECK_PIECES: usize = 100_000;
+
+/// Refuse, before any tracing, a picture that breaks into more than [`MAX_CHECK_PIECES`] pieces:
+/// the check would take minutes to say what this says at once. O(pixels).
+pub fn bound_pieces(bits: &BitGrid) -> Result<(), CheckError> {
+    let material = raster::components(bits, true).1.len();
+    let cut = raster::components(bits, false).1.len();
+    if material + cut > MAX_CHECK_PIECES {
+        return Err(CheckError::TooManyPieces {
+            material,
+            cut,
+            limit: MAX_CHECK_PIECES,
+        });
+    }
+    Ok(())
 }
 
 /// What is wrong.
@@ -642,15 +674,18 @@ fn search_necks(ctx: &Search, tris: &[Vec<Tri>], chunk: usize) -> ([f64; 3], Vec
 /// put before the others (the last piece first).
 fn add_floating(violations: &mut Vec<Violation>, geom: &CutGeometry) {
     let sheet = geom.sheet_index();
-    for i in (0..geom.material.0.len()).filter(|&i| Some(i) != sheet) {
-        let c = geom.material.0[i]
-            .exterior()
-            .0
-            .first()
-            .copied()
-            .unwrap_or(Coord { x: 0.0, y: 0.0 });
-        violations.insert(
-            0,
+    // Spliced in at once: inserting each at the front was quadratic (a 1-px checkerboard has
+    // hundreds of thousands of floating pieces).
+    let floating: Vec<Violation> = (0..geom.material.0.len())
+        .rev()
+        .filter(|&i| Some(i) != sheet)
+        .map(|i| {
+            let c = geom.material.0[i]
+                .exterior()
+                .0
+                .first()
+                .copied()
+                .unwrap_or(Coord { x: 0.0, y: 0.0 });
             Violation {
                 kind: ViolationKind::Floating,
                 x_mm: c.x,
@@ -658,9 +693,10 @@ fn add_floating(violations: &mut Vec<Violation>, geom: &CutGeometry) {
                 width_mm: None,
                 required_mm: 0.0,
                 confirmed_by_opening: None,
-            },
-        );
-    }
+            }
+        })
+        .collect();
+    violations.splice(0..0, floating);
 }
 
 /// Many chords cross one thin neck: report the narrowest per place (one per `2 × required` radius).
@@ -674,15 +710,30 @@ fn cluster(mut cands: Vec<Candidate>, material: &Material) -> Vec<Violation> {
             .then((a.kind as u8).cmp(&(b.kind as u8)))
     });
     let mut out: Vec<Violation> = Vec::new();
+    // The violations kept, binned per kind in cells of `2 × required`: a kept one nearer than
+    // that lies in one of the 3 × 3 cells around (a scan of all kept ones was quadratic).
+    let mut bins: std::collections::HashMap<(u8, i64, i64), Vec<usize>> = Default::default();
     for c in cands {
         let req = match c.kind {
             ViolationKind::ThinBridge => material.min_bridge_mm,
             _ => material.min_feature_mm,
         };
-        let near = out
-            .iter()
-            .any(|v| v.kind == c.kind && dist([v.x_mm, v.y_mm], c.mid) < 2.0 * req);
+        let cell = (2.0 * req).max(1e-9);
+        let (cx, cy) = (
+            (c.mid[0] / cell).floor() as i64,
+            (c.mid[1] / cell).floor() as i64,
+        );
+        let k = c.kind as u8;
+        let near = (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                bins.get(&(k, cx + dx, cy + dy)).is_some_and(|v| {
+                    v.iter()
+                        .any(|&i| dist([out[i].x_mm, out[i].y_mm], c.mid) < 2.0 * req)
+                })
+            })
+        });
         if !near {
+            bins.entry((k, cx, cy)).or_default().push(out.len());
             out.push(Violation {
                 kind: c.kind,
                 x_mm: c.mid[0],

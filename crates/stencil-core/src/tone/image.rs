@@ -3,6 +3,7 @@
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
+use image::metadata::Orientation;
 use image::{ColorType, ImageDecoder, ImageFormat, ImageReader};
 use rayon::prelude::*;
 
@@ -26,7 +27,10 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
         source: plain_io(source),
     };
     let (reader, format) = open_picture(path)?;
-    let decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    let mut decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    // A phone stores a portrait photo sideways with an EXIF tag saying how to turn it; a viewer
+    // turns it, and so do we. A tag we cannot read leaves the picture as stored.
+    let orientation = decoder.orientation().unwrap_or(Orientation::NoTransforms);
     let (width, height) = decoder.dimensions();
     let need = decode_bytes(path, &decoder, max_pixels)?;
     if format == ImageFormat::Jpeg && !jpeg_is_complete(path).map_err(open_err)? {
@@ -57,11 +61,64 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
         .map_err(|_| out_of_memory())?;
     to_gray(&buf, color, &mut data);
     drop(buf);
-    Ok(Gray {
-        width,
-        height,
-        data,
+    Ok(oriented(
+        Gray {
+            width,
+            height,
+            data,
+        },
+        orientation,
+    ))
+}
+
+/// How the picture's EXIF orientation turns it, in words (`None` when it is shown as stored), for
+/// the note `make` and `check` print: the stencil then matches what a viewer shows, and the
+/// person knows why its width and height may be swapped against the file's.
+pub fn orientation_note(path: &Path) -> Option<&'static str> {
+    let (reader, _) = open_picture(path).ok()?;
+    let mut decoder = reader.into_decoder().ok()?;
+    Some(match decoder.orientation().ok()? {
+        Orientation::NoTransforms => return None,
+        Orientation::Rotate90 => "turned 90° clockwise",
+        Orientation::Rotate180 => "turned 180°",
+        Orientation::Rotate270 => "turned 90° counter-clockwise",
+        Orientation::FlipHorizontal => "mirrored left to right",
+        Orientation::FlipVertical => "mirrored top to bottom",
+        Orientation::Rotate90FlipH => "turned 90° clockwise and mirrored",
+        Orientation::Rotate270FlipH => "turned 90° counter-clockwise and mirrored",
     })
+}
+
+/// Where an output pixel of a turned picture comes from.
+type SourceOf = dyn Fn(usize, usize) -> (usize, usize);
+
+/// `g` turned as an EXIF orientation says (as `DynamicImage::apply_orientation` does: the
+/// rotations are clockwise, a flip after a rotation is left to right).
+fn oriented(g: Gray, o: Orientation) -> Gray {
+    let (w, h) = (g.width as usize, g.height as usize);
+    // The source pixel of output pixel (x, y) in an output of `ow` columns.
+    let (ow, oh, src): (usize, usize, Box<SourceOf>) = match o {
+        Orientation::NoTransforms => return g,
+        Orientation::Rotate90 => (h, w, Box::new(move |x, y| (y, h - 1 - x))),
+        Orientation::Rotate180 => (w, h, Box::new(move |x, y| (w - 1 - x, h - 1 - y))),
+        Orientation::Rotate270 => (h, w, Box::new(move |x, y| (w - 1 - y, x))),
+        Orientation::FlipHorizontal => (w, h, Box::new(move |x, y| (w - 1 - x, y))),
+        Orientation::FlipVertical => (w, h, Box::new(move |x, y| (x, h - 1 - y))),
+        Orientation::Rotate90FlipH => (h, w, Box::new(move |x, y| (y, x))),
+        Orientation::Rotate270FlipH => (h, w, Box::new(move |x, y| (w - 1 - y, h - 1 - x))),
+    };
+    let mut data = Vec::with_capacity(g.data.len());
+    for y in 0..oh {
+        for x in 0..ow {
+            let (sx, sy) = src(x, y);
+            data.push(g.data[sy * w + sx]);
+        }
+    }
+    Gray {
+        width: ow as u32,
+        height: oh as u32,
+        data,
+    }
 }
 
 /// The file opened with its format guessed from its first bytes, if it is one stencil reads
@@ -178,6 +235,10 @@ fn decode_error(path: &Path, e: image::ImageError) -> ToneError {
         image::ImageError::IoError(source) => ToneError::Open {
             path: path.to_path_buf(),
             source: plain_io(source),
+        },
+        image::ImageError::Unsupported(e) => ToneError::Unsupported {
+            path: path.to_path_buf(),
+            msg: without_type_dumps(&e.to_string()),
         },
         e => ToneError::Decode {
             path: path.to_path_buf(),
@@ -355,6 +416,86 @@ pub fn upsample(gray: &Gray, k: u32) -> Gray {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 40 x 20 JPEG, dark in its top 5 rows, with an EXIF APP1 segment (little-endian TIFF
+    /// header, one IFD0 entry: Orientation = `tag`) right after the start-of-image marker, as a
+    /// phone writes it.
+    fn jpeg_with_orientation(tag: u16) -> Vec<u8> {
+        let img =
+            image::GrayImage::from_fn(40, 20, |_, y| image::Luma([if y < 5 { 0 } else { 255 }]));
+        let mut jpg = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut jpg), ImageFormat::Jpeg)
+            .unwrap();
+        let mut tiff: Vec<u8> = b"II*\0".to_vec();
+        tiff.extend(8u32.to_le_bytes()); // IFD0 right after the header
+        tiff.extend(1u16.to_le_bytes()); // one entry
+        tiff.extend(0x0112u16.to_le_bytes()); // Orientation
+        tiff.extend(3u16.to_le_bytes()); // SHORT
+        tiff.extend(1u32.to_le_bytes());
+        tiff.extend(tag.to_le_bytes());
+        tiff.extend([0, 0]);
+        tiff.extend(0u32.to_le_bytes()); // no next IFD
+        let mut app1 = b"Exif\0\0".to_vec();
+        app1.extend(tiff);
+        let mut out = jpg[..2].to_vec();
+        out.extend([0xFF, 0xE1]);
+        out.extend(((app1.len() + 2) as u16).to_be_bytes());
+        out.extend(app1);
+        out.extend(&jpg[2..]);
+        out
+    }
+
+    #[test]
+    fn exif_orientation_is_applied_and_said() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("phone.jpg");
+        // 6: the camera was turned; the picture is shown turned 90° clockwise.
+        std::fs::write(&p, jpeg_with_orientation(6)).unwrap();
+        let g = load_gray(&p, 1 << 30).unwrap();
+        assert_eq!((g.width, g.height), (20, 40), "width and height swap");
+        // The dark top rows are now the right-hand columns.
+        let at = |x: u32, y: u32| g.data[(y * g.width + x) as usize];
+        assert!(
+            at(19, 20) < 0.2 && at(0, 20) > 0.8,
+            "{} {}",
+            at(19, 20),
+            at(0, 20)
+        );
+        assert_eq!(orientation_note(&p), Some("turned 90° clockwise"));
+        // 1 (as stored) and no tag at all: unchanged, nothing said.
+        std::fs::write(&p, jpeg_with_orientation(1)).unwrap();
+        let g = load_gray(&p, 1 << 30).unwrap();
+        assert_eq!((g.width, g.height), (40, 20));
+        assert_eq!(orientation_note(&p), None);
+        // 3: upside down.
+        std::fs::write(&p, jpeg_with_orientation(3)).unwrap();
+        let g = load_gray(&p, 1 << 30).unwrap();
+        assert!(g.data[(19 * 40) as usize] < 0.2 && g.data[0] > 0.8);
+    }
+
+    /// A valid TIFF whose compression (CCITT fax) the decoder does not read is unsupported, with
+    /// what to convert to, not "damaged or truncated".
+    #[test]
+    fn an_unsupported_tiff_is_named_as_such() {
+        let img = image::GrayImage::from_fn(16, 16, |x, _| image::Luma([(x * 16) as u8]));
+        let mut t = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut t), ImageFormat::Tiff)
+            .unwrap();
+        assert_eq!(&t[..4], b"II*\0");
+        let ifd = u32::from_le_bytes(t[4..8].try_into().unwrap()) as usize;
+        let n = u16::from_le_bytes([t[ifd], t[ifd + 1]]) as usize;
+        let entry = (0..n)
+            .map(|k| ifd + 2 + 12 * k)
+            .find(|&e| u16::from_le_bytes([t[e], t[e + 1]]) == 259)
+            .expect("a Compression tag");
+        t[entry + 8..entry + 10].copy_from_slice(&3u16.to_le_bytes()); // CCITT T.4
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("fax.tif");
+        std::fs::write(&p, t).unwrap();
+        let e = load_gray(&p, 1 << 30).unwrap_err().to_string();
+        assert!(e.contains("not supported") && e.contains("PNG"), "{e}");
+        assert!(!e.contains("damaged"), "{e}");
+    }
 
     #[test]
     fn type_dumps_are_cut_from_decoder_messages() {

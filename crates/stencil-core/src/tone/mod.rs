@@ -8,7 +8,7 @@ pub(crate) mod regularize;
 pub(crate) mod resolution;
 
 pub use filter::{FilterConfig, FilterStats};
-pub use image::load_gray;
+pub use image::{load_gray, orientation_note};
 pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
@@ -31,6 +31,12 @@ pub enum ToneError {
     UnknownFormat { path: PathBuf, detail: String },
     #[error("{path}: the image is damaged or truncated ({msg}); re-export it from your editor")]
     Decode { path: PathBuf, msg: String },
+    /// A valid file of a variant the decoders do not read (a TIFF compression or bit depth).
+    #[error(
+        "{path}: this kind of image is not supported ({msg}); the file may be fine: convert it \
+         to an 8-bit PNG (or a plain JPEG) in your editor, or e.g. `magick in.tif out.png`"
+    )]
+    Unsupported { path: PathBuf, msg: String },
     #[error(
         "{path}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} megapixels; \
          downscale the image or raise the pixel limit (at most {})", crate::limits::MAX_PIXELS_CEILING

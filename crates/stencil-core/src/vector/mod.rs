@@ -242,6 +242,7 @@ impl CutGeometry {
             cuts: self.cuts.clone(),
             kerf_mm: self.kerf_mm,
             pieces,
+            lines: Vec::new(),
         }
     }
 

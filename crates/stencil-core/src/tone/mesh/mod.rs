@@ -487,3 +487,69 @@ pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, 
         level,
     )
 }
+
+/// How many separate parts a mesh has (triangles joined by shared vertices) and how many of them
+/// come out smaller than a pixel in the rendered view, so they leave no mark on the stencil: an
+/// OBJ with a small part 1e12 away from the rest frames the view around both, and every part
+/// shrinks below a pixel; the stencil came out blank without a word. `make` warns with these.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PartSizes {
+    pub parts: usize,
+    /// Parts whose projection spans less than one pixel both ways.
+    pub below_a_pixel: usize,
+}
+
+/// [`PartSizes`] of `mesh` as `cfg` frames it (the same camera as [`render_mesh`]). O(mesh).
+pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
+    let (center, radius) = mesh.bounding_sphere();
+    let orbit = camera::Orbit {
+        azimuth_deg: cfg.azimuth_deg,
+        elevation_deg: cfg.elevation_deg,
+        distance: cfg.eye_distance(),
+        orthographic: cfg.fov_deg.is_none(),
+    };
+    let cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
+    // Union-find over the vertices of each triangle.
+    let n = mesh.positions.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(p: &mut [u32], mut i: u32) -> u32 {
+        while p[i as usize] != i {
+            p[i as usize] = p[p[i as usize] as usize];
+            i = p[i as usize];
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = find(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let b = find(&mut parent, v);
+            if a != b {
+                parent[b as usize] = a;
+            }
+        }
+    }
+    let mut boxes: std::collections::HashMap<u32, [f32; 4]> = Default::default();
+    for t in &mesh.triangles {
+        let root = find(&mut parent, t[0]);
+        let b = boxes.entry(root).or_insert([
+            f32::INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ]);
+        for &v in t {
+            let p = cam.project(mesh.positions[v as usize]);
+            b[0] = b[0].min(p.x);
+            b[1] = b[1].min(p.y);
+            b[2] = b[2].max(p.x);
+            b[3] = b[3].max(p.y);
+        }
+    }
+    PartSizes {
+        parts: boxes.len(),
+        below_a_pixel: boxes
+            .values()
+            .filter(|b| !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0))
+            .count(),
+    }
+}
