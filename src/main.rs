@@ -19,26 +19,8 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {}", message(&e));
+            eprintln!("error: {}", cli::errors::one_line(&e));
             ExitCode::FAILURE
         }
     }
-}
-
-/// An error and its causes on one line, outermost first, each cause said once: a cause whose
-/// text the message already holds (a library error that words its source into its own message)
-/// is not repeated.
-fn message(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cli::errors::describe(cause);
-        if out.contains(&text) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
-    }
-    out
 }

@@ -991,7 +991,15 @@ fn finish(
         None => None,
     };
     let (gcode, gcode_summary) = gcode.unzip();
-    let report = report(cfg, params, &cleaned, &joined, &traced, gcode_summary, timer);
+    let report = report(
+        cfg,
+        params,
+        &cleaned,
+        &joined,
+        &traced,
+        gcode_summary,
+        timer,
+    );
     Ok(Made {
         picture: cleaned.picture,
         twotone: joined.twotone,
@@ -1074,7 +1082,7 @@ pub fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> R
 
 /// The G-code and its summary: the pieces that stay unbridged cut out whole (when there were
 /// islands), the kerf applied, then the G-code crate's planner and writer on the cut loops.
-fn gcode(
+pub fn gcode(
     cfg: &MakeConfig,
     g: &stencil_gcode::GcodeConfig,
     geometry: &mut CutGeometry,
