@@ -10,6 +10,9 @@ use std::process::{Child, Command, Stdio};
 
 use serde_json::{json, Value};
 
+mod common;
+use common::{make_as_shown, same_outputs};
+
 /// A running `stencil studio`, stopped when dropped.
 struct Studio {
     child: Child,
@@ -241,72 +244,6 @@ fn a_change_re_runs_only_the_stages_after_it() {
     let r = st.ok("POST", "/api/redo", json!(null));
     assert_eq!(r["params"]["material"], "brass-0.3-etch");
     let _ = std::fs::remove_dir_all(&out);
-}
-
-/// Every file of two output folders equal, report.json but for `timings_ms`.
-fn same_outputs(a: &Path, b: &Path, what: &str) {
-    let names = |d: &Path| {
-        let mut v: Vec<String> = std::fs::read_dir(d)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|n| n != "keep-out-painted.png")
-            .collect();
-        v.sort();
-        v
-    };
-    assert_eq!(names(a), names(b), "{what}");
-    for n in names(a) {
-        let (x, y) = (
-            std::fs::read(a.join(&n)).unwrap(),
-            std::fs::read(b.join(&n)).unwrap(),
-        );
-        if n == "report.json" {
-            let mut x: Value = serde_json::from_slice(&x).unwrap();
-            let mut y: Value = serde_json::from_slice(&y).unwrap();
-            x.as_object_mut().unwrap().remove("timings_ms");
-            y.as_object_mut().unwrap().remove("timings_ms");
-            assert_eq!(x, y, "{what}: report.json");
-        } else {
-            assert!(
-                x == y,
-                "{what}: {n} differs ({} vs {} bytes)",
-                x.len(),
-                y.len()
-            );
-        }
-    }
-}
-
-/// Run the studio's command line with `make` into `dir` instead of the studio's folder.
-fn make_as_shown(command: &str, dir: &Path) {
-    let words: Vec<&str> = command.split(' ').collect();
-    assert_eq!(&words[..2], ["stencil", "make"], "{command}");
-    let mut args: Vec<String> = Vec::new();
-    let mut i = 2;
-    while i < words.len() {
-        if words[i] == "-o" {
-            args.push("-o".into());
-            args.push(dir.display().to_string());
-            i += 2;
-            continue;
-        }
-        assert!(
-            !words[i].starts_with('\''),
-            "the test's paths need no quoting: {command}"
-        );
-        args.push(words[i].to_string());
-        i += 1;
-    }
-    let o = Command::new(bin())
-        .arg("make")
-        .args(&args)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{command}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 /// A small deterministic generator (xorshift), so a failing sequence can be replayed by seed.

@@ -239,3 +239,53 @@ impl Computed {
         pipeline::finish_from(&self.cfg, &self.params, &self.cleaned, &self.joined)
     }
 }
+
+/// A PNG made for the page: fast compression (it is sent once, over a loopback).
+fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut out, width, height);
+        e.set_color(if rgb {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Grayscale
+        });
+        e.set_depth(png::BitDepth::Eight);
+        e.set_compression(png::Compression::Fastest);
+        // Writing into a Vec cannot fail.
+        if let Ok(mut w) = e.write_header() {
+            let _ = w.write_image_data(data);
+        }
+    }
+    out
+}
+
+impl Computed {
+    /// One of the page's images of this run: `gray`, `twotone`, `stencil`, `preview` (in `make`'s
+    /// colours, one pixel per working pixel: the page enlarges it), `picture` (thresholded, before
+    /// the clean-up).
+    pub fn image(&self, name: &str) -> Option<Vec<u8>> {
+        let c = self;
+        let (j, _) = &*c.traced;
+        let (w, h) = (j.bridged.bits.width, j.bridged.bits.height);
+        Some(match name {
+            "gray" => fast_png(w, h, &c.gray.to_u8(), false),
+            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
+            "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
+            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
+            "preview" => fast_png(
+                w,
+                h,
+                &stencil_core::export::png::preview_rgb(
+                    &c.gray,
+                    &c.cleaned.picture,
+                    &j.twotone.bits,
+                    &j.bridged.bits,
+                    1,
+                ),
+                true,
+            ),
+            _ => return None,
+        })
+    }
+}

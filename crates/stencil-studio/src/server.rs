@@ -234,51 +234,6 @@ fn histogram(g: &stencil_core::raster::Gray) -> Vec<u64> {
     h
 }
 
-/// A PNG made for the page: fast compression (it is sent once, over a loopback).
-fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Bytes {
-    let mut out = Vec::new();
-    {
-        let mut e = png::Encoder::new(&mut out, width, height);
-        e.set_color(if rgb {
-            png::ColorType::Rgb
-        } else {
-            png::ColorType::Grayscale
-        });
-        e.set_depth(png::BitDepth::Eight);
-        e.set_compression(png::Compression::Fastest);
-        // Writing into a Vec cannot fail.
-        if let Ok(mut w) = e.write_header() {
-            let _ = w.write_image_data(data);
-        }
-    }
-    Bytes::from(out)
-}
-
-/// One of the page's images of a run.
-fn image(c: &Computed, name: &str) -> Option<Bytes> {
-    let (j, _) = &*c.traced;
-    let (w, h) = (j.bridged.bits.width, j.bridged.bits.height);
-    Some(match name {
-        "gray" => fast_png(w, h, &c.gray.to_u8(), false),
-        "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
-        "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
-        "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
-        "preview" => fast_png(
-            w,
-            h,
-            &stencil_core::export::png::preview_rgb(
-                &c.gray,
-                &c.cleaned.picture,
-                &j.twotone.bits,
-                &j.bridged.bits,
-                1,
-            ),
-            true,
-        ),
-        _ => return None,
-    })
-}
-
 // ---- guards -----------------------------------------------------------------------------------
 
 async fn guard(State(s): State<Shared>, req: Request, next: Next) -> Response {
@@ -570,7 +525,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
         None => {
             let c = c.clone();
             let n = name.to_string();
-            let p = tokio::task::spawn_blocking(move || image(&c, &n))
+            let p = tokio::task::spawn_blocking(move || c.image(&n).map(Bytes::from))
                 .await
                 .ok()
                 .flatten()
