@@ -18,7 +18,7 @@ use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use stencil_core::pipeline::{run, MakeConfig};
-use stencil_core::tone::mesh::{LineMode, MeshConfig, RenderSize};
+use stencil_core::tone::mesh::{LineMode, Mesh, MeshConfig, RenderSize};
 use stencil_core::tone::Threshold;
 use stencil_studio::engine::Engine;
 
