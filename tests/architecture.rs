@@ -78,6 +78,11 @@ fn allowed() -> BTreeMap<&'static str, BTreeSet<&'static str>> {
             "stencil-core",
             BTreeSet::from(["stencil-io", "stencil-geom", "stencil-gcode"]),
         ),
+        // The studio runs core's stages and writes through core's exporter.
+        (
+            "stencil-studio",
+            BTreeSet::from(["stencil-core", "stencil-io"]),
+        ),
     ])
 }
 

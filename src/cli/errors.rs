@@ -44,6 +44,24 @@ pub fn describe(e: &(dyn StdError + 'static)) -> String {
     }
 }
 
+/// An error and its causes on one line, outermost first, each cause said once: a cause whose
+/// text the message already holds (a library error that words its source into its own message)
+/// is not repeated. (What `main` prints after "error: ", and the studio's API returns.)
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = describe(cause);
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
 /// An error of `make`'s pipeline that names the input: as it is when its message already does
 /// (most do, from the stage that read it), else with the input in front.
 pub fn naming_input(input: &Path, e: stencil_core::Error) -> anyhow::Error {
@@ -367,24 +385,6 @@ fn mesh_setting(s: &MeshSetting) -> String {
             format!("--contour-threshold: {v} must be a finite number >= 0")
         }
     }
-}
-
-/// An error and its causes on one line, outermost first, each cause said once: a cause whose
-/// text the message already holds (a library error that words its source into its own message)
-/// is not repeated. What `main` prints after "error: ".
-pub fn one_line(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = describe(cause);
-        if out.contains(&text) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
-    }
-    out
 }
 
 /// A time as "2026-11-26 17:03 UTC" (no time zone database: the civil date from the day count,

@@ -373,7 +373,7 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
 /// The pipeline's settings from the command line, each option checked in the order given here
 /// (the first bad one is the one reported). Without --material, a G-code job gets a material set
 /// up for the machine's tool.
-fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
+pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.physical.emit.contains(&EmitKind::Gcode);
     let default_material = if emit_gcode {
         stencil_core::material::default_for(&a.machine.machine()?.tool)
@@ -407,7 +407,7 @@ fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
 
 /// A failed run in this command's words: the fidelity limit with what helps, any other error
 /// naming the input.
-fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
+pub(super) fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
     match e {
         stencil_core::Error::TooMuchChange {
             fidelity,

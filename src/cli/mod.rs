@@ -16,6 +16,7 @@ mod port;
 mod progress;
 mod send;
 mod simulate;
+mod studio;
 
 use std::ops::RangeInclusive;
 use std::process::ExitCode;
@@ -69,6 +70,9 @@ pub enum Command {
     /// Write a grid of test squares over power x speed (laser), depth x speed (knife) or speed
     /// (pen), with a labelled SVG preview, to find the settings a material needs.
     TestGrid(grid::TestGridArgs),
+    /// Serve a local page (127.0.0.1) that steers `make` live: every option, the images, the
+    /// report, bridges to delete or pin, a keep-out brush, undo; export writes what `make` would.
+    Studio(Box<studio::StudioArgs>),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -84,5 +88,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),
         Command::TestGrid(a) => grid::run_test_grid(a),
+        Command::Studio(a) => studio::run_studio(*a),
     }
 }

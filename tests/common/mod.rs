@@ -233,3 +233,71 @@ pub fn read_until(port: &mut serialport::TTYPort, needle: &str) -> String {
     }
     got
 }
+
+// ---- the studio's tests (tests/studio.rs, tests/studio_browser.rs) ----
+
+/// Every file of two output folders equal, report.json but for `timings_ms`.
+pub fn same_outputs(a: &Path, b: &Path, what: &str) {
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n != "keep-out-painted.png")
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(a), names(b), "{what}");
+    for n in names(a) {
+        let (x, y) = (
+            std::fs::read(a.join(&n)).unwrap(),
+            std::fs::read(b.join(&n)).unwrap(),
+        );
+        if n == "report.json" {
+            let mut x: serde_json::Value = serde_json::from_slice(&x).unwrap();
+            let mut y: serde_json::Value = serde_json::from_slice(&y).unwrap();
+            x.as_object_mut().unwrap().remove("timings_ms");
+            y.as_object_mut().unwrap().remove("timings_ms");
+            assert_eq!(x, y, "{what}: report.json");
+        } else {
+            assert!(
+                x == y,
+                "{what}: {n} differs ({} vs {} bytes)",
+                x.len(),
+                y.len()
+            );
+        }
+    }
+}
+
+/// Run the studio's command line with `make` into `dir` instead of the studio's folder.
+pub fn make_as_shown(command: &str, dir: &Path) {
+    let words: Vec<&str> = command.split(' ').collect();
+    assert_eq!(&words[..2], ["stencil", "make"], "{command}");
+    let mut args: Vec<String> = Vec::new();
+    let mut i = 2;
+    while i < words.len() {
+        if words[i] == "-o" {
+            args.push("-o".into());
+            args.push(dir.display().to_string());
+            i += 2;
+            continue;
+        }
+        assert!(
+            !words[i].starts_with('\''),
+            "the test's paths need no quoting: {command}"
+        );
+        args.push(words[i].to_string());
+        i += 1;
+    }
+    let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .arg("make")
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{command}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}

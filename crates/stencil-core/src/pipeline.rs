@@ -13,7 +13,7 @@ use crate::export::mask::MaskConfig;
 use crate::export::{self, dxf, mask, png, svg};
 use crate::islands;
 use crate::material::Material;
-use crate::raster::{BitGrid, TwoTone};
+use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::report::{BridgeReport, Fidelity, Report};
 use crate::tone::filter::{self, FilterConfig, FilterStats};
 use crate::tone::mesh::{self, MeshConfig};
@@ -21,6 +21,7 @@ use crate::tone::regularize::{
     fill_sealed_pockets, regularize, settle_all, settle_near, RegularizeConfig,
 };
 use crate::tone::{self, image::load_gray, ToneConfig};
+
 use crate::units::{Mm, Scale};
 use crate::vector::{self, CutGeometry, VectorConfig};
 
@@ -280,7 +281,7 @@ impl PhysicalConfig {
 fn widen_necks(
     bits: &mut BitGrid,
     chk: &CheckReport,
-    phys: &PhysicalConfig,
+    material: &Material,
     scale: Scale,
     round: usize,
 ) -> bool {
@@ -291,8 +292,8 @@ fn widen_necks(
     for v in &chk.violations {
         let need_mm = match v.kind {
             check::ViolationKind::Floating => continue,
-            check::ViolationKind::ThinBridge => phys.material.min_bridge_mm,
-            _ => phys.material.min_feature_mm,
+            check::ViolationKind::ThinBridge => material.min_bridge_mm,
+            _ => material.min_feature_mm,
         };
         let px = scale.to_px(Mm(need_mm)).0 + 1.0 + round as f64;
         let (x, y) = (
@@ -314,7 +315,8 @@ fn widen_necks(
     for (px, boxes) in &by_width {
         settle_near(bits, boxes, *px, REPAIR_SPREAD);
     }
-    settle_all(bits, phys.feature_px(scale));
+    // The regularisation's width (see [`PhysicalConfig::feature_px`]).
+    settle_all(bits, scale.to_px(Mm(material.min_feature_mm)).0 + 1.0);
     bits.count_material() != before
 }
 
@@ -325,10 +327,98 @@ pub(crate) fn is_mesh(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
 }
 
+// ---- resolve: the request made into each stage's parameters -----------------------------------
+//
+// `make` and the studio share one order of work: [`SourceParams::of`] (what loading and rendering
+// need, known before the input's size), [`load`], [`render`], then [`resolve`] (everything else,
+// from the options and the rendered size), then the stages [`working_gray`], [`threshold`],
+// [`clean`], [`join`], [`trace`], [`gcode`], and [`report`]. Each stage is a function of its
+// inputs and its parameters and nothing else, so a caller that keeps the outputs (the studio) can
+// re-run from the first stage whose parameters changed and get what `make` gets, byte for byte.
+
+/// What loading and rendering the input need, known before its size: a picture's pixel limit, or
+/// a mesh's view, light, lines and size (the lines widened to survive the clean-up).
+#[derive(Clone, Debug, PartialEq)]
+pub enum SourceParams {
+    Picture { max_pixels: u64 },
+    Mesh(MeshConfig),
+}
+
+impl SourceParams {
+    /// Checked as `make` always checked them, before the input is opened: a mesh's settings,
+    /// a picture's `--scale` factor.
+    pub fn of(cfg: &MakeConfig) -> Result<Self, Error> {
+        if is_mesh(&cfg.input) {
+            let m = mesh_lines_for(cfg);
+            m.validate().map_err(tone::ToneError::from)?;
+            return Ok(SourceParams::Mesh(m));
+        }
+        if let Some(k) = cfg.tone.scale {
+            if !(1..=tone::resolution::MAX_FACTOR).contains(&k) {
+                return Err(tone::ToneError::BadScale(k).into());
+            }
+        }
+        Ok(SourceParams::Picture {
+            max_pixels: cfg.tone.max_pixels,
+        })
+    }
+}
+
+/// The input as read: a picture's gray at its own resolution, or a mesh. Shared (`Arc`) so that
+/// the studio keeps it once and each run borrows it.
+#[derive(Clone, Debug)]
+pub enum Input {
+    Picture(Arc<Gray>),
+    Mesh(Arc<mesh::Mesh>),
+}
+
+/// The input rendered: a picture is its own rendering; a mesh is drawn from its view and light.
+#[derive(Clone, Debug)]
+pub enum Source {
+    Picture(Arc<Gray>),
+    Mesh(Arc<mesh::Rendering>),
+}
+
+impl Source {
+    /// Width and height in pixels (before supersampling).
+    pub fn size(&self) -> (u32, u32) {
+        match self {
+            Source::Picture(g) => (g.width, g.height),
+            Source::Mesh(r) => (r.gray.width, r.gray.height),
+        }
+    }
+}
+
+/// Stage 0: read the input (bounded: a picture's header is checked against the pixel limit
+/// before decoding).
+pub fn load(input: &Path, p: &SourceParams) -> Result<Input, Error> {
+    Ok(match p {
+        SourceParams::Picture { max_pixels } => {
+            Input::Picture(Arc::new(load_gray(input, *max_pixels)?))
+        }
+        SourceParams::Mesh(_) => {
+            Input::Mesh(Arc::new(mesh::load(input).map_err(tone::ToneError::from)?))
+        }
+    })
+}
+
+/// Stage 1: the mesh drawn from its view and light (a picture passes through).
+pub fn render(input: &Input, p: &SourceParams) -> Result<Source, Error> {
+    Ok(match (input, p) {
+        (Input::Mesh(m), SourceParams::Mesh(cfg)) => Source::Mesh(Arc::new(
+            mesh::render_mesh(m, cfg).map_err(tone::ToneError::from)?,
+        )),
+        (Input::Picture(g), _) => Source::Picture(g.clone()),
+        (Input::Mesh(_), SourceParams::Picture { .. }) => {
+            unreachable!("SourceParams::of gives a mesh its mesh settings")
+        }
+    })
+}
+
 /// The working resolution: how many times the picture was supersampled, and what a working pixel
 /// measures.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Working {
+pub struct Working {
     /// Working pixels per input pixel along each axis (1 for a mesh, which renders at its own size).
     pub factor: u32,
     /// How the factor was chosen, when it was automatic (no `--scale`).
@@ -337,46 +427,146 @@ pub(crate) struct Working {
     pub scale: Scale,
 }
 
-/// The two-tone stage, from a picture or a mesh, before the topological filter: the two-tone, the
-/// threshold level used and the working resolution.
-///
-/// A picture is supersampled by `tone.scale`, or when that is `None` by the smallest factor that
-/// makes a working pixel fine enough for the material and the tolerance
-/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
-pub(crate) fn two_tone(
-    input: &Path,
-    tone: &ToneConfig,
-    mesh: &MeshConfig,
-    phys: &PhysicalConfig,
-) -> Result<(TwoTone, Option<u8>, Working), Error> {
-    if is_mesh(input) {
-        let (tt, level) = mesh::render(input, mesh, tone.threshold, tone.invert)
-            .map_err(tone::ToneError::from)?;
-        let scale = phys.scale(tt.bits.width, tt.bits.height)?;
-        let working = Working {
+/// The threshold stage's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneParams {
+    pub threshold: tone::Threshold,
+    pub invert: bool,
+}
+
+/// The clean-up's parameters: the design-rule regularisation to `min_width_px`, or (with an
+/// explicit radius) the morphological filter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CleanParams {
+    pub filter: FilterConfig,
+    /// The regularisation's narrowest web or hole, px, when it runs (the automatic radius).
+    pub regularize_px: Option<f64>,
+    pub invert: bool,
+}
+
+/// The user's bridge places and keep-out areas in working pixels (see `bridge::constraints`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UserParams {
+    /// `min_island_mm2` and the scale it is measured at.
+    pub min_island_mm2: f64,
+    pub mm_per_px: f64,
+}
+
+/// The bridge stage's parameters: the bridge options in pixels for this material and scale (the
+/// user's places and keep-out grid included), and the clean-up around the bridges.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JoinParams {
+    pub bridge: BridgeConfig,
+    /// Set when any of the user's bridge options was given (they are reported).
+    pub user: Option<UserParams>,
+    /// Pixels a keep-out option forbids (reported).
+    pub kept_out_px: usize,
+    /// After the regularisation: settle to this width and fill sealed pockets; else tidy with
+    /// `tidy_radius`.
+    pub settle_px: Option<f64>,
+    pub tidy_radius: u32,
+}
+
+/// The vector stage's and the check's parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceParams {
+    pub vector: VectorConfig,
+    pub material: Material,
+    /// Widen the necks the check finds and trace again (after the regularisation).
+    pub repair: bool,
+}
+
+/// Every stage's parameters after the source, from one [`resolve`]: pixels, not millimetres
+/// (the scale is carried for the stages that write millimetres), no paths, nothing left to decide.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageParams {
+    pub working: Working,
+    pub tone: ToneParams,
+    pub clean: CleanParams,
+    pub join: JoinParams,
+    pub trace: TraceParams,
+}
+
+/// Resolve the request against the rendered input: the working resolution (the automatic
+/// supersampling reads the material), the clean-up's widths, the bridges' widths and the user's
+/// places in pixels (the keep-out picture, when given, is read here), the vector settings. The
+/// checks `make` makes against the working image are made here, in the same order.
+pub fn resolve(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Error> {
+    let phys = &cfg.physical;
+    let (sw, sh) = source.size();
+    let working = match source {
+        Source::Mesh(_) => Working {
             factor: 1,
             auto: None,
+            scale: phys.scale(sw, sh)?,
+        },
+        Source::Picture(_) => working_resolution(cfg, sw, sh)?,
+    };
+    let scale = working.scale;
+    let (w, h) = (sw * working.factor, sh * working.factor);
+    let filter_cfg = phys.filter_for(&cfg.filter, scale);
+    // Options that only make sense against the working image (see `crate::limits`).
+    if filter_cfg.auto_radius {
+        crate::limits::check_working_pixel(
+            phys.size,
+            sw,
             scale,
-        };
-        return Ok((tt, Some(level), working));
+            working.factor,
+            cfg.tone.scale.is_some(),
+            phys.material.min_feature_mm,
+        )?;
+    } else {
+        crate::limits::check_filter_radius(filter_cfg.radius, w, h)?;
     }
-    if let Some(k) = tone.scale {
-        if !(1..=tone::resolution::MAX_FACTOR).contains(&k) {
-            return Err(tone::ToneError::BadScale(k).into());
-        }
-    }
-    let gray = load_gray(input, tone.max_pixels)?;
-    let per_input = phys.scale(gray.width, gray.height)?;
-    let pixels = u64::from(gray.width) * u64::from(gray.height);
+    let regularize_px = filter_cfg.auto_radius.then(|| phys.feature_px(scale));
+    let mut bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
+    let (user, kept_out_px) = user_bridges(&mut bridge_cfg, w, h, scale, cfg.tone.max_pixels)?;
+    Ok(StageParams {
+        working,
+        tone: ToneParams {
+            threshold: cfg.tone.threshold,
+            invert: cfg.tone.invert,
+        },
+        clean: CleanParams {
+            filter: filter_cfg,
+            regularize_px,
+            invert: cfg.tone.invert,
+        },
+        join: JoinParams {
+            bridge: bridge_cfg,
+            user,
+            kept_out_px,
+            settle_px: regularize_px,
+            tidy_radius: filter_cfg.radius,
+        },
+        trace: TraceParams {
+            vector: VectorConfig {
+                scale,
+                kerf_mm: phys.material.kerf_mm,
+                ..phys.vector
+            },
+            material: phys.material.clone(),
+            repair: regularize_px.is_some(),
+        },
+    })
+}
+
+/// A picture's working resolution: supersampled by `tone.scale`, or when that is `None` by the
+/// smallest factor that makes a working pixel fine enough for the material and the tolerance
+/// ([`tone::resolution::auto`]), within the memory budget and `tone.max_pixels`.
+fn working_resolution(cfg: &MakeConfig, width: u32, height: u32) -> Result<Working, Error> {
+    let (phys, tone) = (&cfg.physical, &cfg.tone);
+    let per_input = phys.scale(width, height)?;
+    let pixels = u64::from(width) * u64::from(height);
     let (factor, auto) = match tone.scale {
         Some(k) => {
             let (w, h) = (
-                u64::from(gray.width) * u64::from(k),
-                u64::from(gray.height) * u64::from(k),
+                u64::from(width) * u64::from(k),
+                u64::from(height) * u64::from(k),
             );
             if w * h > tone.max_pixels {
                 return Err(tone::ToneError::ScaleTooLarge {
-                    path: input.to_path_buf(),
+                    path: cfg.input.to_path_buf(),
                     factor: k,
                     width: w,
                     height: h,
@@ -397,21 +587,91 @@ pub(crate) fn two_tone(
             (k, Some(a))
         }
     };
-    // Upsampling by 1 would only copy the picture.
-    let gray = if factor > 1 {
-        tone::image::upsample(&gray, factor)
-    } else {
-        gray
-    };
-    let (tt, level) = tone::threshold(gray, tone.threshold, tone.invert);
-    let working = Working {
+    Ok(Working {
         factor,
         auto,
         scale: Scale {
             mm_per_px: per_input.mm_per_px / f64::from(factor),
         },
+    })
+}
+
+/// The user's bridge options on the working image (see `bridge::constraints`): the keep-out
+/// mask and discs made a grid of forbidden pixels, `--bridge-at` points made pixels. Returns what
+/// the report needs (`None` when no option was given) and the pixels kept out.
+fn user_bridges(
+    bridge: &mut BridgeConfig,
+    w: u32,
+    h: u32,
+    scale: Scale,
+    max_pixels: u64,
+) -> Result<(Option<UserParams>, usize), Error> {
+    let u = &mut bridge.user;
+    if u.keep_out_mask.is_none()
+        && u.no_bridge_near_mm.is_empty()
+        && u.at_mm.is_empty()
+        && u.min_island_mm2 <= 0.0
+    {
+        return Ok((None, 0));
+    }
+    let mm = scale.mm_per_px;
+    let mut kept_out = 0;
+    if u.keep_out_mask.is_some() || !u.no_bridge_near_mm.is_empty() {
+        let mut grid = BitGrid::new(w, h, false);
+        if let Some(path) = &u.keep_out_mask {
+            let mask = crate::tone::image::load_gray(path, max_pixels)?;
+            // Nearest sample of the mask at each working pixel's centre.
+            for y in 0..h {
+                let my = (((y as f64 + 0.5) / h as f64) * mask.height as f64) as u32;
+                for x in 0..w {
+                    let mx = (((x as f64 + 0.5) / w as f64) * mask.width as f64) as u32;
+                    if mask.get(mx.min(mask.width - 1), my.min(mask.height - 1)) < 0.5 {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        for &[cx, cy, r] in &u.no_bridge_near_mm {
+            let (cx, cy, r) = (cx / mm, cy / mm, r / mm);
+            let y0 = (cy - r).floor().max(0.0) as u32;
+            let y1 = ((cy + r).ceil().max(0.0) as u32).min(h);
+            let x0 = (cx - r).floor().max(0.0) as u32;
+            let x1 = ((cx + r).ceil().max(0.0) as u32).min(w);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) <= r {
+                        grid.set(x, y, true);
+                    }
+                }
+            }
+        }
+        kept_out = grid.count_material();
+        u.keep_out = Some(Arc::new(grid));
+    }
+    u.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
+    // What the stages read is in pixels now: the paths and millimetres stay out of the params.
+    u.keep_out_mask = None;
+    u.no_bridge_near_mm.clear();
+    u.at_mm.clear();
+    let user = UserParams {
+        min_island_mm2: u.min_island_mm2,
+        mm_per_px: mm,
     };
-    Ok((tt, Some(level), working))
+    Ok((Some(user), kept_out))
+}
+
+/// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
+/// the material's smallest feature would be filtered away). The scale is taken at the widest
+/// image the mesh can render to, which can only over-estimate the pixels needed.
+fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
+    let mut m = cfg.mesh.clone();
+    if let Ok(scale) = cfg.physical.scale(m.max_width_px(), 1) {
+        let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
+        if r > 0 {
+            m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
+        }
+    }
+    m
 }
 
 /// What `make` computed, before anything is written.
@@ -473,42 +733,163 @@ fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &m
     }
 }
 
-/// The mesh options with lines wide enough to survive the topological filter (a cut narrower than
-/// the material's smallest feature would be filtered away). The scale is taken at the widest
-/// image the mesh can render to, which can only over-estimate the pixels needed.
-fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
-    let mut m = cfg.mesh.clone();
-    if let Ok(scale) = cfg.physical.scale(m.max_width_px(), 1) {
-        let r = cfg.physical.filter_for(&cfg.filter, scale).radius;
-        if r > 0 {
-            m.min_line_px = m.min_line_px.max((2 * r + 2) as f32);
-        }
+// ---- the stages ---------------------------------------------------------------------------------
+
+/// Stage 2: the gray at the working resolution (a picture upsampled by the factor; a mesh's
+/// rendering as drawn).
+pub fn working_gray(source: Source, factor: u32) -> Gray {
+    match source {
+        // Upsampling by 1 would only copy the picture.
+        Source::Picture(g) if factor > 1 => tone::image::upsample(&g, factor),
+        Source::Picture(g) => Arc::try_unwrap(g).unwrap_or_else(|g| (*g).clone()),
+        Source::Mesh(r) => r.gray.clone(),
     }
-    m
 }
 
-/// The user's bridge options on the working image (see `bridge::constraints`): islands under
-/// `min_island_mm2` cut away (they become cut in the two-tone, so the report and the preview count
-/// them as material the picture lost), the keep-out mask and discs made a grid of forbidden
-/// pixels, `--bridge-at` points made pixels. `None` when no option was given.
-fn user_bridges(
-    two: &mut TwoTone,
-    bridge: &mut BridgeConfig,
-    scale: Scale,
-    max_pixels: u64,
-) -> Result<Option<crate::report::UserBridgesReport>, Error> {
-    let u = &mut bridge.user;
-    if u.keep_out_mask.is_none()
-        && u.no_bridge_near_mm.is_empty()
-        && u.at_mm.is_empty()
-        && u.min_island_mm2 <= 0.0
-    {
-        return Ok(None);
+/// Stage 3: the two-tone and the level used (Otsu's, when asked for). A mesh's lines are cut
+/// and its background material whatever the level (see [`mesh::two_tone`]).
+pub fn threshold(source: &Source, gray: Gray, p: &ToneParams) -> (TwoTone, u8) {
+    match source {
+        Source::Picture(_) => tone::threshold(gray, p.threshold, p.invert),
+        Source::Mesh(r) => mesh::two_tone(r, p.threshold, p.invert),
     }
-    let mm = scale.mm_per_px;
-    let (w, h) = (two.bits.width, two.bits.height);
+}
+
+/// The two-tone after the clean-up, and what the clean-up measured.
+#[derive(Clone, Debug)]
+pub struct Cleaned {
+    /// The picture thresholded, before the clean-up (what fidelity is measured against).
+    pub picture: BitGrid,
+    pub twotone: TwoTone,
+    pub level: u8,
+    pub filter_stats: FilterStats,
+    pub reg_stats: Option<crate::tone::regularize::RegularizeStats>,
+}
+
+/// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest
+/// feature, or the morphological filter with an explicit radius.
+pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
+    let (bits, filter_stats, reg_stats) = match p.regularize_px {
+        Some(min_width_px) => {
+            let rcfg = RegularizeConfig {
+                min_width_px,
+                threshold: level as f32 / 255.0,
+                invert: p.invert,
+            };
+            let (bits, stats) = regularize(&raw.bits, &raw.gray, &rcfg);
+            (bits, FilterStats::default(), Some(stats))
+        }
+        None => {
+            let (bits, stats) = filter::filter(&raw.bits, &p.filter);
+            (bits, stats, None)
+        }
+    };
+    Cleaned {
+        picture: raw.bits,
+        twotone: TwoTone {
+            bits,
+            gray: raw.gray,
+        },
+        level,
+        filter_stats,
+        reg_stats,
+    }
+}
+
+/// The first stages as one call: the picture (or mesh) as a two-tone at the working resolution,
+/// cleaned up, with the parameters it was made with.
+fn cleaned(cfg: &MakeConfig, timer: &mut Timings) -> Result<(Cleaned, StageParams), Error> {
+    let sp = SourceParams::of(cfg)?;
+    let (source, params) = timer.time("tone", || -> Result<_, Error> {
+        let input = load(&cfg.input, &sp)?;
+        let source = render(&input, &sp)?;
+        let params = resolve(cfg, &source)?;
+        Ok((source, params))
+    })?;
+    let (raw, level) = timer.time("tone", || {
+        let gray = working_gray(source.clone(), params.working.factor);
+        threshold(&source, gray, &params.tone)
+    });
+    let c = timer.time("filter", || clean(raw, level, &params.clean));
+    Ok((c, params))
+}
+
+/// The two-tone `make` writes as twotone.png (when no bridge is placed or kept out by hand): the
+/// picture at the working resolution after the clean-up for `cfg`'s material and size. What
+/// `stencil tone` writes, so that it shows exactly what `make` will bridge.
+pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
+    let mut timer = Timings::new(cfg.progress.clone());
+    Ok(cleaned(cfg, &mut timer)?.0.twotone)
+}
+
+/// The islands of the cleaned two-tone joined to the frame, and what went into it.
+#[derive(Clone, Debug)]
+pub struct Joined {
+    /// The two-tone the bridges were drawn into (the islands under `min_island_mm2` cut away).
+    pub twotone: TwoTone,
+    /// What the user's `--bridge-at` / keep-out requests became, when there were any.
+    pub user: Option<crate::report::UserBridgesReport>,
+    /// The islands before bridging.
+    pub map: islands::IslandMap,
+    pub bridged: Bridged,
+}
+
+/// Stage 5: islands under `min_island_mm2` cut away (they become cut in the two-tone, so the
+/// report and the preview count them as material the picture lost), label the islands, bridge
+/// them (with the user's places and keep-out areas), then the clean-up around the bridges (the
+/// settle and the sealed-pocket fill after the regularisation, else the tidy pass); material the
+/// clean-up put in a keep-out area goes again. Refused if anything floats afterwards (a bug, said
+/// as such, rather than a stencil in pieces).
+pub fn join(mut twotone: TwoTone, p: &JoinParams, timer: &mut Timings) -> Result<Joined, Error> {
+    let user = timer.time("user_bridges", || cut_small_islands(&mut twotone, p));
+    let map = timer.time("islands", || islands::label(&twotone.bits));
+    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &p.bridge))?;
+    timer.time("tidy", || match p.settle_px {
+        Some(px) => {
+            settle_all(&mut bridged.bits, px);
+            fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
+        }
+        None => {
+            bridged.bits = bridge::tidy::tidy(&twotone.bits, &bridged.bits, p.tidy_radius);
+        }
+    });
+    // The clean-up may round a bridge's corners into a keep-out area: what it added there goes.
+    if let Some(f) = &p.bridge.user.keep_out {
+        for (i, b) in bridged.bits.data.iter_mut().enumerate() {
+            if *b && f.data[i] && !twotone.bits.data[i] {
+                *b = false;
+            }
+        }
+    }
+    let after = timer.time("verify", || islands::label(&bridged.bits));
+    if after.island_count() > 0 {
+        let node = &after.nodes[1];
+        let (x, y) = node.border.first().copied().unwrap_or((0, 0));
+        return Err(Error::Floating {
+            count: after.island_count(),
+            x,
+            y,
+            area: node.area,
+        });
+    }
+    Ok(Joined {
+        twotone,
+        user,
+        map,
+        bridged,
+    })
+}
+
+/// Islands under `min_island_mm2` cut away, and the report of the user's bridge options.
+fn cut_small_islands(
+    two: &mut TwoTone,
+    p: &JoinParams,
+) -> Option<crate::report::UserBridgesReport> {
+    let u = p.user.as_ref()?;
+    let mm = u.mm_per_px;
     let mut report = crate::report::UserBridgesReport {
         min_island_mm2: u.min_island_mm2,
+        kept_out_px: p.kept_out_px,
         ..Default::default()
     };
     if u.min_island_mm2 > 0.0 {
@@ -529,269 +910,159 @@ fn user_bridges(
         }
         report.islands_cut_away = small.iter().filter(|&&s| s).count();
     }
-    if u.keep_out_mask.is_some() || !u.no_bridge_near_mm.is_empty() {
-        let mut grid = BitGrid::new(w, h, false);
-        if let Some(path) = &u.keep_out_mask {
-            let mask = crate::tone::image::load_gray(path, max_pixels)?;
-            // Nearest sample of the mask at each working pixel's centre.
-            for y in 0..h {
-                let my = (((y as f64 + 0.5) / h as f64) * mask.height as f64) as u32;
-                for x in 0..w {
-                    let mx = (((x as f64 + 0.5) / w as f64) * mask.width as f64) as u32;
-                    if mask.get(mx.min(mask.width - 1), my.min(mask.height - 1)) < 0.5 {
-                        grid.set(x, y, true);
-                    }
-                }
-            }
-        }
-        for &[cx, cy, r] in &u.no_bridge_near_mm {
-            let (cx, cy, r) = (cx / mm, cy / mm, r / mm);
-            let y0 = (cy - r).floor().max(0.0) as u32;
-            let y1 = ((cy + r).ceil().max(0.0) as u32).min(h);
-            let x0 = (cx - r).floor().max(0.0) as u32;
-            let x1 = ((cx + r).ceil().max(0.0) as u32).min(w);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) <= r {
-                        grid.set(x, y, true);
-                    }
-                }
-            }
-        }
-        report.kept_out_px = grid.count_material();
-        u.keep_out = Some(Arc::new(grid));
-    }
-    u.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
-    Ok(Some(report))
+    Some(report)
 }
 
-/// The two-tone after the clean-up, and what the clean-up measured.
-struct Cleaned {
-    /// The picture thresholded, before the clean-up (what fidelity is measured against).
-    picture: BitGrid,
-    twotone: TwoTone,
-    level: Option<u8>,
-    working: Working,
-    filter_cfg: FilterConfig,
-    filter_stats: FilterStats,
-    reg_stats: Option<crate::tone::regularize::RegularizeStats>,
+/// What the vector stage and the check made.
+#[derive(Clone, Debug)]
+pub struct Traced {
+    /// The stencil in millimetres, before the kerf.
+    pub geometry: CutGeometry,
+    pub vstats: vector::VectorStats,
+    pub check: CheckReport,
+    pub fidelity: Fidelity,
 }
 
-/// The first two stages: the picture (or mesh) as a two-tone at the working resolution, then the
-/// clean-up the material needs (the design-rule regularisation to its smallest feature, or the
-/// morphological filter with an explicit radius). `make` bridges what this returns;
-/// [`clean_two_tone`] gives it alone.
-fn clean(cfg: &MakeConfig, timer: &mut Timings) -> Result<Cleaned, Error> {
-    let phys = &cfg.physical;
-    let mesh_cfg = mesh_lines_for(cfg);
-    let (raw, level, working) =
-        timer.time("tone", || two_tone(&cfg.input, &cfg.tone, &mesh_cfg, phys))?;
-    let scale = working.scale;
-    let filter_cfg = phys.filter_for(&cfg.filter, scale);
-    // Options that only make sense against the working image (see `crate::limits`).
-    if filter_cfg.auto_radius {
-        crate::limits::check_working_pixel(
-            phys.size,
-            raw.bits.width / working.factor,
-            scale,
-            working.factor,
-            cfg.tone.scale.is_some(),
-            phys.material.min_feature_mm,
-        )?;
-    } else {
-        crate::limits::check_filter_radius(filter_cfg.radius, raw.bits.width, raw.bits.height)?;
-    }
-    let (bits, filter_stats, reg_stats) = timer.time("filter", || {
-        if filter_cfg.auto_radius {
-            let rcfg = RegularizeConfig {
-                min_width_px: phys.feature_px(scale),
-                threshold: level.map_or(0.5, |l| l as f32 / 255.0),
-                invert: cfg.tone.invert,
-            };
-            let (bits, stats) = regularize(&raw.bits, &raw.gray, &rcfg);
-            (bits, FilterStats::default(), Some(stats))
-        } else {
-            let (bits, stats) = filter::filter(&raw.bits, &filter_cfg);
-            (bits, stats, None)
-        }
+/// Stage 6: trace and check (see [`trace_and_repair`]), recount each bridge's pixels and measure
+/// the fidelity on the stencil as it will be written. `bridged` becomes the stencil as it will be
+/// written (the neck repairs, each bridge's pixels recounted); `twotone` is what the bridges were
+/// drawn into, `picture` the thresholded picture before the clean-up.
+pub fn trace(
+    bridged: &mut Bridged,
+    twotone: &BitGrid,
+    picture: &BitGrid,
+    p: &TraceParams,
+    timer: &mut Timings,
+) -> Result<Traced, Error> {
+    let (geometry, vstats, check) = trace_and_repair(bridged, p, timer)?;
+    let apart = timer.time("recount", || bridged.recount(twotone));
+    let fidelity = timer.time("fidelity", || {
+        Fidelity::measure(picture, twotone, &bridged.bits).with_apart_from_bridges(apart)
     });
-    Ok(Cleaned {
-        picture: raw.bits,
-        twotone: TwoTone {
-            bits,
-            gray: raw.gray,
-        },
-        level,
-        working,
-        filter_cfg,
-        filter_stats,
-        reg_stats,
+    Ok(Traced {
+        geometry,
+        vstats,
+        check,
+        fidelity,
     })
-}
-
-/// The two-tone `make` writes as twotone.png (when no bridge is placed or kept out by hand): the
-/// picture at the working resolution after the clean-up for `cfg`'s material and size. What
-/// `stencil tone` writes, so that it shows exactly what `make` will bridge.
-pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
-    let mut timer = Timings::new(cfg.progress.clone());
-    Ok(clean(cfg, &mut timer)?.twotone)
 }
 
 /// Run the pipeline in memory: nothing is written.
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let mut timer = Timings::new(cfg.progress.clone());
-    let phys = &cfg.physical;
-    let mut cleaned = clean(cfg, &mut timer)?;
-    let scale = cleaned.working.scale;
-    let mut joined = join(cfg, &mut cleaned, &mut timer)?;
-    let vcfg = VectorConfig {
-        scale,
-        kerf_mm: phys.material.kerf_mm,
-        ..phys.vector
-    };
-    let repair = cleaned.reg_stats.is_some();
-    let (mut geometry, vstats, chk) =
-        trace_and_repair(&mut joined.bridged, &vcfg, phys, repair, &mut timer)?;
-    let apart = timer.time("recount", || joined.bridged.recount(&cleaned.twotone.bits));
-    // Measured on the stencil as it will be written (after the repairs).
-    let fidelity = timer.time("fidelity", || {
-        Fidelity::measure(
-            &cleaned.picture,
-            &cleaned.twotone.bits,
-            &joined.bridged.bits,
-        )
-        .with_apart_from_bridges(apart)
-    });
-    refuse(phys, fidelity, &chk)?;
+    let (mut cleaned, params) = cleaned(cfg, &mut timer)?;
+    // The cleaned two-tone moves on to the bridges; the report reads only its measures.
+    let twotone = std::mem::replace(
+        &mut cleaned.twotone,
+        TwoTone {
+            bits: BitGrid::new(0, 0, false),
+            gray: Gray::new(0, 0, 0.0),
+        },
+    );
+    let joined = join(twotone, &params.join, &mut timer)?;
+    finish(cfg, &params, cleaned, joined, timer)
+}
+
+/// From the bridges on to the report: trace and check, refuse what `make` refuses, the G-code.
+fn finish(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    cleaned: Cleaned,
+    mut joined: Joined,
+    mut timer: Timings,
+) -> Result<Made, Error> {
+    let mut traced = trace(
+        &mut joined.bridged,
+        &joined.twotone.bits,
+        &cleaned.picture,
+        &params.trace,
+        &mut timer,
+    )?;
+    refuse(&cfg.physical, traced.fidelity, &traced.check)?;
     let gcode = match &cfg.gcode {
         Some(g) => Some(gcode(
             cfg,
             g,
-            &mut geometry,
+            &mut traced.geometry,
             &joined,
-            &cleaned,
-            &vcfg,
+            &params.trace,
             &mut timer,
         )?),
         None => None,
     };
     let (gcode, gcode_summary) = gcode.unzip();
-    let traced = Traced {
-        vcfg: &vcfg,
-        vstats,
-        check: &chk,
-        geometry: &geometry,
-        fidelity,
-    };
-    let report = report(cfg, &cleaned, &joined, traced, gcode_summary, timer);
+    let report = report(
+        cfg,
+        params,
+        &cleaned,
+        &joined,
+        &traced,
+        gcode_summary,
+        timer,
+    );
     Ok(Made {
         picture: cleaned.picture,
-        twotone: cleaned.twotone,
+        twotone: joined.twotone,
         filter: cleaned.filter_stats,
         bridged: joined.bridged,
-        scale,
-        geometry,
-        check: chk,
+        scale: params.working.scale,
+        geometry: traced.geometry,
+        check: traced.check,
         report,
         gcode,
     })
 }
 
-/// The islands of the cleaned two-tone joined to the frame, and what went into it.
-struct Joined {
-    /// The bridge options in pixels for this material and scale, the user's places included.
-    bridge_cfg: BridgeConfig,
-    /// What the user's `--bridge-at` / keep-out requests became, when there were any.
-    user: Option<crate::report::UserBridgesReport>,
-    /// The islands before bridging.
-    map: islands::IslandMap,
-    bridged: Bridged,
+/// `make`'s end from stage outputs a caller kept (the studio): the same trace, refusal, G-code
+/// and report as [`run`], so the files are the same.
+pub fn finish_from(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    cleaned: &Cleaned,
+    joined: &Joined,
+) -> Result<Made, Error> {
+    let timer = Timings::new(cfg.progress.clone());
+    finish(cfg, params, cleaned.clone(), joined.clone(), timer)
 }
 
-/// Stage 2 and 3: label the islands, bridge them (with the user's places and keep-out areas),
-/// then the clean-up around the bridges (the settle and the sealed-pocket fill after the
-/// regularisation, else the tidy pass); material the clean-up put in a keep-out area goes again.
-/// Refused if anything floats afterwards (a bug, said as such, rather than a stencil in pieces).
-fn join(cfg: &MakeConfig, cleaned: &mut Cleaned, timer: &mut Timings) -> Result<Joined, Error> {
-    let phys = &cfg.physical;
-    let scale = cleaned.working.scale;
-    let twotone = &mut cleaned.twotone;
-    let mut bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
-    let user = timer.time("user_bridges", || {
-        user_bridges(twotone, &mut bridge_cfg, scale, cfg.tone.max_pixels)
-    })?;
-    let map = timer.time("islands", || islands::label(&twotone.bits));
-    let mut bridged = timer.time("bridge", || bridge::connect(twotone, &map, &bridge_cfg))?;
-    timer.time("tidy", || {
-        if cleaned.reg_stats.is_some() {
-            settle_all(&mut bridged.bits, phys.feature_px(scale));
-            fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
-        } else {
-            bridged.bits =
-                bridge::tidy::tidy(&twotone.bits, &bridged.bits, cleaned.filter_cfg.radius);
-        }
-    });
-    // The clean-up may round a bridge's corners into a keep-out area: what it added there goes.
-    if let Some(f) = &bridge_cfg.user.keep_out {
-        for (i, b) in bridged.bits.data.iter_mut().enumerate() {
-            if *b && f.data[i] && !twotone.bits.data[i] {
-                *b = false;
-            }
-        }
-    }
-    let after = timer.time("verify", || islands::label(&bridged.bits));
-    if after.island_count() > 0 {
-        let node = &after.nodes[1];
-        let (x, y) = node.border.first().copied().unwrap_or((0, 0));
-        return Err(Error::Floating {
-            count: after.island_count(),
-            x,
-            y,
-            area: node.area,
-        });
-    }
-    Ok(Joined {
-        bridge_cfg,
-        user,
-        map,
-        bridged,
-    })
-}
-
-/// Stage 4 and the material check. The raster rule holds exactly; the traced and simplified
+/// Vectorise and check, widening the necks the check still finds (see [`widen_necks`]). The raster rule holds exactly; the traced and simplified
 /// outline may still measure a neck up to about a pixel narrower (a diagonal staircase,
 /// simplification within the tolerance). After the regularisation (`repair`), such necks are
 /// widened where the check found them and the stencil traced again, up to [`REPAIR_ROUNDS`]
 /// times; then the check's findings are confirmed on the raster.
 fn trace_and_repair(
     bridged: &mut Bridged,
-    vcfg: &VectorConfig,
-    phys: &PhysicalConfig,
-    repair: bool,
+    p: &TraceParams,
     timer: &mut Timings,
 ) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
     let polys: Vec<Vec<[f64; 2]>> = bridged.bridges.iter().map(|b| b.polygon.clone()).collect();
     let mut repairs = 0;
     let (geometry, vstats, mut chk) = loop {
         let measured =
-            vectorize_and_measure(&bridged.bits, Some(&polys), vcfg, &phys.material, timer)?;
-        if !repair || measured.2.passed() || repairs == REPAIR_ROUNDS {
+            vectorize_and_measure(&bridged.bits, Some(&polys), &p.vector, &p.material, timer)?;
+        if !p.repair || measured.2.passed() || repairs == REPAIR_ROUNDS {
             break measured;
         }
         repairs += 1;
         if !timer.time("repair", || {
-            widen_necks(&mut bridged.bits, &measured.2, phys, vcfg.scale, repairs)
+            widen_necks(
+                &mut bridged.bits,
+                &measured.2,
+                &p.material,
+                p.vector.scale,
+                repairs,
+            )
         }) {
             break measured;
         }
     };
-    confirm(&mut chk, &bridged.bits, vcfg, timer);
+    confirm(&mut chk, &bridged.bits, &p.vector, timer);
     Ok((geometry, vstats, chk))
 }
 
 /// Refuse a stencil that strays from the picture more than `--max-change` allows, or that the
 /// material cannot hold (unless thin features are allowed).
-fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> Result<(), Error> {
+pub fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> Result<(), Error> {
     if let Some(limit_pct) = phys.max_change_pct {
         if fidelity.changed_pct > limit_pct {
             return Err(Error::TooMuchChange {
@@ -811,52 +1082,44 @@ fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> Resul
 
 /// The G-code and its summary: the pieces that stay unbridged cut out whole (when there were
 /// islands), the kerf applied, then the G-code crate's planner and writer on the cut loops.
-fn gcode(
+pub fn gcode(
     cfg: &MakeConfig,
     g: &stencil_gcode::GcodeConfig,
     geometry: &mut CutGeometry,
     joined: &Joined,
-    cleaned: &Cleaned,
-    vcfg: &VectorConfig,
+    p: &TraceParams,
     timer: &mut Timings,
 ) -> Result<(String, stencil_gcode::GcodeSummary), Error> {
-    let phys = &cfg.physical;
     let notes = [
         format!("from {}", cfg.input.display()),
-        format!("material {}", phys.material.name),
+        format!("material {}", p.material.name),
     ];
     if joined.map.island_count() > 0 {
         timer.time("pieces", || {
-            geometry.set_unbridged(&cleaned.twotone.bits, vcfg)
+            geometry.set_unbridged(&joined.twotone.bits, &p.vector)
         })?;
     }
-    timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
+    timer.time("kerf", || geometry.apply_kerf(p.material.kerf_mm))?;
     Ok(timer.time("gcode", || {
         stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
     })?)
 }
 
-/// What the vector stage and the check made, for the report.
-struct Traced<'a> {
-    vcfg: &'a VectorConfig,
-    vstats: vector::VectorStats,
-    check: &'a CheckReport,
-    geometry: &'a CutGeometry,
-    fidelity: Fidelity,
-}
-
 /// report.json's contents (the files written are added by [`make`]).
-fn report(
+pub fn report(
     cfg: &MakeConfig,
+    params: &StageParams,
     cleaned: &Cleaned,
     joined: &Joined,
-    traced: Traced,
+    traced: &Traced,
     gcode: Option<stencil_gcode::GcodeSummary>,
     timer: Timings,
 ) -> Report {
     let phys = &cfg.physical;
-    let (scale, working) = (cleaned.working.scale, &cleaned.working);
-    let (bridged, bridge_cfg) = (&joined.bridged, &joined.bridge_cfg);
+    let working = &params.working;
+    let scale = working.scale;
+    let (bridged, bridge_cfg) = (&joined.bridged, &params.join.bridge);
+    let vcfg = &params.trace.vector;
     Report {
         gcode,
         material: Some(phys.material.name.clone()),
@@ -867,18 +1130,18 @@ fn report(
         scale_auto: working.auto,
         width_mm: Some(traced.geometry.width_mm),
         height_mm: Some(traced.geometry.height_mm),
-        margin_mm: Some(traced.vcfg.margin_mm),
-        tolerance_mm: Some(traced.vcfg.tolerance_mm),
+        margin_mm: Some(vcfg.margin_mm),
+        tolerance_mm: Some(vcfg.tolerance_mm),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
-        filter_radius_px: Some(cleaned.filter_cfg.radius),
+        filter_radius_px: Some(params.clean.filter.radius),
         vector: Some(traced.vstats),
         check: Some(traced.check.clone()),
         files: Vec::new(),
         input: cfg.input.display().to_string(),
-        width_px: cleaned.twotone.bits.width,
-        height_px: cleaned.twotone.bits.height,
-        threshold_level: cleaned.level,
+        width_px: joined.twotone.bits.width,
+        height_px: joined.twotone.bits.height,
+        threshold_level: Some(cleaned.level),
         filter: cleaned.filter_stats,
         regularize: cleaned.reg_stats,
         islands: joined.map.island_count(),
@@ -984,9 +1247,22 @@ pub const OUTPUT_NAMES: &[&str] = &[
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 /// Files of [`OUTPUT_NAMES`] this run did not write are removed (listed in the result).
 pub fn make(cfg: &MakeConfig) -> Result<(Made, export::Replaced), Error> {
+    write_with(cfg, || run(cfg))
+}
+
+/// What `make` writes for a result computed elsewhere (the studio's kept stages), by `make`'s
+/// own rules: the same files, all or nothing, [`OUTPUT_NAMES`] it did not write removed.
+pub fn write(cfg: &MakeConfig, made: Made) -> Result<(Made, export::Replaced), Error> {
+    write_with(cfg, || Ok(made))
+}
+
+fn write_with(
+    cfg: &MakeConfig,
+    compute: impl FnOnce() -> Result<Made, Error>,
+) -> Result<(Made, export::Replaced), Error> {
     let existed = cfg.out_dir.is_dir();
     export::prepare_dir(&cfg.out_dir)?;
-    let result = run(cfg).and_then(|made| {
+    let result = compute().and_then(|made| {
         if let Some(p) = &cfg.progress {
             p.stage("write");
         }

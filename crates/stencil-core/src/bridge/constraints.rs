@@ -20,7 +20,7 @@ use crate::raster::BitGrid;
 /// The user's constraints. The millimetre fields are what the user gave (millimetres from the
 /// picture's top left corner, x right, y down, as the report's positions); `make`'s pipeline
 /// turns them into the pixel fields, which are what the bridge stage reads.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct UserBridges {
     /// `--keep-out`: a picture, scaled to the working image; dark (under half gray) = no bridge.
     pub keep_out_mask: Option<std::path::PathBuf>,

@@ -62,7 +62,7 @@ use crate::timing::Timings;
 /// intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to 0.90× at 0.25 and
 /// 0.93× at 1 (w0 = 1 then), and w0 = 2 took a further 1–2 % off. Raise `w_curvature` to keep
 /// bridges off curved contour (a serif, a petal's tip) at that price.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct BridgeConfig {
     /// w0, default 2: intensity error ΣI (a typical-length strip over black = 1).
     pub w_intensity: f64,

@@ -32,6 +32,16 @@ pub fn encode(geom: &CutGeometry, r12: bool) -> Result<Vec<u8>, ExportError> {
     } else {
         AcadVersion::R2000
     };
+    // Reproducible: the same stencil gives the same bytes (a fixed date, nil GUIDs), instead of
+    // the clock and random GUIDs Drawing::new() puts in the header, so that a file can be
+    // compared with another run's (the studio's export with `make`'s, a refactor's outputs).
+    let epoch = chrono::DateTime::from_timestamp(946_684_800, 0).unwrap_or_default(); // 2000-01-01
+    d.header.creation_date = epoch.with_timezone(&chrono::Local);
+    d.header.update_date = epoch.with_timezone(&chrono::Local);
+    d.header.creation_date_universal = epoch;
+    d.header.update_date_universal = epoch;
+    d.header.fingerprint_guid = uuid::Uuid::nil();
+    d.header.version_guid = uuid::Uuid::nil();
     d.header.default_drawing_units = Units::Millimeters;
     d.header.drawing_units = DrawingUnits::Metric;
     for (name, color) in [(CUT_LAYER, 1u8), (OUTLINE_LAYER, 5u8)] {

@@ -60,8 +60,22 @@ pub(crate) fn preview(
     twotone: &BitGrid,
     stencil: &BitGrid,
 ) -> Vec<u8> {
+    let f = preview_factor(stencil.width, stencil.height);
+    let rgb = preview_rgb(gray, picture, twotone, stencil, f);
+    encode_rgb(stencil.width * f, stencil.height * f, &rgb)
+}
+
+/// The preview's RGB pixels, each working pixel an `f` × `f` square (the studio sends them at
+/// `f` = 1 and lets the page enlarge them).
+pub fn preview_rgb(
+    gray: &Gray,
+    picture: &BitGrid,
+    twotone: &BitGrid,
+    stencil: &BitGrid,
+    f: u32,
+) -> Vec<u8> {
     let (w, h) = (stencil.width as usize, stencil.height as usize);
-    let f = preview_factor(stencil.width, stencil.height) as usize;
+    let f = f as usize;
     let colour = |i: usize| -> [u8; 3] {
         let g = gray.data[i].clamp(0.0, 1.0);
         match (picture.data[i], twotone.data[i], stencil.data[i]) {
@@ -92,7 +106,7 @@ pub(crate) fn preview(
             rgb.extend_from_within(start..start + row_len);
         }
     }
-    encode_rgb((w * f) as u32, (h * f) as u32, &rgb)
+    rgb
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::raster::{close, components, open, touches_border, BitGrid, NOT_LABELLED};
 
 /// Options of the topological filter.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilterConfig {
     /// Disc radius in pixels of the opening and closing; 0 turns them off. An opening removes
     /// material thinner than about 2·r, a closing fills cuts thinner than about 2·r.

@@ -127,7 +127,7 @@ impl Default for ToneConfig {
 }
 
 /// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
-pub(crate) fn otsu_level(gray: &Gray) -> u8 {
+pub fn otsu_level(gray: &Gray) -> u8 {
     let mut hist = [0u64; 256];
     for &v in &gray.data {
         hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;

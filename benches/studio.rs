@@ -1,0 +1,108 @@
+//! The studio's latencies: a change, through the incremental engine, to the PNG the page shows
+//! (`cargo bench --bench studio`), beside `make`'s full time on the same input in the same run.
+//! - a 1-megapixel photo with cardstock (`samples/grace_hopper.jpg`, 512×600 supersampled 2×):
+//!   a bridge weight (`w_length`) and a threshold, each toggled between two values so every
+//!   iteration is a real change;
+//! - a 200k-triangle mesh rendered at 1024×1024: the light and the view.
+//!
+//! Each iteration is `Engine::run` (only the stages after the change run) plus encoding the
+//! preview PNG, which is what the page waits for.
+
+#[path = "../src/alloc.rs"]
+mod alloc;
+
+#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+mod shapes;
+
+use std::path::PathBuf;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use stencil_core::pipeline::{run, MakeConfig};
+use stencil_core::tone::mesh::{LineMode, Mesh, MeshConfig, RenderSize};
+use stencil_core::tone::Threshold;
+use stencil_studio::engine::Engine;
+
+fn photo() -> MakeConfig {
+    let mut cfg = MakeConfig {
+        input: PathBuf::from("samples/grace_hopper.jpg"),
+        ..Default::default()
+    };
+    cfg.tone.scale = Some(2);
+    cfg
+}
+
+fn mesh(path: PathBuf) -> MakeConfig {
+    MakeConfig {
+        input: path,
+        mesh: MeshConfig {
+            size: RenderSize::Exact {
+                width: 1024,
+                height: 1024,
+            },
+            supersample: 1,
+            lines: LineMode::Suggestive,
+            ..MeshConfig::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// Time `change(cfg, flip)` then the engine and the preview, alternating `flip`.
+fn latency(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    base: &MakeConfig,
+    change: impl Fn(&mut MakeConfig, bool),
+) {
+    let mut engine = Engine::new();
+    let never = || false;
+    let first = engine.run(base, &never).expect("the input makes a stencil");
+    println!("{name}: first run computed {:?}", first.ran);
+    let mut flip = false;
+    let mut cfg = base.clone();
+    g.bench_function(name, |b| {
+        b.iter(|| {
+            flip = !flip;
+            change(&mut cfg, flip);
+            let c = engine.run(&cfg, &never).expect("a stencil");
+            c.image("preview").expect("the preview")
+        })
+    });
+    change(&mut cfg, !flip);
+    let c = engine.run(&cfg, &never).expect("a stencil");
+    println!("{name}: a change re-ran {:?}", c.ran);
+}
+
+fn bench(c: &mut Criterion) {
+    alloc::keep_freed_memory();
+    let mut g = c.benchmark_group("studio");
+    g.sample_size(10);
+    let p = photo();
+    g.bench_function("make_photo_1mp", |b| b.iter(|| run(&p).expect("a stencil")));
+    latency(&mut g, "photo_1mp_bridge_weight", &p, |c, f| {
+        c.bridge.w_length = if f { 1.25 } else { 1.0 }
+    });
+    latency(&mut g, "photo_1mp_threshold", &p, |c, f| {
+        c.tone.threshold = Threshold::Level(if f { 120 } else { 136 })
+    });
+
+    let m = shapes::displaced_sphere(130);
+    println!("mesh: {} triangles", m.triangles.len());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bumpy.obj");
+    std::fs::write(&path, m.to_obj("bumpy")).unwrap();
+    let mc = mesh(path);
+    g.bench_function("make_mesh_200k_1mp", |b| {
+        b.iter(|| run(&mc).expect("a stencil"))
+    });
+    latency(&mut g, "mesh_200k_1mp_light", &mc, |c, f| {
+        c.mesh.light = if f { [1.0, 1.0, 2.0] } else { [-1.0, 1.0, 2.0] }
+    });
+    latency(&mut g, "mesh_200k_1mp_view", &mc, |c, f| {
+        c.mesh.azimuth_deg = if f { 20.0 } else { 30.0 }
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

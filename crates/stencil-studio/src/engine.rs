@@ -1,0 +1,291 @@
+//! The incremental engine: `make`'s stages (`stencil_core::pipeline`), each output kept with the
+//! parameters and the upstream output it was made from, so that a change re-runs only the
+//! stages from the first whose inputs changed.
+//!
+//! Why this shape: the stages are plain functions of (inputs, parameters) and one
+//! `pipeline::resolve` turns the whole request into per-stage parameters that compare with `==`.
+//! So "what must re-run" is not a table of which option touches which stage (that would drift
+//! from the code): it is the first stage whose parameters or upstream output differ. A material
+//! change that moves the automatic supersampling changes `working.factor` and re-runs from the
+//! gray; a bridge weight changes only `JoinParams`.
+
+use std::sync::Arc;
+
+use stencil_core::pipeline::{
+    self, Cleaned, Input, Joined, Made, MakeConfig, Source, SourceParams, StageParams, Timings,
+    ToneParams, Traced,
+};
+use stencil_core::raster::{Gray, TwoTone};
+use stencil_core::report::Report;
+use stencil_core::Error;
+
+/// Why a run stopped without a result.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A newer request came in between two stages; its run replaces this one.
+    #[error("superseded by a newer change")]
+    Cancelled,
+    #[error(transparent)]
+    Core(#[from] Error),
+}
+
+/// One stage's output, with what it was made from: its key (the upstream output's generation
+/// and the stage's parameters) and its own generation, which downstream keys carry.
+struct Slot<K, V> {
+    key: K,
+    generation: u64,
+    value: V,
+}
+
+/// A kept stage: its key is the upstream output's generation and the stage's parameters.
+type Kept<P, V> = Option<Slot<(u64, P), V>>;
+
+/// The outputs of the last run, stage by stage.
+#[derive(Default)]
+pub struct Engine {
+    generations: u64,
+    input: Option<Slot<Option<u64>, Input>>,
+    source: Kept<SourceParams, Source>,
+    gray: Kept<u32, Arc<Gray>>,
+    raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
+    cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
+    joined: Kept<pipeline::JoinParams, Arc<Joined>>,
+    traced: Kept<pipeline::TraceParams, Arc<(Joined, Traced)>>,
+}
+
+/// What one run shows: every stage's output up to the check, the report, and whether `make`
+/// would refuse it (the page shows a refused stencil too, with the reason: that is when a
+/// person most needs to see it).
+pub struct Computed {
+    pub cfg: MakeConfig,
+    pub params: StageParams,
+    /// The working gray (what the threshold reads), and its Otsu level.
+    pub gray: Arc<Gray>,
+    pub otsu: u8,
+    pub cleaned: Arc<Cleaned>,
+    /// After the bridges, before the trace's neck repairs.
+    pub joined: Arc<Joined>,
+    /// After the bridges and the trace: `joined.bridged` is the stencil as `make` writes it.
+    pub traced: Arc<(Joined, Traced)>,
+    pub report: Report,
+    /// Why `make` would write nothing (too thin, too changed), as the caller words it.
+    pub refused: Option<Error>,
+    /// The stages this run computed (the others were kept), in order.
+    pub ran: Vec<&'static str>,
+}
+
+/// Run `f` unless the slot holds the output for `key`; returns the output and its generation.
+fn step<K: PartialEq, V: Clone, E>(
+    slot: &mut Option<Slot<K, V>>,
+    generations: &mut u64,
+    ran: &mut Vec<&'static str>,
+    name: &'static str,
+    key: K,
+    f: impl FnOnce() -> Result<V, E>,
+) -> Result<(u64, V), E> {
+    if let Some(s) = slot.as_ref().filter(|s| s.key == key) {
+        return Ok((s.generation, s.value.clone()));
+    }
+    // A failed stage leaves no stale output behind it.
+    *slot = None;
+    let value = f()?;
+    *generations += 1;
+    ran.push(name);
+    *slot = Some(Slot {
+        key,
+        generation: *generations,
+        value: value.clone(),
+    });
+    Ok((*generations, value))
+}
+
+impl Engine {
+    pub fn new() -> Self {
+        Engine::default()
+    }
+
+    /// Run `cfg` through the stages, re-using every output whose inputs did not change.
+    /// `superseded` is asked between stages; when it says yes the run stops with
+    /// [`RunError::Cancelled`] (the outputs computed so far are kept for the next run).
+    pub fn run(
+        &mut self,
+        cfg: &MakeConfig,
+        superseded: &dyn Fn() -> bool,
+    ) -> Result<Computed, RunError> {
+        let mut ran = Vec::new();
+        let g = &mut self.generations;
+        let cancel = || {
+            if superseded() {
+                Err(RunError::Cancelled)
+            } else {
+                Ok(())
+            }
+        };
+        let sp = SourceParams::of(cfg)?;
+        let input_key = match sp {
+            SourceParams::Picture { max_pixels } => Some(max_pixels),
+            SourceParams::Mesh(_) => None,
+        };
+        let (ig, input) = step(&mut self.input, g, &mut ran, "load", input_key, || {
+            pipeline::load(&cfg.input, &sp)
+        })?;
+        cancel()?;
+        let (sg, source) = step(
+            &mut self.source,
+            g,
+            &mut ran,
+            "render",
+            (ig, sp.clone()),
+            || pipeline::render(&input, &sp),
+        )?;
+        cancel()?;
+        let params = pipeline::resolve(cfg, &source)?;
+        let factor = params.working.factor;
+        let (gg, gray) = step(&mut self.gray, g, &mut ran, "gray", (sg, factor), || {
+            Ok::<_, RunError>(Arc::new(pipeline::working_gray(source.clone(), factor)))
+        })?;
+        let (rg, raw) = step(
+            &mut self.raw,
+            g,
+            &mut ran,
+            "threshold",
+            (gg, params.tone),
+            || {
+                Ok::<_, RunError>(Arc::new(pipeline::threshold(
+                    &source,
+                    (*gray).clone(),
+                    &params.tone,
+                )))
+            },
+        )?;
+        cancel()?;
+        let (cg, cleaned) = step(
+            &mut self.cleaned,
+            g,
+            &mut ran,
+            "clean",
+            (rg, params.clean),
+            || {
+                let (tt, level) = (*raw).clone();
+                Ok::<_, RunError>(Arc::new(pipeline::clean(tt, level, &params.clean)))
+            },
+        )?;
+        cancel()?;
+        let mut timer = Timings::new(None);
+        let (jg, joined) = step(
+            &mut self.joined,
+            g,
+            &mut ran,
+            "join",
+            (cg, params.join.clone()),
+            || {
+                Ok::<_, RunError>(Arc::new(pipeline::join(
+                    cleaned.twotone.clone(),
+                    &params.join,
+                    &mut timer,
+                )?))
+            },
+        )?;
+        cancel()?;
+        let (_, traced) = step(
+            &mut self.traced,
+            g,
+            &mut ran,
+            "trace",
+            (jg, params.trace.clone()),
+            || {
+                let mut j = (*joined).clone();
+                let t = pipeline::trace(
+                    &mut j.bridged,
+                    &joined.twotone.bits,
+                    &cleaned.picture,
+                    &params.trace,
+                    &mut timer,
+                )?;
+                Ok::<_, RunError>(Arc::new((j, t)))
+            },
+        )?;
+        let (j, t) = &*traced;
+        let refused = pipeline::refuse(&cfg.physical, t.fidelity, &t.check).err();
+        // The job time for the chosen machine, as `make` plans it.
+        let gcode = match (&cfg.gcode, &refused) {
+            (Some(gc), None) => {
+                let mut geometry = t.geometry.clone();
+                Some(pipeline::gcode(cfg, gc, &mut geometry, j, &params.trace, &mut timer)?.1)
+            }
+            _ => None,
+        };
+        let report = pipeline::report(cfg, &params, &cleaned, j, t, gcode, timer);
+        let otsu = stencil_core::tone::otsu_level(&gray);
+        Ok(Computed {
+            cfg: cfg.clone(),
+            params,
+            gray,
+            otsu,
+            cleaned,
+            joined,
+            traced,
+            report,
+            refused,
+            ran,
+        })
+    }
+}
+
+impl Computed {
+    /// What `make` computes for the same options, from the kept stages (the same functions, so
+    /// the same bytes): the trace, the refusal, the G-code, the report.
+    pub fn made(&self) -> Result<Made, Error> {
+        pipeline::finish_from(&self.cfg, &self.params, &self.cleaned, &self.joined)
+    }
+}
+
+/// A PNG made for the page: fast compression (it is sent once, over a loopback).
+fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut out, width, height);
+        e.set_color(if rgb {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Grayscale
+        });
+        e.set_depth(png::BitDepth::Eight);
+        e.set_compression(png::Compression::Fastest);
+        // Writing into a Vec cannot fail.
+        if let Ok(mut w) = e.write_header() {
+            let _ = w.write_image_data(data);
+        }
+    }
+    out
+}
+
+impl Computed {
+    /// One of the page's images of this run: `gray`, `twotone`, `stencil`, `preview` (in `make`'s
+    /// colours, one pixel per working pixel: the page enlarges it), `picture` (thresholded, before
+    /// the clean-up).
+    pub fn image(&self, name: &str) -> Option<Vec<u8>> {
+        let c = self;
+        let (j, _) = &*c.traced;
+        let (w, h) = (j.bridged.bits.width, j.bridged.bits.height);
+        Some(match name {
+            "gray" => fast_png(w, h, &c.gray.to_u8(), false),
+            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
+            "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
+            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
+            "preview" => fast_png(
+                w,
+                h,
+                &stencil_core::export::png::preview_rgb(
+                    &c.gray,
+                    &c.cleaned.picture,
+                    &j.twotone.bits,
+                    &j.bridged.bits,
+                    1,
+                ),
+                true,
+            ),
+            _ => return None,
+        })
+    }
+}

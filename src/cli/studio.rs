@@ -1,0 +1,204 @@
+//! `stencil studio`: `make`'s options, served as a local page that steers them live (the
+//! `stencil-studio` crate). This file tells the studio what `make`'s options are (from clap's
+//! own definitions, so the page and the command line cannot drift apart) and words its errors
+//! as `make` does.
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use clap::{ArgAction, Args, CommandFactory, Parser};
+use serde_json::Value;
+use stencil_core::MakeConfig;
+use stencil_studio::{Kind, OptionSpec};
+
+use super::make::{make_config, make_error, MakeArgs};
+
+#[derive(Args, Debug)]
+#[command(after_help = "\
+Example:
+  stencil studio samples/rings.png --material cardstock -o out/rings
+  prints http://127.0.0.1:PORT/?token=... on its first line; open it in a browser. Each change
+  shows at once; Export writes what `stencil make` would, and shows its command line.")]
+pub struct StudioArgs {
+    #[command(flatten)]
+    pub make: MakeArgs,
+    /// Port on 127.0.0.1 to listen on [default: any free port].
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+    /// Open the page in the desktop's browser (xdg-open).
+    #[arg(long)]
+    pub open: bool,
+}
+
+/// `make`'s options for the studio, from the `make` subcommand's clap definition.
+struct CliMaker;
+
+/// Options of `make` the studio does not offer: the input and output folder are fixed when it
+/// starts.
+const NOT_OFFERED: &[&str] = &["out", "help", "version"];
+
+fn make_command() -> clap::Command {
+    super::Cli::command()
+        .find_subcommand("make")
+        .cloned()
+        .unwrap_or_else(|| clap::Command::new("make"))
+}
+
+impl stencil_studio::Maker for CliMaker {
+    fn options(&self) -> Vec<OptionSpec> {
+        let cmd = make_command();
+        cmd.get_arguments()
+            .filter(|a| !a.is_positional())
+            .filter_map(|a| {
+                let name = a.get_long()?.to_string();
+                if NOT_OFFERED.contains(&name.as_str()) {
+                    return None;
+                }
+                let kind = match a.get_action() {
+                    ArgAction::SetTrue => Kind::Flag,
+                    // A list given with commas is one value, as on the command line.
+                    ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
+                    _ => Kind::Value,
+                };
+                Some(OptionSpec {
+                    name,
+                    kind,
+                    default: if kind == Kind::Flag {
+                        Vec::new()
+                    } else {
+                        a.get_default_values()
+                            .iter()
+                            .map(|v| v.to_string_lossy().into_owned())
+                            .collect()
+                    },
+                    choices: a
+                        .get_possible_values()
+                        .iter()
+                        .filter(|v| !v.is_hide_set())
+                        .map(|v| v.get_name().to_string())
+                        .collect(),
+                    group: a.get_help_heading().unwrap_or("Output").to_string(),
+                    help: a.get_help().map(|h| h.to_string()).unwrap_or_default(),
+                })
+            })
+            .collect()
+    }
+
+    fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
+        let argv = ["stencil", "make"]
+            .into_iter()
+            .map(String::from)
+            .chain(args.iter().cloned());
+        let cli = super::Cli::try_parse_from(argv).map_err(|e| clap_message(&e))?;
+        let super::Command::Make(a) = cli.command else {
+            return Err("not a make command".into());
+        };
+        make_config(&a).map_err(|e| super::errors::one_line(&e))
+    }
+
+    fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
+        super::errors::one_line(&make_error(cfg, e))
+    }
+}
+
+/// clap's message without its "error: " and the closing hint, as one paragraph.
+fn clap_message(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let first = text.split("\n\n").next().unwrap_or(&text).trim();
+    first.strip_prefix("error: ").unwrap_or(first).to_string()
+}
+
+/// The option values given on the command line, as `/api/params` takes them.
+fn given_options(args: &[OsString]) -> Value {
+    let mut out = serde_json::Map::new();
+    let Ok(m) = super::Cli::command().try_get_matches_from(args) else {
+        return Value::Object(out);
+    };
+    let Some(("studio", m)) = m.subcommand() else {
+        return Value::Object(out);
+    };
+    for a in make_command().get_arguments() {
+        let (Some(long), id) = (a.get_long(), a.get_id().as_str()) else {
+            continue;
+        };
+        if NOT_OFFERED.contains(&long)
+            || m.value_source(id) != Some(clap::parser::ValueSource::CommandLine)
+        {
+            continue;
+        }
+        let raw: Vec<String> = m
+            .get_raw(id)
+            .map(|v| v.map(|s| s.to_string_lossy().into_owned()).collect())
+            .unwrap_or_default();
+        let v = match a.get_action() {
+            ArgAction::SetTrue => Value::from("true"),
+            ArgAction::Append if a.get_value_delimiter().is_none() => Value::from(raw),
+            _ => Value::from(raw.join(",")),
+        };
+        out.insert(long.to_string(), v);
+    }
+    Value::Object(out)
+}
+
+pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
+    // Checked as `make` checks them, so a bad option fails here, before anything listens.
+    make_config(&a.make)?;
+    let out_dir = a
+        .make
+        .out
+        .clone()
+        .unwrap_or_else(|| stencil_core::pipeline::default_out_dir(&a.make.input));
+    let cfg = stencil_studio::StudioConfig {
+        input: a.make.input.clone(),
+        out_dir,
+        initial: given_options(&std::env::args_os().collect::<Vec<_>>()),
+        port: a.port,
+    };
+    let open = a.open;
+    stencil_studio::serve(Arc::new(CliMaker), cfg, |url| {
+        // The URL is the first line of stdout (scripts and tests read it).
+        println!("{url}");
+        let _ = std::io::stdout().flush();
+        eprintln!("stencil studio: serving on 127.0.0.1 until Ctrl-C");
+        if open {
+            if let Err(e) = std::process::Command::new("xdg-open").arg(url).spawn() {
+                eprintln!("note: could not open a browser (xdg-open: {e}); open the URL above");
+            }
+        }
+    })
+    .map_err(anyhow::Error::msg)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stencil_studio::Maker;
+
+    #[test]
+    fn every_make_option_is_offered_once() {
+        let specs = CliMaker.options();
+        let names: Vec<&str> = specs.iter().map(|s| s.name.as_str()).collect();
+        for n in [
+            "threshold",
+            "invert",
+            "width-mm",
+            "material",
+            "bridge-at",
+            "keep-out",
+            "emit",
+        ] {
+            assert!(names.contains(&n), "{n} missing from {names:?}");
+        }
+        let mut sorted = names.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), names.len());
+        let flag = specs.iter().find(|s| s.name == "invert").map(|s| s.kind);
+        assert_eq!(flag, Some(Kind::Flag));
+        let list = specs.iter().find(|s| s.name == "bridge-at").map(|s| s.kind);
+        assert_eq!(list, Some(Kind::List));
+    }
+}

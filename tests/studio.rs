@@ -1,0 +1,367 @@
+//! `stencil studio` through its JSON API, as a script would drive it: the guards (token, Host,
+//! Origin, bounded bodies), `make`'s own messages for bad values, the incremental engine, and
+//! export compared byte for byte with `stencil make` run with the command line the studio shows,
+//! after random sequences of changes.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use serde_json::{json, Value};
+
+mod common;
+use common::{make_as_shown, same_outputs};
+
+/// A running `stencil studio`, stopped when dropped.
+struct Studio {
+    child: Child,
+    port: u16,
+    token: String,
+}
+
+impl Drop for Studio {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_stencil")
+}
+
+impl Studio {
+    fn start(input: &str, out: &Path, extra: &[&str]) -> Studio {
+        let mut child = Command::new(bin())
+            .args(["studio", input, "-o"])
+            .arg(out)
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start stencil studio");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let url = line.trim();
+        let rest = url
+            .strip_prefix("http://127.0.0.1:")
+            .unwrap_or_else(|| panic!("first line is not the URL: {url:?}"));
+        let (port, token) = rest.split_once("/?token=").unwrap();
+        Studio {
+            child,
+            port: port.parse().unwrap(),
+            token: token.to_string(),
+        }
+    }
+
+    /// One request with the token in the header; returns the status and the body.
+    fn call(&self, method: &str, path: &str, body: &[u8]) -> (u16, Vec<u8>) {
+        let auth = format!("Bearer {}", self.token);
+        let host = format!("127.0.0.1:{}", self.port);
+        request(
+            self.port,
+            method,
+            path,
+            &[("Host", &host), ("Authorization", &auth)],
+            body,
+        )
+    }
+
+    fn json(&self, method: &str, path: &str, body: Value) -> (u16, Value) {
+        let (s, b) = self.call(method, path, body.to_string().as_bytes());
+        let v = serde_json::from_slice(&b)
+            .unwrap_or_else(|_| panic!("{path}: not JSON: {}", String::from_utf8_lossy(&b)));
+        (s, v)
+    }
+
+    fn ok(&self, method: &str, path: &str, body: Value) -> Value {
+        let (s, v) = self.json(method, path, body);
+        assert_eq!(s, 200, "{method} {path}: {v}");
+        v
+    }
+}
+
+/// A bare HTTP/1.1 request (the test trusts no client library of ours).
+fn request(
+    port: u16,
+    method: &str,
+    path: &str,
+    headers: &[(&str, &str)],
+    body: &[u8],
+) -> (u16, Vec<u8>) {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    let mut req = format!("{method} {path} HTTP/1.1\r\nConnection: close\r\n");
+    for (k, v) in headers {
+        req += &format!("{k}: {v}\r\n");
+    }
+    req += &format!(
+        "Content-Type: application/json\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    );
+    s.write_all(req.as_bytes()).unwrap();
+    s.write_all(body).unwrap();
+    let mut raw = Vec::new();
+    let _ = s.read_to_end(&mut raw);
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("an HTTP response");
+    let head = String::from_utf8_lossy(&raw[..split]).to_lowercase();
+    let status: u16 = head.split(' ').nth(1).unwrap().parse().unwrap();
+    let mut body = raw[split + 4..].to_vec();
+    if head.contains("transfer-encoding: chunked") {
+        body = unchunk(&body);
+    }
+    (status, body)
+}
+
+fn unchunk(mut b: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let Some(eol) = b.windows(2).position(|w| w == b"\r\n") else {
+            return out;
+        };
+        let n = usize::from_str_radix(String::from_utf8_lossy(&b[..eol]).trim(), 16).unwrap();
+        if n == 0 {
+            return out;
+        }
+        out.extend_from_slice(&b[eol + 2..eol + 2 + n]);
+        b = &b[eol + 2 + n + 2..];
+    }
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("stencil-studio-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn guards_refuse_strangers_and_bad_values_get_makes_message() {
+    let out = tmp("guards");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    let host = format!("127.0.0.1:{}", st.port);
+    // No token, a wrong one, a foreign Host (DNS rebinding), a foreign Origin.
+    let (s, _) = request(st.port, "GET", "/api/state", &[("Host", &host)], b"");
+    assert_eq!(s, 401);
+    let (s, _) = request(
+        st.port,
+        "GET",
+        "/api/state?token=0123",
+        &[("Host", &host)],
+        b"",
+    );
+    assert_eq!(s, 401);
+    let q = format!("/api/state?token={}", st.token);
+    let (s, _) = request(st.port, "GET", &q, &[("Host", "evil.example:80")], b"");
+    assert_eq!(s, 403);
+    let (s, _) = request(
+        st.port,
+        "GET",
+        &q,
+        &[("Host", &host), ("Origin", "http://evil.example")],
+        b"",
+    );
+    assert_eq!(s, 403);
+    let (s, _) = request(st.port, "GET", &q, &[("Host", &host)], b"");
+    assert_eq!(s, 200);
+    // The page itself needs the token too, and carries no outside reference.
+    let (s, page) = request(
+        st.port,
+        "GET",
+        &format!("/?token={}", st.token),
+        &[("Host", &host)],
+        b"",
+    );
+    assert_eq!(s, 200);
+    let page = String::from_utf8(page).unwrap();
+    assert!(page.contains("<html"));
+    // Nothing from the network: the only URL is the SVG namespace, which is a name, not a fetch.
+    let urls = page.matches("http").count();
+    let namespace = page.matches("http://www.w3.org/2000/svg").count();
+    assert_eq!(urls, namespace, "the page refers to the network");
+    // A body over the bound.
+    let (s, _) = st.call("POST", "/api/params", &vec![b' '; 200_000]);
+    assert_eq!(s, 413);
+    // A bad value: 400 with make's own message, and nothing changes.
+    let before = st.ok("GET", "/api/state?wait=1", json!(null));
+    let (s, v) = st.json("POST", "/api/params", json!({"threshold": "abc"}));
+    assert_eq!(s, 400);
+    let make = Command::new(bin())
+        .args(["make", "samples/rings.png", "--threshold", "abc", "-o"])
+        .arg(out.join("never"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&make.stderr);
+    let msg = v["error"].as_str().unwrap();
+    assert!(
+        stderr.contains(msg),
+        "studio said {msg:?}, make said {stderr:?}"
+    );
+    let (s, v) = st.json("POST", "/api/params", json!({"width-mm": "-3"}));
+    assert_eq!(s, 400, "{v}");
+    let (s, v) = st.json("POST", "/api/params", json!({"no-such-option": "1"}));
+    assert_eq!(s, 400, "{v}");
+    let after = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(before["params"], after["params"]);
+    assert_eq!(before["version"], after["version"]);
+    // Images: the four names, PNGs of the working size.
+    for name in ["gray", "twotone", "stencil", "preview"] {
+        let (s, b) = st.call("GET", &format!("/api/image/{name}.png"), b"");
+        assert_eq!(s, 200, "{name}");
+        assert!(b.starts_with(b"\x89PNG"), "{name}");
+    }
+    let (s, _) = st.call("GET", "/api/image/secret.png", b"");
+    assert_eq!(s, 404);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_change_re_runs_only_the_stages_after_it() {
+    let out = tmp("stages");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(s0["ran"][0], "load");
+    let s = st.ok("POST", "/api/params", json!({"threshold": "100"}));
+    assert_eq!(s["ran"], json!(["threshold", "clean", "join", "trace"]));
+    assert_eq!(s["report"]["threshold_level"], 100);
+    let s = st.ok("POST", "/api/params", json!({"w-length": "2.5"}));
+    assert_eq!(s["ran"], json!(["join", "trace"]));
+    // A material with the same smallest feature but another stiffness: from the bridges on.
+    let s = st.ok("POST", "/api/params", json!({"material": "mylar-0.19"}));
+    assert_eq!(s["ran"], json!(["join", "trace"]));
+    // A finer smallest feature needs a finer working pixel: the automatic supersampling
+    // changes, so from the working gray on.
+    let s = st.ok("POST", "/api/params", json!({"material": "brass-0.3-etch"}));
+    assert_eq!(s["ran"][0], "gray", "{}", s["ran"]);
+    assert!(s["report"]["scale_factor"].as_u64().unwrap() > 1);
+    // Undo goes back to the kept outputs' parameters; redo forward.
+    let u = st.ok("POST", "/api/undo", json!(null));
+    assert_eq!(u["params"]["material"], "mylar-0.19");
+    let r = st.ok("POST", "/api/redo", json!(null));
+    assert_eq!(r["params"]["material"], "brass-0.3-etch");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A small deterministic generator (xorshift), so a failing sequence can be replayed by seed.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn pick<'a>(&mut self, xs: &[&'a str]) -> &'a str {
+        xs[(self.next() % xs.len() as u64) as usize]
+    }
+}
+
+#[test]
+fn export_after_random_changes_is_what_make_writes() {
+    let mut exported = 0;
+    let runs = [
+        (7u64, "samples/rings.png"),
+        (42, "samples/blobs.png"),
+        (1234, "samples/letters.png"),
+        (99, "samples/rings.png"),
+        (2026, "samples/target.png"),
+        (5, "samples/blobs.png"),
+    ];
+    for (seed, input) in runs {
+        let out = tmp(&format!("random-{seed}"));
+        let st = Studio::start(input, &out, &["--emit", "png,svg,dxf"]);
+        let mut rng = Rng(seed);
+        let mut log = Vec::new();
+        for _ in 0..8 {
+            let choice = rng.next() % 9;
+            let (path, body) = match choice {
+                0 => (
+                    "/api/params",
+                    json!({"threshold": rng.pick(&["90", "128", "160", "otsu"])}),
+                ),
+                1 => (
+                    "/api/params",
+                    json!({"invert": rng.pick(&["true", "false"])}),
+                ),
+                2 => (
+                    "/api/params",
+                    json!({"w-length": rng.pick(&["0.5", "1", "3"]), "w-intensity": rng.pick(&["1", "2", "4"])}),
+                ),
+                3 => (
+                    "/api/params",
+                    json!({"bridges-per-island": rng.pick(&["1", "2", "3"])}),
+                ),
+                4 => (
+                    "/api/params",
+                    json!({"material": rng.pick(&["", "mylar-0.19", "brass-0.3-etch", "poster-board"])}),
+                ),
+                5 => (
+                    "/api/params",
+                    json!({"width-mm": rng.pick(&["", "60", "120"]), "allow-thin": "true"}),
+                ),
+                6 => {
+                    let s = st.ok("GET", "/api/state?wait=1", json!(null));
+                    let n = s["report"]["bridges"].as_array().map_or(0, |b| b.len());
+                    if n == 0 {
+                        continue;
+                    }
+                    ("/api/bridges", json!({"delete": rng.next() % n as u64}))
+                }
+                7 => {
+                    let s = st.ok("GET", "/api/state?wait=1", json!(null));
+                    let (w, h) = (
+                        s["report"]["width_mm"].as_f64().unwrap_or(10.0),
+                        s["report"]["height_mm"].as_f64().unwrap_or(10.0),
+                    );
+                    let (x, y) = (
+                        (rng.next() % 100) as f64 / 100.0 * w * 0.8,
+                        (rng.next() % 100) as f64 / 100.0 * h * 0.8,
+                    );
+                    ("/api/bridges", json!({"pin": [x, y]}))
+                }
+                _ => (rng.pick(&["/api/undo", "/api/redo"]), json!(null)),
+            };
+            let (s, v) = st.json("POST", path, body.clone());
+            log.push(format!("{path} {body} -> {s}"));
+            assert!(s == 200 || s == 409, "{log:?}: {v}");
+        }
+        let state = st.ok("GET", "/api/state?wait=1", json!(null));
+        let command = state["command"].as_str().unwrap().to_string();
+        let (s, e) = st.json("POST", "/api/export", json!(null));
+        let made = tmp(&format!("random-{seed}-make"));
+        if s != 200 {
+            // make refuses the same options in the same words.
+            let o = Command::new(bin())
+                .args(command.split(' ').skip(1))
+                .output()
+                .unwrap();
+            assert!(
+                !o.status.success(),
+                "{log:?}: studio refused ({e}) but make did not"
+            );
+            let msg = e["error"].as_str().unwrap();
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            assert!(
+                stderr.contains(msg),
+                "{log:?}: studio {msg:?}, make {stderr:?}"
+            );
+            continue;
+        }
+        assert_eq!(e["command"], command.as_str());
+        make_as_shown(&command, &made);
+        same_outputs(&out, &made, &format!("seed {seed}: {command}; {log:?}"));
+        exported += 1;
+        eprintln!("seed {seed}: {command}: same files as make");
+        let _ = std::fs::remove_dir_all(&out);
+        let _ = std::fs::remove_dir_all(&made);
+    }
+    assert!(
+        exported >= runs.len() / 2,
+        "only {exported} of {} sequences exported",
+        runs.len()
+    );
+}

@@ -1,0 +1,294 @@
+//! The studio's page end to end in a real headless browser (Debian's `chromium` driven through
+//! `chromedriver` with fantoccini): load the page, move the threshold slider and see the preview
+//! change, delete a bridge and see another hold its island, pin one, export, and compare the
+//! exported files byte for byte with `stencil make` run with the command line the page shows.
+//! Screenshots go to `target/tmp/studio-*.png`.
+//!
+//! Without `chromedriver` on the PATH the test says so and passes, unless
+//! `STENCIL_BROWSER_TEST=required` (which `.ci/run` sets after installing it), where it fails.
+
+use std::io::{BufRead, BufReader};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use fantoccini::{Client, ClientBuilder, Locator};
+use serde_json::{json, Value};
+
+mod common;
+use common::{make_as_shown, same_outputs};
+
+/// A child process killed when dropped.
+struct Killed(Child);
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn on_path(name: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|p| {
+        std::env::split_paths(&p)
+            .map(|d| d.join(name))
+            .find(|f| f.is_file())
+    })
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn shots() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+}
+
+async fn shot(c: &Client, name: &str) {
+    let png = c.screenshot().await.unwrap();
+    std::fs::write(shots().join(format!("studio-{name}.png")), png).unwrap();
+}
+
+/// Run `script` (a function body returning a value) until it returns something other than
+/// null/false, for up to `secs` seconds.
+async fn until(c: &Client, what: &str, script: &str, secs: u64) -> Value {
+    let t0 = Instant::now();
+    loop {
+        let v = c.execute(script, vec![]).await.unwrap();
+        if !(v.is_null() || v == json!(false)) {
+            return v;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(secs),
+            "waited {secs} s for {what}"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// Wait for the page to show a version newer than `after`, images loaded; returns it.
+async fn shown_after(c: &Client, after: u64) -> u64 {
+    let script = format!(
+        "const b = document.body, i = document.getElementById('img');
+         return (+b.dataset.version > {after} && b.dataset.updating === 'no' && i.complete
+                 && i.naturalWidth > 0 && i.src.endsWith('v=' + b.dataset.version))
+                ? +b.dataset.version : null;"
+    );
+    until(c, "the page to show a new result", &script, 60)
+        .await
+        .as_u64()
+        .unwrap()
+}
+
+/// A checksum of the shown image's pixels (what a person sees).
+async fn image_sum(c: &Client) -> u64 {
+    let v = c
+        .execute(
+            "const i = document.getElementById('img'), k = document.createElement('canvas');
+             k.width = i.naturalWidth; k.height = i.naturalHeight;
+             const g = k.getContext('2d'); g.drawImage(i, 0, 0);
+             const d = g.getImageData(0, 0, k.width, k.height).data;
+             let s = 0; for (let j = 0; j < d.length; j++) s = (s * 31 + d[j]) % 1000000007;
+             return s;",
+            vec![],
+        )
+        .await
+        .unwrap();
+    v.as_u64().unwrap()
+}
+
+async fn state(c: &Client) -> Value {
+    c.execute_async(
+        "const done = arguments[arguments.length - 1];
+         const t = new URLSearchParams(location.search).get('token');
+         fetch('/api/state?wait=1', {headers: {Authorization: 'Bearer ' + t}})
+           .then(r => r.json()).then(done);",
+        vec![],
+    )
+    .await
+    .unwrap()
+}
+
+fn start_studio(out: &Path) -> (Killed, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .args(["studio", "samples/rings.png", "--emit", "png,svg,dxf", "-o"])
+        .arg(out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    (Killed(child), line.trim().to_string())
+}
+
+fn start_driver(driver: &Path) -> (Killed, u16) {
+    let port = free_port();
+    let child = Command::new(driver)
+        .arg(format!("--port={port}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "chromedriver did not start"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    (Killed(child), port)
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
+    let required = std::env::var("STENCIL_BROWSER_TEST").is_ok_and(|v| v == "required");
+    let Some(driver) = on_path("chromedriver") else {
+        assert!(
+            !required,
+            "STENCIL_BROWSER_TEST=required but chromedriver is not on the PATH \
+             (apt-get install chromium chromium-driver)"
+        );
+        println!(
+            "SKIPPED the studio browser test: chromedriver is not on the PATH; install Debian's \
+             chromium and chromium-driver (apt-get install chromium chromium-driver) to run it"
+        );
+        return;
+    };
+    let out = std::env::temp_dir().join(format!("stencil-studio-browser-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let (_studio, url) = start_studio(&out);
+    let (_driver, port) = start_driver(&driver);
+    let mut caps = serde_json::Map::new();
+    let mut chrome = json!({
+        "args": [
+            "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            "--disable-default-apps", "--disable-extensions", "--no-first-run",
+            "--metrics-recording-only", "--window-size=1500,950"
+        ]
+    });
+    if let Some(bin) = on_path("chromium") {
+        chrome["binary"] = json!(bin.display().to_string());
+    }
+    caps.insert("goog:chromeOptions".into(), chrome);
+    let c = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+        .capabilities(caps)
+        .connect(&format!("http://127.0.0.1:{port}"))
+        .await
+        .expect("a chromium session through chromedriver");
+
+    c.goto(&url).await.unwrap();
+    let v1 = shown_after(&c, 0).await;
+    let sum1 = image_sum(&c).await;
+    shot(&c, "1-loaded").await;
+
+    // The threshold slider, moved and released as a person does: the preview changes.
+    c.execute(
+        "const s = document.getElementById('threshold-slider'); s.value = 70;
+         s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'));",
+        vec![],
+    )
+    .await
+    .unwrap();
+    let v2 = shown_after(&c, v1).await;
+    let sum2 = image_sum(&c).await;
+    assert_ne!(sum1, sum2, "the preview did not change with the threshold");
+    let st = state(&c).await;
+    assert_eq!(st["report"]["threshold_level"], 70);
+    shot(&c, "2-threshold").await;
+
+    // Delete a bridge by clicking it in delete mode: its island is still held (by another).
+    let before = st["report"]["bridges"].as_array().unwrap().clone();
+    assert!(!before.is_empty(), "rings.png has bridges");
+    let island_of = |b: &Value| {
+        let n = &b["nodes"];
+        n[0].as_u64().unwrap().max(n[1].as_u64().unwrap())
+    };
+    let gone = island_of(&before[0]);
+    c.find(Locator::Css("[data-mode=delete]"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    c.execute(
+        "document.querySelector('#overlay polygon[data-index=\"0\"]')
+           .dispatchEvent(new MouseEvent('click', {bubbles: true}));",
+        vec![],
+    )
+    .await
+    .unwrap();
+    let v3 = shown_after(&c, v2).await;
+    let st = state(&c).await;
+    let command = st["command"].as_str().unwrap().to_string();
+    assert!(command.contains("--no-bridge-near"), "{command}");
+    assert_eq!(st["report"]["floating_after"], 0);
+    assert!(
+        st["report"]["bridges"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|b| island_of(b) == gone),
+        "island {gone} lost its only bridge"
+    );
+    shot(&c, "3-deleted").await;
+
+    // Pin a bridge: click the picture in pin mode.
+    c.find(Locator::Css("[data-mode=pin]"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    c.find(Locator::Id("stage"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    let v4 = shown_after(&c, v3).await;
+    let st = state(&c).await;
+    assert_eq!(st["params"]["bridge-at"].as_array().map(Vec::len), Some(1));
+    assert!(st["report"]["user_bridges"]["bridge_at"][0]["start_mm"].is_array());
+    let _ = v4;
+    shot(&c, "4-pinned").await;
+
+    // Export: the files make writes for the command line the page shows.
+    c.find(Locator::Id("export"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    until(
+        &c,
+        "the export",
+        "const e = document.getElementById('exported'); return e && e.dataset.files ? true : null;",
+        60,
+    )
+    .await;
+    shot(&c, "5-exported").await;
+    let shown = c
+        .find(Locator::Id("command"))
+        .await
+        .unwrap()
+        .prop("value")
+        .await
+        .unwrap()
+        .unwrap();
+    c.close().await.unwrap();
+    let made = out.with_extension("make");
+    let _ = std::fs::remove_dir_all(&made);
+    make_as_shown(&shown, &made);
+    same_outputs(&out, &made, &shown);
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&made);
+}
