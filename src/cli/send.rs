@@ -120,27 +120,25 @@ pub struct SendArgs {
 /// offset...): `send` refuses them unless `--allow-machine-commands` is given.
 pub(super) fn name_machine_changes(job: &Program) {
     for c in &job.machine_changes {
-        eprintln!(
-            "note: {}: line {} `{}` {}: `stencil send` refuses it unless \
-             --allow-machine-commands is given",
-            job.name, c.line, c.text, c.what
-        );
+        machine_change_note(&job.name, c.line, &c.text, &c.what);
     }
 }
 
-/// [`name_machine_changes`] for a file read as text.
+/// [`name_machine_changes`] for a file read as text (the commands that do not stream it).
 pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
     for (i, raw) in text.lines().enumerate() {
         let clean = stencil_gcode::interpret::clean_line(raw);
         if let Some(what) = stream::machine_change(&clean) {
-            eprintln!(
-                "note: {}: line {} `{clean}` {what}: `stencil send` refuses it unless \
-                 --allow-machine-commands is given",
-                path.display(),
-                i + 1
-            );
+            machine_change_note(&path.display().to_string(), i + 1, &clean, &what);
         }
     }
+}
+
+fn machine_change_note(file: &str, line: usize, text: &str, what: &str) {
+    eprintln!(
+        "note: {file}: line {line} `{text}` {what}: `stencil send` refuses it unless \
+         --allow-machine-commands is given"
+    );
 }
 
 /// `--dry-run-setting $32=0`.

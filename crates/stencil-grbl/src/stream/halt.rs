@@ -18,17 +18,52 @@ impl Session<'_, '_> {
     /// Known to stand means [`standing`]: a report that can only have been made after Grbl
     /// acted on this hold. If none comes within the hold deadline the reset goes ahead anyway
     /// and the halt says the position may be lost.
-    pub(super) fn settle(&mut self, mut f: Option<&mut Flight<'_>>) {
+    pub(super) fn settle(&mut self, f: Option<&mut Flight<'_>>) {
         if self.link.write(&[RT_FEED_HOLD]).is_err() {
             self.unsure = Some("the feed hold could not be sent".into());
             return;
         }
         let deadline = self.hold_deadline();
-        let end = Instant::now() + deadline;
+        match self.wait_standing(f, deadline) {
+            Wait::Standing => {}
+            Wait::PortFailed => {
+                self.unsure = Some("the port failed while waiting for the hold".into());
+            }
+            Wait::Deadline => {
+                self.unsure = Some(
+                    format!(
+                        "the machine did not report a completed feed hold within {:.1} s, so it \
+                         was reset while it may still have been moving",
+                        deadline.as_secs_f64()
+                    )
+                    .into(),
+                );
+            }
+        }
+    }
+
+    /// A controller that stopped answering: still send the hold and give it its deadline (it
+    /// may be deaf only on the way back), at most 3 s, then the reset follows.
+    fn settle_silent(&mut self) {
+        let _ = self.link.write(&[RT_FEED_HOLD]);
+        let wait = self.hold_deadline().min(Duration::from_secs(3));
+        if self.wait_standing(None, wait) != Wait::Standing {
+            self.unsure = Some(
+                "the controller stopped answering, so it could not say whether the machine stood \
+                 before the reset"
+                    .into(),
+            );
+        }
+    }
+
+    /// After a `!`: ask for status reports and read what comes (acknowledgements still due go
+    /// to `f`) until [`Standstill`] accepts one, Grbl restarts, or `limit` passes. One question
+    /// at a time: the next `?` goes out only once the last is answered (or after a while, in
+    /// case a report was lost), so each report answers a `?` sent after the one before it
+    /// arrived.
+    fn wait_standing(&mut self, mut f: Option<&mut Flight<'_>>, limit: Duration) -> Wait {
+        let end = Instant::now() + limit;
         let mut watch = Standstill::default();
-        // One question at a time: the next `?` goes out only once the last is answered (or
-        // after a while, in case a report was lost), so each report answers a `?` sent after
-        // the one before it arrived.
         let mut asked = false;
         let mut last_ask = Instant::now() - Duration::from_secs(1);
         while Instant::now() < end {
@@ -36,8 +71,7 @@ impl Session<'_, '_> {
             if (!asked && since >= Duration::from_millis(20)) || since >= Duration::from_millis(250)
             {
                 if self.link.write(&[RT_STATUS]).is_err() {
-                    self.unsure = Some("the port failed while waiting for the hold".into());
-                    return;
+                    return Wait::PortFailed;
                 }
                 asked = true;
                 last_ask = Instant::now();
@@ -58,45 +92,15 @@ impl Session<'_, '_> {
                         self.obs.progress(&f.progress);
                     }
                     if watch.standing(&st) {
-                        return;
+                        return Wait::Standing;
                     }
                 }
                 // Grbl restarted (power, its own reset): it stands, with nothing queued.
-                (Reply::Alarm(_) | Reply::Welcome(_), _) => return,
+                (Reply::Alarm(_) | Reply::Welcome(_), _) => return Wait::Standing,
                 _ => {}
             }
         }
-        self.unsure = Some(
-            format!(
-                "the machine did not report a completed feed hold within {:.1} s, so it was reset \
-             while it may still have been moving",
-                deadline.as_secs_f64()
-            )
-            .into(),
-        );
-    }
-
-    /// A controller that stopped answering: still send the hold and give it its deadline (it
-    /// may be deaf only on the way back), then the reset follows.
-    fn settle_silent(&mut self) {
-        let _ = self.link.write(&[RT_FEED_HOLD]);
-        let end = Instant::now() + self.hold_deadline().min(Duration::from_secs(3));
-        let mut watch = Standstill::default();
-        while Instant::now() < end {
-            let _ = self.link.write(&[RT_STATUS]);
-            if let Ok(Some(line)) = self.link.line(Duration::from_millis(250)) {
-                if let Reply::Status(st) = Reply::parse(&line) {
-                    if watch.standing(&st) {
-                        return;
-                    }
-                }
-            }
-        }
-        self.unsure = Some(
-            "the controller stopped answering, so it could not say whether the machine stood \
-             before the reset"
-                .into(),
-        );
+        Wait::Deadline
     }
 
     /// How long a feed hold may take to bring the head to rest: the fastest the controller
@@ -227,6 +231,14 @@ impl Session<'_, '_> {
             ),
         }
     }
+}
+
+/// How a wait for the machine to stand ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Wait {
+    Standing,
+    Deadline,
+    PortFailed,
 }
 
 /// Watches status reports after a feed hold for proof that the machine stands.

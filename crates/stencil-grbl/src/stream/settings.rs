@@ -45,19 +45,20 @@ impl Session<'_, '_> {
         } else {
             return Ok(());
         };
+        let refuse = |example: String| MachineError::PowerScale {
+            port: self.port_name.clone(),
+            setting,
+            controller,
+            job,
+            written_for: p.source.clone(),
+            example,
+        };
         if c_max <= c_min {
-            return Err(MachineError::PowerScale {
-                port: self.port_name.clone(),
-                setting,
-                controller,
-                job,
-                written_for: p.source.clone(),
-                example: format!(
-                    "the controller's $30={} is not above its $31={}",
-                    num(c_max),
-                    num(c_min)
-                ),
-            });
+            return Err(refuse(format!(
+                "the controller's $30={} is not above its $31={}",
+                num(c_max),
+                num(c_min)
+            )));
         }
         // What the job's 20 % becomes on this controller.
         let s20 = p.s_min + 0.2 * (p.s_max - p.s_min);
@@ -68,14 +69,7 @@ impl Session<'_, '_> {
             frac * 100.0
         );
         if !self.cfg.rescale_power {
-            return Err(MachineError::PowerScale {
-                port: self.port_name.clone(),
-                setting,
-                controller,
-                job,
-                written_for: p.source.clone(),
-                example,
-            });
+            return Err(refuse(example));
         }
         let k = (c_max - c_min) / (p.s_max - p.s_min);
         self.power_map = Some((p.s_min, c_min, k));
