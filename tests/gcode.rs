@@ -542,6 +542,8 @@ fn stencil(args: &[&str], dir: &Path) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_stencil"))
         .args(args)
         .current_dir(dir)
+        // No settings a developer kept in their own config folder.
+        .env("STENCIL_CONFIG_DIR", common_empty_config())
         .output()
         .unwrap();
     (
@@ -549,6 +551,11 @@ fn stencil(args: &[&str], dir: &Path) -> (bool, String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// A config folder with nothing kept in it (it does not exist).
+fn common_empty_config() -> std::path::PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("no-kept-settings")
 }
 
 const SVG: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="120mm" height="80mm" viewBox="0 0 120 80">
@@ -686,6 +693,7 @@ fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil_core
         gcode: Some(stencil_gcode::GcodeConfig {
             machine: machine.clone(),
             plan,
+            settings_from: String::new(),
         }),
         ..Default::default()
     };
@@ -701,8 +709,11 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
         let r = check_program(text, &m);
         let g = &made.geometry;
         let o = g.outline;
+        // Every loop is cut once per pass (cardstock on the 5.5 W diode: two).
+        let settings = made.report.gcode.as_ref().unwrap().settings.unwrap();
+        let passes = settings.passes as f64;
         let perim: f64 =
-            g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (o.width() + o.height());
+            passes * (g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (o.width() + o.height()));
         assert!(
             (r.cut_mm - perim).abs() / perim < 0.01,
             "{name}: cut {} vs perimeter {perim}",
@@ -727,7 +738,7 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
             s.path.naive_travel_mm
         );
         assert!(
-            s.estimate.total_s > perim / (1500.0 / 60.0),
+            s.estimate.total_s > perim / (settings.speed_mm_min / 60.0),
             "{name}: slower than feed"
         );
     }
@@ -776,8 +787,22 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
         .unwrap()
         .iter()
         .any(|f| f == "stencil.gcode"));
-    // cardstock: 20 % of $30=1000, 1500 mm/min.
-    assert!(text.contains(" S200 F1500"), "material settings used");
+    // cardstock on the 5.5 W diode: its diode entry (48 % of $30=1000 at 1650 mm/min, two
+    // passes), not the CO2 one (S200 F1500), and the report says so and where they came from.
+    assert!(text.contains(" S480 F1650"), "diode settings used");
+    assert!(!text.contains("S200"), "no CO2 settings on a diode");
+    assert_eq!(g["settings"]["power_pct"], 48.0);
+    assert_eq!(g["settings"]["speed_mm_min"], 1650.0);
+    assert_eq!(g["settings"]["passes"], 2);
+    let from = g["settings_from"].as_str().unwrap();
+    assert!(
+        from.contains("diode laser 5 W") && from.contains("lasertinkerer"),
+        "{from}"
+    );
+    assert!(
+        stdout.contains("48 % power, 1650 mm/min, 2 passes"),
+        "{stdout}"
+    );
 
     // The same folder again through `stencil gcode`, on another machine: material from the report.
     let (ok, _, err) = stencil(
@@ -793,15 +818,17 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
     );
     assert!(ok, "{err}");
     let again = std::fs::read_to_string(dir.path().join("again.gcode")).unwrap();
+    // On the 40 W CO2: the CO2 entry, 20 % of $30=1000 at 1500 mm/min.
     assert!(again.contains("material cardstock") && again.contains(" S200 F1500"));
     let m2 = machine::load(Some("co2-600x400")).unwrap();
     let r2 = check_program(&again, &m2);
-    // Read back from the SVG with the kerf applied again: the same cut length within 1 %.
+    // Read back from the SVG with the kerf applied again: the same cut length within 1 %, per
+    // pass (two on the diode, one on the CO2).
+    let per_pass = r.cut_mm / 2.0;
     assert!(
-        (r2.cut_mm - r.cut_mm).abs() / r.cut_mm < 0.01,
-        "{} vs {}",
+        (r2.cut_mm - per_pass).abs() / per_pass < 0.01,
+        "{} vs {per_pass}",
         r2.cut_mm,
-        r.cut_mm
     );
 
     // A laser material on a knife: refused, nothing written.

@@ -232,6 +232,15 @@ fn settings(e: &SettingsError) -> String {
             "{e}; choose a matching --material (for a {tool}: {suggested}, or see `stencil \
              profiles`) or --machine, or give --power, --speed and --passes"
         ),
+        SettingsError::NoSettings {
+            material, machine, ..
+        } => format!(
+            "{e}. Nothing was written. Find settings with `stencil test-grid --machine {machine} \
+             --material {material}`, cut it, and keep the best square's with `stencil profiles \
+             set {material} --machine {machine} --power P --speed S`; or give --power and \
+             --speed for this job (`stencil profiles` lists which materials have settings for \
+             which machine)"
+        ),
     }
 }
 

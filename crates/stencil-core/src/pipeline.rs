@@ -821,19 +821,24 @@ fn gcode(
     timer: &mut Timings,
 ) -> Result<(String, stencil_gcode::GcodeSummary), Error> {
     let phys = &cfg.physical;
-    let notes = [
+    let mut notes = vec![
         format!("from {}", cfg.input.display()),
         format!("material {}", phys.material.name),
     ];
+    if !g.settings_from.is_empty() {
+        notes.push(format!("cut settings from {}", g.settings_from));
+    }
     if joined.map.island_count() > 0 {
         timer.time("pieces", || {
             geometry.set_unbridged(&cleaned.twotone.bits, vcfg)
         })?;
     }
     timer.time("kerf", || geometry.apply_kerf(phys.material.kerf_mm))?;
-    Ok(timer.time("gcode", || {
+    let (text, mut summary) = timer.time("gcode", || {
         stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
-    })?)
+    })?;
+    summary.settings_from = (!g.settings_from.is_empty()).then(|| g.settings_from.clone());
+    Ok((text, summary))
 }
 
 /// What the vector stage and the check made, for the report.
