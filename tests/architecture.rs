@@ -179,6 +179,8 @@ fn core_stages_use_only_earlier_layers() {
         ("material", &[][..]),
         ("raster", &["units"][..]),
         ("limits", &["units"][..]),
+        // Deciding the size before the work: from the picture's size and the stock alone.
+        ("fit", &["units"][..]),
         ("islands", &["raster"][..]),
         ("tone", &["raster", "limits", "units", "timing"][..]),
         (

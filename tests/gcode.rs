@@ -527,13 +527,23 @@ fn square_time_matches_a_hand_calculation() {
 fn a_job_larger_than_the_bed_is_refused() {
     let m = machine::load(None).unwrap();
     let g = sheet(420.0, 300.0, vec![rect(10.0, 10.0, 50.0, 50.0)]);
-    let e = gcode_for(&g, &m, &PlanConfig::new(settings()), &[])
-        .unwrap_err()
-        .to_string();
+    // With the sheet's outline cut, the whole sheet must be on the bed.
+    let mut cfg = PlanConfig::new(settings());
+    cfg.cut_outline = true;
+    let e = gcode_for(&g, &m, &cfg, &[]).unwrap_err().to_string();
     assert!(
         e.contains("420.0 x 300.0 mm") && e.contains("400.0 x 400.0 mm"),
         "{e}"
     );
+    // Without it, only what is cut counts: the 40 mm square, placed at the origin.
+    let (text, s) = gcode_for(&g, &m, &PlanConfig::new(settings()), &[]).unwrap();
+    assert!(text.contains("job 40 x 40 mm at X0..40 Y0..40"), "{text}");
+    assert_eq!(s.path.loops, 1);
+    let big = sheet(420.0, 300.0, vec![rect(0.0, 10.0, 410.0, 50.0)]);
+    let e = gcode_for(&big, &m, &PlanConfig::new(settings()), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("410.0 x 40.0 mm"), "{e}");
 }
 
 // ---- the command line -------------------------------------------------------------------------
@@ -858,20 +868,39 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
             "big",
             "--width-mm",
             "400",
-            // The bed does not care how finely the picture is worked: skip the supersampling.
-            "--scale",
-            "1",
+            "--cut-outline",
             "--allow-thin",
             "--emit",
             "svg,gcode",
         ],
         dir.path(),
     );
-    // 400 mm plus a 5 mm margin on each side: 410 mm on the default 400 x 400 mm bed.
+    // 400 mm plus a 5 mm margin on each side (its outline is cut): 410 mm on the default
+    // 400 x 400 mm bed, refused from the picture's header before any work, with the largest
+    // width that fits.
     assert!(
-        !ok && err.contains("410.0 x 410.0") && err.contains("400.0 x 400.0"),
+        !ok && err.contains("400 x 400 mm with a 5 mm margin")
+            && err.contains("bed of diode-400")
+            && err.contains("--width-mm 390 or less")
+            && err.contains("--margin-mm"),
         "{err}"
     );
+    assert!(!dir.path().join("big").exists(), "nothing written");
+    // Without the outline cut the margin does not count: 401 mm is refused naming 400.
+    let (ok, _, err) = stencil(
+        &[
+            "make",
+            sample.to_str().unwrap(),
+            "-o",
+            "big",
+            "--width-mm",
+            "401",
+            "--emit",
+            "svg,gcode",
+        ],
+        dir.path(),
+    );
+    assert!(!ok && err.contains("--width-mm 400 or less"), "{err}");
     assert!(!dir.path().join("big").exists(), "nothing written");
 
     // Machine options without --emit gcode are a mistake, said plainly.
@@ -951,8 +980,16 @@ mod prop {
                     // The sheet at that placement really sticks out of the bed.
                     let (bw, bh) = (m.bed.width_mm, m.bed.height_mm);
                     prop_assert!(x0 < 0.0 || y0 < 0.0 || x1 > bw || y1 > bh);
-                    prop_assert!((x1 - x0 - g.outline.width()).abs() < 1e-6);
-                    prop_assert!((y1 - y0 - g.outline.height()).abs() < 1e-6);
+                    // The job is the sheet when its outline is cut, else what is cut (a
+                    // knife's axis passes the cuts by up to its blade offset).
+                    if outline {
+                        prop_assert!((x1 - x0 - g.outline.width()).abs() < 1e-6);
+                        prop_assert!((y1 - y0 - g.outline.height()).abs() < 1e-6);
+                    } else {
+                        let reach = 2.0 * s.blade_offset_mm + 1e-6;
+                        prop_assert!(x1 - x0 <= g.outline.width() + reach);
+                        prop_assert!(y1 - y0 <= g.outline.height() + reach);
+                    }
                 }
                 Err(e) => prop_assert!(false, "unexpected error: {e}"),
             }

@@ -244,6 +244,29 @@ fn settings(e: &SettingsError) -> String {
     }
 }
 
+/// A size that does not fit, with the options that change it.
+pub fn fit(e: &stencil_core::fit::FitError) -> String {
+    use stencil_core::fit::FitError;
+    match e {
+        FitError::TooLarge {
+            margin_mm,
+            largest_width_mm,
+            ..
+        } => {
+            let margin = if *margin_mm > 0.0 {
+                ", or a smaller --margin-mm (it counts: the sheet's edge is cut or marked)"
+            } else {
+                " (--margin-mm does not count: nothing is cut at the sheet's edge)"
+            };
+            format!(
+                "{e}: give --width-mm {} or less{margin}; nothing was done",
+                (largest_width_mm * 10.0).floor() / 10.0
+            )
+        }
+        FitError::MarginTooLarge { .. } => format!("{e}: give a smaller --margin-mm"),
+    }
+}
+
 /// A planning error in the words of the command line: the library says what to change, this adds
 /// the option that changes it.
 pub fn plan(e: &PlanError) -> String {

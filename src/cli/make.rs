@@ -348,6 +348,13 @@ fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     } else {
         stencil_core::material::DEFAULT_MATERIAL
     };
+    let mut physical = a.physical.to_config(default_material)?;
+    let machine = if emit_gcode {
+        Some(a.machine.machine()?)
+    } else {
+        None
+    };
+    fit_size(a, &mut physical, machine.as_ref())?;
     let cfg = MakeConfig {
         out_dir: a
             .out
@@ -358,7 +365,7 @@ fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
-        physical: a.physical.to_config(default_material)?,
+        physical,
         gcode: None,
         progress: None,
     };
@@ -371,6 +378,80 @@ fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         )?,
         ..cfg
     })
+}
+
+/// The size on the sheet, decided from the picture's header before any work: scaled down to the
+/// machine's bed when no size was asked for and the default 0.1 mm per pixel would not fit it,
+/// fitted to a --sheet, or refused (with the largest width that fits) when the size asked for
+/// cannot fit. The margin counts only where something is cut or marked at the sheet's edge.
+/// A mesh, or a picture whose header cannot be read (the pipeline then says why), is left alone.
+fn fit_size(
+    a: &MakeArgs,
+    physical: &mut pipeline::PhysicalConfig,
+    machine: Option<&stencil_gcode::machine::Machine>,
+) -> anyhow::Result<()> {
+    use stencil_core::fit::{fit, FitRequest, Fitted, Stock};
+    let stock = match (&a.physical.sheet, machine) {
+        (Some(s), _) => s.clone(),
+        (None, Some(m)) => Stock::Bed {
+            machine: m.name.clone(),
+            w_mm: m.bed.width_mm,
+            h_mm: m.bed.height_mm,
+        },
+        (None, None) => return Ok(()),
+    };
+    let mesh = a
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if mesh {
+        return Ok(());
+    }
+    let Ok(px) = stencil_core::tone::picture_size(&a.input) else {
+        return Ok(());
+    };
+    let marks = a.physical.mask_marks && a.physical.emit.contains(&EmitKind::Mask);
+    let req = FitRequest {
+        picture_px: px,
+        size: physical.size,
+        margin_mm: physical.vector.margin_mm,
+        margin_counts: a.machine.cut_outline || marks,
+        stock: stock.clone(),
+    };
+    match fit(&req) {
+        Ok(Fitted::AsAsked) => {}
+        Ok(Fitted::Scaled {
+            from_mm,
+            width_mm,
+            height_mm,
+            turned,
+        }) => {
+            physical.size = stencil_core::units::Size::WidthMm(width_mm);
+            let why = match (&stock, &a.physical.sheet) {
+                (_, Some(_)) => format!(
+                    "fitted to {stock}{}",
+                    if turned { " turned sideways" } else { "" }
+                ),
+                _ => format!(
+                    "at 0.1 mm per pixel it would be {:.1} x {:.1} mm, larger than {stock}; \
+                     scaled down to fit",
+                    from_mm[0], from_mm[1]
+                ),
+            };
+            println!(
+                "note: {}: {width_mm:.1} x {height_mm:.1} mm ({why}; --width-mm sets the size)",
+                a.input.display()
+            );
+        }
+        Err(e) => {
+            return Err(anyhow::anyhow!(
+                "{}: {}",
+                a.input.display(),
+                super::errors::fit(&e)
+            ))
+        }
+    }
+    Ok(())
 }
 
 /// A failed run in this command's words: the fidelity limit with what helps, any other error

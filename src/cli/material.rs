@@ -43,6 +43,12 @@ pub struct PhysicalArgs {
     /// and low enough that the picture is at most 10 m on its longer side.
     #[arg(long, value_parser = super::bounds::positive)]
     pub dpi: Option<f64>,
+    /// Fit the picture to a sheet of stock you cut from (card, vinyl): A4, A3, LETTER or WxH in
+    /// mm (e.g. 300x200). Without --width-mm/--dpi the picture is made as large as the sheet
+    /// allows inside --margin-mm (the sheet turned a quarter turn if that is larger); with them,
+    /// a picture too large for the sheet is refused before any work.
+    #[arg(long, value_name = "A4|A3|LETTER|WxH", value_parser = stencil_core::fit::sheet)]
+    pub sheet: Option<stencil_core::fit::Stock>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
     /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
     /// drive the bridges, the filter and the check. [default: cardstock; with --emit gcode, one
@@ -54,7 +60,8 @@ pub struct PhysicalArgs {
     #[arg(long, default_value_t = 0.05, value_parser = super::bounds::tolerance_mm)]
     pub tolerance_mm: f64,
     /// Sheet left around the picture on every side, in mm (the sheet continues beyond the
-    /// picture): 0.001 to 1000.
+    /// picture): 0.001 to 1000. It counts against a machine's bed or a --sheet only where
+    /// something is cut or marked there (--cut-outline, --mask-marks, a --sheet's edge).
     #[arg(long, default_value_t = 5.0, value_parser = super::bounds::margin_mm)]
     pub margin_mm: f64,
     /// Files to write, comma separated (report.json is always written).

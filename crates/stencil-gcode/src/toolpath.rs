@@ -193,6 +193,31 @@ pub(crate) fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
     [o.min().x, o.min().y, o.max().x, o.max().y]
 }
 
+/// What the job places at the anchor and the bed must hold: the sheet when its outline is cut,
+/// else only what is cut (the cut loops' bounding box). The margin around the picture is sheet
+/// the head never visits unless the outline is cut, so it does not count against the bed: a
+/// 395 mm picture with a 5 mm margin fits a 400 mm bed when only the picture is cut.
+fn job_rect(geom: &CutLoops, cut_outline: bool) -> [f64; 4] {
+    let sheet = sheet_rect(geom);
+    if cut_outline {
+        return sheet;
+    }
+    let mut r = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for c in geom.cuts.0.iter().flat_map(|p| p.exterior().0.iter()) {
+        r = [r[0].min(c.x), r[1].min(c.y), r[2].max(c.x), r[3].max(c.y)];
+    }
+    if r[0] < r[2] && r[1] < r[3] {
+        r
+    } else {
+        sheet
+    }
+}
+
 /// Sheet mm (x right, y down) → machine mm, for the sheet `rect` placed per `cfg` on `machine`.
 #[derive(Clone, Copy, Debug)]
 struct Placement {
@@ -297,7 +322,7 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
-    let rect = sheet_rect(geom);
+    let rect = job_rect(geom, cfg.cut_outline);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
 

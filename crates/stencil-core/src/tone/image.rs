@@ -64,6 +64,14 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
     })
 }
 
+/// The picture's size in pixels, from its header alone (nothing is decoded): what `make` decides
+/// the size on the sheet by before any work (see `crate::fit`).
+pub fn picture_size(path: &Path) -> Result<(u32, u32), ToneError> {
+    let (reader, _) = open_picture(path)?;
+    let decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    Ok(decoder.dimensions())
+}
+
 /// The file opened with its format guessed from its first bytes, if it is one stencil reads
 /// (PNG, JPEG, BMP, TIFF), and the decoder's allocations capped at [`limits::MAX_DECODE_BYTES`].
 fn open_picture(
