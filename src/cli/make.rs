@@ -349,6 +349,7 @@ fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         stencil_core::material::DEFAULT_MATERIAL
     };
     let mut physical = a.physical.to_config(default_material)?;
+    physical.mask.tone_inverted = a.image.invert;
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
     } else {
@@ -521,6 +522,53 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     super::check::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
+    }
+    if let Some(m) = &made.report.mask {
+        print_masks(m);
+    }
+}
+
+/// What the etch masks are: files, side and mirroring, dpi, polarity, the undercut compensation
+/// and what it closed, and the warning when most of the picture is clear.
+fn print_masks(m: &stencil_core::export::MaskReport) {
+    for s in &m.masks {
+        println!(
+            "mask {}{}: {}, {} at {} dpi; {}{}",
+            s.side,
+            if s.side == "back" {
+                " (mirrored against the front: lay it on the other face)"
+            } else {
+                ""
+            },
+            s.png,
+            s.svg,
+            m.dpi,
+            m.polarity,
+            if s.mirrored {
+                "; mirrored left-right"
+            } else {
+                "; right-reading"
+            }
+        );
+    }
+    if m.undercut_compensation_mm > 0.0 {
+        println!(
+            "mask openings drawn {:.3} mm smaller on every side for the etch's undercut (thickness \
+             / etch factor{})",
+            m.undercut_compensation_mm,
+            if m.masks.len() == 2 { ", half from each side" } else { "" }
+        );
+    }
+    if m.openings_closed > 0 {
+        eprintln!(
+            "warning: the undercut compensation closes {} opening(s) narrower than {:.3} mm: they \
+             will not be etched; make the picture larger (--width-mm) or use a thinner metal",
+            m.openings_closed,
+            2.0 * m.undercut_compensation_mm
+        );
+    }
+    if let Some(w) = &m.warning {
+        eprintln!("warning: {w} (--invert)");
     }
 }
 

@@ -142,6 +142,8 @@ impl PhysicalArgs {
                 invert: self.mask_invert,
                 mirror: self.mask_mirror,
                 marks: self.mask_marks,
+                // Set by `make` from --invert.
+                tone_inverted: false,
             },
             dxf_r12: self.dxf_r12,
         })

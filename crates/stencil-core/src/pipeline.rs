@@ -864,6 +864,8 @@ fn report(
     let (bridged, bridge_cfg) = (&joined.bridged, &joined.bridge_cfg);
     Report {
         gcode,
+        // Filled when the masks are encoded (`encode_outputs`).
+        mask: None,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         mm_per_px: Some(scale.mm_per_px),
@@ -920,9 +922,9 @@ fn report(
 }
 
 /// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
-/// (which lists them).
+/// (which lists them). The masks' description goes into `made.report` as they are encoded.
 pub(crate) fn encode_outputs(
-    made: &Made,
+    made: &mut Made,
     phys: &PhysicalConfig,
 ) -> Result<Vec<(String, Vec<u8>)>, Error> {
     let tt = &made.twotone;
@@ -949,15 +951,23 @@ pub(crate) fn encode_outputs(
     if phys.emit.dxf {
         files.push(("stencil.dxf".into(), dxf::encode(geom, phys.dxf_r12)?));
     }
+    let mut mask_report = None;
     if phys.emit.mask {
         let mut m = phys.mask;
         m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
-        files.push(("mask.png".into(), mask::encode_png(geom, &m)?));
-        files.push(("mask.svg".into(), mask::encode_svg(geom, &m)));
+        let etch = phys.material.etch().map(|e| mask::Etch {
+            thickness_mm: phys.material.thickness_mm,
+            etch_factor: e.etch_factor,
+            two_sided: e.two_sided,
+        });
+        let (masks, r) = mask::mask_files(geom, &m, etch)?;
+        files.extend(masks);
+        mask_report = Some(r);
     }
     if let Some(text) = &made.gcode {
         files.push(("stencil.gcode".into(), text.as_bytes().to_vec()));
     }
+    made.report.mask = mask_report;
     let mut report = made.report.clone();
     report.files = files.iter().map(|(n, _)| n.clone()).collect();
     report.files.push("report.json".into());
@@ -981,6 +991,10 @@ pub const OUTPUT_NAMES: &[&str] = &[
     "stencil.dxf",
     "mask.png",
     "mask.svg",
+    "mask-front.png",
+    "mask-front.svg",
+    "mask-back.png",
+    "mask-back.svg",
     "stencil.gcode",
     "report.json",
 ];
@@ -990,11 +1004,11 @@ pub const OUTPUT_NAMES: &[&str] = &[
 pub fn make(cfg: &MakeConfig) -> Result<(Made, export::Replaced), Error> {
     let existed = cfg.out_dir.is_dir();
     export::prepare_dir(&cfg.out_dir)?;
-    let result = run(cfg).and_then(|made| {
+    let result = run(cfg).and_then(|mut made| {
         if let Some(p) = &cfg.progress {
             p.stage("write");
         }
-        let files = encode_outputs(&made, &cfg.physical)?;
+        let files = encode_outputs(&mut made, &cfg.physical)?;
         let replaced = export::write_files(&cfg.out_dir, &files, OUTPUT_NAMES)?;
         Ok((made, replaced))
     });
