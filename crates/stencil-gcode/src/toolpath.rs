@@ -197,7 +197,9 @@ pub(crate) fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
 /// else only what is cut (the cut loops' bounding box). The margin around the picture is sheet
 /// the head never visits unless the outline is cut, so it does not count against the bed: a
 /// 395 mm picture with a 5 mm margin fits a 400 mm bed when only the picture is cut.
-fn job_rect(geom: &CutLoops, cut_outline: bool) -> [f64; 4] {
+/// `reach`: how far past the cuts the tool's axis goes (a drag knife swivels around corners up
+/// to its blade offset out), so the job's box holds that too.
+fn job_rect(geom: &CutLoops, cut_outline: bool, reach: f64) -> [f64; 4] {
     let sheet = sheet_rect(geom);
     if cut_outline {
         return sheet;
@@ -212,7 +214,7 @@ fn job_rect(geom: &CutLoops, cut_outline: bool) -> [f64; 4] {
         r = [r[0].min(c.x), r[1].min(c.y), r[2].max(c.x), r[3].max(c.y)];
     }
     if r[0] < r[2] && r[1] < r[3] {
-        r
+        [r[0] - reach, r[1] - reach, r[2] + reach, r[3] + reach]
     } else {
         sheet
     }
@@ -322,7 +324,11 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
-    let rect = job_rect(geom, cfg.cut_outline);
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
+    };
+    let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
 
