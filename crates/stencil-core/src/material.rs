@@ -568,8 +568,16 @@ fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> 
              passes, from)",
         ));
     }
+    let flat = flat.iter().any(|f| f.1);
     for (k, c) in on.iter().enumerate() {
-        let field = |f: &str| format!("laser.on[{k}].{f}");
+        // A flat section's fields are named as written (`laser.power_pct`).
+        let field = |f: &str| {
+            if flat {
+                format!("laser.{f}")
+            } else {
+                format!("laser.on[{k}].{f}")
+            }
+        };
         check_range(origin, &field("power_pct"), c.power_pct, 0.1, 100.0, "%")?;
         check_range(
             origin,

@@ -505,11 +505,19 @@ mod tests {
         }
     }
 
+    /// Settings with the sheet's outline cut, so the whole sheet is placed and checked.
+    fn sheet_cfg() -> PlanConfig {
+        let mut cfg = PlanConfig::new(settings());
+        cfg.cut_outline = true;
+        cfg
+    }
+
     #[test]
     fn flips_y_and_places_at_offset() {
         let m = machine::load(None).unwrap();
         let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
-        let mut cfg = PlanConfig::new(settings());
+        // The sheet is placed (its outline is cut): these tests are about the placement.
+        let mut cfg = sheet_cfg();
         cfg.offset = [30.0, 40.0];
         let job = plan(&g, &m, &cfg).unwrap();
         let pts = &job.loops[0].points;
@@ -531,10 +539,10 @@ mod tests {
         let mut m = machine::load(None).unwrap();
         m.bed.origin = Corner::TopLeft;
         let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
-        let job = plan(&g, &m, &PlanConfig::new(settings())).unwrap();
+        let job = plan(&g, &m, &sheet_cfg()).unwrap();
         let ys: Vec<f64> = job.loops[0].points.iter().map(|p| p[1]).collect();
         assert!(ys.iter().all(|&y| y == 5.0 || y == 15.0), "{ys:?}");
-        let mut cfg = PlanConfig::new(settings());
+        let mut cfg = sheet_cfg();
         cfg.anchor = Some(Anchor::Center);
         cfg.offset = [200.0, 200.0];
         let job = plan(&g, &m, &cfg).unwrap();
@@ -546,16 +554,14 @@ mod tests {
     fn too_big_is_refused_with_sizes() {
         let m = machine::load(None).unwrap();
         let g = geom(500.0, 120.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
-        let e = plan(&g, &m, &PlanConfig::new(settings()))
-            .unwrap_err()
-            .to_string();
+        let e = plan(&g, &m, &sheet_cfg()).unwrap_err().to_string();
         assert!(
             e.contains("500.0 x 120.0") && e.contains("400.0 x 400.0"),
             "{e}"
         );
         assert!(e.contains("scale"), "{e}");
         let g = geom(100.0, 100.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
-        let mut cfg = PlanConfig::new(settings());
+        let mut cfg = sheet_cfg();
         cfg.offset = [350.0, 0.0];
         let e = plan(&g, &m, &cfg).unwrap_err().to_string();
         assert!(
