@@ -38,6 +38,7 @@ fn config(input: PathBuf, scale: u32) -> MakeConfig {
     cfg.gcode = Some(GcodeConfig {
         plan: PlanConfig::new(settings),
         machine: m,
+        settings_from: String::new(),
     });
     cfg
 }

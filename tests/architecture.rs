@@ -184,6 +184,8 @@ fn core_stages_use_only_earlier_layers() {
         ("material", &[][..]),
         ("raster", &["units"][..]),
         ("limits", &["units"][..]),
+        // Deciding the size before the work: from the picture's size and the stock alone.
+        ("fit", &["units"][..]),
         ("islands", &["raster"][..]),
         ("tone", &["raster", "limits", "units", "timing"][..]),
         (
@@ -198,8 +200,9 @@ fn core_stages_use_only_earlier_layers() {
         ("export", &["raster", "vector", "limits", "units"][..]),
         (
             "report",
+            // export: the masks' description (what was written) is reported as encoded.
             &[
-                "raster", "tone", "bridge", "vector", "check", "units", "material",
+                "raster", "tone", "bridge", "vector", "check", "units", "material", "export",
             ][..],
         ),
     ]);

@@ -527,13 +527,23 @@ fn square_time_matches_a_hand_calculation() {
 fn a_job_larger_than_the_bed_is_refused() {
     let m = machine::load(None).unwrap();
     let g = sheet(420.0, 300.0, vec![rect(10.0, 10.0, 50.0, 50.0)]);
-    let e = gcode_for(&g, &m, &PlanConfig::new(settings()), &[])
-        .unwrap_err()
-        .to_string();
+    // With the sheet's outline cut, the whole sheet must be on the bed.
+    let mut cfg = PlanConfig::new(settings());
+    cfg.cut_outline = true;
+    let e = gcode_for(&g, &m, &cfg, &[]).unwrap_err().to_string();
     assert!(
         e.contains("420.0 x 300.0 mm") && e.contains("400.0 x 400.0 mm"),
         "{e}"
     );
+    // Without it, only what is cut counts: the 40 mm square, placed at the origin.
+    let (text, s) = gcode_for(&g, &m, &PlanConfig::new(settings()), &[]).unwrap();
+    assert!(text.contains("job 40 x 40 mm at X0..40 Y0..40"), "{text}");
+    assert_eq!(s.path.loops, 1);
+    let big = sheet(420.0, 300.0, vec![rect(0.0, 10.0, 410.0, 50.0)]);
+    let e = gcode_for(&big, &m, &PlanConfig::new(settings()), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("410.0 x 40.0 mm"), "{e}");
 }
 
 // ---- the command line -------------------------------------------------------------------------
@@ -542,6 +552,8 @@ fn stencil(args: &[&str], dir: &Path) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_stencil"))
         .args(args)
         .current_dir(dir)
+        // No settings a developer kept in their own config folder.
+        .env("STENCIL_CONFIG_DIR", common_empty_config())
         .output()
         .unwrap();
     (
@@ -549,6 +561,11 @@ fn stencil(args: &[&str], dir: &Path) -> (bool, String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// A config folder with nothing kept in it (it does not exist).
+fn common_empty_config() -> std::path::PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("no-kept-settings")
 }
 
 const SVG: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="120mm" height="80mm" viewBox="0 0 120 80">
@@ -626,13 +643,14 @@ fn open_paths_are_drawn_by_a_pen_and_refused_by_a_laser() {
             (near(f, a) && near(t, b)) || (near(f, b) && near(t, a))
         })
     };
-    // y up on the bed: sheet y 10 is bed y 90.
+    // Only what is drawn is placed (the line and the square span sheet 10..70 in x and y), its
+    // lower-left at the origin, y up on the bed: sheet (10, 10) is bed (0, 60).
     assert!(
-        has([10.0, 90.0], [50.0, 90.0]) && has([50.0, 90.0], [50.0, 50.0]),
+        has([0.0, 60.0], [40.0, 60.0]) && has([40.0, 60.0], [40.0, 20.0]),
         "{drawn:?}"
     );
     assert!(
-        !has([50.0, 50.0], [10.0, 90.0]),
+        !has([40.0, 20.0], [0.0, 60.0]),
         "the line is not closed: {drawn:?}"
     );
 
@@ -759,6 +777,7 @@ fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil_core
         gcode: Some(stencil_gcode::GcodeConfig {
             machine: machine.clone(),
             plan,
+            settings_from: String::new(),
         }),
         ..Default::default()
     };
@@ -774,8 +793,11 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
         let r = check_program(text, &m);
         let g = &made.geometry;
         let o = g.outline;
+        // Every loop is cut once per pass (cardstock on the 5.5 W diode: two).
+        let settings = made.report.gcode.as_ref().unwrap().settings.unwrap();
+        let passes = settings.passes as f64;
         let perim: f64 =
-            g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (o.width() + o.height());
+            passes * (g.cuts.0.iter().map(perimeter).sum::<f64>() + 2.0 * (o.width() + o.height()));
         assert!(
             (r.cut_mm - perim).abs() / perim < 0.01,
             "{name}: cut {} vs perimeter {perim}",
@@ -800,7 +822,7 @@ fn samples_give_valid_programs_shorter_travel_and_their_perimeter() {
             s.path.naive_travel_mm
         );
         assert!(
-            s.estimate.total_s > perim / (1500.0 / 60.0),
+            s.estimate.total_s > perim / (settings.speed_mm_min / 60.0),
             "{name}: slower than feed"
         );
     }
@@ -849,8 +871,22 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
         .unwrap()
         .iter()
         .any(|f| f == "stencil.gcode"));
-    // cardstock: 20 % of $30=1000, 1500 mm/min.
-    assert!(text.contains(" S200 F1500"), "material settings used");
+    // cardstock on the 5.5 W diode: its diode entry (48 % of $30=1000 at 1650 mm/min, two
+    // passes), not the CO2 one (S200 F1500), and the report says so and where they came from.
+    assert!(text.contains(" S480 F1650"), "diode settings used");
+    assert!(!text.contains("S200"), "no CO2 settings on a diode");
+    assert_eq!(g["settings"]["power_pct"], 48.0);
+    assert_eq!(g["settings"]["speed_mm_min"], 1650.0);
+    assert_eq!(g["settings"]["passes"], 2);
+    let from = g["settings_from"].as_str().unwrap();
+    assert!(
+        from.contains("diode laser 5 W") && from.contains("lasertinkerer"),
+        "{from}"
+    );
+    assert!(
+        stdout.contains("48 % power, 1650 mm/min, 2 passes"),
+        "{stdout}"
+    );
 
     // The same folder again through `stencil gcode`, on another machine: material from the report.
     let (ok, _, err) = stencil(
@@ -866,15 +902,17 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
     );
     assert!(ok, "{err}");
     let again = std::fs::read_to_string(dir.path().join("again.gcode")).unwrap();
+    // On the 40 W CO2: the CO2 entry, 20 % of $30=1000 at 1500 mm/min.
     assert!(again.contains("material cardstock") && again.contains(" S200 F1500"));
     let m2 = machine::load(Some("co2-600x400")).unwrap();
     let r2 = check_program(&again, &m2);
-    // Read back from the SVG with the kerf applied again: the same cut length within 1 %.
+    // Read back from the SVG with the kerf applied again: the same cut length within 1 %, per
+    // pass (two on the diode, one on the CO2).
+    let per_pass = r.cut_mm / 2.0;
     assert!(
-        (r2.cut_mm - r.cut_mm).abs() / r.cut_mm < 0.01,
-        "{} vs {}",
+        (r2.cut_mm - per_pass).abs() / per_pass < 0.01,
+        "{} vs {per_pass}",
         r2.cut_mm,
-        r.cut_mm
     );
 
     // A laser material on a knife: refused, nothing written.
@@ -904,20 +942,39 @@ fn make_emit_gcode_and_gcode_from_the_folder() {
             "big",
             "--width-mm",
             "400",
-            // The bed does not care how finely the picture is worked: skip the supersampling.
-            "--scale",
-            "1",
+            "--cut-outline",
             "--allow-thin",
             "--emit",
             "svg,gcode",
         ],
         dir.path(),
     );
-    // 400 mm plus a 5 mm margin on each side: 410 mm on the default 400 x 400 mm bed.
+    // 400 mm plus a 5 mm margin on each side (its outline is cut): 410 mm on the default
+    // 400 x 400 mm bed, refused from the picture's header before any work, with the largest
+    // width that fits.
     assert!(
-        !ok && err.contains("410.0 x 410.0") && err.contains("400.0 x 400.0"),
+        !ok && err.contains("400 x 400 mm with a 5 mm margin")
+            && err.contains("bed of diode-400")
+            && err.contains("--width-mm 390 or less")
+            && err.contains("--margin-mm"),
         "{err}"
     );
+    assert!(!dir.path().join("big").exists(), "nothing written");
+    // Without the outline cut the margin does not count: 401 mm is refused naming 400.
+    let (ok, _, err) = stencil(
+        &[
+            "make",
+            sample.to_str().unwrap(),
+            "-o",
+            "big",
+            "--width-mm",
+            "401",
+            "--emit",
+            "svg,gcode",
+        ],
+        dir.path(),
+    );
+    assert!(!ok && err.contains("--width-mm 400 or less"), "{err}");
     assert!(!dir.path().join("big").exists(), "nothing written");
 
     // Machine options without --emit gcode are a mistake, said plainly.
@@ -997,8 +1054,16 @@ mod prop {
                     // The sheet at that placement really sticks out of the bed.
                     let (bw, bh) = (m.bed.width_mm, m.bed.height_mm);
                     prop_assert!(x0 < 0.0 || y0 < 0.0 || x1 > bw || y1 > bh);
-                    prop_assert!((x1 - x0 - g.outline.width()).abs() < 1e-6);
-                    prop_assert!((y1 - y0 - g.outline.height()).abs() < 1e-6);
+                    // The job is the sheet when its outline is cut, else what is cut (a
+                    // knife's axis passes the cuts by up to its blade offset).
+                    if outline {
+                        prop_assert!((x1 - x0 - g.outline.width()).abs() < 1e-6);
+                        prop_assert!((y1 - y0 - g.outline.height()).abs() < 1e-6);
+                    } else {
+                        let reach = 2.0 * s.blade_offset_mm + 1e-6;
+                        prop_assert!(x1 - x0 <= g.outline.width() + reach);
+                        prop_assert!(y1 - y0 <= g.outline.height() + reach);
+                    }
                 }
                 Err(e) => prop_assert!(false, "unexpected error: {e}"),
             }

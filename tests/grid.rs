@@ -10,6 +10,11 @@ use stencil_gcode::interpret::interpret;
 fn stencil(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_stencil"))
         .args(args)
+        // No settings a developer kept in their own config folder.
+        .env(
+            "STENCIL_CONFIG_DIR",
+            std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("no-kept-settings"),
+        )
         .output()
         .unwrap()
 }
@@ -77,6 +82,9 @@ fn laser_grid_has_the_requested_squares_labelled_and_on_the_bed() {
         "20..100:5",
         "--speed",
         "300..1500:4",
+        // One cut per square (cardstock on the 5.5 W diode takes two passes).
+        "--passes",
+        "1",
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let g = std::fs::read_to_string(&out).unwrap();
@@ -148,14 +156,21 @@ fn defaults_centre_on_the_material() {
         "cardstock",
         "-o",
         out.to_str().unwrap(),
+        "--passes",
+        "1",
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(
+        stdout.contains("stencil profiles set cardstock --machine diode-400 --power P"),
+        "the grid says how to keep what it finds: {stdout}"
+    );
     let sq = squares(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(sq.len(), 25);
-    // cardstock: 20 % at 1500 mm/min, the middle square.
-    assert_eq!((sq[12].0, sq[12].1), (200.0, 1500.0));
-    assert_eq!((sq[0].0, sq[0].1), (100.0, 750.0));
-    assert_eq!((sq[24].0, sq[24].1), (300.0, 2250.0));
+    // cardstock on the default 5.5 W diode: 48 % at 1650 mm/min, the middle square.
+    assert_eq!((sq[12].0, sq[12].1), (480.0, 1650.0));
+    assert_eq!((sq[0].0, sq[0].1), (240.0, 825.0));
+    assert_eq!((sq[24].0, sq[24].1), (720.0, 2475.0));
 }
 
 #[test]

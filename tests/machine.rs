@@ -546,6 +546,7 @@ fn planned_sample(name: &str) -> String {
         gcode: Some(GcodeConfig {
             machine,
             plan: PlanConfig::new(settings),
+            settings_from: String::new(),
         }),
         ..Default::default()
     };

@@ -403,7 +403,7 @@ fn air_assist_goes_on_before_the_first_cut_and_off_with_the_beam() {
     std::fs::write(
         &still,
         card.replace("name = \"cardstock\"", "name = \"still-card\"")
-            .replace("passes = 1", "passes = 1\nair_assist = false"),
+            .replace("[laser]\n", "[laser]\nair_assist = false\n"),
     )
     .unwrap();
     let quiet = gcode_with(

@@ -42,7 +42,12 @@ fn a_good_profile_loads_from_a_path() {
     let (m, src) = Material::find(p.to_str().unwrap()).unwrap();
     assert_eq!(m.name, "test-card");
     assert_eq!(src, p);
-    assert_eq!(m.laser().unwrap().speed_mm_min, 1500.0);
+    assert_eq!(m.laser().unwrap().on[0].speed_mm_min, 1500.0);
+    assert_eq!(
+        m.laser().unwrap().on[0].laser,
+        None,
+        "flat [laser] settings: any laser"
+    );
 }
 
 #[test]

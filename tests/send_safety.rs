@@ -51,9 +51,10 @@ fn planned(machine: &Machine) -> String {
         },
         air_assist: false,
     };
-    gcode_for(&geom, machine, &PlanConfig::new(settings), &[])
-        .unwrap()
-        .0
+    // Placed away from the origin, so a resume travels in XY to the first cut.
+    let mut cfg = PlanConfig::new(settings);
+    cfg.offset = [5.0, 5.0];
+    gcode_for(&geom, machine, &cfg, &[]).unwrap().0
 }
 
 /// What `stencil send` tells the streamer about the tool (see `cli/send.rs`).

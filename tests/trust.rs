@@ -244,6 +244,16 @@ fn jobs_say_where_they_come_from() {
     let dir = tmp();
     let (pic, out) = made(dir.path(), "out");
     let job = out.join("stencil.gcode");
+    // The size placed on the bed, as the job's own header gives it (what is cut: the 150 mm
+    // picture's ring, not its empty margin).
+    let text = std::fs::read_to_string(&job).unwrap();
+    let size = text
+        .lines()
+        .find_map(|l| l.strip_prefix("; job "))
+        .and_then(|l| l.split(" at ").next())
+        .expect("a `; job W x H mm at` header line")
+        .to_string();
+    assert!(size.ends_with(" mm") && size.contains(" x "), "{size}");
     for args in [
         vec!["estimate", s(&job)],
         vec!["send", s(&job), "--dry-run"],
@@ -256,7 +266,7 @@ fn jobs_say_where_they_come_from() {
         for n in [
             &format!("from {}", pic.display()) as &str,
             "material cardstock",
-            "160 x 160 mm",
+            &size,
             "for diode-400",
             "file written 2",
         ] {

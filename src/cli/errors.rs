@@ -251,6 +251,38 @@ fn settings(e: &SettingsError) -> String {
             "{e}; choose a matching --material (for a {tool}: {suggested}, or see `stencil \
              profiles`) or --machine, or give --power, --speed and --passes"
         ),
+        SettingsError::NoSettings {
+            material, machine, ..
+        } => format!(
+            "{e}. Nothing was written. Find settings with `stencil test-grid --machine {machine} \
+             --material {material}`, cut it, and keep the best square's with `stencil profiles \
+             set {material} --machine {machine} --power P --speed S`; or give --power and \
+             --speed for this job (`stencil profiles` lists which materials have settings for \
+             which machine)"
+        ),
+    }
+}
+
+/// A size that does not fit, with the options that change it.
+pub fn fit(e: &stencil_core::fit::FitError) -> String {
+    use stencil_core::fit::FitError;
+    match e {
+        FitError::TooLarge {
+            margin_mm,
+            largest_width_mm,
+            ..
+        } => {
+            let margin = if *margin_mm > 0.0 {
+                ", or a smaller --margin-mm (it counts: the sheet's edge is cut or marked)"
+            } else {
+                " (--margin-mm does not count: nothing is cut at the sheet's edge)"
+            };
+            format!(
+                "{e}: give --width-mm {} or less{margin}; nothing was done",
+                (largest_width_mm * 10.0).floor() / 10.0
+            )
+        }
+        FitError::MarginTooLarge { .. } => format!("{e}: give a smaller --margin-mm"),
     }
 }
 

@@ -171,6 +171,23 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
         format_duration(e.cut_s),
         format_duration(e.travel_s),
     );
+    if let Some(c) = &s.settings {
+        let power = if s.tool == "laser" {
+            format!("{} % power, ", plan::num(c.power_pct))
+        } else {
+            String::new()
+        };
+        println!(
+            "cut settings: {power}{} mm/min, {} pass{}{}",
+            plan::num(c.speed_mm_min),
+            c.passes,
+            if c.passes == 1 { "" } else { "es" },
+            s.settings_from
+                .as_deref()
+                .map(|f| format!("; from {f}"))
+                .unwrap_or_default()
+        );
+    }
 }
 
 /// `stencil gcode STENCIL_DIR_OR_SVG -o job.gcode`.
@@ -224,15 +241,43 @@ pub fn make_gcode_config(
         return Ok(None);
     }
     let machine = m.machine()?;
-    let base = if cut.covers_all(&machine) {
-        None
-    } else {
-        Some(stencil_core::material::settings_for(material, &machine)?)
-    };
+    let (settings, settings_from) = chosen_settings(cut, Some(material), &machine)?;
     Ok(Some(GcodeConfig {
-        plan: m.plan_config(cut.settings(base, &machine)?),
+        plan: m.plan_config(settings),
         machine,
+        settings_from,
     }))
+}
+
+/// The job's cut settings and where they came from: the flags over what the person kept for
+/// this material and machine (`stencil profiles set`) or the material's entry for the machine's
+/// kind. A material with no settings for this machine is refused (before anything is written)
+/// unless the flags give them (--power and --speed for a laser, --speed otherwise).
+pub fn chosen_settings(
+    cut: &CutArgs,
+    material: Option<&Material>,
+    machine: &Machine,
+) -> anyhow::Result<(CutSettings, String)> {
+    let laser = matches!(machine.tool, Tool::Laser { .. });
+    let flags_give = cut.speed.is_some() && (!laser || cut.power.is_some());
+    let chosen = match (material, cut.covers_all(machine)) {
+        (Some(m), false) => {
+            let user = stencil_core::material::UserSettings::load()?;
+            match stencil_core::material::choose(m, machine, &user) {
+                Ok(c) => Some(c),
+                Err(stencil_core::material::SettingsError::NoSettings { .. }) if flags_give => None,
+                Err(e) => return Err(e.into()),
+            }
+        }
+        _ => None,
+    };
+    let from = match &chosen {
+        Some(c) if cut.any() => format!("{}, with command-line overrides", c.from),
+        Some(c) => c.from.clone(),
+        None => "the command line (--power/--speed/--passes)".into(),
+    };
+    let settings = cut.settings(chosen.map(|c| c.settings), machine)?;
+    Ok((settings, from))
 }
 
 pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
@@ -279,29 +324,26 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         }
         (None, _) => None,
     };
-    let base = match &material {
-        Some(m) if !a.cut.covers_all(&machine) => {
-            Some(stencil_core::material::settings_for(m, &machine)?)
-        }
-        _ => None,
-    };
+
     // stencil.svg carries the design line; the tool path is offset by half the material's kerf.
     if let Some(m) = &material {
         geom.apply_kerf(m.kerf_mm)
             .with_context(|| format!("{}: the kerf offset", svg_path.display()))?;
     }
-    let settings = a.cut.settings(base, &machine)?;
+    let (settings, settings_from) = chosen_settings(&a.cut, material.as_ref(), &machine)?;
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
+    notes.push(format!("cut settings from {settings_from}"));
     let cfg = a.machine.plan_config(settings);
-    let (gcode, summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
+    let (gcode, mut summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
         Err(e @ plan::PlanError::OpenPaths { .. }) => {
             bail!("{}: {}", svg_path.display(), super::errors::plan(&e))
         }
         r => r?,
     };
+    summary.settings_from = Some(settings_from);
     stencil_io::write_atomic(&out, gcode.as_bytes())?;
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)

@@ -140,6 +140,18 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
         machine.name,
         svg_path.display()
     );
+    if let Some(m) = &material {
+        let power = if matches!(machine.tool, Tool::Laser { .. }) {
+            " --power P"
+        } else {
+            ""
+        };
+        println!(
+            "cut it, then keep the cleanest square's settings for later jobs: stencil profiles set \
+             {} --machine {}{power} --speed S [--passes N]",
+            m.name, machine.name
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -177,8 +189,34 @@ fn base_settings(
     machine: &Machine,
     material: Option<&Material>,
 ) -> anyhow::Result<CutSettings> {
-    let mut base = match material {
-        Some(m) => stencil_core::material::settings_for(m, machine)?,
+    let user = stencil_core::material::UserSettings::load()?;
+    let chosen = match material.map(|m| stencil_core::material::choose(m, machine, &user)) {
+        Some(Ok(c)) => Some(c.settings),
+        // No settings for this kind of machine yet: finding them is what the grid is for, from
+        // the ranges given.
+        Some(Err(stencil_core::material::SettingsError::NoSettings { .. })) => {
+            match (&a.power, &a.speed) {
+                (Some(p), Some(s)) => Some(CutSettings {
+                    power_pct: (p.from + p.to) / 2.0,
+                    speed_mm_min: (s.from + s.to) / 2.0,
+                    passes: 1,
+                    blade_offset_mm: 0.0,
+                    air_assist: machine.air_assist,
+                }),
+                _ => bail!(
+                    "material '{}' has no settings for '{}' ({}) to centre the grid on: give the \
+                     ranges to try with --power FROM..TO:STEPS and --speed FROM..TO:STEPS",
+                    material.map_or("", |m| m.name.as_str()),
+                    machine.name,
+                    machine.kind()
+                ),
+            }
+        }
+        Some(Err(e)) => return Err(e.into()),
+        None => None,
+    };
+    let mut base = match chosen {
+        Some(s) => s,
         None => {
             let Some(s) = &a.speed else {
                 bail!(

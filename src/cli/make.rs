@@ -380,6 +380,14 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     } else {
         stencil_core::material::DEFAULT_MATERIAL
     };
+    let mut physical = a.physical.to_config(default_material)?;
+    physical.mask.tone_inverted = a.image.invert;
+    let machine = if emit_gcode {
+        Some(a.machine.machine()?)
+    } else {
+        None
+    };
+    fit_size(a, &mut physical, machine.as_ref())?;
     let cfg = MakeConfig {
         out_dir: a
             .out
@@ -390,7 +398,7 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
-        physical: a.physical.to_config(default_material)?,
+        physical,
         gcode: None,
         progress: None,
     };
@@ -403,6 +411,80 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         )?,
         ..cfg
     })
+}
+
+/// The size on the sheet, decided from the picture's header before any work: scaled down to the
+/// machine's bed when no size was asked for and the default 0.1 mm per pixel would not fit it,
+/// fitted to a --sheet, or refused (with the largest width that fits) when the size asked for
+/// cannot fit. The margin counts only where something is cut or marked at the sheet's edge.
+/// A mesh, or a picture whose header cannot be read (the pipeline then says why), is left alone.
+fn fit_size(
+    a: &MakeArgs,
+    physical: &mut pipeline::PhysicalConfig,
+    machine: Option<&stencil_gcode::machine::Machine>,
+) -> anyhow::Result<()> {
+    use stencil_core::fit::{fit, FitRequest, Fitted, Stock};
+    let stock = match (&a.physical.sheet, machine) {
+        (Some(s), _) => s.clone(),
+        (None, Some(m)) => Stock::Bed {
+            machine: m.name.clone(),
+            w_mm: m.bed.width_mm,
+            h_mm: m.bed.height_mm,
+        },
+        (None, None) => return Ok(()),
+    };
+    let mesh = a
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if mesh {
+        return Ok(());
+    }
+    let Ok(px) = stencil_core::tone::picture_size(&a.input) else {
+        return Ok(());
+    };
+    let marks = a.physical.mask_marks && a.physical.emit.contains(&EmitKind::Mask);
+    let req = FitRequest {
+        picture_px: px,
+        size: physical.size,
+        margin_mm: physical.vector.margin_mm,
+        margin_counts: a.machine.cut_outline || marks,
+        stock: stock.clone(),
+    };
+    match fit(&req) {
+        Ok(Fitted::AsAsked) => {}
+        Ok(Fitted::Scaled {
+            from_mm,
+            width_mm,
+            height_mm,
+            turned,
+        }) => {
+            physical.size = stencil_core::units::Size::WidthMm(width_mm);
+            let why = match (&stock, &a.physical.sheet) {
+                (_, Some(_)) => format!(
+                    "fitted to {stock}{}",
+                    if turned { " turned sideways" } else { "" }
+                ),
+                _ => format!(
+                    "at 0.1 mm per pixel it would be {:.1} x {:.1} mm, larger than {stock}; \
+                     scaled down to fit",
+                    from_mm[0], from_mm[1]
+                ),
+            };
+            println!(
+                "note: {}: {width_mm:.1} x {height_mm:.1} mm ({why}; --width-mm sets the size)",
+                a.input.display()
+            );
+        }
+        Err(e) => {
+            return Err(anyhow::anyhow!(
+                "{}: {}",
+                a.input.display(),
+                super::errors::fit(&e)
+            ))
+        }
+    }
+    Ok(())
 }
 
 /// A failed run in this command's words: the fidelity limit with what helps, any other error
@@ -511,6 +593,53 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     super::check::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
+    }
+    if let Some(m) = &made.report.mask {
+        print_masks(m);
+    }
+}
+
+/// What the etch masks are: files, side and mirroring, dpi, polarity, the undercut compensation
+/// and what it closed, and the warning when most of the picture is clear.
+fn print_masks(m: &stencil_core::export::MaskReport) {
+    for s in &m.masks {
+        println!(
+            "mask {}{}: {}, {} at {} dpi; {}{}",
+            s.side,
+            if s.side == "back" {
+                " (mirrored against the front: lay it on the other face)"
+            } else {
+                ""
+            },
+            s.png,
+            s.svg,
+            m.dpi,
+            m.polarity,
+            if s.mirrored {
+                "; mirrored left-right"
+            } else {
+                "; right-reading"
+            }
+        );
+    }
+    if m.undercut_compensation_mm > 0.0 {
+        println!(
+            "mask openings drawn {:.3} mm smaller on every side for the etch's undercut (thickness \
+             / etch factor{})",
+            m.undercut_compensation_mm,
+            if m.masks.len() == 2 { ", half from each side" } else { "" }
+        );
+    }
+    if m.openings_closed > 0 {
+        eprintln!(
+            "warning: the undercut compensation closes {} opening(s) narrower than {:.3} mm: they \
+             will not be etched; make the picture larger (--width-mm) or use a thinner metal",
+            m.openings_closed,
+            2.0 * m.undercut_compensation_mm
+        );
+    }
+    if let Some(w) = &m.warning {
+        eprintln!("warning: {w} (--invert)");
     }
 }
 

@@ -3,13 +3,15 @@
 
 use std::process::ExitCode;
 
-use clap::{Args, ValueEnum};
+use anyhow::{bail, Context};
+use clap::{Args, Subcommand, ValueEnum};
 
 use stencil_core::export::MaskConfig;
 use stencil_core::material::DEFAULT_MATERIAL;
-use stencil_core::material::{Material, Process};
+use stencil_core::material::{has_settings, Kept, Material, Process, UserSettings};
 use stencil_core::pipeline::{Emit, PhysicalConfig, Size};
 use stencil_core::vector::VectorConfig;
+use stencil_gcode::machine::Tool;
 
 /// A file kind for `--emit`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -41,6 +43,12 @@ pub struct PhysicalArgs {
     /// and low enough that the picture is at most 10 m on its longer side.
     #[arg(long, value_parser = super::bounds::positive)]
     pub dpi: Option<f64>,
+    /// Fit the picture to a sheet of stock you cut from (card, vinyl): A4, A3, LETTER or WxH in
+    /// mm (e.g. 300x200). Without --width-mm/--dpi the picture is made as large as the sheet
+    /// allows inside --margin-mm (the sheet turned a quarter turn if that is larger); with them,
+    /// a picture too large for the sheet is refused before any work.
+    #[arg(long, value_name = "A4|A3|LETTER|WxH", value_parser = stencil_core::fit::sheet)]
+    pub sheet: Option<stencil_core::fit::Stock>,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
     /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
     /// drive the bridges, the filter and the check. [default: cardstock; with --emit gcode, one
@@ -52,7 +60,8 @@ pub struct PhysicalArgs {
     #[arg(long, default_value_t = 0.05, value_parser = super::bounds::tolerance_mm)]
     pub tolerance_mm: f64,
     /// Sheet left around the picture on every side, in mm (the sheet continues beyond the
-    /// picture): 0.001 to 1000.
+    /// picture): 0.001 to 1000. It counts against a machine's bed or a --sheet only where
+    /// something is cut or marked there (--cut-outline, --mask-marks, a --sheet's edge).
     #[arg(long, default_value_t = 5.0, value_parser = super::bounds::margin_mm)]
     pub margin_mm: f64,
     /// Files to write, comma separated (report.json is always written).
@@ -133,41 +142,206 @@ impl PhysicalArgs {
                 invert: self.mask_invert,
                 mirror: self.mask_mirror,
                 marks: self.mask_marks,
+                // Set by `make` from --invert.
+                tone_inverted: false,
             },
             dxf_r12: self.dxf_r12,
         })
     }
 }
 
-/// `stencil profiles`.
+/// `stencil profiles`: list them, or keep cut settings (`set`).
 #[derive(Args, Debug)]
-pub struct ProfilesArgs {}
+#[command(after_help = "\
+Without a subcommand: the machines (with their kind: a laser's source and power), the materials, \
+and which materials have cut settings for which machine (from the material's profile, or kept \
+with `profiles set`).")]
+pub struct ProfilesArgs {
+    #[command(subcommand)]
+    pub action: Option<ProfilesAction>,
+}
 
-pub fn run_profiles(_: ProfilesArgs) -> anyhow::Result<ExitCode> {
+#[derive(Subcommand, Debug)]
+pub enum ProfilesAction {
+    /// Keep cut settings for a material on a machine (what `stencil test-grid` taught you): later
+    /// jobs for that material and machine use them instead of the material profile's. Written to
+    /// cut-settings.toml in your config folder ($STENCIL_CONFIG_DIR, else $XDG_CONFIG_HOME/stencil
+    /// or ~/.config/stencil; %APPDATA%\stencil on Windows).
+    Set(SetArgs),
+}
+
+/// `stencil profiles set MATERIAL --machine M --power P --speed S`.
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Example: stencil profiles set cardstock --machine diode-400 --power 80 \
+--speed 900 --passes 2"
+)]
+pub struct SetArgs {
+    /// The material profile (a name or a .toml path); the settings are kept under its name.
+    pub material: String,
+    /// The machine profile (a name or a .toml path); the settings are kept under its name.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub machine: String,
+    /// Laser power, % of full ($30): 0.1 to 100 (lasers only).
+    #[arg(long, value_name = "PCT", value_parser = |s: &str| super::number_in(s, 0.1..=100.0, " %"))]
+    pub power: Option<f64>,
+    /// Cutting feed, mm/min: 1 to 100000, and at most the machine's max feed.
+    #[arg(long, value_name = "MM_MIN", value_parser = |s: &str| super::number_in(s, 1.0..=100_000.0, " mm/min"))]
+    pub speed: f64,
+    /// Times each loop is cut: 1 to 50.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=50))]
+    pub passes: u32,
+}
+
+pub fn run_profiles(a: ProfilesArgs) -> anyhow::Result<ExitCode> {
+    match a.action {
+        Some(ProfilesAction::Set(s)) => run_set(s),
+        None => list_profiles(),
+    }
+}
+
+/// Check the settings against the material and the machine, then write them (replacing any kept
+/// for the same pair).
+fn run_set(a: SetArgs) -> anyhow::Result<ExitCode> {
+    let (material, _) = Material::find(&a.material)?;
+    let machine = stencil_gcode::machine::load(Some(&a.machine))?;
+    let laser = matches!(machine.tool, Tool::Laser { .. });
+    match (&material.process, laser, a.power) {
+        (Process::Etch(_), _, _) => {
+            return Err(stencil_core::material::SettingsError::EtchOnly {
+                material: material.name.clone(),
+            }
+            .into())
+        }
+        (p, _, _) if p.kind().to_string() != machine.tool.kind() => {
+            return Err(stencil_core::material::SettingsError::WrongTool {
+                material: material.name.clone(),
+                process: p.kind(),
+                machine: machine.name.clone(),
+                tool: machine.tool.kind(),
+                suggested: stencil_core::material::default_for(&machine.tool),
+            }
+            .into())
+        }
+        (_, true, None) => bail!("--power PCT is needed for a laser ('{}')", machine.name),
+        (_, false, Some(_)) => bail!(
+            "--power: '{}' has a {}, which has no power; keep --speed and --passes",
+            machine.name,
+            machine.tool.kind()
+        ),
+        _ => {}
+    }
+    if a.speed > machine.motion.max_feed_mm_min {
+        bail!(
+            "--speed {} mm/min is above the max feed of '{}' ({} mm/min, motion.max_feed_mm_min)",
+            a.speed,
+            machine.name,
+            machine.motion.max_feed_mm_min
+        );
+    }
+    let Some(dir) = stencil_io::profile::config_dir() else {
+        bail!(
+            "no config folder to keep settings in: set HOME, XDG_CONFIG_HOME or {}",
+            stencil_io::profile::CONFIG_DIR_ENV
+        );
+    };
+    let mut user = UserSettings::load_from(&dir)?;
+    let kept = Kept {
+        material: material.name.clone(),
+        machine: machine.name.clone(),
+        power_pct: a.power,
+        speed_mm_min: a.speed,
+        passes: a.passes,
+    };
+    let replaced = user.find(&kept.material, &kept.machine).cloned();
+    user.set(kept);
+    let path = dir.join(stencil_core::material::USER_SETTINGS_FILE);
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("{}: cannot create the config folder", dir.display()))?;
+    let header = "# Cut settings kept with `stencil profiles set MATERIAL --machine M --power P \
+                  --speed S`,\n# per material and machine profile; they win over the material \
+                  profile's settings.\n";
+    stencil_io::write_atomic(&path, user.to_toml(header).as_bytes())?;
+    println!(
+        "kept for {} on {}: {}{} mm/min, {} pass{} in {}{}",
+        material.name,
+        machine.name,
+        a.power
+            .map(|p| format!("{p} % power, "))
+            .unwrap_or_default(),
+        a.speed,
+        a.passes,
+        if a.passes == 1 { "" } else { "es" },
+        path.display(),
+        if replaced.is_some() {
+            " (replacing the ones kept before)"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "`stencil make PICTURE --material {} --machine {} --emit gcode` now uses them",
+        material.name, machine.name
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A material's settings in one column: per kind of laser, or the knife's or pen's.
+fn settings_text(m: &Material) -> String {
+    match &m.process {
+        Process::Laser(l) => {
+            l.on.iter()
+                .map(|c| {
+                    format!(
+                        "{}: {}% {} mm/min x{}",
+                        stencil_core::material::cut_kind(c).replace(" laser", ""),
+                        c.power_pct,
+                        c.speed_mm_min,
+                        c.passes
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join("; ")
+        }
+        Process::Knife(k) => format!("{} g {} mm/s x{}", k.force_g, k.speed_mm_s, k.passes),
+        Process::Pen(p) => format!("{} mm/min, {} mm pen", p.speed_mm_min, p.pen_width_mm),
+        Process::Etch(e) => format!(
+            "etch factor {}{}{}",
+            e.etch_factor,
+            if e.mirror { ", mirror" } else { "" },
+            if e.two_sided { ", two-sided" } else { "" }
+        ),
+    }
+}
+
+fn list_profiles() -> anyhow::Result<ExitCode> {
+    let user = UserSettings::load()?;
+    let mut machines = Vec::new();
+    println!("{:<20} {:<26} {:>13}  origin", "machine", "kind", "bed");
+    for name in stencil_io::profile::known_names("machines", stencil_gcode::machine::SHIPPED) {
+        match stencil_gcode::machine::load(Some(&name)) {
+            Ok(m) => {
+                println!(
+                    "{:<20} {:<26} {:>13}  {}",
+                    m.name,
+                    m.kind().to_string(),
+                    format!("{} x {} mm", m.bed.width_mm, m.bed.height_mm),
+                    m.bed.origin.name()
+                );
+                machines.push(m);
+            }
+            Err(e) => println!("{name:<20} error: {e}"),
+        }
+    }
+    println!();
     println!(
         "{:<20} {:<6} {:>8} {:>10} {:>11} {:>7}  settings",
         "material", "process", "thick", "bridge>=", "feature>=", "kerf"
     );
+    let mut materials = Vec::new();
     for name in stencil_io::profile::known_names("materials", stencil_core::material::SHIPPED) {
         match Material::find(&name) {
             Ok((m, src)) => {
-                let settings = match &m.process {
-                    Process::Laser(l) => {
-                        format!("{}% {} mm/min x{}", l.power_pct, l.speed_mm_min, l.passes)
-                    }
-                    Process::Knife(k) => {
-                        format!("{} g {} mm/s x{}", k.force_g, k.speed_mm_s, k.passes)
-                    }
-                    Process::Pen(p) => {
-                        format!("{} mm/min, {} mm pen", p.speed_mm_min, p.pen_width_mm)
-                    }
-                    Process::Etch(e) => format!(
-                        "etch factor {}{}{}",
-                        e.etch_factor,
-                        if e.mirror { ", mirror" } else { "" },
-                        if e.two_sided { ", two-sided" } else { "" }
-                    ),
-                };
                 println!(
                     "{:<20} {:<6} {:>5} mm {:>7} mm {:>8} mm {:>4} mm  {}  [{}]",
                     m.name,
@@ -176,13 +350,51 @@ pub fn run_profiles(_: ProfilesArgs) -> anyhow::Result<ExitCode> {
                     m.min_bridge_mm,
                     m.min_feature_mm,
                     m.kerf_mm,
-                    settings,
+                    settings_text(&m),
                     src.display()
                 );
+                materials.push(m);
             }
             Err(e) => println!("{name:<20} error: {e}"),
         }
     }
+    println!();
+    // Which material cuts on which machine: "yes" from its profile, "kept" from the user's file.
+    let width = machines
+        .iter()
+        .map(|m| m.name.len())
+        .max()
+        .unwrap_or(4)
+        .max(4);
+    print!("{:<20}", "cut settings for");
+    for m in &machines {
+        print!(" {:>width$}", m.name);
+    }
+    println!();
+    let none = UserSettings::default();
+    for mat in materials.iter().filter(|m| m.etch().is_none()) {
+        print!("{:<20}", mat.name);
+        for m in &machines {
+            let mark = if user.find(&mat.name, &m.name).is_some() && has_settings(mat, m, &user) {
+                "kept"
+            } else if has_settings(mat, m, &none) {
+                "yes"
+            } else {
+                "-"
+            };
+            print!(" {mark:>width$}");
+        }
+        println!();
+    }
+    println!(
+        "(yes: from the material's profile; kept: yours, from {}; -: none: refused unless \
+         --power/--speed are given; find them with `stencil test-grid`, keep them with `stencil \
+         profiles set`)",
+        user.path.as_deref().map_or_else(
+            || stencil_core::material::USER_SETTINGS_FILE.to_string(),
+            |p| p.display().to_string()
+        )
+    );
     println!("default: {DEFAULT_MATERIAL} (as shipped); to use an edited copy, put it in ./profiles/materials/ and name it with --material, or pass its path");
     Ok(ExitCode::SUCCESS)
 }

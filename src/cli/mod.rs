@@ -57,7 +57,8 @@ pub enum Command {
     /// Check a stencil (PNG or output folder) against a material: one piece, bridge, web and hole
     /// widths. Exits 0 only when there are no violations.
     Check(check::CheckArgs),
-    /// List the material profiles with their key numbers.
+    /// List the machines, the materials and which materials have cut settings for which machine;
+    /// `profiles set` keeps settings a test grid taught you.
     Profiles(material::ProfilesArgs),
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
     Gcode(gcode::GcodeArgs),

@@ -56,6 +56,11 @@ pub fn read_bits(path: &Path) -> BitGrid {
 pub fn stencil(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_stencil"))
         .args(args)
+        // No settings a developer kept in their own config folder (`stencil profiles set`).
+        .env(
+            "STENCIL_CONFIG_DIR",
+            Path::new(env!("CARGO_TARGET_TMPDIR")).join("no-kept-settings"),
+        )
         .output()
         .expect("run stencil")
 }

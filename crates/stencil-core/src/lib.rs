@@ -47,6 +47,7 @@
 pub mod bridge;
 pub mod check;
 pub mod export;
+pub mod fit;
 pub mod islands;
 pub mod limits;
 pub mod material;

@@ -17,7 +17,7 @@ use stencil_io::profile::{
 };
 use stencil_io::shipped;
 
-use stencil_gcode::machine::{Machine, Tool};
+use stencil_gcode::machine::{LaserSource, Machine, Tool};
 use stencil_gcode::CutSettings;
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
@@ -144,21 +144,61 @@ impl std::fmt::Display for ProcessKind {
     }
 }
 
-/// `[laser]`: what a G-code laser job uses (`S` from power, `F` from speed, repeated passes).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[laser]`: the cut settings of a laser job (`S` from power, `F` from speed, repeated passes),
+/// one entry per kind of laser they were published for ([`LaserCut`]), and air assist.
+///
+/// Why per kind: the same card wants 20 % at 1500 mm/min on a 40 W CO2 and full power at a fifth
+/// of that speed on a 5 W diode, and a blue diode cannot cut clear acrylic or PET at all (its
+/// light passes through). A job gets the entry for its machine's source with the most power at
+/// or below the machine's ([`settings_for`]); none is an error, never a guess.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LaserSettings {
+    /// The settings, each for a kind of laser, with its source.
+    pub on: Vec<LaserCut>,
+    /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
+    /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
+    /// paper it can lift the sheet.)
+    pub air_assist: Option<bool>,
+}
+
+/// Cut settings published for one kind of laser.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserCut {
+    /// The laser they are for: `"diode"` or `"co2"`; `None` (a flat `[laser]` section of a
+    /// user's own profile, written before settings were per kind) for any laser.
+    pub laser: Option<stencil_gcode::machine::LaserSource>,
+    /// The power they were published for, W (a diode's optical output, a CO2 tube's rating);
+    /// they are used on machines with this much power or more.
+    #[serde(default)]
+    pub watts: f64,
     /// Laser power in percent of the machine's maximum (0 < p ≤ 100).
     pub power_pct: f64,
     /// Cutting feed in mm/min.
     pub speed_mm_min: f64,
     /// Passes over each loop (1..=50).
     pub passes: u32,
-    /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
-    /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
-    /// paper it can lift the sheet.)
+    /// Where the numbers come from (a maker's table, a published settings library), so a
+    /// person can check them; printed by `stencil profiles` and recorded in report.json.
+    #[serde(default)]
+    pub from: String,
+}
+
+/// The `[laser]` section as written: a list of `[[laser.on]]` entries, or (a user's own profile
+/// from before) flat settings for any laser.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LaserFile {
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    on: Vec<LaserCut>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub air_assist: Option<bool>,
+    power_pct: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    speed_mm_min: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    passes: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    air_assist: Option<bool>,
 }
 
 /// `[knife]`: a drag-knife cutting plotter.
@@ -217,7 +257,7 @@ struct MaterialFile {
     two_bridges_above_mm: Option<f64>,
     process: ProcessKind,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    laser: Option<LaserSettings>,
+    laser: Option<LaserFile>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     knife: Option<KnifeSettings>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -301,11 +341,19 @@ impl Material {
         let judged = st.judged();
         let given = |v: f64| judged.then_some(v);
         let (mut laser, mut knife, mut pen, mut etch) = (None, None, None, None);
-        match self.process {
-            Process::Laser(l) => laser = Some(l),
-            Process::Knife(k) => knife = Some(k),
-            Process::Pen(p) => pen = Some(p),
-            Process::Etch(e) => etch = Some(e),
+        match &self.process {
+            Process::Laser(l) => {
+                laser = Some(LaserFile {
+                    on: l.on.clone(),
+                    power_pct: None,
+                    speed_mm_min: None,
+                    passes: None,
+                    air_assist: l.air_assist,
+                })
+            }
+            Process::Knife(k) => knife = Some(*k),
+            Process::Pen(p) => pen = Some(*p),
+            Process::Etch(e) => etch = Some(*e),
         }
         MaterialValues(MaterialFile {
             name: self.name.clone(),
@@ -335,7 +383,7 @@ impl Material {
         Material::validate(v.0, origin)
     }
 
-    /// Laser settings, when the process is laser cutting.
+    /// Laser settings (per kind of laser), when the process is laser cutting.
     pub fn laser(&self) -> Option<&LaserSettings> {
         match &self.process {
             Process::Laser(l) => Some(l),
@@ -509,8 +557,7 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
     Ok(match f.process {
         ProcessKind::Laser => {
             let l = f.laser.take().ok_or_else(|| missing("laser"))?;
-            check_laser(&l, origin)?;
-            Process::Laser(l)
+            Process::Laser(laser_of(l, origin)?)
         }
         ProcessKind::Knife => {
             let k = f.knife.take().ok_or_else(|| missing("knife"))?;
@@ -538,17 +585,107 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
     })
 }
 
-fn check_laser(l: &LaserSettings, origin: &Path) -> Result<(), ProfileError> {
-    check_range(origin, "laser.power_pct", l.power_pct, 0.1, 100.0, "%")?;
-    check_range(
-        origin,
-        "laser.speed_mm_min",
-        l.speed_mm_min,
-        1.0,
-        100_000.0,
-        "mm/min",
-    )?;
-    check_range(origin, "laser.passes", l.passes as f64, 1.0, 50.0, "passes")
+/// The `[laser]` section checked: flat settings (all three, for any laser) or `[[laser.on]]`
+/// entries, not both; each entry in range, with its source named and no two for the same kind.
+fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> {
+    let flat = [
+        ("laser.power_pct", l.power_pct.is_some()),
+        ("laser.speed_mm_min", l.speed_mm_min.is_some()),
+        ("laser.passes", l.passes.is_some()),
+    ];
+    let mut on = l.on;
+    if flat.iter().any(|f| f.1) {
+        if !on.is_empty() {
+            return Err(invalid(
+                origin,
+                "laser.power_pct",
+                "set".into(),
+                "flat settings (for any laser) and [[laser.on]] entries (per kind of laser) \
+                 cannot be mixed; move them into a [[laser.on]] entry",
+            ));
+        }
+        if let Some((field, _)) = flat.iter().find(|f| !f.1) {
+            return Err(invalid(
+                origin,
+                field,
+                "(missing)".into(),
+                "flat [laser] settings need power_pct, speed_mm_min and passes",
+            ));
+        }
+        on.push(LaserCut {
+            laser: None,
+            watts: 0.0,
+            power_pct: l.power_pct.unwrap_or_default(),
+            speed_mm_min: l.speed_mm_min.unwrap_or_default(),
+            passes: l.passes.unwrap_or_default(),
+            from: format!("{} (for any laser)", origin.display()),
+        });
+    }
+    if on.is_empty() {
+        return Err(invalid(
+            origin,
+            "laser.on",
+            "(missing)".into(),
+            "give at least one [[laser.on]] entry (laser, watts, power_pct, speed_mm_min, \
+             passes, from)",
+        ));
+    }
+    let flat = flat.iter().any(|f| f.1);
+    for (k, c) in on.iter().enumerate() {
+        // A flat section's fields are named as written (`laser.power_pct`).
+        let field = |f: &str| {
+            if flat {
+                format!("laser.{f}")
+            } else {
+                format!("laser.on[{k}].{f}")
+            }
+        };
+        check_range(origin, &field("power_pct"), c.power_pct, 0.1, 100.0, "%")?;
+        check_range(
+            origin,
+            &field("speed_mm_min"),
+            c.speed_mm_min,
+            1.0,
+            100_000.0,
+            "mm/min",
+        )?;
+        check_range(
+            origin,
+            &field("passes"),
+            c.passes as f64,
+            1.0,
+            50.0,
+            "passes",
+        )?;
+        if c.laser.is_some() {
+            let w = stencil_gcode::machine::bounds::WATTS;
+            check_range(origin, &field("watts"), c.watts, *w.start(), *w.end(), "W")?;
+            if c.from.trim().is_empty() {
+                return Err(invalid(
+                    origin,
+                    &field("from"),
+                    "(missing)".into(),
+                    "say where the numbers come from (a maker's table, a settings library, \
+                     your own test grid)",
+                ));
+            }
+        }
+        if on[..k]
+            .iter()
+            .any(|o| o.laser == c.laser && o.watts == c.watts)
+        {
+            return Err(invalid(
+                origin,
+                &field("watts"),
+                c.watts.to_string(),
+                "a second entry for the same laser and power",
+            ));
+        }
+    }
+    Ok(LaserSettings {
+        on,
+        air_assist: l.air_assist,
+    })
 }
 
 fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
@@ -573,7 +710,7 @@ fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
 }
 
 /// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
-/// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`...).
+/// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`, `test-grid`...).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SettingsError {
     /// An etch material: it makes a mask, not a cut.
@@ -592,33 +729,104 @@ pub enum SettingsError {
         /// The shipped material set up for that tool ([`default_for`]).
         suggested: &'static str,
     },
+    /// A laser material with no settings for this kind of laser (a CO2 card setting is no use on
+    /// a 5 W diode), and none kept for this machine.
+    #[error(
+        "material '{material}' has no cut settings for machine '{machine}' ({kind}); it has \
+         settings for: {}",
+        if have.is_empty() { "none".to_string() } else { have.join(", ") }
+    )]
+    NoSettings {
+        material: String,
+        machine: String,
+        /// The machine's kind as printed (`diode laser 5.5 W`).
+        kind: String,
+        /// The kinds the material has settings for, as printed (`CO2 laser 40 W or more`).
+        have: Vec<String>,
+    },
 }
 
-/// A material's cut settings for a machine. The material's process must match the machine's tool:
-/// a laser material's power means nothing to a knife, and an etch material has no cut settings.
+/// A job's cut settings and where they came from: a kept setting's file, or the material
+/// profile's entry and its published source. `make` prints it and report.json records it, so a
+/// job can be made again with the same numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chosen {
+    pub settings: CutSettings,
+    pub from: String,
+}
+
+/// A material's cut settings for a machine, from the profile alone (see [`choose`] for the
+/// settings a person kept).
 pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, SettingsError> {
-    let s = match (&material.process, &machine.tool) {
-        (Process::Laser(l), Tool::Laser { .. }) => CutSettings {
-            power_pct: l.power_pct,
-            speed_mm_min: l.speed_mm_min,
-            passes: l.passes,
-            blade_offset_mm: 0.0,
-            air_assist: l.air_assist.unwrap_or(machine.air_assist),
-        },
-        (Process::Knife(k), Tool::Knife { .. }) => CutSettings {
-            power_pct: 100.0,
-            speed_mm_min: k.speed_mm_s * 60.0,
-            passes: k.passes,
-            blade_offset_mm: k.blade_offset_mm,
-            air_assist: false,
-        },
-        (Process::Pen(p), Tool::Pen(_)) => CutSettings {
-            power_pct: 100.0,
-            speed_mm_min: p.speed_mm_min,
-            passes: 1,
-            blade_offset_mm: 0.0,
-            air_assist: false,
-        },
+    choose(material, machine, &UserSettings::default()).map(|c| c.settings)
+}
+
+/// A material's cut settings for a machine: what the person kept for this material and machine
+/// profile (`stencil profiles set`), else the material's entry for the machine's kind. The
+/// material's process must match the machine's tool: a laser material's power means nothing to a
+/// knife, and an etch material has no cut settings. A laser gets the entry for its source with
+/// the most power at or below its own: settings published for a weaker laser cut on a stronger
+/// one (at the same percentage it gives more power), never the other way round.
+pub fn choose(
+    material: &Material,
+    machine: &Machine,
+    user: &UserSettings,
+) -> Result<Chosen, SettingsError> {
+    let (base, from) = match (&material.process, &machine.tool) {
+        (Process::Laser(l), Tool::Laser { .. }) => {
+            let air_assist = l.air_assist.unwrap_or(machine.air_assist);
+            let pick = laser_entry(l, machine);
+            match (pick, user.find(&material.name, &machine.name)) {
+                (_, Some(k)) => (
+                    CutSettings {
+                        power_pct: k.power_pct.unwrap_or(100.0),
+                        speed_mm_min: k.speed_mm_min,
+                        passes: k.passes,
+                        blade_offset_mm: 0.0,
+                        air_assist,
+                    },
+                    user.describe(k),
+                ),
+                (Some(c), None) => (
+                    CutSettings {
+                        power_pct: c.power_pct,
+                        speed_mm_min: c.speed_mm_min,
+                        passes: c.passes,
+                        blade_offset_mm: 0.0,
+                        air_assist,
+                    },
+                    format!("{} for {}: {}", material.name, cut_kind(c), c.from),
+                ),
+                (None, None) => {
+                    return Err(SettingsError::NoSettings {
+                        material: material.name.clone(),
+                        machine: machine.name.clone(),
+                        kind: machine.kind().to_string(),
+                        have: l.on.iter().map(cut_kind).collect(),
+                    })
+                }
+            }
+        }
+        (Process::Knife(k), Tool::Knife { .. }) => (
+            CutSettings {
+                power_pct: 100.0,
+                speed_mm_min: k.speed_mm_s * 60.0,
+                passes: k.passes,
+                blade_offset_mm: k.blade_offset_mm,
+                air_assist: false,
+            },
+            format!("{}'s [knife] section", material.name),
+        ),
+        (Process::Pen(p), Tool::Pen(_)) => (
+            CutSettings {
+                power_pct: 100.0,
+                speed_mm_min: p.speed_mm_min,
+                passes: 1,
+                blade_offset_mm: 0.0,
+                air_assist: false,
+            },
+            format!("{}'s [pen] section", material.name),
+        ),
         (Process::Etch(_), _) => {
             return Err(SettingsError::EtchOnly {
                 material: material.name.clone(),
@@ -634,7 +842,172 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
             })
         }
     };
-    Ok(s)
+    // A kept knife or pen setting overrides the speed and passes (and nothing else).
+    let (settings, from) = match (&machine.tool, user.find(&material.name, &machine.name)) {
+        (Tool::Laser { .. }, _) | (_, None) => (base, from),
+        (_, Some(k)) => (
+            CutSettings {
+                speed_mm_min: k.speed_mm_min,
+                passes: k.passes,
+                ..base
+            },
+            user.describe(k),
+        ),
+    };
+    Ok(Chosen { settings, from })
+}
+
+/// The `[[laser.on]]` entry for a machine: a flat one (any laser), else the one for its source
+/// with the most power at or below the machine's.
+fn laser_entry<'a>(l: &'a LaserSettings, machine: &Machine) -> Option<&'a LaserCut> {
+    if let Some(any) = l.on.iter().find(|c| c.laser.is_none()) {
+        return Some(any);
+    }
+    let power = machine.laser?;
+    l.on.iter()
+        .filter(|c| c.laser == Some(power.source) && c.watts <= power.watts + 1e-9)
+        .max_by(|a, b| a.watts.total_cmp(&b.watts))
+}
+
+/// An entry's kind as printed: `diode laser 5 W or more`, `any laser`.
+pub fn cut_kind(c: &LaserCut) -> String {
+    match c.laser {
+        None => "any laser".into(),
+        Some(src) => format!(
+            "{} laser {} W or more",
+            match src {
+                LaserSource::Diode => "diode",
+                LaserSource::Co2 => "CO2",
+            },
+            stencil_gcode::num(c.watts)
+        ),
+    }
+}
+
+/// Whether a material has cut settings for a machine (from its profile or kept by the person):
+/// what `stencil profiles` lists.
+pub fn has_settings(material: &Material, machine: &Machine, user: &UserSettings) -> bool {
+    choose(material, machine, user).is_ok()
+}
+
+/// The file kept settings are written to, in the user's config folder
+/// ([`stencil_io::profile::config_dir`]).
+pub const USER_SETTINGS_FILE: &str = "cut-settings.toml";
+
+/// Cut settings a person kept with `stencil profiles set` (what a test grid taught them), per
+/// material and machine profile: they win over the material profile's settings for that machine.
+/// Kept in one small TOML file in the user's config folder, which a person can read and edit.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UserSettings {
+    /// Where they were read from (not written in the file).
+    #[serde(skip)]
+    pub path: Option<PathBuf>,
+    #[serde(default, rename = "kept")]
+    pub entries: Vec<Kept>,
+}
+
+/// One kept setting.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Kept {
+    /// The material profile's name (`cardstock`).
+    pub material: String,
+    /// The machine profile's name (`diode-400`).
+    pub machine: String,
+    /// Laser power, % (lasers only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub power_pct: Option<f64>,
+    pub speed_mm_min: f64,
+    pub passes: u32,
+}
+
+impl UserSettings {
+    /// The kept settings in `dir/cut-settings.toml`; none when the file does not exist. Every
+    /// entry is checked as a profile's are (the error names the file and the field).
+    pub fn load_from(dir: &Path) -> Result<UserSettings, ProfileError> {
+        let path = dir.join(USER_SETTINGS_FILE);
+        if !path.exists() {
+            return Ok(UserSettings {
+                path: Some(path),
+                entries: Vec::new(),
+            });
+        }
+        let mut u: UserSettings = load_toml(&path)?;
+        for (k, e) in u.entries.iter().enumerate() {
+            e.check(&path, &format!("kept[{k}]."))?;
+        }
+        u.path = Some(path);
+        Ok(u)
+    }
+
+    /// The kept settings in the user's config folder, none when there is no config folder.
+    pub fn load() -> Result<UserSettings, ProfileError> {
+        match stencil_io::profile::config_dir() {
+            Some(dir) => UserSettings::load_from(&dir),
+            None => Ok(UserSettings::default()),
+        }
+    }
+
+    /// The entry for a material and machine profile.
+    pub fn find(&self, material: &str, machine: &str) -> Option<&Kept> {
+        self.entries
+            .iter()
+            .find(|e| e.material == material && e.machine == machine)
+    }
+
+    /// Keep `e`, replacing an entry for the same material and machine.
+    pub fn set(&mut self, e: Kept) {
+        self.entries
+            .retain(|o| !(o.material == e.material && o.machine == e.machine));
+        self.entries.push(e);
+        self.entries
+            .sort_by(|a, b| (&a.material, &a.machine).cmp(&(&b.material, &b.machine)));
+    }
+
+    /// The file's text: `header` (comment lines saying what it is; the command that writes it
+    /// knows its own name), then the entries.
+    pub fn to_toml(&self, header: &str) -> String {
+        let body = toml::to_string(self).unwrap_or_default();
+        format!("{header}\n{body}")
+    }
+
+    /// Where a kept entry is, as `make` prints it.
+    fn describe(&self, k: &Kept) -> String {
+        format!(
+            "{} (kept for {} on {})",
+            self.path
+                .as_deref()
+                .map_or_else(|| USER_SETTINGS_FILE.into(), |p| p.display().to_string()),
+            k.material,
+            k.machine
+        )
+    }
+}
+
+impl Kept {
+    /// The numbers in the ranges a profile allows.
+    pub fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
+        if let Some(p) = self.power_pct {
+            check_range(origin, &format!("{prefix}power_pct"), p, 0.1, 100.0, "%")?;
+        }
+        check_range(
+            origin,
+            &format!("{prefix}speed_mm_min"),
+            self.speed_mm_min,
+            1.0,
+            100_000.0,
+            "mm/min",
+        )?;
+        check_range(
+            origin,
+            &format!("{prefix}passes"),
+            self.passes as f64,
+            1.0,
+            50.0,
+            "passes",
+        )
+    }
 }
 
 #[cfg(test)]
@@ -759,5 +1132,94 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("x.toml") && e.contains("etch"), "{e}");
+    }
+
+    fn laser_machine(source: &str, watts: f64) -> Machine {
+        let text = stencil_gcode::machine::SHIPPED[0]
+            .text
+            .replace("source = \"diode\"", &format!("source = \"{source}\""))
+            .replace("watts = 5.5", &format!("watts = {watts}"));
+        stencil_gcode::machine::parse(&text, Path::new("m.toml")).unwrap()
+    }
+
+    #[test]
+    fn a_laser_gets_the_entry_for_its_source_with_the_most_power_at_or_below_its_own() {
+        let card = Material::default();
+        let pick = |src: &str, w: f64| settings_for(&card, &laser_machine(src, w));
+        // 5.5 W diode: the 5 W entry; 12 W: the 10 W one; 40 W CO2: the CO2 one.
+        assert_eq!(pick("diode", 5.5).unwrap().speed_mm_min, 1650.0);
+        assert_eq!(pick("diode", 12.0).unwrap().speed_mm_min, 3375.0);
+        assert_eq!(pick("diode", 25.0).unwrap().power_pct, 31.0);
+        let co2 = pick("co2", 60.0).unwrap();
+        assert_eq!((co2.power_pct, co2.speed_mm_min), (20.0, 1500.0));
+        // Weaker than every entry: none (a 2 W diode, a 30 W tube).
+        for (src, w) in [("diode", 2.0), ("co2", 30.0)] {
+            let e = pick(src, w).unwrap_err();
+            assert!(matches!(e, SettingsError::NoSettings { .. }), "{e}");
+        }
+        // Clear acrylic has no diode entry at any power.
+        let (acrylic, _) = Material::find("acrylic-3mm").unwrap();
+        let e = settings_for(&acrylic, &laser_machine("diode", 40.0)).unwrap_err();
+        assert!(e.to_string().contains("CO2 laser 40 W or more"), "{e}");
+    }
+
+    #[test]
+    fn kept_settings_win_for_their_material_and_machine_only() {
+        let card = Material::default();
+        let diode = laser_machine("diode", 5.5);
+        let user = UserSettings {
+            path: Some(PathBuf::from("/c/cut-settings.toml")),
+            entries: vec![Kept {
+                material: "cardstock".into(),
+                machine: "diode-400".into(),
+                power_pct: Some(70.0),
+                speed_mm_min: 800.0,
+                passes: 3,
+            }],
+        };
+        let c = choose(&card, &diode, &user).unwrap();
+        assert_eq!(
+            (
+                c.settings.power_pct,
+                c.settings.speed_mm_min,
+                c.settings.passes
+            ),
+            (70.0, 800.0, 3)
+        );
+        assert!(c.from.contains("/c/cut-settings.toml"), "{}", c.from);
+        let (paper, _) = Material::find("copy-paper").unwrap();
+        assert_eq!(
+            choose(&paper, &diode, &user).unwrap().settings.power_pct,
+            10.0
+        );
+        // Written and read back.
+        let dir = std::env::temp_dir().join(format!("stencil-kept-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(USER_SETTINGS_FILE), user.to_toml("# test")).unwrap();
+        let back = UserSettings::load_from(&dir);
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(back.unwrap().entries, user.entries);
+    }
+
+    #[test]
+    fn laser_entries_are_checked() {
+        let base = SHIPPED[1].text; // cardstock
+        let bad = |from: &str, to: &str| {
+            assert!(base.contains(from), "{from}");
+            Material::parse(&base.replacen(from, to, 1), Path::new("x.toml"))
+                .unwrap_err()
+                .to_string()
+        };
+        let e = bad("from = \"Certifitrax", "from = \"\"\n#\"");
+        assert!(e.contains("laser.on[0].from"), "{e}");
+        let e = bad("watts = 10\n", "watts = 5\n");
+        assert!(e.contains("same laser and power"), "{e}");
+        let e = bad("power_pct = 48", "power_pct = 480");
+        assert!(e.contains("laser.on[1].power_pct"), "{e}");
+        let e = bad(
+            "[laser]\n",
+            "[laser]\npower_pct = 5\nspeed_mm_min = 5\npasses = 1\n",
+        );
+        assert!(e.contains("cannot be mixed"), "{e}");
     }
 }

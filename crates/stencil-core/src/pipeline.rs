@@ -1090,19 +1090,24 @@ pub fn gcode(
     p: &TraceParams,
     timer: &mut Timings,
 ) -> Result<(String, stencil_gcode::GcodeSummary), Error> {
-    let notes = [
+    let mut notes = vec![
         format!("from {}", cfg.input.display()),
         format!("material {}", p.material.name),
     ];
+    if !g.settings_from.is_empty() {
+        notes.push(format!("cut settings from {}", g.settings_from));
+    }
     if joined.map.island_count() > 0 {
         timer.time("pieces", || {
             geometry.set_unbridged(&joined.twotone.bits, &p.vector)
         })?;
     }
     timer.time("kerf", || geometry.apply_kerf(p.material.kerf_mm))?;
-    Ok(timer.time("gcode", || {
+    let (text, mut summary) = timer.time("gcode", || {
         stencil_gcode::gcode_for(&geometry.loops(), &g.machine, &g.plan, &notes)
-    })?)
+    })?;
+    summary.settings_from = (!g.settings_from.is_empty()).then(|| g.settings_from.clone());
+    Ok((text, summary))
 }
 
 /// report.json's contents (the files written are added by [`make`]).
@@ -1122,6 +1127,8 @@ pub fn report(
     let vcfg = &params.trace.vector;
     Report {
         gcode,
+        // Filled when the masks are encoded (`encode_outputs`).
+        mask: None,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         material_values: Some(phys.material.values()),
@@ -1179,9 +1186,9 @@ pub fn report(
 }
 
 /// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
-/// (which lists them).
+/// (which lists them). The masks' description goes into `made.report` as they are encoded.
 pub(crate) fn encode_outputs(
-    made: &Made,
+    made: &mut Made,
     phys: &PhysicalConfig,
 ) -> Result<Vec<(String, Vec<u8>)>, Error> {
     let tt = &made.twotone;
@@ -1208,15 +1215,23 @@ pub(crate) fn encode_outputs(
     if phys.emit.dxf {
         files.push(("stencil.dxf".into(), dxf::encode(geom, phys.dxf_r12)?));
     }
+    let mut mask_report = None;
     if phys.emit.mask {
         let mut m = phys.mask;
         m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
-        files.push(("mask.png".into(), mask::encode_png(geom, &m)?));
-        files.push(("mask.svg".into(), mask::encode_svg(geom, &m)));
+        let etch = phys.material.etch().map(|e| mask::Etch {
+            thickness_mm: phys.material.thickness_mm,
+            etch_factor: e.etch_factor,
+            two_sided: e.two_sided,
+        });
+        let (masks, r) = mask::mask_files(geom, &m, etch)?;
+        files.extend(masks);
+        mask_report = Some(r);
     }
     if let Some(text) = &made.gcode {
         files.push(("stencil.gcode".into(), text.as_bytes().to_vec()));
     }
+    made.report.mask = mask_report;
     let mut report = made.report.clone();
     report.files = files.iter().map(|(n, _)| n.clone()).collect();
     report.files.push("report.json".into());
@@ -1240,6 +1255,10 @@ pub const OUTPUT_NAMES: &[&str] = &[
     "stencil.dxf",
     "mask.png",
     "mask.svg",
+    "mask-front.png",
+    "mask-front.svg",
+    "mask-back.png",
+    "mask-back.svg",
     "stencil.gcode",
     "report.json",
 ];
@@ -1262,11 +1281,11 @@ fn write_with(
 ) -> Result<(Made, export::Replaced), Error> {
     let existed = cfg.out_dir.is_dir();
     export::prepare_dir(&cfg.out_dir)?;
-    let result = compute().and_then(|made| {
+    let result = compute().and_then(|mut made| {
         if let Some(p) = &cfg.progress {
             p.stage("write");
         }
-        let files = encode_outputs(&made, &cfg.physical)?;
+        let files = encode_outputs(&mut made, &cfg.physical)?;
         let replaced = export::write_files(&cfg.out_dir, &files, OUTPUT_NAMES)?;
         Ok((made, replaced))
     });

@@ -227,6 +227,10 @@ pub struct Report {
     /// The G-code job (`--emit gcode`): machine, lengths, travel vs input order, time estimate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gcode: Option<stencil_gcode::GcodeSummary>,
+    /// The photo-etch masks (`--emit mask`): files, dpi, polarity, mirroring, undercut
+    /// compensation, and how much of the picture is clear.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask: Option<crate::export::MaskReport>,
 }
 
 #[cfg(test)]

@@ -58,6 +58,10 @@ use crate::machine::Machine;
 pub struct GcodeConfig {
     pub machine: Machine,
     pub plan: PlanConfig,
+    /// Where the cut settings came from (a kept settings file, a material profile's entry and
+    /// its published source, the command line): written in the G-code's header and report.json,
+    /// so the job can be made again with the same numbers. Empty when unknown.
+    pub settings_from: String,
 }
 
 /// What a G-code job costs, as recorded in report.json and printed by `make` and `gcode`.
@@ -66,6 +70,10 @@ pub struct GcodeSummary {
     pub machine: String,
     pub tool: String,
     pub settings: Option<CutSettings>,
+    /// Where `settings` came from (see [`GcodeConfig::settings_from`]); absent in reports written
+    /// before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings_from: Option<String>,
     #[serde(flatten)]
     pub path: PathStats,
     /// Time and lengths from the written G-code, as Grbl would plan it.
@@ -90,6 +98,7 @@ pub fn gcode_for(
             machine: machine.name.clone(),
             tool: machine.tool.kind().into(),
             settings: Some(cfg.settings),
+            settings_from: None,
             path: job.stats,
             estimate: est,
         },

@@ -145,6 +145,61 @@ impl Tool {
     }
 }
 
+/// What makes a laser's light: the two kinds hobby machines have, whose cut settings differ for
+/// the same material (a blue diode's 450 nm passes through clear acrylic and PET that a CO2's
+/// 10.6 µm is absorbed by, and its spot and power differ).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LaserSource {
+    Diode,
+    Co2,
+}
+
+impl LaserSource {
+    /// The name used in profiles (`tool.source`, a material's `laser`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LaserSource::Diode => "diode",
+            LaserSource::Co2 => "co2",
+        }
+    }
+}
+
+/// A laser's source and power: what a material's cut settings are looked up by. `watts` is a
+/// diode's optical output (not its electrical input: a "40 W" module gives about 5.5 W of light)
+/// and a CO2's tube rating.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaserPower {
+    pub source: LaserSource,
+    pub watts: f64,
+}
+
+/// The kind of machine, as material profiles key their cut settings: a laser by its source and
+/// power (unknown when the profile does not give them), a pen, a drag knife.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MachineKind {
+    Laser(Option<LaserPower>),
+    Pen,
+    Knife,
+}
+
+impl std::fmt::Display for MachineKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MachineKind::Laser(Some(p)) => {
+                let src = match p.source {
+                    LaserSource::Diode => "diode",
+                    LaserSource::Co2 => "CO2",
+                };
+                write!(f, "{src} laser {} W", crate::num(p.watts))
+            }
+            MachineKind::Laser(None) => f.write_str("laser (source and power not given)"),
+            MachineKind::Pen => f.write_str("pen"),
+            MachineKind::Knife => f.write_str("drag knife"),
+        }
+    }
+}
+
 /// A validated machine profile.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Machine {
@@ -160,6 +215,21 @@ pub struct Machine {
     /// the user sees it (`tool.frame_power_pct`, default 0: the frame is traced dark). Kept low
     /// ([`bounds::FRAME_POWER_PCT`]): it must show the beam, not mark the sheet.
     pub frame_power_pct: f64,
+    /// Laser only: its source and power (`tool.source`, `tool.watts`), which a material's cut
+    /// settings are chosen by; `None` when the profile does not say (a profile written before
+    /// they existed).
+    pub laser: Option<LaserPower>,
+}
+
+impl Machine {
+    /// The machine's kind as material profiles key their cut settings.
+    pub fn kind(&self) -> MachineKind {
+        match self.tool {
+            Tool::Laser { .. } => MachineKind::Laser(self.laser),
+            Tool::Pen(_) => MachineKind::Pen,
+            Tool::Knife { .. } => MachineKind::Knife,
+        }
+    }
 }
 
 /// A job that leaves the bed: the first side it crosses, how far it reaches, and the line of the
@@ -288,6 +358,10 @@ struct RawTool {
     air_assist: Option<bool>,
     /// Laser: power % for framing.
     frame_power_pct: Option<f64>,
+    /// Laser: "diode" or "co2".
+    source: Option<LaserSource>,
+    /// Laser: optical output (diode) or tube rating (CO2), W.
+    watts: Option<f64>,
 }
 
 /// What a GRBL machine can be, field by field: every number in a profile must lie in its range
@@ -311,6 +385,8 @@ pub mod bounds {
     pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
     /// Framing power, % of full: a glimmer to see the outline by, never enough to mark.
     pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
+    /// A laser's power, W: a 0.5 W diode to a 500 W CO2 tube.
+    pub const WATTS: RangeInclusive<f64> = 0.5..=500.0;
     /// The longest profile name, characters (it is printed in G-code comments and messages).
     pub const NAME_CHARS: usize = 100;
 }
@@ -333,7 +409,9 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         bounds::FRAME_POWER_PCT,
         "%",
     )?;
+    let laser = c.laser_power(t)?;
     Ok(Machine {
+        laser,
         air_assist: t.air_assist.unwrap_or(false),
         name: raw.name,
         description: raw.description,
@@ -465,7 +543,9 @@ impl Checker<'_> {
     /// Fields that belong to other tool kinds are mistakes worth naming.
     fn foreign_fields(&self, t: &RawTool) -> Result<(), ProfileError> {
         use ToolKind::{Knife, Laser, Pen};
-        let fields: [(&str, bool, &[ToolKind]); 10] = [
+        let fields: [(&str, bool, &[ToolKind]); 12] = [
+            ("tool.source", t.source.is_some(), &[Laser]),
+            ("tool.watts", t.watts.is_some(), &[Laser]),
             ("tool.s_max", t.s_max.is_some(), &[Laser]),
             ("tool.s_min", t.s_min.is_some(), &[Laser]),
             ("tool.lift", t.lift.is_some(), &[Pen]),
@@ -495,6 +575,30 @@ impl Checker<'_> {
             }
         }
         Ok(())
+    }
+
+    /// A laser's source and power: both or neither (a profile without them still loads, and only
+    /// settings given on the command line or kept with `stencil profiles set` apply to it).
+    fn laser_power(&self, t: &RawTool) -> Result<Option<LaserPower>, ProfileError> {
+        match (t.source, t.watts) {
+            (Some(source), Some(w)) => Ok(Some(LaserPower {
+                source,
+                watts: self.within("tool.watts", w, bounds::WATTS, "W")?,
+            })),
+            (None, None) => Ok(None),
+            (Some(_), None) => Err(self.bad(
+                "tool.watts",
+                "missing".into(),
+                "is required with tool.source: the diode's optical output or the CO2 tube's \
+                 rating, W"
+                    .into(),
+            )),
+            (None, Some(_)) => Err(self.bad(
+                "tool.source",
+                "missing".into(),
+                "is required with tool.watts: \"diode\" or \"co2\"".into(),
+            )),
+        }
     }
 
     fn laser(&self, t: &RawTool) -> Result<Tool, ProfileError> {
@@ -694,6 +798,38 @@ s_max = 255
             Path::new("a"),
         );
         assert!(air.unwrap().air_assist);
+    }
+
+    #[test]
+    fn a_laser_source_comes_with_its_power() {
+        let m = parse(
+            &GOOD.replace("s_max = 255", "s_max = 255\nsource = \"diode\"\nwatts = 10"),
+            Path::new("a"),
+        )
+        .unwrap();
+        assert_eq!(
+            m.kind(),
+            MachineKind::Laser(Some(LaserPower {
+                source: LaserSource::Diode,
+                watts: 10.0
+            }))
+        );
+        assert_eq!(m.kind().to_string(), "diode laser 10 W");
+        assert_eq!(parse(GOOD, Path::new("a")).unwrap().laser, None);
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nsource = \"co2\""));
+        assert!(e.contains("tool.watts"), "{e}");
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nwatts = 10"));
+        assert!(e.contains("tool.source"), "{e}");
+        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nsource = \"co2\"\nwatts = 9000"));
+        assert!(e.contains("tool.watts"), "{e}");
+        let pen = GOOD.replace(
+            "kind = \"laser\"\ns_max = 255",
+            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nwatts = 5",
+        );
+        assert!(err(&pen).contains("tool.watts"));
+        for name in ["diode-400", "co2-600x400"] {
+            assert!(load(Some(name)).unwrap().laser.is_some(), "{name}");
+        }
     }
 
     #[test]

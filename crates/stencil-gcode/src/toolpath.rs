@@ -203,6 +203,35 @@ pub(crate) fn sheet_rect(geom: &CutLoops) -> [f64; 4] {
     [o.min().x, o.min().y, o.max().x, o.max().y]
 }
 
+/// What the job places at the anchor and the bed must hold: the sheet when its outline is cut,
+/// else only what is cut (the bounding box of the cut loops and open paths). The margin around the picture is sheet
+/// the head never visits unless the outline is cut, so it does not count against the bed: a
+/// 395 mm picture with a 5 mm margin fits a 400 mm bed when only the picture is cut.
+/// `reach`: how far past the cuts the tool's axis goes (a drag knife swivels around corners up
+/// to its blade offset out), so the job's box holds that too.
+fn job_rect(geom: &CutLoops, cut_outline: bool, reach: f64) -> [f64; 4] {
+    let sheet = sheet_rect(geom);
+    if cut_outline {
+        return sheet;
+    }
+    let mut r = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let loops = geom.cuts.0.iter().flat_map(|p| p.exterior().0.iter());
+    // Open paths (a pen's lines, or cut open) are visited by the tool as much as the loops.
+    for c in loops.chain(geom.lines.iter().flat_map(|l| l.0.iter())) {
+        r = [r[0].min(c.x), r[1].min(c.y), r[2].max(c.x), r[3].max(c.y)];
+    }
+    if r[0] < r[2] && r[1] < r[3] {
+        [r[0] - reach, r[1] - reach, r[2] + reach, r[3] + reach]
+    } else {
+        sheet
+    }
+}
+
 /// Sheet mm (x right, y down) → machine mm, for the sheet `rect` placed per `cfg` on `machine`.
 #[derive(Clone, Copy, Debug)]
 struct Placement {
@@ -307,7 +336,11 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
-    let rect = sheet_rect(geom);
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
+    };
+    let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
 
@@ -523,11 +556,19 @@ mod tests {
         }
     }
 
+    /// Settings with the sheet's outline cut, so the whole sheet is placed and checked.
+    fn sheet_cfg() -> PlanConfig {
+        let mut cfg = PlanConfig::new(settings());
+        cfg.cut_outline = true;
+        cfg
+    }
+
     #[test]
     fn flips_y_and_places_at_offset() {
         let m = machine::load(None).unwrap();
         let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
-        let mut cfg = PlanConfig::new(settings());
+        // The sheet is placed (its outline is cut): these tests are about the placement.
+        let mut cfg = sheet_cfg();
         cfg.offset = [30.0, 40.0];
         let job = plan(&g, &m, &cfg).unwrap();
         let pts = &job.loops[0].points;
@@ -549,10 +590,10 @@ mod tests {
         let mut m = machine::load(None).unwrap();
         m.bed.origin = Corner::TopLeft;
         let g = geom(100.0, 50.0, vec![rect(10.0, 5.0, 20.0, 15.0)]);
-        let job = plan(&g, &m, &PlanConfig::new(settings())).unwrap();
+        let job = plan(&g, &m, &sheet_cfg()).unwrap();
         let ys: Vec<f64> = job.loops[0].points.iter().map(|p| p[1]).collect();
         assert!(ys.iter().all(|&y| y == 5.0 || y == 15.0), "{ys:?}");
-        let mut cfg = PlanConfig::new(settings());
+        let mut cfg = sheet_cfg();
         cfg.anchor = Some(Anchor::Center);
         cfg.offset = [200.0, 200.0];
         let job = plan(&g, &m, &cfg).unwrap();
@@ -564,16 +605,14 @@ mod tests {
     fn too_big_is_refused_with_sizes() {
         let m = machine::load(None).unwrap();
         let g = geom(500.0, 120.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
-        let e = plan(&g, &m, &PlanConfig::new(settings()))
-            .unwrap_err()
-            .to_string();
+        let e = plan(&g, &m, &sheet_cfg()).unwrap_err().to_string();
         assert!(
             e.contains("500.0 x 120.0") && e.contains("400.0 x 400.0"),
             "{e}"
         );
         assert!(e.contains("scale"), "{e}");
         let g = geom(100.0, 100.0, vec![rect(10.0, 10.0, 20.0, 20.0)]);
-        let mut cfg = PlanConfig::new(settings());
+        let mut cfg = sheet_cfg();
         cfg.offset = [350.0, 0.0];
         let e = plan(&g, &m, &cfg).unwrap_err().to_string();
         assert!(

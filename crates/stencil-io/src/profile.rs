@@ -214,3 +214,30 @@ pub fn check_range(
     }
     Ok(())
 }
+
+/// The environment variable that points the user's config folder elsewhere (tests set it to a
+/// temporary folder; a person can keep several setups apart).
+pub const CONFIG_DIR_ENV: &str = "STENCIL_CONFIG_DIR";
+
+/// The user's config folder for stencil, where settings a person keeps are written
+/// (`stencil profiles set`): `$STENCIL_CONFIG_DIR`, else the platform's config folder with
+/// `stencil` in it: `$XDG_CONFIG_HOME/stencil` or `~/.config/stencil` (Linux, BSD and, as most
+/// command-line tools do, macOS), `%APPDATA%\stencil` (Windows). `None` when none of these is
+/// set (no home folder): then nothing is kept.
+pub fn config_dir() -> Option<PathBuf> {
+    let var = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    if let Some(d) = var(CONFIG_DIR_ENV) {
+        return Some(d);
+    }
+    if cfg!(windows) {
+        return var("APPDATA").map(|d| d.join("stencil"));
+    }
+    var("XDG_CONFIG_HOME")
+        .filter(|d| d.is_absolute())
+        .or_else(|| var("HOME").map(|h| h.join(".config")))
+        .map(|d| d.join("stencil"))
+}

@@ -9,10 +9,16 @@
 //!
 //! The mask covers the whole sheet (picture plus margin), so its size is the sheet's size in mm
 //! times the dpi: `round(width_mm / 25.4 × dpi)` pixels.
+//!
+//! With an etch material ([`Etch`]), [`mask_files`] draws every opening smaller by the undercut
+//! (depth ÷ etch factor, each side of a two-sided etch etching half the depth), so the etched
+//! opening comes out at the designed size, and reports openings the compensation closes; a
+//! two-sided etch gets a front and a back mask, the back the front's mirror image. What each
+//! mask is (side, mirroring, dpi, polarity) goes into report.json ([`MaskReport`]).
 
 use std::fmt::Write;
 
-use geo::{Coord, LineString};
+use geo::{Area, Coord, LineString};
 
 use super::svg::{num, path_data, rings};
 use super::ExportError;
@@ -28,6 +34,9 @@ pub struct MaskConfig {
     pub mirror: bool,
     /// Registration marks in the corners of the margin.
     pub marks: bool,
+    /// The picture's tones were swapped (`--invert`): then a mostly clear mask is what was asked
+    /// for, and [`MaskReport::warning`] stays quiet.
+    pub tone_inverted: bool,
 }
 
 impl Default for MaskConfig {
@@ -37,8 +46,154 @@ impl Default for MaskConfig {
             invert: false,
             mirror: false,
             marks: false,
+            tone_inverted: false,
         }
     }
+}
+
+/// How the metal is etched (from the material's `[etch]` section and thickness): what the
+/// undercut compensation and two-sided art need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Etch {
+    pub thickness_mm: f64,
+    /// Depth etched per unit of sideways undercut.
+    pub etch_factor: f64,
+    /// Etched from both sides at once: front and back masks, each side etching half the depth.
+    pub two_sided: bool,
+}
+
+impl Etch {
+    /// The undercut under each mask edge, mm: each side etches its depth (the thickness, or half
+    /// of it from both sides) and the etchant eats sideways depth ÷ etch factor under the resist.
+    /// The mask's openings are drawn this much smaller on every side, so the etched opening comes
+    /// out at the designed size.
+    pub fn undercut_mm(&self) -> f64 {
+        let depth = if self.two_sided {
+            self.thickness_mm / 2.0
+        } else {
+            self.thickness_mm
+        };
+        depth / self.etch_factor
+    }
+}
+
+/// What the masks are, for report.json and the console: which files, their dpi, polarity and
+/// mirroring, the undercut compensation and what it closed, and how much of the picture is clear.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MaskReport {
+    /// Each mask: its files, the side it is for and whether it is mirrored.
+    pub masks: Vec<MaskSide>,
+    pub dpi: f64,
+    /// Where metal stays, in words: "black where metal stays (positive resist)" or "clear where
+    /// metal stays (negative resist)"; light passes where the stencil is cut.
+    pub polarity: String,
+    /// Each opening drawn this much smaller on every side for the etch's undercut, mm (0: none).
+    pub undercut_compensation_mm: f64,
+    /// Openings narrower than twice the compensation: the mask closes them, so they would not be
+    /// etched at all.
+    pub openings_closed: usize,
+    /// The share of the picture etched clear, percent.
+    pub clear_pct: f64,
+    /// Set when most of the picture is clear with its light parts left as metal: a gobo projects
+    /// the clear parts as light, so a bright subject usually wants the tones swapped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
+}
+
+/// One mask of a set.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MaskSide {
+    /// "single", "front" or "back".
+    pub side: String,
+    pub png: String,
+    pub svg: String,
+    pub mirrored: bool,
+}
+
+/// The masks' files and what they are. One mask (`mask.png`, `mask.svg`), or with a two-sided
+/// etch a front (`mask-front.*`, as configured) and a back (`mask-back.*`, mirrored against the
+/// front: laid on the other face, it registers with it through the sheet). With `etch`, the
+/// openings are compensated for the undercut ([`Etch::undercut_mm`]); the width check judges
+/// the design, which is what the compensated mask etches.
+#[allow(clippy::type_complexity)]
+pub fn mask_files(
+    geom: &CutGeometry,
+    cfg: &MaskConfig,
+    etch: Option<Etch>,
+) -> Result<(Vec<(String, Vec<u8>)>, MaskReport), ExportError> {
+    let u = etch.map_or(0.0, |e| e.undercut_mm());
+    let mut g = geom.clone();
+    let mut closed = 0;
+    if u > 0.0 {
+        let err = |e: stencil_geom::clip::ClipError| ExportError::Encode {
+            path: "mask.png".into(),
+            msg: format!("the undercut compensation: {e}"),
+        };
+        let shrunk = stencil_geom::kerf::offset_cuts(&geom.design_cuts, 2.0 * u).map_err(err)?;
+        // An opening is closed when nothing of it is left (each is offset on its own).
+        for p in &geom.design_cuts.0 {
+            let one = geo::MultiPolygon::new(vec![p.clone()]);
+            if stencil_geom::kerf::offset_cuts(&one, 2.0 * u)
+                .map_err(err)?
+                .0
+                .is_empty()
+            {
+                closed += 1;
+            }
+        }
+        g.design_cuts = shrunk;
+    }
+    let two = etch.is_some_and(|e| e.two_sided);
+    let sides: Vec<(&str, &str, bool)> = if two {
+        vec![
+            ("front", "mask-front", cfg.mirror),
+            ("back", "mask-back", !cfg.mirror),
+        ]
+    } else {
+        vec![("single", "mask", cfg.mirror)]
+    };
+    let mut files = Vec::new();
+    let mut masks = Vec::new();
+    for (side, stem, mirror) in sides {
+        let c = MaskConfig { mirror, ..*cfg };
+        files.push((format!("{stem}.png"), encode_png(&g, &c)?));
+        files.push((format!("{stem}.svg"), encode_svg(&g, &c)));
+        masks.push(MaskSide {
+            side: side.into(),
+            png: format!("{stem}.png"),
+            svg: format!("{stem}.svg"),
+            mirrored: mirror,
+        });
+    }
+    let picture = geom.width_mm * geom.height_mm;
+    let clear_pct = if picture > 0.0 {
+        100.0 * geom.design_cuts.unsigned_area() / picture
+    } else {
+        0.0
+    };
+    let warning = (clear_pct > 50.0 && !cfg.tone_inverted).then(|| {
+        format!(
+            "{clear_pct:.0} % of the picture is etched clear and its light parts stay as metal; \
+             light passes where the mask is etched, so a bright subject on a dark ground usually \
+             wants its tones swapped"
+        )
+    });
+    Ok((
+        files,
+        MaskReport {
+            masks,
+            dpi: cfg.dpi,
+            polarity: if cfg.invert {
+                "clear where metal stays (negative resist), black where it is etched away".into()
+            } else {
+                "black where metal stays (positive resist), clear where it is etched away".into()
+            },
+            undercut_compensation_mm: u,
+            openings_closed: closed,
+            clear_pct,
+            warning,
+        },
+    ))
 }
 
 /// Largest mask accepted, in pixels (a 1200 dpi A3 sheet is ~ 2.6e8).
@@ -276,5 +431,165 @@ mod tests {
         assert_eq!((img.width(), img.height()), (300, 200)); // (20 + 10) mm x (10 + 10) mm
         let white = img.pixels().filter(|p| p.0[0] > 127).count() as f64;
         assert!((white - 6000.0).abs() < 6000.0 * 0.01, "{white}");
+    }
+
+    /// A picture of vertical slots `widths` px wide (cut), 100 px apart, at 0.1 mm/px.
+    fn slots(widths: &[usize]) -> CutGeometry {
+        let w = 100 * (widths.len() + 1);
+        let g = BitGrid::from_fn(w as u32, 300, |x, y| {
+            let x = x as usize;
+            let in_slot = widths.iter().enumerate().any(|(k, &sw)| {
+                let x0 = 100 * (k + 1);
+                (x0..x0 + sw).contains(&x)
+            });
+            !(in_slot && (50..250).contains(&y))
+        });
+        vectorize(
+            &g,
+            &[],
+            &VectorConfig {
+                smooth: false,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .0
+    }
+
+    /// Etched (white) runs along the mask's middle row, in mm.
+    fn runs_mm(png: &[u8], dpi: f64) -> Vec<f64> {
+        let img = image::load_from_memory(png).unwrap().to_luma8();
+        let y = img.height() / 2;
+        let mut runs = Vec::new();
+        let mut run = 0;
+        for x in 0..img.width() {
+            if img.get_pixel(x, y).0[0] > 127 {
+                run += 1;
+            } else if run > 0 {
+                runs.push(run as f64 * 25.4 / dpi);
+                run = 0;
+            }
+        }
+        runs
+    }
+
+    #[test]
+    fn the_undercut_compensation_narrows_a_line_of_known_width_by_twice_the_undercut() {
+        // A 2.0 mm slot (20 px at 0.1 mm/px) in 0.5 mm metal with etch factor 2.5, one side:
+        // undercut 0.5 / 2.5 = 0.2 mm per side, so the mask opening is 2.0 - 0.4 = 1.6 mm wide;
+        // the etchant then widens it back to 2.0 mm through the sheet.
+        let geom = slots(&[20]);
+        let dpi = 2540.0; // 100 px per mm: 0.01 mm pixels
+        let cfg = MaskConfig {
+            dpi,
+            ..Default::default()
+        };
+        let plain = mask_files(&geom, &cfg, None).unwrap();
+        // The traced slot (marching squares through pixel centres' midpoints): 2.0 mm within a
+        // few mask pixels.
+        let plain = runs_mm(&plain.0[0].1, dpi);
+        assert_eq!(plain.len(), 1);
+        assert!((plain[0] - 2.0).abs() <= 0.05, "{plain:?}");
+        let etch = Etch {
+            thickness_mm: 0.5,
+            etch_factor: 2.5,
+            two_sided: false,
+        };
+        let (files, r) = mask_files(&geom, &cfg, Some(etch)).unwrap();
+        assert!((r.undercut_compensation_mm - 0.2).abs() < 1e-12);
+        let runs = runs_mm(&files[0].1, dpi);
+        assert_eq!(runs.len(), 1);
+        assert!(
+            (plain[0] - runs[0] - 0.4).abs() <= 0.011,
+            "{plain:?} -> {runs:?}"
+        );
+        // Two-sided: each side etches half the depth, 0.1 mm undercut: a 1.8 mm opening.
+        let (files, r) = mask_files(
+            &geom,
+            &cfg,
+            Some(Etch {
+                two_sided: true,
+                ..etch
+            }),
+        )
+        .unwrap();
+        assert!((r.undercut_compensation_mm - 0.1).abs() < 1e-12);
+        assert!((plain[0] - runs_mm(&files[0].1, dpi)[0] - 0.2).abs() <= 0.011);
+    }
+
+    #[test]
+    fn an_opening_the_compensation_would_close_is_reported() {
+        // Slots of 0.3 mm and 2 mm; 0.2 mm undercut per side closes the first (0.3 < 0.4).
+        let geom = slots(&[3, 20]);
+        let etch = Etch {
+            thickness_mm: 0.5,
+            etch_factor: 2.5,
+            two_sided: false,
+        };
+        let (_, r) = mask_files(&geom, &MaskConfig::default(), Some(etch)).unwrap();
+        assert_eq!(r.openings_closed, 1);
+    }
+
+    #[test]
+    fn two_sided_art_is_a_front_and_its_mirror_image() {
+        // An asymmetric picture: slots of 1 mm and 3 mm.
+        let geom = slots(&[10, 30]);
+        let etch = Etch {
+            thickness_mm: 0.3,
+            etch_factor: 2.5,
+            two_sided: true,
+        };
+        let cfg = MaskConfig {
+            dpi: 254.0,
+            ..Default::default()
+        };
+        let (files, r) = mask_files(&geom, &cfg, Some(etch)).unwrap();
+        let names: Vec<&str> = files.iter().map(|f| f.0.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "mask-front.png",
+                "mask-front.svg",
+                "mask-back.png",
+                "mask-back.svg"
+            ]
+        );
+        assert_eq!(
+            r.masks.iter().map(|m| m.mirrored).collect::<Vec<_>>(),
+            [false, true]
+        );
+        let front = image::load_from_memory(&files[0].1).unwrap().to_luma8();
+        let back = image::load_from_memory(&files[2].1).unwrap().to_luma8();
+        let flipped = image::imageops::flip_horizontal(&back);
+        assert_eq!(
+            front.as_raw(),
+            flipped.as_raw(),
+            "registered: the back is the mirror"
+        );
+        assert!(r.polarity.starts_with("black where metal stays"));
+        assert_eq!(r.dpi, 254.0);
+    }
+
+    #[test]
+    fn a_mostly_clear_mask_warns_unless_the_tones_were_swapped() {
+        // Nearly the whole picture cut (a wide slot).
+        let geom = slots(&[95]);
+        let (_, r) = mask_files(&geom, &MaskConfig::default(), None).unwrap();
+        assert!(r.clear_pct < 50.0 && r.warning.is_none(), "{r:?}");
+        let g = BitGrid::from_fn(200, 200, |x, y| {
+            !((10..190).contains(&x) && (10..190).contains(&y))
+        });
+        let (geom, _) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
+        let (_, r) = mask_files(&geom, &MaskConfig::default(), None).unwrap();
+        assert!(r.clear_pct > 75.0 && r.warning.is_some(), "{r:?}");
+        let swapped = MaskConfig {
+            tone_inverted: true,
+            ..Default::default()
+        };
+        assert!(mask_files(&geom, &swapped, None)
+            .unwrap()
+            .1
+            .warning
+            .is_none());
     }
 }

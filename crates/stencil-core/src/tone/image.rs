@@ -121,6 +121,24 @@ fn oriented(g: Gray, o: Orientation) -> Gray {
     }
 }
 
+/// The picture's size in pixels as shown (after its EXIF orientation), from its header alone
+/// (nothing is decoded): what `make` decides the size on the sheet by before any work (see
+/// `crate::fit`).
+pub fn picture_size(path: &Path) -> Result<(u32, u32), ToneError> {
+    let (reader, _) = open_picture(path)?;
+    let mut decoder = reader.into_decoder().map_err(|e| decode_error(path, e))?;
+    let (w, h) = decoder.dimensions();
+    Ok(
+        match decoder.orientation().unwrap_or(Orientation::NoTransforms) {
+            Orientation::Rotate90
+            | Orientation::Rotate270
+            | Orientation::Rotate90FlipH
+            | Orientation::Rotate270FlipH => (h, w),
+            _ => (w, h),
+        },
+    )
+}
+
 /// The file opened with its format guessed from its first bytes, if it is one stencil reads
 /// (PNG, JPEG, BMP, TIFF), and the decoder's allocations capped at [`limits::MAX_DECODE_BYTES`].
 fn open_picture(

@@ -8,7 +8,7 @@ pub(crate) mod regularize;
 pub(crate) mod resolution;
 
 pub use filter::{FilterConfig, FilterStats};
-pub use image::{load_gray, orientation_note};
+pub use image::{load_gray, orientation_note, picture_size};
 pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
