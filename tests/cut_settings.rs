@@ -299,6 +299,13 @@ fn profiles_lists_machines_and_which_materials_cut_on_which() {
     };
     assert!(machine("diode-400").contains("diode laser 5.5 W"));
     assert!(machine("co2-600x400").contains("CO2 laser 40 W"));
+    // A machine row's second word is its bed, so scripts that pick materials by a process name
+    // in the second column do not take a pen plotter for a material.
+    for name in ["pen-a3", "drag-knife", "diode-400"] {
+        let row = machine(name);
+        let second = row.split_whitespace().nth(1).unwrap_or("");
+        assert!(second.parse::<f64>().is_ok(), "{row}");
+    }
     // The matrix: header of machine names, then a row per cutting material.
     let header = list
         .lines()

@@ -317,16 +317,19 @@ fn settings_text(m: &Material) -> String {
 fn list_profiles() -> anyhow::Result<ExitCode> {
     let user = UserSettings::load()?;
     let mut machines = Vec::new();
-    println!("{:<20} {:<26} {:>13}  origin", "machine", "kind", "bed");
+    // The kind comes last: a machine row's second word is its bed, never a process name, so a
+    // script that picks material rows by their second column (`laser`, `pen`, ...) as
+    // `../shared/tools/corpus.py` does cannot take `pen-a3` for a material.
+    println!("{:<20} {:>13}  {:<12} kind", "machine", "bed", "origin");
     for name in stencil_io::profile::known_names("machines", stencil_gcode::machine::SHIPPED) {
         match stencil_gcode::machine::load(Some(&name)) {
             Ok(m) => {
                 println!(
-                    "{:<20} {:<26} {:>13}  {}",
+                    "{:<20} {:>13}  {:<12} {}",
                     m.name,
-                    m.kind().to_string(),
                     format!("{} x {} mm", m.bed.width_mm, m.bed.height_mm),
-                    m.bed.origin.name()
+                    m.bed.origin.name(),
+                    m.kind()
                 );
                 machines.push(m);
             }
