@@ -19,8 +19,8 @@ use stencil_grbl::stream::{
 use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-#[path = "common/job.rs"]
+use crate::common;
+#[path = "../common/job.rs"]
 mod common_job;
 
 fn cfg() -> StreamConfig {
