@@ -1,6 +1,5 @@
 //! Bad input gives one clear line naming the file and the problem, a non-zero exit, and no output.
 
-
 use std::path::Path;
 
 use crate::common::*;

@@ -6,7 +6,6 @@
 //! Two pictures of the corpus (`samples/`): the Grace Hopper photograph at 250 mm (supersampled,
 //! over a hundred bridges) and the drawn target.
 
-
 use crate::common::*;
 use std::path::Path;
 

@@ -6,7 +6,6 @@
 //! ink (cut) from 40 to 160 px holding a square island from 80 to 120 px: 4 mm of cut on every
 //! side of the island.
 
-
 use crate::common::*;
 use std::path::Path;
 

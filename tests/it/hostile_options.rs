@@ -3,7 +3,6 @@
 //! Each is refused with a non-zero exit (not a signal: no abort), no panic, and a message that
 //! names the file or option and what to do. Inputs are made here, small.
 
-
 use std::path::Path;
 use std::process::Output;
 use std::sync::{Arc, Mutex};

@@ -4,7 +4,6 @@
 //! here: the inputs are sized so that the old quadratic steps would take minutes (measured in the
 //! commits), while the fixed ones take well under a second each.
 
-
 use std::path::{Path, PathBuf};
 use std::process::Output;
 

@@ -1,7 +1,6 @@
 //! Photo-etch masks as shops want them (issue 28, item 2): the console and report.json state
 //! every mask's polarity, mirroring and dpi; a two-sided etch writes a front and a back.
 
-
 use crate::common::{stderr, stencil};
 
 #[test]

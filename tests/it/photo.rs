@@ -3,7 +3,6 @@
 //! sheet must be one 4-connected piece, `stencil check` on the folder must pass with the same
 //! material, the G-code must be written, and the fidelity figures must add up.
 
-
 use crate::common::*;
 
 fn make_photo(material: &str, extra: &[&str]) {

@@ -1,7 +1,6 @@
 //! Property: whatever the picture, the stencil is one 4-connected sheet joined to the frame, and it
 //! differs from the two-tone only where cut became material.
 
-
 use crate::common::*;
 use proptest::prelude::*;
 

@@ -2,7 +2,6 @@
 //! supersampled automatically, so the cut follows the picture rather than its pixel staircase;
 //! `--scale` overrides; the picture keeps its size in mm at any working scale.
 
-
 use std::path::Path;
 
 use crate::common::*;

@@ -3,7 +3,6 @@
 //! refused over inputs and over what is not a file; FIFOs, devices and huge files refused at once;
 //! received folders naming materials, never files. Every check reads the files a person would.
 
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
