@@ -12,8 +12,7 @@ use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 use crate::common::faulty;
-#[path = "../common/job.rs"]
-mod common_job;
+use crate::common_job;
 use common_job::job_text_scaled;
 
 /// The standard test job (~270 lines).

@@ -20,8 +20,7 @@ use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 use crate::common;
-#[path = "../common/job.rs"]
-mod common_job;
+use crate::common_job;
 
 fn cfg() -> StreamConfig {
     StreamConfig {

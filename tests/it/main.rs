@@ -8,8 +8,8 @@
 //! - `tests/it/main.rs` (this file) declares one module per former test file, in alphabetical
 //!   order; `tests/it/NAME.rs` is what `tests/NAME.rs` was, except that it reaches the helpers
 //!   through `use crate::common::…` instead of declaring `mod common;` itself.
-//! - `tests/common/` holds the shared helpers, declared once here as `crate::common`;
-//!   `tests/common/job.rs` is included by the files that need it with `#[path]`.
+//! - `tests/common/` holds the shared helpers, declared once here as `crate::common` and
+//!   `crate::common_job` (`tests/common/job.rs`; a file may be a module only once).
 //! - A proptest regressions file sits beside its module (`tests/it/NAME.proptest-regressions`).
 //! - Fixtures are found from `CARGO_MANIFEST_DIR` (`tests/fixtures/...`), not relative to a file.
 //!
@@ -20,6 +20,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[path = "../common/job.rs"]
+mod common_job;
 
 mod architecture;
 mod bad_input;

@@ -237,8 +237,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
 
 // ---- every stop path: laser and air off -------------------------------------------------------
 
-#[path = "../common/job.rs"]
-mod common_job;
+use crate::common_job;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Sender};
