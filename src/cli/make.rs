@@ -14,7 +14,7 @@ use stencil_core::report::Fidelity;
 use stencil_core::tone::{FilterConfig, ScaleCap, Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
-use super::material::{EmitKind, PhysicalArgs};
+use super::material::{EmitKind, OutputArgs, PhysicalArgs};
 use super::mesh::MeshArgs;
 use super::progress::StageBar;
 
@@ -93,7 +93,7 @@ fn parse_weight(s: &str) -> Result<f64, String> {
 
 /// Two-tone options for pictures.
 #[derive(Args, Debug, Clone)]
-#[command(next_help_heading = "Two-tone (pictures)")]
+#[command(next_help_heading = "Picture")]
 pub struct ImageArgs {
     /// Level at and above which a pixel is light (material): 0..255, a fraction such as 0.5 of full
     /// intensity, or 'otsu' to pick it from the histogram. Applies to pictures and rendered meshes.
@@ -245,6 +245,9 @@ impl BridgeArgs {
     }
 }
 
+/// `make --help`'s first heading: what is read and where the files go.
+const INPUT_HEADING: &str = "Input and output folder";
+
 #[derive(Args, Debug)]
 #[command(after_help = "\
 Example:
@@ -258,22 +261,26 @@ Example:
   also writes stencil.gcode for a GRBL 1.1 laser and prints its time estimate.")]
 pub struct MakeArgs {
     /// The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ) to make a stencil from.
+    #[arg(help_heading = INPUT_HEADING)]
     pub input: PathBuf,
     /// Output folder [default: out/<input stem>/]. Its stencil files are replaced all at once; a
     /// run that fails moves the earlier run's files into previous/ in it, so that they are not
     /// taken for this run's result. Your own files in it are left alone.
-    #[arg(short, long)]
+    #[arg(short, long, help_heading = INPUT_HEADING)]
     pub out: Option<PathBuf>,
+    // `--help` shows the headings in the order of these fields: the common options first.
+    #[command(flatten)]
+    pub physical: PhysicalArgs,
     #[command(flatten)]
     pub image: ImageArgs,
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    #[command(flatten)]
     pub filter: FilterArgs,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
     #[command(flatten)]
     pub bridge: BridgeArgs,
     #[command(flatten)]
-    pub physical: PhysicalArgs,
+    pub output: OutputArgs,
     #[command(flatten)]
     pub machine: MachineArgs,
     #[command(flatten)]
@@ -374,13 +381,13 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
 /// (the first bad one is the one reported). Without --material, a G-code job gets a material set
 /// up for the machine's tool.
 pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
-    let emit_gcode = a.physical.emit.contains(&EmitKind::Gcode);
+    let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
     let default_material = if emit_gcode {
         stencil_core::material::default_for(&a.machine.machine()?.tool)
     } else {
         stencil_core::material::DEFAULT_MATERIAL
     };
-    let mut physical = a.physical.to_config(default_material)?;
+    let mut physical = a.physical.to_config(&a.output, default_material)?;
     physical.mask.tone_inverted = a.image.invert;
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
@@ -443,7 +450,7 @@ fn fit_size(
     let Ok(px) = stencil_core::tone::picture_size(&a.input) else {
         return Ok(());
     };
-    let marks = a.physical.mask_marks && a.physical.emit.contains(&EmitKind::Mask);
+    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
     let req = FitRequest {
         picture_px: px,
         size: physical.size,

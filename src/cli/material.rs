@@ -28,9 +28,9 @@ pub enum EmitKind {
     Gcode,
 }
 
-/// Physical size, material and outputs.
+/// Physical size and material, and how far the stencil may stray from them.
 #[derive(Args, Debug, Clone)]
-#[command(next_help_heading = "Size, material and outputs")]
+#[command(next_help_heading = "Size and material")]
 pub struct PhysicalArgs {
     /// Width of the picture on the sheet in mm (the height follows). Without it and without
     /// --dpi, one pixel of the picture is 0.1 mm (whatever --scale does to the working pixels).
@@ -64,9 +64,6 @@ pub struct PhysicalArgs {
     /// something is cut or marked there (--cut-outline, --mask-marks, a --sheet's edge).
     #[arg(long, default_value_t = 5.0, value_parser = super::bounds::margin_mm)]
     pub margin_mm: f64,
-    /// Files to write, comma separated (report.json is always written).
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "png,svg")]
-    pub emit: Vec<EmitKind>,
     /// Write the outputs even if bridges, webs or holes are thinner than the material allows
     /// (the violations are still listed in report.json).
     #[arg(long)]
@@ -75,6 +72,16 @@ pub struct PhysicalArgs {
     /// picture's pixels (the `changed` figure `make` prints; 0..100).
     #[arg(long, value_name = "PCT", value_parser = parse_percent)]
     pub max_change: Option<f64>,
+}
+
+/// The files `make` writes, and the photo-etch mask's form. A heading of their own after the
+/// bridges, so `make --help` reads from the common options to the rare ones (issue 25 item 8).
+#[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Outputs")]
+pub struct OutputArgs {
+    /// Files to write, comma separated (report.json is always written).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "png,svg")]
+    pub emit: Vec<EmitKind>,
     /// Write DXF R12 (POLYLINE/VERTEX/SEQEND) instead of R2000 LWPOLYLINEs, for old software.
     #[arg(long)]
     pub dxf_r12: bool,
@@ -111,15 +118,20 @@ pub(super) fn size(width_mm: Option<f64>, dpi: Option<f64>) -> Size {
 }
 
 impl PhysicalArgs {
-    /// The configuration, with `default_material` when --material is not given.
-    pub fn to_config(&self, default_material: &str) -> anyhow::Result<PhysicalConfig> {
+    /// The configuration, with the outputs `out` and `default_material` when --material is not
+    /// given.
+    pub fn to_config(
+        &self,
+        out: &OutputArgs,
+        default_material: &str,
+    ) -> anyhow::Result<PhysicalConfig> {
         // A named material is looked up (a path, ./profiles/materials/, shipped); without one the
         // shipped default, so the output does not depend on the folder the run starts in.
         let (material, source) = match self.material.as_deref() {
             Some(name) => Material::find(name)?,
             None => Material::find_default(default_material)?,
         };
-        let has = |k: EmitKind| self.emit.contains(&k);
+        let has = |k: EmitKind| out.emit.contains(&k);
         Ok(PhysicalConfig {
             size: size(self.width_mm, self.dpi),
             material,
@@ -138,14 +150,14 @@ impl PhysicalArgs {
                 mask: has(EmitKind::Mask),
             },
             mask: MaskConfig {
-                dpi: self.mask_dpi,
-                invert: self.mask_invert,
-                mirror: self.mask_mirror,
-                marks: self.mask_marks,
+                dpi: out.mask_dpi,
+                invert: out.mask_invert,
+                mirror: out.mask_mirror,
+                marks: out.mask_marks,
                 // Set by `make` from --invert.
                 tone_inverted: false,
             },
-            dxf_r12: self.dxf_r12,
+            dxf_r12: out.dxf_r12,
         })
     }
 }

@@ -923,7 +923,7 @@ pub struct Traced {
     pub fidelity: Fidelity,
 }
 
-/// Stage 6: trace and check (see [`trace_and_repair`]), recount each bridge's pixels and measure
+/// Stage 6: trace and check (see `trace_and_repair`), recount each bridge's pixels and measure
 /// the fidelity on the stencil as it will be written. `bridged` becomes the stencil as it will be
 /// written (the neck repairs, each bridge's pixels recounted); `twotone` is what the bridges were
 /// drawn into, `picture` the thresholded picture before the clean-up.

@@ -26,7 +26,7 @@ function buildControls() {
     if (o.name === "threshold") continue; // the slider above
     (groups[o.group] = groups[o.group] || []).push(o);
   }
-  const order = ["Two-tone (pictures)", "Size and material", "Bridges", "Mesh", "Clean-up"];
+  const order = ["Size and material", "Picture", "Clean-up", "Mesh", "Bridges", "Outputs"];
   const names = Object.keys(groups).sort((a, b) => {
     const ia = order.findIndex((p) => a.startsWith(p.split(" ")[0])), ib = order.findIndex((p) => b.startsWith(p.split(" ")[0]));
     return (ia < 0 ? 99 : ia) - (ib < 0 ? 99 : ib);
@@ -35,7 +35,7 @@ function buildControls() {
   root.innerHTML = "";
   for (const g of names) {
     const d = document.createElement("details");
-    d.open = /two-tone|bridge|size|material|mesh/i.test(g);
+    d.open = /picture|bridge|size|material|mesh/i.test(g);
     d.innerHTML = "<summary></summary>";
     d.firstChild.textContent = g;
     for (const o of groups[g]) {

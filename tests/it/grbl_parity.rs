@@ -17,8 +17,7 @@ use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{self as gcode, Modal};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-use common::read_until;
+use crate::common::read_until;
 
 /// (setup lines, the line, Grbl 1.1h's answer, the rule).
 type Case = (&'static str, &'static str, &'static str, &'static str);

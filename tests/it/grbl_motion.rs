@@ -10,8 +10,7 @@ use stencil_gcode::machine;
 use stencil_grbl::frame::cut_extent;
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-use common::read_until;
+use crate::common::read_until;
 
 fn last_to(p: &str) -> [f64; 3] {
     interpret(p).unwrap().last().unwrap().to

@@ -3,9 +3,7 @@
 //! `--bridges-per-island N` gives every island N spread apart. Bridges are found on stencil.png
 //! (pixels the bridges added, where they touch the island), the numbers in report.json.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use stencil_core::islands::{self, CUT};
 use stencil_core::raster::BitGrid;
 

@@ -2,9 +2,7 @@
 //! the material's range at both, read from report.json and measured on stencil.png, and the
 //! outputs pass `stencil check`.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use stencil_core::material::Material;
 use stencil_core::raster::BitGrid;
 

@@ -1,9 +1,7 @@
 //! End-to-end tests of `stencil make` on pictures: run the binary, read the PNGs back, check the
 //! stencil as a user would (one 4-connected sheet, only cut turned to material).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 
 fn make_ok(input: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec!["make", s(input), "-o", s(out)];

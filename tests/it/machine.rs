@@ -11,10 +11,8 @@ use stencil_grbl::stream::{
 use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-use common::faulty;
-#[path = "common/job.rs"]
-mod common_job;
+use crate::common::faulty;
+use crate::common_job;
 use common_job::job_text_scaled;
 
 /// The standard test job (~270 lines).

@@ -10,7 +10,7 @@ use stencil_core::tone::mesh::{
     self, render_mesh, LineMode, Mesh, MeshConfig, RenderSize, Rendering,
 };
 
-#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+#[path = "../../crates/stencil-core/tests/support/shapes.rs"]
 mod shapes;
 
 fn cfg(lines: LineMode) -> MeshConfig {

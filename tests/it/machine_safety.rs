@@ -19,9 +19,8 @@ use stencil_grbl::stream::{
 use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-#[path = "common/job.rs"]
-mod common_job;
+use crate::common;
+use crate::common_job;
 
 fn cfg() -> StreamConfig {
     StreamConfig {

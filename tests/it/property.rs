@@ -1,9 +1,7 @@
 //! Property: whatever the picture, the stencil is one 4-connected sheet joined to the frame, and it
 //! differs from the two-tone only where cut became material.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use proptest::prelude::*;
 
 /// A random picture: blobs with holes, rings, noise of a given density, text-like strokes, or a

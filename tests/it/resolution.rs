@@ -2,11 +2,9 @@
 //! supersampled automatically, so the cut follows the picture rather than its pixel staircase;
 //! `--scale` overrides; the picture keeps its size in mm at any working scale.
 
-mod common;
-
 use std::path::Path;
 
-use common::*;
+use crate::common::*;
 
 /// 320 px across at 200 mm: 0.625 mm per input pixel.
 const SIDE: u32 = 320;

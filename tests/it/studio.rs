@@ -10,8 +10,7 @@ use std::process::{Child, Command, Stdio};
 
 use serde_json::{json, Value};
 
-mod common;
-use common::{make_as_shown, same_outputs};
+use crate::common::{make_as_shown, same_outputs};
 
 /// A running `stencil studio`, stopped when dropped.
 struct Studio {

@@ -2,7 +2,7 @@
 //! of the cutting moves and comes back, the beam is off (or dim in M4, per the profile) while it
 //! does and off after, the tool stays up for pen and knife, and every stop path ends dark.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 use std::sync::mpsc::channel;

@@ -3,13 +3,11 @@
 //! Each is refused with a non-zero exit (not a signal: no abort), no panic, and a message that
 //! names the file or option and what to do. Inputs are made here, small.
 
-mod common;
-
 use std::path::Path;
 use std::process::Output;
 use std::sync::{Arc, Mutex};
 
-use common::*;
+use crate::common::*;
 
 /// The run failed by exiting (not killed by a signal, as an abort would be), without a panic, and
 /// its message holds every needle. Returns stderr.

@@ -9,8 +9,7 @@ use stencil_grbl::stream::{send, MachineError, Program, Quiet, ResumeLift, Strea
 use stencil_grbl::virtual_grbl::{FaultKind, PlannedMove, Record};
 use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
-mod common;
-use common::faulty;
+use crate::common::faulty;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
 use stencil_gcode::CutLoops;
 use stencil_gcode::{gcode_for, CutSettings, PlanConfig};
@@ -238,8 +237,7 @@ fn resume_lifts_travels_then_plunges_for_pen_knife_and_servo() {
 
 // ---- every stop path: laser and air off -------------------------------------------------------
 
-#[path = "common/job.rs"]
-mod common_job;
+use crate::common_job;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Sender};

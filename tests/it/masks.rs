@@ -1,9 +1,7 @@
 //! Photo-etch masks as shops want them (issue 28, item 2): the console and report.json state
 //! every mask's polarity, mirroring and dpi; a two-sided etch writes a front and a back.
 
-mod common;
-
-use common::{stderr, stencil};
+use crate::common::{stderr, stencil};
 
 #[test]
 fn the_report_and_the_console_say_what_each_mask_is() {

@@ -6,9 +6,7 @@
 //! Two pictures of the corpus (`samples/`): the Grace Hopper photograph at 250 mm (supersampled,
 //! over a hundred bridges) and the drawn target.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// How far a bridge's centre may drift and still count as the same place, in picture pixels.

@@ -3,9 +3,7 @@
 //! resolved (gone, or at least the minimum wide), the others keep their width within one pixel,
 //! and `make` passes its own width check (it fails the run otherwise: no `--allow-thin`).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 
 const FACTORS: [f64; 6] = [0.5, 0.9, 1.0, 1.2, 1.6, 3.0];
 /// Height of the blocks of the other tone around each line, in pixels.

@@ -12,8 +12,7 @@ use stencil_grbl::stream::console::Console;
 use stencil_grbl::stream::{Observer, StreamConfig};
 use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl};
 
-mod common;
-use common::faulty;
+use crate::common::faulty;
 
 #[derive(Default)]
 struct Log(Vec<String>);

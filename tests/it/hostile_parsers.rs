@@ -4,12 +4,10 @@
 //! here: the inputs are sized so that the old quadratic steps would take minutes (measured in the
 //! commits), while the fixed ones take well under a second each.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::{stderr, stencil};
+use crate::common::{stderr, stencil};
 
 /// A run that must fail cleanly: non-zero exit, no panic, one short message holding every needle.
 fn refused(o: &Output, needles: &[&str]) -> String {

@@ -16,8 +16,7 @@ use std::time::{Duration, Instant};
 use fantoccini::{Client, ClientBuilder, Locator};
 use serde_json::{json, Value};
 
-mod common;
-use common::{make_as_shown, same_outputs};
+use crate::common::{make_as_shown, same_outputs};
 
 /// A child process killed when dropped.
 struct Killed(Child);

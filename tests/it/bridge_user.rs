@@ -6,9 +6,7 @@
 //! ink (cut) from 40 to 160 px holding a square island from 80 to 120 px: 4 mm of cut on every
 //! side of the island.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 const N: u32 = 200;

@@ -3,8 +3,7 @@
 //! material added after the two-tone (stencil.png minus twotone.png). They used to be counted when
 //! the bridges were drawn, before the clean-up settled them into the picture.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// `make` on `input` with `extra`, then the report's bridges against the PNGs. Returns the pixels
 /// of added material found away from every bridge.

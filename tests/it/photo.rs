@@ -3,9 +3,7 @@
 //! sheet must be one 4-connected piece, `stencil check` on the folder must pass with the same
 //! material, the G-code must be written, and the fidelity figures must add up.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 
 fn make_photo(material: &str, extra: &[&str]) {
     let dir = tmp();

@@ -3,7 +3,7 @@
 //! assist, and the bed check on send, estimate and simulate. Every test runs the `stencil` binary
 //! or reads the files it writes.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,10 +1,10 @@
 //! A size that fits, decided from the picture's header before the work (issue 28, item 3).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 
-use common::{stderr, stencil};
+use crate::common::{stderr, stencil};
 
 /// A gray PNG `w` x `h` of vertical stripes 50 px wide; with `garbage` its pixel data is not
 /// deflate at all (a decoder refuses it, but the header is sound).

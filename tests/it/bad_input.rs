@@ -1,10 +1,8 @@
 //! Bad input gives one clear line naming the file and the problem, a non-zero exit, and no output.
 
-mod common;
-
 use std::path::Path;
 
-use common::*;
+use crate::common::*;
 
 /// Run make on `input` into a fresh folder; assert failure, a one-line message containing every
 /// `needle`, and that nothing was written.

@@ -3,13 +3,11 @@
 //! refused over inputs and over what is not a file; FIFOs, devices and huge files refused at once;
 //! received folders naming materials, never files. Every check reads the files a person would.
 
-mod common;
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use common::{files_in, ink_png, s, stderr, stencil, tmp};
+use crate::common::{files_in, ink_png, s, stderr, stencil, tmp};
 
 const OWNED: &[&str] = stencil_core::pipeline::OUTPUT_NAMES;
 
