@@ -84,7 +84,16 @@ function showParams(p) {
     el.classList.remove("bad");
     if (o.kind === "flag") el.checked = v === "true";
     else if (o.kind === "list") el.value = (v || []).join("; ");
-    else el.value = (v === o.default.join(",")) ? "" : v;
+    else {
+      const shown = (v === o.default.join(",")) ? "" : v;
+      // A profile given by path (or one added since the page loaded) joins the list.
+      if (el.tagName === "SELECT" && shown && ![...el.options].some((op) => op.value === shown)) {
+        const op = document.createElement("option");
+        op.value = shown; op.textContent = shown;
+        el.appendChild(op);
+      }
+      el.value = shown;
+    }
   }
 }
 
