@@ -47,6 +47,37 @@ fn mesh(path: PathBuf) -> MakeConfig {
     }
 }
 
+/// CPU milliseconds (user + system, every thread) this process has used, from /proc/self/stat
+/// (clock ticks of 10 ms): on a machine shared with other builds wall time says more about
+/// them than about us, so each latency is also printed as CPU time per change, which the other
+/// builds do not inflate (on an idle 2-core machine the wall time is between half of it and all
+/// of it).
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command's closing parenthesis: state is field 3, utime 14, stime 15.
+    let rest = stat.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .map(|x| x.parse().unwrap_or(0.0))
+        .collect();
+    if f.len() < 13 {
+        return f64::NAN;
+    }
+    (f[11] + f[12]) * 10.0
+}
+
+/// Print the CPU time per call of `f` over `n` calls.
+fn cpu_per(name: &str, n: usize, mut f: impl FnMut()) {
+    let t0 = cpu_ms();
+    for _ in 0..n {
+        f();
+    }
+    println!(
+        "{name}: cpu {:.1} ms per change",
+        (cpu_ms() - t0) / n as f64
+    );
+}
+
 /// Time `change(cfg, flip)` then the engine and the preview, alternating `flip`.
 fn latency(
     g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
@@ -68,6 +99,12 @@ fn latency(
             c.image("preview").expect("the preview")
         })
     });
+    cpu_per(name, 20, || {
+        flip = !flip;
+        change(&mut cfg, flip);
+        let c = engine.run(&cfg, &never).expect("a stencil");
+        c.image("preview").expect("the preview");
+    });
     change(&mut cfg, !flip);
     let c = engine.run(&cfg, &never).expect("a stencil");
     println!("{name}: a change re-ran {:?}", c.ran);
@@ -79,6 +116,9 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     let p = photo();
     g.bench_function("make_photo_1mp", |b| b.iter(|| run(&p).expect("a stencil")));
+    cpu_per("make_photo_1mp", 5, || {
+        run(&p).expect("a stencil");
+    });
     latency(&mut g, "photo_1mp_bridge_weight", &p, |c, f| {
         c.bridge.w_length = if f { 1.25 } else { 1.0 }
     });
@@ -94,6 +134,9 @@ fn bench(c: &mut Criterion) {
     let mc = mesh(path);
     g.bench_function("make_mesh_200k_1mp", |b| {
         b.iter(|| run(&mc).expect("a stencil"))
+    });
+    cpu_per("make_mesh_200k_1mp", 5, || {
+        run(&mc).expect("a stencil");
     });
     latency(&mut g, "mesh_200k_1mp_light", &mc, |c, f| {
         c.mesh.light = if f { [1.0, 1.0, 2.0] } else { [-1.0, 1.0, 2.0] }

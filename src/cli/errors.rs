@@ -409,6 +409,12 @@ fn mesh_setting(s: &MeshSetting) -> String {
         MeshSetting::Specular(v) => {
             format!("--specular: {v} is out of range: use 0 (matte) to 10")
         }
+        MeshSetting::Ambient(v) => {
+            format!("--ambient: {v} is out of range: use 0 (none) up to but not including 1")
+        }
+        MeshSetting::Fill(v) => {
+            format!("--fill: {v} is out of range: use 0 (none) to 1 (as strong as the key light)")
+        }
         MeshSetting::Shininess(v) => format!("--shininess: {v} is out of range: use 1 to 10000"),
         MeshSetting::LinePx(v) => {
             format!("--line-px: {v} is out of range: use 0.5 to 64 pixels")

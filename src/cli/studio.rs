@@ -62,6 +62,13 @@ impl stencil_studio::Maker for CliMaker {
                     ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
                     _ => Kind::Value,
                 };
+                let choices = profile_choices(&name).unwrap_or_else(|| {
+                    a.get_possible_values()
+                        .iter()
+                        .filter(|v| !v.is_hide_set())
+                        .map(|v| v.get_name().to_string())
+                        .collect()
+                });
                 Some(OptionSpec {
                     name,
                     kind,
@@ -73,12 +80,7 @@ impl stencil_studio::Maker for CliMaker {
                             .map(|v| v.to_string_lossy().into_owned())
                             .collect()
                     },
-                    choices: a
-                        .get_possible_values()
-                        .iter()
-                        .filter(|v| !v.is_hide_set())
-                        .map(|v| v.get_name().to_string())
-                        .collect(),
+                    choices,
                     group: a.get_help_heading().unwrap_or("Output").to_string(),
                     help: a.get_help().map(|h| h.to_string()).unwrap_or_default(),
                 })
@@ -100,6 +102,24 @@ impl stencil_studio::Maker for CliMaker {
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
         super::errors::one_line(&make_error(cfg, e))
+    }
+}
+
+/// The page offers a material and a machine as lists: the shipped profiles and the user's own
+/// (`.toml` files in the profile folders), as `stencil materials` / `stencil machines` list them.
+/// A profile file given by path on the command line still works: the page adds the value it is
+/// shown to the list.
+fn profile_choices(name: &str) -> Option<Vec<String>> {
+    match name {
+        "material" => Some(stencil_io::profile::known_names(
+            "materials",
+            stencil_core::material::SHIPPED,
+        )),
+        "machine" => Some(stencil_io::profile::known_names(
+            "machines",
+            stencil_gcode::machine::SHIPPED,
+        )),
+        _ => None,
     }
 }
 

@@ -245,6 +245,42 @@ fn a_change_re_runs_only_the_stages_after_it() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// A mesh: a light change re-lights the kept view (no raster), a view change draws again, and
+/// what the studio then exports is what `make` writes with the command line it shows.
+#[test]
+fn a_mesh_light_change_re_lights_the_kept_view() {
+    let out = tmp("mesh");
+    let st = Studio::start(
+        "samples/torus.obj",
+        &out,
+        &["--size", "300", "--supersample", "1", "--emit", "png,svg"],
+    );
+    let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(s0["ran"][0], "load");
+    let from_light = json!(["light", "gray", "threshold", "clean", "join", "trace"]);
+    let s = st.ok("POST", "/api/params", json!({"light": "-45,30"}));
+    assert_eq!(s["ran"], from_light);
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"ambient": "0.3", "fill": "0.4"}),
+    );
+    assert_eq!(s["ran"], from_light);
+    let s = st.ok("POST", "/api/params", json!({"view": "side"}));
+    assert_eq!(s["ran"][0], "draw", "{}", s["ran"]);
+    let s = st.ok("POST", "/api/params", json!({"light": "60,10"}));
+    assert_eq!(s["ran"], from_light);
+    let state = st.ok("GET", "/api/state?wait=1", json!(null));
+    let command = state["command"].as_str().unwrap().to_string();
+    let (code, e) = st.json("POST", "/api/export", json!(null));
+    assert_eq!(code, 200, "{e}");
+    let made = tmp("mesh-make");
+    make_as_shown(&command, &made);
+    same_outputs(&out, &made, &command);
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&made);
+}
+
 /// A small deterministic generator (xorshift), so a failing sequence can be replayed by seed.
 struct Rng(u64);
 impl Rng {

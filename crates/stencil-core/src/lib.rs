@@ -22,9 +22,24 @@
 //!   [`pipeline::Made`], and [`Error`] (every error they return, as data: values and ranges,
 //!   no option names; the `stencil` binary words them). Around them: [`pipeline::clean_two_tone`]
 //!   (`stencil tone`), [`pipeline::default_out_dir`], [`pipeline::OUTPUT_NAMES`].
+//! - The pipeline as one resolve step and a list of stages, for a caller that keeps each stage's
+//!   output and re-runs from the first whose inputs changed (`stencil studio`'s engine):
+//!   [`pipeline::SourceParams`] (what loading and drawing need) → [`pipeline::load`] →
+//!   [`pipeline::draw`] (a mesh's view, before it is lit) → [`pipeline::light`] (together
+//!   [`pipeline::render`]) → [`pipeline::resolve`] (the rest of the request as
+//!   [`pipeline::StageParams`]: pixels, no millimetres, no paths) → [`pipeline::working_gray`] →
+//!   [`pipeline::threshold`] → [`pipeline::clean`] → [`pipeline::join`] → [`pipeline::trace`] →
+//!   [`pipeline::refuse`] / [`pipeline::gcode`] / [`pipeline::report`], and
+//!   [`pipeline::finish_from`] (make's end from kept outputs); the types between them
+//!   ([`pipeline::Input`], [`pipeline::Source`], [`pipeline::Cleaned`], [`pipeline::Joined`],
+//!   [`pipeline::Traced`]).
+//! - Sizing before any work: [`fit`] (a size that fits the machine's bed or the stock, decided
+//!   from the picture's header).
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
-//!   `stencil check` runs), [`tone::load_gray`], [`tone::mesh::load`] / [`tone::mesh::render`] /
-//!   [`tone::mesh::render_mesh`] / [`tone::mesh::two_tone`], [`islands::label`] /
+//!   `stencil check` runs), [`tone::load_gray`] / [`tone::picture_size`] /
+//!   [`tone::otsu_level`], [`tone::mesh::load`] / [`tone::mesh::render`] /
+//!   [`tone::mesh::render_mesh`] (= [`tone::mesh::draw`] of a [`tone::mesh::Prepared`] mesh,
+//!   then [`tone::mesh::light`]) / [`tone::mesh::two_tone`], [`islands::label`] /
 //!   [`islands::floating_count`], [`bridge::connect`] / [`bridge::connect_timed`],
 //!   [`vector::vectorize`] / [`vector::vectorize_design`], [`check::check`], and the PNG encoders
 //!   in [`export::png`].

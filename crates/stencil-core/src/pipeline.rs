@@ -364,12 +364,13 @@ impl SourceParams {
     }
 }
 
-/// The input as read: a picture's gray at its own resolution, or a mesh. Shared (`Arc`) so that
-/// the studio keeps it once and each run borrows it.
+/// The input as read: a picture's gray at its own resolution, or a mesh with what every view
+/// of it shares (its normals and curvature, see [`mesh::Prepared`]). Shared (`Arc`) so that the
+/// studio keeps it once and each run borrows it.
 #[derive(Clone, Debug)]
 pub enum Input {
     Picture(Arc<Gray>),
-    Mesh(Arc<mesh::Mesh>),
+    Mesh(Arc<mesh::Prepared>),
 }
 
 /// The input rendered: a picture is its own rendering; a mesh is drawn from its view and light.
@@ -396,23 +397,65 @@ pub fn load(input: &Path, p: &SourceParams) -> Result<Input, Error> {
         SourceParams::Picture { max_pixels } => {
             Input::Picture(Arc::new(load_gray(input, *max_pixels)?))
         }
-        SourceParams::Mesh(_) => {
-            Input::Mesh(Arc::new(mesh::load(input).map_err(tone::ToneError::from)?))
-        }
+        SourceParams::Mesh(_) => Input::Mesh(Arc::new(mesh::Prepared::new(
+            mesh::load(input).map_err(tone::ToneError::from)?,
+        ))),
     })
 }
 
-/// Stage 1: the mesh drawn from its view and light (a picture passes through).
+/// Stage 1: the mesh drawn from its view and light (a picture passes through): [`draw`] then
+/// [`light`].
 pub fn render(input: &Input, p: &SourceParams) -> Result<Source, Error> {
+    let drawn = draw(input, p)?;
+    light(input, drawn.as_deref(), p)
+}
+
+/// Stage 1a: a mesh's view before it is lit (raster, surfaces, lines); `None` for a picture.
+pub fn draw(input: &Input, p: &SourceParams) -> Result<Option<Arc<mesh::Drawn>>, Error> {
     Ok(match (input, p) {
-        (Input::Mesh(m), SourceParams::Mesh(cfg)) => Source::Mesh(Arc::new(
-            mesh::render_mesh(m, cfg).map_err(tone::ToneError::from)?,
-        )),
-        (Input::Picture(g), _) => Source::Picture(g.clone()),
+        (Input::Mesh(m), SourceParams::Mesh(cfg)) => {
+            Some(Arc::new(mesh::draw(m, cfg).map_err(tone::ToneError::from)?))
+        }
+        (Input::Picture(_), _) => None,
         (Input::Mesh(_), SourceParams::Picture { .. }) => {
             unreachable!("SourceParams::of gives a mesh its mesh settings")
         }
     })
+}
+
+/// Stage 1b: the drawn view lit (a picture passes through).
+pub fn light(
+    input: &Input,
+    drawn: Option<&mesh::Drawn>,
+    p: &SourceParams,
+) -> Result<Source, Error> {
+    Ok(match (input, drawn, p) {
+        (Input::Picture(g), _, _) => Source::Picture(g.clone()),
+        (Input::Mesh(_), Some(d), SourceParams::Mesh(cfg)) => {
+            Source::Mesh(Arc::new(mesh::light(d, cfg)))
+        }
+        (Input::Mesh(_), _, _) => {
+            unreachable!("a mesh is drawn with its mesh settings before it is lit")
+        }
+    })
+}
+
+impl SourceParams {
+    /// The part of a mesh's settings its [`draw`] reads: everything but the light (`None` for
+    /// a picture). Equal keys draw the same view, so the studio re-lights a kept one.
+    pub fn view_key(&self) -> Option<MeshConfig> {
+        match self {
+            SourceParams::Picture { .. } => None,
+            SourceParams::Mesh(m) => Some(MeshConfig {
+                light: [0.0; 3],
+                ambient: 0.0,
+                fill: 0.0,
+                specular: 0.0,
+                shininess: 1.0,
+                ..m.clone()
+            }),
+        }
+    }
 }
 
 /// The working resolution: how many times the picture was supersampled, and what a working pixel

@@ -45,8 +45,16 @@ type Kept<P, V> = Option<Slot<(u64, P), V>>;
 pub struct Engine {
     generations: u64,
     input: Option<Slot<Option<u64>, Input>>,
+    /// A mesh's view before it is lit, keyed by everything but the light: a light change
+    /// re-lights it (no raster, no lines).
+    drawn: Kept<
+        Option<stencil_core::tone::mesh::MeshConfig>,
+        Option<Arc<stencil_core::tone::mesh::Drawn>>,
+    >,
     source: Kept<SourceParams, Source>,
-    gray: Kept<u32, Arc<Gray>>,
+    /// The working gray and its Otsu level (the page marks it on the histogram): a full pass
+    /// over the picture, made once per gray rather than once per change.
+    gray: Kept<u32, Arc<(Gray, u8)>>,
     raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
     cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
     joined: Kept<pipeline::JoinParams, Arc<Joined>>,
@@ -59,8 +67,8 @@ pub struct Engine {
 pub struct Computed {
     pub cfg: MakeConfig,
     pub params: StageParams,
-    /// The working gray (what the threshold reads), and its Otsu level.
-    pub gray: Arc<Gray>,
+    /// The working gray (what the threshold reads) and its Otsu level (also in `otsu`).
+    pub gray: Arc<(Gray, u8)>,
     pub otsu: u8,
     pub cleaned: Arc<Cleaned>,
     /// After the bridges, before the trace's neck repairs.
@@ -130,20 +138,32 @@ impl Engine {
             pipeline::load(&cfg.input, &sp)
         })?;
         cancel()?;
+        let (dg, drawn) = step(
+            &mut self.drawn,
+            g,
+            &mut ran,
+            "draw",
+            (ig, sp.view_key()),
+            || pipeline::draw(&input, &sp),
+        )?;
+        cancel()?;
         let (sg, source) = step(
             &mut self.source,
             g,
             &mut ran,
-            "render",
-            (ig, sp.clone()),
-            || pipeline::render(&input, &sp),
+            "light",
+            (dg, sp.clone()),
+            || pipeline::light(&input, drawn.as_deref(), &sp),
         )?;
         cancel()?;
         let params = pipeline::resolve(cfg, &source)?;
         let factor = params.working.factor;
-        let (gg, gray) = step(&mut self.gray, g, &mut ran, "gray", (sg, factor), || {
-            Ok::<_, RunError>(Arc::new(pipeline::working_gray(source.clone(), factor)))
+        let (gg, gray_otsu) = step(&mut self.gray, g, &mut ran, "gray", (sg, factor), || {
+            let gray = pipeline::working_gray(source.clone(), factor);
+            let otsu = stencil_core::tone::otsu_level(&gray);
+            Ok::<_, RunError>(Arc::new((gray, otsu)))
         })?;
+        let (gray, otsu) = (&gray_otsu.0, gray_otsu.1);
         let (rg, raw) = step(
             &mut self.raw,
             g,
@@ -153,7 +173,7 @@ impl Engine {
             || {
                 Ok::<_, RunError>(Arc::new(pipeline::threshold(
                     &source,
-                    (*gray).clone(),
+                    gray.clone(),
                     &params.tone,
                 )))
             },
@@ -216,11 +236,10 @@ impl Engine {
             _ => None,
         };
         let report = pipeline::report(cfg, &params, &cleaned, j, t, gcode, timer);
-        let otsu = stencil_core::tone::otsu_level(&gray);
         Ok(Computed {
             cfg: cfg.clone(),
             params,
-            gray,
+            gray: gray_otsu.clone(),
             otsu,
             cleaned,
             joined,
@@ -269,7 +288,7 @@ impl Computed {
         let (j, _) = &*c.traced;
         let (w, h) = (j.bridged.bits.width, j.bridged.bits.height);
         Some(match name {
-            "gray" => fast_png(w, h, &c.gray.to_u8(), false),
+            "gray" => fast_png(w, h, &c.gray.0.to_u8(), false),
             "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
             "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
             "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
@@ -277,7 +296,7 @@ impl Computed {
                 w,
                 h,
                 &stencil_core::export::png::preview_rgb(
-                    &c.gray,
+                    &c.gray.0,
                     &c.cleaned.picture,
                     &j.twotone.bits,
                     &j.bridged.bits,

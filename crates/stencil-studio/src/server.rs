@@ -215,7 +215,7 @@ impl Studio {
                 s["refused"] = json!(done.refused);
                 s["ran"] = json!(c.ran);
                 s["otsu"] = json!(c.otsu);
-                s["histogram"] = json!(histogram(&c.gray));
+                s["histogram"] = json!(histogram(&c.gray.0));
                 s["mm_per_px"] = json!(c.params.working.scale.mm_per_px);
                 s["width_px"] = json!(r.width_px);
                 s["height_px"] = json!(r.height_px);

@@ -84,7 +84,16 @@ function showParams(p) {
     el.classList.remove("bad");
     if (o.kind === "flag") el.checked = v === "true";
     else if (o.kind === "list") el.value = (v || []).join("; ");
-    else el.value = (v === o.default.join(",")) ? "" : v;
+    else {
+      const shown = (v === o.default.join(",")) ? "" : v;
+      // A profile given by path (or one added since the page loaded) joins the list.
+      if (el.tagName === "SELECT" && shown && ![...el.options].some((op) => op.value === shown)) {
+        const op = document.createElement("option");
+        op.value = shown; op.textContent = shown;
+        el.appendChild(op);
+      }
+      el.value = shown;
+    }
   }
 }
 
@@ -188,12 +197,18 @@ stage.addEventListener("pointerup", (e) => {
   if (mode === "pin" && !d.moved && state && state.mm_per_px) {
     send_bridges({ pin: [+(px * state.mm_per_px).toFixed(3), +(py * state.mm_per_px).toFixed(3)] });
   } else if (mode === "orbit" && d.moved) {
-    const v = (current("view") || "0,0").split(",").map(Number);
+    const named = { front: "0,0", back: "180,0", left: "-90,0", right: "90,0", side: "90,0", top: "0,90", bottom: "0,-90", "three-quarter": "30,20" };
+    const cur = current("view") || "0,0";
+    const v = (named[cur.trim().toLowerCase()] || cur).split(",").map(Number);
     const az = ((v[0] || 0) + (e.clientX - d.x) * 0.5) % 360, el = Math.max(-89, Math.min(89, (v[1] || 0) - (e.clientY - d.y) * 0.5));
     send({ view: az.toFixed(1) + "," + el.toFixed(1) });
   } else if (mode === "light" && state && state.width_px) {
-    const lx = (px / state.width_px * 2 - 1) * 2, ly = -(py / state.height_px * 2 - 1) * 2;
-    send({ light: lx.toFixed(2) + "," + ly.toFixed(2) + ",2" });
+    // Where the light is dropped on the picture is where it comes from, as a photographer says
+    // it: the centre is from the camera, the left edge from the left (azimuth -90), the top edge
+    // from above (elevation 90), relative to the view (make's --light AZ,EL).
+    const az = Math.max(-90, Math.min(90, (px / state.width_px * 2 - 1) * 90));
+    const el = Math.max(-90, Math.min(90, -(py / state.height_px * 2 - 1) * 90));
+    send({ light: az.toFixed(0) + "," + el.toFixed(0) });
   }
 });
 function current(name) { return state && state.params ? state.params[name] : ""; }

@@ -30,11 +30,45 @@ pub struct Camera {
     pub radius: f32,
 }
 
+/// The model's up axis: which of its axes points up in the world it was modelled in (Y for most
+/// OBJ exports, Z for CAD and some 3D-scanning tools). The orbit's azimuth turns around it and
+/// its elevation rises towards it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Up {
+    X,
+    #[default]
+    Y,
+    Z,
+    NegX,
+    NegY,
+    NegZ,
+}
+
+impl Up {
+    /// A direction of the Y-up frame the orbit is computed in, as a direction of the model's own
+    /// frame: a rotation by quarter turns (a signed permutation, exact in floating point; the
+    /// identity for Y).
+    #[inline]
+    pub fn to_model(self, v: Vec3) -> Vec3 {
+        match self {
+            Up::Y => v,
+            // Y-up (x, y, z) -> Z-up: up (0,1,0) -> (0,0,1), front +Z -> -Y.
+            Up::Z => Vec3::new(v.x, -v.z, v.y),
+            Up::X => Vec3::new(v.y, -v.x, v.z),
+            Up::NegY => Vec3::new(v.x, -v.y, -v.z),
+            Up::NegZ => Vec3::new(v.x, v.z, -v.y),
+            Up::NegX => Vec3::new(-v.y, v.x, v.z),
+        }
+    }
+}
+
 /// Where the camera stands and how it sees, before framing.
 #[derive(Clone, Copy, Debug)]
 pub struct Orbit {
     pub azimuth_deg: f32,
     pub elevation_deg: f32,
+    /// The model's up axis: the azimuth turns around it.
+    pub up: Up,
     /// Eye distance from the centre, in bounding radii (> 1).
     pub distance: f32,
     pub orthographic: bool,
@@ -65,8 +99,8 @@ impl Camera {
             orbit.azimuth_deg.to_radians(),
             orbit.elevation_deg.to_radians(),
         );
+        // The orbit in a Y-up frame, turned into the model's (exact: see `Up::to_model`).
         let dir = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
-        let eye = center + dir * orbit.distance * radius;
         let forward = -dir;
         // Looking straight down or up: keep "up" on the image pointing away from the viewer's side.
         let right = forward
@@ -74,6 +108,9 @@ impl Camera {
             .try_normalize()
             .unwrap_or_else(|| Vec3::new(az.cos(), 0.0, -az.sin()));
         let up = right.cross(forward);
+        let m = |v| orbit.up.to_model(v);
+        let (dir, forward, right, up) = (m(dir), m(forward), m(right), m(up));
+        let eye = center + dir * orbit.distance * radius;
         let mut cam = Camera {
             eye,
             right,
@@ -232,6 +269,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: 0.0,
             elevation_deg: 0.0,
+            up: Up::Y,
             distance: 4.0,
             orthographic: false,
         };
@@ -261,6 +299,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: 30.0,
             elevation_deg: 20.0,
+            up: Up::Y,
             distance: 3.0,
             orthographic: false,
         };
@@ -287,6 +326,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: 0.0,
             elevation_deg: 90.0,
+            up: Up::Y,
             distance: 3.0,
             orthographic: true,
         };

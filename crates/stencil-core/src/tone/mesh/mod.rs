@@ -26,7 +26,7 @@ use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::timing::Timings;
 use crate::tone::{is_light, otsu_level, Threshold};
 
-pub use camera::{Camera, Orbit, RenderSize};
+pub use camera::{Camera, Orbit, RenderSize, Up};
 pub use lines::LineMode;
 pub use load::{load, Mesh};
 
@@ -49,6 +49,14 @@ pub struct MeshConfig {
     /// Point light in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// model's centre.
     pub light: [f32; 3],
+    /// Light from everywhere, 0..1: the side the light leaves dark shows this much (see
+    /// `shade::Light::ambient`).
+    pub ambient: f32,
+    /// A fill light of this strength relative to the key (0 = none), diffuse only, placed as the
+    /// key mirrored left-right across the view: it lifts the key's shadow side.
+    pub fill: f32,
+    /// The model's up axis: the view's azimuth turns around it, its elevation rises towards it.
+    pub up: Up,
     pub specular: f32,
     pub shininess: f32,
     pub lines: LineMode,
@@ -74,6 +82,9 @@ impl Default for MeshConfig {
             fov_deg: Some(30.0),
             size: RenderSize::LongSide(1024),
             light: [-1.5, 1.5, 1.5],
+            ambient: 0.0,
+            fill: 0.0,
+            up: Up::Y,
             specular: 0.3,
             shininess: 32.0,
             lines: LineMode::Suggestive,
@@ -149,6 +160,12 @@ impl MeshConfig {
         {
             return Err(MeshSetting::Light(self.light));
         }
+        if !(self.ambient.is_finite() && (0.0..1.0).contains(&self.ambient)) {
+            return Err(MeshSetting::Ambient(self.ambient));
+        }
+        if !(self.fill.is_finite() && (0.0..=1.0).contains(&self.fill)) {
+            return Err(MeshSetting::Fill(self.fill));
+        }
         if !(self.specular.is_finite() && (0.0..=10.0).contains(&self.specular)) {
             return Err(MeshSetting::Specular(self.specular));
         }
@@ -218,6 +235,10 @@ pub enum MeshSetting {
     },
     #[error("light position {0:?} must be three finite numbers (bounding radii)")]
     Light([f32; 3]),
+    #[error("ambient light {0} is out of range: use 0 (none) up to but not including 1")]
+    Ambient(f32),
+    #[error("fill light {0} is out of range: use 0 (none) to 1 (as strong as the key)")]
+    Fill(f32),
     #[error("specular strength {0} is out of range: use 0 (matte) to 10")]
     Specular(f32),
     #[error("shininess {0} is out of range: use 1 to 10000")]
@@ -310,39 +331,82 @@ pub fn render(
     Ok(two_tone(&r, threshold, invert))
 }
 
-/// Render a mesh (no thresholding).
+/// What a mesh gives every view: its smooth vertex normals, and (when suggestive contours are
+/// drawn, on first use) its curvature. Kept by the studio so a new view does not redo them.
+#[derive(Debug)]
+pub struct Prepared {
+    pub mesh: Mesh,
+    normals: Vec<Vec3>,
+    curvature: std::sync::OnceLock<curvature::Curvature>,
+}
+
+impl Prepared {
+    pub fn new(mesh: Mesh) -> Prepared {
+        let normals = mesh.vertex_normals();
+        Prepared {
+            mesh,
+            normals,
+            curvature: std::sync::OnceLock::new(),
+        }
+    }
+
+    fn curvature(&self) -> &curvature::Curvature {
+        self.curvature
+            .get_or_init(|| curvature::estimate(&self.mesh, &self.normals))
+    }
+}
+
+/// One view of a mesh before it is lit: each working sample's surface (point, normal, depth,
+/// curvature terms) and the lines, which do not depend on the light. [`light`] turns it into a
+/// [`Rendering`]; a new light (the studio's drag) re-lights it without a new raster.
+#[derive(Clone, Debug)]
+pub struct Drawn {
+    frags: Vec<shade::Fragment>,
+    line_mask: Vec<bool>,
+    /// The camera at working (supersampled) and at output resolution.
+    cam: Camera,
+    out_cam: Camera,
+    k: u32,
+    pub timings: Timings,
+}
+
+/// Render a mesh (no thresholding): [`draw`] then [`light`].
 pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError> {
     cfg.validate()?;
+    let prep = Prepared::new(mesh.clone());
+    let d = draw(&prep, cfg)?;
+    Ok(light(&d, cfg))
+}
+
+/// The view of `cfg` (camera, size, lines; not the light): raster, surfaces, lines.
+pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
+    cfg.validate()?;
+    let mesh = &prep.mesh;
     let mut tm = Timings::default();
     let (center, radius) = mesh.bounding_sphere();
     let orbit = camera::Orbit {
         azimuth_deg: cfg.azimuth_deg,
         elevation_deg: cfg.elevation_deg,
+        up: cfg.up,
         distance: cfg.eye_distance(),
         orthographic: cfg.fov_deg.is_none(),
     };
     let out_cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
     let k = cfg.supersample;
     let cam = out_cam.scaled(k);
+    let normals = &prep.normals;
 
-    let (normals, view) = tm.time("curvature", || {
-        let normals = mesh.vertex_normals();
-        let view = (cfg.lines == LineMode::Suggestive).then(|| {
-            let c = curvature::estimate(mesh, &normals);
-            curvature::view_dependent(mesh, &normals, &c, |p| cam.view_dir(p), radius)
-        });
-        (normals, view)
+    let view = tm.time("curvature", || {
+        (cfg.lines == LineMode::Suggestive).then(|| {
+            let c = prep.curvature();
+            curvature::view_dependent(mesh, normals, c, |p| cam.view_dir(p), radius)
+        })
     });
     let vb = tm.time("raster", || {
         visibility::rasterize(mesh, &cam, mesh.is_closed())
     });
-    let frags = tm.time("shade", || {
-        let light = shade::Light {
-            position: cam.from_view_frame(Vec3::from_array(cfg.light)),
-            specular: cfg.specular,
-            shininess: cfg.shininess,
-        };
-        shade::shade(mesh, &normals, &vb, &cam, &light, view.as_ref())
+    let frags = tm.time("surface", || {
+        shade::geometry(mesh, normals, &vb, &cam, view.as_ref())
     });
     let line_mask = tm.time("lines", || {
         let line_px = cfg.line_px.max(cfg.min_line_px);
@@ -360,14 +424,49 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
         };
         lines::find(mesh, &cam, &vb, &frags, &params).0
     });
-    let mut r = tm.time("compose", || compose(&frags, &line_mask, &cam, k, out_cam));
+    Ok(Drawn {
+        frags,
+        line_mask,
+        cam,
+        out_cam,
+        k,
+        timings: tm,
+    })
+}
+
+/// Light a drawn view with `cfg`'s key light (its position in the view's frame, in bounding
+/// radii), ambient share, fill and highlight, and average it down to the output size.
+pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
+    let mut tm = d.timings.clone();
+    let cam = &d.cam;
+    let key = Vec3::from_array(cfg.light);
+    let shades = tm.time("shade", || {
+        let light = shade::Light {
+            position: cam.from_view_frame(key),
+            specular: cfg.specular,
+            shininess: cfg.shininess,
+            ambient: cfg.ambient,
+            // The key mirrored left-right across the view.
+            fill: (cfg.fill > 0.0).then(|| {
+                (
+                    cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
+                    cfg.fill,
+                )
+            }),
+        };
+        shade::light(&d.frags, cam.width as usize, cam, &light)
+    });
+    let mut r = tm.time("compose", || {
+        compose(&d.frags, &shades, &d.line_mask, cam, d.k, d.out_cam)
+    });
     r.timings = tm;
-    Ok(r)
+    r
 }
 
 /// Average k×k blocks of the working image into the output: gray, model shade, coverage.
 fn compose(
     frags: &[shade::Fragment],
+    shades: &[f32],
     line_mask: &[bool],
     cam: &Camera,
     k: u32,
@@ -397,12 +496,12 @@ fn compose(
                         l += is_line as usize;
                         if f.is_model() {
                             m += 1;
-                            s += f.shade;
+                            s += shades[i];
                         }
                         g += if is_line {
                             0.0
                         } else if f.is_model() {
-                            f.shade
+                            shades[i]
                         } else {
                             1.0
                         };
@@ -505,6 +604,7 @@ pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
     let orbit = camera::Orbit {
         azimuth_deg: cfg.azimuth_deg,
         elevation_deg: cfg.elevation_deg,
+        up: cfg.up,
         distance: cfg.eye_distance(),
         orthographic: cfg.fov_deg.is_none(),
     };

@@ -13,19 +13,24 @@ use super::visibility::{VisBuffer, NONE};
 /// The light and the material's highlight.
 #[derive(Clone, Copy, Debug)]
 pub struct Light {
-    /// World position of the point light.
+    /// World position of the point light (the key light).
     pub position: Vec3,
     /// Weight of the Blinn-Phong highlight (0 = matte).
     pub specular: f32,
     /// Blinn-Phong exponent: larger = smaller, sharper highlight.
     pub shininess: f32,
+    /// Light that comes from everywhere, 0..1: a surface facing away from every light shows this
+    /// much, and the key and fill share the rest (0 = none, the default: only direct light).
+    pub ambient: f32,
+    /// A second, diffuse-only light (no highlight) and its strength relative to the key: a
+    /// photographer's fill, which lifts the side the key leaves dark.
+    pub fill: Option<(Vec3, f32)>,
 }
 
-/// What the line finder needs to know about a pixel, beyond its brightness.
+/// What the line finder needs to know about a pixel, beyond its brightness; and what lighting
+/// it needs (its point and normal), so a new light re-shades without a new raster.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fragment {
-    /// Intensity 0..1 (meaningless where `depth` is infinite).
-    pub shade: f32,
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
     pub depth: f32,
     /// Interpolated radial curvature (sign as seen: flipped on the back side of open surfaces).
@@ -34,6 +39,10 @@ pub struct Fragment {
     pub dwkr: f32,
     /// Cosine between the shading normal and the direction to the viewer.
     pub ndotv: f32,
+    /// The surface point seen (world).
+    pub point: Vec3,
+    /// The shading normal of the side seen (world, unit).
+    pub normal: Vec3,
 }
 
 impl Fragment {
@@ -43,14 +52,31 @@ impl Fragment {
     }
 }
 
-/// Shade every visible pixel. `normals` are the smooth vertex normals (used unless the mesh has
-/// per-corner normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
+/// Shade every visible pixel: [`geometry`] then [`light`] (the intensities are kept apart from
+/// the surfaces, so one raster serves many lights).
+#[cfg(test)]
 pub fn shade(
     mesh: &Mesh,
     normals: &[Vec3],
     vb: &VisBuffer,
     cam: &Camera,
     light: &Light,
+    view: Option<&ViewCurvature>,
+) -> (Vec<Fragment>, Vec<f32>) {
+    let frags = geometry(mesh, normals, vb, cam, view);
+    let lit = self::light(&frags, vb.width as usize, cam, light);
+    (frags, lit)
+}
+
+/// Each visible pixel's surface: where its ray meets its triangle, the normal there, and what
+/// the lines read. `normals` are the smooth vertex normals (used unless the mesh has per-corner
+/// normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
+/// Independent of the light.
+pub fn geometry(
+    mesh: &Mesh,
+    normals: &[Vec3],
+    vb: &VisBuffer,
+    cam: &Camera,
     view: Option<&ViewCurvature>,
 ) -> Vec<Fragment> {
     let w = vb.width as usize;
@@ -65,10 +91,8 @@ pub fn shade(
         mesh,
         normals,
         cam,
-        light,
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
-        spec_cut: specular_cutoff(light),
     };
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let sy = y as f32 + 0.5;
@@ -80,6 +104,50 @@ pub fn shade(
         }
     });
     out
+}
+
+/// The intensity of every fragment under `light` (1 where no model is seen), row by row in
+/// parallel: a pass over the kept surfaces, no ray, no raster.
+pub fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
+    let spec_cut = specular_cutoff(light);
+    let mut out = vec![1f32; frags.len()];
+    out.par_chunks_mut(width.max(1))
+        .zip(frags.par_chunks(width.max(1)))
+        .for_each(|(row, fr)| {
+            for (o, f) in row.iter_mut().zip(fr) {
+                if f.is_model() {
+                    *o = intensity(f.point, f.normal, cam, light, spec_cut);
+                }
+            }
+        });
+    out
+}
+
+/// Lambert from the key (and the fill), lifted by the ambient share, plus the key's Blinn-Phong
+/// highlight; at most 1. With no ambient and no fill this is the key alone, as it always was.
+#[inline]
+fn intensity(p: Vec3, n: Vec3, cam: &Camera, light: &Light, spec_cut: f32) -> f32 {
+    let v = if cam.orthographic {
+        -cam.forward
+    } else {
+        (cam.eye - p).normalize_or_zero()
+    };
+    let l = (light.position - p).normalize_or_zero();
+    let ndl = n.dot(l);
+    let mut i = ndl.max(0.0);
+    if let Some((fp, strength)) = light.fill {
+        i += strength * n.dot((fp - p).normalize_or_zero()).max(0.0);
+    }
+    if light.ambient > 0.0 {
+        i = light.ambient + (1.0 - light.ambient) * i;
+    }
+    if ndl > 0.0 {
+        let ndh = n.dot((l + v).normalize_or_zero());
+        if ndh > spec_cut {
+            i += light.specular * ndh.powf(light.shininess);
+        }
+    }
+    i.min(1.0)
 }
 
 /// Below this n·h the highlight is under 1/1024: the pow is skipped.
@@ -115,18 +183,16 @@ struct Shader<'a> {
     mesh: &'a Mesh,
     normals: &'a [Vec3],
     cam: &'a Camera,
-    light: &'a Light,
     view: Option<&'a ViewCurvature>,
     /// Per-triangle ray constants (perspective cameras only).
     setup: Option<Vec<TriSetup>>,
-    spec_cut: f32,
 }
 
 impl Shader<'_> {
     /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`).
     #[inline]
     fn fragment(&self, t: u32, sx: f32, sy: f32) -> Fragment {
-        let (mesh, cam, light) = (self.mesh, self.cam, self.light);
+        let (mesh, cam) = (self.mesh, self.cam);
         let idx = mesh.triangles[t as usize];
         let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
         let (o, d) = cam.ray(sx, sy);
@@ -163,15 +229,6 @@ impl Shader<'_> {
         } else {
             (cam.eye - p).normalize_or_zero()
         };
-        let l = (light.position - p).normalize_or_zero();
-        let ndl = n.dot(l);
-        let mut i = ndl.max(0.0);
-        if ndl > 0.0 {
-            let ndh = n.dot((l + v).normalize_or_zero());
-            if ndh > self.spec_cut {
-                i += light.specular * ndh.powf(light.shininess);
-            }
-        }
         let (kr, dwkr) = match self.view {
             Some(vc) => {
                 let k = idx.map(|i| vc.kr[i as usize]);
@@ -184,11 +241,12 @@ impl Shader<'_> {
             None => (0.0, 0.0),
         };
         Fragment {
-            shade: i.min(1.0),
             depth: depth.max(0.0),
             kr,
             dwkr,
             ndotv: n.dot(v),
+            point: p,
+            normal: n,
         }
     }
 }
@@ -245,6 +303,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: 20.0,
             elevation_deg: el,
+            up: crate::tone::mesh::camera::Up::Y,
             distance: 2.0,
             orthographic: false,
         };
@@ -262,8 +321,10 @@ mod tests {
             position: cam.eye,
             specular: 0.0,
             shininess: 1.0,
+            ambient: 0.0,
+            fill: None,
         };
-        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let (frags, _) = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
         let w = cam.width as usize;
         let mut checked = 0;
         for (i, f) in frags.iter().enumerate().filter(|(_, f)| f.is_model()) {
@@ -290,12 +351,15 @@ mod tests {
             position: Vec3::new(0.0, -2.0, 0.0),
             specular: 0.0,
             shininess: 1.0,
+            ambient: 0.0,
+            fill: None,
         };
-        let frags = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
+        let (frags, shades) = shade(&m, &m.vertex_normals(), &vb, &cam, &light, None);
         let lit: Vec<f32> = frags
             .iter()
-            .filter(|f| f.is_model())
-            .map(|f| f.shade)
+            .zip(&shades)
+            .filter(|(f, _)| f.is_model())
+            .map(|(_, &s)| s)
             .collect();
         assert!(lit.len() > 1000);
         assert!(

@@ -192,6 +192,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: az,
             elevation_deg: 0.0,
+            up: crate::tone::mesh::camera::Up::Y,
             distance: 3.0,
             orthographic: true,
         };
@@ -248,6 +249,7 @@ mod tests {
         let o = Orbit {
             azimuth_deg: 0.0,
             elevation_deg: 0.0,
+            up: crate::tone::mesh::camera::Up::Y,
             distance: 4.0,
             orthographic: false,
         };
