@@ -76,10 +76,11 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     // G4 dwells: the machine stands still (Grbl waits for the queue to empty first).
     e.total_s += program.dwell_s;
     println!(
-        "{}: about {} on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel {:.0} mm; \
-         length / feed alone would say {}",
+        "{}: about {} ({:.2} s) on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel \
+         {:.0} mm; length / feed alone would say {}",
         a.file.display(),
         format_duration(e.total_s),
+        e.total_s,
         machine.name,
         format_duration(e.cut_s),
         format_duration(e.travel_s),

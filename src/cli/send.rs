@@ -746,6 +746,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         (a.from_line as usize, a.machine.clone(), j)
     };
     let machine = machine_profile::load(machine_arg.as_deref())?;
+    frame_can_ask(&a)?;
     let dump = match &a.start.controller_state {
         Some(p) => Some(super::place::read_dump(p)?),
         None => None,
@@ -908,6 +909,18 @@ fn framed_and_started(
     Ok(true)
 }
 
+/// `--frame` without `--yes` asks on the terminal: refused before the controller is asked
+/// anything when there is none.
+fn frame_can_ask(a: &SendArgs) -> anyhow::Result<()> {
+    if a.frame && !a.yes && !super::frame::can_ask() {
+        bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
+        );
+    }
+    Ok(())
+}
+
 /// With --frame, what to trace before the job: the whole file's extent (a resumed job still
 /// lands where the file says). Refused when the question before starting cannot be asked.
 fn frame_setup(
@@ -917,10 +930,6 @@ fn frame_setup(
 ) -> anyhow::Result<Option<super::frame::Setup>> {
     match a.frame {
         false => Ok(None),
-        true if !a.yes && !super::frame::can_ask() => bail!(
-            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
-             pass --yes to start right after framing, or frame first with `stencil frame`"
-        ),
         true => Ok(Some(super::frame::setup(
             &a.file,
             job,
