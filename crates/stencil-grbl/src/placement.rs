@@ -299,7 +299,7 @@ impl Placement {
         );
         match self.start_from {
             StartFrom::Machine => {
-                format!("the job's X0 Y0 is the machine's origin (start from machine coordinates)")
+                "the job's X0 Y0 is the machine's origin (start from machine coordinates)".to_string()
             }
             StartFrom::WorkZero => format!(
                 "the job's X0 Y0 is the controller's work zero, G{} {}, at machine {z} (start \
