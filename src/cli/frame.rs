@@ -50,6 +50,8 @@ pub struct FrameArgs {
     /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
     #[arg(long, default_value_t = 10.0, value_parser = super::send::parse_timeout)]
     pub timeout_s: f64,
+    #[command(flatten)]
+    pub start: super::place::StartArgs,
 }
 
 /// `--feed` / `--frame-feed`: what a profile's feeds may be (the machine's own max is checked
@@ -61,7 +63,10 @@ pub fn parse_feed(s: &str) -> Result<f64, String> {
 /// What to trace and how, from the file and the machine profile.
 #[derive(Clone, Copy, Debug)]
 pub struct Setup {
+    /// What is traced, in the work coordinates the frame runs in (the job placed).
     pub extent: Extent,
+    /// The same in machine coordinates (what the bed check saw).
+    pub machine: Extent,
     pub tool: FrameTool,
     pub feed: f64,
 }
@@ -70,8 +75,17 @@ impl Setup {
     /// One line for the user.
     pub fn describe(&self) -> String {
         let e = &self.extent;
+        let m = &self.machine;
+        let at_machine = if m.min != e.min {
+            format!(
+                " (machine X {:.2}..{:.2} Y {:.2}..{:.2})",
+                m.min[0], m.max[0], m.min[1], m.max[1]
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "X {:.2}..{:.2} Y {:.2}..{:.2} ({:.1} x {:.1} mm) at {:.0} mm/min, {}",
+            "X {:.2}..{:.2} Y {:.2}..{:.2}{at_machine} ({:.1} x {:.1} mm) at {:.0} mm/min, {}",
             e.min[0],
             e.max[0],
             e.min[1],
@@ -98,7 +112,7 @@ pub fn setup(
     feed: Option<f64>,
     no_bed_check: bool,
 ) -> anyhow::Result<Setup> {
-    let Some(extent) = cut_extent_with(&job.moves, machine.cut_rule(&job.moves)) else {
+    let Some(on_machine) = cut_extent_with(&job.moves, machine.cut_rule(&job.moves)) else {
         bail!(
             "{}: nothing to frame: no move in the file cuts (no powered G1 for a laser, no G1 in \
              X/Y for a pen or knife)",
@@ -107,14 +121,24 @@ pub fn setup(
     };
     // The bed check `send`, `estimate` and `simulate` make, on the rectangle to be traced.
     if !no_bed_check {
-        if let Err(e) = machine.check_extent(extent.min, extent.max, None) {
+        if let Err(e) = machine.check_extent(on_machine.min, on_machine.max, None) {
+            let w = job.start.wco();
             bail!(
-                "{}: {e}; nothing was moved. Place the job on the bed, or pass --no-bed-check if \
-                 its work zero is set away from the machine's origin",
-                file.display()
+                "{}: {e}, with the job's X0 Y0 at machine X{} Y{}; nothing was moved. Place the \
+                 job on the bed (its X0 Y0 goes where --start-from says), or pass --no-bed-check",
+                file.display(),
+                stencil_gcode::num(w[0]),
+                stencil_gcode::num(w[1])
             );
         }
     }
+    // The frame runs in work coordinates: the placed job's zero taken off again.
+    let w = job.start.wco();
+    let extent = Extent {
+        min: [on_machine.min[0] - w[0], on_machine.min[1] - w[1]],
+        max: [on_machine.max[0] - w[0], on_machine.max[1] - w[1]],
+        ..on_machine
+    };
     let max = machine.motion.max_feed_mm_min;
     let feed = match feed {
         Some(f) if f > max => bail!(
@@ -131,7 +155,12 @@ pub fn setup(
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => FrameTool::ZUp { up_mm: z.up_mm },
         Tool::Pen(PenLift::Spindle { .. }) => FrameTool::SpindlePen,
     };
-    Ok(Setup { extent, tool, feed })
+    Ok(Setup {
+        extent,
+        machine: on_machine,
+        tool,
+        feed,
+    })
 }
 
 /// Prints what the controller and the framing say, on stderr (`\r\n` in raw mode).
@@ -174,7 +203,7 @@ pub fn frame_on(
     if let Some(cmd) = before {
         console.command(cmd)?;
         console.say(&format!(
-            "work position set at the job's start corner ({cmd})"
+            "work position set where the job goes ({cmd}, until the next reset)"
         ));
     }
     console.say(&format!("framing {}", s.describe()));
@@ -222,11 +251,27 @@ pub fn can_ask() -> bool {
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let text = super::send::read_program(&a.file)?;
     eprintln!("{}", super::send::origin_line(&a.file, &text));
-    let job = Program::parse(&a.file.display().to_string(), &text)?;
+    let name = a.file.display().to_string();
+    let job = Program::parse(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
     super::send::name_machine_changes(&job);
-    let mut opened = a.link.open(super::port::virtual_for(&machine, &[]))?;
+    let dump = match &a.start.controller_state {
+        Some(p) => Some(super::place::read_dump(p)?),
+        None => None,
+    };
+    let mut opened = a.link.open(super::place::virtual_from(
+        super::port::virtual_for(&machine, &[]),
+        dump.as_ref(),
+    ))?;
+    // Where the job goes, from the controller's offsets and head (as `send` places it).
+    let state =
+        super::place::read_controller(opened.port.as_mut(), Duration::from_secs_f64(a.timeout_s))?;
+    let start = super::place::choose(a.start.start_from, &state, &machine);
+    let placement = stencil_grbl::placement::Placement::new(start, &state);
+    println!("{}", placement.describe());
+    let job = super::place::placed(&name, &text, &placement)?;
+    let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
+    let g92 = super::place::g92_needed(&placement, &state);
     // The frame may trace with the beam dimly on: the power scale is checked first too.
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
@@ -240,7 +285,14 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     if keys.raw {
         say.line("keys: a / q / Esc / Ctrl-C = abort");
     }
-    let result = frame_on(opened.port.as_mut(), &cfg, &rx, &mut say, &s, None);
+    let result = frame_on(
+        opened.port.as_mut(),
+        &cfg,
+        &rx,
+        &mut say,
+        &s,
+        g92.as_deref(),
+    );
     drop(keys);
     let framed = result?;
     println!("{}", framed_line(&framed, &opened.label));

@@ -36,7 +36,9 @@ pub struct MachineArgs {
     /// (as seen from above, rear at the top). Default: the corner at the machine's origin.
     #[arg(long, value_name = "CORNER", value_parser = |s: &str| s.parse::<Anchor>())]
     pub origin: Option<Anchor>,
-    /// Machine coordinates of that point, mm.
+    /// Where that point is, mm, in the job's coordinates: the machine's when `send`/`frame`
+    /// start from machine coordinates; from the work zero or the head's position with
+    /// `--start-from work-zero|current` (so 0,0 puts the job's corner right there).
     #[arg(long, value_name = "X,Y", default_value = "0,0", value_parser = parse_offset, allow_hyphen_values = true)]
     pub offset: [f64; 2],
     /// Also cut the sheet's outline (a rectangle), after everything inside it.

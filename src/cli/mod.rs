@@ -12,6 +12,7 @@ mod jog;
 mod make;
 mod material;
 mod mesh;
+mod place;
 mod port;
 mod progress;
 mod send;

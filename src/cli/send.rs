@@ -18,6 +18,7 @@ use stencil_gcode::interpret::Move;
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
 use stencil_grbl::keys::{self, Key, KeySource};
+use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stall::ClockRef;
 use stencil_grbl::stream::{
     self, Control, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
@@ -114,6 +115,8 @@ pub struct SendArgs {
     /// is set there (G92) before the resume. Add --frame to trace the job first.
     #[arg(long, conflicts_with = "position_confirmed")]
     pub head_at_corner: bool,
+    #[command(flatten)]
+    pub start: super::place::StartArgs,
 }
 
 /// Say which lines of a job would change the machine itself (a `$` setting, homing, a stored
@@ -462,7 +465,7 @@ impl Observer for Bar {
 
 /// `limits` with the rapid rate, acceleration and junction deviation the controller reported in
 /// `$$` (the slower axis of X and Y), where it did.
-fn controller_motion(
+pub(super) fn controller_motion(
     mut limits: machine_profile::Motion,
     info: &ControllerInfo,
 ) -> machine_profile::Motion {
@@ -678,6 +681,24 @@ fn print_virtual(vg: VirtualGrbl) {
         r.state,
         if alarms.is_empty() { "none".to_string() } else { alarms.join(" ") }
     );
+    // Where the simulated beam (or tool) really went, machine coordinates: the placement seen
+    // from the machine's side.
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for m in r.moves.iter().filter(|m| m.beam && m.moves_xy()) {
+        for p in [m.from, m.to] {
+            for a in 0..2 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+    }
+    if lo[0].is_finite() {
+        println!(
+            "virtual Grbl: the beam cut within machine X {:.3}..{:.3} Y {:.3}..{:.3}",
+            lo[0], hi[0], lo[1], hi[1]
+        );
+    }
 }
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
@@ -725,15 +746,34 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         (a.from_line as usize, a.machine.clone(), j)
     };
     let machine = machine_profile::load(machine_arg.as_deref())?;
-    // The moves that will run (from --from-line or the recovered line on) must stay on the bed:
-    // checked before the port is opened.
+    frame_can_ask(&a)?;
+    let dump = match &a.start.controller_state {
+        Some(p) => Some(super::place::read_dump(p)?),
+        None => None,
+    };
+    let super::port::Opened {
+        mut port,
+        label,
+        virtual_grbl,
+    } = a.link.open(super::place::virtual_from(
+        virtual_config(&a, &machine),
+        dump.as_ref(),
+    ))?;
+    // Where the job goes, from what the controller holds: a recovery puts it where the
+    // journal's run had it; a fresh run where --start-from says.
+    let state = super::place::read_controller(port.as_mut(), Duration::from_secs_f64(a.timeout_s))?;
+    let placement = placement_for(&a, &state, &machine, journal.as_ref(), from_line)?;
+    println!("{}", placement.describe());
+    let job = super::place::placed(&name, &text, &placement)?;
+    // The moves that will run (from --from-line or the recovered line on) must stay on the bed,
+    // where the controller's offsets put them: checked before anything moves.
     let to_run: Vec<Move> = job
         .moves
         .iter()
         .filter(|m| m.line >= from_line)
         .copied()
         .collect();
-    super::gcode::check_bed(&a.file, &to_run, &machine, a.no_bed_check)?;
+    super::place::check_bed(&a.file, &to_run, &machine, a.no_bed_check, &placement)?;
     let limits = machine.motion;
     let home_first = a.recover && machine.motion.homing;
     if home_first {
@@ -745,6 +785,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let frame = frame_setup(&a, &job, &machine)?;
     let mut cfg = stream_config(&a, &machine, &job, from_line, home_first);
     cfg.expect = super::port::expected(&machine, &text, &job);
+    cfg.place_zero = Some(placement.zero);
     if a.recover || from_line > 1 {
         cfg.recovery = Some(stream::Recovery {
             last_position: journal.as_ref().and_then(|j| j.last_position),
@@ -755,24 +796,22 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         });
     }
 
-    let super::port::Opened {
-        mut port,
-        label,
-        virtual_grbl,
-    } = a.link.open(virtual_config(&a, &machine))?;
-
     let (tx, rx) = channel();
     if let Some(s) = &frame {
         let keys = Keys::start(tx.clone());
         let mut say = super::frame::Say { raw: keys.raw };
         let corner = job.start_corner();
-        let g92 = a.head_at_corner.then(|| {
-            format!(
+        // The frame traces where the job will cut: the head put back at its corner, or the
+        // job's zero put where its placement says, before it starts.
+        let g92 = if a.head_at_corner {
+            Some(format!(
                 "G92X{}Y{}",
                 stencil_gcode::num(corner[0]),
                 stencil_gcode::num(corner[1])
-            )
-        });
+            ))
+        } else {
+            super::place::g92_needed(&placement, &state)
+        };
         let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s, g92.as_deref());
         drop(keys);
         if !framed_and_started(framed, &label, a.yes)? {
@@ -786,13 +825,17 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if keys.raw {
         bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
-    let started = Journal::new(
+    let mut started = Journal::new(
         &a.file,
         text.as_bytes(),
         &job,
         machine_arg.as_deref().unwrap_or(&machine.name),
         from_line,
     );
+    started.placement = Some(journal::PlacementRecord {
+        start_from: placement.start_from.name().into(),
+        zero_mm: placement.zero,
+    });
     let mut journal = JournalWriter::new(
         &mut bar,
         started,
@@ -818,6 +861,39 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Where this run puts the job: a resume with a journal that kept its run's placement puts it
+/// there again (a stop's reset cleared G92); otherwise `--start-from` or the default. `current`
+/// is refused for a resume without one: the head stands somewhere in the job, not at its zero.
+fn placement_for(
+    a: &SendArgs,
+    state: &ControllerState,
+    machine: &machine_profile::Machine,
+    journal: Option<&Journal>,
+    from_line: usize,
+) -> anyhow::Result<Placement> {
+    let kept = journal.and_then(|j| j.placement.as_ref());
+    if let Some(k) = kept {
+        let start: StartFrom = k
+            .start_from
+            .parse()
+            .map_err(|e: String| anyhow::anyhow!(e))?;
+        if a.start.start_from.is_some_and(|s| s != start) {
+            println!(
+                "the journal's run started from {}: resuming there (--start-from is for a new run)",
+                start.name()
+            );
+        }
+        return Ok(Placement::at(start, k.zero_mm, state));
+    }
+    let start = super::place::choose(a.start.start_from, state, machine);
+    if start == StartFrom::Current && from_line > 1 {
+        bail!(
+            "--start-from current puts the job's X0 Y0 where the head stands, but a resume from              line {from_line} finds the head inside the job: resume with --recover (the journal              keeps where the run started), or with --start-from work-zero once the work zero is              where the run's was"
+        );
+    }
+    Ok(Placement::new(start, state))
+}
+
 /// After framing: say where the frame went, then (unless --yes) ask whether to start. False when
 /// the user says no: nothing was cut.
 fn framed_and_started(
@@ -833,6 +909,18 @@ fn framed_and_started(
     Ok(true)
 }
 
+/// `--frame` without `--yes` asks on the terminal: refused before the controller is asked
+/// anything when there is none.
+fn frame_can_ask(a: &SendArgs) -> anyhow::Result<()> {
+    if a.frame && !a.yes && !super::frame::can_ask() {
+        bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
+        );
+    }
+    Ok(())
+}
+
 /// With --frame, what to trace before the job: the whole file's extent (a resumed job still
 /// lands where the file says). Refused when the question before starting cannot be asked.
 fn frame_setup(
@@ -842,10 +930,6 @@ fn frame_setup(
 ) -> anyhow::Result<Option<super::frame::Setup>> {
     match a.frame {
         false => Ok(None),
-        true if !a.yes && !super::frame::can_ask() => bail!(
-            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
-             pass --yes to start right after framing, or frame first with `stencil frame`"
-        ),
         true => Ok(Some(super::frame::setup(
             &a.file,
             job,

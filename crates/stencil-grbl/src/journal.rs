@@ -105,6 +105,19 @@ pub struct Journal {
     /// can tell a controller that lost its position (a restart at MPos 0 without homing).
     #[serde(default)]
     pub last_position: Option<[f64; 3]>,
+    /// Where the run put the job's X0 Y0 (see [`crate::placement`]): a stop's soft reset or a
+    /// power loss clears G92, so a recovery puts it back from here.
+    #[serde(default)]
+    pub placement: Option<PlacementRecord>,
+}
+
+/// The placement a run used, as the journal keeps it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlacementRecord {
+    /// `machine`, `work-zero` or `current`, as the option is spelled.
+    pub start_from: String,
+    /// Machine coordinates (X, Y) of the job's X0 Y0.
+    pub zero_mm: [f64; 2],
 }
 
 /// Why a journal cannot be used.
@@ -171,6 +184,7 @@ impl Journal {
                 position_mm: [0.0; 3],
             },
             last_position: None,
+            placement: None,
         };
         j.set_resume(job, from_line);
         j

@@ -40,6 +40,7 @@ pub mod frame;
 pub mod jog;
 pub mod journal;
 pub mod keys;
+pub mod placement;
 mod program;
 pub mod protocol;
 pub mod stall;

@@ -42,6 +42,10 @@ pub struct Program {
     pub dropped_percent: usize,
     /// Lines with M0: Grbl finishes the queued motion there and holds until cycle start (`~`).
     pub pauses: Vec<usize>,
+    /// The parser state the program runs from: the controller's work systems and G92 as the
+    /// job's placement leaves them ([`crate::placement::Placement`]); the power-on state when
+    /// no placement is given. Its moves are machine coordinates from here.
+    pub start: Modal,
     source: Vec<String>,
 }
 
@@ -99,9 +103,16 @@ impl Program {
     /// Clean and vet a program before anything is sent: every line must fit Grbl's line buffer and
     /// hold only printable ASCII without real-time characters (which Grbl would act on mid-line).
     pub fn parse(name: &str, text: &str) -> Result<Program, MachineError> {
+        Program::parse_from(name, text, Modal::default())
+    }
+
+    /// [`Program::parse`] from a given parser state: the controller's offsets once the job is
+    /// placed, so that its moves (for the bed check, the frame, the estimate and a resume's
+    /// position checks) are where the machine will go.
+    pub fn parse_from(name: &str, text: &str, start: Modal) -> Result<Program, MachineError> {
         let mut lines = Vec::new();
         let mut moves = Vec::new();
-        let mut modal = Modal::default();
+        let mut modal = start;
         let mut unreadable = false;
         let (mut machine_changes, mut dropped) = (Vec::new(), Vec::new());
         let mut dropped_percent = 0;
@@ -202,6 +213,7 @@ impl Program {
             dropped,
             dropped_percent,
             pauses,
+            start,
             source,
         })
     }
@@ -210,8 +222,10 @@ impl Program {
     /// [`crate::frame::cut_extent`]), in the job's coordinates; the lowest of all its moves
     /// when nothing cuts, the origin when nothing moves.
     pub fn start_corner(&self) -> [f64; 2] {
+        // The moves are machine coordinates from the placed start: back to the job's own.
+        let w = self.start.wco();
         if let Some(e) = crate::frame::cut_extent(&self.moves) {
-            return e.min;
+            return [e.min[0] - w[0], e.min[1] - w[1]];
         }
         let mut c = [f64::INFINITY; 2];
         for m in &self.moves {
@@ -221,7 +235,7 @@ impl Program {
             }
         }
         if c[0].is_finite() {
-            c
+            [c[0] - w[0], c[1] - w[1]]
         } else {
             [0.0; 2]
         }
@@ -326,7 +340,7 @@ impl Program {
     /// restore needs to know about how it got there.
     pub fn state_before(&self, before: usize) -> Result<StateBefore, MachineError> {
         let mut st = StateBefore {
-            modal: Modal::default(),
+            modal: self.start,
             used: [false; 3],
             max_z: f64::NEG_INFINITY,
             plunge_feed: None,

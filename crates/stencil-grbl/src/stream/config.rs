@@ -73,6 +73,10 @@ pub struct StreamConfig {
     /// Let the job's own lines change the machine (`$` settings, homing, unlock, check mode,
     /// jogs, stored offsets); otherwise they are refused before anything is sent.
     pub allow_machine_commands: bool,
+    /// Machine coordinates (X, Y) the job's X0 Y0 must be at ([`crate::placement::Placement`]):
+    /// after connecting (and any homing or recovery check), a work zero found elsewhere is moved
+    /// there with `G92`. `None` leaves the controller's offsets as they are.
+    pub place_zero: Option<[f64; 2]>,
 }
 
 /// What a job and its machine profile expect of the controller's settings (`$$`). Every field
@@ -122,6 +126,7 @@ impl Default for StreamConfig {
             rescale_power: false,
             allow_machine_commands: false,
             recovery: None,
+            place_zero: None,
         }
     }
 }

@@ -131,6 +131,12 @@ impl<'a> Console<'a> {
         })
     }
 
+    /// What decides where a job lands: settings (`$$` as read on connect), work systems and
+    /// G92 (`$#`), the selected system (`$G`) and the head's position (`?`).
+    pub fn controller_state(&mut self) -> Result<crate::placement::ControllerState, MachineError> {
+        self.s.controller_state()
+    }
+
     /// Send one line and wait for its answer (`ok`): the replies that came before it.
     /// `error:N` comes back as [`MachineError::Setup`] naming the command and the code.
     pub fn command(&mut self, cmd: &str) -> Result<Vec<Reply>, MachineError> {

@@ -22,6 +22,7 @@ mod flight;
 mod halt;
 mod link;
 mod observe;
+mod place;
 mod recover;
 mod session;
 mod settings;
@@ -66,6 +67,12 @@ pub fn send(
         Some(r) => s.recover(job, r, cfg.from_line.max(1))?,
         None => cfg.from_line.max(1),
     };
+    // The job's zero where its placement says; a head the person put back at the job's corner
+    // was placed by the recovery's own G92.
+    let at_corner = cfg.recovery.as_ref().is_some_and(|r| r.at_corner.is_some());
+    if let (Some(zero), false) = (cfg.place_zero, at_corner) {
+        s.place(zero)?;
+    }
     let preamble = job.resume_preamble_with(from, &cfg.lift)?;
     for d in &job.dropped {
         s.obs.message(&format!(

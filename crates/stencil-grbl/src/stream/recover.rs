@@ -49,10 +49,17 @@ impl Session<'_, '_> {
             ));
             return Ok(from);
         }
-        // Without a WCO in this report the offset is taken as none: a wrong guess matches no
-        // line end, and the resume stays where the journal put it.
-        let wco = st.wco.unwrap_or([0.0; 3]);
-        let work = [now[0] - wco[0], now[1] - wco[1], now[2] - wco[2]];
+        // A placed job's moves are machine coordinates (its placement is in them): compared with
+        // the machine position, which a reset's loss of G92 does not change. An unplaced job's
+        // are its own coordinates: compared with the work position (without a WCO in this report
+        // the offset is taken as none: a wrong guess matches no line end, and the resume stays
+        // where the journal put it).
+        let work = if job.start != stencil_gcode::interpret::Modal::default() {
+            now
+        } else {
+            let wco = st.wco.unwrap_or([0.0; 3]);
+            [now[0] - wco[0], now[1] - wco[1], now[2] - wco[2]]
+        };
         let after = r.last_acked.unwrap_or(from).max(from.saturating_sub(1));
         // A board that lost its power (no homing) reads exactly machine zero: a line ending
         // there (a job's final return to the origin) proves nothing about having run on.

@@ -78,6 +78,10 @@ pub struct VirtualConfig {
     /// timer, 1..16 ms on FTDI and CH340 chips): a status report read by the host describes the
     /// machine as it was, not as it is.
     pub latency: std::time::Duration,
+    /// The work systems (G54..G59), G92, tool length offset, selected system and head position
+    /// it starts with, as a person's saved `$#`, `$G` and `?` say (its `$$` goes in `settings`);
+    /// `None`: at machine zero with no offsets.
+    pub start: Option<crate::placement::ControllerState>,
 }
 
 impl Default for VirtualConfig {
@@ -94,6 +98,7 @@ impl Default for VirtualConfig {
             settings: Vec::new(),
             homing: true,
             latency: std::time::Duration::ZERO,
+            start: None,
         }
     }
 }

@@ -131,6 +131,14 @@ impl Sim {
         };
         sim.settings = super::system::initial_settings(&sim.cfg);
         sim.apply_settings();
+        if let Some(st) = sim.cfg.start.clone() {
+            sim.modal.coords = st.coords;
+            sim.modal.g92 = st.g92;
+            sim.modal.tlo = st.tlo;
+            sim.modal.coord_select = st.coord_select.min(5);
+            sim.modal.pos = st.position.unwrap_or([0.0; 3]);
+            sim.sync_wco();
+        }
         sim.say("");
         sim.say("Grbl 1.1h ['$' for help]");
         sim.publish();
