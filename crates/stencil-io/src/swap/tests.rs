@@ -21,7 +21,12 @@ const OWNED: &[&str] = &[
 /// The owned names' folders in a snapshot as the swap leaves them: there exactly when a file is
 /// in them (an emptied one is removed), in the folder and in `previous/`.
 fn fix_folders(map: &mut BTreeMap<String, Option<Vec<u8>>>) {
-    for f in ["layer-1/", "layer-2/", "previous/layer-1/", "previous/layer-2/"] {
+    for f in [
+        "layer-1/",
+        "layer-2/",
+        "previous/layer-1/",
+        "previous/layer-2/",
+    ] {
         if map.keys().any(|k| k.starts_with(f) && k != f) {
             map.insert(f.to_string(), None);
         } else {
