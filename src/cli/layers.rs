@@ -152,3 +152,32 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
         r.painting_order.join(", ")
     );
 }
+
+/// For a `make` folder holding a set (layer folders, a fill-in): settle the folder, then run
+/// `each` on every stencil folder in painting order under a heading. `None` for a folder of one
+/// stencil (the caller reads it as ever). Exits as the first folder that did not succeed.
+pub fn each_stencil(
+    dir: &std::path::Path,
+    mut each: impl FnMut(std::path::PathBuf) -> anyhow::Result<ExitCode>,
+) -> Option<anyhow::Result<ExitCode>> {
+    if !dir.is_dir() {
+        return None;
+    }
+    if let Err(e) = super::send::settle_folder(dir) {
+        return Some(Err(e));
+    }
+    let folders = layers::stencil_folders(dir);
+    if folders.len() == 1 && folders[0] == dir {
+        return None;
+    }
+    let mut code = ExitCode::SUCCESS;
+    for f in folders {
+        println!("== {} ==", f.display());
+        match each(f) {
+            Ok(c) if c != ExitCode::SUCCESS && code == ExitCode::SUCCESS => code = c,
+            Ok(_) => {}
+            Err(e) => return Some(Err(e)),
+        }
+    }
+    Some(Ok(code))
+}
