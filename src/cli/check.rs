@@ -118,13 +118,18 @@ pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
 pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     // A layered folder: each layer (and the fill-in) in turn.
     if let Some(r) = super::layers::each_stencil(&a.input, |f| {
-        run_check(CheckArgs {
+        check_one(CheckArgs {
             input: f,
             ..a.clone()
         })
     }) {
         return r;
     }
+    check_one(a)
+}
+
+/// One stencil folder (or file).
+fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = StageBar::start();
     bar.set("read");
     let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {

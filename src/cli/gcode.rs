@@ -292,13 +292,18 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(r) = super::layers::each_stencil(&a.input, |f| {
-        run_gcode(GcodeArgs {
+        gcode_one(GcodeArgs {
             input: f,
             ..a.clone()
         })
     }) {
         return r;
     }
+    gcode_one(a)
+}
+
+/// One stencil folder (or file).
+fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     let (svg_path, dir) = if a.input.is_dir() {
         (a.input.join("stencil.svg"), Some(a.input.clone()))
     } else {

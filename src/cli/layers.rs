@@ -128,10 +128,11 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
     }
     if let Some(f) = &r.fill_in {
         println!(
-            "  fill-in: paints {} of the first stencil's {} bridge px ({:.1} %){}",
+            "  fill-in: paints {} of the first stencil's {} bridge px ({:.1} %), and {} px the picture leaves unpainted{}",
             f.covered_px,
             f.bridge_px,
             f.covered_pct,
+            f.overpainted_px,
             if f.check_passed {
                 ""
             } else {

@@ -587,6 +587,9 @@ pub struct FillInReport {
     /// Of those, the pixels the fill-in cuts (paints).
     pub covered_px: usize,
     pub covered_pct: f64,
+    /// Pixels the fill-in paints that the first stencil's two-tone keeps unpainted: the specks
+    /// it paints over rather than bridging them again, and its clean-up.
+    pub overpainted_px: usize,
     pub check_passed: bool,
 }
 
@@ -852,7 +855,8 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     let mm = params.working.scale.mm_per_px;
     // Grown into the first stencil's cut, 4-neighbour steps.
     let mut grown = hidden.clone();
-    for _ in 0..(FILL_IN_OVERLAP_MM / mm).round() as u32 {
+    let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
+    for _ in 0..(reach / mm).round() as u32 {
         let prev = grown.clone();
         for y in 0..h {
             for x in 0..w {
@@ -895,7 +899,37 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
             gray: Gray::new(0, 0, 0.0),
         },
     );
-    let joined = pipeline::join(twotone, &params.join, &mut timer)?;
+    // A speck of material its cut rings round (a small island the first stencil bridged) is
+    // painted rather than bridged again when it is smaller than the least a bridge of the
+    // narrowest width would hide (its width squared): the smaller change to the picture.
+    let mut twotone = twotone;
+    let map = crate::islands::label(&twotone.bits);
+    let floor = (params.join.bridge.min_width_px as usize).pow(2);
+    for (i, &l) in map.labels.iter().enumerate() {
+        if l != crate::islands::CUT
+            && l != crate::islands::FRAME
+            && map.nodes[l as usize].area < floor
+        {
+            twotone.bits.data[i] = false;
+        }
+    }
+    // Its own bridges (where its cut rings round material) are cheap where the first stencil
+    // paints anyway: on the overlap, not on the pixels it exists to paint.
+    let mut painted = BitGrid::new(w, h, true);
+    for i in 0..painted.data.len() {
+        painted.data[i] = cut.data[i] || hidden.data[i];
+    }
+    let real_gray = twotone.gray.clone();
+    let cost = cost_gray(&twotone.gray, &painted);
+    let mut joined = pipeline::join(
+        TwoTone {
+            bits: twotone.bits,
+            gray: cost,
+        },
+        &params.join,
+        &mut timer,
+    )?;
+    joined.twotone.gray = real_gray;
     let made = pipeline::finish_from(&cfg, &params, &cleaned, &joined)?;
     Ok((made, hidden))
 }
@@ -936,14 +970,16 @@ fn assess(
     let mut fill_report = None;
     if let Some((fm, hidden)) = fill_in {
         let bridge_px = hidden.data.iter().filter(|&&b| b).count();
-        let mut covered = 0;
+        let (mut covered, mut over) = (0, 0);
+        let first_cut = &made[0].1;
         for i in 0..len {
-            if !fm.bridged.bits.data[i] {
-                if in_picture(i) {
-                    painted[i] = 1;
-                }
+            if !fm.bridged.bits.data[i] && in_picture(i) {
+                painted[i] = 1;
                 if hidden.data[i] {
                     covered += 1;
+                }
+                if first_cut.data[i] {
+                    over += 1;
                 }
             }
         }
@@ -952,6 +988,7 @@ fn assess(
             bridge_px,
             covered_px: covered,
             covered_pct: pct(covered, bridge_px),
+            overpainted_px: over,
             check_passed: fm.check.passed(),
         });
     }
