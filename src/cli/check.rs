@@ -62,7 +62,7 @@ pub fn print_check(c: &CheckReport, all_in: &str) {
 }
 
 /// `stencil check INPUT`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 #[command(after_help = "\
 Examples:
   stencil check out/rings                 # an output folder: material, size and bridges from its report.json
@@ -116,6 +116,20 @@ pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
 }
 
 pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
+    // A layered folder: each layer (and the fill-in) in turn.
+    if let Some(r) = super::layers::each_stencil(&a.input, |f| {
+        check_one(CheckArgs {
+            input: f,
+            ..a.clone()
+        })
+    }) {
+        return r;
+    }
+    check_one(a)
+}
+
+/// One stencil folder (or file).
+fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = StageBar::start();
     bar.set("read");
     let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {

@@ -465,7 +465,7 @@ pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
     if is_busy {
         return e;
     }
-    let note = match stencil_io::set_aside(dir, stencil_core::pipeline::OUTPUT_NAMES) {
+    let note = match stencil_io::set_aside(dir, stencil_core::layers::owned_names()) {
         Ok(None) => return e,
         Ok(Some(s)) => format!(
             "nothing of this run was written; the earlier run's files in {} ({}{}) were moved to \

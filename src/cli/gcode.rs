@@ -193,7 +193,7 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
 }
 
 /// `stencil gcode STENCIL_DIR_OR_SVG -o job.gcode`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 #[command(after_help = "\
 Examples:
   stencil gcode out/rings -o rings.gcode --machine diode-400
@@ -283,6 +283,29 @@ pub fn chosen_settings(
 }
 
 pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
+    // A layered folder: a job in each layer's folder (and the fill-in's).
+    if a.input.is_dir()
+        && a.out.is_some()
+        && stencil_core::layers::stencil_folders(&a.input).len() > 1
+    {
+        bail!(
+            "{}: a folder of several stencils gets one job in each stencil's folder; leave out -o",
+            a.input.display()
+        );
+    }
+    if let Some(r) = super::layers::each_stencil(&a.input, |f| {
+        gcode_one(GcodeArgs {
+            input: f,
+            ..a.clone()
+        })
+    }) {
+        return r;
+    }
+    gcode_one(a)
+}
+
+/// One stencil folder (or file).
+fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     let (svg_path, dir) = if a.input.is_dir() {
         (a.input.join("stencil.svg"), Some(a.input.clone()))
     } else {

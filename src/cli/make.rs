@@ -285,6 +285,8 @@ pub struct MakeArgs {
     pub machine: MachineArgs,
     #[command(flatten)]
     pub cut: CutArgs,
+    #[command(flatten)]
+    pub layers: super::layers::LayerArgs,
 }
 
 impl ImageArgs {
@@ -345,7 +347,7 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| pipeline::default_out_dir(&a.input));
     let inputs = make_inputs(&a);
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-    stencil_io::check_output_dir(&out_dir, pipeline::OUTPUT_NAMES, &inputs)?;
+    stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
     make_in(&a).map_err(|e| super::errors::after_failed_make(&out_dir, e))
 }
 
@@ -365,6 +367,11 @@ fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a)?;
+    // A set (layers, a fill-in) or registration marks for a mask: every sheet registered.
+    let marks = a.physical.mask_marks && a.physical.emit.contains(&EmitKind::Mask);
+    if let Some(lc) = a.layers.config(marks) {
+        return super::layers::make_set(cfg, &lc, a.layers.fill_in);
+    }
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),

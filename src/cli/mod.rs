@@ -9,6 +9,7 @@ mod frame;
 mod gcode;
 mod grid;
 mod jog;
+mod layers;
 mod make;
 mod material;
 mod mesh;

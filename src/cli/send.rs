@@ -220,7 +220,7 @@ pub(super) fn settle_folder_of(path: &Path) -> anyhow::Result<()> {
 
 /// Finish or discard a half-finished swap of `make` in `dir`, saying so.
 pub(super) fn settle_folder(dir: &Path) -> anyhow::Result<()> {
-    match stencil_io::recover(dir, stencil_core::pipeline::OUTPUT_NAMES)? {
+    match stencil_io::recover(dir, stencil_core::layers::owned_names())? {
         stencil_io::Recovered::Nothing => {}
         stencil_io::Recovered::Finished => eprintln!(
             "note: {}: finished writing the files of a `stencil make` that was stopped while it \

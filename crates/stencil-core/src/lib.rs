@@ -64,6 +64,7 @@ pub mod check;
 pub mod export;
 pub mod fit;
 pub mod islands;
+pub mod layers;
 pub mod limits;
 pub mod material;
 pub mod pipeline;

@@ -45,6 +45,8 @@ pub enum Error {
     Check(#[from] crate::check::CheckError),
     #[error(transparent)]
     Limit(#[from] crate::limits::SizeError),
+    #[error(transparent)]
+    Layers(#[from] crate::layers::LayersError),
     /// The check found violations and the caller did not allow them
     /// ([`PhysicalConfig::allow_thin`]); nothing was written.
     #[error(
@@ -1329,7 +1331,8 @@ fn write_with(
             p.stage("write");
         }
         let files = encode_outputs(&mut made, &cfg.physical)?;
-        let replaced = export::write_files(&cfg.out_dir, &files, OUTPUT_NAMES)?;
+        // Every name make owns, a set's layer folders included: a one-layer run leaves none.
+        let replaced = export::write_files(&cfg.out_dir, &files, crate::layers::owned_names())?;
         Ok((made, replaced))
     });
     if result.is_err() && !existed {

@@ -1,7 +1,10 @@
 //! An output folder's set of files replaced as one transaction: whenever the process is killed,
 //! the folder holds the complete earlier set or the complete new set of the names the writer owns
 //! (once the half-finished swap is finished by the next run, or by any command that reads the
-//! folder), never a mix; every other file in the folder is left alone.
+//! folder), never a mix; every other file in the folder is left alone. An owned name may sit in
+//! a folder of its own (`layer-1/stencil.png`, a layered set's): the swap makes such folders as
+//! the new set needs them and removes those it leaves empty, so a one-layer run into a layered
+//! folder leaves no layer folder behind.
 //!
 //! How (a write-ahead plan, rolled forward):
 //! 1. The folder is locked (an advisory lock on the folder itself, so no lock file is left
@@ -59,43 +62,64 @@ impl Step {
 
     /// A plan line, if it is one this module writes for the `owned` names. A plan is a file in
     /// the folder, and the folder may have come from someone else: a plan that names anything
-    /// else (a person's file, a path out of the folder) is not run.
+    /// else (a person's file, a path out of the folder) is not run. An owned name may sit in a
+    /// folder of its own (`layer-1/stencil.png`): such folders ([`owned_folders`]) may be made
+    /// and removed when empty, in the output folder, in `previous/` and in the swap's own.
     fn parse(line: &str, owned: &[&str]) -> Option<Step> {
-        let file = |s: &str| {
-            let (folder, name) = s.rsplit_once('/').unwrap_or(("", s));
-            let folder_ok = matches!(
-                folder,
-                "" | PREVIOUS_DIR
-                    | ".stencil-swap/new"
-                    | ".stencil-swap/old"
-                    | ".stencil-swap/old-previous"
-            );
-            folder_ok && owned.contains(&name)
+        let folders = owned_folders(owned);
+        let strip = |s: &'_ str, prefixes: &[&str]| -> String {
+            prefixes
+                .iter()
+                .find_map(|p| s.strip_prefix(p))
+                .unwrap_or(s)
+                .to_string()
         };
+        const FILE_IN: &[&str] = &[
+            "previous/",
+            ".stencil-swap/new/",
+            ".stencil-swap/old/",
+            ".stencil-swap/old-previous/",
+        ];
+        const FOLDER_IN: &[&str] = &[
+            "previous/",
+            ".stencil-swap/old/",
+            ".stencil-swap/old-previous/",
+        ];
+        let file = |s: &str| owned.contains(&strip(s, FILE_IN).as_str());
+        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, FOLDER_IN));
         let folder = |s: &str| {
             matches!(
                 s,
                 PREVIOUS_DIR | ".stencil-swap/old" | ".stencil-swap/old-previous"
-            )
+            ) || owned_folder(s)
         };
         let mut f = line.split('\t');
         let step = match (f.next()?, f.next()?, f.next()) {
             ("R", a, Some(b)) if file(a) && file(b) => Step::Rename(a.into(), b.into()),
             ("M", a, None) if folder(a) => Step::MkDir(a.into()),
-            ("X", PREVIOUS_DIR, None) => Step::RmDirIfEmpty(PREVIOUS_DIR.into()),
+            ("X", a, None) if a == PREVIOUS_DIR || (owned_folder(a) && !a.starts_with('.')) => {
+                Step::RmDirIfEmpty(a.into())
+            }
             _ => return None,
         };
         Some(step)
     }
 
     fn run(&self, dir: &Path) -> std::io::Result<()> {
-        // previous/ is followed only as a real folder, never a link to somewhere else.
-        let through_previous = match self {
-            Step::Rename(a, b) => a.starts_with("previous/") || b.starts_with("previous/"),
-            _ => false,
-        };
-        if through_previous && !real_dir(&dir.join(PREVIOUS_DIR)) {
-            return Err(std::io::Error::other("previous is not a folder"));
+        // previous/ and an owned name's folder are followed only as real folders, never a link
+        // to somewhere else.
+        if let Step::Rename(a, b) = self {
+            for p in [a, b] {
+                for anc in ancestors(p) {
+                    if anc.starts_with(SWAP_DIR) {
+                        continue;
+                    }
+                    let at = dir.join(anc);
+                    if (anc == PREVIOUS_DIR || exists(&at)) && !real_dir(&at) {
+                        return Err(std::io::Error::other(format!("{anc} is not a folder")));
+                    }
+                }
+            }
         }
         match self {
             Step::Rename(a, b) => match std::fs::rename(dir.join(a), dir.join(b)) {
@@ -118,6 +142,45 @@ impl Step {
 
 fn exists(p: &Path) -> bool {
     std::fs::symlink_metadata(p).is_ok()
+}
+
+/// The folders a relative path sits in, outermost first (`a/b/c` → `a`, `a/b`).
+fn ancestors(p: &str) -> Vec<&str> {
+    p.match_indices('/').map(|(i, _)| &p[..i]).collect()
+}
+
+/// The folders the owned names sit in (`layer-1` for `layer-1/stencil.png`), outermost first,
+/// each once.
+fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
+    let mut out: Vec<&str> = Vec::new();
+    for n in owned {
+        for a in ancestors(n) {
+            if !out.contains(&a) {
+                out.push(a);
+            }
+        }
+    }
+    out.sort_by_key(|f| f.matches('/').count());
+    out
+}
+
+/// The owned folders `names` sit in, outermost first.
+fn folders_of<'a>(names: &[&'a str]) -> Vec<&'a str> {
+    owned_folders(names)
+}
+
+/// Refuse an owned folder that is there but is not a real folder (a file, a link elsewhere).
+fn refuse_odd_folders(dir: &Path, folders: &[&str]) -> Result<(), WriteError> {
+    for f in folders {
+        let p = dir.join(f);
+        if exists(&p) && !real_dir(&p) {
+            return Err(WriteError::NotAFile {
+                path: p,
+                is: "not a folder stencil made",
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Whether `p` is a folder itself (not a link to one).
@@ -372,18 +435,27 @@ fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(
     if !std::fs::symlink_metadata(&prev).is_ok_and(|m| m.is_dir()) {
         return Ok(());
     }
-    let mut any = false;
+    refuse_odd_folders(&prev, &owned_folders(owned))?;
+    let mut there = Vec::new();
     for n in owned {
         if refuse_odd(&prev.join(n))? {
-            if !any {
-                steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous")));
-                any = true;
-            }
+            there.push(*n);
+        }
+    }
+    if !there.is_empty() {
+        steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous")));
+        for f in folders_of(&there) {
+            steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous/{f}")));
+        }
+        for n in &there {
             steps.push(Step::Rename(
                 format!("{PREVIOUS_DIR}/{n}"),
                 format!("{SWAP_DIR}/old-previous/{n}"),
             ));
         }
+    }
+    for f in folders_of(&there).iter().rev() {
+        steps.push(Step::RmDirIfEmpty(format!("{PREVIOUS_DIR}/{f}")));
     }
     steps.push(Step::RmDirIfEmpty(PREVIOUS_DIR.into()));
     Ok(())
@@ -418,6 +490,8 @@ pub(crate) fn replace_all_hooked(
         }
     }
     // Refuse, before writing anything, to replace what is not a file.
+    let folders = owned_folders(&owned);
+    refuse_odd_folders(dir, &folders)?;
     let mut existing = Vec::new();
     for n in &owned {
         if refuse_odd(&dir.join(n))? {
@@ -436,12 +510,23 @@ pub(crate) fn replace_all_hooked(
     }
     if !existing.is_empty() {
         steps.push(Step::MkDir(format!("{SWAP_DIR}/old")));
+        for f in folders_of(&existing) {
+            steps.push(Step::MkDir(format!("{SWAP_DIR}/old/{f}")));
+        }
     }
     for n in &existing {
         steps.push(Step::Rename(n.to_string(), format!("{SWAP_DIR}/old/{n}")));
     }
+    let new_names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    for f in folders_of(&new_names) {
+        steps.push(Step::MkDir(f.to_string()));
+    }
     for (n, _) in files {
         steps.push(Step::Rename(format!("{SWAP_DIR}/new/{n}"), n.clone()));
+    }
+    // Owned folders this set left empty go (a person's file in one keeps it).
+    for f in folders.iter().rev() {
+        steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
     commit(dir, &steps, &mut pts)?;
     run_plan(dir, &owned, &mut pts)?;
@@ -462,6 +547,9 @@ fn stage(swap: &Path, files: &[(String, Vec<u8>)], pts: &mut Points) -> Result<(
     std::fs::create_dir(&new).map_err(|e| io_err(&new, e))?;
     for (name, bytes) in files {
         let p = new.join(name);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| io_err(parent, e))?;
+        }
         let mut f = File::create(&p).map_err(|e| io_err(&p, e))?;
         f.write_all(bytes)
             .and_then(|()| sync_file(&f))
@@ -502,6 +590,8 @@ pub(crate) fn set_aside_hooked(
     }
     let _lock = lock(dir)?;
     recover_locked(dir, owned, &mut pts)?;
+    let folders = owned_folders(owned);
+    refuse_odd_folders(dir, &folders)?;
     let mut existing = Vec::new();
     let mut made: Option<SystemTime> = None;
     for n in owned {
@@ -530,8 +620,14 @@ pub(crate) fn set_aside_hooked(
     clear_previous(dir, owned, &mut steps)?;
     // clear_previous may remove an emptied previous/: make it again before filling it.
     steps.push(Step::MkDir(PREVIOUS_DIR.into()));
+    for f in folders_of(&existing) {
+        steps.push(Step::MkDir(format!("{PREVIOUS_DIR}/{f}")));
+    }
     for n in &existing {
         steps.push(Step::Rename(n.to_string(), format!("{PREVIOUS_DIR}/{n}")));
+    }
+    for f in folders.iter().rev() {
+        steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
     new_swap(dir)?;
     commit(dir, &steps, &mut pts)?;

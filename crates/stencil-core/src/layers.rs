@@ -1,0 +1,1346 @@
+//! Layers: a picture posterised into tones, one stencil per tone, sprayed light to dark and
+//! registered by marks cut at the same sheet coordinates in every layer; and the paper's fill-in
+//! layer, which paints what the first stencil's bridges hide.
+//!
+//! ## Tones
+//! `N` layers paint `N` tones over the surface, which is the picture's lightest tone (so the
+//! picture is posterised into `N + 1` tones, and the one-layer `make` is the case `N = 1`: white
+//! paper and one paint). Layer `k` (1 = lightest paint) cuts every part of the picture at its
+//! tone or darker, so layers are cumulative: a later, darker layer paints over part of what an
+//! earlier one painted, and a small misregistration leaves no unpainted gap.
+//! - A gray picture, or any picture with `levels` given: multi-level thresholds on its luma.
+//!   Without levels, the `N` levels that minimise the spread of gray within the `N + 1` classes
+//!   (Otsu's criterion for several thresholds, solved exactly by dynamic programming over the
+//!   256-level histogram). Layer `k` cuts where the gray is below its level, exactly as a
+//!   one-layer `--threshold` does.
+//! - A colour picture: k-means with `N + 1` clusters in CIELAB (distances there follow what a
+//!   person sees as different), on a sample of at most [`KMEANS_SAMPLES`] pixels, started from the
+//!   pixels at evenly spaced quantiles of lightness (deterministic), [`KMEANS_ROUNDS`] rounds of
+//!   Lloyd's algorithm; clusters are ordered by their lightness L*. Each pixel then carries its
+//!   cluster's L* as its gray, and each layer's level sits between two clusters' L*, so
+//!   thresholding that gray gives exactly the union of the clusters at the layer's tone or darker.
+//!
+//! Each layer is then one ordinary stencil through `make`'s stages (clean-up for the material,
+//! islands, bridges, trace, check, repair): one 4-connected sheet, bridged, width-checked.
+//!
+//! ## Hidden bridges
+//! Layers are made darkest first. A layer's bridge over a pixel that a later (darker) layer cuts
+//! is painted over by that layer: it is hidden. The bridge cost's intensity term is
+//! `w0 · (1 − gray)²` per pixel (`bridge::cost`), read from the two-tone's gray and nothing else;
+//! so a layer is bridged on a *cost gray* in which a covered pixel keeps only [`COVERED_COST`] of
+//! its intensity cost, and its real gray is put back afterwards (the report and the preview read
+//! the picture). The report says, per layer, how many of its bridge pixels (cut in its two-tone,
+//! material in its stencil) a later layer paints over.
+//!
+//! ## Registration
+//! Every sheet of a set grows by a band of material around the picture ([`Marks`]) holding four
+//! corner crosses and two pin holes, cut into every layer's raster before the clean-up, so every
+//! output drawn from it (PNG, SVG, DXF, mask, G-code) carries them at the same sheet coordinates.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::export::{self, png};
+use crate::pipeline::{self, Error, Made, MakeConfig, Source, Timings};
+use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::tone::{is_light, Threshold};
+use crate::units::Size;
+
+/// Most layers a set may have.
+pub const MAX_LAYERS: u32 = 6;
+
+/// Share of the intensity cost a bridge pixel keeps where a later layer paints over it: a
+/// covered pixel is twenty times cheaper to bridge than the same pixel left visible.
+pub const COVERED_COST: f32 = 0.05;
+
+/// Most pixels k-means clusters (a sample of the picture, evenly spread).
+pub const KMEANS_SAMPLES: usize = 40_000;
+
+/// Rounds of Lloyd's algorithm.
+pub const KMEANS_ROUNDS: usize = 30;
+
+/// The fill-in's cut reaches this far (mm) past each hidden bridge pixel, inside what the first
+/// stencil paints anyway, so that a small misregistration of the two sheets leaves no gap.
+pub const FILL_IN_OVERLAP_MM: f64 = 0.3;
+
+/// What a layered (or registered) run asks for.
+#[derive(Clone, Debug, Default)]
+pub struct LayersConfig {
+    /// Layers (1..=[`MAX_LAYERS`]).
+    pub count: u32,
+    /// One 8-bit level per layer (any order; light is at or above a level), or empty to choose.
+    pub levels: Vec<u8>,
+    /// Paint colours light to dark, one per layer, or one more with the surface first; empty to
+    /// take the tones' own colours.
+    pub colors: Vec<[u8; 3]>,
+    /// With one layer: a second stencil that paints what the first one's bridges hide.
+    pub fill_in: bool,
+}
+
+/// A layered run's errors, as data (the `stencil` binary words them with its options).
+#[derive(Debug, thiserror::Error)]
+pub enum LayersError {
+    #[error("{0} layers: a set has 1 to {MAX_LAYERS}")]
+    Count(u32),
+    #[error("{given} level(s) for {count} layer(s): give one level per layer")]
+    Levels { given: usize, count: u32 },
+    #[error("the level {0} is given twice: each layer needs its own level")]
+    SameLevel(u8),
+    #[error("{given} colour(s) for {count} layer(s): give one per layer (light to dark), or one more with the surface's first")]
+    Colors { given: usize, count: u32 },
+    #[error("layers are cut from a picture, not a mesh")]
+    Mesh,
+    #[error("layers paint the picture's dark tones through the cuts; swapping the tones does not apply to them")]
+    Invert,
+    #[error("a keep-out picture is not supported with layers or registration marks (the sheet grows around the picture); use keep-out discs")]
+    KeepOut,
+    #[error("{path}: cannot read the picture's colours: {msg}")]
+    Colour {
+        path: std::path::PathBuf,
+        msg: String,
+    },
+}
+
+/// How the picture was posterised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Multi-level Otsu on the luma.
+    MultiOtsu,
+    /// The levels the person gave, on the luma.
+    LevelsGiven,
+    /// k-means in CIELAB.
+    KmeansLab,
+}
+
+/// The picture posterised: what each layer is cut from and painted with.
+#[derive(Clone, Debug)]
+pub struct Tones {
+    /// What the layers are thresholded from: the luma, or each pixel's cluster's L* (colour).
+    pub gray: Gray,
+    /// The picture's own luma (what the composite's likeness is measured against).
+    pub luma: Gray,
+    /// Per layer, light to dark: layer k cuts where `gray` is below `levels[k-1]` (descending).
+    pub levels: Vec<u8>,
+    /// The surface's colour, then each layer's paint (sRGB).
+    pub colors: Vec<[u8; 3]>,
+    pub method: Method,
+}
+
+impl Tones {
+    /// The tone of a gray value: how many layers paint it (0 = the surface).
+    pub fn tone_of(&self, v: f32) -> usize {
+        self.levels.iter().filter(|&&l| !is_light(v, l)).count()
+    }
+}
+
+/// Posterise a picture into `lc.count + 1` tones (see the module notes). `rgb`: the picture's
+/// colours (sRGB 0..1, alpha over white) when it has any, `None` for a gray one.
+pub fn posterise(
+    luma: &Gray,
+    rgb: Option<&[[f32; 3]]>,
+    lc: &LayersConfig,
+) -> Result<Tones, LayersError> {
+    let n = lc.count as usize;
+    if !(1..=MAX_LAYERS).contains(&lc.count) {
+        return Err(LayersError::Count(lc.count));
+    }
+    if !lc.colors.is_empty() && lc.colors.len() != n && lc.colors.len() != n + 1 {
+        return Err(LayersError::Colors {
+            given: lc.colors.len(),
+            count: lc.count,
+        });
+    }
+    let (gray, levels, method, mut colors) = if !lc.levels.is_empty() || rgb.is_none() {
+        let levels = if lc.levels.is_empty() {
+            let mut b = multi_otsu(luma, n + 1);
+            b.reverse();
+            b
+        } else {
+            if lc.levels.len() != n {
+                return Err(LayersError::Levels {
+                    given: lc.levels.len(),
+                    count: lc.count,
+                });
+            }
+            let mut l = lc.levels.clone();
+            l.sort_unstable_by(|a, b| b.cmp(a));
+            if let Some(w) = l.windows(2).find(|w| w[0] == w[1]) {
+                return Err(LayersError::SameLevel(w[0]));
+            }
+            l
+        };
+        let method = if lc.levels.is_empty() {
+            Method::MultiOtsu
+        } else {
+            Method::LevelsGiven
+        };
+        let colors = class_grays(luma, &levels);
+        (luma.clone(), levels, method, colors)
+    } else {
+        let rgb = rgb.expect("checked above");
+        let (gray, levels, colors) = kmeans_tones(luma, rgb, n + 1);
+        (gray, levels, Method::KmeansLab, colors)
+    };
+    if lc.colors.len() == n {
+        colors = std::iter::once([255, 255, 255])
+            .chain(lc.colors.iter().copied())
+            .collect();
+    } else if lc.colors.len() == n + 1 {
+        colors = lc.colors.clone();
+    }
+    Ok(Tones {
+        gray,
+        luma: luma.clone(),
+        levels,
+        colors,
+        method,
+    })
+}
+
+/// The levels (ascending, `classes − 1` of them) that split the 8-bit histogram into `classes`
+/// classes with the least sum of squared deviations from their means (Otsu's criterion for
+/// several thresholds), exactly, by dynamic programming over the 256 bins. A pixel at or above a
+/// level is in the lighter class, as `tone::is_light` reads a level.
+pub fn multi_otsu(gray: &Gray, classes: usize) -> Vec<u8> {
+    let mut hist = [0f64; 256];
+    for &v in &gray.data {
+        hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1.0;
+    }
+    // Prefix sums of count, sum and sum of squares.
+    let (mut w, mut s, mut s2) = ([0f64; 257], [0f64; 257], [0f64; 257]);
+    for i in 0..256 {
+        w[i + 1] = w[i] + hist[i];
+        s[i + 1] = s[i] + hist[i] * i as f64;
+        s2[i + 1] = s2[i] + hist[i] * (i * i) as f64;
+    }
+    // Spread of bins a..b (b exclusive).
+    let cost = |a: usize, b: usize| {
+        let n = w[b] - w[a];
+        if n <= 0.0 {
+            0.0
+        } else {
+            let m = s[b] - s[a];
+            (s2[b] - s2[a]) - m * m / n
+        }
+    };
+    let k = classes.clamp(1, 256);
+    // best[c][b]: least cost of bins 0..b in c + 1 classes; from[c][b]: where the last starts.
+    let mut best = vec![vec![f64::INFINITY; 257]; k];
+    let mut from = vec![vec![0usize; 257]; k];
+    for b in 1..=256 {
+        best[0][b] = cost(0, b);
+    }
+    for c in 1..k {
+        for b in (c + 1)..=256 {
+            for a in c..b {
+                let v = best[c - 1][a] + cost(a, b);
+                if v < best[c][b] {
+                    best[c][b] = v;
+                    from[c][b] = a;
+                }
+            }
+        }
+    }
+    let mut levels = Vec::with_capacity(k - 1);
+    let mut b = 256;
+    for c in (1..k).rev() {
+        let a = from[c][b];
+        levels.push(a as u8);
+        b = a;
+    }
+    levels.reverse();
+    levels
+}
+
+/// Each tone's mean gray as a colour (the surface's first): the posterised picture of a gray one.
+fn class_grays(luma: &Gray, levels: &[u8]) -> Vec<[u8; 3]> {
+    let n = levels.len() + 1;
+    let (mut sum, mut count) = (vec![0f64; n], vec![0usize; n]);
+    for &v in &luma.data {
+        let t = levels.iter().filter(|&&l| !is_light(v, l)).count();
+        sum[t] += v as f64;
+        count[t] += 1;
+    }
+    (0..n)
+        .map(|t| {
+            let v = if count[t] > 0 {
+                sum[t] / count[t] as f64
+            } else {
+                // An empty tone: the middle of its band.
+                let hi = if t == 0 { 255.0 } else { levels[t - 1] as f64 };
+                let lo = if t == n - 1 { 0.0 } else { levels[t] as f64 };
+                (hi + lo) / 2.0 / 255.0
+            };
+            let g = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+            [g, g, g]
+        })
+        .collect()
+}
+
+/// sRGB (0..1) to CIELAB (D65).
+pub fn lab(c: [f32; 3]) -> [f32; 3] {
+    let lin = |u: f32| {
+        if u <= 0.04045 {
+            u / 12.92
+        } else {
+            ((u + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let (r, g, b) = (lin(c[0]), lin(c[1]), lin(c[2]));
+    let x = (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.950_47;
+    let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    let z = (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.088_83;
+    let f = |t: f32| {
+        if t > 0.008_856 {
+            t.cbrt()
+        } else {
+            7.787 * t + 16.0 / 116.0
+        }
+    };
+    let (fx, fy, fz) = (f(x), f(y), f(z));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
+/// CIELAB (D65) to 8-bit sRGB, clamped to the gamut.
+pub fn srgb(l: [f32; 3]) -> [u8; 3] {
+    let fy = (l[0] + 16.0) / 116.0;
+    let (fx, fz) = (fy + l[1] / 500.0, fy - l[2] / 200.0);
+    let inv = |t: f32| {
+        if t > 0.206_893 {
+            t * t * t
+        } else {
+            (t - 16.0 / 116.0) / 7.787
+        }
+    };
+    let (x, y, z) = (inv(fx) * 0.950_47, inv(fy), inv(fz) * 1.088_83);
+    let r = 3.2406 * x - 1.5372 * y - 0.4986 * z;
+    let g = -0.9689 * x + 1.8758 * y + 0.0415 * z;
+    let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
+    let gam = |u: f32| {
+        let u = u.clamp(0.0, 1.0);
+        let v = if u <= 0.003_130_8 {
+            12.92 * u
+        } else {
+            1.055 * u.powf(1.0 / 2.4) - 0.055
+        };
+        (v * 255.0).round() as u8
+    };
+    [gam(r), gam(g), gam(b)]
+}
+
+fn dist2(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
+}
+
+fn nearest(c: [f32; 3], centres: &[[f32; 3]]) -> usize {
+    let mut best = (f32::INFINITY, 0);
+    for (i, &m) in centres.iter().enumerate() {
+        let d = dist2(c, m);
+        if d < best.0 {
+            best = (d, i);
+        }
+    }
+    best.1
+}
+
+/// k-means in CIELAB (see the module notes): the tone gray, the levels (descending) and the
+/// colours (lightest cluster first).
+fn kmeans_tones(luma: &Gray, rgb: &[[f32; 3]], k: usize) -> (Gray, Vec<u8>, Vec<[u8; 3]>) {
+    let labs: Vec<[f32; 3]> = rgb.par_iter().map(|&c| lab(c)).collect();
+    let step = labs.len().div_ceil(KMEANS_SAMPLES).max(1);
+    let mut sample: Vec<[f32; 3]> = labs.iter().step_by(step).copied().collect();
+    sample.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let mut centres: Vec<[f32; 3]> = (0..k)
+        .map(|i| sample[((2 * i + 1) * sample.len() / (2 * k)).min(sample.len() - 1)])
+        .collect();
+    for _ in 0..KMEANS_ROUNDS {
+        let mut sum = vec![[0f64; 3]; k];
+        let mut count = vec![0usize; k];
+        for &c in &sample {
+            let i = nearest(c, &centres);
+            for j in 0..3 {
+                sum[i][j] += c[j] as f64;
+            }
+            count[i] += 1;
+        }
+        let mut moved = false;
+        for i in 0..k {
+            if count[i] > 0 {
+                let m = sum[i].map(|v| (v / count[i] as f64) as f32);
+                moved |= dist2(m, centres[i]) > 1e-6;
+                centres[i] = m;
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    // Lightest first.
+    centres.sort_by(|a, b| b[0].total_cmp(&a[0]));
+    // Each cluster's L* on the 8-bit scale, strictly falling by at least 2 so that a level fits
+    // between any two (evenly spread when the clusters' lightness is too close for that).
+    let mut q: Vec<i32> = centres
+        .iter()
+        .map(|c| (c[0] * 2.55).round() as i32)
+        .collect();
+    for i in 1..k {
+        q[i] = q[i].min(q[i - 1] - 2);
+    }
+    if q[k - 1] < 0 {
+        q = (0..k)
+            .map(|i| (255 * (k - 1 - i) / (k - 1).max(1)) as i32)
+            .collect();
+    }
+    let levels: Vec<u8> = (1..k)
+        .map(|i| (q[i] + (q[i - 1] - q[i] + 1) / 2) as u8)
+        .collect();
+    let data: Vec<f32> = labs
+        .par_iter()
+        .map(|&c| q[nearest(c, &centres)] as f32 / 255.0)
+        .collect();
+    let colors = centres.iter().map(|&c| srgb(c)).collect();
+    (
+        Gray {
+            width: luma.width,
+            height: luma.height,
+            data,
+        },
+        levels,
+        colors,
+    )
+}
+
+/// The picture's colours (sRGB 0..1, alpha over white) as shown, or `None` when it has none worth
+/// clustering (gray, or colour in fewer than 2 % of its pixels). The picture was already read and
+/// checked by `tone::load_gray` (size, memory, truncation), which gave `luma`; this decodes it
+/// again in colour, under the same memory cap, and turns it by its EXIF orientation the same way.
+fn load_colours(path: &Path, luma: &Gray) -> Result<Option<Vec<[f32; 3]>>, LayersError> {
+    let err = |msg: String| LayersError::Colour {
+        path: path.to_path_buf(),
+        msg,
+    };
+    use image::ImageDecoder;
+    let mut reader = image::ImageReader::open(path)
+        .map_err(|e| err(e.to_string()))?
+        .with_guessed_format()
+        .map_err(|e| err(e.to_string()))?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::limits::MAX_DECODE_BYTES);
+    reader.limits(limits);
+    let mut decoder = reader.into_decoder().map_err(|e| err(e.to_string()))?;
+    let orientation = decoder
+        .orientation()
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(|e| err(e.to_string()))?;
+    img.apply_orientation(orientation);
+    if !img.color().has_color() {
+        return Ok(None);
+    }
+    let rgba = img.to_rgba8();
+    if rgba.width() != luma.width || rgba.height() != luma.height {
+        return Err(err(format!(
+            "decoded as {}x{} pixels, read as {}x{} (did the file change?)",
+            rgba.width(),
+            rgba.height(),
+            luma.width,
+            luma.height
+        )));
+    }
+    let rgb: Vec<[f32; 3]> = rgba
+        .pixels()
+        .map(|p| {
+            let a = p[3] as f32 / 255.0;
+            [0, 1, 2].map(|i| (p[i] as f32 / 255.0) * a + (1.0 - a))
+        })
+        .collect();
+    let coloured = rgb
+        .iter()
+        .filter(|c| {
+            let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+            hi - lo > 0.06
+        })
+        .count();
+    Ok((coloured * 50 > rgb.len()).then_some(rgb))
+}
+
+/// The registration marks: a band of material around the picture holding four corner crosses
+/// and two pin holes (top and bottom middle), the same on every sheet of a set. Coordinates are
+/// in mm from the top-left corner of the picture grown by the band (the SVG's, DXF's and
+/// G-code's origin), whose size is the picture's plus twice `band_mm`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Marks {
+    /// Width of the band on each side, mm (a whole number of input pixels).
+    pub band_mm: f64,
+    /// The same in input pixels.
+    pub band_px: u32,
+    /// Width of a cross's arms, mm: twice the material's smallest feature, at least 1 mm.
+    pub line_mm: f64,
+    /// Half the length of a cross's arm, mm.
+    pub arm_mm: f64,
+    /// Diameter of a pin hole, mm.
+    pub pin_mm: f64,
+    /// Centres of the crosses, mm.
+    pub crosses_mm: Vec<[f64; 2]>,
+    /// Centres of the pin holes, mm.
+    pub pins_mm: Vec<[f64; 2]>,
+}
+
+impl Marks {
+    /// The marks for a picture of `w` × `h` input pixels at `mm_per_px`, cut in `material`.
+    pub fn new(w: u32, h: u32, mm_per_px: f64, min_feature_mm: f64) -> Marks {
+        let line = (2.0 * min_feature_mm).max(1.0);
+        let arm = 3.5 * line;
+        let pin = 3.0 * line;
+        let band_px = ((2.0 * arm + 3.0 * line) / mm_per_px).ceil().max(1.0) as u32;
+        let band = band_px as f64 * mm_per_px;
+        let (sw, sh) = (
+            (w + 2 * band_px) as f64 * mm_per_px,
+            (h + 2 * band_px) as f64 * mm_per_px,
+        );
+        let c = band / 2.0;
+        Marks {
+            band_mm: band,
+            band_px,
+            line_mm: line,
+            arm_mm: arm,
+            pin_mm: pin,
+            crosses_mm: vec![[c, c], [sw - c, c], [c, sh - c], [sw - c, sh - c]],
+            pins_mm: vec![[sw / 2.0, c], [sw / 2.0, sh - c]],
+        }
+    }
+
+    /// Whether a point (mm) is inside a mark.
+    fn inside(&self, x: f64, y: f64) -> bool {
+        let half = self.line_mm / 2.0;
+        self.crosses_mm.iter().any(|&[cx, cy]| {
+            let (dx, dy) = ((x - cx).abs(), (y - cy).abs());
+            (dx <= self.arm_mm && dy <= half) || (dy <= self.arm_mm && dx <= half)
+        }) || self
+            .pins_mm
+            .iter()
+            .any(|&[cx, cy]| (x - cx).hypot(y - cy) <= self.pin_mm / 2.0)
+    }
+
+    /// Set the band of a working grid (band `band` working pixels wide, `mm_per_px` per working
+    /// pixel): material, but cut inside the marks.
+    pub fn stamp(&self, bits: &mut BitGrid, band: u32, mm_per_px: f64) {
+        let (w, h) = (bits.width, bits.height);
+        for y in 0..h {
+            let in_rows = y < band || y >= h.saturating_sub(band);
+            for x in 0..w {
+                if in_rows || x < band || x >= w.saturating_sub(band) {
+                    let (mx, my) = ((x as f64 + 0.5) * mm_per_px, (y as f64 + 0.5) * mm_per_px);
+                    bits.set(x, y, !self.inside(mx, my));
+                }
+            }
+        }
+    }
+}
+
+/// One layer's report.
+#[derive(Clone, Debug, Serialize)]
+pub struct LayerReport {
+    /// 1 = the first sprayed (lightest paint).
+    pub layer: u32,
+    pub folder: String,
+    /// Cuts where the gray is below this 8-bit level.
+    pub level: u8,
+    pub color: String,
+    /// Share of the picture painted last by this layer in the posterised picture, %.
+    pub tone_pct: f64,
+    /// Share of the picture this layer's stencil cuts, %.
+    pub cut_pct: f64,
+    pub islands: usize,
+    pub bridges: usize,
+    /// Pixels (working) the bridges and the clean-up after them keep out of the paint: cut in
+    /// the layer's two-tone, material in its stencil.
+    pub bridge_px: usize,
+    /// Of those, the pixels a later layer paints over.
+    pub hidden_px: usize,
+    pub hidden_pct: f64,
+    pub check_passed: bool,
+}
+
+/// How close the painted set comes to the picture.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Composite {
+    /// Working pixels whose painted tone is the posterised picture's, %.
+    pub tone_agreement_pct: f64,
+    /// Mean colour difference (CIE76 ΔE) between the composite and the posterised picture.
+    pub mean_delta_e: f64,
+    /// Likeness of the composite's lightness to the picture's (see [`likeness`]), 0..1.
+    pub likeness: f64,
+    /// The same for the posterised picture itself: the most the set can reach.
+    pub posterised_likeness: f64,
+}
+
+/// The fill-in's report.
+#[derive(Clone, Debug, Serialize)]
+pub struct FillInReport {
+    pub folder: String,
+    /// The first stencil's bridge pixels (cut in its two-tone, material in its stencil).
+    pub bridge_px: usize,
+    /// Of those, the pixels the fill-in cuts (paints).
+    pub covered_px: usize,
+    pub covered_pct: f64,
+    /// Pixels the fill-in paints that the first stencil's two-tone keeps unpainted: the specks
+    /// it paints over rather than bridging them again, and its clean-up.
+    pub overpainted_px: usize,
+    pub check_passed: bool,
+}
+
+/// A set's report.json (a layered folder's; `layers.json` beside a one-layer set's stencil).
+#[derive(Clone, Debug, Serialize)]
+pub struct SetReport {
+    pub input: String,
+    pub method: Method,
+    /// Layers, in painting order.
+    pub layers: Vec<LayerReport>,
+    /// The surface's colour (the lightest tone).
+    pub surface_color: String,
+    /// The folders in the order to spray them.
+    pub painting_order: Vec<String>,
+    pub composite: Composite,
+    /// Working pixels a darker layer's two-tone cuts but a lighter one's does not (the clean-up
+    /// of each layer for the material can break the cumulative order at the edges).
+    pub nesting_breaks_px: usize,
+    pub marks: Marks,
+    /// Working pixels per input pixel, and mm per working pixel (the same for every layer).
+    pub scale_factor: u32,
+    pub mm_per_px: f64,
+    pub fill_in: Option<FillInReport>,
+    pub files: Vec<String>,
+}
+
+/// What a layered run made, before anything is written.
+pub struct Layered {
+    /// Per layer, light to dark.
+    pub layers: Vec<Made>,
+    pub fill_in: Option<Made>,
+    pub tones: Tones,
+    /// The composite (picture size), RGB.
+    pub composite: Vec<u8>,
+    pub report: SetReport,
+}
+
+fn hex(c: [u8; 3]) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// The folder of layer `k` (1-based) of `n`: a one-layer set's stencil is the folder itself.
+pub fn layer_folder(k: usize, n: usize) -> String {
+    if n == 1 {
+        String::new()
+    } else {
+        format!("layer-{k}")
+    }
+}
+
+/// Folders a set's stencils may be in, besides the output folder itself.
+pub const FOLDERS: &[&str] = &[
+    "layer-1", "layer-2", "layer-3", "layer-4", "layer-5", "layer-6", "fill-in",
+];
+
+/// Every name `make` owns in its output folder: a one-layer run's files, a set's `composite.png`
+/// and `layers.json`, and every file of every layer folder and of `fill-in/`. Any run removes the
+/// owned names it does not write, so a one-layer run leaves no layer folder behind.
+pub fn owned_names() -> &'static [&'static str] {
+    static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| {
+        let mut v: Vec<&'static str> = pipeline::OUTPUT_NAMES.to_vec();
+        v.push("composite.png");
+        v.push("layers.json");
+        for f in FOLDERS {
+            for n in pipeline::OUTPUT_NAMES {
+                v.push(Box::leak(format!("{f}/{n}").into_boxed_str()));
+            }
+        }
+        v
+    })
+}
+
+/// The stencil folders of a `make` output folder, in painting order: `layer-1/` … when it is a
+/// layered set, else the folder itself; then `fill-in/` when there is one.
+pub fn stencil_folders(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut v: Vec<std::path::PathBuf> = FOLDERS[..MAX_LAYERS as usize]
+        .iter()
+        .map(|f| dir.join(f))
+        .filter(|p| p.join("report.json").is_file())
+        .collect();
+    if v.is_empty() {
+        v.push(dir.to_path_buf());
+    }
+    let fill = dir.join("fill-in");
+    if fill.join("report.json").is_file() {
+        v.push(fill);
+    }
+    v
+}
+
+/// Everything a layer's stages need that is the same for every layer.
+struct Frame {
+    source_gray: Arc<Gray>,
+    marks: Marks,
+    cfg: MakeConfig,
+}
+
+/// One layer through `make`'s stages at `level`, its bridges on a cost gray where `covered` (cut
+/// by a later layer) is cheap, its raw cut forced to include `darker`'s cleaned cut. Returns the
+/// result and the layer's two-tone after the clean-up (what its bridges were drawn into).
+fn one_layer(
+    f: &Frame,
+    level: u8,
+    covered: Option<&BitGrid>,
+    darker: Option<&BitGrid>,
+) -> Result<(Made, BitGrid), Error> {
+    let mut cfg = f.cfg.clone();
+    cfg.tone.threshold = Threshold::Level(level);
+    let source = Source::Picture(f.source_gray.clone());
+    let params = pipeline::resolve(&cfg, &source)?;
+    let mut timer = Timings::new(cfg.progress.clone());
+    let gray = pipeline::working_gray(source.clone(), params.working.factor);
+    let (mut raw, lvl) = pipeline::threshold(&source, gray, &params.tone);
+    let band = f.marks.band_px * params.working.factor;
+    f.marks
+        .stamp(&mut raw.bits, band, params.working.scale.mm_per_px);
+    let mut cleaned = timer.time("filter", || pipeline::clean(raw, lvl, &params.clean));
+    if let Some(d) = darker {
+        // Cumulative: what a darker layer cuts, this one cuts too.
+        for (b, &m) in cleaned.twotone.bits.data.iter_mut().zip(&d.data) {
+            *b &= m;
+        }
+    }
+    let twotone = std::mem::replace(
+        &mut cleaned.twotone,
+        TwoTone {
+            bits: BitGrid::new(0, 0, false),
+            gray: Gray::new(0, 0, 0.0),
+        },
+    );
+    let real_gray = twotone.gray.clone();
+    let cost_gray = match covered {
+        Some(c) => cost_gray(&twotone.gray, c),
+        None => twotone.gray,
+    };
+    let cut = twotone.bits.clone();
+    let mut joined = pipeline::join(
+        TwoTone {
+            bits: twotone.bits,
+            gray: cost_gray,
+        },
+        &params.join,
+        &mut timer,
+    )?;
+    joined.twotone.gray = real_gray;
+    let made = pipeline::finish_from(&cfg, &params, &cleaned, &joined)?;
+    Ok((made, cut))
+}
+
+/// The gray the bridge cost reads for a layer: where a later layer paints (`covered` is cut),
+/// the intensity cost `(1 − gray)²` is scaled by [`COVERED_COST`].
+fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
+    let k = COVERED_COST.sqrt();
+    Gray {
+        width: gray.width,
+        height: gray.height,
+        data: gray
+            .data
+            .iter()
+            .zip(&covered.data)
+            .map(|(&g, &material)| if material { g } else { 1.0 - (1.0 - g) * k })
+            .collect(),
+    }
+}
+
+/// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
+/// fill-in), in memory.
+pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
+    if pipeline::is_mesh(&cfg.input) {
+        return Err(LayersError::Mesh.into());
+    }
+    if cfg.tone.invert {
+        return Err(LayersError::Invert.into());
+    }
+    if cfg.bridge.user.keep_out_mask.is_some() {
+        return Err(LayersError::KeepOut.into());
+    }
+    let sp = pipeline::SourceParams::of(cfg)?;
+    let pipeline::Input::Picture(luma) = pipeline::load(&cfg.input, &sp)? else {
+        return Err(LayersError::Mesh.into());
+    };
+    let rgb = if lc.levels.is_empty() {
+        load_colours(&cfg.input, &luma)?
+    } else {
+        None
+    };
+    let tones = posterise(&luma, rgb.as_deref(), lc)?;
+    drop(rgb);
+    let (w, h) = (luma.width, luma.height);
+    let scale = cfg.physical.scale(w, h)?;
+    let marks = Marks::new(w, h, scale.mm_per_px, cfg.physical.material.min_feature_mm);
+    // The layers' gray, grown by the band (white: material).
+    let b = marks.band_px;
+    let (pw, ph) = (w + 2 * b, h + 2 * b);
+    let mut padded = Gray::new(pw, ph, 1.0);
+    for y in 0..h {
+        let src = &tones.gray.data[(y * w) as usize..((y + 1) * w) as usize];
+        let at = ((y + b) * pw + b) as usize;
+        padded.data[at..at + w as usize].copy_from_slice(src);
+    }
+    let mut lcfg = cfg.clone();
+    lcfg.physical.size = Size::Dpi(25.4 / scale.mm_per_px);
+    // The registration marks are cut in every layer; the mask's own corner marks would be a
+    // second set.
+    lcfg.physical.mask.marks = false;
+    let u = &mut lcfg.bridge.user;
+    for p in &mut u.at_mm {
+        p[0] += marks.band_mm;
+        p[1] += marks.band_mm;
+    }
+    for p in &mut u.no_bridge_near_mm {
+        p[0] += marks.band_mm;
+        p[1] += marks.band_mm;
+    }
+    let frame = Frame {
+        source_gray: Arc::new(padded),
+        marks,
+        cfg: lcfg,
+    };
+    let n = tones.levels.len();
+    // Darkest first: each layer's bridges see the stencils painted after it.
+    let mut made: Vec<Option<(Made, BitGrid)>> = (0..n).map(|_| None).collect();
+    for k in (0..n).rev() {
+        let later = made.get(k + 1).and_then(|m| m.as_ref());
+        let covered = later.map(|(m, _)| &m.bridged.bits);
+        let darker = later.map(|(_, cut)| cut);
+        made[k] = Some(one_layer(&frame, tones.levels[k], covered, darker)?);
+    }
+    let made: Vec<(Made, BitGrid)> = made.into_iter().map(|m| m.expect("made")).collect();
+    let fill_in = if lc.fill_in && n == 1 {
+        Some(fill_in(&frame, &made[0])?)
+    } else {
+        None
+    };
+    let report_and_composite = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
+    let (report, composite) = report_and_composite;
+    Ok(Layered {
+        layers: made.into_iter().map(|(m, _)| m).collect(),
+        fill_in: fill_in.map(|(m, _)| m),
+        tones,
+        composite,
+        report,
+    })
+}
+
+/// The fill-in stencil of a one-layer set: it cuts the first stencil's bridge pixels (cut in its
+/// two-tone, material in its stencil), grown by [`FILL_IN_OVERLAP_MM`] into what the first one
+/// paints, marks and band as every sheet of the set; then the same clean-up, bridges, trace and
+/// check as any stencil. Returns it with the bridge pixels it was made for.
+fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error> {
+    let (m, cut) = first;
+    let stencil = &m.bridged.bits;
+    let (w, h) = (stencil.width, stencil.height);
+    let mut hidden = BitGrid::new(w, h, false);
+    for i in 0..hidden.data.len() {
+        hidden.data[i] = !cut.data[i] && stencil.data[i];
+    }
+    let mut cfg = f.cfg.clone();
+    cfg.tone.threshold = Threshold::Level(128);
+    let source = Source::Picture(f.source_gray.clone());
+    let params = pipeline::resolve(&cfg, &source)?;
+    let mm = params.working.scale.mm_per_px;
+    // Grown into the first stencil's cut, 4-neighbour steps.
+    let mut grown = hidden.clone();
+    let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
+    for _ in 0..(reach / mm).round() as u32 {
+        let prev = grown.clone();
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                if prev.data[i] || cut.data[i] {
+                    continue;
+                }
+                let near = (x > 0 && prev.get(x - 1, y))
+                    || (x + 1 < w && prev.get(x + 1, y))
+                    || (y > 0 && prev.get(x, y - 1))
+                    || (y + 1 < h && prev.get(x, y + 1));
+                if near {
+                    grown.data[i] = true;
+                }
+            }
+        }
+    }
+    let mut bits = BitGrid::new(w, h, true);
+    for i in 0..bits.data.len() {
+        bits.data[i] = !grown.data[i];
+    }
+    f.marks
+        .stamp(&mut bits, f.marks.band_px * params.working.factor, mm);
+    let gray = Gray {
+        width: w,
+        height: h,
+        data: bits
+            .data
+            .iter()
+            .map(|&b| if b { 1.0 } else { 0.0 })
+            .collect(),
+    };
+    let mut timer = Timings::new(cfg.progress.clone());
+    let raw = TwoTone { bits, gray };
+    let mut cleaned = timer.time("filter", || pipeline::clean(raw, 128, &params.clean));
+    let twotone = std::mem::replace(
+        &mut cleaned.twotone,
+        TwoTone {
+            bits: BitGrid::new(0, 0, false),
+            gray: Gray::new(0, 0, 0.0),
+        },
+    );
+    // A speck of material its cut rings round (a small island the first stencil bridged) is
+    // painted rather than bridged again when it is smaller than the least a bridge of the
+    // narrowest width would hide (its width squared): the smaller change to the picture.
+    let mut twotone = twotone;
+    let map = crate::islands::label(&twotone.bits);
+    let floor = (params.join.bridge.min_width_px as usize).pow(2);
+    for (i, &l) in map.labels.iter().enumerate() {
+        if l != crate::islands::CUT
+            && l != crate::islands::FRAME
+            && map.nodes[l as usize].area < floor
+        {
+            twotone.bits.data[i] = false;
+        }
+    }
+    // Its own bridges (where its cut rings round material) are cheap where the first stencil
+    // paints anyway: on the overlap, not on the pixels it exists to paint.
+    let mut painted = BitGrid::new(w, h, true);
+    for i in 0..painted.data.len() {
+        painted.data[i] = cut.data[i] || hidden.data[i];
+    }
+    let real_gray = twotone.gray.clone();
+    let cost = cost_gray(&twotone.gray, &painted);
+    let mut joined = pipeline::join(
+        TwoTone {
+            bits: twotone.bits,
+            gray: cost,
+        },
+        &params.join,
+        &mut timer,
+    )?;
+    joined.twotone.gray = real_gray;
+    let made = pipeline::finish_from(&cfg, &params, &cleaned, &joined)?;
+    Ok((made, hidden))
+}
+
+/// The report and the composite: hidden bridging per layer, the fill-in's cover, the painted
+/// result in the layers' colours at the picture's own size, and its fidelity.
+fn assess(
+    cfg: &MakeConfig,
+    f: &Frame,
+    tones: &Tones,
+    made: &[(Made, BitGrid)],
+    fill_in: Option<&(Made, BitGrid)>,
+) -> (SetReport, Vec<u8>) {
+    let n = made.len();
+    let first = &made[0].0;
+    let (ww, wh) = (first.bridged.bits.width, first.bridged.bits.height);
+    let factor = first.report.scale_factor.unwrap_or(1);
+    let band = f.marks.band_px * factor;
+    let in_picture = |i: usize| {
+        let (x, y) = ((i as u32) % ww, (i as u32) / ww);
+        x >= band && y >= band && x < ww - band && y < wh - band
+    };
+    let len = (ww * wh) as usize;
+    // The tone each working pixel ends up painted with: the last layer (or the fill-in) that
+    // cuts it.
+    let mut painted = vec![0u8; len];
+    let mut posterised = vec![0u8; len];
+    for (k, (m, _)) in made.iter().enumerate() {
+        for i in 0..len {
+            if !m.bridged.bits.data[i] {
+                painted[i] = k as u8 + 1;
+            }
+            if !m.picture.data[i] {
+                posterised[i] = posterised[i].max(k as u8 + 1);
+            }
+        }
+    }
+    let mut fill_report = None;
+    if let Some((fm, hidden)) = fill_in {
+        let bridge_px = hidden.data.iter().filter(|&&b| b).count();
+        let (mut covered, mut over) = (0, 0);
+        let first_cut = &made[0].1;
+        for i in 0..len {
+            if !fm.bridged.bits.data[i] && in_picture(i) {
+                painted[i] = 1;
+                if hidden.data[i] {
+                    covered += 1;
+                }
+                if first_cut.data[i] {
+                    over += 1;
+                }
+            }
+        }
+        fill_report = Some(FillInReport {
+            folder: "fill-in".into(),
+            bridge_px,
+            covered_px: covered,
+            covered_pct: pct(covered, bridge_px),
+            overpainted_px: over,
+            check_passed: fm.check.passed(),
+        });
+    }
+    let pixels = (0..len).filter(|&i| in_picture(i)).count();
+    let mut layers = Vec::with_capacity(n);
+    let mut nesting_breaks = 0;
+    for (k, (m, cut)) in made.iter().enumerate() {
+        let (mut bridge_px, mut hidden_px) = (0, 0);
+        for i in 0..len {
+            if !cut.data[i] && m.bridged.bits.data[i] {
+                bridge_px += 1;
+                // Painted over by a later layer: some layer after k cuts it.
+                if made[k + 1..].iter().any(|(l, _)| !l.bridged.bits.data[i]) {
+                    hidden_px += 1;
+                }
+            }
+        }
+        if k + 1 < n {
+            let darker = &made[k + 1].1;
+            nesting_breaks += (0..len).filter(|&i| !darker.data[i] && cut.data[i]).count();
+        }
+        let tone_px = (0..len)
+            .filter(|&i| in_picture(i) && posterised[i] as usize == k + 1)
+            .count();
+        let cut_px = (0..len)
+            .filter(|&i| in_picture(i) && !m.bridged.bits.data[i])
+            .count();
+        layers.push(LayerReport {
+            layer: k as u32 + 1,
+            folder: layer_folder(k + 1, n),
+            level: tones.levels[k],
+            color: hex(tones.colors[k + 1]),
+            tone_pct: pct(tone_px, pixels),
+            cut_pct: pct(cut_px, pixels),
+            islands: m.report.islands,
+            bridges: m.bridged.bridges.len(),
+            bridge_px,
+            hidden_px,
+            hidden_pct: pct(hidden_px, bridge_px),
+            check_passed: m.check.passed(),
+        });
+    }
+    let agree = (0..len)
+        .filter(|&i| in_picture(i) && painted[i] == posterised[i])
+        .count();
+    // The composite at the picture's own size: each input pixel takes its centre working pixel.
+    let (w, h) = (tones.luma.width, tones.luma.height);
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    let mut comp_l = Vec::with_capacity((w * h) as usize);
+    let mut post_l = Vec::with_capacity((w * h) as usize);
+    let mut de = 0.0;
+    let labs: Vec<[f32; 3]> = tones
+        .colors
+        .iter()
+        .map(|c| lab(c.map(|v| v as f32 / 255.0)))
+        .collect();
+    for y in 0..h {
+        for x in 0..w {
+            let (wx, wy) = (
+                (x + f.marks.band_px) * factor + factor / 2,
+                (y + f.marks.band_px) * factor + factor / 2,
+            );
+            let t = painted[(wy * ww + wx) as usize] as usize;
+            let p = tones.tone_of(tones.gray.get(x, y));
+            rgb.extend_from_slice(&tones.colors[t]);
+            comp_l.push(labs[t][0] / 100.0);
+            post_l.push(labs[p][0] / 100.0);
+            de += dist2(labs[t], labs[p]).sqrt() as f64;
+        }
+    }
+    let luma_l: Vec<f32> = tones
+        .luma
+        .data
+        .iter()
+        .map(|&v| lab([v, v, v])[0] / 100.0)
+        .collect();
+    let composite = Composite {
+        tone_agreement_pct: pct(agree, pixels),
+        mean_delta_e: de / (w * h) as f64,
+        likeness: likeness(&comp_l, &luma_l, w, h),
+        posterised_likeness: likeness(&post_l, &luma_l, w, h),
+    };
+    let mut order: Vec<String> = layers.iter().map(|l| l.folder.clone()).collect();
+    if n == 1 {
+        order = vec![".".into()];
+    }
+    if fill_report.is_some() {
+        order.push("fill-in".into());
+    }
+    let report = SetReport {
+        input: cfg.input.display().to_string(),
+        method: tones.method,
+        layers,
+        surface_color: hex(tones.colors[0]),
+        painting_order: order,
+        composite,
+        nesting_breaks_px: nesting_breaks,
+        marks: f.marks.clone(),
+        scale_factor: factor,
+        mm_per_px: first.scale.mm_per_px,
+        fill_in: fill_report,
+        files: Vec::new(),
+    };
+    (report, rgb)
+}
+
+fn pct(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        0.0
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
+/// The long side, in pixels, that [`likeness`] looks at: about what a person sees of a picture
+/// at a few times its width away.
+pub const VIEWING_PX: u32 = 200;
+
+/// Likeness of two lightness images (0..1, same size): the mean structural similarity (SSIM,
+/// Wang et al. 2004: Gaussian window σ = 1.5 px, C1 = 0.01², C2 = 0.03²) of both after they are
+/// averaged down to [`VIEWING_PX`] on their long side (what is left at viewing distance:
+/// posterised tones and a paint's edge blend, as they do to the eye). 1 = the same.
+pub fn likeness(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
+    let (a, sw, sh) = shrink(a, w, h);
+    let (b, _, _) = shrink(b, w, h);
+    let mu_a = blur(&a, sw, sh);
+    let mu_b = blur(&b, sw, sh);
+    let prod = |x: &[f32], y: &[f32]| x.iter().zip(y).map(|(p, q)| p * q).collect::<Vec<f32>>();
+    let saa = blur(&prod(&a, &a), sw, sh);
+    let sbb = blur(&prod(&b, &b), sw, sh);
+    let sab = blur(&prod(&a, &b), sw, sh);
+    let (c1, c2) = (0.01f64 * 0.01, 0.03f64 * 0.03);
+    let mut sum = 0.0;
+    for i in 0..a.len() {
+        let (ma, mb) = (mu_a[i] as f64, mu_b[i] as f64);
+        let va = (saa[i] as f64 - ma * ma).max(0.0);
+        let vb = (sbb[i] as f64 - mb * mb).max(0.0);
+        let cov = sab[i] as f64 - ma * mb;
+        sum +=
+            ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+    }
+    sum / a.len().max(1) as f64
+}
+
+/// Box-average an image down so its long side is at most [`VIEWING_PX`].
+fn shrink(v: &[f32], w: u32, h: u32) -> (Vec<f32>, u32, u32) {
+    let k = w.max(h).div_ceil(VIEWING_PX).max(1);
+    let (sw, sh) = (w.div_ceil(k), h.div_ceil(k));
+    let mut sum = vec![0f32; (sw * sh) as usize];
+    let mut cnt = vec![0u32; (sw * sh) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let j = ((y / k) * sw + x / k) as usize;
+            sum[j] += v[(y * w + x) as usize];
+            cnt[j] += 1;
+        }
+    }
+    (
+        sum.iter().zip(&cnt).map(|(s, &c)| s / c as f32).collect(),
+        sw,
+        sh,
+    )
+}
+
+/// Separable Gaussian blur, σ = 1.5 px, 11 taps, edges clamped.
+fn blur(v: &[f32], w: u32, h: u32) -> Vec<f32> {
+    let taps: Vec<f32> = (-5i32..=5)
+        .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
+        .collect();
+    let norm: f32 = taps.iter().sum();
+    let (w, h) = (w as i32, h as i32);
+    let pass = |src: &[f32], horizontal: bool| -> Vec<f32> {
+        let mut out = vec![0f32; src.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = 0.0;
+                for (t, d) in taps.iter().zip(-5i32..=5) {
+                    let (sx, sy) = if horizontal {
+                        ((x + d).clamp(0, w - 1), y)
+                    } else {
+                        (x, (y + d).clamp(0, h - 1))
+                    };
+                    s += t * src[(sy * w + sx) as usize];
+                }
+                out[(y * w + x) as usize] = s / norm;
+            }
+        }
+        out
+    };
+    pass(&pass(v, true), false)
+}
+
+/// The files of a set, by name (folders included), encoded in memory: each stencil's files as
+/// `make` writes them (the layers in `layer-k/`, a one-layer set's in the folder itself, the
+/// fill-in's in `fill-in/`), `composite.png`, and the set's report (`report.json` of a layered
+/// folder, `layers.json` beside a one-layer set's own report.json).
+pub fn encode(set: &mut Layered, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    let mut phys = cfg.physical.clone();
+    phys.mask.marks = false;
+    let n = set.layers.len();
+    let mut files = Vec::new();
+    let mut put = |folder: &str, made: &mut Made| -> Result<(), Error> {
+        for (name, bytes) in pipeline::encode_outputs(made, &phys)? {
+            let name = if folder.is_empty() {
+                name
+            } else {
+                format!("{folder}/{name}")
+            };
+            files.push((name, bytes));
+        }
+        Ok(())
+    };
+    for (k, m) in set.layers.iter_mut().enumerate() {
+        put(&layer_folder(k + 1, n), m)?;
+    }
+    if let Some(m) = &mut set.fill_in {
+        put("fill-in", m)?;
+    }
+    let (w, h) = (set.tones.luma.width, set.tones.luma.height);
+    files.push((
+        "composite.png".into(),
+        png::encode_rgb(w, h, &set.composite),
+    ));
+    let name = if n == 1 { "layers.json" } else { "report.json" };
+    let mut report = set.report.clone();
+    report.files = files.iter().map(|(n, _)| n.clone()).collect();
+    report.files.push(name.into());
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| export::ExportError::Encode {
+        path: std::path::PathBuf::from(name),
+        msg: e.to_string(),
+    })?;
+    files.push((name.into(), json));
+    set.report = report;
+    Ok(files)
+}
+
+/// `stencil make` for a set: run every layer and write the whole set into `cfg.out_dir` as one
+/// transaction (see `stencil_io::swap`): every owned name the set does not write goes, so a
+/// set of fewer layers leaves none of a larger one's folders behind.
+pub fn make(cfg: &MakeConfig, lc: &LayersConfig) -> Result<(Layered, export::Replaced), Error> {
+    let existed = cfg.out_dir.is_dir();
+    export::prepare_dir(&cfg.out_dir)?;
+    let result = run(cfg, lc).and_then(|mut set| {
+        if let Some(p) = &cfg.progress {
+            p.stage("write");
+        }
+        let files = encode(&mut set, cfg)?;
+        let replaced = export::write_files(&cfg.out_dir, &files, owned_names())?;
+        Ok((set, replaced))
+    });
+    if result.is_err() && !existed {
+        let _ = std::fs::remove_dir(&cfg.out_dir);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn multi_otsu_finds_the_gaps_between_populations() {
+        let mut g = Gray::new(300, 1, 0.0);
+        for x in 0..300 {
+            g.data[x] = [0.1, 0.5, 0.9][x / 100];
+        }
+        let l = multi_otsu(&g, 3);
+        assert_eq!(l.len(), 2);
+        let v = |f: f32| (f * 255.0).round() as u8;
+        assert!(l[0] > v(0.1) && l[0] <= v(0.5), "{l:?}");
+        assert!(l[1] > v(0.5) && l[1] <= v(0.9), "{l:?}");
+    }
+
+    #[test]
+    fn lab_round_trips() {
+        for c in [
+            [255u8, 0, 0],
+            [10, 200, 30],
+            [128, 128, 128],
+            [250, 250, 250],
+        ] {
+            let back = srgb(lab(c.map(|v| v as f32 / 255.0)));
+            for i in 0..3 {
+                assert!((back[i] as i32 - c[i] as i32).abs() <= 1, "{c:?} {back:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn kmeans_tones_order_light_to_dark_and_threshold_to_clusters() {
+        // Three colours of different lightness: red, pale yellow, dark blue.
+        let cols = [[0.9f32, 0.1, 0.1], [0.95, 0.95, 0.6], [0.1, 0.1, 0.4]];
+        let rgb: Vec<[f32; 3]> = (0..300).map(|i| cols[i / 100]).collect();
+        let luma = Gray::new(300, 1, 0.5);
+        let lc = LayersConfig {
+            count: 2,
+            ..Default::default()
+        };
+        let t = posterise(&luma, Some(&rgb), &lc).unwrap();
+        assert_eq!(t.method, Method::KmeansLab);
+        assert!(t.levels[0] > t.levels[1]);
+        // Yellow is the surface, red layer 1, blue layer 2.
+        assert_eq!(t.tone_of(t.gray.data[150]), 0);
+        assert_eq!(t.tone_of(t.gray.data[50]), 1);
+        assert_eq!(t.tone_of(t.gray.data[250]), 2);
+        assert!(t.colors[2][2] > t.colors[2][0], "blue {:?}", t.colors[2]);
+    }
+
+    #[test]
+    fn levels_given_are_checked() {
+        let g = Gray::new(4, 4, 0.5);
+        let lc = |levels: Vec<u8>| LayersConfig {
+            count: 2,
+            levels,
+            ..Default::default()
+        };
+        assert!(matches!(
+            posterise(&g, None, &lc(vec![100])),
+            Err(LayersError::Levels { given: 1, count: 2 })
+        ));
+        assert!(matches!(
+            posterise(&g, None, &lc(vec![90, 90])),
+            Err(LayersError::SameLevel(90))
+        ));
+        let t = posterise(&g, None, &lc(vec![90, 200])).unwrap();
+        assert_eq!(t.levels, vec![200, 90]);
+        assert_eq!(t.method, Method::LevelsGiven);
+    }
+
+    #[test]
+    fn marks_sit_in_the_band() {
+        let m = Marks::new(400, 300, 0.1, 0.5);
+        assert_eq!(m.line_mm, 1.0);
+        assert!(m.band_mm >= 2.0 * m.arm_mm + m.line_mm);
+        for &[x, y] in m.crosses_mm.iter().chain(&m.pins_mm) {
+            let inner = |v: f64, size: f64| v < m.band_mm || v > size - m.band_mm;
+            assert!(inner(x, 40.0 + 2.0 * m.band_mm) || inner(y, 30.0 + 2.0 * m.band_mm));
+        }
+        let mut bits = BitGrid::new(400 + 2 * m.band_px, 300 + 2 * m.band_px, false);
+        m.stamp(&mut bits, m.band_px, 0.1);
+        // The picture is untouched; a cross's centre is cut, the band between marks is material.
+        assert!(!bits.get(200, 200));
+        let c = (m.crosses_mm[0][0] / 0.1) as u32;
+        assert!(!bits.get(c, c));
+        assert!(bits.get(1, 1));
+    }
+
+    #[test]
+    fn likeness_is_one_for_the_same_and_lower_for_noise() {
+        let a: Vec<f32> = (0..400).map(|i| ((i % 20) as f32) / 20.0).collect();
+        assert!((likeness(&a, &a, 20, 20) - 1.0).abs() < 1e-9);
+        let b: Vec<f32> = a.iter().map(|v| 1.0 - v).collect();
+        assert!(likeness(&a, &b, 20, 20) < 0.5);
+    }
+}

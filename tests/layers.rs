@@ -1,0 +1,369 @@
+//! Layers and the fill-in, checked on the files `make` writes: every layer one valid sheet, the
+//! layers cumulative, the registration marks at the same place on every sheet in PNG, SVG and
+//! G-code, bridges over what a later layer paints, the set replaced as one (a one-layer run
+//! leaves no layer folder), `check` and `gcode` on a layered folder, and the fill-in painting
+//! the first stencil's bridges.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use common::*;
+
+/// Every layer folder of a set, in order.
+fn layer_dirs(out: &Path) -> Vec<std::path::PathBuf> {
+    (1..=6)
+        .map(|k| out.join(format!("layer-{k}")))
+        .filter(|p| p.is_dir())
+        .collect()
+}
+
+/// The material band around the picture (the marks' band), from the set's report.
+fn band_px(out: &Path, report_name: &str) -> u32 {
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join(report_name)).unwrap()).unwrap();
+    (r["marks"]["band_px"].as_u64().unwrap() * r["scale_factor"].as_u64().unwrap()) as u32
+}
+
+/// The pixels of the band where the marks are, as material bits: all of it but its inner tenth
+/// (1 mm at cardstock's band), where the clean-up may widen a hole at the picture's edge.
+fn band(bits: &stencil_core::raster::BitGrid, b: u32) -> Vec<bool> {
+    let b = b - b / 10;
+    let mut v = Vec::new();
+    for y in 0..bits.height {
+        for x in 0..bits.width {
+            if x < b || y < b || x >= bits.width - b || y >= bits.height - b {
+                v.push(bits.get(x, y));
+            }
+        }
+    }
+    v
+}
+
+/// Bounding-box size of a list of points.
+fn extent(pts: &[[f64; 2]]) -> [f64; 2] {
+    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+    for p in pts {
+        for i in 0..2 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    [hi[0] - lo[0], hi[1] - lo[1]]
+}
+
+/// The cut loops of a G-code job: the points after each rapid move, as written, sorted (the
+/// planner may enter the same loop at another point in another job).
+fn gcode_loops(path: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut loops: Vec<Vec<String>> = Vec::new();
+    for line in text.lines() {
+        let xy: Vec<&str> = line
+            .split_whitespace()
+            .filter(|w| w.starts_with('X') || w.starts_with('Y'))
+            .collect();
+        if xy.len() != 2 {
+            continue;
+        }
+        if line.starts_with("G0") {
+            loops.push(Vec::new());
+        }
+        if let Some(l) = loops.last_mut() {
+            l.push(xy.join(" "));
+        }
+    }
+    for l in &mut loops {
+        l.sort();
+        l.dedup();
+    }
+    loops
+}
+
+fn points_of(l: &[String]) -> Vec<[f64; 2]> {
+    l.iter()
+        .map(|s| {
+            let mut it = s.split(' ').map(|w| w[1..].parse::<f64>().unwrap());
+            [it.next().unwrap(), it.next().unwrap()]
+        })
+        .collect()
+}
+
+/// The paths of an SVG's cut layer (`d` attributes).
+fn svg_paths(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.split("<path d=\"")
+        .skip(1)
+        .map(|p| p.split('"').next().unwrap().to_string())
+        .collect()
+}
+
+fn svg_points(d: &str) -> Vec<[f64; 2]> {
+    d.split(['M', 'L', 'Z'])
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| {
+            let mut it = s.split_whitespace().map(|v| v.parse::<f64>().unwrap());
+            [it.next().unwrap(), it.next().unwrap()]
+        })
+        .collect()
+}
+
+/// The marks among shapes common to every sheet: 4 crosses (7 mm across at cardstock's 1 mm
+/// line) and 2 pin holes (3 mm).
+fn assert_marks_shared(kind: &str, common: &[[f64; 2]]) {
+    let near = |e: [f64; 2], v: f64| (e[0] - v).abs() < 0.6 && (e[1] - v).abs() < 0.6;
+    let crosses = common.iter().filter(|e| near(**e, 7.0)).count();
+    let pins = common.iter().filter(|e| near(**e, 3.0)).count();
+    assert!(
+        crosses >= 4 && pins >= 2,
+        "{kind}: shapes at identical coordinates on every sheet: {crosses} crosses, {pins} pin holes \
+         (sizes {common:?})"
+    );
+}
+
+#[test]
+fn a_layered_photo_is_valid_cumulative_and_registered_in_every_output() {
+    let dir = tmp();
+    let out = dir.path().join("set");
+    let input = samples().join("grace_hopper.jpg");
+    let o = stencil(&[
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--layers",
+        "3",
+        "--emit",
+        "png,svg,dxf,mask,gcode",
+        "--machine",
+        "diode-400",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let layers = layer_dirs(&out);
+    assert_eq!(layers.len(), 3);
+    for f in [
+        "composite.png",
+        "report.json",
+        "layer-1",
+        "layer-2",
+        "layer-3",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    // The composite has the picture's own size (no marks' band).
+    let comp = image::open(out.join("composite.png")).unwrap();
+    let pic = image::open(&input).unwrap();
+    assert_eq!((comp.width(), comp.height()), (pic.width(), pic.height()));
+    let r = report(&out);
+    assert_eq!(r["layers"].as_array().unwrap().len(), 3);
+    assert_eq!(r["painting_order"][0], "layer-1");
+    let b = band_px(&out, "report.json");
+    let mut bands = Vec::new();
+    let mut twotones = Vec::new();
+    for l in &layers {
+        // One 4-connected piece, only material added to the two-tone, and every width passes.
+        assert_valid_stencil(l);
+        let lr = report(l);
+        assert_eq!(
+            lr["check"]["violations"].as_array().unwrap().len(),
+            0,
+            "{}",
+            l.display()
+        );
+        for f in ["stencil.svg", "stencil.dxf", "mask.png", "stencil.gcode"] {
+            assert!(l.join(f).is_file(), "{} {f}", l.display());
+        }
+        bands.push(band(&read_bits(&l.join("stencil.png")), b));
+        twotones.push(read_bits(&l.join("twotone.png")));
+    }
+    // Cumulative: a darker layer cuts nothing its lighter predecessor keeps.
+    for k in 1..twotones.len() {
+        let (light, dark) = (&twotones[k - 1], &twotones[k]);
+        let breaks = light
+            .data
+            .iter()
+            .zip(&dark.data)
+            .filter(|(l, d)| **l && !**d)
+            .count();
+        assert_eq!(breaks, 0, "layer {} cuts where layer {k} keeps", k + 1);
+        // And it is a real layering: each darker layer cuts less.
+        assert!(dark.count_material() > light.count_material());
+    }
+    // The band with its marks is pixel for pixel the same on every sheet, and it has cuts.
+    assert!(bands.iter().all(|x| *x == bands[0]));
+    assert!(bands[0].iter().any(|m| !m));
+    // SVG: the same mark paths on every sheet.
+    let svgs: Vec<BTreeSet<String>> = layers
+        .iter()
+        .map(|l| svg_paths(&l.join("stencil.svg")).into_iter().collect())
+        .collect();
+    let shared: Vec<[f64; 2]> = svgs[0]
+        .iter()
+        .filter(|p| svgs.iter().all(|s| s.contains(*p)))
+        .map(|p| extent(&svg_points(p)))
+        .collect();
+    assert_marks_shared("SVG", &shared);
+    // G-code: the same mark loops at the same machine coordinates in every job.
+    let jobs: Vec<BTreeSet<Vec<String>>> = layers
+        .iter()
+        .map(|l| gcode_loops(&l.join("stencil.gcode")).into_iter().collect())
+        .collect();
+    let shared: Vec<[f64; 2]> = jobs[0]
+        .iter()
+        .filter(|p| jobs.iter().all(|s| s.contains(*p)))
+        .map(|p| extent(&points_of(p)))
+        .collect();
+    assert_marks_shared("G-code", &shared);
+    // A later one-layer run into the folder leaves no layer folder, composite or set report.
+    let o = stencil(&["make", s(&input), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(layer_dirs(&out).is_empty(), "{:?}", files_in(&out));
+    assert_eq!(
+        files_in(&out),
+        [
+            "preview.png",
+            "report.json",
+            "stencil.png",
+            "stencil.svg",
+            "twotone.png"
+        ]
+    );
+}
+
+#[test]
+fn check_and_gcode_read_a_layered_folder() {
+    let dir = tmp();
+    let out = dir.path().join("set");
+    let input = samples().join("rings.png");
+    let o = stencil(&[
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--layers",
+        "2",
+        "--levels",
+        "200,60",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = stencil(&["check", s(&out)]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}{}", stderr(&o));
+    assert!(
+        text.contains("layer-1") && text.contains("layer-2"),
+        "{text}"
+    );
+    let o = stencil(&["gcode", s(&out), "--machine", "diode-400"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for l in layer_dirs(&out) {
+        assert!(l.join("stencil.gcode").is_file(), "{}", l.display());
+    }
+    // One job per sheet: a single output file is refused.
+    let o = stencil(&[
+        "gcode",
+        s(&out),
+        "--machine",
+        "diode-400",
+        "-o",
+        s(&dir.path().join("x.gcode")),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("leave out -o"), "{}", stderr(&o));
+}
+
+#[test]
+fn bridges_go_where_a_later_layer_paints() {
+    // A white disc inside a ring: the ring's right half mid-gray (layer 1 alone paints it), its
+    // left half dark (layer 2 paints it too). Layer 1 must bridge the disc across the ring; the
+    // intensity term alone prefers the lighter, visible half; over the dark half the bridge is
+    // painted over by layer 2.
+    let dir = tmp();
+    let pic = dir.path().join("ring.png");
+    let (c, r0, r1) = (100.0, 40.0, 60.0);
+    smooth_png(&pic, 200, 200, |x, y| {
+        let d = (x - c).hypot(y - c);
+        if d < r0 || d > r1 {
+            1.0
+        } else if x < c {
+            0.1
+        } else {
+            0.5
+        }
+    });
+    let out = dir.path().join("set");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "-o",
+        s(&out),
+        "--layers",
+        "2",
+        "--levels",
+        "200,80",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    let l1 = &r["layers"][0];
+    assert!(l1["bridge_px"].as_u64().unwrap() > 0, "{l1}");
+    assert!(
+        l1["hidden_pct"].as_f64().unwrap() > 90.0,
+        "layer 1's bridge should lie under layer 2: {l1}"
+    );
+    let st = read_bits(&out.join("layer-1/stencil.png"));
+    let two = read_bits(&out.join("layer-1/twotone.png"));
+    let b = band_px(&out, "report.json");
+    // The bridge pixels are on the dark (left) half of the ring.
+    let (mut left, mut right) = (0, 0);
+    for y in 0..st.height {
+        for x in 0..st.width {
+            if st.get(x, y) && !two.get(x, y) {
+                if x < b + st.width / 2 - b {
+                    left += 1;
+                } else {
+                    right += 1;
+                }
+            }
+        }
+    }
+    assert!(left > 9 * right, "left {left} right {right}");
+}
+
+#[test]
+fn the_fill_in_paints_the_first_stencils_bridges() {
+    let dir = tmp();
+    let out = dir.path().join("fill");
+    let input = samples().join("grace_hopper.jpg");
+    let o = stencil(&["make", s(&input), "-o", s(&out), "--fill-in"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fill = out.join("fill-in");
+    // The first stencil where make always puts it, the fill-in beside it; both valid sheets.
+    assert_valid_stencil(&out);
+    assert_valid_stencil(&fill);
+    for d in [&out, &fill] {
+        assert_eq!(
+            report(d)["check"]["violations"].as_array().unwrap().len(),
+            0
+        );
+    }
+    let first = read_bits(&out.join("stencil.png"));
+    let two = read_bits(&out.join("twotone.png"));
+    let second = read_bits(&fill.join("stencil.png"));
+    let hidden: Vec<usize> = (0..first.data.len())
+        .filter(|&i| first.data[i] && !two.data[i])
+        .collect();
+    assert!(hidden.len() > 100, "the photo needs bridges");
+    let painted = hidden.iter().filter(|&&i| !second.data[i]).count();
+    assert!(
+        painted * 100 >= hidden.len() * 99,
+        "the fill-in paints {painted} of {} bridge pixels",
+        hidden.len()
+    );
+    // Registered: the same marks on both sheets.
+    let b = band_px(&out, "layers.json");
+    assert_eq!(band(&first, b), band(&second, b));
+    // `check` on the folder checks both.
+    let o = stencil(&["check", s(&out)]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    assert!(text.contains("fill-in"), "{text}");
+}
