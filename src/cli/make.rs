@@ -387,6 +387,7 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     } else {
         None
     };
+    fit_gobo(a, &mut physical, machine.as_ref())?;
     fit_size(a, &mut physical, machine.as_ref())?;
     let cfg = MakeConfig {
         out_dir: a
@@ -402,15 +403,54 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         gcode: None,
         progress: None,
     };
-    Ok(MakeConfig {
-        gcode: super::gcode::make_gcode_config(
-            &a.machine,
-            &a.cut,
-            &cfg.physical.material,
-            emit_gcode,
-        )?,
-        ..cfg
-    })
+    let mut gcode =
+        super::gcode::make_gcode_config(&a.machine, &a.cut, &cfg.physical.material, emit_gcode)?;
+    if let (Some(g), Some(_)) = (&mut gcode, &cfg.physical.gobo) {
+        // A gobo is a disc: its rim is always cut, last.
+        g.plan.cut_outline = true;
+    }
+    Ok(MakeConfig { gcode, ..cfg })
+}
+
+/// A gobo's size, from the picture's header: the picture inscribed in the image area (or
+/// filling it with --gobo-crop). Refused for a mesh (it is drawn at its own size) and, with a
+/// machine, when the disc is larger than its bed.
+fn fit_gobo(
+    a: &MakeArgs,
+    physical: &mut pipeline::PhysicalConfig,
+    machine: Option<&stencil_gcode::machine::Machine>,
+) -> anyhow::Result<()> {
+    let Some(g) = &physical.gobo else {
+        return Ok(());
+    };
+    if a.input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+    {
+        anyhow::bail!(
+            "{}: --gobo takes a picture: a mesh is drawn at its own size (render it to a PNG \
+             with `stencil tone`, then make the gobo from that)",
+            a.input.display()
+        );
+    }
+    if let Some(m) = machine {
+        if g.od_mm > m.bed.width_mm.min(m.bed.height_mm) {
+            anyhow::bail!(
+                "a {} gobo is {} mm across, larger than the {} x {} mm bed of {}: choose a \
+                 smaller --gobo",
+                g.name(),
+                g.od_mm,
+                m.bed.width_mm,
+                m.bed.height_mm,
+                m.name
+            );
+        }
+    }
+    // A header that cannot be read is left for the pipeline to name.
+    if let Ok((w, h)) = stencil_core::tone::picture_size(&a.input) {
+        physical.size = stencil_core::units::Size::WidthMm(g.picture_width_mm(w, h));
+    }
+    Ok(())
 }
 
 /// The size on the sheet, decided from the picture's header before any work: scaled down to the
@@ -424,6 +464,10 @@ fn fit_size(
     machine: Option<&stencil_gcode::machine::Machine>,
 ) -> anyhow::Result<()> {
     use stencil_core::fit::{fit, FitRequest, Fitted, Stock};
+    if physical.gobo.is_some() {
+        // Sized by the gobo (fit_gobo), which checked its disc against the bed.
+        return Ok(());
+    }
     let stock = match (&a.physical.sheet, machine) {
         (Some(s), _) => s.clone(),
         (None, Some(m)) => Stock::Bed {
@@ -594,8 +638,39 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }
+    if let Some(g) = &made.report.gobo {
+        print_gobo(g);
+    }
     if let Some(m) = &made.report.mask {
         print_masks(m);
+    }
+}
+
+/// The gobo: its size and where it comes from, the picture's placement, the polarity, and the
+/// warning when most of the image area would pass light.
+fn print_gobo(g: &stencil_core::gobo::GoboReport) {
+    println!(
+        "gobo {}{} mm outside diameter, {} mm image area ({}): the picture {} ({:.1} x {:.1} mm) \
+         at its centre, the rim cut; {}; {:.0} % of the image area passes light",
+        g.letter
+            .as_deref()
+            .map(|l| format!("{l}: "))
+            .unwrap_or_default(),
+        g.od_mm,
+        g.ia_mm,
+        g.table.as_deref().map_or("as given", |_| "Rosco's size"),
+        if g.placement == "cropped" {
+            "fills the image area, metal outside its circle"
+        } else {
+            "inscribed in the image area"
+        },
+        g.picture_mm[0],
+        g.picture_mm[1],
+        g.polarity,
+        g.clear_pct
+    );
+    if let Some(w) = &g.warning {
+        eprintln!("warning: {w}");
     }
 }
 

@@ -48,6 +48,7 @@ pub mod bridge;
 pub mod check;
 pub mod export;
 pub mod fit;
+pub mod gobo;
 pub mod islands;
 pub mod limits;
 pub mod material;

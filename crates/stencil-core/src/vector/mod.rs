@@ -68,6 +68,9 @@ pub struct CutGeometry {
     /// The kerf `cuts` were offset for (0 until [`CutGeometry::apply_kerf`]): the planner widens
     /// the gaps it takes for bridges by it.
     pub kerf_mm: f64,
+    /// A gobo's rim (`--gobo`): then the sheet's cut edge is this circle, not `outline`
+    /// (which becomes the rim's square grown by the margin; see [`crate::gobo::place`]).
+    pub rim: Option<crate::gobo::Rim>,
 }
 
 /// Options of the vector stage, in millimetres.
@@ -197,6 +200,7 @@ pub fn vectorize_design(
         bridges,
         unbridged_cuts: MultiPolygon::new(Vec::new()),
         kerf_mm: 0.0,
+        rim: None,
     };
     let stats = VectorStats {
         simplify,
@@ -237,12 +241,33 @@ impl CutGeometry {
         } else {
             Pieces::Unknown
         };
+        // A gobo is cut on its rim, the tool half the kerf outside it so the disc keeps its
+        // diameter; the job's box is the rim's square (what is cut), not the mask's margin.
+        let (outline, outline_ring) = match self.rim {
+            Some(rim) => {
+                let r = rim.od_mm / 2.0 + self.kerf_mm.max(0.0) / 2.0;
+                let [cx, cy] = rim.centre_mm;
+                let b = Rect::new(
+                    Coord {
+                        x: cx - r,
+                        y: cy - r,
+                    },
+                    Coord {
+                        x: cx + r,
+                        y: cy + r,
+                    },
+                );
+                (b, Some(rim.ring(r)))
+            }
+            None => (self.outline, None),
+        };
         CutLoops {
-            outline: self.outline,
+            outline,
             cuts: self.cuts.clone(),
             kerf_mm: self.kerf_mm,
             pieces,
             lines: Vec::new(),
+            outline_ring,
         }
     }
 
