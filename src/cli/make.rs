@@ -382,6 +382,7 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     };
     let mut physical = a.physical.to_config(default_material)?;
     physical.mask.tone_inverted = a.image.invert;
+    etched_widths(a, &mut physical);
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
     } else {
@@ -410,6 +411,31 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         g.plan.cut_outline = true;
     }
     Ok(MakeConfig { gcode, ..cfg })
+}
+
+/// An etched material's smallest feature raised to the narrowest opening that etches at its
+/// designed size (twice the undercut the masks are compensated for, plus the narrowest line a
+/// mask carries), so the clean-up and the width check judge the etched part. Said when it
+/// changes anything.
+fn etched_widths(a: &MakeArgs, physical: &mut pipeline::PhysicalConfig) {
+    let Some(e) = stencil_core::export::Etch::of(&physical.material) else {
+        return;
+    };
+    // Rounded up to a micrometre, as printed.
+    let need = (e.min_opening_mm() * 1000.0).ceil() / 1000.0;
+    let m = &mut physical.material;
+    if m.min_feature_mm < need {
+        println!(
+            "note: {}: webs and holes at least {need:.3} mm, not {} mm as {} says: the masks are \
+             drawn {:.3} mm smaller on every side for the etch's undercut, and a narrower \
+             opening would not be etched at all",
+            a.input.display(),
+            m.min_feature_mm,
+            m.name,
+            e.undercut_mm()
+        );
+        m.min_feature_mm = need;
+    }
 }
 
 /// A gobo's size, from the picture's header: the picture inscribed in the image area (or

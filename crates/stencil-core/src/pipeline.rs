@@ -1257,11 +1257,7 @@ pub(crate) fn encode_outputs(
     if phys.emit.mask {
         let mut m = phys.mask;
         m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
-        let etch = phys.material.etch().map(|e| mask::Etch {
-            thickness_mm: phys.material.thickness_mm,
-            etch_factor: e.etch_factor,
-            two_sided: e.two_sided,
-        });
+        let etch = mask::Etch::of(&phys.material);
         let (masks, r) = mask::mask_files(geom, &m, etch)?;
         files.extend(masks);
         mask_report = Some(r);

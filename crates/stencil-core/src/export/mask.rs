@@ -77,6 +77,30 @@ impl Etch {
     }
 }
 
+/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
+/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
+/// not etched as designed.
+pub const MIN_MASK_OPENING_MM: f64 = 0.05;
+
+impl Etch {
+    /// The narrowest opening that etches at its designed size: twice the undercut (what the
+    /// compensation takes off both sides) plus [`MIN_MASK_OPENING_MM`] left in the mask. `make`
+    /// raises the material's smallest feature to it, so the clean-up and the width check judge
+    /// what is etched rather than a design the mask cannot carry.
+    pub fn min_opening_mm(&self) -> f64 {
+        2.0 * self.undercut_mm() + MIN_MASK_OPENING_MM
+    }
+
+    /// The etch of a material with an `[etch]` section.
+    pub fn of(material: &crate::material::Material) -> Option<Etch> {
+        material.etch().map(|e| Etch {
+            thickness_mm: material.thickness_mm,
+            etch_factor: e.etch_factor,
+            two_sided: e.two_sided,
+        })
+    }
+}
+
 /// What the masks are, for report.json and the console: which files, their dpi, polarity and
 /// mirroring, the undercut compensation and what it closed, and how much of the picture is clear.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -148,7 +172,7 @@ pub fn mask_files(
         // diameter after the undercut (drawn `u` further out, as every opening is drawn `u`
         // smaller).
         let t = etch.map_or(0.0, |e| e.thickness_mm);
-        let groove = rim_groove_mm(t);
+        let groove = rim_groove_mm(t, u);
         let (r_in, r_out) = (rim.od_mm / 2.0 + u, rim.od_mm / 2.0 + groove - u);
         if r_out > r_in {
             g.design_cuts
@@ -234,9 +258,12 @@ fn polarity(invert: bool) -> String {
 
 /// The groove a gobo's rim is etched as, mm: an etched line comes through a sheet only when it
 /// is about as wide as the sheet is thick (photo-etching shops give 1 to 1.5 × the thickness as
-/// the narrowest slot), so 1.5 × the thickness, and never under 0.3 mm.
-pub fn rim_groove_mm(thickness_mm: f64) -> f64 {
-    (1.5 * thickness_mm).max(0.3)
+/// the narrowest slot), so 1.5 × the thickness, never under 0.3 mm, and wide enough that its
+/// mask, drawn `undercut_mm` narrower on each side, keeps [`MIN_MASK_OPENING_MM`].
+pub fn rim_groove_mm(thickness_mm: f64, undercut_mm: f64) -> f64 {
+    (1.5 * thickness_mm)
+        .max(0.3)
+        .max(2.0 * undercut_mm + MIN_MASK_OPENING_MM)
 }
 
 /// Largest mask accepted, in pixels (a 1200 dpi A3 sheet is ~ 2.6e8).
