@@ -138,7 +138,10 @@ pub struct MaskSide {
 /// etch a front (`mask-front.*`, as configured) and a back (`mask-back.*`, mirrored against the
 /// front: laid on the other face, it registers with it through the sheet). With `etch`, the
 /// openings are compensated for the undercut ([`Etch::undercut_mm`]); the width check judges
-/// the design, which is what the compensated mask etches.
+/// the design, which is what the compensated mask etches (`make` raises an etch material's
+/// smallest feature to [`Etch::min_opening_mm`], so no opening it passes is closed here; those
+/// that are, with other widths, are counted in [`MaskReport::openings_closed`]). A gobo's rim
+/// ([`CutGeometry::rim`]) is etched as a groove outside the disc ([`rim_groove_mm`]).
 #[allow(clippy::type_complexity)]
 pub fn mask_files(
     geom: &CutGeometry,
