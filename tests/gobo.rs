@@ -9,8 +9,11 @@ use std::path::Path;
 
 use common::{ink_png, report, s, stderr, stencil, tmp};
 
-/// The CUT layer's vertices and the OUTLINE layer's circles (centre, radius) of a DXF.
-fn dxf_parts(path: &Path) -> (Vec<[f64; 2]>, Vec<([f64; 2], f64)>) {
+/// A circle: centre and radius, mm.
+type Circle = ([f64; 2], f64);
+
+/// The CUT layer's vertices and the OUTLINE layer's circles of a DXF.
+fn dxf_parts(path: &Path) -> (Vec<[f64; 2]>, Vec<Circle>) {
     let d = dxf::Drawing::load_file(path).unwrap();
     let (mut cut, mut circles) = (Vec::new(), Vec::new());
     for e in d.entities() {
@@ -39,7 +42,7 @@ fn a_b_gobo_is_a_circle_of_86_mm_with_the_picture_inscribed_in_its_image_area() 
     // 300 x 200 px, a dark square in each corner (touching the picture's corners).
     let input = t.path().join("corners.png");
     ink_png(&input, 300, 200, |x, y| {
-        (x < 30 || x >= 270) && (y < 30 || y >= 170)
+        !(30..270).contains(&x) && !(30..170).contains(&y)
     });
     let out = t.path().join("b");
     let o = stencil(&[
