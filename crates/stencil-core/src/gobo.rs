@@ -18,9 +18,10 @@
 //! bright subject on a dark ground is projected as a dark subject in light unless the tones are
 //! swapped (`--invert`): [`GoboReport::warning`] says so when most of the image area is clear.
 
-use geo::{Area, Coord, LineString, Polygon, Rect};
+use geo::{Area, Coord, Polygon, Rect};
 
 use crate::vector::CutGeometry;
+pub use crate::vector::Rim;
 
 /// The table the letter sizes come from (named in the report and the help).
 pub const TABLE: &str = "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
@@ -118,58 +119,6 @@ impl Gobo {
     }
 }
 
-/// The rim and image area placed on a stencil, in the picture's millimetres (y down).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Rim {
-    /// The disc's centre: the picture's centre.
-    pub centre_mm: [f64; 2],
-    pub od_mm: f64,
-    pub ia_mm: f64,
-}
-
-/// Chords of a circle drawn as a polygon are at most this far inside it, mm (the rim's tool
-/// path, its mask ring).
-const RIM_TOLERANCE_MM: f64 = 0.005;
-
-impl Rim {
-    /// A circle of radius `r` about the centre as a closed ring (counter-clockwise in the numeric
-    /// plane), its chords within [`RIM_TOLERANCE_MM`] of the circle.
-    pub fn ring(&self, r: f64) -> LineString<f64> {
-        // Sagitta r(1 - cos(π/n)) ≤ tol.
-        let n = (std::f64::consts::PI / (1.0 - RIM_TOLERANCE_MM / r).max(-1.0).acos())
-            .ceil()
-            .clamp(32.0, 8192.0) as usize;
-        let [cx, cy] = self.centre_mm;
-        LineString::new(
-            (0..=n)
-                .map(|i| {
-                    let a = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
-                    Coord {
-                        x: cx + r * a.cos(),
-                        y: cy + r * a.sin(),
-                    }
-                })
-                .collect(),
-        )
-    }
-
-    /// The disc's bounding square: what a job cutting the rim places on the bed.
-    pub fn bounds(&self) -> Rect<f64> {
-        let [cx, cy] = self.centre_mm;
-        let r = self.od_mm / 2.0;
-        Rect::new(
-            Coord {
-                x: cx - r,
-                y: cy - r,
-            },
-            Coord {
-                x: cx + r,
-                y: cy + r,
-            },
-        )
-    }
-}
-
 /// Put the gobo on a traced stencil: the rim at the picture's centre, the sheet's outline the
 /// rim's square grown by `margin_mm` (what the masks cover; their registration marks sit in its
 /// corners, outside the disc).
@@ -218,9 +167,7 @@ pub struct GoboReport {
     pub warning: Option<String>,
 }
 
-/// How a stencil's polarity reads, for every output that has one.
-pub const POLARITY: &str =
-    "metal stays where the stencil is material; light passes where it is cut";
+pub use crate::export::POLARITY;
 
 /// The gobo's report: its sizes, how much of the image area passes light, and the warning when
 /// that is most of it with the tones as they are (`tone_inverted`: `--invert` was given).
@@ -298,7 +245,7 @@ mod tests {
                 (w[0].y + w[1].y) / 2.0 - 20.0,
             ];
             let d = 43.0 - m[0].hypot(m[1]);
-            assert!((0.0..=RIM_TOLERANCE_MM + 1e-12).contains(&d), "{d}");
+            assert!((0.0..=0.005 + 1e-12).contains(&d), "{d}");
         }
         let a = disc(&rim).unsigned_area();
         assert!((a - std::f64::consts::PI * 43.0 * 43.0).abs() < 1.0, "{a}");

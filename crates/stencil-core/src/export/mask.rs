@@ -245,6 +245,10 @@ pub fn mask_files(
     ))
 }
 
+/// How a stencil's polarity reads, for every output that has one (masks, gobos).
+pub const POLARITY: &str =
+    "metal stays where the stencil is material; light passes where it is cut";
+
 /// The polarity in words: the mask's tones, and what they mean for the part (metal stays where
 /// the stencil is material; light passes where it is cut).
 fn polarity(invert: bool) -> String {
@@ -255,7 +259,7 @@ fn polarity(invert: bool) -> String {
         } else {
             "black where metal stays (positive resist), clear where it is etched away"
         },
-        crate::gobo::POLARITY
+        POLARITY
     )
 }
 

@@ -69,8 +69,61 @@ pub struct CutGeometry {
     /// the gaps it takes for bridges by it.
     pub kerf_mm: f64,
     /// A gobo's rim (`--gobo`): then the sheet's cut edge is this circle, not `outline`
-    /// (which becomes the rim's square grown by the margin; see [`crate::gobo::place`]).
-    pub rim: Option<crate::gobo::Rim>,
+    /// (which becomes the rim's square grown by the margin; `gobo::place` puts it).
+    pub rim: Option<Rim>,
+}
+
+/// A gobo's rim and image area placed on a stencil, in the picture's millimetres (y down)
+/// (see `crate::gobo`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Rim {
+    /// The disc's centre: the picture's centre.
+    pub centre_mm: [f64; 2],
+    pub od_mm: f64,
+    pub ia_mm: f64,
+}
+
+/// Chords of a circle drawn as a polygon are at most this far inside it, mm (the rim's tool
+/// path, its mask ring).
+const RIM_TOLERANCE_MM: f64 = 0.005;
+
+impl Rim {
+    /// A circle of radius `r` about the centre as a closed ring (counter-clockwise in the numeric
+    /// plane), its chords within [`RIM_TOLERANCE_MM`] of the circle.
+    pub fn ring(&self, r: f64) -> LineString<f64> {
+        // Sagitta r(1 - cos(π/n)) ≤ tol.
+        let n = (std::f64::consts::PI / (1.0 - RIM_TOLERANCE_MM / r).max(-1.0).acos())
+            .ceil()
+            .clamp(32.0, 8192.0) as usize;
+        let [cx, cy] = self.centre_mm;
+        LineString::new(
+            (0..=n)
+                .map(|i| {
+                    let a = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
+                    Coord {
+                        x: cx + r * a.cos(),
+                        y: cy + r * a.sin(),
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// The disc's bounding square: what a job cutting the rim places on the bed.
+    pub fn bounds(&self) -> Rect<f64> {
+        let [cx, cy] = self.centre_mm;
+        let r = self.od_mm / 2.0;
+        Rect::new(
+            Coord {
+                x: cx - r,
+                y: cy - r,
+            },
+            Coord {
+                x: cx + r,
+                y: cy + r,
+            },
+        )
+    }
 }
 
 /// Options of the vector stage, in millimetres.
