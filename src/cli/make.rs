@@ -396,11 +396,13 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     };
     let mut physical = a.physical.to_config(&a.output, default_material)?;
     physical.mask.tone_inverted = a.image.invert;
+    etched_widths(a, &mut physical);
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
     } else {
         None
     };
+    fit_gobo(a, &mut physical, machine.as_ref())?;
     fit_size(a, &mut physical, machine.as_ref())?;
     let cfg = MakeConfig {
         out_dir: a
@@ -416,15 +418,79 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         gcode: None,
         progress: None,
     };
-    Ok(MakeConfig {
-        gcode: super::gcode::make_gcode_config(
-            &a.machine,
-            &a.cut,
-            &cfg.physical.material,
-            emit_gcode,
-        )?,
-        ..cfg
-    })
+    let mut gcode =
+        super::gcode::make_gcode_config(&a.machine, &a.cut, &cfg.physical.material, emit_gcode)?;
+    if let (Some(g), Some(_)) = (&mut gcode, &cfg.physical.gobo) {
+        // A gobo is a disc: its rim is always cut, last.
+        g.plan.cut_outline = true;
+    }
+    Ok(MakeConfig { gcode, ..cfg })
+}
+
+/// An etched material's smallest feature raised to the narrowest opening that etches at its
+/// designed size (twice the undercut the masks are compensated for, plus the narrowest line a
+/// mask carries), so the clean-up and the width check judge the etched part. Said when it
+/// changes anything.
+fn etched_widths(a: &MakeArgs, physical: &mut pipeline::PhysicalConfig) {
+    let Some(e) = stencil_core::export::Etch::of(&physical.material) else {
+        return;
+    };
+    // Rounded up to a micrometre, as printed.
+    let need = (e.min_opening_mm() * 1000.0).ceil() / 1000.0;
+    let m = &mut physical.material;
+    if m.min_feature_mm < need {
+        println!(
+            "note: {}: webs and holes at least {need:.3} mm, not {} mm as {} says: the masks are \
+             drawn {:.3} mm smaller on every side for the etch's undercut, and a narrower \
+             opening would not be etched at all",
+            a.input.display(),
+            m.min_feature_mm,
+            m.name,
+            e.undercut_mm()
+        );
+        m.min_feature_mm = need;
+    }
+}
+
+/// A gobo's size, from the picture's header: the picture inscribed in the image area (or
+/// filling it with --gobo-crop). Refused for a mesh (it is drawn at its own size) and, with a
+/// machine, when the disc is larger than its bed.
+fn fit_gobo(
+    a: &MakeArgs,
+    physical: &mut pipeline::PhysicalConfig,
+    machine: Option<&stencil_gcode::machine::Machine>,
+) -> anyhow::Result<()> {
+    let Some(g) = &physical.gobo else {
+        return Ok(());
+    };
+    if a.input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+    {
+        anyhow::bail!(
+            "{}: --gobo takes a picture: a mesh is drawn at its own size (render it to a PNG \
+             with `stencil tone`, then make the gobo from that)",
+            a.input.display()
+        );
+    }
+    if let Some(m) = machine {
+        if g.od_mm > m.bed.width_mm.min(m.bed.height_mm) {
+            anyhow::bail!(
+                "a {} gobo is {} mm across, larger than the {} x {} mm bed of {}: choose a \
+                 smaller --gobo",
+                g.name(),
+                g.od_mm,
+                m.bed.width_mm,
+                m.bed.height_mm,
+                m.name
+            );
+        }
+    }
+    // A header that cannot be read is left for the pipeline to name.
+    if let Ok((w, h)) = stencil_core::tone::picture_size(&a.input) {
+        physical.size = stencil_core::units::Size::WidthMm(g.picture_width_mm(w, h));
+    }
+    Ok(())
 }
 
 /// The size on the sheet, decided from the picture's header before any work: scaled down to the
@@ -438,6 +504,10 @@ fn fit_size(
     machine: Option<&stencil_gcode::machine::Machine>,
 ) -> anyhow::Result<()> {
     use stencil_core::fit::{fit, FitRequest, Fitted, Stock};
+    if physical.gobo.is_some() {
+        // Sized by the gobo (fit_gobo), which checked its disc against the bed.
+        return Ok(());
+    }
     let stock = match (&a.physical.sheet, machine) {
         (Some(s), _) => s.clone(),
         (None, Some(m)) => Stock::Bed {
@@ -608,8 +678,39 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
     }
+    if let Some(g) = &made.report.gobo {
+        print_gobo(g);
+    }
     if let Some(m) = &made.report.mask {
         print_masks(m);
+    }
+}
+
+/// The gobo: its size and where it comes from, the picture's placement, the polarity, and the
+/// warning when most of the image area would pass light.
+fn print_gobo(g: &stencil_core::gobo::GoboReport) {
+    println!(
+        "gobo {}{} mm outside diameter, {} mm image area ({}): the picture {} ({:.1} x {:.1} mm) \
+         at its centre, the rim cut; {}; {:.0} % of the image area passes light",
+        g.letter
+            .as_deref()
+            .map(|l| format!("{l}: "))
+            .unwrap_or_default(),
+        g.od_mm,
+        g.ia_mm,
+        g.table.as_deref().map_or("as given", |_| "Rosco's size"),
+        if g.placement == "cropped" {
+            "fills the image area, metal outside its circle"
+        } else {
+            "inscribed in the image area"
+        },
+        g.picture_mm[0],
+        g.picture_mm[1],
+        g.polarity,
+        g.clear_pct
+    );
+    if let Some(w) = &g.warning {
+        eprintln!("warning: {w}");
     }
 }
 

@@ -49,6 +49,20 @@ pub struct PhysicalArgs {
     /// a picture too large for the sheet is refused before any work.
     #[arg(long, value_name = "A4|A3|LETTER|WxH", value_parser = stencil_core::fit::sheet)]
     pub sheet: Option<stencil_core::fit::Stock>,
+    /// Make a gobo: a round sheet for a lighting fixture's gate. A letter size from Rosco's table
+    /// (A 100 / 75, B 86 / 64.5, M 66 / 48, E 37.5 / 28 mm outside diameter / image area) or
+    /// OD,IA in mm for any other (e.g. 53.3,38). The picture is inscribed in the image area
+    /// (--gobo-crop fills it instead, metal outside its circle) and the rim is cut: a circle on
+    /// the OUTLINE layer of the SVG and DXF, the last loop of the G-code, a groove in the masks.
+    /// Light passes where the stencil is cut: a bright subject on a dark ground usually wants
+    /// --invert (make warns when most of the image area would pass light).
+    #[arg(long, value_name = "A|B|M|E|OD,IA", conflicts_with_all = ["width_mm", "dpi", "sheet"], value_parser = stencil_core::gobo::parse)]
+    pub gobo: Option<stencil_core::gobo::Gobo>,
+    /// With --gobo: fill the image area with the picture (its shorter side as wide as the image
+    /// area) and leave metal outside the image area's circle, instead of fitting the whole
+    /// picture inside it.
+    #[arg(long, requires = "gobo")]
+    pub gobo_crop: bool,
     /// Material profile: a shipped name (see `stencil profiles`), a name in
     /// ./profiles/materials/, or a path to a .toml file. Its minimum bridge and feature widths
     /// drive the bridges, the filter and the check. [default: cardstock; with --emit gcode, one
@@ -158,6 +172,10 @@ impl PhysicalArgs {
                 tone_inverted: false,
             },
             dxf_r12: out.dxf_r12,
+            gobo: self.gobo.clone().map(|g| stencil_core::gobo::Gobo {
+                crop: self.gobo_crop,
+                ..g
+            }),
         })
     }
 }

@@ -198,11 +198,14 @@ fn core_stages_use_only_earlier_layers() {
             &["raster", "islands", "material", "units", "vector"][..],
         ),
         ("export", &["raster", "vector", "limits", "units"][..]),
+        // A gobo: placed on the traced stencil, its polarity worded as the masks word it.
+        ("gobo", &["vector", "export"][..]),
         (
             "report",
             // export: the masks' description (what was written) is reported as encoded.
             &[
                 "raster", "tone", "bridge", "vector", "check", "units", "material", "export",
+                "gobo",
             ][..],
         ),
     ]);

@@ -63,6 +63,7 @@ pub mod bridge;
 pub mod check;
 pub mod export;
 pub mod fit;
+pub mod gobo;
 pub mod islands;
 pub mod layers;
 pub mod limits;

@@ -160,6 +160,9 @@ pub struct PhysicalConfig {
     pub emit: Emit,
     pub mask: MaskConfig,
     pub dxf_r12: bool,
+    /// A gobo (`--gobo`): a round sheet, the picture at its centre (`size` is set to fit its
+    /// image area), the rim cut (see [`crate::gobo`]).
+    pub gobo: Option<crate::gobo::Gobo>,
 }
 
 impl Default for PhysicalConfig {
@@ -177,6 +180,7 @@ impl Default for PhysicalConfig {
             emit: Emit::default(),
             mask: MaskConfig::default(),
             dxf_r12: false,
+            gobo: None,
         }
     }
 }
@@ -477,6 +481,8 @@ pub struct Working {
 pub struct ToneParams {
     pub threshold: tone::Threshold,
     pub invert: bool,
+    /// A cropped gobo's image area in working pixels (cx, cy, r): outside it, metal.
+    pub keep_circle_px: Option<[f64; 3]>,
 }
 
 /// The clean-up's parameters: the design-rule regularisation to `min_width_px`, or (with an
@@ -571,6 +577,11 @@ pub fn resolve(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Error> 
         tone: ToneParams {
             threshold: cfg.tone.threshold,
             invert: cfg.tone.invert,
+            keep_circle_px: phys
+                .gobo
+                .as_ref()
+                .filter(|g| g.crop)
+                .map(|g| g.image_circle_px(w, h)),
         },
         clean: CleanParams {
             filter: filter_cfg,
@@ -794,9 +805,29 @@ pub fn working_gray(source: Source, factor: u32) -> Gray {
 /// Stage 3: the two-tone and the level used (Otsu's, when asked for). A mesh's lines are cut
 /// and its background material whatever the level (see [`mesh::two_tone`]).
 pub fn threshold(source: &Source, gray: Gray, p: &ToneParams) -> (TwoTone, u8) {
-    match source {
+    let (mut two, level) = match source {
         Source::Picture(_) => tone::threshold(gray, p.threshold, p.invert),
         Source::Mesh(r) => mesh::two_tone(r, p.threshold, p.invert),
+    };
+    if let Some(c) = p.keep_circle_px {
+        keep_circle(&mut two, c, p.invert);
+    }
+    (two, level)
+}
+
+/// Outside the circle (cx, cy, r) in pixels, metal: a cropped gobo's image area is all the
+/// fixture projects, so the picture beyond it goes. The gray is set to the tone that thresholds
+/// as material too, so the clean-up (which rereads it) keeps it so.
+fn keep_circle(two: &mut TwoTone, [cx, cy, r]: [f64; 3], invert: bool) {
+    let metal_gray = if invert { 0.0 } else { 1.0 };
+    let w = two.bits.width;
+    for y in 0..two.bits.height {
+        for x in 0..w {
+            if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) > r {
+                two.bits.set(x, y, true);
+                two.gray.set(x, y, metal_gray);
+            }
+        }
     }
 }
 
@@ -1024,6 +1055,9 @@ fn finish(
         &mut timer,
     )?;
     refuse(&cfg.physical, traced.fidelity, &traced.check)?;
+    if let Some(g) = &cfg.physical.gobo {
+        crate::gobo::place(&mut traced.geometry, g, params.trace.vector.margin_mm);
+    }
     let gcode = match &cfg.gcode {
         Some(g) => Some(gcode(
             cfg,
@@ -1174,6 +1208,10 @@ pub fn report(
         gcode,
         // Filled when the masks are encoded (`encode_outputs`).
         mask: None,
+        gobo: phys
+            .gobo
+            .as_ref()
+            .map(|g| crate::gobo::report(&traced.geometry, g, cfg.tone.invert)),
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         material_values: Some(phys.material.values()),
@@ -1264,11 +1302,7 @@ pub(crate) fn encode_outputs(
     if phys.emit.mask {
         let mut m = phys.mask;
         m.mirror |= phys.material.etch().is_some_and(|e| e.mirror);
-        let etch = phys.material.etch().map(|e| mask::Etch {
-            thickness_mm: phys.material.thickness_mm,
-            etch_factor: e.etch_factor,
-            two_sided: e.two_sided,
-        });
+        let etch = mask::Etch::of(&phys.material);
         let (masks, r) = mask::mask_files(geom, &m, etch)?;
         files.extend(masks);
         mask_report = Some(r);

@@ -231,6 +231,10 @@ pub struct Report {
     /// compensation, and how much of the picture is clear.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<crate::export::MaskReport>,
+    /// The gobo (`--gobo`): its sizes and the table they come from, the picture's placement,
+    /// the polarity, how much of the image area passes light, and the `--invert` warning.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gobo: Option<crate::gobo::GoboReport>,
 }
 
 #[cfg(test)]

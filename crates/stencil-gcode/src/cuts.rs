@@ -24,6 +24,9 @@ pub struct CutLoops {
     /// shape whose closing segment was lost. Cut or drawn before every closed loop, while the
     /// sheet is still whole. `make` has none.
     pub lines: Vec<LineString<f64>>,
+    /// The sheet's edge as it is cut when that is not `outline`'s rectangle: a gobo's rim, a
+    /// closed ring inside `outline` (already offset for the kerf). Cut last, as the outline is.
+    pub outline_ring: Option<LineString<f64>>,
 }
 
 /// What the planner knows of the pieces of material the cuts free (every cut inside a piece must
@@ -50,6 +53,7 @@ impl CutLoops {
             kerf_mm: 0.0,
             pieces: Pieces::Unknown,
             lines: Vec::new(),
+            outline_ring: None,
         }
     }
 

@@ -360,10 +360,22 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         place.map(rect[0], rect[3]),
     ];
     if cfg.cut_outline {
-        loops.push(Loop {
-            points: frame.to_vec(),
-            outline: true,
-            area_mm2: size[0] * size[1],
+        // A round sheet (a gobo's rim) is cut on its ring; the frame stays its box on the bed.
+        let ring = geom.outline_ring.as_ref().map(|r| {
+            let area = geo::Polygon::new(r.clone(), vec![]).unsigned_area();
+            (ring_points(r, &place), area)
+        });
+        loops.push(match ring {
+            Some((points, area_mm2)) if points.len() >= 3 => Loop {
+                points,
+                outline: true,
+                area_mm2,
+            },
+            _ => Loop {
+                points: frame.to_vec(),
+                outline: true,
+                area_mm2: size[0] * size[1],
+            },
         });
     }
     if loops.is_empty() && lines.is_empty() {

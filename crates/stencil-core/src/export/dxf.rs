@@ -3,8 +3,8 @@
 //! R2000 (AC1015) by default: closed LWPOLYLINEs, `$INSUNITS` = 4 (mm), `$MEASUREMENT` = 1
 //! (metric). `--dxf-r12` writes R12 closed POLYLINE/VERTEX/SEQEND for old software (R12 has no
 //! units header: it is still millimetres). Layers: `CUT` (every cut loop, as designed: CAM applies
-//! its own kerf) and `OUTLINE` (the sheet's edge). DXF's y axis points up, so y is flipped about
-//! the sheet (`y_dxf = height - y`): the drawing is not mirrored and sits at x, y ≥ 0.
+//! its own kerf) and `OUTLINE` (the sheet's edge, or a gobo's rim as an exact CIRCLE). DXF's y
+//! axis points up, so y is flipped about the sheet (`y_dxf = height - y`): the drawing is not mirrored and sits at x, y ≥ 0.
 //!
 //! The dxf crate writes R12 by default and silently drops LWPOLYLINEs there, so the version is
 //! always set explicitly.
@@ -93,7 +93,19 @@ pub fn encode(geom: &CutGeometry, r12: bool) -> Result<Vec<u8>, ExportError> {
         e.common.layer = layer.into();
         d.add_entity(e);
     };
-    add(&mut d, o.to_polygon().exterior(), OUTLINE_LAYER);
+    match geom.rim {
+        // A gobo's edge is its rim: an exact CIRCLE of the outside diameter.
+        Some(rim) => {
+            let (x, y) = tf(rim.centre_mm[0], rim.centre_mm[1]);
+            let mut e = Entity::new(EntityType::Circle(dxf::entities::Circle::new(
+                Point::new(x, y, 0.0),
+                rim.od_mm / 2.0,
+            )));
+            e.common.layer = OUTLINE_LAYER.into();
+            d.add_entity(e);
+        }
+        None => add(&mut d, o.to_polygon().exterior(), OUTLINE_LAYER),
+    }
     for r in rings(&geom.design_cuts) {
         add(&mut d, r, CUT_LAYER);
     }

@@ -77,6 +77,30 @@ impl Etch {
     }
 }
 
+/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
+/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
+/// not etched as designed.
+pub const MIN_MASK_OPENING_MM: f64 = 0.05;
+
+impl Etch {
+    /// The narrowest opening that etches at its designed size: twice the undercut (what the
+    /// compensation takes off both sides) plus [`MIN_MASK_OPENING_MM`] left in the mask. `make`
+    /// raises the material's smallest feature to it, so the clean-up and the width check judge
+    /// what is etched rather than a design the mask cannot carry.
+    pub fn min_opening_mm(&self) -> f64 {
+        2.0 * self.undercut_mm() + MIN_MASK_OPENING_MM
+    }
+
+    /// The etch of a material with an `[etch]` section.
+    pub fn of(material: &crate::material::Material) -> Option<Etch> {
+        material.etch().map(|e| Etch {
+            thickness_mm: material.thickness_mm,
+            etch_factor: e.etch_factor,
+            two_sided: e.two_sided,
+        })
+    }
+}
+
 /// What the masks are, for report.json and the console: which files, their dpi, polarity and
 /// mirroring, the undercut compensation and what it closed, and how much of the picture is clear.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -114,7 +138,10 @@ pub struct MaskSide {
 /// etch a front (`mask-front.*`, as configured) and a back (`mask-back.*`, mirrored against the
 /// front: laid on the other face, it registers with it through the sheet). With `etch`, the
 /// openings are compensated for the undercut ([`Etch::undercut_mm`]); the width check judges
-/// the design, which is what the compensated mask etches.
+/// the design, which is what the compensated mask etches (`make` raises an etch material's
+/// smallest feature to [`Etch::min_opening_mm`], so no opening it passes is closed here; those
+/// that are, with other widths, are counted in [`MaskReport::openings_closed`]). A gobo's rim
+/// ([`CutGeometry::rim`]) is etched as a groove outside the disc ([`rim_groove_mm`]).
 #[allow(clippy::type_complexity)]
 pub fn mask_files(
     geom: &CutGeometry,
@@ -143,6 +170,21 @@ pub fn mask_files(
         }
         g.design_cuts = shrunk;
     }
+    if let Some(rim) = geom.rim {
+        // The rim etched through as a groove outside the disc, its inner edge at the outside
+        // diameter after the undercut (drawn `u` further out, as every opening is drawn `u`
+        // smaller).
+        let t = etch.map_or(0.0, |e| e.thickness_mm);
+        let groove = rim_groove_mm(t, u);
+        let (r_in, r_out) = (rim.od_mm / 2.0 + u, rim.od_mm / 2.0 + groove - u);
+        if r_out > r_in {
+            g.design_cuts
+                .0
+                .push(geo::Polygon::new(rim.ring(r_out), vec![rim.ring(r_in)]));
+        } else {
+            closed += 1;
+        }
+    }
     let two = etch.is_some_and(|e| e.two_sided);
     let sides: Vec<(&str, &str, bool)> = if two {
         vec![
@@ -154,10 +196,21 @@ pub fn mask_files(
     };
     let mut files = Vec::new();
     let mut masks = Vec::new();
+    let polarity = polarity(cfg.invert);
     for (side, stem, mirror) in sides {
         let c = MaskConfig { mirror, ..*cfg };
-        files.push((format!("{stem}.png"), encode_png(&g, &c)?));
-        files.push((format!("{stem}.svg"), encode_svg(&g, &c)));
+        // Each file says what it is, for whoever opens it without the report.
+        let desc = format!(
+            "stencil photo-etch mask, {side}: {polarity}; {}; {} dpi",
+            if mirror {
+                "mirrored left-right"
+            } else {
+                "right-reading"
+            },
+            cfg.dpi
+        );
+        files.push((format!("{stem}.png"), encode_png(&g, &c, &desc)?));
+        files.push((format!("{stem}.svg"), encode_svg(&g, &c, &desc)));
         masks.push(MaskSide {
             side: side.into(),
             png: format!("{stem}.png"),
@@ -183,17 +236,41 @@ pub fn mask_files(
         MaskReport {
             masks,
             dpi: cfg.dpi,
-            polarity: if cfg.invert {
-                "clear where metal stays (negative resist), black where it is etched away".into()
-            } else {
-                "black where metal stays (positive resist), clear where it is etched away".into()
-            },
+            polarity,
             undercut_compensation_mm: u,
             openings_closed: closed,
             clear_pct,
             warning,
         },
     ))
+}
+
+/// How a stencil's polarity reads, for every output that has one (masks, gobos).
+pub const POLARITY: &str =
+    "metal stays where the stencil is material; light passes where it is cut";
+
+/// The polarity in words: the mask's tones, and what they mean for the part (metal stays where
+/// the stencil is material; light passes where it is cut).
+fn polarity(invert: bool) -> String {
+    format!(
+        "{}; {}",
+        if invert {
+            "clear where metal stays (negative resist), black where it is etched away"
+        } else {
+            "black where metal stays (positive resist), clear where it is etched away"
+        },
+        POLARITY
+    )
+}
+
+/// The groove a gobo's rim is etched as, mm: an etched line comes through a sheet only when it
+/// is about as wide as the sheet is thick (photo-etching shops give 1 to 1.5 × the thickness as
+/// the narrowest slot), so 1.5 × the thickness, never under 0.3 mm, and wide enough that its
+/// mask, drawn `undercut_mm` narrower on each side, keeps [`MIN_MASK_OPENING_MM`].
+pub fn rim_groove_mm(thickness_mm: f64, undercut_mm: f64) -> f64 {
+    (1.5 * thickness_mm)
+        .max(0.3)
+        .max(2.0 * undercut_mm + MIN_MASK_OPENING_MM)
 }
 
 /// Largest mask accepted, in pixels (a 1200 dpi A3 sheet is ~ 2.6e8).
@@ -221,7 +298,11 @@ fn etched_rings(geom: &CutGeometry, marks: bool) -> Vec<LineString<f64>> {
 /// A ring and a cross at the middle of each corner square of the margin.
 fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
     let o = geom.outline;
-    let m = -o.min().x; // the margin
+    // The margin: around the picture, or around a gobo's rim (its corners lie outside the disc).
+    let m = match geom.rim {
+        Some(rim) => (o.width() - rim.od_mm) / 2.0,
+        None => -o.min().x,
+    };
     let r = (0.35 * m).min(4.0);
     let t = (r / 8.0).max(0.05);
     let centres = [
@@ -264,8 +345,13 @@ fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
     out
 }
 
-/// Encode `mask.png`: 1-bit grayscale (1 = white).
-pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, ExportError> {
+/// Encode `mask.png`: 1-bit grayscale (1 = white), with `desc` in a tEXt `Description` chunk
+/// (when not empty).
+pub fn encode_png(
+    geom: &CutGeometry,
+    cfg: &MaskConfig,
+    desc: &str,
+) -> Result<Vec<u8>, ExportError> {
     if !cfg.dpi.is_finite() || cfg.dpi <= 0.0 {
         return Err(ExportError::MaskDpi(cfg.dpi));
     }
@@ -278,7 +364,7 @@ pub fn encode_png(geom: &CutGeometry, cfg: &MaskConfig) -> Result<Vec<u8>, Expor
         });
     }
     let data = scan_fill(&pixel_edges(geom, cfg, w), w, h, cfg.invert);
-    write_png(&data, w, h, cfg.dpi)
+    write_png(&data, w, h, cfg.dpi, desc)
 }
 
 /// The etched rings' edges in pixel space, (x0, y0, x1, y1) with y0 < y1 (horizontal ones
@@ -347,7 +433,7 @@ fn scan_fill(edges: &[[f64; 4]], w: u32, h: u32, invert: bool) -> Vec<u8> {
 
 /// The 1-bit grayscale PNG, with its resolution in pixels per metre so the film plotter sees the
 /// intended dpi.
-fn write_png(data: &[u8], w: u32, h: u32, dpi: f64) -> Result<Vec<u8>, ExportError> {
+fn write_png(data: &[u8], w: u32, h: u32, dpi: f64, desc: &str) -> Result<Vec<u8>, ExportError> {
     let err = |msg: String| ExportError::Encode {
         path: "mask.png".into(),
         msg,
@@ -363,14 +449,19 @@ fn write_png(data: &[u8], w: u32, h: u32, dpi: f64) -> Result<Vec<u8>, ExportErr
             yppu: ppm,
             unit: png::Unit::Meter,
         }));
+        if !desc.is_empty() {
+            enc.add_text_chunk("Description".into(), desc.into())
+                .map_err(|e| err(e.to_string()))?;
+        }
         let mut wr = enc.write_header().map_err(|e| err(e.to_string()))?;
         wr.write_image_data(data).map_err(|e| err(e.to_string()))?;
     }
     Ok(out)
 }
 
-/// Encode `mask.svg`: the same mask as vectors at real size.
-pub fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig) -> Vec<u8> {
+/// Encode `mask.svg`: the same mask as vectors at real size, with `desc` as the drawing's
+/// `<desc>` (when not empty).
+pub fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig, desc: &str) -> Vec<u8> {
     let o = geom.outline;
     let (w, h) = (o.width(), o.height());
     let (metal, etched) = if cfg.invert {
@@ -390,13 +481,18 @@ pub fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig) -> Vec<u8> {
     let mut s = String::new();
     let _ = write!(
         s,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}mm\" height=\"{h}mm\" viewBox=\"{x} {y} {w} {h}\">\
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}mm\" height=\"{h}mm\" viewBox=\"{x} {y} {w} {h}\">{desc}\
          <rect x=\"{x}\" y=\"{y}\" width=\"{w}\" height=\"{h}\" fill=\"{metal}\"/>\
          <g{transform}><path d=\"{d}\" fill=\"{etched}\" fill-rule=\"evenodd\"/></g></svg>",
         w = num(w),
         h = num(h),
         x = num(o.min().x),
         y = num(o.min().y),
+        desc = if desc.is_empty() {
+            String::new()
+        } else {
+            format!("<desc>{}</desc>", desc.replace('&', "&amp;").replace('<', "&lt;"))
+        },
     );
     s.into_bytes()
 }
@@ -426,7 +522,7 @@ mod tests {
             dpi: 254.0,
             ..Default::default()
         }; // 10 px per mm
-        let png = encode_png(&geom, &cfg).unwrap();
+        let png = encode_png(&geom, &cfg, "").unwrap();
         let img = image::load_from_memory(&png).unwrap().to_luma8();
         assert_eq!((img.width(), img.height()), (300, 200)); // (20 + 10) mm x (10 + 10) mm
         let white = img.pixels().filter(|p| p.0[0] > 127).count() as f64;

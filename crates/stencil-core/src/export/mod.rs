@@ -8,7 +8,7 @@ pub(crate) mod svg;
 
 use std::path::{Path, PathBuf};
 
-pub use mask::{Etch, MaskConfig, MaskReport, MaskSide};
+pub use mask::{Etch, MaskConfig, MaskReport, MaskSide, POLARITY};
 pub use stencil_io::Replaced;
 use stencil_io::{plain_io, WriteError};
 

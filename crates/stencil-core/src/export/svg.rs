@@ -80,6 +80,18 @@ pub fn encode(geom: &CutGeometry) -> Vec<u8> {
         .set("fill", "none")
         .set("stroke", "#ff0000")
         .set("stroke-width", "0.02");
+    // A gobo's edge is its rim: the circle is what is cut, the square only its sheet.
+    let outline = match geom.rim {
+        Some(rim) => svg::node::element::Circle::new()
+            .set("cx", num(rim.centre_mm[0]))
+            .set("cy", num(rim.centre_mm[1]))
+            .set("r", num(rim.od_mm / 2.0))
+            .set("fill", "none")
+            .set("stroke", "#ff0000")
+            .set("stroke-width", "0.02")
+            .to_string(),
+        None => outline.to_string(),
+    };
     let mut cut = String::new();
     for p in &geom.design_cuts.0 {
         let d = path_data(std::iter::once(p.exterior()).chain(p.interiors()));
@@ -116,7 +128,7 @@ pub fn encode(geom: &CutGeometry) -> Vec<u8> {
                 num(h)
             ),
         )
-        .add(layer("outline", "OUTLINE", &outline.to_string()))
+        .add(layer("outline", "OUTLINE", &outline))
         .add(layer("cut", "CUT", &cut))
         .add(layer("bridges", "BRIDGES", &bridges));
     doc.to_string().into_bytes()
@@ -147,6 +159,7 @@ mod tests {
             bridges: vec![ring(4.0, 1.5, 6.0, 2.5)],
             unbridged_cuts: MultiPolygon(vec![]),
             kerf_mm: 0.0,
+            rim: None,
         };
         let text = String::from_utf8(encode(&geom)).unwrap();
         let back = stencil_gcode::read_svg::cut_loops_from_svg(&text, "stencil.svg").unwrap();

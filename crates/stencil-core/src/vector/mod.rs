@@ -68,6 +68,62 @@ pub struct CutGeometry {
     /// The kerf `cuts` were offset for (0 until [`CutGeometry::apply_kerf`]): the planner widens
     /// the gaps it takes for bridges by it.
     pub kerf_mm: f64,
+    /// A gobo's rim (`--gobo`): then the sheet's cut edge is this circle, not `outline`
+    /// (which becomes the rim's square grown by the margin; `gobo::place` puts it).
+    pub rim: Option<Rim>,
+}
+
+/// A gobo's rim and image area placed on a stencil, in the picture's millimetres (y down)
+/// (see `crate::gobo`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Rim {
+    /// The disc's centre: the picture's centre.
+    pub centre_mm: [f64; 2],
+    pub od_mm: f64,
+    pub ia_mm: f64,
+}
+
+/// Chords of a circle drawn as a polygon are at most this far inside it, mm (the rim's tool
+/// path, its mask ring).
+const RIM_TOLERANCE_MM: f64 = 0.005;
+
+impl Rim {
+    /// A circle of radius `r` about the centre as a closed ring (counter-clockwise in the numeric
+    /// plane), its chords within [`RIM_TOLERANCE_MM`] of the circle.
+    pub fn ring(&self, r: f64) -> LineString<f64> {
+        // Sagitta r(1 - cos(π/n)) ≤ tol.
+        let n = (std::f64::consts::PI / (1.0 - RIM_TOLERANCE_MM / r).max(-1.0).acos())
+            .ceil()
+            .clamp(32.0, 8192.0) as usize;
+        let [cx, cy] = self.centre_mm;
+        LineString::new(
+            (0..=n)
+                .map(|i| {
+                    let a = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
+                    Coord {
+                        x: cx + r * a.cos(),
+                        y: cy + r * a.sin(),
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// The disc's bounding square: what a job cutting the rim places on the bed.
+    pub fn bounds(&self) -> Rect<f64> {
+        let [cx, cy] = self.centre_mm;
+        let r = self.od_mm / 2.0;
+        Rect::new(
+            Coord {
+                x: cx - r,
+                y: cy - r,
+            },
+            Coord {
+                x: cx + r,
+                y: cy + r,
+            },
+        )
+    }
 }
 
 /// Options of the vector stage, in millimetres.
@@ -197,6 +253,7 @@ pub fn vectorize_design(
         bridges,
         unbridged_cuts: MultiPolygon::new(Vec::new()),
         kerf_mm: 0.0,
+        rim: None,
     };
     let stats = VectorStats {
         simplify,
@@ -237,12 +294,33 @@ impl CutGeometry {
         } else {
             Pieces::Unknown
         };
+        // A gobo is cut on its rim, the tool half the kerf outside it so the disc keeps its
+        // diameter; the job's box is the rim's square (what is cut), not the mask's margin.
+        let (outline, outline_ring) = match self.rim {
+            Some(rim) => {
+                let r = rim.od_mm / 2.0 + self.kerf_mm.max(0.0) / 2.0;
+                let [cx, cy] = rim.centre_mm;
+                let b = Rect::new(
+                    Coord {
+                        x: cx - r,
+                        y: cy - r,
+                    },
+                    Coord {
+                        x: cx + r,
+                        y: cy + r,
+                    },
+                );
+                (b, Some(rim.ring(r)))
+            }
+            None => (self.outline, None),
+        };
         CutLoops {
-            outline: self.outline,
+            outline,
             cuts: self.cuts.clone(),
             kerf_mm: self.kerf_mm,
             pieces,
             lines: Vec::new(),
+            outline_ring,
         }
     }
 

@@ -4,11 +4,10 @@
 //! G92), and dry runs started from a person's saved `$$`/`$#` dump. Everything runs against the
 //! virtual Grbl and looks at where its beam went, in machine coordinates.
 
-mod common;
 
 use std::path::Path;
 
-use common::{stderr, stencil, tmp};
+use crate::common::{stderr, stencil, tmp};
 use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stream::{send, MachineError, Program, Quiet, Recovery, StreamConfig};
 use stencil_grbl::virtual_grbl::{Fault, FaultKind};

@@ -3,15 +3,14 @@
 //! light shrink the hole the shadow side becomes; named views are their angles; a model exported
 //! Z-up and given `--up Z` comes out as the same model Y-up (to rounding).
 
-mod common;
 
 use std::path::Path;
 
-use common::{read_bits, s, stderr, stencil, tmp};
+use crate::common::{self, read_bits, s, stderr, stencil, tmp};
 use stencil_core::raster::BitGrid;
 use stencil_core::tone::mesh::Mesh;
 
-#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+#[path = "../../crates/stencil-core/tests/support/shapes.rs"]
 mod shapes;
 
 /// A smooth sphere as an OBJ file.

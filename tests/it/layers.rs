@@ -4,12 +4,11 @@
 //! leaves no layer folder), `check` and `gcode` on a layered folder, and the fill-in painting
 //! the first stencil's bridges.
 
-mod common;
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use common::*;
+use crate::common::*;
 
 /// Every layer folder of a set, in order.
 fn layer_dirs(out: &Path) -> Vec<std::path::PathBuf> {

@@ -1,0 +1,253 @@
+//! Gobos: a round sheet for a lighting fixture's gate, its picture in the image area.
+//!
+//! A gobo is a disc of outside diameter OD; the fixture projects the image area, a centred
+//! circle of diameter IA. The picture is placed at the disc's centre, inscribed in the image area
+//! (its diagonal is IA, so none of it is lost), or with `crop` made as large as the image area's
+//! circle fits inside it (its shorter side is IA) and everything outside the circle left as
+//! metal. The rim (the circle of OD) is the outline that is cut: in the SVG, the DXF, the
+//! G-code and the etch masks.
+//!
+//! Letter sizes differ between makers by a few millimetres, so they come from one maker's
+//! published table: Rosco's, as listed in the "Rosco Labs" row of the gobo size table of the
+//! Stage Lighting Primer (<https://stagelightingprimer.com/slfs-gobos.html>, "Standard Sizes"):
+//! A 100 / 75 mm, B 86 / 64.5 mm, M 66 / 48 mm, E 37.5 / 28 mm (outside diameter / image area).
+//! That table gives no D or G size; any other size is given as `OD,IA` in millimetres (e.g.
+//! `53.3,38` for a D size quoted elsewhere).
+//!
+//! Polarity: metal stays where the stencil is material, and light passes where it is cut, so a
+//! bright subject on a dark ground is projected as a dark subject in light unless the tones are
+//! swapped (`--invert`): [`GoboReport::warning`] says so when most of the image area is clear.
+
+use geo::{Area, Coord, Polygon, Rect};
+
+use crate::vector::CutGeometry;
+pub use crate::vector::Rim;
+
+/// The table the letter sizes come from (named in the report and the help).
+pub const TABLE: &str = "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
+                         https://stagelightingprimer.com/slfs-gobos.html)";
+
+/// Rosco's letter sizes: (letter, outside diameter mm, image area mm). See the module's notes.
+pub const ROSCO: &[(&str, f64, f64)] = &[
+    ("A", 100.0, 75.0),
+    ("B", 86.0, 64.5),
+    ("M", 66.0, 48.0),
+    ("E", 37.5, 28.0),
+];
+
+/// Largest gobo accepted, mm (a 1 m disc is far beyond any fixture's gate, and a sure typo).
+pub const MAX_OD_MM: f64 = 1000.0;
+
+/// A gobo's size and how its picture is placed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gobo {
+    /// The letter size (`"B"`), or `None` for an `OD,IA` given in mm.
+    pub letter: Option<String>,
+    pub od_mm: f64,
+    pub ia_mm: f64,
+    /// Fill the image area (the picture's shorter side is IA) and leave metal outside its
+    /// circle, instead of inscribing the whole picture in it.
+    pub crop: bool,
+}
+
+/// `--gobo SIZE`: a letter of [`ROSCO`] (any case) or `OD,IA` in mm.
+pub fn parse(s: &str) -> Result<Gobo, String> {
+    let t = s.trim();
+    if let Some(&(l, od, ia)) = ROSCO.iter().find(|(l, _, _)| l.eq_ignore_ascii_case(t)) {
+        return Ok(Gobo {
+            letter: Some(l.into()),
+            od_mm: od,
+            ia_mm: ia,
+            crop: false,
+        });
+    }
+    let letters: Vec<&str> = ROSCO.iter().map(|r| r.0).collect();
+    let bad = || {
+        format!(
+            "'{s}' is not a gobo size: use {} (Rosco's sizes) or OD,IA in mm (e.g. 53.3,38)",
+            letters.join(", ")
+        )
+    };
+    let (od, ia) = t.split_once(',').ok_or_else(bad)?;
+    let (od, ia): (f64, f64) = match (od.trim().parse(), ia.trim().parse()) {
+        (Ok(o), Ok(i)) => (o, i),
+        _ => return Err(bad()),
+    };
+    if !(od.is_finite() && ia.is_finite() && ia > 0.0 && od <= MAX_OD_MM) {
+        return Err(format!(
+            "'{s}': the image area must be above 0 mm and the outside diameter at most {MAX_OD_MM} mm"
+        ));
+    }
+    if ia >= od {
+        return Err(format!(
+            "'{s}': the image area ({ia} mm) must be smaller than the outside diameter ({od} mm): the rim holds the gobo in its holder"
+        ));
+    }
+    Ok(Gobo {
+        letter: None,
+        od_mm: od,
+        ia_mm: ia,
+        crop: false,
+    })
+}
+
+impl Gobo {
+    /// The picture's width in mm for a `w` × `h` px picture: its diagonal IA (inscribed), or its
+    /// shorter side IA (`crop`).
+    pub fn picture_width_mm(&self, w: u32, h: u32) -> f64 {
+        let (w, h) = (w.max(1) as f64, h.max(1) as f64);
+        if self.crop {
+            self.ia_mm * w / w.min(h)
+        } else {
+            self.ia_mm * w / w.hypot(h)
+        }
+    }
+
+    /// The name as printed: "B (86 / 64.5 mm)" or "86 / 64.5 mm".
+    pub fn name(&self) -> String {
+        let d = format!("{} / {} mm", self.od_mm, self.ia_mm);
+        match &self.letter {
+            Some(l) => format!("{l} ({d})"),
+            None => d,
+        }
+    }
+
+    /// The image area's circle in pixels of a `w` × `h` picture, (cx, cy, r): what `crop` keeps.
+    pub fn image_circle_px(&self, w: u32, h: u32) -> [f64; 3] {
+        let r = 0.5 * (w.min(h) as f64);
+        [0.5 * w as f64, 0.5 * h as f64, r]
+    }
+}
+
+/// Put the gobo on a traced stencil: the rim at the picture's centre, the sheet's outline the
+/// rim's square grown by `margin_mm` (what the masks cover; their registration marks sit in its
+/// corners, outside the disc).
+pub fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
+    let rim = Rim {
+        centre_mm: [geom.width_mm / 2.0, geom.height_mm / 2.0],
+        od_mm: gobo.od_mm,
+        ia_mm: gobo.ia_mm,
+    };
+    let b = rim.bounds();
+    geom.outline = Rect::new(
+        Coord {
+            x: b.min().x - margin_mm,
+            y: b.min().y - margin_mm,
+        },
+        Coord {
+            x: b.max().x + margin_mm,
+            y: b.max().y + margin_mm,
+        },
+    );
+    geom.rim = Some(rim);
+}
+
+/// What the gobo is, for report.json and the console.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GoboReport {
+    /// The letter size, when one was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub letter: Option<String>,
+    /// Where the letter sizes come from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table: Option<String>,
+    pub od_mm: f64,
+    pub ia_mm: f64,
+    /// "inscribed" (the whole picture inside the image area) or "cropped" (the image area
+    /// filled, metal outside its circle).
+    pub placement: String,
+    /// The picture on the gobo, mm.
+    pub picture_mm: [f64; 2],
+    /// Metal and light, in words.
+    pub polarity: String,
+    /// The share of the image area that is cut (passes light), percent.
+    pub clear_pct: f64,
+    /// Set when most of the image area passes light while the picture's light parts stay metal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
+}
+
+pub use crate::export::POLARITY;
+
+/// The gobo's report: its sizes, how much of the image area passes light, and the warning when
+/// that is most of it with the tones as they are (`tone_inverted`: `--invert` was given).
+pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboReport {
+    let ia_area = std::f64::consts::PI * gobo.ia_mm * gobo.ia_mm / 4.0;
+    // Every cut is inside the image area (inscribed: inside the picture, which is inside it;
+    // cropped: outside its circle is metal), so their area is the clear area.
+    let clear_pct = 100.0 * geom.design_cuts.unsigned_area() / ia_area;
+    let warning = (clear_pct > 50.0 && !tone_inverted).then(|| {
+        format!(
+            "{clear_pct:.0} % of the gobo's image area passes light and the picture's light parts \
+             stay as metal: a bright subject on a dark ground would be projected dark in a field \
+             of light; --invert swaps the tones (metal where the picture is dark)"
+        )
+    });
+    GoboReport {
+        letter: gobo.letter.clone(),
+        table: gobo.letter.as_ref().map(|_| TABLE.to_string()),
+        od_mm: gobo.od_mm,
+        ia_mm: gobo.ia_mm,
+        placement: if gobo.crop { "cropped" } else { "inscribed" }.into(),
+        picture_mm: [geom.width_mm, geom.height_mm],
+        polarity: POLARITY.into(),
+        clear_pct,
+        warning,
+    }
+}
+
+/// The disc of OD as a polygon (for tests and the masks).
+pub fn disc(rim: &Rim) -> Polygon<f64> {
+    Polygon::new(rim.ring(rim.od_mm / 2.0), vec![])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn letters_come_from_one_table_and_other_sizes_in_mm() {
+        let b = parse("b").unwrap();
+        assert_eq!(
+            (b.od_mm, b.ia_mm, b.letter.as_deref()),
+            (86.0, 64.5, Some("B"))
+        );
+        assert_eq!(parse("A").unwrap().od_mm, 100.0);
+        let d = parse("53.3, 38").unwrap();
+        assert_eq!((d.od_mm, d.ia_mm, d.letter), (53.3, 38.0, None));
+        for bad in ["Q", "40,40", "30,40", "0,0", "2000,10", "x,y", "NaN,3"] {
+            assert!(parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_picture_is_inscribed_in_the_image_area_or_fills_it() {
+        let mut b = parse("B").unwrap();
+        // 400 x 300 px: diagonal 500 px = 64.5 mm, so 51.6 mm wide.
+        assert!((b.picture_width_mm(400, 300) - 51.6).abs() < 1e-9);
+        b.crop = true;
+        // The shorter side is the image area: 300 px = 64.5 mm, 86 mm wide.
+        assert!((b.picture_width_mm(400, 300) - 86.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_rim_ring_stays_within_its_tolerance_of_the_circle() {
+        let rim = Rim {
+            centre_mm: [10.0, 20.0],
+            od_mm: 86.0,
+            ia_mm: 64.5,
+        };
+        let r = rim.ring(43.0);
+        assert_eq!(r.0.first(), r.0.last());
+        for w in r.0.windows(2) {
+            let m = [
+                (w[0].x + w[1].x) / 2.0 - 10.0,
+                (w[0].y + w[1].y) / 2.0 - 20.0,
+            ];
+            let d = 43.0 - m[0].hypot(m[1]);
+            assert!((0.0..=0.005 + 1e-12).contains(&d), "{d}");
+        }
+        let a = disc(&rim).unsigned_area();
+        assert!((a - std::f64::consts::PI * 43.0 * 43.0).abs() < 1.0, "{a}");
+    }
+}
