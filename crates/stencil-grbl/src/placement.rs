@@ -299,7 +299,8 @@ impl Placement {
         );
         match self.start_from {
             StartFrom::Machine => {
-                "the job's X0 Y0 is the machine's origin (start from machine coordinates)".to_string()
+                "the job's X0 Y0 is the machine's origin (start from machine coordinates)"
+                    .to_string()
             }
             StartFrom::WorkZero => format!(
                 "the job's X0 Y0 is the controller's work zero, G{} {}, at machine {z} (start \
