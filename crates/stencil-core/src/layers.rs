@@ -154,7 +154,11 @@ pub fn posterise(
             count: lc.count,
         });
     }
-    let (gray, levels, method, mut colors) = if !lc.levels.is_empty() || rgb.is_none() {
+    let colour = rgb.filter(|_| lc.levels.is_empty());
+    let (gray, levels, method, mut colors) = if let Some(rgb) = colour {
+        let (gray, levels, colors) = kmeans_tones(luma, rgb, n + 1);
+        (gray, levels, Method::KmeansLab, colors)
+    } else {
         let levels = if lc.levels.is_empty() {
             let mut b = multi_otsu(luma, n + 1);
             b.reverse();
@@ -180,10 +184,6 @@ pub fn posterise(
         };
         let colors = class_grays(luma, &levels);
         (luma.clone(), levels, method, colors)
-    } else {
-        let rgb = rgb.expect("checked above");
-        let (gray, levels, colors) = kmeans_tones(luma, rgb, n + 1);
-        (gray, levels, Method::KmeansLab, colors)
     };
     if lc.colors.len() == n {
         colors = std::iter::once([255, 255, 255])
@@ -231,8 +231,8 @@ pub fn multi_otsu(gray: &Gray, classes: usize) -> Vec<u8> {
     // best[c][b]: least cost of bins 0..b in c + 1 classes; from[c][b]: where the last starts.
     let mut best = vec![vec![f64::INFINITY; 257]; k];
     let mut from = vec![vec![0usize; 257]; k];
-    for b in 1..=256 {
-        best[0][b] = cost(0, b);
+    for (b, v) in best[0].iter_mut().enumerate().skip(1) {
+        *v = cost(0, b);
     }
     for c in 1..k {
         for b in (c + 1)..=256 {
@@ -972,9 +972,9 @@ fn assess(
         let bridge_px = hidden.data.iter().filter(|&&b| b).count();
         let (mut covered, mut over) = (0, 0);
         let first_cut = &made[0].1;
-        for i in 0..len {
+        for (i, p) in painted.iter_mut().enumerate() {
             if !fm.bridged.bits.data[i] && in_picture(i) {
-                painted[i] = 1;
+                *p = 1;
                 if hidden.data[i] {
                     covered += 1;
                 }
