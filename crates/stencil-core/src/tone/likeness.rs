@@ -5,12 +5,16 @@
 //! two-tone (material light, cut dark; swapped by `--invert`) and the gray picture are
 //! box-averaged to at most [`EVAL_LONG_SIDE`] pixels on the long side and blurred by a Gaussian of
 //! σ = diagonal / [`VIEW_BLUR_DIAGONALS`] (a 200 × 150 mm stencil seen from about 1 m: detail
-//! under about a millimetre merges). Their *structural similarity* (SSIM, Wang, Bovik, Sheikh and
-//! Simoncelli 2004) is then taken with a Gaussian window of σ = 2 × the viewing blur and the usual
-//! constants (C1 = 0.01², C2 = 0.03² on the 0..1 scale) and averaged over the picture: 1 means
-//! the same, 0 unrelated. SSIM compares local mean tone (a level too high makes a face too dark),
-//! local contrast and the correlation of structure (a smile lost at one level lowers it), which is
-//! what a person compares.
+//! under about a millimetre merges). Their *structural similarity* (after SSIM, Wang, Bovik,
+//! Sheikh and Simoncelli 2004) is then taken with a Gaussian window of σ = 2 × the viewing blur
+//! and averaged over the picture: 1 means the same, 0 unrelated. It is the product of a tone term
+//! and SSIM's contrast-structure term `(2σxy + C2) / (σx² + σy² + C2)` (C2 = 0.03² on the 0..1
+//! scale): local contrast and the correlation of structure (a smile lost at one level lowers it).
+//! The tone term is `1 − |μx − μy|`, the difference of the local mean tones, rather than SSIM's
+//! ratio `(2μxμy + C1) / (μx² + μy² + C1)`: that ratio is 0 wherever one side is black, whatever
+//! the other, so it punished cutting a dark-gray background far more than leaving it white, and
+//! on the flower photo chose level 34 (a white sheet with a flower outline) against a person's
+//! 112. The difference treats black and white alike, as the eye does, and as `--invert` needs.
 //!
 //! It is always measured on the two-tone *after* the clean-up the material needs, so what the
 //! regularisation had to change (thin webs dropped, holes filled) counts against the level
@@ -75,7 +79,7 @@ fn shrink(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
 
 /// Mean SSIM of two same-size pictures with a Gaussian window of σ = `window` pixels.
 fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
-    let (c1, c2) = (1e-4f32, 9e-4f32);
+    let c2 = 9e-4f32;
     let prod = |f: &dyn Fn(f32, f32) -> f32| Gray {
         width: x.width,
         height: x.height,
@@ -93,8 +97,7 @@ fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
             let vx = (xx.data[i] - ux * ux).max(0.0);
             let vy = (yy.data[i] - uy * uy).max(0.0);
             let cxy = xy.data[i] - ux * uy;
-            (((2.0 * ux * uy + c1) * (2.0 * cxy + c2))
-                / ((ux * ux + uy * uy + c1) * (vx + vy + c2))) as f64
+            ((1.0 - (ux - uy).abs()) * (2.0 * cxy + c2) / (vx + vy + c2)) as f64
         })
         .sum();
     total / n as f64
@@ -132,8 +135,12 @@ mod tests {
         }
         let good = likeness(&b, &g, false);
         let blank = likeness(&BitGrid::new(80, 60, true), &g, false);
-        assert!(good > 0.8 && good > blank + 0.3, "{good} {blank}");
+        assert!(good > 0.8 && good > blank + 0.15, "{good} {blank}");
         // Inverted, the same bits are the negative.
-        assert!(likeness(&b, &g, true) < blank, "{}", likeness(&b, &g, true));
+        assert!(
+            likeness(&b, &g, true) < good - 0.3,
+            "{}",
+            likeness(&b, &g, true)
+        );
     }
 }
