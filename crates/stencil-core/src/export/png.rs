@@ -158,7 +158,7 @@ mod tests {
         let twotone = BitGrid::from_rows(&["#..#."]);
         let stencil = BitGrid::from_rows(&["#.##."]);
         let gray = Gray::new(5, 1, 1.0);
-        let png = preview(&gray, &picture, &twotone, &stencil);
+        let png = preview(&gray, &picture, &twotone, &stencil, &[]);
         let img = image::load_from_memory(&png).unwrap().to_rgb8();
         assert_eq!((img.width(), img.height()), (1000, 200));
         let at = |col: u32| img.get_pixel(col * 200 + 199, 199).0;
