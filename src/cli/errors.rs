@@ -452,6 +452,21 @@ pub fn utc(t: std::time::SystemTime) -> String {
 /// are moved into `previous/` ([`stencil_io::set_aside`]) so that `send` cannot stream them as
 /// this run's job; the message says which files, from when, and where they are. A run refused
 /// because another run is writing the folder leaves that run's files alone.
+/// `--crop` reaching outside the picture (all in mm at the size the picture is made).
+pub fn crop_outside(crop: [f64; 4], picture_mm: [f64; 2], mm_per_px: f64) -> String {
+    format!(
+        "--crop {},{},{},{}: the rectangle reaches outside the picture, which is {:.1} x {:.1} mm \
+         at this size ({mm_per_px:.3} mm per pixel); give X,Y,W,H within it (or change \
+         --width-mm / --dpi, which set the size the crop is measured at)",
+        num(crop[0]),
+        num(crop[1]),
+        num(crop[2]),
+        num(crop[3]),
+        picture_mm[0],
+        picture_mm[1]
+    )
+}
+
 pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
     use stencil_io::WriteError;
     let busy = |w: &WriteError| matches!(w, WriteError::Busy { .. });

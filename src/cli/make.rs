@@ -22,8 +22,14 @@ fn parse_threshold(s: &str) -> Result<Threshold, String> {
     if s.eq_ignore_ascii_case("otsu") {
         return Ok(Threshold::Otsu);
     }
-    let bad =
-        || format!("'{s}' is not a threshold: use a level 0..255, a fraction 0.0..1.0, or 'otsu'");
+    if s.eq_ignore_ascii_case("auto") {
+        return Ok(Threshold::Auto);
+    }
+    let bad = || {
+        format!(
+            "'{s}' is not a threshold: use a level 0..255, a fraction 0.0..1.0, 'otsu' or 'auto'"
+        )
+    };
     if s.contains('.') {
         // A fraction of full intensity (the natural unit for a rendered mesh).
         let f: f64 = s.parse().map_err(|_| bad())?;
@@ -73,6 +79,67 @@ fn parse_mm<const N: usize>(s: &str) -> Result<[f64; N], String> {
     Ok(out)
 }
 
+/// A number within `lo..=hi` (finite).
+fn parse_in(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be {lo} to {hi}, got {s}"))
+    }
+}
+
+fn parse_percent(s: &str) -> Result<f64, String> {
+    parse_in(s, -100.0, 100.0, "a percentage")
+}
+
+fn parse_gamma(s: &str) -> Result<f64, String> {
+    parse_in(s, 0.1, 10.0, "gamma")
+}
+
+fn parse_strength(s: &str) -> Result<f64, String> {
+    parse_in(s, 0.0, 1.0, "the strength")
+}
+
+fn parse_length(s: &str) -> Result<f64, String> {
+    parse_in(s, 0.0, 1000.0, "a length in mm")
+}
+
+fn parse_turn(s: &str) -> Result<u8, String> {
+    match s {
+        "0" => Ok(0),
+        "90" => Ok(1),
+        "180" => Ok(2),
+        "270" => Ok(3),
+        _ => Err(format!(
+            "'{s}' is not a quarter turn: use 0, 90, 180 or 270"
+        )),
+    }
+}
+
+/// `X,Y,W,H` in mm: a corner within ±10 m, a width and height above 0.
+fn parse_crop(s: &str) -> Result<[f64; 4], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let v: Option<Vec<f64>> = parts.iter().map(|p| p.parse::<f64>().ok()).collect();
+    match v.as_deref() {
+        Some(&[x, y, w, h])
+            if [x, y, w, h].iter().all(|v| v.is_finite())
+                && x >= 0.0
+                && y >= 0.0
+                && w > 0.0
+                && h > 0.0
+                && x + w <= 1e4
+                && y + h <= 1e4 =>
+        {
+            Ok([x, y, w, h])
+        }
+        _ => Err(format!(
+            "'{s}' should be X,Y,W,H in mm (the corner from the picture's top left, then the \
+             width and height, all at least 0 and the size above 0)"
+        )),
+    }
+}
+
 fn parse_area(s: &str) -> Result<f64, String> {
     let a: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
     if a.is_finite() && (0.0..=1e8).contains(&a) {
@@ -96,7 +163,10 @@ fn parse_weight(s: &str) -> Result<f64, String> {
 #[command(next_help_heading = "Picture")]
 pub struct ImageArgs {
     /// Level at and above which a pixel is light (material): 0..255, a fraction such as 0.5 of full
-    /// intensity, or 'otsu' to pick it from the histogram. Applies to pictures and rendered meshes.
+    /// intensity, 'otsu' to pick it from the histogram, or 'auto': the level whose stencil, after
+    /// the clean-up this material needs, looks most like the picture (SSIM of the two blurred to
+    /// viewing distance; report.json's threshold_choice lists every level tried). Both print the
+    /// level chosen. Applies to pictures and rendered meshes ('auto' is 'otsu' for a mesh).
     #[arg(long, default_value = "128", value_parser = parse_threshold)]
     pub threshold: Threshold,
     /// Swap the tones: dark parts become material instead of light ones (the paper's reverse
@@ -118,6 +188,40 @@ pub struct ImageArgs {
     /// Whatever it says, a picture whose decoding needs more than 2 GiB is refused.
     #[arg(long, default_value_t = stencil_core::limits::DEFAULT_MAX_PIXELS, value_parser = super::bounds::max_pixels)]
     pub max_pixels: u64,
+    /// Keep only this part of the picture: X,Y,W,H in mm of the picture as shown (after its EXIF
+    /// orientation, at the size --width-mm or --dpi gives the whole picture), from its top left
+    /// corner. Done before everything else: the stencil is the cropped part at that same scale,
+    /// and --bridge-at and --no-bridge-near refer to the cropped picture.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    pub crop: Option<[f64; 4]>,
+    /// Turn the picture clockwise by 90, 180 or 270 degrees (after --crop).
+    #[arg(long, value_name = "DEGREES", default_value = "0", value_parser = parse_turn)]
+    pub rotate: u8,
+    /// Brighten (up to 100) or darken (down to -100): percent of full scale added to every pixel.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_percent)]
+    pub brightness: f64,
+    /// More (up to 100: twice) or less (down to -100: flat gray) contrast about mid-gray, percent.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_percent)]
+    pub contrast: f64,
+    /// Gamma, 0.1..10: above 1 lifts the midtones (a dark face opens up), below 1 sinks them; black
+    /// and white stay.
+    #[arg(long, default_value_t = 1.0, value_parser = parse_gamma)]
+    pub gamma: f64,
+    /// Edge-preserving smoothing (bilateral filter): the distance in mm over which similar tones
+    /// are averaged; edges between different tones are kept. 0 = off.
+    #[arg(long, value_name = "MM", default_value_t = 0.0, value_parser = parse_length)]
+    pub smooth: f64,
+    /// Abstraction strength 0..1 (after DeCarlo and Santella 2002): small regions of similar tone
+    /// are merged into their neighbours before thresholding, so the stencil keeps the picture's
+    /// large shapes instead of its speckle. 0 = off; 0.3 to 0.6 suits most photos.
+    #[arg(long = "abstract", value_name = "S", default_value_t = 0.0, value_parser = parse_strength)]
+    pub abstraction: f64,
+    /// Local (adaptive) threshold: compare each pixel with the mean of its surroundings (a
+    /// Gaussian of this many mm) rather than with one level for the whole picture; --threshold
+    /// then sets the offset (128 = the local mean). Shows detail in both shadows and highlights.
+    /// 0 = off.
+    #[arg(long, value_name = "MM", default_value_t = 0.0, value_parser = parse_length)]
+    pub local_threshold: f64,
 }
 
 /// Clean-up options.
@@ -205,6 +309,11 @@ pub struct BridgeArgs {
     /// report.json and shown in the preview as material cut away. Default 0: none.
     #[arg(long, value_name = "A", default_value_t = 0.0, value_parser = parse_area)]
     pub min_island_mm2: f64,
+    /// Bridge every island. By default an island is dropped (cut away) when that changes the
+    /// picture less than the cheapest bridge that could hold it (a speck of highlight on a dark
+    /// field); dropped islands are listed in report.json and shown yellow in preview.png.
+    #[arg(long)]
+    pub keep_all_islands: bool,
 }
 
 impl BridgeArgs {
@@ -235,6 +344,7 @@ impl BridgeArgs {
                 no_bridge_near_mm: self.no_bridge_near.clone(),
                 at_mm: self.bridge_at.clone(),
                 min_island_mm2: self.min_island_mm2,
+                keep_all_islands: self.keep_all_islands,
                 ..Default::default()
             },
             strength: stencil_core::bridge::StrengthConfig {
@@ -296,8 +406,55 @@ impl ImageArgs {
             invert: self.invert,
             scale: self.scale,
             max_pixels: self.max_pixels,
+            // The millimetres are made pixels by `picture_adjustments`.
+            adjust: stencil_core::tone::Adjust {
+                quarter_turns: self.rotate,
+                brightness: (self.brightness / 100.0) as f32,
+                contrast: (1.0 + self.contrast / 100.0) as f32,
+                gamma: self.gamma as f32,
+                abstraction: self.abstraction as f32,
+                ..Default::default()
+            },
         }
     }
+}
+
+/// The picture adjustments given in mm made pixels of the picture: the crop, the smoothing and
+/// the local threshold's neighbourhood. The scale is that of the whole picture as shown (its
+/// header read, nothing decoded); with --crop the size is then pinned to that scale (as dpi), so
+/// the cropped part keeps the size it had in the whole picture. A mesh, or a picture whose header
+/// cannot be read (the pipeline then says why), is left alone.
+fn picture_adjustments(
+    input: &std::path::Path,
+    i: &ImageArgs,
+    physical: &mut pipeline::PhysicalConfig,
+    tone: &mut ToneConfig,
+) -> anyhow::Result<()> {
+    if pipeline::is_mesh_path(input) {
+        return Ok(());
+    }
+    let Ok((w, h)) = stencil_core::tone::picture_size(input) else {
+        return Ok(());
+    };
+    let adj = &mut tone.adjust;
+    let mm = match i.crop {
+        Some([x, y, cw, ch]) => {
+            let mm = physical.scale(w, h)?.mm_per_px;
+            let px = |v: f64| (v / mm).round();
+            let (pw, ph) = (w as f64 * mm, h as f64 * mm);
+            if px(x + cw) > w as f64 || px(y + ch) > h as f64 || px(cw) < 1.0 || px(ch) < 1.0 {
+                anyhow::bail!(super::errors::crop_outside([x, y, cw, ch], [pw, ph], mm));
+            }
+            adj.crop_px = Some([px(x) as u32, px(y) as u32, px(cw) as u32, px(ch) as u32]);
+            physical.size = stencil_core::units::Size::Dpi(25.4 / mm);
+            mm
+        }
+        None if i.rotate % 2 == 1 => physical.scale(h, w)?.mm_per_px,
+        None => physical.scale(w, h)?.mm_per_px,
+    };
+    adj.smooth_px = (i.smooth / mm) as f32;
+    adj.local_px = (i.local_threshold / mm) as f32;
+    Ok(())
 }
 
 impl FilterArgs {
@@ -404,13 +561,15 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     };
     fit_gobo(a, &mut physical, machine.as_ref())?;
     fit_size(a, &mut physical, machine.as_ref())?;
+    let mut tone = a.image.to_config();
+    picture_adjustments(&a.input, &a.image, &mut physical, &mut tone)?;
     let cfg = MakeConfig {
         out_dir: a
             .out
             .clone()
             .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
         input: a.input.clone(),
-        tone: a.image.to_config(),
+        tone,
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: a.bridge.to_config()?,
@@ -599,6 +758,24 @@ pub(super) fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Er
 
 /// What a successful run tells: the stencil in one line, its size and files, files of an earlier
 /// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
+/// The level `otsu` or `auto` chose, and how alike the stencil is to the picture.
+fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
+    let (Some(level), Some(like)) = (r.threshold_level, r.likeness) else {
+        return;
+    };
+    match (&cfg.tone.threshold, &r.threshold_choice) {
+        (Threshold::Auto, Some(c)) => println!(
+            "threshold: auto chose level {level} (likeness {:.3}; at 128: {:.3}, at Otsu's {}: \
+             {:.3})",
+            c.likeness, c.likeness_128, c.otsu_level, c.likeness_otsu
+        ),
+        (Threshold::Otsu | Threshold::Auto, _) => {
+            println!("threshold: otsu chose level {level} (likeness {like:.3})")
+        }
+        _ => {}
+    }
+}
+
 fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replaced) {
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
@@ -621,6 +798,28 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         cfg.physical.material.name,
         file_names(&replaced.written)
     );
+    print_threshold(cfg, r);
+    if let Some(d) = &r.dropped_islands {
+        let area: f64 = d.iter().map(|i| i.area_mm2).sum();
+        let listed: Vec<String> = d
+            .iter()
+            .take(5)
+            .map(|i| {
+                format!(
+                    "{:.1},{:.1} ({:.1} mm²)",
+                    i.at_mm[0], i.at_mm[1], i.area_mm2
+                )
+            })
+            .collect();
+        println!(
+            "dropped {} island(s), {area:.1} mm² in all, where a bridge would change the picture \
+             more than cutting them away (yellow in preview.png; --keep-all-islands bridges \
+             them): at {}{}",
+            d.len(),
+            listed.join(", "),
+            if d.len() > 5 { ", ..." } else { "" }
+        );
+    }
     if made.geometry.design_cuts.0.is_empty() {
         eprintln!(
             "warning: {}: the stencil is blank: nothing is cut (see the preview; for a mesh, \
@@ -892,20 +1091,23 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         Some(name) => Material::find(name)?,
         None => Material::find_default(stencil_core::material::DEFAULT_MATERIAL)?,
     };
+    let mut physical = pipeline::PhysicalConfig {
+        size: super::material::size(a.width_mm, a.dpi),
+        material,
+        material_source: source.display().to_string(),
+        ..pipeline::PhysicalConfig::default()
+    };
+    let mut tone = a.image.to_config();
+    picture_adjustments(&a.input, &a.image, &mut physical, &mut tone)?;
     let bar = StageBar::start();
     let cfg = MakeConfig {
         out_dir: PathBuf::new(),
         input: a.input.clone(),
-        tone: a.image.to_config(),
+        tone,
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
         bridge: BridgeConfig::default(),
-        physical: pipeline::PhysicalConfig {
-            size: super::material::size(a.width_mm, a.dpi),
-            material,
-            material_source: source.display().to_string(),
-            ..pipeline::PhysicalConfig::default()
-        },
+        physical,
         gcode: None,
         progress: Some(bar.clone()),
     };

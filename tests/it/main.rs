@@ -52,6 +52,7 @@ mod masks;
 mod mesh;
 mod mesh_light;
 mod photo;
+mod photo_tone;
 mod plan;
 mod profiles;
 mod property;

@@ -326,6 +326,11 @@ fn widen_necks(
     bits.count_material() != before
 }
 
+/// Whether a path is a mesh (by extension) rather than a picture (for the front ends).
+pub fn is_mesh_path(path: &Path) -> bool {
+    is_mesh(path)
+}
+
 /// Whether a path is a mesh (by extension) rather than a picture.
 pub(crate) fn is_mesh(path: &Path) -> bool {
     path.extension()
@@ -346,7 +351,11 @@ pub(crate) fn is_mesh(path: &Path) -> bool {
 /// a mesh's view, light, lines and size (the lines widened to survive the clean-up).
 #[derive(Clone, Debug, PartialEq)]
 pub enum SourceParams {
-    Picture { max_pixels: u64 },
+    Picture {
+        max_pixels: u64,
+        /// The adjustments made to the picture as it is rendered (see [`tone::Adjust`]).
+        adjust: tone::Adjust,
+    },
     Mesh(MeshConfig),
 }
 
@@ -366,6 +375,7 @@ impl SourceParams {
         }
         Ok(SourceParams::Picture {
             max_pixels: cfg.tone.max_pixels,
+            adjust: cfg.tone.adjust,
         })
     }
 }
@@ -400,7 +410,7 @@ impl Source {
 /// before decoding).
 pub fn load(input: &Path, p: &SourceParams) -> Result<Input, Error> {
     Ok(match p {
-        SourceParams::Picture { max_pixels } => {
+        SourceParams::Picture { max_pixels, .. } => {
             Input::Picture(Arc::new(load_gray(input, *max_pixels)?))
         }
         SourceParams::Mesh(_) => Input::Mesh(Arc::new(mesh::Prepared::new(
@@ -409,8 +419,9 @@ pub fn load(input: &Path, p: &SourceParams) -> Result<Input, Error> {
     })
 }
 
-/// Stage 1: the mesh drawn from its view and light (a picture passes through): [`draw`] then
-/// [`light`].
+/// Stage 1: the mesh drawn from its view and light ([`draw`] then [`light`]); a picture adjusted
+/// (cropped, turned, its tones and detail changed; see [`tone::Adjust`]), or passed through when
+/// no adjustment was asked.
 pub fn render(input: &Input, p: &SourceParams) -> Result<Source, Error> {
     let drawn = draw(input, p)?;
     light(input, drawn.as_deref(), p)
@@ -436,6 +447,9 @@ pub fn light(
     p: &SourceParams,
 ) -> Result<Source, Error> {
     Ok(match (input, drawn, p) {
+        (Input::Picture(g), _, SourceParams::Picture { adjust, .. }) if !adjust.is_identity() => {
+            Source::Picture(Arc::new(adjust.apply(g)))
+        }
         (Input::Picture(g), _, _) => Source::Picture(g.clone()),
         (Input::Mesh(_), Some(d), SourceParams::Mesh(cfg)) => {
             Source::Mesh(Arc::new(mesh::light(d, cfg)))
@@ -493,6 +507,8 @@ pub struct CleanParams {
     /// The regularisation's narrowest web or hole, px, when it runs (the automatic radius).
     pub regularize_px: Option<f64>,
     pub invert: bool,
+    /// `--threshold auto` on a picture: the clean-up searches the level (see [`clean`]).
+    pub auto: bool,
 }
 
 /// The user's bridge places and keep-out areas in working pixels (see `bridge::constraints`).
@@ -516,6 +532,11 @@ pub struct JoinParams {
     /// `tidy_radius`.
     pub settle_px: Option<f64>,
     pub tidy_radius: u32,
+    /// Millimetres per working pixel (the dropped islands are reported in mm).
+    pub mm_per_px: f64,
+    /// Drop an island when that changes the picture less than its cheapest bridge (see
+    /// `bridge::drop`); false with `--keep-all-islands`.
+    pub drop_islands: bool,
 }
 
 /// The vector stage's and the check's parameters.
@@ -587,6 +608,8 @@ pub fn resolve(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Error> 
             filter: filter_cfg,
             regularize_px,
             invert: cfg.tone.invert,
+            auto: cfg.tone.threshold == tone::Threshold::Auto
+                && matches!(source, Source::Picture(_)),
         },
         join: JoinParams {
             bridge: bridge_cfg,
@@ -594,6 +617,8 @@ pub fn resolve(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Error> 
             kept_out_px,
             settle_px: regularize_px,
             tidy_radius: filter_cfg.radius,
+            drop_islands: !cfg.bridge.user.keep_all_islands,
+            mm_per_px: scale.mm_per_px,
         },
         trace: TraceParams {
             vector: VectorConfig {
@@ -745,6 +770,8 @@ pub struct Made {
     pub report: Report,
     /// The G-code text, when asked for.
     pub gcode: Option<String>,
+    /// Pixels of the islands dropped instead of bridged (the preview colours them).
+    pub dropped_px: Vec<u32>,
 }
 
 /// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
@@ -840,28 +867,165 @@ pub struct Cleaned {
     pub level: u8,
     pub filter_stats: FilterStats,
     pub reg_stats: Option<crate::tone::regularize::RegularizeStats>,
+    /// How much the cleaned two-tone looks like the gray picture ([`tone::likeness`]).
+    pub likeness: f64,
+    /// How `--threshold auto` chose the level.
+    pub choice: Option<tone::LevelChoice>,
 }
 
-/// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest
-/// feature, or the morphological filter with an explicit radius.
-pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
-    let (bits, filter_stats, reg_stats) = match p.regularize_px {
+/// The clean-up of `bits` (the gray thresholded at `level`): the regularisation, or the filter.
+fn clean_bits(
+    bits: &BitGrid,
+    gray: &Gray,
+    level: u8,
+    p: &CleanParams,
+) -> (
+    BitGrid,
+    FilterStats,
+    Option<crate::tone::regularize::RegularizeStats>,
+) {
+    match p.regularize_px {
         Some(min_width_px) => {
             let rcfg = RegularizeConfig {
                 min_width_px,
                 threshold: level as f32 / 255.0,
                 invert: p.invert,
             };
-            let (bits, stats) = regularize(&raw.bits, &raw.gray, &rcfg);
+            let (bits, stats) = regularize(bits, gray, &rcfg);
             (bits, FilterStats::default(), Some(stats))
         }
         None => {
-            let (bits, stats) = filter::filter(&raw.bits, &p.filter);
+            let (bits, stats) = filter::filter(bits, &p.filter);
             (bits, stats, None)
         }
+    }
+}
+
+/// Above this many working pixels, `--threshold auto` searches on the gray box-averaged to about
+/// this size (the clean-up's widths scaled alike), then measures the finalists at full size.
+pub const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
+
+/// `--threshold auto`: the level whose cleaned-up two-tone is likeliest ([`tone::likeness`]).
+/// Every eighth level from 16 to 240, 128 and Otsu's level are tried through the clean-up, then
+/// the levels within 6 of the best in steps of 2. On a picture above [`AUTO_SEARCH_PIXELS`] the
+/// search runs on a reduced copy and the two best, 128 and Otsu's level are measured again at
+/// full size; the full-size measure decides. 128 and Otsu's level are always among those
+/// measured, so the level chosen is at least as likely as either by the same measure.
+fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
+    let otsu = tone::otsu_level(gray);
+    let pixels = gray.width as u64 * gray.height as u64;
+    let d = if pixels > AUTO_SEARCH_PIXELS {
+        ((pixels as f64 / AUTO_SEARCH_PIXELS as f64).sqrt().ceil()) as u32
+    } else {
+        1
     };
+    let (small, sp) = if d > 1 {
+        let g = shrink_gray(gray, d);
+        let sp = CleanParams {
+            regularize_px: p.regularize_px.map(|w| (w / d as f64).max(1.0)),
+            filter: FilterConfig {
+                radius: p.filter.radius.div_ceil(d),
+                min_speck_px: (p.filter.min_speck_px / (d * d) as usize).max(1),
+                ..p.filter
+            },
+            ..*p
+        };
+        (g, sp)
+    } else {
+        (gray.clone(), *p)
+    };
+    let measure = |g: &Gray, cp: &CleanParams, level: u8| -> f64 {
+        let raw = tone::bits_at(g, level, cp.invert);
+        let (bits, _, _) = clean_bits(&raw, g, level, cp);
+        tone::likeness(&bits, g, cp.invert)
+    };
+    let mut tried: Vec<(u8, f64)> = Vec::new();
+    let mut levels: Vec<u8> = (16..=240).step_by(8).collect();
+    levels.extend([128, otsu]);
+    let try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
+        for &l in levels {
+            if !tried.iter().any(|t| t.0 == l) {
+                tried.push((l, measure(&small, &sp, l)));
+            }
+        }
+    };
+    try_all(&levels, &mut tried);
+    let best = |t: &[(u8, f64)]| {
+        t.iter()
+            .copied()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+            .unwrap_or((128, 0.0))
+    };
+    let b = best(&tried).0;
+    let near: Vec<u8> = [-6i32, -4, -2, 2, 4, 6]
+        .iter()
+        .map(|k| (b as i32 + k).clamp(1, 255) as u8)
+        .collect();
+    try_all(&near, &mut tried);
+    let mut at_full = tried.clone();
+    if d > 1 {
+        let mut order = tried.clone();
+        order.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let mut finalists: Vec<u8> = order.iter().take(2).map(|t| t.0).collect();
+        finalists.extend([128, otsu]);
+        finalists.dedup();
+        at_full = Vec::new();
+        for l in finalists {
+            if !at_full.iter().any(|t: &(u8, f64)| t.0 == l) {
+                at_full.push((l, measure(gray, p, l)));
+                tried.push((l, at_full.last().map_or(0.0, |t| t.1)));
+            }
+        }
+    }
+    let (level, like) = best(&at_full);
+    let at = |l: u8| at_full.iter().find(|t| t.0 == l).map_or(0.0, |t| t.1);
+    (
+        level,
+        tone::LevelChoice {
+            level,
+            likeness: like,
+            likeness_128: at(128),
+            otsu_level: otsu,
+            likeness_otsu: at(otsu),
+            tried,
+        },
+    )
+}
+
+/// `g` box-averaged by `d` (partial boxes at the edges averaged over what they hold).
+fn shrink_gray(g: &Gray, d: u32) -> Gray {
+    let (w, h) = (g.width.div_ceil(d), g.height.div_ceil(d));
+    let mut out = Gray::new(w, h, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let (mut s, mut n) = (0f32, 0f32);
+            for sy in y * d..((y + 1) * d).min(g.height) {
+                for sx in x * d..((x + 1) * d).min(g.width) {
+                    s += g.get(sx, sy);
+                    n += 1.0;
+                }
+            }
+            out.set(x, y, s / n);
+        }
+    }
+    out
+}
+
+/// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest
+/// feature, or the morphological filter with an explicit radius. With `--threshold auto` (a
+/// picture), the level is chosen here, judged on the cleaned-up result ([`choose_level`]), and
+/// `raw` is thresholded again at it.
+pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
+    let (picture, level, choice) = if p.auto {
+        let (l, choice) = choose_level(&raw.gray, p);
+        (tone::bits_at(&raw.gray, l, p.invert), l, Some(choice))
+    } else {
+        (raw.bits, level, None)
+    };
+    let (bits, filter_stats, reg_stats) = clean_bits(&picture, &raw.gray, level, p);
+    let likeness = tone::likeness(&bits, &raw.gray, p.invert);
     Cleaned {
-        picture: raw.bits,
+        picture,
         twotone: TwoTone {
             bits,
             gray: raw.gray,
@@ -869,6 +1033,8 @@ pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
         level,
         filter_stats,
         reg_stats,
+        likeness,
+        choice,
     }
 }
 
@@ -908,6 +1074,10 @@ pub struct Joined {
     /// The islands before bridging.
     pub map: islands::IslandMap,
     pub bridged: Bridged,
+    /// Islands dropped instead of bridged (see `bridge::drop`), in mm, and their pixels (cut in
+    /// `twotone`; the preview shows them in their own colour).
+    pub dropped: Vec<bridge::drop::Dropped>,
+    pub dropped_px: Vec<u32>,
 }
 
 /// Stage 5: islands under `min_island_mm2` cut away (they become cut in the two-tone, so the
@@ -916,8 +1086,22 @@ pub struct Joined {
 /// settle and the sealed-pocket fill after the regularisation, else the tidy pass); material the
 /// clean-up put in a keep-out area goes again. Refused if anything floats afterwards (a bug, said
 /// as such, rather than a stencil in pieces).
-pub fn join(mut twotone: TwoTone, p: &JoinParams, timer: &mut Timings) -> Result<Joined, Error> {
+///
+/// Before bridging, islands whose dropping changes the picture less than their cheapest bridge
+/// are dropped (they become cut, as `--min-island-mm2`'s do) unless `p.drop_islands` is off;
+/// `level` is the threshold the two-tone was cut at (what the change is priced against).
+pub fn join(
+    mut twotone: TwoTone,
+    level: u8,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Joined, Error> {
     let user = timer.time("user_bridges", || cut_small_islands(&mut twotone, p));
+    let (dropped, dropped_px) = if p.drop_islands {
+        timer.time("drop", || drop_islands(&mut twotone, level, p))
+    } else {
+        (Vec::new(), Vec::new())
+    };
     let map = timer.time("islands", || islands::label(&twotone.bits));
     let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &p.bridge))?;
     timer.time("tidy", || match p.settle_px {
@@ -953,7 +1137,73 @@ pub fn join(mut twotone: TwoTone, p: &JoinParams, timer: &mut Timings) -> Result
         user,
         map,
         bridged,
+        dropped,
+        dropped_px,
     })
+}
+
+/// Drop the islands that are cheaper to drop than to bridge (`bridge::drop::choose`), never one
+/// a `--bridge-at` point asks for (the island under the point, or the nearest). Returns them in
+/// mm and their pixels.
+fn drop_islands(
+    two: &mut TwoTone,
+    level: u8,
+    p: &JoinParams,
+) -> (Vec<bridge::drop::Dropped>, Vec<u32>) {
+    let map = islands::label(&two.bits);
+    if map.island_count() == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let mut protected = vec![false; map.nodes.len()];
+    for &[ax, ay] in &p.bridge.user.at {
+        // The island under the point, else the one with the nearest border pixel.
+        let (x, y) = (ax.max(0.0) as u32, ay.max(0.0) as u32);
+        let under = (x < map.width && y < map.height)
+            .then(|| map.label(x, y))
+            .filter(|&l| l != islands::CUT && l != islands::FRAME);
+        let nearest = under.or_else(|| {
+            map.nodes
+                .iter()
+                .enumerate()
+                .skip(1)
+                .flat_map(|(n, node)| node.border.iter().map(move |&b| (n, b)))
+                .min_by(|a, b| {
+                    let d =
+                        |(bx, by): (u32, u32)| (bx as f64 + 0.5 - ax).hypot(by as f64 + 0.5 - ay);
+                    d(a.1).total_cmp(&d(b.1))
+                })
+                .map(|(n, _)| n as u32)
+        });
+        if let Some(n) = nearest {
+            protected[n as usize] = true;
+        }
+    }
+    let (lo, hi) = (
+        p.bridge.min_width_px,
+        p.bridge.max_width_px.max(p.bridge.min_width_px),
+    );
+    let chosen = bridge::drop::choose(&map, &two.gray, level, &protected, |area| {
+        ((area as f64).sqrt() / 4.0)
+            .ceil()
+            .clamp(lo as f64, hi as f64) as u32
+    });
+    let mm = p.mm_per_px;
+    let mut gone = vec![false; map.nodes.len()];
+    let mut out = Vec::with_capacity(chosen.len());
+    for (n, mut d) in chosen {
+        gone[n as usize] = true;
+        d.at_mm = [d.at_mm[0] * mm, d.at_mm[1] * mm];
+        d.area_mm2 *= mm * mm;
+        out.push(d);
+    }
+    let mut px = Vec::new();
+    for (i, &l) in map.labels.iter().enumerate() {
+        if l != islands::CUT && gone[l as usize] {
+            two.bits.data[i] = false;
+            px.push(i as u32);
+        }
+    }
+    (out, px)
 }
 
 /// Islands under `min_island_mm2` cut away, and the report of the user's bridge options.
@@ -1035,7 +1285,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
             gray: Gray::new(0, 0, 0.0),
         },
     );
-    let joined = join(twotone, &params.join, &mut timer)?;
+    let joined = join(twotone, cleaned.level, &params.join, &mut timer)?;
     finish(cfg, &params, cleaned, joined, timer)
 }
 
@@ -1089,6 +1339,7 @@ fn finish(
         check: traced.check,
         report,
         gcode,
+        dropped_px: joined.dropped_px,
     })
 }
 
@@ -1232,6 +1483,9 @@ pub fn report(
         width_px: joined.twotone.bits.width,
         height_px: joined.twotone.bits.height,
         threshold_level: Some(cleaned.level),
+        likeness: Some(cleaned.likeness),
+        threshold_choice: cleaned.choice.clone(),
+        dropped_islands: (!joined.dropped.is_empty()).then(|| joined.dropped.clone()),
         filter: cleaned.filter_stats,
         regularize: cleaned.reg_stats,
         islands: joined.map.island_count(),
@@ -1289,7 +1543,13 @@ pub(crate) fn encode_outputs(
         files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
         files.push((
             "preview.png".into(),
-            png::preview(&tt.gray, &made.picture, &tt.bits, &made.bridged.bits),
+            png::preview(
+                &tt.gray,
+                &made.picture,
+                &tt.bits,
+                &made.bridged.bits,
+                &made.dropped_px,
+            ),
         ));
     }
     if phys.emit.svg {

@@ -155,6 +155,18 @@ pub struct Report {
     /// The 8-bit threshold level used (after `otsu`, the level it chose); absent for a mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub threshold_level: Option<u8>,
+    /// How much the cleaned-up two-tone looks like the gray picture: SSIM at viewing distance
+    /// (see `tone::likeness`), 1 = the same.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub likeness: Option<f64>,
+    /// How `--threshold auto` chose the level: its likeness, the likeness at 128 and at Otsu's
+    /// level, every level tried.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold_choice: Option<crate::tone::LevelChoice>,
+    /// Islands dropped (made cut) instead of bridged, because their cheapest bridge would have
+    /// changed the picture more (see `bridge::drop`); absent when none was.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dropped_islands: Option<Vec<crate::bridge::drop::Dropped>>,
     /// What the topological filter removed.
     pub filter: FilterStats,
     /// What the design-rule regularisation changed (the default clean-up; absent when the user

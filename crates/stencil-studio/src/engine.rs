@@ -131,7 +131,7 @@ impl Engine {
         };
         let sp = SourceParams::of(cfg)?;
         let input_key = match sp {
-            SourceParams::Picture { max_pixels } => Some(max_pixels),
+            SourceParams::Picture { max_pixels, .. } => Some(max_pixels),
             SourceParams::Mesh(_) => None,
         };
         let (ig, input) = step(&mut self.input, g, &mut ran, "load", input_key, || {
@@ -201,6 +201,7 @@ impl Engine {
             || {
                 Ok::<_, RunError>(Arc::new(pipeline::join(
                     cleaned.twotone.clone(),
+                    cleaned.level,
                     &params.join,
                     &mut timer,
                 )?))

@@ -34,6 +34,9 @@ pub struct UserBridges {
     pub keep_out: Option<Arc<BitGrid>>,
     /// Places a bridge should start near, (x, y) in pixels.
     pub at: Vec<[f64; 2]>,
+    /// `--keep-all-islands`: bridge every island, never drop one whose bridge would change the
+    /// picture more than dropping it (see `bridge::drop`).
+    pub keep_all_islands: bool,
 }
 
 /// What became of one `--bridge-at` request.

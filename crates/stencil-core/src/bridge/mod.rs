@@ -28,6 +28,7 @@
 pub(crate) mod candidates;
 mod constraints;
 pub(crate) mod cost;
+pub mod drop;
 pub(crate) mod gaps;
 pub(crate) mod grow;
 pub(crate) mod strength;

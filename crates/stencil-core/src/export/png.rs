@@ -36,6 +36,9 @@ pub const BRIDGE_RGB: [u8; 3] = [255, 110, 0];
 pub const REMOVED_RGB: [u8; 3] = [230, 0, 160];
 /// Cut of the picture that the clean-up filled with material: bright blue.
 pub const ADDED_RGB: [u8; 3] = [0, 150, 255];
+/// Islands dropped instead of bridged (`bridge::drop`): yellow, so they are not taken for what
+/// the clean-up removed.
+pub const DROPPED_RGB: [u8; 3] = [255, 220, 0];
 
 /// The preview's long side is at least this many pixels: a small picture is enlarged by a whole
 /// factor, nearest-neighbour, so every working pixel stays a visible square.
@@ -59,9 +62,26 @@ pub(crate) fn preview(
     picture: &BitGrid,
     twotone: &BitGrid,
     stencil: &BitGrid,
+    dropped: &[u32],
 ) -> Vec<u8> {
     let f = preview_factor(stencil.width, stencil.height);
-    let rgb = preview_rgb(gray, picture, twotone, stencil, f);
+    let mut rgb = preview_rgb(gray, picture, twotone, stencil, f);
+    // Dropped islands (cut in the stencil) in their own colour.
+    let (w, f) = (stencil.width as usize, f as usize);
+    for &i in dropped {
+        let (x, y) = (i as usize % w, i as usize / w);
+        if stencil.data[i as usize] {
+            continue;
+        }
+        for dy in 0..f {
+            let row = (y * f + dy) * w * f * 3;
+            for dx in 0..f {
+                let k = row + (x * f + dx) * 3;
+                rgb[k..k + 3].copy_from_slice(&DROPPED_RGB);
+            }
+        }
+    }
+    let f = f as u32;
     encode_rgb(stencil.width * f, stencil.height * f, &rgb)
 }
 
@@ -138,7 +158,7 @@ mod tests {
         let twotone = BitGrid::from_rows(&["#..#."]);
         let stencil = BitGrid::from_rows(&["#.##."]);
         let gray = Gray::new(5, 1, 1.0);
-        let png = preview(&gray, &picture, &twotone, &stencil);
+        let png = preview(&gray, &picture, &twotone, &stencil, &[]);
         let img = image::load_from_memory(&png).unwrap().to_rgb8();
         assert_eq!((img.width(), img.height()), (1000, 200));
         let at = |col: u32| img.get_pixel(col * 200 + 199, 199).0;

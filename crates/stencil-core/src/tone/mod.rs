@@ -1,14 +1,18 @@
 //! Stage 1: the two-tone image, from a picture ([`load_gray`]) or a mesh ([`mesh`]), then the
 //! topological filter ([`FilterConfig`]), or the design-rule regularisation, that removes specks before islands are labelled.
 
+pub mod adjust;
 pub(crate) mod filter;
 pub(crate) mod image;
+pub mod likeness;
 pub mod mesh;
 pub(crate) mod regularize;
 pub(crate) mod resolution;
 
+pub use adjust::Adjust;
 pub use filter::{FilterConfig, FilterStats};
 pub use image::{load_gray, orientation_note, picture_size};
+pub use likeness::{likeness, LevelChoice};
 pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
@@ -91,6 +95,10 @@ pub enum Threshold {
     Level(u8),
     /// Otsu's method: the level that best separates the histogram into two classes.
     Otsu,
+    /// The level whose cleaned-up two-tone looks most like the picture (see [`likeness`]): every
+    /// level is tried through the clean-up the material needs and the likeliest kept. For a
+    /// rendered mesh, which has no gray picture to resemble, the same as `Otsu`.
+    Auto,
 }
 
 impl Default for Threshold {
@@ -113,6 +121,9 @@ pub struct ToneConfig {
     /// Refuse images with more pixels than this, before decoding them; a working image (after
     /// supersampling) is never larger either.
     pub max_pixels: u64,
+    /// Picture adjustments before the threshold (crop, turns, tone, smoothing, abstraction, local
+    /// threshold); ignored for a mesh.
+    pub adjust: Adjust,
 }
 
 impl Default for ToneConfig {
@@ -122,6 +133,7 @@ impl Default for ToneConfig {
             invert: false,
             scale: None,
             max_pixels: crate::limits::DEFAULT_MAX_PIXELS,
+            adjust: Adjust::default(),
         }
     }
 }
@@ -174,8 +186,16 @@ pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoT
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),
+        // Provisional: the clean-up stage searches the levels (`pipeline::clean`).
+        Threshold::Auto => 128,
     };
-    let bits = BitGrid {
+    let bits = bits_at(&gray, level, invert);
+    (TwoTone { bits, gray }, level)
+}
+
+/// The two tones of `gray` at `level`: light (at or above it) is material unless `invert`.
+pub fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
+    BitGrid {
         width: gray.width,
         height: gray.height,
         data: gray
@@ -183,8 +203,7 @@ pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoT
             .iter()
             .map(|&v| is_light(v, level) != invert)
             .collect(),
-    };
-    (TwoTone { bits, gray }, level)
+    }
 }
 
 #[cfg(test)]

@@ -547,7 +547,7 @@ fn compose(
 pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
         Threshold::Level(l) => l,
-        Threshold::Otsu => {
+        Threshold::Otsu | Threshold::Auto => {
             let data: Vec<f32> = (0..r.shade.data.len())
                 .filter(|&i| r.model.data[i] && !r.lines.data[i])
                 .map(|i| r.shade.data[i])

@@ -1,0 +1,146 @@
+//! How much a two-tone looks like the picture it came from, seen from where a person stands.
+//!
+//! ## The measure
+//! A stencil is looked at from a distance at which its cut edges merge into tones, so both the
+//! two-tone (material light, cut dark; swapped by `--invert`) and the gray picture are
+//! box-averaged to at most [`EVAL_LONG_SIDE`] pixels on the long side and blurred by a Gaussian of
+//! σ = diagonal / [`VIEW_BLUR_DIAGONALS`] (a 200 × 150 mm stencil seen from about 1 m: detail
+//! under about a millimetre merges). Their *structural similarity* (after SSIM, Wang, Bovik,
+//! Sheikh and Simoncelli 2004) is then taken with a Gaussian window of σ = 2 × the viewing blur
+//! and averaged over the picture: 1 means the same, 0 unrelated. It is the product of a tone term
+//! and SSIM's contrast-structure term `(2σxy + C2) / (σx² + σy² + C2)` (C2 = 0.03² on the 0..1
+//! scale): local contrast and the correlation of structure (a smile lost at one level lowers it).
+//! The tone term is `1 − |μx − μy|`, the difference of the local mean tones, rather than SSIM's
+//! ratio `(2μxμy + C1) / (μx² + μy² + C1)`: that ratio is 0 wherever one side is black, whatever
+//! the other, so it punished cutting a dark-gray background far more than leaving it white, and
+//! on the flower photo chose level 34 (a white sheet with a flower outline) against a person's
+//! 112. The difference treats black and white alike, as the eye does, and as `--invert` needs.
+//!
+//! It is always measured on the two-tone *after* the clean-up the material needs, so what the
+//! regularisation had to change (thin webs dropped, holes filled) counts against the level
+//! that needed it.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::adjust::blur;
+use crate::raster::{BitGrid, Gray};
+
+/// The long side of the grid the measure is taken on, pixels.
+pub const EVAL_LONG_SIDE: u32 = 512;
+
+/// The viewing blur's σ is the picture's diagonal divided by this.
+pub const VIEW_BLUR_DIAGONALS: f32 = 250.0;
+
+/// The likeness (SSIM at viewing distance, see the module) of a two-tone to its gray picture.
+pub fn likeness(bits: &BitGrid, gray: &Gray, invert: bool) -> f64 {
+    if bits.data.is_empty() {
+        return 0.0;
+    }
+    let d = bits.width.max(bits.height).div_ceil(EVAL_LONG_SIDE).max(1);
+    let a = shrink(bits.width, bits.height, d, |i| {
+        if bits.data[i] != invert {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    let g = shrink(gray.width, gray.height, d, |i| gray.data[i].clamp(0.0, 1.0));
+    let sigma = ((a.width as f32).hypot(a.height as f32) / VIEW_BLUR_DIAGONALS).max(0.5);
+    ssim(&blur(&a, sigma), &blur(&g, sigma), 2.0 * sigma)
+}
+
+/// The `w` × `h` picture of `value(i)` box-averaged by `d` (partial boxes at the right and bottom
+/// edges averaged over what they hold).
+fn shrink(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
+    let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+    let data: Vec<f32> = (0..oh)
+        .into_par_iter()
+        .flat_map_iter(|oy| {
+            let value = &value;
+            (0..ow).map(move |ox| {
+                let (mut s, mut n) = (0f32, 0u32);
+                for y in oy * d..((oy + 1) * d).min(h) {
+                    for x in ox * d..((ox + 1) * d).min(w) {
+                        s += value((y * w + x) as usize);
+                        n += 1;
+                    }
+                }
+                s / n as f32
+            })
+        })
+        .collect();
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
+}
+
+/// Mean SSIM of two same-size pictures with a Gaussian window of σ = `window` pixels.
+fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
+    let c2 = 9e-4f32;
+    let prod = |f: &dyn Fn(f32, f32) -> f32| Gray {
+        width: x.width,
+        height: x.height,
+        data: x.data.iter().zip(&y.data).map(|(&a, &b)| f(a, b)).collect(),
+    };
+    let mx = blur(x, window);
+    let my = blur(y, window);
+    let xx = blur(&prod(&|a, _| a * a), window);
+    let yy = blur(&prod(&|_, b| b * b), window);
+    let xy = blur(&prod(&|a, b| a * b), window);
+    let n = x.data.len();
+    let total: f64 = (0..n)
+        .map(|i| {
+            let (ux, uy) = (mx.data[i], my.data[i]);
+            let vx = (xx.data[i] - ux * ux).max(0.0);
+            let vy = (yy.data[i] - uy * uy).max(0.0);
+            let cxy = xy.data[i] - ux * uy;
+            ((1.0 - (ux - uy).abs()) * (2.0 * cxy + c2) / (vx + vy + c2)) as f64
+        })
+        .sum();
+    total / n as f64
+}
+
+/// How `--threshold auto` chose its level, for the report and the console.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct LevelChoice {
+    /// The level chosen and its likeness (see [`likeness`]).
+    pub level: u8,
+    pub likeness: f64,
+    /// The likeness at the default level 128 and at Otsu's level, measured the same way (the
+    /// chosen level is never worse than either: both are among the candidates).
+    pub likeness_128: f64,
+    pub otsu_level: u8,
+    pub likeness_otsu: f64,
+    /// Every level tried and its likeness, in the order tried (on the reduced grid for a large
+    /// picture; the finalists again at full size).
+    pub tried: Vec<(u8, f64)>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_faithful_two_tone_is_more_like_the_picture_than_a_blank_one() {
+        let mut g = Gray::new(80, 60, 0.9);
+        let mut b = BitGrid::new(80, 60, true);
+        for y in 20..40 {
+            for x in 20..60 {
+                g.set(x, y, 0.1);
+                b.set(x, y, false);
+            }
+        }
+        let good = likeness(&b, &g, false);
+        let blank = likeness(&BitGrid::new(80, 60, true), &g, false);
+        assert!(good > 0.8 && good > blank + 0.15, "{good} {blank}");
+        // Inverted, the same bits are the negative.
+        assert!(
+            likeness(&b, &g, true) < good - 0.3,
+            "{}",
+            likeness(&b, &g, true)
+        );
+    }
+}
