@@ -525,7 +525,7 @@ fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a)?;
     // A set (layers, a fill-in) or registration marks for a mask: every sheet registered.
-    let marks = a.physical.mask_marks && a.physical.emit.contains(&EmitKind::Mask);
+    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
     if let Some(lc) = a.layers.config(marks) {
         return super::layers::make_set(cfg, &lc, a.layers.fill_in);
     }

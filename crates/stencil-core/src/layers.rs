@@ -700,7 +700,11 @@ fn one_layer(
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(level);
     let source = Source::Picture(f.source_gray.clone());
-    let params = pipeline::resolve(&cfg, &source)?;
+    let mut params = pipeline::resolve(&cfg, &source)?;
+    // Every island of a layer is bridged, none dropped: the layers' nesting (what a darker layer
+    // cuts, a lighter one cuts too) is taken from the cleaned cut before the join, so an island a
+    // layer dropped would be cut there but painted by the lighter layers.
+    params.join.drop_islands = false;
     let mut timer = Timings::new(cfg.progress.clone());
     let gray = pipeline::working_gray(source.clone(), params.working.factor);
     let (mut raw, lvl) = pipeline::threshold(&source, gray, &params.tone);
@@ -732,6 +736,7 @@ fn one_layer(
             bits: twotone.bits,
             gray: cost_gray,
         },
+        cleaned.level,
         &params.join,
         &mut timer,
     )?;
@@ -851,7 +856,11 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
     let source = Source::Picture(f.source_gray.clone());
-    let params = pipeline::resolve(&cfg, &source)?;
+    let mut params = pipeline::resolve(&cfg, &source)?;
+    // Every island of a layer is bridged, none dropped: the layers' nesting (what a darker layer
+    // cuts, a lighter one cuts too) is taken from the cleaned cut before the join, so an island a
+    // layer dropped would be cut there but painted by the lighter layers.
+    params.join.drop_islands = false;
     let mm = params.working.scale.mm_per_px;
     // Grown into the first stencil's cut, 4-neighbour steps.
     let mut grown = hidden.clone();
@@ -926,6 +935,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
             bits: twotone.bits,
             gray: cost,
         },
+        cleaned.level,
         &params.join,
         &mut timer,
     )?;
