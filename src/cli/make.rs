@@ -909,7 +909,7 @@ fn print_gobo(g: &stencil_core::gobo::GoboReport) {
         g.clear_pct
     );
     if let Some(w) = &g.warning {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {w} (--invert)");
     }
 }
 

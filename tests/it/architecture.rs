@@ -197,7 +197,11 @@ fn core_stages_use_only_earlier_layers() {
             "check",
             &["raster", "islands", "material", "units", "vector"][..],
         ),
-        ("export", &["raster", "vector", "limits", "units"][..]),
+        // material: an etch material's undercut compensates the masks.
+        (
+            "export",
+            &["raster", "vector", "limits", "units", "material"][..],
+        ),
         // A gobo: placed on the traced stencil, its polarity worded as the masks word it.
         ("gobo", &["vector", "export"][..]),
         (

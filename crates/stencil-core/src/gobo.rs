@@ -180,7 +180,7 @@ pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboRepor
         format!(
             "{clear_pct:.0} % of the gobo's image area passes light and the picture's light parts \
              stay as metal: a bright subject on a dark ground would be projected dark in a field \
-             of light; --invert swaps the tones (metal where the picture is dark)"
+             of light; swapping the tones (metal where the picture is dark) projects it as light"
         )
     });
     GoboReport {
