@@ -3,7 +3,6 @@
 //! the image area, the --invert warning, the masks' dpi, mirroring and polarity as the files
 //! carry them, and the undercut compensation measured on a line of known width.
 
-
 use std::path::Path;
 
 use crate::common::{self, ink_png, report, s, stderr, stencil, tmp};

@@ -4,7 +4,6 @@
 //! leaves no layer folder), `check` and `gcode` on a layered folder, and the fill-in painting
 //! the first stencil's bridges.
 
-
 use std::collections::BTreeSet;
 use std::path::Path;
 

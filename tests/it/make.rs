@@ -112,7 +112,8 @@ fn an_island_smaller_than_a_bridge_gets_a_band_not_spokes() {
     });
     let out = dir.path().join("out");
     // No --allow-thin: the check must pass.
-    let r = make_ok(&input, &out, &[]);
+    // Kept, not dropped by least change: the band is what is judged.
+    let r = make_ok(&input, &out, &["--keep-all-islands"]);
     assert_eq!(r["islands"], 1, "{r}");
     let bridges = r["bridges"].as_array().unwrap();
     assert_eq!(bridges.len(), 1);

@@ -3,7 +3,6 @@
 //! light shrink the hole the shadow side becomes; named views are their angles; a model exported
 //! Z-up and given `--up Z` comes out as the same model Y-up (to rounding).
 
-
 use std::path::Path;
 
 use crate::common::{self, read_bits, s, stderr, stencil, tmp};

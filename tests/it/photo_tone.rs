@@ -2,7 +2,6 @@
 //! auto` against 128 and Otsu by the documented likeness, each picture adjustment's effect on
 //! twotone.png, crop and rotation sizes and frames, and islands dropped rather than bridged.
 
-
 use std::path::Path;
 
 use crate::common::*;

@@ -4,7 +4,6 @@
 //! G92), and dry runs started from a person's saved `$$`/`$#` dump. Everything runs against the
 //! virtual Grbl and looks at where its beam went, in machine coordinates.
 
-
 use std::path::Path;
 
 use crate::common::{stderr, stencil, tmp};
