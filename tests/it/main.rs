@@ -22,6 +22,11 @@
 mod common;
 #[path = "../common/job.rs"]
 mod common_job;
+/// Meshes shared with stencil-core's own tests (one declaration: clippy's `duplicate_mod`).
+#[path = "../../crates/stencil-core/tests/support/shapes.rs"]
+mod shapes;
+// shapes.rs names the mesh type as `super::Mesh`.
+use stencil_core::tone::mesh::Mesh;
 
 mod architecture;
 mod bad_input;

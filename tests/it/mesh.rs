@@ -6,12 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
-use stencil_core::tone::mesh::{
-    self, render_mesh, LineMode, Mesh, MeshConfig, RenderSize, Rendering,
-};
+use stencil_core::tone::mesh::{self, render_mesh, LineMode, MeshConfig, RenderSize, Rendering};
 
-#[path = "../../crates/stencil-core/tests/support/shapes.rs"]
-mod shapes;
+use crate::shapes;
 
 fn cfg(lines: LineMode) -> MeshConfig {
     MeshConfig {

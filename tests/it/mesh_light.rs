@@ -7,10 +7,8 @@ use std::path::Path;
 
 use crate::common::{self, read_bits, s, stderr, stencil, tmp};
 use stencil_core::raster::BitGrid;
-use stencil_core::tone::mesh::Mesh;
 
-#[path = "../../crates/stencil-core/tests/support/shapes.rs"]
-mod shapes;
+use crate::shapes;
 
 /// A smooth sphere as an OBJ file.
 fn sphere_obj(dir: &Path) -> std::path::PathBuf {

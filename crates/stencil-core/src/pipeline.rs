@@ -867,7 +867,7 @@ pub struct Cleaned {
     pub level: u8,
     pub filter_stats: FilterStats,
     pub reg_stats: Option<crate::tone::regularize::RegularizeStats>,
-    /// How much the cleaned two-tone looks like the gray picture ([`tone::likeness`]).
+    /// How much the cleaned two-tone looks like the gray picture ([`tone::likeness()`]).
     pub likeness: f64,
     /// How `--threshold auto` chose the level.
     pub choice: Option<tone::LevelChoice>,
@@ -1013,7 +1013,7 @@ fn shrink_gray(g: &Gray, d: u32) -> Gray {
 
 /// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest
 /// feature, or the morphological filter with an explicit radius. With `--threshold auto` (a
-/// picture), the level is chosen here, judged on the cleaned-up result ([`choose_level`]), and
+/// picture), the level is chosen here, judged on the cleaned-up result (`choose_level`), and
 /// `raw` is thresholded again at it.
 pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
     let (picture, level, choice) = if p.auto {

@@ -84,7 +84,7 @@ pub const MIN_MASK_OPENING_MM: f64 = 0.05;
 
 impl Etch {
     /// The narrowest opening that etches at its designed size: twice the undercut (what the
-    /// compensation takes off both sides) plus [`MIN_MASK_OPENING_MM`] left in the mask. `make`
+    /// compensation takes off both sides) plus `MIN_MASK_OPENING_MM` left in the mask. `make`
     /// raises the material's smallest feature to it, so the clean-up and the width check judge
     /// what is etched rather than a design the mask cannot carry.
     pub fn min_opening_mm(&self) -> f64 {

@@ -159,7 +159,8 @@ fn from_image(i: F32Image) -> Gray {
 
 /// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity).
 pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
-    if !(sigma > 0.0) || g.data.is_empty() {
+    // A NaN or non-positive sigma blurs nothing.
+    if sigma.is_nan() || sigma <= 0.0 || g.data.is_empty() {
         return g.clone();
     }
     from_image(gaussian_blur_f32(&to_image(g), sigma))

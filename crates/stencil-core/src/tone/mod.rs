@@ -95,7 +95,7 @@ pub enum Threshold {
     Level(u8),
     /// Otsu's method: the level that best separates the histogram into two classes.
     Otsu,
-    /// The level whose cleaned-up two-tone looks most like the picture (see [`likeness`]): every
+    /// The level whose cleaned-up two-tone looks most like the picture (see [`likeness()`]): every
     /// level is tried through the clean-up the material needs and the likeliest kept. For a
     /// rendered mesh, which has no gray picture to resemble, the same as `Otsu`.
     Auto,

@@ -89,7 +89,7 @@ const RIM_TOLERANCE_MM: f64 = 0.005;
 
 impl Rim {
     /// A circle of radius `r` about the centre as a closed ring (counter-clockwise in the numeric
-    /// plane), its chords within [`RIM_TOLERANCE_MM`] of the circle.
+    /// plane), its chords within `RIM_TOLERANCE_MM` of the circle.
     pub fn ring(&self, r: f64) -> LineString<f64> {
         // Sagitta r(1 - cos(π/n)) ≤ tol.
         let n = (std::f64::consts::PI / (1.0 - RIM_TOLERANCE_MM / r).max(-1.0).acos())
