@@ -697,14 +697,7 @@ fn one_layer(
     covered: Option<&BitGrid>,
     darker: Option<&BitGrid>,
 ) -> Result<(Made, BitGrid), Error> {
-    let mut cfg = f.cfg.clone();
-    cfg.tone.threshold = Threshold::Level(level);
-    let source = Source::Picture(f.source_gray.clone());
-    let mut params = pipeline::resolve(&cfg, &source)?;
-    // Every island of a layer is bridged, none dropped: the layers' nesting (what a darker layer
-    // cuts, a lighter one cuts too) is taken from the cleaned cut before the join, so an island a
-    // layer dropped would be cut there but painted by the lighter layers.
-    params.join.drop_islands = false;
+    let (cfg, source, params) = resolve_layer(f, level)?;
     let mut timer = Timings::new(cfg.progress.clone());
     let gray = pipeline::working_gray(source.clone(), params.working.factor);
     let (mut raw, lvl) = pipeline::threshold(&source, gray, &params.tone);
@@ -725,24 +718,53 @@ fn one_layer(
             gray: Gray::new(0, 0, 0.0),
         },
     );
+    let cut = twotone.bits.clone();
+    let made = join_and_finish(&cfg, &params, &cleaned, twotone, covered, &mut timer)?;
+    Ok((made, cut))
+}
+
+/// `make`'s resolve step for one layer's stencil at `level`, with every island bridged, none
+/// dropped: the layers' nesting (what a darker layer cuts, a lighter one cuts too) is taken from
+/// the cleaned cut before the join, so an island a layer dropped would be cut there but painted
+/// by the lighter layers.
+fn resolve_layer(
+    f: &Frame,
+    level: u8,
+) -> Result<(MakeConfig, Source, pipeline::StageParams), Error> {
+    let mut cfg = f.cfg.clone();
+    cfg.tone.threshold = Threshold::Level(level);
+    let source = Source::Picture(f.source_gray.clone());
+    let mut params = pipeline::resolve(&cfg, &source)?;
+    params.join.drop_islands = false;
+    Ok((cfg, source, params))
+}
+
+/// The bridges joined on a cost gray where `cheap` (painted by another stencil) costs little
+/// ([`cost_gray`]), the real gray put back for what follows, and `make`'s later stages run.
+fn join_and_finish(
+    cfg: &MakeConfig,
+    params: &pipeline::StageParams,
+    cleaned: &pipeline::Cleaned,
+    twotone: TwoTone,
+    cheap: Option<&BitGrid>,
+    timer: &mut Timings,
+) -> Result<Made, Error> {
     let real_gray = twotone.gray.clone();
-    let cost_gray = match covered {
+    let gray = match cheap {
         Some(c) => cost_gray(&twotone.gray, c),
         None => twotone.gray,
     };
-    let cut = twotone.bits.clone();
     let mut joined = pipeline::join(
         TwoTone {
             bits: twotone.bits,
-            gray: cost_gray,
+            gray,
         },
         cleaned.level,
         &params.join,
-        &mut timer,
+        timer,
     )?;
     joined.twotone.gray = real_gray;
-    let made = pipeline::finish_from(&cfg, &params, &cleaned, &joined)?;
-    Ok((made, cut))
+    pipeline::finish_from(cfg, params, cleaned, &joined)
 }
 
 /// The gray the bridge cost reads for a layer: where a later layer paints (`covered` is cut),
@@ -853,14 +875,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     for i in 0..hidden.data.len() {
         hidden.data[i] = !cut.data[i] && stencil.data[i];
     }
-    let mut cfg = f.cfg.clone();
-    cfg.tone.threshold = Threshold::Level(128);
-    let source = Source::Picture(f.source_gray.clone());
-    let mut params = pipeline::resolve(&cfg, &source)?;
-    // Every island of a layer is bridged, none dropped: the layers' nesting (what a darker layer
-    // cuts, a lighter one cuts too) is taken from the cleaned cut before the join, so an island a
-    // layer dropped would be cut there but painted by the lighter layers.
-    params.join.drop_islands = false;
+    let (cfg, _, params) = resolve_layer(f, 128)?;
     let mm = params.working.scale.mm_per_px;
     // Grown into the first stencil's cut, 4-neighbour steps.
     let mut grown = hidden.clone();
@@ -928,19 +943,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     for i in 0..painted.data.len() {
         painted.data[i] = cut.data[i] || hidden.data[i];
     }
-    let real_gray = twotone.gray.clone();
-    let cost = cost_gray(&twotone.gray, &painted);
-    let mut joined = pipeline::join(
-        TwoTone {
-            bits: twotone.bits,
-            gray: cost,
-        },
-        cleaned.level,
-        &params.join,
-        &mut timer,
-    )?;
-    joined.twotone.gray = real_gray;
-    let made = pipeline::finish_from(&cfg, &params, &cleaned, &joined)?;
+    let made = join_and_finish(&cfg, &params, &cleaned, twotone, Some(&painted), &mut timer)?;
     Ok((made, hidden))
 }
 
