@@ -26,8 +26,9 @@ use crate::units::{Mm, Scale};
 pub use simplify::SimplifyStats;
 
 /// The steps of [`vectorize_design`] one by one, so that the `vector` bench can show where the
-/// stage's time goes. Not API: built only with the `bench-internals` feature, which only the root
-/// package's dev-dependency turns on.
+/// stage's time goes. Not API: built only with the `bench-internals` feature, which the root
+/// package's dev-dependency turns on (with the workspace's resolver 1 that holds for every build
+/// of the workspace, so nothing outside the benches may use it).
 #[cfg(feature = "bench-internals")]
 pub mod steps {
     pub use super::simplify::simplify_rings;
