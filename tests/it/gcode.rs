@@ -1070,3 +1070,44 @@ mod prop {
         }
     }
 }
+
+/// Grbl takes `?`, `!`, `~` and every byte above 0x7F out of the serial stream wherever they
+/// stand, comments included (a `!` is a feed hold). The header names the picture's path and
+/// the material's sources, so a file name with them must not put them in the job.
+#[test]
+fn the_job_holds_no_realtime_command_byte_even_in_its_comments() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = "what?!~ caf\u{e9} 5\u{2013}20.png";
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("samples/rings.png"),
+        dir.path().join(name),
+    )
+    .unwrap();
+    let (ok, _, err) = stencil(
+        &[
+            "make",
+            name,
+            "-o",
+            "out",
+            "--machine",
+            "diode-400",
+            "--material",
+            "cardstock",
+            "--emit",
+            "gcode",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    let job = std::fs::read(dir.path().join("out/stencil.gcode")).unwrap();
+    let text = String::from_utf8_lossy(&job);
+    assert!(text.contains("what..- caf_ 5-20.png"), "{text}");
+    for (i, line) in text.lines().enumerate() {
+        assert!(
+            line.bytes()
+                .all(|b| b < 0x80 && !matches!(b, b'?' | b'!' | b'~')),
+            "line {}: {line}",
+            i + 1
+        );
+    }
+}

@@ -50,14 +50,22 @@ pub fn num(v: f64) -> String {
 
 /// Comment lines: `; text`, printable ASCII with parentheses as brackets, wrapped at spaces so
 /// each line fits [`MAX_LINE`] (a word longer than a line is split); nothing is cut off.
+///
+/// Grbl takes `?`, `!` and `~` (status, feed hold, cycle start) and every byte above 0x7F
+/// (safety door, overrides) out of the serial stream wherever they stand, comments included,
+/// so none of them may appear: a `!` in a picture's file name would pause the job. Dashes
+/// and the multiplication sign become their ASCII look-alikes, anything else a `_`.
 fn comment(out: &mut String, text: &str) {
     let clean: String = text
         .chars()
         .map(|c| match c {
             '(' => '[',
             ')' => ']',
+            '?' | '!' => '.',
+            '~' | '\u{2010}'..='\u{2015}' | '\u{2212}' => '-',
+            '\u{d7}' => 'x',
             c if c.is_ascii_graphic() || c == ' ' => c,
-            _ => '?',
+            _ => '_',
         })
         .collect();
     let width = MAX_LINE - 2;
@@ -473,6 +481,19 @@ mod tests {
         // The axis overshoots (10, 0) to (10.5, 0) before swivelling.
         assert!(p.contains(&[10.5, 0.0]));
         assert_eq!(drag_knife_path(&sq, 0.0), sq.to_vec());
+    }
+
+    #[test]
+    fn comments_hold_no_byte_grbl_takes_as_a_realtime_command() {
+        let mut s = String::new();
+        comment(
+            &mut s,
+            "from /tmp/what?!~.png, diode 5\u{2013}20 W, 3\u{d7}4 mm, caf\u{e9}",
+        );
+        for b in s.bytes() {
+            assert!(!matches!(b, b'?' | b'!' | b'~') && b < 0x80, "{s}");
+        }
+        assert!(s.contains("diode 5-20 W, 3x4 mm, caf_"), "{s}");
     }
 
     #[test]
