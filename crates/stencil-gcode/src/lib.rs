@@ -50,7 +50,6 @@ pub use toolpath::{
 };
 pub use write::num;
 
-use crate::interpret::interpret;
 use crate::machine::Machine;
 
 /// What `make --emit gcode` needs besides the geometry: the machine and where and how to cut.
@@ -90,8 +89,9 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = write::write(&job, machine, notes);
-    let moves = interpret(&text).map_err(PlanError::Internal)?;
-    let est = estimate::estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
+    let program = interpret::interpret_program(&text).map_err(PlanError::Internal)?;
+    let rule = machine.cut_rule(&program.moves);
+    let est = estimate::estimate_program(&program, &machine.motion, rule);
     Ok((
         text,
         GcodeSummary {

@@ -93,6 +93,43 @@ pub struct Motion {
     /// homes it first, since a crash or power loss loses the position.
     #[serde(default)]
     pub homing: bool,
+    /// Per-axis max rates X, Y, Z, mm/min (Grbl's `$110`..`$112`), where a controller's settings
+    /// give them (this and the three below come from a controller's `$$`, never from a profile); `None`: `rapid_mm_min` on every axis. Grbl limits a block by its tightest axis,
+    /// so a plunge on a slow Z runs at Z's rate.
+    #[serde(skip)]
+    pub axis_rate_mm_min: Option<[f64; 3]>,
+    /// Per-axis accelerations X, Y, Z, mm/s² (`$120`..`$122`); `None`: `accel_mm_s2` on every
+    /// axis.
+    #[serde(skip)]
+    pub axis_accel_mm_s2: Option<[f64; 3]>,
+    /// Steps per mm X, Y, Z (`$100`..`$102`). Grbl plans every block between whole steps, so a
+    /// segment a few steps long runs in the direction its rounded steps give, and its junctions
+    /// are planned for that direction; `None`: exact coordinates.
+    #[serde(skip)]
+    pub steps_per_mm: Option<[f64; 3]>,
+    /// `$1`, ms: each time the motion runs out before more (a spindle or coolant change, a dwell,
+    /// `M0`) Grbl's stepper interrupt holds the motors this long before the next motion can
+    /// start; 255 keeps them on and costs nothing. `None`: Grbl's default, 25.
+    #[serde(skip)]
+    pub idle_lock_ms: Option<f64>,
+}
+
+impl Motion {
+    /// The max rate (mm/min) and acceleration (mm/s²) of each axis X, Y, Z.
+    pub fn axes(&self) -> ([f64; 3], [f64; 3]) {
+        (
+            self.axis_rate_mm_min.unwrap_or([self.rapid_mm_min; 3]),
+            self.axis_accel_mm_s2.unwrap_or([self.accel_mm_s2; 3]),
+        )
+    }
+
+    /// Seconds Grbl's stepper interrupt holds the motors at each full stop (`$1`; 255: none).
+    pub fn stop_lock_s(&self) -> f64 {
+        match self.idle_lock_ms.unwrap_or(25.0) {
+            ms if ms >= 255.0 || ms <= 0.0 => 0.0,
+            ms => ms / 1000.0,
+        }
+    }
 }
 
 fn default_jd() -> f64 {
