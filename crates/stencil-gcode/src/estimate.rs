@@ -158,9 +158,10 @@ fn blocks(
         } else {
             e.travel_mm += exact_len;
         }
-        let d = match limits.steps_per_mm {
+        let d = match limits.steps() {
             Some(spm) => {
-                let at = steps_at.unwrap_or_else(|| [0, 1, 2].map(|a| (m.from[a] * spm[a]).round()));
+                let at =
+                    steps_at.unwrap_or_else(|| [0, 1, 2].map(|a| (m.from[a] * spm[a]).round()));
                 let to = [0, 1, 2].map(|a| (m.to[a] * spm[a]).round());
                 steps_at = Some(to);
                 [0, 1, 2].map(|a| (to[a] - at[a]) / spm[a])
@@ -175,9 +176,7 @@ fn blocks(
         let rate = if m.rapid {
             limit_by_axis(rates, &unit)
         } else {
-            m.feed
-                .min(limit_by_axis(feed_rates, &unit))
-                .max(1.0) // Grbl's minimum feed rate, 1 mm/min.
+            m.feed.min(limit_by_axis(feed_rates, &unit)).max(1.0) // Grbl's minimum feed rate, 1 mm/min.
         };
         let v_nom = rate / 60.0;
         let accel = limit_by_axis(accels, &unit);
@@ -302,6 +301,7 @@ mod tests {
             axis_rate_mm_min: None,
             axis_accel_mm_s2: None,
             steps_per_mm: None,
+            profile_steps_per_mm: None,
             idle_lock_ms: None,
         }
     }
