@@ -13,7 +13,8 @@
 //! - [`interpret`](mod@interpret): reads any G-code program the way Grbl 1.1h does (its parser's
 //!   `ok`/`error:N` for every line, arcs cut into Grbl's chords, work offsets, moves in machine
 //!   coordinates) and says which moves cut ([`interpret::CutRule`]).
-//! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion; also
+//! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion
+//!   (`estimate_program`: with Grbl's stops and dwells; checked against grbl-sim); also
 //!   `estimate_with`, `length_over_feed_s`, `format_duration`.
 //! - [`simulate`]: a picture of a program's moves, cut and travel in two colours.
 //! - [`read_svg`]: the cut loops of an SVG drawing (ours or anyone's).
