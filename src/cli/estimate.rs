@@ -1,12 +1,12 @@
 //! `stencil estimate job.gcode`: how long any G-code file runs, the way Grbl plans its motion.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Args;
 
-use stencil_gcode::estimate::{estimate_with, format_duration, length_over_feed_s};
-use stencil_gcode::interpret::interpret_from;
+use stencil_gcode::estimate::{estimate_program, format_duration, length_over_feed_s};
+use stencil_gcode::interpret::{interpret_from, Program};
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stream::ControllerInfo;
@@ -24,27 +24,47 @@ pub struct EstimateArgs {
     /// from the machine's origin).
     #[arg(long)]
     pub no_bed_check: bool,
+    #[command(flatten)]
+    pub place: PlaceArgs,
+}
+
+/// Where a job goes and how the machine times it: the options `estimate` and `simulate` share,
+/// so that both read a job the way `send` and `frame` place it.
+#[derive(Args, Debug, Clone, Default)]
+pub struct PlaceArgs {
     /// Where the job's X0 Y0 goes, as `send --start-from`: machine, work-zero (the offsets of
     /// --controller-state, else none) or current (--head-at) [default: machine if the machine
     /// homes, else work-zero].
     #[arg(long, value_name = "machine|work-zero|current")]
     pub start_from: Option<StartFrom>,
-    /// With --start-from current: where the head stands, machine coordinates, mm (the estimate
-    /// has no controller to ask).
+    /// With --start-from current: where the head stands, machine coordinates, mm (there is no
+    /// controller to ask).
     #[arg(long, value_name = "X,Y", value_parser = super::place::parse_head_at, allow_hyphen_values = true)]
     pub head_at: Option<[f64; 2]>,
     /// A controller's saved state (what Grbl prints for `$$` and `$#`, and optionally `$G` and
-    /// `?`): its offsets place the job, its rates, acceleration, junction deviation and arc
-    /// tolerance ($110/$111, $120/$121, $11, $12) time it.
+    /// `?`): its offsets place the job; its steps per mm, rates, accelerations, junction
+    /// deviation, arc tolerance and motor hold ($100-$102, $110-$112, $120-$122, $11, $12, $1)
+    /// time it.
     #[arg(long, value_name = "FILE")]
     pub controller_state: Option<PathBuf>,
 }
 
-pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
-    let machine = machine_profile::load(a.machine.as_deref())?;
-    let text = super::send::read_program(&a.file)?;
-    eprintln!("{}", super::send::origin_line(&a.file, &text));
-    super::send::name_machine_changes_in(&a.file, &text);
+/// A job read as the machine will run it: every move placed in machine coordinates, and the
+/// motion limits to time it with.
+pub struct PlacedJob {
+    pub program: Program,
+    pub motion: machine_profile::Motion,
+}
+
+/// Read `text` (from `file`) placed by `a` on `machine`, bed-checked unless `no_bed_check`;
+/// says where the job goes when a placement was asked for.
+pub fn read_placed(
+    file: &Path,
+    text: &str,
+    machine: &machine_profile::Machine,
+    a: &PlaceArgs,
+    no_bed_check: bool,
+) -> anyhow::Result<PlacedJob> {
     let mut state = match &a.controller_state {
         Some(p) => super::place::read_dump(p)?,
         None => ControllerState::default(),
@@ -53,28 +73,37 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
         let z = state.position.map_or(0.0, |p| p[2]);
         state.position = Some([x, y, z]);
     }
-    let start = super::place::choose(a.start_from, &state, &machine);
+    let start = super::place::choose(a.start_from, &state, machine);
     if start == StartFrom::Current && state.position.is_none() {
         anyhow::bail!(
-            "--start-from current needs where the head stands: give --head-at X,Y (machine              coordinates), or a status line (<Idle|MPos:...>) in --controller-state"
+            "--start-from current needs where the head stands: give --head-at X,Y (machine \
+             coordinates), or a status line (<Idle|MPos:...>) in --controller-state"
         );
     }
     let placement = Placement::new(start, &state);
     if a.start_from.is_some() || a.controller_state.is_some() {
         println!("{}", placement.describe());
     }
-    let program = interpret_from(&text, placement.modal)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
-    let moves = program.moves;
-    super::place::check_bed(&a.file, &moves, &machine, a.no_bed_check, &placement)?;
+    let program = interpret_from(text, placement.modal)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    super::place::check_bed(file, &program.moves, machine, no_bed_check, &placement)?;
     let info = ControllerInfo {
         settings: state.settings.clone(),
         ..ControllerInfo::default()
     };
     let motion = super::send::controller_motion(machine.motion, &info);
-    let mut e = estimate_with(&moves, &motion, machine.cut_rule(&moves));
-    // G4 dwells: the machine stands still (Grbl waits for the queue to empty first).
-    e.total_s += program.dwell_s;
+    Ok(PlacedJob { program, motion })
+}
+
+pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
+    let machine = machine_profile::load(a.machine.as_deref())?;
+    let text = super::send::read_program(&a.file)?;
+    eprintln!("{}", super::send::origin_line(&a.file, &text));
+    super::send::name_machine_changes_in(&a.file, &text);
+    let job = read_placed(&a.file, &text, &machine, &a.place, a.no_bed_check)?;
+    let (moves, motion) = (&job.program.moves, job.motion);
+    // Grbl's stops (its planner syncs), their motor holds ($1) and the G4 dwells included.
+    let e = estimate_program(&job.program, &motion, machine.cut_rule(moves));
     println!(
         "{}: about {} ({:.2} s) on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel \
          {:.0} mm; length / feed alone would say {}",
@@ -87,7 +116,7 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
         moves.len(),
         e.cut_mm,
         e.travel_mm,
-        format_duration(length_over_feed_s(&moves, &motion)),
+        format_duration(length_over_feed_s(moves, &motion)),
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -373,26 +373,3 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     print_summary(&out, &summary);
     Ok(ExitCode::SUCCESS)
 }
-
-/// Refuse a program whose moves leave the machine's bed, before anything moves: the bed check
-/// `send`, `estimate` and `simulate` share (`make` and `gcode` check while planning). A file's
-/// coordinates are taken as machine coordinates, work zero at the machine's origin, as stencil
-/// writes them; `skip` (`--no-bed-check`) is for a work zero set elsewhere.
-pub fn check_bed(
-    file: &Path,
-    moves: &[stencil_gcode::interpret::Move],
-    machine: &Machine,
-    skip: bool,
-) -> anyhow::Result<()> {
-    if skip {
-        return Ok(());
-    }
-    machine.check_moves(moves).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: {e}; refused. Name the machine it was made for with --machine, or move the job; \
-             if your work zero is set away from the machine's origin, --no-bed-check skips this \
-             check",
-            file.display()
-        )
-    })
-}

@@ -6,10 +6,9 @@ use std::process::ExitCode;
 use clap::Args;
 
 use stencil_core::export;
-use stencil_gcode::estimate::{estimate_with, format_duration};
+use stencil_gcode::estimate::{estimate_program, format_duration};
 use stencil_gcode::machine as machine_profile;
 use stencil_gcode::simulate;
-use stencil_grbl::stream;
 
 use super::send::read_program;
 
@@ -32,6 +31,8 @@ pub struct SimulateArgs {
     /// from the machine's origin).
     #[arg(long)]
     pub no_bed_check: bool,
+    #[command(flatten)]
+    pub place: super::estimate::PlaceArgs,
 }
 
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
@@ -40,16 +41,14 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     stencil_io::check_output(&a.output, &inputs)?;
     let text = read_program(&a.file)?;
     super::send::name_machine_changes_in(&a.file, &text);
-    let name = a.file.display().to_string();
-    let program = stencil_gcode::interpret::interpret_program(&text)
-        .map_err(|cause| stream::MachineError::Gcode { file: name, cause })?;
-    let moves = program.moves;
     let machine = machine_profile::load(a.machine.as_deref())?;
-    super::gcode::check_bed(&a.file, &moves, &machine, a.no_bed_check)?;
-    let rule = machine.cut_rule(&moves);
-    let mut est = estimate_with(&moves, &machine.motion, rule);
-    est.total_s += program.dwell_s;
-    let d = simulate::draw(&moves, a.size_px, rule);
+    // Read as `estimate` (and `send`, `frame`) read it: placed by --start-from, timed with the
+    // controller's settings when given.
+    let job = super::estimate::read_placed(&a.file, &text, &machine, &a.place, a.no_bed_check)?;
+    let moves = &job.program.moves;
+    let rule = machine.cut_rule(moves);
+    let est = estimate_program(&job.program, &job.motion, rule);
+    let d = simulate::draw(moves, a.size_px, rule);
     stencil_io::write_atomic(
         &a.output,
         &export::png::encode_rgb(d.width, d.height, &d.rgb),

@@ -511,6 +511,11 @@ fn square_time_matches_a_hand_calculation() {
         accel_mm_s2: a,
         junction_deviation_mm: d,
         homing: false,
+        axis_rate_mm_min: None,
+        axis_accel_mm_s2: None,
+        steps_per_mm: None,
+        profile_steps_per_mm: None,
+        idle_lock_ms: None,
     };
     let e = estimate(&interpret(program).unwrap(), &limits);
     assert!(

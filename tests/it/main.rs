@@ -44,6 +44,7 @@ mod gcode;
 mod gobo;
 mod grbl_motion;
 mod grbl_parity;
+mod grbl_sim_reference;
 mod grid;
 mod help_headings;
 mod hostile_options;

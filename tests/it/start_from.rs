@@ -324,3 +324,49 @@ fn the_journal_keeps_the_placement_for_recover() {
     let b = cut_box(&out);
     assert!(b[0] >= 100.0 && b[2] >= 50.0, "{out}");
 }
+
+/// `simulate` reads a job as `send` places it (issue 26): with the work zero 300 mm right of
+/// where the head stands, the picture shows the travel from the head to the job, and the cut at
+/// its far end; from machine zero the cut spans the picture.
+#[test]
+fn simulate_places_the_job_as_send_does() {
+    let d = tmp();
+    let job = write(d.path(), "job.gcode", JOB);
+    let state = write(d.path(), "state.txt", &dump(0, 1, [300.0, 0.0], [0.0, 0.0]));
+    let red_columns = |name: &str, args: &[&str]| -> (f64, f64) {
+        let png = d.path().join(name);
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_stencil"))
+            .arg("simulate")
+            .arg(&job)
+            .arg("-o")
+            .arg(&png)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}{}", stdout(&out), stderr(&out));
+        let img = image::open(&png).unwrap().to_rgb8();
+        let cols: Vec<u32> = img
+            .enumerate_pixels()
+            .filter(|(_, _, p)| p.0 == stencil_gcode::simulate::CUT_RGB)
+            .map(|(x, _, _)| x)
+            .collect();
+        let w = f64::from(img.width());
+        let lo = f64::from(*cols.iter().min().expect("something cut"));
+        let hi = f64::from(*cols.iter().max().unwrap());
+        (lo / w, hi / w)
+    };
+    let (lo, hi) = red_columns("machine.png", &["--start-from", "machine"]);
+    assert!(
+        lo < 0.05 && hi > 0.95,
+        "from machine zero: cut over {lo}..{hi}"
+    );
+    let (lo, hi) = red_columns(
+        "work.png",
+        &["--start-from", "work-zero", "--controller-state", &state],
+    );
+    // Travel 0..300 mm, cut 300..340 mm: the cut is the last eighth of the picture.
+    assert!(
+        lo > 0.8 && hi > 0.95,
+        "from the work zero: cut over {lo}..{hi}"
+    );
+}

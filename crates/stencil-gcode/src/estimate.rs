@@ -8,20 +8,24 @@
 //!   with θ the angle between the directions and `sin(θ/2) = sqrt((1 - cos θ)/2)` where
 //!   `cos θ = -u_prev·u`, `v_j² = a_j · δ · sin(θ/2) / (1 - sin(θ/2))` (a reversal stops; a
 //!   straight continuation is not limited), and by both blocks' nominal speeds;
-//! - a backward pass from the final stop and a forward pass from the first start make every entry
-//!   speed reachable by accelerating or braking at `a` over the block's length;
+//! - a reverse pass over the blocks Grbl holds (the last held ending at rest) and a forward pass
+//!   from the running block's entry make every entry speed reachable by accelerating or braking
+//!   at `a` over the block's length;
 //! - each block then runs a trapezoid (accelerate, cruise, decelerate) or a triangle if short.
 //!
-//! Per-axis limits are equal in our profiles; like Grbl, a diagonal block may use
-//! `a / max|u_axis|` and `rate / max|u_axis|`. Grbl looks only 15 blocks ahead (`[OPT:V,15,128]`), so
-//! every block's entry speed is also capped so it could stop within the next 15 blocks.
+//! Blocks are limited by their tightest axis (`$110`..`$112`, `$120`..`$122` where a controller's
+//! `$$` gives them) and, with the steps per mm known, run between whole steps as Grbl rounds them.
+//! Grbl holds 15 blocks (`[OPT:V,15,128]`), the running one included, and plans the last one it
+//! holds to end at rest: each block's exit speed is planned over that window only, and never
+//! across a point where Grbl empties its planner (a sync: M3/M4/M5, M8/M9, G4, M0, ...; see
+//! [`Program::stops`]), where [`estimate_program`] also adds `$1`'s motor hold.
 //!
 //! Arcs come in as the chords Grbl cuts them into (`$12`), so their junctions are planned as
-//! Grbl plans them. G4 dwells are not moves: callers add [`crate::interpret::Program`]'s
-//! `dwell_s`. Not modelled: spindle-synchronised stops (M3/M5 stop motion; laser S changes do not),
-//! overrides, and the serial link (a slow sender can starve the planner on tiny segments).
+//! Grbl plans them. Checked against Grbl 1.1h itself (grbl-sim, in simulated time): within 0.5 %
+//! on nine jobs, docs/estimate-vs-grbl-sim.md, which also lists what is not modelled (the serial
+//! link, the AVR's own time, overrides).
 
-use crate::interpret::{CutRule, Move};
+use crate::interpret::{CutRule, Move, Program};
 use crate::limits::PLANNER_BLOCKS;
 use crate::machine::Motion;
 
@@ -46,15 +50,19 @@ struct Block {
     accel: f64,
     /// Highest entry speed², from the junction and the nominal speeds.
     max_entry_sq: f64,
-    entry_sq: f64,
+    /// Grbl emptied its planner before this block (a sync): it starts from a standstill, and the
+    /// block before it ends in one.
+    stop_before: bool,
     cut: bool,
 }
 
-/// `limit` for one axis, scaled to a direction as Grbl does: the tightest axis wins.
-fn limit_by_axis(limit: f64, unit: &[f64; 3]) -> f64 {
+/// `limit` per axis X, Y, Z, scaled to a direction as Grbl's `limit_value_by_axis_maximum`
+/// does: the tightest axis wins.
+fn limit_by_axis(limit: [f64; 3], unit: &[f64; 3]) -> f64 {
     unit.iter()
-        .filter(|c| c.abs() > 1e-12)
-        .map(|c| limit / c.abs())
+        .zip(limit)
+        .filter(|(c, _)| c.abs() > 1e-12)
+        .map(|(c, l)| l / c.abs())
         .fold(f64::INFINITY, f64::min)
 }
 
@@ -82,22 +90,32 @@ pub fn estimate(moves: &[Move], limits: &Motion) -> Estimate {
 
 /// Estimate with a given cut rule (a machine profile may refine the inferred one, see
 /// [`CutRule::for_spindle_pen`]). The rule only splits time and length into cut and travel.
+/// The moves are taken as one stream without stops between them; [`estimate_program`] also
+/// knows where Grbl stops (its syncs) and its dwells.
 pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate {
+    estimate_stops(moves, &[], limits, rule)
+}
+
+/// A whole program's time as Grbl runs it: the moves, planned with a stop wherever Grbl empties
+/// its planner ([`Program::stops`]), plus `$1`'s motor hold at each of those stops and the G4
+/// dwells. `total_s` is the whole; `cut_s + travel_s` is the time in motion.
+pub fn estimate_program(program: &Program, limits: &Motion, rule: CutRule) -> Estimate {
+    let mut e = estimate_stops(&program.moves, &program.stops, limits, rule);
+    e.total_s += program.dwell_s + program.stops.len() as f64 * limits.stop_lock_s();
+    e
+}
+
+fn estimate_stops(moves: &[Move], stops: &[usize], limits: &Motion, rule: CutRule) -> Estimate {
     let mut e = Estimate::default();
-    let mut blocks = blocks(moves, limits, rule, &mut e);
+    let blocks = blocks(moves, stops, limits, rule, &mut e);
     if blocks.is_empty() {
         return e;
     }
-    plan_entry_speeds(&mut blocks);
-    let n = blocks.len();
-    for i in 0..n {
-        let b = &blocks[i];
-        let exit_sq = if i + 1 < n {
-            blocks[i + 1].entry_sq
-        } else {
-            0.0
-        };
-        let t = block_time(b.len, b.entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
+    let exits = plan_exit_speeds(&blocks);
+    let mut entry_sq: f64 = 0.0;
+    for (b, exit_sq) in blocks.iter().zip(exits) {
+        let t = block_time(b.len, entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
+        entry_sq = exit_sq;
         if b.cut {
             e.cut_s += t;
         } else {
@@ -109,52 +127,76 @@ pub fn estimate_with(moves: &[Move], limits: &Motion, rule: CutRule) -> Estimate
 }
 
 /// The moves as Grbl's planner blocks, each with its nominal speed, acceleration and the highest
-/// entry speed its junction allows; adds each block's length to `e`'s cut or travel.
-fn blocks(moves: &[Move], limits: &Motion, rule: CutRule, e: &mut Estimate) -> Vec<Block> {
+/// entry speed its junction allows; adds each move's length to `e`'s cut or travel.
+///
+/// With the machine's steps per mm known, each block runs between whole steps as Grbl's
+/// `plan_buffer_line` makes it (`lround` of the target, length and direction from the step
+/// counts), and a move shorter than half a step is no block at all.
+fn blocks(
+    moves: &[Move],
+    stops: &[usize],
+    limits: &Motion,
+    rule: CutRule,
+    e: &mut Estimate,
+) -> Vec<Block> {
+    let (rates, accels) = limits.axes();
+    let feed_rates = rates.map(|r| r.min(limits.max_feed_mm_min));
     let mut blocks: Vec<Block> = Vec::with_capacity(moves.len());
-    let mut prev: Option<(usize, [f64; 3])> = None;
-    for m in moves {
-        let d = [
+    let mut prev: Option<(f64, [f64; 3])> = None;
+    let mut steps_at: Option<[f64; 3]> = None;
+    let mut stop_pending = false;
+    let mut next_stop = stops.iter().peekable();
+    for (k, m) in moves.iter().enumerate() {
+        while next_stop.next_if(|&&s| s <= k).is_some() {
+            stop_pending = true;
+        }
+        let exact = [
             m.to[0] - m.from[0],
             m.to[1] - m.from[1],
             m.to[2] - m.from[2],
         ];
+        let exact_len = (exact[0] * exact[0] + exact[1] * exact[1] + exact[2] * exact[2]).sqrt();
+        let cut = rule.cuts(m);
+        if cut {
+            e.cut_mm += exact_len;
+        } else {
+            e.travel_mm += exact_len;
+        }
+        let d = match limits.steps() {
+            Some(spm) => {
+                let at =
+                    steps_at.unwrap_or_else(|| [0, 1, 2].map(|a| (m.from[a] * spm[a]).round()));
+                let to = [0, 1, 2].map(|a| (m.to[a] * spm[a]).round());
+                steps_at = Some(to);
+                [0, 1, 2].map(|a| (to[a] - at[a]) / spm[a])
+            }
+            None => exact,
+        };
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if len < 1e-9 {
-            continue; // Grbl drops zero-length blocks.
+            continue; // Grbl drops blocks without a step.
         }
         let unit = [d[0] / len, d[1] / len, d[2] / len];
         let rate = if m.rapid {
-            limit_by_axis(limits.rapid_mm_min, &unit)
+            limit_by_axis(rates, &unit)
         } else {
-            m.feed
-                .min(limit_by_axis(limits.max_feed_mm_min, &unit))
-                .max(1.0) // Grbl's minimum feed rate, 1 mm/min.
+            m.feed.min(limit_by_axis(feed_rates, &unit)).max(1.0) // Grbl's minimum feed rate, 1 mm/min.
         };
         let v_nom = rate / 60.0;
-        let accel = limit_by_axis(limits.accel_mm_s2, &unit);
+        let accel = limit_by_axis(accels, &unit);
         let max_entry_sq = match prev {
             None => 0.0,
-            Some((pi, pu)) => {
-                let pv = blocks[pi].v_nom;
-                junction_sq(pu, unit, limits)
-                    .min(v_nom * v_nom)
-                    .min(pv * pv)
-            }
+            Some((pv, pu)) => junction_sq(pu, unit, accels, limits.junction_deviation_mm)
+                .min(v_nom * v_nom)
+                .min(pv * pv),
         };
-        let cut = rule.cuts(m);
-        if cut {
-            e.cut_mm += len;
-        } else {
-            e.travel_mm += len;
-        }
-        prev = Some((blocks.len(), unit));
+        prev = Some((v_nom, unit));
         blocks.push(Block {
             len,
             v_nom,
             accel,
             max_entry_sq,
-            entry_sq: 0.0,
+            stop_before: std::mem::take(&mut stop_pending),
             cut,
         });
     }
@@ -163,7 +205,7 @@ fn blocks(moves: &[Move], limits: &Motion, rule: CutRule, e: &mut Estimate) -> V
 
 /// The highest speed² through the junction from direction `pu` to `unit` that the junction
 /// deviation allows (a reversal stops; a straight continuation is not limited).
-fn junction_sq(pu: [f64; 3], unit: [f64; 3], limits: &Motion) -> f64 {
+fn junction_sq(pu: [f64; 3], unit: [f64; 3], accels: [f64; 3], deviation_mm: f64) -> f64 {
     let cos_theta = -(pu[0] * unit[0] + pu[1] * unit[1] + pu[2] * unit[2]);
     if cos_theta > 0.999_999 {
         0.0 // reversal: stop
@@ -173,54 +215,45 @@ fn junction_sq(pu: [f64; 3], unit: [f64; 3], limits: &Motion) -> f64 {
         let mut ju = [unit[0] - pu[0], unit[1] - pu[1], unit[2] - pu[2]];
         let jl = (ju[0] * ju[0] + ju[1] * ju[1] + ju[2] * ju[2]).sqrt();
         ju.iter_mut().for_each(|c| *c /= jl);
-        let ja = limit_by_axis(limits.accel_mm_s2, &ju);
+        let ja = limit_by_axis(accels, &ju);
         let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
-        ja * limits.junction_deviation_mm * sin_half / (1.0 - sin_half)
+        ja * deviation_mm * sin_half / (1.0 - sin_half)
     }
 }
 
-/// Look-ahead window: a block can only enter as fast as it could stop within the blocks Grbl
-/// holds after it (a sliding sum of 2·a·len over the next [`PLANNER_BLOCKS`] blocks).
-fn look_ahead_reach(blocks: &[Block]) -> Vec<f64> {
+/// Every block's exit speed² (the next one's entry), as Grbl's planner leaves it when the block
+/// runs: Grbl holds [`PLANNER_BLOCKS`] blocks, the running one included, and plans the last one
+/// it holds to end at a standstill, so a block may only leave as fast as the machine could
+/// still stop within the blocks held after it (and no block after a sync is held). Within
+/// that window the entry speeds are the reverse pass's (each entry within what braking over the
+/// block allows, and its junction's limit), capped by what accelerating over the running block
+/// reaches from its own entry (the forward pass).
+fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
     let n = blocks.len();
-    let mut window = 0.0;
-    let mut reach: Vec<f64> = (0..n)
-        .rev()
-        .map(|i| {
-            window += 2.0 * blocks[i].accel * blocks[i].len;
-            if i + PLANNER_BLOCKS < n {
-                let j = i + PLANNER_BLOCKS;
-                window -= 2.0 * blocks[j].accel * blocks[j].len;
-            }
-            window.max(0.0)
-        })
-        .collect();
-    reach.reverse();
-    reach
-}
-
-/// Every block's entry speed²: a backward pass from a stop after the last block, then a forward
-/// pass from a stop before the first, each within what accelerating or braking over the block
-/// allows. `blocks` is not empty.
-fn plan_entry_speeds(blocks: &mut [Block]) {
-    let n = blocks.len();
-    let reach = look_ahead_reach(blocks);
-    let mut next_entry_sq = 0.0;
-    for i in (0..n).rev() {
-        let b = &mut blocks[i];
-        b.entry_sq = b
-            .max_entry_sq
-            .min(next_entry_sq + 2.0 * b.accel * b.len)
-            .min(reach[i]);
-        next_entry_sq = b.entry_sq;
+    // For each block, the index one past the last block Grbl can hold with it (the next sync).
+    let mut held_end = vec![n; n];
+    for i in (0..n.saturating_sub(1)).rev() {
+        held_end[i] = if blocks[i + 1].stop_before {
+            i + 1
+        } else {
+            held_end[i + 1]
+        };
     }
-    blocks[0].entry_sq = 0.0;
-    for i in 0..n - 1 {
-        let reachable = blocks[i].entry_sq + 2.0 * blocks[i].accel * blocks[i].len;
-        if blocks[i + 1].entry_sq > reachable {
-            blocks[i + 1].entry_sq = reachable;
+    let mut exits = Vec::with_capacity(n);
+    let mut entry_sq = 0.0;
+    for (i, b) in blocks.iter().enumerate() {
+        let end = held_end[i].min(i + PLANNER_BLOCKS);
+        let mut next_entry_sq = 0.0;
+        for later in blocks[i + 1..end].iter().rev() {
+            next_entry_sq = later
+                .max_entry_sq
+                .min(next_entry_sq + 2.0 * later.accel * later.len);
         }
+        let exit_sq = next_entry_sq.min(entry_sq + 2.0 * b.accel * b.len);
+        exits.push(exit_sq);
+        entry_sq = exit_sq;
     }
+    exits
 }
 
 /// What length ÷ feed says (no acceleration): the number many senders show, for comparison.
@@ -258,7 +291,7 @@ pub fn format_duration(s: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interpret::interpret;
+    use crate::interpret::{interpret, interpret_program};
 
     /// A generic GRBL 1.1 diode laser: 100 mm/s rapid and max feed, 1000 mm/s², Grbl's default
     /// junction deviation.
@@ -269,6 +302,11 @@ mod tests {
             accel_mm_s2: 1000.0,
             junction_deviation_mm: 0.01,
             homing: false,
+            axis_rate_mm_min: None,
+            axis_accel_mm_s2: None,
+            steps_per_mm: None,
+            profile_steps_per_mm: None,
+            idle_lock_ms: None,
         }
     }
 
@@ -332,6 +370,73 @@ mod tests {
         // 20 mm at 50 mm/s plus 14.14 mm at 100 mm/s.
         assert!((naive - (0.4 + 200f64.sqrt() / 100.0)).abs() < 1e-9);
         assert!(estimate(&m, &l).total_s > naive);
+    }
+
+    #[test]
+    fn grbl_stops_where_it_empties_its_planner() {
+        // A straight 100 mm cut at 50 mm/s, with M5/M4 in the middle: Grbl syncs on each
+        // spindle state change, so the head stops at X50 and holds the motors $1 = 25 ms.
+        let l = diode();
+        let through = interpret_program("M4 S100\nG1 X50 F3000\nG1 X100\n").unwrap();
+        let stopped = interpret_program("M4 S100\nG1 X50 F3000\nM5\nM4\nG1 X100\n").unwrap();
+        assert_eq!(stopped.stops, vec![1]);
+        assert!(through.stops.is_empty());
+        let rule = CutRule::Spindle;
+        let a = estimate_program(&through, &l, rule).total_s;
+        let b = estimate_program(&stopped, &l, rule).total_s;
+        let want = 2.0 * block_time(50.0, 0.0, 0.0, 50.0, 1000.0) + 0.025;
+        assert!((b - want).abs() < 1e-9, "{b} vs {want}");
+        assert!((a - block_time(100.0, 0.0, 0.0, 50.0, 1000.0)).abs() < 1e-9);
+        // Laser mode: an S change on a motion line is no stop; alone on its line it is one.
+        let p = interpret_program("M4 S100\nG1 X50 F3000\nG1 X100 S200\nS300\nG1 X150\n").unwrap();
+        assert_eq!(p.stops, vec![2]);
+        // A dwell stops and waits; the estimate's total has both.
+        let p = interpret_program("G1 X50 F3000\nG4 P1.5\nG1 X100\n").unwrap();
+        assert_eq!(p.stops, vec![1]);
+        let t = estimate_program(&p, &l, CutRule::Feed).total_s;
+        assert!((t - (2.0 * block_time(50.0, 0.0, 0.0, 50.0, 1000.0) + 1.5 + 0.025)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_block_leaves_only_as_fast_as_the_held_blocks_can_stop() {
+        // 100 collinear 0.1 mm blocks at up to 100 mm/s: while a block runs Grbl holds the 14
+        // after it (1.4 mm), so no block leaves faster than sqrt(2·1000·1.4) ≈ 53 mm/s, where
+        // the whole 10 mm line seen at once would reach 100 mm/s in its middle.
+        let mut p = String::from("G1 F6000\n");
+        for i in 1..=100 {
+            p.push_str(&format!("X{:.1}\n", f64::from(i) * 0.1));
+        }
+        let m = interpret(&p).unwrap();
+        let e = estimate(&m, &diode()).total_s;
+        // Seen at once, the line is one triangle: 2·sqrt(10 / 1000) = 0.2 s. Capped at 53 mm/s:
+        // two 1.4 mm ramps and 7.2 mm of cruise, 0.242 s.
+        let unlimited = 2.0 * (10.0f64 / 1000.0).sqrt();
+        let v = (2.0 * 1000.0 * 1.4f64).sqrt();
+        let capped = 2.0 * v / 1000.0 + (10.0 - 2.8) / v;
+        assert!(
+            (e - capped).abs() < 0.005 && e > unlimited * 1.15,
+            "{e} vs {capped}"
+        );
+    }
+
+    #[test]
+    fn blocks_run_between_whole_steps_and_z_at_its_own_limits() {
+        // Moves to X0.012 and X0.018 at 80 steps/mm: the first rounds to one step (0.0125 mm),
+        // the second to none more, so Grbl runs one block of 0.0125 mm.
+        let mut l = diode();
+        l.steps_per_mm = Some([80.0; 3]);
+        let m = interpret("G1 X0.012 F3000\nG1 X0.018\n").unwrap();
+        let e = estimate(&m, &l).total_s;
+        assert!(
+            (e - block_time(0.0125, 0.0, 0.0, 50.0, 1000.0)).abs() < 1e-12,
+            "{e}"
+        );
+        // A Z plunge of 5 mm at Z's 500 mm/min and 10 mm/s², not X's 6000 and 1000.
+        l.axis_rate_mm_min = Some([6000.0, 6000.0, 500.0]);
+        l.axis_accel_mm_s2 = Some([1000.0, 1000.0, 10.0]);
+        let e = estimate(&interpret("G0 Z5\n").unwrap(), &l).total_s;
+        let want = block_time(5.0, 0.0, 0.0, 500.0 / 60.0, 10.0);
+        assert!((e - want).abs() < 1e-9, "{e} vs {want}");
     }
 
     #[test]

@@ -366,6 +366,12 @@ pub struct Program {
     pub dwell_s: f64,
     /// Lines with M0 (Grbl holds there until cycle start).
     pub pauses: Vec<usize>,
+    /// Indices into `moves` of the moves Grbl starts from a standstill because it emptied its
+    /// planner first (`protocol_buffer_synchronize`): after a spindle state change (M3/M4/M5),
+    /// a coolant change (M8/M9), an S change without motion while the spindle is on, a dwell
+    /// (G4), M0/M2/M30, a probe, and G10/G28.1/G30.1 (EEPROM writes). S changes on motion lines
+    /// are taken as laser mode passes them (`$32=1`: no stop).
+    pub stops: Vec<usize>,
 }
 
 /// Interpret a whole program from the power-on state.
@@ -376,6 +382,7 @@ pub fn interpret_program(text: &str) -> Result<Program, GcodeError> {
 /// Interpret a whole program from a given state (a machine's offsets, `$12`).
 pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeError> {
     let mut p = Program::default();
+    let mut pending_stop = false;
     for (i, line) in text.lines().enumerate() {
         let clean = clean_line(line);
         // `%` opens and closes a program in many CAM outputs; Grbl answers it error:1 and
@@ -383,6 +390,7 @@ pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeErro
         if clean == "%" {
             continue;
         }
+        let before = modal;
         let done = step(&mut modal, line, i + 1)?;
         if p.moves.len() + done.moves.len() > MAX_MOVES {
             return Err(GcodeError {
@@ -392,6 +400,24 @@ pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeErro
                 out_of_range: true,
             });
         }
+        // Grbl's planner syncs for this line (gcode.c): before its own motion for the spindle,
+        // coolant, S, a dwell and EEPROM writes; after it for program flow and probes.
+        let spindle = |m: &Modal| (m.spindle_on, m.spindle_on && m.dynamic);
+        let sync_before = spindle(&before) != spindle(&modal)
+            || before.coolant != modal.coolant
+            || (before.s != modal.s && before.spindle_on && done.moves.is_empty())
+            || done.dwell_s > 0.0
+            || before.coords != modal.coords
+            || before.g28 != modal.g28
+            || before.g30 != modal.g30;
+        pending_stop |= sync_before;
+        if pending_stop && !done.moves.is_empty() {
+            if !p.moves.is_empty() {
+                p.stops.push(p.moves.len());
+            }
+            pending_stop = false;
+        }
+        pending_stop |= done.flow.is_some() || done.probe.is_some();
         p.moves.extend(done.moves);
         p.dwell_s += done.dwell_s;
         if done.flow == Some(Flow::Pause) {

@@ -13,7 +13,8 @@
 //! - [`interpret`](mod@interpret): reads any G-code program the way Grbl 1.1h does (its parser's
 //!   `ok`/`error:N` for every line, arcs cut into Grbl's chords, work offsets, moves in machine
 //!   coordinates) and says which moves cut ([`interpret::CutRule`]).
-//! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion; also
+//! - [`estimate`](mod@estimate) ([`Estimate`]): a program's run time as Grbl plans its motion
+//!   (`estimate_program`: with Grbl's stops and dwells; checked against grbl-sim); also
 //!   `estimate_with`, `length_over_feed_s`, `format_duration`.
 //! - [`simulate`]: a picture of a program's moves, cut and travel in two colours.
 //! - [`read_svg`]: the cut loops of an SVG drawing (ours or anyone's).
@@ -50,7 +51,6 @@ pub use toolpath::{
 };
 pub use write::num;
 
-use crate::interpret::interpret;
 use crate::machine::Machine;
 
 /// What `make --emit gcode` needs besides the geometry: the machine and where and how to cut.
@@ -90,8 +90,9 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = write::write(&job, machine, notes);
-    let moves = interpret(&text).map_err(PlanError::Internal)?;
-    let est = estimate::estimate_with(&moves, &machine.motion, machine.cut_rule(&moves));
+    let program = interpret::interpret_program(&text).map_err(PlanError::Internal)?;
+    let rule = machine.cut_rule(&program.moves);
+    let est = estimate::estimate_program(&program, &machine.motion, rule);
     Ok((
         text,
         GcodeSummary {

@@ -93,6 +93,53 @@ pub struct Motion {
     /// homes it first, since a crash or power loss loses the position.
     #[serde(default)]
     pub homing: bool,
+    /// Per-axis max rates X, Y, Z, mm/min (Grbl's `$110`..`$112`), where a controller's settings
+    /// give them (this and the three below come from a controller's `$$`, never from a profile); `None`: `rapid_mm_min` on every axis. Grbl limits a block by its tightest axis,
+    /// so a plunge on a slow Z runs at Z's rate.
+    #[serde(skip)]
+    pub axis_rate_mm_min: Option<[f64; 3]>,
+    /// Per-axis accelerations X, Y, Z, mm/s² (`$120`..`$122`); `None`: `accel_mm_s2` on every
+    /// axis.
+    #[serde(skip)]
+    pub axis_accel_mm_s2: Option<[f64; 3]>,
+    /// Steps per mm X, Y, Z (`$100`..`$102`). Grbl plans every block between whole steps, so a
+    /// segment a few steps long runs in the direction its rounded steps give, and its junctions
+    /// are planned for that direction; `None`: exact coordinates.
+    #[serde(skip)]
+    pub steps_per_mm: Option<[f64; 3]>,
+    /// The profile's steps per mm (`steps_per_mm` in `[motion]`, Grbl's `$100`/`$101`), taken for
+    /// every axis where a controller's `$$` does not give [`Motion::steps_per_mm`]; optional.
+    #[serde(default, rename = "steps_per_mm")]
+    pub profile_steps_per_mm: Option<f64>,
+    /// `$1`, ms: each time the motion runs out before more (a spindle or coolant change, a dwell,
+    /// `M0`) Grbl's stepper interrupt holds the motors this long before the next motion can
+    /// start; 255 keeps them on and costs nothing. `None`: Grbl's default, 25.
+    #[serde(skip)]
+    pub idle_lock_ms: Option<f64>,
+}
+
+impl Motion {
+    /// The max rate (mm/min) and acceleration (mm/s²) of each axis X, Y, Z.
+    pub fn axes(&self) -> ([f64; 3], [f64; 3]) {
+        (
+            self.axis_rate_mm_min.unwrap_or([self.rapid_mm_min; 3]),
+            self.axis_accel_mm_s2.unwrap_or([self.accel_mm_s2; 3]),
+        )
+    }
+
+    /// Steps per mm of each axis X, Y, Z: the controller's, else the profile's, else unknown.
+    pub fn steps(&self) -> Option<[f64; 3]> {
+        self.steps_per_mm
+            .or(self.profile_steps_per_mm.map(|s| [s; 3]))
+    }
+
+    /// Seconds Grbl's stepper interrupt holds the motors at each full stop (`$1`; 255: none).
+    pub fn stop_lock_s(&self) -> f64 {
+        match self.idle_lock_ms.unwrap_or(25.0) {
+            ms if ms >= 255.0 || ms <= 0.0 => 0.0,
+            ms => ms / 1000.0,
+        }
+    }
 }
 
 fn default_jd() -> f64 {
@@ -375,6 +422,8 @@ pub mod bounds {
     pub const FEED_MM_MIN: RangeInclusive<f64> = 1.0..=200_000.0;
     /// Acceleration, mm/s²: up to about 10 g.
     pub const ACCEL_MM_S2: RangeInclusive<f64> = 1.0..=100_000.0;
+    /// Steps per mm: from a coarse lead screw to a fine belt with heavy microstepping.
+    pub const STEPS_PER_MM: RangeInclusive<f64> = 1.0..=10_000.0;
     /// Junction deviation (`$11`), mm.
     pub const JUNCTION_DEVIATION_MM: RangeInclusive<f64> = 0.0001..=10.0;
     /// Spindle S values (`$30`, a pen's down S): up to 100,000 (spindle RPM).
@@ -518,6 +567,14 @@ impl Checker<'_> {
             ),
         ] {
             self.within(field, v, r, unit)?;
+        }
+        if let Some(steps) = m.profile_steps_per_mm {
+            self.within(
+                "motion.steps_per_mm",
+                steps,
+                bounds::STEPS_PER_MM,
+                "steps/mm",
+            )?;
         }
         Ok(())
     }
