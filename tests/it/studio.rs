@@ -441,7 +441,9 @@ fn a_set_is_shown_stencil_by_stencil_and_exported_as_make_writes_it() {
     let out = tmp("set");
     let st = Studio::start("samples/grace_hopper.jpg", &out, &[]);
     let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
-    let dropped = s0["report"]["dropped_islands"].as_array().map_or(0, Vec::len);
+    let dropped = s0["report"]["dropped_islands"]
+        .as_array()
+        .map_or(0, Vec::len);
     assert!(dropped > 0, "grace_hopper.jpg drops islands by default");
     let (_, preview) = st.call("GET", "/api/image/preview.png", b"");
     assert!(
@@ -462,11 +464,21 @@ fn a_set_is_shown_stencil_by_stencil_and_exported_as_make_writes_it() {
         e
     };
 
-    let s = st.ok("POST", "/api/params", json!({"layers": "2", "abstract": "0.4"}));
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"layers": "2", "abstract": "0.4"}),
+    );
     assert_eq!(s["set"]["layers"].as_array().map(Vec::len), Some(2), "{s}");
     assert_eq!(s["layer_reports"].as_array().map(Vec::len), Some(2));
     assert!(s["command"].as_str().unwrap().contains("--layers 2"));
-    for name in ["composite", "preview", "s1-preview", "s2-preview", "s2-stencil"] {
+    for name in [
+        "composite",
+        "preview",
+        "s1-preview",
+        "s2-preview",
+        "s2-stencil",
+    ] {
         let (code, b) = st.call("GET", &format!("/api/image/{name}.png"), b"");
         assert_eq!(code, 200, "{name}");
         assert!(b.starts_with(b"\x89PNG"), "{name}");
@@ -477,18 +489,34 @@ fn a_set_is_shown_stencil_by_stencil_and_exported_as_make_writes_it() {
     let (code, _) = st.json("POST", "/api/bridges", json!({"delete": 0}));
     assert_eq!(code, 409);
     let e = export_and_compare("layers");
-    let files: Vec<&str> = e["files"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
-    assert!(files.contains(&"layer-2/stencil.png") && files.contains(&"composite.png"), "{files:?}");
+    let files: Vec<&str> = e["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    assert!(
+        files.contains(&"layer-2/stencil.png") && files.contains(&"composite.png"),
+        "{files:?}"
+    );
 
     // The paper's fill-in layer: one stencil and the fill-in.
-    let s = st.ok("POST", "/api/params", json!({"layers": "", "fill-in": "true"}));
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"layers": "", "fill-in": "true"}),
+    );
     assert!(s["set"]["fill_in"].is_object(), "{}", s["set"]);
     assert_eq!(s["layer_reports"].as_array().map(Vec::len), Some(2));
     export_and_compare("fill-in");
     assert!(!out.join("layer-2").exists());
 
     // Back to one stencil: make's files, no set left behind.
-    let s = st.ok("POST", "/api/params", json!({"fill-in": "false", "brightness": "10"}));
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"fill-in": "false", "brightness": "10"}),
+    );
     assert!(s["set"].is_null());
     export_and_compare("one");
     assert!(!out.join("fill-in").exists() && !out.join("composite.png").exists());

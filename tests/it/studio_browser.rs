@@ -301,7 +301,11 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
     let sum5 = image_sum(&c).await;
     set_control(&c, "opt-brightness", "60").await;
     let v6 = shown_after(&c, v5).await;
-    assert_ne!(sum5, image_sum(&c).await, "the preview did not change with the brightness");
+    assert_ne!(
+        sum5,
+        image_sum(&c).await,
+        "the preview did not change with the brightness"
+    );
     let st = state(&c).await;
     assert_eq!(st["params"]["brightness"], "60");
     assert!(st["command"].as_str().unwrap().contains("--brightness 60"));
@@ -331,7 +335,11 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
         30,
     )
     .await;
-    assert_ne!(sum_layer1, image_sum(&c).await, "layer 2 looks like layer 1");
+    assert_ne!(
+        sum_layer1,
+        image_sum(&c).await,
+        "layer 2 looks like layer 1"
+    );
     set_control(&c, "layer-pick", "composite").await;
     until(
         &c,

@@ -301,7 +301,12 @@ impl Computed {
                     &j.bridged.bits,
                     1,
                 );
-                stencil_core::export::png::paint_dropped(&mut rgb, &j.bridged.bits, &j.dropped_px, 1);
+                stencil_core::export::png::paint_dropped(
+                    &mut rgb,
+                    &j.bridged.bits,
+                    &j.dropped_px,
+                    1,
+                );
                 fast_png(w, h, &rgb, true)
             }
             _ => return None,

@@ -95,7 +95,8 @@ impl SetRun {
             "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), false),
             "picture" => fast_png(w, h, &m.picture.to_u8(), false),
             "preview" => {
-                let mut rgb = png::preview_rgb(gray, &m.picture, &m.twotone.bits, &m.bridged.bits, 1);
+                let mut rgb =
+                    png::preview_rgb(gray, &m.picture, &m.twotone.bits, &m.bridged.bits, 1);
                 png::paint_dropped(&mut rgb, &m.bridged.bits, &m.dropped_px, 1);
                 fast_png(w, h, &rgb, true)
             }
@@ -640,18 +641,18 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
                 }
                 .map(Bytes::from)
             })
-                .await
-                .ok()
-                .flatten()
-                .ok_or_else(|| {
-                    bad(
-                        StatusCode::NOT_FOUND,
-                        format!(
-                            "no image {name}: gray, twotone, stencil, preview, picture (of a \
+            .await
+            .ok()
+            .flatten()
+            .ok_or_else(|| {
+                bad(
+                    StatusCode::NOT_FOUND,
+                    format!(
+                        "no image {name}: gray, twotone, stencil, preview, picture (of a \
                              set: sK-NAME for stencil K, and composite)"
-                        ),
-                    )
-                })?;
+                    ),
+                )
+            })?;
             done.images
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
