@@ -702,7 +702,7 @@ impl KeepOutFrame<'_> {
     /// image.
     fn place(&self, mask: Gray) -> Gray {
         let a = self.adjust;
-        if a.crop_px.is_none() && a.quarter_turns % 4 == 0 {
+        if a.crop_px.is_none() && a.quarter_turns.is_multiple_of(4) {
             return mask;
         }
         let whole = tone::picture_size(self.input).ok();

@@ -153,7 +153,7 @@ fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
         .collect();
     let mean_contrast = contrast.iter().map(|&c| c as f64).sum::<f64>() / n.max(1) as f64;
     let (mut total, mut weights) = (0.0, 0.0);
-    for i in 0..n {
+    for (i, &c) in contrast.iter().enumerate() {
         let (ux, uy) = (mx.data[i], my.data[i]);
         let vx = (xx.data[i] - ux * ux).max(0.0);
         let vy = (yy.data[i] - uy * uy).max(0.0);
@@ -161,7 +161,7 @@ fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
         let score = ((1.0 - (ux - uy).abs()) * (2.0 * cxy + c2) / (vx + vy + c2)) as f64;
         // A flat picture weighs every place alike.
         let w = if mean_contrast > 0.0 {
-            contrast[i] as f64 + FLAT_WEIGHT as f64 * mean_contrast
+            c as f64 + FLAT_WEIGHT as f64 * mean_contrast
         } else {
             1.0
         };
