@@ -294,8 +294,10 @@ pub struct BridgeArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=stencil_core::bridge::MAX_PER_ISLAND as i64))]
     pub bridges_per_island: u32,
     /// A picture marking where no bridge may go (a face, a signature): dark (under half gray) =
-    /// keep out. Any size: it is scaled to the picture. An island that can only be joined through
-    /// the dark areas is an error naming it.
+    /// keep out. Any size: it is scaled to the picture. With --crop or --rotate, one the size of
+    /// the whole picture is cropped and turned with it; any other size is taken as the stencil's
+    /// frame (the cropped, turned picture, as the studio paints it). An island that can only be
+    /// joined through the dark areas is an error naming it.
     #[arg(long, value_name = "MASK")]
     pub keep_out: Option<std::path::PathBuf>,
     /// A bridge from the island under (or nearest) this point, as close to it as the material
@@ -524,9 +526,7 @@ fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a)?;
-    // A set (layers, a fill-in) or registration marks for a mask: every sheet registered.
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
-    if let Some(lc) = a.layers.config(marks) {
+    if let Some(lc) = set_config(a) {
         return super::layers::make_set(cfg, &lc, a.layers.fill_in);
     }
     let bar = StageBar::start();
@@ -539,6 +539,13 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_made(&cfg, &made, &replaced);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The set `make` cuts instead of one stencil, if any: layers, a fill-in, or registration marks
+/// for a mask (every sheet registered).
+pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersConfig> {
+    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
+    a.layers.config(marks)
 }
 
 /// The pipeline's settings from the command line, each option checked in the order given here

@@ -13,7 +13,8 @@ use serde_json::Value;
 use stencil_core::MakeConfig;
 use stencil_studio::{Kind, OptionSpec};
 
-use super::make::{make_config, make_error, MakeArgs};
+use super::make::{make_config, make_error, set_config, MakeArgs};
+use stencil_core::layers::LayersConfig;
 
 #[derive(Args, Debug)]
 #[command(after_help = "\
@@ -89,19 +90,28 @@ impl stencil_studio::Maker for CliMaker {
     }
 
     fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
-        let argv = ["stencil", "make"]
-            .into_iter()
-            .map(String::from)
-            .chain(args.iter().cloned());
-        let cli = super::Cli::try_parse_from(argv).map_err(|e| clap_message(&e))?;
-        let super::Command::Make(a) = cli.command else {
-            return Err("not a make command".into());
-        };
-        make_config(&a).map_err(|e| super::errors::one_line(&e))
+        make_config(&parse_make(args)?).map_err(|e| super::errors::one_line(&e))
+    }
+
+    fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
+        Ok(set_config(&parse_make(args)?))
     }
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
         super::errors::one_line(&make_error(cfg, e))
+    }
+}
+
+/// `stencil make ARGS` parsed as the command line parses it.
+fn parse_make(args: &[String]) -> Result<MakeArgs, String> {
+    let argv = ["stencil", "make"]
+        .into_iter()
+        .map(String::from)
+        .chain(args.iter().cloned());
+    let cli = super::Cli::try_parse_from(argv).map_err(|e| clap_message(&e))?;
+    match cli.command {
+        super::Command::Make(a) => Ok(*a),
+        _ => Err("not a make command".into()),
     }
 }
 

@@ -241,7 +241,8 @@ pub fn read_until(port: &mut serialport::TTYPort, needle: &str) -> String {
 
 // ---- the studio's tests (tests/studio.rs, tests/studio_browser.rs) ----
 
-/// Every file of two output folders equal, report.json but for `timings_ms`.
+/// Every file of two output folders equal (a set's layer folders too), each report.json but for
+/// `timings_ms`.
 pub fn same_outputs(a: &Path, b: &Path, what: &str) {
     let names = |d: &Path| {
         let mut v: Vec<String> = std::fs::read_dir(d)
@@ -254,6 +255,10 @@ pub fn same_outputs(a: &Path, b: &Path, what: &str) {
     };
     assert_eq!(names(a), names(b), "{what}");
     for n in names(a) {
+        if a.join(&n).is_dir() {
+            same_outputs(&a.join(&n), &b.join(&n), &format!("{what}: {n}/"));
+            continue;
+        }
         let (x, y) = (
             std::fs::read(a.join(&n)).unwrap(),
             std::fs::read(b.join(&n)).unwrap(),

@@ -305,14 +305,16 @@ fn export_after_random_changes_is_what_make_writes() {
         (99, "samples/rings.png"),
         (2026, "samples/target.png"),
         (5, "samples/blobs.png"),
+        (27, "samples/grace_hopper.jpg"),
+        (2702, "samples/shaded.png"),
     ];
     for (seed, input) in runs {
         let out = tmp(&format!("random-{seed}"));
         let st = Studio::start(input, &out, &["--emit", "png,svg,dxf"]);
         let mut rng = Rng(seed);
         let mut log = Vec::new();
-        for _ in 0..8 {
-            let choice = rng.next() % 9;
+        for _ in 0..10 {
+            let choice = rng.next() % 16;
             let (path, body) = match choice {
                 0 => (
                     "/api/params",
@@ -358,7 +360,36 @@ fn export_after_random_changes_is_what_make_writes() {
                     );
                     ("/api/bridges", json!({"pin": [x, y]}))
                 }
-                _ => (rng.pick(&["/api/undo", "/api/redo"]), json!(null)),
+                8 => (rng.pick(&["/api/undo", "/api/redo"]), json!(null)),
+                // The picture's adjustments (issue 27), as the page's sliders send them.
+                9 => (
+                    "/api/params",
+                    json!({"brightness": rng.pick(&["0", "-30", "25"]), "contrast": rng.pick(&["0", "40", "-20"])}),
+                ),
+                10 => (
+                    "/api/params",
+                    json!({"gamma": rng.pick(&["1", "0.6", "1.8"]), "smooth": rng.pick(&["0", "0.3"])}),
+                ),
+                11 => (
+                    "/api/params",
+                    json!({"abstract": rng.pick(&["0", "0.4", "0.8"])}),
+                ),
+                12 => (
+                    "/api/params",
+                    json!({"local-threshold": rng.pick(&["0", "2", "6"])}),
+                ),
+                13 => (
+                    "/api/params",
+                    json!({"crop": rng.pick(&["", "1,1,12,10", "3,2,9,9"]), "rotate": rng.pick(&["0", "90", "180", "270"])}),
+                ),
+                14 => (
+                    "/api/params",
+                    json!({"keep-all-islands": rng.pick(&["true", "false"])}),
+                ),
+                _ => (
+                    "/api/params",
+                    json!({"threshold": rng.pick(&["auto", "otsu", "110"])}),
+                ),
             };
             let (s, v) = st.json("POST", path, body.clone());
             log.push(format!("{path} {body} -> {s}"));
@@ -399,4 +430,101 @@ fn export_after_random_changes_is_what_make_writes() {
         "only {exported} of {} sequences exported",
         runs.len()
     );
+}
+
+/// A set (issue 27): `layers` and `fill-in` on the page show each stencil and the composite, and
+/// export writes what `make` writes for the command line shown, layer folders and all; back to
+/// one stencil, export leaves no layer folder behind (as `make` does). Dropped islands are
+/// counted in the report and yellow in the page's preview.
+#[test]
+fn a_set_is_shown_stencil_by_stencil_and_exported_as_make_writes_it() {
+    let out = tmp("set");
+    let st = Studio::start("samples/grace_hopper.jpg", &out, &[]);
+    let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
+    let dropped = s0["report"]["dropped_islands"]
+        .as_array()
+        .map_or(0, Vec::len);
+    assert!(dropped > 0, "grace_hopper.jpg drops islands by default");
+    let (_, preview) = st.call("GET", "/api/image/preview.png", b"");
+    assert!(
+        has_rgb(&preview, [255, 220, 0]),
+        "the dropped islands are yellow in the page's preview"
+    );
+    let s = st.ok("POST", "/api/params", json!({"keep-all-islands": "true"}));
+    assert!(s["report"]["dropped_islands"].is_null(), "{}", s["report"]);
+
+    let export_and_compare = |what: &str| {
+        let state = st.ok("GET", "/api/state?wait=1", json!(null));
+        let command = state["command"].as_str().unwrap().to_string();
+        let e = st.ok("POST", "/api/export", json!(null));
+        let made = tmp(&format!("set-make-{what}"));
+        make_as_shown(&command, &made);
+        same_outputs(&out, &made, &format!("{what}: {command}"));
+        let _ = std::fs::remove_dir_all(&made);
+        e
+    };
+
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"layers": "2", "abstract": "0.4"}),
+    );
+    assert_eq!(s["set"]["layers"].as_array().map(Vec::len), Some(2), "{s}");
+    assert_eq!(s["layer_reports"].as_array().map(Vec::len), Some(2));
+    assert!(s["command"].as_str().unwrap().contains("--layers 2"));
+    for name in [
+        "composite",
+        "preview",
+        "s1-preview",
+        "s2-preview",
+        "s2-stencil",
+    ] {
+        let (code, b) = st.call("GET", &format!("/api/image/{name}.png"), b"");
+        assert_eq!(code, 200, "{name}");
+        assert!(b.starts_with(b"\x89PNG"), "{name}");
+    }
+    let (code, _) = st.call("GET", "/api/image/s3-preview.png", b"");
+    assert_eq!(code, 404, "a two-layer set has no third stencil");
+    // A bridge of a set is not deleted by index (each layer has its own).
+    let (code, _) = st.json("POST", "/api/bridges", json!({"delete": 0}));
+    assert_eq!(code, 409);
+    let e = export_and_compare("layers");
+    let files: Vec<&str> = e["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    assert!(
+        files.contains(&"layer-2/stencil.png") && files.contains(&"composite.png"),
+        "{files:?}"
+    );
+
+    // The paper's fill-in layer: one stencil and the fill-in.
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"layers": "", "fill-in": "true"}),
+    );
+    assert!(s["set"]["fill_in"].is_object(), "{}", s["set"]);
+    assert_eq!(s["layer_reports"].as_array().map(Vec::len), Some(2));
+    export_and_compare("fill-in");
+    assert!(!out.join("layer-2").exists());
+
+    // Back to one stencil: make's files, no set left behind.
+    let s = st.ok(
+        "POST",
+        "/api/params",
+        json!({"fill-in": "false", "brightness": "10"}),
+    );
+    assert!(s["set"].is_null());
+    export_and_compare("one");
+    assert!(!out.join("fill-in").exists() && !out.join("composite.png").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Whether a PNG (RGB, 8 bits) has a pixel of this colour.
+fn has_rgb(png: &[u8], c: [u8; 3]) -> bool {
+    let img = image::load_from_memory(png).unwrap().to_rgb8();
+    img.pixels().any(|p| p.0 == c)
 }

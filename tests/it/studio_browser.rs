@@ -1,7 +1,9 @@
 //! The studio's page end to end in a real headless browser (Debian's `chromium` driven through
 //! `chromedriver` with fantoccini): load the page, move the threshold slider and see the preview
 //! change, delete a bridge and see another hold its island, pin one, export, and compare the
-//! exported files byte for byte with `stencil make` run with the command line the page shows.
+//! exported files byte for byte with `stencil make` run with the command line the page shows;
+//! then brighten the picture and see the preview change, and cut two layers and pick one of
+//! them and the composite in the layer selector.
 //! Screenshots go to `target/tmp/studio-*.png`.
 //!
 //! Without `chromedriver` on the PATH the test says so and passes, unless
@@ -98,6 +100,17 @@ async fn image_sum(c: &Client) -> u64 {
         .await
         .unwrap();
     v.as_u64().unwrap()
+}
+
+/// Set a control of the page as a person does (its value, then `input` and `change`).
+async fn set_control(c: &Client, id: &str, value: &str) {
+    c.execute(
+        "const e = document.getElementById(arguments[0]); e.value = arguments[1];
+         e.dispatchEvent(new Event('input')); e.dispatchEvent(new Event('change'));",
+        vec![json!(id), json!(value)],
+    )
+    .await
+    .unwrap();
 }
 
 async fn state(c: &Client) -> Value {
@@ -257,7 +270,6 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
     let st = state(&c).await;
     assert_eq!(st["params"]["bridge-at"].as_array().map(Vec::len), Some(1));
     assert!(st["report"]["user_bridges"]["bridge_at"][0]["start_mm"].is_array());
-    let _ = v4;
     shot(&c, "4-pinned").await;
 
     // Export: the files make writes for the command line the page shows.
@@ -283,6 +295,63 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
         .await
         .unwrap()
         .unwrap();
+
+    // The picture's adjustments are sliders: brighten the picture and the preview changes.
+    let v5 = v4;
+    let sum5 = image_sum(&c).await;
+    set_control(&c, "opt-brightness", "60").await;
+    let v6 = shown_after(&c, v5).await;
+    assert_ne!(
+        sum5,
+        image_sum(&c).await,
+        "the preview did not change with the brightness"
+    );
+    let st = state(&c).await;
+    assert_eq!(st["params"]["brightness"], "60");
+    assert!(st["command"].as_str().unwrap().contains("--brightness 60"));
+    shot(&c, "6-brightness").await;
+    set_control(&c, "opt-brightness", "0").await;
+    let v7 = shown_after(&c, v6).await;
+
+    // Two layers: a selector of the stencils and the composite appears; the composite shows.
+    set_control(&c, "opt-layers", "2").await;
+    let v8 = shown_after(&c, v7).await;
+    let options = until(
+        &c,
+        "the layer selector",
+        "const b = document.getElementById('layer-pick-box'), s = document.getElementById('layer-pick');
+         return !b.hidden && s.options.length ? [...s.options].map(o => o.value) : null;",
+        30,
+    )
+    .await;
+    assert_eq!(options, json!(["1", "2", "composite"]));
+    let sum_layer1 = image_sum(&c).await;
+    set_control(&c, "layer-pick", "2").await;
+    until(
+        &c,
+        "layer 2's preview",
+        "const i = document.getElementById('img');
+         return i.src.includes('/s2-preview.png') && i.complete && i.naturalWidth > 0;",
+        30,
+    )
+    .await;
+    assert_ne!(
+        sum_layer1,
+        image_sum(&c).await,
+        "layer 2 looks like layer 1"
+    );
+    set_control(&c, "layer-pick", "composite").await;
+    until(
+        &c,
+        "the composite",
+        "const i = document.getElementById('img');
+         return i.src.includes('/composite.png') && i.complete && i.naturalWidth > 0;",
+        30,
+    )
+    .await;
+    shot(&c, "7-layers").await;
+    let _ = v8;
+
     c.close().await.unwrap();
     let made = out.with_extension("make");
     let _ = std::fs::remove_dir_all(&made);

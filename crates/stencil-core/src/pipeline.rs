@@ -592,7 +592,13 @@ pub fn resolve(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Error> 
     }
     let regularize_px = filter_cfg.auto_radius.then(|| phys.feature_px(scale));
     let mut bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
-    let (user, kept_out_px) = user_bridges(&mut bridge_cfg, w, h, scale, cfg.tone.max_pixels)?;
+    let frame = KeepOutFrame {
+        input: &cfg.input,
+        adjust: &cfg.tone.adjust,
+        stencil_px: (sw, sh),
+    };
+    let (user, kept_out_px) =
+        user_bridges(&mut bridge_cfg, w, h, scale, cfg.tone.max_pixels, &frame)?;
     Ok(StageParams {
         working,
         tone: ToneParams {
@@ -677,6 +683,42 @@ fn working_resolution(cfg: &MakeConfig, width: u32, height: u32) -> Result<Worki
     })
 }
 
+/// What decides the keep-out picture's frame: the picture it belongs to, its crop and turns, and
+/// the stencil's frame in picture pixels (after them, before any supersampling).
+struct KeepOutFrame<'a> {
+    input: &'a Path,
+    adjust: &'a tone::Adjust,
+    stencil_px: (u32, u32),
+}
+
+impl KeepOutFrame<'_> {
+    /// The keep-out picture in the stencil's frame. Two frames are possible once the picture is
+    /// cropped or turned: a person painting over the original photo works in the whole picture's
+    /// frame, the studio paints over the stencil. The size tells them apart: a keep-out picture
+    /// of the whole picture's size (as shown, after its EXIF orientation), when the stencil's
+    /// frame has another size, is in the whole picture's frame and is cropped and turned exactly
+    /// as the picture is; any other is taken as the stencil's frame (when both frames have one
+    /// size, a half turn without a crop, the stencil's). Either is then stretched over the working
+    /// image.
+    fn place(&self, mask: Gray) -> Gray {
+        let a = self.adjust;
+        if a.crop_px.is_none() && a.quarter_turns.is_multiple_of(4) {
+            return mask;
+        }
+        let whole = tone::picture_size(self.input).ok();
+        let size = (mask.width, mask.height);
+        if whole == Some(size) && size != self.stencil_px {
+            let frame_only = tone::Adjust {
+                crop_px: a.crop_px,
+                quarter_turns: a.quarter_turns,
+                ..Default::default()
+            };
+            return frame_only.apply(&mask);
+        }
+        mask
+    }
+}
+
 /// The user's bridge options on the working image (see `bridge::constraints`): the keep-out
 /// mask and discs made a grid of forbidden pixels, `--bridge-at` points made pixels. Returns what
 /// the report needs (`None` when no option was given) and the pixels kept out.
@@ -686,6 +728,7 @@ fn user_bridges(
     h: u32,
     scale: Scale,
     max_pixels: u64,
+    frame: &KeepOutFrame,
 ) -> Result<(Option<UserParams>, usize), Error> {
     let u = &mut bridge.user;
     if u.keep_out_mask.is_none()
@@ -700,7 +743,7 @@ fn user_bridges(
     if u.keep_out_mask.is_some() || !u.no_bridge_near_mm.is_empty() {
         let mut grid = BitGrid::new(w, h, false);
         if let Some(path) = &u.keep_out_mask {
-            let mask = crate::tone::image::load_gray(path, max_pixels)?;
+            let mask = frame.place(crate::tone::image::load_gray(path, max_pixels)?);
             // Nearest sample of the mask at each working pixel's centre.
             for y in 0..h {
                 let my = (((y as f64 + 0.5) / h as f64) * mask.height as f64) as u32;

@@ -261,7 +261,7 @@ impl Computed {
 }
 
 /// A PNG made for the page: fast compression (it is sent once, over a loopback).
-fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
+pub(crate) fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
     let mut out = Vec::new();
     {
         let mut e = png::Encoder::new(&mut out, width, height);
@@ -293,18 +293,22 @@ impl Computed {
             "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
             "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
             "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
-            "preview" => fast_png(
-                w,
-                h,
-                &stencil_core::export::png::preview_rgb(
+            "preview" => {
+                let mut rgb = stencil_core::export::png::preview_rgb(
                     &c.gray.0,
                     &c.cleaned.picture,
                     &j.twotone.bits,
                     &j.bridged.bits,
                     1,
-                ),
-                true,
-            ),
+                );
+                stencil_core::export::png::paint_dropped(
+                    &mut rgb,
+                    &j.bridged.bits,
+                    &j.dropped_px,
+                    1,
+                );
+                fast_png(w, h, &rgb, true)
+            }
             _ => return None,
         })
     }

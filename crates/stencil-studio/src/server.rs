@@ -25,7 +25,11 @@ use axum::{Json, Router};
 use serde_json::{json, Value};
 use tokio::sync::watch;
 
-use crate::engine::{Computed, Engine, RunError};
+use stencil_core::export::png;
+use stencil_core::layers::{Layered, LayersConfig};
+use stencil_core::pipeline::Made;
+
+use crate::engine::{fast_png, Computed, Engine, RunError};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::Maker;
 
@@ -48,10 +52,63 @@ pub struct StudioConfig {
     pub port: u16,
 }
 
+/// What a run computed: one stencil, through the incremental engine, or a set.
+#[derive(Clone)]
+enum Shown {
+    One(Arc<Computed>),
+    Set(Arc<SetRun>),
+}
+
+/// A set (`--layers`, `--fill-in`, registration marks for a mask) as `make` computes it, by
+/// `stencil_core::layers::run`. Not incremental: each layer's bridges depend on the darker
+/// layers' stencils, so a change runs the whole set again, and a newer change waits for it.
+struct SetRun {
+    cfg: stencil_core::MakeConfig,
+    lc: LayersConfig,
+    set: Layered,
+}
+
+impl SetRun {
+    /// The stencils in painting order: the layers, then the fill-in.
+    fn stencils(&self) -> Vec<&Made> {
+        self.set.layers.iter().chain(&self.set.fill_in).collect()
+    }
+
+    /// One of the page's images: `composite` (the painted set, the picture's size), or
+    /// `NAME` / `sK-NAME` for stencil K (1-based, in painting order, the fill-in last) with a
+    /// NAME as [`Computed::image`] has.
+    fn image(&self, name: &str) -> Option<Vec<u8>> {
+        if name == "composite" {
+            let (w, h) = (self.set.tones.luma.width, self.set.tones.luma.height);
+            return Some(fast_png(w, h, &self.set.composite, true));
+        }
+        let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
+            Some((k, what)) => (k.parse::<usize>().ok()?, what),
+            None => (1, name),
+        };
+        let m = *self.stencils().get(k.checked_sub(1)?)?;
+        let (w, h) = (m.bridged.bits.width, m.bridged.bits.height);
+        let gray = &m.twotone.gray;
+        Some(match what {
+            "gray" => fast_png(w, h, &gray.to_u8(), false),
+            "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), false),
+            "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), false),
+            "picture" => fast_png(w, h, &m.picture.to_u8(), false),
+            "preview" => {
+                let mut rgb =
+                    png::preview_rgb(gray, &m.picture, &m.twotone.bits, &m.bridged.bits, 1);
+                png::paint_dropped(&mut rgb, &m.bridged.bits, &m.dropped_px, 1);
+                fast_png(w, h, &rgb, true)
+            }
+            _ => return None,
+        })
+    }
+}
+
 /// One finished run, as the page sees it.
 struct Done {
     version: u64,
-    outcome: Result<Arc<Computed>, String>,
+    outcome: Result<Shown, String>,
     /// Why `make` would write nothing for it, in `make`'s words.
     refused: Option<String>,
     ms: f64,
@@ -63,7 +120,8 @@ struct History {
     states: Vec<Params>,
     at: usize,
     version: u64,
-    job: Option<(u64, stencil_core::MakeConfig)>,
+    /// The newest change to compute: its version, configuration and set (if one).
+    job: Option<(u64, stencil_core::MakeConfig, Option<LayersConfig>)>,
     stop: bool,
 }
 
@@ -113,9 +171,14 @@ impl Studio {
     /// Take `p` as the new state (after `make`'s own checks), remembered for undo unless
     /// `push` is false; returns its version.
     fn apply(&self, p: Params, push: bool) -> Result<u64, (StatusCode, Json<Value>)> {
+        let args = self.args(&p);
         let cfg = self
             .maker
-            .config(&self.args(&p))
+            .config(&args)
+            .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
+        let set = self
+            .maker
+            .set(&args)
             .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
         let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
         if push {
@@ -129,7 +192,7 @@ impl Studio {
         }
         h.version += 1;
         let v = h.version;
-        h.job = Some((v, cfg));
+        h.job = Some((v, cfg, set));
         self.wanted.store(v, Ordering::SeqCst);
         self.wake.notify_all();
         drop(h);
@@ -151,7 +214,7 @@ impl Studio {
     fn work(self: Arc<Self>) {
         let mut engine = Engine::new();
         loop {
-            let (v, cfg) = {
+            let (v, cfg, set) = {
                 let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
                 loop {
                     if h.stop {
@@ -166,13 +229,19 @@ impl Studio {
             let t0 = Instant::now();
             let superseded = || self.wanted.load(Ordering::SeqCst) != v;
             let mut refused = None;
-            let outcome = match engine.run(&cfg, &superseded) {
-                Err(RunError::Cancelled) => continue,
-                Err(RunError::Core(e)) => Err(self.maker.describe(&cfg, e)),
-                Ok(mut c) => {
-                    refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
-                    Ok(Arc::new(c))
-                }
+            let outcome = match set {
+                Some(lc) => match stencil_core::layers::run(&cfg, &lc) {
+                    Ok(set) => Ok(Shown::Set(Arc::new(SetRun { cfg, lc, set }))),
+                    Err(e) => Err(self.maker.describe(&cfg, e)),
+                },
+                None => match engine.run(&cfg, &superseded) {
+                    Err(RunError::Cancelled) => continue,
+                    Err(RunError::Core(e)) => Err(self.maker.describe(&cfg, e)),
+                    Ok(mut c) => {
+                        refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
+                        Ok(Shown::One(Arc::new(c)))
+                    }
+                },
             };
             self.done.send_replace(Arc::new(Done {
                 version: v,
@@ -209,7 +278,26 @@ impl Studio {
         });
         match &done.outcome {
             Err(e) => s["error"] = json!(e),
-            Ok(c) => {
+            Ok(Shown::Set(set)) => {
+                // The page shows one stencil of the set at a time (`layer_reports[k]`; `report`
+                // is the first) or the composite.
+                let stencils = set.stencils();
+                let reports: Vec<Value> = stencils
+                    .iter()
+                    .map(|m| serde_json::to_value(&m.report).unwrap_or(Value::Null))
+                    .collect();
+                let first = stencils[0];
+                let luma = &set.set.tones.luma;
+                s["set"] = serde_json::to_value(&set.set.report).unwrap_or(Value::Null);
+                s["report"] = reports[0].clone();
+                s["layer_reports"] = json!(reports);
+                s["histogram"] = json!(histogram(luma));
+                s["mm_per_px"] = json!(first.scale.mm_per_px);
+                s["width_px"] = json!(first.report.width_px);
+                s["height_px"] = json!(first.report.height_px);
+                s["composite_px"] = json!([luma.width, luma.height]);
+            }
+            Ok(Shown::One(c)) => {
                 let r = &c.report;
                 s["report"] = serde_json::to_value(r).unwrap_or(Value::Null);
                 s["refused"] = json!(done.refused);
@@ -360,11 +448,21 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
     let (cur, ..) = s.current();
     let (name, value) = if let Some(n) = req.get("delete").and_then(Value::as_u64) {
         let done = s.done.borrow().clone();
-        let Ok(c) = &done.outcome else {
-            return Err(bad(
-                StatusCode::CONFLICT,
-                "no stencil to delete a bridge from",
-            ));
+        let c = match &done.outcome {
+            Ok(Shown::One(c)) => c,
+            Ok(Shown::Set(_)) => {
+                return Err(bad(
+                    StatusCode::CONFLICT,
+                    "a set's bridges are chosen per layer; keep them away with no-bridge-near \
+                     discs (Bridges), which every layer obeys",
+                ))
+            }
+            Err(_) => {
+                return Err(bad(
+                    StatusCode::CONFLICT,
+                    "no stencil to delete a bridge from",
+                ))
+            }
         };
         let bridges = &c.traced.0.bridged.bridges;
         let b = bridges.get(n as usize).ok_or_else(|| {
@@ -475,26 +573,37 @@ async fn post_keepout(State(s): State<Shared>, body: Bytes) -> ApiResult {
 async fn post_export(State(s): State<Shared>) -> ApiResult {
     let v = s.wanted.load(Ordering::SeqCst);
     let done = s.wait_for(v).await;
-    let c = match &done.outcome {
+    let shown = match &done.outcome {
         Ok(c) => c.clone(),
         Err(e) => return Err(bad(StatusCode::CONFLICT, e.clone())),
     };
     let (params, ..) = s.current();
     let command = s.command(&params);
     let s2 = s.clone();
-    let written = tokio::task::spawn_blocking(move || {
-        let made = c.made().map_err(|e| s2.maker.describe(&c.cfg, e))?;
-        stencil_core::pipeline::write(&c.cfg, made)
+    let written = tokio::task::spawn_blocking(move || match shown {
+        Shown::One(c) => {
+            let made = c.made().map_err(|e| s2.maker.describe(&c.cfg, e))?;
+            stencil_core::pipeline::write(&c.cfg, made)
+                .map(|(_, r)| r)
+                .map_err(|e| s2.maker.describe(&c.cfg, e))
+        }
+        // `make`'s own set writer: it runs the set again (a set is not kept stage by stage).
+        Shown::Set(set) => stencil_core::layers::make(&set.cfg, &set.lc)
             .map(|(_, r)| r)
-            .map_err(|e| s2.maker.describe(&c.cfg, e))
+            .map_err(|e| s2.maker.describe(&set.cfg, e)),
     })
     .await
     .map_err(|e| bad(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
     .map_err(|e| bad(StatusCode::CONFLICT, e))?;
+    // Names in the output folder (a set's files are in its layer folders).
     let names = |v: &[PathBuf]| -> Vec<String> {
         v.iter()
-            .filter_map(|p| p.file_name())
-            .map(|n| n.to_string_lossy().into_owned())
+            .map(|p| {
+                p.strip_prefix(&s.out_dir)
+                    .unwrap_or(p)
+                    .display()
+                    .to_string()
+            })
             .collect()
     };
     Ok(Json(json!({
@@ -511,7 +620,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
         .strip_suffix(".png")
         .ok_or_else(|| bad(StatusCode::NOT_FOUND, "images are NAME.png"))?;
     let done = s.done.borrow().clone();
-    let Ok(c) = &done.outcome else {
+    let Ok(shown) = &done.outcome else {
         return Err(bad(StatusCode::CONFLICT, "no stencil yet"));
     };
     let cached = done
@@ -523,18 +632,27 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
     let png = match cached {
         Some(p) => p,
         None => {
-            let c = c.clone();
+            let shown = shown.clone();
             let n = name.to_string();
-            let p = tokio::task::spawn_blocking(move || c.image(&n).map(Bytes::from))
-                .await
-                .ok()
-                .flatten()
-                .ok_or_else(|| {
-                    bad(
-                        StatusCode::NOT_FOUND,
-                        format!("no image {name}: gray, twotone, stencil, preview, picture"),
-                    )
-                })?;
+            let p = tokio::task::spawn_blocking(move || {
+                match shown {
+                    Shown::One(c) => c.image(&n),
+                    Shown::Set(set) => set.image(&n),
+                }
+                .map(Bytes::from)
+            })
+            .await
+            .ok()
+            .flatten()
+            .ok_or_else(|| {
+                bad(
+                    StatusCode::NOT_FOUND,
+                    format!(
+                        "no image {name}: gray, twotone, stencil, preview, picture (of a \
+                             set: sK-NAME for stencil K, and composite)"
+                    ),
+                )
+            })?;
             done.images
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())

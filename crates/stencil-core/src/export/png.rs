@@ -66,7 +66,13 @@ pub(crate) fn preview(
 ) -> Vec<u8> {
     let f = preview_factor(stencil.width, stencil.height);
     let mut rgb = preview_rgb(gray, picture, twotone, stencil, f);
-    // Dropped islands (cut in the stencil) in their own colour.
+    paint_dropped(&mut rgb, stencil, dropped, f);
+    encode_rgb(stencil.width * f, stencil.height * f, &rgb)
+}
+
+/// Colour the dropped islands' pixels (cut in `stencil`) [`DROPPED_RGB`] in a preview made by
+/// [`preview_rgb`] with the same `f` (the studio's page shows them as `preview.png` does).
+pub fn paint_dropped(rgb: &mut [u8], stencil: &BitGrid, dropped: &[u32], f: u32) {
     let (w, f) = (stencil.width as usize, f as usize);
     for &i in dropped {
         let (x, y) = (i as usize % w, i as usize / w);
@@ -81,8 +87,6 @@ pub(crate) fn preview(
             }
         }
     }
-    let f = f as u32;
-    encode_rgb(stencil.width * f, stencil.height * f, &rgb)
 }
 
 /// The preview's RGB pixels, each working pixel an `f` × `f` square (the studio sends them at

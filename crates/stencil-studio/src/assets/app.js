@@ -4,6 +4,19 @@ const TOKEN = new URLSearchParams(location.search).get("token") || "";
 const $ = (id) => document.getElementById(id);
 let options = [], state = null, info = null, imgName = "preview", mode = "look";
 let view = { x: 10, y: 10, k: 1 }, fitted = false, shownVersion = -1;
+// Which stencil of a set the viewer shows (1-based, in painting order, the fill-in last), or
+// "composite" for the painted result.
+let pick = 1;
+
+// How the page presents some of make's options (the rest are text fields with make's own help):
+// a range for the picture's adjustments and the mesh's light, a list where make takes few values.
+const PRESENT = {
+  brightness: { range: [-100, 100, 1] }, contrast: { range: [-100, 100, 1] },
+  gamma: { range: [0.2, 4, 0.05] }, smooth: { range: [0, 5, 0.1] }, abstract: { range: [0, 1, 0.05] },
+  "local-threshold": { range: [0, 30, 0.5] }, ambient: { range: [0, 1, 0.05] }, fill: { range: [0, 1, 0.05] },
+  rotate: { choices: ["0", "90", "180", "270"] }, up: { choices: ["Y", "Z", "X", "-Y", "-Z", "-X"] },
+  layers: { choices: ["2", "3", "4", "5", "6"] }, view: { list: "view-names" },
+};
 
 async function api(method, path, body, raw) {
   const opt = { method, headers: { "Authorization": "Bearer " + TOKEN } };
@@ -44,8 +57,30 @@ function buildControls() {
       const label = document.createElement("label");
       label.textContent = o.name;
       label.title = o.help;
-      let input;
-      if (o.kind === "flag") {
+      let input, box;
+      const pr = PRESENT[o.name] || {};
+      if (pr.range) {
+        // A slider with its value beside it; releasing it applies (as the threshold's).
+        input = document.createElement("input");
+        input.type = "range";
+        [input.min, input.max, input.step] = pr.range;
+        const out = document.createElement("output");
+        input.oninput = () => { out.textContent = input.value; };
+        input.onchange = () => send({ [o.name]: input.value });
+        input.title = o.help;
+        box = document.createElement("span");
+        box.className = "range";
+        box.append(input, out);
+      } else if (pr.choices) {
+        input = document.createElement("select");
+        for (const c of [""].concat(pr.choices)) {
+          const op = document.createElement("option");
+          op.value = c; op.textContent = c || "(" + (o.default.join(",") || "none") + ")";
+          input.appendChild(op);
+        }
+        input.title = o.help;
+        input.onchange = () => send({ [o.name]: input.value });
+      } else if (o.kind === "flag") {
         input = document.createElement("input");
         input.type = "checkbox";
         input.onchange = () => send({ [o.name]: input.checked ? "true" : "false" });
@@ -66,10 +101,11 @@ function buildControls() {
           send({ [o.name]: o.kind === "list" ? (v ? v.split(";").map((s) => s.trim()) : []) : (v === "" ? "" : v) });
         };
       }
+      if (pr.list) input.setAttribute("list", pr.list);
       input.id = "opt-" + o.name;
       input.dataset.name = o.name;
       label.htmlFor = input.id;
-      row.append(label, input);
+      row.append(label, box || input);
       d.appendChild(row);
     }
     root.appendChild(d);
@@ -84,6 +120,10 @@ function showParams(p) {
     el.classList.remove("bad");
     if (o.kind === "flag") el.checked = v === "true";
     else if (o.kind === "list") el.value = (v || []).join("; ");
+    else if (el.type === "range") {
+      el.value = v === "" ? (o.default[0] || el.min) : v;
+      el.nextSibling.textContent = el.value;
+    }
     else {
       const shown = (v === o.default.join(",")) ? "" : v;
       // A profile given by path (or one added since the page loaded) joins the list.
@@ -131,7 +171,8 @@ function drawHist() {
     g.fillRect(i, c.height - v, 1, v);
   }
   const mark = (x, color, dash) => { g.strokeStyle = color; g.setLineDash(dash); g.beginPath(); g.moveTo(x + .5, 0); g.lineTo(x + .5, c.height); g.stroke(); };
-  mark(state.otsu, "#06c", [4, 3]);
+  if (state.set) { for (const l of state.set.layers) mark(l.level, l.color, []); return; }
+  if (state.otsu !== undefined) mark(state.otsu, "#06c", [4, 3]);
   const lvl = state.report ? state.report.threshold_level : null;
   if (lvl !== null && lvl !== undefined) mark(lvl, "#c00", []);
 }
@@ -139,12 +180,19 @@ function drawHist() {
 $("threshold-slider").oninput = () => { $("level-text").textContent = "level " + $("threshold-slider").value + " (releasing applies)"; };
 $("threshold-slider").onchange = () => send({ threshold: $("threshold-slider").value });
 $("otsu-btn").onclick = () => send({ threshold: "otsu" });
+$("auto-btn").onclick = () => send({ threshold: "auto" });
 
 // ---- images, zoom and pan ----------------------------------------------------------------------
 function applyView() { $("layer").style.transform = `translate(${view.x}px,${view.y}px) scale(${view.k})`; }
+// The shown image's size in its own pixels: the working image, or the composite (the picture's
+// size, without the marks' band).
+function shownSize() {
+  if (state && state.set && pick === "composite") return state.composite_px;
+  return [state.width_px, state.height_px];
+}
 function fit() {
   if (!state || !state.width_px) return;
-  const st = $("stage"), w = state.width_px, h = state.height_px;
+  const st = $("stage"), [w, h] = shownSize();
   view.k = Math.min((st.clientWidth - 20) / w, (st.clientHeight - 20) / h);
   view.x = (st.clientWidth - w * view.k) / 2; view.y = (st.clientHeight - h * view.k) / 2;
   applyView();
@@ -152,9 +200,36 @@ function fit() {
 $("fit").onclick = fit;
 function loadImages(v) {
   const q = "?token=" + TOKEN + "&v=" + v;
-  $("img").src = "/api/image/" + imgName + ".png" + q;
-  $("before").src = "/api/image/picture.png" + q;
+  const set = state && state.set, comp = set && pick === "composite";
+  const pre = set && !comp ? "s" + pick + "-" : "";
+  $("img").src = "/api/image/" + (comp ? "composite" : pre + imgName) + ".png" + q;
+  $("before").hidden = comp;
+  if (!comp) $("before").src = "/api/image/" + pre + "picture.png" + q;
 }
+
+// A set: the selector lists its stencils and the composite; the report and the overlay follow
+// the stencil shown.
+function showPick() {
+  const sel = $("layer-pick"), set = state && state.set;
+  $("layer-pick-box").hidden = !set;
+  if (!set) { pick = 1; return; }
+  const names = set.layers.map((l) => `layer ${l.layer} (level ${l.level}, ${l.color})`);
+  if (set.fill_in) names.push("fill-in");
+  const n = names.length;
+  if (pick !== "composite" && !(pick >= 1 && pick <= n)) pick = 1;
+  const want = names.map((t, i) => [String(i + 1), t]).concat([["composite", "composite (painted)"]]);
+  if (sel.options.length !== want.length || [...sel.options].some((o, i) => o.textContent !== want[i][1])) {
+    sel.innerHTML = "";
+    for (const [v, t] of want) { const o = document.createElement("option"); o.value = v; o.textContent = t; sel.appendChild(o); }
+  }
+  sel.value = String(pick);
+  state.report = state.layer_reports[pick === "composite" ? 0 : pick - 1];
+}
+$("layer-pick").onchange = () => {
+  const v = $("layer-pick").value;
+  pick = v === "composite" ? "composite" : +v;
+  if (state) { showPick(); loadImages(state.shown); setTimeout(fit, 0); drawOverlay(); showReport(); }
+};
 for (const b of document.querySelectorAll("[data-img]")) b.onclick = () => {
   imgName = b.dataset.img;
   document.querySelectorAll("[data-img]").forEach((x) => x.classList.toggle("on", x === b));
@@ -183,18 +258,45 @@ stage.addEventListener("pointerdown", (e) => {
   stage.setPointerCapture(e.pointerId);
   if (mode === "brush") paintAt(px, py);
 });
+
+// The crop rectangle dragged on the shown picture, in mm of the whole picture as make's --crop
+// takes it: the shown frame is the current crop turned by --rotate, so the corners are turned
+// back and the current crop's corner added.
+function cropFrom(a, b) {
+  const mm = state.mm_per_px, W = state.width_px * mm, H = state.height_px * mm;
+  const q = (+(current("rotate") || "0") / 90) % 4;
+  const [cw, ch] = q % 2 ? [H, W] : [W, H];
+  const back = ([u, v]) => [[u, v], [v, ch - u], [cw - u, ch - v], [cw - v, u]][q];
+  const [x1, y1] = back([a[0] * mm, a[1] * mm]), [x2, y2] = back([b[0] * mm, b[1] * mm]);
+  const c = (current("crop") || "").split(",").map(Number);
+  const [ox, oy] = c.length === 4 ? [c[0], c[1]] : [0, 0];
+  const r = (v) => +v.toFixed(2);
+  return [ox + Math.min(x1, x2), oy + Math.min(y1, y2), Math.abs(x2 - x1), Math.abs(y2 - y1)].map(r).join(",");
+}
+function showCropBox(d, e) {
+  const b = $("crop-box");
+  if (!d) { b.hidden = true; return; }
+  const [px, py] = toPx(e);
+  b.hidden = false;
+  Object.assign(b.style, { left: Math.min(px, d.px) + "px", top: Math.min(py, d.py) + "px", width: Math.abs(px - d.px) + "px", height: Math.abs(py - d.py) + "px", borderWidth: 2 / view.k + "px" });
+}
 stage.addEventListener("pointermove", (e) => {
   if (!drag) return hover(e);
   drag.moved = drag.moved || Math.abs(e.clientX - drag.x) + Math.abs(e.clientY - drag.y) > 3;
   if (mode === "look" || mode === "delete" || mode === "pin") {
     view.x = drag.vx + e.clientX - drag.x; view.y = drag.vy + e.clientY - drag.y; applyView();
   } else if (mode === "brush") { const [px, py] = toPx(e); paintAt(px, py); }
+  else if (mode === "crop") showCropBox(drag, e);
 });
 stage.addEventListener("pointerup", (e) => {
   const d = drag; drag = null;
   if (!d) return;
   const [px, py] = toPx(e);
-  if (mode === "pin" && !d.moved && state && state.mm_per_px) {
+  if (mode === "crop") {
+    showCropBox(null);
+    if (d.moved && state && state.mm_per_px && !state.set) send({ crop: cropFrom([d.px, d.py], [px, py]) });
+    else if (state && state.set) alertMsg("crop the picture with one stencil shown, or type the crop (mm) in Picture");
+  } else if (mode === "pin" && !d.moved && state && state.mm_per_px) {
     send_bridges({ pin: [+(px * state.mm_per_px).toFixed(3), +(py * state.mm_per_px).toFixed(3)] });
   } else if (mode === "orbit" && d.moved) {
     const named = { front: "0,0", back: "180,0", left: "-90,0", right: "90,0", side: "90,0", top: "0,90", bottom: "0,-90", "three-quarter": "30,20" };
@@ -211,9 +313,14 @@ stage.addEventListener("pointerup", (e) => {
     send({ light: az.toFixed(0) + "," + el.toFixed(0) });
   }
 });
+$("uncrop").onclick = () => send({ crop: "" });
 function current(name) { return state && state.params ? state.params[name] : ""; }
 
 for (const b of document.querySelectorAll("[data-mode]")) b.onclick = () => {
+  if (state && state.set && ["delete", "pin", "brush"].includes(b.dataset.mode)) {
+    alertMsg("a set's bridges are chosen per layer: keep them away with no-bridge-near discs (Bridges)");
+    return;
+  }
   mode = b.dataset.mode;
   document.querySelectorAll("[data-mode]").forEach((x) => x.classList.toggle("on", x === b));
   $("brush-tools").hidden = mode !== "brush";
@@ -224,7 +331,7 @@ for (const b of document.querySelectorAll("[data-mode]")) b.onclick = () => {
 function drawOverlay() {
   const svg = $("overlay");
   svg.innerHTML = "";
-  if (!state || !state.report) return;
+  if (!state || !state.report || (state.set && pick === "composite")) return;
   const r = state.report, mm = state.mm_per_px;
   svg.setAttribute("width", r.width_px); svg.setAttribute("height", r.height_px);
   svg.setAttribute("viewBox", `0 0 ${r.width_px} ${r.height_px}`);
@@ -286,10 +393,12 @@ function resetPaint() {
   if (c.width !== state.width_px || c.height !== state.height_px) { c.width = state.width_px; c.height = state.height_px; }
 }
 $("brush-apply").onclick = () => {
-  const c = $("paint"), out = document.createElement("canvas");
-  out.width = c.width; out.height = c.height;
+  // Saved at the picture's pixels in the stencil's frame (cropped and turned; make stretches a
+  // keep-out picture over the working image), so it is never taken for the whole picture's frame.
+  const c = $("paint"), out = document.createElement("canvas"), f = (state && state.report && state.report.scale_factor) || 1;
+  out.width = Math.max(1, Math.round(c.width / f)); out.height = Math.max(1, Math.round(c.height / f));
   const g = out.getContext("2d");
-  g.fillStyle = "#fff"; g.fillRect(0, 0, out.width, out.height); g.drawImage(c, 0, 0);
+  g.fillStyle = "#fff"; g.fillRect(0, 0, out.width, out.height); g.drawImage(c, 0, 0, out.width, out.height);
   out.toBlob(async (blob) => {
     setStatus("updating", "updating");
     try { show(await api("POST", "/api/keepout", blob, true)); } catch (e) { alertMsg(e.message); }
@@ -317,7 +426,9 @@ function showReport() {
       ["  clean-up added", f.cleanup_added_pct.toFixed(2) + " %"],
       ["  bridges", f.bridges_pct.toFixed(2) + " %"],
       ["threshold level", r.threshold_level + (state.otsu !== undefined ? ` (Otsu ${state.otsu})` : "")],
+      ["likeness", r.likeness == null ? "–" : r.likeness.toFixed(3)],
       ["islands", r.islands],
+      ["islands dropped (yellow)", r.dropped_islands ? r.dropped_islands.length + " (" + r.dropped_islands.reduce((a, d) => a + d.area_mm2, 0).toFixed(1) + " mm²)" : "0" + (current("keep-all-islands") === "true" ? " (keep-all-islands)" : "")],
       ["bridges", r.bridges.length + " (" + r.bridges.filter((b) => b.support).length + " support)"],
       ["islands needing strength bridges", s.islands_with_extra === undefined ? "–" : s.islands_with_extra + " (" + s.extra_bridges + " added)"],
       ["size", r.width_mm.toFixed(1) + " × " + r.height_mm.toFixed(1) + " mm"],
@@ -328,6 +439,14 @@ function showReport() {
       ["job time", r.gcode ? (r.gcode.estimate.total_s / 60).toFixed(1) + " min on " + esc(r.gcode.machine) : "– (choose a machine and emit gcode)"],
       ["computed in", state.ms.toFixed(0) + " ms: " + (state.ran || []).join(", ")],
     ];
+    if (state.set) {
+      const st = state.set, cp = st.composite;
+      h += `<h3>set: ${st.layers.length} layer(s), ${esc(st.method)}, surface <i class="swatch" style="background:${esc(st.surface_color)}"></i></h3><table class="layers"><tr><td>layer</td><td>level</td><td>cut %</td><td>bridges</td><td>hidden %</td></tr>` +
+        st.layers.map((l) => `<tr><td><i class="swatch" style="background:${esc(l.color)}"></i> ${esc(l.folder || ".")}</td><td>${l.level}</td><td>${l.cut_pct.toFixed(1)}</td><td>${l.bridges}</td><td>${l.hidden_pct.toFixed(0)}${l.check_passed ? "" : ' <span class="warn">check failed</span>'}</td></tr>`).join("") + "</table>" +
+        `<table><tr><td>composite likeness</td><td>${cp.likeness.toFixed(3)} (posterised ${cp.posterised_likeness.toFixed(3)})</td></tr><tr><td>painted in its tone</td><td>${cp.tone_agreement_pct.toFixed(1)} %</td></tr>` +
+        (st.fill_in ? `<tr><td>fill-in paints</td><td>${st.fill_in.covered_pct.toFixed(1)} % of the bridges</td></tr>` : "") + "</table>" +
+        `<h3>${pick === "composite" ? "layer 1" : esc(pick > st.layers.length ? "fill-in" : "layer " + pick)}</h3>`;
+    }
     h += "<table>" + rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${v}</td></tr>`).join("") + "</table>";
     if (c.violations && c.violations.length) h += "<h3>violations</h3><ul>" + c.violations.slice(0, 30).map((v) => `<li>${esc(v.kind)} at ${v.x_mm.toFixed(1)}, ${v.y_mm.toFixed(1)} mm: ${v.width_mm ? v.width_mm.toFixed(2) : "?"} of ${v.required_mm} mm</li>`).join("") + "</ul>";
   }
@@ -341,9 +460,15 @@ function show(s) {
   $("command").value = s.command;
   $("undo").disabled = !s.can_undo; $("redo").disabled = !s.can_redo;
   showParams(s.params);
-  const t = s.params.threshold;
+  showPick();
+  const t = s.params.threshold, lvl = s.report ? s.report.threshold_level : null;
+  // The slider shows the level used, whichever way it was chosen (a number, otsu or auto).
   if (/^\d+$/.test(t)) $("threshold-slider").value = t;
-  $("level-text").textContent = "threshold " + t + (s.report ? " → level " + s.report.threshold_level : "");
+  else if (lvl != null) $("threshold-slider").value = lvl;
+  $("level-text").textContent = s.set ? "levels " + s.set.layers.map((l) => l.level).join(", ") : "threshold " + t + (lvl != null ? " → level " + lvl : "");
+  const ch = s.report && s.report.threshold_choice;
+  $("choice-text").textContent = ch ? `auto: likeness ${ch.likeness.toFixed(3)}; at 128 ${ch.likeness_128.toFixed(3)}, at Otsu's ${ch.otsu_level} ${ch.likeness_otsu.toFixed(3)}` : "";
+  document.body.dataset.set = s.set ? s.set.layers.length + (s.set.fill_in ? 1 : 0) : "";
   if (s.updating) setStatus("updating", "updating");
   else if (s.error) setStatus("error", "error");
   else setStatus("ready", "ready");
@@ -385,6 +510,7 @@ async function start() {
   options = info.options;
   document.body.classList.toggle("is-mesh", /\.obj$/i.test(info.input));
   for (const b of document.querySelectorAll(".mesh")) b.hidden = !/\.obj$/i.test(info.input);
+  for (const b of document.querySelectorAll(".picture")) b.hidden = /\.obj$/i.test(info.input);
   buildControls();
   await refresh();
   const es = new EventSource("/api/events?token=" + TOKEN);
