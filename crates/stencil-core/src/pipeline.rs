@@ -1091,11 +1091,48 @@ pub struct Joined {
 /// are dropped (they become cut, as `--min-island-mm2`'s do) unless `p.drop_islands` is off;
 /// `level` is the threshold the two-tone was cut at (what the change is priced against).
 pub fn join(
-    mut twotone: TwoTone,
+    twotone: TwoTone,
     level: u8,
     p: &JoinParams,
     timer: &mut Timings,
 ) -> Result<Joined, Error> {
+    let prepared = prepare(twotone, level, p, timer)?;
+    bridge_prepared(prepared, p, timer)
+}
+
+/// What [`join`] chooses its bridges from: the two-tone with the small and the dropped islands
+/// cut away, its islands and their walks. None of it reads the bridge weights, the support
+/// margin or the strength rules, so the studio keeps it while a person tries weights (see
+/// [`Prepared::key`]).
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    pub twotone: TwoTone,
+    pub user: Option<crate::report::UserBridgesReport>,
+    pub map: islands::IslandMap,
+    pub dropped: Vec<bridge::drop::Dropped>,
+    pub dropped_px: Vec<u32>,
+    pub walks: bridge::Walks,
+}
+
+impl Prepared {
+    /// The parameters a [`Prepared`] depends on: `p` with what only the choice of bridges
+    /// reads (the weights, the support margin, the strength rules) set to their defaults.
+    pub fn key(p: &JoinParams) -> JoinParams {
+        JoinParams {
+            bridge: bridge::Walks::key(&p.bridge),
+            ..p.clone()
+        }
+    }
+}
+
+/// [`join`]'s first half: islands under `min_island_mm2` cut away, the islands cheaper to drop
+/// than to bridge dropped, the islands labelled and walked from.
+pub fn prepare(
+    mut twotone: TwoTone,
+    level: u8,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Prepared, Error> {
     let user = timer.time("user_bridges", || cut_small_islands(&mut twotone, p));
     let (dropped, dropped_px) = if p.drop_islands {
         timer.time("drop", || drop_islands(&mut twotone, level, p))
@@ -1103,7 +1140,39 @@ pub fn join(
         (Vec::new(), Vec::new())
     };
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &p.bridge))?;
+    let walks = timer.time("bridge", || {
+        let mut t = Timings::default();
+        bridge::walk(&twotone, &map, &p.bridge, &mut t)
+    })?;
+    Ok(Prepared {
+        twotone,
+        user,
+        map,
+        dropped,
+        dropped_px,
+        walks,
+    })
+}
+
+/// [`join`]'s second half: the bridges chosen from `prepared` (made by [`prepare`] for the same
+/// [`Prepared::key`]) and drawn, the clean-up around them, and the check that nothing floats.
+pub fn bridge_prepared(
+    prepared: Prepared,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Joined, Error> {
+    let Prepared {
+        twotone,
+        user,
+        map,
+        dropped,
+        dropped_px,
+        walks,
+    } = prepared;
+    let mut bridged = timer.time("bridge", || {
+        let mut t = Timings::default();
+        bridge::connect_walked(&twotone, &map, &p.bridge, walks, &mut t)
+    })?;
     timer.time("tidy", || match p.settle_px {
         Some(px) => {
             settle_all(&mut bridged.bits, px);
@@ -1451,33 +1520,56 @@ pub fn report(
     timer: Timings,
 ) -> Report {
     let phys = &cfg.physical;
+    Report {
+        gcode,
+        gobo: phys
+            .gobo
+            .as_ref()
+            .map(|g| crate::gobo::report(&traced.geometry, g, cfg.tone.invert)),
+        width_mm: Some(traced.geometry.width_mm),
+        height_mm: Some(traced.geometry.height_mm),
+        vector: Some(traced.vstats),
+        check: Some(traced.check.clone()),
+        fidelity: Some(traced.fidelity),
+        ..report_joined(cfg, params, cleaned, joined, timer)
+    }
+}
+
+/// The part of [`report`] known before the trace: everything but the size in mm, the vector
+/// statistics, the check, the fidelity, the gobo's and the job time (the studio shows it with
+/// the preview, and the rest a moment later).
+pub fn report_joined(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    cleaned: &Cleaned,
+    joined: &Joined,
+    timer: Timings,
+) -> Report {
+    let phys = &cfg.physical;
     let working = &params.working;
     let scale = working.scale;
     let (bridged, bridge_cfg) = (&joined.bridged, &params.join.bridge);
     let vcfg = &params.trace.vector;
     Report {
-        gcode,
+        gcode: None,
         // Filled when the masks are encoded (`encode_outputs`).
         mask: None,
-        gobo: phys
-            .gobo
-            .as_ref()
-            .map(|g| crate::gobo::report(&traced.geometry, g, cfg.tone.invert)),
+        gobo: None,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         material_values: Some(phys.material.values()),
         mm_per_px: Some(scale.mm_per_px),
         scale_factor: Some(working.factor),
         scale_auto: working.auto,
-        width_mm: Some(traced.geometry.width_mm),
-        height_mm: Some(traced.geometry.height_mm),
+        width_mm: None,
+        height_mm: None,
         margin_mm: Some(vcfg.margin_mm),
         tolerance_mm: Some(vcfg.tolerance_mm),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
         filter_radius_px: Some(params.clean.filter.radius),
-        vector: Some(traced.vstats),
-        check: Some(traced.check.clone()),
+        vector: None,
+        check: None,
         files: Vec::new(),
         input: cfg.input.display().to_string(),
         width_px: joined.twotone.bits.width,
@@ -1517,7 +1609,7 @@ pub fn report(
         }),
         // `join` refuses a stencil with anything floating.
         floating_after: 0,
-        fidelity: Some(traced.fidelity),
+        fidelity: None,
         timings_ms: timer.into_map(),
     }
 }

@@ -54,6 +54,8 @@ struct Done {
     outcome: Result<Arc<Computed>, String>,
     /// Why `make` would write nothing for it, in `make`'s words.
     refused: Option<String>,
+    /// The preview only: the trace and the check of this version are still running.
+    checking: bool,
     ms: f64,
     /// Encoded images of this run, by name, made on first request.
     images: Mutex<HashMap<String, Bytes>>,
@@ -165,29 +167,46 @@ impl Studio {
             };
             let t0 = Instant::now();
             let superseded = || self.wanted.load(Ordering::SeqCst) != v;
-            let mut refused = None;
-            let outcome = match engine.run(&cfg, &superseded) {
-                Err(RunError::Cancelled) => continue,
-                Err(RunError::Core(e)) => Err(self.maker.describe(&cfg, e)),
-                Ok(mut c) => {
-                    refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
-                    Ok(Arc::new(c))
-                }
+            let publish = |outcome, refused, checking| {
+                self.done.send_replace(Arc::new(Done {
+                    version: v,
+                    outcome,
+                    refused,
+                    checking,
+                    ms: t0.elapsed().as_secs_f64() * 1e3,
+                    images: Mutex::new(HashMap::new()),
+                }));
             };
-            self.done.send_replace(Arc::new(Done {
-                version: v,
-                outcome,
-                refused,
-                ms: t0.elapsed().as_secs_f64() * 1e3,
-                images: Mutex::new(HashMap::new()),
-            }));
+            // The preview first (up to the bridges), then the trace and the check, shown as
+            // they arrive: the page says "checking" in between.
+            let preview = match engine.preview(&cfg, &superseded) {
+                Err(RunError::Cancelled) => continue,
+                Err(RunError::Core(e)) => {
+                    publish(Err(self.maker.describe(&cfg, e)), None, false);
+                    continue;
+                }
+                Ok(c) => Arc::new(c),
+            };
+            publish(Ok(preview.clone()), None, true);
+            match engine.check(&preview, &superseded) {
+                Err(RunError::Cancelled) => continue,
+                Err(RunError::Core(e)) => publish(Err(self.maker.describe(&cfg, e)), None, false),
+                Ok(mut c) => {
+                    let refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
+                    publish(Ok(Arc::new(c)), refused, false);
+                }
+            }
         }
     }
 
     /// Wait until version `v` (or a newer one) is done.
     async fn wait_for(&self, v: u64) -> Arc<Done> {
         let mut rx = self.done.subscribe();
-        let d = rx.wait_for(|d| d.version >= v).await.map(|d| d.clone());
+        // A version's preview comes before its check: wait for the checked one.
+        let d = rx
+            .wait_for(|d| d.version > v || (d.version == v && !d.checking))
+            .await
+            .map(|d| d.clone());
         match d {
             Ok(d) => d,
             Err(_) => self.done.borrow().clone(),
@@ -201,6 +220,8 @@ impl Studio {
             "version": wanted,
             "shown": done.version,
             "updating": done.version < wanted,
+            // The preview is this version's; the trace and the check are still running.
+            "checking": done.checking,
             "params": params.to_json(&self.specs),
             "command": self.command(&params),
             "can_undo": can_undo,
@@ -366,7 +387,7 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
                 "no stencil to delete a bridge from",
             ));
         };
-        let bridges = &c.traced.0.bridged.bridges;
+        let bridges = &c.joined.bridged.bridges;
         let b = bridges.get(n as usize).ok_or_else(|| {
             bad(
                 StatusCode::BAD_REQUEST,
@@ -636,6 +657,7 @@ pub fn serve(
                 version: 0,
                 outcome: Err("starting".into()),
                 refused: None,
+                checking: false,
                 ms: 0.0,
                 images: Mutex::new(HashMap::new()),
             })),

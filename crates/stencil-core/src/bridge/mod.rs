@@ -367,15 +367,50 @@ pub fn connect_timed(
     cfg: &BridgeConfig,
     times: &mut Timings,
 ) -> Result<Bridged, BridgeError> {
+    let walks = walk(two, map, cfg, times)?;
+    connect_walked(two, map, cfg, walks, times)
+}
+
+/// The candidates and their walks: what [`connect`] chooses the bridges from. No weight reads
+/// them (the walks follow the picture, not the costs), so a caller that keeps them (the
+/// studio) re-chooses the bridges for new weights, support margin or strength rules without
+/// walking again; they depend on `two`, `map`, the length limit, the narrowest bridge, `gaps`
+/// and the keep-out areas (see [`Walks::key`]).
+#[derive(Clone, Debug, Default)]
+pub struct Walks {
+    cands: candidates::Candidates,
+    walked: Vec<Option<strips::Strip>>,
+    copies: Vec<bool>,
+}
+
+impl Walks {
+    /// `cfg` with everything the walks do not read set to its default: two configurations with
+    /// the same key (and the same two-tone and islands) give the same walks.
+    pub fn key(cfg: &BridgeConfig) -> BridgeConfig {
+        let d = BridgeConfig::default();
+        BridgeConfig {
+            w_intensity: d.w_intensity,
+            w_length: d.w_length,
+            w_curvature: d.w_curvature,
+            w_variance: d.w_variance,
+            alpha: d.alpha,
+            support_margin: d.support_margin,
+            strength: d.strength,
+            ..cfg.clone()
+        }
+    }
+}
+
+/// The first half of [`connect_timed`]: candidates, shortest gaps and walks.
+pub fn walk(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+    times: &mut Timings,
+) -> Result<Walks, BridgeError> {
     cfg.validate()?;
     if map.island_count() == 0 {
-        return Ok(Bridged {
-            bits: two.bits.clone(),
-            bridges: Vec::new(),
-            strength: Vec::new(),
-            requests: Vec::new(),
-            drawn: Vec::new(),
-        });
+        return Ok(Walks::default());
     }
     let (fields, mut cands) = times.time("candidates", || {
         let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
@@ -402,6 +437,38 @@ pub fn connect_timed(
         walked.extend(twins);
         (walked, copies)
     });
+    Ok(Walks {
+        cands,
+        walked,
+        copies,
+    })
+}
+
+/// The second half of [`connect_timed`]: from `walks` (made by [`walk`] for the same `two`,
+/// `map` and [`Walks::key`]) to the bridges drawn.
+pub fn connect_walked(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+    walks: Walks,
+    times: &mut Timings,
+) -> Result<Bridged, BridgeError> {
+    cfg.validate()?;
+    if map.island_count() == 0 {
+        return Ok(Bridged {
+            bits: two.bits.clone(),
+            bridges: Vec::new(),
+            strength: Vec::new(),
+            requests: Vec::new(),
+            drawn: Vec::new(),
+        });
+    }
+    let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
+    let Walks {
+        cands,
+        walked,
+        copies,
+    } = walks;
     let mut g = times.time("scores", || build_graph(cands, walked, &copies, map, cfg));
     let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
     let (tree, extra, strength, requests) = times.time("strength", || {
