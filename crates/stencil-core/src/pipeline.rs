@@ -1190,8 +1190,9 @@ pub fn bridge_prepared(
             }
         }
     }
-    let after = timer.time("verify", || islands::label(&bridged.bits));
-    if after.island_count() > 0 {
+    // Counted first, labelled only when something floats (to say where).
+    if timer.time("verify", || islands::floating_count(&bridged.bits)) > 0 {
+        let after = islands::label(&bridged.bits);
         let node = &after.nodes[1];
         let (x, y) = node.border.first().copied().unwrap_or((0, 0));
         return Err(Error::Floating {

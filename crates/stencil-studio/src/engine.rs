@@ -15,6 +15,7 @@ use stencil_core::pipeline::{
     self, Cleaned, Input, Joined, Made, MakeConfig, Prepared, Source, SourceParams, StageParams,
     Timings, ToneParams, Traced,
 };
+use stencil_core::export;
 use stencil_core::raster::{Gray, TwoTone};
 use stencil_core::report::Report;
 use stencil_core::Error;
@@ -325,18 +326,29 @@ impl Computed {
     }
 }
 
-/// A PNG made for the page: fast compression (it is sent once, over a loopback).
-fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
-    let mut out = Vec::new();
+/// The colour type of a page image.
+enum Pixels<'a> {
+    Gray,
+    /// Palette indices, with the palette's RGB triples.
+    Indexed(&'a [u8]),
+}
+
+/// A PNG made for the page: the fastest compression, no filter (it is sent once, over a
+/// loopback, and made for every change; `make`'s files are written by `make`'s encoder).
+fn fast_png(width: u32, height: u32, data: &[u8], pixels: Pixels) -> Vec<u8> {
+    let mut out = Vec::with_capacity(data.len() / 4 + 1024);
     {
         let mut e = png::Encoder::new(&mut out, width, height);
-        e.set_color(if rgb {
-            png::ColorType::Rgb
-        } else {
-            png::ColorType::Grayscale
-        });
+        match pixels {
+            Pixels::Gray => e.set_color(png::ColorType::Grayscale),
+            Pixels::Indexed(palette) => {
+                e.set_color(png::ColorType::Indexed);
+                e.set_palette(palette.to_vec());
+            }
+        }
         e.set_depth(png::BitDepth::Eight);
         e.set_compression(png::Compression::Fastest);
+        e.set_filter(png::Filter::NoFilter);
         // Writing into a Vec cannot fail.
         if let Ok(mut w) = e.write_header() {
             let _ = w.write_image_data(data);
@@ -360,21 +372,21 @@ impl Computed {
         let j = &c.joined;
         let (w, h) = (bridged.width, bridged.height);
         Some(match name {
-            "gray" => fast_png(w, h, &c.gray.0.to_u8(), false),
-            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
-            "stencil" => fast_png(w, h, &bridged.to_u8(), false),
-            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
+            "gray" => fast_png(w, h, &c.gray.0.to_u8(), Pixels::Gray),
+            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), Pixels::Gray),
+            "stencil" => fast_png(w, h, &bridged.to_u8(), Pixels::Gray),
+            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), Pixels::Gray),
+            // In `make`'s colours, as palette indices (a byte a pixel).
             "preview" => fast_png(
                 w,
                 h,
-                &stencil_core::export::png::preview_rgb(
+                &export::png::preview_indexed(
                     &c.gray.0,
                     &c.cleaned.picture,
                     &j.twotone.bits,
                     bridged,
-                    1,
                 ),
-                true,
+                Pixels::Indexed(&export::png::preview_palette()),
             ),
             _ => return None,
         })
