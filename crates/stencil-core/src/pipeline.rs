@@ -99,6 +99,9 @@ const REPAIR_ROUNDS: usize = 3;
 
 /// How far (in disc spans past the neck) a repair may change the stencil.
 const REPAIR_SPREAD: u32 = 1;
+/// How many disc spans around the bridges the settle after bridging may change (see
+/// [`bridge_prepared`]).
+const JOIN_SPREAD: u32 = 2;
 
 /// Everything `stencil make` needs, as plain data (the CLI builds it; tests build it by hand).
 #[derive(Clone, Debug, Default)]
@@ -1175,7 +1178,24 @@ pub fn bridge_prepared(
     })?;
     timer.time("tidy", || match p.settle_px {
         Some(px) => {
-            settle_all(&mut bridged.bits, px);
+            // The regularised two-tone has nothing thin: what is thin now, a bridge made, within
+            // a disc span of what it drew. So the settle runs around the bridges only (a span
+            // past what they drew, changing up to two spans farther), not over the picture.
+            let span = px.ceil() as u32 + 1;
+            let (w, h) = (bridged.bits.width, bridged.bits.height);
+            let boxes: Vec<[u32; 4]> = bridged
+                .drawn_boxes()
+                .into_iter()
+                .map(|b| {
+                    [
+                        b[0].saturating_sub(span),
+                        b[1].saturating_sub(span),
+                        (b[2] + span).min(w),
+                        (b[3] + span).min(h),
+                    ]
+                })
+                .collect();
+            settle_near(&mut bridged.bits, &boxes, px, JOIN_SPREAD);
             fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
         }
         None => {

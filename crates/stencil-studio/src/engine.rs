@@ -11,11 +11,11 @@
 
 use std::sync::Arc;
 
+use stencil_core::export;
 use stencil_core::pipeline::{
     self, Cleaned, Input, Joined, Made, MakeConfig, Prepared, Source, SourceParams, StageParams,
     Timings, ToneParams, Traced,
 };
-use stencil_core::export;
 use stencil_core::raster::{Gray, TwoTone};
 use stencil_core::report::Report;
 use stencil_core::Error;

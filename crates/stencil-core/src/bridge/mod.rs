@@ -195,6 +195,23 @@ pub struct Bridged {
 const UNOWNED: u32 = u32::MAX;
 
 impl Bridged {
+    /// Per bridge, the bounding box `[x0, y0, x1, y1)` in pixels of what it turned into
+    /// material when drawn (bridges that turned nothing are left out): where the clean-up after
+    /// bridging has anything to do.
+    pub fn drawn_boxes(&self) -> Vec<[u32; 4]> {
+        let w = self.bits.width.max(1);
+        self.drawn
+            .iter()
+            .filter(|px| !px.is_empty())
+            .map(|px| {
+                px.iter().fold([u32::MAX, u32::MAX, 0, 0], |b, &i| {
+                    let (x, y) = (i % w, i / w);
+                    [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)]
+                })
+            })
+            .collect()
+    }
+
     /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
     /// grid the bridges were drawn into, and return the added material that belongs to no
     /// bridge. Why: the clean-up after bridging (the tidy pass, the settle, the neck repairs) adds

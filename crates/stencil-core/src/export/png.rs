@@ -208,7 +208,13 @@ mod tests {
     fn palette_colours_are_the_formulas() {
         let pal = preview_palette();
         assert!(pal.len() <= 3 * 256);
-        let at = |k: u8| [pal[3 * k as usize], pal[3 * k as usize + 1], pal[3 * k as usize + 2]];
+        let at = |k: u8| {
+            [
+                pal[3 * k as usize],
+                pal[3 * k as usize + 1],
+                pal[3 * k as usize + 2],
+            ]
+        };
         for i in 0..=1000 {
             let g = i as f32 / 1000.0;
             let v = (140.0 + 115.0 * g) as u8;

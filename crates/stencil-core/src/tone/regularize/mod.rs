@@ -1034,7 +1034,9 @@ mod tests {
     fn sealed_pockets_are_the_cut_pieces_no_original_material_or_border_touches() {
         let mut seed = 11u64;
         let mut rnd = |n: u64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 33) % n
         };
         let mut filled_some = false;
