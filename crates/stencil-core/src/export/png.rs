@@ -156,15 +156,14 @@ pub fn preview_indexed(
         .with_min_len(64)
         .enumerate()
         .for_each(|(y, row)| {
-            let i0 = y * w;
-            for (x, o) in row.iter_mut().enumerate() {
-                let i = i0 + x;
-                *o = preview_index(
-                    gray.data[i],
-                    picture.data[i],
-                    twotone.data[i],
-                    stencil.data[i],
-                );
+            let r = y * w..y * w + row.len();
+            let cells = gray.data[r.clone()]
+                .iter()
+                .zip(&picture.data[r.clone()])
+                .zip(&twotone.data[r.clone()])
+                .zip(&stencil.data[r]);
+            for (o, (((&g, &p), &t), &s)) in row.iter_mut().zip(cells) {
+                *o = preview_index(g, p, t, s);
             }
         });
     out

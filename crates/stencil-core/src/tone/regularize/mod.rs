@@ -772,7 +772,8 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
     const OPEN: u8 = 1;
     const HERE: u8 = 2;
     let mut state = vec![UNSEEN; w * h];
-    let (mut stack, mut piece) = (Vec::new(), Vec::new());
+    // Breadth first, so a search stops at the original material nearest its seed.
+    let (mut queue, mut piece) = (std::collections::VecDeque::new(), Vec::new());
     let mut filled = 0;
     let neighbours = |i: usize| {
         let (x, y) = (i % w, i / w);
@@ -791,12 +792,12 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
             if after.data[s] || state[s] != UNSEEN {
                 continue;
             }
-            stack.clear();
+            queue.clear();
             piece.clear();
             state[s] = HERE;
-            stack.push(s);
+            queue.push_back(s);
             let mut open = false;
-            'fill: while let Some(p) = stack.pop() {
+            'fill: while let Some(p) = queue.pop_front() {
                 piece.push(p);
                 let (x, y) = (p % w, p / w);
                 if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
@@ -814,12 +815,12 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
                         break 'fill;
                     } else if state[q] == UNSEEN {
                         state[q] = HERE;
-                        stack.push(q);
+                        queue.push_back(q);
                     }
                 }
             }
             if open {
-                for &p in piece.iter().chain(&stack) {
+                for &p in piece.iter().chain(&queue) {
                     state[p] = OPEN;
                 }
             } else {
