@@ -232,9 +232,10 @@ fn a_change_re_runs_only_the_stages_after_it() {
     assert_eq!(s["report"]["threshold_level"], 100);
     let s = st.ok("POST", "/api/params", json!({"w-length": "2.5"}));
     assert_eq!(s["ran"], json!(["join", "trace"]));
-    // A material with the same smallest feature but another stiffness: from the bridges on.
+    // A material with the same smallest feature but another stiffness and narrowest bridge:
+    // from the bridges on (the narrowest bridge moves the walks' twins and the drop's widths).
     let s = st.ok("POST", "/api/params", json!({"material": "mylar-0.19"}));
-    assert_eq!(s["ran"], json!(["join", "trace"]));
+    assert_eq!(s["ran"], json!(["walk", "join", "trace"]));
     // A finer smallest feature needs a finer working pixel: the automatic supersampling
     // changes, so from the working gray on.
     let s = st.ok("POST", "/api/params", json!({"material": "brass-0.3-etch"}));
