@@ -5,8 +5,9 @@
 //!   iteration is a real change;
 //! - a 200k-triangle mesh rendered at 1024×1024: the light and the view.
 //!
-//! Each iteration is `Engine::run` (only the stages after the change run) plus encoding the
-//! preview PNG, which is what the page waits for.
+//! Each iteration is `Engine::preview` (only the stages after the change run, up to the
+//! bridges) plus encoding the preview PNG, which is what the page waits for; the trace and the
+//! check follow (`Engine::check`), their CPU time printed beside.
 
 #[path = "../src/alloc.rs"]
 mod alloc;
@@ -78,7 +79,9 @@ fn cpu_per(name: &str, n: usize, mut f: impl FnMut()) {
     );
 }
 
-/// Time `change(cfg, flip)` then the engine and the preview, alternating `flip`.
+/// Time `change(cfg, flip)` then the engine up to the preview and the preview's PNG (what the
+/// page shows first), alternating `flip`; then print the CPU time of the same with the trace and
+/// the check after it (what follows on the page, marked as updating until it arrives).
 fn latency(
     g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
@@ -95,15 +98,22 @@ fn latency(
         b.iter(|| {
             flip = !flip;
             change(&mut cfg, flip);
-            let c = engine.run(&cfg, &never).expect("a stencil");
+            let c = engine.preview(&cfg, &never).expect("a stencil");
             c.image("preview").expect("the preview")
         })
     });
     cpu_per(name, 20, || {
         flip = !flip;
         change(&mut cfg, flip);
-        let c = engine.run(&cfg, &never).expect("a stencil");
+        let c = engine.preview(&cfg, &never).expect("a stencil");
         c.image("preview").expect("the preview");
+    });
+    cpu_per(&format!("{name} (then checked)"), 10, || {
+        flip = !flip;
+        change(&mut cfg, flip);
+        let c = engine.preview(&cfg, &never).expect("a stencil");
+        c.image("preview").expect("the preview");
+        engine.check(&c, &never).expect("a stencil");
     });
     change(&mut cfg, !flip);
     let c = engine.run(&cfg, &never).expect("a stencil");

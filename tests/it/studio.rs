@@ -225,13 +225,17 @@ fn a_change_re_runs_only_the_stages_after_it() {
     let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
     assert_eq!(s0["ran"][0], "load");
     let s = st.ok("POST", "/api/params", json!({"threshold": "100"}));
-    assert_eq!(s["ran"], json!(["threshold", "clean", "join", "trace"]));
+    assert_eq!(
+        s["ran"],
+        json!(["threshold", "clean", "walk", "join", "trace"])
+    );
     assert_eq!(s["report"]["threshold_level"], 100);
     let s = st.ok("POST", "/api/params", json!({"w-length": "2.5"}));
     assert_eq!(s["ran"], json!(["join", "trace"]));
-    // A material with the same smallest feature but another stiffness: from the bridges on.
+    // A material with the same smallest feature but another stiffness and narrowest bridge:
+    // from the bridges on (the narrowest bridge moves the walks' twins and the drop's widths).
     let s = st.ok("POST", "/api/params", json!({"material": "mylar-0.19"}));
-    assert_eq!(s["ran"], json!(["join", "trace"]));
+    assert_eq!(s["ran"], json!(["walk", "join", "trace"]));
     // A finer smallest feature needs a finer working pixel: the automatic supersampling
     // changes, so from the working gray on.
     let s = st.ok("POST", "/api/params", json!({"material": "brass-0.3-etch"}));
@@ -257,7 +261,15 @@ fn a_mesh_light_change_re_lights_the_kept_view() {
     );
     let s0 = st.ok("GET", "/api/state?wait=1", json!(null));
     assert_eq!(s0["ran"][0], "load");
-    let from_light = json!(["light", "gray", "threshold", "clean", "join", "trace"]);
+    let from_light = json!([
+        "light",
+        "gray",
+        "threshold",
+        "clean",
+        "walk",
+        "join",
+        "trace"
+    ]);
     let s = st.ok("POST", "/api/params", json!({"light": "-45,30"}));
     assert_eq!(s["ran"], from_light);
     let s = st.ok(

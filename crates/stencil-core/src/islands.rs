@@ -99,8 +99,16 @@ pub fn label(bits: &BitGrid) -> IslandMap {
 }
 
 /// Material pieces not joined to the frame: the number that must be 0 for a valid stencil.
+/// Counted from the material's pieces alone, without [`label`]'s border lists.
 pub fn floating_count(bits: &BitGrid) -> usize {
-    label(bits).island_count()
+    if bits.width == 0 || bits.height == 0 {
+        return 0;
+    }
+    let (labels, areas) = components(bits, true);
+    touches_border(&labels, bits.width, bits.height, areas.len())
+        .iter()
+        .filter(|&&t| !t)
+        .count()
 }
 
 #[cfg(test)]

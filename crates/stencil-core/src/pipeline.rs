@@ -99,6 +99,9 @@ const REPAIR_ROUNDS: usize = 3;
 
 /// How far (in disc spans past the neck) a repair may change the stencil.
 const REPAIR_SPREAD: u32 = 1;
+/// How many disc spans around the bridges the settle after bridging may change (see
+/// [`bridge_prepared`]).
+const JOIN_SPREAD: u32 = 2;
 
 /// Everything `stencil make` needs, as plain data (the CLI builds it; tests build it by hand).
 #[derive(Clone, Debug, Default)]
@@ -1134,11 +1137,48 @@ pub struct Joined {
 /// are dropped (they become cut, as `--min-island-mm2`'s do) unless `p.drop_islands` is off;
 /// `level` is the threshold the two-tone was cut at (what the change is priced against).
 pub fn join(
-    mut twotone: TwoTone,
+    twotone: TwoTone,
     level: u8,
     p: &JoinParams,
     timer: &mut Timings,
 ) -> Result<Joined, Error> {
+    let prepared = prepare(twotone, level, p, timer)?;
+    bridge_prepared(prepared, p, timer)
+}
+
+/// What [`join`] chooses its bridges from: the two-tone with the small and the dropped islands
+/// cut away, its islands and their walks. None of it reads the bridge weights, the support
+/// margin or the strength rules, so the studio keeps it while a person tries weights (see
+/// [`Prepared::key`]).
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    pub twotone: TwoTone,
+    pub user: Option<crate::report::UserBridgesReport>,
+    pub map: islands::IslandMap,
+    pub dropped: Vec<bridge::drop::Dropped>,
+    pub dropped_px: Vec<u32>,
+    pub walks: bridge::Walks,
+}
+
+impl Prepared {
+    /// The parameters a [`Prepared`] depends on: `p` with what only the choice of bridges
+    /// reads (the weights, the support margin, the strength rules) set to their defaults.
+    pub fn key(p: &JoinParams) -> JoinParams {
+        JoinParams {
+            bridge: bridge::Walks::key(&p.bridge),
+            ..p.clone()
+        }
+    }
+}
+
+/// [`join`]'s first half: islands under `min_island_mm2` cut away, the islands cheaper to drop
+/// than to bridge dropped, the islands labelled and walked from.
+pub fn prepare(
+    mut twotone: TwoTone,
+    level: u8,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Prepared, Error> {
     let user = timer.time("user_bridges", || cut_small_islands(&mut twotone, p));
     let (dropped, dropped_px) = if p.drop_islands {
         timer.time("drop", || drop_islands(&mut twotone, level, p))
@@ -1146,10 +1186,59 @@ pub fn join(
         (Vec::new(), Vec::new())
     };
     let map = timer.time("islands", || islands::label(&twotone.bits));
-    let mut bridged = timer.time("bridge", || bridge::connect(&twotone, &map, &p.bridge))?;
+    let walks = timer.time("bridge", || {
+        let mut t = Timings::default();
+        bridge::walk(&twotone, &map, &p.bridge, &mut t)
+    })?;
+    Ok(Prepared {
+        twotone,
+        user,
+        map,
+        dropped,
+        dropped_px,
+        walks,
+    })
+}
+
+/// [`join`]'s second half: the bridges chosen from `prepared` (made by [`prepare`] for the same
+/// [`Prepared::key`]) and drawn, the clean-up around them, and the check that nothing floats.
+pub fn bridge_prepared(
+    prepared: Prepared,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Joined, Error> {
+    let Prepared {
+        twotone,
+        user,
+        map,
+        dropped,
+        dropped_px,
+        walks,
+    } = prepared;
+    let mut bridged = timer.time("bridge", || {
+        let mut t = Timings::default();
+        bridge::connect_walked(&twotone, &map, &p.bridge, walks, &mut t)
+    })?;
     timer.time("tidy", || match p.settle_px {
         Some(px) => {
-            settle_all(&mut bridged.bits, px);
+            // The regularised two-tone has nothing thin: what is thin now, a bridge made, within
+            // a disc span of what it drew. So the settle runs around the bridges only (a span
+            // past what they drew, changing up to two spans farther), not over the picture.
+            let span = px.ceil() as u32 + 1;
+            let (w, h) = (bridged.bits.width, bridged.bits.height);
+            let boxes: Vec<[u32; 4]> = bridged
+                .drawn_boxes()
+                .into_iter()
+                .map(|b| {
+                    [
+                        b[0].saturating_sub(span),
+                        b[1].saturating_sub(span),
+                        (b[2] + span).min(w),
+                        (b[3] + span).min(h),
+                    ]
+                })
+                .collect();
+            settle_near(&mut bridged.bits, &boxes, px, JOIN_SPREAD);
             fill_sealed_pockets(&twotone.bits, &mut bridged.bits);
         }
         None => {
@@ -1164,8 +1253,9 @@ pub fn join(
             }
         }
     }
-    let after = timer.time("verify", || islands::label(&bridged.bits));
-    if after.island_count() > 0 {
+    // Counted first, labelled only when something floats (to say where).
+    if timer.time("verify", || islands::floating_count(&bridged.bits)) > 0 {
+        let after = islands::label(&bridged.bits);
         let node = &after.nodes[1];
         let (x, y) = node.border.first().copied().unwrap_or((0, 0));
         return Err(Error::Floating {
@@ -1494,33 +1584,56 @@ pub fn report(
     timer: Timings,
 ) -> Report {
     let phys = &cfg.physical;
+    Report {
+        gcode,
+        gobo: phys
+            .gobo
+            .as_ref()
+            .map(|g| crate::gobo::report(&traced.geometry, g, cfg.tone.invert)),
+        width_mm: Some(traced.geometry.width_mm),
+        height_mm: Some(traced.geometry.height_mm),
+        vector: Some(traced.vstats),
+        check: Some(traced.check.clone()),
+        fidelity: Some(traced.fidelity),
+        ..report_joined(cfg, params, cleaned, joined, timer)
+    }
+}
+
+/// The part of [`report`] known before the trace: everything but the size in mm, the vector
+/// statistics, the check, the fidelity, the gobo's and the job time (the studio shows it with
+/// the preview, and the rest a moment later).
+pub fn report_joined(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    cleaned: &Cleaned,
+    joined: &Joined,
+    timer: Timings,
+) -> Report {
+    let phys = &cfg.physical;
     let working = &params.working;
     let scale = working.scale;
     let (bridged, bridge_cfg) = (&joined.bridged, &params.join.bridge);
     let vcfg = &params.trace.vector;
     Report {
-        gcode,
+        gcode: None,
         // Filled when the masks are encoded (`encode_outputs`).
         mask: None,
-        gobo: phys
-            .gobo
-            .as_ref()
-            .map(|g| crate::gobo::report(&traced.geometry, g, cfg.tone.invert)),
+        gobo: None,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         material_values: Some(phys.material.values()),
         mm_per_px: Some(scale.mm_per_px),
         scale_factor: Some(working.factor),
         scale_auto: working.auto,
-        width_mm: Some(traced.geometry.width_mm),
-        height_mm: Some(traced.geometry.height_mm),
+        width_mm: None,
+        height_mm: None,
         margin_mm: Some(vcfg.margin_mm),
         tolerance_mm: Some(vcfg.tolerance_mm),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
         filter_radius_px: Some(params.clean.filter.radius),
-        vector: Some(traced.vstats),
-        check: Some(traced.check.clone()),
+        vector: None,
+        check: None,
         files: Vec::new(),
         input: cfg.input.display().to_string(),
         width_px: joined.twotone.bits.width,
@@ -1560,7 +1673,7 @@ pub fn report(
         }),
         // `join` refuses a stencil with anything floating.
         floating_after: 0,
-        fidelity: Some(traced.fidelity),
+        fidelity: None,
         timings_ms: timer.into_map(),
     }
 }

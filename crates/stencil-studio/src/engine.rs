@@ -11,9 +11,10 @@
 
 use std::sync::Arc;
 
+use stencil_core::export;
 use stencil_core::pipeline::{
-    self, Cleaned, Input, Joined, Made, MakeConfig, Source, SourceParams, StageParams, Timings,
-    ToneParams, Traced,
+    self, Cleaned, Input, Joined, Made, MakeConfig, Prepared, Source, SourceParams, StageParams,
+    Timings, ToneParams, Traced,
 };
 use stencil_core::raster::{Gray, TwoTone};
 use stencil_core::report::Report;
@@ -57,13 +58,16 @@ pub struct Engine {
     gray: Kept<u32, Arc<(Gray, u8)>>,
     raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
     cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
+    /// The islands and their walks, keyed by the join's parameters without the weights: a
+    /// weight change re-chooses the bridges from the kept walks.
+    prepared: Kept<pipeline::JoinParams, Arc<Prepared>>,
     joined: Kept<pipeline::JoinParams, Arc<Joined>>,
     traced: Kept<pipeline::TraceParams, Arc<(Joined, Traced)>>,
 }
 
-/// What one run shows: every stage's output up to the check, the report, and whether `make`
-/// would refuse it (the page shows a refused stencil too, with the reason: that is when a
-/// person most needs to see it).
+/// What one run shows: every stage's output up to the bridges (the preview), then the trace
+/// and the check, the report, and whether `make` would refuse it (the page shows a refused
+/// stencil too, with the reason: that is when a person most needs to see it).
 pub struct Computed {
     pub cfg: MakeConfig,
     pub params: StageParams,
@@ -74,12 +78,18 @@ pub struct Computed {
     /// After the bridges, before the trace's neck repairs.
     pub joined: Arc<Joined>,
     /// After the bridges and the trace: `joined.bridged` is the stencil as `make` writes it.
-    pub traced: Arc<(Joined, Traced)>,
+    /// `None` until [`Engine::check`] ran (the preview is shown first).
+    pub traced: Option<Arc<(Joined, Traced)>>,
+    /// The report; until the check ran, without what the trace measures (the check, the
+    /// fidelity, the vector statistics, the size in mm, the job time).
     pub report: Report,
-    /// Why `make` would write nothing (too thin, too changed), as the caller words it.
+    /// Why `make` would write nothing (too thin, too changed), as the caller words it; known
+    /// once the check ran.
     pub refused: Option<Error>,
     /// The stages this run computed (the others were kept), in order.
     pub ran: Vec<&'static str>,
+    /// The joined output's generation (the trace's key).
+    joined_generation: u64,
 }
 
 /// Run `f` unless the slot holds the output for `key`; returns the output and its generation.
@@ -112,10 +122,22 @@ impl Engine {
         Engine::default()
     }
 
-    /// Run `cfg` through the stages, re-using every output whose inputs did not change.
-    /// `superseded` is asked between stages; when it says yes the run stops with
-    /// [`RunError::Cancelled`] (the outputs computed so far are kept for the next run).
+    /// Run `cfg` through the stages, re-using every output whose inputs did not change:
+    /// [`Engine::preview`] then [`Engine::check`].
     pub fn run(
+        &mut self,
+        cfg: &MakeConfig,
+        superseded: &dyn Fn() -> bool,
+    ) -> Result<Computed, RunError> {
+        let c = self.preview(cfg, superseded)?;
+        self.check(&c, superseded)
+    }
+
+    /// Run `cfg` through the stages up to the bridges (what the preview shows), re-using every
+    /// output whose inputs did not change. `superseded` is asked between stages; when it says
+    /// yes the run stops with [`RunError::Cancelled`] (the outputs computed so far are kept for
+    /// the next run). The result has no trace and no check yet: [`Engine::check`] adds them.
+    pub fn preview(
         &mut self,
         cfg: &MakeConfig,
         superseded: &dyn Fn() -> bool,
@@ -192,14 +214,14 @@ impl Engine {
         )?;
         cancel()?;
         let mut timer = Timings::new(None);
-        let (jg, joined) = step(
-            &mut self.joined,
+        let (pg, prepared) = step(
+            &mut self.prepared,
             g,
             &mut ran,
-            "join",
-            (cg, params.join.clone()),
+            "walk",
+            (cg, Prepared::key(&params.join)),
             || {
-                Ok::<_, RunError>(Arc::new(pipeline::join(
+                Ok::<_, RunError>(Arc::new(pipeline::prepare(
                     cleaned.twotone.clone(),
                     cleaned.level,
                     &params.join,
@@ -208,14 +230,57 @@ impl Engine {
             },
         )?;
         cancel()?;
-        let (_, traced) = step(
-            &mut self.traced,
+        let (jg, joined) = step(
+            &mut self.joined,
             g,
             &mut ran,
-            "trace",
-            (jg, params.trace.clone()),
+            "join",
+            (pg, params.join.clone()),
             || {
-                let mut j = (*joined).clone();
+                Ok::<_, RunError>(Arc::new(pipeline::bridge_prepared(
+                    (*prepared).clone(),
+                    &params.join,
+                    &mut timer,
+                )?))
+            },
+        )?;
+        let report = pipeline::report_joined(cfg, &params, &cleaned, &joined, timer);
+        Ok(Computed {
+            cfg: cfg.clone(),
+            params,
+            gray: gray_otsu.clone(),
+            otsu,
+            cleaned,
+            joined,
+            traced: None,
+            report,
+            refused: None,
+            ran,
+            joined_generation: jg,
+        })
+    }
+
+    /// The trace and the check of a [`Engine::preview`] (kept when its inputs did not change),
+    /// the refusal, the job time and the full report.
+    pub fn check(
+        &mut self,
+        c: &Computed,
+        superseded: &dyn Fn() -> bool,
+    ) -> Result<Computed, RunError> {
+        if superseded() {
+            return Err(RunError::Cancelled);
+        }
+        let (cfg, params, joined, cleaned) = (&c.cfg, &c.params, &c.joined, &c.cleaned);
+        let mut ran = c.ran.clone();
+        let mut timer = Timings::new(None);
+        let (_, traced) = step(
+            &mut self.traced,
+            &mut self.generations,
+            &mut ran,
+            "trace",
+            (c.joined_generation, params.trace.clone()),
+            || {
+                let mut j = (**joined).clone();
                 let t = pipeline::trace(
                     &mut j.bridged,
                     &joined.twotone.bits,
@@ -236,18 +301,19 @@ impl Engine {
             }
             _ => None,
         };
-        let report = pipeline::report(cfg, &params, &cleaned, j, t, gcode, timer);
+        let report = pipeline::report(cfg, params, cleaned, j, t, gcode, timer);
         Ok(Computed {
             cfg: cfg.clone(),
-            params,
-            gray: gray_otsu.clone(),
-            otsu,
-            cleaned,
-            joined,
-            traced,
+            params: params.clone(),
+            gray: c.gray.clone(),
+            otsu: c.otsu,
+            cleaned: cleaned.clone(),
+            joined: joined.clone(),
+            traced: Some(traced.clone()),
             report,
             refused,
             ran,
+            joined_generation: c.joined_generation,
         })
     }
 }
@@ -260,18 +326,32 @@ impl Computed {
     }
 }
 
-/// A PNG made for the page: fast compression (it is sent once, over a loopback).
-pub(crate) fn fast_png(width: u32, height: u32, data: &[u8], rgb: bool) -> Vec<u8> {
-    let mut out = Vec::new();
+/// The colour type of a page image.
+pub(crate) enum Pixels<'a> {
+    Gray,
+    /// RGB triples (a set's composite).
+    Rgb,
+    /// Palette indices, with the palette's RGB triples.
+    Indexed(&'a [u8]),
+}
+
+/// A PNG made for the page: the fastest compression, no filter (it is sent once, over a
+/// loopback, and made for every change; `make`'s files are written by `make`'s encoder).
+pub(crate) fn fast_png(width: u32, height: u32, data: &[u8], pixels: Pixels) -> Vec<u8> {
+    let mut out = Vec::with_capacity(data.len() / 4 + 1024);
     {
         let mut e = png::Encoder::new(&mut out, width, height);
-        e.set_color(if rgb {
-            png::ColorType::Rgb
-        } else {
-            png::ColorType::Grayscale
-        });
+        match pixels {
+            Pixels::Gray => e.set_color(png::ColorType::Grayscale),
+            Pixels::Rgb => e.set_color(png::ColorType::Rgb),
+            Pixels::Indexed(palette) => {
+                e.set_color(png::ColorType::Indexed);
+                e.set_palette(palette.to_vec());
+            }
+        }
         e.set_depth(png::BitDepth::Eight);
         e.set_compression(png::Compression::Fastest);
+        e.set_filter(png::Filter::NoFilter);
         // Writing into a Vec cannot fail.
         if let Ok(mut w) = e.write_header() {
             let _ = w.write_image_data(data);
@@ -286,28 +366,34 @@ impl Computed {
     /// the clean-up).
     pub fn image(&self, name: &str) -> Option<Vec<u8>> {
         let c = self;
-        let (j, _) = &*c.traced;
-        let (w, h) = (j.bridged.bits.width, j.bridged.bits.height);
+        // The stencil as traced once the check ran, else as bridged (the same but for the
+        // trace's neck repairs).
+        let bridged = match &c.traced {
+            Some(t) => &t.0.bridged.bits,
+            None => &c.joined.bridged.bits,
+        };
+        let j = &c.joined;
+        let (w, h) = (bridged.width, bridged.height);
         Some(match name {
-            "gray" => fast_png(w, h, &c.gray.0.to_u8(), false),
-            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), false),
-            "stencil" => fast_png(w, h, &j.bridged.bits.to_u8(), false),
-            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), false),
+            "gray" => fast_png(w, h, &c.gray.0.to_u8(), Pixels::Gray),
+            "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), Pixels::Gray),
+            "stencil" => fast_png(w, h, &bridged.to_u8(), Pixels::Gray),
+            "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), Pixels::Gray),
+            // In `make`'s colours, as palette indices (a byte a pixel).
             "preview" => {
-                let mut rgb = stencil_core::export::png::preview_rgb(
+                let mut index = export::png::preview_indexed(
                     &c.gray.0,
                     &c.cleaned.picture,
                     &j.twotone.bits,
-                    &j.bridged.bits,
-                    1,
+                    bridged,
                 );
-                stencil_core::export::png::paint_dropped(
-                    &mut rgb,
-                    &j.bridged.bits,
-                    &j.dropped_px,
-                    1,
-                );
-                fast_png(w, h, &rgb, true)
+                export::png::mark_dropped_indexed(&mut index, bridged, &j.dropped_px);
+                fast_png(
+                    w,
+                    h,
+                    &index,
+                    Pixels::Indexed(&export::png::preview_palette()),
+                )
             }
             _ => return None,
         })

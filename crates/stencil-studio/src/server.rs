@@ -29,7 +29,7 @@ use stencil_core::export::png;
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::pipeline::Made;
 
-use crate::engine::{fast_png, Computed, Engine, RunError};
+use crate::engine::{fast_png, Computed, Pixels, Engine, RunError};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::Maker;
 
@@ -80,7 +80,7 @@ impl SetRun {
     fn image(&self, name: &str) -> Option<Vec<u8>> {
         if name == "composite" {
             let (w, h) = (self.set.tones.luma.width, self.set.tones.luma.height);
-            return Some(fast_png(w, h, &self.set.composite, true));
+            return Some(fast_png(w, h, &self.set.composite, Pixels::Rgb));
         }
         let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
             Some((k, what)) => (k.parse::<usize>().ok()?, what),
@@ -90,15 +90,15 @@ impl SetRun {
         let (w, h) = (m.bridged.bits.width, m.bridged.bits.height);
         let gray = &m.twotone.gray;
         Some(match what {
-            "gray" => fast_png(w, h, &gray.to_u8(), false),
-            "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), false),
-            "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), false),
-            "picture" => fast_png(w, h, &m.picture.to_u8(), false),
+            "gray" => fast_png(w, h, &gray.to_u8(), Pixels::Gray),
+            "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), Pixels::Gray),
+            "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), Pixels::Gray),
+            "picture" => fast_png(w, h, &m.picture.to_u8(), Pixels::Gray),
             "preview" => {
                 let mut rgb =
                     png::preview_rgb(gray, &m.picture, &m.twotone.bits, &m.bridged.bits, 1);
                 png::paint_dropped(&mut rgb, &m.bridged.bits, &m.dropped_px, 1);
-                fast_png(w, h, &rgb, true)
+                fast_png(w, h, &rgb, Pixels::Rgb)
             }
             _ => return None,
         })
@@ -111,6 +111,8 @@ struct Done {
     outcome: Result<Shown, String>,
     /// Why `make` would write nothing for it, in `make`'s words.
     refused: Option<String>,
+    /// The preview only: the trace and the check of this version are still running.
+    checking: bool,
     ms: f64,
     /// Encoded images of this run, by name, made on first request.
     images: Mutex<HashMap<String, Bytes>>,
@@ -228,35 +230,55 @@ impl Studio {
             };
             let t0 = Instant::now();
             let superseded = || self.wanted.load(Ordering::SeqCst) != v;
-            let mut refused = None;
-            let outcome = match set {
-                Some(lc) => match stencil_core::layers::run(&cfg, &lc) {
+            let publish = |outcome, refused, checking| {
+                self.done.send_replace(Arc::new(Done {
+                    version: v,
+                    outcome,
+                    refused,
+                    checking,
+                    ms: t0.elapsed().as_secs_f64() * 1e3,
+                    images: Mutex::new(HashMap::new()),
+                }));
+            };
+            // A set (layers, fill-in) is made whole by `make`'s own layer code.
+            if let Some(lc) = set {
+                let outcome = match stencil_core::layers::run(&cfg, &lc) {
                     Ok(set) => Ok(Shown::Set(Arc::new(SetRun { cfg, lc, set }))),
                     Err(e) => Err(self.maker.describe(&cfg, e)),
-                },
-                None => match engine.run(&cfg, &superseded) {
-                    Err(RunError::Cancelled) => continue,
-                    Err(RunError::Core(e)) => Err(self.maker.describe(&cfg, e)),
-                    Ok(mut c) => {
-                        refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
-                        Ok(Shown::One(Arc::new(c)))
-                    }
-                },
+                };
+                publish(outcome, None, false);
+                continue;
+            }
+            // One stencil: the preview first (up to the bridges), then the trace and the
+            // check, shown as they arrive: the page says "checking" in between.
+            let preview = match engine.preview(&cfg, &superseded) {
+                Err(RunError::Cancelled) => continue,
+                Err(RunError::Core(e)) => {
+                    publish(Err(self.maker.describe(&cfg, e)), None, false);
+                    continue;
+                }
+                Ok(c) => Arc::new(c),
             };
-            self.done.send_replace(Arc::new(Done {
-                version: v,
-                outcome,
-                refused,
-                ms: t0.elapsed().as_secs_f64() * 1e3,
-                images: Mutex::new(HashMap::new()),
-            }));
+            publish(Ok(Shown::One(preview.clone())), None, true);
+            match engine.check(&preview, &superseded) {
+                Err(RunError::Cancelled) => continue,
+                Err(RunError::Core(e)) => publish(Err(self.maker.describe(&cfg, e)), None, false),
+                Ok(mut c) => {
+                    let refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
+                    publish(Ok(Shown::One(Arc::new(c))), refused, false);
+                }
+            }
         }
     }
 
     /// Wait until version `v` (or a newer one) is done.
     async fn wait_for(&self, v: u64) -> Arc<Done> {
         let mut rx = self.done.subscribe();
-        let d = rx.wait_for(|d| d.version >= v).await.map(|d| d.clone());
+        // A version's preview comes before its check: wait for the checked one.
+        let d = rx
+            .wait_for(|d| d.version > v || (d.version == v && !d.checking))
+            .await
+            .map(|d| d.clone());
         match d {
             Ok(d) => d,
             Err(_) => self.done.borrow().clone(),
@@ -270,6 +292,8 @@ impl Studio {
             "version": wanted,
             "shown": done.version,
             "updating": done.version < wanted,
+            // The preview is this version's; the trace and the check are still running.
+            "checking": done.checking,
             "params": params.to_json(&self.specs),
             "command": self.command(&params),
             "can_undo": can_undo,
@@ -464,7 +488,7 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
                 ))
             }
         };
-        let bridges = &c.traced.0.bridged.bridges;
+        let bridges = &c.joined.bridged.bridges;
         let b = bridges.get(n as usize).ok_or_else(|| {
             bad(
                 StatusCode::BAD_REQUEST,
@@ -754,6 +778,7 @@ pub fn serve(
                 version: 0,
                 outcome: Err("starting".into()),
                 refused: None,
+                checking: false,
                 ms: 0.0,
                 images: Mutex::new(HashMap::new()),
             })),

@@ -23,6 +23,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::islands::{IslandMap, CUT, FRAME};
@@ -54,7 +55,7 @@ pub fn choose(
     gray: &Gray,
     level: u8,
     protected: &[bool],
-    width: impl Fn(usize) -> u32,
+    width: impl Fn(usize) -> u32 + Sync,
 ) -> Vec<(u32, Dropped)> {
     let n = map.nodes.len();
     if n <= 1 {
@@ -74,13 +75,16 @@ pub fn choose(
             sy[l as usize] += (i / w) as f64 + 0.5;
         }
     }
-    // Dijkstra's distances, stamped per island so the arrays are allocated once.
-    let mut dist = vec![f64::INFINITY; w * h];
-    let mut stamp = vec![0u32; w * h];
-    let mut out = Vec::new();
-    for island in 1..n {
+    // Each island's search is independent of the others': they run in parallel, each thread
+    // with its own distances, stamped per island so the arrays are allocated once per thread
+    // (zeroed by the allocator: a distance is read only where its stamp is the island's).
+    let search = |(stamp, dist): &mut (Vec<u32>, Vec<f64>), island: usize| {
         if protected.get(island).copied().unwrap_or(false) {
-            continue;
+            return None;
+        }
+        if stamp.is_empty() {
+            *stamp = vec![0u32; w * h];
+            *dist = vec![0f64; w * h];
         }
         let node = &map.nodes[island];
         let bw = width(node.area).max(1) as f64;
@@ -141,10 +145,10 @@ pub fn choose(
             }
         }
         if gave_up || bridge.is_some_and(|b| b <= limit) {
-            continue;
+            return None;
         }
         let a = node.area as f64;
-        out.push((
+        Some((
             me,
             Dropped {
                 at_mm: [sx[island] / a, sy[island] / a],
@@ -152,9 +156,14 @@ pub fn choose(
                 drop_cost: limit,
                 bridge_cost: bridge,
             },
-        ));
-    }
-    out
+        ))
+    };
+    (1..n)
+        .into_par_iter()
+        .with_min_len(8)
+        .map_init(|| (Vec::new(), Vec::new()), search)
+        .flatten()
+        .collect()
 }
 
 fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {

@@ -195,6 +195,23 @@ pub struct Bridged {
 const UNOWNED: u32 = u32::MAX;
 
 impl Bridged {
+    /// Per bridge, the bounding box `[x0, y0, x1, y1)` in pixels of what it turned into
+    /// material when drawn (bridges that turned nothing are left out): where the clean-up after
+    /// bridging has anything to do.
+    pub fn drawn_boxes(&self) -> Vec<[u32; 4]> {
+        let w = self.bits.width.max(1);
+        self.drawn
+            .iter()
+            .filter(|px| !px.is_empty())
+            .map(|px| {
+                px.iter().fold([u32::MAX, u32::MAX, 0, 0], |b, &i| {
+                    let (x, y) = (i % w, i / w);
+                    [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)]
+                })
+            })
+            .collect()
+    }
+
     /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
     /// grid the bridges were drawn into, and return the added material that belongs to no
     /// bridge. Why: the clean-up after bridging (the tidy pass, the settle, the neck repairs) adds
@@ -367,15 +384,50 @@ pub fn connect_timed(
     cfg: &BridgeConfig,
     times: &mut Timings,
 ) -> Result<Bridged, BridgeError> {
+    let walks = walk(two, map, cfg, times)?;
+    connect_walked(two, map, cfg, walks, times)
+}
+
+/// The candidates and their walks: what [`connect`] chooses the bridges from. No weight reads
+/// them (the walks follow the picture, not the costs), so a caller that keeps them (the
+/// studio) re-chooses the bridges for new weights, support margin or strength rules without
+/// walking again; they depend on `two`, `map`, the length limit, the narrowest bridge, `gaps`
+/// and the keep-out areas (see [`Walks::key`]).
+#[derive(Clone, Debug, Default)]
+pub struct Walks {
+    cands: candidates::Candidates,
+    walked: Vec<Option<strips::Strip>>,
+    copies: Vec<bool>,
+}
+
+impl Walks {
+    /// `cfg` with everything the walks do not read set to its default: two configurations with
+    /// the same key (and the same two-tone and islands) give the same walks.
+    pub fn key(cfg: &BridgeConfig) -> BridgeConfig {
+        let d = BridgeConfig::default();
+        BridgeConfig {
+            w_intensity: d.w_intensity,
+            w_length: d.w_length,
+            w_curvature: d.w_curvature,
+            w_variance: d.w_variance,
+            alpha: d.alpha,
+            support_margin: d.support_margin,
+            strength: d.strength,
+            ..cfg.clone()
+        }
+    }
+}
+
+/// The first half of [`connect_timed`]: candidates, shortest gaps and walks.
+pub fn walk(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+    times: &mut Timings,
+) -> Result<Walks, BridgeError> {
     cfg.validate()?;
     if map.island_count() == 0 {
-        return Ok(Bridged {
-            bits: two.bits.clone(),
-            bridges: Vec::new(),
-            strength: Vec::new(),
-            requests: Vec::new(),
-            drawn: Vec::new(),
-        });
+        return Ok(Walks::default());
     }
     let (fields, mut cands) = times.time("candidates", || {
         let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
@@ -402,6 +454,38 @@ pub fn connect_timed(
         walked.extend(twins);
         (walked, copies)
     });
+    Ok(Walks {
+        cands,
+        walked,
+        copies,
+    })
+}
+
+/// The second half of [`connect_timed`]: from `walks` (made by [`walk`] for the same `two`,
+/// `map` and [`Walks::key`]) to the bridges drawn.
+pub fn connect_walked(
+    two: &TwoTone,
+    map: &IslandMap,
+    cfg: &BridgeConfig,
+    walks: Walks,
+    times: &mut Timings,
+) -> Result<Bridged, BridgeError> {
+    cfg.validate()?;
+    if map.island_count() == 0 {
+        return Ok(Bridged {
+            bits: two.bits.clone(),
+            bridges: Vec::new(),
+            strength: Vec::new(),
+            requests: Vec::new(),
+            drawn: Vec::new(),
+        });
+    }
+    let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
+    let Walks {
+        cands,
+        walked,
+        copies,
+    } = walks;
     let mut g = times.time("scores", || build_graph(cands, walked, &copies, map, cfg));
     let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
     let (tree, extra, strength, requests) = times.time("strength", || {

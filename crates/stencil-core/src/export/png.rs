@@ -89,8 +89,104 @@ pub fn paint_dropped(rgb: &mut [u8], stencil: &BitGrid, dropped: &[u32], f: u32)
     }
 }
 
-/// The preview's RGB pixels, each working pixel an `f` × `f` square (the studio sends them at
-/// `f` = 1 and lets the page enlarge them).
+/// Mark the dropped islands' pixels (cut in `stencil`) with [`DROPPED_RGB`]'s index in a
+/// preview made by [`preview_indexed`]: the studio's palette preview shows them as
+/// [`paint_dropped`] does in `preview.png`.
+pub fn mark_dropped_indexed(index: &mut [u8], stencil: &BitGrid, dropped: &[u32]) {
+    for &i in dropped {
+        if !stencil.data[i as usize] {
+            index[i as usize] = DROPPED_INDEX;
+        }
+    }
+}
+
+/// The preview's colours by index ([`preview_indexed`]): the four colours above, then the
+/// material's grays (`140 + 115 g`, 116 levels), then the cut's blue-grays (`20 + 50 g`, 51
+/// levels), then black (a gray that is not a number). Fewer than 256, so the preview is a
+/// palette image, a byte a pixel: the studio sends it a third the size of RGB.
+const BRIDGE_INDEX: u8 = 0;
+const ADDED_INDEX: u8 = 1;
+const REMOVED_INDEX: u8 = 2;
+const DROPPED_INDEX: u8 = 3;
+const MATERIAL_FROM: u8 = 4;
+const CUT_FROM: u8 = MATERIAL_FROM + 116;
+const BLACK_INDEX: u8 = CUT_FROM + 51;
+
+/// The RGB triples of the preview's palette, index by index (see [`preview_indexed`]).
+pub fn preview_palette() -> Vec<u8> {
+    let mut p = Vec::with_capacity(3 * (BLACK_INDEX as usize + 1));
+    p.extend_from_slice(&BRIDGE_RGB);
+    p.extend_from_slice(&ADDED_RGB);
+    p.extend_from_slice(&REMOVED_RGB);
+    p.extend_from_slice(&DROPPED_RGB);
+    for v in 140..=255u8 {
+        p.extend_from_slice(&[v, v, v]);
+    }
+    for v in 20..=70u8 {
+        p.extend_from_slice(&[v, v, (v as f32 * 1.3) as u8]);
+    }
+    p.extend_from_slice(&[0, 0, 0]);
+    p
+}
+
+/// The palette index of one preview pixel: gray `g` (0..1), thresholded picture, two-tone and
+/// stencil.
+#[inline]
+fn preview_index(g: f32, picture: bool, twotone: bool, stencil: bool) -> u8 {
+    let g = g.clamp(0.0, 1.0);
+    match (picture, twotone, stencil) {
+        (_, false, true) => BRIDGE_INDEX,
+        (false, true, true) => ADDED_INDEX,
+        (true, _, false) => REMOVED_INDEX,
+        (_, _, true) => {
+            let v = (140.0 + 115.0 * g) as u8;
+            if v >= 140 {
+                MATERIAL_FROM + (v - 140)
+            } else {
+                BLACK_INDEX
+            }
+        }
+        (_, _, false) => {
+            let v = (20.0 + 50.0 * g) as u8;
+            if (20..=70).contains(&v) {
+                CUT_FROM + (v - 20)
+            } else {
+                BLACK_INDEX
+            }
+        }
+    }
+}
+
+/// The preview as palette indices ([`preview_palette`]), one per working pixel, row by row
+/// (rows in parallel).
+pub fn preview_indexed(
+    gray: &Gray,
+    picture: &BitGrid,
+    twotone: &BitGrid,
+    stencil: &BitGrid,
+) -> Vec<u8> {
+    use rayon::prelude::*;
+    let w = stencil.width as usize;
+    let mut out = vec![0u8; stencil.data.len()];
+    out.par_chunks_mut(w.max(1))
+        .with_min_len(64)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let r = y * w..y * w + row.len();
+            let cells = gray.data[r.clone()]
+                .iter()
+                .zip(&picture.data[r.clone()])
+                .zip(&twotone.data[r.clone()])
+                .zip(&stencil.data[r]);
+            for (o, (((&g, &p), &t), &s)) in row.iter_mut().zip(cells) {
+                *o = preview_index(g, p, t, s);
+            }
+        });
+    out
+}
+
+/// The preview's RGB pixels, each working pixel an `f` × `f` square: [`preview_indexed`]'s
+/// colours.
 pub fn preview_rgb(
     gray: &Gray,
     picture: &BitGrid,
@@ -100,30 +196,16 @@ pub fn preview_rgb(
 ) -> Vec<u8> {
     let (w, h) = (stencil.width as usize, stencil.height as usize);
     let f = f as usize;
-    let colour = |i: usize| -> [u8; 3] {
-        let g = gray.data[i].clamp(0.0, 1.0);
-        match (picture.data[i], twotone.data[i], stencil.data[i]) {
-            (_, false, true) => BRIDGE_RGB,
-            (false, true, true) => ADDED_RGB,
-            (true, _, false) => REMOVED_RGB,
-            (_, _, true) => {
-                let v = (140.0 + 115.0 * g) as u8;
-                [v, v, v]
-            }
-            (_, _, false) => {
-                let v = (20.0 + 50.0 * g) as u8;
-                [v, v, (v as f32 * 1.3) as u8]
-            }
-        }
-    };
+    let palette = preview_palette();
+    let index = preview_indexed(gray, picture, twotone, stencil);
     let row_len = w * f * 3;
     let mut rgb = Vec::with_capacity(row_len * h * f);
     for y in 0..h {
         let start = rgb.len();
-        for i in y * w..(y + 1) * w {
-            let c = colour(i);
+        for &k in &index[y * w..(y + 1) * w] {
+            let c = &palette[3 * k as usize..3 * k as usize + 3];
             for _ in 0..f {
-                rgb.extend_from_slice(&c);
+                rgb.extend_from_slice(c);
             }
         }
         for _ in 1..f {
@@ -136,6 +218,33 @@ pub fn preview_rgb(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn palette_colours_are_the_formulas() {
+        let pal = preview_palette();
+        assert!(pal.len() <= 3 * 256);
+        let at = |k: u8| {
+            [
+                pal[3 * k as usize],
+                pal[3 * k as usize + 1],
+                pal[3 * k as usize + 2],
+            ]
+        };
+        for i in 0..=1000 {
+            let g = i as f32 / 1000.0;
+            let v = (140.0 + 115.0 * g) as u8;
+            assert_eq!(at(preview_index(g, true, true, true)), [v, v, v]);
+            let v = (20.0 + 50.0 * g) as u8;
+            assert_eq!(
+                at(preview_index(g, false, false, false)),
+                [v, v, (v as f32 * 1.3) as u8]
+            );
+        }
+        assert_eq!(at(preview_index(0.5, false, false, true)), BRIDGE_RGB);
+        assert_eq!(at(preview_index(0.5, false, true, true)), ADDED_RGB);
+        assert_eq!(at(preview_index(0.5, true, true, false)), REMOVED_RGB);
+        assert_eq!(at(preview_index(f32::NAN, true, true, true)), [0, 0, 0]);
+    }
 
     #[test]
     fn preview_factor_reaches_the_minimum_without_overshooting() {

@@ -419,12 +419,14 @@ function showReport() {
   if (state.refused) h += `<div class="msg">make would refuse this: ${esc(state.refused)}</div>`;
   const r = state.report;
   if (r) {
-    const f = r.fidelity || {}, s = r.strength || {}, c = r.check || {};
+    // The preview comes first; the trace's measures (fidelity, check, job time) follow.
+    const f = r.fidelity || {}, s = r.strength || {}, c = r.check || {}, wait = "<i>updating</i>";
+    const pct = (x) => x === undefined ? wait : x.toFixed(2) + " %";
     const rows = [
-      ["changed", f.changed_pct.toFixed(2) + " %"],
-      ["  clean-up removed", f.cleanup_removed_pct.toFixed(2) + " %"],
-      ["  clean-up added", f.cleanup_added_pct.toFixed(2) + " %"],
-      ["  bridges", f.bridges_pct.toFixed(2) + " %"],
+      ["changed", pct(f.changed_pct)],
+      ["  clean-up removed", pct(f.cleanup_removed_pct)],
+      ["  clean-up added", pct(f.cleanup_added_pct)],
+      ["  bridges", pct(f.bridges_pct)],
       ["threshold level", r.threshold_level + (state.otsu !== undefined ? ` (Otsu ${state.otsu})` : "")],
       ["likeness", r.likeness == null ? "–" : r.likeness.toFixed(3)],
       ["islands", r.islands],
@@ -434,9 +436,9 @@ function showReport() {
       ["size", r.width_mm.toFixed(1) + " × " + r.height_mm.toFixed(1) + " mm"],
       ["working pixel", r.mm_per_px.toFixed(3) + " mm" + (r.scale_factor > 1 ? ` (×${r.scale_factor})` : "")],
       ["material", r.material],
-      ["width check", c.violations && c.violations.length ? `<span class="warn">${c.violations.length} violation(s)</span>` : '<span class="ok">passed</span>'],
+      ["width check", !r.check ? wait : c.violations && c.violations.length ? `<span class="warn">${c.violations.length} violation(s)</span>` : '<span class="ok">passed</span>'],
       ["narrowest bridge / web / hole", [c.narrowest_bridge_mm, c.narrowest_web_mm, c.narrowest_hole_mm].map((x) => x == null ? "–" : x.toFixed(2)).join(" / ") + " mm"],
-      ["job time", r.gcode ? (r.gcode.estimate.total_s / 60).toFixed(1) + " min on " + esc(r.gcode.machine) : "– (choose a machine and emit gcode)"],
+      ["job time", state.checking ? wait : r.gcode ? (r.gcode.estimate.total_s / 60).toFixed(1) + " min on " + esc(r.gcode.machine) : "– (choose a machine and emit gcode)"],
       ["computed in", state.ms.toFixed(0) + " ms: " + (state.ran || []).join(", ")],
     ];
     if (state.set) {
@@ -456,6 +458,8 @@ function showReport() {
 
 // ---- state -------------------------------------------------------------------------------------
 function show(s) {
+  // A version's checked state never gives way to its own preview (answers may cross).
+  if (state && s.shown === state.shown && s.checking && !state.checking) return;
   state = s;
   $("command").value = s.command;
   $("undo").disabled = !s.can_undo; $("redo").disabled = !s.can_redo;
@@ -469,17 +473,20 @@ function show(s) {
   const ch = s.report && s.report.threshold_choice;
   $("choice-text").textContent = ch ? `auto: likeness ${ch.likeness.toFixed(3)}; at 128 ${ch.likeness_128.toFixed(3)}, at Otsu's ${ch.otsu_level} ${ch.likeness_otsu.toFixed(3)}` : "";
   document.body.dataset.set = s.set ? s.set.layers.length + (s.set.fill_in ? 1 : 0) : "";
-  if (s.updating) setStatus("updating", "updating");
+  if (s.updating || s.checking) setStatus("updating", "updating");
   else if (s.error) setStatus("error", "error");
   else setStatus("ready", "ready");
-  if (!s.updating && s.shown !== shownVersion && !s.error) {
-    shownVersion = s.shown;
-    loadImages(s.shown);
+  // The preview is loaded as soon as it is there, and again once checked (the trace may widen
+  // a neck).
+  const key = s.checking ? s.shown + "-preview" : String(s.shown);
+  if (!s.updating && key !== shownVersion && !s.error) {
+    shownVersion = key;
+    loadImages(key);
     resetPaint();
     if (!fitted) { fitted = true; setTimeout(fit, 0); }
   }
   document.body.dataset.version = s.shown;
-  document.body.dataset.updating = s.updating ? "yes" : "no";
+  document.body.dataset.updating = s.updating || s.checking ? "yes" : "no";
   drawHist(); drawOverlay(); showReport();
 }
 

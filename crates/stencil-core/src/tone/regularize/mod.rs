@@ -759,33 +759,76 @@ pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
 /// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
 /// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
 pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
-    let (labels, areas) = crate::raster::components(after, false);
+    // A sealed pocket's material neighbours are all added, so it lies beside an added pixel:
+    // only the cut pieces beside added pixels are searched, each until it shows itself open
+    // (the picture's border, original material, or a pixel of a piece already found open). So
+    // the cost follows the bridges, not the picture; the pieces filled are those a labelling of
+    // every cut piece finds sealed.
     let (w, h) = (after.width as usize, after.height as usize);
-    // Per cut piece: touches original material, or the picture's border (the frame).
-    let mut open = vec![false; areas.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let i = y * w + x;
-            let l = labels[i];
-            if l == crate::raster::NOT_LABELLED || open[l as usize] {
+    if w == 0 || h == 0 {
+        return 0;
+    }
+    const UNSEEN: u8 = 0;
+    const OPEN: u8 = 1;
+    const HERE: u8 = 2;
+    let mut state = vec![UNSEEN; w * h];
+    // Breadth first, so a search stops at the original material nearest its seed.
+    let (mut queue, mut piece) = (std::collections::VecDeque::new(), Vec::new());
+    let mut filled = 0;
+    let neighbours = |i: usize| {
+        let (x, y) = (i % w, i / w);
+        [
+            (x > 0).then(|| i - 1),
+            (x + 1 < w).then(|| i + 1),
+            (y > 0).then(|| i - w),
+            (y + 1 < h).then(|| i + w),
+        ]
+    };
+    for i in 0..w * h {
+        if !after.data[i] || before.data[i] {
+            continue;
+        }
+        for s in neighbours(i).into_iter().flatten() {
+            if after.data[s] || state[s] != UNSEEN {
                 continue;
             }
-            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
-                open[l as usize] = true;
-                continue;
-            }
-            for j in [i - 1, i + 1, i - w, i + w] {
-                if after.data[j] && before.data[j] {
-                    open[l as usize] = true;
+            queue.clear();
+            piece.clear();
+            state[s] = HERE;
+            queue.push_back(s);
+            let mut open = false;
+            'fill: while let Some(p) = queue.pop_front() {
+                piece.push(p);
+                let (x, y) = (p % w, p / w);
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                    open = true;
+                    break;
+                }
+                for q in [p - 1, p + 1, p - w, p + w] {
+                    if after.data[q] {
+                        if before.data[q] {
+                            open = true;
+                            break 'fill;
+                        }
+                    } else if state[q] == OPEN {
+                        open = true;
+                        break 'fill;
+                    } else if state[q] == UNSEEN {
+                        state[q] = HERE;
+                        queue.push_back(q);
+                    }
                 }
             }
-        }
-    }
-    let mut filled = 0;
-    for (i, &l) in labels.iter().enumerate() {
-        if l != crate::raster::NOT_LABELLED && !open[l as usize] {
-            after.data[i] = true;
-            filled += 1;
+            if open {
+                for &p in piece.iter().chain(&queue) {
+                    state[p] = OPEN;
+                }
+            } else {
+                for &p in &piece {
+                    after.data[p] = true;
+                }
+                filled += piece.len();
+            }
         }
     }
     filled
@@ -954,6 +997,77 @@ mod tests {
             threshold: 0.5,
             invert: false,
         }
+    }
+
+    /// The sealed pockets by labelling every cut piece (what the seeded search must match).
+    fn sealed_by_labels(before: &BitGrid, after: &BitGrid) -> BitGrid {
+        let (labels, areas) = crate::raster::components(after, false);
+        let (w, h) = (after.width as usize, after.height as usize);
+        let mut open = vec![false; areas.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let l = labels[i];
+                if l == crate::raster::NOT_LABELLED {
+                    continue;
+                }
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                    open[l as usize] = true;
+                    continue;
+                }
+                for j in [i - 1, i + 1, i - w, i + w] {
+                    if after.data[j] && before.data[j] {
+                        open[l as usize] = true;
+                    }
+                }
+            }
+        }
+        let mut out = after.clone();
+        for (i, &l) in labels.iter().enumerate() {
+            if l != crate::raster::NOT_LABELLED && !open[l as usize] {
+                out.data[i] = true;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn sealed_pockets_are_the_cut_pieces_no_original_material_or_border_touches() {
+        let mut seed = 11u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut filled_some = false;
+        for case in 0..300 {
+            let (w, h) = (3 + rnd(30) as u32, 3 + rnd(30) as u32);
+            let dense = 2 + rnd(6);
+            let before = BitGrid::from_fn(w, h, |_, _| rnd(10) < dense);
+            let mut after = before.clone();
+            // Bridges: random rectangles of added material, some of them rings.
+            for _ in 0..1 + rnd(4) {
+                let (x0, y0) = (rnd(w as u64) as u32, rnd(h as u64) as u32);
+                let (x1, y1) = (x0 + 1 + rnd(10) as u32, y0 + 1 + rnd(10) as u32);
+                let ring = rnd(2) == 0;
+                for y in y0..y1.min(h) {
+                    for x in x0..x1.min(w) {
+                        let edge = x == x0 || y == y0 || x + 1 == x1 || y + 1 == y1;
+                        if !ring || edge {
+                            after.set(x, y, true);
+                        }
+                    }
+                }
+            }
+            let want = sealed_by_labels(&before, &after);
+            let mut got = after.clone();
+            let n = fill_sealed_pockets(&before, &mut got);
+            assert_eq!(got, want, "case {case}");
+            assert_eq!(n, want.count_material() - after.count_material());
+            filled_some |= n > 0;
+        }
+        assert!(filled_some, "some case had a sealed pocket");
     }
 
     fn any_thin(bits: &BitGrid, px: f64) -> bool {
