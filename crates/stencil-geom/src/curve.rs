@@ -79,22 +79,48 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
             .map(|&from| Piece { from, bulge: 0.0 })
             .collect::<Vec<_>>()
     };
-    if n < 3 || !(tol > 0.0) {
+    if n < 3 || tol.is_nan() || tol <= 0.0 {
         return lines();
     }
     let at = |i: usize| ring[i % n];
     let mut out = Vec::new();
     let mut i = 0;
     while i < n {
+        // Galloping, then halving: spans of 2, 4, 8, ... vertices until one fails, then the
+        // longest that fits between the last that fitted and the first that failed (a span that
+        // fits usually means every shorter one does), so a long arc costs a few passes over its
+        // vertices, not one per vertex.
         let mut best = (i + 1, 0.0);
         let last = (i + MAX_RUN).min(n);
-        let mut j = i + 2;
-        while j <= last {
-            match fit_span(&at, i, j, tol) {
-                Some(b) => best = (j, b),
-                None => break,
+        let mut step = 2;
+        let mut fail = last + 1;
+        while i + step <= last {
+            match fit_span(&at, i, i + step, tol) {
+                Some(b) => best = (i + step, b),
+                None => {
+                    fail = i + step;
+                    break;
+                }
             }
-            j += 1;
+            step *= 2;
+        }
+        if fail > last && best.0 < last {
+            // Ran past the end without a failure: try the end itself.
+            match fit_span(&at, i, last, tol) {
+                Some(b) => best = (last, b),
+                None => fail = last,
+            }
+        }
+        let (mut lo, mut hi) = (best.0, fail.min(last + 1));
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            match fit_span(&at, i, mid, tol) {
+                Some(b) => {
+                    best = (mid, b);
+                    lo = mid;
+                }
+                None => hi = mid,
+            }
         }
         out.push(Piece {
             from: ring[i],
