@@ -408,7 +408,7 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
             &a.cut,
             &cfg.physical.material,
             emit_gcode,
-            cfg.physical.vector.tolerance_mm,
+            cfg.physical.vector.arc_tolerance_mm(),
         )?,
         ..cfg
     })

@@ -1212,7 +1212,7 @@ pub(crate) fn encode_outputs(
     if phys.emit.svg {
         files.push((
             "stencil.svg".into(),
-            svg::encode(geom, phys.vector.tolerance_mm),
+            svg::encode(geom, phys.vector.arc_tolerance_mm()),
         ));
     }
     if phys.emit.dxf {

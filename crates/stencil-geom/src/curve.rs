@@ -69,10 +69,26 @@ pub fn arc_of(a: [f64; 2], b: [f64; 2], bulge: f64) -> Option<ArcGeom> {
 /// the run) on long smooth stretches.
 const MAX_RUN: usize = 400;
 
+/// Points that must stay on either side of a fitted outline: for ring vertex `k`, `points[k]` is
+/// `[left, right]` (as the ring runs), and each must be at least `margin` from the piece that
+/// replaces the vertex. The vector stage passes the two pixel centres beside each traced point, so
+/// that the curves sample to the same raster as the pixels they were traced from, and a margin
+/// of the flattening tolerance, so that the flattened curves do too.
+#[derive(Clone, Copy, Debug)]
+pub struct Sides<'a> {
+    pub points: &'a [[[f64; 2]; 2]],
+    pub margin: f64,
+}
+
 /// Fit a closed ring (closing point not repeated) with lines and arcs, every vertex and edge of
 /// the ring within `tol` of the pieces and the pieces within `tol` of the ring. The first piece
 /// starts at `ring[0]`. A ring of fewer than 3 points, or `tol` ≤ 0, comes back as its lines.
 pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
+    fit_ring_within(ring, tol, None)
+}
+
+/// [`fit_ring`], keeping [`Sides`] (ignored unless it has one pair per vertex).
+pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec<Piece> {
     let n = ring.len();
     let lines = || {
         ring.iter()
@@ -83,6 +99,7 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
         return lines();
     }
     let at = |i: usize| ring[i % n];
+    let sides = sides.filter(|s| s.points.len() == n);
     let mut out = Vec::new();
     let mut i = 0;
     while i < n {
@@ -95,7 +112,7 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
         let mut step = 2;
         let mut fail = last + 1;
         while i + step <= last {
-            match fit_span(&at, i, i + step, tol) {
+            match fit_span(&at, sides, i, i + step, tol) {
                 Some(b) => best = (i + step, b),
                 None => {
                     fail = i + step;
@@ -106,7 +123,7 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
         }
         if fail > last && best.0 < last {
             // Ran past the end without a failure: try the end itself.
-            match fit_span(&at, i, last, tol) {
+            match fit_span(&at, sides, i, last, tol) {
                 Some(b) => best = (last, b),
                 None => fail = last,
             }
@@ -114,7 +131,7 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
         let (mut lo, mut hi) = (best.0, fail.min(last + 1));
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
-            match fit_span(&at, i, mid, tol) {
+            match fit_span(&at, sides, i, mid, tol) {
                 Some(b) => {
                     best = (mid, b);
                     lo = mid;
@@ -134,7 +151,13 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
 /// The bulge of one piece from vertex `i` to vertex `j` (indices into the ring, `j` may be the
 /// ring's length: its first point again) within `tol` of every vertex and edge between, or `None`
 /// when no line or half-turn arc fits.
-fn fit_span(at: &impl Fn(usize) -> [f64; 2], i: usize, j: usize, tol: f64) -> Option<f64> {
+fn fit_span(
+    at: &impl Fn(usize) -> [f64; 2],
+    sides: Option<Sides>,
+    i: usize,
+    j: usize,
+    tol: f64,
+) -> Option<f64> {
     let (a, b) = (at(i), at(j));
     let l = dist(a, b);
     if l <= tol {
@@ -148,6 +171,22 @@ fn fit_span(at: &impl Fn(usize) -> [f64; 2], i: usize, j: usize, tol: f64) -> Op
         (x * t[0] + y * t[1], -x * t[1] + y * t[0])
     };
     let half = l / 2.0;
+    // The bulge of the circle through a, b and the point at (u, v): its centre at d on the
+    // normal, the sagitta h of its minor arc. `None` for a point outside the circle on the chord
+    // as diameter, which would need more than a half turn.
+    let through = |u: f64, v: f64| -> Option<f64> {
+        if v == 0.0 {
+            return Some(0.0);
+        }
+        let w = u * u + v * v - half * half;
+        if w > 0.0 {
+            return None;
+        }
+        let d = w / (2.0 * v);
+        let r = (d * d + half * half).sqrt();
+        let h = -(half * half) / (d + d.signum() * r);
+        Some(-h / half)
+    };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     let mut prev_u = -half;
     let mut straight = true;
@@ -159,29 +198,56 @@ fn fit_span(at: &impl Fn(usize) -> [f64; 2], i: usize, j: usize, tol: f64) -> Op
         }
         prev_u = u;
         straight &= v.abs() <= tol;
-        // The circle through a, b and this vertex: its centre at d on the normal, and the
-        // sagitta h of its minor arc; a vertex outside the circle on the chord as diameter
-        // would need more than a half turn.
-        let w = u * u + v * v - half * half;
-        let bulge = if v == 0.0 {
-            0.0
-        } else {
-            if w > 0.0 {
-                return None;
-            }
-            let d = w / (2.0 * v);
-            let r = (d * d + half * half).sqrt();
-            let h = -(half * half) / (d + d.signum() * r);
-            -h / half
+        let Some(bulge) = through(u, v) else {
+            return None;
         };
         lo = lo.min(bulge);
         hi = hi.max(bulge);
     }
+    let n_ring = sides.map_or(0, |s| s.points.len());
     if straight {
-        return Some(0.0);
+        // Left of the chord: positive.
+        let left = |p: [f64; 2]| frame(p).1;
+        if kept_sides(sides, n_ring, i, j, left) {
+            return Some(0.0);
+        }
     }
-    let bulge = ((lo + hi) / 2.0).clamp(-0.999, 0.999);
+    // The sides bound the bulge too: an arc passes right of a point when its bulge is larger
+    // than the bulge through the point, so left points set a floor and right points a ceiling.
+    let (mut floor, mut ceil) = (f64::NEG_INFINITY, f64::INFINITY);
+    if let Some(s) = sides {
+        for k in i + 1..j {
+            let [l, r] = s.points[k % n_ring];
+            let (ul, vl) = frame(l);
+            if let (true, Some(b)) = (ul.abs() < half, through(ul, vl)) {
+                floor = floor.max(b);
+            }
+            let (ur, vr) = frame(r);
+            if let (true, Some(b)) = (ur.abs() < half, through(ur, vr)) {
+                ceil = ceil.min(b);
+            }
+        }
+    }
+    let (blo, bhi) = (lo.max(floor), hi.min(ceil));
+    let bulge = if blo <= bhi {
+        (blo + bhi) / 2.0
+    } else if floor < ceil {
+        // No bulge within the vertices' spread keeps the sides: the middle of what the sides
+        // allow, measured against the tolerance below.
+        (floor.max(lo.min(ceil)) + ceil.min(hi.max(floor))) / 2.0
+    } else {
+        return None;
+    };
+    let bulge = bulge.clamp(-0.999, 0.999);
+    if bulge == 0.0 {
+        return None;
+    }
     let arc = arc_of(a, b, bulge)?;
+    // Left of a counter-clockwise arc is inside its circle.
+    let left = |p: [f64; 2]| bulge.signum() * (arc.radius - dist(p, arc.center));
+    if !kept_sides(sides, n_ring, i, j, left) {
+        return None;
+    }
     let (c, r) = (arc.center, arc.radius);
     // Which side of the chord the arc runs on: its midpoint's v.
     let side = -bulge.signum();
@@ -202,6 +268,24 @@ fn fit_span(at: &impl Fn(usize) -> [f64; 2], i: usize, j: usize, tol: f64) -> Op
         p = q;
     }
     Some(bulge)
+}
+
+/// Whether every vertex strictly between `i` and `j` has its [`Sides`] on their sides, `margin`
+/// clear; `left` is a signed distance, positive on the left of the piece.
+fn kept_sides(
+    sides: Option<Sides>,
+    n: usize,
+    i: usize,
+    j: usize,
+    left: impl Fn([f64; 2]) -> f64,
+) -> bool {
+    let Some(s) = sides else {
+        return true;
+    };
+    (i + 1..j).all(|k| {
+        let [l, r] = s.points[k % n];
+        left(l) >= s.margin && left(r) <= -s.margin
+    })
 }
 
 /// Distance from `p` to the segment `a`–`b`.
@@ -360,6 +444,49 @@ mod tests {
             }
             let h = hausdorff(&flatten(&pieces, tol / 20.0), &ring);
             assert!(h <= tol * 1.05 + 0.01, "tol {tol}: {h}");
+        }
+    }
+
+    #[test]
+    fn sides_are_kept_clear_of_the_curve() {
+        // A shallow bump: without sides it is one arc (or line); a left point just below the
+        // bump's top forbids cutting across it.
+        let ring: Vec<[f64; 2]> = (0..=20)
+            .map(|i| [i as f64, -(0.04 * (i as f64 - 10.0).powi(2) - 4.0)])
+            .chain([[20.0, -10.0], [0.0, -10.0]])
+            .collect();
+        let free = fit_ring(&ring, 5.0);
+        assert!(free.len() <= 4, "{free:?}");
+        // Sides of the bump's vertices: the ring walks +x along the bump, so left is 0.2 above
+        // each vertex and right 0.2 below; the other two vertices have none that can hold.
+        let mut pts: Vec<[[f64; 2]; 2]> = ring
+            .iter()
+            .map(|p| [[p[0], p[1] + 0.2], [p[0], p[1] - 0.2]])
+            .collect();
+        for p in pts.iter_mut().skip(21) {
+            *p = [[f64::NAN; 2]; 2];
+        }
+        let sides = Sides {
+            points: &pts,
+            margin: 0.05,
+        };
+        let kept = fit_ring_within(&ring, 5.0, Some(sides));
+        // Every bump vertex's sides hold for the fitted pieces, flattened: the curve passes
+        // between them.
+        let flat = flatten(&kept, 0.001);
+        for k in 1..20 {
+            let [l, r] = pts[k];
+            let curve_y = flat
+                .iter()
+                .zip(flat.iter().skip(1))
+                .filter(|(a, b)| (a[0] - l[0]) * (b[0] - l[0]) <= 0.0 && a[0] != b[0])
+                .map(|(a, b)| a[1] + (l[0] - a[0]) / (b[0] - a[0]) * (b[1] - a[1]))
+                .next()
+                .unwrap();
+            assert!(
+                l[1] > curve_y && r[1] < curve_y,
+                "{k}: {l:?} {r:?} vs {curve_y}"
+            );
         }
     }
 
