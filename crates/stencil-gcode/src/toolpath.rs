@@ -345,8 +345,11 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
+    // A knife swivels up to its blade offset out; an arc may bulge up to its fitting tolerance
+    // past the polygon's box (Grbl's chords then reach outside it).
     let reach = match machine.tool {
         Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ if machine.arcs && cfg.arc_tolerance_mm.is_finite() => cfg.arc_tolerance_mm.max(0.0),
         _ => 0.0,
     };
     let rect = job_rect(geom, cfg.cut_outline, reach);
