@@ -198,9 +198,7 @@ fn fit_span(
         }
         prev_u = u;
         straight &= v.abs() <= tol;
-        let Some(bulge) = through(u, v) else {
-            return None;
-        };
+        let bulge = through(u, v)?;
         lo = lo.min(bulge);
         hi = hi.max(bulge);
     }
