@@ -46,6 +46,8 @@ pub struct FitCurves {
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
 /// points). `guards`: per ring, per point, the pixel centres to keep on their sides (or none).
+/// Simplification alone: the `vector` bench's step (`bench-internals`) and the tests.
+#[cfg_attr(not(any(test, feature = "bench-internals")), allow(dead_code))]
 pub fn simplify_rings(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
