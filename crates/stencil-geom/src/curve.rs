@@ -472,8 +472,7 @@ mod tests {
         // Every bump vertex's sides hold for the fitted pieces, flattened: the curve passes
         // between them.
         let flat = flatten(&kept, 0.001);
-        for k in 1..20 {
-            let [l, r] = pts[k];
+        for (k, &[l, r]) in pts.iter().enumerate().take(20).skip(1) {
             let curve_y = flat
                 .iter()
                 .zip(flat.iter().skip(1))
