@@ -221,7 +221,7 @@ fn check_program(text: &str, machine: &Machine) -> Run {
         for word in l.split_whitespace() {
             let (letter, num) = word.split_at(1);
             assert!(
-                "GMXYZSF".contains(letter),
+                "GMXYZSFIJ".contains(letter),
                 "line {}: word {word} Grbl may not like",
                 i + 1
             );
@@ -239,8 +239,8 @@ fn check_program(text: &str, machine: &Machine) -> Run {
             }
             if letter == "G" {
                 assert!(
-                    ["0", "1", "21", "90", "94"].contains(&num),
-                    "line {}: G{num} (only G0/G1 moves, no arcs or splines)",
+                    ["0", "1", "2", "3", "21", "90", "94"].contains(&num),
+                    "line {}: G{num} (only G0/G1 moves and G2/G3 arcs, no splines)",
                     i + 1
                 );
             }
@@ -1033,7 +1033,7 @@ mod prop {
             s.passes = passes;
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
-            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s };
+            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s, arc_tolerance_mm: 0.0 };
             match gcode_for(&g, &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);

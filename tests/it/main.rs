@@ -36,6 +36,7 @@ mod bridge_user;
 mod bridge_weights;
 mod bridge_width;
 mod check;
+mod curves;
 mod cut_settings;
 mod doc_paths;
 mod fit;

@@ -294,6 +294,8 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
         loops,
         home,
         settings: spec.base,
+        // Squares: nothing to fit.
+        arc_tolerance_mm: 0.0,
         sheet_mm: size,
         min: spec.offset,
         max: [spec.offset[0] + size[0], spec.offset[1] + size[1]],

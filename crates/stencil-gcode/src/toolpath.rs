@@ -67,6 +67,11 @@ pub struct PlanConfig {
     /// A pen draws them anyway.
     pub cut_open_paths: bool,
     pub settings: CutSettings,
+    /// Write each loop as lines and G2/G3 arcs fitted within this many mm of its polygon
+    /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
+    /// machine whose profile says `arcs = false`). A drag knife's path is always straight: its
+    /// corner swivels are built from the polygon's corners.
+    pub arc_tolerance_mm: f64,
 }
 
 impl PlanConfig {
@@ -77,6 +82,7 @@ impl PlanConfig {
             cut_outline: false,
             cut_open_paths: false,
             settings,
+            arc_tolerance_mm: 0.0,
         }
     }
 }
@@ -131,6 +137,9 @@ pub struct Job {
     pub min: [f64; 2],
     pub max: [f64; 2],
     pub stats: PathStats,
+    /// Loops are written as arcs fitted within this many mm (0: straight segments): the plan's
+    /// [`PlanConfig::arc_tolerance_mm`] when the machine runs arcs.
+    pub arc_tolerance_mm: f64,
 }
 
 /// The most passes a job may make.
@@ -336,8 +345,11 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
+    // A knife swivels up to its blade offset out; an arc may bulge up to its fitting tolerance
+    // past the polygon's box (Grbl's chords then reach outside it).
     let reach = match machine.tool {
         Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ if machine.arcs && cfg.arc_tolerance_mm.is_finite() => cfg.arc_tolerance_mm.max(0.0),
         _ => 0.0,
     };
     let rect = job_rect(geom, cfg.cut_outline, reach);
@@ -413,6 +425,11 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         sheet_mm: size,
         min,
         max,
+        arc_tolerance_mm: if machine.arcs && cfg.arc_tolerance_mm.is_finite() {
+            cfg.arc_tolerance_mm.max(0.0)
+        } else {
+            0.0
+        },
     })
 }
 

@@ -1,7 +1,8 @@
 //! The G-code writer: a planned [`Job`] as text Grbl 1.1 runs without error.
 //!
 //! Rules (from Grbl 1.1h's parser, `gcode.c` and `protocol.c`, and what trips up other senders):
-//! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
+//! `G21 G90 G94` header; an F before the first G1; G0/G1 straight moves and, when the job asks
+//! for them, G2/G3 arcs in the XY plane with I/J centre offsets (never G5 splines, never R arcs);
 //! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
 //! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
 //! them; brackets mean nothing to any reader) and wrapped at word breaks onto further `;` lines
@@ -19,6 +20,7 @@
 use std::fmt::Write as _;
 
 use crate::machine::{Machine, PenLift, Tool, ZLift};
+use stencil_geom::curve;
 use stencil_geom::ring::dist;
 
 use crate::toolpath::{laser_s, CutSettings, Job, Loop};
@@ -124,7 +126,42 @@ impl Writer {
         self.at = (x, y);
         true
     }
+
+    /// An arc to `to` about `center` (counter-clockwise when `ccw`, as seen with y up). Written
+    /// with I/J computed from the head's position *as written*, then checked the way Grbl's
+    /// parser checks it (`gc_execute_line`: the start's and the target's distances from the
+    /// centre may differ by at most 0.005 mm, else `error:33`); an arc whose numbers fail that,
+    /// or whose ends round to one point (Grbl would cut a full circle), is written as a G1.
+    fn arc(&mut self, to: [f64; 2], center: [f64; 2], ccw: bool, extra: &str) -> bool {
+        let (x, y) = (num(to[0]), num(to[1]));
+        let start = (self.at.0.parse::<f64>(), self.at.1.parse::<f64>());
+        let (Ok(sx), Ok(sy)) = start else {
+            return self.go(1, to, extra);
+        };
+        if (x.as_str(), y.as_str()) == (self.at.0.as_str(), self.at.1.as_str()) {
+            return self.go(1, to, extra);
+        }
+        let (i, j) = (num(center[0] - sx), num(center[1] - sy));
+        let v = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+        let (iv, jv, xv, yv) = (v(&i), v(&j), v(&x), v(&y));
+        let r0 = iv.hypot(jv);
+        let r1 = (xv - sx - iv).hypot(yv - sy - jv);
+        // Half Grbl's limit: room for its single-precision arithmetic.
+        let off = (r1 - r0).abs();
+        if off.is_nan() || off > GRBL_ARC_RADIUS_SLACK_MM / 2.0 || r0 < 0.001 {
+            return self.go(1, to, extra);
+        }
+        let mut l = String::with_capacity(48);
+        let _ = write!(l, "G{} X{x} Y{y} I{i} J{j}{extra}", if ccw { 3 } else { 2 });
+        self.line(&l);
+        self.at = (x, y);
+        true
+    }
 }
+
+/// Grbl 1.1h's arc check (`gcode.c`): a target farther from the centre than the start by more
+/// than 0.005 mm (and 0.1 % of the radius) is `error:33`.
+const GRBL_ARC_RADIUS_SLACK_MM: f64 = 0.005;
 
 /// The point `len` mm along the closed loop from its start, and the vertices passed on the way.
 fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
@@ -224,6 +261,7 @@ pub(crate) fn write_each(
     for l in &job.lines {
         write_line(&mut w, l, machine, &job.settings);
     }
+    let arcs = job.arc_tolerance_mm;
     for (i, l) in job.loops.iter().enumerate() {
         match each.get(i) {
             Some(e) => {
@@ -234,9 +272,9 @@ pub(crate) fn write_each(
                 {
                     z.down_mm = d;
                 }
-                write_loop(&mut w, l, &m, &e.settings);
+                write_loop(&mut w, l, &m, &e.settings, arcs);
             }
-            None => write_loop(&mut w, l, machine, &job.settings),
+            None => write_loop(&mut w, l, machine, &job.settings, arcs),
         }
     }
     match machine.tool {
@@ -271,8 +309,18 @@ fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String
     comment(
         o,
         &format!(
-            "mm G21, absolute G90; machine origin {}; Grbl 1.1, no arcs",
-            machine.bed.origin.name()
+            "mm G21, absolute G90; machine origin {}; Grbl 1.1, {}",
+            machine.bed.origin.name(),
+            if job.arc_tolerance_mm > 0.0 && !matches!(machine.tool, Tool::Knife { .. }) {
+                format!(
+                    "arcs G2/G3 within {} mm of the outline",
+                    num(job.arc_tolerance_mm)
+                )
+            } else if !machine.arcs {
+                "no arcs: the machine profile says arcs = false".to_string()
+            } else {
+                "no arcs".to_string()
+            }
         ),
     );
     tool_comments(o, machine, &job.settings, air);
@@ -411,14 +459,35 @@ fn tool_off(w: &mut Writer, machine: &Machine) {
     }
 }
 
-fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
-    let points = match machine.tool {
-        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
-        _ => l.points.clone(),
+/// One closed loop: travel to its start, tool on, every pass, (a knife's overcut), tool off.
+/// With `arcs` > 0 (and not a drag knife) the loop is fitted with lines and arcs within `arcs`
+/// mm first ([`curve::fit_ring`]), starting at the loop's start point, and each arc is a G2/G3.
+fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings, arcs: f64) {
+    let knife = matches!(machine.tool, Tool::Knife { .. });
+    let points = if knife {
+        drag_knife_path(&l.points, s.blade_offset_mm)
+    } else {
+        l.points.clone()
     };
     // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
     let mut first = tool_on(w, points[0], machine, s);
     let n = points.len();
+    if arcs > 0.0 && !knife {
+        let pieces = curve::fit_ring(&points, arcs);
+        let m = pieces.len();
+        for _ in 0..s.passes {
+            for k in 0..m {
+                let (p, to) = (pieces[k], pieces[(k + 1) % m].from);
+                match curve::arc_of(p.from, to, p.bulge) {
+                    Some(a) => w.arc(to, a.center, a.sweep > 0.0, &first),
+                    None => w.go(1, to, &first),
+                };
+                first.clear();
+            }
+        }
+        tool_off(w, machine);
+        return;
+    }
     for _ in 0..s.passes {
         for i in 1..=n {
             w.go(1, points[i % n], &first);

@@ -138,6 +138,11 @@ pub struct VectorConfig {
     pub margin_mm: f64,
     /// Place crossings by the blurred bits (sub-pixel edges); off = pixel-boundary midpoints.
     pub smooth: bool,
+    /// Fit the traced outlines with lines and arcs within the tolerance (corners kept, the
+    /// pixels on their sides), instead of leaving simplification's chords; the geometry holds
+    /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
+    /// and the writers find the arcs again within [`VectorConfig::arc_tolerance_mm`].
+    pub curves: bool,
 }
 
 impl Default for VectorConfig {
@@ -148,7 +153,22 @@ impl Default for VectorConfig {
             kerf_mm: 0.0,
             margin_mm: 5.0,
             smooth: true,
+            curves: true,
         }
+    }
+}
+
+impl VectorConfig {
+    /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
+    pub fn flatten_mm(&self) -> f64 {
+        self.tolerance_mm / 5.0
+    }
+
+    /// How far SVG, DXF and G-code arcs may stray from the geometry's polygons: a quarter of the
+    /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
+    /// whole, and little enough that the files stay on what the check judged.
+    pub fn arc_tolerance_mm(&self) -> f64 {
+        self.tolerance_mm / 4.0
     }
 }
 
@@ -221,7 +241,10 @@ pub fn vectorize_design(
             .map(|r| (r.pts, r.guards))
             .unzip();
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
-    let simplify = simplify::simplify_rings(&mut rings, Some(&guards), tol_px);
+    let curves = cfg.curves.then(|| simplify::FitCurves {
+        flatten: cfg.scale.to_px(Mm(cfg.flatten_mm())).0,
+    });
+    let simplify = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
