@@ -1561,7 +1561,7 @@ pub(crate) fn encode_outputs(
     if phys.emit.dxf {
         files.push((
             "stencil.dxf".into(),
-            dxf::encode(geom, phys.dxf_r12, phys.vector.tolerance_mm)?,
+            dxf::encode(geom, phys.dxf_r12, phys.vector.arc_tolerance_mm())?,
         ));
     }
     let mut mask_report = None;

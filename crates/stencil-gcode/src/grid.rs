@@ -274,6 +274,7 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
                 points: vec![[x, y], [x + a, y], [x + a, y + a], [x, y + a]],
                 outline: false,
                 area_mm2: a * a,
+                curve: Vec::new(),
             }
         })
         .collect();

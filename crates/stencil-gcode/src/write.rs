@@ -127,32 +127,41 @@ impl Writer {
         true
     }
 
-    /// An arc to `to` about `center` (counter-clockwise when `ccw`, as seen with y up). Written
-    /// with I/J computed from the head's position *as written*, then checked the way Grbl's
-    /// parser checks it (`gc_execute_line`: the start's and the target's distances from the
-    /// centre may differ by at most 0.005 mm, else `error:33`); an arc whose numbers fail that,
-    /// or whose ends round to one point (Grbl would cut a full circle), is written as a G1.
-    fn arc(&mut self, to: [f64; 2], center: [f64; 2], ccw: bool, extra: &str) -> bool {
+    /// The arc of `bulge` ([`curve::Piece`]'s: `tan(sweep / 4)`, positive counter-clockwise with
+    /// y up) from the head's position to `to`. The centre is computed from the two ends *as
+    /// written* (rounded to the micrometre), so both lie on the written circle up to the rounding
+    /// of I and J (under 0.001 mm): Grbl's parser (`gc_execute_line`) refuses an arc whose start
+    /// and target are farther apart from the centre than 0.005 mm and 0.1 % of the radius
+    /// (`error:33`), which is then checked on the numbers written. An arc that rounds to no move
+    /// (Grbl would cut a full circle) or whose bow is under the written resolution is a G1.
+    fn arc(&mut self, to: [f64; 2], bulge: f64, extra: &str) -> bool {
         let (x, y) = (num(to[0]), num(to[1]));
-        let start = (self.at.0.parse::<f64>(), self.at.1.parse::<f64>());
-        let (Ok(sx), Ok(sy)) = start else {
+        let v = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+        let (sx, sy, xv, yv) = (v(&self.at.0), v(&self.at.1), v(&x), v(&y));
+        let Some(a) = curve::arc_of([sx, sy], [xv, yv], bulge) else {
             return self.go(1, to, extra);
         };
-        if (x.as_str(), y.as_str()) == (self.at.0.as_str(), self.at.1.as_str()) {
+        // The arc's bow off its chord: below half the last written digit a G1 is the same path.
+        let bow = a.radius * (1.0 - (a.sweep / 2.0).cos());
+        if (x.as_str(), y.as_str()) == (self.at.0.as_str(), self.at.1.as_str()) || bow < 5e-4 {
             return self.go(1, to, extra);
         }
-        let (i, j) = (num(center[0] - sx), num(center[1] - sy));
-        let v = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
-        let (iv, jv, xv, yv) = (v(&i), v(&j), v(&x), v(&y));
+        let (i, j) = (num(a.center[0] - sx), num(a.center[1] - sy));
+        let (iv, jv) = (v(&i), v(&j));
         let r0 = iv.hypot(jv);
         let r1 = (xv - sx - iv).hypot(yv - sy - jv);
-        // Half Grbl's limit: room for its single-precision arithmetic.
         let off = (r1 - r0).abs();
-        if off.is_nan() || off > GRBL_ARC_RADIUS_SLACK_MM / 2.0 || r0 < 0.001 {
+        // Never expected (the rounding of I and J moves either radius by under 0.0008 mm), but
+        // the file must pass: a G1 rather than an error:33.
+        if !(off <= GRBL_ARC_RADIUS_SLACK_MM / 2.0) || r0 < 0.001 {
             return self.go(1, to, extra);
         }
         let mut l = String::with_capacity(48);
-        let _ = write!(l, "G{} X{x} Y{y} I{i} J{j}{extra}", if ccw { 3 } else { 2 });
+        let _ = write!(
+            l,
+            "G{} X{x} Y{y} I{i} J{j}{extra}",
+            if a.sweep > 0.0 { 3 } else { 2 }
+        );
         self.line(&l);
         self.at = (x, y);
         true
@@ -261,7 +270,6 @@ pub(crate) fn write_each(
     for l in &job.lines {
         write_line(&mut w, l, machine, &job.settings);
     }
-    let arcs = job.arc_tolerance_mm;
     for (i, l) in job.loops.iter().enumerate() {
         match each.get(i) {
             Some(e) => {
@@ -272,9 +280,9 @@ pub(crate) fn write_each(
                 {
                     z.down_mm = d;
                 }
-                write_loop(&mut w, l, &m, &e.settings, arcs);
+                write_loop(&mut w, l, &m, &e.settings);
             }
-            None => write_loop(&mut w, l, machine, &job.settings, arcs),
+            None => write_loop(&mut w, l, machine, &job.settings),
         }
     }
     match machine.tool {
@@ -460,9 +468,8 @@ fn tool_off(w: &mut Writer, machine: &Machine) {
 }
 
 /// One closed loop: travel to its start, tool on, every pass, (a knife's overcut), tool off.
-/// With `arcs` > 0 (and not a drag knife) the loop is fitted with lines and arcs within `arcs`
-/// mm first ([`curve::fit_ring`]), starting at the loop's start point, and each arc is a G2/G3.
-fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings, arcs: f64) {
+/// A loop the planner fitted with arcs ([`Loop::curve`]) is written as its lines and G2/G3 arcs.
+fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
     let knife = matches!(machine.tool, Tool::Knife { .. });
     let points = if knife {
         drag_knife_path(&l.points, s.blade_offset_mm)
@@ -472,16 +479,18 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings, arcs
     // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
     let mut first = tool_on(w, points[0], machine, s);
     let n = points.len();
-    if arcs > 0.0 && !knife {
-        let pieces = curve::fit_ring(&points, arcs);
+    if !knife && !l.curve.is_empty() {
+        let pieces = &l.curve;
         let m = pieces.len();
         for _ in 0..s.passes {
             for k in 0..m {
-                let (p, to) = (pieces[k], pieces[(k + 1) % m].from);
-                match curve::arc_of(p.from, to, p.bulge) {
-                    Some(a) => w.arc(to, a.center, a.sweep > 0.0, &first),
-                    None => w.go(1, to, &first),
-                };
+                let to = pieces[(k + 1) % m].from;
+                let bulge = pieces[k].bulge;
+                if bulge == 0.0 {
+                    w.go(1, to, &first);
+                } else {
+                    w.arc(to, bulge, &first);
+                }
                 first.clear();
             }
         }

@@ -89,6 +89,18 @@ pub fn fit_ring(ring: &[[f64; 2]], tol: f64) -> Vec<Piece> {
 
 /// [`fit_ring`], keeping [`Sides`] (ignored unless it has one pair per vertex).
 pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec<Piece> {
+    fit(ring, tol, sides, None)
+}
+
+/// [`fit_ring`] with no arc reaching outside `bounds` (`[min x, min y, max x, max y]`, which
+/// holds the ring): a G-code job is placed by its polygons' box, and an arc bulging past it
+/// would leave that box (and, at the bed's edge, the bed). Near the box's edges the pieces are
+/// then shorter, or lines, rather than the job moving.
+pub fn fit_ring_inside(ring: &[[f64; 2]], tol: f64, bounds: [f64; 4]) -> Vec<Piece> {
+    fit(ring, tol, None, Some(bounds))
+}
+
+fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4]>) -> Vec<Piece> {
     let n = ring.len();
     let lines = || {
         ring.iter()
@@ -112,7 +124,7 @@ pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec
         let mut step = 2;
         let mut fail = last + 1;
         while i + step <= last {
-            match fit_span(&at, sides, i, i + step, tol) {
+            match fit_span(&at, sides, bounds, i, i + step, tol) {
                 Some(b) => best = (i + step, b),
                 None => {
                     fail = i + step;
@@ -123,7 +135,7 @@ pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec
         }
         if fail > last && best.0 < last {
             // Ran past the end without a failure: try the end itself.
-            match fit_span(&at, sides, i, last, tol) {
+            match fit_span(&at, sides, bounds, i, last, tol) {
                 Some(b) => best = (last, b),
                 None => fail = last,
             }
@@ -131,7 +143,7 @@ pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec
         let (mut lo, mut hi) = (best.0, fail.min(last + 1));
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
-            match fit_span(&at, sides, i, mid, tol) {
+            match fit_span(&at, sides, bounds, i, mid, tol) {
                 Some(b) => {
                     best = (mid, b);
                     lo = mid;
@@ -154,6 +166,7 @@ pub fn fit_ring_within(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>) -> Vec
 fn fit_span(
     at: &impl Fn(usize) -> [f64; 2],
     sides: Option<Sides>,
+    bounds: Option<[f64; 4]>,
     i: usize,
     j: usize,
     tol: f64,
@@ -265,6 +278,14 @@ fn fit_span(
         }
         p = q;
     }
+    if let Some(bx) = bounds {
+        // Past the box by more than the arithmetic's noise (a nanometre).
+        let e = arc_box(&arc, a, b);
+        if e[0] < bx[0] - 1e-9 || e[1] < bx[1] - 1e-9 || e[2] > bx[2] + 1e-9 || e[3] > bx[3] + 1e-9
+        {
+            return None;
+        }
+    }
     Some(bulge)
 }
 
@@ -328,6 +349,90 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
 /// How many of the pieces are arcs.
 pub fn arc_count(pieces: &[Piece]) -> usize {
     pieces.iter().filter(|p| p.bulge != 0.0).count()
+}
+
+/// The exact box `[min x, min y, max x, max y]` of the pieces' path: every piece's ends, and
+/// each arc's points at 0, 90, 180 and 270 degrees about its centre where its sweep passes them
+/// (an arc's extreme in x or y is either an end or one of those). `None` for no pieces.
+///
+/// Why exact, not the box widened by the fitting tolerance: the planner checks the bed by it,
+/// and a blanket margin would refuse or move jobs that stay on the bed.
+pub fn bounds(pieces: &[Piece]) -> Option<[f64; 4]> {
+    let n = pieces.len();
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for (k, p) in pieces.iter().enumerate() {
+        let to = pieces[(k + 1) % n].from;
+        let e = match arc_of(p.from, to, p.bulge) {
+            Some(arc) => arc_box(&arc, p.from, to),
+            None => [p.from[0], p.from[1], p.from[0], p.from[1]],
+        };
+        b = [
+            b[0].min(e[0]),
+            b[1].min(e[1]),
+            b[2].max(e[2]),
+            b[3].max(e[3]),
+        ];
+    }
+    (n > 0).then_some(b)
+}
+
+/// The exact box of one arc from `p` to `q`: its ends, and its points at the quarter-turn
+/// angles its sweep passes.
+fn arc_box(arc: &ArcGeom, p: [f64; 2], q: [f64; 2]) -> [f64; 4] {
+    use std::f64::consts::FRAC_PI_2;
+    let mut b = [
+        p[0].min(q[0]),
+        p[1].min(q[1]),
+        p[0].max(q[0]),
+        p[1].max(q[1]),
+    ];
+    let (a0, a1) = if arc.sweep > 0.0 {
+        (arc.start_angle, arc.start_angle + arc.sweep)
+    } else {
+        (arc.start_angle + arc.sweep, arc.start_angle)
+    };
+    // k·π/2 strictly inside the sweep; each is one of the four axis directions (exact unit
+    // vectors, not cos/sin).
+    let mut q = (a0 / FRAC_PI_2).floor() + 1.0;
+    while q * FRAC_PI_2 < a1 {
+        let [dx, dy] = match q.rem_euclid(4.0) as u8 {
+            0 => [1.0, 0.0],
+            1 => [0.0, 1.0],
+            2 => [-1.0, 0.0],
+            _ => [0.0, -1.0],
+        };
+        let e = [
+            arc.center[0] + arc.radius * dx,
+            arc.center[1] + arc.radius * dy,
+        ];
+        b = [
+            b[0].min(e[0]),
+            b[1].min(e[1]),
+            b[2].max(e[0]),
+            b[3].max(e[1]),
+        ];
+        q += 1.0;
+    }
+    b
+}
+
+/// The length of the closed path the pieces make: lines as chords, arcs as `radius · |sweep|`.
+pub fn length(pieces: &[Piece]) -> f64 {
+    let n = pieces.len();
+    (0..n)
+        .map(|k| {
+            let (p, to) = (pieces[k], pieces[(k + 1) % n].from);
+            match arc_of(p.from, to, p.bulge) {
+                Some(a) => a.radius * a.sweep.abs(),
+                None => dist(p.from, to),
+            }
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -483,6 +588,135 @@ mod tests {
                 "{k}: {l:?} {r:?} vs {curve_y}"
             );
         }
+    }
+
+    #[test]
+    fn bounds_are_the_arcs_own_extremes() {
+        // A half disc of radius 2 about (1, 1), its arc from (3, 1) counter-clockwise over the
+        // top to (-1, 1): a half turn would be bulge 1, so two quarter arcs (bulge tan(π/8)).
+        let q = (std::f64::consts::PI / 8.0).tan();
+        let pieces = [
+            Piece {
+                from: [3.0, 1.0],
+                bulge: q,
+            },
+            Piece {
+                from: [1.0, 3.0],
+                bulge: q,
+            },
+            Piece {
+                from: [-1.0, 1.0],
+                bulge: 0.0,
+            },
+        ];
+        let b = bounds(&pieces).unwrap();
+        for (got, want) in b.iter().zip([-1.0, 1.0, 3.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{b:?}");
+        }
+        // One quarter arc from (3, 1) to (1, 3), back by its chord: its extremes are its ends.
+        let b = bounds(&pieces[..2]).unwrap();
+        assert!(
+            (b[2] - 3.0).abs() < 1e-12 && (b[3] - 3.0).abs() < 1e-12,
+            "{b:?}"
+        );
+        // A shallow counter-clockwise arc from (0, 0) to (4, 0): its centre above the chord, it
+        // sags below it by the sagitta, bulge · chord / 2 = 0.5, through its 270° point, past
+        // the box of its ends.
+        let arc = [
+            Piece {
+                from: [0.0, 0.0],
+                bulge: 0.25,
+            },
+            Piece {
+                from: [4.0, 0.0],
+                bulge: 0.0,
+            },
+        ];
+        let g = arc_of([0.0, 0.0], [4.0, 0.0], 0.25).unwrap();
+        let b = bounds(&arc).unwrap();
+        assert!(
+            (b[1] - (g.center[1] - g.radius)).abs() < 1e-12,
+            "{b:?} {g:?}"
+        );
+        assert!(b[1] < -0.4, "{b:?}");
+        // Against a dense flattening: the same box within the flattening's own error.
+        let flat = flatten(&arc, 1e-6);
+        let lo = flat.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+        assert!((lo - b[1]).abs() < 1e-5, "{lo} vs {}", b[1]);
+        assert!(bounds(&[]).is_none());
+    }
+
+    #[test]
+    fn inside_a_box_no_arc_leaves_it() {
+        // A 7-gon's circle bulges past the polygon's own box on every side but one: arcs
+        // through its vertices would leave it. A fine polygon of a circle starting off-axis,
+        // and a staircase disc, likewise.
+        let off_axis: Vec<[f64; 2]> = (0..97)
+            .map(|i| {
+                let a = 0.3 + std::f64::consts::TAU * i as f64 / 97.0;
+                [5.0 + 4.0 * a.cos(), 3.0 + 4.0 * a.sin()]
+            })
+            .collect();
+        let mut stairs = Vec::new();
+        for i in 0..720 {
+            let a = std::f64::consts::TAU * i as f64 / 720.0;
+            let p = [(30.0 * a.cos()).round(), (30.0 * a.sin()).round()];
+            if stairs.last() != Some(&p) && stairs.first() != Some(&p) {
+                stairs.push(p);
+            }
+        }
+        for (ring, tol, arcs) in [
+            (circle(4.0, 7, true), 0.5, false),
+            (off_axis, 0.01, true),
+            (stairs, 0.5, true),
+        ] {
+            let bx = crate::ring::bbox(&ring);
+            let free = fit_ring(&ring, tol);
+            let fb = bounds(&free).unwrap();
+            let kept = fit_ring_inside(&ring, tol, bx);
+            let kb = bounds(&kept).unwrap();
+            assert!(
+                kb[0] >= bx[0] - 1e-9
+                    && kb[1] >= bx[1] - 1e-9
+                    && kb[2] <= bx[2] + 1e-9
+                    && kb[3] <= bx[3] + 1e-9,
+                "{kb:?} vs {bx:?}"
+            );
+            // The free fit does leave the box (else this test tests nothing), and the kept
+            // one is still a fit within the tolerance, with arcs where they can stay inside
+            // (the 7-gon's arcs would all bulge out: it stays its lines).
+            assert!(
+                fb[0] < bx[0] - 1e-6
+                    || fb[1] < bx[1] - 1e-6
+                    || fb[2] > bx[2] + 1e-6
+                    || fb[3] > bx[3] + 1e-6,
+                "{fb:?} vs {bx:?}"
+            );
+            assert_eq!(arc_count(&kept) > 0, arcs, "{kept:?}");
+            let h = hausdorff(&flatten(&kept, tol / 50.0), &ring);
+            assert!(h <= tol * 1.05 + 0.01, "{h}");
+        }
+    }
+
+    #[test]
+    fn length_is_the_arcs_length() {
+        let q = (std::f64::consts::PI / 8.0).tan();
+        let pieces = [
+            Piece {
+                from: [3.0, 1.0],
+                bulge: q,
+            },
+            Piece {
+                from: [1.0, 3.0],
+                bulge: q,
+            },
+            Piece {
+                from: [-1.0, 1.0],
+                bulge: 0.0,
+            },
+        ];
+        let want = std::f64::consts::PI * 2.0 + 4.0;
+        assert!((length(&pieces) - want).abs() < 1e-12);
     }
 
     #[test]
