@@ -153,7 +153,7 @@ impl Writer {
         let off = (r1 - r0).abs();
         // Never expected (the rounding of I and J moves either radius by under 0.0008 mm), but
         // the file must pass: a G1 rather than an error:33.
-        if !(off <= GRBL_ARC_RADIUS_SLACK_MM / 2.0) || r0 < 0.001 {
+        if off.is_nan() || off > GRBL_ARC_RADIUS_SLACK_MM / 2.0 || r0 < 0.001 {
             return self.go(1, to, extra);
         }
         let mut l = String::with_capacity(48);
