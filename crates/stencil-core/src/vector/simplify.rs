@@ -29,8 +29,9 @@ pub struct SimplifyStats {
     pub points_out: usize,
     /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
     pub fallbacks: usize,
-    /// Rings replaced by lines and arcs fitted to the traced points ([`fit_curves`]), and how
-    /// many arcs they hold; absent from reports written before curves were fitted.
+    /// Rings replaced by lines and arcs fitted to the traced points
+    /// ([`stencil_geom::curve::fit_ring_within`]), and how many arcs they hold; absent from
+    /// reports written before curves were fitted.
     #[serde(default)]
     pub curved_rings: usize,
     #[serde(default)]
