@@ -48,6 +48,12 @@ pub struct MachineArgs {
     /// open cuts. A pen draws them anyway; without this a cutting tool refuses them.
     #[arg(long)]
     pub cut_open_paths: bool,
+    /// Write straight G1 segments only, no G2/G3 arcs (for a controller or sender without arcs;
+    /// a machine profile with `arcs = false` does the same). By default each loop is fitted with
+    /// lines and arcs within the outline's tolerance (make: --tolerance-mm; gcode: 0.02 mm, twice
+    /// the SVG reader's flattening).
+    #[arg(long)]
+    pub no_arcs: bool,
 }
 
 impl MachineArgs {
@@ -55,13 +61,16 @@ impl MachineArgs {
         Ok(machine_profile::load(self.machine.as_deref())?)
     }
 
-    pub fn plan_config(&self, settings: CutSettings) -> PlanConfig {
+    /// Where and how to cut; loops are written as arcs fitted within `arc_tolerance_mm` unless
+    /// `--no-arcs`.
+    pub fn plan_config(&self, settings: CutSettings, arc_tolerance_mm: f64) -> PlanConfig {
         PlanConfig {
             anchor: self.origin,
             offset: self.offset,
             cut_outline: self.cut_outline,
             cut_open_paths: self.cut_open_paths,
             settings,
+            arc_tolerance_mm: if self.no_arcs { 0.0 } else { arc_tolerance_mm },
         }
     }
 }
@@ -226,15 +235,17 @@ impl CutArgs {
 }
 
 /// The G-code part of `make`: `Some` with `--emit gcode`; machine or cut options without it are a
-/// mistake worth saying (the user expects a G-code file).
+/// mistake worth saying (the user expects a G-code file). Arcs are fitted within
+/// `tolerance_mm`, the outline's own tolerance.
 pub fn make_gcode_config(
     m: &MachineArgs,
     cut: &CutArgs,
     material: &Material,
     emit: bool,
+    tolerance_mm: f64,
 ) -> anyhow::Result<Option<GcodeConfig>> {
     if !emit {
-        if m.machine.is_some() || m.origin.is_some() || m.cut_outline || cut.any() {
+        if m.machine.is_some() || m.origin.is_some() || m.cut_outline || m.no_arcs || cut.any() {
             bail!(
                 "machine and cut options only apply to G-code: add gcode to --emit \
                  (e.g. --emit png,svg,gcode)"
@@ -245,7 +256,7 @@ pub fn make_gcode_config(
     let machine = m.machine()?;
     let (settings, settings_from) = chosen_settings(cut, Some(material), &machine)?;
     Ok(Some(GcodeConfig {
-        plan: m.plan_config(settings),
+        plan: m.plan_config(settings, tolerance_mm),
         machine,
         settings_from,
     }))
@@ -361,7 +372,12 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         notes.push(format!("material {}, kerf {} mm", m.name, m.kerf_mm));
     }
     notes.push(format!("cut settings from {settings_from}"));
-    let cfg = a.machine.plan_config(settings);
+    // The drawing's curves were flattened within FLATTEN_TOLERANCE_MM: twice that finds them
+    // again as arcs (and joins a polygon's runs of short segments into arcs).
+    let cfg = a.machine.plan_config(
+        settings,
+        2.0 * stencil_gcode::read_svg::FLATTEN_TOLERANCE_MM,
+    );
     let (gcode, mut summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
         Err(e @ plan::PlanError::OpenPaths { .. }) => {
             bail!("{}: {}", svg_path.display(), super::errors::plan(&e))

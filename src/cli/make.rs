@@ -584,8 +584,13 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         gcode: None,
         progress: None,
     };
-    let mut gcode =
-        super::gcode::make_gcode_config(&a.machine, &a.cut, &cfg.physical.material, emit_gcode)?;
+    let mut gcode = super::gcode::make_gcode_config(
+        &a.machine,
+        &a.cut,
+        &cfg.physical.material,
+        emit_gcode,
+        cfg.physical.vector.arc_tolerance_mm(),
+    )?;
     if let (Some(g), Some(_)) = (&mut gcode, &cfg.physical.gobo) {
         // A gobo is a disc: its rim is always cut, last.
         g.plan.cut_outline = true;

@@ -311,3 +311,157 @@ pub fn make_as_shown(command: &str, dir: &Path) {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// One loop of a G-code program as read back by [`gcode_loops`]: its motion lines' words
+/// (`G`, `X`, `Y`, `I`, `J`, as written, in order), and its path as points: G1 ends, and G2/G3
+/// arcs as chords at most 0.001 mm from their circle.
+#[derive(Clone, Debug, Default)]
+pub struct GcodeLoop {
+    pub moves: Vec<String>,
+    pub points: Vec<[f64; 2]>,
+    /// How many of the moves are arcs.
+    pub arcs: usize,
+}
+
+/// The loops of a G-code program (what each rapid move leads into, up to the next), read here
+/// word by word, independently of the project's writer and interpreter: G0/G1/G2/G3 modal, X/Y
+/// absolute (G90), arcs in the XY plane with I/J centre offsets from their start. An arc whose
+/// ends are not on one circle (Grbl's error:33: more than 0.005 mm and 0.1 % of the radius
+/// apart) or that would be a full turn panics.
+pub fn gcode_loops(text: &str) -> Vec<GcodeLoop> {
+    let mut loops: Vec<GcodeLoop> = Vec::new();
+    let (mut motion, mut pos) = (0u8, [0.0f64; 2]);
+    for (n, line) in text.lines().enumerate() {
+        if line.starts_with(';') {
+            continue;
+        }
+        let word = |c: char| {
+            line.split_whitespace()
+                .find_map(|w| w.strip_prefix(c).and_then(|v| v.parse::<f64>().ok()))
+        };
+        if let Some(g) = line
+            .split_whitespace()
+            .filter_map(|w| w.strip_prefix('G').and_then(|v| v.parse::<u8>().ok()))
+            .find(|g| *g <= 3)
+        {
+            motion = g;
+        }
+        let (x, y) = (word('X'), word('Y'));
+        if x.is_none() && y.is_none() {
+            continue;
+        }
+        let to = [x.unwrap_or(pos[0]), y.unwrap_or(pos[1])];
+        let words: Vec<&str> = line
+            .split_whitespace()
+            .filter(|w| w.starts_with(['G', 'X', 'Y', 'I', 'J']))
+            .collect();
+        match motion {
+            0 => loops.push(GcodeLoop {
+                points: vec![to],
+                ..Default::default()
+            }),
+            1 => {
+                if let Some(l) = loops.last_mut() {
+                    l.moves.push(words.join(" "));
+                    l.points.push(to);
+                }
+            }
+            _ => {
+                let (i, j) = (word('I').unwrap_or(0.0), word('J').unwrap_or(0.0));
+                let c = [pos[0] + i, pos[1] + j];
+                let r0 = i.hypot(j);
+                let r1 = (to[0] - c[0]).hypot(to[1] - c[1]);
+                let dr = (r1 - r0).abs();
+                assert!(
+                    dr <= 0.005 || dr <= 0.001 * r0,
+                    "line {}: {line}: ends {r0} and {r1} mm from the centre",
+                    n + 1
+                );
+                assert!(to != pos, "line {}: {line}: a full turn", n + 1);
+                let a0 = (pos[1] - c[1]).atan2(pos[0] - c[0]);
+                let mut sweep = (to[1] - c[1]).atan2(to[0] - c[0]) - a0;
+                let tau = std::f64::consts::TAU;
+                if motion == 3 && sweep <= 0.0 {
+                    sweep += tau;
+                } else if motion == 2 && sweep >= 0.0 {
+                    sweep -= tau;
+                }
+                let step = 2.0 * (1.0 - 0.001 / r0.max(0.002)).acos();
+                let k = (sweep.abs() / step).ceil().max(1.0) as usize;
+                if let Some(l) = loops.last_mut() {
+                    l.moves.push(words.join(" "));
+                    l.arcs += 1;
+                    for m in 1..k {
+                        let a = a0 + sweep * m as f64 / k as f64;
+                        l.points.push([c[0] + r0 * a.cos(), c[1] + r0 * a.sin()]);
+                    }
+                    l.points.push(to);
+                }
+            }
+        }
+        pos = to;
+    }
+    loops
+}
+
+/// The closed subpaths of SVG path data (`d`), read with kurbo (lines, arcs `A`, Béziers) and
+/// flattened within `tol`: each subpath's points, its closing point not repeated.
+pub fn svg_subpaths(d: &str, tol: f64) -> Vec<Vec<[f64; 2]>> {
+    let path = kurbo::BezPath::from_svg(d).unwrap_or_else(|e| panic!("path data {d:.80}: {e}"));
+    let mut out: Vec<Vec<[f64; 2]>> = Vec::new();
+    kurbo::flatten(path, tol, |el| match el {
+        kurbo::PathEl::MoveTo(p) => out.push(vec![[p.x, p.y]]),
+        kurbo::PathEl::LineTo(p) => out.last_mut().unwrap().push([p.x, p.y]),
+        kurbo::PathEl::ClosePath => {
+            let r = out.last_mut().unwrap();
+            if r.len() > 1 && r.first() == r.last() {
+                r.pop();
+            }
+        }
+        _ => unreachable!("flatten gives lines"),
+    });
+    out
+}
+
+/// Distance from `p` to the segment `a`–`b`.
+pub fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
+}
+
+/// Points along a polyline, at most `step` apart.
+pub fn dense(path: &[[f64; 2]], step: f64) -> Vec<[f64; 2]> {
+    let mut out = vec![path[0]];
+    for w in path.windows(2) {
+        let k = ((w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) / step)
+            .ceil()
+            .max(1.0) as usize;
+        for i in 1..=k {
+            let t = i as f64 / k as f64;
+            out.push([
+                w[0][0] + t * (w[1][0] - w[0][0]),
+                w[0][1] + t * (w[1][1] - w[0][1]),
+            ]);
+        }
+    }
+    out
+}
+
+/// The largest distance from a point of the polyline `a` (every 0.01 mm) to the polyline `b`:
+/// one way of the Hausdorff distance.
+pub fn one_way(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+    dense(a, 0.01)
+        .iter()
+        .map(|&p| {
+            b.windows(2)
+                .map(|w| seg_dist(p, w[0], w[1]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}

@@ -25,12 +25,17 @@ fn rings() -> String {
         .to_string()
 }
 
-/// The S and F of the first cut (`M4 S.. F..` is the writer's first laser line with power).
+/// The S and F of the first cut: the first cutting move (a G1 line, or a G2/G3 arc when the
+/// loop starts with one) carries them.
 fn first_cut_s_f(gcode: &str) -> (f64, f64) {
     let line = gcode
         .lines()
-        .find(|l| l.starts_with("G1") && l.contains(" S") && l.contains(" F"))
-        .unwrap_or_else(|| panic!("no cutting G1 with S and F:\n{gcode}"));
+        .find(|l| {
+            ["G1 ", "G2 ", "G3 "].iter().any(|g| l.starts_with(g))
+                && l.contains(" S")
+                && l.contains(" F")
+        })
+        .unwrap_or_else(|| panic!("no cutting G1/G2/G3 with S and F:\n{gcode}"));
     let word = |c: char| -> f64 {
         line.split_whitespace()
             .find_map(|w| w.strip_prefix(c))

@@ -12,6 +12,8 @@ use stencil_gcode::machine::{self, Machine, PenLift, Tool};
 use stencil_gcode::CutLoops;
 use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
 
+use crate::common::one_way;
+
 // ---- inputs -----------------------------------------------------------------------------------
 
 fn circle(cx: f64, cy: f64, r: f64, n: usize) -> Polygon<f64> {
@@ -122,13 +124,13 @@ impl gcode::Callbacks for ParseProblems {
 /// What the program does, as tracked from the independently parsed words.
 #[derive(Debug, Default)]
 struct Run {
-    /// (from, to, rapid, tool_on) per XY or Z move.
+    /// (from, to, rapid, tool_on) per XY or Z move; an arc as its chords.
     moves: Vec<([f64; 3], [f64; 3], bool, bool)>,
     /// Commands in order, as "G0", "M5", ...
     commands: Vec<String>,
     cut_mm: f64,
     travel_mm: f64,
-    /// Lines whose first G1 came before any F.
+    /// Lines whose first G1 (or G2/G3) came before any F.
     g1_without_f: Option<usize>,
 }
 
@@ -171,7 +173,7 @@ fn run(text: &str, machine: &Machine) -> Run {
             match (mn, major) {
                 (gcode::Mnemonic::Miscellaneous, 3 | 4) => spindle = true,
                 (gcode::Mnemonic::Miscellaneous, 5) => spindle = false,
-                (gcode::Mnemonic::General, 0 | 1) => motion = major,
+                (gcode::Mnemonic::General, 0..=3) => motion = major,
                 (gcode::Mnemonic::General, 21 | 90 | 94) => continue,
                 (gcode::Mnemonic::Miscellaneous, _) => continue,
                 (m, n) => panic!("unexpected command {m}{n} in the output"),
@@ -187,13 +189,60 @@ fn run(text: &str, machine: &Machine) -> Run {
             if !any || mn != gcode::Mnemonic::General {
                 continue;
             }
-            if motion == 1 && !f_seen && r.g1_without_f.is_none() {
+            if motion >= 1 && !f_seen && r.g1_without_f.is_none() {
                 r.g1_without_f = Some(code.span().line + 1);
             }
             let tool_on = match z_up {
                 Some(up) => to[2] < up - 1e-9 && pos[2] < up - 1e-9,
                 None => spindle && s > 0.0,
             };
+            if motion >= 2 {
+                // An arc: I and J are the centre's offsets from the start (Grbl's XY plane);
+                // both ends on one circle (Grbl's error:33 allows 0.005 mm), never a full turn
+                // (its ends are apart), followed as chords 0.001 mm from the circle.
+                let (i, j) = (
+                    code.value_for('I').expect("an arc has I") as f64,
+                    code.value_for('J').expect("an arc has J") as f64,
+                );
+                let c = [pos[0] + i, pos[1] + j];
+                let r0 = i.hypot(j);
+                let r1 = (to[0] - c[0]).hypot(to[1] - c[1]);
+                assert!(
+                    (r1 - r0).abs() <= 0.005 || (r1 - r0).abs() <= 0.001 * r0,
+                    "line {}: arc ends {r0} and {r1} mm from the centre",
+                    code.span().line + 1
+                );
+                assert!(to[0] != pos[0] || to[1] != pos[1], "a full-circle arc");
+                assert!(
+                    tool_on,
+                    "line {}: an arc with the tool off",
+                    code.span().line + 1
+                );
+                let a0 = (pos[1] - c[1]).atan2(pos[0] - c[0]);
+                let mut sweep = (to[1] - c[1]).atan2(to[0] - c[0]) - a0;
+                let tau = std::f64::consts::TAU;
+                if motion == 3 && sweep <= 0.0 {
+                    sweep += tau;
+                } else if motion == 2 && sweep >= 0.0 {
+                    sweep -= tau;
+                }
+                r.cut_mm += r0 * sweep.abs();
+                let step = 2.0 * (1.0 - 0.001 / r0.max(0.002)).acos();
+                let k = (sweep.abs() / step).ceil().max(1.0) as usize;
+                let mut at = pos;
+                for n in 1..=k {
+                    let a = a0 + sweep * n as f64 / k as f64;
+                    let p = if n == k {
+                        to
+                    } else {
+                        [c[0] + r0 * a.cos(), c[1] + r0 * a.sin(), to[2]]
+                    };
+                    r.moves.push((at, p, false, true));
+                    at = p;
+                }
+                pos = to;
+                continue;
+            }
             let xy = ((to[0] - pos[0]).powi(2) + (to[1] - pos[1]).powi(2)).sqrt();
             if motion == 1 && tool_on {
                 r.cut_mm += xy;
@@ -221,7 +270,7 @@ fn check_program(text: &str, machine: &Machine) -> Run {
         for word in l.split_whitespace() {
             let (letter, num) = word.split_at(1);
             assert!(
-                "GMXYZSF".contains(letter),
+                "GMXYZSFIJ".contains(letter),
                 "line {}: word {word} Grbl may not like",
                 i + 1
             );
@@ -239,8 +288,8 @@ fn check_program(text: &str, machine: &Machine) -> Run {
             }
             if letter == "G" {
                 assert!(
-                    ["0", "1", "21", "90", "94"].contains(&num),
-                    "line {}: G{num} (only G0/G1 moves, no arcs or splines)",
+                    ["0", "1", "2", "3", "21", "90", "94"].contains(&num),
+                    "line {}: G{num} (only G0/G1 moves and G2/G3 arcs, no splines)",
                     i + 1
                 );
             }
@@ -310,6 +359,84 @@ fn laser_output_obeys_grbl_rules_and_cuts_the_perimeter() {
         "laser mode documented in the header"
     );
     assert!(text.contains("M4 S0"), "dynamic power");
+}
+
+/// The cut paths of a run: each run of tool-on XY moves (an arc as its chords), as points.
+fn cut_paths(r: &Run) -> Vec<Vec<[f64; 2]>> {
+    let mut out: Vec<Vec<[f64; 2]>> = Vec::new();
+    let mut open = false;
+    for (from, to, rapid, on) in &r.moves {
+        let xy = from[0] != to[0] || from[1] != to[1];
+        if *on && !rapid && xy {
+            if !open {
+                out.push(vec![[from[0], from[1]]]);
+                open = true;
+            }
+            out.last_mut().unwrap().push([to[0], to[1]]);
+        } else if xy || !on {
+            open = false;
+        }
+    }
+    out
+}
+
+#[test]
+fn arcs_on_every_machine_follow_the_loops_and_leave_the_job_where_it_was() {
+    // Circles and squares on every shipped machine (origins on every corner, lasers, pens, a
+    // knife), the outline cut: the arcs job, read back independently, cuts the same loops in
+    // the same order within the fitting tolerance, and the job's box is the straight job's.
+    let g = scattered(11, 4, 3);
+    let tol = 0.02;
+    for name in machine::builtin_names() {
+        let m = machine::load(Some(name)).unwrap();
+        let mut cfg = PlanConfig::new(settings());
+        cfg.cut_outline = true;
+        cfg.offset = [5.0, 5.0];
+        let straight = stencil_gcode::plan(&g, &m, &cfg).unwrap();
+        let (flat, _) = make(&g, &m, &cfg);
+        cfg.arc_tolerance_mm = tol;
+        let curved = stencil_gcode::plan(&g, &m, &cfg).unwrap();
+        let (text, summary) = make(&g, &m, &cfg);
+        for a in 0..2 {
+            assert!(
+                (curved.min[a] - straight.min[a]).abs() < 1e-9
+                    && (curved.max[a] - straight.max[a]).abs() < 1e-9,
+                "{name}: the job moved: {:?}..{:?} vs {:?}..{:?}",
+                curved.min,
+                curved.max,
+                straight.min,
+                straight.max
+            );
+        }
+        let (rf, ra) = (check_program(&flat, &m), check_program(&text, &m));
+        let arcs = text
+            .lines()
+            .filter(|l| l.starts_with("G2 ") || l.starts_with("G3 "))
+            .count();
+        if matches!(m.tool, Tool::Knife { .. }) {
+            // A drag knife's path is its corners' swivels: straight, as before.
+            assert_eq!(arcs, 0, "{name}");
+            assert_eq!(text.lines().count(), flat.lines().count(), "{name}");
+            continue;
+        }
+        assert!(arcs > 10, "{name}: {arcs} arcs");
+        assert!(text.lines().count() < flat.lines().count(), "{name}");
+        // The report's cut length is the arcs' (within the written numbers' rounding).
+        assert!(
+            (summary.path.cut_mm - ra.cut_mm).abs() < 1e-3 * ra.cut_mm,
+            "{name}: {} vs {}",
+            summary.path.cut_mm,
+            ra.cut_mm
+        );
+        let (pa, pf) = (cut_paths(&ra), cut_paths(&rf));
+        assert_eq!(pa.len(), pf.len(), "{name}");
+        // The fit's tolerance, plus the written numbers' rounding (X, Y, I, J to 0.0005 mm).
+        let limit = tol + 0.002;
+        for (a, f) in pa.iter().zip(&pf) {
+            let (af, fa) = (one_way(a, f), one_way(f, a));
+            assert!(af <= limit && fa <= limit, "{name}: {af} / {fa} mm");
+        }
+    }
 }
 
 #[test]
@@ -1038,7 +1165,7 @@ mod prop {
             s.passes = passes;
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
-            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s };
+            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s, arc_tolerance_mm: 0.0 };
             match gcode_for(&g, &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);

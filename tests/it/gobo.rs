@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use crate::common::{self, ink_png, report, s, stderr, stencil, tmp};
+use crate::common::{self, gcode_loops, ink_png, report, s, stderr, stencil, tmp};
 
 /// A circle: centre and radius, mm.
 type Circle = ([f64; 2], f64);
@@ -145,23 +145,15 @@ fn the_rim_is_the_last_loop_of_the_gcode_a_circle_outside_the_disc_by_half_the_k
         .as_f64()
         .unwrap_or(0.0);
     let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
-    // The points of the last loop: from the last rapid move before the laser is switched off.
-    let word = |l: &str, k: char| {
-        l.split_whitespace()
-            .find_map(|w| w.strip_prefix(k).and_then(|v| v.parse::<f64>().ok()))
-    };
-    let mut last: Vec<[f64; 2]> = Vec::new();
-    for l in text.lines() {
-        if l.starts_with("M5") {
-            break;
-        }
-        if l.starts_with("G0") {
-            last.clear();
-        }
-        if let (Some(x), Some(y)) = (word(l, 'X'), word(l, 'Y')) {
-            last.push([x, y]);
-        }
-    }
+    // The last loop, read back with its arcs (the rim is fitted with G2/G3 arcs) as dense
+    // points: a circle all round, not a polygon of a few points.
+    let rim = gcode_loops(&text)
+        .into_iter()
+        .rev()
+        .find(|l| !l.moves.is_empty())
+        .expect("a cut loop");
+    assert!(rim.arcs >= 3, "the rim as arcs: {:?}", rim.moves);
+    let last = rim.points;
     assert!(last.len() > 100, "{} points", last.len());
     // The centre: the middle of the loop's box.
     let mid = |k: usize| {
@@ -177,6 +169,19 @@ fn the_rim_is_the_last_loop_of_the_gcode_a_circle_outside_the_disc_by_half_the_k
         let d = dist(*p, c);
         assert!((d - want).abs() < 0.01, "{d} vs {want}");
     }
+    // All the way round: no gap between the points' angles about the centre wider than 3°
+    // (arcs come back as dense points; a short stretch the fit joins by a line, within its
+    // tolerance, as two or three of the polygon's 0.9° edges).
+    let mut ang: Vec<f64> = last
+        .iter()
+        .map(|p| (p[1] - c[1]).atan2(p[0] - c[0]))
+        .collect();
+    ang.sort_by(f64::total_cmp);
+    let gap = ang.windows(2).map(|w| w[1] - w[0]).fold(
+        ang[0] + std::f64::consts::TAU - ang[ang.len() - 1],
+        f64::max,
+    );
+    assert!(gap < 3f64.to_radians(), "a gap of {gap} rad");
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! leaves no layer folder), `check` and `gcode` on a layered folder, and the fill-in painting
 //! the first stencil's bridges.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use crate::common::*;
@@ -51,38 +51,18 @@ fn extent(pts: &[[f64; 2]]) -> [f64; 2] {
     [hi[0] - lo[0], hi[1] - lo[1]]
 }
 
-/// The cut loops of a G-code job: the points after each rapid move, as written, sorted (the
-/// planner may enter the same loop at another point in another job).
-fn gcode_loops(path: &Path) -> Vec<Vec<String>> {
+/// The cut loops of a G-code job, read back with their arcs ([`gcode_loops`]): each loop's
+/// motion lines as written, sorted (the planner may enter the same loop at another point in
+/// another job; its lines and arcs are the same), with its path as points.
+fn job_loops(path: &Path) -> BTreeMap<Vec<String>, Vec<[f64; 2]>> {
     let text = std::fs::read_to_string(path).unwrap();
-    let mut loops: Vec<Vec<String>> = Vec::new();
-    for line in text.lines() {
-        let xy: Vec<&str> = line
-            .split_whitespace()
-            .filter(|w| w.starts_with('X') || w.starts_with('Y'))
-            .collect();
-        if xy.len() != 2 {
-            continue;
-        }
-        if line.starts_with("G0") {
-            loops.push(Vec::new());
-        }
-        if let Some(l) = loops.last_mut() {
-            l.push(xy.join(" "));
-        }
-    }
-    for l in &mut loops {
-        l.sort();
-        l.dedup();
-    }
-    loops
-}
-
-fn points_of(l: &[String]) -> Vec<[f64; 2]> {
-    l.iter()
-        .map(|s| {
-            let mut it = s.split(' ').map(|w| w[1..].parse::<f64>().unwrap());
-            [it.next().unwrap(), it.next().unwrap()]
+    gcode_loops(&text)
+        .into_iter()
+        .map(|l| {
+            let mut key = l.moves;
+            key.sort();
+            key.dedup();
+            (key, l.points)
         })
         .collect()
 }
@@ -96,14 +76,9 @@ fn svg_paths(path: &Path) -> Vec<String> {
         .collect()
 }
 
+/// Every point of a path's data, its arcs flattened (read with kurbo, not our writer).
 fn svg_points(d: &str) -> Vec<[f64; 2]> {
-    d.split(['M', 'L', 'Z'])
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| {
-            let mut it = s.split_whitespace().map(|v| v.parse::<f64>().unwrap());
-            [it.next().unwrap(), it.next().unwrap()]
-        })
-        .collect()
+    svg_subpaths(d, 0.001).concat()
 }
 
 /// The marks among shapes common to every sheet: 4 crosses (7 mm across at cardstock's 1 mm
@@ -202,14 +177,14 @@ fn a_layered_photo_is_valid_cumulative_and_registered_in_every_output() {
         .collect();
     assert_marks_shared("SVG", &shared);
     // G-code: the same mark loops at the same machine coordinates in every job.
-    let jobs: Vec<BTreeSet<Vec<String>>> = layers
+    let jobs: Vec<BTreeMap<Vec<String>, Vec<[f64; 2]>>> = layers
         .iter()
-        .map(|l| gcode_loops(&l.join("stencil.gcode")).into_iter().collect())
+        .map(|l| job_loops(&l.join("stencil.gcode")))
         .collect();
     let shared: Vec<[f64; 2]> = jobs[0]
         .iter()
-        .filter(|p| jobs.iter().all(|s| s.contains(*p)))
-        .map(|p| extent(&points_of(p)))
+        .filter(|(k, _)| !k.is_empty() && jobs.iter().all(|j| j.contains_key(*k)))
+        .map(|(_, path)| extent(path))
         .collect();
     assert_marks_shared("G-code", &shared);
     // A later one-layer run into the folder leaves no layer folder, composite or set report.

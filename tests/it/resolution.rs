@@ -33,31 +33,16 @@ fn make(input: &Path, out: &Path, args: &[&str]) -> (serde_json::Value, String) 
     (report(out), String::from_utf8_lossy(&o.stdout).into_owned())
 }
 
-/// The closed paths of the SVG's CUT layer, as points in mm.
+/// The closed paths of the SVG's CUT layer, as points in mm: lines and arcs read with kurbo
+/// ([`svg_subpaths`]) and flattened within a micrometre, so that a distance measured on them is
+/// the drawn curve's, not only its vertices'.
 fn cut_paths(svg: &str) -> Vec<Vec<[f64; 2]>> {
     let start = svg.find("id=\"cut\"").expect("a CUT layer");
     let layer = &svg[start..start + svg[start..].find("</g>").expect("layer ends")];
     let mut paths = Vec::new();
     for chunk in layer.split(" d=\"").skip(1) {
         let d = &chunk[..chunk.find('"').unwrap()];
-        let mut pts = Vec::new();
-        // "M x y L x y L x y ... Z": a command letter starts each point.
-        for cmd in d
-            .split(|c: char| c.is_ascii_alphabetic())
-            .filter(|c| !c.trim().is_empty())
-        {
-            let v: Vec<f64> = cmd
-                .split([' ', ','])
-                .filter(|t| !t.is_empty())
-                .map(|t| {
-                    t.parse()
-                        .unwrap_or_else(|_| panic!("a number: {t:?} in {cmd:?}"))
-                })
-                .collect();
-            assert_eq!(v.len(), 2, "one point per command: {cmd:?}");
-            pts.push([v[0], v[1]]);
-        }
-        paths.push(pts);
+        paths.extend(svg_subpaths(d, 0.001));
     }
     paths
 }

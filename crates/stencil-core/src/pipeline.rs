@@ -1709,10 +1709,16 @@ pub(crate) fn encode_outputs(
         ));
     }
     if phys.emit.svg {
-        files.push(("stencil.svg".into(), svg::encode(geom)));
+        files.push((
+            "stencil.svg".into(),
+            svg::encode(geom, phys.vector.arc_tolerance_mm()),
+        ));
     }
     if phys.emit.dxf {
-        files.push(("stencil.dxf".into(), dxf::encode(geom, phys.dxf_r12)?));
+        files.push((
+            "stencil.dxf".into(),
+            dxf::encode(geom, phys.dxf_r12, phys.vector.arc_tolerance_mm())?,
+        ));
     }
     let mut mask_report = None;
     if phys.emit.mask {

@@ -274,6 +274,7 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
                 points: vec![[x, y], [x + a, y], [x + a, y + a], [x, y + a]],
                 outline: false,
                 area_mm2: a * a,
+                curve: Vec::new(),
             }
         })
         .collect();
@@ -294,6 +295,8 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
         loops,
         home,
         settings: spec.base,
+        // Squares: nothing to fit.
+        arc_tolerance_mm: 0.0,
         sheet_mm: size,
         min: spec.offset,
         max: [spec.offset[0] + size[0], spec.offset[1] + size[1]],

@@ -266,6 +266,10 @@ pub struct Machine {
     /// settings are chosen by; `None` when the profile does not say (a profile written before
     /// they existed).
     pub laser: Option<LaserPower>,
+    /// The firmware runs G2/G3 arcs (`arcs`, default true: every Grbl 1.1 does). A profile says
+    /// `arcs = false` for a controller or sender that does not (some Grbl ports and plotter
+    /// firmwares drop them): its jobs are written with straight G1 segments only.
+    pub arcs: bool,
 }
 
 impl Machine {
@@ -365,6 +369,9 @@ struct RawMachine {
     name: String,
     #[serde(default)]
     description: String,
+    /// See [`Machine::arcs`].
+    #[serde(default)]
+    arcs: Option<bool>,
     bed: Bed,
     motion: Motion,
     tool: RawTool,
@@ -468,6 +475,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         motion: raw.motion,
         tool,
         frame_power_pct,
+        arcs: raw.arcs.unwrap_or(true),
     })
 }
 

@@ -500,6 +500,7 @@ mod tests {
             points: vec![[x, y], [x + s, y], [x + s, y + s], [x, y + s]],
             outline,
             area_mm2: s * s,
+            curve: Vec::new(),
         }
     }
 
@@ -538,6 +539,7 @@ mod tests {
             points,
             outline: false,
             area_mm2: a,
+            curve: Vec::new(),
         }
     }
 
@@ -590,6 +592,7 @@ mod tests {
             points,
             outline: false,
             area_mm2: (a1 - a0) / 2.0 * (r_out * r_out - r_in * r_in),
+            curve: Vec::new(),
         }
     }
 
@@ -618,6 +621,7 @@ mod tests {
                 points: circle(c, 2.0, 24),
                 outline: false,
                 area_mm2: 12.5,
+                curve: Vec::new(),
             },
         ]
     }
@@ -710,6 +714,7 @@ mod tests {
             area_mm2: area(&points),
             points,
             outline: false,
+            curve: Vec::new(),
         };
         let loops = vec![
             lp(sq(45.0, 60.0, 55.0, 70.0)), // in the notch: around

@@ -8,6 +8,7 @@ use crate::error::{Fit, PlanError, SettingsError};
 use crate::machine::{Corner, Machine, Tool};
 
 use crate::{order, travel};
+use stencil_geom::curve::{self, Piece};
 use stencil_geom::ring::dist;
 
 /// How the material is cut: the planner's view of a material profile (the CLI maps a `Material`
@@ -67,6 +68,11 @@ pub struct PlanConfig {
     /// A pen draws them anyway.
     pub cut_open_paths: bool,
     pub settings: CutSettings,
+    /// Write each loop as lines and G2/G3 arcs fitted within this many mm of its polygon
+    /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
+    /// machine whose profile says `arcs = false`). A drag knife's path is always straight: its
+    /// corner swivels are built from the polygon's corners.
+    pub arc_tolerance_mm: f64,
 }
 
 impl PlanConfig {
@@ -77,6 +83,7 @@ impl PlanConfig {
             cut_outline: false,
             cut_open_paths: false,
             settings,
+            arc_tolerance_mm: 0.0,
         }
     }
 }
@@ -90,10 +97,21 @@ pub struct Loop {
     pub outline: bool,
     /// Enclosed area, mm².
     pub area_mm2: f64,
+    /// The loop as the head follows it when the job writes arcs: lines and arcs fitted to
+    /// `points` within [`Job::arc_tolerance_mm`], in machine mm, from `points[0]` (every piece
+    /// starts at one of the points). Empty: the points' straight segments. Fitted by the
+    /// planner, not the writer: on the sheet from the ring's first point, as the SVG and DXF
+    /// carry it, and inside the job's box ([`curve::fit_ring_inside`]), so that the job lands
+    /// where its polygons put it and the bed check sees every arc's true extent.
+    pub curve: Vec<Piece>,
 }
 
 impl Loop {
+    /// The length the head cuts in one pass: the arcs' when the loop has them.
     pub(crate) fn perimeter_mm(&self) -> f64 {
+        if !self.curve.is_empty() {
+            return curve::length(&self.curve);
+        }
         let n = self.points.len();
         (0..n)
             .map(|i| dist(self.points[i], self.points[(i + 1) % n]))
@@ -131,6 +149,10 @@ pub struct Job {
     pub min: [f64; 2],
     pub max: [f64; 2],
     pub stats: PathStats,
+    /// Loops are written as arcs fitted within this many mm (0: straight segments): the plan's
+    /// [`PlanConfig::arc_tolerance_mm`] when the machine runs arcs and the tool is not a drag
+    /// knife. Each loop's [`Loop::curve`] holds them.
+    pub arc_tolerance_mm: f64,
 }
 
 /// The most passes a job may make.
@@ -287,9 +309,17 @@ impl Placement {
 
 /// A ring as plain points: closing duplicate and repeated points removed.
 fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
+    sheet_points(ls)
+        .into_iter()
+        .map(|p| place.map(p[0], p[1]))
+        .collect()
+}
+
+/// A ring's points on the sheet (mm, y down): closing duplicate and repeated points removed.
+fn sheet_points(ls: &LineString<f64>) -> Vec<[f64; 2]> {
     let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
     for c in &ls.0 {
-        let p = place.map(c.x, c.y);
+        let p = [c.x, c.y];
         if pts.last().is_none_or(|&q| dist(p, q) > 1e-9) {
             pts.push(p);
         }
@@ -298,6 +328,73 @@ fn ring_points(ls: &LineString<f64>, place: &Placement) -> Vec<[f64; 2]> {
         pts.pop();
     }
     pts
+}
+
+/// How loops are fitted with arcs: within `tol` mm, no arc reaching outside `inside` (the job's
+/// box on the sheet, [`curve::fit_ring_inside`]).
+#[derive(Clone, Copy, Debug)]
+struct ArcFit {
+    tol: f64,
+    inside: [f64; 4],
+}
+
+/// A ring placed on the bed, and its arcs when `fit` asks for them (empty when it has none).
+/// The arcs are fitted on the sheet and mapped with the points: each piece starts at one of the
+/// ring's own points, so it maps to the very same machine numbers. The sheet's y runs down and
+/// the machine's up, and a bed origin on the right or at the back mirrors once more: a bulge
+/// (positive counter-clockwise) changes sign with each mirror.
+fn placed_ring(
+    ls: &LineString<f64>,
+    place: &Placement,
+    fit: Option<ArcFit>,
+) -> (Vec<[f64; 2]>, Vec<Piece>) {
+    let sheet = sheet_points(ls);
+    let points = sheet.iter().map(|p| place.map(p[0], p[1])).collect();
+    let curve = match fit {
+        Some(f) if sheet.len() >= 3 => {
+            let pieces = curve::fit_ring_inside(&sheet, f.tol, f.inside);
+            let mirrors = 1 + u8::from(place.flip_x) + u8::from(place.flip_y);
+            let sign = if mirrors % 2 == 1 { -1.0 } else { 1.0 };
+            if curve::arc_count(&pieces) == 0 {
+                Vec::new()
+            } else {
+                pieces
+                    .iter()
+                    .map(|p| Piece {
+                        from: place.map(p.from[0], p.from[1]),
+                        bulge: if p.bulge == 0.0 { 0.0 } else { sign * p.bulge },
+                    })
+                    .collect()
+            }
+        }
+        _ => Vec::new(),
+    };
+    (points, curve)
+}
+
+/// Rotate a loop to start at vertex `start`; a loop with arcs starts at the end of one of its
+/// pieces nearest to that vertex instead (its path is fitted from one start; a piece is not cut
+/// in two), and its pieces rotate with it.
+fn start_at(l: &mut Loop, start: usize) {
+    if l.curve.is_empty() {
+        l.points.rotate_left(start);
+        return;
+    }
+    // Each piece starts at one of the points, in order: its index there.
+    let mut at = Vec::with_capacity(l.curve.len());
+    let mut k = 0;
+    for p in &l.curve {
+        while k < l.points.len() && l.points[k] != p.from {
+            k += 1;
+        }
+        at.push(k.min(l.points.len() - 1));
+    }
+    let want = l.points[start];
+    let best = (0..at.len())
+        .min_by(|&a, &b| dist(l.points[at[a]], want).total_cmp(&dist(l.points[at[b]], want)))
+        .unwrap_or(0);
+    l.points.rotate_left(at[best]);
+    l.curve.rotate_left(best);
 }
 
 /// Without bridge data (a drawing from another program), gaps between cut loops up to this wide
@@ -336,15 +433,31 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 /// Plan a job: place, check the bed, order the loops, pick start points.
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
-    let reach = match machine.tool {
-        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
-        _ => 0.0,
+    // A knife swivels up to its blade offset out.
+    let knife = matches!(machine.tool, Tool::Knife { .. });
+    let reach = if knife {
+        cfg.settings.blade_offset_mm
+    } else {
+        0.0
+    };
+    // A drag knife's corner swivels are built from the polygon's corners: never arcs.
+    let arc_tolerance_mm = if machine.arcs && !knife && cfg.arc_tolerance_mm.is_finite() {
+        cfg.arc_tolerance_mm.max(0.0)
+    } else {
+        0.0
     };
     let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
+    // Arcs are fitted on the sheet, from each ring's first point as the SVG and DXF writers fit
+    // them, and kept inside the job's box, so the job is placed (and its bed checked) as its
+    // polygons are: with or without arcs it lands at the same place.
+    let fit = (arc_tolerance_mm > 0.0).then_some(ArcFit {
+        tol: arc_tolerance_mm,
+        inside: rect,
+    });
 
-    let mut loops = cut_loops(geom, &place);
+    let mut loops = cut_loops(geom, &place, fit);
     let lines = open_lines(geom, &place);
     if !lines.is_empty() && !matches!(machine.tool, Tool::Pen(_)) && !cfg.cut_open_paths {
         return Err(PlanError::OpenPaths {
@@ -363,18 +476,20 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         // A round sheet (a gobo's rim) is cut on its ring; the frame stays its box on the bed.
         let ring = geom.outline_ring.as_ref().map(|r| {
             let area = geo::Polygon::new(r.clone(), vec![]).unsigned_area();
-            (ring_points(r, &place), area)
+            (placed_ring(r, &place, fit), area)
         });
         loops.push(match ring {
-            Some((points, area_mm2)) if points.len() >= 3 => Loop {
+            Some(((points, curve), area_mm2)) if points.len() >= 3 => Loop {
                 points,
                 outline: true,
                 area_mm2,
+                curve,
             },
             _ => Loop {
                 points: frame.to_vec(),
                 outline: true,
                 area_mm2: size[0] * size[1],
+                curve: Vec::new(),
             },
         });
     }
@@ -391,7 +506,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
     let mut ordered = Vec::with_capacity(loops.len());
     for (i, start) in sequence {
         let mut l = loops[i].clone();
-        l.points.rotate_left(start);
+        start_at(&mut l, start);
         ordered.push(l);
     }
     let travel_mm = travel::travel_of(&lines, &ordered, home, cfg.settings.passes);
@@ -413,13 +528,14 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         sheet_mm: size,
         min,
         max,
+        arc_tolerance_mm,
     })
 }
 
 /// The loops to cut, placed on the bed, in input order: each polygon's holes (islands, which must
 /// not exist after bridging but are cut if they do), then its exterior. Degenerate rings are
 /// left out.
-fn cut_loops(geom: &CutLoops, place: &Placement) -> Vec<Loop> {
+fn cut_loops(geom: &CutLoops, place: &Placement, fit: Option<ArcFit>) -> Vec<Loop> {
     let mut loops: Vec<Loop> = Vec::new();
     for poly in &geom.cuts.0 {
         for ring in poly
@@ -427,13 +543,14 @@ fn cut_loops(geom: &CutLoops, place: &Placement) -> Vec<Loop> {
             .iter()
             .chain(std::iter::once(poly.exterior()))
         {
-            let pts = ring_points(ring, place);
+            let (pts, curve) = placed_ring(ring, place, fit);
             let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
             if pts.len() >= 3 && area > 1e-9 {
                 loops.push(Loop {
                     points: pts,
                     outline: false,
                     area_mm2: area,
+                    curve,
                 });
             }
         }
@@ -466,8 +583,8 @@ pub(crate) fn line_len(l: &[[f64; 2]]) -> f64 {
 }
 
 /// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
-/// (`frame`), every line and every loop, which a drag knife's axis passes by up to the blade
-/// offset.
+/// (`frame`), every line and every loop (its arcs' extremes included), which a drag knife's axis
+/// passes by up to the blade offset.
 fn check_on_bed(
     frame: &[[f64; 2]; 4],
     loops: &[Loop],
@@ -493,6 +610,11 @@ fn check_on_bed(
         .flat_map(|l| l.points.iter())
         .chain(lines.iter().flatten())
         .for_each(|p| grow(p, reach));
+    // Arcs reach past their ends: their exact extremes.
+    for b in loops.iter().filter_map(|l| curve::bounds(&l.curve)) {
+        grow(&[b[0], b[1]], 0.0);
+        grow(&[b[2], b[3]], 0.0);
+    }
     let (bw, bh) = (machine.bed.width_mm, machine.bed.height_mm);
     let eps = 1e-6;
     if machine.check_extent(min, max, None).is_err() {

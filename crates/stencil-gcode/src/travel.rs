@@ -577,6 +577,7 @@ mod tests {
             points: vec![[x, y], [x + 1.0, y], [x + 1.0, y + 1.0], [x, y + 1.0]],
             outline: false,
             area_mm2: 1.0,
+            curve: Vec::new(),
         }
     }
 
@@ -649,6 +650,7 @@ mod tests {
             points: vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0], [10.0, 20.0]],
             outline: false,
             area_mm2: 100.0,
+            curve: Vec::new(),
         };
         let seq = optimise(&[l], &[vec![0]], [25.0, 25.0]);
         assert_eq!(seq, vec![(0, 2)]);

@@ -1,7 +1,8 @@
 //! The G-code writer: a planned [`Job`] as text Grbl 1.1 runs without error.
 //!
 //! Rules (from Grbl 1.1h's parser, `gcode.c` and `protocol.c`, and what trips up other senders):
-//! `G21 G90 G94` header; an F before the first G1; only G0/G1 straight moves (no G5, no arcs);
+//! `G21 G90 G94` header; an F before the first G1; G0/G1 straight moves and, when the job asks
+//! for them, G2/G3 arcs in the XY plane with I/J centre offsets (never G5 splines, never R arcs);
 //! numbers with at most 3 decimals; no line numbers; comments only on their own `;` lines, with
 //! any parentheses written as brackets (Grbl ends a `( )` comment at the first `)` and cannot nest
 //! them; brackets mean nothing to any reader) and wrapped at word breaks onto further `;` lines
@@ -19,6 +20,7 @@
 use std::fmt::Write as _;
 
 use crate::machine::{Machine, PenLift, Tool, ZLift};
+use stencil_geom::curve;
 use stencil_geom::ring::dist;
 
 use crate::toolpath::{laser_s, CutSettings, Job, Loop};
@@ -132,7 +134,51 @@ impl Writer {
         self.at = (x, y);
         true
     }
+
+    /// The arc of `bulge` ([`curve::Piece`]'s: `tan(sweep / 4)`, positive counter-clockwise with
+    /// y up) from the head's position to `to`. The centre is computed from the two ends *as
+    /// written* (rounded to the micrometre), so both lie on the written circle up to the rounding
+    /// of I and J (under 0.001 mm): Grbl's parser (`gc_execute_line`) refuses an arc whose start
+    /// and target are farther apart from the centre than 0.005 mm and 0.1 % of the radius
+    /// (`error:33`), which is then checked on the numbers written. An arc that rounds to no move
+    /// (Grbl would cut a full circle) or whose bow is under the written resolution is a G1.
+    fn arc(&mut self, to: [f64; 2], bulge: f64, extra: &str) -> bool {
+        let (x, y) = (num(to[0]), num(to[1]));
+        let v = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+        let (sx, sy, xv, yv) = (v(&self.at.0), v(&self.at.1), v(&x), v(&y));
+        let Some(a) = curve::arc_of([sx, sy], [xv, yv], bulge) else {
+            return self.go(1, to, extra);
+        };
+        // The arc's bow off its chord: below half the last written digit a G1 is the same path.
+        let bow = a.radius * (1.0 - (a.sweep / 2.0).cos());
+        if (x.as_str(), y.as_str()) == (self.at.0.as_str(), self.at.1.as_str()) || bow < 5e-4 {
+            return self.go(1, to, extra);
+        }
+        let (i, j) = (num(a.center[0] - sx), num(a.center[1] - sy));
+        let (iv, jv) = (v(&i), v(&j));
+        let r0 = iv.hypot(jv);
+        let r1 = (xv - sx - iv).hypot(yv - sy - jv);
+        let off = (r1 - r0).abs();
+        // Never expected (the rounding of I and J moves either radius by under 0.0008 mm), but
+        // the file must pass: a G1 rather than an error:33.
+        if off.is_nan() || off > GRBL_ARC_RADIUS_SLACK_MM / 2.0 || r0 < 0.001 {
+            return self.go(1, to, extra);
+        }
+        let mut l = String::with_capacity(48);
+        let _ = write!(
+            l,
+            "G{} X{x} Y{y} I{i} J{j}{extra}",
+            if a.sweep > 0.0 { 3 } else { 2 }
+        );
+        self.line(&l);
+        self.at = (x, y);
+        true
+    }
 }
+
+/// Grbl 1.1h's arc check (`gcode.c`): a target farther from the centre than the start by more
+/// than 0.005 mm (and 0.1 % of the radius) is `error:33`.
+const GRBL_ARC_RADIUS_SLACK_MM: f64 = 0.005;
 
 /// The point `len` mm along the closed loop from its start, and the vertices passed on the way.
 fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
@@ -279,8 +325,18 @@ fn header_comments(o: &mut String, job: &Job, machine: &Machine, notes: &[String
     comment(
         o,
         &format!(
-            "mm G21, absolute G90; machine origin {}; Grbl 1.1, no arcs",
-            machine.bed.origin.name()
+            "mm G21, absolute G90; machine origin {}; Grbl 1.1, {}",
+            machine.bed.origin.name(),
+            if job.arc_tolerance_mm > 0.0 && !matches!(machine.tool, Tool::Knife { .. }) {
+                format!(
+                    "arcs G2/G3 within {} mm of the outline",
+                    num(job.arc_tolerance_mm)
+                )
+            } else if !machine.arcs {
+                "no arcs: the machine profile says arcs = false".to_string()
+            } else {
+                "no arcs".to_string()
+            }
         ),
     );
     tool_comments(o, machine, &job.settings, air);
@@ -419,14 +475,36 @@ fn tool_off(w: &mut Writer, machine: &Machine) {
     }
 }
 
+/// One closed loop: travel to its start, tool on, every pass, (a knife's overcut), tool off.
+/// A loop the planner fitted with arcs ([`Loop::curve`]) is written as its lines and G2/G3 arcs.
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
-    let points = match machine.tool {
-        Tool::Knife { .. } => drag_knife_path(&l.points, s.blade_offset_mm),
-        _ => l.points.clone(),
+    let knife = matches!(machine.tool, Tool::Knife { .. });
+    let points = if knife {
+        drag_knife_path(&l.points, s.blade_offset_mm)
+    } else {
+        l.points.clone()
     };
     // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
     let mut first = tool_on(w, points[0], machine, s);
     let n = points.len();
+    if !knife && !l.curve.is_empty() {
+        let pieces = &l.curve;
+        let m = pieces.len();
+        for _ in 0..s.passes {
+            for k in 0..m {
+                let to = pieces[(k + 1) % m].from;
+                let bulge = pieces[k].bulge;
+                if bulge == 0.0 {
+                    w.go(1, to, &first);
+                } else {
+                    w.arc(to, bulge, &first);
+                }
+                first.clear();
+            }
+        }
+        tool_off(w, machine);
+        return;
+    }
     for _ in 0..s.passes {
         for i in 1..=n {
             w.go(1, points[i % n], &first);

@@ -7,6 +7,8 @@
 //!   panic, abort or stall it; [`ClipError`] says why a shape was refused.
 //! - [`kerf::offset_cuts`]: cut regions shrunk by half the tool's kerf, so the removed strip's
 //!   edge lands on the design line.
+//! - [`curve`]: closed outlines fitted with lines and arcs within a tolerance ([`curve::fit_ring`]),
+//!   and flattened back ([`curve::flatten`]).
 //! - [`ring`]: measures of a ring as a point list: [`ring::bbox`], [`ring::signed_area2`],
 //!   [`ring::area`], [`ring::point_in_ring`], [`ring::dist`].
 //!
@@ -16,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod clip;
+pub mod curve;
 pub mod kerf;
 pub mod ring;
 

@@ -16,7 +16,9 @@ use dxf::{Color, Drawing, LwPolylineVertex, Point};
 
 use geo::LineString;
 
-use super::svg::rings;
+use stencil_geom::curve;
+
+use super::svg::{ring_points, rings};
 use super::ExportError;
 use crate::vector::CutGeometry;
 
@@ -24,8 +26,16 @@ use crate::vector::CutGeometry;
 pub const CUT_LAYER: &str = "CUT";
 pub const OUTLINE_LAYER: &str = "OUTLINE";
 
-/// Encode the stencil as DXF (R2000, or R12 when `r12`).
-pub fn encode(geom: &CutGeometry, r12: bool) -> Result<Vec<u8>, ExportError> {
+/// Encode the stencil as DXF (R2000, or R12 when `r12`). Cut loops are fitted with lines and
+/// arcs within `arc_tolerance_mm` ([`stencil_geom::curve::fit_ring`]; 0: the polygons as they
+/// are), each arc a vertex bulge (group 42, `tan(sweep / 4)`, positive counter-clockwise), which
+/// R12 POLYLINE vertices and R2000 LWPOLYLINEs both carry and CAD, LightBurn and LaserGRBL read
+/// as true arcs: still one closed polyline per loop, not loose ARC entities.
+pub fn encode(
+    geom: &CutGeometry,
+    r12: bool,
+    arc_tolerance_mm: f64,
+) -> Result<Vec<u8>, ExportError> {
     let mut d = Drawing::new();
     d.header.version = if r12 {
         AcadVersion::R12
@@ -55,36 +65,38 @@ pub fn encode(geom: &CutGeometry, r12: bool) -> Result<Vec<u8>, ExportError> {
     let (x0, ymax) = (o.min().x, o.max().y);
     // Shift so the sheet's corner is at the origin, and flip y up.
     let tf = |x: f64, y: f64| (x - x0, ymax - y);
-    let add = |d: &mut Drawing, ring: &LineString<f64>, layer: &str| {
-        let pts = &ring.0;
-        let n = if pts.len() > 1 && pts.first() == pts.last() {
-            pts.len() - 1
-        } else {
-            pts.len()
-        };
-        if n < 3 {
+    let add = |d: &mut Drawing, ring: &LineString<f64>, layer: &str, tol: f64| {
+        let Some(pts) = ring_points(ring) else {
             return;
-        }
+        };
+        // y flips, so a counter-clockwise arc in the sheet's numbers turns clockwise in the
+        // DXF's: the bulge changes sign.
+        let pieces: Vec<(f64, f64, f64)> = curve::fit_ring(&pts, tol)
+            .iter()
+            .map(|p| {
+                let (x, y) = tf(p.from[0], p.from[1]);
+                (x, y, if p.bulge == 0.0 { 0.0 } else { -p.bulge })
+            })
+            .collect();
         let ent = if r12 {
             let mut pl = Polyline::default();
             pl.set_is_closed(true);
-            for c in &pts[..n] {
-                let (x, y) = tf(c.x, c.y);
-                pl.add_vertex(d, Vertex::new(Point::new(x, y, 0.0)));
+            for &(x, y, bulge) in &pieces {
+                let mut v = Vertex::new(Point::new(x, y, 0.0));
+                v.bulge = bulge;
+                pl.add_vertex(d, v);
             }
             EntityType::Polyline(pl)
         } else {
             let mut lw = LwPolyline::default();
             lw.set_is_closed(true);
-            lw.vertices = pts[..n]
+            lw.vertices = pieces
                 .iter()
-                .map(|c| {
-                    let (x, y) = tf(c.x, c.y);
-                    LwPolylineVertex {
-                        x,
-                        y,
-                        ..Default::default()
-                    }
+                .map(|&(x, y, bulge)| LwPolylineVertex {
+                    x,
+                    y,
+                    bulge,
+                    ..Default::default()
                 })
                 .collect();
             EntityType::LwPolyline(lw)
@@ -104,10 +116,10 @@ pub fn encode(geom: &CutGeometry, r12: bool) -> Result<Vec<u8>, ExportError> {
             e.common.layer = OUTLINE_LAYER.into();
             d.add_entity(e);
         }
-        None => add(&mut d, o.to_polygon().exterior(), OUTLINE_LAYER),
+        None => add(&mut d, o.to_polygon().exterior(), OUTLINE_LAYER, 0.0),
     }
     for r in rings(&geom.design_cuts) {
-        add(&mut d, r, CUT_LAYER);
+        add(&mut d, r, CUT_LAYER, arc_tolerance_mm);
     }
     let mut out = Vec::new();
     d.save(&mut out).map_err(|e| ExportError::Encode {

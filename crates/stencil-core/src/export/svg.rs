@@ -53,6 +53,58 @@ pub fn path_data<'a>(rings: impl IntoIterator<Item = &'a LineString<f64>>) -> St
     d
 }
 
+/// A ring's points without the closing repeat, or `None` for fewer than 3.
+pub(crate) fn ring_points(r: &LineString<f64>) -> Option<Vec<[f64; 2]>> {
+    let pts = &r.0;
+    let n = if pts.len() > 1 && pts.first() == pts.last() {
+        pts.len() - 1
+    } else {
+        pts.len()
+    };
+    (n >= 3).then(|| pts[..n].iter().map(|c| [c.x, c.y]).collect())
+}
+
+/// Path data for closed rings fitted with lines and arcs within `tol` mm
+/// ([`stencil_geom::curve::fit_ring`]): each `M … Z`, straight pieces as `L`, arcs as `A` (an
+/// exact circular arc, which every SVG reader takes; never more than a half turn, so the large-arc
+/// flag is 0; the sweep flag is 1 for an arc turning towards +y from +x, as the numbers run).
+/// `tol` 0 gives [`path_data`]'s polygons.
+pub fn curve_path_data<'a>(
+    rings: impl IntoIterator<Item = &'a LineString<f64>>,
+    tol: f64,
+) -> String {
+    use stencil_geom::curve;
+    let mut d = String::new();
+    for r in rings {
+        let Some(pts) = ring_points(r) else { continue };
+        let pieces = curve::fit_ring(&pts, tol);
+        let n = pieces.len();
+        let _ = write!(d, "M{} {}", num(pieces[0].from[0]), num(pieces[0].from[1]));
+        for k in 0..n {
+            let (p, to) = (pieces[k], pieces[(k + 1) % n].from);
+            match curve::arc_of(p.from, to, p.bulge) {
+                Some(a) => {
+                    let _ = write!(
+                        d,
+                        "A{r} {r} 0 0 {} {} {}",
+                        u8::from(a.sweep > 0.0),
+                        num(to[0]),
+                        num(to[1]),
+                        r = num(a.radius)
+                    );
+                }
+                // The closing line is Z's.
+                None if k + 1 < n => {
+                    let _ = write!(d, "L{} {}", num(to[0]), num(to[1]));
+                }
+                None => {}
+            }
+        }
+        d.push('Z');
+    }
+    d
+}
+
 /// All rings of a polygon set (exteriors and holes).
 pub fn rings(mp: &MultiPolygon<f64>) -> impl Iterator<Item = &LineString<f64>> {
     mp.0.iter()
@@ -67,8 +119,9 @@ fn layer(id: &str, label: &str, body: &str) -> svg::node::element::Group {
         .add(svg::node::Blob::new(body.to_string()))
 }
 
-/// Encode the stencil as SVG.
-pub fn encode(geom: &CutGeometry) -> Vec<u8> {
+/// Encode the stencil as SVG, the cut regions' outlines as lines and arcs fitted within
+/// `arc_tolerance_mm` of the design polygons (0: the polygons as they are).
+pub fn encode(geom: &CutGeometry, arc_tolerance_mm: f64) -> Vec<u8> {
     use svg::node::element::{Path, Rectangle};
     let o = geom.outline;
     let (w, h) = (o.width(), o.height());
@@ -94,7 +147,10 @@ pub fn encode(geom: &CutGeometry) -> Vec<u8> {
     };
     let mut cut = String::new();
     for p in &geom.design_cuts.0 {
-        let d = path_data(std::iter::once(p.exterior()).chain(p.interiors()));
+        let d = curve_path_data(
+            std::iter::once(p.exterior()).chain(p.interiors()),
+            arc_tolerance_mm,
+        );
         let path = Path::new()
             .set("d", d)
             .set("fill", "#000000")
@@ -161,7 +217,7 @@ mod tests {
             kerf_mm: 0.0,
             rim: None,
         };
-        let text = String::from_utf8(encode(&geom)).unwrap();
+        let text = String::from_utf8(encode(&geom, 0.05)).unwrap();
         let back = stencil_gcode::read_svg::cut_loops_from_svg(&text, "stencil.svg").unwrap();
         assert_eq!(back.outline, geom.outline);
         assert_eq!(back.cuts.0.len(), 2, "the bridges layer is not cut");

@@ -139,6 +139,11 @@ pub struct VectorConfig {
     pub margin_mm: f64,
     /// Place crossings by the blurred bits (sub-pixel edges); off = pixel-boundary midpoints.
     pub smooth: bool,
+    /// Fit the traced outlines with lines and arcs within the tolerance (corners kept, the
+    /// pixels on their sides), instead of leaving simplification's chords; the geometry holds
+    /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
+    /// and the writers find the arcs again within [`VectorConfig::arc_tolerance_mm`].
+    pub curves: bool,
 }
 
 impl Default for VectorConfig {
@@ -149,7 +154,22 @@ impl Default for VectorConfig {
             kerf_mm: 0.0,
             margin_mm: 5.0,
             smooth: true,
+            curves: true,
         }
+    }
+}
+
+impl VectorConfig {
+    /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
+    pub fn flatten_mm(&self) -> f64 {
+        self.tolerance_mm / 5.0
+    }
+
+    /// How far SVG, DXF and G-code arcs may stray from the geometry's polygons: a quarter of the
+    /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
+    /// whole, and little enough that the files stay on what the check judged.
+    pub fn arc_tolerance_mm(&self) -> f64 {
+        self.tolerance_mm / 4.0
     }
 }
 
@@ -222,7 +242,10 @@ pub fn vectorize_design(
             .map(|r| (r.pts, r.guards))
             .unzip();
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
-    let simplify = simplify::simplify_rings(&mut rings, Some(&guards), tol_px);
+    let curves = cfg.curves.then(|| simplify::FitCurves {
+        flatten: cfg.scale.to_px(Mm(cfg.flatten_mm())).0,
+    });
+    let simplify = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
@@ -437,19 +460,29 @@ mod tests {
         let g = BitGrid::from_fn(20, 20, |x, y| {
             !((5..15).contains(&x) && (5..15).contains(&y))
         });
-        for smooth in [false, true] {
+        for (smooth, curves) in [(false, false), (true, false), (false, true), (true, true)] {
             let cfg = VectorConfig {
                 smooth,
+                curves,
                 ..Default::default()
             };
             let (geo, st) = vectorize(&g, &[], &cfg).unwrap();
             assert_eq!(st.cut_loops, 1);
             assert_eq!(st.material_pieces, 1);
-            assert!(st.simplify.points_out < st.simplify.points_in / 4, "{st:?}");
+            if !curves {
+                // Simplification alone leaves the square's corners (and their chamfers).
+                assert!(st.simplify.points_out < st.simplify.points_in / 4, "{st:?}");
+            }
             // 10 x 10 px at 0.1 mm: 1 mm², within the tolerance (0.5 px) along the perimeter.
             let a = geo.design_cuts.unsigned_area();
             assert!((a - 1.0).abs() < 4.0 * 1.0 * 0.05, "{a}");
             assert!((geo.width_mm - 2.0).abs() < 1e-12);
+            // Lines or arcs, the cut stays within the tolerance of the square's edge
+            // (0.5..1.5 mm); the fit may bow a side into a shallow arc, never past it.
+            for c in geo.design_cuts.0[0].exterior().0.iter() {
+                let off = (c.x - 1.0).abs().max((c.y - 1.0).abs()) - 0.5;
+                assert!(off.abs() <= 0.05 + 1e-9, "{c:?}: {off}");
+            }
             samples_back_to(&geo, &g, 0.1);
         }
     }

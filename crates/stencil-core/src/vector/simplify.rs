@@ -29,14 +29,45 @@ pub struct SimplifyStats {
     pub points_out: usize,
     /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
     pub fallbacks: usize,
+    /// Rings replaced by lines and arcs fitted to the traced points
+    /// ([`stencil_geom::curve::fit_ring_within`]), and how many arcs they hold; absent from
+    /// reports written before curves were fitted.
+    #[serde(default)]
+    pub curved_rings: usize,
+    #[serde(default)]
+    pub arcs: usize,
+}
+
+/// Fitting the traced rings with lines and arcs (see [`simplify_and_fit`]): within `tol`, like
+/// simplification, then flattened back into polygon rings within `flatten`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitCurves {
+    pub flatten: f64,
 }
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
 /// points). `guards`: per ring, per point, the pixel centres to keep on their sides (or none).
+/// Simplification alone: the `vector` bench's step (`bench-internals`) and the tests.
+#[cfg_attr(not(any(test, feature = "bench-internals")), allow(dead_code))]
 pub fn simplify_rings(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
     tol: f64,
+) -> SimplifyStats {
+    simplify_and_fit(rings, guards, tol, None)
+}
+
+/// [`simplify_rings`], then, with `curves`, each simplified ring replaced by lines and arcs
+/// fitted to its traced points within `tol` ([`stencil_geom::curve::fit_ring_within`]),
+/// flattened within `curves.flatten`: smooth outlines where simplification leaves pixel
+/// staircases cut into chords. The guards hold for the curves too, `curves.flatten` clear, so
+/// the flattened curves sample to the same raster; a ring whose curves would cross or touch
+/// another ring keeps its simplified form (the same rounds as simplification's).
+pub fn simplify_and_fit(
+    rings: &mut [Vec<[f64; 2]>],
+    guards: Option<&[Vec<Guard>]>,
+    tol: f64,
+    curves: Option<FitCurves>,
 ) -> SimplifyStats {
     let mut stats = SimplifyStats {
         rings: rings.len(),
@@ -91,8 +122,81 @@ pub fn simplify_rings(
             break;
         }
     }
+    if let (Some(c), true) = (curves, tol > 0.0) {
+        fit_curves(
+            rings,
+            &originals,
+            &simplified,
+            guards,
+            tol,
+            c,
+            cell,
+            &mut stats,
+        );
+    }
     stats.points_out = rings.iter().map(Vec::len).sum();
     stats
+}
+
+/// The curve step of [`simplify_and_fit`]: rings that simplified (`simplified[i]`) are fitted
+/// from their traced points; any that then conflict go back to their simplified form.
+#[allow(clippy::too_many_arguments)]
+fn fit_curves(
+    rings: &mut [Vec<[f64; 2]>],
+    originals: &[Vec<[f64; 2]>],
+    simplified: &[bool],
+    guards: Option<&[Vec<Guard>]>,
+    tol: f64,
+    c: FitCurves,
+    cell: f64,
+    stats: &mut SimplifyStats,
+) {
+    use stencil_geom::curve;
+    let fitted: Vec<Option<(Vec<[f64; 2]>, usize)>> = (0..rings.len())
+        .into_par_iter()
+        .map(|i| {
+            if !simplified[i] {
+                return None;
+            }
+            let orig = &originals[i];
+            let sides = guards.and_then(|g| g.get(i)).map(|g| curve::Sides {
+                points: g.as_slice(),
+                margin: c.flatten,
+            });
+            let pieces = curve::fit_ring_within(orig, tol, sides);
+            let arcs = curve::arc_count(&pieces);
+            if arcs == 0 {
+                return None;
+            }
+            let flat = curve::flatten(&pieces, c.flatten);
+            let a = signed_area2(&flat);
+            (flat.len() >= 3 && a != 0.0 && a.signum() == signed_area2(orig).signum())
+                .then_some((flat, arcs))
+        })
+        .collect();
+    let mut kept: Vec<Option<(Vec<[f64; 2]>, usize)>> = vec![None; rings.len()];
+    for (i, f) in fitted.into_iter().enumerate() {
+        if let Some((flat, arcs)) = f {
+            let dp = std::mem::replace(&mut rings[i], flat);
+            kept[i] = Some((dp, arcs));
+        }
+    }
+    for _ in 0..8 {
+        let mut changed = false;
+        for i in conflicts(rings, cell) {
+            if let Some((dp, _)) = kept[i].take() {
+                rings[i] = dp;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    for (_, arcs) in kept.iter().flatten() {
+        stats.curved_rings += 1;
+        stats.arcs += arcs;
+    }
 }
 
 /// How many points [`drop_collinear`] keeps, without building the ring.

@@ -1,0 +1,316 @@
+//! Smooth curves on the outputs (issue 28 item 4): the G-code's arcs, read back through the
+//! project's Grbl 1.1h interpreter, follow the straight-segment job's polygons within the
+//! tolerance both ways; every line passes Grbl's parser; the SVG's arcs rasterise to stencil.png;
+//! the DXF's bulges, read back with the dxf crate and flattened here, do too.
+
+use std::path::Path;
+
+use crate::common::{self, one_way, s, stderr, stencil};
+use resvg::tiny_skia;
+use resvg::usvg;
+use stencil_core::raster::BitGrid;
+use stencil_gcode::interpret::{interpret, Move};
+
+/// Dark (cut) ellipses and discs on white, apart from each other and the edge: smooth outlines,
+/// nothing to bridge.
+fn blobs(path: &Path) {
+    let shapes = [
+        (60.0, 55.0, 40.0, 25.0, 0.3),
+        (170.0, 60.0, 30.0, 30.0, 0.0),
+        (250.0, 140.0, 35.0, 18.0, 1.2),
+        (90.0, 150.0, 22.0, 45.0, 2.0),
+        (185.0, 160.0, 12.0, 12.0, 0.0),
+    ];
+    common::smooth_png(path, 300, 220, |x, y| {
+        let inside = shapes
+            .iter()
+            .any(|&(cx, cy, a, b, t): &(f64, f64, f64, f64, f64)| {
+                let (dx, dy) = (x - cx, y - cy);
+                let u = dx * t.cos() + dy * t.sin();
+                let v = -dx * t.sin() + dy * t.cos();
+                (u / a).powi(2) + (v / b).powi(2) <= 1.0
+            });
+        if inside {
+            0.0
+        } else {
+            1.0
+        }
+    });
+}
+
+fn make(input: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "make",
+        s(input),
+        "-o",
+        s(out),
+        "--emit",
+        "png,svg,dxf,gcode",
+    ];
+    args.extend_from_slice(extra);
+    let o = stencil(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// The cut moves of a program, loop by loop (a loop ends at a move that does not cut).
+fn cut_paths(moves: &[Move]) -> Vec<Vec<[f64; 2]>> {
+    let mut out: Vec<Vec<[f64; 2]>> = Vec::new();
+    let mut open = false;
+    for m in moves {
+        let cuts = !m.rapid && m.power > 0.0 && (m.from[0] != m.to[0] || m.from[1] != m.to[1]);
+        if cuts {
+            if !open {
+                out.push(vec![[m.from[0], m.from[1]]]);
+                open = true;
+            }
+            out.last_mut().unwrap().push([m.to[0], m.to[1]]);
+        } else if m.rapid {
+            open = false;
+        }
+    }
+    out
+}
+
+#[test]
+fn gcode_arcs_follow_the_polygon_within_the_tolerance_and_pass_grbls_parser() {
+    let dir = common::tmp();
+    let input = dir.path().join("blobs.png");
+    blobs(&input);
+    let (arcs, lines) = (dir.path().join("arcs"), dir.path().join("lines"));
+    make(&input, &arcs, &[]);
+    make(&input, &lines, &["--no-arcs"]);
+    let text = std::fs::read_to_string(arcs.join("stencil.gcode")).unwrap();
+    let straight = std::fs::read_to_string(lines.join("stencil.gcode")).unwrap();
+
+    // Grbl 1.1h's parser (the project's rewrite of gc_execute_line) takes every line: an arc
+    // with a bad radius would be error:33 here.
+    let moves = interpret(&text).unwrap_or_else(|e| panic!("{e}"));
+    let flat = interpret(&straight).unwrap();
+    // An independent parser reads the same arcs: G2/G3 with X, Y, I and J.
+    let arc_lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("G2 ") || l.starts_with("G3 "))
+        .collect();
+    assert!(arc_lines.len() > 20, "{text:.2000}");
+    for l in &arc_lines {
+        let codes: Vec<_> = gcode::parse(l).collect();
+        assert_eq!(codes.len(), 1, "{l}");
+        let args = codes[0].arguments();
+        for w in ['X', 'Y', 'I', 'J'] {
+            assert!(args.iter().any(|a| a.letter == w), "{l}");
+        }
+    }
+    // The header's comment, unwrapped.
+    let header = text.replace("\n; ", " ");
+    assert!(
+        header.contains("arcs G2/G3 within 0.013 mm"),
+        "{text:.1200}"
+    );
+    assert!(
+        straight.contains("no arcs") && !straight.contains("\nG2 ") && !straight.contains("\nG3 ")
+    );
+    // Far fewer lines for the same cut.
+    assert!(
+        text.lines().count() * 2 < straight.lines().count(),
+        "{} vs {} lines",
+        text.lines().count(),
+        straight.lines().count()
+    );
+
+    // The same loops in the same order, each within the tolerance of the other both ways
+    // (a quarter of the 0.05 mm tolerance, plus Grbl's $12 arc chords, 0.002 mm, and the written numbers' rounding of X, Y, I and J,
+    // which moves ends and centre by up to 0.003 mm together).
+    let (a, b) = (cut_paths(&moves), cut_paths(&flat));
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() >= 5);
+    let limit = 0.05 / 4.0 + 0.002 + 0.003;
+    for (pa, pb) in a.iter().zip(&b) {
+        let (ab, ba) = (one_way(pa, pb), one_way(pb, pa));
+        assert!(ab <= limit && ba <= limit, "Hausdorff {ab} / {ba} mm");
+    }
+    // The file's own estimate says the arcs job is no slower.
+    let est = |dir: &Path| {
+        let o = stencil(&["estimate", s(&dir.join("stencil.gcode"))]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    assert!(est(&arcs).contains("about"), "{}", est(&arcs));
+}
+
+#[test]
+fn a_machine_without_arcs_gets_straight_segments() {
+    let dir = common::tmp();
+    let input = dir.path().join("blobs.png");
+    blobs(&input);
+    let profile = dir.path().join("no-arcs.toml");
+    let shipped = stencil_gcode::machine::SHIPPED[0].text;
+    std::fs::write(&profile, format!("arcs = false\n{shipped}")).unwrap();
+    let out = dir.path().join("o");
+    make(&input, &out, &["--machine", s(&profile)]);
+    let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+    assert!(!text.contains("\nG2 ") && !text.contains("\nG3 "));
+    let header = text.replace("\n; ", " ");
+    assert!(
+        header.contains("no arcs: the machine profile says arcs = false"),
+        "{text:.1500}"
+    );
+    interpret(&text).unwrap();
+}
+
+/// Rasterise the SVG's picture area at one pixel per working pixel: true = cut (black).
+fn rasterise_svg(svg: &[u8], width_px: u32, height_px: u32, margin_px: f64) -> BitGrid {
+    let tree = usvg::Tree::from_data(svg, &usvg::Options::default()).unwrap();
+    let sheet_px = width_px as f64 + 2.0 * margin_px;
+    let sc = sheet_px as f32 / tree.size().width();
+    let mut pix = tiny_skia::Pixmap::new(width_px, height_px).unwrap();
+    let t = tiny_skia::Transform::from_row(sc, 0.0, 0.0, sc, -margin_px as f32, -margin_px as f32);
+    resvg::render(&tree, t, &mut pix.as_mut());
+    BitGrid {
+        width: width_px,
+        height: height_px,
+        data: pix
+            .pixels()
+            .iter()
+            .map(|p| p.alpha() >= 128 && p.red() < 128 && p.blue() < 128)
+            .collect(),
+    }
+}
+
+/// Even-odd fill of closed rings (pixel units) at pixel centres: true = inside.
+fn fill(rings: &[Vec<[f64; 2]>], w: u32, h: u32) -> BitGrid {
+    let mut data = vec![false; (w * h) as usize];
+    for y in 0..h {
+        let yc = y as f64 + 0.5;
+        let mut xs: Vec<f64> = Vec::new();
+        for r in rings {
+            let n = r.len();
+            for i in 0..n {
+                let (a, b) = (r[i], r[(i + 1) % n]);
+                if (a[1] <= yc) != (b[1] <= yc) {
+                    xs.push(a[0] + (yc - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
+                }
+            }
+        }
+        xs.sort_by(f64::total_cmp);
+        for pair in xs.chunks(2) {
+            if let [x0, x1] = pair {
+                for x in 0..w {
+                    let xc = x as f64 + 0.5;
+                    if xc > *x0 && xc < *x1 {
+                        data[(y * w + x) as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+    BitGrid {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+fn iou(a: &BitGrid, b: &BitGrid) -> f64 {
+    let (mut i, mut u) = (0usize, 0usize);
+    for (x, y) in a.data.iter().zip(&b.data) {
+        i += (*x && *y) as usize;
+        u += (*x || *y) as usize;
+    }
+    i as f64 / u.max(1) as f64
+}
+
+/// One DXF polyline vertex list with bulges, flattened here from the bulge's definition
+/// (`tan(sweep / 4)`, positive counter-clockwise), not with the writer's own code.
+fn flatten_bulges(v: &[(f64, f64, f64)]) -> Vec<[f64; 2]> {
+    let n = v.len();
+    let mut out = Vec::new();
+    for k in 0..n {
+        let (x0, y0, b) = v[k];
+        let (x1, y1, _) = v[(k + 1) % n];
+        out.push([x0, y0]);
+        if b == 0.0 {
+            continue;
+        }
+        let sweep = 4.0 * b.atan();
+        let l = (x1 - x0).hypot(y1 - y0);
+        let r = l / 2.0 / (sweep / 2.0).sin().abs();
+        // Centre: on the chord's bisector, to the left for a counter-clockwise sweep under a
+        // half turn.
+        let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+        let (nx, ny) = (-(y1 - y0) / l, (x1 - x0) / l);
+        let d = (r * r - l * l / 4.0).max(0.0).sqrt() * sweep.signum();
+        let (cx, cy) = (mx + d * nx, my + d * ny);
+        let a0 = (y0 - cy).atan2(x0 - cx);
+        for i in 1..64 {
+            let a = a0 + sweep * i as f64 / 64.0;
+            out.push([cx + r * a.cos(), cy + r * a.sin()]);
+        }
+    }
+    out
+}
+
+#[test]
+fn svg_arcs_match_stencil_png() {
+    let dir = common::tmp();
+    let input = dir.path().join("blobs.png");
+    blobs(&input);
+    let out = dir.path().join("o");
+    make(&input, &out, &[]);
+    let report = common::report(&out);
+    let mm = report["mm_per_px"].as_f64().unwrap();
+    let margin = report["margin_mm"].as_f64().unwrap();
+    let png = common::read_bits(&out.join("stencil.png"));
+    let cut_png = BitGrid {
+        data: png.data.iter().map(|b| !b).collect(),
+        ..png.clone()
+    };
+    let (w, h) = (png.width, png.height);
+
+    let svg = std::fs::read(out.join("stencil.svg")).unwrap();
+    let text = String::from_utf8_lossy(&svg);
+    assert!(text.matches('A').count() > 20, "the cut paths carry arcs");
+    let score = iou(&cut_png, &rasterise_svg(&svg, w, h, margin / mm));
+    assert!(score >= 0.998, "SVG IoU {score}");
+}
+
+/// The DXF's bulges, read back with the dxf crate and flattened here from the bulge's
+/// definition (not with the writer's code), fill to stencil.png as the SVG does.
+#[test]
+fn dxf_bulges_match_stencil_png() {
+    let dir = common::tmp();
+    let input = dir.path().join("blobs.png");
+    blobs(&input);
+    let out = dir.path().join("o");
+    make(&input, &out, &[]);
+    let report = common::report(&out);
+    let mm = report["mm_per_px"].as_f64().unwrap();
+    let margin = report["margin_mm"].as_f64().unwrap();
+    let png = common::read_bits(&out.join("stencil.png"));
+    let cut_png = BitGrid {
+        data: png.data.iter().map(|b| !b).collect(),
+        ..png.clone()
+    };
+    let (w, h) = (png.width, png.height);
+    let d = dxf::Drawing::load_file(out.join("stencil.dxf")).unwrap();
+    let sheet_h = report["height_mm"].as_f64().unwrap() + 2.0 * margin;
+    let mut rings = Vec::new();
+    let mut bulges = 0;
+    for e in d.entities().filter(|e| e.common.layer == "CUT") {
+        let dxf::entities::EntityType::LwPolyline(p) = &e.specific else {
+            panic!("{:?}", e.specific)
+        };
+        assert!(p.is_closed());
+        bulges += p.vertices.iter().filter(|v| v.bulge != 0.0).count();
+        let v: Vec<(f64, f64, f64)> = p.vertices.iter().map(|v| (v.x, v.y, v.bulge)).collect();
+        // DXF (x from the sheet's left, y up from its bottom) to picture pixels (y down).
+        rings.push(
+            flatten_bulges(&v)
+                .into_iter()
+                .map(|[x, y]| [(x - margin) / mm, (sheet_h - y - margin) / mm])
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert!(bulges > 20, "{bulges} bulges");
+    let score = iou(&cut_png, &fill(&rings, w, h));
+    assert!(score >= 0.998, "DXF IoU {score}");
+}
