@@ -27,7 +27,11 @@ fn job() -> Program {
 fn cfg() -> StreamConfig {
     StreamConfig {
         boot_wait: Duration::from_millis(300),
-        timeout: Duration::from_secs(5),
+        // How long a line may wait for its answer before the sender calls the replies lost.
+        // Generous on purpose: the virtual Grbl runs in this process's threads, and on a
+        // 2-core machine under load 15 a 5 s limit once lost replies mid-job. Tests about
+        // lost replies set their own short limit.
+        timeout: Duration::from_secs(30),
         ..StreamConfig::default()
     }
 }
