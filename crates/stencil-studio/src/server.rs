@@ -29,7 +29,7 @@ use stencil_core::export::png;
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::pipeline::Made;
 
-use crate::engine::{fast_png, Computed, Pixels, Engine, RunError};
+use crate::engine::{fast_png, Computed, Engine, Pixels, RunError};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::Maker;
 
