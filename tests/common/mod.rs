@@ -378,23 +378,10 @@ pub fn gcode_loops(text: &str) -> Vec<GcodeLoop> {
                     n + 1
                 );
                 assert!(to != pos, "line {}: {line}: a full turn", n + 1);
-                let a0 = (pos[1] - c[1]).atan2(pos[0] - c[0]);
-                let mut sweep = (to[1] - c[1]).atan2(to[0] - c[0]) - a0;
-                let tau = std::f64::consts::TAU;
-                if motion == 3 && sweep <= 0.0 {
-                    sweep += tau;
-                } else if motion == 2 && sweep >= 0.0 {
-                    sweep -= tau;
-                }
-                let step = 2.0 * (1.0 - 0.001 / r0.max(0.002)).acos();
-                let k = (sweep.abs() / step).ceil().max(1.0) as usize;
                 if let Some(l) = loops.last_mut() {
                     l.moves.push(words.join(" "));
                     l.arcs += 1;
-                    for m in 1..k {
-                        let a = a0 + sweep * m as f64 / k as f64;
-                        l.points.push([c[0] + r0 * a.cos(), c[1] + r0 * a.sin()]);
-                    }
+                    l.points.extend(arc_chords(pos, to, c, motion == 3).1);
                     l.points.push(to);
                 }
             }
@@ -402,6 +389,30 @@ pub fn gcode_loops(text: &str) -> Vec<GcodeLoop> {
         pos = to;
     }
     loops
+}
+
+/// An arc from `from` to `to` about the centre `c` (counter-clockwise when `ccw`, G3), as its
+/// signed sweep in radians and the points between its ends where chords of at most 0.001 mm
+/// sagitta meet (the ends themselves not included): what both G-code readers draw an arc with.
+pub fn arc_chords(from: [f64; 2], to: [f64; 2], c: [f64; 2], ccw: bool) -> (f64, Vec<[f64; 2]>) {
+    let r0 = (from[0] - c[0]).hypot(from[1] - c[1]);
+    let a0 = (from[1] - c[1]).atan2(from[0] - c[0]);
+    let mut sweep = (to[1] - c[1]).atan2(to[0] - c[0]) - a0;
+    let tau = std::f64::consts::TAU;
+    if ccw && sweep <= 0.0 {
+        sweep += tau;
+    } else if !ccw && sweep >= 0.0 {
+        sweep -= tau;
+    }
+    let step = 2.0 * (1.0 - 0.001 / r0.max(0.002)).acos();
+    let k = (sweep.abs() / step).ceil().max(1.0) as usize;
+    let inner = (1..k)
+        .map(|m| {
+            let a = a0 + sweep * m as f64 / k as f64;
+            [c[0] + r0 * a.cos(), c[1] + r0 * a.sin()]
+        })
+        .collect();
+    (sweep, inner)
 }
 
 /// The closed subpaths of SVG path data (`d`), read with kurbo (lines, arcs `A`, Béziers) and

@@ -12,7 +12,7 @@ use stencil_gcode::machine::{self, Machine, PenLift, Tool};
 use stencil_gcode::CutLoops;
 use stencil_gcode::{gcode_for, CutSettings, GcodeSummary, PlanConfig};
 
-use crate::common::one_way;
+use crate::common::{arc_chords, one_way};
 
 // ---- inputs -----------------------------------------------------------------------------------
 
@@ -218,25 +218,10 @@ fn run(text: &str, machine: &Machine) -> Run {
                     "line {}: an arc with the tool off",
                     code.span().line + 1
                 );
-                let a0 = (pos[1] - c[1]).atan2(pos[0] - c[0]);
-                let mut sweep = (to[1] - c[1]).atan2(to[0] - c[0]) - a0;
-                let tau = std::f64::consts::TAU;
-                if motion == 3 && sweep <= 0.0 {
-                    sweep += tau;
-                } else if motion == 2 && sweep >= 0.0 {
-                    sweep -= tau;
-                }
+                let (sweep, inner) = arc_chords([pos[0], pos[1]], [to[0], to[1]], c, motion == 3);
                 r.cut_mm += r0 * sweep.abs();
-                let step = 2.0 * (1.0 - 0.001 / r0.max(0.002)).acos();
-                let k = (sweep.abs() / step).ceil().max(1.0) as usize;
                 let mut at = pos;
-                for n in 1..=k {
-                    let a = a0 + sweep * n as f64 / k as f64;
-                    let p = if n == k {
-                        to
-                    } else {
-                        [c[0] + r0 * a.cos(), c[1] + r0 * a.sin(), to[2]]
-                    };
+                for p in inner.into_iter().map(|[x, y]| [x, y, to[2]]).chain([to]) {
                     r.moves.push((at, p, false, true));
                     at = p;
                 }
