@@ -381,13 +381,13 @@ impl Computed {
             "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), Pixels::Gray),
             // In `make`'s colours, as palette indices (a byte a pixel).
             "preview" => {
-                let mut index = export::png::preview_indexed(
+                let index = export::png::preview_indexed(
                     &c.gray.0,
                     &c.cleaned.picture,
                     &j.twotone.bits,
                     bridged,
+                    &j.dropped_px,
                 );
-                export::png::mark_dropped_indexed(&mut index, bridged, &j.dropped_px);
                 fast_png(
                     w,
                     h,

@@ -95,9 +95,14 @@ impl SetRun {
             "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), Pixels::Gray),
             "picture" => fast_png(w, h, &m.picture.to_u8(), Pixels::Gray),
             "preview" => {
-                let mut rgb =
-                    png::preview_rgb(gray, &m.picture, &m.twotone.bits, &m.bridged.bits, 1);
-                png::paint_dropped(&mut rgb, &m.bridged.bits, &m.dropped_px, 1);
+                let rgb = png::preview_rgb(
+                    gray,
+                    &m.picture,
+                    &m.twotone.bits,
+                    &m.bridged.bits,
+                    &m.dropped_px,
+                    1,
+                );
                 fast_png(w, h, &rgb, Pixels::Rgb)
             }
             _ => return None,

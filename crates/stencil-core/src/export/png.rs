@@ -65,39 +65,8 @@ pub(crate) fn preview(
     dropped: &[u32],
 ) -> Vec<u8> {
     let f = preview_factor(stencil.width, stencil.height);
-    let mut rgb = preview_rgb(gray, picture, twotone, stencil, f);
-    paint_dropped(&mut rgb, stencil, dropped, f);
+    let rgb = preview_rgb(gray, picture, twotone, stencil, dropped, f);
     encode_rgb(stencil.width * f, stencil.height * f, &rgb)
-}
-
-/// Colour the dropped islands' pixels (cut in `stencil`) [`DROPPED_RGB`] in a preview made by
-/// [`preview_rgb`] with the same `f` (the studio's page shows them as `preview.png` does).
-pub fn paint_dropped(rgb: &mut [u8], stencil: &BitGrid, dropped: &[u32], f: u32) {
-    let (w, f) = (stencil.width as usize, f as usize);
-    for &i in dropped {
-        let (x, y) = (i as usize % w, i as usize / w);
-        if stencil.data[i as usize] {
-            continue;
-        }
-        for dy in 0..f {
-            let row = (y * f + dy) * w * f * 3;
-            for dx in 0..f {
-                let k = row + (x * f + dx) * 3;
-                rgb[k..k + 3].copy_from_slice(&DROPPED_RGB);
-            }
-        }
-    }
-}
-
-/// Mark the dropped islands' pixels (cut in `stencil`) with [`DROPPED_RGB`]'s index in a
-/// preview made by [`preview_indexed`]: the studio's palette preview shows them as
-/// [`paint_dropped`] does in `preview.png`.
-pub fn mark_dropped_indexed(index: &mut [u8], stencil: &BitGrid, dropped: &[u32]) {
-    for &i in dropped {
-        if !stencil.data[i as usize] {
-            index[i as usize] = DROPPED_INDEX;
-        }
-    }
 }
 
 /// The preview's colours by index ([`preview_indexed`]): the four colours above, then the
@@ -158,12 +127,14 @@ fn preview_index(g: f32, picture: bool, twotone: bool, stencil: bool) -> u8 {
 }
 
 /// The preview as palette indices ([`preview_palette`]), one per working pixel, row by row
-/// (rows in parallel).
+/// (rows in parallel); the `dropped` islands' pixels (indices into the grid) that `stencil`
+/// cuts are [`DROPPED_RGB`]'s.
 pub fn preview_indexed(
     gray: &Gray,
     picture: &BitGrid,
     twotone: &BitGrid,
     stencil: &BitGrid,
+    dropped: &[u32],
 ) -> Vec<u8> {
     use rayon::prelude::*;
     let w = stencil.width as usize;
@@ -182,6 +153,11 @@ pub fn preview_indexed(
                 *o = preview_index(g, p, t, s);
             }
         });
+    for &i in dropped {
+        if !stencil.data[i as usize] {
+            out[i as usize] = DROPPED_INDEX;
+        }
+    }
     out
 }
 
@@ -192,12 +168,13 @@ pub fn preview_rgb(
     picture: &BitGrid,
     twotone: &BitGrid,
     stencil: &BitGrid,
+    dropped: &[u32],
     f: u32,
 ) -> Vec<u8> {
     let (w, h) = (stencil.width as usize, stencil.height as usize);
     let f = f as usize;
     let palette = preview_palette();
-    let index = preview_indexed(gray, picture, twotone, stencil);
+    let index = preview_indexed(gray, picture, twotone, stencil, dropped);
     let row_len = w * f * 3;
     let mut rgb = Vec::with_capacity(row_len * h * f);
     for y in 0..h {
