@@ -1,0 +1,107 @@
+//! Where a studio change spends its time, stage by stage (`cargo bench --bench stages`, or
+//! `cargo bench --bench stages -- mesh` for the 200k-triangle mesh's light change): the stages a
+//! threshold change (the photo) or a light change (the mesh) re-runs, called as the engine calls
+//! them, each timed 12 times alternating between two values; medians in ms of wall time. The
+//! studio bench (`benches/studio.rs`) gives the end-to-end latency; this says which stage to make
+//! faster.
+
+use std::path::PathBuf;
+use std::time::Instant;
+use stencil_core::pipeline::{self, MakeConfig, SourceParams, Timings};
+use stencil_core::tone::mesh::{LineMode, Mesh, MeshConfig, RenderSize};
+use stencil_core::tone::Threshold;
+#[path = "../crates/stencil-core/tests/support/shapes.rs"]
+mod shapes;
+
+fn main() {
+    let meshy = std::env::args().any(|a| a == "mesh");
+    let mut cfg = MakeConfig {
+        input: PathBuf::from("samples/grace_hopper.jpg"),
+        ..Default::default()
+    };
+    cfg.tone.scale = Some(2);
+    if meshy {
+        let m = shapes::displaced_sphere(130);
+        let dir = std::env::temp_dir().join(format!("stencil-stages-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("bumpy.obj");
+        std::fs::write(&obj, m.to_obj("bumpy")).unwrap();
+        cfg = MakeConfig {
+            input: obj,
+            mesh: MeshConfig {
+                size: RenderSize::Exact {
+                    width: 1024,
+                    height: 1024,
+                },
+                supersample: 1,
+                lines: LineMode::Suggestive,
+                ..MeshConfig::default()
+            },
+            ..Default::default()
+        };
+    }
+    let sp = SourceParams::of(&cfg).unwrap();
+    let input = pipeline::load(&cfg.input, &sp).unwrap();
+    let drawn = pipeline::draw(&input, &sp).unwrap();
+    if meshy {
+        let _ = std::fs::remove_dir_all(cfg.input.parent().unwrap());
+    }
+    let mut tot: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+    for i in 0..12 {
+        let mut t = |n: &str, s: Instant| {
+            tot.entry(n.into())
+                .or_default()
+                .push(s.elapsed().as_secs_f64() * 1e3)
+        };
+        if meshy {
+            cfg.mesh.light = if i % 2 == 0 {
+                [1.0, 1.0, 2.0]
+            } else {
+                [-1.0, 1.0, 2.0]
+            };
+        } else {
+            cfg.tone.threshold = Threshold::Level(if i % 2 == 0 { 120 } else { 136 });
+        }
+        let sp = SourceParams::of(&cfg).unwrap();
+        let s = Instant::now();
+        let source = pipeline::light(&input, drawn.as_deref(), &sp).unwrap();
+        t("0 light", s);
+        let params = pipeline::resolve(&cfg, &source).unwrap();
+        let s = Instant::now();
+        let gray = pipeline::working_gray(source.clone(), params.working.factor);
+        t("0b gray", s);
+        let s = Instant::now();
+        let (raw, level) = pipeline::threshold(&source, gray, &params.tone);
+        t("1 threshold", s);
+        let s = Instant::now();
+        let c = pipeline::clean(raw, level, &params.clean);
+        t("2 clean", s);
+        let s = Instant::now();
+        stencil_core::tone::likeness(&c.twotone.bits, &c.twotone.gray, false);
+        t("2b likeness", s);
+        let mut timer = Timings::new(None);
+        let s = Instant::now();
+        let p = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut timer).unwrap();
+        t("3 prepare", s);
+        let s = Instant::now();
+        let j = pipeline::bridge_prepared(p, &params.join, &mut timer).unwrap();
+        t("4 bridge", s);
+        let s = Instant::now();
+        let idx = stencil_core::export::png::preview_indexed(
+            &c.twotone.gray,
+            &c.picture,
+            &j.twotone.bits,
+            &j.bridged.bits,
+            &j.dropped_px,
+        );
+        t("5 preview", s);
+        std::hint::black_box(idx);
+        for (k, v) in timer.iter() {
+            tot.entry(format!("  {k}")).or_default().push(v);
+        }
+    }
+    for (k, mut v) in tot {
+        v.sort_by(f64::total_cmp);
+        println!("{k:20} median {:7.1} ms", v[v.len() / 2]);
+    }
+}
