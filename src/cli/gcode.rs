@@ -51,7 +51,9 @@ pub struct MachineArgs {
     /// Write straight G1 segments only, no G2/G3 arcs (for a controller or sender without arcs;
     /// a machine profile with `arcs = false` does the same). By default each loop is fitted with
     /// lines and arcs within the outline's tolerance (make: --tolerance-mm; gcode: 0.02 mm, twice
-    /// the SVG reader's flattening).
+    /// the SVG reader's flattening). With make, the outlines are then made straight within the
+    /// whole --tolerance-mm of the traced outline, and the SVG and DXF carry the same polygons,
+    /// which are what the width check judged.
     #[arg(long)]
     pub no_arcs: bool,
 }

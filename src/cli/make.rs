@@ -595,6 +595,13 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
         // A gobo is a disc: its rim is always cut, last.
         g.plan.cut_outline = true;
     }
+    let mut cfg = cfg;
+    if let Some(g) = &gcode {
+        // G-code without arcs (--no-arcs, the machine's profile, a drag knife): the outlines
+        // are made straight within the whole tolerance, and every file carries those polygons,
+        // the ones the check judges.
+        cfg.physical.vector.arcs = g.plan.arc_tolerance_on(&g.machine) > 0.0;
+    }
     Ok(MakeConfig { gcode, ..cfg })
 }
 

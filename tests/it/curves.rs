@@ -117,13 +117,16 @@ fn gcode_arcs_follow_the_polygon_within_the_tolerance_and_pass_grbls_parser() {
         straight.lines().count()
     );
 
-    // The same loops in the same order, each within the tolerance of the other both ways
-    // (a quarter of the 0.05 mm tolerance, plus Grbl's $12 arc chords, 0.002 mm, and the written numbers' rounding of X, Y, I and J,
-    // which moves ends and centre by up to 0.003 mm together).
+    // The same loops in the same order. The straight job is its own polygon now (the traced
+    // outline made straight within the whole 0.05 mm tolerance, not the arcs flattened), so
+    // the two are each within the tolerance of the traced outline, not of each other: twice
+    // the tolerance apart at most, plus Grbl's $12 arc chords, 0.002 mm, and the written
+    // numbers' rounding of X, Y, I and J, which moves ends and centre by up to 0.003 mm
+    // together.
     let (a, b) = (cut_paths(&moves), cut_paths(&flat));
     assert_eq!(a.len(), b.len());
     assert!(a.len() >= 5);
-    let limit = 0.05 / 4.0 + 0.002 + 0.003;
+    let limit = 2.0 * 0.05 + 0.002 + 0.003;
     for (pa, pb) in a.iter().zip(&b) {
         let (ab, ba) = (one_way(pa, pb), one_way(pb, pa));
         assert!(ab <= limit && ba <= limit, "Hausdorff {ab} / {ba} mm");
@@ -135,6 +138,65 @@ fn gcode_arcs_follow_the_polygon_within_the_tolerance_and_pass_grbls_parser() {
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
     assert!(est(&arcs).contains("about"), "{}", est(&arcs));
+}
+
+/// `--no-arcs` writes no more segments than the traced outline simplified within the same
+/// tolerance would have (Douglas–Peucker, the polygons before curves were fitted): the outline
+/// made straight within the whole tolerance, not the fitted arcs flattened within a fifth of it
+/// (which had about twice the segments). The reference is built here from stencil.png with the
+/// library's vector stage, curves off, the same kerf applied.
+#[test]
+fn no_arcs_is_no_larger_than_the_simplified_polygon() {
+    use stencil_core::material::Material;
+    use stencil_core::units::Scale;
+    use stencil_core::vector::{vectorize, VectorConfig};
+    let dir = common::tmp();
+    let input = dir.path().join("blobs.png");
+    blobs(&input);
+    let out = dir.path().join("o");
+    make(&input, &out, &["--no-arcs", "--material", "cardstock"]);
+    let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
+    let written: usize = cut_paths(&interpret(&text).unwrap())
+        .iter()
+        .map(|p| p.len() - 1)
+        .sum();
+    let report = common::report(&out);
+    let cfg = VectorConfig {
+        scale: Scale {
+            mm_per_px: report["mm_per_px"].as_f64().unwrap(),
+        },
+        tolerance_mm: report["tolerance_mm"].as_f64().unwrap(),
+        margin_mm: report["margin_mm"].as_f64().unwrap(),
+        curves: false,
+        ..Default::default()
+    };
+    let bits = common::read_bits(&out.join("stencil.png"));
+    let (mut geom, _) = vectorize(&bits, &[], &cfg).unwrap();
+    geom.apply_kerf(Material::find("cardstock").unwrap().0.kerf_mm)
+        .unwrap();
+    let simplified: usize = geom
+        .cuts
+        .0
+        .iter()
+        .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
+        .map(|r| r.0.len() - 1)
+        .sum();
+    assert!(simplified > 100, "{simplified}");
+    assert!(
+        written <= simplified,
+        "--no-arcs wrote {written} segments, simplification alone {simplified}"
+    );
+    // The SVG and DXF carry the same straight polygons (no arcs anywhere).
+    let svg = std::fs::read_to_string(out.join("stencil.svg")).unwrap();
+    assert_eq!(svg_arcs(&svg), 0, "{svg:.1500}");
+}
+
+/// How many arc commands (`A` after a number, as the writer puts them) an SVG's paths hold.
+fn svg_arcs(svg: &str) -> usize {
+    svg.as_bytes()
+        .windows(2)
+        .filter(|w| w[0].is_ascii_digit() && w[1] == b'A')
+        .count()
 }
 
 #[test]
@@ -251,11 +313,18 @@ fn flatten_bulges(v: &[(f64, f64, f64)]) -> Vec<[f64; 2]> {
 
 #[test]
 fn svg_arcs_match_stencil_png() {
+    for arcs in [true, false] {
+        svg_matches_stencil_png(arcs);
+    }
+}
+
+/// With arcs, or straight (`--no-arcs`): the SVG rasterises to stencil.png.
+fn svg_matches_stencil_png(arcs: bool) {
     let dir = common::tmp();
     let input = dir.path().join("blobs.png");
     blobs(&input);
     let out = dir.path().join("o");
-    make(&input, &out, &[]);
+    make(&input, &out, if arcs { &[] } else { &["--no-arcs"] });
     let report = common::report(&out);
     let mm = report["mm_per_px"].as_f64().unwrap();
     let margin = report["margin_mm"].as_f64().unwrap();
@@ -268,9 +337,13 @@ fn svg_arcs_match_stencil_png() {
 
     let svg = std::fs::read(out.join("stencil.svg")).unwrap();
     let text = String::from_utf8_lossy(&svg);
-    assert!(text.matches('A').count() > 20, "the cut paths carry arcs");
+    if arcs {
+        assert!(svg_arcs(&text) > 20, "the cut paths carry arcs");
+    } else {
+        assert_eq!(svg_arcs(&text), 0, "no arcs: {text:.1500}");
+    }
     let score = iou(&cut_png, &rasterise_svg(&svg, w, h, margin / mm));
-    assert!(score >= 0.998, "SVG IoU {score}");
+    assert!(score >= 0.998, "SVG IoU {score} (arcs: {arcs})");
 }
 
 /// The DXF's bulges, read back with the dxf crate and flattened here from the bulge's

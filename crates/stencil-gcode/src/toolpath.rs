@@ -76,6 +76,18 @@ pub struct PlanConfig {
 }
 
 impl PlanConfig {
+    /// The tolerance the job's arcs are fitted within on `machine`: 0 (straight segments only)
+    /// when the machine's profile says `arcs = false` or its tool is a drag knife (its corner
+    /// swivels are built from the polygon's corners), else [`PlanConfig::arc_tolerance_mm`].
+    pub fn arc_tolerance_on(&self, machine: &Machine) -> f64 {
+        let knife = matches!(machine.tool, Tool::Knife { .. });
+        if machine.arcs && !knife && self.arc_tolerance_mm.is_finite() {
+            self.arc_tolerance_mm.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
     pub fn new(settings: CutSettings) -> Self {
         PlanConfig {
             anchor: None,
@@ -441,11 +453,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         0.0
     };
     // A drag knife's corner swivels are built from the polygon's corners: never arcs.
-    let arc_tolerance_mm = if machine.arcs && !knife && cfg.arc_tolerance_mm.is_finite() {
-        cfg.arc_tolerance_mm.max(0.0)
-    } else {
-        0.0
-    };
+    let arc_tolerance_mm = cfg.arc_tolerance_on(machine);
     let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);

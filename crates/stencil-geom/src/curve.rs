@@ -346,6 +346,60 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
     out
 }
 
+/// Each vertex of `ring` moved onto the piece that replaced it: the pieces from
+/// [`fit_ring_within`] (or [`fit_ring`]) on this very ring, so each piece starts at one of its
+/// vertices, in order. A piece's own start stays where it is; a vertex inside an arc's span
+/// moves along the radius onto the arc, one inside a line's span onto the line (perpendicular,
+/// clamped to it). Each moves by at most the fit's tolerance (the fit measured exactly these
+/// distances). `None` when the pieces do not start at the ring's vertices in order.
+///
+/// Why: the fitted curves run through the middle of a traced staircase; a polygon whose corners
+/// sit on them, rather than on the staircase's steps, reaches farther within the same tolerance
+/// (see the vector stage's straight outlines).
+pub fn onto_pieces(ring: &[[f64; 2]], pieces: &[Piece]) -> Option<Vec<[f64; 2]>> {
+    let (n, m) = (ring.len(), pieces.len());
+    if m == 0 || n == 0 || ring[0] != pieces[0].from {
+        return None;
+    }
+    let mut out = Vec::with_capacity(n);
+    let mut p = 0;
+    for (k, &q) in ring.iter().enumerate() {
+        if k > 0 && p + 1 < m && q == pieces[p + 1].from {
+            p += 1;
+        }
+        let (from, to) = (pieces[p].from, pieces[(p + 1) % m].from);
+        if q == from {
+            out.push(q);
+            continue;
+        }
+        out.push(match arc_of(from, to, pieces[p].bulge) {
+            Some(arc) => {
+                let d = dist(q, arc.center);
+                if d == 0.0 {
+                    return None;
+                }
+                let s = arc.radius / d;
+                [
+                    arc.center[0] + (q[0] - arc.center[0]) * s,
+                    arc.center[1] + (q[1] - arc.center[1]) * s,
+                ]
+            }
+            None => {
+                let d = [to[0] - from[0], to[1] - from[1]];
+                let l2 = d[0] * d[0] + d[1] * d[1];
+                let t = if l2 > 0.0 {
+                    (((q[0] - from[0]) * d[0] + (q[1] - from[1]) * d[1]) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                [from[0] + t * d[0], from[1] + t * d[1]]
+            }
+        });
+    }
+    // Every piece was met, in order.
+    (p + 1 == m).then_some(out)
+}
+
 /// How many of the pieces are arcs.
 pub fn arc_count(pieces: &[Piece]) -> usize {
     pieces.iter().filter(|p| p.bulge != 0.0).count()
@@ -696,6 +750,50 @@ mod tests {
             let h = hausdorff(&flatten(&kept, tol / 50.0), &ring);
             assert!(h <= tol * 1.05 + 0.01, "{h}");
         }
+    }
+
+    #[test]
+    fn vertices_move_onto_their_pieces_by_at_most_the_tolerance() {
+        // The staircase disc: its steps move onto the arcs (radius within a pixel of 30), each
+        // by at most the fit's tolerance; the pieces' own starts stay.
+        let mut ring = Vec::new();
+        for i in 0..720 {
+            let a = std::f64::consts::TAU * i as f64 / 720.0;
+            let p = [(30.0 * a.cos()).round(), (30.0 * a.sin()).round()];
+            if ring.last() != Some(&p) && ring.first() != Some(&p) {
+                ring.push(p);
+            }
+        }
+        let tol = 0.5;
+        let pieces = fit_ring(&ring, tol);
+        assert!(arc_count(&pieces) > 0);
+        let on = onto_pieces(&ring, &pieces).unwrap();
+        assert_eq!(on.len(), ring.len());
+        let mut moved = 0;
+        for (q, p) in ring.iter().zip(&on) {
+            assert!(dist(*q, *p) <= tol + 1e-9, "{q:?} -> {p:?}");
+            if pieces.iter().any(|pc| pc.from == *q) {
+                assert_eq!(q, p);
+            } else {
+                moved += usize::from(q != p);
+                let r = p[0].hypot(p[1]);
+                assert!((r - 30.0).abs() < 1.0, "{p:?}");
+            }
+        }
+        assert!(moved * 2 > ring.len(), "{moved} of {}", ring.len());
+        // Lines: a vertex beside a line piece moves onto it, perpendicular.
+        let sq = [
+            [0.0, 0.0],
+            [5.0, 0.1],
+            [10.0, 0.0],
+            [10.0, 10.0],
+            [0.0, 10.0],
+        ];
+        let pieces = fit_ring(&sq, 0.2);
+        assert_eq!(pieces.len(), 4, "{pieces:?}");
+        assert_eq!(onto_pieces(&sq, &pieces).unwrap()[1], [5.0, 0.0]);
+        // Pieces of another ring: none.
+        assert!(onto_pieces(&sq[1..], &pieces).is_none());
     }
 
     #[test]

@@ -144,6 +144,12 @@ pub struct VectorConfig {
     /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
     /// and the writers find the arcs again within [`VectorConfig::arc_tolerance_mm`].
     pub curves: bool,
+    /// Whether the files will carry arcs. Off (`--no-arcs`, a machine profile with `arcs =
+    /// false`, a drag knife) the fitted curves only place the corners of straight outlines within
+    /// the tolerance of the traced points ([`simplify::FitCurves::straight`]), which every file
+    /// carries as they are and the check judges as they are: no finer flattening for arcs that
+    /// no file holds.
+    pub arcs: bool,
 }
 
 impl Default for VectorConfig {
@@ -155,21 +161,32 @@ impl Default for VectorConfig {
             margin_mm: 5.0,
             smooth: true,
             curves: true,
+            arcs: true,
         }
     }
 }
 
 impl VectorConfig {
     /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
+    /// Why so fine: with arcs, this polygon is only what the check judges and what the writers
+    /// fit their arcs to again (within [`VectorConfig::arc_tolerance_mm`], which must exceed it
+    /// for a flattened arc to be found whole), never what a file carries. Without arcs it is not
+    /// used for the outline ([`VectorConfig::arcs`]); it stays the margin the fit keeps the
+    /// pixel centres clear of the curves by.
     pub fn flatten_mm(&self) -> f64 {
         self.tolerance_mm / 5.0
     }
 
     /// How far SVG, DXF and G-code arcs may stray from the geometry's polygons: a quarter of the
     /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
-    /// whole, and little enough that the files stay on what the check judged.
+    /// whole, and little enough that the files stay on what the check judged. 0 when the files
+    /// carry no arcs ([`VectorConfig::arcs`]): they write the polygons as they are.
     pub fn arc_tolerance_mm(&self) -> f64 {
-        self.tolerance_mm / 4.0
+        if self.arcs {
+            self.tolerance_mm / 4.0
+        } else {
+            0.0
+        }
     }
 }
 
@@ -244,6 +261,7 @@ pub fn vectorize_design(
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
     let curves = cfg.curves.then(|| simplify::FitCurves {
         flatten: cfg.scale.to_px(Mm(cfg.flatten_mm())).0,
+        straight: !cfg.arcs,
     });
     let simplify = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
@@ -495,9 +513,16 @@ mod tests {
             let b = ((x - 90.0) * 0.6 + (y - 50.0) * 0.8).abs() > 3.0 || (x - 90.0).abs() > 25.0;
             a && b
         });
-        let (geo, st) = vectorize(&g, &[], &VectorConfig::default()).unwrap();
-        assert!(st.simplify.points_out < st.simplify.points_in / 2, "{st:?}");
-        samples_back_to(&geo, &g, 0.1);
+        for arcs in [true, false] {
+            let cfg = VectorConfig {
+                arcs,
+                ..Default::default()
+            };
+            let (geo, st) = vectorize(&g, &[], &cfg).unwrap();
+            assert!(st.simplify.points_out < st.simplify.points_in / 2, "{st:?}");
+            assert!(st.simplify.curved_rings > 0, "{st:?}");
+            samples_back_to(&geo, &g, 0.1);
+        }
     }
 
     #[test]

@@ -39,10 +39,18 @@ pub struct SimplifyStats {
 }
 
 /// Fitting the traced rings with lines and arcs (see [`simplify_and_fit`]): within `tol`, like
-/// simplification, then flattened back into polygon rings within `flatten`.
+/// simplification, then flattened back into polygon rings within `flatten`, or, when
+/// `straight`, made straight within `tol` of the traced points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FitCurves {
     pub flatten: f64,
+    /// No file will carry arcs (`--no-arcs`, a machine without them): instead of the fine
+    /// flattening that the writers fit arcs to again, each ring becomes the polygon with the
+    /// fewest corners Douglas–Peucker finds whose corners lie on the fitted curves and whose
+    /// chords stay within `tol` of every traced point, their guards on their sides: the whole
+    /// tolerance spent once, measured against the traced outline itself (see
+    /// [`straighten`]). A ring keeps simplification's own polygon when that has fewer points.
+    pub straight: bool,
 }
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
@@ -152,6 +160,7 @@ fn fit_curves(
     stats: &mut SimplifyStats,
 ) {
     use stencil_geom::curve;
+    let rings_len: Vec<usize> = rings.iter().map(Vec::len).collect();
     let fitted: Vec<Option<(Vec<[f64; 2]>, usize)>> = (0..rings.len())
         .into_par_iter()
         .map(|i| {
@@ -168,7 +177,17 @@ fn fit_curves(
             if arcs == 0 {
                 return None;
             }
-            let flat = curve::flatten(&pieces, c.flatten);
+            let flat = if c.straight {
+                let g = guards.and_then(|g| g.get(i)).map(Vec::as_slice);
+                let s = straighten(orig, &pieces, g, tol)?;
+                // Simplification's polygon (in `rings[i]` until now) when it has fewer points.
+                if s.len() >= rings_len[i] {
+                    return None;
+                }
+                s
+            } else {
+                curve::flatten(&pieces, c.flatten)
+            };
             let a = signed_area2(&flat);
             (flat.len() >= 3 && a != 0.0 && a.signum() == signed_area2(orig).signum())
                 .then_some((flat, arcs))
@@ -197,6 +216,32 @@ fn fit_curves(
         stats.curved_rings += 1;
         stats.arcs += arcs;
     }
+}
+
+/// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto
+/// the `pieces` fitted to it ([`stencil_geom::curve::onto_pieces`]), then Douglas–Peucker
+/// between those moved points with every traced point measured against the chords ([`dp_kept`]).
+///
+/// Why this is within `tol` of the traced outline both ways: every traced point between two
+/// kept corners is within `tol` of their chord (the test), so every traced edge is too (both
+/// its ends are, and the distance to a segment is convex); each corner is within `tol` of its
+/// own traced point (the fit measured that distance); and a chord is within `tol` of the
+/// traced path that runs alongside it within `tol` from near one end to near the other. The
+/// guards of every replaced point are kept on their sides, as simplification keeps them, so
+/// the polygon samples to the same raster. `None` when the pieces do not belong to `orig`.
+fn straighten(
+    orig: &[[f64; 2]],
+    pieces: &[stencil_geom::curve::Piece],
+    guards: Option<&[Guard]>,
+    tol: f64,
+) -> Option<Vec<[f64; 2]>> {
+    let on = stencil_geom::curve::onto_pieces(orig, pieces)?;
+    Some(drop_collinear(
+        &dp_kept(orig, &on, guards, tol)
+            .into_iter()
+            .map(|i| on[i])
+            .collect::<Vec<_>>(),
+    ))
 }
 
 /// How many points [`drop_collinear`] keeps, without building the ring.
@@ -283,15 +328,29 @@ fn guard_ok(a: [f64; 2], b: [f64; 2], g: &Guard) -> bool {
 
 /// Douglas–Peucker on a closed ring: split at point 0 and the point farthest from it.
 fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> {
-    let n = r.len();
-    if n < 4 {
+    if r.len() < 4 {
         return r.to_vec();
+    }
+    dp_kept(r, r, guards, tol)
+        .into_iter()
+        .map(|i| r[i])
+        .collect()
+}
+
+/// Which points Douglas–Peucker keeps when the chords run between `at`'s points (one per point
+/// of `r`) while every replaced point of `r` (and its guards) is measured against them: `at`
+/// is `r` itself for plain simplification, or `r`'s points moved onto the fitted curves for
+/// [`FitCurves::straight`]. Indices, in order.
+fn dp_kept(r: &[[f64; 2]], at: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<usize> {
+    let n = r.len();
+    if n < 4 || at.len() != n {
+        return (0..n).collect();
     }
     let guards = guards.filter(|g| g.len() == n);
     let far = (1..n)
         .max_by(|&i, &j| {
-            let di = (r[i][0] - r[0][0]).powi(2) + (r[i][1] - r[0][1]).powi(2);
-            let dj = (r[j][0] - r[0][0]).powi(2) + (r[j][1] - r[0][1]).powi(2);
+            let di = (at[i][0] - at[0][0]).powi(2) + (at[i][1] - at[0][1]).powi(2);
+            let dj = (at[j][0] - at[0][0]).powi(2) + (at[j][1] - at[0][1]).powi(2);
             di.total_cmp(&dj)
         })
         .unwrap_or(n / 2);
@@ -299,7 +358,7 @@ fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> 
     keep[0] = true;
     keep[far] = true;
     keep[n] = true;
-    let at = |i: usize| r[i % n];
+    let at = |i: usize| at[i % n];
     let tol2 = tol * tol;
     let mut stack = vec![(0usize, far), (far, n)];
     while let Some((a, b)) = stack.pop() {
@@ -331,7 +390,7 @@ fn dp_ring(r: &[[f64; 2]], guards: Option<&[Guard]>, tol: f64) -> Vec<[f64; 2]> 
             stack.push((best.1, b));
         }
     }
-    (0..n).filter(|&i| keep[i]).map(|i| r[i]).collect()
+    (0..n).filter(|&i| keep[i]).collect()
 }
 
 fn c(p: [f64; 2]) -> Coord<f64> {
@@ -512,6 +571,102 @@ fn conflict(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::BitGrid;
+    use crate::vector::trace;
+
+    /// Largest distance from a point of `a` (densified) to the closed polygon `b`.
+    fn one_way(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+        let (n, m) = (a.len(), b.len());
+        let mut worst: f64 = 0.0;
+        for i in 0..n {
+            let (p, q) = (a[i], a[(i + 1) % n]);
+            for s in 0..8 {
+                let t = s as f64 / 8.0;
+                let x = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
+                let d = (0..m)
+                    .map(|j| seg_dist2(x, b[j], b[(j + 1) % m]))
+                    .fold(f64::INFINITY, f64::min);
+                worst = worst.max(d.sqrt());
+            }
+        }
+        worst
+    }
+
+    /// Tilted ellipses and discs, as `make` traces them (sub-pixel crossings): smooth outlines
+    /// with marching squares' staircase on them.
+    fn blobs() -> Vec<trace::Ring> {
+        let shapes = [
+            (60.0, 55.0, 40.0, 25.0, 0.3),
+            (170.0, 60.0, 30.0, 30.0, 0.0),
+            (250.0, 140.0, 35.0, 18.0, 1.2),
+            (90.0, 150.0, 22.0, 45.0, 2.0),
+            (185.0, 160.0, 12.0, 12.0, 0.0),
+        ];
+        let bits = BitGrid::from_fn(300, 220, |x, y| {
+            let (x, y) = (x as f64 + 0.5, y as f64 + 0.5);
+            !shapes
+                .iter()
+                .any(|&(cx, cy, a, b, t): &(f64, f64, f64, f64, f64)| {
+                    let (dx, dy) = (x - cx, y - cy);
+                    let u = dx * t.cos() + dy * t.sin();
+                    let v = -dx * t.sin() + dy * t.cos();
+                    (u / a).powi(2) + (v / b).powi(2) <= 1.0
+                })
+        });
+        trace::trace(&bits, true)
+    }
+
+    #[test]
+    fn straight_outlines_spend_the_whole_tolerance_once() {
+        let traced = blobs();
+        let rings: Vec<Vec<[f64; 2]>> = traced.iter().map(|r| r.pts.clone()).collect();
+        let guards: Vec<Vec<Guard>> = traced.iter().map(|r| r.guards.clone()).collect();
+        for tol in [0.5, 1.0] {
+            let run = |curves: Option<FitCurves>| {
+                let mut r = rings.clone();
+                let st = simplify_and_fit(&mut r, Some(&guards), tol, curves);
+                (r, st)
+            };
+            let (dp, dp_st) = run(None);
+            let (fine, _) = run(Some(FitCurves {
+                flatten: tol / 5.0,
+                straight: false,
+            }));
+            let (straight, st) = run(Some(FitCurves {
+                flatten: tol / 5.0,
+                straight: true,
+            }));
+            let count = |r: &[Vec<[f64; 2]>]| r.iter().map(Vec::len).sum::<usize>();
+            let (n_dp, n_fine, n_straight) = (count(&dp), count(&fine), count(&straight));
+            // The straight outlines have fewer corners than simplification alone leaves (a
+            // ring keeps simplification's polygon where that has fewer: 2 of the 5 at 1 px),
+            // and about half the fine flattening the arcs are found in again, which was the
+            // straight output before (346 points at 1 px, against 177 simplified, 167 now).
+            assert!(
+                n_straight * 100 <= n_dp * 97 && n_straight * 3 < n_fine * 2,
+                "tol {tol}: straight {n_straight}, simplified {n_dp}, flattened {n_fine}"
+            );
+            assert!(st.curved_rings >= 3, "{st:?} vs {dp_st:?}");
+            for (k, (s, t)) in straight.iter().zip(&rings).enumerate() {
+                // Within the tolerance of the traced ring both ways, all of it (not the fit's
+                // error plus a flattening's).
+                let (st_, ts) = (one_way(s, t), one_way(t, s));
+                assert!(
+                    st_ <= tol + 1e-9 && ts <= tol + 1e-9,
+                    "tol {tol}, ring {k}: {st_} / {ts}"
+                );
+                // Every pixel centre beside the traced ring stays on its side: inside the
+                // straight ring exactly when it is inside the traced one.
+                for g in guards[k].iter().flatten() {
+                    assert_eq!(
+                        stencil_geom::ring::point_in_ring(*g, s),
+                        stencil_geom::ring::point_in_ring(*g, t),
+                        "tol {tol}, ring {k}: {g:?}"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn a_staircase_becomes_a_line_within_tolerance() {
