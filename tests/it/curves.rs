@@ -121,14 +121,16 @@ fn gcode_arcs_follow_the_polygon_within_the_tolerance_and_pass_grbls_parser() {
 
     // The same loops in the same order. The straight job is its own polygon now (the traced
     // outline made straight within the whole 0.05 mm tolerance, not the arcs flattened), so
-    // the two are each within the tolerance of the traced outline, not of each other: twice
-    // the tolerance apart at most, plus Grbl's $12 arc chords, 0.002 mm, and the written
-    // numbers' rounding of X, Y, I and J, which moves ends and centre by up to 0.003 mm
-    // together.
+    // the two are each near the traced outline, not on each other: the straight one within
+    // the tolerance; the arcs within the tolerance by the fit, but the files' arcs are fitted
+    // again within a quarter of it to the checked polygon, which is within a fifth of it of
+    // the fitted arcs (1.45 tolerances at worst; 0.111 mm apart in all was seen here). Plus
+    // Grbl's $12 arc chords, 0.002 mm, and the written numbers' rounding of X, Y, I and J,
+    // which moves ends and centre by up to 0.003 mm together.
     let (a, b) = (cut_paths(&moves), cut_paths(&flat));
     assert_eq!(a.len(), b.len());
     assert!(a.len() >= 5);
-    let limit = 2.0 * 0.05 + 0.002 + 0.003;
+    let limit = 0.05 + 0.05 * (1.0 + 1.0 / 5.0 + 1.0 / 4.0) + 0.002 + 0.003;
     for (pa, pb) in a.iter().zip(&b) {
         let (ab, ba) = (one_way(pa, pb), one_way(pb, pa));
         assert!(ab <= limit && ba <= limit, "Hausdorff {ab} / {ba} mm");
