@@ -185,7 +185,7 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
             padded.extend(std::iter::repeat_n(row[w - 1], r));
             for (i, &k) in kernel.iter().enumerate() {
                 for (o, &p) in out.iter_mut().zip(&padded[i..i + w]) {
-                    *o = *o + p * k;
+                    *o += p * k;
                 }
             }
         });
@@ -196,7 +196,7 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
         for (i, &k) in kernel.iter().enumerate() {
             let sy = (y + i).saturating_sub(r).min(h - 1);
             for (o, &p) in out.iter_mut().zip(&across[sy * w..(sy + 1) * w]) {
-                *o = *o + p * k;
+                *o += p * k;
             }
         }
     });
