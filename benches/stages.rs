@@ -73,11 +73,16 @@ fn main() {
         let s = Instant::now();
         let (raw, level) = pipeline::threshold(&source, gray, &params.tone);
         t("1 threshold", s);
+        // The studio keeps the picture's side of the likeness while the gray stays (a threshold
+        // change); a mesh's light change makes a new gray, so it is made again.
         let s = Instant::now();
-        let c = pipeline::clean(raw, level, &params.clean);
+        let look = pipeline::look(&raw);
+        t("1b look", s);
+        let s = Instant::now();
+        let c = pipeline::clean(raw, level, &params.clean, &look);
         t("2 clean", s);
         let s = Instant::now();
-        stencil_core::tone::likeness(&c.twotone.bits, &c.twotone.gray, false);
+        look.of_bits(&c.twotone.bits, false);
         t("2b likeness", s);
         let mut timer = Timings::new(None);
         let s = Instant::now();

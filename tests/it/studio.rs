@@ -265,6 +265,7 @@ fn a_mesh_light_change_re_lights_the_kept_view() {
         "light",
         "gray",
         "threshold",
+        "look",
         "clean",
         "walk",
         "join",

@@ -704,7 +704,10 @@ fn one_layer(
     let band = f.marks.band_px * params.working.factor;
     f.marks
         .stamp(&mut raw.bits, band, params.working.scale.mm_per_px);
-    let mut cleaned = timer.time("filter", || pipeline::clean(raw, lvl, &params.clean));
+    let mut cleaned = timer.time("filter", || {
+        let look = pipeline::look(&raw);
+        pipeline::clean(raw, lvl, &params.clean, &look)
+    });
     if let Some(d) = darker {
         // Cumulative: what a darker layer cuts, this one cuts too.
         for (b, &m) in cleaned.twotone.bits.data.iter_mut().zip(&d.data) {
@@ -915,7 +918,10 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     };
     let mut timer = Timings::new(cfg.progress.clone());
     let raw = TwoTone { bits, gray };
-    let mut cleaned = timer.time("filter", || pipeline::clean(raw, 128, &params.clean));
+    let mut cleaned = timer.time("filter", || {
+        let look = pipeline::look(&raw);
+        pipeline::clean(raw, 128, &params.clean, &look)
+    });
     let twotone = std::mem::replace(
         &mut cleaned.twotone,
         TwoTone {

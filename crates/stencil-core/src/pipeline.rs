@@ -4,6 +4,7 @@
 //! Stages are pure functions on plain data; this module times them, gathers the report and hands
 //! the results to `export` at the very end, so a failure anywhere leaves no output behind.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -502,6 +503,16 @@ pub struct ToneParams {
     pub keep_circle_px: Option<[f64; 3]>,
 }
 
+impl ToneParams {
+    /// What of these parameters changes the gray the two-tone carries (not only its bits): the
+    /// gobo's circle, outside which the gray is set to the metal's tone, and with it `invert`,
+    /// which says what that tone is (see [`threshold`]). While this and the working gray stay,
+    /// so does the two-tone's gray, and what is made of it alone ([`look`]).
+    pub fn gray_key(&self) -> Option<([f64; 3], bool)> {
+        self.keep_circle_px.map(|c| (c, self.invert))
+    }
+}
+
 /// The clean-up's parameters: the design-rule regularisation to `min_width_px`, or (with an
 /// explicit radius) the morphological filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -904,6 +915,13 @@ fn keep_circle(two: &mut TwoTone, [cx, cy, r]: [f64; 3], invert: bool) {
     }
 }
 
+/// Stage 3b: the picture's side of the likeness measure ([`tone::Likeness`]), of the gray the
+/// two-tone carries (`raw.gray`, see [`ToneParams::gray_key`]): the clean-up measures every
+/// two-tone it makes of that gray against it, so it is made once per gray, not per level.
+pub fn look(raw: &TwoTone) -> tone::Likeness {
+    tone::Likeness::of(&raw.gray)
+}
+
 /// The two-tone after the clean-up, and what the clean-up measured.
 #[derive(Clone, Debug)]
 pub struct Cleaned {
@@ -957,7 +975,7 @@ pub const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
 /// search runs on a reduced copy and the two best, 128 and Otsu's level are measured again at
 /// full size; the full-size measure decides. 128 and Otsu's level are always among those
 /// measured, so the level chosen is at least as likely as either by the same measure.
-fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
+fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, tone::LevelChoice) {
     let otsu = tone::otsu_level(gray);
     let pixels = gray.width as u64 * gray.height as u64;
     let d = if pixels > AUTO_SEARCH_PIXELS {
@@ -965,8 +983,9 @@ fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
     } else {
         1
     };
-    let (small, sp) = if d > 1 {
+    let (small, small_look, sp) = if d > 1 {
         let g = shrink_gray(gray, d);
+        let l = tone::Likeness::of(&g);
         let sp = CleanParams {
             regularize_px: p.regularize_px.map(|w| (w / d as f64).max(1.0)),
             filter: FilterConfig {
@@ -976,14 +995,14 @@ fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
             },
             ..*p
         };
-        (g, sp)
+        (Cow::Owned(g), Cow::Owned(l), sp)
     } else {
-        (gray.clone(), *p)
+        (Cow::Borrowed(gray), Cow::Borrowed(look), *p)
     };
-    let measure = |g: &Gray, cp: &CleanParams, level: u8| -> f64 {
+    let measure = |g: &Gray, look: &tone::Likeness, cp: &CleanParams, level: u8| -> f64 {
         let raw = tone::bits_at(g, level, cp.invert);
         let (bits, _, _) = clean_bits(&raw, g, level, cp);
-        tone::likeness(&bits, g, cp.invert)
+        look.of_bits(&bits, cp.invert)
     };
     let mut tried: Vec<(u8, f64)> = Vec::new();
     let mut levels: Vec<u8> = (16..=240).step_by(8).collect();
@@ -991,7 +1010,7 @@ fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
     let try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
         for &l in levels {
             if !tried.iter().any(|t| t.0 == l) {
-                tried.push((l, measure(&small, &sp, l)));
+                tried.push((l, measure(&small, &small_look, &sp, l)));
             }
         }
     };
@@ -1018,7 +1037,7 @@ fn choose_level(gray: &Gray, p: &CleanParams) -> (u8, tone::LevelChoice) {
         at_full = Vec::new();
         for l in finalists {
             if !at_full.iter().any(|t: &(u8, f64)| t.0 == l) {
-                at_full.push((l, measure(gray, p, l)));
+                at_full.push((l, measure(gray, look, p, l)));
                 tried.push((l, at_full.last().map_or(0.0, |t| t.1)));
             }
         }
@@ -1060,16 +1079,16 @@ fn shrink_gray(g: &Gray, d: u32) -> Gray {
 /// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest
 /// feature, or the morphological filter with an explicit radius. With `--threshold auto` (a
 /// picture), the level is chosen here, judged on the cleaned-up result (`choose_level`), and
-/// `raw` is thresholded again at it.
-pub fn clean(raw: TwoTone, level: u8, p: &CleanParams) -> Cleaned {
+/// `raw` is thresholded again at it. `look` is [`look`] of `raw`.
+pub fn clean(raw: TwoTone, level: u8, p: &CleanParams, look: &tone::Likeness) -> Cleaned {
     let (picture, level, choice) = if p.auto {
-        let (l, choice) = choose_level(&raw.gray, p);
+        let (l, choice) = choose_level(&raw.gray, look, p);
         (tone::bits_at(&raw.gray, l, p.invert), l, Some(choice))
     } else {
         (raw.bits, level, None)
     };
     let (bits, filter_stats, reg_stats) = clean_bits(&picture, &raw.gray, level, p);
-    let likeness = tone::likeness(&bits, &raw.gray, p.invert);
+    let likeness = look.of_bits(&bits, p.invert);
     Cleaned {
         picture,
         twotone: TwoTone {
@@ -1098,7 +1117,10 @@ fn cleaned(cfg: &MakeConfig, timer: &mut Timings) -> Result<(Cleaned, StageParam
         let gray = working_gray(source.clone(), params.working.factor);
         threshold(&source, gray, &params.tone)
     });
-    let c = timer.time("filter", || clean(raw, level, &params.clean));
+    let c = timer.time("filter", || {
+        let l = look(&raw);
+        clean(raw, level, &params.clean, &l)
+    });
     Ok((c, params))
 }
 

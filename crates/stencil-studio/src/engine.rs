@@ -57,6 +57,9 @@ pub struct Engine {
     /// over the picture, made once per gray rather than once per change.
     gray: Kept<u32, Arc<(Gray, u8)>>,
     raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
+    /// The picture's side of the likeness measure, made of the two-tone's gray: kept while that
+    /// gray stays (a threshold change keeps it; see `ToneParams::gray_key`).
+    look: Kept<Option<([f64; 3], bool)>, Arc<stencil_core::tone::Likeness>>,
     cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
     /// The islands and their walks, keyed by the join's parameters without the weights: a
     /// weight change re-chooses the bridges from the kept walks.
@@ -201,6 +204,14 @@ impl Engine {
             },
         )?;
         cancel()?;
+        let (_, look) = step(
+            &mut self.look,
+            g,
+            &mut ran,
+            "look",
+            (gg, params.tone.gray_key()),
+            || Ok::<_, RunError>(Arc::new(pipeline::look(&raw.0))),
+        )?;
         let (cg, cleaned) = step(
             &mut self.cleaned,
             g,
@@ -209,7 +220,7 @@ impl Engine {
             (rg, params.clean),
             || {
                 let (tt, level) = (*raw).clone();
-                Ok::<_, RunError>(Arc::new(pipeline::clean(tt, level, &params.clean)))
+                Ok::<_, RunError>(Arc::new(pipeline::clean(tt, level, &params.clean, &look)))
             },
         )?;
         cancel()?;

@@ -55,23 +55,116 @@ pub const STRETCH_PERCENTILE: f32 = 0.01;
 pub const FLAT_WEIGHT: f32 = 0.25;
 
 /// The likeness (SSIM at viewing distance, see the module) of a two-tone to its gray picture.
+/// Measuring several two-tones of one gray: make its [`Likeness`] once.
 pub fn likeness(bits: &BitGrid, gray: &Gray, invert: bool) -> f64 {
-    if bits.data.is_empty() {
-        return 0.0;
-    }
-    let d = bits.width.max(bits.height).div_ceil(EVAL_LONG_SIDE).max(1);
-    let a = shrink(bits.width, bits.height, d, |i| {
-        if bits.data[i] != invert {
-            1.0
-        } else {
-            0.0
+    Likeness::of(gray).of_bits(bits, invert)
+}
+
+/// The picture's side of the [`likeness`] measure, which depends only on the gray: the gray
+/// box-averaged, stretched and seen from afar, its local means and contrast in the SSIM window
+/// and each place's weight. The two-tones of one gray (a threshold change in the studio, the
+/// levels `--threshold auto` tries) are each measured against it, so it is made once per gray.
+#[derive(Clone, Debug)]
+pub struct Likeness {
+    /// The size of the gray it was made of, and the box size it was averaged by.
+    width: u32,
+    height: u32,
+    d: u32,
+    /// The viewing blur's σ on the reduced grid (the SSIM window is twice it).
+    sigma: f32,
+    /// The gray seen from afar, its local mean and variance in the window.
+    y: Vec<f32>,
+    my: Vec<f32>,
+    vy: Vec<f32>,
+    /// Each place's weight, and their sum.
+    weight: Vec<f64>,
+    weights: f64,
+}
+
+impl Likeness {
+    /// The picture's side of the measure for `gray`.
+    pub fn of(gray: &Gray) -> Likeness {
+        let d = gray.width.max(gray.height).div_ceil(EVAL_LONG_SIDE).max(1);
+        let g = stretch(shrink(gray.width, gray.height, d, |i| {
+            gray.data[i].clamp(0.0, 1.0)
+        }));
+        let sigma = ((g.width as f32).hypot(g.height as f32) / VIEW_BLUR_DIAGONALS).max(0.5);
+        let window = 2.0 * sigma;
+        let y = blur(&g, sigma);
+        let (my, yy) = rayon::join(|| blur(&y, window), || blur(&map(&y, |v| v * v), window));
+        let n = y.data.len();
+        let vy: Vec<f32> = (0..n)
+            .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0))
+            .collect();
+        // The local contrast is the standard deviation in the window.
+        let contrast: Vec<f32> = vy.iter().map(|v| v.sqrt()).collect();
+        let mean_contrast = contrast.iter().map(|&c| c as f64).sum::<f64>() / n.max(1) as f64;
+        // A flat picture weighs every place alike.
+        let weight: Vec<f64> = contrast
+            .iter()
+            .map(|&c| {
+                if mean_contrast > 0.0 {
+                    c as f64 + FLAT_WEIGHT as f64 * mean_contrast
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let mut weights = 0.0;
+        for &w in &weight {
+            weights += w;
         }
-    });
-    let g = stretch(shrink(gray.width, gray.height, d, |i| {
-        gray.data[i].clamp(0.0, 1.0)
-    }));
-    let sigma = ((a.width as f32).hypot(a.height as f32) / VIEW_BLUR_DIAGONALS).max(0.5);
-    ssim(&blur(&a, sigma), &blur(&g, sigma), 2.0 * sigma)
+        Likeness {
+            width: gray.width,
+            height: gray.height,
+            d,
+            sigma,
+            y: y.data,
+            my: my.data,
+            vy,
+            weight,
+            weights,
+        }
+    }
+
+    /// The likeness of `bits`, a two-tone of the gray this was made of (the same size), to it.
+    pub fn of_bits(&self, bits: &BitGrid, invert: bool) -> f64 {
+        assert_eq!(
+            (bits.width, bits.height),
+            (self.width, self.height),
+            "a two-tone is measured against its own gray"
+        );
+        if bits.data.is_empty() {
+            return 0.0;
+        }
+        let a = shrink(bits.width, bits.height, self.d, |i| {
+            if bits.data[i] != invert {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let window = 2.0 * self.sigma;
+        let x = blur(&a, self.sigma);
+        let xy = Gray {
+            data: x.data.iter().zip(&self.y).map(|(&a, &b)| a * b).collect(),
+            ..x
+        };
+        let ((mx, xx), xy) = rayon::join(
+            || rayon::join(|| blur(&x, window), || blur(&map(&x, |v| v * v), window)),
+            || blur(&xy, window),
+        );
+        ssim(self, &mx.data, &xx.data, &xy.data)
+    }
+}
+
+/// `g` with `f` applied to every value.
+fn map(g: &Gray, f: impl Fn(f32) -> f32) -> Gray {
+    Gray {
+        width: g.width,
+        height: g.height,
+        data: g.data.iter().map(|&v| f(v)).collect(),
+    }
 }
 
 /// The `w` × `h` picture of `value(i)` box-averaged by `d` (partial boxes at the right and bottom
@@ -133,42 +226,21 @@ fn stretch(mut g: Gray) -> Gray {
     g
 }
 
-/// SSIM-like score of two same-size pictures with a Gaussian window of σ = `window` pixels,
-/// averaged with weights that follow `y`'s local contrast (see the module notes).
-fn ssim(x: &Gray, y: &Gray, window: f32) -> f64 {
+/// SSIM-like score of a two-tone seen from afar against the picture (`look`), from the two-tone's
+/// local mean `mx`, mean square `xx` and mean product with the picture `xy` in the window,
+/// averaged with weights that follow the picture's local contrast (see the module notes).
+fn ssim(look: &Likeness, mx: &[f32], xx: &[f32], xy: &[f32]) -> f64 {
     let c2 = 9e-4f32;
-    let prod = |f: &dyn Fn(f32, f32) -> f32| Gray {
-        width: x.width,
-        height: x.height,
-        data: x.data.iter().zip(&y.data).map(|(&a, &b)| f(a, b)).collect(),
-    };
-    let mx = blur(x, window);
-    let my = blur(y, window);
-    let xx = blur(&prod(&|a, _| a * a), window);
-    let yy = blur(&prod(&|_, b| b * b), window);
-    let xy = blur(&prod(&|a, b| a * b), window);
-    let n = x.data.len();
-    let contrast: Vec<f32> = (0..n)
-        .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0).sqrt())
-        .collect();
-    let mean_contrast = contrast.iter().map(|&c| c as f64).sum::<f64>() / n.max(1) as f64;
-    let (mut total, mut weights) = (0.0, 0.0);
-    for (i, &c) in contrast.iter().enumerate() {
-        let (ux, uy) = (mx.data[i], my.data[i]);
-        let vx = (xx.data[i] - ux * ux).max(0.0);
-        let vy = (yy.data[i] - uy * uy).max(0.0);
-        let cxy = xy.data[i] - ux * uy;
+    let mut total = 0.0;
+    for i in 0..mx.len() {
+        let (ux, uy) = (mx[i], look.my[i]);
+        let vx = (xx[i] - ux * ux).max(0.0);
+        let vy = look.vy[i];
+        let cxy = xy[i] - ux * uy;
         let score = ((1.0 - (ux - uy).abs()) * (2.0 * cxy + c2) / (vx + vy + c2)) as f64;
-        // A flat picture weighs every place alike.
-        let w = if mean_contrast > 0.0 {
-            c as f64 + FLAT_WEIGHT as f64 * mean_contrast
-        } else {
-            1.0
-        };
-        total += w * score;
-        weights += w;
+        total += look.weight[i] * score;
     }
-    total / weights.max(f64::MIN_POSITIVE)
+    total / look.weights.max(f64::MIN_POSITIVE)
 }
 
 /// How `--threshold auto` chose its level, for the report and the console.

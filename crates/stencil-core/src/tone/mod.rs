@@ -12,7 +12,7 @@ pub(crate) mod resolution;
 pub use adjust::Adjust;
 pub use filter::{FilterConfig, FilterStats};
 pub use image::{load_gray, orientation_note, picture_size};
-pub use likeness::{likeness, LevelChoice};
+pub use likeness::{likeness, LevelChoice, Likeness};
 pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
