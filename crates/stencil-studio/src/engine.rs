@@ -56,13 +56,49 @@ pub struct Engine {
     /// The working gray and its Otsu level (the page marks it on the histogram): a full pass
     /// over the picture, made once per gray rather than once per change.
     gray: Kept<u32, Arc<(Gray, u8)>>,
-    raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
+    raw: Kept<ToneParams, Raw>,
     cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
     /// The islands and their walks, keyed by the join's parameters without the weights: a
     /// weight change re-chooses the bridges from the kept walks.
     prepared: Kept<pipeline::JoinParams, Arc<Prepared>>,
     joined: Kept<pipeline::JoinParams, Arc<Joined>>,
     traced: Kept<pipeline::TraceParams, Arc<(Joined, Traced)>>,
+}
+
+/// The threshold's output as kept: its own copy, or, once the clean-up has taken it (which
+/// moves the pixels and the gray into its output unchanged, unless it chooses the level
+/// itself), the clean-up's output it lives on in. So a threshold change hands its two-tone to
+/// the clean-up without a copy, and a change to the clean-up alone copies it back out.
+#[derive(Clone)]
+enum Raw {
+    Own(Arc<(TwoTone, u8)>),
+    /// `picture` is the raw bits and `twotone.gray` the raw gray; the level.
+    InCleaned(Arc<Cleaned>, u8),
+    /// Taken by the clean-up that is running (never seen outside [`Engine::preview`]).
+    Moved,
+}
+
+impl Raw {
+    /// The two-tone and level, moved out when this is the only reference, else copied.
+    fn into_owned(self) -> (TwoTone, u8) {
+        match self {
+            Raw::Own(a) => Arc::try_unwrap(a).unwrap_or_else(|a| (*a).clone()),
+            Raw::InCleaned(c, level) => (
+                TwoTone {
+                    bits: c.picture.clone(),
+                    gray: c.twotone.gray.clone(),
+                },
+                level,
+            ),
+            Raw::Moved => (
+                TwoTone {
+                    bits: stencil_core::raster::BitGrid::new(0, 0, false),
+                    gray: Gray::new(0, 0, 0.0),
+                },
+                0,
+            ),
+        }
+    }
 }
 
 /// What one run shows: every stage's output up to the bridges (the preview), then the trace
@@ -186,6 +222,10 @@ impl Engine {
             Ok::<_, RunError>(Arc::new((gray, otsu)))
         })?;
         let (gray, otsu) = (&gray_otsu.0, gray_otsu.1);
+        if matches!(self.raw.as_ref().map(|s| &s.value), Some(Raw::Moved)) {
+            // A clean-up that never finished (it panicked): the two-tone is gone; make it again.
+            self.raw = None;
+        }
         let (rg, raw) = step(
             &mut self.raw,
             g,
@@ -193,14 +233,19 @@ impl Engine {
             "threshold",
             (gg, params.tone),
             || {
-                Ok::<_, RunError>(Arc::new(pipeline::threshold(
+                Ok::<_, RunError>(Raw::Own(Arc::new(pipeline::threshold(
                     &source,
                     gray.clone(),
                     &params.tone,
-                )))
+                ))))
             },
         )?;
         cancel()?;
+        // The clean-up takes the threshold's output out of its slot (so that it holds the only
+        // reference and moves it rather than copies it), and the slot then points to where it
+        // lives on.
+        drop(raw);
+        let mut raw_slot = self.raw.take();
         let (cg, cleaned) = step(
             &mut self.cleaned,
             g,
@@ -208,10 +253,25 @@ impl Engine {
             "clean",
             (rg, params.clean),
             || {
-                let (tt, level) = (*raw).clone();
+                // Never missing: the threshold stage has just kept its output (else: run again).
+                let slot = raw_slot.as_mut().ok_or(RunError::Cancelled)?;
+                let (tt, level) = if params.clean.auto {
+                    // The clean-up chooses the level and thresholds again: the raw bits are not
+                    // in its output, so the kept ones stay.
+                    slot.value.clone().into_owned()
+                } else {
+                    let moved = std::mem::replace(&mut slot.value, Raw::Moved);
+                    moved.into_owned()
+                };
                 Ok::<_, RunError>(Arc::new(pipeline::clean(tt, level, &params.clean)))
             },
         )?;
+        if let Some(slot) = raw_slot.as_mut() {
+            if matches!(slot.value, Raw::Moved) {
+                slot.value = Raw::InCleaned(cleaned.clone(), cleaned.level);
+            }
+        }
+        self.raw = raw_slot;
         cancel()?;
         let mut timer = Timings::new(None);
         let (pg, prepared) = step(
@@ -397,5 +457,63 @@ impl Computed {
             }
             _ => return None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stencil_core::tone::Threshold;
+
+    fn rings() -> MakeConfig {
+        MakeConfig {
+            input: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/rings.png"),
+            ..Default::default()
+        }
+    }
+
+    /// What a fresh engine (every stage computed) makes of `cfg`.
+    fn fresh(cfg: &MakeConfig) -> Computed {
+        Engine::new().run(cfg, &|| false).unwrap()
+    }
+
+    fn same(a: &Computed, b: &Computed) {
+        assert_eq!(a.cleaned.picture, b.cleaned.picture);
+        assert_eq!(a.cleaned.twotone.bits, b.cleaned.twotone.bits);
+        assert_eq!(a.cleaned.twotone.gray, b.cleaned.twotone.gray);
+        assert_eq!(a.cleaned.level, b.cleaned.level);
+        assert_eq!(a.joined.bridged.bits, b.joined.bridged.bits);
+        assert_eq!(a.image("preview"), b.image("preview"));
+    }
+
+    /// The threshold's two-tone moves into the clean-up; a later change to the clean-up alone
+    /// (an explicit filter radius), or to the threshold's way (auto), gets it back intact.
+    #[test]
+    fn kept_stages_give_what_a_fresh_run_gives() {
+        let mut e = Engine::new();
+        let never = || false;
+        let mut cfg = rings();
+        let mut steps: Vec<(MakeConfig, Option<&str>)> = Vec::new();
+        cfg.tone.threshold = Threshold::Level(100);
+        steps.push((cfg.clone(), Some("threshold")));
+        cfg.filter.radius = 2;
+        cfg.filter.auto_radius = false;
+        steps.push((cfg.clone(), Some("clean")));
+        cfg.filter.radius = 3;
+        steps.push((cfg.clone(), Some("clean")));
+        cfg.tone.threshold = Threshold::Auto;
+        steps.push((cfg.clone(), None));
+        cfg.filter.radius = 1;
+        steps.push((cfg.clone(), None));
+        cfg.tone.threshold = Threshold::Level(140);
+        steps.push((cfg.clone(), None));
+        e.run(&rings(), &never).unwrap();
+        for (c, first) in steps {
+            let got = e.run(&c, &never).unwrap();
+            if let Some(first) = first {
+                assert_eq!(got.ran[0], first, "{:?}", got.ran);
+            }
+            same(&got, &fresh(&c));
+        }
     }
 }
