@@ -135,14 +135,17 @@ struct History {
     stop: bool,
 }
 
+/// The engine's working gray and its Otsu level.
+type WorkingGray = Arc<(Gray, u8)>;
+
 /// What the page is sent that depends on one stage's output alone, kept with that output (the
 /// `Arc` the engine hands out again for as long as the stage is not re-run): after a change
 /// that did not touch the working gray or the clean-up (a bridge weight), the state and the
 /// before/after picture are sent without counting or encoding them again.
 #[derive(Default)]
 struct Reuse {
-    histogram: Option<(Arc<(Gray, u8)>, Arc<Vec<u64>>)>,
-    gray_png: Option<(Arc<(Gray, u8)>, Bytes)>,
+    histogram: Option<(WorkingGray, Arc<Vec<u64>>)>,
+    gray_png: Option<(WorkingGray, Bytes)>,
     picture_png: Option<(Arc<Cleaned>, Bytes)>,
 }
 
@@ -359,7 +362,7 @@ impl Studio {
 
 impl Studio {
     /// The working gray's histogram, counted once per gray.
-    fn histogram_of(&self, gray: &Arc<(Gray, u8)>) -> Arc<Vec<u64>> {
+    fn histogram_of(&self, gray: &WorkingGray) -> Arc<Vec<u64>> {
         let mut r = self.reuse.lock().unwrap_or_else(|e| e.into_inner());
         match &r.histogram {
             Some((g, h)) if Arc::ptr_eq(g, gray) => h.clone(),
