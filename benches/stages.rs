@@ -1,9 +1,9 @@
 //! Where a studio change spends its time, stage by stage (`cargo bench --bench stages`, or
-//! `cargo bench --bench stages -- mesh` for the 200k-triangle mesh's light change): the stages a
-//! threshold change (the photo) or a light change (the mesh) re-runs, called as the engine calls
-//! them, each timed 12 times alternating between two values; medians in ms of wall time. The
-//! studio bench (`benches/studio.rs`) gives the end-to-end latency; this says which stage to make
-//! faster.
+//! `cargo bench --bench stages -- mesh` for the 200k-triangle mesh): the stages a threshold
+//! change (the photo) or a light change (the mesh) re-runs, called as the engine calls them,
+//! each timed 12 times alternating between two values, and for the mesh the draw a view change
+//! re-runs, step by step; medians in ms of wall time. The studio bench (`benches/studio.rs`)
+//! gives the end-to-end latency; this says which stage to make faster.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -84,6 +84,16 @@ fn main() {
         let s = Instant::now();
         look.of_bits(&c.twotone.bits, false);
         t("2b likeness", s);
+        // The clean-up with the morphological filter instead of the regularisation (what an
+        // explicit `--filter-radius` runs): the filter and the likeness.
+        let filtered = pipeline::CleanParams {
+            regularize_px: None,
+            ..params.clean
+        };
+        let raw2 = pipeline::threshold(&source, c.twotone.gray.clone(), &params.tone).0;
+        let s = Instant::now();
+        std::hint::black_box(pipeline::clean(raw2, level, &filtered));
+        t("2c clean by filter", s);
         let mut timer = Timings::new(None);
         let s = Instant::now();
         let p = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut timer).unwrap();
@@ -103,6 +113,21 @@ fn main() {
         std::hint::black_box(idx);
         for (k, v) in timer.iter() {
             tot.entry(format!("  {k}")).or_default().push(v);
+        }
+    }
+    if meshy {
+        // The view change: the draw (raster, surfaces, lines), alternating two azimuths.
+        for i in 0..6 {
+            cfg.mesh.azimuth_deg = if i % 2 == 0 { 20.0 } else { 30.0 };
+            let sp = SourceParams::of(&cfg).unwrap();
+            let s = Instant::now();
+            let d = pipeline::draw(&input, &sp).unwrap().unwrap();
+            tot.entry("6 draw".into())
+                .or_default()
+                .push(s.elapsed().as_secs_f64() * 1e3);
+            for (k, v) in d.timings.iter() {
+                tot.entry(format!("  draw {k}")).or_default().push(v);
+            }
         }
     }
     for (k, mut v) in tot {

@@ -891,7 +891,7 @@ pub fn working_gray(source: Source, factor: u32) -> Gray {
 pub fn threshold(source: &Source, gray: Gray, p: &ToneParams) -> (TwoTone, u8) {
     let (mut two, level) = match source {
         Source::Picture(_) => tone::threshold(gray, p.threshold, p.invert),
-        Source::Mesh(r) => mesh::two_tone(r, p.threshold, p.invert),
+        Source::Mesh(r) => mesh::two_tone_with(r, gray, p.threshold, p.invert),
     };
     if let Some(c) = p.keep_circle_px {
         keep_circle(&mut two, c, p.invert);

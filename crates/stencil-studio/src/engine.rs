@@ -410,3 +410,61 @@ impl Computed {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stencil_core::tone::Threshold;
+
+    fn rings() -> MakeConfig {
+        MakeConfig {
+            input: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/rings.png"),
+            ..Default::default()
+        }
+    }
+
+    /// What a fresh engine (every stage computed) makes of `cfg`.
+    fn fresh(cfg: &MakeConfig) -> Computed {
+        Engine::new().run(cfg, &|| false).unwrap()
+    }
+
+    fn same(a: &Computed, b: &Computed) {
+        assert_eq!(a.cleaned.picture, b.cleaned.picture);
+        assert_eq!(a.cleaned.twotone.bits, b.cleaned.twotone.bits);
+        assert_eq!(a.cleaned.twotone.gray, b.cleaned.twotone.gray);
+        assert_eq!(a.cleaned.level, b.cleaned.level);
+        assert_eq!(a.joined.bridged.bits, b.joined.bridged.bits);
+        assert_eq!(a.image("preview"), b.image("preview"));
+    }
+
+    /// Every kept stage gives what a fresh engine computes: a threshold change, a change to the
+    /// clean-up alone (an explicit filter radius), to the threshold's way (auto) and back.
+    #[test]
+    fn kept_stages_give_what_a_fresh_run_gives() {
+        let mut e = Engine::new();
+        let never = || false;
+        let mut cfg = rings();
+        let mut steps: Vec<(MakeConfig, Option<&str>)> = Vec::new();
+        cfg.tone.threshold = Threshold::Level(100);
+        steps.push((cfg.clone(), Some("threshold")));
+        cfg.filter.radius = 2;
+        cfg.filter.auto_radius = false;
+        steps.push((cfg.clone(), Some("clean")));
+        cfg.filter.radius = 3;
+        steps.push((cfg.clone(), Some("clean")));
+        cfg.tone.threshold = Threshold::Auto;
+        steps.push((cfg.clone(), None));
+        cfg.filter.radius = 1;
+        steps.push((cfg.clone(), None));
+        cfg.tone.threshold = Threshold::Level(140);
+        steps.push((cfg.clone(), None));
+        e.run(&rings(), &never).unwrap();
+        for (c, first) in steps {
+            let got = e.run(&c, &never).unwrap();
+            if let Some(first) = first {
+                assert_eq!(got.ran[0], first, "{:?}", got.ran);
+            }
+            same(&got, &fresh(&c));
+        }
+    }
+}

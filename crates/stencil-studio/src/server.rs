@@ -29,6 +29,9 @@ use stencil_core::export::png;
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::pipeline::Made;
 
+use stencil_core::pipeline::Cleaned;
+use stencil_core::raster::Gray;
+
 use crate::engine::{fast_png, Computed, Engine, Pixels, RunError};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::Maker;
@@ -132,8 +135,23 @@ struct History {
     stop: bool,
 }
 
+/// The engine's working gray and its Otsu level.
+type WorkingGray = Arc<(Gray, u8)>;
+
+/// What the page is sent that depends on one stage's output alone, kept with that output (the
+/// `Arc` the engine hands out again for as long as the stage is not re-run): after a change
+/// that did not touch the working gray or the clean-up (a bridge weight), the state and the
+/// before/after picture are sent without counting or encoding them again.
+#[derive(Default)]
+struct Reuse {
+    histogram: Option<(WorkingGray, Arc<Vec<u64>>)>,
+    gray_png: Option<(WorkingGray, Bytes)>,
+    picture_png: Option<(Arc<Cleaned>, Bytes)>,
+}
+
 /// The running studio, shared by the handlers and the worker.
 pub struct Studio {
+    reuse: Mutex<Reuse>,
     maker: Arc<dyn Maker>,
     specs: Vec<OptionSpec>,
     input: PathBuf,
@@ -332,13 +350,56 @@ impl Studio {
                 s["refused"] = json!(done.refused);
                 s["ran"] = json!(c.ran);
                 s["otsu"] = json!(c.otsu);
-                s["histogram"] = json!(histogram(&c.gray.0));
+                s["histogram"] = json!(*self.histogram_of(&c.gray));
                 s["mm_per_px"] = json!(c.params.working.scale.mm_per_px);
                 s["width_px"] = json!(r.width_px);
                 s["height_px"] = json!(r.height_px);
             }
         }
         s
+    }
+}
+
+impl Studio {
+    /// The working gray's histogram, counted once per gray.
+    fn histogram_of(&self, gray: &WorkingGray) -> Arc<Vec<u64>> {
+        let mut r = self.reuse.lock().unwrap_or_else(|e| e.into_inner());
+        match &r.histogram {
+            Some((g, h)) if Arc::ptr_eq(g, gray) => h.clone(),
+            _ => {
+                let h = Arc::new(histogram(&gray.0));
+                r.histogram = Some((gray.clone(), h.clone()));
+                h
+            }
+        }
+    }
+
+    /// The `gray` or `picture` PNG of `c` when it was made for the same stage output before.
+    fn kept_png(&self, c: &Computed, name: &str) -> Option<Bytes> {
+        let r = self.reuse.lock().unwrap_or_else(|e| e.into_inner());
+        match name {
+            "gray" => r
+                .gray_png
+                .as_ref()
+                .filter(|(g, _)| Arc::ptr_eq(g, &c.gray))
+                .map(|(_, b)| b.clone()),
+            "picture" => r
+                .picture_png
+                .as_ref()
+                .filter(|(k, _)| Arc::ptr_eq(k, &c.cleaned))
+                .map(|(_, b)| b.clone()),
+            _ => None,
+        }
+    }
+
+    /// Keep `png` when it is the `gray` or `picture` of `c` (see [`Studio::kept_png`]).
+    fn keep_png(&self, c: &Computed, name: &str, png: &Bytes) {
+        let mut r = self.reuse.lock().unwrap_or_else(|e| e.into_inner());
+        match name {
+            "gray" => r.gray_png = Some((c.gray.clone(), png.clone())),
+            "picture" => r.picture_png = Some((c.cleaned.clone(), png.clone())),
+            _ => {}
+        }
     }
 }
 
@@ -658,13 +719,17 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
         .unwrap_or_else(|e| e.into_inner())
         .get(name)
         .cloned();
-    let png = match cached {
+    let kept = match (&cached, shown) {
+        (None, Shown::One(c)) => s.kept_png(c, name),
+        _ => None,
+    };
+    let png = match cached.or(kept) {
         Some(p) => p,
         None => {
-            let shown = shown.clone();
+            let run = shown.clone();
             let n = name.to_string();
             let p = tokio::task::spawn_blocking(move || {
-                match shown {
+                match run {
                     Shown::One(c) => c.image(&n),
                     Shown::Set(set) => set.image(&n),
                 }
@@ -682,13 +747,17 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
                     ),
                 )
             })?;
-            done.images
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .insert(name.to_string(), p.clone());
+            if let Shown::One(c) = shown {
+                s.keep_png(c, name, &p);
+            }
             p
         }
     };
+    done.images
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry(name.to_string())
+        .or_insert_with(|| png.clone());
     let mut headers = HeaderMap::new();
     headers.insert(
         header::CONTENT_TYPE,
@@ -764,6 +833,7 @@ pub fn serve(
             .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", cfg.port))?;
         let port = listener.local_addr().map_err(|e| e.to_string())?.port();
         let studio = Arc::new(Studio {
+            reuse: Mutex::new(Reuse::default()),
             maker,
             specs,
             input: cfg.input,

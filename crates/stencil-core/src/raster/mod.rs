@@ -5,7 +5,8 @@
 
 mod distance;
 mod label;
-mod morph;
+pub(crate) mod morph;
+pub(crate) mod packed;
 
 pub(crate) use distance::squared_distance_to;
 pub(crate) use label::{components, join_runs, touches_border, Run, NOT_LABELLED};

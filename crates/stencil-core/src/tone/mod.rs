@@ -176,8 +176,13 @@ pub fn otsu_level(gray: &Gray) -> u8 {
 /// Whether a gray value (0 = black .. 1 = white) is light at the 8-bit `level`, for both the
 /// picture's and the mesh's two tones. Compared on the 8-bit scale, so `--threshold 128` means what
 /// a user of an image editor expects; level 0 makes every value light, even one below 0 or NaN.
+///
+/// `round(v·255) >= level` written without the rounding (a library call in the per-pixel loops):
+/// for level >= 1, rounding half away from zero reaches `level` exactly from `level - 0.5` up
+/// (exact in f32), and a negative or NaN value never does.
+#[inline]
 pub(crate) fn is_light(v: f32, level: u8) -> bool {
-    (v * 255.0).round() >= level as f32 || level == 0
+    v * 255.0 >= level as f32 - 0.5 || level == 0
 }
 
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
@@ -209,6 +214,29 @@ pub fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn is_light_is_the_rounded_comparison() {
+        // Every f32 step around each half-level, a sweep of the range, and the odd values.
+        let mut vs: Vec<f32> = vec![-1.0, -0.0, 0.0, 1.0, 2.0, f32::NAN, f32::INFINITY];
+        for l in 0..=256 {
+            let mut v = (l as f32 - 0.5) / 255.0;
+            for _ in 0..8 {
+                v = f32::from_bits(v.to_bits().wrapping_sub(1));
+            }
+            for _ in 0..16 {
+                vs.push(v);
+                v = f32::from_bits(v.to_bits() + 1);
+            }
+        }
+        vs.extend((0..100_000).map(|i| i as f32 / 99_999.0));
+        for level in 0..=255u8 {
+            for &v in &vs {
+                let rounded = (v * 255.0).round() >= level as f32 || level == 0;
+                assert_eq!(is_light(v, level), rounded, "{v} at {level}");
+            }
+        }
+    }
 
     #[test]
     fn otsu_splits_two_populations() {

@@ -436,39 +436,41 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
 
 /// Light a drawn view with `cfg`'s key light (its position in the view's frame, in bounding
 /// radii), ambient share, fill and highlight, and average it down to the output size.
+///
+/// One pass: each output row lights its k×k blocks of working samples and averages them at once
+/// (no working-size image of intensities in between), rows in parallel. The sums are taken in
+/// the same order as a separate light-then-average would take them, so the result is the same.
 pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
     let cam = &d.cam;
     let key = Vec3::from_array(cfg.light);
-    let shades = tm.time("shade", || {
-        let light = shade::Light {
-            position: cam.from_view_frame(key),
-            specular: cfg.specular,
-            shininess: cfg.shininess,
-            ambient: cfg.ambient,
-            // The key mirrored left-right across the view.
-            fill: (cfg.fill > 0.0).then(|| {
-                (
-                    cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
-                    cfg.fill,
-                )
-            }),
-        };
-        shade::light(&d.frags, cam.width as usize, cam, &light)
-    });
-    let mut r = tm.time("compose", || {
-        compose(&d.frags, &shades, &d.line_mask, cam, d.k, d.out_cam)
+    let light = shade::Light {
+        position: cam.from_view_frame(key),
+        specular: cfg.specular,
+        shininess: cfg.shininess,
+        ambient: cfg.ambient,
+        // The key mirrored left-right across the view.
+        fill: (cfg.fill > 0.0).then(|| {
+            (
+                cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
+                cfg.fill,
+            )
+        }),
+    };
+    let mut r = tm.time("shade", || {
+        compose(&d.frags, &d.line_mask, cam, &light, d.k, d.out_cam)
     });
     r.timings = tm;
     r
 }
 
-/// Average k×k blocks of the working image into the output: gray, model shade, coverage.
+/// Light the working samples and average k×k blocks of them into the output: gray, model
+/// shade, coverage.
 fn compose(
     frags: &[shade::Fragment],
-    shades: &[f32],
     line_mask: &[bool],
     cam: &Camera,
+    light: &shade::Light,
     k: u32,
     out_cam: Camera,
 ) -> Rendering {
@@ -476,6 +478,7 @@ fn compose(
     let kw = cam.width as usize;
     let k = k as usize;
     let n = (k * k) as f32;
+    let lighter = shade::Lighter::new(cam, light);
     let mut gray = vec![1f32; w * h];
     let mut shade = vec![1f32; w * h];
     let mut model = vec![false; w * h];
@@ -489,22 +492,22 @@ fn compose(
             for x in 0..w {
                 let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
                 for sy in y * k..y * k + k {
+                    let row = sy * kw;
                     for sx in x * k..x * k + k {
-                        let i = sy * kw + sx;
+                        let i = row + sx;
                         let f = &frags[i];
                         let is_line = line_mask[i];
                         l += is_line as usize;
                         if f.is_model() {
+                            let lit = lighter.intensity(f.point, f.normal);
                             m += 1;
-                            s += shades[i];
+                            s += lit;
+                            if !is_line {
+                                g += lit;
+                            }
+                        } else if !is_line {
+                            g += 1.0;
                         }
-                        g += if is_line {
-                            0.0
-                        } else if f.is_model() {
-                            shades[i]
-                        } else {
-                            1.0
-                        };
                     }
                 }
                 gray[x] = g / n;
@@ -545,6 +548,18 @@ fn compose(
 /// Otsu looks at the model's own pixels only.
 /// Returns the two-tone (its gray is the rendering) and the level used.
 pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+    two_tone_with(r, r.gray.clone(), threshold, invert)
+}
+
+/// [`two_tone`] with the rendering's gray given (`gray` must be `r.gray`; the pipeline's working
+/// gray is already a copy of it, so this saves another).
+pub fn two_tone_with(
+    r: &Rendering,
+    gray: Gray,
+    threshold: Threshold,
+    invert: bool,
+) -> (TwoTone, u8) {
+    debug_assert_eq!(gray.data.len(), r.gray.data.len());
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu | Threshold::Auto => {
@@ -563,28 +578,28 @@ pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, 
             }
         }
     };
+    let (lines, model, shade) = (&r.lines.data, &r.model.data, &r.shade.data);
+    let mut data = vec![false; lines.len()];
+    // Rows in parallel, a few at a time (a row alone is too little work to hand out).
+    let chunk = (r.gray.width as usize * 16).max(1);
+    data.par_chunks_mut(chunk).enumerate().for_each(|(c, out)| {
+        let start = c * chunk;
+        let end = start + out.len();
+        for (((o, &line), &m), &s) in out
+            .iter_mut()
+            .zip(&lines[start..end])
+            .zip(&model[start..end])
+            .zip(&shade[start..end])
+        {
+            *o = !line && (!m || is_light(s, level) != invert);
+        }
+    });
     let bits = BitGrid {
         width: r.gray.width,
         height: r.gray.height,
-        data: (0..r.gray.data.len())
-            .map(|i| {
-                if r.lines.data[i] {
-                    false
-                } else if !r.model.data[i] {
-                    true
-                } else {
-                    is_light(r.shade.data[i], level) != invert
-                }
-            })
-            .collect(),
+        data,
     };
-    (
-        TwoTone {
-            bits,
-            gray: r.gray.clone(),
-        },
-        level,
-    )
+    (TwoTone { bits, gray }, level)
 }
 
 /// How many separate parts a mesh has (triangles joined by shared vertices) and how many of them
@@ -651,5 +666,120 @@ pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
             .values()
             .filter(|b| !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0))
             .count(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The light and the average as two passes, as they were: an image of intensities, then
+    /// the k×k means.
+    fn light_two_pass(d: &Drawn, cfg: &MeshConfig) -> (Vec<f32>, Vec<f32>, Vec<bool>, Vec<bool>) {
+        let cam = &d.cam;
+        let key = Vec3::from_array(cfg.light);
+        let light = shade::Light {
+            position: cam.from_view_frame(key),
+            specular: cfg.specular,
+            shininess: cfg.shininess,
+            ambient: cfg.ambient,
+            fill: (cfg.fill > 0.0).then(|| {
+                (
+                    cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
+                    cfg.fill,
+                )
+            }),
+        };
+        let shades = shade::light(&d.frags, cam.width as usize, cam, &light);
+        let (w, h) = (d.out_cam.width as usize, d.out_cam.height as usize);
+        let (kw, k) = (cam.width as usize, d.k as usize);
+        let n = (k * k) as f32;
+        let (mut gray, mut shade, mut model, mut lines) = (vec![], vec![], vec![], vec![]);
+        for y in 0..h {
+            for x in 0..w {
+                let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
+                for sy in y * k..y * k + k {
+                    for sx in x * k..x * k + k {
+                        let i = sy * kw + sx;
+                        let f = &d.frags[i];
+                        let is_line = d.line_mask[i];
+                        l += is_line as usize;
+                        if f.is_model() {
+                            m += 1;
+                            s += shades[i];
+                        }
+                        g += if is_line {
+                            0.0
+                        } else if f.is_model() {
+                            shades[i]
+                        } else {
+                            1.0
+                        };
+                    }
+                }
+                gray.push(g / n);
+                shade.push(if m > 0 { s / m as f32 } else { 1.0 });
+                model.push(2 * m >= k * k);
+                lines.push(2 * l >= k * k);
+            }
+        }
+        (gray, shade, model, lines)
+    }
+
+    #[test]
+    fn one_pass_light_equals_light_then_average() {
+        let prep = Prepared::new(shapes::displaced_sphere(24));
+        for (k, fill, ambient, fov) in [
+            (1, 0.0, 0.0, Some(30.0)),
+            (2, 0.4, 0.2, Some(30.0)),
+            (3, 0.0, 0.1, None),
+        ] {
+            let cfg = MeshConfig {
+                size: RenderSize::LongSide(90),
+                supersample: k,
+                fill,
+                ambient,
+                fov_deg: fov,
+                light: [1.0, 0.5, 2.0],
+                ..MeshConfig::default()
+            };
+            let d = draw(&prep, &cfg).unwrap();
+            let r = light(&d, &cfg);
+            let (gray, shade, model, lines) = light_two_pass(&d, &cfg);
+            assert!(model.iter().filter(|&&m| m).count() > 1000);
+            assert!(lines.iter().any(|&l| l));
+            assert_eq!(r.gray.data, gray, "k {k}");
+            assert_eq!(r.shade.data, shade, "k {k}");
+            assert_eq!(r.model.data, model, "k {k}");
+            assert_eq!(r.lines.data, lines, "k {k}");
+        }
+    }
+
+    #[test]
+    fn two_tone_cuts_lines_keeps_the_background_and_thresholds_the_model() {
+        let prep = Prepared::new(shapes::displaced_sphere(24));
+        let cfg = MeshConfig {
+            size: RenderSize::LongSide(80),
+            ..MeshConfig::default()
+        };
+        let r = light(&draw(&prep, &cfg).unwrap(), &cfg);
+        for (threshold, invert) in [
+            (Threshold::Level(128), false),
+            (Threshold::Level(90), true),
+            (Threshold::Otsu, false),
+        ] {
+            let (t, level) = two_tone(&r, threshold, invert);
+            assert_eq!(t.gray, r.gray);
+            for i in 0..r.gray.data.len() {
+                let want = if r.lines.data[i] {
+                    false
+                } else if !r.model.data[i] {
+                    true
+                } else {
+                    ((r.shade.data[i] * 255.0).round() >= level as f32 || level == 0) != invert
+                };
+                assert_eq!(t.bits.data[i], want, "pixel {i}");
+            }
+        }
     }
 }

@@ -79,14 +79,7 @@ pub fn geometry(
     cam: &Camera,
     view: Option<&ViewCurvature>,
 ) -> Vec<Fragment> {
-    let w = vb.width as usize;
-    let mut out = vec![
-        Fragment {
-            depth: f32::INFINITY,
-            ..Default::default()
-        };
-        vb.tri.len()
-    ];
+    let w = (vb.width as usize).max(1);
     let shader = Shader {
         mesh,
         normals,
@@ -94,60 +87,92 @@ pub fn geometry(
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
     };
-    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let sy = y as f32 + 0.5;
-        for (x, frag) in row.iter_mut().enumerate() {
-            let t = vb.tri[y * w + x];
-            if t != NONE {
-                *frag = shader.fragment(t, x as f32 + 0.5, sy);
+    let background = Fragment {
+        depth: f32::INFINITY,
+        ..Default::default()
+    };
+    // Collected in parallel straight into the result: a working image of fragments is tens of
+    // megabytes, freshly mapped each time, and filling it first on one thread cost a page
+    // fault per page there.
+    vb.tri
+        .par_iter()
+        .enumerate()
+        .with_min_len(w)
+        .map(|(i, &t)| {
+            if t == NONE {
+                background
+            } else {
+                shader.fragment(t, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)
             }
-        }
-    });
-    out
+        })
+        .collect()
 }
 
 /// The intensity of every fragment under `light` (1 where no model is seen), row by row in
-/// parallel: a pass over the kept surfaces, no ray, no raster.
+/// parallel: a pass over the kept surfaces, no ray, no raster. (The renderer lights and averages
+/// in one pass, `super::light`; this whole-image form is for the tests.)
+#[cfg(test)]
 pub fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
-    let spec_cut = specular_cutoff(light);
+    let lighter = Lighter::new(cam, light);
     let mut out = vec![1f32; frags.len()];
     out.par_chunks_mut(width.max(1))
         .zip(frags.par_chunks(width.max(1)))
         .for_each(|(row, fr)| {
             for (o, f) in row.iter_mut().zip(fr) {
                 if f.is_model() {
-                    *o = intensity(f.point, f.normal, cam, light, spec_cut);
+                    *o = lighter.intensity(f.point, f.normal);
                 }
             }
         });
     out
 }
 
-/// Lambert from the key (and the fill), lifted by the ambient share, plus the key's Blinn-Phong
-/// highlight; at most 1. With no ambient and no fill this is the key alone, as it always was.
-#[inline]
-fn intensity(p: Vec3, n: Vec3, cam: &Camera, light: &Light, spec_cut: f32) -> f32 {
-    let v = if cam.orthographic {
-        -cam.forward
-    } else {
-        (cam.eye - p).normalize_or_zero()
-    };
-    let l = (light.position - p).normalize_or_zero();
-    let ndl = n.dot(l);
-    let mut i = ndl.max(0.0);
-    if let Some((fp, strength)) = light.fill {
-        i += strength * n.dot((fp - p).normalize_or_zero()).max(0.0);
-    }
-    if light.ambient > 0.0 {
-        i = light.ambient + (1.0 - light.ambient) * i;
-    }
-    if ndl > 0.0 {
-        let ndh = n.dot((l + v).normalize_or_zero());
-        if ndh > spec_cut {
-            i += light.specular * ndh.powf(light.shininess);
+/// A light and a camera, with what every pixel's intensity shares worked out once.
+pub struct Lighter<'a> {
+    light: &'a Light,
+    /// The camera's eye, and the direction to the viewer when the lens is orthographic.
+    eye: Vec3,
+    ortho_view: Option<Vec3>,
+    spec_cut: f32,
+}
+
+impl<'a> Lighter<'a> {
+    pub fn new(cam: &Camera, light: &'a Light) -> Self {
+        Lighter {
+            light,
+            eye: cam.eye,
+            ortho_view: cam.orthographic.then_some(-cam.forward),
+            spec_cut: specular_cutoff(light),
         }
     }
-    i.min(1.0)
+
+    /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's
+    /// Blinn-Phong highlight; at most 1. With no ambient and no fill this is the key alone, as
+    /// it always was. `p` is the surface point, `n` its unit normal on the side seen.
+    #[inline]
+    pub fn intensity(&self, p: Vec3, n: Vec3) -> f32 {
+        let light = self.light;
+        let v = match self.ortho_view {
+            Some(v) => v,
+            None => (self.eye - p).normalize_or_zero(),
+        };
+        let l = (light.position - p).normalize_or_zero();
+        let ndl = n.dot(l);
+        let mut i = ndl.max(0.0);
+        if let Some((fp, strength)) = light.fill {
+            i += strength * n.dot((fp - p).normalize_or_zero()).max(0.0);
+        }
+        if light.ambient > 0.0 {
+            i = light.ambient + (1.0 - light.ambient) * i;
+        }
+        if ndl > 0.0 {
+            let ndh = n.dot((l + v).normalize_or_zero());
+            if ndh > self.spec_cut {
+                i += light.specular * ndh.powf(light.shininess);
+            }
+        }
+        i.min(1.0)
+    }
 }
 
 /// Below this n·h the highlight is under 1/1024: the pow is skipped.
