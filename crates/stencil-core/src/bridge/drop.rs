@@ -156,6 +156,10 @@ fn search_one(
     let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
     let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
     let me = island as u32;
+    if bridged_under(map, s, island, limit, bw, price) {
+        return None;
+    }
+    s.stamp += 1;
     let stamp = s.stamp;
     let cells = &mut s.cells[..];
     // A cost `c` for pixel `j`: kept if it is the first or lower, pushed if under the limit.
@@ -216,6 +220,78 @@ fn search_one(
         return None;
     }
     Some((limit, bridge))
+}
+
+/// Whether some path through the cut from the island to a place the search of [`search_one`]
+/// ends at (another node's material beside it, or the image edge) costs less than `limit`, found
+/// breadth first (fewest pixels, no heap). Then that search keeps the island: the path's pixels
+/// cost less than the limit all along, so the search would pop its end (or give up first, which
+/// keeps the island too): the pixel-by-pixel sum is the one the search makes along the path, and
+/// the search's own cost there can only be lower (rounding is monotone). `false` says nothing:
+/// the search runs. Most islands are kept and most are near another piece, so this answers most
+/// of them in a few rings of pixels, where the search would first price every cheaper pixel. Uses
+/// the scratch grid as `[stamp, previous pixel]`.
+fn bridged_under(
+    map: &IslandMap,
+    s: &mut Scratch,
+    island: usize,
+    limit: f64,
+    bw: f64,
+    price: &impl Fn(usize) -> f64,
+) -> bool {
+    const SEED: u64 = u64::MAX;
+    let (w, h) = (map.width as usize, map.height as usize);
+    let me = island as u32;
+    let stamp = s.stamp;
+    let cells = &mut s.cells[..];
+    let mut ring: Vec<u32> = Vec::new();
+    for &(x, y) in &map.nodes[island].border {
+        for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
+            let j = ny * w + nx;
+            if map.labels[j] == CUT && cells[j][0] != stamp {
+                cells[j] = [stamp, SEED];
+                ring.push(j as u32);
+            }
+        }
+    }
+    // Each pixel costs at least 0.1 × the width: no longer path can be under the limit.
+    let longest = (limit / (0.1 * bw)).ceil() + 1.0;
+    let mut next = Vec::new();
+    let mut pixels = 1.0;
+    while !ring.is_empty() && pixels <= longest {
+        for &i in &ring {
+            let i = i as usize;
+            let (x, y) = (i % w, i / w);
+            let mut end = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+            for (nx, ny) in neighbours(x, y, w, h) {
+                let j = ny * w + nx;
+                let l = map.labels[j];
+                if l == CUT {
+                    if cells[j][0] != stamp {
+                        cells[j] = [stamp, i as u64];
+                        next.push(j as u32);
+                    }
+                } else if l != me {
+                    end = true;
+                }
+            }
+            if end {
+                let mut path = vec![i];
+                while cells[*path.last().expect("a path has a pixel")][1] != SEED {
+                    path.push(cells[*path.last().expect("a path has a pixel")][1] as usize);
+                }
+                let mut c = price(path[path.len() - 1]) * bw;
+                for &p in path.iter().rev().skip(1) {
+                    c += price(p) * bw;
+                }
+                return c < limit;
+            }
+        }
+        std::mem::swap(&mut ring, &mut next);
+        next.clear();
+        pixels += 1.0;
+    }
+    false
 }
 
 fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
