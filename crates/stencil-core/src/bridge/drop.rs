@@ -346,4 +346,108 @@ mod tests {
         protect[speck] = true;
         assert!(choose(&map, &g, 128, &protect, |_| 6).is_empty());
     }
+
+    /// The search as first written (a heap of every entry, a grid per search, no breadth-first
+    /// shortcut): which islands it drops, for comparing [`choose`] with.
+    fn reference(map: &IslandMap, gray: &Gray, level: u8, bw: f64) -> Vec<u32> {
+        let t = level as f32 / 255.0;
+        let price = |i: usize| 0.1 + (gray.data[i] - t).abs() as f64;
+        let (w, h) = (map.width as usize, map.height as usize);
+        let mut drop_cost = vec![0f64; map.nodes.len()];
+        for (i, &l) in map.labels.iter().enumerate() {
+            if l != CUT && l != FRAME {
+                drop_cost[l as usize] += price(i);
+            }
+        }
+        let mut out = Vec::new();
+        for island in 1..map.nodes.len() {
+            let node = &map.nodes[island];
+            let (limit, me) = (drop_cost[island], island as u32);
+            let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
+            let mut dist = vec![f64::INFINITY; w * h];
+            let mut heap = BinaryHeap::new();
+            for &(x, y) in &node.border {
+                for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
+                    let j = ny * w + nx;
+                    if map.labels[j] == CUT && price(j) * bw < dist[j] {
+                        dist[j] = price(j) * bw;
+                        heap.push(Reverse((dist[j].to_bits(), j)));
+                    }
+                }
+            }
+            let (mut visited, mut keep) = (0, false);
+            while let Some(Reverse((bits, i))) = heap.pop() {
+                let c = f64::from_bits(bits);
+                if c > dist[i] {
+                    continue;
+                }
+                if c >= limit {
+                    break;
+                }
+                visited += 1;
+                if visited > budget {
+                    keep = true;
+                    break;
+                }
+                let (x, y) = (i % w, i / w);
+                let mut reached = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+                for (nx, ny) in neighbours(x, y, w, h) {
+                    let j = ny * w + nx;
+                    let l = map.labels[j];
+                    if l == CUT {
+                        if c + price(j) * bw < dist[j] {
+                            dist[j] = c + price(j) * bw;
+                            heap.push(Reverse((dist[j].to_bits(), j)));
+                        }
+                    } else if l != me {
+                        reached = true;
+                    }
+                }
+                if reached {
+                    keep = true;
+                    break;
+                }
+            }
+            if !keep {
+                out.push(me);
+            }
+        }
+        out
+    }
+
+    /// On random pictures (specks and blobs of material in cut of random gray), `choose` drops
+    /// the islands the plain search drops.
+    #[test]
+    fn choose_drops_what_the_plain_search_drops() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut dropped = 0;
+        for k in 0..60u32 {
+            let (w, h) = (20 + k % 23, 18 + (k * 3) % 19);
+            let fill = 25 + next() % 30;
+            let mut g = Gray::new(w, h, 0.0);
+            let mut b = BitGrid::new(w, h, false);
+            for y in 0..h {
+                for x in 0..w {
+                    g.set(x, y, (next() % 1000) as f32 / 1000.0);
+                    b.set(x, y, next() % 100 < fill);
+                }
+            }
+            let map = islands::label(&b);
+            let bw = 1 + k % 4;
+            let level = (next() % 256) as u8;
+            let ours: Vec<u32> = choose(&map, &g, level, &[], |_| bw)
+                .into_iter()
+                .map(|(n, _)| n)
+                .collect();
+            assert_eq!(ours, reference(&map, &g, level, bw as f64), "picture {k}");
+            dropped += ours.len();
+        }
+        assert!(dropped > 0, "the pictures drop some islands");
+    }
 }
