@@ -247,7 +247,7 @@ mod tests {
             let mut g = random(2 + k % 41, 2 + (k * 5) % 31, 35 + k % 40, &mut seed);
             let map = label(&g);
             let gone: Vec<bool> = (0..map.nodes.len())
-                .map(|n| n > 0 && (n * 7 + k as usize) % 3 == 0)
+                .map(|n| n > 0 && (n * 7 + k as usize).is_multiple_of(3))
                 .collect();
             for (i, &l) in map.labels.iter().enumerate() {
                 if l != CUT && gone[l as usize] {

@@ -360,9 +360,8 @@ mod tests {
             }
         }
         let mut out = Vec::new();
-        for island in 1..map.nodes.len() {
-            let node = &map.nodes[island];
-            let (limit, me) = (drop_cost[island], island as u32);
+        for (island, (node, &limit)) in map.nodes.iter().zip(&drop_cost).enumerate().skip(1) {
+            let me = island as u32;
             let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
             let mut dist = vec![f64::INFINITY; w * h];
             let mut heap = BinaryHeap::new();
