@@ -1202,12 +1202,15 @@ pub fn prepare(
     timer: &mut Timings,
 ) -> Result<Prepared, Error> {
     let user = timer.time("user_bridges", || cut_small_islands(&mut twotone, p));
-    let (dropped, dropped_px) = if p.drop_islands {
-        timer.time("drop", || drop_islands(&mut twotone, level, p))
+    let (dropped, dropped_px, map) = if p.drop_islands {
+        let (dropped, px, map, gone) = timer.time("drop", || drop_islands(&mut twotone, level, p));
+        // The map after the drop, from the one the drop chose by (no second labelling).
+        let map = timer.time("islands", || islands::without(map, &gone));
+        (dropped, px, map)
     } else {
-        (Vec::new(), Vec::new())
+        let map = timer.time("islands", || islands::label(&twotone.bits));
+        (Vec::new(), Vec::new(), map)
     };
-    let map = timer.time("islands", || islands::label(&twotone.bits));
     let walks = timer.time("bridge", || {
         let mut t = Timings::default();
         bridge::walk(&twotone, &map, &p.bridge, &mut t)
@@ -1299,15 +1302,22 @@ pub fn bridge_prepared(
 
 /// Drop the islands that are cheaper to drop than to bridge (`bridge::drop::choose`), never one
 /// a `--bridge-at` point asks for (the island under the point, or the nearest). Returns them in
-/// mm and their pixels.
+/// mm, their pixels, the island map of the bits before the drop and which of its nodes went
+/// (for [`islands::without`]).
+#[allow(clippy::type_complexity)]
 fn drop_islands(
     two: &mut TwoTone,
     level: u8,
     p: &JoinParams,
-) -> (Vec<bridge::drop::Dropped>, Vec<u32>) {
+) -> (
+    Vec<bridge::drop::Dropped>,
+    Vec<u32>,
+    islands::IslandMap,
+    Vec<bool>,
+) {
     let map = islands::label(&two.bits);
     if map.island_count() == 0 {
-        return (Vec::new(), Vec::new());
+        return (Vec::new(), Vec::new(), map, Vec::new());
     }
     let mut protected = vec![false; map.nodes.len()];
     for &[ax, ay] in &p.bridge.user.at {
@@ -1358,7 +1368,7 @@ fn drop_islands(
             px.push(i as u32);
         }
     }
-    (out, px)
+    (out, px, map, gone)
 }
 
 /// Islands under `min_island_mm2` cut away, and the report of the user's bridge options.

@@ -9,7 +9,22 @@ pub const NOT_LABELLED: u32 = u32::MAX;
 /// 4-connected components of the pixels equal to `value`: a label per pixel ([`NOT_LABELLED`] where the pixel
 /// is not `value`), and the area of each component. O(pixels).
 pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
-    // Runs of `value` along each row, joined to the runs they overlap in the row above.
+    let (w, h) = (bits.width as usize, bits.height as usize);
+    let (runs, row_first) = runs_of(bits, value);
+    let (piece, count) = join_runs(&runs, &row_first, false);
+    let mut labels = vec![NOT_LABELLED; w * h];
+    let mut areas = vec![0usize; count];
+    for (r, &id) in runs.iter().zip(&piece) {
+        let s = r.y as usize * w;
+        labels[s + r.x0 as usize..=s + r.x1 as usize].fill(id);
+        areas[id as usize] += (r.x1 - r.x0 + 1) as usize;
+    }
+    (labels, areas)
+}
+
+/// The runs of pixels equal to `value` along each row, left to right, and the index of each row's
+/// first run (with one entry past the last row), as [`join_runs`] takes them.
+pub(crate) fn runs_of(bits: &BitGrid, value: bool) -> (Vec<Run>, Vec<usize>) {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let mut runs: Vec<Run> = Vec::new();
     let mut row_first = Vec::with_capacity(h + 1);
@@ -34,15 +49,7 @@ pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
         }
     }
     row_first.push(runs.len());
-    let (piece, count) = join_runs(&runs, &row_first, false);
-    let mut labels = vec![NOT_LABELLED; w * h];
-    let mut areas = vec![0usize; count];
-    for (r, &id) in runs.iter().zip(&piece) {
-        let s = r.y as usize * w;
-        labels[s + r.x0 as usize..=s + r.x1 as usize].fill(id);
-        areas[id as usize] += (r.x1 - r.x0 + 1) as usize;
-    }
-    (labels, areas)
+    (runs, row_first)
 }
 
 /// Whether component labels touch the image border, indexed by label.
