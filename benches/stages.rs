@@ -92,7 +92,7 @@ fn main() {
         };
         let raw2 = pipeline::threshold(&source, c.twotone.gray.clone(), &params.tone).0;
         let s = Instant::now();
-        std::hint::black_box(pipeline::clean(raw2, level, &filtered));
+        std::hint::black_box(pipeline::clean(raw2, level, &filtered, &look));
         t("2c clean by filter", s);
         let mut timer = Timings::new(None);
         let s = Instant::now();
