@@ -442,9 +442,19 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
 /// the same order as a separate light-then-average would take them, so the result is the same.
 pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
-    let cam = &d.cam;
+    let light = key_light(&d.cam, cfg);
+    let mut r = tm.time("shade", || {
+        compose(&d.frags, &d.line_mask, &d.cam, &light, d.k, d.out_cam)
+    });
+    r.timings = tm;
+    r
+}
+
+/// `cfg`'s lights in the world's frame for `cam`: the key (given in the view's frame, in
+/// bounding radii), its highlight, the ambient share and the fill.
+fn key_light(cam: &Camera, cfg: &MeshConfig) -> shade::Light {
     let key = Vec3::from_array(cfg.light);
-    let light = shade::Light {
+    shade::Light {
         position: cam.from_view_frame(key),
         specular: cfg.specular,
         shininess: cfg.shininess,
@@ -456,12 +466,7 @@ pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
                 cfg.fill,
             )
         }),
-    };
-    let mut r = tm.time("shade", || {
-        compose(&d.frags, &d.line_mask, cam, &light, d.k, d.out_cam)
-    });
-    r.timings = tm;
-    r
+    }
 }
 
 /// Light the working samples and average k×k blocks of them into the output: gray, model
@@ -677,19 +682,7 @@ mod tests {
     /// the k×k means.
     fn light_two_pass(d: &Drawn, cfg: &MeshConfig) -> (Vec<f32>, Vec<f32>, Vec<bool>, Vec<bool>) {
         let cam = &d.cam;
-        let key = Vec3::from_array(cfg.light);
-        let light = shade::Light {
-            position: cam.from_view_frame(key),
-            specular: cfg.specular,
-            shininess: cfg.shininess,
-            ambient: cfg.ambient,
-            fill: (cfg.fill > 0.0).then(|| {
-                (
-                    cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
-                    cfg.fill,
-                )
-            }),
-        };
+        let light = key_light(cam, cfg);
         let shades = shade::light(&d.frags, cam.width as usize, cam, &light);
         let (w, h) = (d.out_cam.width as usize, d.out_cam.height as usize);
         let (kw, k) = (cam.width as usize, d.k as usize);
