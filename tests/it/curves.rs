@@ -320,6 +320,40 @@ fn flatten_bulges(v: &[(f64, f64, f64)]) -> Vec<[f64; 2]> {
     out
 }
 
+/// The blobs made with `extra`, and what the rasterised files are compared with: the cut of
+/// stencil.png, at the report's scale and margin.
+struct Blobs {
+    _dir: tempfile::TempDir,
+    out: std::path::PathBuf,
+    report: serde_json::Value,
+    mm: f64,
+    margin: f64,
+    cut: BitGrid,
+}
+
+impl Blobs {
+    fn make(extra: &[&str]) -> Blobs {
+        let dir = common::tmp();
+        let input = dir.path().join("blobs.png");
+        blobs(&input);
+        let out = dir.path().join("o");
+        make(&input, &out, extra);
+        let report = common::report(&out);
+        let png = common::read_bits(&out.join("stencil.png"));
+        Blobs {
+            mm: report["mm_per_px"].as_f64().unwrap(),
+            margin: report["margin_mm"].as_f64().unwrap(),
+            cut: BitGrid {
+                data: png.data.iter().map(|b| !b).collect(),
+                ..png
+            },
+            report,
+            out,
+            _dir: dir,
+        }
+    }
+}
+
 #[test]
 fn svg_arcs_match_stencil_png() {
     for arcs in [true, false] {
@@ -329,20 +363,9 @@ fn svg_arcs_match_stencil_png() {
 
 /// With arcs, or straight (`--no-arcs`): the SVG rasterises to stencil.png.
 fn svg_matches_stencil_png(arcs: bool) {
-    let dir = common::tmp();
-    let input = dir.path().join("blobs.png");
-    blobs(&input);
-    let out = dir.path().join("o");
-    make(&input, &out, if arcs { &[] } else { &["--no-arcs"] });
-    let report = common::report(&out);
-    let mm = report["mm_per_px"].as_f64().unwrap();
-    let margin = report["margin_mm"].as_f64().unwrap();
-    let png = common::read_bits(&out.join("stencil.png"));
-    let cut_png = BitGrid {
-        data: png.data.iter().map(|b| !b).collect(),
-        ..png.clone()
-    };
-    let (w, h) = (png.width, png.height);
+    let b = Blobs::make(if arcs { &[] } else { &["--no-arcs"] });
+    let (out, mm, margin, cut_png) = (&b.out, b.mm, b.margin, &b.cut);
+    let (w, h) = (cut_png.width, cut_png.height);
 
     let svg = std::fs::read(out.join("stencil.svg")).unwrap();
     let text = String::from_utf8_lossy(&svg);
@@ -351,7 +374,7 @@ fn svg_matches_stencil_png(arcs: bool) {
     } else {
         assert_eq!(svg_arcs(&text), 0, "no arcs: {text:.1500}");
     }
-    let score = iou(&cut_png, &rasterise_svg(&svg, w, h, margin / mm));
+    let score = iou(cut_png, &rasterise_svg(&svg, w, h, margin / mm));
     assert!(score >= 0.998, "SVG IoU {score} (arcs: {arcs})");
 }
 
@@ -359,22 +382,11 @@ fn svg_matches_stencil_png(arcs: bool) {
 /// definition (not with the writer's code), fill to stencil.png as the SVG does.
 #[test]
 fn dxf_bulges_match_stencil_png() {
-    let dir = common::tmp();
-    let input = dir.path().join("blobs.png");
-    blobs(&input);
-    let out = dir.path().join("o");
-    make(&input, &out, &[]);
-    let report = common::report(&out);
-    let mm = report["mm_per_px"].as_f64().unwrap();
-    let margin = report["margin_mm"].as_f64().unwrap();
-    let png = common::read_bits(&out.join("stencil.png"));
-    let cut_png = BitGrid {
-        data: png.data.iter().map(|b| !b).collect(),
-        ..png.clone()
-    };
-    let (w, h) = (png.width, png.height);
-    let d = dxf::Drawing::load_file(out.join("stencil.dxf")).unwrap();
-    let sheet_h = report["height_mm"].as_f64().unwrap() + 2.0 * margin;
+    let b = Blobs::make(&[]);
+    let (mm, margin, cut_png) = (b.mm, b.margin, &b.cut);
+    let (w, h) = (cut_png.width, cut_png.height);
+    let d = dxf::Drawing::load_file(b.out.join("stencil.dxf")).unwrap();
+    let sheet_h = b.report["height_mm"].as_f64().unwrap() + 2.0 * margin;
     let mut rings = Vec::new();
     let mut bulges = 0;
     for e in d.entities().filter(|e| e.common.layer == "CUT") {
@@ -393,6 +405,6 @@ fn dxf_bulges_match_stencil_png() {
         );
     }
     assert!(bulges > 20, "{bulges} bulges");
-    let score = iou(&cut_png, &fill(&rings, w, h));
+    let score = iou(cut_png, &fill(&rings, w, h));
     assert!(score >= 0.998, "DXF IoU {score}");
 }

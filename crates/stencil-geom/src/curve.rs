@@ -644,12 +644,12 @@ mod tests {
         }
     }
 
-    #[test]
-    fn bounds_are_the_arcs_own_extremes() {
-        // A half disc of radius 2 about (1, 1), its arc from (3, 1) counter-clockwise over the
-        // top to (-1, 1): a half turn would be bulge 1, so two quarter arcs (bulge tan(π/8)).
+    /// A half disc of radius 2 about (1, 1), its arc from (3, 1) counter-clockwise over the top
+    /// to (-1, 1): a half turn would be bulge 1, so two quarter arcs (bulge tan(π/8)), and back
+    /// along its diameter.
+    fn half_disc() -> [Piece; 3] {
         let q = (std::f64::consts::PI / 8.0).tan();
-        let pieces = [
+        [
             Piece {
                 from: [3.0, 1.0],
                 bulge: q,
@@ -662,7 +662,12 @@ mod tests {
                 from: [-1.0, 1.0],
                 bulge: 0.0,
             },
-        ];
+        ]
+    }
+
+    #[test]
+    fn bounds_are_the_arcs_own_extremes() {
+        let pieces = half_disc();
         let b = bounds(&pieces).unwrap();
         for (got, want) in b.iter().zip([-1.0, 1.0, 3.0, 3.0]) {
             assert!((got - want).abs() < 1e-12, "{b:?}");
@@ -798,21 +803,7 @@ mod tests {
 
     #[test]
     fn length_is_the_arcs_length() {
-        let q = (std::f64::consts::PI / 8.0).tan();
-        let pieces = [
-            Piece {
-                from: [3.0, 1.0],
-                bulge: q,
-            },
-            Piece {
-                from: [1.0, 3.0],
-                bulge: q,
-            },
-            Piece {
-                from: [-1.0, 1.0],
-                bulge: 0.0,
-            },
-        ];
+        let pieces = half_disc();
         let want = std::f64::consts::PI * 2.0 + 4.0;
         assert!((length(&pieces) - want).abs() < 1e-12);
     }
