@@ -7,30 +7,21 @@ use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use stencil_core::pipeline::Timings;
-use stencil_core::tone::mesh::{self, LineMode, Mesh, MeshConfig, RenderSize};
+use stencil_core::tone::mesh::{self, Mesh};
 use stencil_core::tone::Threshold;
 
 #[path = "../crates/stencil-core/tests/support/shapes.rs"]
 mod shapes;
-
-fn config() -> MeshConfig {
-    MeshConfig {
-        size: RenderSize::Exact {
-            width: 1024,
-            height: 1024,
-        },
-        supersample: 1,
-        lines: LineMode::Suggestive,
-        ..MeshConfig::default()
-    }
-}
+#[path = "support/studio_inputs.rs"]
+mod studio_inputs;
 
 fn bench(c: &mut Criterion) {
     let m = shapes::displaced_sphere(76);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bumpy.obj");
     std::fs::write(&path, m.to_obj("bumpy")).unwrap();
-    let cfg = config();
+    // The studio's mesh rendering.
+    let cfg = studio_inputs::mesh_config();
 
     // One run's breakdown, averaged over a few runs.
     let runs = 10;

@@ -5,40 +5,25 @@
 //! re-runs, step by step; medians in ms of wall time. The studio bench (`benches/studio.rs`)
 //! gives the end-to-end latency; this says which stage to make faster.
 
-use std::path::PathBuf;
 use std::time::Instant;
-use stencil_core::pipeline::{self, MakeConfig, SourceParams, Timings};
-use stencil_core::tone::mesh::{LineMode, Mesh, MeshConfig, RenderSize};
+use stencil_core::pipeline::{self, SourceParams, Timings};
+use stencil_core::tone::mesh::Mesh;
 use stencil_core::tone::Threshold;
 #[path = "../crates/stencil-core/tests/support/shapes.rs"]
 mod shapes;
+#[path = "support/studio_inputs.rs"]
+mod studio_inputs;
 
 fn main() {
     let meshy = std::env::args().any(|a| a == "mesh");
-    let mut cfg = MakeConfig {
-        input: PathBuf::from("samples/grace_hopper.jpg"),
-        ..Default::default()
-    };
-    cfg.tone.scale = Some(2);
+    let mut cfg = studio_inputs::photo();
     if meshy {
         let m = shapes::displaced_sphere(130);
         let dir = std::env::temp_dir().join(format!("stencil-stages-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let obj = dir.join("bumpy.obj");
         std::fs::write(&obj, m.to_obj("bumpy")).unwrap();
-        cfg = MakeConfig {
-            input: obj,
-            mesh: MeshConfig {
-                size: RenderSize::Exact {
-                    width: 1024,
-                    height: 1024,
-                },
-                supersample: 1,
-                lines: LineMode::Suggestive,
-                ..MeshConfig::default()
-            },
-            ..Default::default()
-        };
+        cfg = studio_inputs::mesh(obj);
     }
     let sp = SourceParams::of(&cfg).unwrap();
     let input = pipeline::load(&cfg.input, &sp).unwrap();

@@ -15,38 +15,15 @@ mod alloc;
 #[path = "../crates/stencil-core/tests/support/shapes.rs"]
 mod shapes;
 
-use std::path::PathBuf;
+#[path = "support/studio_inputs.rs"]
+mod studio_inputs;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use stencil_core::pipeline::{run, MakeConfig};
-use stencil_core::tone::mesh::{LineMode, Mesh, MeshConfig, RenderSize};
+use stencil_core::tone::mesh::Mesh;
 use stencil_core::tone::Threshold;
 use stencil_studio::engine::Engine;
-
-fn photo() -> MakeConfig {
-    let mut cfg = MakeConfig {
-        input: PathBuf::from("samples/grace_hopper.jpg"),
-        ..Default::default()
-    };
-    cfg.tone.scale = Some(2);
-    cfg
-}
-
-fn mesh(path: PathBuf) -> MakeConfig {
-    MakeConfig {
-        input: path,
-        mesh: MeshConfig {
-            size: RenderSize::Exact {
-                width: 1024,
-                height: 1024,
-            },
-            supersample: 1,
-            lines: LineMode::Suggestive,
-            ..MeshConfig::default()
-        },
-        ..Default::default()
-    }
-}
+use studio_inputs::{mesh, photo};
 
 /// CPU milliseconds (user + system, every thread) this process has used, from /proc/self/stat
 /// (clock ticks of 10 ms): on a machine shared with other builds wall time says more about
