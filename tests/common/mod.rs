@@ -106,13 +106,22 @@ pub fn assert_valid_stencil(out: &Path) {
 
 /// The number of material pixels bridges added.
 pub fn added_pixels(out: &Path) -> usize {
-    let two = read_bits(&out.join("twotone.png"));
-    let st = read_bits(&out.join("stencil.png"));
-    two.data
-        .iter()
-        .zip(&st.data)
-        .filter(|(a, b)| !**a && **b)
-        .count()
+    added_at(out).len()
+}
+
+/// The pixels the bridges added: material in stencil.png that twotone.png has as cut.
+pub fn added_at(out: &Path) -> Vec<(u32, u32)> {
+    let t = read_bits(&out.join("twotone.png"));
+    let s = read_bits(&out.join("stencil.png"));
+    let mut v = Vec::new();
+    for y in 0..s.height {
+        for x in 0..s.width {
+            if s.get(x, y) && !t.get(x, y) {
+                v.push((x, y));
+            }
+        }
+    }
+    v
 }
 
 pub fn report(out: &Path) -> serde_json::Value {

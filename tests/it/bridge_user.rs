@@ -21,21 +21,6 @@ fn scene(path: &Path, speck: bool) {
     });
 }
 
-/// Pixels the bridges added: material in stencil.png that twotone.png has as cut.
-fn added(out: &Path) -> Vec<(u32, u32)> {
-    let t = read_bits(&out.join("twotone.png"));
-    let s = read_bits(&out.join("stencil.png"));
-    let mut v = Vec::new();
-    for y in 0..s.height {
-        for x in 0..s.width {
-            if s.get(x, y) && !t.get(x, y) {
-                v.push((x, y));
-            }
-        }
-    }
-    v
-}
-
 fn make(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     let mut a = vec!["make", s(input), "-o", s(out)];
     a.extend_from_slice(extra);
@@ -51,7 +36,7 @@ fn a_keep_out_mask_moves_the_bridge_out_of_the_dark_area() {
     let free = dir.path().join("free");
     let o = make(&input, &free, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let first = added(&free);
+    let first = added_at(&free);
     assert!(!first.is_empty());
     // A mask at half the picture's size, dark over the half of the sheet the bridge used.
     let (mx, my) = (
@@ -73,7 +58,7 @@ fn a_keep_out_mask_moves_the_bridge_out_of_the_dark_area() {
     let o = make(&input, &out, &["--keep-out", s(&mask)]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_valid_stencil(&out);
-    let now = added(&out);
+    let now = added_at(&out);
     assert!(!now.is_empty());
     let inside = now.iter().filter(|&&(x, y)| dark(x / 2, y / 2)).count();
     let bad: Vec<_> = now.iter().filter(|&&(x, y)| dark(x / 2, y / 2)).collect();
@@ -115,7 +100,7 @@ fn no_bridge_near_a_point_and_a_bridge_at_a_point() {
     scene(&input, false);
     let free = dir.path().join("free");
     assert!(make(&input, &free, &[]).status.success());
-    let first = added(&free);
+    let first = added_at(&free);
     let (cx, cy) = (
         first.iter().map(|p| p.0 as f64 + 0.5).sum::<f64>() / first.len() as f64,
         first.iter().map(|p| p.1 as f64 + 0.5).sum::<f64>() / first.len() as f64,
@@ -126,7 +111,7 @@ fn no_bridge_near_a_point_and_a_bridge_at_a_point() {
     let o = make(&input, &out, &["--no-bridge-near", &disc]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_valid_stencil(&out);
-    let now = added(&out);
+    let now = added_at(&out);
     assert!(!now.is_empty());
     assert!(now
         .iter()
@@ -143,7 +128,7 @@ fn no_bridge_near_a_point_and_a_bridge_at_a_point() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert_valid_stencil(&out);
-    let near = added(&out)
+    let near = added_at(&out)
         .iter()
         .map(|&(x, y)| (x as f64 + 0.5 - at.0).hypot(y as f64 + 0.5 - at.1))
         .fold(f64::INFINITY, f64::min);

@@ -23,21 +23,6 @@ fn scene(path: &Path) {
     });
 }
 
-/// Pixels the bridges added: material in stencil.png that twotone.png has as cut.
-fn added(out: &Path) -> Vec<(u32, u32)> {
-    let t = read_bits(&out.join("twotone.png"));
-    let s = read_bits(&out.join("stencil.png"));
-    let mut v = Vec::new();
-    for y in 0..s.height {
-        for x in 0..s.width {
-            if s.get(x, y) && !t.get(x, y) {
-                v.push((x, y));
-            }
-        }
-    }
-    v
-}
-
 fn make(input: &Path, out: &Path, extra: &[&str]) {
     let mut a = vec!["make", s(input), "-o", s(out), "--crop", CROP];
     a.extend_from_slice(extra);
@@ -52,7 +37,7 @@ fn a_keep_out_of_the_whole_picture_is_cropped_and_turned_with_it() {
     scene(&input);
     let free = dir.path().join("free");
     make(&input, &free, &[]);
-    let first = added(&free);
+    let first = added_at(&free);
     assert!(!first.is_empty());
     // Dark over the half of the cropped scene its bridge used (in the cropped frame).
     let n = first.len() as f64;
@@ -85,7 +70,7 @@ fn a_keep_out_of_the_whole_picture_is_cropped_and_turned_with_it() {
         "the whole picture's mask, cropped, is the cropped picture's"
     );
     assert_valid_stencil(&a);
-    let now = added(&a);
+    let now = added_at(&a);
     assert!(!now.is_empty());
     let inside: Vec<_> = now.iter().filter(|&&(x, y)| dark(x, y)).collect();
     assert!(inside.is_empty(), "bridge pixels kept out: {inside:?}");
