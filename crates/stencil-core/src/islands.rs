@@ -131,7 +131,7 @@ pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
 
 /// Material pieces not joined to the frame: the number that must be 0 for a valid stencil.
 /// Counted from the material's runs and their pieces alone, without a label per pixel (the pieces
-/// [`components`] would label): a piece is joined when one of its runs touches the image border.
+/// `components` would label): a piece is joined when one of its runs touches the image border.
 pub fn floating_count(bits: &BitGrid) -> usize {
     if bits.width == 0 || bits.height == 0 {
         return 0;

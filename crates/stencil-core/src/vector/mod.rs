@@ -146,7 +146,7 @@ pub struct VectorConfig {
     pub curves: bool,
     /// Whether the files will carry arcs. Off (`--no-arcs`, a machine profile with `arcs =
     /// false`, a drag knife) the fitted curves only place the corners of straight outlines within
-    /// the tolerance of the traced points ([`simplify::FitCurves::straight`]), which every file
+    /// the tolerance of the traced points (`simplify::FitCurves::straight`), which every file
     /// carries as they are and the check judges as they are: no finer flattening for arcs that
     /// no file holds.
     pub arcs: bool,
