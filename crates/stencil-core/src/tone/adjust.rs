@@ -173,7 +173,8 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
     let kernel = gaussian_kernel(sigma);
     let (w, h) = (g.width as usize, g.height as usize);
     let r = kernel.len() / 2;
-    // Along the rows: each row padded by its end pixels, then each tap added to every pixel.
+    // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
+    // tap (see `taps`).
     let mut across = vec![0f32; w * h];
     across
         .par_chunks_mut(w)
@@ -183,22 +184,17 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
             padded.extend(std::iter::repeat_n(row[0], r));
             padded.extend_from_slice(row);
             padded.extend(std::iter::repeat_n(row[w - 1], r));
-            for (i, &k) in kernel.iter().enumerate() {
-                for (o, &p) in out.iter_mut().zip(&padded[i..i + w]) {
-                    *o += p * k;
-                }
-            }
+            let padded = &padded[..];
+            taps(out, &kernel, |i, x| &padded[i + x..]);
         });
     // Down the columns: each output row sums the rows above and below it (clamped to the
     // picture), tap by tap.
     let mut data = vec![0f32; w * h];
     data.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        for (i, &k) in kernel.iter().enumerate() {
+        taps(out, &kernel, |i, x| {
             let sy = (y + i).saturating_sub(r).min(h - 1);
-            for (o, &p) in out.iter_mut().zip(&across[sy * w..(sy + 1) * w]) {
-                *o += p * k;
-            }
-        }
+            &across[sy * w + x..(sy + 1) * w]
+        });
     });
     Gray {
         width: g.width,
@@ -206,6 +202,39 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
         data,
     }
 }
+
+/// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as
+/// adding each tap's product to every pixel in turn gives it (imageproc's order, to the bit), but
+/// a run of [`RUN`] pixels at a time with its sums held in registers instead of read and written
+/// back once per tap. `src(i, x)` is the source of tap `i` from pixel `x` on.
+#[inline(always)]
+fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
+    let mut x = 0;
+    while x + RUN <= out.len() {
+        let mut acc = [0f32; RUN];
+        for (i, &k) in kernel.iter().enumerate() {
+            let p = &src(i, x)[..RUN];
+            for j in 0..RUN {
+                acc[j] += p[j] * k;
+            }
+        }
+        out[x..x + RUN].copy_from_slice(&acc);
+        x += RUN;
+    }
+    let rest = out.len() - x;
+    if rest > 0 {
+        let out = &mut out[x..];
+        out.fill(0.0);
+        for (i, &k) in kernel.iter().enumerate() {
+            for (o, &p) in out.iter_mut().zip(&src(i, x)[..rest]) {
+                *o += p * k;
+            }
+        }
+    }
+}
+
+/// Pixels a [`taps`] run holds in registers: four SSE vectors.
+const RUN: usize = 16;
 
 /// `imageproc`'s Gaussian kernel for `sigma`, to the last bit: `2σ` taps each side (rounded
 /// up), the density at each tap, divided by their sum.

@@ -361,7 +361,9 @@ impl Prepared {
 /// [`Rendering`]; a new light (the studio's drag) re-lights it without a new raster.
 #[derive(Clone, Debug)]
 pub struct Drawn {
-    frags: Vec<shade::Fragment>,
+    /// What the light reads of each working sample (the lines' share of the fragments is done
+    /// with once they are found).
+    surf: shade::Surfaces,
     line_mask: Vec<bool>,
     /// The camera at working (supersampled) and at output resolution.
     cam: Camera,
@@ -405,8 +407,10 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
     let vb = tm.time("raster", || {
         visibility::rasterize(mesh, &cam, mesh.is_closed())
     });
-    let frags = tm.time("surface", || {
-        shade::geometry(mesh, normals, &vb, &cam, view.as_ref())
+    let (frags, surf) = tm.time("surface", || {
+        let frags = shade::geometry(mesh, normals, &vb, &cam, view.as_ref());
+        let surf = shade::Surfaces::of(&frags, cam.width as usize);
+        (frags, surf)
     });
     let line_mask = tm.time("lines", || {
         let line_px = cfg.line_px.max(cfg.min_line_px);
@@ -425,7 +429,7 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
         lines::find(mesh, &cam, &vb, &frags, &params).0
     });
     Ok(Drawn {
-        frags,
+        surf,
         line_mask,
         cam,
         out_cam,
@@ -444,7 +448,7 @@ pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
     let light = key_light(&d.cam, cfg);
     let mut r = tm.time("shade", || {
-        compose(&d.frags, &d.line_mask, &d.cam, &light, d.k, d.out_cam)
+        compose(&d.surf, &d.line_mask, &d.cam, &light, d.k, d.out_cam)
     });
     r.timings = tm;
     r
@@ -470,9 +474,10 @@ fn key_light(cam: &Camera, cfg: &MeshConfig) -> shade::Light {
 }
 
 /// Light the working samples and average k×k blocks of them into the output: gray, model
-/// shade, coverage.
+/// shade, coverage. Each output row lights its k working rows ([`shade::Lighter::row`]), then
+/// sums each block row by row, left to right, as it always has.
 fn compose(
-    frags: &[shade::Fragment],
+    surf: &shade::Surfaces,
     line_mask: &[bool],
     cam: &Camera,
     light: &shade::Light,
@@ -484,8 +489,10 @@ fn compose(
     let k = k as usize;
     let n = (k * k) as f32;
     let lighter = shade::Lighter::new(cam, light);
-    let mut gray = vec![1f32; w * h];
-    let mut shade = vec![1f32; w * h];
+    // Every value is written below; zeroed memory comes from the system untouched, so its pages
+    // are first touched by the rows' threads, not filled on this one first.
+    let mut gray = vec![0f32; w * h];
+    let mut shade = vec![0f32; w * h];
     let mut model = vec![false; w * h];
     let mut lines = vec![false; w * h];
     gray.par_chunks_mut(w)
@@ -493,34 +500,59 @@ fn compose(
         .zip(model.par_chunks_mut(w))
         .zip(lines.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(y, (((gray, shade), model), lines))| {
-            for x in 0..w {
-                let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
-                for sy in y * k..y * k + k {
-                    let row = sy * kw;
-                    for sx in x * k..x * k + k {
-                        let i = row + sx;
-                        let f = &frags[i];
-                        let is_line = line_mask[i];
-                        l += is_line as usize;
-                        if f.is_model() {
-                            let lit = lighter.intensity(f.point, f.normal);
-                            m += 1;
-                            s += lit;
-                            if !is_line {
-                                g += lit;
+        .for_each_init(
+            || (vec![0f32; k * kw], vec![0f32; kw]),
+            |(lit, ndh), (y, (((gray, shade), model), lines))| {
+                for (dy, lit) in lit.chunks_mut(kw).enumerate() {
+                    lighter.row(surf, y * k + dy, lit, ndh);
+                }
+                if k == 1 {
+                    // One sample a pixel: its sums are the sample itself (0 + it, as the sums
+                    // start at 0) and the means divide by 1, so each is said directly.
+                    let (model_in, lines_in) =
+                        (&surf.model[y * kw..][..w], &line_mask[y * kw..][..w]);
+                    for x in 0..w {
+                        let (is_model, is_line, lit) = (model_in[x], lines_in[x], 0.0 + lit[x]);
+                        gray[x] = if is_line {
+                            0.0
+                        } else if is_model {
+                            lit
+                        } else {
+                            1.0
+                        };
+                        shade[x] = if is_model { lit } else { 1.0 };
+                        model[x] = is_model;
+                        lines[x] = is_line;
+                    }
+                    return;
+                }
+                for x in 0..w {
+                    let (mut g, mut s, mut m, mut l) = (0f32, 0f32, 0usize, 0usize);
+                    for dy in 0..k {
+                        let row = (y * k + dy) * kw;
+                        for sx in x * k..x * k + k {
+                            let i = row + sx;
+                            let is_line = line_mask[i];
+                            l += is_line as usize;
+                            if surf.model[i] {
+                                let lit = lit[dy * kw + sx];
+                                m += 1;
+                                s += lit;
+                                if !is_line {
+                                    g += lit;
+                                }
+                            } else if !is_line {
+                                g += 1.0;
                             }
-                        } else if !is_line {
-                            g += 1.0;
                         }
                     }
+                    gray[x] = g / n;
+                    shade[x] = if m > 0 { s / m as f32 } else { 1.0 };
+                    model[x] = 2 * m >= k * k;
+                    lines[x] = 2 * l >= k * k;
                 }
-                gray[x] = g / n;
-                shade[x] = if m > 0 { s / m as f32 } else { 1.0 };
-                model[x] = 2 * m >= k * k;
-                lines[x] = 2 * l >= k * k;
-            }
-        });
+            },
+        );
     let (w32, h32) = (w as u32, h as u32);
     Rendering {
         gray: Gray {
@@ -683,7 +715,14 @@ mod tests {
     fn light_two_pass(d: &Drawn, cfg: &MeshConfig) -> (Vec<f32>, Vec<f32>, Vec<bool>, Vec<bool>) {
         let cam = &d.cam;
         let light = key_light(cam, cfg);
-        let shades = shade::light(&d.frags, cam.width as usize, cam, &light);
+        // Each sample lit on its own, by the scalar definition.
+        let lighter = shade::Lighter::new(cam, &light);
+        let shades: Vec<f32> = (0..d.surf.model.len())
+            .map(|i| {
+                let (p, n) = d.surf.point_normal(i);
+                lighter.intensity(p, n)
+            })
+            .collect();
         let (w, h) = (d.out_cam.width as usize, d.out_cam.height as usize);
         let (kw, k) = (cam.width as usize, d.k as usize);
         let n = (k * k) as f32;
@@ -694,16 +733,16 @@ mod tests {
                 for sy in y * k..y * k + k {
                     for sx in x * k..x * k + k {
                         let i = sy * kw + sx;
-                        let f = &d.frags[i];
+                        let is_model = d.surf.model[i];
                         let is_line = d.line_mask[i];
                         l += is_line as usize;
-                        if f.is_model() {
+                        if is_model {
                             m += 1;
                             s += shades[i];
                         }
                         g += if is_line {
                             0.0
-                        } else if f.is_model() {
+                        } else if is_model {
                             shades[i]
                         } else {
                             1.0

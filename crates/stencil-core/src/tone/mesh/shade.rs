@@ -149,7 +149,10 @@ impl<'a> Lighter<'a> {
     /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's
     /// Blinn-Phong highlight; at most 1. With no ambient and no fill this is the key alone, as
     /// it always was. `p` is the surface point, `n` its unit normal on the side seen.
-    #[inline]
+    ///
+    /// One sample at a time, the definition; the renderer lights whole rows with [`Lighter::row`]
+    /// (the same bits: the tests check it).
+    #[cfg(test)]
     pub fn intensity(&self, p: Vec3, n: Vec3) -> f32 {
         let light = self.light;
         let v = match self.ortho_view {
@@ -172,6 +175,149 @@ impl<'a> Lighter<'a> {
             }
         }
         i.min(1.0)
+    }
+}
+
+/// What lighting reads of a view's working samples, kept apart from the [`Fragment`]s the lines
+/// read: per working row, six planes of `width` values (the surface point's x, y, z, then the
+/// normal's), and which samples show the model. A light change reads only these, as straight
+/// runs of floats the compiler turns into vector code, instead of 40-byte fragments one by one.
+#[derive(Clone, Debug, Default)]
+pub struct Surfaces {
+    pub width: usize,
+    /// Row `y`'s planes are `planes[6 * width * y..][..6 * width]`.
+    planes: Vec<f32>,
+    /// The samples that show the model (a finite depth).
+    pub model: Vec<bool>,
+}
+
+impl Surfaces {
+    /// The points and normals of `frags`, a `width`-wide image of fragments, row by row in
+    /// parallel.
+    pub fn of(frags: &[Fragment], width: usize) -> Surfaces {
+        let width = width.max(1);
+        let mut planes = vec![0f32; 6 * frags.len()];
+        let mut model = vec![false; frags.len()];
+        planes
+            .par_chunks_mut(6 * width)
+            .zip(model.par_chunks_mut(width))
+            .zip(frags.par_chunks(width))
+            .for_each(|((planes, model), fr)| {
+                let w = fr.len();
+                for (x, f) in fr.iter().enumerate() {
+                    model[x] = f.is_model();
+                    let v = [
+                        f.point.x, f.point.y, f.point.z, f.normal.x, f.normal.y, f.normal.z,
+                    ];
+                    for (c, v) in v.into_iter().enumerate() {
+                        planes[c * w + x] = v;
+                    }
+                }
+            });
+        Surfaces {
+            width,
+            planes,
+            model,
+        }
+    }
+
+    /// Sample `i`'s point and normal.
+    #[cfg(test)]
+    pub fn point_normal(&self, i: usize) -> (Vec3, Vec3) {
+        let (y, x) = (i / self.width, i % self.width);
+        let r = self.row(y);
+        (
+            Vec3::new(r[0][x], r[1][x], r[2][x]),
+            Vec3::new(r[3][x], r[4][x], r[5][x]),
+        )
+    }
+
+    /// Working row `y`'s six planes (point x, y, z, normal x, y, z).
+    fn row(&self, y: usize) -> [&[f32]; 6] {
+        let w = self.width;
+        let r = &self.planes[6 * w * y..6 * w * (y + 1)];
+        std::array::from_fn(|c| &r[c * w..(c + 1) * w])
+    }
+}
+
+/// `v` made unit length, or zero when it has none: glam's `normalize_or_zero` on its three
+/// components, operation for operation (the same bits), without a branch.
+#[inline(always)]
+fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
+    let r = 1.0 / ((x * x) + (y * y) + (z * z)).sqrt();
+    let ok = r.is_finite() && r > 0.0;
+    (
+        if ok { x * r } else { 0.0 },
+        if ok { y * r } else { 0.0 },
+        if ok { z * r } else { 0.0 },
+    )
+}
+
+impl Lighter<'_> {
+    /// The intensity of every sample of working row `y` of `s` into `out` (the background's
+    /// values are meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
+    /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
+    /// every term but the highlight's power as straight-line float code over the row (vector
+    /// code, no branch), then the power (a `powf`, which has no vector form) only where the
+    /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
+    /// for the tests), in its order: the same bits.
+    pub fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
+        let row = s.row(y);
+        let e = self.eye;
+        let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);
+        let key = |_: [f32; 6], i: f32| i;
+        let (fp, strength) = self.light.fill.unwrap_or_default();
+        let fill = |[x, y, z, a, b, c]: [f32; 6], i: f32| {
+            let (fx, fy, fz) = unit(fp.x - x, fp.y - y, fp.z - z);
+            i + strength * ((a * fx) + (b * fy) + (c * fz)).max(0.0)
+        };
+        // One loop for each lens and whether there is a fill, so none tests it per sample.
+        match (self.ortho_view, self.light.fill.is_some()) {
+            (Some(v), false) => self.terms(row, out, ndh, |_, _, _| (v.x, v.y, v.z), key),
+            (Some(v), true) => self.terms(row, out, ndh, |_, _, _| (v.x, v.y, v.z), fill),
+            (None, false) => self.terms(row, out, ndh, persp, key),
+            (None, true) => self.terms(row, out, ndh, persp, fill),
+        }
+        let (spec, shine) = (self.light.specular, self.light.shininess);
+        for (o, &h) in out.iter_mut().zip(ndh.iter()) {
+            if h > 0.0 {
+                *o += spec * h.powf(shine);
+            }
+            *o = o.min(1.0);
+        }
+    }
+
+    /// The first pass of [`Lighter::row`]: each sample's diffuse terms (`fill` adds the fill's
+    /// to the key's, given the sample's point and normal), the ambient lift, and the highlight's
+    /// n·h where it shows (0 elsewhere; where it shows it is above the cut-off, which is > 0).
+    #[inline(always)]
+    fn terms(
+        &self,
+        [px, py, pz, nx, ny, nz]: [&[f32]; 6],
+        out: &mut [f32],
+        ndh: &mut [f32],
+        view: impl Fn(f32, f32, f32) -> (f32, f32, f32),
+        fill: impl Fn([f32; 6], f32) -> f32,
+    ) {
+        let n = px.len();
+        let (out, ndh) = (&mut out[..n], &mut ndh[..n]);
+        let (py, pz, nx, ny, nz) = (&py[..n], &pz[..n], &nx[..n], &ny[..n], &nz[..n]);
+        let lp = self.light.position;
+        let ambient = self.light.ambient;
+        let cut = self.spec_cut;
+        for j in 0..n {
+            let (x, y, z) = (px[j], py[j], pz[j]);
+            let (a, b, c) = (nx[j], ny[j], nz[j]);
+            let (vx, vy, vz) = view(x, y, z);
+            let (lx, ly, lz) = unit(lp.x - x, lp.y - y, lp.z - z);
+            let ndl = (a * lx) + (b * ly) + (c * lz);
+            let i = fill([x, y, z, a, b, c], ndl.max(0.0));
+            let lifted = ambient + (1.0 - ambient) * i;
+            out[j] = if ambient > 0.0 { lifted } else { i };
+            let (hx, hy, hz) = unit(lx + vx, ly + vy, lz + vz);
+            let h = (a * hx) + (b * hy) + (c * hz);
+            ndh[j] = if ndl > 0.0 && h > cut { h } else { 0.0 };
+        }
     }
 }
 
@@ -393,5 +539,66 @@ mod tests {
             lit.iter().cloned().fold(1.0, f32::min)
         );
         assert!(frags.iter().filter(|f| f.is_model()).all(|f| f.ndotv > 0.0));
+    }
+
+    /// The row lighter against the per-sample one on random surfaces, lights and lenses,
+    /// with the awkward cases among them (a point on the light, a point at the eye, a zero
+    /// normal, background samples): the same bits.
+    #[test]
+    fn row_lighting_is_the_per_sample_lighting_to_the_bit() {
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0
+        };
+        let m = shapes::height_field(4, |_, _| 0.0);
+        for trial in 0..24 {
+            let mut cam = setup(&m, 20.0);
+            cam.orthographic = trial % 3 == 0;
+            let key = Vec3::new(next(), next(), next()) * 3.0;
+            let light = Light {
+                position: key,
+                specular: [0.0, 0.3, 2.0, 9.5][trial % 4],
+                shininess: [1.0, 32.0, 7.5][trial % 3],
+                ambient: if trial % 2 == 0 {
+                    0.0
+                } else {
+                    next().abs() * 0.9
+                },
+                fill: (trial % 5 < 2).then(|| (Vec3::new(next(), next(), next()) * 3.0, 0.6)),
+            };
+            let w = 37;
+            let frags: Vec<Fragment> = (0..w * 3)
+                .map(|i| {
+                    let point = match i {
+                        0 => key,
+                        1 => cam.eye,
+                        _ => Vec3::new(next(), next(), next()),
+                    };
+                    let normal = match i {
+                        2 => Vec3::ZERO,
+                        _ => Vec3::new(next(), next(), next()).normalize_or_zero(),
+                    };
+                    Fragment {
+                        depth: if i % 7 == 3 { f32::INFINITY } else { 1.0 },
+                        point,
+                        normal,
+                        ..Default::default()
+                    }
+                })
+                .collect();
+            let s = Surfaces::of(&frags, w);
+            let lighter = Lighter::new(&cam, &light);
+            let (mut out, mut ndh) = (vec![0f32; w], vec![0f32; w]);
+            for y in 0..3 {
+                lighter.row(&s, y, &mut out, &mut ndh);
+                for x in 0..w {
+                    let f = &frags[y * w + x];
+                    assert_eq!(s.model[y * w + x], f.is_model());
+                    let want = lighter.intensity(f.point, f.normal);
+                    assert_eq!(out[x].to_bits(), want.to_bits(), "trial {trial} at {x},{y}");
+                }
+            }
+        }
     }
 }
