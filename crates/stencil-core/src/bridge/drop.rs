@@ -83,8 +83,11 @@ pub fn choose(
     // cache line per visit), stamped per search so it is never cleared. The grids are lent out
     // from a pool, so there are at most as many as searches running at once (one per thread),
     // not one per piece of work rayon splits off: each grid is 16 bytes per pixel, and zeroing
-    // one per split cost more than the searches on the photo bench.
-    let pool: std::sync::Mutex<Vec<Scratch>> = std::sync::Mutex::new(Vec::new());
+    // one per split cost more than the searches on the photo bench. The pool outlives the call
+    // ([`POOL`]): zeroing a fresh 16 MB grid per thread on every call was a fifth of this
+    // function's time on the 1 MP photo (the allocator serves it from memory it kept, so it is
+    // written, not mapped).
+    let pool = &POOL;
     let search = |island: usize| {
         if protected.get(island).copied().unwrap_or(false) {
             return None;
@@ -102,7 +105,9 @@ pub fn choose(
         s.stamp += 1;
         let out = search_one(map, &mut s, island, &drop_cost, &price, &width);
         if let Ok(mut p) = pool.lock() {
-            p.push(s);
+            if p.len() < KEPT_GRIDS {
+                p.push(s);
+            }
         }
         let (limit, bridge) = out?;
         let a = map.nodes[island].area as f64;
@@ -122,6 +127,14 @@ pub fn choose(
         .filter_map(search)
         .collect()
 }
+
+/// The scratch grids [`choose`] lends its searches, kept from one call to the next (a studio
+/// re-runs it on every threshold change), at most [`KEPT_GRIDS`] of them.
+static POOL: std::sync::Mutex<Vec<Scratch>> = std::sync::Mutex::new(Vec::new());
+
+/// How many scratch grids [`POOL`] keeps between calls (16 bytes per pixel each): as many as
+/// searches run at once on a small machine; on a larger one the others are made per call.
+const KEPT_GRIDS: usize = 2;
 
 /// A search's scratch grid and the stamp of the search using it. Per pixel, `[stamp, distance
 /// bits]`: the distance counts only where the stamp is the search's. Zeros (no search yet), so
@@ -244,13 +257,14 @@ fn bridged_under(
     let me = island as u32;
     let stamp = s.stamp;
     let cells = &mut s.cells[..];
-    let mut ring: Vec<u32> = Vec::new();
+    // A ring holds its pixels' coordinates (no division per pixel to find them).
+    let mut ring: Vec<(u32, u32)> = Vec::new();
     for &(x, y) in &map.nodes[island].border {
         for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
             let j = ny * w + nx;
             if map.labels[j] == CUT && cells[j][0] != stamp {
                 cells[j] = [stamp, SEED];
-                ring.push(j as u32);
+                ring.push((nx as u32, ny as u32));
             }
         }
     }
@@ -259,20 +273,29 @@ fn bridged_under(
     let mut next = Vec::new();
     let mut pixels = 1.0;
     while !ring.is_empty() && pixels <= longest {
-        for &i in &ring {
-            let i = i as usize;
-            let (x, y) = (i % w, i / w);
+        for &(x, y) in &ring {
+            let (x, y) = (x as usize, y as usize);
+            let i = y * w + x;
+            // A pixel on the image's edge is an end: the path to it is the answer, whatever
+            // its neighbours (which the first form marked before answering: marks that no
+            // path already found passes through).
             let mut end = x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-            for (nx, ny) in neighbours(x, y, w, h) {
-                let j = ny * w + nx;
-                let l = map.labels[j];
-                if l == CUT {
-                    if cells[j][0] != stamp {
-                        cells[j] = [stamp, i as u64];
-                        next.push(j as u32);
+            if !end {
+                for (j, nx, ny) in [
+                    (i - 1, x - 1, y),
+                    (i + 1, x + 1, y),
+                    (i - w, x, y - 1),
+                    (i + w, x, y + 1),
+                ] {
+                    let l = map.labels[j];
+                    if l == CUT {
+                        if cells[j][0] != stamp {
+                            cells[j] = [stamp, i as u64];
+                            next.push((nx as u32, ny as u32));
+                        }
+                    } else if l != me {
+                        end = true;
                     }
-                } else if l != me {
-                    end = true;
                 }
             }
             if end {
