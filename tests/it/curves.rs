@@ -13,7 +13,7 @@ use stencil_gcode::interpret::{interpret, Move};
 
 /// Dark (cut) ellipses and discs on white, apart from each other and the edge: smooth outlines,
 /// nothing to bridge.
-fn blobs(path: &Path) {
+pub(crate) fn blobs(path: &Path) {
     let shapes = [
         (60.0, 55.0, 40.0, 25.0, 0.3),
         (170.0, 60.0, 30.0, 30.0, 0.0),

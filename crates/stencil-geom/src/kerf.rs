@@ -131,10 +131,135 @@ pub fn offset_pieces(pieces: &[Piece], d: f64) -> Vec<Vec<Piece>> {
                 .filter(|&k| dist(raw[k].from, raw[(k + 1) % n].from) > 1e-9)
                 .map(|k| raw[k])
                 .collect();
-            curve::split_arcs(&kept, std::f64::consts::FRAC_PI_2)
+            curve::split_arcs(&mitred(&kept, d.abs()), std::f64::consts::FRAC_PI_2)
         })
         .filter(|p| p.len() >= 2 && signed_area2(&curve::flatten(p, 1e-3)) > 0.0)
         .collect()
+}
+
+/// How far a mitred join may reach past the round join it replaces, mm: under the G-code's
+/// written resolution (0.001 mm) and far under any tolerance.
+const MITRE_MM: f64 = 0.001;
+
+/// The offset's round joins of radius `d` (arcs of that radius about a corner of the outline
+/// being offset) replaced by the point where the pieces on either side meet when extended, where
+/// that point is within [`MITRE_MM`] of the round join: at a slight kink of a fitted outline the
+/// join is a tiny arc that would cost a G-code line of its own; the mitre costs none and moves
+/// the path by under the written resolution.
+fn mitred(pieces: &[Piece], d: f64) -> Vec<Piece> {
+    let n = pieces.len();
+    if n < 3 || d <= 0.0 {
+        return pieces.to_vec();
+    }
+    let to = |k: usize| pieces[(k + 1) % n].from;
+    // A piece's carrier: its circle (centre, radius) or its line (a point, a direction).
+    let carrier = |k: usize| -> Carrier {
+        match curve::arc_of(pieces[k].from, to(k), pieces[k].bulge) {
+            Some(a) => Carrier::Circle(a.center, a.radius),
+            None => Carrier::Line(pieces[k].from, to(k)),
+        }
+    };
+    let mut out: Vec<Piece> = pieces.to_vec();
+    let mut drop = vec![false; n];
+    for j in 0..n {
+        let Some(join) = curve::arc_of(pieces[j].from, to(j), pieces[j].bulge) else {
+            continue;
+        };
+        let (a, b) = ((j + n - 1) % n, (j + 1) % n);
+        if (join.radius - d).abs() > 1e-6 * d.max(1.0) || drop[a] || drop[b] || a == b {
+            continue;
+        }
+        let Some(x) = meet(carrier(a), carrier(b), pieces[j].from, to(j)) else {
+            continue;
+        };
+        if (dist(x, join.center) - d).abs() > MITRE_MM || dist(x, pieces[j].from) > 4.0 * d {
+            continue;
+        }
+        // The piece before ends at x (an arc keeps its circle: its bulge from its new sweep);
+        // the piece after starts there.
+        let pa = out[a];
+        out[a].bulge = match carrier(a) {
+            Carrier::Circle(c, _) => {
+                let ang = |p: [f64; 2]| (p[1] - c[1]).atan2(p[0] - c[0]);
+                let old = 4.0 * pa.bulge.atan();
+                let mut sweep = ang(x) - ang(pa.from);
+                // The same turning direction, the nearest to the old sweep.
+                while sweep - old > std::f64::consts::PI {
+                    sweep -= std::f64::consts::TAU;
+                }
+                while old - sweep > std::f64::consts::PI {
+                    sweep += std::f64::consts::TAU;
+                }
+                (sweep / 4.0).tan()
+            }
+            Carrier::Line(..) => 0.0,
+        };
+        out[b].from = x;
+        drop[j] = true;
+    }
+    out.into_iter()
+        .zip(drop)
+        .filter(|(_, d)| !d)
+        .map(|(p, _)| p)
+        .collect()
+}
+
+#[derive(Clone, Copy)]
+enum Carrier {
+    Circle([f64; 2], f64),
+    Line([f64; 2], [f64; 2]),
+}
+
+/// Where two carriers meet nearest the join from `p` to `q` (`None` when they do not meet).
+fn meet(a: Carrier, b: Carrier, p: [f64; 2], q: [f64; 2]) -> Option<[f64; 2]> {
+    let m = [(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0];
+    let pts: Vec<[f64; 2]> = match (a, b) {
+        (Carrier::Line(a0, a1), Carrier::Line(b0, b1)) => {
+            let (da, db) = ([a1[0] - a0[0], a1[1] - a0[1]], [b1[0] - b0[0], b1[1] - b0[1]]);
+            let den = da[0] * db[1] - da[1] * db[0];
+            if den.abs() < 1e-15 {
+                return None;
+            }
+            let t = ((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / den;
+            vec![[a0[0] + t * da[0], a0[1] + t * da[1]]]
+        }
+        (Carrier::Line(l0, l1), Carrier::Circle(c, r)) | (Carrier::Circle(c, r), Carrier::Line(l0, l1)) => {
+            let dl = [l1[0] - l0[0], l1[1] - l0[1]];
+            let ll = dl[0] * dl[0] + dl[1] * dl[1];
+            if ll == 0.0 {
+                return None;
+            }
+            let f = [l0[0] - c[0], l0[1] - c[1]];
+            let bq = 2.0 * (f[0] * dl[0] + f[1] * dl[1]);
+            let cq = f[0] * f[0] + f[1] * f[1] - r * r;
+            let disc = bq * bq - 4.0 * ll * cq;
+            if disc < 0.0 {
+                return None;
+            }
+            let sq = disc.sqrt();
+            [(-bq - sq) / (2.0 * ll), (-bq + sq) / (2.0 * ll)]
+                .iter()
+                .map(|t| [l0[0] + t * dl[0], l0[1] + t * dl[1]])
+                .collect()
+        }
+        (Carrier::Circle(c0, r0), Carrier::Circle(c1, r1)) => {
+            let dd = dist(c0, c1);
+            if dd == 0.0 || dd > r0 + r1 || dd < (r0 - r1).abs() {
+                return None;
+            }
+            let a = (r0 * r0 - r1 * r1 + dd * dd) / (2.0 * dd);
+            let h = (r0 * r0 - a * a).max(0.0).sqrt();
+            let u = [(c1[0] - c0[0]) / dd, (c1[1] - c0[1]) / dd];
+            let base = [c0[0] + a * u[0], c0[1] + a * u[1]];
+            vec![
+                [base[0] - h * u[1], base[1] + h * u[0]],
+                [base[0] + h * u[1], base[1] - h * u[0]],
+            ]
+        }
+    };
+    pts.into_iter()
+        .filter(|x| x[0].is_finite() && x[1].is_finite())
+        .min_by(|x, y| dist(*x, m).total_cmp(&dist(*y, m)))
 }
 
 #[cfg(test)]
