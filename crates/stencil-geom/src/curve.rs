@@ -1000,4 +1000,58 @@ mod tests {
         assert_eq!(fit_ring(&tri[..2], 1.0).len(), 2);
         assert_eq!(flatten(&fit_ring(&tri, 0.1), 0.1), tri.to_vec());
     }
+
+    #[test]
+    fn a_flattening_is_found_again_either_way_and_from_any_start() {
+        let pieces = half_disc().to_vec();
+        let flat = flatten(&pieces, 0.01);
+        // Its box is the arcs' own (the extremes are vertices).
+        assert_eq!(crate::ring::bbox(&flat), bounds(&pieces).unwrap());
+        let mut table = Curves::new(0.01);
+        assert!(table.insert(pieces.clone(), flat.clone()));
+        // As stored.
+        assert_eq!(table.pieces_of(&flat), Some((0, pieces.clone())));
+        // Rotated: the first piece start found is the second piece's.
+        let at = flat.iter().position(|p| *p == pieces[1].from).unwrap();
+        let mut rot = flat.clone();
+        rot.rotate_left(3);
+        let (q, got) = table.pieces_of(&rot).unwrap();
+        assert_eq!(rot[q], pieces[1].from);
+        assert_eq!(q, at - 3);
+        assert_eq!(got[0], pieces[1]);
+        // Reversed (a cut region's outline is a material hole walked back): the same path.
+        let mut back = flat.clone();
+        back.reverse();
+        let (q, got) = table.pieces_of(&back).unwrap();
+        assert_eq!(back[q], got[0].from);
+        let again = flatten(&got, 0.01);
+        assert!((length(&got) - length(&pieces)).abs() < 1e-12);
+        assert_eq!(again.len(), flat.len());
+        // A ring moved by a nanometre anywhere is not found.
+        let mut moved = flat.clone();
+        moved[5][0] += 1e-9;
+        assert!(table.pieces_of(&moved).is_none());
+        assert!(table.pieces_of(&flat[1..]).is_none());
+        // Pieces whose starts the polygon lacks are refused.
+        assert!(!table.insert(pieces, flat[1..].to_vec()));
+    }
+
+    #[test]
+    fn long_arcs_are_split_into_equal_parts_on_the_same_circle() {
+        let q = (std::f64::consts::PI / 8.0).tan();
+        // Nearly a half turn, then a quarter turn back: the first in two, the second kept.
+        let pieces = [
+            Piece {
+                from: [1.0, 0.0],
+                bulge: 0.99,
+            },
+            Piece {
+                from: [-1.0, 0.0],
+                bulge: q,
+            },
+        ];
+        let split = split_arcs(&pieces, std::f64::consts::FRAC_PI_2);
+        assert_eq!(split.len(), 3, "{split:?}");
+        assert!((length(&split) - length(&pieces)).abs() < 1e-9);
+    }
 }

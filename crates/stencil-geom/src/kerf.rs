@@ -215,7 +215,10 @@ fn meet(a: Carrier, b: Carrier, p: [f64; 2], q: [f64; 2]) -> Option<[f64; 2]> {
     let m = [(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0];
     let pts: Vec<[f64; 2]> = match (a, b) {
         (Carrier::Line(a0, a1), Carrier::Line(b0, b1)) => {
-            let (da, db) = ([a1[0] - a0[0], a1[1] - a0[1]], [b1[0] - b0[0], b1[1] - b0[1]]);
+            let (da, db) = (
+                [a1[0] - a0[0], a1[1] - a0[1]],
+                [b1[0] - b0[0], b1[1] - b0[1]],
+            );
             let den = da[0] * db[1] - da[1] * db[0];
             if den.abs() < 1e-15 {
                 return None;
@@ -223,7 +226,8 @@ fn meet(a: Carrier, b: Carrier, p: [f64; 2], q: [f64; 2]) -> Option<[f64; 2]> {
             let t = ((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / den;
             vec![[a0[0] + t * da[0], a0[1] + t * da[1]]]
         }
-        (Carrier::Line(l0, l1), Carrier::Circle(c, r)) | (Carrier::Circle(c, r), Carrier::Line(l0, l1)) => {
+        (Carrier::Line(l0, l1), Carrier::Circle(c, r))
+        | (Carrier::Circle(c, r), Carrier::Line(l0, l1)) => {
             let dl = [l1[0] - l0[0], l1[1] - l0[1]];
             let ll = dl[0] * dl[0] + dl[1] * dl[1];
             if ll == 0.0 {
@@ -277,5 +281,54 @@ mod tests {
             "{b:?}"
         );
         assert!((out.unsigned_area() - 9.8 * 9.8).abs() < 1e-2);
+    }
+
+    #[test]
+    fn a_curved_outline_is_offset_exactly() {
+        use crate::curve::{arc_of, Piece};
+        // A disc of radius 2 as four quarter arcs, counter-clockwise: shrunk by 0.5, it is the
+        // disc of radius 1.5, arcs on the same centre.
+        let q = (std::f64::consts::PI / 8.0).tan();
+        let disc: Vec<Piece> = [[2.0, 0.0], [0.0, 2.0], [-2.0, 0.0], [0.0, -2.0]]
+            .iter()
+            .map(|&from| Piece { from, bulge: q })
+            .collect();
+        let out = offset_pieces(&disc, 0.5);
+        assert_eq!(out.len(), 1);
+        let p = &out[0];
+        for k in 0..p.len() {
+            let a = arc_of(p[k].from, p[(k + 1) % p.len()].from, p[k].bulge).unwrap();
+            assert!(
+                (a.radius - 1.5).abs() < 1e-9 && a.center[0].abs() < 1e-9,
+                "{a:?}"
+            );
+        }
+        // A square with a slightly kinked side: the kink's round join is mitred (within
+        // 0.001 mm); the square's own corners keep theirs (a quarter turn is no slight kink).
+        let sq: Vec<Piece> = [
+            [0.0, 0.0],
+            [5.0, -0.01],
+            [10.0, 0.0],
+            [10.0, 10.0],
+            [0.0, 10.0],
+        ]
+        .iter()
+        .map(|&from| Piece { from, bulge: 0.0 })
+        .collect();
+        let out = offset_pieces(&sq, -0.1);
+        assert_eq!(out.len(), 1);
+        let turn: f64 = out[0].iter().map(|p| 4.0 * p.bulge.atan().abs()).sum();
+        assert!(
+            (turn - std::f64::consts::TAU).abs() < 0.01,
+            "the corners' joins turn once: {turn}"
+        );
+        let at_kink: Vec<&Piece> = out[0]
+            .iter()
+            .filter(|p| (p.from[0] - 5.0).abs() < 1.0)
+            .collect();
+        assert_eq!(at_kink.len(), 1, "{:?}", out[0]);
+        assert!((at_kink[0].from[1] + 0.11).abs() < 1e-3, "{at_kink:?}");
+        // A region narrower than twice the offset is gone.
+        assert!(offset_pieces(&disc, 2.5).is_empty());
     }
 }
