@@ -149,7 +149,7 @@ pub struct VectorConfig {
     /// Fit the traced outlines with lines and arcs within the tolerance (corners kept, the
     /// pixels on their sides), instead of leaving simplification's chords; the geometry holds
     /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
-    /// and the writers find the arcs again within [`VectorConfig::arc_tolerance_mm`].
+    /// and the curves themselves ([`CutGeometry::curves`]), which the writers carry.
     pub curves: bool,
     /// Whether the files will carry arcs. Off (`--no-arcs`, a machine profile with `arcs =
     /// false`, a drag knife) the fitted curves only place the corners of straight outlines within
@@ -175,19 +175,19 @@ impl Default for VectorConfig {
 
 impl VectorConfig {
     /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
-    /// Why so fine: with arcs, this polygon is only what the check judges and what the writers
-    /// fit their arcs to again (within [`VectorConfig::arc_tolerance_mm`], which must exceed it
-    /// for a flattened arc to be found whole), never what a file carries. Without arcs it is not
-    /// used for the outline ([`VectorConfig::arcs`]); it stays the margin the fit keeps the
-    /// pixel centres clear of the curves by.
+    /// Why so fine: with arcs, this polygon is only what the check judges, never what a file
+    /// carries (the files carry the fitted arcs, [`CutGeometry::curves`]). It is also the margin
+    /// the fit keeps the pixel centres clear of the curves by, so the flattening samples to the
+    /// same pixels. Without arcs it is not used for the outline ([`VectorConfig::arcs`]).
     pub fn flatten_mm(&self) -> f64 {
         self.tolerance_mm / 5.0
     }
 
-    /// How far SVG, DXF and G-code arcs may stray from the geometry's polygons: a quarter of the
+    /// How far SVG, DXF and G-code arcs may stray from a polygon whose curves the geometry does
+    /// not know ([`CutGeometry::curves`]; a ring a later step changed): a quarter of the
     /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
-    /// whole, and little enough that the files stay on what the check judged. 0 when the files
-    /// carry no arcs ([`VectorConfig::arcs`]): they write the polygons as they are.
+    /// whole. 0 when the files carry no arcs ([`VectorConfig::arcs`]): they write the polygons
+    /// as they are.
     pub fn arc_tolerance_mm(&self) -> f64 {
         if self.arcs {
             self.tolerance_mm / 4.0
