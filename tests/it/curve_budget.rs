@@ -95,15 +95,18 @@ fn make(input: &Path, extra: &[&str]) -> Written {
     }
 }
 
+/// A segment's two ends.
+type Seg = ([f64; 2], [f64; 2]);
+
 /// Segments in a uniform grid: the distance from a point to the nearest of them, up to a cap.
 struct Near {
     cell: f64,
-    grid: HashMap<(i64, i64), Vec<([f64; 2], [f64; 2])>>,
+    grid: HashMap<(i64, i64), Vec<Seg>>,
 }
 
 impl Near {
     fn new(paths: &[Vec<[f64; 2]>], closed: bool, cell: f64) -> Near {
-        let mut grid: HashMap<(i64, i64), Vec<([f64; 2], [f64; 2])>> = HashMap::new();
+        let mut grid: HashMap<(i64, i64), Vec<Seg>> = HashMap::new();
         for p in paths {
             let n = p.len();
             let segs = if closed { n } else { n.saturating_sub(1) };
