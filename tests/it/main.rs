@@ -37,6 +37,7 @@ mod bridge_weights;
 mod bridge_width;
 mod check;
 mod crop_keep_out;
+mod curve_budget;
 mod curves;
 mod cut_settings;
 mod doc_paths;

@@ -2,6 +2,7 @@
 //! stencil or from a drawing, and what is known of the pieces the cuts free.
 
 use geo::{LineString, MultiPolygon, Rect};
+use stencil_geom::curve::Curves;
 use stencil_geom::{kerf, ClipError};
 
 /// Closed loops to cut on a sheet.
@@ -27,6 +28,10 @@ pub struct CutLoops {
     /// The sheet's edge as it is cut when that is not `outline`'s rectangle: a gobo's rim, a
     /// closed ring inside `outline` (already offset for the kerf). Cut last, as the outline is.
     pub outline_ring: Option<LineString<f64>>,
+    /// The lines and arcs that rings of `cuts` are the flattening of (`make`'s fitted curves
+    /// and their kerf offset): a job with arcs writes these, not arcs fitted to the polygons
+    /// again. Empty for a drawing.
+    pub curves: Curves,
 }
 
 /// What the planner knows of the pieces of material the cuts free (every cut inside a piece must
@@ -54,6 +59,7 @@ impl CutLoops {
             pieces: Pieces::Unknown,
             lines: Vec::new(),
             outline_ring: None,
+            curves: Curves::default(),
         }
     }
 

@@ -8,7 +8,7 @@ use crate::error::{Fit, PlanError, SettingsError};
 use crate::machine::{Corner, Machine, Tool};
 
 use crate::{order, travel};
-use stencil_geom::curve::{self, Piece};
+use stencil_geom::curve::{self, Curves, Piece};
 use stencil_geom::ring::dist;
 
 /// How the material is cut: the planner's view of a material profile (the CLI maps a `Material`
@@ -351,35 +351,42 @@ struct ArcFit {
 }
 
 /// A ring placed on the bed, and its arcs when `fit` asks for them (empty when it has none).
-/// The arcs are fitted on the sheet and mapped with the points: each piece starts at one of the
-/// ring's own points, so it maps to the very same machine numbers. The sheet's y runs down and
-/// the machine's up, and a bed origin on the right or at the back mirrors once more: a bulge
+/// A ring known as curves (`curves`: `make`'s fitted lines and arcs, or their kerf offset) is
+/// written as those very pieces, its points rotated to start where the first piece does; any
+/// other is fitted with arcs on the sheet. Either way each piece starts at one of the ring's own
+/// points, so it maps to the very same machine numbers. The sheet's y runs down and the
+/// machine's up, and a bed origin on the right or at the back mirrors once more: a bulge
 /// (positive counter-clockwise) changes sign with each mirror.
 fn placed_ring(
     ls: &LineString<f64>,
     place: &Placement,
     fit: Option<ArcFit>,
+    curves: &Curves,
 ) -> (Vec<[f64; 2]>, Vec<Piece>) {
-    let sheet = sheet_points(ls);
-    let points = sheet.iter().map(|p| place.map(p[0], p[1])).collect();
-    let curve = match fit {
-        Some(f) if sheet.len() >= 3 => {
-            let pieces = curve::fit_ring_inside(&sheet, f.tol, f.inside);
-            let mirrors = 1 + u8::from(place.flip_x) + u8::from(place.flip_y);
-            let sign = if mirrors % 2 == 1 { -1.0 } else { 1.0 };
-            if curve::arc_count(&pieces) == 0 {
-                Vec::new()
-            } else {
+    let mut sheet = sheet_points(ls);
+    let pieces = match fit {
+        Some(f) if sheet.len() >= 3 => match curves.pieces_of(&sheet) {
+            Some((start, pieces)) => {
+                sheet.rotate_left(start);
                 pieces
-                    .iter()
-                    .map(|p| Piece {
-                        from: place.map(p.from[0], p.from[1]),
-                        bulge: if p.bulge == 0.0 { 0.0 } else { sign * p.bulge },
-                    })
-                    .collect()
             }
-        }
+            None => curve::fit_ring_inside(&sheet, f.tol, f.inside),
+        },
         _ => Vec::new(),
+    };
+    let points = sheet.iter().map(|p| place.map(p[0], p[1])).collect();
+    let mirrors = 1 + u8::from(place.flip_x) + u8::from(place.flip_y);
+    let sign = if mirrors % 2 == 1 { -1.0 } else { 1.0 };
+    let curve = if curve::arc_count(&pieces) == 0 {
+        Vec::new()
+    } else {
+        pieces
+            .iter()
+            .map(|p| Piece {
+                from: place.map(p.from[0], p.from[1]),
+                bulge: if p.bulge == 0.0 { 0.0 } else { sign * p.bulge },
+            })
+            .collect()
     };
     (points, curve)
 }
@@ -484,7 +491,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         // A round sheet (a gobo's rim) is cut on its ring; the frame stays its box on the bed.
         let ring = geom.outline_ring.as_ref().map(|r| {
             let area = geo::Polygon::new(r.clone(), vec![]).unsigned_area();
-            (placed_ring(r, &place, fit), area)
+            (placed_ring(r, &place, fit, &geom.curves), area)
         });
         loops.push(match ring {
             Some(((points, curve), area_mm2)) if points.len() >= 3 => Loop {
@@ -551,7 +558,7 @@ fn cut_loops(geom: &CutLoops, place: &Placement, fit: Option<ArcFit>) -> Vec<Loo
             .iter()
             .chain(std::iter::once(poly.exterior()))
         {
-            let (pts, curve) = placed_ring(ring, place, fit);
+            let (pts, curve) = placed_ring(ring, place, fit, &geom.curves);
             let area = geo::Polygon::new(ring.clone(), vec![]).unsigned_area();
             if pts.len() >= 3 && area > 1e-9 {
                 loops.push(Loop {

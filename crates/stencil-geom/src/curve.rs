@@ -320,7 +320,12 @@ fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 /// The pieces as a polygon (closing point not repeated): lines as they are, arcs cut into chords
-/// no farther than `tol` from the arc, every chord end on the arc.
+/// no farther than `tol` from the arc, every chord end on the arc, and every point where an arc
+/// passes 0, 90, 180 or 270 degrees about its centre a vertex (the very numbers [`bounds`]
+/// gives).
+///
+/// Why those extremes: the polygon's box is then the arcs' own box, so a job placed by its
+/// polygons' box is placed by what the head really cuts, and no arc of it reaches outside.
 pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
     let n = pieces.len();
     let mut out = Vec::with_capacity(n);
@@ -333,15 +338,62 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
             } else {
                 std::f64::consts::FRAC_PI_2
             };
-            let count = (arc.sweep.abs() / step).ceil().clamp(1.0, 1e5) as usize;
-            for s in 1..count {
-                let a = arc.start_angle + arc.sweep * s as f64 / count as f64;
-                out.push([
-                    arc.center[0] + arc.radius * a.cos(),
-                    arc.center[1] + arc.radius * a.sin(),
-                ]);
+            // The sweep cut at its quarter-turn points, each part into equal chords.
+            let mut a0 = arc.start_angle;
+            let quarters = quarter_points(&arc);
+            let ends = quarters
+                .iter()
+                .map(|&(a, q)| (a, Some(q)))
+                .chain([(arc.start_angle + arc.sweep, None)]);
+            for (a1, q) in ends {
+                let count = ((a1 - a0).abs() / step).ceil().clamp(1.0, 1e5) as usize;
+                for s in 1..count {
+                    let a = a0 + (a1 - a0) * s as f64 / count as f64;
+                    out.push([
+                        arc.center[0] + arc.radius * a.cos(),
+                        arc.center[1] + arc.radius * a.sin(),
+                    ]);
+                }
+                if let Some(q) = q {
+                    out.push(q);
+                }
+                a0 = a1;
             }
         }
+    }
+    out
+}
+
+/// The points where an arc passes 0, 90, 180 or 270 degrees about its centre (strictly inside
+/// its sweep), in the order it passes them, with their angles: each the centre plus the radius
+/// along an axis (exact unit vectors, not cos/sin).
+fn quarter_points(arc: &ArcGeom) -> Vec<(f64, [f64; 2])> {
+    use std::f64::consts::FRAC_PI_2;
+    let (a0, a1) = if arc.sweep > 0.0 {
+        (arc.start_angle, arc.start_angle + arc.sweep)
+    } else {
+        (arc.start_angle + arc.sweep, arc.start_angle)
+    };
+    let mut out = Vec::new();
+    let mut q = (a0 / FRAC_PI_2).floor() + 1.0;
+    while q * FRAC_PI_2 < a1 {
+        let [dx, dy] = match q.rem_euclid(4.0) as u8 {
+            0 => [1.0, 0.0],
+            1 => [0.0, 1.0],
+            2 => [-1.0, 0.0],
+            _ => [0.0, -1.0],
+        };
+        out.push((
+            q * FRAC_PI_2,
+            [
+                arc.center[0] + arc.radius * dx,
+                arc.center[1] + arc.radius * dy,
+            ],
+        ));
+        q += 1.0;
+    }
+    if arc.sweep < 0.0 {
+        out.reverse();
     }
     out
 }
@@ -438,39 +490,19 @@ pub fn bounds(pieces: &[Piece]) -> Option<[f64; 4]> {
 /// The exact box of one arc from `p` to `q`: its ends, and its points at the quarter-turn
 /// angles its sweep passes.
 fn arc_box(arc: &ArcGeom, p: [f64; 2], q: [f64; 2]) -> [f64; 4] {
-    use std::f64::consts::FRAC_PI_2;
     let mut b = [
         p[0].min(q[0]),
         p[1].min(q[1]),
         p[0].max(q[0]),
         p[1].max(q[1]),
     ];
-    let (a0, a1) = if arc.sweep > 0.0 {
-        (arc.start_angle, arc.start_angle + arc.sweep)
-    } else {
-        (arc.start_angle + arc.sweep, arc.start_angle)
-    };
-    // k·π/2 strictly inside the sweep; each is one of the four axis directions (exact unit
-    // vectors, not cos/sin).
-    let mut q = (a0 / FRAC_PI_2).floor() + 1.0;
-    while q * FRAC_PI_2 < a1 {
-        let [dx, dy] = match q.rem_euclid(4.0) as u8 {
-            0 => [1.0, 0.0],
-            1 => [0.0, 1.0],
-            2 => [-1.0, 0.0],
-            _ => [0.0, -1.0],
-        };
-        let e = [
-            arc.center[0] + arc.radius * dx,
-            arc.center[1] + arc.radius * dy,
-        ];
+    for (_, e) in quarter_points(arc) {
         b = [
             b[0].min(e[0]),
             b[1].min(e[1]),
             b[2].max(e[0]),
             b[3].max(e[1]),
         ];
-        q += 1.0;
     }
     b
 }
@@ -487,6 +519,159 @@ pub fn length(pieces: &[Piece]) -> f64 {
             }
         })
         .sum()
+}
+
+/// The same path walked the other way: the pieces in reverse order, each from its old end,
+/// its bulge negated (an arc walked back turns the other way); the first piece still starts at
+/// `pieces[0].from`.
+pub fn reversed(pieces: &[Piece]) -> Vec<Piece> {
+    let m = pieces.len();
+    (0..m)
+        .map(|j| Piece {
+            from: pieces[(m - j) % m].from,
+            bulge: -pieces[(m + m - 1 - j) % m].bulge,
+        })
+        .collect()
+}
+
+/// Polygon rings known as the lines and arcs they are the flattening of ([`flatten`]), so that a
+/// writer handed a polygon can write the very arcs it came from instead of fitting arcs to it a
+/// second time (which would add its own error to the fit's and the flattening's).
+///
+/// A ring is found only when it is exactly (to the bit) a stored flattening, from any of its
+/// pieces' starts and in either direction (a cut region's outline is a hole of the material
+/// walked the other way): a ring that a later step moved, clipped or offset is not found, and
+/// its writer fits it as before.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Curves {
+    rings: Vec<CurvedRing>,
+    /// Each piece's start (its coordinates' bits): its ring and its index there.
+    starts: std::collections::HashMap<[u64; 2], (usize, usize)>,
+    /// The tolerance the rings were flattened within (what a ring derived from them, such as
+    /// their kerf offset, is flattened within too).
+    pub flatten_tol: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct CurvedRing {
+    pieces: Vec<Piece>,
+    flat: Vec<[f64; 2]>,
+    /// Where each piece starts in `flat`.
+    at: Vec<usize>,
+}
+
+fn key(p: [f64; 2]) -> [u64; 2] {
+    [p[0].to_bits(), p[1].to_bits()]
+}
+
+impl Curves {
+    /// An empty table for rings flattened within `flatten_tol`.
+    pub fn new(flatten_tol: f64) -> Self {
+        Curves {
+            flatten_tol,
+            ..Default::default()
+        }
+    }
+
+    /// How many rings are known.
+    pub fn len(&self) -> usize {
+        self.rings.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.rings.is_empty()
+    }
+
+    /// Remember that the polygon `flat` is the flattening of `pieces`: `flat` starts at
+    /// `pieces[0].from` and holds every piece's start, in order. Refused (false) otherwise, or
+    /// for no pieces.
+    pub fn insert(&mut self, pieces: Vec<Piece>, flat: Vec<[f64; 2]>) -> bool {
+        if pieces.is_empty() || flat.first() != Some(&pieces[0].from) {
+            return false;
+        }
+        let mut at = Vec::with_capacity(pieces.len());
+        let mut k = 0;
+        for p in &pieces {
+            while k < flat.len() && flat[k] != p.from {
+                k += 1;
+            }
+            if k == flat.len() {
+                return false;
+            }
+            at.push(k);
+            k += 1;
+        }
+        let r = self.rings.len();
+        for (j, p) in pieces.iter().enumerate() {
+            self.starts.insert(key(p.from), (r, j));
+        }
+        self.rings.push(CurvedRing { pieces, flat, at });
+        true
+    }
+
+    /// Every ring of `other` known here too.
+    pub fn extend(&mut self, other: &Curves) {
+        for c in &other.rings {
+            self.insert(c.pieces.clone(), c.flat.clone());
+        }
+    }
+
+    /// The pieces `ring` (a polygon, closing point not repeated) is the flattening of, in the
+    /// ring's direction, and the index in `ring` where the first of them starts; `None` when
+    /// the ring is not exactly a stored flattening.
+    pub fn pieces_of(&self, ring: &[[f64; 2]]) -> Option<(usize, Vec<Piece>)> {
+        let n = ring.len();
+        let (q, &(r, j)) = ring
+            .iter()
+            .enumerate()
+            .find_map(|(q, p)| Some((q, self.starts.get(&key(*p))?)))?;
+        let c = &self.rings[r];
+        if c.flat.len() != n {
+            return None;
+        }
+        let s = c.at[j];
+        if (0..n).all(|i| ring[(q + i) % n] == c.flat[(s + i) % n]) {
+            let mut p = c.pieces.clone();
+            p.rotate_left(j);
+            return Some((q, p));
+        }
+        if (0..n).all(|i| ring[(q + i) % n] == c.flat[(s + n - i) % n]) {
+            let mut p = c.pieces.clone();
+            p.rotate_left(j);
+            return Some((q, reversed(&p)));
+        }
+        None
+    }
+}
+
+/// Arcs of more than `max_sweep` radians cut in two at their middles (until none is), so a
+/// writer that takes arcs under a half turn (SVG's large-arc flag 0) can take any.
+pub fn split_arcs(pieces: &[Piece], max_sweep: f64) -> Vec<Piece> {
+    let n = pieces.len();
+    let mut out = Vec::with_capacity(n);
+    for (k, p) in pieces.iter().enumerate() {
+        let to = pieces[(k + 1) % n].from;
+        match arc_of(p.from, to, p.bulge) {
+            Some(arc) if arc.sweep.abs() > max_sweep => {
+                let parts = (arc.sweep.abs() / max_sweep).ceil().min(16.0) as usize;
+                let b = (arc.sweep / parts as f64 / 4.0).tan();
+                for s in 0..parts {
+                    let from = if s == 0 {
+                        p.from
+                    } else {
+                        let a = arc.start_angle + arc.sweep * s as f64 / parts as f64;
+                        [
+                            arc.center[0] + arc.radius * a.cos(),
+                            arc.center[1] + arc.radius * a.sin(),
+                        ]
+                    };
+                    out.push(Piece { from, bulge: b });
+                }
+            }
+            _ => out.push(*p),
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -814,5 +999,59 @@ mod tests {
         assert_eq!(arc_count(&fit_ring(&tri, 0.0)), 0);
         assert_eq!(fit_ring(&tri[..2], 1.0).len(), 2);
         assert_eq!(flatten(&fit_ring(&tri, 0.1), 0.1), tri.to_vec());
+    }
+
+    #[test]
+    fn a_flattening_is_found_again_either_way_and_from_any_start() {
+        let pieces = half_disc().to_vec();
+        let flat = flatten(&pieces, 0.01);
+        // Its box is the arcs' own (the extremes are vertices).
+        assert_eq!(crate::ring::bbox(&flat), bounds(&pieces).unwrap());
+        let mut table = Curves::new(0.01);
+        assert!(table.insert(pieces.clone(), flat.clone()));
+        // As stored.
+        assert_eq!(table.pieces_of(&flat), Some((0, pieces.clone())));
+        // Rotated: the first piece start found is the second piece's.
+        let at = flat.iter().position(|p| *p == pieces[1].from).unwrap();
+        let mut rot = flat.clone();
+        rot.rotate_left(3);
+        let (q, got) = table.pieces_of(&rot).unwrap();
+        assert_eq!(rot[q], pieces[1].from);
+        assert_eq!(q, at - 3);
+        assert_eq!(got[0], pieces[1]);
+        // Reversed (a cut region's outline is a material hole walked back): the same path.
+        let mut back = flat.clone();
+        back.reverse();
+        let (q, got) = table.pieces_of(&back).unwrap();
+        assert_eq!(back[q], got[0].from);
+        let again = flatten(&got, 0.01);
+        assert!((length(&got) - length(&pieces)).abs() < 1e-12);
+        assert_eq!(again.len(), flat.len());
+        // A ring moved by a nanometre anywhere is not found.
+        let mut moved = flat.clone();
+        moved[5][0] += 1e-9;
+        assert!(table.pieces_of(&moved).is_none());
+        assert!(table.pieces_of(&flat[1..]).is_none());
+        // Pieces whose starts the polygon lacks are refused.
+        assert!(!table.insert(pieces, flat[1..].to_vec()));
+    }
+
+    #[test]
+    fn long_arcs_are_split_into_equal_parts_on_the_same_circle() {
+        let q = (std::f64::consts::PI / 8.0).tan();
+        // Nearly a half turn, then a quarter turn back: the first in two, the second kept.
+        let pieces = [
+            Piece {
+                from: [1.0, 0.0],
+                bulge: 0.99,
+            },
+            Piece {
+                from: [-1.0, 0.0],
+                bulge: q,
+            },
+        ];
+        let split = split_arcs(&pieces, std::f64::consts::FRAC_PI_2);
+        assert_eq!(split.len(), 3, "{split:?}");
+        assert!((length(&split) - length(&pieces)).abs() < 1e-9);
     }
 }

@@ -6,9 +6,11 @@
 //!   in parallel), behind a gate ([`clip::check_rings`], a work estimate) so that no input can
 //!   panic, abort or stall it; [`ClipError`] says why a shape was refused.
 //! - [`kerf::offset_cuts`]: cut regions shrunk by half the tool's kerf, so the removed strip's
-//!   edge lands on the design line.
+//!   edge lands on the design line; [`kerf::offset_cuts_curved`] offsets regions known as lines
+//!   and arcs exactly (cavalier_contours).
 //! - [`curve`]: closed outlines fitted with lines and arcs within a tolerance ([`curve::fit_ring`]),
-//!   and flattened back ([`curve::flatten`]).
+//!   and flattened back ([`curve::flatten`]); [`curve::Curves`] finds a flattened ring's pieces
+//!   again, so the writers carry the fitted arcs themselves.
 //! - [`ring`]: measures of a ring as a point list: [`ring::bbox`], [`ring::signed_area2`],
 //!   [`ring::area`], [`ring::point_in_ring`], [`ring::dist`].
 //!

@@ -16,9 +16,7 @@ use dxf::{Color, Drawing, LwPolylineVertex, Point};
 
 use geo::LineString;
 
-use stencil_geom::curve;
-
-use super::svg::{ring_points, rings};
+use super::svg::{ring_pieces, ring_points, rings};
 use super::ExportError;
 use crate::vector::CutGeometry;
 
@@ -26,9 +24,9 @@ use crate::vector::CutGeometry;
 pub const CUT_LAYER: &str = "CUT";
 pub const OUTLINE_LAYER: &str = "OUTLINE";
 
-/// Encode the stencil as DXF (R2000, or R12 when `r12`). Cut loops are fitted with lines and
-/// arcs within `arc_tolerance_mm` ([`stencil_geom::curve::fit_ring`]; 0: the polygons as they
-/// are), each arc a vertex bulge (group 42, `tan(sweep / 4)`, positive counter-clockwise), which
+/// Encode the stencil as DXF (R2000, or R12 when `r12`). Cut loops are lines and arcs: the
+/// vector stage's curves ([`CutGeometry::curves`]) where a ring is theirs, else fitted within
+/// `arc_tolerance_mm` ([`stencil_geom::curve::fit_ring`]; 0: the polygons as they are), each arc a vertex bulge (group 42, `tan(sweep / 4)`, positive counter-clockwise), which
 /// R12 POLYLINE vertices and R2000 LWPOLYLINEs both carry and CAD, LightBurn and LaserGRBL read
 /// as true arcs: still one closed polyline per loop, not loose ARC entities.
 pub fn encode(
@@ -71,7 +69,7 @@ pub fn encode(
         };
         // y flips, so a counter-clockwise arc in the sheet's numbers turns clockwise in the
         // DXF's: the bulge changes sign.
-        let pieces: Vec<(f64, f64, f64)> = curve::fit_ring(&pts, tol)
+        let pieces: Vec<(f64, f64, f64)> = ring_pieces(&pts, &geom.curves, tol)
             .iter()
             .map(|p| {
                 let (x, y) = tf(p.from[0], p.from[1]);

@@ -10,6 +10,7 @@
 use std::fmt::Write;
 
 use geo::{LineString, MultiPolygon, Polygon};
+use stencil_geom::curve::{self, Curves};
 
 use crate::vector::CutGeometry;
 
@@ -64,20 +65,31 @@ pub(crate) fn ring_points(r: &LineString<f64>) -> Option<Vec<[f64; 2]>> {
     (n >= 3).then(|| pts[..n].iter().map(|c| [c.x, c.y]).collect())
 }
 
-/// Path data for closed rings fitted with lines and arcs within `tol` mm
-/// ([`stencil_geom::curve::fit_ring`]): each `M … Z`, straight pieces as `L`, arcs as `A` (an
-/// exact circular arc, which every SVG reader takes; never more than a half turn, so the large-arc
-/// flag is 0; the sweep flag is 1 for an arc turning towards +y from +x, as the numbers run).
-/// `tol` 0 gives [`path_data`]'s polygons.
+/// The lines and arcs a ring is written as, from its pieces' first start: those in `curves`
+/// when the ring is the flattening of known curves (the vector stage's fit, written as it is),
+/// else fitted to the polygon within `tol` ([`stencil_geom::curve::fit_ring`]; `tol` 0: its
+/// lines). The SVG and DXF writers share it, so both carry the same pieces.
+pub(crate) fn ring_pieces(pts: &[[f64; 2]], curves: &Curves, tol: f64) -> Vec<curve::Piece> {
+    match curves.pieces_of(pts) {
+        Some((_, pieces)) if tol > 0.0 => pieces,
+        _ => curve::fit_ring(pts, tol),
+    }
+}
+
+/// Path data for closed rings as lines and arcs ([`ring_pieces`]: the fitted curves when
+/// `curves` knows the ring, else fitted within `tol` mm): each `M … Z`, straight pieces as `L`,
+/// arcs as `A` (an exact circular arc, which every SVG reader takes; never more than a half
+/// turn, so the large-arc flag is 0; the sweep flag is 1 for an arc turning towards +y from
+/// +x, as the numbers run). `tol` 0 gives [`path_data`]'s polygons.
 pub fn curve_path_data<'a>(
     rings: impl IntoIterator<Item = &'a LineString<f64>>,
+    curves: &Curves,
     tol: f64,
 ) -> String {
-    use stencil_geom::curve;
     let mut d = String::new();
     for r in rings {
         let Some(pts) = ring_points(r) else { continue };
-        let pieces = curve::fit_ring(&pts, tol);
+        let pieces = ring_pieces(&pts, curves, tol);
         let n = pieces.len();
         let _ = write!(d, "M{} {}", num(pieces[0].from[0]), num(pieces[0].from[1]));
         for k in 0..n {
@@ -119,8 +131,9 @@ fn layer(id: &str, label: &str, body: &str) -> svg::node::element::Group {
         .add(svg::node::Blob::new(body.to_string()))
 }
 
-/// Encode the stencil as SVG, the cut regions' outlines as lines and arcs fitted within
-/// `arc_tolerance_mm` of the design polygons (0: the polygons as they are).
+/// Encode the stencil as SVG, the cut regions' outlines as lines and arcs: the vector stage's
+/// curves ([`CutGeometry::curves`]) where a ring is theirs, else fitted within
+/// `arc_tolerance_mm` of the design polygons (0: the polygons as they are, no arcs at all).
 pub fn encode(geom: &CutGeometry, arc_tolerance_mm: f64) -> Vec<u8> {
     use svg::node::element::{Path, Rectangle};
     let o = geom.outline;
@@ -149,6 +162,7 @@ pub fn encode(geom: &CutGeometry, arc_tolerance_mm: f64) -> Vec<u8> {
     for p in &geom.design_cuts.0 {
         let d = curve_path_data(
             std::iter::once(p.exterior()).chain(p.interiors()),
+            &geom.curves,
             arc_tolerance_mm,
         );
         let path = Path::new()
@@ -216,6 +230,7 @@ mod tests {
             unbridged_cuts: MultiPolygon(vec![]),
             kerf_mm: 0.0,
             rim: None,
+            curves: Default::default(),
         };
         let text = String::from_utf8(encode(&geom, 0.05)).unwrap();
         let back = stencil_gcode::read_svg::cut_loops_from_svg(&text, "stencil.svg").unwrap();

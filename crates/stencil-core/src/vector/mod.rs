@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use stencil_gcode::{CutLoops, Pieces};
 use stencil_geom::clip;
+use stencil_geom::curve::{Curves, Piece};
 use stencil_geom::kerf;
 use stencil_geom::ring::{bbox, point_in_ring, signed_area2};
 
@@ -72,6 +73,12 @@ pub struct CutGeometry {
     /// A gobo's rim (`--gobo`): then the sheet's cut edge is this circle, not `outline`
     /// (which becomes the rim's square grown by the margin; `gobo::place` puts it).
     pub rim: Option<Rim>,
+    /// The lines and arcs that rings of `design_cuts` (and of `cuts`, after
+    /// [`CutGeometry::apply_kerf`]) are the flattening of: the curves fitted to the traced
+    /// outline, which SVG, DXF and G-code write as they are rather than fitting arcs to the
+    /// polygons again. Empty without arcs; a ring a later step changes is not found in it (its
+    /// writer fits it).
+    pub curves: Curves,
 }
 
 /// A gobo's rim and image area placed on a stencil, in the picture's millimetres (y down)
@@ -142,7 +149,7 @@ pub struct VectorConfig {
     /// Fit the traced outlines with lines and arcs within the tolerance (corners kept, the
     /// pixels on their sides), instead of leaving simplification's chords; the geometry holds
     /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
-    /// and the writers find the arcs again within [`VectorConfig::arc_tolerance_mm`].
+    /// and the curves themselves ([`CutGeometry::curves`]), which the writers carry.
     pub curves: bool,
     /// Whether the files will carry arcs. Off (`--no-arcs`, a machine profile with `arcs =
     /// false`, a drag knife) the fitted curves only place the corners of straight outlines within
@@ -168,19 +175,19 @@ impl Default for VectorConfig {
 
 impl VectorConfig {
     /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
-    /// Why so fine: with arcs, this polygon is only what the check judges and what the writers
-    /// fit their arcs to again (within [`VectorConfig::arc_tolerance_mm`], which must exceed it
-    /// for a flattened arc to be found whole), never what a file carries. Without arcs it is not
-    /// used for the outline ([`VectorConfig::arcs`]); it stays the margin the fit keeps the
-    /// pixel centres clear of the curves by.
+    /// Why so fine: with arcs, this polygon is only what the check judges, never what a file
+    /// carries (the files carry the fitted arcs, [`CutGeometry::curves`]). It is also the margin
+    /// the fit keeps the pixel centres clear of the curves by, so the flattening samples to the
+    /// same pixels. Without arcs it is not used for the outline ([`VectorConfig::arcs`]).
     pub fn flatten_mm(&self) -> f64 {
         self.tolerance_mm / 5.0
     }
 
-    /// How far SVG, DXF and G-code arcs may stray from the geometry's polygons: a quarter of the
+    /// How far SVG, DXF and G-code arcs may stray from a polygon whose curves the geometry does
+    /// not know ([`CutGeometry::curves`]; a ring a later step changed): a quarter of the
     /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
-    /// whole, and little enough that the files stay on what the check judged. 0 when the files
-    /// carry no arcs ([`VectorConfig::arcs`]): they write the polygons as they are.
+    /// whole. 0 when the files carry no arcs ([`VectorConfig::arcs`]): they write the polygons
+    /// as they are.
     pub fn arc_tolerance_mm(&self) -> f64 {
         if self.arcs {
             self.tolerance_mm / 4.0
@@ -263,7 +270,22 @@ pub fn vectorize_design(
         flatten: cfg.scale.to_px(Mm(cfg.flatten_mm())).0,
         straight: !cfg.arcs,
     });
-    let simplify = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);
+    let (simplify, pieces) = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);
+    // The curves in mm, each point scaled as `to_ring` scales the polygon's, so that the
+    // polygons are found in the table to the bit.
+    let mut curves = Curves::new(cfg.flatten_mm());
+    for (r, p) in rings.iter().zip(pieces) {
+        if let Some(p) = p {
+            let pieces = p
+                .iter()
+                .map(|q| Piece {
+                    from: [q.from[0] * mm, q.from[1] * mm],
+                    bulge: q.bulge,
+                })
+                .collect();
+            curves.insert(pieces, r.iter().map(|p| [p[0] * mm, p[1] * mm]).collect());
+        }
+    }
     let (w, h) = (bits.width as f64 * mm, bits.height as f64 * mm);
     let m = cfg.margin_mm;
     let outline = Rect::new(Coord { x: -m, y: -m }, Coord { x: w + m, y: h + m });
@@ -296,6 +318,7 @@ pub fn vectorize_design(
         unbridged_cuts: MultiPolygon::new(Vec::new()),
         kerf_mm: 0.0,
         rim: None,
+        curves,
     };
     let stats = VectorStats {
         simplify,
@@ -363,16 +386,23 @@ impl CutGeometry {
             pieces,
             lines: Vec::new(),
             outline_ring,
+            curves: self.curves.clone(),
         }
     }
 
-    /// Set the tool paths: the design cuts offset by half of `kerf_mm` (see [`kerf`]).
+    /// Set the tool paths: the design cuts offset by half of `kerf_mm` (see [`kerf`]); a cut
+    /// region known as curves is offset as its lines and arcs ([`kerf::offset_cuts_curved`]),
+    /// and its tool path joins [`CutGeometry::curves`].
     pub fn apply_kerf(&mut self, kerf_mm: f64) -> Result<(), VectorError> {
-        self.cuts =
-            kerf::offset_cuts(&self.design_cuts, kerf_mm).map_err(|cause| VectorError::Clip {
+        let (cuts, tool) = kerf::offset_cuts_curved(&self.design_cuts, kerf_mm, &self.curves)
+            .map_err(|cause| VectorError::Clip {
                 what: "the kerf offset",
                 cause,
             })?;
+        self.cuts = cuts;
+        if kerf_mm > 0.0 {
+            self.curves.extend(&tool);
+        }
         self.kerf_mm = kerf_mm.max(0.0);
         Ok(())
     }

@@ -17,6 +17,7 @@ use geo::kernels::{Kernel, Orientation, RobustKernel};
 use geo::Coord;
 use rayon::prelude::*;
 
+use stencil_geom::curve::Piece;
 use stencil_geom::ring::signed_area2;
 
 use super::trace::Guard;
@@ -62,7 +63,7 @@ pub fn simplify_rings(
     guards: Option<&[Vec<Guard>]>,
     tol: f64,
 ) -> SimplifyStats {
-    simplify_and_fit(rings, guards, tol, None)
+    simplify_and_fit(rings, guards, tol, None).0
 }
 
 /// [`simplify_rings`], then, with `curves`, each simplified ring replaced by lines and arcs
@@ -71,12 +72,15 @@ pub fn simplify_rings(
 /// staircases cut into chords. The guards hold for the curves too, `curves.flatten` clear, so
 /// the flattened curves sample to the same raster; a ring whose curves would cross or touch
 /// another ring keeps its simplified form (the same rounds as simplification's).
+///
+/// Also returns, per ring, the lines and arcs its polygon is the flattening of (when it is one:
+/// fitted, kept, and not made straight), so that the files can carry those very arcs.
 pub fn simplify_and_fit(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
     tol: f64,
     curves: Option<FitCurves>,
-) -> SimplifyStats {
+) -> (SimplifyStats, Vec<Option<Vec<Piece>>>) {
     let mut stats = SimplifyStats {
         rings: rings.len(),
         points_in: rings.iter().map(Vec::len).sum(),
@@ -130,8 +134,9 @@ pub fn simplify_and_fit(
             break;
         }
     }
+    let mut pieces = vec![None; rings.len()];
     if let (Some(c), true) = (curves, tol > 0.0) {
-        fit_curves(
+        pieces = fit_curves(
             rings,
             &originals,
             &simplified,
@@ -143,11 +148,12 @@ pub fn simplify_and_fit(
         );
     }
     stats.points_out = rings.iter().map(Vec::len).sum();
-    stats
+    (stats, pieces)
 }
 
 /// The curve step of [`simplify_and_fit`]: rings that simplified (`simplified[i]`) are fitted
-/// from their traced points; any that then conflict go back to their simplified form.
+/// from their traced points; any that then conflict go back to their simplified form. Returns
+/// the pieces of each ring kept as flattened curves.
 #[allow(clippy::too_many_arguments)]
 fn fit_curves(
     rings: &mut [Vec<[f64; 2]>],
@@ -158,10 +164,11 @@ fn fit_curves(
     c: FitCurves,
     cell: f64,
     stats: &mut SimplifyStats,
-) {
+) -> Vec<Option<Vec<Piece>>> {
     use stencil_geom::curve;
     let rings_len: Vec<usize> = rings.iter().map(Vec::len).collect();
-    let fitted: Vec<Option<(Vec<[f64; 2]>, usize)>> = (0..rings.len())
+    type Fitted = (Vec<[f64; 2]>, usize, Option<Vec<Piece>>);
+    let fitted: Vec<Option<Fitted>> = (0..rings.len())
         .into_par_iter()
         .map(|i| {
             if !simplified[i] {
@@ -177,27 +184,29 @@ fn fit_curves(
             if arcs == 0 {
                 return None;
             }
-            let flat = if c.straight {
+            let (flat, pieces) = if c.straight {
                 let g = guards.and_then(|g| g.get(i)).map(Vec::as_slice);
                 let s = straighten(orig, &pieces, g, tol)?;
                 // Simplification's polygon (in `rings[i]` until now) when it has fewer points.
                 if s.len() >= rings_len[i] {
                     return None;
                 }
-                s
+                (s, None)
             } else {
-                curve::flatten(&pieces, c.flatten)
+                (curve::flatten(&pieces, c.flatten), Some(pieces))
             };
             let a = signed_area2(&flat);
             (flat.len() >= 3 && a != 0.0 && a.signum() == signed_area2(orig).signum())
-                .then_some((flat, arcs))
+                .then_some((flat, arcs, pieces))
         })
         .collect();
     let mut kept: Vec<Option<(Vec<[f64; 2]>, usize)>> = vec![None; rings.len()];
+    let mut pieces: Vec<Option<Vec<Piece>>> = vec![None; rings.len()];
     for (i, f) in fitted.into_iter().enumerate() {
-        if let Some((flat, arcs)) = f {
+        if let Some((flat, arcs, p)) = f {
             let dp = std::mem::replace(&mut rings[i], flat);
             kept[i] = Some((dp, arcs));
+            pieces[i] = p;
         }
     }
     for _ in 0..8 {
@@ -205,6 +214,7 @@ fn fit_curves(
         for i in conflicts(rings, cell) {
             if let Some((dp, _)) = kept[i].take() {
                 rings[i] = dp;
+                pieces[i] = None;
                 changed = true;
             }
         }
@@ -216,6 +226,7 @@ fn fit_curves(
         stats.curved_rings += 1;
         stats.arcs += arcs;
     }
+    pieces
 }
 
 /// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto
@@ -624,7 +635,7 @@ mod tests {
         for tol in [0.5, 1.0] {
             let run = |curves: Option<FitCurves>| {
                 let mut r = rings.clone();
-                let st = simplify_and_fit(&mut r, Some(&guards), tol, curves);
+                let st = simplify_and_fit(&mut r, Some(&guards), tol, curves).0;
                 (r, st)
             };
             let (dp, dp_st) = run(None);
