@@ -84,10 +84,7 @@ fn main() {
         let p = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut timer).unwrap();
         t("3 prepare", s);
         let s = Instant::now();
-        let p = p.clone();
-        t("3c prepared copied", s);
-        let s = Instant::now();
-        let j = pipeline::bridge_prepared(p, &params.join, &mut timer).unwrap();
+        let j = pipeline::bridge_prepared(&p, &params.join, &mut timer).unwrap();
         t("4 bridge", s);
         let s = Instant::now();
         let idx = stencil_core::export::png::preview_indexed(

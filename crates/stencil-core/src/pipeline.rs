@@ -1165,7 +1165,23 @@ pub fn join(
     timer: &mut Timings,
 ) -> Result<Joined, Error> {
     let prepared = prepare(twotone, level, p, timer)?;
-    bridge_prepared(prepared, p, timer)
+    let bridged = bridge_drawn(&prepared, p, timer)?;
+    let Prepared {
+        twotone,
+        user,
+        map,
+        dropped,
+        dropped_px,
+        walks: _,
+    } = prepared;
+    Ok(Joined {
+        twotone,
+        user,
+        map,
+        bridged,
+        dropped,
+        dropped_px,
+    })
 }
 
 /// What [`join`] chooses its bridges from: the two-tone with the small and the dropped islands
@@ -1227,22 +1243,34 @@ pub fn prepare(
 
 /// [`join`]'s second half: the bridges chosen from `prepared` (made by [`prepare`] for the same
 /// [`Prepared::key`]) and drawn, the clean-up around them, and the check that nothing floats.
+/// `prepared` is only read (the studio keeps it for the next weights): the result holds copies
+/// of its two-tone, islands and dropped islands, but its walks are lent, not copied.
 pub fn bridge_prepared(
-    prepared: Prepared,
+    prepared: &Prepared,
     p: &JoinParams,
     timer: &mut Timings,
 ) -> Result<Joined, Error> {
-    let Prepared {
-        twotone,
-        user,
-        map,
-        dropped,
-        dropped_px,
-        walks,
-    } = prepared;
+    let bridged = bridge_drawn(prepared, p, timer)?;
+    Ok(Joined {
+        twotone: prepared.twotone.clone(),
+        user: prepared.user.clone(),
+        map: prepared.map.clone(),
+        bridged,
+        dropped: prepared.dropped.clone(),
+        dropped_px: prepared.dropped_px.clone(),
+    })
+}
+
+/// [`bridge_prepared`]'s work: the bridges chosen and drawn, the clean-up, the check.
+fn bridge_drawn(
+    prepared: &Prepared,
+    p: &JoinParams,
+    timer: &mut Timings,
+) -> Result<Bridged, Error> {
+    let (twotone, map) = (&prepared.twotone, &prepared.map);
     let mut bridged = timer.time("bridge", || {
         let mut t = Timings::default();
-        bridge::connect_walked(&twotone, &map, &p.bridge, walks, &mut t)
+        bridge::connect_walked(twotone, map, &p.bridge, &prepared.walks, &mut t)
     })?;
     timer.time("tidy", || match p.settle_px {
         Some(px) => {
@@ -1290,14 +1318,7 @@ pub fn bridge_prepared(
             area: node.area,
         });
     }
-    Ok(Joined {
-        twotone,
-        user,
-        map,
-        bridged,
-        dropped,
-        dropped_px,
-    })
+    Ok(bridged)
 }
 
 /// Drop the islands that are cheaper to drop than to bridge (`bridge::drop::choose`), never one

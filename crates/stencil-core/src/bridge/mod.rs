@@ -39,6 +39,7 @@ pub(crate) mod tree;
 pub use constraints::{Request, UserBridges};
 pub use strength::{IslandStrength, StrengthConfig, StrengthReport, Why, MAX_PER_ISLAND};
 
+use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
@@ -341,9 +342,12 @@ impl BridgeConfig {
 }
 
 /// Everything computed about the candidates before the tree: strips, their costs and scores.
-struct Graph {
-    cands: candidates::Candidates,
-    strips: Vec<Option<strips::Strip>>,
+/// The candidates and their strips are borrowed from the [`Walks`] (the studio keeps those while
+/// a person tries weights, and copying them cost more than choosing the bridges saved); only the
+/// fallback search, which adds a candidate, makes its own copy.
+struct Graph<'w> {
+    cands: Cow<'w, candidates::Candidates>,
+    strips: Cow<'w, [Option<strips::Strip>]>,
     costs: Vec<Option<cost::StripCost>>,
     scores: Vec<Option<cost::Scored>>,
     norm: cost::Norm,
@@ -385,7 +389,7 @@ pub fn connect_timed(
     times: &mut Timings,
 ) -> Result<Bridged, BridgeError> {
     let walks = walk(two, map, cfg, times)?;
-    connect_walked(two, map, cfg, walks, times)
+    connect_walked(two, map, cfg, &walks, times)
 }
 
 /// The candidates and their walks: what [`connect`] chooses the bridges from. No weight reads
@@ -462,12 +466,13 @@ pub fn walk(
 }
 
 /// The second half of [`connect_timed`]: from `walks` (made by [`walk`] for the same `two`,
-/// `map` and [`Walks::key`]) to the bridges drawn.
+/// `map` and [`Walks::key`]) to the bridges drawn. The walks are only read, so a caller that
+/// keeps them for the next weights lends them rather than copying them.
 pub fn connect_walked(
     two: &TwoTone,
     map: &IslandMap,
     cfg: &BridgeConfig,
-    walks: Walks,
+    walks: &Walks,
     times: &mut Timings,
 ) -> Result<Bridged, BridgeError> {
     cfg.validate()?;
@@ -481,12 +486,9 @@ pub fn connect_walked(
         });
     }
     let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
-    let Walks {
-        cands,
-        walked,
-        copies,
-    } = walks;
-    let mut g = times.time("scores", || build_graph(cands, walked, &copies, map, cfg));
+    let mut g = times.time("scores", || {
+        build_graph(&walks.cands, &walks.walked, &walks.copies, map, cfg)
+    });
     let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
     let (tree, extra, strength, requests) = times.time("strength", || {
         // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
@@ -646,13 +648,13 @@ fn walk_all(
 }
 
 /// Normalisation, strip costs and window scores, in parallel; candidates grouped by node pair.
-fn build_graph(
-    cands: candidates::Candidates,
-    strips: Vec<Option<strips::Strip>>,
+fn build_graph<'w>(
+    cands: &'w candidates::Candidates,
+    strips: &'w [Option<strips::Strip>],
     copies: &[bool],
     map: &IslandMap,
     cfg: &BridgeConfig,
-) -> Graph {
+) -> Graph<'w> {
     // The scale of the terms is the walks' (the paper's strips): the shortest gaps are costed in
     // the same units, so they compete with walks on the walks' terms, and a picture's walks cost
     // what they cost without them.
@@ -665,8 +667,8 @@ fn build_graph(
         .collect();
     let walked = cands.len();
     let mut g = Graph {
-        cands,
-        strips,
+        cands: Cow::Borrowed(cands),
+        strips: Cow::Borrowed(strips),
         costs,
         scores: Vec::new(),
         norm,
@@ -729,10 +731,10 @@ fn add_found_strip(
     start: (u32, u32),
     strip: strips::Strip,
 ) -> usize {
-    let id = g.cands.push_single(strip.from, start);
+    let id = g.cands.to_mut().push_single(strip.from, start);
     let p = pair(strip.from, strip.to);
     g.costs.push(Some(g.norm.strip(&strip)));
-    g.strips.push(Some(strip));
+    g.strips.to_mut().push(Some(strip));
     g.scores.push(None);
     g.scores[id] = score_one(g, map, cfg, id, &mut Vec::new());
     g.by_pair.entry(p).or_default().push(id);
