@@ -443,6 +443,26 @@ pub fn svg_subpaths(d: &str, tol: f64) -> Vec<Vec<[f64; 2]>> {
     out
 }
 
+/// The cut moves of a program read by the project's Grbl interpreter, loop by loop, as points
+/// (an arc as Grbl's chords): a loop ends at a rapid move.
+pub fn cut_loops(moves: &[stencil_gcode::interpret::Move]) -> Vec<Vec<[f64; 2]>> {
+    let mut out: Vec<Vec<[f64; 2]>> = Vec::new();
+    let mut open = false;
+    for m in moves {
+        let cuts = !m.rapid && m.power > 0.0 && (m.from[0] != m.to[0] || m.from[1] != m.to[1]);
+        if cuts {
+            if !open {
+                out.push(vec![[m.from[0], m.from[1]]]);
+                open = true;
+            }
+            out.last_mut().unwrap().push([m.to[0], m.to[1]]);
+        } else if m.rapid {
+            open = false;
+        }
+    }
+    out
+}
+
 /// Distance from `p` to the segment `a`–`b`.
 pub fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let d = [b[0] - a[0], b[1] - a[1]];

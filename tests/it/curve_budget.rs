@@ -134,23 +134,12 @@ impl Near {
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for &(a, b) in self.grid.get(&(cx + dx, cy + dy)).into_iter().flatten() {
-                    best = best.min(seg_dist(p, a, b));
+                    best = best.min(common::seg_dist(p, a, b));
                 }
             }
         }
         best
     }
-}
-
-fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
 }
 
 /// Points every 0.01 mm along the paths (closed or open).
@@ -328,20 +317,7 @@ fn gcode_paths(w: &Written) -> (Vec<Vec<[f64; 2]>>, usize) {
         .filter(|l| l.starts_with("G2 ") || l.starts_with("G3 "))
         .count();
     let moves = interpret(&text).unwrap_or_else(|e| panic!("{e}"));
-    let mut loops: Vec<Vec<[f64; 2]>> = Vec::new();
-    let mut open = false;
-    for m in &moves {
-        let cuts = !m.rapid && m.power > 0.0 && (m.from[0] != m.to[0] || m.from[1] != m.to[1]);
-        if cuts {
-            if !open {
-                loops.push(vec![[m.from[0], m.from[1]]]);
-                open = true;
-            }
-            loops.last_mut().unwrap().push([m.to[0], m.to[1]]);
-        } else if m.rapid {
-            open = false;
-        }
-    }
+    let mut loops = common::cut_loops(&moves);
     let ymax = w.height + w.margin;
     let outline = loops.pop().expect("the outline is cut last");
     let (sw, sh) = (

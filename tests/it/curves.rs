@@ -9,7 +9,7 @@ use crate::common::{self, one_way, s, stderr, stencil};
 use resvg::tiny_skia;
 use resvg::usvg;
 use stencil_core::raster::BitGrid;
-use stencil_gcode::interpret::{interpret, Move};
+use stencil_gcode::interpret::interpret;
 
 /// Dark (cut) ellipses and discs on white, apart from each other and the edge: smooth outlines,
 /// nothing to bridge.
@@ -50,25 +50,6 @@ fn make(input: &Path, out: &Path, extra: &[&str]) {
     args.extend_from_slice(extra);
     let o = stencil(&args);
     assert!(o.status.success(), "{}", stderr(&o));
-}
-
-/// The cut moves of a program, loop by loop (a loop ends at a move that does not cut).
-fn cut_paths(moves: &[Move]) -> Vec<Vec<[f64; 2]>> {
-    let mut out: Vec<Vec<[f64; 2]>> = Vec::new();
-    let mut open = false;
-    for m in moves {
-        let cuts = !m.rapid && m.power > 0.0 && (m.from[0] != m.to[0] || m.from[1] != m.to[1]);
-        if cuts {
-            if !open {
-                out.push(vec![[m.from[0], m.from[1]]]);
-                open = true;
-            }
-            out.last_mut().unwrap().push([m.to[0], m.to[1]]);
-        } else if m.rapid {
-            open = false;
-        }
-    }
-    out
 }
 
 #[test]
@@ -128,7 +109,7 @@ fn gcode_arcs_follow_the_polygon_within_the_tolerance_and_pass_grbls_parser() {
     // had before (1.45 tolerances). Plus Grbl's $12 arc chords, 0.002 mm, and the written
     // numbers' rounding of X, Y, I and J, which moves ends and centre by up to 0.003 mm
     // together.
-    let (a, b) = (cut_paths(&moves), cut_paths(&flat));
+    let (a, b) = (common::cut_loops(&moves), common::cut_loops(&flat));
     assert_eq!(a.len(), b.len());
     assert!(a.len() >= 5);
     let limit = 0.05 + 0.05 * (1.0 + 1.0 / 5.0 + 1.0 / 4.0) + 0.002 + 0.003;
@@ -166,7 +147,7 @@ fn no_arcs_is_no_larger_than_the_simplified_polygon() {
         &["--no-arcs", "--material", "cardstock", "--passes", "1"],
     );
     let text = std::fs::read_to_string(out.join("stencil.gcode")).unwrap();
-    let written: usize = cut_paths(&interpret(&text).unwrap())
+    let written: usize = common::cut_loops(&interpret(&text).unwrap())
         .iter()
         .map(|p| p.len() - 1)
         .sum();
