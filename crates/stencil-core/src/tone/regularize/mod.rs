@@ -863,6 +863,53 @@ pub fn settle_near(
         return 0;
     }
     let reach = disc.span + 1;
+    // Boxes whose windows overlap are settled together, in one window holding them all with a
+    // margin of two spans past the reach `spread` spans around each (a pixel's thinness depends
+    // on the pixels within two spans), so thinness in the part that may change is measured
+    // exactly; pixels within the margin of the window's cut edges may be misjudged (the padding
+    // stands in for what lies beyond) and may not change ([`clusters`]).
+    // Each cluster is settled in the box holding its windows, reading the bits there and
+    // changing them only inside it. So clusters whose boxes do not overlap are independent: each
+    // cluster runs in a wave after every earlier cluster (in cluster order) whose box overlaps its
+    // own, the clusters of a wave in parallel against the bits the earlier waves left, and what
+    // they add is set between waves: the same pixels as settling them one after the other.
+    let jobs = clusters(bits, boxes, reach, spread);
+    let mut wave = vec![0usize; jobs.len()];
+    for j in 0..jobs.len() {
+        wave[j] = (0..j)
+            .filter(|&i| meets(jobs[i].window, jobs[j].window))
+            .map(|i| wave[i] + 1)
+            .max()
+            .unwrap_or(0);
+    }
+    let mut added = 0;
+    for now in 0..=wave.iter().copied().max().unwrap_or(0) {
+        let snapshot: &BitGrid = bits;
+        let found: Vec<Vec<(u32, u32)>> = jobs
+            .par_iter()
+            .zip(&wave)
+            .filter(|(_, &k)| k == now)
+            .map(|(c, _)| settle_window(snapshot, c.window, &c.own, &c.near, disc, reach))
+            .collect();
+        for (x, y) in found.into_iter().flatten() {
+            bits.set(x, y, true);
+            added += 1;
+        }
+    }
+    added
+}
+
+/// A cluster of [`settle_near`]'s boxes: the box holding its windows, in which it is settled,
+/// and its members' own boxes and their surroundings (`spread` reaches around each).
+struct Cluster {
+    window: [u32; 4],
+    own: Vec<[u32; 4]>,
+    near: Vec<[u32; 4]>,
+}
+
+/// [`settle_near`]'s clusters, in cluster-number order: each box's window (its box grown by two
+/// spans past `spread` reaches, clipped to the picture), windows that overlap in one cluster.
+fn clusters(bits: &BitGrid, boxes: &[[u32; 4]], reach: u32, spread: u32) -> Vec<Cluster> {
     let (w, h) = (bits.width, bits.height);
     let grow = |b: [u32; 4], m: u32| {
         [
@@ -872,11 +919,6 @@ pub fn settle_near(
             (b[3] + m).min(h),
         ]
     };
-    // Boxes whose windows overlap are settled together, in one window holding them all with a
-    // margin of two spans past the reach `spread` spans around each (a pixel's thinness depends
-    // on the pixels within two spans), so thinness in the part that may change is measured
-    // exactly; pixels within the margin of the window's cut edges may be misjudged (the padding
-    // stands in for what lies beyond) and may not change.
     let windows: Vec<[u32; 4]> = boxes
         .iter()
         .map(|&b| grow(b, (2 + spread) * reach))
@@ -885,13 +927,7 @@ pub fn settle_near(
     let mut ids = cluster.clone();
     ids.sort_unstable();
     ids.dedup();
-    // Each cluster is settled in the box holding its windows, reading the bits there and
-    // changing them only inside it. So clusters whose boxes do not overlap are independent: each
-    // cluster runs in a wave after every earlier cluster (in `ids` order) whose box overlaps its
-    // own, the clusters of a wave in parallel against the bits the earlier waves left, and what
-    // they add is set between waves: the same pixels as settling them one after the other.
-    let jobs: Vec<([u32; 4], Vec<usize>)> = ids
-        .iter()
+    ids.iter()
         .map(|&id| {
             let members: Vec<usize> = (0..boxes.len()).filter(|&i| cluster[i] == id).collect();
             let window = members
@@ -906,47 +942,27 @@ pub fn settle_near(
                     ]
                 })
                 .expect("a cluster has a box");
-            (window, members)
-        })
-        .collect();
-    let meets = |a: [u32; 4], b: [u32; 4]| a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
-    let mut wave = vec![0usize; jobs.len()];
-    for j in 0..jobs.len() {
-        wave[j] = (0..j)
-            .filter(|&i| meets(jobs[i].0, jobs[j].0))
-            .map(|i| wave[i] + 1)
-            .max()
-            .unwrap_or(0);
-    }
-    let mut added = 0;
-    for now in 0..=wave.iter().copied().max().unwrap_or(0) {
-        let snapshot: &BitGrid = bits;
-        let found: Vec<Vec<(u32, u32)>> = jobs
-            .par_iter()
-            .zip(&wave)
-            .filter(|(_, &k)| k == now)
-            .map(|((window, members), _)| {
-                let near: Vec<[u32; 4]> = members
+            Cluster {
+                window,
+                own: members.iter().map(|&i| grow(boxes[i], 0)).collect(),
+                near: members
                     .iter()
                     .map(|&i| grow(boxes[i], spread * reach))
-                    .collect();
-                let own: Vec<[u32; 4]> = members.iter().map(|&i| grow(boxes[i], 0)).collect();
-                settle_window(snapshot, *window, &own, &near, disc, reach)
-            })
-            .collect();
-        for (x, y) in found.into_iter().flatten() {
-            bits.set(x, y, true);
-            added += 1;
-        }
-    }
-    added
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
+/// Whether two boxes `[x0, y0, x1, y1)` share a pixel.
+fn meets(a: [u32; 4], b: [u32; 4]) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
 }
 
 /// A cluster number per window: windows that overlap, directly or through others, share the
 /// smallest of their numbers. Past a few hundred windows, one cluster for all: clustering would
 /// cost more than it saves.
 fn overlapping(windows: &[[u32; 4]]) -> Vec<usize> {
-    let meets = |a: [u32; 4], b: [u32; 4]| a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
     let n = windows.len();
     if n > 512 {
         return vec![0; n];
@@ -1125,44 +1141,9 @@ mod tests {
     ) -> usize {
         let disc = Disc::for_width(min_width_px);
         let reach = disc.span + 1;
-        let (w, h) = (bits.width, bits.height);
-        let grow = |b: [u32; 4], m: u32| {
-            [
-                b[0].saturating_sub(m),
-                b[1].saturating_sub(m),
-                (b[2] + m).min(w),
-                (b[3] + m).min(h),
-            ]
-        };
-        let windows: Vec<[u32; 4]> = boxes
-            .iter()
-            .map(|&b| grow(b, (2 + spread) * reach))
-            .collect();
-        let cluster = overlapping(&windows);
-        let mut ids = cluster.clone();
-        ids.sort_unstable();
-        ids.dedup();
         let mut added = 0;
-        for id in ids {
-            let members: Vec<usize> = (0..boxes.len()).filter(|&i| cluster[i] == id).collect();
-            let window = members
-                .iter()
-                .map(|&i| windows[i])
-                .reduce(|a, b| {
-                    [
-                        a[0].min(b[0]),
-                        a[1].min(b[1]),
-                        a[2].max(b[2]),
-                        a[3].max(b[3]),
-                    ]
-                })
-                .unwrap();
-            let near: Vec<[u32; 4]> = members
-                .iter()
-                .map(|&i| grow(boxes[i], spread * reach))
-                .collect();
-            let own: Vec<[u32; 4]> = members.iter().map(|&i| grow(boxes[i], 0)).collect();
-            for (x, y) in settle_window(bits, window, &own, &near, disc, reach) {
+        for c in clusters(bits, boxes, reach, spread) {
+            for (x, y) in settle_window(bits, c.window, &c.own, &c.near, disc, reach) {
                 bits.set(x, y, true);
                 added += 1;
             }
