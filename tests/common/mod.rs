@@ -443,6 +443,22 @@ pub fn svg_subpaths(d: &str, tol: f64) -> Vec<Vec<[f64; 2]>> {
     out
 }
 
+/// The arc a DXF polyline vertex's bulge draws from `(x0, y0)` to `(x1, y1)`, from the bulge's
+/// definition (`tan(sweep / 4)`, positive counter-clockwise), not with the writer's own code:
+/// its centre, radius, start angle and sweep (radians).
+pub fn bulge_arc(x0: f64, y0: f64, x1: f64, y1: f64, bulge: f64) -> ([f64; 2], f64, f64, f64) {
+    let sweep = 4.0 * bulge.atan();
+    let l = (x1 - x0).hypot(y1 - y0);
+    let r = l / 2.0 / (sweep / 2.0).sin().abs();
+    // Centre: on the chord's bisector, to the left for a counter-clockwise sweep under a half
+    // turn.
+    let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let (nx, ny) = (-(y1 - y0) / l, (x1 - x0) / l);
+    let d = (r * r - l * l / 4.0).max(0.0).sqrt() * sweep.signum();
+    let c = [mx + d * nx, my + d * ny];
+    (c, r, (y0 - c[1]).atan2(x0 - c[0]), sweep)
+}
+
 /// The cut moves of a program read by the project's Grbl interpreter, loop by loop, as points
 /// (an arc as Grbl's chords): a loop ends at a rapid move.
 pub fn cut_loops(moves: &[stencil_gcode::interpret::Move]) -> Vec<Vec<[f64; 2]>> {

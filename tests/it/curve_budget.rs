@@ -283,14 +283,7 @@ fn dxf_paths(w: &Written) -> (Vec<Vec<[f64; 2]>>, usize) {
                 continue;
             }
             bulges += 1;
-            let sweep = 4.0 * b.atan();
-            let l = (x1 - x0).hypot(y1 - y0);
-            let r = l / 2.0 / (sweep / 2.0).sin().abs();
-            let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-            let (nx, ny) = (-(y1 - y0) / l, (x1 - x0) / l);
-            let dd = (r * r - l * l / 4.0).max(0.0).sqrt() * sweep.signum();
-            let c = [mx + dd * nx, my + dd * ny];
-            let a0 = (y0 - c[1]).atan2(x0 - c[0]);
+            let (c, r, a0, sweep) = common::bulge_arc(x0, y0, x1, y1, b);
             let mut pts = arc_points(c, r, a0, sweep);
             pts.pop();
             out.extend(pts);

@@ -284,16 +284,7 @@ fn flatten_bulges(v: &[(f64, f64, f64)]) -> Vec<[f64; 2]> {
         if b == 0.0 {
             continue;
         }
-        let sweep = 4.0 * b.atan();
-        let l = (x1 - x0).hypot(y1 - y0);
-        let r = l / 2.0 / (sweep / 2.0).sin().abs();
-        // Centre: on the chord's bisector, to the left for a counter-clockwise sweep under a
-        // half turn.
-        let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-        let (nx, ny) = (-(y1 - y0) / l, (x1 - x0) / l);
-        let d = (r * r - l * l / 4.0).max(0.0).sqrt() * sweep.signum();
-        let (cx, cy) = (mx + d * nx, my + d * ny);
-        let a0 = (y0 - cy).atan2(x0 - cx);
+        let ([cx, cy], r, a0, sweep) = common::bulge_arc(x0, y0, x1, y1, b);
         for i in 1..64 {
             let a = a0 + sweep * i as f64 / 64.0;
             out.push([cx + r * a.cos(), cy + r * a.sin()]);
