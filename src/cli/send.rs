@@ -13,8 +13,8 @@ use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use stencil_gcode::estimate::{estimate, format_duration};
-use stencil_gcode::interpret::Move;
+use stencil_gcode::estimate::{estimate_program_from, format_duration};
+use stencil_gcode::interpret::{CutRule, Move};
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
 use stencil_grbl::keys::{self, Key, KeySource};
@@ -374,7 +374,9 @@ impl KeySource for Terminal {
 /// remaining time (estimated over the moves that have not run yet).
 struct Bar {
     bar: ProgressBar,
-    moves: Vec<Move>,
+    /// The job as Grbl runs it: its moves with the stops and dwells between them.
+    job: stencil_gcode::interpret::Program,
+    rule: CutRule,
     limits: machine_profile::Motion,
     raw: bool,
     last_estimate: Option<Instant>,
@@ -383,7 +385,7 @@ struct Bar {
 }
 
 impl Bar {
-    fn new(moves: Vec<Move>, limits: machine_profile::Motion, raw: bool) -> Bar {
+    fn new(job: &Program, text: &str, limits: machine_profile::Motion, raw: bool) -> Bar {
         // Hidden until the job starts (shown by `phase`), so connecting draws no empty bar.
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
         bar.set_style(
@@ -395,7 +397,8 @@ impl Bar {
         );
         Bar {
             bar,
-            moves,
+            job: timed_job(job, text),
+            rule: CutRule::infer(&job.moves),
             limits,
             raw,
             last_estimate: None,
@@ -445,8 +448,11 @@ impl Observer for Bar {
             .is_none_or(|t| t.elapsed() > Duration::from_millis(500))
         {
             self.last_estimate = Some(Instant::now());
-            let k = self.moves.partition_point(|m| m.line < p.unexecuted_from);
-            let e = estimate(&self.moves[k..], &self.limits);
+            let k = self
+                .job
+                .moves
+                .partition_point(|m| m.line < p.unexecuted_from);
+            let e = estimate_program_from(&self.job, k, &self.limits, self.rule);
             self.remaining = format!("~{} left", format_duration(e.total_s));
         }
         if let Some(st) = &p.state {
@@ -460,6 +466,20 @@ impl Observer for Bar {
         }
         self.bar
             .set_message(format!("{} {}", self.state, self.remaining));
+    }
+}
+
+/// `job` as Grbl runs it, for the remaining time: its moves with the stops where Grbl empties its
+/// planner and the dwells (what `stencil estimate` counts), read from `text` from the job's start
+/// state. A program with lines stencil's interpreter cannot follow keeps the moves it could read,
+/// without stops: the estimate is then short by what they would add.
+fn timed_job(job: &Program, text: &str) -> stencil_gcode::interpret::Program {
+    match stencil_gcode::interpret::interpret_from(text, job.start) {
+        Ok(p) if p.moves == job.moves => p,
+        _ => stencil_gcode::interpret::Program {
+            moves: job.moves.clone(),
+            ..Default::default()
+        },
     }
 }
 
@@ -839,7 +859,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         cfg.boot_wait = Duration::from_millis(300);
     }
     let keys = Keys::start(tx);
-    let mut bar = Bar::new(job.moves.clone(), limits, keys.raw);
+    let mut bar = Bar::new(&job, &text, limits, keys.raw);
     if keys.raw {
         bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
@@ -985,5 +1005,37 @@ fn stream_config(
         rescale_power: a.rescale_power,
         allow_machine_commands: a.allow_machine_commands,
         ..StreamConfig::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The remaining time `send` shows counts Grbl's stops and the dwells, as `stencil estimate`
+    /// does: a job with a dwell and spindle changes between its passes has them in what is left
+    /// at its start; a job stencil cannot wholly read keeps its moves.
+    #[test]
+    fn the_remaining_time_has_the_stops_and_dwells() {
+        let text = "G21 G90 F3000\nM4 S500\nG1 X50\nM5\nG4 P2\nM4 S500\nG1 X100\nM5\n";
+        let job = Program::parse("job.nc", text).unwrap();
+        let timed = timed_job(&job, text);
+        assert_eq!(timed.moves, job.moves);
+        assert_eq!(timed.dwells.len(), 1);
+        assert_eq!(timed.stops, vec![1]);
+        let limits = machine_profile::load(Some("diode-400")).unwrap().motion;
+        let rule = CutRule::infer(&job.moves);
+        let left = estimate_program_from(&timed, 0, &limits, rule).total_s;
+        let moving = stencil_gcode::estimate::estimate(&job.moves, &limits).total_s;
+        assert!(left >= moving + 2.0, "{left} vs {moving}");
+        // After the first pass, the dwell is still to come.
+        let after = estimate_program_from(&timed, 1, &limits, rule).total_s;
+        assert!(after >= 2.0 && after < left, "{after} vs {left}");
+        // A line stencil's interpreter refuses (Grbl may take it): the moves it read, no stops.
+        let odd = "G1 X10 F600\nG5.1 X1\nG1 X20\n";
+        let job = Program::parse("odd.nc", odd).unwrap();
+        let timed = timed_job(&job, odd);
+        assert_eq!(timed.moves, job.moves);
+        assert!(timed.stops.is_empty() && timed.dwells.is_empty());
     }
 }

@@ -105,6 +105,35 @@ pub fn estimate_program(program: &Program, limits: &Motion, rule: CutRule) -> Es
     e
 }
 
+/// What is left of a program once the moves before `first` have run (a sender's remaining
+/// time): the moves from `first` on, planned from a standstill with the stops after it, plus the
+/// motor holds and dwells still to come (a stop or dwell just before move `first` is to come: the
+/// moves before it have run, it has not). From move 0 it is [`estimate_program`].
+pub fn estimate_program_from(
+    program: &Program,
+    first: usize,
+    limits: &Motion,
+    rule: CutRule,
+) -> Estimate {
+    let first = first.min(program.moves.len());
+    let stops: Vec<usize> = program
+        .stops
+        .iter()
+        .filter(|&&s| s > first)
+        .map(|&s| s - first)
+        .collect();
+    let holds = program.stops.iter().filter(|&&s| s >= first).count();
+    let dwell_s: f64 = program
+        .dwells
+        .iter()
+        .filter(|&&(m, _)| m >= first)
+        .map(|&(_, s)| s)
+        .sum();
+    let mut e = estimate_stops(&program.moves[first..], &stops, limits, rule);
+    e.total_s += dwell_s + holds as f64 * limits.stop_lock_s();
+    e
+}
+
 fn estimate_stops(moves: &[Move], stops: &[usize], limits: &Motion, rule: CutRule) -> Estimate {
     let mut e = Estimate::default();
     let blocks = blocks(moves, stops, limits, rule, &mut e);
@@ -395,6 +424,80 @@ mod tests {
         assert_eq!(p.stops, vec![1]);
         let t = estimate_program(&p, &l, CutRule::Feed).total_s;
         assert!((t - (2.0 * block_time(50.0, 0.0, 0.0, 50.0, 1000.0) + 1.5 + 0.025)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn what_is_left_has_the_stops_and_dwells_still_to_come() {
+        // Two passes, each with its spindle switched on and off, a dwell between them: what is
+        // left from each move on is the estimate of the program's tail run on its own from a
+        // standstill (the same lines, from that move's line, in the state the lines before
+        // leave), stops, holds and dwells included; from move 0 it is the whole estimate.
+        let l = diode();
+        let lines = [
+            "G21 G90 F3000",
+            "G0 X10 Y10",
+            "M4 S500",
+            "G1 X60",
+            "G1 Y40",
+            "M5",
+            "G4 P0.75",
+            "G0 X20 Y50",
+            "M4 S300",
+            "G1 X80 Y90",
+            "G1 X20",
+            "M5",
+            "G4 P0.5",
+            "G0 X0 Y0",
+        ];
+        let text = lines.join("\n");
+        let p = interpret_program(&text).unwrap();
+        assert_eq!(p.dwells.len(), 2);
+        assert!(p.stops.len() >= 3, "{:?}", p.stops);
+        let rule = CutRule::Spindle;
+        let whole = estimate_program(&p, &l, rule);
+        assert_eq!(estimate_program_from(&p, 0, &l, rule), whole);
+        let mut last = whole.total_s;
+        for k in 1..=p.moves.len() {
+            let got = estimate_program_from(&p, k, &l, rule).total_s;
+            let tail = if k == p.moves.len() {
+                0.0
+            } else {
+                // The tail's lines from the one after the move before (so the spindle changes
+                // and dwells between them are the tail's), after the modal lines before them
+                // (units, feed, spindle state) replayed without motion, and G92 saying the head
+                // stands where the move before ended.
+                let line = p.moves[k - 1].line + 1;
+                let at = p.moves[k - 1].to;
+                let mut t = format!("G21 G90 F3000\nG92 X{} Y{}\n", at[0], at[1]);
+                let on = lines[..line - 1].iter().rev().find(|l| l.starts_with('M'));
+                if let Some(m) = on.filter(|m| m.starts_with("M4")) {
+                    t.push_str(m);
+                    t.push('\n');
+                }
+                t.push_str(&lines[line - 1..].join("\n"));
+                let tail = interpret_program(&t).unwrap();
+                assert_eq!(tail.moves.len(), p.moves.len() - k, "move {k}");
+                // A stop just before move k is still to come (the move before it is running):
+                // its hold counts; the tail, starting from rest there, has none.
+                let hold = if p.stops.contains(&k) {
+                    l.stop_lock_s()
+                } else {
+                    0.0
+                };
+                estimate_program(&tail, &l, rule).total_s + hold
+            };
+            assert!((got - tail).abs() < 1e-9, "move {k}: {got} vs {tail}");
+            assert!(got <= last + 1e-12, "move {k}: what is left grew");
+            last = got;
+        }
+        // Without the stops and dwells (what `send` showed before) the job's time is short by
+        // at least the dwells.
+        let plain = estimate_with(&p.moves, &l, rule).total_s;
+        assert!(
+            whole.total_s - plain >= 1.25,
+            "{} vs {plain}",
+            whole.total_s
+        );
     }
 
     #[test]

@@ -364,6 +364,9 @@ pub struct Program {
     pub moves: Vec<Move>,
     /// G4 dwells, seconds in all.
     pub dwell_s: f64,
+    /// Each G4 dwell: the index into `moves` of the first move after it, and its seconds (what
+    /// is left of a job part-way through has the dwells still to come).
+    pub dwells: Vec<(usize, f64)>,
     /// Lines with M0 (Grbl holds there until cycle start).
     pub pauses: Vec<usize>,
     /// Indices into `moves` of the moves Grbl starts from a standstill because it emptied its
@@ -420,6 +423,9 @@ pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeErro
         pending_stop |= done.flow.is_some() || done.probe.is_some();
         p.moves.extend(done.moves);
         p.dwell_s += done.dwell_s;
+        if done.dwell_s > 0.0 {
+            p.dwells.push((p.moves.len(), done.dwell_s));
+        }
         if done.flow == Some(Flow::Pause) {
             p.pauses.push(i + 1);
         }
