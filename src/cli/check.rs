@@ -182,6 +182,8 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
         kerf_mm: material.kerf_mm,
         tolerance_mm,
         margin_mm,
+        // A folder is judged as make judged it: the outlines of the files it wrote.
+        arcs: report.as_ref().and_then(|r| r.arcs).unwrap_or(true),
         ..Default::default()
     };
     let bridges = report_bridges(&a.input, report.as_ref(), &bits)?;

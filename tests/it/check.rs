@@ -209,3 +209,60 @@ fn check_on_an_output_folder_uses_the_material_of_its_report() {
     let (ok, text) = run(&["check", out.to_str().unwrap(), "--material", "plywood-3mm"]);
     assert!(!ok && text.contains("thin web"), "{text}");
 }
+
+/// `stencil check` of a folder judges the outlines the folder's files hold, as `make` judged
+/// them: for a G-code job without arcs (`--no-arcs`), the straight outlines, not the arcs' finer
+/// flattening (what it judged before report.json said which). Its findings are make's, with and
+/// without arcs.
+#[test]
+fn check_on_a_folder_judges_the_outlines_make_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("samples/grace_hopper.jpg");
+    for arcs in [false, true] {
+        let out = dir.path().join(format!("arcs-{arcs}"));
+        let mut args = vec![
+            "make",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--width-mm",
+            "60",
+            "--emit",
+            "png,svg,gcode",
+        ];
+        if !arcs {
+            args.push("--no-arcs");
+        }
+        let (ok, text) = run(&args);
+        assert!(ok, "{text}");
+        let report: stencil_core::report::Report =
+            serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        assert_eq!(report.arcs, Some(arcs));
+        let made = report.check.unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+            .args(["check", out.to_str().unwrap(), "--json"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let checked: CheckReport = serde_json::from_slice(&o.stdout).unwrap();
+        for (what, m, c) in [
+            (
+                "bridge",
+                made.narrowest_bridge_mm,
+                checked.narrowest_bridge_mm,
+            ),
+            ("web", made.narrowest_web_mm, checked.narrowest_web_mm),
+            ("hole", made.narrowest_hole_mm, checked.narrowest_hole_mm),
+        ] {
+            // The folder's size comes back from report.json's mm per pixel: the same to a
+            // rounding of the last bit.
+            let (m, c) = (m.unwrap(), c.unwrap());
+            assert!(
+                (m - c).abs() < 1e-9 * m,
+                "arcs {arcs}: narrowest {what} {m} vs {c}"
+            );
+        }
+        assert_eq!(made.pieces, checked.pieces);
+        assert_eq!(made.violations.len(), checked.violations.len());
+    }
+}

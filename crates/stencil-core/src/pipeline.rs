@@ -1682,6 +1682,7 @@ pub fn report_joined(
         height_mm: None,
         margin_mm: Some(vcfg.margin_mm),
         tolerance_mm: Some(vcfg.tolerance_mm),
+        arcs: Some(vcfg.arcs),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
         filter_radius_px: Some(params.clean.filter.radius),

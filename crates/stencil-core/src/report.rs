@@ -221,6 +221,12 @@ pub struct Report {
     pub margin_mm: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance_mm: Option<f64>,
+    /// Whether the outlines were fitted for files that carry arcs (false for a G-code job
+    /// without them: `--no-arcs`, a machine without G2/G3, a drag knife), which decides the
+    /// polygon the check judged; `stencil check` of the folder judges the same one. Absent in
+    /// older reports: arcs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arcs: Option<bool>,
     /// The material's limits in pixels as given to the stages (after the check's allowance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_bridge_px: Option<u32>,
