@@ -137,13 +137,7 @@ impl Likeness {
         if bits.data.is_empty() {
             return 0.0;
         }
-        let a = shrink(bits.width, bits.height, self.d, |i| {
-            if bits.data[i] != invert {
-                1.0
-            } else {
-                0.0
-            }
-        });
+        let a = shrink_bits(bits, self.d, invert);
         let window = 2.0 * self.sigma;
         let x = blur(&a, self.sigma);
         let xy = Gray {
@@ -168,25 +162,65 @@ fn map(g: &Gray, f: impl Fn(f32) -> f32) -> Gray {
 }
 
 /// The `w` × `h` picture of `value(i)` box-averaged by `d` (partial boxes at the right and bottom
-/// edges averaged over what they hold).
+/// edges averaged over what they hold). Each box sums its rows top to bottom and each row left
+/// to right; an output row's boxes are summed together, a source row at a time, so the picture
+/// is read in order.
 fn shrink(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
     let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
-    let data: Vec<f32> = (0..oh)
-        .into_par_iter()
-        .flat_map_iter(|oy| {
-            let value = &value;
-            (0..ow).map(move |ox| {
-                let (mut s, mut n) = (0f32, 0u32);
-                for y in oy * d..((oy + 1) * d).min(h) {
-                    for x in ox * d..((ox + 1) * d).min(w) {
-                        s += value((y * w + x) as usize);
-                        n += 1;
+    let (wu, du) = (w as usize, d as usize);
+    let mut data = vec![0f32; (ow * oh) as usize];
+    data.par_chunks_mut(ow as usize)
+        .enumerate()
+        .for_each(|(oy, out)| {
+            let rows = oy as u32 * d..((oy as u32 + 1) * d).min(h);
+            let n_rows = rows.len() as u32;
+            for y in rows {
+                let base = y as usize * wu;
+                for (ox, o) in out.iter_mut().enumerate() {
+                    let x0 = ox * du;
+                    for x in x0..(x0 + du).min(wu) {
+                        *o += value(base + x);
                     }
                 }
-                s / n as f32
-            })
-        })
-        .collect();
+            }
+            for (ox, o) in out.iter_mut().enumerate() {
+                let cols = (du).min(wu - ox * du) as u32;
+                *o /= (n_rows * cols) as f32;
+            }
+        });
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
+}
+
+/// [`shrink`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a box's
+/// sum of ones and zeros is its count of ones, exactly, in any order.
+fn shrink_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
+    let (w, h) = (bits.width, bits.height);
+    let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+    let (wu, du) = (w as usize, d as usize);
+    let mut data = vec![0f32; (ow * oh) as usize];
+    data.par_chunks_mut(ow as usize).enumerate().for_each_init(
+        Vec::new,
+        |counts: &mut Vec<u32>, (oy, out)| {
+            counts.clear();
+            counts.resize(out.len(), 0);
+            let rows = oy as u32 * d..((oy as u32 + 1) * d).min(h);
+            let n_rows = rows.len() as u32;
+            for y in rows {
+                let row = &bits.data[y as usize * wu..(y as usize + 1) * wu];
+                for (c, chunk) in counts.iter_mut().zip(row.chunks(du)) {
+                    *c += chunk.iter().map(|&b| (b != invert) as u32).sum::<u32>();
+                }
+            }
+            for (ox, (o, &c)) in out.iter_mut().zip(counts.iter()).enumerate() {
+                let cols = du.min(wu - ox * du) as u32;
+                *o = c as f32 / (n_rows * cols) as f32;
+            }
+        },
+    );
     Gray {
         width: ow,
         height: oh,
@@ -262,6 +296,54 @@ pub struct LevelChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The box average as it was: box by box, each summed row by row.
+    fn shrink_by_boxes(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32) -> Vec<f32> {
+        let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+        let mut out = Vec::new();
+        for oy in 0..oh {
+            for ox in 0..ow {
+                let (mut s, mut n) = (0f32, 0u32);
+                for y in oy * d..((oy + 1) * d).min(h) {
+                    for x in ox * d..((ox + 1) * d).min(w) {
+                        s += value((y * w + x) as usize);
+                        n += 1;
+                    }
+                }
+                out.push(s / n as f32);
+            }
+        }
+        out
+    }
+
+    /// Summed a source row at a time (and a two-tone by counting), the boxes hold the same
+    /// values to the bit: random sizes, partial boxes at the edges, both tones.
+    #[test]
+    fn shrinking_by_rows_and_by_counts_is_shrinking_box_by_box() {
+        let mut seed = 17u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        for _ in 0..60 {
+            let (w, h, d) = (1 + rnd(90) as u32, 1 + rnd(70) as u32, 1 + rnd(6) as u32);
+            let gray: Vec<f32> = (0..w * h).map(|_| rnd(1 << 20) as f32 / 1e6).collect();
+            let bits = BitGrid::from_fn(w, h, |_, _| rnd(3) == 0);
+            let bit_vals = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let want = shrink_by_boxes(w, h, d, |i| gray[i]);
+            let got = shrink(w, h, d, |i| gray[i]);
+            assert_eq!((got.width, got.height), (w.div_ceil(d), h.div_ceil(d)));
+            assert_eq!(bit_vals(&got.data), bit_vals(&want), "{w}x{h} by {d}");
+            for invert in [false, true] {
+                let want =
+                    shrink_by_boxes(w, h, d, |i| if bits.data[i] != invert { 1.0 } else { 0.0 });
+                let got = shrink_bits(&bits, d, invert);
+                assert_eq!(bit_vals(&got.data), bit_vals(&want), "{w}x{h} by {d} bits");
+            }
+        }
+    }
 
     /// A dark photo (a board under dim light): parts at 0.4 on a 0.1 ground. A person sees the
     /// parts as its white; the stencil that shows them must beat the all-black one.
