@@ -54,7 +54,7 @@ use rayon::prelude::*;
 use crate::raster::{join_runs, BitGrid, Gray, Run};
 
 mod packed;
-use packed::{thin, Packed};
+use packed::{thin, Packed, ThinScratch};
 
 /// Rounds of cost-based deciding before the monotone phase settles what is left.
 pub const FREE_ROUNDS: usize = 4;
@@ -194,7 +194,8 @@ struct Work<'a> {
     /// corners that lie in this window (see [`Work::corner_caps`]).
     corners: Vec<(u32, u32)>,
     disc: Disc,
-    ring: Vec<(i64, i64, f32)>,
+    /// The rows of a lattice point's disc for the depth search (see [`depth_rows`]).
+    depth_rows: Vec<(i64, i64, i64, u64)>,
     /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
     /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
     paint: Vec<Vec<(i64, i64, i64)>>,
@@ -205,6 +206,93 @@ struct Work<'a> {
     /// between pixels of both tones: 1), or `u16::MAX` past the disc's radius. Points next to no
     /// thin pixel hold stale values: only thin pixels' centres are read.
     depth2: Vec<u16>,
+    /// Kept between rounds: [`thin`]'s buffers per tone, and the pixels a round changed.
+    thin_scratch: [ThinScratch; 2],
+    changed: Packed,
+}
+
+/// A cut that fills a corner of the picture has a square corner against the sheet's margin,
+/// which no round disc covers, yet it is no neck (the width check does not count cutting across a
+/// corner). Where the span × span block at a picture corner (`corners`, see [`Work::corners`]) is
+/// all cut in `bits`, its pixels are not thin in `mask`.
+fn corner_caps(bits: &Packed, corners: &[(u32, u32)], disc: Disc, mask: &mut Packed) {
+    let span = disc.span as usize;
+    for &(cx, cy) in corners {
+        let (cx, cy) = (cx as usize, cy as usize);
+        let block = || (cy..cy + span).flat_map(move |y| (cx..cx + span).map(move |x| (x, y)));
+        if block().all(|(x, y)| !bits.get(x, y)) {
+            block().for_each(|(x, y)| mask.set(x, y, false));
+        }
+    }
+}
+
+/// The first bit set in `word(k)` (the row's words, any index) at `from..=to`, if any.
+fn first_in(word: impl Fn(i64) -> u64, from: i64, to: i64) -> Option<i64> {
+    if from > to {
+        return None;
+    }
+    let last = to.div_euclid(64);
+    let mut k = from.div_euclid(64);
+    let mut m = !0u64 << from.rem_euclid(64);
+    loop {
+        if k == last {
+            m &= !0u64 >> (63 - to.rem_euclid(64));
+        }
+        let v = word(k) & m;
+        if v != 0 {
+            return Some(k * 64 + v.trailing_zeros() as i64);
+        }
+        if k == last {
+            return None;
+        }
+        k += 1;
+        m = !0;
+    }
+}
+
+/// The last bit set in `word(k)` at `from..=to`, if any.
+fn last_in(word: impl Fn(i64) -> u64, from: i64, to: i64) -> Option<i64> {
+    if from > to {
+        return None;
+    }
+    let first = from.div_euclid(64);
+    let mut k = to.div_euclid(64);
+    let mut m = !0u64 >> (63 - to.rem_euclid(64));
+    loop {
+        if k == first {
+            m &= !0u64 << from.rem_euclid(64);
+        }
+        let v = word(k) & m;
+        if v != 0 {
+            return Some(k * 64 + 63 - v.leading_zeros() as i64);
+        }
+        if k == first {
+            return None;
+        }
+        k -= 1;
+        m = !0;
+    }
+}
+
+/// The disc's rows for the depth search: `(dy, a, b, ey)`, the disc holding pixels `a..=b` of
+/// row `dy` from the lattice point (as [`ring`] holds them), `ey` four times the row's squared
+/// offset from the point (so with `(2dx)²` or `(2dx + 1)²` a whole number), nearest rows first.
+fn depth_rows(disc: Disc) -> Vec<(i64, i64, i64, u64)> {
+    let mut rows: Vec<(i64, i64, i64, u64)> = Vec::new();
+    for (dx, dy, _) in ring(disc) {
+        match rows.iter_mut().find(|r| r.0 == dy) {
+            Some(r) => {
+                r.1 = r.1.min(dx);
+                r.2 = r.2.max(dx);
+            }
+            None => {
+                let e = if disc.on_corners() { 2 * dy + 1 } else { 2 * dy };
+                rows.push((dy, dx, dx, (e * e) as u64));
+            }
+        }
+    }
+    rows.sort_by_key(|r| (r.3, r.0));
+    rows
 }
 
 /// The order in which a pixel's corners are tried as the centre of its widening.
@@ -252,23 +340,30 @@ impl<'a> Work<'a> {
             pad,
             corners,
             disc,
-            ring: ring(disc),
+            depth_rows: depth_rows(disc),
             paint: paint(disc),
             thin: [Packed::new(pw, ph, false), Packed::new(pw, ph, false)],
             depth2: Vec::new(),
+            thin_scratch: Default::default(),
+            changed: Packed::new(pw, ph, false),
         }
     }
 
     /// Recompute both tones' thin pixels over the whole grid.
     fn refresh(&mut self) {
         let (bits, disc) = (&self.bits, self.disc);
-        let (material, mut cut) = if packed::parallel(bits.width * bits.height) {
-            rayon::join(|| thin(bits, true, disc), || thin(bits, false, disc))
+        let [material, cut] = &mut self.thin;
+        let [sm, sc] = &mut self.thin_scratch;
+        if packed::parallel(bits.width * bits.height) {
+            rayon::join(
+                || thin(bits, true, disc, sm, material),
+                || thin(bits, false, disc, sc, cut),
+            );
         } else {
-            (thin(bits, true, disc), thin(bits, false, disc))
-        };
-        self.corner_caps(&mut cut);
-        self.thin = [material, cut];
+            thin(bits, true, disc, sm, material);
+            thin(bits, false, disc, sc, cut);
+        }
+        corner_caps(bits, &self.corners, disc, cut);
         self.refresh_depths();
     }
 
@@ -313,8 +408,70 @@ impl<'a> Work<'a> {
 
     /// Twice the squared distance from lattice point `(cx, cy)` to the nearest pixel of another
     /// tone than its own (a corner whose four pixels are not all one tone: 1), or `u16::MAX` when
-    /// that is farther than the disc's radius.
+    /// that is farther than the disc's radius. Row by row of the disc, nearest rows first (and
+    /// no farther than the best found): the nearest pixel of the other tone on either side of
+    /// the centre along the row, found a word at a time.
     fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
+        let (w, h) = (self.bits.width as i64, self.bits.height as i64);
+        let tone = |x: i64, y: i64| {
+            x < 0 || y < 0 || x >= w || y >= h || self.bits.get(x as usize, y as usize)
+        };
+        let even = self.disc.on_corners();
+        let phase = if even {
+            let t = tone(cx, cy);
+            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
+                .iter()
+                .any(|&(x, y)| tone(x, y) != t)
+            {
+                return 1;
+            }
+            t
+        } else {
+            tone(cx, cy)
+        };
+        let stride = self.bits.stride as i64;
+        // Twice the offset from the centre, squared (a corner lies half a pixel before pixel 0).
+        let ex = |dx: i64| {
+            let e = if even { 2 * dx + 1 } else { 2 * dx };
+            (e * e) as u64
+        };
+        let mut best = u64::MAX;
+        for &(dy, a, b, ey) in &self.depth_rows {
+            if ey >= best {
+                break;
+            }
+            let y = cy + dy;
+            let inside = (0..h).contains(&y);
+            // The other tone, a word of the row at a time (past the grid: material).
+            let word = |k: i64| {
+                let v = if inside && (0..stride).contains(&k) {
+                    self.bits.data[(y * stride + k) as usize]
+                } else {
+                    !0
+                };
+                if phase {
+                    !v
+                } else {
+                    v
+                }
+            };
+            if let Some(x) = first_in(word, cx + a.max(0), cx + b) {
+                best = best.min(ey + ex(x - cx));
+            }
+            if let Some(x) = last_in(word, cx + a, cx + b.min(-1)) {
+                best = best.min(ey + ex(x - cx));
+            }
+        }
+        if best == u64::MAX {
+            u16::MAX
+        } else {
+            (best / 2).min(u16::MAX as u64) as u16
+        }
+    }
+
+    /// [`Work::lattice_depth`] as it was: the disc's pixels probed one by one, nearest first.
+    #[cfg(test)]
+    fn lattice_depth_by_ring(&self, cx: i64, cy: i64) -> u16 {
         let tone = |x: i64, y: i64| {
             x < 0
                 || y < 0
@@ -334,7 +491,7 @@ impl<'a> Work<'a> {
         } else {
             tone(cx, cy)
         };
-        for &(dx, dy, d) in &self.ring {
+        for &(dx, dy, d) in &ring(self.disc) {
             if tone(cx + dx, cy + dy) != phase {
                 return (2.0 * d) as u16;
             }
@@ -342,27 +499,11 @@ impl<'a> Work<'a> {
         u16::MAX
     }
 
-    /// A cut that fills a corner of the picture has a square corner against the sheet's margin,
-    /// which no round disc covers, yet it is no neck (the width check does not count cutting
-    /// across a corner). Where the span × span block at a picture corner is all cut, its pixels
-    /// are not thin.
-    fn corner_caps(&self, mask: &mut Packed) {
-        let span = self.disc.span as usize;
-        for &(cx, cy) in &self.corners {
-            let (cx, cy) = (cx as usize, cy as usize);
-            let block = || (cy..cy + span).flat_map(move |y| (cx..cx + span).map(move |x| (x, y)));
-            if block().all(|(x, y)| !self.bits.get(x, y)) {
-                block().for_each(|(x, y)| mask.set(x, y, false));
-            }
-        }
-    }
-
-    fn set(&mut self, i: usize, v: bool) {
-        self.bits.put(i, v);
-    }
-
     fn changeable(&self, i: usize) -> bool {
-        let (x, y) = (i % self.bits.width, i / self.bits.width);
+        self.changeable_at(i % self.bits.width, i / self.bits.width)
+    }
+
+    fn changeable_at(&self, x: usize, y: usize) -> bool {
         x >= self.core[0]
             && y >= self.core[1]
             && x < self.core[2]
@@ -370,9 +511,8 @@ impl<'a> Work<'a> {
             && self.allowed.as_ref().is_none_or(|a| a.get(x, y))
     }
 
-    /// The price of flipping pixel `i`, which must be changeable.
-    fn price(&self, i: usize) -> f32 {
-        let (x, y) = (i % self.bits.width, i / self.bits.width);
+    /// The price of flipping pixel `(x, y)`, which must be changeable.
+    fn price_at(&self, x: usize, y: usize) -> f32 {
         let p = self.pad as usize;
         (self.price)(
             (x - p) as u32 + self.origin.0,
@@ -544,8 +684,18 @@ fn features(work: &mut Work) -> Vec<Feature> {
     work.refresh();
     let work = &*work;
     let (w, h) = (work.bits.width, work.bits.height);
-    let feature = |phase: bool, pixels: Vec<usize>, seen: &mut Packed| {
-        let widen = widening(work, &pixels, phase, seen);
+    thread_local! {
+        /// [`widening`]'s scratch grid, one per thread, kept clear between features and rounds.
+        static SEEN: std::cell::RefCell<Packed> = std::cell::RefCell::new(Packed::new(0, 0, false));
+    }
+    let feature = |phase: bool, pixels: Vec<usize>| {
+        let widen = SEEN.with(|seen| {
+            let mut seen = seen.borrow_mut();
+            if seen.width != w || seen.height != h {
+                *seen = Packed::new(w, h, false);
+            }
+            widening(work, &pixels, phase, &mut seen)
+        });
         Feature {
             phase,
             pixels,
@@ -557,16 +707,12 @@ fn features(work: &mut Work) -> Vec<Feature> {
         if packed::parallel(w * h) {
             groups
                 .into_par_iter()
-                .map_init(
-                    || Packed::new(w, h, false),
-                    |seen, pixels| feature(phase, pixels, seen),
-                )
+                .map(|pixels| feature(phase, pixels))
                 .collect()
         } else {
-            let mut seen = Packed::new(w, h, false);
             groups
                 .into_iter()
-                .map(|pixels| feature(phase, pixels, &mut seen))
+                .map(|pixels| feature(phase, pixels))
                 .collect()
         }
     };
@@ -624,7 +770,9 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
             break;
         }
         stats.rounds += 1;
-        let mut changed = Packed::new(work.bits.width, work.bits.height, false);
+        let mut changed = std::mem::replace(&mut work.changed, Packed::new(0, 0, false));
+        changed.data.fill(0);
+        let w = work.bits.width;
         let mut any = false;
         // Cheapest first, so where two features' choices meet the cheaper one's stands.
         let mut choices: Vec<(f32, usize, bool)> = Vec::new();
@@ -634,11 +782,13 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
             let cost = |px: &[usize], all: bool| -> Option<f32> {
                 let mut c = 0.0;
                 for &i in px {
-                    if work.locked.at(i) || (all && !work.changeable(i)) {
+                    let (x, y) = (i % w, i / w);
+                    let changeable = work.changeable_at(x, y);
+                    if work.locked.get(x, y) || (all && !changeable) {
                         return None;
                     }
-                    if work.changeable(i) {
-                        c += work.price(i);
+                    if changeable {
+                        c += work.price_at(x, y);
                     }
                 }
                 Some(c)
@@ -660,17 +810,18 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         for (_, n, widen) in choices {
             let f = &feats[n];
             let px = if widen { &f.widen } else { &f.pixels };
-            if px.iter().any(|&i| changed.at(i)) {
+            if px.iter().any(|&i| changed.get(i % w, i / w)) {
                 continue;
             }
             for &i in px {
-                if !work.changeable(i) {
+                let (x, y) = (i % w, i / w);
+                if !work.changeable_at(x, y) {
                     continue;
                 }
-                let v = !work.bits.at(i);
-                work.set(i, v);
-                work.locked.put(i, true);
-                changed.put(i, true);
+                let v = !work.bits.get(x, y);
+                work.bits.set(x, y, v);
+                work.locked.set(x, y, true);
+                changed.set(x, y, true);
             }
             any = true;
             match (f.phase, widen) {
@@ -680,6 +831,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
                 (false, true) => stats.holes_widened += 1,
             }
         }
+        work.changed = changed;
         if !any {
             break;
         }
@@ -699,11 +851,13 @@ fn settle(work: &mut Work, stats: &mut RegularizeStats) {
         }
         stats.monotone_rounds += 1;
         let mut added = 0usize;
+        let w = work.bits.width;
         for f in &feats {
             let px = if f.phase { &f.widen } else { &f.pixels };
             for &i in px {
-                if work.changeable(i) && !work.bits.at(i) {
-                    work.set(i, true);
+                let (x, y) = (i % w, i / w);
+                if work.changeable_at(x, y) && !work.bits.get(x, y) {
+                    work.bits.set(x, y, true);
                     added += 1;
                 }
             }
@@ -1190,6 +1344,45 @@ mod tests {
             changed += n_got;
         }
         assert!(changed > 0, "some case settled something");
+    }
+
+    /// The depth searched row by row is the depth probed pixel by pixel, at every lattice point
+    /// of random grids (sparse, dense, blocky), for odd and even spans, small and large.
+    #[test]
+    fn depth_by_rows_is_depth_by_ring() {
+        let mut seed = 0xd3e9_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        for case in 0..40 {
+            let (w, h) = (1 + rnd(150) as u32, 1 + rnd(60) as u32);
+            let dense = rnd(11);
+            let cell = 1 + rnd(5) as u32;
+            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+                .map(|_| rnd(10) < dense)
+                .collect();
+            let bits = BitGrid::from_fn(w, h, |x, y| {
+                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
+            });
+            let px = [2.0, 3.0, 4.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 9];
+            let disc = Disc::for_width(px);
+            let all = [0, 0, w, h];
+            let work = Work::new(&bits, all, all, disc, |_, _| 1.0);
+            let c = disc.on_corners() as i64;
+            for cy in 0..work.bits.height as i64 + c {
+                for cx in 0..work.bits.width as i64 + c {
+                    assert_eq!(
+                        work.lattice_depth(cx, cy),
+                        work.lattice_depth_by_ring(cx, cy),
+                        "case {case} span {} at ({cx}, {cy})",
+                        disc.span
+                    );
+                }
+            }
+        }
     }
 
     fn any_thin(bits: &BitGrid, px: f64) -> bool {
