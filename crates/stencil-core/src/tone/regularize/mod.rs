@@ -194,8 +194,7 @@ struct Work<'a> {
     /// corners that lie in this window (see [`Work::corner_caps`]).
     corners: Vec<(u32, u32)>,
     disc: Disc,
-    /// The rows of a lattice point's disc for the depth search (see [`depth_rows`]).
-    depth_rows: Vec<(i64, i64, i64, u64)>,
+    ring: Vec<(i64, i64, f32)>,
     /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
     /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
     paint: Vec<Vec<(i64, i64, i64)>>,
@@ -224,75 +223,6 @@ fn corner_caps(bits: &Packed, corners: &[(u32, u32)], disc: Disc, mask: &mut Pac
             block().for_each(|(x, y)| mask.set(x, y, false));
         }
     }
-}
-
-/// The first bit set in `word(k)` (the row's words, any index) at `from..=to`, if any.
-fn first_in(word: impl Fn(i64) -> u64, from: i64, to: i64) -> Option<i64> {
-    if from > to {
-        return None;
-    }
-    let last = to.div_euclid(64);
-    let mut k = from.div_euclid(64);
-    let mut m = !0u64 << from.rem_euclid(64);
-    loop {
-        if k == last {
-            m &= !0u64 >> (63 - to.rem_euclid(64));
-        }
-        let v = word(k) & m;
-        if v != 0 {
-            return Some(k * 64 + v.trailing_zeros() as i64);
-        }
-        if k == last {
-            return None;
-        }
-        k += 1;
-        m = !0;
-    }
-}
-
-/// The last bit set in `word(k)` at `from..=to`, if any.
-fn last_in(word: impl Fn(i64) -> u64, from: i64, to: i64) -> Option<i64> {
-    if from > to {
-        return None;
-    }
-    let first = from.div_euclid(64);
-    let mut k = to.div_euclid(64);
-    let mut m = !0u64 >> (63 - to.rem_euclid(64));
-    loop {
-        if k == first {
-            m &= !0u64 << from.rem_euclid(64);
-        }
-        let v = word(k) & m;
-        if v != 0 {
-            return Some(k * 64 + 63 - v.leading_zeros() as i64);
-        }
-        if k == first {
-            return None;
-        }
-        k -= 1;
-        m = !0;
-    }
-}
-
-/// The disc's rows for the depth search: `(dy, a, b, ey)`, the disc holding pixels `a..=b` of
-/// row `dy` from the lattice point (as [`ring`] holds them), `ey` four times the row's squared
-/// offset from the point (so with `(2dx)²` or `(2dx + 1)²` a whole number), nearest rows first.
-fn depth_rows(disc: Disc) -> Vec<(i64, i64, i64, u64)> {
-    let mut rows: Vec<(i64, i64, i64, u64)> = Vec::new();
-    for (dx, dy, _) in ring(disc) {
-        match rows.iter_mut().find(|r| r.0 == dy) {
-            Some(r) => {
-                r.1 = r.1.min(dx);
-                r.2 = r.2.max(dx);
-            }
-            None => {
-                let e = if disc.on_corners() { 2 * dy + 1 } else { 2 * dy };
-                rows.push((dy, dx, dx, (e * e) as u64));
-            }
-        }
-    }
-    rows.sort_by_key(|r| (r.3, r.0));
-    rows
 }
 
 /// The order in which a pixel's corners are tried as the centre of its widening.
@@ -340,7 +270,7 @@ impl<'a> Work<'a> {
             pad,
             corners,
             disc,
-            depth_rows: depth_rows(disc),
+            ring: ring(disc),
             paint: paint(disc),
             thin: [Packed::new(pw, ph, false), Packed::new(pw, ph, false)],
             depth2: Vec::new(),
@@ -408,70 +338,10 @@ impl<'a> Work<'a> {
 
     /// Twice the squared distance from lattice point `(cx, cy)` to the nearest pixel of another
     /// tone than its own (a corner whose four pixels are not all one tone: 1), or `u16::MAX` when
-    /// that is farther than the disc's radius. Row by row of the disc, nearest rows first (and
-    /// no farther than the best found): the nearest pixel of the other tone on either side of
-    /// the centre along the row, found a word at a time.
+    /// that is farther than the disc's radius. (Searching the disc row by row, a word at a time,
+    /// was tried: slower, as most thin pixels lie a pixel or two from the other tone, which the
+    /// ring, nearest first, finds in a few probes.)
     fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
-        let (w, h) = (self.bits.width as i64, self.bits.height as i64);
-        let tone = |x: i64, y: i64| {
-            x < 0 || y < 0 || x >= w || y >= h || self.bits.get(x as usize, y as usize)
-        };
-        let even = self.disc.on_corners();
-        let phase = if even {
-            let t = tone(cx, cy);
-            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
-                .iter()
-                .any(|&(x, y)| tone(x, y) != t)
-            {
-                return 1;
-            }
-            t
-        } else {
-            tone(cx, cy)
-        };
-        let stride = self.bits.stride as i64;
-        // Twice the offset from the centre, squared (a corner lies half a pixel before pixel 0).
-        let ex = |dx: i64| {
-            let e = if even { 2 * dx + 1 } else { 2 * dx };
-            (e * e) as u64
-        };
-        let mut best = u64::MAX;
-        for &(dy, a, b, ey) in &self.depth_rows {
-            if ey >= best {
-                break;
-            }
-            let y = cy + dy;
-            let inside = (0..h).contains(&y);
-            // The other tone, a word of the row at a time (past the grid: material).
-            let word = |k: i64| {
-                let v = if inside && (0..stride).contains(&k) {
-                    self.bits.data[(y * stride + k) as usize]
-                } else {
-                    !0
-                };
-                if phase {
-                    !v
-                } else {
-                    v
-                }
-            };
-            if let Some(x) = first_in(word, cx + a.max(0), cx + b) {
-                best = best.min(ey + ex(x - cx));
-            }
-            if let Some(x) = last_in(word, cx + a, cx + b.min(-1)) {
-                best = best.min(ey + ex(x - cx));
-            }
-        }
-        if best == u64::MAX {
-            u16::MAX
-        } else {
-            (best / 2).min(u16::MAX as u64) as u16
-        }
-    }
-
-    /// [`Work::lattice_depth`] as it was: the disc's pixels probed one by one, nearest first.
-    #[cfg(test)]
-    fn lattice_depth_by_ring(&self, cx: i64, cy: i64) -> u16 {
         let tone = |x: i64, y: i64| {
             x < 0
                 || y < 0
@@ -491,7 +361,7 @@ impl<'a> Work<'a> {
         } else {
             tone(cx, cy)
         };
-        for &(dx, dy, d) in &ring(self.disc) {
+        for &(dx, dy, d) in &self.ring {
             if tone(cx + dx, cy + dy) != phase {
                 return (2.0 * d) as u16;
             }
@@ -1344,45 +1214,6 @@ mod tests {
             changed += n_got;
         }
         assert!(changed > 0, "some case settled something");
-    }
-
-    /// The depth searched row by row is the depth probed pixel by pixel, at every lattice point
-    /// of random grids (sparse, dense, blocky), for odd and even spans, small and large.
-    #[test]
-    fn depth_by_rows_is_depth_by_ring() {
-        let mut seed = 0xd3e9_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
-        for case in 0..40 {
-            let (w, h) = (1 + rnd(150) as u32, 1 + rnd(60) as u32);
-            let dense = rnd(11);
-            let cell = 1 + rnd(5) as u32;
-            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
-                .map(|_| rnd(10) < dense)
-                .collect();
-            let bits = BitGrid::from_fn(w, h, |x, y| {
-                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
-            });
-            let px = [2.0, 3.0, 4.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 9];
-            let disc = Disc::for_width(px);
-            let all = [0, 0, w, h];
-            let work = Work::new(&bits, all, all, disc, |_, _| 1.0);
-            let c = disc.on_corners() as i64;
-            for cy in 0..work.bits.height as i64 + c {
-                for cx in 0..work.bits.width as i64 + c {
-                    assert_eq!(
-                        work.lattice_depth(cx, cy),
-                        work.lattice_depth_by_ring(cx, cy),
-                        "case {case} span {} at ({cx}, {cy})",
-                        disc.span
-                    );
-                }
-            }
-        }
     }
 
     fn any_thin(bits: &BitGrid, px: f64) -> bool {

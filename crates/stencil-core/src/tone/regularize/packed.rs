@@ -45,6 +45,7 @@ impl Packed {
     }
 
     /// The pixel at index `i = y · width + x`.
+    #[cfg(test)]
     pub fn at(&self, i: usize) -> bool {
         self.get(i % self.width, i / self.width)
     }
@@ -227,6 +228,7 @@ fn pair(src: &[u64], d: i64, fill: u64, out: &mut [u64], op: impl Fn(u64, u64) -
 }
 
 /// Scratch rows for [`runs_of`], kept between rows.
+#[cfg(test)]
 #[derive(Default)]
 pub(super) struct RunScratch {
     cur: Vec<u64>,
@@ -239,6 +241,8 @@ pub(super) struct RunScratch {
 /// `c` from each bit is built by doubling (the run of `c + d` is the run of `c` combined with
 /// itself shifted by `d ≤ c`), each step one pass over the words; each span's runs are then
 /// shifted by its start into `out`. So a span of width `s` costs about log₂ s passes, not `2s`.
+/// (One row's runs, as [`runs_of_rows`] makes them for every row; the tests' measure of it.)
+#[cfg(test)]
 fn runs_of(
     row: &[u64],
     spans: &[(i64, i64)],
@@ -270,8 +274,75 @@ fn runs_of(
             std::mem::swap(&mut s.cur, &mut s.next);
             c += d;
         }
-        shift(&s.cur, a + 64 * p as i64, fill, &mut out[k * n..(k + 1) * n]);
+        shift(
+            &s.cur,
+            a + 64 * p as i64,
+            fill,
+            &mut out[k * n..(k + 1) * n],
+        );
     }
+}
+
+/// [`runs_of`] for every row of `src` at once: `out[(y · ns + k) · n..][..n]` the runs of row `y`
+/// for span `k` (`ns` spans). The rows are laid end to end, each set in `p` words of `fill` on
+/// either side, in bands of rows, and each doubling step is one pass over a whole band: long
+/// loops over words instead of a short one per row. A run read past its row's padding reads the
+/// next row's, but no run that lands in `out` reaches that far (a span reaches less than `p`
+/// words past its row), so each row's runs are its own.
+fn runs_of_rows(
+    src: &Packed,
+    spans: &[(i64, i64)],
+    and: bool,
+    fill: u64,
+    n: usize,
+    out: &mut [u64],
+    par: bool,
+) {
+    const BAND: usize = 32;
+    let ns = spans.len();
+    let reach = spans.iter().map(|&(a, b)| a.abs().max(b.abs())).max();
+    let p = (reach.unwrap_or(0) as usize).div_ceil(64) + 1;
+    let l = src.stride.max(n) + 2 * p;
+    let scratch = || (Vec::new(), Vec::new());
+    rows_mut_with(
+        out,
+        BAND * ns * n,
+        par,
+        scratch,
+        |(cur, next), (band, out)| {
+            let (y0, rows) = (band * BAND, out.len() / (ns * n));
+            cur.clear();
+            cur.resize(rows * l, fill);
+            for r in 0..rows {
+                cur[r * l + p..r * l + p + src.stride].copy_from_slice(src.row(y0 + r));
+            }
+            next.resize(rows * l, 0);
+            let mut c = 1i64;
+            for (k, &(a, b)) in spans.iter().enumerate() {
+                let w = b - a + 1;
+                debug_assert!(w >= c, "spans come narrowest first");
+                while c < w {
+                    let d = (w - c).min(c);
+                    if and {
+                        pair(cur, d, fill, next, |x, y| x & y);
+                    } else {
+                        pair(cur, d, fill, next, |x, y| x | y);
+                    }
+                    std::mem::swap(cur, next);
+                    c += d;
+                }
+                for r in 0..rows {
+                    let to = (r * ns + k) * n;
+                    shift(
+                        &cur[r * l..(r + 1) * l],
+                        a + 64 * p as i64,
+                        fill,
+                        &mut out[to..to + n],
+                    );
+                }
+            }
+        },
+    );
 }
 
 /// [`runs_of`] as it was: each span built from the one before by two shifted rows, for the
@@ -298,7 +369,7 @@ fn runs_of_by_steps(
         op(&mut cur, &tmp);
     }
     let (mut a, mut b) = (a0, b0);
-    for (k, &(sa, sb)) in spans.iter().enumerate() {
+    for (k, &(_, sb)) in spans.iter().enumerate() {
         while b < sb {
             a -= 1;
             b += 1;
@@ -403,9 +474,7 @@ fn disc_centres(
     let ns = spans.len();
     let par = parallel(w * h);
     runs.resize(h * ns * ls, 0);
-    rows_mut_with(runs, ns * ls, par, RunScratch::default, |s, (y, out)| {
-        runs_of(tone.row(y), spans, true, fill, ls, out, s);
-    });
+    runs_of_rows(tone, spans, true, fill, ls, runs, par);
     let which: Vec<usize> = shape
         .rows
         .iter()
@@ -451,9 +520,7 @@ fn uncovered(
     let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
     let ps = tone.stride;
     runs.resize(lh * ns * ps, 0);
-    rows_mut_with(runs, ns * ps, par, RunScratch::default, |s, (cy, out)| {
-        runs_of(centres.row(cy), &mirrored, false, 0, ps, out, s);
-    });
+    runs_of_rows(centres, &mirrored, false, 0, ps, runs, par);
     let which: Vec<usize> = shape
         .rows
         .iter()
@@ -668,6 +735,21 @@ mod tests {
                                 runs_of(&row, sp, and, fill, n, &mut got, &mut s);
                                 runs_of_by_steps(&row, sp, and, fill, n, &mut want);
                                 assert_eq!(got, want, "span {span} len {len} n {n} and {and}");
+                                // All rows at once: a grid of such rows, in bands.
+                                let h = 1 + (next() % 70) as usize;
+                                let grid = Packed {
+                                    width: len * 64,
+                                    height: h,
+                                    stride: len,
+                                    data: (0..h * len).map(|_| next()).collect(),
+                                };
+                                let mut got = vec![0u64; h * sp.len() * n];
+                                runs_of_rows(&grid, sp, and, fill, n, &mut got, h % 2 == 0);
+                                for y in 0..h {
+                                    let k = sp.len() * n;
+                                    runs_of_by_steps(grid.row(y), sp, and, fill, n, &mut want);
+                                    assert_eq!(&got[y * k..(y + 1) * k], &want[..], "row {y}");
+                                }
                             }
                         }
                     }
