@@ -195,6 +195,10 @@ struct Work<'a> {
     corners: Vec<(u32, u32)>,
     disc: Disc,
     ring: Vec<(i64, i64, f32)>,
+    /// The ring as offsets of bit index (`dy · stride · 64 + dx`) with the depth each gives, and
+    /// how far it reaches: for lattice points at least that far inside the grid.
+    ring_bits: Vec<(i64, u16)>,
+    ring_reach: i64,
     /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
     /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
     paint: Vec<Vec<(i64, i64, i64)>>,
@@ -242,6 +246,7 @@ impl<'a> Work<'a> {
         let [x0, y0, x1, y1] = window;
         let (pw, ph) = ((x1 - x0 + 2 * pad) as usize, (y1 - y0 + 2 * pad) as usize);
         let mut padded = Packed::new(pw, ph, true);
+        let stride = padded.stride;
         for y in y0..y1 {
             let row = &bits.data[bits.idx(x0, y)..bits.idx(x0, y) + (x1 - x0) as usize];
             padded.put_row((y - y0 + pad) as usize, pad as usize, row);
@@ -271,6 +276,16 @@ impl<'a> Work<'a> {
             corners,
             disc,
             ring: ring(disc),
+            ring_bits: ring(disc)
+                .into_iter()
+                .map(|(dx, dy, d)| (dy * 64 * stride as i64 + dx, (2.0 * d) as u16))
+                .collect(),
+            ring_reach: ring(disc)
+                .iter()
+                .map(|&(dx, dy, _)| dx.abs().max(dy.abs()))
+                .max()
+                .unwrap_or(0)
+                + 1,
             paint: paint(disc),
             thin: [Packed::new(pw, ph, false), Packed::new(pw, ph, false)],
             depth2: Vec::new(),
@@ -342,6 +357,49 @@ impl<'a> Work<'a> {
     /// was tried: slower, as most thin pixels lie a pixel or two from the other tone, which the
     /// ring, nearest first, finds in a few probes.)
     fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
+        let tone = |x: i64, y: i64| {
+            x < 0
+                || y < 0
+                || x >= self.bits.width as i64
+                || y >= self.bits.height as i64
+                || self.bits.get(x as usize, y as usize)
+        };
+        let phase = if self.disc.on_corners() {
+            let t = tone(cx, cy);
+            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
+                .iter()
+                .any(|&(x, y)| tone(x, y) != t)
+            {
+                return 1;
+            }
+            t
+        } else {
+            tone(cx, cy)
+        };
+        let (k, w, h) = (self.ring_reach, self.bits.width, self.bits.height);
+        if cx >= k && cy >= k && cx + k < w as i64 && cy + k < h as i64 {
+            // Every probe inside the grid: a bit index, no bounds to check.
+            let base = cy * 64 * self.bits.stride as i64 + cx;
+            let data = &self.bits.data;
+            for &(off, d2) in &self.ring_bits {
+                let b = (base + off) as usize;
+                if (data[b / 64] >> (b % 64) & 1 == 1) != phase {
+                    return d2;
+                }
+            }
+            return u16::MAX;
+        }
+        for &(dx, dy, d) in &self.ring {
+            if tone(cx + dx, cy + dy) != phase {
+                return (2.0 * d) as u16;
+            }
+        }
+        u16::MAX
+    }
+
+    /// [`Work::lattice_depth`] probing through the bounds-checked path only.
+    #[cfg(test)]
+    fn lattice_depth_checked(&self, cx: i64, cy: i64) -> u16 {
         let tone = |x: i64, y: i64| {
             x < 0
                 || y < 0
@@ -1214,6 +1272,45 @@ mod tests {
             changed += n_got;
         }
         assert!(changed > 0, "some case settled something");
+    }
+
+    /// The depth probed by bit index inside the grid is the depth probed with bounds checks, at
+    /// every lattice point of random grids (sparse, dense, blocky), odd and even spans.
+    #[test]
+    fn depth_by_bit_index_is_depth_with_checks() {
+        let mut seed = 0xd3e9_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        for case in 0..40 {
+            let (w, h) = (1 + rnd(150) as u32, 1 + rnd(60) as u32);
+            let dense = rnd(11);
+            let cell = 1 + rnd(5) as u32;
+            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+                .map(|_| rnd(10) < dense)
+                .collect();
+            let bits = BitGrid::from_fn(w, h, |x, y| {
+                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
+            });
+            let px = [2.0, 3.0, 4.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 9];
+            let disc = Disc::for_width(px);
+            let all = [0, 0, w, h];
+            let work = Work::new(&bits, all, all, disc, |_, _| 1.0);
+            let c = disc.on_corners() as i64;
+            for cy in 0..work.bits.height as i64 + c {
+                for cx in 0..work.bits.width as i64 + c {
+                    assert_eq!(
+                        work.lattice_depth(cx, cy),
+                        work.lattice_depth_checked(cx, cy),
+                        "case {case} span {} at ({cx}, {cy})",
+                        disc.span
+                    );
+                }
+            }
+        }
     }
 
     fn any_thin(bits: &BitGrid, px: f64) -> bool {

@@ -207,13 +207,15 @@ fn pair(src: &[u64], d: i64, fill: u64, out: &mut [u64], op: impl Fn(u64, u64) -
     let at = |j: usize| if j < n { src[j] } else { fill };
     // The words whose sources `i + q` and `i + q + 1` both lie in `src`, without the checks.
     let inner = n.saturating_sub(q + 1);
+    let here = &src[..inner];
+    let (lo, hi) = (&src[q.min(n)..][..inner], &src[(q + 1).min(n)..][..inner]);
     if r == 0 {
-        for (i, o) in out[..inner].iter_mut().enumerate() {
-            *o = op(src[i], src[i + q]);
+        for ((o, &x), &y) in out[..inner].iter_mut().zip(here).zip(lo) {
+            *o = op(x, y);
         }
     } else {
-        for (i, (o, w)) in out[..inner].iter_mut().zip(src[q..].windows(2)).enumerate() {
-            *o = op(src[i], (w[0] >> r) | (w[1] << (64 - r)));
+        for (((o, &x), &a), &b) in out[..inner].iter_mut().zip(here).zip(lo).zip(hi) {
+            *o = op(x, (a >> r) | (b << (64 - r)));
         }
     }
     for (i, o) in out.iter_mut().enumerate().take(n).skip(inner) {
