@@ -45,6 +45,7 @@ impl Packed {
     }
 
     /// The pixel at index `i = y · width + x`.
+    #[cfg(test)]
     pub fn at(&self, i: usize) -> bool {
         self.get(i % self.width, i / self.width)
     }
@@ -99,14 +100,6 @@ impl Packed {
             } else {
                 *w &= !m;
             }
-        }
-    }
-
-    /// Every bit flipped, the tail too.
-    pub fn not(&self) -> Packed {
-        Packed {
-            data: self.data.iter().map(|w| !w).collect(),
-            ..*self
         }
     }
 
@@ -206,10 +199,52 @@ fn shift(row: &[u64], s: i64, fill: u64, out: &mut [u64]) {
     }
 }
 
+/// `out[x] = src[x] ∘ src[x + d]` (`d ≥ 0`; past the end of `src`, `fill`), a shift and the
+/// combine in one pass.
+fn pair(src: &[u64], d: i64, fill: u64, out: &mut [u64], op: impl Fn(u64, u64) -> u64) {
+    let (q, r) = ((d / 64) as usize, (d % 64) as u32);
+    let n = src.len();
+    let at = |j: usize| if j < n { src[j] } else { fill };
+    // The words whose sources `i + q` and `i + q + 1` both lie in `src`, without the checks.
+    let inner = n.saturating_sub(q + 1);
+    let here = &src[..inner];
+    let (lo, hi) = (&src[q.min(n)..][..inner], &src[(q + 1).min(n)..][..inner]);
+    if r == 0 {
+        for ((o, &x), &y) in out[..inner].iter_mut().zip(here).zip(lo) {
+            *o = op(x, y);
+        }
+    } else {
+        for (((o, &x), &a), &b) in out[..inner].iter_mut().zip(here).zip(lo).zip(hi) {
+            *o = op(x, (a >> r) | (b << (64 - r)));
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().take(n).skip(inner) {
+        let j = i + q;
+        let v = if r == 0 {
+            at(j)
+        } else {
+            (at(j) >> r) | (at(j + 1) << (64 - r))
+        };
+        *o = op(src[i], v);
+    }
+}
+
+/// Scratch rows for [`runs_of`], kept between rows.
+#[cfg(test)]
+#[derive(Default)]
+pub(super) struct RunScratch {
+    cur: Vec<u64>,
+    next: Vec<u64>,
+}
+
 /// For each span `(a, b)` of `spans`, `out[k · n..(k + 1) · n] = row[x + a] ∘ … ∘ row[x + b]`
-/// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans are the rows of one disc:
-/// by length, each one longer at both ends than the one before (`a + b` the same for all), so
-/// each is the one before it combined with two shifted rows.
+/// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans must come by width,
+/// narrowest first. The row is set in `p` words of `fill` on either side, and the run of width
+/// `c` from each bit is built by doubling (the run of `c + d` is the run of `c` combined with
+/// itself shifted by `d ≤ c`), each step one pass over the words; each span's runs are then
+/// shifted by its start into `out`. So a span of width `s` costs about log₂ s passes, not `2s`.
+/// (One row's runs, as [`runs_of_rows`] makes them for every row; the tests' measure of it.)
+#[cfg(test)]
 fn runs_of(
     row: &[u64],
     spans: &[(i64, i64)],
@@ -217,34 +252,135 @@ fn runs_of(
     fill: u64,
     n: usize,
     out: &mut [u64],
-    (cur, tmp): &mut (Vec<u64>, Vec<u64>),
+    s: &mut RunScratch,
+) {
+    let reach = spans.iter().map(|&(a, b)| a.abs().max(b.abs())).max();
+    let p = (reach.unwrap_or(0) as usize).div_ceil(64) + 1;
+    let len = row.len().max(n) + 2 * p;
+    s.cur.clear();
+    s.cur.resize(len, fill);
+    s.cur[p..p + row.len()].copy_from_slice(row);
+    s.next.resize(len, 0);
+    // `cur` holds, at bit x, the combined bits x..x + c of the row set in fill.
+    let mut c = 1i64;
+    for (k, &(a, b)) in spans.iter().enumerate() {
+        let w = b - a + 1;
+        debug_assert!(w >= c, "spans come narrowest first");
+        while c < w {
+            let d = (w - c).min(c);
+            if and {
+                pair(&s.cur, d, fill, &mut s.next, |x, y| x & y);
+            } else {
+                pair(&s.cur, d, fill, &mut s.next, |x, y| x | y);
+            }
+            std::mem::swap(&mut s.cur, &mut s.next);
+            c += d;
+        }
+        shift(
+            &s.cur,
+            a + 64 * p as i64,
+            fill,
+            &mut out[k * n..(k + 1) * n],
+        );
+    }
+}
+
+/// [`runs_of`] for every row of `src` at once: `out[(y · ns + k) · n..][..n]` the runs of row `y`
+/// for span `k` (`ns` spans). The rows are laid end to end, each set in `p` words of `fill` on
+/// either side, in bands of rows, and each doubling step is one pass over a whole band: long
+/// loops over words instead of a short one per row. A run read past its row's padding reads the
+/// next row's, but no run that lands in `out` reaches that far (a span reaches less than `p`
+/// words past its row), so each row's runs are its own.
+fn runs_of_rows(
+    src: &Packed,
+    spans: &[(i64, i64)],
+    and: bool,
+    fill: u64,
+    n: usize,
+    out: &mut [u64],
+    par: bool,
+) {
+    const BAND: usize = 32;
+    let ns = spans.len();
+    let reach = spans.iter().map(|&(a, b)| a.abs().max(b.abs())).max();
+    let p = (reach.unwrap_or(0) as usize).div_ceil(64) + 1;
+    let l = src.stride.max(n) + 2 * p;
+    let scratch = || (Vec::new(), Vec::new());
+    rows_mut_with(
+        out,
+        BAND * ns * n,
+        par,
+        scratch,
+        |(cur, next), (band, out)| {
+            let (y0, rows) = (band * BAND, out.len() / (ns * n));
+            cur.clear();
+            cur.resize(rows * l, fill);
+            for r in 0..rows {
+                cur[r * l + p..r * l + p + src.stride].copy_from_slice(src.row(y0 + r));
+            }
+            next.resize(rows * l, 0);
+            let mut c = 1i64;
+            for (k, &(a, b)) in spans.iter().enumerate() {
+                let w = b - a + 1;
+                debug_assert!(w >= c, "spans come narrowest first");
+                while c < w {
+                    let d = (w - c).min(c);
+                    if and {
+                        pair(cur, d, fill, next, |x, y| x & y);
+                    } else {
+                        pair(cur, d, fill, next, |x, y| x | y);
+                    }
+                    std::mem::swap(cur, next);
+                    c += d;
+                }
+                for r in 0..rows {
+                    let to = (r * ns + k) * n;
+                    shift(
+                        &cur[r * l..(r + 1) * l],
+                        a + 64 * p as i64,
+                        fill,
+                        &mut out[to..to + n],
+                    );
+                }
+            }
+        },
+    );
+}
+
+/// [`runs_of`] as it was: each span built from the one before by two shifted rows, for the
+/// tests to hold the doubling to.
+#[cfg(test)]
+fn runs_of_by_steps(
+    row: &[u64],
+    spans: &[(i64, i64)],
+    and: bool,
+    fill: u64,
+    n: usize,
+    out: &mut [u64],
 ) {
     let op = |x: &mut [u64], y: &[u64]| {
         for (p, &q) in x.iter_mut().zip(y) {
             *p = if and { *p & q } else { *p | q };
         }
     };
-    cur.resize(n, 0);
-    tmp.resize(n, 0);
-    let (cur, tmp) = (&mut cur[..n], &mut tmp[..n]);
+    let (mut cur, mut tmp) = (vec![0u64; n], vec![0u64; n]);
     let (a0, b0) = spans[0];
-    shift(row, a0, fill, cur);
+    shift(row, a0, fill, &mut cur);
     for t in a0 + 1..=b0 {
-        shift(row, t, fill, tmp);
-        op(cur, tmp);
+        shift(row, t, fill, &mut tmp);
+        op(&mut cur, &tmp);
     }
     let (mut a, mut b) = (a0, b0);
-    for (k, &(sa, sb)) in spans.iter().enumerate() {
-        debug_assert_eq!(sa + sb, a0 + b0, "the spans of a disc share their centre");
+    for (k, &(_, sb)) in spans.iter().enumerate() {
         while b < sb {
             a -= 1;
             b += 1;
-            shift(row, a, fill, tmp);
-            op(cur, tmp);
-            shift(row, b, fill, tmp);
-            op(cur, tmp);
+            shift(row, a, fill, &mut tmp);
+            op(&mut cur, &tmp);
+            shift(row, b, fill, &mut tmp);
+            op(&mut cur, &tmp);
         }
-        out[k * n..(k + 1) * n].copy_from_slice(cur);
+        out[k * n..(k + 1) * n].copy_from_slice(&cur);
     }
 }
 
@@ -280,43 +416,67 @@ impl Shape {
     }
 }
 
+/// What [`thin`] keeps between calls: the lattice points whose disc fits, and the runs.
+#[derive(Default)]
+pub(super) struct ThinScratch {
+    centres: Option<Packed>,
+    runs: Vec<u64>,
+}
+
 /// The pixels of one tone (`phase`: true = material) that no disc lying wholly in that tone
-/// covers: the tone minus its opening by the disc. `bits` is material; past its edges lies
-/// material (its tail bits must be set), so a disc of material may reach past them and one of
-/// cut may not. The result's tail bits are clear.
-pub(super) fn thin(bits: &Packed, phase: bool, disc: Disc) -> Packed {
-    let tone = if phase { bits.clone() } else { bits.not() };
+/// covers: the tone minus its opening by the disc, into `out` (its buffer reused). `bits` is
+/// material; past its edges lies material (its tail bits must be set), so a disc of material may
+/// reach past them and one of cut may not. The result's tail bits are clear.
+pub(super) fn thin(
+    bits: &Packed,
+    phase: bool,
+    disc: Disc,
+    scratch: &mut ThinScratch,
+    out: &mut Packed,
+) {
+    out.width = bits.width;
+    out.height = bits.height;
+    out.stride = bits.stride;
+    out.data.clear();
+    if phase {
+        out.data.extend_from_slice(&bits.data);
+    } else {
+        out.data.extend(bits.data.iter().map(|w| !w));
+    }
     let shape = Shape::of(disc);
     // Each row is run-combined once per distinct disc row.
     let mut spans: Vec<(i64, i64)> = shape.rows.clone();
     spans.sort_unstable_by_key(|&(a, b)| b - a);
     spans.dedup();
-    let centres = disc_centres(&tone, phase, &shape, &spans, disc.on_corners() as usize);
-    uncovered(tone, &centres, &shape, &spans)
+    let corners = disc.on_corners() as usize;
+    let (lw, lh) = (bits.width + corners, bits.height + corners);
+    let centres = match &mut scratch.centres {
+        Some(c) if c.width == lw && c.height == lh => c,
+        c => c.insert(Packed::new(lw, lh, false)),
+    };
+    disc_centres(out, phase, &shape, &spans, centres, &mut scratch.runs);
+    uncovered(out, centres, &shape, &spans, &mut scratch.runs);
 }
 
 /// Erosion: the lattice points (`corners` more per side than pixels when the disc's centre lies
 /// on pixel corners) whose disc, of `shape`'s rows (`spans` the distinct ones), lies wholly in
-/// `tone`. Past the grid's edges lies material: a disc of material may reach there (`phase`).
+/// `tone`, into `centres` (sized for them). Past the grid's edges lies material: a disc of
+/// material may reach there (`phase`).
 fn disc_centres(
     tone: &Packed,
     phase: bool,
     shape: &Shape,
     spans: &[(i64, i64)],
-    corners: usize,
-) -> Packed {
+    centres: &mut Packed,
+    runs: &mut Vec<u64>,
+) {
     let (w, h) = (tone.width, tone.height);
     let fill = word_of(phase);
-    let (lw, lh) = (w + corners, h + corners);
-    let mut centres = Packed::new(lw, lh, false);
     let ls = centres.stride;
     let ns = spans.len();
     let par = parallel(w * h);
-    let mut runs = vec![0u64; h * ns * ls];
-    let scratch = || (Vec::new(), Vec::new());
-    rows_mut_with(&mut runs, ns * ls, par, scratch, |s, (y, out)| {
-        runs_of(tone.row(y), spans, true, fill, ls, out, s);
-    });
+    runs.resize(h * ns * ls, 0);
+    runs_of_rows(tone, spans, true, fill, ls, runs, par);
     let which: Vec<usize> = shape
         .rows
         .iter()
@@ -327,6 +487,7 @@ fn disc_centres(
                 .expect("every disc row has its run")
         })
         .collect();
+    let runs = &runs[..];
     rows_mut(&mut centres.data, ls, par, |(cy, out)| {
         out.fill(!0);
         for (r, &s) in which.iter().enumerate() {
@@ -342,23 +503,26 @@ fn disc_centres(
         }
     });
     centres.tail(false);
-    centres
 }
 
-/// Dilation, subtracted: `tone` minus the pixels some valid centre's disc holds. Pixel (x, y) is
-/// held by centre (x − dx, y − dy), so each centre row is run-ORed over the mirrored disc row.
-fn uncovered(tone: Packed, centres: &Packed, shape: &Shape, spans: &[(i64, i64)]) -> Packed {
+/// Dilation, subtracted: `tone` minus the pixels some valid centre's disc holds, in place. Pixel
+/// (x, y) is held by centre (x − dx, y − dy), so each centre row is run-ORed over the mirrored
+/// disc row.
+fn uncovered(
+    tone: &mut Packed,
+    centres: &Packed,
+    shape: &Shape,
+    spans: &[(i64, i64)],
+    runs: &mut Vec<u64>,
+) {
     let (w, h) = (tone.width, tone.height);
     let lh = centres.height;
     let ns = spans.len();
     let par = parallel(w * h);
-    let scratch = || (Vec::new(), Vec::new());
     let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
     let ps = tone.stride;
-    let mut runs = vec![0u64; lh * ns * ps];
-    rows_mut_with(&mut runs, ns * ps, par, scratch, |s, (cy, out)| {
-        runs_of(centres.row(cy), &mirrored, false, 0, ps, out, s);
-    });
+    runs.resize(lh * ns * ps, 0);
+    runs_of_rows(centres, &mirrored, false, 0, ps, runs, par);
     let which: Vec<usize> = shape
         .rows
         .iter()
@@ -369,9 +533,9 @@ fn uncovered(tone: Packed, centres: &Packed, shape: &Shape, spans: &[(i64, i64)]
                 .expect("every disc row has its mirror")
         })
         .collect();
-    let mut out = tone;
+    let runs = &runs[..];
     let scratch = || vec![0u64; ps];
-    rows_mut_with(&mut out.data, ps, par, scratch, |covered, (y, row)| {
+    rows_mut_with(&mut tone.data, ps, par, scratch, |covered, (y, row)| {
         covered.fill(0);
         for (r, &s) in which.iter().enumerate() {
             let cy = y as i64 - shape.dy0 - r as i64;
@@ -386,8 +550,7 @@ fn uncovered(tone: Packed, centres: &Packed, shape: &Shape, spans: &[(i64, i64)]
             *o &= !c;
         }
     });
-    out.tail(false);
-    out
+    tone.tail(false);
 }
 
 #[cfg(test)]
@@ -457,7 +620,8 @@ mod tests {
                 for span in [2.0, 3.0, 4.0, 5.0, 6.0, 9.0] {
                     let disc = Disc::for_width(span);
                     for phase in [true, false] {
-                        let got = thin(&p, phase, disc);
+                        let mut got = Packed::new(0, 0, false);
+                        thin(&p, phase, disc, &mut ThinScratch::default(), &mut got);
                         let want = brute(&bits, w, h, phase, disc);
                         for (i, &t) in want.iter().enumerate() {
                             assert_eq!(
@@ -514,7 +678,7 @@ mod tests {
         assert_eq!(out, [0b10111, 0]);
         shift(&row, 64, 0, &mut out);
         assert_eq!(out, [1 << 63, 0]);
-        let mut s = (Vec::new(), Vec::new());
+        let mut s = RunScratch::default();
         runs_of(
             &[0b0111_0110u64],
             &[(1, 1), (0, 2)],
@@ -535,5 +699,72 @@ mod tests {
             &mut s,
         );
         assert_eq!(out, [0b1000_0001, 0b1_1100_0011]);
+    }
+
+    /// The runs by doubling are the runs built span by span, on random rows, for the spans of
+    /// discs of several sizes, both ops, both fills, output rows longer than the input.
+    #[test]
+    fn runs_by_doubling_are_runs_by_steps() {
+        let mut seed = 17u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed
+        };
+        let mut s = RunScratch::default();
+        for span in [2.0, 3.0, 4.0, 5.0, 6.0, 9.0, 11.0, 12.0, 30.0, 75.0, 140.0] {
+            let shape = Shape::of(Disc::for_width(span));
+            let mut spans = shape.rows.clone();
+            spans.sort_unstable_by_key(|&(a, b)| b - a);
+            spans.dedup();
+            let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
+            for len in [1usize, 2, 3, 7] {
+                for n in [len, len + 1] {
+                    for _ in 0..4 {
+                        let dense = next() % 4;
+                        let row: Vec<u64> = (0..len)
+                            .map(|_| match dense {
+                                0 => next() & next() & next(),
+                                1 => next() | next() | next(),
+                                _ => next(),
+                            })
+                            .collect();
+                        for sp in [&spans, &mirrored] {
+                            for (and, fill) in [(true, 0), (true, !0), (false, 0), (false, !0)] {
+                                let mut got = vec![0u64; sp.len() * n];
+                                let mut want = vec![0u64; sp.len() * n];
+                                runs_of(&row, sp, and, fill, n, &mut got, &mut s);
+                                runs_of_by_steps(&row, sp, and, fill, n, &mut want);
+                                assert_eq!(got, want, "span {span} len {len} n {n} and {and}");
+                                // All rows at once: a grid of such rows, in bands.
+                                let h = 1 + (next() % 70) as usize;
+                                let grid = Packed {
+                                    width: len * 64,
+                                    height: h,
+                                    stride: len,
+                                    data: (0..h * len).map(|_| next()).collect(),
+                                };
+                                let mut got = vec![0u64; h * sp.len() * n];
+                                runs_of_rows(
+                                    &grid,
+                                    sp,
+                                    and,
+                                    fill,
+                                    n,
+                                    &mut got,
+                                    h.is_multiple_of(2),
+                                );
+                                for y in 0..h {
+                                    let k = sp.len() * n;
+                                    runs_of_by_steps(grid.row(y), sp, and, fill, n, &mut want);
+                                    assert_eq!(&got[y * k..(y + 1) * k], &want[..], "row {y}");
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
