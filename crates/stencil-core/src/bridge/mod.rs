@@ -434,7 +434,9 @@ pub fn walk(
         return Ok(Walks::default());
     }
     let (fields, mut cands) = times.time("candidates", || {
-        let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
+        let fields = strips::Fields::new(two, map)
+            .with_forbidden(cfg.user.keep_out.as_deref())
+            .with_reach(map);
         (fields, candidates::collect(map))
     });
     let max_len = cfg.max_length_px as usize;
