@@ -207,11 +207,14 @@ pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
             nodes.push(node);
         }
     }
-    for l in map.labels.iter_mut() {
-        if *l != CUT {
-            *l = renumber[*l as usize];
+    // Each label on its own: in parallel, by bands of rows.
+    map.labels.par_chunks_mut(1 << 16).for_each(|band| {
+        for l in band.iter_mut() {
+            if *l != CUT {
+                *l = renumber[*l as usize];
+            }
         }
-    }
+    });
     map.nodes = nodes;
     map
 }

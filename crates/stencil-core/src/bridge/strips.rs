@@ -302,7 +302,19 @@ pub(crate) struct Reach {
 }
 
 impl Reach {
+    /// The bound on the L1 distance, for the walks (4-connected steps).
     pub(crate) fn new(map: &IslandMap) -> Reach {
+        Reach::build(map, false)
+    }
+
+    /// The bound on the Chebyshev distance (and so on the Euclidean one), for the shortest gaps
+    /// (`gaps`): the same search over blocks 8-connected, where blocks `D` apart hold pixels at
+    /// least `(D − 1)·8 + 1` apart along one axis.
+    pub(crate) fn chebyshev(map: &IslandMap) -> Reach {
+        Reach::build(map, true)
+    }
+
+    fn build(map: &IslandMap, corners: bool) -> Reach {
         let (w, h) = (map.width as usize, map.height as usize);
         let b = REACH_BLOCK as usize;
         let (across, down) = (w.div_ceil(b), h.div_ceil(b));
@@ -380,10 +392,26 @@ impl Reach {
             if by + 1 < down {
                 visit(k + across);
             }
+            if corners {
+                if bx > 0 && by > 0 {
+                    visit(k - across - 1);
+                }
+                if bx + 1 < across && by > 0 {
+                    visit(k - across + 1);
+                }
+                if bx > 0 && by + 1 < down {
+                    visit(k + across - 1);
+                }
+                if bx + 1 < across && by + 1 < down {
+                    visit(k + across + 1);
+                }
+            }
         }
         let px = |d: u32| match d {
-            0 | 1 => d,
+            0 => 0,
             u32::MAX => u32::MAX,
+            d if corners => (d - 1) * REACH_BLOCK + 1,
+            1 => 1,
             d => (d - 2) * REACH_BLOCK + 2,
         };
         Reach {
@@ -395,8 +423,9 @@ impl Reach {
         }
     }
 
-    /// At least this many 4-connected steps (the L1 distance) lead from pixel (x, y) (inside the
-    /// image) to any border pixel of a node other than `own`, or to the frame beyond the image.
+    /// At least this many 4-connected steps (the L1 distance; for [`Reach::chebyshev`], the
+    /// Chebyshev distance) lead from pixel (x, y) (inside the image) to any border pixel of a node
+    /// other than `own`, or to the frame beyond the image.
     #[inline]
     pub(crate) fn bound(&self, x: i64, y: i64, own: u32) -> u32 {
         let k = (y as usize >> REACH_SHIFT) * self.across + (x as usize >> REACH_SHIFT);
@@ -1176,6 +1205,7 @@ mod tests {
             let t = random_picture(w, h, &mut next);
             let m = label(&t.bits);
             let r = Reach::new(&m);
+            let rc = Reach::chebyshev(&m);
             let (wi, hi) = (w as i64, h as i64);
             let mut shores: Vec<(i64, i64, u32)> = Vec::new();
             for (n, node) in m.nodes.iter().enumerate() {
@@ -1205,6 +1235,15 @@ mod tests {
                             b <= truth,
                             "picture {k} ({x}, {y}) own {own}: {b} > {truth}"
                         );
+                        positive += (b > 0) as usize;
+                        let cheb = shores
+                            .iter()
+                            .filter(|s| s.2 != own)
+                            .map(|s| (s.0 - x).abs().max((s.1 - y).abs()) as u32)
+                            .min()
+                            .unwrap_or(u32::MAX);
+                        let b = rc.bound(x, y, own);
+                        assert!(b <= cheb, "picture {k} ({x}, {y}) own {own}: {b} > {cheb}");
                         positive += (b > 0) as usize;
                     }
                 }
