@@ -109,9 +109,8 @@ pub fn label(bits: &BitGrid) -> IslandMap {
                 let row = &d[y * w..(y + 1) * w];
                 let up = (y > 0).then(|| &d[(y - 1) * w..y * w]);
                 let down = (y + 1 < h).then(|| &d[(y + 1) * w..(y + 2) * w]);
-                for r in row_first[y]..row_first[y + 1] {
-                    let (x0, x1) = (runs[r].x0 as usize, runs[r].x1 as usize);
-                    for x in x0..=x1 {
+                for run in &runs[row_first[y]..row_first[y + 1]] {
+                    for x in run.x0 as usize..=run.x1 as usize {
                         let cut_next = (x > 0 && !row[x - 1])
                             || (x + 1 < w && !row[x + 1])
                             || up.is_some_and(|u| !u[x])

@@ -1180,7 +1180,7 @@ mod tests {
                 .any(|&(cx, cy, r)| (x as i64 - cx).pow(2) + (y as i64 - cy).pow(2) <= r * r)
         });
         let mut gray = Gray::new(w, h, 0.0);
-        let smooth = next() % 2 == 0;
+        let smooth = next().is_multiple_of(2);
         for y in 0..h {
             for x in 0..w {
                 let v = if smooth {
@@ -1198,7 +1198,7 @@ mod tests {
     /// over every shore pixel and the points beyond the image's edge).
     #[test]
     fn reach_is_a_lower_bound_on_the_distance_to_another_nodes_shore() {
-        let mut next = rng(0x5eed_0f_1a_b0u64);
+        let mut next = rng(0x5eed_0f1a_b0b0_u64);
         let mut positive = 0;
         for k in 0..12u32 {
             let (w, h) = (30 + k * 7 % 41, 25 + k * 11 % 37);
