@@ -83,6 +83,17 @@ fn main() {
         let s = Instant::now();
         let p = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut timer).unwrap();
         t("3 prepare", s);
+        // Inside the prepare, which its timings do not split: the labelling the drop starts
+        // from, and the walks' own phases (candidates, gaps, walks), run again on its result.
+        let s = Instant::now();
+        std::hint::black_box(stencil_core::islands::label(&c.twotone.bits));
+        t("3a label", s);
+        let mut wt = Timings::new(None);
+        let s = Instant::now();
+        std::hint::black_box(
+            stencil_core::bridge::walk(&p.twotone, &p.map, &params.join.bridge, &mut wt).unwrap(),
+        );
+        t("3b walk", s);
         let s = Instant::now();
         let j = pipeline::bridge_prepared(&p, &params.join, &mut timer).unwrap();
         t("4 bridge", s);
@@ -98,6 +109,9 @@ fn main() {
         std::hint::black_box(idx);
         for (k, v) in timer.iter() {
             tot.entry(format!("  {k}")).or_default().push(v);
+        }
+        for (k, v) in wt.iter() {
+            tot.entry(format!("  3b {k}")).or_default().push(v);
         }
     }
     if meshy {

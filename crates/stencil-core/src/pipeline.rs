@@ -1382,13 +1382,32 @@ fn drop_islands(
         d.area_mm2 *= mm * mm;
         out.push(d);
     }
-    let mut px = Vec::new();
-    for (i, &l) in map.labels.iter().enumerate() {
-        if l != islands::CUT && gone[l as usize] {
-            two.bits.data[i] = false;
-            px.push(i as u32);
-        }
-    }
+    // The dropped islands' pixels become cut, in parallel bands of pixels, each band listing its
+    // own (the list stays in pixel order).
+    const BAND: usize = 1 << 16;
+    let px: Vec<u32> = if out.is_empty() {
+        Vec::new()
+    } else {
+        use rayon::prelude::*;
+        let per_band: Vec<Vec<u32>> = two
+            .bits
+            .data
+            .par_chunks_mut(BAND)
+            .zip(map.labels.par_chunks(BAND))
+            .enumerate()
+            .map(|(b, (bits, labels))| {
+                let mut px = Vec::new();
+                for (k, (bit, &l)) in bits.iter_mut().zip(labels).enumerate() {
+                    if l != islands::CUT && gone[l as usize] {
+                        *bit = false;
+                        px.push((b * BAND + k) as u32);
+                    }
+                }
+                px
+            })
+            .collect();
+        per_band.concat()
+    };
     (out, px, map, gone)
 }
 
