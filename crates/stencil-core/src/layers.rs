@@ -766,7 +766,8 @@ fn join_and_finish(
         &params.join,
         timer,
     )?;
-    joined.twotone.gray = real_gray;
+    // The join just made holds the only reference: no copy.
+    Arc::make_mut(&mut joined.twotone).gray = real_gray;
     pipeline::finish_from(cfg, params, cleaned, &joined)
 }
 

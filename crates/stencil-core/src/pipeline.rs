@@ -1134,18 +1134,23 @@ pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
 
 /// The islands of the cleaned two-tone joined to the frame, and what went into it.
 #[derive(Clone, Debug)]
+///
+/// The two-tone, the islands and the dropped pixels are [`Prepared`]'s, shared rather than
+/// copied: the studio keeps the prepared stage while a person tries weights, and copying them
+/// (a 1-megapixel gray, two-tone and label grid) cost a bridge-weight change more than drawing
+/// the bridges did.
 pub struct Joined {
     /// The two-tone the bridges were drawn into (the islands under `min_island_mm2` cut away).
-    pub twotone: TwoTone,
+    pub twotone: Arc<TwoTone>,
     /// What the user's `--bridge-at` / keep-out requests became, when there were any.
     pub user: Option<crate::report::UserBridgesReport>,
     /// The islands before bridging.
-    pub map: islands::IslandMap,
+    pub map: Arc<islands::IslandMap>,
     pub bridged: Bridged,
     /// Islands dropped instead of bridged (see `bridge::drop`), in mm, and their pixels (cut in
     /// `twotone`; the preview shows them in their own colour).
     pub dropped: Vec<bridge::drop::Dropped>,
-    pub dropped_px: Vec<u32>,
+    pub dropped_px: Arc<Vec<u32>>,
 }
 
 /// Stage 5: islands under `min_island_mm2` cut away (they become cut in the two-tone, so the
@@ -1190,11 +1195,11 @@ pub fn join(
 /// [`Prepared::key`]).
 #[derive(Clone, Debug)]
 pub struct Prepared {
-    pub twotone: TwoTone,
+    pub twotone: Arc<TwoTone>,
     pub user: Option<crate::report::UserBridgesReport>,
-    pub map: islands::IslandMap,
+    pub map: Arc<islands::IslandMap>,
     pub dropped: Vec<bridge::drop::Dropped>,
-    pub dropped_px: Vec<u32>,
+    pub dropped_px: Arc<Vec<u32>>,
     pub walks: bridge::Walks,
 }
 
@@ -1232,19 +1237,20 @@ pub fn prepare(
         bridge::walk(&twotone, &map, &p.bridge, &mut t)
     })?;
     Ok(Prepared {
-        twotone,
+        twotone: Arc::new(twotone),
         user,
-        map,
+        map: Arc::new(map),
         dropped,
-        dropped_px,
+        dropped_px: Arc::new(dropped_px),
         walks,
     })
 }
 
 /// [`join`]'s second half: the bridges chosen from `prepared` (made by [`prepare`] for the same
 /// [`Prepared::key`]) and drawn, the clean-up around them, and the check that nothing floats.
-/// `prepared` is only read (the studio keeps it for the next weights): the result holds copies
-/// of its two-tone, islands and dropped islands, but its walks are lent, not copied.
+/// `prepared` is only read (the studio keeps it for the next weights): the result shares its
+/// two-tone, islands and dropped pixels (and copies the few dropped islands' descriptions), and
+/// its walks are lent, not copied.
 pub fn bridge_prepared(
     prepared: &Prepared,
     p: &JoinParams,
@@ -1252,12 +1258,12 @@ pub fn bridge_prepared(
 ) -> Result<Joined, Error> {
     let bridged = bridge_drawn(prepared, p, timer)?;
     Ok(Joined {
-        twotone: prepared.twotone.clone(),
+        twotone: Arc::clone(&prepared.twotone),
         user: prepared.user.clone(),
-        map: prepared.map.clone(),
+        map: Arc::clone(&prepared.map),
         bridged,
         dropped: prepared.dropped.clone(),
-        dropped_px: prepared.dropped_px.clone(),
+        dropped_px: Arc::clone(&prepared.dropped_px),
     })
 }
 
@@ -1306,8 +1312,12 @@ fn bridge_drawn(
             }
         }
     }
-    // Counted first, labelled only when something floats (to say where).
-    if timer.time("verify", || islands::floating_count(&bridged.bits)) > 0 {
+    // Counted from what the bridges and the clean-up added (they only add), labelled only when
+    // something floats (to say where).
+    let floating = timer.time("verify", || {
+        islands::floating_after_adding(map, &twotone.bits, &bridged.bits)
+    });
+    if floating > 0 {
         let after = islands::label(&bridged.bits);
         let node = &after.nodes[1];
         let (x, y) = node.border.first().copied().unwrap_or((0, 0));
@@ -1536,7 +1546,8 @@ fn finish(
     );
     Ok(Made {
         picture: cleaned.picture,
-        twotone: joined.twotone,
+        // `make`'s own join is the only holder (no copy); the studio's kept one is copied.
+        twotone: Arc::unwrap_or_clone(joined.twotone),
         filter: cleaned.filter_stats,
         bridged: joined.bridged,
         scale: params.working.scale,
@@ -1544,7 +1555,7 @@ fn finish(
         check: traced.check,
         report,
         gcode,
-        dropped_px: joined.dropped_px,
+        dropped_px: Arc::unwrap_or_clone(joined.dropped_px),
     })
 }
 

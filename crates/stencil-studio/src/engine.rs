@@ -348,8 +348,10 @@ pub(crate) enum Pixels<'a> {
     Indexed(&'a [u8]),
 }
 
-/// A PNG made for the page: the fastest compression, no filter (it is sent once, over a
-/// loopback, and made for every change; `make`'s files are written by `make`'s encoder).
+/// A PNG made for the page: stored, not compressed, no filter (it is sent once, over a loopback,
+/// and made for every change: compressing a 1-megapixel preview even at the fastest level cost
+/// a change more than sending the megabyte does; `make`'s files are written by `make`'s
+/// encoder).
 pub(crate) fn fast_png(width: u32, height: u32, data: &[u8], pixels: Pixels) -> Vec<u8> {
     let mut out = Vec::with_capacity(data.len() / 4 + 1024);
     {
@@ -363,7 +365,7 @@ pub(crate) fn fast_png(width: u32, height: u32, data: &[u8], pixels: Pixels) -> 
             }
         }
         e.set_depth(png::BitDepth::Eight);
-        e.set_compression(png::Compression::Fastest);
+        e.set_compression(png::Compression::NoCompression);
         e.set_filter(png::Filter::NoFilter);
         // Writing into a Vec cannot fail.
         if let Ok(mut w) = e.write_header() {

@@ -506,22 +506,47 @@ pub fn connect_walked(
         build_graph(&walks.cands, &walks.walked, &walks.copies, map, cfg)
     });
     let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
-    let (tree, extra, strength, requests) = times.time("strength", || {
-        // Bridges that hold: what each island's size, shape and weight need beyond the tree's.
-        let mut tree: Vec<(usize, u32)> =
-            prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
-        // The user's places: a bridge each, holding its island like the tree's.
-        let mut requests = Vec::new();
-        for (id, req) in constraints::requested(&g, map, &cfg.user.at) {
-            if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
-                tree.push((id, req.island));
-            }
-            requests.push(req);
-        }
-        let (extra, strength) = strength::reinforce(&g, map, &tree, &cfg.strength);
-        (tree, extra, strength, requests)
+    let g = &g;
+    // The tree's bridges are planned while the strength rules choose the extra ones (both
+    // read the graph only; planning one bridge reads nothing another's plan makes): the
+    // strength rules' work per island is uneven, so the two together keep both cores busy where
+    // each alone left one idle. The "strength" time includes that planning.
+    let tree_jobs: Vec<(usize, bool)> = prim
+        .chosen
+        .iter()
+        .map(|(e, _)| (e.candidate, false))
+        .collect();
+    let ((tree, extra, strength, requests), mut planned) = times.time("strength", || {
+        rayon::join(
+            || {
+                // Bridges that hold: what each island's size, shape and weight need beyond the
+                // tree's.
+                let mut tree: Vec<(usize, u32)> =
+                    prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+                // The user's places: a bridge each, holding its island like the tree's.
+                let mut requests = Vec::new();
+                for (id, req) in constraints::requested(g, map, &cfg.user.at) {
+                    if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
+                        tree.push((id, req.island));
+                    }
+                    requests.push(req);
+                }
+                let (extra, strength) = strength::reinforce(g, map, &tree, &cfg.strength);
+                (tree, extra, strength, requests)
+            },
+            || plan_jobs(two, g, cfg, &tree_jobs),
+        )
     });
-    let (bits, bridges, drawn) = times.time("grow", || draw(two, &g, cfg, &tree, &extra));
+    let (bits, bridges, drawn) = times.time("grow", || {
+        // The rest: the user's places (after the tree's), then the strength bridges.
+        let rest: Vec<(usize, bool)> = tree[tree_jobs.len()..]
+            .iter()
+            .map(|&(id, _)| (id, false))
+            .chain(extra.iter().map(|&id| (id, true)))
+            .collect();
+        planned.extend(plan_jobs(two, g, cfg, &rest));
+        draw_planned(two, cfg, planned)
+    });
     Ok(Bridged {
         bits,
         bridges,
@@ -601,23 +626,16 @@ fn stranded(group: &[bool], map: &IslandMap, cfg: &BridgeConfig) -> BridgeError 
     BridgeError::Unreachable { island, x, y }
 }
 
-/// Stage 5: grow and plan every chosen bridge in parallel (against the input bits), then draw
-/// them in tree order, the strength bridges (`extra`) last; a pixel two bridges share counts for
-/// the first. Returns the bridged bits, the bridges and the pixels each turned into material.
-fn draw(
+/// Stage 5, first half: grow and plan each chosen bridge (candidate id, and whether it is a
+/// strength bridge) in parallel, against the input bits. Each plan depends on its candidate
+/// alone, so the jobs may be planned in any grouping and concatenated in order.
+fn plan_jobs(
     two: &TwoTone,
     g: &Graph,
     cfg: &BridgeConfig,
-    tree: &[(usize, u32)],
-    extra: &[usize],
-) -> (BitGrid, Vec<Bridge>, Vec<Vec<u32>>) {
-    let jobs: Vec<(usize, bool)> = tree
-        .iter()
-        .map(|&(id, _)| (id, false))
-        .chain(extra.iter().map(|&id| (id, true)))
-        .collect();
-    let planned: Vec<Vec<(Bridge, Vec<u32>)>> = jobs
-        .par_iter()
+    jobs: &[(usize, bool)],
+) -> Vec<Vec<(Bridge, Vec<u32>)>> {
+    jobs.par_iter()
         .map(|&(id, strong)| {
             let mut out = plan_bridge(two, g, cfg, id);
             for (b, _) in &mut out {
@@ -625,7 +643,17 @@ fn draw(
             }
             out
         })
-        .collect();
+        .collect()
+}
+
+/// Stage 5, second half: draw the planned bridges in tree order, the strength bridges last (as
+/// [`plan_jobs`] lists them); a pixel two bridges share counts for the first. Returns the
+/// bridged bits, the bridges and the pixels each turned into material.
+fn draw_planned(
+    two: &TwoTone,
+    cfg: &BridgeConfig,
+    planned: Vec<Vec<(Bridge, Vec<u32>)>>,
+) -> (BitGrid, Vec<Bridge>, Vec<Vec<u32>>) {
     let mut bits = two.bits.clone();
     let mut bridges = Vec::with_capacity(planned.len());
     let mut drawn = Vec::with_capacity(planned.len());
