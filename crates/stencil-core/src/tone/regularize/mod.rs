@@ -357,24 +357,9 @@ impl<'a> Work<'a> {
     /// was tried: slower, as most thin pixels lie a pixel or two from the other tone, which the
     /// ring, nearest first, finds in a few probes.)
     fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
-        let tone = |x: i64, y: i64| {
-            x < 0
-                || y < 0
-                || x >= self.bits.width as i64
-                || y >= self.bits.height as i64
-                || self.bits.get(x as usize, y as usize)
-        };
-        let phase = if self.disc.on_corners() {
-            let t = tone(cx, cy);
-            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
-                .iter()
-                .any(|&(x, y)| tone(x, y) != t)
-            {
-                return 1;
-            }
-            t
-        } else {
-            tone(cx, cy)
+        let phase = match self.lattice_phase(cx, cy) {
+            Ok(phase) => phase,
+            Err(mixed) => return mixed,
         };
         let (k, w, h) = (self.ring_reach, self.bits.width, self.bits.height);
         if cx >= k && cy >= k && cx + k < w as i64 && cy + k < h as i64 {
@@ -389,38 +374,45 @@ impl<'a> Work<'a> {
             }
             return u16::MAX;
         }
-        for &(dx, dy, d) in &self.ring {
-            if tone(cx + dx, cy + dy) != phase {
-                return (2.0 * d) as u16;
-            }
-        }
-        u16::MAX
+        self.ring_depth_checked(cx, cy, phase)
     }
 
     /// [`Work::lattice_depth`] probing through the bounds-checked path only.
     #[cfg(test)]
     fn lattice_depth_checked(&self, cx: i64, cy: i64) -> u16 {
-        let tone = |x: i64, y: i64| {
-            x < 0
-                || y < 0
-                || x >= self.bits.width as i64
-                || y >= self.bits.height as i64
-                || self.bits.get(x as usize, y as usize)
-        };
-        let phase = if self.disc.on_corners() {
-            let t = tone(cx, cy);
-            if [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
+        match self.lattice_phase(cx, cy) {
+            Ok(phase) => self.ring_depth_checked(cx, cy, phase),
+            Err(mixed) => mixed,
+        }
+    }
+
+    /// The tone of pixel `(x, y)`; past the grid, material.
+    fn tone_at(&self, x: i64, y: i64) -> bool {
+        x < 0
+            || y < 0
+            || x >= self.bits.width as i64
+            || y >= self.bits.height as i64
+            || self.bits.get(x as usize, y as usize)
+    }
+
+    /// The tone lattice point `(cx, cy)` lies in: its pixel's, or for an even span its four
+    /// pixels' when they agree (`Err(1)`, its depth, when they do not).
+    fn lattice_phase(&self, cx: i64, cy: i64) -> Result<bool, u16> {
+        let t = self.tone_at(cx, cy);
+        if self.disc.on_corners()
+            && [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy)]
                 .iter()
-                .any(|&(x, y)| tone(x, y) != t)
-            {
-                return 1;
-            }
-            t
-        } else {
-            tone(cx, cy)
-        };
+                .any(|&(x, y)| self.tone_at(x, y) != t)
+        {
+            return Err(1);
+        }
+        Ok(t)
+    }
+
+    /// The depth of a lattice point of tone `phase`, probing its ring with bounds checks.
+    fn ring_depth_checked(&self, cx: i64, cy: i64, phase: bool) -> u16 {
         for &(dx, dy, d) in &self.ring {
-            if tone(cx + dx, cy + dy) != phase {
+            if self.tone_at(cx + dx, cy + dy) != phase {
                 return (2.0 * d) as u16;
             }
         }
