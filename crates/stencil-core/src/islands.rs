@@ -301,13 +301,10 @@ pub fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid)
         if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
             join(&mut parent, id, FRAME as usize);
         }
-        let next = [
-            (x > 0).then(|| i - 1),
-            (x + 1 < w).then(|| i + 1),
-            (y > 0).then(|| i - w),
-            (y + 1 < h).then(|| i + w),
-        ];
-        for j in next.into_iter().flatten() {
+        for j in crate::raster::edge_neighbours(i, w, h)
+            .into_iter()
+            .flatten()
+        {
             if before.data[j] {
                 let l = map.labels[j];
                 if l == CUT || l as usize >= nodes {

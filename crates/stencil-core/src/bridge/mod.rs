@@ -243,14 +243,10 @@ impl Bridged {
         }
         let (w, h) = (self.bits.width as usize, self.bits.height as usize);
         while let Some(i) = queue.pop_front() {
-            let (x, y) = (i % w, i / w);
-            let next = [
-                (x > 0).then(|| i - 1),
-                (x + 1 < w).then(|| i + 1),
-                (y > 0).then(|| i - w),
-                (y + 1 < h).then(|| i + w),
-            ];
-            for j in next.into_iter().flatten() {
+            for j in crate::raster::edge_neighbours(i, w, h)
+                .into_iter()
+                .flatten()
+            {
                 if owner[j] == UNOWNED && added(j) {
                     owner[j] = owner[i];
                     queue.push_back(j);

@@ -169,6 +169,19 @@ impl BitGrid {
     }
 }
 
+/// The edge neighbours (4-connected) of pixel index `i = y · w + x` on a `w` × `h` grid, in the
+/// order left, right, up, down; `None` past the grid's edge.
+#[inline]
+pub(crate) fn edge_neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4] {
+    let (x, y) = (i % w, i / w);
+    [
+        (x > 0).then(|| i - 1),
+        (x + 1 < w).then(|| i + 1),
+        (y > 0).then(|| i - w),
+        (y + 1 < h).then(|| i + w),
+    ]
+}
+
 /// The two-tone image: which pixels are material, plus the grayscale it came from.
 #[derive(Clone, Debug)]
 pub struct TwoTone {

@@ -849,15 +849,6 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
     // Breadth first, so a search stops at the original material nearest its seed.
     let (mut queue, mut piece) = (std::collections::VecDeque::new(), Vec::new());
     let mut filled = 0;
-    let neighbours = |i: usize| {
-        let (x, y) = (i % w, i / w);
-        [
-            (x > 0).then(|| i - 1),
-            (x + 1 < w).then(|| i + 1),
-            (y > 0).then(|| i - w),
-            (y + 1 < h).then(|| i + w),
-        ]
-    };
     // The added pixels are few and bunched: runs of 64 pixels with none are skipped by one
     // branch-free test (read when the scan reaches them, as the pixel loop would).
     const RUN: usize = 64;
@@ -874,7 +865,10 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
             if !after.data[i] || before.data[i] {
                 continue;
             }
-            for s in neighbours(i).into_iter().flatten() {
+            for s in crate::raster::edge_neighbours(i, w, h)
+                .into_iter()
+                .flatten()
+            {
                 if after.data[s] || state[s] != UNSEEN {
                     continue;
                 }
