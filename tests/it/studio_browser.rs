@@ -231,14 +231,27 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
         .click()
         .await
         .unwrap();
-    c.execute(
-        "document.querySelector('#overlay polygon[data-index=\"0\"]')
-           .dispatchEvent(new MouseEvent('click', {bubbles: true}));",
-        vec![],
-    )
-    .await
-    .unwrap();
+    // A real click (pointer down and up over the bridge), not a synthetic `click` event: the
+    // stage captures the pointer on the way down, so a handler on the bridge itself never hears
+    // a person's click.
+    c.find(Locator::Css("#overlay polygon[data-index=\"0\"]"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
     let v3 = shown_after(&c, v2).await;
+    // The pointer still rests where the deleted bridge was: its description must not stay up
+    // beside the new result as if it were current.
+    let tip_shown = c
+        .execute("return !document.getElementById('tip').hidden;", vec![])
+        .await
+        .unwrap();
+    assert_eq!(
+        tip_shown,
+        json!(false),
+        "the deleted bridge's tip is still shown"
+    );
     let st = state(&c).await;
     let command = st["command"].as_str().unwrap().to_string();
     assert!(command.contains("--no-bridge-near"), "{command}");

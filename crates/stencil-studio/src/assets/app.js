@@ -296,6 +296,12 @@ stage.addEventListener("pointerup", (e) => {
     showCropBox(null);
     if (d.moved && state && state.mm_per_px && !state.set) send({ crop: cropFrom([d.px, d.py], [px, py]) });
     else if (state && state.set) alertMsg("crop the picture with one stencil shown, or type the crop (mm) in Picture");
+  } else if (mode === "delete" && !d.moved) {
+    // The bridge under the pointer, found here: the stage captured the pointer on the way down,
+    // so the click lands on the stage, never on the bridge's own shape.
+    const hit = document.elementsFromPoint(e.clientX, e.clientY)
+      .find((el) => el.closest("#overlay") && el.dataset.index !== undefined);
+    if (hit) send_bridges({ delete: +hit.dataset.index });
   } else if (mode === "pin" && !d.moved && state && state.mm_per_px) {
     send_bridges({ pin: [+(px * state.mm_per_px).toFixed(3), +(py * state.mm_per_px).toFixed(3)] });
   } else if (mode === "orbit" && d.moved) {
@@ -331,6 +337,8 @@ for (const b of document.querySelectorAll("[data-mode]")) b.onclick = () => {
 function drawOverlay() {
   const svg = $("overlay");
   svg.innerHTML = "";
+  // The tip described a bridge of the result just replaced: hidden until the pointer moves again.
+  $("tip").hidden = true;
   if (!state || !state.report || (state.set && pick === "composite")) return;
   const r = state.report, mm = state.mm_per_px;
   svg.setAttribute("width", r.width_px); svg.setAttribute("height", r.height_px);
@@ -340,7 +348,6 @@ function drawOverlay() {
     const p = document.createElementNS(NS, "polygon");
     p.setAttribute("points", b.polygon_px.map((q) => (q[0] + .5) + "," + (q[1] + .5)).join(" "));
     p.dataset.index = i;
-    p.addEventListener("click", (e) => { if (mode === "delete") { e.stopPropagation(); send_bridges({ delete: i }); } });
     svg.appendChild(p);
   });
   for (const v of (r.check && r.check.violations) || []) {
