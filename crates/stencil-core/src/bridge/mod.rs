@@ -429,11 +429,16 @@ pub fn walk(
     if map.island_count() == 0 {
         return Ok(Walks::default());
     }
+    // The reach bound and the candidates read the map and nothing of each other: side by side.
     let (fields, mut cands) = times.time("candidates", || {
-        let fields = strips::Fields::new(two, map)
-            .with_forbidden(cfg.user.keep_out.as_deref())
-            .with_reach(map);
-        (fields, candidates::collect(map))
+        rayon::join(
+            || {
+                strips::Fields::new(two, map)
+                    .with_forbidden(cfg.user.keep_out.as_deref())
+                    .with_reach(map)
+            },
+            || candidates::collect(map),
+        )
     });
     let max_len = cfg.max_length_px as usize;
     // The shortest gaps and the walks read the same candidates and nothing of each other: they

@@ -603,12 +603,26 @@ fn walk_steered(
             return Err(WalkEnd::Blocked);
         }
         let ni = (ny * w + nx) as u32;
-        if pixels[pixels.len().saturating_sub(LOOP_WINDOW)..].contains(&ni) {
+        if revisits(pixels, ni) {
             return Err(WalkEnd::Looped);
         }
         prev = Some((px, py));
         (px, py, pos) = (nx, ny, npos);
     }
+}
+
+/// Whether `next`, an edge neighbour of the last of `pixels` (a 4-connected chain) other than
+/// the one before it, is among the last [`LOOP_WINDOW`] of them. Every step changes x + y by
+/// one, so only the pixels an odd number of steps back have `next`'s parity, and the one a single
+/// step back is excluded: `next` can only be the pixel 3, 5 or 7 steps back. Three reads where
+/// the plain scan of the window made eight, at every step of every walk.
+#[inline]
+fn revisits(pixels: &[u32], next: u32) -> bool {
+    const _: () = assert!(LOOP_WINDOW == 8, "the odd offsets below cover the window");
+    let n = pixels.len();
+    (n >= 4 && pixels[n - 4] == next)
+        || (n >= 6 && pixels[n - 6] == next)
+        || (n >= 8 && pixels[n - 8] == next)
 }
 
 /// The walk's first pixel: the cut neighbour of the edge pixel `c` (4-connected, not forbidden)
@@ -1285,6 +1299,41 @@ mod tests {
             }
         }
         assert!(ok > 100, "some walks arrive ({ok})");
+    }
+
+    /// [`revisits`] answers what the plain scan of the last [`LOOP_WINDOW`] pixels answers, for
+    /// every step a walk can take (an edge neighbour other than the previous pixel) after random
+    /// 4-connected chains of every length up to twice the window.
+    #[test]
+    fn revisits_is_the_window_scan() {
+        let mut next = rng(0x0dd_0ff5e7_u64);
+        let w = 64i64;
+        let steps = [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)];
+        let mut found = 0;
+        for _ in 0..2000 {
+            let (mut x, mut y) = (32i64, 32i64);
+            let mut chain = vec![(y * w + x) as u32];
+            let len = 1 + (next() % 16) as usize;
+            while chain.len() < len {
+                let (dx, dy) = steps[(next() % 4) as usize];
+                let i = ((y + dy) * w + x + dx) as u32;
+                if chain.len() >= 2 && chain[chain.len() - 2] == i {
+                    continue;
+                }
+                (x, y) = (x + dx, y + dy);
+                chain.push(i);
+            }
+            for (dx, dy) in steps {
+                let ni = ((y + dy) * w + x + dx) as u32;
+                if chain.len() >= 2 && chain[chain.len() - 2] == ni {
+                    continue;
+                }
+                let plain = chain[chain.len().saturating_sub(LOOP_WINDOW)..].contains(&ni);
+                assert_eq!(revisits(&chain, ni), plain, "{chain:?} then {ni}");
+                found += plain as usize;
+            }
+        }
+        assert!(found > 50, "some steps revisit ({found})");
     }
 
     #[test]
