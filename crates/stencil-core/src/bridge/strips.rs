@@ -981,7 +981,10 @@ mod tests {
             (x as i64 - 20).abs() + (y as i64 - 20).abs() <= 6
         });
         let gray = Gray::new(bits.width, bits.height, 0.0);
-        let t = TwoTone { bits, gray };
+        let t = TwoTone {
+            bits,
+            gray: gray.into(),
+        };
         let m = label(&t.bits);
         let f = Fields::new(&t, &m);
         let mut ok = 0;
@@ -1056,7 +1059,10 @@ mod tests {
                 })
                 .collect(),
         };
-        let t = TwoTone { bits, gray };
+        let t = TwoTone {
+            bits,
+            gray: gray.into(),
+        };
         let m = label(&t.bits);
         let f = Fields::new(&t, &m);
         let group = [false, true];
@@ -1191,7 +1197,10 @@ mod tests {
                 gray.set(x, y, v);
             }
         }
-        TwoTone { bits, gray }
+        TwoTone {
+            bits,
+            gray: gray.into(),
+        }
     }
 
     /// [`Reach`] never claims more steps to another node's shore than there are (brute force

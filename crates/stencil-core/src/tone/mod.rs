@@ -17,6 +17,7 @@ pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use crate::raster::{BitGrid, Gray, TwoTone};
 
@@ -187,7 +188,7 @@ pub(crate) fn is_light(v: f32, level: u8) -> bool {
 
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
 /// Returns the two-tone and the level used.
-pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),
