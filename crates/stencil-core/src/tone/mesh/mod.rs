@@ -802,7 +802,7 @@ mod tests {
             (Threshold::Otsu, false),
         ] {
             let (t, level) = two_tone(&r, threshold, invert);
-            assert_eq!(t.gray, r.gray);
+            assert_eq!(*t.gray, r.gray);
             for i in 0..r.gray.data.len() {
                 let want = if r.lines.data[i] {
                     false
