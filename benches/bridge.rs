@@ -82,7 +82,10 @@ fn picture(w: u32, h: u32, islands: usize, seed: u64) -> TwoTone {
             })
             .collect(),
     };
-    TwoTone { bits, gray }
+    TwoTone {
+        bits,
+        gray: gray.into(),
+    }
 }
 
 fn bench(c: &mut Criterion) {

@@ -23,7 +23,10 @@ fn scene(material: impl Fn(u32, u32) -> bool, cut_gray: impl Fn(u32, u32) -> f32
             }
         }
     }
-    TwoTone { bits, gray }
+    TwoTone {
+        bits,
+        gray: gray.into(),
+    }
 }
 
 fn bridge(two: &TwoTone, cfg: &BridgeConfig) -> (Bridge, Bridged) {

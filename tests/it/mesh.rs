@@ -271,7 +271,7 @@ fn invert_swaps_the_model_tones_but_not_lines_or_background() {
             assert_ne!(a.bits.data[i], b.bits.data[i]);
         }
     }
-    assert_eq!(a.gray, r.gray);
+    assert_eq!(*a.gray, r.gray);
 }
 
 fn samples() -> Vec<PathBuf> {

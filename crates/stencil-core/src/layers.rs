@@ -718,7 +718,7 @@ fn one_layer(
         &mut cleaned.twotone,
         TwoTone {
             bits: BitGrid::new(0, 0, false),
-            gray: Gray::new(0, 0, 0.0),
+            gray: Arc::new(Gray::new(0, 0, 0.0)),
         },
     );
     let cut = twotone.bits.clone();
@@ -754,7 +754,7 @@ fn join_and_finish(
 ) -> Result<Made, Error> {
     let real_gray = twotone.gray.clone();
     let gray = match cheap {
-        Some(c) => cost_gray(&twotone.gray, c),
+        Some(c) => Arc::new(cost_gray(&twotone.gray, c)),
         None => twotone.gray,
     };
     let mut joined = pipeline::join(
@@ -918,7 +918,10 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
             .collect(),
     };
     let mut timer = Timings::new(cfg.progress.clone());
-    let raw = TwoTone { bits, gray };
+    let raw = TwoTone {
+        bits,
+        gray: Arc::new(gray),
+    };
     let mut cleaned = timer.time("filter", || {
         let look = pipeline::look(&raw);
         pipeline::clean(raw, 128, &params.clean, &look)
@@ -927,7 +930,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         &mut cleaned.twotone,
         TwoTone {
             bits: BitGrid::new(0, 0, false),
-            gray: Gray::new(0, 0, 0.0),
+            gray: Arc::new(Gray::new(0, 0, 0.0)),
         },
     );
     // A speck of material its cut rings round (a small island the first stencil bridged) is

@@ -876,19 +876,19 @@ fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &m
 // ---- the stages ---------------------------------------------------------------------------------
 
 /// Stage 2: the gray at the working resolution (a picture upsampled by the factor; a mesh's
-/// rendering as drawn).
-pub fn working_gray(source: Source, factor: u32) -> Gray {
+/// rendering as drawn). Shared: every two-tone made of it carries it (see [`TwoTone`]).
+pub fn working_gray(source: Source, factor: u32) -> Arc<Gray> {
     match source {
         // Upsampling by 1 would only copy the picture.
-        Source::Picture(g) if factor > 1 => tone::image::upsample(&g, factor),
-        Source::Picture(g) => Arc::try_unwrap(g).unwrap_or_else(|g| (*g).clone()),
-        Source::Mesh(r) => r.gray.clone(),
+        Source::Picture(g) if factor > 1 => Arc::new(tone::image::upsample(&g, factor)),
+        Source::Picture(g) => g,
+        Source::Mesh(r) => Arc::new(r.gray.clone()),
     }
 }
 
 /// Stage 3: the two-tone and the level used (Otsu's, when asked for). A mesh's lines are cut
 /// and its background material whatever the level (see [`mesh::two_tone`]).
-pub fn threshold(source: &Source, gray: Gray, p: &ToneParams) -> (TwoTone, u8) {
+pub fn threshold(source: &Source, gray: Arc<Gray>, p: &ToneParams) -> (TwoTone, u8) {
     let (mut two, level) = match source {
         Source::Picture(_) => tone::threshold(gray, p.threshold, p.invert),
         Source::Mesh(r) => mesh::two_tone_with(r, gray, p.threshold, p.invert),
@@ -905,11 +905,13 @@ pub fn threshold(source: &Source, gray: Gray, p: &ToneParams) -> (TwoTone, u8) {
 fn keep_circle(two: &mut TwoTone, [cx, cy, r]: [f64; 3], invert: bool) {
     let metal_gray = if invert { 0.0 } else { 1.0 };
     let w = two.bits.width;
+    // A copy only when the gray is shared (the studio keeps it for other levels).
+    let gray = Arc::make_mut(&mut two.gray);
     for y in 0..two.bits.height {
         for x in 0..w {
             if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - cy) > r {
                 two.bits.set(x, y, true);
-                two.gray.set(x, y, metal_gray);
+                gray.set(x, y, metal_gray);
             }
         }
     }
@@ -1081,6 +1083,20 @@ fn shrink_gray(g: &Gray, d: u32) -> Gray {
 /// picture), the level is chosen here, judged on the cleaned-up result (`choose_level`), and
 /// `raw` is thresholded again at it. `look` is [`look`] of `raw`.
 pub fn clean(raw: TwoTone, level: u8, p: &CleanParams, look: &tone::Likeness) -> Cleaned {
+    let mut cleaned = clean_unmeasured(raw, level, p, look);
+    cleaned.likeness = measure(&cleaned, p, look);
+    cleaned
+}
+
+/// [`clean`] but for the likeness of its result, left NaN: [`measure`] gives it. Nothing after
+/// the clean-up reads the likeness (the report only shows it), so the studio measures it beside
+/// the walks that follow rather than before them.
+pub fn clean_unmeasured(
+    raw: TwoTone,
+    level: u8,
+    p: &CleanParams,
+    look: &tone::Likeness,
+) -> Cleaned {
     let (picture, level, choice) = if p.auto {
         let (l, choice) = choose_level(&raw.gray, look, p);
         (tone::bits_at(&raw.gray, l, p.invert), l, Some(choice))
@@ -1088,7 +1104,6 @@ pub fn clean(raw: TwoTone, level: u8, p: &CleanParams, look: &tone::Likeness) ->
         (raw.bits, level, None)
     };
     let (bits, filter_stats, reg_stats) = clean_bits(&picture, &raw.gray, level, p);
-    let likeness = look.of_bits(&bits, p.invert);
     Cleaned {
         picture,
         twotone: TwoTone {
@@ -1098,9 +1113,15 @@ pub fn clean(raw: TwoTone, level: u8, p: &CleanParams, look: &tone::Likeness) ->
         level,
         filter_stats,
         reg_stats,
-        likeness,
+        likeness: f64::NAN,
         choice,
     }
+}
+
+/// The likeness of a [`clean_unmeasured`] result (`look` is the one it was cleaned with): what
+/// [`clean`] puts in [`Cleaned::likeness`].
+pub fn measure(cleaned: &Cleaned, p: &CleanParams, look: &tone::Likeness) -> f64 {
+    look.of_bits(&cleaned.twotone.bits, p.invert)
 }
 
 /// The first stages as one call: the picture (or mesh) as a two-tone at the working resolution,
@@ -1497,7 +1518,7 @@ pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
         &mut cleaned.twotone,
         TwoTone {
             bits: BitGrid::new(0, 0, false),
-            gray: Gray::new(0, 0, 0.0),
+            gray: Arc::new(Gray::new(0, 0, 0.0)),
         },
     );
     let joined = join(twotone, cleaned.level, &params.join, &mut timer)?;

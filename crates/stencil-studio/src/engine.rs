@@ -55,7 +55,7 @@ pub struct Engine {
     source: Kept<SourceParams, Source>,
     /// The working gray and its Otsu level (the page marks it on the histogram): a full pass
     /// over the picture, made once per gray rather than once per change.
-    gray: Kept<u32, Arc<(Gray, u8)>>,
+    gray: Kept<u32, (Arc<Gray>, u8)>,
     raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
     /// The picture's side of the likeness measure, made of the two-tone's gray: kept while that
     /// gray stays (a threshold change keeps it; see `ToneParams::gray_key`).
@@ -74,8 +74,8 @@ pub struct Engine {
 pub struct Computed {
     pub cfg: MakeConfig,
     pub params: StageParams,
-    /// The working gray (what the threshold reads) and its Otsu level (also in `otsu`).
-    pub gray: Arc<(Gray, u8)>,
+    /// The working gray (what the threshold reads; the two-tones share it).
+    pub gray: Arc<Gray>,
     pub otsu: u8,
     pub cleaned: Arc<Cleaned>,
     /// After the bridges, before the trace's neck repairs.
@@ -186,9 +186,9 @@ impl Engine {
         let (gg, gray_otsu) = step(&mut self.gray, g, &mut ran, "gray", (sg, factor), || {
             let gray = pipeline::working_gray(source.clone(), factor);
             let otsu = stencil_core::tone::otsu_level(&gray);
-            Ok::<_, RunError>(Arc::new((gray, otsu)))
+            Ok::<_, RunError>((gray, otsu))
         })?;
-        let (gray, otsu) = (&gray_otsu.0, gray_otsu.1);
+        let (gray, otsu) = gray_otsu;
         let (rg, raw) = step(
             &mut self.raw,
             g,
@@ -196,9 +196,10 @@ impl Engine {
             "threshold",
             (gg, params.tone),
             || {
+                // The gray is shared with the two-tone, not copied.
                 Ok::<_, RunError>(Arc::new(pipeline::threshold(
                     &source,
-                    gray.clone(),
+                    Arc::clone(&gray),
                     &params.tone,
                 )))
             },
@@ -212,6 +213,11 @@ impl Engine {
             (gg, params.tone.gray_key()),
             || Ok::<_, RunError>(Arc::new(pipeline::look(&raw.0))),
         )?;
+        let mut timer = Timings::new(None);
+        // A new clean-up is always followed by new walks (their key holds its generation), and
+        // its likeness only reports: so the walks run beside the likeness, inside the clean-up's
+        // step, and the walk step below takes their result (unless a newer change came first).
+        let mut walked = None;
         let (cg, cleaned) = step(
             &mut self.cleaned,
             g,
@@ -220,11 +226,23 @@ impl Engine {
             (rg, params.clean),
             || {
                 let (tt, level) = (*raw).clone();
-                Ok::<_, RunError>(Arc::new(pipeline::clean(tt, level, &params.clean, &look)))
+                let mut c = pipeline::clean_unmeasured(tt, level, &params.clean, &look);
+                let measure = || pipeline::measure(&c, &params.clean, &look);
+                c.likeness = if superseded() {
+                    measure()
+                } else {
+                    let (likeness, w) = rayon::join(measure, || {
+                        let mut t = Timings::new(None);
+                        let w = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut t);
+                        (w, t)
+                    });
+                    walked = Some(w);
+                    likeness
+                };
+                Ok::<_, RunError>(Arc::new(c))
             },
         )?;
         cancel()?;
-        let mut timer = Timings::new(None);
         let (pg, prepared) = step(
             &mut self.prepared,
             g,
@@ -232,12 +250,21 @@ impl Engine {
             "walk",
             (cg, Prepared::key(&params.join)),
             || {
-                Ok::<_, RunError>(Arc::new(pipeline::prepare(
-                    cleaned.twotone.clone(),
-                    cleaned.level,
-                    &params.join,
-                    &mut timer,
-                )?))
+                let prepared = match walked.take() {
+                    Some((w, t)) => {
+                        for (name, ms) in t.iter() {
+                            timer.add(name, ms);
+                        }
+                        w?
+                    }
+                    None => pipeline::prepare(
+                        cleaned.twotone.clone(),
+                        cleaned.level,
+                        &params.join,
+                        &mut timer,
+                    )?,
+                };
+                Ok::<_, RunError>(Arc::new(prepared))
             },
         )?;
         cancel()?;
@@ -261,7 +288,7 @@ impl Engine {
         Ok(Computed {
             cfg: cfg.clone(),
             params,
-            gray: gray_otsu.clone(),
+            gray,
             otsu,
             cleaned,
             joined,
@@ -390,14 +417,14 @@ impl Computed {
         let j = &c.joined;
         let (w, h) = (bridged.width, bridged.height);
         Some(match name {
-            "gray" => fast_png(w, h, &c.gray.0.to_u8(), Pixels::Gray),
+            "gray" => fast_png(w, h, &c.gray.to_u8(), Pixels::Gray),
             "twotone" => fast_png(w, h, &j.twotone.bits.to_u8(), Pixels::Gray),
             "stencil" => fast_png(w, h, &bridged.to_u8(), Pixels::Gray),
             "picture" => fast_png(w, h, &c.cleaned.picture.to_u8(), Pixels::Gray),
             // In `make`'s colours, as palette indices (a byte a pixel).
             "preview" => {
                 let index = export::png::preview_indexed(
-                    &c.gray.0,
+                    &c.gray,
                     &c.cleaned.picture,
                     &j.twotone.bits,
                     bridged,

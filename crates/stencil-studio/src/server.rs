@@ -135,8 +135,8 @@ struct History {
     stop: bool,
 }
 
-/// The engine's working gray and its Otsu level.
-type WorkingGray = Arc<(Gray, u8)>;
+/// The engine's working gray.
+type WorkingGray = Arc<Gray>;
 
 /// What the page is sent that depends on one stage's output alone, kept with that output (the
 /// `Arc` the engine hands out again for as long as the stage is not re-run): after a change
@@ -367,7 +367,7 @@ impl Studio {
         match &r.histogram {
             Some((g, h)) if Arc::ptr_eq(g, gray) => h.clone(),
             _ => {
-                let h = Arc::new(histogram(&gray.0));
+                let h = Arc::new(histogram(gray));
                 r.histogram = Some((gray.clone(), h.clone()));
                 h
             }

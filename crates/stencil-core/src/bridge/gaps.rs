@@ -523,7 +523,7 @@ mod tests {
         c.add_twins();
         let two = crate::raster::TwoTone {
             bits: g.clone(),
-            gray: crate::raster::Gray::new(g.width, g.height, 1.0),
+            gray: crate::raster::Gray::new(g.width, g.height, 1.0).into(),
         };
         let f = Fields::new(&two, m);
         walk_twins(&f, c, dirs, &[], 50, 10).0

@@ -1257,7 +1257,10 @@ mod tests {
         for y in 2..6 {
             gray.set(11, y, 0.9);
         }
-        let t = TwoTone { bits, gray };
+        let t = TwoTone {
+            bits,
+            gray: gray.into(),
+        };
         let (m, c, st) = walk_all(&t);
         let cfg = BridgeConfig::default();
         let norm = Norm::new(st.iter().flatten().map(|s| s.len()).collect(), &cfg);
@@ -1312,7 +1315,7 @@ mod tests {
             d <= 8.0 || (22.0..=30.0).contains(&d) || d >= 37.0
         });
         TwoTone {
-            gray: Gray::new(n, n, 0.0),
+            gray: Gray::new(n, n, 0.0).into(),
             bits,
         }
     }
@@ -1366,7 +1369,7 @@ mod tests {
         // A one-pixel island: one strip per side; the bridge must still be 3 wide.
         let bits = BitGrid::from_fn(9, 9, |x, y| y == 0 || (x == 4 && y == 4));
         let t = TwoTone {
-            gray: Gray::new(9, 9, 0.0),
+            gray: Gray::new(9, 9, 0.0).into(),
             bits,
         };
         let (_, c, st) = walk_all(&t);
@@ -1446,7 +1449,7 @@ mod tests {
         let n = 64u32;
         let disc = |x: u32, y: u32| (x as f64 + 0.5 - 32.0).hypot(y as f64 + 0.5 - 32.0) <= 4.5;
         let t = TwoTone {
-            gray: Gray::new(n, n, 0.0),
+            gray: Gray::new(n, n, 0.0).into(),
             bits: BitGrid::from_fn(n, n, disc),
         };
         let (m, c, st) = walk_all(&t);
@@ -1570,7 +1573,7 @@ mod tests {
         let island = |x: u32, y: u32| (30..35).contains(&x) && (30..35).contains(&y);
         let block = |x: u32, y: u32| (10..38).contains(&x) && (15..20).contains(&y);
         let t = TwoTone {
-            gray: Gray::new(w, h, 0.0),
+            gray: Gray::new(w, h, 0.0).into(),
             bits: BitGrid::from_fn(w, h, |x, y| island(x, y) || block(x, y)),
         };
         let (m, c, mut st) = walk_all(&t);

@@ -921,7 +921,10 @@ mod tests {
                 .map(|&b| if b { 1.0 } else { 0.0 })
                 .collect(),
         };
-        TwoTone { bits, gray }
+        TwoTone {
+            bits,
+            gray: gray.into(),
+        }
     }
 
     /// Connect, then check what a user relies on: no floating piece, nothing cut that was
@@ -1091,7 +1094,13 @@ mod tests {
                 max_length_px: 400,
                 ..Default::default()
             };
-            connect_and_check(&TwoTone { bits, gray }, &cfg);
+            connect_and_check(
+                &TwoTone {
+                    bits,
+                    gray: gray.into(),
+                },
+                &cfg,
+            );
         }
     }
 
@@ -1112,7 +1121,13 @@ mod tests {
                 })
                 .collect(),
         };
-        connect_and_check(&TwoTone { bits, gray }, &BridgeConfig::default());
+        connect_and_check(
+            &TwoTone {
+                bits,
+                gray: gray.into(),
+            },
+            &BridgeConfig::default(),
+        );
     }
 
     #[test]

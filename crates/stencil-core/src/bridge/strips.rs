@@ -995,7 +995,10 @@ mod tests {
             (x as i64 - 20).abs() + (y as i64 - 20).abs() <= 6
         });
         let gray = Gray::new(bits.width, bits.height, 0.0);
-        let t = TwoTone { bits, gray };
+        let t = TwoTone {
+            bits,
+            gray: gray.into(),
+        };
         let m = label(&t.bits);
         let f = Fields::new(&t, &m);
         let mut ok = 0;
@@ -1070,7 +1073,10 @@ mod tests {
                 })
                 .collect(),
         };
-        let t = TwoTone { bits, gray };
+        let t = TwoTone {
+            bits,
+            gray: gray.into(),
+        };
         let m = label(&t.bits);
         let f = Fields::new(&t, &m);
         let group = [false, true];
@@ -1205,7 +1211,10 @@ mod tests {
                 gray.set(x, y, v);
             }
         }
-        TwoTone { bits, gray }
+        TwoTone {
+            bits,
+            gray: gray.into(),
+        }
     }
 
     /// [`Reach`] never claims more steps to another node's shore than there are (brute force

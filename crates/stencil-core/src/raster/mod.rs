@@ -183,10 +183,15 @@ pub(crate) fn edge_neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4
 }
 
 /// The two-tone image: which pixels are material, plus the grayscale it came from.
+///
+/// The gray is shared, not owned: every stage from the threshold to the bridges carries the same
+/// gray beside its own bits (the threshold's, the clean-up's, the bridges'), and the studio keeps
+/// each stage's two-tone, so an owned gray (4 MB at a megapixel) was copied at each stage a
+/// threshold change re-ran. Nothing after the threshold changes it.
 #[derive(Clone, Debug)]
 pub struct TwoTone {
     pub bits: BitGrid,
-    pub gray: Gray,
+    pub gray: std::sync::Arc<Gray>,
 }
 
 #[cfg(test)]

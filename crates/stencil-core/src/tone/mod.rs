@@ -17,6 +17,7 @@ pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use crate::raster::{BitGrid, Gray, TwoTone};
 
@@ -187,7 +188,7 @@ pub(crate) fn is_light(v: f32, level: u8) -> bool {
 
 /// Threshold a gray into two tones: light (at or above the level) is material unless `invert`.
 /// Returns the two-tone and the level used.
-pub(crate) fn threshold(gray: Gray, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
+pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
     let level = match threshold {
         Threshold::Level(l) => l,
         Threshold::Otsu => otsu_level(&gray),
@@ -246,7 +247,7 @@ mod tests {
         }
         let l = otsu_level(&g);
         assert!(l > 51 && l <= 204, "level {l}");
-        let (tt, _) = threshold(g, Threshold::Otsu, false);
+        let (tt, _) = threshold(g.into(), Threshold::Otsu, false);
         assert_eq!(tt.bits.count_material(), 50);
         assert!(tt.bits.get(99, 0));
     }
@@ -255,8 +256,8 @@ mod tests {
     fn invert_swaps_tones() {
         let mut g = Gray::new(4, 1, 0.0);
         g.set(0, 0, 1.0);
-        let (a, _) = threshold(g.clone(), Threshold::Level(128), false);
-        let (b, _) = threshold(g, Threshold::Level(128), true);
+        let (a, _) = threshold(g.clone().into(), Threshold::Level(128), false);
+        let (b, _) = threshold(g.into(), Threshold::Level(128), true);
         assert!(a.bits.get(0, 0) && !a.bits.get(1, 0));
         assert!(!b.bits.get(0, 0) && b.bits.get(1, 0));
     }

@@ -18,6 +18,7 @@ mod shapes;
 pub(crate) mod visibility;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -585,14 +586,14 @@ fn compose(
 /// Otsu looks at the model's own pixels only.
 /// Returns the two-tone (its gray is the rendering) and the level used.
 pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, u8) {
-    two_tone_with(r, r.gray.clone(), threshold, invert)
+    two_tone_with(r, Arc::new(r.gray.clone()), threshold, invert)
 }
 
 /// [`two_tone`] with the rendering's gray given (`gray` must be `r.gray`; the pipeline's working
 /// gray is already a copy of it, so this saves another).
 pub fn two_tone_with(
     r: &Rendering,
-    gray: Gray,
+    gray: Arc<Gray>,
     threshold: Threshold,
     invert: bool,
 ) -> (TwoTone, u8) {
@@ -801,7 +802,7 @@ mod tests {
             (Threshold::Otsu, false),
         ] {
             let (t, level) = two_tone(&r, threshold, invert);
-            assert_eq!(t.gray, r.gray);
+            assert_eq!(*t.gray, r.gray);
             for i in 0..r.gray.data.len() {
                 let want = if r.lines.data[i] {
                     false
