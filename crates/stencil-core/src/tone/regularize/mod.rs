@@ -21,11 +21,15 @@
 //! square corners are rounded by the disc, a pixel or two, as any opening rounds them.
 //!
 //! ## Cost
-//! Each round recomputes thinness over the whole grid as the opening itself, an erosion and a
+//! The first round computes thinness over the whole grid as the opening itself, an erosion and a
 //! dilation by the disc on bit-packed rows (64 pixels a word: a few shifts, ANDs and ORs per
 //! word and disc row; see `packed`), a millisecond or so a megapixel. How deep a thin pixel lies
 //! in its tone (which the ridge finder reads) is searched outward from its candidate centres only
-//! where a thin pixel is, nearest pixels first, and ends within the disc's radius.
+//! where a thin pixel is, nearest pixels first, and ends within the disc's radius. Later rounds
+//! change a few pixels here and there, and a pixel's thinness and depth depend only on the pixels
+//! within about two disc radii of it: they are recomputed only in the tiles near a pixel changed
+//! since, and a feature with nothing changed near it is kept, widening and cost included, from
+//! the round before (see `Work::refresh`). The result is the same as recomputing everything.
 //!
 //! ## Deciding
 //! Thin pixels are grouped into features (8-connected). A thin feature can be *removed* (its
@@ -54,7 +58,7 @@ use rayon::prelude::*;
 use crate::raster::{join_runs, BitGrid, Gray, Run};
 
 mod packed;
-use packed::{thin, Packed, ThinScratch};
+use packed::{thin, thin_in_tiles, tiles_near, Packed, ThinScratch, BAND};
 
 /// Rounds of cost-based deciding before the monotone phase settles what is left.
 pub const FREE_ROUNDS: usize = 4;
@@ -212,6 +216,17 @@ struct Work<'a> {
     /// Kept between rounds: [`thin`]'s buffers per tone, and the pixels a round changed.
     thin_scratch: [ThinScratch; 2],
     changed: Packed,
+    /// The pixels changed since the last refresh ([`Work::flip`]), and whether there was one:
+    /// after the first, a refresh recomputes thinness and depths only near these.
+    since: Packed,
+    refreshed: bool,
+    /// The tiles ([`BAND`] rows by a word) the last refresh recomputed, `None` when it did the
+    /// whole grid: what lies outside them is as it was the refresh before.
+    dirty: Option<Vec<bool>>,
+    /// The last round's features per tone (material, cut), in [`groups`] order: a feature that
+    /// lies wholly outside the tiles a refresh recomputed is the same feature, with the same
+    /// widening and cost, and is taken from here rather than worked out again.
+    kept: [Vec<Feature>; 2],
 }
 
 /// A cut that fills a corner of the picture has a square corner against the sheet's margin,
@@ -291,28 +306,67 @@ impl<'a> Work<'a> {
             depth2: Vec::new(),
             thin_scratch: Default::default(),
             changed: Packed::new(pw, ph, false),
+            since: Packed::new(pw, ph, false),
+            refreshed: false,
+            dirty: None,
+            kept: Default::default(),
         }
     }
 
-    /// Recompute both tones' thin pixels over the whole grid.
+    /// Set pixel `(x, y)` to `v`, noting the change for the next refresh.
+    fn flip(&mut self, x: usize, y: usize, v: bool) {
+        self.bits.set(x, y, v);
+        self.since.set(x, y, true);
+    }
+
+    /// How far a change reaches: a pixel's thinness depends on the pixels within `2 · reach + 1`
+    /// of it, a lattice point's depth on those within the ring's reach (and on whether a pixel
+    /// next to it is thin); a pixel farther than this from every change keeps both.
+    fn influence(&self) -> usize {
+        (2 * self.disc.reach() as usize + 2).max(self.ring_reach as usize + 1)
+    }
+
+    /// Both tones' thin pixels and the depths next to them: over the whole grid the first time,
+    /// then only in the tiles within [`Work::influence`] (and a pixel more) of a pixel changed
+    /// since; the rest is as it was. Either way the same as recomputing the whole grid.
     fn refresh(&mut self) {
         let (bits, disc) = (&self.bits, self.disc);
-        let [material, cut] = &mut self.thin;
-        let [sm, sc] = &mut self.thin_scratch;
-        if packed::parallel(bits.width * bits.height) {
-            rayon::join(
-                || thin(bits, true, disc, sm, material),
-                || thin(bits, false, disc, sc, cut),
-            );
-        } else {
-            thin(bits, true, disc, sm, material);
-            thin(bits, false, disc, sc, cut);
+        let mut done = false;
+        if self.refreshed {
+            let m = self.influence();
+            let dirty = tiles_near(&self.since, m + 1);
+            done = thin_in_tiles(bits, disc, &dirty, m, &mut self.thin);
+            self.dirty = Some(dirty);
         }
-        corner_caps(bits, &self.corners, disc, cut);
+        if !done {
+            let [material, cut] = &mut self.thin;
+            let [sm, sc] = &mut self.thin_scratch;
+            if packed::parallel(bits.width * bits.height) {
+                rayon::join(
+                    || thin(bits, true, disc, sm, material),
+                    || thin(bits, false, disc, sc, cut),
+                );
+            } else {
+                thin(bits, true, disc, sm, material);
+                thin(bits, false, disc, sc, cut);
+            }
+            self.refreshed = true;
+        }
+        corner_caps(&self.bits, &self.corners, disc, &mut self.thin[1]);
         self.refresh_depths();
+        self.since.data.fill(0);
     }
 
-    /// Recompute [`Work::depth2`] at every centre next to a thin pixel.
+    /// Whether the last refresh recomputed the tile holding pixel `i`.
+    fn recomputed(&self, i: usize) -> bool {
+        let w = self.bits.width;
+        self.dirty
+            .as_ref()
+            .is_none_or(|d| d[(i / w / BAND) * self.bits.stride + (i % w) / 64])
+    }
+
+    /// Recompute [`Work::depth2`] at every centre next to a thin pixel (in the tiles the
+    /// refresh recomputed: elsewhere neither the bits a depth reads nor the thin pixels changed).
     fn refresh_depths(&mut self) {
         let corners = self.disc.on_corners() as usize;
         let (w, h) = (self.bits.width, self.bits.height);
@@ -322,7 +376,17 @@ impl<'a> Work<'a> {
         let work = &*self;
         let stride = work.bits.stride;
         let [t0, t1] = &work.thin;
+        let bands = h.div_ceil(BAND);
         packed::rows_mut(&mut depth2, lw, packed::parallel(w * h), |(cy, row)| {
+            // The tiles of this row the refresh recomputed (the corner row `h` with the last
+            // band, the corner column `w` with the last word).
+            let tiles = work.dirty.as_ref().map(|d| {
+                let b = (cy / BAND).min(bands - 1);
+                &d[b * stride..(b + 1) * stride]
+            });
+            if tiles.is_some_and(|t| !t.contains(&true)) {
+                return;
+            }
             // The lattice points holding a thin pixel: the pixel itself, or the corners of the
             // pixels in the rows above and below the corner row (pixel x has corners x, x + 1).
             let rows = [cy.checked_sub(corners), (cy < h).then_some(cy)];
@@ -338,6 +402,9 @@ impl<'a> Work<'a> {
                     let next = word >> 63;
                     word |= (word << 1) | carry;
                     carry = next;
+                }
+                if tiles.is_some_and(|t| !t[k.min(stride - 1)]) {
+                    continue;
                 }
                 while word != 0 {
                     let cx = k * 64 + word.trailing_zeros() as usize;
@@ -535,6 +602,9 @@ struct Feature {
     pixels: Vec<usize>,
     /// The other tone's pixels a widening turns to `phase`.
     widen: Vec<usize>,
+    /// What removing and widening it cost in the cost-based phase, once worked out (`None`
+    /// inside: not available). Nothing either reads changes while the feature stays the same.
+    cost: Option<(Option<f32>, Option<f32>)>,
 }
 
 /// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its pixels whose depth is at least each of their 8-neighbours' in the feature. The
@@ -599,16 +669,24 @@ fn widening(work: &Work, feature: &[usize], phase: bool, seen: &mut Packed) -> V
     out
 }
 
-/// Every thin feature of both tones, with its widening.
+/// Every thin feature of both tones, with its widening. A feature none of whose pixels lies in a
+/// tile the refresh recomputed is one of the last round's ([`Work::kept`]): its pixels and their
+/// neighbours are thin or not as they were, and the depths and bits its widening reads (within
+/// the disc's reach and two pixels of it) did not change, so it is taken as it was.
 fn features(work: &mut Work) -> Vec<Feature> {
     work.refresh();
+    let kept = std::mem::take(&mut work.kept);
     let work = &*work;
     let (w, h) = (work.bits.width, work.bits.height);
     thread_local! {
         /// [`widening`]'s scratch grid, one per thread, kept clear between features and rounds.
         static SEEN: std::cell::RefCell<Packed> = std::cell::RefCell::new(Packed::new(0, 0, false));
     }
-    let feature = |phase: bool, pixels: Vec<usize>| {
+    let feature = |phase: bool, (pixels, old): (Vec<usize>, Option<Feature>)| {
+        if let Some(old) = old {
+            debug_assert_eq!(old.pixels, pixels, "a kept feature is the same feature");
+            return old;
+        }
         let widen = SEEN.with(|seen| {
             let mut seen = seen.borrow_mut();
             if seen.width != w || seen.height != h {
@@ -620,10 +698,27 @@ fn features(work: &mut Work) -> Vec<Feature> {
             phase,
             pixels,
             widen,
+            cost: None,
         }
     };
-    let of_phase = |phase: bool| -> Vec<Feature> {
-        let groups = groups(&work.thin[!phase as usize], work.seeds.as_ref());
+    let of_phase = |phase: bool, mut kept: Vec<Feature>| -> Vec<Feature> {
+        let firsts: Vec<usize> = kept.iter().map(|f| f.pixels[0]).collect();
+        let groups: Vec<(Vec<usize>, Option<Feature>)> =
+            groups(&work.thin[!phase as usize], work.seeds.as_ref())
+                .into_iter()
+                .map(|pixels| {
+                    let old = if pixels.iter().any(|&i| work.recomputed(i)) {
+                        None
+                    } else {
+                        // The same pixels, so the same first pixel, by which both lists run.
+                        firsts
+                            .binary_search(&pixels[0])
+                            .ok()
+                            .map(|k| std::mem::replace(&mut kept[k], Feature::empty(phase)))
+                    };
+                    (pixels, old)
+                })
+                .collect();
         if packed::parallel(w * h) {
             groups
                 .into_par_iter()
@@ -636,13 +731,33 @@ fn features(work: &mut Work) -> Vec<Feature> {
                 .collect()
         }
     };
+    let [km, kc] = kept;
     let (mut material, cut) = if packed::parallel(w * h) {
-        rayon::join(|| of_phase(true), || of_phase(false))
+        rayon::join(|| of_phase(true, km), || of_phase(false, kc))
     } else {
-        (of_phase(true), of_phase(false))
+        (of_phase(true, km), of_phase(false, kc))
     };
     material.extend(cut);
     material
+}
+
+impl Feature {
+    fn empty(phase: bool) -> Feature {
+        Feature {
+            phase,
+            pixels: Vec::new(),
+            widen: Vec::new(),
+            cost: None,
+        }
+    }
+}
+
+impl Work<'_> {
+    /// Keep a round's features (as [`features`] gave them) for the next.
+    fn keep(&mut self, feats: Vec<Feature>) {
+        let (material, cut) = feats.into_iter().partition(|f| f.phase);
+        self.kept = [material, cut];
+    }
 }
 
 /// The price of flipping a picture pixel: `0.1 + |gray − threshold|`.
@@ -685,7 +800,7 @@ pub fn regularize(
 /// less; a pixel that changed may not change back; at most [`FREE_ROUNDS`] rounds.
 fn decide(work: &mut Work, stats: &mut RegularizeStats) {
     for _ in 0..FREE_ROUNDS {
-        let feats = features(work);
+        let mut feats = features(work);
         if feats.is_empty() {
             break;
         }
@@ -696,7 +811,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         let mut any = false;
         // Cheapest first, so where two features' choices meet the cheaper one's stands.
         let mut choices: Vec<(f32, usize, bool)> = Vec::new();
-        for (n, f) in feats.iter().enumerate() {
+        for (n, f) in feats.iter_mut().enumerate() {
             // Removing needs every pixel of the feature; a widening paints what it may (the frame
             // past the picture's border is material already, and cut may not reach into it).
             let cost = |px: &[usize], all: bool| -> Option<f32> {
@@ -713,12 +828,15 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
                 }
                 Some(c)
             };
-            let remove = cost(&f.pixels, true);
-            let widen = if f.widen.is_empty() {
-                None
-            } else {
-                cost(&f.widen, false)
-            };
+            let (remove, widen) = *f.cost.get_or_insert_with(|| {
+                let remove = cost(&f.pixels, true);
+                let widen = if f.widen.is_empty() {
+                    None
+                } else {
+                    cost(&f.widen, false)
+                };
+                (remove, widen)
+            });
             match (remove, widen) {
                 (Some(r), Some(wd)) if wd < r => choices.push((wd, n, true)),
                 (Some(r), _) => choices.push((r, n, false)),
@@ -739,7 +857,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
                     continue;
                 }
                 let v = !work.bits.get(x, y);
-                work.bits.set(x, y, v);
+                work.flip(x, y, v);
                 work.locked.set(x, y, true);
                 changed.set(x, y, true);
             }
@@ -752,6 +870,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
             }
         }
         work.changed = changed;
+        work.keep(feats);
         if !any {
             break;
         }
@@ -762,22 +881,23 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
 /// that may change is thin. Ends: see the module comment.
 fn settle(work: &mut Work, stats: &mut RegularizeStats) {
     loop {
-        let feats: Vec<Feature> = features(work)
-            .into_iter()
-            .filter(|f| f.pixels.iter().any(|&i| work.changeable(i)))
+        let feats = features(work);
+        let live: Vec<usize> = (0..feats.len())
+            .filter(|&n| feats[n].pixels.iter().any(|&i| work.changeable(i)))
             .collect();
-        if feats.is_empty() {
+        if live.is_empty() {
             break;
         }
         stats.monotone_rounds += 1;
         let mut added = 0usize;
         let w = work.bits.width;
-        for f in &feats {
+        for &n in &live {
+            let f = &feats[n];
             let px = if f.phase { &f.widen } else { &f.pixels };
             for &i in px {
                 let (x, y) = (i % w, i / w);
                 if work.changeable_at(x, y) && !work.bits.get(x, y) {
-                    work.bits.set(x, y, true);
+                    work.flip(x, y, true);
                     added += 1;
                 }
             }
@@ -787,6 +907,7 @@ fn settle(work: &mut Work, stats: &mut RegularizeStats) {
                 stats.holes_filled += 1;
             }
         }
+        work.keep(feats);
         // Cannot happen over the whole picture (see the module comment); in a window a widening
         // may lie outside the part that may change. Either way, stop rather than spin.
         if added == 0 {
@@ -1297,6 +1418,70 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Rounds after the first recompute thinness and depths only near the pixels changed since
+    /// and keep the features nothing near changed: the same thin pixels, depths and features
+    /// (pixels, widening) as a fresh grid's first round, on random blocky two-tones changed at
+    /// random over several rounds, odd and even spans.
+    #[test]
+    fn refresh_near_changes_is_refresh_of_all() {
+        let mut seed = 0x1dc_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut kept = 0;
+        for case in 0..30 {
+            let (w, h) = (1 + rnd(400) as u32, 1 + rnd(250) as u32);
+            let (cell, dense) = (1 + rnd(5) as u32, rnd(11));
+            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+                .map(|_| rnd(10) < dense)
+                .collect();
+            let bits = BitGrid::from_fn(w, h, |x, y| {
+                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
+            });
+            let disc = Disc::for_width([3.0, 4.0, 5.0, 6.0, 11.0, 12.0][case % 6]);
+            let all = [0, 0, w, h];
+            let mut work = Work::new(&bits, all, all, disc, |_, _| 1.0);
+            let feats = features(&mut work);
+            work.keep(feats);
+            for round in 0..4 {
+                let p = work.pad as usize;
+                for _ in 0..rnd(6) {
+                    let (x0, y0, n) = (rnd(w as u64) as usize, rnd(h as u64) as usize, rnd(4));
+                    for y in y0..(y0 + n as usize + 1).min(h as usize) {
+                        for x in x0..(x0 + n as usize + 1).min(w as usize) {
+                            let v = !work.bits.get(x + p, y + p);
+                            work.flip(x + p, y + p, v);
+                        }
+                    }
+                }
+                let got = features(&mut work);
+                let mut fresh = Work::new(&work.window(), all, all, disc, |_, _| 1.0);
+                let want = features(&mut fresh);
+                let at = format!("case {case} round {round}: {w}x{h} span {}", disc.span);
+                assert_eq!(work.thin, fresh.thin, "{at}");
+                for i in 0..work.bits.width * work.bits.height {
+                    if work.thin[0].at(i) || work.thin[1].at(i) {
+                        assert_eq!(work.depth(i), fresh.depth(i), "{at}, pixel {i}");
+                    }
+                }
+                assert_eq!(got.len(), want.len(), "{at}");
+                for (g, f) in got.iter().zip(&want) {
+                    assert_eq!((g.phase, &g.pixels), (f.phase, &f.pixels), "{at}");
+                    assert_eq!(g.widen, f.widen, "{at}");
+                }
+                kept += got.iter().filter(|f| f.cost.is_some()).count();
+                let mut got = got;
+                // Mark them as priced, so a feature taken from the kept list shows it.
+                got.iter_mut().for_each(|f| f.cost = Some((None, None)));
+                work.keep(got);
+            }
+        }
+        assert!(kept > 0, "some features were kept");
     }
 
     fn any_thin(bits: &BitGrid, px: f64) -> bool {

@@ -1,7 +1,7 @@
 //! Bit-packed rows and the disc opening on them. A round of the regularisation needs, for both
 //! tones, which pixels no disc of their tone covers; with 64 pixels to a word that is a few
-//! shifts, ANDs and ORs per word and disc row, so it is recomputed over the whole grid every
-//! round instead of being kept up to date piecemeal.
+//! shifts, ANDs and ORs per word and disc row over the whole grid, and after the first round
+//! only over windows around the tiles near the pixels that changed ([`thin_in_tiles`]).
 
 use rayon::prelude::*;
 
@@ -450,12 +450,185 @@ pub(super) fn thin(
     spans.dedup();
     let corners = disc.on_corners() as usize;
     let (lw, lh) = (bits.width + corners, bits.height + corners);
-    let centres = match &mut scratch.centres {
-        Some(c) if c.width == lw && c.height == lh => c,
-        c => c.insert(Packed::new(lw, lh, false)),
-    };
+    // Reshaped in place when the size changes (every word is written below).
+    let centres = scratch
+        .centres
+        .get_or_insert_with(|| Packed::new(lw, lh, false));
+    if centres.width != lw || centres.height != lh {
+        centres.width = lw;
+        centres.height = lh;
+        centres.stride = lw.div_ceil(64).max(1);
+        centres.data.resize(centres.stride * lh, 0);
+    }
     disc_centres(out, phase, &shape, &spans, centres, &mut scratch.runs);
     uncovered(out, centres, &shape, &spans, &mut scratch.runs);
+}
+
+/// Rows per band of the tiles [`thin_in_tiles`] recomputes: a tile is one word (64 columns) of
+/// one band, tile `(b, k)` at index `b · stride + k`.
+pub(super) const BAND: usize = 32;
+
+/// Which tiles hold a pixel within `m` pixels (rows and columns apart) of a set pixel of
+/// `changed` (its tail bits clear).
+pub(super) fn tiles_near(changed: &Packed, m: usize) -> Vec<bool> {
+    let (h, s) = (changed.height, changed.stride);
+    let bands = h.div_ceil(BAND);
+    let mut out = vec![false; bands * s];
+    let mut any = vec![0u64; s];
+    for b in 0..bands {
+        let (y0, y1) = (b * BAND, ((b + 1) * BAND).min(h));
+        any.fill(0);
+        for y in y0.saturating_sub(m)..(y1 + m).min(h) {
+            for (a, &v) in any.iter_mut().zip(changed.row(y)) {
+                *a |= v;
+            }
+        }
+        if any.iter().all(|&a| a == 0) {
+            continue;
+        }
+        for k in 0..s {
+            out[b * s + k] = any_between(&any, (64 * k).saturating_sub(m), 64 * (k + 1) + m);
+        }
+    }
+    out
+}
+
+/// Whether `row` has a set bit in columns `x0..x1` (clipped to the row).
+fn any_between(row: &[u64], x0: usize, x1: usize) -> bool {
+    let x1 = x1.min(row.len() * 64);
+    if x0 >= x1 {
+        return false;
+    }
+    let (k0, k1) = (x0 / 64, (x1 - 1) / 64);
+    (k0..=k1).any(|k| {
+        let lo = if k == k0 { x0 % 64 } else { 0 };
+        let hi = if k == k1 { (x1 - 1) % 64 } else { 63 };
+        row[k] & (!0u64 << lo) & (!0u64 >> (63 - hi)) != 0
+    })
+}
+
+/// A thread's buffers for [`thin_in_tiles`]: the window, its thin pixels per tone, [`thin`]'s.
+#[derive(Default)]
+struct TileScratch {
+    window: Packed,
+    out: [Packed; 2],
+    thin: ThinScratch,
+}
+
+impl Default for Packed {
+    fn default() -> Packed {
+        Packed::new(0, 0, false)
+    }
+}
+
+/// The boxes `[b0, b1, k0, k1)` (bands `b0..b1`, words `k0..k1`) bounding the 8-connected
+/// pieces of the tiles `dirty` marks (`stride` words a band).
+fn tile_boxes(dirty: &[bool], stride: usize) -> Vec<[usize; 4]> {
+    let bands = dirty.len() / stride.max(1);
+    let mut seen = vec![false; dirty.len()];
+    let (mut boxes, mut stack) = (Vec::new(), Vec::new());
+    for start in 0..dirty.len() {
+        if !dirty[start] || seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        stack.push(start);
+        let mut bx = [usize::MAX, 0, usize::MAX, 0];
+        while let Some(t) = stack.pop() {
+            let (b, k) = (t / stride, t % stride);
+            bx = [
+                bx[0].min(b),
+                bx[1].max(b + 1),
+                bx[2].min(k),
+                bx[3].max(k + 1),
+            ];
+            for nb in b.saturating_sub(1)..(b + 2).min(bands) {
+                for nk in k.saturating_sub(1)..(k + 2).min(stride) {
+                    let n = nb * stride + nk;
+                    if dirty[n] && !seen[n] {
+                        seen[n] = true;
+                        stack.push(n);
+                    }
+                }
+            }
+        }
+        boxes.push(bx);
+    }
+    boxes
+}
+
+/// [`thin`] of both tones (`out`: material, cut), recomputed only in the tiles `dirty` marks
+/// ([`BAND`]) and left as it is elsewhere. The marked tiles are taken in boxes (one per
+/// 8-connected piece), each recomputed in a window `m` rows and `⌈m / 64⌉` words larger on every
+/// side (clipped to the grid), whose outside reads as material as the grid's does: a pixel's
+/// thinness depends only on the pixels within `2 · reach + 1` of it (the centres whose disc holds
+/// it, and the pixels their discs hold), so with `m` at least that the box comes out as over the
+/// whole grid, and the whole box is written back (boxes that overlap write the same bits).
+/// When the windows would hold more than half the grid, does nothing and returns false: [`thin`]
+/// over the whole grid is then as quick.
+pub(super) fn thin_in_tiles(
+    bits: &Packed,
+    disc: Disc,
+    dirty: &[bool],
+    m: usize,
+    out: &mut [Packed; 2],
+) -> bool {
+    let (w, h, s) = (bits.width, bits.height, bits.stride);
+    let mw = m.div_ceil(64);
+    let window = |&[b0, b1, k0, k1]: &[usize; 4]| {
+        let (y0, y1) = (b0 * BAND, (b1 * BAND).min(h));
+        let rows = (y1 + m).min(h) - y0.saturating_sub(m);
+        rows * ((k1 + mw).min(s) - k0.saturating_sub(mw))
+    };
+    let boxes = tile_boxes(dirty, s);
+    if 2 * boxes.iter().map(window).sum::<usize>() > h * s {
+        return false;
+    }
+    let one = |sc: &mut TileScratch, &[b0, b1, k0, k1]: &[usize; 4]| {
+        let (y0, y1) = (b0 * BAND, (b1 * BAND).min(h));
+        let (wy0, wy1) = (y0.saturating_sub(m), (y1 + m).min(h));
+        let (wk0, wk1) = (k0.saturating_sub(mw), (k1 + mw).min(s));
+        let ws = wk1 - wk0;
+        let win = &mut sc.window;
+        win.width = if wk1 == s { w - 64 * wk0 } else { 64 * ws };
+        win.height = wy1 - wy0;
+        win.stride = ws;
+        win.data.clear();
+        for y in wy0..wy1 {
+            win.data.extend_from_slice(&bits.row(y)[wk0..wk1]);
+        }
+        let [o0, o1] = &mut sc.out;
+        thin(win, true, disc, &mut sc.thin, o0);
+        thin(win, false, disc, &mut sc.thin, o1);
+        let core = |o: &Packed| -> Vec<u64> {
+            (y0..y1)
+                .flat_map(|y| {
+                    let from = (y - wy0) * ws + (k0 - wk0);
+                    o.data[from..from + k1 - k0].iter().copied()
+                })
+                .collect()
+        };
+        (core(o0), core(o1))
+    };
+    let done: Vec<(Vec<u64>, Vec<u64>)> = if parallel(w * h) {
+        boxes
+            .par_iter()
+            .map_init(TileScratch::default, one)
+            .collect()
+    } else {
+        let mut sc = TileScratch::default();
+        boxes.iter().map(|b| one(&mut sc, b)).collect()
+    };
+    let [t0, t1] = out;
+    for (&[b0, b1, k0, k1], (c0, c1)) in boxes.iter().zip(&done) {
+        let n = k1 - k0;
+        for (t, c) in [(&mut *t0, c0), (&mut *t1, c1)] {
+            for (y, row) in (b0 * BAND..(b1 * BAND).min(h)).zip(c.chunks(n)) {
+                t.data[y * s + k0..y * s + k1].copy_from_slice(row);
+            }
+        }
+    }
+    true
 }
 
 /// Erosion: the lattice points (`corners` more per side than pixels when the disc's centre lies
@@ -635,6 +808,62 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Thinness recomputed in the tiles near changed pixels is thinness over the whole new grid:
+    /// random blocky grids, random changes (single pixels and blocks), odd and even spans, spans
+    /// reaching past a word.
+    #[test]
+    fn thin_in_tiles_near_changes_is_thin_of_all() {
+        let mut seed = 0x711e_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let both = |p: &Packed, disc: Disc| {
+            let mut out = [Packed::default(), Packed::default()];
+            thin(p, true, disc, &mut ThinScratch::default(), &mut out[0]);
+            thin(p, false, disc, &mut ThinScratch::default(), &mut out[1]);
+            out
+        };
+        let mut tiled = 0;
+        for case in 0..120 {
+            let (w, h) = (1 + rnd(700) as usize, 1 + rnd(300) as usize);
+            let (cell, dense) = (1 + rnd(6) as usize, rnd(11));
+            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+                .map(|_| rnd(10) < dense)
+                .collect();
+            let mut p = Packed::new(w, h, true);
+            for y in 0..h {
+                for x in 0..w {
+                    p.set(x, y, noise[(y / cell) * (w / cell + 1) + x / cell]);
+                }
+            }
+            let span = [2.0, 3.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 8];
+            let disc = Disc::for_width(span);
+            let mut got = both(&p, disc);
+            let mut changed = Packed::new(w, h, false);
+            for _ in 0..1 + rnd(5) {
+                let (x0, y0, n) = (rnd(w as u64) as usize, rnd(h as u64) as usize, rnd(5));
+                for y in y0..(y0 + n as usize + 1).min(h) {
+                    for x in x0..(x0 + n as usize + 1).min(w) {
+                        if rnd(3) > 0 {
+                            p.set(x, y, !p.get(x, y));
+                            changed.set(x, y, true);
+                        }
+                    }
+                }
+            }
+            let m = 2 * disc.reach() as usize + 2;
+            let dirty = tiles_near(&changed, m + 1);
+            if thin_in_tiles(&p, disc, &dirty, m, &mut got) {
+                tiled += 1;
+                assert_eq!(got, both(&p, disc), "case {case}: {w}x{h} span {span}");
+            }
+        }
+        assert!(tiled > 30, "the tiles were recomputed in {tiled} cases");
     }
 
     #[test]
