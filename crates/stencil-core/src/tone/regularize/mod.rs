@@ -220,8 +220,10 @@ struct Work<'a> {
     /// after the first, a refresh recomputes thinness and depths only near these.
     since: Packed,
     refreshed: bool,
-    /// The tiles ([`BAND`] rows by a word) the last refresh recomputed, `None` when it did the
-    /// whole grid: what lies outside them is as it was the refresh before.
+    /// The tiles ([`BAND`] rows by a word) within reach of the changes the last refresh saw;
+    /// `None` after the first refresh, which had no earlier one to keep. What lies outside them
+    /// is as it was the refresh before, also when [`thin_in_tiles`] declined (too many tiles)
+    /// and thinness was recomputed over the whole grid.
     dirty: Option<Vec<bool>>,
     /// The last round's features per tone (material, cut), in [`groups`] order: a feature that
     /// lies wholly outside the tiles a refresh recomputed is the same feature, with the same
