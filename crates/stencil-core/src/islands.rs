@@ -44,6 +44,36 @@ impl IslandMap {
     pub fn label(&self, x: u32, y: u32) -> u32 {
         self.labels[y as usize * self.width as usize + x as usize]
     }
+
+    /// The pixels of island `node` (not the frame) as runs along rows, `(y, x0, x1)` with
+    /// `x0..=x1` inclusive, in scan order, found from its border alone: O(its border and runs),
+    /// not the image's area. Why it works: an island never touches the image's edge, so the two
+    /// ends of each of its runs along a row have a cut neighbour (a material one would be of the
+    /// same 4-connected piece) and are border pixels, and between two of its border pixels that
+    /// follow each other along a row the pixels are either all its own (inside one run) or none
+    /// (any own pixel there would belong to a run whose ends lie between them): the label of the
+    /// pixel right of the first says which.
+    pub fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
+        let b = &self.nodes[node].border;
+        let w = self.width as usize;
+        let mut runs = Vec::new();
+        let mut k = 0;
+        while k < b.len() {
+            let (x0, y) = b[k];
+            let mut x1 = x0;
+            while k + 1 < b.len()
+                && b[k + 1].1 == y
+                && (b[k + 1].0 == x1 + 1
+                    || self.labels[y as usize * w + x1 as usize + 1] == node as u32)
+            {
+                x1 = b[k + 1].0;
+                k += 1;
+            }
+            runs.push((y, x0, x1));
+            k += 1;
+        }
+        runs
+    }
 }
 
 /// Label material pixels 4-connected into the frame (everything touching the image border) and
@@ -195,9 +225,15 @@ fn label_reference(bits: &BitGrid) -> IslandMap {
 /// and the islands left keep their order (that of their first pixels). The frame is never gone.
 pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
     let is_gone = |n: usize| n != FRAME as usize && gone.get(n).copied().unwrap_or(false);
-    if !(0..map.nodes.len()).any(is_gone) {
+    let Some(first) = (0..map.nodes.len()).find(|&n| is_gone(n)) else {
         return map;
-    }
+    };
+    // Only the islands from the first one gone on change number (or go): their labels are
+    // rewritten over their runs, so the cost is their area, not the picture's (the frame and the
+    // islands before keep theirs). The runs are found before any label changes.
+    let runs: Vec<Vec<(u32, u32, u32)>> = (first..map.nodes.len())
+        .map(|n| map.island_runs(n))
+        .collect();
     let mut renumber = vec![CUT; map.nodes.len()];
     let mut nodes = Vec::with_capacity(map.nodes.len());
     for (n, node) in std::mem::take(&mut map.nodes).into_iter().enumerate() {
@@ -206,14 +242,13 @@ pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
             nodes.push(node);
         }
     }
-    // Each label on its own: in parallel, by bands of rows.
-    map.labels.par_chunks_mut(1 << 16).for_each(|band| {
-        for l in band.iter_mut() {
-            if *l != CUT {
-                *l = renumber[*l as usize];
-            }
+    let w = map.width as usize;
+    for (rs, &l) in runs.iter().zip(&renumber[first..]) {
+        for &(y, x0, x1) in rs {
+            let row = y as usize * w;
+            map.labels[row + x0 as usize..=row + x1 as usize].fill(l);
         }
-    });
+    }
     map.nodes = nodes;
     map
 }
@@ -444,6 +479,39 @@ mod tests {
         }
         let empty = label(&BitGrid::new(0, 0, false));
         assert_eq!((empty.labels.len(), empty.nodes.len()), (0, 1));
+    }
+
+    /// An island's runs found from its border are the runs of its label in the labels, on
+    /// random grids of every density.
+    #[test]
+    fn island_runs_are_the_runs_of_its_label() {
+        let mut seed = 0x5151_7e57_0f0f_1234;
+        let mut islands = 0;
+        for k in 0..200u32 {
+            let g = random(3 + k % 43, 3 + (k * 7) % 37, 25 + k % 50, &mut seed);
+            let map = label(&g);
+            let w = map.width as usize;
+            for n in 1..map.nodes.len() {
+                let mut plain = Vec::new();
+                for (y, row) in map.labels.chunks(w).enumerate() {
+                    let mut x = 0;
+                    while x < w {
+                        if row[x] != n as u32 {
+                            x += 1;
+                            continue;
+                        }
+                        let x0 = x;
+                        while x < w && row[x] == n as u32 {
+                            x += 1;
+                        }
+                        plain.push((y as u32, x0 as u32, x as u32 - 1));
+                    }
+                }
+                assert_eq!(map.island_runs(n), plain, "grid {k} island {n}");
+                islands += 1;
+            }
+        }
+        assert!(islands > 500, "the grids have islands ({islands})");
     }
 
     /// Removing islands from a map gives the map of the bits without them, labels, areas and

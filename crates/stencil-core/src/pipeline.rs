@@ -1413,32 +1413,18 @@ fn drop_islands(
         d.area_mm2 *= mm * mm;
         out.push(d);
     }
-    // The dropped islands' pixels become cut, in parallel bands of pixels, each band listing its
-    // own (the list stays in pixel order).
-    const BAND: usize = 1 << 16;
-    let px: Vec<u32> = if out.is_empty() {
-        Vec::new()
-    } else {
-        use rayon::prelude::*;
-        let per_band: Vec<Vec<u32>> = two
-            .bits
-            .data
-            .par_chunks_mut(BAND)
-            .zip(map.labels.par_chunks(BAND))
-            .enumerate()
-            .map(|(b, (bits, labels))| {
-                let mut px = Vec::new();
-                for (k, (bit, &l)) in bits.iter_mut().zip(labels).enumerate() {
-                    if l != islands::CUT && gone[l as usize] {
-                        *bit = false;
-                        px.push((b * BAND + k) as u32);
-                    }
-                }
-                px
-            })
-            .collect();
-        per_band.concat()
-    };
+    // The dropped islands' pixels become cut, found from their runs (their area, not a pass over
+    // the picture), listed in pixel order.
+    let w = map.width as usize;
+    let mut px: Vec<u32> = Vec::new();
+    for n in (0..gone.len()).filter(|&n| gone[n]) {
+        for (y, x0, x1) in map.island_runs(n) {
+            let row = y as usize * w;
+            two.bits.data[row + x0 as usize..=row + x1 as usize].fill(false);
+            px.extend(row as u32 + x0..=row as u32 + x1);
+        }
+    }
+    px.sort_unstable();
     (out, px, map, gone)
 }
 
