@@ -23,12 +23,45 @@ pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
 }
 
 /// The runs of pixels equal to `value` along each row, left to right, and the index of each row's
-/// first run (with one entry past the last row), as [`join_runs`] takes them.
+/// first run (with one entry past the last row), as [`join_runs`] takes them. Bands of
+/// [`RUN_BAND`] rows are scanned in parallel and their runs joined in order: the same list as
+/// row after row (on the 1.2 MP photo the scan was a serial millisecond of the labelling).
 pub(crate) fn runs_of(bits: &BitGrid, value: bool) -> (Vec<Run>, Vec<usize>) {
-    let (w, h) = (bits.width as usize, bits.height as usize);
-    let mut runs: Vec<Run> = Vec::new();
+    use rayon::prelude::*;
+    let h = bits.height as usize;
+    if h <= RUN_BAND {
+        return runs_of_rows(bits, value, 0..h);
+    }
+    let bands: Vec<(Vec<Run>, Vec<usize>)> = (0..h.div_ceil(RUN_BAND))
+        .into_par_iter()
+        .map(|b| runs_of_rows(bits, value, b * RUN_BAND..((b + 1) * RUN_BAND).min(h)))
+        .collect();
+    let mut runs = Vec::with_capacity(bands.iter().map(|b| b.0.len()).sum());
     let mut row_first = Vec::with_capacity(h + 1);
-    for y in 0..h {
+    for (band, first) in bands {
+        let base = runs.len();
+        row_first.extend(first[..first.len() - 1].iter().map(|&f| base + f));
+        runs.extend(band);
+    }
+    row_first.push(runs.len());
+    debug_assert_eq!(row_first.len(), h + 1);
+    (runs, row_first)
+}
+
+/// Rows per band of [`runs_of`].
+const RUN_BAND: usize = 64;
+
+/// [`runs_of`] over `rows` only: their runs, and the index of each row's first run within them
+/// (with one entry past the last row).
+fn runs_of_rows(
+    bits: &BitGrid,
+    value: bool,
+    rows: std::ops::Range<usize>,
+) -> (Vec<Run>, Vec<usize>) {
+    let w = bits.width as usize;
+    let mut runs: Vec<Run> = Vec::new();
+    let mut row_first = Vec::with_capacity(rows.len() + 1);
+    for y in rows {
         row_first.push(runs.len());
         let row = &bits.data[y * w..(y + 1) * w];
         let mut x = 0;
@@ -127,4 +160,31 @@ pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Ve
         piece[r] = piece[root];
     }
     (piece, count as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The runs found band by band are the runs found row after row, on random grids as tall as
+    /// several bands (the last one part full) and as short as one.
+    #[test]
+    fn runs_of_in_bands_is_row_after_row() {
+        let mut seed = 0x0123_4567_89ab_cdefu64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for k in 0..40u32 {
+            let (w, h) = (1 + k * 7 % 53, 1 + k * 37 % 300);
+            let fill = next() % 100;
+            let bits = BitGrid::from_fn(w, h, |_, _| next() % 100 < fill);
+            for value in [false, true] {
+                let plain = runs_of_rows(&bits, value, 0..h as usize);
+                assert_eq!(runs_of(&bits, value), plain, "grid {k} ({w}x{h}) {value}");
+            }
+        }
+    }
 }
