@@ -198,12 +198,45 @@ fn paint(disc: Disc) -> Vec<Vec<(i64, i64, i64)>> {
         .collect()
 }
 
+/// Pixel index → `(x, y)` for rows `width` long, by a multiply rather than a division when
+/// both fit in 32 bits: with `c = ⌈2⁶⁴ / width⌉`, `⌊c · i / 2⁶⁴⌋ = ⌊i / width⌋` for every 32-bit
+/// `i` and `width` (Lemire, Kaser and Kurz, "Faster remainder by direct computation", 2019).
+/// The lists of pixels a round prices and flips are turned into coordinates once per pixel, and
+/// a 64-bit division costs several times the multiply.
+#[derive(Clone, Copy, Debug)]
+struct Rows {
+    width: usize,
+    /// `⌈2⁶⁴ / width⌉`, or 0 when the multiply does not apply (a width of 1, or indices past
+    /// 32 bits), and then the index is divided.
+    c: u64,
+}
+
+impl Rows {
+    fn new(width: usize, height: usize) -> Rows {
+        let fits = width >= 2 && (width as u64).saturating_mul(height as u64) <= u32::MAX as u64;
+        Rows {
+            width,
+            c: if fits { u64::MAX / width as u64 + 1 } else { 0 },
+        }
+    }
+
+    fn xy(&self, i: usize) -> (usize, usize) {
+        if self.c == 0 {
+            return (i % self.width, i / self.width);
+        }
+        let y = ((self.c as u128 * i as u128) >> 64) as usize;
+        (i - y * self.width, y)
+    }
+}
+
 /// A working grid: a window of the picture padded by more than the disc's reach with material on
 /// every side (the frame: discs of material may reach past the picture's border), which of its
 /// pixels may change and what changing them costs, and both tones' thin pixels.
 struct Work<'a> {
     /// Material, bit-packed; past the padded grid lies material too.
     bits: Packed,
+    /// Its pixel indices to coordinates.
+    rows: Rows,
     /// The price of flipping a pixel, in picture coordinates.
     price: Price<'a>,
     /// The pixels that may change, `[x0, y0, x1, y1)` in padded coordinates, and of those only
@@ -323,6 +356,7 @@ impl<'a> Work<'a> {
         }
         Work {
             bits: padded,
+            rows: Rows::new(pw, ph),
             price,
             core: core.map(|c| (c + pad) as usize),
             allowed: None,
@@ -572,7 +606,8 @@ impl<'a> Work<'a> {
     }
 
     fn changeable(&self, i: usize) -> bool {
-        self.changeable_at(i % self.bits.width, i / self.bits.width)
+        let (x, y) = self.rows.xy(i);
+        self.changeable_at(x, y)
     }
 
     fn changeable_at(&self, x: usize, y: usize) -> bool {
@@ -601,29 +636,16 @@ impl<'a> Work<'a> {
     /// How deep thin pixel `i` lies in its tone (see [`Work::depth2`]): the largest depth over
     /// its candidate centres (itself, or its four corners for an even span), and which of them
     /// (an index into [`Work::paint`]).
-    #[cfg(test)]
     fn depth(&self, i: usize) -> (u16, usize) {
         let w = self.bits.width;
-        self.depth_xy(i % w, i / w)
-    }
-
-    /// [`Work::depth`] of the pixel at `(x, y)`, without dividing an index by the width.
-    fn depth_xy(&self, x: usize, y: usize) -> (u16, usize) {
-        let w = self.bits.width;
         if !self.disc.on_corners() {
-            return (self.depth2[y * w + x], 0);
+            return (self.depth2[i], 0);
         }
-        // The corners in [`CORNERS`] order: (0, 0), (1, 0), (0, 1), (1, 1).
-        let at = y * (w + 1) + x;
-        let d = [
-            self.depth2[at],
-            self.depth2[at + 1],
-            self.depth2[at + w + 1],
-            self.depth2[at + w + 2],
-        ];
-        let mut best = (d[0], 0);
-        for (n, &d) in d.iter().enumerate().skip(1) {
-            if d > best.0 {
+        let (x, y) = (i % w, i / w);
+        let mut best = (0, 0);
+        for (n, &(ox, oy)) in CORNERS.iter().enumerate() {
+            let d = self.depth2[(y + oy as usize) * (w + 1) + x + ox as usize];
+            if n == 0 || d > best.0 {
                 best = (d, n);
             }
         }
@@ -729,12 +751,12 @@ fn widening(work: &Work, feature: &[usize], phase: bool, seen: &mut Packed) -> V
         if nx < 0 || ny < 0 || nx >= w || ny >= h || !mask.get(nx as usize, ny as usize) {
             return None;
         }
-        Some(work.depth_xy(nx as usize, ny as usize).0)
+        Some(work.depth((ny * w + nx) as usize).0)
     };
     let mut out = Vec::new();
     for &i in feature {
         let (x, y) = ((i as i64) % w, (i as i64) / w);
-        let (d, centre) = work.depth_xy(x as usize, y as usize);
+        let (d, centre) = work.depth(i);
         let ridge = (-1..=1i64)
             .flat_map(|dy| (-1..=1i64).map(move |dx| (dx, dy)))
             .all(|(dx, dy)| (dx, dy) == (0, 0) || depth_at(x + dx, y + dy) <= Some(d));
@@ -924,7 +946,6 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         stats.rounds += 1;
         let mut changed = std::mem::replace(&mut work.changed, Packed::new(0, 0, false));
         changed.data.fill(0);
-        let w = work.bits.width;
         let mut any = false;
         // Removing needs every pixel of the feature; a widening paints what it may (the frame
         // past the picture's border is material already, and cut may not reach into it). Each
@@ -934,7 +955,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
             let cost = |px: &[usize], all: bool| -> Option<f32> {
                 let mut c = 0.0;
                 for &i in px {
-                    let (x, y) = (i % w, i / w);
+                    let (x, y) = work.rows.xy(i);
                     let changeable = work.changeable_at(x, y);
                     if work.locked.get(x, y) || (all && !changeable) {
                         return None;
@@ -977,11 +998,15 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         for (_, n, widen) in choices {
             let f = &feats[n];
             let px = if widen { &f.widen } else { &f.pixels };
-            if px.iter().any(|&i| changed.get(i % w, i / w)) {
+            let rows = work.rows;
+            if px.iter().any(|&i| {
+                let (x, y) = rows.xy(i);
+                changed.get(x, y)
+            }) {
                 continue;
             }
             for &i in px {
-                let (x, y) = (i % w, i / w);
+                let (x, y) = rows.xy(i);
                 if !work.changeable_at(x, y) {
                     continue;
                 }
@@ -1019,12 +1044,11 @@ fn settle(work: &mut Work, stats: &mut RegularizeStats) {
         }
         stats.monotone_rounds += 1;
         let mut added = 0usize;
-        let w = work.bits.width;
         for &n in &live {
             let f = &feats[n];
             let px = if f.phase { &f.widen } else { &f.pixels };
             for &i in px {
-                let (x, y) = (i % w, i / w);
+                let (x, y) = work.rows.xy(i);
                 if work.changeable_at(x, y) && !work.bits.get(x, y) {
                     work.flip(x, y, true);
                     added += 1;
@@ -1547,6 +1571,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Coordinates by the multiply are coordinates by division: random and extreme widths and
+    /// indices within 32 bits, and the fallback past them.
+    #[test]
+    fn rows_by_multiply_are_rows_by_division() {
+        let mut seed = 0xd1f_u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed >> 32
+        };
+        let max = u32::MAX as usize;
+        let mut widths: Vec<usize> = vec![1, 2, 3, 7, 63, 64, 65, 1000, 1031, 65535, 65536, max];
+        widths.extend((0..200).map(|_| 1 + next() as usize % 5000));
+        widths.extend((0..50).map(|_| 2 + next() as usize));
+        for &w in &widths {
+            let h = (max / w).max(1);
+            let rows = Rows::new(w, h);
+            let last = (w * h).min(max);
+            let mut idx: Vec<usize> = vec![0, 1, w - 1, w, w + 1, last, last - 1, last / 2];
+            idx.extend((0..300).map(|_| next() as usize % (last + 1)));
+            for i in idx {
+                assert_eq!(rows.xy(i), (i % w, i / w), "width {w} index {i}");
+            }
+        }
+        let big = Rows::new(1 << 20, 1 << 20);
+        assert_eq!(big.c, 0);
+        assert_eq!(big.xy((5 << 20) + 3), (3, 5));
     }
 
     /// The depths a refresh keeps, searched from where the point before in the row allows

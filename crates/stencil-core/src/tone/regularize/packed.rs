@@ -621,12 +621,12 @@ pub(super) fn thin_in_tiles(
         thin(win, true, disc, &mut sc.thin, o0);
         thin(win, false, disc, &mut sc.thin, o1);
         let core = |o: &Packed| -> Vec<u64> {
-            (y0..y1)
-                .flat_map(|y| {
-                    let from = (y - wy0) * ws + (k0 - wk0);
-                    o.data[from..from + k1 - k0].iter().copied()
-                })
-                .collect()
+            let mut v = Vec::with_capacity((y1 - y0) * (k1 - k0));
+            for y in y0..y1 {
+                let from = (y - wy0) * ws + (k0 - wk0);
+                v.extend_from_slice(&o.data[from..from + k1 - k0]);
+            }
+            v
         };
         (core(o0), core(o1))
     };
