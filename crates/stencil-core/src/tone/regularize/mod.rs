@@ -674,7 +674,13 @@ impl<'a> Work<'a> {
 /// pixel by pixel.
 fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
     let (w, h) = (mask.width, mask.height);
-    let mut runs: Vec<Run> = Vec::new();
+    // A run starts at each set bit whose left neighbour is clear: at most that many runs.
+    let starts: usize = mask
+        .data
+        .iter()
+        .map(|&v| (v & !(v << 1)).count_ones() as usize)
+        .sum();
+    let mut runs: Vec<Run> = Vec::with_capacity(starts);
     let mut row_first = Vec::with_capacity(h + 1);
     for y in 0..h {
         row_first.push(runs.len());
@@ -708,6 +714,11 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
             }
         }
     }
+    // Each piece's size, so its list is allocated once.
+    let mut size = vec![0usize; count];
+    for (r, &p) in runs.iter().zip(&piece) {
+        size[p as usize] += (r.x1 - r.x0 + 1) as usize;
+    }
     // Wanted pieces, in the order of their first pixel.
     let mut group_of = vec![u32::MAX; count];
     let mut out: Vec<Vec<usize>> = Vec::new();
@@ -717,7 +728,7 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
         }
         if group_of[p as usize] == u32::MAX {
             group_of[p as usize] = out.len() as u32;
-            out.push(Vec::new());
+            out.push(Vec::with_capacity(size[p as usize]));
         }
         let base = r.y as usize * w;
         out[group_of[p as usize] as usize].extend((r.x0..=r.x1).map(|x| base + x as usize));
