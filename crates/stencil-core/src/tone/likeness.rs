@@ -196,7 +196,9 @@ fn shrink(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
 }
 
 /// [`shrink`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a box's
-/// sum of ones and zeros is its count of ones, exactly, in any order.
+/// sum of ones and zeros is its count of ones, exactly, in any order. An output row's source rows
+/// are first added column by column (a long loop over bytes that vectorises), then each box's
+/// columns summed.
 fn shrink_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
     let (w, h) = (bits.width, bits.height);
     let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
@@ -204,20 +206,20 @@ fn shrink_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
     let mut data = vec![0f32; (ow * oh) as usize];
     data.par_chunks_mut(ow as usize).enumerate().for_each_init(
         Vec::new,
-        |counts: &mut Vec<u32>, (oy, out)| {
-            counts.clear();
-            counts.resize(out.len(), 0);
+        |cols: &mut Vec<u32>, (oy, out)| {
+            cols.clear();
+            cols.resize(wu, 0);
             let rows = oy as u32 * d..((oy as u32 + 1) * d).min(h);
             let n_rows = rows.len() as u32;
             for y in rows {
                 let row = &bits.data[y as usize * wu..(y as usize + 1) * wu];
-                for (c, chunk) in counts.iter_mut().zip(row.chunks(du)) {
-                    *c += chunk.iter().map(|&b| (b != invert) as u32).sum::<u32>();
+                for (c, &b) in cols.iter_mut().zip(row) {
+                    *c += (b != invert) as u32;
                 }
             }
-            for (ox, (o, &c)) in out.iter_mut().zip(counts.iter()).enumerate() {
+            for (ox, (o, chunk)) in out.iter_mut().zip(cols.chunks(du)).enumerate() {
                 let cols = du.min(wu - ox * du) as u32;
-                *o = c as f32 / (n_rows * cols) as f32;
+                *o = chunk.iter().sum::<u32>() as f32 / (n_rows * cols) as f32;
             }
         },
     );

@@ -144,6 +144,29 @@ fn ring(disc: Disc) -> Vec<(i64, i64, f32)> {
     v
 }
 
+/// Where a lattice point's search of `ring` may start, given the depth of a lattice point one
+/// pixel from it in the same tone, per [`Work::depth2`] value of that neighbour (`u16::MAX`, past
+/// the radius, as the last entry). The distance to the nearest pixel of the other tone changes
+/// by at most the step between two points of one tone (both measure to the same pixels), so a
+/// point whose neighbour lies `f` from the other tone lies at least `f − 1` from it: the ring's
+/// entries nearer than that (with a margin for rounding) are all of its own tone, and skipping
+/// them finds the same first entry of the other tone.
+fn ring_from(ring: &[(i64, i64, f32)], disc: Disc) -> Vec<usize> {
+    let max = (2.0 * disc.r2).ceil() as usize + 1;
+    let from = |f: f64| {
+        let lower = f - 1.0 - 1e-3;
+        if lower <= 0.0 {
+            0
+        } else {
+            ring.partition_point(|e| (e.2 as f64) < lower * lower)
+        }
+    };
+    let mut out: Vec<usize> = (0..=max).map(|v| from((v as f64 / 2.0).sqrt())).collect();
+    // Past the radius: the neighbour lies farther than the disc's radius from the other tone.
+    out.push(from((disc.r2 as f64).sqrt()));
+    out
+}
+
 /// Per candidate centre of a pixel's widening (the pixel, or its corners in [`CORNERS`] order),
 /// the rows of pixels that centre's disc holds: `(dy, a, b)`, offsets `a..=b` along row `dy`
 /// from the pixel.
@@ -175,14 +198,47 @@ fn paint(disc: Disc) -> Vec<Vec<(i64, i64, i64)>> {
         .collect()
 }
 
+/// Pixel index → `(x, y)` for rows `width` long, by a multiply rather than a division when
+/// both fit in 32 bits: with `c = ⌈2⁶⁴ / width⌉`, `⌊c · i / 2⁶⁴⌋ = ⌊i / width⌋` for every 32-bit
+/// `i` and `width` (Lemire, Kaser and Kurz, "Faster remainder by direct computation", 2019).
+/// The lists of pixels a round prices and flips are turned into coordinates once per pixel, and
+/// a 64-bit division costs several times the multiply.
+#[derive(Clone, Copy, Debug)]
+struct Rows {
+    width: usize,
+    /// `⌈2⁶⁴ / width⌉`, or 0 when the multiply does not apply (a width of 1, or indices past
+    /// 32 bits), and then the index is divided.
+    c: u64,
+}
+
+impl Rows {
+    fn new(width: usize, height: usize) -> Rows {
+        let fits = width >= 2 && (width as u64).saturating_mul(height as u64) <= u32::MAX as u64;
+        Rows {
+            width,
+            c: if fits { u64::MAX / width as u64 + 1 } else { 0 },
+        }
+    }
+
+    fn xy(&self, i: usize) -> (usize, usize) {
+        if self.c == 0 {
+            return (i % self.width, i / self.width);
+        }
+        let y = ((self.c as u128 * i as u128) >> 64) as usize;
+        (i - y * self.width, y)
+    }
+}
+
 /// A working grid: a window of the picture padded by more than the disc's reach with material on
 /// every side (the frame: discs of material may reach past the picture's border), which of its
 /// pixels may change and what changing them costs, and both tones' thin pixels.
 struct Work<'a> {
     /// Material, bit-packed; past the padded grid lies material too.
     bits: Packed,
+    /// Its pixel indices to coordinates.
+    rows: Rows,
     /// The price of flipping a pixel, in picture coordinates.
-    price: Box<dyn Fn(u32, u32) -> f32 + Sync + 'a>,
+    price: Price<'a>,
     /// The pixels that may change, `[x0, y0, x1, y1)` in padded coordinates, and of those only
     /// the ones set in `allowed` when there is one.
     core: [usize; 4],
@@ -203,6 +259,10 @@ struct Work<'a> {
     /// how far it reaches: for lattice points at least that far inside the grid.
     ring_bits: Vec<(i64, u16)>,
     ring_reach: i64,
+    /// Per depth of a neighbouring lattice point of the same tone (its [`Work::depth2`] value,
+    /// the last entry for `u16::MAX`), the first ring entry a point's search need probe (see
+    /// [`ring_from`]).
+    ring_from: Vec<usize>,
     /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
     /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
     paint: Vec<Vec<(i64, i64, i64)>>,
@@ -251,23 +311,36 @@ const CORNERS: [(i64, i64); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
 
 impl<'a> Work<'a> {
     /// The window `x0..x1 × y0..y1` of `bits`, padded; pixels in `core` (window coordinates,
-    /// `[x0, y0, x1, y1)`) may change, priced by `price(x, y)` in picture coordinates.
+    /// `[x0, y0, x1, y1)`) may change, priced by `price` (see [`Price`]).
     fn new(
         bits: &BitGrid,
         window: [u32; 4],
         core: [u32; 4],
         disc: Disc,
-        price: impl Fn(u32, u32) -> f32 + Sync + 'a,
+        price: Price<'a>,
     ) -> Work<'a> {
         let pad = disc.reach() as u32 + 1;
         let [x0, y0, x1, y1] = window;
         let (pw, ph) = ((x1 - x0 + 2 * pad) as usize, (y1 - y0 + 2 * pad) as usize);
         let mut padded = Packed::new(pw, ph, true);
         let stride = padded.stride;
-        for y in y0..y1 {
-            let row = &bits.data[bits.idx(x0, y)..bits.idx(x0, y) + (x1 - x0) as usize];
-            padded.put_row((y - y0 + pad) as usize, pad as usize, row);
-        }
+        let rows = pad as usize..(y1 - y0 + pad) as usize;
+        packed::rows_mut(
+            &mut padded.data,
+            stride,
+            packed::parallel(pw * ph),
+            |(py, row)| {
+                if rows.contains(&py) {
+                    let y = (py - pad as usize) as u32 + y0;
+                    let from = bits.idx(x0, y);
+                    packed::put_bits(
+                        row,
+                        pad as usize,
+                        &bits.data[from..from + (x1 - x0) as usize],
+                    );
+                }
+            },
+        );
         let (iw, ih) = (x1 - x0, y1 - y0);
         let sp = disc.span.min(iw).min(ih);
         let mut corners = Vec::new();
@@ -283,7 +356,8 @@ impl<'a> Work<'a> {
         }
         Work {
             bits: padded,
-            price: Box::new(price),
+            rows: Rows::new(pw, ph),
+            price,
             core: core.map(|c| (c + pad) as usize),
             allowed: None,
             seeds: None,
@@ -303,6 +377,7 @@ impl<'a> Work<'a> {
                 .max()
                 .unwrap_or(0)
                 + 1,
+            ring_from: ring_from(&ring(disc), disc),
             paint: paint(disc),
             thin: [Packed::new(pw, ph, false), Packed::new(pw, ph, false)],
             depth2: Vec::new(),
@@ -373,8 +448,13 @@ impl<'a> Work<'a> {
         let corners = self.disc.on_corners() as usize;
         let (w, h) = (self.bits.width, self.bits.height);
         let lw = w + corners;
+        // Zeroed by the allocator (untouched pages cost nothing): a point next to no thin pixel
+        // is never read, so what it holds does not matter.
         let mut depth2 = std::mem::take(&mut self.depth2);
-        depth2.resize(lw * (h + corners), u16::MAX);
+        if depth2.is_empty() {
+            depth2 = vec![0; lw * (h + corners)];
+        }
+        depth2.resize(lw * (h + corners), 0);
         let work = &*self;
         let stride = work.bits.stride;
         let [t0, t1] = &work.thin;
@@ -393,6 +473,8 @@ impl<'a> Work<'a> {
             // pixels in the rows above and below the corner row (pixel x has corners x, x + 1).
             let rows = [cy.checked_sub(corners), (cy < h).then_some(cy)];
             let mut carry = 0u64;
+            // The point just done: its column, tone and depth (see [`ring_from`]).
+            let mut prev: Option<(usize, bool, u16)> = None;
             for k in 0..stride + corners {
                 let mut word = 0u64;
                 if k < stride {
@@ -412,7 +494,24 @@ impl<'a> Work<'a> {
                     let cx = k * 64 + word.trailing_zeros() as usize;
                     word &= word - 1;
                     if cx < lw {
-                        row[cx] = work.lattice_depth(cx as i64, cy as i64);
+                        let (cxi, cyi) = (cx as i64, cy as i64);
+                        match work.lattice_phase(cxi, cyi) {
+                            Ok(phase) => {
+                                let from = match prev {
+                                    Some((px, pp, pd)) if px + 1 == cx && pp == phase => {
+                                        work.ring_start(pd)
+                                    }
+                                    _ => 0,
+                                };
+                                let d = work.lattice_depth_from(cxi, cyi, phase, from);
+                                row[cx] = d;
+                                prev = Some((cx, phase, d));
+                            }
+                            Err(mixed) => {
+                                row[cx] = mixed;
+                                prev = None;
+                            }
+                        }
                     }
                 }
             }
@@ -420,22 +519,30 @@ impl<'a> Work<'a> {
         self.depth2 = depth2;
     }
 
+    /// [`Work::lattice_depth_from`] of any point, its ring searched from the start.
+    #[cfg(test)]
+    fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
+        match self.lattice_phase(cx, cy) {
+            Ok(phase) => self.lattice_depth_from(cx, cy, phase, 0),
+            Err(mixed) => mixed,
+        }
+    }
+
     /// Twice the squared distance from lattice point `(cx, cy)` to the nearest pixel of another
     /// tone than its own (a corner whose four pixels are not all one tone: 1), or `u16::MAX` when
     /// that is farther than the disc's radius. (Searching the disc row by row, a word at a time,
     /// was tried: slower, as most thin pixels lie a pixel or two from the other tone, which the
     /// ring, nearest first, finds in a few probes.)
-    fn lattice_depth(&self, cx: i64, cy: i64) -> u16 {
-        let phase = match self.lattice_phase(cx, cy) {
-            Ok(phase) => phase,
-            Err(mixed) => return mixed,
-        };
+    ///
+    /// Of a point of tone `phase` (see [`Work::lattice_phase`]), its ring searched from entry
+    /// `from` (the entries before it known to be of its tone, see [`ring_from`]).
+    fn lattice_depth_from(&self, cx: i64, cy: i64, phase: bool, from: usize) -> u16 {
         let (k, w, h) = (self.ring_reach, self.bits.width, self.bits.height);
         if cx >= k && cy >= k && cx + k < w as i64 && cy + k < h as i64 {
             // Every probe inside the grid: a bit index, no bounds to check.
             let base = cy * 64 * self.bits.stride as i64 + cx;
             let data = &self.bits.data;
-            for &(off, d2) in &self.ring_bits {
+            for &(off, d2) in &self.ring_bits[from..] {
                 let b = (base + off) as usize;
                 if (data[b / 64] >> (b % 64) & 1 == 1) != phase {
                     return d2;
@@ -443,14 +550,24 @@ impl<'a> Work<'a> {
             }
             return u16::MAX;
         }
-        self.ring_depth_checked(cx, cy, phase)
+        self.ring_depth_checked(cx, cy, phase, from)
     }
 
-    /// [`Work::lattice_depth`] probing through the bounds-checked path only.
+    /// Where the ring search of a point may start when the point before it in its row, of the
+    /// same tone, has depth `d` (a [`Work::depth2`] value).
+    fn ring_start(&self, d: u16) -> usize {
+        if d == u16::MAX {
+            *self.ring_from.last().expect("the entry past the radius")
+        } else {
+            self.ring_from.get(d as usize).copied().unwrap_or(0)
+        }
+    }
+
+    /// The depth of a lattice point probing through the bounds-checked path only.
     #[cfg(test)]
     fn lattice_depth_checked(&self, cx: i64, cy: i64) -> u16 {
         match self.lattice_phase(cx, cy) {
-            Ok(phase) => self.ring_depth_checked(cx, cy, phase),
+            Ok(phase) => self.ring_depth_checked(cx, cy, phase, 0),
             Err(mixed) => mixed,
         }
     }
@@ -479,8 +596,8 @@ impl<'a> Work<'a> {
     }
 
     /// The depth of a lattice point of tone `phase`, probing its ring with bounds checks.
-    fn ring_depth_checked(&self, cx: i64, cy: i64, phase: bool) -> u16 {
-        for &(dx, dy, d) in &self.ring {
+    fn ring_depth_checked(&self, cx: i64, cy: i64, phase: bool, from: usize) -> u16 {
+        for &(dx, dy, d) in &self.ring[from..] {
             if self.tone_at(cx + dx, cy + dy) != phase {
                 return (2.0 * d) as u16;
             }
@@ -489,7 +606,8 @@ impl<'a> Work<'a> {
     }
 
     fn changeable(&self, i: usize) -> bool {
-        self.changeable_at(i % self.bits.width, i / self.bits.width)
+        let (x, y) = self.rows.xy(i);
+        self.changeable_at(x, y)
     }
 
     fn changeable_at(&self, x: usize, y: usize) -> bool {
@@ -503,10 +621,16 @@ impl<'a> Work<'a> {
     /// The price of flipping pixel `(x, y)`, which must be changeable.
     fn price_at(&self, x: usize, y: usize) -> f32 {
         let p = self.pad as usize;
-        (self.price)(
-            (x - p) as u32 + self.origin.0,
-            (y - p) as u32 + self.origin.1,
-        )
+        match self.price {
+            Price::Gray(gray, t) => {
+                let (x, y) = (
+                    (x - p) as u32 + self.origin.0,
+                    (y - p) as u32 + self.origin.1,
+                );
+                0.1 + (gray.get(x, y) - t).abs()
+            }
+            Price::One => 1.0,
+        }
     }
 
     /// How deep thin pixel `i` lies in its tone (see [`Work::depth2`]): the largest depth over
@@ -533,9 +657,13 @@ impl<'a> Work<'a> {
         let p = self.pad as usize;
         let (w, h) = (self.bits.width - 2 * p, self.bits.height - 2 * p);
         let mut out = BitGrid::new(w as u32, h as u32, false);
-        for (y, row) in out.data.chunks_mut(w.max(1)).enumerate() {
-            self.bits.get_row(y + p, p, row);
-        }
+        packed::rows_mut_with(
+            &mut out.data,
+            w.max(1),
+            packed::parallel(w * h),
+            Vec::new,
+            |scratch, (y, row)| packed::get_bits(self.bits.row(y + p), p, row, scratch),
+        );
         out
     }
 }
@@ -546,7 +674,13 @@ impl<'a> Work<'a> {
 /// pixel by pixel.
 fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
     let (w, h) = (mask.width, mask.height);
-    let mut runs: Vec<Run> = Vec::new();
+    // A run starts at each set bit whose left neighbour is clear: at most that many runs.
+    let starts: usize = mask
+        .data
+        .iter()
+        .map(|&v| (v & !(v << 1)).count_ones() as usize)
+        .sum();
+    let mut runs: Vec<Run> = Vec::with_capacity(starts);
     let mut row_first = Vec::with_capacity(h + 1);
     for y in 0..h {
         row_first.push(runs.len());
@@ -580,6 +714,11 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
             }
         }
     }
+    // Each piece's size, so its list is allocated once.
+    let mut size = vec![0usize; count];
+    for (r, &p) in runs.iter().zip(&piece) {
+        size[p as usize] += (r.x1 - r.x0 + 1) as usize;
+    }
     // Wanted pieces, in the order of their first pixel.
     let mut group_of = vec![u32::MAX; count];
     let mut out: Vec<Vec<usize>> = Vec::new();
@@ -589,7 +728,7 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
         }
         if group_of[p as usize] == u32::MAX {
             group_of[p as usize] = out.len() as u32;
-            out.push(Vec::new());
+            out.push(Vec::with_capacity(size[p as usize]));
         }
         let base = r.y as usize * w;
         out[group_of[p as usize] as usize].extend((r.x0..=r.x1).map(|x| base + x as usize));
@@ -762,10 +901,13 @@ impl Work<'_> {
     }
 }
 
-/// The price of flipping a picture pixel: `0.1 + |gray − threshold|`.
-fn pricer<'a>(gray: &'a Gray, cfg: &RegularizeConfig) -> impl Fn(u32, u32) -> f32 + Sync + 'a {
-    let t = cfg.threshold;
-    move |x, y| 0.1 + (gray.get(x, y) - t).abs()
+/// The price of flipping a pixel: `0.1 + |gray − threshold|` of its picture pixel (the gray
+/// and the threshold), or 1 for every pixel. A plain value rather than a boxed closure, so the
+/// per-pixel sums inline it.
+#[derive(Clone, Copy)]
+enum Price<'a> {
+    Gray(&'a Gray, f32),
+    One,
 }
 
 /// Regularise `bits` (material = true) so that no web or hole is narrower than
@@ -784,17 +926,23 @@ pub fn regularize(
         return (bits.clone(), stats);
     }
     let all = [0, 0, bits.width, bits.height];
-    let mut work = Work::new(bits, all, all, disc, pricer(gray, cfg));
+    let mut work = Work::new(bits, all, all, disc, Price::Gray(gray, cfg.threshold));
     decide(&mut work, &mut stats);
     settle(&mut work, &mut stats);
     let out = work.window();
-    for (a, b) in bits.data.iter().zip(&out.data) {
-        match (a, b) {
-            (true, false) => stats.material_removed_px += 1,
-            (false, true) => stats.material_added_px += 1,
-            _ => {}
-        }
-    }
+    // Counted in pieces on threads: integer sums, the same in any order.
+    let (removed, added) = bits
+        .data
+        .par_chunks(1 << 16)
+        .zip(out.data.par_chunks(1 << 16))
+        .map(|(a, b)| {
+            a.iter().zip(b).fold((0usize, 0usize), |(r, d), (&a, &b)| {
+                (r + (a & !b) as usize, d + (!a & b) as usize)
+            })
+        })
+        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+    stats.material_removed_px = removed;
+    stats.material_added_px = added;
     (out, stats)
 }
 
@@ -809,17 +957,16 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         stats.rounds += 1;
         let mut changed = std::mem::replace(&mut work.changed, Packed::new(0, 0, false));
         changed.data.fill(0);
-        let w = work.bits.width;
         let mut any = false;
-        // Cheapest first, so where two features' choices meet the cheaper one's stands.
-        let mut choices: Vec<(f32, usize, bool)> = Vec::new();
-        for (n, f) in feats.iter_mut().enumerate() {
-            // Removing needs every pixel of the feature; a widening paints what it may (the frame
-            // past the picture's border is material already, and cut may not reach into it).
+        // Removing needs every pixel of the feature; a widening paints what it may (the frame
+        // past the picture's border is material already, and cut may not reach into it). Each
+        // feature's prices are its own sum, in its own order, so they are worked out on threads.
+        {
+            let work = &*work;
             let cost = |px: &[usize], all: bool| -> Option<f32> {
                 let mut c = 0.0;
                 for &i in px {
-                    let (x, y) = (i % w, i / w);
+                    let (x, y) = work.rows.xy(i);
                     let changeable = work.changeable_at(x, y);
                     if work.locked.get(x, y) || (all && !changeable) {
                         return None;
@@ -830,15 +977,27 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
                 }
                 Some(c)
             };
-            let (remove, widen) = *f.cost.get_or_insert_with(|| {
-                let remove = cost(&f.pixels, true);
-                let widen = if f.widen.is_empty() {
-                    None
-                } else {
-                    cost(&f.widen, false)
-                };
-                (remove, widen)
-            });
+            let price = |f: &mut Feature| {
+                if f.cost.is_none() {
+                    let remove = cost(&f.pixels, true);
+                    let widen = if f.widen.is_empty() {
+                        None
+                    } else {
+                        cost(&f.widen, false)
+                    };
+                    f.cost = Some((remove, widen));
+                }
+            };
+            if packed::parallel(work.bits.width * work.bits.height) {
+                feats.par_iter_mut().for_each(price);
+            } else {
+                feats.iter_mut().for_each(price);
+            }
+        }
+        // Cheapest first, so where two features' choices meet the cheaper one's stands.
+        let mut choices: Vec<(f32, usize, bool)> = Vec::new();
+        for (n, f) in feats.iter().enumerate() {
+            let (remove, widen) = f.cost.expect("every feature is priced");
             match (remove, widen) {
                 (Some(r), Some(wd)) if wd < r => choices.push((wd, n, true)),
                 (Some(r), _) => choices.push((r, n, false)),
@@ -850,11 +1009,15 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
         for (_, n, widen) in choices {
             let f = &feats[n];
             let px = if widen { &f.widen } else { &f.pixels };
-            if px.iter().any(|&i| changed.get(i % w, i / w)) {
+            let rows = work.rows;
+            if px.iter().any(|&i| {
+                let (x, y) = rows.xy(i);
+                changed.get(x, y)
+            }) {
                 continue;
             }
             for &i in px {
-                let (x, y) = (i % w, i / w);
+                let (x, y) = rows.xy(i);
                 if !work.changeable_at(x, y) {
                     continue;
                 }
@@ -892,12 +1055,11 @@ fn settle(work: &mut Work, stats: &mut RegularizeStats) {
         }
         stats.monotone_rounds += 1;
         let mut added = 0usize;
-        let w = work.bits.width;
         for &n in &live {
             let f = &feats[n];
             let px = if f.phase { &f.widen } else { &f.pixels };
             for &i in px {
-                let (x, y) = (i % w, i / w);
+                let (x, y) = work.rows.xy(i);
                 if work.changeable_at(x, y) && !work.bits.get(x, y) {
                     work.flip(x, y, true);
                     added += 1;
@@ -927,7 +1089,7 @@ pub fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
         return [0, 0];
     }
     let all = [0, 0, bits.width, bits.height];
-    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    let mut work = Work::new(bits, all, all, disc, Price::One);
     work.refresh();
     work.thin.each_ref().map(|m| m.count())
 }
@@ -943,7 +1105,7 @@ pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
         return 0;
     }
     let all = [0, 0, bits.width, bits.height];
-    let mut work = Work::new(bits, all, all, disc, |_, _| 1.0);
+    let mut work = Work::new(bits, all, all, disc, Price::One);
     settle(&mut work, &mut RegularizeStats::default());
     let out = work.window();
     let added = out.count_material() - bits.count_material();
@@ -1204,7 +1366,7 @@ fn settle_window(
         core[2].max(core[0]) - window[0],
         core[3].max(core[1]) - window[1],
     ];
-    let mut work = Work::new(bits, window, rel, disc, |_, _| 1.0);
+    let mut work = Work::new(bits, window, rel, disc, Price::One);
     // What may change: each box and `spread` spans around it, so what a widening there pushes
     // outward is settled too.
     let pad = work.pad;
@@ -1407,7 +1569,7 @@ mod tests {
             let px = [2.0, 3.0, 4.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 9];
             let disc = Disc::for_width(px);
             let all = [0, 0, w, h];
-            let work = Work::new(&bits, all, all, disc, |_, _| 1.0);
+            let work = Work::new(&bits, all, all, disc, Price::One);
             let c = disc.on_corners() as i64;
             for cy in 0..work.bits.height as i64 + c {
                 for cx in 0..work.bits.width as i64 + c {
@@ -1420,6 +1582,88 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Coordinates by the multiply are coordinates by division: random and extreme widths and
+    /// indices within 32 bits, and the fallback past them.
+    #[test]
+    fn rows_by_multiply_are_rows_by_division() {
+        let mut seed = 0xd1f_u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed >> 32
+        };
+        let max = u32::MAX as usize;
+        let mut widths: Vec<usize> = vec![1, 2, 3, 7, 63, 64, 65, 1000, 1031, 65535, 65536, max];
+        widths.extend((0..200).map(|_| 1 + next() as usize % 5000));
+        widths.extend((0..50).map(|_| 2 + next() as usize));
+        for &w in &widths {
+            let h = (max / w).max(1);
+            let rows = Rows::new(w, h);
+            let last = (w * h).min(max);
+            let mut idx: Vec<usize> = vec![0, 1, w - 1, w, w + 1, last, last - 1, last / 2];
+            idx.extend((0..300).map(|_| next() as usize % (last + 1)));
+            for i in idx {
+                assert_eq!(rows.xy(i), (i % w, i / w), "width {w} index {i}");
+            }
+        }
+        let big = Rows::new(1 << 20, 1 << 20);
+        assert_eq!(big.c, 0);
+        assert_eq!(big.xy((5 << 20) + 3), (3, 5));
+    }
+
+    /// The depths a refresh keeps, searched from where the point before in the row allows
+    /// ([`ring_from`]), are the depths searched from the ring's start with bounds checks, at
+    /// every centre of every thin pixel of random grids (sparse, dense, blocky; odd and even
+    /// spans, small and large).
+    #[test]
+    fn depths_searched_from_the_neighbours_bound_are_full_searches() {
+        let mut seed = 0xdeb7_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut checked = 0;
+        for case in 0..60 {
+            let (w, h) = (1 + rnd(220) as u32, 1 + rnd(90) as u32);
+            let dense = rnd(11);
+            let cell = 1 + rnd(7) as u32;
+            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+                .map(|_| rnd(10) < dense)
+                .collect();
+            let bits = BitGrid::from_fn(w, h, |x, y| {
+                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
+            });
+            let px = [2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 11.0, 12.0, 17.0, 24.0][case % 10];
+            let disc = Disc::for_width(px);
+            let all = [0, 0, w, h];
+            let mut work = Work::new(&bits, all, all, disc, Price::One);
+            work.refresh();
+            let (pw, ph) = (work.bits.width, work.bits.height);
+            let c = disc.on_corners() as usize;
+            for y in 0..ph {
+                for x in 0..pw {
+                    if !(work.thin[0].get(x, y) || work.thin[1].get(x, y)) {
+                        continue;
+                    }
+                    for (ox, oy) in [(0, 0), (c, 0), (0, c), (c, c)] {
+                        let (cx, cy) = (x + ox, y + oy);
+                        assert_eq!(
+                            work.depth2[cy * (pw + c) + cx],
+                            work.lattice_depth_checked(cx as i64, cy as i64),
+                            "case {case} span {} at ({cx}, {cy})",
+                            disc.span
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked} depths checked");
     }
 
     /// Rounds after the first recompute thinness and depths only near the pixels changed since
@@ -1447,7 +1691,7 @@ mod tests {
             });
             let disc = Disc::for_width([3.0, 4.0, 5.0, 6.0, 11.0, 12.0][case % 6]);
             let all = [0, 0, w, h];
-            let mut work = Work::new(&bits, all, all, disc, |_, _| 1.0);
+            let mut work = Work::new(&bits, all, all, disc, Price::One);
             let feats = features(&mut work);
             work.keep(feats);
             for round in 0..4 {
@@ -1462,7 +1706,7 @@ mod tests {
                     }
                 }
                 let got = features(&mut work);
-                let mut fresh = Work::new(&work.window(), all, all, disc, |_, _| 1.0);
+                let mut fresh = Work::new(&work.window(), all, all, disc, Price::One);
                 let want = features(&mut fresh);
                 let at = format!("case {case} round {round}: {w}x{h} span {}", disc.span);
                 assert_eq!(work.thin, fresh.thin, "{at}");

@@ -54,34 +54,6 @@ impl Packed {
         self.set(i % self.width, i / self.width, v);
     }
 
-    /// Columns `x0..x0 + src.len()` of row `y` set from `src`.
-    pub fn put_row(&mut self, y: usize, x0: usize, src: &[bool]) {
-        let base = y * self.stride;
-        let (mut x, mut k) = (x0, 0);
-        while k < src.len() {
-            let (word, bit) = (x / 64, x % 64);
-            let n = (64 - bit).min(src.len() - k);
-            let mut v = 0u64;
-            for (j, &b) in src[k..k + n].iter().enumerate() {
-                v |= (b as u64) << j;
-            }
-            let mask = if n == 64 { !0 } else { (1u64 << n) - 1 } << bit;
-            let d = &mut self.data[base + word];
-            *d = (*d & !mask) | (v << bit);
-            x += n;
-            k += n;
-        }
-    }
-
-    /// Columns `x0..x0 + out.len()` of row `y`.
-    pub fn get_row(&self, y: usize, x0: usize, out: &mut [bool]) {
-        let row = self.row(y);
-        for (k, o) in out.iter_mut().enumerate() {
-            let x = x0 + k;
-            *o = row[x / 64] >> (x % 64) & 1 == 1;
-        }
-    }
-
     pub fn row(&self, y: usize) -> &[u64] {
         &self.data[y * self.stride..(y + 1) * self.stride]
     }
@@ -109,6 +81,54 @@ impl Packed {
         let mut c = self.clone();
         c.tail(false);
         c.data.iter().map(|w| w.count_ones() as usize).sum()
+    }
+}
+
+/// A word whose bits `0..src.len()` (at most 64) are `src`: eight at a time, their bytes (each 0
+/// or 1) gathered into one byte by a multiply (byte `i`'s bit lands on bit `56 + i` and no two
+/// partial products share a bit, so nothing carries).
+pub(super) fn pack(src: &[bool]) -> u64 {
+    debug_assert!(src.len() <= 64);
+    let mut v = 0u64;
+    let mut chunks = src.chunks_exact(8);
+    for (k, c) in chunks.by_ref().enumerate() {
+        let bytes = u64::from_le_bytes([
+            c[0] as u8, c[1] as u8, c[2] as u8, c[3] as u8, c[4] as u8, c[5] as u8, c[6] as u8,
+            c[7] as u8,
+        ]);
+        v |= (bytes.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
+    }
+    let done = src.len() / 8 * 8;
+    for (j, &b) in chunks.remainder().iter().enumerate() {
+        v |= (b as u64) << (done + j);
+    }
+    v
+}
+
+/// Columns `x0..x0 + src.len()` of a packed row set from `src`, the other bits left as they are.
+pub(super) fn put_bits(row: &mut [u64], x0: usize, src: &[bool]) {
+    let (mut x, mut k) = (x0, 0);
+    while k < src.len() {
+        let (word, bit) = (x / 64, x % 64);
+        let n = (64 - bit).min(src.len() - k);
+        let v = pack(&src[k..k + n]);
+        let mask = if n == 64 { !0 } else { (1u64 << n) - 1 } << bit;
+        let d = &mut row[word];
+        *d = (*d & !mask) | (v << bit);
+        x += n;
+        k += n;
+    }
+}
+
+/// `out` set from columns `x0..x0 + out.len()` of a packed row: the row shifted into whole
+/// words first, then each word's bits written out 64 at a time.
+pub(super) fn get_bits(row: &[u64], x0: usize, out: &mut [bool], scratch: &mut Vec<u64>) {
+    scratch.resize(out.len().div_ceil(64), 0);
+    shift(row, x0 as i64, 0, scratch);
+    for (o, &w) in out.chunks_mut(64).zip(scratch.iter()) {
+        for (j, b) in o.iter_mut().enumerate() {
+            *b = w >> j & 1 == 1;
+        }
     }
 }
 
@@ -601,12 +621,12 @@ pub(super) fn thin_in_tiles(
         thin(win, true, disc, &mut sc.thin, o0);
         thin(win, false, disc, &mut sc.thin, o1);
         let core = |o: &Packed| -> Vec<u64> {
-            (y0..y1)
-                .flat_map(|y| {
-                    let from = (y - wy0) * ws + (k0 - wk0);
-                    o.data[from..from + k1 - k0].iter().copied()
-                })
-                .collect()
+            let mut v = Vec::with_capacity((y1 - y0) * (k1 - k0));
+            for y in y0..y1 {
+                let from = (y - wy0) * ws + (k0 - wk0);
+                v.extend_from_slice(&o.data[from..from + k1 - k0]);
+            }
+            v
         };
         (core(o0), core(o1))
     };
@@ -864,6 +884,41 @@ mod tests {
             }
         }
         assert!(tiled > 30, "the tiles were recomputed in {tiled} cases");
+    }
+
+    /// Packing bools eight at a time by a multiply, and unpacking a shifted row 64 at a time,
+    /// are setting and reading bit by bit: random rows, offsets, lengths and old contents.
+    #[test]
+    fn packing_and_unpacking_rows_is_bit_by_bit() {
+        let mut seed = 0xb175_u64;
+        let mut rnd = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut scratch = Vec::new();
+        for case in 0..400 {
+            let width = 1 + rnd(300) as usize;
+            let x0 = rnd(width as u64) as usize;
+            let len = rnd((width - x0) as u64 + 1) as usize;
+            let dense = rnd(11);
+            let src: Vec<bool> = (0..len).map(|_| rnd(10) < dense).collect();
+            let mut got = Packed::new(width, 1, rnd(2) == 0);
+            for w in &mut got.data {
+                *w ^= (rnd(1 << 31) << 33) ^ rnd(1 << 31);
+            }
+            let mut want = got.clone();
+            put_bits(&mut got.data, x0, &src);
+            for (k, &b) in src.iter().enumerate() {
+                want.set(x0 + k, 0, b);
+            }
+            assert_eq!(got, want, "case {case}: put {len} at {x0} of {width}");
+            let mut out = vec![false; len];
+            get_bits(got.row(0), x0, &mut out, &mut scratch);
+            let bits: Vec<bool> = (0..len).map(|k| got.get(x0 + k, 0)).collect();
+            assert_eq!(out, bits, "case {case}: get {len} at {x0} of {width}");
+        }
     }
 
     #[test]
