@@ -375,6 +375,7 @@ pub fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     /// A cut ring around an island, and a horizontal bridge `w` px wide from the island's right
     /// side (x = 130) to the cut's right edge (x = 160), centred on y = 80.
@@ -442,20 +443,15 @@ mod tests {
         assert_eq!(m.nodes[0].area, 12);
     }
 
-    /// A random grid: material with probability `p`, from a small xorshift.
-    fn random(w: u32, h: u32, p: u32, seed: &mut u64) -> BitGrid {
-        BitGrid::from_fn(w, h, |_, _| {
-            *seed ^= *seed << 13;
-            *seed ^= *seed >> 7;
-            *seed ^= *seed << 17;
-            (*seed % 100) < p as u64
-        })
+    /// A random grid: material with probability `p` %.
+    fn random(w: u32, h: u32, p: u32, rng: &mut Lcg) -> BitGrid {
+        BitGrid::from_fn(w, h, |_, _| rng.below(100) < p as u64)
     }
 
     /// The count from runs agrees with the labelling's on random grids.
     #[test]
     fn floating_count_is_the_labelled_island_count() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15;
+        let mut seed = Lcg(0x9e37_79b9_7f4a_7c15);
         for k in 0..200 {
             let g = random(1 + k % 37, 1 + (k * 7) % 29, 30 + k % 50, &mut seed);
             assert_eq!(floating_count(&g), label(&g).island_count(), "grid {k}");
@@ -466,7 +462,7 @@ mod tests {
     /// random grids, thin and tall ones included (bands of rows end mid-grid).
     #[test]
     fn label_is_the_reference_labelling() {
-        let mut seed = 0x0bad_cafe_dead_beef;
+        let mut seed = Lcg(0x0bad_cafe_dead_beef);
         for k in 0..120u32 {
             let (w, h) = (1 + k % 47, 1 + (k * 13) % 151);
             let g = random(w, h, 20 + k % 60, &mut seed);
@@ -485,7 +481,7 @@ mod tests {
     /// random grids of every density.
     #[test]
     fn island_runs_are_the_runs_of_its_label() {
-        let mut seed = 0x5151_7e57_0f0f_1234;
+        let mut seed = Lcg(0x5151_7e57_0f0f_1234);
         let mut islands = 0;
         for k in 0..200u32 {
             let g = random(3 + k % 43, 3 + (k * 7) % 37, 25 + k % 50, &mut seed);
@@ -518,7 +514,7 @@ mod tests {
     /// borders alike.
     #[test]
     fn without_is_labelling_the_bits_without_the_islands() {
-        let mut seed = 0x1234_5678_9abc_def1;
+        let mut seed = Lcg(0x1234_5678_9abc_def1);
         for k in 0..200 {
             let mut g = random(2 + k % 41, 2 + (k * 5) % 31, 35 + k % 40, &mut seed);
             let map = label(&g);
@@ -543,13 +539,8 @@ mod tests {
     /// and a grid that lost material (counted whole).
     #[test]
     fn floating_after_adding_is_floating_count() {
-        let mut seed = 0x9e3779b97f4a7c15u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Lcg(0x9e3779b97f4a7c15);
+        let mut rnd = move || rng.next_u64() >> 33;
         for case in 0..300 {
             let (w, h) = (1 + rnd() % 40, 1 + rnd() % 40);
             let density = rnd() % 100;

@@ -71,6 +71,8 @@ pub mod material;
 pub mod pipeline;
 pub mod raster;
 pub mod report;
+#[cfg(test)]
+mod test_rng;
 mod timing;
 pub mod tone;
 pub mod units;

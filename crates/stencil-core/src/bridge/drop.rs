@@ -343,6 +343,7 @@ mod tests {
     use super::*;
     use crate::islands::{self, FRAME};
     use crate::raster::BitGrid;
+    use crate::test_rng::Lcg;
 
     /// A dark field with a small light speck and a large light disc, both far from the edge.
     #[test]
@@ -445,13 +446,8 @@ mod tests {
     /// the islands the plain search drops.
     #[test]
     fn choose_drops_what_the_plain_search_drops() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Lcg(0x2545_f491_4f6c_dd1d);
+        let mut next = move || rng.next_u64() >> 33;
         let mut dropped = 0;
         for k in 0..60u32 {
             let (w, h) = (20 + k % 23, 18 + (k * 3) % 19);

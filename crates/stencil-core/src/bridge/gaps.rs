@@ -484,19 +484,15 @@ mod tests {
     use super::*;
     use crate::islands::label;
     use crate::raster::BitGrid;
+    use crate::test_rng::Lcg;
 
     /// [`Shores::first_from`] is the binary search over the whole row, for every row (the
     /// frame's included) and every column from two left of the image to two right of it, on
     /// random pictures of several widths (the last bucket part full or full).
     #[test]
     fn first_from_is_the_rows_partition_point() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Lcg(0x9e37_79b9_7f4a_7c15);
+        let mut next = move || rng.next_u64() >> 33;
         for k in 0..24u32 {
             let (w, h) = (1 + k * 7 % 70, 1 + k * 5 % 40);
             let fill = next() % 60;
@@ -560,15 +556,10 @@ mod tests {
 
     #[test]
     fn nearest_shore_matches_a_brute_force_search() {
-        let mut seed = 99u64;
+        let mut rng = Lcg(99);
         for round in 0..20 {
             let (w, h) = (17 + round % 5, 13 + round % 4);
-            let g = BitGrid::from_fn(w, h, |_, _| {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (seed >> 33).is_multiple_of(4)
-            });
+            let g = BitGrid::from_fn(w, h, |_, _| rng.below(4) == 0);
             let m = label(&g);
             let shores = Shores::new(&g, &m);
             // Every shore point: border pixels of all nodes, and the frame one step outside
@@ -617,13 +608,8 @@ mod tests {
     /// pixel, on random pictures of specks and blobs, with short and long limits.
     #[test]
     fn shortest_gaps_with_reach_are_the_searched_ones() {
-        let mut seed = 0x0123_4567_89ab_cdefu64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Lcg(0x0123_4567_89ab_cdef);
+        let mut next = move || rng.next_u64() >> 33;
         let mut found = 0;
         for k in 0..14u32 {
             let (w, h) = (50 + k * 13 % 61, 40 + k * 7 % 53);

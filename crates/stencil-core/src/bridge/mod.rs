@@ -909,6 +909,7 @@ mod tests {
     use super::*;
     use crate::islands::label;
     use crate::raster::Gray;
+    use crate::test_rng::Lcg;
 
     /// A two-tone whose gray is the bits themselves: white material, black cut.
     pub(crate) fn black_white(bits: BitGrid) -> TwoTone {
@@ -992,26 +993,14 @@ mod tests {
         connect_and_check(&two, &BridgeConfig::default());
     }
 
-    /// Small deterministic generator (64-bit LCG) for random blobs.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     pub(crate) fn blobs(w: u32, h: u32, count: usize, seed: u64) -> BitGrid {
         let mut rng = Lcg(seed);
         let discs: Vec<(f64, f64, f64)> = (0..count)
             .map(|_| {
                 (
-                    rng.next() * w as f64,
-                    rng.next() * h as f64,
-                    2.0 + rng.next() * 9.0,
+                    rng.unit() * w as f64,
+                    rng.unit() * h as f64,
+                    2.0 + rng.unit() * 9.0,
                 )
             })
             .collect();
@@ -1048,17 +1037,17 @@ mod tests {
         for seed in 0..300u64 {
             let mut r = Lcg(seed * 7919 + 1);
             let (w, h) = (
-                20 + (r.next() * 100.0) as u32,
-                20 + (r.next() * 80.0) as u32,
+                20 + (r.unit() * 100.0) as u32,
+                20 + (r.unit() * 80.0) as u32,
             );
-            let dens = r.next();
+            let dens = r.unit();
             let bits = match seed % 3 {
-                0 => BitGrid::from_fn(w, h, |_, _| r.next() < dens),
+                0 => BitGrid::from_fn(w, h, |_, _| r.unit() < dens),
                 1 => {
-                    let mut b = BitGrid::new(w, h, r.next() < 0.5);
+                    let mut b = BitGrid::new(w, h, r.unit() < 0.5);
                     for _ in 0..(5 + (dens * 40.0) as usize) {
-                        let (cx, cy) = (r.next() * w as f64, r.next() * h as f64);
-                        let (rad, v) = (1.0 + r.next() * 8.0, r.next() < 0.5);
+                        let (cx, cy) = (r.unit() * w as f64, r.unit() * h as f64);
+                        let (rad, v) = (1.0 + r.unit() * 8.0, r.unit() < 0.5);
                         for y in 0..h {
                             for x in 0..w {
                                 if (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2) <= rad * rad {
@@ -1071,7 +1060,7 @@ mod tests {
                 }
                 _ => {
                     let (cx, cy) = (w as f64 / 2.0, h as f64 / 2.0);
-                    let band = 1.0 + r.next() * 4.0;
+                    let band = 1.0 + r.unit() * 4.0;
                     BitGrid::from_fn(w, h, |x, y| {
                         (((x as f64 - cx).hypot(y as f64 - cy) / band) as u32).is_multiple_of(2)
                     })

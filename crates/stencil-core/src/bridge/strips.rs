@@ -942,6 +942,7 @@ mod tests {
     use crate::bridge::candidates::collect;
     use crate::islands::label;
     use crate::raster::Gray;
+    use crate::test_rng::Lcg;
 
     fn two(rows: &[&str]) -> TwoTone {
         crate::bridge::tests::black_white(BitGrid::from_fn(
@@ -1172,14 +1173,10 @@ mod tests {
         assert_eq!(n, 3);
     }
 
-    /// A small xorshift for the random pictures below.
-    fn rng(mut seed: u64) -> impl FnMut() -> u64 {
-        move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        }
+    /// Numbers for the random pictures below (31 bits each, the generator's high ones).
+    fn rng(seed: u64) -> impl FnMut() -> u64 {
+        let mut r = Lcg(seed);
+        move || r.next_u64() >> 33
     }
 
     /// Random specks and blobs of material (clustered, so there are islands of all sizes) over a

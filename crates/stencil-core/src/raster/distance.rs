@@ -115,6 +115,7 @@ fn dt1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
 mod tests {
     use super::*;
     use crate::raster::BitGrid;
+    use crate::test_rng::Lcg;
 
     fn brute(bits: &BitGrid, target: bool) -> Vec<f32> {
         let (w, h) = (bits.width as i64, bits.height as i64);
@@ -144,14 +145,9 @@ mod tests {
 
     #[test]
     fn distance_transform_matches_brute_force() {
-        let mut seed = 12345u64;
+        let mut rng = Lcg(12345);
         for _ in 0..20 {
-            let bits = BitGrid::from_fn(13, 9, |_, _| {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (seed >> 33).is_multiple_of(5)
-            });
+            let bits = BitGrid::from_fn(13, 9, |_, _| rng.below(5) == 0);
             for target in [true, false] {
                 let fast = squared_distance_to(&bits, target);
                 let slow = brute(&bits, target);

@@ -165,18 +165,14 @@ pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     /// The runs found band by band are the runs found row after row, on random grids as tall as
     /// several bands (the last one part full) and as short as one.
     #[test]
     fn runs_of_in_bands_is_row_after_row() {
-        let mut seed = 0x0123_4567_89ab_cdefu64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Lcg(0x0123_4567_89ab_cdef);
+        let mut next = move || rng.next_u64() >> 33;
         for k in 0..40u32 {
             let (w, h) = (1 + k * 7 % 53, 1 + k * 37 % 300);
             let fill = next() % 100;

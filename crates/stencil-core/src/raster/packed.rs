@@ -313,6 +313,7 @@ fn run_or(a: &mut [u64], len: usize, out: &mut [u64], tmp: &mut [u64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     /// The distance-transform forms these replace.
     fn open_ref(bits: &BitGrid, r: u32) -> BitGrid {
@@ -322,18 +323,13 @@ mod tests {
         super::super::morph::tests::close_edt(bits, r)
     }
 
-    fn random_grid(w: u32, h: u32, seed: &mut u64, density: u32) -> BitGrid {
-        BitGrid::from_fn(w, h, |_, _| {
-            *seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((*seed >> 33) % 100) < density as u64
-        })
+    fn random_grid(w: u32, h: u32, rng: &mut Lcg, density: u32) -> BitGrid {
+        BitGrid::from_fn(w, h, |_, _| rng.below(100) < density as u64)
     }
 
     #[test]
     fn packing_round_trips() {
-        let mut s = 7;
+        let mut s = Lcg(7);
         for (w, h) in [(1, 1), (63, 3), (64, 2), (65, 5), (130, 7)] {
             let g = random_grid(w, h, &mut s, 50);
             assert_eq!(Packed::from_grid(&g).to_grid(), g);
@@ -342,7 +338,7 @@ mod tests {
 
     #[test]
     fn open_and_close_equal_the_distance_transform_forms() {
-        let mut s = 12345;
+        let mut s = Lcg(12345);
         for (w, h) in [
             (1, 1),
             (5, 9),

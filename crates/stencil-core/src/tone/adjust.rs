@@ -379,6 +379,7 @@ pub fn abstraction(g: &Gray, strength: f32) -> Gray {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
     use imageproc::filter::gaussian_blur_f32;
 
     fn ramp(w: u32, h: u32) -> Gray {
@@ -418,11 +419,8 @@ mod tests {
     /// shapes (a row or column alone, a kernel wider than the picture) and many widths.
     #[test]
     fn blur_is_imageprocs_to_the_bit() {
-        let mut seed = 7u32;
-        let mut next = || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            seed
-        };
+        let mut rng = Lcg(7);
+        let mut next = || (rng.next_u64() >> 32) as u32;
         for (w, h) in [
             (1, 1),
             (1, 9),
@@ -462,11 +460,10 @@ mod tests {
     #[test]
     fn abstraction_flattens_noise_and_keeps_an_edge() {
         let mut g = Gray::new(60, 40, 0.2);
-        let mut seed = 1u32;
+        let mut rng = Lcg(1);
         for y in 0..40 {
             for x in 0..60 {
-                seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-                let noise = (seed >> 24) as f32 / 255.0 * 0.06;
+                let noise = rng.below(256) as f32 / 255.0 * 0.06;
                 g.set(x, y, if x < 30 { 0.2 } else { 0.8 } + noise);
             }
         }

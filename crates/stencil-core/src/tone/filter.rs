@@ -153,6 +153,7 @@ mod tests {
     use super::*;
     use crate::raster::morph::tests::{close_edt, open_edt};
     use crate::raster::{components, touches_border, NOT_LABELLED};
+    use crate::test_rng::Lcg;
 
     /// The filter as it was: distance-transform morphology and a label image per tone.
     fn filter_ref(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
@@ -197,13 +198,8 @@ mod tests {
 
     #[test]
     fn equals_the_distance_transform_and_label_form() {
-        let mut seed = 99u64;
-        let mut next = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) as u32
-        };
+        let mut rng = Lcg(99u64);
+        let mut next = move || (rng.next_u64() >> 33) as u32;
         for (w, h) in [(1, 1), (7, 3), (64, 40), (65, 65), (150, 90)] {
             for density in [5, 40, 50, 60, 95] {
                 // Noise, and blocky noise (pieces of many sizes).

@@ -298,6 +298,7 @@ pub struct LevelChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     /// The box average as it was: box by box, each summed row by row.
     fn shrink_by_boxes(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32) -> Vec<f32> {
@@ -322,13 +323,8 @@ mod tests {
     /// values to the bit: random sizes, partial boxes at the edges, both tones.
     #[test]
     fn shrinking_by_rows_and_by_counts_is_shrinking_box_by_box() {
-        let mut seed = 17u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(17u64);
+        let mut rnd = |n: u64| rng.below(n);
         for _ in 0..60 {
             let (w, h, d) = (1 + rnd(90) as u32, 1 + rnd(70) as u32, 1 + rnd(6) as u32);
             let gray: Vec<f32> = (0..w * h).map(|_| rnd(1 << 20) as f32 / 1e6).collect();

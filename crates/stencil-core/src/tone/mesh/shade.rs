@@ -466,6 +466,7 @@ fn moller_trumbore(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
     use crate::tone::mesh::camera::{Orbit, RenderSize};
     use crate::tone::mesh::{shapes, visibility};
 
@@ -546,11 +547,8 @@ mod tests {
     /// normal, background samples): the same bits.
     #[test]
     fn row_lighting_is_the_per_sample_lighting_to_the_bit() {
-        let mut seed = 12345u32;
-        let mut next = || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rng = Lcg(12345);
+        let mut next = || (rng.next_u64() >> 40) as f32 / (1 << 24) as f32 * 2.0 - 1.0;
         let m = shapes::height_field(4, |_, _| 0.0);
         for trial in 0..24 {
             let mut cam = setup(&m, 20.0);

@@ -1404,6 +1404,7 @@ fn settle_window(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     fn cfg(px: f64) -> RegularizeConfig {
         RegularizeConfig {
@@ -1447,13 +1448,8 @@ mod tests {
 
     #[test]
     fn sealed_pockets_are_the_cut_pieces_no_original_material_or_border_touches() {
-        let mut seed = 11u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(11u64);
+        let mut rnd = |n: u64| rng.below(n);
         let mut filled_some = false;
         for case in 0..300 {
             let (w, h) = (3 + rnd(30) as u32, 3 + rnd(30) as u32);
@@ -1509,13 +1505,8 @@ mod tests {
     /// clusters whose box holds another's windows, far-apart ones).
     #[test]
     fn settle_near_in_waves_is_settling_in_turn() {
-        let mut seed = 0x5eed_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0x5eed_u64);
+        let mut rnd = |n: u64| rng.below(n);
         let mut changed = 0;
         for case in 0..60 {
             let (w, h) = (60 + rnd(200) as u32, 60 + rnd(200) as u32);
@@ -1549,13 +1540,8 @@ mod tests {
     /// every lattice point of random grids (sparse, dense, blocky), odd and even spans.
     #[test]
     fn depth_by_bit_index_is_depth_with_checks() {
-        let mut seed = 0xd3e9_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0xd3e9_u64);
+        let mut rnd = |n: u64| rng.below(n);
         for case in 0..40 {
             let (w, h) = (1 + rnd(150) as u32, 1 + rnd(60) as u32);
             let dense = rnd(11);
@@ -1588,13 +1574,8 @@ mod tests {
     /// indices within 32 bits, and the fallback past them.
     #[test]
     fn rows_by_multiply_are_rows_by_division() {
-        let mut seed = 0xd1f_u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            seed >> 32
-        };
+        let mut rng = Lcg(0xd1f);
+        let mut next = || rng.next_u64() >> 32;
         let max = u32::MAX as usize;
         let mut widths: Vec<usize> = vec![1, 2, 3, 7, 63, 64, 65, 1000, 1031, 65535, 65536, max];
         widths.extend((0..200).map(|_| 1 + next() as usize % 5000));
@@ -1620,13 +1601,8 @@ mod tests {
     /// spans, small and large).
     #[test]
     fn depths_searched_from_the_neighbours_bound_are_full_searches() {
-        let mut seed = 0xdeb7_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0xdeb7_u64);
+        let mut rnd = |n: u64| rng.below(n);
         let mut checked = 0;
         for case in 0..60 {
             let (w, h) = (1 + rnd(220) as u32, 1 + rnd(90) as u32);
@@ -1672,13 +1648,8 @@ mod tests {
     /// random over several rounds, odd and even spans.
     #[test]
     fn refresh_near_changes_is_refresh_of_all() {
-        let mut seed = 0x1dc_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0x1dc_u64);
+        let mut rnd = |n: u64| rng.below(n);
         let mut kept = 0;
         for case in 0..30 {
             let (w, h) = (1 + rnd(400) as u32, 1 + rnd(250) as u32);
@@ -1744,7 +1715,7 @@ mod tests {
 
     #[test]
     fn groups_are_the_8_connected_pieces() {
-        let mut seed = 3u64;
+        let mut rng = Lcg(3);
         for (w, h, density) in [
             (70usize, 9usize, 6u64),
             (130, 20, 9),
@@ -1755,9 +1726,9 @@ mod tests {
             let mut seeds = Packed::new(w, h, false);
             for y in 0..h {
                 for x in 0..w {
-                    seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-                    mask.set(x, y, (seed >> 60) < density);
-                    seeds.set(x, y, (seed >> 40) & 31 == 0);
+                    let r = rng.next_u64();
+                    mask.set(x, y, (r >> 60) < density);
+                    seeds.set(x, y, (r >> 40) & 31 == 0);
                 }
             }
             // Flood fill, pixel by pixel.
@@ -1843,13 +1814,8 @@ mod tests {
     #[test]
     fn noise_ends_with_nothing_thin() {
         // Pseudo-random noise: the hardest case for deciding; the monotone phase must finish it.
-        let mut s = 12345u64;
-        let bits = BitGrid::from_fn(80, 60, |_, _| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 33) & 1 == 1
-        });
+        let mut rng = Lcg(12345);
+        let bits = BitGrid::from_fn(80, 60, |_, _| rng.below(2) == 1);
         let gray = Gray::new(80, 60, 0.5);
         let (out, stats) = regularize(&bits, &gray, &cfg(5.0));
         assert!(!any_thin(&out, 5.0), "{stats:?}");

@@ -749,6 +749,7 @@ fn uncovered(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Lcg;
 
     /// The rule, pixel by pixel: a pixel of the tone is thin when no lattice point whose disc
     /// lies wholly in the tone (material past the edges) holds it.
@@ -797,14 +798,11 @@ mod tests {
 
     #[test]
     fn thin_matches_the_rule_pixel_by_pixel() {
-        let mut seed = 99u64;
+        let mut rng = Lcg(99);
         for (w, h) in [(70usize, 13usize), (129, 9), (64, 20), (5, 5)] {
             for density in [1u64, 3, 8] {
                 let bits: Vec<bool> = (0..w * h)
-                    .map(|_| {
-                        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-                        (seed >> 60) >= density
-                    })
+                    .map(|_| (rng.next_u64() >> 60) >= density)
                     .collect();
                 let mut p = Packed::new(w, h, true);
                 for (i, &b) in bits.iter().enumerate() {
@@ -835,13 +833,8 @@ mod tests {
     /// reaching past a word.
     #[test]
     fn thin_in_tiles_near_changes_is_thin_of_all() {
-        let mut seed = 0x711e_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0x711e_u64);
+        let mut rnd = |n: u64| rng.below(n);
         let both = |p: &Packed, disc: Disc| {
             let mut out = [Packed::default(), Packed::default()];
             thin(p, true, disc, &mut ThinScratch::default(), &mut out[0]);
@@ -890,13 +883,8 @@ mod tests {
     /// are setting and reading bit by bit: random rows, offsets, lengths and old contents.
     #[test]
     fn packing_and_unpacking_rows_is_bit_by_bit() {
-        let mut seed = 0xb175_u64;
-        let mut rnd = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut rng = Lcg(0xb175_u64);
+        let mut rnd = |n: u64| rng.below(n);
         let mut scratch = Vec::new();
         for case in 0..400 {
             let width = 1 + rnd(300) as usize;
@@ -923,13 +911,8 @@ mod tests {
 
     #[test]
     fn shifts_match_bit_by_bit() {
-        let mut seed = 5u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            seed
-        };
+        let mut rng = Lcg(5u64);
+        let mut next = || rng.next_u64();
         for n in [1usize, 2, 3, 5] {
             let row: Vec<u64> = (0..n).map(|_| next()).collect();
             for m in [1usize, n, n + 2] {
@@ -989,13 +972,8 @@ mod tests {
     /// discs of several sizes, both ops, both fills, output rows longer than the input.
     #[test]
     fn runs_by_doubling_are_runs_by_steps() {
-        let mut seed = 17u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            seed
-        };
+        let mut rng = Lcg(17u64);
+        let mut next = || rng.next_u64();
         let mut s = RunScratch::default();
         for span in [2.0, 3.0, 4.0, 5.0, 6.0, 9.0, 11.0, 12.0, 30.0, 75.0, 140.0] {
             let shape = Shape::of(Disc::for_width(span));
