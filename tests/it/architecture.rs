@@ -181,6 +181,8 @@ fn core_stages_use_only_earlier_layers() {
     let allowed: BTreeMap<&str, &[&str]> = BTreeMap::from([
         ("units", &[][..]),
         ("timing", &[][..]),
+        // The unit tests' seeded generator: compiled for tests only, it uses nothing.
+        ("test_rng", &[][..]),
         ("material", &[][..]),
         ("raster", &["units"][..]),
         ("limits", &["units"][..]),
