@@ -1406,6 +1406,17 @@ mod tests {
     use super::*;
     use crate::test_rng::Lcg;
 
+    /// A `w`×`h` grid of `cell`-pixel blocks, each material with chance `dense` in 10 (drawn
+    /// from `rnd`, row of blocks by row): noise at cell 1, pieces of many sizes above it.
+    fn blocky(w: u32, h: u32, cell: u32, dense: u64, rnd: &mut impl FnMut(u64) -> u64) -> BitGrid {
+        let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
+            .map(|_| rnd(10) < dense)
+            .collect();
+        BitGrid::from_fn(w, h, |x, y| {
+            noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
+        })
+    }
+
     fn cfg(px: f64) -> RegularizeConfig {
         RegularizeConfig {
             min_width_px: px,
@@ -1512,12 +1523,7 @@ mod tests {
             let (w, h) = (60 + rnd(200) as u32, 60 + rnd(200) as u32);
             let dense = 3 + rnd(5);
             let cell = 1 + rnd(4) as u32;
-            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
-                .map(|_| rnd(10) < dense)
-                .collect();
-            let bits = BitGrid::from_fn(w, h, |x, y| {
-                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
-            });
+            let bits = blocky(w, h, cell, dense, &mut rnd);
             let boxes: Vec<[u32; 4]> = (0..1 + rnd(12))
                 .map(|_| {
                     let (x0, y0) = (rnd(w as u64) as u32, rnd(h as u64) as u32);
@@ -1546,12 +1552,7 @@ mod tests {
             let (w, h) = (1 + rnd(150) as u32, 1 + rnd(60) as u32);
             let dense = rnd(11);
             let cell = 1 + rnd(5) as u32;
-            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
-                .map(|_| rnd(10) < dense)
-                .collect();
-            let bits = BitGrid::from_fn(w, h, |x, y| {
-                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
-            });
+            let bits = blocky(w, h, cell, dense, &mut rnd);
             let px = [2.0, 3.0, 4.0, 5.0, 6.0, 11.0, 12.0, 40.0, 71.0][case % 9];
             let disc = Disc::for_width(px);
             let all = [0, 0, w, h];
@@ -1608,12 +1609,7 @@ mod tests {
             let (w, h) = (1 + rnd(220) as u32, 1 + rnd(90) as u32);
             let dense = rnd(11);
             let cell = 1 + rnd(7) as u32;
-            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
-                .map(|_| rnd(10) < dense)
-                .collect();
-            let bits = BitGrid::from_fn(w, h, |x, y| {
-                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
-            });
+            let bits = blocky(w, h, cell, dense, &mut rnd);
             let px = [2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 11.0, 12.0, 17.0, 24.0][case % 10];
             let disc = Disc::for_width(px);
             let all = [0, 0, w, h];
@@ -1654,12 +1650,7 @@ mod tests {
         for case in 0..30 {
             let (w, h) = (1 + rnd(400) as u32, 1 + rnd(250) as u32);
             let (cell, dense) = (1 + rnd(5) as u32, rnd(11));
-            let noise: Vec<bool> = (0..(w / cell + 1) * (h / cell + 1))
-                .map(|_| rnd(10) < dense)
-                .collect();
-            let bits = BitGrid::from_fn(w, h, |x, y| {
-                noise[((y / cell) * (w / cell + 1) + x / cell) as usize]
-            });
+            let bits = blocky(w, h, cell, dense, &mut rnd);
             let disc = Disc::for_width([3.0, 4.0, 5.0, 6.0, 11.0, 12.0][case % 6]);
             let all = [0, 0, w, h];
             let mut work = Work::new(&bits, all, all, disc, Price::One);
