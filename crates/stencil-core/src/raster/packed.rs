@@ -234,12 +234,29 @@ pub(crate) fn close(bits: &Packed, r: u32) -> Packed {
 
 fn pack_row(src: &[bool], row: &mut [u64]) {
     for (word, chunk) in row.iter_mut().zip(src.chunks(64)) {
-        let mut v = 0u64;
-        for (i, &b) in chunk.iter().enumerate() {
-            v |= (b as u64) << i;
-        }
-        *word = v;
+        *word = pack_word(chunk);
     }
+}
+
+/// A word whose bits `0..src.len()` (at most 64) are `src`: eight at a time, their bytes (each 0
+/// or 1) gathered into one byte by a multiply (byte `i`'s bit lands on bit `56 + i` and no two
+/// partial products share a bit, so nothing carries).
+pub(crate) fn pack_word(src: &[bool]) -> u64 {
+    debug_assert!(src.len() <= 64);
+    let mut v = 0u64;
+    let mut chunks = src.chunks_exact(8);
+    for (k, c) in chunks.by_ref().enumerate() {
+        let bytes = u64::from_le_bytes([
+            c[0] as u8, c[1] as u8, c[2] as u8, c[3] as u8, c[4] as u8, c[5] as u8, c[6] as u8,
+            c[7] as u8,
+        ]);
+        v |= (bytes.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
+    }
+    let done = src.len() / 8 * 8;
+    for (j, &b) in chunks.remainder().iter().enumerate() {
+        v |= (b as u64) << (done + j);
+    }
+    v
 }
 
 /// Ones in the bits of the last word of a row that hold pixels.

@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use super::Disc;
+use crate::raster::packed::pack_word;
 
 /// A grid of bits, `stride` words per row: column `x` is bit `x % 64` of word `x / 64`. The bits
 /// past `width` in a row's last word hold what lies past the grid's edge (see [`Packed::tail`]):
@@ -84,34 +85,13 @@ impl Packed {
     }
 }
 
-/// A word whose bits `0..src.len()` (at most 64) are `src`: eight at a time, their bytes (each 0
-/// or 1) gathered into one byte by a multiply (byte `i`'s bit lands on bit `56 + i` and no two
-/// partial products share a bit, so nothing carries).
-pub(super) fn pack(src: &[bool]) -> u64 {
-    debug_assert!(src.len() <= 64);
-    let mut v = 0u64;
-    let mut chunks = src.chunks_exact(8);
-    for (k, c) in chunks.by_ref().enumerate() {
-        let bytes = u64::from_le_bytes([
-            c[0] as u8, c[1] as u8, c[2] as u8, c[3] as u8, c[4] as u8, c[5] as u8, c[6] as u8,
-            c[7] as u8,
-        ]);
-        v |= (bytes.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
-    }
-    let done = src.len() / 8 * 8;
-    for (j, &b) in chunks.remainder().iter().enumerate() {
-        v |= (b as u64) << (done + j);
-    }
-    v
-}
-
 /// Columns `x0..x0 + src.len()` of a packed row set from `src`, the other bits left as they are.
 pub(super) fn put_bits(row: &mut [u64], x0: usize, src: &[bool]) {
     let (mut x, mut k) = (x0, 0);
     while k < src.len() {
         let (word, bit) = (x / 64, x % 64);
         let n = (64 - bit).min(src.len() - k);
-        let v = pack(&src[k..k + n]);
+        let v = pack_word(&src[k..k + n]);
         let mask = if n == 64 { !0 } else { (1u64 << n) - 1 } << bit;
         let d = &mut row[word];
         *d = (*d & !mask) | (v << bit);
