@@ -285,7 +285,7 @@ struct Work<'a> {
     /// is as it was the refresh before, also when [`thin_in_tiles`] declined (too many tiles)
     /// and thinness was recomputed over the whole grid.
     dirty: Option<Vec<bool>>,
-    /// The last round's features per tone (material, cut), in [`groups`] order: a feature that
+    /// The last round's features per tone (material, cut), in [`groups_where`] order: a feature that
     /// lies wholly outside the tiles a refresh recomputed is the same feature, with the same
     /// widening and cost, and is taken from here rather than worked out again.
     kept: [Vec<Feature>; 2],
@@ -432,14 +432,6 @@ impl<'a> Work<'a> {
         corner_caps(&self.bits, &self.corners, disc, &mut self.thin[1]);
         self.refresh_depths();
         self.since.data.fill(0);
-    }
-
-    /// Whether the last refresh recomputed the tile holding pixel `i`.
-    fn recomputed(&self, i: usize) -> bool {
-        let w = self.bits.width;
-        self.dirty
-            .as_ref()
-            .is_none_or(|d| d[(i / w / BAND) * self.bits.stride + (i % w) / 64])
     }
 
     /// Recompute [`Work::depth2`] at every centre next to a thin pixel (in the tiles the
@@ -637,11 +629,19 @@ impl<'a> Work<'a> {
     /// its candidate centres (itself, or its four corners for an even span), and which of them
     /// (an index into [`Work::paint`]).
     fn depth(&self, i: usize) -> (u16, usize) {
-        let w = self.bits.width;
         if !self.disc.on_corners() {
             return (self.depth2[i], 0);
         }
-        let (x, y) = (i % w, i / w);
+        let (x, y) = self.rows.xy(i);
+        self.depth_xy(x, y)
+    }
+
+    /// [`Work::depth`] of pixel `(x, y)`, without turning an index into coordinates.
+    fn depth_xy(&self, x: usize, y: usize) -> (u16, usize) {
+        let w = self.bits.width;
+        if !self.disc.on_corners() {
+            return (self.depth2[y * w + x], 0);
+        }
         let mut best = (0, 0);
         for (n, &(ox, oy)) in CORNERS.iter().enumerate() {
             let d = self.depth2[(y + oy as usize) * (w + 1) + x + ox as usize];
@@ -670,9 +670,38 @@ impl<'a> Work<'a> {
 
 /// 8-connected groups of the set pixels of `mask` (those holding a pixel of `seeds`, when given):
 /// a list of pixel indices per group, in raster order, the groups in the order of their first
-/// pixel. By runs along rows joined to the runs they touch in the row above (union-find), not
-/// pixel by pixel.
+/// pixel. (What [`groups_where`] gives when every group is fresh.)
+#[cfg(test)]
 fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
+    groups_where(mask, seeds, |_| true, |_| false)
+        .into_iter()
+        .map(|g| match g {
+            Group::Pixels(px) => px,
+            Group::Kept(_) => unreachable!("every group is fresh"),
+        })
+        .collect()
+}
+
+/// One of [`groups_where`]'s groups: its pixels, or only its first pixel when it is a group the
+/// caller already has.
+#[derive(Debug, PartialEq)]
+enum Group {
+    Pixels(Vec<usize>),
+    Kept(usize),
+}
+
+/// 8-connected groups of the set pixels of `mask` (those holding a pixel of `seeds`, when given),
+/// in the order of their first pixel. A group none of whose runs is `fresh` and whose first
+/// pixel `known` accepts is [`Group::Kept`], by its first pixel: the caller has its pixels from
+/// an earlier call, so they are not listed again. Every other group lists its pixel indices, in
+/// raster order. By runs along rows joined to the runs they touch in the row above (union-find),
+/// not pixel by pixel; freshness is asked once per run, not per pixel.
+fn groups_where(
+    mask: &Packed,
+    seeds: Option<&Packed>,
+    fresh: impl Fn(&Run) -> bool,
+    known: impl Fn(usize) -> bool,
+) -> Vec<Group> {
     let (w, h) = (mask.width, mask.height);
     // A run starts at each set bit whose left neighbour is clear: at most that many runs.
     let starts: usize = mask
@@ -714,24 +743,36 @@ fn groups(mask: &Packed, seeds: Option<&Packed>) -> Vec<Vec<usize>> {
             }
         }
     }
-    // Each piece's size, so its list is allocated once.
+    // Each piece's size, so its list is allocated once, and whether it holds a fresh run.
     let mut size = vec![0usize; count];
+    let mut is_fresh = vec![false; count];
     for (r, &p) in runs.iter().zip(&piece) {
         size[p as usize] += (r.x1 - r.x0 + 1) as usize;
+        if !is_fresh[p as usize] && wanted[p as usize] {
+            is_fresh[p as usize] = fresh(r);
+        }
     }
     // Wanted pieces, in the order of their first pixel.
     let mut group_of = vec![u32::MAX; count];
-    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut out: Vec<Group> = Vec::new();
     for (r, &p) in runs.iter().zip(&piece) {
-        if !wanted[p as usize] {
+        let p = p as usize;
+        if !wanted[p] {
             continue;
         }
-        if group_of[p as usize] == u32::MAX {
-            group_of[p as usize] = out.len() as u32;
-            out.push(Vec::with_capacity(size[p as usize]));
-        }
         let base = r.y as usize * w;
-        out[group_of[p as usize] as usize].extend((r.x0..=r.x1).map(|x| base + x as usize));
+        if group_of[p] == u32::MAX {
+            group_of[p] = out.len() as u32;
+            let first = base + r.x0 as usize;
+            if !is_fresh[p] && known(first) {
+                out.push(Group::Kept(first));
+            } else {
+                out.push(Group::Pixels(Vec::with_capacity(size[p])));
+            }
+        }
+        if let Group::Pixels(px) = &mut out[group_of[p] as usize] {
+            px.extend((r.x0..=r.x1).map(|x| base + x as usize));
+        }
     }
     out
 }
@@ -752,22 +793,37 @@ struct Feature {
 /// disc is centred on the pixel (odd span) or on its deepest corner (even span), so once painted
 /// that centre is a valid one and covers the ridge pixel. `seen` is all clear scratch the size of
 /// the grid, left clear.
-fn widening(work: &Work, feature: &[usize], phase: bool, seen: &mut Packed) -> Vec<usize> {
+fn widening(
+    work: &Work,
+    feature: &[usize],
+    phase: bool,
+    seen: &mut Packed,
+    depths: &mut Vec<u16>,
+) -> Vec<usize> {
     let bits = &work.bits;
     let mask = &work.thin[!phase as usize];
     let (w, h) = (bits.width as i64, bits.height as i64);
+    // Each pixel's depth once (an even span's is the largest of four corners'), where the
+    // ridge test below reads each up to nine times.
+    depths.resize(bits.width * bits.height, 0);
+    for &i in feature {
+        let (x, y) = work.rows.xy(i);
+        depths[i] = work.depth_xy(x, y).0;
+    }
+    let depths = &depths[..];
     // A neighbour's depth, or none when it is not in the feature (a thin pixel of the same tone
-    // next to one of the feature is in it: features are 8-connected).
+    // next to one of the feature is in it: features are 8-connected, so its depth was just set).
     let depth_at = |nx: i64, ny: i64| -> Option<u16> {
         if nx < 0 || ny < 0 || nx >= w || ny >= h || !mask.get(nx as usize, ny as usize) {
             return None;
         }
-        Some(work.depth((ny * w + nx) as usize).0)
+        Some(depths[(ny * w + nx) as usize])
     };
     let mut out = Vec::new();
     for &i in feature {
-        let (x, y) = ((i as i64) % w, (i as i64) / w);
-        let (d, centre) = work.depth(i);
+        let (x, y) = work.rows.xy(i);
+        let d = depths[i];
+        let (x, y) = (x as i64, y as i64);
         let ridge = (-1..=1i64)
             .flat_map(|dy| (-1..=1i64).map(move |dx| (dx, dy)))
             .all(|(dx, dy)| (dx, dy) == (0, 0) || depth_at(x + dx, y + dy) <= Some(d));
@@ -782,6 +838,7 @@ fn widening(work: &Work, feature: &[usize], phase: bool, seen: &mut Packed) -> V
             continue;
         }
         // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
+        let centre = work.depth_xy(x as usize, y as usize).1;
         for &(dy, a, b) in &work.paint[centre] {
             let ny = y + dy;
             let (x0, x1) = ((x + a).max(0), (x + b).min(w - 1));
@@ -820,20 +877,21 @@ fn features(work: &mut Work) -> Vec<Feature> {
     let work = &*work;
     let (w, h) = (work.bits.width, work.bits.height);
     thread_local! {
-        /// [`widening`]'s scratch grid, one per thread, kept clear between features and rounds.
-        static SEEN: std::cell::RefCell<Packed> = std::cell::RefCell::new(Packed::new(0, 0, false));
+        /// [`widening`]'s scratch, one per thread: the grid of pixels listed, kept clear
+        /// between features and rounds, and the pixels' depths (read only where just set).
+        static SCRATCH: std::cell::RefCell<(Packed, Vec<u16>)> =
+            std::cell::RefCell::new((Packed::new(0, 0, false), Vec::new()));
     }
     let feature = |phase: bool, (pixels, old): (Vec<usize>, Option<Feature>)| {
         if let Some(old) = old {
-            debug_assert_eq!(old.pixels, pixels, "a kept feature is the same feature");
             return old;
         }
-        let widen = SEEN.with(|seen| {
-            let mut seen = seen.borrow_mut();
+        let widen = SCRATCH.with(|scratch| {
+            let (seen, depths) = &mut *scratch.borrow_mut();
             if seen.width != w || seen.height != h {
                 *seen = Packed::new(w, h, false);
             }
-            widening(work, &pixels, phase, &mut seen)
+            widening(work, &pixels, phase, seen, depths)
         });
         Feature {
             phase,
@@ -842,24 +900,34 @@ fn features(work: &mut Work) -> Vec<Feature> {
             cost: None,
         }
     };
+    // Whether a run of thin pixels lies (in part) in a tile the refresh recomputed.
+    let stride = work.bits.stride;
+    let fresh = |r: &Run| {
+        work.dirty.as_ref().is_none_or(|d| {
+            let b = r.y as usize / BAND * stride;
+            d[b + r.x0 as usize / 64..=b + r.x1 as usize / 64].contains(&true)
+        })
+    };
     let of_phase = |phase: bool, mut kept: Vec<Feature>| -> Vec<Feature> {
+        // The same pixels, so the same first pixel, by which both lists run.
         let firsts: Vec<usize> = kept.iter().map(|f| f.pixels[0]).collect();
-        let groups: Vec<(Vec<usize>, Option<Feature>)> =
-            groups(&work.thin[!phase as usize], work.seeds.as_ref())
-                .into_iter()
-                .map(|pixels| {
-                    let old = if pixels.iter().any(|&i| work.recomputed(i)) {
-                        None
-                    } else {
-                        // The same pixels, so the same first pixel, by which both lists run.
-                        firsts
-                            .binary_search(&pixels[0])
-                            .ok()
-                            .map(|k| std::mem::replace(&mut kept[k], Feature::empty(phase)))
-                    };
-                    (pixels, old)
-                })
-                .collect();
+        let known = |first: usize| firsts.binary_search(&first).is_ok();
+        let groups: Vec<(Vec<usize>, Option<Feature>)> = groups_where(
+            &work.thin[!phase as usize],
+            work.seeds.as_ref(),
+            fresh,
+            known,
+        )
+        .into_iter()
+        .map(|g| match g {
+            Group::Pixels(pixels) => (pixels, None),
+            Group::Kept(first) => {
+                let k = firsts.binary_search(&first).expect("a known first pixel");
+                let old = std::mem::replace(&mut kept[k], Feature::empty(phase));
+                (Vec::new(), Some(old))
+            }
+        })
+        .collect();
         if packed::parallel(w * h) {
             groups
                 .into_par_iter()
@@ -1750,6 +1818,25 @@ mod tests {
                 want.push(g);
             }
             assert_eq!(groups(&mask, None), want, "{w}x{h}");
+            // Groups the caller has: no pixel of theirs is fresh and it knows their first pixel.
+            let fresh_at = |i: usize| (i % w + 3 * (i / w)) % 11 == 0;
+            let known = |first: usize| first % 3 != 0;
+            let with_kept: Vec<Group> = want
+                .iter()
+                .map(|g| {
+                    if !g.iter().any(|&i| fresh_at(i)) && known(g[0]) {
+                        Group::Kept(g[0])
+                    } else {
+                        Group::Pixels(g.clone())
+                    }
+                })
+                .collect();
+            let fresh = |r: &Run| (r.x0..=r.x1).any(|x| fresh_at(r.y as usize * w + x as usize));
+            assert_eq!(
+                groups_where(&mask, None, fresh, known),
+                with_kept,
+                "{w}x{h} kept"
+            );
             let seeded: Vec<Vec<usize>> = want
                 .into_iter()
                 .filter(|g| g.iter().any(|&i| seeds.at(i)))
