@@ -264,7 +264,7 @@ struct Work<'a> {
     /// [`ring_from`]).
     ring_from: Vec<usize>,
     /// Per candidate centre of a widening (the pixel itself, or its corner `(ox, oy)` in the
-    /// order [`Work::depth`] tries them), the rows of its disc (see [`paint`]).
+    /// order [`Work::depth_xy`] tries them), the rows of its disc (see [`paint`]).
     paint: Vec<Vec<(i64, i64, i64)>>,
     /// The thin pixels of material and of cut, as of the last [`Work::refresh`].
     thin: [Packed; 2],
@@ -625,9 +625,8 @@ impl<'a> Work<'a> {
         }
     }
 
-    /// How deep thin pixel `i` lies in its tone (see [`Work::depth2`]): the largest depth over
-    /// its candidate centres (itself, or its four corners for an even span), and which of them
-    /// (an index into [`Work::paint`]).
+    /// [`Work::depth_xy`] of pixel index `i`.
+    #[cfg(test)]
     fn depth(&self, i: usize) -> (u16, usize) {
         if !self.disc.on_corners() {
             return (self.depth2[i], 0);
@@ -636,7 +635,9 @@ impl<'a> Work<'a> {
         self.depth_xy(x, y)
     }
 
-    /// [`Work::depth`] of pixel `(x, y)`, without turning an index into coordinates.
+    /// How deep thin pixel `(x, y)` lies in its tone (see [`Work::depth2`]): the largest depth
+    /// over its candidate centres (itself, or its four corners for an even span), and which of
+    /// them (an index into [`Work::paint`]).
     fn depth_xy(&self, x: usize, y: usize) -> (u16, usize) {
         let w = self.bits.width;
         if !self.disc.on_corners() {
@@ -1819,8 +1820,8 @@ mod tests {
             }
             assert_eq!(groups(&mask, None), want, "{w}x{h}");
             // Groups the caller has: no pixel of theirs is fresh and it knows their first pixel.
-            let fresh_at = |i: usize| (i % w + 3 * (i / w)) % 11 == 0;
-            let known = |first: usize| first % 3 != 0;
+            let fresh_at = |i: usize| (i % w + 3 * (i / w)).is_multiple_of(11);
+            let known = |first: usize| !first.is_multiple_of(3);
             let with_kept: Vec<Group> = want
                 .iter()
                 .map(|g| {
