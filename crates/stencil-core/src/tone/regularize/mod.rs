@@ -467,6 +467,23 @@ impl<'a> Work<'a> {
             let mut carry = 0u64;
             // The point just done: its column, tone and depth (see [`ring_from`]).
             let mut prev: Option<(usize, bool, u16)> = None;
+            // Each point's tone a word at a time, as [`Work::lattice_phase`] gives it: the
+            // tone of pixel `(cx, cy)`, and for an even span whether any of the pixels
+            // `(cx − 1, cy − 1)`, `(cx, cy − 1)`, `(cx − 1, cy)` differs from it (past the
+            // grid, material: rows above and below it, the column left of it, its tail).
+            let tone_word = |y: Option<usize>, k: usize| match y {
+                Some(y) if k < stride => {
+                    let v = work.bits.row(y)[k];
+                    if k + 1 == stride && w % 64 != 0 {
+                        v | !0u64 << (w % 64)
+                    } else {
+                        v
+                    }
+                }
+                _ => !0u64,
+            };
+            let (above, here) = (rows[0], (cy < h).then_some(cy));
+            let (mut a_before, mut b_before) = (!0u64, !0u64);
             for k in 0..stride + corners {
                 let mut word = 0u64;
                 if k < stride {
@@ -479,15 +496,32 @@ impl<'a> Work<'a> {
                     word |= (word << 1) | carry;
                     carry = next;
                 }
+                let tone = tone_word(here, k);
+                let mixed = if corners == 1 {
+                    let a = tone_word(above, k);
+                    let a_left = (a << 1) | (a_before >> 63);
+                    let b_left = (tone << 1) | (b_before >> 63);
+                    (a_before, b_before) = (a, tone);
+                    (a ^ tone) | (a_left ^ tone) | (b_left ^ tone)
+                } else {
+                    0
+                };
                 if tiles.is_some_and(|t| !t[k.min(stride - 1)]) {
                     continue;
                 }
                 while word != 0 {
-                    let cx = k * 64 + word.trailing_zeros() as usize;
+                    let bit = word.trailing_zeros();
+                    let cx = k * 64 + bit as usize;
                     word &= word - 1;
                     if cx < lw {
                         let (cxi, cyi) = (cx as i64, cy as i64);
-                        match work.lattice_phase(cxi, cyi) {
+                        let phase = if mixed >> bit & 1 == 1 {
+                            Err(1)
+                        } else {
+                            Ok(tone >> bit & 1 == 1)
+                        };
+                        debug_assert_eq!(phase, work.lattice_phase(cxi, cyi));
+                        match phase {
                             Ok(phase) => {
                                 let from = match prev {
                                     Some((px, pp, pd)) if px + 1 == cx && pp == phase => {
