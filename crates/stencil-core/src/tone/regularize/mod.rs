@@ -306,6 +306,19 @@ fn corner_caps(bits: &Packed, corners: &[(u32, u32)], disc: Disc, mask: &mut Pac
     }
 }
 
+/// A pixel's eight neighbours, as offsets: a fixed list the ridge test runs through without
+/// building an iterator of pairs per pixel.
+const AROUND: [(i64, i64); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
 /// The order in which a pixel's corners are tried as the centre of its widening.
 const CORNERS: [(i64, i64); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
 
@@ -859,9 +872,9 @@ fn widening(
         let (x, y) = work.rows.xy(i);
         let d = depths[i];
         let (x, y) = (x as i64, y as i64);
-        let ridge = (-1..=1i64)
-            .flat_map(|dy| (-1..=1i64).map(move |dx| (dx, dy)))
-            .all(|(dx, dy)| (dx, dy) == (0, 0) || depth_at(x + dx, y + dy) <= Some(d));
+        let ridge = AROUND
+            .iter()
+            .all(|&(dx, dy)| depth_at(x + dx, y + dy) <= Some(d));
         if !ridge {
             continue;
         }
