@@ -367,53 +367,53 @@ impl Local {
     /// them all (a binary heap cost the bench's strength stage a third more).
     fn relax(&self, dist: &mut [u32], sources: &[usize]) {
         const BUCKETS: usize = DIAG as usize + 1;
-        let mut buckets: [Vec<usize>; BUCKETS] = Default::default();
+        // Cell indices as u32 (a grid has at most a few times `MAX_CELLS` cells): half the
+        // bytes a queue entry moves.
+        let mut buckets: [Vec<u32>; BUCKETS] = Default::default();
         let mut pending = 0usize;
         for &s in sources {
             dist[s] = 0;
-            buckets[0].push(s);
+            buckets[0].push(s as u32);
             pending += 1;
         }
-        let w = self.w as isize;
-        let inside = &self.inside;
+        let w = self.w;
+        let inside = &self.inside[..];
         let mut d = 0u32;
         while pending > 0 {
             let b = d as usize % BUCKETS;
             while let Some(i) = buckets[b].pop() {
                 pending -= 1;
+                let i = i as usize;
                 // Lowered since it was queued: settled already at its smaller distance.
                 if dist[i] != d {
                     continue;
                 }
-                let at = |dx: isize, dy: isize| (i as isize + dx + dy * w) as usize;
-                for (dx, dy) in [
-                    (1, 0),
-                    (-1, 0),
-                    (0, 1),
-                    (0, -1),
-                    (1, 1),
-                    (1, -1),
-                    (-1, 1),
-                    (-1, -1),
-                ] {
-                    let j = at(dx, dy);
-                    if !inside[j] {
-                        continue;
-                    }
-                    let step = if dx != 0 && dy != 0 {
-                        // Across a corner only where both side pixels are material too.
-                        if !inside[at(dx, 0)] || !inside[at(0, dy)] {
-                            continue;
-                        }
-                        DIAG
-                    } else {
-                        STEP
-                    };
+                // The four sides first (the margin keeps every neighbour in the grid), then the
+                // corners, each only where both side cells are inside too.
+                let side = [i + 1, i - 1, i + w, i - w];
+                let ins = side.map(|j| inside[j]);
+                let mut reach = |j: usize, step: u32| {
                     let nd = d + step;
                     if nd < dist[j] {
                         dist[j] = nd;
-                        buckets[nd as usize % BUCKETS].push(j);
+                        buckets[nd as usize % BUCKETS].push(j as u32);
                         pending += 1;
+                    }
+                };
+                for k in 0..4 {
+                    if ins[k] {
+                        reach(side[k], STEP);
+                    }
+                }
+                // (dx, dy) corners: (1, 1), (1, -1), (-1, 1), (-1, -1).
+                for (a, b, j) in [
+                    (0, 2, i + 1 + w),
+                    (0, 3, i + 1 - w),
+                    (1, 2, i - 1 + w),
+                    (1, 3, i - 1 - w),
+                ] {
+                    if ins[a] && ins[b] && inside[j] {
+                        reach(j, DIAG);
                     }
                 }
             }
@@ -982,6 +982,79 @@ mod tests {
             ..l
         };
         assert_eq!(solid.field(&[cell(0, 0)])[cell(9, 9)], 9 * DIAG);
+    }
+
+    /// The bucket queue's path lengths are a plain Dijkstra's (binary heap, the eight steps
+    /// tried one by one), on random grids of every density, from one source and from several,
+    /// and when relaxing an earlier result by a further source.
+    #[test]
+    fn relax_is_a_plain_dijkstra() {
+        use std::collections::BinaryHeap;
+        let plain = |l: &Local, dist: &mut [u32], sources: &[usize]| {
+            let mut heap = BinaryHeap::new();
+            for &s in sources {
+                dist[s] = 0;
+                heap.push(Reverse((0u32, s)));
+            }
+            let w = l.w as isize;
+            while let Some(Reverse((d, i))) = heap.pop() {
+                if d > dist[i] {
+                    continue;
+                }
+                for dy in -1isize..=1 {
+                    for dx in -1isize..=1 {
+                        let at = |dx: isize, dy: isize| (i as isize + dx + dy * w) as usize;
+                        let j = at(dx, dy);
+                        if (dx, dy) == (0, 0) || !l.inside[j] {
+                            continue;
+                        }
+                        let diag = dx != 0 && dy != 0;
+                        if diag && !(l.inside[at(dx, 0)] && l.inside[at(0, dy)]) {
+                            continue;
+                        }
+                        let nd = d + if diag { DIAG } else { STEP };
+                        if nd < dist[j] {
+                            dist[j] = nd;
+                            heap.push(Reverse((nd, j)));
+                        }
+                    }
+                }
+            }
+        };
+        let mut rng = crate::test_rng::Lcg(0x51ab_1e5e_ed00_d1e5);
+        let mut next = move || rng.next_u64() >> 33;
+        for k in 0..60usize {
+            let (w, h) = (3 + k % 23, 3 + (k * 7) % 19);
+            let fill = 30 + next() % 70;
+            let inside: Vec<bool> = (0..w * h)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    x > 0 && y > 0 && x + 1 < w && y + 1 < h && next() % 100 < fill
+                })
+                .collect();
+            let cells: Vec<usize> = (0..w * h).filter(|&i| inside[i]).collect();
+            if cells.is_empty() {
+                continue;
+            }
+            let l = Local {
+                x0: 0,
+                y0: 0,
+                k: 1,
+                w,
+                h,
+                inside,
+            };
+            let pick = |r: u64| cells[r as usize % cells.len()];
+            let sources: Vec<usize> = (0..1 + k % 3).map(|_| pick(next())).collect();
+            let mut want = vec![u32::MAX; w * h];
+            plain(&l, &mut want, &sources);
+            let mut got = l.field(&sources);
+            assert_eq!(got, want, "grid {k}");
+            let more = pick(next());
+            plain(&l, &mut want, &[more]);
+            l.relax(&mut got, &[more]);
+            assert_eq!(got, want, "grid {k}, one more source");
+        }
     }
 
     #[test]
