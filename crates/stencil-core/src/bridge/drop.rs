@@ -518,6 +518,25 @@ mod tests {
         out
     }
 
+    /// A picture of random gray with material at random, `fill` in a hundred of its pixels
+    /// (the gray and the bit of each pixel drawn in turn, row by row).
+    fn random_picture(
+        w: u32,
+        h: u32,
+        fill: u64,
+        next: &mut impl FnMut() -> u64,
+    ) -> (Gray, BitGrid) {
+        let mut g = Gray::new(w, h, 0.0);
+        let mut b = BitGrid::new(w, h, false);
+        for y in 0..h {
+            for x in 0..w {
+                g.set(x, y, (next() % 1000) as f32 / 1000.0);
+                b.set(x, y, next() % 100 < fill);
+            }
+        }
+        (g, b)
+    }
+
     /// Where a straight path answers (an island the search keeps), the plain search keeps the
     /// island, on random pictures of every density and bridge width; and it answers for some.
     #[test]
@@ -528,14 +547,7 @@ mod tests {
         for k in 0..80u32 {
             let (w, h) = (16 + k % 29, 14 + (k * 5) % 23);
             let fill = 20 + next() % 45;
-            let mut g = Gray::new(w, h, 0.0);
-            let mut b = BitGrid::new(w, h, false);
-            for y in 0..h {
-                for x in 0..w {
-                    g.set(x, y, (next() % 1000) as f32 / 1000.0);
-                    b.set(x, y, next() % 100 < fill);
-                }
-            }
+            let (g, b) = random_picture(w, h, fill, &mut next);
             let map = islands::label(&b);
             let bw = (1 + k % 4) as f64;
             let level = (next() % 256) as u8;
@@ -569,14 +581,7 @@ mod tests {
         for k in 0..60u32 {
             let (w, h) = (20 + k % 23, 18 + (k * 3) % 19);
             let fill = 25 + next() % 30;
-            let mut g = Gray::new(w, h, 0.0);
-            let mut b = BitGrid::new(w, h, false);
-            for y in 0..h {
-                for x in 0..w {
-                    g.set(x, y, (next() % 1000) as f32 / 1000.0);
-                    b.set(x, y, next() % 100 < fill);
-                }
-            }
+            let (g, b) = random_picture(w, h, fill, &mut next);
             let map = islands::label(&b);
             let bw = 1 + k % 4;
             let level = (next() % 256) as u8;
