@@ -55,7 +55,7 @@ const RUN_BAND: usize = 64;
 /// (with one entry past the last row).
 ///
 /// A row is read 64 pixels at a time, packed into a word ([`super::packed::pack_word`]), and its
-/// runs found from the words' set bits by counting trailing zeros: a test per run end rather
+/// runs found from the words' set bits by [`push_runs`]: a few operations per run rather
 /// than a branch per pixel (the pixel-by-pixel scan was most of the labelling's serial-free
 /// time on the 1 MP photo).
 fn runs_of_rows(
@@ -69,54 +69,16 @@ fn runs_of_rows(
     for y in rows {
         row_first.push(runs.len());
         let row = &bits.data[y * w..(y + 1) * w];
-        // The start of the run still open at the end of the last word, if any.
-        let mut open: Option<usize> = None;
-        for (c, chunk) in row.chunks(64).enumerate() {
-            let n = chunk.len();
+        let words = row.chunks(64).map(|chunk| {
             let packed = super::packed::pack_word(chunk);
-            // Ones where the pixel is `value`; none past the chunk's end.
-            let word = if value {
+            // Ones where the pixel is `value`; none past the row's end.
+            if value {
                 packed
             } else {
-                !packed & (u64::MAX >> (64 - n))
-            };
-            let base = c * 64;
-            let mut b = 0usize;
-            while b < n {
-                match open {
-                    None => {
-                        let rest = word >> b;
-                        if rest == 0 {
-                            break;
-                        }
-                        b += rest.trailing_zeros() as usize;
-                        open = Some(base + b);
-                    }
-                    Some(start) => {
-                        // The first pixel from `b` on that is not `value` (past the chunk's end
-                        // all are, as far as this word says: the run goes on into the next).
-                        let end = b + (!word >> b).trailing_zeros() as usize;
-                        if end >= n {
-                            break;
-                        }
-                        runs.push(Run {
-                            y: y as u32,
-                            x0: start as u32,
-                            x1: (base + end) as u32 - 1,
-                        });
-                        open = None;
-                        b = end;
-                    }
-                }
+                !packed & (u64::MAX >> (64 - chunk.len()))
             }
-        }
-        if let Some(start) = open {
-            runs.push(Run {
-                y: y as u32,
-                x0: start as u32,
-                x1: w as u32 - 1,
-            });
-        }
+        });
+        push_runs(y as u32, words, &mut runs);
     }
     row_first.push(runs.len());
     (runs, row_first)
@@ -182,6 +144,27 @@ pub(crate) struct Run {
     pub y: u32,
     pub x0: u32,
     pub x1: u32,
+}
+
+/// Append to `runs` the runs of set bits of row `y`, given as words of 64 pixels (bit `i` of word
+/// `k` is column `64k + i`; no bit set past the row's end): one run per stretch of set bits, a
+/// stretch that crosses from one word into the next included. Found with trailing-zero counts,
+/// a few operations per run rather than a test per pixel.
+pub(crate) fn push_runs(y: u32, words: impl IntoIterator<Item = u64>, runs: &mut Vec<Run>) {
+    for (k, mut word) in words.into_iter().enumerate() {
+        while word != 0 {
+            let start = word.trailing_zeros();
+            let len = (!(word >> start)).trailing_zeros();
+            let (x0, x1) = (k as u32 * 64 + start, k as u32 * 64 + start + len - 1);
+            match runs.last_mut() {
+                // A run that goes on from the word before.
+                Some(last) if last.y == y && last.x1 + 1 == x0 => last.x1 = x1,
+                _ => runs.push(Run { y, x0, x1 }),
+            }
+            let end = start + len;
+            word = if end >= 64 { 0 } else { word & (!0u64 << end) };
+        }
+    }
 }
 
 /// The connected pieces of runs listed row by row, left to right (`row_first[y]` is the index of

@@ -9,7 +9,9 @@ pub(crate) mod morph;
 pub(crate) mod packed;
 
 pub(crate) use distance::squared_distance_to;
-pub(crate) use label::{components, join_runs, runs_of, touches_border, Run, NOT_LABELLED};
+pub(crate) use label::{
+    components, join_runs, push_runs, runs_of, touches_border, Run, NOT_LABELLED,
+};
 pub(crate) use morph::{close, open};
 
 /// Luma at working resolution, 0.0 = black .. 1.0 = white.

@@ -55,7 +55,7 @@ use serde::{Deserialize, Serialize};
 
 use rayon::prelude::*;
 
-use crate::raster::{join_runs, BitGrid, Gray, Run};
+use crate::raster::{join_runs, push_runs, BitGrid, Gray, Run};
 
 mod packed;
 use packed::{thin, thin_in_tiles, tiles_near, Packed, ThinScratch, BAND};
@@ -761,25 +761,7 @@ fn groups_where(
     let mut row_first = Vec::with_capacity(h + 1);
     for y in 0..h {
         row_first.push(runs.len());
-        for (k, &word) in mask.row(y).iter().enumerate() {
-            let mut word = word;
-            while word != 0 {
-                let start = word.trailing_zeros();
-                let len = (!(word >> start)).trailing_zeros();
-                let (x0, x1) = (k as u32 * 64 + start, k as u32 * 64 + start + len - 1);
-                match runs.last_mut() {
-                    // A run that goes on from the word before.
-                    Some(last) if last.y == y as u32 && last.x1 + 1 == x0 => last.x1 = x1,
-                    _ => runs.push(Run {
-                        y: y as u32,
-                        x0,
-                        x1,
-                    }),
-                }
-                let end = start + len;
-                word = if end >= 64 { 0 } else { word & (!0u64 << end) };
-            }
-        }
+        push_runs(y as u32, mask.row(y).iter().copied(), &mut runs);
     }
     row_first.push(runs.len());
     let (piece, count) = join_runs(&runs, &row_first, true);
