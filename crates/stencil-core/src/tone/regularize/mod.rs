@@ -282,8 +282,7 @@ struct Work<'a> {
     refreshed: bool,
     /// The tiles ([`BAND`] rows by a word) within reach of the changes the last refresh saw;
     /// `None` after the first refresh, which had no earlier one to keep. What lies outside them
-    /// is as it was the refresh before, also when [`thin_in_tiles`] declined (too many tiles)
-    /// and thinness was recomputed over the whole grid.
+    /// is as it was the refresh before.
     dirty: Option<Vec<bool>>,
     /// The last round's features per tone (material, cut), in [`groups_where`] order: a feature that
     /// lies wholly outside the tiles a refresh recomputed is the same feature, with the same
@@ -421,14 +420,12 @@ impl<'a> Work<'a> {
     /// since; the rest is as it was. Either way the same as recomputing the whole grid.
     fn refresh(&mut self) {
         let (bits, disc) = (&self.bits, self.disc);
-        let mut done = false;
         if self.refreshed {
             let m = self.influence();
             let dirty = tiles_near(&self.since, m + 1);
-            done = thin_in_tiles(bits, disc, &dirty, m, &mut self.thin);
+            thin_in_tiles(bits, disc, &dirty, &mut self.thin, &mut self.thin_scratch);
             self.dirty = Some(dirty);
-        }
-        if !done {
+        } else {
             let [material, cut] = &mut self.thin;
             let [sm, sc] = &mut self.thin_scratch;
             if packed::parallel(bits.width * bits.height) {
