@@ -1,7 +1,7 @@
 //! Bit-packed rows and the disc opening on them. A round of the regularisation needs, for both
 //! tones, which pixels no disc of their tone covers; with 64 pixels to a word that is a few
 //! shifts, ANDs and ORs per word and disc row over the whole grid, and after the first round
-//! only over windows around the tiles near the pixels that changed ([`thin_in_tiles`]).
+//! only over pieces of rows around the tiles near the pixels that changed ([`thin_in_tiles`]).
 
 use rayon::prelude::*;
 
