@@ -936,8 +936,10 @@ fn widening(work: &Work, feature: &[usize], phase: bool, scratch: &mut WidenScra
 /// Every thin feature of both tones, with its widening. A feature none of whose pixels lies in a
 /// tile the refresh recomputed is one of the last round's ([`Work::kept`]): its pixels and their
 /// neighbours are thin or not as they were, and the depths and bits its widening reads (within
-/// the disc's reach and two pixels of it) did not change, so it is taken as it was.
-fn features(work: &mut Work) -> Vec<Feature> {
+/// the disc's reach and two pixels of it) did not change, so it is taken as it was. Thin holes'
+/// widenings are listed only when `widen_holes`: the monotone phase fills thin holes and never
+/// widens them, so it does not ask (its holes' `widen` is empty).
+fn features(work: &mut Work, widen_holes: bool) -> Vec<Feature> {
     work.refresh();
     let kept = std::mem::take(&mut work.kept);
     let work = &*work;
@@ -949,8 +951,11 @@ fn features(work: &mut Work) -> Vec<Feature> {
         if let Some(old) = old {
             return old;
         }
-        let widen =
-            SCRATCH.with(|scratch| widening(work, &pixels, phase, &mut scratch.borrow_mut()));
+        let widen = if phase || widen_holes {
+            SCRATCH.with(|scratch| widening(work, &pixels, phase, &mut scratch.borrow_mut()))
+        } else {
+            Vec::new()
+        };
         Feature {
             phase,
             pixels,
@@ -1076,7 +1081,7 @@ pub fn regularize(
 /// less; a pixel that changed may not change back; at most [`FREE_ROUNDS`] rounds.
 fn decide(work: &mut Work, stats: &mut RegularizeStats) {
     for _ in 0..FREE_ROUNDS {
-        let mut feats = features(work);
+        let mut feats = features(work, true);
         if feats.is_empty() {
             break;
         }
@@ -1172,7 +1177,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
 /// that may change is thin. Ends: see the module comment.
 fn settle(work: &mut Work, stats: &mut RegularizeStats) {
     loop {
-        let feats = features(work);
+        let feats = features(work, false);
         let live: Vec<usize> = (0..feats.len())
             .filter(|&n| feats[n].pixels.iter().any(|&i| work.changeable(i)))
             .collect();
@@ -1895,7 +1900,7 @@ mod tests {
             let disc = Disc::for_width([3.0, 4.0, 5.0, 6.0, 11.0, 12.0][case % 6]);
             let all = [0, 0, w, h];
             let mut work = Work::new(&bits, all, all, disc, Price::One);
-            let feats = features(&mut work);
+            let feats = features(&mut work, true);
             work.keep(feats);
             for round in 0..4 {
                 let p = work.pad as usize;
@@ -1908,9 +1913,9 @@ mod tests {
                         }
                     }
                 }
-                let got = features(&mut work);
+                let got = features(&mut work, true);
                 let mut fresh = Work::new(&work.window(), all, all, disc, Price::One);
-                let want = features(&mut fresh);
+                let want = features(&mut fresh, true);
                 let at = format!("case {case} round {round}: {w}x{h} span {}", disc.span);
                 assert_eq!(work.thin, fresh.thin, "{at}");
                 for i in 0..work.bits.width * work.bits.height {
