@@ -883,6 +883,8 @@ fn widening(work: &Work, feature: &[usize], phase: bool, scratch: &mut WidenScra
         pixels.push((x as u32, y as u32, d, centre as u8));
     }
     let other = if phase { !0u64 } else { 0 };
+    // The ridge pixel painted last, and its centre.
+    let mut last: Option<(u32, u32, u8)> = None;
     for &(x, y, d, centre) in pixels.iter() {
         let j = (y as usize + 1) * lw + x as usize + 1;
         let (up, down, left, right) =
@@ -899,8 +901,28 @@ fn widening(work: &Work, feature: &[usize], phase: bool, scratch: &mut WidenScra
         if (up == d && down < d) || (left == d && right < d) {
             continue;
         }
-        // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
+        let after_left = x > 0 && last == Some((x - 1, y, centre));
+        last = Some((x, y, centre));
         let (x, y) = (x as i64, y as i64);
+        if after_left {
+            // The pixel to the left was just painted with a disc of the same shape: each row of
+            // this disc is that one's moved a pixel right, so only its last pixel can be new.
+            for &(dy, _, b) in &work.paint[centre as usize] {
+                let (nx, ny) = (x + b, y + dy);
+                if ny < 0 || ny >= h as i64 || nx < 0 || nx >= w as i64 {
+                    continue;
+                }
+                let (nx, ny) = (nx as usize, ny as usize);
+                let at = ny * stride + nx / 64;
+                let bit = 1u64 << (nx % 64);
+                if (bits.data[at] ^ other) & !seen.data[at] & bit != 0 {
+                    seen.data[at] |= bit;
+                    out.push(ny * w + nx);
+                }
+            }
+            continue;
+        }
+        // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
         for &(dy, a, b) in &work.paint[centre as usize] {
             let ny = y + dy;
             let (x0, x1) = ((x + a).max(0), (x + b).min(w as i64 - 1));
