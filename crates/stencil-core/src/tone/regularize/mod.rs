@@ -305,8 +305,9 @@ fn corner_caps(bits: &Packed, corners: &[(u32, u32)], disc: Disc, mask: &mut Pac
     }
 }
 
-/// A pixel's eight neighbours, as offsets: a fixed list the ridge test runs through without
-/// building an iterator of pairs per pixel.
+/// A pixel's eight neighbours, as offsets: a fixed list [`widening_old`]'s ridge test runs
+/// through without building an iterator of pairs per pixel.
+#[cfg(test)]
 const AROUND: [(i64, i64); 8] = [
     (-1, -1),
     (0, -1),
@@ -748,17 +749,29 @@ fn groups_where(
     known: impl Fn(usize) -> bool,
 ) -> Vec<Group> {
     let (w, h) = (mask.width, mask.height);
-    // A run starts at each set bit whose left neighbour is clear: at most that many runs.
-    let starts: usize = mask
-        .data
-        .iter()
-        .map(|&v| (v & !(v << 1)).count_ones() as usize)
-        .sum();
+    // The rows holding a set bit: in later rounds most rows hold none, and an OR over a row (a
+    // few vector operations) costs less than walking its words one by one. A run starts at each
+    // set bit whose left neighbour is clear: at most that many runs.
+    let mut starts = 0;
+    let mut busy = Vec::new();
+    for y in 0..h {
+        let row = mask.row(y);
+        if row.iter().fold(0, |a, &v| a | v) != 0 {
+            busy.push(y);
+            starts += row
+                .iter()
+                .map(|&v| (v & !(v << 1)).count_ones() as usize)
+                .sum::<usize>();
+        }
+    }
     let mut runs: Vec<Run> = Vec::with_capacity(starts);
     let mut row_first = Vec::with_capacity(h + 1);
+    let mut busy = busy.into_iter().peekable();
     for y in 0..h {
         row_first.push(runs.len());
-        push_runs(y as u32, mask.row(y).iter().copied(), &mut runs);
+        if busy.next_if_eq(&y).is_some() {
+            push_runs(y as u32, mask.row(y).iter().copied(), &mut runs);
+        }
     }
     row_first.push(runs.len());
     let (piece, count) = join_runs(&runs, &row_first, true);
@@ -816,110 +829,152 @@ struct Feature {
     cost: Option<(Option<f32>, Option<f32>)>,
 }
 
-/// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its pixels whose depth is at least each of their 8-neighbours' in the feature. The
-/// disc is centred on the pixel (odd span) or on its deepest corner (even span), so once painted
-/// that centre is a valid one and covers the ridge pixel. `seen` is all clear scratch the size of
-/// the grid, left clear.
-fn widening(
-    work: &Work,
-    feature: &[usize],
-    phase: bool,
-    seen: &mut Packed,
-    depths: &mut Vec<u16>,
-) -> Vec<usize> {
+/// [`widening`]'s buffers, one per thread, kept between features and rounds: a round widens
+/// hundreds of features, most of a few dozen pixels, and each then allocates only its result.
+#[derive(Default)]
+struct WidenScratch {
+    /// The pixels listed so far, the grid's size; all clear between features.
+    seen: Packed,
+    /// The feature's pixels' depths on a grid one pixel wider than the grid on every side (so
+    /// a pixel's eight neighbours are there without bounds checks), 0 at every other pixel; all
+    /// 0 between features.
+    depths: Vec<u16>,
+    /// The feature's pixels: coordinates, depth and centre (see [`Work::depth_xy`]).
+    pixels: Vec<(u32, u32, u16, u8)>,
+    /// The widening being listed.
+    out: Vec<usize>,
+}
+
+/// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its
+/// pixels whose depth is at least each of their 8-neighbours' in the feature. The disc is
+/// centred on the pixel (odd span) or on its deepest corner (even span), so once painted that
+/// centre is a valid one and covers the ridge pixel. Listed ridge pixel by ridge pixel in the
+/// feature's order, each disc row by row, left to right (the order its price is summed in).
+fn widening(work: &Work, feature: &[usize], phase: bool, scratch: &mut WidenScratch) -> Vec<usize> {
     let bits = &work.bits;
-    let mask = &work.thin[!phase as usize];
-    let (w, h) = (bits.width as i64, bits.height as i64);
-    // Each pixel's depth once (an even span's is the largest of four corners'), where the
-    // ridge test below reads each up to nine times.
-    depths.resize(bits.width * bits.height, 0);
-    for &i in feature {
-        let (x, y) = work.rows.xy(i);
-        depths[i] = work.depth_xy(x, y).0;
+    let (w, h, stride) = (bits.width, bits.height, bits.stride);
+    let lw = w + 2;
+    if scratch.seen.width != w || scratch.seen.height != h {
+        scratch.seen = Packed::new(w, h, false);
+        scratch.depths = vec![0; lw * (h + 2)];
     }
-    let depths = &depths[..];
-    // A neighbour's depth, or none when it is not in the feature (a thin pixel of the same tone
-    // next to one of the feature is in it: features are 8-connected, so its depth was just set).
-    let depth_at = |nx: i64, ny: i64| -> Option<u16> {
-        if nx < 0 || ny < 0 || nx >= w || ny >= h || !mask.get(nx as usize, ny as usize) {
-            return None;
-        }
-        Some(depths[(ny * w + nx) as usize])
-    };
-    let mut out = Vec::new();
+    let WidenScratch {
+        seen,
+        depths,
+        pixels,
+        out,
+    } = scratch;
+    pixels.clear();
+    out.clear();
+    // Each pixel's depth once (an even span's is the largest of four corners'), where the
+    // ridge test below reads each up to nine times. A neighbour outside the feature reads 0:
+    // every depth is at least 1 (a centre lies half a pixel or more from another tone's
+    // pixel), so 0 passes the ridge test as "not in the feature" did, and is never equal to a
+    // depth. (A thin pixel of the same tone next to one of the feature is in it: features are
+    // 8-connected.)
     for &i in feature {
         let (x, y) = work.rows.xy(i);
-        let d = depths[i];
-        let (x, y) = (x as i64, y as i64);
-        let ridge = AROUND
-            .iter()
-            .all(|&(dx, dy)| depth_at(x + dx, y + dy) <= Some(d));
-        if !ridge {
+        let (d, centre) = work.depth_xy(x, y);
+        debug_assert!(d >= 1, "a depth of 0 at ({x}, {y})");
+        depths[(y + 1) * lw + x + 1] = d;
+        pixels.push((x as u32, y as u32, d, centre as u8));
+    }
+    let other = if phase { !0u64 } else { 0 };
+    // The ridge pixel painted last, and its centre.
+    let mut last: Option<(u32, u32, u8)> = None;
+    for &(x, y, d, centre) in pixels.iter() {
+        let j = (y as usize + 1) * lw + x as usize + 1;
+        let (up, down, left, right) =
+            (depths[j - lw], depths[j + lw], depths[j - 1], depths[j + 1]);
+        let corners = depths[j - lw - 1]
+            .max(depths[j - lw + 1])
+            .max(depths[j + lw - 1])
+            .max(depths[j + lw + 1]);
+        if up.max(down).max(left).max(right).max(corners) > d {
             continue;
         }
         // A ridge two pixels thick (a line an even number of pixels wide) keeps one of its rows
         // or columns: discs on both would widen the line by a pixel more than it needs.
-        if (depth_at(x, y - 1) == Some(d) && depth_at(x, y + 1) < Some(d))
-            || (depth_at(x - 1, y) == Some(d) && depth_at(x + 1, y) < Some(d))
-        {
+        if (up == d && down < d) || (left == d && right < d) {
+            continue;
+        }
+        let after_left = x > 0 && last == Some((x - 1, y, centre));
+        last = Some((x, y, centre));
+        let (x, y) = (x as i64, y as i64);
+        if after_left {
+            // The pixel to the left was just painted with a disc of the same shape: each row of
+            // this disc is that one's moved a pixel right, so only its last pixel can be new.
+            for &(dy, _, b) in &work.paint[centre as usize] {
+                let (nx, ny) = (x + b, y + dy);
+                if ny < 0 || ny >= h as i64 || nx < 0 || nx >= w as i64 {
+                    continue;
+                }
+                let (nx, ny) = (nx as usize, ny as usize);
+                let at = ny * stride + nx / 64;
+                let bit = 1u64 << (nx % 64);
+                if (bits.data[at] ^ other) & !seen.data[at] & bit != 0 {
+                    seen.data[at] |= bit;
+                    out.push(ny * w + nx);
+                }
+            }
             continue;
         }
         // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
-        let centre = work.depth_xy(x as usize, y as usize).1;
-        for &(dy, a, b) in &work.paint[centre] {
+        for &(dy, a, b) in &work.paint[centre as usize] {
             let ny = y + dy;
-            let (x0, x1) = ((x + a).max(0), (x + b).min(w - 1));
-            if ny < 0 || ny >= h || x0 > x1 {
+            let (x0, x1) = ((x + a).max(0), (x + b).min(w as i64 - 1));
+            if ny < 0 || ny >= h as i64 || x0 > x1 {
                 continue;
             }
             let (x0, x1, ny) = (x0 as usize, x1 as usize, ny as usize);
+            let row = ny * stride;
             for k in x0 / 64..=x1 / 64 {
                 let lo = if k == x0 / 64 { x0 % 64 } else { 0 };
                 let hi = if k == x1 / 64 { x1 % 64 } else { 63 };
                 let span = (!0u64 << lo) & (!0u64 >> (63 - hi));
-                let word = bits.row(ny)[k];
-                let other = if phase { !word } else { word };
-                let mut hits = other & span & !seen.row(ny)[k];
-                seen.data[ny * seen.stride + k] |= hits;
+                let mut hits = (bits.data[row + k] ^ other) & span & !seen.data[row + k];
+                seen.data[row + k] |= hits;
+                let base = ny * w + k * 64;
                 while hits != 0 {
-                    out.push(ny * w as usize + k * 64 + hits.trailing_zeros() as usize);
+                    out.push(base + hits.trailing_zeros() as usize);
                     hits &= hits - 1;
                 }
             }
         }
     }
-    for &j in &out {
-        seen.put(j, false);
+    for &j in out.iter() {
+        let (x, y) = work.rows.xy(j);
+        seen.data[y * stride + x / 64] = 0;
     }
-    out
+    for &(x, y, _, _) in pixels.iter() {
+        depths[(y as usize + 1) * lw + x as usize + 1] = 0;
+    }
+    out.as_slice().to_vec()
 }
 
 /// Every thin feature of both tones, with its widening. A feature none of whose pixels lies in a
 /// tile the refresh recomputed is one of the last round's ([`Work::kept`]): its pixels and their
 /// neighbours are thin or not as they were, and the depths and bits its widening reads (within
-/// the disc's reach and two pixels of it) did not change, so it is taken as it was.
-fn features(work: &mut Work) -> Vec<Feature> {
+/// the disc's reach and two pixels of it) did not change, so it is taken as it was. Thin holes'
+/// widenings are listed only when `widen_holes`: the monotone phase fills thin holes and never
+/// widens them, so it does not ask (its holes' `widen` is empty).
+fn features(work: &mut Work, widen_holes: bool) -> Vec<Feature> {
     work.refresh();
     let kept = std::mem::take(&mut work.kept);
     let work = &*work;
     let (w, h) = (work.bits.width, work.bits.height);
     thread_local! {
-        /// [`widening`]'s scratch, one per thread: the grid of pixels listed, kept clear
-        /// between features and rounds, and the pixels' depths (read only where just set).
-        static SCRATCH: std::cell::RefCell<(Packed, Vec<u16>)> =
-            std::cell::RefCell::new((Packed::new(0, 0, false), Vec::new()));
+        static SCRATCH: std::cell::RefCell<WidenScratch> = Default::default();
     }
     let feature = |phase: bool, (pixels, old): (Vec<usize>, Option<Feature>)| {
         if let Some(old) = old {
             return old;
         }
-        let widen = SCRATCH.with(|scratch| {
-            let (seen, depths) = &mut *scratch.borrow_mut();
-            if seen.width != w || seen.height != h {
-                *seen = Packed::new(w, h, false);
-            }
-            widening(work, &pixels, phase, seen, depths)
-        });
+        let widen = if phase || widen_holes {
+            SCRATCH.with(|scratch| widening(work, &pixels, phase, &mut scratch.borrow_mut()))
+        } else {
+            Vec::new()
+        };
         Feature {
             phase,
             pixels,
@@ -1045,7 +1100,7 @@ pub fn regularize(
 /// less; a pixel that changed may not change back; at most [`FREE_ROUNDS`] rounds.
 fn decide(work: &mut Work, stats: &mut RegularizeStats) {
     for _ in 0..FREE_ROUNDS {
-        let mut feats = features(work);
+        let mut feats = features(work, true);
         if feats.is_empty() {
             break;
         }
@@ -1141,7 +1196,7 @@ fn decide(work: &mut Work, stats: &mut RegularizeStats) {
 /// that may change is thin. Ends: see the module comment.
 fn settle(work: &mut Work, stats: &mut RegularizeStats) {
     loop {
-        let feats = features(work);
+        let feats = features(work, false);
         let live: Vec<usize> = (0..feats.len())
             .filter(|&n| feats[n].pixels.iter().any(|&i| work.changeable(i)))
             .collect();
@@ -1496,6 +1551,85 @@ fn settle_window(
     added
 }
 
+/// The pixels of the other tone within the disc of each ridge pixel of a thin feature: its pixels whose depth is at least each of their 8-neighbours' in the feature. The
+/// disc is centred on the pixel (odd span) or on its deepest corner (even span), so once painted
+/// that centre is a valid one and covers the ridge pixel. `seen` is all clear scratch the size of
+/// the grid, left clear.
+#[cfg(test)]
+fn widening_old(
+    work: &Work,
+    feature: &[usize],
+    phase: bool,
+    seen: &mut Packed,
+    depths: &mut Vec<u16>,
+) -> Vec<usize> {
+    let bits = &work.bits;
+    let mask = &work.thin[!phase as usize];
+    let (w, h) = (bits.width as i64, bits.height as i64);
+    // Each pixel's depth once (an even span's is the largest of four corners'), where the
+    // ridge test below reads each up to nine times.
+    depths.resize(bits.width * bits.height, 0);
+    for &i in feature {
+        let (x, y) = work.rows.xy(i);
+        depths[i] = work.depth_xy(x, y).0;
+    }
+    let depths = &depths[..];
+    // A neighbour's depth, or none when it is not in the feature (a thin pixel of the same tone
+    // next to one of the feature is in it: features are 8-connected, so its depth was just set).
+    let depth_at = |nx: i64, ny: i64| -> Option<u16> {
+        if nx < 0 || ny < 0 || nx >= w || ny >= h || !mask.get(nx as usize, ny as usize) {
+            return None;
+        }
+        Some(depths[(ny * w + nx) as usize])
+    };
+    let mut out = Vec::new();
+    for &i in feature {
+        let (x, y) = work.rows.xy(i);
+        let d = depths[i];
+        let (x, y) = (x as i64, y as i64);
+        let ridge = AROUND
+            .iter()
+            .all(|&(dx, dy)| depth_at(x + dx, y + dy) <= Some(d));
+        if !ridge {
+            continue;
+        }
+        // A ridge two pixels thick (a line an even number of pixels wide) keeps one of its rows
+        // or columns: discs on both would widen the line by a pixel more than it needs.
+        if (depth_at(x, y - 1) == Some(d) && depth_at(x, y + 1) < Some(d))
+            || (depth_at(x - 1, y) == Some(d) && depth_at(x + 1, y) < Some(d))
+        {
+            continue;
+        }
+        // Row by row, a word at a time: the other tone's pixels in the disc not yet listed.
+        let centre = work.depth_xy(x as usize, y as usize).1;
+        for &(dy, a, b) in &work.paint[centre] {
+            let ny = y + dy;
+            let (x0, x1) = ((x + a).max(0), (x + b).min(w - 1));
+            if ny < 0 || ny >= h || x0 > x1 {
+                continue;
+            }
+            let (x0, x1, ny) = (x0 as usize, x1 as usize, ny as usize);
+            for k in x0 / 64..=x1 / 64 {
+                let lo = if k == x0 / 64 { x0 % 64 } else { 0 };
+                let hi = if k == x1 / 64 { x1 % 64 } else { 63 };
+                let span = (!0u64 << lo) & (!0u64 >> (63 - hi));
+                let word = bits.row(ny)[k];
+                let other = if phase { !word } else { word };
+                let mut hits = other & span & !seen.row(ny)[k];
+                seen.data[ny * seen.stride + k] |= hits;
+                while hits != 0 {
+                    out.push(ny * w as usize + k * 64 + hits.trailing_zeros() as usize);
+                    hits &= hits - 1;
+                }
+            }
+        }
+    }
+    for &j in &out {
+        seen.put(j, false);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1733,6 +1867,42 @@ mod tests {
         assert!(checked > 1000, "{checked} depths checked");
     }
 
+    /// The widening by one scratch kept over features and grids is the pixel-by-pixel one
+    /// ([`widening_old`]): the same pixels in the same order, for every thin feature of both
+    /// tones of random grids (sparse, dense, blocky; odd and even spans).
+    #[test]
+    fn widening_with_kept_scratch_is_the_pixel_by_pixel_widening() {
+        let mut rng = Lcg(0x71de_u64);
+        let mut rnd = |n: u64| rng.below(n);
+        let mut scratch = WidenScratch::default();
+        let mut widened = 0;
+        for case in 0..60 {
+            let (w, h) = (1 + rnd(260) as u32, 1 + rnd(120) as u32);
+            let (cell, dense) = (1 + rnd(7) as u32, rnd(11));
+            let bits = blocky(w, h, cell, dense, &mut rnd);
+            let px = [2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 11.0, 12.0, 17.0, 24.0][case % 10];
+            let disc = Disc::for_width(px);
+            let all = [0, 0, w, h];
+            let mut work = Work::new(&bits, all, all, disc, Price::One);
+            work.refresh();
+            let (pw, ph) = (work.bits.width, work.bits.height);
+            let mut seen = Packed::new(pw, ph, false);
+            let mut depths = Vec::new();
+            for phase in [true, false] {
+                for g in groups(&work.thin[!phase as usize], None) {
+                    let want = widening_old(&work, &g, phase, &mut seen, &mut depths);
+                    let got = widening(&work, &g, phase, &mut scratch);
+                    assert_eq!(got, want, "case {case}: {w}x{h} span {}", disc.span);
+                    widened += 1;
+                }
+            }
+            assert!(seen.data.iter().all(|&v| v == 0));
+            assert!(scratch.seen.data.iter().all(|&v| v == 0));
+            assert!(scratch.depths.iter().all(|&v| v == 0));
+        }
+        assert!(widened > 1000, "{widened} features widened");
+    }
+
     /// Rounds after the first recompute thinness and depths only near the pixels changed since
     /// and keep the features nothing near changed: the same thin pixels, depths and features
     /// (pixels, widening) as a fresh grid's first round, on random blocky two-tones changed at
@@ -1749,7 +1919,7 @@ mod tests {
             let disc = Disc::for_width([3.0, 4.0, 5.0, 6.0, 11.0, 12.0][case % 6]);
             let all = [0, 0, w, h];
             let mut work = Work::new(&bits, all, all, disc, Price::One);
-            let feats = features(&mut work);
+            let feats = features(&mut work, true);
             work.keep(feats);
             for round in 0..4 {
                 let p = work.pad as usize;
@@ -1762,9 +1932,9 @@ mod tests {
                         }
                     }
                 }
-                let got = features(&mut work);
+                let got = features(&mut work, true);
                 let mut fresh = Work::new(&work.window(), all, all, disc, Price::One);
-                let want = features(&mut fresh);
+                let want = features(&mut fresh, true);
                 let at = format!("case {case} round {round}: {w}x{h} span {}", disc.span);
                 assert_eq!(work.thin, fresh.thin, "{at}");
                 for i in 0..work.bits.width * work.bits.height {

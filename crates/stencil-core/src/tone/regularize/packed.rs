@@ -51,6 +51,7 @@ impl Packed {
         self.get(i % self.width, i / self.width)
     }
 
+    #[cfg(test)]
     pub fn put(&mut self, i: usize, v: bool) {
         self.set(i % self.width, i / self.width, v);
     }
