@@ -275,7 +275,96 @@ impl Shores {
     /// The nearest shore point of a node other than `own` to (x, y), nearer than `limit`, on the
     /// cut side of it: in the open half-plane the offset `side` points to (a point behind the
     /// pixel's own material is no gap it could bridge).
+    ///
+    /// Each row is scanned outwards from `x`, to the right and to the left, only over the
+    /// columns that can lie on the cut side: at a distance `dx` along the scan, a point is ahead
+    /// when `dx · a > −c`, with `a` the side's x part (negated to the left) and `c` the row's
+    /// offset along the side's y part. So a row wholly behind the pixel is not read at all (half
+    /// the rows for a pixel on a straight edge), and a slanted side reads only the part of the
+    /// row in front of it. The points skipped could never be the answer, and a scan stops at the
+    /// first point farther than the best so far, so it finds what the scan of every point
+    /// ([`Shores::nearest_other_every`], the tests' oracle) finds, the same point on a tie.
     fn nearest_other(
+        &self,
+        (x, y): (i32, i32),
+        own: u32,
+        side: (i32, i32),
+        limit: f32,
+    ) -> Option<Gap> {
+        let mut best = limit * limit;
+        let mut to = None;
+        let scan = |yy: i32, dy2: f32, best: &mut f32, to: &mut Option<(i32, i32)>| {
+            let row = self.row(yy);
+            if row.is_empty() {
+                return;
+            }
+            let c = (yy - y) * side.1;
+            // Along a scan: ahead ⇔ dx · a > −c. Returns the least dx ahead and the first dx
+            // past the ahead ones (`i32::MAX`: none), or `None` if no dx ≥ 0 is ahead.
+            let span = |a: i32| -> Option<(i32, i32)> {
+                match a.signum() {
+                    0 => (c > 0).then_some((0, i32::MAX)),
+                    1 => Some((if c > 0 { 0 } else { -c / a + 1 }, i32::MAX)),
+                    _ => (c > 0).then(|| (0, (c + (-a) - 1) / (-a))),
+                }
+            };
+            let k = self.first_from(yy, x);
+            if let Some((lo, hi)) = span(side.0) {
+                let start = if lo > 0 {
+                    self.first_from(yy, x + lo)
+                } else {
+                    k
+                };
+                for &(px, n) in &row[start..] {
+                    let dx = px - x;
+                    let d2 = (dx as f32) * (dx as f32) + dy2;
+                    if d2 >= *best || dx >= hi {
+                        break;
+                    }
+                    if n != own {
+                        *best = d2;
+                        *to = Some((px, yy));
+                    }
+                }
+            }
+            if let Some((lo, hi)) = span(-side.0) {
+                // Points left of x are at dx ≥ 1.
+                let end = if lo > 1 {
+                    self.first_from(yy, x - lo + 1)
+                } else {
+                    k
+                };
+                for &(px, n) in row[..end].iter().rev() {
+                    let dx = x - px;
+                    let d2 = (dx as f32) * (dx as f32) + dy2;
+                    if d2 >= *best || dx >= hi {
+                        break;
+                    }
+                    if n != own {
+                        *best = d2;
+                        *to = Some((px, yy));
+                    }
+                }
+            }
+        };
+        scan(y, 0.0, &mut best, &mut to);
+        let mut r = 1i32;
+        while ((r * r) as f32) < best {
+            let dy2 = (r * r) as f32;
+            scan(y - r, dy2, &mut best, &mut to);
+            scan(y + r, dy2, &mut best, &mut to);
+            r += 1;
+        }
+        to.map(|to| Gap {
+            len: best.sqrt(),
+            to,
+        })
+    }
+
+    /// [`Shores::nearest_other`] as it was, reading every point of each row out to the best
+    /// distance: the oracle of its tests.
+    #[cfg(test)]
+    fn nearest_other_every(
         &self,
         (x, y): (i32, i32),
         own: u32,
@@ -507,6 +596,43 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// [`Shores::nearest_other`], reading only the columns ahead of the pixel, finds what the
+    /// scan of every point finds (length and far end), from every pixel of random pictures (the
+    /// frame's too), towards every side a pixel's cut neighbours can point to, under several
+    /// limits and for several owners.
+    #[test]
+    fn nearest_other_is_the_scan_of_every_point() {
+        let mut rng = Lcg(0x05ee_d0f9_a95e);
+        let mut next = move || rng.next_u64() >> 33;
+        let mut found = 0;
+        for k in 0..30u32 {
+            let (w, h) = (5 + k * 11 % 57, 4 + k * 7 % 41);
+            let fill = 5 + next() % 50;
+            let bits = BitGrid::from_fn(w, h, |_, _| next() % 100 < fill);
+            let m = label(&bits);
+            let shores = Shores::new(&bits, &m);
+            let owners = m.nodes.len() as u32 + 1;
+            for y in -1..=h as i32 {
+                for x in -1..=w as i32 {
+                    for sx in -1..=1 {
+                        for sy in -1..=1 {
+                            if (sx, sy) == (0, 0) {
+                                continue;
+                            }
+                            let own = (next() % owners as u64) as u32;
+                            let limit = [1.0f32, 2.5, 7.0, 60.0][(next() % 4) as usize];
+                            let want = shores.nearest_other_every((x, y), own, (sx, sy), limit);
+                            let got = shores.nearest_other((x, y), own, (sx, sy), limit);
+                            assert_eq!(got, want, "picture {k} ({x}, {y}) side ({sx}, {sy})");
+                            found += want.is_some() as usize;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(found > 1000, "gaps are found ({found})");
     }
 
     /// The twins' straight strips over a flat white picture of `g` (no walks to copy).
