@@ -58,7 +58,7 @@ use rayon::prelude::*;
 use crate::raster::{join_runs, push_runs, BitGrid, Gray, Run};
 
 mod packed;
-use packed::{thin, thin_in_tiles, tiles_near, Packed, ThinScratch, BAND};
+use packed::{thin_both, thin_in_tiles, tiles_near, Packed, ThinScratch, BAND};
 
 /// Rounds of cost-based deciding before the monotone phase settles what is left.
 pub const FREE_ROUNDS: usize = 4;
@@ -429,15 +429,7 @@ impl<'a> Work<'a> {
         } else {
             let [material, cut] = &mut self.thin;
             let [sm, sc] = &mut self.thin_scratch;
-            if packed::parallel(bits.width * bits.height) {
-                rayon::join(
-                    || thin(bits, true, disc, sm, material),
-                    || thin(bits, false, disc, sc, cut),
-                );
-            } else {
-                thin(bits, true, disc, sm, material);
-                thin(bits, false, disc, sc, cut);
-            }
+            thin_both(bits, disc, [sm, sc], [material, cut]);
             self.refreshed = true;
         }
         corner_caps(&self.bits, &self.corners, disc, &mut self.thin[1]);

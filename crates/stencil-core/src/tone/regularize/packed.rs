@@ -286,6 +286,44 @@ fn runs_of(
     }
 }
 
+/// The runs of a band for each span of `spans` in turn (narrowest first), the step
+/// [`runs_of_rows`] and [`runs_of_segs`] share: `cur` holds rows or pieces of rows laid end to
+/// end, each set in `p` words of `fill` on either side; it is combined with itself shifted by
+/// doubling (`next` the scratch), so at bit x it holds the combined bits x..x + c; each span's
+/// runs are then shifted by its start in one pass over the whole band into `moved`, and
+/// `emit(k, moved)` copies span `k`'s out.
+#[allow(clippy::too_many_arguments)]
+fn band_runs(
+    cur: &mut Vec<u64>,
+    next: &mut Vec<u64>,
+    moved: &mut Vec<u64>,
+    spans: &[(i64, i64)],
+    and: bool,
+    fill: u64,
+    p: usize,
+    mut emit: impl FnMut(usize, &[u64]),
+) {
+    next.resize(cur.len(), 0);
+    let mut c = 1i64;
+    for (k, &(a, b)) in spans.iter().enumerate() {
+        let w = b - a + 1;
+        debug_assert!(w >= c, "spans come narrowest first");
+        while c < w {
+            let d = (w - c).min(c);
+            if and {
+                pair(cur, d, fill, next, |x, y| x & y);
+            } else {
+                pair(cur, d, fill, next, |x, y| x | y);
+            }
+            std::mem::swap(cur, next);
+            c += d;
+        }
+        moved.resize(cur.len(), 0);
+        shift(cur, a + 64 * p as i64, fill, moved);
+        emit(k, moved);
+    }
+}
+
 /// [`runs_of`] for every row of `src` at once: `out[(y · ns + k) · n..][..n]` the runs of row `y`
 /// for span `k` (`ns` spans). The rows are laid end to end, each set in `p` words of `fill` on
 /// either side, in bands of rows, and each doubling step, and each span's shift, is one pass
@@ -319,29 +357,13 @@ fn runs_of_rows(
             for r in 0..rows {
                 cur[r * l + p..r * l + p + src.stride].copy_from_slice(src.row(y0 + r));
             }
-            next.resize(rows * l, 0);
-            let mut c = 1i64;
-            for (k, &(a, b)) in spans.iter().enumerate() {
-                let w = b - a + 1;
-                debug_assert!(w >= c, "spans come narrowest first");
-                while c < w {
-                    let d = (w - c).min(c);
-                    if and {
-                        pair(cur, d, fill, next, |x, y| x & y);
-                    } else {
-                        pair(cur, d, fill, next, |x, y| x | y);
-                    }
-                    std::mem::swap(cur, next);
-                    c += d;
-                }
-                // One shift of the whole band: each row's words read only its own (as above).
-                moved.resize(cur.len(), 0);
-                shift(cur, a + 64 * p as i64, fill, moved);
+            // Each row's words read only its own (as above).
+            band_runs(cur, next, moved, spans, and, fill, p, |k, moved| {
                 for r in 0..rows {
                     let to = (r * ns + k) * n;
                     out[to..to + n].copy_from_slice(&moved[r * l..r * l + n]);
                 }
-            }
+            });
         },
     );
 }
@@ -463,6 +485,25 @@ pub(super) fn thin(
     uncovered(out, centres, &shape, &spans, &mut scratch.runs);
 }
 
+/// [`thin`] of both tones over the whole grid (`out`: material, cut; `scratch` one per tone),
+/// side by side on threads when the grid is large.
+pub(super) fn thin_both(
+    bits: &Packed,
+    disc: Disc,
+    [sm, sc]: [&mut ThinScratch; 2],
+    [material, cut]: [&mut Packed; 2],
+) {
+    if parallel(bits.width * bits.height) {
+        rayon::join(
+            || thin(bits, true, disc, sm, material),
+            || thin(bits, false, disc, sc, cut),
+        );
+    } else {
+        thin(bits, true, disc, sm, material);
+        thin(bits, false, disc, sc, cut);
+    }
+}
+
 /// Rows per band of the tiles [`thin_in_tiles`] recomputes: a tile is one word (64 columns) of
 /// one band, tile `(b, k)` at index `b · stride + k`.
 pub(super) const BAND: usize = 32;
@@ -578,24 +619,8 @@ fn runs_of_segs(
                 }
                 cur.resize(cur.len() + b - a.max(e) + p, fill);
             }
-            next.resize(cur.len(), 0);
-            let mut c = 1i64;
-            for (k, &(sa, sb)) in spans.iter().enumerate() {
-                let w = sb - sa + 1;
-                debug_assert!(w >= c, "spans come narrowest first");
-                while c < w {
-                    let d = (w - c).min(c);
-                    if and {
-                        pair(cur, d, fill, next, |x, y| x & y);
-                    } else {
-                        pair(cur, d, fill, next, |x, y| x | y);
-                    }
-                    std::mem::swap(cur, next);
-                    c += d;
-                }
-                // One shift of the whole band: each piece's words read only its own.
-                moved.resize(cur.len(), 0);
-                shift(cur, sa + 64 * p as i64, fill, moved);
+            // Each piece's words read only its own.
+            band_runs(cur, next, moved, spans, and, fill, p, |k, moved| {
                 let mut at = 0;
                 for &(y, a, b) in segs {
                     let nb = b.min(n);
@@ -605,7 +630,7 @@ fn runs_of_segs(
                     }
                     at += b - a + 2 * p;
                 }
-            }
+            });
         },
     );
 }
@@ -678,15 +703,7 @@ pub(super) fn thin_in_tiles(
     // they are few, threads cost more than they save.
     let words: usize = tsegs.iter().map(|&(_, a, b)| b - a).sum();
     if 4 * words > 3 * h * ls {
-        if parallel(w * h) {
-            rayon::join(
-                || thin(bits, true, disc, sm, material),
-                || thin(bits, false, disc, sc, cut),
-            );
-        } else {
-            thin(bits, true, disc, sm, material);
-            thin(bits, false, disc, sc, cut);
-        }
+        thin_both(bits, disc, [sm, sc], [material, cut]);
         return;
     }
     let par = parallel(16 * words);
