@@ -435,6 +435,30 @@ impl Shape {
             rows,
         }
     }
+
+    /// The distinct disc rows, narrowest first: each row of a grid is run-combined once per
+    /// span, not once per disc row (the disc is symmetric, so rows of one width are one span).
+    fn spans(&self) -> Vec<(i64, i64)> {
+        let mut spans = self.rows.clone();
+        spans.sort_unstable_by_key(|&(a, b)| b - a);
+        spans.dedup();
+        spans
+    }
+
+    /// For each disc row, the index of its run among `spans` ([`Shape::spans`]), or among
+    /// their mirror images (`(−b, −a)` for `(a, b)`) when `mirrored`.
+    fn which(&self, spans: &[(i64, i64)], mirrored: bool) -> Vec<usize> {
+        self.rows
+            .iter()
+            .map(|&(a, b)| {
+                let want = if mirrored { (-b, -a) } else { (a, b) };
+                spans
+                    .iter()
+                    .position(|&s| s == want)
+                    .expect("every disc row has its run")
+            })
+            .collect()
+    }
 }
 
 /// What [`thin`] keeps between calls: the lattice points whose disc fits, and the runs.
@@ -442,6 +466,23 @@ impl Shape {
 pub(super) struct ThinScratch {
     centres: Option<Packed>,
     runs: Vec<u64>,
+}
+
+impl ThinScratch {
+    /// The lattice points' grid, `lw` × `lh`, reshaped in place when the size changes (its
+    /// callers write every word they read), and the runs.
+    fn lattice(&mut self, lw: usize, lh: usize) -> (&mut Packed, &mut Vec<u64>) {
+        let centres = self
+            .centres
+            .get_or_insert_with(|| Packed::new(lw, lh, false));
+        if centres.width != lw || centres.height != lh {
+            centres.width = lw;
+            centres.height = lh;
+            centres.stride = lw.div_ceil(64).max(1);
+            centres.data.resize(centres.stride * lh, 0);
+        }
+        (centres, &mut self.runs)
+    }
 }
 
 /// The pixels of one tone (`phase`: true = material) that no disc lying wholly in that tone
@@ -465,24 +506,12 @@ pub(super) fn thin(
         out.data.extend(bits.data.iter().map(|w| !w));
     }
     let shape = Shape::of(disc);
-    // Each row is run-combined once per distinct disc row.
-    let mut spans: Vec<(i64, i64)> = shape.rows.clone();
-    spans.sort_unstable_by_key(|&(a, b)| b - a);
-    spans.dedup();
+    let spans = shape.spans();
     let corners = disc.on_corners() as usize;
     let (lw, lh) = (bits.width + corners, bits.height + corners);
-    // Reshaped in place when the size changes (every word is written below).
-    let centres = scratch
-        .centres
-        .get_or_insert_with(|| Packed::new(lw, lh, false));
-    if centres.width != lw || centres.height != lh {
-        centres.width = lw;
-        centres.height = lh;
-        centres.stride = lw.div_ceil(64).max(1);
-        centres.data.resize(centres.stride * lh, 0);
-    }
-    disc_centres(out, phase, &shape, &spans, centres, &mut scratch.runs);
-    uncovered(out, centres, &shape, &spans, &mut scratch.runs);
+    let (centres, runs) = scratch.lattice(lw, lh);
+    disc_centres(out, phase, &shape, &spans, centres, runs);
+    uncovered(out, centres, &shape, &spans, runs);
 }
 
 /// [`thin`] of both tones over the whole grid (`out`: material, cut; `scratch` one per tone),
@@ -655,9 +684,7 @@ pub(super) fn thin_in_tiles(
 ) {
     let (w, h, s) = (bits.width, bits.height, bits.stride);
     let shape = Shape::of(disc);
-    let mut spans: Vec<(i64, i64)> = shape.rows.clone();
-    spans.sort_unstable_by_key(|&(a, b)| b - a);
-    spans.dedup();
+    let spans = shape.spans();
     let corners = disc.on_corners() as usize;
     let (lw, lh) = (w + corners, h + corners);
     let ls = lw.div_ceil(64).max(1);
@@ -740,30 +767,12 @@ fn thin_in_segs(
     let ns = spans.len();
     let fill = word_of(phase);
     let (lw, lh) = (w + corners, h + corners);
-    let centres = scratch
-        .centres
-        .get_or_insert_with(|| Packed::new(lw, lh, false));
-    if centres.width != lw || centres.height != lh {
-        centres.width = lw;
-        centres.height = lh;
-        centres.stride = lw.div_ceil(64).max(1);
-        centres.data.resize(centres.stride * lh, 0);
-    }
+    let (centres, runs) = scratch.lattice(lw, lh);
     let ls = centres.stride;
-    let runs = &mut scratch.runs;
     runs.resize((h * ns * ls).max(lh * ns * s), 0);
     // Erosion ([`disc_centres`]) in the lattice pieces.
     runs_of_segs(bits, !phase, tsegs, spans, true, fill, ls, runs, par);
-    let which: Vec<usize> = shape
-        .rows
-        .iter()
-        .map(|ab| {
-            spans
-                .iter()
-                .position(|s| s == ab)
-                .expect("every disc row has its run")
-        })
-        .collect();
+    let which = shape.which(spans, false);
     let dy0 = shape.dy0;
     let tail = if lw % 64 == 0 {
         !0
@@ -799,16 +808,7 @@ fn thin_in_segs(
     // Dilation, subtracted ([`uncovered`]), in the marked tiles.
     let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
     runs_of_segs(centres, false, csegs, &mirrored, false, 0, s, runs, par);
-    let which: Vec<usize> = shape
-        .rows
-        .iter()
-        .map(|&(a, b)| {
-            mirrored
-                .iter()
-                .position(|&m| m == (-b, -a))
-                .expect("every disc row has its mirror")
-        })
-        .collect();
+    let which = shape.which(&mirrored, true);
     let runs = &runs[..];
     let inv = word_of(!phase);
     let last = if w % 64 == 0 {
@@ -857,16 +857,7 @@ fn disc_centres(
     let par = parallel(w * h);
     runs.resize(h * ns * ls, 0);
     runs_of_rows(tone, spans, true, fill, ls, runs, par);
-    let which: Vec<usize> = shape
-        .rows
-        .iter()
-        .map(|ab| {
-            spans
-                .iter()
-                .position(|s| s == ab)
-                .expect("every disc row has its run")
-        })
-        .collect();
+    let which = shape.which(spans, false);
     let runs = &runs[..];
     rows_mut(&mut centres.data, ls, par, |(cy, out)| {
         out.fill(!0);
@@ -903,16 +894,7 @@ fn uncovered(
     let ps = tone.stride;
     runs.resize(lh * ns * ps, 0);
     runs_of_rows(centres, &mirrored, false, 0, ps, runs, par);
-    let which: Vec<usize> = shape
-        .rows
-        .iter()
-        .map(|&(a, b)| {
-            mirrored
-                .iter()
-                .position(|&m| m == (-b, -a))
-                .expect("every disc row has its mirror")
-        })
-        .collect();
+    let which = shape.which(&mirrored, true);
     let runs = &runs[..];
     let scratch = || vec![0u64; ps];
     rows_mut_with(&mut tone.data, ps, par, scratch, |covered, (y, row)| {
@@ -1169,9 +1151,7 @@ mod tests {
         let mut s = RunScratch::default();
         for span in [2.0, 3.0, 4.0, 5.0, 6.0, 9.0, 11.0, 12.0, 30.0, 75.0, 140.0] {
             let shape = Shape::of(Disc::for_width(span));
-            let mut spans = shape.rows.clone();
-            spans.sort_unstable_by_key(|&(a, b)| b - a);
-            spans.dedup();
+            let spans = shape.spans();
             let mirrored: Vec<(i64, i64)> = spans.iter().map(|&(a, b)| (-b, -a)).collect();
             for len in [1usize, 2, 3, 7] {
                 for n in [len, len + 1] {
