@@ -35,6 +35,7 @@ mod bridge_stability;
 mod bridge_user;
 mod bridge_weights;
 mod bridge_width;
+mod busy_host;
 mod check;
 mod crop_keep_out;
 mod curve_budget;

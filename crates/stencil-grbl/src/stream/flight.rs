@@ -165,7 +165,7 @@ impl Session<'_, '_> {
             let after_system = f
                 .in_flight
                 .back()
-                .is_some_and(|&(i, _)| is_system(&lines[i].text));
+                .is_some_and(|s| is_system(&lines[s.index].text));
             let fits = match self.cfg.flow {
                 _ if after_system => false,
                 _ if is_system(&lines[next].text) => f.in_flight.is_empty(),
@@ -185,7 +185,11 @@ impl Session<'_, '_> {
                 f.first_byte.get_or_insert_with(Instant::now);
                 f.run.bytes += len as u64;
             }
-            f.in_flight.push_back((next, len));
+            f.in_flight.push_back(Sent {
+                index: next,
+                bytes: len,
+                polls_before: self.link.polls_sent,
+            });
             f.in_flight_bytes += len;
             f.run.max_in_flight = f.run.max_in_flight.max(f.in_flight_bytes);
             f.next += 1;
@@ -275,11 +279,12 @@ impl Session<'_, '_> {
             && matches!(st.state, MachineState::Idle | MachineState::Check);
         f.status(&st);
         if !checking {
-            if f.lost_replies(&st, self.info.planner_blocks, self.info.rx_buffer) {
+            let report = self.link.reports_seen;
+            if f.lost_replies(&st, report, self.info.planner_blocks, self.info.rx_buffer) {
                 let unanswered: Vec<usize> = f
                     .in_flight
                     .iter()
-                    .map(|&(i, _)| f.lines[i].number)
+                    .map(|s| f.lines[s.index].number)
                     .collect();
                 let all_sent = f.next >= f.lines.len();
                 let next_unsent = f.lines.get(f.next).map(|l| l.number);
@@ -326,8 +331,8 @@ impl Session<'_, '_> {
 pub(super) struct Flight<'l> {
     pub(super) lines: &'l [Outgoing],
     pub(super) start_line: usize,
-    /// (index into `lines`, bytes) of lines sent and not yet answered, oldest first.
-    pub(super) in_flight: VecDeque<(usize, usize)>,
+    /// Lines sent and not yet answered, oldest first.
+    pub(super) in_flight: VecDeque<Sent>,
     pub(super) in_flight_bytes: usize,
     /// Lines answered, preamble included.
     pub(super) acked_total: usize,
@@ -340,9 +345,30 @@ pub(super) struct Flight<'l> {
     pub(super) first_byte: Option<Instant>,
     /// Every line answered and the machine seen idle since.
     pub(super) finished: bool,
-    /// Consecutive status reports showing Grbl idle with empty buffers while lines still wait
-    /// for their answer, and when the first of them came.
-    quiet: (u32, Option<Instant>),
+    /// Status reports in a row that show Grbl idle with empty buffers after it read the oldest
+    /// line still waiting for its answer.
+    quiet: Option<Quiet>,
+}
+
+/// A line sent and not yet answered.
+pub(super) struct Sent {
+    /// Index into the flight's lines.
+    pub(super) index: usize,
+    /// Its bytes with the newline (what it holds of Grbl's receive buffer).
+    pub(super) bytes: usize,
+    /// Status requests written before it ([`super::link::Link::polls_sent`]): only a report
+    /// counted later than this was written after Grbl read the line.
+    pub(super) polls_before: u64,
+}
+
+/// The evidence that one line's answer was lost.
+struct Quiet {
+    /// The line (index into the flight's lines) the reports are about.
+    index: usize,
+    /// Reports since it was read that show Grbl idle with empty buffers.
+    reports: u32,
+    /// When the first of them was read.
+    since: Instant,
 }
 
 impl<'l> Flight<'l> {
@@ -369,39 +395,68 @@ impl<'l> Flight<'l> {
             next: 0,
             first_byte: None,
             finished: false,
-            quiet: (0, None),
+            quiet: None,
         }
     }
 
-    /// Answers were lost: Grbl stands idle with nothing in its planner and nothing left in its
-    /// receive buffer (`Bf:`), so it has read and run every line sent, yet lines still wait for
-    /// their `ok` (dropped on the wire, or garbled into something that is no answer). Three
-    /// reports in a row over at least a second (answers always come before the next report);
-    /// without `Bf:` Idle alone, over three seconds. A dwell (G4) in flight is answered only
-    /// when it ends, so it is waited for.
-    fn lost_replies(&mut self, st: &Status, planner_blocks: usize, rx_buffer: usize) -> bool {
-        let dwell = self.in_flight.iter().any(|&(i, _)| {
-            gcode::words(&self.lines[i].text, 0)
+    /// Answers were lost: a status report written after Grbl read the oldest line still
+    /// waiting for its `ok` shows Grbl idle with nothing in its planner and nothing left in its
+    /// receive buffer (`Bf:`), so it has run that line, and Grbl writes a line's `ok` before any
+    /// later report; the serial line keeps that order, so the `ok` was dropped on the wire or
+    /// garbled into something that is no answer.
+    ///
+    /// `report` is the report's count ([`super::link::Link::reports_seen`]): a report counted no
+    /// later than the line's [`Sent::polls_before`] may have been written before the line arrived
+    /// (a sender that writes lines while earlier reports wait to be read, as a busy computer
+    /// does), and proves nothing. The timing of either side plays no part in that rule; the
+    /// count and time below only ride out a report written while Grbl is still finishing the
+    /// line (three reports over at least a second, without `Bf:` Idle alone over three seconds),
+    /// and start again for each line. A dwell (G4) in flight is answered only when it ends, so
+    /// it is waited for.
+    fn lost_replies(
+        &mut self,
+        st: &Status,
+        report: u64,
+        planner_blocks: usize,
+        rx_buffer: usize,
+    ) -> bool {
+        let Some(oldest) = self.in_flight.front() else {
+            self.quiet = None;
+            return false;
+        };
+        let dwell = self.in_flight.iter().any(|s| {
+            gcode::words(&self.lines[s.index].text, 0)
                 .is_ok_and(|w| w.iter().any(|&(l, v)| l == 'G' && v == 4.0))
         });
         let empty = st
             .buffer
             .is_none_or(|(b, rx)| b as usize >= planner_blocks && rx as usize + 1 >= rx_buffer);
-        if self.in_flight.is_empty() || dwell || st.state != MachineState::Idle || !empty {
-            self.quiet = (0, None);
+        if dwell || st.state != MachineState::Idle || !empty {
+            self.quiet = None;
             return false;
         }
-        let since = *self.quiet.1.get_or_insert_with(Instant::now);
-        self.quiet.0 += 1;
+        if report <= oldest.polls_before {
+            return false;
+        }
+        let index = oldest.index;
+        let quiet = match &mut self.quiet {
+            Some(q) if q.index == index => q,
+            q => q.insert(Quiet {
+                index,
+                reports: 0,
+                since: Instant::now(),
+            }),
+        };
+        quiet.reports += 1;
         let long = if st.buffer.is_some() { 1.0 } else { 3.0 };
-        self.quiet.0 >= 3 && since.elapsed().as_secs_f64() >= long
+        quiet.reports >= 3 && quiet.since.elapsed().as_secs_f64() >= long
     }
 
     /// The oldest line in flight was answered: free its bytes.
     pub(super) fn pop(&mut self) -> Option<&'l Outgoing> {
-        let (idx, len) = self.in_flight.pop_front()?;
-        self.in_flight_bytes -= len;
-        Some(&self.lines[idx])
+        let sent = self.in_flight.pop_front()?;
+        self.in_flight_bytes -= sent.bytes;
+        Some(&self.lines[sent.index])
     }
 
     pub(super) fn ack(&mut self) {
@@ -443,7 +498,7 @@ impl<'l> Flight<'l> {
     /// one), or an earlier acknowledged move that may still have been waiting in the planner.
     pub(super) fn resume_at(&self, failed: Option<usize>) -> usize {
         let first_unanswered = failed
-            .or_else(|| self.in_flight.front().map(|&(i, _)| self.lines[i].number))
+            .or_else(|| self.in_flight.front().map(|s| self.lines[s.index].number))
             .or_else(|| self.lines.get(self.acked_total).map(|l| l.number))
             .unwrap_or_else(|| {
                 self.lines

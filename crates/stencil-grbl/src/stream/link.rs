@@ -6,6 +6,8 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 
+use crate::protocol::RT_STATUS;
+
 /// A byte link to a controller: read with a timeout, write. Implemented for serial ports and ptys.
 pub trait BytePort: Read + Write + Send {
     /// How long a `read` may block before failing with `TimedOut`.
@@ -44,6 +46,30 @@ pub(super) struct Link<'a> {
     pub(super) buf: Vec<u8>,
     pub(super) last_heard: Instant,
     pub(super) timeout: Duration,
+    /// Status requests (`?` bytes) written so far: Grbl takes every `?` byte as one, wherever it
+    /// stands in the stream.
+    pub(super) polls_sent: u64,
+    /// Status reports read so far, never counted past [`Link::polls_sent`] (a report nobody here
+    /// asked for, such as one left over from an earlier sender, answers none of our requests).
+    ///
+    /// The `k`-th report was written after Grbl had read our `k`-th `?`: every report answers at
+    /// least one request not answered before (Grbl folds requests that arrive together into one
+    /// report, and a request or report lost on the wire only makes the count lag). So the report
+    /// counted `k` describes Grbl after it read every byte written before that `?`.
+    pub(super) reports_seen: u64,
+}
+
+impl<'a> Link<'a> {
+    pub(super) fn new(port: &'a mut dyn BytePort, timeout: Duration) -> Link<'a> {
+        Link {
+            port,
+            buf: Vec::new(),
+            last_heard: Instant::now(),
+            timeout,
+            polls_sent: 0,
+            reports_seen: 0,
+        }
+    }
 }
 
 impl Link<'_> {
@@ -51,7 +77,9 @@ impl Link<'_> {
         self.port
             .write_all(bytes)
             .and_then(|_| self.port.flush())
-            .map_err(|e| LinkFault::Lost(e.to_string()))
+            .map_err(|e| LinkFault::Lost(e.to_string()))?;
+        self.polls_sent += bytes.iter().filter(|&&b| b == RT_STATUS).count() as u64;
+        Ok(())
     }
 
     /// The next complete line, waiting at most `wait`; `None` if none came.
@@ -62,6 +90,9 @@ impl Link<'_> {
                 let s = String::from_utf8_lossy(&raw).trim().to_string();
                 if s.is_empty() {
                     continue;
+                }
+                if s.starts_with('<') && s.ends_with('>') {
+                    self.reports_seen = (self.reports_seen + 1).min(self.polls_sent);
                 }
                 return Ok(Some(s));
             }

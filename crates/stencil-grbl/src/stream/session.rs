@@ -42,12 +42,7 @@ impl<'a, 'o> Session<'a, 'o> {
     ) -> Self {
         Session {
             port_name: port.describe(),
-            link: Link {
-                port,
-                buf: Vec::new(),
-                last_heard: Instant::now(),
-                timeout: cfg.timeout,
-            },
+            link: Link::new(port, cfg.timeout),
             cfg,
             obs,
             controls,

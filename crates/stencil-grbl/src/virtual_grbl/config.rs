@@ -82,6 +82,37 @@ pub struct VirtualConfig {
     /// it starts with, as a person's saved `$#`, `$G` and `?` say (its `$$` goes in `settings`);
     /// `None`: at machine zero with no offsets.
     pub start: Option<crate::placement::ControllerState>,
+    /// The board's thread loses the CPU now and then, as on a busy computer where the dry run's
+    /// controller shares two cores with a dozen other processes; `None`: it runs when it can.
+    pub stutter: Option<Stutter>,
+}
+
+/// Pauses between the board's turns: after each turn, with a chance of one in `one_in`, it
+/// sleeps up to `longest` (drawn from `seed`, so a run can be repeated).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stutter {
+    pub seed: u64,
+    pub one_in: u32,
+    pub longest: std::time::Duration,
+}
+
+impl Stutter {
+    /// The pause after the next turn (zero most of the time); advances `state` (a splitmix64
+    /// generator seeded with `seed`).
+    pub fn next_pause(&self, state: &mut u64) -> std::time::Duration {
+        let mut draw = || {
+            *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = *state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        };
+        if self.one_in == 0 || draw() % u64::from(self.one_in) != 0 {
+            return std::time::Duration::ZERO;
+        }
+        let nanos = self.longest.as_nanos().min(u128::from(u64::MAX)) as u64;
+        std::time::Duration::from_nanos(draw() % nanos.max(1))
+    }
 }
 
 impl Default for VirtualConfig {
@@ -99,6 +130,7 @@ impl Default for VirtualConfig {
             homing: true,
             latency: std::time::Duration::ZERO,
             start: None,
+            stutter: None,
         }
     }
 }

@@ -33,7 +33,7 @@ mod system;
 #[cfg(test)]
 mod tests;
 
-pub use self::config::{Fault, FaultKind, Pace, VirtualConfig};
+pub use self::config::{Fault, FaultKind, Pace, Stutter, VirtualConfig};
 pub use self::record::{Event, PlannedMove, Received, Record};
 
 use self::sim::Sim;

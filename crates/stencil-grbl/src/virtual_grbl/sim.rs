@@ -147,7 +147,11 @@ impl Sim {
 
     pub(super) fn run(&mut self, stop: &AtomicBool) {
         let mut buf = [0u8; 512];
+        let mut stutter = self.cfg.stutter.map(|s| (s, s.seed));
         while !stop.load(Ordering::SeqCst) && self.port.is_some() {
+            if let Some((s, state)) = stutter.as_mut() {
+                std::thread::sleep(s.next_pause(state));
+            }
             let now = Instant::now();
             self.deliver(now);
             self.advance(now);
