@@ -1,4 +1,4 @@
-//! `stencil make` on real photographs, through to G-code, as `pipeline::run` does it in memory
+//! `stencil make` on real photographs, through to G-code, as `driver::run` does it in memory
 //! (nothing written): `cargo bench --bench make`. The photos are `samples/grace_hopper.jpg` and
 //! `../shared/photos/*.jpg` when that folder is there; each at its own size (0.1 mm per pixel,
 //! cardstock) and supersampled 2× (about 1 megapixel working, the yardstick). Before the
@@ -11,8 +11,9 @@ mod alloc;
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use stencil_core::driver::run;
 use stencil_core::material::settings_for;
-use stencil_core::pipeline::{run, MakeConfig};
+use stencil_core::pipeline::MakeConfig;
 use stencil_gcode::machine;
 use stencil_gcode::{GcodeConfig, PlanConfig};
 

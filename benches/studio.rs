@@ -19,7 +19,8 @@ mod shapes;
 mod studio_inputs;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use stencil_core::pipeline::{run, MakeConfig};
+use stencil_core::driver::run;
+use stencil_core::pipeline::MakeConfig;
 use stencil_core::tone::mesh::Mesh;
 use stencil_core::tone::Threshold;
 use stencil_studio::engine::Engine;

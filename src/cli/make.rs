@@ -534,7 +534,7 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
         progress: Some(bar.clone()),
         ..cfg
     };
-    let result = pipeline::make(&cfg);
+    let result = stencil_core::driver::make(&cfg);
     bar.finish();
     let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_made(&cfg, &made, &replaced);
@@ -1130,7 +1130,7 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         gcode: None,
         progress: Some(bar.clone()),
     };
-    let result = pipeline::clean_two_tone(&cfg);
+    let result = stencil_core::driver::clean_two_tone(&cfg);
     bar.finish();
     let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))

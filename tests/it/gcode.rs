@@ -878,7 +878,7 @@ fn samples_dir() -> std::path::PathBuf {
 
 /// Run `make` in memory on a sample at 150 mm wide with G-code for `machine`.
 fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil_core::pipeline::Made {
-    use stencil_core::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+    use stencil_core::pipeline::{MakeConfig, PhysicalConfig, Size};
     let physical = PhysicalConfig {
         size: Size::WidthMm(150.0),
         // The samples are about the G-code here, not about the material check.
@@ -898,7 +898,7 @@ fn make_sample(name: &str, machine: &Machine, cut_outline: bool) -> stencil_core
         }),
         ..Default::default()
     };
-    pipeline::run(&cfg).unwrap_or_else(|e| panic!("{name}: {e}"))
+    stencil_core::driver::run(&cfg).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 #[test]

@@ -530,7 +530,7 @@ fn a_port_without_grbl_is_reported_not_waited_on_forever() {
 
 /// `stencil_gcode`'s G-code for a sample, as `make --emit gcode` writes it.
 fn planned_sample(name: &str) -> String {
-    use stencil_core::pipeline::{self, MakeConfig, PhysicalConfig, Size};
+    use stencil_core::pipeline::{MakeConfig, PhysicalConfig, Size};
     use stencil_gcode::{GcodeConfig, PlanConfig};
     let machine = stencil_gcode::machine::load(None).unwrap();
     let physical = PhysicalConfig {
@@ -552,7 +552,7 @@ fn planned_sample(name: &str) -> String {
         }),
         ..Default::default()
     };
-    pipeline::run(&cfg).unwrap().gcode.unwrap()
+    stencil_core::driver::run(&cfg).unwrap().gcode.unwrap()
 }
 
 #[test]

@@ -92,7 +92,7 @@ fn make(input: &Path, out: &Path, phys: PhysicalConfig) -> Report {
         },
         ..Default::default()
     };
-    pipeline::make(&cfg).unwrap_or_else(|e| panic!("{}: {e}", input.display()));
+    stencil_core::driver::make(&cfg).unwrap_or_else(|e| panic!("{}: {e}", input.display()));
     serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
 }
 

@@ -43,8 +43,9 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
-use crate::pipeline::{self, Error, Made, MakeConfig, Source, Timings};
+use crate::pipeline::{self, Error, Made, MakeConfig, Source, StageParams, Timings};
 use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone::{is_light, Threshold};
 use crate::units::Size;
@@ -640,28 +641,7 @@ pub fn layer_folder(k: usize, n: usize) -> String {
     }
 }
 
-/// Folders a set's stencils may be in, besides the output folder itself.
-pub const FOLDERS: &[&str] = &[
-    "layer-1", "layer-2", "layer-3", "layer-4", "layer-5", "layer-6", "fill-in",
-];
-
-/// Every name `make` owns in its output folder: a one-layer run's files, a set's `composite.png`
-/// and `layers.json`, and every file of every layer folder and of `fill-in/`. Any run removes the
-/// owned names it does not write, so a one-layer run leaves no layer folder behind.
-pub fn owned_names() -> &'static [&'static str] {
-    static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
-    NAMES.get_or_init(|| {
-        let mut v: Vec<&'static str> = pipeline::OUTPUT_NAMES.to_vec();
-        v.push("composite.png");
-        v.push("layers.json");
-        for f in FOLDERS {
-            for n in pipeline::OUTPUT_NAMES {
-                v.push(Box::leak(format!("{f}/{n}").into_boxed_str()));
-            }
-        }
-        v
-    })
-}
+pub use crate::export::{owned_names, FOLDERS};
 
 /// The stencil folders of a `make` output folder, in painting order: `layer-1/` … when it is a
 /// layered set, else the folder itself; then `fill-in/` when there is one.
@@ -688,87 +668,52 @@ struct Frame {
     cfg: MakeConfig,
 }
 
-/// One layer through `make`'s stages at `level`, its bridges on a cost gray where `covered` (cut
-/// by a later layer) is cheap, its raw cut forced to include `darker`'s cleaned cut. Returns the
-/// result and the layer's two-tone after the clean-up (what its bridges were drawn into).
+/// One layer through `make`'s stages at `level` (the driver's list, from the set's gray), its
+/// registration marks stamped into its two-tone, its bridges on a cost gray where `covered` (cut
+/// by a later layer) is cheap, its cut forced to include `darker`'s cleaned cut, every island
+/// bridged and none dropped: the layers' nesting (what a darker layer cuts, a lighter one cuts
+/// too) is taken from the cleaned cut before the join, so an island a layer dropped would be cut
+/// there but painted by the lighter layers. Returns the result and the layer's two-tone after
+/// the clean-up (what its bridges were drawn into).
 fn one_layer(
     f: &Frame,
     level: u8,
     covered: Option<&BitGrid>,
     darker: Option<&BitGrid>,
 ) -> Result<(Made, BitGrid), Error> {
-    let (cfg, source, params) = resolve_layer(f, level)?;
-    let mut timer = Timings::new(cfg.progress.clone());
-    let gray = pipeline::working_gray(source.clone(), params.working.factor);
-    let (mut raw, lvl) = pipeline::threshold(&source, gray, &params.tone);
-    let band = f.marks.band_px * params.working.factor;
-    f.marks
-        .stamp(&mut raw.bits, band, params.working.scale.mm_per_px);
-    let mut cleaned = timer.time("filter", || {
-        let look = pipeline::look(&raw);
-        pipeline::clean(raw, lvl, &params.clean, &look)
-    });
-    if let Some(d) = darker {
-        // Cumulative: what a darker layer cuts, this one cuts too.
-        for (b, &m) in cleaned.twotone.bits.data.iter_mut().zip(&d.data) {
-            *b &= m;
-        }
-    }
-    let twotone = std::mem::replace(
-        &mut cleaned.twotone,
-        TwoTone {
-            bits: BitGrid::new(0, 0, false),
-            gray: Arc::new(Gray::new(0, 0, 0.0)),
-        },
-    );
-    let cut = twotone.bits.clone();
-    let made = join_and_finish(&cfg, &params, &cleaned, twotone, covered, &mut timer)?;
-    Ok((made, cut))
-}
-
-/// `make`'s resolve step for one layer's stencil at `level`, with every island bridged, none
-/// dropped: the layers' nesting (what a darker layer cuts, a lighter one cuts too) is taken from
-/// the cleaned cut before the join, so an island a layer dropped would be cut there but painted
-/// by the lighter layers.
-fn resolve_layer(
-    f: &Frame,
-    level: u8,
-) -> Result<(MakeConfig, Source, pipeline::StageParams), Error> {
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(level);
-    let source = Source::Picture(f.source_gray.clone());
-    let mut params = pipeline::resolve(&cfg, &source)?;
-    params.join.drop_islands = false;
-    Ok((cfg, source, params))
-}
-
-/// The bridges joined on a cost gray where `cheap` (painted by another stencil) costs little
-/// ([`cost_gray`]), the real gray put back for what follows, and `make`'s later stages run.
-fn join_and_finish(
-    cfg: &MakeConfig,
-    params: &pipeline::StageParams,
-    cleaned: &pipeline::Cleaned,
-    twotone: TwoTone,
-    cheap: Option<&BitGrid>,
-    timer: &mut Timings,
-) -> Result<Made, Error> {
-    let real_gray = twotone.gray.clone();
-    let gray = match cheap {
-        Some(c) => Arc::new(cost_gray(&twotone.gray, c)),
-        None => twotone.gray,
+    let stamp = |raw: &mut TwoTone, p: &StageParams| {
+        let band = f.marks.band_px * p.working.factor;
+        f.marks
+            .stamp(&mut raw.bits, band, p.working.scale.mm_per_px);
     };
-    let mut joined = pipeline::join(
-        TwoTone {
-            bits: twotone.bits,
-            gray,
-        },
-        cleaned.level,
-        &params.join,
-        timer,
-    )?;
-    // The join just made holds the only reference: no copy.
-    Arc::make_mut(&mut joined.twotone).gray = real_gray;
-    pipeline::finish_from(cfg, params, cleaned, &joined)
+    let cost = |gray: &Gray| match covered {
+        Some(c) => cost_gray(gray, c),
+        None => gray.clone(),
+    };
+    let also = |tt: &mut TwoTone, _: &StageParams| {
+        if let Some(d) = darker {
+            for (b, &m) in tt.bits.data.iter_mut().zip(&d.data) {
+                *b &= m;
+            }
+        }
+    };
+    let tweaks = Tweaks {
+        after_threshold: Some(&stamp),
+        after_clean: darker.is_some().then_some(&also as &Edit<'_, TwoTone, ()>),
+        cost_gray: covered
+            .is_some()
+            .then_some(&cost as &(dyn Fn(&Gray) -> Gray + Sync)),
+        keep_all_islands: true,
+        two_tone: None,
+    };
+    let start = Start::Source(Source::Picture(f.source_gray.clone()));
+    let timer = Timings::new(cfg.progress.clone());
+    let b = driver::bridged_once(&cfg, &start, &tweaks, timer)?;
+    let cut = b.cleaned.twotone.bits.clone();
+    let made = pipeline::finish_from(&cfg, &b.params, &b.cleaned, &b.joined)?;
+    Ok((made, cut))
 }
 
 /// The gray the bridge cost reads for a layer: where a later layer paints (`covered` is cut),
@@ -879,81 +824,84 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     for i in 0..hidden.data.len() {
         hidden.data[i] = !cut.data[i] && stencil.data[i];
     }
-    let (cfg, _, params) = resolve_layer(f, 128)?;
-    let mm = params.working.scale.mm_per_px;
-    // Grown into the first stencil's cut, 4-neighbour steps.
-    let mut grown = hidden.clone();
-    let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
-    for _ in 0..(reach / mm).round() as u32 {
-        let prev = grown.clone();
-        for y in 0..h {
-            for x in 0..w {
-                let i = (y * w + x) as usize;
-                if prev.data[i] || cut.data[i] {
-                    continue;
-                }
-                let near = (x > 0 && prev.get(x - 1, y))
-                    || (x + 1 < w && prev.get(x + 1, y))
-                    || (y > 0 && prev.get(x, y - 1))
-                    || (y + 1 < h && prev.get(x, y + 1));
-                if near {
-                    grown.data[i] = true;
+    let mut cfg = f.cfg.clone();
+    cfg.tone.threshold = Threshold::Level(128);
+    let draw = |_: &mut (), p: &StageParams| -> TwoTone {
+        let mm = p.working.scale.mm_per_px;
+        // Grown into the first stencil's cut, 4-neighbour steps.
+        let mut grown = hidden.clone();
+        let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
+        for _ in 0..(reach / mm).round() as u32 {
+            let prev = grown.clone();
+            for y in 0..h {
+                for x in 0..w {
+                    let i = (y * w + x) as usize;
+                    if prev.data[i] || cut.data[i] {
+                        continue;
+                    }
+                    let near = (x > 0 && prev.get(x - 1, y))
+                        || (x + 1 < w && prev.get(x + 1, y))
+                        || (y > 0 && prev.get(x, y - 1))
+                        || (y + 1 < h && prev.get(x, y + 1));
+                    if near {
+                        grown.data[i] = true;
+                    }
                 }
             }
         }
-    }
-    let mut bits = BitGrid::new(w, h, true);
-    for i in 0..bits.data.len() {
-        bits.data[i] = !grown.data[i];
-    }
-    f.marks
-        .stamp(&mut bits, f.marks.band_px * params.working.factor, mm);
-    let gray = Gray {
-        width: w,
-        height: h,
-        data: bits
-            .data
-            .iter()
-            .map(|&b| if b { 1.0 } else { 0.0 })
-            .collect(),
-    };
-    let mut timer = Timings::new(cfg.progress.clone());
-    let raw = TwoTone {
-        bits,
-        gray: Arc::new(gray),
-    };
-    let mut cleaned = timer.time("filter", || {
-        let look = pipeline::look(&raw);
-        pipeline::clean(raw, 128, &params.clean, &look)
-    });
-    let twotone = std::mem::replace(
-        &mut cleaned.twotone,
+        let mut bits = BitGrid::new(w, h, true);
+        for i in 0..bits.data.len() {
+            bits.data[i] = !grown.data[i];
+        }
+        f.marks
+            .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
+        let gray = Gray {
+            width: w,
+            height: h,
+            data: bits
+                .data
+                .iter()
+                .map(|&b| if b { 1.0 } else { 0.0 })
+                .collect(),
+        };
         TwoTone {
-            bits: BitGrid::new(0, 0, false),
-            gray: Arc::new(Gray::new(0, 0, 0.0)),
-        },
-    );
+            bits,
+            gray: Arc::new(gray),
+        }
+    };
     // A speck of material its cut rings round (a small island the first stencil bridged) is
     // painted rather than bridged again when it is smaller than the least a bridge of the
     // narrowest width would hide (its width squared): the smaller change to the picture.
-    let mut twotone = twotone;
-    let map = crate::islands::label(&twotone.bits);
-    let floor = (params.join.bridge.min_width_px as usize).pow(2);
-    for (i, &l) in map.labels.iter().enumerate() {
-        if l != crate::islands::CUT
-            && l != crate::islands::FRAME
-            && map.nodes[l as usize].area < floor
-        {
-            twotone.bits.data[i] = false;
+    let specks = |twotone: &mut TwoTone, p: &StageParams| {
+        let map = crate::islands::label(&twotone.bits);
+        let floor = (p.join.bridge.min_width_px as usize).pow(2);
+        for (i, &l) in map.labels.iter().enumerate() {
+            if l != crate::islands::CUT
+                && l != crate::islands::FRAME
+                && map.nodes[l as usize].area < floor
+            {
+                twotone.bits.data[i] = false;
+            }
         }
-    }
+    };
     // Its own bridges (where its cut rings round material) are cheap where the first stencil
     // paints anyway: on the overlap, not on the pixels it exists to paint.
     let mut painted = BitGrid::new(w, h, true);
     for i in 0..painted.data.len() {
         painted.data[i] = cut.data[i] || hidden.data[i];
     }
-    let made = join_and_finish(&cfg, &params, &cleaned, twotone, Some(&painted), &mut timer)?;
+    let cost = |gray: &Gray| cost_gray(gray, &painted);
+    let tweaks = Tweaks {
+        two_tone: Some(&draw),
+        after_threshold: None,
+        after_clean: Some(&specks),
+        cost_gray: Some(&cost),
+        keep_all_islands: true,
+    };
+    let start = Start::Source(Source::Picture(f.source_gray.clone()));
+    let timer = Timings::new(cfg.progress.clone());
+    let b = driver::bridged_once(&cfg, &start, &tweaks, timer)?;
+    let made = pipeline::finish_from(&cfg, &b.params, &b.cleaned, &b.joined)?;
     Ok((made, hidden))
 }
 

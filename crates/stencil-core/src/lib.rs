@@ -17,22 +17,23 @@
 //! tracing, simplification and union; morphology and labelling; the mesh renderer's camera,
 //! visibility, shading and lines; the SVG, DXF and mask encoders) are reached through the items
 //! below.
-//! - The facade: [`make`] (run and write, all or nothing), [`pipeline::run`] (in memory), their
+//! - The facade: [`make`] (run and write, all or nothing), [`driver::run`] (in memory), their
 //!   [`MakeConfig`] / [`pipeline::PhysicalConfig`] / [`pipeline::Emit`], the result
 //!   [`pipeline::Made`], and [`Error`] (every error they return, as data: values and ranges,
-//!   no option names; the `stencil` binary words them). Around them: [`pipeline::clean_two_tone`]
+//!   no option names; the `stencil` binary words them). Around them: [`driver::clean_two_tone`]
 //!   (`stencil tone`), [`pipeline::default_out_dir`], [`pipeline::OUTPUT_NAMES`].
-//! - The pipeline as one resolve step and a list of stages, for a caller that keeps each stage's
-//!   output and re-runs from the first whose inputs changed (`stencil studio`'s engine):
-//!   [`pipeline::SourceParams`] (what loading and drawing need) → [`pipeline::load`] →
-//!   [`pipeline::draw`] (a mesh's view, before it is lit) → [`pipeline::light`] (together
-//!   [`pipeline::render`]) → [`pipeline::resolve`] (the rest of the request as
+//! - The driver ([`driver`]): the stages listed once, in order, run by `make` ([`driver::run`]),
+//!   by the studio with a [`driver::Cache`] that keeps each stage's output and re-runs from the
+//!   first whose inputs changed, and by a layered set per layer ([`driver::Tweaks`]). The stages
+//!   are `pipeline`'s: [`pipeline::SourceParams`] (what loading and drawing need) →
+//!   [`pipeline::load`] → [`pipeline::draw`] (a mesh's view, before it is lit) →
+//!   [`pipeline::light`] → [`pipeline::resolve`] (the rest of the request as
 //!   [`pipeline::StageParams`]: pixels, no millimetres, no paths) → [`pipeline::working_gray`] →
-//!   [`pipeline::threshold`] → [`pipeline::clean`] → [`pipeline::join`] → [`pipeline::trace`] →
-//!   [`pipeline::refuse`] / [`pipeline::gcode`] / [`pipeline::report`], and
-//!   [`pipeline::finish_from`] (make's end from kept outputs); the types between them
-//!   ([`pipeline::Input`], [`pipeline::Source`], [`pipeline::Cleaned`], [`pipeline::Joined`],
-//!   [`pipeline::Traced`]).
+//!   [`pipeline::threshold`] → [`pipeline::look`] → [`pipeline::clean`] → [`pipeline::prepare`]
+//!   → [`pipeline::bridge_prepared`] → [`pipeline::trace`] → [`pipeline::refuse`] /
+//!   [`pipeline::gcode`] / [`pipeline::report`], and [`pipeline::finish_from`] (make's end from
+//!   kept outputs); the types between them ([`pipeline::Input`], [`pipeline::Source`],
+//!   [`pipeline::Cleaned`], [`pipeline::Joined`], [`pipeline::Traced`]).
 //! - Sizing before any work: [`fit`] (a size that fits the machine's bed or the stock, decided
 //!   from the picture's header).
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
@@ -61,6 +62,7 @@
 
 pub mod bridge;
 pub mod check;
+pub mod driver;
 pub mod export;
 pub mod fit;
 pub mod gobo;
@@ -78,4 +80,5 @@ pub mod tone;
 pub mod units;
 pub mod vector;
 
-pub use pipeline::{make, Error, MakeConfig};
+pub use driver::make;
+pub use pipeline::{Error, MakeConfig};

@@ -1124,35 +1124,6 @@ pub fn measure(cleaned: &Cleaned, p: &CleanParams, look: &tone::Likeness) -> f64
     look.of_bits(&cleaned.twotone.bits, p.invert)
 }
 
-/// The first stages as one call: the picture (or mesh) as a two-tone at the working resolution,
-/// cleaned up, with the parameters it was made with.
-fn cleaned(cfg: &MakeConfig, timer: &mut Timings) -> Result<(Cleaned, StageParams), Error> {
-    let sp = SourceParams::of(cfg)?;
-    let (source, params) = timer.time("tone", || -> Result<_, Error> {
-        let input = load(&cfg.input, &sp)?;
-        let source = render(&input, &sp)?;
-        let params = resolve(cfg, &source)?;
-        Ok((source, params))
-    })?;
-    let (raw, level) = timer.time("tone", || {
-        let gray = working_gray(source.clone(), params.working.factor);
-        threshold(&source, gray, &params.tone)
-    });
-    let c = timer.time("filter", || {
-        let l = look(&raw);
-        clean(raw, level, &params.clean, &l)
-    });
-    Ok((c, params))
-}
-
-/// The two-tone `make` writes as twotone.png (when no bridge is placed or kept out by hand): the
-/// picture at the working resolution after the clean-up for `cfg`'s material and size. What
-/// `stencil tone` writes, so that it shows exactly what `make` will bridge.
-pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
-    let mut timer = Timings::new(cfg.progress.clone());
-    Ok(cleaned(cfg, &mut timer)?.0.twotone)
-}
-
 /// The islands of the cleaned two-tone joined to the frame, and what went into it.
 #[derive(Clone, Debug)]
 ///
@@ -1495,20 +1466,17 @@ pub fn trace(
     })
 }
 
-/// Run the pipeline in memory: nothing is written.
-pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
-    let mut timer = Timings::new(cfg.progress.clone());
-    let (mut cleaned, params) = cleaned(cfg, &mut timer)?;
-    // The cleaned two-tone moves on to the bridges; the report reads only its measures.
-    let twotone = std::mem::replace(
-        &mut cleaned.twotone,
-        TwoTone {
-            bits: BitGrid::new(0, 0, false),
-            gray: Arc::new(Gray::new(0, 0, 0.0)),
-        },
-    );
-    let joined = join(twotone, cleaned.level, &params.join, &mut timer)?;
-    finish(cfg, &params, cleaned, joined, timer)
+/// `make`'s end from the stage outputs it made and holds alone (shared ones are copied): the
+/// trace and check, the refusal, the G-code and the report ([`crate::driver::run`]).
+pub(crate) fn finish_owned(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    cleaned: Arc<Cleaned>,
+    joined: Arc<Joined>,
+    timer: Timings,
+) -> Result<Made, Error> {
+    let cleaned = Arc::unwrap_or_clone(cleaned);
+    finish(cfg, params, cleaned, Arc::unwrap_or_clone(joined), timer)
 }
 
 /// From the bridges on to the report: trace and check, refuse what `make` refuses, the G-code.
@@ -1835,31 +1803,7 @@ pub(crate) fn encode_outputs(
     Ok(files)
 }
 
-/// Every name `encode_outputs` can write: `make` owns these names in its output folder, and
-/// removes those a run does not write (an earlier run's `stencil.gcode` must not sit beside a new
-/// stencil, where `send` would stream it).
-pub const OUTPUT_NAMES: &[&str] = &[
-    "gray.png",
-    "twotone.png",
-    "stencil.png",
-    "preview.png",
-    "stencil.svg",
-    "stencil.dxf",
-    "mask.png",
-    "mask.svg",
-    "mask-front.png",
-    "mask-front.svg",
-    "mask-back.png",
-    "mask-back.svg",
-    "stencil.gcode",
-    "report.json",
-];
-
-/// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
-/// Files of [`OUTPUT_NAMES`] this run did not write are removed (listed in the result).
-pub fn make(cfg: &MakeConfig) -> Result<(Made, export::Replaced), Error> {
-    write_with(cfg, || run(cfg))
-}
+pub use crate::export::OUTPUT_NAMES;
 
 /// What `make` writes for a result computed elsewhere (the studio's kept stages), by `make`'s
 /// own rules: the same files, all or nothing, [`OUTPUT_NAMES`] it did not write removed.
@@ -1867,7 +1811,9 @@ pub fn write(cfg: &MakeConfig, made: Made) -> Result<(Made, export::Replaced), E
     write_with(cfg, || Ok(made))
 }
 
-fn write_with(
+/// Write what `compute` makes into `cfg.out_dir` by `make`'s rules: the folder made first (so a
+/// run fails before its work), all or nothing, [`OUTPUT_NAMES`] it did not write removed.
+pub(crate) fn write_with(
     cfg: &MakeConfig,
     compute: impl FnOnce() -> Result<Made, Error>,
 ) -> Result<(Made, export::Replaced), Error> {
@@ -1879,7 +1825,7 @@ fn write_with(
         }
         let files = encode_outputs(&mut made, &cfg.physical)?;
         // Every name make owns, a set's layer folders included: a one-layer run leaves none.
-        let replaced = export::write_files(&cfg.out_dir, &files, crate::layers::owned_names())?;
+        let replaced = export::write_files(&cfg.out_dir, &files, export::owned_names())?;
         Ok((made, replaced))
     });
     if result.is_err() && !existed {

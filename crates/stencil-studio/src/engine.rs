@@ -11,12 +11,12 @@
 
 use std::sync::Arc;
 
+use stencil_core::driver::{Cache, Start, Stopped, Tweaks};
 use stencil_core::export;
 use stencil_core::pipeline::{
-    self, Cleaned, Input, Joined, Made, MakeConfig, Prepared, Source, SourceParams, StageParams,
-    Timings, ToneParams, Traced,
+    self, Cleaned, Joined, Made, MakeConfig, StageParams, Timings, Traced,
 };
-use stencil_core::raster::{Gray, TwoTone};
+use stencil_core::raster::Gray;
 use stencil_core::report::Report;
 use stencil_core::Error;
 
@@ -30,42 +30,22 @@ pub enum RunError {
     Core(#[from] Error),
 }
 
-/// One stage's output, with what it was made from: its key (the upstream output's generation
-/// and the stage's parameters) and its own generation, which downstream keys carry.
-struct Slot<K, V> {
-    key: K,
-    generation: u64,
-    value: V,
+impl From<Stopped> for RunError {
+    fn from(s: Stopped) -> Self {
+        match s {
+            Stopped::Superseded => RunError::Cancelled,
+            Stopped::Failed(e) => RunError::Core(e),
+        }
+    }
 }
 
-/// A kept stage: its key is the upstream output's generation and the stage's parameters.
-type Kept<P, V> = Option<Slot<(u64, P), V>>;
-
-/// The outputs of the last run, stage by stage.
+/// The outputs of the last run, stage by stage (the driver's [`Cache`]), and the Otsu level of
+/// the kept working gray (the page marks it on the histogram: a full pass over the picture,
+/// made once per gray rather than once per change).
 #[derive(Default)]
 pub struct Engine {
-    generations: u64,
-    input: Option<Slot<Option<u64>, Input>>,
-    /// A mesh's view before it is lit, keyed by everything but the light: a light change
-    /// re-lights it (no raster, no lines).
-    drawn: Kept<
-        Option<stencil_core::tone::mesh::MeshConfig>,
-        Option<Arc<stencil_core::tone::mesh::Drawn>>,
-    >,
-    source: Kept<SourceParams, Source>,
-    /// The working gray and its Otsu level (the page marks it on the histogram): a full pass
-    /// over the picture, made once per gray rather than once per change.
-    gray: Kept<u32, (Arc<Gray>, u8)>,
-    raw: Kept<ToneParams, Arc<(TwoTone, u8)>>,
-    /// The picture's side of the likeness measure, made of the two-tone's gray: kept while that
-    /// gray stays (a threshold change keeps it; see `ToneParams::gray_key`).
-    look: Kept<Option<([f64; 3], bool)>, Arc<stencil_core::tone::Likeness>>,
-    cleaned: Kept<pipeline::CleanParams, Arc<Cleaned>>,
-    /// The islands and their walks, keyed by the join's parameters without the weights: a
-    /// weight change re-chooses the bridges from the kept walks.
-    prepared: Kept<pipeline::JoinParams, Arc<Prepared>>,
-    joined: Kept<pipeline::JoinParams, Arc<Joined>>,
-    traced: Kept<pipeline::TraceParams, Arc<(Joined, Traced)>>,
+    cache: Cache,
+    otsu: Option<(u64, u8)>,
 }
 
 /// What one run shows: every stage's output up to the bridges (the preview), then the trace
@@ -95,34 +75,12 @@ pub struct Computed {
     joined_generation: u64,
 }
 
-/// Run `f` unless the slot holds the output for `key`; returns the output and its generation.
-fn step<K: PartialEq, V: Clone, E>(
-    slot: &mut Option<Slot<K, V>>,
-    generations: &mut u64,
-    ran: &mut Vec<&'static str>,
-    name: &'static str,
-    key: K,
-    f: impl FnOnce() -> Result<V, E>,
-) -> Result<(u64, V), E> {
-    if let Some(s) = slot.as_ref().filter(|s| s.key == key) {
-        return Ok((s.generation, s.value.clone()));
-    }
-    // A failed stage leaves no stale output behind it.
-    *slot = None;
-    let value = f()?;
-    *generations += 1;
-    ran.push(name);
-    *slot = Some(Slot {
-        key,
-        generation: *generations,
-        value: value.clone(),
-    });
-    Ok((*generations, value))
-}
-
 impl Engine {
     pub fn new() -> Self {
-        Engine::default()
+        Engine {
+            cache: Cache::keeping(),
+            otsu: None,
+        }
     }
 
     /// Run `cfg` through the stages, re-using every output whose inputs did not change:
@@ -145,158 +103,31 @@ impl Engine {
         cfg: &MakeConfig,
         superseded: &dyn Fn() -> bool,
     ) -> Result<Computed, RunError> {
-        let mut ran = Vec::new();
-        let g = &mut self.generations;
-        let cancel = || {
-            if superseded() {
-                Err(RunError::Cancelled)
-            } else {
-                Ok(())
+        let timer = Timings::new(None);
+        let b = self
+            .cache
+            .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
+        let otsu = match self.otsu {
+            Some((g, level)) if g == b.gray_generation => level,
+            _ => {
+                let level = stencil_core::tone::otsu_level(&b.gray);
+                self.otsu = Some((b.gray_generation, level));
+                level
             }
         };
-        let sp = SourceParams::of(cfg)?;
-        let input_key = match sp {
-            SourceParams::Picture { max_pixels, .. } => Some(max_pixels),
-            SourceParams::Mesh(_) => None,
-        };
-        let (ig, input) = step(&mut self.input, g, &mut ran, "load", input_key, || {
-            pipeline::load(&cfg.input, &sp)
-        })?;
-        cancel()?;
-        let (dg, drawn) = step(
-            &mut self.drawn,
-            g,
-            &mut ran,
-            "draw",
-            (ig, sp.view_key()),
-            || pipeline::draw(&input, &sp),
-        )?;
-        cancel()?;
-        let (sg, source) = step(
-            &mut self.source,
-            g,
-            &mut ran,
-            "light",
-            (dg, sp.clone()),
-            || pipeline::light(&input, drawn.as_deref(), &sp),
-        )?;
-        cancel()?;
-        let params = pipeline::resolve(cfg, &source)?;
-        let factor = params.working.factor;
-        let (gg, gray_otsu) = step(&mut self.gray, g, &mut ran, "gray", (sg, factor), || {
-            let gray = pipeline::working_gray(source.clone(), factor);
-            let otsu = stencil_core::tone::otsu_level(&gray);
-            Ok::<_, RunError>((gray, otsu))
-        })?;
-        let (gray, otsu) = gray_otsu;
-        let (rg, raw) = step(
-            &mut self.raw,
-            g,
-            &mut ran,
-            "threshold",
-            (gg, params.tone),
-            || {
-                // The gray is shared with the two-tone, not copied.
-                Ok::<_, RunError>(Arc::new(pipeline::threshold(
-                    &source,
-                    Arc::clone(&gray),
-                    &params.tone,
-                )))
-            },
-        )?;
-        cancel()?;
-        let (_, look) = step(
-            &mut self.look,
-            g,
-            &mut ran,
-            "look",
-            (gg, params.tone.gray_key()),
-            || Ok::<_, RunError>(Arc::new(pipeline::look(&raw.0))),
-        )?;
-        let mut timer = Timings::new(None);
-        // A new clean-up is always followed by new walks (their key holds its generation), and
-        // its likeness only reports: so the walks run beside the likeness, inside the clean-up's
-        // step, and the walk step below takes their result (unless a newer change came first).
-        let mut walked = None;
-        let (cg, cleaned) = step(
-            &mut self.cleaned,
-            g,
-            &mut ran,
-            "clean",
-            (rg, params.clean),
-            || {
-                let (tt, level) = (*raw).clone();
-                let mut c = pipeline::clean_unmeasured(tt, level, &params.clean, &look);
-                let measure = || pipeline::measure(&c, &params.clean, &look);
-                c.likeness = if superseded() {
-                    measure()
-                } else {
-                    let (likeness, w) = rayon::join(measure, || {
-                        let mut t = Timings::new(None);
-                        let w = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut t);
-                        (w, t)
-                    });
-                    walked = Some(w);
-                    likeness
-                };
-                Ok::<_, RunError>(Arc::new(c))
-            },
-        )?;
-        cancel()?;
-        let (pg, prepared) = step(
-            &mut self.prepared,
-            g,
-            &mut ran,
-            "walk",
-            (cg, Prepared::key(&params.join)),
-            || {
-                let prepared = match walked.take() {
-                    Some((w, t)) => {
-                        for (name, ms) in t.iter() {
-                            timer.add(name, ms);
-                        }
-                        w?
-                    }
-                    None => pipeline::prepare(
-                        cleaned.twotone.clone(),
-                        cleaned.level,
-                        &params.join,
-                        &mut timer,
-                    )?,
-                };
-                Ok::<_, RunError>(Arc::new(prepared))
-            },
-        )?;
-        cancel()?;
-        let (jg, joined) = step(
-            &mut self.joined,
-            g,
-            &mut ran,
-            "join",
-            (pg, params.join.clone()),
-            || {
-                // The kept walks are lent to the choice, not copied (a weight change's copy
-                // of them and the islands was 3 ms of the 33).
-                Ok::<_, RunError>(Arc::new(pipeline::bridge_prepared(
-                    &prepared,
-                    &params.join,
-                    &mut timer,
-                )?))
-            },
-        )?;
-        let report = pipeline::report_joined(cfg, &params, &cleaned, &joined, timer);
+        let report = pipeline::report_joined(cfg, &b.params, &b.cleaned, &b.joined, b.timer);
         Ok(Computed {
             cfg: cfg.clone(),
-            params,
-            gray,
+            params: b.params,
+            gray: b.gray,
             otsu,
-            cleaned,
-            joined,
+            cleaned: b.cleaned,
+            joined: b.joined,
             traced: None,
             report,
             refused: None,
-            ran,
-            joined_generation: jg,
+            ran: b.ran,
+            joined_generation: b.joined_generation,
         })
     }
 
@@ -313,23 +144,12 @@ impl Engine {
         let (cfg, params, joined, cleaned) = (&c.cfg, &c.params, &c.joined, &c.cleaned);
         let mut ran = c.ran.clone();
         let mut timer = Timings::new(None);
-        let (_, traced) = step(
-            &mut self.traced,
-            &mut self.generations,
+        let traced = self.cache.traced(
+            (joined, c.joined_generation),
+            cleaned,
+            params,
+            &mut timer,
             &mut ran,
-            "trace",
-            (c.joined_generation, params.trace.clone()),
-            || {
-                let mut j = (**joined).clone();
-                let t = pipeline::trace(
-                    &mut j.bridged,
-                    &joined.twotone.bits,
-                    &cleaned.picture,
-                    &params.trace,
-                    &mut timer,
-                )?;
-                Ok::<_, RunError>(Arc::new((j, t)))
-            },
         )?;
         let (j, t) = &*traced;
         let refused = pipeline::refuse(&cfg.physical, t.fidelity, &t.check).err();

@@ -3,12 +3,14 @@
 
 pub(crate) mod dxf;
 pub(crate) mod mask;
+mod names;
 pub mod png;
 pub(crate) mod svg;
 
 use std::path::{Path, PathBuf};
 
 pub use mask::{Etch, MaskConfig, MaskReport, MaskSide, POLARITY};
+pub use names::{owned_names, FOLDERS, OUTPUT_NAMES};
 pub use stencil_io::Replaced;
 use stencil_io::{plain_io, WriteError};
 

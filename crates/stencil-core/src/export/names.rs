@@ -1,0 +1,46 @@
+//! The names `make` owns in its output folder: a stencil's files, and a set's folders and files.
+//! A leaf: the writer of one stencil (`pipeline`) and of a set (`layers`) both read it, so
+//! neither needs the other for its names.
+
+/// Every name `encode_outputs` can write: `make` owns these names in its output folder, and
+/// removes those a run does not write (an earlier run's `stencil.gcode` must not sit beside a new
+/// stencil, where `send` would stream it).
+pub const OUTPUT_NAMES: &[&str] = &[
+    "gray.png",
+    "twotone.png",
+    "stencil.png",
+    "preview.png",
+    "stencil.svg",
+    "stencil.dxf",
+    "mask.png",
+    "mask.svg",
+    "mask-front.png",
+    "mask-front.svg",
+    "mask-back.png",
+    "mask-back.svg",
+    "stencil.gcode",
+    "report.json",
+];
+
+/// Folders a set's stencils may be in, besides the output folder itself.
+pub const FOLDERS: &[&str] = &[
+    "layer-1", "layer-2", "layer-3", "layer-4", "layer-5", "layer-6", "fill-in",
+];
+
+/// Every name `make` owns in its output folder: a one-layer run's files, a set's `composite.png`
+/// and `layers.json`, and every file of every layer folder and of `fill-in/`. Any run removes the
+/// owned names it does not write, so a one-layer run leaves no layer folder behind.
+pub fn owned_names() -> &'static [&'static str] {
+    static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| {
+        let mut v: Vec<&'static str> = OUTPUT_NAMES.to_vec();
+        v.push("composite.png");
+        v.push("layers.json");
+        for f in FOLDERS {
+            for n in OUTPUT_NAMES {
+                v.push(Box::leak(format!("{f}/{n}").into_boxed_str()));
+            }
+        }
+        v
+    })
+}
