@@ -242,7 +242,10 @@ mod tests {
         assert_eq!(q.to_json(&s)["width-mm"], serde_json::json!(""));
         // A value that looks like an option stays the option's value.
         let n = p
-            .with(&s, &serde_json::json!({"threshold": "-1", "bridge-at": ["-2,3"]}))
+            .with(
+                &s,
+                &serde_json::json!({"threshold": "-1", "bridge-at": ["-2,3"]}),
+            )
             .unwrap();
         assert_eq!(n.args(&s), ["--threshold=-1", "--bridge-at=-2,3"]);
     }

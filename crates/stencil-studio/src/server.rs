@@ -101,7 +101,10 @@ impl SetRun {
         }
         let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
             // Canonical numbers only (`s1`, not `s01` or `s+1`): one name per image.
-            Some((k, what)) => (k.parse::<usize>().ok().filter(|n| n.to_string() == k)?, what),
+            Some((k, what)) => (
+                k.parse::<usize>().ok().filter(|n| n.to_string() == k)?,
+                what,
+            ),
             None => (1, name),
         };
         let m = *self.stencils().get(k.checked_sub(1)?)?;
@@ -204,7 +207,10 @@ struct Done {
 impl Done {
     fn cached(&self, name: &str) -> Option<Bytes> {
         let images = self.images.lock().unwrap_or_else(|e| e.into_inner());
-        images.iter().find(|(n, _)| n == name).map(|(_, b)| b.clone())
+        images
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| b.clone())
     }
 
     fn cache(&self, name: &str, png: &Bytes) {
@@ -498,7 +504,13 @@ impl Studio {
         self.publish(&run, Err(msg), None, false);
     }
 
-    fn publish(&self, run: &Run, outcome: Result<Shown, String>, refused: Option<String>, checking: bool) {
+    fn publish(
+        &self,
+        run: &Run,
+        outcome: Result<Shown, String>,
+        refused: Option<String>,
+        checking: bool,
+    ) {
         self.done.send_replace(Arc::new(Done {
             version: run.version,
             params: run.params.clone(),
