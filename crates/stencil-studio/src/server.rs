@@ -496,7 +496,8 @@ impl Studio {
             }
             return;
         }
-        run.stamp = stamp(&self.input);
+        // No stamp: the watch sees the file differ from it and computes it again.
+        run.stamp = None;
         let msg = format!(
             "{} kept changing while it was read; the studio reads it again once it stays the same",
             self.input.display()
@@ -504,6 +505,7 @@ impl Studio {
         self.publish(&run, Err(msg), None, false);
     }
 
+    /// Show a run's result (or error) as the newest done.
     fn publish(
         &self,
         run: &Run,
