@@ -1,7 +1,9 @@
 //! `stencil studio` through its JSON API, as a script would drive it: the guards (token, Host,
 //! Origin, bounded bodies), `make`'s own messages for bad values, the incremental engine, and
 //! export compared byte for byte with `stencil make` run with the command line the studio shows,
-//! after random sequences of changes.
+//! after random sequences of changes; and the hostile inputs of issue 39 (a refused undo, two
+//! keep-out paintings, exports racing changes, the input replaced on disk, image name spellings,
+//! connections that never finish their headers, a value that looks like an option).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
