@@ -1,7 +1,9 @@
 //! `stencil studio` through its JSON API, as a script would drive it: the guards (token, Host,
 //! Origin, bounded bodies), `make`'s own messages for bad values, the incremental engine, and
 //! export compared byte for byte with `stencil make` run with the command line the studio shows,
-//! after random sequences of changes.
+//! after random sequences of changes; and the hostile inputs of issue 39 (a refused undo, two
+//! keep-out paintings, exports racing changes, the input replaced on disk, image name spellings,
+//! connections that never finish their headers, a value that looks like an option).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
@@ -32,10 +34,14 @@ fn bin() -> &'static str {
 
 impl Studio {
     fn start(input: &str, out: &Path, extra: &[&str]) -> Studio {
-        let mut child = Command::new(bin())
-            .args(["studio", input, "-o"])
-            .arg(out)
-            .args(extra)
+        let mut cmd = Command::new(bin());
+        cmd.args(["studio", input, "-o"]).arg(out).args(extra);
+        Studio::spawn(cmd)
+    }
+
+    /// Start a command that runs `stencil studio` (the binary, or a shell that execs it).
+    fn spawn(mut cmd: Command) -> Studio {
+        let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -540,4 +546,355 @@ fn a_set_is_shown_stencil_by_stencil_and_exported_as_make_writes_it() {
 fn has_rgb(png: &[u8], c: [u8; 3]) -> bool {
     let img = image::load_from_memory(png).unwrap().to_rgb8();
     img.pixels().any(|p| p.0 == c)
+}
+
+// ---- issue 39: the fourth hostile-input campaign against the studio's server ------------------
+
+/// A request like [`request`] that gives up after `secs` (a server that never answers fails the
+/// test instead of hanging it): `None` when no answer came.
+fn request_within(
+    port: u16,
+    path: &str,
+    headers: &[(&str, &str)],
+    secs: u64,
+) -> Option<(u16, Vec<u8>)> {
+    use std::time::Duration;
+    let mut s = TcpStream::connect(("127.0.0.1", port)).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(secs))).ok()?;
+    let mut req = format!("GET {path} HTTP/1.1\r\nConnection: close\r\n");
+    for (k, v) in headers {
+        req += &format!("{k}: {v}\r\n");
+    }
+    req += "\r\n";
+    s.write_all(req.as_bytes()).ok()?;
+    let mut raw = Vec::new();
+    s.read_to_end(&mut raw).ok()?;
+    let split = raw.windows(4).position(|w| w == b"\r\n\r\n")?;
+    let head = String::from_utf8_lossy(&raw[..split]).to_lowercase();
+    let status: u16 = head.split(' ').nth(1)?.parse().ok()?;
+    Some((status, raw[split + 4..].to_vec()))
+}
+
+/// The threshold level `make` wrote in a folder's report.json.
+fn written_level(out: &Path) -> Value {
+    let r: Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    r["threshold_level"].clone()
+}
+
+/// An undo the server refuses (the material file it names now has a typo: `make`'s message,
+/// naming the file) leaves the history and the state where they were: the state, its command
+/// line and the files exported are the one version shown; mended, the undo goes through.
+#[test]
+fn a_refused_undo_leaves_the_history_and_the_state_as_they_were() {
+    let dir = tmp("refused-undo");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mat = dir.join("mine.toml");
+    std::fs::copy("profiles/materials/cardstock.toml", &mat).unwrap();
+    let out = dir.join("out");
+    let st = Studio::start(
+        "samples/rings.png",
+        &out,
+        &["--material", mat.to_str().unwrap()],
+    );
+    st.ok("POST", "/api/params", json!({"threshold": "100"}));
+    let s = st.ok("POST", "/api/params", json!({"threshold": "150"}));
+    assert_eq!(s["report"]["threshold_level"], 150);
+    std::fs::write(&mat, "process = [laser\n").unwrap();
+    let (code, v) = st.json("POST", "/api/undo", json!(null));
+    assert_eq!(code, 400, "{v}");
+    assert!(
+        v["error"].as_str().unwrap().contains("mine.toml"),
+        "the message names the file: {v}"
+    );
+    let s = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(s["params"]["threshold"], "150", "{}", s["params"]);
+    assert_eq!(s["report"]["threshold_level"], 150);
+    assert!(
+        s["command"].as_str().unwrap().contains("--threshold 150"),
+        "{}",
+        s["command"]
+    );
+    assert_eq!(
+        s["can_redo"], false,
+        "the refused undo did not move the history"
+    );
+    let (code, _) = st.json("POST", "/api/redo", json!(null));
+    assert_eq!(code, 409, "nothing to redo: the undo was refused");
+    let e = st.ok("POST", "/api/export", json!(null));
+    assert!(e["command"].as_str().unwrap().contains("--threshold 150"));
+    assert_eq!(written_level(&out), 150);
+    // Mended, the same undo goes back one step.
+    std::fs::copy("profiles/materials/cardstock.toml", &mat).unwrap();
+    let u = st.ok("POST", "/api/undo", json!(null));
+    assert_eq!(u["params"]["threshold"], "100");
+    assert_eq!(u["report"]["threshold_level"], 100);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A PNG of `w` x `h` gray pixels, black where `dark(x, y)`.
+fn mask_png(w: u32, h: u32, dark: impl Fn(u32, u32) -> bool) -> Vec<u8> {
+    let img =
+        image::GrayImage::from_fn(w, h, |x, y| image::Luma([if dark(x, y) { 0 } else { 255 }]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+/// Each keep-out painting is kept in its own file: a second painting does not overwrite the
+/// first, so undo gives back the first mask exactly, and the export is what `make` writes with
+/// the command line shown (which names that first file).
+#[test]
+fn each_keep_out_painting_is_kept_so_undo_restores_the_first() {
+    let out = tmp("keepout-undo");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    st.ok("GET", "/api/state?wait=1", json!(null));
+    let first = mask_png(64, 64, |x, _| x < 32);
+    let second = mask_png(64, 64, |x, _| x >= 32);
+    let (code, b) = st.call("POST", "/api/keepout", &first);
+    assert_eq!(code, 200, "{}", String::from_utf8_lossy(&b));
+    let (code, b) = st.call("POST", "/api/keepout", &second);
+    assert_eq!(code, 200, "{}", String::from_utf8_lossy(&b));
+    let s: Value = serde_json::from_slice(&b).unwrap();
+    let second_path = s["params"]["keep-out"].as_str().unwrap().to_string();
+    assert_eq!(std::fs::read(&second_path).unwrap(), second);
+    let u = st.ok("POST", "/api/undo", json!(null));
+    let first_path = u["params"]["keep-out"].as_str().unwrap().to_string();
+    assert!(
+        std::fs::read(&first_path).unwrap() == first,
+        "undo's keep-out file {first_path} is not the first painting"
+    );
+    // The same painting again is the same file (named by its content).
+    let (code, b) = st.call("POST", "/api/keepout", &first);
+    assert_eq!(code, 200);
+    let again: Value = serde_json::from_slice(&b).unwrap();
+    assert_eq!(again["params"]["keep-out"], first_path.as_str());
+    let state = st.ok("GET", "/api/state?wait=1", json!(null));
+    let command = state["command"].as_str().unwrap().to_string();
+    let e = st.ok("POST", "/api/export", json!(null));
+    assert_eq!(e["command"], command.as_str());
+    let made = tmp("keepout-undo-make");
+    make_as_shown(&command, &made);
+    same_outputs(&out, &made, &command);
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&made);
+}
+
+/// An export while three other clients keep changing the threshold writes the files of one
+/// version and answers with that version's command line (report.json's level is the one the
+/// command names), every time.
+#[test]
+fn an_export_while_the_threshold_changes_is_of_one_version() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let out = tmp("export-race");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    st.ok("GET", "/api/state?wait=1", json!(null));
+    let stop = AtomicBool::new(false);
+    std::thread::scope(|sc| {
+        for levels in [["90", "160"], ["100", "170"], ["110", "150"]] {
+            let (st, stop) = (&st, &stop);
+            sc.spawn(move || {
+                let mut i = 0;
+                while !stop.load(Ordering::SeqCst) {
+                    let t = levels[i % 2];
+                    let (code, v) = st.json("POST", "/api/params", json!({ "threshold": t }));
+                    assert_eq!(code, 200, "{v}");
+                    i += 1;
+                }
+            });
+        }
+        let mut mixed = Vec::new();
+        for k in 0..40 {
+            let e = st.ok("POST", "/api/export", json!(null));
+            let command = e["command"].as_str().unwrap();
+            let named: u64 = command
+                .split_once("--threshold ")
+                .map_or(128, |(_, t)| t.split(' ').next().unwrap().parse().unwrap());
+            let level = written_level(&out);
+            if level != named {
+                mixed.push(format!("export {k}: {command} wrote level {level}"));
+            }
+        }
+        stop.store(true, Ordering::SeqCst);
+        assert!(mixed.is_empty(), "{} of 40: {mixed:#?}", mixed.len());
+    });
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The input picture replaced on disk while the studio runs (a 48 x 16 mm picture by a 32 x 32
+/// mm one): the studio notices, reads it again and says so; a crop that fits only the new
+/// picture is then checked against it and cut from its pixels, so the export is what `make`
+/// writes for the command line shown.
+#[test]
+fn a_picture_replaced_on_disk_is_read_again_whole() {
+    let dir = tmp("replaced");
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("in.png");
+    std::fs::copy("samples/letters.png", &input).unwrap();
+    let out = dir.join("out");
+    let st = Studio::start(input.to_str().unwrap(), &out, &[]);
+    let s = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(s["width_px"], 480);
+    // Replaced as an editor saves: a new file renamed over the old.
+    let new = dir.join("new.png");
+    std::fs::copy("samples/rings.png", &new).unwrap();
+    std::fs::rename(&new, &input).unwrap();
+    // The studio reads it again by itself (it looks about once a second) and says so.
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    let s = loop {
+        let s = st.ok("GET", "/api/state?wait=1", json!(null));
+        if s["width_px"] == 320 {
+            break s;
+        }
+        assert!(
+            std::time::Instant::now() < end,
+            "the studio still shows the old picture: {}",
+            s["width_px"]
+        );
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    };
+    assert!(
+        s["notice"].as_str().is_some_and(|n| n.contains("changed")),
+        "the page is told the picture changed: {}",
+        s["notice"]
+    );
+    let s = st.ok("POST", "/api/params", json!({"crop": "20,20,10,10"}));
+    assert_eq!(
+        (s["width_px"].clone(), s["height_px"].clone()),
+        (json!(100), json!(100))
+    );
+    let command = s["command"].as_str().unwrap().to_string();
+    let e = st.ok("POST", "/api/export", json!(null));
+    assert_eq!(e["command"], command.as_str());
+    let made = dir.join("made");
+    make_as_shown(&command, &made);
+    same_outputs(&out, &made, &command);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Image names are canonical (`s1-preview`, not `s01-preview` or `s+1-preview`): the other
+/// spellings are 404, so a client cannot grow the server's image cache by spelling one image
+/// many ways.
+#[test]
+fn image_names_are_canonical() {
+    let out = tmp("image-names");
+    let st = Studio::start("samples/rings.png", &out, &["--layers", "2"]);
+    let s = st.ok("GET", "/api/state?wait=1", json!(null));
+    assert_eq!(s["layer_reports"].as_array().map(Vec::len), Some(2), "{s}");
+    for name in ["s1-preview", "s2-stencil", "preview", "composite"] {
+        let (code, b) = st.call("GET", &format!("/api/image/{name}.png"), b"");
+        assert_eq!(code, 200, "{name}");
+        assert!(b.starts_with(b"\x89PNG"), "{name}");
+    }
+    for name in [
+        "s01-preview",
+        "s001-preview",
+        "s+1-preview",
+        "s02-stencil",
+        "s0-preview",
+        "s1-",
+        "s-preview",
+    ] {
+        let (code, _) = st.call("GET", &format!("/api/image/{name}.png"), b"");
+        assert_eq!(code, 404, "{name}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A connection that never finishes its headers is closed by the server (a browser sends its
+/// headers at once; a client that does not holds a connection for nothing).
+#[test]
+fn a_connection_that_never_finishes_its_headers_is_closed() {
+    use std::time::Duration;
+    let out = tmp("slow-headers");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    let mut slow = TcpStream::connect(("127.0.0.1", st.port)).unwrap();
+    slow.write_all(b"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+        .unwrap();
+    slow.set_read_timeout(Some(Duration::from_secs(180)))
+        .unwrap();
+    let mut buf = [0u8; 256];
+    match slow.read(&mut buf) {
+        // Closed: no bytes (or a 408 before closing), then the end.
+        Ok(_) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => {}
+        Err(e) => panic!("the connection is still open after 180 s: {e}"),
+    }
+    let mut rest = Vec::new();
+    let r = slow.read_to_end(&mut rest);
+    assert!(
+        r.is_ok()
+            || r.as_ref()
+                .is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionReset),
+        "{r:?}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// 300 connections that never finish their headers, under an open-file limit of 200 (a
+/// desktop's 1,024 against 1,100 such connections, scaled down): the page still answers a real
+/// request while they are held open.
+#[test]
+fn idle_connections_do_not_lock_the_page_out() {
+    let out = tmp("idle-conns");
+    let mut cmd = Command::new("sh");
+    cmd.args(["-c", "ulimit -n 200 && exec \"$0\" \"$@\"", bin()])
+        .args(["studio", "samples/rings.png", "-o"])
+        .arg(&out);
+    let st = Studio::spawn(cmd);
+    let host = format!("127.0.0.1:{}", st.port);
+    let auth = format!("Bearer {}", st.token);
+    let first = request_within(
+        st.port,
+        "/api/state?wait=1",
+        &[("Host", &host), ("Authorization", &auth)],
+        120,
+    );
+    assert_eq!(first.map(|r| r.0), Some(200));
+    let mut idle = Vec::new();
+    for _ in 0..300 {
+        let mut s = TcpStream::connect(("127.0.0.1", st.port)).unwrap();
+        let _ = s.write_all(b"GET /api/state HTTP/1.1\r\n");
+        idle.push(s);
+    }
+    let answer = request_within(
+        st.port,
+        "/api/state",
+        &[("Host", &host), ("Authorization", &auth)],
+        120,
+    );
+    let (code, body) = answer.expect("the page answers while 300 idle connections are held");
+    assert_eq!(code, 200);
+    let v: Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["report"]["width_px"], 320, "{v}");
+    drop(idle);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A negative threshold is refused with a message that names the option and the values it
+/// takes (not "unexpected argument '-1'"); negative values of options that take them still work.
+#[test]
+fn a_negative_threshold_names_the_option() {
+    let out = tmp("negative");
+    let st = Studio::start("samples/rings.png", &out, &[]);
+    let (code, v) = st.json("POST", "/api/params", json!({"threshold": "-1"}));
+    assert_eq!(code, 400, "{v}");
+    let msg = v["error"].as_str().unwrap();
+    assert!(
+        msg.contains("--threshold") && msg.contains("0..255") && msg.contains("otsu"),
+        "{msg}"
+    );
+    let (code, v) = st.json("POST", "/api/params", json!({"width-mm": "--invert"}));
+    assert_eq!(code, 400, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("--width-mm"), "{v}");
+    let s = st.ok("POST", "/api/params", json!({"brightness": "-30"}));
+    let command = s["command"].as_str().unwrap().to_string();
+    assert!(command.contains("-30"), "{command}");
+    let e = st.ok("POST", "/api/export", json!(null));
+    let made = tmp("negative-make");
+    make_as_shown(&command, &made);
+    same_outputs(&out, &made, &command);
+    assert_eq!(e["command"], command.as_str());
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&made);
 }

@@ -12,6 +12,7 @@
 
 #![forbid(unsafe_code)]
 
+mod conn;
 pub mod engine;
 pub mod params;
 mod server;

@@ -126,7 +126,9 @@ impl Params {
     }
 
     /// The arguments that give these values, the options left at their defaults left out, in the
-    /// order `make --help` lists them.
+    /// order `make --help` lists them. A value that starts with `-` is joined to its option
+    /// (`--threshold=-1`): apart, a parser takes it for an option of its own, and the message
+    /// ("unexpected argument '-1'") would name neither the option nor what it takes.
     pub fn args(&self, specs: &[OptionSpec]) -> Vec<String> {
         let mut out = Vec::new();
         for s in specs {
@@ -141,19 +143,27 @@ impl Params {
                 _ if v == s.default.as_slice() => {}
                 Kind::Value => {
                     if let Some(x) = v.first() {
-                        out.push(flag);
-                        out.push(x.clone());
+                        push_value(&mut out, &flag, x);
                     }
                 }
                 Kind::List => {
                     for x in v {
-                        out.push(flag.clone());
-                        out.push(x.clone());
+                        push_value(&mut out, &flag, x);
                     }
                 }
             }
         }
         out
+    }
+}
+
+/// `--name value`, or `--name=value` when the value starts with `-` (see [`Params::args`]).
+fn push_value(out: &mut Vec<String>, flag: &str, value: &str) {
+    if value.starts_with('-') {
+        out.push(format!("{flag}={value}"));
+    } else {
+        out.push(flag.to_string());
+        out.push(value.to_string());
     }
 }
 
@@ -230,6 +240,14 @@ mod tests {
             serde_json::json!(["1,2", "3,4"])
         );
         assert_eq!(q.to_json(&s)["width-mm"], serde_json::json!(""));
+        // A value that looks like an option stays the option's value.
+        let n = p
+            .with(
+                &s,
+                &serde_json::json!({"threshold": "-1", "bridge-at": ["-2,3"]}),
+            )
+            .unwrap();
+        assert_eq!(n.args(&s), ["--threshold=-1", "--bridge-at=-2,3"]);
     }
 
     #[test]

@@ -4,15 +4,20 @@
 //! Safety of a local server: it listens on 127.0.0.1 only; every request must carry the random
 //! token the printed URL holds (query `token=` or `Authorization: Bearer`); a request whose
 //! `Host` or `Origin` is not this server's own is refused (a web page elsewhere cannot reach it
-//! through DNS rebinding); bodies are bounded; the only files it writes are `make`'s outputs and
-//! the painted keep-out picture, in the output folder.
+//! through DNS rebinding); bodies are bounded; connections are bounded and must send their
+//! headers in time ([`crate::conn`]); the only files it writes are `make`'s outputs and the
+//! painted keep-out pictures, in the output folder.
+//!
+//! One version, one picture: every result is kept with the options it was computed from and the
+//! input file's identity on disk ([`Stamp`]), so the state, the command line and the files an
+//! export writes are of that one version, and a picture replaced on disk is read again whole
+//! (its options checked against the new picture, its pixels taken from it) rather than mixed.
 
-use std::collections::HashMap;
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant, SystemTime};
 
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Path as UrlPath, Query, Request, State};
@@ -40,10 +45,19 @@ use crate::Maker;
 const JSON_LIMIT: usize = 64 * 1024;
 /// The painted keep-out picture's bound (a PNG of the working image).
 const PNG_LIMIT: usize = 32 * 1024 * 1024;
-/// The painted keep-out picture's name in the output folder (not one of `make`'s outputs).
-pub const KEEP_OUT_NAME: &str = "keep-out-painted.png";
+/// How the painted keep-out pictures are named in the output folder (not one of `make`'s
+/// outputs): `keep-out-painted-HASH.png`, HASH of the content, so each painting has its own file
+/// (undo gives back the earlier painting exactly) and the same painting is one file.
+pub const KEEP_OUT_PREFIX: &str = "keep-out-painted";
 /// How many changes undo remembers.
 const HISTORY: usize = 500;
+/// How many encoded images one result keeps (a set of six layers and its fill-in has 36
+/// names; the page shows one or two at a time).
+const IMAGE_CACHE: usize = 12;
+/// How often the input file is looked at for a change on disk.
+const INPUT_POLL: Duration = Duration::from_secs(1);
+/// How many times a run reads the input again when it changes while being read.
+const RELOADS: usize = 3;
 
 /// What `stencil studio` was started with.
 pub struct StudioConfig {
@@ -86,7 +100,11 @@ impl SetRun {
             return Some(fast_png(w, h, &self.set.composite, Pixels::Rgb));
         }
         let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
-            Some((k, what)) => (k.parse::<usize>().ok()?, what),
+            // Canonical numbers only (`s1`, not `s01` or `s+1`): one name per image.
+            Some((k, what)) => (
+                k.parse::<usize>().ok().filter(|n| n.to_string() == k)?,
+                what,
+            ),
             None => (1, name),
         };
         let m = *self.stencils().get(k.checked_sub(1)?)?;
@@ -113,25 +131,106 @@ impl SetRun {
     }
 }
 
+/// The identity of the input file on disk: a file replaced or rewritten has another.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Stamp {
+    len: u64,
+    modified: Option<SystemTime>,
+    /// Device, inode and the change time (Unix): a file renamed over it, or written within the
+    /// modification time's resolution, still differs.
+    node: [i64; 4],
+}
+
+/// The input file's stamp now (`None`: it cannot be read; the run then says why).
+fn stamp(path: &Path) -> Option<Stamp> {
+    let m = std::fs::metadata(path).ok()?;
+    #[cfg(unix)]
+    let node = {
+        use std::os::unix::fs::MetadataExt;
+        [m.dev() as i64, m.ino() as i64, m.ctime(), m.ctime_nsec()]
+    };
+    #[cfg(not(unix))]
+    let node = [0; 4];
+    Some(Stamp {
+        len: m.len(),
+        modified: m.modified().ok(),
+        node,
+    })
+}
+
+/// A state's options as `make` reads them, with the input's stamp when they were read (the
+/// picture's size is read for `--crop` and the size in mm).
+#[derive(Clone)]
+struct Derived {
+    stamp: Option<Stamp>,
+    cfg: stencil_core::MakeConfig,
+    set: Option<LayersConfig>,
+}
+
+/// A version to compute.
+struct Job {
+    version: u64,
+    params: Params,
+    /// Derived when it was asked for; the worker derives it again if the input changed since.
+    derived: Option<Derived>,
+}
+
+/// A run's identity, as its results are published.
+struct Run {
+    version: u64,
+    params: Params,
+    stamp: Option<Stamp>,
+    notice: Option<String>,
+    t0: Instant,
+}
+
 /// One finished run, as the page sees it.
 struct Done {
     version: u64,
+    /// The options it was computed from (the command line an export of it shows).
+    params: Params,
+    /// The input file it was computed from.
+    stamp: Option<Stamp>,
+    /// Set when this run read the input again because it changed on disk.
+    notice: Option<String>,
     outcome: Result<Shown, String>,
     /// Why `make` would write nothing for it, in `make`'s words.
     refused: Option<String>,
     /// The preview only: the trace and the check of this version are still running.
     checking: bool,
     ms: f64,
-    /// Encoded images of this run, by name, made on first request.
-    images: Mutex<HashMap<String, Bytes>>,
+    /// Encoded images of this run, by canonical name, made on first request; at most
+    /// [`IMAGE_CACHE`], the oldest dropped first.
+    images: Mutex<Vec<(String, Bytes)>>,
+}
+
+impl Done {
+    fn cached(&self, name: &str) -> Option<Bytes> {
+        let images = self.images.lock().unwrap_or_else(|e| e.into_inner());
+        images
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| b.clone())
+    }
+
+    fn cache(&self, name: &str, png: &Bytes) {
+        let mut images = self.images.lock().unwrap_or_else(|e| e.into_inner());
+        if images.iter().any(|(n, _)| n == name) {
+            return;
+        }
+        if images.len() >= IMAGE_CACHE {
+            images.remove(0);
+        }
+        images.push((name.to_string(), png.clone()));
+    }
 }
 
 struct History {
     states: Vec<Params>,
     at: usize,
     version: u64,
-    /// The newest change to compute: its version, configuration and set (if one).
-    job: Option<(u64, stencil_core::MakeConfig, Option<LayersConfig>)>,
+    /// The newest version to compute.
+    job: Option<Job>,
     stop: bool,
 }
 
@@ -159,6 +258,12 @@ pub struct Studio {
     token: String,
     hosts: Vec<String>,
     history: Mutex<History>,
+    /// Held by a change from reading the state to taking the new one, so changes made at once
+    /// each build on the one before (none is lost) and the history moves only when a change is
+    /// taken.
+    edit: Mutex<()>,
+    /// One export at a time (two would write the same folder at once).
+    exporting: tokio::sync::Mutex<()>,
     wake: Condvar,
     wanted: AtomicU64,
     done: watch::Sender<Arc<Done>>,
@@ -193,36 +298,82 @@ impl Studio {
         words.join(" ")
     }
 
-    /// Take `p` as the new state (after `make`'s own checks), remembered for undo unless
-    /// `push` is false; returns its version.
-    fn apply(&self, p: Params, push: bool) -> Result<u64, (StatusCode, Json<Value>)> {
-        let args = self.args(&p);
-        let cfg = self
-            .maker
-            .config(&args)
-            .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
-        let set = self
-            .maker
-            .set(&args)
-            .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
-        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
-        if push {
-            let at = h.at;
-            h.states.truncate(at + 1);
-            h.states.push(p);
-            if h.states.len() > HISTORY {
-                h.states.remove(0);
-            }
-            h.at = h.states.len() - 1;
-        }
+    /// `p` as `make` reads it (or the message `make` fails with), with the input's stamp from
+    /// before it was read.
+    fn derive(&self, p: &Params) -> Result<Derived, String> {
+        let stamp = stamp(&self.input);
+        let args = self.args(p);
+        let cfg = self.maker.config(&args)?;
+        let set = self.maker.set(&args)?;
+        Ok(Derived { stamp, cfg, set })
+    }
+
+    /// Ask the worker for a new version of `params`; returns it.
+    fn queue(&self, h: &mut History, params: Params, derived: Option<Derived>) -> u64 {
         h.version += 1;
         let v = h.version;
-        h.job = Some((v, cfg, set));
+        h.job = Some(Job {
+            version: v,
+            params,
+            derived,
+        });
         self.wanted.store(v, Ordering::SeqCst);
         self.wake.notify_all();
-        drop(h);
         self.asked.send_replace(v);
-        Ok(v)
+        v
+    }
+
+    /// Take `change(current state)` as the new state, after `make`'s own checks, remembered for
+    /// undo; returns its version. A refused change leaves everything as it was.
+    fn push(
+        &self,
+        change: impl FnOnce(&Params) -> Result<Params, (StatusCode, Json<Value>)>,
+    ) -> Result<u64, (StatusCode, Json<Value>)> {
+        let _edit = self.edit.lock().unwrap_or_else(|e| e.into_inner());
+        let (cur, ..) = self.current();
+        let p = change(&cur)?;
+        let d = self
+            .derive(&p)
+            .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let at = h.at;
+        h.states.truncate(at + 1);
+        h.states.push(p.clone());
+        if h.states.len() > HISTORY {
+            h.states.remove(0);
+        }
+        h.at = h.states.len() - 1;
+        Ok(self.queue(&mut h, p, Some(d)))
+    }
+
+    /// Undo (`d` = -1) or redo (+1): the remembered state is checked as `make` checks it
+    /// first, and only a state it takes moves the history (a refused one leaves the history,
+    /// the state and the result shown as they were).
+    fn step(&self, d: isize) -> Result<u64, (StatusCode, Json<Value>)> {
+        let _edit = self.edit.lock().unwrap_or_else(|e| e.into_inner());
+        let (to, p) = {
+            let h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+            let to = h.at as isize + d;
+            if to < 0 || to as usize >= h.states.len() {
+                return Err(bad(StatusCode::CONFLICT, "nothing to undo or redo"));
+            }
+            (to as usize, h.states[to as usize].clone())
+        };
+        let derived = self
+            .derive(&p)
+            .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        h.at = to;
+        Ok(self.queue(&mut h, p, Some(derived)))
+    }
+
+    /// Compute the current state again (the input changed on disk): the worker reads the
+    /// options and the picture anew.
+    fn rerun(&self) {
+        let _edit = self.edit.lock().unwrap_or_else(|e| e.into_inner());
+        let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
+        let p = h.states[h.at].clone();
+        self.queue(&mut h, p, None);
     }
 
     fn current(&self) -> (Params, u64, bool, bool) {
@@ -238,8 +389,10 @@ impl Studio {
     /// The worker: runs the newest job; a newer one cancels it between stages.
     fn work(self: Arc<Self>) {
         let mut engine = Engine::new();
+        // The input's stamp of the last run (`None` before the first).
+        let mut last = None;
         loop {
-            let (v, cfg, set) = {
+            let job = {
                 let mut h = self.history.lock().unwrap_or_else(|e| e.into_inner());
                 loop {
                     if h.stop {
@@ -251,45 +404,142 @@ impl Studio {
                     h = self.wake.wait(h).unwrap_or_else(|e| e.into_inner());
                 }
             };
-            let t0 = Instant::now();
-            let superseded = || self.wanted.load(Ordering::SeqCst) != v;
-            let publish = |outcome, refused, checking| {
-                self.done.send_replace(Arc::new(Done {
-                    version: v,
-                    outcome,
-                    refused,
-                    checking,
-                    ms: t0.elapsed().as_secs_f64() * 1e3,
-                    images: Mutex::new(HashMap::new()),
-                }));
+            self.run(&mut engine, &mut last, job);
+        }
+    }
+
+    /// Compute one version and publish it (unless a newer one superseded it). The options are
+    /// checked against the picture the pixels come from: when the input changed on disk since
+    /// they were read (or changes while it is read), both are read again.
+    fn run(&self, engine: &mut Engine, last: &mut Option<Option<Stamp>>, job: Job) {
+        let superseded = || self.wanted.load(Ordering::SeqCst) != job.version;
+        let mut run = Run {
+            version: job.version,
+            params: job.params.clone(),
+            stamp: None,
+            notice: None,
+            t0: Instant::now(),
+        };
+        let mut derived = job.derived;
+        for _ in 0..RELOADS {
+            if superseded() {
+                return;
+            }
+            let now = stamp(&self.input);
+            if last.as_ref().is_some_and(|l| *l != now) {
+                run.notice = Some(format!(
+                    "{} changed on disk: the studio read it again, so this result is of the \
+                     new file",
+                    self.input.display()
+                ));
+            }
+            let d = match derived.take().filter(|d| d.stamp == now) {
+                Some(d) => d,
+                None => match self.derive(&job.params) {
+                    Ok(d) => d,
+                    Err(m) => {
+                        run.stamp = now;
+                        self.publish(&run, Err(m), None, false);
+                        return;
+                    }
+                },
             };
+            if last.as_ref() != Some(&d.stamp) {
+                engine.forget_input();
+            }
+            *last = Some(d.stamp.clone());
+            run.stamp = d.stamp.clone();
+            // The file read is the one the options were checked against.
+            let unchanged = || stamp(&self.input) == d.stamp;
             // A set (layers, fill-in) is made whole by `make`'s own layer code.
-            if let Some(lc) = set {
-                let outcome = match stencil_core::layers::run(&cfg, &lc) {
-                    Ok(set) => Ok(Shown::Set(Arc::new(SetRun { cfg, lc, set }))),
-                    Err(e) => Err(self.maker.describe(&cfg, e)),
+            if let Some(lc) = d.set {
+                let made = stencil_core::layers::run(&d.cfg, &lc);
+                if !unchanged() {
+                    continue;
+                }
+                let outcome = match made {
+                    Ok(set) => Ok(Shown::Set(Arc::new(SetRun {
+                        cfg: d.cfg,
+                        lc,
+                        set,
+                    }))),
+                    Err(e) => Err(self.maker.describe(&d.cfg, e)),
                 };
-                publish(outcome, None, false);
-                continue;
+                self.publish(&run, outcome, None, false);
+                return;
             }
             // One stencil: the preview first (up to the bridges), then the trace and the
             // check, shown as they arrive: the page says "checking" in between.
-            let preview = match engine.preview(&cfg, &superseded) {
-                Err(RunError::Cancelled) => continue,
+            let cfg = &d.cfg;
+            let preview = engine.preview(cfg, &superseded);
+            if !unchanged() {
+                continue;
+            }
+            let preview = match preview {
+                Err(RunError::Cancelled) => return,
                 Err(RunError::Core(e)) => {
-                    publish(Err(self.maker.describe(&cfg, e)), None, false);
-                    continue;
+                    self.publish(&run, Err(self.maker.describe(cfg, e)), None, false);
+                    return;
                 }
                 Ok(c) => Arc::new(c),
             };
-            publish(Ok(Shown::One(preview.clone())), None, true);
+            self.publish(&run, Ok(Shown::One(preview.clone())), None, true);
             match engine.check(&preview, &superseded) {
-                Err(RunError::Cancelled) => continue,
-                Err(RunError::Core(e)) => publish(Err(self.maker.describe(&cfg, e)), None, false),
-                Ok(mut c) => {
-                    let refused = c.refused.take().map(|e| self.maker.describe(&cfg, e));
-                    publish(Ok(Shown::One(Arc::new(c))), refused, false);
+                Err(RunError::Cancelled) => {}
+                Err(RunError::Core(e)) => {
+                    self.publish(&run, Err(self.maker.describe(cfg, e)), None, false)
                 }
+                Ok(mut c) => {
+                    let refused = c.refused.take().map(|e| self.maker.describe(cfg, e));
+                    self.publish(&run, Ok(Shown::One(Arc::new(c))), refused, false);
+                }
+            }
+            return;
+        }
+        // No stamp: the watch sees the file differ from it and computes it again.
+        run.stamp = None;
+        let msg = format!(
+            "{} kept changing while it was read; the studio reads it again once it stays the same",
+            self.input.display()
+        );
+        self.publish(&run, Err(msg), None, false);
+    }
+
+    /// Show a run's result (or error) as the newest done.
+    fn publish(
+        &self,
+        run: &Run,
+        outcome: Result<Shown, String>,
+        refused: Option<String>,
+        checking: bool,
+    ) {
+        self.done.send_replace(Arc::new(Done {
+            version: run.version,
+            params: run.params.clone(),
+            stamp: run.stamp.clone(),
+            notice: run.notice.clone(),
+            outcome,
+            refused,
+            checking,
+            ms: run.t0.elapsed().as_secs_f64() * 1e3,
+            images: Mutex::new(Vec::new()),
+        }));
+    }
+
+    /// Look at the input file about once a second; when it changed since the result shown was
+    /// computed (and nothing newer is being computed), compute the state again from it.
+    async fn watch_input(self: Arc<Self>) {
+        let mut stop = self.shutdown.subscribe();
+        let mut tick = tokio::time::interval(INPUT_POLL);
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {}
+                _ = stop.wait_for(|s| *s) => return,
+            }
+            let done = self.done.borrow().clone();
+            let idle = done.version == self.wanted.load(Ordering::SeqCst) && !done.checking;
+            if done.version > 0 && idle && done.stamp != stamp(&self.input) {
+                self.rerun();
             }
         }
     }
@@ -322,6 +572,8 @@ impl Studio {
             "can_undo": can_undo,
             "can_redo": can_redo,
             "ms": done.ms,
+            // The input changed on disk and was read again for this result.
+            "notice": done.notice,
         });
         match &done.outcome {
             Err(e) => s["error"] = json!(e),
@@ -505,9 +757,8 @@ async fn get_options(State(s): State<Shared>) -> ApiResult {
     Ok(Json(json!({ "options": s.specs, "input": s.input.display().to_string(), "out": s.out_dir.display().to_string() })).into_response())
 }
 
-/// Apply a change and answer with the state once it (or a newer change) is computed.
-async fn change(s: &Shared, p: Params) -> ApiResult {
-    let v = s.apply(p, true)?;
+/// Answer with the state once version `v` (or a newer one) is computed.
+async fn answer(s: &Shared, v: u64) -> ApiResult {
     let done = s.wait_for(v).await;
     Ok(Json(s.state(&done)).into_response())
 }
@@ -519,11 +770,11 @@ async fn post_params(State(s): State<Shared>, body: Bytes) -> ApiResult {
             format!("the body is not JSON: {e}"),
         )
     })?;
-    let (cur, ..) = s.current();
-    let p = cur
-        .with(&s.specs, &changes)
-        .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))?;
-    change(&s, p).await
+    let v = s.push(|cur| {
+        cur.with(&s.specs, &changes)
+            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
+    })?;
+    answer(&s, v).await
 }
 
 /// `POST /api/bridges`: `{"delete": N}` (the bridge at index N of the report's `bridges`, kept
@@ -535,7 +786,6 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
             format!("the body is not JSON: {e}"),
         )
     })?;
-    let (cur, ..) = s.current();
     let (name, value) = if let Some(n) = req.get("delete").and_then(Value::as_u64) {
         let done = s.done.borrow().clone();
         let c = match &done.outcome {
@@ -594,12 +844,13 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
             "the body must be {\"delete\": N} or {\"pin\": [X, Y]} (mm)",
         ));
     };
-    let mut list = cur.get(name).to_vec();
-    list.push(value);
-    let p = cur
-        .with(&s.specs, &json!({ name: list }))
-        .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))?;
-    change(&s, p).await
+    let v = s.push(|cur| {
+        let mut list = cur.get(name).to_vec();
+        list.push(value);
+        cur.with(&s.specs, &json!({ name: list }))
+            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
+    })?;
+    answer(&s, v).await
 }
 
 async fn post_undo(State(s): State<Shared>) -> ApiResult {
@@ -611,24 +862,14 @@ async fn post_redo(State(s): State<Shared>) -> ApiResult {
 }
 
 async fn step_history(s: &Shared, d: isize) -> ApiResult {
-    let p = {
-        let mut h = s.history.lock().unwrap_or_else(|e| e.into_inner());
-        let to = h.at as isize + d;
-        if to < 0 || to as usize >= h.states.len() {
-            return Err(bad(StatusCode::CONFLICT, "nothing to undo or redo"));
-        }
-        h.at = to as usize;
-        h.states[h.at].clone()
-    };
-    let v = s.apply(p, false)?;
-    let done = s.wait_for(v).await;
-    Ok(Json(s.state(&done)).into_response())
+    let v = s.step(d)?;
+    answer(s, v).await
 }
 
-/// `POST /api/keepout`: a PNG (dark = no bridge), saved in the output folder and used as the
-/// `keep-out` picture; an empty body clears it.
+/// `POST /api/keepout`: a PNG (dark = no bridge), saved in the output folder under a name of
+/// its own (see [`KEEP_OUT_PREFIX`]) and used as the `keep-out` picture; an empty body clears
+/// it.
 async fn post_keepout(State(s): State<Shared>, body: Bytes) -> ApiResult {
-    let (cur, ..) = s.current();
     let value = if body.is_empty() {
         String::new()
     } else {
@@ -638,37 +879,80 @@ async fn post_keepout(State(s): State<Shared>, body: Bytes) -> ApiResult {
                 "the keep-out picture must be a PNG",
             ));
         }
-        let path = s.out_dir.join(KEEP_OUT_NAME);
-        std::fs::create_dir_all(&s.out_dir).map_err(|e| {
-            bad(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                format!("{}: {e}", s.out_dir.display()),
-            )
-        })?;
-        stencil_io::write_atomic(&path, &body).map_err(|e| {
-            bad(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                format!("{}: {e}", path.display()),
-            )
-        })?;
-        path.display().to_string()
+        let s2 = s.clone();
+        tokio::task::spawn_blocking(move || save_painting(&s2.out_dir, &body))
+            .await
+            .map_err(|e| bad(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
+            .map_err(|e| bad(StatusCode::INTERNAL_SERVER_ERROR, e))?
+            .display()
+            .to_string()
     };
-    let p = cur
-        .with(&s.specs, &json!({ "keep-out": value }))
-        .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))?;
-    change(&s, p).await
+    let v = s.push(|cur| {
+        cur.with(&s.specs, &json!({ "keep-out": value }))
+            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
+    })?;
+    answer(&s, v).await
+}
+
+/// Save a painted keep-out picture in `dir` as `keep-out-painted-HASH.png` (FNV-1a of its
+/// bytes): the same painting is the same file; a file of that name with other bytes (another
+/// program's, or a hash collision) is never overwritten, the next free `-2`, `-3`... is used.
+fn save_painting(dir: &Path, png: &[u8]) -> Result<PathBuf, String> {
+    let hash = png.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for k in 1..=100 {
+        let name = match k {
+            1 => format!("{KEEP_OUT_PREFIX}-{hash:016x}.png"),
+            _ => format!("{KEEP_OUT_PREFIX}-{hash:016x}-{k}.png"),
+        };
+        let path = dir.join(name);
+        match std::fs::read(&path) {
+            Ok(old) if old == png => return Ok(path),
+            Ok(_) => continue,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                stencil_io::write_atomic(&path, png)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                return Ok(path);
+            }
+            Err(e) => return Err(format!("{}: {e}", path.display())),
+        }
+    }
+    Err(format!(
+        "{}: 100 files named {KEEP_OUT_PREFIX}-{hash:016x}*.png hold other pictures; move them away",
+        dir.display()
+    ))
 }
 
 /// `POST /api/export`: what `make` writes, into the output folder, by `make`'s writer.
+///
+/// One version: the newest computed result is taken once, and the files written and the
+/// command line answered are both of it (a change made meanwhile is the next export's).
 async fn post_export(State(s): State<Shared>) -> ApiResult {
+    let _one = s.exporting.lock().await;
     let v = s.wanted.load(Ordering::SeqCst);
     let done = s.wait_for(v).await;
     let shown = match &done.outcome {
         Ok(c) => c.clone(),
         Err(e) => return Err(bad(StatusCode::CONFLICT, e.clone())),
     };
-    let (params, ..) = s.current();
-    let command = s.command(&params);
+    let input_changed = || {
+        bad(
+            StatusCode::CONFLICT,
+            format!(
+                "{} changed on disk since the result shown was computed: the studio is \
+                 computing it again from the new file; look at it, then export again",
+                s.input.display()
+            ),
+        )
+    };
+    if stamp(&s.input) != done.stamp {
+        s.rerun();
+        return Err(input_changed());
+    }
+    let command = s.command(&done.params);
+    let rereads = matches!(shown, Shown::Set(_));
     let s2 = s.clone();
     let written = tokio::task::spawn_blocking(move || match shown {
         Shown::One(c) => {
@@ -685,6 +969,11 @@ async fn post_export(State(s): State<Shared>) -> ApiResult {
     .await
     .map_err(|e| bad(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
     .map_err(|e| bad(StatusCode::CONFLICT, e))?;
+    // A set's writer read the input again: it must have read the same file.
+    if rereads && stamp(&s.input) != done.stamp {
+        s.rerun();
+        return Err(input_changed());
+    }
     // Names in the output folder (a set's files are in its layer folders).
     let names = |v: &[PathBuf]| -> Vec<String> {
         v.iter()
@@ -701,6 +990,7 @@ async fn post_export(State(s): State<Shared>) -> ApiResult {
         "files": names(&written.written),
         "removed": names(&written.removed),
         "command": command,
+        "version": done.version,
     }))
     .into_response())
 }
@@ -713,12 +1003,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
     let Ok(shown) = &done.outcome else {
         return Err(bad(StatusCode::CONFLICT, "no stencil yet"));
     };
-    let cached = done
-        .images
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .get(name)
-        .cloned();
+    let cached = done.cached(name);
     let kept = match (&cached, shown) {
         (None, Shown::One(c)) => s.kept_png(c, name),
         _ => None,
@@ -743,7 +1028,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
                     StatusCode::NOT_FOUND,
                     format!(
                         "no image {name}: gray, twotone, stencil, preview, picture (of a \
-                             set: sK-NAME for stencil K, and composite)"
+                             set: sK-NAME for stencil K, K as 1, 2, ..., and composite)"
                     ),
                 )
             })?;
@@ -753,11 +1038,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
             p
         }
     };
-    done.images
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .entry(name.to_string())
-        .or_insert_with(|| png.clone());
+    done.cache(name, &png);
     let mut headers = HeaderMap::new();
     headers.insert(
         header::CONTENT_TYPE,
@@ -847,23 +1128,30 @@ pub fn serve(
                 job: None,
                 stop: false,
             }),
+            edit: Mutex::new(()),
+            exporting: tokio::sync::Mutex::new(()),
             wake: Condvar::new(),
             wanted: AtomicU64::new(0),
             done: watch::Sender::new(Arc::new(Done {
                 version: 0,
+                params: initial.clone(),
+                stamp: None,
+                notice: None,
                 outcome: Err("starting".into()),
                 refused: None,
                 checking: false,
                 ms: 0.0,
-                images: Mutex::new(HashMap::new()),
+                images: Mutex::new(Vec::new()),
             })),
             asked: watch::Sender::new(0),
             shutdown: watch::Sender::new(false),
         });
         // The first run: its options are checked now, so a bad one stops the studio at once.
-        studio
-            .apply(initial, false)
-            .map_err(|(_, Json(e))| e["error"].as_str().unwrap_or("bad option").to_string())?;
+        let derived = studio.derive(&initial)?;
+        {
+            let mut h = studio.history.lock().unwrap_or_else(|e| e.into_inner());
+            studio.queue(&mut h, initial, Some(derived));
+        }
         let worker = {
             let s = studio.clone();
             std::thread::spawn(move || s.work())
@@ -887,13 +1175,19 @@ pub fn serve(
             .layer(middleware::from_fn_with_state(studio.clone(), guard))
             .with_state(studio.clone());
         ready(&format!("http://127.0.0.1:{port}/?token={}", studio.token));
+        tokio::spawn(studio.clone().watch_input());
         let stop = studio.clone();
-        let served = axum::serve(listener, api)
-            .with_graceful_shutdown(async move {
-                let _ = tokio::signal::ctrl_c().await;
-                stop.shutdown.send_replace(true);
-            })
-            .await;
+        tokio::spawn(async move {
+            let _ = tokio::signal::ctrl_c().await;
+            stop.shutdown.send_replace(true);
+        });
+        crate::conn::serve(
+            listener,
+            api,
+            crate::conn::connection_cap(),
+            studio.shutdown.subscribe(),
+        )
+        .await;
         {
             let mut h = studio.history.lock().unwrap_or_else(|e| e.into_inner());
             h.stop = true;
@@ -901,6 +1195,6 @@ pub fn serve(
             studio.wake.notify_all();
         }
         let _ = worker.join();
-        served.map_err(|e| e.to_string())
+        Ok(())
     })
 }

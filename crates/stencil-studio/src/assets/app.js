@@ -422,6 +422,7 @@ function showReport() {
   const el = $("report");
   if (!state) return;
   let h = "";
+  if (state.notice) h += `<div class="msg">${esc(state.notice)}</div>`;
   if (state.error) h += `<div class="msg">${esc(state.error)}</div>`;
   if (state.refused) h += `<div class="msg">make would refuse this: ${esc(state.refused)}</div>`;
   const r = state.report;
