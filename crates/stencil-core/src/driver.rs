@@ -191,6 +191,12 @@ impl Cache {
         Cache::default()
     }
 
+    /// Read the input again on the next run (it changed on disk): every stage after it runs
+    /// again, as their keys hold the input's generation.
+    pub fn forget_input(&mut self) {
+        self.slots.input = None;
+    }
+
     /// The stages up to the bridges. `superseded` is asked between stages; when it says yes the
     /// run stops with [`Stopped::Superseded`] (the outputs kept so far stay for the next run).
     pub fn bridged(

@@ -86,7 +86,7 @@ impl Engine {
     /// Read the input again on the next run (it changed on disk): every stage after it runs
     /// again, as their keys hold the input's generation.
     pub fn forget_input(&mut self) {
-        self.input = None;
+        self.cache.forget_input();
     }
 
     /// Run `cfg` through the stages, re-using every output whose inputs did not change:
