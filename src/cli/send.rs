@@ -202,36 +202,32 @@ pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
 }
 
 /// A G-code file, read through the bounded reader (at most 512 MB; a FIFO or a device is refused
-/// at once). A `stencil make` folder it lies in that a killed run left half-swapped is finished
-/// first ([`stencil_io::recover`]), so the program is never one run's beside another run's files.
+/// at once). A `stencil make` folder it lies in (or, for a layer's job, the set's folder around
+/// it) that a killed run left half-swapped is finished first ([`settle`]), so the program is
+/// never one run's beside another run's files, nor the previous design's layer.
 pub(super) fn read_program(path: &Path) -> anyhow::Result<String> {
-    settle_folder_of(path)?;
+    settle(path)?;
     Ok(stencil_io::read_text(path, stencil_io::Kind::Gcode)?)
 }
 
-/// Finish or discard a half-finished swap of `make` in the folder `path` is in.
-pub(super) fn settle_folder_of(path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    settle_folder(dir)
-}
-
-/// Finish or discard a half-finished swap of `make` in `dir`, saying so.
-pub(super) fn settle_folder(dir: &Path) -> anyhow::Result<()> {
-    match stencil_io::recover(dir, stencil_core::layers::owned_names())? {
-        stencil_io::Recovered::Nothing => {}
-        stencil_io::Recovered::Finished => eprintln!(
-            "note: {}: finished writing the files of a `stencil make` that was stopped while it \
-             put them in place",
-            dir.display()
-        ),
-        stencil_io::Recovered::Discarded => eprintln!(
-            "note: {}: deleted the unfinished files of a `stencil make` that was stopped before \
-             it put them in place; the folder holds the run before it",
-            dir.display()
-        ),
+/// Before `path` (a file or a folder) is read: finish or discard a half-finished swap of `make`
+/// in the folder it is, and in the set folder around it when it is a layer's
+/// ([`stencil_io::recover_around`]), saying so.
+pub(super) fn settle(path: &Path) -> anyhow::Result<()> {
+    for (dir, r) in stencil_io::recover_around(path, stencil_core::layers::owned_names())? {
+        match r {
+            stencil_io::Recovered::Nothing => {}
+            stencil_io::Recovered::Finished => eprintln!(
+                "note: {}: finished writing the files of a `stencil make` that was stopped while \
+                 it put them in place",
+                dir.display()
+            ),
+            stencil_io::Recovered::Discarded => eprintln!(
+                "note: {}: deleted the unfinished files of a `stencil make` that was stopped \
+                 before it put them in place; the folder holds the run before it",
+                dir.display()
+            ),
+        }
     }
     Ok(())
 }
@@ -556,18 +552,20 @@ fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option
         RunState::Running => {
             "did not end (the sender was killed, crashed, or the power went)".to_string()
         }
+        // The journal is a file that may have come from elsewhere: its text is printed with its
+        // control characters written out.
         RunState::Stopped => format!(
             "stopped: {}",
-            j.stop_reason.as_deref().unwrap_or("(no reason recorded)")
+            stencil_io::printable(j.stop_reason.as_deref().unwrap_or("(no reason recorded)"))
         ),
         RunState::Complete => "finished".to_string(),
     };
     println!(
         "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
         path.display(),
-        j.file,
+        stencil_io::printable(&j.file),
         j.from_line,
-        j.machine,
+        stencil_io::printable(&j.machine),
         format_duration(age)
     );
     let end = job.source_lines();
@@ -585,13 +583,13 @@ fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option
         "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3}",
         p.why,
         p.line,
-        m.units,
-        m.distance,
+        stencil_io::printable(&m.units),
+        stencil_io::printable(&m.distance),
         match m.feed_mm_min {
             Some(f) => format!("F{f}"),
             None => "no feed yet".into(),
         },
-        m.spindle,
+        stencil_io::printable(&m.spindle),
         if m.spindle != "M5" { format!(" S{}", m.s) } else { String::new() },
         if m.air { "on" } else { "off" },
         m.position_mm[0],
@@ -620,7 +618,7 @@ fn recover(
             if *m != j.machine {
                 println!(
                     "the journal's run used machine {}; you named {m}: using {m}",
-                    j.machine
+                    stencil_io::printable(&j.machine)
                 );
             }
             Some(m.clone())
