@@ -507,7 +507,33 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let inputs = make_inputs(&a);
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
-    make_in(&a).map_err(|e| super::errors::after_failed_make(&out_dir, e))
+    make_in(&a)
+        .map_err(|e| gobo_words(&a, e))
+        .map_err(|e| super::errors::after_failed_make(&out_dir, e))
+}
+
+/// A size error raised while the run is set up (before the pipeline, whose errors
+/// [`make_error`] words), in the words of --gobo when the gobo's size caused it.
+fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
+    let Some(g) = &a.physical.gobo else {
+        return e;
+    };
+    let g = stencil_core::gobo::Gobo {
+        crop: a.physical.gobo_crop,
+        ..g.clone()
+    };
+    let size = e.chain().find_map(|c| {
+        c.downcast_ref::<stencil_core::limits::SizeError>().or(
+            match c.downcast_ref::<stencil_core::Error>() {
+                Some(stencil_core::Error::Limit(s)) => Some(s),
+                _ => None,
+            },
+        )
+    });
+    match size.and_then(|s| super::errors::gobo_size(&a.input, &g, s)) {
+        Some(words) => anyhow::anyhow!(words),
+        None => e,
+    }
 }
 
 /// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
@@ -752,6 +778,12 @@ fn fit_size(
 /// A failed run in this command's words: the fidelity limit with what helps, any other error
 /// naming the input.
 pub(super) fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
+    // A gobo's size is set by --gobo, not --width-mm (which --gobo excludes).
+    if let (Some(g), stencil_core::Error::Limit(s)) = (&cfg.physical.gobo, &e) {
+        if let Some(words) = super::errors::gobo_size(&cfg.input, g, s) {
+            return anyhow::anyhow!(words);
+        }
+    }
     match e {
         stencil_core::Error::TooMuchChange {
             fidelity,
