@@ -293,6 +293,52 @@ pub(super) fn origin_line(path: &Path, text: &str) -> String {
     format!("job {}: {}{when}", path.display(), parts.join(", "))
 }
 
+/// What asked for an abort, the first that did: a stop signal or a key, said in the stop's message
+/// and the journal (the stream knows only that an abort was asked for).
+static ABORT_CAUSE: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
+
+/// The stop's first words for an abort: what asked for it.
+pub(super) fn abort_cause() -> &'static str {
+    ABORT_CAUSE
+        .get()
+        .copied()
+        .unwrap_or("aborted by the operator")
+}
+
+/// SIGINT, SIGTERM and SIGHUP take the abort's path, once per process, each named as it arrives.
+#[cfg(unix)]
+fn on_stop_signals(tx: Sender<Control>) {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+            return;
+        };
+        std::thread::spawn(move || {
+            for sig in signals.forever() {
+                let _ = ABORT_CAUSE.set(match sig {
+                    SIGINT => "stopped by SIGINT (Ctrl-C)",
+                    SIGTERM => {
+                        "stopped by SIGTERM (a request to end stencil: `kill`, a service manager \
+                         or a shutdown)"
+                    }
+                    _ => "stopped by SIGHUP (the terminal closed)",
+                });
+                let _ = tx.send(Control::Abort);
+            }
+        });
+    });
+}
+
+/// Ctrl-C (and closing the console) take the abort's path, once per process.
+#[cfg(not(unix))]
+fn on_stop_signals(tx: Sender<Control>) {
+    let _ = ctrlc::set_handler(move || {
+        let _ = ABORT_CAUSE.set("stopped by Ctrl-C");
+        let _ = tx.send(Control::Abort);
+    });
+}
+
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
 /// terminal when dropped, also on error paths.
 pub(super) struct Keys {
@@ -308,10 +354,7 @@ impl Keys {
         // the abort's path: hold, wait until the machine stands, reset, laser and air off. One
         // handler per process: `send --frame` starts keys twice on the same channel, so the
         // first handler serves both.
-        let signal_tx = tx.clone();
-        let _ = ctrlc::set_handler(move || {
-            let _ = signal_tx.send(Control::Abort);
-        });
+        on_stop_signals(tx.clone());
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
             let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
@@ -357,12 +400,21 @@ impl KeySource for Terminal {
         if k.kind == KeyEventKind::Release {
             return Ok(None);
         }
-        Ok(match k.code {
-            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Some(Key::CtrlC),
-            KeyCode::Char(c) => Some(Key::Char(c)),
-            KeyCode::Esc => Some(Key::Esc),
-            _ => None,
-        })
+        let key = match k.code {
+            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Key::CtrlC,
+            KeyCode::Char(c) => Key::Char(c),
+            KeyCode::Esc => Key::Esc,
+            _ => return Ok(None),
+        };
+        if keys::controls_for(key) == [Control::Abort] {
+            let _ = ABORT_CAUSE.set(match key {
+                Key::CtrlC => "aborted with Ctrl-C",
+                Key::Esc => "aborted with the abort key (Esc)",
+                Key::Char('q') => "aborted with the abort key (q)",
+                _ => "aborted with the abort key (a)",
+            });
+        }
+        Ok(Some(key))
     }
 }
 
@@ -673,7 +725,22 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow
         ),
         None => String::new(),
     };
-    anyhow::anyhow!("{e}{}{hint}", super::port::machine_hint(&e))
+    // An abort says what asked for it (a signal, which one, or a key), here and in the journal,
+    // where the stream wrote only that the operator aborted.
+    let text = match &e {
+        stream::MachineError::Aborted { halt } => {
+            let text = format!("{}; {halt}", abort_cause());
+            if let Ok(mut j) = Journal::read(journal_path) {
+                if j.state == RunState::Stopped {
+                    j.stop_reason = Some(text.clone());
+                    let _ = j.write(journal_path);
+                }
+            }
+            text
+        }
+        e => e.to_string(),
+    };
+    anyhow::anyhow!("{text}{}{hint}", super::port::machine_hint(&e))
 }
 
 /// What a finished stream did, and with `--dry-run` what the simulated machine saw.

@@ -238,8 +238,8 @@ fn stencil() -> std::process::Command {
 
 #[cfg(unix)]
 #[test]
-fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
-    for sig in ["TERM", "HUP"] {
+fn sigterm_sighup_and_sigint_stop_the_machine_like_the_abort_key_and_are_named() {
+    for sig in ["TERM", "HUP", "INT"] {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("job.gcode");
         std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
@@ -274,7 +274,7 @@ fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
         );
         assert!(!out.status.success(), "SIG{sig}: {so}{se}");
         assert!(
-            se.contains("aborted by the operator") && se.contains("resume from line"),
+            se.contains(&format!("stopped by SIG{sig}")) && se.contains("resume from line"),
             "SIG{sig}: {se}"
         );
         assert!(
@@ -287,6 +287,13 @@ fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
         );
         let j = Journal::read(&jpath).unwrap();
         assert_eq!(j.state, journal::RunState::Stopped, "SIG{sig}");
+        // Issue 39, item 7: the signal is named, not taken for the operator's abort key.
+        let why = j.stop_reason.unwrap_or_default();
+        assert!(
+            why.starts_with(&format!("stopped by SIG{sig}")),
+            "SIG{sig}: {why}"
+        );
+        assert!(!se.contains("by the operator"), "SIG{sig}: {se}");
     }
 }
 
@@ -307,7 +314,7 @@ fn laser_expect(text: &str, job: &Program) -> Expected {
         power: Some(PowerScale {
             s_max: 1000.0,
             s_min: 0.0,
-            source: "the job (its header)".into(),
+            source: "read from its header".into(),
         }),
         rapid_mm_min: Some(6000.0),
         accel_mm_s2: Some(1000.0),
@@ -458,8 +465,18 @@ fn cli_dry_run_checks_the_settings_from_the_profile() {
         out.contains("$30=255") && out.contains("--rescale-power"),
         "{out}"
     );
+    assert!(
+        out.contains("the job was written for $30=1000 (read from its header)"),
+        "{out}"
+    );
     let (ok, out) = run(&["--dry-run-setting", "$30=255", "--rescale-power"]);
     assert!(ok && out.contains("rescaled"), "{out}");
+    // Issue 39, item 7: the scale and where it was read, worded once.
+    assert!(
+        out.contains("the job's is $30=1000 $31=0 (read from its header)")
+            && !out.contains("(the job ("),
+        "{out}"
+    );
 }
 
 #[test]
