@@ -137,6 +137,28 @@ pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
     }
 }
 
+/// Before an allowed job streams: a `$32=0` in it turns Grbl's laser mode off for the rest of the
+/// job (and after it: Grbl keeps its settings), which the laser-mode check before the job cannot
+/// see coming. Said with what it means at the machine.
+fn warn_laser_mode_off(job: &Program) {
+    for c in &job.machine_changes {
+        let off = c
+            .text
+            .strip_prefix("$32=")
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .is_some_and(|v| v == 0.0);
+        if off {
+            eprintln!(
+                "warning: {}: line {} `{}` turns Grbl's laser mode off: from there on Grbl runs \
+                 the beam as a spindle, keeping it on through G0 travel and wherever motion \
+                 stops (laser mode turns it off there), and pausing at every power change; \
+                 Grbl keeps $32=0 after the job. Take the line out if this machine is a laser",
+                job.name, c.line, c.text
+            );
+        }
+    }
+}
+
 fn machine_change_note(file: &str, line: usize, text: &str, what: &str) {
     eprintln!(
         "note: {file}: line {line} `{text}` {what}: `stencil send` refuses it unless \
@@ -810,7 +832,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
     refuse_non_gcode(&a.file, &job, &text)?;
-    if !a.allow_machine_commands {
+    if a.allow_machine_commands {
+        warn_laser_mode_off(&job);
+    } else {
         name_machine_changes(&job);
     }
     if job.dropped_percent > 0 {

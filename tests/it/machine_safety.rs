@@ -810,3 +810,44 @@ fn after_a_power_loss_the_resume_waits_for_the_person_and_the_corner() {
         "{travel:?}"
     );
 }
+
+/// Issue 39, item 7: a job allowed to change the machine that turns laser mode off (`$32=0`)
+/// runs the rest with the beam on through travel and stops: `send` says so, naming the line,
+/// before anything streams.
+#[test]
+fn an_allowed_laser_mode_off_in_a_job_is_warned_before_streaming() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    let text = stencil_job().replacen("G0X10Y10\n", "G0X10Y10\n$32=0\n", 1);
+    let line = text.lines().position(|l| l == "$32=0").unwrap() + 1;
+    std::fs::write(&file, &text).unwrap();
+    let o = stencil()
+        .args(["send", "--dry-run", "--allow-machine-commands"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(o.status.success(), "{so}{se}");
+    let warning = se
+        .find(&format!("line {line} `$32=0` turns Grbl's laser mode off"))
+        .unwrap_or_else(|| panic!("no warning: {se}"));
+    assert!(
+        se.contains("keeping it on through G0 travel and wherever motion stops"),
+        "{se}"
+    );
+    // Said before the controller was even reached.
+    let connected = se.find("connected to").unwrap_or_else(|| panic!("{se}"));
+    assert!(warning < connected, "{se}");
+    // The job without it: no such warning.
+    std::fs::write(&file, stencil_job()).unwrap();
+    let o = stencil()
+        .args(["send", "--dry-run", "--allow-machine-commands"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("laser mode off"));
+}
