@@ -472,10 +472,20 @@ impl FilterArgs {
 /// Above this share of the picture changed, `make` warns.
 const WARN_CHANGE_PCT: f64 = 5.0;
 
-/// What a user can do when the stencil strays from the picture.
-const CHANGE_HINTS: &str = "to keep closer to the picture, make it larger (--width-mm or --dpi), \
-     choose a material with a smaller min_feature_mm (--material; `stencil profiles` lists them), \
-     move --threshold, or supersample with --scale 2..4";
+/// What a user can do when the stencil strays from the picture (a gobo is made larger by its
+/// image area: --gobo excludes --width-mm and --dpi).
+fn change_hints(cfg: &MakeConfig) -> String {
+    let larger = if cfg.physical.gobo.is_some() {
+        "a larger image area in --gobo OD,IA"
+    } else {
+        "--width-mm or --dpi"
+    };
+    format!(
+        "to keep closer to the picture, make it larger ({larger}), choose a material with a \
+         smaller min_feature_mm (--material; `stencil profiles` lists them), move --threshold, \
+         or supersample with --scale 2..4"
+    )
+}
 
 /// The fidelity figures on one line.
 fn change_line(f: &Fidelity) -> String {
@@ -790,10 +800,11 @@ pub(super) fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Er
             limit_pct,
         } => anyhow::anyhow!(
             "{}: {:.2} % of the picture changed, over the --max-change limit of {limit_pct} %, \
-             so nothing was written ({}); {CHANGE_HINTS}",
+             so nothing was written ({}); {}",
             cfg.input.display(),
             fidelity.changed_pct,
             change_parts(&fidelity),
+            change_hints(cfg),
         ),
         // Another run is writing the folder: said as it is (kept as its type, so that the failed
         // run does not move that run's files aside).
@@ -918,7 +929,8 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         println!("{}", change_line(f));
         if f.changed_pct > WARN_CHANGE_PCT {
             eprintln!(
-                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {CHANGE_HINTS}"
+                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {}",
+                change_hints(cfg)
             );
         }
     }

@@ -499,5 +499,12 @@ fn a_gobo_too_small_for_its_picture_is_refused_with_gobo_advice() {
             "{gobo} -> {advised}: {}",
             stderr(&o)
         );
+        // Whatever it says next (another bound, or a warning that much changed), it never
+        // advises an option --gobo excludes.
+        assert!(
+            !stderr(&o).contains("--width-mm"),
+            "{gobo} -> {advised}: {}",
+            stderr(&o)
+        );
     }
 }
