@@ -500,17 +500,6 @@ pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
     anyhow::anyhow!("{}; {note}", one_line(&e))
 }
 
-#[cfg(test)]
-mod time_tests {
-    #[test]
-    fn utc_dates() {
-        let t = |s: u64| super::utc(std::time::UNIX_EPOCH + std::time::Duration::from_secs(s));
-        assert_eq!(t(0), "1970-01-01 00:00 UTC");
-        assert_eq!(t(951_782_400), "2000-02-29 00:00 UTC");
-        assert_eq!(t(1_795_700_000), "2026-11-26 13:33 UTC");
-    }
-}
-
 /// A size refused in a gobo's `make`, in the words of `--gobo`: the picture's size came from the
 /// gobo's image area (--gobo excludes --width-mm, which the size error would otherwise advise),
 /// so the advice is the image areas that work for this picture. `None` for an error the gobo's
@@ -579,4 +568,15 @@ pub fn gobo_size(input: &Path, g: &stencil_core::gobo::Gobo, e: &SizeError) -> O
         num(g.ia_mm),
         num(pixel_mm),
     ))
+}
+
+#[cfg(test)]
+mod time_tests {
+    #[test]
+    fn utc_dates() {
+        let t = |s: u64| super::utc(std::time::UNIX_EPOCH + std::time::Duration::from_secs(s));
+        assert_eq!(t(0), "1970-01-01 00:00 UTC");
+        assert_eq!(t(951_782_400), "2000-02-29 00:00 UTC");
+        assert_eq!(t(1_795_700_000), "2026-11-26 13:33 UTC");
+    }
 }
