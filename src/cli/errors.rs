@@ -500,6 +500,76 @@ pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
     anyhow::anyhow!("{}; {note}", one_line(&e))
 }
 
+/// A size refused in a gobo's `make`, in the words of `--gobo`: the picture's size came from the
+/// gobo's image area (--gobo excludes --width-mm, which the size error would otherwise advise),
+/// so the advice is the image areas that work for this picture. `None` for an error the gobo's
+/// size did not cause (its wording is right as it is).
+pub fn gobo_size(input: &Path, g: &stencil_core::gobo::Gobo, e: &SizeError) -> Option<String> {
+    let (pixel_mm, problem, least_width_mm) = match e {
+        SizeError::OutOfRange {
+            size: Size::WidthMm(_),
+            mm_per_px,
+            range,
+            ..
+        } => (
+            *mm_per_px,
+            limits::out_of_range_reason(*mm_per_px),
+            range.map(|(lo, _)| lo),
+        ),
+        SizeError::TooFine {
+            size: Size::WidthMm(_),
+            mm_per_px,
+            feature_mm,
+            feature_px,
+            fix: FinerFix::WidthMmAtLeast(w),
+            ..
+        } => (
+            *mm_per_px,
+            format!(
+                "that makes the material's smallest feature ({feature_mm} mm) {} pixels wide, \
+                 more than the {} stencil works with",
+                num(*feature_px),
+                limits::MAX_PX_PER_FEATURE
+            ),
+            Some(*w),
+        ),
+        _ => return None,
+    };
+    let given = match &g.letter {
+        Some(l) => l.clone(),
+        None => format!("{},{}", num(g.od_mm), num(g.ia_mm)),
+    };
+    let (w, h) = stencil_core::tone::picture_size(input).ok()?;
+    // Image area per mm of the picture's width, as the gobo places it.
+    let ia_per_mm = g.ia_mm / g.picture_width_mm(w, h);
+    let max_od = stencil_core::gobo::MAX_OD_MM;
+    let fix = match least_width_mm.map(|lo| lo * ia_per_mm) {
+        Some(ia) if ia < max_od => {
+            // Rounded up to 4 significant digits, so that the value printed works.
+            let p = 10f64.powi(3 - ia.log10().floor() as i32);
+            let ia = (ia * p).ceil() / p;
+            format!(
+                "give --gobo OD,IA with an image area IA of at least {} mm (and an outside \
+                 diameter OD above IA, at most {} mm), or use a picture with fewer pixels",
+                num(ia),
+                num(max_od)
+            )
+        }
+        _ => format!(
+            "no gobo up to {} mm fits this picture: use a picture with fewer pixels",
+            num(max_od)
+        ),
+    };
+    Some(format!(
+        "{}: --gobo {given}{}: the {} mm image area makes the {w}x{h} px picture's pixels {} mm; \
+         {problem}; {fix}",
+        input.display(),
+        if g.crop { " --gobo-crop" } else { "" },
+        num(g.ia_mm),
+        num(pixel_mm),
+    ))
+}
+
 #[cfg(test)]
 mod time_tests {
     #[test]

@@ -214,7 +214,13 @@ pub fn frame_on(
             _ if console.locked() => "; run again with --unlock to send $X",
             _ => "",
         };
-        anyhow::anyhow!("{e}{hint}")
+        match &e {
+            // Said with what asked for the abort (a signal, which one, or a key).
+            FrameError::Aborted { laser } => {
+                anyhow::anyhow!("framing {}; {laser}{hint}", super::send::abort_cause())
+            }
+            e => anyhow::anyhow!("{e}{hint}"),
+        }
     })
 }
 

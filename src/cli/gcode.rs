@@ -296,6 +296,9 @@ pub fn chosen_settings(
 }
 
 pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
+    // A half-finished `make` of the folder (or of the set a layer's folder is in) is settled
+    // before anything in it is looked at.
+    super::send::settle(&a.input)?;
     // A layered folder: a job in each layer's folder (and the fill-in's).
     if a.input.is_dir()
         && a.out.is_some()
@@ -325,7 +328,7 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         (a.input.clone(), None)
     };
     if let Some(d) = &dir {
-        super::send::settle_folder(d)?;
+        super::send::settle(d)?;
     }
     let out = a.out.clone().unwrap_or_else(|| match &dir {
         Some(d) => d.join("stencil.gcode"),

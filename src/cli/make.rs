@@ -472,10 +472,20 @@ impl FilterArgs {
 /// Above this share of the picture changed, `make` warns.
 const WARN_CHANGE_PCT: f64 = 5.0;
 
-/// What a user can do when the stencil strays from the picture.
-const CHANGE_HINTS: &str = "to keep closer to the picture, make it larger (--width-mm or --dpi), \
-     choose a material with a smaller min_feature_mm (--material; `stencil profiles` lists them), \
-     move --threshold, or supersample with --scale 2..4";
+/// What a user can do when the stencil strays from the picture (a gobo is made larger by its
+/// image area: --gobo excludes --width-mm and --dpi).
+fn change_hints(cfg: &MakeConfig) -> String {
+    let larger = if cfg.physical.gobo.is_some() {
+        "a larger image area in --gobo OD,IA"
+    } else {
+        "--width-mm or --dpi"
+    };
+    format!(
+        "to keep closer to the picture, make it larger ({larger}), choose a material with a \
+         smaller min_feature_mm (--material; `stencil profiles` lists them), move --threshold, \
+         or supersample with --scale 2..4"
+    )
+}
 
 /// The fidelity figures on one line.
 fn change_line(f: &Fidelity) -> String {
@@ -507,7 +517,33 @@ pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let inputs = make_inputs(&a);
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
-    make_in(&a).map_err(|e| super::errors::after_failed_make(&out_dir, e))
+    make_in(&a)
+        .map_err(|e| gobo_words(&a, e))
+        .map_err(|e| super::errors::after_failed_make(&out_dir, e))
+}
+
+/// A size error raised while the run is set up (before the pipeline, whose errors
+/// [`make_error`] words), in the words of --gobo when the gobo's size caused it.
+fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
+    let Some(g) = &a.physical.gobo else {
+        return e;
+    };
+    let g = stencil_core::gobo::Gobo {
+        crop: a.physical.gobo_crop,
+        ..g.clone()
+    };
+    let size = e.chain().find_map(|c| {
+        c.downcast_ref::<stencil_core::limits::SizeError>().or(
+            match c.downcast_ref::<stencil_core::Error>() {
+                Some(stencil_core::Error::Limit(s)) => Some(s),
+                _ => None,
+            },
+        )
+    });
+    match size.and_then(|s| super::errors::gobo_size(&a.input, &g, s)) {
+        Some(words) => anyhow::anyhow!(words),
+        None => e,
+    }
 }
 
 /// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
@@ -752,16 +788,23 @@ fn fit_size(
 /// A failed run in this command's words: the fidelity limit with what helps, any other error
 /// naming the input.
 pub(super) fn make_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
+    // A gobo's size is set by --gobo, not --width-mm (which --gobo excludes).
+    if let (Some(g), stencil_core::Error::Limit(s)) = (&cfg.physical.gobo, &e) {
+        if let Some(words) = super::errors::gobo_size(&cfg.input, g, s) {
+            return anyhow::anyhow!(words);
+        }
+    }
     match e {
         stencil_core::Error::TooMuchChange {
             fidelity,
             limit_pct,
         } => anyhow::anyhow!(
             "{}: {:.2} % of the picture changed, over the --max-change limit of {limit_pct} %, \
-             so nothing was written ({}); {CHANGE_HINTS}",
+             so nothing was written ({}); {}",
             cfg.input.display(),
             fidelity.changed_pct,
             change_parts(&fidelity),
+            change_hints(cfg),
         ),
         // Another run is writing the folder: said as it is (kept as its type, so that the failed
         // run does not move that run's files aside).
@@ -886,7 +929,8 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         println!("{}", change_line(f));
         if f.changed_pct > WARN_CHANGE_PCT {
             eprintln!(
-                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {CHANGE_HINTS}"
+                "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {}",
+                change_hints(cfg)
             );
         }
     }

@@ -230,6 +230,10 @@ pub fn run_profiles(a: ProfilesArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// How long `profiles set` waits for another run that is changing the kept settings (each holds
+/// the lock for one read and write of a small file).
+const SETTINGS_LOCK_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
+
 /// Check the settings against the material and the machine, then write them (replacing any kept
 /// for the same pair).
 fn run_set(a: SetArgs) -> anyhow::Result<ExitCode> {
@@ -275,6 +279,20 @@ fn run_set(a: SetArgs) -> anyhow::Result<ExitCode> {
             stencil_io::profile::CONFIG_DIR_ENV
         );
     };
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("{}: cannot create the config folder", dir.display()))?;
+    // Read, change and write the file under the config folder's lock: concurrent `profiles set`s
+    // (a script keeping several pairs at once) each keep their pair instead of writing over
+    // each other's from the same old file.
+    let _lock = stencil_io::lock_folder(&dir, SETTINGS_LOCK_WAIT).map_err(|e| match e {
+        stencil_io::WriteError::Busy { path } => anyhow::anyhow!(
+            "{}: another stencil run has been changing the kept settings for {} s; nothing was \
+             kept (run this again when it is done)",
+            path.display(),
+            SETTINGS_LOCK_WAIT.as_secs()
+        ),
+        e => e.into(),
+    })?;
     let mut user = UserSettings::load_from(&dir)?;
     let kept = Kept {
         material: material.name.clone(),
@@ -286,8 +304,6 @@ fn run_set(a: SetArgs) -> anyhow::Result<ExitCode> {
     let replaced = user.find(&kept.material, &kept.machine).cloned();
     user.set(kept);
     let path = dir.join(stencil_core::material::USER_SETTINGS_FILE);
-    std::fs::create_dir_all(&dir)
-        .with_context(|| format!("{}: cannot create the config folder", dir.display()))?;
     let header = "# Cut settings kept with `stencil profiles set MATERIAL --machine M --power P \
                   --speed S`,\n# per material and machine profile; they win over the material \
                   profile's settings.\n";

@@ -137,12 +137,15 @@ pub fn expected(machine: &Machine, text: &str, job: &Program) -> Expected {
             Some((s_max, s_min)) => PowerScale {
                 s_max,
                 s_min,
-                source: "the job (its header)".into(),
+                source: "read from its header".into(),
             },
             None => PowerScale {
                 s_max,
                 s_min,
-                source: format!("the job (by machine profile {})", machine.name),
+                source: format!(
+                    "taken from machine profile {}, as its header does not say",
+                    machine.name
+                ),
             },
         }),
         _ => None,

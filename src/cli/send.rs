@@ -137,6 +137,28 @@ pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
     }
 }
 
+/// Before an allowed job streams: a `$32=0` in it turns Grbl's laser mode off for the rest of the
+/// job (and after it: Grbl keeps its settings), which the laser-mode check before the job cannot
+/// see coming. Said with what it means at the machine.
+fn warn_laser_mode_off(job: &Program) {
+    for c in &job.machine_changes {
+        let off = c
+            .text
+            .strip_prefix("$32=")
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .is_some_and(|v| v == 0.0);
+        if off {
+            eprintln!(
+                "warning: {}: line {} `{}` turns Grbl's laser mode off: from there on Grbl runs \
+                 the beam as a spindle, keeping it on through G0 travel and wherever motion \
+                 stops (laser mode turns it off there), and pausing at every power change; \
+                 Grbl keeps $32=0 after the job. Take the line out if this machine is a laser",
+                job.name, c.line, c.text
+            );
+        }
+    }
+}
+
 fn machine_change_note(file: &str, line: usize, text: &str, what: &str) {
     eprintln!(
         "note: {file}: line {line} `{text}` {what}: `stencil send` refuses it unless \
@@ -202,36 +224,32 @@ pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
 }
 
 /// A G-code file, read through the bounded reader (at most 512 MB; a FIFO or a device is refused
-/// at once). A `stencil make` folder it lies in that a killed run left half-swapped is finished
-/// first ([`stencil_io::recover`]), so the program is never one run's beside another run's files.
+/// at once). A `stencil make` folder it lies in (or, for a layer's job, the set's folder around
+/// it) that a killed run left half-swapped is finished first ([`settle`]), so the program is
+/// never one run's beside another run's files, nor the previous design's layer.
 pub(super) fn read_program(path: &Path) -> anyhow::Result<String> {
-    settle_folder_of(path)?;
+    settle(path)?;
     Ok(stencil_io::read_text(path, stencil_io::Kind::Gcode)?)
 }
 
-/// Finish or discard a half-finished swap of `make` in the folder `path` is in.
-pub(super) fn settle_folder_of(path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    settle_folder(dir)
-}
-
-/// Finish or discard a half-finished swap of `make` in `dir`, saying so.
-pub(super) fn settle_folder(dir: &Path) -> anyhow::Result<()> {
-    match stencil_io::recover(dir, stencil_core::layers::owned_names())? {
-        stencil_io::Recovered::Nothing => {}
-        stencil_io::Recovered::Finished => eprintln!(
-            "note: {}: finished writing the files of a `stencil make` that was stopped while it \
-             put them in place",
-            dir.display()
-        ),
-        stencil_io::Recovered::Discarded => eprintln!(
-            "note: {}: deleted the unfinished files of a `stencil make` that was stopped before \
-             it put them in place; the folder holds the run before it",
-            dir.display()
-        ),
+/// Before `path` (a file or a folder) is read: finish or discard a half-finished swap of `make`
+/// in the folder it is, and in the set folder around it when it is a layer's
+/// ([`stencil_io::recover_around`]), saying so.
+pub(super) fn settle(path: &Path) -> anyhow::Result<()> {
+    for (dir, r) in stencil_io::recover_around(path, stencil_core::layers::owned_names())? {
+        match r {
+            stencil_io::Recovered::Nothing => {}
+            stencil_io::Recovered::Finished => eprintln!(
+                "note: {}: finished writing the files of a `stencil make` that was stopped while \
+                 it put them in place",
+                dir.display()
+            ),
+            stencil_io::Recovered::Discarded => eprintln!(
+                "note: {}: deleted the unfinished files of a `stencil make` that was stopped \
+                 before it put them in place; the folder holds the run before it",
+                dir.display()
+            ),
+        }
     }
     Ok(())
 }
@@ -297,6 +315,52 @@ pub(super) fn origin_line(path: &Path, text: &str) -> String {
     format!("job {}: {}{when}", path.display(), parts.join(", "))
 }
 
+/// What asked for an abort, the first that did: a stop signal or a key, said in the stop's message
+/// and the journal (the stream knows only that an abort was asked for).
+static ABORT_CAUSE: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
+
+/// The stop's first words for an abort: what asked for it.
+pub(super) fn abort_cause() -> &'static str {
+    ABORT_CAUSE
+        .get()
+        .copied()
+        .unwrap_or("aborted by the operator")
+}
+
+/// SIGINT, SIGTERM and SIGHUP take the abort's path, once per process, each named as it arrives.
+#[cfg(unix)]
+fn on_stop_signals(tx: Sender<Control>) {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+            return;
+        };
+        std::thread::spawn(move || {
+            for sig in signals.forever() {
+                let _ = ABORT_CAUSE.set(match sig {
+                    SIGINT => "stopped by SIGINT (Ctrl-C)",
+                    SIGTERM => {
+                        "stopped by SIGTERM (a request to end stencil: `kill`, a service manager \
+                         or a shutdown)"
+                    }
+                    _ => "stopped by SIGHUP (the terminal closed)",
+                });
+                let _ = tx.send(Control::Abort);
+            }
+        });
+    });
+}
+
+/// Ctrl-C (and closing the console) take the abort's path, once per process.
+#[cfg(not(unix))]
+fn on_stop_signals(tx: Sender<Control>) {
+    let _ = ctrlc::set_handler(move || {
+        let _ = ABORT_CAUSE.set("stopped by Ctrl-C");
+        let _ = tx.send(Control::Abort);
+    });
+}
+
 /// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
 /// terminal when dropped, also on error paths.
 pub(super) struct Keys {
@@ -312,10 +376,7 @@ impl Keys {
         // the abort's path: hold, wait until the machine stands, reset, laser and air off. One
         // handler per process: `send --frame` starts keys twice on the same channel, so the
         // first handler serves both.
-        let signal_tx = tx.clone();
-        let _ = ctrlc::set_handler(move || {
-            let _ = signal_tx.send(Control::Abort);
-        });
+        on_stop_signals(tx.clone());
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
             let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
@@ -361,12 +422,21 @@ impl KeySource for Terminal {
         if k.kind == KeyEventKind::Release {
             return Ok(None);
         }
-        Ok(match k.code {
-            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Some(Key::CtrlC),
-            KeyCode::Char(c) => Some(Key::Char(c)),
-            KeyCode::Esc => Some(Key::Esc),
-            _ => None,
-        })
+        let key = match k.code {
+            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Key::CtrlC,
+            KeyCode::Char(c) => Key::Char(c),
+            KeyCode::Esc => Key::Esc,
+            _ => return Ok(None),
+        };
+        if keys::controls_for(key) == [Control::Abort] {
+            let _ = ABORT_CAUSE.set(match key {
+                Key::CtrlC => "aborted with Ctrl-C",
+                Key::Esc => "aborted with the abort key (Esc)",
+                Key::Char('q') => "aborted with the abort key (q)",
+                _ => "aborted with the abort key (a)",
+            });
+        }
+        Ok(Some(key))
     }
 }
 
@@ -556,18 +626,20 @@ fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option
         RunState::Running => {
             "did not end (the sender was killed, crashed, or the power went)".to_string()
         }
+        // The journal is a file that may have come from elsewhere: its text is printed with its
+        // control characters written out.
         RunState::Stopped => format!(
             "stopped: {}",
-            j.stop_reason.as_deref().unwrap_or("(no reason recorded)")
+            stencil_io::printable(j.stop_reason.as_deref().unwrap_or("(no reason recorded)"))
         ),
         RunState::Complete => "finished".to_string(),
     };
     println!(
         "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
         path.display(),
-        j.file,
+        stencil_io::printable(&j.file),
         j.from_line,
-        j.machine,
+        stencil_io::printable(&j.machine),
         format_duration(age)
     );
     let end = job.source_lines();
@@ -585,13 +657,13 @@ fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option
         "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3}",
         p.why,
         p.line,
-        m.units,
-        m.distance,
+        stencil_io::printable(&m.units),
+        stencil_io::printable(&m.distance),
         match m.feed_mm_min {
             Some(f) => format!("F{f}"),
             None => "no feed yet".into(),
         },
-        m.spindle,
+        stencil_io::printable(&m.spindle),
         if m.spindle != "M5" { format!(" S{}", m.s) } else { String::new() },
         if m.air { "on" } else { "off" },
         m.position_mm[0],
@@ -620,7 +692,7 @@ fn recover(
             if *m != j.machine {
                 println!(
                     "the journal's run used machine {}; you named {m}: using {m}",
-                    j.machine
+                    stencil_io::printable(&j.machine)
                 );
             }
             Some(m.clone())
@@ -675,7 +747,22 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow
         ),
         None => String::new(),
     };
-    anyhow::anyhow!("{e}{}{hint}", super::port::machine_hint(&e))
+    // An abort says what asked for it (a signal, which one, or a key), here and in the journal,
+    // where the stream wrote only that the operator aborted.
+    let text = match &e {
+        stream::MachineError::Aborted { halt } => {
+            let text = format!("{}; {halt}", abort_cause());
+            if let Ok(mut j) = Journal::read(journal_path) {
+                if j.state == RunState::Stopped {
+                    j.stop_reason = Some(text.clone());
+                    let _ = j.write(journal_path);
+                }
+            }
+            text
+        }
+        e => e.to_string(),
+    };
+    anyhow::anyhow!("{text}{}{hint}", super::port::machine_hint(&e))
 }
 
 /// What a finished stream did, and with `--dry-run` what the simulated machine saw.
@@ -745,7 +832,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
     refuse_non_gcode(&a.file, &job, &text)?;
-    if !a.allow_machine_commands {
+    if a.allow_machine_commands {
+        warn_laser_mode_off(&job);
+    } else {
         name_machine_changes(&job);
     }
     if job.dropped_percent > 0 {

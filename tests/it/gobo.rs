@@ -447,3 +447,64 @@ fn gobo_sizes_and_conflicts_are_refused_with_the_option_named() {
         assert!(!out.exists(), "nothing written for {args:?}");
     }
 }
+
+/// Issue 39, item 4: a gobo too small for the picture's pixels is refused in the words of
+/// --gobo (the option that sized it), with the image areas that work; never with advice about
+/// --width-mm, which --gobo excludes. The image area advised is past the bound it names.
+#[test]
+fn a_gobo_too_small_for_its_picture_is_refused_with_gobo_advice() {
+    let t = tmp();
+    let rings = common::samples().join("rings.png");
+    let out = t.path().join("x");
+    let least = |err: &str| -> f64 {
+        let rest = err
+            .split("an image area IA of at least ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("no image area advised: {err}"));
+        rest.split(' ').next().unwrap().parse().unwrap()
+    };
+    for (gobo, crop, bound) in [
+        // Pixels under a micron.
+        ("0.001,0.0005", false, "pixels must be at least 0.001 mm"),
+        ("0.001,0.0005", true, "pixels must be at least 0.001 mm"),
+        // Pixels too fine for the material's smallest feature.
+        ("1,0.5", false, "smallest feature"),
+    ] {
+        let mut a = vec!["make", s(&rings), "-o", s(&out), "--gobo", gobo];
+        if crop {
+            a.push("--gobo-crop");
+        }
+        let o = stencil(&a);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{gobo}: {err}");
+        assert!(
+            err.contains(&format!("--gobo {gobo}")) && err.contains(bound),
+            "{gobo}: {err}"
+        );
+        assert!(
+            !err.contains("--width-mm"),
+            "{gobo}: advice names --width-mm: {err}"
+        );
+        let ia = least(&err);
+        assert!(ia > 0.0005 && ia < 1000.0, "{gobo}: {ia}");
+        // The image area advised clears the bound that was broken.
+        let advised = format!("{},{}", ia * 2.0, ia);
+        let mut a = vec!["make", s(&rings), "-o", s(&out), "--gobo", &advised];
+        if crop {
+            a.push("--gobo-crop");
+        }
+        let o = stencil(&a);
+        assert!(
+            !stderr(&o).contains(bound),
+            "{gobo} -> {advised}: {}",
+            stderr(&o)
+        );
+        // Whatever it says next (another bound, or a warning that much changed), it never
+        // advises an option --gobo excludes.
+        assert!(
+            !stderr(&o).contains("--width-mm"),
+            "{gobo} -> {advised}: {}",
+            stderr(&o)
+        );
+    }
+}

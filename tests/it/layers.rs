@@ -340,3 +340,139 @@ fn the_fill_in_paints_the_first_stencils_bridges() {
     assert!(o.status.success(), "{text}");
     assert!(text.contains("fill-in"), "{text}");
 }
+
+/// Issue 39, item 4: `make --layers 3` killed just past its commit point leaves the set's new
+/// design in the set folder's swap while `layer-1/` still holds the earlier design. A command
+/// given the layer's own file or folder (not the set folder) must finish the set's swap first,
+/// as it does for the set folder: it reads (and `send` streams) the new design's layer.
+#[test]
+fn a_command_given_a_layers_path_finishes_the_sets_swap_first() {
+    if !cfg!(debug_assertions) {
+        // The fault hook exists only in debug builds (the binary is built like this test).
+        return;
+    }
+    let dir = tmp();
+    // Run in the test's folder with short relative names, so that the jobs' headers (and the
+    // origin lines quoting them) name the pictures in full.
+    let run = |args: &[&str], kill_at: Option<usize>| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_stencil"));
+        c.args(args).current_dir(dir.path());
+        c.env("STENCIL_CONFIG_DIR", dir.path().join("no-config"));
+        if let Some(k) = kill_at {
+            c.env("STENCIL_FAULT_SWAP_STEP", k.to_string());
+        }
+        c.output().unwrap()
+    };
+    let (old_pic, new_pic) = ("old.png", "new.png");
+    std::fs::copy(samples().join("rings.png"), dir.path().join(old_pic)).unwrap();
+    std::fs::copy(samples().join("target.png"), dir.path().join(new_pic)).unwrap();
+    let make = |pic: &str, kill_at: Option<usize>| {
+        let args = [
+            "make",
+            pic,
+            "-o",
+            "set",
+            "--layers",
+            "3",
+            "--emit",
+            "png,svg,gcode",
+        ];
+        run(&args, kill_at)
+    };
+    let from = |gcode: &Path| {
+        std::fs::read_to_string(gcode)
+            .unwrap()
+            .lines()
+            .find_map(|l| l.strip_prefix("; from ").map(str::to_string))
+            .unwrap()
+    };
+    // The earlier set, then the new design killed at every point until one is found past the
+    // commit (the plan on disk) with no step of it made: layer-1 still the earlier design's.
+    let reference = dir.path().join("ref");
+    let o = run(
+        &[
+            "make",
+            new_pic,
+            "-o",
+            "ref",
+            "--layers",
+            "3",
+            "--emit",
+            "png,svg,gcode",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("set");
+    let killed_past_commit = |k: usize| {
+        let _ = std::fs::remove_dir_all(&out);
+        assert!(make(old_pic, None).status.success());
+        let o = make(new_pic, Some(k));
+        assert!(
+            o.status.code().is_none(),
+            "not killed at {k}: {}",
+            stderr(&o)
+        );
+        out.join(".stencil-swap/plan").is_file()
+    };
+    let k = (1..200)
+        .find(|&k| killed_past_commit(k))
+        .expect("a kill point past the commit");
+    let job = out.join("layer-1/stencil.gcode");
+    assert_eq!(from(&job), old_pic, "layer-1 is the earlier design's");
+    let commands: [&[&str]; 8] = [
+        &["send", "set/layer-1/stencil.gcode", "--dry-run"],
+        &["estimate", "set/layer-1/stencil.gcode"],
+        &["frame", "set/layer-1/stencil.gcode", "--dry-run"],
+        &["simulate", "set/layer-1/stencil.gcode", "-o", "sim.png"],
+        &["check", "set/layer-1"],
+        &["check", "set/layer-1/stencil.png"],
+        &["gcode", "set/layer-1", "--machine", "diode-400"],
+        // Given from inside the layer's folder: the set around it is found all the same.
+        &["estimate", "./stencil.gcode"],
+    ];
+    for args in commands {
+        assert!(killed_past_commit(k));
+        let o = if args[1].starts_with("./") {
+            std::process::Command::new(env!("CARGO_BIN_EXE_stencil"))
+                .args(args)
+                .current_dir(out.join("layer-1"))
+                .env("STENCIL_CONFIG_DIR", dir.path().join("no-config"))
+                .output()
+                .unwrap()
+        } else {
+            run(args, None)
+        };
+        let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+        assert!(!text.contains("panicked"), "{args:?}: {text}");
+        assert!(
+            text.contains("finished writing the files of a `stencil make`"),
+            "{args:?} did not finish the set's swap: {text}"
+        );
+        assert!(
+            !out.join(".stencil-swap").exists(),
+            "{args:?}: the swap is still pending"
+        );
+        // Every layer is the new design's (`gcode` wrote layer-1's job again from its SVG).
+        for l in layer_dirs(&out) {
+            let name = l.file_name().unwrap();
+            assert_eq!(
+                std::fs::read(l.join("stencil.svg")).unwrap(),
+                std::fs::read(reference.join(name).join("stencil.svg")).unwrap(),
+                "{args:?}: {} is not the new design's",
+                l.display()
+            );
+            if !(args[0] == "gcode" && name == "layer-1") {
+                assert_eq!(from(&l.join("stencil.gcode")), new_pic, "{}", l.display());
+            }
+        }
+        assert!(o.status.success(), "{args:?}: {text}");
+        if ["send", "estimate", "frame"].contains(&args[0]) {
+            // The job it reads (and streams) is the new design's, as its origin line says.
+            assert!(
+                text.contains("from new.png") && !text.contains("from old.png"),
+                "{args:?}: {text}"
+            );
+        }
+    }
+}

@@ -238,8 +238,8 @@ fn stencil() -> std::process::Command {
 
 #[cfg(unix)]
 #[test]
-fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
-    for sig in ["TERM", "HUP"] {
+fn sigterm_sighup_and_sigint_stop_the_machine_like_the_abort_key_and_are_named() {
+    for sig in ["TERM", "HUP", "INT"] {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("job.gcode");
         std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
@@ -274,7 +274,7 @@ fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
         );
         assert!(!out.status.success(), "SIG{sig}: {so}{se}");
         assert!(
-            se.contains("aborted by the operator") && se.contains("resume from line"),
+            se.contains(&format!("stopped by SIG{sig}")) && se.contains("resume from line"),
             "SIG{sig}: {se}"
         );
         assert!(
@@ -287,6 +287,13 @@ fn sigterm_and_sighup_stop_the_machine_like_the_abort_key() {
         );
         let j = Journal::read(&jpath).unwrap();
         assert_eq!(j.state, journal::RunState::Stopped, "SIG{sig}");
+        // Issue 39, item 7: the signal is named, not taken for the operator's abort key.
+        let why = j.stop_reason.unwrap_or_default();
+        assert!(
+            why.starts_with(&format!("stopped by SIG{sig}")),
+            "SIG{sig}: {why}"
+        );
+        assert!(!se.contains("by the operator"), "SIG{sig}: {se}");
     }
 }
 
@@ -307,7 +314,7 @@ fn laser_expect(text: &str, job: &Program) -> Expected {
         power: Some(PowerScale {
             s_max: 1000.0,
             s_min: 0.0,
-            source: "the job (its header)".into(),
+            source: "read from its header".into(),
         }),
         rapid_mm_min: Some(6000.0),
         accel_mm_s2: Some(1000.0),
@@ -458,8 +465,18 @@ fn cli_dry_run_checks_the_settings_from_the_profile() {
         out.contains("$30=255") && out.contains("--rescale-power"),
         "{out}"
     );
+    assert!(
+        out.contains("the job was written for $30=1000 (read from its header)"),
+        "{out}"
+    );
     let (ok, out) = run(&["--dry-run-setting", "$30=255", "--rescale-power"]);
     assert!(ok && out.contains("rescaled"), "{out}");
+    // Issue 39, item 7: the scale and where it was read, worded once.
+    assert!(
+        out.contains("the job's is $30=1000 $31=0 (read from its header)")
+            && !out.contains("(the job ("),
+        "{out}"
+    );
 }
 
 #[test]
@@ -792,4 +809,45 @@ fn after_a_power_loss_the_resume_waits_for_the_person_and_the_corner() {
         (travel.to[1] - (st.pos[1] - corner[1])).abs() < 1e-6,
         "{travel:?}"
     );
+}
+
+/// Issue 39, item 7: a job allowed to change the machine that turns laser mode off (`$32=0`)
+/// runs the rest with the beam on through travel and stops: `send` says so, naming the line,
+/// before anything streams.
+#[test]
+fn an_allowed_laser_mode_off_in_a_job_is_warned_before_streaming() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    let text = stencil_job().replacen("G0X10Y10\n", "G0X10Y10\n$32=0\n", 1);
+    let line = text.lines().position(|l| l == "$32=0").unwrap() + 1;
+    std::fs::write(&file, &text).unwrap();
+    let o = stencil()
+        .args(["send", "--dry-run", "--allow-machine-commands"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(o.status.success(), "{so}{se}");
+    let warning = se
+        .find(&format!("line {line} `$32=0` turns Grbl's laser mode off"))
+        .unwrap_or_else(|| panic!("no warning: {se}"));
+    assert!(
+        se.contains("keeping it on through G0 travel and wherever motion stops"),
+        "{se}"
+    );
+    // Said before the controller was even reached.
+    let connected = se.find("connected to").unwrap_or_else(|| panic!("{se}"));
+    assert!(warning < connected, "{se}");
+    // The job without it: no such warning.
+    std::fs::write(&file, stencil_job()).unwrap();
+    let o = stencil()
+        .args(["send", "--dry-run", "--allow-machine-commands"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("laser mode off"));
 }

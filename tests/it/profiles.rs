@@ -237,3 +237,65 @@ fn the_default_profiles_do_not_depend_on_the_working_directory() {
     );
     assert_ne!(r3["gcode"]["estimate"], r1["gcode"]["estimate"]);
 }
+
+/// Issue 39, item 4: ten `profiles set` for ten different material and machine pairs, all at
+/// once (a script keeping a test grid's results): every one succeeds and every pair is kept.
+/// Before, each read the file, changed it and wrote it back unguarded, so most writes replaced
+/// others' (1 to 7 of 10 kept), and one could fail when another swept its temp file.
+#[test]
+fn concurrent_profiles_set_keep_every_pair() {
+    let materials = [
+        "acrylic-3mm",
+        "cardstock",
+        "copy-paper",
+        "mylar-0.19",
+        "plywood-3mm",
+    ];
+    let machines = ["diode-400", "co2-600x400"];
+    for round in 0..3 {
+        let tmp = tempfile::tempdir().unwrap();
+        let config = tmp.path().join("config");
+        let mut children = Vec::new();
+        for (i, m) in materials.iter().enumerate() {
+            for (k, machine) in machines.iter().enumerate() {
+                let power = (10 + 10 * i + k).to_string();
+                let child = Command::new(env!("CARGO_BIN_EXE_stencil"))
+                    .args(["profiles", "set", m, "--machine", machine])
+                    .args(["--power", &power, "--speed", "600", "--passes", "2"])
+                    .env("STENCIL_CONFIG_DIR", &config)
+                    .stdout(std::process::Stdio::piped())
+                    .stderr(std::process::Stdio::piped())
+                    .spawn()
+                    .unwrap();
+                children.push((m, machine, power, child));
+            }
+        }
+        let mut ran = Vec::new();
+        for (m, machine, power, child) in children {
+            let o = child.wait_with_output().unwrap();
+            assert!(
+                o.status.success(),
+                "round {round}: {m} on {machine}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            ran.push((m, machine, power));
+        }
+        let kept = stencil_core::material::UserSettings::load_from(&config).unwrap();
+        for (m, machine, power) in ran {
+            let k = kept
+                .find(m, machine)
+                .unwrap_or_else(|| panic!("round {round}: {m} on {machine} was not kept"));
+            assert_eq!(
+                k.power_pct,
+                Some(power.parse().unwrap()),
+                "{m} on {machine}"
+            );
+        }
+        let hidden: Vec<String> = std::fs::read_dir(&config)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with('.'))
+            .collect();
+        assert!(hidden.is_empty(), "temp files left: {hidden:?}");
+    }
+}

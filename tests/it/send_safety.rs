@@ -936,3 +936,58 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
         .collect();
     assert_eq!(got[..4], ["$I", "$$", "$H", "M5"], "{got:?}");
 }
+
+/// Issue 39, item 4: text from a file (a G-code header's "from" and "material" lines, a journal's
+/// stop reason, file and machine) is printed with its control characters written out, so that
+/// an escape sequence in a received job cannot retitle, clear or recolour the terminal.
+#[test]
+fn file_text_is_printed_without_terminal_escapes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    let evil = "\u{1b}]0;pwned\u{7}\u{1b}[2J\u{1b}[8m\u{9b}31m";
+    let text = format!(
+        "; stencil 0.1.0 for diode-400: test\n; from {evil}photo.png\n; material {evil}card\n"
+    ) + &common_job::job_text_scaled(1);
+    std::fs::write(&file, &text).unwrap();
+    let clean = |what: &str, so: &str, se: &str| {
+        for out in [so, se] {
+            assert!(
+                !out.contains('\u{1b}') && !out.contains('\u{7}') && !out.contains('\u{9b}'),
+                "{what}: a control character was printed raw: {out:?}"
+            );
+        }
+    };
+    for cmd in ["estimate", "simulate"] {
+        let mut c = stencil();
+        c.arg(cmd).arg(&file);
+        if cmd == "simulate" {
+            c.arg("-o").arg(dir.path().join("sim.png"));
+        }
+        let o = c.output().unwrap();
+        let (so, se) = (
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr),
+        );
+        clean(cmd, &so, &se);
+        assert!(o.status.success(), "{cmd}: {so}{se}");
+    }
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--dry-run-fault", "close@40"]);
+    assert!(!ok, "{so}{se}");
+    clean("send", &so, &se);
+    // The origin line shows the header's text, its escapes written out.
+    assert!(se.contains("from \\u{1b}]0;pwned\\u{7}"), "{se}");
+    // A journal (a file, maybe received with the job) whose text carries escapes.
+    let jpath = journal::path_for(&file);
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&jpath).unwrap()).unwrap();
+    j["stop_reason"] = format!("{evil}the port went away").into();
+    j["file"] = format!("{evil}job.gcode").into();
+    j["modal"]["units"] = format!("{evil}G21").into();
+    std::fs::write(&jpath, serde_json::to_string(&j).unwrap()).unwrap();
+    let (_, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    clean("send --recover", &so, &se);
+    assert!(
+        so.contains("stopped: \\u{1b}]0;pwned\\u{7}") && so.contains("the port went away"),
+        "{so}"
+    );
+}

@@ -619,3 +619,81 @@ fn a_failed_run_killed_while_moving_the_earlier_set_aside_leaves_it_whole() {
         "{kills} {stayed} {moved}"
     );
 }
+
+/// Issue 39, item 4: a received folder whose half-finished swap has a link in it
+/// (`.stencil-swap/old` or `new/` pointing at another folder, or its record of steps done
+/// pointing at another file): the reader that settles it refuses, naming the link, and no file
+/// of the other folder is overwritten, moved away or written to.
+#[cfg(unix)]
+#[test]
+fn a_link_inside_a_received_swap_is_never_followed() {
+    use std::os::unix::fs::symlink;
+    type Case<'a> = (&'a str, &'a str, &'a [&'a str]);
+    let cases: [Case; 3] = [
+        // `check` would move the folder's stencil.png over the other folder's.
+        (
+            "old",
+            "M\t.stencil-swap/old\nR\tstencil.png\t.stencil-swap/old/stencil.png\n",
+            &["check", "OUT"],
+        ),
+        // `send` would move the other folder's job in (and stream it).
+        (
+            "new",
+            "M\t.stencil-swap/old\nR\tstencil.gcode\t.stencil-swap/old/stencil.gcode\n\
+             R\t.stencil-swap/new/stencil.gcode\tstencil.gcode\n",
+            &["send", "OUT/stencil.gcode", "--dry-run"],
+        ),
+        // The record of steps done, appended to as steps are made.
+        (
+            "done",
+            "M\t.stencil-swap/old\nR\tstencil.svg\t.stencil-swap/old/stencil.svg\n",
+            &["estimate", "OUT/stencil.gcode"],
+        ),
+    ];
+    for (link, plan, args) in cases {
+        let dir = tmp();
+        let (_, out) = made(dir.path(), "received");
+        let other = dir.path().join("other");
+        std::fs::create_dir(&other).unwrap();
+        for n in ["stencil.png", "stencil.gcode", "stencil.svg", "notes.txt"] {
+            std::fs::write(other.join(n), format!("theirs: {n}")).unwrap();
+        }
+        let swap = out.join(".stencil-swap");
+        std::fs::create_dir(&swap).unwrap();
+        std::fs::write(swap.join("plan"), plan).unwrap();
+        let target = if link == "done" {
+            other.join("notes.txt")
+        } else {
+            other.clone()
+        };
+        symlink(&target, swap.join(link)).unwrap();
+        let before = owned_set(&out);
+        let args: Vec<String> = args.iter().map(|a| a.replace("OUT", s(&out))).collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = stencil_guarded(&args);
+        let err = refused(&o, &["symbolic link", "nothing was moved through it"]);
+        assert!(
+            err.contains(s(&swap.join(link))),
+            "{link}: the message names the link: {err}"
+        );
+        for n in ["stencil.png", "stencil.gcode", "stencil.svg", "notes.txt"] {
+            assert_eq!(
+                std::fs::read_to_string(other.join(n)).unwrap(),
+                format!("theirs: {n}"),
+                "{link}: the other folder's {n} changed"
+            );
+        }
+        if link != "new" {
+            // Refused before the plan's first step (the `new` plan's first steps are sound, and
+            // are made).
+            assert!(
+                owned_set(&out) == before,
+                "{link}: the folder's files moved"
+            );
+        }
+        assert!(
+            !String::from_utf8_lossy(&o.stdout).contains("lines received"),
+            "{link}: something was sent"
+        );
+    }
+}

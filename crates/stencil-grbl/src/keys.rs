@@ -32,7 +32,7 @@ pub const KEY_HELP: &str = "! or h = feed hold, ~ or r = resume, + / - = feed ±
 power ±10 %, 0 = both back to 100 %, a / q / Esc / Ctrl-C = abort";
 
 /// What a key does: nothing, or one or more commands (`0` resets both overrides).
-pub(crate) fn controls_for(key: Key) -> &'static [Control] {
+pub fn controls_for(key: Key) -> &'static [Control] {
     use Control::*;
     match key {
         Key::CtrlC | Key::Esc | Key::Char('a') | Key::Char('q') => &[Abort],

@@ -25,6 +25,10 @@ pub enum WriteError {
     BadPlan { path: PathBuf },
     #[error("{path}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
     NotAFile { path: PathBuf, is: &'static str },
+    /// A path a half-finished swap goes through ([`crate::swap`]) is not the folder or file stencil
+    /// made there: a link (in a folder received from elsewhere) is never followed.
+    #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", crate::swap::SWAP_DIR)]
+    NotSwapFolder { path: PathBuf, is: &'static str },
 }
 
 /// Temp files and set-aside old files start with this (hidden, and never an output's name).
@@ -139,9 +143,15 @@ pub struct Replaced {
     pub removed: Vec<PathBuf>,
 }
 
+/// How long a new, still empty temp file is left alone by [`sweep_temps`]: a writer creates its
+/// temp file, then locks it, and in between another run's sweep must not take it for an orphan.
+const FRESH_TEMP: std::time::Duration = std::time::Duration::from_secs(60);
+
 /// Delete the hidden temp files in `dir` that a killed write left: a temp file is locked by the
 /// process writing it for as long as that process lives, so one that can be locked is an orphan.
-/// (A temp of an older stencil, which took no lock, is an orphan too.)
+/// (A temp of an older stencil, which took no lock, is an orphan too.) One still empty and less
+/// than [`FRESH_TEMP`] old may be a live write's that is not locked yet: it is left for a later
+/// sweep, so that concurrent runs writing into one folder never delete each other's temp files.
 pub(crate) fn sweep_temps(dir: &Path) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
@@ -152,7 +162,18 @@ pub(crate) fn sweep_temps(dir: &Path) {
         if !(name.starts_with(TEMP_PREFIX) && name.ends_with(".tmp")) {
             continue;
         }
-        if !e.file_type().is_ok_and(|t| t.is_file()) {
+        let Ok(m) = std::fs::symlink_metadata(e.path()) else {
+            continue;
+        };
+        if !m.is_file() {
+            continue;
+        }
+        let fresh = m
+            .modified()
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_none_or(|age| age < FRESH_TEMP);
+        if m.len() == 0 && fresh {
             continue;
         }
         let Ok(f) = std::fs::File::open(e.path()) else {

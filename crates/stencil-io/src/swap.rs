@@ -105,38 +105,81 @@ impl Step {
         Some(step)
     }
 
-    fn run(&self, dir: &Path) -> std::io::Result<()> {
-        // previous/ and an owned name's folder are followed only as real folders, never a link
-        // to somewhere else.
-        if let Step::Rename(a, b) = self {
-            for p in [a, b] {
-                for anc in ancestors(p) {
-                    if anc.starts_with(SWAP_DIR) {
-                        continue;
-                    }
-                    let at = dir.join(anc);
-                    if (anc == PREVIOUS_DIR || exists(&at)) && !real_dir(&at) {
-                        return Err(std::io::Error::other(format!("{anc} is not a folder")));
-                    }
+    fn run(&self, dir: &Path) -> Result<(), WriteError> {
+        // Every folder a step goes through (previous/, an owned name's folder, and the swap's
+        // own old/ and new/) is followed only as a real folder, never a link: a received folder
+        // whose `.stencil-swap/old` links elsewhere would otherwise have its files moved over
+        // files of another folder, and a linked `new/` would move another folder's files in.
+        let paths: &[&String] = match self {
+            Step::Rename(a, b) => &[a, b],
+            Step::MkDir(a) | Step::RmDirIfEmpty(a) => &[a],
+        };
+        for p in paths {
+            for anc in ancestors(p) {
+                let at = dir.join(anc);
+                if (anc == PREVIOUS_DIR && matches!(self, Step::Rename(..))) || exists(&at) {
+                    refuse_unless_real_dir(&at)?;
                 }
             }
         }
+        let err = |p: &str, e| io_err(&dir.join(p), e);
         match self {
             Step::Rename(a, b) => match std::fs::rename(dir.join(a), dir.join(b)) {
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound && !exists(&dir.join(a)) => {
                     Ok(())
                 }
-                r => r,
+                r => r.map_err(|e| err(a, e)),
             },
             Step::MkDir(a) => match std::fs::create_dir(dir.join(a)) {
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
-                r => r,
+                // There already: only as a real folder (a link is not followed).
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    refuse_unless_real_dir(&dir.join(a))
+                }
+                r => r.map_err(|e| err(a, e)),
             },
             Step::RmDirIfEmpty(a) => {
-                let _ = std::fs::remove_dir(dir.join(a));
+                if real_dir(&dir.join(a)) {
+                    let _ = std::fs::remove_dir(dir.join(a));
+                }
                 Ok(())
             }
         }
+    }
+}
+
+/// Refuse a path a swap goes through that is not a real folder: a symbolic link (never followed,
+/// wherever it points) or anything else.
+fn refuse_unless_real_dir(p: &Path) -> Result<(), WriteError> {
+    match std::fs::symlink_metadata(p) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) => Err(WriteError::NotSwapFolder {
+            path: p.to_path_buf(),
+            is: if m.file_type().is_symlink() {
+                "a symbolic link"
+            } else {
+                crate::read::not_a_file(&m.file_type()).unwrap_or("a file")
+            },
+        }),
+        Err(_) => Err(WriteError::NotSwapFolder {
+            path: p.to_path_buf(),
+            is: "missing",
+        }),
+    }
+}
+
+/// Refuse a file of the swap's own (its plan, its record of steps done) that is there as
+/// anything but a regular file: a link is never read or written through.
+fn refuse_unless_file(p: &Path) -> Result<(), WriteError> {
+    match std::fs::symlink_metadata(p) {
+        Ok(m) if !m.is_file() => Err(WriteError::NotSwapFolder {
+            path: p.to_path_buf(),
+            is: if m.file_type().is_symlink() {
+                "a symbolic link"
+            } else {
+                crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file")
+            },
+        }),
+        _ => Ok(()),
     }
 }
 
@@ -246,18 +289,34 @@ fn io_err(path: &Path, e: std::io::Error) -> WriteError {
     }
 }
 
-/// The folder locked against other stencil runs for as long as the value lives.
-struct Lock(#[allow(dead_code)] File);
+/// A folder locked against other stencil runs for as long as the value lives: an advisory lock
+/// on the folder itself, so that no lock file is left behind.
+pub struct FolderLock(#[allow(dead_code)] File);
 
-fn lock(dir: &Path) -> Result<Lock, WriteError> {
+fn lock(dir: &Path) -> Result<FolderLock, WriteError> {
+    lock_folder(dir, std::time::Duration::ZERO)
+}
+
+/// Lock `dir` against other stencil runs, waiting up to `wait` for one that holds it (polled:
+/// each holder keeps it for one short read-modify-write); [`WriteError::Busy`] after that. A
+/// file system without locks is not refused: the folder is used unlocked.
+pub fn lock_folder(dir: &Path, wait: std::time::Duration) -> Result<FolderLock, WriteError> {
     let f = File::open(dir).map_err(|e| io_err(dir, e))?;
-    match f.try_lock() {
-        Ok(()) => Ok(Lock(f)),
-        Err(std::fs::TryLockError::WouldBlock) => Err(WriteError::Busy {
-            path: dir.to_path_buf(),
-        }),
-        // A file system without locks: go on unlocked rather than refuse to write at all.
-        Err(std::fs::TryLockError::Error(_)) => Ok(Lock(f)),
+    let until = std::time::Instant::now() + wait;
+    loop {
+        match f.try_lock() {
+            Ok(()) => return Ok(FolderLock(f)),
+            Err(std::fs::TryLockError::WouldBlock) if std::time::Instant::now() < until => {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(WriteError::Busy {
+                    path: dir.to_path_buf(),
+                })
+            }
+            // A file system without locks: go on unlocked rather than refuse to write at all.
+            Err(std::fs::TryLockError::Error(_)) => return Ok(FolderLock(f)),
+        }
     }
 }
 
@@ -310,6 +369,67 @@ pub fn recover(dir: &Path, owned: &[&str]) -> Result<Recovered, WriteError> {
     recover_locked(dir, owned, &mut pts).map_err(unstop)
 }
 
+/// [`recover`] for a command given `path`, a file or a folder inside an output folder: the folder
+/// the file is in (or the folder itself), and every folder around it whose set `path` belongs to,
+/// outermost first. A layer's file (`OUT/layer-1/stencil.gcode`) or folder (`OUT/layer-1`) is
+/// part of the set of `OUT`, whose half-finished swap may still hold the new design's layer, so
+/// `OUT` is settled before the layer is read, as when `OUT` itself is given. Which folders those
+/// are is read from the path's names (a layer folder a killed run has not made yet counts too),
+/// never by following a link. Each folder is listed with what [`recover`] found there.
+pub fn recover_around(
+    path: &Path,
+    owned: &[&str],
+) -> Result<Vec<(PathBuf, Recovered)>, WriteError> {
+    let mut out = Vec::new();
+    for dir in folders_around(path, owned) {
+        let r = recover(&dir, owned)?;
+        out.push((dir, r));
+    }
+    Ok(out)
+}
+
+/// The folders [`recover_around`] settles for `path`, outermost first, as the path names them
+/// (made absolute only where it runs out of names: `stencil.gcode` given inside `layer-1`).
+fn folders_around(path: &Path, owned: &[&str]) -> Vec<PathBuf> {
+    let folders = owned_folders(owned);
+    // The folder read: `path` itself when it is one, else the folder it is in.
+    let base = if path.is_dir() {
+        path.to_path_buf()
+    } else {
+        match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    };
+    let mut out = vec![base.clone()];
+    // Up from there while the folders passed are one an owned name sits in (`layer-1`).
+    let mut at = base;
+    let mut rel: Vec<String> = Vec::new();
+    while let Some((name, up)) = name_and_parent(&at) {
+        rel.insert(0, name);
+        if !folders.contains(&rel.join("/").as_str()) {
+            break;
+        }
+        out.push(up.clone());
+        at = up;
+    }
+    out.reverse();
+    out
+}
+
+/// A folder's own name and the folder it is in, from the path's names, or from the absolute
+/// path where those run out (`.`, a bare name, `..`).
+fn name_and_parent(p: &Path) -> Option<(String, PathBuf)> {
+    let split = |p: &Path| -> Option<(String, PathBuf)> {
+        let name = p.file_name()?.to_string_lossy().into_owned();
+        let up = p.parent().filter(|u| !u.as_os_str().is_empty())?;
+        Some((name, up.to_path_buf()))
+    };
+    split(p)
+        .or_else(|| std::path::absolute(p).ok().and_then(|a| split(&a)))
+        .or_else(|| p.canonicalize().ok().and_then(|a| split(&a)))
+}
+
 #[cfg(test)]
 pub(crate) fn recover_hooked(dir: &Path, owned: &[&str], hook: Hook) -> Result<Recovered, Stop> {
     let _lock = lock(dir)?;
@@ -333,12 +453,7 @@ fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recove
     if !exists(&swap) {
         return Ok(Recovered::Nothing);
     }
-    if !real_dir(&swap) {
-        return Err(Stop::Error(WriteError::NotAFile {
-            path: swap,
-            is: "not a folder stencil made",
-        }));
-    }
+    refuse_unless_real_dir(&swap)?;
     let plan = swap.join(PLAN);
     if exists(&plan) {
         run_plan(dir, owned, pts)?;
@@ -360,12 +475,14 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
             path: plan_path.clone(),
         })
     };
+    refuse_unless_file(&plan_path)?;
     let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
     let steps: Vec<Step> = text
         .lines()
         .map(|l| Step::parse(l, owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
+    refuse_unless_file(&done_path)?;
     let done = std::fs::symlink_metadata(&done_path).map_or(0, |m| m.len() as usize);
     let mut record = std::fs::OpenOptions::new()
         .create(true)
@@ -373,7 +490,7 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
         .open(&done_path)
         .map_err(|e| io_err(&done_path, e))?;
     for step in steps.iter().skip(done) {
-        step.run(dir).map_err(|e| io_err(dir, e))?;
+        step.run(dir)?;
         pts.pass()?;
         record.write_all(b".").map_err(|e| io_err(&done_path, e))?;
         pts.pass()?;

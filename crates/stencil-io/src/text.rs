@@ -1,19 +1,43 @@
 //! Text from a user's file quoted back in a message: cut short, so that a megabyte-long number or
-//! line does not become a megabyte-long error.
+//! line does not become a megabyte-long error, and with its control characters written out, so
+//! that a file cannot drive the terminal it is printed on (an ESC sequence in a G-code header or
+//! a journal could recolour, retitle or clear the screen, or hide the rest of a warning).
 
 /// The most characters of a value quoted in a message.
 pub const EXCERPT_CHARS: usize = 40;
 
 /// `s` as quoted in a message: whole when short, else its first [`EXCERPT_CHARS`] characters, an
-/// ellipsis and how long it is.
+/// ellipsis and how long it is; control characters written out as [`printable`] does.
 pub fn excerpt(s: &str) -> String {
     let n = s.chars().count();
     if n <= EXCERPT_CHARS {
-        s.to_string()
+        printable(s)
     } else {
         let head: String = s.chars().take(EXCERPT_CHARS).collect();
-        format!("{head}… ({n} characters)")
+        format!("{}… ({n} characters)", printable(&head))
     }
+}
+
+/// `s` with every character that could act on a terminal written out as an escape instead: the
+/// C0 and C1 controls (ESC is `\u{1b}`, a line end `\n`) and the bidirectional overrides (which
+/// reorder what is shown). Everything else, other scripts included, is kept as it is.
+pub fn printable(s: &str) -> String {
+    let acts = |c: char| {
+        c.is_control()
+            || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+    };
+    if !s.chars().any(acts) {
+        return s.to_string();
+    }
+    let mut out = String::with_capacity(s.len() + 8);
+    for c in s.chars() {
+        if acts(c) {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -32,5 +56,21 @@ mod tests {
         // Characters, not bytes: never cut inside one.
         let e = excerpt(&"é".repeat(50));
         assert!(e.starts_with(&"é".repeat(40)), "{e}");
+    }
+
+    #[test]
+    fn control_characters_are_written_out() {
+        assert_eq!(printable("a\u{1b}[2Jb"), "a\\u{1b}[2Jb");
+        assert_eq!(printable("line\nnext\r"), "line\\nnext\\r");
+        assert_eq!(printable("\u{9b}31m"), "\\u{9b}31m");
+        assert_eq!(printable("abc\u{202e}def"), "abc\\u{202e}def");
+        assert_eq!(printable("Grüße, 日本"), "Grüße, 日本");
+        let e = excerpt(&format!("{}\u{1b}]0;title\u{7}", "x".repeat(45)));
+        assert!(
+            !e.contains('\u{1b}') && e.ends_with("(55 characters)"),
+            "{e}"
+        );
+        let e = excerpt("\u{1b}[31mred");
+        assert_eq!(e, "\\u{1b}[31mred");
     }
 }

@@ -98,7 +98,8 @@ pub struct Expected {
 }
 
 /// The S scale of a job: S at full power (`$30`) and at the lowest (`$31`), and where it was
-/// read (the job's header, or the machine profile for a job that does not say).
+/// read, as messages put it after the scale in brackets: "read from its header", or "taken
+/// from machine profile diode-400, as its header does not say".
 #[derive(Clone, Debug, PartialEq)]
 pub struct PowerScale {
     pub s_max: f64,

@@ -74,13 +74,13 @@ impl Session<'_, '_> {
         let k = (c_max - c_min) / (p.s_max - p.s_min);
         self.power_map = Some((p.s_min, c_min, k));
         self.obs.message(&format!(
-            "the controller's power scale is $30={} $31={}, the job's ({}) $30={} $31={}: every \
-             S is rescaled to the controller's scale as asked (S{} is sent as S{})",
+            "the controller's power scale is $30={} $31={}, the job's is $30={} $31={} ({}): \
+             every S is rescaled to the controller's scale as asked (S{} is sent as S{})",
             num(c_max),
             num(c_min),
-            p.source,
             num(p.s_max),
             num(p.s_min),
+            p.source,
             num(s20),
             num(c_min + (s20 - p.s_min) * k)
         ));

@@ -341,3 +341,72 @@ fn a_plan_naming_other_files_is_not_run() {
         assert_eq!(snapshot(dir.path()), before, "{line}");
     }
 }
+
+/// A layer's file or folder is settled with the set folder around it, outermost first; a folder
+/// whose name is not an owned folder stops the walk.
+#[test]
+fn the_set_around_a_layers_path_is_settled_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = dir.path().join("set");
+    write(&set, "layer-1/stencil.png", b"x");
+    let around = |p: &Path| folders_around(p, OWNED);
+    assert_eq!(
+        around(&set.join("layer-1/stencil.png")),
+        vec![set.clone(), set.join("layer-1")]
+    );
+    assert_eq!(
+        around(&set.join("layer-1")),
+        vec![set.clone(), set.join("layer-1")]
+    );
+    // A layer folder a killed run has not made yet counts too.
+    assert_eq!(
+        around(&set.join("layer-2/stencil.png")),
+        vec![set.clone(), set.join("layer-2")]
+    );
+    assert_eq!(around(&set.join("stencil.png")), vec![set.clone()]);
+    assert_eq!(around(&set.join("notes/a.txt")), vec![set.join("notes")]);
+}
+
+/// A link where the swap needs its own folder or file is refused, naming it, and nothing is
+/// moved through it or written to where it points.
+#[cfg(unix)]
+#[test]
+fn a_link_in_the_swap_folder_is_refused_and_never_followed() {
+    for (link, plan) in [
+        (
+            "old",
+            "M\t.stencil-swap/old\nR\treport.json\t.stencil-swap/old/report.json\n",
+        ),
+        ("new", "R\t.stencil-swap/new/report.json\treport.json\n"),
+        ("done", "R\treport.json\t.stencil-swap/old/report.json\n"),
+        ("plan", ""),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let (d, other) = (dir.path().join("d"), dir.path().join("other"));
+        write(&d, "report.json", b"mine");
+        write(&other, "report.json", b"theirs");
+        write(&other, "plan", plan.as_bytes());
+        if link != "plan" {
+            write(&d, ".stencil-swap/plan", plan.as_bytes());
+        }
+        let target = match link {
+            "done" => other.join("report.json"),
+            "plan" => other.join("plan"),
+            _ => other.clone(),
+        };
+        std::fs::create_dir_all(d.join(SWAP_DIR)).unwrap();
+        std::os::unix::fs::symlink(&target, d.join(SWAP_DIR).join(link)).unwrap();
+        let before = snapshot(&other);
+        let e = recover(&d, OWNED).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(".stencil-swap/{link}: is a symbolic link")),
+            "{link}: {e}"
+        );
+        assert_eq!(snapshot(&other), before, "{link}");
+        assert_eq!(
+            std::fs::read(d.join("report.json")).unwrap(),
+            b"mine",
+            "{link}"
+        );
+    }
+}
