@@ -206,6 +206,13 @@ fn core_stages_use_only_earlier_layers() {
         ),
         // A gobo: placed on the traced stencil, its polarity worded as the masks word it.
         ("gobo", &["vector", "export"][..]),
+        // Every error the pipeline returns: the stages' own, gathered.
+        (
+            "error",
+            &[
+                "tone", "bridge", "export", "vector", "check", "limits", "report",
+            ][..],
+        ),
         (
             "report",
             // export: the masks' description (what was written) is reported as encoded.
@@ -220,8 +227,23 @@ fn core_stages_use_only_earlier_layers() {
         let rel = f.strip_prefix(&src).unwrap();
         let first = rel.iter().next().unwrap().to_str().unwrap();
         let module = first.trim_end_matches(".rs");
-        if module == "lib" || module == "pipeline" || module == "layers" {
-            continue; // the facade runs every stage (layers: the facade for a set of stencils)
+        // The facade, in its own order: `pipeline` (the stage functions, resolve, the writer),
+        // `driver` (the stages listed once), `layers` (a set of stencils, each run by the
+        // driver). Each may use the stages and those before it, never one after it.
+        let facade = ["pipeline", "driver", "layers"];
+        if let Some(k) = facade.iter().position(|m| *m == module) {
+            let code = non_test_source(&f);
+            for later in &facade[k + 1..] {
+                assert!(
+                    !code.contains(&format!("crate::{later}")),
+                    "{}: uses crate::{later}; {module} comes before it (no cycle between them)",
+                    rel.display()
+                );
+            }
+            continue;
+        }
+        if module == "lib" {
+            continue;
         }
         let Some(ok) = allowed.get(module) else {
             panic!(

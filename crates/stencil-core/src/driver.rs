@@ -277,9 +277,15 @@ impl Cache {
             *run.generations += 1;
             let (gray, rg) = (Arc::clone(&raw.gray), *run.generations);
             let raw = Arc::new((raw, 128));
-            return self
-                .slots
-                .after_threshold(run, tweaks, timer, join, params, (gray, rg), (raw, rg));
+            return self.slots.after_threshold(
+                run,
+                tweaks,
+                timer,
+                join,
+                params,
+                (gray, rg),
+                (raw, rg),
+            );
         }
         let factor = params.working.factor;
         let (gg, gray) = run.step(&mut self.slots.gray, "gray", (sg, factor), || {

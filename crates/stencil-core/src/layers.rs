@@ -50,8 +50,7 @@ use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone::{is_light, Threshold};
 use crate::units::Size;
 
-/// Most layers a set may have.
-pub const MAX_LAYERS: u32 = 6;
+pub use crate::limits::MAX_LAYERS;
 
 /// Share of the intensity cost a bridge pixel keeps where a later layer paints over it: a
 /// covered pixel is twenty times cheaper to bridge than the same pixel left visible.
@@ -81,29 +80,7 @@ pub struct LayersConfig {
     pub fill_in: bool,
 }
 
-/// A layered run's errors, as data (the `stencil` binary words them with its options).
-#[derive(Debug, thiserror::Error)]
-pub enum LayersError {
-    #[error("{0} layers: a set has 1 to {MAX_LAYERS}")]
-    Count(u32),
-    #[error("{given} level(s) for {count} layer(s): give one level per layer")]
-    Levels { given: usize, count: u32 },
-    #[error("the level {0} is given twice: each layer needs its own level")]
-    SameLevel(u8),
-    #[error("{given} colour(s) for {count} layer(s): give one per layer (light to dark), or one more with the surface's first")]
-    Colors { given: usize, count: u32 },
-    #[error("layers are cut from a picture, not a mesh")]
-    Mesh,
-    #[error("layers paint the picture's dark tones through the cuts; swapping the tones does not apply to them")]
-    Invert,
-    #[error("a keep-out picture is not supported with layers or registration marks (the sheet grows around the picture); use keep-out discs")]
-    KeepOut,
-    #[error("{path}: cannot read the picture's colours: {msg}")]
-    Colour {
-        path: std::path::PathBuf,
-        msg: String,
-    },
-}
+pub use crate::error::LayersError;
 
 /// How the picture was posterised.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

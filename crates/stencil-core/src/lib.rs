@@ -63,6 +63,7 @@
 pub mod bridge;
 pub mod check;
 pub mod driver;
+mod error;
 pub mod export;
 pub mod fit;
 pub mod gobo;

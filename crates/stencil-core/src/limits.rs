@@ -45,6 +45,9 @@
 
 use crate::units::{Scale, Size};
 
+/// Most layers a set may have (`layers`).
+pub const MAX_LAYERS: u32 = 6;
+
 /// The longest side of the picture on the sheet, in mm (10 m).
 pub const MAX_PICTURE_MM: f64 = 10_000.0;
 

@@ -26,74 +26,7 @@ use crate::tone::{self, image::load_gray, ToneConfig};
 use crate::units::{Mm, Scale};
 use crate::vector::{self, CutGeometry, VectorConfig};
 
-/// Every error [`run`] and [`make`] return (the stages' errors, and the pipeline's own findings),
-/// as data: the `stencil` binary words them with the options to change.
-#[derive(Debug, thiserror::Error)]
-pub enum Error {
-    #[error(transparent)]
-    Tone(#[from] crate::tone::ToneError),
-    #[error(transparent)]
-    Bridge(#[from] crate::bridge::BridgeError),
-    #[error(transparent)]
-    Export(#[from] crate::export::ExportError),
-    #[error(transparent)]
-    Plan(#[from] stencil_gcode::PlanError),
-    #[error(transparent)]
-    Profile(#[from] stencil_io::profile::ProfileError),
-    #[error(transparent)]
-    Vector(#[from] crate::vector::VectorError),
-    #[error(transparent)]
-    Check(#[from] crate::check::CheckError),
-    #[error(transparent)]
-    Limit(#[from] crate::limits::SizeError),
-    #[error(transparent)]
-    Layers(#[from] crate::layers::LayersError),
-    /// The check found violations and the caller did not allow them
-    /// ([`PhysicalConfig::allow_thin`]); nothing was written.
-    #[error(
-        "{} width or connectivity violation(s) for material '{material}': {}",
-        violations.len(), list_violations(violations)
-    )]
-    Thin {
-        material: String,
-        /// All of them, as the check reported them.
-        violations: Vec<check::Violation>,
-    },
-    #[error(
-        "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}) \
-         (every island should have been joined: this is a bug, please report it with the picture)"
-    )]
-    Floating {
-        count: usize,
-        x: u32,
-        y: u32,
-        area: usize,
-    },
-    /// The stencil differs from the thresholded picture by more than the limit the caller set
-    /// ([`PhysicalConfig::max_change_pct`]); nothing was written.
-    #[error(
-        "the clean-up and the bridges changed {:.2} % of the picture, more than the limit of {limit_pct} %",
-        fidelity.changed_pct
-    )]
-    TooMuchChange {
-        /// What was measured (all of it, so a caller can say what changed most).
-        fidelity: Fidelity,
-        limit_pct: f64,
-    },
-}
-
-/// How many violations an error message lists.
-const LISTED_IN_ERROR: usize = 5;
-
-/// The first [`LISTED_IN_ERROR`] violations, `; ` between them.
-fn list_violations(violations: &[check::Violation]) -> String {
-    violations
-        .iter()
-        .take(LISTED_IN_ERROR)
-        .map(|v| v.to_string())
-        .collect::<Vec<_>>()
-        .join("; ")
-}
+pub use crate::error::Error;
 
 /// How many times `make` widens the necks the vector check still finds and traces again.
 const REPAIR_ROUNDS: usize = 3;
@@ -1467,7 +1400,7 @@ pub fn trace(
 }
 
 /// `make`'s end from the stage outputs it made and holds alone (shared ones are copied): the
-/// trace and check, the refusal, the G-code and the report ([`crate::driver::run`]).
+/// trace and check, the refusal, the G-code and the report (`driver::run`).
 pub(crate) fn finish_owned(
     cfg: &MakeConfig,
     params: &StageParams,
