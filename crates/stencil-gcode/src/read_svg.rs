@@ -44,6 +44,16 @@ const MAX_NUMBER: f64 = 1e30;
 /// a sheet's worth of cutting (20,000 drawn circles of 10 mm are 1.3 million).
 const MAX_POINTS: usize = 10_000_000;
 
+/// The deepest nesting of elements read: 256 levels, as libxml2 allows by default. Drawing
+/// programs nest a few dozen (layers, groups, clones); usvg converts a nested element by
+/// recursion, so 13,000 nested `<g>` (91 KB of text) overflowed the stack and aborted the process.
+pub const MAX_DEPTH: usize = 256;
+
+/// The most attributes one element may have. A drawing program writes a few dozen; the XML parser
+/// checks each new attribute against all the element's earlier ones, so 80,000 on one `<path>`
+/// took 27 s.
+pub const MAX_ATTRIBUTES: usize = 1000;
+
 fn too_many_points() -> String {
     format!(
         "the drawing flattens to more than {MAX_POINTS} points (curves at \
@@ -71,6 +81,14 @@ pub enum SvgError {
         col: u32,
         /// The element and attribute, as written: `<path> d="M 1 1 L 5x 5"`.
         what: String,
+        msg: String,
+    },
+    /// Beyond a limit of the reader, at a place in the text.
+    #[error("{file}:{line}:{col}: {msg}")]
+    At {
+        file: String,
+        line: u32,
+        col: u32,
         msg: String,
     },
     #[error("{file}: {msg}")]
@@ -301,7 +319,9 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         file: file.to_string(),
         msg,
     };
+    check_markup(text, file)?;
     let doc = parse_xml(text, file)?;
+    check_depth(&doc, file)?;
     let root = doc.root_element();
     if root.tag_name().name() != "svg" {
         return Err(bad(format!(
@@ -331,7 +351,7 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         count: 0,
         points: 0,
     };
-    walk.group(tree.root(), false)
+    walk.group(tree.root(), false, None)
         .map_err(|(label, e)| bad(format!("{label}: {e}")))?;
     let any_cut = walk.shapes.iter().any(|s| s.cut);
     let mut polys: Vec<Polygon<f64>> = Vec::new();
@@ -400,6 +420,159 @@ fn parse_xml<'a>(text: &'a str, file: &str) -> Result<roxmltree::Document<'a>, S
     })
 }
 
+/// Where byte `at` of `text` is, as (line, column) counted from 1 (columns in characters).
+fn line_col(text: &str, at: usize) -> (u32, u32) {
+    let before = &text[..at];
+    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+    let col = before[before.rfind('\n').map_or(0, |i| i + 1)..].chars().count() + 1;
+    (line as u32, col as u32)
+}
+
+/// Refuse, before the XML parser sees the text, what would take it (or usvg) unbounded time or
+/// stack: elements nested deeper than [`MAX_DEPTH`] and an element with more than
+/// [`MAX_ATTRIBUTES`] attributes. One pass over the markup (comments, CDATA, processing
+/// instructions and declarations skipped); anything malformed ends the scan and is left to the
+/// parser, which then stops at the same place and says what is wrong.
+fn check_markup(text: &str, file: &str) -> Result<(), SvgError> {
+    let b = text.as_bytes();
+    let find = |from: usize, pat: &str| text[from..].find(pat).map(|i| from + i);
+    let mut depth = 0usize;
+    let mut i = 0usize;
+    while let Some(lt) = memchr_lt(b, i) {
+        let rest = &b[lt..];
+        let skip_to = |pat: &str| find(lt, pat).map(|e| e + pat.len());
+        let end = if rest.starts_with(b"<!--") {
+            skip_to("-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            skip_to("]]>")
+        } else if rest.starts_with(b"<?") {
+            skip_to("?>")
+        } else if rest.starts_with(b"<!") {
+            // A declaration (DOCTYPE, with an internal subset in brackets, or one inside it):
+            // scanned to its closing `>` outside quotes and brackets.
+            declaration_end(b, lt)
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            skip_to(">")
+        } else {
+            let Some((end, attributes, empty)) = start_tag(b, lt) else {
+                return Ok(());
+            };
+            if attributes > MAX_ATTRIBUTES {
+                let (line, col) = line_col(text, lt);
+                return Err(SvgError::At {
+                    file: file.to_string(),
+                    line,
+                    col,
+                    msg: format!(
+                        "<{}> has {attributes} attributes; at most {MAX_ATTRIBUTES} per element \
+                         are read (a drawing program writes a few dozen): remove the extra ones",
+                        excerpt(tag_name(&text[lt + 1..]))
+                    ),
+                });
+            }
+            if !empty {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(too_deep(text, file, lt));
+                }
+            }
+            Some(end)
+        };
+        match end {
+            Some(e) => i = e,
+            None => return Ok(()),
+        }
+    }
+    Ok(())
+}
+
+fn too_deep(text: &str, file: &str, at: usize) -> SvgError {
+    let (line, col) = line_col(text, at);
+    SvgError::At {
+        file: file.to_string(),
+        line,
+        col,
+        msg: format!(
+            "<{}> is nested more than {MAX_DEPTH} elements deep; at most {MAX_DEPTH} levels are \
+             read (a drawing program nests a few dozen): ungroup the drawing (Inkscape: Edit > \
+             Select All in All Layers, then Object > Ungroup)",
+            excerpt(tag_name(&text[at + 1..]))
+        ),
+    }
+}
+
+/// The element name at the start of `s` (up to a space, `/` or `>`).
+fn tag_name(s: &str) -> &str {
+    let end = s
+        .find(|c: char| c.is_whitespace() || c == '/' || c == '>')
+        .unwrap_or(s.len());
+    &s[..end]
+}
+
+/// The next `<` at or after `from`.
+fn memchr_lt(b: &[u8], from: usize) -> Option<usize> {
+    b.get(from..)?.iter().position(|&c| c == b'<').map(|i| from + i)
+}
+
+/// The end (just past `>`) of the declaration starting at `lt` (`<!...>`), skipping quoted
+/// literals and a bracketed internal subset (whose own declarations and comments it contains).
+fn declaration_end(b: &[u8], lt: usize) -> Option<usize> {
+    let (mut i, mut brackets) = (lt + 2, 0usize);
+    while i < b.len() {
+        match b[i] {
+            q @ (b'"' | b'\'') => i += 1 + b[i + 1..].iter().position(|&c| c == q)?,
+            b'[' => brackets += 1,
+            b']' => brackets = brackets.saturating_sub(1),
+            b'<' if b[i..].starts_with(b"<!--") => {
+                i += 4 + b[i + 4..].windows(3).position(|w| w == b"-->")? + 2;
+            }
+            b'>' if brackets == 0 => return Some(i + 1),
+            _ => {}
+        }
+        i += 1;
+    }
+    None
+}
+
+/// A start tag at `lt`: its end (just past `>`), its number of attributes, and whether it is
+/// empty (`/>`); `None` when it is not well-formed (left to the parser).
+fn start_tag(b: &[u8], lt: usize) -> Option<(usize, usize, bool)> {
+    let mut i = lt + 1;
+    let mut attributes = 0usize;
+    loop {
+        let c = *b.get(i)?;
+        match c {
+            b'>' => return Some((i + 1, attributes, false)),
+            b'/' if b.get(i + 1) == Some(&b'>') => return Some((i + 2, attributes, true)),
+            b'"' | b'\'' => {
+                attributes += 1;
+                i += 1 + b[i + 1..].iter().position(|&q| q == c)?;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+}
+
+/// [`MAX_DEPTH`] on the parsed document too: entities declared in a DTD can add levels the text
+/// does not show. The XML parser itself walks without recursion.
+fn check_depth(doc: &roxmltree::Document, file: &str) -> Result<(), SvgError> {
+    let mut depth: Vec<u32> = Vec::new();
+    for node in doc.descendants() {
+        let d = node.parent().map_or(0, |p| depth[p.id().get_usize()] + 1);
+        let id = node.id().get_usize();
+        if depth.len() <= id {
+            depth.resize(id + 1, 0);
+        }
+        depth[id] = d;
+        if d as usize > MAX_DEPTH {
+            return Err(too_deep(doc.input_text(), file, node.range().start));
+        }
+    }
+    Ok(())
+}
+
 /// What the check of the document found besides errors.
 struct Checked {
     /// Ids of elements whose `class` or Inkscape label mentions "cut" (usvg keeps ids only).
@@ -442,6 +615,24 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
             if let Some(id) = node.attribute("id") {
                 out.cut_ids.insert(id.to_string());
             }
+        }
+        if !hidden && has_mask(node) {
+            let p = doc.text_pos_at(node.range().start);
+            let id = node
+                .attribute("id")
+                .map(|i| format!(" id=\"{}\"", excerpt(i)))
+                .unwrap_or_default();
+            return Err(SvgError::At {
+                file: file.to_string(),
+                line: p.row,
+                col: p.col,
+                msg: format!(
+                    "<{}{id}> has a mask, which shows it partly, by the brightness of another \
+                     drawing; a cutter cannot follow that: remove the mask, or make it a clip \
+                     path (which is cut along its edge)",
+                    excerpt(name)
+                ),
+            });
         }
         let is_root = node.parent().is_some_and(|p| p.is_root());
         for a in node.attributes().filter(|a| a.namespace().is_none()) {
@@ -487,6 +678,21 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
         ));
     }
     Ok(out)
+}
+
+/// Whether an element names a mask, in its `mask` attribute or its `style`.
+fn has_mask(node: roxmltree::Node) -> bool {
+    let names = |v: &str| {
+        let v = v.trim();
+        !v.is_empty() && v != "none"
+    };
+    node.attribute("mask").is_some_and(names)
+        || node.attribute("style").is_some_and(|st| {
+            st.split(';').any(|decl| {
+                decl.split_once(':')
+                    .is_some_and(|(k, v)| k.trim().eq_ignore_ascii_case("mask") && names(v))
+            })
+        })
 }
 
 fn number_ok(v: f64) -> Result<(), String> {
@@ -621,34 +827,175 @@ struct Walk<'a> {
     points: usize,
 }
 
+/// A shape's flattened subpaths in sheet mm: closed rings and open lines.
+type Flat = (Vec<LineString<f64>>, Vec<LineString<f64>>);
+
+/// Whether nothing of `p` shows: every paint it has is fully transparent (a path with neither
+/// fill nor stroke usvg already marks invisible).
+fn transparent(p: &usvg::Path) -> bool {
+    let fill = p.fill().map(|f| f.opacity().get());
+    let stroke = p.stroke().map(|s| s.opacity().get());
+    (fill.is_some() || stroke.is_some())
+        && fill.is_none_or(|o| o <= 0.0)
+        && stroke.is_none_or(|o| o <= 0.0)
+}
+
 impl Walk<'_> {
     fn is_cut(&self, id: &str) -> bool {
         !id.is_empty() && (id.to_lowercase().contains("cut") || self.cut_ids.contains(id))
     }
 
-    fn group(&mut self, g: &usvg::Group, inside_cut: bool) -> Result<(), (String, String)> {
+    /// A group's label in messages: its id, or that it has none.
+    fn group_label(g: &usvg::Group) -> String {
+        if g.id().is_empty() {
+            "an element".to_string()
+        } else {
+            format!("<g id=\"{}\">", excerpt(g.id()))
+        }
+    }
+
+    /// Walk a group: `clip` is the region (sheet mm) its ancestors' `clip-path`s leave visible.
+    fn group(
+        &mut self,
+        g: &usvg::Group,
+        inside_cut: bool,
+        clip: Option<&MultiPolygon<f64>>,
+    ) -> Result<(), (String, String)> {
+        // Fully transparent (`opacity="0"`): nothing in it shows, so nothing is cut.
+        if g.opacity().get() <= 0.0 {
+            return Ok(());
+        }
+        if g.mask().is_some() {
+            return Err((
+                Self::group_label(g),
+                "has a mask, which shows it partly, by the brightness of another drawing; a \
+                 cutter cannot follow that: remove the mask or turn it into a clip path"
+                    .into(),
+            ));
+        }
+        let region;
+        let clip = match g.clip_path() {
+            None => clip,
+            Some(cp) => {
+                let own = self
+                    .clip_region(cp, g.abs_transform())
+                    .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?;
+                region = match clip {
+                    Some(outer) => clip::boolean(outer, &own, clip::Op::Intersection)
+                        .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?,
+                    None => own,
+                };
+                Some(&region)
+            }
+        };
         let cut = inside_cut || self.is_cut(g.id());
         for node in g.children() {
             match node {
-                usvg::Node::Group(g) => self.group(g, cut)?,
-                usvg::Node::Path(p) => self.path(p, cut)?,
+                usvg::Node::Group(g) => self.group(g, cut, clip)?,
+                usvg::Node::Path(p) => self.path(p, cut, clip)?,
                 usvg::Node::Image(_) | usvg::Node::Text(_) => {}
             }
         }
         Ok(())
     }
 
-    fn path(&mut self, p: &usvg::Path, inside_cut: bool) -> Result<(), (String, String)> {
+    /// The region (sheet mm) a clip path leaves visible, for a group placed by `outer`: the
+    /// union of its shapes (each by its `clip-rule`), within its own clip path if it has one.
+    fn clip_region(
+        &mut self,
+        cp: &usvg::ClipPath,
+        outer: usvg::Transform,
+    ) -> Result<MultiPolygon<f64>, String> {
+        let t = outer.pre_concat(cp.transform());
+        let mut region = self.clip_group(cp.root(), t)?;
+        if let Some(inner) = cp.clip_path() {
+            let inner = self.clip_region(inner, outer)?;
+            region = clip::boolean(&region, &inner, clip::Op::Intersection)
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(region)
+    }
+
+    /// The filled region of a clip path's group (its children's transforms relative to `t`).
+    fn clip_group(
+        &mut self,
+        g: &usvg::Group,
+        t: usvg::Transform,
+    ) -> Result<MultiPolygon<f64>, String> {
+        let mut region = MultiPolygon::new(Vec::new());
+        for node in g.children() {
+            let part = match node {
+                usvg::Node::Group(c) => {
+                    let mut part = self.clip_group(c, t)?;
+                    if let Some(cp) = c.clip_path() {
+                        let own = self.clip_region(cp, t.pre_concat(c.abs_transform()))?;
+                        part = clip::boolean(&part, &own, clip::Op::Intersection)
+                            .map_err(|e| e.to_string())?;
+                    }
+                    part
+                }
+                usvg::Node::Path(p) if p.is_visible() => {
+                    let (rings, _) = self.flatten(p, t.pre_concat(p.abs_transform()))?;
+                    let polys: Vec<Polygon<f64>> =
+                        rings.into_iter().map(|r| Polygon::new(r, vec![])).collect();
+                    let even_odd = p
+                        .fill()
+                        .is_some_and(|f| f.rule() == usvg::FillRule::EvenOdd);
+                    let empty = MultiPolygon::new(Vec::new());
+                    if even_odd {
+                        polys.into_iter().try_fold(empty, |acc, p| {
+                            clip::boolean(&acc, &MultiPolygon::new(vec![p]), clip::Op::Xor)
+                        })
+                    } else {
+                        clip::boolean(&MultiPolygon::new(polys), &empty, clip::Op::Union)
+                    }
+                    .map_err(|e| e.to_string())?
+                }
+                _ => continue,
+            };
+            region = clip::boolean(&region, &part, clip::Op::Union).map_err(|e| e.to_string())?;
+        }
+        Ok(region)
+    }
+
+    fn path(
+        &mut self,
+        p: &usvg::Path,
+        inside_cut: bool,
+        clip: Option<&MultiPolygon<f64>>,
+    ) -> Result<(), (String, String)> {
         self.count += 1;
         let label = if p.id().is_empty() {
             format!("path {}", self.count)
         } else {
             format!("<path id=\"{}\"> (path {})", excerpt(p.id()), self.count)
         };
-        if !p.is_visible() {
+        if !p.is_visible() || transparent(p) {
             return Ok(());
         }
-        let t = p.abs_transform();
+        let (mut rings, mut lines) = self
+            .flatten(p, p.abs_transform())
+            .map_err(|e| (label.clone(), e))?;
+        if let Some(region) = clip {
+            (rings, lines) = clipped(rings, lines, region).map_err(|e| {
+                (
+                    label.clone(),
+                    format!("clipping it by its clip path: {e}"),
+                )
+            })?;
+        }
+        if !rings.is_empty() || !lines.is_empty() {
+            self.shapes.push(Shape {
+                cut: inside_cut || self.is_cut(p.id()),
+                rings,
+                lines,
+            });
+        }
+        Ok(())
+    }
+
+    /// `p`'s subpaths placed by `t` and flattened into sheet mm, counted against [`MAX_POINTS`].
+    fn flatten(&mut self, p: &usvg::Path, t: usvg::Transform) -> Result<Flat, String> {
         let [sx, sy] = self.shift;
         let map = |q: usvg::tiny_skia_path::Point| {
             let (x, y) = (q.x as f64, q.y as f64);
@@ -681,7 +1028,7 @@ impl Walk<'_> {
             })
             .find_map(|q| clip::check_point(q.x, q.y).err())
         {
-            return Err((label, e.to_string()));
+            return Err(e.to_string());
         }
         // An upper bound of the points flattening gives (a curve of control polygon length L
         // gives fewer than sqrt(L / tolerance) + 1 segments), checked before it runs.
@@ -703,16 +1050,12 @@ impl Walk<'_> {
             })
             .sum();
         if self.points as f64 + estimate > 2.0 * MAX_POINTS as f64 {
-            return Err((label, too_many_points()));
+            return Err(too_many_points());
         }
-        let mut shape = Shape {
-            cut: inside_cut || self.is_cut(p.id()),
-            rings: Vec::new(),
-            lines: Vec::new(),
-        };
+        let mut flat: Flat = (Vec::new(), Vec::new());
         let mut cur: Vec<Coord<f64>> = Vec::new();
         let mut bad: Option<String> = None;
-        let mut end = |cur: &mut Vec<Coord<f64>>, closed: bool, shape: &mut Shape| {
+        let mut end = |cur: &mut Vec<Coord<f64>>, closed: bool, flat: &mut Flat| {
             let mut pts = std::mem::take(cur);
             pts.dedup();
             if pts.len() < 2 {
@@ -727,42 +1070,67 @@ impl Walk<'_> {
             ring.close();
             let area = Polygon::new(ring.clone(), vec![]).unsigned_area();
             if closed && area > 1e-12 {
-                shape.rings.push(ring);
+                flat.0.push(ring);
             } else if closed {
                 // A closed subpath that encloses nothing is a line there and back.
-                shape.lines.push(ring);
+                flat.1.push(ring);
             } else {
-                shape.lines.push(ls);
+                flat.1.push(ls);
             }
         };
         kurbo::flatten(bez, FLATTEN_TOLERANCE_MM, |el| match el {
             kurbo::PathEl::MoveTo(a) => {
-                end(&mut cur, false, &mut shape);
+                end(&mut cur, false, &mut flat);
                 cur.push(Coord { x: a.x, y: a.y });
             }
             kurbo::PathEl::LineTo(a) => cur.push(Coord { x: a.x, y: a.y }),
-            kurbo::PathEl::ClosePath => end(&mut cur, true, &mut shape),
+            kurbo::PathEl::ClosePath => end(&mut cur, true, &mut flat),
             // flatten gives lines only.
             _ => {}
         });
-        end(&mut cur, false, &mut shape);
+        end(&mut cur, false, &mut flat);
         if let Some(e) = bad {
-            return Err((label, e));
+            return Err(e);
         }
-        self.points += shape
-            .rings
-            .iter()
-            .chain(&shape.lines)
-            .map(|l| l.0.len())
-            .sum::<usize>();
+        self.points += flat.0.iter().chain(&flat.1).map(|l| l.0.len()).sum::<usize>();
         if self.points > MAX_POINTS {
-            return Err((label, too_many_points()));
+            return Err(too_many_points());
         }
-        if !shape.rings.is_empty() || !shape.lines.is_empty() {
-            self.shapes.push(shape);
-        }
-        Ok(())
+        Ok(flat)
     }
+}
+
+/// A shape's rings and lines cut to what `region` leaves visible: each ring becomes the outlines
+/// of its part inside the region (a loop the clip path's edge crosses is closed along that edge),
+/// each line its pieces inside.
+fn clipped(
+    rings: Vec<LineString<f64>>,
+    lines: Vec<LineString<f64>>,
+    region: &MultiPolygon<f64>,
+) -> Result<Flat, clip::ClipError> {
+    let mut out_rings = Vec::new();
+    for r in rings {
+        let part = clip::boolean(
+            &MultiPolygon::new(vec![Polygon::new(r, vec![])]),
+            region,
+            clip::Op::Intersection,
+        )?;
+        for p in part.0 {
+            let (ext, holes) = p.into_inner();
+            out_rings.extend(std::iter::once(ext).chain(holes).filter(|r| {
+                r.0.len() >= 4 && Polygon::new(r.clone(), vec![]).unsigned_area() > 1e-12
+            }));
+        }
+    }
+    let out_lines = if lines.is_empty() {
+        lines
+    } else {
+        clip::clip_lines(&lines, region)?
+            .into_iter()
+            .filter(|l| l.0.len() >= 2)
+            .collect()
+    };
+    Ok((out_rings, out_lines))
 }
 
 #[cfg(test)]

@@ -103,6 +103,81 @@ fn box_dist(b: &[f64; 4], p: [f64; 2]) -> f64 {
     (dx * dx + dy * dy).sqrt()
 }
 
+/// The loops still to visit in a nearest-neighbour walk: which is nearest the head (by its
+/// nearest vertex), in about logarithmic time, through an R-tree of their boxes. The choice is
+/// the one a scan of the list in order makes: the nearest, and of equally near ones the first in
+/// the list, which is kept as the scan kept it (a loop taken is replaced by the list's last, a
+/// loop added goes at its end). So jobs of tens of thousands of loops no longer compare every
+/// loop with every other, and every job's order stays what it was.
+struct Nearest<'a> {
+    loops: &'a [Loop],
+    /// The loop of each key.
+    loop_of: Vec<usize>,
+    /// The keys waiting, in list order.
+    list: Vec<usize>,
+    /// Each key's place in `list` (`usize::MAX`: not in it).
+    at: Vec<usize>,
+    /// Each waiting key's box in the tree (to remove it exactly).
+    boxes: Vec<Option<crate::order::BoxOf>>,
+    tree: rstar::RTree<crate::order::BoxOf>,
+}
+
+impl<'a> Nearest<'a> {
+    /// An empty set over keys `0..loop_of.len()`, key k standing for loop `loop_of[k]`.
+    fn new(loops: &'a [Loop], loop_of: Vec<usize>) -> Self {
+        let n = loop_of.len();
+        Nearest {
+            loops,
+            loop_of,
+            list: Vec::with_capacity(n),
+            at: vec![usize::MAX; n],
+            boxes: vec![None; n],
+            tree: rstar::RTree::new(),
+        }
+    }
+
+    /// Add key `k`, whose loop's bounding box is `b`, at the end of the list.
+    fn push(&mut self, k: usize, b: [f64; 4]) {
+        self.at[k] = self.list.len();
+        self.list.push(k);
+        let g = crate::order::box_of(k, b);
+        self.tree.insert(g.clone());
+        self.boxes[k] = Some(g);
+    }
+
+    /// Take the key nearest `p` and the vertex of its loop nearest `p`; `None` when empty.
+    fn take_nearest(&mut self, p: [f64; 2]) -> Option<(usize, usize)> {
+        // (place in the list, key, vertex, distance)
+        let mut best: Option<(usize, usize, usize, f64)> = None;
+        for (g, d2) in self.tree.nearest_neighbor_iter_with_distance_2(&p) {
+            // A loop's vertices lie in its box, so no loop farther than the best distance
+            // (with a margin for rounding) can be nearer or as near.
+            if let Some(b) = best {
+                let reach = b.3 * (1.0 + 1e-9) + 1e-12;
+                if d2 > reach * reach {
+                    break;
+                }
+            }
+            let k = g.data;
+            let (v, d) = nearest_vertex(&self.loops[self.loop_of[k]], p);
+            let place = self.at[k];
+            if best.is_none_or(|b| d < b.3 || (d == b.3 && place < b.0)) {
+                best = Some((place, k, v, d));
+            }
+        }
+        let (place, k, v, _) = best?;
+        if let Some(g) = self.boxes[k].take() {
+            self.tree.remove(&g);
+        }
+        self.list.swap_remove(place);
+        if let Some(&moved) = self.list.get(place) {
+            self.at[moved] = place;
+        }
+        self.at[k] = usize::MAX;
+        Some((k, v))
+    }
+}
+
 /// Order all groups, one after the other, from `home`. Returns (loop index, start vertex) in cut
 /// order.
 pub(crate) fn optimise(
@@ -140,27 +215,19 @@ pub(crate) fn greedy_constrained(
             after[i].push(j);
         }
     }
-    let mut ready: Vec<usize> = (0..n).filter(|&i| waiting[i] == 0).collect();
+    let mut ready = Nearest::new(loops, (0..n).collect());
+    for i in (0..n).filter(|&i| waiting[i] == 0) {
+        ready.push(i, boxes[i]);
+    }
     let mut out = Vec::with_capacity(n);
     let mut cur = home;
-    while !ready.is_empty() {
-        let mut best = (0usize, 0usize, f64::INFINITY);
-        for (r, &k) in ready.iter().enumerate() {
-            if box_dist(&boxes[k], cur) >= best.2 {
-                continue;
-            }
-            let (v, d) = nearest_vertex(&loops[k], cur);
-            if d < best.2 {
-                best = (r, v, d);
-            }
-        }
-        let k = ready.swap_remove(best.0);
-        out.push((k, best.1));
-        cur = loops[k].points[best.1];
+    while let Some((k, v)) = ready.take_nearest(cur) {
+        out.push((k, v));
+        cur = loops[k].points[v];
         for &j in &after[k] {
             waiting[j] -= 1;
             if waiting[j] == 0 {
-                ready.push(j);
+                ready.push(j, boxes[j]);
             }
         }
     }
@@ -243,25 +310,16 @@ fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize
         return vec![];
     }
     // Nearest neighbour over the nearest vertex of each remaining loop, pruned by bounding boxes.
-    let boxes: Vec<[f64; 4]> = group.iter().map(|&i| bbox(&loops[i].points)).collect();
-    let mut remaining: Vec<usize> = (0..n).collect();
+    let mut remaining = Nearest::new(loops, group.to_vec());
+    for (k, &i) in group.iter().enumerate() {
+        remaining.push(k, bbox(&loops[i].points));
+    }
     let mut seq: Vec<usize> = Vec::with_capacity(n);
     let mut start = vec![0usize; n];
     let mut cur = from;
-    while !remaining.is_empty() {
-        let mut best = (usize::MAX, 0usize, f64::INFINITY);
-        for (r, &k) in remaining.iter().enumerate() {
-            if box_dist(&boxes[k], cur) >= best.2 {
-                continue;
-            }
-            let (v, d) = nearest_vertex(&loops[group[k]], cur);
-            if d < best.2 {
-                best = (r, v, d);
-            }
-        }
-        let k = remaining.swap_remove(best.0);
-        start[k] = best.1;
-        cur = loops[group[k]].points[best.1];
+    while let Some((k, v)) = remaining.take_nearest(cur) {
+        start[k] = v;
+        cur = loops[group[k]].points[v];
         seq.push(k);
     }
 
@@ -426,8 +484,14 @@ struct Tour<'a> {
 impl Tour<'_> {
     /// Bring `pos` back in line with `seq` after a move.
     fn reindex(&mut self) {
-        for (i, &k) in self.seq.iter().enumerate() {
-            self.pos[k] = i;
+        self.reindex_range(0..self.seq.len());
+    }
+
+    /// Bring `pos` back in line with `seq` where a move changed it: `seq[range]` (the rest of
+    /// the path kept its places, so a long path is not walked for every short move).
+    fn reindex_range(&mut self, range: std::ops::Range<usize>) {
+        for i in range {
+            self.pos[self.seq[i]] = i;
         }
     }
 
@@ -459,7 +523,7 @@ impl Tour<'_> {
     fn reverse_if_shorter(&mut self, i: usize, j: usize) -> bool {
         if self.reversal_gain(i, j) < -EPS {
             self.seq[i..=j].reverse();
-            self.reindex();
+            self.reindex_range(i..j + 1);
             true
         } else {
             false
@@ -564,7 +628,8 @@ impl Tour<'_> {
             (k + 1) as usize
         };
         self.seq.splice(ins..ins, seg);
-        self.reindex();
+        // Only the places between the run's old and new place changed.
+        self.reindex_range(i.min(ins)..(i + len).max(ins + len));
     }
 }
 
