@@ -332,6 +332,7 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
     let sheet = sheet(root).map_err(bad)?;
     let checked = check_document(&doc, file)?;
     let svg_text = for_usvg(text, root, &sheet);
+    let source = doc;
     let doc = parse_xml(&svg_text, file)?;
     let opt = usvg::Options {
         // Never read a file or a link an `<image>` names; pictures are not cut anyway.
@@ -361,11 +362,12 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         lines.extend(s.lines);
     }
     if polys.is_empty() && lines.is_empty() {
-        return Err(bad(
-            "nothing to cut: no shape is drawn (shapes hidden by display or visibility, or \
-             inside <defs>, are not cut)"
+        return Err(bad(match vanished(&source) {
+            Some(why) => format!("nothing to cut: {why}"),
+            None => "nothing to cut: no shape is drawn (shapes hidden by display or visibility, \
+                     or inside <defs>, are not cut)"
                 .into(),
-        ));
+        }));
     }
     let o = sheet.outline;
     let outline = Rect::new(Coord { x: o[0], y: o[1] }, Coord { x: o[2], y: o[3] });
@@ -678,6 +680,108 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
         ));
     }
     Ok(out)
+}
+
+/// The elements that draw a shape.
+const SHAPES: &[&str] = &[
+    "rect", "circle", "ellipse", "line", "polyline", "polygon", "path",
+];
+
+/// Whether `node` or an element around it is hidden by `display="none"` or `visibility`, as an
+/// attribute or in its `style`.
+fn hidden_by_style(node: roxmltree::Node) -> bool {
+    let says = |n: roxmltree::Node, key: &str, value: &str| {
+        n.attribute(key).is_some_and(|v| v.trim() == value)
+            || n.attribute("style").is_some_and(|st| {
+                st.split(';').any(|d| {
+                    d.split_once(':')
+                        .is_some_and(|(k, v)| k.trim() == key && v.trim() == value)
+                })
+            })
+    };
+    node.ancestors().filter(|n| n.is_element()).any(|n| {
+        says(n, "display", "none") || says(n, "visibility", "hidden") || says(n, "opacity", "0")
+    })
+}
+
+/// Why a drawing whose shapes are not hidden gave nothing to cut, naming the first such shape
+/// (kind, id, number among the shapes, line and column) and the cause: a transform that squeezes
+/// it flat or to nothing (usvg drops such a shape without a word), or no size of its own.
+/// `None` when every shape is hidden or in `<defs>` (the plain message says so).
+fn vanished(doc: &roxmltree::Document) -> Option<String> {
+    let mut count = 0usize;
+    for node in doc.descendants().filter(|n| n.is_element()) {
+        let name = node.tag_name().name();
+        if !SHAPES.contains(&name) {
+            continue;
+        }
+        count += 1;
+        if node
+            .ancestors()
+            .any(|a| HIDDEN.contains(&a.tag_name().name()))
+            || hidden_by_style(node)
+        {
+            continue;
+        }
+        let p = doc.text_pos_at(node.range().start);
+        let id = node
+            .attribute("id")
+            .map(|i| format!(" id=\"{}\"", excerpt(i)))
+            .unwrap_or_default();
+        let what = format!(
+            "<{name}{id}> (shape {count}, line {}, column {})",
+            p.row, p.col
+        );
+        // The transforms from the root down to the shape, composed.
+        let chain: Vec<&str> = node
+            .ancestors()
+            .filter_map(|a| a.attribute("transform"))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        // The linear part [a c; b d], root first.
+        let mut m = [1.0, 0.0, 0.0, 1.0];
+        for t in &chain {
+            if let Ok(t) = t.parse::<svgtypes::Transform>() {
+                m = [
+                    m[0] * t.a + m[2] * t.b,
+                    m[1] * t.a + m[3] * t.b,
+                    m[0] * t.c + m[2] * t.d,
+                    m[1] * t.c + m[3] * t.d,
+                ];
+            }
+        }
+        let (sx, sy) = (m[0].hypot(m[1]), m[2].hypot(m[3]));
+        let det = m[0] * m[3] - m[1] * m[2];
+        // How far from flat: the sine of the angle between the transformed axes.
+        let open = det.abs() / (sx * sy);
+        let cause = if !chain.is_empty()
+            && (sx.min(sy) < 1e-6 || det.abs() < 1e-9 || !(open >= 1e-4))
+        {
+            format!(
+                "its transform ({}) is degenerate: it squeezes the shape flat or to nothing \
+                 (areas scaled by {det:.1e}, the axes {}° apart); remove or correct the \
+                 transform",
+                excerpt(&chain.join(" ")),
+                match open.clamp(0.0, 1.0).asin().to_degrees() {
+                    a if a >= 0.01 => format!("{a:.2}"),
+                    a => format!("{a:.1e}"),
+                }
+            )
+        } else if let Some(a) = ["width", "height", "r", "rx", "ry"]
+            .iter()
+            .find_map(|a| node.attribute_node(*a).filter(|v| v.value().trim().parse::<f64>() == Ok(0.0)))
+        {
+            format!("it has no size ({}=\"{}\")", a.name(), excerpt(a.value()))
+        } else {
+            "it encloses no area and draws no line (a shape of zero size, or a path with no \
+             segment)"
+                .to_string()
+        };
+        return Some(format!("{what} comes out empty: {cause}"));
+    }
+    None
 }
 
 /// Whether an element names a mask, in its `mask` attribute or its `style`.
