@@ -376,15 +376,15 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
                 || (matches!(machine.tool, Tool::Laser { .. }) && a.cut.power.is_none()) =>
         {
             bail!(
-            "{}: missing, so the folder does not say which material the stencil is for (its \
+                "{}: missing, so the folder does not say which material the stencil is for (its \
              kerf and cut settings): run `stencil make` again to write it, or name the material \
              (--material NAME) or give the settings (--speed{})",
-            d.join("report.json").display(),
-            if matches!(machine.tool, Tool::Laser { .. }) {
-                ", --power"
-            } else {
-                ""
-            }
+                d.join("report.json").display(),
+                if matches!(machine.tool, Tool::Laser { .. }) {
+                    ", --power"
+                } else {
+                    ""
+                }
             )
         }
         (None, _) => None,

@@ -514,7 +514,13 @@ fn test_grid_ranges_beyond_any_machine_are_refused_by_name() {
     let dir = tmp();
     for (args, needles) in [
         (
-            &["--machine", "drag-knife", "--speed", "100", "--depth=-1e308..0:2"][..],
+            &[
+                "--machine",
+                "drag-knife",
+                "--speed",
+                "100",
+                "--depth=-1e308..0:2",
+            ][..],
             &["--depth", "-1e308..0:2", "-1000 to 1000 mm"][..],
         ),
         (
@@ -528,7 +534,10 @@ fn test_grid_ranges_beyond_any_machine_are_refused_by_name() {
         a.extend_from_slice(args);
         let err = refused(&stencil(&a), needles);
         assert!(!err.contains("-inf") && !err.contains("NaN"), "{err}");
-        assert!(!out.exists() && !out.with_extension("svg").exists(), "{args:?}");
+        assert!(
+            !out.exists() && !out.with_extension("svg").exists(),
+            "{args:?}"
+        );
     }
     // In range, the knife grid is written with finite depths.
     let out = dir.path().join("ok.gcode");
@@ -562,7 +571,16 @@ fn an_offset_beyond_any_bed_is_refused_as_the_offset() {
     for off in ["1e308,1e308", "0,-20000"] {
         let err = refused(
             &stencil(&[
-                "gcode", s(&svg), "-o", s(&out), "--power", "50", "--speed", "900", "--offset", off,
+                "gcode",
+                s(&svg),
+                "-o",
+                s(&out),
+                "--power",
+                "50",
+                "--speed",
+                "900",
+                "--offset",
+                off,
             ]),
             &["--offset", off, "beyond any machine's bed", "10000 mm"],
         );

@@ -601,8 +601,20 @@ fn loop_boxes(gcode: &Path) -> Vec<[f64; 4]> {
         .filter(|l| l.points.len() > 2)
         .map(|l| {
             l.points.iter().fold(
-                [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY],
-                |b, p| [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])],
+                [
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NEG_INFINITY,
+                ],
+                |b, p| {
+                    [
+                        b[0].min(p[0]),
+                        b[1].min(p[1]),
+                        b[2].max(p[0]),
+                        b[3].max(p[1]),
+                    ]
+                },
             )
         })
         .collect()
@@ -617,7 +629,11 @@ fn svg_nesting_and_attributes_past_the_limits_are_refused_before_parsing() {
     let dir = crate::common::tmp();
     let deep = svg(
         MM200,
-        &format!("\n{}{SQUARE}{}", "<g>".repeat(13_000), "</g>".repeat(13_000)),
+        &format!(
+            "\n{}{SQUARE}{}",
+            "<g>".repeat(13_000),
+            "</g>".repeat(13_000)
+        ),
     );
     let (o, out) = gcode_svg(dir.path(), "deep.svg", &deep, &[]);
     refused(&o, &["deep.svg:2:", "nested more than 256", "ungroup"]);
@@ -629,7 +645,14 @@ fn svg_nesting_and_attributes_past_the_limits_are_refused_before_parsing() {
         &format!("\n<path{attrs} d=\"M 10 10 L 90 10 L 90 90 Z\"/>"),
     );
     let (o, out) = gcode_svg(dir.path(), "attrs.svg", &many, &[]);
-    refused(&o, &["attrs.svg:2:1:", "<path> has 80001 attributes", "at most 1000"]);
+    refused(
+        &o,
+        &[
+            "attrs.svg:2:1:",
+            "<path> has 80001 attributes",
+            "at most 1000",
+        ],
+    );
     assert!(!out.exists());
 
     let nested = svg(
@@ -674,14 +697,22 @@ fn transparent_shapes_are_not_cut_and_clip_paths_are_applied() {
     let size = |r: &[f64; 4]| [r[2] - r[0], r[3] - r[1]];
     let near = |a: [f64; 2], w: [f64; 2]| (a[0] - w[0]).abs() < 0.05 && (a[1] - w[1]).abs() < 0.05;
     assert!(near(size(&b[0]), [10.0, 5.0]), "{b:?}");
-    assert!(near(size(&b[1]), [20.0, 40.0]), "the left half of the circle: {b:?}");
+    assert!(
+        near(size(&b[1]), [20.0, 40.0]),
+        "the left half of the circle: {b:?}"
+    );
     // Unclipped, the same drawing cuts the whole square and circle (the test can fail).
-    let plain = body.replace(" clip-path=\"url(#c)\"", "").replace(" clip-path=\"url(#half)\"", "");
+    let plain = body
+        .replace(" clip-path=\"url(#c)\"", "")
+        .replace(" clip-path=\"url(#half)\"", "");
     let (o, out) = gcode_svg(dir.path(), "plain.svg", &svg(MM200, &plain), &[]);
     ok(&o);
     let mut b = loop_boxes(&out);
     b.sort_by(|p, q| p[0].total_cmp(&q[0]));
-    assert!(near(size(&b[0]), [20.0, 20.0]) && near(size(&b[1]), [40.0, 40.0]), "{b:?}");
+    assert!(
+        near(size(&b[0]), [20.0, 20.0]) && near(size(&b[1]), [40.0, 40.0]),
+        "{b:?}"
+    );
 
     let line = r##"<defs><clipPath id="c"><rect x="0" y="0" width="50" height="50"/></clipPath></defs>
         <line x1="10" y1="20" x2="150" y2="20" stroke="black" clip-path="url(#c)"/>"##;
@@ -708,7 +739,10 @@ fn a_masked_shape_is_refused_naming_the_element() {
     let body = r##"<defs><mask id="m"><rect width="20" height="20" fill="white"/></mask></defs>
 <rect id="r1" x="10" y="10" width="20" height="20" mask="url(#m)"/>"##;
     let (o, out) = gcode_svg(dir.path(), "mask.svg", &svg(MM200, body), &[]);
-    refused(&o, &["mask.svg:2:1:", "<rect id=\"r1\"> has a mask", "clip path"]);
+    refused(
+        &o,
+        &["mask.svg:2:1:", "<rect id=\"r1\"> has a mask", "clip path"],
+    );
     assert!(!out.exists());
 }
 
@@ -726,7 +760,11 @@ fn thousands_of_squares_are_each_cut_once_inner_first() {
         let k = (k * 37) % (n * n);
         let (x, y) = ((k % n) as f64 * 4.5 + 5.0, (k / n) as f64 * 4.5 + 5.0);
         body += &format!(r#"<rect x="{x}" y="{y}" width="3" height="3"/>"#);
-        body += &format!(r#"<rect x="{}" y="{}" width="1" height="1"/>"#, x + 1.0, y + 1.0);
+        body += &format!(
+            r#"<rect x="{}" y="{}" width="1" height="1"/>"#,
+            x + 1.0,
+            y + 1.0
+        );
     }
     let (o, out) = gcode_svg(dir.path(), "squares.svg", &svg(MM200, &body), &[]);
     let stdout = ok(&o);
@@ -751,7 +789,10 @@ fn thousands_of_squares_are_each_cut_once_inner_first() {
     assert_eq!(at.len(), n * n, "one pair at each drawn centre");
     for (c, [outer, inner]) in &at {
         let (outer, inner) = (outer.expect("outer cut"), inner.expect("inner cut"));
-        assert!(inner < outer, "the square at {c:?} cut before the one inside it");
+        assert!(
+            inner < outer,
+            "the square at {c:?} cut before the one inside it"
+        );
     }
     let mut xs: Vec<i64> = at.keys().map(|c| c[0]).collect();
     xs.sort_unstable();
@@ -761,10 +802,18 @@ fn thousands_of_squares_are_each_cut_once_inner_first() {
     // "travel T mm (input order N mm)"
     let num_after = |tag: &str| -> f64 {
         let i = stdout.find(tag).unwrap() + tag.len();
-        stdout[i..].split_whitespace().next().unwrap().parse().unwrap()
+        stdout[i..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     let (travel, input) = (num_after("travel "), num_after("(input order "));
-    assert!(travel < 0.5 * input, "travel {travel} mm vs input order {input} mm");
+    assert!(
+        travel < 0.5 * input,
+        "travel {travel} mm vs input order {input} mm"
+    );
 }
 
 /// 200,000 small squares were refused as "too tangled ... up to 0 edges across one line": each
@@ -789,7 +838,10 @@ fn too_many_shapes_for_the_kerf_are_refused_by_their_count() {
     let p = write(
         dir.path(),
         "many.svg",
-        &svg(r#"width="390mm" height="390mm" viewBox="0 0 390 390""#, &body),
+        &svg(
+            r#"width="390mm" height="390mm" viewBox="0 0 390 390""#,
+            &body,
+        ),
     );
     let out = dir.path().join("many.gcode");
     let o = stencil(&["gcode", s(&p), "--material", "cardstock", "-o", s(&out)]);
@@ -806,7 +858,8 @@ fn too_many_shapes_for_the_kerf_are_refused_by_their_count() {
 #[test]
 fn nothing_to_cut_names_the_shape_and_why() {
     let dir = crate::common::tmp();
-    let body = "\n<g transform=\"skewX(89.999)\">\n  <rect id=\"flat\" x=\"10\" y=\"10\" width=\"20\" \
+    let body =
+        "\n<g transform=\"skewX(89.999)\">\n  <rect id=\"flat\" x=\"10\" y=\"10\" width=\"20\" \
                 height=\"20\" transform=\"scale(1 1e-9)\"/></g>";
     let (o, out) = gcode_svg(dir.path(), "skew.svg", &svg(MM200, body), &[]);
     refused(
@@ -848,7 +901,14 @@ fn a_png_with_a_cicp_chunk_is_read() {
     std::fs::write(&cicp, with).unwrap();
     let made = |input: &Path, out: &str| {
         let out = dir.path().join(out);
-        ok(&stencil(&["make", s(input), "-o", s(&out), "--emit", "png"]));
+        ok(&stencil(&[
+            "make",
+            s(input),
+            "-o",
+            s(&out),
+            "--emit",
+            "png",
+        ]));
         std::fs::read(out.join("stencil.png")).unwrap()
     };
     assert_eq!(made(&cicp, "a"), made(&plain, "b"));
@@ -881,10 +941,21 @@ fn gcode_on_a_folder_without_its_report_names_the_report() {
     let report = folder.join("report.json");
     refused(
         &o,
-        &[&format!("{}: missing", report.display()), "--material", "stencil make"],
+        &[
+            &format!("{}: missing", report.display()),
+            "--material",
+            "stencil make",
+        ],
     );
     assert!(!folder.join("stencil.gcode").exists());
     // With the settings given, the folder is cut without it.
-    ok(&stencil(&["gcode", s(&folder), "--power", "50", "--speed", "900"]));
+    ok(&stencil(&[
+        "gcode",
+        s(&folder),
+        "--power",
+        "50",
+        "--speed",
+        "900",
+    ]));
     assert!(folder.join("stencil.gcode").exists());
 }

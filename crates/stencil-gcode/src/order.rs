@@ -125,7 +125,8 @@ pub(crate) fn containers(loops: &[Loop]) -> Vec<Vec<usize>> {
 }
 
 /// A box with its loop's index, as the R-trees here hold them.
-pub(crate) type BoxOf = rstar::primitives::GeomWithData<rstar::primitives::Rectangle<[f64; 2]>, usize>;
+pub(crate) type BoxOf =
+    rstar::primitives::GeomWithData<rstar::primitives::Rectangle<[f64; 2]>, usize>;
 
 /// An R-tree of `(index, [min x, min y, max x, max y])` boxes (bulk-loaded).
 pub(crate) fn box_tree(boxes: impl Iterator<Item = (usize, [f64; 4])>) -> rstar::RTree<BoxOf> {

@@ -426,7 +426,10 @@ fn parse_xml<'a>(text: &'a str, file: &str) -> Result<roxmltree::Document<'a>, S
 fn line_col(text: &str, at: usize) -> (u32, u32) {
     let before = &text[..at];
     let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
-    let col = before[before.rfind('\n').map_or(0, |i| i + 1)..].chars().count() + 1;
+    let col = before[before.rfind('\n').map_or(0, |i| i + 1)..]
+        .chars()
+        .count()
+        + 1;
     (line as u32, col as u32)
 }
 
@@ -514,7 +517,10 @@ fn tag_name(s: &str) -> &str {
 
 /// The next `<` at or after `from`.
 fn memchr_lt(b: &[u8], from: usize) -> Option<usize> {
-    b.get(from..)?.iter().position(|&c| c == b'<').map(|i| from + i)
+    b.get(from..)?
+        .iter()
+        .position(|&c| c == b'<')
+        .map(|i| from + i)
 }
 
 /// The end (just past `>`) of the declaration starting at `lt` (`<!...>`), skipping quoted
@@ -691,17 +697,24 @@ const SHAPES: &[&str] = &[
 /// attribute or in its `style`.
 fn hidden_by_style(node: roxmltree::Node) -> bool {
     let says = |n: roxmltree::Node, key: &str, value: &str| {
-        n.attribute(key).is_some_and(|v| v.trim() == value)
-            || n.attribute("style").is_some_and(|st| {
-                st.split(';').any(|d| {
-                    d.split_once(':')
-                        .is_some_and(|(k, v)| k.trim() == key && v.trim() == value)
-                })
-            })
+        presentation(n, key).any(|v| v.trim() == value)
     };
     node.ancestors().filter(|n| n.is_element()).any(|n| {
         says(n, "display", "none") || says(n, "visibility", "hidden") || says(n, "opacity", "0")
     })
+}
+
+/// The values an element gives a presentation property (`key`): as an attribute and in its
+/// `style` (not style sheets, which usvg resolves for the walk).
+fn presentation<'a>(node: roxmltree::Node<'a, 'a>, key: &'a str) -> impl Iterator<Item = &'a str> {
+    let in_style = node.attribute("style").into_iter().flat_map(move |st| {
+        st.split(';').filter_map(move |d| {
+            d.split_once(':')
+                .filter(|(k, _)| k.trim().eq_ignore_ascii_case(key))
+                .map(|(_, v)| v)
+        })
+    });
+    node.attribute(key).into_iter().chain(in_style)
 }
 
 /// Why a drawing whose shapes are not hidden gave nothing to cut, naming the first such shape
@@ -757,7 +770,7 @@ fn vanished(doc: &roxmltree::Document) -> Option<String> {
         // How far from flat: the sine of the angle between the transformed axes.
         let open = det.abs() / (sx * sy);
         let cause = if !chain.is_empty()
-            && (sx.min(sy) < 1e-6 || det.abs() < 1e-9 || !(open >= 1e-4))
+            && (sx.min(sy) < 1e-6 || det.abs() < 1e-9 || open.is_nan() || open < 1e-4)
         {
             format!(
                 "its transform ({}) is degenerate: it squeezes the shape flat or to nothing \
@@ -769,10 +782,10 @@ fn vanished(doc: &roxmltree::Document) -> Option<String> {
                     a => format!("{a:.1e}"),
                 }
             )
-        } else if let Some(a) = ["width", "height", "r", "rx", "ry"]
-            .iter()
-            .find_map(|a| node.attribute_node(*a).filter(|v| v.value().trim().parse::<f64>() == Ok(0.0)))
-        {
+        } else if let Some(a) = ["width", "height", "r", "rx", "ry"].iter().find_map(|a| {
+            node.attribute_node(*a)
+                .filter(|v| v.value().trim().parse::<f64>() == Ok(0.0))
+        }) {
             format!("it has no size ({}=\"{}\")", a.name(), excerpt(a.value()))
         } else {
             "it encloses no area and draws no line (a shape of zero size, or a path with no \
@@ -786,17 +799,10 @@ fn vanished(doc: &roxmltree::Document) -> Option<String> {
 
 /// Whether an element names a mask, in its `mask` attribute or its `style`.
 fn has_mask(node: roxmltree::Node) -> bool {
-    let names = |v: &str| {
+    presentation(node, "mask").any(|v| {
         let v = v.trim();
         !v.is_empty() && v != "none"
-    };
-    node.attribute("mask").is_some_and(names)
-        || node.attribute("style").is_some_and(|st| {
-            st.split(';').any(|decl| {
-                decl.split_once(':')
-                    .is_some_and(|(k, v)| k.trim().eq_ignore_ascii_case("mask") && names(v))
-            })
-        })
+    })
 }
 
 fn number_ok(v: f64) -> Result<(), String> {
@@ -1081,12 +1087,8 @@ impl Walk<'_> {
             .flatten(p, p.abs_transform())
             .map_err(|e| (label.clone(), e))?;
         if let Some(region) = clip {
-            (rings, lines) = clipped(rings, lines, region).map_err(|e| {
-                (
-                    label.clone(),
-                    format!("clipping it by its clip path: {e}"),
-                )
-            })?;
+            (rings, lines) = clipped(rings, lines, region)
+                .map_err(|e| (label.clone(), format!("clipping it by its clip path: {e}")))?;
         }
         if !rings.is_empty() || !lines.is_empty() {
             self.shapes.push(Shape {
@@ -1196,7 +1198,12 @@ impl Walk<'_> {
         if let Some(e) = bad {
             return Err(e);
         }
-        self.points += flat.0.iter().chain(&flat.1).map(|l| l.0.len()).sum::<usize>();
+        self.points += flat
+            .0
+            .iter()
+            .chain(&flat.1)
+            .map(|l| l.0.len())
+            .sum::<usize>();
         if self.points > MAX_POINTS {
             return Err(too_many_points());
         }

@@ -141,7 +141,7 @@ impl<'a> Nearest<'a> {
         self.at[k] = self.list.len();
         self.list.push(k);
         let g = crate::order::box_of(k, b);
-        self.tree.insert(g.clone());
+        self.tree.insert(g);
         self.boxes[k] = Some(g);
     }
 
