@@ -688,17 +688,21 @@ fn transparent_shapes_are_not_cut_and_clip_paths_are_applied() {
           <clipPath id="half" clipPathUnits="objectBoundingBox"><rect width="0.5" height="1"/></clipPath>
         </defs>
         <rect x="10" y="10" width="20" height="20" clip-path="url(#c)"/>
-        <circle cx="100" cy="100" r="20" clip-path="url(#half)"/>"##;
+        <circle cx="100" cy="100" r="20" clip-path="url(#half)"/>
+        <g clip-path="url(#c)"><rect x="2" y="2" width="3" height="3"/>
+          <rect x="150" y="150" width="5" height="5"/></g>"##;
     let (o, out) = gcode_svg(dir.path(), "clip.svg", &svg(MM200, body), &[]);
     ok(&o);
     let mut b = loop_boxes(&out);
     b.sort_by(|p, q| p[0].total_cmp(&q[0]));
-    assert_eq!(b.len(), 2, "{b:?}");
+    // A shape wholly inside a clip is kept as drawn, one wholly outside is gone.
+    assert_eq!(b.len(), 3, "{b:?}");
     let size = |r: &[f64; 4]| [r[2] - r[0], r[3] - r[1]];
     let near = |a: [f64; 2], w: [f64; 2]| (a[0] - w[0]).abs() < 0.05 && (a[1] - w[1]).abs() < 0.05;
-    assert!(near(size(&b[0]), [10.0, 5.0]), "{b:?}");
+    assert!(near(size(&b[0]), [3.0, 3.0]), "{b:?}");
+    assert!(near(size(&b[1]), [10.0, 5.0]), "{b:?}");
     assert!(
-        near(size(&b[1]), [20.0, 40.0]),
+        near(size(&b[2]), [20.0, 40.0]),
         "the left half of the circle: {b:?}"
     );
     // Unclipped, the same drawing cuts the whole square and circle (the test can fail).
@@ -709,8 +713,9 @@ fn transparent_shapes_are_not_cut_and_clip_paths_are_applied() {
     ok(&o);
     let mut b = loop_boxes(&out);
     b.sort_by(|p, q| p[0].total_cmp(&q[0]));
+    assert_eq!(b.len(), 4, "{b:?}");
     assert!(
-        near(size(&b[0]), [20.0, 20.0]) && near(size(&b[1]), [40.0, 40.0]),
+        near(size(&b[1]), [20.0, 20.0]) && near(size(&b[2]), [40.0, 40.0]),
         "{b:?}"
     );
 

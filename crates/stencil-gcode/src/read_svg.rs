@@ -1219,8 +1219,47 @@ fn clipped(
     lines: Vec<LineString<f64>>,
     region: &MultiPolygon<f64>,
 ) -> Result<Flat, clip::ClipError> {
+    use geo::BoundingRect;
+    let Some(area) = region.bounding_rect() else {
+        // Nothing visible.
+        return Ok((Vec::new(), Vec::new()));
+    };
+    // A clip that is one upright rectangle (a nested viewport's, the commonest) keeps what lies
+    // wholly inside it as drawn; what lies wholly outside any clip's box is gone. Only shapes its
+    // edge may cross go to Clipper.
+    let rectangle = match region.0.as_slice() {
+        [p] if p.interiors().is_empty() => {
+            let r = p.exterior();
+            r.0.len() <= 5
+                && r.lines()
+                    .all(|l| l.start.x == l.end.x || l.start.y == l.end.y)
+                && (p.unsigned_area() - area.width() * area.height()).abs()
+                    <= 1e-9 * area.width() * area.height()
+        }
+        _ => false,
+    };
+    let placed = |l: &LineString<f64>| -> Option<bool> {
+        let b = l.bounding_rect()?;
+        let (lo, hi) = (b.min(), b.max());
+        let (alo, ahi) = (area.min(), area.max());
+        if hi.x < alo.x || lo.x > ahi.x || hi.y < alo.y || lo.y > ahi.y {
+            Some(false)
+        } else if rectangle && lo.x >= alo.x && hi.x <= ahi.x && lo.y >= alo.y && hi.y <= ahi.y {
+            Some(true)
+        } else {
+            None
+        }
+    };
     let mut out_rings = Vec::new();
     for r in rings {
+        match placed(&r) {
+            Some(true) => {
+                out_rings.push(r);
+                continue;
+            }
+            Some(false) => continue,
+            None => {}
+        }
         let part = clip::boolean(
             &MultiPolygon::new(vec![Polygon::new(r, vec![])]),
             region,
@@ -1233,14 +1272,21 @@ fn clipped(
             }));
         }
     }
-    let out_lines = if lines.is_empty() {
-        lines
-    } else {
-        clip::clip_lines(&lines, region)?
-            .into_iter()
-            .filter(|l| l.0.len() >= 2)
-            .collect()
-    };
+    let (mut out_lines, mut crossing) = (Vec::new(), Vec::new());
+    for l in lines {
+        match placed(&l) {
+            Some(true) => out_lines.push(l),
+            Some(false) => {}
+            None => crossing.push(l),
+        }
+    }
+    if !crossing.is_empty() {
+        out_lines.extend(
+            clip::clip_lines(&crossing, region)?
+                .into_iter()
+                .filter(|l| l.0.len() >= 2),
+        );
+    }
     Ok((out_rings, out_lines))
 }
 
