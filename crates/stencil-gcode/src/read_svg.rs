@@ -476,11 +476,12 @@ fn check_markup(text: &str, file: &str) -> Result<(), SvgError> {
                     ),
                 });
             }
+            // An empty element (`<rect/>`) is a level too, as in the parsed tree.
+            if depth + 1 > MAX_DEPTH {
+                return Err(too_deep(text, file, lt));
+            }
             if !empty {
                 depth += 1;
-                if depth > MAX_DEPTH {
-                    return Err(too_deep(text, file, lt));
-                }
             }
             Some(end)
         };
@@ -574,7 +575,7 @@ fn check_depth(doc: &roxmltree::Document, file: &str) -> Result<(), SvgError> {
             depth.resize(id + 1, 0);
         }
         depth[id] = d;
-        if d as usize > MAX_DEPTH {
+        if node.is_element() && d as usize > MAX_DEPTH {
             return Err(too_deep(doc.input_text(), file, node.range().start));
         }
     }
@@ -1524,6 +1525,61 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("<html>, not <svg>"), "{e}");
+    }
+
+    #[test]
+    fn nesting_is_bounded_in_the_text_and_through_entities() {
+        let nested = |n: usize| {
+            format!(
+                "{}<rect width=\"5\" height=\"5\"/>{}",
+                "<g>".repeat(n),
+                "</g>".repeat(n)
+            )
+        };
+        // The <svg> element is the first level.
+        assert!(read_body(&nested(MAX_DEPTH - 2)).is_ok());
+        let e = read_body(&nested(MAX_DEPTH - 1)).unwrap_err();
+        assert!(
+            e.starts_with("t.svg:1:") && e.contains("nested more than 256"),
+            "{e}"
+        );
+        // Comments, CDATA and quoted '>' do not confuse the count.
+        let tricky = format!(
+            "<!-- <g> <g> --><![CDATA[<g><g>]]><g id=\"a>b\">{}</g>",
+            nested(MAX_DEPTH - 3)
+        );
+        assert!(read_body(&tricky).is_ok());
+        // Levels an entity adds, which the text does not show.
+        let deep = format!(
+            "<!DOCTYPE svg [<!ENTITY d \"{}\">]><svg {MM}>{}&d;{}</svg>",
+            nested(200).replace('"', "'"),
+            "<g>".repeat(100),
+            "</g>".repeat(100)
+        );
+        let e = cut_loops_from_svg(&deep, "e.svg").unwrap_err().to_string();
+        assert!(
+            e.starts_with("e.svg:") && e.contains("nested more than 256"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn attributes_are_bounded_per_element() {
+        let attrs = |n: usize| (0..n).map(|i| format!(" a{i}='1'")).collect::<String>();
+        assert!(read_body(&format!(
+            "<rect{} width='5' height='5'/>",
+            attrs(MAX_ATTRIBUTES - 2)
+        ))
+        .is_ok());
+        let e = read_body(&format!(
+            "<rect{} width='5' height='5'/>",
+            attrs(MAX_ATTRIBUTES)
+        ))
+        .unwrap_err();
+        assert!(
+            e.contains("<rect> has 1002 attributes; at most 1000"),
+            "{e}"
+        );
     }
 
     #[test]
