@@ -599,24 +599,7 @@ fn loop_boxes(gcode: &Path) -> Vec<[f64; 4]> {
     crate::common::gcode_loops(&std::fs::read_to_string(gcode).unwrap())
         .iter()
         .filter(|l| l.points.len() > 2)
-        .map(|l| {
-            l.points.iter().fold(
-                [
-                    f64::INFINITY,
-                    f64::INFINITY,
-                    f64::NEG_INFINITY,
-                    f64::NEG_INFINITY,
-                ],
-                |b, p| {
-                    [
-                        b[0].min(p[0]),
-                        b[1].min(p[1]),
-                        b[2].max(p[0]),
-                        b[3].max(p[1]),
-                    ]
-                },
-            )
-        })
+        .map(|l| stencil_geom::ring::bbox(&l.points))
         .collect()
 }
 
