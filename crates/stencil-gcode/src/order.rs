@@ -336,6 +336,16 @@ pub(crate) fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipErro
         .collect();
     let in_box =
         |p: [f64; 2], b: &[f64; 4]| p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3];
+    // The points by place, so that each region looks only at those in its box (a drawing of
+    // thousands of rings, each a region, compared every region with every loop).
+    let points = rstar::RTree::bulk_load(
+        inner
+            .iter()
+            .enumerate()
+            .map(|(k, &(_, p))| rstar::primitives::GeomWithData::new(p, k))
+            .collect(),
+    );
+    let mut near: Vec<usize> = Vec::new();
     let mut out = Vec::new();
     for region in regions
         .iter()
@@ -349,7 +359,15 @@ pub(crate) fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipErro
         };
         let mut around = Vec::new();
         let mut inside: Vec<Vec<usize>> = vec![Vec::new(); region.holes.len()];
-        for &(i, p) in &inner {
+        near.clear();
+        near.extend(
+            points
+                .locate_in_envelope(&rstar::AABB::from_corners([eb[0], eb[1]], [eb[2], eb[3]]))
+                .map(|g| g.data),
+        );
+        // In the loops' order, as a scan of them all found them.
+        near.sort_unstable();
+        for &(i, p) in near.iter().map(|&k| &inner[k]) {
             if !in_box(p, &eb) || !point_in_ring(p, &region.exterior) {
                 continue;
             }
