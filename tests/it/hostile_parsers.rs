@@ -659,6 +659,11 @@ fn transparent_shapes_are_not_cut_and_clip_paths_are_applied() {
         <rect x="100" y="10" width="7" height="7" opacity="0.5"/>"#;
     let (o, out) = gcode_svg(dir.path(), "opacity.svg", &svg(MM200, body), &[]);
     ok(&o);
+    assert!(
+        stderr(&o).contains("note: 4 fully transparent element(s)"),
+        "{}",
+        stderr(&o)
+    );
     let b = loop_boxes(&out);
     assert_eq!(b.len(), 1, "only the half-transparent square: {b:?}");
     assert!((b[0][2] - b[0][0] - 7.0).abs() < 1e-3, "{b:?}");

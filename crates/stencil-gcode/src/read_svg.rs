@@ -351,9 +351,17 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         shapes: Vec::new(),
         count: 0,
         points: 0,
+        transparent: 0,
     };
     walk.group(tree.root(), false, None)
         .map_err(|(label, e)| bad(format!("{label}: {e}")))?;
+    let mut notes = checked.notes;
+    if walk.transparent > 0 {
+        notes.push(format!(
+            "{} fully transparent element(s) (opacity 0) not cut: nothing of them shows",
+            walk.transparent
+        ));
+    }
     let any_cut = walk.shapes.iter().any(|s| s.cut);
     let mut polys: Vec<Polygon<f64>> = Vec::new();
     let mut lines: Vec<LineString<f64>> = Vec::new();
@@ -364,8 +372,8 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
     if polys.is_empty() && lines.is_empty() {
         return Err(bad(match vanished(&source) {
             Some(why) => format!("nothing to cut: {why}"),
-            None => "nothing to cut: no shape is drawn (shapes hidden by display or visibility, \
-                     or inside <defs>, are not cut)"
+            None => "nothing to cut: no shape is drawn (shapes hidden by display, visibility \
+                     or opacity 0, or inside <defs>, are not cut)"
                 .into(),
         }));
     }
@@ -373,10 +381,7 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
     let outline = Rect::new(Coord { x: o[0], y: o[1] }, Coord { x: o[2], y: o[3] });
     let mut geometry = CutLoops::drawn(outline, MultiPolygon(polys));
     geometry.lines = lines;
-    Ok(SvgDrawing {
-        geometry,
-        notes: checked.notes,
-    })
+    Ok(SvgDrawing { geometry, notes })
 }
 
 /// The text usvg reads: the root's width and height as this reader understood them (in mm, which
@@ -936,6 +941,8 @@ struct Walk<'a> {
     count: usize,
     /// Points flattened so far (bounded by [`MAX_POINTS`]).
     points: usize,
+    /// Elements left out because nothing of them shows (opacity 0), for the note.
+    transparent: usize,
 }
 
 /// A shape's flattened subpaths in sheet mm: closed rings and open lines.
@@ -974,6 +981,7 @@ impl Walk<'_> {
     ) -> Result<(), (String, String)> {
         // Fully transparent (`opacity="0"`): nothing in it shows, so nothing is cut.
         if g.opacity().get() <= 0.0 {
+            self.transparent += 1;
             return Ok(());
         }
         if g.mask().is_some() {
@@ -1081,7 +1089,11 @@ impl Walk<'_> {
         } else {
             format!("<path id=\"{}\"> (path {})", excerpt(p.id()), self.count)
         };
-        if !p.is_visible() || transparent(p) {
+        if !p.is_visible() {
+            return Ok(());
+        }
+        if transparent(p) {
+            self.transparent += 1;
             return Ok(());
         }
         let (mut rings, mut lines) = self
