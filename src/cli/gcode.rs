@@ -12,16 +12,25 @@ use stencil_gcode::estimate::format_duration;
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 
+/// `--offset X,Y`: a place on some bed. Beyond the largest bed a profile may have (10 m), no
+/// job can be on the bed, and a number like 1e308 swallowed the job's size in the bed check
+/// ("the job (0.0 x 0.0 mm)"), so it is refused here, as the offset it is.
 pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
     let (x, y) = s.split_once(',').ok_or_else(bad)?;
     let x: f64 = x.trim().parse().map_err(|_| bad())?;
     let y: f64 = y.trim().parse().map_err(|_| bad())?;
-    if x.is_finite() && y.is_finite() {
-        Ok([x, y])
-    } else {
-        Err(bad())
+    if !(x.is_finite() && y.is_finite()) {
+        return Err(bad());
     }
+    let far = *machine_profile::bounds::BED_MM.end();
+    if x.abs() > far || y.abs() > far {
+        return Err(format!(
+            "'{s}' is beyond any machine's bed: X and Y must be within ±{far} mm (the largest bed \
+             a machine profile may have)"
+        ));
+    }
+    Ok([x, y])
 }
 
 /// Which machine, and where the job goes on its bed.
@@ -362,6 +371,24 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         (None, Some(d)) if d.join("report.json").is_file() => {
             let r = super::check::read_report(d)?;
             super::check::material_of_report(&r, d).transpose()?
+        }
+        // The folder's report names the material; without it and without the settings on the
+        // command line, say what is missing rather than only that a material is.
+        (None, Some(d))
+            if a.cut.speed.is_none()
+                || (matches!(machine.tool, Tool::Laser { .. }) && a.cut.power.is_none()) =>
+        {
+            bail!(
+                "{}: missing, so the folder does not say which material the stencil is for (its \
+             kerf and cut settings): run `stencil make` again to write it, or name the material \
+             (--material NAME) or give the settings (--speed{})",
+                d.join("report.json").display(),
+                if matches!(machine.tool, Tool::Laser { .. }) {
+                    ", --power"
+                } else {
+                    ""
+                }
+            )
         }
         (None, _) => None,
     };

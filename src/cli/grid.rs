@@ -34,14 +34,15 @@ pub struct TestGridArgs {
     /// The G-code file to write; the preview goes beside it with .svg.
     #[arg(short, long, default_value = "grid.gcode")]
     pub output: PathBuf,
-    /// Laser power per row, % (FROM..TO:STEPS).
-    #[arg(long, value_name = "RANGE", value_parser = Steps::parse)]
+    /// Laser power per row, % (FROM..TO:STEPS), 0.1 to 100.
+    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, 0.1..=100.0, " %"))]
     pub power: Option<Steps>,
-    /// Speed per column, mm/min (FROM..TO:STEPS).
-    #[arg(long, value_name = "RANGE", value_parser = Steps::parse, allow_hyphen_values = true)]
+    /// Speed per column, mm/min (FROM..TO:STEPS), 1 to 200000.
+    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min"), allow_hyphen_values = true)]
     pub speed: Option<Steps>,
-    /// Drag knife: blade depth per row, machine Z mm (FROM..TO:STEPS, e.g. -0.1..-0.5:5).
-    #[arg(long, value_name = "RANGE", value_parser = Steps::parse, allow_hyphen_values = true)]
+    /// Drag knife: blade depth per row, machine Z mm (FROM..TO:STEPS, e.g. -0.1..-0.5:5), -1000
+    /// to 1000.
+    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, machine_profile::bounds::Z_MM, " mm"), allow_hyphen_values = true)]
     pub depth: Option<Steps>,
     /// Side of each square, mm (1 to 100).
     #[arg(long, default_value_t = 10.0, value_parser = |s: &str| super::number_in(s, 1.0..=100.0, " mm"))]
@@ -55,6 +56,21 @@ pub struct TestGridArgs {
     /// Passes per square [default: the material's].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
     pub passes: Option<u32>,
+}
+
+/// A range option (`FROM..TO:STEPS`) whose ends both lie in `range`: what a machine can take
+/// (a value like -1e308 made the steps between the ends infinite, and `G1 Z-inf` was written).
+fn steps_in(s: &str, range: std::ops::RangeInclusive<f64>, unit: &str) -> Result<Steps, String> {
+    let r = Steps::parse(s)?;
+    if [r.from, r.to].iter().all(|v| range.contains(v)) {
+        Ok(r)
+    } else {
+        Err(format!(
+            "'{s}' is out of range: each end must be from {} to {}{unit}",
+            num(*range.start()),
+            num(*range.end())
+        ))
+    }
 }
 
 /// Half to one and a half times `v`, in 5 steps, within `lo..=hi`.

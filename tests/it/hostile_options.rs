@@ -505,3 +505,92 @@ fn progress_shows_on_a_terminal_only() {
     ];
     assert!(stages.iter().any(|st| seen.contains(st)), "{seen:?}");
 }
+
+/// Issue 39, item 5: `test-grid --depth=-1e308..0:2` exited 0 and wrote `G1 Z-inf` (the steps
+/// between the ends overflowed); every range option's ends are now bounded by what a machine
+/// takes, refused naming the option, and nothing is written.
+#[test]
+fn test_grid_ranges_beyond_any_machine_are_refused_by_name() {
+    let dir = tmp();
+    for (args, needles) in [
+        (
+            &[
+                "--machine",
+                "drag-knife",
+                "--speed",
+                "100",
+                "--depth=-1e308..0:2",
+            ][..],
+            &["--depth", "-1e308..0:2", "-1000 to 1000 mm"][..],
+        ),
+        (
+            &["--speed=-1e308..1e308:3"],
+            &["--speed", "1 to 200000 mm/min"],
+        ),
+        (&["--power=1e308..0.5:2"], &["--power", "0.1 to 100 %"]),
+    ] {
+        let out = dir.path().join("grid.gcode");
+        let mut a = vec!["test-grid", "-o", s(&out)];
+        a.extend_from_slice(args);
+        let err = refused(&stencil(&a), needles);
+        assert!(!err.contains("-inf") && !err.contains("NaN"), "{err}");
+        assert!(
+            !out.exists() && !out.with_extension("svg").exists(),
+            "{args:?}"
+        );
+    }
+    // In range, the knife grid is written with finite depths.
+    let out = dir.path().join("ok.gcode");
+    let o = stencil(&[
+        "test-grid",
+        "--machine",
+        "drag-knife",
+        "--speed",
+        "100",
+        "--depth=-0.5..-0.1:2",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let g = std::fs::read_to_string(&out).unwrap();
+    assert!(g.contains("Z-0.5") && !g.contains("inf"), "{g}");
+}
+
+/// `--offset 1e308,1e308` was refused for the bed as "the job (0.0 x 0.0 mm)": the offset swallowed
+/// the job's size. It is refused as the offset it is, by name.
+#[test]
+fn an_offset_beyond_any_bed_is_refused_as_the_offset() {
+    let dir = tmp();
+    let svg = dir.path().join("sq.svg");
+    std::fs::write(
+        &svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" viewBox="0 0 50 50"><rect x="5" y="5" width="20" height="20"/></svg>"#,
+    )
+    .unwrap();
+    let out = dir.path().join("sq.gcode");
+    for off in ["1e308,1e308", "0,-20000"] {
+        let err = refused(
+            &stencil(&[
+                "gcode",
+                s(&svg),
+                "-o",
+                s(&out),
+                "--power",
+                "50",
+                "--speed",
+                "900",
+                "--offset",
+                off,
+            ]),
+            &["--offset", off, "beyond any machine's bed", "10000 mm"],
+        );
+        assert!(!err.contains("0.0 x 0.0"), "{err}");
+        assert!(!out.exists());
+        let grid = dir.path().join("g.gcode");
+        refused(
+            &stencil(&["test-grid", "-o", s(&grid), "--offset", off]),
+            &["--offset", "beyond any machine's bed"],
+        );
+        assert!(!grid.exists());
+    }
+}

@@ -571,3 +571,384 @@ fn absurd_machine_fields_and_cut_options_are_refused_by_name() {
         );
     }
 }
+
+// ---- Issue 39: the fourth campaign's SVGs, and item 5's messages ---------------------------------
+
+/// `gcode` on an SVG in `dir` with plain laser settings and `extra` options; the output path.
+fn gcode_svg(dir: &Path, name: &str, text: &str, extra: &[&str]) -> (Output, PathBuf) {
+    let p = write(dir, name, text);
+    let out = dir.join(format!("{name}.gcode"));
+    let mut a = vec![
+        "gcode",
+        s(&p),
+        "-o",
+        s(&out),
+        "--power",
+        "50",
+        "--speed",
+        "1000",
+    ];
+    a.extend_from_slice(extra);
+    (stencil(&a), out)
+}
+
+const MM200: &str = r#"width="200mm" height="200mm" viewBox="0 0 200 200""#;
+
+/// Each cutting loop's box (min x, min y, max x, max y), in cut order, read from the G-code.
+fn loop_boxes(gcode: &Path) -> Vec<[f64; 4]> {
+    crate::common::gcode_loops(&std::fs::read_to_string(gcode).unwrap())
+        .iter()
+        .filter(|l| l.points.len() > 2)
+        .map(|l| stencil_geom::ring::bbox(&l.points))
+        .collect()
+}
+
+/// 13,000 nested groups (91 KB) overflowed usvg's recursion and aborted the process; 80,000
+/// attributes on one path took 27 s in the XML parser's duplicate check. Both are refused before
+/// the parser, naming the file, the place and the limit, and nothing is written; a drawing
+/// nested 200 deep is still read.
+#[test]
+fn svg_nesting_and_attributes_past_the_limits_are_refused_before_parsing() {
+    let dir = crate::common::tmp();
+    let deep = svg(
+        MM200,
+        &format!(
+            "\n{}{SQUARE}{}",
+            "<g>".repeat(13_000),
+            "</g>".repeat(13_000)
+        ),
+    );
+    let (o, out) = gcode_svg(dir.path(), "deep.svg", &deep, &[]);
+    refused(&o, &["deep.svg:2:", "nested more than 256", "ungroup"]);
+    assert!(!out.exists());
+
+    let attrs: String = (0..80_000).map(|i| format!(" a{i}=\"1\"")).collect();
+    let many = svg(
+        MM200,
+        &format!("\n<path{attrs} d=\"M 10 10 L 90 10 L 90 90 Z\"/>"),
+    );
+    let (o, out) = gcode_svg(dir.path(), "attrs.svg", &many, &[]);
+    refused(
+        &o,
+        &[
+            "attrs.svg:2:1:",
+            "<path> has 80001 attributes",
+            "at most 1000",
+        ],
+    );
+    assert!(!out.exists());
+
+    let nested = svg(
+        MM200,
+        &format!("{}{SQUARE}{}", "<g>".repeat(200), "</g>".repeat(200)),
+    );
+    let (o, out) = gcode_svg(dir.path(), "nested.svg", &nested, &[]);
+    ok(&o);
+    assert_eq!(loop_boxes(&out).len(), 1);
+}
+
+/// `opacity="0"` shapes were cut; now nothing fully transparent is (the element's or a group's
+/// opacity, or every paint's), and a shape with a clip path is cut along what the clip leaves.
+#[test]
+fn transparent_shapes_are_not_cut_and_clip_paths_are_applied() {
+    let dir = crate::common::tmp();
+    let body = r#"<rect x="10" y="10" width="30" height="30" opacity="0"/>
+        <rect x="10" y="50" width="30" height="30" fill-opacity="0"/>
+        <rect x="10" y="90" width="30" height="30" fill="none" stroke="red" stroke-opacity="0"/>
+        <g style="opacity:0"><rect x="10" y="130" width="30" height="30"/></g>
+        <rect x="100" y="10" width="7" height="7" opacity="0.5"/>"#;
+    let (o, out) = gcode_svg(dir.path(), "opacity.svg", &svg(MM200, body), &[]);
+    ok(&o);
+    assert!(
+        stderr(&o).contains("note: 4 fully transparent element(s)"),
+        "{}",
+        stderr(&o)
+    );
+    let b = loop_boxes(&out);
+    assert_eq!(b.len(), 1, "only the half-transparent square: {b:?}");
+    assert!((b[0][2] - b[0][0] - 7.0).abs() < 1e-3, "{b:?}");
+
+    // A 20 x 20 square at (10, 10) clipped to (0..20, 0..15): a 10 x 5 loop; a circle clipped by
+    // a half-plane box (objectBoundingBox units, a transform on the clip path); an open line
+    // clipped for a pen.
+    let body = r##"<defs>
+          <clipPath id="c"><rect x="0" y="0" width="20" height="15"/></clipPath>
+          <clipPath id="half" clipPathUnits="objectBoundingBox"><rect width="0.5" height="1"/></clipPath>
+        </defs>
+        <rect x="10" y="10" width="20" height="20" clip-path="url(#c)"/>
+        <circle cx="100" cy="100" r="20" clip-path="url(#half)"/>
+        <g clip-path="url(#c)"><rect x="2" y="2" width="3" height="3"/>
+          <rect x="150" y="150" width="5" height="5"/></g>"##;
+    let (o, out) = gcode_svg(dir.path(), "clip.svg", &svg(MM200, body), &[]);
+    ok(&o);
+    let mut b = loop_boxes(&out);
+    b.sort_by(|p, q| p[0].total_cmp(&q[0]));
+    // A shape wholly inside a clip is kept as drawn, one wholly outside is gone.
+    assert_eq!(b.len(), 3, "{b:?}");
+    let size = |r: &[f64; 4]| [r[2] - r[0], r[3] - r[1]];
+    let near = |a: [f64; 2], w: [f64; 2]| (a[0] - w[0]).abs() < 0.05 && (a[1] - w[1]).abs() < 0.05;
+    assert!(near(size(&b[0]), [3.0, 3.0]), "{b:?}");
+    assert!(near(size(&b[1]), [10.0, 5.0]), "{b:?}");
+    assert!(
+        near(size(&b[2]), [20.0, 40.0]),
+        "the left half of the circle: {b:?}"
+    );
+    // Unclipped, the same drawing cuts the whole square and circle (the test can fail).
+    let plain = body
+        .replace(" clip-path=\"url(#c)\"", "")
+        .replace(" clip-path=\"url(#half)\"", "");
+    let (o, out) = gcode_svg(dir.path(), "plain.svg", &svg(MM200, &plain), &[]);
+    ok(&o);
+    let mut b = loop_boxes(&out);
+    b.sort_by(|p, q| p[0].total_cmp(&q[0]));
+    assert_eq!(b.len(), 4, "{b:?}");
+    assert!(
+        near(size(&b[1]), [20.0, 20.0]) && near(size(&b[2]), [40.0, 40.0]),
+        "{b:?}"
+    );
+
+    let line = r##"<defs><clipPath id="c"><rect x="0" y="0" width="50" height="50"/></clipPath></defs>
+        <line x1="10" y1="20" x2="150" y2="20" stroke="black" clip-path="url(#c)"/>"##;
+    let (o, out) = gcode_svg(
+        dir.path(),
+        "line.svg",
+        &svg(MM200, line),
+        &["--machine", "pen-a3"],
+    );
+    let stdout = ok(&o);
+    assert!(
+        stdout.contains("1 open paths; cut 40 mm"),
+        "10..50 of the line 10..150: {stdout}"
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("G1 X50 Y"), "{text}");
+}
+
+/// A mask shows a shape by another drawing's brightness, which a cutter cannot follow: refused,
+/// naming the element and its place, instead of cutting the whole shape without a word.
+#[test]
+fn a_masked_shape_is_refused_naming_the_element() {
+    let dir = crate::common::tmp();
+    let body = r##"<defs><mask id="m"><rect width="20" height="20" fill="white"/></mask></defs>
+<rect id="r1" x="10" y="10" width="20" height="20" mask="url(#m)"/>"##;
+    let (o, out) = gcode_svg(dir.path(), "mask.svg", &svg(MM200, body), &[]);
+    refused(
+        &o,
+        &["mask.svg:2:1:", "<rect id=\"r1\"> has a mask", "clip path"],
+    );
+    assert!(!out.exists());
+}
+
+/// Thousands of separate squares, each with a smaller one inside: every square is cut once, as
+/// drawn, each inner one before the square around it, and the travel is shorter than the
+/// drawing's order. (60,000 squares took 136 s when every pair of loops was compared; the
+/// R-trees make that a few seconds; measured by hand, not timed here.)
+#[test]
+fn thousands_of_squares_are_each_cut_once_inner_first() {
+    let dir = crate::common::tmp();
+    let n = 40usize;
+    let mut body = String::new();
+    for k in 0..n * n {
+        // A scrambled drawing order, so the travel has something to improve.
+        let k = (k * 37) % (n * n);
+        let (x, y) = ((k % n) as f64 * 4.5 + 5.0, (k / n) as f64 * 4.5 + 5.0);
+        body += &format!(r#"<rect x="{x}" y="{y}" width="3" height="3"/>"#);
+        body += &format!(
+            r#"<rect x="{}" y="{}" width="1" height="1"/>"#,
+            x + 1.0,
+            y + 1.0
+        );
+    }
+    let (o, out) = gcode_svg(dir.path(), "squares.svg", &svg(MM200, &body), &[]);
+    let stdout = ok(&o);
+    let got = loop_boxes(&out);
+    assert_eq!(got.len(), 2 * n * n);
+    // Each square by its centre (the G-code's frame is the drawing's, flipped and moved): one
+    // 3 mm and one 1 mm loop at every centre of the grid, the small one cut first.
+    let mut at: std::collections::HashMap<[i64; 2], [Option<usize>; 2]> = Default::default();
+    for (i, b) in got.iter().enumerate() {
+        let c = [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0].map(|v| (v * 1000.0).round() as i64);
+        let side = b[2] - b[0];
+        let k = if (side - 3.0).abs() < 1e-3 {
+            0
+        } else {
+            assert!((side - 1.0).abs() < 1e-3, "a loop of {side} mm: {b:?}");
+            1
+        };
+        let e = at.entry(c).or_default();
+        assert!(e[k].is_none(), "cut twice: {b:?}");
+        e[k] = Some(i);
+    }
+    assert_eq!(at.len(), n * n, "one pair at each drawn centre");
+    for (c, [outer, inner]) in &at {
+        let (outer, inner) = (outer.expect("outer cut"), inner.expect("inner cut"));
+        assert!(
+            inner < outer,
+            "the square at {c:?} cut before the one inside it"
+        );
+    }
+    let mut xs: Vec<i64> = at.keys().map(|c| c[0]).collect();
+    xs.sort_unstable();
+    xs.dedup();
+    assert_eq!(xs.len(), n);
+    assert!(xs.windows(2).all(|w| w[1] - w[0] == 4500), "{xs:?}");
+    // "travel T mm (input order N mm)"
+    let num_after = |tag: &str| -> f64 {
+        let i = stdout.find(tag).unwrap() + tag.len();
+        stdout[i..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (travel, input) = (num_after("travel "), num_after("(input order "));
+    assert!(
+        travel < 0.5 * input,
+        "travel {travel} mm vs input order {input} mm"
+    );
+}
+
+/// 200,000 small squares were refused as "too tangled ... up to 0 edges across one line": each
+/// shape's offset is cheap, their number is what passes the limit. The message now says so, with
+/// the count, about how many fit, and what to do. (2,000 polygons of 48 points pass it the same
+/// way, in a fraction of a second.)
+#[test]
+fn too_many_shapes_for_the_kerf_are_refused_by_their_count() {
+    let dir = crate::common::tmp();
+    let body: String = (0..2000)
+        .map(|i| {
+            let (cx, cy) = ((i % 45) as f64 * 8.0 + 5.0, (i / 45) as f64 * 8.0 + 5.0);
+            let pts: Vec<String> = (0..48)
+                .map(|k| {
+                    let a = std::f64::consts::TAU * k as f64 / 48.0;
+                    format!("{:.3},{:.3}", cx + 3.0 * a.cos(), cy + 3.0 * a.sin())
+                })
+                .collect();
+            format!(r#"<polygon points="{}"/>"#, pts.join(" "))
+        })
+        .collect();
+    let p = write(
+        dir.path(),
+        "many.svg",
+        &svg(
+            r#"width="390mm" height="390mm" viewBox="0 0 390 390""#,
+            &body,
+        ),
+    );
+    let out = dir.path().join("many.gcode");
+    let o = stencil(&["gcode", s(&p), "--material", "cardstock", "-o", s(&out)]);
+    let e = refused(
+        &o,
+        &["many.svg", "2000 shapes are too many", "split the drawing"],
+    );
+    assert!(!e.contains("tangled") && !e.contains("edges across"), "{e}");
+    assert!(!out.exists());
+}
+
+/// A drawing whose only shape a transform squeezes flat was "nothing to cut", naming nothing:
+/// the message names the shape (kind, id, number, line) and the cause.
+#[test]
+fn nothing_to_cut_names_the_shape_and_why() {
+    let dir = crate::common::tmp();
+    let body =
+        "\n<g transform=\"skewX(89.999)\">\n  <rect id=\"flat\" x=\"10\" y=\"10\" width=\"20\" \
+                height=\"20\" transform=\"scale(1 1e-9)\"/></g>";
+    let (o, out) = gcode_svg(dir.path(), "skew.svg", &svg(MM200, body), &[]);
+    refused(
+        &o,
+        &[
+            "skew.svg: nothing to cut: <rect id=\"flat\"> (shape 1, line 3, column 3)",
+            "skewX(89.999) scale(1 1e-9)",
+            "degenerate",
+        ],
+    );
+    assert!(!out.exists());
+    let (o, _) = gcode_svg(
+        dir.path(),
+        "zero.svg",
+        &svg(MM200, r#"<rect x="1" y="1" width="0" height="5"/>"#),
+        &[],
+    );
+    refused(&o, &["<rect> (shape 1,", "no size (width=\"0\")"]);
+}
+
+/// A PNG with a cICP chunk (colour metadata) whose values the png decoder does not support was
+/// "cannot open: invalid data"; it is read without it, as a viewer shows it: the same stencil as
+/// the picture without the chunk.
+#[test]
+fn a_png_with_a_cicp_chunk_is_read() {
+    let dir = crate::common::tmp();
+    let plain = dir.path().join("plain.png");
+    crate::common::ink_png(&plain, 200, 200, |x, y| {
+        let (dx, dy) = (x as f64 - 100.0, y as f64 - 100.0);
+        (dx * dx + dy * dy).sqrt() < 60.0 && (dx * dx + dy * dy).sqrt() > 30.0
+    });
+    let bytes = std::fs::read(&plain).unwrap();
+    // After the signature and IHDR (8 + 25 bytes): BT.709 primaries and transfer, matrix
+    // coefficients 1, which the decoder refuses (PNG's RGB needs 0), full range.
+    let mut with = bytes[..33].to_vec();
+    with.extend(crate::common::png_chunk(b"cICP", &[1, 1, 1, 1]));
+    with.extend_from_slice(&bytes[33..]);
+    let cicp = dir.path().join("cicp.png");
+    std::fs::write(&cicp, with).unwrap();
+    let made = |input: &Path, out: &str| {
+        let out = dir.path().join(out);
+        ok(&stencil(&[
+            "make",
+            s(input),
+            "-o",
+            s(&out),
+            "--emit",
+            "png",
+        ]));
+        std::fs::read(out.join("stencil.png")).unwrap()
+    };
+    assert_eq!(made(&cicp, "a"), made(&plain, "b"));
+}
+
+/// An OBJ with classic Mac line ends (a lone CR) was read as one line, "a vertex with 61
+/// numbers"; it renders as the same file with LF does, and its errors name the right line.
+#[test]
+fn obj_with_cr_line_ends_is_read_line_by_line() {
+    let dir = crate::common::tmp();
+    let lf = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
+    ok(&obj_tone(dir.path(), "lf.obj", lf));
+    ok(&obj_tone(dir.path(), "cr.obj", &lf.replace('\n', "\r")));
+    let png = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_eq!(png("cr.obj.png"), png("lf.obj.png"));
+    let bad = lf.replace("v 0 0 1", "v 0 0 x").replace('\n', "\r");
+    let o = obj_tone(dir.path(), "bad.obj", &bad);
+    refused(&o, &["bad.obj:4:", "coordinate 'x'"]);
+}
+
+/// `gcode` on a folder without its report.json said "no cut settings: name a material"; it now
+/// names the missing file and what to do, and writes nothing.
+#[test]
+fn gcode_on_a_folder_without_its_report_names_the_report() {
+    let dir = crate::common::tmp();
+    let folder = dir.path().join("job");
+    std::fs::create_dir(&folder).unwrap();
+    write(&folder, "stencil.svg", &svg(MM200, SQUARE));
+    let o = stencil(&["gcode", s(&folder)]);
+    let report = folder.join("report.json");
+    refused(
+        &o,
+        &[
+            &format!("{}: missing", report.display()),
+            "--material",
+            "stencil make",
+        ],
+    );
+    assert!(!folder.join("stencil.gcode").exists());
+    // With the settings given, the folder is cut without it.
+    ok(&stencil(&[
+        "gcode",
+        s(&folder),
+        "--power",
+        "50",
+        "--speed",
+        "900",
+    ]));
+    assert!(folder.join("stencil.gcode").exists());
+}

@@ -44,6 +44,16 @@ const MAX_NUMBER: f64 = 1e30;
 /// a sheet's worth of cutting (20,000 drawn circles of 10 mm are 1.3 million).
 const MAX_POINTS: usize = 10_000_000;
 
+/// The deepest nesting of elements read: 256 levels, as libxml2 allows by default. Drawing
+/// programs nest a few dozen (layers, groups, clones); usvg converts a nested element by
+/// recursion, so 13,000 nested `<g>` (91 KB of text) overflowed the stack and aborted the process.
+pub const MAX_DEPTH: usize = 256;
+
+/// The most attributes one element may have. A drawing program writes a few dozen; the XML parser
+/// checks each new attribute against all the element's earlier ones, so 80,000 on one `<path>`
+/// took 27 s.
+pub const MAX_ATTRIBUTES: usize = 1000;
+
 fn too_many_points() -> String {
     format!(
         "the drawing flattens to more than {MAX_POINTS} points (curves at \
@@ -71,6 +81,14 @@ pub enum SvgError {
         col: u32,
         /// The element and attribute, as written: `<path> d="M 1 1 L 5x 5"`.
         what: String,
+        msg: String,
+    },
+    /// Beyond a limit of the reader, at a place in the text.
+    #[error("{file}:{line}:{col}: {msg}")]
+    At {
+        file: String,
+        line: u32,
+        col: u32,
         msg: String,
     },
     #[error("{file}: {msg}")]
@@ -301,7 +319,9 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         file: file.to_string(),
         msg,
     };
+    check_markup(text, file)?;
     let doc = parse_xml(text, file)?;
+    check_depth(&doc, file)?;
     let root = doc.root_element();
     if root.tag_name().name() != "svg" {
         return Err(bad(format!(
@@ -312,6 +332,7 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
     let sheet = sheet(root).map_err(bad)?;
     let checked = check_document(&doc, file)?;
     let svg_text = for_usvg(text, root, &sheet);
+    let source = doc;
     let doc = parse_xml(&svg_text, file)?;
     let opt = usvg::Options {
         // Never read a file or a link an `<image>` names; pictures are not cut anyway.
@@ -330,9 +351,17 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         shapes: Vec::new(),
         count: 0,
         points: 0,
+        transparent: 0,
     };
-    walk.group(tree.root(), false)
+    walk.group(tree.root(), false, None)
         .map_err(|(label, e)| bad(format!("{label}: {e}")))?;
+    let mut notes = checked.notes;
+    if walk.transparent > 0 {
+        notes.push(format!(
+            "{} fully transparent element(s) (opacity 0) not cut: nothing of them shows",
+            walk.transparent
+        ));
+    }
     let any_cut = walk.shapes.iter().any(|s| s.cut);
     let mut polys: Vec<Polygon<f64>> = Vec::new();
     let mut lines: Vec<LineString<f64>> = Vec::new();
@@ -341,20 +370,18 @@ pub fn read(text: &str, file: &str) -> Result<SvgDrawing, SvgError> {
         lines.extend(s.lines);
     }
     if polys.is_empty() && lines.is_empty() {
-        return Err(bad(
-            "nothing to cut: no shape is drawn (shapes hidden by display or visibility, or \
-             inside <defs>, are not cut)"
+        return Err(bad(match vanished(&source) {
+            Some(why) => format!("nothing to cut: {why}"),
+            None => "nothing to cut: no shape is drawn (shapes hidden by display, visibility \
+                     or opacity 0, or inside <defs>, are not cut)"
                 .into(),
-        ));
+        }));
     }
     let o = sheet.outline;
     let outline = Rect::new(Coord { x: o[0], y: o[1] }, Coord { x: o[2], y: o[3] });
     let mut geometry = CutLoops::drawn(outline, MultiPolygon(polys));
     geometry.lines = lines;
-    Ok(SvgDrawing {
-        geometry,
-        notes: checked.notes,
-    })
+    Ok(SvgDrawing { geometry, notes })
 }
 
 /// The text usvg reads: the root's width and height as this reader understood them (in mm, which
@@ -400,6 +427,166 @@ fn parse_xml<'a>(text: &'a str, file: &str) -> Result<roxmltree::Document<'a>, S
     })
 }
 
+/// Where byte `at` of `text` is, as (line, column) counted from 1 (columns in characters).
+fn line_col(text: &str, at: usize) -> (u32, u32) {
+    let before = &text[..at];
+    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+    let col = before[before.rfind('\n').map_or(0, |i| i + 1)..]
+        .chars()
+        .count()
+        + 1;
+    (line as u32, col as u32)
+}
+
+/// Refuse, before the XML parser sees the text, what would take it (or usvg) unbounded time or
+/// stack: elements nested deeper than [`MAX_DEPTH`] and an element with more than
+/// [`MAX_ATTRIBUTES`] attributes. One pass over the markup (comments, CDATA, processing
+/// instructions and declarations skipped); anything malformed ends the scan and is left to the
+/// parser, which then stops at the same place and says what is wrong.
+fn check_markup(text: &str, file: &str) -> Result<(), SvgError> {
+    let b = text.as_bytes();
+    let find = |from: usize, pat: &str| text[from..].find(pat).map(|i| from + i);
+    let mut depth = 0usize;
+    let mut i = 0usize;
+    while let Some(lt) = memchr_lt(b, i) {
+        let rest = &b[lt..];
+        let skip_to = |pat: &str| find(lt, pat).map(|e| e + pat.len());
+        let end = if rest.starts_with(b"<!--") {
+            skip_to("-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            skip_to("]]>")
+        } else if rest.starts_with(b"<?") {
+            skip_to("?>")
+        } else if rest.starts_with(b"<!") {
+            // A declaration (DOCTYPE, with an internal subset in brackets, or one inside it):
+            // scanned to its closing `>` outside quotes and brackets.
+            declaration_end(b, lt)
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            skip_to(">")
+        } else {
+            let Some((end, attributes, empty)) = start_tag(b, lt) else {
+                return Ok(());
+            };
+            if attributes > MAX_ATTRIBUTES {
+                let (line, col) = line_col(text, lt);
+                return Err(SvgError::At {
+                    file: file.to_string(),
+                    line,
+                    col,
+                    msg: format!(
+                        "<{}> has {attributes} attributes; at most {MAX_ATTRIBUTES} per element \
+                         are read (a drawing program writes a few dozen): remove the extra ones",
+                        excerpt(tag_name(&text[lt + 1..]))
+                    ),
+                });
+            }
+            // An empty element (`<rect/>`) is a level too, as in the parsed tree.
+            if depth + 1 > MAX_DEPTH {
+                return Err(too_deep(text, file, lt));
+            }
+            if !empty {
+                depth += 1;
+            }
+            Some(end)
+        };
+        match end {
+            Some(e) => i = e,
+            None => return Ok(()),
+        }
+    }
+    Ok(())
+}
+
+fn too_deep(text: &str, file: &str, at: usize) -> SvgError {
+    let (line, col) = line_col(text, at);
+    SvgError::At {
+        file: file.to_string(),
+        line,
+        col,
+        msg: format!(
+            "<{}> is nested more than {MAX_DEPTH} elements deep; at most {MAX_DEPTH} levels are \
+             read (a drawing program nests a few dozen): ungroup the drawing (Inkscape: Edit > \
+             Select All in All Layers, then Object > Ungroup)",
+            excerpt(tag_name(&text[at + 1..]))
+        ),
+    }
+}
+
+/// The element name at the start of `s` (up to a space, `/` or `>`).
+fn tag_name(s: &str) -> &str {
+    let end = s
+        .find(|c: char| c.is_whitespace() || c == '/' || c == '>')
+        .unwrap_or(s.len());
+    &s[..end]
+}
+
+/// The next `<` at or after `from`.
+fn memchr_lt(b: &[u8], from: usize) -> Option<usize> {
+    b.get(from..)?
+        .iter()
+        .position(|&c| c == b'<')
+        .map(|i| from + i)
+}
+
+/// The end (just past `>`) of the declaration starting at `lt` (`<!...>`), skipping quoted
+/// literals and a bracketed internal subset (whose own declarations and comments it contains).
+fn declaration_end(b: &[u8], lt: usize) -> Option<usize> {
+    let (mut i, mut brackets) = (lt + 2, 0usize);
+    while i < b.len() {
+        match b[i] {
+            q @ (b'"' | b'\'') => i += 1 + b[i + 1..].iter().position(|&c| c == q)?,
+            b'[' => brackets += 1,
+            b']' => brackets = brackets.saturating_sub(1),
+            b'<' if b[i..].starts_with(b"<!--") => {
+                i += 4 + b[i + 4..].windows(3).position(|w| w == b"-->")? + 2;
+            }
+            b'>' if brackets == 0 => return Some(i + 1),
+            _ => {}
+        }
+        i += 1;
+    }
+    None
+}
+
+/// A start tag at `lt`: its end (just past `>`), its number of attributes, and whether it is
+/// empty (`/>`); `None` when it is not well-formed (left to the parser).
+fn start_tag(b: &[u8], lt: usize) -> Option<(usize, usize, bool)> {
+    let mut i = lt + 1;
+    let mut attributes = 0usize;
+    loop {
+        let c = *b.get(i)?;
+        match c {
+            b'>' => return Some((i + 1, attributes, false)),
+            b'/' if b.get(i + 1) == Some(&b'>') => return Some((i + 2, attributes, true)),
+            b'"' | b'\'' => {
+                attributes += 1;
+                i += 1 + b[i + 1..].iter().position(|&q| q == c)?;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+}
+
+/// [`MAX_DEPTH`] on the parsed document too: entities declared in a DTD can add levels the text
+/// does not show. The XML parser itself walks without recursion.
+fn check_depth(doc: &roxmltree::Document, file: &str) -> Result<(), SvgError> {
+    let mut depth: Vec<u32> = Vec::new();
+    for node in doc.descendants() {
+        let d = node.parent().map_or(0, |p| depth[p.id().get_usize()] + 1);
+        let id = node.id().get_usize();
+        if depth.len() <= id {
+            depth.resize(id + 1, 0);
+        }
+        depth[id] = d;
+        if node.is_element() && d as usize > MAX_DEPTH {
+            return Err(too_deep(doc.input_text(), file, node.range().start));
+        }
+    }
+    Ok(())
+}
+
 /// What the check of the document found besides errors.
 struct Checked {
     /// Ids of elements whose `class` or Inkscape label mentions "cut" (usvg keeps ids only).
@@ -442,6 +629,24 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
             if let Some(id) = node.attribute("id") {
                 out.cut_ids.insert(id.to_string());
             }
+        }
+        if !hidden && has_mask(node) {
+            let p = doc.text_pos_at(node.range().start);
+            let id = node
+                .attribute("id")
+                .map(|i| format!(" id=\"{}\"", excerpt(i)))
+                .unwrap_or_default();
+            return Err(SvgError::At {
+                file: file.to_string(),
+                line: p.row,
+                col: p.col,
+                msg: format!(
+                    "<{}{id}> has a mask, which shows it partly, by the brightness of another \
+                     drawing; a cutter cannot follow that: remove the mask, or make it a clip \
+                     path (which is cut along its edge)",
+                    excerpt(name)
+                ),
+            });
         }
         let is_root = node.parent().is_some_and(|p| p.is_root());
         for a in node.attributes().filter(|a| a.namespace().is_none()) {
@@ -487,6 +692,123 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
         ));
     }
     Ok(out)
+}
+
+/// The elements that draw a shape.
+const SHAPES: &[&str] = &[
+    "rect", "circle", "ellipse", "line", "polyline", "polygon", "path",
+];
+
+/// Whether `node` or an element around it is hidden by `display="none"` or `visibility`, as an
+/// attribute or in its `style`.
+fn hidden_by_style(node: roxmltree::Node) -> bool {
+    let says = |n: roxmltree::Node, key: &str, value: &str| {
+        presentation(n, key).any(|v| v.trim() == value)
+    };
+    node.ancestors().filter(|n| n.is_element()).any(|n| {
+        says(n, "display", "none") || says(n, "visibility", "hidden") || says(n, "opacity", "0")
+    })
+}
+
+/// The values an element gives a presentation property (`key`): as an attribute and in its
+/// `style` (not style sheets, which usvg resolves for the walk).
+fn presentation<'a>(node: roxmltree::Node<'a, 'a>, key: &'a str) -> impl Iterator<Item = &'a str> {
+    let in_style = node.attribute("style").into_iter().flat_map(move |st| {
+        st.split(';').filter_map(move |d| {
+            d.split_once(':')
+                .filter(|(k, _)| k.trim().eq_ignore_ascii_case(key))
+                .map(|(_, v)| v)
+        })
+    });
+    node.attribute(key).into_iter().chain(in_style)
+}
+
+/// Why a drawing whose shapes are not hidden gave nothing to cut, naming the first such shape
+/// (kind, id, number among the shapes, line and column) and the cause: a transform that squeezes
+/// it flat or to nothing (usvg drops such a shape without a word), or no size of its own.
+/// `None` when every shape is hidden or in `<defs>` (the plain message says so).
+fn vanished(doc: &roxmltree::Document) -> Option<String> {
+    let mut count = 0usize;
+    for node in doc.descendants().filter(|n| n.is_element()) {
+        let name = node.tag_name().name();
+        if !SHAPES.contains(&name) {
+            continue;
+        }
+        count += 1;
+        if node
+            .ancestors()
+            .any(|a| HIDDEN.contains(&a.tag_name().name()))
+            || hidden_by_style(node)
+        {
+            continue;
+        }
+        let p = doc.text_pos_at(node.range().start);
+        let id = node
+            .attribute("id")
+            .map(|i| format!(" id=\"{}\"", excerpt(i)))
+            .unwrap_or_default();
+        let what = format!(
+            "<{name}{id}> (shape {count}, line {}, column {})",
+            p.row, p.col
+        );
+        // The transforms from the root down to the shape, composed.
+        let chain: Vec<&str> = node
+            .ancestors()
+            .filter_map(|a| a.attribute("transform"))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        // The linear part [a c; b d], root first.
+        let mut m = [1.0, 0.0, 0.0, 1.0];
+        for t in &chain {
+            if let Ok(t) = t.parse::<svgtypes::Transform>() {
+                m = [
+                    m[0] * t.a + m[2] * t.b,
+                    m[1] * t.a + m[3] * t.b,
+                    m[0] * t.c + m[2] * t.d,
+                    m[1] * t.c + m[3] * t.d,
+                ];
+            }
+        }
+        let (sx, sy) = (m[0].hypot(m[1]), m[2].hypot(m[3]));
+        let det = m[0] * m[3] - m[1] * m[2];
+        // How far from flat: the sine of the angle between the transformed axes.
+        let open = det.abs() / (sx * sy);
+        let cause = if !chain.is_empty()
+            && (sx.min(sy) < 1e-6 || det.abs() < 1e-9 || open.is_nan() || open < 1e-4)
+        {
+            format!(
+                "its transform ({}) is degenerate: it squeezes the shape flat or to nothing \
+                 (areas scaled by {det:.1e}, the axes {}° apart); remove or correct the \
+                 transform",
+                excerpt(&chain.join(" ")),
+                match open.clamp(0.0, 1.0).asin().to_degrees() {
+                    a if a >= 0.01 => format!("{a:.2}"),
+                    a => format!("{a:.1e}"),
+                }
+            )
+        } else if let Some(a) = ["width", "height", "r", "rx", "ry"].iter().find_map(|a| {
+            node.attribute_node(*a)
+                .filter(|v| v.value().trim().parse::<f64>() == Ok(0.0))
+        }) {
+            format!("it has no size ({}=\"{}\")", a.name(), excerpt(a.value()))
+        } else {
+            "it encloses no area and draws no line (a shape of zero size, or a path with no \
+             segment)"
+                .to_string()
+        };
+        return Some(format!("{what} comes out empty: {cause}"));
+    }
+    None
+}
+
+/// Whether an element names a mask, in its `mask` attribute or its `style`.
+fn has_mask(node: roxmltree::Node) -> bool {
+    presentation(node, "mask").any(|v| {
+        let v = v.trim();
+        !v.is_empty() && v != "none"
+    })
 }
 
 fn number_ok(v: f64) -> Result<(), String> {
@@ -619,6 +941,21 @@ struct Walk<'a> {
     count: usize,
     /// Points flattened so far (bounded by [`MAX_POINTS`]).
     points: usize,
+    /// Elements left out because nothing of them shows (opacity 0), for the note.
+    transparent: usize,
+}
+
+/// A shape's flattened subpaths in sheet mm: closed rings and open lines.
+type Flat = (Vec<LineString<f64>>, Vec<LineString<f64>>);
+
+/// Whether nothing of `p` shows: every paint it has is fully transparent (a path with neither
+/// fill nor stroke usvg already marks invisible).
+fn transparent(p: &usvg::Path) -> bool {
+    let fill = p.fill().map(|f| f.opacity().get());
+    let stroke = p.stroke().map(|s| s.opacity().get());
+    (fill.is_some() || stroke.is_some())
+        && fill.is_none_or(|o| o <= 0.0)
+        && stroke.is_none_or(|o| o <= 0.0)
 }
 
 impl Walk<'_> {
@@ -626,19 +963,126 @@ impl Walk<'_> {
         !id.is_empty() && (id.to_lowercase().contains("cut") || self.cut_ids.contains(id))
     }
 
-    fn group(&mut self, g: &usvg::Group, inside_cut: bool) -> Result<(), (String, String)> {
+    /// A group's label in messages: its id, or that it has none.
+    fn group_label(g: &usvg::Group) -> String {
+        if g.id().is_empty() {
+            "an element".to_string()
+        } else {
+            format!("<g id=\"{}\">", excerpt(g.id()))
+        }
+    }
+
+    /// Walk a group: `clip` is the region (sheet mm) its ancestors' `clip-path`s leave visible.
+    fn group(
+        &mut self,
+        g: &usvg::Group,
+        inside_cut: bool,
+        clip: Option<&MultiPolygon<f64>>,
+    ) -> Result<(), (String, String)> {
+        // Fully transparent (`opacity="0"`): nothing in it shows, so nothing is cut.
+        if g.opacity().get() <= 0.0 {
+            self.transparent += 1;
+            return Ok(());
+        }
+        if g.mask().is_some() {
+            return Err((
+                Self::group_label(g),
+                "has a mask, which shows it partly, by the brightness of another drawing; a \
+                 cutter cannot follow that: remove the mask or turn it into a clip path"
+                    .into(),
+            ));
+        }
+        let region;
+        let clip = match g.clip_path() {
+            None => clip,
+            Some(cp) => {
+                let own = self
+                    .clip_region(cp, g.abs_transform())
+                    .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?;
+                region = match clip {
+                    Some(outer) => clip::boolean(outer, &own, clip::Op::Intersection)
+                        .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?,
+                    None => own,
+                };
+                Some(&region)
+            }
+        };
         let cut = inside_cut || self.is_cut(g.id());
         for node in g.children() {
             match node {
-                usvg::Node::Group(g) => self.group(g, cut)?,
-                usvg::Node::Path(p) => self.path(p, cut)?,
+                usvg::Node::Group(g) => self.group(g, cut, clip)?,
+                usvg::Node::Path(p) => self.path(p, cut, clip)?,
                 usvg::Node::Image(_) | usvg::Node::Text(_) => {}
             }
         }
         Ok(())
     }
 
-    fn path(&mut self, p: &usvg::Path, inside_cut: bool) -> Result<(), (String, String)> {
+    /// The region (sheet mm) a clip path leaves visible, for a group placed by `outer`: the
+    /// union of its shapes (each by its `clip-rule`), within its own clip path if it has one.
+    fn clip_region(
+        &mut self,
+        cp: &usvg::ClipPath,
+        outer: usvg::Transform,
+    ) -> Result<MultiPolygon<f64>, String> {
+        let t = outer.pre_concat(cp.transform());
+        let mut region = self.clip_group(cp.root(), t)?;
+        if let Some(inner) = cp.clip_path() {
+            let inner = self.clip_region(inner, outer)?;
+            region = clip::boolean(&region, &inner, clip::Op::Intersection)
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(region)
+    }
+
+    /// The filled region of a clip path's group (its children's transforms relative to `t`).
+    fn clip_group(
+        &mut self,
+        g: &usvg::Group,
+        t: usvg::Transform,
+    ) -> Result<MultiPolygon<f64>, String> {
+        let mut region = MultiPolygon::new(Vec::new());
+        for node in g.children() {
+            let part = match node {
+                usvg::Node::Group(c) => {
+                    let mut part = self.clip_group(c, t)?;
+                    if let Some(cp) = c.clip_path() {
+                        let own = self.clip_region(cp, t.pre_concat(c.abs_transform()))?;
+                        part = clip::boolean(&part, &own, clip::Op::Intersection)
+                            .map_err(|e| e.to_string())?;
+                    }
+                    part
+                }
+                usvg::Node::Path(p) if p.is_visible() => {
+                    let (rings, _) = self.flatten(p, t.pre_concat(p.abs_transform()))?;
+                    let polys: Vec<Polygon<f64>> =
+                        rings.into_iter().map(|r| Polygon::new(r, vec![])).collect();
+                    let even_odd = p
+                        .fill()
+                        .is_some_and(|f| f.rule() == usvg::FillRule::EvenOdd);
+                    let empty = MultiPolygon::new(Vec::new());
+                    if even_odd {
+                        polys.into_iter().try_fold(empty, |acc, p| {
+                            clip::boolean(&acc, &MultiPolygon::new(vec![p]), clip::Op::Xor)
+                        })
+                    } else {
+                        clip::boolean(&MultiPolygon::new(polys), &empty, clip::Op::Union)
+                    }
+                    .map_err(|e| e.to_string())?
+                }
+                _ => continue,
+            };
+            region = clip::boolean(&region, &part, clip::Op::Union).map_err(|e| e.to_string())?;
+        }
+        Ok(region)
+    }
+
+    fn path(
+        &mut self,
+        p: &usvg::Path,
+        inside_cut: bool,
+        clip: Option<&MultiPolygon<f64>>,
+    ) -> Result<(), (String, String)> {
         self.count += 1;
         let label = if p.id().is_empty() {
             format!("path {}", self.count)
@@ -648,7 +1092,29 @@ impl Walk<'_> {
         if !p.is_visible() {
             return Ok(());
         }
-        let t = p.abs_transform();
+        if transparent(p) {
+            self.transparent += 1;
+            return Ok(());
+        }
+        let (mut rings, mut lines) = self
+            .flatten(p, p.abs_transform())
+            .map_err(|e| (label.clone(), e))?;
+        if let Some(region) = clip {
+            (rings, lines) = clipped(rings, lines, region)
+                .map_err(|e| (label.clone(), format!("clipping it by its clip path: {e}")))?;
+        }
+        if !rings.is_empty() || !lines.is_empty() {
+            self.shapes.push(Shape {
+                cut: inside_cut || self.is_cut(p.id()),
+                rings,
+                lines,
+            });
+        }
+        Ok(())
+    }
+
+    /// `p`'s subpaths placed by `t` and flattened into sheet mm, counted against [`MAX_POINTS`].
+    fn flatten(&mut self, p: &usvg::Path, t: usvg::Transform) -> Result<Flat, String> {
         let [sx, sy] = self.shift;
         let map = |q: usvg::tiny_skia_path::Point| {
             let (x, y) = (q.x as f64, q.y as f64);
@@ -681,7 +1147,7 @@ impl Walk<'_> {
             })
             .find_map(|q| clip::check_point(q.x, q.y).err())
         {
-            return Err((label, e.to_string()));
+            return Err(e.to_string());
         }
         // An upper bound of the points flattening gives (a curve of control polygon length L
         // gives fewer than sqrt(L / tolerance) + 1 segments), checked before it runs.
@@ -703,16 +1169,12 @@ impl Walk<'_> {
             })
             .sum();
         if self.points as f64 + estimate > 2.0 * MAX_POINTS as f64 {
-            return Err((label, too_many_points()));
+            return Err(too_many_points());
         }
-        let mut shape = Shape {
-            cut: inside_cut || self.is_cut(p.id()),
-            rings: Vec::new(),
-            lines: Vec::new(),
-        };
+        let mut flat: Flat = (Vec::new(), Vec::new());
         let mut cur: Vec<Coord<f64>> = Vec::new();
         let mut bad: Option<String> = None;
-        let mut end = |cur: &mut Vec<Coord<f64>>, closed: bool, shape: &mut Shape| {
+        let mut end = |cur: &mut Vec<Coord<f64>>, closed: bool, flat: &mut Flat| {
             let mut pts = std::mem::take(cur);
             pts.dedup();
             if pts.len() < 2 {
@@ -727,42 +1189,118 @@ impl Walk<'_> {
             ring.close();
             let area = Polygon::new(ring.clone(), vec![]).unsigned_area();
             if closed && area > 1e-12 {
-                shape.rings.push(ring);
+                flat.0.push(ring);
             } else if closed {
                 // A closed subpath that encloses nothing is a line there and back.
-                shape.lines.push(ring);
+                flat.1.push(ring);
             } else {
-                shape.lines.push(ls);
+                flat.1.push(ls);
             }
         };
         kurbo::flatten(bez, FLATTEN_TOLERANCE_MM, |el| match el {
             kurbo::PathEl::MoveTo(a) => {
-                end(&mut cur, false, &mut shape);
+                end(&mut cur, false, &mut flat);
                 cur.push(Coord { x: a.x, y: a.y });
             }
             kurbo::PathEl::LineTo(a) => cur.push(Coord { x: a.x, y: a.y }),
-            kurbo::PathEl::ClosePath => end(&mut cur, true, &mut shape),
+            kurbo::PathEl::ClosePath => end(&mut cur, true, &mut flat),
             // flatten gives lines only.
             _ => {}
         });
-        end(&mut cur, false, &mut shape);
+        end(&mut cur, false, &mut flat);
         if let Some(e) = bad {
-            return Err((label, e));
+            return Err(e);
         }
-        self.points += shape
-            .rings
+        self.points += flat
+            .0
             .iter()
-            .chain(&shape.lines)
+            .chain(&flat.1)
             .map(|l| l.0.len())
             .sum::<usize>();
         if self.points > MAX_POINTS {
-            return Err((label, too_many_points()));
+            return Err(too_many_points());
         }
-        if !shape.rings.is_empty() || !shape.lines.is_empty() {
-            self.shapes.push(shape);
-        }
-        Ok(())
+        Ok(flat)
     }
+}
+
+/// A shape's rings and lines cut to what `region` leaves visible: each ring becomes the outlines
+/// of its part inside the region (a loop the clip path's edge crosses is closed along that edge),
+/// each line its pieces inside.
+fn clipped(
+    rings: Vec<LineString<f64>>,
+    lines: Vec<LineString<f64>>,
+    region: &MultiPolygon<f64>,
+) -> Result<Flat, clip::ClipError> {
+    use geo::BoundingRect;
+    let Some(area) = region.bounding_rect() else {
+        // Nothing visible.
+        return Ok((Vec::new(), Vec::new()));
+    };
+    // A clip that is one upright rectangle (a nested viewport's, the commonest) keeps what lies
+    // wholly inside it as drawn; what lies wholly outside any clip's box is gone. Only shapes its
+    // edge may cross go to Clipper.
+    let rectangle = match region.0.as_slice() {
+        [p] if p.interiors().is_empty() => {
+            let r = p.exterior();
+            r.0.len() <= 5
+                && r.lines()
+                    .all(|l| l.start.x == l.end.x || l.start.y == l.end.y)
+                && (p.unsigned_area() - area.width() * area.height()).abs()
+                    <= 1e-9 * area.width() * area.height()
+        }
+        _ => false,
+    };
+    let placed = |l: &LineString<f64>| -> Option<bool> {
+        let b = l.bounding_rect()?;
+        let (lo, hi) = (b.min(), b.max());
+        let (alo, ahi) = (area.min(), area.max());
+        if hi.x < alo.x || lo.x > ahi.x || hi.y < alo.y || lo.y > ahi.y {
+            Some(false)
+        } else if rectangle && lo.x >= alo.x && hi.x <= ahi.x && lo.y >= alo.y && hi.y <= ahi.y {
+            Some(true)
+        } else {
+            None
+        }
+    };
+    let mut out_rings = Vec::new();
+    for r in rings {
+        match placed(&r) {
+            Some(true) => {
+                out_rings.push(r);
+                continue;
+            }
+            Some(false) => continue,
+            None => {}
+        }
+        let part = clip::boolean(
+            &MultiPolygon::new(vec![Polygon::new(r, vec![])]),
+            region,
+            clip::Op::Intersection,
+        )?;
+        for p in part.0 {
+            let (ext, holes) = p.into_inner();
+            out_rings.extend(std::iter::once(ext).chain(holes).filter(|r| {
+                r.0.len() >= 4 && Polygon::new(r.clone(), vec![]).unsigned_area() > 1e-12
+            }));
+        }
+    }
+    let (mut out_lines, mut crossing) = (Vec::new(), Vec::new());
+    for l in lines {
+        match placed(&l) {
+            Some(true) => out_lines.push(l),
+            Some(false) => {}
+            None => crossing.push(l),
+        }
+    }
+    if !crossing.is_empty() {
+        out_lines.extend(
+            clip::clip_lines(&crossing, region)?
+                .into_iter()
+                .filter(|l| l.0.len() >= 2),
+        );
+    }
+    Ok((out_rings, out_lines))
 }
 
 #[cfg(test)]
@@ -999,6 +1537,61 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("<html>, not <svg>"), "{e}");
+    }
+
+    #[test]
+    fn nesting_is_bounded_in_the_text_and_through_entities() {
+        let nested = |n: usize| {
+            format!(
+                "{}<rect width=\"5\" height=\"5\"/>{}",
+                "<g>".repeat(n),
+                "</g>".repeat(n)
+            )
+        };
+        // The <svg> element is the first level.
+        assert!(read_body(&nested(MAX_DEPTH - 2)).is_ok());
+        let e = read_body(&nested(MAX_DEPTH - 1)).unwrap_err();
+        assert!(
+            e.starts_with("t.svg:1:") && e.contains("nested more than 256"),
+            "{e}"
+        );
+        // Comments, CDATA and quoted '>' do not confuse the count.
+        let tricky = format!(
+            "<!-- <g> <g> --><![CDATA[<g><g>]]><g id=\"a>b\">{}</g>",
+            nested(MAX_DEPTH - 3)
+        );
+        assert!(read_body(&tricky).is_ok());
+        // Levels an entity adds, which the text does not show.
+        let deep = format!(
+            "<!DOCTYPE svg [<!ENTITY d \"{}\">]><svg {MM}>{}&d;{}</svg>",
+            nested(200).replace('"', "'"),
+            "<g>".repeat(100),
+            "</g>".repeat(100)
+        );
+        let e = cut_loops_from_svg(&deep, "e.svg").unwrap_err().to_string();
+        assert!(
+            e.starts_with("e.svg:") && e.contains("nested more than 256"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn attributes_are_bounded_per_element() {
+        let attrs = |n: usize| (0..n).map(|i| format!(" a{i}='1'")).collect::<String>();
+        assert!(read_body(&format!(
+            "<rect{} width='5' height='5'/>",
+            attrs(MAX_ATTRIBUTES - 2)
+        ))
+        .is_ok());
+        let e = read_body(&format!(
+            "<rect{} width='5' height='5'/>",
+            attrs(MAX_ATTRIBUTES)
+        ))
+        .unwrap_err();
+        assert!(
+            e.contains("<rect> has 1002 attributes; at most 1000"),
+            "{e}"
+        );
     }
 
     #[test]

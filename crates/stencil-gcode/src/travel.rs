@@ -50,32 +50,34 @@ pub(crate) fn naive_travel(lines: &[Vec<[f64; 2]>], loops: &[Loop], home: [f64; 
 }
 
 /// Open lines in drawing order: nearest neighbour from `home`, each line entered at whichever end
-/// is nearer (and then reversed to start there). Lines are drawn in a count a pen plot has
-/// (thousands), so a grid-free scan with box pruning is enough.
+/// is nearer (and then reversed to start there); of two as near, the first drawn.
 pub(crate) fn order_lines(lines: Vec<Vec<[f64; 2]>>, home: [f64; 2]) -> Vec<Vec<[f64; 2]>> {
-    let mut left: Vec<Option<Vec<[f64; 2]>>> = lines.into_iter().map(Some).collect();
-    let boxes: Vec<[f64; 4]> = left.iter().flatten().map(|l| bbox(l)).collect();
-    let mut out = Vec::with_capacity(left.len());
+    let mut left = Nearest::new(lines.len());
+    for (k, l) in lines.iter().enumerate() {
+        left.push(k, bbox(l));
+    }
+    let mut lines: Vec<Option<Vec<[f64; 2]>>> = lines.into_iter().map(Some).collect();
+    let mut out = Vec::with_capacity(lines.len());
     let mut cur = home;
-    for _ in 0..left.len() {
-        let mut best = (usize::MAX, false, f64::INFINITY);
-        for (k, l) in left.iter().enumerate() {
-            let Some(l) = l else { continue };
-            if box_dist(&boxes[k], cur) >= best.2 {
-                continue;
+    // Each line's nearer end; of two as near, its first.
+    while let Some((k, reversed)) = left.take(cur, ListOrder::Kept, |k| {
+        let l = lines[k].as_deref().unwrap_or_default();
+        match (l.first(), l.last()) {
+            (Some(&a), Some(&b)) => {
+                let (a, b) = (dist(cur, a), dist(cur, b));
+                if b < a {
+                    (b, true)
+                } else {
+                    (a, false)
+                }
             }
-            let (a, b) = (dist(cur, l[0]), dist(cur, l[l.len() - 1]));
-            if a < best.2 {
-                best = (k, false, a);
-            }
-            if b < best.2 {
-                best = (k, true, b);
-            }
+            _ => (f64::INFINITY, false),
         }
-        let Some(mut l) = left[best.0].take() else {
+    }) {
+        let Some(mut l) = lines[k].take() else {
             break;
         };
-        if best.1 {
+        if reversed {
             l.reverse();
         }
         cur = l[l.len() - 1];
@@ -96,11 +98,94 @@ fn nearest_vertex(l: &Loop, p: [f64; 2]) -> (usize, f64) {
     (best.0, best.1.sqrt())
 }
 
-/// Lower bound of the distance from `p` to any point of a box.
-fn box_dist(b: &[f64; 4], p: [f64; 2]) -> f64 {
-    let dx = (b[0] - p[0]).max(p[0] - b[2]).max(0.0);
-    let dy = (b[1] - p[1]).max(p[1] - b[3]).max(0.0);
-    (dx * dx + dy * dy).sqrt()
+/// What is still to visit in a nearest-neighbour walk (loops, or open lines): which is nearest
+/// the head, in about logarithmic time, through an R-tree of their boxes. The choice is the one
+/// a scan of a list in order makes (see [`Nearest::take`]): the nearest, and of equally near ones
+/// the first in the list. So jobs of tens of thousands of loops no longer compare every loop
+/// with every other (60,000 squares: 136 s), and every job's order stays what it was.
+struct Nearest {
+    /// The keys waiting, in list order.
+    list: Vec<usize>,
+    /// Each key's place in `list` (`usize::MAX`: not in it).
+    at: Vec<usize>,
+    /// Each waiting key's box in the tree (to remove it exactly).
+    boxes: Vec<Option<crate::order::BoxOf>>,
+    tree: rstar::RTree<crate::order::BoxOf>,
+}
+
+/// How [`Nearest::take`] keeps its list, as the scan it replaces did.
+#[derive(Clone, Copy, PartialEq)]
+enum ListOrder {
+    /// A key taken is replaced by the list's last (`Vec::swap_remove`).
+    Swapped,
+    /// Keys stay in the order they were pushed.
+    Kept,
+}
+
+impl Nearest {
+    /// An empty set over keys `0..n`.
+    fn new(n: usize) -> Self {
+        Nearest {
+            list: Vec::with_capacity(n),
+            at: vec![usize::MAX; n],
+            boxes: vec![None; n],
+            tree: rstar::RTree::new(),
+        }
+    }
+
+    /// Add key `k`, whose points all lie in box `b`, at the end of the list.
+    fn push(&mut self, k: usize, b: [f64; 4]) {
+        self.at[k] = self.list.len();
+        self.list.push(k);
+        let g = crate::order::box_of(k, b);
+        self.tree.insert(g);
+        self.boxes[k] = Some(g);
+    }
+
+    /// Take the key whose `measure` from `p` (a distance to one of its points, and what the
+    /// caller wants back with it: the vertex, the end) is least; of equal ones, the first in the
+    /// list as `order` keeps it. `None` when empty.
+    fn take<T: Copy>(
+        &mut self,
+        p: [f64; 2],
+        order: ListOrder,
+        mut measure: impl FnMut(usize) -> (f64, T),
+    ) -> Option<(usize, T)> {
+        // (place in the list, key, distance, what came with it)
+        let mut best: Option<(usize, usize, f64, T)> = None;
+        for (g, d2) in self.tree.nearest_neighbor_iter_with_distance_2(&p) {
+            // A key's points lie in its box, so none farther than the best distance (with a
+            // margin for rounding) can be nearer or as near.
+            if let Some(b) = best {
+                let reach = b.2 * (1.0 + 1e-9) + 1e-12;
+                if d2 > reach * reach {
+                    break;
+                }
+            }
+            let k = g.data;
+            let (d, t) = measure(k);
+            let place = self.at[k];
+            if best.is_none_or(|b| d < b.2 || (d == b.2 && place < b.0)) {
+                best = Some((place, k, d, t));
+            }
+        }
+        let (place, k, _, t) = best?;
+        if let Some(g) = self.boxes[k].take() {
+            self.tree.remove(&g);
+        }
+        match order {
+            ListOrder::Swapped => {
+                self.list.swap_remove(place);
+                if let Some(&moved) = self.list.get(place) {
+                    self.at[moved] = place;
+                }
+            }
+            // The places of the others keep their order; the list itself is not needed.
+            ListOrder::Kept => {}
+        }
+        self.at[k] = usize::MAX;
+        Some((k, t))
+    }
 }
 
 /// Order all groups, one after the other, from `home`. Returns (loop index, start vertex) in cut
@@ -140,27 +225,22 @@ pub(crate) fn greedy_constrained(
             after[i].push(j);
         }
     }
-    let mut ready: Vec<usize> = (0..n).filter(|&i| waiting[i] == 0).collect();
+    let mut ready = Nearest::new(n);
+    for i in (0..n).filter(|&i| waiting[i] == 0) {
+        ready.push(i, boxes[i]);
+    }
     let mut out = Vec::with_capacity(n);
     let mut cur = home;
-    while !ready.is_empty() {
-        let mut best = (0usize, 0usize, f64::INFINITY);
-        for (r, &k) in ready.iter().enumerate() {
-            if box_dist(&boxes[k], cur) >= best.2 {
-                continue;
-            }
-            let (v, d) = nearest_vertex(&loops[k], cur);
-            if d < best.2 {
-                best = (r, v, d);
-            }
-        }
-        let k = ready.swap_remove(best.0);
-        out.push((k, best.1));
-        cur = loops[k].points[best.1];
+    while let Some((k, v)) = ready.take(cur, ListOrder::Swapped, |k| {
+        let (v, d) = nearest_vertex(&loops[k], cur);
+        (d, v)
+    }) {
+        out.push((k, v));
+        cur = loops[k].points[v];
         for &j in &after[k] {
             waiting[j] -= 1;
             if waiting[j] == 0 {
-                ready.push(j);
+                ready.push(j, boxes[j]);
             }
         }
     }
@@ -243,25 +323,19 @@ fn optimise_group(loops: &[Loop], group: &[usize], from: [f64; 2]) -> Vec<(usize
         return vec![];
     }
     // Nearest neighbour over the nearest vertex of each remaining loop, pruned by bounding boxes.
-    let boxes: Vec<[f64; 4]> = group.iter().map(|&i| bbox(&loops[i].points)).collect();
-    let mut remaining: Vec<usize> = (0..n).collect();
+    let mut remaining = Nearest::new(n);
+    for (k, &i) in group.iter().enumerate() {
+        remaining.push(k, bbox(&loops[i].points));
+    }
     let mut seq: Vec<usize> = Vec::with_capacity(n);
     let mut start = vec![0usize; n];
     let mut cur = from;
-    while !remaining.is_empty() {
-        let mut best = (usize::MAX, 0usize, f64::INFINITY);
-        for (r, &k) in remaining.iter().enumerate() {
-            if box_dist(&boxes[k], cur) >= best.2 {
-                continue;
-            }
-            let (v, d) = nearest_vertex(&loops[group[k]], cur);
-            if d < best.2 {
-                best = (r, v, d);
-            }
-        }
-        let k = remaining.swap_remove(best.0);
-        start[k] = best.1;
-        cur = loops[group[k]].points[best.1];
+    while let Some((k, v)) = remaining.take(cur, ListOrder::Swapped, |k| {
+        let (v, d) = nearest_vertex(&loops[group[k]], cur);
+        (d, v)
+    }) {
+        start[k] = v;
+        cur = loops[group[k]].points[v];
         seq.push(k);
     }
 
@@ -426,8 +500,14 @@ struct Tour<'a> {
 impl Tour<'_> {
     /// Bring `pos` back in line with `seq` after a move.
     fn reindex(&mut self) {
-        for (i, &k) in self.seq.iter().enumerate() {
-            self.pos[k] = i;
+        self.reindex_range(0..self.seq.len());
+    }
+
+    /// Bring `pos` back in line with `seq` where a move changed it: `seq[range]` (the rest of
+    /// the path kept its places, so a long path is not walked for every short move).
+    fn reindex_range(&mut self, range: std::ops::Range<usize>) {
+        for i in range {
+            self.pos[self.seq[i]] = i;
         }
     }
 
@@ -459,7 +539,7 @@ impl Tour<'_> {
     fn reverse_if_shorter(&mut self, i: usize, j: usize) -> bool {
         if self.reversal_gain(i, j) < -EPS {
             self.seq[i..=j].reverse();
-            self.reindex();
+            self.reindex_range(i..j + 1);
             true
         } else {
             false
@@ -564,7 +644,8 @@ impl Tour<'_> {
             (k + 1) as usize
         };
         self.seq.splice(ins..ins, seg);
-        self.reindex();
+        // Only the places between the run's old and new place changed.
+        self.reindex_range(i.min(ins)..(i + len).max(ins + len));
     }
 }
 

@@ -79,6 +79,18 @@ pub enum ClipError {
          simplify them or split them into smaller shapes"
     )]
     TooComplex { work: f64, max_active: usize },
+    /// Many shapes, each cheap, too many together: the count is the cause, not a tangle.
+    #[error(
+        "{shapes} shapes are too many to process in reasonable time: together about {work:.1e} \
+         sweep steps (the limit is {MAX_SWEEP_WORK:.0e}), so about {fit} shapes like these at \
+         once; split the drawing into parts of fewer shapes and make a job of each"
+    )]
+    TooMany {
+        shapes: usize,
+        work: f64,
+        /// About how many of these shapes fit under the limit.
+        fit: usize,
+    },
 }
 
 /// Check that every point of `rings` is finite and within [`MAX_COORD_MM`]: what Clipper can take,
@@ -487,6 +499,16 @@ fn plan(jobs: &[Job]) -> Result<Vec<bool>, ClipError> {
         .collect::<Result<_, ClipError>>()?;
     let work: f64 = plans.iter().map(|c| c.0).sum();
     if work > MAX_SWEEP_WORK {
+        // No one job near the limit: it is their number that is too large.
+        let largest = plans.iter().map(|c| c.0).fold(0.0, f64::max);
+        if plans.len() > 1 && largest * 10.0 < MAX_SWEEP_WORK {
+            let shapes: usize = jobs.iter().map(|j| j.shapes.len()).sum();
+            return Err(ClipError::TooMany {
+                shapes,
+                work,
+                fit: (shapes as f64 * MAX_SWEEP_WORK / work) as usize,
+            });
+        }
         let max_active = plans.iter().map(|c| c.2).max().unwrap_or(0);
         return Err(ClipError::TooComplex { work, max_active });
     }
@@ -549,6 +571,61 @@ pub fn union_each(groups: &[Vec<Polygon<f64>>]) -> Result<Vec<MultiPolygon<f64>>
             }
         })
         .collect())
+}
+
+/// A boolean operation of two sets of polygons (see [`boolean`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Op {
+    Intersection,
+    Union,
+    Xor,
+}
+
+/// `a` op `b` (Clipper's integer boolean, non-zero fill: each ring counts with the winding it is
+/// given, so rings drawn the same way add up and a ring drawn the other way inside one is a hole).
+pub fn boolean(
+    a: &MultiPolygon<f64>,
+    b: &MultiPolygon<f64>,
+    op: Op,
+) -> Result<MultiPolygon<f64>, ClipError> {
+    check_rings(a.0.iter().chain(&b.0).flat_map(rings_of))?;
+    let jobs = [Job {
+        shapes: a.0.iter().chain(&b.0).collect(),
+        offset: None,
+    }];
+    let t = plan(&jobs)?[0];
+    let run = |a: &MultiPolygon<f64>, b: &MultiPolygon<f64>| match op {
+        Op::Intersection => a.intersection(b, CLIPPER_FACTOR),
+        Op::Union => a.union(b, CLIPPER_FACTOR),
+        Op::Xor => a.xor(b, CLIPPER_FACTOR),
+    };
+    Ok(if t {
+        turn_all(&run(&turn_all(a, false), &turn_all(b, false)), true)
+    } else {
+        run(a, b)
+    })
+}
+
+/// The parts of open `lines` that lie inside `region` (Clipper's open-path intersection,
+/// non-zero fill as in [`boolean`]).
+pub fn clip_lines(
+    lines: &[LineString<f64>],
+    region: &MultiPolygon<f64>,
+) -> Result<Vec<LineString<f64>>, ClipError> {
+    use geo_clipper::ClipperOpen;
+    check_rings(lines.iter().chain(region.0.iter().flat_map(rings_of)))?;
+    // Costed as if each line were closed: one edge more than it has.
+    let closed: Vec<Polygon<f64>> = lines
+        .iter()
+        .map(|l| Polygon::new(l.clone(), vec![]))
+        .collect();
+    let jobs = [Job {
+        shapes: closed.iter().chain(&region.0).collect(),
+        offset: None,
+    }];
+    plan(&jobs)?;
+    let m = geo::MultiLineString::new(lines.to_vec());
+    Ok(m.intersection(region, CLIPPER_FACTOR).0)
 }
 
 /// Each of `polys` grown by `delta_mm` (shrunk when negative) with round joins within

@@ -141,15 +141,17 @@ pub fn picture_size(path: &Path) -> Result<(u32, u32), ToneError> {
 
 /// The file opened with its format guessed from its first bytes, if it is one stencil reads
 /// (PNG, JPEG, BMP, TIFF), and the decoder's allocations capped at [`limits::MAX_DECODE_BYTES`].
-fn open_picture(
-    path: &Path,
-) -> Result<(ImageReader<BufReader<std::fs::File>>, ImageFormat), ToneError> {
+fn open_picture(path: &Path) -> Result<(ImageReader<Box<dyn Source>>, ImageFormat), ToneError> {
     let open_err = |source: std::io::Error| ToneError::Open {
         path: path.to_path_buf(),
         source: plain_io(source),
     };
-    let (file, _) = stencil_io::open_bounded(path, stencil_io::Kind::Picture)?;
-    let mut reader = ImageReader::new(BufReader::new(file))
+    let (mut file, _) = stencil_io::open_bounded(path, stencil_io::Kind::Picture)?;
+    let source: Box<dyn Source> = match png_without_cicp(&mut file).map_err(open_err)? {
+        Some(bytes) => Box::new(std::io::Cursor::new(bytes)),
+        None => Box::new(BufReader::new(file)),
+    };
+    let mut reader = ImageReader::new(source)
         .with_guessed_format()
         .map_err(open_err)?;
     let format = match reader.format() {
@@ -171,6 +173,56 @@ fn open_picture(
     limits.max_alloc = Some(limits::MAX_DECODE_BYTES);
     reader.limits(limits);
     Ok((reader, format))
+}
+
+/// What a picture is decoded from: the file, or a copy of it in memory.
+trait Source: BufRead + std::io::Seek {}
+impl<T: BufRead + std::io::Seek> Source for T {}
+
+/// A PNG's bytes without its `cICP` chunks (coding-independent code points: colour metadata for
+/// HDR and wide-gamut pictures, which a gray stencil has no use for), or `None` when the file is
+/// not a PNG or has none (then it is rewound). The png decoder refuses a `cICP` whose values it
+/// does not support as "invalid data", failing the whole picture; a viewer shows it, and so do we.
+fn png_without_cicp(file: &mut std::fs::File) -> std::io::Result<Option<Vec<u8>>> {
+    use std::io::{Seek, SeekFrom};
+    const SIGNATURE: &[u8; 8] = b"\x89PNG\r\n\x1a\n";
+    let mut head = [0u8; 8];
+    let found = (|| -> std::io::Result<bool> {
+        if file.read_exact(&mut head).is_err() || &head != SIGNATURE {
+            return Ok(false);
+        }
+        // Chunk headers only: length and type, then past the data and its CRC.
+        loop {
+            if file.read_exact(&mut head).is_err() {
+                return Ok(false);
+            }
+            let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]);
+            match &head[4..] {
+                b"cICP" => return Ok(true),
+                b"IDAT" | b"IEND" => return Ok(false),
+                _ => file.seek(SeekFrom::Current(i64::from(len) + 4))?,
+            };
+        }
+    })()?;
+    file.seek(SeekFrom::Start(0))?;
+    if !found {
+        return Ok(None);
+    }
+    let mut bytes = Vec::new();
+    file.read_to_end(&mut bytes)?;
+    let mut out = Vec::with_capacity(bytes.len());
+    out.extend_from_slice(SIGNATURE);
+    let mut at = SIGNATURE.len();
+    while at + 8 <= bytes.len() {
+        let len = u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+        let end = (at + 12).saturating_add(len as usize).min(bytes.len());
+        if &bytes[at + 4..at + 8] != b"cICP" {
+            out.extend_from_slice(&bytes[at..end]);
+        }
+        at = end;
+    }
+    out.extend_from_slice(&bytes[at..]);
+    Ok(Some(out))
 }
 
 /// The bytes decoding needs (the decoder's buffer and the gray picture), from the header alone:

@@ -240,6 +240,16 @@ pub fn load(path: &Path) -> Result<Mesh, MeshError> {
 pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
     // A byte-order mark (some Windows editors write one) is not part of the first statement.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    // Line ends as classic Mac OS and some exporters write them, a lone CR, are line ends too
+    // (both readers split on LF only, and read a whole file as one line: "a vertex with 61
+    // numbers"); CR LF becomes one line end, so line numbers stay those an editor shows.
+    let unified;
+    let text = if text.contains('\r') {
+        unified = text.replace("\r\n", "\n").replace('\r', "\n");
+        unified.as_str()
+    } else {
+        text
+    };
     let opts = tobj::LoadOptions {
         single_index: false,
         triangulate: true,
