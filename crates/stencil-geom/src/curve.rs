@@ -19,7 +19,7 @@
 //!
 //! The bulge is DXF's: `tan(sweep / 4)`, positive counter-clockwise in the numeric (x, y) plane.
 
-use crate::ring::dist;
+use crate::ring::{dist, seg_dist};
 
 /// One piece of a closed outline: from `from` to the next piece's `from` (the first piece's after
 /// the last), straight when `bulge` is 0, else a circular arc that sweeps `4 atan(bulge)`.
@@ -305,18 +305,6 @@ fn kept_sides(
         let [l, r] = s.points[k % n];
         left(l) >= s.margin && left(r) <= -s.margin
     })
-}
-
-/// Distance from `p` to the segment `a`–`b`.
-fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    dist(p, [a[0] + t * d[0], a[1] + t * d[1]])
 }
 
 /// The pieces as a polygon (closing point not repeated): lines as they are, arcs cut into chords

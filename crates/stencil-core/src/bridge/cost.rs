@@ -179,7 +179,7 @@ impl Norm {
 /// both weights 0 the search still finds a shortest path (and never a zero-cost detour).
 const STEP_FLOOR: f32 = 1e-3;
 
-/// The cost of one pixel of a path found by the fallback search ([`super::strips::search`]),
+/// The cost of one pixel of a path found by the fallback search ([`super::search::search`]),
 /// which runs Dijkstra and so needs a cost that adds up pixel by pixel. It is the strip cost's
 /// intensity and length terms per pixel, in units of ΣI (both multiplied by L̃):
 /// `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)`. L^α itself does not add up; its slope at the length

@@ -4,17 +4,19 @@
 //! through Error Minimization" (NPAR 2008):
 //! 1. `candidates`: every island border pixel, chained along the island's contours;
 //! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
-//!    two-tone's where the gray is flat) to material of another node;
+//!    two-tone's where the gray is flat) to material of another node (`reach` stops walks that
+//!    can no longer arrive);
 //! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
 //!    as wide as the bridge needs, cheapest kept;
 //! 4. `tree`: Prim from the frame over island groups, edge cost = cheapest window between them;
 //!    a group no walk leaves is joined by the cheapest path through the cut of any length
-//!    (`strips::search`), so every island is joined: the length limit is a preference (walks
+//!    (`search::search`), so every island is joined: the length limit is a preference (walks
 //!    under it come first), not a cut-off;
 //!    then `strength`: islands whose size, shape or sag estimate asks for more than the tree's
 //!    bridge get more, from their own candidates, spread apart;
-//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first), drawn as the
-//!    polygon of its outer strips, halved plus a support bridge when its real error exceeds the
+//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first); `outline`: drawn
+//!    (`draw`) as the polygon of its outer strips, or as a straight band (`band`), its width
+//!    measured across (`across`); halved plus a support bridge when its real error exceeds the
 //!    estimate by more than the margin.
 //!
 //! Work is in proportion to the islands' total perimeter times the walk length: the fields the
@@ -25,12 +27,18 @@
 //! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
 //! added, names kept.
 
+mod across;
+mod band;
 pub(crate) mod candidates;
 mod constraints;
 pub(crate) mod cost;
+mod draw;
 pub mod drop;
 pub(crate) mod gaps;
 pub(crate) mod grow;
+mod outline;
+mod reach;
+mod search;
 pub(crate) mod strength;
 pub(crate) mod strips;
 pub(crate) mod tidy;
@@ -79,7 +87,7 @@ pub struct BridgeConfig {
     /// Length limit of the walks, default 200 px: a preference, not a cut-off. Walks longer than
     /// this are dropped, so an island is joined by a strip under it when one exists; a group of
     /// islands left with none is joined by the cheapest path through the cut of any length
-    /// (`strips::search`, whose per-pixel length price is the L^α term's slope at this limit,
+    /// (`search::search`, whose per-pixel length price is the L^α term's slope at this limit,
     /// see `cost::StepCost`), and its bridge is marked [`Via::Search`].
     pub max_length_px: u32,
     /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
@@ -158,7 +166,7 @@ pub enum Via {
 pub struct Bridge {
     /// The two nodes it joins (0 = frame).
     pub nodes: [u32; 2],
-    /// Width at right angles to it at its narrowest, px (see `grow::Plan::width`).
+    /// Width at right angles to it at its narrowest, px (see `draw::Plan::width`).
     pub width_px: u32,
     pub length_px: f64,
     /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
@@ -174,7 +182,7 @@ pub struct Bridge {
     /// Outline in pixel coordinates (x right, y down; pixel (x, y) covers [x, x+1) × [y, y+1), so
     /// points are pixel centres), from the end points of its outer strips: start of the first
     /// strip, its end, end of the last strip, its start (a fan, or a straight searched path, is
-    /// outlined as the band of its width instead; see `grow::straight_band`).
+    /// outlined as the band of its width instead; see `band::straight_band`).
     pub polygon: Vec<[f64; 2]>,
 }
 
@@ -588,9 +596,9 @@ fn span(
     }
     prim.grow();
     let step = g.norm.step_cost(cfg);
-    let mut scratch = strips::SearchScratch::default();
+    let mut scratch = search::SearchScratch::default();
     while let Some(group) = prim.stranded() {
-        let found = strips::search(fields, map, &group, &step, &mut scratch);
+        let found = search::search(fields, map, &group, &step, &mut scratch);
         let Some(((sx, sy), strip)) = found else {
             return Err(stranded(&group, map, cfg));
         };
@@ -664,7 +672,7 @@ fn draw_planned(
         if let Some(f) = &cfg.user.keep_out {
             pixels.retain(|&p| !f.data[p as usize]);
         }
-        let turned = grow::commit(&mut bits, &pixels);
+        let turned = draw::commit(&mut bits, &pixels);
         bridge.pixels = turned.len();
         bridges.push(bridge);
         drawn.push(turned);
@@ -767,7 +775,7 @@ fn score_one(
 
 /// Add a strip found by the fallback search as a candidate of its own (a one-candidate chain at
 /// its start pixel), so it never replaces a walked strip another edge may still need, and score
-/// it. Such a bridge cannot grow along the border; [`grow::plan`] thickens it to the minimum width
+/// it. Such a bridge cannot grow along the border; [`outline::plan`] thickens it to the minimum width
 /// instead, whatever its length.
 fn add_found_strip(
     g: &mut Graph,
@@ -798,7 +806,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
         [a, b]
     };
     let make = |members: &[usize], want: u32| {
-        grow::plan(
+        outline::plan(
             &two.bits, &two.gray, &g.cands, &g.strips, members, cfg, want,
         )
     };
@@ -822,7 +830,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
         }
     };
     if via(id) == Via::Search {
-        let band = grow::straight_band(g.cands.pixels[id], strip, plan.width, two.bits.width);
+        let band = band::straight_band(g.cands.pixels[id], strip, plan.width, two.bits.width);
         plan.polygon = band.unwrap_or(plan.polygon);
     }
     let mut out = vec![to_bridge(nodes, score, plan, false, via(id))];
@@ -838,7 +846,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
 fn to_bridge(
     nodes: [u32; 2],
     score: cost::Scored,
-    plan: grow::Plan,
+    plan: draw::Plan,
     support: bool,
     via: Via,
 ) -> (Bridge, Vec<u32>) {
@@ -884,7 +892,7 @@ fn next_cheapest(
     g: &Graph,
     id: usize,
     members: &[usize],
-    first: &grow::Plan,
+    first: &draw::Plan,
     width: u32,
 ) -> Option<usize> {
     let s = g.strips[id].as_ref()?;

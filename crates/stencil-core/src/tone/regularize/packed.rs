@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::Disc;
+use super::disc::Disc;
 use crate::raster::packed::pack_word;
 
 /// A grid of bits, `stride` words per row: column `x` is bit `x % 64` of word `x / 64`. The bits
