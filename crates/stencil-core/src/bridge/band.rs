@@ -169,7 +169,7 @@ pub(super) fn runs_straight(strip: &Strip, image_width: u32) -> bool {
 /// band `width` wide from its candidate `start` to where it lands, as a fan is drawn, so that the
 /// check knows it for a bridge. The band lies inside the thickened pixels (the brush reaches
 /// `⌈(width − 1)/2⌉ + ½` px either side of the strip). `None` for a bent strip, whose outline stays
-/// the segment [`plan`] gives it.
+/// the segment [`super::outline::plan`] gives it.
 pub(crate) fn straight_band(
     start: (u32, u32),
     strip: &Strip,

@@ -221,8 +221,9 @@ fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl F
 }
 
 /// The pixel holding point `p`: its coordinates rounded down. Written out rather than with
-/// `f64::floor`, which on the baseline x86-64 target is a library call: [`measure`] asks it for
-/// hundreds of samples a bridge, and it was a fifth of that function's time.
+/// `f64::floor`, which on the baseline x86-64 target is a library call:
+/// [`super::across::measure`] asks it for hundreds of samples a bridge, and it was a fifth of
+/// that function's time.
 #[inline]
 pub(super) fn pixel_of(p: [f64; 2]) -> (i64, i64) {
     let down = |v: f64| {

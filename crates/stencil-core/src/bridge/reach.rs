@@ -279,56 +279,11 @@ impl Reach {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+mod tests {
     use super::*;
+    use crate::bridge::tests::{random_picture, rng};
     use crate::islands::label;
     use crate::raster::{BitGrid, Gray, TwoTone};
-    use crate::test_rng::Lcg;
-
-    /// Numbers for the random pictures below (31 bits each, the generator's high ones).
-    pub(in crate::bridge) fn rng(seed: u64) -> impl FnMut() -> u64 {
-        let mut r = Lcg(seed);
-        move || r.next_u64() >> 33
-    }
-
-    /// Random specks and blobs of material (clustered, so there are islands of all sizes) over a
-    /// random gray, `w`×`h`.
-    pub(in crate::bridge) fn random_picture(
-        w: u32,
-        h: u32,
-        next: &mut impl FnMut() -> u64,
-    ) -> TwoTone {
-        let centres: Vec<(i64, i64, i64)> = (0..(w * h / 150).max(2))
-            .map(|_| {
-                (
-                    (next() % w as u64) as i64,
-                    (next() % h as u64) as i64,
-                    (next() % 5) as i64,
-                )
-            })
-            .collect();
-        let bits = BitGrid::from_fn(w, h, |x, y| {
-            centres
-                .iter()
-                .any(|&(cx, cy, r)| (x as i64 - cx).pow(2) + (y as i64 - cy).pow(2) <= r * r)
-        });
-        let mut gray = Gray::new(w, h, 0.0);
-        let smooth = next().is_multiple_of(2);
-        for y in 0..h {
-            for x in 0..w {
-                let v = if smooth {
-                    ((x as f32 * 0.13).sin() + (y as f32 * 0.07).cos()) * 0.25 + 0.5
-                } else {
-                    (next() % 1000) as f32 / 1000.0
-                };
-                gray.set(x, y, v);
-            }
-        }
-        TwoTone {
-            bits,
-            gray: gray.into(),
-        }
-    }
 
     /// [`Reach`] never claims more steps to another node's shore than there are (brute force
     /// over every shore pixel and the points beyond the image's edge).

@@ -237,8 +237,8 @@ fn line4(a: (i64, i64), b: (i64, i64), mut visit: impl FnMut(i64, i64) -> bool) 
 mod tests {
     use super::*;
     use crate::bridge::candidates::collect;
-    use crate::bridge::strips::tests::{four_connected, two};
     use crate::bridge::strips::{walk_candidate, WalkEnd};
+    use crate::bridge::tests::{four_connected, two};
     use crate::islands::{label, FRAME};
     use crate::raster::{BitGrid, Gray, TwoTone};
 

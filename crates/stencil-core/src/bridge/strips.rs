@@ -541,27 +541,11 @@ fn next_pixel(
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+mod tests {
     use super::*;
     use crate::bridge::candidates::collect;
-    use crate::bridge::reach::tests::{random_picture, rng};
+    use crate::bridge::tests::{four_connected, random_picture, rng, two};
     use crate::islands::label;
-
-    pub(in crate::bridge) fn two(rows: &[&str]) -> TwoTone {
-        crate::bridge::tests::black_white(BitGrid::from_fn(
-            rows[0].len() as u32,
-            rows.len() as u32,
-            |x, y| rows[y as usize].as_bytes()[x as usize] == b'#',
-        ))
-    }
-
-    pub(in crate::bridge) fn four_connected(pixels: &[u32], w: u32) -> bool {
-        pixels.windows(2).all(|p| {
-            let (a, b) = (p[0], p[1]);
-            let (ax, ay, bx, by) = (a % w, a / w, b % w, b / w);
-            ax.abs_diff(bx) + ay.abs_diff(by) == 1
-        })
-    }
 
     #[test]
     fn walk_leaves_a_straight_edge_at_right_angles_and_lands_on_the_frame() {

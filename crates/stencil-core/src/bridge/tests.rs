@@ -338,9 +338,8 @@ fn a_fanning_bridge_is_halved_and_gets_a_support() {
     // A disc of radius 12 far from the frame: its strips fan out, so the drawn bridge covers
     // far more dark pixels than its strips promised.
     let n = 110u32;
-    let disc = |x: u32, y: u32| {
-        (x as f64 + 0.5 - 55.0).powi(2) + (y as f64 + 0.5 - 55.0).powi(2) <= 144.0
-    };
+    let disc =
+        |x: u32, y: u32| (x as f64 + 0.5 - 55.0).powi(2) + (y as f64 + 0.5 - 55.0).powi(2) <= 144.0;
     let two = black_white(BitGrid::from_fn(n, n, disc));
     let cfg = BridgeConfig {
         min_width_px: 2,
@@ -416,4 +415,65 @@ fn no_islands_means_no_bridges() {
     let out = connect_and_check(&two, &BridgeConfig::default());
     assert!(out.bridges.is_empty());
     assert_eq!(out.bits, two.bits);
+}
+
+// Helpers the bridge modules' tests share.
+
+// Helpers the bridge modules' tests share.
+
+pub(crate) fn two(rows: &[&str]) -> TwoTone {
+    crate::bridge::tests::black_white(BitGrid::from_fn(
+        rows[0].len() as u32,
+        rows.len() as u32,
+        |x, y| rows[y as usize].as_bytes()[x as usize] == b'#',
+    ))
+}
+
+pub(crate) fn four_connected(pixels: &[u32], w: u32) -> bool {
+    pixels.windows(2).all(|p| {
+        let (a, b) = (p[0], p[1]);
+        let (ax, ay, bx, by) = (a % w, a / w, b % w, b / w);
+        ax.abs_diff(bx) + ay.abs_diff(by) == 1
+    })
+}
+
+/// Numbers for the random pictures below (31 bits each, the generator's high ones).
+pub(crate) fn rng(seed: u64) -> impl FnMut() -> u64 {
+    let mut r = Lcg(seed);
+    move || r.next_u64() >> 33
+}
+
+/// Random specks and blobs of material (clustered, so there are islands of all sizes) over a
+/// random gray, `w`×`h`.
+pub(crate) fn random_picture(w: u32, h: u32, next: &mut impl FnMut() -> u64) -> TwoTone {
+    let centres: Vec<(i64, i64, i64)> = (0..(w * h / 150).max(2))
+        .map(|_| {
+            (
+                (next() % w as u64) as i64,
+                (next() % h as u64) as i64,
+                (next() % 5) as i64,
+            )
+        })
+        .collect();
+    let bits = BitGrid::from_fn(w, h, |x, y| {
+        centres
+            .iter()
+            .any(|&(cx, cy, r)| (x as i64 - cx).pow(2) + (y as i64 - cy).pow(2) <= r * r)
+    });
+    let mut gray = Gray::new(w, h, 0.0);
+    let smooth = next().is_multiple_of(2);
+    for y in 0..h {
+        for x in 0..w {
+            let v = if smooth {
+                ((x as f32 * 0.13).sin() + (y as f32 * 0.07).cos()) * 0.25 + 0.5
+            } else {
+                (next() % 1000) as f32 / 1000.0
+            };
+            gray.set(x, y, v);
+        }
+    }
+    TwoTone {
+        bits,
+        gray: gray.into(),
+    }
 }

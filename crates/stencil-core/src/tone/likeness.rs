@@ -1,5 +1,9 @@
 //! How much a two-tone looks like the picture it came from, seen from where a person stands.
 //!
+//! The one place likeness is measured: [`Likeness`] (below) chooses `--threshold auto`'s level,
+//! and [`ssim`], plain SSIM on the same box average and blur, gives a layered set's
+//! `composite.likeness`.
+//!
 //! ## The measure
 //! A stencil is looked at from a distance at which its cut edges merge into tones, so both the
 //! two-tone (material light, cut dark; swapped by `--invert`) and the gray picture are

@@ -12,7 +12,7 @@ use super::work::{Price, Work};
 use crate::raster::BitGrid;
 
 /// How many pixels of material and of cut are thin for a web or hole `min_width_px` wide: both 0
-/// for what [`regularize`] returns (the tests' measure of it).
+/// for what [`super::regularize`] returns (the tests' measure of it).
 #[cfg(test)]
 pub(super) fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
     let disc = Disc::for_width(min_width_px);

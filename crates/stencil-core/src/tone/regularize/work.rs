@@ -92,9 +92,10 @@ pub(super) struct Work<'a> {
     /// `None` after the first refresh, which had no earlier one to keep. What lies outside them
     /// is as it was the refresh before.
     pub(super) dirty: Option<Vec<bool>>,
-    /// The last round's features per tone (material, cut), in [`groups_where`] order: a feature that
-    /// lies wholly outside the tiles a refresh recomputed is the same feature, with the same
-    /// widening and cost, and is taken from here rather than worked out again.
+    /// The last round's features per tone (material, cut), in
+    /// [`super::features::groups_where`] order: a feature that lies wholly outside the tiles a
+    /// refresh recomputed is the same feature, with the same widening and cost, and is taken
+    /// from here rather than worked out again.
     pub(super) kept: [Vec<Feature>; 2],
 }
 

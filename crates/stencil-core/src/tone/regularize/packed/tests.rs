@@ -263,15 +263,7 @@ fn runs_by_doubling_are_runs_by_steps() {
                                 data: (0..h * len).map(|_| next()).collect(),
                             };
                             let mut got = vec![0u64; h * sp.len() * n];
-                            runs_of_rows(
-                                &grid,
-                                sp,
-                                and,
-                                fill,
-                                n,
-                                &mut got,
-                                h.is_multiple_of(2),
-                            );
+                            runs_of_rows(&grid, sp, and, fill, n, &mut got, h.is_multiple_of(2));
                             for y in 0..h {
                                 let k = sp.len() * n;
                                 runs_of_by_steps(grid.row(y), sp, and, fill, n, &mut want);
