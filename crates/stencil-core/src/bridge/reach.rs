@@ -283,7 +283,6 @@ mod tests {
     use super::*;
     use crate::bridge::tests::{random_picture, rng};
     use crate::islands::label;
-    use crate::raster::{BitGrid, Gray, TwoTone};
 
     /// [`Reach`] never claims more steps to another node's shore than there are (brute force
     /// over every shore pixel and the points beyond the image's edge).
