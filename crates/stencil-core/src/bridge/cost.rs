@@ -17,6 +17,7 @@
 //! node as the candidate's strip.
 
 use super::candidates::Candidates;
+pub(crate) use super::strips::intensity;
 use super::strips::Strip;
 use super::{BridgeConfig, CostTerms};
 use crate::raster::Gray;
@@ -26,18 +27,6 @@ use crate::raster::Gray;
 /// κ ≈ 0.8/n, so with fewer than ~15 a staircase looks as curved as a 20 px radius bend. κ
 /// therefore uses `max(width, 15)` candidates (same alignment as the other terms' window).
 pub(crate) const KAPPA_MIN_WINDOW: usize = 15;
-
-/// ΣI: sum over the strip's pixels of the squared difference between the grayscale and white
-/// (the bridge turns them white).
-pub(crate) fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
-    pixels
-        .iter()
-        .map(|&p| {
-            let d = 1.0 - gray.data[p as usize] as f64;
-            d * d
-        })
-        .sum()
-}
 
 /// L^α: small for short strips, growing faster than linearly for long ones (1 < α < 2).
 pub(crate) fn length(len_px: f64, alpha: f64) -> f64 {

@@ -7,7 +7,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use super::cost::StepCost;
-use super::strips::{Fields, Strip};
+use super::strips::{intensity, Fields, Strip};
 use crate::islands::{IslandMap, CUT};
 
 /// Reusable buffers of [`search`]: a path cost and a predecessor per pixel, allocated on the first
@@ -114,7 +114,7 @@ pub(crate) fn search(
                 let pixels = straighten(f, &pixels, step);
                 let (sx, sy) = ((start as i64 % w) as u32, (start as i64 / w) as u32);
                 let from = f.labels[start as usize];
-                let intensity = super::cost::intensity(f.gray, &pixels);
+                let intensity = intensity(f.gray, &pixels);
                 return Some((
                     (sx, sy),
                     Strip {

@@ -16,6 +16,18 @@ use super::reach::Reach;
 use crate::islands::{IslandMap, CUT, FRAME};
 use crate::raster::{BitGrid, Gray, TwoTone};
 
+/// ΣI, the cost's intensity term (`super::cost`): sum over the strip's pixels of the squared difference between the grayscale and white
+/// (the bridge turns them white).
+pub(crate) fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
+    pixels
+        .iter()
+        .map(|&p| {
+            let d = 1.0 - gray.data[p as usize] as f64;
+            d * d
+        })
+        .sum()
+}
+
 /// A one-pixel-wide chain of cut pixels from a candidate of `from` to material of `to`.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Strip {
@@ -26,7 +38,7 @@ pub(crate) struct Strip {
     /// Where the strip lands: the material pixel of `to` beside its last pixel (may lie one pixel
     /// outside the image when `to` is the sheet beyond the image).
     pub(crate) end: (i64, i64),
-    /// ΣI, the intensity error of its pixels (see [`super::cost::intensity`]).
+    /// ΣI, the intensity error of its pixels (see [`intensity`]).
     pub(crate) intensity: f64,
 }
 
@@ -395,7 +407,7 @@ fn walk_steered(
     loop {
         pixels.push((py * w + px) as u32);
         if let Some((end, to)) = f.arrival(px, py, own) {
-            let intensity = super::cost::intensity(f.gray, pixels);
+            let intensity = intensity(f.gray, pixels);
             return Ok(Strip {
                 from: own,
                 to,
