@@ -1,6 +1,7 @@
 //! The cost `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` of a bridge placed at a candidate: one function per
-//! term, named after it, and [`score_with`], which evaluates them over the leftward, centred and
-//! rightward windows along the border and keeps the cheapest.
+//! term, named after it (ΣI, [`super::strips::intensity`], is measured on each strip as it is
+//! made), and [`score_with`], which evaluates them over the leftward, centred and rightward
+//! windows along the border and keeps the cheapest.
 //!
 //! Normalisation (so that a weight of 1 means "as much as a typical strip"): let `L̃` be the median
 //! strip length (pixels) over the image.
@@ -17,7 +18,6 @@
 //! node as the candidate's strip.
 
 use super::candidates::Candidates;
-pub(crate) use super::strips::intensity;
 use super::strips::Strip;
 use super::{BridgeConfig, CostTerms};
 use crate::raster::Gray;
@@ -318,18 +318,6 @@ pub(crate) fn score_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn intensity_is_the_squared_distance_from_white() {
-        let gray = Gray {
-            width: 4,
-            height: 1,
-            data: vec![0.0, 0.5, 1.0, 0.25],
-        };
-        let v = intensity(&gray, &[0, 1, 2, 3]);
-        assert!((v - (1.0 + 0.25 + 0.0 + 0.5625)).abs() < 1e-9);
-        assert_eq!(intensity(&gray, &[2]), 0.0);
-    }
 
     #[test]
     fn length_penalty_grows_faster_than_linear() {
