@@ -677,10 +677,7 @@ fn fit_gobo(
     let Some(g) = &physical.gobo else {
         return Ok(());
     };
-    if a.input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
-    {
+    if pipeline::is_mesh_path(&a.input) {
         anyhow::bail!(
             "{}: --gobo takes a picture: a mesh is drawn at its own size (render it to a PNG \
              with `stencil tone`, then make the gobo from that)",
@@ -731,11 +728,7 @@ fn fit_size(
         },
         (None, None) => return Ok(()),
     };
-    let mesh = a
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-    if mesh {
+    if pipeline::is_mesh_path(&a.input) {
         return Ok(());
     }
     let Ok(px) = stencil_core::tone::picture_size(&a.input) else {
@@ -889,11 +882,7 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
             cfg.input.display()
         );
     }
-    let is_obj = cfg
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-    if let Some(mesh) = is_obj
+    if let Some(mesh) = pipeline::is_mesh_path(&cfg.input)
         .then(|| stencil_core::tone::mesh::load(&cfg.input).ok())
         .flatten()
     {

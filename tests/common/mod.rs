@@ -480,17 +480,8 @@ pub fn cut_loops(moves: &[stencil_gcode::interpret::Move]) -> Vec<Vec<[f64; 2]>>
     out
 }
 
-/// Distance from `p` to the segment `a`–`b`.
-pub fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
-}
+/// Distance from `p` to the segment `a`–`b` (the product's own measure).
+pub use stencil_geom::ring::seg_dist;
 
 /// Points along a polyline, at most `step` apart.
 pub fn dense(path: &[[f64; 2]], step: f64) -> Vec<[f64; 2]> {

@@ -51,8 +51,12 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// The source of a file without its `#[cfg(test)]` module (tests may reach anywhere).
+/// The source of a file without its `#[cfg(test)]` module (tests may reach anywhere); nothing of
+/// a `tests.rs`, a module's tests kept in a file of their own (`#[cfg(test)] mod tests;`).
 fn non_test_source(path: &Path) -> String {
+    if path.file_name().is_some_and(|n| n == "tests.rs") {
+        return String::new();
+    }
     let text = std::fs::read_to_string(path).unwrap();
     match text.find("#[cfg(test)]\nmod tests") {
         Some(i) => text[..i].to_string(),

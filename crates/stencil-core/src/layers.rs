@@ -40,357 +40,37 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
 use crate::pipeline::{self, Error, Made, MakeConfig, Source, StageParams, Timings};
 use crate::raster::{BitGrid, Gray, TwoTone};
-use crate::tone::{is_light, Threshold};
+use crate::tone::likeness::ssim;
+use crate::tone::Threshold;
 use crate::units::Size;
 
+mod config;
+mod kmeans;
+mod lab;
+mod posterise;
+
+use lab::dist2;
+
+pub use crate::error::LayersError;
 pub use crate::limits::MAX_LAYERS;
+pub use config::LayersConfig;
+pub use kmeans::{KMEANS_ROUNDS, KMEANS_SAMPLES};
+pub use lab::{lab, srgb};
+pub use posterise::{multi_otsu, posterise, Method, Tones};
 
 /// Share of the intensity cost a bridge pixel keeps where a later layer paints over it: a
 /// covered pixel is twenty times cheaper to bridge than the same pixel left visible.
 pub const COVERED_COST: f32 = 0.05;
 
-/// Most pixels k-means clusters (a sample of the picture, evenly spread).
-pub const KMEANS_SAMPLES: usize = 40_000;
-
-/// Rounds of Lloyd's algorithm.
-pub const KMEANS_ROUNDS: usize = 30;
-
 /// The fill-in's cut reaches this far (mm) past each hidden bridge pixel, inside what the first
 /// stencil paints anyway, so that a small misregistration of the two sheets leaves no gap.
 pub const FILL_IN_OVERLAP_MM: f64 = 0.3;
-
-/// What a layered (or registered) run asks for.
-#[derive(Clone, Debug, Default)]
-pub struct LayersConfig {
-    /// Layers (1..=[`MAX_LAYERS`]).
-    pub count: u32,
-    /// One 8-bit level per layer (any order; light is at or above a level), or empty to choose.
-    pub levels: Vec<u8>,
-    /// Paint colours light to dark, one per layer, or one more with the surface first; empty to
-    /// take the tones' own colours.
-    pub colors: Vec<[u8; 3]>,
-    /// With one layer: a second stencil that paints what the first one's bridges hide.
-    pub fill_in: bool,
-}
-
-pub use crate::error::LayersError;
-
-/// How the picture was posterised.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Multi-level Otsu on the luma.
-    MultiOtsu,
-    /// The levels the person gave, on the luma.
-    LevelsGiven,
-    /// k-means in CIELAB.
-    KmeansLab,
-}
-
-/// The picture posterised: what each layer is cut from and painted with.
-#[derive(Clone, Debug)]
-pub struct Tones {
-    /// What the layers are thresholded from: the luma, or each pixel's cluster's L* (colour).
-    pub gray: Gray,
-    /// The picture's own luma (what the composite's likeness is measured against).
-    pub luma: Gray,
-    /// Per layer, light to dark: layer k cuts where `gray` is below `levels[k-1]` (descending).
-    pub levels: Vec<u8>,
-    /// The surface's colour, then each layer's paint (sRGB).
-    pub colors: Vec<[u8; 3]>,
-    pub method: Method,
-}
-
-impl Tones {
-    /// The tone of a gray value: how many layers paint it (0 = the surface).
-    pub fn tone_of(&self, v: f32) -> usize {
-        self.levels.iter().filter(|&&l| !is_light(v, l)).count()
-    }
-}
-
-/// Posterise a picture into `lc.count + 1` tones (see the module notes). `rgb`: the picture's
-/// colours (sRGB 0..1, alpha over white) when it has any, `None` for a gray one.
-pub fn posterise(
-    luma: &Gray,
-    rgb: Option<&[[f32; 3]]>,
-    lc: &LayersConfig,
-) -> Result<Tones, LayersError> {
-    let n = lc.count as usize;
-    if !(1..=MAX_LAYERS).contains(&lc.count) {
-        return Err(LayersError::Count(lc.count));
-    }
-    if !lc.colors.is_empty() && lc.colors.len() != n && lc.colors.len() != n + 1 {
-        return Err(LayersError::Colors {
-            given: lc.colors.len(),
-            count: lc.count,
-        });
-    }
-    let colour = rgb.filter(|_| lc.levels.is_empty());
-    let (gray, levels, method, mut colors) = if let Some(rgb) = colour {
-        let (gray, levels, colors) = kmeans_tones(luma, rgb, n + 1);
-        (gray, levels, Method::KmeansLab, colors)
-    } else {
-        let levels = if lc.levels.is_empty() {
-            let mut b = multi_otsu(luma, n + 1);
-            b.reverse();
-            b
-        } else {
-            if lc.levels.len() != n {
-                return Err(LayersError::Levels {
-                    given: lc.levels.len(),
-                    count: lc.count,
-                });
-            }
-            let mut l = lc.levels.clone();
-            l.sort_unstable_by(|a, b| b.cmp(a));
-            if let Some(w) = l.windows(2).find(|w| w[0] == w[1]) {
-                return Err(LayersError::SameLevel(w[0]));
-            }
-            l
-        };
-        let method = if lc.levels.is_empty() {
-            Method::MultiOtsu
-        } else {
-            Method::LevelsGiven
-        };
-        let colors = class_grays(luma, &levels);
-        (luma.clone(), levels, method, colors)
-    };
-    if lc.colors.len() == n {
-        colors = std::iter::once([255, 255, 255])
-            .chain(lc.colors.iter().copied())
-            .collect();
-    } else if lc.colors.len() == n + 1 {
-        colors = lc.colors.clone();
-    }
-    Ok(Tones {
-        gray,
-        luma: luma.clone(),
-        levels,
-        colors,
-        method,
-    })
-}
-
-/// The levels (ascending, `classes − 1` of them) that split the 8-bit histogram into `classes`
-/// classes with the least sum of squared deviations from their means (Otsu's criterion for
-/// several thresholds), exactly, by dynamic programming over the 256 bins. A pixel at or above a
-/// level is in the lighter class, as `tone::is_light` reads a level.
-pub fn multi_otsu(gray: &Gray, classes: usize) -> Vec<u8> {
-    let mut hist = [0f64; 256];
-    for &v in &gray.data {
-        hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1.0;
-    }
-    // Prefix sums of count, sum and sum of squares.
-    let (mut w, mut s, mut s2) = ([0f64; 257], [0f64; 257], [0f64; 257]);
-    for i in 0..256 {
-        w[i + 1] = w[i] + hist[i];
-        s[i + 1] = s[i] + hist[i] * i as f64;
-        s2[i + 1] = s2[i] + hist[i] * (i * i) as f64;
-    }
-    // Spread of bins a..b (b exclusive).
-    let cost = |a: usize, b: usize| {
-        let n = w[b] - w[a];
-        if n <= 0.0 {
-            0.0
-        } else {
-            let m = s[b] - s[a];
-            (s2[b] - s2[a]) - m * m / n
-        }
-    };
-    let k = classes.clamp(1, 256);
-    // best[c][b]: least cost of bins 0..b in c + 1 classes; from[c][b]: where the last starts.
-    let mut best = vec![vec![f64::INFINITY; 257]; k];
-    let mut from = vec![vec![0usize; 257]; k];
-    for (b, v) in best[0].iter_mut().enumerate().skip(1) {
-        *v = cost(0, b);
-    }
-    for c in 1..k {
-        for b in (c + 1)..=256 {
-            for a in c..b {
-                let v = best[c - 1][a] + cost(a, b);
-                if v < best[c][b] {
-                    best[c][b] = v;
-                    from[c][b] = a;
-                }
-            }
-        }
-    }
-    let mut levels = Vec::with_capacity(k - 1);
-    let mut b = 256;
-    for c in (1..k).rev() {
-        let a = from[c][b];
-        levels.push(a as u8);
-        b = a;
-    }
-    levels.reverse();
-    levels
-}
-
-/// Each tone's mean gray as a colour (the surface's first): the posterised picture of a gray one.
-fn class_grays(luma: &Gray, levels: &[u8]) -> Vec<[u8; 3]> {
-    let n = levels.len() + 1;
-    let (mut sum, mut count) = (vec![0f64; n], vec![0usize; n]);
-    for &v in &luma.data {
-        let t = levels.iter().filter(|&&l| !is_light(v, l)).count();
-        sum[t] += v as f64;
-        count[t] += 1;
-    }
-    (0..n)
-        .map(|t| {
-            let v = if count[t] > 0 {
-                sum[t] / count[t] as f64
-            } else {
-                // An empty tone: the middle of its band.
-                let hi = if t == 0 { 255.0 } else { levels[t - 1] as f64 };
-                let lo = if t == n - 1 { 0.0 } else { levels[t] as f64 };
-                (hi + lo) / 2.0 / 255.0
-            };
-            let g = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-            [g, g, g]
-        })
-        .collect()
-}
-
-/// sRGB (0..1) to CIELAB (D65).
-pub fn lab(c: [f32; 3]) -> [f32; 3] {
-    let lin = |u: f32| {
-        if u <= 0.04045 {
-            u / 12.92
-        } else {
-            ((u + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let (r, g, b) = (lin(c[0]), lin(c[1]), lin(c[2]));
-    let x = (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.950_47;
-    let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
-    let z = (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.088_83;
-    let f = |t: f32| {
-        if t > 0.008_856 {
-            t.cbrt()
-        } else {
-            7.787 * t + 16.0 / 116.0
-        }
-    };
-    let (fx, fy, fz) = (f(x), f(y), f(z));
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
-}
-
-/// CIELAB (D65) to 8-bit sRGB, clamped to the gamut.
-pub fn srgb(l: [f32; 3]) -> [u8; 3] {
-    let fy = (l[0] + 16.0) / 116.0;
-    let (fx, fz) = (fy + l[1] / 500.0, fy - l[2] / 200.0);
-    let inv = |t: f32| {
-        if t > 0.206_893 {
-            t * t * t
-        } else {
-            (t - 16.0 / 116.0) / 7.787
-        }
-    };
-    let (x, y, z) = (inv(fx) * 0.950_47, inv(fy), inv(fz) * 1.088_83);
-    let r = 3.2406 * x - 1.5372 * y - 0.4986 * z;
-    let g = -0.9689 * x + 1.8758 * y + 0.0415 * z;
-    let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
-    let gam = |u: f32| {
-        let u = u.clamp(0.0, 1.0);
-        let v = if u <= 0.003_130_8 {
-            12.92 * u
-        } else {
-            1.055 * u.powf(1.0 / 2.4) - 0.055
-        };
-        (v * 255.0).round() as u8
-    };
-    [gam(r), gam(g), gam(b)]
-}
-
-fn dist2(a: [f32; 3], b: [f32; 3]) -> f32 {
-    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
-}
-
-fn nearest(c: [f32; 3], centres: &[[f32; 3]]) -> usize {
-    let mut best = (f32::INFINITY, 0);
-    for (i, &m) in centres.iter().enumerate() {
-        let d = dist2(c, m);
-        if d < best.0 {
-            best = (d, i);
-        }
-    }
-    best.1
-}
-
-/// k-means in CIELAB (see the module notes): the tone gray, the levels (descending) and the
-/// colours (lightest cluster first).
-fn kmeans_tones(luma: &Gray, rgb: &[[f32; 3]], k: usize) -> (Gray, Vec<u8>, Vec<[u8; 3]>) {
-    let labs: Vec<[f32; 3]> = rgb.par_iter().map(|&c| lab(c)).collect();
-    let step = labs.len().div_ceil(KMEANS_SAMPLES).max(1);
-    let mut sample: Vec<[f32; 3]> = labs.iter().step_by(step).copied().collect();
-    sample.sort_by(|a, b| a[0].total_cmp(&b[0]));
-    let mut centres: Vec<[f32; 3]> = (0..k)
-        .map(|i| sample[((2 * i + 1) * sample.len() / (2 * k)).min(sample.len() - 1)])
-        .collect();
-    for _ in 0..KMEANS_ROUNDS {
-        let mut sum = vec![[0f64; 3]; k];
-        let mut count = vec![0usize; k];
-        for &c in &sample {
-            let i = nearest(c, &centres);
-            for j in 0..3 {
-                sum[i][j] += c[j] as f64;
-            }
-            count[i] += 1;
-        }
-        let mut moved = false;
-        for i in 0..k {
-            if count[i] > 0 {
-                let m = sum[i].map(|v| (v / count[i] as f64) as f32);
-                moved |= dist2(m, centres[i]) > 1e-6;
-                centres[i] = m;
-            }
-        }
-        if !moved {
-            break;
-        }
-    }
-    // Lightest first.
-    centres.sort_by(|a, b| b[0].total_cmp(&a[0]));
-    // Each cluster's L* on the 8-bit scale, strictly falling by at least 2 so that a level fits
-    // between any two (evenly spread when the clusters' lightness is too close for that).
-    let mut q: Vec<i32> = centres
-        .iter()
-        .map(|c| (c[0] * 2.55).round() as i32)
-        .collect();
-    for i in 1..k {
-        q[i] = q[i].min(q[i - 1] - 2);
-    }
-    if q[k - 1] < 0 {
-        q = (0..k)
-            .map(|i| (255 * (k - 1 - i) / (k - 1).max(1)) as i32)
-            .collect();
-    }
-    let levels: Vec<u8> = (1..k)
-        .map(|i| (q[i] + (q[i - 1] - q[i] + 1) / 2) as u8)
-        .collect();
-    let data: Vec<f32> = labs
-        .par_iter()
-        .map(|&c| q[nearest(c, &centres)] as f32 / 255.0)
-        .collect();
-    let colors = centres.iter().map(|&c| srgb(c)).collect();
-    (
-        Gray {
-            width: luma.width,
-            height: luma.height,
-            data,
-        },
-        levels,
-        colors,
-    )
-}
 
 /// The picture's colours (sRGB 0..1, alpha over white) as shown, or `None` when it has none worth
 /// clustering (gray, or colour in fewer than 2 % of its pixels). The picture was already read and
@@ -550,7 +230,8 @@ pub struct Composite {
     pub tone_agreement_pct: f64,
     /// Mean colour difference (CIE76 ΔE) between the composite and the posterised picture.
     pub mean_delta_e: f64,
-    /// Likeness of the composite's lightness to the picture's (see [`likeness`]), 0..1.
+    /// Likeness of the composite's lightness to the picture's (see [`crate::tone::likeness::ssim`]),
+    /// 0..1.
     pub likeness: f64,
     /// The same for the posterised picture itself: the most the set can reach.
     pub posterised_likeness: f64,
@@ -1016,8 +697,8 @@ fn assess(
     let composite = Composite {
         tone_agreement_pct: pct(agree, pixels),
         mean_delta_e: de / (w * h) as f64,
-        likeness: likeness(&comp_l, &luma_l, w, h),
-        posterised_likeness: likeness(&post_l, &luma_l, w, h),
+        likeness: ssim(&comp_l, &luma_l, w, h),
+        posterised_likeness: ssim(&post_l, &luma_l, w, h),
     };
     let mut order: Vec<String> = layers.iter().map(|l| l.folder.clone()).collect();
     if n == 1 {
@@ -1049,84 +730,6 @@ fn pct(a: usize, b: usize) -> f64 {
     } else {
         100.0 * a as f64 / b as f64
     }
-}
-
-/// The long side, in pixels, that [`likeness`] looks at: about what a person sees of a picture
-/// at a few times its width away.
-pub const VIEWING_PX: u32 = 200;
-
-/// Likeness of two lightness images (0..1, same size): the mean structural similarity (SSIM,
-/// Wang et al. 2004: Gaussian window σ = 1.5 px, C1 = 0.01², C2 = 0.03²) of both after they are
-/// averaged down to [`VIEWING_PX`] on their long side (what is left at viewing distance:
-/// posterised tones and a paint's edge blend, as they do to the eye). 1 = the same.
-pub fn likeness(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
-    let (a, sw, sh) = shrink(a, w, h);
-    let (b, _, _) = shrink(b, w, h);
-    let mu_a = blur(&a, sw, sh);
-    let mu_b = blur(&b, sw, sh);
-    let prod = |x: &[f32], y: &[f32]| x.iter().zip(y).map(|(p, q)| p * q).collect::<Vec<f32>>();
-    let saa = blur(&prod(&a, &a), sw, sh);
-    let sbb = blur(&prod(&b, &b), sw, sh);
-    let sab = blur(&prod(&a, &b), sw, sh);
-    let (c1, c2) = (0.01f64 * 0.01, 0.03f64 * 0.03);
-    let mut sum = 0.0;
-    for i in 0..a.len() {
-        let (ma, mb) = (mu_a[i] as f64, mu_b[i] as f64);
-        let va = (saa[i] as f64 - ma * ma).max(0.0);
-        let vb = (sbb[i] as f64 - mb * mb).max(0.0);
-        let cov = sab[i] as f64 - ma * mb;
-        sum +=
-            ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
-    }
-    sum / a.len().max(1) as f64
-}
-
-/// Box-average an image down so its long side is at most [`VIEWING_PX`].
-fn shrink(v: &[f32], w: u32, h: u32) -> (Vec<f32>, u32, u32) {
-    let k = w.max(h).div_ceil(VIEWING_PX).max(1);
-    let (sw, sh) = (w.div_ceil(k), h.div_ceil(k));
-    let mut sum = vec![0f32; (sw * sh) as usize];
-    let mut cnt = vec![0u32; (sw * sh) as usize];
-    for y in 0..h {
-        for x in 0..w {
-            let j = ((y / k) * sw + x / k) as usize;
-            sum[j] += v[(y * w + x) as usize];
-            cnt[j] += 1;
-        }
-    }
-    (
-        sum.iter().zip(&cnt).map(|(s, &c)| s / c as f32).collect(),
-        sw,
-        sh,
-    )
-}
-
-/// Separable Gaussian blur, σ = 1.5 px, 11 taps, edges clamped.
-fn blur(v: &[f32], w: u32, h: u32) -> Vec<f32> {
-    let taps: Vec<f32> = (-5i32..=5)
-        .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
-        .collect();
-    let norm: f32 = taps.iter().sum();
-    let (w, h) = (w as i32, h as i32);
-    let pass = |src: &[f32], horizontal: bool| -> Vec<f32> {
-        let mut out = vec![0f32; src.len()];
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0.0;
-                for (t, d) in taps.iter().zip(-5i32..=5) {
-                    let (sx, sy) = if horizontal {
-                        ((x + d).clamp(0, w - 1), y)
-                    } else {
-                        (x, (y + d).clamp(0, h - 1))
-                    };
-                    s += t * src[(sy * w + sx) as usize];
-                }
-                out[(y * w + x) as usize] = s / norm;
-            }
-        }
-        out
-    };
-    pass(&pass(v, true), false)
 }
 
 /// The files of a set, by name (folders included), encoded in memory: each stencil's files as
@@ -1198,75 +801,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn multi_otsu_finds_the_gaps_between_populations() {
-        let mut g = Gray::new(300, 1, 0.0);
-        for x in 0..300 {
-            g.data[x] = [0.1, 0.5, 0.9][x / 100];
-        }
-        let l = multi_otsu(&g, 3);
-        assert_eq!(l.len(), 2);
-        let v = |f: f32| (f * 255.0).round() as u8;
-        assert!(l[0] > v(0.1) && l[0] <= v(0.5), "{l:?}");
-        assert!(l[1] > v(0.5) && l[1] <= v(0.9), "{l:?}");
-    }
-
-    #[test]
-    fn lab_round_trips() {
-        for c in [
-            [255u8, 0, 0],
-            [10, 200, 30],
-            [128, 128, 128],
-            [250, 250, 250],
-        ] {
-            let back = srgb(lab(c.map(|v| v as f32 / 255.0)));
-            for i in 0..3 {
-                assert!((back[i] as i32 - c[i] as i32).abs() <= 1, "{c:?} {back:?}");
-            }
-        }
-    }
-
-    #[test]
-    fn kmeans_tones_order_light_to_dark_and_threshold_to_clusters() {
-        // Three colours of different lightness: red, pale yellow, dark blue.
-        let cols = [[0.9f32, 0.1, 0.1], [0.95, 0.95, 0.6], [0.1, 0.1, 0.4]];
-        let rgb: Vec<[f32; 3]> = (0..300).map(|i| cols[i / 100]).collect();
-        let luma = Gray::new(300, 1, 0.5);
-        let lc = LayersConfig {
-            count: 2,
-            ..Default::default()
-        };
-        let t = posterise(&luma, Some(&rgb), &lc).unwrap();
-        assert_eq!(t.method, Method::KmeansLab);
-        assert!(t.levels[0] > t.levels[1]);
-        // Yellow is the surface, red layer 1, blue layer 2.
-        assert_eq!(t.tone_of(t.gray.data[150]), 0);
-        assert_eq!(t.tone_of(t.gray.data[50]), 1);
-        assert_eq!(t.tone_of(t.gray.data[250]), 2);
-        assert!(t.colors[2][2] > t.colors[2][0], "blue {:?}", t.colors[2]);
-    }
-
-    #[test]
-    fn levels_given_are_checked() {
-        let g = Gray::new(4, 4, 0.5);
-        let lc = |levels: Vec<u8>| LayersConfig {
-            count: 2,
-            levels,
-            ..Default::default()
-        };
-        assert!(matches!(
-            posterise(&g, None, &lc(vec![100])),
-            Err(LayersError::Levels { given: 1, count: 2 })
-        ));
-        assert!(matches!(
-            posterise(&g, None, &lc(vec![90, 90])),
-            Err(LayersError::SameLevel(90))
-        ));
-        let t = posterise(&g, None, &lc(vec![90, 200])).unwrap();
-        assert_eq!(t.levels, vec![200, 90]);
-        assert_eq!(t.method, Method::LevelsGiven);
-    }
-
-    #[test]
     fn marks_sit_in_the_band() {
         let m = Marks::new(400, 300, 0.1, 0.5);
         assert_eq!(m.line_mm, 1.0);
@@ -1282,13 +816,5 @@ mod tests {
         let c = (m.crosses_mm[0][0] / 0.1) as u32;
         assert!(!bits.get(c, c));
         assert!(bits.get(1, 1));
-    }
-
-    #[test]
-    fn likeness_is_one_for_the_same_and_lower_for_noise() {
-        let a: Vec<f32> = (0..400).map(|i| ((i % 20) as f32) / 20.0).collect();
-        assert!((likeness(&a, &a, 20, 20) - 1.0).abs() < 1e-9);
-        let b: Vec<f32> = a.iter().map(|v| 1.0 - v).collect();
-        assert!(likeness(&a, &b, 20, 20) < 0.5);
     }
 }

@@ -919,7 +919,7 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
         1
     };
     let (small, small_look, sp) = if d > 1 {
-        let g = shrink_gray(gray, d);
+        let g = crate::raster::box_average(gray.width, gray.height, d, |i| gray.data[i]);
         let l = tone::Likeness::of(&g);
         let sp = CleanParams {
             regularize_px: p.regularize_px.map(|w| (w / d as f64).max(1.0)),
@@ -990,25 +990,6 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
             tried,
         },
     )
-}
-
-/// `g` box-averaged by `d` (partial boxes at the edges averaged over what they hold).
-fn shrink_gray(g: &Gray, d: u32) -> Gray {
-    let (w, h) = (g.width.div_ceil(d), g.height.div_ceil(d));
-    let mut out = Gray::new(w, h, 0.0);
-    for y in 0..h {
-        for x in 0..w {
-            let (mut s, mut n) = (0f32, 0f32);
-            for sy in y * d..((y + 1) * d).min(g.height) {
-                for sx in x * d..((x + 1) * d).min(g.width) {
-                    s += g.get(sx, sy);
-                    n += 1.0;
-                }
-            }
-            out.set(x, y, s / n);
-        }
-    }
-    out
 }
 
 /// Stage 4: the clean-up the material needs: the design-rule regularisation to its smallest

@@ -1,6 +1,7 @@
 //! The cost `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` of a bridge placed at a candidate: one function per
-//! term, named after it, and [`score_with`], which evaluates them over the leftward, centred and
-//! rightward windows along the border and keeps the cheapest.
+//! term, named after it (ΣI, [`super::strips::intensity`], is measured on each strip as it is
+//! made), and [`score_with`], which evaluates them over the leftward, centred and rightward
+//! windows along the border and keeps the cheapest.
 //!
 //! Normalisation (so that a weight of 1 means "as much as a typical strip"): let `L̃` be the median
 //! strip length (pixels) over the image.
@@ -26,18 +27,6 @@ use crate::raster::Gray;
 /// κ ≈ 0.8/n, so with fewer than ~15 a staircase looks as curved as a 20 px radius bend. κ
 /// therefore uses `max(width, 15)` candidates (same alignment as the other terms' window).
 pub(crate) const KAPPA_MIN_WINDOW: usize = 15;
-
-/// ΣI: sum over the strip's pixels of the squared difference between the grayscale and white
-/// (the bridge turns them white).
-pub(crate) fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
-    pixels
-        .iter()
-        .map(|&p| {
-            let d = 1.0 - gray.data[p as usize] as f64;
-            d * d
-        })
-        .sum()
-}
 
 /// L^α: small for short strips, growing faster than linearly for long ones (1 < α < 2).
 pub(crate) fn length(len_px: f64, alpha: f64) -> f64 {
@@ -179,7 +168,7 @@ impl Norm {
 /// both weights 0 the search still finds a shortest path (and never a zero-cost detour).
 const STEP_FLOOR: f32 = 1e-3;
 
-/// The cost of one pixel of a path found by the fallback search ([`super::strips::search`]),
+/// The cost of one pixel of a path found by the fallback search ([`super::search::search`]),
 /// which runs Dijkstra and so needs a cost that adds up pixel by pixel. It is the strip cost's
 /// intensity and length terms per pixel, in units of ΣI (both multiplied by L̃):
 /// `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)`. L^α itself does not add up; its slope at the length
@@ -329,18 +318,6 @@ pub(crate) fn score_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn intensity_is_the_squared_distance_from_white() {
-        let gray = Gray {
-            width: 4,
-            height: 1,
-            data: vec![0.0, 0.5, 1.0, 0.25],
-        };
-        let v = intensity(&gray, &[0, 1, 2, 3]);
-        assert!((v - (1.0 + 0.25 + 0.0 + 0.5625)).abs() < 1e-9);
-        assert_eq!(intensity(&gray, &[2]), 0.0);
-    }
 
     #[test]
     fn length_penalty_grows_faster_than_linear() {

@@ -30,7 +30,8 @@
 use rayon::prelude::*;
 
 use super::candidates::Candidates;
-use super::strips::{self, Fields, Reach, Strip};
+use super::reach::Reach;
+use super::strips::{self, Fields, Strip};
 use crate::islands::{IslandMap, FRAME};
 use crate::raster::BitGrid;
 

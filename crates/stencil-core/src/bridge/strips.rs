@@ -7,18 +7,26 @@
 //! traversals (Amanatides & Woo), one edge neighbour at a time, so a strip is 4-connected by
 //! construction, and it ends on a cut pixel that has material of another node (or the sheet beyond
 //! the image) as an edge neighbour, so setting its pixels to material joins both nodes 4-connectedly.
-//!
-//! [`search`] is the fallback for a group of nodes no walk leaves: the cheapest path through the
-//! cut, of any length, to another node or to the image edge (the sheet beyond the picture), so
-//! every island can be joined.
-
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+//! The paper's stage 3, first half ("from each candidate, walk through the cut along the
+//! grayscale gradient"). Walks stop early where no other node is within their remaining length
+//! ([`Reach`]); a group no walk leaves is joined by [`super::search`].
 
 use super::candidates::Candidates;
-use super::cost::StepCost;
+use super::reach::Reach;
 use crate::islands::{IslandMap, CUT, FRAME};
 use crate::raster::{BitGrid, Gray, TwoTone};
+
+/// ΣI, the cost's intensity term (`super::cost`): sum over the strip's pixels of the squared difference between the grayscale and white
+/// (the bridge turns them white).
+pub(crate) fn intensity(gray: &Gray, pixels: &[u32]) -> f64 {
+    pixels
+        .iter()
+        .map(|&p| {
+            let d = 1.0 - gray.data[p as usize] as f64;
+            d * d
+        })
+        .sum()
+}
 
 /// A one-pixel-wide chain of cut pixels from a candidate of `from` to material of `to`.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,7 +38,7 @@ pub(crate) struct Strip {
     /// Where the strip lands: the material pixel of `to` beside its last pixel (may lie one pixel
     /// outside the image when `to` is the sheet beyond the image).
     pub(crate) end: (i64, i64),
-    /// ΣI, the intensity error of its pixels (see [`super::cost::intensity`]).
+    /// ΣI, the intensity error of its pixels (see [`intensity`]).
     pub(crate) intensity: f64,
 }
 
@@ -110,13 +118,13 @@ impl<'a> Fields<'a> {
 
     /// Whether a strip may not cross pixel (x, y) (inside the image).
     #[inline]
-    fn blocked(&self, x: i64, y: i64) -> bool {
+    pub(super) fn blocked(&self, x: i64, y: i64) -> bool {
         self.forbidden
             .is_some_and(|f| self.inside(x, y) && f.data[(y * self.width + x) as usize])
     }
 
     #[inline]
-    fn inside(&self, x: i64, y: i64) -> bool {
+    pub(super) fn inside(&self, x: i64, y: i64) -> bool {
         x >= 0 && y >= 0 && x < self.width && y < self.height
     }
 
@@ -264,282 +272,8 @@ impl<'a> Fields<'a> {
 
     /// Material test; outside the image is the frame.
     #[inline]
-    fn material(&self, x: i64, y: i64) -> bool {
+    pub(super) fn material(&self, x: i64, y: i64) -> bool {
         !self.inside(x, y) || self.bits.data[(y * self.width + x) as usize]
-    }
-}
-
-/// Side of the square blocks of the walks' [`Reach`]: 2^3 = 8 pixels. (4-pixel blocks bound the
-/// walks tighter, but on the stages bench the walks' CPU did not measurably drop while the
-/// build's rose by half again: 8 stays. The tests cover both sizes.)
-const WALK_SHIFT: u32 = 3;
-/// Side of the square blocks of the gaps' [`Reach::chebyshev`]: 2^3 = 8 pixels.
-const GAP_SHIFT: u32 = 3;
-/// A label [`Reach`] gives a block holding the shores of two or more nodes besides the first one
-/// it saw: "some node other than that one", never a walk's own.
-const MANY: u32 = u32::MAX - 1;
-
-/// A lower bound on how far (in 4-connected steps, the L1 distance) a pixel is from the material
-/// a walk of a given node can arrive at, another node's: most failed walks run their whole length
-/// limit through open cut (on the 1 MP photo, 60 % of all walk steps were in such walks), and
-/// this stops them as soon as no other node is within what is left of it.
-///
-/// A walk arrives beside material of another node, which is then a border pixel of that node (it
-/// has the walk's cut pixel as an edge neighbour), or beside the frame beyond the image, next to a
-/// pixel on the image's edge. So the shores are the nodes' border lists and the image's edge. They
-/// are gathered per square block of `B` pixels (8 for both, a parameter of the build), and over the
-/// blocks a distance transform from every block with a shore keeps, per block, the two nearest
-/// *distinct* labels (two in all: the two values it keeps are the two least distances to distinct
-/// labels, whichever labels tie). A block with shores of several nodes counts as two sources, its
-/// first node and [`MANY`]. The nearest other node of `own` is then the first label's distance
-/// unless that label is `own`, else the second's. Blocks `D` apart (4-connected, L1) hold pixels at
-/// least `(D − 2)·B + 2` apart (1 for neighbours, 0 in one block). O(blocks + shore pixels): about
-/// 16 000 blocks of 8 px on 1 MP, and nothing per pixel.
-///
-/// The transform is two raster passes (forward from the left and upper neighbours, backward from
-/// the right and lower ones; with corners, the diagonal ones too), the classic exact city-block and
-/// chessboard distance transform: every shortest block path is a forward part then a backward
-/// part. Keeping two labels per block stays exact: a label a block drops is beaten there by two
-/// others, which follow it along any path onward at no greater distance. Sequential over the rows,
-/// no queue: about a third cheaper than the breadth-first search it replaced (which the tests
-/// keep, to compare).
-#[derive(Clone, Debug)]
-pub(crate) struct Reach {
-    /// Blocks are 2^shift pixels square.
-    shift: u32,
-    /// Blocks per row.
-    across: usize,
-    /// Per block: the nearest label, the bound to it, the bound to the nearest other label, in
-    /// pixels (`u32::MAX`: none).
-    cells: Vec<(u32, u32, u32)>,
-}
-
-/// Per block, while building: up to two (label, distance in blocks), nearest first; `CUT`: none.
-type Slots = [(u32, u32); 2];
-
-/// Offers `label` at `d` blocks to a block's two nearest distinct labels.
-#[inline(always)]
-fn offer(s: &mut Slots, label: u32, d: u32) {
-    if s[0].0 == label {
-        s[0].1 = s[0].1.min(d);
-    } else if s[1].0 == label {
-        if d < s[1].1 {
-            s[1].1 = d;
-            if d < s[0].1 {
-                s.swap(0, 1);
-            }
-        }
-    } else if d < s[1].1 {
-        s[1] = (label, d);
-        if d < s[0].1 {
-            s.swap(0, 1);
-        }
-    }
-}
-
-/// Offers block `from`'s labels, one block farther, to block `to`.
-#[inline(always)]
-fn pull(slots: &mut [Slots], to: usize, from: usize) {
-    let f = slots[from];
-    if f[0].0 != CUT {
-        offer(&mut slots[to], f[0].0, f[0].1 + 1);
-        if f[1].0 != CUT {
-            offer(&mut slots[to], f[1].0, f[1].1 + 1);
-        }
-    }
-}
-
-impl Reach {
-    /// The bound on the L1 distance, for the walks (4-connected steps).
-    pub(crate) fn new(map: &IslandMap) -> Reach {
-        Reach::build(map, WALK_SHIFT, false)
-    }
-
-    /// The bound on the Chebyshev distance (and so on the Euclidean one), for the shortest gaps
-    /// (`gaps`): the same search over blocks 8-connected, where blocks `D` apart hold pixels at
-    /// least `(D − 1)·B + 1` apart along one axis.
-    pub(crate) fn chebyshev(map: &IslandMap) -> Reach {
-        Reach::build(map, GAP_SHIFT, true)
-    }
-
-    /// The blocks' shores: per block, its first label at distance 0 and [`MANY`] if it has more.
-    fn sources(map: &IslandMap, shift: u32) -> (usize, usize, Vec<Slots>) {
-        let (w, h) = (map.width as usize, map.height as usize);
-        let b = 1usize << shift;
-        let (across, down) = (w.div_ceil(b), h.div_ceil(b));
-        let n = across * down;
-        let mut slots = vec![[(CUT, u32::MAX); 2]; n];
-        let mut seen = |k: usize, l: u32| {
-            let s = &mut slots[k];
-            if s[0].0 == CUT {
-                s[0] = (l, 0);
-            } else if s[0].0 != l {
-                s[1] = (MANY, 0);
-            }
-        };
-        let s = shift;
-        for (node, nd) in map.nodes.iter().enumerate() {
-            for &(x, y) in &nd.border {
-                seen((y >> s) as usize * across + (x >> s) as usize, node as u32);
-            }
-        }
-        if n > 0 {
-            for bx in 0..across {
-                seen(bx, FRAME);
-                seen((down - 1) * across + bx, FRAME);
-            }
-            for by in 0..down {
-                seen(by * across, FRAME);
-                seen(by * across + across - 1, FRAME);
-            }
-        }
-        (across, down, slots)
-    }
-
-    fn build(map: &IslandMap, shift: u32, corners: bool) -> Reach {
-        let (across, down, mut slots) = Reach::sources(map, shift);
-        for by in 0..down {
-            for bx in 0..across {
-                let k = by * across + bx;
-                if bx > 0 {
-                    pull(&mut slots, k, k - 1);
-                }
-                if by > 0 {
-                    pull(&mut slots, k, k - across);
-                    if corners {
-                        if bx > 0 {
-                            pull(&mut slots, k, k - across - 1);
-                        }
-                        if bx + 1 < across {
-                            pull(&mut slots, k, k - across + 1);
-                        }
-                    }
-                }
-            }
-        }
-        for by in (0..down).rev() {
-            for bx in (0..across).rev() {
-                let k = by * across + bx;
-                if bx + 1 < across {
-                    pull(&mut slots, k, k + 1);
-                }
-                if by + 1 < down {
-                    pull(&mut slots, k, k + across);
-                    if corners {
-                        if bx + 1 < across {
-                            pull(&mut slots, k, k + across + 1);
-                        }
-                        if bx > 0 {
-                            pull(&mut slots, k, k + across - 1);
-                        }
-                    }
-                }
-            }
-        }
-        Reach::finish(&slots, across, shift, corners)
-    }
-
-    /// The blocks' distances in pixels.
-    fn finish(slots: &[Slots], across: usize, shift: u32, corners: bool) -> Reach {
-        let b = 1u32 << shift;
-        let px = |d: u32| match d {
-            0 => 0,
-            u32::MAX => u32::MAX,
-            d if corners => (d - 1) * b + 1,
-            1 => 1,
-            d => (d - 2) * b + 2,
-        };
-        Reach {
-            shift,
-            across,
-            cells: slots
-                .iter()
-                .map(|s| (s[0].0, px(s[0].1), px(s[1].1)))
-                .collect(),
-        }
-    }
-
-    /// The breadth-first build the two passes replaced, to compare against in the tests.
-    #[cfg(test)]
-    fn build_bfs(map: &IslandMap, shift: u32, corners: bool) -> Reach {
-        let (across, down, seeds) = Reach::sources(map, shift);
-        let n = across * down;
-        // Breadth first over the blocks: (block, label) in order of distance.
-        let mut slots = vec![[(CUT, u32::MAX); 2]; n];
-        let mut queue = std::collections::VecDeque::new();
-        for k in 0..n {
-            for &(l, d) in &seeds[k] {
-                if l != CUT {
-                    slots[k][if l == MANY { 1 } else { 0 }] = (l, d);
-                    queue.push_back((k as u32, l));
-                }
-            }
-        }
-        while let Some((k, l)) = queue.pop_front() {
-            let k = k as usize;
-            let d = if slots[k][0].0 == l {
-                slots[k][0].1
-            } else {
-                slots[k][1].1
-            };
-            let (bx, by) = (k % across, k / across);
-            let mut visit = |j: usize| {
-                let s = &mut slots[j];
-                if s[0].0 == l || s[1].0 == l {
-                    return;
-                }
-                let slot = if s[0].0 == CUT {
-                    &mut s[0]
-                } else if s[1].0 == CUT {
-                    &mut s[1]
-                } else {
-                    return;
-                };
-                *slot = (l, d + 1);
-                queue.push_back((j as u32, l));
-            };
-            if bx > 0 {
-                visit(k - 1);
-            }
-            if bx + 1 < across {
-                visit(k + 1);
-            }
-            if by > 0 {
-                visit(k - across);
-            }
-            if by + 1 < down {
-                visit(k + across);
-            }
-            if corners {
-                if bx > 0 && by > 0 {
-                    visit(k - across - 1);
-                }
-                if bx + 1 < across && by > 0 {
-                    visit(k - across + 1);
-                }
-                if bx > 0 && by + 1 < down {
-                    visit(k + across - 1);
-                }
-                if bx + 1 < across && by + 1 < down {
-                    visit(k + across + 1);
-                }
-            }
-        }
-        Reach::finish(&slots, across, shift, corners)
-    }
-
-    /// At least this many 4-connected steps (the L1 distance; for [`Reach::chebyshev`], the
-    /// Chebyshev distance) lead from pixel (x, y) (inside the image) to any border pixel of a node
-    /// other than `own`, or to the frame beyond the image.
-    #[inline]
-    pub(crate) fn bound(&self, x: i64, y: i64, own: u32) -> u32 {
-        let k = (y as usize >> self.shift) * self.across + (x as usize >> self.shift);
-        let (near, first, second) = self.cells[k];
-        if near != own {
-            first
-        } else {
-            second
-        }
     }
 }
 
@@ -673,7 +407,7 @@ fn walk_steered(
     loop {
         pixels.push((py * w + px) as u32);
         if let Some((end, to)) = f.arrival(px, py, own) {
-            let intensity = super::cost::intensity(f.gray, pixels);
+            let intensity = intensity(f.gray, pixels);
             return Ok(Strip {
                 from: own,
                 to,
@@ -818,251 +552,23 @@ fn next_pixel(
     (Some((r.0, r.1)) != prev).then_some(r)
 }
 
-/// Reusable buffers of [`search`]: a path cost and a predecessor per pixel, allocated on the first
-/// search of a run (8 bytes per pixel, only when some island needs the fallback) and reset only
-/// where a search wrote, so that many small searches cost what they explore, not the image.
-#[derive(Default)]
-pub(crate) struct SearchScratch {
-    dist: Vec<f32>,
-    parent: Vec<u32>,
-    touched: Vec<u32>,
-    /// (cost bits << 32 | pixel): a non-negative f32's bits order as the number does.
-    heap: BinaryHeap<Reverse<u64>>,
-}
-
-impl SearchScratch {
-    fn prepare(&mut self, pixels: usize) {
-        if self.dist.len() != pixels {
-            self.dist = vec![f32::INFINITY; pixels];
-            self.parent = vec![u32::MAX; pixels];
-        } else {
-            for &i in &self.touched {
-                self.dist[i as usize] = f32::INFINITY;
-            }
-        }
-        self.touched.clear();
-        self.heap.clear();
-    }
-
-    #[inline]
-    fn relax(&mut self, i: u32, d: f32, from: u32) {
-        let slot = &mut self.dist[i as usize];
-        if d < *slot {
-            if slot.is_infinite() {
-                self.touched.push(i);
-            }
-            *slot = d;
-            self.parent[i as usize] = from;
-            self.heap
-                .push(Reverse(((d.to_bits() as u64) << 32) | i as u64));
-        }
-    }
-}
-
-/// The fallback when no walk leaves a group of nodes: the cheapest path through the cut from the
-/// border of every node in `group` (a mask over nodes) to material of a node outside it or to the
-/// image edge (the sheet continues beyond the picture, and the frame is never in a stranded
-/// group), of any length. Dijkstra over the cut pixels, each priced by `step` (darker and longer
-/// costs more, see [`StepCost`]), then straightened (`straighten`). Returns the start candidate
-/// pixel and the strip.
-///
-/// Such a path always exists: the rightmost group pixel of any row has cut to its right, and that
-/// row leads through cut to another node or to the image edge. `None` therefore means the labels
-/// do not describe the bits. Work and memory are O(pixels) at worst (each cut pixel is settled
-/// once, a heap entry per improvement), and the search stops at the first arrival, so it explores
-/// only the cut closer (in cost) to the group than the nearest other node.
-pub(crate) fn search(
-    f: &Fields,
-    map: &IslandMap,
-    group: &[bool],
-    step: &StepCost,
-    scratch: &mut SearchScratch,
-) -> Option<((u32, u32), Strip)> {
-    let w = f.width;
-    scratch.prepare((f.width * f.height) as usize);
-    let cost = |i: u32| step.at(f.gray, i);
-    for (n, node) in map.nodes.iter().enumerate() {
-        if !group[n] {
-            continue;
-        }
-        for &(x, y) in &node.border {
-            let (x, y) = (x as i64, y as i64);
-            for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
-                let (nx, ny) = (x + dx, y + dy);
-                if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
-                    let i = (ny * w + nx) as u32;
-                    scratch.relax(i, cost(i), (y * w + x) as u32);
-                }
-            }
-        }
-    }
-    let in_group = |l: u32| (l as usize) < group.len() && group[l as usize];
-    while let Some(Reverse(key)) = scratch.heap.pop() {
-        let (d, i) = (f32::from_bits((key >> 32) as u32), key as u32);
-        if d > scratch.dist[i as usize] {
-            continue; // superseded by a cheaper entry
-        }
-        let (x, y) = ((i as i64) % w, (i as i64) / w);
-        for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
-            let (nx, ny) = (x + dx, y + dy);
-            let l = f.label(nx, ny);
-            if l != CUT && !in_group(l) {
-                // Arrived: walk the predecessors back to the start.
-                let mut pixels = vec![i];
-                let mut cur = i;
-                let start = loop {
-                    let p = scratch.parent[cur as usize];
-                    if f.labels[p as usize] != CUT {
-                        break p;
-                    }
-                    pixels.push(p);
-                    cur = p;
-                };
-                pixels.reverse();
-                let pixels = straighten(f, &pixels, step);
-                let (sx, sy) = ((start as i64 % w) as u32, (start as i64 / w) as u32);
-                let from = f.labels[start as usize];
-                let intensity = super::cost::intensity(f.gray, &pixels);
-                return Some((
-                    (sx, sy),
-                    Strip {
-                        from,
-                        to: l,
-                        pixels,
-                        end: (nx, ny),
-                        intensity,
-                    },
-                ));
-            }
-        }
-        for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
-            let (nx, ny) = (x + dx, y + dy);
-            if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
-                let j = (ny * w + nx) as u32;
-                scratch.relax(j, d + cost(j), i);
-            }
-        }
-    }
-    None
-}
-
-/// A searched path made straight where that costs nothing: a 4-connected path has many equally
-/// cheap shapes (over flat gray every monotone staircase between two pixels costs the same), and
-/// Dijkstra keeps an arbitrary one. From each anchor, the path is replaced by the straight
-/// 4-connected line ([`line4`]) to the farthest later path pixel such that the line crosses only
-/// cut and costs no more than the stretch it replaces (found by doubling, then bisection: O(n log
-/// n) pixel reads for a path of n). The ends stay where they were, and since no pixel of the
-/// result is cheaper to reach than along the search's own order, it arrives nowhere earlier.
-fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
-    let n = path.len();
-    if n < 3 {
-        return path.to_vec();
-    }
-    let w = f.width;
-    let xy = |p: u32| (p as i64 % w, p as i64 / w);
-    let mut prefix = Vec::with_capacity(n + 1);
-    prefix.push(0.0f64);
-    for (k, &p) in path.iter().enumerate() {
-        prefix.push(prefix[k] + step.at(f.gray, p) as f64);
-    }
-    let fits = |a: usize, b: usize| {
-        let budget = prefix[b + 1] - prefix[a] + 1e-6;
-        let mut cost = 0.0f64;
-        line4(xy(path[a]), xy(path[b]), |x, y| {
-            if f.material(x, y) || f.blocked(x, y) {
-                cost = f64::INFINITY;
-                return false;
-            }
-            cost += step.at(f.gray, (y * w + x) as u32) as f64;
-            cost <= budget
-        }) && cost <= budget
-    };
-    let mut out = vec![path[0]];
-    let mut a = 0;
-    while a + 1 < n {
-        // Path neighbours always fit: gallop from there, then bisect up to the first misfit.
-        let (mut good, mut span, mut bad) = (a + 1, 2, None);
-        while bad.is_none() && good < n - 1 {
-            let j = (a + span).min(n - 1);
-            if fits(a, j) {
-                good = j;
-                span *= 2;
-            } else {
-                bad = Some(j);
-            }
-        }
-        if let Some(mut hi) = bad {
-            while hi - good > 1 {
-                let mid = (good + hi) / 2;
-                if fits(a, mid) {
-                    good = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-        }
-        let mut first = true;
-        line4(xy(path[a]), xy(path[good]), |x, y| {
-            if !std::mem::take(&mut first) {
-                out.push((y * w + x) as u32);
-            }
-            true
-        });
-        a = good;
-    }
-    out
-}
-
-/// The 4-connected digital line from pixel `a` to pixel `b`, both included (|dx| + |dy| + 1
-/// pixels): each step goes along the axis whose next pixel boundary the straight segment between
-/// the pixel centres crosses first (on a tie, vertically). `visit` returns false to stop; the
-/// result says whether the line was visited to its end.
-fn line4(a: (i64, i64), b: (i64, i64), mut visit: impl FnMut(i64, i64) -> bool) -> bool {
-    let (nx, ny) = ((b.0 - a.0).abs(), (b.1 - a.1).abs());
-    let (sx, sy) = ((b.0 - a.0).signum(), (b.1 - a.1).signum());
-    let (mut x, mut y, mut ix, mut iy) = (a.0, a.1, 0, 0);
-    if !visit(x, y) {
-        return false;
-    }
-    while ix < nx || iy < ny {
-        // Crossing the next vertical boundary at t = (ix + ½)/nx, the next horizontal one at
-        // (iy + ½)/ny; compared without division.
-        if (1 + 2 * ix) * ny < (1 + 2 * iy) * nx {
-            x += sx;
-            ix += 1;
-        } else {
-            y += sy;
-            iy += 1;
-        }
-        if !visit(x, y) {
-            return false;
-        }
-    }
-    true
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::bridge::candidates::collect;
+    use crate::bridge::tests::{four_connected, random_picture, rng, two};
     use crate::islands::label;
-    use crate::raster::Gray;
-    use crate::test_rng::Lcg;
 
-    fn two(rows: &[&str]) -> TwoTone {
-        crate::bridge::tests::black_white(BitGrid::from_fn(
-            rows[0].len() as u32,
-            rows.len() as u32,
-            |x, y| rows[y as usize].as_bytes()[x as usize] == b'#',
-        ))
-    }
-
-    fn four_connected(pixels: &[u32], w: u32) -> bool {
-        pixels.windows(2).all(|p| {
-            let (a, b) = (p[0], p[1]);
-            let (ax, ay, bx, by) = (a % w, a / w, b % w, b / w);
-            ax.abs_diff(bx) + ay.abs_diff(by) == 1
-        })
+    #[test]
+    fn intensity_is_the_squared_distance_from_white() {
+        let gray = Gray {
+            width: 4,
+            height: 1,
+            data: vec![0.0, 0.5, 1.0, 0.25],
+        };
+        let v = intensity(&gray, &[0, 1, 2, 3]);
+        assert!((v - (1.0 + 0.25 + 0.0 + 0.5625)).abs() < 1e-9);
+        assert_eq!(intensity(&gray, &[2]), 0.0);
     }
 
     #[test]
@@ -1122,294 +628,6 @@ mod tests {
             }
         }
         assert_eq!(ok, m.nodes[1].border.len());
-    }
-
-    #[test]
-    fn too_long_walks_are_dropped_and_search_finds_the_shortest_path() {
-        let t = two(&[
-            "############",
-            "#..........#",
-            "#..........#",
-            "#...##.....#",
-            "#...##.....#",
-            "#..........#",
-            "############",
-        ]);
-        let m = label(&t.bits);
-        let f = Fields::new(&t, &m);
-        let c = collect(&m);
-        let id = c.id_at(&m, 1, 4, 3).unwrap();
-        assert_eq!(walk_candidate(&f, &c, id, 1), Err(WalkEnd::TooLong));
-        let mut group = vec![false; m.nodes.len()];
-        group[1] = true;
-        let step = StepCost {
-            intensity: 1.0,
-            length: 1.0,
-        };
-        let mut scratch = SearchScratch::default();
-        let (start, s) = search(&f, &m, &group, &step, &mut scratch).unwrap();
-        assert_eq!(s.to, FRAME);
-        // The island's bottom row is one cut pixel above the frame's bottom row.
-        assert_eq!(s.len(), 1, "{start:?}");
-        assert_eq!(start.1, 4);
-        // The scratch is reset between searches: the same search again finds the same strip.
-        assert_eq!(
-            search(&f, &m, &group, &step, &mut scratch).unwrap(),
-            (start, s)
-        );
-    }
-
-    #[test]
-    fn search_prefers_light_gray_to_a_shorter_path_over_black_when_told_to() {
-        // A bar island 10 cut pixels from the left image edge over black, 29 from the right one
-        // along a corridor of light gray, 25 from the top and bottom over black.
-        let (w, h) = (40u32, 61u32);
-        let bits = BitGrid::from_fn(w, h, |x, y| x == 10 && (25..36).contains(&y));
-        let gray = Gray {
-            width: w,
-            height: h,
-            data: (0..w * h)
-                .map(|i| {
-                    let (x, y) = (i % w, i / w);
-                    if x > 10 && (25..36).contains(&y) {
-                        0.95
-                    } else {
-                        0.0
-                    }
-                })
-                .collect(),
-        };
-        let t = TwoTone {
-            bits,
-            gray: gray.into(),
-        };
-        let m = label(&t.bits);
-        let f = Fields::new(&t, &m);
-        let group = [false, true];
-        let mut scratch = SearchScratch::default();
-        let mut find = |intensity, length| {
-            search(
-                &f,
-                &m,
-                &group,
-                &StepCost { intensity, length },
-                &mut scratch,
-            )
-            .unwrap()
-            .1
-        };
-        // Darkness priced: right, over the gray, to beyond the right edge.
-        let light = find(1.0, 0.1);
-        assert_eq!((light.len(), light.end.0), (29, 40), "{light:?}");
-        // Length only: the short way, left.
-        let short = find(0.0, 1.0);
-        assert_eq!((short.len(), short.end.0), (10, -1), "{short:?}");
-        assert!(light.intensity < short.intensity);
-    }
-
-    #[test]
-    fn a_searched_path_is_straightened_where_that_costs_nothing() {
-        // A one-pixel island in the middle of a black field, 50 px from the image edge; the
-        // nearest other material is the tip of a frame spike 20 px right and 15 px down. Over flat
-        // black every monotone staircase there costs the same; the strip is the straight one.
-        let n = 101u32;
-        let bits = BitGrid::from_fn(n, n, |x, y| (x == 50 && y == 50) || (x == 70 && y >= 65));
-        let t = crate::bridge::tests::black_white(bits);
-        let m = label(&t.bits);
-        assert_eq!(m.island_count(), 1);
-        let f = Fields::new(&t, &m);
-        let group: Vec<bool> = (0..m.nodes.len()).map(|k| k == 1).collect();
-        let step = StepCost {
-            intensity: 1.0,
-            length: 1.0,
-        };
-        let (start, s) = search(&f, &m, &group, &step, &mut SearchScratch::default()).unwrap();
-        assert_eq!((start, s.to), ((50, 50), FRAME));
-        assert_eq!(
-            s.len(),
-            34,
-            "the shortest 4-connected way: 20 + 15 - 1 pixels"
-        );
-        assert!(four_connected(&s.pixels, n));
-        let xy = |p: u32| ((p % n) as f64, (p / n) as f64);
-        let (a, b) = (xy(s.pixels[0]), xy(*s.pixels.last().unwrap()));
-        let len = (b.0 - a.0).hypot(b.1 - a.1);
-        for &p in &s.pixels {
-            let q = xy(p);
-            let off = ((q.0 - a.0) * (b.1 - a.1) - (q.1 - a.1) * (b.0 - a.0)).abs() / len;
-            assert!(
-                off <= 1.0,
-                "pixel {q:?} is {off:.2} px off the line {a:?}-{b:?}"
-            );
-        }
-    }
-
-    #[test]
-    fn a_digital_line_is_four_connected_and_joins_its_ends() {
-        for (a, b) in [
-            ((0, 0), (7, 3)),
-            ((5, 5), (5, -2)),
-            ((3, 1), (-4, 1)),
-            ((0, 0), (-6, -6)),
-        ] {
-            let mut px = Vec::new();
-            assert!(line4(a, b, |x, y| {
-                px.push((x, y));
-                true
-            }));
-            let (dx, dy): (i64, i64) = (b.0 - a.0, b.1 - a.1);
-            assert_eq!(px.len() as i64, dx.abs() + dy.abs() + 1);
-            assert_eq!((px[0], *px.last().unwrap()), (a, b));
-            assert!(px
-                .windows(2)
-                .all(|p| (p[0].0 - p[1].0).abs() + (p[0].1 - p[1].1).abs() == 1));
-            // Never farther than a pixel from the segment between the centres.
-            for &(x, y) in &px {
-                let cross = ((x - a.0) * dy - (y - a.1) * dx) as f64;
-                assert!(cross.abs() / (dx as f64).hypot(dy as f64) <= 1.0, "{px:?}");
-            }
-        }
-        // Stopped early.
-        let mut n = 0;
-        assert!(!line4((0, 0), (9, 0), |_, _| {
-            n += 1;
-            n < 3
-        }));
-        assert_eq!(n, 3);
-    }
-
-    /// Numbers for the random pictures below (31 bits each, the generator's high ones).
-    fn rng(seed: u64) -> impl FnMut() -> u64 {
-        let mut r = Lcg(seed);
-        move || r.next_u64() >> 33
-    }
-
-    /// Random specks and blobs of material (clustered, so there are islands of all sizes) over a
-    /// random gray, `w`×`h`.
-    fn random_picture(w: u32, h: u32, next: &mut impl FnMut() -> u64) -> TwoTone {
-        let centres: Vec<(i64, i64, i64)> = (0..(w * h / 150).max(2))
-            .map(|_| {
-                (
-                    (next() % w as u64) as i64,
-                    (next() % h as u64) as i64,
-                    (next() % 5) as i64,
-                )
-            })
-            .collect();
-        let bits = BitGrid::from_fn(w, h, |x, y| {
-            centres
-                .iter()
-                .any(|&(cx, cy, r)| (x as i64 - cx).pow(2) + (y as i64 - cy).pow(2) <= r * r)
-        });
-        let mut gray = Gray::new(w, h, 0.0);
-        let smooth = next().is_multiple_of(2);
-        for y in 0..h {
-            for x in 0..w {
-                let v = if smooth {
-                    ((x as f32 * 0.13).sin() + (y as f32 * 0.07).cos()) * 0.25 + 0.5
-                } else {
-                    (next() % 1000) as f32 / 1000.0
-                };
-                gray.set(x, y, v);
-            }
-        }
-        TwoTone {
-            bits,
-            gray: gray.into(),
-        }
-    }
-
-    /// [`Reach`] never claims more steps to another node's shore than there are (brute force
-    /// over every shore pixel and the points beyond the image's edge).
-    #[test]
-    fn reach_is_a_lower_bound_on_the_distance_to_another_nodes_shore() {
-        let mut next = rng(0x5eed_0f1a_b0b0_u64);
-        let mut positive = 0;
-        for k in 0..12u32 {
-            let (w, h) = (30 + k * 7 % 41, 25 + k * 11 % 37);
-            let t = random_picture(w, h, &mut next);
-            let m = label(&t.bits);
-            for shift in [2, 3] {
-                let r = Reach::build(&m, shift, false);
-                let rc = Reach::build(&m, shift, true);
-                let (wi, hi) = (w as i64, h as i64);
-                let mut shores: Vec<(i64, i64, u32)> = Vec::new();
-                for (n, node) in m.nodes.iter().enumerate() {
-                    shores.extend(
-                        node.border
-                            .iter()
-                            .map(|&(x, y)| (x as i64, y as i64, n as u32)),
-                    );
-                }
-                for x in 0..wi {
-                    shores.extend([(x, -1, FRAME), (x, hi, FRAME)]);
-                }
-                for y in 0..hi {
-                    shores.extend([(-1, y, FRAME), (wi, y, FRAME)]);
-                }
-                for y in 0..hi {
-                    for x in 0..wi {
-                        for own in 0..m.nodes.len() as u32 {
-                            let truth = shores
-                                .iter()
-                                .filter(|s| s.2 != own)
-                                .map(|s| ((s.0 - x).abs() + (s.1 - y).abs()) as u32)
-                                .min()
-                                .unwrap_or(u32::MAX);
-                            let b = r.bound(x, y, own);
-                            assert!(
-                                b <= truth,
-                                "picture {k} ({x}, {y}) own {own}: {b} > {truth}"
-                            );
-                            positive += (b > 0) as usize;
-                            let cheb = shores
-                                .iter()
-                                .filter(|s| s.2 != own)
-                                .map(|s| (s.0 - x).abs().max((s.1 - y).abs()) as u32)
-                                .min()
-                                .unwrap_or(u32::MAX);
-                            let b = rc.bound(x, y, own);
-                            assert!(b <= cheb, "picture {k} ({x}, {y}) own {own}: {b} > {cheb}");
-                            positive += (b > 0) as usize;
-                        }
-                    }
-                }
-            }
-        }
-        assert!(positive > 0, "the bound is not always 0");
-    }
-
-    /// The two-pass build bounds every block as the breadth-first search does (the same two
-    /// least distances, and the same nearest label where it is unique: so the same bound for
-    /// every `own`), on random pictures, both block sizes, with and without corners.
-    #[test]
-    fn reach_two_passes_are_the_breadth_first_search() {
-        let mut next = rng(0x2_9a55_u64);
-        let mut checked = 0;
-        for k in 0..40u32 {
-            let (w, h) = (1 + (next() % 150) as u32, 1 + (next() % 150) as u32);
-            let t = random_picture(w, h, &mut next);
-            let m = label(&t.bits);
-            for shift in [2, 3] {
-                for corners in [false, true] {
-                    let a = Reach::build(&m, shift, corners);
-                    let b = Reach::build_bfs(&m, shift, corners);
-                    assert_eq!(a.across, b.across);
-                    assert_eq!(a.cells.len(), b.cells.len());
-                    for (i, (p, q)) in a.cells.iter().zip(&b.cells).enumerate() {
-                        assert_eq!((p.1, p.2), (q.1, q.2), "picture {k} block {i}");
-                        if p.1 < p.2 {
-                            assert_eq!(p.0, q.0, "picture {k} block {i}");
-                        }
-                        checked += (p.2 < u32::MAX && p.2 > 0) as usize;
-                    }
-                }
-            }
-        }
-        assert!(
-            checked > 100,
-            "some blocks have two labels at a distance ({checked})"
-        );
     }
 
     /// Walks (steered and straight) give the same strips with [`Reach`] as without, on random

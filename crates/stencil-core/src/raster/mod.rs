@@ -7,12 +7,14 @@ mod distance;
 mod label;
 pub(crate) mod morph;
 pub(crate) mod packed;
+mod smooth;
 
 pub(crate) use distance::squared_distance_to;
 pub(crate) use label::{
     components, join_runs, push_runs, runs_of, touches_border, Run, NOT_LABELLED,
 };
 pub(crate) use morph::{close, open};
+pub(crate) use smooth::{blur, box_average, box_average_bits, convolve};
 
 /// Luma at working resolution, 0.0 = black .. 1.0 = white.
 ///

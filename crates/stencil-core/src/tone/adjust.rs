@@ -16,9 +16,8 @@ use image::{ImageBuffer, Luma};
 use imageproc::filter::bilateral::GaussianEuclideanColorDistance;
 use imageproc::filter::bilateral_filter;
 use imageproc::region_labelling::{connected_components, Connectivity};
-use rayon::prelude::*;
 
-use crate::raster::Gray;
+use crate::raster::{blur, Gray};
 
 /// The adjustments, all off by default ([`Adjust::is_identity`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -158,103 +157,6 @@ fn from_image(i: F32Image) -> Gray {
     }
 }
 
-/// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity).
-///
-/// The same floats as `imageproc`'s `gaussian_blur_f32` (its kernel, 2σ each side rounded up,
-/// and per pixel the same sums in the same order: along the row, then down the column), but
-/// a row of pixels at a time, so the sums vectorise, and over threads: the likeness measure
-/// blurs several pictures per level tried, and `imageproc`'s blur, pixel by pixel on one
-/// thread, was most of its time.
-pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
-    // A NaN or non-positive sigma blurs nothing.
-    if sigma.is_nan() || sigma <= 0.0 || g.data.is_empty() {
-        return g.clone();
-    }
-    let kernel = gaussian_kernel(sigma);
-    let (w, h) = (g.width as usize, g.height as usize);
-    let r = kernel.len() / 2;
-    // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
-    // tap (see `taps`).
-    let mut across = vec![0f32; w * h];
-    across
-        .par_chunks_mut(w)
-        .zip(g.data.par_chunks(w))
-        .for_each_init(Vec::new, |padded, (out, row)| {
-            padded.clear();
-            padded.extend(std::iter::repeat_n(row[0], r));
-            padded.extend_from_slice(row);
-            padded.extend(std::iter::repeat_n(row[w - 1], r));
-            let padded = &padded[..];
-            taps(out, &kernel, |i, x| &padded[i + x..]);
-        });
-    // Down the columns: each output row sums the rows above and below it (clamped to the
-    // picture), tap by tap.
-    let mut data = vec![0f32; w * h];
-    data.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        taps(out, &kernel, |i, x| {
-            let sy = (y + i).saturating_sub(r).min(h - 1);
-            &across[sy * w + x..(sy + 1) * w]
-        });
-    });
-    Gray {
-        width: g.width,
-        height: g.height,
-        data,
-    }
-}
-
-/// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as
-/// adding each tap's product to every pixel in turn gives it (imageproc's order, to the bit), but
-/// a run of [`RUN`] pixels at a time with its sums held in registers instead of read and written
-/// back once per tap. `src(i, x)` is the source of tap `i` from pixel `x` on.
-#[inline(always)]
-fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
-    let mut x = 0;
-    while x + RUN <= out.len() {
-        let mut acc = [0f32; RUN];
-        for (i, &k) in kernel.iter().enumerate() {
-            let p = &src(i, x)[..RUN];
-            for j in 0..RUN {
-                acc[j] += p[j] * k;
-            }
-        }
-        out[x..x + RUN].copy_from_slice(&acc);
-        x += RUN;
-    }
-    let rest = out.len() - x;
-    if rest > 0 {
-        let out = &mut out[x..];
-        out.fill(0.0);
-        for (i, &k) in kernel.iter().enumerate() {
-            for (o, &p) in out.iter_mut().zip(&src(i, x)[..rest]) {
-                *o += p * k;
-            }
-        }
-    }
-}
-
-/// Pixels a [`taps`] run holds in registers: four SSE vectors.
-const RUN: usize = 16;
-
-/// `imageproc`'s Gaussian kernel for `sigma`, to the last bit: `2σ` taps each side (rounded
-/// up), the density at each tap, divided by their sum.
-fn gaussian_kernel(sigma: f32) -> Vec<f32> {
-    let r = (2.0 * sigma).ceil() as usize;
-    let pdf = |x: f32| {
-        (sigma * (2.0 * std::f32::consts::PI).sqrt()).recip()
-            * (-x.powi(2) / (2.0 * sigma.powi(2))).exp()
-    };
-    let mut k = vec![0f32; 2 * r + 1];
-    for i in 0..=r {
-        let v = pdf(i as f32);
-        k[r + i] = v;
-        k[r - i] = v;
-    }
-    let sum: f32 = k.iter().sum();
-    k.iter_mut().for_each(|x| *x /= sum);
-    k
-}
-
 /// The bilateral filter (Tomasi and Manduchi 1998) with a window of about 2σ each side (at most
 /// 255 pixels, as `imageproc` allows).
 pub(crate) fn bilateral(g: &Gray, sigma_px: f32, tone_sigma: f32) -> Gray {
@@ -380,7 +282,6 @@ pub fn abstraction(g: &Gray, strength: f32) -> Gray {
 mod tests {
     use super::*;
     use crate::test_rng::Lcg;
-    use imageproc::filter::gaussian_blur_f32;
 
     fn ramp(w: u32, h: u32) -> Gray {
         let mut g = Gray::new(w, h, 0.0);
@@ -413,35 +314,6 @@ mod tests {
         assert_eq!(t.get(3, 9), g.get(9, 3));
         let back = turn(&turn(&t, 2), 1);
         assert_eq!(back.data, g.data);
-    }
-
-    /// The row-at-a-time blur gives `imageproc`'s floats exactly, on random pictures of many
-    /// shapes (a row or column alone, a kernel wider than the picture) and many widths.
-    #[test]
-    fn blur_is_imageprocs_to_the_bit() {
-        let mut rng = Lcg(7);
-        let mut next = || (rng.next_u64() >> 32) as u32;
-        for (w, h) in [
-            (1, 1),
-            (1, 9),
-            (13, 1),
-            (5, 3),
-            (37, 23),
-            (64, 65),
-            (200, 130),
-        ] {
-            let mut g = Gray::new(w, h, 0.0);
-            for v in &mut g.data {
-                // Mostly 0..1, a few outside it, as a stretched or adjusted gray may be.
-                *v = (next() >> 8) as f32 / (1 << 24) as f32 * 1.2 - 0.1;
-            }
-            for sigma in [0.3f32, 0.5, 1.0, 1.7, 2.9, 5.8, 11.3, 40.0] {
-                let want = gaussian_blur_f32(&to_image(&g), sigma).into_raw();
-                let got = blur(&g, sigma).data;
-                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&got), bits(&want), "{w}x{h} sigma {sigma}");
-            }
-        }
     }
 
     #[test]

@@ -1,0 +1,333 @@
+//! Seeing a gray picture from afar: the box average that shrinks it and the separable blur that
+//! smooths it. One copy of each for every stage that does either (the likeness measures, the
+//! `--threshold auto` search on a reduced picture, the local threshold's mean).
+
+use rayon::prelude::*;
+
+use super::{BitGrid, Gray};
+
+/// The `w` × `h` picture of `value(i)` box-averaged by `d` (partial boxes at the right and bottom
+/// edges averaged over what they hold). Each box sums its rows top to bottom and each row left
+/// to right, from 0, and is divided by its count of pixels; an output row's boxes are summed
+/// together, a source row at a time, so the picture is read in order.
+pub(crate) fn box_average(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
+    let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+    let (wu, du) = (w as usize, d as usize);
+    let mut data = vec![0f32; (ow * oh) as usize];
+    data.par_chunks_mut(ow as usize)
+        .enumerate()
+        .for_each(|(oy, out)| {
+            let rows = oy as u32 * d..((oy as u32 + 1) * d).min(h);
+            let n_rows = rows.len() as u32;
+            for y in rows {
+                let base = y as usize * wu;
+                for (ox, o) in out.iter_mut().enumerate() {
+                    let x0 = ox * du;
+                    for x in x0..(x0 + du).min(wu) {
+                        *o += value(base + x);
+                    }
+                }
+            }
+            for (ox, o) in out.iter_mut().enumerate() {
+                let cols = (du).min(wu - ox * du) as u32;
+                *o /= (n_rows * cols) as f32;
+            }
+        });
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
+}
+
+/// [`box_average`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a
+/// box's sum of ones and zeros is its count of ones, exactly, in any order. An output row's
+/// source rows are first added column by column (a long loop over bytes that vectorises), then
+/// each box's columns summed.
+pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
+    let (w, h) = (bits.width, bits.height);
+    let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+    let (wu, du) = (w as usize, d as usize);
+    let mut data = vec![0f32; (ow * oh) as usize];
+    data.par_chunks_mut(ow as usize).enumerate().for_each_init(
+        Vec::new,
+        |cols: &mut Vec<u32>, (oy, out)| {
+            cols.clear();
+            cols.resize(wu, 0);
+            let rows = oy as u32 * d..((oy as u32 + 1) * d).min(h);
+            let n_rows = rows.len() as u32;
+            for y in rows {
+                let row = &bits.data[y as usize * wu..(y as usize + 1) * wu];
+                for (c, &b) in cols.iter_mut().zip(row) {
+                    *c += (b != invert) as u32;
+                }
+            }
+            for (ox, (o, chunk)) in out.iter_mut().zip(cols.chunks(du)).enumerate() {
+                let cols = du.min(wu - ox * du) as u32;
+                *o = chunk.iter().sum::<u32>() as f32 / (n_rows * cols) as f32;
+            }
+        },
+    );
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
+}
+
+/// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity).
+///
+/// The same floats as `imageproc`'s `gaussian_blur_f32` (its kernel, 2σ each side rounded up,
+/// and per pixel the same sums in the same order: along the row, then down the column), but
+/// a row of pixels at a time, so the sums vectorise, and over threads: the likeness measure
+/// blurs several pictures per level tried, and `imageproc`'s blur, pixel by pixel on one
+/// thread, was most of its time.
+pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
+    // A NaN or non-positive sigma blurs nothing.
+    if sigma.is_nan() || sigma <= 0.0 || g.data.is_empty() {
+        return g.clone();
+    }
+    convolve(g, &gaussian_kernel(sigma), 1.0)
+}
+
+/// `g` convolved with the symmetric `kernel` (an odd count of taps) along the rows, then down
+/// the columns, edges padded by continuity, each pass's sums divided by `sum`: 1 for a kernel
+/// already normalised ([`blur`]'s; dividing by 1 changes no float, and is skipped), or the sum
+/// of unnormalised taps (the set likeness's window, whose sums were always divided after).
+/// Per pixel and pass: `Σ kernel[i] · src[i]` over the taps in order from 0, then the division.
+pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
+    if g.data.is_empty() {
+        return g.clone();
+    }
+    let (w, h) = (g.width as usize, g.height as usize);
+    let r = kernel.len() / 2;
+    let divide = |out: &mut [f32]| {
+        if sum != 1.0 {
+            out.iter_mut().for_each(|o| *o /= sum);
+        }
+    };
+    // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
+    // tap (see `taps`).
+    let mut across = vec![0f32; w * h];
+    across
+        .par_chunks_mut(w)
+        .zip(g.data.par_chunks(w))
+        .for_each_init(Vec::new, |padded, (out, row)| {
+            padded.clear();
+            padded.extend(std::iter::repeat_n(row[0], r));
+            padded.extend_from_slice(row);
+            padded.extend(std::iter::repeat_n(row[w - 1], r));
+            let padded = &padded[..];
+            taps(out, kernel, |i, x| &padded[i + x..]);
+            divide(out);
+        });
+    // Down the columns: each output row sums the rows above and below it (clamped to the
+    // picture), tap by tap.
+    let mut data = vec![0f32; w * h];
+    data.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
+        taps(out, kernel, |i, x| {
+            let sy = (y + i).saturating_sub(r).min(h - 1);
+            &across[sy * w + x..(sy + 1) * w]
+        });
+        divide(out);
+    });
+    Gray {
+        width: g.width,
+        height: g.height,
+        data,
+    }
+}
+
+/// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as
+/// adding each tap's product to every pixel in turn gives it (imageproc's order, to the bit), but
+/// a run of [`RUN`] pixels at a time with its sums held in registers instead of read and written
+/// back once per tap. `src(i, x)` is the source of tap `i` from pixel `x` on.
+#[inline(always)]
+fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
+    let mut x = 0;
+    while x + RUN <= out.len() {
+        let mut acc = [0f32; RUN];
+        for (i, &k) in kernel.iter().enumerate() {
+            let p = &src(i, x)[..RUN];
+            for j in 0..RUN {
+                acc[j] += p[j] * k;
+            }
+        }
+        out[x..x + RUN].copy_from_slice(&acc);
+        x += RUN;
+    }
+    let rest = out.len() - x;
+    if rest > 0 {
+        let out = &mut out[x..];
+        out.fill(0.0);
+        for (i, &k) in kernel.iter().enumerate() {
+            for (o, &p) in out.iter_mut().zip(&src(i, x)[..rest]) {
+                *o += p * k;
+            }
+        }
+    }
+}
+
+/// Pixels a [`taps`] run holds in registers: four SSE vectors.
+const RUN: usize = 16;
+
+/// `imageproc`'s Gaussian kernel for `sigma`, to the last bit: `2σ` taps each side (rounded
+/// up), the density at each tap, divided by their sum.
+fn gaussian_kernel(sigma: f32) -> Vec<f32> {
+    let r = (2.0 * sigma).ceil() as usize;
+    let pdf = |x: f32| {
+        (sigma * (2.0 * std::f32::consts::PI).sqrt()).recip()
+            * (-x.powi(2) / (2.0 * sigma.powi(2))).exp()
+    };
+    let mut k = vec![0f32; 2 * r + 1];
+    for i in 0..=r {
+        let v = pdf(i as f32);
+        k[r + i] = v;
+        k[r - i] = v;
+    }
+    let sum: f32 = k.iter().sum();
+    k.iter_mut().for_each(|x| *x /= sum);
+    k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Lcg;
+    use image::ImageBuffer;
+    use imageproc::filter::gaussian_blur_f32;
+
+    /// The box average as it was: box by box, each summed row by row.
+    fn shrink_by_boxes(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32) -> Vec<f32> {
+        let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
+        let mut out = Vec::new();
+        for oy in 0..oh {
+            for ox in 0..ow {
+                let (mut s, mut n) = (0f32, 0u32);
+                for y in oy * d..((oy + 1) * d).min(h) {
+                    for x in ox * d..((ox + 1) * d).min(w) {
+                        s += value((y * w + x) as usize);
+                        n += 1;
+                    }
+                }
+                out.push(s / n as f32);
+            }
+        }
+        out
+    }
+
+    fn bit_vals(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// Summed a source row at a time (and a two-tone by counting), the boxes hold the same
+    /// values to the bit: random sizes, partial boxes at the edges, both tones.
+    #[test]
+    fn shrinking_by_rows_and_by_counts_is_shrinking_box_by_box() {
+        let mut rng = Lcg(17u64);
+        let mut rnd = |n: u64| rng.below(n);
+        for _ in 0..60 {
+            let (w, h, d) = (1 + rnd(90) as u32, 1 + rnd(70) as u32, 1 + rnd(6) as u32);
+            let gray: Vec<f32> = (0..w * h).map(|_| rnd(1 << 20) as f32 / 1e6).collect();
+            let bits = BitGrid::from_fn(w, h, |_, _| rnd(3) == 0);
+            let want = shrink_by_boxes(w, h, d, |i| gray[i]);
+            let got = box_average(w, h, d, |i| gray[i]);
+            assert_eq!((got.width, got.height), (w.div_ceil(d), h.div_ceil(d)));
+            assert_eq!(bit_vals(&got.data), bit_vals(&want), "{w}x{h} by {d}");
+            for invert in [false, true] {
+                let want =
+                    shrink_by_boxes(w, h, d, |i| if bits.data[i] != invert { 1.0 } else { 0.0 });
+                let got = box_average_bits(&bits, d, invert);
+                assert_eq!(bit_vals(&got.data), bit_vals(&want), "{w}x{h} by {d} bits");
+            }
+        }
+    }
+
+    /// The row-at-a-time blur gives `imageproc`'s floats exactly, on random pictures of many
+    /// shapes (a row or column alone, a kernel wider than the picture) and many widths.
+    #[test]
+    fn blur_is_imageprocs_to_the_bit() {
+        let mut rng = Lcg(7);
+        let mut next = || (rng.next_u64() >> 32) as u32;
+        for (w, h) in [
+            (1, 1),
+            (1, 9),
+            (13, 1),
+            (5, 3),
+            (37, 23),
+            (64, 65),
+            (200, 130),
+        ] {
+            let mut g = Gray::new(w, h, 0.0);
+            for v in &mut g.data {
+                // Mostly 0..1, a few outside it, as a stretched or adjusted gray may be.
+                *v = (next() >> 8) as f32 / (1 << 24) as f32 * 1.2 - 0.1;
+            }
+            for sigma in [0.3f32, 0.5, 1.0, 1.7, 2.9, 5.8, 11.3, 40.0] {
+                let image: ImageBuffer<image::Luma<f32>, Vec<f32>> =
+                    ImageBuffer::from_raw(g.width, g.height, g.data.clone()).unwrap();
+                let want = gaussian_blur_f32(&image, sigma).into_raw();
+                let got = blur(&g, sigma).data;
+                assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
+            }
+        }
+    }
+
+    /// The set likeness's blur as it was written in `layers`: 11 unnormalised taps, each pass
+    /// summed pixel by pixel with clamped edges, then divided by the taps' sum.
+    fn blur_11_taps(v: &[f32], w: u32, h: u32) -> Vec<f32> {
+        let taps: Vec<f32> = (-5i32..=5)
+            .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
+            .collect();
+        let norm: f32 = taps.iter().sum();
+        let (w, h) = (w as i32, h as i32);
+        let pass = |src: &[f32], horizontal: bool| -> Vec<f32> {
+            let mut out = vec![0f32; src.len()];
+            for y in 0..h {
+                for x in 0..w {
+                    let mut s = 0.0;
+                    for (t, d) in taps.iter().zip(-5i32..=5) {
+                        let (sx, sy) = if horizontal {
+                            ((x + d).clamp(0, w - 1), y)
+                        } else {
+                            (x, (y + d).clamp(0, h - 1))
+                        };
+                        s += t * src[(sy * w + sx) as usize];
+                    }
+                    out[(y * w + x) as usize] = s / norm;
+                }
+            }
+            out
+        };
+        pass(&pass(v, true), false)
+    }
+
+    /// [`convolve`] with unnormalised taps and their sum gives that blur's floats exactly.
+    #[test]
+    fn convolving_with_a_sum_is_the_pixel_by_pixel_blur() {
+        let mut rng = Lcg(23);
+        let taps: Vec<f32> = (-5i32..=5)
+            .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
+            .collect();
+        let sum: f32 = taps.iter().sum();
+        for (w, h) in [
+            (1, 1),
+            (1, 7),
+            (9, 1),
+            (3, 4),
+            (17, 33),
+            (40, 21),
+            (200, 150),
+        ] {
+            let data: Vec<f32> = (0..w * h).map(|_| rng.unit() as f32).collect();
+            let g = Gray {
+                width: w,
+                height: h,
+                data,
+            };
+            let want = blur_11_taps(&g.data, w, h);
+            let got = convolve(&g, &taps, sum).data;
+            assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h}");
+        }
+    }
+}
