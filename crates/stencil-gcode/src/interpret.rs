@@ -226,6 +226,21 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Executed, G
     if clean.is_empty() || clean.starts_with('$') {
         return Ok(Executed::default());
     }
+    // Grbl's line buffer holds what is left after spaces and comments, 79 characters: a longer
+    // line is refused whole (protocol.c's overflow flag, error:11), whatever its words say.
+    if clean.len() > crate::limits::MAX_LINE_BYTES {
+        return Err(GcodeError {
+            line: line_no,
+            code: 11,
+            msg: format!(
+                "the line is {} characters without spaces and comments; Grbl's line buffer \
+                 holds {} (Grbl error:11)",
+                clean.len(),
+                crate::limits::MAX_LINE_BYTES
+            ),
+            out_of_range: false,
+        });
+    }
     crate::grbl::execute(modal, &clean, line_no)
 }
 
