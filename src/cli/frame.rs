@@ -264,8 +264,12 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
         dump.as_ref(),
     ))?;
     // Where the job goes, from the controller's offsets and head (as `send` places it).
-    let state =
-        super::place::read_controller(opened.port.as_mut(), Duration::from_secs_f64(a.timeout_s))?;
+    let state = super::place::read_controller(
+        opened.port.as_mut(),
+        Duration::from_secs_f64(a.timeout_s),
+        a.link.if_moving(),
+    )?
+    .state;
     let start = super::place::choose(a.start.start_from, &state, &machine);
     let placement = stencil_grbl::placement::Placement::new(start, &state);
     println!("{}", placement.describe());
@@ -276,6 +280,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,
+        if_moving: a.link.if_moving(),
         expect: super::port::expected(&machine, &text, &job),
         ..StreamConfig::default()
     };

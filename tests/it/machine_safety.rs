@@ -793,3 +793,135 @@ fn after_a_power_loss_the_resume_waits_for_the_person_and_the_corner() {
         "{travel:?}"
     );
 }
+
+// ---- issue 39 item 2: connecting to a machine that is still running ---------------------------
+
+/// A board still running the rest of a job whose sender died (no banner when the port opens):
+/// a few long moves at the machine's pace, about `secs` seconds in all.
+fn mid_job(secs: f64) -> VirtualConfig {
+    // 60 mm at 1200 mm/min is 3 s a line.
+    let n = (secs / 3.0).ceil().max(1.0) as usize;
+    let mut text = String::from("G21G90\nM4S0\nG1X60F1200\n");
+    for i in 1..n {
+        text.push_str(if i % 2 == 1 { "G1X0\n" } else { "G1X60\n" });
+    }
+    VirtualConfig {
+        pace: Pace::Timed { speedup: 1.0 },
+        mid_job: Some(text),
+        ..VirtualConfig::default()
+    }
+}
+
+#[test]
+fn connecting_to_a_moving_machine_waits_for_it_and_never_resets_it_while_it_moves() {
+    let job = Program::parse("j.gcode", "G21G90\nG0X10\n").unwrap();
+    let (vg, port) = VirtualGrbl::spawn(mid_job(2.0)).unwrap();
+    let mut notes = Notes::default();
+    let result = within(60, move || {
+        let mut port = port;
+        let r = send(&mut port, &job, &cfg(), None, &mut notes);
+        (r.map(|_| ()).map_err(|e| e.to_string()), notes)
+    });
+    let (result, notes) = result;
+    result.unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+    // The old job's three lines ran to their end before the first reset went out.
+    let first_reset = r.events.iter().position(|e| *e == Event::SoftReset);
+    let reset = first_reset.expect("an idle machine is still woken with a reset");
+    for i in 0..3 {
+        assert!(
+            r.events[..reset].contains(&Event::Line(i)),
+            "{:?}",
+            r.events
+        );
+    }
+    assert!(r.executed.contains(&2), "the old job's last move ran");
+    assert!(
+        notes.0.iter().any(|n| n.contains("still running moves")
+            && n.contains("Run at X")
+            && n.contains("waiting for it to finish")),
+        "{:?}",
+        notes.0
+    );
+    assert!(
+        notes.0.iter().any(|n| n.contains("finished those moves")),
+        "{:?}",
+        notes.0
+    );
+    // And then the new job ran.
+    assert!(r.run_lines().contains(&"G0X10"), "{:?}", r.run_lines());
+}
+
+#[test]
+fn a_moving_machine_is_waited_for_within_a_bound_held_ones_are_left_or_stopped_safely() {
+    use stencil_grbl::stream::IfMoving;
+    let job = Program::parse("j.gcode", "G21G90\nG0X10\n").unwrap();
+    // Longer than the wait allows: refused, nothing sent, not reset.
+    let (vg, mut port) = VirtualGrbl::spawn(mid_job(30.0)).unwrap();
+    let c = StreamConfig {
+        if_moving: IfMoving::Wait(Duration::from_millis(1500)),
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, MachineError::Running { .. }), "{msg}");
+    assert!(
+        msg.contains("still running")
+            && msg.contains("nothing was sent")
+            && msg.contains("ALARM:3"),
+        "{msg}"
+    );
+    let r = vg.record();
+    assert!(!r.events.contains(&Event::SoftReset), "{:?}", r.events);
+    assert!(!r.run_lines().contains(&"G0X10"));
+    assert_eq!(r.state, "Run");
+    // Stopped as asked: feed hold, standstill, then the reset; no alarm, position kept.
+    let c = StreamConfig {
+        if_moving: IfMoving::Stop,
+        ..cfg()
+    };
+    let mut notes = Notes::default();
+    send(&mut port, &job, &c, None, &mut notes).unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+    let hold = r
+        .events
+        .iter()
+        .position(|e| *e == Event::Realtime(b'!'))
+        .expect("a feed hold first");
+    let reset = r
+        .events
+        .iter()
+        .position(|e| *e == Event::SoftReset)
+        .unwrap();
+    assert!(hold < reset, "{:?}", r.events);
+    assert!(
+        notes.0.iter().any(|n| n.contains("stopping it as asked")),
+        "{:?}",
+        notes.0
+    );
+    assert!(r.run_lines().contains(&"G0X10"));
+
+    // Held mid-job (someone pressed feed hold; it will not finish by itself): left alone.
+    let (vg, mut port) = VirtualGrbl::spawn(mid_job(30.0)).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    port.write_all(b"!").unwrap();
+    let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        matches!(err, MachineError::Running { waited_s: None, .. }) && msg.contains("Hold"),
+        "{msg}"
+    );
+    assert!(msg.contains("cycle start"), "{msg}");
+    let r = vg.record();
+    assert!(!r.events.contains(&Event::SoftReset), "{:?}", r.events);
+    // With the stop asked for: reset from the completed hold, no alarm.
+    let c = StreamConfig {
+        if_moving: IfMoving::Stop,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+}

@@ -912,8 +912,30 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
         ],
     );
     assert!(!ok);
-    // The journal names the profile; --recover picks it up without --machine.
+    // The journal names the profile by name and content, never by the path it was read from:
+    // a recovery does not open files a journal names, so this one must be named again.
+    let jpath = journal::path_for(&file);
+    let j = Journal::read(&jpath).unwrap();
+    assert_eq!(j.machine, "homing-laser");
+    assert!(j.machine_fnv1a64.is_some(), "{j:?}");
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("`homing-laser`")
+            && se.contains("--machine")
+            && se.contains("nothing was sent"),
+        "{se}"
+    );
+    assert!(!so.contains("virtual Grbl"), "{so}");
+    // Another profile than the run's is refused, naming both.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--machine", "diode-400"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("homing-laser") && se.contains("diode-400") && se.contains("nothing was sent"),
+        "{se}"
+    );
+    // The run's own profile, named: the recovery homes first as it says.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--machine", p]);
     assert!(ok, "{so}{se}");
     assert!(so.contains("homes") && se.contains("homed"), "{so}{se}");
 
@@ -935,4 +957,51 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
         .map(|l| l.text.as_str())
         .collect();
     assert_eq!(got[..4], ["$I", "$$", "$H", "M5"], "{got:?}");
+}
+
+/// Issue 39 item 4: a journal's `"machine"` is a profile name, never a path to open; a journal
+/// naming another profile than the one the run used (or whose content changed) is refused
+/// before anything is sent.
+#[test]
+fn recover_never_opens_a_path_the_journal_names_and_refuses_another_profile() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
+    let (ok, ..) = run_send(&file, &["--dry-run", "--dry-run-fault", "error:20@60"]);
+    assert!(!ok);
+    let jpath = journal::path_for(&file);
+    let original = std::fs::read_to_string(&jpath).unwrap();
+    let j = Journal::read(&jpath).unwrap();
+    assert_eq!(j.machine, "diode-400");
+    let edit = |machine: &str| {
+        let mut j2 = j.clone();
+        j2.machine = machine.to_string();
+        std::fs::write(&jpath, serde_json::to_string(&j2).unwrap()).unwrap();
+    };
+    // A path (or anything not a name) is not opened: refused, saying what to do.
+    for bad in ["/etc/passwd", "big-bed.toml", "..\\evil", "x\u{1b}[2Jy"] {
+        edit(bad);
+        let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+        assert!(!ok, "{bad}: {so}{se}");
+        assert!(
+            se.contains("not a profile name") && se.contains("nothing was sent"),
+            "{bad}: {se}"
+        );
+        assert!(!se.contains('\u{1b}'), "an escape printed raw: {se:?}");
+        assert!(!so.contains("virtual Grbl"), "{bad}: {so}");
+    }
+    // Another shipped profile, named in the journal: its content is not the run's.
+    edit("co2-600x400");
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("co2-600x400")
+            && se.contains("other settings")
+            && se.contains("nothing was sent"),
+        "{se}"
+    );
+    // The run's own profile, by name: the recovery goes ahead.
+    std::fs::write(&jpath, original).unwrap();
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--position-confirmed"]);
+    assert!(ok, "{so}{se}");
 }
