@@ -1005,3 +1005,42 @@ fn recover_never_opens_a_path_the_journal_names_and_refuses_another_profile() {
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--position-confirmed"]);
     assert!(ok, "{so}{se}");
 }
+
+/// Issue 39 item 4: a saved controller state with a setting no Grbl can hold is refused by
+/// `estimate`, naming the setting, instead of timing the job as 0 s (NaN).
+#[test]
+fn estimate_refuses_absurd_controller_settings_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("e.gcode");
+    std::fs::write(&job, "G21 G90\nG1 X10 F600\n").unwrap();
+    for (setting, name) in [
+        ("$100=1e308", "$100=1e308"),
+        ("$120=0", "$120=0"),
+        ("$110=-5", "$110=-5"),
+    ] {
+        let st = dir.path().join("state.txt");
+        std::fs::write(&st, format!("$110=6000\n{setting}\n")).unwrap();
+        let out = stencil()
+            .args(["estimate", job.to_str().unwrap(), "--controller-state"])
+            .arg(&st)
+            .output()
+            .unwrap();
+        let (so, se) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(!out.status.success(), "{setting}: {so}{se}");
+        assert!(
+            se.contains(name) && se.contains("state.txt") && !so.contains("NaN"),
+            "{setting}: {so}{se}"
+        );
+    }
+    let st = dir.path().join("state.txt");
+    std::fs::write(&st, "$100=80\n$110=6000\n$120=1000\n").unwrap();
+    let out = stencil()
+        .args(["estimate", job.to_str().unwrap(), "--controller-state"])
+        .arg(&st)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+}
