@@ -310,7 +310,7 @@ mod tests {
         assert_eq!(powers, [0.0, 10.0, 10.0, 10.0, 10.0, 0.0]);
         assert!(text.trim_end().ends_with("M9\nM5 S0"), "{text}");
         let dark = frame_program(&FramePlan {
-            tool: FrameTool::Laser { s: 0.0 },
+            tool: FrameTool::Laser { s: 0.0, z: None },
             ..plan
         });
         assert!(!dark.contains("M4") && !dark.contains("M3"), "{dark}");
