@@ -619,6 +619,11 @@ fn recover(
     Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine, j)))
 }
 
+/// A machine profile's content as the journal keeps it (its validated values, every field).
+fn profile_fingerprint(m: &machine_profile::Machine) -> String {
+    journal::fingerprint(&format!("{m:?}"))
+}
+
 /// The machine profile a recovery runs with: the one named with `--machine`, else the
 /// journal's, which is looked up by name only (a journal is a file beside the job: the path
 /// of a file it names is never opened). Either way it must be the profile the run used, by
@@ -663,7 +668,7 @@ fn journal_machine(
     let same_content = j
         .machine_fnv1a64
         .as_ref()
-        .is_none_or(|h| *h == journal::machine_fingerprint(&m));
+        .is_none_or(|h| *h == profile_fingerprint(&m));
     if !(same_name && same_content) {
         bail!(
             "{}: the journal's run used machine profile `{}`{}, but {} is {}: a resume must run \
@@ -935,7 +940,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     // The profile by its name and content, never the path it was read from: a recovery
     // loads profiles by name only.
     let mut started = Journal::new(&a.file, text.as_bytes(), &job, &machine.name, from_line);
-    started.machine_fnv1a64 = Some(journal::machine_fingerprint(&machine));
+    started.machine_fnv1a64 = Some(profile_fingerprint(&machine));
     started.placement = Some(journal::PlacementRecord {
         start_from: placement.start_from.name().into(),
         zero_mm: placement.zero,

@@ -44,10 +44,10 @@ pub(crate) fn fnv1a64(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
-/// A machine profile's content as a short text: a journal keeps it so that a recovery can
-/// tell the profile it is given from the one the run used.
-pub fn machine_fingerprint(m: &stencil_gcode::machine::Machine) -> String {
-    fnv1a64(format!("{m:?}").as_bytes())
+/// A short text standing for `content` (a machine profile as the run used it): a journal keeps
+/// it so that a recovery can tell the profile it is given from the one the run used.
+pub fn fingerprint(content: &str) -> String {
+    fnv1a64(content.as_bytes())
 }
 
 /// How the run stands.
@@ -90,7 +90,7 @@ pub struct Journal {
     /// The machine profile the run used, by name (never a path: a recovery loads profiles by
     /// name only, and never opens a file a journal names).
     pub machine: String,
-    /// The profile's content as the run used it ([`machine_fingerprint`]): a recovery with a
+    /// The profile's content as the run used it ([`fingerprint`]): a recovery with a
     /// profile that differs is refused.
     #[serde(default)]
     pub machine_fnv1a64: Option<String>,
