@@ -69,6 +69,9 @@ pub fn read_placed(
         Some(p) => super::place::read_dump(p)?,
         None => ControllerState::default(),
     };
+    if let Some(p) = &a.controller_state {
+        check_timing_settings(p, &state.settings)?;
+    }
     if let Some([x, y]) = a.head_at {
         let z = state.position.map_or(0.0, |p| p[2]);
         state.position = Some([x, y, z]);
@@ -93,6 +96,46 @@ pub fn read_placed(
     };
     let motion = super::send::controller_motion(machine.motion, &info);
     Ok(PlacedJob { program, motion })
+}
+
+/// The settings the estimate times a job with, and the values a Grbl can hold for them (a
+/// `$100=1e308` in a saved state would time every move as 0 s, or NaN).
+const TIMING_SETTINGS: &[(u32, &str, f64, f64)] = &[
+    (1, "step idle delay, ms", 0.0, 255.0),
+    (11, "junction deviation, mm", 0.0, 100.0),
+    (12, "arc tolerance, mm", 0.0, 100.0),
+    (100, "X steps per mm", 1e-3, 1e6),
+    (101, "Y steps per mm", 1e-3, 1e6),
+    (102, "Z steps per mm", 1e-3, 1e6),
+    (110, "X max rate, mm/min", 1e-3, 1e7),
+    (111, "Y max rate, mm/min", 1e-3, 1e7),
+    (112, "Z max rate, mm/min", 1e-3, 1e7),
+    (120, "X acceleration, mm/s^2", 1e-3, 1e7),
+    (121, "Y acceleration, mm/s^2", 1e-3, 1e7),
+    (122, "Z acceleration, mm/s^2", 1e-3, 1e7),
+];
+
+/// Refuse a saved controller state whose timing settings no Grbl can have, naming the setting.
+fn check_timing_settings(file: &Path, settings: &[(u32, f64)]) -> anyhow::Result<()> {
+    for &(k, v) in settings {
+        let Some(&(_, what, lo, hi)) = TIMING_SETTINGS.iter().find(|t| t.0 == k) else {
+            continue;
+        };
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            anyhow::bail!(
+                "{}: ${k}={} ({what}) is not a value a Grbl controller can hold (allowed \
+                 {lo}..={hi}): the estimate would be meaningless; fix the saved state (what Grbl \
+                 prints for $$)",
+                file.display(),
+                if v.is_finite() && v.abs() < 1e9 {
+                    stencil_gcode::num(v)
+                } else {
+                    format!("{v:e}")
+                }
+            );
+        }
+    }
+    Ok(())
 }
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {

@@ -94,8 +94,15 @@ impl Setup {
             e.height(),
             self.feed,
             match self.tool {
-                FrameTool::Laser { s } if s > 0.0 => format!("laser dim at S{s:.0} (M4)"),
-                FrameTool::Laser { .. } => "laser off".into(),
+                FrameTool::Laser { s, z } => format!(
+                    "{}{}",
+                    if s > 0.0 {
+                        format!("laser dim at S{s:.0} (M4)")
+                    } else {
+                        "laser off".into()
+                    },
+                    z.map_or(String::new(), |z| format!(" at the job's Z{z:.3}"))
+                ),
                 FrameTool::ZUp { up_mm } => format!("tool up at Z{up_mm}"),
                 FrameTool::SpindlePen => "pen up (M5)".into(),
             }
@@ -119,9 +126,10 @@ pub fn setup(
             file.display()
         );
     };
-    // The bed check `send`, `estimate` and `simulate` make, on the rectangle to be traced.
+    // The bed check `send`, `estimate` and `simulate` make: every move of the placed job, its
+    // travels too, not only the rectangle traced.
     if !no_bed_check {
-        if let Err(e) = machine.check_extent(on_machine.min, on_machine.max, None) {
+        if let Err(e) = machine.check_moves(&job.moves) {
             let w = job.start.wco();
             bail!(
                 "{}: {e}, with the job's X0 Y0 at machine X{} Y{}; nothing was moved. Place the \
@@ -151,6 +159,7 @@ pub fn setup(
     let tool = match machine.tool {
         Tool::Laser { s_max, .. } => FrameTool::Laser {
             s: machine.frame_power_pct / 100.0 * s_max,
+            z: cut_z(job, machine).map(|z| z - w[2]),
         },
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => FrameTool::ZUp { up_mm: z.up_mm },
         Tool::Pen(PenLift::Spindle { .. }) => FrameTool::SpindlePen,
@@ -161,6 +170,17 @@ pub fn setup(
         tool,
         feed,
     })
+}
+
+/// The machine Z a job that sets its own Z cuts at (its first cutting move's), so a frame
+/// traces at the job's height; `None` for a job that never moves Z.
+fn cut_z(job: &Program, machine: &Machine) -> Option<f64> {
+    let moves_z = job.moves.iter().any(|m| (m.to[2] - m.from[2]).abs() > 1e-9);
+    if !moves_z {
+        return None;
+    }
+    let rule = machine.cut_rule(&job.moves);
+    job.moves.iter().find(|m| rule.cuts(m)).map(|m| m.from[2])
 }
 
 /// Prints what the controller and the framing say, on stderr (`\r\n` in raw mode).
@@ -270,8 +290,12 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
         dump.as_ref(),
     ))?;
     // Where the job goes, from the controller's offsets and head (as `send` places it).
-    let state =
-        super::place::read_controller(opened.port.as_mut(), Duration::from_secs_f64(a.timeout_s))?;
+    let state = super::place::read_controller(
+        opened.port.as_mut(),
+        Duration::from_secs_f64(a.timeout_s),
+        a.link.if_moving(),
+    )?
+    .state;
     let start = super::place::choose(a.start.start_from, &state, &machine);
     let placement = stencil_grbl::placement::Placement::new(start, &state);
     println!("{}", placement.describe());
@@ -282,6 +306,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
         unlock: a.unlock,
+        if_moving: a.link.if_moving(),
         expect: super::port::expected(&machine, &text, &job),
         ..StreamConfig::default()
     };

@@ -191,6 +191,7 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
     let mut opened = a.link.open(VirtualConfig::default())?;
     let cfg = StreamConfig {
         timeout: Duration::from_secs_f64(a.timeout_s),
+        if_moving: a.link.if_moving(),
         ..StreamConfig::default()
     };
     let tty = io::stdin().is_terminal() && a.keys.is_none();

@@ -11,7 +11,7 @@ use stencil_gcode::interpret::Move;
 use stencil_gcode::machine::Machine;
 use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Program, Quiet, StreamConfig};
+use stencil_grbl::stream::{BytePort, IfMoving, Observer, Program, StreamConfig};
 use stencil_grbl::VirtualConfig;
 
 /// What `--start-from` says, worded once for send and frame.
@@ -68,14 +68,41 @@ pub fn virtual_from(mut vcfg: VirtualConfig, dump: Option<&ControllerState>) -> 
 pub fn read_controller(
     port: &mut dyn BytePort,
     timeout: Duration,
-) -> anyhow::Result<ControllerState> {
+    if_moving: IfMoving,
+) -> anyhow::Result<Reading> {
     let cfg = StreamConfig {
         timeout,
+        if_moving,
         ..StreamConfig::default()
     };
-    let mut quiet = Quiet;
-    let mut console = Console::connect(port, &cfg, None, &mut quiet)?;
-    Ok(console.controller_state()?)
+    let mut notes = Notes;
+    let mut console = Console::connect(port, &cfg, None, &mut notes)
+        .map_err(|e| anyhow::anyhow!("{e}{}", super::port::machine_hint(&e)))?;
+    Ok(Reading {
+        state: console.controller_state()?,
+        stopped_running: console.stopped_running(),
+    })
+}
+
+/// What [`read_controller`] found.
+pub struct Reading {
+    pub state: ControllerState,
+    /// The controller was running moves it had been given before, and was stopped as
+    /// `--stop-running` asked: what it had queued did not all run.
+    pub stopped_running: bool,
+}
+
+/// The streamer's own notes while the controller is read (a machine found running, waited
+/// for or stopped), on stderr; the controller's messages are left to the connection that
+/// follows, which shows them.
+struct Notes;
+
+impl Observer for Notes {
+    fn message(&mut self, text: &str) {
+        if !text.starts_with("Grbl: ") {
+            eprintln!("{text}");
+        }
+    }
 }
 
 /// The start the person chose, or the default: the machine's origin where homing makes it

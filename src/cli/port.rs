@@ -7,7 +7,9 @@ use anyhow::{bail, Context};
 
 use stencil_gcode::machine::{Machine, Tool};
 use stencil_grbl::journal::JournalError;
-use stencil_grbl::stream::{BytePort, Expected, MachineError, PowerScale, Program};
+use stencil_grbl::stream::{
+    BytePort, Expected, IfMoving, MachineError, PowerScale, Program, MOVING_WAIT,
+};
 use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
@@ -22,6 +24,12 @@ pub struct PortArgs {
     /// Talk to a simulated Grbl on a pseudo-terminal instead of a machine.
     #[arg(long)]
     pub dry_run: bool,
+    /// A controller found still running moves it was given before (another program's job, or
+    /// the rest of one whose sender died): stop it safely (feed hold, wait until it stands,
+    /// soft reset; its position is kept) instead of waiting up to 5 minutes for it to finish.
+    /// It is never reset while it moves.
+    #[arg(long)]
+    pub stop_running: bool,
 }
 
 /// The option that does what a machine error asks for. The library says what is wrong and what
@@ -44,6 +52,10 @@ pub(super) fn machine_hint(e: &MachineError) -> &'static str {
              trace the job first), or with --position-confirmed once the machine is homed or \
              re-zeroed"
         }
+        MachineError::Running { .. } => "; --stop-running stops it that way",
+        MachineError::ResumeAmbiguous { .. } => {
+            ": resume with --from-line N --position-confirmed, N the line to resume from"
+        }
         MachineError::MachineCommands { .. } => {
             " (--allow-machine-commands lets the job change the machine)"
         }
@@ -61,6 +73,15 @@ pub(super) fn journal_hint(e: &JournalError) -> &'static str {
 }
 
 impl PortArgs {
+    /// What connecting does about a controller found running (`--stop-running`).
+    pub fn if_moving(&self) -> IfMoving {
+        if self.stop_running {
+            IfMoving::Stop
+        } else {
+            IfMoving::Wait(MOVING_WAIT)
+        }
+    }
+
     /// Open the port, or with `--dry-run` start a virtual Grbl built as `vcfg` says.
     pub fn open(&self, vcfg: VirtualConfig) -> anyhow::Result<Opened> {
         open_machine(self.dry_run, self.port.as_deref(), self.baud, vcfg)

@@ -687,19 +687,85 @@ fn recover(
     let j = Journal::read(journal_path).map_err(journal_error)?;
     j.check_file(journal_path, text.as_bytes())
         .map_err(journal_error)?;
-    let machine = match &a.machine {
-        Some(m) => {
-            if *m != j.machine {
-                println!(
-                    "the journal's run used machine {}; you named {m}: using {m}",
-                    stencil_io::printable(&j.machine)
+    let machine = journal_machine(a, &j, journal_path)?;
+    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine, j)))
+}
+
+/// A machine profile's content as the journal keeps it (its validated values, every field).
+fn profile_fingerprint(m: &machine_profile::Machine) -> String {
+    journal::fingerprint(&format!("{m:?}"))
+}
+
+/// The machine profile a recovery runs with: the one named with `--machine`, else the
+/// journal's, which is looked up by name only (a journal is a file beside the job: the path
+/// of a file it names is never opened). Either way it must be the profile the run used, by
+/// name and content; any other is refused before anything is sent.
+fn journal_machine(
+    a: &SendArgs,
+    j: &Journal,
+    journal_path: &Path,
+) -> anyhow::Result<Option<String>> {
+    // Quoted with control characters escaped: a journal is not trusted to hold a name.
+    let named = |m: &str| stencil_io::excerpt(&m.escape_debug().to_string());
+    let arg = match &a.machine {
+        Some(m) => m.clone(),
+        None => {
+            let plain = !j.machine.is_empty()
+                && !j.machine.contains(['/', '\\'])
+                && !j.machine.ends_with(".toml")
+                && j.machine.chars().all(|c| c.is_ascii_graphic());
+            if !plain {
+                bail!(
+                    "{}: the journal names its machine profile as `{}`, which is not a profile \
+                     name; a recovery never opens a file a journal names: name the profile the \
+                     run used with --machine; nothing was sent",
+                    journal_path.display(),
+                    named(&j.machine)
                 );
             }
-            Some(m.clone())
+            j.machine.clone()
         }
-        None => Some(j.machine.clone()),
     };
-    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine, j)))
+    let m = match machine_profile::load(Some(&arg)) {
+        Ok(m) => m,
+        Err(e) if a.machine.is_none() => bail!(
+            "{}: the journal's run used machine profile `{}`, which cannot be loaded by name \
+             here ({e}): name the profile the run used with --machine; nothing was sent",
+            journal_path.display(),
+            named(&j.machine)
+        ),
+        Err(e) => return Err(e.into()),
+    };
+    let same_name = m.name == j.machine;
+    let same_content = j
+        .machine_fnv1a64
+        .as_ref()
+        .is_none_or(|h| *h == profile_fingerprint(&m));
+    if !(same_name && same_content) {
+        bail!(
+            "{}: the journal's run used machine profile `{}`{}, but {} is {}: a resume must run \
+             with the profile the run used (its bed, its limits, its power scale); nothing was \
+             sent. Recover with that profile (--machine), or resume from a line after checking \
+             (--from-line)",
+            journal_path.display(),
+            named(&j.machine),
+            if j.machine_fnv1a64.is_some() {
+                " (as it was then)"
+            } else {
+                ""
+            },
+            match &a.machine {
+                Some(given) => format!("--machine {}", named(given)),
+                None => format!("the profile `{}` now", named(&arg)),
+            },
+            if same_name {
+                "that profile with other settings".to_string()
+            } else {
+                format!("profile `{}`", named(&m.name))
+            }
+        );
+    }
+    Ok(Some(arg))
 }
 
 /// The simulated Grbl of `--dry-run`: instant, or paced as the machine and link would run
@@ -888,7 +954,12 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     ))?;
     // Where the job goes, from what the controller holds: a recovery puts it where the
     // journal's run had it; a fresh run where --start-from says.
-    let state = super::place::read_controller(port.as_mut(), Duration::from_secs_f64(a.timeout_s))?;
+    let reading = super::place::read_controller(
+        port.as_mut(),
+        Duration::from_secs_f64(a.timeout_s),
+        a.link.if_moving(),
+    )?;
+    let state = reading.state;
     let placement = placement_for(&a, &state, &machine, journal.as_ref(), from_line)?;
     println!("{}", placement.describe());
     let job = super::place::placed(&name, &text, &placement)?;
@@ -920,6 +991,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             confirmed: a.position_confirmed,
             at_corner: a.head_at_corner.then(|| job.start_corner()),
             follow: a.recover,
+            last_sent: journal.as_ref().and_then(|j| j.last_sent_line),
+            grbl_stopped: journal.as_ref().is_some_and(|j| j.grbl_stopped),
+            cut_short: reading.stopped_running,
         });
     }
 
@@ -952,13 +1026,10 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if keys.raw {
         bar.say(&format!("keys: {}", keys::KEY_HELP));
     }
-    let mut started = Journal::new(
-        &a.file,
-        text.as_bytes(),
-        &job,
-        machine_arg.as_deref().unwrap_or(&machine.name),
-        from_line,
-    );
+    // The profile by its name and content, never the path it was read from: a recovery
+    // loads profiles by name only.
+    let mut started = Journal::new(&a.file, text.as_bytes(), &job, &machine.name, from_line);
+    started.machine_fnv1a64 = Some(profile_fingerprint(&machine));
     started.placement = Some(journal::PlacementRecord {
         start_from: placement.start_from.name().into(),
         zero_mm: placement.zero,
@@ -1093,6 +1164,7 @@ fn stream_config(
         laser_mode: laser_mode(machine, job, a.set_laser_mode),
         rescale_power: a.rescale_power,
         allow_machine_commands: a.allow_machine_commands,
+        if_moving: a.link.if_moving(),
         ..StreamConfig::default()
     }
 }

@@ -78,7 +78,7 @@ fn the_extent_is_that_of_the_cutting_moves_only() {
 fn a_dark_frame_visits_the_corners_and_returns_with_the_beam_off() {
     let (end, r, before) = frame_from(
         [5.0, 7.0],
-        FrameTool::Laser { s: 0.0 },
+        FrameTool::Laser { s: 0.0, z: None },
         VirtualConfig::default(),
     );
     assert_eq!(end.unwrap(), [5.0, 7.0, 0.0]);
@@ -101,7 +101,7 @@ fn a_dark_frame_visits_the_corners_and_returns_with_the_beam_off() {
 fn a_dim_frame_lights_the_beam_only_along_the_frame() {
     let (end, r, before) = frame_from(
         [0.0, 0.0],
-        FrameTool::Laser { s: 10.0 },
+        FrameTool::Laser { s: 10.0, z: None },
         VirtualConfig::default(),
     );
     assert_eq!(end.unwrap(), [0.0, 0.0, 0.0]);
@@ -161,7 +161,13 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
         let mut quiet = Quiet;
         let mut console = Console::connect(&mut host, &c, Some(&rx), &mut quiet).unwrap();
         console.command("G0X1Y1").unwrap();
-        let e = frame(&mut console, extent(), FrameTool::Laser { s: 10.0 }, 3000.0).unwrap_err();
+        let e = frame(
+            &mut console,
+            extent(),
+            FrameTool::Laser { s: 10.0, z: None },
+            3000.0,
+        )
+        .unwrap_err();
         drop(console);
         let m = e.to_string();
         assert!(m.contains(want), "{kind:?}: {m}");
@@ -178,7 +184,13 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
     let c = cfg();
     let mut console = Console::connect(&mut host, &c, Some(&rx), &mut quiet).unwrap();
     tx.send(Control::Abort).unwrap();
-    let e = frame(&mut console, extent(), FrameTool::Laser { s: 10.0 }, 3000.0).unwrap_err();
+    let e = frame(
+        &mut console,
+        extent(),
+        FrameTool::Laser { s: 10.0, z: None },
+        3000.0,
+    )
+    .unwrap_err();
     drop(console);
     assert!(matches!(e, FrameError::Aborted { .. }), "{e}");
     assert!(e.to_string().contains("laser and air off"), "{e}");
@@ -205,7 +217,13 @@ fn a_locked_machine_is_not_framed() {
     let c = cfg();
     let mut console = Console::connect(&mut host, &c, Some(&rx), &mut quiet).unwrap();
     let moves = vg.record().moves.len();
-    let e = frame(&mut console, extent(), FrameTool::Laser { s: 0.0 }, 3000.0).unwrap_err();
+    let e = frame(
+        &mut console,
+        extent(),
+        FrameTool::Laser { s: 0.0, z: None },
+        3000.0,
+    )
+    .unwrap_err();
     drop(console);
     assert!(matches!(e, FrameError::Locked { .. }), "{e}");
     assert!(e.to_string().contains("unlock it ($X)"), "{e}");
@@ -312,4 +330,50 @@ fn cli_frames_refuses_off_bed_jobs_and_asks_before_sending() {
         so.contains("sent 14 lines") && so.contains("laser off"),
         "{so}"
     );
+}
+
+/// Issue 39 item 4: a laser job focused at Z5 that travels at Z0 is framed around what its beam
+/// cuts, at its own Z; a travel off the bed is refused by `frame` as by `estimate`.
+#[test]
+fn a_laser_job_with_its_own_z_is_framed_at_that_z_and_bed_checked_as_estimate_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("z5.gcode");
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z5\nM4 S0\nG0 X10 Y10\nG1 X20 S500 F1200\nG1 Y20\nM5\nG0 X0 Y0 Z0\n",
+    )
+    .unwrap();
+    let out = stencil()
+        .args(["frame", job.to_str().unwrap(), "--dry-run"])
+        .output()
+        .unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{so}{se}");
+    assert!(
+        so.contains("the job cuts within X 10.00..20.00 Y 10.00..20.00"),
+        "{so}{se}"
+    );
+    assert!(se.contains("at the job's Z5.000"), "{se}");
+
+    // A travel off the bed: refused before anything moves, by both commands.
+    let off = dir.path().join("off.gcode");
+    std::fs::write(
+        &off,
+        "G21 G90\nG0 Z5\nM4 S0\nG0 X-30 Y10\nG0 X10 Y10\nG1 X20 S500 F1200\nM5\n",
+    )
+    .unwrap();
+    for cmd in [&["frame", "--dry-run"][..], &["estimate"][..]] {
+        let out = stencil()
+            .arg(cmd[0])
+            .arg(&off)
+            .args(&cmd[1..])
+            .output()
+            .unwrap();
+        let se = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{cmd:?}: {se}");
+        assert!(se.contains("X -30.0 mm at line 4"), "{cmd:?}: {se}");
+    }
 }

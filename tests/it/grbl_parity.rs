@@ -810,6 +810,49 @@ const CASES: &[Case] = &[
         "ok",
         "a common program header",
     ),
+    // ---- The line buffer (protocol.c: LINE_BUFFER_SIZE 80, overflow at 79 characters kept) ----
+    (
+        "",
+        "G0X1.00000000000000000000000000000000000000000000000000000000000000000000000000",
+        "ok",
+        "protocol.c: 79 characters fit the line buffer",
+    ),
+    (
+        "",
+        "G0X1.000000000000000000000000000000000000000000000000000000000000000000000000000",
+        "error:11",
+        "protocol.c: the 80th character kept sets LINE_FLAG_OVERFLOW -> STATUS_OVERFLOW",
+    ),
+    (
+        "",
+        "G1 X11111111111111111111111111111111111111111111111111111111111111111111111111111111 F100",
+        "error:11",
+        "protocol.c: an 80-digit number overflows the line before read_float sees it",
+    ),
+    (
+        "",
+        "G0 X1. 0000000000 0000000000 0000000000 0000000000 0000000000 0000000000 00000000000000",
+        "ok",
+        "protocol.c: spaces never enter the line buffer (79 characters kept)",
+    ),
+    (
+        "",
+        "G0X1(a comment that is long enough to pass eighty characters on the line)Y2",
+        "ok",
+        "protocol.c: comments never enter the line buffer",
+    ),
+    (
+        "",
+        "G10 L2 P1",
+        "error:26",
+        "gcode.c [G10]: no axis words, spaced as typed",
+    ),
+    (
+        "",
+        "G10 L20 P1",
+        "error:26",
+        "gcode.c [G10]: no axis words (L20)",
+    ),
     // ---- M commands (gcode.c 'M'; config.h default build) ----
     ("", "M1", "ok", "gcode.c case 1: optional stop ignored"),
     ("", "M2", "ok", "gcode.c [21.]: program end"),

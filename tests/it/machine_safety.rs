@@ -851,3 +851,290 @@ fn an_allowed_laser_mode_off_in_a_job_is_warned_before_streaming() {
     assert!(o.status.success());
     assert!(!String::from_utf8_lossy(&o.stderr).contains("laser mode off"));
 }
+
+// ---- issue 39 item 2: connecting to a machine that is still running ---------------------------
+
+/// A board still running the rest of a job whose sender died (no banner when the port opens):
+/// a few long moves at the machine's pace, about `secs` seconds in all.
+fn mid_job(secs: f64) -> VirtualConfig {
+    // 60 mm at 1200 mm/min is 3 s a line.
+    let n = (secs / 3.0).ceil().max(1.0) as usize;
+    let mut text = String::from("G21G90\nM4S0\nG1X60F1200\n");
+    for i in 1..n {
+        text.push_str(if i % 2 == 1 { "G1X0\n" } else { "G1X60\n" });
+    }
+    VirtualConfig {
+        pace: Pace::Timed { speedup: 1.0 },
+        mid_job: Some(text),
+        ..VirtualConfig::default()
+    }
+}
+
+#[test]
+fn connecting_to_a_moving_machine_waits_for_it_and_never_resets_it_while_it_moves() {
+    let job = Program::parse("j.gcode", "G21G90\nG0X10\n").unwrap();
+    let (vg, port) = VirtualGrbl::spawn(mid_job(2.0)).unwrap();
+    let mut notes = Notes::default();
+    let result = within(60, move || {
+        let mut port = port;
+        let r = send(&mut port, &job, &cfg(), None, &mut notes);
+        (r.map(|_| ()).map_err(|e| e.to_string()), notes)
+    });
+    let (result, notes) = result;
+    result.unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+    // The old job's three lines ran to their end before the first reset went out.
+    let first_reset = r.events.iter().position(|e| *e == Event::SoftReset);
+    let reset = first_reset.expect("an idle machine is still woken with a reset");
+    for i in 0..3 {
+        assert!(
+            r.events[..reset].contains(&Event::Line(i)),
+            "{:?}",
+            r.events
+        );
+    }
+    assert!(r.executed.contains(&2), "the old job's last move ran");
+    assert!(
+        notes.0.iter().any(|n| n.contains("still running moves")
+            && n.contains("Run at X")
+            && n.contains("waiting for it to finish")),
+        "{:?}",
+        notes.0
+    );
+    assert!(
+        notes.0.iter().any(|n| n.contains("finished those moves")),
+        "{:?}",
+        notes.0
+    );
+    // And then the new job ran.
+    assert!(r.run_lines().contains(&"G0X10"), "{:?}", r.run_lines());
+}
+
+#[test]
+fn a_moving_machine_is_waited_for_within_a_bound_held_ones_are_left_or_stopped_safely() {
+    use stencil_grbl::stream::IfMoving;
+    let job = Program::parse("j.gcode", "G21G90\nG0X10\n").unwrap();
+    // Longer than the wait allows: refused, nothing sent, not reset.
+    let (vg, mut port) = VirtualGrbl::spawn(mid_job(30.0)).unwrap();
+    let c = StreamConfig {
+        if_moving: IfMoving::Wait(Duration::from_millis(1500)),
+        ..cfg()
+    };
+    let err = send(&mut port, &job, &c, None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, MachineError::Running { .. }), "{msg}");
+    assert!(
+        msg.contains("still running")
+            && msg.contains("nothing was sent")
+            && msg.contains("ALARM:3"),
+        "{msg}"
+    );
+    let r = vg.record();
+    assert!(!r.events.contains(&Event::SoftReset), "{:?}", r.events);
+    assert!(!r.run_lines().contains(&"G0X10"));
+    assert_eq!(r.state, "Run");
+    // Stopped as asked: feed hold, standstill, then the reset; no alarm, position kept.
+    let c = StreamConfig {
+        if_moving: IfMoving::Stop,
+        ..cfg()
+    };
+    let mut notes = Notes::default();
+    send(&mut port, &job, &c, None, &mut notes).unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+    let hold = r
+        .events
+        .iter()
+        .position(|e| *e == Event::Realtime(b'!'))
+        .expect("a feed hold first");
+    let reset = r
+        .events
+        .iter()
+        .position(|e| *e == Event::SoftReset)
+        .unwrap();
+    assert!(hold < reset, "{:?}", r.events);
+    assert!(
+        notes.0.iter().any(|n| n.contains("stopping it as asked")),
+        "{:?}",
+        notes.0
+    );
+    assert!(r.run_lines().contains(&"G0X10"));
+
+    // Held mid-job (someone pressed feed hold; it will not finish by itself): left alone.
+    let (vg, mut port) = VirtualGrbl::spawn(mid_job(30.0)).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    port.write_all(b"!").unwrap();
+    let err = send(&mut port, &job, &cfg(), None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        matches!(err, MachineError::Running { waited_s: None, .. }) && msg.contains("Hold"),
+        "{msg}"
+    );
+    assert!(msg.contains("cycle start"), "{msg}");
+    let r = vg.record();
+    assert!(!r.events.contains(&Event::SoftReset), "{:?}", r.events);
+    // With the stop asked for: reset from the completed hold, no alarm.
+    let c = StreamConfig {
+        if_moving: IfMoving::Stop,
+        ..cfg()
+    };
+    send(&mut port, &job, &c, None, &mut Quiet).unwrap();
+    let r = vg.stop();
+    assert!(alarms(&r).is_empty(), "alarms {:?}", alarms(&r));
+}
+
+// ---- issue 39 item 3: a two-pass job resumed after a sender crash -----------------------------
+
+/// Squares each cut twice: every point of a second pass is also a point of the first.
+fn two_pass_job() -> String {
+    let mut s = String::from("G21 G90\nM4 S0\n");
+    for k in 0..4 {
+        let (x0, y0) = (5.0 + 15.0 * k as f64, 5.0);
+        let (x1, y1) = (x0 + 10.0, y0 + 10.0);
+        s.push_str(&format!("G0 X{x0} Y{y0}\n"));
+        for _ in 0..2 {
+            s.push_str(&format!(
+                "G1 X{x1} Y{y0} S500 F1200\nG1 X{x1} Y{y1}\nG1 X{x0} Y{y1}\nG1 X{x0} Y{y0}\n"
+            ));
+        }
+    }
+    s.push_str("M5\n");
+    s
+}
+
+#[test]
+fn after_a_crash_a_two_pass_job_resumes_after_the_last_line_grbl_ran_at_every_kill_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = two_pass_job();
+    let job = Program::parse("j.gcode", &text).unwrap();
+    let texts: Vec<&str> = job.lines.iter().map(|l| l.text.as_str()).collect();
+    for kill in [6, 9, 10, 13, 15, 18, 22, 26, 29, 33] {
+        let jpath = dir.path().join(format!("j{kill}.gcode.journal"));
+        let vcfg = VirtualConfig {
+            pace: Pace::Timed { speedup: 20.0 },
+            ..VirtualConfig::default()
+        };
+        let (vg, host) = VirtualGrbl::spawn(vcfg).unwrap();
+        // $I and $$, then `kill` program lines, then the sender dies.
+        let mut port = Crashing {
+            inner: host,
+            lines: 2 + kill,
+        };
+        let started = Journal::new(
+            std::path::Path::new("j.gcode"),
+            text.as_bytes(),
+            &job,
+            "diode-400",
+            1,
+        );
+        let mut quiet = Quiet;
+        // The journal's periodic rewrite never comes (a crash right after one): stale, but for
+        // the lines sent, which are recorded before they go out.
+        let mut writer = JournalWriter::new(
+            &mut quiet,
+            started,
+            jpath.clone(),
+            &job,
+            ClockRef::default(),
+            Duration::from_secs(3600),
+        );
+        assert!(send(&mut port, &job, &cfg(), None, &mut writer).is_err());
+        drop(writer);
+        wait_idle(&vg);
+        let j = Journal::read(&jpath).unwrap();
+        let received: Vec<String> = vg
+            .record()
+            .run_lines()
+            .iter()
+            .filter(|l| !l.starts_with('$'))
+            .map(|s| s.to_string())
+            .collect();
+        assert_eq!(received.len(), kill);
+        // The last line sent, or the one the crash kept from going (named before it goes).
+        let sent = j.last_sent_line.expect("the lines sent are journalled");
+        assert!(
+            sent == job.lines[kill - 1].number || sent == job.lines[kill].number,
+            "{j:?}"
+        );
+        let before = vg.record().received.len();
+        let mut host = port.inner;
+        let c = StreamConfig {
+            from_line: j.proposal(&job).line,
+            recovery: Some(Recovery {
+                last_position: j.last_position,
+                last_acked: j.last_acked_line,
+                follow: true,
+                last_sent: j.last_sent_line,
+                grbl_stopped: j.grbl_stopped,
+                ..Recovery::default()
+            }),
+            ..cfg()
+        };
+        let mut notes = Notes::default();
+        send(&mut host, &job, &c, None, &mut notes)
+            .unwrap_or_else(|e| panic!("kill after {kill} lines: {e}"));
+        let r = vg.stop();
+        // Every program line ran once: what Grbl had when the sender died, then the rest.
+        let resumed: Vec<&str> = r.received[before..]
+            .iter()
+            .map(|l| l.text.as_str())
+            .filter(|l| !l.starts_with('$'))
+            .collect();
+        let pre = resumed.len() - (texts.len() - kill);
+        assert_eq!(
+            resumed[pre..],
+            texts[kill..],
+            "kill after {kill} lines: {:?}",
+            notes.0
+        );
+        assert!(alarms(&r).is_empty());
+    }
+}
+
+/// Without the journal's last line sent (a journal from before it was kept), a head at a
+/// corner that both passes reach cannot tell which pass ran: refused, naming the lines, and
+/// nothing moves.
+#[test]
+fn a_resume_the_controller_cannot_decide_is_refused_naming_the_candidates() {
+    let text = two_pass_job();
+    let job = Program::parse("j.gcode", &text).unwrap();
+    let vcfg = VirtualConfig {
+        pace: Pace::Timed { speedup: 20.0 },
+        ..VirtualConfig::default()
+    };
+    let (vg, host) = VirtualGrbl::spawn(vcfg).unwrap();
+    let mut port = Crashing {
+        inner: host,
+        lines: 2 + 13,
+    };
+    assert!(send(&mut port, &job, &cfg(), None, &mut Quiet).is_err());
+    // Until the lines it had received have all run.
+    let mut moves = usize::MAX;
+    while vg.record().moves.len() != moves || vg.record().state != "Idle" {
+        moves = vg.record().moves.len();
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let mut host = port.inner;
+    let c = StreamConfig {
+        from_line: 4,
+        recovery: Some(Recovery {
+            follow: true,
+            ..Recovery::default()
+        }),
+        ..cfg()
+    };
+    let err = send(&mut host, &job, &c, None, &mut Quiet).unwrap_err();
+    let msg = err.to_string();
+    match &err {
+        MachineError::ResumeAmbiguous { resume, .. } => {
+            assert!(resume.len() >= 2, "{msg}");
+            for l in resume {
+                assert!(msg.contains(&l.to_string()), "{msg}");
+            }
+        }
+        _ => panic!("{msg}"),
+    }
+    assert!(msg.contains("nothing was moved"), "{msg}");
+    assert_eq!(vg.stop().moves.len(), moves, "the head moved");
+}

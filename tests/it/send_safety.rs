@@ -856,7 +856,9 @@ fn a_killed_sender_leaves_a_running_journal_that_recover_resumes() {
     let mut seen = None;
     for _ in 0..600 {
         if let Ok(j) = Journal::read(&jpath) {
-            if j.last_acked_line.is_some() {
+            // Progress, and where a status report put the head (the journal is written as
+            // each line goes out, before any report may have come).
+            if j.last_acked_line.is_some() && j.last_position.is_some_and(|p| p[0] > 0.5) {
                 seen = Some(j);
                 break;
             }
@@ -912,8 +914,30 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
         ],
     );
     assert!(!ok);
-    // The journal names the profile; --recover picks it up without --machine.
+    // The journal names the profile by name and content, never by the path it was read from:
+    // a recovery does not open files a journal names, so this one must be named again.
+    let jpath = journal::path_for(&file);
+    let j = Journal::read(&jpath).unwrap();
+    assert_eq!(j.machine, "homing-laser");
+    assert!(j.machine_fnv1a64.is_some(), "{j:?}");
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("`homing-laser`")
+            && se.contains("--machine")
+            && se.contains("nothing was sent"),
+        "{se}"
+    );
+    assert!(!so.contains("virtual Grbl"), "{so}");
+    // Another profile than the run's is refused, naming both.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--machine", "diode-400"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("homing-laser") && se.contains("diode-400") && se.contains("nothing was sent"),
+        "{se}"
+    );
+    // The run's own profile, named: the recovery homes first as it says.
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--machine", p]);
     assert!(ok, "{so}{se}");
     assert!(so.contains("homes") && se.contains("homed"), "{so}{se}");
 
@@ -990,4 +1014,90 @@ fn file_text_is_printed_without_terminal_escapes() {
         so.contains("stopped: \\u{1b}]0;pwned\\u{7}") && so.contains("the port went away"),
         "{so}"
     );
+}
+
+/// Issue 39 item 4: a journal's `"machine"` is a profile name, never a path to open; a journal
+/// naming another profile than the one the run used (or whose content changed) is refused
+/// before anything is sent.
+#[test]
+fn recover_never_opens_a_path_the_journal_names_and_refuses_another_profile() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("job.gcode");
+    std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
+    let (ok, ..) = run_send(&file, &["--dry-run", "--dry-run-fault", "error:20@60"]);
+    assert!(!ok);
+    let jpath = journal::path_for(&file);
+    let original = std::fs::read_to_string(&jpath).unwrap();
+    let j = Journal::read(&jpath).unwrap();
+    assert_eq!(j.machine, "diode-400");
+    let edit = |machine: &str| {
+        let mut j2 = j.clone();
+        j2.machine = machine.to_string();
+        std::fs::write(&jpath, serde_json::to_string(&j2).unwrap()).unwrap();
+    };
+    // A path (or anything not a name) is not opened: refused, saying what to do.
+    for bad in ["/etc/passwd", "big-bed.toml", "..\\evil", "x\u{1b}[2Jy"] {
+        edit(bad);
+        let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+        assert!(!ok, "{bad}: {so}{se}");
+        assert!(
+            se.contains("not a profile name") && se.contains("nothing was sent"),
+            "{bad}: {se}"
+        );
+        assert!(!se.contains('\u{1b}'), "an escape printed raw: {se:?}");
+        assert!(!so.contains("virtual Grbl"), "{bad}: {so}");
+    }
+    // Another shipped profile, named in the journal: its content is not the run's.
+    edit("co2-600x400");
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
+    assert!(!ok, "{so}{se}");
+    assert!(
+        se.contains("co2-600x400")
+            && se.contains("other settings")
+            && se.contains("nothing was sent"),
+        "{se}"
+    );
+    // The run's own profile, by name: the recovery goes ahead.
+    std::fs::write(&jpath, original).unwrap();
+    let (ok, so, se) = run_send(&file, &["--dry-run", "--recover", "--position-confirmed"]);
+    assert!(ok, "{so}{se}");
+}
+
+/// Issue 39 item 4: a saved controller state with a setting no Grbl can hold is refused by
+/// `estimate`, naming the setting, instead of timing the job as 0 s (NaN).
+#[test]
+fn estimate_refuses_absurd_controller_settings_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("e.gcode");
+    std::fs::write(&job, "G21 G90\nG1 X10 F600\n").unwrap();
+    for (setting, name) in [
+        ("$100=1e308", "$100=1e308"),
+        ("$120=0", "$120=0"),
+        ("$110=-5", "$110=-5"),
+    ] {
+        let st = dir.path().join("state.txt");
+        std::fs::write(&st, format!("$110=6000\n{setting}\n")).unwrap();
+        let out = stencil()
+            .args(["estimate", job.to_str().unwrap(), "--controller-state"])
+            .arg(&st)
+            .output()
+            .unwrap();
+        let (so, se) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(!out.status.success(), "{setting}: {so}{se}");
+        assert!(
+            se.contains(name) && se.contains("state.txt") && !so.contains("NaN"),
+            "{setting}: {so}{se}"
+        );
+    }
+    let st = dir.path().join("state.txt");
+    std::fs::write(&st, "$100=80\n$110=6000\n$120=1000\n").unwrap();
+    let out = stencil()
+        .args(["estimate", job.to_str().unwrap(), "--controller-state"])
+        .arg(&st)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
 }

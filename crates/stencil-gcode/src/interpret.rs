@@ -226,6 +226,21 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Executed, G
     if clean.is_empty() || clean.starts_with('$') {
         return Ok(Executed::default());
     }
+    // Grbl's line buffer holds what is left after spaces and comments, 79 characters: a longer
+    // line is refused whole (protocol.c's overflow flag, error:11), whatever its words say.
+    if clean.len() > crate::limits::MAX_LINE_BYTES {
+        return Err(GcodeError {
+            line: line_no,
+            code: 11,
+            msg: format!(
+                "the line is {} characters without spaces and comments; Grbl's line buffer \
+                 holds {} (Grbl error:11)",
+                clean.len(),
+                crate::limits::MAX_LINE_BYTES
+            ),
+            out_of_range: false,
+        });
+    }
     crate::grbl::execute(modal, &clean, line_no)
 }
 
@@ -466,9 +481,15 @@ mod tests {
     #[test]
     fn numbers_beyond_any_machine_are_refused_by_line() {
         let huge = "9".repeat(400);
+        // A number too large to be one never reaches the parser: its line overflows Grbl's
+        // line buffer first (error:11), said without quoting it.
+        for p in [format!("G0 X1\nG0 X{huge}"), format!("G1 F{huge} X1")] {
+            let e = interpret(&p).unwrap_err();
+            let m = e.to_string();
+            assert_eq!(e.code, 11, "{m}");
+            assert!(m.contains("line buffer") && m.len() < 200, "{m}");
+        }
         for (p, want) in [
-            (format!("G0 X1\nG0 X{huge}"), "too large"),
-            (format!("G1 F{huge} X1"), "too large"),
             ("G0 X2000000".to_string(), "X 2000000 is beyond"),
             ("G20\nG0 Y50000".to_string(), "Y 1270000 is beyond"),
             (

@@ -356,6 +356,9 @@ impl Machine {
         let rule = CutRule::infer(moves);
         match self.tool {
             Tool::Pen(PenLift::Spindle { .. }) => rule.for_spindle_pen(),
+            // A laser cuts where its beam is on, whatever height its head is at: a job focused
+            // at Z5 that travels at Z0 has two Z levels, which alone would read as a pen on Z.
+            Tool::Laser { .. } if moves.iter().any(|m| m.power > 0.0) => CutRule::Spindle,
             _ => rule,
         }
     }

@@ -157,6 +157,12 @@ pub enum MachineError {
     Locked { port: String, alarm: Option<u8> },
     #[error("{port}: homing ($H) failed: {detail}; nothing was sent. Check the limit switches and Grbl's homing settings ($22..$27), and home the machine by hand before resuming")]
     Homing { port: String, detail: String },
+    #[error("{port}: {}; nothing was sent, and it was not reset: a soft reset while it moves loses its position (ALARM:3). {}", match waited_s { Some(s) => format!("the machine was still running moves it was given before this connection ({state}) after {s:.0} s of waiting"), None => format!("the machine holds moves it was given before this connection ({state}): it waits for a cycle start or a stop, and will not finish by itself") }, if waited_s.is_some() { "Let it finish, then connect again; or stop it safely (feed hold, wait until it stands, soft reset)" } else { "Resume it at the machine (cycle start) and let it finish; or stop it safely (feed hold, wait until it stands, soft reset)" })]
+    Running {
+        port: String,
+        state: String,
+        waited_s: Option<f64>,
+    },
     #[error("{port}: the machine is busy ({state}); wait until it is Idle")]
     Busy { port: String, state: String },
     #[error("{port}: Grbl refused `{cmd}` during setup: error:{code} ({})", protocol::error_meaning(*code))]
@@ -231,6 +237,15 @@ pub enum MachineError {
         now: Box<[f64; 3]>,
         then: Box<[f64; 3]>,
         corner: [f64; 2],
+    },
+    #[error("{port}: the controller puts the head at X{:.3} Y{:.3} Z{:.3} (the job's coordinates), {} several lines that may have run last{}: which of them did cannot be told from the controller (a job that cuts the same path more than once), so nothing was moved. Look at the work, then resume from the right one of lines {} after checking", position[0], position[1], position[2], if *inside { "inside" } else { "at the end of" }, if *inside { "" } else { " (resuming after each)" }, resume.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", "))]
+    ResumeAmbiguous {
+        port: String,
+        position: Box<[f64; 3]>,
+        /// The lines the job could resume from, one for each place the head could be.
+        resume: Vec<usize>,
+        /// The head stands partway through those lines (not at their ends).
+        inside: bool,
     },
     #[error("Grbl restarted in the middle of the job (power or reset); stopped: {halt}")]
     Restarted { halt: Halt },

@@ -66,7 +66,9 @@ pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
 pub enum FrameTool {
     /// A laser: dark (`s` = 0: `M5 S0`), or at `s` in dynamic mode (`M4 S<s>`), so the beam is
     /// dim and lit only while the head moves along the frame; off (`M5 S0`) for the travel.
-    Laser { s: f64 },
+    /// `z`: the work Z the job cuts at, taken first (`G0 Z`) when the job sets its own Z (a
+    /// head focused at Z5 frames there, not wherever it stood); `None` leaves Z alone.
+    Laser { s: f64, z: Option<f64> },
     /// A pen or knife on Z: lifted to `up_mm` (work Z) before any move, and left there.
     ZUp { up_mm: f64 },
     /// A pen servo on the spindle output: `M5` keeps it up.
@@ -95,7 +97,7 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
         format!(
             "; frame: X{x0}..{x1} Y{y0}..{y1} mm at F{f}, {}",
             match p.tool {
-                FrameTool::Laser { s } if s > 0.0 => format!("laser dim at S{}", num(s)),
+                FrameTool::Laser { s, .. } if s > 0.0 => format!("laser dim at S{}", num(s)),
                 FrameTool::Laser { .. } => "laser off".into(),
                 FrameTool::ZUp { up_mm } => format!("tool up at Z{}", num(up_mm)),
                 FrameTool::SpindlePen => "pen up (M5)".into(),
@@ -104,12 +106,17 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
         "G21 G90 G94".into(),
     ];
     match p.tool {
-        FrameTool::Laser { .. } => out.push("M5 S0".into()),
+        FrameTool::Laser { z, .. } => {
+            out.push("M5 S0".into());
+            if let Some(z) = z {
+                out.push(format!("G0 Z{}", num(z)));
+            }
+        }
         FrameTool::ZUp { up_mm } => out.push(format!("G0 Z{}", num(up_mm))),
         FrameTool::SpindlePen => out.push("M5".into()),
     }
     out.push(format!("G0 X{x0} Y{y0}"));
-    if let FrameTool::Laser { s } = p.tool {
+    if let FrameTool::Laser { s, .. } = p.tool {
         if s > 0.0 {
             out.push(format!("M4 S{}", num(s)));
         }
@@ -281,7 +288,7 @@ mod tests {
                 moves: 2,
             },
             start: [1.5, 2.0],
-            tool: FrameTool::Laser { s: 10.0 },
+            tool: FrameTool::Laser { s: 10.0, z: None },
             feed_mm_min: 3000.0,
         };
         let text = frame_program(&plan);
@@ -303,7 +310,7 @@ mod tests {
         assert_eq!(powers, [0.0, 10.0, 10.0, 10.0, 10.0, 0.0]);
         assert!(text.trim_end().ends_with("M9\nM5 S0"), "{text}");
         let dark = frame_program(&FramePlan {
-            tool: FrameTool::Laser { s: 0.0 },
+            tool: FrameTool::Laser { s: 0.0, z: None },
             ..plan
         });
         assert!(!dark.contains("M4") && !dark.contains("M3"), "{dark}");

@@ -44,6 +44,12 @@ pub(crate) fn fnv1a64(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
+/// A short text standing for `content` (a machine profile as the run used it): a journal keeps
+/// it so that a recovery can tell the profile it is given from the one the run used.
+pub fn fingerprint(content: &str) -> String {
+    fnv1a64(content.as_bytes())
+}
+
 /// How the run stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -81,8 +87,13 @@ pub struct Journal {
     pub file: String,
     pub file_bytes: u64,
     pub file_fnv1a64: String,
-    /// The machine profile the run used (name, or the path given).
+    /// The machine profile the run used, by name (never a path: a recovery loads profiles by
+    /// name only, and never opens a file a journal names).
     pub machine: String,
+    /// The profile's content as the run used it ([`fingerprint`]): a recovery with a
+    /// profile that differs is refused.
+    #[serde(default)]
+    pub machine_fnv1a64: Option<String>,
     pub state: RunState,
     /// Why it stopped (the sender's own message), for `Stopped`.
     pub stop_reason: Option<String>,
@@ -92,6 +103,16 @@ pub struct Journal {
     pub from_line: usize,
     /// The last file line Grbl acknowledged (queued; maybe not run).
     pub last_acked_line: Option<usize>,
+    /// The last file line handed to the port, recorded before it goes out: after a crash,
+    /// Grbl can have received nothing past it.
+    #[serde(default)]
+    pub last_sent_line: Option<usize>,
+    /// The stop reset Grbl, which dropped what it had queued: nothing ran after the journal's
+    /// last record. False for a run that did not end (the sender crashed) and for a stop that
+    /// could not reach Grbl (a lost or silent port): Grbl may have run on through every line
+    /// it had received.
+    #[serde(default)]
+    pub grbl_stopped: bool,
     /// The last `Ln:` (N number being executed) a status report gave, if the firmware reports it.
     pub status_ln: Option<u32>,
     /// Grbl's planner depth: how many acknowledged moves may still wait.
@@ -165,12 +186,15 @@ impl Journal {
             file_bytes: bytes.len() as u64,
             file_fnv1a64: fnv1a64(bytes),
             machine: machine.to_string(),
+            machine_fnv1a64: None,
             state: RunState::Running,
             stop_reason: None,
             started_unix_s: now,
             updated_unix_s: now,
             from_line,
             last_acked_line: None,
+            last_sent_line: None,
+            grbl_stopped: false,
             status_ln: None,
             planner_blocks: stencil_gcode::limits::PLANNER_BLOCKS,
             resume_from: from_line,
@@ -345,6 +369,11 @@ pub struct JournalWriter<'o, 'j> {
     every: Duration,
     last_write: Option<Duration>,
     warned: bool,
+    /// The real run has begun (not the check pass): lines sent now are recorded.
+    live: bool,
+    /// Where the run stands by the last progress report (first line that may not have run):
+    /// taken into the journal, with its modal state, when it is next written in full.
+    resume: usize,
 }
 
 impl<'o, 'j> JournalWriter<'o, 'j> {
@@ -358,6 +387,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
     ) -> Self {
         JournalWriter {
             inner,
+            resume: journal.resume_from,
             journal,
             path,
             job,
@@ -365,6 +395,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
             every,
             last_write: None,
             warned: false,
+            live: false,
         }
     }
 
@@ -403,6 +434,11 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
                 };
                 self.journal.state = RunState::Stopped;
                 self.journal.stop_reason = Some(e.to_string());
+                // A lost or silent port may not have carried the stop: Grbl can have run on.
+                self.journal.grbl_stopped = !matches!(
+                    e,
+                    MachineError::PortLost { .. } | MachineError::Silent { .. }
+                );
                 self.journal.last_acked_line = h.last_acked.or(self.journal.last_acked_line);
                 self.journal.set_resume(self.job, h.resume_from);
             }
@@ -422,6 +458,7 @@ impl Observer for JournalWriter<'_, '_> {
     fn phase(&mut self, checking: bool, total: usize) {
         if !checking {
             // The real run begins: the journal exists from its first line on.
+            self.live = true;
             self.save();
         }
         self.inner.phase(checking, total);
@@ -430,19 +467,26 @@ impl Observer for JournalWriter<'_, '_> {
         self.journal.last_acked_line = p.last_acked_line.or(self.journal.last_acked_line);
         self.journal.status_ln = p.status_line.or(self.journal.status_ln);
         self.journal.last_position = p.position.or(self.journal.last_position);
-        if p.unexecuted_from != self.journal.resume_from {
-            self.journal.resume_from = p.unexecuted_from;
-        }
+        self.resume = p.unexecuted_from;
         let now = self.clock.0.now();
         if self
             .last_write
             .is_none_or(|t| now.saturating_sub(t) >= self.every)
         {
-            let line = self.journal.resume_from;
-            self.journal.set_resume(self.job, line);
+            self.journal.set_resume(self.job, self.resume);
             self.save();
         }
         self.inner.progress(p);
+    }
+    /// Written before the line goes out, so that after a crash the journal bounds what Grbl
+    /// can have received (the resume point and its modal state stay as last written: still
+    /// true, only older).
+    fn sending(&mut self, line: usize) {
+        if self.live && self.journal.last_sent_line.is_none_or(|s| line > s) {
+            self.journal.last_sent_line = Some(line);
+            self.save();
+        }
+        self.inner.sending(line);
     }
 }
 

@@ -26,6 +26,23 @@ pub enum LaserMode {
     Set,
 }
 
+/// What connecting does about a controller found still running moves it was given before
+/// (another program's job, or the rest of one whose sender died): a soft reset then would lose
+/// its position (ALARM:3), so it is never reset while it moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IfMoving {
+    /// Wait until it stands idle, at most this long, then connect as usual; a machine held in a
+    /// feed hold or at its safety door, which will not finish by itself, is refused at once.
+    Wait(Duration),
+    /// Stop it as the abort key does: feed hold, wait until it stands, then the soft reset
+    /// (from a completed hold Grbl keeps its position).
+    Stop,
+}
+
+/// How long connecting waits for a machine found running to finish: what a sender that died
+/// leaves queued (15 planner blocks and a 128-byte buffer of lines) takes minutes at most.
+pub const MOVING_WAIT: Duration = Duration::from_secs(300);
+
 /// The longest a homing cycle may take before the sender gives up on it.
 pub(crate) const HOMING_LIMIT: Duration = Duration::from_secs(300);
 
@@ -77,6 +94,8 @@ pub struct StreamConfig {
     /// after connecting (and any homing or recovery check), a work zero found elsewhere is moved
     /// there with `G92`. `None` leaves the controller's offsets as they are.
     pub place_zero: Option<[f64; 2]>,
+    /// A controller found running moves when connecting: waited for, or stopped safely.
+    pub if_moving: IfMoving,
 }
 
 /// What a job and its machine profile expect of the controller's settings (`$$`). Every field
@@ -128,6 +147,7 @@ impl Default for StreamConfig {
             allow_machine_commands: false,
             recovery: None,
             place_zero: None,
+            if_moving: IfMoving::Wait(MOVING_WAIT),
         }
     }
 }
@@ -149,4 +169,12 @@ pub struct Recovery {
     /// A controller standing idle exactly where a later line ends ran on after the journal's
     /// last record (the sender crashed, Grbl did not): resume after that line.
     pub follow: bool,
+    /// The journal's last line sent: Grbl can have received nothing past it.
+    pub last_sent: Option<usize>,
+    /// The run's stop reset Grbl (its queue was dropped): nothing ran after the journal's last
+    /// record, and the journal's resume point stands.
+    pub grbl_stopped: bool,
+    /// Connecting found the machine still running what it had received and stopped it (as
+    /// asked): it did not run everything it received.
+    pub cut_short: bool,
 }

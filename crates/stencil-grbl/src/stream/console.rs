@@ -87,6 +87,12 @@ impl<'a> Console<'a> {
         &self.s.info
     }
 
+    /// Connecting found the machine running moves it was given before, and stopped them as
+    /// asked ([`super::IfMoving::Stop`]): what it had queued did not all run.
+    pub fn stopped_running(&self) -> bool {
+        self.s.stopped_running
+    }
+
     /// The machine was locked in alarm when last seen.
     pub fn locked(&self) -> bool {
         self.locked

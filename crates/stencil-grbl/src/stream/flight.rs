@@ -175,6 +175,9 @@ impl Session<'_, '_> {
             if !fits {
                 break;
             }
+            if !lines[next].preamble {
+                self.obs.sending(lines[next].number);
+            }
             let mut bytes = Vec::with_capacity(len);
             bytes.extend_from_slice(lines[next].text.as_bytes());
             bytes.push(b'\n');

@@ -28,7 +28,9 @@ mod session;
 mod settings;
 mod tracker;
 
-pub use self::config::{Expected, FlowControl, LaserMode, PowerScale, Recovery, StreamConfig};
+pub use self::config::{
+    Expected, FlowControl, IfMoving, LaserMode, PowerScale, Recovery, StreamConfig, MOVING_WAIT,
+};
 pub use self::control::{Control, Override};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};

@@ -51,6 +51,8 @@ pub trait Observer {
     /// The check-mode pass (true) or the real run (false) begins.
     fn phase(&mut self, _checking: bool, _total: usize) {}
     fn progress(&mut self, _p: &Progress) {}
+    /// Program line `line` is about to be written to the port (called before it goes out).
+    fn sending(&mut self, _line: usize) {}
 }
 
 /// An observer that shows nothing.

@@ -4,7 +4,7 @@
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
-use super::config::HOMING_LIMIT;
+use super::config::{IfMoving, HOMING_LIMIT};
 use super::link::{BytePort, Link, LinkFault};
 use super::{Control, ControllerInfo, LaserMode, MachineError, Observer, StreamConfig};
 use crate::protocol::{self, MachineState, Reply, Status, RT_SOFT_RESET, RT_STATUS};
@@ -28,6 +28,9 @@ pub(super) struct Session<'a, 'o> {
     /// Rescaling of S asked for by [`StreamConfig::rescale_power`]: (the job's S at its lowest,
     /// the controller's, factor).
     pub(super) power_map: Option<(f64, f64, f64)>,
+    /// Connecting found the machine running moves it was given before and stopped them
+    /// ([`IfMoving::Stop`]): what it had queued did not all run.
+    pub(super) stopped_running: bool,
 }
 
 impl<'a, 'o> Session<'a, 'o> {
@@ -52,6 +55,7 @@ impl<'a, 'o> Session<'a, 'o> {
             stall: StallWatch::new(stall_bound),
             unsure: None,
             power_map: None,
+            stopped_running: false,
         }
     }
 }
@@ -70,11 +74,16 @@ impl Session<'_, '_> {
         }
     }
 
-    /// Wait for the banner; wake a board that did not reset on open with a soft reset.
+    /// Wait for the banner; a board that did not reset on open is asked what it is doing (`?`)
+    /// before it is woken with a soft reset: one still running moves it was given before is
+    /// waited for, or stopped safely ([`IfMoving`]), never reset while it moves.
     pub(super) fn connect(&mut self) -> Result<(), MachineError> {
         let mut alarm = None;
         let mut hinted = false;
         let mut version = self.wait_welcome(self.cfg.boot_wait, &mut alarm, &mut hinted)?;
+        if version.is_none() {
+            version = self.before_reset(&mut alarm, &mut hinted)?;
+        }
         if version.is_none() {
             self.link
                 .write(&[RT_SOFT_RESET])
@@ -140,6 +149,160 @@ impl Session<'_, '_> {
         self.check_settings()?;
         self.obs.connected(&self.info);
         Ok(())
+    }
+
+    /// No banner came: the board did not reset when the port opened. Before the soft reset that
+    /// wakes it, ask what it is doing: a machine still running moves it was given before (a
+    /// sender that died mid-job) would lose its position to a reset (ALARM:3). Such a machine
+    /// is waited for until it stands idle, or stopped as the abort key stops a job (feed hold,
+    /// standstill, then the reset), as [`StreamConfig::if_moving`] says; one held in a feed
+    /// hold or at its door, which will not finish by itself, is left alone unless stopping was
+    /// asked for. Returns the banner if one arrives meanwhile (the board was only slow).
+    fn before_reset(
+        &mut self,
+        alarm: &mut Option<u8>,
+        hinted: &mut bool,
+    ) -> Result<Option<String>, MachineError> {
+        let st = match self.first_report(alarm, hinted)? {
+            Heard::Banner(v) => return Ok(Some(v)),
+            Heard::Nothing => return Ok(None),
+            Heard::Status(st) if !moving(&st.state) => return Ok(None),
+            Heard::Status(st) => st,
+        };
+        let what = doing(&st);
+        let held = matches!(st.state, MachineState::Hold(_) | MachineState::Door(_));
+        match self.cfg.if_moving {
+            // Homing ignores a feed hold: it is waited for whatever was asked.
+            IfMoving::Stop if st.state != MachineState::Home => {
+                self.obs.message(&format!(
+                    "Grbl is still running moves it was given before this connection ({what}): \
+                     stopping it as asked, as the abort key does: feed hold, wait until it \
+                     stands, then a soft reset (from a completed hold its position is kept)"
+                ));
+                self.settle(None);
+                if let Some(why) = self.unsure.take() {
+                    self.obs.message(&format!(
+                        "the position may be lost: {why}: home the machine ($H) or set its zero \
+                         again before cutting"
+                    ));
+                }
+                self.stopped_running = true;
+                Ok(None)
+            }
+            IfMoving::Wait(_) if held => Err(MachineError::Running {
+                port: self.port_name.clone(),
+                state: what,
+                waited_s: None,
+            }),
+            wait => {
+                let limit = match wait {
+                    IfMoving::Wait(d) => d,
+                    IfMoving::Stop => HOMING_LIMIT,
+                };
+                self.obs.message(&format!(
+                    "Grbl is still running moves it was given before this connection ({what}): \
+                     another program's job, or the rest of one whose sender stopped. A soft \
+                     reset now would lose its position (ALARM:3), so nothing is sent until it \
+                     stands idle: waiting for it to finish (at most {} s)",
+                    limit.as_secs()
+                ));
+                let done = self.wait_idle(limit, alarm, hinted)?;
+                self.obs.message(&format!(
+                    "the machine finished those moves: {}",
+                    doing(&done)
+                ));
+                Ok(None)
+            }
+        }
+    }
+
+    /// Ask `?` (twice, half a second apart) and take the first answer: a status report, or a
+    /// banner from a board that was only slow to boot.
+    fn first_report(
+        &mut self,
+        alarm: &mut Option<u8>,
+        hinted: &mut bool,
+    ) -> Result<Heard, MachineError> {
+        let end = Instant::now() + Duration::from_millis(1000);
+        let mut next_ask = Instant::now();
+        self.link.last_heard = Instant::now();
+        while Instant::now() < end {
+            if Instant::now() >= next_ask {
+                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
+                next_ask = Instant::now() + Duration::from_millis(500);
+            }
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Status(st) => return Ok(Heard::Status(st)),
+                    Reply::Welcome(v) => return Ok(Heard::Banner(v)),
+                    Reply::Alarm(a) => *alarm = Some(a),
+                    Reply::Message(m) => {
+                        *hinted |= protocol::is_unlock_hint(&m);
+                        self.obs.message(&format!("Grbl: {m}"));
+                    }
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(LinkFault::Silent(_)) => return Ok(Heard::Nothing),
+                Err(f) => return Err(self.lost(f)),
+            }
+        }
+        Ok(Heard::Nothing)
+    }
+
+    /// Poll (`?`, four times a second) until the machine no longer moves, at most `limit`;
+    /// a machine that is put in a feed hold meanwhile will not finish, and is left as it is.
+    fn wait_idle(
+        &mut self,
+        limit: Duration,
+        alarm: &mut Option<u8>,
+        hinted: &mut bool,
+    ) -> Result<Status, MachineError> {
+        let end = Instant::now() + limit;
+        let mut next_ask = Instant::now();
+        let mut next_note = Instant::now() + Duration::from_secs(15);
+        let mut last: Option<Status> = None;
+        self.link.last_heard = Instant::now();
+        while Instant::now() < end {
+            if Instant::now() >= next_ask {
+                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
+                next_ask = Instant::now() + Duration::from_millis(250);
+            }
+            match self.link.line(Duration::from_millis(50)) {
+                Ok(Some(l)) => match Reply::parse(&l) {
+                    Reply::Status(st) if !moving(&st.state) => return Ok(st),
+                    Reply::Status(st)
+                        if matches!(st.state, MachineState::Hold(_) | MachineState::Door(_)) =>
+                    {
+                        return Err(MachineError::Running {
+                            port: self.port_name.clone(),
+                            state: doing(&st),
+                            waited_s: None,
+                        })
+                    }
+                    Reply::Status(st) => {
+                        if Instant::now() >= next_note {
+                            self.obs.message(&format!("still running: {}", doing(&st)));
+                            next_note = Instant::now() + Duration::from_secs(15);
+                        }
+                        last = Some(st);
+                    }
+                    Reply::Alarm(a) => *alarm = Some(a),
+                    Reply::Message(m) => {
+                        *hinted |= protocol::is_unlock_hint(&m);
+                        self.obs.message(&format!("Grbl: {m}"));
+                    }
+                    _ => {}
+                },
+                Ok(None) => {}
+                Err(f) => return Err(self.lost(f)),
+            }
+        }
+        Err(MachineError::Running {
+            port: self.port_name.clone(),
+            state: last.as_ref().map_or_else(|| "Run".into(), doing),
+            waited_s: Some(limit.as_secs_f64()),
+        })
     }
 
     /// `$H`, waiting for its `ok` as long as homing may take (the machine answers status queries
@@ -359,6 +522,34 @@ impl Session<'_, '_> {
             port: self.port_name.clone(),
             secs: self.cfg.timeout.as_secs_f64(),
         })
+    }
+}
+
+/// The first answer to a `?` on connecting.
+enum Heard {
+    Status(Status),
+    Banner(String),
+    Nothing,
+}
+
+/// The machine is carrying out (or holding) moves: a soft reset now would, or could, lose its
+/// position, or throw away a job someone held.
+fn moving(state: &MachineState) -> bool {
+    matches!(
+        state,
+        MachineState::Run
+            | MachineState::Jog
+            | MachineState::Home
+            | MachineState::Hold(_)
+            | MachineState::Door(_)
+    )
+}
+
+/// "Run at X12.000 Y3.500 Z0.000": a state and where the head is.
+fn doing(st: &Status) -> String {
+    match st.position() {
+        Some(p) => format!("{} at X{:.3} Y{:.3} Z{:.3}", st.state, p[0], p[1], p[2]),
+        None => st.state.to_string(),
     }
 }
 

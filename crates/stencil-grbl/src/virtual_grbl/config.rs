@@ -82,6 +82,11 @@ pub struct VirtualConfig {
     /// it starts with, as a person's saved `$#`, `$G` and `?` say (its `$$` goes in `settings`);
     /// `None`: at machine zero with no offsets.
     pub start: Option<crate::placement::ControllerState>,
+    /// The board was left running a job when the host opened its port (its sender died
+    /// mid-job, and opening the port does not reset this board): these lines are already on
+    /// their way into its receive buffer and run at once, no banner greets the new host, and
+    /// their answers went to the sender that is gone. Give it a timed pace to have it moving.
+    pub mid_job: Option<String>,
     /// The board's thread loses the CPU now and then, as on a busy computer where the dry run's
     /// controller shares two cores with a dozen other processes; `None`: it runs when it can.
     pub stutter: Option<Stutter>,
@@ -131,6 +136,7 @@ impl Default for VirtualConfig {
             latency: std::time::Duration::ZERO,
             start: None,
             stutter: None,
+            mid_job: None,
         }
     }
 }

@@ -98,6 +98,8 @@ impl Sim {
             && (!self.hold || self.hold_decel.is_some());
         lock(&self.shared).events.push(Event::SoftReset);
         self.rx.clear();
+        self.backlog.clear();
+        self.unheard = 0;
         self.line_buf.clear();
         self.line_overflow = false;
         self.comment = Comment::None;

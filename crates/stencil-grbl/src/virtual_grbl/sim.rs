@@ -81,6 +81,11 @@ pub(super) struct Sim {
     pub(super) wco: [f64; 3],
     /// The next status report carries `WCO:` (Grbl sends it at once after a change).
     pub(super) wco_changed: bool,
+    /// Lines of a job it was running before the host connected ([`VirtualConfig::mid_job`]),
+    /// fed into the receive buffer as it frees.
+    pub(super) backlog: VecDeque<u8>,
+    /// Answers still owed to the sender that is gone: not heard by this host.
+    pub(super) unheard: usize,
 }
 
 impl Sim {
@@ -128,6 +133,8 @@ impl Sim {
             frozen: false,
             wco: [0.0; 3],
             wco_changed: false,
+            backlog: VecDeque::new(),
+            unheard: 0,
         };
         sim.settings = super::system::initial_settings(&sim.cfg);
         sim.apply_settings();
@@ -139,8 +146,21 @@ impl Sim {
             sim.modal.pos = st.position.unwrap_or([0.0; 3]);
             sim.sync_wco();
         }
-        sim.say("");
-        sim.say("Grbl 1.1h ['$' for help]");
+        match sim.cfg.mid_job.clone() {
+            // Running since long before this host opened the port: no banner now.
+            Some(text) => {
+                let mut bytes = text.into_bytes();
+                if bytes.last() != Some(&b'\n') {
+                    bytes.push(b'\n');
+                }
+                sim.unheard = bytes.iter().filter(|&&b| b == b'\n').count();
+                sim.backlog = bytes.into();
+            }
+            None => {
+                sim.say("");
+                sim.say("Grbl 1.1h ['$' for help]");
+            }
+        }
         sim.publish();
         sim
     }
@@ -206,6 +226,12 @@ impl Sim {
 
     /// Move bytes that have finished crossing the wire into the receive buffer (or act on them).
     fn deliver(&mut self, now: Instant) {
+        while self.rx.len() < self.cfg.rx_buffer {
+            let Some(b) = self.backlog.pop_front() else {
+                break;
+            };
+            self.rx.push_back(b);
+        }
         while let Some(&(t, b)) = self.wire_in.front() {
             if t > now {
                 break;
@@ -233,6 +259,10 @@ impl Sim {
     /// Queue a line for the host (`\r\n` ended, as Grbl sends), paced at the baud rate if set.
     pub(super) fn say(&mut self, line: &str) {
         if self.silent {
+            return;
+        }
+        if self.unheard > 0 && (line == "ok" || line.starts_with("error:")) {
+            self.unheard -= 1;
             return;
         }
         let line = match (line, self.ok_fault) {
