@@ -1041,6 +1041,19 @@ fn after_a_crash_a_two_pass_job_resumes_after_the_last_line_grbl_ran_at_every_ki
         );
         assert!(send(&mut port, &job, &cfg(), None, &mut writer).is_err());
         drop(writer);
+        // The lines written before the crash are on their way through the pty: the board has
+        // them once it has read them (a busy machine may take a while), then runs them out.
+        let has_all = || {
+            let r = vg.record();
+            let got = r.run_lines().iter().filter(|l| !l.starts_with('$')).count();
+            got >= kill
+        };
+        for _ in 0..400 {
+            if has_all() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(25));
+        }
         wait_idle(&vg);
         let j = Journal::read(&jpath).unwrap();
         let received: Vec<String> = vg
