@@ -81,15 +81,11 @@ impl SetRun {
     }
 }
 
-/// The identity of the input file on disk: a file replaced or rewritten has another.
+/// The identity of the input file on disk: a file replaced or rewritten has another. Its
+/// length, modification time, and device, inode and change time (Unix: a file renamed over it,
+/// or written within the modification time's resolution, still differs).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct Stamp {
-    len: u64,
-    modified: Option<SystemTime>,
-    /// Device, inode and the change time (Unix): a file renamed over it, or written within the
-    /// modification time's resolution, still differs.
-    node: [i64; 4],
-}
+pub(crate) struct Stamp(u64, Option<SystemTime>, [i64; 4]);
 
 /// The input file's stamp now (`None`: it cannot be read; the run then says why).
 pub(crate) fn stamp(path: &Path) -> Option<Stamp> {
@@ -101,11 +97,7 @@ pub(crate) fn stamp(path: &Path) -> Option<Stamp> {
     };
     #[cfg(not(unix))]
     let node = [0; 4];
-    Some(Stamp {
-        len: m.len(),
-        modified: m.modified().ok(),
-        node,
-    })
+    Some(Stamp(m.len(), m.modified().ok(), node))
 }
 
 /// One finished run, as the page sees it.

@@ -120,13 +120,10 @@ struct WaitQuery {
 }
 
 async fn get_state(State(s): State<Shared>, Query(q): Query<WaitQuery>) -> ApiResult {
-    let done = if q.wait.unwrap_or(0) != 0 {
-        let v = s.wanted.load(Ordering::SeqCst);
-        s.wait_for(v).await
-    } else {
-        s.done.borrow().clone()
-    };
-    Ok(Json(s.state(&done)).into_response())
+    if q.wait.unwrap_or(0) != 0 {
+        return answer(&s, s.wanted.load(Ordering::SeqCst)).await;
+    }
+    Ok(Json(s.state(&s.done.borrow().clone())).into_response())
 }
 
 async fn get_options(State(s): State<Shared>) -> ApiResult {
@@ -156,10 +153,7 @@ fn json_body(body: &[u8]) -> Result<Value, Refusal> {
 
 async fn post_params(State(s): State<Shared>, body: Bytes) -> ApiResult {
     let changes = json_body(&body)?;
-    let v = s.push(|cur| {
-        cur.with(&s.specs, &changes)
-            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
-    })?;
+    let v = s.push(|_| changes)?;
     answer(&s, v).await
 }
 
@@ -228,23 +222,15 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
     let v = s.push(|cur| {
         let mut list = cur.get(name).to_vec();
         list.push(value);
-        cur.with(&s.specs, &json!({ name: list }))
-            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
+        json!({ name: list })
     })?;
     answer(&s, v).await
 }
 
-async fn post_undo(State(s): State<Shared>) -> ApiResult {
-    step_history(&s, -1).await
-}
-
-async fn post_redo(State(s): State<Shared>) -> ApiResult {
-    step_history(&s, 1).await
-}
-
-async fn step_history(s: &Shared, d: isize) -> ApiResult {
+/// `POST /api/undo` (`d` = -1) and `/api/redo` (+1).
+async fn step_history(State(s): State<Shared>, d: isize) -> ApiResult {
     let v = s.step(d)?;
-    answer(s, v).await
+    answer(&s, v).await
 }
 
 /// `POST /api/keepout`: a PNG (dark = no bridge), saved in the output folder under a name of
@@ -268,10 +254,7 @@ async fn post_keepout(State(s): State<Shared>, body: Bytes) -> ApiResult {
             .display()
             .to_string()
     };
-    let v = s.push(|cur| {
-        cur.with(&s.specs, &json!({ "keep-out": value }))
-            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))
-    })?;
+    let v = s.push(|_| json!({ "keep-out": value }))?;
     answer(&s, v).await
 }
 
@@ -423,9 +406,7 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
     let mut headers = HeaderMap::new();
     headers.insert(
         header::CONTENT_TYPE,
-        "image/png"
-            .parse()
-            .unwrap_or(header::HeaderValue::from_static("image/png")),
+        header::HeaderValue::from_static("image/png"),
     );
     headers.insert(
         header::CACHE_CONTROL,
@@ -441,25 +422,19 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
 /// (version N is ready: fetch the state and images), as server-sent events.
 async fn events(State(s): State<Shared>) -> impl IntoResponse {
     let asked = s.asked.subscribe();
-    let done = s.done.subscribe();
+    let mut done = s.done.subscribe();
+    // The first event says which version is ready now.
+    done.mark_changed();
     let stop = s.shutdown.subscribe();
     let stream = futures_util::stream::unfold(
-        (asked, done, stop, true),
-        |(mut asked, mut done, mut stop, first)| async move {
-            if first {
-                let v = done.borrow_and_update().version;
-                let ev = Event::default().event("done").data(v.to_string());
-                return Some((
-                    Ok::<_, std::convert::Infallible>(ev),
-                    (asked, done, stop, false),
-                ));
-            }
+        (asked, done, stop),
+        |(mut asked, mut done, mut stop)| async move {
             let ev = tokio::select! {
                 r = asked.changed() => { r.ok()?; Event::default().event("asked").data(asked.borrow_and_update().to_string()) }
                 r = done.changed() => { r.ok()?; Event::default().event("done").data(done.borrow_and_update().version.to_string()) }
                 _ = stop.wait_for(|s| *s) => return None,
             };
-            Some((Ok(ev), (asked, done, stop, false)))
+            Some((Ok::<_, std::convert::Infallible>(ev), (asked, done, stop)))
         },
     );
     Sse::new(stream).keep_alive(KeepAlive::default())
@@ -494,8 +469,8 @@ pub fn serve(
             .route("/api/state", get(get_state))
             .route("/api/params", post(post_params))
             .route("/api/bridges", post(post_bridges))
-            .route("/api/undo", post(post_undo))
-            .route("/api/redo", post(post_redo))
+            .route("/api/undo", post(|s| step_history(s, -1)))
+            .route("/api/redo", post(|s| step_history(s, 1)))
             .route("/api/export", post(post_export))
             .route("/api/image/{file}", get(get_image))
             .route("/api/events", get(events))
@@ -513,13 +488,7 @@ pub fn serve(
             let _ = tokio::signal::ctrl_c().await;
             stop.shutdown.send_replace(true);
         });
-        crate::conn::serve(
-            listener,
-            api,
-            crate::conn::connection_cap(),
-            studio.shutdown.subscribe(),
-        )
-        .await;
+        crate::conn::serve(listener, api, studio.shutdown.subscribe()).await;
         studio.stop();
         let _ = worker.join();
         Ok(())

@@ -13,6 +13,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::StatusCode;
+use serde_json::Value;
 use tokio::sync::watch;
 
 use stencil_core::layers::LayersConfig;
@@ -37,7 +38,7 @@ pub struct StudioConfig {
     /// Where an export writes `make`'s files (and the painted keep-out pictures go).
     pub out_dir: PathBuf,
     /// Option values given on the command line, as `/api/params` takes them.
-    pub initial: serde_json::Value,
+    pub initial: Value,
     /// The port on 127.0.0.1; 0: any free port.
     pub port: u16,
 }
@@ -69,6 +70,7 @@ struct Run {
 }
 
 /// The states taken (for undo and redo), the one shown, and the newest job for the worker.
+#[derive(Default)]
 struct History {
     states: Vec<Params>,
     at: usize,
@@ -122,10 +124,7 @@ impl Studio {
             hosts: vec![format!("127.0.0.1:{port}"), format!("localhost:{port}")],
             history: Mutex::new(History {
                 states: vec![initial.clone()],
-                at: 0,
-                version: 0,
-                job: None,
-                stop: false,
+                ..History::default()
             }),
             edit: Mutex::new(()),
             exporting: tokio::sync::Mutex::new(()),
@@ -206,15 +205,15 @@ impl Studio {
         v
     }
 
-    /// Take `change(current state)` as the new state, after `make`'s own checks, remembered for
+    /// Take the current state with `changes(current state)` (option names and values, as
+    /// `/api/params` takes them) as the new state, after `make`'s own checks, remembered for
     /// undo; returns its version. A refused change leaves everything as it was.
-    pub(crate) fn push(
-        &self,
-        change: impl FnOnce(&Params) -> Result<Params, Refusal>,
-    ) -> Result<u64, Refusal> {
+    pub(crate) fn push(&self, changes: impl FnOnce(&Params) -> Value) -> Result<u64, Refusal> {
         let _edit = self.edit.lock().unwrap_or_else(|e| e.into_inner());
         let (cur, ..) = self.current();
-        let p = change(&cur)?;
+        let p = cur
+            .with(&self.specs, &changes(&cur))
+            .map_err(|e| bad(StatusCode::BAD_REQUEST, e.to_string()))?;
         let d = self
             .derive(&p)
             .map_err(|m| bad(StatusCode::BAD_REQUEST, m))?;
