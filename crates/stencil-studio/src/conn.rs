@@ -167,8 +167,9 @@ impl hyper::service::Service<hyper::Request<Incoming>> for Service {
     }
 }
 
-/// Serve `router` on `listener` until `stop` turns true; then let open connections finish
-/// (graceful shutdown: the event streams end on `stop`) for up to [`CLOSING`].
+/// Serve `router` on `listener`, at most [`connection_cap`] connections at once, until `stop`
+/// turns true; then let open connections finish (graceful shutdown: the event streams end on
+/// `stop`) for up to [`CLOSING`].
 pub async fn serve(listener: TcpListener, router: Router, stop: watch::Receiver<bool>) {
     let cap = connection_cap();
     let permits = Arc::new(Semaphore::new(cap));

@@ -37,6 +37,9 @@ const PNG_LIMIT: usize = 32 * 1024 * 1024;
 /// outputs): `keep-out-painted-HASH.png`, HASH of the content, so each painting has its own file
 /// (undo gives back the earlier painting exactly) and the same painting is one file.
 pub const KEEP_OUT_PREFIX: &str = "keep-out-painted";
+/// Why a set's bridges cannot be deleted one by one.
+const SET_BRIDGES: &str = "a set's bridges are chosen per layer; keep them away with \
+                           no-bridge-near discs (Bridges), which every layer obeys";
 type Shared = Arc<Studio>;
 type ApiResult = Result<Response, Refusal>;
 
@@ -165,13 +168,7 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
         let done = s.done.borrow().clone();
         let c = match &done.outcome {
             Ok(Shown::One(c)) => c,
-            Ok(Shown::Set(_)) => {
-                return Err(bad(
-                    StatusCode::CONFLICT,
-                    "a set's bridges are chosen per layer; keep them away with no-bridge-near \
-                     discs (Bridges), which every layer obeys",
-                ))
-            }
+            Ok(Shown::Set(_)) => return Err(bad(StatusCode::CONFLICT, SET_BRIDGES)),
             Err(_) => {
                 return Err(bad(
                     StatusCode::CONFLICT,

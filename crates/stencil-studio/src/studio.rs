@@ -45,7 +45,6 @@ pub struct StudioConfig {
 
 /// A state's options as `make` reads them, with the input's stamp when they were read (the
 /// picture's size is read for `--crop` and the size in mm).
-#[derive(Clone)]
 struct Derived {
     stamp: Option<Stamp>,
     cfg: stencil_core::MakeConfig,
