@@ -1,4 +1,4 @@
-//! One finished run as the page is shown it ([`Done`]): what it computed (one stencil through the
+//! A finished run as the page sees it ([`Done`]): what it computed (one stencil through the
 //! engine, or a set as `make` cuts it), the input file's identity on disk when it was read
 //! ([`Stamp`]), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
 

@@ -134,3 +134,33 @@ impl<'a> Shows<'a> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The page tells a result's kind by which keys are there: an error's state has `error` and
+    /// no `report`, and `notice` is there as `null` when nothing changed on disk.
+    #[test]
+    fn an_error_state_has_error_and_no_report() {
+        let state = State {
+            version: 2,
+            shown: 1,
+            updating: true,
+            checking: false,
+            params: BTreeMap::from([("layers".into(), OptionValue::One(String::new()))]),
+            command: "stencil make in.png".into(),
+            can_undo: false,
+            can_redo: false,
+            ms: 1.5,
+            notice: None,
+            shows: Shows::Error { error: "bad" },
+        };
+        let v = serde_json::to_value(&state).unwrap();
+        assert_eq!(v["error"], "bad");
+        assert_eq!(v["params"], serde_json::json!({ "layers": "" }));
+        assert!(v.get("report").is_none() && v.get("refused").is_none());
+        assert!(v.get("notice").is_some_and(|n| n.is_null()), "{v}");
+        assert_eq!(v["shown"], 1);
+    }
+}
