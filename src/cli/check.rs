@@ -118,7 +118,7 @@ pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
 pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     // A half-finished `make` of the folder (or of the set a layer's file or folder is in) is
     // settled before anything in it is looked at.
-    super::send::settle(&a.input)?;
+    super::program::settle(&a.input)?;
     // A layered folder: each layer (and the fill-in) in turn.
     if let Some(r) = super::layers::each_stencil(&a.input, |f| {
         check_one(CheckArgs {
@@ -136,7 +136,7 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = StageBar::start();
     bar.set("read");
     let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
-        super::send::settle(&a.input)?;
+        super::program::settle(&a.input)?;
         (a.input.join("stencil.png"), Some(read_report(&a.input)?))
     } else {
         (a.input.clone(), None)

@@ -164,7 +164,7 @@ pub fn each_stencil(
     if !dir.is_dir() {
         return None;
     }
-    if let Err(e) = super::send::settle(dir) {
+    if let Err(e) = super::program::settle(dir) {
         return Some(Err(e));
     }
     let folders = layers::stencil_folders(dir);

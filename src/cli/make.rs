@@ -13,7 +13,7 @@ use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
 use stencil_core::tone::{FilterConfig, ScaleCap, Threshold, ToneConfig};
 
-use super::gcode::{CutArgs, MachineArgs};
+use super::machine_args::{CutArgs, MachineArgs};
 use super::material::{EmitKind, OutputArgs, PhysicalArgs};
 use super::mesh::MeshArgs;
 use super::progress::StageBar;

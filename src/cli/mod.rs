@@ -10,33 +10,22 @@ mod gcode;
 mod grid;
 mod jog;
 mod layers;
+mod machine_args;
 mod make;
 mod material;
 mod mesh;
+mod operator;
 mod place;
 mod port;
+mod program;
 mod progress;
 mod send;
 mod simulate;
 mod studio;
 
-use std::ops::RangeInclusive;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-/// A number option that must lie in `range` (clap's message names the option and the value; this
-/// says the range).
-pub(crate) fn number_in(s: &str, range: RangeInclusive<f64>, unit: &str) -> Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(v) if range.contains(&v) => Ok(v),
-        _ => Err(format!(
-            "must be a number from {} to {}{unit}",
-            range.start(),
-            range.end()
-        )),
-    }
-}
 
 /// Turn a picture or a 3D mesh into a stencil that holds together as one sheet.
 #[derive(Parser, Debug)]

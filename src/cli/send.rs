@@ -3,10 +3,7 @@
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, Sender};
-use std::sync::Arc;
-use std::thread::JoinHandle;
+use std::sync::mpsc::channel;
 use std::time::{Duration, Instant};
 
 use anyhow::bail;
@@ -17,14 +14,17 @@ use stencil_gcode::estimate::{estimate_program_from, format_duration};
 use stencil_gcode::interpret::{CutRule, Move};
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
-use stencil_grbl::keys::{self, Key, KeySource};
+use stencil_grbl::keys;
 use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stall::ClockRef;
 use stencil_grbl::stream::{
-    self, Control, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
+    self, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
     StreamConfig, Summary,
 };
 use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig, VirtualGrbl};
+
+use super::operator::{abort_cause, Keys};
+use super::program::{name_machine_changes, origin_line, read_program};
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -62,7 +62,7 @@ pub struct SendArgs {
     #[arg(long, requires = "dry_run")]
     pub realtime: bool,
     /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
-    #[arg(long, default_value_t = 10.0, value_parser = parse_timeout)]
+    #[arg(long, default_value_t = 10.0, value_parser = super::bounds::parse_timeout)]
     pub timeout_s: f64,
     /// Count against a receive buffer of this many bytes instead of the one Grbl reports.
     #[arg(long)]
@@ -96,7 +96,7 @@ pub struct SendArgs {
     #[arg(long, requires = "frame")]
     pub yes: bool,
     /// With --frame: framing feed, mm/min [default: 3000, at most the machine's max feed].
-    #[arg(long, value_name = "MM_MIN", requires = "frame", value_parser = super::frame::parse_feed)]
+    #[arg(long, value_name = "MM_MIN", requires = "frame", value_parser = super::bounds::parse_feed)]
     pub frame_feed: Option<f64>,
     /// When the controller's power scale ($30/$31) differs from the job's, rescale every S to
     /// the controller's scale for this run (instead of refusing).
@@ -119,24 +119,6 @@ pub struct SendArgs {
     pub start: super::place::StartArgs,
 }
 
-/// Say which lines of a job would change the machine itself (a `$` setting, homing, a stored
-/// offset...): `send` refuses them unless `--allow-machine-commands` is given.
-pub(super) fn name_machine_changes(job: &Program) {
-    for c in &job.machine_changes {
-        machine_change_note(&job.name, c.line, &c.text, &c.what);
-    }
-}
-
-/// [`name_machine_changes`] for a file read as text (the commands that do not stream it).
-pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
-    for (i, raw) in text.lines().enumerate() {
-        let clean = stencil_gcode::interpret::clean_line(raw);
-        if let Some(what) = stream::machine_change(&clean) {
-            machine_change_note(&path.display().to_string(), i + 1, &clean, &what);
-        }
-    }
-}
-
 /// Before an allowed job streams: a `$32=0` in it turns Grbl's laser mode off for the rest of the
 /// job (and after it: Grbl keeps its settings), which the laser-mode check before the job cannot
 /// see coming. Said with what it means at the machine.
@@ -157,13 +139,6 @@ fn warn_laser_mode_off(job: &Program) {
             );
         }
     }
-}
-
-fn machine_change_note(file: &str, line: usize, text: &str, what: &str) {
-    eprintln!(
-        "note: {file}: line {line} `{text}` {what}: `stencil send` refuses it unless \
-         --allow-machine-commands is given"
-    );
 }
 
 /// `--dry-run-setting $32=0`.
@@ -217,43 +192,6 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
     })
 }
 
-/// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
-/// a status query within a fraction of a second, even mid-move).
-pub(super) fn parse_timeout(s: &str) -> Result<f64, String> {
-    super::number_in(s, 0.1..=3600.0, " seconds")
-}
-
-/// A G-code file, read through the bounded reader (at most 512 MB; a FIFO or a device is refused
-/// at once). A `stencil make` folder it lies in (or, for a layer's job, the set's folder around
-/// it) that a killed run left half-swapped is finished first ([`settle`]), so the program is
-/// never one run's beside another run's files, nor the previous design's layer.
-pub(super) fn read_program(path: &Path) -> anyhow::Result<String> {
-    settle(path)?;
-    Ok(stencil_io::read_text(path, stencil_io::Kind::Gcode)?)
-}
-
-/// Before `path` (a file or a folder) is read: finish or discard a half-finished swap of `make`
-/// in the folder it is, and in the set folder around it when it is a layer's
-/// ([`stencil_io::recover_around`]), saying so.
-pub(super) fn settle(path: &Path) -> anyhow::Result<()> {
-    for (dir, r) in stencil_io::recover_around(path, stencil_core::layers::owned_names())? {
-        match r {
-            stencil_io::Recovered::Nothing => {}
-            stencil_io::Recovered::Finished => eprintln!(
-                "note: {}: finished writing the files of a `stencil make` that was stopped while \
-                 it put them in place",
-                dir.display()
-            ),
-            stencil_io::Recovered::Discarded => eprintln!(
-                "note: {}: deleted the unfinished files of a `stencil make` that was stopped \
-                 before it put them in place; the folder holds the run before it",
-                dir.display()
-            ),
-        }
-    }
-    Ok(())
-}
-
 /// Refuse, before a port is opened, a file with no move at all whose first line stencil does not
 /// read as G-code: some other file given by mistake (`/etc/passwd`), which would otherwise be
 /// streamed for the controller to reject (and its first line quoted back in that error). A real
@@ -271,173 +209,6 @@ fn refuse_non_gcode(path: &Path, job: &Program, text: &str) -> anyhow::Result<()
         );
     }
     Ok(())
-}
-
-/// The job's origin, from its header and the file's time, printed before anything moves: which
-/// picture, material, size and machine the file was made for, and when it was written, so that
-/// an old job is not taken for a new one. (When it was made is the file's time, not a header
-/// line: the same input and options still give the same bytes.)
-pub(super) fn origin_line(path: &Path, text: &str) -> String {
-    let header: Vec<&str> = text
-        .lines()
-        .map(str::trim)
-        .take_while(|l| l.starts_with(';') || l.is_empty())
-        .filter_map(|l| l.strip_prefix(';').map(str::trim))
-        .collect();
-    let when = std::fs::metadata(path)
-        .and_then(|m| m.modified())
-        .map_or(String::new(), |t| {
-            format!("; file written {}", super::errors::utc(t))
-        });
-    let Some(first) = header.first().filter(|l| l.starts_with("stencil ")) else {
-        return format!(
-            "job {}: not written by stencil (no header saying what it was made from){when}",
-            path.display()
-        );
-    };
-    let machine = first
-        .split_once(" for ")
-        .map(|(_, m)| m.split(':').next().unwrap_or(m).trim());
-    let mut parts: Vec<String> = Vec::new();
-    for l in &header[1..] {
-        if let Some(from) = l.strip_prefix("from ") {
-            parts.push(format!("from {}", stencil_io::excerpt(from)));
-        } else if let Some(m) = l.strip_prefix("material ") {
-            parts.push(format!("material {}", stencil_io::excerpt(m)));
-        } else if let Some(job) = l.strip_prefix("job ") {
-            let size = job.split(" at ").next().unwrap_or(job);
-            parts.push(stencil_io::excerpt(size));
-        }
-    }
-    if let Some(m) = machine {
-        parts.push(format!("for {}", stencil_io::excerpt(m)));
-    }
-    format!("job {}: {}{when}", path.display(), parts.join(", "))
-}
-
-/// What asked for an abort, the first that did: a stop signal or a key, said in the stop's message
-/// and the journal (the stream knows only that an abort was asked for).
-static ABORT_CAUSE: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
-
-/// The stop's first words for an abort: what asked for it.
-pub(super) fn abort_cause() -> &'static str {
-    ABORT_CAUSE
-        .get()
-        .copied()
-        .unwrap_or("aborted by the operator")
-}
-
-/// SIGINT, SIGTERM and SIGHUP take the abort's path, once per process, each named as it arrives.
-#[cfg(unix)]
-fn on_stop_signals(tx: Sender<Control>) {
-    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
-            return;
-        };
-        std::thread::spawn(move || {
-            for sig in signals.forever() {
-                let _ = ABORT_CAUSE.set(match sig {
-                    SIGINT => "stopped by SIGINT (Ctrl-C)",
-                    SIGTERM => {
-                        "stopped by SIGTERM (a request to end stencil: `kill`, a service manager \
-                         or a shutdown)"
-                    }
-                    _ => "stopped by SIGHUP (the terminal closed)",
-                });
-                let _ = tx.send(Control::Abort);
-            }
-        });
-    });
-}
-
-/// Ctrl-C (and closing the console) take the abort's path, once per process.
-#[cfg(not(unix))]
-fn on_stop_signals(tx: Sender<Control>) {
-    let _ = ctrlc::set_handler(move || {
-        let _ = ABORT_CAUSE.set("stopped by Ctrl-C");
-        let _ = tx.send(Control::Abort);
-    });
-}
-
-/// Keys from the terminal in raw mode (no Enter needed; Ctrl-C arrives as a key). Restores the
-/// terminal when dropped, also on error paths.
-pub(super) struct Keys {
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-    pub(super) raw: bool,
-}
-
-impl Keys {
-    pub(super) fn start(tx: Sender<Control>) -> Keys {
-        let stop = Arc::new(AtomicBool::new(false));
-        // SIGINT, SIGTERM and SIGHUP (the terminal closed, a service manager stopping us) take
-        // the abort's path: hold, wait until the machine stands, reset, laser and air off. One
-        // handler per process: `send --frame` starts keys twice on the same channel, so the
-        // first handler serves both.
-        on_stop_signals(tx.clone());
-        if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
-            let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
-            return Keys {
-                stop,
-                thread: Some(thread),
-                raw: true,
-            };
-        }
-        Keys {
-            stop,
-            thread: None,
-            raw: false,
-        }
-    }
-}
-
-impl Drop for Keys {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-        if self.raw {
-            let _ = crossterm::terminal::disable_raw_mode();
-        }
-    }
-}
-
-/// The terminal in raw mode as a key source (crossterm: already how raw mode is entered here, and
-/// it reads keys the same way on Unix and Windows).
-struct Terminal;
-
-impl KeySource for Terminal {
-    fn next_key(&mut self, wait: Duration) -> std::io::Result<Option<Key>> {
-        use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
-        if !event::poll(wait)? {
-            return Ok(None);
-        }
-        let Event::Key(k) = event::read()? else {
-            return Ok(None);
-        };
-        if k.kind == KeyEventKind::Release {
-            return Ok(None);
-        }
-        let key = match k.code {
-            KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Key::CtrlC,
-            KeyCode::Char(c) => Key::Char(c),
-            KeyCode::Esc => Key::Esc,
-            _ => return Ok(None),
-        };
-        if keys::controls_for(key) == [Control::Abort] {
-            let _ = ABORT_CAUSE.set(match key {
-                Key::CtrlC => "aborted with Ctrl-C",
-                Key::Esc => "aborted with the abort key (Esc)",
-                Key::Char('q') => "aborted with the abort key (q)",
-                _ => "aborted with the abort key (a)",
-            });
-        }
-        Ok(Some(key))
-    }
 }
 
 /// The progress bar: lines acknowledged, percent, machine state and position, elapsed and
