@@ -12,6 +12,7 @@ mod jog;
 mod layers;
 mod machine_args;
 mod make;
+mod make_args;
 mod material;
 mod mesh;
 mod operator;
@@ -25,7 +26,7 @@ mod studio;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 /// Turn a picture or a 3D mesh into a stencil that holds together as one sheet.
 #[derive(Parser, Debug)]
@@ -38,9 +39,9 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Run the whole pipeline on a picture or an OBJ mesh: two-tone, islands, bridges, outputs.
-    Make(Box<make::MakeArgs>),
+    Make(Box<make_args::MakeArgs>),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
-    Tone(make::ToneCmdArgs),
+    Tone(make_args::ToneCmdArgs),
     /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
     Send(send::SendArgs),
     /// Draw what a G-code file makes the machine do (PNG) and estimate its running time.
@@ -80,6 +81,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),
         Command::TestGrid(a) => grid::run_test_grid(a),
-        Command::Studio(a) => studio::run_studio(*a),
+        Command::Studio(a) => studio::run_studio(*a, Cli::command()),
     }
 }
