@@ -94,7 +94,7 @@ pub fn read_placed(
         settings: state.settings.clone(),
         ..ControllerInfo::default()
     };
-    let motion = super::send::controller_motion(machine.motion, &info);
+    let motion = super::port::controller_motion(machine.motion, &info);
     Ok(PlacedJob { program, motion })
 }
 

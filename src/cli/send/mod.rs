@@ -4,27 +4,27 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::mpsc::channel;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::bail;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use stencil_gcode::estimate::{estimate_program_from, format_duration};
-use stencil_gcode::interpret::{CutRule, Move};
+use stencil_gcode::interpret::Move;
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
 use stencil_grbl::keys;
 use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
 use stencil_grbl::stall::ClockRef;
-use stencil_grbl::stream::{
-    self, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
-    StreamConfig, Summary,
-};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig, VirtualGrbl};
+use stencil_grbl::stream::{self, FlowControl, LaserMode, Program, ResumeLift, StreamConfig};
+use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig};
+
+mod output;
+mod recover;
 
 use super::operator::{abort_cause, Keys};
 use super::program::{name_machine_changes, origin_line, read_program};
+use output::{print_summary, print_virtual, Bar};
+use recover::{profile_fingerprint, recover};
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -211,160 +211,6 @@ fn refuse_non_gcode(path: &Path, job: &Program, text: &str) -> anyhow::Result<()
     Ok(())
 }
 
-/// The progress bar: lines acknowledged, percent, machine state and position, elapsed and
-/// remaining time (estimated over the moves that have not run yet).
-struct Bar {
-    bar: ProgressBar,
-    /// The job as Grbl runs it: its moves with the stops and dwells between them.
-    job: stencil_gcode::interpret::Program,
-    rule: CutRule,
-    limits: machine_profile::Motion,
-    raw: bool,
-    last_estimate: Option<Instant>,
-    remaining: String,
-    state: String,
-}
-
-impl Bar {
-    fn new(job: &Program, text: &str, limits: machine_profile::Motion, raw: bool) -> Bar {
-        // Hidden until the job starts (shown by `phase`), so connecting draws no empty bar.
-        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed_precise} [{bar:20}] {pos}/{len} lines {percent}% {wide_msg}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        );
-        Bar {
-            bar,
-            job: timed_job(job, text),
-            rule: CutRule::infer(&job.moves),
-            limits,
-            raw,
-            last_estimate: None,
-            remaining: String::new(),
-            state: String::new(),
-        }
-    }
-
-    fn say(&self, text: &str) {
-        // Raw mode does not turn \n into \r\n.
-        let end = if self.raw { "\r\n" } else { "\n" };
-        self.bar.suspend(|| eprint!("{text}{end}"));
-    }
-}
-
-impl Observer for Bar {
-    fn connected(&mut self, info: &ControllerInfo) {
-        // The remaining time is estimated with the controller's own rates and accelerations
-        // (the settings check has said where they differ from the profile).
-        self.limits = controller_motion(self.limits, info);
-        self.say(&format!(
-            "connected to Grbl {} ({} planner blocks, {}-byte receive buffer){}",
-            info.version,
-            info.planner_blocks,
-            info.rx_buffer,
-            if info.unlocked { ", unlocked" } else { "" }
-        ));
-    }
-    fn message(&mut self, text: &str) {
-        self.say(text);
-    }
-    fn phase(&mut self, checking: bool, total: usize) {
-        self.bar
-            .set_draw_target(ProgressDrawTarget::stderr_with_hz(5));
-        self.bar.set_length(total as u64);
-        self.bar.set_position(0);
-        self.bar
-            .set_prefix(if checking { "check" } else { "cut" }.to_string());
-        if !checking {
-            self.bar.reset_elapsed();
-        }
-    }
-    fn progress(&mut self, p: &Progress) {
-        self.bar.set_position(p.acked as u64);
-        if self
-            .last_estimate
-            .is_none_or(|t| t.elapsed() > Duration::from_millis(500))
-        {
-            self.last_estimate = Some(Instant::now());
-            let k = self
-                .job
-                .moves
-                .partition_point(|m| m.line < p.unexecuted_from);
-            let e = estimate_program_from(&self.job, k, &self.limits, self.rule);
-            self.remaining = format!("~{} left", format_duration(e.total_s));
-        }
-        if let Some(st) = &p.state {
-            self.state = match p.position {
-                Some(pos) => format!("{st} X{:.2} Y{:.2}", pos[0], pos[1]),
-                None => st.to_string(),
-            };
-            if let Some(ov) = p.overrides {
-                self.state = format!("{} {}", self.state, keys::overrides_text(ov));
-            }
-        }
-        self.bar
-            .set_message(format!("{} {}", self.state, self.remaining));
-    }
-}
-
-/// `job` as Grbl runs it, for the remaining time: its moves with the stops where Grbl empties its
-/// planner and the dwells (what `stencil estimate` counts), read from `text` from the job's start
-/// state. A program with lines stencil's interpreter cannot follow keeps the moves it could read,
-/// without stops: the estimate is then short by what they would add.
-fn timed_job(job: &Program, text: &str) -> stencil_gcode::interpret::Program {
-    match stencil_gcode::interpret::interpret_from(text, job.start) {
-        Ok(p) if p.moves == job.moves => p,
-        _ => stencil_gcode::interpret::Program {
-            moves: job.moves.clone(),
-            ..Default::default()
-        },
-    }
-}
-
-/// `limits` with the rapid rate, acceleration and junction deviation the controller reported in
-/// `$$` (the slower axis of X and Y), where it did.
-pub(super) fn controller_motion(
-    mut limits: machine_profile::Motion,
-    info: &ControllerInfo,
-) -> machine_profile::Motion {
-    let lower = |a: u32, b: u32| match (info.setting(a), info.setting(b)) {
-        (Some(x), Some(y)) => Some(x.min(y)),
-        (x, y) => x.or(y),
-    };
-    if let Some(r) = lower(110, 111).filter(|r| *r > 0.0) {
-        limits.rapid_mm_min = r;
-        limits.max_feed_mm_min = limits.max_feed_mm_min.min(r);
-    }
-    if let Some(a) = lower(120, 121).filter(|a| *a > 0.0) {
-        limits.accel_mm_s2 = a;
-    }
-    if let Some(j) = info.setting(11).filter(|j| *j > 0.0) {
-        limits.junction_deviation_mm = j;
-    }
-    // Per axis, as Grbl limits each block by its tightest axis (a slow Z), and the steps per mm
-    // its blocks are rounded to: only when the controller gives all three.
-    let axes = |first: u32| -> Option<[f64; 3]> {
-        let v = [first, first + 1, first + 2].map(|k| info.setting(k).filter(|x| *x > 0.0));
-        Some([v[0]?, v[1]?, v[2]?])
-    };
-    if let Some(r) = axes(110) {
-        limits.axis_rate_mm_min = Some(r);
-    }
-    if let Some(a) = axes(120) {
-        limits.axis_accel_mm_s2 = Some(a);
-    }
-    if let Some(s) = axes(100) {
-        limits.steps_per_mm = Some(s);
-    }
-    if let Some(ms) = info.setting(1).filter(|ms| *ms >= 0.0) {
-        limits.idle_lock_ms = Some(ms);
-    }
-    limits
-}
-
 /// What the machine profile says about lifting the tool for a resume's travel (a pen or knife on
 /// Z); lasers and servo pens need none beyond the `M5` the restore starts with.
 fn resume_lift(machine: &machine_profile::Machine) -> ResumeLift {
@@ -387,156 +233,6 @@ fn laser_mode(machine: &machine_profile::Machine, job: &Program, set: bool) -> L
         machine_profile::Tool::Laser { .. } if fires => LaserMode::Require,
         _ => LaserMode::Ignore,
     }
-}
-
-/// Tell the user what the journal knows and where the job will resume; `None` if there is
-/// nothing left to do.
-fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option<usize> {
-    let age = j.age().as_secs_f64();
-    let how = match j.state {
-        RunState::Running => {
-            "did not end (the sender was killed, crashed, or the power went)".to_string()
-        }
-        // The journal is a file that may have come from elsewhere: its text is printed with its
-        // control characters written out.
-        RunState::Stopped => format!(
-            "stopped: {}",
-            stencil_io::printable(j.stop_reason.as_deref().unwrap_or("(no reason recorded)"))
-        ),
-        RunState::Complete => "finished".to_string(),
-    };
-    println!(
-        "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
-        path.display(),
-        stencil_io::printable(&j.file),
-        j.from_line,
-        stencil_io::printable(&j.machine),
-        format_duration(age)
-    );
-    let end = job.source_lines();
-    let p = j.proposal(job);
-    if j.state == RunState::Complete || p.line > end {
-        println!("every line of the job ran: nothing to recover");
-        return None;
-    }
-    match j.last_acked_line {
-        Some(l) => println!("last acknowledged line: {l}"),
-        None => println!("no line was acknowledged"),
-    }
-    let m = &j.modal;
-    println!(
-        "{}; resuming from line {} with the program's state there: {} {}, {}, {}{}, air {}, at X{:.3} Y{:.3} Z{:.3}",
-        p.why,
-        p.line,
-        stencil_io::printable(&m.units),
-        stencil_io::printable(&m.distance),
-        match m.feed_mm_min {
-            Some(f) => format!("F{f}"),
-            None => "no feed yet".into(),
-        },
-        stencil_io::printable(&m.spindle),
-        if m.spindle != "M5" { format!(" S{}", m.s) } else { String::new() },
-        if m.air { "on" } else { "off" },
-        m.position_mm[0],
-        m.position_mm[1],
-        m.position_mm[2]
-    );
-    Some(p.line)
-}
-
-/// `--recover`: read the journal beside the file, check it was written for this file, say what
-/// it knows, and propose where to resume: the line and the machine to use (the journal's unless
-/// one was named); `None` when nothing is left to do.
-fn recover(
-    a: &SendArgs,
-    job: &Program,
-    text: &str,
-    journal_path: &Path,
-) -> anyhow::Result<Option<(usize, Option<String>, Journal)>> {
-    let journal_error =
-        |e: journal::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
-    let j = Journal::read(journal_path).map_err(journal_error)?;
-    j.check_file(journal_path, text.as_bytes())
-        .map_err(journal_error)?;
-    let machine = journal_machine(a, &j, journal_path)?;
-    Ok(recovery_report(&j, job, journal_path).map(|line| (line, machine, j)))
-}
-
-/// A machine profile's content as the journal keeps it (its validated values, every field).
-fn profile_fingerprint(m: &machine_profile::Machine) -> String {
-    journal::fingerprint(&format!("{m:?}"))
-}
-
-/// The machine profile a recovery runs with: the one named with `--machine`, else the
-/// journal's, which is looked up by name only (a journal is a file beside the job: the path
-/// of a file it names is never opened). Either way it must be the profile the run used, by
-/// name and content; any other is refused before anything is sent.
-fn journal_machine(
-    a: &SendArgs,
-    j: &Journal,
-    journal_path: &Path,
-) -> anyhow::Result<Option<String>> {
-    // Quoted with control characters escaped: a journal is not trusted to hold a name.
-    let named = |m: &str| stencil_io::excerpt(&m.escape_debug().to_string());
-    let arg = match &a.machine {
-        Some(m) => m.clone(),
-        None => {
-            let plain = !j.machine.is_empty()
-                && !j.machine.contains(['/', '\\'])
-                && !j.machine.ends_with(".toml")
-                && j.machine.chars().all(|c| c.is_ascii_graphic());
-            if !plain {
-                bail!(
-                    "{}: the journal names its machine profile as `{}`, which is not a profile \
-                     name; a recovery never opens a file a journal names: name the profile the \
-                     run used with --machine; nothing was sent",
-                    journal_path.display(),
-                    named(&j.machine)
-                );
-            }
-            j.machine.clone()
-        }
-    };
-    let m = match machine_profile::load(Some(&arg)) {
-        Ok(m) => m,
-        Err(e) if a.machine.is_none() => bail!(
-            "{}: the journal's run used machine profile `{}`, which cannot be loaded by name \
-             here ({e}): name the profile the run used with --machine; nothing was sent",
-            journal_path.display(),
-            named(&j.machine)
-        ),
-        Err(e) => return Err(e.into()),
-    };
-    let same_name = m.name == j.machine;
-    let same_content = j
-        .machine_fnv1a64
-        .as_ref()
-        .is_none_or(|h| *h == profile_fingerprint(&m));
-    if !(same_name && same_content) {
-        bail!(
-            "{}: the journal's run used machine profile `{}`{}, but {} is {}: a resume must run \
-             with the profile the run used (its bed, its limits, its power scale); nothing was \
-             sent. Recover with that profile (--machine), or resume from a line after checking \
-             (--from-line)",
-            journal_path.display(),
-            named(&j.machine),
-            if j.machine_fnv1a64.is_some() {
-                " (as it was then)"
-            } else {
-                ""
-            },
-            match &a.machine {
-                Some(given) => format!("--machine {}", named(given)),
-                None => format!("the profile `{}` now", named(&arg)),
-            },
-            if same_name {
-                "that profile with other settings".to_string()
-            } else {
-                format!("profile `{}`", named(&m.name))
-            }
-        );
-    }
-    Ok(Some(arg))
 }
 
 /// The simulated Grbl of `--dry-run`: instant, or paced as the machine and link would run
@@ -602,67 +298,6 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow
     anyhow::anyhow!("{text}{}{hint}", super::port::machine_hint(&e))
 }
 
-/// What a finished stream did, and with `--dry-run` what the simulated machine saw.
-fn print_summary(sum: &Summary, label: &str, virtual_grbl: Option<VirtualGrbl>) {
-    let secs = sum.elapsed.as_secs_f64();
-    println!(
-        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; Grbl {}, counting against {} bytes, at most {} in flight",
-        sum.lines,
-        sum.bytes,
-        secs,
-        if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
-        format_duration(sum.total.as_secs_f64()),
-        sum.info.version,
-        sum.rx_limit,
-        sum.max_in_flight
-    );
-    if let Some(vg) = virtual_grbl {
-        print_virtual(vg);
-    }
-}
-
-/// What the simulated machine of a dry run saw, and how it was left (also after a stop).
-fn print_virtual(vg: VirtualGrbl) {
-    let r = vg.stop();
-    let alarms: Vec<String> = r
-        .events
-        .iter()
-        .filter_map(|e| match e {
-            stencil_grbl::virtual_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
-            _ => None,
-        })
-        .collect();
-    println!(
-        "virtual Grbl: {} lines received, at most {} bytes in its receive buffer, {} bytes overflowed, laser {}, air {}, $32={}, state {}, alarms: {}",
-        r.received.len(),
-        r.max_rx_used,
-        r.overflow_bytes,
-        if r.laser_on { "ON" } else { "off" },
-        if r.air_on { "ON" } else { "off" },
-        u8::from(r.laser_mode),
-        r.state,
-        if alarms.is_empty() { "none".to_string() } else { alarms.join(" ") }
-    );
-    // Where the simulated beam (or tool) really went, machine coordinates: the placement seen
-    // from the machine's side.
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for m in r.moves.iter().filter(|m| m.beam && m.moves_xy()) {
-        for p in [m.from, m.to] {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-    }
-    if lo[0].is_finite() {
-        println!(
-            "virtual Grbl: the beam cut within machine X {:.3}..{:.3} Y {:.3}..{:.3}",
-            lo[0], hi[0], lo[1], hi[1]
-        );
-    }
-}
-
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let text = read_program(&a.file)?;
     eprintln!("{}", origin_line(&a.file, &text));
@@ -696,7 +331,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     }
     let journal_path = journal::path_for(&a.file);
     let (from_line, machine_arg, journal) = if a.recover {
-        match recover(&a, &job, &text, &journal_path)? {
+        match recover(a.machine.as_ref(), &job, &text, &journal_path)? {
             Some((line, m, j)) => (line, m, Some(j)),
             None => return Ok(ExitCode::SUCCESS),
         }
@@ -937,37 +572,5 @@ fn stream_config(
         allow_machine_commands: a.allow_machine_commands,
         if_moving: a.link.if_moving(),
         ..StreamConfig::default()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The remaining time `send` shows counts Grbl's stops and the dwells, as `stencil estimate`
-    /// does: a job with a dwell and spindle changes between its passes has them in what is left
-    /// at its start; a job stencil cannot wholly read keeps its moves.
-    #[test]
-    fn the_remaining_time_has_the_stops_and_dwells() {
-        let text = "G21 G90 F3000\nM4 S500\nG1 X50\nM5\nG4 P2\nM4 S500\nG1 X100\nM5\n";
-        let job = Program::parse("job.nc", text).unwrap();
-        let timed = timed_job(&job, text);
-        assert_eq!(timed.moves, job.moves);
-        assert_eq!(timed.dwells.len(), 1);
-        assert_eq!(timed.stops, vec![1]);
-        let limits = machine_profile::load(Some("diode-400")).unwrap().motion;
-        let rule = CutRule::infer(&job.moves);
-        let left = estimate_program_from(&timed, 0, &limits, rule).total_s;
-        let moving = stencil_gcode::estimate::estimate(&job.moves, &limits).total_s;
-        assert!(left >= moving + 2.0, "{left} vs {moving}");
-        // After the first pass, the dwell is still to come.
-        let after = estimate_program_from(&timed, 1, &limits, rule).total_s;
-        assert!(after >= 2.0 && after < left, "{after} vs {left}");
-        // A line stencil's interpreter refuses (Grbl may take it): the moves it read, no stops.
-        let odd = "G1 X10 F600\nG5.1 X1\nG1 X20\n";
-        let job = Program::parse("odd.nc", odd).unwrap();
-        let timed = timed_job(&job, odd);
-        assert_eq!(timed.moves, job.moves);
-        assert!(timed.stops.is_empty() && timed.dwells.is_empty());
     }
 }
