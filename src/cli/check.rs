@@ -273,13 +273,11 @@ fn report_bridges(
     Ok(bridges)
 }
 
-/// The material a `make` run used, as its report records it: the file it was read from when that
-/// is still there, the shipped copy when it was the embedded one, else the name looked up again.
-/// `None` when the report names no material.
 /// The material a `make` folder's report.json carries: its values (checked like a profile file),
 /// or, in a report from before they were written, a shipped or `./profiles/` material by name.
 /// Never a file the report names: a received folder names materials, not files, so a report whose
 /// material is a path (`/etc/passwd`, `../../x.toml`) is refused without opening anything.
+/// `None` when the report names no material.
 pub fn material_of_report(r: &Report, folder: &Path) -> Option<anyhow::Result<Material>> {
     let rp = folder.join("report.json");
     if let Some(v) = &r.material_values {

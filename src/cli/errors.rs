@@ -19,29 +19,17 @@ use stencil_gcode::{Fit, PlanError};
 /// One error (not its causes) as the user reads it: the library's errors worded with the options
 /// that change them, any other error as it displays itself.
 pub fn describe(e: &(dyn StdError + 'static)) -> String {
-    if let Some(e) = e.downcast_ref::<stencil_core::Error>() {
-        core(e)
-    } else if let Some(e) = e.downcast_ref::<SizeError>() {
-        size(e)
-    } else if let Some(e) = e.downcast_ref::<VectorError>() {
-        vector(e)
-    } else if let Some(e) = e.downcast_ref::<ExportError>() {
-        export(e)
-    } else if let Some(e) = e.downcast_ref::<CheckError>() {
-        check(e)
-    } else if let Some(e) = e.downcast_ref::<SettingsError>() {
-        settings(e)
-    } else if let Some(e) = e.downcast_ref::<BridgeError>() {
-        bridge(e)
-    } else if let Some(e) = e.downcast_ref::<PlanError>() {
-        plan(e)
-    } else if let Some(e) = e.downcast_ref::<ToneError>() {
-        tone(e)
-    } else if let Some(e) = e.downcast_ref::<MeshError>() {
-        mesh(e)
-    } else {
-        e.to_string()
-    }
+    (e.downcast_ref().map(core))
+        .or_else(|| e.downcast_ref().map(size))
+        .or_else(|| e.downcast_ref().map(vector))
+        .or_else(|| e.downcast_ref().map(export))
+        .or_else(|| e.downcast_ref().map(check))
+        .or_else(|| e.downcast_ref().map(settings))
+        .or_else(|| e.downcast_ref().map(bridge))
+        .or_else(|| e.downcast_ref().map(plan))
+        .or_else(|| e.downcast_ref().map(tone))
+        .or_else(|| e.downcast_ref().map(mesh))
+        .unwrap_or_else(|| e.to_string())
 }
 
 /// An error and its causes on one line, outermost first, each said once: the line ends at the
