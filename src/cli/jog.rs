@@ -31,13 +31,13 @@ pub struct JogArgs {
     #[arg(long, default_value_t = 1.0, value_parser = parse_step)]
     pub step: f64,
     /// Jog feed, mm/min.
-    #[arg(long, default_value_t = 1000.0, value_parser = super::frame::parse_feed)]
+    #[arg(long, default_value_t = 1000.0, value_parser = super::bounds::parse_feed)]
     pub feed: f64,
     /// Keys to press, by name, instead of reading the keyboard (e.g. "right,right,up,0,q").
     #[arg(long, value_name = "NAMES", value_parser = |s: &str| parse_keys(s).map(KeyScript))]
     pub keys: Option<KeyScript>,
     /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
-    #[arg(long, default_value_t = 10.0, value_parser = super::send::parse_timeout)]
+    #[arg(long, default_value_t = 10.0, value_parser = super::bounds::parse_timeout)]
     pub timeout_s: f64,
 }
 
@@ -46,7 +46,7 @@ pub struct JogArgs {
 pub struct KeyScript(Vec<JogKey>);
 
 fn parse_step(s: &str) -> Result<f64, String> {
-    super::number_in(s, 0.001..=1000.0, " mm")
+    super::bounds::number_in(s, 0.001..=1000.0, " mm")
 }
 
 /// The terminal in raw mode: arrows and page keys without Enter; key releases where the

@@ -157,7 +157,7 @@ pub fn check_bed(
 
 /// `estimate --head-at X,Y`.
 pub fn parse_head_at(s: &str) -> Result<[f64; 2], String> {
-    let v = super::gcode::parse_offset(s)?;
+    let v = super::bounds::parse_offset(s)?;
     let lim = stencil_gcode::interpret::MAX_COORD_MM;
     if v.iter().all(|c| c.abs() <= lim) {
         Ok(v)

@@ -56,7 +56,7 @@ fn planned(machine: &Machine) -> String {
     gcode_for(&geom, machine, &cfg, &[]).unwrap().0
 }
 
-/// What `stencil send` tells the streamer about the tool (see `cli/send.rs`).
+/// What `stencil send` tells the streamer about the tool (see `src/cli/send/mod.rs`).
 fn lift_of(machine: &Machine) -> ResumeLift {
     match machine.tool {
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => ResumeLift {
