@@ -120,6 +120,39 @@ impl Stutter {
     }
 }
 
+impl VirtualConfig {
+    /// The settings a stock laser build lists in `$$` (with the configured homing, laser mode and
+    /// rapid rate), then the configured ones over them.
+    pub(super) fn initial_settings(&self) -> Vec<(u32, String)> {
+        let rapid = format!("{:.3}", self.rapid_mm_min);
+        let mut settings: Vec<(u32, String)> = [
+            (10, "2"),
+            (11, "0.010"),
+            (20, "0"),
+            (22, if self.homing { "1" } else { "0" }),
+            (30, "1000"),
+            (31, "0"),
+            (32, if self.laser_mode { "1" } else { "0" }),
+            (110, rapid.as_str()),
+            (111, rapid.as_str()),
+            (120, "1000.000"),
+            (121, "1000.000"),
+            (130, "400.000"),
+            (131, "400.000"),
+        ]
+        .iter()
+        .map(|&(k, v)| (k, v.to_string()))
+        .collect();
+        for (k, v) in self.settings.clone() {
+            match settings.iter_mut().find(|(n, _)| *n == k) {
+                Some(e) => e.1 = v,
+                None => settings.push((k, v)),
+            }
+        }
+        settings
+    }
+}
+
 impl Default for VirtualConfig {
     fn default() -> Self {
         VirtualConfig {

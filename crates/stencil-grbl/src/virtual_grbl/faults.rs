@@ -2,8 +2,9 @@
 
 use std::time::{Duration, Instant};
 
+use super::config::FaultKind;
+use super::record::{lock, Event};
 use super::sim::{Sim, State};
-use super::{lock, Event, FaultKind};
 
 impl Sim {
     /// The fault set for the current G-code line fires (once). True when that settles the line

@@ -1,9 +1,9 @@
 //! Real-time commands, acted on as they arrive: status reports, feed hold and resume, soft
 //! reset, overrides and the jog cancel.
 
-use super::parser::Comment;
-use super::sim::{Sim, State};
-use super::{lock, Event};
+use super::config::Pace;
+use super::record::{lock, Event};
+use super::sim::{Comment, Sim, State};
 use crate::protocol::{RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME, RT_SOFT_RESET, RT_STATUS};
 
 impl Sim {
@@ -43,7 +43,7 @@ impl Sim {
         let Some(b) = self.planner.front() else {
             return;
         };
-        if self.frozen || !matches!(self.cfg.pace, super::Pace::Timed { .. }) {
+        if self.frozen || !matches!(self.cfg.pace, Pace::Timed { .. }) {
             return;
         }
         let [feed_ov, rapid_ov, _] = self.ov;
