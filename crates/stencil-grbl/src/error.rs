@@ -83,6 +83,18 @@ pub struct CheckRejection {
     pub code: u8,
 }
 
+/// A line of a job that changes the machine itself: a Grbl setting, homing, unlocking, check
+/// mode, a jog, sleep, or a stored offset or position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineChange {
+    /// 1-based line in the file.
+    pub line: usize,
+    /// The line as Grbl would see it.
+    pub text: String,
+    /// What it does, e.g. "writes Grbl setting $32".
+    pub what: String,
+}
+
 fn list_rejections(rejected: &[CheckRejection]) -> String {
     let mut s: Vec<String> = rejected
         .iter()
@@ -103,7 +115,7 @@ fn list_rejections(rejected: &[CheckRejection]) -> String {
     s.join("; ")
 }
 
-fn list_changes(changes: &[crate::program::MachineChange]) -> String {
+fn list_changes(changes: &[MachineChange]) -> String {
     let mut s: Vec<String> = changes
         .iter()
         .take(10)
@@ -191,7 +203,7 @@ pub enum MachineError {
     #[error("{file}: the job would change the machine itself, not only cut: {}; nothing was sent. Remove these lines, or allow them if you meant the job to do this", list_changes(changes))]
     MachineCommands {
         file: String,
-        changes: Vec<crate::program::MachineChange>,
+        changes: Vec<MachineChange>,
     },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },

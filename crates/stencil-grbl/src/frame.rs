@@ -9,57 +9,10 @@
 
 use super::error::MachineError;
 use super::program::Program;
+pub use super::program::{cut_extent, cut_extent_with, Extent};
 use super::protocol::MachineState;
 use super::stream::console::Console;
-use stencil_gcode::interpret::{CutRule, Move};
 use stencil_gcode::num;
-
-/// The rectangle of the cutting moves, mm, as the interpreter places them: machine coordinates
-/// from a zero work offset, the job's own offsets (G10, G92, G54..G59) applied and arcs
-/// followed to their true extent. The frame program traces it in the controller's work
-/// coordinates, which are those when its work offset is zero.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Extent {
-    pub min: [f64; 2],
-    pub max: [f64; 2],
-    /// Cutting moves that made it.
-    pub moves: usize,
-}
-
-impl Extent {
-    pub fn width(&self) -> f64 {
-        self.max[0] - self.min[0]
-    }
-    pub fn height(&self) -> f64 {
-        self.max[1] - self.min[1]
-    }
-}
-
-/// The extent of the cutting moves, by the rule the program itself shows
-/// ([`CutRule::infer`], the rule `simulate` and `estimate` use); `None` when nothing cuts.
-pub fn cut_extent(moves: &[Move]) -> Option<Extent> {
-    cut_extent_with(moves, CutRule::infer(moves))
-}
-
-/// [`cut_extent`] by a given rule (a machine profile's, e.g. a servo pen drawing in G0).
-pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
-    let mut e: Option<Extent> = None;
-    for m in moves.iter().filter(|m| rule.cuts(m)) {
-        let x = e.get_or_insert(Extent {
-            min: [m.from[0], m.from[1]],
-            max: [m.from[0], m.from[1]],
-            moves: 0,
-        });
-        for p in [m.from, m.to] {
-            for (a, &v) in p.iter().take(2).enumerate() {
-                x.min[a] = x.min[a].min(v);
-                x.max[a] = x.max[a].max(v);
-            }
-        }
-        x.moves += 1;
-    }
-    e
-}
 
 /// How the tool is kept from cutting while framing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -264,6 +217,7 @@ pub fn frame(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::program::cut_extent;
     use stencil_gcode::interpret::interpret;
 
     #[test]

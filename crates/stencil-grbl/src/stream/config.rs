@@ -2,7 +2,8 @@
 
 use std::time::Duration;
 
-use super::ResumeLift;
+use crate::program::ResumeLift;
+use crate::protocol;
 use crate::stall::ClockRef;
 
 /// How lines are paced.
@@ -177,4 +178,41 @@ pub struct Recovery {
     /// Connecting found the machine still running what it had received and stopped it (as
     /// asked): it did not run everything it received.
     pub cut_short: bool,
+}
+
+/// Commands from the operator while a job runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    FeedHold,
+    Resume,
+    /// Stop now: soft reset, laser off, report the resume line.
+    Abort,
+    /// Change a feed or power override (Grbl's real-time bytes; the job keeps running).
+    Override(Override),
+}
+
+/// The overrides an operator changes while cutting: feed and spindle (laser power) in 10 %
+/// steps within Grbl's 10..200 %, or back to 100 %.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Override {
+    FeedPlus10,
+    FeedMinus10,
+    FeedReset,
+    PowerPlus10,
+    PowerMinus10,
+    PowerReset,
+}
+
+impl Override {
+    /// Grbl's real-time byte for it.
+    pub fn byte(self) -> u8 {
+        match self {
+            Override::FeedPlus10 => protocol::RT_FEED_OV_PLUS_10,
+            Override::FeedMinus10 => protocol::RT_FEED_OV_MINUS_10,
+            Override::FeedReset => protocol::RT_FEED_OV_RESET,
+            Override::PowerPlus10 => protocol::RT_SPINDLE_OV_PLUS_10,
+            Override::PowerMinus10 => protocol::RT_SPINDLE_OV_MINUS_10,
+            Override::PowerReset => protocol::RT_SPINDLE_OV_RESET,
+        }
+    }
 }

@@ -10,10 +10,13 @@
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
-use super::{
-    BytePort, Control, ControllerInfo, MachineError, Observer, Outgoing, Program, Session,
-    StreamConfig, Summary,
-};
+use super::config::{Control, StreamConfig};
+use super::flight::Outgoing;
+use super::link::BytePort;
+use super::observe::{ControllerInfo, Observer, Summary};
+use super::session::Session;
+use crate::error::MachineError;
+use crate::program::Program;
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
 
 /// A status report with the work position worked out.
@@ -61,7 +64,7 @@ impl<'a> Console<'a> {
         // No program to time here: a frame or a jog is a few long moves, whose position changes
         // in every report while they run, so only a machine standing still in Run for half a
         // minute (plus the margin) counts as stalled.
-        let stall = super::stall::stall_bound(Duration::from_secs(30));
+        let stall = crate::stall::stall_bound(Duration::from_secs(30));
         let mut s = Session::new(port, cfg, controls, obs, stall);
         let locked = match s.connect() {
             Ok(()) => false,

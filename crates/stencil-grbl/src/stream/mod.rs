@@ -29,13 +29,13 @@ mod settings;
 mod tracker;
 
 pub use self::config::{
-    Expected, FlowControl, IfMoving, LaserMode, PowerScale, Recovery, StreamConfig, MOVING_WAIT,
+    Control, Expected, FlowControl, IfMoving, LaserMode, Override, PowerScale, Recovery,
+    StreamConfig, MOVING_WAIT,
 };
-pub use self::control::{Control, Override};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
-pub use super::error::{CheckRejection, Halt, MachineError};
-pub use super::program::{machine_change, MachineChange, Program, ProgramLine, ResumeLift};
+pub use super::error::{CheckRejection, Halt, MachineChange, MachineError};
+pub use super::program::{machine_change, Program, ProgramLine, ResumeLift};
 
 use self::flight::Outgoing;
 use self::session::Session;

@@ -4,9 +4,11 @@
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+use super::config::{Control, LaserMode, StreamConfig};
 use super::config::{IfMoving, HOMING_LIMIT};
 use super::link::{BytePort, Link, LinkFault};
-use super::{Control, ControllerInfo, LaserMode, MachineError, Observer, StreamConfig};
+use super::observe::{ControllerInfo, Observer};
+use crate::error::MachineError;
 use crate::protocol::{self, MachineState, Reply, Status, RT_SOFT_RESET, RT_STATUS};
 use crate::stall::StallWatch;
 use stencil_gcode::limits::{PLANNER_BLOCKS, RX_BUFFER_BYTES};
