@@ -6,11 +6,10 @@ use std::time::Duration;
 use anyhow::{bail, Context};
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_grbl::journal::JournalError;
-use stencil_grbl::stream::{
-    BytePort, Expected, IfMoving, MachineError, PowerScale, Program, MOVING_WAIT,
+use stencil_grbl::{
+    BytePort, Expected, IfMoving, JournalError, MachineError, PowerScale, Program, VirtualConfig,
+    VirtualGrbl, MOVING_WAIT,
 };
-use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
 /// `send`, `frame` and `jog`).

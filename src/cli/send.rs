@@ -16,15 +16,11 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use stencil_gcode::estimate::{estimate_program_from, format_duration};
 use stencil_gcode::interpret::{CutRule, Move};
 use stencil_gcode::machine as machine_profile;
-use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
-use stencil_grbl::keys::{self, Key, KeySource};
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stall::ClockRef;
-use stencil_grbl::stream::{
-    self, Control, ControllerInfo, FlowControl, LaserMode, Observer, Program, Progress, ResumeLift,
-    StreamConfig, Summary,
+use stencil_grbl::{
+    ClockRef, Control, ControllerInfo, ControllerState, Fault, FaultKind, FlowControl, Journal,
+    JournalWriter, Key, KeySource, LaserMode, Observer, Pace, Placement, Program, Progress,
+    ResumeLift, RunState, StartFrom, StreamConfig, Summary, VirtualConfig, VirtualGrbl,
 };
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig, VirtualGrbl};
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -131,7 +127,7 @@ pub(super) fn name_machine_changes(job: &Program) {
 pub(super) fn name_machine_changes_in(path: &Path, text: &str) {
     for (i, raw) in text.lines().enumerate() {
         let clean = stencil_gcode::interpret::clean_line(raw);
-        if let Some(what) = stream::machine_change(&clean) {
+        if let Some(what) = stencil_grbl::machine_change(&clean) {
             machine_change_note(&path.display().to_string(), i + 1, &clean, &what);
         }
     }
@@ -379,7 +375,7 @@ impl Keys {
         on_stop_signals(tx.clone());
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
+            let thread = std::thread::spawn(move || stencil_grbl::pump(&mut Terminal, &tx, &stop2));
             return Keys {
                 stop,
                 thread: Some(thread),
@@ -428,7 +424,7 @@ impl KeySource for Terminal {
             KeyCode::Esc => Key::Esc,
             _ => return Ok(None),
         };
-        if keys::controls_for(key) == [Control::Abort] {
+        if stencil_grbl::controls_for(key) == [Control::Abort] {
             let _ = ABORT_CAUSE.set(match key {
                 Key::CtrlC => "aborted with Ctrl-C",
                 Key::Esc => "aborted with the abort key (Esc)",
@@ -531,7 +527,7 @@ impl Observer for Bar {
                 None => st.to_string(),
             };
             if let Some(ov) = p.overrides {
-                self.state = format!("{} {}", self.state, keys::overrides_text(ov));
+                self.state = format!("{} {}", self.state, stencil_grbl::overrides_text(ov));
             }
         }
         self.bar
@@ -683,7 +679,7 @@ fn recover(
     journal_path: &Path,
 ) -> anyhow::Result<Option<(usize, Option<String>, Journal)>> {
     let journal_error =
-        |e: journal::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
+        |e: stencil_grbl::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
     let j = Journal::read(journal_path).map_err(journal_error)?;
     j.check_file(journal_path, text.as_bytes())
         .map_err(journal_error)?;
@@ -693,7 +689,7 @@ fn recover(
 
 /// A machine profile's content as the journal keeps it (its validated values, every field).
 fn profile_fingerprint(m: &machine_profile::Machine) -> String {
-    journal::fingerprint(&format!("{m:?}"))
+    stencil_grbl::fingerprint(&format!("{m:?}"))
 }
 
 /// The machine profile a recovery runs with: the one named with `--machine`, else the
@@ -794,7 +790,7 @@ fn link_options(a: &SendArgs) -> String {
 
 /// A stream that stopped, worded with the options that resume it: the command for the line to
 /// resume from (unlocking a machine the stop left locked), and `--recover` with the journal.
-fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow::Error {
+fn stopped(a: &SendArgs, journal_path: &Path, e: stencil_grbl::MachineError) -> anyhow::Error {
     let hint = match e.halt() {
         Some(h) => format!(
             "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
@@ -816,7 +812,7 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow
     // An abort says what asked for it (a signal, which one, or a key), here and in the journal,
     // where the stream wrote only that the operator aborted.
     let text = match &e {
-        stream::MachineError::Aborted { halt } => {
+        stencil_grbl::MachineError::Aborted { halt } => {
             let text = format!("{}; {halt}", abort_cause());
             if let Ok(mut j) = Journal::read(journal_path) {
                 if j.state == RunState::Stopped {
@@ -857,7 +853,7 @@ fn print_virtual(vg: VirtualGrbl) {
         .events
         .iter()
         .filter_map(|e| match e {
-            stencil_grbl::virtual_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
+            stencil_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
             _ => None,
         })
         .collect();
@@ -923,7 +919,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             job.pauses
         );
     }
-    let journal_path = journal::path_for(&a.file);
+    let journal_path = stencil_grbl::journal_path(&a.file);
     let (from_line, machine_arg, journal) = if a.recover {
         match recover(&a, &job, &text, &journal_path)? {
             Some((line, m, j)) => (line, m, Some(j)),
@@ -985,7 +981,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     cfg.expect = super::port::expected(&machine, &text, &job);
     cfg.place_zero = Some(placement.zero);
     if a.recover || from_line > 1 {
-        cfg.recovery = Some(stream::Recovery {
+        cfg.recovery = Some(stencil_grbl::Recovery {
             last_position: journal.as_ref().and_then(|j| j.last_position),
             last_acked: journal.as_ref().and_then(|j| j.last_acked_line),
             confirmed: a.position_confirmed,
@@ -1024,13 +1020,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let keys = Keys::start(tx);
     let mut bar = Bar::new(&job, &text, limits, keys.raw);
     if keys.raw {
-        bar.say(&format!("keys: {}", keys::KEY_HELP));
+        bar.say(&format!("keys: {}", stencil_grbl::SEND_KEY_HELP));
     }
     // The profile by its name and content, never the path it was read from: a recovery
     // loads profiles by name only.
     let mut started = Journal::new(&a.file, text.as_bytes(), &job, &machine.name, from_line);
     started.machine_fnv1a64 = Some(profile_fingerprint(&machine));
-    started.placement = Some(journal::PlacementRecord {
+    started.placement = Some(stencil_grbl::PlacementRecord {
         start_from: placement.start_from.name().into(),
         zero_mm: placement.zero,
     });
@@ -1040,9 +1036,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         journal_path.clone(),
         &job,
         ClockRef::default(),
-        journal::EVERY,
+        stencil_grbl::JOURNAL_EVERY,
     );
-    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
+    let result = stencil_grbl::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
     journal.finish(&result);
     bar.bar.finish_and_clear();
     drop(keys);
@@ -1095,7 +1091,7 @@ fn placement_for(
 /// After framing: say where the frame went, then (unless --yes) ask whether to start. False when
 /// the user says no: nothing was cut.
 fn framed_and_started(
-    framed: anyhow::Result<stencil_grbl::frame::Framed>,
+    framed: anyhow::Result<stencil_grbl::Framed>,
     label: &str,
     yes: bool,
 ) -> anyhow::Result<bool> {

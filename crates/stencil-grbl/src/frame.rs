@@ -8,10 +8,9 @@
 //! like a job, so it has every stop a job has (error, alarm, lost port, abort: laser off).
 
 use super::error::MachineError;
-use super::program::Program;
-pub use super::program::{cut_extent, cut_extent_with, Extent};
+use super::program::{Extent, Program};
 use super::protocol::MachineState;
-use super::stream::console::Console;
+use crate::stream::Console;
 use stencil_gcode::num;
 
 /// How the tool is kept from cutting while framing.

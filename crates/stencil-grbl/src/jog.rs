@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use super::error::MachineError;
 use super::protocol::{self, MachineState, RT_JOG_CANCEL};
-use super::stream::console::{Console, Position};
+use crate::stream::{Console, Position};
 use stencil_gcode::num;
 
 /// A key, as far as jogging cares.
@@ -34,7 +34,7 @@ pub enum JogKey {
 }
 
 /// The keys, for help texts.
-pub const KEY_HELP: &str = "arrows = jog X/Y, PgUp/PgDn = jog Z, 1/2/3 = step 0.1/1/10 mm, \
+pub const JOG_KEY_HELP: &str = "arrows = jog X/Y, PgUp/PgDn = jog Z, 1/2/3 = step 0.1/1/10 mm, \
 +/- = larger/smaller step, space = cancel jog, h = home ($H), u = unlock ($X), 0 = work zero \
 X0 Y0 here, q / Esc / Ctrl-C = quit";
 
@@ -372,7 +372,7 @@ impl<'c, 'a> Jogger<'c, 'a> {
 /// Run a jog session until a quit key, the end of the keys, or a fault. `show` gets the status
 /// line after every key and about five times a second meanwhile. A fault other than a lost port
 /// stops the machine (soft reset, laser off).
-pub fn run(
+pub fn jog_session(
     j: &mut Jogger<'_, '_>,
     keys: &mut dyn JogKeys,
     show: &mut dyn FnMut(&str),

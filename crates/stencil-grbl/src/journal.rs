@@ -24,10 +24,10 @@ use stencil_io::write_atomic;
 pub(crate) const FORMAT: &str = "stencil-send-journal/1";
 
 /// How often the journal is rewritten while streaming.
-pub const EVERY: Duration = Duration::from_secs(2);
+pub const JOURNAL_EVERY: Duration = Duration::from_secs(2);
 
 /// Where the journal of `job` lives: beside it, `NAME.journal`.
-pub fn path_for(job: &Path) -> PathBuf {
+pub fn journal_path(job: &Path) -> PathBuf {
     let mut s = job.as_os_str().to_os_string();
     s.push(".journal");
     PathBuf::from(s)
@@ -38,16 +38,16 @@ pub fn path_for(job: &Path) -> PathBuf {
 /// whole journal atomically for every line cost a 200,000-line dry run 34 s (23 s of it in the
 /// kernel); one small write in place costs a system call. A killed sender's last write is in
 /// the page cache, so it survives the process.
-pub fn sent_path_for(journal: &Path) -> PathBuf {
+fn sent_path(journal: &Path) -> PathBuf {
     let mut s = journal.as_os_str().to_os_string();
     s.push(".sent");
     PathBuf::from(s)
 }
 
-/// The number [`sent_path_for`] holds, if it holds one (a short read: the file is one line).
+/// The number [`sent_path`] holds, if it holds one (a short read: the file is one line).
 fn read_sent(journal: &Path) -> Option<usize> {
     use std::io::Read;
-    let mut f = std::fs::File::open(sent_path_for(journal)).ok()?;
+    let mut f = std::fs::File::open(sent_path(journal)).ok()?;
     let mut buf = [0u8; SENT_RECORD];
     let n = f.read(&mut buf).ok()?;
     std::str::from_utf8(&buf[..n]).ok()?.trim().parse().ok()
@@ -60,7 +60,7 @@ const SENT_RECORD: usize = 21;
 /// The sent-line file of a run, made anew (an existing one, or a link in its place, is removed
 /// first, and the new one is created exclusively: a link put there is never followed).
 fn create_sent(journal: &Path) -> std::io::Result<std::fs::File> {
-    let path = sent_path_for(journal);
+    let path = sent_path(journal);
     match std::fs::remove_file(&path) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -426,7 +426,7 @@ pub struct JournalWriter<'o, 'j> {
     /// Where the run stands by the last progress report (first line that may not have run):
     /// taken into the journal, with its modal state, when it is next written in full.
     resume: usize,
-    /// The sent-line file ([`sent_path_for`]), open while the real run lasts; `None` before,
+    /// The sent-line file ([`sent_path`]), open while the real run lasts; `None` before,
     /// or when it could not be made (then each line sent rewrites the journal).
     sent: Option<std::fs::File>,
 }
@@ -475,7 +475,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
             Ok(_) => {
                 self.journal.state = RunState::Complete;
                 self.sent = None;
-                let _ = std::fs::remove_file(sent_path_for(&self.path));
+                let _ = std::fs::remove_file(sent_path(&self.path));
                 if let Err(e) = std::fs::remove_file(&self.path) {
                     if e.kind() != std::io::ErrorKind::NotFound {
                         self.inner.message(&format!(
@@ -573,15 +573,13 @@ mod tests {
         let outside = dir.path().join("outside.txt");
         std::fs::write(&outside, "keep me").unwrap();
         #[cfg(unix)]
-        std::os::unix::fs::symlink(&outside, sent_path_for(&path)).unwrap();
+        std::os::unix::fs::symlink(&outside, sent_path(&path)).unwrap();
         let mut f = create_sent(&path).unwrap();
         assert_eq!(std::fs::read_to_string(&outside).unwrap(), "keep me");
         write_sent(&mut f, 1234).unwrap();
         write_sent(&mut f, 4).unwrap();
         assert_eq!(
-            std::fs::read_to_string(sent_path_for(&path))
-                .unwrap()
-                .trim(),
+            std::fs::read_to_string(sent_path(&path)).unwrap().trim(),
             "4"
         );
         assert_eq!(Journal::read(&path).unwrap().last_sent_line, Some(4));
@@ -595,7 +593,7 @@ mod tests {
         assert_eq!(fnv1a64(b""), "cbf29ce484222325");
         assert_eq!(fnv1a64(b"a"), "af63dc4c8601ec8c");
         assert_eq!(
-            path_for(Path::new("out/job.gcode")),
+            journal_path(Path::new("out/job.gcode")),
             PathBuf::from("out/job.gcode.journal")
         );
     }

@@ -14,9 +14,8 @@
 
 use std::sync::mpsc::Receiver;
 
-pub mod console;
-
 mod config;
+mod console;
 mod control;
 mod flight;
 mod halt;
@@ -32,10 +31,11 @@ pub use self::config::{
     Control, Expected, FlowControl, IfMoving, LaserMode, Override, PowerScale, Recovery,
     StreamConfig, MOVING_WAIT,
 };
+pub use self::console::{Console, Position};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
-pub use super::error::{CheckRejection, Halt, MachineChange, MachineError};
-pub use super::program::{machine_change, Program, ProgramLine, ResumeLift};
+pub use super::error::MachineError;
+pub use super::program::Program;
 
 use self::flight::Outgoing;
 use self::session::Session;
