@@ -45,9 +45,11 @@ impl std::fmt::Display for Halt {
 /// [`MachineError::RepliesLost`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Unanswered {
-    /// File lines of the first and last unanswered line, and how many.
+    /// File line of the first unanswered line.
     pub first: usize,
+    /// File line of the last.
     pub last: usize,
+    /// How many.
     pub count: usize,
     /// Every line of the job had been sent.
     pub all_sent: bool,
@@ -78,8 +80,11 @@ impl std::fmt::Display for Unanswered {
 /// One line `$C` check mode rejected.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CheckRejection {
+    /// 1-based line in the file.
     pub line: usize,
+    /// The line as sent.
     pub text: String,
+    /// Grbl's error code.
     pub code: u8,
 }
 
@@ -127,6 +132,8 @@ fn list_changes(changes: &[MachineChange]) -> String {
     s.join("; ")
 }
 
+/// Why a stream, a connection or a program was refused or stopped.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
     #[error("{file}: line {line} is {len} bytes without spaces and comments; Grbl takes at most {max}: split it", max = MAX_LINE_BYTES)]

@@ -20,9 +20,17 @@ pub enum FrameTool {
     /// dim and lit only while the head moves along the frame; off (`M5 S0`) for the travel.
     /// `z`: the work Z the job cuts at, taken first (`G0 Z`) when the job sets its own Z (a
     /// head focused at Z5 frames there, not wherever it stood); `None` leaves Z alone.
-    Laser { s: f64, z: Option<f64> },
+    Laser {
+        /// Laser power while tracing.
+        s: f64,
+        /// Work Z to frame at.
+        z: Option<f64>,
+    },
     /// A pen or knife on Z: lifted to `up_mm` (work Z) before any move, and left there.
-    ZUp { up_mm: f64 },
+    ZUp {
+        /// Work Z of the lifted tool.
+        up_mm: f64,
+    },
     /// A pen servo on the spindle output: `M5` keeps it up.
     SpindlePen,
 }
@@ -30,9 +38,11 @@ pub enum FrameTool {
 /// What to frame and how.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FramePlan {
+    /// The rectangle to trace.
     pub extent: Extent,
     /// Where the head is when framing starts (work coordinates): it comes back here.
     pub start: [f64; 2],
+    /// How the tool stays off the work.
     pub tool: FrameTool,
     /// Feed along the frame, mm/min.
     pub feed_mm_min: f64,
@@ -92,6 +102,7 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
 }
 
 /// Why a frame did not run, or stopped.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
     #[error(
@@ -163,11 +174,13 @@ impl From<MachineError> for FrameError {
 /// What a frame did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Framed {
+    /// What was traced.
     pub plan: FramePlan,
     /// The program that was streamed.
     pub program: String,
-    /// Work position before and after, mm.
+    /// Work position before, mm.
     pub start: [f64; 3],
+    /// Work position after, mm.
     pub end: [f64; 3],
 }
 

@@ -18,14 +18,23 @@ use stencil_gcode::num;
 /// A key, as far as jogging cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JogKey {
+    /// Arrow left: X−.
     Left,
+    /// Arrow right: X+.
     Right,
+    /// Arrow up: Y+.
     Up,
+    /// Arrow down: Y−.
     Down,
+    /// Z+.
     PageUp,
+    /// Z−.
     PageDown,
+    /// Any other key by its character (see [`JOG_KEY_HELP`]).
     Char(char),
+    /// Quit.
     Esc,
+    /// Quit.
     CtrlC,
     /// A jog key was let go (terminals that report releases): the running jog is cancelled.
     Released,
@@ -154,10 +163,11 @@ const STILL_LIMIT: Duration = Duration::from_secs(60);
 
 /// A jog session on an open [`Console`].
 pub struct Jogger<'c, 'a> {
-    pub console: &'c mut Console<'a>,
+    pub(crate) console: &'c mut Console<'a>,
     /// The steps `+`/`-` walk through, ascending (the three of [`STEPS_MM`] plus `--step`).
     steps: Vec<f64>,
     step: usize,
+    /// Jog feed, mm/min.
     pub feed_mm_min: f64,
     last: Option<Position>,
 }
@@ -166,7 +176,9 @@ pub struct Jogger<'c, 'a> {
 #[derive(Debug, thiserror::Error)]
 #[error("{cause}; {laser}")]
 pub struct JogError {
+    /// What stopped the session.
     pub cause: Box<MachineError>,
+    /// What was done to make sure the laser is off.
     pub laser: String,
 }
 

@@ -116,9 +116,11 @@ pub struct ModalRecord {
     pub units: String,
     /// "G90" (absolute) or "G91" (incremental).
     pub distance: String,
+    /// The feed (F), mm/min, once one was set.
     pub feed_mm_min: Option<f64>,
     /// "M3", "M4" or "M5".
     pub spindle: String,
+    /// The power (S).
     pub s: f64,
     /// Coolant (air assist) on.
     pub air: bool,
@@ -129,11 +131,11 @@ pub struct ModalRecord {
 /// The journal file's content.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Journal {
-    pub format: String,
+    pub(crate) format: String,
     /// The job file as it was named.
     pub file: String,
-    pub file_bytes: u64,
-    pub file_fnv1a64: String,
+    pub(crate) file_bytes: u64,
+    pub(crate) file_fnv1a64: String,
     /// The machine profile the run used, by name (never a path: a recovery loads profiles by
     /// name only, and never opens a file a journal names).
     pub machine: String,
@@ -141,11 +143,12 @@ pub struct Journal {
     /// profile that differs is refused.
     #[serde(default)]
     pub machine_fnv1a64: Option<String>,
+    /// How the run stands.
     pub state: RunState,
     /// Why it stopped (the sender's own message), for `Stopped`.
     pub stop_reason: Option<String>,
-    pub started_unix_s: u64,
-    pub updated_unix_s: u64,
+    pub(crate) started_unix_s: u64,
+    pub(crate) updated_unix_s: u64,
     /// The run started at this line (a resumed run starts later than 1).
     pub from_line: usize,
     /// The last file line Grbl acknowledged (queued; maybe not run).
@@ -173,7 +176,7 @@ pub struct Journal {
     /// can tell a controller that lost its position (a restart at MPos 0 without homing).
     #[serde(default)]
     pub last_position: Option<[f64; 3]>,
-    /// Where the run put the job's X0 Y0 (see [`crate::placement`]): a stop's soft reset or a
+    /// Where the run put the job's X0 Y0 (see [`crate::Placement`]): a stop's soft reset or a
     /// power loss clears G92, so a recovery puts it back from here.
     #[serde(default)]
     pub placement: Option<PlacementRecord>,
@@ -189,6 +192,7 @@ pub struct PlacementRecord {
 }
 
 /// Why a journal cannot be used.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
     #[error("{}: no journal beside the job (nothing was streamed from this file, or it finished and the journal was removed); resume from a line instead", path.display())]
@@ -398,7 +402,9 @@ impl Journal {
 /// Where `--recover` proposes to resume.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Proposal {
+    /// The line to resume from.
     pub line: usize,
+    /// Why that line.
     pub why: String,
 }
 
@@ -413,9 +419,9 @@ fn n_word(text: &str) -> Option<u32> {
 
 /// An observer that keeps the journal while passing everything on to the front end's.
 pub struct JournalWriter<'o, 'j> {
-    pub inner: &'o mut dyn Observer,
-    pub journal: Journal,
-    pub path: PathBuf,
+    inner: &'o mut dyn Observer,
+    journal: Journal,
+    path: PathBuf,
     job: &'j Program,
     clock: ClockRef,
     every: Duration,
@@ -432,6 +438,8 @@ pub struct JournalWriter<'o, 'j> {
 }
 
 impl<'o, 'j> JournalWriter<'o, 'j> {
+    /// Keep `journal` at `path` for `job`, passing every event on to `inner`; written in full at
+    /// most every `every` by `clock`.
     pub fn new(
         inner: &'o mut dyn Observer,
         journal: Journal,

@@ -14,7 +14,9 @@ use super::stream::{Control, Override};
 /// A key press, as far as the sender cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Key {
+    /// A key by its character (see [`SEND_KEY_HELP`]).
     Char(char),
+    /// The Escape key.
     Esc,
     /// Ctrl-C (in raw mode it arrives as a key, not as a signal).
     CtrlC,

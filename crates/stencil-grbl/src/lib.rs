@@ -17,9 +17,10 @@
 //! let (grbl, mut port) = VirtualGrbl::spawn(VirtualConfig::default())?;
 //! let summary = send(&mut port, &job, &StreamConfig::default(), None, &mut Quiet)?;
 //! let record = grbl.stop();
-//! assert_eq!(summary.lines, 4); // every line acknowledged,
-//! assert_eq!(record.run_lines(), ["G21 G90", "M4 S300", "G1 X10 Y5 F1200", "M5"]); // run once,
-//! assert!(!record.laser_on && record.state == "Idle"); // and the laser is off.
+//! assert_eq!(summary.lines, 4); // every job line acknowledged,
+//! let received = ["$I", "$$", "G21G90", "M4S300", "G1X10Y5F1200", "M5"];
+//! assert_eq!(record.run_lines(), received); // received once, after the sender's own queries,
+//! assert!(!record.laser_on && record.state == "Idle"); // and the machine idle, laser off.
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

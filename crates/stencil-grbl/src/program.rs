@@ -23,6 +23,7 @@ pub struct ProgramLine {
 pub struct Program {
     /// File name for messages.
     pub name: String,
+    /// The lines to stream, in order.
     pub lines: Vec<ProgramLine>,
     /// Moves as our interpreter reads them (lines it cannot read are skipped).
     pub moves: Vec<Move>,
@@ -93,16 +94,20 @@ pub fn machine_change(clean: &str) -> Option<String> {
 /// coordinates, which are those when its work offset is zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Extent {
+    /// Lowest X and Y, mm.
     pub min: [f64; 2],
+    /// Highest X and Y, mm.
     pub max: [f64; 2],
     /// Cutting moves that made it.
     pub moves: usize,
 }
 
 impl Extent {
+    /// Size along X, mm.
     pub fn width(&self) -> f64 {
         self.max[0] - self.min[0]
     }
+    /// Size along Y, mm.
     pub fn height(&self) -> f64 {
         self.max[1] - self.min[1]
     }
@@ -432,6 +437,7 @@ pub struct ResumeLift {
 /// The state a program has built up before some line (see [`Program::state_before`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StateBefore {
+    /// The modal state (units, distance mode, feed, spindle, offsets).
     pub modal: Modal,
     /// Axes the program has named.
     pub used: [bool; 3],

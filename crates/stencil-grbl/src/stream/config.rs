@@ -50,6 +50,7 @@ pub(crate) const HOMING_LIMIT: Duration = Duration::from_secs(300);
 /// Streaming settings.
 #[derive(Clone, Debug)]
 pub struct StreamConfig {
+    /// How lines are paced.
     pub flow: FlowControl,
     /// Receive buffer size to count against; `None` = ask Grbl (`$I`), else 128.
     pub rx_buffer: Option<usize>,
@@ -122,8 +123,11 @@ pub struct Expected {
 /// from machine profile diode-400, as its header does not say".
 #[derive(Clone, Debug, PartialEq)]
 pub struct PowerScale {
+    /// S at full power (`$30`).
     pub s_max: f64,
+    /// S at the lowest power (`$31`).
     pub s_min: f64,
+    /// Where the scale was read.
     pub source: String,
 }
 
@@ -183,7 +187,9 @@ pub struct Recovery {
 /// Commands from the operator while a job runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Control {
+    /// Feed hold (`!`).
     FeedHold,
+    /// Cycle start (`~`).
     Resume,
     /// Stop now: soft reset, laser off, report the resume line.
     Abort,
@@ -195,11 +201,17 @@ pub enum Control {
 /// steps within Grbl's 10..200 %, or back to 100 %.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Override {
+    /// Feed +10 %.
     FeedPlus10,
+    /// Feed −10 %.
     FeedMinus10,
+    /// Feed back to 100 %.
     FeedReset,
+    /// Power +10 %.
     PowerPlus10,
+    /// Power −10 %.
     PowerMinus10,
+    /// Power back to 100 %.
     PowerReset,
 }
 

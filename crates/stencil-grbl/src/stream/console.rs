@@ -22,6 +22,7 @@ use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
 /// A status report with the work position worked out.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Position {
+    /// The report itself.
     pub status: Status,
     /// Machine position, mm (`MPos`, or `WPos` + offset).
     pub machine: [f64; 3],

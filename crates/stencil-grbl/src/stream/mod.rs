@@ -34,8 +34,8 @@ pub use self::config::{
 pub use self::console::{Console, Position};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
-pub use super::error::MachineError;
-pub use super::program::Program;
+use super::error::MachineError;
+use super::program::Program;
 
 use self::flight::Outgoing;
 use self::session::Session;

@@ -8,7 +8,10 @@ pub enum Pace {
     /// Moves complete the moment they are planned: a dry run goes as fast as the link allows.
     Instant,
     /// Moves take their length ÷ feed, divided by `speedup` (1.0 = as the machine would).
-    Timed { speedup: f64 },
+    Timed {
+        /// 1.0 = as fast as the machine; 10.0 = ten times faster.
+        speedup: f64,
+    },
 }
 
 /// What goes wrong, for tests.
@@ -46,7 +49,9 @@ pub enum FaultKind {
 /// not empty, not `$` commands, and not sent in check mode; 1-based).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fault {
+    /// The job line it fires at.
     pub at_job_line: usize,
+    /// What happens.
     pub kind: FaultKind,
 }
 
@@ -55,13 +60,16 @@ pub struct Fault {
 pub struct VirtualConfig {
     /// Receive buffer size in bytes (128 in stock Grbl); reported in `$I` as `[OPT:V,blocks,rx]`.
     pub rx_buffer: usize,
+    /// Planner blocks (15 on an AVR).
     pub planner_blocks: usize,
+    /// How fast moves run.
     pub pace: Pace,
     /// Pace the link at this baud rate (10 bits per byte, both directions); `None` = as fast as the
     /// pty goes.
     pub baud: Option<u32>,
     /// G0 rate, mm/min.
     pub rapid_mm_min: f64,
+    /// Faults to inject.
     pub faults: Vec<Fault>,
     /// Laser mode, `$32` (settable with `$32=0|1`): on, the beam never fires in G0 and M3/M4
     /// act as a laser; off, a switched-on spindle stays on through G0 moves too.
@@ -96,8 +104,11 @@ pub struct VirtualConfig {
 /// sleeps up to `longest` (drawn from `seed`, so a run can be repeated).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stutter {
+    /// Seed of the pauses.
     pub seed: u64,
+    /// One turn in this many pauses.
     pub one_in: u32,
+    /// The longest pause.
     pub longest: std::time::Duration,
 }
 
