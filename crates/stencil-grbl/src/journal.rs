@@ -176,8 +176,8 @@ pub struct Journal {
     /// can tell a controller that lost its position (a restart at MPos 0 without homing).
     #[serde(default)]
     pub last_position: Option<[f64; 3]>,
-    /// Where the run put the job's X0 Y0 (see [`crate::Placement`]): a stop's soft reset or a
-    /// power loss clears G92, so a recovery puts it back from here.
+    /// Where the run put the job's X0 Y0 ([`Placement`](super::placement::Placement)): a stop's
+    /// soft reset or a power loss clears G92, so a recovery puts it back from here.
     #[serde(default)]
     pub placement: Option<PlacementRecord>,
 }

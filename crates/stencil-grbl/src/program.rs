@@ -34,7 +34,7 @@ pub struct Program {
     /// sends M9 itself.
     pub may_end_air_on: bool,
     /// Lines that would change the machine rather than cut: refused by `send` unless the person
-    /// asked for them ([`super::StreamConfig::allow_machine_commands`]).
+    /// asked for them (`StreamConfig::allow_machine_commands`).
     pub machine_changes: Vec<MachineChange>,
     /// Read-only `$` queries (`$$`, `$#`, `$G`, `$I`, `$N`): left out of the stream.
     pub dropped: Vec<ProgramLine>,

@@ -12,10 +12,11 @@ use stencil_gcode::num;
 const MOTION_TOLERANCE: f64 = 0.02;
 
 impl Session<'_, '_> {
-    /// Compare `$$` with [`super::Expected`]. A power scale that differs is refused (or, asked,
-    /// every S is rescaled: [`Session::power_map`]); rates, accelerations and junction
-    /// deviation that differ are reported (a front end's estimate uses the controller's);
-    /// max travel short of the bed is refused when soft limits or homing are on, else reported.
+    /// Compare `$$` with [`Expected`](super::config::Expected). A power scale that differs is
+    /// refused (or, asked, every S is rescaled: [`Session::power_map`]); rates, accelerations
+    /// and junction deviation that differ are reported (a front end's estimate uses the
+    /// controller's); max travel short of the bed is refused under soft limits or homing, else
+    /// reported.
     pub(super) fn check_settings(&mut self) -> Result<(), MachineError> {
         if self.info.settings.is_empty() {
             if self.cfg.expect != super::config::Expected::default() {

@@ -92,32 +92,37 @@ impl Sim {
         self.ov_changed = true;
     }
 
+    /// What a reset or a power loss forgets: the buffers, the queue, a hold, check mode, the
+    /// overrides (back to 100 %, as Grbl does) and a line waiting for its `ok`.
+    pub(super) fn forget(&mut self) {
+        self.planner.clear();
+        self.pending = None;
+        self.rx.clear();
+        self.line_buf.clear();
+        self.hold = false;
+        self.hold_decel = None;
+        self.rt_hold = false;
+        self.check_mode = false;
+        self.ov = [100; 3];
+        self.waiting = None;
+        self.line_wait = None;
+    }
+
     pub(super) fn soft_reset(&mut self) {
         // A completed feed hold keeps the position: only a reset while moving loses it.
         let moving = (!self.planner.is_empty() || self.pending.is_some())
             && (!self.hold || self.hold_decel.is_some());
         lock(&self.shared).events.push(Event::SoftReset);
-        self.rx.clear();
+        self.forget();
         self.backlog.clear();
         self.unheard = 0;
-        self.line_buf.clear();
         self.line_overflow = false;
         self.comment = Comment::None;
         self.eeprom = None;
-        self.pending = None;
-        self.planner.clear();
-        self.hold = false;
-        self.hold_decel = None;
-        self.rt_hold = false;
         self.status_requested = false;
         self.ok_fault = None;
-        self.check_mode = false;
         self.frozen = false;
         self.setting_pending = None;
-        // A reset brings the overrides back to 100 %, as Grbl does.
-        self.ov = [100; 3];
-        self.waiting = None;
-        self.line_wait = None;
         self.modal = self.modal.after_reset();
         if moving && self.state == State::Idle {
             // Grbl: a reset during motion may have lost steps, so it locks until unlocked.
