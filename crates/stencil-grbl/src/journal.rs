@@ -1,8 +1,8 @@
 //! The job journal: a small file beside a job being streamed (`JOB.gcode.journal`) that says how
 //! far it got, so a crash, a pulled cable or a power cut can be resumed (`send --recover`).
 //!
-//! It is rewritten atomically (`export::atomic`) every few seconds while streaming and on every
-//! stop, and marked complete when the job finishes. What it records is what the host knows:
+//! It is rewritten atomically (`stencil_io::write_atomic`) every few seconds while streaming
+//! and on every stop, and removed when the job finishes. What it records is what the host knows:
 //! Grbl acknowledges a line when it is queued, not when it has run, so besides the last
 //! acknowledged line it keeps the first line that may not have run (from the status reports' free
 //! planner blocks, or the whole planner depth when unknown) and Grbl's `Ln:` if it reports one.
