@@ -8,8 +8,7 @@ use clap::Args;
 use stencil_gcode::estimate::{estimate_program, format_duration, length_over_feed_s};
 use stencil_gcode::interpret::{interpret_from, Program};
 use stencil_gcode::machine as machine_profile;
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stream::ControllerInfo;
+use stencil_grbl::{ControllerInfo, ControllerState, Placement, StartFrom};
 
 /// `stencil estimate job.gcode`: time and distances of any G-code file.
 #[derive(Args, Debug)]

@@ -12,9 +12,10 @@ use anyhow::bail;
 use clap::Args;
 
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
-use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameError, FrameTool, Framed};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Observer, Program, StreamConfig};
+use stencil_grbl::{
+    cut_extent_with, BytePort, Console, Control, ControllerInfo, Extent, FrameError, FrameTool,
+    Framed, Observer, Program, StreamConfig,
+};
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
 /// to follow the head with the eye, fast enough not to bore.
@@ -221,7 +222,7 @@ pub fn frame_on(
         ));
     }
     console.say(&format!("framing {}", s.describe()));
-    frame::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
+    stencil_grbl::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
         let hint = match &e {
             FrameError::Machine(m) => super::port::machine_hint(m),
             // Locked before, or by the stop.
@@ -291,7 +292,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     )?
     .state;
     let start = super::place::choose(a.start.start_from, &state, &machine);
-    let placement = stencil_grbl::placement::Placement::new(start, &state);
+    let placement = stencil_grbl::Placement::new(start, &state);
     println!("{}", placement.describe());
     let job = super::place::placed(&name, &text, &placement)?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;

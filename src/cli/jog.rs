@@ -10,10 +10,10 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
-use stencil_grbl::jog::{self, parse_key, parse_keys, JogKey, JogKeys, Jogger, Script};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{ControllerInfo, Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::VirtualConfig;
+use stencil_grbl::{
+    parse_key, parse_keys, Console, ControllerInfo, JogKey, JogKeys, Jogger, Observer, Script,
+    StreamConfig, VirtualConfig,
+};
 
 /// Jog, home, unlock and zero the machine from the keyboard.
 #[derive(Args, Debug)]
@@ -203,7 +203,7 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
     let mut screen = Screen { raw: tty };
     let raw = tty;
     if raw {
-        screen.message(jog::KEY_HELP);
+        screen.message(stencil_grbl::JOG_KEY_HELP);
     }
     let mut last_shown = String::new();
     let mut show = |line: &str| {
@@ -219,7 +219,7 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
     let result = (|| -> anyhow::Result<(String, String)> {
         let mut console = Console::connect(opened.port.as_mut(), &cfg, None, &mut screen)?;
         let mut j = Jogger::new(&mut console, a.step, a.feed);
-        let done = jog::run(&mut j, keys.as_mut(), &mut show)?;
+        let done = stencil_grbl::jog_session(&mut j, keys.as_mut(), &mut show)?;
         Ok((done, j.status_line()))
     })();
     drop(keys);

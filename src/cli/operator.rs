@@ -7,9 +7,7 @@ use std::sync::mpsc::Sender;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
-
-use stencil_grbl::keys::{self, Key, KeySource};
-use stencil_grbl::stream::Control;
+use stencil_grbl::{Control, Key, KeySource};
 
 /// What asked for an abort, the first that did: a stop signal or a key, said in the stop's message
 /// and the journal (the stream knows only that an abort was asked for).
@@ -75,7 +73,7 @@ impl Keys {
         on_stop_signals(tx.clone());
         if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
             let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || keys::pump(&mut Terminal, &tx, &stop2));
+            let thread = std::thread::spawn(move || stencil_grbl::pump(&mut Terminal, &tx, &stop2));
             return Keys {
                 stop,
                 thread: Some(thread),
@@ -124,7 +122,7 @@ impl KeySource for Terminal {
             KeyCode::Esc => Key::Esc,
             _ => return Ok(None),
         };
-        if keys::controls_for(key) == [Control::Abort] {
+        if stencil_grbl::controls_for(key) == [Control::Abort] {
             let _ = ABORT_CAUSE.set(match key {
                 Key::CtrlC => "aborted with Ctrl-C",
                 Key::Esc => "aborted with the abort key (Esc)",

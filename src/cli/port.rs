@@ -6,11 +6,10 @@ use std::time::Duration;
 use anyhow::{bail, Context};
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_grbl::journal::JournalError;
-use stencil_grbl::stream::{
-    BytePort, Expected, IfMoving, MachineError, PowerScale, Program, MOVING_WAIT,
+use stencil_grbl::{
+    BytePort, Expected, IfMoving, JournalError, MachineError, PowerScale, Program, VirtualConfig,
+    VirtualGrbl, MOVING_WAIT,
 };
-use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
 /// `send`, `frame` and `jog`).
@@ -235,7 +234,7 @@ pub fn virtual_for(machine: &Machine, overrides: &[(u32, String)]) -> VirtualCon
 /// `$$` (the slower axis of X and Y), where it did.
 pub fn controller_motion(
     mut limits: stencil_gcode::machine::Motion,
-    info: &stencil_grbl::stream::ControllerInfo,
+    info: &stencil_grbl::ControllerInfo,
 ) -> stencil_gcode::machine::Motion {
     let lower = |a: u32, b: u32| match (info.setting(a), info.setting(b)) {
         (Some(x), Some(y)) => Some(x.min(y)),

@@ -3,8 +3,7 @@
 //! machine itself.
 
 use std::path::Path;
-
-use stencil_grbl::stream::{self, Program};
+use stencil_grbl::Program;
 
 /// The job's origin, from its header and the file's time, printed before anything moves: which
 /// picture, material, size and machine the file was made for, and when it was written, so that
@@ -98,7 +97,7 @@ pub fn name_machine_changes(job: &Program) {
 pub fn name_machine_changes_in(path: &Path, text: &str) {
     for (i, raw) in text.lines().enumerate() {
         let clean = stencil_gcode::interpret::clean_line(raw);
-        if let Some(what) = stream::machine_change(&clean) {
+        if let Some(what) = stencil_grbl::machine_change(&clean) {
             machine_change_note(&path.display().to_string(), i + 1, &clean, &what);
         }
     }

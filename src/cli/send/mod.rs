@@ -11,12 +11,6 @@ use clap::Args;
 
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine as machine_profile;
-use stencil_grbl::journal::{self, Journal, JournalWriter, RunState};
-use stencil_grbl::keys;
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stall::ClockRef;
-use stencil_grbl::stream::{self, FlowControl, LaserMode, Program, ResumeLift, StreamConfig};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Pace, VirtualConfig};
 
 mod output;
 mod recover;
@@ -25,6 +19,10 @@ use super::operator::{abort_cause, Keys};
 use super::program::{name_machine_changes, origin_line, read_program};
 use output::{print_summary, print_virtual, Bar};
 use recover::{profile_fingerprint, recover};
+use stencil_grbl::{
+    ClockRef, ControllerState, Fault, FaultKind, FlowControl, Journal, JournalWriter, LaserMode,
+    Pace, Placement, Program, ResumeLift, RunState, StartFrom, StreamConfig, VirtualConfig,
+};
 
 /// Stream a G-code file to a Grbl 1.1 controller.
 #[derive(Args, Debug)]
@@ -261,7 +259,7 @@ fn link_options(a: &SendArgs) -> String {
 
 /// A stream that stopped, worded with the options that resume it: the command for the line to
 /// resume from (unlocking a machine the stop left locked), and `--recover` with the journal.
-fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow::Error {
+fn stopped(a: &SendArgs, journal_path: &Path, e: stencil_grbl::MachineError) -> anyhow::Error {
     let hint = match e.halt() {
         Some(h) => format!(
             "\nto resume: stencil send {} --from-line {}{}{}{}\n(the journal {} keeps this; \
@@ -283,7 +281,7 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stream::MachineError) -> anyhow
     // An abort says what asked for it (a signal, which one, or a key), here and in the journal,
     // where the stream wrote only that the operator aborted.
     let text = match &e {
-        stream::MachineError::Aborted { halt } => {
+        stencil_grbl::MachineError::Aborted { halt } => {
             let text = format!("{}; {halt}", abort_cause());
             if let Ok(mut j) = Journal::read(journal_path) {
                 if j.state == RunState::Stopped {
@@ -329,7 +327,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             job.pauses
         );
     }
-    let journal_path = journal::path_for(&a.file);
+    let journal_path = stencil_grbl::journal_path(&a.file);
     let (from_line, machine_arg, journal) = if a.recover {
         match recover(a.machine.as_ref(), &job, &text, &journal_path)? {
             Some((line, m, j)) => (line, m, Some(j)),
@@ -391,7 +389,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     cfg.expect = super::port::expected(&machine, &text, &job);
     cfg.place_zero = Some(placement.zero);
     if a.recover || from_line > 1 {
-        cfg.recovery = Some(stream::Recovery {
+        cfg.recovery = Some(stencil_grbl::Recovery {
             last_position: journal.as_ref().and_then(|j| j.last_position),
             last_acked: journal.as_ref().and_then(|j| j.last_acked_line),
             confirmed: a.position_confirmed,
@@ -430,13 +428,13 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let keys = Keys::start(tx);
     let mut bar = Bar::new(&job, &text, limits, keys.raw);
     if keys.raw {
-        bar.say(&format!("keys: {}", keys::KEY_HELP));
+        bar.say(&format!("keys: {}", stencil_grbl::SEND_KEY_HELP));
     }
     // The profile by its name and content, never the path it was read from: a recovery
     // loads profiles by name only.
     let mut started = Journal::new(&a.file, text.as_bytes(), &job, &machine.name, from_line);
     started.machine_fnv1a64 = Some(profile_fingerprint(&machine));
-    started.placement = Some(journal::PlacementRecord {
+    started.placement = Some(stencil_grbl::PlacementRecord {
         start_from: placement.start_from.name().into(),
         zero_mm: placement.zero,
     });
@@ -446,9 +444,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         journal_path.clone(),
         &job,
         ClockRef::default(),
-        journal::EVERY,
+        stencil_grbl::JOURNAL_EVERY,
     );
-    let result = stream::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
+    let result = stencil_grbl::send(port.as_mut(), &job, &cfg, Some(&rx), &mut journal);
     journal.finish(&result);
     bar.bar.finish_and_clear();
     drop(keys);
@@ -501,7 +499,7 @@ fn placement_for(
 /// After framing: say where the frame went, then (unless --yes) ask whether to start. False when
 /// the user says no: nothing was cut.
 fn framed_and_started(
-    framed: anyhow::Result<stencil_grbl::frame::Framed>,
+    framed: anyhow::Result<stencil_grbl::Framed>,
     label: &str,
     yes: bool,
 ) -> anyhow::Result<bool> {

@@ -8,11 +8,9 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use stencil_gcode::estimate::{estimate_program_from, format_duration};
 use stencil_gcode::interpret::CutRule;
 use stencil_gcode::machine as machine_profile;
-use stencil_grbl::keys;
-use stencil_grbl::stream::{ControllerInfo, Observer, Program, Progress, Summary};
 
 use crate::cli::port::controller_motion;
-use stencil_grbl::virtual_grbl::VirtualGrbl;
+use stencil_grbl::{ControllerInfo, Observer, Program, Progress, Summary, VirtualGrbl};
 
 /// The progress bar: lines acknowledged, percent, machine state and position, elapsed and
 /// remaining time (estimated over the moves that have not run yet).
@@ -105,7 +103,7 @@ impl Observer for Bar {
                 None => st.to_string(),
             };
             if let Some(ov) = p.overrides {
-                self.state = format!("{} {}", self.state, keys::overrides_text(ov));
+                self.state = format!("{} {}", self.state, stencil_grbl::overrides_text(ov));
             }
         }
         self.bar
@@ -153,7 +151,7 @@ pub fn print_virtual(vg: VirtualGrbl) {
         .events
         .iter()
         .filter_map(|e| match e {
-            stencil_grbl::virtual_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
+            stencil_grbl::Event::Alarm(c) => Some(format!("ALARM:{c}")),
             _ => None,
         })
         .collect();

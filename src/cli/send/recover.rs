@@ -7,8 +7,7 @@ use anyhow::bail;
 
 use stencil_gcode::estimate::format_duration;
 use stencil_gcode::machine as machine_profile;
-use stencil_grbl::journal::{self, Journal, RunState};
-use stencil_grbl::stream::Program;
+use stencil_grbl::{Journal, Program, RunState};
 
 /// Tell the user what the journal knows and where the job will resume; `None` if there is
 /// nothing left to do.
@@ -74,8 +73,9 @@ pub fn recover(
     text: &str,
     journal_path: &Path,
 ) -> anyhow::Result<Option<(usize, Option<String>, Journal)>> {
-    let journal_error =
-        |e: journal::JournalError| anyhow::anyhow!("{e}{}", crate::cli::port::journal_hint(&e));
+    let journal_error = |e: stencil_grbl::JournalError| {
+        anyhow::anyhow!("{e}{}", crate::cli::port::journal_hint(&e))
+    };
     let j = Journal::read(journal_path).map_err(journal_error)?;
     j.check_file(journal_path, text.as_bytes())
         .map_err(journal_error)?;
@@ -85,7 +85,7 @@ pub fn recover(
 
 /// A machine profile's content as the journal keeps it (its validated values, every field).
 pub fn profile_fingerprint(m: &machine_profile::Machine) -> String {
-    journal::fingerprint(&format!("{m:?}"))
+    stencil_grbl::fingerprint(&format!("{m:?}"))
 }
 
 /// The machine profile a recovery runs with: the one named with `--machine`, else the
