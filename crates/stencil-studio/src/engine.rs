@@ -11,11 +11,9 @@
 
 use std::sync::Arc;
 
-use stencil_core::driver::{Cache, Start, Stopped, Tweaks};
+use stencil_core::driver::{self, Cache, Start, Stopped, Tweaks};
 use stencil_core::export;
-use stencil_core::pipeline::{
-    self, Cleaned, Joined, Made, MakeConfig, StageParams, Timings, Traced,
-};
+use stencil_core::pipeline::{Cleaned, Joined, Made, MakeConfig, StageParams, Timings, Traced};
 use stencil_core::raster::Gray;
 use stencil_core::report::Report;
 use stencil_core::Error;
@@ -110,9 +108,9 @@ impl Engine {
         superseded: &dyn Fn() -> bool,
     ) -> Result<Computed, RunError> {
         let timer = Timings::new(None);
-        let b = self
-            .cache
-            .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
+        let mut b =
+            self.cache
+                .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
         let otsu = match self.otsu {
             Some((g, level)) if g == b.gray_generation => level,
             _ => {
@@ -121,7 +119,7 @@ impl Engine {
                 level
             }
         };
-        let report = pipeline::report_joined(cfg, &b.params, &b.cleaned, &b.joined, b.timer);
+        let report = b.report(cfg);
         Ok(Computed {
             cfg: cfg.clone(),
             params: b.params,
@@ -149,25 +147,10 @@ impl Engine {
         }
         let (cfg, params, joined, cleaned) = (&c.cfg, &c.params, &c.joined, &c.cleaned);
         let mut ran = c.ran.clone();
-        let mut timer = Timings::new(None);
-        let traced = self.cache.traced(
-            (joined, c.joined_generation),
-            cleaned,
-            params,
-            &mut timer,
-            &mut ran,
-        )?;
-        let (j, t) = &*traced;
-        let refused = pipeline::refuse(&cfg.physical, t.fidelity, &t.check).err();
-        // The job time for the chosen machine, as `make` plans it.
-        let gcode = match (&cfg.gcode, &refused) {
-            (Some(gc), None) => {
-                let mut geometry = t.geometry.clone();
-                Some(pipeline::gcode(cfg, gc, &mut geometry, j, &params.trace, &mut timer)?.1)
-            }
-            _ => None,
-        };
-        let report = pipeline::report(cfg, params, cleaned, j, t, gcode, timer);
+        let joined_at = (joined, c.joined_generation);
+        let checked = self
+            .cache
+            .checked(cfg, joined_at, cleaned, params, &mut ran)?;
         Ok(Computed {
             cfg: cfg.clone(),
             params: params.clone(),
@@ -175,9 +158,9 @@ impl Engine {
             otsu: c.otsu,
             cleaned: cleaned.clone(),
             joined: joined.clone(),
-            traced: Some(traced.clone()),
-            report,
-            refused,
+            traced: Some(checked.traced),
+            report: checked.report,
+            refused: checked.refused,
             ran,
             joined_generation: c.joined_generation,
         })
@@ -188,7 +171,8 @@ impl Computed {
     /// What `make` computes for the same options, from the kept stages (the same functions, so
     /// the same bytes): the trace, the refusal, the G-code, the report.
     pub fn made(&self) -> Result<Made, Error> {
-        pipeline::finish_from(&self.cfg, &self.params, &self.cleaned, &self.joined)
+        let (cleaned, joined) = (self.cleaned.clone(), self.joined.clone());
+        driver::finish(&self.cfg, &self.params, cleaned, joined, None)
     }
 }
 
