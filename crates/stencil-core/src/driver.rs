@@ -1,24 +1,17 @@
 //! The stages in order, listed once: every way of running the pipeline runs this list.
 //!
-//! `make` runs it plainly ([`run`]: each output moves on to the next stage, nothing is kept);
-//! the studio runs it with a [`Cache`] that keeps each stage's output beside the parameters and
-//! the upstream output it was made from, so a change re-runs only from the first stage whose
-//! inputs changed; a layered set runs it once per layer, from the set's gray, with the few
-//! [`Tweaks`] a layer needs. The stages are functions of (input, parameters), one file each under
-//! `pipeline/`; [`pipeline::resolve`] turns the request into each stage's parameters, which
-//! compare with `==`, so "what must re-run" is not a table of which option touches which stage:
-//! it is the first stage whose parameters or upstream output differ.
+//! `make` runs it plainly ([`run`]: each output moves on, nothing is kept); the studio with a
+//! [`Cache`] that keeps each stage's output beside the parameters and the upstream output it was
+//! made from, so a change re-runs only from the first stage whose inputs changed (parameters
+//! from [`pipeline::resolve`] compare with `==`: no table of which option touches which stage;
+//! a bridge weight re-runs only the join); a layered set once per layer, with [`Tweaks`].
 //!
-//! The list (the paper's order, Bronson et al., its Stages 1–5):
-//! - [`source`]: load → draw (a mesh's view) → light; then [`pipeline::resolve`];
-//! - [`two_tone`]: gray (the working resolution) → threshold (Stage 1) → look (the picture's
-//!   side of the likeness);
-//! - [`clean_up`]: clean (the topological filter, or the design-rule regularisation);
-//! - [`bridges`]: walk (islands and candidate strips, Stages 2–3) → join (the spanning tree of
-//!   bridges, grown to width, Stages 4–5);
-//! - [`vectors`]: trace and check (vectors and widths), refuse;
-//! - [`outputs`]: G-code and report ([`Cache::checked`] for the studio, [`finish`] for `make`
-//!   and kept runs), then `make` writes them ([`pipeline::files`]).
+//! The list (one file each; the paper's Stages 1–5, Bronson et al.): [`source`] (load → draw a
+//! mesh's view → light), [`pipeline::resolve`], [`two_tone`] (gray at the working resolution →
+//! threshold → look, the picture's side of the likeness), [`clean_up`], [`bridges`] (walk: the
+//! islands and candidate strips → join: the spanning tree, grown to width), [`vectors`] (trace,
+//! check, refuse), [`outputs`] (G-code, report: [`Cache::checked`], [`finish`]), then `make`
+//! writes them ([`pipeline::files`]).
 
 use std::sync::Arc;
 
@@ -120,28 +113,23 @@ struct Slots {
     traced: Kept<TraceParams, Arc<(Joined, Traced)>>,
 }
 
-/// The stages' outputs up to the bridges, with the parameters they were made with.
+/// The stages' outputs up to the bridges.
 pub struct Bridged {
-    pub params: StageParams,
-    /// The working gray (what the threshold reads; the two-tones share it) and its generation.
-    pub gray: Arc<Gray>,
-    pub gray_generation: u64,
-    pub cleaned: Arc<Cleaned>,
+    /// Up to the clean-up.
+    pub front: Front,
     /// After the bridges, before the trace's neck repairs.
     pub joined: Arc<Joined>,
     /// The joined output's generation (the trace's key).
     pub joined_generation: u64,
-    /// The stages this run computed (the others were kept), in order.
-    pub ran: Vec<&'static str>,
-    pub timer: Timings,
 }
 
 impl Bridged {
     /// The report known before the trace (what the studio shows with the preview), with this
     /// run's timings.
     pub fn report(&mut self, cfg: &MakeConfig) -> Report {
-        let timer = std::mem::take(&mut self.timer);
-        outputs::report_joined(cfg, &self.params, &self.cleaned, &self.joined, timer)
+        let f = &mut self.front;
+        let timer = std::mem::take(&mut f.timer);
+        outputs::report_joined(cfg, &f.params, &f.cleaned, &self.joined, timer)
     }
 }
 
@@ -154,14 +142,16 @@ pub struct Checked {
     pub refused: Option<Error>,
 }
 
-/// The stages' outputs up to the clean-up ([`Bridged`] without the bridges).
-struct Front {
-    params: StageParams,
-    gray: Arc<Gray>,
-    gray_generation: u64,
-    cleaned: Arc<Cleaned>,
-    ran: Vec<&'static str>,
-    timer: Timings,
+/// The stages' outputs up to the clean-up, with the parameters they were made with.
+pub struct Front {
+    pub params: StageParams,
+    /// The working gray (what the threshold reads; the two-tones share it) and its generation.
+    pub gray: Arc<Gray>,
+    pub gray_generation: u64,
+    pub cleaned: Arc<Cleaned>,
+    /// The stages this run computed (the others were kept), in order.
+    pub ran: Vec<&'static str>,
+    pub timer: Timings,
 }
 
 /// The bookkeeping of one run: whether outputs are kept, the generation counter, what ran.
@@ -237,14 +227,9 @@ impl Cache {
         let (f, joined) = self.stages(cfg, start, tweaks, timer, superseded, true)?;
         let (joined, joined_generation) = joined.expect("run through the join");
         Ok(Bridged {
-            params: f.params,
-            gray: f.gray,
-            gray_generation: f.gray_generation,
-            cleaned: f.cleaned,
+            front: f,
             joined,
             joined_generation,
-            ran: f.ran,
-            timer: f.timer,
         })
     }
 
@@ -484,7 +469,13 @@ impl Slots {
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let timer = Timings::new(cfg.progress.clone());
     let b = bridged_once(cfg, &Start::Input, &Tweaks::default(), timer)?;
-    finish(cfg, &b.params, b.cleaned, b.joined, Some(b.timer))
+    finish(
+        cfg,
+        &b.front.params,
+        b.front.cleaned,
+        b.joined,
+        Some(b.front.timer),
+    )
 }
 
 /// One run through `make`'s end with nothing kept (a set's layer): the result, and the cleaned
@@ -495,8 +486,11 @@ pub fn made_once(
     tweaks: &Tweaks,
 ) -> Result<(Made, BitGrid), Error> {
     let b = bridged_once(cfg, start, tweaks, Timings::new(cfg.progress.clone()))?;
-    let cut = b.cleaned.twotone.bits.clone();
-    Ok((finish(cfg, &b.params, b.cleaned, b.joined, None)?, cut))
+    let cut = b.front.cleaned.twotone.bits.clone();
+    Ok((
+        finish(cfg, &b.front.params, b.front.cleaned, b.joined, None)?,
+        cut,
+    ))
 }
 
 /// One run of the stages up to the bridges with nothing kept (`make`, a set's layers).

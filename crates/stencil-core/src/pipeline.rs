@@ -25,7 +25,7 @@ pub mod two_tone;
 pub mod vectors;
 
 pub use bridges::{bridge_prepared, prepare, Joined, Prepared};
-pub use clean_up::{clean, clean_unmeasured, measure, Cleaned, AUTO_SEARCH_PIXELS};
+pub use clean_up::{clean, clean_unmeasured, measure, Cleaned};
 pub use files::{default_out_dir, write, OUTPUT_NAMES};
 pub use outputs::{finish, gcode, report, report_joined, Made};
 pub use source::{draw, is_mesh_path, light, load, Input, Source};
@@ -214,15 +214,6 @@ impl PhysicalConfig {
         }
     }
 }
-
-// ---- resolve: the request made into each stage's parameters -----------------------------------
-//
-// `make` and the studio share one order of work: [`SourceParams::of`] (what loading and rendering
-// need, known before the input's size), [`load`], [`render`], then [`resolve`] (everything else,
-// from the options and the rendered size), then the stages [`working_gray`], [`threshold`],
-// [`clean`], [`join`], [`trace`], [`gcode`], and [`report`]. Each stage is a function of its
-// inputs and its parameters and nothing else, so a caller that keeps the outputs (the studio) can
-// re-run from the first stage whose parameters changed and get what `make` gets, byte for byte.
 
 /// What loading and rendering the input need, known before its size: a picture's pixel limit, or
 /// a mesh's view, light, lines and size (the lines widened to survive the clean-up).

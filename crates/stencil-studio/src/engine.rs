@@ -1,13 +1,7 @@
-//! The incremental engine: `make`'s stages (`stencil_core::pipeline`), each output kept with the
-//! parameters and the upstream output it was made from, so that a change re-runs only the
-//! stages from the first whose inputs changed.
-//!
-//! Why this shape: the stages are plain functions of (inputs, parameters) and one
-//! `pipeline::resolve` turns the whole request into per-stage parameters that compare with `==`.
-//! So "what must re-run" is not a table of which option touches which stage (that would drift
-//! from the code): it is the first stage whose parameters or upstream output differ. A material
-//! change that moves the automatic supersampling changes `working.factor` and re-runs from the
-//! gray; a bridge weight changes only `JoinParams`.
+//! The incremental engine: the driver's stages with a [`Cache`] that keeps each output with the
+//! parameters and the upstream output it was made from, so a change re-runs only from the first
+//! stage whose inputs changed (`stencil_core::driver` says why that needs no table of options);
+//! and the page's images of a run.
 
 use std::sync::Arc;
 
@@ -112,25 +106,25 @@ impl Engine {
             self.cache
                 .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
         let otsu = match self.otsu {
-            Some((g, level)) if g == b.gray_generation => level,
+            Some((g, level)) if g == b.front.gray_generation => level,
             _ => {
-                let level = stencil_core::tone::otsu_level(&b.gray);
-                self.otsu = Some((b.gray_generation, level));
+                let level = stencil_core::tone::otsu_level(&b.front.gray);
+                self.otsu = Some((b.front.gray_generation, level));
                 level
             }
         };
         let report = b.report(cfg);
         Ok(Computed {
             cfg: cfg.clone(),
-            params: b.params,
-            gray: b.gray,
+            params: b.front.params,
+            gray: b.front.gray,
             otsu,
-            cleaned: b.cleaned,
+            cleaned: b.front.cleaned,
             joined: b.joined,
             traced: None,
             report,
             refused: None,
-            ran: b.ran,
+            ran: b.front.ran,
             joined_generation: b.joined_generation,
         })
     }

@@ -109,23 +109,6 @@ pub fn bridge_prepared(
     p: &JoinParams,
     timer: &mut Timings,
 ) -> Result<Joined, Error> {
-    let bridged = bridge_drawn(prepared, p, timer)?;
-    Ok(Joined {
-        twotone: Arc::clone(&prepared.twotone),
-        user: prepared.user.clone(),
-        map: Arc::clone(&prepared.map),
-        bridged,
-        dropped: prepared.dropped.clone(),
-        dropped_px: Arc::clone(&prepared.dropped_px),
-    })
-}
-
-/// [`bridge_prepared`]'s work: the bridges chosen and drawn, the clean-up, the check.
-fn bridge_drawn(
-    prepared: &Prepared,
-    p: &JoinParams,
-    timer: &mut Timings,
-) -> Result<Bridged, Error> {
     let (twotone, map) = (&prepared.twotone, &prepared.map);
     let mut bridged = timer.time("bridge", || {
         let mut t = Timings::default();
@@ -181,7 +164,14 @@ fn bridge_drawn(
             area: node.area,
         });
     }
-    Ok(bridged)
+    Ok(Joined {
+        twotone: Arc::clone(&prepared.twotone),
+        user: prepared.user.clone(),
+        map: Arc::clone(&prepared.map),
+        bridged,
+        dropped: prepared.dropped.clone(),
+        dropped_px: Arc::clone(&prepared.dropped_px),
+    })
 }
 
 /// Drop the islands that are cheaper to drop than to bridge (`bridge::drop::choose`), never one

@@ -55,7 +55,7 @@ fn clean_bits(
 
 /// Above this many working pixels, `--threshold auto` searches on the gray box-averaged to about
 /// this size (the clean-up's widths scaled alike), then measures the finalists at full size.
-pub const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
+const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
 
 /// `--threshold auto`: the level whose cleaned-up two-tone is likeliest ([`tone::likeness`]).
 /// Every eighth level from 16 to 240, 128 and Otsu's level are tried through the clean-up, then

@@ -168,27 +168,18 @@ pub fn report_joined(
     let (bridged, bridge_cfg) = (&joined.bridged, &params.join.bridge);
     let vcfg = &params.trace.vector;
     Report {
-        gcode: None,
-        // Filled when the masks are encoded (`encode_outputs`).
-        mask: None,
-        gobo: None,
         material: Some(phys.material.name.clone()),
         material_source: Some(phys.material_source.clone()),
         material_values: Some(phys.material.values()),
         mm_per_px: Some(scale.mm_per_px),
         scale_factor: Some(working.factor),
         scale_auto: working.auto,
-        width_mm: None,
-        height_mm: None,
         margin_mm: Some(vcfg.margin_mm),
         tolerance_mm: Some(vcfg.tolerance_mm),
         arcs: Some(vcfg.arcs),
         min_bridge_px: Some(bridge_cfg.min_width_px),
         max_bridge_px: Some(bridge_cfg.max_width_px),
         filter_radius_px: Some(params.clean.filter.radius),
-        vector: None,
-        check: None,
-        files: Vec::new(),
         input: cfg.input.display().to_string(),
         width_px: joined.twotone.bits.width,
         height_px: joined.twotone.bits.height,
@@ -225,9 +216,9 @@ pub fn report_joined(
                 .collect();
             u
         }),
-        // `join` refuses a stencil with anything floating.
-        floating_after: 0,
-        fidelity: None,
         timings_ms: timer.into_map(),
+        // The rest is added later: the trace's by `report`, the masks and the files as they are
+        // encoded; `floating_after` stays 0 (the join refuses a stencil with anything floating).
+        ..Report::default()
     }
 }
