@@ -20,93 +20,6 @@ const REPAIR_ROUNDS: usize = 3;
 /// How far (in disc spans past the neck) a repair may change the stencil.
 const REPAIR_SPREAD: u32 = 1;
 
-/// Widen, in `bits`, each neck the check found, with a disc `round` pixels larger than the
-/// pipeline's own (only adding material, so the sheet stays one piece), then settle what that
-/// left thin at the edges of the change. Returns whether anything changed.
-fn widen_necks(
-    bits: &mut BitGrid,
-    chk: &CheckReport,
-    material: &Material,
-    scale: Scale,
-    round: usize,
-) -> bool {
-    let before = bits.count_material();
-    let (w, h) = (bits.width, bits.height);
-    // Boxes around the necks, by the width they need: one settle per width.
-    let mut by_width: Vec<(f64, Vec<[u32; 4]>)> = Vec::new();
-    for v in &chk.violations {
-        let need_mm = match v.kind {
-            check::ViolationKind::Floating => continue,
-            check::ViolationKind::ThinBridge => material.min_bridge_mm,
-            _ => material.min_feature_mm,
-        };
-        let px = scale.to_px(Mm(need_mm)).0 + 1.0 + round as f64;
-        let (x, y) = (
-            (scale.to_px(Mm(v.x_mm)).0.max(0.0) as u32).min(w - 1),
-            (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
-        );
-        let r = px.ceil() as u32;
-        let bx = [
-            x.saturating_sub(r),
-            y.saturating_sub(r),
-            x + r + 1,
-            y + r + 1,
-        ];
-        match by_width.iter_mut().find(|(p, _)| *p == px) {
-            Some((_, boxes)) => boxes.push(bx),
-            None => by_width.push((px, vec![bx])),
-        }
-    }
-    for (px, boxes) in &by_width {
-        settle_near(bits, boxes, *px, REPAIR_SPREAD);
-    }
-    // The regularisation's width (see [`PhysicalConfig::feature_px`]).
-    settle_all(bits, scale.to_px(Mm(material.min_feature_mm)).0 + 1.0);
-    bits.count_material() != before
-}
-
-/// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
-/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG). The kerf is not
-/// applied (see [`vector::vectorize_design`]).
-pub fn vectorize_and_check(
-    bits: &BitGrid,
-    bridges_px: Option<&[Vec<[f64; 2]>]>,
-    vcfg: &VectorConfig,
-    material: &Material,
-    timer: &mut Timings,
-) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
-    let (geom, vstats, mut chk) = vectorize_and_measure(bits, bridges_px, vcfg, material, timer)?;
-    confirm(&mut chk, bits, vcfg, timer);
-    Ok((geom, vstats, chk))
-}
-
-/// [`vectorize_and_check`] without the raster cross-check of the violations (see [`confirm`]).
-fn vectorize_and_measure(
-    bits: &BitGrid,
-    bridges_px: Option<&[Vec<[f64; 2]>]>,
-    vcfg: &VectorConfig,
-    material: &Material,
-    timer: &mut Timings,
-) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
-    let (geom, vstats) = timer.time("vector", || {
-        vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)
-    })?;
-    // The check runs on the geometry as designed (before kerf).
-    let chk = timer.time("check", || {
-        check::check(&geom, material, bridges_px.is_some())
-    });
-    Ok((geom, vstats, chk?))
-}
-
-/// Confirm each violation on the raster (for the report), when there are any.
-fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &mut Timings) {
-    if !chk.passed() {
-        timer.time("check_opening", || {
-            check::cross_check(chk, bits, vcfg.scale)
-        });
-    }
-}
-
 /// What the vector stage and the check made.
 #[derive(Clone, Debug)]
 pub struct Traced {
@@ -176,6 +89,51 @@ fn trace_and_repair(
     Ok((geometry, vstats, chk))
 }
 
+/// Widen, in `bits`, each neck the check found, with a disc `round` pixels larger than the
+/// pipeline's own (only adding material, so the sheet stays one piece), then settle what that
+/// left thin at the edges of the change. Returns whether anything changed.
+fn widen_necks(
+    bits: &mut BitGrid,
+    chk: &CheckReport,
+    material: &Material,
+    scale: Scale,
+    round: usize,
+) -> bool {
+    let before = bits.count_material();
+    let (w, h) = (bits.width, bits.height);
+    // Boxes around the necks, by the width they need: one settle per width.
+    let mut by_width: Vec<(f64, Vec<[u32; 4]>)> = Vec::new();
+    for v in &chk.violations {
+        let need_mm = match v.kind {
+            check::ViolationKind::Floating => continue,
+            check::ViolationKind::ThinBridge => material.min_bridge_mm,
+            _ => material.min_feature_mm,
+        };
+        let px = scale.to_px(Mm(need_mm)).0 + 1.0 + round as f64;
+        let (x, y) = (
+            (scale.to_px(Mm(v.x_mm)).0.max(0.0) as u32).min(w - 1),
+            (scale.to_px(Mm(v.y_mm)).0.max(0.0) as u32).min(h - 1),
+        );
+        let r = px.ceil() as u32;
+        let bx = [
+            x.saturating_sub(r),
+            y.saturating_sub(r),
+            x + r + 1,
+            y + r + 1,
+        ];
+        match by_width.iter_mut().find(|(p, _)| *p == px) {
+            Some((_, boxes)) => boxes.push(bx),
+            None => by_width.push((px, vec![bx])),
+        }
+    }
+    for (px, boxes) in &by_width {
+        settle_near(bits, boxes, *px, REPAIR_SPREAD);
+    }
+    // The regularisation's width (see [`PhysicalConfig::feature_px`]).
+    settle_all(bits, scale.to_px(Mm(material.min_feature_mm)).0 + 1.0);
+    bits.count_material() != before
+}
+
 /// Refuse a stencil that strays from the picture more than `--max-change` allows, or that the
 /// material cannot hold (unless thin features are allowed).
 pub fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> Result<(), Error> {
@@ -194,4 +152,46 @@ pub fn refuse(phys: &PhysicalConfig, fidelity: Fidelity, chk: &CheckReport) -> R
         });
     }
     Ok(())
+}
+
+/// Vectorise a stencil and check it against a material (shared by `make` and `stencil check`).
+/// `bridges_px`: bridge outlines in pixels, or `None` when unknown (a bare PNG). The kerf is not
+/// applied (see [`vector::vectorize_design`]).
+pub fn vectorize_and_check(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats, mut chk) = vectorize_and_measure(bits, bridges_px, vcfg, material, timer)?;
+    confirm(&mut chk, bits, vcfg, timer);
+    Ok((geom, vstats, chk))
+}
+
+/// [`vectorize_and_check`] without the raster cross-check of the violations (see [`confirm`]).
+fn vectorize_and_measure(
+    bits: &BitGrid,
+    bridges_px: Option<&[Vec<[f64; 2]>]>,
+    vcfg: &VectorConfig,
+    material: &Material,
+    timer: &mut Timings,
+) -> Result<(CutGeometry, vector::VectorStats, CheckReport), Error> {
+    let (geom, vstats) = timer.time("vector", || {
+        vector::vectorize_design(bits, bridges_px.unwrap_or(&[]), vcfg)
+    })?;
+    // The check runs on the geometry as designed (before kerf).
+    let chk = timer.time("check", || {
+        check::check(&geom, material, bridges_px.is_some())
+    });
+    Ok((geom, vstats, chk?))
+}
+
+/// Confirm each violation on the raster (for the report), when there are any.
+fn confirm(chk: &mut CheckReport, bits: &BitGrid, vcfg: &VectorConfig, timer: &mut Timings) {
+    if !chk.passed() {
+        timer.time("check_opening", || {
+            check::cross_check(chk, bits, vcfg.scale)
+        });
+    }
 }
