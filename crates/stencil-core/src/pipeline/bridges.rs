@@ -20,13 +20,10 @@ use crate::tone::regularize::{fill_sealed_pockets, settle_near};
 /// [`bridge_prepared`]).
 const JOIN_SPREAD: u32 = 2;
 
-/// The islands of the cleaned two-tone joined to the frame, and what went into it.
+/// The islands of the cleaned two-tone joined to the frame, and what went into it. The two-tone,
+/// the islands and the dropped pixels are [`Prepared`]'s, shared: copying them cost a studio's
+/// bridge-weight change more than drawing the bridges did.
 #[derive(Clone, Debug)]
-///
-/// The two-tone, the islands and the dropped pixels are [`Prepared`]'s, shared rather than
-/// copied: the studio keeps the prepared stage while a person tries weights, and copying them
-/// (a 1-megapixel gray, two-tone and label grid) cost a bridge-weight change more than drawing
-/// the bridges did.
 pub struct Joined {
     /// The two-tone the bridges were drawn into (the islands under `min_island_mm2` cut away).
     pub twotone: Arc<TwoTone>,
