@@ -139,19 +139,18 @@ impl Engine {
         if superseded() {
             return Err(RunError::Cancelled);
         }
-        let (cfg, params, joined, cleaned) = (&c.cfg, &c.params, &c.joined, &c.cleaned);
         let mut ran = c.ran.clone();
-        let joined_at = (joined, c.joined_generation);
+        let joined = (&c.joined, c.joined_generation);
         let checked = self
             .cache
-            .checked(cfg, joined_at, cleaned, params, &mut ran)?;
+            .checked(&c.cfg, joined, &c.cleaned, &c.params, &mut ran)?;
         Ok(Computed {
-            cfg: cfg.clone(),
-            params: params.clone(),
+            cfg: c.cfg.clone(),
+            params: c.params.clone(),
             gray: c.gray.clone(),
             otsu: c.otsu,
-            cleaned: cleaned.clone(),
-            joined: joined.clone(),
+            cleaned: c.cleaned.clone(),
+            joined: c.joined.clone(),
             traced: Some(checked.traced),
             report: checked.report,
             refused: checked.refused,
