@@ -1,29 +1,36 @@
 //! The stages in order, listed once: every way of running the pipeline runs this list.
 //!
-//! `make` runs it plainly ([`run`]: each output moves on to the next stage, nothing is kept);
-//! the studio runs it with a [`Cache`] that keeps each stage's output beside the parameters and
-//! the upstream output it was made from, so a change re-runs only from the first stage whose
-//! inputs changed; a layered set runs it once per layer, from the set's gray, with the few
-//! [`Tweaks`] a layer needs. The stages themselves are `pipeline`'s functions of (input,
-//! parameters); [`pipeline::resolve`] turns the request into each stage's parameters, which
-//! compare with `==`, so "what must re-run" is not a table of which option touches which stage:
-//! it is the first stage whose parameters or upstream output differ.
+//! `make` runs it plainly ([`run`]: each output moves on, nothing is kept); the studio with a
+//! [`Cache`] that keeps each stage's output beside the parameters and the upstream output it was
+//! made from, so a change re-runs only from the first stage whose inputs changed (parameters
+//! from [`pipeline::resolve`] compare with `==`: no table of which option touches which stage;
+//! a bridge weight re-runs only the join); a layered set once per layer, with [`Tweaks`].
 //!
-//! The list (the paper's order, Bronson et al. §3–§5):
-//! load → draw (a mesh's view) → light → resolve → gray (the working resolution) → threshold
-//! (§3, the two-tone) → look (the picture's side of the likeness) → clean (design-rule
-//! regularisation) → walk (islands and candidate bridges, §4) → join (the spanning tree of
-//! bridges, grown to width, §4–§5) → trace and check (vectors and widths) → G-code and report
-//! ([`pipeline::finish_from`]).
+//! The list (one file each; the paper's Stages 1–5, Bronson et al.): [`source`] (load → draw a
+//! mesh's view → light), [`pipeline::resolve`], [`two_tone`] (gray at the working resolution →
+//! threshold → look, the picture's side of the likeness), [`clean_up`], [`bridges`] (walk: the
+//! islands and candidate strips → join: the spanning tree, grown to width), [`vectors`] (trace,
+//! check, refuse), [`outputs`] (G-code, report: [`Cache::checked`], [`finish`]), then `make`
+//! writes them ([`pipeline::files`]).
 
 use std::sync::Arc;
 
+use crate::error::Error;
+use crate::pipeline::bridges::{self, Joined, Prepared};
+use crate::pipeline::clean_up::{self, Cleaned};
+use crate::pipeline::outputs::{self, Made};
+use crate::pipeline::source::{self, Input, Source};
+use crate::pipeline::vectors::{self, Traced};
 use crate::pipeline::{
-    self, CleanParams, Cleaned, Error, Input, JoinParams, Joined, Made, MakeConfig, Prepared,
-    Source, SourceParams, StageParams, Timings, ToneParams, TraceParams, Traced,
+    self, two_tone, CleanParams, JoinParams, MakeConfig, SourceParams, StageParams, ToneParams,
+    TraceParams,
 };
-use crate::raster::{Gray, TwoTone};
+use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::report::Report;
+use crate::timing::Timings;
 use crate::tone::{self, mesh};
+
+pub use crate::pipeline::outputs::finish;
 
 /// Why a run stopped without a result.
 #[derive(Debug, thiserror::Error)]
@@ -77,7 +84,7 @@ struct Slot<K, V> {
 /// A kept stage: its key is the upstream output's generation and the stage's parameters.
 type Kept<P, V> = Option<Slot<(u64, P), V>>;
 
-/// The outputs of the last run, stage by stage (or, for `make`, none: [`Cache::none`]).
+/// The outputs of the last run, stage by stage (or, for `make`, none: `Cache::default()`).
 #[derive(Default)]
 pub struct Cache {
     keep: bool,
@@ -106,30 +113,45 @@ struct Slots {
     traced: Kept<TraceParams, Arc<(Joined, Traced)>>,
 }
 
-/// The stages' outputs up to the bridges, with the parameters they were made with.
+/// The stages' outputs up to the bridges.
 pub struct Bridged {
+    /// Up to the clean-up.
+    pub front: Front,
+    /// After the bridges, before the trace's neck repairs.
+    pub joined: Arc<Joined>,
+    /// The joined output's generation (the trace's key).
+    pub joined_generation: u64,
+}
+
+impl Bridged {
+    /// The report known before the trace (what the studio shows with the preview), with this
+    /// run's timings.
+    pub fn report(&mut self, cfg: &MakeConfig) -> Report {
+        let f = &mut self.front;
+        let timer = std::mem::take(&mut f.timer);
+        outputs::report_joined(cfg, &f.params, &f.cleaned, &self.joined, timer)
+    }
+}
+
+/// What [`Cache::checked`] adds to a [`Bridged`]: the stencil as `make` writes it, its report,
+/// and why `make` would write nothing (the studio shows a refused stencil too, with the reason).
+pub struct Checked {
+    /// After the trace: `.0.bridged` is the stencil as `make` writes it.
+    pub traced: Arc<(Joined, Traced)>,
+    pub report: Report,
+    pub refused: Option<Error>,
+}
+
+/// The stages' outputs up to the clean-up, with the parameters they were made with.
+pub struct Front {
     pub params: StageParams,
     /// The working gray (what the threshold reads; the two-tones share it) and its generation.
     pub gray: Arc<Gray>,
     pub gray_generation: u64,
     pub cleaned: Arc<Cleaned>,
-    /// After the bridges, before the trace's neck repairs.
-    pub joined: Arc<Joined>,
-    /// The joined output's generation (the trace's key).
-    pub joined_generation: u64,
     /// The stages this run computed (the others were kept), in order.
     pub ran: Vec<&'static str>,
     pub timer: Timings,
-}
-
-/// The stages' outputs up to the clean-up ([`Bridged`] without the bridges).
-struct Front {
-    params: StageParams,
-    gray: Arc<Gray>,
-    gray_generation: u64,
-    cleaned: Arc<Cleaned>,
-    ran: Vec<&'static str>,
-    timer: Timings,
 }
 
 /// The bookkeeping of one run: whether outputs are kept, the generation counter, what ran.
@@ -186,11 +208,6 @@ impl Cache {
         }
     }
 
-    /// No cache: each output moves on to the next stage (`make`, a set's layers).
-    pub fn none() -> Cache {
-        Cache::default()
-    }
-
     /// Read the input again on the next run (it changed on disk): every stage after it runs
     /// again, as their keys hold the input's generation.
     pub fn forget_input(&mut self) {
@@ -210,14 +227,9 @@ impl Cache {
         let (f, joined) = self.stages(cfg, start, tweaks, timer, superseded, true)?;
         let (joined, joined_generation) = joined.expect("run through the join");
         Ok(Bridged {
-            params: f.params,
-            gray: f.gray,
-            gray_generation: f.gray_generation,
-            cleaned: f.cleaned,
+            front: f,
             joined,
             joined_generation,
-            ran: f.ran,
-            timer: f.timer,
         })
     }
 
@@ -251,17 +263,17 @@ impl Cache {
                     SourceParams::Mesh(_) => None,
                 };
                 let (ig, input) = run.step(&mut self.slots.input, "load", input_key, || {
-                    Ok(timer.time("tone", || pipeline::load(&cfg.input, &sp))?)
+                    Ok(timer.time("tone", || source::load(&cfg.input, &sp))?)
                 })?;
                 run.cancel()?;
                 let (dg, drawn) =
                     run.step(&mut self.slots.drawn, "draw", (ig, sp.view_key()), || {
-                        Ok(timer.time("tone", || pipeline::draw(&input, &sp))?)
+                        Ok(timer.time("tone", || source::draw(&input, &sp))?)
                     })?;
                 run.cancel()?;
                 let light = (dg, sp.clone());
                 run.step(&mut self.slots.source, "light", light, || {
-                    Ok(timer.time("tone", || pipeline::light(&input, drawn.as_deref(), &sp))?)
+                    Ok(timer.time("tone", || source::light(&input, drawn.as_deref(), &sp))?)
                 })?
             }
         };
@@ -289,13 +301,13 @@ impl Cache {
         }
         let factor = params.working.factor;
         let (gg, gray) = run.step(&mut self.slots.gray, "gray", (sg, factor), || {
-            Ok(timer.time("tone", || pipeline::working_gray(source.clone(), factor)))
+            Ok(timer.time("tone", || two_tone::working_gray(source.clone(), factor)))
         })?;
         let (rg, raw) = run.step(&mut self.slots.raw, "threshold", (gg, params.tone), || {
             Ok(timer.time("tone", || {
                 // The gray is shared with the two-tone, not copied.
                 let (mut raw, level) =
-                    pipeline::threshold(&source, Arc::clone(&gray), &params.tone);
+                    two_tone::threshold(&source, Arc::clone(&gray), &params.tone);
                 if let Some(stamp) = tweaks.after_threshold {
                     stamp(&mut raw, &params);
                 }
@@ -308,15 +320,17 @@ impl Cache {
     }
 
     /// The trace and the check of the bridges `joined` (of generation `joined_generation`, made
-    /// from `cleaned` with `params`), kept while the join and the trace's parameters stay.
-    pub fn traced(
+    /// from `cleaned` with `params`; kept while the join and the trace's parameters stay), what
+    /// `make` would refuse, the job time and the full report. `ran` gets "trace" when it ran.
+    pub fn checked(
         &mut self,
+        cfg: &MakeConfig,
         (joined, joined_generation): (&Arc<Joined>, u64),
         cleaned: &Cleaned,
         params: &StageParams,
-        timer: &mut Timings,
         ran: &mut Vec<&'static str>,
-    ) -> Result<Arc<(Joined, Traced)>, Stopped> {
+    ) -> Result<Checked, Stopped> {
+        let mut timer = Timings::new(None);
         let never = || false;
         let mut run = Run {
             keep: self.keep,
@@ -327,17 +341,27 @@ impl Cache {
         let key = (joined_generation, params.trace.clone());
         let (_, traced) = run.step(&mut self.slots.traced, "trace", key, || {
             let mut j = (**joined).clone();
-            let t = pipeline::trace(
-                &mut j.bridged,
-                &joined.twotone.bits,
-                &cleaned.picture,
-                &params.trace,
-                timer,
-            )?;
+            let (twotone, picture) = (&joined.twotone.bits, &cleaned.picture);
+            let t = vectors::trace(&mut j.bridged, twotone, picture, &params.trace, &mut timer)?;
             Ok(Arc::new((j, t)))
         })?;
         *ran = run.ran;
-        Ok(traced)
+        let (j, t) = &*traced;
+        let refused = vectors::refuse(&cfg.physical, t.fidelity, &t.check).err();
+        // The job time for the chosen machine, as `make` plans it.
+        let gcode = match (&cfg.gcode, &refused) {
+            (Some(gc), None) => {
+                let mut geometry = t.geometry.clone();
+                Some(outputs::gcode(cfg, gc, &mut geometry, j, &params.trace, &mut timer)?.1)
+            }
+            _ => None,
+        };
+        let report = outputs::report(cfg, params, cleaned, j, t, gcode, timer);
+        Ok(Checked {
+            traced,
+            report,
+            refused,
+        })
     }
 }
 
@@ -357,7 +381,7 @@ impl Slots {
         let superseded = run.superseded;
         let look_key = (gg, params.tone.gray_key());
         let (_, look) = run.step(&mut self.look, "look", look_key, || {
-            Ok(timer.time("filter", || Arc::new(pipeline::look(&raw.0))))
+            Ok(timer.time("filter", || Arc::new(two_tone::look(&raw.0))))
         })?;
         // A new clean-up is always followed by new walks (their key holds its generation), and
         // its likeness only reports: so where outputs are kept (a person waits for the page)
@@ -369,15 +393,15 @@ impl Slots {
             let (raw, level) = Arc::unwrap_or_clone(raw);
             let clean = &params.clean;
             let mut c = timer.time("filter", || {
-                pipeline::clean_unmeasured(raw, level, clean, &look)
+                clean_up::clean_unmeasured(raw, level, clean, &look)
             });
-            let measure = |c: &Cleaned| pipeline::measure(c, clean, &look);
+            let measure = |c: &Cleaned| clean_up::measure(c, clean, &look);
             if keep && !superseded() && tweaks.after_clean.is_none() {
                 let (likeness, w) = rayon::join(
                     || measure(&c),
                     || {
                         let mut t = Timings::new(None);
-                        let w = pipeline::prepare(c.twotone.clone(), c.level, &params.join, &mut t);
+                        let w = bridges::prepare(c.twotone.clone(), c.level, &params.join, &mut t);
                         (w, t)
                     },
                 );
@@ -420,7 +444,7 @@ impl Slots {
                     if let Some(cost) = tweaks.cost_gray {
                         twotone.gray = Arc::new(cost(&twotone.gray));
                     }
-                    pipeline::prepare(twotone, cleaned.level, &params.join, &mut timer)?
+                    bridges::prepare(twotone, cleaned.level, &params.join, &mut timer)?
                 }
             };
             Ok(Arc::new(prepared))
@@ -429,7 +453,7 @@ impl Slots {
         let (jg, joined) = run.step(&mut self.joined, "join", (pg, params.join.clone()), || {
             // The kept walks are lent to the choice, not copied (a weight change's copy of them
             // and the islands was 3 ms of the 33).
-            let mut joined = pipeline::bridge_prepared(&prepared, &params.join, &mut timer)?;
+            let mut joined = bridges::bridge_prepared(&prepared, &params.join, &mut timer)?;
             if tweaks.cost_gray.is_some() {
                 Arc::make_mut(&mut joined.twotone).gray = Arc::clone(&cleaned.twotone.gray);
             }
@@ -445,17 +469,38 @@ impl Slots {
 pub fn run(cfg: &MakeConfig) -> Result<Made, Error> {
     let timer = Timings::new(cfg.progress.clone());
     let b = bridged_once(cfg, &Start::Input, &Tweaks::default(), timer)?;
-    pipeline::finish_owned(cfg, &b.params, b.cleaned, b.joined, b.timer)
+    finish(
+        cfg,
+        &b.front.params,
+        b.front.cleaned,
+        b.joined,
+        Some(b.front.timer),
+    )
+}
+
+/// One run through `make`'s end with nothing kept (a set's layer): the result, and the cleaned
+/// two-tone's bits it was bridged from.
+pub fn made_once(
+    cfg: &MakeConfig,
+    start: &Start,
+    tweaks: &Tweaks,
+) -> Result<(Made, BitGrid), Error> {
+    let b = bridged_once(cfg, start, tweaks, Timings::new(cfg.progress.clone()))?;
+    let cut = b.front.cleaned.twotone.bits.clone();
+    Ok((
+        finish(cfg, &b.front.params, b.front.cleaned, b.joined, None)?,
+        cut,
+    ))
 }
 
 /// One run of the stages up to the bridges with nothing kept (`make`, a set's layers).
-pub fn bridged_once(
+fn bridged_once(
     cfg: &MakeConfig,
     start: &Start,
     tweaks: &Tweaks,
     timer: Timings,
 ) -> Result<Bridged, Error> {
-    match Cache::none().bridged(cfg, start, tweaks, timer, &|| false) {
+    match Cache::default().bridged(cfg, start, tweaks, timer, &|| false) {
         Ok(b) => Ok(b),
         Err(Stopped::Failed(e)) => Err(e),
         Err(Stopped::Superseded) => unreachable!("nothing supersedes a run that is never asked"),
@@ -468,7 +513,7 @@ pub fn bridged_once(
 pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
     let timer = Timings::new(cfg.progress.clone());
     let none = || false;
-    match Cache::none().stages(cfg, &Start::Input, &Tweaks::default(), timer, &none, false) {
+    match Cache::default().stages(cfg, &Start::Input, &Tweaks::default(), timer, &none, false) {
         Ok((b, _)) => Ok(Arc::unwrap_or_clone(b.cleaned).twotone),
         Err(Stopped::Failed(e)) => Err(e),
         Err(Stopped::Superseded) => unreachable!("nothing supersedes a run that is never asked"),
@@ -478,5 +523,6 @@ pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 /// Files of [`pipeline::OUTPUT_NAMES`] this run did not write are removed (listed in the result).
 pub fn make(cfg: &MakeConfig) -> Result<(Made, crate::export::Replaced), Error> {
-    pipeline::write_with(cfg, || run(cfg))
+    let encode = |m: &mut Made| pipeline::files::encode_outputs(m, &cfg.physical);
+    pipeline::files::write_with(cfg, || run(cfg), encode)
 }

@@ -44,7 +44,7 @@ use serde::Serialize;
 
 use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
-use crate::pipeline::{self, Error, Made, MakeConfig, Source, StageParams, Timings};
+use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
 use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone::likeness::ssim;
 use crate::tone::Threshold;
@@ -367,11 +367,7 @@ fn one_layer(
         two_tone: None,
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    let timer = Timings::new(cfg.progress.clone());
-    let b = driver::bridged_once(&cfg, &start, &tweaks, timer)?;
-    let cut = b.cleaned.twotone.bits.clone();
-    let made = pipeline::finish_from(&cfg, &b.params, &b.cleaned, &b.joined)?;
-    Ok((made, cut))
+    driver::made_once(&cfg, &start, &tweaks)
 }
 
 /// The gray the bridge cost reads for a layer: where a later layer paints (`covered` is cut),
@@ -393,7 +389,7 @@ fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
 /// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
 /// fill-in), in memory.
 pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
-    if pipeline::is_mesh(&cfg.input) {
+    if source::is_mesh_path(&cfg.input) {
         return Err(LayersError::Mesh.into());
     }
     if cfg.tone.invert {
@@ -403,7 +399,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
         return Err(LayersError::KeepOut.into());
     }
     let sp = pipeline::SourceParams::of(cfg)?;
-    let pipeline::Input::Picture(luma) = pipeline::load(&cfg.input, &sp)? else {
+    let source::Input::Picture(luma) = source::load(&cfg.input, &sp)? else {
         return Err(LayersError::Mesh.into());
     };
     let rgb = if lc.levels.is_empty() {
@@ -557,9 +553,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         keep_all_islands: true,
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    let timer = Timings::new(cfg.progress.clone());
-    let b = driver::bridged_once(&cfg, &start, &tweaks, timer)?;
-    let made = pipeline::finish_from(&cfg, &b.params, &b.cleaned, &b.joined)?;
+    let (made, _) = driver::made_once(&cfg, &start, &tweaks)?;
     Ok((made, hidden))
 }
 
@@ -742,7 +736,7 @@ pub fn encode(set: &mut Layered, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8
     let n = set.layers.len();
     let mut files = Vec::new();
     let mut put = |folder: &str, made: &mut Made| -> Result<(), Error> {
-        for (name, bytes) in pipeline::encode_outputs(made, &phys)? {
+        for (name, bytes) in files::encode_outputs(made, &phys)? {
             let name = if folder.is_empty() {
                 name
             } else {
@@ -780,20 +774,7 @@ pub fn encode(set: &mut Layered, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8
 /// transaction (see `stencil_io::swap`): every owned name the set does not write goes, so a
 /// set of fewer layers leaves none of a larger one's folders behind.
 pub fn make(cfg: &MakeConfig, lc: &LayersConfig) -> Result<(Layered, export::Replaced), Error> {
-    let existed = cfg.out_dir.is_dir();
-    export::prepare_dir(&cfg.out_dir)?;
-    let result = run(cfg, lc).and_then(|mut set| {
-        if let Some(p) = &cfg.progress {
-            p.stage("write");
-        }
-        let files = encode(&mut set, cfg)?;
-        let replaced = export::write_files(&cfg.out_dir, &files, owned_names())?;
-        Ok((set, replaced))
-    });
-    if result.is_err() && !existed {
-        let _ = std::fs::remove_dir(&cfg.out_dir);
-    }
-    result
+    files::write_with(cfg, || run(cfg, lc), |set| encode(set, cfg))
 }
 
 #[cfg(test)]

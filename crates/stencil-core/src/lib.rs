@@ -25,15 +25,7 @@
 //! - The driver ([`driver`]): the stages listed once, in order, run by `make` ([`driver::run`]),
 //!   by the studio with a [`driver::Cache`] that keeps each stage's output and re-runs from the
 //!   first whose inputs changed, and by a layered set per layer ([`driver::Tweaks`]). The stages
-//!   are `pipeline`'s: [`pipeline::SourceParams`] (what loading and drawing need) →
-//!   [`pipeline::load`] → [`pipeline::draw`] (a mesh's view, before it is lit) →
-//!   [`pipeline::light`] → [`pipeline::resolve`] (the rest of the request as
-//!   [`pipeline::StageParams`]: pixels, no millimetres, no paths) → [`pipeline::working_gray`] →
-//!   [`pipeline::threshold`] → [`pipeline::look`] → [`pipeline::clean`] → [`pipeline::prepare`]
-//!   → [`pipeline::bridge_prepared`] → [`pipeline::trace`] → [`pipeline::refuse`] /
-//!   [`pipeline::gcode`] / [`pipeline::report`], and [`pipeline::finish_from`] (make's end from
-//!   kept outputs); the types between them ([`pipeline::Input`], [`pipeline::Source`],
-//!   [`pipeline::Cleaned`], [`pipeline::Joined`], [`pipeline::Traced`]).
+//!   are [`pipeline`]'s files, one each, in the order the driver's documentation lists them.
 //! - Sizing before any work: [`fit`] (a size that fits the machine's bed or the stock, decided
 //!   from the picture's header).
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what

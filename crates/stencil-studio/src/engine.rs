@@ -1,21 +1,13 @@
-//! The incremental engine: `make`'s stages (`stencil_core::pipeline`), each output kept with the
-//! parameters and the upstream output it was made from, so that a change re-runs only the
-//! stages from the first whose inputs changed.
-//!
-//! Why this shape: the stages are plain functions of (inputs, parameters) and one
-//! `pipeline::resolve` turns the whole request into per-stage parameters that compare with `==`.
-//! So "what must re-run" is not a table of which option touches which stage (that would drift
-//! from the code): it is the first stage whose parameters or upstream output differ. A material
-//! change that moves the automatic supersampling changes `working.factor` and re-runs from the
-//! gray; a bridge weight changes only `JoinParams`.
+//! The incremental engine: the driver's stages with a [`Cache`] that keeps each output with the
+//! parameters and the upstream output it was made from, so a change re-runs only from the first
+//! stage whose inputs changed (`stencil_core::driver` says why that needs no table of options);
+//! and the page's images of a run.
 
 use std::sync::Arc;
 
-use stencil_core::driver::{Cache, Start, Stopped, Tweaks};
+use stencil_core::driver::{self, Cache, Start, Stopped, Tweaks};
 use stencil_core::export;
-use stencil_core::pipeline::{
-    self, Cleaned, Joined, Made, MakeConfig, StageParams, Timings, Traced,
-};
+use stencil_core::pipeline::{Cleaned, Joined, Made, MakeConfig, StageParams, Timings, Traced};
 use stencil_core::raster::Gray;
 use stencil_core::report::Report;
 use stencil_core::Error;
@@ -116,29 +108,29 @@ impl Engine {
         superseded: &dyn Fn() -> bool,
     ) -> Result<Computed, RunError> {
         let timer = Timings::new(None);
-        let b = self
-            .cache
-            .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
+        let mut b =
+            self.cache
+                .bridged(cfg, &Start::Input, &Tweaks::default(), timer, superseded)?;
         let otsu = match self.otsu {
-            Some((g, level)) if g == b.gray_generation => level,
+            Some((g, level)) if g == b.front.gray_generation => level,
             _ => {
-                let level = stencil_core::tone::otsu_level(&b.gray);
-                self.otsu = Some((b.gray_generation, level));
+                let level = stencil_core::tone::otsu_level(&b.front.gray);
+                self.otsu = Some((b.front.gray_generation, level));
                 level
             }
         };
-        let report = pipeline::report_joined(cfg, &b.params, &b.cleaned, &b.joined, b.timer);
+        let report = b.report(cfg);
         Ok(Computed {
             cfg: cfg.clone(),
-            params: b.params,
-            gray: b.gray,
+            params: b.front.params,
+            gray: b.front.gray,
             otsu,
-            cleaned: b.cleaned,
+            cleaned: b.front.cleaned,
             joined: b.joined,
             traced: None,
             report,
             refused: None,
-            ran: b.ran,
+            ran: b.front.ran,
             joined_generation: b.joined_generation,
         })
     }
@@ -153,37 +145,21 @@ impl Engine {
         if superseded() {
             return Err(RunError::Cancelled);
         }
-        let (cfg, params, joined, cleaned) = (&c.cfg, &c.params, &c.joined, &c.cleaned);
         let mut ran = c.ran.clone();
-        let mut timer = Timings::new(None);
-        let traced = self.cache.traced(
-            (joined, c.joined_generation),
-            cleaned,
-            params,
-            &mut timer,
-            &mut ran,
-        )?;
-        let (j, t) = &*traced;
-        let refused = pipeline::refuse(&cfg.physical, t.fidelity, &t.check).err();
-        // The job time for the chosen machine, as `make` plans it.
-        let gcode = match (&cfg.gcode, &refused) {
-            (Some(gc), None) => {
-                let mut geometry = t.geometry.clone();
-                Some(pipeline::gcode(cfg, gc, &mut geometry, j, &params.trace, &mut timer)?.1)
-            }
-            _ => None,
-        };
-        let report = pipeline::report(cfg, params, cleaned, j, t, gcode, timer);
+        let joined = (&c.joined, c.joined_generation);
+        let checked = self
+            .cache
+            .checked(&c.cfg, joined, &c.cleaned, &c.params, &mut ran)?;
         Ok(Computed {
-            cfg: cfg.clone(),
-            params: params.clone(),
+            cfg: c.cfg.clone(),
+            params: c.params.clone(),
             gray: c.gray.clone(),
             otsu: c.otsu,
-            cleaned: cleaned.clone(),
-            joined: joined.clone(),
-            traced: Some(traced.clone()),
-            report,
-            refused,
+            cleaned: c.cleaned.clone(),
+            joined: c.joined.clone(),
+            traced: Some(checked.traced),
+            report: checked.report,
+            refused: checked.refused,
             ran,
             joined_generation: c.joined_generation,
         })
@@ -194,7 +170,8 @@ impl Computed {
     /// What `make` computes for the same options, from the kept stages (the same functions, so
     /// the same bytes): the trace, the refusal, the G-code, the report.
     pub fn made(&self) -> Result<Made, Error> {
-        pipeline::finish_from(&self.cfg, &self.params, &self.cleaned, &self.joined)
+        let (cleaned, joined) = (self.cleaned.clone(), self.joined.clone());
+        driver::finish(&self.cfg, &self.params, cleaned, joined, None)
     }
 }
 

@@ -32,7 +32,7 @@
 use rayon::prelude::*;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
-use super::CheckError;
+use super::error::CheckError;
 
 /// A vertex of the sheet: where, which ring, its index on the ring, its index over all rings, and
 /// the index over all rings of the next vertex on its ring (ring edges are told without looking

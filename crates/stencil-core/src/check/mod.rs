@@ -37,6 +37,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod cdt;
+mod error;
+
+pub use error::CheckError;
 
 use cdt::{Method, RingSizes, Tri, V};
 
@@ -56,32 +59,6 @@ pub(crate) const NECK_RATIO: f64 = 3.0;
 /// staircase, plus twice the simplification tolerance (each side may move by that much).
 pub(crate) fn allowance_px(tolerance_px: f64) -> f64 {
     1.0 + 2.0 * tolerance_px
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum CheckError {
-    /// A point of the outline the triangulation cannot take (only an absurd size, which the
-    /// size limits refuse first, can make one).
-    #[error(
-        "the width check cannot triangulate the outline: its point ({x_mm}, {y_mm}) mm is {problem}; \
-         check the picture's size and the margin"
-    )]
-    Coordinate {
-        x_mm: f64,
-        y_mm: f64,
-        problem: &'static str,
-    },
-    /// The picture breaks into too many pieces to measure ([`bound_pieces`]).
-    #[error(
-        "the picture breaks into {material} separate pieces of material and {cut} of cut \
-         (4-connected pixels), more than the {limit} the check measures; a sheet in that many \
-         pieces cannot hold together as a stencil (is it a stencil, with white for material?)"
-    )]
-    TooManyPieces {
-        material: usize,
-        cut: usize,
-        limit: usize,
-    },
 }
 
 /// The most pieces (of material and of cut, 4-connected) a picture may break into for `check` to

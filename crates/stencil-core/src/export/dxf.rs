@@ -16,8 +16,8 @@ use dxf::{Color, Drawing, LwPolylineVertex, Point};
 
 use geo::LineString;
 
+use super::error::ExportError;
 use super::svg::{ring_pieces, ring_points, rings};
-use super::ExportError;
 use crate::vector::CutGeometry;
 
 /// Layer names.

@@ -20,8 +20,8 @@ use std::fmt::Write;
 
 use geo::{Area, Coord, LineString};
 
+use super::error::ExportError;
 use super::svg::{num, path_data, rings};
-use super::ExportError;
 use crate::vector::CutGeometry;
 
 /// Mask options.

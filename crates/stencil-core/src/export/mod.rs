@@ -2,36 +2,19 @@
 //! file is written atomically ([`stencil_io::write_atomic`], [`stencil_io::replace_all`]).
 
 pub(crate) mod dxf;
+mod error;
 pub(crate) mod mask;
 mod names;
 pub mod png;
 pub(crate) mod svg;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+pub use error::ExportError;
 pub use mask::{Etch, MaskConfig, MaskReport, MaskSide, POLARITY};
 pub use names::{owned_names, FOLDERS, OUTPUT_NAMES};
+use stencil_io::plain_io;
 pub use stencil_io::Replaced;
-use stencil_io::{plain_io, WriteError};
-
-#[derive(Debug, thiserror::Error)]
-pub enum ExportError {
-    #[error(transparent)]
-    Write(#[from] WriteError),
-    #[error("{path}: cannot create the output folder: {source}")]
-    CreateDir {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{path}: cannot encode: {msg}")]
-    Encode { path: PathBuf, msg: String },
-    /// A mask resolution that is not a finite number > 0 ([`mask::MaskConfig::dpi`]).
-    #[error("mask.png: cannot encode: the mask resolution must be > 0 dpi, got {0}")]
-    MaskDpi(f64),
-    /// The mask would have more pixels than `mask::MAX_MASK_PIXELS`.
-    #[error("mask.png: cannot encode: {width}x{height} pixels at {dpi} dpi is too large")]
-    MaskTooLarge { width: u32, height: u32, dpi: f64 },
-}
 
 /// Create the output folder (if missing) up front, so a run fails before its work, not after.
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), ExportError> {

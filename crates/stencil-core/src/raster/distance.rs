@@ -1,6 +1,6 @@
 //! Exact Euclidean distance transforms of a bit grid.
 
-use super::BitGrid;
+use super::grid::BitGrid;
 
 /// Squared Euclidean distance from every pixel to the nearest pixel whose bit equals `target`
 /// (0 on such pixels). Pixels outside the grid count as material (the frame), so with

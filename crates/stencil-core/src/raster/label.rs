@@ -1,7 +1,7 @@
 //! Connected pieces of a bit grid: runs along rows joined by union-find. The islands stage builds
 //! the frame and the islands on it; the topological filter and the checks use it for specks.
 
-use super::BitGrid;
+use super::grid::BitGrid;
 
 /// Label of a pixel that [`components`] did not label (its bit is not the one asked for).
 pub const NOT_LABELLED: u32 = u32::MAX;

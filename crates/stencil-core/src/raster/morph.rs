@@ -3,8 +3,8 @@
 //! agree), a few word operations per 64 pixels. The image is extended by repeating its edge
 //! pixels. Used by the topological filter, the bridge clean-up and the material checks.
 
+use super::grid::BitGrid;
 use super::packed::{self, Packed};
-use super::BitGrid;
 
 /// Opening: removes material features thinner than the disc.
 pub fn open(bits: &BitGrid, r: u32) -> BitGrid {

@@ -6,7 +6,7 @@
 
 use rayon::prelude::*;
 
-use super::BitGrid;
+use super::grid::BitGrid;
 
 /// Rows of 64-pixel words, bit `x % 64` of word `x / 64` is pixel x. Bits past the width are 0.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::{BitGrid, Gray};
+use super::grid::{BitGrid, Gray};
 
 /// The `w` × `h` picture of `value(i)` box-averaged by `d` (partial boxes at the right and bottom
 /// edges averaged over what they hold). Each box sums its rows top to bottom and each row left

@@ -7,7 +7,7 @@ use image::metadata::Orientation;
 use image::{ColorType, ImageDecoder, ImageFormat, ImageReader};
 use rayon::prelude::*;
 
-use super::ToneError;
+use super::error::ToneError;
 use crate::limits;
 use crate::raster::Gray;
 

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::MeshError;
+use super::error::MeshError;
 use stencil_io::excerpt;
 
 /// A triangle mesh ready to render: welded positions, triangles, and optionally the file's own

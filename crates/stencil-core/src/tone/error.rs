@@ -1,0 +1,95 @@
+//! The two-tone stage's errors (a leaf: the picture reader and the mesh share them).
+
+use std::path::PathBuf;
+
+use super::mesh::error::MeshError;
+
+/// Errors of the two-tone stage. Each names the file and says what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum ToneError {
+    /// Refused by the bounded reader: too large for a picture, or not a regular file.
+    #[error(transparent)]
+    Read(#[from] stencil_io::ReadError),
+    #[error("{path}: cannot open: {source}")]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not an image stencil can read (PNG, JPEG, BMP or TIFF expected){detail}")]
+    UnknownFormat { path: PathBuf, detail: String },
+    #[error("{path}: the image is damaged or truncated ({msg}); re-export it from your editor")]
+    Decode { path: PathBuf, msg: String },
+    /// A valid file of a variant the decoders do not read (a TIFF compression or bit depth).
+    #[error(
+        "{path}: this kind of image is not supported ({msg}); the file may be fine: convert it \
+         to an 8-bit PNG (or a plain JPEG) in your editor, or e.g. `magick in.tif out.png`"
+    )]
+    Unsupported { path: PathBuf, msg: String },
+    #[error(
+        "{path}: {width}x{height} pixels ({mp:.1} megapixels) is above the limit of {limit_mp:.1} megapixels; \
+         downscale the image or raise the pixel limit (at most {})", crate::limits::MAX_PIXELS_CEILING
+    )]
+    TooLarge {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        mp: f64,
+        limit_mp: f64,
+    },
+    #[error("{path}: the {format} file is truncated (it ends before its end-of-image marker, so part of the picture is missing); download or export it again")]
+    Truncated { path: PathBuf, format: &'static str },
+    #[error(
+        "{path}: {width}x{height} pixels would need {gb:.1} GB to decode, more than the {limit_gb:.1} GB \
+         stencil allows whatever the pixel limit; downscale the image"
+    )]
+    TooMuchMemory {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        gb: f64,
+        limit_gb: f64,
+    },
+    #[error("{path}: the decoder needed more than the {limit_gb:.1} GB of memory stencil allows for a picture; the file may be damaged, or downscale the image")]
+    DecoderLimit { path: PathBuf, limit_gb: f64 },
+    #[error("{path}: the image has no pixels")]
+    Empty { path: PathBuf },
+    #[error("scale factor {0} is out of range: use 1 to 8")]
+    BadScale(u32),
+    #[error(
+        "{path}: a scale factor of {factor} makes {width}x{height} working pixels ({mp:.1} \
+         megapixels), above the limit of {limit_mp:.1} megapixels; lower the factor (or let stencil \
+         choose it) or raise the pixel limit"
+    )]
+    ScaleTooLarge {
+        path: PathBuf,
+        factor: u32,
+        width: u64,
+        height: u64,
+        mp: f64,
+        limit_mp: f64,
+    },
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+}
+impl ToneError {
+    /// The picture or mesh this error is about (its message starts with it); `None` for a
+    /// setting out of range.
+    pub fn subject(&self) -> Option<&std::path::Path> {
+        use ToneError::*;
+        match self {
+            Read(e) => Some(e.subject()),
+            Mesh(e) => e.subject(),
+            BadScale(_) => None,
+            Open { path, .. }
+            | UnknownFormat { path, .. }
+            | Decode { path, .. }
+            | Unsupported { path, .. }
+            | TooLarge { path, .. }
+            | Truncated { path, .. }
+            | TooMuchMemory { path, .. }
+            | DecoderLimit { path, .. }
+            | Empty { path }
+            | ScaleTooLarge { path, .. } => Some(path),
+        }
+    }
+}
