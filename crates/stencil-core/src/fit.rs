@@ -144,7 +144,7 @@ fn mm(v: f64) -> String {
 }
 
 /// The picture's size in mm at `size` (before any fitting).
-pub fn picture_mm(px: (u32, u32), size: Size) -> [f64; 2] {
+pub(crate) fn picture_mm(px: (u32, u32), size: Size) -> [f64; 2] {
     let (w, h) = (px.0.max(1) as f64, px.1.max(1) as f64);
     let s = match size {
         Size::Default => Scale::default(),

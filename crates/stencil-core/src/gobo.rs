@@ -18,17 +18,18 @@
 //! bright subject on a dark ground is projected as a dark subject in light unless the tones are
 //! swapped (`--invert`): [`GoboReport::warning`] says so when most of the image area is clear.
 
-use geo::{Area, Coord, Polygon, Rect};
+use geo::{Area, Coord, Rect};
 
 use crate::vector::CutGeometry;
-pub use crate::vector::Rim;
+pub(crate) use crate::vector::Rim;
 
 /// The table the letter sizes come from (named in the report and the help).
-pub const TABLE: &str = "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
+pub(crate) const TABLE: &str =
+    "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
                          https://stagelightingprimer.com/slfs-gobos.html)";
 
 /// Rosco's letter sizes: (letter, outside diameter mm, image area mm). See the module's notes.
-pub const ROSCO: &[(&str, f64, f64)] = &[
+pub(crate) const ROSCO: &[(&str, f64, f64)] = &[
     ("A", 100.0, 75.0),
     ("B", 86.0, 64.5),
     ("M", 66.0, 48.0),
@@ -50,7 +51,7 @@ pub struct Gobo {
     pub crop: bool,
 }
 
-/// `--gobo SIZE`: a letter of [`ROSCO`] (any case) or `OD,IA` in mm.
+/// `--gobo SIZE`: a letter of `ROSCO` (any case) or `OD,IA` in mm.
 pub fn parse(s: &str) -> Result<Gobo, String> {
     let t = s.trim();
     if let Some(&(l, od, ia)) = ROSCO.iter().find(|(l, _, _)| l.eq_ignore_ascii_case(t)) {
@@ -113,7 +114,7 @@ impl Gobo {
     }
 
     /// The image area's circle in pixels of a `w` × `h` picture, (cx, cy, r): what `crop` keeps.
-    pub fn image_circle_px(&self, w: u32, h: u32) -> [f64; 3] {
+    pub(crate) fn image_circle_px(&self, w: u32, h: u32) -> [f64; 3] {
         let r = 0.5 * (w.min(h) as f64);
         [0.5 * w as f64, 0.5 * h as f64, r]
     }
@@ -122,7 +123,7 @@ impl Gobo {
 /// Put the gobo on a traced stencil: the rim at the picture's centre, the sheet's outline the
 /// rim's square grown by `margin_mm` (what the masks cover; their registration marks sit in its
 /// corners, outside the disc).
-pub fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
+pub(crate) fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
     let rim = Rim {
         centre_mm: [geom.width_mm / 2.0, geom.height_mm / 2.0],
         od_mm: gobo.od_mm,
@@ -171,7 +172,7 @@ pub use crate::export::POLARITY;
 
 /// The gobo's report: its sizes, how much of the image area passes light, and the warning when
 /// that is most of it with the tones as they are (`tone_inverted`: `--invert` was given).
-pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboReport {
+pub(crate) fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboReport {
     let ia_area = std::f64::consts::PI * gobo.ia_mm * gobo.ia_mm / 4.0;
     // Every cut is inside the image area (inscribed: inside the picture, which is inside it;
     // cropped: outside its circle is metal), so their area is the clear area.
@@ -196,9 +197,10 @@ pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboRepor
     }
 }
 
-/// The disc of OD as a polygon (for tests and the masks).
-pub fn disc(rim: &Rim) -> Polygon<f64> {
-    Polygon::new(rim.ring(rim.od_mm / 2.0), vec![])
+/// The disc of OD as a polygon.
+#[cfg(test)]
+fn disc(rim: &Rim) -> geo::Polygon<f64> {
+    geo::Polygon::new(rim.ring(rim.od_mm / 2.0), vec![])
 }
 
 #[cfg(test)]

@@ -18,7 +18,7 @@ pub(crate) const FRAME: u32 = 0;
 #[derive(Clone, Debug, Default)]
 pub struct Node {
     /// Material pixels in this node.
-    pub area: usize,
+    pub(crate) area: usize,
     /// Material pixels of this node with a 4-neighbour cut pixel inside the image, in scan order.
     /// These are the bridge candidates. Ordering along the contour is the bridge stage's business.
     pub border: Vec<(u32, u32)>,
@@ -41,7 +41,7 @@ impl IslandMap {
     }
 
     #[inline]
-    pub fn label(&self, x: u32, y: u32) -> u32 {
+    pub(crate) fn label(&self, x: u32, y: u32) -> u32 {
         self.labels[y as usize * self.width as usize + x as usize]
     }
 
@@ -53,7 +53,7 @@ impl IslandMap {
     /// follow each other along a row the pixels are either all its own (inside one run) or none
     /// (any own pixel there would belong to a run whose ends lie between them): the label of the
     /// pixel right of the first says which.
-    pub fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
+    pub(crate) fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
         let b = &self.nodes[node].border;
         let w = self.width as usize;
         let mut runs = Vec::new();
@@ -224,7 +224,7 @@ fn label_reference(bits: &BitGrid) -> IslandMap {
 /// gives, without labelling again: an island's pixels have no material 4-neighbour but its own
 /// (else it would be part of that piece), so removing it changes no other node's area or border,
 /// and the islands left keep their order (that of their first pixels). The frame is never gone.
-pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
+pub(crate) fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
     let is_gone = |n: usize| n != FRAME as usize && gone.get(n).copied().unwrap_or(false);
     let Some(first) = (0..map.nodes.len()).find(|&n| is_gone(n)) else {
         return map;
@@ -281,7 +281,7 @@ pub fn floating_count(bits: &BitGrid) -> usize {
 /// anything, and counting the pieces of the whole grid again was a 1-megapixel pass of its own.
 /// O(pixels) for one comparison of the two grids, then O(added pixels). When
 /// `after` lacks a pixel of `before`'s material, the whole grid is counted.
-pub fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid) -> usize {
+pub(crate) fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid) -> usize {
     let n = before.data.len();
     let (w, h) = (after.width as usize, after.height as usize);
     if after.data.len() != n || map.labels.len() != n || w == 0 || h == 0 {

@@ -91,10 +91,6 @@ pub(crate) const AUTO_MAX_WORKING_PIXELS: u64 = 16_000_000;
 /// A mesh is never rendered with more working pixels (size × supersample²) than this.
 pub(crate) const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
 
-/// The largest `report.json` `check` and `gcode` read from an output folder (a 100 MP stencil
-/// with 5,000 bridges writes about 3 MB).
-pub const MAX_REPORT_BYTES: u64 = 256 << 20;
-
 /// A size that makes no physical sense, or that stencil cannot work at, as data: what set the size
 /// and the numbers that rule it out. The message here says what is wrong; the `stencil` binary
 /// words it with the option to change (`--width-mm`, `--dpi`, `--scale`, `--filter-radius`).

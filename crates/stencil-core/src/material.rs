@@ -12,9 +12,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use stencil_io::profile::{
-    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
-};
+use stencil_io::profile::{check_range, embedded, load_toml, resolve, ProfileError, Shipped};
 use stencil_io::shipped;
 
 use stencil_gcode::machine::{LaserSource, Machine, Tool};
@@ -82,7 +80,7 @@ pub struct Strength {
 
 impl Strength {
     /// Whether the profile gave strength data to judge islands by (see [`Strength`]).
-    pub fn judged(&self) -> bool {
+    pub(crate) fn judged(&self) -> bool {
         self.max_sag_mm.is_finite() || self.two_bridges_above_mm.is_finite()
     }
 }
@@ -158,7 +156,7 @@ pub struct LaserSettings {
     /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
     /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
     /// paper it can lift the sheet.)
-    pub air_assist: Option<bool>,
+    pub(crate) air_assist: Option<bool>,
 }
 
 /// Cut settings published for one kind of laser.
@@ -171,7 +169,7 @@ pub struct LaserCut {
     /// The power they were published for, W (a diode's optical output, a CO2 tube's rating);
     /// they are used on machines with this much power or more.
     #[serde(default)]
-    pub watts: f64,
+    pub(crate) watts: f64,
     /// Laser power in percent of the machine's maximum (0 < p ≤ 100).
     pub power_pct: f64,
     /// Cutting feed in mm/min.
@@ -211,7 +209,7 @@ pub struct KnifeSettings {
     pub speed_mm_s: f64,
     pub passes: u32,
     /// Drag-knife blade offset in mm (tip behind the axis).
-    pub blade_offset_mm: f64,
+    pub(crate) blade_offset_mm: f64,
 }
 
 /// `[pen]`: a pen plotter drawing the outlines to cut by hand.
@@ -280,7 +278,7 @@ pub struct MaterialValues(MaterialFile);
 pub struct Material {
     /// The profile's name (shipped profiles: the file stem, e.g. `cardstock`).
     pub name: String,
-    pub description: String,
+    pub(crate) description: String,
     /// Sheet thickness.
     pub thickness_mm: f64,
     /// Narrowest bridge the sheet holds (bridges are checked against this).
@@ -331,12 +329,13 @@ impl Material {
     }
 
     /// Parse a material profile from TOML text; `origin` names it in errors.
-    pub fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
-        Material::validate(parse_toml(text, origin)?, origin)
+    #[cfg(test)]
+    fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
+        Material::validate(stencil_io::profile::parse_toml(text, origin)?, origin)
     }
 
     /// This material's values, as its profile file would hold them.
-    pub fn values(&self) -> MaterialValues {
+    pub(crate) fn values(&self) -> MaterialValues {
         let st = self.strength;
         let judged = st.judged();
         let given = |v: f64| judged.then_some(v);
@@ -904,7 +903,7 @@ pub struct UserSettings {
     #[serde(skip)]
     pub path: Option<PathBuf>,
     #[serde(default, rename = "kept")]
-    pub entries: Vec<Kept>,
+    pub(crate) entries: Vec<Kept>,
 }
 
 /// One kept setting.
@@ -987,7 +986,7 @@ impl UserSettings {
 
 impl Kept {
     /// The numbers in the ranges a profile allows.
-    pub fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
+    pub(crate) fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
         if let Some(p) = self.power_pct {
             check_range(origin, &format!("{prefix}power_pct"), p, 0.1, 100.0, "%")?;
         }

@@ -39,7 +39,7 @@ impl Timings {
     }
 
     /// Run `f` as the stage `name`, adding its wall-clock time to the stage's.
-    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+    pub(crate) fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
         if let Some(p) = &self.progress {
             p.stage(name);
         }
@@ -65,7 +65,7 @@ impl Timings {
     }
 
     /// The stages' milliseconds keyed by name, as report.json holds them.
-    pub fn into_map(self) -> BTreeMap<String, f64> {
+    pub(crate) fn into_map(self) -> BTreeMap<String, f64> {
         self.ms
     }
 }

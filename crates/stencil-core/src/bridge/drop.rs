@@ -16,7 +16,7 @@
 //! rather than held by a 13 mm bridge across the visor; a face, whose pixels are far from the
 //! threshold and many, is always bridged. The path search (Dijkstra from the island's border) stops
 //! as soon as its cost reaches the drop's, so it looks no farther than the drop could pay for,
-//! and it gives up (keeping the island) after [`SEARCH_PER_AREA`] × A + [`SEARCH_BASE`] pixels:
+//! and it gives up (keeping the island) after `SEARCH_PER_AREA` × A + `SEARCH_BASE` pixels:
 //! bounded time whatever the picture. Islands the person asked a bridge for (`--bridge-at`) are
 //! never dropped.
 
@@ -31,8 +31,8 @@ use crate::raster::Gray;
 
 /// The search for an island's cheapest bridge visits at most this many pixels per island pixel,
 /// plus [`SEARCH_BASE`].
-pub const SEARCH_PER_AREA: usize = 16;
-pub const SEARCH_BASE: usize = 20_000;
+pub(crate) const SEARCH_PER_AREA: usize = 16;
+pub(crate) const SEARCH_BASE: usize = 20_000;
 
 /// One island dropped instead of bridged.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -43,14 +43,14 @@ pub struct Dropped {
     pub area_mm2: f64,
     /// What dropping it changes, and what its cheapest bridge would (None: more than the drop,
     /// the search stopped there), in pixel-costs (`0.1 + |gray − threshold|` summed).
-    pub drop_cost: f64,
-    pub bridge_cost: Option<f64>,
+    pub(crate) drop_cost: f64,
+    pub(crate) bridge_cost: Option<f64>,
 }
 
 /// The islands to drop (node ids of `map`) and their reports (in pixels: `at_mm` holds pixel
 /// coordinates, `area_mm2` the pixel count, for the caller to scale). `protected[n]`: never drop
 /// island n. `width(area)`: the bridge's width in pixels for an island of `area` pixels.
-pub fn choose(
+pub(crate) fn choose(
     map: &IslandMap,
     gray: &Gray,
     level: u8,

@@ -140,11 +140,11 @@ impl Default for BridgeConfig {
 /// The four terms of `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` (already weighted) and their sum.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
 pub struct CostTerms {
-    pub intensity: f64,
-    pub length: f64,
+    pub(crate) intensity: f64,
+    pub(crate) length: f64,
     pub curvature: f64,
     pub variance: f64,
-    pub total: f64,
+    pub(crate) total: f64,
 }
 
 /// How a bridge's strip was found.
@@ -171,7 +171,7 @@ pub struct Bridge {
     pub length_px: f64,
     /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
     /// final stencil (the clean-up around the bridges included).
-    pub pixels: usize,
+    pub(crate) pixels: usize,
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
     pub support: bool,
@@ -194,7 +194,7 @@ pub struct Bridged {
     /// Per island, in node order: its bridges, span and sag estimate (see `strength`).
     pub strength: Vec<strength::IslandStrength>,
     /// What became of each `--bridge-at` place (see `constraints`).
-    pub requests: Vec<constraints::Request>,
+    pub(crate) requests: Vec<constraints::Request>,
     /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
     /// share is the first one's). [`Bridged::recount`] starts from them.
     drawn: Vec<Vec<u32>>,
@@ -207,7 +207,7 @@ impl Bridged {
     /// Per bridge, the bounding box `[x0, y0, x1, y1)` in pixels of what it turned into
     /// material when drawn (bridges that turned nothing are left out): where the clean-up after
     /// bridging has anything to do.
-    pub fn drawn_boxes(&self) -> Vec<[u32; 4]> {
+    pub(crate) fn drawn_boxes(&self) -> Vec<[u32; 4]> {
         let w = self.bits.width.max(1);
         self.drawn
             .iter()
@@ -236,7 +236,7 @@ impl Bridged {
     /// nearest bridge through a breadth-first search over the whole picture: 14-22 ms on a
     /// 1.2-megapixel photo, whose thousands of such pixels lay mostly hundreds of pixels from
     /// any bridge, so "nearest" said nothing.)
-    pub fn recount(&mut self, before: &BitGrid) -> usize {
+    pub(crate) fn recount(&mut self, before: &BitGrid) -> usize {
         let n = self.bits.data.len();
         let added = |i: usize| self.bits.data[i] && !before.data[i];
         let mut owner = vec![UNOWNED; n];
@@ -302,7 +302,7 @@ pub enum BridgeError {
 
 impl BridgeConfig {
     /// Check the settings a library caller (not only the CLI) may get wrong.
-    pub fn validate(&self) -> Result<(), BridgeError> {
+    pub(crate) fn validate(&self) -> Result<(), BridgeError> {
         let bad = |name, value: String, why| Err(BridgeError::BadSetting { name, value, why });
         for (name, w) in [
             ("w_intensity", self.w_intensity),
@@ -400,7 +400,7 @@ pub fn connect_timed(
 /// them (the walks follow the picture, not the costs), so a caller that keeps them (the
 /// studio) re-chooses the bridges for new weights, support margin or strength rules without
 /// walking again; they depend on `two`, `map`, the length limit, the narrowest bridge, `gaps`
-/// and the keep-out areas (see [`Walks::key`]).
+/// and the keep-out areas (see `Walks::key`).
 #[derive(Clone, Debug, Default)]
 pub struct Walks {
     cands: candidates::Candidates,
@@ -411,7 +411,7 @@ pub struct Walks {
 impl Walks {
     /// `cfg` with everything the walks do not read set to its default: two configurations with
     /// the same key (and the same two-tone and islands) give the same walks.
-    pub fn key(cfg: &BridgeConfig) -> BridgeConfig {
+    pub(crate) fn key(cfg: &BridgeConfig) -> BridgeConfig {
         let d = BridgeConfig::default();
         BridgeConfig {
             w_intensity: d.w_intensity,
@@ -493,7 +493,7 @@ pub fn walk(
 /// The second half of [`connect_timed`]: from `walks` (made by [`walk`] for the same `two`,
 /// `map` and [`Walks::key`]) to the bridges drawn. The walks are only read, so a caller that
 /// keeps them for the next weights lends them rather than copying them.
-pub fn connect_walked(
+pub(crate) fn connect_walked(
     two: &TwoTone,
     map: &IslandMap,
     cfg: &BridgeConfig,

@@ -175,31 +175,31 @@ pub enum Why {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IslandStrength {
     /// Node id (as in the bridges' `nodes`).
-    pub island: u32,
+    pub(crate) island: u32,
     /// Centroid of its material, mm from the picture's top left corner (x right, y down).
-    pub centre_mm: [f64; 2],
+    pub(crate) centre_mm: [f64; 2],
     pub area_mm2: f64,
     /// Extent along its main axis and across it, mm.
-    pub length_mm: f64,
-    pub breadth_mm: f64,
+    pub(crate) length_mm: f64,
+    pub(crate) breadth_mm: f64,
     /// Bridges holding it in the estimate: the tree's bridge that brought it in (towards the
     /// frame) and those added here (a tree bridge to an island hanging from it is not counted).
     pub bridges: usize,
     /// Of those, added here for strength.
-    pub extra: usize,
+    pub(crate) extra: usize,
     /// Why they were added (empty when none were).
-    pub why: Vec<Why>,
+    pub(crate) why: Vec<Why>,
     /// The farthest its material lies from its nearest bridge, inside the island, mm.
-    pub span_mm: f64,
+    pub(crate) span_mm: f64,
     /// The sag estimate on all `bridges`, mm.
-    pub sag_mm: f64,
+    pub(crate) sag_mm: f64,
     /// The sag estimate after each bridge: first on the tree's bridges alone, then after each one
     /// added here, in order (so the last is `sag_mm`).
-    pub sag_steps_mm: Vec<f64>,
+    pub(crate) sag_steps_mm: Vec<f64>,
     /// The material's `max_sag_mm`.
     pub limit_mm: f64,
     /// Whether every rule is met: sag within the limit, the count and both ends.
-    pub held: bool,
+    pub(crate) held: bool,
     /// When not held: which rule could not be met and what to relax.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -213,17 +213,17 @@ pub struct StrengthReport {
     /// The longest span within the material's sag limit, mm.
     pub max_span_mm: f64,
     pub two_bridges_above_mm: f64,
-    pub bridges_per_island: u32,
+    pub(crate) bridges_per_island: u32,
     /// Islands that got extra bridges for strength, and how many bridges that added in all.
     pub islands_with_extra: usize,
     pub extra_bridges: usize,
     /// Islands some rule could not be met for (see their `note`).
-    pub not_held: usize,
+    pub(crate) not_held: usize,
     pub islands: Vec<IslandStrength>,
 }
 
 impl StrengthReport {
-    pub fn new(islands: Vec<IslandStrength>, cfg: &StrengthConfig) -> Self {
+    pub(crate) fn new(islands: Vec<IslandStrength>, cfg: &StrengthConfig) -> Self {
         StrengthReport {
             model: "sag = 5·ρ·g·L⁴/(2·E·t²): a strip simply supported on bridges 2L apart, L = \
                     span (farthest material from its nearest bridge, inside the island)"

@@ -39,18 +39,18 @@ use super::CheckError;
 /// anything up).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct V {
-    pub p: Point2<f64>,
-    pub ring: u32,
-    pub idx: u32,
-    pub gid: u32,
-    pub next: u32,
+    pub(crate) p: Point2<f64>,
+    pub(crate) ring: u32,
+    pub(crate) idx: u32,
+    pub(crate) gid: u32,
+    pub(crate) next: u32,
 }
 
 impl V {
     /// If `self → b` is an edge of a ring: the index of its first vertex along the ring, and
     /// whether `self → b` runs along the ring's direction.
     #[inline]
-    pub fn ring_edge(self, b: V) -> Option<(u32, bool)> {
+    pub(crate) fn ring_edge(self, b: V) -> Option<(u32, bool)> {
         if self.next == b.gid {
             Some((self.idx, true))
         } else if b.next == self.gid {
@@ -66,10 +66,10 @@ impl V {
 /// write and read for each of the ~100,000 triangles of a large sheet.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tri {
-    pub v: [u32; 3],
+    pub(crate) v: [u32; 3],
     pub material: bool,
     /// Bit k: edge k (corner k to corner k + 1) is a ring edge (a constraint of the CDT).
-    pub ring_edges: u8,
+    pub(crate) ring_edges: u8,
 }
 
 /// How the triangles were made (for tests and the curious).
@@ -83,14 +83,14 @@ pub(super) enum Method {
 
 /// The rings, as the triangulation needs them: each ring's vertex count.
 pub(super) struct RingSizes {
-    pub len: Vec<u32>,
+    pub(crate) len: Vec<u32>,
     /// The ring of the sheet's outline (the convex hull of everything).
     pub outline: u32,
 }
 
 impl RingSizes {
     /// Append a ring (at least three points) as the next ring, its vertices to `verts`.
-    pub fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
+    pub(crate) fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
         let (ring, start, n) = (self.len.len() as u32, verts.len() as u32, pts.len() as u32);
         self.len.push(n);
         verts.extend(pts.iter().zip(0..).map(|(p, i)| V {

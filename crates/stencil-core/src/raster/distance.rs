@@ -9,7 +9,7 @@ use super::BitGrid;
 /// Exact, O(pixels) (Felzenszwalb & Huttenlocher's lower envelope of parabolas, row then column).
 /// Used by the topological filter (dilation and erosion by a disc) and by the bridge stage, whose
 /// walks follow the distance field's gradient where the grayscale source is flat.
-pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
+pub(crate) fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
     squared_distance(bits, target, target)
 }
 
@@ -17,7 +17,7 @@ pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
 /// a virtual target row and column one step outside every border, `false` makes the outside count
 /// as nothing (distances are measured to targets inside the grid only; `INF`-like 1e20 where there
 /// is none).
-pub fn squared_distance(bits: &BitGrid, target: bool, frame_is_target: bool) -> Vec<f32> {
+pub(crate) fn squared_distance(bits: &BitGrid, target: bool, frame_is_target: bool) -> Vec<f32> {
     let (w, h) = (bits.width as usize, bits.height as usize);
     const INF: f32 = 1e20;
     let mut d: Vec<f32> = bits

@@ -4,11 +4,11 @@
 use super::BitGrid;
 
 /// Label of a pixel that [`components`] did not label (its bit is not the one asked for).
-pub const NOT_LABELLED: u32 = u32::MAX;
+pub(crate) const NOT_LABELLED: u32 = u32::MAX;
 
 /// 4-connected components of the pixels equal to `value`: a label per pixel ([`NOT_LABELLED`] where the pixel
 /// is not `value`), and the area of each component. O(pixels).
-pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
+pub(crate) fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let (runs, row_first) = runs_of(bits, value);
     let (piece, count) = join_runs(&runs, &row_first, false);
@@ -141,9 +141,9 @@ pub(crate) fn touches_border(labels: &[u32], width: u32, height: u32, count: usi
 /// A run of pixels along row `y`, columns `x0..=x1`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Run {
-    pub y: u32,
-    pub x0: u32,
-    pub x1: u32,
+    pub(crate) y: u32,
+    pub(crate) x0: u32,
+    pub(crate) x1: u32,
 }
 
 /// Append to `runs` the runs of set bits of row `y`, given as words of 64 pixels (bit `i` of word

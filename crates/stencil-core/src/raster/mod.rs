@@ -37,12 +37,12 @@ impl Gray {
     }
 
     #[inline]
-    pub fn idx(&self, x: u32, y: u32) -> usize {
+    pub(crate) fn idx(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
     }
 
     #[inline]
-    pub fn get(&self, x: u32, y: u32) -> f32 {
+    pub(crate) fn get(&self, x: u32, y: u32) -> f32 {
         self.data[self.idx(x, y)]
     }
 
@@ -53,7 +53,7 @@ impl Gray {
     }
 
     /// Bilinear sample at a real-valued position, clamped to the grid.
-    pub fn sample(&self, x: f32, y: f32) -> f32 {
+    pub(crate) fn sample(&self, x: f32, y: f32) -> f32 {
         let maxx = (self.width - 1) as f32;
         let maxy = (self.height - 1) as f32;
         let x = x.clamp(0.0, maxx);
@@ -132,7 +132,7 @@ impl BitGrid {
     /// Material test that treats everything outside the grid as material: the sheet continues
     /// beyond the image (the frame).
     #[inline]
-    pub fn get_or_frame(&self, x: i64, y: i64) -> bool {
+    pub(crate) fn get_or_frame(&self, x: i64, y: i64) -> bool {
         if x < 0 || y < 0 || x >= self.width as i64 || y >= self.height as i64 {
             true
         } else {
@@ -150,7 +150,7 @@ impl BitGrid {
         self.data.len()
     }
 
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.data.is_empty()
     }
 

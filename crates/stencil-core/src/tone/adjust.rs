@@ -19,7 +19,7 @@ use imageproc::region_labelling::{connected_components, Connectivity};
 
 use crate::raster::{blur, Gray};
 
-/// The adjustments, all off by default ([`Adjust::is_identity`]).
+/// The adjustments, all off by default (`Adjust::is_identity`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adjust {
     /// The part of the picture kept: x, y, width, height in pixels of the picture as shown.
@@ -33,9 +33,9 @@ pub struct Adjust {
     /// `v^(1/γ)`: above 1 lifts the midtones, below 1 sinks them; black and white stay (1 = none).
     pub gamma: f32,
     /// Edge-preserving (bilateral) smoothing: the spatial standard deviation in picture pixels
-    /// (0 = off). Tones closer than [`SMOOTH_TONE_SIGMA`] are averaged, edges between tones kept.
+    /// (0 = off). Tones closer than `SMOOTH_TONE_SIGMA` are averaged, edges between tones kept.
     pub smooth_px: f32,
-    /// Abstraction strength 0..=1 (0 = off): see [`abstraction`].
+    /// Abstraction strength 0..=1 (0 = off): see `abstraction`.
     pub abstraction: f32,
     /// Local threshold: each pixel compared with the Gaussian-weighted mean of its neighbourhood
     /// of this standard deviation in picture pixels instead of with one level for the whole
@@ -60,17 +60,17 @@ impl Default for Adjust {
 
 /// The bilateral filter's tone standard deviation (on the 0..1 gray scale): differences of about
 /// a tenth of full scale count as an edge and are kept.
-pub const SMOOTH_TONE_SIGMA: f32 = 0.1;
+pub(crate) const SMOOTH_TONE_SIGMA: f32 = 0.1;
 
 impl Adjust {
     /// Whether nothing is asked for (the picture passes through untouched).
-    pub fn is_identity(&self) -> bool {
+    pub(crate) fn is_identity(&self) -> bool {
         *self == Adjust::default()
     }
 
     /// The picture adjusted. `g` is the picture as shown (after EXIF orientation). The crop is
     /// clamped to the picture (the front end refuses one outside it).
-    pub fn apply(&self, g: &Gray) -> Gray {
+    pub(crate) fn apply(&self, g: &Gray) -> Gray {
         let mut g = match self.crop_px {
             Some(c) => crop(g, c),
             None => g.clone(),
@@ -183,7 +183,7 @@ pub(crate) fn bilateral(g: &Gray, sigma_px: f32, tone_sigma: f32) -> Gray {
 ///
 /// `s` is the strength, 0..=1: at 1 a 600-pixel picture keeps only regions of about 20 × 20
 /// pixels or more in four bands.
-pub fn abstraction(g: &Gray, strength: f32) -> Gray {
+pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let s = strength.clamp(0.0, 1.0);
     if s == 0.0 || g.data.is_empty() {
         return g.clone();

@@ -319,7 +319,7 @@ fn decode_error(path: &Path, e: image::ImageError) -> ToneError {
 
 /// `text` with each Rust `Debug` struct dump (`ChunkType { type: IDAT, critical: true, .. }`)
 /// replaced by its `type` field when it has one (`IDAT`), else by the type's name.
-pub fn without_type_dumps(text: &str) -> String {
+pub(crate) fn without_type_dumps(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
     while let Some(open) = rest.find(" { ") {
@@ -372,7 +372,7 @@ fn plain_io(e: std::io::Error) -> std::io::Error {
 /// Whether a JPEG file reaches its end-of-image marker: the marker segments are followed from the
 /// start (their lengths skipped, entropy-coded data scanned for the next marker), so an EOI inside
 /// an embedded thumbnail does not count. Streams the file; data after the EOI is ignored.
-pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
+pub(crate) fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
     let mut r = BufReader::new(std::fs::File::open(path)?);
     if (byte(&mut r)?, byte(&mut r)?) != (Some(0xFF), Some(0xD8)) {
         return Ok(false);
@@ -465,7 +465,7 @@ fn after_entropy_data(r: &mut BufReader<std::fs::File>) -> std::io::Result<Optio
 
 /// Upsample by an integer factor with bilinear interpolation (the paper's supersampling: thresholding
 /// the smooth upsampled gray gives edges that follow the picture, not its pixel staircase).
-pub fn upsample(gray: &Gray, k: u32) -> Gray {
+pub(crate) fn upsample(gray: &Gray, k: u32) -> Gray {
     if k <= 1 {
         return gray.clone();
     }

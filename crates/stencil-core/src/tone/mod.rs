@@ -13,7 +13,6 @@ pub use adjust::Adjust;
 pub use filter::{FilterConfig, FilterStats};
 pub use image::{load_gray, orientation_note, picture_size};
 pub use likeness::{likeness, LevelChoice, Likeness};
-pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
 use std::path::PathBuf;
@@ -200,7 +199,7 @@ pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> 
 }
 
 /// The two tones of `gray` at `level`: light (at or above it) is material unless `invert`.
-pub fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
+pub(crate) fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
     BitGrid {
         width: gray.width,
         height: gray.height,

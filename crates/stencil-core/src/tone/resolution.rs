@@ -35,10 +35,10 @@
 use serde::{Deserialize, Serialize};
 
 /// The largest supersampling factor, automatic or given.
-pub const MAX_FACTOR: u32 = 8;
+pub(crate) const MAX_FACTOR: u32 = 8;
 
 /// Working pixels per `min_feature_mm` the automatic factor aims for (see the module notes).
-pub const PX_PER_MIN_FEATURE: f64 = 5.0;
+pub(crate) const PX_PER_MIN_FEATURE: f64 = 5.0;
 
 /// The automatic factor never makes the working image larger than this many pixels (16 MP: about
 /// 0.6 GB at 40 bytes per working pixel; 4000 × 4000).
@@ -85,7 +85,7 @@ pub struct AutoScale {
 /// The coarsest working pixel, in mm, that resolves the material's smallest feature by
 /// [`PX_PER_MIN_FEATURE`] pixels and keeps a pixel staircase within the tolerance (see the module
 /// notes). A tolerance of 0 (no simplification) does not count.
-pub fn target_mm_per_px(min_feature_mm: f64, tolerance_mm: f64) -> f64 {
+pub(crate) fn target_mm_per_px(min_feature_mm: f64, tolerance_mm: f64) -> f64 {
     let feature = min_feature_mm / PX_PER_MIN_FEATURE;
     if tolerance_mm > 0.0 {
         feature.min(2.0 * tolerance_mm)
@@ -105,7 +105,7 @@ fn largest_within(input_pixels: u64, limit: u64) -> u32 {
 /// The automatic factor for a picture of `input_pixels` pixels of `mm_per_input_px` each: the
 /// smallest K with `mm_per_input_px / K <= target_mm`, capped by [`MAX_FACTOR`], the memory budget
 /// and `max_pixels` (never below 1). Returns the factor and how it was chosen.
-pub fn auto(
+pub(crate) fn auto(
     mm_per_input_px: f64,
     target_mm: f64,
     input_pixels: u64,

@@ -29,12 +29,12 @@ pub struct SimplifyStats {
     pub points_in: usize,
     pub points_out: usize,
     /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
-    pub fallbacks: usize,
+    pub(crate) fallbacks: usize,
     /// Rings replaced by lines and arcs fitted to the traced points
     /// ([`stencil_geom::curve::fit_ring_within`]), and how many arcs they hold; absent from
     /// reports written before curves were fitted.
     #[serde(default)]
-    pub curved_rings: usize,
+    pub(crate) curved_rings: usize,
     #[serde(default)]
     pub arcs: usize,
 }
@@ -43,15 +43,15 @@ pub struct SimplifyStats {
 /// simplification, then flattened back into polygon rings within `flatten`, or, when
 /// `straight`, made straight within `tol` of the traced points.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FitCurves {
-    pub flatten: f64,
+pub(crate) struct FitCurves {
+    pub(crate) flatten: f64,
     /// No file will carry arcs (`--no-arcs`, a machine without them): instead of the fine
     /// flattening that the writers fit arcs to again, each ring becomes the polygon with the
     /// fewest corners Douglas–Peucker finds whose corners lie on the fitted curves and whose
     /// chords stay within `tol` of every traced point, their guards on their sides: the whole
     /// tolerance spent once, measured against the traced outline itself (see
     /// [`straighten`]). A ring keeps simplification's own polygon when that has fewer points.
-    pub straight: bool,
+    pub(crate) straight: bool,
 }
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
@@ -75,7 +75,7 @@ pub fn simplify_rings(
 ///
 /// Also returns, per ring, the lines and arcs its polygon is the flattening of (when it is one:
 /// fitted, kept, and not made straight), so that the files can carry those very arcs.
-pub fn simplify_and_fit(
+pub(crate) fn simplify_and_fit(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
     tol: f64,
@@ -279,7 +279,7 @@ fn collinear_between(p: [f64; 2], q: [f64; 2], s: [f64; 2]) -> bool {
 }
 
 /// Remove points lying exactly on the line through their neighbours (lossless).
-pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(crate) fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let n = r.len();
     if n < 4 {
         return r.to_vec();
@@ -409,7 +409,7 @@ fn c(p: [f64; 2]) -> Coord<f64> {
 }
 
 /// Whether closed segments ab and cd share any point (robust orientation tests).
-pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
+pub(crate) fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
     let o1 = RobustKernel::orient2d(c(a), c(b), c(cc));
     let o2 = RobustKernel::orient2d(c(a), c(b), c(d));
     let o3 = RobustKernel::orient2d(c(cc), c(d), c(a));

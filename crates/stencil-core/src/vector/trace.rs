@@ -32,7 +32,7 @@ pub struct Ring {
     /// A material pixel just left of the ring (outside the image = the frame): which material
     /// piece the ring bounds. Only the tests read it, to check the tracing's orientation.
     #[cfg(test)]
-    pub material_px: (i64, i64),
+    pub(crate) material_px: (i64, i64),
 }
 
 /// The two pixel centres (material, cut) on either side of a ring point, in pixel coordinates.

@@ -7,26 +7,26 @@
 use glam::Vec3;
 
 /// Fraction of the long side left empty around the model on each side.
-pub const MARGIN: f32 = 0.05;
+pub(crate) const MARGIN: f32 = 0.05;
 
 /// A pinhole (or orthographic) camera with its image plane already fitted to the model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub eye: Vec3,
-    pub right: Vec3,
+    pub(crate) right: Vec3,
     pub up: Vec3,
-    pub forward: Vec3,
+    pub(crate) forward: Vec3,
     pub orthographic: bool,
     /// Pixels per unit of x/z (perspective) or per world unit (orthographic).
     pub focal_px: f32,
     /// The principal point (where the view axis meets the image), in pixels. The framing shifts it
     /// off the image centre so the model, not its bounding sphere, is centred.
-    pub cx: f32,
-    pub cy: f32,
+    pub(crate) cx: f32,
+    pub(crate) cy: f32,
     pub width: u32,
     pub height: u32,
     /// The bounding sphere the camera orbits.
-    pub center: Vec3,
+    pub(crate) center: Vec3,
     pub radius: f32,
 }
 
@@ -49,7 +49,7 @@ impl Up {
     /// frame: a rotation by quarter turns (a signed permutation, exact in floating point; the
     /// identity for Y).
     #[inline]
-    pub fn to_model(self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_model(self, v: Vec3) -> Vec3 {
         match self {
             Up::Y => v,
             // Y-up (x, y, z) -> Z-up: up (0,1,0) -> (0,0,1), front +Z -> -Y.
@@ -88,7 +88,7 @@ pub enum RenderSize {
 
 impl Camera {
     /// Place the camera on its orbit and fit the image plane to the projected `positions`.
-    pub fn frame(
+    pub(crate) fn frame(
         center: Vec3,
         radius: f32,
         orbit: &Orbit,
@@ -172,7 +172,7 @@ impl Camera {
 
     /// Camera-space coordinates (x right, y up, z depth).
     #[inline]
-    pub fn to_camera(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn to_camera(&self, p: Vec3) -> Vec3 {
         let d = p - self.eye;
         Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
     }
@@ -207,7 +207,7 @@ impl Camera {
     /// The ray through pixel position (sx, sy): origin and direction, with `dir · forward = 1`, so
     /// the ray parameter is the depth.
     #[inline]
-    pub fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
+    pub(crate) fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
         let u = (sx - self.cx) / self.focal_px;
         let v = (self.cy - sy) / self.focal_px;
         let off = self.right * u + self.up * v;
@@ -220,7 +220,7 @@ impl Camera {
 
     /// Unit vector from a world point towards the viewer.
     #[inline]
-    pub fn view_dir(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn view_dir(&self, p: Vec3) -> Vec3 {
         if self.orthographic {
             -self.forward
         } else {
@@ -230,12 +230,12 @@ impl Camera {
 
     /// A point given in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// bounding sphere's centre, in bounding radii, as a world point.
-    pub fn from_view_frame(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn from_view_frame(&self, v: Vec3) -> Vec3 {
         self.center + (self.right * v.x + self.up * v.y - self.forward * v.z) * self.radius
     }
 
     /// The same view at `k` times the resolution (supersampling).
-    pub fn scaled(&self, k: u32) -> Camera {
+    pub(crate) fn scaled(&self, k: u32) -> Camera {
         let kf = k as f32;
         Camera {
             focal_px: self.focal_px * kf,

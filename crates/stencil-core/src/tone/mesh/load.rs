@@ -19,7 +19,7 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// The file's normals per triangle corner, when every face has them (hard edges stay hard).
     /// `None`: shading uses smooth vertex normals.
-    pub corner_normals: Option<Vec<[Vec3; 3]>>,
+    pub(crate) corner_normals: Option<Vec<[Vec3; 3]>>,
     /// Every edge is shared by exactly two triangles (computed by [`Mesh::new`]).
     closed: bool,
 }
@@ -32,7 +32,7 @@ impl Mesh {
     }
 
     /// As [`Mesh::new`], keeping per-corner normals (one per triangle corner) when given.
-    pub fn with_normals(
+    pub(crate) fn with_normals(
         positions: Vec<Vec3>,
         triangles: Vec<[u32; 3]>,
         corner_normals: Option<Vec<[Vec3; 3]>>,
@@ -93,7 +93,7 @@ impl Mesh {
     }
 
     /// Centre and radius of a bounding sphere (centred on the bounding box).
-    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+    pub(crate) fn bounding_sphere(&self) -> (Vec3, f32) {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for &p in &self.positions {
             lo = lo.min(p);
@@ -109,7 +109,7 @@ impl Mesh {
     }
 
     /// Smooth vertex normals: the area-weighted mean of the adjacent faces' normals.
-    pub fn vertex_normals(&self) -> Vec<Vec3> {
+    pub(crate) fn vertex_normals(&self) -> Vec<Vec3> {
         let mut n = vec![Vec3::ZERO; self.positions.len()];
         for t in &self.triangles {
             let [a, b, c] = t.map(|v| self.positions[v as usize]);
@@ -147,7 +147,7 @@ impl Mesh {
     }
 
     /// Signed volume (positive when faces are counter-clockwise seen from outside).
-    pub fn signed_volume(&self) -> f64 {
+    pub(crate) fn signed_volume(&self) -> f64 {
         self.triangles
             .iter()
             .map(|t| {
@@ -237,7 +237,7 @@ pub fn load(path: &Path) -> Result<Mesh, MeshError> {
 }
 
 /// Parse OBJ text (`path` only names it in errors).
-pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
+pub(crate) fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
     // A byte-order mark (some Windows editors write one) is not part of the first statement.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // Line ends as classic Mac OS and some exporters write them, a lone CR, are line ends too
@@ -325,7 +325,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Mesh, MeshError> {
 /// How much larger the whole model may be than the bulk of its vertices (the 90 % between the 5th
 /// and 95th percentile along each axis): the picture frames the whole model, so at 500 times the
 /// bulk is under 2 pixels of a 1024-pixel picture, a blank stencil.
-pub const MAX_SPREAD: f32 = 500.0;
+pub(crate) const MAX_SPREAD: f32 = 500.0;
 
 /// Refuse a model whose extent is a few stray vertices (a vertex at 1e20 among ones within a
 /// metre), naming the farthest.

@@ -183,7 +183,7 @@ impl MeshConfig {
     }
 
     /// The output width the image will have at most (the long side, or the exact width).
-    pub fn max_width_px(&self) -> u32 {
+    pub(crate) fn max_width_px(&self) -> u32 {
         match self.size {
             RenderSize::LongSide(n) => n,
             RenderSize::Exact { width, .. } => width,
@@ -336,13 +336,13 @@ pub fn render(
 /// drawn, on first use) its curvature. Kept by the studio so a new view does not redo them.
 #[derive(Debug)]
 pub struct Prepared {
-    pub mesh: Mesh,
+    pub(crate) mesh: Mesh,
     normals: Vec<Vec3>,
     curvature: std::sync::OnceLock<curvature::Curvature>,
 }
 
 impl Prepared {
-    pub fn new(mesh: Mesh) -> Prepared {
+    pub(crate) fn new(mesh: Mesh) -> Prepared {
         let normals = mesh.vertex_normals();
         Prepared {
             mesh,
@@ -358,7 +358,7 @@ impl Prepared {
 }
 
 /// One view of a mesh before it is lit: each working sample's surface (point, normal, depth,
-/// curvature terms) and the lines, which do not depend on the light. [`light`] turns it into a
+/// curvature terms) and the lines, which do not depend on the light. `light` turns it into a
 /// [`Rendering`]; a new light (the studio's drag) re-lights it without a new raster.
 #[derive(Clone, Debug)]
 pub struct Drawn {
@@ -373,7 +373,7 @@ pub struct Drawn {
     pub timings: Timings,
 }
 
-/// Render a mesh (no thresholding): [`draw`] then [`light`].
+/// Render a mesh (no thresholding): `draw` then `light`.
 pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError> {
     cfg.validate()?;
     let prep = Prepared::new(mesh.clone());
@@ -382,7 +382,7 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
 }
 
 /// The view of `cfg` (camera, size, lines; not the light): raster, surfaces, lines.
-pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
+pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
     cfg.validate()?;
     let mesh = &prep.mesh;
     let mut tm = Timings::default();
@@ -445,7 +445,7 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
 /// One pass: each output row lights its k×k blocks of working samples and averages them at once
 /// (no working-size image of intensities in between), rows in parallel. The sums are taken in
 /// the same order as a separate light-then-average would take them, so the result is the same.
-pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
+pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
     let light = key_light(&d.cam, cfg);
     let mut r = tm.time("shade", || {
@@ -591,7 +591,7 @@ pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, 
 
 /// [`two_tone`] with the rendering's gray given (`gray` must be `r.gray`; the pipeline's working
 /// gray is already a copy of it, so this saves another).
-pub fn two_tone_with(
+pub(crate) fn two_tone_with(
     r: &Rendering,
     gray: Arc<Gray>,
     threshold: Threshold,

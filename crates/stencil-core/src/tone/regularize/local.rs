@@ -30,7 +30,7 @@ pub(super) fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
 /// two-tone, every thin pixel is one a bridge made (a cut sliver beside it, a notch in its edge),
 /// so this tidies exactly where bridges meet the picture; being monotone it never cuts a bridge
 /// and ends (see the module comment). Returns the number of pixels added.
-pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
+pub(crate) fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {
         return 0;
@@ -48,7 +48,7 @@ pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
 /// neighbour is material `after` added to `before` (overlapping bridges enclose a piece of the
 /// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
 /// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
-pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
+pub(crate) fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
     // A sealed pocket's material neighbours are all added, so it lies beside an added pixel:
     // only the cut pieces beside added pixels are searched, each until it shows itself open
     // (the picture's border, original material, or a pixel of a piece already found open). So
@@ -136,7 +136,7 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
 /// the material's smallest feature is left beside a bridge. Only the pixels within `spread` disc
 /// spans of a box may change; thin features holding none of them are left as they are. Returns
 /// the number of pixels added.
-pub fn settle_near(
+pub(crate) fn settle_near(
     bits: &mut BitGrid,
     boxes: &[[u32; 4]],
     min_width_px: f64,

@@ -64,8 +64,8 @@ mod settle;
 mod stats;
 mod work;
 
-pub use local::{fill_sealed_pockets, settle_all, settle_near};
-pub use stats::{RegularizeConfig, RegularizeStats};
+pub(crate) use local::{fill_sealed_pockets, settle_all, settle_near};
+pub(crate) use stats::{RegularizeConfig, RegularizeStats};
 
 use decide::decide;
 use disc::Disc;
@@ -74,7 +74,7 @@ use work::{Price, Work};
 
 /// Regularise `bits` (material = true) so that no web or hole is narrower than
 /// `cfg.min_width_px`, deciding each thin feature by the gray picture. See the module comment.
-pub fn regularize(
+pub(crate) fn regularize(
     bits: &BitGrid,
     gray: &Gray,
     cfg: &RegularizeConfig,

@@ -15,13 +15,13 @@ use crate::raster::packed::pack_word;
 pub(super) struct Packed {
     pub width: usize,
     pub height: usize,
-    pub stride: usize,
+    pub(crate) stride: usize,
     pub data: Vec<u64>,
 }
 
 impl Packed {
     /// All `fill`, the tail bits too.
-    pub fn new(width: usize, height: usize, fill: bool) -> Packed {
+    pub(crate) fn new(width: usize, height: usize, fill: bool) -> Packed {
         let stride = width.div_ceil(64).max(1);
         Packed {
             width,
@@ -31,11 +31,11 @@ impl Packed {
         }
     }
 
-    pub fn get(&self, x: usize, y: usize) -> bool {
+    pub(crate) fn get(&self, x: usize, y: usize) -> bool {
         self.data[y * self.stride + x / 64] >> (x % 64) & 1 == 1
     }
 
-    pub fn set(&mut self, x: usize, y: usize, v: bool) {
+    pub(crate) fn set(&mut self, x: usize, y: usize, v: bool) {
         let w = &mut self.data[y * self.stride + x / 64];
         let m = 1u64 << (x % 64);
         if v {
@@ -47,21 +47,21 @@ impl Packed {
 
     /// The pixel at index `i = y · width + x`.
     #[cfg(test)]
-    pub fn at(&self, i: usize) -> bool {
+    pub(crate) fn at(&self, i: usize) -> bool {
         self.get(i % self.width, i / self.width)
     }
 
     #[cfg(test)]
-    pub fn put(&mut self, i: usize, v: bool) {
+    pub(crate) fn put(&mut self, i: usize, v: bool) {
         self.set(i % self.width, i / self.width, v);
     }
 
-    pub fn row(&self, y: usize) -> &[u64] {
+    pub(crate) fn row(&self, y: usize) -> &[u64] {
         &self.data[y * self.stride..(y + 1) * self.stride]
     }
 
     /// Set the bits past `width` in every row to `v`.
-    pub fn tail(&mut self, v: bool) {
+    pub(crate) fn tail(&mut self, v: bool) {
         let used = self.width % 64;
         if used == 0 {
             return;
@@ -79,7 +79,7 @@ impl Packed {
 
     /// The number of set bits inside the grid (tail bits not counted).
     #[cfg(test)]
-    pub fn count(&self) -> usize {
+    pub(crate) fn count(&self) -> usize {
         let mut c = self.clone();
         c.tail(false);
         c.data.iter().map(|w| w.count_ones() as usize).sum()
