@@ -27,8 +27,8 @@ pub struct Node {
 /// A label per pixel (frame = 0, islands 1..=n, cut = [`CUT`]) and per node its area and border.
 #[derive(Clone, Debug)]
 pub struct IslandMap {
-    pub width: u32,
-    pub height: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     pub labels: Vec<u32>,
     /// `nodes[0]` is the frame (possibly of area 0 when no material touches the image border).
     pub nodes: Vec<Node>,

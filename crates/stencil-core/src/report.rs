@@ -21,7 +21,7 @@ pub struct BridgeReport {
     pub length_px: f64,
     /// Cut pixels it turned into material.
     pub(crate) pixels: usize,
-    pub cost: CostTerms,
+    pub(crate) cost: CostTerms,
     pub support: bool,
     /// `"walk"`, or `"search"` when no walk under `--max-bridge-length-px` left the island's group
     /// and it was joined by the cheapest path through the cut, of any length (absent in older

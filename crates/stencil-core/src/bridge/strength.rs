@@ -178,7 +178,7 @@ pub struct IslandStrength {
     pub(crate) island: u32,
     /// Centroid of its material, mm from the picture's top left corner (x right, y down).
     pub(crate) centre_mm: [f64; 2],
-    pub area_mm2: f64,
+    pub(crate) area_mm2: f64,
     /// Extent along its main axis and across it, mm.
     pub(crate) length_mm: f64,
     pub(crate) breadth_mm: f64,

@@ -55,7 +55,7 @@ impl Default for MaskConfig {
 /// undercut compensation and two-sided art need.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Etch {
-    pub thickness_mm: f64,
+    pub(crate) thickness_mm: f64,
     /// Depth etched per unit of sideways undercut.
     pub etch_factor: f64,
     /// Etched from both sides at once: front and back masks, each side etching half the depth.

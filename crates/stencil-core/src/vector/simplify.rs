@@ -36,7 +36,7 @@ pub struct SimplifyStats {
     #[serde(default)]
     pub(crate) curved_rings: usize,
     #[serde(default)]
-    pub arcs: usize,
+    pub(crate) arcs: usize,
 }
 
 /// Fitting the traced rings with lines and arcs (see [`simplify_and_fit`]): within `tol`, like

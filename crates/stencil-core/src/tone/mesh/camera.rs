@@ -14,7 +14,7 @@ pub(crate) const MARGIN: f32 = 0.05;
 pub struct Camera {
     pub eye: Vec3,
     pub(crate) right: Vec3,
-    pub up: Vec3,
+    pub(crate) up: Vec3,
     pub(crate) forward: Vec3,
     pub orthographic: bool,
     /// Pixels per unit of x/z (perspective) or per world unit (orthographic).
@@ -23,11 +23,11 @@ pub struct Camera {
     /// off the image centre so the model, not its bounding sphere, is centred.
     pub(crate) cx: f32,
     pub(crate) cy: f32,
-    pub width: u32,
-    pub height: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     /// The bounding sphere the camera orbits.
     pub(crate) center: Vec3,
-    pub radius: f32,
+    pub(crate) radius: f32,
 }
 
 /// The model's up axis: which of its axes points up in the world it was modelled in (Y for most
@@ -65,13 +65,13 @@ impl Up {
 /// Where the camera stands and how it sees, before framing.
 #[derive(Clone, Copy, Debug)]
 pub struct Orbit {
-    pub azimuth_deg: f32,
-    pub elevation_deg: f32,
+    pub(crate) azimuth_deg: f32,
+    pub(crate) elevation_deg: f32,
     /// The model's up axis: the azimuth turns around it.
     pub up: Up,
     /// Eye distance from the centre, in bounding radii (> 1).
     pub distance: f32,
-    pub orthographic: bool,
+    pub(crate) orthographic: bool,
 }
 
 /// The rendered image's size in pixels, to fit the model into (named apart from
