@@ -44,7 +44,9 @@ pub const MAX_OD_MM: f64 = 1000.0;
 pub struct Gobo {
     /// The letter size (`"B"`), or `None` for an `OD,IA` given in mm.
     pub letter: Option<String>,
+    /// Outside diameter, mm.
     pub od_mm: f64,
+    /// Image area (the opening's diameter), mm.
     pub ia_mm: f64,
     /// Fill the image area (the picture's shorter side is IA) and leave metal outside its
     /// circle, instead of inscribing the whole picture in it.
@@ -152,7 +154,9 @@ pub struct GoboReport {
     /// Where the letter sizes come from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub table: Option<String>,
+    /// Outside diameter, mm.
     pub od_mm: f64,
+    /// Image area diameter, mm.
     pub ia_mm: f64,
     /// "inscribed" (the whole picture inside the image area) or "cropped" (the image area
     /// filled, metal outside its circle).

@@ -29,6 +29,7 @@ pub struct Node {
 pub struct IslandMap {
     pub(crate) width: u32,
     pub(crate) height: u32,
+    /// Per pixel, row by row: its node, or [`CUT`].
     pub labels: Vec<u32>,
     /// `nodes[0]` is the frame (possibly of area 0 when no material touches the image border).
     pub nodes: Vec<Node>,

@@ -98,7 +98,11 @@ pub(crate) const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
 pub enum SizeError {
     /// A width or resolution that is not a finite number > 0 (`size` holds it).
     #[error("{} is not a size: use a finite number > 0", size_value(*size))]
-    NotPositive { size: Size },
+    NotPositive {
+        /// The size given.
+        size: Size,
+    },
+    /// The size makes pixels too small or too large.
     #[error(
         "{} makes the {width_px}x{height_px} px picture {} x {} mm with pixels of {} mm; {}; {}",
         size_name(*size), num(*width_mm), num(*height_mm), num(*mm_per_px), out_of_range_reason(*mm_per_px),
@@ -107,15 +111,21 @@ pub enum SizeError {
     OutOfRange {
         /// What set the size.
         size: Size,
+        /// The picture's width, px.
         width_px: u32,
+        /// Its height, px.
         height_px: u32,
+        /// The width that makes, mm.
         width_mm: f64,
+        /// The height, mm.
         height_mm: f64,
+        /// Millimetres per pixel.
         mm_per_px: f64,
         /// The values this picture accepts, rounded inwards to 4 significant digits, if any: in
         /// dots per inch for [`Size::Dpi`], else the picture's width in mm.
         range: Option<(f64, f64)>,
     },
+    /// Working pixels so fine a feature spans too many.
     #[error(
         "working pixels of {} mm make the material's smallest feature ({feature_mm} mm) \
          {} pixels wide, more than the {MAX_PX_PER_FEATURE} stencil works with (the clean-up's time \
@@ -127,17 +137,25 @@ pub enum SizeError {
         size: Size,
         /// The supersampling factor.
         factor: u32,
+        /// Millimetres per working pixel.
         mm_per_px: f64,
+        /// The material's smallest feature, mm.
         feature_mm: f64,
+        /// That feature in working pixels.
         feature_px: f64,
         /// What to change.
         fix: FinerFix,
     },
+    /// A speck filter radius too large for the image.
     #[error("a filter radius of {radius} px is larger than this {width}x{height} px working image allows: use 0..={max} (a quarter of its shorter side)")]
     FilterRadius {
+        /// The radius given, px.
         radius: u32,
+        /// The working image's width, px.
         width: u32,
+        /// Its height, px.
         height: u32,
+        /// The largest radius allowed, px.
         max: u32,
     },
 }

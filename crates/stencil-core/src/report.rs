@@ -18,10 +18,12 @@ pub struct BridgeReport {
     /// Width at right angles to the bridge, at its narrowest, in working pixels (see
     /// [`Bridge::width_px`]).
     pub width_px: u32,
+    /// Length along its strips, px.
     pub length_px: f64,
     /// Cut pixels it turned into material.
     pub(crate) pixels: usize,
     pub(crate) cost: CostTerms,
+    /// A second bridge, added because the first one's real error exceeded its estimate.
     pub support: bool,
     /// `"walk"`, or `"search"` when no walk under `--max-bridge-length-px` left the island's group
     /// and it was joined by the cheapest path through the cut, of any length (absent in older
@@ -73,13 +75,16 @@ pub struct Fidelity {
     pub(crate) pixels: usize,
     /// Material of the thresholded picture that the clean-up cut away.
     pub(crate) cleanup_removed_px: usize,
+    /// The same, % of the picture.
     pub cleanup_removed_pct: f64,
     /// Cut of the thresholded picture that the clean-up filled with material.
     pub(crate) cleanup_added_px: usize,
+    /// The same, % of the picture.
     pub cleanup_added_pct: f64,
     /// Material added after the two-tone (cut in the two-tone, material in the stencil): the
     /// bridges, and the clean-up around them and after them.
     pub(crate) bridges_px: usize,
+    /// The same, % of the picture.
     pub bridges_pct: f64,
     /// Of `bridges_px`, what the clean-up after bridging added apart from every bridge (a neck
     /// widened, a pocket filled, joined to no bridge through added material); the rest is the
@@ -90,6 +95,7 @@ pub struct Fidelity {
     pub(crate) apart_from_bridges_pct: f64,
     /// Pixels where the stencil differs from the thresholded picture, whatever changed them.
     pub(crate) changed_px: usize,
+    /// The same, % of the picture.
     pub changed_pct: f64,
 }
 
@@ -150,7 +156,9 @@ fn share_pct(n: usize, pixels: usize) -> f64 {
 pub struct Report {
     /// The input file.
     pub(crate) input: String,
+    /// Working width, px.
     pub width_px: u32,
+    /// Working height, px.
     pub height_px: u32,
     /// The 8-bit threshold level used (after `otsu`, the level it chose); absent for a mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -175,6 +183,7 @@ pub struct Report {
     pub(crate) regularize: Option<crate::tone::regularize::RegularizeStats>,
     /// Islands before bridging.
     pub islands: usize,
+    /// Every bridge drawn.
     pub bridges: Vec<BridgeReport>,
     /// Per island: bridges, span and sag estimate against the material's limit, why any were
     /// added for strength; totals (see `bridge::strength`). Absent in older reports.
@@ -195,6 +204,7 @@ pub struct Report {
     /// The material profile used (name) and where it was read from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<String>,
+    /// Where the material profile was read from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_source: Option<String>,
     /// The material's values themselves (as its profile file holds them): what `gcode` and
@@ -202,23 +212,25 @@ pub struct Report {
     /// open (`material_source` is only a note of where the values were read).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_values: Option<crate::material::MaterialValues>,
-    /// Physical size: millimetres per working pixel, the picture's size, the sheet margin, and
-    /// the simplification tolerance used by the vectors.
+    /// Millimetres per working pixel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mm_per_px: Option<f64>,
-    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none) and,
-    /// when it was chosen automatically (no `--scale`), how: the target pixel size, the factor
-    /// the rule asked for and any cap that lowered it.
+    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_factor: Option<u32>,
+    /// How the factor was chosen, when it was automatic.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_auto: Option<crate::tone::resolution::AutoScale>,
+    /// The picture's width, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
+    /// Its height, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub height_mm: Option<f64>,
+    /// The sheet margin, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub margin_mm: Option<f64>,
+    /// The vectors' simplification tolerance, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance_mm: Option<f64>,
     /// Whether the outlines were fitted for files that carry arcs (false for a G-code job

@@ -11,6 +11,7 @@ use std::time::Instant;
 /// ("tone", "filter", "islands", "bridge", ...), then "write" (encoding and writing the files).
 /// The CLI draws a progress bar from it; the library draws nothing.
 pub trait Progress: Send + Sync {
+    /// Told as the stage `name` starts.
     fn stage(&self, name: &str);
 }
 

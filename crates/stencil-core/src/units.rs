@@ -28,6 +28,7 @@ pub enum Size {
 /// Millimetres per working pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scale {
+    /// Millimetres per working pixel (> 0).
     pub mm_per_px: f64,
 }
 

@@ -40,6 +40,7 @@ pub struct Dropped {
     /// Its centre (mean of its pixels), mm from the picture's top left corner (pixels until the
     /// pipeline scales it).
     pub at_mm: [f64; 2],
+    /// Its area, mm² (px² until the pipeline scales it).
     pub area_mm2: f64,
     /// What dropping it changes, and what its cheapest bridge would (None: more than the drop,
     /// the search stopped there), in pixel-costs (`0.1 + |gray − threshold|` summed).

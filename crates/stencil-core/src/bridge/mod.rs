@@ -142,7 +142,9 @@ impl Default for BridgeConfig {
 pub struct CostTerms {
     pub(crate) intensity: f64,
     pub(crate) length: f64,
+    /// `w2·κ`: how much the strip bends.
     pub curvature: f64,
+    /// `w3·σ²`: how much the gray varies along it.
     pub variance: f64,
     pub(crate) total: f64,
 }
@@ -168,10 +170,12 @@ pub struct Bridge {
     pub nodes: [u32; 2],
     /// Width at right angles to it at its narrowest, px (see `draw::Plan::width`).
     pub width_px: u32,
+    /// Length along the strips, px.
     pub length_px: f64,
     /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
     /// final stencil (the clean-up around the bridges included).
     pub(crate) pixels: usize,
+    /// Its cost, term by term.
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
     pub support: bool,
@@ -189,7 +193,9 @@ pub struct Bridge {
 /// The bridged bit grid and its bridges.
 #[derive(Clone, Debug)]
 pub struct Bridged {
+    /// The stencil: material true, bridges drawn in.
     pub bits: BitGrid,
+    /// Every bridge, the tree's first.
     pub bridges: Vec<Bridge>,
     /// Per island, in node order: its bridges, span and sag estimate (see `strength`).
     pub strength: Vec<strength::IslandStrength>,
@@ -275,6 +281,7 @@ impl Bridged {
     }
 }
 
+/// Why the islands could not be joined, or a setting is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum BridgeError {
     /// No path through the cut leaves the island's group. Never for a labelling of the bit grid
@@ -284,18 +291,36 @@ pub enum BridgeError {
         "island {island} at pixel ({x}, {y}) has no path through the cut to the frame or another \
          island: the island map does not match the bit grid"
     )]
-    Unreachable { island: u32, x: u32, y: u32 },
+    Unreachable {
+        /// The island's node.
+        island: u32,
+        /// A pixel of it, column.
+        x: u32,
+        /// Row.
+        y: u32,
+    },
     /// The island can be joined only through pixels the user forbade (`--keep-out`,
     /// `--no-bridge-near`). Its position is in millimetres from the picture's top left corner.
     #[error(
         "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept \
          free of bridges: lighten the keep-out mask or move the disc there, or cut such islands away"
     )]
-    KeptOut { island: u32, x_mm: f64, y_mm: f64 },
+    KeptOut {
+        /// The island's node.
+        island: u32,
+        /// Where it is, mm right.
+        x_mm: f64,
+        /// Mm down.
+        y_mm: f64,
+    },
+    /// A [`BridgeConfig`] value out of its range.
     #[error("bridge setting {name} = {value} is invalid: {why}")]
     BadSetting {
+        /// The setting's field name.
         name: &'static str,
+        /// Its value, as printed.
         value: String,
+        /// What it must be.
         why: &'static str,
     },
 }

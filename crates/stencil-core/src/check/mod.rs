@@ -58,6 +58,7 @@ pub(crate) fn allowance_px(tolerance_px: f64) -> f64 {
     1.0 + 2.0 * tolerance_px
 }
 
+/// Why the check could not measure the outline.
 #[derive(Debug, thiserror::Error)]
 pub enum CheckError {
     /// A point of the outline the triangulation cannot take (only an absurd size, which the
@@ -67,8 +68,11 @@ pub enum CheckError {
          check the picture's size and the margin"
     )]
     Coordinate {
+        /// The point, mm right.
         x_mm: f64,
+        /// Mm down.
         y_mm: f64,
+        /// What is wrong with it.
         problem: &'static str,
     },
     /// The picture breaks into too many pieces to measure ([`bound_pieces`]).
@@ -78,8 +82,11 @@ pub enum CheckError {
          pieces cannot hold together as a stencil (is it a stencil, with white for material?)"
     )]
     TooManyPieces {
+        /// Pieces of material.
         material: usize,
+        /// Pieces of cut.
         cut: usize,
+        /// The most the check measures.
         limit: usize,
     },
 }
@@ -133,12 +140,16 @@ impl std::fmt::Display for ViolationKind {
 /// One violation: where (mm, y down from the picture's top-left) and how wide.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Violation {
+    /// What is too narrow (or floats).
     pub kind: ViolationKind,
+    /// Where, mm right.
     pub x_mm: f64,
+    /// Mm down.
     pub y_mm: f64,
     /// The measured width (none for a floating piece).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
+    /// The width the material needs there.
     pub required_mm: f64,
     /// Whether the raster cross-check (opening/closing by half the required width) removes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -165,21 +176,28 @@ impl std::fmt::Display for Violation {
 /// The result of the check, as recorded in `report.json`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CheckReport {
+    /// The material profile's name.
     pub material: String,
+    /// The narrowest bridge the material holds, mm.
     pub min_bridge_mm: f64,
+    /// The narrowest web or hole it holds, mm.
     pub min_feature_mm: f64,
     /// Pieces of material (1 for a valid stencil).
     pub pieces: usize,
     /// Narrowest neck measured per kind (bridges are only told apart when the bridges are known).
     pub narrowest_bridge_mm: Option<f64>,
+    /// Narrowest web of material, mm.
     pub narrowest_web_mm: Option<f64>,
+    /// Narrowest hole, mm.
     pub narrowest_hole_mm: Option<f64>,
+    /// Every neck narrower than required, and every floating piece.
     pub violations: Vec<Violation>,
     /// Size of the triangulation, for the curious.
     pub triangles: usize,
 }
 
 impl CheckReport {
+    /// No violations.
     pub fn passed(&self) -> bool {
         self.violations.is_empty()
     }

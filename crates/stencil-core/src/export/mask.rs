@@ -27,6 +27,7 @@ use crate::vector::CutGeometry;
 /// Mask options.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaskConfig {
+    /// Resolution of `mask.png`, dots per inch.
     pub dpi: f64,
     /// Clear (white) where metal stays instead of black.
     pub invert: bool,
@@ -107,6 +108,7 @@ impl Etch {
 pub struct MaskReport {
     /// Each mask: its files, the side it is for and whether it is mirrored.
     pub masks: Vec<MaskSide>,
+    /// Resolution of the PNG masks, dots per inch.
     pub dpi: f64,
     /// Where metal stays, in words: "black where metal stays (positive resist)" or "clear where
     /// metal stays (negative resist)"; light passes where the stencil is cut.
@@ -129,8 +131,11 @@ pub struct MaskReport {
 pub struct MaskSide {
     /// "single", "front" or "back".
     pub side: String,
+    /// The PNG mask's file name.
     pub png: String,
+    /// The SVG mask's file name.
     pub svg: String,
+    /// Drawn mirrored (for the back, or the emulsion side down).
     pub mirrored: bool,
 }
 

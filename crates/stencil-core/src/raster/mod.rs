@@ -22,12 +22,16 @@ pub(crate) use smooth::{blur, box_average, box_average_bits, convolve};
 /// dark area of the source picture hurts the picture more than one over a light area.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Gray {
+    /// Width, px.
     pub width: u32,
+    /// Height, px.
     pub height: u32,
+    /// Row by row, `width × height` values.
     pub data: Vec<f32>,
 }
 
 impl Gray {
+    /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: f32) -> Self {
         Gray {
             width,
@@ -46,6 +50,7 @@ impl Gray {
         self.data[self.idx(x, y)]
     }
 
+    /// Set the pixel at (x, y).
     #[inline]
     pub fn set(&mut self, x: u32, y: u32, v: f32) {
         let i = self.idx(x, y);
@@ -81,12 +86,16 @@ impl Gray {
 /// A bit per pixel: `true` = material (the sheet that stays, drawn white), `false` = cut (drawn black).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BitGrid {
+    /// Width, px.
     pub width: u32,
+    /// Height, px.
     pub height: u32,
+    /// Row by row, `width × height` bits.
     pub data: Vec<bool>,
 }
 
 impl BitGrid {
+    /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: bool) -> Self {
         BitGrid {
             width,
@@ -119,11 +128,13 @@ impl BitGrid {
         })
     }
 
+    /// The index of (x, y) in `data`.
     #[inline]
     pub fn idx(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
     }
 
+    /// Whether (x, y) is material.
     #[inline]
     pub fn get(&self, x: u32, y: u32) -> bool {
         self.data[self.idx(x, y)]
@@ -140,20 +151,24 @@ impl BitGrid {
         }
     }
 
+    /// Make (x, y) material (`true`) or cut.
     #[inline]
     pub fn set(&mut self, x: u32, y: u32, v: bool) {
         let i = self.idx(x, y);
         self.data[i] = v;
     }
 
+    /// Pixels in all.
     pub fn len(&self) -> usize {
         self.data.len()
     }
 
-    pub(crate) fn is_empty(&self) -> bool {
+    /// No pixels.
+    pub fn is_empty(&self) -> bool {
         self.data.is_empty()
     }
 
+    /// Pixels of material.
     pub fn count_material(&self) -> usize {
         self.data.iter().filter(|&&b| b).count()
     }
@@ -194,7 +209,9 @@ pub(crate) fn edge_neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4
 /// threshold change re-ran. Nothing after the threshold changes it.
 #[derive(Clone, Debug)]
 pub struct TwoTone {
+    /// The two tones: material true.
     pub bits: BitGrid,
+    /// The gray they were thresholded from.
     pub gray: std::sync::Arc<Gray>,
 }
 

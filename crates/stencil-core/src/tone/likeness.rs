@@ -266,11 +266,14 @@ fn map2(x: &Gray, y: &Gray, f: impl Fn(f32, f32) -> f32) -> Gray {
 pub struct LevelChoice {
     /// The level chosen and its likeness (see [`likeness`]).
     pub(crate) level: u8,
+    /// Its likeness.
     pub likeness: f64,
-    /// The likeness at the default level 128 and at Otsu's level, measured the same way (the
-    /// chosen level is never worse than either: both are among the candidates).
+    /// The likeness at the default level 128, measured the same way (the chosen level is never
+    /// worse than it or Otsu's: both are among the candidates).
     pub likeness_128: f64,
+    /// Otsu's level.
     pub otsu_level: u8,
+    /// The likeness at Otsu's level.
     pub likeness_otsu: f64,
     /// Every level tried and its likeness, in the order tried (on the reduced grid for a large
     /// picture; the finalists again at full size).

@@ -46,6 +46,7 @@ pub mod steps {
 pub struct CutGeometry {
     /// Size of the picture, in mm (the sheet is this plus `margin_mm` on every side).
     pub width_mm: f64,
+    /// Its height, mm.
     pub height_mm: f64,
     /// The sheet's edge: the picture grown by the margin (`-margin .. width + margin`).
     pub outline: Rect<f64>,
@@ -137,6 +138,7 @@ impl Rim {
 /// Options of the vector stage, in millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VectorConfig {
+    /// Millimetres per working pixel.
     pub scale: Scale,
     /// Largest distance simplification may move an edge.
     pub tolerance_mm: f64,
@@ -200,6 +202,7 @@ impl VectorConfig {
 /// What the vector stage produced, for the report.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct VectorStats {
+    /// What simplification did.
     pub simplify: SimplifyStats,
     /// Cut regions as designed (the kerf can only remove ones narrower than itself, which the
     /// check flags as thin holes) and pieces of material.
@@ -207,6 +210,7 @@ pub struct VectorStats {
     pub(crate) material_pieces: usize,
 }
 
+/// Why the outlines could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum VectorError {
     /// The simplification tolerance ([`VectorConfig::tolerance_mm`]) given.
@@ -217,6 +221,7 @@ pub enum VectorError {
         "the margin must be a finite number > 0 mm (the sheet continues beyond the picture), got {0}"
     )]
     Margin(f64),
+    /// A stencil of 0 pixels.
     #[error("the stencil image is empty (0 pixels)")]
     Empty,
     /// The geometry cannot go through the polygon clipper (see [`clip`]).
@@ -224,6 +229,7 @@ pub enum VectorError {
     Clip {
         /// What was being computed, e.g. "the kerf offset".
         what: &'static str,
+        /// What the clipper said.
         cause: clip::ClipError,
     },
 }

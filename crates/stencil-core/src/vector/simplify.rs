@@ -25,8 +25,11 @@ use super::trace::Guard;
 /// What simplification did, for the report.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
 pub struct SimplifyStats {
+    /// Rings simplified.
     pub rings: usize,
+    /// Points before.
     pub points_in: usize,
+    /// Points after.
     pub points_out: usize,
     /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
     pub(crate) fallbacks: usize,

@@ -25,6 +25,7 @@ use crate::raster::BitGrid;
 /// without a repeated closing point.
 #[derive(Clone, Debug)]
 pub struct Ring {
+    /// Its points, in order.
     pub pts: Vec<[f64; 2]>,
     /// Per point, the centres of the material and the cut pixel it lies between: simplification
     /// keeps each on its own side, so the outline still samples to the same raster.

@@ -12,10 +12,12 @@ pub(crate) const MARGIN: f32 = 0.05;
 /// A pinhole (or orthographic) camera with its image plane already fitted to the model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Where the camera is, model units.
     pub eye: Vec3,
     pub(crate) right: Vec3,
     pub(crate) up: Vec3,
     pub(crate) forward: Vec3,
+    /// Parallel projection instead of perspective.
     pub orthographic: bool,
     /// Pixels per unit of x/z (perspective) or per world unit (orthographic).
     pub focal_px: f32,
@@ -35,12 +37,18 @@ pub struct Camera {
 /// its elevation rises towards it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Up {
+    /// +X is up.
     X,
+    /// +Y is up.
     #[default]
     Y,
+    /// +Z is up.
     Z,
+    /// −X is up.
     NegX,
+    /// −Y is up.
     NegY,
+    /// −Z is up.
     NegZ,
 }
 
@@ -80,8 +88,11 @@ pub struct Orbit {
 pub enum RenderSize {
     /// This many pixels on the long side; the other side follows the model's outline.
     LongSide(u32),
+    /// Exactly this size (the model fitted inside).
     Exact {
+        /// Width, px.
         width: u32,
+        /// Height, px.
         height: u32,
     },
 }

@@ -22,8 +22,11 @@ use super::visibility::{VisBuffer, NONE};
 /// Which lines to draw.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum LineMode {
+    /// No lines.
     None,
+    /// Silhouettes (occluding contours) only.
     Silhouette,
+    /// Silhouettes and suggestive contours (DeCarlo et al. 2003).
     #[default]
     Suggestive,
 }
