@@ -1,22 +1,15 @@
 //! Gobos: a round sheet for a lighting fixture's gate, its picture in the image area.
 //!
-//! A gobo is a disc of outside diameter OD; the fixture projects the image area, a centred
-//! circle of diameter IA. The picture is placed at the disc's centre, inscribed in the image area
-//! (its diagonal is IA, so none of it is lost), or with `crop` made as large as the image area's
-//! circle fits inside it (its shorter side is IA) and everything outside the circle left as
-//! metal. The rim (the circle of OD) is the outline that is cut: in the SVG, the DXF, the
-//! G-code and the etch masks.
+//! A disc of outside diameter OD; the fixture projects the centred image area of diameter IA. The
+//! picture is inscribed in the image area (its diagonal is IA) or, with `crop`, fills it (its
+//! shorter side is IA) with metal outside the circle. The rim (OD) is cut in every output.
 //!
-//! Letter sizes differ between makers by a few millimetres, so they come from one maker's
-//! published table: Rosco's, as listed in the "Rosco Labs" row of the gobo size table of the
-//! Stage Lighting Primer (<https://stagelightingprimer.com/slfs-gobos.html>, "Standard Sizes"):
-//! A 100 / 75 mm, B 86 / 64.5 mm, M 66 / 48 mm, E 37.5 / 28 mm (outside diameter / image area).
-//! That table gives no D or G size; any other size is given as `OD,IA` in millimetres (e.g.
-//! `53.3,38` for a D size quoted elsewhere).
+//! Letter sizes are Rosco's, from the "Rosco Labs" row of the Stage Lighting Primer's table
+//! (<https://stagelightingprimer.com/slfs-gobos.html>, "Standard Sizes"): A 100 / 75 mm,
+//! B 86 / 64.5 mm, M 66 / 48 mm, E 37.5 / 28 mm (OD / IA); any other size as `OD,IA` in mm.
 //!
-//! Polarity: metal stays where the stencil is material, and light passes where it is cut, so a
-//! bright subject on a dark ground is projected as a dark subject in light unless the tones are
-//! swapped (`--invert`): [`GoboReport::warning`] says so when most of the image area is clear.
+//! Polarity: metal stays where the stencil is material, so a bright subject projects dark unless
+//! the tones are swapped (`--invert`): [`GoboReport::warning`] says so when most of it is clear.
 
 use geo::{Area, Coord, Rect};
 

@@ -46,14 +46,10 @@ impl IslandMap {
         self.labels[y as usize * self.width as usize + x as usize]
     }
 
-    /// The pixels of island `node` (not the frame) as runs along rows, `(y, x0, x1)` with
-    /// `x0..=x1` inclusive, in scan order, found from its border alone: O(its border and runs),
-    /// not the image's area. Why it works: an island never touches the image's edge, so the two
-    /// ends of each of its runs along a row have a cut neighbour (a material one would be of the
-    /// same 4-connected piece) and are border pixels, and between two of its border pixels that
-    /// follow each other along a row the pixels are either all its own (inside one run) or none
-    /// (any own pixel there would belong to a run whose ends lie between them): the label of the
-    /// pixel right of the first says which.
+    /// The pixels of island `node` (not the frame) as runs along rows, `(y, x0, x1)` with `x0..=x1`
+    /// inclusive, in scan order, from its border alone. An island never touches the image's edge, so
+    /// both ends of each run are border pixels, and between two of its border pixels that follow each
+    /// other along a row the pixels are all its own or none: the label right of the first says which.
     pub(crate) fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
         let b = &self.nodes[node].border;
         let w = self.width as usize;
@@ -275,13 +271,10 @@ pub fn floating_count(bits: &BitGrid) -> usize {
 }
 
 /// [`floating_count`] of `after`, a grid that only added material to `before` (`map` being
-/// [`label`] of `before`), from the added pixels alone: the pieces of `after` are `map`'s nodes
-/// joined through the added pixels, so a union-find over the nodes and the added pixels counts
-/// them, and a piece is joined when it holds the frame or an added pixel on the image border.
-/// Why: after the bridges only the few pixels they (and the clean-up around them) added can join
-/// anything, and counting the pieces of the whole grid again was a 1-megapixel pass of its own.
-/// O(pixels) for one comparison of the two grids, then O(added pixels). When
-/// `after` lacks a pixel of `before`'s material, the whole grid is counted.
+/// [`label`] of `before`), from the added pixels alone: a union-find over `map`'s nodes and the
+/// added pixels, a piece being joined when it holds the frame or an added pixel on the border.
+/// O(pixels) for one comparison, then O(added pixels). When `after` lacks a pixel of `before`'s
+/// material, the whole grid is counted.
 pub(crate) fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid) -> usize {
     let n = before.data.len();
     let (w, h) = (after.width as usize, after.height as usize);

@@ -43,15 +43,10 @@ pub fn default_for(tool: &Tool) -> &'static str {
     }
 }
 
-/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4.
-///
-/// Why 4: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
-/// so a bridge many times wider adds strength that handling never calls on while it hides more of
-/// the picture. Four times the minimum still lets the width follow the island (the rule gives an
-/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 16 mm across get 1 to 4 mm,
-/// larger ones 4 mm, the 40 px the bridge stage allowed at the default 0.1 mm per pixel), and
-/// keeps bridges in the range laser-service and stencil guides draw (1–5 mm in card and film, up
-/// to 15 mm in 3 mm plywood).
+/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4. A bridge
+/// many times the minimum adds strength handling never calls on while it hides the picture; four
+/// still lets the width follow the island and stays in the range stencil guides draw (1–5 mm in
+/// card and film, up to 15 mm in 3 mm plywood).
 pub(crate) const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 
 /// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are

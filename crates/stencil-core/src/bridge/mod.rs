@@ -3,29 +3,18 @@
 //! [`connect`] runs the method of Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
 //! through Error Minimization" (NPAR 2008):
 //! 1. `candidates`: every island border pixel, chained along the island's contours;
-//! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
-//!    two-tone's where the gray is flat) to material of another node (`reach` stops walks that
-//!    can no longer arrive);
-//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
-//!    as wide as the bridge needs, cheapest kept;
-//! 4. `tree`: Prim from the frame over island groups, edge cost = cheapest window between them;
-//!    a group no walk leaves is joined by the cheapest path through the cut of any length
-//!    (`search::search`), so every island is joined: the length limit is a preference (walks
-//!    under it come first), not a cut-off;
-//!    then `strength`: islands whose size, shape or sag estimate asks for more than the tree's
-//!    bridge get more, from their own candidates, spread apart;
-//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first); `outline`: drawn
-//!    (`draw`) as the polygon of its outer strips, or as a straight band (`band`), its width
-//!    measured across (`across`); halved plus a support bridge when its real error exceeds the
-//!    estimate by more than the margin.
+//! 2. `strips`: from each, a walk through the cut along the gray gradient to material of another
+//!    node (`reach` stops walks that can no longer arrive);
+//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over windows as wide as the bridge needs;
+//! 4. `tree`: Prim from the frame over island groups; a group no walk leaves is joined by the
+//!    cheapest path through the cut of any length (`search`), so the length limit is a preference;
+//!    then `strength`: more bridges, spread apart, for islands whose size or sag asks for them;
+//! 5. `grow`: each chosen strip grown to its width; `outline`: drawn (`draw`) as the polygon of
+//!    its outer strips or as a band (`band`), measured across (`across`); halved plus a support
+//!    bridge when its real error exceeds the estimate by more than the margin.
 //!
-//! Work is in proportion to the islands' total perimeter times the walk length: the fields the
-//! walks steer by are evaluated only where they walk. The only O(pixels) steps are copying the
-//! bit grid for the result, the caller's labelling and, only when some group needs it, the
-//! fallback search (each search explores at most the cut, and stops at its first arrival).
-//!
-//! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
-//! added, names kept.
+//! Work is in proportion to the islands' perimeter times the walk length; the only O(pixels) steps
+//! are copying the bit grid, the caller's labelling and the fallback search when a group needs it.
 
 mod across;
 mod band;
@@ -57,21 +46,11 @@ use crate::raster::{BitGrid, TwoTone};
 use crate::timing::Timings;
 
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
-///
-/// The terms are normalised so that each is about 1 for a typical strip of the image (see
-/// `cost`): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
-/// in 0 (straight) .. 1 (round), σ² is the variance of strip costs over the window divided by
-/// their squared mean.
-///
-/// The defaults weigh what the viewer sees, the intensity error, twice as much as the length,
-/// and leave curvature off. κ over a 15-candidate window is about 0.2 on a 10 px radius bend and
-/// 0.5 on a 5 px one, so w2 = 4 (the default before the shortest gaps were offered) makes a bend
-/// cost about one typical strip more. But two pieces come closest where one of them is convex,
-/// so the shortest crossings start on bends, and any default w2 > 0 moved bridges off them onto
-/// longer, darker strips: on the corpus's real photographs (`corpus.py --quality 3`) the
-/// intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to 0.90× at 0.25 and
-/// 0.93× at 1 (w0 = 1 then), and w0 = 2 took a further 1–2 % off. Raise `w_curvature` to keep
-/// bridges off curved contour (a serif, a petal's tip) at that price.
+/// Each term is about 1 for a typical strip (see `cost`). The defaults weigh the intensity error
+/// twice the length and leave curvature off: the shortest crossings start on bends, and any
+/// w2 > 0 moved bridges onto longer, darker strips (on the corpus's photographs, `corpus.py
+/// --quality 3`, the intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to
+/// 0.93× at 1). Raise `w_curvature` to keep bridges off curved contour at that price.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BridgeConfig {
     /// w0, default 2: intensity error ΣI (a typical-length strip over black = 1).
@@ -227,21 +206,12 @@ impl Bridged {
             .collect()
     }
 
-    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
-    /// grid the bridges were drawn into, and return the added material that belongs to no
-    /// bridge. Why: the clean-up after bridging (the tidy pass, the settle, the neck repairs) adds
-    /// and removes material around the bridges, so the counts taken when they were drawn no
-    /// longer describe the stencil written.
-    ///
-    /// A pixel that is material now and was cut in `before` counts for the bridge that drew it if
-    /// it still stands there, else for the bridge it joins through such pixels (4-connected,
-    /// fewest steps first). Added material that touches no bridge that way (a neck widened in
-    /// the picture's own material, a pocket filled far from any bridge) is not a bridge's: it is
-    /// the number returned, so that the bridges' counts and it add up to all the material added.
-    /// O(added pixels) plus one pass over the picture. (Earlier, such material went to the
-    /// nearest bridge through a breadth-first search over the whole picture: 14-22 ms on a
-    /// 1.2-megapixel photo, whose thousands of such pixels lay mostly hundreds of pixels from
-    /// any bridge, so "nearest" said nothing.)
+    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now (`before`: the grid the
+    /// bridges were drawn into), since the clean-up after bridging adds and removes material around
+    /// them. A pixel added since `before` counts for the bridge that drew it if it still stands, else
+    /// for the bridge it joins through such pixels (4-connected, fewest steps first); added material
+    /// joined to no bridge is returned, so the counts and it add up to all the material added.
+    /// O(added pixels) plus one pass over the picture.
     pub(crate) fn recount(&mut self, before: &BitGrid) -> usize {
         let n = self.bits.data.len();
         let added = |i: usize| self.bits.data[i] && !before.data[i];

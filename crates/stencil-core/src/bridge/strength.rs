@@ -1,48 +1,30 @@
 //! Bridges that hold: after the tree has joined every island, give islands the bridges their
-//! size, shape and weight need (issue 13).
+//! size, shape and weight need (issue 13). One bridge is a hinge: an island on it flaps under a
+//! spray can. Bridges are added from the island's own scored candidates (see `Graph::by_pair`):
 //!
-//! One bridge is a hinge: an island on it flaps under a spray can and tears in a gobo holder. For
-//! each island this module decides how many bridges it needs and adds them from the island's own
-//! scored candidates (any candidate whose strip starts or lands on the island, to the frame or to
-//! another island; see `Graph::by_pair`), in this order:
+//! 1. **Count**: at least `bridges_per_island`, and two for an island longer than the material's
+//!    `two_bridges_above_mm`; each added one at least `min(90°, 360° / count)` round from the
+//!    others as seen from the island's centroid, edge to edge (else the farthest round), cheapest
+//!    first.
+//! 2. **Ends**: a long thin island (length ≥ `THIN_RATIO` × breadth, longer than
+//!    `two_bridges_above_mm`) is held within `END_REACH` of its length of each end (a beam's
+//!    least-sag supports, the Airy and Bessel points, lie 0.21–0.22 in).
+//! 3. **Sag**: while the sag estimate exceeds `max_sag_mm`, of the `TRIALS` cheapest candidates
+//!    within half the span of the island's farthest point from its bridges, the one that shortens
+//!    the span most; it stops within the limit, when no candidate is within 0.9 of the span of
+//!    that point, or at `MAX_FOR_SAG` bridges.
 //!
-//! 1. **Count**: at least `bridges_per_island` (`--bridges-per-island`, default 1), and at least
-//!    two for an island longer (along its main axis) than the material's `two_bridges_above_mm`.
-//!    Each added bridge lies at least `min(90°, 360° / count)` from every other bridge of the
-//!    island as seen from its centre (its pixels' centroid), edge to edge (so the bridge may grow
-//!    to either side of where it was scored and still be that far round), the cheapest such
-//!    candidate; where the shape has none that far round, the one farthest round.
-//! 2. **Ends**: a long thin island (length at least `THIN_RATIO` times its breadth, and longer
-//!    than `two_bridges_above_mm`) is held near both ends: within `END_REACH` (a fifth) of its
-//!    length of each end (the supports that minimise a uniformly loaded beam's sag lie 0.21–0.22
-//!    of its length in from the ends, the Airy and Bessel points), the cheapest there.
-//! 3. **Sag**: while the sag estimate exceeds the material's `max_sag_mm`, a bridge near the
-//!    island's farthest point from its bridges: of the `TRIALS` cheapest candidates within half
-//!    the span of that point, the one that shortens the span most; the nearest one if none is
-//!    that near. It stops when the sag is within the limit, when
-//!    no candidate lies nearer than 0.9 of the span to the farthest point (the farthest material
-//!    is out of reach of any bridge: a large island's middle), or at `MAX_FOR_SAG` bridges.
-//!
-//! **The sag model.** The *span* L of an island is the farthest any of its material lies from its
-//! nearest bridge, measured inside the island (8-neighbour paths over its pixels, diagonal steps
-//! √2 as 7/5, only across corners where both side pixels are material too; so a ring's span runs
-//! round the ring, not across its hole). The island is taken as a strip of unit width and span L
-//! under its own weight q = ρ·g·t per unit area, of stiffness E·I with I = t³/12 per unit width.
-//! Its sag is estimated as
+//! **The sag model.** The *span* L is the farthest any material lies from its nearest bridge,
+//! measured inside the island (8-neighbour paths, diagonals √2 as 7/5, so a ring's span runs round
+//! it). The island is a unit-width strip of span L under its weight q = ρ·g·t, stiffness E·t³/12:
 //!
 //! ```text
 //! δ = 5·q·(2L)⁴ / (384·E·I) = 5·ρ·g·L⁴ / (2·E·t²)
 //! ```
 //!
-//! the middle of a strip simply supported on two bridges 2L apart (every point of it within L of
-//! a bridge). The same L as a cantilever clamped at one bridge sags 3/5 of this (q·L⁴ / 8EI), so
-//! the estimate errs on the safe side for both the span between two bridges and an overhang past
-//! the last one. It is a strip estimate, not a plate one: a plate held along more of its edge is
-//! stiffer. It does not count the bridge itself bending (one bridge is a hinge: that is the count
-//! rule's business), nor an island hanging from another island that sags in turn.
-//!
-//! Support bridges the grow stage adds later (`super::plan_bridge`) are not counted: the
-//! estimate is for the bridges chosen here, which they only add to.
+//! the middle of a strip on two bridges 2L apart; a cantilever of L sags 3/5 of this, so it errs
+//! safe for both. A strip, not a plate; the bridge's own bending, an island hanging from a sagging
+//! island and the grow stage's later support bridges are not counted.
 
 use std::cmp::Reverse;
 use std::collections::HashMap;

@@ -3,34 +3,23 @@
 //! `min_feature_mm`.
 //!
 //! ## How widths are measured
-//! A constrained Delaunay triangulation (spade) of every ring of the sheet (outline, holes, island
-//! outlines) splits the sheet into triangles that lie wholly in material or wholly in a cut (told
-//! apart by which side of a ring they lie on: material is left of every ring). On a large sheet it
-//! is built in parallel slabs and checked to tile the sheet (module `cdt`). Inside a region, the *chords* are
-//! the triangle edges that are not boundary edges (vertex to vertex), and the perpendiculars from a
-//! vertex to the boundary edge opposite it in its triangle when the foot falls inside that edge.
-//! A chord is a *neck* when its ends lie on two different rings (a web between two holes, or
-//! between a hole and the sheet's edge), or on the same ring with more than `NECK_RATIO` times its
-//! length of boundary between them either way round (so cutting across a corner, or across the tip
-//! of a round end, is not a neck, but the neck of a bridge or a long spur is). The narrowest neck of
-//! a region is its shortest neck chord.
-//!
-//! A material neck is a *bridge* when its midpoint lies in a bridge polygon (when the bridges are
-//! known, as in `make` and `check` on an output folder); without the bridge list (a bare PNG), every
-//! material neck whose two ends lie on the same ring (it holds a part that would fall out if it
-//! broke) is checked as a bridge. Other material necks are webs; cut necks are holes.
+//! A constrained Delaunay triangulation of every ring of the sheet (module `cdt`) splits it into
+//! triangles wholly in material or in a cut (material is left of every ring). A region's *chords*
+//! are its triangles' inner edges and the perpendiculars from a vertex to the opposite boundary
+//! edge. A chord is a *neck* when its ends lie on two rings, or on one ring with more than
+//! `NECK_RATIO` times its length of boundary between them either way (so a corner is not a neck,
+//! a bridge or a long spur is). A material neck is a *bridge* when its midpoint lies in a bridge
+//! polygon; without the bridge list (a bare PNG), every material neck with both ends on one ring.
+//! Other material necks are webs; cut necks are holes.
 //!
 //! ## Discretisation
-//! Marching squares puts the edges of a straight run of pixels on the pixel boundaries, so a raster
-//! neck exactly N pixels wide measures exactly N × mm_per_px; diagonal necks measure their Euclidean
-//! width within about ±0.7 px, and simplification may move each side by up to `--tolerance-mm`.
-//! A width passes when it is at least the requirement (no slack here); the pipeline instead asks the
-//! bridge stage and the filter for `allowance_px` more than the material's minimum, so what it
-//! produces passes.
+//! A raster neck N pixels wide measures exactly N × mm_per_px; diagonal ones within about ±0.7 px,
+//! and simplification may move each side by `--tolerance-mm`. A width passes at the requirement
+//! exactly; the pipeline asks the earlier stages for `allowance_px` more, so what it makes passes.
 //!
 //! ## Cross-check
-//! Each violation is confirmed on the raster by a morphological opening (material necks) or closing
-//! (holes) with a disc of half the required width: it must remove the neck at the reported position.
+//! Each violation is confirmed on the raster by an opening (material) or closing (holes) with a
+//! disc of half the required width: it must remove the neck at the reported position.
 
 use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
 use rayon::prelude::*;

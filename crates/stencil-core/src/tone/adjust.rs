@@ -169,20 +169,14 @@ pub(crate) fn bilateral(g: &Gray, sigma_px: f32, tone_sigma: f32) -> Gray {
     ))
 }
 
-/// Abstraction in the spirit of DeCarlo and Santella (2002): the picture as a few regions of
-/// flat tone, fine detail merged away, edges between tones kept. Their method segments at several
-/// scales and keeps detail where the eye rests; without eye tracking we keep their core move,
-/// merge small regions of similar tone, uniformly:
-///
+/// Abstraction after DeCarlo and Santella (2002): a few regions of flat tone, edges kept. Without
+/// their eye tracking we keep their core move, merging small regions of similar tone uniformly:
 /// 1. smooth, keeping edges (bilateral, spatial σ = 1 + 3·s pixels);
-/// 2. quantise the tone into `16 − 12·s` bands and label the connected regions of one band
-///    (8-connected, `imageproc`'s region labelling);
-/// 3. merge every region smaller than `(s · diagonal / 40)²` pixels into the neighbouring region
-///    of the nearest mean tone, smallest first (union–find over the regions' adjacency);
+/// 2. quantise into `16 − 12·s` bands and label the 8-connected regions of one band;
+/// 3. merge every region under `(s · diagonal / 40)²` pixels into the neighbour of nearest mean
+///    tone, smallest first (union–find);
 /// 4. paint each region its mean smoothed tone.
-///
-/// `s` is the strength, 0..=1: at 1 a 600-pixel picture keeps only regions of about 20 × 20
-/// pixels or more in four bands.
+/// `s` is the strength, 0..=1.
 pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let s = strength.clamp(0.0, 1.0);
     if s == 0.0 || g.data.is_empty() {

@@ -11,16 +11,11 @@ use super::ToneError;
 use crate::limits;
 use crate::raster::Gray;
 
-/// Load PNG, JPEG, BMP or TIFF of any colour type as a gray in 0..1 (alpha composited over white,
-/// since a transparent pixel of a drawing is paper, not ink).
-///
-/// The dimensions are read from the header first: an image over `max_pixels`, or one whose
-/// decoded buffers would need more than `limits::MAX_DECODE_BYTES` whatever `max_pixels` says, is
-/// refused before any pixel buffer is allocated, so a hostile header that claims 100000x100000
-/// costs nothing. The decoder's buffer is allocated fallibly and decoded straight into gray (no
-/// wider copy of the picture in between: 5 bytes per pixel for an 8-bit gray picture). A JPEG that
-/// ends before its end-of-image marker is refused as truncated (the decoder would fill the missing
-/// part with gray).
+/// Load PNG, JPEG, BMP or TIFF of any colour type as a gray in 0..1 (alpha over white: a
+/// transparent pixel of a drawing is paper). An image over `max_pixels`, or whose decoded buffers
+/// would need more than `limits::MAX_DECODE_BYTES`, is refused from its header before any buffer
+/// is allocated; the buffer is allocated fallibly and decoded straight into gray. A JPEG ending
+/// before its end-of-image marker is refused as truncated.
 pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
     let open_err = |source: std::io::Error| ToneError::Open {
         path: path.to_path_buf(),

@@ -69,15 +69,11 @@ pub fn simplify_rings(
     simplify_and_fit(rings, guards, tol, None).0
 }
 
-/// [`simplify_rings`], then, with `curves`, each simplified ring replaced by lines and arcs
-/// fitted to its traced points within `tol` ([`stencil_geom::curve::fit_ring_within`]),
-/// flattened within `curves.flatten`: smooth outlines where simplification leaves pixel
-/// staircases cut into chords. The guards hold for the curves too, `curves.flatten` clear, so
-/// the flattened curves sample to the same raster; a ring whose curves would cross or touch
-/// another ring keeps its simplified form (the same rounds as simplification's).
-///
-/// Also returns, per ring, the lines and arcs its polygon is the flattening of (when it is one:
-/// fitted, kept, and not made straight), so that the files can carry those very arcs.
+/// [`simplify_rings`], then, with `curves`, each ring replaced by lines and arcs fitted to its
+/// traced points within `tol` ([`stencil_geom::curve::fit_ring_within`]), flattened within
+/// `curves.flatten`, guards kept; a ring whose curves would cross or touch another keeps its
+/// simplified form. Also returns, per ring, the lines and arcs its polygon flattens (when fitted
+/// and kept), so the files can carry those arcs.
 pub(crate) fn simplify_and_fit(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
@@ -232,17 +228,12 @@ fn fit_curves(
     pieces
 }
 
-/// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto
-/// the `pieces` fitted to it ([`stencil_geom::curve::onto_pieces`]), then Douglas–Peucker
-/// between those moved points with every traced point measured against the chords ([`dp_kept`]).
-///
-/// Why this is within `tol` of the traced outline both ways: every traced point between two
-/// kept corners is within `tol` of their chord (the test), so every traced edge is too (both
-/// its ends are, and the distance to a segment is convex); each corner is within `tol` of its
-/// own traced point (the fit measured that distance); and a chord is within `tol` of the
-/// traced path that runs alongside it within `tol` from near one end to near the other. The
-/// guards of every replaced point are kept on their sides, as simplification keeps them, so
-/// the polygon samples to the same raster. `None` when the pieces do not belong to `orig`.
+/// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto the
+/// `pieces` fitted to it ([`stencil_geom::curve::onto_pieces`]), then Douglas–Peucker between them
+/// against every traced point ([`dp_kept`]). Within `tol` both ways: every traced point is within
+/// `tol` of its chord, each corner of its traced point, and the distance to a segment is convex.
+/// Guards are kept on their sides, so the raster is the same. `None` when the pieces are not
+/// `orig`'s.
 fn straighten(
     orig: &[[f64; 2]],
     pieces: &[stencil_geom::curve::Piece],

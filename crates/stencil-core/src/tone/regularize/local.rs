@@ -147,16 +147,11 @@ pub(crate) fn settle_near(
         return 0;
     }
     let reach = disc.span + 1;
-    // Boxes whose windows overlap are settled together, in one window holding them all with a
-    // margin of two spans past the reach `spread` spans around each (a pixel's thinness depends
-    // on the pixels within two spans), so thinness in the part that may change is measured
-    // exactly; pixels within the margin of the window's cut edges may be misjudged (the padding
-    // stands in for what lies beyond) and may not change ([`clusters`]).
-    // Each cluster is settled in the box holding its windows, reading the bits there and
-    // changing them only inside it. So clusters whose boxes do not overlap are independent: each
-    // cluster runs in a wave after every earlier cluster (in cluster order) whose box overlaps its
-    // own, the clusters of a wave in parallel against the bits the earlier waves left, and what
-    // they add is set between waves: the same pixels as settling them one after the other.
+    // Boxes whose windows overlap are settled together, in one window with a margin of two spans
+    // past the reach (thinness depends on the pixels within two spans); pixels within the margin
+    // may be misjudged and may not change ([`clusters`]). Clusters whose boxes do not overlap are
+    // independent: they run in waves, a wave's clusters in parallel after every earlier overlapping
+    // one, setting the same pixels as settling them one after the other.
     let jobs = clusters(bits, boxes, reach, spread);
     let mut wave = vec![0usize; jobs.len()];
     for j in 0..jobs.len() {

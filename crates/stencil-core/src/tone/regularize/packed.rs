@@ -665,16 +665,11 @@ fn runs_of_segs(
 }
 
 /// [`thin`] of both tones (`out`: material, cut), recomputed only in the tiles `dirty` marks
-/// ([`BAND`] rows by a word, tile `(b, k)` at `b · stride + k`) and left as it is elsewhere; the
-/// caller's to mark every tile whose thinness may have changed. `scratch` is [`thin`]'s, one per
-/// tone. A thin pixel reads the lattice points within the disc's reach (plus one) of it, and
-/// those the pixels within as far of them; so each stage is worked out only where the next
-/// reads it, on pieces of rows: the covered pixels in the marked tiles, the valid lattice points
-/// in the rows whose points a marked tile's discs read, and the tone's runs in the rows those
-/// read. Each piece reaches `⌈(2 · reach + 2) / 64⌉` words past the marked words on either side:
-/// a run computed from a piece alone is wrong only within a disc's reach of the piece's ends
-/// (which read as past the grid), and nothing a marked tile reads lies there. So the result is
-/// [`thin`] over the whole grid, at a cost that follows the marked tiles, not the grid.
+/// ([`BAND`] rows by a word, tile `(b, k)` at `b · stride + k`), which the caller marks wherever
+/// thinness may have changed; `scratch` is [`thin`]'s, one per tone. Each stage is worked out
+/// only on the pieces of rows the next reads, each reaching `⌈(2 · reach + 2) / 64⌉` words past
+/// the marked ones (a piece is wrong only within a disc's reach of its ends, which nothing marked
+/// reads): the result is [`thin`] over the whole grid at the cost of the marked tiles.
 pub(super) fn thin_in_tiles(
     bits: &Packed,
     disc: Disc,
