@@ -79,6 +79,14 @@ impl IslandMap {
 /// frame when one of its runs touches the image's edge), then the labels written and the border
 /// pixels found row by row, in parallel bands: the labels once, straight as nodes (labelling the
 /// pieces, then renumbering them, wrote every label twice).
+///
+/// ```
+/// use stencil_core::{islands, raster::BitGrid};
+/// // `#` is material: the frame, a ring of cut, and an island in it.
+/// let bits = BitGrid::from_rows(&["#####", "#...#", "#.#.#", "#...#", "#####"]);
+/// assert_eq!(islands::label(&bits).nodes.len(), 2); // the frame and the island
+/// assert_eq!(islands::floating_count(&bits), 1);
+/// ```
 pub fn label(bits: &BitGrid) -> IslandMap {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let mut nodes = vec![Node::default()];

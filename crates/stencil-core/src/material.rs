@@ -151,13 +151,9 @@ impl std::fmt::Display for ProcessKind {
     }
 }
 
-/// `[laser]`: the cut settings of a laser job (`S` from power, `F` from speed, repeated passes),
-/// one entry per kind of laser they were published for ([`LaserCut`]), and air assist.
-///
-/// Why per kind: the same card wants 20 % at 1500 mm/min on a 40 W CO2 and full power at a fifth
-/// of that speed on a 5 W diode, and a blue diode cannot cut clear acrylic or PET at all (its
-/// light passes through). A job gets the entry for its machine's source with the most power at
-/// or below the machine's ([`settings_for`]); none is an error, never a guess.
+/// `[laser]`: the cut settings of a laser job (`S` from power, `F` from speed, passes), one entry
+/// per kind of laser they were published for ([`LaserCut`]: the same card wants 20 % at 1500
+/// mm/min on a 40 W CO2 and full power at a fifth of that on a 5 W diode), and air assist.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LaserSettings {
     /// The settings, each for a kind of laser, with its source.

@@ -486,11 +486,9 @@ fn shortest_gaps(
 }
 
 /// The straight strip of every twin candidate (ids `cands.twins`), in parallel: a straight walk
-/// along its heading ([`directions`]), at most `max_len` pixels. Where the original's walk is
-/// already no longer than the straight strip would be (about `gap · (|cos| + |sin|)` pixels, a
-/// 4-connected line's count), the twin takes a copy of it instead of walking, and is marked in
-/// the second vector: a copy adds nothing to choose from, so it is not scored on its own, but it
-/// keeps the twin chain whole for its neighbours' windows and growth.
+/// along its heading ([`directions`]), at most `max_len` pixels. Where the original's walk is no
+/// longer, the twin copies it and is marked in the second vector (not scored on its own, but its
+/// chain stays whole for its neighbours' windows and growth).
 pub(crate) fn walk_twins(
     fields: &Fields,
     cands: &Candidates,

@@ -79,12 +79,10 @@ pub struct BridgeConfig {
     /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
     /// `max_bridge_mm`).
     pub max_width_given: bool,
-    /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
-    /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
-    /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
-    /// polygon fill, thickening). If real > (1 + margin) × estimate, the bridge is halved (not
-    /// below `min_width_px`) and a support bridge of the same halved width is added at the next
-    /// cheapest place between the same two nodes.
+    /// Support trigger, default 0.5: when the real error (Σ (1 − gray)² over the cut pixels the
+    /// grown bridge fills) exceeds (1 + margin) × the tree's estimate (its window's mean ΣI times its
+    /// width), the bridge is halved (not below `min_width_px`) and a support bridge of that width is
+    /// added at the next cheapest place between the same two nodes.
     pub support_margin: f64,
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
     /// true; see `gaps`). Off, the candidates are the paper's alone.
@@ -373,6 +371,19 @@ fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
 }
 
 /// Join every island to the frame with bridges.
+///
+/// ```
+/// use stencil_core::{bridge, islands, raster::{BitGrid, Gray, TwoTone}};
+/// // A 60 px sheet with a ring of cut 10 px wide around a 20 px island.
+/// let bits = BitGrid::from_fn(60, 60, |x, y| {
+///     let (lo, hi) = (x.min(y), x.max(y));
+///     lo < 10 || hi >= 50 || (lo >= 20 && hi < 40)
+/// });
+/// let two = TwoTone { gray: Gray::new(60, 60, 0.5).into(), bits };
+/// let b = bridge::connect(&two, &islands::label(&two.bits), &Default::default()).unwrap();
+/// let floating = |g: &BitGrid| islands::floating_count(g);
+/// assert_eq!((floating(&two.bits), floating(&b.bits)), (1, 0));
+/// ```
 pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bridged, BridgeError> {
     connect_timed(two, map, cfg, &mut Timings::default())
 }

@@ -132,13 +132,10 @@ pub(crate) fn search(
     None
 }
 
-/// A searched path made straight where that costs nothing: a 4-connected path has many equally
-/// cheap shapes (over flat gray every monotone staircase between two pixels costs the same), and
-/// Dijkstra keeps an arbitrary one. From each anchor, the path is replaced by the straight
-/// 4-connected line ([`line4`]) to the farthest later path pixel such that the line crosses only
-/// cut and costs no more than the stretch it replaces (found by doubling, then bisection: O(n log
-/// n) pixel reads for a path of n). The ends stay where they were, and since no pixel of the
-/// result is cheaper to reach than along the search's own order, it arrives nowhere earlier.
+/// A searched path made straight where that costs nothing (Dijkstra keeps an arbitrary one of
+/// many equally cheap staircases): from each anchor, the straight 4-connected line ([`line4`]) to
+/// the farthest later path pixel it can reach through cut for no more than the stretch it
+/// replaces (doubling, then bisection: O(n log n)). The ends stay where they were.
 fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
     let n = path.len();
     if n < 3 {

@@ -243,13 +243,9 @@ struct Moments {
     sxy: f64,
 }
 
-/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone.
-///
-/// An island is one 4-connected piece that does not touch the image edge, so both ends of each of
-/// its row runs have a cut pixel beside them: every run starts and ends at a border pixel, and the
-/// border comes in scan order. Reading runs off the border keeps the strength stage in proportion
-/// to the islands' perimeter, not the image's area (a pass over the labels cost the 1280×720 bench
-/// 1.5 ms).
+/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone (an island
+/// does not touch the image edge, so each run starts and ends at a border pixel): in proportion
+/// to its perimeter, not the image's area.
 fn runs(map: &IslandMap, n: u32) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
     let mut start = None;
     map.nodes[n as usize]
@@ -308,12 +304,9 @@ fn moments(map: &IslandMap, n: u32) -> Moments {
 const MAX_CELLS: usize = 1 << 16;
 
 /// One island over its bounding box, in cells of `k` × `k` pixels (a cell is the island's when
-/// any of its pixels is), and path lengths over them. `k` is 1 (pixels) unless the box has more
-/// than [`MAX_CELLS`] pixels: then the smallest that brings it under (a 2000 px ring is measured
-/// on 8 px cells, an error of a cell in a span of hundreds; a cut narrower than a cell between
-/// two parts of the island may be stepped over).
-///
-/// The grid has a margin of one empty cell all round, so the path search never tests bounds.
+/// any of its pixels is), and path lengths over them. `k` is 1 unless the box has more than
+/// [`MAX_CELLS`] pixels, then the smallest that brings it under. A margin of one empty cell all
+/// round spares the path search its bound tests.
 struct Local {
     x0: u32,
     y0: u32,
@@ -348,12 +341,9 @@ impl Local {
         )
     }
 
-    /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what
-    /// they shorten (so adding a source to an earlier result updates it).
-    ///
-    /// Dijkstra with a bucket queue: steps cost [`STEP`] or [`DIAG`], so every pending distance
-    /// lies within `DIAG` of the one being settled and `DIAG + 1` buckets used round-robin hold
-    /// them all (a binary heap cost the bench's strength stage a third more).
+    /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what they
+    /// shorten (so a source can be added to an earlier result). Dijkstra with a bucket queue: steps
+    /// cost [`STEP`] or [`DIAG`], so `DIAG + 1` buckets round-robin hold every pending distance.
     fn relax(&self, dist: &mut [u32], sources: &[usize]) {
         const BUCKETS: usize = DIAG as usize + 1;
         // Cell indices as u32 (a grid has at most a few times `MAX_CELLS` cells): half the

@@ -553,6 +553,15 @@ impl Search<'_> {
 
 /// Check a stencil's geometry against a material. `bridges_known`: whether `geom.bridges` lists
 /// every bridge (false for a bare PNG: then same-ring material necks count as bridges).
+///
+/// ```
+/// use stencil_core::{check, material::Material, raster::BitGrid, vector};
+/// // Two holes in a sheet (0.1 mm pixels), 2 px apart: a web narrower than cardstock holds.
+/// let bits = BitGrid::from_fn(60, 60, |x, y| !((10..50).contains(&y) && (10..29).contains(&x) | (31..50).contains(&x)));
+/// let (geom, _) = vector::vectorize(&bits, &[], &Default::default()).unwrap();
+/// let report = check::check(&geom, &Material::default(), false).unwrap();
+/// assert!(!report.passed() && report.narrowest_web_mm.unwrap() < 0.5);
+/// ```
 pub fn check(
     geom: &CutGeometry,
     material: &Material,

@@ -73,11 +73,9 @@ pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSetting
 }
 
 /// A material's cut settings for a machine: what the person kept for this material and machine
-/// profile (`stencil profiles set`), else the material's entry for the machine's kind. The
-/// material's process must match the machine's tool: a laser material's power means nothing to a
-/// knife, and an etch material has no cut settings. A laser gets the entry for its source with
-/// the most power at or below its own: settings published for a weaker laser cut on a stronger
-/// one (at the same percentage it gives more power), never the other way round.
+/// profile (`stencil profiles set`), else the material's entry for the machine's kind. The process
+/// must match the machine's tool. A laser gets the entry for its source with the most power at or
+/// below its own: a weaker laser's settings cut on a stronger one, never the other way round.
 pub fn choose(
     material: &Material,
     machine: &Machine,

@@ -2,13 +2,9 @@
 
 use super::BitGrid;
 
-/// Squared Euclidean distance from every pixel to the nearest pixel whose bit equals `target`
-/// (0 on such pixels). Pixels outside the grid count as material (the frame), so with
-/// `target = true` the distance never exceeds the distance to the image border plus one.
-///
-/// Exact, O(pixels) (Felzenszwalb & Huttenlocher's lower envelope of parabolas, row then column).
-/// Used by the topological filter (dilation and erosion by a disc) and by the bridge stage, whose
-/// walks follow the distance field's gradient where the grayscale source is flat.
+/// Squared Euclidean distance from every pixel to the nearest pixel whose bit equals `target` (0
+/// on such pixels); outside the grid is material (the frame). Exact, O(pixels) (Felzenszwalb &
+/// Huttenlocher's lower envelope of parabolas, row then column).
 pub(crate) fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
     squared_distance(bits, target, target)
 }

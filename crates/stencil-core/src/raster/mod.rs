@@ -201,12 +201,9 @@ pub(crate) fn edge_neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4
     ]
 }
 
-/// The two-tone image: which pixels are material, plus the grayscale it came from.
-///
-/// The gray is shared, not owned: every stage from the threshold to the bridges carries the same
-/// gray beside its own bits (the threshold's, the clean-up's, the bridges'), and the studio keeps
-/// each stage's two-tone, so an owned gray (4 MB at a megapixel) was copied at each stage a
-/// threshold change re-ran. Nothing after the threshold changes it.
+/// The two-tone image: which pixels are material, plus the grayscale it came from. The gray is
+/// shared: every stage after the threshold carries the same one beside its own bits (the studio
+/// keeps each stage's two-tone), and none changes it.
 #[derive(Clone, Debug)]
 pub struct TwoTone {
     /// The two tones: material true.

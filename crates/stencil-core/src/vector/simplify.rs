@@ -48,12 +48,9 @@ pub struct SimplifyStats {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct FitCurves {
     pub(crate) flatten: f64,
-    /// No file will carry arcs (`--no-arcs`, a machine without them): instead of the fine
-    /// flattening that the writers fit arcs to again, each ring becomes the polygon with the
-    /// fewest corners Douglas–Peucker finds whose corners lie on the fitted curves and whose
-    /// chords stay within `tol` of every traced point, their guards on their sides: the whole
-    /// tolerance spent once, measured against the traced outline itself (see
-    /// [`straighten`]). A ring keeps simplification's own polygon when that has fewer points.
+    /// No file will carry arcs (`--no-arcs`, a machine without them): each ring becomes the polygon
+    /// with the fewest corners Douglas–Peucker finds on the fitted curves within `tol` of the traced
+    /// points, guards kept ([`straighten`]), unless simplification's own has fewer points.
     pub(crate) straight: bool,
 }
 

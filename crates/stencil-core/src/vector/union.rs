@@ -1,9 +1,6 @@
-//! Boolean operations on the traced geometry, with Clipper (through [`stencil_geom::clip`]).
-//!
-//! Why Clipper rather than geo's `BooleanOps`: it works on integer coordinates (here 0.1 µm), so
-//! unions of thousands of touching bridge and outline edges are exact and cannot fail on
-//! near-degenerate input, it is several times faster on large inputs, and the same library gives
-//! the polygon offset that the kerf needs (geo 0.33 has no robust offset).
+//! Boolean operations on the traced geometry, with Clipper (through [`stencil_geom::clip`]):
+//! integer coordinates (0.1 µm) make unions of thousands of touching edges exact, it is faster
+//! than geo's `BooleanOps`, and it gives the kerf's polygon offset.
 
 use geo::orient::{Direction, Orient};
 use geo::{Area, BoundingRect, Contains, LineString, MultiPolygon, Point, Polygon, Rect};

@@ -507,11 +507,9 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
 }
 
 /// Light a drawn view with `cfg`'s key light (its position in the view's frame, in bounding
-/// radii), ambient share, fill and highlight, and average it down to the output size.
-///
-/// One pass: each output row lights its k×k blocks of working samples and averages them at once
-/// (no working-size image of intensities in between), rows in parallel. The sums are taken in
-/// the same order as a separate light-then-average would take them, so the result is the same.
+/// radii), ambient share, fill and highlight, and average it down to the output size: each output
+/// row lights and averages its k×k blocks at once, rows in parallel, summing in the same order as
+/// lighting then averaging would.
 pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
     let light = key_light(&d.cam, cfg);

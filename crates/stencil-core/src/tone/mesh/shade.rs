@@ -146,12 +146,9 @@ impl<'a> Lighter<'a> {
         }
     }
 
-    /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's
-    /// Blinn-Phong highlight; at most 1. With no ambient and no fill this is the key alone, as
-    /// it always was. `p` is the surface point, `n` its unit normal on the side seen.
-    ///
-    /// One sample at a time, the definition; the renderer lights whole rows with [`Lighter::row`]
-    /// (the same bits: the tests check it).
+    /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's Blinn-Phong
+    /// highlight; at most 1. `p` is the surface point, `n` its unit normal on the side seen. The
+    /// definition, one sample at a time; the renderer lights rows with [`Lighter::row`].
     #[cfg(test)]
     pub(crate) fn intensity(&self, p: Vec3, n: Vec3) -> f32 {
         let light = self.light;
@@ -254,13 +251,9 @@ fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
 }
 
 impl Lighter<'_> {
-    /// The intensity of every sample of working row `y` of `s` into `out` (the background's
-    /// values are meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
-    /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
-    /// every term but the highlight's power as straight-line float code over the row (vector
-    /// code, no branch), then the power (a `powf`, which has no vector form) only where the
-    /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
-    /// for the tests), in its order: the same bits.
+    /// The intensity of every sample of working row `y` of `s` into `out` (the background's values
+    /// are meaningless), `ndh` a scratch row: the tests' one-sample `intensity` over the row, all
+    /// but the highlight's `powf` as branch-free vector code first, in the same order: same bits.
     pub(crate) fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
         let row = s.row(y);
         let e = self.eye;

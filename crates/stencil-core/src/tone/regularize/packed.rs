@@ -238,13 +238,9 @@ pub(super) struct RunScratch {
     next: Vec<u64>,
 }
 
-/// For each span `(a, b)` of `spans`, `out[k · n..(k + 1) · n] = row[x + a] ∘ … ∘ row[x + b]`
-/// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans must come by width,
-/// narrowest first. The row is set in `p` words of `fill` on either side, and the run of width
-/// `c` from each bit is built by doubling (the run of `c + d` is the run of `c` combined with
-/// itself shifted by `d ≤ c`), each step one pass over the words; each span's runs are then
-/// shifted by its start into `out`. So a span of width `s` costs about log₂ s passes, not `2s`.
-/// (One row's runs, as [`runs_of_rows`] makes them for every row; the tests' measure of it.)
+/// For each span `(a, b)` of `spans` (narrowest first), `out[k · n..(k + 1) · n] = row[x + a] ∘ …
+/// ∘ row[x + b]` (`∘` AND when `and`, else OR; past the row's ends `fill`), by doubling: about
+/// log₂ s passes over the words for a span of width `s`. The tests' measure of [`runs_of_rows`].
 #[cfg(test)]
 fn runs_of(
     row: &[u64],
@@ -325,11 +321,9 @@ fn band_runs(
 }
 
 /// [`runs_of`] for every row of `src` at once: `out[(y · ns + k) · n..][..n]` the runs of row `y`
-/// for span `k` (`ns` spans). The rows are laid end to end, each set in `p` words of `fill` on
-/// either side, in bands of rows, and each doubling step, and each span's shift, is one pass
-/// over a whole band: long loops over words instead of a short one per row. A run read past its row's padding reads the
-/// next row's, but no run that lands in `out` reaches that far (a span reaches less than `p`
-/// words past its row), so each row's runs are its own.
+/// for span `k` (`ns` spans). Rows are laid end to end in bands, each padded by `p` words of
+/// `fill`, so each step is one long pass over a band; no run that lands in `out` reads past its
+/// row's padding.
 fn runs_of_rows(
     src: &Packed,
     spans: &[(i64, i64)],
@@ -602,11 +596,8 @@ fn push_segs(segs: &mut Vec<Seg>, y: usize, on: &[bool]) {
 }
 
 /// [`runs_of_rows`] on pieces of rows only: for each piece `(y, a, b)` of `segs` (by row), words
-/// `a..min(b, n)` of row `y`'s runs in `out` (the same layout), from the row's words `a..b`
-/// alone (`!` of them when `invert`), set in words of `fill` on either side and laid end to end
-/// in bands of rows as whole rows are there. So a run is the run over the whole row wherever it
-/// does not reach past the piece's words into the row's other words; the rest of `out` is left
-/// as it was.
+/// `a..min(b, n)` of row `y`'s runs in `out`, from the row's words `a..b` alone (`!` of them when
+/// `invert`): right wherever a run does not reach past the piece; the rest of `out` is left.
 #[allow(clippy::too_many_arguments)]
 fn runs_of_segs(
     src: &Packed,
