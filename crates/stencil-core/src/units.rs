@@ -54,7 +54,7 @@ impl Scale {
         }
     }
 
-    pub(crate) fn to_px(&self, mm: Mm) -> Px {
+    pub(crate) fn to_px(self, mm: Mm) -> Px {
         Px(mm.0 / self.mm_per_px)
     }
 }

@@ -170,13 +170,13 @@ pub(crate) fn bilateral(g: &Gray, sigma_px: f32, tone_sigma: f32) -> Gray {
 }
 
 /// Abstraction after DeCarlo and Santella (2002): a few regions of flat tone, edges kept. Without
-/// their eye tracking we keep their core move, merging small regions of similar tone uniformly:
+/// their eye tracking we keep their core move, merging small regions of similar tone uniformly,
+/// by a strength `s` in 0..=1:
 /// 1. smooth, keeping edges (bilateral, spatial σ = 1 + 3·s pixels);
 /// 2. quantise into `16 − 12·s` bands and label the 8-connected regions of one band;
 /// 3. merge every region under `(s · diagonal / 40)²` pixels into the neighbour of nearest mean
 ///    tone, smallest first (union–find);
 /// 4. paint each region its mean smoothed tone.
-/// `s` is the strength, 0..=1.
 pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let s = strength.clamp(0.0, 1.0);
     if s == 0.0 || g.data.is_empty() {

@@ -183,7 +183,7 @@ impl Camera {
 
     /// Camera-space coordinates (x right, y up, z depth).
     #[inline]
-    pub(crate) fn to_camera(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn to_camera(self, p: Vec3) -> Vec3 {
         let d = p - self.eye;
         Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
     }
@@ -241,7 +241,7 @@ impl Camera {
 
     /// A point given in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// bounding sphere's centre, in bounding radii, as a world point.
-    pub(crate) fn from_view_frame(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn world_from_view(&self, v: Vec3) -> Vec3 {
         self.center + (self.right * v.x + self.up * v.y - self.forward * v.z) * self.radius
     }
 
@@ -329,7 +329,7 @@ mod tests {
             let (o, d) = c.ray(s.x, s.y);
             assert!((o + d * s.z - p).length() < 1e-4);
         }
-        assert!(c.from_view_frame(Vec3::new(0.0, 0.0, 3.0)).distance(c.eye) < 1e-4);
+        assert!(c.world_from_view(Vec3::new(0.0, 0.0, 3.0)).distance(c.eye) < 1e-4);
     }
 
     #[test]

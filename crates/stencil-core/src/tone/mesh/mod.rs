@@ -525,14 +525,14 @@ pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
 fn key_light(cam: &Camera, cfg: &MeshConfig) -> shade::Light {
     let key = Vec3::from_array(cfg.light);
     shade::Light {
-        position: cam.from_view_frame(key),
+        position: cam.world_from_view(key),
         specular: cfg.specular,
         shininess: cfg.shininess,
         ambient: cfg.ambient,
         // The key mirrored left-right across the view.
         fill: (cfg.fill > 0.0).then(|| {
             (
-                cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
+                cam.world_from_view(Vec3::new(-key.x, key.y, key.z)),
                 cfg.fill,
             )
         }),
