@@ -22,7 +22,7 @@ pub(crate) mod candidates;
 mod constraints;
 pub(crate) mod cost;
 mod draw;
-pub mod drop;
+pub(crate) mod drop;
 pub(crate) mod gaps;
 pub(crate) mod grow;
 mod outline;

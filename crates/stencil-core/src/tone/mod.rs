@@ -1,10 +1,10 @@
 //! Stage 1: the two-tone image, from a picture ([`load_gray`]) or a mesh ([`mesh`]), then the
 //! topological filter ([`FilterConfig`]), or the design-rule regularisation, that removes specks before islands are labelled.
 
-pub mod adjust;
+pub(crate) mod adjust;
 pub(crate) mod filter;
 pub(crate) mod image;
-pub mod likeness;
+pub(crate) mod likeness;
 pub mod mesh;
 pub(crate) mod regularize;
 pub(crate) mod resolution;
