@@ -8,22 +8,31 @@ use crate::limits::MAX_LAYERS;
 /// as data: the `stencil` binary words them with the options to change.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// Reading or thresholding the picture, or rendering the mesh.
     #[error(transparent)]
     Tone(#[from] crate::tone::ToneError),
+    /// Joining the islands.
     #[error(transparent)]
     Bridge(#[from] crate::bridge::BridgeError),
+    /// Writing the output files.
     #[error(transparent)]
     Export(#[from] crate::export::ExportError),
+    /// Planning the toolpaths and G-code.
     #[error(transparent)]
     Plan(#[from] stencil_gcode::PlanError),
+    /// A material or machine profile, or kept settings.
     #[error(transparent)]
     Profile(#[from] stencil_io::profile::ProfileError),
+    /// Tracing the outlines.
     #[error(transparent)]
     Vector(#[from] crate::vector::VectorError),
+    /// Checking the cut geometry.
     #[error(transparent)]
     Check(#[from] crate::check::CheckError),
+    /// A size stencil cannot work at.
     #[error(transparent)]
     Limit(#[from] crate::limits::SizeError),
+    /// A layered set's request.
     #[error(transparent)]
     Layers(#[from] LayersError),
     /// The check found violations and the caller did not allow them
@@ -33,18 +42,24 @@ pub enum Error {
         violations.len(), list_violations(violations)
     )]
     Thin {
+        /// The material profile's name.
         material: String,
         /// All of them, as the check reported them.
         violations: Vec<crate::check::Violation>,
     },
+    /// Islands left after bridging (a bug).
     #[error(
         "{count} material piece(s) still float after bridging; the first, {area} px, is at pixel ({x}, {y}) \
          (every island should have been joined: this is a bug, please report it with the picture)"
     )]
     Floating {
+        /// How many pieces float.
         count: usize,
+        /// The first piece's pixel column.
         x: u32,
+        /// Its pixel row.
         y: u32,
+        /// Its area, pixels.
         area: usize,
     },
     /// The stencil differs from the thresholded picture by more than the limit the caller set
@@ -56,6 +71,7 @@ pub enum Error {
     TooMuchChange {
         /// What was measured (all of it, so a caller can say what changed most).
         fidelity: crate::report::Fidelity,
+        /// The limit, % of the picture.
         limit_pct: f64,
     },
 }
@@ -88,23 +104,43 @@ fn list_violations(violations: &[crate::check::Violation]) -> String {
 /// A layered run's errors, as data (the `stencil` binary words them with its options).
 #[derive(Debug, thiserror::Error)]
 pub enum LayersError {
+    /// A layer count outside 1 to `MAX_LAYERS`.
     #[error("{0} layers: a set has 1 to {MAX_LAYERS}")]
     Count(u32),
     #[error("{given} level(s) for {count} layer(s): give one level per layer")]
-    Levels { given: usize, count: u32 },
+    /// Not one level per layer.
+    Levels {
+        /// Levels given.
+        given: usize,
+        /// Layers asked for.
+        count: u32,
+    },
+    /// A level given twice.
     #[error("the level {0} is given twice: each layer needs its own level")]
     SameLevel(u8),
     #[error("{given} colour(s) for {count} layer(s): give one per layer (light to dark), or one more with the surface's first")]
-    Colors { given: usize, count: u32 },
+    /// Not one colour per layer (or one more for the surface).
+    Colors {
+        /// Colours given.
+        given: usize,
+        /// Layers asked for.
+        count: u32,
+    },
+    /// A mesh given for a layered set.
     #[error("layers are cut from a picture, not a mesh")]
     Mesh,
+    /// Swapped tones asked for a layered set.
     #[error("layers paint the picture's dark tones through the cuts; swapping the tones does not apply to them")]
     Invert,
+    /// A keep-out picture with layers or registration marks.
     #[error("a keep-out picture is not supported with layers or registration marks (the sheet grows around the picture); use keep-out discs")]
     KeepOut,
+    /// The picture's colours could not be read.
     #[error("{path}: cannot read the picture's colours: {msg}")]
     Colour {
+        /// The picture.
         path: std::path::PathBuf,
+        /// What the decoder said.
         msg: String,
     },
 }

@@ -15,13 +15,23 @@ use crate::units::{Scale, Size};
 pub enum Stock {
     /// A machine's bed (it cannot be turned).
     Bed {
+        /// The machine profile's name.
         machine: String,
+        /// Bed width, mm.
         w_mm: f64,
+        /// Bed height, mm.
         h_mm: f64,
     },
     /// A sheet of stock (card, vinyl) the stencil is cut from: its edge is the stencil's edge,
     /// so the margin always counts, and it may be turned a quarter turn.
-    Sheet { name: String, w_mm: f64, h_mm: f64 },
+    Sheet {
+        /// The sheet as named (`A4`, `300x200`).
+        name: String,
+        /// Width, mm.
+        w_mm: f64,
+        /// Height, mm.
+        h_mm: f64,
+    },
 }
 
 impl Stock {
@@ -93,6 +103,7 @@ pub struct FitRequest {
     /// Whether the margin counts: something is cut or marked at the sheet's edge (always for a
     /// [`Stock::Sheet`]).
     pub margin_counts: bool,
+    /// What it must fit on.
     pub stock: Stock,
 }
 
@@ -104,9 +115,13 @@ pub enum Fitted {
     /// Scaled to fit: the picture would have been `from_mm` wide; it is `width_mm` wide (the
     /// stock turned a quarter turn when `turned`).
     Scaled {
+        /// The size asked for, mm.
         from_mm: [f64; 2],
+        /// The width chosen, mm.
         width_mm: f64,
+        /// The height that follows, mm.
         height_mm: f64,
+        /// The stock is turned a quarter turn.
         turned: bool,
     },
 }
@@ -114,6 +129,7 @@ pub enum Fitted {
 /// A size that cannot fit.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FitError {
+    /// The picture does not fit, even turned.
     #[error(
         "the picture is {} x {} mm{}, which does not fit {stock}; the largest width that fits is {} mm",
         mm(size_mm[0]),
@@ -122,14 +138,23 @@ pub enum FitError {
         mm(*largest_width_mm)
     )]
     TooLarge {
+        /// Its size, mm.
         size_mm: [f64; 2],
         /// The margin that counted (0 when it did not).
         margin_mm: f64,
+        /// What it was to fit on.
         stock: Stock,
+        /// The largest width that fits, mm.
         largest_width_mm: f64,
     },
     #[error("a {} mm margin on each side leaves nothing of {stock}", mm(*margin_mm))]
-    MarginTooLarge { margin_mm: f64, stock: Stock },
+    /// The margins take the whole stock.
+    MarginTooLarge {
+        /// The margin on each side, mm.
+        margin_mm: f64,
+        /// The stock.
+        stock: Stock,
+    },
 }
 
 /// A number of mm as printed: at most one decimal, rounded down for a largest size (so what is
@@ -144,7 +169,7 @@ fn mm(v: f64) -> String {
 }
 
 /// The picture's size in mm at `size` (before any fitting).
-pub fn picture_mm(px: (u32, u32), size: Size) -> [f64; 2] {
+pub(crate) fn picture_mm(px: (u32, u32), size: Size) -> [f64; 2] {
     let (w, h) = (px.0.max(1) as f64, px.1.max(1) as f64);
     let s = match size {
         Size::Default => Scale::default(),

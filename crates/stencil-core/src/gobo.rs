@@ -1,34 +1,28 @@
 //! Gobos: a round sheet for a lighting fixture's gate, its picture in the image area.
 //!
-//! A gobo is a disc of outside diameter OD; the fixture projects the image area, a centred
-//! circle of diameter IA. The picture is placed at the disc's centre, inscribed in the image area
-//! (its diagonal is IA, so none of it is lost), or with `crop` made as large as the image area's
-//! circle fits inside it (its shorter side is IA) and everything outside the circle left as
-//! metal. The rim (the circle of OD) is the outline that is cut: in the SVG, the DXF, the
-//! G-code and the etch masks.
+//! A disc of outside diameter OD; the fixture projects the centred image area of diameter IA. The
+//! picture is inscribed in the image area (its diagonal is IA) or, with `crop`, fills it (its
+//! shorter side is IA) with metal outside the circle. The rim (OD) is cut in every output.
 //!
-//! Letter sizes differ between makers by a few millimetres, so they come from one maker's
-//! published table: Rosco's, as listed in the "Rosco Labs" row of the gobo size table of the
-//! Stage Lighting Primer (<https://stagelightingprimer.com/slfs-gobos.html>, "Standard Sizes"):
-//! A 100 / 75 mm, B 86 / 64.5 mm, M 66 / 48 mm, E 37.5 / 28 mm (outside diameter / image area).
-//! That table gives no D or G size; any other size is given as `OD,IA` in millimetres (e.g.
-//! `53.3,38` for a D size quoted elsewhere).
+//! Letter sizes are Rosco's, from the "Rosco Labs" row of the Stage Lighting Primer's table
+//! (<https://stagelightingprimer.com/slfs-gobos.html>, "Standard Sizes"): A 100 / 75 mm,
+//! B 86 / 64.5 mm, M 66 / 48 mm, E 37.5 / 28 mm (OD / IA); any other size as `OD,IA` in mm.
 //!
-//! Polarity: metal stays where the stencil is material, and light passes where it is cut, so a
-//! bright subject on a dark ground is projected as a dark subject in light unless the tones are
-//! swapped (`--invert`): [`GoboReport::warning`] says so when most of the image area is clear.
+//! Polarity: metal stays where the stencil is material, so a bright subject projects dark unless
+//! the tones are swapped (`--invert`): [`GoboReport::warning`] says so when most of it is clear.
 
-use geo::{Area, Coord, Polygon, Rect};
+use geo::{Area, Coord, Rect};
 
 use crate::vector::CutGeometry;
-pub use crate::vector::Rim;
+pub(crate) use crate::vector::Rim;
 
 /// The table the letter sizes come from (named in the report and the help).
-pub const TABLE: &str = "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
+pub(crate) const TABLE: &str =
+    "Rosco (Rosco Labs row of the Stage Lighting Primer's gobo size table, \
                          https://stagelightingprimer.com/slfs-gobos.html)";
 
 /// Rosco's letter sizes: (letter, outside diameter mm, image area mm). See the module's notes.
-pub const ROSCO: &[(&str, f64, f64)] = &[
+pub(crate) const ROSCO: &[(&str, f64, f64)] = &[
     ("A", 100.0, 75.0),
     ("B", 86.0, 64.5),
     ("M", 66.0, 48.0),
@@ -43,14 +37,16 @@ pub const MAX_OD_MM: f64 = 1000.0;
 pub struct Gobo {
     /// The letter size (`"B"`), or `None` for an `OD,IA` given in mm.
     pub letter: Option<String>,
+    /// Outside diameter, mm.
     pub od_mm: f64,
+    /// Image area (the opening's diameter), mm.
     pub ia_mm: f64,
     /// Fill the image area (the picture's shorter side is IA) and leave metal outside its
     /// circle, instead of inscribing the whole picture in it.
     pub crop: bool,
 }
 
-/// `--gobo SIZE`: a letter of [`ROSCO`] (any case) or `OD,IA` in mm.
+/// `--gobo SIZE`: a letter of `ROSCO` (any case) or `OD,IA` in mm.
 pub fn parse(s: &str) -> Result<Gobo, String> {
     let t = s.trim();
     if let Some(&(l, od, ia)) = ROSCO.iter().find(|(l, _, _)| l.eq_ignore_ascii_case(t)) {
@@ -113,7 +109,7 @@ impl Gobo {
     }
 
     /// The image area's circle in pixels of a `w` × `h` picture, (cx, cy, r): what `crop` keeps.
-    pub fn image_circle_px(&self, w: u32, h: u32) -> [f64; 3] {
+    pub(crate) fn image_circle_px(&self, w: u32, h: u32) -> [f64; 3] {
         let r = 0.5 * (w.min(h) as f64);
         [0.5 * w as f64, 0.5 * h as f64, r]
     }
@@ -122,7 +118,7 @@ impl Gobo {
 /// Put the gobo on a traced stencil: the rim at the picture's centre, the sheet's outline the
 /// rim's square grown by `margin_mm` (what the masks cover; their registration marks sit in its
 /// corners, outside the disc).
-pub fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
+pub(crate) fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
     let rim = Rim {
         centre_mm: [geom.width_mm / 2.0, geom.height_mm / 2.0],
         od_mm: gobo.od_mm,
@@ -151,7 +147,9 @@ pub struct GoboReport {
     /// Where the letter sizes come from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub table: Option<String>,
+    /// Outside diameter, mm.
     pub od_mm: f64,
+    /// Image area diameter, mm.
     pub ia_mm: f64,
     /// "inscribed" (the whole picture inside the image area) or "cropped" (the image area
     /// filled, metal outside its circle).
@@ -171,7 +169,7 @@ pub use crate::export::POLARITY;
 
 /// The gobo's report: its sizes, how much of the image area passes light, and the warning when
 /// that is most of it with the tones as they are (`tone_inverted`: `--invert` was given).
-pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboReport {
+pub(crate) fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboReport {
     let ia_area = std::f64::consts::PI * gobo.ia_mm * gobo.ia_mm / 4.0;
     // Every cut is inside the image area (inscribed: inside the picture, which is inside it;
     // cropped: outside its circle is metal), so their area is the clear area.
@@ -196,9 +194,10 @@ pub fn report(geom: &CutGeometry, gobo: &Gobo, tone_inverted: bool) -> GoboRepor
     }
 }
 
-/// The disc of OD as a polygon (for tests and the masks).
-pub fn disc(rim: &Rim) -> Polygon<f64> {
-    Polygon::new(rim.ring(rim.od_mm / 2.0), vec![])
+/// The disc of OD as a polygon.
+#[cfg(test)]
+fn disc(rim: &Rim) -> geo::Polygon<f64> {
+    geo::Polygon::new(rim.ring(rim.od_mm / 2.0), vec![])
 }
 
 #[cfg(test)]

@@ -18,7 +18,7 @@ pub(crate) const FRAME: u32 = 0;
 #[derive(Clone, Debug, Default)]
 pub struct Node {
     /// Material pixels in this node.
-    pub area: usize,
+    pub(crate) area: usize,
     /// Material pixels of this node with a 4-neighbour cut pixel inside the image, in scan order.
     /// These are the bridge candidates. Ordering along the contour is the bridge stage's business.
     pub border: Vec<(u32, u32)>,
@@ -27,8 +27,9 @@ pub struct Node {
 /// A label per pixel (frame = 0, islands 1..=n, cut = [`CUT`]) and per node its area and border.
 #[derive(Clone, Debug)]
 pub struct IslandMap {
-    pub width: u32,
-    pub height: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    /// Per pixel, row by row: its node, or [`CUT`].
     pub labels: Vec<u32>,
     /// `nodes[0]` is the frame (possibly of area 0 when no material touches the image border).
     pub nodes: Vec<Node>,
@@ -41,19 +42,15 @@ impl IslandMap {
     }
 
     #[inline]
-    pub fn label(&self, x: u32, y: u32) -> u32 {
+    pub(crate) fn label(&self, x: u32, y: u32) -> u32 {
         self.labels[y as usize * self.width as usize + x as usize]
     }
 
-    /// The pixels of island `node` (not the frame) as runs along rows, `(y, x0, x1)` with
-    /// `x0..=x1` inclusive, in scan order, found from its border alone: O(its border and runs),
-    /// not the image's area. Why it works: an island never touches the image's edge, so the two
-    /// ends of each of its runs along a row have a cut neighbour (a material one would be of the
-    /// same 4-connected piece) and are border pixels, and between two of its border pixels that
-    /// follow each other along a row the pixels are either all its own (inside one run) or none
-    /// (any own pixel there would belong to a run whose ends lie between them): the label of the
-    /// pixel right of the first says which.
-    pub fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
+    /// The pixels of island `node` (not the frame) as runs along rows, `(y, x0, x1)` with `x0..=x1`
+    /// inclusive, in scan order, from its border alone. An island never touches the image's edge, so
+    /// both ends of each run are border pixels, and between two of its border pixels that follow each
+    /// other along a row the pixels are all its own or none: the label right of the first says which.
+    pub(crate) fn island_runs(&self, node: usize) -> Vec<(u32, u32, u32)> {
         let b = &self.nodes[node].border;
         let w = self.width as usize;
         let mut runs = Vec::new();
@@ -82,6 +79,14 @@ impl IslandMap {
 /// frame when one of its runs touches the image's edge), then the labels written and the border
 /// pixels found row by row, in parallel bands: the labels once, straight as nodes (labelling the
 /// pieces, then renumbering them, wrote every label twice).
+///
+/// ```
+/// use stencil_core::{islands, raster::BitGrid};
+/// // `#` is material: the frame, a ring of cut, and an island in it.
+/// let bits = BitGrid::from_rows(&["#####", "#...#", "#.#.#", "#...#", "#####"]);
+/// assert_eq!(islands::label(&bits).nodes.len(), 2); // the frame and the island
+/// assert_eq!(islands::floating_count(&bits), 1);
+/// ```
 pub fn label(bits: &BitGrid) -> IslandMap {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let mut nodes = vec![Node::default()];
@@ -224,7 +229,7 @@ fn label_reference(bits: &BitGrid) -> IslandMap {
 /// gives, without labelling again: an island's pixels have no material 4-neighbour but its own
 /// (else it would be part of that piece), so removing it changes no other node's area or border,
 /// and the islands left keep their order (that of their first pixels). The frame is never gone.
-pub fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
+pub(crate) fn without(mut map: IslandMap, gone: &[bool]) -> IslandMap {
     let is_gone = |n: usize| n != FRAME as usize && gone.get(n).copied().unwrap_or(false);
     let Some(first) = (0..map.nodes.len()).find(|&n| is_gone(n)) else {
         return map;
@@ -274,14 +279,11 @@ pub fn floating_count(bits: &BitGrid) -> usize {
 }
 
 /// [`floating_count`] of `after`, a grid that only added material to `before` (`map` being
-/// [`label`] of `before`), from the added pixels alone: the pieces of `after` are `map`'s nodes
-/// joined through the added pixels, so a union-find over the nodes and the added pixels counts
-/// them, and a piece is joined when it holds the frame or an added pixel on the image border.
-/// Why: after the bridges only the few pixels they (and the clean-up around them) added can join
-/// anything, and counting the pieces of the whole grid again was a 1-megapixel pass of its own.
-/// O(pixels) for one comparison of the two grids, then O(added pixels). When
-/// `after` lacks a pixel of `before`'s material, the whole grid is counted.
-pub fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid) -> usize {
+/// [`label`] of `before`), from the added pixels alone: a union-find over `map`'s nodes and the
+/// added pixels, a piece being joined when it holds the frame or an added pixel on the border.
+/// O(pixels) for one comparison, then O(added pixels). When `after` lacks a pixel of `before`'s
+/// material, the whole grid is counted.
+pub(crate) fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &BitGrid) -> usize {
     let n = before.data.len();
     let (w, h) = (after.width as usize, after.height as usize);
     if after.data.len() != n || map.labels.len() != n || w == 0 || h == 0 {

@@ -230,7 +230,7 @@ pub struct Composite {
     pub tone_agreement_pct: f64,
     /// Mean colour difference (CIE76 ΔE) between the composite and the posterised picture.
     pub mean_delta_e: f64,
-    /// Likeness of the composite's lightness to the picture's (see [`crate::tone::likeness::ssim`]),
+    /// Likeness of the composite's lightness to the picture's (see `tone::likeness::ssim`),
     /// 0..1.
     pub likeness: f64,
     /// The same for the posterised picture itself: the most the set can reach.

@@ -6,7 +6,7 @@
 //! `tone` (picture or mesh → [`raster::TwoTone`]) → `islands` ([`islands::IslandMap`]) →
 //! `bridge` ([`bridge::Bridged`]) → `vector` ([`vector::CutGeometry`], in mm) → `check`
 //! ([`check::CheckReport`]); `export` encodes and writes the files. Toolpaths and G-code are the
-//! `stencil-gcode` crate's, fed with [`vector::CutGeometry::loops`].
+//! `stencil-gcode` crate's, fed with `vector::CutGeometry::loops`.
 //!
 //! Stages before `vector` work in pixels; every conversion to millimetres reads one
 //! [`units::Scale`] (the vector stage multiplies by its `mm_per_px`). Only `export` writes files
@@ -31,8 +31,8 @@
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
 //!   `stencil check` runs), [`tone::load_gray`] / [`tone::picture_size`] /
 //!   [`tone::otsu_level`], [`tone::mesh::load`] / [`tone::mesh::render`] /
-//!   [`tone::mesh::render_mesh`] (= [`tone::mesh::draw`] of a [`tone::mesh::Prepared`] mesh,
-//!   then [`tone::mesh::light`]) / [`tone::mesh::two_tone`], [`islands::label`] /
+//!   [`tone::mesh::render_mesh`] (= `tone::mesh::draw` of a [`tone::mesh::Prepared`] mesh,
+//!   then `tone::mesh::light`) / [`tone::mesh::two_tone`], [`islands::label`] /
 //!   [`islands::floating_count`], [`bridge::connect`] / [`bridge::connect_timed`],
 //!   [`vector::vectorize`] / [`vector::vectorize_design`], [`check::check`], and the PNG encoders
 //!   in [`export::png`].

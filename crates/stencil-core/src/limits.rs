@@ -18,30 +18,11 @@
 //!   0), `--mask-dpi` within [`MASK_DPI`].
 //!
 //! ## Pictures, time and memory
-//!
-//! Measured with `/usr/bin/time -f "%e s %M KB"` on the 2-core test machine, on a photo
-//! (grace_hopper.jpg enlarged) and on rings.png tiled (many islands, the slower of the two), at
-//! the default 0.1 mm per pixel with cardstock; `check` on make's output folder:
-//!
-//! | pixels | make: photo | make: rings | tone | check |
-//! | --- | --- | --- | --- | --- |
-//! | 2000² (4 MP) | 0.5 s, 0.10 GB | 0.6 s, 0.10 GB | | |
-//! | 4000² (16 MP) | 2.0 s, 0.36 GB | 2.2 s, 0.40 GB | 2.4 s, 0.26 GB | 0.8 s, 0.16 GB |
-//! | 6000² (36 MP) | 4.4 s, 0.77 GB | 5.2 s, 0.87 GB | 5.7 s, 0.52 GB | 1.5 s, 0.32 GB |
-//! | 8000² (64 MP) | 7.9 s, 1.37 GB | 9.6 s, 1.55 GB | | |
-//! | 10000² (100 MP, the old default) | 13.3 s, 2.1 GB | 16.1 s, 2.4 GB | 22 s, 1.5 GB | 4.1 s, 0.94 GB |
-//! | 14000² (196 MP) | | 24 s, 4.5 GB | 53 s, 3.1 GB | 4.9 s, 1.8 GB |
-//!
-//! (Before this module's decoder change and the regularisation speed-up, 10000² rings took 34 s
-//! and 5.0 GB in make, 2.1 GB in tone and check.) `tone` is the slowest per pixel: it applies the
-//! old morphological filter (exact distance transforms), not the regularisation.
-//!
-//! So the default `--max-pixels` of `make` and `tone` is [`DEFAULT_MAX_PIXELS`] (50 MP: a 45 MP
-//! camera picture in under 10 s and about 1.3 GB in make, 11 s in tone), `check`'s is
-//! [`CHECK_DEFAULT_MAX_PIXELS`] (100 MP, 4 s and 1 GB), `--max-pixels` can be raised up to
-//! [`MAX_PIXELS_CEILING`] (200 MP: 25 s and 4.5 GB in make, a minute in tone), and whatever it
-//! says, a picture whose decoded buffers would need more than `MAX_DECODE_BYTES` is refused
-//! from its header, before any pixel is decoded. Runs past half a second show a progress line.
+//! Measured in docs/measurements.md: the default `--max-pixels` of `make` and `tone` is
+//! [`DEFAULT_MAX_PIXELS`] (50 MP: under 10 s and about 1.3 GB in make), `check`'s is
+//! [`CHECK_DEFAULT_MAX_PIXELS`], it can be raised up to [`MAX_PIXELS_CEILING`], and whatever it
+//! says, a picture whose decoded buffers would need more than `MAX_DECODE_BYTES` is refused from
+//! its header, before any pixel is decoded.
 
 use crate::units::{Scale, Size};
 
@@ -91,10 +72,6 @@ pub(crate) const AUTO_MAX_WORKING_PIXELS: u64 = 16_000_000;
 /// A mesh is never rendered with more working pixels (size × supersample²) than this.
 pub(crate) const MESH_MAX_WORKING_PIXELS: u64 = 80_000_000;
 
-/// The largest `report.json` `check` and `gcode` read from an output folder (a 100 MP stencil
-/// with 5,000 bridges writes about 3 MB).
-pub const MAX_REPORT_BYTES: u64 = 256 << 20;
-
 /// A size that makes no physical sense, or that stencil cannot work at, as data: what set the size
 /// and the numbers that rule it out. The message here says what is wrong; the `stencil` binary
 /// words it with the option to change (`--width-mm`, `--dpi`, `--scale`, `--filter-radius`).
@@ -102,7 +79,11 @@ pub const MAX_REPORT_BYTES: u64 = 256 << 20;
 pub enum SizeError {
     /// A width or resolution that is not a finite number > 0 (`size` holds it).
     #[error("{} is not a size: use a finite number > 0", size_value(*size))]
-    NotPositive { size: Size },
+    NotPositive {
+        /// The size given.
+        size: Size,
+    },
+    /// The size makes pixels too small or too large.
     #[error(
         "{} makes the {width_px}x{height_px} px picture {} x {} mm with pixels of {} mm; {}; {}",
         size_name(*size), num(*width_mm), num(*height_mm), num(*mm_per_px), out_of_range_reason(*mm_per_px),
@@ -111,15 +92,21 @@ pub enum SizeError {
     OutOfRange {
         /// What set the size.
         size: Size,
+        /// The picture's width, px.
         width_px: u32,
+        /// Its height, px.
         height_px: u32,
+        /// The width that makes, mm.
         width_mm: f64,
+        /// The height, mm.
         height_mm: f64,
+        /// Millimetres per pixel.
         mm_per_px: f64,
         /// The values this picture accepts, rounded inwards to 4 significant digits, if any: in
         /// dots per inch for [`Size::Dpi`], else the picture's width in mm.
         range: Option<(f64, f64)>,
     },
+    /// Working pixels so fine a feature spans too many.
     #[error(
         "working pixels of {} mm make the material's smallest feature ({feature_mm} mm) \
          {} pixels wide, more than the {MAX_PX_PER_FEATURE} stencil works with (the clean-up's time \
@@ -131,17 +118,25 @@ pub enum SizeError {
         size: Size,
         /// The supersampling factor.
         factor: u32,
+        /// Millimetres per working pixel.
         mm_per_px: f64,
+        /// The material's smallest feature, mm.
         feature_mm: f64,
+        /// That feature in working pixels.
         feature_px: f64,
         /// What to change.
         fix: FinerFix,
     },
+    /// A speck filter radius too large for the image.
     #[error("a filter radius of {radius} px is larger than this {width}x{height} px working image allows: use 0..={max} (a quarter of its shorter side)")]
     FilterRadius {
+        /// The radius given, px.
         radius: u32,
+        /// The working image's width, px.
         width: u32,
+        /// Its height, px.
         height: u32,
+        /// The largest radius allowed, px.
         max: u32,
     },
 }

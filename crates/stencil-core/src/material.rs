@@ -12,13 +12,16 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use stencil_io::profile::{
-    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
-};
+use stencil_io::profile::{check_range, embedded, load_toml, resolve, ProfileError, Shipped};
 use stencil_io::shipped;
 
-use stencil_gcode::machine::{LaserSource, Machine, Tool};
-use stencil_gcode::CutSettings;
+use stencil_gcode::machine::Tool;
+
+mod settings;
+pub use settings::{
+    choose, cut_kind, has_settings, settings_for, Chosen, Kept, SettingsError, UserSettings,
+    USER_SETTINGS_FILE,
+};
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
@@ -40,15 +43,10 @@ pub fn default_for(tool: &Tool) -> &'static str {
     }
 }
 
-/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4.
-///
-/// Why 4: a stencil is as strong as its weakest bridge, and none is narrower than `min_bridge_mm`,
-/// so a bridge many times wider adds strength that handling never calls on while it hides more of
-/// the picture. Four times the minimum still lets the width follow the island (the rule gives an
-/// island a quarter of its side: with cardstock's 1 mm, islands 4 to 16 mm across get 1 to 4 mm,
-/// larger ones 4 mm, the 40 px the bridge stage allowed at the default 0.1 mm per pixel), and
-/// keeps bridges in the range laser-service and stencil guides draw (1–5 mm in card and film, up
-/// to 15 mm in 3 mm plywood).
+/// `max_bridge_mm` when a profile does not give it, as a multiple of `min_bridge_mm`: 4. A bridge
+/// many times the minimum adds strength handling never calls on while it hides the picture; four
+/// still lets the width follow the island and stays in the range stencil guides draw (1–5 mm in
+/// card and film, up to 15 mm in 3 mm plywood).
 pub(crate) const DEFAULT_MAX_BRIDGE_RATIO: f64 = 4.0;
 
 /// The strength numbers a profile without them gets: card-like, the weakest sheet stencils are
@@ -82,7 +80,7 @@ pub struct Strength {
 
 impl Strength {
     /// Whether the profile gave strength data to judge islands by (see [`Strength`]).
-    pub fn judged(&self) -> bool {
+    pub(crate) fn judged(&self) -> bool {
         self.max_sag_mm.is_finite() || self.two_bridges_above_mm.is_finite()
     }
 }
@@ -106,13 +104,18 @@ pub const SHIPPED: &[Shipped] = &[
 /// How the sheet is cut, with that process's settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub enum Process {
+    /// A laser cutter.
     Laser(LaserSettings),
+    /// A drag-knife cutting plotter.
     Knife(KnifeSettings),
+    /// A pen plotter (outlines to cut by hand).
     Pen(PenSettings),
+    /// Photo-etching (masks, no G-code).
     Etch(EtchSettings),
 }
 
 impl Process {
+    /// Which process, without its settings.
     pub fn kind(&self) -> ProcessKind {
         match self {
             Process::Laser(_) => ProcessKind::Laser,
@@ -127,9 +130,13 @@ impl Process {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ProcessKind {
+    /// `laser`.
     Laser,
+    /// `knife`.
     Knife,
+    /// `pen`.
     Pen,
+    /// `etch`.
     Etch,
 }
 
@@ -144,13 +151,9 @@ impl std::fmt::Display for ProcessKind {
     }
 }
 
-/// `[laser]`: the cut settings of a laser job (`S` from power, `F` from speed, repeated passes),
-/// one entry per kind of laser they were published for ([`LaserCut`]), and air assist.
-///
-/// Why per kind: the same card wants 20 % at 1500 mm/min on a 40 W CO2 and full power at a fifth
-/// of that speed on a 5 W diode, and a blue diode cannot cut clear acrylic or PET at all (its
-/// light passes through). A job gets the entry for its machine's source with the most power at
-/// or below the machine's ([`settings_for`]); none is an error, never a guess.
+/// `[laser]`: the cut settings of a laser job (`S` from power, `F` from speed, passes), one entry
+/// per kind of laser they were published for ([`LaserCut`]: the same card wants 20 % at 1500
+/// mm/min on a 40 W CO2 and full power at a fifth of that on a 5 W diode), and air assist.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LaserSettings {
     /// The settings, each for a kind of laser, with its source.
@@ -158,7 +161,7 @@ pub struct LaserSettings {
     /// Air assist for this material: `true` / `false` overrides the machine's `air_assist`;
     /// absent, the machine decides. (Air keeps flames and smoke off the cut; on thin film or
     /// paper it can lift the sheet.)
-    pub air_assist: Option<bool>,
+    pub(crate) air_assist: Option<bool>,
 }
 
 /// Cut settings published for one kind of laser.
@@ -171,12 +174,13 @@ pub struct LaserCut {
     /// The power they were published for, W (a diode's optical output, a CO2 tube's rating);
     /// they are used on machines with this much power or more.
     #[serde(default)]
-    pub watts: f64,
+    pub(crate) watts: f64,
     /// Laser power in percent of the machine's maximum (0 < p ≤ 100).
     pub power_pct: f64,
     /// Cutting feed in mm/min.
     pub speed_mm_min: f64,
     /// Passes over each loop (1..=50).
+    /// Passes over each outline.
     pub passes: u32,
     /// Where the numbers come from (a maker's table, a published settings library), so a
     /// person can check them; printed by `stencil profiles` and recorded in report.json.
@@ -209,16 +213,19 @@ pub struct KnifeSettings {
     pub force_g: f64,
     /// Cutting speed in mm/s.
     pub speed_mm_s: f64,
+    /// Passes over each outline.
     pub passes: u32,
     /// Drag-knife blade offset in mm (tip behind the axis).
-    pub blade_offset_mm: f64,
+    pub(crate) blade_offset_mm: f64,
 }
 
 /// `[pen]`: a pen plotter drawing the outlines to cut by hand.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PenSettings {
+    /// Drawing speed, mm/min.
     pub speed_mm_min: f64,
+    /// Width of the pen's line, mm.
     pub pen_width_mm: f64,
 }
 
@@ -280,7 +287,7 @@ pub struct MaterialValues(MaterialFile);
 pub struct Material {
     /// The profile's name (shipped profiles: the file stem, e.g. `cardstock`).
     pub name: String,
-    pub description: String,
+    pub(crate) description: String,
     /// Sheet thickness.
     pub thickness_mm: f64,
     /// Narrowest bridge the sheet holds (bridges are checked against this).
@@ -298,6 +305,7 @@ pub struct Material {
     /// Stiffness, weight and the limits the bridge stage holds islands to (optional fields of the
     /// file; see [`Strength`]).
     pub strength: Strength,
+    /// How it is cut, with that process's settings.
     pub process: Process,
 }
 
@@ -331,12 +339,13 @@ impl Material {
     }
 
     /// Parse a material profile from TOML text; `origin` names it in errors.
-    pub fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
-        Material::validate(parse_toml(text, origin)?, origin)
+    #[cfg(test)]
+    fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
+        Material::validate(stencil_io::profile::parse_toml(text, origin)?, origin)
     }
 
     /// This material's values, as its profile file would hold them.
-    pub fn values(&self) -> MaterialValues {
+    pub(crate) fn values(&self) -> MaterialValues {
         let st = self.strength;
         let judged = st.judged();
         let given = |v: f64| judged.then_some(v);
@@ -709,517 +718,5 @@ fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
     )
 }
 
-/// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
-/// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`, `test-grid`...).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SettingsError {
-    /// An etch material: it makes a mask, not a cut.
-    #[error("material '{material}' is for photo-etching and has no cut settings for G-code")]
-    EtchOnly { material: String },
-    /// The material is set up for another tool than the machine has.
-    #[error(
-        "material '{material}' is set up for a {process} but machine '{machine}' has a {tool}"
-    )]
-    WrongTool {
-        material: String,
-        process: ProcessKind,
-        machine: String,
-        /// The machine's tool (`laser`, `knife`, `pen`).
-        tool: &'static str,
-        /// The shipped material set up for that tool ([`default_for`]).
-        suggested: &'static str,
-    },
-    /// A laser material with no settings for this kind of laser (a CO2 card setting is no use on
-    /// a 5 W diode), and none kept for this machine.
-    #[error(
-        "material '{material}' has no cut settings for machine '{machine}' ({kind}); it has \
-         settings for: {}",
-        if have.is_empty() { "none".to_string() } else { have.join(", ") }
-    )]
-    NoSettings {
-        material: String,
-        machine: String,
-        /// The machine's kind as printed (`diode laser 5.5 W`).
-        kind: String,
-        /// The kinds the material has settings for, as printed (`CO2 laser 40 W or more`).
-        have: Vec<String>,
-    },
-}
-
-/// A job's cut settings and where they came from: a kept setting's file, or the material
-/// profile's entry and its published source. `make` prints it and report.json records it, so a
-/// job can be made again with the same numbers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Chosen {
-    pub settings: CutSettings,
-    pub from: String,
-}
-
-/// A material's cut settings for a machine, from the profile alone (see [`choose`] for the
-/// settings a person kept).
-pub fn settings_for(material: &Material, machine: &Machine) -> Result<CutSettings, SettingsError> {
-    choose(material, machine, &UserSettings::default()).map(|c| c.settings)
-}
-
-/// A material's cut settings for a machine: what the person kept for this material and machine
-/// profile (`stencil profiles set`), else the material's entry for the machine's kind. The
-/// material's process must match the machine's tool: a laser material's power means nothing to a
-/// knife, and an etch material has no cut settings. A laser gets the entry for its source with
-/// the most power at or below its own: settings published for a weaker laser cut on a stronger
-/// one (at the same percentage it gives more power), never the other way round.
-pub fn choose(
-    material: &Material,
-    machine: &Machine,
-    user: &UserSettings,
-) -> Result<Chosen, SettingsError> {
-    let (base, from) = match (&material.process, &machine.tool) {
-        (Process::Laser(l), Tool::Laser { .. }) => {
-            let air_assist = l.air_assist.unwrap_or(machine.air_assist);
-            let pick = laser_entry(l, machine);
-            match (pick, user.find(&material.name, &machine.name)) {
-                (_, Some(k)) => (
-                    CutSettings {
-                        power_pct: k.power_pct.unwrap_or(100.0),
-                        speed_mm_min: k.speed_mm_min,
-                        passes: k.passes,
-                        blade_offset_mm: 0.0,
-                        air_assist,
-                    },
-                    user.describe(k),
-                ),
-                (Some(c), None) => (
-                    CutSettings {
-                        power_pct: c.power_pct,
-                        speed_mm_min: c.speed_mm_min,
-                        passes: c.passes,
-                        blade_offset_mm: 0.0,
-                        air_assist,
-                    },
-                    format!("{} for {}: {}", material.name, cut_kind(c), c.from),
-                ),
-                (None, None) => {
-                    return Err(SettingsError::NoSettings {
-                        material: material.name.clone(),
-                        machine: machine.name.clone(),
-                        kind: machine.kind().to_string(),
-                        have: l.on.iter().map(cut_kind).collect(),
-                    })
-                }
-            }
-        }
-        (Process::Knife(k), Tool::Knife { .. }) => (
-            CutSettings {
-                power_pct: 100.0,
-                speed_mm_min: k.speed_mm_s * 60.0,
-                passes: k.passes,
-                blade_offset_mm: k.blade_offset_mm,
-                air_assist: false,
-            },
-            format!("{}'s [knife] section", material.name),
-        ),
-        (Process::Pen(p), Tool::Pen(_)) => (
-            CutSettings {
-                power_pct: 100.0,
-                speed_mm_min: p.speed_mm_min,
-                passes: 1,
-                blade_offset_mm: 0.0,
-                air_assist: false,
-            },
-            format!("{}'s [pen] section", material.name),
-        ),
-        (Process::Etch(_), _) => {
-            return Err(SettingsError::EtchOnly {
-                material: material.name.clone(),
-            })
-        }
-        (p, t) => {
-            return Err(SettingsError::WrongTool {
-                material: material.name.clone(),
-                process: p.kind(),
-                machine: machine.name.clone(),
-                tool: t.kind(),
-                suggested: default_for(&machine.tool),
-            })
-        }
-    };
-    // A kept knife or pen setting overrides the speed and passes (and nothing else).
-    let (settings, from) = match (&machine.tool, user.find(&material.name, &machine.name)) {
-        (Tool::Laser { .. }, _) | (_, None) => (base, from),
-        (_, Some(k)) => (
-            CutSettings {
-                speed_mm_min: k.speed_mm_min,
-                passes: k.passes,
-                ..base
-            },
-            user.describe(k),
-        ),
-    };
-    Ok(Chosen { settings, from })
-}
-
-/// The `[[laser.on]]` entry for a machine: a flat one (any laser), else the one for its source
-/// with the most power at or below the machine's.
-fn laser_entry<'a>(l: &'a LaserSettings, machine: &Machine) -> Option<&'a LaserCut> {
-    if let Some(any) = l.on.iter().find(|c| c.laser.is_none()) {
-        return Some(any);
-    }
-    let power = machine.laser?;
-    l.on.iter()
-        .filter(|c| c.laser == Some(power.source) && c.watts <= power.watts + 1e-9)
-        .max_by(|a, b| a.watts.total_cmp(&b.watts))
-}
-
-/// An entry's kind as printed: `diode laser 5 W or more`, `any laser`.
-pub fn cut_kind(c: &LaserCut) -> String {
-    match c.laser {
-        None => "any laser".into(),
-        Some(src) => format!(
-            "{} laser {} W or more",
-            match src {
-                LaserSource::Diode => "diode",
-                LaserSource::Co2 => "CO2",
-            },
-            stencil_gcode::num(c.watts)
-        ),
-    }
-}
-
-/// Whether a material has cut settings for a machine (from its profile or kept by the person):
-/// what `stencil profiles` lists.
-pub fn has_settings(material: &Material, machine: &Machine, user: &UserSettings) -> bool {
-    choose(material, machine, user).is_ok()
-}
-
-/// The file kept settings are written to, in the user's config folder
-/// ([`stencil_io::profile::config_dir`]).
-pub const USER_SETTINGS_FILE: &str = "cut-settings.toml";
-
-/// Cut settings a person kept with `stencil profiles set` (what a test grid taught them), per
-/// material and machine profile: they win over the material profile's settings for that machine.
-/// Kept in one small TOML file in the user's config folder, which a person can read and edit.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct UserSettings {
-    /// Where they were read from (not written in the file).
-    #[serde(skip)]
-    pub path: Option<PathBuf>,
-    #[serde(default, rename = "kept")]
-    pub entries: Vec<Kept>,
-}
-
-/// One kept setting.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Kept {
-    /// The material profile's name (`cardstock`).
-    pub material: String,
-    /// The machine profile's name (`diode-400`).
-    pub machine: String,
-    /// Laser power, % (lasers only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub power_pct: Option<f64>,
-    pub speed_mm_min: f64,
-    pub passes: u32,
-}
-
-impl UserSettings {
-    /// The kept settings in `dir/cut-settings.toml`; none when the file does not exist. Every
-    /// entry is checked as a profile's are (the error names the file and the field).
-    pub fn load_from(dir: &Path) -> Result<UserSettings, ProfileError> {
-        let path = dir.join(USER_SETTINGS_FILE);
-        if !path.exists() {
-            return Ok(UserSettings {
-                path: Some(path),
-                entries: Vec::new(),
-            });
-        }
-        let mut u: UserSettings = load_toml(&path)?;
-        for (k, e) in u.entries.iter().enumerate() {
-            e.check(&path, &format!("kept[{k}]."))?;
-        }
-        u.path = Some(path);
-        Ok(u)
-    }
-
-    /// The kept settings in the user's config folder, none when there is no config folder.
-    pub fn load() -> Result<UserSettings, ProfileError> {
-        match stencil_io::profile::config_dir() {
-            Some(dir) => UserSettings::load_from(&dir),
-            None => Ok(UserSettings::default()),
-        }
-    }
-
-    /// The entry for a material and machine profile.
-    pub fn find(&self, material: &str, machine: &str) -> Option<&Kept> {
-        self.entries
-            .iter()
-            .find(|e| e.material == material && e.machine == machine)
-    }
-
-    /// Keep `e`, replacing an entry for the same material and machine.
-    pub fn set(&mut self, e: Kept) {
-        self.entries
-            .retain(|o| !(o.material == e.material && o.machine == e.machine));
-        self.entries.push(e);
-        self.entries
-            .sort_by(|a, b| (&a.material, &a.machine).cmp(&(&b.material, &b.machine)));
-    }
-
-    /// The file's text: `header` (comment lines saying what it is; the command that writes it
-    /// knows its own name), then the entries.
-    pub fn to_toml(&self, header: &str) -> String {
-        let body = toml::to_string(self).unwrap_or_default();
-        format!("{header}\n{body}")
-    }
-
-    /// Where a kept entry is, as `make` prints it.
-    fn describe(&self, k: &Kept) -> String {
-        format!(
-            "{} (kept for {} on {})",
-            self.path
-                .as_deref()
-                .map_or_else(|| USER_SETTINGS_FILE.into(), |p| p.display().to_string()),
-            k.material,
-            k.machine
-        )
-    }
-}
-
-impl Kept {
-    /// The numbers in the ranges a profile allows.
-    pub fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
-        if let Some(p) = self.power_pct {
-            check_range(origin, &format!("{prefix}power_pct"), p, 0.1, 100.0, "%")?;
-        }
-        check_range(
-            origin,
-            &format!("{prefix}speed_mm_min"),
-            self.speed_mm_min,
-            1.0,
-            100_000.0,
-            "mm/min",
-        )?;
-        check_range(
-            origin,
-            &format!("{prefix}passes"),
-            self.passes as f64,
-            1.0,
-            50.0,
-            "passes",
-        )
-    }
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_shipped_profile_is_valid_and_named_after_its_file() {
-        for s in SHIPPED {
-            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
-            assert_eq!(m.name, s.name);
-            assert!(m.kerf_mm < m.min_feature_mm);
-        }
-        assert_eq!(Material::default().name, DEFAULT_MATERIAL);
-        // The default for each shipped machine's tool is shipped and set up for that tool.
-        for s in stencil_gcode::machine::SHIPPED {
-            let machine = stencil_gcode::machine::load(Some(s.name)).unwrap();
-            let (m, _) = Material::find(default_for(&machine.tool)).unwrap();
-            assert_eq!(
-                m.process.kind().to_string(),
-                machine.tool.kind(),
-                "{}",
-                m.name
-            );
-        }
-    }
-
-    #[test]
-    fn photo_etch_profiles_follow_the_thickness_rule() {
-        for s in SHIPPED {
-            let m = Material::parse(s.text, Path::new(s.name)).unwrap();
-            if m.etch().is_some() {
-                assert!(m.min_feature_mm >= m.thickness_mm, "{}", m.name);
-                assert!(m.min_bridge_mm >= m.thickness_mm, "{}", m.name);
-            }
-        }
-    }
-
-    #[test]
-    fn the_widest_bridge_defaults_to_four_times_the_narrowest_and_is_checked() {
-        let card = Material::default();
-        assert_eq!(card.max_bridge_mm, 4.0 * card.min_bridge_mm);
-        let with = |line: &str| {
-            let text = SHIPPED[1].text.replace(
-                "min_feature_mm = 0.5",
-                &format!("min_feature_mm = 0.5\n{line}"),
-            );
-            Material::parse(&text, Path::new("x.toml"))
-        };
-        assert_eq!(with("max_bridge_mm = 3.0").unwrap().max_bridge_mm, 3.0);
-        let e = with("max_bridge_mm = 0.5").unwrap_err().to_string();
-        assert!(e.contains("x.toml") && e.contains("max_bridge_mm"), "{e}");
-    }
-
-    #[test]
-    fn strength_fields_default_and_absurd_values_name_the_field() {
-        // Every shipped profile gives its own numbers (with sources in its comments).
-        for s in SHIPPED {
-            for field in [
-                "youngs_modulus_gpa",
-                "density_kg_m3",
-                "max_sag_mm",
-                "two_bridges_above_mm",
-            ] {
-                assert!(
-                    s.text.contains(&format!("\n{field} = ")),
-                    "{} {field}",
-                    s.name
-                );
-            }
-        }
-        let without: String = SHIPPED[1]
-            .text
-            .lines()
-            .filter(|l| {
-                !["youngs", "density", "max_sag", "two_bridges"]
-                    .iter()
-                    .any(|k| l.starts_with(k))
-            })
-            .map(|l| format!("{l}\n"))
-            .collect();
-        let m = Material::parse(&without, Path::new("x.toml")).unwrap();
-        assert!(!m.strength.judged(), "no strength data: not judged");
-        let one = without.replace(
-            "min_feature_mm = 0.5",
-            "min_feature_mm = 0.5\nmax_sag_mm = 2",
-        );
-        let m = Material::parse(&one, Path::new("x.toml")).unwrap();
-        assert_eq!(
-            m.strength,
-            Strength {
-                max_sag_mm: 2.0,
-                ..DEFAULT_STRENGTH
-            }
-        );
-        for (field, bad) in [
-            ("youngs_modulus_gpa", "0"),
-            ("youngs_modulus_gpa", "1e9"),
-            ("density_kg_m3", "-5"),
-            ("max_sag_mm", "0"),
-            ("two_bridges_above_mm", "1e300"),
-        ] {
-            let text = without.replace(
-                "min_feature_mm = 0.5",
-                &format!("min_feature_mm = 0.5\n{field} = {bad}"),
-            );
-            let e = Material::parse(&text, Path::new("x.toml"))
-                .unwrap_err()
-                .to_string();
-            assert!(
-                e.contains("x.toml") && e.contains(field),
-                "{field} = {bad}: {e}"
-            );
-        }
-    }
-
-    #[test]
-    fn a_section_for_another_process_is_an_error() {
-        let text = SHIPPED[1].text.to_string()
-            + "\n[etch]\netch_factor = 2.0\nmirror = false\ntwo_sided = false\n";
-        let e = Material::parse(&text, Path::new("x.toml"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("x.toml") && e.contains("etch"), "{e}");
-    }
-
-    fn laser_machine(source: &str, watts: f64) -> Machine {
-        let text = stencil_gcode::machine::SHIPPED[0]
-            .text
-            .replace("source = \"diode\"", &format!("source = \"{source}\""))
-            .replace("watts = 5.5", &format!("watts = {watts}"));
-        stencil_gcode::machine::parse(&text, Path::new("m.toml")).unwrap()
-    }
-
-    #[test]
-    fn a_laser_gets_the_entry_for_its_source_with_the_most_power_at_or_below_its_own() {
-        let card = Material::default();
-        let pick = |src: &str, w: f64| settings_for(&card, &laser_machine(src, w));
-        // 5.5 W diode: the 5 W entry; 12 W: the 10 W one; 40 W CO2: the CO2 one.
-        assert_eq!(pick("diode", 5.5).unwrap().speed_mm_min, 1650.0);
-        assert_eq!(pick("diode", 12.0).unwrap().speed_mm_min, 3375.0);
-        assert_eq!(pick("diode", 25.0).unwrap().power_pct, 31.0);
-        let co2 = pick("co2", 60.0).unwrap();
-        assert_eq!((co2.power_pct, co2.speed_mm_min), (20.0, 1500.0));
-        // Weaker than every entry: none (a 2 W diode, a 30 W tube).
-        for (src, w) in [("diode", 2.0), ("co2", 30.0)] {
-            let e = pick(src, w).unwrap_err();
-            assert!(matches!(e, SettingsError::NoSettings { .. }), "{e}");
-        }
-        // Clear acrylic has no diode entry at any power.
-        let (acrylic, _) = Material::find("acrylic-3mm").unwrap();
-        let e = settings_for(&acrylic, &laser_machine("diode", 40.0)).unwrap_err();
-        assert!(e.to_string().contains("CO2 laser 40 W or more"), "{e}");
-    }
-
-    #[test]
-    fn kept_settings_win_for_their_material_and_machine_only() {
-        let card = Material::default();
-        let diode = laser_machine("diode", 5.5);
-        let user = UserSettings {
-            path: Some(PathBuf::from("/c/cut-settings.toml")),
-            entries: vec![Kept {
-                material: "cardstock".into(),
-                machine: "diode-400".into(),
-                power_pct: Some(70.0),
-                speed_mm_min: 800.0,
-                passes: 3,
-            }],
-        };
-        let c = choose(&card, &diode, &user).unwrap();
-        assert_eq!(
-            (
-                c.settings.power_pct,
-                c.settings.speed_mm_min,
-                c.settings.passes
-            ),
-            (70.0, 800.0, 3)
-        );
-        assert!(c.from.contains("/c/cut-settings.toml"), "{}", c.from);
-        let (paper, _) = Material::find("copy-paper").unwrap();
-        assert_eq!(
-            choose(&paper, &diode, &user).unwrap().settings.power_pct,
-            10.0
-        );
-        // Written and read back.
-        let dir = std::env::temp_dir().join(format!("stencil-kept-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join(USER_SETTINGS_FILE), user.to_toml("# test")).unwrap();
-        let back = UserSettings::load_from(&dir);
-        std::fs::remove_dir_all(&dir).unwrap();
-        assert_eq!(back.unwrap().entries, user.entries);
-    }
-
-    #[test]
-    fn laser_entries_are_checked() {
-        let base = SHIPPED[1].text; // cardstock
-        let bad = |from: &str, to: &str| {
-            assert!(base.contains(from), "{from}");
-            Material::parse(&base.replacen(from, to, 1), Path::new("x.toml"))
-                .unwrap_err()
-                .to_string()
-        };
-        let e = bad("from = \"Certifitrax", "from = \"\"\n#\"");
-        assert!(e.contains("laser.on[0].from"), "{e}");
-        let e = bad("watts = 10\n", "watts = 5\n");
-        assert!(e.contains("same laser and power"), "{e}");
-        let e = bad("power_pct = 48", "power_pct = 480");
-        assert!(e.contains("laser.on[1].power_pct"), "{e}");
-        let e = bad(
-            "[laser]\n",
-            "[laser]\npower_pct = 5\nspeed_mm_min = 5\npasses = 1\n",
-        );
-        assert!(e.contains("cannot be mixed"), "{e}");
-    }
-}
+mod tests;

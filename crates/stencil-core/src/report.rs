@@ -18,10 +18,12 @@ pub struct BridgeReport {
     /// Width at right angles to the bridge, at its narrowest, in working pixels (see
     /// [`Bridge::width_px`]).
     pub width_px: u32,
+    /// Length along its strips, px.
     pub length_px: f64,
     /// Cut pixels it turned into material.
-    pub pixels: usize,
-    pub cost: CostTerms,
+    pub(crate) pixels: usize,
+    pub(crate) cost: CostTerms,
+    /// A second bridge, added because the first one's real error exceeded its estimate.
     pub support: bool,
     /// `"walk"`, or `"search"` when no walk under `--max-bridge-length-px` left the island's group
     /// and it was joined by the cheapest path through the cut, of any length (absent in older
@@ -70,33 +72,37 @@ impl From<&Bridge> for BridgeReport {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Fidelity {
     /// The picture's pixels at working size (the denominator of every `_pct`).
-    pub pixels: usize,
+    pub(crate) pixels: usize,
     /// Material of the thresholded picture that the clean-up cut away.
-    pub cleanup_removed_px: usize,
+    pub(crate) cleanup_removed_px: usize,
+    /// The same, % of the picture.
     pub cleanup_removed_pct: f64,
     /// Cut of the thresholded picture that the clean-up filled with material.
-    pub cleanup_added_px: usize,
+    pub(crate) cleanup_added_px: usize,
+    /// The same, % of the picture.
     pub cleanup_added_pct: f64,
     /// Material added after the two-tone (cut in the two-tone, material in the stencil): the
     /// bridges, and the clean-up around them and after them.
-    pub bridges_px: usize,
+    pub(crate) bridges_px: usize,
+    /// The same, % of the picture.
     pub bridges_pct: f64,
     /// Of `bridges_px`, what the clean-up after bridging added apart from every bridge (a neck
     /// widened, a pocket filled, joined to no bridge through added material); the rest is the
     /// sum of the bridges' `pixels`. Absent (0) in reports written before it was counted.
     #[serde(default)]
-    pub apart_from_bridges_px: usize,
+    pub(crate) apart_from_bridges_px: usize,
     #[serde(default)]
-    pub apart_from_bridges_pct: f64,
+    pub(crate) apart_from_bridges_pct: f64,
     /// Pixels where the stencil differs from the thresholded picture, whatever changed them.
-    pub changed_px: usize,
+    pub(crate) changed_px: usize,
+    /// The same, % of the picture.
     pub changed_pct: f64,
 }
 
 impl Fidelity {
     /// Count the changes between the thresholded picture, the cleaned two-tone and the stencil
     /// (three grids of the same size).
-    pub fn measure(picture: &BitGrid, twotone: &BitGrid, stencil: &BitGrid) -> Fidelity {
+    pub(crate) fn measure(picture: &BitGrid, twotone: &BitGrid, stencil: &BitGrid) -> Fidelity {
         assert!(
             picture.len() == twotone.len() && twotone.len() == stencil.len(),
             "fidelity is measured on grids of the same size"
@@ -127,7 +133,7 @@ impl Fidelity {
 
     /// Set how much of `bridges_px` no bridge holds (what [`crate::bridge::Bridged::recount`]
     /// returns): the grids alone cannot tell it.
-    pub fn with_apart_from_bridges(self, px: usize) -> Fidelity {
+    pub(crate) fn with_apart_from_bridges(self, px: usize) -> Fidelity {
         Fidelity {
             apart_from_bridges_px: px,
             apart_from_bridges_pct: share_pct(px, self.pixels),
@@ -149,8 +155,10 @@ fn share_pct(n: usize, pixels: usize) -> f64 {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Report {
     /// The input file.
-    pub input: String,
+    pub(crate) input: String,
+    /// Working width, px.
     pub width_px: u32,
+    /// Working height, px.
     pub height_px: u32,
     /// The 8-bit threshold level used (after `otsu`, the level it chose); absent for a mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -168,13 +176,14 @@ pub struct Report {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dropped_islands: Option<Vec<crate::bridge::drop::Dropped>>,
     /// What the topological filter removed.
-    pub filter: FilterStats,
+    pub(crate) filter: FilterStats,
     /// What the design-rule regularisation changed (the default clean-up; absent when the user
     /// asked for the open-close filter with `--filter-radius`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub regularize: Option<crate::tone::regularize::RegularizeStats>,
+    pub(crate) regularize: Option<crate::tone::regularize::RegularizeStats>,
     /// Islands before bridging.
     pub islands: usize,
+    /// Every bridge drawn.
     pub bridges: Vec<BridgeReport>,
     /// Per island: bridges, span and sag estimate against the material's limit, why any were
     /// added for strength; totals (see `bridge::strength`). Absent in older reports.
@@ -183,7 +192,7 @@ pub struct Report {
     /// What the user's bridge options did (`--min-island-mm2`, `--bridge-at`, `--keep-out`,
     /// `--no-bridge-near`). Absent when none was given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub user_bridges: Option<UserBridgesReport>,
+    pub(crate) user_bridges: Option<UserBridgesReport>,
     /// Material pieces not joined to the frame after bridging: 0 for a valid stencil.
     pub floating_after: usize,
     /// What the clean-up and the bridges changed in the picture (absent in reports written before
@@ -195,6 +204,7 @@ pub struct Report {
     /// The material profile used (name) and where it was read from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<String>,
+    /// Where the material profile was read from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_source: Option<String>,
     /// The material's values themselves (as its profile file holds them): what `gcode` and
@@ -202,23 +212,25 @@ pub struct Report {
     /// open (`material_source` is only a note of where the values were read).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_values: Option<crate::material::MaterialValues>,
-    /// Physical size: millimetres per working pixel, the picture's size, the sheet margin, and
-    /// the simplification tolerance used by the vectors.
+    /// Millimetres per working pixel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mm_per_px: Option<f64>,
-    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none) and,
-    /// when it was chosen automatically (no `--scale`), how: the target pixel size, the factor
-    /// the rule asked for and any cap that lowered it.
+    /// Working pixels per input pixel along each axis (the supersampling factor; 1 = none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_factor: Option<u32>,
+    /// How the factor was chosen, when it was automatic.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_auto: Option<crate::tone::resolution::AutoScale>,
+    /// The picture's width, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
+    /// Its height, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub height_mm: Option<f64>,
+    /// The sheet margin, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub margin_mm: Option<f64>,
+    /// The vectors' simplification tolerance, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance_mm: Option<f64>,
     /// Whether the outlines were fitted for files that carry arcs (false for a G-code job
@@ -229,19 +241,19 @@ pub struct Report {
     pub arcs: Option<bool>,
     /// The material's limits in pixels as given to the stages (after the check's allowance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_bridge_px: Option<u32>,
+    pub(crate) min_bridge_px: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_bridge_px: Option<u32>,
+    pub(crate) max_bridge_px: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub filter_radius_px: Option<u32>,
+    pub(crate) filter_radius_px: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub vector: Option<VectorStats>,
+    pub(crate) vector: Option<VectorStats>,
     /// The width and connectivity check against the material.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub check: Option<CheckReport>,
     /// Files written, by name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub files: Vec<String>,
+    pub(crate) files: Vec<String>,
     /// The G-code job (`--emit gcode`): machine, lengths, travel vs input order, time estimate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gcode: Option<stencil_gcode::GcodeSummary>,
@@ -295,20 +307,20 @@ mod tests {
 pub struct UserBridgesReport {
     /// `--min-island-mm2` and the islands it cut away: how many, their total area.
     pub min_island_mm2: f64,
-    pub islands_cut_away: usize,
-    pub cut_away_mm2: f64,
+    pub(crate) islands_cut_away: usize,
+    pub(crate) cut_away_mm2: f64,
     /// Pixels of the working image no bridge could cross (`--keep-out`, `--no-bridge-near`).
-    pub kept_out_px: usize,
+    pub(crate) kept_out_px: usize,
     /// Each `--bridge-at` place: the point, the island taken, where its bridge starts and how far
     /// from the point, mm.
-    pub bridge_at: Vec<BridgeAtReport>,
+    pub(crate) bridge_at: Vec<BridgeAtReport>,
 }
 
 /// One `--bridge-at` place (mm from the picture's top left corner).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct BridgeAtReport {
+pub(crate) struct BridgeAtReport {
     pub at_mm: [f64; 2],
-    pub island: u32,
-    pub start_mm: Option<[f64; 2]>,
-    pub distance_mm: Option<f64>,
+    pub(crate) island: u32,
+    pub(crate) start_mm: Option<[f64; 2]>,
+    pub(crate) distance_mm: Option<f64>,
 }

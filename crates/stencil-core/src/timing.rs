@@ -11,6 +11,7 @@ use std::time::Instant;
 /// ("tone", "filter", "islands", "bridge", ...), then "write" (encoding and writing the files).
 /// The CLI draws a progress bar from it; the library draws nothing.
 pub trait Progress: Send + Sync {
+    /// Told as the stage `name` starts.
     fn stage(&self, name: &str);
 }
 
@@ -39,7 +40,7 @@ impl Timings {
     }
 
     /// Run `f` as the stage `name`, adding its wall-clock time to the stage's.
-    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+    pub(crate) fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
         if let Some(p) = &self.progress {
             p.stage(name);
         }
@@ -65,7 +66,7 @@ impl Timings {
     }
 
     /// The stages' milliseconds keyed by name, as report.json holds them.
-    pub fn into_map(self) -> BTreeMap<String, f64> {
+    pub(crate) fn into_map(self) -> BTreeMap<String, f64> {
         self.ms
     }
 }

@@ -6,11 +6,11 @@ use serde::{Deserialize, Serialize};
 
 /// A length in millimetres.
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Default, Serialize, Deserialize)]
-pub struct Mm(pub f64);
+pub(crate) struct Mm(pub f64);
 
 /// A length in working pixels.
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Default, Serialize, Deserialize)]
-pub struct Px(pub f64);
+pub(crate) struct Px(pub f64);
 
 /// How big the picture is on the sheet. Sizes are of the input picture: supersampling (`--scale`,
 /// automatic or given) makes the working pixels finer, never the picture larger.
@@ -28,6 +28,7 @@ pub enum Size {
 /// Millimetres per working pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scale {
+    /// Millimetres per working pixel (> 0).
     pub mm_per_px: f64,
 }
 
@@ -40,29 +41,21 @@ impl Default for Scale {
 }
 
 impl Scale {
-    pub fn from_dpi(dpi: f64) -> Self {
+    pub(crate) fn from_dpi(dpi: f64) -> Self {
         Scale {
             mm_per_px: 25.4 / dpi,
         }
     }
 
     /// The scale that makes an image `width_px` wide come out `width_mm` wide.
-    pub fn from_width(width_px: u32, width_mm: f64) -> Self {
+    pub(crate) fn from_width(width_px: u32, width_mm: f64) -> Self {
         Scale {
             mm_per_px: width_mm / width_px.max(1) as f64,
         }
     }
 
-    pub fn to_mm(&self, px: Px) -> Mm {
-        Mm(px.0 * self.mm_per_px)
-    }
-
-    pub fn to_px(&self, mm: Mm) -> Px {
+    pub(crate) fn to_px(self, mm: Mm) -> Px {
         Px(mm.0 / self.mm_per_px)
-    }
-
-    pub fn dpi(&self) -> f64 {
-        25.4 / self.mm_per_px
     }
 }
 
@@ -75,6 +68,5 @@ mod tests {
         let s = Scale::from_dpi(254.0);
         assert!((s.mm_per_px - 0.1).abs() < 1e-12);
         assert!((s.to_px(Mm(2.0)).0 - 20.0).abs() < 1e-9);
-        assert!((s.dpi() - 254.0).abs() < 1e-9);
     }
 }

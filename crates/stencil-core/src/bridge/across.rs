@@ -29,20 +29,14 @@ const SAMPLE_STEP: f64 = 0.25;
 /// centre is outside): they do not anchor a run.
 const END_MARGIN: f64 = 0.75;
 
-/// Measure a drawn bridge at right angles to its axis, the line from the middle of its start (the
-/// outline's first and last points) to the middle of its end (the second and third), once a pixel
-/// along it. At each station the line across is sampled every [`SAMPLE_STEP`] px from `reach` px
-/// before the outline's chord to `reach` px past it, in the material after drawing (`bits` plus
-/// `pixels`; outside the image is the sheet); a run of material counts when it covers a point of
-/// the chord at least [`END_MARGIN`] from the outline's ends, and the station's width is the
-/// longest such run (infinite when it runs past `reach`, as where the bridge meets an island at a
-/// slant). The narrowest is the smallest station width: a wedge of the fill tapering into a
-/// pocket of cut shows there, while the island material beside a slanted end counts as the width
-/// it is. The widest is the longest run of the bridge's own pixels on any of these lines, or the
-/// outline's widest chord. Runs are measured through the pixel squares, so a band at a slant
-/// measures up to a pixel less than its count of strips (the staircase pixel of
-/// [`crate::check::allowance_px`]). The station at the middle of the axis is also kept on its
-/// own ([`Across::middle`]).
+/// Measure a drawn bridge at right angles to its axis (middle of its start, the outline's first
+/// and last points, to middle of its end), once a pixel along it. At each station the line across
+/// is sampled every [`SAMPLE_STEP`] px within `reach` of the chord, in the material after drawing
+/// (outside the image is the sheet); the station's width is the longest run of material covering
+/// the chord at least [`END_MARGIN`] from its ends (infinite past `reach`). The narrowest is the
+/// least station width, the widest the longest run of the bridge's own pixels or the outline's
+/// widest chord; a slanted band measures up to a pixel less (see [`crate::check::allowance_px`]).
+/// The middle station is kept too ([`Across::middle`]).
 pub(crate) fn measure(bits: &BitGrid, pixels: &[u32], polygon: &[[f64; 2]], reach: f64) -> Across {
     let mut widest = widest(polygon);
     let Some(axis) = Axis::new(polygon) else {

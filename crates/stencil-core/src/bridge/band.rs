@@ -8,16 +8,10 @@ use crate::raster::{BitGrid, Gray};
 use stencil_geom::ring::dist;
 
 /// A bridge drawn as a straight band `width` px wide from pixel centre `ends[0]` (on one node) to
-/// `ends[1]` (on the other): every cut pixel whose centre lies in the rectangle, which is solid, so
-/// it joins the two nodes and is `width` wide everywhere at right angles to it.
-///
-/// Each end reaches on into its node, as long as the node's material continues along the axis, by
-/// up to half the width: a band ending where it first touches a round island would rest on it by
-/// less than its width (a neck between the cut on either side of the joint), while one reaching
-/// in meets it across its whole width, or swallows an island smaller than itself. It stops at
-/// the node's far edge, so a band never sticks out beyond a thin node. A band is also never
-/// shorter than `min_width` along its axis: a short, wide band between two islands would otherwise
-/// hang beside them as a flap thinner than a bridge may be.
+/// `ends[1]` (on the other): every cut pixel whose centre lies in the solid rectangle. Each end
+/// reaches on into its node by up to half the width while the node's material continues, so it
+/// meets a round island across its whole width, stopping at the node's far edge; a band is never
+/// shorter than `min_width`, which would hang as a flap thinner than a bridge may be.
 pub(super) fn band(
     bits: &BitGrid,
     gray: &Gray,
@@ -115,13 +109,9 @@ impl BandAxis {
     }
 
     /// How far past its end at `p` (the band running on in direction `dir`) the reported outline
-    /// reaches: it stops at the node's edge, since the check takes a neck inside a bridge's
-    /// outline for part of the bridge, and the nodes' own webs are not. Where a node's edge is
-    /// hollow across the band (the inside of a ring seen from within it, a step of the picture's
-    /// pixels), its material reaches toward the other end beside the axis: the outline stops
-    /// where the band first meets it, in its own rows or the rows just beside it (pixels
-    /// 4-adjacent to the band). Material that runs on alongside the band (another island beside
-    /// it) is no edge.
+    /// reaches: to the node's edge, since the check counts a neck inside a bridge's outline as the
+    /// bridge. Where the node's edge is hollow across the band, the outline stops where the band
+    /// first meets material in its own or the adjacent rows; material running alongside is no edge.
     fn reported_end(&self, bits: &BitGrid, p: [f64; 2], dir: [f64; 2]) -> f64 {
         let (d, [nx, ny], half) = (self.d, self.off, self.half);
         let limit = (self.len / 2.0 - 0.5).max(0.0);

@@ -1,10 +1,7 @@
-//! Bridge candidates: every island border pixel, ordered along the island's contours.
-//!
-//! The islands stage lists border pixels in scan order; the cost windows run *along* the border, so
-//! here they are chained: from a border pixel, step to an unvisited border pixel of the same node
-//! among its 8 neighbours (edge neighbours first, so the chain follows the contour rather than
-//! cutting corners), first forwards, then backwards from the seed. An island with a hole gets at
-//! least two chains (outer contour and hole); a chain whose ends touch is closed and its windows wrap.
+//! Bridge candidates: every island border pixel, chained along the island's contours (the cost
+//! windows run along the border): from a border pixel to an unvisited one of the same node among
+//! its 8 neighbours, edge neighbours first, forwards then backwards from the seed. An island with a
+//! hole gets at least two chains; a chain whose ends touch is closed and its windows wrap.
 
 use rayon::prelude::*;
 

@@ -43,12 +43,12 @@ pub struct UserBridges {
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Request {
     /// The point asked for, pixels.
-    pub at_px: [f64; 2],
+    pub(crate) at_px: [f64; 2],
     /// The island it was taken to mean (under the point, or the nearest).
-    pub island: u32,
+    pub(crate) island: u32,
     /// Where the bridge starts, pixels, and how far that is from the point.
-    pub start_px: Option<[f64; 2]>,
-    pub distance_px: Option<f64>,
+    pub(crate) start_px: Option<[f64; 2]>,
+    pub(crate) distance_px: Option<f64>,
 }
 
 /// For each requested point, the candidate to add (if the island has an allowed one) and the

@@ -169,13 +169,9 @@ impl Norm {
 const STEP_FLOOR: f32 = 1e-3;
 
 /// The cost of one pixel of a path found by the fallback search ([`super::search::search`]),
-/// which runs Dijkstra and so needs a cost that adds up pixel by pixel. It is the strip cost's
-/// intensity and length terms per pixel, in units of ΣI (both multiplied by L̃):
-/// `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)`. L^α itself does not add up; its slope at the length
-/// limit `L_max` (`--max-bridge-length-px`) is what one more pixel of a strip that long costs, so
-/// a searched path, which is needed only where no walk under the limit exists, prices its length
-/// as the cost function does there. With the default weights and L̃ ≈ 10 px a pixel of length
-/// costs about 6.7 pixels of black: a detour over light gray is taken only when it is short.
+/// which needs a cost that adds up: the strip cost's intensity and length terms per pixel, in
+/// units of ΣI, `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)` (the slope of L^α at the length limit).
+/// With the default weights and L̃ ≈ 10 px a pixel of length costs about 6.7 pixels of black.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct StepCost {
     /// w0: the price of a pixel of pure black.

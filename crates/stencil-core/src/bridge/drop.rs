@@ -1,24 +1,14 @@
 //! Bridge or drop, by least change.
 //!
-//! Every island needs a bridge, and a bridge changes the picture: it lays material over cut. So
-//! does the other way to deal with an island, dropping it (its material becomes cut). The
-//! regularisation already chooses between removing and widening a thin feature by what changes
-//! the gray picture less; this does the same for islands. Both choices are priced as the
-//! regularisation prices a flipped pixel, `0.1 + |gray − threshold|`:
-//!
-//! - dropping an island costs the sum of that over its pixels;
-//! - the cheapest bridge that could hold it costs the sum over the cut pixels of the cheapest
-//!   4-connected path from the island to any other material, times the width the bridge stage
-//!   would give it (`⌈√A / 4⌉` px for its area A, within the material's bridge widths): a bridge
-//!   is about its path swept across its width.
-//!
-//! An island is dropped when dropping costs less. A 1 mm² highlight on a dark helmet is dropped
-//! rather than held by a 13 mm bridge across the visor; a face, whose pixels are far from the
-//! threshold and many, is always bridged. The path search (Dijkstra from the island's border) stops
-//! as soon as its cost reaches the drop's, so it looks no farther than the drop could pay for,
-//! and it gives up (keeping the island) after [`SEARCH_PER_AREA`] × A + [`SEARCH_BASE`] pixels:
-//! bounded time whatever the picture. Islands the person asked a bridge for (`--bridge-at`) are
-//! never dropped.
+//! An island is either bridged (material laid over cut) or dropped (its material becomes cut),
+//! whichever changes the picture less, priced as the regularisation prices a flipped pixel,
+//! `0.1 + |gray − threshold|`: dropping costs the sum over its pixels; the cheapest bridge costs
+//! the sum over the cut pixels of the cheapest 4-connected path to other material, times the width
+//! the bridge stage would give it (`⌈√A / 4⌉` px within the material's bridge widths). So a 1 mm²
+//! highlight is dropped rather than held by a 13 mm bridge; a face is always bridged. The path
+//! search (Dijkstra from the border) stops when its cost reaches the drop's, and gives up (keeping
+//! the island) after `SEARCH_PER_AREA` × A + `SEARCH_BASE` pixels. Islands with a `--bridge-at`
+//! are never dropped.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -31,8 +21,8 @@ use crate::raster::Gray;
 
 /// The search for an island's cheapest bridge visits at most this many pixels per island pixel,
 /// plus [`SEARCH_BASE`].
-pub const SEARCH_PER_AREA: usize = 16;
-pub const SEARCH_BASE: usize = 20_000;
+pub(crate) const SEARCH_PER_AREA: usize = 16;
+pub(crate) const SEARCH_BASE: usize = 20_000;
 
 /// One island dropped instead of bridged.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -40,17 +30,18 @@ pub struct Dropped {
     /// Its centre (mean of its pixels), mm from the picture's top left corner (pixels until the
     /// pipeline scales it).
     pub at_mm: [f64; 2],
+    /// Its area, mm² (px² until the pipeline scales it).
     pub area_mm2: f64,
     /// What dropping it changes, and what its cheapest bridge would (None: more than the drop,
     /// the search stopped there), in pixel-costs (`0.1 + |gray − threshold|` summed).
-    pub drop_cost: f64,
-    pub bridge_cost: Option<f64>,
+    pub(crate) drop_cost: f64,
+    pub(crate) bridge_cost: Option<f64>,
 }
 
 /// The islands to drop (node ids of `map`) and their reports (in pixels: `at_mm` holds pixel
 /// coordinates, `area_mm2` the pixel count, for the caller to scale). `protected[n]`: never drop
 /// island n. `width(area)`: the bridge's width in pixels for an island of `area` pixels.
-pub fn choose(
+pub(crate) fn choose(
     map: &IslandMap,
     gray: &Gray,
     level: u8,
@@ -80,15 +71,10 @@ pub fn choose(
         }
         (cost, sx, sy)
     };
-    // Each island's search is independent of the others': they run in parallel. A search's
-    // distances live in a scratch grid (a stamp and a distance per pixel, side by side: one
-    // cache line per visit), stamped per search so it is never cleared. The grids are lent out
-    // from a pool, so there are at most as many as searches running at once (one per thread),
-    // not one per piece of work rayon splits off: each grid is 16 bytes per pixel, and zeroing
-    // one per split cost more than the searches on the photo bench. The pool outlives the call
-    // ([`POOL`]): zeroing a fresh 16 MB grid per thread on every call was a fifth of this
-    // function's time on the 1 MP photo (the allocator serves it from memory it kept, so it is
-    // written, not mapped).
+    // Islands' searches run in parallel, each on a scratch grid (stamp and distance per pixel, side
+    // by side), stamped per search so it is never cleared. The grids are lent from a pool ([`POOL`])
+    // that outlives the call, one per running search: 16 bytes per pixel zeroed per rayon split, or
+    // per call, cost more than the searches on the 1 MP photo.
     let pool = &POOL;
     let search = |island: usize| {
         if protected.get(island).copied().unwrap_or(false) {
@@ -151,14 +137,9 @@ struct Scratch {
 }
 
 /// The search of [`choose`] for one island: `Some((drop cost, bridge cost))` when dropping it is
-/// cheaper, `None` when it stays (a bridge as cheap, or the search gave up).
-///
-/// Dijkstra over the cut, popping the least (cost, pixel) first. A heap entry is the cost's bits
-/// above the pixel index: a finite non-negative `f64`'s bits order as the number does, so the
-/// order is that of (cost, pixel) compared as numbers. Entries at or over the drop's cost are not
-/// pushed: the search stops at the first such pop, so leaving them out stops it at the same
-/// place (the heap runs dry instead) and changes nothing else, as they are larger than every
-/// entry that is popped.
+/// cheaper, `None` when it stays (a bridge as cheap, or the search gave up). Dijkstra over the cut;
+/// a heap entry is the cost's bits above the pixel index (a finite non-negative `f64`'s bits order
+/// as the number). Entries at or over the drop's cost are not pushed: the search would stop there.
 fn search_one(
     map: &IslandMap,
     s: &mut Scratch,
@@ -241,15 +222,11 @@ fn search_one(
     Some((limit, bridge))
 }
 
-/// Whether some path through the cut from the island to a place the search of [`search_one`]
-/// ends at (another node's material beside it, or the image edge) costs less than `limit`, found
-/// breadth first (fewest pixels, no heap). Then that search keeps the island: the path's pixels
-/// cost less than the limit all along, so the search would pop its end (or give up first, which
-/// keeps the island too): the pixel-by-pixel sum is the one the search makes along the path, and
-/// the search's own cost there can only be lower (rounding is monotone). `false` says nothing:
-/// the search runs. Most islands are kept and most are near another piece, so this answers most
-/// of them in a few rings of pixels, where the search would first price every cheaper pixel. Uses
-/// the scratch grid as `[stamp, previous pixel]`.
+/// Whether some path through the cut from the island to a place the search of [`search_one`] ends
+/// at costs less than `limit`, found breadth first (no heap); then that search keeps the island
+/// too, since its own cost along the path can only be lower. `false` says nothing: the search
+/// runs. Most islands are kept and near another piece, so this answers them in a few rings of
+/// pixels. Uses the scratch grid as `[stamp, previous pixel]`.
 fn bridged_under(
     map: &IslandMap,
     s: &mut Scratch,
@@ -323,16 +300,11 @@ fn bridged_under(
     false
 }
 
-/// Whether one of four straight paths through the cut, from the island's topmost, bottommost,
-/// leftmost and rightmost pixels straight up, down, left and right, reaches a place the search
-/// of [`search_one`] ends at for less than `limit`; then that search keeps the island, for the
-/// reason [`bridged_under`] gives (a path whose pixels, summed from its start, cost less than the
-/// limit). Beyond an island's extreme pixel in its own direction lie no pixels of the island, so
-/// each path runs through the cut until a pixel beside other material or on the image's edge,
-/// and never meets the island. Why: a large island's drop costs far more than any short path, and
-/// the breadth-first rings of [`bridged_under`] run round its whole border until one meets other
-/// material, most of the drop's time on the 1 MP photo; a straight line costs its length. `false`
-/// says nothing (the rings run).
+/// Whether one of four straight paths through the cut, from the island's extreme pixels straight
+/// up, down, left and right (they never meet the island), reaches a place the search of
+/// [`search_one`] ends at for less than `limit`, so that search keeps the island (see
+/// [`bridged_under`]). A straight line costs its length, where [`bridged_under`]'s rings run round
+/// a large island's whole border. `false` says nothing (the rings run).
 fn straight_under(
     map: &IslandMap,
     island: usize,

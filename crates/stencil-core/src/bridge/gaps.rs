@@ -1,31 +1,18 @@
 //! Shortest-gap candidates: straight connections across the narrowest cut between two pieces.
 //!
 //! The paper's strips leave the border at right angles and follow the gradient, so where two
-//! pieces come closest at a slant, or touch only at a corner, the short connection between them
-//! is often not among the walks at all, and no cost can choose what is not offered. These
-//! candidates offer it, from the same border pixels (as twins of their chains, see
-//! [`Candidates::add_twins`]), costed by the same four terms over the same windows; the tree
-//! chooses between both kinds.
+//! pieces come closest at a slant, or touch only at a corner, the short connection is often not
+//! among the walks. These candidates offer it, from the same border pixels (twins of their chains,
+//! [`Candidates::add_twins`]), costed the same way; the tree chooses between both kinds.
 //!
-//! Where they come from: every border pixel of every piece is a *shore* of the cut; the frame
-//! adds points one step beyond the image beside cut pixels on its edge (the sheet continues).
-//! From a border pixel, the nearest shore point of *another* piece on the pixel's cut side (the
-//! open half-plane its cut edge neighbours point to) is the other end of its shortest gap
-//! ([`Shores::nearest_other`], rows searched outwards until no nearer point can remain). Two
-//! pieces meeting only at a corner (diagonal material of different pieces, the other two pixels
-//! cut) give a gap of one pixel's diagonal. Gaps are looked up from every [`SEED_STEP`]th
-//! candidate along a contour and from every corner pixel; a border pixel without a gap of its own
-//! takes the direction of the nearest one along its contour within [`REACH`] candidates (so a
-//! bridge can grow to its width beside a shortest gap with strips parallel to it); farther away it
-//! has no such strip.
-//!
-//! Each strip is then a straight walk ([`strips::walk_straight`]) from its pixel in that direction:
-//! the same ray traversal as the walks, so it is 4-connected, ends beside material of another node,
-//! and is dropped if it runs back into its own piece or past the length limit.
-//!
-//! Cost: the shores are the nodes' borders sorted by row (no pass over the image's area); each
-//! lookup reads a few rows around its pixel, bounded by the previous gap along the chain; the
-//! strips are in proportion to the islands' perimeter times the gap length, like the walks.
+//! Every border pixel of every piece is a *shore* (the frame adds points just beyond the image
+//! beside cut pixels on its edge). From a border pixel, the nearest shore point of another piece
+//! on its cut side ([`Shores::nearest_other`]) ends its shortest gap; pieces meeting at a corner
+//! give a gap of one diagonal. Gaps are looked up from every [`SEED_STEP`]th candidate and every
+//! corner pixel; other border pixels take the direction of the nearest gap within [`REACH`]
+//! candidates, so a bridge can grow beside it. Each strip is then a straight walk
+//! ([`strips::walk_straight`]), dropped if it runs back into its own piece or past the length
+//! limit. Cost: shores sorted by row, a few rows read per lookup; no pass over the image.
 
 use rayon::prelude::*;
 
@@ -273,18 +260,11 @@ impl Shores {
         &self.points[self.first[r]..self.first[r + 1]]
     }
 
-    /// The nearest shore point of a node other than `own` to (x, y), nearer than `limit`, on the
-    /// cut side of it: in the open half-plane the offset `side` points to (a point behind the
-    /// pixel's own material is no gap it could bridge).
-    ///
-    /// Each row is scanned outwards from `x`, to the right and to the left, only over the
-    /// columns that can lie on the cut side: at a distance `dx` along the scan, a point is ahead
-    /// when `dx · a > −c`, with `a` the side's x part (negated to the left) and `c` the row's
-    /// offset along the side's y part. So a row wholly behind the pixel is not read at all (half
-    /// the rows for a pixel on a straight edge), and a slanted side reads only the part of the
-    /// row in front of it. The points skipped could never be the answer, and a scan stops at the
-    /// first point farther than the best so far, so it finds what the scan of every point
-    /// ([`Shores::nearest_other_every`], the tests' oracle) finds, the same point on a tie.
+    /// The nearest shore point of a node other than `own` to (x, y), nearer than `limit`, in the open
+    /// half-plane the offset `side` points to (a point behind the pixel's own material is no gap).
+    /// Each row is scanned outwards from `x` only over the columns that can lie on that side (at `dx`
+    /// along, ahead when `dx · a > −c`), and a scan stops at the first point farther than the best, so
+    /// it finds what scanning every point ([`Shores::nearest_other_every`], the tests' oracle) finds.
     fn nearest_other(
         &self,
         (x, y): (i32, i32),
@@ -506,11 +486,9 @@ fn shortest_gaps(
 }
 
 /// The straight strip of every twin candidate (ids `cands.twins`), in parallel: a straight walk
-/// along its heading ([`directions`]), at most `max_len` pixels. Where the original's walk is
-/// already no longer than the straight strip would be (about `gap · (|cos| + |sin|)` pixels, a
-/// 4-connected line's count), the twin takes a copy of it instead of walking, and is marked in
-/// the second vector: a copy adds nothing to choose from, so it is not scored on its own, but it
-/// keeps the twin chain whole for its neighbours' windows and growth.
+/// along its heading ([`directions`]), at most `max_len` pixels. Where the original's walk is no
+/// longer, the twin copies it and is marked in the second vector (not scored on its own, but its
+/// chain stays whole for its neighbours' windows and growth).
 pub(crate) fn walk_twins(
     fields: &Fields,
     cands: &Candidates,

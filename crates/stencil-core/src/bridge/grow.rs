@@ -11,22 +11,12 @@ use super::BridgeConfig;
 /// side of a square of that area (the paper's ⌈√A / 4⌉).
 pub(crate) const WIDTH_PER_SIDE: f64 = 0.25;
 
-/// Width of the bridge between two nodes, in pixels:
-///
-/// `width = clamp(⌈k·√A⌉, min_width_px, max_width_px)`, `k` = [`WIDTH_PER_SIDE`], where `A` is the
-/// area in pixels of the **smaller** of the two nodes (the frame's area counts as infinite, so for a
-/// bridge to the frame `A` is the island's area).
-///
-/// The rule is physical: in millimetres it reads `clamp(k·√A_mm², min_bridge_mm, max_bridge_mm)`,
-/// and since `√A` scales with the pixel size, `k·√A` pixels *are* `k·√A_mm²` millimetres; only the
-/// range is converted, by the pipeline (`PhysicalConfig::bridge_for`: the material's
-/// `min_bridge_mm` plus the check's tracing allowance, rounded up; its `max_bridge_mm`, rounded
-/// down). So a picture made four times larger keeps bridges within the same millimetre range
-/// instead of getting them four times wider in pixels' worth of clamp.
-///
-/// Why √A/4: an island hangs from its bridges and its weight grows with its area, while a bridge
-/// wider than about a quarter of the island's side would smother its shape. With cardstock
-/// (1..4 mm) an island 4 mm across gets 1 mm, one 16 mm across or larger 4 mm.
+/// Width of the bridge between two nodes, in pixels: `clamp(⌈k·√A⌉, min_width_px, max_width_px)`,
+/// `k` = [`WIDTH_PER_SIDE`], `A` the area in pixels of the **smaller** node (the frame's counts as
+/// infinite). Since `√A` scales with the pixel size, `k·√A` px are `k·√A_mm²` mm: only the range
+/// is converted, by the pipeline (`PhysicalConfig::bridge_for`). Why √A/4: an island's weight
+/// grows with its area, and a bridge wider than a quarter of its side smothers its shape (with
+/// cardstock, 1..4 mm: an island 4 mm across gets 1 mm, one 16 mm or more 4 mm).
 pub(crate) fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
     let w = (WIDTH_PER_SIDE * (smaller_area as f64).sqrt()).ceil() as u32;
     w.clamp(
@@ -35,15 +25,11 @@ pub(crate) fn width_for(smaller_area: usize, cfg: &BridgeConfig) -> u32 {
     )
 }
 
-/// Grow from candidate `id` strip by strip, always adding the cheaper of the two neighbouring
-/// strips along the border (weighted normalised ΣI + L^α) that reach the same node, until the
-/// bridge is `width` px wide or no neighbour can be added. Returns the members in chain order.
-///
-/// Width is measured, not counted: on a slanted edge the border pixels form a staircase, so `n`
-/// strips there span only about n/√2 px. The bridge grows until it has at least `width` strips
-/// and both its start and its end are `width` px across, measured at right angles to the bridge
-/// ([`band_width`]; strips converging on a smaller island land closer together than they start),
-/// but never past 4 × `width` strips.
+/// Grow from candidate `id` strip by strip, adding the cheaper neighbouring strip along the border
+/// (weighted normalised ΣI + L^α) that reaches the same node, until the bridge is `width` px wide
+/// or no neighbour can be added; returns the members in chain order. Width is measured, not
+/// counted (a slanted edge's staircase spans n/√2 px for n strips): at least `width` strips and
+/// both ends `width` px across ([`band_width`]), never past 4 × `width` strips.
 pub(crate) fn grow(
     c: &Candidates,
     strips: &[Option<Strip>],

@@ -3,29 +3,18 @@
 //! [`connect`] runs the method of Bronson, Rheingans & Olano, "Semi-Automatic Stencil Creation
 //! through Error Minimization" (NPAR 2008):
 //! 1. `candidates`: every island border pixel, chained along the island's contours;
-//! 2. `strips`: from each, a walk through the cut along the grayscale gradient (the smoothed
-//!    two-tone's where the gray is flat) to material of another node (`reach` stops walks that
-//!    can no longer arrive);
-//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over leftward, centred and rightward windows
-//!    as wide as the bridge needs, cheapest kept;
-//! 4. `tree`: Prim from the frame over island groups, edge cost = cheapest window between them;
-//!    a group no walk leaves is joined by the cheapest path through the cut of any length
-//!    (`search::search`), so every island is joined: the length limit is a preference (walks
-//!    under it come first), not a cut-off;
-//!    then `strength`: islands whose size, shape or sag estimate asks for more than the tree's
-//!    bridge get more, from their own candidates, spread apart;
-//! 5. `grow`: each chosen strip grown to its width (cheaper neighbour first); `outline`: drawn
-//!    (`draw`) as the polygon of its outer strips, or as a straight band (`band`), its width
-//!    measured across (`across`); halved plus a support bridge when its real error exceeds the
-//!    estimate by more than the margin.
+//! 2. `strips`: from each, a walk through the cut along the gray gradient to material of another
+//!    node (`reach` stops walks that can no longer arrive);
+//! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over windows as wide as the bridge needs;
+//! 4. `tree`: Prim from the frame over island groups; a group no walk leaves is joined by the
+//!    cheapest path through the cut of any length (`search`), so the length limit is a preference;
+//!    then `strength`: more bridges, spread apart, for islands whose size or sag asks for them;
+//! 5. `grow`: each chosen strip grown to its width; `outline`: drawn (`draw`) as the polygon of
+//!    its outer strips or as a band (`band`), measured across (`across`); halved plus a support
+//!    bridge when its real error exceeds the estimate by more than the margin.
 //!
-//! Work is in proportion to the islands' total perimeter times the walk length: the fields the
-//! walks steer by are evaluated only where they walk. The only O(pixels) steps are copying the
-//! bit grid for the result, the caller's labelling and, only when some group needs it, the
-//! fallback search (each search explores at most the cut, and stops at its first arrival).
-//!
-//! The public contract below is used by `pipeline.rs`, `report.rs` and the CLI: fields may be
-//! added, names kept.
+//! Work is in proportion to the islands' perimeter times the walk length; the only O(pixels) steps
+//! are copying the bit grid, the caller's labelling and the fallback search when a group needs it.
 
 mod across;
 mod band;
@@ -33,7 +22,7 @@ pub(crate) mod candidates;
 mod constraints;
 pub(crate) mod cost;
 mod draw;
-pub mod drop;
+pub(crate) mod drop;
 pub(crate) mod gaps;
 pub(crate) mod grow;
 mod outline;
@@ -57,21 +46,11 @@ use crate::raster::{BitGrid, TwoTone};
 use crate::timing::Timings;
 
 /// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
-///
-/// The terms are normalised so that each is about 1 for a typical strip of the image (see
-/// `cost`): ΣI and L^α are divided by the median strip's length (to the power α for L^α), κ lies
-/// in 0 (straight) .. 1 (round), σ² is the variance of strip costs over the window divided by
-/// their squared mean.
-///
-/// The defaults weigh what the viewer sees, the intensity error, twice as much as the length,
-/// and leave curvature off. κ over a 15-candidate window is about 0.2 on a 10 px radius bend and
-/// 0.5 on a 5 px one, so w2 = 4 (the default before the shortest gaps were offered) makes a bend
-/// cost about one typical strip more. But two pieces come closest where one of them is convex,
-/// so the shortest crossings start on bends, and any default w2 > 0 moved bridges off them onto
-/// longer, darker strips: on the corpus's real photographs (`corpus.py --quality 3`) the
-/// intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to 0.90× at 0.25 and
-/// 0.93× at 1 (w0 = 1 then), and w0 = 2 took a further 1–2 % off. Raise `w_curvature` to keep
-/// bridges off curved contour (a serif, a petal's tip) at that price.
+/// Each term is about 1 for a typical strip (see `cost`). The defaults weigh the intensity error
+/// twice the length and leave curvature off: the shortest crossings start on bends, and any
+/// w2 > 0 moved bridges onto longer, darker strips (on the corpus's photographs, `corpus.py
+/// --quality 3`, the intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to
+/// 0.93× at 1). Raise `w_curvature` to keep bridges off curved contour at that price.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BridgeConfig {
     /// w0, default 2: intensity error ΣI (a typical-length strip over black = 1).
@@ -100,12 +79,10 @@ pub struct BridgeConfig {
     /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
     /// `max_bridge_mm`).
     pub max_width_given: bool,
-    /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
-    /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
-    /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
-    /// polygon fill, thickening). If real > (1 + margin) × estimate, the bridge is halved (not
-    /// below `min_width_px`) and a support bridge of the same halved width is added at the next
-    /// cheapest place between the same two nodes.
+    /// Support trigger, default 0.5: when the real error (Σ (1 − gray)² over the cut pixels the
+    /// grown bridge fills) exceeds (1 + margin) × the tree's estimate (its window's mean ΣI times its
+    /// width), the bridge is halved (not below `min_width_px`) and a support bridge of that width is
+    /// added at the next cheapest place between the same two nodes.
     pub support_margin: f64,
     /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
     /// true; see `gaps`). Off, the candidates are the paper's alone.
@@ -140,11 +117,13 @@ impl Default for BridgeConfig {
 /// The four terms of `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` (already weighted) and their sum.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
 pub struct CostTerms {
-    pub intensity: f64,
-    pub length: f64,
+    pub(crate) intensity: f64,
+    pub(crate) length: f64,
+    /// `w2·κ`: how much the strip bends.
     pub curvature: f64,
+    /// `w3·σ²`: how much the gray varies along it.
     pub variance: f64,
-    pub total: f64,
+    pub(crate) total: f64,
 }
 
 /// How a bridge's strip was found.
@@ -168,10 +147,12 @@ pub struct Bridge {
     pub nodes: [u32; 2],
     /// Width at right angles to it at its narrowest, px (see `draw::Plan::width`).
     pub width_px: u32,
+    /// Length along the strips, px.
     pub length_px: f64,
     /// Cut pixels it turns into material: when drawn, then, after [`Bridged::recount`], in the
     /// final stencil (the clean-up around the bridges included).
-    pub pixels: usize,
+    pub(crate) pixels: usize,
+    /// Its cost, term by term.
     pub cost: CostTerms,
     /// A second bridge added because the first one's real error exceeded its estimate.
     pub support: bool,
@@ -189,12 +170,14 @@ pub struct Bridge {
 /// The bridged bit grid and its bridges.
 #[derive(Clone, Debug)]
 pub struct Bridged {
+    /// The stencil: material true, bridges drawn in.
     pub bits: BitGrid,
+    /// Every bridge, the tree's first.
     pub bridges: Vec<Bridge>,
     /// Per island, in node order: its bridges, span and sag estimate (see `strength`).
     pub strength: Vec<strength::IslandStrength>,
     /// What became of each `--bridge-at` place (see `constraints`).
-    pub requests: Vec<constraints::Request>,
+    pub(crate) requests: Vec<constraints::Request>,
     /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
     /// share is the first one's). [`Bridged::recount`] starts from them.
     drawn: Vec<Vec<u32>>,
@@ -207,7 +190,7 @@ impl Bridged {
     /// Per bridge, the bounding box `[x0, y0, x1, y1)` in pixels of what it turned into
     /// material when drawn (bridges that turned nothing are left out): where the clean-up after
     /// bridging has anything to do.
-    pub fn drawn_boxes(&self) -> Vec<[u32; 4]> {
+    pub(crate) fn drawn_boxes(&self) -> Vec<[u32; 4]> {
         let w = self.bits.width.max(1);
         self.drawn
             .iter()
@@ -221,22 +204,13 @@ impl Bridged {
             .collect()
     }
 
-    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now, `before` being the
-    /// grid the bridges were drawn into, and return the added material that belongs to no
-    /// bridge. Why: the clean-up after bridging (the tidy pass, the settle, the neck repairs) adds
-    /// and removes material around the bridges, so the counts taken when they were drawn no
-    /// longer describe the stencil written.
-    ///
-    /// A pixel that is material now and was cut in `before` counts for the bridge that drew it if
-    /// it still stands there, else for the bridge it joins through such pixels (4-connected,
-    /// fewest steps first). Added material that touches no bridge that way (a neck widened in
-    /// the picture's own material, a pocket filled far from any bridge) is not a bridge's: it is
-    /// the number returned, so that the bridges' counts and it add up to all the material added.
-    /// O(added pixels) plus one pass over the picture. (Earlier, such material went to the
-    /// nearest bridge through a breadth-first search over the whole picture: 14-22 ms on a
-    /// 1.2-megapixel photo, whose thousands of such pixels lay mostly hundreds of pixels from
-    /// any bridge, so "nearest" said nothing.)
-    pub fn recount(&mut self, before: &BitGrid) -> usize {
+    /// Recount each bridge's [`Bridge::pixels`] on the stencil as it is now (`before`: the grid the
+    /// bridges were drawn into), since the clean-up after bridging adds and removes material around
+    /// them. A pixel added since `before` counts for the bridge that drew it if it still stands, else
+    /// for the bridge it joins through such pixels (4-connected, fewest steps first); added material
+    /// joined to no bridge is returned, so the counts and it add up to all the material added.
+    /// O(added pixels) plus one pass over the picture.
+    pub(crate) fn recount(&mut self, before: &BitGrid) -> usize {
         let n = self.bits.data.len();
         let added = |i: usize| self.bits.data[i] && !before.data[i];
         let mut owner = vec![UNOWNED; n];
@@ -275,6 +249,7 @@ impl Bridged {
     }
 }
 
+/// Why the islands could not be joined, or a setting is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum BridgeError {
     /// No path through the cut leaves the island's group. Never for a labelling of the bit grid
@@ -284,25 +259,43 @@ pub enum BridgeError {
         "island {island} at pixel ({x}, {y}) has no path through the cut to the frame or another \
          island: the island map does not match the bit grid"
     )]
-    Unreachable { island: u32, x: u32, y: u32 },
+    Unreachable {
+        /// The island's node.
+        island: u32,
+        /// A pixel of it, column.
+        x: u32,
+        /// Row.
+        y: u32,
+    },
     /// The island can be joined only through pixels the user forbade (`--keep-out`,
     /// `--no-bridge-near`). Its position is in millimetres from the picture's top left corner.
     #[error(
         "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept \
          free of bridges: lighten the keep-out mask or move the disc there, or cut such islands away"
     )]
-    KeptOut { island: u32, x_mm: f64, y_mm: f64 },
+    KeptOut {
+        /// The island's node.
+        island: u32,
+        /// Where it is, mm right.
+        x_mm: f64,
+        /// Mm down.
+        y_mm: f64,
+    },
+    /// A [`BridgeConfig`] value out of its range.
     #[error("bridge setting {name} = {value} is invalid: {why}")]
     BadSetting {
+        /// The setting's field name.
         name: &'static str,
+        /// Its value, as printed.
         value: String,
+        /// What it must be.
         why: &'static str,
     },
 }
 
 impl BridgeConfig {
     /// Check the settings a library caller (not only the CLI) may get wrong.
-    pub fn validate(&self) -> Result<(), BridgeError> {
+    pub(crate) fn validate(&self) -> Result<(), BridgeError> {
         let bad = |name, value: String, why| Err(BridgeError::BadSetting { name, value, why });
         for (name, w) in [
             ("w_intensity", self.w_intensity),
@@ -378,6 +371,19 @@ fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
 }
 
 /// Join every island to the frame with bridges.
+///
+/// ```
+/// use stencil_core::{bridge, islands, raster::{BitGrid, Gray, TwoTone}};
+/// // A 60 px sheet with a ring of cut 10 px wide around a 20 px island.
+/// let bits = BitGrid::from_fn(60, 60, |x, y| {
+///     let (lo, hi) = (x.min(y), x.max(y));
+///     lo < 10 || hi >= 50 || (lo >= 20 && hi < 40)
+/// });
+/// let two = TwoTone { gray: Gray::new(60, 60, 0.5).into(), bits };
+/// let b = bridge::connect(&two, &islands::label(&two.bits), &Default::default()).unwrap();
+/// let floating = |g: &BitGrid| islands::floating_count(g);
+/// assert_eq!((floating(&two.bits), floating(&b.bits)), (1, 0));
+/// ```
 pub fn connect(two: &TwoTone, map: &IslandMap, cfg: &BridgeConfig) -> Result<Bridged, BridgeError> {
     connect_timed(two, map, cfg, &mut Timings::default())
 }
@@ -400,7 +406,7 @@ pub fn connect_timed(
 /// them (the walks follow the picture, not the costs), so a caller that keeps them (the
 /// studio) re-chooses the bridges for new weights, support margin or strength rules without
 /// walking again; they depend on `two`, `map`, the length limit, the narrowest bridge, `gaps`
-/// and the keep-out areas (see [`Walks::key`]).
+/// and the keep-out areas (see `Walks::key`).
 #[derive(Clone, Debug, Default)]
 pub struct Walks {
     cands: candidates::Candidates,
@@ -411,7 +417,7 @@ pub struct Walks {
 impl Walks {
     /// `cfg` with everything the walks do not read set to its default: two configurations with
     /// the same key (and the same two-tone and islands) give the same walks.
-    pub fn key(cfg: &BridgeConfig) -> BridgeConfig {
+    pub(crate) fn key(cfg: &BridgeConfig) -> BridgeConfig {
         let d = BridgeConfig::default();
         BridgeConfig {
             w_intensity: d.w_intensity,
@@ -493,7 +499,7 @@ pub fn walk(
 /// The second half of [`connect_timed`]: from `walks` (made by [`walk`] for the same `two`,
 /// `map` and [`Walks::key`]) to the bridges drawn. The walks are only read, so a caller that
 /// keeps them for the next weights lends them rather than copying them.
-pub fn connect_walked(
+pub(crate) fn connect_walked(
     two: &TwoTone,
     map: &IslandMap,
     cfg: &BridgeConfig,

@@ -17,28 +17,15 @@ use stencil_geom::ring::dist;
 /// Plan the bridge made of `members`' strips, at least `cfg.min_width_px` and at most
 /// `cfg.max_width_px` wide. `want` is the width the island asked for.
 ///
-/// Drawn as every strip pixel plus the cut pixels whose centres lie inside the polygon of the
-/// outer strips' end points (kept only where 4-connected to a strip, so the fill can never leave a
-/// loose speck), and, when fewer strips than the minimum width could be grown, the strips thickened
-/// by a square brush to that width. The result is then measured at right angles to the bridge
-/// ([`measure`]). A bridge is drawn instead as a straight band `want` wide (clamped to the range)
-/// along its middle strip ([`band`]) when it is
-/// - a fan gone wrong: strips leaving a small or sharply curved island cross on their way, or
-///   spread so far apart that their outline is no band, and the fill between them would leave
-///   loose spokes;
-/// - narrower than the minimum somewhere (an outline corner running into a pocket of cut, say at
-///   the image's edge, leaves a wedge of material that tapers to nothing);
-/// - still wider than the maximum somewhere after dropping outer strips: a bridge wider than the
-///   maximum anywhere (strips converging on a small island start far apart, a moderate fan
-///   spreads, outer strips bulge out of the outline) first loses outer strips, from the side that
-///   narrows it more, so a fan never grows past the material's widest bridge.
-///
-/// A single strip that does not run straight (a path of the fallback search, which may bend
-/// around material on its way) is only thickened to the minimum width: a straight band between
-/// its ends could cross the picture elsewhere.
-///
-/// A moderate fan keeps its filled outline; if that costs more than the strips promised, the
-/// support rule halves it.
+/// Drawn as every strip pixel plus the cut pixels inside the polygon of the outer strips' end
+/// points (only where 4-connected to a strip), thickened by a square brush when too few strips
+/// grew, then measured at right angles ([`measure`]). It is drawn instead as a straight band `want`
+/// wide along its middle strip ([`band`]) when it is a fan gone wrong (strips crossing, or spread
+/// too far to outline a band), narrower than the minimum somewhere (a tapering wedge), or still
+/// wider than the maximum after dropping outer strips from the side that narrows it more. A
+/// single bent strip (a fallback search path) is only thickened: a straight band could cross the
+/// picture elsewhere. A moderate fan keeps its outline; the support rule halves it if it costs
+/// more than the strips promised.
 pub(crate) fn plan(
     bits: &BitGrid,
     gray: &Gray,

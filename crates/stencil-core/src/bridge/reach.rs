@@ -14,30 +14,19 @@ const GAP_SHIFT: u32 = 3;
 /// it saw: "some node other than that one", never a walk's own.
 const MANY: u32 = u32::MAX - 1;
 
-/// A lower bound on how far (in 4-connected steps, the L1 distance) a pixel is from the material
-/// a walk of a given node can arrive at, another node's: most failed walks run their whole length
-/// limit through open cut (on the 1 MP photo, 60 % of all walk steps were in such walks), and
-/// this stops them as soon as no other node is within what is left of it.
+/// A lower bound on how far (in 4-connected steps, L1) a pixel is from material of another node:
+/// most failed walks ran their whole length through open cut (60 % of walk steps on the 1 MP
+/// photo), and this stops them when no other node is within what is left.
 ///
-/// A walk arrives beside material of another node, which is then a border pixel of that node (it
-/// has the walk's cut pixel as an edge neighbour), or beside the frame beyond the image, next to a
-/// pixel on the image's edge. So the shores are the nodes' border lists and the image's edge. They
-/// are gathered per square block of `B` pixels (8 for both, a parameter of the build), and over the
-/// blocks a distance transform from every block with a shore keeps, per block, the two nearest
-/// *distinct* labels (two in all: the two values it keeps are the two least distances to distinct
-/// labels, whichever labels tie). A block with shores of several nodes counts as two sources, its
-/// first node and [`MANY`]. The nearest other node of `own` is then the first label's distance
-/// unless that label is `own`, else the second's. Blocks `D` apart (4-connected, L1) hold pixels at
-/// least `(D − 2)·B + 2` apart (1 for neighbours, 0 in one block). O(blocks + shore pixels): about
-/// 16 000 blocks of 8 px on 1 MP, and nothing per pixel.
+/// The shores (the nodes' border lists and the image's edge) are gathered per square block of `B`
+/// pixels; a distance transform over the blocks keeps per block the two nearest *distinct* labels
+/// (a block with several nodes' shores counts as its first node and [`MANY`]). The nearest other
+/// node of `own` is the first label's distance unless that is `own`, else the second's. Blocks `D`
+/// apart hold pixels at least `(D − 2)·B + 2` apart. O(blocks + shore pixels).
 ///
-/// The transform is two raster passes (forward from the left and upper neighbours, backward from
-/// the right and lower ones; with corners, the diagonal ones too), the classic exact city-block and
-/// chessboard distance transform: every shortest block path is a forward part then a backward
-/// part. Keeping two labels per block stays exact: a label a block drops is beaten there by two
-/// others, which follow it along any path onward at no greater distance. Sequential over the rows,
-/// no queue: about a third cheaper than the breadth-first search it replaced (which the tests
-/// keep, to compare).
+/// The transform is the classic exact two-pass city-block (or chessboard) one; keeping two labels
+/// stays exact, since a dropped label is beaten by two others that follow it onward. About a third
+/// cheaper than the breadth-first search it replaced (the tests keep that, to compare).
 #[derive(Clone, Debug)]
 pub(crate) struct Reach {
     /// Blocks are 2^shift pixels square.

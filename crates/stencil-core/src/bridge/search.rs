@@ -51,18 +51,12 @@ impl SearchScratch {
     }
 }
 
-/// The fallback when no walk leaves a group of nodes: the cheapest path through the cut from the
-/// border of every node in `group` (a mask over nodes) to material of a node outside it or to the
-/// image edge (the sheet continues beyond the picture, and the frame is never in a stranded
-/// group), of any length. Dijkstra over the cut pixels, each priced by `step` (darker and longer
-/// costs more, see [`StepCost`]), then straightened (`straighten`). Returns the start candidate
-/// pixel and the strip.
-///
-/// Such a path always exists: the rightmost group pixel of any row has cut to its right, and that
-/// row leads through cut to another node or to the image edge. `None` therefore means the labels
-/// do not describe the bits. Work and memory are O(pixels) at worst (each cut pixel is settled
-/// once, a heap entry per improvement), and the search stops at the first arrival, so it explores
-/// only the cut closer (in cost) to the group than the nearest other node.
+/// The fallback when no walk leaves a group of nodes: the cheapest path of any length through the
+/// cut from the border of every node in `group` (a mask over nodes) to material of another node
+/// or the image edge. Dijkstra over the cut pixels priced by `step` ([`StepCost`]), then
+/// straightened (`straighten`). Returns the start candidate pixel and the strip. Such a path always
+/// exists (a row's rightmost group pixel has cut to its right), so `None` means the labels do not
+/// describe the bits. O(pixels) at worst; it stops at the first arrival.
 pub(crate) fn search(
     f: &Fields,
     map: &IslandMap,
@@ -138,13 +132,10 @@ pub(crate) fn search(
     None
 }
 
-/// A searched path made straight where that costs nothing: a 4-connected path has many equally
-/// cheap shapes (over flat gray every monotone staircase between two pixels costs the same), and
-/// Dijkstra keeps an arbitrary one. From each anchor, the path is replaced by the straight
-/// 4-connected line ([`line4`]) to the farthest later path pixel such that the line crosses only
-/// cut and costs no more than the stretch it replaces (found by doubling, then bisection: O(n log
-/// n) pixel reads for a path of n). The ends stay where they were, and since no pixel of the
-/// result is cheaper to reach than along the search's own order, it arrives nowhere earlier.
+/// A searched path made straight where that costs nothing (Dijkstra keeps an arbitrary one of
+/// many equally cheap staircases): from each anchor, the straight 4-connected line ([`line4`]) to
+/// the farthest later path pixel it can reach through cut for no more than the stretch it
+/// replaces (doubling, then bisection: O(n log n)). The ends stay where they were.
 fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
     let n = path.len();
     if n < 3 {

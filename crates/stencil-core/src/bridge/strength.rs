@@ -1,48 +1,30 @@
 //! Bridges that hold: after the tree has joined every island, give islands the bridges their
-//! size, shape and weight need (issue 13).
+//! size, shape and weight need (issue 13). One bridge is a hinge: an island on it flaps under a
+//! spray can. Bridges are added from the island's own scored candidates (see `Graph::by_pair`):
 //!
-//! One bridge is a hinge: an island on it flaps under a spray can and tears in a gobo holder. For
-//! each island this module decides how many bridges it needs and adds them from the island's own
-//! scored candidates (any candidate whose strip starts or lands on the island, to the frame or to
-//! another island; see `Graph::by_pair`), in this order:
+//! 1. **Count**: at least `bridges_per_island`, and two for an island longer than the material's
+//!    `two_bridges_above_mm`; each added one at least `min(90°, 360° / count)` round from the
+//!    others as seen from the island's centroid, edge to edge (else the farthest round), cheapest
+//!    first.
+//! 2. **Ends**: a long thin island (length ≥ `THIN_RATIO` × breadth, longer than
+//!    `two_bridges_above_mm`) is held within `END_REACH` of its length of each end (a beam's
+//!    least-sag supports, the Airy and Bessel points, lie 0.21–0.22 in).
+//! 3. **Sag**: while the sag estimate exceeds `max_sag_mm`, of the `TRIALS` cheapest candidates
+//!    within half the span of the island's farthest point from its bridges, the one that shortens
+//!    the span most; it stops within the limit, when no candidate is within 0.9 of the span of
+//!    that point, or at `MAX_FOR_SAG` bridges.
 //!
-//! 1. **Count**: at least `bridges_per_island` (`--bridges-per-island`, default 1), and at least
-//!    two for an island longer (along its main axis) than the material's `two_bridges_above_mm`.
-//!    Each added bridge lies at least `min(90°, 360° / count)` from every other bridge of the
-//!    island as seen from its centre (its pixels' centroid), edge to edge (so the bridge may grow
-//!    to either side of where it was scored and still be that far round), the cheapest such
-//!    candidate; where the shape has none that far round, the one farthest round.
-//! 2. **Ends**: a long thin island (length at least `THIN_RATIO` times its breadth, and longer
-//!    than `two_bridges_above_mm`) is held near both ends: within `END_REACH` (a fifth) of its
-//!    length of each end (the supports that minimise a uniformly loaded beam's sag lie 0.21–0.22
-//!    of its length in from the ends, the Airy and Bessel points), the cheapest there.
-//! 3. **Sag**: while the sag estimate exceeds the material's `max_sag_mm`, a bridge near the
-//!    island's farthest point from its bridges: of the `TRIALS` cheapest candidates within half
-//!    the span of that point, the one that shortens the span most; the nearest one if none is
-//!    that near. It stops when the sag is within the limit, when
-//!    no candidate lies nearer than 0.9 of the span to the farthest point (the farthest material
-//!    is out of reach of any bridge: a large island's middle), or at `MAX_FOR_SAG` bridges.
-//!
-//! **The sag model.** The *span* L of an island is the farthest any of its material lies from its
-//! nearest bridge, measured inside the island (8-neighbour paths over its pixels, diagonal steps
-//! √2 as 7/5, only across corners where both side pixels are material too; so a ring's span runs
-//! round the ring, not across its hole). The island is taken as a strip of unit width and span L
-//! under its own weight q = ρ·g·t per unit area, of stiffness E·I with I = t³/12 per unit width.
-//! Its sag is estimated as
+//! **The sag model.** The *span* L is the farthest any material lies from its nearest bridge,
+//! measured inside the island (8-neighbour paths, diagonals √2 as 7/5, so a ring's span runs round
+//! it). The island is a unit-width strip of span L under its weight q = ρ·g·t, stiffness E·t³/12:
 //!
 //! ```text
 //! δ = 5·q·(2L)⁴ / (384·E·I) = 5·ρ·g·L⁴ / (2·E·t²)
 //! ```
 //!
-//! the middle of a strip simply supported on two bridges 2L apart (every point of it within L of
-//! a bridge). The same L as a cantilever clamped at one bridge sags 3/5 of this (q·L⁴ / 8EI), so
-//! the estimate errs on the safe side for both the span between two bridges and an overhang past
-//! the last one. It is a strip estimate, not a plate one: a plate held along more of its edge is
-//! stiffer. It does not count the bridge itself bending (one bridge is a hinge: that is the count
-//! rule's business), nor an island hanging from another island that sags in turn.
-//!
-//! Support bridges the grow stage adds later (`super::plan_bridge`) are not counted: the
-//! estimate is for the bridges chosen here, which they only add to.
+//! the middle of a strip on two bridges 2L apart; a cantilever of L sags 3/5 of this, so it errs
+//! safe for both. A strip, not a plate; the bridge's own bending, an island hanging from a sagging
+//! island and the grow stage's later support bridges are not counted.
 
 use std::cmp::Reverse;
 use std::collections::HashMap;
@@ -85,12 +67,16 @@ pub struct StrengthConfig {
     pub per_island: u32,
     /// Millimetres per working pixel.
     pub mm_per_px: f64,
+    /// The sheet's thickness, mm.
     pub thickness_mm: f64,
+    /// The material's stiffness (Young's modulus), GPa.
     pub youngs_modulus_gpa: f64,
+    /// The material's density, kg/m³.
     pub density_kg_m3: f64,
     /// The most an island may sag, mm.
     pub max_sag_mm: f64,
     /// Islands longer than this get at least two bridges, mm.
+    /// Islands wider than this get at least two bridges, mm.
     pub two_bridges_above_mm: f64,
 }
 
@@ -175,31 +161,31 @@ pub enum Why {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IslandStrength {
     /// Node id (as in the bridges' `nodes`).
-    pub island: u32,
+    pub(crate) island: u32,
     /// Centroid of its material, mm from the picture's top left corner (x right, y down).
-    pub centre_mm: [f64; 2],
-    pub area_mm2: f64,
+    pub(crate) centre_mm: [f64; 2],
+    pub(crate) area_mm2: f64,
     /// Extent along its main axis and across it, mm.
-    pub length_mm: f64,
-    pub breadth_mm: f64,
+    pub(crate) length_mm: f64,
+    pub(crate) breadth_mm: f64,
     /// Bridges holding it in the estimate: the tree's bridge that brought it in (towards the
     /// frame) and those added here (a tree bridge to an island hanging from it is not counted).
     pub bridges: usize,
     /// Of those, added here for strength.
-    pub extra: usize,
+    pub(crate) extra: usize,
     /// Why they were added (empty when none were).
-    pub why: Vec<Why>,
+    pub(crate) why: Vec<Why>,
     /// The farthest its material lies from its nearest bridge, inside the island, mm.
-    pub span_mm: f64,
+    pub(crate) span_mm: f64,
     /// The sag estimate on all `bridges`, mm.
-    pub sag_mm: f64,
+    pub(crate) sag_mm: f64,
     /// The sag estimate after each bridge: first on the tree's bridges alone, then after each one
     /// added here, in order (so the last is `sag_mm`).
-    pub sag_steps_mm: Vec<f64>,
+    pub(crate) sag_steps_mm: Vec<f64>,
     /// The material's `max_sag_mm`.
     pub limit_mm: f64,
     /// Whether every rule is met: sag within the limit, the count and both ends.
-    pub held: bool,
+    pub(crate) held: bool,
     /// When not held: which rule could not be met and what to relax.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -212,18 +198,21 @@ pub struct StrengthReport {
     pub model: String,
     /// The longest span within the material's sag limit, mm.
     pub max_span_mm: f64,
+    /// Islands wider than this get at least two bridges, mm.
     pub two_bridges_above_mm: f64,
-    pub bridges_per_island: u32,
+    pub(crate) bridges_per_island: u32,
     /// Islands that got extra bridges for strength, and how many bridges that added in all.
     pub islands_with_extra: usize,
+    /// Bridges added for strength.
     pub extra_bridges: usize,
     /// Islands some rule could not be met for (see their `note`).
-    pub not_held: usize,
+    pub(crate) not_held: usize,
+    /// Per island, in node order.
     pub islands: Vec<IslandStrength>,
 }
 
 impl StrengthReport {
-    pub fn new(islands: Vec<IslandStrength>, cfg: &StrengthConfig) -> Self {
+    pub(crate) fn new(islands: Vec<IslandStrength>, cfg: &StrengthConfig) -> Self {
         StrengthReport {
             model: "sag = 5·ρ·g·L⁴/(2·E·t²): a strip simply supported on bridges 2L apart, L = \
                     span (farthest material from its nearest bridge, inside the island)"
@@ -254,13 +243,9 @@ struct Moments {
     sxy: f64,
 }
 
-/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone.
-///
-/// An island is one 4-connected piece that does not touch the image edge, so both ends of each of
-/// its row runs have a cut pixel beside them: every run starts and ends at a border pixel, and the
-/// border comes in scan order. Reading runs off the border keeps the strength stage in proportion
-/// to the islands' perimeter, not the image's area (a pass over the labels cost the 1280×720 bench
-/// 1.5 ms).
+/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone (an island
+/// does not touch the image edge, so each run starts and ends at a border pixel): in proportion
+/// to its perimeter, not the image's area.
 fn runs(map: &IslandMap, n: u32) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
     let mut start = None;
     map.nodes[n as usize]
@@ -319,12 +304,9 @@ fn moments(map: &IslandMap, n: u32) -> Moments {
 const MAX_CELLS: usize = 1 << 16;
 
 /// One island over its bounding box, in cells of `k` × `k` pixels (a cell is the island's when
-/// any of its pixels is), and path lengths over them. `k` is 1 (pixels) unless the box has more
-/// than [`MAX_CELLS`] pixels: then the smallest that brings it under (a 2000 px ring is measured
-/// on 8 px cells, an error of a cell in a span of hundreds; a cut narrower than a cell between
-/// two parts of the island may be stepped over).
-///
-/// The grid has a margin of one empty cell all round, so the path search never tests bounds.
+/// any of its pixels is), and path lengths over them. `k` is 1 unless the box has more than
+/// [`MAX_CELLS`] pixels, then the smallest that brings it under. A margin of one empty cell all
+/// round spares the path search its bound tests.
 struct Local {
     x0: u32,
     y0: u32,
@@ -359,12 +341,9 @@ impl Local {
         )
     }
 
-    /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what
-    /// they shorten (so adding a source to an earlier result updates it).
-    ///
-    /// Dijkstra with a bucket queue: steps cost [`STEP`] or [`DIAG`], so every pending distance
-    /// lies within `DIAG` of the one being settled and `DIAG + 1` buckets used round-robin hold
-    /// them all (a binary heap cost the bench's strength stage a third more).
+    /// Shortest path lengths (fifths of a pixel) from `sources` into `dist`, lowering only what they
+    /// shorten (so a source can be added to an earlier result). Dijkstra with a bucket queue: steps
+    /// cost [`STEP`] or [`DIAG`], so `DIAG + 1` buckets round-robin hold every pending distance.
     fn relax(&self, dist: &mut [u32], sources: &[usize]) {
         const BUCKETS: usize = DIAG as usize + 1;
         // Cell indices as u32 (a grid has at most a few times `MAX_CELLS` cells): half the
@@ -913,168 +892,4 @@ impl Holding<'_> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sag_follows_the_strip_formula_and_its_inverse() {
-        // 3 mm plywood, E 8 GPa, 680 kg/m³: 5·680·9.80665·0.1⁴ / (2·8e9·0.003²) m = 0.0232 mm.
-        let ply = StrengthConfig {
-            thickness_mm: 3.0,
-            youngs_modulus_gpa: 8.0,
-            density_kg_m3: 680.0,
-            ..Default::default()
-        };
-        let want = 5.0 * 680.0 * G * 1e-4 / (2.0 * 8e9 * 9e-6) * 1e3;
-        assert!((ply.sag_mm(100.0) - want).abs() < 1e-12);
-        assert!((want - 0.0232).abs() < 1e-3, "{want}");
-        // Four times the span, 256 times the sag; the longest span within the limit sags it.
-        assert!((ply.sag_mm(400.0) / ply.sag_mm(100.0) - 256.0).abs() < 1e-9);
-        let l = ply.max_span_mm();
-        assert!((ply.sag_mm(l) - ply.max_sag_mm).abs() < 1e-9, "{l}");
-        // Paper a tenth of the thickness sags a hundred times more (at the same E and ρ).
-        let thin = StrengthConfig {
-            thickness_mm: 0.3,
-            ..ply.clone()
-        };
-        assert!((thin.sag_mm(100.0) / ply.sag_mm(100.0) - 100.0).abs() < 1e-9);
-    }
-
-    #[test]
-    fn path_lengths_run_inside_the_island() {
-        // A U: from the top of its left arm to the top of its right arm the path runs down and
-        // round (27 px), not the 9 px straight across the gap.
-        // The grid carries a margin of one empty cell all round: island pixel (x, y) is cell
-        // (x + 1, y + 1).
-        let (w, h) = (12usize, 12usize);
-        let cell = |x: usize, y: usize| (y + 1) * w + x + 1;
-        let inside: Vec<bool> = (0..w * h)
-            .map(|i| {
-                let (x, y) = (i % w, i / w);
-                let inner = (1..=10).contains(&x) && (1..=10).contains(&y);
-                let (x, y) = (x.wrapping_sub(1), y.wrapping_sub(1));
-                inner && (x == 0 || x == 9 || y == 9)
-            })
-            .collect();
-        let l = Local {
-            x0: 0,
-            y0: 0,
-            k: 1,
-            w,
-            h,
-            inside,
-        };
-        let d = l.field(&[cell(0, 0)]);
-        // From (0, 0) to (9, 0): 9 down, 9 across, 9 up; no corner cut at the U's bends (the
-        // pixel inside each bend is cut).
-        assert_eq!(d[cell(9, 0)], 27 * STEP);
-        assert_eq!(d[cell(5, 0)], u32::MAX, "(5, 0) is cut: unreached");
-        assert_eq!(l.farthest(&d), (cell(9, 0), 27 * STEP));
-        assert_eq!(l.index(9, 0), Some(cell(9, 0)));
-        assert_eq!(l.index(5, 0), None);
-        assert_eq!(l.index(10, 0), None, "beyond the box");
-        assert_eq!(l.centre(cell(9, 0)), (9.5, 0.5));
-        // A solid square's far corner is reached diagonally: 9 diagonal steps.
-        let solid = Local {
-            inside: (0..w * h)
-                .map(|i| (1..=10).contains(&(i % w)) && (1..=10).contains(&(i / w)))
-                .collect(),
-            ..l
-        };
-        assert_eq!(solid.field(&[cell(0, 0)])[cell(9, 9)], 9 * DIAG);
-    }
-
-    /// The bucket queue's path lengths are a plain Dijkstra's (binary heap, the eight steps
-    /// tried one by one), on random grids of every density, from one source and from several,
-    /// and when relaxing an earlier result by a further source.
-    #[test]
-    fn relax_is_a_plain_dijkstra() {
-        use std::collections::BinaryHeap;
-        let plain = |l: &Local, dist: &mut [u32], sources: &[usize]| {
-            let mut heap = BinaryHeap::new();
-            for &s in sources {
-                dist[s] = 0;
-                heap.push(Reverse((0u32, s)));
-            }
-            let w = l.w as isize;
-            while let Some(Reverse((d, i))) = heap.pop() {
-                if d > dist[i] {
-                    continue;
-                }
-                for dy in -1isize..=1 {
-                    for dx in -1isize..=1 {
-                        let at = |dx: isize, dy: isize| (i as isize + dx + dy * w) as usize;
-                        let j = at(dx, dy);
-                        if (dx, dy) == (0, 0) || !l.inside[j] {
-                            continue;
-                        }
-                        let diag = dx != 0 && dy != 0;
-                        if diag && !(l.inside[at(dx, 0)] && l.inside[at(0, dy)]) {
-                            continue;
-                        }
-                        let nd = d + if diag { DIAG } else { STEP };
-                        if nd < dist[j] {
-                            dist[j] = nd;
-                            heap.push(Reverse((nd, j)));
-                        }
-                    }
-                }
-            }
-        };
-        let mut rng = crate::test_rng::Lcg(0x51ab_1e5e_ed00_d1e5);
-        let mut next = move || rng.next_u64() >> 33;
-        for k in 0..60usize {
-            let (w, h) = (3 + k % 23, 3 + (k * 7) % 19);
-            let fill = 30 + next() % 70;
-            let inside: Vec<bool> = (0..w * h)
-                .map(|i| {
-                    let (x, y) = (i % w, i / w);
-                    x > 0 && y > 0 && x + 1 < w && y + 1 < h && next() % 100 < fill
-                })
-                .collect();
-            let cells: Vec<usize> = (0..w * h).filter(|&i| inside[i]).collect();
-            if cells.is_empty() {
-                continue;
-            }
-            let l = Local {
-                x0: 0,
-                y0: 0,
-                k: 1,
-                w,
-                h,
-                inside,
-            };
-            let pick = |r: u64| cells[r as usize % cells.len()];
-            let sources: Vec<usize> = (0..1 + k % 3).map(|_| pick(next())).collect();
-            let mut want = vec![u32::MAX; w * h];
-            plain(&l, &mut want, &sources);
-            let mut got = l.field(&sources);
-            assert_eq!(got, want, "grid {k}");
-            let more = pick(next());
-            plain(&l, &mut want, &[more]);
-            l.relax(&mut got, &[more]);
-            assert_eq!(got, want, "grid {k}, one more source");
-        }
-    }
-
-    #[test]
-    fn angles_apart_wrap_round() {
-        assert_eq!(apart(170.0, -170.0), 20.0);
-        assert_eq!(apart(0.0, 90.0), 90.0);
-        assert_eq!(apart(-90.0, 90.0), 180.0);
-    }
-
-    #[test]
-    fn bad_settings_are_named() {
-        let c = StrengthConfig {
-            per_island: 0,
-            ..Default::default()
-        };
-        assert_eq!(c.check().unwrap_err().0, "bridges_per_island");
-        let c = StrengthConfig {
-            max_sag_mm: f64::NAN,
-            ..Default::default()
-        };
-        assert_eq!(c.check().unwrap_err().0, "max_sag_mm");
-    }
-}
+mod tests;

@@ -69,12 +69,9 @@ const MIN_ALIGN: f32 = 0.5;
 /// form: its progress along the start direction only grows.)
 const LOOP_WINDOW: usize = 8;
 
-/// What the walks read: the two-tone, the grayscale and the labels (of the same bits, so a pixel
-/// is `CUT` exactly where it is not material: cut tests read the bit grid, a quarter the size of
-/// the labels, and walks are bound by memory reads scattered over the image). The steering fields (Sobel
-/// gradient of the gray, box-smoothed gradient of the two-tone) are evaluated on demand at the
-/// pixels walks cross, so their cost follows the islands' perimeter × walk length, never the
-/// image area.
+/// What the walks read: the two-tone, the grayscale and the labels (of the same bits: cut tests
+/// read the smaller bit grid). The steering fields (Sobel gradient of the gray, box-smoothed
+/// gradient of the two-tone) are evaluated only at the pixels walks cross.
 pub(crate) struct Fields<'a> {
     pub(crate) bits: &'a BitGrid,
     pub(crate) gray: &'a Gray,

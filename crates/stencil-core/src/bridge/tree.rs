@@ -1,10 +1,7 @@
-//! The spanning tree over island groups: Prim from the frame.
-//!
-//! Between two nodes there are many strips; the edge's cost is the cheapest window cost among
-//! them. The group grows from the frame by repeatedly taking the cheapest edge to a node outside
-//! it; edges whose both ends are already in the group (strips inside one group) are ignored. When
-//! no edge leaves the group the tree stalls: the caller then searches for a connection from the
-//! stranded nodes ([`Prim::stranded`]), adds it as an edge and grows on.
+//! The spanning tree over island groups: Prim from the frame. An edge's cost is the cheapest
+//! window among the strips between two nodes; the group grows by the cheapest edge leaving it.
+//! When none leaves, the caller searches a connection from the stranded nodes
+//! ([`Prim::stranded`]), adds it as an edge and grows on.
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;

@@ -1,33 +1,22 @@
 //! The sheet's constrained Delaunay triangulation (spade) as plain triangles, each marked material
 //! or cut, built in parallel vertical slabs when the sheet is large.
 //!
-//! ## Why slabs, and why they give a true CDT
-//! spade triangulates on one thread, and at a few ten thousand vertices the triangulation is most
-//! of the check's time. So the vertices are cut into `k` vertical slabs by x; slab `s` owns the
-//! triangles whose circumcentre lies in `[x_s, x_{s+1})`, and it triangulates every vertex within
-//! a guard band `g` either side (with every ring edge between two such vertices as a constraint).
-//! A slab keeps one of its triangles only when the triangle's circumcircle lies at least one ring
-//! edge's length inside its band. Then every vertex inside that circle, and every ring edge that
-//! crosses it, is in the slab, and since more constraints only hide vertices, the triangle's
-//! circle holds no vertex visible from it in the whole sheet either, and no ring edge crosses it:
-//! it is a triangle of a CDT of the whole sheet.
-//!
-//! Kept triangles tile the sheet exactly when (a) every edge a slab leaves unmatched (its other
-//! side was not kept by the same slab) is matched by the reversed edge from another slab, once,
-//! apart from the sheet's outline, and (b) there are `2V − h − 2` of them (V vertices, h of them
-//! on the outline, which is the convex hull). Both are checked; if either fails (a triangle too
-//! big for its band, as in a wide empty area, or a degenerate tie read differently by two slabs)
-//! the whole sheet is triangulated at once instead. Cocircular vertices (frequent in pixel
-//! geometry) have more than one CDT; every triangle kept is one of a valid CDT, and the check
-//! measures chords of that one.
+//! ## Why slabs give a true CDT
+//! spade triangulates on one thread. The vertices are cut into `k` slabs by x; slab `s`
+//! triangulates every vertex within a guard band either side (ring edges between them as
+//! constraints) and keeps a triangle only when its circumcentre is in `[x_s, x_{s+1})` and its
+//! circumcircle lies at least one ring edge's length inside the band. Every vertex and ring edge
+//! that could affect that circle is then in the slab, so the triangle belongs to a CDT of the whole
+//! sheet. Kept triangles tile the sheet when (a) every edge a slab leaves unmatched is matched once
+//! by the reversed edge from another slab (the outline apart) and (b) there are `2V − h − 2` of
+//! them (h vertices on the outline, the convex hull). If either fails, the whole sheet is
+//! triangulated at once. With cocircular vertices every triangle kept is one of a valid CDT.
 //!
 //! ## How spade is asked
-//! Not with its constrained bulk load but with the bare points, one by one in Z order, which is
-//! about a third faster (see [`build`]). Rings are sampled densely compared
-//! with the gaps between them, so the Delaunay triangulation normally holds every ring edge: the
-//! ring edges are counted while the faces are read (told by ring indices, not spade's flags), and
-//! only the ones it lacks are then added as constraints. Where rings touch or cross or a vertex
-//! repeats, spade's constrained bulk load is used as before.
+//! With the bare points in Z order, about a third faster than its constrained bulk load (see
+//! [`build`]); the ring edges the Delaunay triangulation lacks (counted by ring indices) are then
+//! added as constraints. Where rings touch or cross or a vertex repeats, the constrained bulk load
+//! is used.
 
 use rayon::prelude::*;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -39,18 +28,18 @@ use super::error::CheckError;
 /// anything up).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct V {
-    pub p: Point2<f64>,
-    pub ring: u32,
-    pub idx: u32,
-    pub gid: u32,
-    pub next: u32,
+    pub(crate) p: Point2<f64>,
+    pub(crate) ring: u32,
+    pub(crate) idx: u32,
+    pub(crate) gid: u32,
+    pub(crate) next: u32,
 }
 
 impl V {
     /// If `self → b` is an edge of a ring: the index of its first vertex along the ring, and
     /// whether `self → b` runs along the ring's direction.
     #[inline]
-    pub fn ring_edge(self, b: V) -> Option<(u32, bool)> {
+    pub(crate) fn ring_edge(self, b: V) -> Option<(u32, bool)> {
         if self.next == b.gid {
             Some((self.idx, true))
         } else if b.next == self.gid {
@@ -66,10 +55,10 @@ impl V {
 /// write and read for each of the ~100,000 triangles of a large sheet.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tri {
-    pub v: [u32; 3],
+    pub(crate) v: [u32; 3],
     pub material: bool,
     /// Bit k: edge k (corner k to corner k + 1) is a ring edge (a constraint of the CDT).
-    pub ring_edges: u8,
+    pub(crate) ring_edges: u8,
 }
 
 /// How the triangles were made (for tests and the curious).
@@ -83,14 +72,14 @@ pub(super) enum Method {
 
 /// The rings, as the triangulation needs them: each ring's vertex count.
 pub(super) struct RingSizes {
-    pub len: Vec<u32>,
+    pub(crate) len: Vec<u32>,
     /// The ring of the sheet's outline (the convex hull of everything).
     pub outline: u32,
 }
 
 impl RingSizes {
     /// Append a ring (at least three points) as the next ring, its vertices to `verts`.
-    pub fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
+    pub(crate) fn push_ring(&mut self, verts: &mut Vec<V>, pts: &[[f64; 2]]) {
         let (ring, start, n) = (self.len.len() as u32, verts.len() as u32, pts.len() as u32);
         self.len.push(n);
         verts.extend(pts.iter().zip(0..).map(|(p, i)| V {
@@ -274,15 +263,10 @@ struct Built {
     constrained: bool,
 }
 
-/// Triangulate `verts`, in the usual case without the ring edges `edges` (indices into `verts`):
-/// the Delaunay triangulation of the bare points, inserted one by one in Z order
-/// ([`spatial_order`]). Rings are sampled densely compared with the gaps between them, so it
-/// normally holds every ring edge already; whether it does is counted while the faces are read,
-/// and [`complete`] adds any it lacks. A repeated vertex: spade's constrained bulk load at once.
-///
-/// Measured on a 2000² px sheet (27,000 vertices a slab): spade's constrained bulk load 26 ms, its
-/// plain bulk load 20 ms, one by one in Z order 17 ms (each point is found by a short walk from the
-/// one before, and vertices that are neighbours in the plane are neighbours in memory).
+/// Triangulate `verts`, usually without the ring edges `edges` (indices into `verts`): the bare
+/// points one by one in Z order ([`spatial_order`]), which normally holds every ring edge already;
+/// [`complete`] adds any it lacks. A repeated vertex: spade's constrained bulk load. On a 2000² px
+/// sheet: constrained bulk load 26 ms, plain bulk load 20 ms, Z order 17 ms.
 fn build(verts: &[V], edges: &[[usize; 2]]) -> Result<Built, CheckError> {
     let of = spatial_order(verts);
     let mut cdt = Cdt::new();

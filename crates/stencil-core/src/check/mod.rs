@@ -3,34 +3,23 @@
 //! `min_feature_mm`.
 //!
 //! ## How widths are measured
-//! A constrained Delaunay triangulation (spade) of every ring of the sheet (outline, holes, island
-//! outlines) splits the sheet into triangles that lie wholly in material or wholly in a cut (told
-//! apart by which side of a ring they lie on: material is left of every ring). On a large sheet it
-//! is built in parallel slabs and checked to tile the sheet (module `cdt`). Inside a region, the *chords* are
-//! the triangle edges that are not boundary edges (vertex to vertex), and the perpendiculars from a
-//! vertex to the boundary edge opposite it in its triangle when the foot falls inside that edge.
-//! A chord is a *neck* when its ends lie on two different rings (a web between two holes, or
-//! between a hole and the sheet's edge), or on the same ring with more than `NECK_RATIO` times its
-//! length of boundary between them either way round (so cutting across a corner, or across the tip
-//! of a round end, is not a neck, but the neck of a bridge or a long spur is). The narrowest neck of
-//! a region is its shortest neck chord.
-//!
-//! A material neck is a *bridge* when its midpoint lies in a bridge polygon (when the bridges are
-//! known, as in `make` and `check` on an output folder); without the bridge list (a bare PNG), every
-//! material neck whose two ends lie on the same ring (it holds a part that would fall out if it
-//! broke) is checked as a bridge. Other material necks are webs; cut necks are holes.
+//! A constrained Delaunay triangulation of every ring of the sheet (module `cdt`) splits it into
+//! triangles wholly in material or in a cut (material is left of every ring). A region's *chords*
+//! are its triangles' inner edges and the perpendiculars from a vertex to the opposite boundary
+//! edge. A chord is a *neck* when its ends lie on two rings, or on one ring with more than
+//! `NECK_RATIO` times its length of boundary between them either way (so a corner is not a neck,
+//! a bridge or a long spur is). A material neck is a *bridge* when its midpoint lies in a bridge
+//! polygon; without the bridge list (a bare PNG), every material neck with both ends on one ring.
+//! Other material necks are webs; cut necks are holes.
 //!
 //! ## Discretisation
-//! Marching squares puts the edges of a straight run of pixels on the pixel boundaries, so a raster
-//! neck exactly N pixels wide measures exactly N × mm_per_px; diagonal necks measure their Euclidean
-//! width within about ±0.7 px, and simplification may move each side by up to `--tolerance-mm`.
-//! A width passes when it is at least the requirement (no slack here); the pipeline instead asks the
-//! bridge stage and the filter for `allowance_px` more than the material's minimum, so what it
-//! produces passes.
+//! A raster neck N pixels wide measures exactly N × mm_per_px; diagonal ones within about ±0.7 px,
+//! and simplification may move each side by `--tolerance-mm`. A width passes at the requirement
+//! exactly; the pipeline asks the earlier stages for `allowance_px` more, so what it makes passes.
 //!
 //! ## Cross-check
-//! Each violation is confirmed on the raster by a morphological opening (material necks) or closing
-//! (holes) with a disc of half the required width: it must remove the neck at the reported position.
+//! Each violation is confirmed on the raster by an opening (material) or closing (holes) with a
+//! disc of half the required width: it must remove the neck at the reported position.
 
 use geo::{BoundingRect, Contains, Coord, MultiPolygon, Point, Polygon, Rect};
 use rayon::prelude::*;
@@ -110,12 +99,16 @@ impl std::fmt::Display for ViolationKind {
 /// One violation: where (mm, y down from the picture's top-left) and how wide.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Violation {
+    /// What is too narrow (or floats).
     pub kind: ViolationKind,
+    /// Where, mm right.
     pub x_mm: f64,
+    /// Mm down.
     pub y_mm: f64,
     /// The measured width (none for a floating piece).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
+    /// The width the material needs there.
     pub required_mm: f64,
     /// Whether the raster cross-check (opening/closing by half the required width) removes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -142,21 +135,28 @@ impl std::fmt::Display for Violation {
 /// The result of the check, as recorded in `report.json`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CheckReport {
+    /// The material profile's name.
     pub material: String,
+    /// The narrowest bridge the material holds, mm.
     pub min_bridge_mm: f64,
+    /// The narrowest web or hole it holds, mm.
     pub min_feature_mm: f64,
     /// Pieces of material (1 for a valid stencil).
     pub pieces: usize,
     /// Narrowest neck measured per kind (bridges are only told apart when the bridges are known).
     pub narrowest_bridge_mm: Option<f64>,
+    /// Narrowest web of material, mm.
     pub narrowest_web_mm: Option<f64>,
+    /// Narrowest hole, mm.
     pub narrowest_hole_mm: Option<f64>,
+    /// Every neck narrower than required, and every floating piece.
     pub violations: Vec<Violation>,
     /// Size of the triangulation, for the curious.
     pub triangles: usize,
 }
 
 impl CheckReport {
+    /// No violations.
     pub fn passed(&self) -> bool {
         self.violations.is_empty()
     }
@@ -523,6 +523,15 @@ impl Search<'_> {
 
 /// Check a stencil's geometry against a material. `bridges_known`: whether `geom.bridges` lists
 /// every bridge (false for a bare PNG: then same-ring material necks count as bridges).
+///
+/// ```
+/// use stencil_core::{check, material::Material, raster::BitGrid, vector};
+/// // Two holes in a sheet (0.1 mm pixels), 2 px apart: a web narrower than cardstock holds.
+/// let bits = BitGrid::from_fn(60, 60, |x, y| !((10..50).contains(&y) && (10..29).contains(&x) | (31..50).contains(&x)));
+/// let (geom, _) = vector::vectorize(&bits, &[], &Default::default()).unwrap();
+/// let report = check::check(&geom, &Material::default(), false).unwrap();
+/// assert!(!report.passed() && report.narrowest_web_mm.unwrap() < 0.5);
+/// ```
 pub fn check(
     geom: &CutGeometry,
     material: &Material,

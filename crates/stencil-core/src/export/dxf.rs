@@ -21,15 +21,15 @@ use super::svg::{ring_pieces, ring_points, rings};
 use crate::vector::CutGeometry;
 
 /// Layer names.
-pub const CUT_LAYER: &str = "CUT";
-pub const OUTLINE_LAYER: &str = "OUTLINE";
+pub(crate) const CUT_LAYER: &str = "CUT";
+pub(crate) const OUTLINE_LAYER: &str = "OUTLINE";
 
 /// Encode the stencil as DXF (R2000, or R12 when `r12`). Cut loops are lines and arcs: the
 /// vector stage's curves ([`CutGeometry::curves`]) where a ring is theirs, else fitted within
 /// `arc_tolerance_mm` ([`stencil_geom::curve::fit_ring`]; 0: the polygons as they are), each arc a vertex bulge (group 42, `tan(sweep / 4)`, positive counter-clockwise), which
 /// R12 POLYLINE vertices and R2000 LWPOLYLINEs both carry and CAD, LightBurn and LaserGRBL read
 /// as true arcs: still one closed polyline per loop, not loose ARC entities.
-pub fn encode(
+pub(crate) fn encode(
     geom: &CutGeometry,
     r12: bool,
     arc_tolerance_mm: f64,

@@ -27,6 +27,7 @@ use crate::vector::CutGeometry;
 /// Mask options.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaskConfig {
+    /// Resolution of `mask.png`, dots per inch.
     pub dpi: f64,
     /// Clear (white) where metal stays instead of black.
     pub invert: bool,
@@ -55,7 +56,7 @@ impl Default for MaskConfig {
 /// undercut compensation and two-sided art need.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Etch {
-    pub thickness_mm: f64,
+    pub(crate) thickness_mm: f64,
     /// Depth etched per unit of sideways undercut.
     pub etch_factor: f64,
     /// Etched from both sides at once: front and back masks, each side etching half the depth.
@@ -80,7 +81,7 @@ impl Etch {
 /// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
 /// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
 /// not etched as designed.
-pub const MIN_MASK_OPENING_MM: f64 = 0.05;
+pub(crate) const MIN_MASK_OPENING_MM: f64 = 0.05;
 
 impl Etch {
     /// The narrowest opening that etches at its designed size: twice the undercut (what the
@@ -107,6 +108,7 @@ impl Etch {
 pub struct MaskReport {
     /// Each mask: its files, the side it is for and whether it is mirrored.
     pub masks: Vec<MaskSide>,
+    /// Resolution of the PNG masks, dots per inch.
     pub dpi: f64,
     /// Where metal stays, in words: "black where metal stays (positive resist)" or "clear where
     /// metal stays (negative resist)"; light passes where the stencil is cut.
@@ -129,8 +131,11 @@ pub struct MaskReport {
 pub struct MaskSide {
     /// "single", "front" or "back".
     pub side: String,
+    /// The PNG mask's file name.
     pub png: String,
+    /// The SVG mask's file name.
     pub svg: String,
+    /// Drawn mirrored (for the back, or the emulsion side down).
     pub mirrored: bool,
 }
 
@@ -143,7 +148,7 @@ pub struct MaskSide {
 /// that are, with other widths, are counted in [`MaskReport::openings_closed`]). A gobo's rim
 /// ([`CutGeometry::rim`]) is etched as a groove outside the disc ([`rim_groove_mm`]).
 #[allow(clippy::type_complexity)]
-pub fn mask_files(
+pub(crate) fn mask_files(
     geom: &CutGeometry,
     cfg: &MaskConfig,
     etch: Option<Etch>,
@@ -267,17 +272,17 @@ fn polarity(invert: bool) -> String {
 /// is about as wide as the sheet is thick (photo-etching shops give 1 to 1.5 × the thickness as
 /// the narrowest slot), so 1.5 × the thickness, never under 0.3 mm, and wide enough that its
 /// mask, drawn `undercut_mm` narrower on each side, keeps [`MIN_MASK_OPENING_MM`].
-pub fn rim_groove_mm(thickness_mm: f64, undercut_mm: f64) -> f64 {
+pub(crate) fn rim_groove_mm(thickness_mm: f64, undercut_mm: f64) -> f64 {
     (1.5 * thickness_mm)
         .max(0.3)
         .max(2.0 * undercut_mm + MIN_MASK_OPENING_MM)
 }
 
 /// Largest mask accepted, in pixels (a 1200 dpi A3 sheet is ~ 2.6e8).
-pub const MAX_MASK_PIXELS: f64 = 1.0e9;
+pub(crate) const MAX_MASK_PIXELS: f64 = 1.0e9;
 
 /// Pixel size of the mask for a geometry.
-pub fn mask_size(geom: &CutGeometry, dpi: f64) -> (u32, u32) {
+pub(crate) fn mask_size(geom: &CutGeometry, dpi: f64) -> (u32, u32) {
     let o = geom.outline;
     let f = dpi / 25.4;
     (
@@ -347,7 +352,7 @@ fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
 
 /// Encode `mask.png`: 1-bit grayscale (1 = white), with `desc` in a tEXt `Description` chunk
 /// (when not empty).
-pub fn encode_png(
+pub(crate) fn encode_png(
     geom: &CutGeometry,
     cfg: &MaskConfig,
     desc: &str,
@@ -461,7 +466,7 @@ fn write_png(data: &[u8], w: u32, h: u32, dpi: f64, desc: &str) -> Result<Vec<u8
 
 /// Encode `mask.svg`: the same mask as vectors at real size, with `desc` as the drawing's
 /// `<desc>` (when not empty).
-pub fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig, desc: &str) -> Vec<u8> {
+pub(crate) fn encode_svg(geom: &CutGeometry, cfg: &MaskConfig, desc: &str) -> Vec<u8> {
     let o = geom.outline;
     let (w, h) = (o.width(), o.height());
     let (metal, etched) = if cfg.invert {

@@ -38,7 +38,7 @@ pub const REMOVED_RGB: [u8; 3] = [230, 0, 160];
 pub const ADDED_RGB: [u8; 3] = [0, 150, 255];
 /// Islands dropped instead of bridged (`bridge::drop`): yellow, so they are not taken for what
 /// the clean-up removed.
-pub const DROPPED_RGB: [u8; 3] = [255, 220, 0];
+pub(crate) const DROPPED_RGB: [u8; 3] = [255, 220, 0];
 
 /// The preview's long side is at least this many pixels: a small picture is enlarged by a whole
 /// factor, nearest-neighbour, so every working pixel stays a visible square.
@@ -128,7 +128,7 @@ fn preview_index(g: f32, picture: bool, twotone: bool, stencil: bool) -> u8 {
 
 /// The preview as palette indices ([`preview_palette`]), one per working pixel, row by row
 /// (rows in parallel); the `dropped` islands' pixels (indices into the grid) that `stencil`
-/// cuts are [`DROPPED_RGB`]'s.
+/// cuts are `DROPPED_RGB`'s.
 pub fn preview_indexed(
     gray: &Gray,
     picture: &BitGrid,

@@ -17,7 +17,7 @@ use crate::vector::CutGeometry;
 /// Millimetres with 4 decimals (0.1 µm), trailing zeros dropped: a coordinate in a file, at a
 /// fixed resolution whatever its size (unlike [`crate::limits::num`], which gives a message's
 /// number 6 significant digits; the two cannot be one without changing the SVG's bytes).
-pub fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" {
@@ -28,7 +28,7 @@ pub fn num(v: f64) -> String {
 }
 
 /// Path data for closed rings (each `M … Z`).
-pub fn path_data<'a>(rings: impl IntoIterator<Item = &'a LineString<f64>>) -> String {
+pub(crate) fn path_data<'a>(rings: impl IntoIterator<Item = &'a LineString<f64>>) -> String {
     let mut d = String::new();
     for r in rings {
         let pts = &r.0;
@@ -81,7 +81,7 @@ pub(crate) fn ring_pieces(pts: &[[f64; 2]], curves: &Curves, tol: f64) -> Vec<cu
 /// arcs as `A` (an exact circular arc, which every SVG reader takes; never more than a half
 /// turn, so the large-arc flag is 0; the sweep flag is 1 for an arc turning towards +y from
 /// +x, as the numbers run). `tol` 0 gives [`path_data`]'s polygons.
-pub fn curve_path_data<'a>(
+pub(crate) fn curve_path_data<'a>(
     rings: impl IntoIterator<Item = &'a LineString<f64>>,
     curves: &Curves,
     tol: f64,
@@ -118,7 +118,7 @@ pub fn curve_path_data<'a>(
 }
 
 /// All rings of a polygon set (exteriors and holes).
-pub fn rings(mp: &MultiPolygon<f64>) -> impl Iterator<Item = &LineString<f64>> {
+pub(crate) fn rings(mp: &MultiPolygon<f64>) -> impl Iterator<Item = &LineString<f64>> {
     mp.0.iter()
         .flat_map(|p: &Polygon<f64>| std::iter::once(p.exterior()).chain(p.interiors()))
 }
@@ -134,7 +134,7 @@ fn layer(id: &str, label: &str, body: &str) -> svg::node::element::Group {
 /// Encode the stencil as SVG, the cut regions' outlines as lines and arcs: the vector stage's
 /// curves ([`CutGeometry::curves`]) where a ring is theirs, else fitted within
 /// `arc_tolerance_mm` of the design polygons (0: the polygons as they are, no arcs at all).
-pub fn encode(geom: &CutGeometry, arc_tolerance_mm: f64) -> Vec<u8> {
+pub(crate) fn encode(geom: &CutGeometry, arc_tolerance_mm: f64) -> Vec<u8> {
     use svg::node::element::{Path, Rectangle};
     let o = geom.outline;
     let (w, h) = (o.width(), o.height());

@@ -2,14 +2,10 @@
 
 use super::grid::BitGrid;
 
-/// Squared Euclidean distance from every pixel to the nearest pixel whose bit equals `target`
-/// (0 on such pixels). Pixels outside the grid count as material (the frame), so with
-/// `target = true` the distance never exceeds the distance to the image border plus one.
-///
-/// Exact, O(pixels) (Felzenszwalb & Huttenlocher's lower envelope of parabolas, row then column).
-/// Used by the topological filter (dilation and erosion by a disc) and by the bridge stage, whose
-/// walks follow the distance field's gradient where the grayscale source is flat.
-pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
+/// Squared Euclidean distance from every pixel to the nearest pixel whose bit equals `target` (0
+/// on such pixels); outside the grid is material (the frame). Exact, O(pixels) (Felzenszwalb &
+/// Huttenlocher's lower envelope of parabolas, row then column).
+pub(crate) fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
     squared_distance(bits, target, target)
 }
 
@@ -17,7 +13,7 @@ pub fn squared_distance_to(bits: &BitGrid, target: bool) -> Vec<f32> {
 /// a virtual target row and column one step outside every border, `false` makes the outside count
 /// as nothing (distances are measured to targets inside the grid only; `INF`-like 1e20 where there
 /// is none).
-pub fn squared_distance(bits: &BitGrid, target: bool, frame_is_target: bool) -> Vec<f32> {
+pub(crate) fn squared_distance(bits: &BitGrid, target: bool, frame_is_target: bool) -> Vec<f32> {
     let (w, h) = (bits.width as usize, bits.height as usize);
     const INF: f32 = 1e20;
     let mut d: Vec<f32> = bits

@@ -6,12 +6,16 @@
 /// dark area of the source picture hurts the picture more than one over a light area.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Gray {
+    /// Width, px.
     pub width: u32,
+    /// Height, px.
     pub height: u32,
+    /// Row by row, `width × height` values.
     pub data: Vec<f32>,
 }
 
 impl Gray {
+    /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: f32) -> Self {
         Gray {
             width,
@@ -21,15 +25,16 @@ impl Gray {
     }
 
     #[inline]
-    pub fn idx(&self, x: u32, y: u32) -> usize {
+    pub(crate) fn idx(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
     }
 
     #[inline]
-    pub fn get(&self, x: u32, y: u32) -> f32 {
+    pub(crate) fn get(&self, x: u32, y: u32) -> f32 {
         self.data[self.idx(x, y)]
     }
 
+    /// Set the pixel at (x, y).
     #[inline]
     pub fn set(&mut self, x: u32, y: u32, v: f32) {
         let i = self.idx(x, y);
@@ -37,7 +42,7 @@ impl Gray {
     }
 
     /// Bilinear sample at a real-valued position, clamped to the grid.
-    pub fn sample(&self, x: f32, y: f32) -> f32 {
+    pub(crate) fn sample(&self, x: f32, y: f32) -> f32 {
         let maxx = (self.width - 1) as f32;
         let maxy = (self.height - 1) as f32;
         let x = x.clamp(0.0, maxx);
@@ -65,12 +70,16 @@ impl Gray {
 /// A bit per pixel: `true` = material (the sheet that stays, drawn white), `false` = cut (drawn black).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BitGrid {
+    /// Width, px.
     pub width: u32,
+    /// Height, px.
     pub height: u32,
+    /// Row by row, `width × height` bits.
     pub data: Vec<bool>,
 }
 
 impl BitGrid {
+    /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: bool) -> Self {
         BitGrid {
             width,
@@ -103,11 +112,13 @@ impl BitGrid {
         })
     }
 
+    /// The index of (x, y) in `data`.
     #[inline]
     pub fn idx(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
     }
 
+    /// Whether (x, y) is material.
     #[inline]
     pub fn get(&self, x: u32, y: u32) -> bool {
         self.data[self.idx(x, y)]
@@ -116,7 +127,7 @@ impl BitGrid {
     /// Material test that treats everything outside the grid as material: the sheet continues
     /// beyond the image (the frame).
     #[inline]
-    pub fn get_or_frame(&self, x: i64, y: i64) -> bool {
+    pub(crate) fn get_or_frame(&self, x: i64, y: i64) -> bool {
         if x < 0 || y < 0 || x >= self.width as i64 || y >= self.height as i64 {
             true
         } else {
@@ -124,20 +135,24 @@ impl BitGrid {
         }
     }
 
+    /// Make (x, y) material (`true`) or cut.
     #[inline]
     pub fn set(&mut self, x: u32, y: u32, v: bool) {
         let i = self.idx(x, y);
         self.data[i] = v;
     }
 
+    /// Pixels in all.
     pub fn len(&self) -> usize {
         self.data.len()
     }
 
+    /// No pixels.
     pub fn is_empty(&self) -> bool {
         self.data.is_empty()
     }
 
+    /// Pixels of material.
     pub fn count_material(&self) -> usize {
         self.data.iter().filter(|&&b| b).count()
     }
@@ -170,15 +185,14 @@ pub(crate) fn edge_neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4
     ]
 }
 
-/// The two-tone image: which pixels are material, plus the grayscale it came from.
-///
-/// The gray is shared, not owned: every stage from the threshold to the bridges carries the same
-/// gray beside its own bits (the threshold's, the clean-up's, the bridges'), and the studio keeps
-/// each stage's two-tone, so an owned gray (4 MB at a megapixel) was copied at each stage a
-/// threshold change re-ran. Nothing after the threshold changes it.
+/// The two-tone image: which pixels are material, plus the grayscale it came from. The gray is
+/// shared: every stage after the threshold carries the same one beside its own bits (the studio
+/// keeps each stage's two-tone), and none changes it.
 #[derive(Clone, Debug)]
 pub struct TwoTone {
+    /// The two tones: material true.
     pub bits: BitGrid,
+    /// The gray they were thresholded from.
     pub gray: std::sync::Arc<Gray>,
 }
 

@@ -4,11 +4,11 @@
 use super::grid::BitGrid;
 
 /// Label of a pixel that [`components`] did not label (its bit is not the one asked for).
-pub const NOT_LABELLED: u32 = u32::MAX;
+pub(crate) const NOT_LABELLED: u32 = u32::MAX;
 
 /// 4-connected components of the pixels equal to `value`: a label per pixel ([`NOT_LABELLED`] where the pixel
 /// is not `value`), and the area of each component. O(pixels).
-pub fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
+pub(crate) fn components(bits: &BitGrid, value: bool) -> (Vec<u32>, Vec<usize>) {
     let (w, h) = (bits.width as usize, bits.height as usize);
     let (runs, row_first) = runs_of(bits, value);
     let (piece, count) = join_runs(&runs, &row_first, false);
@@ -52,12 +52,8 @@ pub(crate) fn runs_of(bits: &BitGrid, value: bool) -> (Vec<Run>, Vec<usize>) {
 const RUN_BAND: usize = 64;
 
 /// [`runs_of`] over `rows` only: their runs, and the index of each row's first run within them
-/// (with one entry past the last row).
-///
-/// A row is read 64 pixels at a time, packed into a word ([`super::packed::pack_word`]), and its
-/// runs found from the words' set bits by [`push_runs`]: a few operations per run rather
-/// than a branch per pixel (the pixel-by-pixel scan was most of the labelling's serial-free
-/// time on the 1 MP photo).
+/// (with one entry past the last row). Rows are read 64 pixels a word
+/// ([`super::packed::pack_word`]) and runs found from the set bits by [`push_runs`].
 fn runs_of_rows(
     bits: &BitGrid,
     value: bool,
@@ -141,9 +137,9 @@ pub(crate) fn touches_border(labels: &[u32], width: u32, height: u32, count: usi
 /// A run of pixels along row `y`, columns `x0..=x1`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Run {
-    pub y: u32,
-    pub x0: u32,
-    pub x1: u32,
+    pub(crate) y: u32,
+    pub(crate) x0: u32,
+    pub(crate) x1: u32,
 }
 
 /// Append to `runs` the runs of set bits of row `y`, given as words of 64 pixels (bit `i` of word
@@ -167,12 +163,10 @@ pub(crate) fn push_runs(y: u32, words: impl IntoIterator<Item = u64>, runs: &mut
     }
 }
 
-/// The connected pieces of runs listed row by row, left to right (`row_first[y]` is the index of
-/// row `y`'s first run, with one entry past the last row): runs in neighbouring rows join where
-/// they overlap, and also where they touch only at a corner when `corners` (8-connectivity).
-/// Returns each run's piece and the number of pieces, numbered in the order of their first run,
-/// which is the order of their first pixel in raster order. Union-find over the runs: a pass over
-/// the runs, not a stack push per pixel.
+/// The connected pieces of runs listed row by row (`row_first[y]` the index of row `y`'s first
+/// run, one entry past the last row): runs in neighbouring rows join where they overlap, or touch
+/// at a corner when `corners`. Returns each run's piece and the number of pieces, numbered in
+/// raster order of their first pixel (union-find over the runs).
 pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Vec<u32>, usize) {
     let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
     fn root(parent: &mut [u32], mut r: usize) -> usize {

@@ -7,7 +7,7 @@ use super::grid::BitGrid;
 use super::packed::{self, Packed};
 
 /// Opening: removes material features thinner than the disc.
-pub fn open(bits: &BitGrid, r: u32) -> BitGrid {
+pub(crate) fn open(bits: &BitGrid, r: u32) -> BitGrid {
     if bits.is_empty() {
         return bits.clone();
     }
@@ -15,7 +15,7 @@ pub fn open(bits: &BitGrid, r: u32) -> BitGrid {
 }
 
 /// Closing: fills cut features thinner than the disc.
-pub fn close(bits: &BitGrid, r: u32) -> BitGrid {
+pub(crate) fn close(bits: &BitGrid, r: u32) -> BitGrid {
     if bits.is_empty() {
         return bits.clone();
     }

@@ -14,8 +14,8 @@ pub(crate) struct Packed {
     pub width: usize,
     pub height: usize,
     /// Words per row.
-    pub stride: usize,
-    pub words: Vec<u64>,
+    pub(crate) stride: usize,
+    pub(crate) words: Vec<u64>,
 }
 
 impl Packed {
@@ -28,7 +28,7 @@ impl Packed {
         }
     }
 
-    pub fn from_grid(bits: &BitGrid) -> Packed {
+    pub(crate) fn from_grid(bits: &BitGrid) -> Packed {
         let (w, h) = (bits.width as usize, bits.height as usize);
         let mut p = Packed::zeros(w, h, w.div_ceil(64).max(1));
         let stride = p.stride;
@@ -41,7 +41,7 @@ impl Packed {
         p
     }
 
-    pub fn to_grid(&self) -> BitGrid {
+    pub(crate) fn to_grid(&self) -> BitGrid {
         let (w, h) = (self.width, self.height);
         let mut data = vec![false; w * h];
         if w > 0 {
@@ -61,12 +61,12 @@ impl Packed {
     }
 
     #[inline]
-    pub fn row(&self, y: usize) -> &[u64] {
+    pub(crate) fn row(&self, y: usize) -> &[u64] {
         &self.words[y * self.stride..(y + 1) * self.stride]
     }
 
     /// Pixels that differ between two grids of the same size.
-    pub fn count_diff(&self, other: &Packed) -> usize {
+    pub(crate) fn count_diff(&self, other: &Packed) -> usize {
         self.words
             .iter()
             .zip(&other.words)

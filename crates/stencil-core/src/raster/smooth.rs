@@ -75,13 +75,9 @@ pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
     }
 }
 
-/// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity).
-///
-/// The same floats as `imageproc`'s `gaussian_blur_f32` (its kernel, 2σ each side rounded up,
-/// and per pixel the same sums in the same order: along the row, then down the column), but
-/// a row of pixels at a time, so the sums vectorise, and over threads: the likeness measure
-/// blurs several pictures per level tried, and `imageproc`'s blur, pixel by pixel on one
-/// thread, was most of its time.
+/// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity): the same
+/// floats as `imageproc`'s `gaussian_blur_f32` (its kernel and sums, in its order), but a row at
+/// a time so the sums vectorise, and over threads.
 pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
     // A NaN or non-positive sigma blurs nothing.
     if sigma.is_nan() || sigma <= 0.0 || g.data.is_empty() {

@@ -19,7 +19,7 @@ use imageproc::region_labelling::{connected_components, Connectivity};
 
 use crate::raster::{blur, Gray};
 
-/// The adjustments, all off by default ([`Adjust::is_identity`]).
+/// The adjustments, all off by default (`Adjust::is_identity`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adjust {
     /// The part of the picture kept: x, y, width, height in pixels of the picture as shown.
@@ -33,9 +33,9 @@ pub struct Adjust {
     /// `v^(1/γ)`: above 1 lifts the midtones, below 1 sinks them; black and white stay (1 = none).
     pub gamma: f32,
     /// Edge-preserving (bilateral) smoothing: the spatial standard deviation in picture pixels
-    /// (0 = off). Tones closer than [`SMOOTH_TONE_SIGMA`] are averaged, edges between tones kept.
+    /// (0 = off). Tones closer than `SMOOTH_TONE_SIGMA` are averaged, edges between tones kept.
     pub smooth_px: f32,
-    /// Abstraction strength 0..=1 (0 = off): see [`abstraction`].
+    /// Abstraction strength 0..=1 (0 = off): see `abstraction`.
     pub abstraction: f32,
     /// Local threshold: each pixel compared with the Gaussian-weighted mean of its neighbourhood
     /// of this standard deviation in picture pixels instead of with one level for the whole
@@ -60,17 +60,17 @@ impl Default for Adjust {
 
 /// The bilateral filter's tone standard deviation (on the 0..1 gray scale): differences of about
 /// a tenth of full scale count as an edge and are kept.
-pub const SMOOTH_TONE_SIGMA: f32 = 0.1;
+pub(crate) const SMOOTH_TONE_SIGMA: f32 = 0.1;
 
 impl Adjust {
     /// Whether nothing is asked for (the picture passes through untouched).
-    pub fn is_identity(&self) -> bool {
+    pub(crate) fn is_identity(&self) -> bool {
         *self == Adjust::default()
     }
 
     /// The picture adjusted. `g` is the picture as shown (after EXIF orientation). The crop is
     /// clamped to the picture (the front end refuses one outside it).
-    pub fn apply(&self, g: &Gray) -> Gray {
+    pub(crate) fn apply(&self, g: &Gray) -> Gray {
         let mut g = match self.crop_px {
             Some(c) => crop(g, c),
             None => g.clone(),
@@ -169,21 +169,15 @@ pub(crate) fn bilateral(g: &Gray, sigma_px: f32, tone_sigma: f32) -> Gray {
     ))
 }
 
-/// Abstraction in the spirit of DeCarlo and Santella (2002): the picture as a few regions of
-/// flat tone, fine detail merged away, edges between tones kept. Their method segments at several
-/// scales and keeps detail where the eye rests; without eye tracking we keep their core move,
-/// merge small regions of similar tone, uniformly:
-///
+/// Abstraction after DeCarlo and Santella (2002): a few regions of flat tone, edges kept. Without
+/// their eye tracking we keep their core move, merging small regions of similar tone uniformly,
+/// by a strength `s` in 0..=1:
 /// 1. smooth, keeping edges (bilateral, spatial σ = 1 + 3·s pixels);
-/// 2. quantise the tone into `16 − 12·s` bands and label the connected regions of one band
-///    (8-connected, `imageproc`'s region labelling);
-/// 3. merge every region smaller than `(s · diagonal / 40)²` pixels into the neighbouring region
-///    of the nearest mean tone, smallest first (union–find over the regions' adjacency);
+/// 2. quantise into `16 − 12·s` bands and label the 8-connected regions of one band;
+/// 3. merge every region under `(s · diagonal / 40)²` pixels into the neighbour of nearest mean
+///    tone, smallest first (union–find);
 /// 4. paint each region its mean smoothed tone.
-///
-/// `s` is the strength, 0..=1: at 1 a 600-pixel picture keeps only regions of about 20 × 20
-/// pixels or more in four bands.
-pub fn abstraction(g: &Gray, strength: f32) -> Gray {
+pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let s = strength.clamp(0.0, 1.0);
     if s == 0.0 || g.data.is_empty() {
         return g.clone();

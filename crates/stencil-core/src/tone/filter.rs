@@ -36,20 +36,20 @@ impl Default for FilterConfig {
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
 pub struct FilterStats {
     /// Material pixels the opening turned to cut.
-    pub opened_px: usize,
+    pub(crate) opened_px: usize,
     /// Cut pixels the closing turned to material.
-    pub closed_px: usize,
+    pub(crate) closed_px: usize,
     /// Material specks (pieces not joined to the frame) removed, and their pixels.
-    pub material_specks: usize,
-    pub material_speck_px: usize,
+    pub(crate) material_specks: usize,
+    pub(crate) material_speck_px: usize,
     /// Cut specks filled, and their pixels.
-    pub cut_specks: usize,
-    pub cut_speck_px: usize,
+    pub(crate) cut_specks: usize,
+    pub(crate) cut_speck_px: usize,
 }
 
 /// Apply opening, closing and speck removal. O(pixels) whatever the radius: on packed bits (64
 /// pixels a word), the specks found as runs along rows joined into pieces, with no label image.
-pub fn filter(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
+pub(crate) fn filter(bits: &BitGrid, cfg: &FilterConfig) -> (BitGrid, FilterStats) {
     let mut stats = FilterStats::default();
     if bits.is_empty() {
         return (bits.clone(), stats);

@@ -11,16 +11,11 @@ use super::error::ToneError;
 use crate::limits;
 use crate::raster::Gray;
 
-/// Load PNG, JPEG, BMP or TIFF of any colour type as a gray in 0..1 (alpha composited over white,
-/// since a transparent pixel of a drawing is paper, not ink).
-///
-/// The dimensions are read from the header first: an image over `max_pixels`, or one whose
-/// decoded buffers would need more than `limits::MAX_DECODE_BYTES` whatever `max_pixels` says, is
-/// refused before any pixel buffer is allocated, so a hostile header that claims 100000x100000
-/// costs nothing. The decoder's buffer is allocated fallibly and decoded straight into gray (no
-/// wider copy of the picture in between: 5 bytes per pixel for an 8-bit gray picture). A JPEG that
-/// ends before its end-of-image marker is refused as truncated (the decoder would fill the missing
-/// part with gray).
+/// Load PNG, JPEG, BMP or TIFF of any colour type as a gray in 0..1 (alpha over white: a
+/// transparent pixel of a drawing is paper). An image over `max_pixels`, or whose decoded buffers
+/// would need more than `limits::MAX_DECODE_BYTES`, is refused from its header before any buffer
+/// is allocated; the buffer is allocated fallibly and decoded straight into gray. A JPEG ending
+/// before its end-of-image marker is refused as truncated.
 pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
     let open_err = |source: std::io::Error| ToneError::Open {
         path: path.to_path_buf(),
@@ -319,7 +314,7 @@ fn decode_error(path: &Path, e: image::ImageError) -> ToneError {
 
 /// `text` with each Rust `Debug` struct dump (`ChunkType { type: IDAT, critical: true, .. }`)
 /// replaced by its `type` field when it has one (`IDAT`), else by the type's name.
-pub fn without_type_dumps(text: &str) -> String {
+pub(crate) fn without_type_dumps(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
     while let Some(open) = rest.find(" { ") {
@@ -372,7 +367,7 @@ fn plain_io(e: std::io::Error) -> std::io::Error {
 /// Whether a JPEG file reaches its end-of-image marker: the marker segments are followed from the
 /// start (their lengths skipped, entropy-coded data scanned for the next marker), so an EOI inside
 /// an embedded thumbnail does not count. Streams the file; data after the EOI is ignored.
-pub fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
+pub(crate) fn jpeg_is_complete(path: &Path) -> std::io::Result<bool> {
     let mut r = BufReader::new(std::fs::File::open(path)?);
     if (byte(&mut r)?, byte(&mut r)?) != (Some(0xFF), Some(0xD8)) {
         return Ok(false);
@@ -465,7 +460,7 @@ fn after_entropy_data(r: &mut BufReader<std::fs::File>) -> std::io::Result<Optio
 
 /// Upsample by an integer factor with bilinear interpolation (the paper's supersampling: thresholding
 /// the smooth upsampled gray gives edges that follow the picture, not its pixel staircase).
-pub fn upsample(gray: &Gray, k: u32) -> Gray {
+pub(crate) fn upsample(gray: &Gray, k: u32) -> Gray {
     if k <= 1 {
         return gray.clone();
     }

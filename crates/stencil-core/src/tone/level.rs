@@ -12,7 +12,7 @@ pub enum Threshold {
     Level(u8),
     /// Otsu's method: the level that best separates the histogram into two classes.
     Otsu,
-    /// The level whose cleaned-up two-tone looks most like the picture (see [`super::likeness()`]): every
+    /// The level whose cleaned-up two-tone looks most like the picture (see `likeness()`): every
     /// level is tried through the clean-up the material needs and the likeliest kept. For a
     /// rendered mesh, which has no gray picture to resemble, the same as `Otsu`.
     Auto,
@@ -25,6 +25,12 @@ impl Default for Threshold {
 }
 
 /// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
+///
+/// ```
+/// let mut gray = stencil_core::raster::Gray::new(10, 1, 0.2);
+/// (5..10).for_each(|x| gray.set(x, 0, 0.8));
+/// assert!((51..204).contains(&stencil_core::tone::otsu_level(&gray)));
+/// ```
 pub fn otsu_level(gray: &Gray) -> u8 {
     let mut hist = [0u64; 256];
     for &v in &gray.data {
@@ -59,13 +65,9 @@ pub fn otsu_level(gray: &Gray) -> u8 {
     best_t
 }
 
-/// Whether a gray value (0 = black .. 1 = white) is light at the 8-bit `level`, for both the
-/// picture's and the mesh's two tones. Compared on the 8-bit scale, so `--threshold 128` means what
-/// a user of an image editor expects; level 0 makes every value light, even one below 0 or NaN.
-///
-/// `round(v·255) >= level` written without the rounding (a library call in the per-pixel loops):
-/// for level >= 1, rounding half away from zero reaches `level` exactly from `level - 0.5` up
-/// (exact in f32), and a negative or NaN value never does.
+/// Whether a gray value (0 = black .. 1 = white) is light at the 8-bit `level`, as an image editor
+/// means `--threshold 128`: `round(v·255) >= level` without the rounding (exact in f32 from
+/// `level - 0.5` up); level 0 makes every value light, even a negative or NaN one.
 #[inline]
 pub(crate) fn is_light(v: f32, level: u8) -> bool {
     v * 255.0 >= level as f32 - 0.5 || level == 0
@@ -85,7 +87,7 @@ pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> 
 }
 
 /// The two tones of `gray` at `level`: light (at or above it) is material unless `invert`.
-pub fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
+pub(crate) fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
     BitGrid {
         width: gray.width,
         height: gray.height,

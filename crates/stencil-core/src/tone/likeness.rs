@@ -1,60 +1,41 @@
 //! How much a two-tone looks like the picture it came from, seen from where a person stands.
-//!
-//! The one place likeness is measured: [`Likeness`] (below) chooses `--threshold auto`'s level,
-//! and [`ssim`], plain SSIM on the same box average and blur, gives a layered set's
-//! `composite.likeness`.
+//! [`Likeness`] chooses `--threshold auto`'s level; `ssim`, plain SSIM on the same box average and
+//! blur, gives a layered set's `composite.likeness`.
 //!
 //! ## The measure
-//! A stencil is looked at from a distance at which its cut edges merge into tones, so both the
-//! two-tone (material light, cut dark; swapped by `--invert`) and the gray picture are
-//! box-averaged to at most [`EVAL_LONG_SIDE`] pixels on the long side and blurred by a Gaussian of
-//! σ = diagonal / [`VIEW_BLUR_DIAGONALS`] (a 200 × 150 mm stencil seen from about 1 m: detail
-//! under about a millimetre merges). Their *structural similarity* (after SSIM, Wang, Bovik,
-//! Sheikh and Simoncelli 2004) is then taken with a Gaussian window of σ = 2 × the viewing blur
-//! and averaged over the picture: 1 means the same, 0 unrelated. It is the product of a tone term
-//! and SSIM's contrast-structure term `(2σxy + C2) / (σx² + σy² + C2)` (C2 = 0.03² on the 0..1
-//! scale): local contrast and the correlation of structure (a smile lost at one level lowers it).
-//! The tone term is `1 − |μx − μy|`, the difference of the local mean tones, rather than SSIM's
-//! ratio `(2μxμy + C1) / (μx² + μy² + C1)`: that ratio is 0 wherever one side is black, whatever
-//! the other, so it punished cutting a dark-gray background far more than leaving it white, and
-//! on the flower photo chose level 34 (a white sheet with a flower outline) against a person's
-//! 112. The difference treats black and white alike, as the eye does, and as `--invert` needs.
-//!
-//! Two changes make it agree with a person's pick (checked on six photos: see
+//! Both the two-tone (material light, cut dark) and the gray are box-averaged to at most
+//! `EVAL_LONG_SIDE` pixels and blurred by σ = diagonal / `VIEW_BLUR_DIAGONALS` (a 200 × 150 mm
+//! stencil seen from about 1 m). Their structural similarity (after SSIM, Wang, Bovik, Sheikh and
+//! Simoncelli 2004, Gaussian window of σ = 2 × the blur) is averaged over the picture: 1 = the same.
+//! The tone term is `1 − |μx − μy|` instead of SSIM's ratio, which is 0 wherever one side is black
+//! and chose level 34 on the flower photo against a person's 112; the difference treats black and
+//! white alike, as `--invert` needs. Two changes make it agree with a person's pick (six photos:
 //! `docs/measurements.md`, "Auto against a person"):
-//! - **The picture's own black and white.** A stencil has only black and white, and a person
-//!   judges it against the picture seen with *its* darkest tone as black and its lightest as
-//!   white: the gray is stretched so its [`STRETCH_PERCENTILE`] and `1 − STRETCH_PERCENTILE`
-//!   quantiles become 0 and 1 (clamped) before it is compared. Without it a dark photo (a circuit
-//!   board under dim light, median gray 0.24) was most "like" an all-black stencil at 128, whose
-//!   tone is nearer the photo's than any stencil that shows the board.
-//! - **Flat areas count less.** Each place's score is weighted by the picture's local contrast
-//!   there (the standard deviation in the SSIM window) plus [`FLAT_WEIGHT`] times its mean over
-//!   the picture: in a flat sky or wall the stencil has little to get right but its tone, and an
-//!   unweighted mean let those areas outvote the structure a person looks at (a face, the parts on
-//!   a board).
+//! - **The picture's own black and white**: the gray is stretched so its `STRETCH_PERCENTILE` and
+//!   `1 − STRETCH_PERCENTILE` quantiles become 0 and 1 (else a dim photo is most "like" all black).
+//! - **Flat areas count less**: each place is weighted by its local contrast plus `FLAT_WEIGHT`
+//!   times the mean contrast, so a flat sky does not outvote a face.
 //!
-//! It is always measured on the two-tone *after* the clean-up the material needs, so what the
-//! regularisation had to change (thin webs dropped, holes filled) counts against the level
-//! that needed it.
+//! It is measured after the clean-up the material needs, so what the clean-up had to change counts
+//! against the level that needed it.
 
 use serde::{Deserialize, Serialize};
 
 use crate::raster::{blur, box_average, box_average_bits, convolve, BitGrid, Gray};
 
 /// The long side of the grid the measure is taken on, pixels.
-pub const EVAL_LONG_SIDE: u32 = 512;
+pub(crate) const EVAL_LONG_SIDE: u32 = 512;
 
 /// The viewing blur's σ is the picture's diagonal divided by this.
-pub const VIEW_BLUR_DIAGONALS: f32 = 250.0;
+pub(crate) const VIEW_BLUR_DIAGONALS: f32 = 250.0;
 
 /// The share of the picture's pixels taken as its black (and, from the top, its white) when its
 /// gray is stretched to the full range.
-pub const STRETCH_PERCENTILE: f32 = 0.01;
+pub(crate) const STRETCH_PERCENTILE: f32 = 0.01;
 
 /// How much a flat place weighs, as a share of the picture's mean local contrast (a place of
 /// mean contrast weighs 1 + this, a flat one this).
-pub const FLAT_WEIGHT: f32 = 0.25;
+pub(crate) const FLAT_WEIGHT: f32 = 0.25;
 
 /// The likeness (SSIM at viewing distance, see the module) of a two-tone to its gray picture.
 /// Measuring several two-tones of one gray: make its [`Likeness`] once.
@@ -85,7 +66,7 @@ pub struct Likeness {
 
 impl Likeness {
     /// The picture's side of the measure for `gray`.
-    pub fn of(gray: &Gray) -> Likeness {
+    pub(crate) fn of(gray: &Gray) -> Likeness {
         let d = gray.width.max(gray.height).div_ceil(EVAL_LONG_SIDE).max(1);
         let g = stretch(box_average(gray.width, gray.height, d, |i| {
             gray.data[i].clamp(0.0, 1.0)
@@ -214,17 +195,14 @@ fn score(look: &Likeness, mx: &[f32], xx: &[f32], xy: &[f32]) -> f64 {
 
 /// The long side, in pixels, that [`ssim`] looks at: about what a person sees of a picture at a
 /// few times its width away.
-pub const VIEWING_PX: u32 = 200;
+pub(crate) const VIEWING_PX: u32 = 200;
 
-/// Likeness of two lightness images (0..1, `w` × `h` each): the plain mean structural similarity
-/// (SSIM, Wang et al. 2004: Gaussian window σ = 1.5 px of 11 taps, C1 = 0.01², C2 = 0.03²) of
-/// both after they are box-averaged down to [`VIEWING_PX`] on their long side (what is left at
-/// viewing distance: posterised tones and a paint's edge blend, as they do to the eye). 1 = the
-/// same. A layered set's composite is measured with it against its picture (both gray, neither a
-/// two-tone). It is SSIM as published, not [`likeness`]'s variant (its tone term, stretch and
-/// contrast weights were tuned to choose a threshold level), and the sets' reports have always
-/// given this figure: the two share the box average and the blur, not the formula.
-pub fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
+/// Likeness of two lightness images (0..1, `w` × `h` each): plain mean SSIM (Wang et al. 2004:
+/// Gaussian window σ = 1.5 px of 11 taps, C1 = 0.01², C2 = 0.03²) after both are box-averaged to
+/// [`VIEWING_PX`] on their long side (what is left at viewing distance). 1 = the same. A layered
+/// set's composite is measured with it against its picture; it shares [`likeness`]'s box average
+/// and blur, not its tuned formula.
+pub(crate) fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
     let k = w.max(h).div_ceil(VIEWING_PX).max(1);
     let a = box_average(w, h, k, |i| a[i]);
     let b = box_average(w, h, k, |i| b[i]);
@@ -265,16 +243,19 @@ fn map2(x: &Gray, y: &Gray, f: impl Fn(f32, f32) -> f32) -> Gray {
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct LevelChoice {
     /// The level chosen and its likeness (see [`likeness`]).
-    pub level: u8,
+    pub(crate) level: u8,
+    /// Its likeness.
     pub likeness: f64,
-    /// The likeness at the default level 128 and at Otsu's level, measured the same way (the
-    /// chosen level is never worse than either: both are among the candidates).
+    /// The likeness at the default level 128, measured the same way (the chosen level is never
+    /// worse than it or Otsu's: both are among the candidates).
     pub likeness_128: f64,
+    /// Otsu's level.
     pub otsu_level: u8,
+    /// The likeness at Otsu's level.
     pub likeness_otsu: f64,
     /// Every level tried and its likeness, in the order tried (on the reduced grid for a large
     /// picture; the finalists again at full size).
-    pub tried: Vec<(u8, f64)>,
+    pub(crate) tried: Vec<(u8, f64)>,
 }
 
 #[cfg(test)]

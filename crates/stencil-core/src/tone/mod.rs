@@ -1,12 +1,12 @@
 //! Stage 1: the two-tone image, from a picture ([`load_gray`]) or a mesh ([`mesh`]), then the
 //! topological filter ([`FilterConfig`]), or the design-rule regularisation, that removes specks before islands are labelled.
 
-pub mod adjust;
+pub(crate) mod adjust;
 mod error;
 pub(crate) mod filter;
 pub(crate) mod image;
 mod level;
-pub mod likeness;
+pub(crate) mod likeness;
 pub mod mesh;
 pub(crate) mod regularize;
 pub(crate) mod resolution;
@@ -15,15 +15,15 @@ pub use adjust::Adjust;
 pub use error::ToneError;
 pub use filter::{FilterConfig, FilterStats};
 pub use image::{load_gray, orientation_note, picture_size};
-pub use level::{bits_at, otsu_level, Threshold};
-pub(crate) use level::{is_light, threshold};
+pub(crate) use level::{bits_at, is_light, threshold};
+pub use level::{otsu_level, Threshold};
 pub use likeness::{likeness, LevelChoice, Likeness};
-pub use regularize::RegularizeStats;
 pub use resolution::{AutoScale, ScaleCap};
 
 /// Options of the image path of stage 1.
 #[derive(Clone, Debug)]
 pub struct ToneConfig {
+    /// How gray becomes two tones.
     pub threshold: Threshold,
     /// Light is material by default (paint or light passes through the dark parts, which are cut).
     /// `invert` makes the dark parts material instead: the paper's "connect the lit regions".

@@ -1,44 +1,31 @@
-//! The working resolution: how much a picture is supersampled before thresholding.
-//!
-//! A picture's pixels may be coarse for its size (320 px across at 200 mm is 0.625 mm per pixel):
-//! thresholded as is, every edge is a staircase of those pixels, and the cut follows it. Upsampling
-//! the gray smoothly ([`super::image::upsample`]) before thresholding puts the edges where the
-//! picture's shading says they are (the paper's supersampling). Unless the user gives `--scale`,
-//! [`auto`] picks the factor from the material and the tolerance.
+//! The working resolution: how much a picture is supersampled before thresholding (the paper's
+//! supersampling). Coarse pixels make every edge a staircase the cut follows; upsampling the gray
+//! smoothly ([`super::image::upsample`]) first puts edges where the shading says. Unless the user
+//! gives `--scale`, [`auto`] picks the factor.
 //!
 //! ## The rule
-//!
 //! The working pixel must be at most [`target_mm_per_px`] = min(`min_feature_mm` / 5,
-//! 2 × `tolerance_mm`), and the factor K is the smallest integer (1..=8) that gets there:
+//! 2 × `tolerance_mm`), with the smallest factor K (1..=8) that gets there:
+//! - **The smallest feature, 5 pixels**: later stages measure whole pixels and the check allows at
+//!   least one, so features 1.0×, 1.2× and 1.6× the minimum stay distinct (5, 6, 8 px) and the
+//!   allowance costs 20 % of the minimum.
+//! - **The tolerance, half a pixel**: a traced edge lies within half a pixel of its raster, so the
+//!   staircase stays within the simplification tolerance (0 does not raise the factor).
 //!
-//! - **The material's smallest feature, 5 pixels.** The stages after this one (clean-up, bridges,
-//!   check) measure widths in whole pixels and the check adds an allowance of at least one pixel.
-//!   At 5 pixels per minimum feature, features 1.0×, 1.2× and 1.6× the minimum are 5, 6 and 8
-//!   pixels: each a whole pixel apart, so a clean-up that keeps widths "within one pixel" keeps them
-//!   distinct, and the one-pixel allowance costs 20 % of the minimum rather than more than all of
-//!   it (at 0.625 mm per pixel, one pixel is 1.25× cardstock's 0.5 mm).
-//! - **The tolerance, half a pixel.** A traced edge lies within half a pixel of the raster it
-//!   traces; at 2 × tolerance per pixel that staircase is within the tolerance the vectors are
-//!   simplified to, so the cut follows the picture rather than its pixels. (A tolerance of 0 asks
-//!   for the raster exactly as it is and does not raise the factor.)
-//!
-//! The shipped default, 0.1 mm per input pixel with cardstock (0.5 mm) and 0.05 mm, meets both
-//! exactly: a picture at the default size is not supersampled.
+//! The default (0.1 mm per pixel, cardstock's 0.5 mm, 0.05 mm) meets both: no supersampling.
 //!
 //! ## Memory
-//!
-//! The working image costs about 30–40 bytes per pixel through the pipeline, so the automatic
-//! factor is capped to keep the working image within [`AUTO_MAX_WORKING_PIXELS`] (about 0.6 GB)
-//! and within `--max-pixels`; the factor never goes below 1 (a large picture is never
-//! downsampled). When a cap binds, [`AutoScale::capped_by`] says which, and the report shows it.
+//! About 30–40 bytes per working pixel, so the automatic factor is capped to
+//! [`AUTO_MAX_WORKING_PIXELS`] (about 0.6 GB) and `--max-pixels`, never below 1;
+//! [`AutoScale::capped_by`] says which cap bound.
 
 use serde::{Deserialize, Serialize};
 
 /// The largest supersampling factor, automatic or given.
-pub const MAX_FACTOR: u32 = 8;
+pub(crate) const MAX_FACTOR: u32 = 8;
 
 /// Working pixels per `min_feature_mm` the automatic factor aims for (see the module notes).
-pub const PX_PER_MIN_FEATURE: f64 = 5.0;
+pub(crate) const PX_PER_MIN_FEATURE: f64 = 5.0;
 
 /// The automatic factor never makes the working image larger than this many pixels (16 MP: about
 /// 0.6 GB at 40 bytes per working pixel; 4000 × 4000).
@@ -85,7 +72,7 @@ pub struct AutoScale {
 /// The coarsest working pixel, in mm, that resolves the material's smallest feature by
 /// [`PX_PER_MIN_FEATURE`] pixels and keeps a pixel staircase within the tolerance (see the module
 /// notes). A tolerance of 0 (no simplification) does not count.
-pub fn target_mm_per_px(min_feature_mm: f64, tolerance_mm: f64) -> f64 {
+pub(crate) fn target_mm_per_px(min_feature_mm: f64, tolerance_mm: f64) -> f64 {
     let feature = min_feature_mm / PX_PER_MIN_FEATURE;
     if tolerance_mm > 0.0 {
         feature.min(2.0 * tolerance_mm)
@@ -105,7 +92,7 @@ fn largest_within(input_pixels: u64, limit: u64) -> u32 {
 /// The automatic factor for a picture of `input_pixels` pixels of `mm_per_input_px` each: the
 /// smallest K with `mm_per_input_px / K <= target_mm`, capped by [`MAX_FACTOR`], the memory budget
 /// and `max_pixels` (never below 1). Returns the factor and how it was chosen.
-pub fn auto(
+pub(crate) fn auto(
     mm_per_input_px: f64,
     target_mm: f64,
     input_pixels: u64,

@@ -46,6 +46,7 @@ pub mod steps {
 pub struct CutGeometry {
     /// Size of the picture, in mm (the sheet is this plus `margin_mm` on every side).
     pub width_mm: f64,
+    /// Its height, mm.
     pub height_mm: f64,
     /// The sheet's edge: the picture grown by the margin (`-margin .. width + margin`).
     pub outline: Rect<f64>,
@@ -66,13 +67,13 @@ pub struct CutGeometry {
     /// around it: which cuts surround which island, for the planner's cut order (every cut inside
     /// an island before the cuts around it). Empty when not known (read from an SVG) or not asked
     /// for (see [`CutGeometry::set_unbridged`]).
-    pub unbridged_cuts: MultiPolygon<f64>,
+    pub(crate) unbridged_cuts: MultiPolygon<f64>,
     /// The kerf `cuts` were offset for (0 until [`CutGeometry::apply_kerf`]): the planner widens
     /// the gaps it takes for bridges by it.
     pub kerf_mm: f64,
     /// A gobo's rim (`--gobo`): then the sheet's cut edge is this circle, not `outline`
     /// (which becomes the rim's square grown by the margin; `gobo::place` puts it).
-    pub rim: Option<Rim>,
+    pub(crate) rim: Option<Rim>,
     /// The lines and arcs that rings of `design_cuts` (and of `cuts`, after
     /// [`CutGeometry::apply_kerf`]) are the flattening of: the curves fitted to the traced
     /// outline, which SVG, DXF and G-code write as they are rather than fitting arcs to the
@@ -84,9 +85,9 @@ pub struct CutGeometry {
 /// A gobo's rim and image area placed on a stencil, in the picture's millimetres (y down)
 /// (see `crate::gobo`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Rim {
+pub(crate) struct Rim {
     /// The disc's centre: the picture's centre.
-    pub centre_mm: [f64; 2],
+    pub(crate) centre_mm: [f64; 2],
     pub od_mm: f64,
     pub ia_mm: f64,
 }
@@ -98,7 +99,7 @@ const RIM_TOLERANCE_MM: f64 = 0.005;
 impl Rim {
     /// A circle of radius `r` about the centre as a closed ring (counter-clockwise in the numeric
     /// plane), its chords within `RIM_TOLERANCE_MM` of the circle.
-    pub fn ring(&self, r: f64) -> LineString<f64> {
+    pub(crate) fn ring(&self, r: f64) -> LineString<f64> {
         // Sagitta r(1 - cos(π/n)) ≤ tol.
         let n = (std::f64::consts::PI / (1.0 - RIM_TOLERANCE_MM / r).max(-1.0).acos())
             .ceil()
@@ -118,7 +119,7 @@ impl Rim {
     }
 
     /// The disc's bounding square: what a job cutting the rim places on the bed.
-    pub fn bounds(&self) -> Rect<f64> {
+    pub(crate) fn bounds(&self) -> Rect<f64> {
         let [cx, cy] = self.centre_mm;
         let r = self.od_mm / 2.0;
         Rect::new(
@@ -137,6 +138,7 @@ impl Rim {
 /// Options of the vector stage, in millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VectorConfig {
+    /// Millimetres per working pixel.
     pub scale: Scale,
     /// Largest distance simplification may move an edge.
     pub tolerance_mm: f64,
@@ -148,7 +150,7 @@ pub struct VectorConfig {
     pub smooth: bool,
     /// Fit the traced outlines with lines and arcs within the tolerance (corners kept, the
     /// pixels on their sides), instead of leaving simplification's chords; the geometry holds
-    /// the curves flattened within [`VectorConfig::flatten_mm`], which is what the check judges,
+    /// the curves flattened within `VectorConfig::flatten_mm`, which is what the check judges,
     /// and the curves themselves ([`CutGeometry::curves`]), which the writers carry.
     pub curves: bool,
     /// Whether the files will carry arcs. Off (`--no-arcs`, a machine profile with `arcs =
@@ -179,13 +181,13 @@ impl VectorConfig {
     /// carries (the files carry the fitted arcs, [`CutGeometry::curves`]). It is also the margin
     /// the fit keeps the pixel centres clear of the curves by, so the flattening samples to the
     /// same pixels. Without arcs it is not used for the outline ([`VectorConfig::arcs`]).
-    pub fn flatten_mm(&self) -> f64 {
+    pub(crate) fn flatten_mm(&self) -> f64 {
         self.tolerance_mm / 5.0
     }
 
     /// How far SVG, DXF and G-code arcs may stray from a polygon whose curves the geometry does
     /// not know ([`CutGeometry::curves`]; a ring a later step changed): a quarter of the
-    /// tolerance, more than [`VectorConfig::flatten_mm`], so that flattened arcs are found again
+    /// tolerance, more than `VectorConfig::flatten_mm`, so that flattened arcs are found again
     /// whole. 0 when the files carry no arcs ([`VectorConfig::arcs`]): they write the polygons
     /// as they are.
     pub fn arc_tolerance_mm(&self) -> f64 {
@@ -200,13 +202,15 @@ impl VectorConfig {
 /// What the vector stage produced, for the report.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct VectorStats {
+    /// What simplification did.
     pub simplify: SimplifyStats,
     /// Cut regions as designed (the kerf can only remove ones narrower than itself, which the
     /// check flags as thin holes) and pieces of material.
-    pub cut_loops: usize,
-    pub material_pieces: usize,
+    pub(crate) cut_loops: usize,
+    pub(crate) material_pieces: usize,
 }
 
+/// Why the outlines could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum VectorError {
     /// The simplification tolerance ([`VectorConfig::tolerance_mm`]) given.
@@ -217,6 +221,7 @@ pub enum VectorError {
         "the margin must be a finite number > 0 mm (the sheet continues beyond the picture), got {0}"
     )]
     Margin(f64),
+    /// A stencil of 0 pixels.
     #[error("the stencil image is empty (0 pixels)")]
     Empty,
     /// The geometry cannot go through the polygon clipper (see [`clip`]).
@@ -224,6 +229,7 @@ pub enum VectorError {
     Clip {
         /// What was being computed, e.g. "the kerf offset".
         what: &'static str,
+        /// What the clipper said.
         cause: clip::ClipError,
     },
 }
@@ -331,7 +337,7 @@ pub fn vectorize_design(
 impl CutGeometry {
     /// Which of [`CutGeometry::material`]'s pieces is the sheet (the one whose outline encloses
     /// the most); the others float. `None` when there is no material.
-    pub fn sheet_index(&self) -> Option<usize> {
+    pub(crate) fn sheet_index(&self) -> Option<usize> {
         union::sheet_of(&self.material)
     }
 
@@ -339,7 +345,7 @@ impl CutGeometry {
     /// scale), as [`CutGeometry::unbridged_cuts`]. Why a second trace: after bridging the cuts
     /// around an island are arcs with nothing to say they belong together; before it, the island
     /// is a hole in one region.
-    pub fn set_unbridged(
+    pub(crate) fn set_unbridged(
         &mut self,
         unbridged: &BitGrid,
         cfg: &VectorConfig,
@@ -351,7 +357,7 @@ impl CutGeometry {
     /// The planner's input: the tool paths and what is known of the pieces they free (the cut
     /// regions before bridging when recorded; none freed when the sheet has material but no
     /// islands were recorded; unknown for a sheet known only by its cuts).
-    pub fn loops(&self) -> CutLoops {
+    pub(crate) fn loops(&self) -> CutLoops {
         let pieces = if !self.unbridged_cuts.0.is_empty() {
             Pieces::Regions(self.unbridged_cuts.clone())
         } else if !self.material.0.is_empty() {

@@ -25,33 +25,33 @@ use super::trace::Guard;
 /// What simplification did, for the report.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
 pub struct SimplifyStats {
+    /// Rings simplified.
     pub rings: usize,
+    /// Points before.
     pub points_in: usize,
+    /// Points after.
     pub points_out: usize,
     /// Rings kept at full detail because simplifying them would have crossed or touched a ring.
-    pub fallbacks: usize,
+    pub(crate) fallbacks: usize,
     /// Rings replaced by lines and arcs fitted to the traced points
     /// ([`stencil_geom::curve::fit_ring_within`]), and how many arcs they hold; absent from
     /// reports written before curves were fitted.
     #[serde(default)]
-    pub curved_rings: usize,
+    pub(crate) curved_rings: usize,
     #[serde(default)]
-    pub arcs: usize,
+    pub(crate) arcs: usize,
 }
 
 /// Fitting the traced rings with lines and arcs (see [`simplify_and_fit`]): within `tol`, like
 /// simplification, then flattened back into polygon rings within `flatten`, or, when
 /// `straight`, made straight within `tol` of the traced points.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FitCurves {
-    pub flatten: f64,
-    /// No file will carry arcs (`--no-arcs`, a machine without them): instead of the fine
-    /// flattening that the writers fit arcs to again, each ring becomes the polygon with the
-    /// fewest corners Douglas–Peucker finds whose corners lie on the fitted curves and whose
-    /// chords stay within `tol` of every traced point, their guards on their sides: the whole
-    /// tolerance spent once, measured against the traced outline itself (see
-    /// [`straighten`]). A ring keeps simplification's own polygon when that has fewer points.
-    pub straight: bool,
+pub(crate) struct FitCurves {
+    pub(crate) flatten: f64,
+    /// No file will carry arcs (`--no-arcs`, a machine without them): each ring becomes the polygon
+    /// with the fewest corners Douglas–Peucker finds on the fitted curves within `tol` of the traced
+    /// points, guards kept ([`straighten`]), unless simplification's own has fewer points.
+    pub(crate) straight: bool,
 }
 
 /// Simplify closed rings (no repeated closing point) in place, within `tol` (same unit as the
@@ -66,16 +66,12 @@ pub fn simplify_rings(
     simplify_and_fit(rings, guards, tol, None).0
 }
 
-/// [`simplify_rings`], then, with `curves`, each simplified ring replaced by lines and arcs
-/// fitted to its traced points within `tol` ([`stencil_geom::curve::fit_ring_within`]),
-/// flattened within `curves.flatten`: smooth outlines where simplification leaves pixel
-/// staircases cut into chords. The guards hold for the curves too, `curves.flatten` clear, so
-/// the flattened curves sample to the same raster; a ring whose curves would cross or touch
-/// another ring keeps its simplified form (the same rounds as simplification's).
-///
-/// Also returns, per ring, the lines and arcs its polygon is the flattening of (when it is one:
-/// fitted, kept, and not made straight), so that the files can carry those very arcs.
-pub fn simplify_and_fit(
+/// [`simplify_rings`], then, with `curves`, each ring replaced by lines and arcs fitted to its
+/// traced points within `tol` ([`stencil_geom::curve::fit_ring_within`]), flattened within
+/// `curves.flatten`, guards kept; a ring whose curves would cross or touch another keeps its
+/// simplified form. Also returns, per ring, the lines and arcs its polygon flattens (when fitted
+/// and kept), so the files can carry those arcs.
+pub(crate) fn simplify_and_fit(
     rings: &mut [Vec<[f64; 2]>],
     guards: Option<&[Vec<Guard>]>,
     tol: f64,
@@ -229,17 +225,12 @@ fn fit_curves(
     pieces
 }
 
-/// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto
-/// the `pieces` fitted to it ([`stencil_geom::curve::onto_pieces`]), then Douglas–Peucker
-/// between those moved points with every traced point measured against the chords ([`dp_kept`]).
-///
-/// Why this is within `tol` of the traced outline both ways: every traced point between two
-/// kept corners is within `tol` of their chord (the test), so every traced edge is too (both
-/// its ends are, and the distance to a segment is convex); each corner is within `tol` of its
-/// own traced point (the fit measured that distance); and a chord is within `tol` of the
-/// traced path that runs alongside it within `tol` from near one end to near the other. The
-/// guards of every replaced point are kept on their sides, as simplification keeps them, so
-/// the polygon samples to the same raster. `None` when the pieces do not belong to `orig`.
+/// The straight outline of [`FitCurves::straight`]: the traced ring `orig`'s points moved onto the
+/// `pieces` fitted to it ([`stencil_geom::curve::onto_pieces`]), then Douglas–Peucker between them
+/// against every traced point ([`dp_kept`]). Within `tol` both ways: every traced point is within
+/// `tol` of its chord, each corner of its traced point, and the distance to a segment is convex.
+/// Guards are kept on their sides, so the raster is the same. `None` when the pieces are not
+/// `orig`'s.
 fn straighten(
     orig: &[[f64; 2]],
     pieces: &[stencil_geom::curve::Piece],
@@ -279,7 +270,7 @@ fn collinear_between(p: [f64; 2], q: [f64; 2], s: [f64; 2]) -> bool {
 }
 
 /// Remove points lying exactly on the line through their neighbours (lossless).
-pub fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(crate) fn drop_collinear(r: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let n = r.len();
     if n < 4 {
         return r.to_vec();
@@ -409,7 +400,7 @@ fn c(p: [f64; 2]) -> Coord<f64> {
 }
 
 /// Whether closed segments ab and cd share any point (robust orientation tests).
-pub fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
+pub(crate) fn segments_touch(a: [f64; 2], b: [f64; 2], cc: [f64; 2], d: [f64; 2]) -> bool {
     let o1 = RobustKernel::orient2d(c(a), c(b), c(cc));
     let o2 = RobustKernel::orient2d(c(a), c(b), c(d));
     let o3 = RobustKernel::orient2d(c(cc), c(d), c(a));

@@ -1,21 +1,12 @@
 //! Marching squares on the stencil bits: closed rings with material on their left.
 //!
-//! The samples are the pixel centres, on a grid padded with one ring of material (the frame: the
-//! sheet continues beyond the picture, as in `islands`). A contour crosses the segment between two
-//! neighbouring centres exactly when one is material and the other is cut, so the rings separate
-//! material from cut exactly as the raster does whatever sub-pixel position each crossing gets.
-//!
-//! Sub-pixel edges: the crossing sits where a 3×3 box blur of the bits crosses one half, clamped to
-//! `[0.35, 0.65]` of the way between the two centres. A straight run of edge pixels has blur 2/3 and
-//! 1/3 on its two sides, so its crossing stays exactly on the pixel boundary (a neck N pixels wide
-//! measures exactly N pixels); staircases get smoothed, and the clamp keeps every crossing well
-//! inside its pixel pair, so no pixel's coverage passes one half and the raster is unchanged.
-//!
-//! Saddles (material at two diagonal corners only) always separate the two material corners: material
-//! is 4-connected (as in `islands::label`), so material touching at a corner stays two pieces.
-//!
-//! Orientation: walking a ring, material is on the left in the numeric (x, y) plane, so material
-//! outlines have positive shoelace area and the outlines of holes in material have negative area.
+//! The samples are the pixel centres, padded with one ring of material (the frame, as in
+//! `islands`), so the rings separate material from cut exactly as the raster does. Each crossing
+//! sits where a 3×3 box blur of the bits crosses one half, clamped to `[0.35, 0.65]` of the way
+//! between the centres: a straight edge stays on the pixel boundary (a neck N pixels wide measures
+//! N), staircases are smoothed, and no pixel's coverage passes one half. Saddles separate the two
+//! material corners (material is 4-connected, as in `islands::label`). Material outlines have
+//! positive shoelace area in the (x, y) plane, holes negative.
 
 use rayon::prelude::*;
 
@@ -25,6 +16,7 @@ use crate::raster::BitGrid;
 /// without a repeated closing point.
 #[derive(Clone, Debug)]
 pub struct Ring {
+    /// Its points, in order.
     pub pts: Vec<[f64; 2]>,
     /// Per point, the centres of the material and the cut pixel it lies between: simplification
     /// keeps each on its own side, so the outline still samples to the same raster.
@@ -32,7 +24,7 @@ pub struct Ring {
     /// A material pixel just left of the ring (outside the image = the frame): which material
     /// piece the ring bounds. Only the tests read it, to check the tracing's orientation.
     #[cfg(test)]
-    pub material_px: (i64, i64),
+    pub(crate) material_px: (i64, i64),
 }
 
 /// The two pixel centres (material, cut) on either side of a ring point, in pixel coordinates.
@@ -123,12 +115,9 @@ impl Padded<'_> {
 }
 
 /// Trace every boundary between material and cut. `smooth` places crossings by the blurred bits
-/// (see the module doc); without it every crossing is at the midpoint between centres.
-///
-/// Why it is done in three passes: the cells are classified in parallel bands of rows (each cell
-/// only reads its own four corners), then the links are chained into rings in one sequential walk
-/// (cheap: it only follows links), and finally each ring's sub-pixel points are placed in parallel.
-/// The rings, their order and their starting points are those of one row-major pass.
+/// (see the module doc); without it every crossing is at the midpoint between centres. Cells are
+/// classified in parallel bands, chained into rings in one sequential walk, then placed in
+/// parallel: the same rings, order and starts as one row-major pass.
 pub fn trace(bits: &BitGrid, smooth: bool) -> Vec<Ring> {
     // Rows of cells per band: a few bands per thread, so uneven bands still balance.
     let band = (bits.height as usize + 1)

@@ -1,9 +1,6 @@
-//! Boolean operations on the traced geometry, with Clipper (through [`stencil_geom::clip`]).
-//!
-//! Why Clipper rather than geo's `BooleanOps`: it works on integer coordinates (here 0.1 µm), so
-//! unions of thousands of touching bridge and outline edges are exact and cannot fail on
-//! near-degenerate input, it is several times faster on large inputs, and the same library gives
-//! the polygon offset that the kerf needs (geo 0.33 has no robust offset).
+//! Boolean operations on the traced geometry, with Clipper (through [`stencil_geom::clip`]):
+//! integer coordinates (0.1 µm) make unions of thousands of touching edges exact, it is faster
+//! than geo's `BooleanOps`, and it gives the kerf's polygon offset.
 
 use geo::orient::{Direction, Orient};
 use geo::{Area, BoundingRect, Contains, LineString, MultiPolygon, Point, Polygon, Rect};
@@ -12,12 +9,9 @@ use rayon::prelude::*;
 use stencil_geom::clip::{self, ClipError};
 
 /// Union the bridge polygons into the material; returns the material and its cut regions (as
-/// [`cuts_of`] gives them), or why Clipper cannot take them.
-///
-/// Why region by region: a bridge only changes the cut regions it crosses, so each cut region
-/// loses what the bridges over it cover (a small Clipper difference), all regions in parallel, and
-/// the material is then reassembled from the regions left by containment. One Clipper union of the
-/// whole sheet with every bridge gives the same set, on one thread, in several times the time.
+/// [`cuts_of`] gives them), or why Clipper cannot take them. Each cut region loses what the
+/// bridges over it cover, in parallel, and the material is reassembled by containment: the same
+/// set as one union of the whole sheet, in a fraction of the time.
 pub fn union_bridges(
     material: MultiPolygon<f64>,
     bridges: &[Polygon<f64>],

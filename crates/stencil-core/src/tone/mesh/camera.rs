@@ -7,27 +7,29 @@
 use glam::Vec3;
 
 /// Fraction of the long side left empty around the model on each side.
-pub const MARGIN: f32 = 0.05;
+pub(crate) const MARGIN: f32 = 0.05;
 
 /// A pinhole (or orthographic) camera with its image plane already fitted to the model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Where the camera is, model units.
     pub eye: Vec3,
-    pub right: Vec3,
-    pub up: Vec3,
-    pub forward: Vec3,
+    pub(crate) right: Vec3,
+    pub(crate) up: Vec3,
+    pub(crate) forward: Vec3,
+    /// Parallel projection instead of perspective.
     pub orthographic: bool,
     /// Pixels per unit of x/z (perspective) or per world unit (orthographic).
     pub focal_px: f32,
     /// The principal point (where the view axis meets the image), in pixels. The framing shifts it
     /// off the image centre so the model, not its bounding sphere, is centred.
-    pub cx: f32,
-    pub cy: f32,
-    pub width: u32,
-    pub height: u32,
+    pub(crate) cx: f32,
+    pub(crate) cy: f32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     /// The bounding sphere the camera orbits.
-    pub center: Vec3,
-    pub radius: f32,
+    pub(crate) center: Vec3,
+    pub(crate) radius: f32,
 }
 
 /// The model's up axis: which of its axes points up in the world it was modelled in (Y for most
@@ -35,12 +37,18 @@ pub struct Camera {
 /// its elevation rises towards it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Up {
+    /// +X is up.
     X,
+    /// +Y is up.
     #[default]
     Y,
+    /// +Z is up.
     Z,
+    /// −X is up.
     NegX,
+    /// −Y is up.
     NegY,
+    /// −Z is up.
     NegZ,
 }
 
@@ -49,7 +57,7 @@ impl Up {
     /// frame: a rotation by quarter turns (a signed permutation, exact in floating point; the
     /// identity for Y).
     #[inline]
-    pub fn to_model(self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_model(self, v: Vec3) -> Vec3 {
         match self {
             Up::Y => v,
             // Y-up (x, y, z) -> Z-up: up (0,1,0) -> (0,0,1), front +Z -> -Y.
@@ -65,13 +73,13 @@ impl Up {
 /// Where the camera stands and how it sees, before framing.
 #[derive(Clone, Copy, Debug)]
 pub struct Orbit {
-    pub azimuth_deg: f32,
-    pub elevation_deg: f32,
+    pub(crate) azimuth_deg: f32,
+    pub(crate) elevation_deg: f32,
     /// The model's up axis: the azimuth turns around it.
     pub up: Up,
     /// Eye distance from the centre, in bounding radii (> 1).
     pub distance: f32,
-    pub orthographic: bool,
+    pub(crate) orthographic: bool,
 }
 
 /// The rendered image's size in pixels, to fit the model into (named apart from
@@ -80,15 +88,18 @@ pub struct Orbit {
 pub enum RenderSize {
     /// This many pixels on the long side; the other side follows the model's outline.
     LongSide(u32),
+    /// Exactly this size (the model fitted inside).
     Exact {
+        /// Width, px.
         width: u32,
+        /// Height, px.
         height: u32,
     },
 }
 
 impl Camera {
     /// Place the camera on its orbit and fit the image plane to the projected `positions`.
-    pub fn frame(
+    pub(crate) fn frame(
         center: Vec3,
         radius: f32,
         orbit: &Orbit,
@@ -172,7 +183,7 @@ impl Camera {
 
     /// Camera-space coordinates (x right, y up, z depth).
     #[inline]
-    pub fn to_camera(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn to_camera(self, p: Vec3) -> Vec3 {
         let d = p - self.eye;
         Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
     }
@@ -207,7 +218,7 @@ impl Camera {
     /// The ray through pixel position (sx, sy): origin and direction, with `dir · forward = 1`, so
     /// the ray parameter is the depth.
     #[inline]
-    pub fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
+    pub(crate) fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
         let u = (sx - self.cx) / self.focal_px;
         let v = (self.cy - sy) / self.focal_px;
         let off = self.right * u + self.up * v;
@@ -220,7 +231,7 @@ impl Camera {
 
     /// Unit vector from a world point towards the viewer.
     #[inline]
-    pub fn view_dir(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn view_dir(&self, p: Vec3) -> Vec3 {
         if self.orthographic {
             -self.forward
         } else {
@@ -230,12 +241,12 @@ impl Camera {
 
     /// A point given in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// bounding sphere's centre, in bounding radii, as a world point.
-    pub fn from_view_frame(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn world_from_view(&self, v: Vec3) -> Vec3 {
         self.center + (self.right * v.x + self.up * v.y - self.forward * v.z) * self.radius
     }
 
     /// The same view at `k` times the resolution (supersampling).
-    pub fn scaled(&self, k: u32) -> Camera {
+    pub(crate) fn scaled(&self, k: u32) -> Camera {
         let kf = k as f32;
         Camera {
             focal_px: self.focal_px * kf,
@@ -318,7 +329,7 @@ mod tests {
             let (o, d) = c.ray(s.x, s.y);
             assert!((o + d * s.z - p).length() < 1e-4);
         }
-        assert!(c.from_view_frame(Vec3::new(0.0, 0.0, 3.0)).distance(c.eye) < 1e-4);
+        assert!(c.world_from_view(Vec3::new(0.0, 0.0, 3.0)).distance(c.eye) < 1e-4);
     }
 
     #[test]

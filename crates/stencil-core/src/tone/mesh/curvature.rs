@@ -14,29 +14,29 @@ use super::load::Mesh;
 
 /// The second fundamental form per vertex in an orthonormal tangent frame (`u`, `v`).
 #[derive(Clone, Debug)]
-pub struct Curvature {
-    pub u: Vec<Vec3>,
-    pub v: Vec<Vec3>,
+pub(crate) struct Curvature {
+    pub(crate) u: Vec<Vec3>,
+    pub(crate) v: Vec<Vec3>,
     /// Tensor entries [kuu, kuv, kvv] in the frame (u, v).
-    pub tensor: Vec<[f32; 3]>,
+    pub(crate) tensor: Vec<[f32; 3]>,
 }
 
 /// Principal curvatures at one vertex and the direction of the larger (the tests check the
 /// tensor by them).
 #[cfg(test)]
 #[derive(Clone, Copy, Debug)]
-pub struct Principal {
+pub(crate) struct Principal {
     /// The larger curvature in magnitude.
-    pub k1: f32,
-    pub k2: f32,
+    pub(crate) k1: f32,
+    pub(crate) k2: f32,
     /// The direction of `k1`.
-    pub dir1: Vec3,
+    pub(crate) dir1: Vec3,
 }
 
 impl Curvature {
     /// Normal curvature in tangent direction `t` (need not be unit; its normal part is ignored).
     #[inline]
-    pub fn normal_curvature(&self, i: usize, t: Vec3) -> f32 {
+    pub(crate) fn normal_curvature(&self, i: usize, t: Vec3) -> f32 {
         let (a, b) = (t.dot(self.u[i]), t.dot(self.v[i]));
         let len2 = a * a + b * b;
         if len2 <= 0.0 {
@@ -49,7 +49,7 @@ impl Curvature {
     /// Principal curvatures at vertex `i` and the direction of the larger (eigen-decomposition of
     /// the 2×2 tensor).
     #[cfg(test)]
-    pub fn principal(&self, i: usize) -> Principal {
+    pub(crate) fn principal(&self, i: usize) -> Principal {
         let [ku, kuv, kv] = self.tensor[i];
         let (mut c, mut s, mut tt) = (1.0f32, 0.0f32, 0.0f32);
         if kuv != 0.0 {
@@ -75,7 +75,7 @@ impl Curvature {
 }
 
 /// Estimate the curvature tensor at every vertex from smooth vertex `normals`.
-pub fn estimate(mesh: &Mesh, normals: &[Vec3]) -> Curvature {
+pub(crate) fn estimate(mesh: &Mesh, normals: &[Vec3]) -> Curvature {
     let p = &mesh.positions;
     let nv = p.len();
     // An initial tangent frame per vertex: any edge, made perpendicular to the normal.
@@ -224,17 +224,17 @@ fn project_tensor(ou: DVec3, ov: DVec3, k: [f64; 3], nu: DVec3, nv: DVec3) -> [f
 
 /// What one view needs per vertex for suggestive contours.
 #[derive(Clone, Debug)]
-pub struct ViewCurvature {
+pub(crate) struct ViewCurvature {
     /// Radial curvature κr: the normal curvature along w, the view vector projected onto the
     /// tangent plane.
-    pub kr: Vec<f32>,
+    pub(crate) kr: Vec<f32>,
     /// D_w κr, with w the projection of the unit view vector (|w| = sin of the view angle),
     /// times radius² so it is scale-free.
-    pub dwkr: Vec<f32>,
+    pub(crate) dwkr: Vec<f32>,
 }
 
 /// κr and D_w κr at every vertex for the camera at `view_dir(p)`; `radius` is the model's scale.
-pub fn view_dependent(
+pub(crate) fn view_dependent(
     mesh: &Mesh,
     normals: &[Vec3],
     curv: &Curvature,

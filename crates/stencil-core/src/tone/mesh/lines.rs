@@ -22,26 +22,29 @@ use super::visibility::{VisBuffer, NONE};
 /// Which lines to draw.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum LineMode {
+    /// No lines.
     None,
+    /// Silhouettes (occluding contours) only.
     Silhouette,
+    /// Silhouettes and suggestive contours (DeCarlo et al. 2003).
     #[default]
     Suggestive,
 }
 
 /// Line settings at the working (supersampled) resolution.
 #[derive(Clone, Copy, Debug)]
-pub struct LineParams {
-    pub mode: LineMode,
+pub(crate) struct LineParams {
+    pub(crate) mode: LineMode,
     /// Line width in working pixels.
     pub width_px: f32,
     /// DeCarlo's t_d on the scale-free D_w κr·radius².
     pub contour_threshold: f32,
     /// Cosine of DeCarlo's θ_c: no suggestive contour where n·v is above it (facing the viewer).
-    pub max_ndotv: f32,
+    pub(crate) max_ndotv: f32,
     /// Suggestive contour runs shorter than this many working pixels are dropped.
-    pub min_run_px: usize,
+    pub(crate) min_run_px: usize,
     /// Depth gap that counts as a discontinuity, in world units.
-    pub depth_tolerance: f32,
+    pub(crate) depth_tolerance: f32,
 }
 
 const SILHOUETTE: u8 = 1;
@@ -49,7 +52,7 @@ const SUGGESTIVE: u8 = 2;
 
 /// The line mask (true = line) at the working resolution, and the seeds (1 = silhouette,
 /// 2 = suggestive contour) before thickening.
-pub fn find(
+pub(crate) fn find(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,

@@ -48,6 +48,7 @@ pub struct MeshConfig {
     pub distance: Option<f32>,
     /// Field of view of the perspective lens; `None` = orthographic projection.
     pub fov_deg: Option<f32>,
+    /// The rendering's size in pixels.
     pub size: RenderSize,
     /// Point light in the camera's frame (x right, y up, z towards the viewer) relative to the
     /// model's centre.
@@ -60,8 +61,11 @@ pub struct MeshConfig {
     pub fill: f32,
     /// The model's up axis: the view's azimuth turns around it, its elevation rises towards it.
     pub up: Up,
+    /// Strength of the highlight, 0 (matte) to 10.
     pub specular: f32,
+    /// Phong exponent: the higher, the smaller the highlight.
     pub shininess: f32,
+    /// Which lines to draw as cuts.
     pub lines: LineMode,
     /// Line thickness in output pixels.
     pub line_px: f32,
@@ -185,7 +189,7 @@ impl MeshConfig {
     }
 
     /// The output width the image will have at most (the long side, or the exact width).
-    pub fn max_width_px(&self) -> u32 {
+    pub(crate) fn max_width_px(&self) -> u32 {
         match self.size {
             RenderSize::LongSide(n) => n,
             RenderSize::Exact { width, .. } => width,
@@ -237,13 +241,13 @@ pub fn render(
 /// drawn, on first use) its curvature. Kept by the studio so a new view does not redo them.
 #[derive(Debug)]
 pub struct Prepared {
-    pub mesh: Mesh,
+    pub(crate) mesh: Mesh,
     normals: Vec<Vec3>,
     curvature: std::sync::OnceLock<curvature::Curvature>,
 }
 
 impl Prepared {
-    pub fn new(mesh: Mesh) -> Prepared {
+    pub(crate) fn new(mesh: Mesh) -> Prepared {
         let normals = mesh.vertex_normals();
         Prepared {
             mesh,
@@ -259,7 +263,7 @@ impl Prepared {
 }
 
 /// One view of a mesh before it is lit: each working sample's surface (point, normal, depth,
-/// curvature terms) and the lines, which do not depend on the light. [`light`] turns it into a
+/// curvature terms) and the lines, which do not depend on the light. `light` turns it into a
 /// [`Rendering`]; a new light (the studio's drag) re-lights it without a new raster.
 #[derive(Clone, Debug)]
 pub struct Drawn {
@@ -271,10 +275,11 @@ pub struct Drawn {
     cam: Camera,
     out_cam: Camera,
     k: u32,
+    /// Milliseconds per step so far: `curvature`, `raster`, `lines`.
     pub timings: Timings,
 }
 
-/// Render a mesh (no thresholding): [`draw`] then [`light`].
+/// Render a mesh (no thresholding): `draw` then `light`.
 pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError> {
     cfg.validate()?;
     let prep = Prepared::new(mesh.clone());
@@ -283,7 +288,7 @@ pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError
 }
 
 /// The view of `cfg` (camera, size, lines; not the light): raster, surfaces, lines.
-pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
+pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
     cfg.validate()?;
     let mesh = &prep.mesh;
     let mut tm = Timings::default();
@@ -341,12 +346,10 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
 }
 
 /// Light a drawn view with `cfg`'s key light (its position in the view's frame, in bounding
-/// radii), ambient share, fill and highlight, and average it down to the output size.
-///
-/// One pass: each output row lights its k×k blocks of working samples and averages them at once
-/// (no working-size image of intensities in between), rows in parallel. The sums are taken in
-/// the same order as a separate light-then-average would take them, so the result is the same.
-pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
+/// radii), ambient share, fill and highlight, and average it down to the output size: each output
+/// row lights and averages its k×k blocks at once, rows in parallel, summing in the same order as
+/// lighting then averaging would.
+pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut tm = d.timings.clone();
     let light = key_light(&d.cam, cfg);
     let mut r = tm.time("shade", || {
@@ -361,14 +364,14 @@ pub fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
 fn key_light(cam: &Camera, cfg: &MeshConfig) -> shade::Light {
     let key = Vec3::from_array(cfg.light);
     shade::Light {
-        position: cam.from_view_frame(key),
+        position: cam.world_from_view(key),
         specular: cfg.specular,
         shininess: cfg.shininess,
         ambient: cfg.ambient,
         // The key mirrored left-right across the view.
         fill: (cfg.fill > 0.0).then(|| {
             (
-                cam.from_view_frame(Vec3::new(-key.x, key.y, key.z)),
+                cam.world_from_view(Vec3::new(-key.x, key.y, key.z)),
                 cfg.fill,
             )
         }),
@@ -492,7 +495,7 @@ pub fn two_tone(r: &Rendering, threshold: Threshold, invert: bool) -> (TwoTone, 
 
 /// [`two_tone`] with the rendering's gray given (`gray` must be `r.gray`; the pipeline's working
 /// gray is already a copy of it, so this saves another).
-pub fn two_tone_with(
+pub(crate) fn two_tone_with(
     r: &Rendering,
     gray: Arc<Gray>,
     threshold: Threshold,
@@ -547,6 +550,7 @@ pub fn two_tone_with(
 /// shrinks below a pixel; the stencil came out blank without a word. `make` warns with these.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PartSizes {
+    /// Parts in all.
     pub parts: usize,
     /// Parts whose projection spans less than one pixel both ways.
     pub below_a_pixel: usize,

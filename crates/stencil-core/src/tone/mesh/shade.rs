@@ -12,9 +12,9 @@ use super::visibility::{VisBuffer, NONE};
 
 /// The light and the material's highlight.
 #[derive(Clone, Copy, Debug)]
-pub struct Light {
+pub(crate) struct Light {
     /// World position of the point light (the key light).
-    pub position: Vec3,
+    pub(crate) position: Vec3,
     /// Weight of the Blinn-Phong highlight (0 = matte).
     pub specular: f32,
     /// Blinn-Phong exponent: larger = smaller, sharper highlight.
@@ -30,24 +30,24 @@ pub struct Light {
 /// What the line finder needs to know about a pixel, beyond its brightness; and what lighting
 /// it needs (its point and normal), so a new light re-shades without a new raster.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Fragment {
+pub(crate) struct Fragment {
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
-    pub depth: f32,
+    pub(crate) depth: f32,
     /// Interpolated radial curvature (sign as seen: flipped on the back side of open surfaces).
-    pub kr: f32,
+    pub(crate) kr: f32,
     /// Interpolated D_w κr (scale-free), same sign convention.
-    pub dwkr: f32,
+    pub(crate) dwkr: f32,
     /// Cosine between the shading normal and the direction to the viewer.
-    pub ndotv: f32,
+    pub(crate) ndotv: f32,
     /// The surface point seen (world).
-    pub point: Vec3,
+    pub(crate) point: Vec3,
     /// The shading normal of the side seen (world, unit).
-    pub normal: Vec3,
+    pub(crate) normal: Vec3,
 }
 
 impl Fragment {
     #[inline]
-    pub fn is_model(&self) -> bool {
+    pub(crate) fn is_model(&self) -> bool {
         self.depth.is_finite()
     }
 }
@@ -55,7 +55,7 @@ impl Fragment {
 /// Shade every visible pixel: [`geometry`] then [`light`] (the intensities are kept apart from
 /// the surfaces, so one raster serves many lights).
 #[cfg(test)]
-pub fn shade(
+pub(crate) fn shade(
     mesh: &Mesh,
     normals: &[Vec3],
     vb: &VisBuffer,
@@ -72,7 +72,7 @@ pub fn shade(
 /// the lines read. `normals` are the smooth vertex normals (used unless the mesh has per-corner
 /// normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
 /// Independent of the light.
-pub fn geometry(
+pub(crate) fn geometry(
     mesh: &Mesh,
     normals: &[Vec3],
     vb: &VisBuffer,
@@ -112,7 +112,7 @@ pub fn geometry(
 /// parallel: a pass over the kept surfaces, no ray, no raster. (The renderer lights and averages
 /// in one pass, `super::light`; this whole-image form is for the tests.)
 #[cfg(test)]
-pub fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
+pub(crate) fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
     let lighter = Lighter::new(cam, light);
     let mut out = vec![1f32; frags.len()];
     out.par_chunks_mut(width.max(1))
@@ -128,7 +128,7 @@ pub fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> V
 }
 
 /// A light and a camera, with what every pixel's intensity shares worked out once.
-pub struct Lighter<'a> {
+pub(crate) struct Lighter<'a> {
     light: &'a Light,
     /// The camera's eye, and the direction to the viewer when the lens is orthographic.
     eye: Vec3,
@@ -137,7 +137,7 @@ pub struct Lighter<'a> {
 }
 
 impl<'a> Lighter<'a> {
-    pub fn new(cam: &Camera, light: &'a Light) -> Self {
+    pub(crate) fn new(cam: &Camera, light: &'a Light) -> Self {
         Lighter {
             light,
             eye: cam.eye,
@@ -146,14 +146,11 @@ impl<'a> Lighter<'a> {
         }
     }
 
-    /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's
-    /// Blinn-Phong highlight; at most 1. With no ambient and no fill this is the key alone, as
-    /// it always was. `p` is the surface point, `n` its unit normal on the side seen.
-    ///
-    /// One sample at a time, the definition; the renderer lights whole rows with [`Lighter::row`]
-    /// (the same bits: the tests check it).
+    /// Lambert from the key (and the fill), lifted by the ambient share, plus the key's Blinn-Phong
+    /// highlight; at most 1. `p` is the surface point, `n` its unit normal on the side seen. The
+    /// definition, one sample at a time; the renderer lights rows with [`Lighter::row`].
     #[cfg(test)]
-    pub fn intensity(&self, p: Vec3, n: Vec3) -> f32 {
+    pub(crate) fn intensity(&self, p: Vec3, n: Vec3) -> f32 {
         let light = self.light;
         let v = match self.ortho_view {
             Some(v) => v,
@@ -183,7 +180,7 @@ impl<'a> Lighter<'a> {
 /// normal's), and which samples show the model. A light change reads only these, as straight
 /// runs of floats the compiler turns into vector code, instead of 40-byte fragments one by one.
 #[derive(Clone, Debug, Default)]
-pub struct Surfaces {
+pub(crate) struct Surfaces {
     pub width: usize,
     /// Row `y`'s planes are `planes[6 * width * y..][..6 * width]`.
     planes: Vec<f32>,
@@ -194,7 +191,7 @@ pub struct Surfaces {
 impl Surfaces {
     /// The points and normals of `frags`, a `width`-wide image of fragments, row by row in
     /// parallel.
-    pub fn of(frags: &[Fragment], width: usize) -> Surfaces {
+    pub(crate) fn of(frags: &[Fragment], width: usize) -> Surfaces {
         let width = width.max(1);
         let mut planes = vec![0f32; 6 * frags.len()];
         let mut model = vec![false; frags.len()];
@@ -223,7 +220,7 @@ impl Surfaces {
 
     /// Sample `i`'s point and normal.
     #[cfg(test)]
-    pub fn point_normal(&self, i: usize) -> (Vec3, Vec3) {
+    pub(crate) fn point_normal(&self, i: usize) -> (Vec3, Vec3) {
         let (y, x) = (i / self.width, i % self.width);
         let r = self.row(y);
         (
@@ -254,14 +251,10 @@ fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
 }
 
 impl Lighter<'_> {
-    /// The intensity of every sample of working row `y` of `s` into `out` (the background's
-    /// values are meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
-    /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
-    /// every term but the highlight's power as straight-line float code over the row (vector
-    /// code, no branch), then the power (a `powf`, which has no vector form) only where the
-    /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
-    /// for the tests), in its order: the same bits.
-    pub fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
+    /// The intensity of every sample of working row `y` of `s` into `out` (the background's values
+    /// are meaningless), `ndh` a scratch row: the tests' one-sample `intensity` over the row, all
+    /// but the highlight's `powf` as branch-free vector code first, in the same order: same bits.
+    pub(crate) fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
         let row = s.row(y);
         let e = self.eye;
         let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);

@@ -10,24 +10,24 @@ use super::camera::Camera;
 use super::load::Mesh;
 
 /// No triangle covers the pixel.
-pub const NONE: u32 = u32::MAX;
+pub(crate) const NONE: u32 = u32::MAX;
 
 /// Rows per band: each band is rasterised by one task from the triangles binned to it.
 const BAND: usize = 16;
 
 /// The nearest triangle per pixel.
 #[derive(Clone, Debug)]
-pub struct VisBuffer {
+pub(crate) struct VisBuffer {
     pub width: u32,
     pub height: u32,
     /// Triangle index per pixel, or [`NONE`].
-    pub tri: Vec<u32>,
+    pub(crate) tri: Vec<u32>,
 }
 
 /// Rasterise every triangle into a visibility buffer. `cull_back` skips triangles that face away
 /// from the camera (valid for closed meshes, whose back faces are always hidden); otherwise both
 /// sides are drawn and the shader lights whichever side is seen.
-pub fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
+pub(crate) fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer {
     let (w, h) = (cam.width as usize, cam.height as usize);
     // Screen position and depth key per vertex.
     let screen: Vec<(Vec2, f32)> = mesh

@@ -51,13 +51,10 @@ pub(super) fn ring(disc: Disc) -> Vec<(i64, i64, f32)> {
     v
 }
 
-/// Where a lattice point's search of `ring` may start, given the depth of a lattice point one
-/// pixel from it in the same tone, per [`Work::depth2`] value of that neighbour (`u16::MAX`, past
-/// the radius, as the last entry). The distance to the nearest pixel of the other tone changes
-/// by at most the step between two points of one tone (both measure to the same pixels), so a
-/// point whose neighbour lies `f` from the other tone lies at least `f − 1` from it: the ring's
-/// entries nearer than that (with a margin for rounding) are all of its own tone, and skipping
-/// them finds the same first entry of the other tone.
+/// Where a lattice point's search of `ring` may start, per [`Work::depth2`] value of a neighbour
+/// one pixel away in the same tone (`u16::MAX` last). A point whose neighbour lies `f` from the
+/// other tone lies at least `f − 1` from it, so the ring's entries nearer than that (with a margin
+/// for rounding) are of its own tone, and skipping them finds the same first entry.
 pub(super) fn ring_from(ring: &[(i64, i64, f32)], disc: Disc) -> Vec<usize> {
     let max = (2.0 * disc.r2).ceil() as usize + 1;
     let from = |f: f64| {

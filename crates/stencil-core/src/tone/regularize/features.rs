@@ -153,12 +153,9 @@ pub(super) fn widening(
     } = scratch;
     pixels.clear();
     out.clear();
-    // Each pixel's depth once (an even span's is the largest of four corners'), where the
-    // ridge test below reads each up to nine times. A neighbour outside the feature reads 0:
-    // every depth is at least 1 (a centre lies half a pixel or more from another tone's
-    // pixel), so 0 passes the ridge test as "not in the feature" did, and is never equal to a
-    // depth. (A thin pixel of the same tone next to one of the feature is in it: features are
-    // 8-connected.)
+    // Each pixel's depth once (an even span's is the largest of four corners'), where the ridge
+    // test reads each up to nine times. A neighbour outside the feature reads 0, which no depth
+    // is (every depth is at least 1).
     for &i in feature {
         let (x, y) = work.rows.xy(i);
         let (d, centre) = work.depth_xy(x, y);
@@ -239,12 +236,9 @@ pub(super) fn widening(
     out.as_slice().to_vec()
 }
 
-/// Every thin feature of both tones, with its widening. A feature none of whose pixels lies in a
-/// tile the refresh recomputed is one of the last round's ([`Work::kept`]): its pixels and their
-/// neighbours are thin or not as they were, and the depths and bits its widening reads (within
-/// the disc's reach and two pixels of it) did not change, so it is taken as it was. Thin holes'
-/// widenings are listed only when `widen_holes`: the monotone phase fills thin holes and never
-/// widens them, so it does not ask (its holes' `widen` is empty).
+/// Every thin feature of both tones, with its widening. A feature with no pixel in a tile the
+/// refresh recomputed is taken as it was in the last round ([`Work::kept`]). Thin holes' widenings
+/// are listed only when `widen_holes` (the monotone phase only fills holes).
 pub(super) fn features(work: &mut Work, widen_holes: bool) -> Vec<Feature> {
     work.refresh();
     let kept = std::mem::take(&mut work.kept);

@@ -30,7 +30,7 @@ pub(super) fn thin_count(bits: &BitGrid, min_width_px: f64) -> [usize; 2] {
 /// two-tone, every thin pixel is one a bridge made (a cut sliver beside it, a notch in its edge),
 /// so this tidies exactly where bridges meet the picture; being monotone it never cuts a bridge
 /// and ends (see the module comment). Returns the number of pixels added.
-pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
+pub(crate) fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
     let disc = Disc::for_width(min_width_px);
     if disc.span <= 1 || bits.is_empty() {
         return 0;
@@ -48,7 +48,7 @@ pub fn settle_all(bits: &mut BitGrid, min_width_px: f64) -> usize {
 /// neighbour is material `after` added to `before` (overlapping bridges enclose a piece of the
 /// picture's cut). Such a pocket shows nothing of the picture's outline and its ring lies wholly
 /// inside bridges, where it only weakens them. Only adds material. Returns the pixels filled.
-pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
+pub(crate) fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
     // A sealed pocket's material neighbours are all added, so it lies beside an added pixel:
     // only the cut pieces beside added pixels are searched, each until it shows itself open
     // (the picture's border, original material, or a pixel of a piece already found open). So
@@ -136,7 +136,7 @@ pub fn fill_sealed_pockets(before: &BitGrid, after: &mut BitGrid) -> usize {
 /// the material's smallest feature is left beside a bridge. Only the pixels within `spread` disc
 /// spans of a box may change; thin features holding none of them are left as they are. Returns
 /// the number of pixels added.
-pub fn settle_near(
+pub(crate) fn settle_near(
     bits: &mut BitGrid,
     boxes: &[[u32; 4]],
     min_width_px: f64,
@@ -147,16 +147,11 @@ pub fn settle_near(
         return 0;
     }
     let reach = disc.span + 1;
-    // Boxes whose windows overlap are settled together, in one window holding them all with a
-    // margin of two spans past the reach `spread` spans around each (a pixel's thinness depends
-    // on the pixels within two spans), so thinness in the part that may change is measured
-    // exactly; pixels within the margin of the window's cut edges may be misjudged (the padding
-    // stands in for what lies beyond) and may not change ([`clusters`]).
-    // Each cluster is settled in the box holding its windows, reading the bits there and
-    // changing them only inside it. So clusters whose boxes do not overlap are independent: each
-    // cluster runs in a wave after every earlier cluster (in cluster order) whose box overlaps its
-    // own, the clusters of a wave in parallel against the bits the earlier waves left, and what
-    // they add is set between waves: the same pixels as settling them one after the other.
+    // Boxes whose windows overlap are settled together, in one window with a margin of two spans
+    // past the reach (thinness depends on the pixels within two spans); pixels within the margin
+    // may be misjudged and may not change ([`clusters`]). Clusters whose boxes do not overlap are
+    // independent: they run in waves, a wave's clusters in parallel after every earlier overlapping
+    // one, setting the same pixels as settling them one after the other.
     let jobs = clusters(bits, boxes, reach, spread);
     let mut wave = vec![0usize; jobs.len()];
     for j in 0..jobs.len() {

@@ -15,13 +15,13 @@ use crate::raster::packed::pack_word;
 pub(super) struct Packed {
     pub width: usize,
     pub height: usize,
-    pub stride: usize,
+    pub(crate) stride: usize,
     pub data: Vec<u64>,
 }
 
 impl Packed {
     /// All `fill`, the tail bits too.
-    pub fn new(width: usize, height: usize, fill: bool) -> Packed {
+    pub(crate) fn new(width: usize, height: usize, fill: bool) -> Packed {
         let stride = width.div_ceil(64).max(1);
         Packed {
             width,
@@ -31,11 +31,11 @@ impl Packed {
         }
     }
 
-    pub fn get(&self, x: usize, y: usize) -> bool {
+    pub(crate) fn get(&self, x: usize, y: usize) -> bool {
         self.data[y * self.stride + x / 64] >> (x % 64) & 1 == 1
     }
 
-    pub fn set(&mut self, x: usize, y: usize, v: bool) {
+    pub(crate) fn set(&mut self, x: usize, y: usize, v: bool) {
         let w = &mut self.data[y * self.stride + x / 64];
         let m = 1u64 << (x % 64);
         if v {
@@ -47,21 +47,21 @@ impl Packed {
 
     /// The pixel at index `i = y · width + x`.
     #[cfg(test)]
-    pub fn at(&self, i: usize) -> bool {
+    pub(crate) fn at(&self, i: usize) -> bool {
         self.get(i % self.width, i / self.width)
     }
 
     #[cfg(test)]
-    pub fn put(&mut self, i: usize, v: bool) {
+    pub(crate) fn put(&mut self, i: usize, v: bool) {
         self.set(i % self.width, i / self.width, v);
     }
 
-    pub fn row(&self, y: usize) -> &[u64] {
+    pub(crate) fn row(&self, y: usize) -> &[u64] {
         &self.data[y * self.stride..(y + 1) * self.stride]
     }
 
     /// Set the bits past `width` in every row to `v`.
-    pub fn tail(&mut self, v: bool) {
+    pub(crate) fn tail(&mut self, v: bool) {
         let used = self.width % 64;
         if used == 0 {
             return;
@@ -79,7 +79,7 @@ impl Packed {
 
     /// The number of set bits inside the grid (tail bits not counted).
     #[cfg(test)]
-    pub fn count(&self) -> usize {
+    pub(crate) fn count(&self) -> usize {
         let mut c = self.clone();
         c.tail(false);
         c.data.iter().map(|w| w.count_ones() as usize).sum()
@@ -238,13 +238,9 @@ pub(super) struct RunScratch {
     next: Vec<u64>,
 }
 
-/// For each span `(a, b)` of `spans`, `out[k · n..(k + 1) · n] = row[x + a] ∘ … ∘ row[x + b]`
-/// (`∘` AND when `and`, else OR; past the row's ends `fill`). The spans must come by width,
-/// narrowest first. The row is set in `p` words of `fill` on either side, and the run of width
-/// `c` from each bit is built by doubling (the run of `c + d` is the run of `c` combined with
-/// itself shifted by `d ≤ c`), each step one pass over the words; each span's runs are then
-/// shifted by its start into `out`. So a span of width `s` costs about log₂ s passes, not `2s`.
-/// (One row's runs, as [`runs_of_rows`] makes them for every row; the tests' measure of it.)
+/// For each span `(a, b)` of `spans` (narrowest first), `out[k · n..(k + 1) · n] = row[x + a] ∘ …
+/// ∘ row[x + b]` (`∘` AND when `and`, else OR; past the row's ends `fill`), by doubling: about
+/// log₂ s passes over the words for a span of width `s`. The tests' measure of [`runs_of_rows`].
 #[cfg(test)]
 fn runs_of(
     row: &[u64],
@@ -325,11 +321,9 @@ fn band_runs(
 }
 
 /// [`runs_of`] for every row of `src` at once: `out[(y · ns + k) · n..][..n]` the runs of row `y`
-/// for span `k` (`ns` spans). The rows are laid end to end, each set in `p` words of `fill` on
-/// either side, in bands of rows, and each doubling step, and each span's shift, is one pass
-/// over a whole band: long loops over words instead of a short one per row. A run read past its row's padding reads the
-/// next row's, but no run that lands in `out` reaches that far (a span reaches less than `p`
-/// words past its row), so each row's runs are its own.
+/// for span `k` (`ns` spans). Rows are laid end to end in bands, each padded by `p` words of
+/// `fill`, so each step is one long pass over a band; no run that lands in `out` reads past its
+/// row's padding.
 fn runs_of_rows(
     src: &Packed,
     spans: &[(i64, i64)],
@@ -602,11 +596,8 @@ fn push_segs(segs: &mut Vec<Seg>, y: usize, on: &[bool]) {
 }
 
 /// [`runs_of_rows`] on pieces of rows only: for each piece `(y, a, b)` of `segs` (by row), words
-/// `a..min(b, n)` of row `y`'s runs in `out` (the same layout), from the row's words `a..b`
-/// alone (`!` of them when `invert`), set in words of `fill` on either side and laid end to end
-/// in bands of rows as whole rows are there. So a run is the run over the whole row wherever it
-/// does not reach past the piece's words into the row's other words; the rest of `out` is left
-/// as it was.
+/// `a..min(b, n)` of row `y`'s runs in `out`, from the row's words `a..b` alone (`!` of them when
+/// `invert`): right wherever a run does not reach past the piece; the rest of `out` is left.
 #[allow(clippy::too_many_arguments)]
 fn runs_of_segs(
     src: &Packed,
@@ -665,16 +656,11 @@ fn runs_of_segs(
 }
 
 /// [`thin`] of both tones (`out`: material, cut), recomputed only in the tiles `dirty` marks
-/// ([`BAND`] rows by a word, tile `(b, k)` at `b · stride + k`) and left as it is elsewhere; the
-/// caller's to mark every tile whose thinness may have changed. `scratch` is [`thin`]'s, one per
-/// tone. A thin pixel reads the lattice points within the disc's reach (plus one) of it, and
-/// those the pixels within as far of them; so each stage is worked out only where the next
-/// reads it, on pieces of rows: the covered pixels in the marked tiles, the valid lattice points
-/// in the rows whose points a marked tile's discs read, and the tone's runs in the rows those
-/// read. Each piece reaches `⌈(2 · reach + 2) / 64⌉` words past the marked words on either side:
-/// a run computed from a piece alone is wrong only within a disc's reach of the piece's ends
-/// (which read as past the grid), and nothing a marked tile reads lies there. So the result is
-/// [`thin`] over the whole grid, at a cost that follows the marked tiles, not the grid.
+/// ([`BAND`] rows by a word, tile `(b, k)` at `b · stride + k`), which the caller marks wherever
+/// thinness may have changed; `scratch` is [`thin`]'s, one per tone. Each stage is worked out
+/// only on the pieces of rows the next reads, each reaching `⌈(2 · reach + 2) / 64⌉` words past
+/// the marked ones (a piece is wrong only within a disc's reach of its ends, which nothing marked
+/// reads): the result is [`thin`] over the whole grid at the cost of the marked tiles.
 pub(super) fn thin_in_tiles(
     bits: &Packed,
     disc: Disc,

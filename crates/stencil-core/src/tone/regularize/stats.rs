@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 /// Options of the regularisation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RegularizeConfig {
+pub(crate) struct RegularizeConfig {
     /// The narrowest web of material and hole of cut, in working pixels.
     pub min_width_px: f64,
     /// The gray level (0..1) the two-tone was cut at: a flip costs more the farther its gray is.
@@ -19,17 +19,17 @@ pub struct RegularizeConfig {
 pub struct RegularizeStats {
     /// The disc's span in pixels: the required width rounded up to a whole number of pixels (an
     /// odd span is centred on a pixel, an even one on a pixel corner).
-    pub disc_px: u32,
+    pub(crate) disc_px: u32,
     /// Thin webs of material removed and widened, and thin holes of cut filled and widened.
-    pub webs_removed: usize,
-    pub webs_widened: usize,
-    pub holes_filled: usize,
-    pub holes_widened: usize,
+    pub(crate) webs_removed: usize,
+    pub(crate) webs_widened: usize,
+    pub(crate) holes_filled: usize,
+    pub(crate) holes_widened: usize,
     /// Material pixels that became cut, and cut pixels that became material (net, against the
     /// input two-tone).
-    pub material_removed_px: usize,
-    pub material_added_px: usize,
+    pub(crate) material_removed_px: usize,
+    pub(crate) material_added_px: usize,
     /// Rounds of the cost-based phase and of the monotone phase.
-    pub rounds: usize,
-    pub monotone_rounds: usize,
+    pub(crate) rounds: usize,
+    pub(crate) monotone_rounds: usize,
 }
