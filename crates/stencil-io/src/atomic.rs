@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 
 use tempfile::NamedTempFile;
 
+use crate::disk::{not_a_file, plain_io, SWAP_DIR, TEMP_PREFIX};
+
 /// A file that could not be written (or an old one removed); nothing half-written is left.
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {
@@ -27,12 +29,9 @@ pub enum WriteError {
     NotAFile { path: PathBuf, is: &'static str },
     /// A path a half-finished swap goes through ([`crate::swap`]) is not the folder or file stencil
     /// made there: a link (in a folder received from elsewhere) is never followed.
-    #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", crate::swap::SWAP_DIR)]
+    #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", SWAP_DIR)]
     NotSwapFolder { path: PathBuf, is: &'static str },
 }
-
-/// Temp files and set-aside old files start with this (hidden, and never an output's name).
-const TEMP_PREFIX: &str = ".stencil-";
 
 /// Write `bytes` to `path` atomically.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
@@ -46,7 +45,7 @@ pub fn write_atomic_with(
 ) -> Result<(), WriteError> {
     // A device, a FIFO or a folder (or a link to one) is never replaced by a file.
     if let Ok(m) = std::fs::metadata(path) {
-        if let Some(is) = crate::read::not_a_file(&m.file_type()) {
+        if let Some(is) = not_a_file(&m.file_type()) {
             return Err(WriteError::NotAFile {
                 path: path.to_path_buf(),
                 is,
@@ -105,33 +104,6 @@ fn staged(
         buf.flush().map_err(err)?;
     }
     Ok(tmp)
-}
-
-/// An I/O error as the operating system words it, once: the OS error alone (without the context
-/// some libraries wrap around it, such as tempfile's temp file name), or the error as it was when
-/// it carries no OS code and names no temp file.
-pub fn plain_io(e: std::io::Error) -> std::io::Error {
-    if let Some(code) = e.raw_os_error() {
-        return std::io::Error::from_raw_os_error(code);
-    }
-    let Some(inner) = e.get_ref() else {
-        return e;
-    };
-    let mut cause: Option<&(dyn std::error::Error + 'static)> = Some(inner);
-    while let Some(c) = cause {
-        if let Some(code) = c
-            .downcast_ref::<std::io::Error>()
-            .and_then(std::io::Error::raw_os_error)
-        {
-            return std::io::Error::from_raw_os_error(code);
-        }
-        cause = c.source();
-    }
-    if inner.to_string().contains(TEMP_PREFIX) {
-        std::io::Error::from(e.kind())
-    } else {
-        e
-    }
 }
 
 /// What [`crate::replace_all`] did.

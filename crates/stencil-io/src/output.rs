@@ -5,6 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::disk::not_a_file;
+
 /// An output path refused; every message names both paths where there are two.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
@@ -46,7 +48,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// file (a link is followed: `-o /dev/stdout` is a device too).
 pub fn check_output(out: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
     if let Ok(m) = std::fs::metadata(out) {
-        if let Some(is) = crate::read::not_a_file(&m.file_type()) {
+        if let Some(is) = not_a_file(&m.file_type()) {
             return Err(OutputError::NotAFile {
                 out: out.to_path_buf(),
                 is,
@@ -72,7 +74,7 @@ pub fn check_output_dir(dir: &Path, owned: &[&str], inputs: &[&Path]) -> Result<
         Ok(m) if !m.is_dir() => {
             return Err(OutputError::NotAFolder {
                 out: dir.to_path_buf(),
-                is: crate::read::not_a_file(&m.file_type()).unwrap_or("a file"),
+                is: not_a_file(&m.file_type()).unwrap_or("a file"),
             })
         }
         Ok(_) => {}
@@ -88,7 +90,7 @@ pub fn check_output_dir(dir: &Path, owned: &[&str], inputs: &[&Path]) -> Result<
             if !(m.is_file() || m.file_type().is_symlink()) {
                 return Err(OutputError::NotAFile {
                     out: p,
-                    is: crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file"),
+                    is: not_a_file(&m.file_type()).unwrap_or("not a regular file"),
                 });
             }
             for input in inputs {
