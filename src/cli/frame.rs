@@ -57,7 +57,7 @@ pub struct FrameArgs {
 /// `--feed` / `--frame-feed`: what a profile's feeds may be (the machine's own max is checked
 /// once the profile is loaded).
 pub fn parse_feed(s: &str) -> Result<f64, String> {
-    super::number_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min")
+    super::number_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min")
 }
 
 /// What to trace and how, from the file and the machine profile.

@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_gcode::estimate::format_duration;
+use stencil_gcode::format_duration;
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_gcode::{self as plan, Anchor, CutSettings, GcodeConfig, GcodeSummary, PlanConfig};
 
@@ -23,7 +23,7 @@ pub(super) fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     if !(x.is_finite() && y.is_finite()) {
         return Err(bad());
     }
-    let far = *machine_profile::bounds::BED_MM.end();
+    let far = *stencil_gcode::bounds::BED_MM.end();
     if x.abs() > far || y.abs() > far {
         return Err(format!(
             "'{s}' is beyond any machine's bed: X and Y must be within ±{far} mm (the largest bed \
@@ -94,12 +94,12 @@ fn parse_power(s: &str) -> Result<f64, String> {
 /// `--speed`: what a machine profile's feeds may be (the machine's own max feed is checked when
 /// the job is planned).
 fn parse_speed(s: &str) -> Result<f64, String> {
-    super::number_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min")
+    super::number_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min")
 }
 
 /// `--blade-offset`: as the planner accepts it.
 fn parse_blade_offset(s: &str) -> Result<f64, String> {
-    super::number_in(s, 0.0..=plan::MAX_BLADE_OFFSET_MM, " mm")
+    super::number_in(s, 0.0..=plan::bounds::MAX_BLADE_OFFSET_MM, " mm")
 }
 
 /// Cut settings given on the command line; each overrides the material's.
@@ -113,7 +113,7 @@ pub struct CutArgs {
     #[arg(long, value_name = "MM_MIN", value_parser = parse_speed)]
     pub speed: Option<f64>,
     /// Times each loop is cut: 1 to 100.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::bounds::MAX_PASSES as i64))]
     pub passes: Option<u32>,
     /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation; at
     /// most 5).
@@ -360,7 +360,7 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read", svg_path.display())
         }
     })?;
-    let drawing = stencil_gcode::read_svg::read(&text, &svg_path.display().to_string())?;
+    let drawing = stencil_gcode::read_svg(&text, &svg_path.display().to_string())?;
     for n in &drawing.notes {
         eprintln!("{}: note: {n}", svg_path.display());
     }
@@ -406,10 +406,9 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     notes.push(format!("cut settings from {settings_from}"));
     // The drawing's curves were flattened within FLATTEN_TOLERANCE_MM: twice that finds them
     // again as arcs (and joins a polygon's runs of short segments into arcs).
-    let cfg = a.machine.plan_config(
-        settings,
-        2.0 * stencil_gcode::read_svg::FLATTEN_TOLERANCE_MM,
-    );
+    let cfg = a
+        .machine
+        .plan_config(settings, 2.0 * stencil_gcode::FLATTEN_TOLERANCE_MM);
     let (gcode, mut summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
         Err(e @ plan::PlanError::OpenPaths { .. }) => {
             bail!("{}: {}", svg_path.display(), super::errors::plan(&e))

@@ -2,11 +2,8 @@
 //! needs. The messages say what to change in words; the command line adds its option names
 //! (`stencil`'s `cli/gcode.rs`), so this crate knows nothing of flags.
 
-use crate::grid::RowKind;
-use crate::interpret::GcodeError;
-use crate::toolpath::MAX_BLADE_OFFSET_MM;
-use crate::toolpath::MAX_PASSES;
-use crate::write::num;
+use crate::bounds::{MAX_BLADE_OFFSET_MM, MAX_PASSES};
+use crate::num::num;
 
 /// Why [`plan`](crate::plan), [`gcode_for`](crate::gcode_for) or
 /// [`grid::plan_grid`](crate::grid::plan_grid) refused a job.
@@ -137,4 +134,37 @@ pub enum SettingsError {
         tool: &'static str,
         machine: String,
     },
+}
+
+/// A line the interpreter cannot run, with Grbl's error code where Grbl has one.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("line {line}: {msg}{}", if *out_of_range { String::new() } else { format!(" (Grbl error:{code})") })]
+pub struct GcodeError {
+    pub line: usize,
+    pub code: u8,
+    pub msg: String,
+    /// A number beyond what any machine can do ([`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`],
+    /// [`MAX_S`]), or not finite: the program is refused whole, not passed on to Grbl.
+    pub out_of_range: bool,
+}
+
+/// A refusal with Grbl's error code.
+pub(crate) fn fail(line: usize, code: u8, msg: impl Into<String>) -> GcodeError {
+    GcodeError {
+        line,
+        code,
+        msg: msg.into(),
+        out_of_range: false,
+    }
+}
+
+/// What the rows vary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowKind {
+    /// Laser power, %.
+    Power,
+    /// Knife (or pen on Z) depth: the Z the tool is lowered to, mm.
+    Depth,
+    /// One row: only the speed varies (a pen).
+    None,
 }

@@ -8,9 +8,11 @@
 use crate::machine::{Machine, Tool};
 use stencil_geom::ring::{bbox, dist};
 
-use crate::error::{Fit, PlanError, SettingsError};
-use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats};
-use crate::write::{num, write_each, LoopSettings};
+use crate::error::{Fit, PlanError, RowKind, SettingsError};
+use crate::job::{CutSettings, Job, Loop, PathStats};
+use crate::num::num;
+use crate::toolpath::{check_settings, laser_s};
+use crate::write::{write_each, LoopSettings};
 
 /// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,17 +72,6 @@ impl Steps {
             .map(|v| (v * 1000.0).round() / 1000.0)
             .collect()
     }
-}
-
-/// What the rows vary.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RowKind {
-    /// Laser power, %.
-    Power,
-    /// Knife (or pen on Z) depth: the Z the tool is lowered to, mm.
-    Depth,
-    /// One row: only the speed varies (a pen).
-    None,
 }
 
 /// A test grid to cut.
