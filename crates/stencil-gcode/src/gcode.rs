@@ -13,7 +13,9 @@ use crate::write::write;
 /// What `make --emit gcode` needs besides the geometry: the machine and where and how to cut.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GcodeConfig {
+    /// The machine the job is for.
     pub machine: Machine,
+    /// Where and how to cut.
     pub plan: PlanConfig,
     /// Where the cut settings came from (a kept settings file, a material profile's entry and
     /// its published source, the command line): written in the G-code's header and report.json,
@@ -24,14 +26,18 @@ pub struct GcodeConfig {
 /// What a G-code job costs, as recorded in report.json and printed by `make` and `gcode`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GcodeSummary {
+    /// The machine's name.
     pub machine: String,
+    /// Its tool (laser, pen, knife).
     pub tool: String,
+    /// The cut settings used.
     pub settings: Option<CutSettings>,
     /// Where `settings` came from (see [`GcodeConfig::settings_from`]); absent in reports written
     /// before it was recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub settings_from: Option<String>,
     #[serde(flatten)]
+    /// Loops, lengths and travel.
     pub path: PathStats,
     /// Time and lengths from the written G-code, as Grbl would plan it.
     pub estimate: Estimate,

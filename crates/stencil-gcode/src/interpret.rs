@@ -76,7 +76,10 @@ pub enum CutRule {
     SpindlePen,
     /// A pen or knife on Z: an X/Y move cuts where Z is at or below `down_at_or_below` mm,
     /// G0 too (a blade left down drags through the sheet whatever the move is called).
-    ZDown { down_at_or_below: f64 },
+    ZDown {
+        /// The highest Z that cuts, mm.
+        down_at_or_below: f64,
+    },
     /// No spindle and only one Z level: feed moves in X/Y cut, rapid ones do not.
     Feed,
 }
@@ -152,10 +155,13 @@ fn moves_xy(m: &Move) -> bool {
 /// the bed check compares with a machine's bed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Extent {
+    /// The least X and Y reached, mm.
     pub min: [f64; 2],
+    /// The greatest X and Y reached, mm.
     pub max: [f64; 2],
     /// The line of the move that reaches `min[axis]` / `max[axis]` (0: the start position).
     pub min_line: [usize; 2],
+    /// The lines that reach the greatest X and Y.
     pub max_line: [usize; 2],
 }
 
@@ -194,6 +200,7 @@ pub fn jog(modal: &Modal, body: &str, line_no: usize) -> Result<([f64; 3], f64),
 /// and the time it stands still in dwells.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Program {
+    /// The moves, in order.
     pub moves: Vec<Move>,
     /// G4 dwells, seconds in all.
     pub dwell_s: f64,

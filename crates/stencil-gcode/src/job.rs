@@ -26,6 +26,7 @@ pub struct CutSettings {
 /// The closing segment back to `points[0]` is implied.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Loop {
+    /// The loop's corners, machine mm.
     pub points: Vec<[f64; 2]>,
     /// The sheet's outline (the frame cut), not a cut region.
     pub outline: bool,
@@ -56,6 +57,7 @@ impl Loop {
 /// Travel of a job, compared with cutting the loops in input order from their first vertex.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PathStats {
+    /// Loops cut.
     pub loops: usize,
     /// Open paths drawn (or cut open), besides the loops.
     #[serde(default)]
@@ -74,14 +76,19 @@ pub struct Job {
     /// Open paths in machine mm, in the order drawn, each from its first point to its last:
     /// drawn before the loops, while the sheet is whole.
     pub lines: Vec<Vec<[f64; 2]>>,
+    /// The loops, in cut order.
     pub loops: Vec<Loop>,
     /// Where the head starts and returns to (machine 0, 0).
     pub home: [f64; 2],
+    /// How every loop is cut.
     pub settings: CutSettings,
     /// The sheet's size and its placed lower-left / upper-right corners in machine mm.
     pub sheet_mm: [f64; 2],
+    /// The placed sheet's lower-left corner.
     pub min: [f64; 2],
+    /// The placed sheet's upper-right corner.
     pub max: [f64; 2],
+    /// Loops, lengths and travel.
     pub stats: PathStats,
     /// Loops are written as arcs fitted within this many mm (0: straight segments): the plan's
     /// [`PlanConfig::arc_tolerance_mm`] when the machine runs arcs and the tool is not a drag

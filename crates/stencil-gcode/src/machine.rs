@@ -40,9 +40,13 @@ pub const SHIPPED: &[Shipped] = &[
 #[serde(rename_all = "kebab-case")]
 pub enum Corner {
     #[default]
+    /// Front left.
     BottomLeft,
+    /// Front right.
     BottomRight,
+    /// Back left.
     TopLeft,
+    /// Back right.
     TopRight,
 }
 
@@ -70,7 +74,9 @@ impl Corner {
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bed {
+    /// X travel, mm.
     pub width_mm: f64,
+    /// Y travel, mm.
     pub height_mm: f64,
     /// Where machine (0, 0) is; axes point away from it (into the bed).
     #[serde(default)]
@@ -152,7 +158,10 @@ fn default_jd() -> f64 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PenLift {
     /// A servo or solenoid on the spindle output: `M3 S<down_s>` lowers, `M5` raises.
-    Spindle { down_s: f64 },
+    Spindle {
+        /// The S that lowers it.
+        down_s: f64,
+    },
     /// A Z axis: `G0 Z<up>` raises, `G1 Z<down> F<plunge>` lowers.
     Z(ZLift),
 }
@@ -160,7 +169,9 @@ pub enum PenLift {
 /// Z heights of a tool on a Z axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZLift {
+    /// Raised, Z mm.
     pub up_mm: f64,
+    /// Lowered (cutting), Z mm.
     pub down_mm: f64,
     /// Feed for lowering the tool, mm/min.
     pub plunge_mm_min: f64,
@@ -172,19 +183,25 @@ pub enum Tool {
     /// A laser in Grbl laser mode (`$32=1`): `M4` dynamic power, S from the material's power %
     /// scaled to `s_max` (`$30`); never below `s_min` (`$31`) while cutting.
     Laser {
+        /// `$30`: the S of full power.
         s_max: f64,
+        /// `$31`: the least S while cutting.
         s_min: f64,
     },
+    /// A pen, and how it is lifted.
     Pen(PenLift),
     /// A drag knife on a Z axis; `overcut_mm` continues past the start of each loop so the cut
     /// closes cleanly.
     Knife {
+        /// Its Z heights.
         z: ZLift,
+        /// How far past the start each loop is cut, mm.
         overcut_mm: f64,
     },
 }
 
 impl Tool {
+    /// The tool in words: laser, pen or knife.
     pub fn kind(&self) -> &'static str {
         match self {
             Tool::Laser { .. } => "laser",
@@ -200,7 +217,9 @@ impl Tool {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LaserSource {
+    /// A diode laser.
     Diode,
+    /// A CO2 tube.
     Co2,
 }
 
@@ -219,7 +238,9 @@ impl LaserSource {
 /// and a CO2's tube rating.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LaserPower {
+    /// Diode or CO2.
     pub source: LaserSource,
+    /// Optical (diode) or tube (CO2) power, W.
     pub watts: f64,
 }
 
@@ -227,8 +248,11 @@ pub struct LaserPower {
 /// power (unknown when the profile does not give them), a pen, a drag knife.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MachineKind {
+    /// A laser, of this power when known.
     Laser(Option<LaserPower>),
+    /// A pen.
     Pen,
+    /// A drag knife.
     Knife,
 }
 
@@ -252,10 +276,15 @@ impl std::fmt::Display for MachineKind {
 /// A validated machine profile.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Machine {
+    /// The profile's name.
     pub name: String,
+    /// One line about the machine.
     pub description: String,
+    /// The bed.
     pub bed: Bed,
+    /// Grbl's motion settings.
     pub motion: Motion,
+    /// The tool.
     pub tool: Tool,
     /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
     /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
@@ -293,12 +322,17 @@ impl Machine {
     line.map(|l| format!(" at line {l}")).unwrap_or_default()
 )]
 pub struct OffBed {
+    /// The machine's name.
     pub machine: String,
+    /// X or Y.
     pub axis: char,
+    /// How far the job reaches, mm.
     pub reached: f64,
     /// The bed's width (X) or depth (Y), mm.
     pub size: f64,
+    /// "wide" or "deep".
     pub dim: &'static str,
+    /// The program line that reaches it.
     pub line: Option<usize>,
 }
 

@@ -4,7 +4,9 @@
 /// One straight move, in millimetres, absolute machine coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Move {
+    /// Where the move starts.
     pub from: [f64; 3],
+    /// Where it ends.
     pub to: [f64; 3],
     /// G0: travel at the machine's rapid rate, laser off.
     pub rapid: bool,
@@ -22,9 +24,13 @@ pub struct Move {
 
 /// Grbl's motion modes (modal group 1), numbered as their G words; a probe G38.x is 380 + x.
 pub const MOTION_SEEK: u16 = 0;
+/// G1.
 pub const MOTION_LINEAR: u16 = 1;
+/// G2.
 pub const MOTION_CW_ARC: u16 = 2;
+/// G3.
 pub const MOTION_CCW_ARC: u16 = 3;
+/// G80.
 pub const MOTION_NONE: u16 = 80;
 
 /// Grbl's `$12` default: the largest gap, mm, between an arc and the chords it is cut into.
@@ -43,12 +49,15 @@ pub struct Modal {
     pub motion: u16,
     /// G17 (0, XY), G18 (1, ZX), G19 (2, YZ).
     pub plane: u8,
+    /// G90 (else G91).
     pub absolute: bool,
+    /// G21 (else G20).
     pub metric: bool,
     /// G93: F is moves per minute, given on every feed move.
     pub inverse_time: bool,
     /// The feed in mm/min (G94); `None` while undefined.
     pub feed: Option<f64>,
+    /// The S word in force.
     pub s: f64,
     /// M3/M4 on, M5 off.
     pub spindle_on: bool,
@@ -67,6 +76,7 @@ pub struct Modal {
     pub tlo: f64,
     /// G28.1 / G30.1's stored positions, machine coordinates.
     pub g28: [f64; 3],
+    /// G30's stored position (G30.1).
     pub g30: [f64; 3],
     /// `$12`, mm: how finely arcs are cut.
     pub arc_tolerance: f64,
@@ -142,6 +152,7 @@ pub const MAX_COORD_MM: f64 = 1e6;
 
 /// The largest feed (mm/min) and S value a program may give: far above any machine's.
 pub const MAX_FEED_MM_MIN: f64 = 1e6;
+/// The largest S value accepted.
 pub const MAX_S: f64 = 1e6;
 
 /// The most moves (arc segments counted) one program may make: 4 million, far more than any
@@ -160,9 +171,11 @@ pub enum Flow {
 /// What one line did: its moves (an arc as Grbl's chords), a dwell, a pause or end, a probe.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Executed {
+    /// The moves the line makes.
     pub moves: Vec<Move>,
     /// G4 P: seconds Grbl waits after the queued motion ends.
     pub dwell_s: f64,
+    /// A program stop or end, when the line has one.
     pub flow: Option<Flow>,
     /// A probe move (380 + x for G38.x): on a machine without a probe it runs its whole length,
     /// then G38.2 and G38.4 raise `ALARM:5` (no contact), G38.3 and G38.5 do not.

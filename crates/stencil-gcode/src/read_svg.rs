@@ -56,36 +56,55 @@ pub enum SvgError {
     /// Not well-formed XML (or not an SVG document).
     #[error("{file}:{line}:{col}: not well-formed XML: {msg}")]
     Xml {
+        /// The file, as named in messages.
         file: String,
+        /// Where, from 1.
         line: u32,
+        /// Where, from 1.
         col: u32,
+        /// What is wrong.
         msg: String,
     },
     /// A number that does not read as one, or is out of range.
     #[error("{file}:{line}:{col}: {what}: {msg}")]
     Number {
+        /// The file, as named in messages.
         file: String,
+        /// Where, from 1.
         line: u32,
+        /// Where, from 1.
         col: u32,
         /// The element and attribute, as written: `<path> d="M 1 1 L 5x 5"`.
         what: String,
+        /// What is wrong.
         msg: String,
     },
     /// Beyond a limit of the reader, at a place in the text.
     #[error("{file}:{line}:{col}: {msg}")]
     At {
+        /// The file, as named in messages.
         file: String,
+        /// Where, from 1.
         line: u32,
+        /// Where, from 1.
         col: u32,
+        /// What is wrong.
         msg: String,
     },
+    /// Anything else that cannot be cut as drawn.
     #[error("{file}: {msg}")]
-    Bad { file: String, msg: String },
+    Bad {
+        /// The file, as named in messages.
+        file: String,
+        /// What is wrong.
+        msg: String,
+    },
 }
 
 /// A drawing read from SVG: its cut loops and lines, and what was left out, for the user.
 #[derive(Clone, Debug)]
 pub struct SvgDrawing {
+    /// The loops and lines to cut.
     pub geometry: CutLoops,
     /// Things drawn that are not cut (text, pictures), one sentence each.
     pub notes: Vec<String>,

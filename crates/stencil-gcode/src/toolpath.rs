@@ -16,7 +16,9 @@ use stencil_geom::ring::dist;
 /// Which point of the job sits at `--offset`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Anchor {
+    /// That corner of the job.
     Corner(Corner),
+    /// The job's centre.
     Center,
 }
 
@@ -50,6 +52,7 @@ pub struct PlanConfig {
     /// Cut a drawing's open paths ([`CutLoops::lines`]) with a laser or knife, as open cuts.
     /// A pen draws them anyway.
     pub cut_open_paths: bool,
+    /// How the material is cut.
     pub settings: CutSettings,
     /// Write each loop as lines and G2/G3 arcs fitted within this many mm of its polygon
     /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
@@ -71,6 +74,7 @@ impl PlanConfig {
         }
     }
 
+    /// The defaults with these settings.
     pub fn new(settings: CutSettings) -> Self {
         PlanConfig {
             anchor: None,

@@ -17,20 +17,42 @@ use crate::disk::{not_a_file, plain_io, SWAP_DIR, TEMP_PREFIX};
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {
     #[error("{path}: cannot write: {source}")]
+    /// The write, rename or removal failed.
     Write {
+        /// The file.
         path: PathBuf,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: another stencil run is writing this folder now; wait for it to finish, or choose another folder with -o")]
-    Busy { path: PathBuf },
+    /// Another run holds the folder's lock.
+    Busy {
+        /// The folder.
+        path: PathBuf,
+    },
     #[error("{path}: not a plan stencil wrote, so it is not run; look at the folder {} and remove it yourself", path.parent().map_or(path.display(), |p| p.display()))]
-    BadPlan { path: PathBuf },
+    /// A half-finished swap's plan that stencil did not write.
+    BadPlan {
+        /// The plan file.
+        path: PathBuf,
+    },
     #[error("{path}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
-    NotAFile { path: PathBuf, is: &'static str },
+    /// The output exists and is not a regular file.
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
     /// A path a half-finished swap goes through ([`crate::swap`]) is not the folder or file stencil
     /// made there: a link (in a folder received from elsewhere) is never followed.
     #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", SWAP_DIR)]
-    NotSwapFolder { path: PathBuf, is: &'static str },
+    NotSwapFolder {
+        /// The path.
+        path: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
 }
 
 /// Write `bytes` to `path` atomically.

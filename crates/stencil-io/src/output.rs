@@ -11,17 +11,39 @@ use crate::disk::not_a_file;
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     #[error("{out}: this output is the input {input}; writing it would destroy the input (choose another output path)")]
-    IsInput { out: PathBuf, input: PathBuf },
-    #[error("{out}: this output folder's {name} would be replaced, and it is the input {input}; choose another folder with -o, or copy the input elsewhere first")]
-    ReplacesInput {
+    /// The output file is an input.
+    IsInput {
+        /// The output.
         out: PathBuf,
+        /// The input it is.
+        input: PathBuf,
+    },
+    #[error("{out}: this output folder's {name} would be replaced, and it is the input {input}; choose another folder with -o, or copy the input elsewhere first")]
+    /// A file the output folder would replace is an input.
+    ReplacesInput {
+        /// The output folder.
+        out: PathBuf,
+        /// The file name in it.
         name: String,
+        /// The input that file is.
         input: PathBuf,
     },
     #[error("{out}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
-    NotAFile { out: PathBuf, is: &'static str },
+    /// The output exists and is not a regular file.
+    NotAFile {
+        /// The output.
+        out: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
     #[error("{out}: is {is}, not a folder; -o names the folder the outputs go into")]
-    NotAFolder { out: PathBuf, is: &'static str },
+    /// The output folder exists and is not a folder.
+    NotAFolder {
+        /// The output folder.
+        out: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
 }
 
 /// Whether `a` and `b` are one file (the same inode through any name, link or hard link).

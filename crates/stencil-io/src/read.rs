@@ -76,33 +76,53 @@ fn size_words(bytes: u64) -> String {
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
     #[error("{path}: cannot open this {what}: {source}")]
+    /// The file could not be opened.
     Open {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: cannot read this {what}: {source}")]
+    /// Reading it failed.
     Io {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: larger than the {limit} a {what} can be; is it the right file?")]
+    /// Larger than its kind's cap.
     TooLarge {
+        /// The file.
         path: PathBuf,
+        /// The cap, in words.
         limit: String,
+        /// The kind of file, in words.
         what: &'static str,
     },
     #[error("{path}: {is}, not a file; a {what} is read from a regular file")]
+    /// Not a regular file.
     NotAFile {
+        /// The file.
         path: PathBuf,
+        /// What it is instead.
         is: &'static str,
+        /// The kind of file, in words.
         what: &'static str,
     },
     #[error("{path}: not UTF-8 text (at byte {at}); a {what} is a text file")]
+    /// Not UTF-8 text.
     NotText {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The first byte that is not UTF-8.
         at: usize,
     },
 }
