@@ -202,8 +202,8 @@ pub struct GcodeError {
     pub code: u8,
     /// What is wrong, in words.
     pub msg: String,
-    /// A number beyond what any machine can do ([`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`],
-    /// [`MAX_S`]), or not finite: the program is refused whole, not passed on to Grbl.
+    /// A number beyond what any machine can do ([`MAX_COORD_MM`](crate::interpret::MAX_COORD_MM), [`MAX_FEED_MM_MIN`](crate::interpret::MAX_FEED_MM_MIN),
+    /// [`MAX_S`](crate::interpret::MAX_S)), or not finite: the program is refused whole, not passed on to Grbl.
     pub out_of_range: bool,
 }
 

@@ -91,7 +91,7 @@ pub struct Job {
     /// Loops, lengths and travel.
     pub stats: PathStats,
     /// Loops are written as arcs fitted within this many mm (0: straight segments): the plan's
-    /// [`PlanConfig::arc_tolerance_mm`] when the machine runs arcs and the tool is not a drag
+    /// [`PlanConfig::arc_tolerance_mm`](crate::PlanConfig::arc_tolerance_mm) when the machine runs arcs and the tool is not a drag
     /// knife. Each loop's [`Loop::curve`] holds them.
     pub arc_tolerance_mm: f64,
 }

@@ -16,7 +16,7 @@ pub struct Move {
     pub power: f64,
     /// The spindle output's S while this move runs, G0 or not; 0 when the spindle is off. A laser
     /// in laser mode stays dark in G0 (`power` is 0), but a pen servo on the spindle output stays
-    /// down: [`CutRule`] tells the two apart.
+    /// down: [`CutRule`](crate::interpret::CutRule) tells the two apart.
     pub spindle_s: f64,
     /// 1-based line number in the program text.
     pub line: usize,

@@ -44,7 +44,7 @@ pub enum WriteError {
         /// What it is instead.
         is: &'static str,
     },
-    /// A path a half-finished swap goes through ([`crate::swap`]) is not the folder or file stencil
+    /// A path a half-finished swap goes through ([`crate::replace_all`]) is not the folder or file stencil
     /// made there: a link (in a folder received from elsewhere) is never followed.
     #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", SWAP_DIR)]
     NotSwapFolder {
