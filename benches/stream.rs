@@ -5,9 +5,9 @@
 
 use std::time::Duration;
 
-use stencil_grbl::stream::{send, FlowControl, Program, Quiet, StreamConfig};
-use stencil_grbl::virtual_grbl::Pace;
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::{
+    send, FlowControl, Pace, Program, Quiet, StreamConfig, VirtualConfig, VirtualGrbl,
+};
 
 #[path = "../tests/common/job.rs"]
 mod job;

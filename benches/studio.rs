@@ -23,7 +23,7 @@ use stencil_core::driver::run;
 use stencil_core::pipeline::MakeConfig;
 use stencil_core::tone::mesh::Mesh;
 use stencil_core::tone::Threshold;
-use stencil_studio::engine::Engine;
+use stencil_studio::Engine;
 use studio_inputs::{mesh, photo};
 
 /// CPU milliseconds (user + system, every thread) this process has used, from /proc/self/stat

@@ -1,6 +1,8 @@
 //! Option parsers that hold numbers to [`stencil_core::limits`]: each refusal names the range. (Ranges
 //! that depend on the picture, such as --width-mm's, are checked once its size is known.)
 
+use std::ops::RangeInclusive;
+
 use stencil_core::limits::{self, num};
 
 /// A finite number > 0 (a size whose range depends on the picture).
@@ -93,6 +95,52 @@ pub fn max_pixels(s: &str) -> Result<u64, String> {
             limits::MAX_PIXELS_CEILING / 1_000_000
         ))
     }
+}
+
+/// A number option that must lie in `range` (clap's message names the option and the value; this
+/// says the range).
+pub fn number_in(s: &str, range: RangeInclusive<f64>, unit: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if range.contains(&v) => Ok(v),
+        _ => Err(format!(
+            "must be a number from {} to {}{unit}",
+            range.start(),
+            range.end()
+        )),
+    }
+}
+
+/// `--timeout-s`: from a tenth of a second (a reply takes milliseconds) to an hour (Grbl answers
+/// a status query within a fraction of a second, even mid-move).
+pub fn parse_timeout(s: &str) -> Result<f64, String> {
+    number_in(s, 0.1..=3600.0, " seconds")
+}
+
+/// `--offset X,Y`: a place on some bed. Beyond the largest bed a profile may have (10 m), no
+/// job can be on the bed, and a number like 1e308 swallowed the job's size in the bed check
+/// ("the job (0.0 x 0.0 mm)"), so it is refused here, as the offset it is.
+pub fn parse_offset(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("'{s}' is not an offset: use X,Y in mm, e.g. 10,20");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    let x: f64 = x.trim().parse().map_err(|_| bad())?;
+    let y: f64 = y.trim().parse().map_err(|_| bad())?;
+    if !(x.is_finite() && y.is_finite()) {
+        return Err(bad());
+    }
+    let far = *stencil_gcode::bounds::BED_MM.end();
+    if x.abs() > far || y.abs() > far {
+        return Err(format!(
+            "'{s}' is beyond any machine's bed: X and Y must be within ±{far} mm (the largest bed \
+             a machine profile may have)"
+        ));
+    }
+    Ok([x, y])
+}
+
+/// `--feed`, `--frame-feed`, `--speed`: what a profile's feeds may be (the machine's own max is
+/// checked once the profile is loaded or the job planned).
+pub fn parse_feed(s: &str) -> Result<f64, String> {
+    number_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min")
 }
 
 #[cfg(test)]

@@ -118,7 +118,7 @@ pub fn read_report(folder: &Path) -> anyhow::Result<Report> {
 pub fn run_check(a: CheckArgs) -> anyhow::Result<ExitCode> {
     // A half-finished `make` of the folder (or of the set a layer's file or folder is in) is
     // settled before anything in it is looked at.
-    super::send::settle(&a.input)?;
+    super::program::settle(&a.input)?;
     // A layered folder: each layer (and the fill-in) in turn.
     if let Some(r) = super::layers::each_stencil(&a.input, |f| {
         check_one(CheckArgs {
@@ -136,7 +136,7 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = StageBar::start();
     bar.set("read");
     let (png, report): (PathBuf, Option<Report>) = if a.input.is_dir() {
-        super::send::settle(&a.input)?;
+        super::program::settle(&a.input)?;
         (a.input.join("stencil.png"), Some(read_report(&a.input)?))
     } else {
         (a.input.clone(), None)
@@ -273,13 +273,11 @@ fn report_bridges(
     Ok(bridges)
 }
 
-/// The material a `make` run used, as its report records it: the file it was read from when that
-/// is still there, the shipped copy when it was the embedded one, else the name looked up again.
-/// `None` when the report names no material.
 /// The material a `make` folder's report.json carries: its values (checked like a profile file),
 /// or, in a report from before they were written, a shipped or `./profiles/` material by name.
 /// Never a file the report names: a received folder names materials, not files, so a report whose
 /// material is a path (`/etc/passwd`, `../../x.toml`) is refused without opening anything.
+/// `None` when the report names no material.
 pub fn material_of_report(r: &Report, folder: &Path) -> Option<anyhow::Result<Material>> {
     let rp = folder.join("report.json");
     if let Some(v) = &r.material_values {

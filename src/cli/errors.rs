@@ -19,58 +19,52 @@ use stencil_gcode::{Fit, PlanError};
 /// One error (not its causes) as the user reads it: the library's errors worded with the options
 /// that change them, any other error as it displays itself.
 pub fn describe(e: &(dyn StdError + 'static)) -> String {
-    if let Some(e) = e.downcast_ref::<stencil_core::Error>() {
-        core(e)
-    } else if let Some(e) = e.downcast_ref::<SizeError>() {
-        size(e)
-    } else if let Some(e) = e.downcast_ref::<VectorError>() {
-        vector(e)
-    } else if let Some(e) = e.downcast_ref::<ExportError>() {
-        export(e)
-    } else if let Some(e) = e.downcast_ref::<CheckError>() {
-        check(e)
-    } else if let Some(e) = e.downcast_ref::<SettingsError>() {
-        settings(e)
-    } else if let Some(e) = e.downcast_ref::<BridgeError>() {
-        bridge(e)
-    } else if let Some(e) = e.downcast_ref::<PlanError>() {
-        plan(e)
-    } else if let Some(e) = e.downcast_ref::<ToneError>() {
-        tone(e)
-    } else if let Some(e) = e.downcast_ref::<MeshError>() {
-        mesh(e)
-    } else {
-        e.to_string()
-    }
+    (e.downcast_ref().map(core))
+        .or_else(|| e.downcast_ref().map(size))
+        .or_else(|| e.downcast_ref().map(vector))
+        .or_else(|| e.downcast_ref().map(export))
+        .or_else(|| e.downcast_ref().map(check))
+        .or_else(|| e.downcast_ref().map(settings))
+        .or_else(|| e.downcast_ref().map(bridge))
+        .or_else(|| e.downcast_ref().map(plan))
+        .or_else(|| e.downcast_ref().map(tone))
+        .or_else(|| e.downcast_ref().map(mesh))
+        .unwrap_or_else(|| e.to_string())
 }
 
-/// An error and its causes on one line, outermost first, each cause said once: a cause whose
-/// text the message already holds (a library error that words its source into its own message)
-/// is not repeated. (What `main` prints after "error: ", and the studio's API returns.)
+/// An error and its causes on one line, outermost first, each said once: the line ends at the
+/// library's first error, which words its own cause (`{path}: cannot open: {reason}`); a context
+/// added here is followed by its cause. (What `main` prints after "error: ", and the studio's
+/// API returns.)
 pub fn one_line(e: &anyhow::Error) -> String {
-    let mut out = String::new();
+    let mut out = Vec::new();
     for cause in e.chain() {
-        let text = describe(cause);
-        if out.contains(&text) {
-            continue;
+        out.push(describe(cause));
+        if words_its_cause(cause) {
+            break;
         }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
     }
-    out
+    out.join(": ")
 }
 
-/// An error of `make`'s pipeline that names the input: as it is when its message already does
-/// (most do, from the stage that read it), else with the input in front.
+/// The library's errors that can have a cause (an io error): each words it into its message.
+fn words_its_cause(e: &(dyn StdError + 'static)) -> bool {
+    e.is::<stencil_core::Error>()
+        || e.is::<ToneError>()
+        || e.is::<MeshError>()
+        || e.is::<ExportError>()
+        || e.is::<stencil_io::ReadError>()
+        || e.is::<stencil_io::WriteError>()
+        || e.is::<stencil_io::profile::ProfileError>()
+}
+
+/// An error of `make`'s pipeline that names the input: as it is when it is about the input (most
+/// are, from the stage that read it), else with the input in front.
 pub fn naming_input(input: &Path, e: stencil_core::Error) -> anyhow::Error {
-    let input = input.display().to_string();
-    let msg = core(&e);
-    if msg.contains(&input) {
+    if e.subject() == Some(input) {
         e.into()
     } else {
-        anyhow::anyhow!("{input}: {msg}")
+        anyhow::anyhow!("{}: {}", input.display(), core(&e))
     }
 }
 

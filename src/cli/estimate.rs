@@ -8,8 +8,7 @@ use clap::Args;
 use stencil_gcode::interpret::{interpret_from, Program};
 use stencil_gcode::machine as machine_profile;
 use stencil_gcode::{estimate_program, format_duration, length_over_feed_s};
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stream::ControllerInfo;
+use stencil_grbl::{ControllerInfo, ControllerState, Placement, StartFrom};
 
 /// `stencil estimate job.gcode`: time and distances of any G-code file.
 #[derive(Args, Debug)]
@@ -94,7 +93,7 @@ pub fn read_placed(
         settings: state.settings.clone(),
         ..ControllerInfo::default()
     };
-    let motion = super::send::controller_motion(machine.motion, &info);
+    let motion = super::port::controller_motion(machine.motion, &info);
     Ok(PlacedJob { program, motion })
 }
 
@@ -140,9 +139,9 @@ fn check_timing_settings(file: &Path, settings: &[(u32, f64)]) -> anyhow::Result
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
-    let text = super::send::read_program(&a.file)?;
-    eprintln!("{}", super::send::origin_line(&a.file, &text));
-    super::send::name_machine_changes_in(&a.file, &text);
+    let text = super::program::read_program(&a.file)?;
+    eprintln!("{}", super::program::origin_line(&a.file, &text));
+    super::program::name_machine_changes_in(&a.file, &text);
     let job = read_placed(&a.file, &text, &machine, &a.place, a.no_bed_check)?;
     let (moves, motion) = (&job.program.moves, job.motion);
     // Grbl's stops (its planner syncs), their motor holds ($1) and the G4 dwells included.

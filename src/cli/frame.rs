@@ -12,9 +12,10 @@ use anyhow::bail;
 use clap::Args;
 
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
-use stencil_grbl::frame::{self, cut_extent_with, Extent, FrameError, FrameTool, Framed};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, Control, ControllerInfo, Observer, Program, StreamConfig};
+use stencil_grbl::{
+    cut_extent_with, BytePort, Console, Control, ControllerInfo, Extent, FrameError, FrameTool,
+    Framed, Observer, Program, StreamConfig,
+};
 
 /// The framing feed when none is given, mm/min (capped at the machine's max feed): slow enough
 /// to follow the head with the eye, fast enough not to bore.
@@ -38,7 +39,7 @@ pub struct FrameArgs {
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: Option<String>,
     /// Framing feed, mm/min [default: 3000, at most the machine's max feed].
-    #[arg(long, value_name = "MM_MIN", value_parser = parse_feed)]
+    #[arg(long, value_name = "MM_MIN", value_parser = super::bounds::parse_feed)]
     pub feed: Option<f64>,
     /// Unlock ($X) a machine that is locked in alarm first.
     #[arg(long)]
@@ -48,16 +49,10 @@ pub struct FrameArgs {
     #[arg(long)]
     pub no_bed_check: bool,
     /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
-    #[arg(long, default_value_t = 10.0, value_parser = super::send::parse_timeout)]
+    #[arg(long, default_value_t = 10.0, value_parser = super::bounds::parse_timeout)]
     pub timeout_s: f64,
     #[command(flatten)]
     pub start: super::place::StartArgs,
-}
-
-/// `--feed` / `--frame-feed`: what a profile's feeds may be (the machine's own max is checked
-/// once the profile is loaded).
-pub fn parse_feed(s: &str) -> Result<f64, String> {
-    super::number_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min")
 }
 
 /// What to trace and how, from the file and the machine profile.
@@ -227,7 +222,7 @@ pub fn frame_on(
         ));
     }
     console.say(&format!("framing {}", s.describe()));
-    frame::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
+    stencil_grbl::frame(&mut console, s.extent, s.tool, s.feed).map_err(|e| {
         let hint = match &e {
             FrameError::Machine(m) => super::port::machine_hint(m),
             // Locked before, or by the stop.
@@ -237,7 +232,7 @@ pub fn frame_on(
         match &e {
             // Said with what asked for the abort (a signal, which one, or a key).
             FrameError::Aborted { laser } => {
-                anyhow::anyhow!("framing {}; {laser}{hint}", super::send::abort_cause())
+                anyhow::anyhow!("framing {}; {laser}{hint}", super::operator::abort_cause())
             }
             e => anyhow::anyhow!("{e}{hint}"),
         }
@@ -275,12 +270,12 @@ pub fn can_ask() -> bool {
 }
 
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
-    let text = super::send::read_program(&a.file)?;
-    eprintln!("{}", super::send::origin_line(&a.file, &text));
+    let text = super::program::read_program(&a.file)?;
+    eprintln!("{}", super::program::origin_line(&a.file, &text));
     let name = a.file.display().to_string();
     let job = Program::parse(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
-    super::send::name_machine_changes(&job);
+    super::program::name_machine_changes(&job);
     let dump = match &a.start.controller_state {
         Some(p) => Some(super::place::read_dump(p)?),
         None => None,
@@ -297,7 +292,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     )?
     .state;
     let start = super::place::choose(a.start.start_from, &state, &machine);
-    let placement = stencil_grbl::placement::Placement::new(start, &state);
+    let placement = stencil_grbl::Placement::new(start, &state);
     println!("{}", placement.describe());
     let job = super::place::placed(&name, &text, &placement)?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
@@ -311,7 +306,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
         ..StreamConfig::default()
     };
     let (tx, rx) = channel();
-    let keys = super::send::Keys::start(tx);
+    let keys = super::operator::Keys::start(tx);
     let mut say = Say { raw: keys.raw };
     if keys.raw {
         say.line("keys: a / q / Esc / Ctrl-C = abort");

@@ -45,13 +45,13 @@ pub struct TestGridArgs {
     #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, stencil_gcode::bounds::Z_MM, " mm"), allow_hyphen_values = true)]
     pub depth: Option<Steps>,
     /// Side of each square, mm (1 to 100).
-    #[arg(long, default_value_t = 10.0, value_parser = |s: &str| super::number_in(s, 1.0..=100.0, " mm"))]
+    #[arg(long, default_value_t = 10.0, value_parser = |s: &str| super::bounds::number_in(s, 1.0..=100.0, " mm"))]
     pub size: f64,
     /// Gap between squares, mm (0 to 100).
-    #[arg(long, default_value_t = 5.0, value_parser = |s: &str| super::number_in(s, 0.0..=100.0, " mm"))]
+    #[arg(long, default_value_t = 5.0, value_parser = |s: &str| super::bounds::number_in(s, 0.0..=100.0, " mm"))]
     pub gap: f64,
     /// Machine coordinates of the grid's lower-left corner, mm.
-    #[arg(long, value_name = "X,Y", default_value = "5,5", value_parser = super::gcode::parse_offset, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y", default_value = "5,5", value_parser = super::bounds::parse_offset, allow_hyphen_values = true)]
     pub offset: [f64; 2],
     /// Passes per square [default: the material's].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::bounds::MAX_PASSES as i64))]

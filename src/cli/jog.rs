@@ -10,10 +10,10 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
-use stencil_grbl::jog::{self, parse_key, parse_keys, JogKey, JogKeys, Jogger, Script};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{ControllerInfo, Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::VirtualConfig;
+use stencil_grbl::{
+    parse_key, parse_keys, Console, ControllerInfo, JogKey, JogKeys, Jogger, Observer, Script,
+    StreamConfig, VirtualConfig,
+};
 
 /// Jog, home, unlock and zero the machine from the keyboard.
 #[derive(Args, Debug)]
@@ -31,13 +31,13 @@ pub struct JogArgs {
     #[arg(long, default_value_t = 1.0, value_parser = parse_step)]
     pub step: f64,
     /// Jog feed, mm/min.
-    #[arg(long, default_value_t = 1000.0, value_parser = super::frame::parse_feed)]
+    #[arg(long, default_value_t = 1000.0, value_parser = super::bounds::parse_feed)]
     pub feed: f64,
     /// Keys to press, by name, instead of reading the keyboard (e.g. "right,right,up,0,q").
     #[arg(long, value_name = "NAMES", value_parser = |s: &str| parse_keys(s).map(KeyScript))]
     pub keys: Option<KeyScript>,
     /// Report the controller as silent after this many seconds without an answer (0.1 to 3600).
-    #[arg(long, default_value_t = 10.0, value_parser = super::send::parse_timeout)]
+    #[arg(long, default_value_t = 10.0, value_parser = super::bounds::parse_timeout)]
     pub timeout_s: f64,
 }
 
@@ -46,7 +46,7 @@ pub struct JogArgs {
 pub struct KeyScript(Vec<JogKey>);
 
 fn parse_step(s: &str) -> Result<f64, String> {
-    super::number_in(s, 0.001..=1000.0, " mm")
+    super::bounds::number_in(s, 0.001..=1000.0, " mm")
 }
 
 /// The terminal in raw mode: arrows and page keys without Enter; key releases where the
@@ -203,7 +203,7 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
     let mut screen = Screen { raw: tty };
     let raw = tty;
     if raw {
-        screen.message(jog::KEY_HELP);
+        screen.message(stencil_grbl::JOG_KEY_HELP);
     }
     let mut last_shown = String::new();
     let mut show = |line: &str| {
@@ -219,7 +219,7 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
     let result = (|| -> anyhow::Result<(String, String)> {
         let mut console = Console::connect(opened.port.as_mut(), &cfg, None, &mut screen)?;
         let mut j = Jogger::new(&mut console, a.step, a.feed);
-        let done = jog::run(&mut j, keys.as_mut(), &mut show)?;
+        let done = stencil_grbl::jog_session(&mut j, keys.as_mut(), &mut show)?;
         Ok((done, j.status_line()))
     })();
     drop(keys);

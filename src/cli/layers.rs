@@ -1,14 +1,11 @@
-//! `stencil make`'s layer options: a picture in several layers, the paper's fill-in layer, and
-//! registration marks.
+//! `stencil make`'s layer options (a picture in several layers, the paper's fill-in layer,
+//! registration marks), and how the commands that read a `make` folder go through a set's.
 
 use std::process::ExitCode;
 
 use clap::Args;
 
-use stencil_core::layers::{self, Layered, LayersConfig, MAX_LAYERS};
-use stencil_core::pipeline::MakeConfig;
-
-use super::progress::StageBar;
+use stencil_core::layers::{self, LayersConfig, MAX_LAYERS};
 
 fn parse_color(s: &str) -> Result<[u8; 3], String> {
     let h = s.trim().trim_start_matches('#');
@@ -68,92 +65,6 @@ impl LayerArgs {
     }
 }
 
-/// Run and write a set, then say what was made.
-pub fn make_set(
-    cfg: MakeConfig,
-    lc: &LayersConfig,
-    fill_in_asked: bool,
-) -> anyhow::Result<ExitCode> {
-    let bar = StageBar::start();
-    let cfg = MakeConfig {
-        progress: Some(bar.clone()),
-        ..cfg
-    };
-    let result = layers::make(&cfg, lc);
-    bar.finish();
-    let (set, replaced) = result.map_err(|e| super::make::make_error(&cfg, e))?;
-    print_set(&cfg, &set, fill_in_asked);
-    if !replaced.removed.is_empty() {
-        println!(
-            "removed an earlier run's {} file(s) this run does not write",
-            replaced.removed.len()
-        );
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
-    let r = &set.report;
-    let first = &set.layers[0];
-    println!(
-        "{}: {} layer(s) ({}), {:.1} x {:.1} mm at {:.3} mm/px, material {}",
-        cfg.out_dir.display(),
-        r.layers.len(),
-        serde_json::to_value(r.method)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_string))
-            .unwrap_or_default(),
-        first.geometry.width_mm,
-        first.geometry.height_mm,
-        first.scale.mm_per_px,
-        cfg.physical.material.name,
-    );
-    println!(
-        "surface {}; registration marks: 4 crosses and 2 pin holes in a {:.1} mm band around the picture",
-        r.surface_color, r.marks.band_mm
-    );
-    for l in &r.layers {
-        let folder = if l.folder.is_empty() { "." } else { &l.folder };
-        println!(
-            "  {folder}: level {}, paint {}, cuts {:.1} %, {} islands, {} bridges, {} bridge px of which {:.0} % hidden by later layers{}",
-            l.level,
-            l.color,
-            l.cut_pct,
-            l.islands,
-            l.bridges,
-            l.bridge_px,
-            l.hidden_pct,
-            if l.check_passed { "" } else { " (CHECK FAILED)" }
-        );
-    }
-    if let Some(f) = &r.fill_in {
-        println!(
-            "  fill-in: paints {} of the first stencil's {} bridge px ({:.1} %), and {} px the picture leaves unpainted{}",
-            f.covered_px,
-            f.bridge_px,
-            f.covered_pct,
-            f.overpainted_px,
-            if f.check_passed {
-                ""
-            } else {
-                " (CHECK FAILED)"
-            }
-        );
-    } else if fill_in_asked && r.layers.len() > 1 {
-        println!(
-            "  (--fill-in with --layers: the hidden share above is what later layers paint over)"
-        );
-    }
-    println!(
-        "composite: {:.1} % of the picture painted in its posterised tone, mean ΔE {:.1}, likeness {:.3} (the posterised picture's: {:.3}); paint in the order {}",
-        r.composite.tone_agreement_pct,
-        r.composite.mean_delta_e,
-        r.composite.likeness,
-        r.composite.posterised_likeness,
-        r.painting_order.join(", ")
-    );
-}
-
 /// For a `make` folder holding a set (layer folders, a fill-in): settle the folder, then run
 /// `each` on every stencil folder in painting order under a heading. `None` for a folder of one
 /// stencil (the caller reads it as ever). Exits as the first folder that did not succeed.
@@ -164,7 +75,7 @@ pub fn each_stencil(
     if !dir.is_dir() {
         return None;
     }
-    if let Err(e) = super::send::settle(dir) {
+    if let Err(e) = super::program::settle(dir) {
         return Some(Err(e));
     }
     let folders = layers::stencil_folders(dir);

@@ -213,10 +213,10 @@ pub struct SetArgs {
     #[arg(long, value_name = "NAME|FILE")]
     pub machine: String,
     /// Laser power, % of full ($30): 0.1 to 100 (lasers only).
-    #[arg(long, value_name = "PCT", value_parser = |s: &str| super::number_in(s, 0.1..=100.0, " %"))]
+    #[arg(long, value_name = "PCT", value_parser = |s: &str| super::bounds::number_in(s, 0.1..=100.0, " %"))]
     pub power: Option<f64>,
     /// Cutting feed, mm/min: 1 to 100000, and at most the machine's max feed.
-    #[arg(long, value_name = "MM_MIN", value_parser = |s: &str| super::number_in(s, 1.0..=100_000.0, " mm/min"))]
+    #[arg(long, value_name = "MM_MIN", value_parser = |s: &str| super::bounds::number_in(s, 1.0..=100_000.0, " mm/min"))]
     pub speed: f64,
     /// Times each loop is cut: 1 to 50.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=50))]

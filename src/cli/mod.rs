@@ -10,33 +10,23 @@ mod gcode;
 mod grid;
 mod jog;
 mod layers;
+mod machine_args;
 mod make;
+mod make_args;
 mod material;
 mod mesh;
+mod operator;
 mod place;
 mod port;
+mod program;
 mod progress;
 mod send;
 mod simulate;
 mod studio;
 
-use std::ops::RangeInclusive;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
-
-/// A number option that must lie in `range` (clap's message names the option and the value; this
-/// says the range).
-pub(crate) fn number_in(s: &str, range: RangeInclusive<f64>, unit: &str) -> Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(v) if range.contains(&v) => Ok(v),
-        _ => Err(format!(
-            "must be a number from {} to {}{unit}",
-            range.start(),
-            range.end()
-        )),
-    }
-}
+use clap::{CommandFactory, Parser, Subcommand};
 
 /// Turn a picture or a 3D mesh into a stencil that holds together as one sheet.
 #[derive(Parser, Debug)]
@@ -49,9 +39,9 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Run the whole pipeline on a picture or an OBJ mesh: two-tone, islands, bridges, outputs.
-    Make(Box<make::MakeArgs>),
+    Make(Box<make_args::MakeArgs>),
     /// Stop after the two-tone stage (after the topological filter) and write one PNG.
-    Tone(make::ToneCmdArgs),
+    Tone(make_args::ToneCmdArgs),
     /// Stream a G-code file to a Grbl 1.1 controller (or a simulated one with --dry-run).
     Send(send::SendArgs),
     /// Draw what a G-code file makes the machine do (PNG) and estimate its running time.
@@ -91,6 +81,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),
         Command::TestGrid(a) => grid::run_test_grid(a),
-        Command::Studio(a) => studio::run_studio(*a),
+        Command::Studio(a) => studio::run_studio(*a, Cli::command()),
     }
 }

@@ -9,10 +9,10 @@ use clap::Args;
 
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine::Machine;
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{BytePort, IfMoving, Observer, Program, StreamConfig};
-use stencil_grbl::VirtualConfig;
+use stencil_grbl::{
+    BytePort, Console, ControllerState, IfMoving, Observer, Placement, Program, StartFrom,
+    StreamConfig, VirtualConfig,
+};
 
 /// What `--start-from` says, worded once for send and frame.
 pub const START_FROM_HELP: &str = "\
@@ -122,7 +122,7 @@ pub fn g92_needed(p: &Placement, st: &ControllerState) -> Option<String> {
     let w = st.wco();
     let there = (w[0] - p.zero[0]).abs() < 0.0015 && (w[1] - p.zero[1]).abs() < 0.0015;
     match (there, st.position) {
-        (false, Some(pos)) => Some(stencil_grbl::placement::g92_for(p.zero, pos)),
+        (false, Some(pos)) => Some(stencil_grbl::g92_for(p.zero, pos)),
         _ => None,
     }
 }
@@ -157,7 +157,7 @@ pub fn check_bed(
 
 /// `estimate --head-at X,Y`.
 pub fn parse_head_at(s: &str) -> Result<[f64; 2], String> {
-    let v = super::gcode::parse_offset(s)?;
+    let v = super::bounds::parse_offset(s)?;
     let lim = stencil_gcode::interpret::MAX_COORD_MM;
     if v.iter().all(|c| c.abs() <= lim) {
         Ok(v)

@@ -6,11 +6,10 @@ use std::time::Duration;
 use anyhow::{bail, Context};
 
 use stencil_gcode::machine::{Machine, Tool};
-use stencil_grbl::journal::JournalError;
-use stencil_grbl::stream::{
-    BytePort, Expected, IfMoving, MachineError, PowerScale, Program, MOVING_WAIT,
+use stencil_grbl::{
+    BytePort, Expected, IfMoving, JournalError, MachineError, PowerScale, Program, VirtualConfig,
+    VirtualGrbl, MOVING_WAIT,
 };
-use stencil_grbl::virtual_grbl::{VirtualConfig, VirtualGrbl};
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
 /// `send`, `frame` and `jog`).
@@ -229,6 +228,47 @@ pub fn virtual_for(machine: &Machine, overrides: &[(u32, String)]) -> VirtualCon
         settings,
         ..VirtualConfig::default()
     }
+}
+
+/// `limits` with the rapid rate, acceleration and junction deviation the controller reported in
+/// `$$` (the slower axis of X and Y), where it did.
+pub fn controller_motion(
+    mut limits: stencil_gcode::machine::Motion,
+    info: &stencil_grbl::ControllerInfo,
+) -> stencil_gcode::machine::Motion {
+    let lower = |a: u32, b: u32| match (info.setting(a), info.setting(b)) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, y) => x.or(y),
+    };
+    if let Some(r) = lower(110, 111).filter(|r| *r > 0.0) {
+        limits.rapid_mm_min = r;
+        limits.max_feed_mm_min = limits.max_feed_mm_min.min(r);
+    }
+    if let Some(a) = lower(120, 121).filter(|a| *a > 0.0) {
+        limits.accel_mm_s2 = a;
+    }
+    if let Some(j) = info.setting(11).filter(|j| *j > 0.0) {
+        limits.junction_deviation_mm = j;
+    }
+    // Per axis, as Grbl limits each block by its tightest axis (a slow Z), and the steps per mm
+    // its blocks are rounded to: only when the controller gives all three.
+    let axes = |first: u32| -> Option<[f64; 3]> {
+        let v = [first, first + 1, first + 2].map(|k| info.setting(k).filter(|x| *x > 0.0));
+        Some([v[0]?, v[1]?, v[2]?])
+    };
+    if let Some(r) = axes(110) {
+        limits.axis_rate_mm_min = Some(r);
+    }
+    if let Some(a) = axes(120) {
+        limits.axis_accel_mm_s2 = Some(a);
+    }
+    if let Some(s) = axes(100) {
+        limits.steps_per_mm = Some(s);
+    }
+    if let Some(ms) = info.setting(1).filter(|ms| *ms >= 0.0) {
+        limits.idle_lock_ms = Some(ms);
+    }
+    limits
 }
 
 #[cfg(test)]

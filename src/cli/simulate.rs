@@ -10,7 +10,7 @@ use stencil_gcode::machine as machine_profile;
 use stencil_gcode::simulate;
 use stencil_gcode::{estimate_program, format_duration};
 
-use super::send::read_program;
+use super::program::read_program;
 
 /// Draw what a G-code file makes the machine do, and estimate its time.
 #[derive(Args, Debug)]
@@ -40,7 +40,7 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     inputs.extend(a.machine.as_deref().map(std::path::Path::new));
     stencil_io::check_output(&a.output, &inputs)?;
     let text = read_program(&a.file)?;
-    super::send::name_machine_changes_in(&a.file, &text);
+    super::program::name_machine_changes_in(&a.file, &text);
     let machine = machine_profile::load(a.machine.as_deref())?;
     // Read as `estimate` (and `send`, `frame`) read it: placed by --start-from, timed with the
     // controller's settings when given.

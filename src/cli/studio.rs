@@ -8,12 +8,13 @@ use std::io::Write;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use clap::{ArgAction, Args, CommandFactory, Parser};
+use clap::{ArgAction, Args, FromArgMatches};
 use serde_json::Value;
 use stencil_core::MakeConfig;
 use stencil_studio::{Kind, OptionSpec};
 
-use super::make::{make_config, make_error, set_config, MakeArgs};
+use super::make::{make_config, make_error, set_config};
+use super::make_args::MakeArgs;
 use stencil_core::layers::LayersConfig;
 
 #[derive(Args, Debug)]
@@ -33,23 +34,25 @@ pub struct StudioArgs {
     pub open: bool,
 }
 
-/// `make`'s options for the studio, from the `make` subcommand's clap definition.
-struct CliMaker;
+/// `make`'s options for the studio, from the `make` subcommand's clap definition in `cli`, the
+/// whole command line's (given by the caller, which defines it).
+struct CliMaker {
+    cli: clap::Command,
+}
 
 /// Options of `make` the studio does not offer: the input and output folder are fixed when it
 /// starts.
 const NOT_OFFERED: &[&str] = &["out", "help", "version"];
 
-fn make_command() -> clap::Command {
-    super::Cli::command()
-        .find_subcommand("make")
+fn make_command(cli: &clap::Command) -> clap::Command {
+    cli.find_subcommand("make")
         .cloned()
         .unwrap_or_else(|| clap::Command::new("make"))
 }
 
 impl stencil_studio::Maker for CliMaker {
     fn options(&self) -> Vec<OptionSpec> {
-        let cmd = make_command();
+        let cmd = make_command(&self.cli);
         cmd.get_arguments()
             .filter(|a| !a.is_positional())
             .filter_map(|a| {
@@ -90,11 +93,11 @@ impl stencil_studio::Maker for CliMaker {
     }
 
     fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
-        make_config(&parse_make(args)?).map_err(|e| super::errors::one_line(&e))
+        make_config(&parse_make(&self.cli, args)?).map_err(|e| super::errors::one_line(&e))
     }
 
     fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
-        Ok(set_config(&parse_make(args)?))
+        Ok(set_config(&parse_make(&self.cli, args)?))
     }
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
@@ -103,15 +106,18 @@ impl stencil_studio::Maker for CliMaker {
 }
 
 /// `stencil make ARGS` parsed as the command line parses it.
-fn parse_make(args: &[String]) -> Result<MakeArgs, String> {
+fn parse_make(cli: &clap::Command, args: &[String]) -> Result<MakeArgs, String> {
     let argv = ["stencil", "make"]
         .into_iter()
         .map(String::from)
         .chain(args.iter().cloned());
-    let cli = super::Cli::try_parse_from(argv).map_err(|e| clap_message(&e))?;
-    match cli.command {
-        super::Command::Make(a) => Ok(*a),
-        _ => Err("not a make command".into()),
+    let m = cli.clone().try_get_matches_from(argv);
+    match m.as_ref().map(|m| m.subcommand()) {
+        Ok(Some(("make", m))) => {
+            MakeArgs::from_arg_matches(m).map_err(|e| clap_message(&e.format(&mut cli.clone())))
+        }
+        Ok(_) => Err("not a make command".into()),
+        Err(e) => Err(clap_message(e)),
     }
 }
 
@@ -141,15 +147,15 @@ fn clap_message(e: &clap::Error) -> String {
 }
 
 /// The option values given on the command line, as `/api/params` takes them.
-fn given_options(args: &[OsString]) -> Value {
+fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
     let mut out = serde_json::Map::new();
-    let Ok(m) = super::Cli::command().try_get_matches_from(args) else {
+    let Ok(m) = cli.clone().try_get_matches_from(args) else {
         return Value::Object(out);
     };
     let Some(("studio", m)) = m.subcommand() else {
         return Value::Object(out);
     };
-    for a in make_command().get_arguments() {
+    for a in make_command(cli).get_arguments() {
         let (Some(long), id) = (a.get_long(), a.get_id().as_str()) else {
             continue;
         };
@@ -172,7 +178,8 @@ fn given_options(args: &[OsString]) -> Value {
     Value::Object(out)
 }
 
-pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
+/// `stencil studio`; `cli` is the whole command line's definition, whose `make` the page offers.
+pub fn run_studio(a: StudioArgs, cli: clap::Command) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
     make_config(&a.make)?;
     let out_dir = a
@@ -183,11 +190,11 @@ pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
     let cfg = stencil_studio::StudioConfig {
         input: a.make.input.clone(),
         out_dir,
-        initial: given_options(&std::env::args_os().collect::<Vec<_>>()),
+        initial: given_options(&cli, &std::env::args_os().collect::<Vec<_>>()),
         port: a.port,
     };
     let open = a.open;
-    stencil_studio::serve(Arc::new(CliMaker), cfg, |url| {
+    stencil_studio::serve(Arc::new(CliMaker { cli }), cfg, |url| {
         // The URL is the first line of stdout (scripts and tests read it).
         println!("{url}");
         let _ = std::io::stdout().flush();
@@ -209,7 +216,8 @@ mod tests {
 
     #[test]
     fn every_make_option_is_offered_once() {
-        let specs = CliMaker.options();
+        let cli = <crate::cli::Cli as clap::CommandFactory>::command();
+        let specs = CliMaker { cli }.options();
         let names: Vec<&str> = specs.iter().map(|s| s.name.as_str()).collect();
         for n in [
             "threshold",

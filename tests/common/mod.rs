@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use stencil_core::raster::BitGrid;
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, VirtualConfig};
+use stencil_grbl::{Fault, FaultKind, VirtualConfig};
 
 /// Write an 8-bit gray PNG.
 pub fn write_gray_png(path: &Path, w: u32, h: u32, data: &[u8]) {

@@ -111,3 +111,43 @@ fn bad_settings_name_the_flag() {
         assert!(files_in(&out).is_empty());
     }
 }
+
+/// An error about the input names it once, at the front; an error about another file, or about
+/// no file, gets the input in front of its own words (the CLI decides by what the error is about,
+/// not by searching its text: an input named `o` is in most messages' words).
+#[test]
+fn the_input_is_named_once_and_first() {
+    let dir = tmp();
+    let first_line = |args: &[&str]| {
+        let o = stencil(args);
+        assert!(!o.status.success());
+        stderr(&o).lines().next().unwrap_or_default().to_string()
+    };
+    let input = dir.path().join("o");
+    let out = dir.path().join("out");
+    let err = first_line(&["make", s(&input), "-o", s(&out)]);
+    let opens = format!("error: {}: cannot open this picture: ", s(&input));
+    assert!(err.starts_with(&opens), "{err}");
+    assert_eq!(err.matches(s(&input)).count(), 1, "{err}");
+
+    // The keep-out picture's path starts with the input's: its error was once taken for one
+    // about the input, and the input went unnamed.
+    let rings = dir.path().join("r");
+    std::fs::copy(samples().join("rings.png"), &rings).unwrap();
+    let keep = dir.path().join("r-keep.png");
+    let err = first_line(&["make", s(&rings), "-o", s(&out), "--keep-out", s(&keep)]);
+    let opens = format!(
+        "error: {}: {}: cannot open this picture: ",
+        s(&rings),
+        s(&keep)
+    );
+    assert!(err.starts_with(&opens), "{err}");
+
+    let torus = samples().join("torus.obj");
+    let err = first_line(&["make", s(&torus), "-o", s(&out), "--layers", "3"]);
+    let mesh = format!(
+        "error: {}: layers are cut from a picture, not a mesh",
+        s(&torus)
+    );
+    assert_eq!(err, mesh);
+}

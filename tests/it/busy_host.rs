@@ -12,8 +12,10 @@ use std::io::{self, Read, Write};
 use std::time::Duration;
 
 use serialport::TTYPort;
-use stencil_grbl::stream::{send, BytePort, MachineError, Program, Quiet, StreamConfig};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind, Stutter, VirtualConfig, VirtualGrbl};
+use stencil_grbl::{
+    send, BytePort, Fault, FaultKind, MachineError, Program, Quiet, StreamConfig, Stutter,
+    VirtualConfig, VirtualGrbl,
+};
 
 /// The sender's end of the link, on a computer that often gives its CPU to others: before a
 /// read or a write, with a chance of one in `one_in`, it waits up to `longest` (as the

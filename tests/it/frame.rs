@@ -8,11 +8,9 @@ use std::process::Command;
 use std::sync::mpsc::channel;
 use std::time::Duration;
 
-use stencil_grbl::frame::{cut_extent, frame, Extent, FrameError, FrameTool};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{Control, Program, Quiet, StreamConfig};
-use stencil_grbl::virtual_grbl::{
-    Event, FaultKind, PlannedMove, Record, VirtualConfig, VirtualGrbl,
+use stencil_grbl::{
+    cut_extent, frame, Console, Control, Event, Extent, FaultKind, FrameError, FrameTool,
+    PlannedMove, Program, Quiet, Record, StreamConfig, VirtualConfig, VirtualGrbl,
 };
 
 /// A third-party style laser job: travel far out before and after, cuts in X 20..60 Y 30..70.
@@ -200,7 +198,7 @@ fn every_stop_path_while_framing_ends_with_the_beam_off() {
 #[test]
 fn a_locked_machine_is_not_framed() {
     let vcfg = VirtualConfig {
-        pace: stencil_grbl::virtual_grbl::Pace::Timed { speedup: 1.0 },
+        pace: stencil_grbl::Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut host) = VirtualGrbl::spawn(vcfg).unwrap();

@@ -7,8 +7,7 @@ use std::io::Write;
 use stencil_gcode::estimate_with;
 use stencil_gcode::interpret::{extent, interpret, interpret_program, CutRule};
 use stencil_gcode::machine;
-use stencil_grbl::frame::cut_extent;
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::{cut_extent, VirtualConfig, VirtualGrbl};
 
 use crate::common::read_until;
 
@@ -173,7 +172,7 @@ fn the_virtual_grbl_reports_offsets_and_cuts_arcs_as_grbl() {
 fn the_spindle_runs_at_s_clamped_to_its_settings() {
     // $30 = 1000 (the virtual Grbl's max): S5000 runs, and is reported, at 1000.
     let cfg = VirtualConfig {
-        pace: stencil_grbl::virtual_grbl::Pace::Timed { speedup: 1.0 },
+        pace: stencil_grbl::Pace::Timed { speedup: 1.0 },
         ..VirtualConfig::default()
     };
     let (vg, mut port) = VirtualGrbl::spawn(cfg).unwrap();

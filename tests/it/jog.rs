@@ -7,10 +7,10 @@ use std::io::Write;
 use std::process::Command;
 use std::time::Duration;
 
-use stencil_grbl::jog::{parse_keys, run, JogKey, Jogger, Script};
-use stencil_grbl::stream::console::Console;
-use stencil_grbl::stream::{Observer, StreamConfig};
-use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record, VirtualConfig, VirtualGrbl};
+use stencil_grbl::{
+    jog_session, parse_keys, Console, Event, FaultKind, JogKey, Jogger, Observer, Pace, Record,
+    Script, StreamConfig, VirtualConfig, VirtualGrbl,
+};
 
 use crate::common::faulty;
 
@@ -50,7 +50,7 @@ fn jog(
         let mut console = Console::connect(&mut host, &c, None, &mut log).unwrap();
         let mut j = Jogger::new(&mut console, step, 1000.0);
         let mut script = Script(VecDeque::from(parse_keys(keys).unwrap()));
-        run(&mut j, &mut script, &mut |l: &str| {
+        jog_session(&mut j, &mut script, &mut |l: &str| {
             shown.push(l.to_string())
         })
         .map_err(|e| e.to_string())

@@ -5,11 +5,10 @@ use std::process::Command;
 use std::sync::mpsc::{channel, Sender};
 use std::time::Duration;
 
-use stencil_grbl::stream::{
-    send, Control, FlowControl, MachineError, Observer, Program, Progress, Quiet, StreamConfig,
+use stencil_grbl::{
+    send, Control, Event, FaultKind, FlowControl, MachineError, Observer, Pace, Program, Progress,
+    Quiet, Record, StreamConfig, VirtualConfig, VirtualGrbl,
 };
-use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 use crate::common::faulty;
 use crate::common_job;
@@ -337,7 +336,7 @@ impl Observer for Operator {
             self.hold_at = None;
             self.tx.send(Control::FeedHold).unwrap();
         }
-        if !self.held && matches!(p.state, Some(stencil_grbl::protocol::MachineState::Hold(_))) {
+        if !self.held && matches!(p.state, Some(stencil_grbl::MachineState::Hold(_))) {
             self.held = true;
         }
         if self.held && !self.resumed {

@@ -10,14 +10,11 @@ use std::sync::mpsc::channel;
 use std::time::Duration;
 
 use serialport::TTYPort;
-use stencil_grbl::journal::{self, Journal, JournalWriter};
-use stencil_grbl::stall::ClockRef;
-use stencil_grbl::stream::{
-    send, BytePort, Control, Expected, MachineError, PowerScale, Program, Quiet, Recovery,
-    StreamConfig,
+use stencil_grbl::{
+    send, BytePort, ClockRef, Control, Event, Expected, FaultKind, Journal, JournalWriter,
+    MachineError, Pace, PowerScale, Program, Quiet, Record, Recovery, StreamConfig, VirtualConfig,
+    VirtualGrbl,
 };
-use stencil_grbl::virtual_grbl::{Event, FaultKind, Pace, Record};
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
 
 use crate::common;
 use crate::common_job;
@@ -243,7 +240,7 @@ fn sigterm_sighup_and_sigint_stop_the_machine_like_the_abort_key_and_are_named()
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("job.gcode");
         std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
-        let jpath = journal::path_for(&file);
+        let jpath = stencil_grbl::journal_path(&file);
         let child = stencil()
             .args(["send", "--dry-run", "--realtime"])
             .arg(&file)
@@ -286,7 +283,7 @@ fn sigterm_sighup_and_sigint_stop_the_machine_like_the_abort_key_and_are_named()
             "SIG{sig}: {so}"
         );
         let j = Journal::read(&jpath).unwrap();
-        assert_eq!(j.state, journal::RunState::Stopped, "SIG{sig}");
+        assert_eq!(j.state, stencil_grbl::RunState::Stopped, "SIG{sig}");
         // Issue 39, item 7: the signal is named, not taken for the operator's abort key.
         let why = j.stop_reason.unwrap_or_default();
         assert!(
@@ -325,7 +322,7 @@ fn laser_expect(text: &str, job: &Program) -> Expected {
 
 #[derive(Default)]
 struct Notes(Vec<String>);
-impl stencil_grbl::stream::Observer for Notes {
+impl stencil_grbl::Observer for Notes {
     fn message(&mut self, text: &str) {
         self.0.push(text.to_string());
     }
@@ -751,8 +748,8 @@ fn after_a_power_loss_the_resume_waits_for_the_person_and_the_corner() {
     let (vg, mut port) = VirtualGrbl::spawn(vcfg).unwrap();
     let mut last_pos = None;
     struct Pos<'a>(&'a mut Option<[f64; 3]>);
-    impl stencil_grbl::stream::Observer for Pos<'_> {
-        fn progress(&mut self, p: &stencil_grbl::stream::Progress) {
+    impl stencil_grbl::Observer for Pos<'_> {
+        fn progress(&mut self, p: &stencil_grbl::Progress) {
             *self.0 = p.position.or(*self.0);
         }
     }
@@ -913,7 +910,7 @@ fn connecting_to_a_moving_machine_waits_for_it_and_never_resets_it_while_it_move
 
 #[test]
 fn a_moving_machine_is_waited_for_within_a_bound_held_ones_are_left_or_stopped_safely() {
-    use stencil_grbl::stream::IfMoving;
+    use stencil_grbl::IfMoving;
     let job = Program::parse("j.gcode", "G21G90\nG0X10\n").unwrap();
     // Longer than the wait allows: refused, nothing sent, not reset.
     let (vg, mut port) = VirtualGrbl::spawn(mid_job(30.0)).unwrap();

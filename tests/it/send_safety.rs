@@ -5,9 +5,11 @@
 use std::time::Duration;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_grbl::stream::{send, MachineError, Program, Quiet, ResumeLift, StreamConfig};
-use stencil_grbl::virtual_grbl::{FaultKind, PlannedMove, Record};
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::{
+    send, Clock, ClockRef, Control, Event, FaultKind, Journal, Key, KeySource, LaserMode,
+    MachineError, Observer, Pace, PlannedMove, Program, Progress, Quiet, Record, ResumeLift,
+    RunState, StreamConfig, VirtualConfig, VirtualGrbl,
+};
 
 use crate::common::faulty;
 use stencil_gcode::machine::{self as machine_profile, Machine, PenLift, Tool};
@@ -56,7 +58,7 @@ fn planned(machine: &Machine) -> String {
     gcode_for(&geom, machine, &cfg, &[]).unwrap().0
 }
 
-/// What `stencil send` tells the streamer about the tool (see `cli/send.rs`).
+/// What `stencil send` tells the streamer about the tool (see `src/cli/send/mod.rs`).
 fn lift_of(machine: &Machine) -> ResumeLift {
     match machine.tool {
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => ResumeLift {
@@ -243,10 +245,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Sender};
 use std::sync::Arc;
 
-use stencil_grbl::stall::{Clock, ClockRef};
-use stencil_grbl::stream::{Control, Observer, Progress};
-use stencil_grbl::virtual_grbl::{Event, Pace};
-
 /// The standard test job with air assist: M8 after the laser is armed, M9 before the end.
 fn air_job() -> Program {
     let text = common_job::job_text_scaled(1)
@@ -421,7 +419,7 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
     };
     // The bound is the job's own: its longest move (a 10 mm square side in 5 segments at
     // 1200 mm/min is 0.1 s; the longest is a G0 of ~58 mm at 6000 mm/min, 0.58 s) x 1.5 + 5 s.
-    let slowest = stencil_grbl::stall::slowest_step(&job, Some(6000.0)).as_secs_f64();
+    let slowest = stencil_grbl::slowest_step(&job, Some(6000.0)).as_secs_f64();
     assert!((0.5..0.7).contains(&slowest), "{slowest}");
     assert!((*bound_s - (slowest * 1.5 + 5.0)).abs() < 1e-6, "{bound_s}");
     assert!(*still_s > *bound_s, "{msg}");
@@ -466,8 +464,6 @@ fn a_machine_frozen_in_run_is_a_stall_stopped_with_the_resume_line() {
 }
 
 // ---- laser mode ($32) -------------------------------------------------------------------------
-
-use stencil_grbl::stream::LaserMode;
 
 fn laser_off_grbl() -> VirtualConfig {
     VirtualConfig {
@@ -599,8 +595,6 @@ fn cli_laser_mode_check_in_a_dry_run() {
 
 // ---- overrides from keys ----------------------------------------------------------------------
 
-use stencil_grbl::keys::{self, Key, KeySource};
-
 /// Keys typed by a test: each one once the observer has opened its gate (phase), then the
 /// source ends.
 struct TypedKeys {
@@ -633,7 +627,7 @@ impl Observer for Watch {
             self.phase.fetch_max(1, Ordering::SeqCst);
         }
         if let Some(ov) = p.overrides {
-            let t = keys::overrides_text(ov);
+            let t = stencil_grbl::overrides_text(ov);
             if t == "Ov F120% S90%" {
                 self.phase.fetch_max(2, Ordering::SeqCst);
             }
@@ -668,7 +662,7 @@ fn override_keys_during_send_reach_grbl_and_show_in_progress() {
     let (tx, rx) = channel();
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let stop2 = stop.clone();
-    let pump = std::thread::spawn(move || keys::pump(&mut source, &tx, &stop2));
+    let pump = std::thread::spawn(move || stencil_grbl::pump(&mut source, &tx, &stop2));
     let mut watch = Watch {
         phase,
         shown: Vec::new(),
@@ -710,8 +704,6 @@ fn override_keys_during_send_reach_grbl_and_show_in_progress() {
 
 // ---- job recovery: the journal and --recover ---------------------------------------------------
 
-use stencil_grbl::journal::{self, Journal, RunState};
-
 fn run_send(file: &std::path::Path, args: &[&str]) -> (bool, String, String) {
     let out = stencil().arg("send").arg(file).args(args).output().unwrap();
     (
@@ -737,7 +729,7 @@ fn a_run_whose_port_dies_leaves_a_journal_and_recover_resumes_from_it() {
     let text = common_job::job_text_scaled(1);
     std::fs::write(&file, &text).unwrap();
     let job = Program::parse("job.gcode", &text).unwrap();
-    let jpath = journal::path_for(&file);
+    let jpath = stencil_grbl::journal_path(&file);
 
     // No journal yet: --recover says so, and sends nothing.
     let (ok, so, se) = run_send(&file, &["--dry-run", "--recover"]);
@@ -844,7 +836,7 @@ fn a_killed_sender_leaves_a_running_journal_that_recover_resumes() {
     let file = dir.path().join("job.gcode");
     let text = common_job::job_text_scaled(1);
     std::fs::write(&file, &text).unwrap();
-    let jpath = journal::path_for(&file);
+    let jpath = stencil_grbl::journal_path(&file);
     // Paced like the machine (about 20 s): killed once the journal shows progress.
     let mut child = stencil()
         .args(["send", "--dry-run", "--realtime"])
@@ -916,7 +908,7 @@ fn recover_homes_first_when_the_profile_says_the_machine_homes() {
     assert!(!ok);
     // The journal names the profile by name and content, never by the path it was read from:
     // a recovery does not open files a journal names, so this one must be named again.
-    let jpath = journal::path_for(&file);
+    let jpath = stencil_grbl::journal_path(&file);
     let j = Journal::read(&jpath).unwrap();
     assert_eq!(j.machine, "homing-laser");
     assert!(j.machine_fnv1a64.is_some(), "{j:?}");
@@ -1001,7 +993,7 @@ fn file_text_is_printed_without_terminal_escapes() {
     // The origin line shows the header's text, its escapes written out.
     assert!(se.contains("from \\u{1b}]0;pwned\\u{7}"), "{se}");
     // A journal (a file, maybe received with the job) whose text carries escapes.
-    let jpath = journal::path_for(&file);
+    let jpath = stencil_grbl::journal_path(&file);
     let mut j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&jpath).unwrap()).unwrap();
     j["stop_reason"] = format!("{evil}the port went away").into();
@@ -1026,7 +1018,7 @@ fn recover_never_opens_a_path_the_journal_names_and_refuses_another_profile() {
     std::fs::write(&file, common_job::job_text_scaled(1)).unwrap();
     let (ok, ..) = run_send(&file, &["--dry-run", "--dry-run-fault", "error:20@60"]);
     assert!(!ok);
-    let jpath = journal::path_for(&file);
+    let jpath = stencil_grbl::journal_path(&file);
     let original = std::fs::read_to_string(&jpath).unwrap();
     let j = Journal::read(&jpath).unwrap();
     assert_eq!(j.machine, "diode-400");

@@ -7,10 +7,10 @@
 use std::path::Path;
 
 use crate::common::{stderr, stencil, tmp};
-use stencil_grbl::placement::{ControllerState, Placement, StartFrom};
-use stencil_grbl::stream::{send, MachineError, Program, Quiet, Recovery, StreamConfig};
-use stencil_grbl::virtual_grbl::{Fault, FaultKind};
-use stencil_grbl::{VirtualConfig, VirtualGrbl};
+use stencil_grbl::{
+    send, ControllerState, Fault, FaultKind, MachineError, Placement, Program, Quiet, Recovery,
+    StartFrom, StreamConfig, VirtualConfig, VirtualGrbl,
+};
 
 /// A 40 x 20 mm laser job with an arc, drawn from its own X0 Y0 (as `stencil make` places a
 /// job with the default --offset 0,0): cuts X 0..40, Y 0..20.

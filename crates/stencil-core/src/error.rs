@@ -60,6 +60,18 @@ pub enum Error {
     },
 }
 
+impl Error {
+    /// The picture or mesh read that this error is about, when its message names it (a
+    /// caller naming the input itself does so only for the others).
+    pub fn subject(&self) -> Option<&std::path::Path> {
+        match self {
+            Error::Tone(e) => e.subject(),
+            Error::Layers(LayersError::Colour { path, .. }) => Some(path),
+            _ => None,
+        }
+    }
+}
+
 /// How many violations an error message lists.
 const LISTED_IN_ERROR: usize = 5;
 

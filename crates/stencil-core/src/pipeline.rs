@@ -1449,7 +1449,7 @@ fn finish(
 }
 
 /// `make`'s end from stage outputs a caller kept (the studio): the same trace, refusal, G-code
-/// and report as [`run`](crate::driver::run), so the files are the same.
+/// and report as the driver's `run`, so the files are the same.
 pub fn finish_from(
     cfg: &MakeConfig,
     params: &StageParams,
@@ -1545,7 +1545,7 @@ pub fn gcode(
     Ok((text, summary))
 }
 
-/// report.json's contents (the files written are added by [`make`](crate::driver::make)).
+/// report.json's contents (the files written are added by the driver's `make`).
 pub fn report(
     cfg: &MakeConfig,
     params: &StageParams,

@@ -45,9 +45,11 @@ impl std::fmt::Display for Halt {
 /// [`MachineError::RepliesLost`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Unanswered {
-    /// File lines of the first and last unanswered line, and how many.
+    /// File line of the first unanswered line.
     pub first: usize,
+    /// File line of the last.
     pub last: usize,
+    /// How many.
     pub count: usize,
     /// Every line of the job had been sent.
     pub all_sent: bool,
@@ -78,9 +80,24 @@ impl std::fmt::Display for Unanswered {
 /// One line `$C` check mode rejected.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CheckRejection {
+    /// 1-based line in the file.
     pub line: usize,
+    /// The line as sent.
     pub text: String,
+    /// Grbl's error code.
     pub code: u8,
+}
+
+/// A line of a job that changes the machine itself: a Grbl setting, homing, unlocking, check
+/// mode, a jog, sleep, or a stored offset or position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineChange {
+    /// 1-based line in the file.
+    pub line: usize,
+    /// The line as Grbl would see it.
+    pub text: String,
+    /// What it does, e.g. "writes Grbl setting $32".
+    pub what: String,
 }
 
 fn list_rejections(rejected: &[CheckRejection]) -> String {
@@ -103,7 +120,7 @@ fn list_rejections(rejected: &[CheckRejection]) -> String {
     s.join("; ")
 }
 
-fn list_changes(changes: &[crate::program::MachineChange]) -> String {
+fn list_changes(changes: &[MachineChange]) -> String {
     let mut s: Vec<String> = changes
         .iter()
         .take(10)
@@ -115,6 +132,8 @@ fn list_changes(changes: &[crate::program::MachineChange]) -> String {
     s.join("; ")
 }
 
+/// Why a stream, a connection or a program was refused or stopped.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
     #[error("{file}: line {line} is {len} bytes without spaces and comments; Grbl takes at most {max}: split it", max = MAX_LINE_BYTES)]
@@ -191,7 +210,7 @@ pub enum MachineError {
     #[error("{file}: the job would change the machine itself, not only cut: {}; nothing was sent. Remove these lines, or allow them if you meant the job to do this", list_changes(changes))]
     MachineCommands {
         file: String,
-        changes: Vec<crate::program::MachineChange>,
+        changes: Vec<MachineChange>,
     },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },

@@ -8,58 +8,10 @@
 //! like a job, so it has every stop a job has (error, alarm, lost port, abort: laser off).
 
 use super::error::MachineError;
-use super::program::Program;
+use super::program::{Extent, Program};
 use super::protocol::MachineState;
-use super::stream::console::Console;
-use stencil_gcode::interpret::{CutRule, Move};
+use crate::stream::Console;
 use stencil_gcode::num;
-
-/// The rectangle of the cutting moves, mm, as the interpreter places them: machine coordinates
-/// from a zero work offset, the job's own offsets (G10, G92, G54..G59) applied and arcs
-/// followed to their true extent. The frame program traces it in the controller's work
-/// coordinates, which are those when its work offset is zero.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Extent {
-    pub min: [f64; 2],
-    pub max: [f64; 2],
-    /// Cutting moves that made it.
-    pub moves: usize,
-}
-
-impl Extent {
-    pub fn width(&self) -> f64 {
-        self.max[0] - self.min[0]
-    }
-    pub fn height(&self) -> f64 {
-        self.max[1] - self.min[1]
-    }
-}
-
-/// The extent of the cutting moves, by the rule the program itself shows
-/// ([`CutRule::infer`], the rule `simulate` and `estimate` use); `None` when nothing cuts.
-pub fn cut_extent(moves: &[Move]) -> Option<Extent> {
-    cut_extent_with(moves, CutRule::infer(moves))
-}
-
-/// [`cut_extent`] by a given rule (a machine profile's, e.g. a servo pen drawing in G0).
-pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
-    let mut e: Option<Extent> = None;
-    for m in moves.iter().filter(|m| rule.cuts(m)) {
-        let x = e.get_or_insert(Extent {
-            min: [m.from[0], m.from[1]],
-            max: [m.from[0], m.from[1]],
-            moves: 0,
-        });
-        for p in [m.from, m.to] {
-            for (a, &v) in p.iter().take(2).enumerate() {
-                x.min[a] = x.min[a].min(v);
-                x.max[a] = x.max[a].max(v);
-            }
-        }
-        x.moves += 1;
-    }
-    e
-}
 
 /// How the tool is kept from cutting while framing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,9 +20,17 @@ pub enum FrameTool {
     /// dim and lit only while the head moves along the frame; off (`M5 S0`) for the travel.
     /// `z`: the work Z the job cuts at, taken first (`G0 Z`) when the job sets its own Z (a
     /// head focused at Z5 frames there, not wherever it stood); `None` leaves Z alone.
-    Laser { s: f64, z: Option<f64> },
+    Laser {
+        /// Laser power while tracing.
+        s: f64,
+        /// Work Z to frame at.
+        z: Option<f64>,
+    },
     /// A pen or knife on Z: lifted to `up_mm` (work Z) before any move, and left there.
-    ZUp { up_mm: f64 },
+    ZUp {
+        /// Work Z of the lifted tool.
+        up_mm: f64,
+    },
     /// A pen servo on the spindle output: `M5` keeps it up.
     SpindlePen,
 }
@@ -78,9 +38,11 @@ pub enum FrameTool {
 /// What to frame and how.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FramePlan {
+    /// The rectangle to trace.
     pub extent: Extent,
     /// Where the head is when framing starts (work coordinates): it comes back here.
     pub start: [f64; 2],
+    /// How the tool stays off the work.
     pub tool: FrameTool,
     /// Feed along the frame, mm/min.
     pub feed_mm_min: f64,
@@ -140,6 +102,7 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
 }
 
 /// Why a frame did not run, or stopped.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
     #[error(
@@ -211,11 +174,13 @@ impl From<MachineError> for FrameError {
 /// What a frame did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Framed {
+    /// What was traced.
     pub plan: FramePlan,
     /// The program that was streamed.
     pub program: String,
-    /// Work position before and after, mm.
+    /// Work position before, mm.
     pub start: [f64; 3],
+    /// Work position after, mm.
     pub end: [f64; 3],
 }
 
@@ -264,6 +229,7 @@ pub fn frame(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::program::cut_extent;
     use stencil_gcode::interpret::interpret;
 
     #[test]

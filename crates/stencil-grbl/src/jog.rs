@@ -12,20 +12,29 @@ use std::time::Duration;
 
 use super::error::MachineError;
 use super::protocol::{self, MachineState, RT_JOG_CANCEL};
-use super::stream::console::{Console, Position};
+use crate::stream::{Console, Position};
 use stencil_gcode::num;
 
 /// A key, as far as jogging cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JogKey {
+    /// Arrow left: X−.
     Left,
+    /// Arrow right: X+.
     Right,
+    /// Arrow up: Y+.
     Up,
+    /// Arrow down: Y−.
     Down,
+    /// Z+.
     PageUp,
+    /// Z−.
     PageDown,
+    /// Any other key by its character (see [`JOG_KEY_HELP`]).
     Char(char),
+    /// Quit.
     Esc,
+    /// Quit.
     CtrlC,
     /// A jog key was let go (terminals that report releases): the running jog is cancelled.
     Released,
@@ -34,7 +43,7 @@ pub enum JogKey {
 }
 
 /// The keys, for help texts.
-pub const KEY_HELP: &str = "arrows = jog X/Y, PgUp/PgDn = jog Z, 1/2/3 = step 0.1/1/10 mm, \
+pub const JOG_KEY_HELP: &str = "arrows = jog X/Y, PgUp/PgDn = jog Z, 1/2/3 = step 0.1/1/10 mm, \
 +/- = larger/smaller step, space = cancel jog, h = home ($H), u = unlock ($X), 0 = work zero \
 X0 Y0 here, q / Esc / Ctrl-C = quit";
 
@@ -154,10 +163,11 @@ const STILL_LIMIT: Duration = Duration::from_secs(60);
 
 /// A jog session on an open [`Console`].
 pub struct Jogger<'c, 'a> {
-    pub console: &'c mut Console<'a>,
+    pub(crate) console: &'c mut Console<'a>,
     /// The steps `+`/`-` walk through, ascending (the three of [`STEPS_MM`] plus `--step`).
     steps: Vec<f64>,
     step: usize,
+    /// Jog feed, mm/min.
     pub feed_mm_min: f64,
     last: Option<Position>,
 }
@@ -166,7 +176,9 @@ pub struct Jogger<'c, 'a> {
 #[derive(Debug, thiserror::Error)]
 #[error("{cause}; {laser}")]
 pub struct JogError {
+    /// What stopped the session.
     pub cause: Box<MachineError>,
+    /// What was done to make sure the laser is off.
     pub laser: String,
 }
 
@@ -372,7 +384,7 @@ impl<'c, 'a> Jogger<'c, 'a> {
 /// Run a jog session until a quit key, the end of the keys, or a fault. `show` gets the status
 /// line after every key and about five times a second meanwhile. A fault other than a lost port
 /// stops the machine (soft reset, laser off).
-pub fn run(
+pub fn jog_session(
     j: &mut Jogger<'_, '_>,
     keys: &mut dyn JogKeys,
     show: &mut dyn FnMut(&str),

@@ -1,8 +1,8 @@
 //! The job journal: a small file beside a job being streamed (`JOB.gcode.journal`) that says how
 //! far it got, so a crash, a pulled cable or a power cut can be resumed (`send --recover`).
 //!
-//! It is rewritten atomically (`export::atomic`) every few seconds while streaming and on every
-//! stop, and marked complete when the job finishes. What it records is what the host knows:
+//! It is rewritten atomically (`stencil_io::write_atomic`) every few seconds while streaming
+//! and on every stop, and removed when the job finishes. What it records is what the host knows:
 //! Grbl acknowledges a line when it is queued, not when it has run, so besides the last
 //! acknowledged line it keeps the first line that may not have run (from the status reports' free
 //! planner blocks, or the whole planner depth when unknown) and Grbl's `Ln:` if it reports one.
@@ -24,10 +24,10 @@ use stencil_io::write_atomic;
 pub(crate) const FORMAT: &str = "stencil-send-journal/1";
 
 /// How often the journal is rewritten while streaming.
-pub const EVERY: Duration = Duration::from_secs(2);
+pub const JOURNAL_EVERY: Duration = Duration::from_secs(2);
 
 /// Where the journal of `job` lives: beside it, `NAME.journal`.
-pub fn path_for(job: &Path) -> PathBuf {
+pub fn journal_path(job: &Path) -> PathBuf {
     let mut s = job.as_os_str().to_os_string();
     s.push(".journal");
     PathBuf::from(s)
@@ -38,16 +38,16 @@ pub fn path_for(job: &Path) -> PathBuf {
 /// whole journal atomically for every line cost a 200,000-line dry run 34 s (23 s of it in the
 /// kernel); one small write in place costs a system call. A killed sender's last write is in
 /// the page cache, so it survives the process.
-pub fn sent_path_for(journal: &Path) -> PathBuf {
+fn sent_path(journal: &Path) -> PathBuf {
     let mut s = journal.as_os_str().to_os_string();
     s.push(".sent");
     PathBuf::from(s)
 }
 
-/// The number [`sent_path_for`] holds, if it holds one (a short read: the file is one line).
+/// The number [`sent_path`] holds, if it holds one (a short read: the file is one line).
 fn read_sent(journal: &Path) -> Option<usize> {
     use std::io::Read;
-    let mut f = std::fs::File::open(sent_path_for(journal)).ok()?;
+    let mut f = std::fs::File::open(sent_path(journal)).ok()?;
     let mut buf = [0u8; SENT_RECORD];
     let n = f.read(&mut buf).ok()?;
     std::str::from_utf8(&buf[..n]).ok()?.trim().parse().ok()
@@ -60,7 +60,7 @@ const SENT_RECORD: usize = 21;
 /// The sent-line file of a run, made anew (an existing one, or a link in its place, is removed
 /// first, and the new one is created exclusively: a link put there is never followed).
 fn create_sent(journal: &Path) -> std::io::Result<std::fs::File> {
-    let path = sent_path_for(journal);
+    let path = sent_path(journal);
     match std::fs::remove_file(&path) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -116,9 +116,11 @@ pub struct ModalRecord {
     pub units: String,
     /// "G90" (absolute) or "G91" (incremental).
     pub distance: String,
+    /// The feed (F), mm/min, once one was set.
     pub feed_mm_min: Option<f64>,
     /// "M3", "M4" or "M5".
     pub spindle: String,
+    /// The power (S).
     pub s: f64,
     /// Coolant (air assist) on.
     pub air: bool,
@@ -129,11 +131,11 @@ pub struct ModalRecord {
 /// The journal file's content.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Journal {
-    pub format: String,
+    pub(crate) format: String,
     /// The job file as it was named.
     pub file: String,
-    pub file_bytes: u64,
-    pub file_fnv1a64: String,
+    pub(crate) file_bytes: u64,
+    pub(crate) file_fnv1a64: String,
     /// The machine profile the run used, by name (never a path: a recovery loads profiles by
     /// name only, and never opens a file a journal names).
     pub machine: String,
@@ -141,11 +143,12 @@ pub struct Journal {
     /// profile that differs is refused.
     #[serde(default)]
     pub machine_fnv1a64: Option<String>,
+    /// How the run stands.
     pub state: RunState,
     /// Why it stopped (the sender's own message), for `Stopped`.
     pub stop_reason: Option<String>,
-    pub started_unix_s: u64,
-    pub updated_unix_s: u64,
+    pub(crate) started_unix_s: u64,
+    pub(crate) updated_unix_s: u64,
     /// The run started at this line (a resumed run starts later than 1).
     pub from_line: usize,
     /// The last file line Grbl acknowledged (queued; maybe not run).
@@ -173,8 +176,8 @@ pub struct Journal {
     /// can tell a controller that lost its position (a restart at MPos 0 without homing).
     #[serde(default)]
     pub last_position: Option<[f64; 3]>,
-    /// Where the run put the job's X0 Y0 (see [`crate::placement`]): a stop's soft reset or a
-    /// power loss clears G92, so a recovery puts it back from here.
+    /// Where the run put the job's X0 Y0 ([`Placement`](super::placement::Placement)): a stop's
+    /// soft reset or a power loss clears G92, so a recovery puts it back from here.
     #[serde(default)]
     pub placement: Option<PlacementRecord>,
 }
@@ -189,6 +192,7 @@ pub struct PlacementRecord {
 }
 
 /// Why a journal cannot be used.
+#[allow(missing_docs)] // Each variant's message says when it happens and what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
     #[error("{}: no journal beside the job (nothing was streamed from this file, or it finished and the journal was removed); resume from a line instead", path.display())]
@@ -398,7 +402,9 @@ impl Journal {
 /// Where `--recover` proposes to resume.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Proposal {
+    /// The line to resume from.
     pub line: usize,
+    /// Why that line.
     pub why: String,
 }
 
@@ -413,9 +419,9 @@ fn n_word(text: &str) -> Option<u32> {
 
 /// An observer that keeps the journal while passing everything on to the front end's.
 pub struct JournalWriter<'o, 'j> {
-    pub inner: &'o mut dyn Observer,
-    pub journal: Journal,
-    pub path: PathBuf,
+    inner: &'o mut dyn Observer,
+    journal: Journal,
+    path: PathBuf,
     job: &'j Program,
     clock: ClockRef,
     every: Duration,
@@ -426,12 +432,14 @@ pub struct JournalWriter<'o, 'j> {
     /// Where the run stands by the last progress report (first line that may not have run):
     /// taken into the journal, with its modal state, when it is next written in full.
     resume: usize,
-    /// The sent-line file ([`sent_path_for`]), open while the real run lasts; `None` before,
+    /// The sent-line file ([`sent_path`]), open while the real run lasts; `None` before,
     /// or when it could not be made (then each line sent rewrites the journal).
     sent: Option<std::fs::File>,
 }
 
 impl<'o, 'j> JournalWriter<'o, 'j> {
+    /// Keep `journal` at `path` for `job`, passing every event on to `inner`; written in full at
+    /// most every `every` by `clock`.
     pub fn new(
         inner: &'o mut dyn Observer,
         journal: Journal,
@@ -475,7 +483,7 @@ impl<'o, 'j> JournalWriter<'o, 'j> {
             Ok(_) => {
                 self.journal.state = RunState::Complete;
                 self.sent = None;
-                let _ = std::fs::remove_file(sent_path_for(&self.path));
+                let _ = std::fs::remove_file(sent_path(&self.path));
                 if let Err(e) = std::fs::remove_file(&self.path) {
                     if e.kind() != std::io::ErrorKind::NotFound {
                         self.inner.message(&format!(
@@ -573,15 +581,13 @@ mod tests {
         let outside = dir.path().join("outside.txt");
         std::fs::write(&outside, "keep me").unwrap();
         #[cfg(unix)]
-        std::os::unix::fs::symlink(&outside, sent_path_for(&path)).unwrap();
+        std::os::unix::fs::symlink(&outside, sent_path(&path)).unwrap();
         let mut f = create_sent(&path).unwrap();
         assert_eq!(std::fs::read_to_string(&outside).unwrap(), "keep me");
         write_sent(&mut f, 1234).unwrap();
         write_sent(&mut f, 4).unwrap();
         assert_eq!(
-            std::fs::read_to_string(sent_path_for(&path))
-                .unwrap()
-                .trim(),
+            std::fs::read_to_string(sent_path(&path)).unwrap().trim(),
             "4"
         );
         assert_eq!(Journal::read(&path).unwrap().last_sent_line, Some(4));
@@ -595,7 +601,7 @@ mod tests {
         assert_eq!(fnv1a64(b""), "cbf29ce484222325");
         assert_eq!(fnv1a64(b"a"), "af63dc4c8601ec8c");
         assert_eq!(
-            path_for(Path::new("out/job.gcode")),
+            journal_path(Path::new("out/job.gcode")),
             PathBuf::from("out/job.gcode.journal")
         );
     }

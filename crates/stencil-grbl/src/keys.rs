@@ -14,7 +14,9 @@ use super::stream::{Control, Override};
 /// A key press, as far as the sender cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Key {
+    /// A key by its character (see [`SEND_KEY_HELP`]).
     Char(char),
+    /// The Escape key.
     Esc,
     /// Ctrl-C (in raw mode it arrives as a key, not as a signal).
     CtrlC,
@@ -28,7 +30,7 @@ pub trait KeySource: Send {
 }
 
 /// The keys, for the help line and the README.
-pub const KEY_HELP: &str = "! or h = feed hold, ~ or r = resume, + / - = feed ±10 %, ] / [ = \
+pub const SEND_KEY_HELP: &str = "! or h = feed hold, ~ or r = resume, + / - = feed ±10 %, ] / [ = \
 power ±10 %, 0 = both back to 100 %, a / q / Esc / Ctrl-C = abort";
 
 /// What a key does: nothing, or one or more commands (`0` resets both overrides).

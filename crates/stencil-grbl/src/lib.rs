@@ -4,51 +4,55 @@
 //! Uses `stencil-gcode` for its interpreter (to vet a program and know its moves), Grbl's fixed
 //! sizes (`limits`) and its number format (`write::num`, for the programs it writes itself).
 //!
-//! # Public API
+//! [`send`] streams a [`Program`] by a [`StreamConfig`] over a [`BytePort`]; a [`Console`] holds
+//! the same session open for [`frame`] and [`jog_session`]; a [`JournalWriter`] keeps what a
+//! stopped job needs to resume; a [`VirtualGrbl`] answers on a pty as a board would.
 //!
-//! - [`stream`]: [`send`] streams a [`Program`] (a vetted G-code file: [`Program::parse`],
-//!   [`ProgramLine`], [`ResumeLift`] and the resume preamble) by a [`StreamConfig`]
-//!   ([`FlowControl`], [`stream::LaserMode`]) over a [`BytePort`], taking [`Control`]s
-//!   ([`stream::Override`]) and telling a [`stream::Observer`] ([`stream::Quiet`],
-//!   [`stream::Progress`], [`stream::ControllerInfo`]); it returns a [`stream::Summary`] or a
-//!   [`MachineError`] (with its [`stream::Halt`] and [`stream::CheckRejection`]s).
-//!   [`stream::console::Console`] holds the same session open for jog and frame
-//!   ([`stream::console::Position`]).
-//! - [`frame`]: [`frame::cut_extent`], [`frame::cut_extent_with`], [`frame::frame`] with
-//!   [`frame::Extent`], [`frame::FrameTool`], [`frame::FramePlan`], [`frame::Framed`],
-//!   [`frame::FrameError`].
-//! - [`jog`]: [`jog::Jogger`], [`jog::run`], [`jog::JogKey`], [`jog::parse_key`],
-//!   [`jog::parse_keys`], [`jog::Script`], [`jog::JogKeys`], [`jog::JogError`], [`jog::KEY_HELP`].
-//! - [`journal`]: the recovery journal: [`journal::Journal`], [`journal::JournalWriter`],
-//!   [`journal::RunState`], [`journal::ModalRecord`], [`journal::Proposal`],
-//!   [`journal::JournalError`], [`journal::path_for`], [`journal::EVERY`].
-//! - [`keys`]: operator keys while streaming: [`keys::Key`], [`keys::KeySource`], [`keys::pump`],
-//!   [`keys::overrides_text`], [`keys::KEY_HELP`].
-//! - [`stall`]: [`stall::Clock`], [`stall::ClockRef`] (time for the stall watch; a test's own
-//!   clock), [`stall::slowest_step`].
-//! - [`protocol`]: what Grbl says: [`protocol::Reply`], [`protocol::Status`],
-//!   [`protocol::MachineState`].
-//! - [`virtual_grbl`]: [`VirtualGrbl`] on a pty, built by a [`VirtualConfig`]
-//!   ([`virtual_grbl::Pace`], [`virtual_grbl::Fault`], [`virtual_grbl::FaultKind`]), recording a
-//!   [`virtual_grbl::Record`] ([`virtual_grbl::Received`], [`virtual_grbl::Event`],
-//!   [`virtual_grbl::PlannedMove`]).
+//! A dry run, as `stencil send --dry-run` streams it:
+//!
+//! ```
+//! use stencil_grbl::{send, Program, Quiet, StreamConfig, VirtualConfig, VirtualGrbl};
+//!
+//! let job = Program::parse("job.gcode", "G21 G90\nM4 S300\nG1 X10 Y5 F1200\nM5\n")?;
+//! let (grbl, mut port) = VirtualGrbl::spawn(VirtualConfig::default())?;
+//! let summary = send(&mut port, &job, &StreamConfig::default(), None, &mut Quiet)?;
+//! let record = grbl.stop();
+//! assert_eq!(summary.lines, 4); // every job line acknowledged,
+//! let received = ["$I", "$$", "G21G90", "M4S300", "G1X10Y5F1200", "M5"];
+//! assert_eq!(record.run_lines(), received); // received once, after the sender's own queries,
+//! assert!(!record.laser_on && record.state == "Idle"); // and the machine idle, laser off.
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod error;
-pub mod frame;
-pub mod jog;
-pub mod journal;
-pub mod keys;
-pub mod placement;
+mod frame;
+mod jog;
+mod journal;
+mod keys;
+mod placement;
 mod program;
-pub mod protocol;
-pub mod stall;
-pub mod stream;
-pub mod virtual_grbl;
+mod protocol;
+mod stall;
+mod stream;
+mod virtual_grbl;
 
-pub use stream::{
-    send, BytePort, Control, FlowControl, MachineError, Program, ProgramLine, ResumeLift,
-    StreamConfig,
-};
+pub use error::{CheckRejection, Halt, MachineChange, MachineError, Unanswered};
+pub use frame::{frame, FrameError, FramePlan, FrameTool, Framed};
+pub use jog::JOG_KEY_HELP;
+pub use jog::{jog_session, parse_key, parse_keys, JogError, JogKey, JogKeys, Jogger, Script};
+pub use journal::{fingerprint, journal_path, Journal, JournalError, JournalWriter, JOURNAL_EVERY};
+pub use journal::{ModalRecord, PlacementRecord, Proposal, RunState};
+pub use keys::{controls_for, overrides_text, pump, Key, KeySource, SEND_KEY_HELP};
+pub use placement::{g92_for, ControllerState, DumpError, Placement, StartFrom};
+pub use program::{cut_extent, cut_extent_with, machine_change, Extent, Program, ProgramLine};
+pub use program::{ResumeLift, StateBefore};
+pub use protocol::{MachineState, Status};
+pub use stall::{slowest_step, Clock, ClockRef};
+pub use stream::{send, BytePort, Console, Control, ControllerInfo, Expected, FlowControl};
+pub use stream::{IfMoving, LaserMode, Observer, Override, Position, PowerScale, Progress, Quiet};
+pub use stream::{Recovery, StreamConfig, Summary, MOVING_WAIT};
+pub use virtual_grbl::{Event, Fault, FaultKind, Pace, PlannedMove, Received, Record, Stutter};
 pub use virtual_grbl::{VirtualConfig, VirtualGrbl};

@@ -78,8 +78,11 @@ pub struct ControllerState {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}: line {line}: {what}")]
 pub struct DumpError {
+    /// The dump file.
     pub file: String,
+    /// 1-based line in it.
     pub line: usize,
+    /// What is wrong with that line.
     pub what: String,
 }
 
@@ -243,6 +246,7 @@ impl ControllerState {
 /// state it runs from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {
+    /// Which zero the job runs from.
     pub start_from: StartFrom,
     /// Machine coordinates of the job's X0 Y0 (the work offset in X and Y for the run).
     pub zero: [f64; 2],

@@ -1,9 +1,9 @@
 //! A G-code program made ready for Grbl: cleaned and vetted line by line before anything is sent,
 //! with its moves (for the time estimate) and the state preamble that resumes it mid-way.
 
-use super::error::MachineError;
+use super::error::{MachineChange, MachineError};
 use super::protocol;
-use stencil_gcode::interpret::{self as gcode, Modal, Move};
+use stencil_gcode::interpret::{self as gcode, CutRule, Modal, Move};
 use stencil_gcode::limits::MAX_LINE_BYTES;
 use stencil_gcode::num;
 
@@ -23,6 +23,7 @@ pub struct ProgramLine {
 pub struct Program {
     /// File name for messages.
     pub name: String,
+    /// The lines to stream, in order.
     pub lines: Vec<ProgramLine>,
     /// Moves as our interpreter reads them (lines it cannot read are skipped).
     pub moves: Vec<Move>,
@@ -33,7 +34,7 @@ pub struct Program {
     /// sends M9 itself.
     pub may_end_air_on: bool,
     /// Lines that would change the machine rather than cut: refused by `send` unless the person
-    /// asked for them ([`super::StreamConfig::allow_machine_commands`]).
+    /// asked for them (`StreamConfig::allow_machine_commands`).
     pub machine_changes: Vec<MachineChange>,
     /// Read-only `$` queries (`$$`, `$#`, `$G`, `$I`, `$N`): left out of the stream.
     pub dropped: Vec<ProgramLine>,
@@ -47,18 +48,6 @@ pub struct Program {
     /// no placement is given. Its moves are machine coordinates from here.
     pub start: Modal,
     source: Vec<String>,
-}
-
-/// A line of a job that changes the machine itself: a Grbl setting, homing, unlocking, check
-/// mode, a jog, sleep, or a stored offset or position.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MachineChange {
-    /// 1-based line in the file.
-    pub line: usize,
-    /// The line as Grbl would see it.
-    pub text: String,
-    /// What it does, e.g. "writes Grbl setting $32".
-    pub what: String,
 }
 
 /// The read-only `$` queries: they change nothing, and a sender does not stream them.
@@ -97,6 +86,57 @@ pub fn machine_change(clean: &str) -> Option<String> {
         return Some("stores a G28/G30 position (G28.1/G30.1)".to_string());
     }
     None
+}
+
+/// The rectangle of the cutting moves, mm, as the interpreter places them: machine coordinates
+/// from a zero work offset, the job's own offsets (G10, G92, G54..G59) applied and arcs
+/// followed to their true extent. The frame program traces it in the controller's work
+/// coordinates, which are those when its work offset is zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extent {
+    /// Lowest X and Y, mm.
+    pub min: [f64; 2],
+    /// Highest X and Y, mm.
+    pub max: [f64; 2],
+    /// Cutting moves that made it.
+    pub moves: usize,
+}
+
+impl Extent {
+    /// Size along X, mm.
+    pub fn width(&self) -> f64 {
+        self.max[0] - self.min[0]
+    }
+    /// Size along Y, mm.
+    pub fn height(&self) -> f64 {
+        self.max[1] - self.min[1]
+    }
+}
+
+/// The extent of the cutting moves, by the rule the program itself shows
+/// ([`CutRule::infer`], the rule `simulate` and `estimate` use); `None` when nothing cuts.
+pub fn cut_extent(moves: &[Move]) -> Option<Extent> {
+    cut_extent_with(moves, CutRule::infer(moves))
+}
+
+/// [`cut_extent`] by a given rule (a machine profile's, e.g. a servo pen drawing in G0).
+pub fn cut_extent_with(moves: &[Move], rule: CutRule) -> Option<Extent> {
+    let mut e: Option<Extent> = None;
+    for m in moves.iter().filter(|m| rule.cuts(m)) {
+        let x = e.get_or_insert(Extent {
+            min: [m.from[0], m.from[1]],
+            max: [m.from[0], m.from[1]],
+            moves: 0,
+        });
+        for p in [m.from, m.to] {
+            for (a, &v) in p.iter().take(2).enumerate() {
+                x.min[a] = x.min[a].min(v);
+                x.max[a] = x.max[a].max(v);
+            }
+        }
+        x.moves += 1;
+    }
+    e
 }
 
 impl Program {
@@ -219,12 +259,12 @@ impl Program {
     }
 
     /// The job's start corner: the lowest X and Y of what it cuts (the extent a frame traces,
-    /// [`crate::frame::cut_extent`]), in the job's coordinates; the lowest of all its moves
+    /// [`cut_extent`]), in the job's coordinates; the lowest of all its moves
     /// when nothing cuts, the origin when nothing moves.
     pub fn start_corner(&self) -> [f64; 2] {
         // The moves are machine coordinates from the placed start: back to the job's own.
         let w = self.start.wco();
-        if let Some(e) = crate::frame::cut_extent(&self.moves) {
+        if let Some(e) = cut_extent(&self.moves) {
             return [e.min[0] - w[0], e.min[1] - w[1]];
         }
         let mut c = [f64::INFINITY; 2];
@@ -397,6 +437,7 @@ pub struct ResumeLift {
 /// The state a program has built up before some line (see [`Program::state_before`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StateBefore {
+    /// The modal state (units, distance mode, feed, spindle, offsets).
     pub modal: Modal,
     /// Axes the program has named.
     pub used: [bool; 3],

@@ -38,23 +38,30 @@ pub(crate) fn is_realtime(b: u8) -> bool {
 /// Machine state from a status report.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum MachineState {
+    /// Standing, ready for a job.
     Idle,
+    /// Running moves.
     Run,
     /// Feed hold; 0 = complete (stopped), 1 = still decelerating.
     Hold(u8),
+    /// Jogging.
     Jog,
+    /// Locked in alarm: home (`$H`) or unlock (`$X`).
     Alarm,
     /// Safety door, with Grbl's sub-state.
     Door(u8),
+    /// Check mode (`$C`): lines are parsed, nothing moves.
     Check,
+    /// Homing.
     Home,
+    /// Asleep (`$SLP`): only a soft reset wakes it.
     Sleep,
     /// A state word this program does not know (newer firmware): kept verbatim.
     Other(String),
 }
 
 impl MachineState {
-    pub fn parse(s: &str) -> MachineState {
+    pub(crate) fn parse(s: &str) -> MachineState {
         let (word, sub) = match s.split_once(':') {
             Some((w, n)) => (w, n.parse::<u8>().ok()),
             None => (s, None),
@@ -95,14 +102,17 @@ impl fmt::Display for MachineState {
 /// on how often it refreshes them) are `None`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Status {
+    /// The state.
     pub state: MachineState,
     /// Machine position, mm (or work position plus the last `WCO` when Grbl reports `WPos`).
     pub mpos: Option<[f64; 3]>,
+    /// Work position, mm, when Grbl reports it (`WPos`).
     pub wpos: Option<[f64; 3]>,
     /// Work coordinate offset (sent every few reports).
     pub wco: Option<[f64; 3]>,
-    /// Current feed (mm/min) and spindle/laser speed.
+    /// Current feed, mm/min.
     pub feed: Option<f64>,
+    /// Current spindle speed (laser power).
     pub speed: Option<f64>,
     /// Free planner blocks and free receive-buffer bytes (`Bf:`).
     pub buffer: Option<(u32, u32)>,

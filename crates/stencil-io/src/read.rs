@@ -127,6 +127,19 @@ pub enum ReadError {
     },
 }
 
+impl ReadError {
+    /// The file that could not be read.
+    pub fn subject(&self) -> &Path {
+        match self {
+            ReadError::Open { path, .. }
+            | ReadError::Io { path, .. }
+            | ReadError::TooLarge { path, .. }
+            | ReadError::NotAFile { path, .. }
+            | ReadError::NotText { path, .. } => path,
+        }
+    }
+}
+
 /// Open `path` as a file of `kind`: refused at once when it is not a regular file (a FIFO, a
 /// device, a socket, a folder) or larger than the kind's cap. Returns the file and its size; the
 /// caller reads at most that much (a picture decoder that needs to seek gets the file itself).

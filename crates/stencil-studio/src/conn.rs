@@ -40,7 +40,7 @@ const OTHER_FILES: usize = 64;
 
 /// How many connections are served at once: half the open files left after [`OTHER_FILES`],
 /// at most 256 (a page needs a handful; a script a few more), at least 8.
-pub fn connection_cap() -> usize {
+fn connection_cap() -> usize {
     let limit = open_file_limit().unwrap_or(1024);
     (limit.saturating_sub(OTHER_FILES) / 2).clamp(8, 256)
 }
@@ -167,9 +167,11 @@ impl hyper::service::Service<hyper::Request<Incoming>> for Service {
     }
 }
 
-/// Serve `router` on `listener` until `stop` turns true; then let open connections finish
-/// (graceful shutdown: the event streams end on `stop`) for up to [`CLOSING`].
-pub async fn serve(listener: TcpListener, router: Router, cap: usize, stop: watch::Receiver<bool>) {
+/// Serve `router` on `listener`, at most [`connection_cap`] connections at once, until `stop`
+/// turns true; then let open connections finish (graceful shutdown: the event streams end on
+/// `stop`) for up to [`CLOSING`].
+pub async fn serve(listener: TcpListener, router: Router, stop: watch::Receiver<bool>) {
+    let cap = connection_cap();
     let permits = Arc::new(Semaphore::new(cap));
     let conns = Arc::new(Conns::default());
     let mut ids = 0u64;

@@ -26,6 +26,7 @@ pub enum RunError {
     /// A newer request came in between two stages; its run replaces this one.
     #[error("superseded by a newer change")]
     Cancelled,
+    /// A stage failed, as `make` would.
     #[error(transparent)]
     Core(#[from] Error),
 }
@@ -52,11 +53,15 @@ pub struct Engine {
 /// and the check, the report, and whether `make` would refuse it (the page shows a refused
 /// stencil too, with the reason: that is when a person most needs to see it).
 pub struct Computed {
+    /// The configuration it ran.
     pub cfg: MakeConfig,
+    /// Each stage's parameters, as `cfg` resolves.
     pub params: StageParams,
     /// The working gray (what the threshold reads; the two-tones share it).
     pub gray: Arc<Gray>,
+    /// The working gray's Otsu level (the page marks it on the histogram).
     pub otsu: u8,
+    /// The threshold's picture after the clean-up.
     pub cleaned: Arc<Cleaned>,
     /// After the bridges, before the trace's neck repairs.
     pub joined: Arc<Joined>,
@@ -76,6 +81,7 @@ pub struct Computed {
 }
 
 impl Engine {
+    /// An engine that keeps every stage's output.
     pub fn new() -> Self {
         Engine {
             cache: Cache::keeping(),

@@ -1,41 +1,46 @@
 //! `stencil-studio`: the local page where a person steers `make` live.
 //!
 //! A small HTTP server on 127.0.0.1 ([`serve`]) with a JSON API (documented in the README) and
-//! one embedded page that uses nothing else. Behind it, [`engine::Engine`] keeps every stage's
+//! one embedded page that uses nothing else. Behind it, the [`Engine`] keeps every stage's
 //! output and re-runs from the first stage whose inputs changed; its export goes through
-//! `make`'s own writer ([`stencil_core::pipeline::write`]), so the files are `make`'s, byte for
-//! byte, and the command line the page shows reproduces them.
+//! `make`'s own writer, so the files are `make`'s, byte for byte, and the command line the page
+//! shows reproduces them.
 //!
 //! The crate knows no command-line syntax: the `stencil` binary hands it a [`Maker`] that lists
 //! `make`'s options, turns their values into a [`stencil_core::MakeConfig`] and words errors, so
 //! a bad value gets exactly `make`'s message.
+//!
+//! A change through the engine re-runs only from the stage it touches:
+//!
+//! ```
+//! use stencil_core::{tone::Threshold, MakeConfig};
+//! use stencil_studio::Engine;
+//!
+//! let samples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples");
+//! let mut cfg = MakeConfig { input: samples.join("rings.png"), ..Default::default() };
+//! let (mut engine, never) = (Engine::new(), || false);
+//! engine.run(&cfg, &never)?;
+//! cfg.tone.threshold = Threshold::Level(100);
+//! let changed = engine.run(&cfg, &never)?;
+//! assert_eq!(changed.ran.first(), Some(&"threshold"));
+//! assert!(changed.refused.is_none() && !changed.report.bridges.is_empty());
+//! # Ok::<(), stencil_studio::RunError>(())
+//! ```
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod conn;
-pub mod engine;
-pub mod params;
+mod engine;
+mod maker;
+mod outcome;
+mod params;
 mod server;
+mod state;
+mod studio;
 
-use stencil_core::{Error, MakeConfig};
-
-pub use params::{Kind, OptionSpec, Params};
-pub use server::{serve, Studio, StudioConfig};
-
-/// What the studio needs from the command line: `make`'s options and their meaning.
-pub trait Maker: Send + Sync + 'static {
-    /// `make`'s options, all but the input and the output folder.
-    fn options(&self) -> Vec<OptionSpec>;
-    /// The configuration `stencil make ARGS` runs (`args` starts with the input and `-o DIR`),
-    /// or the message `make` fails with.
-    fn config(&self, args: &[String]) -> Result<MakeConfig, String>;
-    /// The set `stencil make ARGS` cuts instead of one stencil (`--layers`, `--fill-in`,
-    /// registration marks for a mask), or `None` for one stencil. The studio shows a set as
-    /// `make` computes it and exports it with `make`'s own set writer.
-    fn set(&self, args: &[String]) -> Result<Option<stencil_core::layers::LayersConfig>, String> {
-        let _ = args;
-        Ok(None)
-    }
-    /// A pipeline error in `make`'s words.
-    fn describe(&self, cfg: &MakeConfig, e: Error) -> String;
-}
+pub use engine::{Computed, Engine, RunError};
+pub use maker::Maker;
+pub use params::{Kind, OptionSpec};
+pub use server::serve;
+pub use studio::StudioConfig;

@@ -22,6 +22,7 @@ pub enum Kind {
 pub struct OptionSpec {
     /// The long name without dashes (`"threshold"`).
     pub name: String,
+    /// How it takes its value.
     pub kind: Kind,
     /// What `make` takes when it is not given (empty when nothing).
     pub default: Vec<String>,
@@ -29,7 +30,18 @@ pub struct OptionSpec {
     pub choices: Vec<String>,
     /// The help heading it is listed under (`make --help`).
     pub group: String,
+    /// Its help text (`make --help`).
     pub help: String,
+}
+
+/// One option's value as the page reads it ([`Params::to_json`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum OptionValue {
+    /// A switch's or a one-value option's (`""` when not given).
+    One(String),
+    /// A repeatable option's.
+    List(Vec<String>),
 }
 
 /// The options' values, keyed by long name.
@@ -69,18 +81,16 @@ impl Params {
         Params { values }
     }
 
-    /// The values as JSON: a string per option, an array for a repeatable one.
-    pub fn to_json(&self, specs: &[OptionSpec]) -> Json {
-        let mut m = serde_json::Map::new();
-        for s in specs {
+    /// The values as the page reads them: a string per option, an array for a repeatable one.
+    pub fn to_json(&self, specs: &[OptionSpec]) -> BTreeMap<String, OptionValue> {
+        let value = |s: &OptionSpec| {
             let v = self.values.get(&s.name).cloned().unwrap_or_default();
-            let j = match s.kind {
-                Kind::List => Json::from(v),
-                _ => Json::from(v.into_iter().next().unwrap_or_default()),
-            };
-            m.insert(s.name.clone(), j);
-        }
-        Json::Object(m)
+            match s.kind {
+                Kind::List => OptionValue::List(v),
+                _ => OptionValue::One(v.into_iter().next().unwrap_or_default()),
+            }
+        };
+        specs.iter().map(|s| (s.name.clone(), value(s))).collect()
     }
 
     /// These values with `changes` (a JSON object in the form [`Params::to_json`] gives) applied.
@@ -235,11 +245,9 @@ mod tests {
             p.with(&s, &serde_json::json!({"invert": "yes"})),
             Err(ParamError::NotFlag("invert".into()))
         );
-        assert_eq!(
-            q.to_json(&s)["bridge-at"],
-            serde_json::json!(["1,2", "3,4"])
-        );
-        assert_eq!(q.to_json(&s)["width-mm"], serde_json::json!(""));
+        let json = serde_json::to_value(q.to_json(&s)).unwrap();
+        assert_eq!(json["bridge-at"], serde_json::json!(["1,2", "3,4"]));
+        assert_eq!(json["width-mm"], serde_json::json!(""));
         // A value that looks like an option stays the option's value.
         let n = p
             .with(

@@ -89,6 +89,29 @@ pub enum ToneError {
     Mesh(#[from] mesh::MeshError),
 }
 
+impl ToneError {
+    /// The picture or mesh this error is about (its message starts with it); `None` for a
+    /// setting out of range.
+    pub fn subject(&self) -> Option<&std::path::Path> {
+        use ToneError::*;
+        match self {
+            Read(e) => Some(e.subject()),
+            Mesh(e) => e.subject(),
+            BadScale(_) => None,
+            Open { path, .. }
+            | UnknownFormat { path, .. }
+            | Decode { path, .. }
+            | Unsupported { path, .. }
+            | TooLarge { path, .. }
+            | Truncated { path, .. }
+            | TooMuchMemory { path, .. }
+            | DecoderLimit { path, .. }
+            | Empty { path }
+            | ScaleTooLarge { path, .. } => Some(path),
+        }
+    }
+}
+
 /// How grayscale becomes two tones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Threshold {

@@ -2,7 +2,8 @@
 
 use std::time::Duration;
 
-use super::ResumeLift;
+use crate::program::ResumeLift;
+use crate::protocol;
 use crate::stall::ClockRef;
 
 /// How lines are paced.
@@ -49,6 +50,7 @@ pub(crate) const HOMING_LIMIT: Duration = Duration::from_secs(300);
 /// Streaming settings.
 #[derive(Clone, Debug)]
 pub struct StreamConfig {
+    /// How lines are paced.
     pub flow: FlowControl,
     /// Receive buffer size to count against; `None` = ask Grbl (`$I`), else 128.
     pub rx_buffer: Option<usize>,
@@ -121,8 +123,11 @@ pub struct Expected {
 /// from machine profile diode-400, as its header does not say".
 #[derive(Clone, Debug, PartialEq)]
 pub struct PowerScale {
+    /// S at full power (`$30`).
     pub s_max: f64,
+    /// S at the lowest power (`$31`).
     pub s_min: f64,
+    /// Where the scale was read.
     pub source: String,
 }
 
@@ -177,4 +182,49 @@ pub struct Recovery {
     /// Connecting found the machine still running what it had received and stopped it (as
     /// asked): it did not run everything it received.
     pub cut_short: bool,
+}
+
+/// Commands from the operator while a job runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// Feed hold (`!`).
+    FeedHold,
+    /// Cycle start (`~`).
+    Resume,
+    /// Stop now: soft reset, laser off, report the resume line.
+    Abort,
+    /// Change a feed or power override (Grbl's real-time bytes; the job keeps running).
+    Override(Override),
+}
+
+/// The overrides an operator changes while cutting: feed and spindle (laser power) in 10 %
+/// steps within Grbl's 10..200 %, or back to 100 %.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Override {
+    /// Feed +10 %.
+    FeedPlus10,
+    /// Feed −10 %.
+    FeedMinus10,
+    /// Feed back to 100 %.
+    FeedReset,
+    /// Power +10 %.
+    PowerPlus10,
+    /// Power −10 %.
+    PowerMinus10,
+    /// Power back to 100 %.
+    PowerReset,
+}
+
+impl Override {
+    /// Grbl's real-time byte for it.
+    pub fn byte(self) -> u8 {
+        match self {
+            Override::FeedPlus10 => protocol::RT_FEED_OV_PLUS_10,
+            Override::FeedMinus10 => protocol::RT_FEED_OV_MINUS_10,
+            Override::FeedReset => protocol::RT_FEED_OV_RESET,
+            Override::PowerPlus10 => protocol::RT_SPINDLE_OV_PLUS_10,
+            Override::PowerMinus10 => protocol::RT_SPINDLE_OV_MINUS_10,
+            Override::PowerReset => protocol::RT_SPINDLE_OV_RESET,
+        }
+    }
 }

@@ -10,15 +10,19 @@
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
-use super::{
-    BytePort, Control, ControllerInfo, MachineError, Observer, Outgoing, Program, Session,
-    StreamConfig, Summary,
-};
-use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
+use super::config::{Control, StreamConfig};
+use super::flight::Outgoing;
+use super::link::BytePort;
+use super::observe::{ControllerInfo, Observer, Summary};
+use super::session::Session;
+use crate::error::MachineError;
+use crate::program::Program;
+use crate::protocol::{MachineState, Reply, Status};
 
 /// A status report with the work position worked out.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Position {
+    /// The report itself.
     pub status: Status,
     /// Machine position, mm (`MPos`, or `WPos` + offset).
     pub machine: [f64; 3],
@@ -61,7 +65,7 @@ impl<'a> Console<'a> {
         // No program to time here: a frame or a jog is a few long moves, whose position changes
         // in every report while they run, so only a machine standing still in Run for half a
         // minute (plus the margin) counts as stalled.
-        let stall = super::stall::stall_bound(Duration::from_secs(30));
+        let stall = crate::stall::stall_bound(Duration::from_secs(30));
         let mut s = Session::new(port, cfg, controls, obs, stall);
         let locked = match s.connect() {
             Ok(()) => false,
@@ -87,8 +91,8 @@ impl<'a> Console<'a> {
         &self.s.info
     }
 
-    /// Connecting found the machine running moves it was given before, and stopped them as
-    /// asked ([`super::IfMoving::Stop`]): what it had queued did not all run.
+    /// Connecting found the machine running moves it was given before, and stopped them as asked
+    /// ([`IfMoving::Stop`](super::config::IfMoving::Stop)): what it had queued did not all run.
     pub fn stopped_running(&self) -> bool {
         self.s.stopped_running
     }
@@ -157,48 +161,40 @@ impl<'a> Console<'a> {
     /// meanwhile so a silent link is still noticed; clears the lock.
     pub fn home(&mut self, limit: Duration) -> Result<(), MachineError> {
         self.s.link.write(b"$H\n").map_err(|f| self.s.lost(f))?;
-        let end = Instant::now() + limit;
-        let saved = self.s.link.timeout;
-        self.s.link.timeout = limit;
-        self.s.link.last_heard = Instant::now();
-        let mut next_ask = Instant::now() + Duration::from_secs(1);
-        let result = loop {
-            if Instant::now() >= end {
-                break Err(MachineError::Silent {
-                    port: self.s.port_name.clone(),
-                    secs: limit.as_secs_f64(),
-                    halt: self.s.halt(None, 1),
-                });
-            }
-            if Instant::now() >= next_ask {
-                if let Err(f) = self.s.link.write(&[RT_STATUS]) {
-                    break Err(self.s.lost(f));
+        let saved = std::mem::replace(&mut self.s.link.timeout, limit);
+        let second = Duration::from_secs(1);
+        let mut locked = false;
+        let homed = self
+            .s
+            .poll(limit, second, second, &mut false, |s, r| match r {
+                Reply::Ok => Some(Ok(())),
+                Reply::Error(code) => Some(Err(code)),
+                Reply::Alarm(code) => {
+                    locked = true;
+                    let meaning = crate::protocol::alarm_meaning(code);
+                    s.obs.message(&format!("ALARM:{code} ({meaning})"));
+                    None
                 }
-                next_ask = Instant::now() + Duration::from_secs(1);
+                _ => None,
+            });
+        self.locked |= locked;
+        let port = self.s.port_name.clone();
+        let result = match homed {
+            Ok(Some(Ok(()))) => Ok(()),
+            Ok(Some(Err(code))) => Err(MachineError::Setup {
+                port,
+                cmd: "$H".into(),
+                code,
+            }),
+            Ok(None) => {
+                let halt = self.s.halt(None, 1);
+                Err(MachineError::Silent {
+                    port,
+                    secs: limit.as_secs_f64(),
+                    halt,
+                })
             }
-            match self.s.link.line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Ok => break Ok(()),
-                    Reply::Error(code) => {
-                        break Err(MachineError::Setup {
-                            port: self.s.port_name.clone(),
-                            cmd: "$H".into(),
-                            code,
-                        })
-                    }
-                    Reply::Alarm(code) => {
-                        self.locked = true;
-                        self.s.obs.message(&format!(
-                            "ALARM:{code} ({})",
-                            crate::protocol::alarm_meaning(code)
-                        ));
-                    }
-                    Reply::Message(m) => self.s.obs.message(&format!("Grbl: {m}")),
-                    _ => {}
-                },
-                Ok(None) => {}
-                Err(f) => break Err(self.s.lost(f)),
-            }
+            Err(f) => Err(self.s.lost(f)),
         };
         self.s.link.timeout = saved;
         result?;

@@ -4,12 +4,13 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use super::super::error::Unanswered;
+use super::config::FlowControl;
+use super::observe::{Progress, Summary};
 use super::session::Session;
 use super::tracker::Tracker;
-use super::{
-    CheckRejection, FlowControl, Halt, MachineError, Program, ProgramLine, Progress, Summary,
-};
+use crate::error::Unanswered;
+use crate::error::{CheckRejection, Halt, MachineError};
+use crate::program::{Program, ProgramLine};
 use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
 use stencil_gcode::interpret as gcode;
 

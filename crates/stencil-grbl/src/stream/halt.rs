@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use super::flight::Flight;
 use super::link::LinkFault;
 use super::session::Session;
-use super::{Halt, MachineError};
+use crate::error::{Halt, MachineError};
 use crate::protocol::{self, MachineState, Reply, RT_FEED_HOLD, RT_SOFT_RESET, RT_STATUS};
 
 impl Session<'_, '_> {

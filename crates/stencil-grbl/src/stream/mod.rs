@@ -14,9 +14,8 @@
 
 use std::sync::mpsc::Receiver;
 
-pub mod console;
-
 mod config;
+mod console;
 mod control;
 mod flight;
 mod halt;
@@ -29,13 +28,14 @@ mod settings;
 mod tracker;
 
 pub use self::config::{
-    Expected, FlowControl, IfMoving, LaserMode, PowerScale, Recovery, StreamConfig, MOVING_WAIT,
+    Control, Expected, FlowControl, IfMoving, LaserMode, Override, PowerScale, Recovery,
+    StreamConfig, MOVING_WAIT,
 };
-pub use self::control::{Control, Override};
+pub use self::console::{Console, Position};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
-pub use super::error::{CheckRejection, Halt, MachineError};
-pub use super::program::{machine_change, MachineChange, Program, ProgramLine, ResumeLift};
+use super::error::MachineError;
+use super::program::Program;
 
 use self::flight::Outgoing;
 use self::session::Session;

@@ -2,7 +2,7 @@
 //! status report), and putting the job's zero where its placement says (`G92`).
 
 use super::session::Session;
-use super::MachineError;
+use crate::error::MachineError;
 use crate::placement::{g92_for, ControllerState};
 use crate::protocol::Reply;
 

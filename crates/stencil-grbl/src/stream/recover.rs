@@ -1,8 +1,10 @@
 //! A resume after a stop, a sender crash or a power loss, decided from the controller's word:
 //! its reported position and planner state against the journal's, before anything moves.
 
+use super::config::Recovery;
 use super::session::Session;
-use super::{MachineError, Program, Recovery};
+use crate::error::MachineError;
+use crate::program::Program;
 use crate::protocol::MachineState;
 use stencil_gcode::num;
 

@@ -4,9 +4,11 @@
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+use super::config::{Control, LaserMode, StreamConfig};
 use super::config::{IfMoving, HOMING_LIMIT};
 use super::link::{BytePort, Link, LinkFault};
-use super::{Control, ControllerInfo, LaserMode, MachineError, Observer, StreamConfig};
+use super::observe::{ControllerInfo, Observer};
+use crate::error::MachineError;
 use crate::protocol::{self, MachineState, Reply, Status, RT_SOFT_RESET, RT_STATUS};
 use crate::stall::StallWatch;
 use stencil_gcode::limits::{PLANNER_BLOCKS, RX_BUFFER_BYTES};
@@ -223,31 +225,21 @@ impl Session<'_, '_> {
         alarm: &mut Option<u8>,
         hinted: &mut bool,
     ) -> Result<Heard, MachineError> {
-        let end = Instant::now() + Duration::from_millis(1000);
-        let mut next_ask = Instant::now();
-        self.link.last_heard = Instant::now();
-        while Instant::now() < end {
-            if Instant::now() >= next_ask {
-                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
-                next_ask = Instant::now() + Duration::from_millis(500);
+        let half = Duration::from_millis(500);
+        let heard = self.poll(half * 2, Duration::ZERO, half, hinted, |_, r| match r {
+            Reply::Status(st) => Some(Heard::Status(st)),
+            Reply::Welcome(v) => Some(Heard::Banner(v)),
+            Reply::Alarm(a) => {
+                *alarm = Some(a);
+                None
             }
-            match self.link.line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Status(st) => return Ok(Heard::Status(st)),
-                    Reply::Welcome(v) => return Ok(Heard::Banner(v)),
-                    Reply::Alarm(a) => *alarm = Some(a),
-                    Reply::Message(m) => {
-                        *hinted |= protocol::is_unlock_hint(&m);
-                        self.obs.message(&format!("Grbl: {m}"));
-                    }
-                    _ => {}
-                },
-                Ok(None) => {}
-                Err(LinkFault::Silent(_)) => return Ok(Heard::Nothing),
-                Err(f) => return Err(self.lost(f)),
-            }
+            _ => None,
+        });
+        match heard {
+            Ok(h) => Ok(h.unwrap_or(Heard::Nothing)),
+            Err(LinkFault::Silent(_)) => Ok(Heard::Nothing),
+            Err(f) => Err(self.lost(f)),
         }
-        Ok(Heard::Nothing)
     }
 
     /// Poll (`?`, four times a second) until the machine no longer moves, at most `limit`;
@@ -258,50 +250,40 @@ impl Session<'_, '_> {
         alarm: &mut Option<u8>,
         hinted: &mut bool,
     ) -> Result<Status, MachineError> {
-        let end = Instant::now() + limit;
-        let mut next_ask = Instant::now();
         let mut next_note = Instant::now() + Duration::from_secs(15);
         let mut last: Option<Status> = None;
-        self.link.last_heard = Instant::now();
-        while Instant::now() < end {
-            if Instant::now() >= next_ask {
-                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
-                next_ask = Instant::now() + Duration::from_millis(250);
+        let every = Duration::from_millis(250);
+        let done = self.poll(limit, Duration::ZERO, every, hinted, |s, r| match r {
+            Reply::Status(st) if !moving(&st.state) => Some(Ok(st)),
+            Reply::Status(st)
+                if matches!(st.state, MachineState::Hold(_) | MachineState::Door(_)) =>
+            {
+                Some(Err(MachineError::Running {
+                    port: s.port_name.clone(),
+                    state: doing(&st),
+                    waited_s: None,
+                }))
             }
-            match self.link.line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Status(st) if !moving(&st.state) => return Ok(st),
-                    Reply::Status(st)
-                        if matches!(st.state, MachineState::Hold(_) | MachineState::Door(_)) =>
-                    {
-                        return Err(MachineError::Running {
-                            port: self.port_name.clone(),
-                            state: doing(&st),
-                            waited_s: None,
-                        })
-                    }
-                    Reply::Status(st) => {
-                        if Instant::now() >= next_note {
-                            self.obs.message(&format!("still running: {}", doing(&st)));
-                            next_note = Instant::now() + Duration::from_secs(15);
-                        }
-                        last = Some(st);
-                    }
-                    Reply::Alarm(a) => *alarm = Some(a),
-                    Reply::Message(m) => {
-                        *hinted |= protocol::is_unlock_hint(&m);
-                        self.obs.message(&format!("Grbl: {m}"));
-                    }
-                    _ => {}
-                },
-                Ok(None) => {}
-                Err(f) => return Err(self.lost(f)),
+            Reply::Status(st) => {
+                if Instant::now() >= next_note {
+                    s.obs.message(&format!("still running: {}", doing(&st)));
+                    next_note = Instant::now() + Duration::from_secs(15);
+                }
+                last = Some(st);
+                None
             }
-        }
-        Err(MachineError::Running {
-            port: self.port_name.clone(),
-            state: last.as_ref().map_or_else(|| "Run".into(), doing),
-            waited_s: Some(limit.as_secs_f64()),
+            Reply::Alarm(a) => {
+                *alarm = Some(a);
+                None
+            }
+            _ => None,
+        });
+        done.map_err(|f| self.lost(f))?.unwrap_or_else(|| {
+            Err(MachineError::Running {
+                port: self.port_name.clone(),
+                state: last.as_ref().map_or_else(|| "Run".into(), doing),
+                waited_s: Some(limit.as_secs_f64()),
+            })
         })
     }
 
@@ -311,48 +293,30 @@ impl Session<'_, '_> {
         self.obs
             .message("homing ($H) first: the position after a stop or power loss is not trusted");
         self.link.write(b"$H\n").map_err(|f| self.lost(f))?;
-        let end = Instant::now() + HOMING_LIMIT;
-        let saved = self.link.timeout;
-        self.link.timeout = HOMING_LIMIT;
-        self.link.last_heard = Instant::now();
-        let mut next_ask = Instant::now() + Duration::from_secs(1);
-        let result = loop {
-            if Instant::now() >= end {
-                break Err(MachineError::Homing {
-                    port: self.port_name.clone(),
-                    detail: format!("no answer within {} s", HOMING_LIMIT.as_secs()),
-                });
-            }
-            if Instant::now() >= next_ask {
-                if let Err(f) = self.link.write(&[RT_STATUS]) {
-                    break Err(self.lost(f));
-                }
-                next_ask = Instant::now() + Duration::from_secs(1);
-            }
-            match self.link.line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Ok => break Ok(()),
-                    Reply::Error(code) => {
-                        break Err(MachineError::Homing {
-                            port: self.port_name.clone(),
-                            detail: format!("error:{code} ({})", protocol::error_meaning(code)),
-                        })
-                    }
-                    Reply::Alarm(code) => {
-                        break Err(MachineError::Homing {
-                            port: self.port_name.clone(),
-                            detail: format!("ALARM:{code} ({})", protocol::alarm_meaning(code)),
-                        })
-                    }
-                    Reply::Message(m) => self.obs.message(&format!("Grbl: {m}")),
-                    _ => {}
-                },
-                Ok(None) => {}
-                Err(f) => break Err(self.lost(f)),
-            }
-        };
+        let saved = std::mem::replace(&mut self.link.timeout, HOMING_LIMIT);
+        let second = Duration::from_secs(1);
+        let homed = self.poll(HOMING_LIMIT, second, second, &mut false, |_, r| match r {
+            Reply::Ok => Some(None),
+            Reply::Error(code) => Some(Some(format!(
+                "error:{code} ({})",
+                protocol::error_meaning(code)
+            ))),
+            Reply::Alarm(code) => Some(Some(format!(
+                "ALARM:{code} ({})",
+                protocol::alarm_meaning(code)
+            ))),
+            _ => None,
+        });
         self.link.timeout = saved;
-        result?;
+        let detail = match homed.map_err(|f| self.lost(f))? {
+            Some(None) => None,
+            Some(failed) => failed,
+            None => Some(format!("no answer within {} s", HOMING_LIMIT.as_secs())),
+        };
+        if let Some(detail) = detail {
+            let port = self.port_name.clone();
+            return Err(MachineError::Homing { port, detail });
+        }
         self.obs.message("homed");
         Ok(())
     }
@@ -493,35 +457,68 @@ impl Session<'_, '_> {
         })
     }
 
+    /// Ask `?` until a status report comes (again every half second), at most the timeout.
     pub(super) fn query_status(&mut self, hinted: &mut bool) -> Result<Status, MachineError> {
-        let end = Instant::now() + self.cfg.timeout;
-        let mut next_ask = Instant::now();
+        let every = Duration::from_millis(500);
+        let st = self.poll(
+            self.cfg.timeout,
+            Duration::ZERO,
+            every,
+            hinted,
+            |_, r| match r {
+                Reply::Status(st) => Some(st),
+                _ => None,
+            },
+        );
+        match st.map_err(|f| self.lost(f))? {
+            Some(st) => {
+                self.last_status = Some(st.clone());
+                Ok(st)
+            }
+            None => Err(MachineError::NoWelcome {
+                port: self.port_name.clone(),
+                secs: self.cfg.timeout.as_secs_f64(),
+            }),
+        }
+    }
+
+    /// Read replies for at most `limit`, asking `?` after `first` and then every `every`, and
+    /// hand each to `on` until it returns `Some`; `Ok(None)` when the time ran out. Grbl's
+    /// messages go to the front end (`hinted` notes an unlock hint) instead.
+    pub(super) fn poll<R>(
+        &mut self,
+        limit: Duration,
+        first: Duration,
+        every: Duration,
+        hinted: &mut bool,
+        mut on: impl FnMut(&mut Self, Reply) -> Option<R>,
+    ) -> Result<Option<R>, LinkFault> {
+        let end = Instant::now() + limit;
+        let mut next_ask = Instant::now() + first;
         self.link.last_heard = Instant::now();
         while Instant::now() < end {
             if Instant::now() >= next_ask {
-                self.link.write(&[RT_STATUS]).map_err(|f| self.lost(f))?;
-                next_ask = Instant::now() + Duration::from_millis(500);
+                self.link.write(&[RT_STATUS])?;
+                next_ask = Instant::now() + every;
             }
-            match self.link.line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Status(st) => {
-                        self.last_status = Some(st.clone());
-                        return Ok(st);
+            match self
+                .link
+                .line(Duration::from_millis(50))?
+                .map(|l| Reply::parse(&l))
+            {
+                Some(Reply::Message(m)) => {
+                    *hinted |= protocol::is_unlock_hint(&m);
+                    self.obs.message(&format!("Grbl: {m}"));
+                }
+                Some(r) => {
+                    if let Some(x) = on(self, r) {
+                        return Ok(Some(x));
                     }
-                    Reply::Message(m) => {
-                        *hinted |= protocol::is_unlock_hint(&m);
-                        self.obs.message(&format!("Grbl: {m}"));
-                    }
-                    _ => {}
-                },
-                Ok(None) => {}
-                Err(f) => return Err(self.lost(f)),
+                }
+                None => {}
             }
         }
-        Err(MachineError::NoWelcome {
-            port: self.port_name.clone(),
-            secs: self.cfg.timeout.as_secs_f64(),
-        })
+        Ok(None)
     }
 }
 

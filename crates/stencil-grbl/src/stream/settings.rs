@@ -2,8 +2,9 @@
 //! the power scale (`$30`, `$31`), the rates and accelerations the estimate is made with, and
 //! the travel the bed needs.
 
+use super::config::PowerScale;
 use super::session::Session;
-use super::{MachineError, PowerScale};
+use crate::error::MachineError;
 use stencil_gcode::num;
 
 /// How far a rate or acceleration may differ from the profile before it is reported (a
@@ -11,13 +12,14 @@ use stencil_gcode::num;
 const MOTION_TOLERANCE: f64 = 0.02;
 
 impl Session<'_, '_> {
-    /// Compare `$$` with [`super::Expected`]. A power scale that differs is refused (or, asked,
-    /// every S is rescaled: [`Session::power_map`]); rates, accelerations and junction
-    /// deviation that differ are reported (a front end's estimate uses the controller's);
-    /// max travel short of the bed is refused when soft limits or homing are on, else reported.
+    /// Compare `$$` with [`Expected`](super::config::Expected). A power scale that differs is
+    /// refused (or, asked, every S is rescaled: [`Session::power_map`]); rates, accelerations
+    /// and junction deviation that differ are reported (a front end's estimate uses the
+    /// controller's); max travel short of the bed is refused under soft limits or homing, else
+    /// reported.
     pub(super) fn check_settings(&mut self) -> Result<(), MachineError> {
         if self.info.settings.is_empty() {
-            if self.cfg.expect != super::Expected::default() {
+            if self.cfg.expect != super::config::Expected::default() {
                 self.obs.message(
                     "the controller did not list its settings ($$): its power scale, rates and \
                      travel could not be compared with the job",

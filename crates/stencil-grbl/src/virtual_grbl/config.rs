@@ -8,7 +8,10 @@ pub enum Pace {
     /// Moves complete the moment they are planned: a dry run goes as fast as the link allows.
     Instant,
     /// Moves take their length ÷ feed, divided by `speedup` (1.0 = as the machine would).
-    Timed { speedup: f64 },
+    Timed {
+        /// 1.0 = as fast as the machine; 10.0 = ten times faster.
+        speedup: f64,
+    },
 }
 
 /// What goes wrong, for tests.
@@ -46,7 +49,9 @@ pub enum FaultKind {
 /// not empty, not `$` commands, and not sent in check mode; 1-based).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fault {
+    /// The job line it fires at.
     pub at_job_line: usize,
+    /// What happens.
     pub kind: FaultKind,
 }
 
@@ -55,13 +60,16 @@ pub struct Fault {
 pub struct VirtualConfig {
     /// Receive buffer size in bytes (128 in stock Grbl); reported in `$I` as `[OPT:V,blocks,rx]`.
     pub rx_buffer: usize,
+    /// Planner blocks (15 on an AVR).
     pub planner_blocks: usize,
+    /// How fast moves run.
     pub pace: Pace,
     /// Pace the link at this baud rate (10 bits per byte, both directions); `None` = as fast as the
     /// pty goes.
     pub baud: Option<u32>,
     /// G0 rate, mm/min.
     pub rapid_mm_min: f64,
+    /// Faults to inject.
     pub faults: Vec<Fault>,
     /// Laser mode, `$32` (settable with `$32=0|1`): on, the beam never fires in G0 and M3/M4
     /// act as a laser; off, a switched-on spindle stays on through G0 moves too.
@@ -96,8 +104,11 @@ pub struct VirtualConfig {
 /// sleeps up to `longest` (drawn from `seed`, so a run can be repeated).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stutter {
+    /// Seed of the pauses.
     pub seed: u64,
+    /// One turn in this many pauses.
     pub one_in: u32,
+    /// The longest pause.
     pub longest: std::time::Duration,
 }
 
@@ -117,6 +128,39 @@ impl Stutter {
         }
         let nanos = self.longest.as_nanos().min(u128::from(u64::MAX)) as u64;
         std::time::Duration::from_nanos(draw() % nanos.max(1))
+    }
+}
+
+impl VirtualConfig {
+    /// The settings a stock laser build lists in `$$` (with the configured homing, laser mode and
+    /// rapid rate), then the configured ones over them.
+    pub(super) fn initial_settings(&self) -> Vec<(u32, String)> {
+        let rapid = format!("{:.3}", self.rapid_mm_min);
+        let mut settings: Vec<(u32, String)> = [
+            (10, "2"),
+            (11, "0.010"),
+            (20, "0"),
+            (22, if self.homing { "1" } else { "0" }),
+            (30, "1000"),
+            (31, "0"),
+            (32, if self.laser_mode { "1" } else { "0" }),
+            (110, rapid.as_str()),
+            (111, rapid.as_str()),
+            (120, "1000.000"),
+            (121, "1000.000"),
+            (130, "400.000"),
+            (131, "400.000"),
+        ]
+        .iter()
+        .map(|&(k, v)| (k, v.to_string()))
+        .collect();
+        for (k, v) in self.settings.clone() {
+            match settings.iter_mut().find(|(n, _)| *n == k) {
+                Some(e) => e.1 = v,
+                None => settings.push((k, v)),
+            }
+        }
+        settings
     }
 }
 

@@ -2,8 +2,9 @@
 
 use std::time::{Duration, Instant};
 
+use super::config::FaultKind;
+use super::record::{lock, Event};
 use super::sim::{Sim, State};
-use super::{lock, Event, FaultKind};
 
 impl Sim {
     /// The fault set for the current G-code line fires (once). True when that settles the line
@@ -38,17 +39,7 @@ impl Sim {
     /// else starts over, the position at machine zero wherever the head really is.
     fn power_loss(&mut self) {
         lock(&self.shared).events.push(Event::PowerLoss);
-        self.planner.clear();
-        self.pending = None;
-        self.rx.clear();
-        self.line_buf.clear();
-        self.hold = false;
-        self.hold_decel = None;
-        self.rt_hold = false;
-        self.check_mode = false;
-        self.ov = [100; 3];
-        self.waiting = None;
-        self.line_wait = None;
+        self.forget();
         // Machine zero is wherever the head stands now; the work systems (EEPROM) stay, G92
         // and the modes go, as after a reset.
         self.modal = stencil_gcode::interpret::Modal {

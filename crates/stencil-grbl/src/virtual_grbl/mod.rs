@@ -16,7 +16,7 @@
 //! `system` (`$` commands and settings) and `faults`.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 use serialport::TTYPort;
@@ -36,6 +36,7 @@ mod tests;
 pub use self::config::{Fault, FaultKind, Pace, Stutter, VirtualConfig};
 pub use self::record::{Event, PlannedMove, Received, Record};
 
+use self::record::lock;
 use self::sim::Sim;
 
 /// A running virtual Grbl. Dropping it stops the thread and closes its end of the pty.
@@ -89,9 +90,4 @@ impl Drop for VirtualGrbl {
     fn drop(&mut self) {
         self.halt();
     }
-}
-
-fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
-    // A panic in the simulator thread must not hide its record from the test.
-    m.lock().unwrap_or_else(|p| p.into_inner())
 }

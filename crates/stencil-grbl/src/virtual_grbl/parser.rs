@@ -8,42 +8,9 @@ use stencil_gcode::limits::MAX_LINE_BYTES;
 
 use stencil_gcode::interpret::Move;
 
-use super::planner::Block;
-use super::record::{Event, Received};
-use super::sim::{Sim, State};
-use super::{lock, Pace};
-
-/// What a line waits for before its `ok`, once its motion is queued.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Wait {
-    /// G4 P: the queue runs out, then the dwell.
-    Dwell(f64),
-    /// G38.x (380 + x): the probe move runs out; no probe is wired.
-    Probe(u16),
-    /// M0: the queue runs out, then a hold until cycle start.
-    Pause { held: bool },
-    /// M2/M30: the queue runs out, then `[MSG:Pgm End]`.
-    End,
-    /// G4 at the machine's pace: its standing-still block is queued.
-    Dwelling,
-}
-
-/// A line waiting, and which line it is.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct WaitFor {
-    pub(super) wait: Wait,
-    pub(super) idx: usize,
-    /// The line queued motion (recorded as executed when that has run).
-    pub(super) moved: bool,
-}
-
-/// Where the line buffer is in a comment.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Comment {
-    None,
-    Paren,
-    Semicolon,
-}
+use super::config::Pace;
+use super::record::{lock, Event, Received};
+use super::sim::{Block, Comment, Sim, State, Wait, WaitFor};
 
 impl Sim {
     /// Pull lines out of the receive buffer and run them, as Grbl's main loop does: it stops

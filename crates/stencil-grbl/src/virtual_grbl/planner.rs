@@ -5,23 +5,9 @@ use std::time::Instant;
 
 use stencil_gcode::interpret::Move;
 
-use super::sim::{Sim, State};
-use super::{lock, Pace, PlannedMove};
-
-/// A move in the planner queue.
-pub(super) struct Block {
-    pub(super) mv: Move,
-    /// The line's N number, if it has one (reported as `Ln:`).
-    pub(super) n: Option<u32>,
-    /// Index into the record's `received`.
-    pub(super) idx: usize,
-    pub(super) remaining_s: f64,
-    pub(super) duration_s: f64,
-    /// A `$J=` jog: shown as `Jog`, dropped by a jog cancel (0x85).
-    pub(super) jog: bool,
-    /// The line's last block (an arc has one per chord): its line has run when this has.
-    pub(super) last: bool,
-}
+use super::config::Pace;
+use super::record::{lock, PlannedMove};
+use super::sim::{Block, Sim, State};
 
 /// The N number a line starts with (`N120G1X5` → 120).
 fn line_number(text: &str) -> Option<u32> {

@@ -1,9 +1,9 @@
 //! Real-time commands, acted on as they arrive: status reports, feed hold and resume, soft
 //! reset, overrides and the jog cancel.
 
-use super::parser::Comment;
-use super::sim::{Sim, State};
-use super::{lock, Event};
+use super::config::Pace;
+use super::record::{lock, Event};
+use super::sim::{Comment, Sim, State};
 use crate::protocol::{RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME, RT_SOFT_RESET, RT_STATUS};
 
 impl Sim {
@@ -43,7 +43,7 @@ impl Sim {
         let Some(b) = self.planner.front() else {
             return;
         };
-        if self.frozen || !matches!(self.cfg.pace, super::Pace::Timed { .. }) {
+        if self.frozen || !matches!(self.cfg.pace, Pace::Timed { .. }) {
             return;
         }
         let [feed_ov, rapid_ov, _] = self.ov;
@@ -92,32 +92,37 @@ impl Sim {
         self.ov_changed = true;
     }
 
+    /// What a reset or a power loss forgets: the buffers, the queue, a hold, check mode, the
+    /// overrides (back to 100 %, as Grbl does) and a line waiting for its `ok`.
+    pub(super) fn forget(&mut self) {
+        self.planner.clear();
+        self.pending = None;
+        self.rx.clear();
+        self.line_buf.clear();
+        self.hold = false;
+        self.hold_decel = None;
+        self.rt_hold = false;
+        self.check_mode = false;
+        self.ov = [100; 3];
+        self.waiting = None;
+        self.line_wait = None;
+    }
+
     pub(super) fn soft_reset(&mut self) {
         // A completed feed hold keeps the position: only a reset while moving loses it.
         let moving = (!self.planner.is_empty() || self.pending.is_some())
             && (!self.hold || self.hold_decel.is_some());
         lock(&self.shared).events.push(Event::SoftReset);
-        self.rx.clear();
+        self.forget();
         self.backlog.clear();
         self.unheard = 0;
-        self.line_buf.clear();
         self.line_overflow = false;
         self.comment = Comment::None;
         self.eeprom = None;
-        self.pending = None;
-        self.planner.clear();
-        self.hold = false;
-        self.hold_decel = None;
-        self.rt_hold = false;
         self.status_requested = false;
         self.ok_fault = None;
-        self.check_mode = false;
         self.frozen = false;
         self.setting_pending = None;
-        // A reset brings the overrides back to 100 %, as Grbl does.
-        self.ov = [100; 3];
-        self.waiting = None;
-        self.line_wait = None;
         self.modal = self.modal.after_reset();
         if moving && self.state == State::Idle {
             // Grbl: a reset during motion may have lost steps, so it locks until unlocked.

@@ -1,5 +1,7 @@
 //! What the simulated machine saw and did, for a test (or a dry run) to check.
 
+use std::sync::{Mutex, MutexGuard};
+
 /// One line the controller took out of its receive buffer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Received {
@@ -14,9 +16,13 @@ pub struct Received {
 pub enum Event {
     /// A line, as an index into [`Record::received`].
     Line(usize),
+    /// A real-time byte.
     Realtime(u8),
+    /// A soft reset (0x18).
     SoftReset,
+    /// An alarm, by code.
     Alarm(u8),
+    /// The port closed (an injected fault).
     Closed,
     /// The board lost power and came back (an injected fault).
     PowerLoss,
@@ -25,7 +31,9 @@ pub enum Event {
 /// Everything the simulated machine saw and did.
 #[derive(Clone, Debug, Default)]
 pub struct Record {
+    /// Every line taken from the receive buffer, in order.
     pub received: Vec<Received>,
+    /// What happened, in order.
     pub events: Vec<Event>,
     /// Indices into `received` of lines the machine finished (motion completed or command run).
     pub executed: Vec<usize>,
@@ -37,8 +45,11 @@ pub struct Record {
     pub eeprom_lost_bytes: usize,
     /// Laser armed: M3/M4 active with S > 0.
     pub laser_on: bool,
+    /// Machine position, mm.
     pub position: [f64; 3],
+    /// State as a status report names it (`Idle`, `Run`, `Alarm`...).
     pub state: String,
+    /// The port was closed (an injected fault).
     pub closed: bool,
     /// Status reports sent (for checking the poll rate).
     pub status_reports: usize,
@@ -61,8 +72,11 @@ pub struct Record {
 /// One move as the simulated planner took it (machine coordinates).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlannedMove {
+    /// Start, mm.
     pub from: [f64; 3],
+    /// End, mm.
     pub to: [f64; 3],
+    /// A G0 move.
     pub rapid: bool,
     /// M3/M4 on (a servo pen on the spindle output is down).
     pub spindle_on: bool,
@@ -91,4 +105,10 @@ impl Record {
             .map(|r| r.text.as_str())
             .collect()
     }
+}
+
+/// The record, even after a panic in the simulator thread (so a test still sees it).
+pub(super) fn lock(m: &Mutex<Record>) -> MutexGuard<'_, Record> {
+    // A panic in the simulator thread must not hide its record from the test.
+    m.lock().unwrap_or_else(|p| p.into_inner())
 }

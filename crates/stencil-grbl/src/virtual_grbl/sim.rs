@@ -10,9 +10,8 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{Modal, Move};
 
-use super::parser::{Comment, Wait, WaitFor};
-use super::planner::Block;
-use super::{lock, Pace, Record, VirtualConfig};
+use super::config::{FaultKind, Pace, VirtualConfig};
+use super::record::{lock, Record};
 use crate::protocol;
 
 /// The controller's alarm state (motion states follow from the planner and the hold).
@@ -22,6 +21,53 @@ pub(super) enum State {
     Alarm,
     /// Alarm that waits for a soft reset before anything else (hard/soft limit).
     Critical,
+}
+
+/// What a line waits for before its `ok`, once its motion is queued.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Wait {
+    /// G4 P: the queue runs out, then the dwell.
+    Dwell(f64),
+    /// G38.x (380 + x): the probe move runs out; no probe is wired.
+    Probe(u16),
+    /// M0: the queue runs out, then a hold until cycle start.
+    Pause { held: bool },
+    /// M2/M30: the queue runs out, then `[MSG:Pgm End]`.
+    End,
+    /// G4 at the machine's pace: its standing-still block is queued.
+    Dwelling,
+}
+
+/// A line waiting, and which line it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct WaitFor {
+    pub(super) wait: Wait,
+    pub(super) idx: usize,
+    /// The line queued motion (recorded as executed when that has run).
+    pub(super) moved: bool,
+}
+
+/// Where the line buffer is in a comment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Comment {
+    None,
+    Paren,
+    Semicolon,
+}
+
+/// A move in the planner queue.
+pub(super) struct Block {
+    pub(super) mv: Move,
+    /// The line's N number, if it has one (reported as `Ln:`).
+    pub(super) n: Option<u32>,
+    /// Index into the record's `received`.
+    pub(super) idx: usize,
+    pub(super) remaining_s: f64,
+    pub(super) duration_s: f64,
+    /// A `$J=` jog: shown as `Jog`, dropped by a jog cancel (0x85).
+    pub(super) jog: bool,
+    /// The line's last block (an arc has one per chord): its line has run when this has.
+    pub(super) last: bool,
 }
 
 /// The simulated controller, run on its own thread.
@@ -61,7 +107,7 @@ pub(super) struct Sim {
     /// asked for in the same pass, as protocol_exec_rt_system orders them).
     pub(super) rt_hold: bool,
     /// The answer to the line being run goes wrong this way (an injected fault).
-    pub(super) ok_fault: Option<super::FaultKind>,
+    pub(super) ok_fault: Option<FaultKind>,
     pub(super) silent: bool,
     pub(super) status_requested: bool,
     pub(super) reports: u64,
@@ -95,6 +141,7 @@ impl Sim {
             .baud
             .filter(|&b| b > 0)
             .map(|b| Duration::from_secs_f64(10.0 / b as f64));
+        let settings = cfg.initial_settings();
         let mut sim = Sim {
             cfg,
             port: Some(port),
@@ -126,7 +173,7 @@ impl Sim {
             reports: 0,
             job_lines: 0,
             last_tick: now,
-            settings: Vec::new(),
+            settings,
             setting_pending: None,
             ov: [100; 3],
             ov_changed: false,
@@ -136,7 +183,6 @@ impl Sim {
             backlog: VecDeque::new(),
             unheard: 0,
         };
-        sim.settings = super::system::initial_settings(&sim.cfg);
         sim.apply_settings();
         if let Some(st) = sim.cfg.start.clone() {
             sim.modal.coords = st.coords;
@@ -266,11 +312,11 @@ impl Sim {
             return;
         }
         let line = match (line, self.ok_fault) {
-            ("ok", Some(super::FaultKind::DropOk)) => {
+            ("ok", Some(FaultKind::DropOk)) => {
                 self.ok_fault = None;
                 return;
             }
-            ("ok", Some(super::FaultKind::GarbleOk)) => {
+            ("ok", Some(FaultKind::GarbleOk)) => {
                 self.ok_fault = None;
                 "okM"
             }

@@ -4,41 +4,9 @@
 use std::time::{Duration, Instant};
 
 use super::sim::{Sim, State};
-use super::VirtualConfig;
 
 /// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
 const EEPROM_WRITE: Duration = Duration::from_millis(20);
-
-/// The settings a stock laser build lists in `$$` (with the configured homing, laser mode and
-/// rapid rate), then the configured ones over them.
-pub(super) fn initial_settings(cfg: &VirtualConfig) -> Vec<(u32, String)> {
-    let rapid = format!("{:.3}", cfg.rapid_mm_min);
-    let mut settings: Vec<(u32, String)> = [
-        (10, "2"),
-        (11, "0.010"),
-        (20, "0"),
-        (22, if cfg.homing { "1" } else { "0" }),
-        (30, "1000"),
-        (31, "0"),
-        (32, if cfg.laser_mode { "1" } else { "0" }),
-        (110, rapid.as_str()),
-        (111, rapid.as_str()),
-        (120, "1000.000"),
-        (121, "1000.000"),
-        (130, "400.000"),
-        (131, "400.000"),
-    ]
-    .iter()
-    .map(|&(k, v)| (k, v.to_string()))
-    .collect();
-    for (k, v) in cfg.settings.clone() {
-        match settings.iter_mut().find(|(n, _)| *n == k) {
-            Some(e) => e.1 = v,
-            None => settings.push((k, v)),
-        }
-    }
-    settings
-}
 
 impl Sim {
     /// A `$` line: Grbl's system commands, answered at once (a setting when written).

@@ -301,6 +301,25 @@ pub enum MeshError {
     Setting(MeshSetting),
 }
 
+impl MeshError {
+    /// The mesh this error is about (its message starts with it); `None` for a render setting.
+    pub fn subject(&self) -> Option<&Path> {
+        use MeshError::*;
+        match self {
+            Read(e) => Some(e.subject()),
+            Setting(_) => None,
+            Open { path, .. }
+            | NotText { path, .. }
+            | Malformed { path, .. }
+            | BadIndex { path, .. }
+            | NonFinite { path, .. }
+            | Outlier { path, .. }
+            | Parse { path, .. }
+            | Empty { path, .. } => Some(path),
+        }
+    }
+}
+
 /// A rendered view at output resolution, before thresholding.
 #[derive(Clone, Debug)]
 pub struct Rendering {

@@ -1,0 +1,214 @@
+//! A finished run as the page sees it ([`Done`]): what it computed (one stencil through the
+//! engine, or a set as `make` cuts it), the input file's identity on disk when it was read
+//! ([`Stamp`]), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
+
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::SystemTime;
+
+use axum::body::Bytes;
+use stencil_core::export::png;
+use stencil_core::layers::{Layered, LayersConfig};
+use stencil_core::pipeline::{Cleaned, Made};
+use stencil_core::raster::Gray;
+
+use crate::engine::{fast_png, Computed, Pixels};
+use crate::params::Params;
+
+/// How many encoded images one result keeps (a set of six layers and its fill-in has 36
+/// names; the page shows one or two at a time).
+const IMAGE_CACHE: usize = 12;
+
+/// What a run computed: one stencil, through the incremental engine, or a set.
+#[derive(Clone)]
+pub(crate) enum Shown {
+    One(Arc<Computed>),
+    Set(Arc<SetRun>),
+}
+
+/// A set (`--layers`, `--fill-in`, registration marks for a mask) as `make` computes it, by
+/// `stencil_core::layers::run`. Not incremental: each layer's bridges depend on the darker
+/// layers' stencils, so a change runs the whole set again, and a newer change waits for it.
+pub(crate) struct SetRun {
+    pub(crate) cfg: stencil_core::MakeConfig,
+    pub(crate) lc: LayersConfig,
+    pub(crate) set: Layered,
+}
+
+impl SetRun {
+    /// The stencils in painting order: the layers, then the fill-in.
+    pub(crate) fn stencils(&self) -> Vec<&Made> {
+        self.set.layers.iter().chain(&self.set.fill_in).collect()
+    }
+
+    /// One of the page's images: `composite` (the painted set, the picture's size), or
+    /// `NAME` / `sK-NAME` for stencil K (1-based, in painting order, the fill-in last) with a
+    /// NAME as [`Computed::image`] has.
+    pub(crate) fn image(&self, name: &str) -> Option<Vec<u8>> {
+        if name == "composite" {
+            let (w, h) = (self.set.tones.luma.width, self.set.tones.luma.height);
+            return Some(fast_png(w, h, &self.set.composite, Pixels::Rgb));
+        }
+        let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
+            // Canonical numbers only (`s1`, not `s01` or `s+1`): one name per image.
+            Some((k, what)) => (
+                k.parse::<usize>().ok().filter(|n| n.to_string() == k)?,
+                what,
+            ),
+            None => (1, name),
+        };
+        let m = *self.stencils().get(k.checked_sub(1)?)?;
+        let (w, h) = (m.bridged.bits.width, m.bridged.bits.height);
+        let gray = &m.twotone.gray;
+        Some(match what {
+            "gray" => fast_png(w, h, &gray.to_u8(), Pixels::Gray),
+            "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), Pixels::Gray),
+            "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), Pixels::Gray),
+            "picture" => fast_png(w, h, &m.picture.to_u8(), Pixels::Gray),
+            "preview" => {
+                let rgb = png::preview_rgb(
+                    gray,
+                    &m.picture,
+                    &m.twotone.bits,
+                    &m.bridged.bits,
+                    &m.dropped_px,
+                    1,
+                );
+                fast_png(w, h, &rgb, Pixels::Rgb)
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// The identity of the input file on disk: a file replaced or rewritten has another. Its
+/// length, modification time, and device, inode and change time (Unix: a file renamed over it,
+/// or written within the modification time's resolution, still differs).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Stamp(u64, Option<SystemTime>, [i64; 4]);
+
+/// The input file's stamp now (`None`: it cannot be read; the run then says why).
+pub(crate) fn stamp(path: &Path) -> Option<Stamp> {
+    let m = std::fs::metadata(path).ok()?;
+    #[cfg(unix)]
+    let node = {
+        use std::os::unix::fs::MetadataExt;
+        [m.dev() as i64, m.ino() as i64, m.ctime(), m.ctime_nsec()]
+    };
+    #[cfg(not(unix))]
+    let node = [0; 4];
+    Some(Stamp(m.len(), m.modified().ok(), node))
+}
+
+/// One finished run, as the page sees it.
+pub(crate) struct Done {
+    pub(crate) version: u64,
+    /// The options it was computed from (the command line an export of it shows).
+    pub(crate) params: Params,
+    /// The input file it was computed from.
+    pub(crate) stamp: Option<Stamp>,
+    /// Set when this run read the input again because it changed on disk.
+    pub(crate) notice: Option<String>,
+    pub(crate) outcome: Result<Shown, String>,
+    /// Why `make` would write nothing for it, in `make`'s words.
+    pub(crate) refused: Option<String>,
+    /// The preview only: the trace and the check of this version are still running.
+    pub(crate) checking: bool,
+    pub(crate) ms: f64,
+    /// Encoded images of this run, by canonical name, made on first request; at most
+    /// [`IMAGE_CACHE`], the oldest dropped first.
+    pub(crate) images: Mutex<Vec<(String, Bytes)>>,
+}
+
+impl Done {
+    /// The image `name` when it was encoded before.
+    pub(crate) fn cached(&self, name: &str) -> Option<Bytes> {
+        let images = self.images.lock().unwrap_or_else(|e| e.into_inner());
+        images
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| b.clone())
+    }
+
+    /// Keep the encoded image `name` (the oldest kept is dropped past [`IMAGE_CACHE`]).
+    pub(crate) fn cache(&self, name: &str, png: &Bytes) {
+        let mut images = self.images.lock().unwrap_or_else(|e| e.into_inner());
+        if images.iter().any(|(n, _)| n == name) {
+            return;
+        }
+        if images.len() >= IMAGE_CACHE {
+            images.remove(0);
+        }
+        images.push((name.to_string(), png.clone()));
+    }
+}
+
+/// The engine's working gray.
+pub(crate) type WorkingGray = Arc<Gray>;
+
+/// What the page is sent that depends on one stage's output alone, kept with that output (the
+/// `Arc` the engine hands out again for as long as the stage is not re-run): after a change
+/// that did not touch the working gray or the clean-up (a bridge weight), the state and the
+/// before/after picture are sent without counting or encoding them again.
+#[derive(Default)]
+pub(crate) struct Reuse(Mutex<Kept>);
+
+/// What [`Reuse`] keeps.
+#[derive(Default)]
+struct Kept {
+    histogram: Option<(WorkingGray, Arc<Vec<u64>>)>,
+    gray_png: Option<(WorkingGray, Bytes)>,
+    picture_png: Option<(Arc<Cleaned>, Bytes)>,
+}
+
+impl Reuse {
+    /// The working gray's histogram, counted once per gray.
+    pub(crate) fn histogram_of(&self, gray: &WorkingGray) -> Arc<Vec<u64>> {
+        let mut r = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match &r.histogram {
+            Some((g, h)) if Arc::ptr_eq(g, gray) => h.clone(),
+            _ => {
+                let h = Arc::new(histogram(gray));
+                r.histogram = Some((gray.clone(), h.clone()));
+                h
+            }
+        }
+    }
+
+    /// The `gray` or `picture` PNG of `c` when it was made for the same stage output before.
+    pub(crate) fn kept_png(&self, c: &Computed, name: &str) -> Option<Bytes> {
+        let r = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match name {
+            "gray" => r
+                .gray_png
+                .as_ref()
+                .filter(|(g, _)| Arc::ptr_eq(g, &c.gray))
+                .map(|(_, b)| b.clone()),
+            "picture" => r
+                .picture_png
+                .as_ref()
+                .filter(|(k, _)| Arc::ptr_eq(k, &c.cleaned))
+                .map(|(_, b)| b.clone()),
+            _ => None,
+        }
+    }
+
+    /// Keep `png` when it is the `gray` or `picture` of `c` (see [`Reuse::kept_png`]).
+    pub(crate) fn keep_png(&self, c: &Computed, name: &str, png: &Bytes) {
+        let mut r = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match name {
+            "gray" => r.gray_png = Some((c.gray.clone(), png.clone())),
+            "picture" => r.picture_png = Some((c.cleaned.clone(), png.clone())),
+            _ => {}
+        }
+    }
+}
+
+/// Pixels per gray level (0..255) of the working gray.
+pub(crate) fn histogram(g: &Gray) -> Vec<u64> {
+    let mut h = vec![0u64; 256];
+    for &v in &g.data {
+        h[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
+    }
+    h
+}
