@@ -127,7 +127,7 @@ pub fn parse_offset(s: &str) -> Result<[f64; 2], String> {
     if !(x.is_finite() && y.is_finite()) {
         return Err(bad());
     }
-    let far = *stencil_gcode::machine::bounds::BED_MM.end();
+    let far = *stencil_gcode::bounds::BED_MM.end();
     if x.abs() > far || y.abs() > far {
         return Err(format!(
             "'{s}' is beyond any machine's bed: X and Y must be within ±{far} mm (the largest bed \
@@ -140,7 +140,7 @@ pub fn parse_offset(s: &str) -> Result<[f64; 2], String> {
 /// `--feed`, `--frame-feed`, `--speed`: what a profile's feeds may be (the machine's own max is
 /// checked once the profile is loaded or the job planned).
 pub fn parse_feed(s: &str) -> Result<f64, String> {
-    number_in(s, stencil_gcode::machine::bounds::FEED_MM_MIN, " mm/min")
+    number_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min")
 }
 
 #[cfg(test)]

@@ -5,9 +5,9 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use stencil_gcode::estimate::{estimate_program, format_duration, length_over_feed_s};
 use stencil_gcode::interpret::{interpret_from, Program};
 use stencil_gcode::machine as machine_profile;
+use stencil_gcode::{estimate_program, format_duration, length_over_feed_s};
 use stencil_grbl::{ControllerInfo, ControllerState, Placement, StartFrom};
 
 /// `stencil estimate job.gcode`: time and distances of any G-code file.

@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_gcode::estimate::format_duration;
+use stencil_gcode::format_duration;
 use stencil_gcode::machine::{Machine, Tool};
 use stencil_gcode::{self as plan, CutSettings, GcodeConfig, GcodeSummary};
 
@@ -191,7 +191,7 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read", svg_path.display())
         }
     })?;
-    let drawing = stencil_gcode::read_svg::read(&text, &svg_path.display().to_string())?;
+    let drawing = stencil_gcode::read_svg(&text, &svg_path.display().to_string())?;
     for n in &drawing.notes {
         eprintln!("{}: note: {n}", svg_path.display());
     }
@@ -237,10 +237,9 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     notes.push(format!("cut settings from {settings_from}"));
     // The drawing's curves were flattened within FLATTEN_TOLERANCE_MM: twice that finds them
     // again as arcs (and joins a polygon's runs of short segments into arcs).
-    let cfg = a.machine.plan_config(
-        settings,
-        2.0 * stencil_gcode::read_svg::FLATTEN_TOLERANCE_MM,
-    );
+    let cfg = a
+        .machine
+        .plan_config(settings, 2.0 * stencil_gcode::FLATTEN_TOLERANCE_MM);
     let (gcode, mut summary) = match plan::gcode_for(&geom, &machine, &cfg, &notes) {
         Err(e @ plan::PlanError::OpenPaths { .. }) => {
             bail!("{}: {}", svg_path.display(), super::errors::plan(&e))

@@ -8,10 +8,10 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_gcode::grid::{grid_gcode, grid_svg, plan_grid, Grid, GridSpec, RowKind, Steps};
 use stencil_gcode::machine::{self as machine_profile, Machine, Tool};
 use stencil_gcode::num;
 use stencil_gcode::{self as plan, CutSettings};
+use stencil_gcode::{grid_gcode, grid_svg, plan_grid, Grid, GridSpec, RowKind, Steps};
 
 /// Write a grid of test squares over power and speed, with a labelled SVG preview.
 #[derive(Args, Debug)]
@@ -38,11 +38,11 @@ pub struct TestGridArgs {
     #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, 0.1..=100.0, " %"))]
     pub power: Option<Steps>,
     /// Speed per column, mm/min (FROM..TO:STEPS), 1 to 200000.
-    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, machine_profile::bounds::FEED_MM_MIN, " mm/min"), allow_hyphen_values = true)]
+    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, stencil_gcode::bounds::FEED_MM_MIN, " mm/min"), allow_hyphen_values = true)]
     pub speed: Option<Steps>,
     /// Drag knife: blade depth per row, machine Z mm (FROM..TO:STEPS, e.g. -0.1..-0.5:5), -1000
     /// to 1000.
-    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, machine_profile::bounds::Z_MM, " mm"), allow_hyphen_values = true)]
+    #[arg(long, value_name = "RANGE", value_parser = |s: &str| steps_in(s, stencil_gcode::bounds::Z_MM, " mm"), allow_hyphen_values = true)]
     pub depth: Option<Steps>,
     /// Side of each square, mm (1 to 100).
     #[arg(long, default_value_t = 10.0, value_parser = |s: &str| super::bounds::number_in(s, 1.0..=100.0, " mm"))]
@@ -54,7 +54,7 @@ pub struct TestGridArgs {
     #[arg(long, value_name = "X,Y", default_value = "5,5", value_parser = super::bounds::parse_offset, allow_hyphen_values = true)]
     pub offset: [f64; 2],
     /// Passes per square [default: the material's].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::bounds::MAX_PASSES as i64))]
     pub passes: Option<u32>,
 }
 

@@ -67,7 +67,7 @@ fn parse_power(s: &str) -> Result<f64, String> {
 
 /// `--blade-offset`: as the planner accepts it.
 fn parse_blade_offset(s: &str) -> Result<f64, String> {
-    super::bounds::number_in(s, 0.0..=plan::MAX_BLADE_OFFSET_MM, " mm")
+    super::bounds::number_in(s, 0.0..=plan::bounds::MAX_BLADE_OFFSET_MM, " mm")
 }
 
 /// Cut settings given on the command line; each overrides the material's.
@@ -81,7 +81,7 @@ pub struct CutArgs {
     #[arg(long, value_name = "MM_MIN", value_parser = super::bounds::parse_feed)]
     pub speed: Option<f64>,
     /// Times each loop is cut: 1 to 100.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::MAX_PASSES as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=plan::bounds::MAX_PASSES as i64))]
     pub passes: Option<u32>,
     /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation; at
     /// most 5).

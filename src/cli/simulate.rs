@@ -6,9 +6,9 @@ use std::process::ExitCode;
 use clap::Args;
 
 use stencil_core::export;
-use stencil_gcode::estimate::{estimate_program, format_duration};
 use stencil_gcode::machine as machine_profile;
 use stencil_gcode::simulate;
+use stencil_gcode::{estimate_program, format_duration};
 
 use super::program::read_program;
 

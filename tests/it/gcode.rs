@@ -5,7 +5,7 @@ use std::path::Path;
 use std::process::Command;
 
 use geo::{Coord, LineString, MultiPolygon, Polygon, Rect};
-use stencil_gcode::estimate::estimate;
+use stencil_gcode::estimate;
 use stencil_gcode::interpret::interpret;
 use stencil_gcode::machine::Motion;
 use stencil_gcode::machine::{self, Machine, PenLift, Tool};

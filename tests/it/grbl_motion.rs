@@ -4,7 +4,7 @@
 
 use std::io::Write;
 
-use stencil_gcode::estimate::estimate_with;
+use stencil_gcode::estimate_with;
 use stencil_gcode::interpret::{extent, interpret, interpret_program, CutRule};
 use stencil_gcode::machine;
 use stencil_grbl::{cut_extent, VirtualConfig, VirtualGrbl};

@@ -667,7 +667,7 @@ fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> 
             "passes",
         )?;
         if c.laser.is_some() {
-            let w = stencil_gcode::machine::bounds::WATTS;
+            let w = stencil_gcode::bounds::WATTS;
             check_range(origin, &field("watts"), c.watts, *w.start(), *w.end(), "W")?;
             if c.from.trim().is_empty() {
                 return Err(invalid(

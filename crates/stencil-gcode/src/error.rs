@@ -2,11 +2,8 @@
 //! needs. The messages say what to change in words; the command line adds its option names
 //! (`stencil`'s `cli/gcode.rs`), so this crate knows nothing of flags.
 
-use crate::grid::RowKind;
-use crate::interpret::GcodeError;
-use crate::toolpath::MAX_BLADE_OFFSET_MM;
-use crate::toolpath::MAX_PASSES;
-use crate::write::num;
+use crate::bounds::{MAX_BLADE_OFFSET_MM, MAX_PASSES};
+use crate::num::num;
 
 /// Why [`plan`](crate::plan), [`gcode_for`](crate::gcode_for) or
 /// [`grid::plan_grid`](crate::grid::plan_grid) refused a job.
@@ -16,16 +13,27 @@ pub enum PlanError {
         "the job ({w:.1} x {h:.1} mm) does not fit on the bed of '{machine}' ({bw:.1} x {bh:.1} mm): \
          at this placement it spans X {x0:.1}..{x1:.1}, Y {y0:.1}..{y1:.1} mm; {fix}"
     )]
+    /// The job leaves the bed at this placement.
     DoesNotFit {
+        /// The machine's name.
         machine: String,
+        /// The job's width and height, mm.
         w: f64,
+        /// The job's width and height, mm.
         h: f64,
+        /// The bed's width and height, mm.
         bw: f64,
+        /// The bed's width and height, mm.
         bh: f64,
+        /// What the job spans in machine X and Y, mm.
         x0: f64,
+        /// What the job spans in machine X and Y, mm.
         x1: f64,
+        /// What the job spans in machine X and Y, mm.
         y0: f64,
+        /// What the job spans in machine X and Y, mm.
         y1: f64,
+        /// What would make it fit.
         fix: Fit,
     },
     /// No loop to cut, and the sheet's outline is not cut either.
@@ -40,11 +48,15 @@ pub enum PlanError {
          segment was lost. Close them in the drawing, or cut them open on purpose"
     )]
     OpenPaths {
+        /// How many open paths.
         count: usize,
+        /// The machine's name.
         machine: String,
+        /// Its tool.
         tool: &'static str,
     },
     #[error(transparent)]
+    /// Cut settings the machine cannot run.
     Settings(#[from] SettingsError),
     /// A square of a test grid whose settings the machine refuses; `label` is the square's
     /// caption (its power or depth and speed).
@@ -52,8 +64,11 @@ pub enum PlanError {
     GridSquare {
         /// Counted from 1, as printed.
         row: usize,
+        /// Counted from 1, as printed.
         col: usize,
+        /// The square's caption.
         label: String,
+        /// What the machine refuses.
         cause: Box<SettingsError>,
     },
     /// Our own output failed our own interpreter: a bug, reported rather than written.
@@ -86,55 +101,129 @@ impl std::fmt::Display for Fit {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SettingsError {
     #[error("cutting speed must be at least {min} mm/min, got {got}")]
-    SpeedTooLow { min: f64, got: f64 },
+    /// A speed below the least feed.
+    SpeedTooLow {
+        /// The least speed, mm/min.
+        min: f64,
+        /// The speed asked for, mm/min.
+        got: f64,
+    },
     #[error(
         "cutting speed {speed} mm/min is above the max feed of '{machine}' ({max} mm/min); lower the speed"
     )]
+    /// A speed above the machine's max feed.
     AboveMaxFeed {
+        /// The speed asked for, mm/min.
         speed: f64,
+        /// The machine's name.
         machine: String,
+        /// Its max feed, mm/min.
         max: f64,
     },
     #[error("blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {0}")]
+    /// A blade offset out of range, mm.
     BladeOffset(f64),
     #[error("passes must be 1..{MAX_PASSES}, got {0}")]
+    /// A number of passes out of range.
     Passes(u32),
     #[error("air assist is for a laser; '{machine}' has a {tool}: turn it off")]
-    AirAssistNotLaser { machine: String, tool: &'static str },
+    /// Air assist asked of a tool that is not a laser.
+    AirAssistNotLaser {
+        /// The machine's name.
+        machine: String,
+        /// Its tool.
+        tool: &'static str,
+    },
     #[error("laser power must be in (0, 100] %, got {0}")]
+    /// A laser power out of range, %.
     LaserPower(f64),
     #[error(
         "laser power {power} % gives S0 on '{machine}' ($30={s_max}): the laser would not fire; \
          raise the power"
     )]
+    /// A power so low that the S word is 0.
     LaserDark {
+        /// The power asked for, %.
         power: f64,
+        /// The machine's name.
         machine: String,
+        /// Its `$30`.
         s_max: f64,
     },
     #[error(
         "laser power {power} % gives S{s}, below the minimum S of '{machine}' ($31={s_min}); raise the power"
     )]
+    /// A power whose S is under the machine's `$31`.
     BelowSMin {
+        /// The power asked for, %.
         power: f64,
+        /// The S it gives.
         s: f64,
+        /// The machine's name.
         machine: String,
+        /// Its `$31`.
         s_min: f64,
     },
     #[error("the squares need a size > 0 and a gap >= 0")]
+    /// A test grid's square size or gap out of range.
     GridSquares,
     #[error("the grid needs at least one speed")]
+    /// A test grid without speeds.
     GridNoSpeed,
     #[error("depth Z{} is not below the blade's up height Z{} of '{machine}'", num(*depth), num(*up))]
+    /// A knife depth not below its up height.
     DepthAboveBlade {
+        /// The depth asked for, Z mm.
         depth: f64,
+        /// The blade's up height, Z mm.
         up: f64,
+        /// The machine's name.
         machine: String,
     },
     #[error("a grid over {kind:?} does not apply to the {tool} of '{machine}'")]
+    /// A test grid's rows that do not suit the tool.
     GridKind {
+        /// What the rows would vary.
         kind: RowKind,
+        /// The machine's tool.
         tool: &'static str,
+        /// The machine's name.
         machine: String,
     },
+}
+
+/// A line the interpreter cannot run, with Grbl's error code where Grbl has one.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("line {line}: {msg}{}", if *out_of_range { String::new() } else { format!(" (Grbl error:{code})") })]
+pub struct GcodeError {
+    /// The line, from 1.
+    pub line: usize,
+    /// Grbl's `error:N` code.
+    pub code: u8,
+    /// What is wrong, in words.
+    pub msg: String,
+    /// A number beyond what any machine can do ([`MAX_COORD_MM`](crate::interpret::MAX_COORD_MM), [`MAX_FEED_MM_MIN`](crate::interpret::MAX_FEED_MM_MIN),
+    /// [`MAX_S`](crate::interpret::MAX_S)), or not finite: the program is refused whole, not passed on to Grbl.
+    pub out_of_range: bool,
+}
+
+/// A refusal with Grbl's error code.
+pub(crate) fn fail(line: usize, code: u8, msg: impl Into<String>) -> GcodeError {
+    GcodeError {
+        line,
+        code,
+        msg: msg.into(),
+        out_of_range: false,
+    }
+}
+
+/// What the rows vary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowKind {
+    /// Laser power, %.
+    Power,
+    /// Knife (or pen on Z) depth: the Z the tool is lowered to, mm.
+    Depth,
+    /// One row: only the speed varies (a pen).
+    None,
 }

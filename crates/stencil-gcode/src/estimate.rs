@@ -32,8 +32,11 @@ use crate::machine::Motion;
 /// What a job costs in time and distance.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate {
+    /// The whole program, s.
     pub total_s: f64,
+    /// Moving with the tool cutting, s.
     pub cut_s: f64,
+    /// Moving with the tool off, s.
     pub travel_s: f64,
     /// Length of moves with the tool on, mm.
     pub cut_mm: f64,

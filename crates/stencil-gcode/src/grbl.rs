@@ -8,21 +8,20 @@
 //! Built as the stock `config.h` builds it: no `ENABLE_M7` (M7 is `error:20`), no parking
 //! override (M56), tool length offsets on Z, six work coordinate systems (G54–G59).
 
-use stencil_io::excerpt;
-
 use crate::arc::{Arc, MAX_ARC_SEGMENTS};
-use crate::interpret::{
-    Executed, Flow, GcodeError, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
+use crate::error::{fail, GcodeError};
+use crate::modal::{
+    Executed, Flow, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
     MOTION_CW_ARC, MOTION_LINEAR, MOTION_NONE, MOTION_SEEK,
 };
+use crate::num::num;
+use crate::word::next_word;
 
 const MM_PER_INCH: f64 = 25.4;
 /// gcode.c's `MAX_LINE_NUMBER`.
 const MAX_LINE_NUMBER: f64 = 10_000_000.0;
 /// gcode.c's `MAX_TOOL_NUMBER` (a `uint8_t`).
 const MAX_TOOL_NUMBER: f64 = 255.0;
-/// nuts_bolts.c's `MAX_INT_DIGITS`: `read_float` keeps this many significant digits.
-const MAX_INT_DIGITS: u32 = 8;
 
 /// What the block's axis words are for (gcode.c's `AXIS_COMMAND_*`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,90 +107,6 @@ struct Block {
     coord_target: usize,
     /// The work coordinate system the block's targets use (G54..G59 as selected in it).
     block_coord: [f64; 3],
-}
-
-fn fail(line: usize, code: u8, msg: impl Into<String>) -> GcodeError {
-    GcodeError {
-        line,
-        code,
-        msg: msg.into(),
-        out_of_range: false,
-    }
-}
-
-/// Read one word at `*i`: a letter A–Z (else `error:1`, protocol's `STATUS_EXPECTED_COMMAND_LETTER`)
-/// and a number as nuts_bolts.c's `read_float` reads it: an optional sign, digits with at most one
-/// point, no exponent, eight significant digits kept; no digit is `error:2`.
-pub(crate) fn next_word(
-    clean: &str,
-    i: &mut usize,
-    line: usize,
-) -> Result<Option<(char, f64)>, GcodeError> {
-    let b = clean.as_bytes();
-    let Some(&letter) = b.get(*i) else {
-        return Ok(None);
-    };
-    if !letter.is_ascii_uppercase() {
-        return Err(fail(
-            line,
-            1,
-            format!("expected a command letter at '{}'", excerpt(&clean[*i..])),
-        ));
-    }
-    let mut j = *i + 1;
-    let negative = match b.get(j) {
-        Some(b'-') => {
-            j += 1;
-            true
-        }
-        Some(b'+') => {
-            j += 1;
-            false
-        }
-        _ => false,
-    };
-    let (mut int, mut exp, mut digits, mut decimal) = (0u64, 0i32, 0u32, false);
-    while let Some(&c) = b.get(j) {
-        if c.is_ascii_digit() {
-            digits += 1;
-            if digits <= MAX_INT_DIGITS {
-                if decimal {
-                    exp -= 1;
-                }
-                int = int * 10 + u64::from(c - b'0');
-            } else if !decimal {
-                exp += 1;
-            }
-        } else if c == b'.' && !decimal {
-            decimal = true;
-        } else {
-            break;
-        }
-        j += 1;
-    }
-    if digits == 0 {
-        return Err(fail(line, 2, format!("'{}' has no number", letter as char)));
-    }
-    // Dividing by an exact power of ten rounds correctly (25.4, not 254 × 0.1).
-    let v = if exp < 0 {
-        int as f64 / 10f64.powi(-exp)
-    } else {
-        int as f64 * 10f64.powi(exp)
-    };
-    if !v.is_finite() {
-        return Err(GcodeError {
-            line,
-            code: 2,
-            msg: format!(
-                "the number after '{}' ({}) is too large to be a number",
-                letter as char,
-                excerpt(&clean[*i + 1..j])
-            ),
-            out_of_range: true,
-        });
-    }
-    *i = j;
-    Ok(Some((letter as char, if negative { -v } else { v })))
 }
 
 /// Grbl's `int_value` (a `uint8_t` from `trunc`) and `mantissa` (`round(100 · fraction)`).
@@ -304,7 +219,7 @@ impl Block {
 
     fn g_word(&mut self, v: f64) -> Result<(), GcodeError> {
         let (int, mut mantissa) = int_and_mantissa(v);
-        let name = format!("G{}", crate::num(v));
+        let name = format!("G{}", num(v));
         let unsupported = |b: &Block| b.err(20, format!("{name} is not a command Grbl 1.1 has"));
         let bit = match int {
             10 | 28 | 30 | 92 | 4 | 53 => {
@@ -404,7 +319,7 @@ impl Block {
 
     fn m_word(&mut self, v: f64) -> Result<(), GcodeError> {
         let (int, mantissa) = int_and_mantissa(v);
-        let name = format!("M{}", crate::num(v));
+        let name = format!("M{}", num(v));
         if mantissa > 0 {
             return Err(self.err(23, format!("{name}: Grbl has no Mxx.x commands")));
         }
@@ -767,10 +682,7 @@ impl Block {
             if h4 < 0.0 {
                 return Err(self.err(
                     34,
-                    format!(
-                        "radius {} is less than half the chord",
-                        crate::num(self.r.abs())
-                    ),
+                    format!("radius {} is less than half the chord", num(self.r.abs())),
                 ));
             }
             let mut h = -h4.sqrt() / x.hypot(y);
@@ -804,7 +716,7 @@ impl Block {
                     format!(
                         "the arc's end is {} mm off its circle (Grbl allows 0.005 mm, or 0.1 % \
                          of the radius up to 0.5 mm)",
-                        crate::num(delta)
+                        num(delta)
                     ),
                 ));
             }
@@ -856,7 +768,7 @@ impl Block {
                     msg: format!(
                         "the arc needs {n} segments at arc tolerance {} mm; Grbl counts at most \
                          {MAX_ARC_SEGMENTS}",
-                        crate::num(st.arc_tolerance)
+                        num(st.arc_tolerance)
                     ),
                     out_of_range: true,
                 });

@@ -8,15 +8,20 @@
 use crate::machine::{Machine, Tool};
 use stencil_geom::ring::{bbox, dist};
 
-use crate::error::{Fit, PlanError, SettingsError};
-use crate::toolpath::{check_settings, laser_s, CutSettings, Job, Loop, PathStats};
-use crate::write::{num, write_each, LoopSettings};
+use crate::error::{Fit, PlanError, RowKind, SettingsError};
+use crate::job::{CutSettings, Job, Loop, PathStats};
+use crate::num::num;
+use crate::toolpath::{check_settings, laser_s};
+use crate::write::{write_each, LoopSettings};
 
 /// A range of values: `from..to` in `steps` evenly spaced values (`A..B:N`), or one value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Steps {
+    /// The first value.
     pub from: f64,
+    /// The last value.
     pub to: f64,
+    /// How many values.
     pub steps: usize,
 }
 
@@ -72,20 +77,10 @@ impl Steps {
     }
 }
 
-/// What the rows vary.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RowKind {
-    /// Laser power, %.
-    Power,
-    /// Knife (or pen on Z) depth: the Z the tool is lowered to, mm.
-    Depth,
-    /// One row: only the speed varies (a pen).
-    None,
-}
-
 /// A test grid to cut.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridSpec {
+    /// What the rows vary.
     pub row_kind: RowKind,
     /// Power % or depth per row (one `NaN`-free value per row; one row for [`RowKind::None`]).
     pub rows: Vec<f64>,
@@ -104,11 +99,15 @@ pub struct GridSpec {
 /// One square.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
+    /// Row, from 0.
     pub row: usize,
+    /// Column, from 0.
     pub col: usize,
+    /// The square's settings.
     pub settings: CutSettings,
     /// The S word (laser) or the depth (knife), as written.
     pub s: Option<f64>,
+    /// The Z the knife or pen goes down to.
     pub depth: Option<f64>,
     /// Lower-left corner, machine mm.
     pub min: [f64; 2],
@@ -129,8 +128,11 @@ impl Cell {
 /// A planned grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
+    /// What was asked for.
     pub spec: GridSpec,
+    /// The squares, row by row.
     pub cells: Vec<Cell>,
+    /// The squares as a job for the writer.
     pub job: Job,
     /// Width and height of the squares together, mm.
     pub size: [f64; 2],

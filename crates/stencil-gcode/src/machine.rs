@@ -19,7 +19,9 @@ use stencil_io::profile::{
 };
 use stencil_io::shipped;
 
+use crate::bounds;
 use crate::interpret::{CutRule, Move};
+use crate::num::num;
 
 /// The machine used when none is named: a generic GRBL 1.1 diode laser, 400 × 400 mm bed.
 pub const DEFAULT_MACHINE: &str = "diode-400";
@@ -38,9 +40,13 @@ pub const SHIPPED: &[Shipped] = &[
 #[serde(rename_all = "kebab-case")]
 pub enum Corner {
     #[default]
+    /// Front left.
     BottomLeft,
+    /// Front right.
     BottomRight,
+    /// Back left.
     TopLeft,
+    /// Back right.
     TopRight,
 }
 
@@ -68,7 +74,9 @@ impl Corner {
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bed {
+    /// X travel, mm.
     pub width_mm: f64,
+    /// Y travel, mm.
     pub height_mm: f64,
     /// Where machine (0, 0) is; axes point away from it (into the bed).
     #[serde(default)]
@@ -150,7 +158,10 @@ fn default_jd() -> f64 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PenLift {
     /// A servo or solenoid on the spindle output: `M3 S<down_s>` lowers, `M5` raises.
-    Spindle { down_s: f64 },
+    Spindle {
+        /// The S that lowers it.
+        down_s: f64,
+    },
     /// A Z axis: `G0 Z<up>` raises, `G1 Z<down> F<plunge>` lowers.
     Z(ZLift),
 }
@@ -158,7 +169,9 @@ pub enum PenLift {
 /// Z heights of a tool on a Z axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZLift {
+    /// Raised, Z mm.
     pub up_mm: f64,
+    /// Lowered (cutting), Z mm.
     pub down_mm: f64,
     /// Feed for lowering the tool, mm/min.
     pub plunge_mm_min: f64,
@@ -170,19 +183,25 @@ pub enum Tool {
     /// A laser in Grbl laser mode (`$32=1`): `M4` dynamic power, S from the material's power %
     /// scaled to `s_max` (`$30`); never below `s_min` (`$31`) while cutting.
     Laser {
+        /// `$30`: the S of full power.
         s_max: f64,
+        /// `$31`: the least S while cutting.
         s_min: f64,
     },
+    /// A pen, and how it is lifted.
     Pen(PenLift),
     /// A drag knife on a Z axis; `overcut_mm` continues past the start of each loop so the cut
     /// closes cleanly.
     Knife {
+        /// Its Z heights.
         z: ZLift,
+        /// How far past the start each loop is cut, mm.
         overcut_mm: f64,
     },
 }
 
 impl Tool {
+    /// The tool in words: laser, pen or knife.
     pub fn kind(&self) -> &'static str {
         match self {
             Tool::Laser { .. } => "laser",
@@ -198,7 +217,9 @@ impl Tool {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LaserSource {
+    /// A diode laser.
     Diode,
+    /// A CO2 tube.
     Co2,
 }
 
@@ -217,7 +238,9 @@ impl LaserSource {
 /// and a CO2's tube rating.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LaserPower {
+    /// Diode or CO2.
     pub source: LaserSource,
+    /// Optical (diode) or tube (CO2) power, W.
     pub watts: f64,
 }
 
@@ -225,8 +248,11 @@ pub struct LaserPower {
 /// power (unknown when the profile does not give them), a pen, a drag knife.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MachineKind {
+    /// A laser, of this power when known.
     Laser(Option<LaserPower>),
+    /// A pen.
     Pen,
+    /// A drag knife.
     Knife,
 }
 
@@ -238,7 +264,7 @@ impl std::fmt::Display for MachineKind {
                     LaserSource::Diode => "diode",
                     LaserSource::Co2 => "CO2",
                 };
-                write!(f, "{src} laser {} W", crate::num(p.watts))
+                write!(f, "{src} laser {} W", num(p.watts))
             }
             MachineKind::Laser(None) => f.write_str("laser (source and power not given)"),
             MachineKind::Pen => f.write_str("pen"),
@@ -250,10 +276,15 @@ impl std::fmt::Display for MachineKind {
 /// A validated machine profile.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Machine {
+    /// The profile's name.
     pub name: String,
+    /// One line about the machine.
     pub description: String,
+    /// The bed.
     pub bed: Bed,
+    /// Grbl's motion settings.
     pub motion: Motion,
+    /// The tool.
     pub tool: Tool,
     /// Laser only: the machine has air assist on Grbl's coolant output, switched with `M8`/`M9`
     /// (`tool.air_assist`). Jobs turn it on with the beam unless the material says otherwise.
@@ -291,12 +322,17 @@ impl Machine {
     line.map(|l| format!(" at line {l}")).unwrap_or_default()
 )]
 pub struct OffBed {
+    /// The machine's name.
     pub machine: String,
+    /// X or Y.
     pub axis: char,
+    /// How far the job reaches, mm.
     pub reached: f64,
     /// The bed's width (X) or depth (Y), mm.
     pub size: f64,
+    /// "wide" or "deep".
     pub dim: &'static str,
+    /// The program line that reaches it.
     pub line: Option<usize>,
 }
 
@@ -419,35 +455,6 @@ struct RawTool {
     source: Option<LaserSource>,
     /// Laser: optical output (diode) or tube rating (CO2), W.
     watts: Option<f64>,
-}
-
-/// What a GRBL machine can be, field by field: every number in a profile must lie in its range
-/// (a `z_up_mm = 1e9` was written as `Z1000000000`, a feed of 1e308 broke the writer).
-pub mod bounds {
-    use std::ops::RangeInclusive;
-    /// Bed width and height, mm: up to 10 m.
-    pub const BED_MM: RangeInclusive<f64> = 1.0..=10_000.0;
-    /// Feeds and rates (max feed, rapid, plunge; also a cut's speed), mm/min: 1 mm/min to
-    /// 200 m/min.
-    pub const FEED_MM_MIN: RangeInclusive<f64> = 1.0..=200_000.0;
-    /// Acceleration, mm/s²: up to about 10 g.
-    pub const ACCEL_MM_S2: RangeInclusive<f64> = 1.0..=100_000.0;
-    /// Steps per mm: from a coarse lead screw to a fine belt with heavy microstepping.
-    pub const STEPS_PER_MM: RangeInclusive<f64> = 1.0..=10_000.0;
-    /// Junction deviation (`$11`), mm.
-    pub const JUNCTION_DEVIATION_MM: RangeInclusive<f64> = 0.0001..=10.0;
-    /// Spindle S values (`$30`, a pen's down S): up to 100,000 (spindle RPM).
-    pub const S: RangeInclusive<f64> = 0.1..=100_000.0;
-    /// Z heights, mm: within a metre of zero.
-    pub const Z_MM: RangeInclusive<f64> = -1000.0..=1000.0;
-    /// A drag knife's overcut, mm.
-    pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
-    /// Framing power, % of full: a glimmer to see the outline by, never enough to mark.
-    pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
-    /// A laser's power, W: a 0.5 W diode to a 500 W CO2 tube.
-    pub const WATTS: RangeInclusive<f64> = 0.5..=500.0;
-    /// The longest profile name, characters (it is printed in G-code comments and messages).
-    pub const NAME_CHARS: usize = 100;
 }
 
 /// Parse and validate a profile's text. `origin` (the file) is used in errors.
@@ -784,271 +791,4 @@ pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const GOOD: &str = r#"
-name = "t"
-[bed]
-width_mm = 300
-height_mm = 200
-origin = "top-left"
-[motion]
-max_feed_mm_min = 5000
-rapid_mm_min = 8000
-accel_mm_s2 = 800
-[tool]
-kind = "laser"
-s_max = 255
-"#;
-
-    #[test]
-    fn every_builtin_profile_loads() {
-        for name in builtin_names() {
-            let m = load(Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert_eq!(m.name, name, "the profile's name matches its file");
-        }
-        let d = load(None).unwrap();
-        assert_eq!((d.bed.width_mm, d.bed.height_mm), (400.0, 400.0));
-        assert!(matches!(d.tool, Tool::Laser { .. }));
-    }
-
-    #[test]
-    fn good_profile_fields() {
-        let m = parse(GOOD, Path::new("t.toml")).unwrap();
-        assert_eq!(m.bed.origin, Corner::TopLeft);
-        assert_eq!(m.motion.junction_deviation_mm, 0.01);
-        assert_eq!(
-            m.tool,
-            Tool::Laser {
-                s_max: 255.0,
-                s_min: 0.0
-            }
-        );
-    }
-
-    fn err(text: &str) -> String {
-        parse(text, Path::new("my.toml")).unwrap_err().to_string()
-    }
-
-    #[test]
-    fn unknown_field_is_named() {
-        let e = err(&GOOD.replace("accel_mm_s2", "acceleration"));
-        assert!(e.starts_with("my.toml:"), "{e}");
-        assert!(e.contains("acceleration"), "{e}");
-        assert!(!e.contains('\n'), "one line: {e}");
-    }
-
-    #[test]
-    fn negative_bed_is_named() {
-        let e = err(&GOOD.replace("width_mm = 300", "width_mm = -3"));
-        assert!(e.contains("bed.width_mm") && e.contains("-3"), "{e}");
-    }
-
-    #[test]
-    fn s_min_above_s_max_is_refused() {
-        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\ns_min = 300"));
-        assert!(e.contains("tool.s_min"), "{e}");
-    }
-
-    #[test]
-    fn field_of_another_tool_is_refused() {
-        let e = err(&GOOD.replace("s_max = 255", "overcut_mm = 1"));
-        assert!(e.contains("tool.overcut_mm") && e.contains("laser"), "{e}");
-        let pen = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nair_assist = true",
-        );
-        let e = err(&pen);
-        assert!(e.contains("tool.air_assist") && e.contains("pen"), "{e}");
-        let air = parse(
-            &GOOD.replace("s_max = 255", "s_max = 255\nair_assist = true"),
-            Path::new("a"),
-        );
-        assert!(air.unwrap().air_assist);
-    }
-
-    #[test]
-    fn a_laser_source_comes_with_its_power() {
-        let m = parse(
-            &GOOD.replace("s_max = 255", "s_max = 255\nsource = \"diode\"\nwatts = 10"),
-            Path::new("a"),
-        )
-        .unwrap();
-        assert_eq!(
-            m.kind(),
-            MachineKind::Laser(Some(LaserPower {
-                source: LaserSource::Diode,
-                watts: 10.0
-            }))
-        );
-        assert_eq!(m.kind().to_string(), "diode laser 10 W");
-        assert_eq!(parse(GOOD, Path::new("a")).unwrap().laser, None);
-        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nsource = \"co2\""));
-        assert!(e.contains("tool.watts"), "{e}");
-        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nwatts = 10"));
-        assert!(e.contains("tool.source"), "{e}");
-        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nsource = \"co2\"\nwatts = 9000"));
-        assert!(e.contains("tool.watts"), "{e}");
-        let pen = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nwatts = 5",
-        );
-        assert!(err(&pen).contains("tool.watts"));
-        for name in ["diode-400", "co2-600x400"] {
-            assert!(load(Some(name)).unwrap().laser.is_some(), "{name}");
-        }
-    }
-
-    #[test]
-    fn frame_power_is_a_low_laser_setting() {
-        let m = parse(
-            &GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 1.5"),
-            Path::new("t.toml"),
-        )
-        .unwrap();
-        assert_eq!(m.frame_power_pct, 1.5);
-        assert_eq!(
-            parse(GOOD, Path::new("t.toml")).unwrap().frame_power_pct,
-            0.0
-        );
-        let e = err(&GOOD.replace("s_max = 255", "s_max = 255\nframe_power_pct = 40"));
-        assert!(
-            e.contains("tool.frame_power_pct") && e.contains("10"),
-            "{e}"
-        );
-        let pen = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30\nframe_power_pct = 1",
-        );
-        assert!(err(&pen).contains("tool.frame_power_pct"), "{}", err(&pen));
-    }
-
-    #[test]
-    fn knife_needs_z_heights() {
-        let text = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"knife\"\nz_up_mm = 3",
-        );
-        let e = err(&text);
-        assert!(
-            e.contains("tool.z_down_mm") && e.contains("required"),
-            "{e}"
-        );
-        let text = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"knife\"\nz_up_mm = -1\nz_down_mm = 0\nplunge_mm_min = 300",
-        );
-        assert!(err(&text).contains("above"));
-    }
-
-    #[test]
-    fn bad_origin_and_unknown_kind() {
-        let e = err(&GOOD.replace("top-left", "middle"));
-        assert!(e.contains("middle") || e.contains("origin"), "{e}");
-        let e = err(&GOOD.replace("\"laser\"", "\"plasma\""));
-        assert!(e.contains("plasma"), "{e}");
-    }
-
-    #[test]
-    fn unknown_name_lists_builtins() {
-        let e = load(Some("nope")).unwrap_err().to_string();
-        assert!(e.contains("nope") && e.contains("diode-400"), "{e}");
-        let e = load(Some("/no/such/m.toml")).unwrap_err().to_string();
-        assert!(e.contains("/no/such/m.toml"), "{e}");
-    }
-
-    #[test]
-    fn every_number_is_bounded_by_what_a_machine_can_be() {
-        let knife = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"knife\"\nz_up_mm = 3\nz_down_mm = -0.3\nplunge_mm_min = 300\novercut_mm = 1",
-        );
-        let pen = GOOD.replace(
-            "kind = \"laser\"\ns_max = 255",
-            "kind = \"pen\"\nlift = \"spindle\"\npen_down_s = 30",
-        );
-        assert!(parse(&knife, Path::new("k.toml")).is_ok());
-        assert!(parse(&pen, Path::new("p.toml")).is_ok());
-        for (base, from, to, field) in [
-            (GOOD, "width_mm = 300", "width_mm = 1e308", "bed.width_mm"),
-            (
-                GOOD,
-                "height_mm = 200",
-                "height_mm = 0.001",
-                "bed.height_mm",
-            ),
-            (
-                GOOD,
-                "max_feed_mm_min = 5000",
-                "max_feed_mm_min = 1e308",
-                "motion.max_feed_mm_min",
-            ),
-            (
-                GOOD,
-                "max_feed_mm_min = 5000",
-                "max_feed_mm_min = 1e-300",
-                "motion.max_feed_mm_min",
-            ),
-            (
-                GOOD,
-                "rapid_mm_min = 8000",
-                "rapid_mm_min = 1e9",
-                "motion.rapid_mm_min",
-            ),
-            (
-                GOOD,
-                "accel_mm_s2 = 800",
-                "accel_mm_s2 = 1e12",
-                "motion.accel_mm_s2",
-            ),
-            (
-                GOOD,
-                "accel_mm_s2 = 800",
-                "accel_mm_s2 = 800\njunction_deviation_mm = 1e-300",
-                "motion.junction_deviation_mm",
-            ),
-            (GOOD, "s_max = 255", "s_max = 1e308", "tool.s_max"),
-            (&knife, "z_up_mm = 3", "z_up_mm = 1e9", "tool.z_up_mm"),
-            (
-                &knife,
-                "z_down_mm = -0.3",
-                "z_down_mm = -1e9",
-                "tool.z_down_mm",
-            ),
-            (
-                &knife,
-                "plunge_mm_min = 300",
-                "plunge_mm_min = 1e300",
-                "tool.plunge_mm_min",
-            ),
-            (
-                &knife,
-                "overcut_mm = 1",
-                "overcut_mm = 1e6",
-                "tool.overcut_mm",
-            ),
-            (
-                &pen,
-                "pen_down_s = 30",
-                "pen_down_s = 1e300",
-                "tool.pen_down_s",
-            ),
-            (
-                GOOD,
-                "name = \"t\"",
-                &format!("name = \"{}\"", "n".repeat(500)),
-                "name",
-            ),
-        ] {
-            let text = base.replace(from, to);
-            assert_ne!(text, base, "{from}");
-            let e = err(&text);
-            assert!(
-                e.starts_with("my.toml: field `") && e.contains(field),
-                "{to}: {e}"
-            );
-            assert!(e.len() < 300 && !e.contains("00000000000"), "{e}");
-        }
-    }
-}
+mod tests;

@@ -23,7 +23,7 @@
 //! constraints go from a loop in more pieces to one in fewer, and a hull constraint is kept only
 //! where it does not go the other way, so the two together never cycle (see [`order`]).
 
-use crate::toolpath::Loop;
+use crate::job::Loop;
 use stencil_geom::clip::{self, ClipError};
 use stencil_geom::ring::{area, bbox, point_in_ring};
 

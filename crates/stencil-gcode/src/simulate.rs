@@ -14,8 +14,11 @@ const BACKGROUND: [u8; 3] = [255, 255, 255];
 /// An RGB picture of a program's moves.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Drawing {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Row by row from the top, three bytes a pixel.
     pub rgb: Vec<u8>,
     /// Millimetres per pixel of the drawing.
     pub mm_per_px: f64,

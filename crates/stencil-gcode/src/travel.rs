@@ -9,7 +9,7 @@
 //!
 //! Round two repeats both with the new start points.
 
-use crate::toolpath::Loop;
+use crate::job::Loop;
 use stencil_geom::ring::{bbox, dist};
 
 /// Candidate neighbours per point for 2-opt and Or-opt.

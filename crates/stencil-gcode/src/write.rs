@@ -23,7 +23,9 @@ use crate::machine::{Machine, PenLift, Tool, ZLift};
 use stencil_geom::curve;
 use stencil_geom::ring::dist;
 
-use crate::toolpath::{laser_s, CutSettings, Job, Loop};
+use crate::job::{CutSettings, Job, Loop};
+use crate::num::num;
+use crate::toolpath::laser_s;
 
 /// One loop's own settings and a comment line written before it (the test grid cuts each square
 /// at its own power and speed, and a knife's at its own depth).
@@ -38,17 +40,6 @@ pub(crate) struct LoopSettings {
 /// Longest line the writer emits: one under Grbl's [`crate::limits::MAX_LINE_BYTES`] (79), a
 /// margin for a sender that counts the line's end.
 pub(crate) const MAX_LINE: usize = crate::limits::MAX_LINE_BYTES - 1;
-
-/// A number with at most 3 decimals, no trailing zeros, no `-0`.
-pub fn num(v: f64) -> String {
-    let r = (v * 1000.0).round() / 1000.0;
-    if r == 0.0 {
-        return "0".into();
-    }
-    let s = format!("{r:.3}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    s.to_string()
-}
 
 /// Comment lines: `; text`, printable ASCII with parentheses as brackets, wrapped at spaces so
 /// each line fits [`MAX_LINE`] (a word longer than a line is split); nothing is cut off.

@@ -52,15 +52,29 @@ pub const MAX_OFFSET_MM: f64 = 1000.0;
 /// Why geometry cannot be handed to Clipper. Callers add the file or option it came from.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ClipError {
+    /// A coordinate is NaN or infinite.
     #[error("point ({x}, {y}) is not a finite number")]
-    NotFinite { x: f64, y: f64 },
+    NotFinite {
+        /// The point, mm.
+        x: f64,
+        /// The point, mm.
+        y: f64,
+    },
+    /// A point beyond the clipper's integer range.
     #[error(
         "point ({x:e}, {y:e}) mm is beyond ±{MAX_COORD_MM:e} mm (1000 km), the range the polygon \
          clipper works in"
     )]
-    OutOfRange { x: f64, y: f64 },
+    OutOfRange {
+        /// The point, mm.
+        x: f64,
+        /// The point, mm.
+        y: f64,
+    },
+    /// An offset distance, mm, NaN or too large.
     #[error("an offset of {0} mm is not a finite distance within ±{MAX_OFFSET_MM} mm")]
     Offset(f64),
+    /// An outline that crosses itself, where offsets need simple ones.
     #[error(
         "a path crosses itself {} times (the first near x {:.3}, y {:.3} mm); a cut outline \
          must be a simple closed shape: remove the crossings (e.g. Inkscape: Path > Union) or \
@@ -72,13 +86,24 @@ pub enum ClipError {
         },
         at[0], at[1]
     )]
-    SelfCrossing { crossings: usize, at: [f64; 2] },
+    SelfCrossing {
+        /// How many crossings (counting stops past the limit).
+        crossings: usize,
+        /// The first crossing, mm.
+        at: [f64; 2],
+    },
+    /// One tangle of paths too costly to sweep.
     #[error(
         "the paths are too tangled to process in reasonable time: about {work:.1e} sweep steps \
          (the limit is {MAX_SWEEP_WORK:.0e}), with up to {max_active} edges across one line; \
          simplify them or split them into smaller shapes"
     )]
-    TooComplex { work: f64, max_active: usize },
+    TooComplex {
+        /// The estimated sweep steps.
+        work: f64,
+        /// The most edges across one sweep line.
+        max_active: usize,
+    },
     /// Many shapes, each cheap, too many together: the count is the cause, not a tangle.
     #[error(
         "{shapes} shapes are too many to process in reasonable time: together about {work:.1e} \
@@ -86,7 +111,9 @@ pub enum ClipError {
          once; split the drawing into parts of fewer shapes and make a job of each"
     )]
     TooMany {
+        /// How many shapes.
         shapes: usize,
+        /// Their estimated sweep steps together.
         work: f64,
         /// About how many of these shapes fit under the limit.
         fit: usize,
@@ -576,8 +603,11 @@ pub fn union_each(groups: &[Vec<Polygon<f64>>]) -> Result<Vec<MultiPolygon<f64>>
 /// A boolean operation of two sets of polygons (see [`boolean`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Op {
+    /// What lies in both.
     Intersection,
+    /// What lies in either.
     Union,
+    /// What lies in exactly one.
     Xor,
 }
 

@@ -25,14 +25,18 @@ use crate::ring::{dist, seg_dist};
 /// the last), straight when `bulge` is 0, else a circular arc that sweeps `4 atan(bulge)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Piece {
+    /// Where the piece starts.
     pub from: [f64; 2],
+    /// 0 for a line, else `tan(sweep / 4)`.
     pub bulge: f64,
 }
 
 /// An arc's circle and sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArcGeom {
+    /// The circle's centre.
     pub center: [f64; 2],
+    /// The circle's radius.
     pub radius: f64,
     /// Angle of `from` about the centre, radians.
     pub start_angle: f64,
@@ -76,7 +80,9 @@ const MAX_RUN: usize = 400;
 /// of the flattening tolerance, so that the flattened curves do too.
 #[derive(Clone, Copy, Debug)]
 pub struct Sides<'a> {
+    /// `[left, right]` per ring vertex.
     pub points: &'a [[[f64; 2]; 2]],
+    /// The least distance from each point to the fitted outline.
     pub margin: f64,
 }
 
@@ -566,6 +572,7 @@ impl Curves {
         self.rings.len()
     }
 
+    /// Whether no ring is known.
     pub fn is_empty(&self) -> bool {
         self.rings.is_empty()
     }

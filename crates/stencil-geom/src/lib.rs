@@ -14,10 +14,21 @@
 //! - [`ring`]: measures of a ring as a point list: [`ring::bbox`], [`ring::signed_area2`],
 //!   [`ring::area`], [`ring::point_in_ring`], [`ring::dist`].
 //!
+//! ```
+//! use stencil_geom::ring::{area, point_in_ring, signed_area2};
+//!
+//! // A 10 x 5 mm rectangle, counter-clockwise: positive signed area.
+//! let ring = [[0.0, 0.0], [10.0, 0.0], [10.0, 5.0], [0.0, 5.0]];
+//! assert_eq!(area(&ring), 50.0);
+//! assert!(signed_area2(&ring) > 0.0);
+//! assert!(point_in_ring([2.0, 2.0], &ring) && !point_in_ring([12.0, 2.0], &ring));
+//! ```
+//!
 //! Shapes are `geo` types (`Polygon<f64>`, `MultiPolygon<f64>`) where they cross crates; `geo`'s
 //! own traits (`Contains`, `Area`, `BoundingRect`, ...) are used directly where they fit.
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod clip;
 pub mod curve;

@@ -11,28 +11,49 @@ use std::path::{Path, PathBuf};
 
 use tempfile::NamedTempFile;
 
+use crate::disk::{not_a_file, plain_io, SWAP_DIR, TEMP_PREFIX};
+
 /// A file that could not be written (or an old one removed); nothing half-written is left.
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {
     #[error("{path}: cannot write: {source}")]
+    /// The write, rename or removal failed.
     Write {
+        /// The file.
         path: PathBuf,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: another stencil run is writing this folder now; wait for it to finish, or choose another folder with -o")]
-    Busy { path: PathBuf },
+    /// Another run holds the folder's lock.
+    Busy {
+        /// The folder.
+        path: PathBuf,
+    },
     #[error("{path}: not a plan stencil wrote, so it is not run; look at the folder {} and remove it yourself", path.parent().map_or(path.display(), |p| p.display()))]
-    BadPlan { path: PathBuf },
+    /// A half-finished swap's plan that stencil did not write.
+    BadPlan {
+        /// The plan file.
+        path: PathBuf,
+    },
     #[error("{path}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
-    NotAFile { path: PathBuf, is: &'static str },
-    /// A path a half-finished swap goes through ([`crate::swap`]) is not the folder or file stencil
+    /// The output exists and is not a regular file.
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
+    /// A path a half-finished swap goes through ([`crate::replace_all`]) is not the folder or file stencil
     /// made there: a link (in a folder received from elsewhere) is never followed.
-    #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", crate::swap::SWAP_DIR)]
-    NotSwapFolder { path: PathBuf, is: &'static str },
+    #[error("{path}: is {is}, where the half-finished swap of a `stencil make` folder needs a folder or file of its own (stencil never makes a link there; was the folder received from elsewhere?); nothing was moved through it. Look at it, and remove the folder's {} yourself", SWAP_DIR)]
+    NotSwapFolder {
+        /// The path.
+        path: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
 }
-
-/// Temp files and set-aside old files start with this (hidden, and never an output's name).
-const TEMP_PREFIX: &str = ".stencil-";
 
 /// Write `bytes` to `path` atomically.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
@@ -46,7 +67,7 @@ pub fn write_atomic_with(
 ) -> Result<(), WriteError> {
     // A device, a FIFO or a folder (or a link to one) is never replaced by a file.
     if let Ok(m) = std::fs::metadata(path) {
-        if let Some(is) = crate::read::not_a_file(&m.file_type()) {
+        if let Some(is) = not_a_file(&m.file_type()) {
             return Err(WriteError::NotAFile {
                 path: path.to_path_buf(),
                 is,
@@ -105,33 +126,6 @@ fn staged(
         buf.flush().map_err(err)?;
     }
     Ok(tmp)
-}
-
-/// An I/O error as the operating system words it, once: the OS error alone (without the context
-/// some libraries wrap around it, such as tempfile's temp file name), or the error as it was when
-/// it carries no OS code and names no temp file.
-pub fn plain_io(e: std::io::Error) -> std::io::Error {
-    if let Some(code) = e.raw_os_error() {
-        return std::io::Error::from_raw_os_error(code);
-    }
-    let Some(inner) = e.get_ref() else {
-        return e;
-    };
-    let mut cause: Option<&(dyn std::error::Error + 'static)> = Some(inner);
-    while let Some(c) = cause {
-        if let Some(code) = c
-            .downcast_ref::<std::io::Error>()
-            .and_then(std::io::Error::raw_os_error)
-        {
-            return std::io::Error::from_raw_os_error(code);
-        }
-        cause = c.source();
-    }
-    if inner.to_string().contains(TEMP_PREFIX) {
-        std::io::Error::from(e.kind())
-    } else {
-        e
-    }
 }
 
 /// What [`crate::replace_all`] did.

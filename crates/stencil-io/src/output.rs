@@ -5,21 +5,45 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::disk::not_a_file;
+
 /// An output path refused; every message names both paths where there are two.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     #[error("{out}: this output is the input {input}; writing it would destroy the input (choose another output path)")]
-    IsInput { out: PathBuf, input: PathBuf },
-    #[error("{out}: this output folder's {name} would be replaced, and it is the input {input}; choose another folder with -o, or copy the input elsewhere first")]
-    ReplacesInput {
+    /// The output file is an input.
+    IsInput {
+        /// The output.
         out: PathBuf,
+        /// The input it is.
+        input: PathBuf,
+    },
+    #[error("{out}: this output folder's {name} would be replaced, and it is the input {input}; choose another folder with -o, or copy the input elsewhere first")]
+    /// A file the output folder would replace is an input.
+    ReplacesInput {
+        /// The output folder.
+        out: PathBuf,
+        /// The file name in it.
         name: String,
+        /// The input that file is.
         input: PathBuf,
     },
     #[error("{out}: is {is}; stencil writes only regular files and replaces nothing else (choose another output path)")]
-    NotAFile { out: PathBuf, is: &'static str },
+    /// The output exists and is not a regular file.
+    NotAFile {
+        /// The output.
+        out: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
     #[error("{out}: is {is}, not a folder; -o names the folder the outputs go into")]
-    NotAFolder { out: PathBuf, is: &'static str },
+    /// The output folder exists and is not a folder.
+    NotAFolder {
+        /// The output folder.
+        out: PathBuf,
+        /// What it is instead.
+        is: &'static str,
+    },
 }
 
 /// Whether `a` and `b` are one file (the same inode through any name, link or hard link).
@@ -46,7 +70,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// file (a link is followed: `-o /dev/stdout` is a device too).
 pub fn check_output(out: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
     if let Ok(m) = std::fs::metadata(out) {
-        if let Some(is) = crate::read::not_a_file(&m.file_type()) {
+        if let Some(is) = not_a_file(&m.file_type()) {
             return Err(OutputError::NotAFile {
                 out: out.to_path_buf(),
                 is,
@@ -72,7 +96,7 @@ pub fn check_output_dir(dir: &Path, owned: &[&str], inputs: &[&Path]) -> Result<
         Ok(m) if !m.is_dir() => {
             return Err(OutputError::NotAFolder {
                 out: dir.to_path_buf(),
-                is: crate::read::not_a_file(&m.file_type()).unwrap_or("a file"),
+                is: not_a_file(&m.file_type()).unwrap_or("a file"),
             })
         }
         Ok(_) => {}
@@ -88,7 +112,7 @@ pub fn check_output_dir(dir: &Path, owned: &[&str], inputs: &[&Path]) -> Result<
             if !(m.is_file() || m.file_type().is_symlink()) {
                 return Err(OutputError::NotAFile {
                     out: p,
-                    is: crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file"),
+                    is: not_a_file(&m.file_type()).unwrap_or("not a regular file"),
                 });
             }
             for input in inputs {

@@ -24,22 +24,37 @@ pub const MAX_PROFILE_BYTES: u64 = crate::read::Kind::Profile.cap();
 #[derive(Debug, thiserror::Error)]
 pub enum ProfileError {
     #[error(transparent)]
+    /// The file could not be read.
     Read(#[from] crate::read::ReadError),
     /// TOML syntax, a missing field, an unknown field or a wrong type (toml's message names the
     /// field and the line).
     #[error("{path}: {msg}")]
-    Parse { path: PathBuf, msg: String },
-    #[error("{path}: field `{field}` = {value}: {why}")]
-    Invalid {
+    Parse {
+        /// The file.
         path: PathBuf,
+        /// toml's message.
+        msg: String,
+    },
+    #[error("{path}: field `{field}` = {value}: {why}")]
+    /// A value out of its range.
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// The field, dotted (`tool.s_max`).
         field: String,
+        /// Its value, as written.
         value: String,
+        /// What is wrong with it.
         why: String,
     },
     #[error("unknown {kind} '{name}'; known: {}; or give a path to a .toml file", known.join(", "))]
+    /// No profile of that name.
     Unknown {
+        /// "material" or "machine".
         kind: String,
+        /// The name looked up.
         name: String,
+        /// The names there are.
         known: Vec<String>,
     },
 }
@@ -67,7 +82,9 @@ macro_rules! shipped {
 /// A profile shipped with the crate: its name (the file stem) and its TOML text.
 #[derive(Clone, Copy, Debug)]
 pub struct Shipped {
+    /// The file stem.
     pub name: &'static str,
+    /// The TOML text.
     pub text: &'static str,
 }
 

@@ -12,6 +12,8 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use crate::disk::{not_a_file, plain_io};
+
 /// What a file is read as: its name in messages and its size cap. The caps are far above any
 /// file stencil writes or a person draws (each says why), and far below what would exhaust memory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,7 +62,7 @@ impl Kind {
 }
 
 /// A size in words: "512 MB", "1 MB", "256 KB".
-pub fn size_words(bytes: u64) -> String {
+fn size_words(bytes: u64) -> String {
     if bytes >= 1 << 20 && bytes.is_multiple_of(1 << 20) {
         format!("{} MB", bytes >> 20)
     } else if bytes >= 1 << 10 {
@@ -70,64 +72,57 @@ pub fn size_words(bytes: u64) -> String {
     }
 }
 
-/// What a path is when it is not a regular file, for a message.
-pub fn not_a_file(ft: &std::fs::FileType) -> Option<&'static str> {
-    if ft.is_file() {
-        return None;
-    }
-    if ft.is_dir() {
-        return Some("a folder");
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if ft.is_fifo() {
-            return Some("a named pipe (FIFO)");
-        }
-        if ft.is_socket() {
-            return Some("a socket");
-        }
-        if ft.is_char_device() || ft.is_block_device() {
-            return Some("a device");
-        }
-    }
-    if ft.is_symlink() {
-        return Some("a symbolic link");
-    }
-    Some("not a regular file")
-}
-
 /// A file that could not be read within its kind's limits. No variant quotes the file's content.
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
     #[error("{path}: cannot open this {what}: {source}")]
+    /// The file could not be opened.
     Open {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: cannot read this {what}: {source}")]
+    /// Reading it failed.
     Io {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The system's error.
         source: std::io::Error,
     },
     #[error("{path}: larger than the {limit} a {what} can be; is it the right file?")]
+    /// Larger than its kind's cap.
     TooLarge {
+        /// The file.
         path: PathBuf,
+        /// The cap, in words.
         limit: String,
+        /// The kind of file, in words.
         what: &'static str,
     },
     #[error("{path}: {is}, not a file; a {what} is read from a regular file")]
+    /// Not a regular file.
     NotAFile {
+        /// The file.
         path: PathBuf,
+        /// What it is instead.
         is: &'static str,
+        /// The kind of file, in words.
         what: &'static str,
     },
     #[error("{path}: not UTF-8 text (at byte {at}); a {what} is a text file")]
+    /// Not UTF-8 text.
     NotText {
+        /// The file.
         path: PathBuf,
+        /// The kind of file, in words.
         what: &'static str,
+        /// The first byte that is not UTF-8.
         at: usize,
     },
 }
@@ -153,7 +148,7 @@ pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
     let io = |source: std::io::Error| ReadError::Io {
         path: path.to_path_buf(),
         what,
-        source: crate::atomic::plain_io(source),
+        source: plain_io(source),
     };
     let mut opts = std::fs::OpenOptions::new();
     opts.read(true);
@@ -167,7 +162,7 @@ pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
     let file = opts.open(path).map_err(|source| ReadError::Open {
         path: path.to_path_buf(),
         what,
-        source: crate::atomic::plain_io(source),
+        source: plain_io(source),
     })?;
     let meta = file.metadata().map_err(io)?;
     if let Some(is) = not_a_file(&meta.file_type()) {
@@ -204,7 +199,7 @@ pub fn read_bytes(path: &Path, kind: Kind) -> Result<Vec<u8>, ReadError> {
         .map_err(|source| ReadError::Io {
             path: path.to_path_buf(),
             what: kind.name(),
-            source: crate::atomic::plain_io(source),
+            source: plain_io(source),
         })?;
     if bytes.len() as u64 > kind.cap() {
         return Err(too_large(path, kind));

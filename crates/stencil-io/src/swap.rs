@@ -30,12 +30,11 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
-use crate::atomic::{plain_io, Replaced, WriteError};
+use crate::atomic::{Replaced, WriteError};
+use crate::disk::{not_a_file, plain_io, SWAP_DIR};
 
-/// The hidden folder a swap works in.
-pub const SWAP_DIR: &str = ".stencil-swap";
 /// Where a failed run moves the earlier set ([`set_aside`]).
-pub const PREVIOUS_DIR: &str = "previous";
+pub(crate) const PREVIOUS_DIR: &str = "previous";
 
 const PLAN: &str = "plan";
 const DONE: &str = "done";
@@ -157,7 +156,7 @@ fn refuse_unless_real_dir(p: &Path) -> Result<(), WriteError> {
             is: if m.file_type().is_symlink() {
                 "a symbolic link"
             } else {
-                crate::read::not_a_file(&m.file_type()).unwrap_or("a file")
+                not_a_file(&m.file_type()).unwrap_or("a file")
             },
         }),
         Err(_) => Err(WriteError::NotSwapFolder {
@@ -176,7 +175,7 @@ fn refuse_unless_file(p: &Path) -> Result<(), WriteError> {
             is: if m.file_type().is_symlink() {
                 "a symbolic link"
             } else {
-                crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file")
+                not_a_file(&m.file_type()).unwrap_or("not a regular file")
             },
         }),
         _ => Ok(()),
@@ -538,7 +537,7 @@ fn refuse_odd(path: &Path) -> Result<bool, WriteError> {
         Ok(m) if m.is_file() || m.file_type().is_symlink() => Ok(true),
         Ok(m) => Err(WriteError::NotAFile {
             path: path.to_path_buf(),
-            is: crate::read::not_a_file(&m.file_type()).unwrap_or("not a regular file"),
+            is: not_a_file(&m.file_type()).unwrap_or("not a regular file"),
         }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
         Err(e) => Err(io_err(path, e)),

@@ -6,7 +6,7 @@
 /// The most characters of a value quoted in a message.
 pub const EXCERPT_CHARS: usize = 40;
 
-/// `s` as quoted in a message: whole when short, else its first [`EXCERPT_CHARS`] characters, an
+/// `s` as quoted in a message: whole when short, else its first `EXCERPT_CHARS` (40) characters, an
 /// ellipsis and how long it is; control characters written out as [`printable`] does.
 pub fn excerpt(s: &str) -> String {
     let n = s.chars().count();

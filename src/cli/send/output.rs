@@ -5,9 +5,9 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use stencil_gcode::estimate::{estimate_program_from, format_duration};
 use stencil_gcode::interpret::CutRule;
 use stencil_gcode::machine as machine_profile;
+use stencil_gcode::{estimate_program_from, format_duration};
 
 use crate::cli::port::controller_motion;
 use stencil_grbl::{ControllerInfo, Observer, Program, Progress, Summary, VirtualGrbl};
@@ -204,7 +204,7 @@ mod tests {
         let limits = machine_profile::load(Some("diode-400")).unwrap().motion;
         let rule = CutRule::infer(&job.moves);
         let left = estimate_program_from(&timed, 0, &limits, rule).total_s;
-        let moving = stencil_gcode::estimate::estimate(&job.moves, &limits).total_s;
+        let moving = stencil_gcode::estimate(&job.moves, &limits).total_s;
         assert!(left >= moving + 2.0, "{left} vs {moving}");
         // After the first pass, the dwell is still to come.
         let after = estimate_program_from(&timed, 1, &limits, rule).total_s;

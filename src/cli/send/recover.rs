@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::bail;
 
-use stencil_gcode::estimate::format_duration;
+use stencil_gcode::format_duration;
 use stencil_gcode::machine as machine_profile;
 use stencil_grbl::{Journal, Program, RunState};
 

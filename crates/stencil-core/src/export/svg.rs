@@ -233,7 +233,7 @@ mod tests {
             curves: Default::default(),
         };
         let text = String::from_utf8(encode(&geom, 0.05)).unwrap();
-        let back = stencil_gcode::read_svg::cut_loops_from_svg(&text, "stencil.svg").unwrap();
+        let back = stencil_gcode::cut_loops_from_svg(&text, "stencil.svg").unwrap();
         assert_eq!(back.outline, geom.outline);
         assert_eq!(back.cuts.0.len(), 2, "the bridges layer is not cut");
         // usvg computes in f32 (7 significant digits): equal to 0.1 µm, not to the bit.
