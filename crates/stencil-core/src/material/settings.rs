@@ -8,7 +8,7 @@ use stencil_gcode::machine::{LaserSource, Machine, Tool};
 use stencil_gcode::CutSettings;
 use stencil_io::profile::{check_range, load_toml, ProfileError};
 
-use super::*;
+use super::profile::*;
 
 /// Why a material has no cut settings for a machine (see [`settings_for`]). The `stencil` binary
 /// adds what to do (`--emit mask`, `--material`, `--machine`, `--power`, `test-grid`...).

@@ -1,4 +1,5 @@
 use super::*;
+use std::path::{Path, PathBuf};
 use stencil_gcode::machine::Machine;
 
 #[test]

@@ -1,12 +1,4 @@
-//! Material profiles: what a sheet can hold (bridge and feature widths), how wide the tool cuts
-//! (kerf), and how to cut it (laser, knife, pen or photo-etch, with that process's settings).
-//!
-//! A profile is a TOML file (see `profiles/materials/*.toml`; `stencil profiles` lists them).
-//! It is validated once, here, at load: unknown fields, missing fields, negative or absurd numbers
-//! and a missing process section are errors naming the file and the field. Everything downstream
-//! (pipeline, check, G-code) can then trust a [`Material`].
-//!
-//! Without `--material`, [`DEFAULT_MATERIAL`] (cardstock) is used; `report.json` records which.
+//! The material profiles: what a sheet is, read from TOML and checked once.
 
 use std::path::{Path, PathBuf};
 
@@ -16,12 +8,6 @@ use stencil_io::profile::{check_range, embedded, load_toml, resolve, ProfileErro
 use stencil_io::shipped;
 
 use stencil_gcode::machine::Tool;
-
-mod settings;
-pub use settings::{
-    choose, cut_kind, has_settings, settings_for, Chosen, Kept, SettingsError, UserSettings,
-    USER_SETTINGS_FILE,
-};
 
 /// The profile used when none is named: 0.3 mm cardstock, the most common hobby stencil sheet.
 pub const DEFAULT_MATERIAL: &str = "cardstock";
@@ -340,7 +326,7 @@ impl Material {
 
     /// Parse a material profile from TOML text; `origin` names it in errors.
     #[cfg(test)]
-    fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
+    pub(crate) fn parse(text: &str, origin: &Path) -> Result<Material, ProfileError> {
         Material::validate(stencil_io::profile::parse_toml(text, origin)?, origin)
     }
 
@@ -717,6 +703,3 @@ fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
         "mm",
     )
 }
-
-#[cfg(test)]
-mod tests;
