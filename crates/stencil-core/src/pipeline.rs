@@ -155,7 +155,7 @@ impl PhysicalConfig {
     /// the user's bridges per island.
     pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
         let m = &self.material;
-        let strength = bridge::strength::StrengthConfig {
+        let strength = bridge::StrengthConfig {
             per_island: user.strength.per_island,
             mm_per_px: scale.mm_per_px,
             thickness_mm: m.thickness_mm,

@@ -11,33 +11,8 @@
 //! of that island's scored candidates (any kind, to any other node), the one starting nearest the
 //! point. It joins the tree's bridges (and holds the island for the strength rules).
 
-use std::sync::Arc;
-
-use super::Graph;
+use super::graph::Graph;
 use crate::islands::{IslandMap, CUT, FRAME};
-use crate::raster::BitGrid;
-
-/// The user's constraints. The millimetre fields are what the user gave (millimetres from the
-/// picture's top left corner, x right, y down, as the report's positions); `make`'s pipeline
-/// turns them into the pixel fields, which are what the bridge stage reads.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct UserBridges {
-    /// `--keep-out`: a picture, scaled to the working image; dark (under half gray) = no bridge.
-    pub keep_out_mask: Option<std::path::PathBuf>,
-    /// `--no-bridge-near X,Y,R`, mm.
-    pub no_bridge_near_mm: Vec<[f64; 3]>,
-    /// `--bridge-at X,Y`, mm.
-    pub at_mm: Vec<[f64; 2]>,
-    /// `--min-island-mm2`: islands smaller than this are cut away instead of bridged.
-    pub min_island_mm2: f64,
-    /// Pixels no bridge may cross, the image's size.
-    pub keep_out: Option<Arc<BitGrid>>,
-    /// Places a bridge should start near, (x, y) in pixels.
-    pub at: Vec<[f64; 2]>,
-    /// `--keep-all-islands`: bridge every island, never drop one whose bridge would change the
-    /// picture more than dropping it (see `bridge::drop`).
-    pub keep_all_islands: bool,
-}
 
 /// What became of one `--bridge-at` request.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

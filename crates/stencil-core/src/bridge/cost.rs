@@ -18,8 +18,8 @@
 //! node as the candidate's strip.
 
 use super::candidates::Candidates;
+use super::config::{BridgeConfig, CostTerms};
 use super::strips::Strip;
-use super::{BridgeConfig, CostTerms};
 use crate::raster::Gray;
 
 /// Smallest window for the curvature term, in candidates. A digital straight edge at an odd angle

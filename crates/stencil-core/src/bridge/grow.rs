@@ -3,9 +3,9 @@
 //! needed"), and the width rule itself. The grown members are drawn by [`super::outline`].
 
 use super::candidates::Candidates;
+use super::config::BridgeConfig;
 use super::cost::StripCost;
 use super::strips::Strip;
-use super::BridgeConfig;
 
 /// The width rule's factor `k`: an island of area `A` gets a bridge `k·√A` wide, a quarter of the
 /// side of a square of that area (the paper's ⌈√A / 4⌉).

@@ -19,11 +19,14 @@
 mod across;
 mod band;
 pub(crate) mod candidates;
+mod config;
 mod constraints;
 pub(crate) mod cost;
 mod draw;
 pub(crate) mod drop;
+mod error;
 pub(crate) mod gaps;
+mod graph;
 pub(crate) mod grow;
 mod outline;
 mod reach;
@@ -33,98 +36,20 @@ pub(crate) mod strips;
 pub(crate) mod tidy;
 pub(crate) mod tree;
 
-pub use constraints::{Request, UserBridges};
-pub use strength::{IslandStrength, StrengthConfig, StrengthReport, Why, MAX_PER_ISLAND};
+pub use config::{BridgeConfig, CostTerms, StrengthConfig, UserBridges, MAX_PER_ISLAND};
+pub use constraints::Request;
+pub use error::BridgeError;
+use graph::{pair, smaller_area, Graph};
+pub use strength::{IslandStrength, StrengthReport, Why};
 
 use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
-use crate::islands::{self, IslandMap};
+use crate::islands::IslandMap;
 use crate::raster::{BitGrid, TwoTone};
 use crate::timing::Timings;
-
-/// User weights and limits of the bridge optimizer, all in pixels (the pipeline converts mm).
-/// Each term is about 1 for a typical strip (see `cost`). The defaults weigh the intensity error
-/// twice the length and leave curvature off: the shortest crossings start on bends, and any
-/// w2 > 0 moved bridges onto longer, darker strips (on the corpus's photographs, `corpus.py
-/// --quality 3`, the intensity error rose from 0.89× the shortest-gap yardstick's at w2 = 0 to
-/// 0.93× at 1). Raise `w_curvature` to keep bridges off curved contour at that price.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BridgeConfig {
-    /// w0, default 2: intensity error ΣI (a typical-length strip over black = 1).
-    pub w_intensity: f64,
-    /// w1, default 1: length penalty L^α (a typical strip = 1).
-    pub w_length: f64,
-    /// w2, default 0: border curvature κ at the bridge (0 straight .. 1 round).
-    pub w_curvature: f64,
-    /// w3, default 1: relative variance σ² of the strip costs across the bridge's window.
-    pub w_variance: f64,
-    /// Exponent of the length penalty, 1 < α < 2; default 1.5.
-    pub alpha: f64,
-    /// Length limit of the walks, default 200 px: a preference, not a cut-off. Walks longer than
-    /// this are dropped, so an island is joined by a strip under it when one exists; a group of
-    /// islands left with none is joined by the cheapest path through the cut of any length
-    /// (`search::search`, whose per-pixel length price is the L^α term's slope at this limit,
-    /// see `cost::StepCost`), and its bridge is marked [`Via::Search`].
-    pub max_length_px: u32,
-    /// Narrowest bridge, default 3 px: never thinner, even after halving, measured at right angles
-    /// to it at its narrowest. `stencil make` sets it from the material's `min_bridge_mm` (see
-    /// `PhysicalConfig::bridge_for`).
-    pub min_width_px: u32,
-    /// Widest bridge, default 40 px: none is drawn wider, at right angles to it. `stencil make`
-    /// sets it from the material's `max_bridge_mm`.
-    pub max_width_px: u32,
-    /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
-    /// `max_bridge_mm`).
-    pub max_width_given: bool,
-    /// Support trigger, default 0.5: when the real error (Σ (1 − gray)² over the cut pixels the
-    /// grown bridge fills) exceeds (1 + margin) × the tree's estimate (its window's mean ΣI times its
-    /// width), the bridge is halved (not below `min_width_px`) and a support bridge of that width is
-    /// added at the next cheapest place between the same two nodes.
-    pub support_margin: f64,
-    /// Offer the shortest gaps between pieces as candidates besides the paper's walks (default
-    /// true; see `gaps`). Off, the candidates are the paper's alone.
-    pub gaps: bool,
-    /// Where bridges may not go and where they should (see `constraints`).
-    pub user: constraints::UserBridges,
-    /// The strength rules after the tree (see `strength`): bridges per island, the material's
-    /// stiffness and weight, its sag limit and the scale.
-    pub strength: strength::StrengthConfig,
-}
-
-impl Default for BridgeConfig {
-    fn default() -> Self {
-        BridgeConfig {
-            w_intensity: 2.0,
-            w_length: 1.0,
-            w_curvature: 0.0,
-            w_variance: 1.0,
-            alpha: 1.5,
-            max_length_px: 200,
-            min_width_px: 3,
-            max_width_px: 40,
-            max_width_given: false,
-            support_margin: 0.5,
-            gaps: true,
-            user: constraints::UserBridges::default(),
-            strength: strength::StrengthConfig::default(),
-        }
-    }
-}
-
-/// The four terms of `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` (already weighted) and their sum.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
-pub struct CostTerms {
-    pub(crate) intensity: f64,
-    pub(crate) length: f64,
-    /// `w2·κ`: how much the strip bends.
-    pub curvature: f64,
-    /// `w3·σ²`: how much the gray varies along it.
-    pub variance: f64,
-    pub(crate) total: f64,
-}
 
 /// How a bridge's strip was found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -247,127 +172,6 @@ impl Bridged {
         }
         apart
     }
-}
-
-/// Why the islands could not be joined, or a setting is wrong.
-#[derive(Debug, thiserror::Error)]
-pub enum BridgeError {
-    /// No path through the cut leaves the island's group. Never for a labelling of the bit grid
-    /// given (a path to another node or to the image edge always exists): the island map passed
-    /// in does not describe the bits.
-    #[error(
-        "island {island} at pixel ({x}, {y}) has no path through the cut to the frame or another \
-         island: the island map does not match the bit grid"
-    )]
-    Unreachable {
-        /// The island's node.
-        island: u32,
-        /// A pixel of it, column.
-        x: u32,
-        /// Row.
-        y: u32,
-    },
-    /// The island can be joined only through pixels the user forbade (`--keep-out`,
-    /// `--no-bridge-near`). Its position is in millimetres from the picture's top left corner.
-    #[error(
-        "island {island} at ({x_mm:.1}, {y_mm:.1}) mm can only be joined through the areas kept \
-         free of bridges: lighten the keep-out mask or move the disc there, or cut such islands away"
-    )]
-    KeptOut {
-        /// The island's node.
-        island: u32,
-        /// Where it is, mm right.
-        x_mm: f64,
-        /// Mm down.
-        y_mm: f64,
-    },
-    /// A [`BridgeConfig`] value out of its range.
-    #[error("bridge setting {name} = {value} is invalid: {why}")]
-    BadSetting {
-        /// The setting's field name.
-        name: &'static str,
-        /// Its value, as printed.
-        value: String,
-        /// What it must be.
-        why: &'static str,
-    },
-}
-
-impl BridgeConfig {
-    /// Check the settings a library caller (not only the CLI) may get wrong.
-    pub(crate) fn validate(&self) -> Result<(), BridgeError> {
-        let bad = |name, value: String, why| Err(BridgeError::BadSetting { name, value, why });
-        for (name, w) in [
-            ("w_intensity", self.w_intensity),
-            ("w_length", self.w_length),
-            ("w_curvature", self.w_curvature),
-            ("w_variance", self.w_variance),
-        ] {
-            if !(w.is_finite() && w >= 0.0) {
-                return bad(name, w.to_string(), "weights must be finite and >= 0");
-            }
-        }
-        if !(self.alpha > 1.0 && self.alpha < 2.0) {
-            return bad(
-                "alpha",
-                self.alpha.to_string(),
-                "it must lie strictly between 1 and 2",
-            );
-        }
-        if self.min_width_px < 1 || self.min_width_px > self.max_width_px {
-            return bad(
-                "min_width_px",
-                self.min_width_px.to_string(),
-                "it must be at least 1 and at most max_width_px",
-            );
-        }
-        if self.max_length_px < 1 {
-            return bad("max_length_px", "0".into(), "it must be at least 1 px");
-        }
-        if !(self.support_margin.is_finite() && self.support_margin >= 0.0) {
-            return bad(
-                "support_margin",
-                self.support_margin.to_string(),
-                "it must be a finite fraction >= 0",
-            );
-        }
-        if let Err((name, v, why)) = self.strength.check() {
-            return bad(name, v.to_string(), why);
-        }
-        Ok(())
-    }
-}
-
-/// Everything computed about the candidates before the tree: strips, their costs and scores.
-/// The candidates and their strips are borrowed from the [`Walks`] (the studio keeps those while
-/// a person tries weights, and copying them cost more than choosing the bridges saved); only the
-/// fallback search, which adds a candidate, makes its own copy.
-struct Graph<'w> {
-    cands: Cow<'w, candidates::Candidates>,
-    strips: Cow<'w, [Option<strips::Strip>]>,
-    costs: Vec<Option<cost::StripCost>>,
-    scores: Vec<Option<cost::Scored>>,
-    norm: cost::Norm,
-    /// Candidates by the (sorted) pair of nodes their strip joins.
-    by_pair: HashMap<(u32, u32), Vec<usize>>,
-    /// Candidates from this id on were added by the fallback search ([`add_found_strip`]).
-    walked: usize,
-}
-
-fn pair(a: u32, b: u32) -> (u32, u32) {
-    (a.min(b), a.max(b))
-}
-
-/// Area of the smaller of two nodes, the frame counting as infinite.
-fn smaller_area(map: &IslandMap, a: u32, b: u32) -> usize {
-    let area = |n: u32| {
-        if n == islands::FRAME {
-            usize::MAX
-        } else {
-            map.nodes[n as usize].area
-        }
-    };
-    area(a).min(area(b))
 }
 
 /// Join every island to the frame with bridges.

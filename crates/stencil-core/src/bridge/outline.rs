@@ -7,10 +7,10 @@
 use super::across::{measure, widest};
 use super::band::{band, runs_straight};
 use super::candidates::Candidates;
+use super::config::BridgeConfig;
 use super::draw::{draw, Plan};
 use super::grow::{band_width, ACROSS_SLACK};
 use super::strips::Strip;
-use super::BridgeConfig;
 use crate::raster::{BitGrid, Gray};
 use stencil_geom::ring::dist;
 

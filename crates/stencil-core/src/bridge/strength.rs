@@ -32,11 +32,9 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::Graph;
+use super::config::StrengthConfig;
+use super::graph::Graph;
 use crate::islands::{IslandMap, FRAME};
-
-/// Standard gravity, m/s².
-const G: f64 = 9.806_65;
 
 /// An island is long and thin when its length is at least this many times its breadth.
 const THIN_RATIO: f64 = 4.0;
@@ -51,97 +49,9 @@ const MAX_FOR_SAG: usize = 12;
 /// How many candidates near the farthest point the sag rule tries, cheapest first.
 const TRIALS: usize = 8;
 
-/// Most bridges `--bridges-per-island` may ask for.
-pub const MAX_PER_ISLAND: u32 = 12;
-
 /// Path lengths inside an island in fifths of a pixel: a side step 5, a diagonal one 7 (√2 ≈ 1.4).
 const STEP: u32 = 5;
 const DIAG: u32 = 7;
-
-/// The material numbers and the scale the strength rules need (the pipeline fills them from the
-/// material profile; the default is cardstock at 0.1 mm per pixel, what `stencil make` uses
-/// without options).
-#[derive(Clone, Debug, PartialEq)]
-pub struct StrengthConfig {
-    /// At least this many bridges for every island, spread apart (`--bridges-per-island`).
-    pub per_island: u32,
-    /// Millimetres per working pixel.
-    pub mm_per_px: f64,
-    /// The sheet's thickness, mm.
-    pub thickness_mm: f64,
-    /// The material's stiffness (Young's modulus), GPa.
-    pub youngs_modulus_gpa: f64,
-    /// The material's density, kg/m³.
-    pub density_kg_m3: f64,
-    /// The most an island may sag, mm.
-    pub max_sag_mm: f64,
-    /// Islands longer than this get at least two bridges, mm.
-    /// Islands wider than this get at least two bridges, mm.
-    pub two_bridges_above_mm: f64,
-}
-
-impl Default for StrengthConfig {
-    fn default() -> Self {
-        let s = crate::material::DEFAULT_STRENGTH;
-        StrengthConfig {
-            per_island: 1,
-            mm_per_px: 0.1,
-            thickness_mm: 0.3,
-            youngs_modulus_gpa: s.youngs_modulus_gpa,
-            density_kg_m3: s.density_kg_m3,
-            max_sag_mm: s.max_sag_mm,
-            two_bridges_above_mm: s.two_bridges_above_mm,
-        }
-    }
-}
-
-impl StrengthConfig {
-    /// The sag estimate, mm, of an island whose span is `span_mm` (see the module notes):
-    /// `5·ρ·g·L⁴ / (2·E·t²)`, in SI units then back to millimetres.
-    pub(crate) fn sag_mm(&self, span_mm: f64) -> f64 {
-        let (l, t) = (span_mm / 1e3, self.thickness_mm / 1e3);
-        let e = self.youngs_modulus_gpa * 1e9;
-        5.0 * self.density_kg_m3 * G * l.powi(4) / (2.0 * e * t * t) * 1e3
-    }
-
-    /// The longest span whose sag is within `max_sag_mm`.
-    pub(crate) fn max_span_mm(&self) -> f64 {
-        let (t, e) = (self.thickness_mm / 1e3, self.youngs_modulus_gpa * 1e9);
-        let l4 = self.max_sag_mm / 1e3 * 2.0 * e * t * t / (5.0 * self.density_kg_m3 * G);
-        l4.powf(0.25) * 1e3
-    }
-
-    /// The settings a library caller may get wrong, by name.
-    pub(crate) fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
-        if !(1..=MAX_PER_ISLAND).contains(&self.per_island) {
-            return Err((
-                "bridges_per_island",
-                self.per_island as f64,
-                "it must be 1 to 12",
-            ));
-        }
-        for (name, v) in [
-            ("mm_per_px", self.mm_per_px),
-            ("thickness_mm", self.thickness_mm),
-            ("youngs_modulus_gpa", self.youngs_modulus_gpa),
-            ("density_kg_m3", self.density_kg_m3),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err((name, v, "it must be a finite number above 0"));
-            }
-        }
-        // Infinite: that rule is off (a material with no strength data).
-        for (name, v) in [
-            ("max_sag_mm", self.max_sag_mm),
-            ("two_bridges_above_mm", self.two_bridges_above_mm),
-        ] {
-            if v.is_nan() || v <= 0.0 {
-                return Err((name, v, "it must be above 0 (infinite: the rule is off)"));
-            }
-        }
-        Ok(())
-    }
-}
 
 /// Why an island got bridges beyond the tree's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! The bridge stage's tests, end to end through [`super::connect`], and the helpers other bridge tests share.
 
 use super::*;
-use crate::islands::label;
+use crate::islands::{self, label};
 use crate::raster::Gray;
 use crate::test_rng::Lcg;
 

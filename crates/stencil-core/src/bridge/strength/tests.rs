@@ -1,4 +1,5 @@
 use super::*;
+use crate::bridge::config::G;
 
 #[test]
 fn sag_follows_the_strip_formula_and_its_inverse() {
