@@ -90,7 +90,7 @@ impl stencil_studio::Maker for CliMaker {
     }
 
     fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
-        make_config(&parse_make(args)?).map_err(|e| super::errors::one_line(&e))
+        make_config(&parse_make(args)?, false).map_err(|e| super::errors::one_line(&e))
     }
 
     fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
@@ -174,7 +174,7 @@ fn given_options(args: &[OsString]) -> Value {
 
 pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
-    make_config(&a.make)?;
+    make_config(&a.make, true)?;
     let out_dir = a
         .make
         .out

@@ -266,7 +266,7 @@ impl Cache {
             }
         };
         run.cancel()?;
-        let mut params = timer.time("tone", || pipeline::resolve(cfg, &source))?;
+        let mut params = timer.time("tone", || crate::resolve::stage_params(cfg, &source))?;
         if tweaks.keep_all_islands {
             params.join.drop_islands = false;
         }

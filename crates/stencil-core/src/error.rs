@@ -10,6 +10,11 @@ use crate::limits::MAX_LAYERS;
 pub enum Error {
     #[error(transparent)]
     Tone(#[from] crate::tone::ToneError),
+    /// The keep-out picture could not be read (read once, shared by every run of the request).
+    #[error(transparent)]
+    KeepOut(std::sync::Arc<crate::tone::ToneError>),
+    #[error(transparent)]
+    Sizing(#[from] crate::resolve::SizingError),
     #[error(transparent)]
     Bridge(#[from] crate::bridge::BridgeError),
     #[error(transparent)]

@@ -67,13 +67,17 @@ mod error;
 pub mod export;
 pub mod fit;
 pub mod gobo;
+pub mod inputs;
 pub mod islands;
 pub mod layers;
 pub mod limits;
 pub mod material;
 pub mod pipeline;
+pub mod plan;
 pub mod raster;
 pub mod report;
+pub mod request;
+pub mod resolve;
 #[cfg(test)]
 mod test_rng;
 mod timing;

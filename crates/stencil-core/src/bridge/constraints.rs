@@ -22,8 +22,6 @@ use crate::raster::BitGrid;
 /// turns them into the pixel fields, which are what the bridge stage reads.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UserBridges {
-    /// `--keep-out`: a picture, scaled to the working image; dark (under half gray) = no bridge.
-    pub keep_out_mask: Option<std::path::PathBuf>,
     /// `--no-bridge-near X,Y,R`, mm.
     pub no_bridge_near_mm: Vec<[f64; 3]>,
     /// `--bridge-at X,Y`, mm.
