@@ -9,7 +9,7 @@ use clap::Args;
 use stencil_core::bridge::BridgeConfig;
 use stencil_core::export;
 use stencil_core::fit::Stock;
-use stencil_core::inputs::Inputs;
+use stencil_core::inputs::{Inputs, Kept};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::request::Request;
@@ -526,7 +526,7 @@ fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
 }
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
-    let cfg = make_config(a, false)?;
+    let cfg = make_config(a, None)?;
     if let Some(lc) = set_config(a) {
         return super::layers::make_set(cfg, &lc, a.layers.fill_in);
     }
@@ -551,10 +551,10 @@ pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersCon
 
 /// The pipeline's settings from the command line, each option checked in the order given here
 /// (the first bad one is the one reported; the mesh's and the bridges' after the size, as
-/// always), with the decisions `resolve` makes from the files it needs, read once, and its notes
-/// printed when `print_notes`. Without --material, a G-code job gets a material set up for the
-/// machine's tool.
-pub(super) fn make_config(a: &MakeArgs, print_notes: bool) -> anyhow::Result<MakeConfig> {
+/// always), with the decisions `resolve` makes from the files it needs: read once here, its notes
+/// printed; or, for the studio, kept in `kept` while the files stay, the notes not printed.
+/// Without --material, a G-code job gets a material set up for the machine's tool.
+pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
@@ -592,8 +592,12 @@ pub(super) fn make_config(a: &MakeArgs, print_notes: bool) -> anyhow::Result<Mak
         margin_counts: a.machine.cut_outline || marks,
         ..image_request(&a.image, a.bridge.keep_out.clone())
     };
-    let (notes, cfg) = resolve::resolve(&request, &Inputs::load(&request));
-    if print_notes {
+    let inputs = match kept.as_deref_mut() {
+        Some(k) => k.load(&request),
+        None => Inputs::load(&request),
+    };
+    let (notes, cfg) = resolve::resolve(&request, &inputs);
+    if kept.is_none() {
         for n in &notes {
             println!("note: {}: {}", a.input.display(), note(n));
         }

@@ -33,8 +33,12 @@ pub struct StudioArgs {
     pub open: bool,
 }
 
-/// `make`'s options for the studio, from the `make` subcommand's clap definition.
-struct CliMaker;
+/// `make`'s options for the studio, from the `make` subcommand's clap definition, and the files
+/// they name, read once while they stay (the picture's header, the keep-out picture).
+#[derive(Default)]
+struct CliMaker {
+    inputs: std::sync::Mutex<stencil_core::inputs::Kept>,
+}
 
 /// Options of `make` the studio does not offer: the input and output folder are fixed when it
 /// starts.
@@ -90,7 +94,8 @@ impl stencil_studio::Maker for CliMaker {
     }
 
     fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
-        make_config(&parse_make(args)?, false).map_err(|e| super::errors::one_line(&e))
+        let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
+        make_config(&parse_make(args)?, Some(&mut kept)).map_err(|e| super::errors::one_line(&e))
     }
 
     fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
@@ -174,7 +179,7 @@ fn given_options(args: &[OsString]) -> Value {
 
 pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
-    make_config(&a.make, true)?;
+    make_config(&a.make, None)?;
     let out_dir = a
         .make
         .out
@@ -187,7 +192,7 @@ pub fn run_studio(a: StudioArgs) -> anyhow::Result<ExitCode> {
         port: a.port,
     };
     let open = a.open;
-    stencil_studio::serve(Arc::new(CliMaker), cfg, |url| {
+    stencil_studio::serve(Arc::new(CliMaker::default()), cfg, |url| {
         // The URL is the first line of stdout (scripts and tests read it).
         println!("{url}");
         let _ = std::io::stdout().flush();
@@ -209,7 +214,7 @@ mod tests {
 
     #[test]
     fn every_make_option_is_offered_once() {
-        let specs = CliMaker.options();
+        let specs = CliMaker::default().options();
         let names: Vec<&str> = specs.iter().map(|s| s.name.as_str()).collect();
         for n in [
             "threshold",

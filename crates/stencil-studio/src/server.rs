@@ -17,7 +17,7 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Path as UrlPath, Query, Request, State};
@@ -32,6 +32,7 @@ use tokio::sync::watch;
 
 use stencil_core::export::png;
 use stencil_core::layers::{Layered, LayersConfig};
+use stencil_core::inputs::{stamp, Stamp};
 use stencil_core::pipeline::Made;
 
 use stencil_core::pipeline::Cleaned;
@@ -129,33 +130,6 @@ impl SetRun {
             _ => return None,
         })
     }
-}
-
-/// The identity of the input file on disk: a file replaced or rewritten has another.
-#[derive(Clone, Debug, PartialEq, Eq)]
-struct Stamp {
-    len: u64,
-    modified: Option<SystemTime>,
-    /// Device, inode and the change time (Unix): a file renamed over it, or written within the
-    /// modification time's resolution, still differs.
-    node: [i64; 4],
-}
-
-/// The input file's stamp now (`None`: it cannot be read; the run then says why).
-fn stamp(path: &Path) -> Option<Stamp> {
-    let m = std::fs::metadata(path).ok()?;
-    #[cfg(unix)]
-    let node = {
-        use std::os::unix::fs::MetadataExt;
-        [m.dev() as i64, m.ino() as i64, m.ctime(), m.ctime_nsec()]
-    };
-    #[cfg(not(unix))]
-    let node = [0; 4];
-    Some(Stamp {
-        len: m.len(),
-        modified: m.modified().ok(),
-        node,
-    })
 }
 
 /// A state's options as `make` reads them, with the input's stamp when they were read (the
