@@ -12,9 +12,9 @@ use stencil_core::fit::Stock;
 use stencil_core::inputs::{Inputs, Kept};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
+use stencil_core::report::Fidelity;
 use stencil_core::request::Request;
 use stencil_core::resolve::{self, Note, SizingError};
-use stencil_core::report::Fidelity;
 use stencil_core::tone::{FilterConfig, ScaleCap, Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
@@ -1095,7 +1095,8 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         },
         ..image_request(&a.image, None)
     };
-    let cfg = resolve::resolve_picture(&request, &Inputs::load(&request))?;
+    let cfg = resolve::resolve_picture(&request, &Inputs::load(&request))
+        .map_err(|e| sizing_words(&a.input, e))?;
     let bar = StageBar::start();
     let cfg = MakeConfig {
         mesh: a.mesh.to_config()?,

@@ -1,6 +1,5 @@
-//! Everything a request reads from disk besides the input's pixels, read once (through the
-//! bounded readers) so that [`crate::resolve::resolve`] reads no file: the picture's header and
-//! the keep-out picture. The studio keeps them while the files stay.
+//! What a request reads from disk besides the input's pixels, read once so that
+//! [`crate::resolve::resolve`] reads no file. The studio keeps them while the files stay.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -90,4 +89,3 @@ pub fn stamp(path: &Path) -> Option<Stamp> {
         node,
     })
 }
-

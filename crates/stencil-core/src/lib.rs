@@ -34,8 +34,10 @@
 //!   [`pipeline::gcode`] / [`pipeline::report`], and [`pipeline::finish_from`] (make's end from
 //!   kept outputs); the types between them ([`pipeline::Input`], [`pipeline::Source`],
 //!   [`pipeline::Cleaned`], [`pipeline::Joined`], [`pipeline::Traced`]).
-//! - Sizing before any work: [`fit`] (a size that fits the machine's bed or the stock, decided
-//!   from the picture's header).
+//! - Before any work: a [`request::Request`] (the user's words) and its [`inputs::Inputs`] (the
+//!   files it names, read once) go through the pure [`resolve::resolve`] (size, [`fit`] to the bed
+//!   or stock, gobo, etched widths, picture adjustments; [`resolve::Note`]s back) to the
+//!   [`MakeConfig`] the driver runs; [`resolve::stage_params`] gives its [`plan`] per stage.
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
 //!   `stencil check` runs), [`tone::load_gray`] / [`tone::picture_size`] /
 //!   [`tone::otsu_level`], [`tone::mesh::load`] / [`tone::mesh::render`] /

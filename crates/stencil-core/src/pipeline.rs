@@ -45,8 +45,6 @@ pub use crate::resolve::stage_params as resolve;
 pub use crate::timing::{Progress, Timings};
 pub use crate::units::Size;
 
-
-
 /// Widen, in `bits`, each neck the check found, with a disc `round` pixels larger than the
 /// pipeline's own (only adding material, so the sheet stays one piece), then settle what that
 /// left thin at the edges of the change. Returns whether anything changed.
@@ -1214,4 +1212,3 @@ pub fn default_out_dir(input: &Path) -> PathBuf {
         .unwrap_or_else(|| "stencil".into());
     PathBuf::from("out").join(stem)
 }
-

@@ -1,8 +1,5 @@
-//! What each stage is given, in the stage's own units (pixels; the scale is carried for the stages
-//! that write millimetres): [`SourceParams`] for loading and drawing the input, known before its
-//! size, and [`StageParams`] for every stage after, from `resolve::stage_params`. No paths, no
-//! "was it given" flags: equal parameters give equal outputs, which is what the studio's cache
-//! compares.
+//! Each stage's parameters in its own units (pixels), no paths: equal parameters give equal
+//! outputs (what the studio's cache compares).
 
 use crate::bridge::BridgeConfig;
 use crate::material::Material;

@@ -1,6 +1,4 @@
-//! What `make` is asked: the user's words ([`Request`]: its options in their units, the paths of
-//! the files to read, the profiles as loaded) and, once [`crate::resolve::resolve`] has made the
-//! decisions, what the driver runs ([`MakeConfig`]).
+//! What `make` is asked ([`Request`]) and, decided, what the driver runs ([`MakeConfig`]).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -18,13 +16,8 @@ use crate::vector::VectorConfig;
 
 pub use crate::timing::Progress;
 
-/// The user's words: `make`'s options in their units, before any decision. `make` holds what
-/// needs none as given (the size asked for, the material profile as loaded, the picture
-/// adjustments measured in pixels of their own); the rest is what [`crate::resolve::resolve`]
-/// decides from, with the files [`crate::inputs::Inputs`] read.
-///
-/// The profiles come loaded (not as names): their names are options, refused in the order the
-/// options are checked, before any file of the job is read.
+/// The user's words, in their units: `make` holds what needs no decision as given (the size asked
+/// for, the profiles as loaded: a bad name is an option error, said in the options' order).
 #[derive(Clone, Debug, Default)]
 pub struct Request {
     pub make: MakeConfig,
@@ -63,7 +56,6 @@ pub struct MakeConfig {
     /// The keep-out picture, read once (see [`KeepOut`]).
     pub keep_out: Option<KeepOut>,
 }
-
 
 /// A keep-out picture as read, with what tells its frame (see `resolve`'s `place_keep_out`).
 #[derive(Clone, Debug)]

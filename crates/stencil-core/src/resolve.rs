@@ -1,11 +1,6 @@
-//! Resolve: the request made into what each stage runs with, deciding everything `make` decides
-//! (the size on the sheet or bed, a gobo's size, an etched material's widths, the picture's
-//! adjustments in pixels, the working resolution, the stage parameters in pixels). Pure: it
-//! reads no file (what it needs from disk comes in [`Inputs`]), prints nothing and reads no
-//! clock; what a person should be told comes back as [`Note`]s, worded by the caller.
-//!
-//! Two steps, as a mesh's size is only known once it is drawn: [`resolve`] before any work, and
-//! [`stage_params`], which the driver calls once the input is rendered (no I/O either).
+//! Every decision `make` makes, pure (no file, no printing, no clock; files come in [`Inputs`],
+//! notes go out as [`Note`]s): [`resolve`] before any work, [`stage_params`] once the input is
+//! rendered (a mesh's size is only known then).
 
 use std::sync::Arc;
 
@@ -26,12 +21,10 @@ use crate::tone::{self, mesh::MeshConfig};
 use crate::units::{Mm, Scale, Size};
 use crate::vector::VectorConfig;
 
-/// What a person should be told about a decision (the caller words it).
+/// A decision a person should be told of (the caller words it).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Note {
-    /// An etched material's smallest feature raised to the narrowest opening that etches at its
-    /// designed size: twice the undercut the masks are compensated for, plus the narrowest line
-    /// a mask carries.
+    /// An etched material's smallest feature raised (see `etched_widths`).
     Etched {
         material: String,
         given_mm: f64,
@@ -39,8 +32,7 @@ pub enum Note {
         need_mm: f64,
         undercut_mm: f64,
     },
-    /// The picture made `width_mm` wide to fit `stock` (at the default size it would have been
-    /// `from_mm`; a sheet may be turned a quarter turn).
+    /// The picture made `width_mm` wide to fit `stock` (it would have been `from_mm`).
     Fitted {
         width_mm: f64,
         height_mm: f64,
@@ -70,10 +62,8 @@ pub enum SizingError {
     },
 }
 
-/// Every decision `make` makes before any work, in the order it makes them: the etched widths,
-/// a gobo's size, the fit to the sheet or bed, the picture's adjustments in pixels. The notes
-/// come back with the result, and also up to a failure (so the caller tells them before the
-/// error, as `make` does).
+/// The decisions before any work, in `make`'s order: etched widths, gobo size, fit to the sheet or
+/// bed, picture adjustments in pixels. The notes come back up to a failure too (told before it).
 pub fn resolve(r: &Request, inputs: &Inputs) -> (Vec<Note>, Result<MakeConfig, Error>) {
     let mut notes = Vec::new();
     let mut cfg = r.make.clone();
@@ -88,8 +78,7 @@ pub fn resolve(r: &Request, inputs: &Inputs) -> (Vec<Note>, Result<MakeConfig, E
     (notes, sized.map(|()| cfg))
 }
 
-/// The picture's adjustments alone (what `stencil tone` decides: its two-tone is made at the
-/// size asked for, with the material as its profile says).
+/// The picture's adjustments alone (`stencil tone`: the size asked for, the material as is).
 pub fn resolve_picture(r: &Request, inputs: &Inputs) -> Result<MakeConfig, Error> {
     let mut cfg = r.make.clone();
     adjust_picture(r, inputs, &mut cfg)?;
@@ -97,8 +86,8 @@ pub fn resolve_picture(r: &Request, inputs: &Inputs) -> Result<MakeConfig, Error
 }
 
 /// An etched material's smallest feature raised to the narrowest opening that etches at its
-/// designed size (see [`Note::Etched`]), so the clean-up and the width check judge the etched
-/// part.
+/// designed size (twice the masks' undercut plus a mask's narrowest line), so the clean-up and
+/// the width check judge the etched part.
 fn etched_widths(physical: &mut PhysicalConfig, notes: &mut Vec<Note>) {
     let Some(e) = crate::export::Etch::of(&physical.material) else {
         return;
@@ -151,8 +140,11 @@ fn fit_size(
     notes: &mut Vec<Note>,
 ) -> Result<(), Error> {
     // A gobo is sized by its disc, checked against the bed in `fit_gobo`.
-    let (None, Some(stock), Some(px)) = (&physical.gobo, r.sheet.as_ref().or(r.bed.as_ref()), inputs.picture_px)
-    else {
+    let (None, Some(stock), Some(px)) = (
+        &physical.gobo,
+        r.sheet.as_ref().or(r.bed.as_ref()),
+        inputs.picture_px,
+    ) else {
         return Ok(());
     };
     let req = FitRequest {
@@ -311,7 +303,6 @@ impl PhysicalConfig {
         }
     }
 }
-
 
 impl SourceParams {
     /// Checked as `make` always checked them, before the input is opened: a mesh's settings,
@@ -562,7 +553,6 @@ fn mesh_lines_for(cfg: &MakeConfig) -> MeshConfig {
     }
     m
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -31,8 +31,8 @@ use serde_json::{json, Value};
 use tokio::sync::watch;
 
 use stencil_core::export::png;
-use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::inputs::{stamp, Stamp};
+use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::pipeline::Made;
 
 use stencil_core::pipeline::Cleaned;
