@@ -339,10 +339,6 @@ impl BridgeArgs {
             alpha: self.alpha,
             max_length_px: self.max_bridge_length_px,
             min_width_px: self.min_bridge_width_px,
-            max_width_px: self
-                .max_bridge_width_px
-                .unwrap_or(BridgeConfig::default().max_width_px),
-            max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
             user: stencil_core::bridge::UserBridges {
@@ -356,6 +352,7 @@ impl BridgeArgs {
                 per_island: self.bridges_per_island,
                 ..Default::default()
             },
+            ..BridgeConfig::default()
         })
     }
 }
@@ -606,6 +603,7 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
     let cfg = MakeConfig {
         mesh,
         bridge,
+        max_bridge_width_px: a.bridge.max_bridge_width_px,
         ..cfg.map_err(|e| sizing_words(&a.input, e))?
     };
     let mut gcode = super::gcode::make_gcode_config(

@@ -47,6 +47,8 @@ pub struct MakeConfig {
     pub mesh: MeshConfig,
     pub filter: FilterConfig,
     pub bridge: BridgeConfig,
+    /// The widest bridge asked for, px (else the material's `max_bridge_mm` decides).
+    pub max_bridge_width_px: Option<u32>,
     pub physical: PhysicalConfig,
     /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
     /// report. A job that does not fit the machine's bed fails the run before anything is written.

@@ -236,13 +236,18 @@ impl PhysicalConfig {
     /// whatever the scale, so with both bounds in millimetres the same design gets bridges of the
     /// same physical width at any size.
     ///
-    /// With `allow_thin` and an explicit `max_width_px`, the user's pixel widths are taken as
+    /// With `allow_thin` and a widest bridge asked for (`max_px`), the user's pixel widths are taken as
     /// given: they have asked for bridges of that width and to keep a stencil the check finds
     /// thin (a measurement at fixed pixel widths, such as the corpus's quality comparison).
     ///
     /// The strength rules get the material's stiffness, weight and limits and the scale, keeping
     /// the user's bridges per island.
-    pub fn bridge_for(&self, user: &BridgeConfig, scale: Scale) -> BridgeConfig {
+    pub fn bridge_for(
+        &self,
+        user: &BridgeConfig,
+        max_px: Option<u32>,
+        scale: Scale,
+    ) -> BridgeConfig {
         let m = &self.material;
         let strength = bridge::strength::StrengthConfig {
             per_island: user.strength.per_island,
@@ -253,8 +258,9 @@ impl PhysicalConfig {
             max_sag_mm: m.strength.max_sag_mm,
             two_bridges_above_mm: m.strength.two_bridges_above_mm,
         };
-        if user.max_width_given && self.allow_thin {
+        if let (Some(max_width_px), true) = (max_px, self.allow_thin) {
             return BridgeConfig {
+                max_width_px,
                 strength,
                 ..user.clone()
             };
@@ -262,15 +268,12 @@ impl PhysicalConfig {
         let px = (scale.to_px(Mm(self.material.min_bridge_mm)).0 + self.allowance_px(scale)).ceil()
             as u32;
         let min = user.min_width_px.max(px);
-        let max = if user.max_width_given {
-            user.max_width_px
-        } else {
-            // A hair under a whole pixel counts as one (1.2 mm / 0.1 mm is 11.99... in floating
-            // point).
+        // A hair under a whole pixel counts as one (1.2 mm / 0.1 mm is 11.99... in floating point).
+        let max = max_px.unwrap_or_else(|| {
             (scale.to_px(Mm(self.material.max_bridge_mm)).0 + 1e-6)
                 .floor()
                 .min(u32::MAX as f64 / 2.0) as u32
-        };
+        });
         BridgeConfig {
             min_width_px: min,
             max_width_px: max.max(min),
@@ -358,7 +361,7 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
         crate::limits::check_filter_radius(filter_cfg.radius, w, h)?;
     }
     let regularize_px = filter_cfg.auto_radius.then(|| phys.feature_px(scale));
-    let mut bridge_cfg = phys.bridge_for(&cfg.bridge, scale);
+    let mut bridge_cfg = phys.bridge_for(&cfg.bridge, cfg.max_bridge_width_px, scale);
     let keep_out = cfg
         .keep_out
         .as_ref()
@@ -565,15 +568,13 @@ mod tests {
         let phys = PhysicalConfig::default();
         let s = Scale::default();
         // Widest: max_bridge_mm, 4 × 1.0 mm by default, rounded down.
-        let b = phys.bridge_for(&BridgeConfig::default(), s);
+        let b = phys.bridge_for(&BridgeConfig::default(), None, s);
         assert_eq!((b.min_width_px, b.max_width_px), (12, 40));
         let wide = BridgeConfig {
             min_width_px: 20,
-            max_width_px: 30,
-            max_width_given: true,
             ..Default::default()
         };
-        let b = phys.bridge_for(&wide, s);
+        let b = phys.bridge_for(&wide, Some(30), s);
         assert_eq!(
             (b.min_width_px, b.max_width_px),
             (20, 30),
@@ -581,11 +582,9 @@ mod tests {
         );
         let narrow = BridgeConfig {
             min_width_px: 3,
-            max_width_px: 3,
-            max_width_given: true,
             ..Default::default()
         };
-        let b = phys.bridge_for(&narrow, s);
+        let b = phys.bridge_for(&narrow, Some(3), s);
         assert_eq!(
             (b.min_width_px, b.max_width_px),
             (12, 12),
@@ -595,13 +594,13 @@ mod tests {
             allow_thin: true,
             ..phys.clone()
         };
-        let b = thin.bridge_for(&narrow, s);
+        let b = thin.bridge_for(&narrow, Some(3), s);
         assert_eq!(
             (b.min_width_px, b.max_width_px),
             (3, 3),
             "explicit pixels with --allow-thin are taken as given"
         );
-        let b = thin.bridge_for(&BridgeConfig::default(), s);
+        let b = thin.bridge_for(&BridgeConfig::default(), None, s);
         assert_eq!(
             (b.min_width_px, b.max_width_px),
             (12, 40),
@@ -609,17 +608,20 @@ mod tests {
         );
         // At 0.05 mm/px the same millimetres are twice the pixels.
         let fine = Scale { mm_per_px: 0.05 };
-        let b = phys.bridge_for(&BridgeConfig::default(), fine);
+        let b = phys.bridge_for(&BridgeConfig::default(), None, fine);
         assert_eq!((b.min_width_px, b.max_width_px), (20 + 3, 80));
         // At 0.625 mm/px (320 px at 200 mm): ⌈1.6 + 1.16⌉ = 3 px .. ⌊6.4⌋ = 6 px.
         let coarse = Scale { mm_per_px: 0.625 };
-        let b = phys.bridge_for(&BridgeConfig::default(), coarse);
+        let b = phys.bridge_for(&BridgeConfig::default(), None, coarse);
         assert_eq!((b.min_width_px, b.max_width_px), (3, 6));
         // A maximum that is a whole number of pixels is not lost to rounding (1.2 / 0.1 is
         // 11.99... in floating point).
         let mut m = phys.clone();
         m.material.max_bridge_mm = 1.2;
-        assert_eq!(m.bridge_for(&BridgeConfig::default(), s).max_width_px, 12);
+        assert_eq!(
+            m.bridge_for(&BridgeConfig::default(), None, s).max_width_px,
+            12
+        );
         // Filter: ceil((5 + 2) / 2) = 4 px, unless the user set a radius explicitly.
         assert_eq!(phys.filter_for(&FilterConfig::default(), s).radius, 4);
         let explicit = FilterConfig {

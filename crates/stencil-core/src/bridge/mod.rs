@@ -95,11 +95,8 @@ pub struct BridgeConfig {
     /// `PhysicalConfig::bridge_for`).
     pub min_width_px: u32,
     /// Widest bridge, default 40 px: none is drawn wider, at right angles to it. `stencil make`
-    /// sets it from the material's `max_bridge_mm`.
+    /// sets it from the material's `max_bridge_mm`, or the width asked for.
     pub max_width_px: u32,
-    /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
-    /// `max_bridge_mm`).
-    pub max_width_given: bool,
     /// Support trigger, default 0.5. The *estimate* of a bridge is the intensity error the tree
     /// expected: the mean ΣI of the strips in its chosen window times its width. The *real* error is
     /// Σ (1 − gray)² over every cut pixel the grown bridge actually turns into material (strips,
@@ -128,7 +125,6 @@ impl Default for BridgeConfig {
             max_length_px: 200,
             min_width_px: 3,
             max_width_px: 40,
-            max_width_given: false,
             support_margin: 0.5,
             gaps: true,
             user: constraints::UserBridges::default(),
