@@ -8,13 +8,13 @@ use clap::Args;
 
 use stencil_core::bridge::BridgeConfig;
 use stencil_core::export;
-use stencil_core::fit::Stock;
+use stencil_core::fit::{SizingError, Stock};
 use stencil_core::inputs::{Inputs, Kept};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
 use stencil_core::request::Request;
-use stencil_core::resolve::{self, Note, SizingError};
+use stencil_core::resolve::{self, Note};
 use stencil_core::tone::{FilterConfig, ScaleCap, Threshold, ToneConfig};
 
 use super::gcode::{CutArgs, MachineArgs};
@@ -687,6 +687,7 @@ fn sizing_words(input: &std::path::Path, e: stencil_core::Error) -> anyhow::Erro
         ),
         SizingError::GoboBed {
             gobo,
+            od_mm,
             bed:
                 Stock::Bed {
                     machine,
@@ -699,10 +700,8 @@ fn sizing_words(input: &std::path::Path, e: stencil_core::Error) -> anyhow::Erro
                     h_mm,
                 },
         } => anyhow::anyhow!(
-            "a {} gobo is {} mm across, larger than the {w_mm} x {h_mm} mm bed of {machine}: \
-             choose a smaller --gobo",
-            gobo.name(),
-            gobo.od_mm,
+            "a {gobo} gobo is {od_mm} mm across, larger than the {w_mm} x {h_mm} mm bed of {machine}: \
+             choose a smaller --gobo"
         ),
         SizingError::Fit(e) => anyhow::anyhow!("{input}: {}", super::errors::fit(&e)),
         SizingError::CropOutside {

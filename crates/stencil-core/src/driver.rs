@@ -5,7 +5,7 @@
 //! the upstream output it was made from, so a change re-runs only from the first stage whose
 //! inputs changed; a layered set runs it once per layer, from the set's gray, with the few
 //! [`Tweaks`] a layer needs. The stages themselves are `pipeline`'s functions of (input,
-//! parameters); [`pipeline::resolve`] turns the request into each stage's parameters, which
+//! parameters); [`crate::resolve::stage_params`] turns the request into each stage's parameters, which
 //! compare with `==`, so "what must re-run" is not a table of which option touches which stage:
 //! it is the first stage whose parameters or upstream output differ.
 //!

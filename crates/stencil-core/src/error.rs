@@ -14,7 +14,7 @@ pub enum Error {
     #[error(transparent)]
     KeepOut(std::sync::Arc<crate::tone::ToneError>),
     #[error(transparent)]
-    Sizing(#[from] crate::resolve::SizingError),
+    Sizing(#[from] crate::fit::SizingError),
     #[error(transparent)]
     Bridge(#[from] crate::bridge::BridgeError),
     #[error(transparent)]

@@ -27,7 +27,7 @@
 //!   first whose inputs changed, and by a layered set per layer ([`driver::Tweaks`]). The stages
 //!   are `pipeline`'s: [`pipeline::SourceParams`] (what loading and drawing need) →
 //!   [`pipeline::load`] → [`pipeline::draw`] (a mesh's view, before it is lit) →
-//!   [`pipeline::light`] → [`pipeline::resolve`] (the rest of the request as
+//!   [`pipeline::light`] → [`crate::resolve::stage_params`] (the rest of the request as
 //!   [`pipeline::StageParams`]: pixels, no millimetres, no paths) → [`pipeline::working_gray`] →
 //!   [`pipeline::threshold`] → [`pipeline::look`] → [`pipeline::clean`] → [`pipeline::prepare`]
 //!   → [`pipeline::bridge_prepared`] → [`pipeline::trace`] → [`pipeline::refuse`] /

@@ -41,7 +41,6 @@ pub use crate::plan::{
     Working,
 };
 pub use crate::request::{Emit, MakeConfig, PhysicalConfig};
-pub use crate::resolve::stage_params as resolve;
 pub use crate::timing::{Progress, Timings};
 pub use crate::units::Size;
 

@@ -6,10 +6,10 @@ use std::sync::Arc;
 
 use crate::bridge::{self, BridgeConfig};
 use crate::check;
-use crate::fit::{self, FitRequest, Fitted, Stock};
-use crate::gobo::Gobo;
+use crate::error::Error;
+use crate::fit::{self, FitRequest, Fitted, SizingError, Stock};
 use crate::inputs::Inputs;
-use crate::pipeline::{is_mesh, Error, Source};
+use crate::pipeline::{is_mesh, Source};
 use crate::plan::{
     CleanParams, JoinParams, SourceParams, StageParams, ToneParams, TraceParams, UserParams,
     Working,
@@ -39,26 +39,6 @@ pub enum Note {
         from_mm: [f64; 2],
         stock: Stock,
         turned: bool,
-    },
-}
-
-/// A size that cannot be made, found before any work.
-#[derive(Debug, thiserror::Error)]
-pub enum SizingError {
-    #[error("a gobo is made from a picture: a mesh is drawn at its own size")]
-    GoboMesh,
-    #[error("a {} gobo is {} mm across, larger than {bed}", gobo.name(), gobo.od_mm)]
-    GoboBed { gobo: Gobo, bed: Stock },
-    #[error(transparent)]
-    Fit(#[from] fit::FitError),
-    #[error(
-        "the crop reaches outside the picture, which is {:.1} x {:.1} mm at this size ({mm_per_px:.3} mm per pixel)",
-        picture_mm[0], picture_mm[1]
-    )]
-    CropOutside {
-        crop_mm: [f64; 4],
-        picture_mm: [f64; 2],
-        mm_per_px: f64,
     },
 }
 
@@ -118,8 +98,8 @@ fn fit_gobo(r: &Request, inputs: &Inputs, physical: &mut PhysicalConfig) -> Resu
     }
     if let Some(bed @ Stock::Bed { w_mm, h_mm, .. }) = &r.bed {
         if g.od_mm > w_mm.min(*h_mm) {
-            let (gobo, bed) = (g.clone(), bed.clone());
-            return Err(SizingError::GoboBed { gobo, bed }.into());
+            let (gobo, od_mm, bed) = (g.name(), g.od_mm, bed.clone());
+            return Err(SizingError::GoboBed { gobo, od_mm, bed }.into());
         }
     }
     // A header that cannot be read is left for loading the picture to name.
