@@ -1,5 +1,5 @@
 //! What a request reads from disk besides the input's pixels, read once so that
-//! [`crate::resolve::resolve`] reads no file. The studio keeps them while the files stay.
+//! `resolve` reads no file. The studio keeps them while the files stay.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
