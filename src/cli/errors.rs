@@ -79,6 +79,7 @@ pub fn core(e: &stencil_core::Error) -> String {
         Error::Plan(e) => plan(e),
         Error::Bridge(e) => bridge(e),
         Error::Tone(e) => tone(e),
+        Error::KeepOut(e) => tone(e),
         Error::Thin { .. } => format!(
             "{e}; widen the design, choose another --material, or pass --allow-thin to write the \
              outputs anyway"

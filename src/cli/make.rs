@@ -6,55 +6,20 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use stencil_core::bridge::BridgeConfig;
 use stencil_core::export;
+use stencil_core::fit::{SizingError, Stock};
+use stencil_core::inputs::{Inputs, Kept};
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::tone::{ScaleCap, Threshold, ToneConfig};
+use stencil_core::request::Request;
+use stencil_core::resolve::{self, Note};
+use stencil_core::tone::{ScaleCap, Threshold};
 
 use super::make_args::{ImageArgs, MakeArgs, ToneCmdArgs};
 use super::material::EmitKind;
 use super::progress::StageBar;
-
-/// The picture adjustments given in mm made pixels of the picture: the crop, the smoothing and
-/// the local threshold's neighbourhood. The scale is that of the whole picture as shown (its
-/// header read, nothing decoded); with --crop the size is then pinned to that scale (as dpi), so
-/// the cropped part keeps the size it had in the whole picture. A mesh, or a picture whose header
-/// cannot be read (the pipeline then says why), is left alone.
-fn picture_adjustments(
-    input: &std::path::Path,
-    i: &ImageArgs,
-    physical: &mut pipeline::PhysicalConfig,
-    tone: &mut ToneConfig,
-) -> anyhow::Result<()> {
-    if pipeline::is_mesh_path(input) {
-        return Ok(());
-    }
-    let Ok((w, h)) = stencil_core::tone::picture_size(input) else {
-        return Ok(());
-    };
-    let adj = &mut tone.adjust;
-    let mm = match i.crop {
-        Some([x, y, cw, ch]) => {
-            let mm = physical.scale(w, h)?.mm_per_px;
-            let px = |v: f64| (v / mm).round();
-            let (pw, ph) = (w as f64 * mm, h as f64 * mm);
-            if px(x + cw) > w as f64 || px(y + ch) > h as f64 || px(cw) < 1.0 || px(ch) < 1.0 {
-                anyhow::bail!(super::errors::crop_outside([x, y, cw, ch], [pw, ph], mm));
-            }
-            adj.crop_px = Some([px(x) as u32, px(y) as u32, px(cw) as u32, px(ch) as u32]);
-            physical.size = stencil_core::units::Size::Dpi(25.4 / mm);
-            mm
-        }
-        None if i.rotate % 2 == 1 => physical.scale(h, w)?.mm_per_px,
-        None => physical.scale(w, h)?.mm_per_px,
-    };
-    adj.smooth_px = (i.smooth / mm) as f32;
-    adj.local_px = (i.local_threshold / mm) as f32;
-    Ok(())
-}
 
 /// Above this share of the picture changed, `make` warns.
 const WARN_CHANGE_PCT: f64 = 5.0;
@@ -148,7 +113,7 @@ fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
 }
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
-    let cfg = make_config(a)?;
+    let cfg = make_config(a, None)?;
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
     }
@@ -172,40 +137,64 @@ pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersCon
 }
 
 /// The pipeline's settings from the command line, each option checked in the order given here
-/// (the first bad one is the one reported). Without --material, a G-code job gets a material set
-/// up for the machine's tool.
-pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
+/// (the first bad one is the one reported; the mesh's and the bridges' after the size, as
+/// always), with the decisions `resolve` makes from the files it needs: read once here, its notes
+/// printed; or, for the studio, kept in `kept` while the files stay, the notes not printed.
+/// Without --material, a G-code job gets a material set up for the machine's tool.
+pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
-    let default_material = if emit_gcode {
-        stencil_core::material::default_for(&a.machine.machine()?.tool)
-    } else {
-        stencil_core::material::DEFAULT_MATERIAL
-    };
-    let mut physical = a.physical.to_config(&a.output, default_material)?;
-    physical.mask.tone_inverted = a.image.invert;
-    etched_widths(a, &mut physical);
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
     } else {
         None
     };
-    fit_gobo(a, &mut physical, machine.as_ref())?;
-    fit_size(a, &mut physical, machine.as_ref())?;
-    let mut tone = a.image.to_config();
-    picture_adjustments(&a.input, &a.image, &mut physical, &mut tone)?;
+    let default_material = match &machine {
+        Some(m) => stencil_core::material::default_for(&m.tool),
+        None => stencil_core::material::DEFAULT_MATERIAL,
+    };
+    let mut physical = a.physical.to_config(&a.output, default_material)?;
+    physical.mask.tone_inverted = a.image.invert;
+    let (mesh, bridge) = (a.mesh.to_config(), a.bridge.to_config());
+    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
+    let request = Request {
+        make: MakeConfig {
+            out_dir: a
+                .out
+                .clone()
+                .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
+            input: a.input.clone(),
+            tone: a.image.to_config(),
+            mesh: mesh.as_ref().ok().cloned().unwrap_or_default(),
+            filter: a.filter.to_config(),
+            bridge: bridge.as_ref().ok().cloned().unwrap_or_default(),
+            physical,
+            ..MakeConfig::default()
+        },
+        sheet: a.physical.sheet.clone(),
+        bed: machine.as_ref().map(|m| Stock::Bed {
+            machine: m.name.clone(),
+            w_mm: m.bed.width_mm,
+            h_mm: m.bed.height_mm,
+        }),
+        margin_counts: a.machine.cut_outline || marks,
+        ..image_request(&a.image, a.bridge.keep_out.clone())
+    };
+    let inputs = match kept.as_deref_mut() {
+        Some(k) => k.load(&request),
+        None => Inputs::load(&request),
+    };
+    let (notes, cfg) = resolve::resolve(&request, &inputs);
+    if kept.is_none() {
+        for n in &notes {
+            println!("note: {}: {}", a.input.display(), note(n));
+        }
+    }
+    let (mesh, bridge) = (mesh?, bridge?);
     let cfg = MakeConfig {
-        out_dir: a
-            .out
-            .clone()
-            .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
-        input: a.input.clone(),
-        tone,
-        mesh: a.mesh.to_config()?,
-        filter: a.filter.to_config(),
-        bridge: a.bridge.to_config()?,
-        physical,
-        gcode: None,
-        progress: None,
+        mesh,
+        bridge,
+        max_bridge_width_px: a.bridge.max_bridge_width_px,
+        ..cfg.map_err(|e| sizing_words(&a.input, e))?
     };
     let mut gcode = super::gcode::make_gcode_config(
         &a.machine,
@@ -228,141 +217,89 @@ pub(super) fn make_config(a: &MakeArgs) -> anyhow::Result<MakeConfig> {
     Ok(MakeConfig { gcode, ..cfg })
 }
 
-/// An etched material's smallest feature raised to the narrowest opening that etches at its
-/// designed size (twice the undercut the masks are compensated for, plus the narrowest line a
-/// mask carries), so the clean-up and the width check judge the etched part. Said when it
-/// changes anything.
-fn etched_widths(a: &MakeArgs, physical: &mut pipeline::PhysicalConfig) {
-    let Some(e) = stencil_core::export::Etch::of(&physical.material) else {
-        return;
-    };
-    // Rounded up to a micrometre, as printed.
-    let need = (e.min_opening_mm() * 1000.0).ceil() / 1000.0;
-    let m = &mut physical.material;
-    if m.min_feature_mm < need {
-        println!(
-            "note: {}: webs and holes at least {need:.3} mm, not {} mm as {} says: the masks are \
-             drawn {:.3} mm smaller on every side for the etch's undercut, and a narrower \
-             opening would not be etched at all",
-            a.input.display(),
-            m.min_feature_mm,
-            m.name,
-            e.undercut_mm()
-        );
-        m.min_feature_mm = need;
+/// The picture's options measured in mm, as the request carries them.
+fn image_request(i: &ImageArgs, keep_out: Option<PathBuf>) -> Request {
+    Request {
+        keep_out,
+        crop_mm: i.crop,
+        smooth_mm: i.smooth,
+        local_threshold_mm: i.local_threshold,
+        ..Request::default()
     }
 }
 
-/// A gobo's size, from the picture's header: the picture inscribed in the image area (or
-/// filling it with --gobo-crop). Refused for a mesh (it is drawn at its own size) and, with a
-/// machine, when the disc is larger than its bed.
-fn fit_gobo(
-    a: &MakeArgs,
-    physical: &mut pipeline::PhysicalConfig,
-    machine: Option<&stencil_gcode::machine::Machine>,
-) -> anyhow::Result<()> {
-    let Some(g) = &physical.gobo else {
-        return Ok(());
-    };
-    if pipeline::is_mesh_path(&a.input) {
-        anyhow::bail!(
-            "{}: --gobo takes a picture: a mesh is drawn at its own size (render it to a PNG \
-             with `stencil tone`, then make the gobo from that)",
-            a.input.display()
-        );
-    }
-    if let Some(m) = machine {
-        if g.od_mm > m.bed.width_mm.min(m.bed.height_mm) {
-            anyhow::bail!(
-                "a {} gobo is {} mm across, larger than the {} x {} mm bed of {}: choose a \
-                 smaller --gobo",
-                g.name(),
-                g.od_mm,
-                m.bed.width_mm,
-                m.bed.height_mm,
-                m.name
-            );
-        }
-    }
-    // A header that cannot be read is left for the pipeline to name.
-    if let Ok((w, h)) = stencil_core::tone::picture_size(&a.input) {
-        physical.size = stencil_core::units::Size::WidthMm(g.picture_width_mm(w, h));
-    }
-    Ok(())
-}
-
-/// The size on the sheet, decided from the picture's header before any work: scaled down to the
-/// machine's bed when no size was asked for and the default 0.1 mm per pixel would not fit it,
-/// fitted to a --sheet, or refused (with the largest width that fits) when the size asked for
-/// cannot fit. The margin counts only where something is cut or marked at the sheet's edge.
-/// A mesh, or a picture whose header cannot be read (the pipeline then says why), is left alone.
-fn fit_size(
-    a: &MakeArgs,
-    physical: &mut pipeline::PhysicalConfig,
-    machine: Option<&stencil_gcode::machine::Machine>,
-) -> anyhow::Result<()> {
-    use stencil_core::fit::{fit, FitRequest, Fitted, Stock};
-    if physical.gobo.is_some() {
-        // Sized by the gobo (fit_gobo), which checked its disc against the bed.
-        return Ok(());
-    }
-    let stock = match (&a.physical.sheet, machine) {
-        (Some(s), _) => s.clone(),
-        (None, Some(m)) => Stock::Bed {
-            machine: m.name.clone(),
-            w_mm: m.bed.width_mm,
-            h_mm: m.bed.height_mm,
-        },
-        (None, None) => return Ok(()),
-    };
-    if pipeline::is_mesh_path(&a.input) {
-        return Ok(());
-    }
-    let Ok(px) = stencil_core::tone::picture_size(&a.input) else {
-        return Ok(());
-    };
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
-    let req = FitRequest {
-        picture_px: px,
-        size: physical.size,
-        margin_mm: physical.vector.margin_mm,
-        margin_counts: a.machine.cut_outline || marks,
-        stock: stock.clone(),
-    };
-    match fit(&req) {
-        Ok(Fitted::AsAsked) => {}
-        Ok(Fitted::Scaled {
-            from_mm,
+/// A note of `resolve`'s, in this command's words.
+fn note(n: &Note) -> String {
+    match n {
+        Note::Etched {
+            material,
+            given_mm,
+            need_mm,
+            undercut_mm,
+        } => format!(
+            "webs and holes at least {need_mm:.3} mm, not {given_mm} mm as {material} says: the \
+             masks are drawn {undercut_mm:.3} mm smaller on every side for the etch's undercut, \
+             and a narrower opening would not be etched at all"
+        ),
+        Note::Fitted {
             width_mm,
             height_mm,
+            from_mm,
+            stock,
             turned,
-        }) => {
-            physical.size = stencil_core::units::Size::WidthMm(width_mm);
-            let why = match (&stock, &a.physical.sheet) {
-                (_, Some(_)) => format!(
+        } => {
+            let why = match stock {
+                Stock::Sheet { .. } => format!(
                     "fitted to {stock}{}",
-                    if turned { " turned sideways" } else { "" }
+                    if *turned { " turned sideways" } else { "" }
                 ),
-                _ => format!(
+                Stock::Bed { .. } => format!(
                     "at 0.1 mm per pixel it would be {:.1} x {:.1} mm, larger than {stock}; \
                      scaled down to fit",
                     from_mm[0], from_mm[1]
                 ),
             };
-            println!(
-                "note: {}: {width_mm:.1} x {height_mm:.1} mm ({why}; --width-mm sets the size)",
-                a.input.display()
-            );
-        }
-        Err(e) => {
-            return Err(anyhow::anyhow!(
-                "{}: {}",
-                a.input.display(),
-                super::errors::fit(&e)
-            ))
+            format!("{width_mm:.1} x {height_mm:.1} mm ({why}; --width-mm sets the size)")
         }
     }
-    Ok(())
+}
+
+/// A decision that could not be made, in this command's words (any other error as it is).
+fn sizing_words(input: &std::path::Path, e: stencil_core::Error) -> anyhow::Error {
+    let stencil_core::Error::Sizing(s) = e else {
+        return e.into();
+    };
+    let input = input.display();
+    match s {
+        SizingError::GoboMesh => anyhow::anyhow!(
+            "{input}: --gobo takes a picture: a mesh is drawn at its own size (render it to a PNG \
+             with `stencil tone`, then make the gobo from that)"
+        ),
+        SizingError::GoboBed {
+            gobo,
+            od_mm,
+            bed:
+                Stock::Bed {
+                    machine,
+                    w_mm,
+                    h_mm,
+                }
+                | Stock::Sheet {
+                    name: machine,
+                    w_mm,
+                    h_mm,
+                },
+        } => anyhow::anyhow!(
+            "a {gobo} gobo is {od_mm} mm across, larger than the {w_mm} x {h_mm} mm bed of {machine}: \
+             choose a smaller --gobo"
+        ),
+        SizingError::Fit(e) => anyhow::anyhow!("{input}: {}", super::errors::fit(&e)),
+        SizingError::CropOutside {
+            crop_mm,
+            picture_mm,
+            mm_per_px,
+        } => anyhow::anyhow!(super::errors::crop_outside(crop_mm, picture_mm, mm_per_px)),
+    }
 }
 
 /// A failed run in this command's words: the fidelity limit with what helps, any other error
@@ -789,25 +726,29 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         Some(name) => Material::find(name)?,
         None => Material::find_default(stencil_core::material::DEFAULT_MATERIAL)?,
     };
-    let mut physical = pipeline::PhysicalConfig {
+    let physical = pipeline::PhysicalConfig {
         size: super::material::size(a.width_mm, a.dpi),
         material,
         material_source: source.display().to_string(),
         ..pipeline::PhysicalConfig::default()
     };
-    let mut tone = a.image.to_config();
-    picture_adjustments(&a.input, &a.image, &mut physical, &mut tone)?;
+    let request = Request {
+        make: MakeConfig {
+            input: a.input.clone(),
+            tone: a.image.to_config(),
+            physical,
+            ..MakeConfig::default()
+        },
+        ..image_request(&a.image, None)
+    };
+    let cfg = resolve::resolve_picture(&request, &Inputs::load(&request))
+        .map_err(|e| sizing_words(&a.input, e))?;
     let bar = StageBar::start();
     let cfg = MakeConfig {
-        out_dir: PathBuf::new(),
-        input: a.input.clone(),
-        tone,
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
-        bridge: BridgeConfig::default(),
-        physical,
-        gcode: None,
         progress: Some(bar.clone()),
+        ..cfg
     };
     let result = stencil_core::driver::clean_two_tone(&cfg);
     bar.finish();

@@ -330,14 +330,9 @@ impl BridgeArgs {
             alpha: self.alpha,
             max_length_px: self.max_bridge_length_px,
             min_width_px: self.min_bridge_width_px,
-            max_width_px: self
-                .max_bridge_width_px
-                .unwrap_or(BridgeConfig::default().max_width_px),
-            max_width_given: self.max_bridge_width_px.is_some(),
             support_margin: self.support_margin,
             gaps: !self.walks_only,
             user: stencil_core::bridge::UserBridges {
-                keep_out_mask: self.keep_out.clone(),
                 no_bridge_near_mm: self.no_bridge_near.clone(),
                 at_mm: self.bridge_at.clone(),
                 min_island_mm2: self.min_island_mm2,
@@ -348,6 +343,7 @@ impl BridgeArgs {
                 per_island: self.bridges_per_island,
                 ..Default::default()
             },
+            ..BridgeConfig::default()
         })
     }
 }
@@ -403,7 +399,7 @@ impl ImageArgs {
             invert: self.invert,
             scale: self.scale,
             max_pixels: self.max_pixels,
-            // The millimetres are made pixels by `picture_adjustments`.
+            // The millimetres are made pixels by `resolve`.
             adjust: stencil_core::tone::Adjust {
                 quarter_turns: self.rotate,
                 brightness: (self.brightness / 100.0) as f32,

@@ -35,9 +35,11 @@ pub struct StudioArgs {
 }
 
 /// `make`'s options for the studio, from the `make` subcommand's clap definition in `cli`, the
-/// whole command line's (given by the caller, which defines it).
+/// whole command line's (given by the caller, which defines it), and the files they name, read
+/// once while they stay (the picture's header, the keep-out picture).
 struct CliMaker {
     cli: clap::Command,
+    inputs: std::sync::Mutex<stencil_core::inputs::Kept>,
 }
 
 /// Options of `make` the studio does not offer: the input and output folder are fixed when it
@@ -93,7 +95,9 @@ impl stencil_studio::Maker for CliMaker {
     }
 
     fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
-        make_config(&parse_make(&self.cli, args)?).map_err(|e| super::errors::one_line(&e))
+        let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
+        make_config(&parse_make(&self.cli, args)?, Some(&mut kept))
+            .map_err(|e| super::errors::one_line(&e))
     }
 
     fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
@@ -181,7 +185,7 @@ fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
 /// `stencil studio`; `cli` is the whole command line's definition, whose `make` the page offers.
 pub fn run_studio(a: StudioArgs, cli: clap::Command) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
-    make_config(&a.make)?;
+    make_config(&a.make, None)?;
     let out_dir = a
         .make
         .out
@@ -194,17 +198,24 @@ pub fn run_studio(a: StudioArgs, cli: clap::Command) -> anyhow::Result<ExitCode>
         port: a.port,
     };
     let open = a.open;
-    stencil_studio::serve(Arc::new(CliMaker { cli }), cfg, |url| {
-        // The URL is the first line of stdout (scripts and tests read it).
-        println!("{url}");
-        let _ = std::io::stdout().flush();
-        eprintln!("stencil studio: serving on 127.0.0.1 until Ctrl-C");
-        if open {
-            if let Err(e) = std::process::Command::new("xdg-open").arg(url).spawn() {
-                eprintln!("note: could not open a browser (xdg-open: {e}); open the URL above");
+    stencil_studio::serve(
+        Arc::new(CliMaker {
+            cli,
+            inputs: Default::default(),
+        }),
+        cfg,
+        |url| {
+            // The URL is the first line of stdout (scripts and tests read it).
+            println!("{url}");
+            let _ = std::io::stdout().flush();
+            eprintln!("stencil studio: serving on 127.0.0.1 until Ctrl-C");
+            if open {
+                if let Err(e) = std::process::Command::new("xdg-open").arg(url).spawn() {
+                    eprintln!("note: could not open a browser (xdg-open: {e}); open the URL above");
+                }
             }
-        }
-    })
+        },
+    )
     .map_err(anyhow::Error::msg)?;
     Ok(ExitCode::SUCCESS)
 }
@@ -217,7 +228,11 @@ mod tests {
     #[test]
     fn every_make_option_is_offered_once() {
         let cli = <crate::cli::Cli as clap::CommandFactory>::command();
-        let specs = CliMaker { cli }.options();
+        let specs = CliMaker {
+            cli,
+            inputs: Default::default(),
+        }
+        .options();
         let names: Vec<&str> = specs.iter().map(|s| s.name.as_str()).collect();
         for n in [
             "threshold",

@@ -210,11 +210,22 @@ fn core_stages_use_only_earlier_layers() {
         ),
         // A gobo: placed on the traced stencil, its polarity worded as the masks word it.
         ("gobo", &["vector", "export"][..]),
+        (
+            "request",
+            &[
+                "bridge", "export", "fit", "material", "raster", "tone", "units", "vector",
+                "timing",
+            ][..],
+        ),
+        (
+            "plan",
+            &["bridge", "material", "tone", "units", "vector"][..],
+        ),
         // Every error the pipeline returns: the stages' own, gathered.
         (
             "error",
             &[
-                "tone", "bridge", "export", "vector", "check", "limits", "report",
+                "tone", "bridge", "export", "vector", "check", "limits", "report", "fit",
             ][..],
         ),
         (
@@ -234,7 +245,7 @@ fn core_stages_use_only_earlier_layers() {
         // The facade, in its own order: `pipeline` (the stage functions, resolve, the writer),
         // `driver` (the stages listed once), `layers` (a set of stencils, each run by the
         // driver). Each may use the stages and those before it, never one after it.
-        let facade = ["pipeline", "driver", "layers"];
+        let facade = ["pipeline", "inputs", "resolve", "driver", "layers"];
         if let Some(k) = facade.iter().position(|m| *m == module) {
             let code = non_test_source(&f);
             for later in &facade[k + 1..] {

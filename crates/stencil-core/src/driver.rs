@@ -3,11 +3,11 @@
 //! `make` runs it plainly ([`run`]: each output moves on, nothing is kept); the studio with a
 //! [`Cache`] that keeps each stage's output beside the parameters and the upstream output it was
 //! made from, so a change re-runs only from the first stage whose inputs changed (parameters
-//! from [`pipeline::resolve`] compare with `==`: no table of which option touches which stage;
+//! from `resolve::stage_params` compare with `==`: no table of which option touches which stage;
 //! a bridge weight re-runs only the join); a layered set once per layer, with [`Tweaks`].
 //!
 //! The list (one file each; the paper's Stages 1–5, Bronson et al.): [`source`] (load → draw a
-//! mesh's view → light), [`pipeline::resolve`], [`two_tone`] (gray at the working resolution →
+//! mesh's view → light), `resolve::stage_params` (the plan per stage, pure), [`two_tone`] (gray at the working resolution →
 //! threshold → look, the picture's side of the likeness), [`clean_up`], [`bridges`] (walk: the
 //! islands and candidate strips → join: the spanning tree, grown to width), [`vectors`] (trace,
 //! check, refuse), [`outputs`] (G-code, report: [`Cache::checked`], [`finish`]), then `make`
@@ -278,7 +278,7 @@ impl Cache {
             }
         };
         run.cancel()?;
-        let mut params = timer.time("tone", || pipeline::resolve(cfg, &source))?;
+        let mut params = timer.time("tone", || crate::resolve::stage_params(cfg, &source))?;
         if tweaks.keep_all_islands {
             params.join.drop_islands = false;
         }

@@ -11,6 +11,12 @@ pub enum Error {
     /// Reading or thresholding the picture, or rendering the mesh.
     #[error(transparent)]
     Tone(#[from] crate::tone::ToneError),
+    /// The keep-out picture could not be read (read once, shared by every run of the request).
+    #[error(transparent)]
+    KeepOut(std::sync::Arc<crate::tone::ToneError>),
+    /// The size asked for does not fit, or cannot be decided.
+    #[error(transparent)]
+    Sizing(#[from] crate::fit::SizingError),
     /// Joining the islands.
     #[error(transparent)]
     Bridge(#[from] crate::bridge::BridgeError),

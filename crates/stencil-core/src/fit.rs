@@ -157,6 +157,30 @@ pub enum FitError {
     },
 }
 
+/// A size that cannot be made, found before any work.
+#[derive(Debug, thiserror::Error)]
+pub enum SizingError {
+    #[error("a gobo is made from a picture: a mesh is drawn at its own size")]
+    GoboMesh,
+    #[error("a {gobo} gobo is {od_mm} mm across, larger than {bed}")]
+    GoboBed {
+        gobo: String,
+        od_mm: f64,
+        bed: Stock,
+    },
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    #[error(
+        "the crop reaches outside the picture, which is {:.1} x {:.1} mm at this size ({mm_per_px:.3} mm per pixel)",
+        picture_mm[0], picture_mm[1]
+    )]
+    CropOutside {
+        crop_mm: [f64; 4],
+        picture_mm: [f64; 2],
+        mm_per_px: f64,
+    },
+}
+
 /// A number of mm as printed: at most one decimal, rounded down for a largest size (so what is
 /// printed still fits).
 fn mm(v: f64) -> String {

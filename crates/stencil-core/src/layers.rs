@@ -395,7 +395,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     if cfg.tone.invert {
         return Err(LayersError::Invert.into());
     }
-    if cfg.bridge.user.keep_out_mask.is_some() {
+    if cfg.keep_out.is_some() {
         return Err(LayersError::KeepOut.into());
     }
     let sp = pipeline::SourceParams::of(cfg)?;

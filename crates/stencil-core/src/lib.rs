@@ -26,8 +26,10 @@
 //!   by the studio with a [`driver::Cache`] that keeps each stage's output and re-runs from the
 //!   first whose inputs changed, and by a layered set per layer ([`driver::Tweaks`]). The stages
 //!   are [`pipeline`]'s files, one each, in the order the driver's documentation lists them.
-//! - Sizing before any work: [`fit`] (a size that fits the machine's bed or the stock, decided
-//!   from the picture's header).
+//! - Before any work: a [`request::Request`] (the user's words) and its [`inputs::Inputs`] (the
+//!   files it names, read once) go through the pure [`resolve::resolve`] (size, [`fit`] to the bed
+//!   or stock, gobo, etched widths, picture adjustments; [`resolve::Note`]s back) to the
+//!   [`MakeConfig`] the driver runs; [`resolve::stage_params`] gives its [`plan`] per stage.
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
 //!   `stencil check` runs), [`tone::load_gray`] / [`tone::picture_size`] /
 //!   [`tone::otsu_level`], [`tone::mesh::load`] / [`tone::mesh::render`] /
@@ -59,13 +61,17 @@ mod error;
 pub mod export;
 pub mod fit;
 pub mod gobo;
+pub mod inputs;
 pub mod islands;
 pub mod layers;
 pub mod limits;
 pub mod material;
 pub mod pipeline;
+pub mod plan;
 pub mod raster;
 pub mod report;
+pub mod request;
+pub mod resolve;
 #[cfg(test)]
 mod test_rng;
 mod timing;

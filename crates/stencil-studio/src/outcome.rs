@@ -1,10 +1,9 @@
 //! A finished run as the page sees it ([`Done`]): what it computed (one stencil through the
 //! engine, or a set as `make` cuts it), the input file's identity on disk when it was read
-//! ([`Stamp`]), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
+//! (`Stamp`), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
 
-use std::path::Path;
 use std::sync::{Arc, Mutex};
-use std::time::SystemTime;
+use stencil_core::inputs::Stamp;
 
 use axum::body::Bytes;
 use stencil_core::export::png;
@@ -79,25 +78,6 @@ impl SetRun {
             _ => return None,
         })
     }
-}
-
-/// The identity of the input file on disk: a file replaced or rewritten has another. Its
-/// length, modification time, and device, inode and change time (Unix: a file renamed over it,
-/// or written within the modification time's resolution, still differs).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct Stamp(u64, Option<SystemTime>, [i64; 4]);
-
-/// The input file's stamp now (`None`: it cannot be read; the run then says why).
-pub(crate) fn stamp(path: &Path) -> Option<Stamp> {
-    let m = std::fs::metadata(path).ok()?;
-    #[cfg(unix)]
-    let node = {
-        use std::os::unix::fs::MetadataExt;
-        [m.dev() as i64, m.ino() as i64, m.ctime(), m.ctime_nsec()]
-    };
-    #[cfg(not(unix))]
-    let node = [0; 4];
-    Some(Stamp(m.len(), m.modified().ok(), node))
 }
 
 /// One finished run, as the page sees it.

@@ -24,10 +24,11 @@ use axum::{Json, Router};
 use serde_json::{json, Value};
 
 use crate::maker::Maker;
-use crate::outcome::{stamp, Shown};
+use crate::outcome::Shown;
 use crate::params::Params;
 use crate::state::{bad, Exported, Options, Refusal};
 use crate::studio::{Studio, StudioConfig};
+use stencil_core::inputs::stamp;
 
 /// The JSON bodies' bound: a change of options is a few hundred bytes.
 const JSON_LIMIT: usize = 64 * 1024;

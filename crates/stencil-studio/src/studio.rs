@@ -20,9 +20,10 @@ use stencil_core::layers::LayersConfig;
 
 use crate::engine::{Engine, RunError};
 use crate::maker::Maker;
-use crate::outcome::{stamp, Done, Reuse, SetRun, Shown, Stamp};
+use crate::outcome::{Done, Reuse, SetRun, Shown};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::state::{bad, Refusal, Shows, State};
+use stencil_core::inputs::{stamp, Stamp};
 
 /// How many changes undo remembers.
 const HISTORY: usize = 500;

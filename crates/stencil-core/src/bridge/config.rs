@@ -37,9 +37,6 @@ pub struct BridgeConfig {
     /// Widest bridge, default 40 px: none is drawn wider, at right angles to it. `stencil make`
     /// sets it from the material's `max_bridge_mm`.
     pub max_width_px: u32,
-    /// Whether the user set `max_width_px` (otherwise the pipeline takes it from the material's
-    /// `max_bridge_mm`).
-    pub max_width_given: bool,
     /// Support trigger, default 0.5: when the real error (Σ (1 − gray)² over the cut pixels the
     /// grown bridge fills) exceeds (1 + margin) × the tree's estimate (its window's mean ΣI times its
     /// width), the bridge is halved (not below `min_width_px`) and a support bridge of that width is
@@ -66,7 +63,6 @@ impl Default for BridgeConfig {
             max_length_px: 200,
             min_width_px: 3,
             max_width_px: 40,
-            max_width_given: false,
             support_margin: 0.5,
             gaps: true,
             user: UserBridges::default(),
@@ -137,8 +133,6 @@ pub struct CostTerms {
 /// turns them into the pixel fields, which are what the bridge stage reads.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UserBridges {
-    /// `--keep-out`: a picture, scaled to the working image; dark (under half gray) = no bridge.
-    pub keep_out_mask: Option<std::path::PathBuf>,
     /// `--no-bridge-near X,Y,R`, mm.
     pub no_bridge_near_mm: Vec<[f64; 3]>,
     /// `--bridge-at X,Y`, mm.

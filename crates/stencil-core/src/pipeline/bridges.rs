@@ -11,7 +11,7 @@ use std::sync::Arc;
 use crate::bridge::{self, Bridged};
 use crate::error::Error;
 use crate::islands;
-use crate::pipeline::JoinParams;
+use crate::plan::JoinParams;
 use crate::raster::TwoTone;
 use crate::timing::Timings;
 use crate::tone::regularize::{fill_sealed_pockets, settle_near};

@@ -4,7 +4,7 @@
 
 use std::borrow::Cow;
 
-use crate::pipeline::CleanParams;
+use crate::plan::CleanParams;
 use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone;
 use crate::tone::filter::{self, FilterConfig, FilterStats};

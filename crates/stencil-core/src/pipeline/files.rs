@@ -6,7 +6,7 @@ use super::outputs::Made;
 use super::source::is_mesh_path;
 use crate::error::Error;
 use crate::export::{self, dxf, mask, png, svg};
-use crate::pipeline::{MakeConfig, PhysicalConfig};
+use crate::request::{MakeConfig, PhysicalConfig};
 
 /// Files `make` writes, by name, encoded in memory: the ones `emit` asks for, then report.json
 /// (which lists them). The masks' description goes into `made.report` as they are encoded.

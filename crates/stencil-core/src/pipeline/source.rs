@@ -5,7 +5,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use crate::error::Error;
-use crate::pipeline::SourceParams;
+use crate::plan::SourceParams;
 use crate::raster::Gray;
 use crate::tone::mesh::{self, MeshConfig};
 use crate::tone::{self, image::load_gray};

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use super::source::Source;
-use crate::pipeline::ToneParams;
+use crate::plan::ToneParams;
 use crate::raster::{Gray, TwoTone};
 use crate::tone::{self, mesh};
 
