@@ -409,9 +409,7 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
         visibility::rasterize(mesh, &cam, mesh.is_closed())
     });
     let (frags, surf) = tm.time("surface", || {
-        let frags = shade::geometry(mesh, normals, &vb, &cam, view.as_ref());
-        let surf = shade::Surfaces::of(&frags, cam.width as usize);
-        (frags, surf)
+        shade::geometry(mesh, normals, &vb, &cam, view.as_ref())
     });
     let line_mask = tm.time("lines", || {
         let line_px = cfg.line_px.max(cfg.min_line_px);

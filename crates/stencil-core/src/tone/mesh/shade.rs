@@ -27,8 +27,8 @@ pub struct Light {
     pub fill: Option<(Vec3, f32)>,
 }
 
-/// What the line finder needs to know about a pixel, beyond its brightness; and what lighting
-/// it needs (its point and normal), so a new light re-shades without a new raster.
+/// What the line finder needs to know about a pixel, beyond its brightness (what lighting needs
+/// goes to [`Surfaces`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fragment {
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
@@ -39,10 +39,6 @@ pub struct Fragment {
     pub dwkr: f32,
     /// Cosine between the shading normal and the direction to the viewer.
     pub ndotv: f32,
-    /// The surface point seen (world).
-    pub point: Vec3,
-    /// The shading normal of the side seen (world, unit).
-    pub normal: Vec3,
 }
 
 impl Fragment {
@@ -63,23 +59,24 @@ pub fn shade(
     light: &Light,
     view: Option<&ViewCurvature>,
 ) -> (Vec<Fragment>, Vec<f32>) {
-    let frags = geometry(mesh, normals, vb, cam, view);
-    let lit = self::light(&frags, vb.width as usize, cam, light);
+    let (frags, surf) = geometry(mesh, normals, vb, cam, view);
+    let lit = self::light(&surf, cam, light);
     (frags, lit)
 }
 
-/// Each visible pixel's surface: where its ray meets its triangle, the normal there, and what
-/// the lines read. `normals` are the smooth vertex normals (used unless the mesh has per-corner
-/// normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
-/// Independent of the light.
+/// Each visible pixel's surface: what the lines read, and where its ray meets its triangle and
+/// the normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
+/// suggestive contours are wanted. Independent of the light.
 pub fn geometry(
     mesh: &Mesh,
     normals: &[Vec3],
     vb: &VisBuffer,
     cam: &Camera,
     view: Option<&ViewCurvature>,
-) -> Vec<Fragment> {
+) -> (Vec<Fragment>, Surfaces) {
     let w = (vb.width as usize).max(1);
+    let n = vb.tri.len();
     let shader = Shader {
         mesh,
         normals,
@@ -87,44 +84,54 @@ pub fn geometry(
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
     };
-    let background = Fragment {
-        depth: f32::INFINITY,
-        ..Default::default()
-    };
-    // Collected in parallel straight into the result: a working image of fragments is tens of
-    // megabytes, freshly mapped each time, and filling it first on one thread cost a page
-    // fault per page there.
-    vb.tri
-        .par_iter()
+    // One pass writes both, row by row in parallel: no image of whole fragments in between.
+    // The surfaces' zeroed memory comes from the system untouched (a background sample keeps
+    // its zeros), so its pages are first touched by the rows' threads.
+    let mut frags = vec![Fragment::default(); n];
+    let (mut planes, mut model) = (vec![0f32; 6 * n], vec![false; n]);
+    frags
+        .par_chunks_mut(w)
+        .zip(planes.par_chunks_mut(6 * w))
+        .zip(model.par_chunks_mut(w))
+        .zip(vb.tri.par_chunks(w))
         .enumerate()
-        .with_min_len(w)
-        .map(|(i, &t)| {
-            if t == NONE {
-                background
-            } else {
-                shader.fragment(t, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)
-            }
-        })
-        .collect()
-}
-
-/// The intensity of every fragment under `light` (1 where no model is seen), row by row in
-/// parallel: a pass over the kept surfaces, no ray, no raster. (The renderer lights and averages
-/// in one pass, `super::light`; this whole-image form is for the tests.)
-#[cfg(test)]
-pub fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
-    let lighter = Lighter::new(cam, light);
-    let mut out = vec![1f32; frags.len()];
-    out.par_chunks_mut(width.max(1))
-        .zip(frags.par_chunks(width.max(1)))
-        .for_each(|(row, fr)| {
-            for (o, f) in row.iter_mut().zip(fr) {
-                if f.is_model() {
-                    *o = lighter.intensity(f.point, f.normal);
+        .for_each(|(y, (((fr, planes), model), tri))| {
+            for (x, &t) in tri.iter().enumerate() {
+                if t == NONE {
+                    fr[x].depth = f32::INFINITY;
+                    continue;
                 }
+                let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
+                let v = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z];
+                for (c, v) in v.into_iter().enumerate() {
+                    planes[c * tri.len() + x] = v;
+                }
+                (fr[x], model[x]) = (f, f.is_model());
             }
         });
-    out
+    let surf = Surfaces {
+        width: w,
+        planes,
+        model,
+    };
+    (frags, surf)
+}
+
+/// The intensity of every sample under `light` (1 where no model is seen), one by one: a pass
+/// over the kept surfaces, no ray, no raster. (The renderer lights and averages in one pass,
+/// `super::light`; this whole-image form is for the tests.)
+#[cfg(test)]
+pub fn light(surf: &Surfaces, cam: &Camera, light: &Light) -> Vec<f32> {
+    let lighter = Lighter::new(cam, light);
+    (0..surf.model.len())
+        .map(|i| match surf.model[i] {
+            true => {
+                let (p, n) = surf.point_normal(i);
+                lighter.intensity(p, n)
+            }
+            false => 1.0,
+        })
+        .collect()
 }
 
 /// A light and a camera, with what every pixel's intensity shares worked out once.
@@ -192,28 +199,17 @@ pub struct Surfaces {
 }
 
 impl Surfaces {
-    /// The points and normals of `frags`, a `width`-wide image of fragments, row by row in
-    /// parallel.
-    pub fn of(frags: &[Fragment], width: usize) -> Surfaces {
-        let width = width.max(1);
-        let mut planes = vec![0f32; 6 * frags.len()];
-        let mut model = vec![false; frags.len()];
-        planes
-            .par_chunks_mut(6 * width)
-            .zip(model.par_chunks_mut(width))
-            .zip(frags.par_chunks(width))
-            .for_each(|((planes, model), fr)| {
-                let w = fr.len();
-                for (x, f) in fr.iter().enumerate() {
-                    model[x] = f.is_model();
-                    let v = [
-                        f.point.x, f.point.y, f.point.z, f.normal.x, f.normal.y, f.normal.z,
-                    ];
-                    for (c, v) in v.into_iter().enumerate() {
-                        planes[c * w + x] = v;
-                    }
-                }
-            });
+    /// A `width`-wide image of samples (point, normal, shows the model), row by row.
+    #[cfg(test)]
+    pub fn of(samples: &[(Vec3, Vec3, bool)], width: usize) -> Surfaces {
+        let mut planes = vec![0f32; 6 * samples.len()];
+        for (i, (p, n, _)) in samples.iter().enumerate() {
+            let (y, x) = (i / width, i % width);
+            for (c, v) in [p.x, p.y, p.z, n.x, n.y, n.z].into_iter().enumerate() {
+                planes[6 * width * y + c * width + x] = v;
+            }
+        }
+        let model = samples.iter().map(|s| s.2).collect();
         Surfaces {
             width,
             planes,
@@ -360,9 +356,10 @@ struct Shader<'a> {
 }
 
 impl Shader<'_> {
-    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`).
+    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`), the surface
+    /// point there and the normal of the side seen (world, unit).
     #[inline]
-    fn fragment(&self, t: u32, sx: f32, sy: f32) -> Fragment {
+    fn fragment(&self, t: u32, sx: f32, sy: f32) -> (Fragment, Vec3, Vec3) {
         let (mesh, cam) = (self.mesh, self.cam);
         let idx = mesh.triangles[t as usize];
         let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
@@ -411,14 +408,17 @@ impl Shader<'_> {
             }
             None => (0.0, 0.0),
         };
-        Fragment {
-            depth: depth.max(0.0),
-            kr,
-            dwkr,
-            ndotv: n.dot(v),
-            point: p,
-            normal: n,
-        }
+        let depth = depth.max(0.0);
+        (
+            Fragment {
+                depth,
+                kr,
+                dwkr,
+                ndotv: n.dot(v),
+            },
+            p,
+            n,
+        )
     }
 }
 
@@ -566,7 +566,7 @@ mod tests {
                 fill: (trial % 5 < 2).then(|| (Vec3::new(next(), next(), next()) * 3.0, 0.6)),
             };
             let w = 37;
-            let frags: Vec<Fragment> = (0..w * 3)
+            let frags: Vec<(Vec3, Vec3, bool)> = (0..w * 3)
                 .map(|i| {
                     let point = match i {
                         0 => key,
@@ -577,12 +577,7 @@ mod tests {
                         2 => Vec3::ZERO,
                         _ => Vec3::new(next(), next(), next()).normalize_or_zero(),
                     };
-                    Fragment {
-                        depth: if i % 7 == 3 { f32::INFINITY } else { 1.0 },
-                        point,
-                        normal,
-                        ..Default::default()
-                    }
+                    (point, normal, i % 7 != 3)
                 })
                 .collect();
             let s = Surfaces::of(&frags, w);
@@ -591,9 +586,9 @@ mod tests {
             for y in 0..3 {
                 lighter.row(&s, y, &mut out, &mut ndh);
                 for x in 0..w {
-                    let f = &frags[y * w + x];
-                    assert_eq!(s.model[y * w + x], f.is_model());
-                    let want = lighter.intensity(f.point, f.normal);
+                    let (point, normal, model) = frags[y * w + x];
+                    assert_eq!(s.model[y * w + x], model);
+                    let want = lighter.intensity(point, normal);
                     assert_eq!(out[x].to_bits(), want.to_bits(), "trial {trial} at {x},{y}");
                 }
             }
