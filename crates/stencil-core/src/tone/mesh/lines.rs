@@ -48,12 +48,12 @@ const SILHOUETTE: u8 = 1;
 const SUGGESTIVE: u8 = 2;
 
 /// The line mask (true = line) at the working resolution, and the seeds (1 = silhouette,
-/// 2 = suggestive contour) before thickening.
+/// 2 = suggestive contour) before thickening, from `shade::geometry`'s fragments and model mask.
 pub fn find(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    frags: &[Fragment],
+    (frags, model): (&[[f32; 4]], &[bool]),
     p: &LineParams,
 ) -> (Vec<bool>, Vec<u8>) {
     let (w, h) = (vb.width as usize, vb.height as usize);
@@ -63,7 +63,7 @@ pub fn find(
     let mut seeds = vec![0u8; w * h];
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, s) in row.iter_mut().enumerate() {
-            *s = seed(mesh, cam, vb, frags, p, x, y);
+            *s = seed(mesh, cam, vb, (frags, model), p, x, y);
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
@@ -79,17 +79,17 @@ fn seed(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    frags: &[Fragment],
+    (frags, model): (&[[f32; 4]], &[bool]),
     p: &LineParams,
     x: usize,
     y: usize,
 ) -> u8 {
     let (w, h) = (vb.width as usize, vb.height as usize);
     let i = y * w + x;
-    let f = frags[i];
-    if !f.is_model() {
+    if !model[i] {
         return 0;
     }
+    let f = Fragment::from(frags[i]);
     let neighbours = [
         (x.wrapping_sub(1), y),
         (x + 1, y),
@@ -103,10 +103,10 @@ fn seed(
             return SILHOUETTE;
         }
         let j = ny * w + nx;
-        let g = frags[j];
-        if !g.is_model() {
+        if !model[j] {
             return SILHOUETTE;
         }
+        let g = Fragment::from(frags[j]);
         let gap = g.depth - f.depth;
         if gap > p.depth_tolerance {
             let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));

@@ -425,7 +425,7 @@ pub fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError> {
             min_run_px: (4.0 * line_px * k as f32).round() as usize,
             depth_tolerance: 0.02 * radius,
         };
-        lines::find(mesh, &cam, &vb, &frags, &params).0
+        lines::find(mesh, &cam, &vb, (&frags, &surf.model), &params).0
     });
     Ok(Drawn {
         surf,
@@ -503,7 +503,13 @@ fn compose(
             || (vec![0f32; k * kw], vec![0f32; kw]),
             |(lit, ndh), (y, (((gray, shade), model), lines))| {
                 for (dy, lit) in lit.chunks_mut(kw).enumerate() {
-                    lighter.row(surf, y * k + dy, lit, ndh);
+                    // From the row's first model sample to its last: no other's light is read.
+                    let m = &surf.model[(y * k + dy) * kw..][..kw];
+                    let xs = match m.iter().position(|&m| m) {
+                        Some(a) => a..kw - m.iter().rev().position(|&m| m).unwrap_or(0),
+                        None => 0..0,
+                    };
+                    lighter.row(surf, y * k + dy, xs, lit, ndh);
                 }
                 if k == 1 {
                     // One sample a pixel: its sums are the sample itself (0 + it, as the sums

@@ -2,6 +2,8 @@
 //! highlight. Each visible pixel's ray is intersected with its triangle, so the barycentric
 //! weights (and everything interpolated with them: normal, κr, D_w κr) are perspective-correct.
 
+use std::ops::Range;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -42,9 +44,22 @@ pub struct Fragment {
 }
 
 impl Fragment {
-    #[inline]
+    #[cfg(test)]
     pub fn is_model(&self) -> bool {
         self.depth.is_finite()
+    }
+}
+
+impl From<[f32; 4]> for Fragment {
+    /// A fragment as [`geometry`] keeps it.
+    #[inline]
+    fn from([depth, kr, dwkr, ndotv]: [f32; 4]) -> Fragment {
+        Fragment {
+            depth,
+            kr,
+            dwkr,
+            ndotv,
+        }
     }
 }
 
@@ -61,11 +76,19 @@ pub fn shade(
 ) -> (Vec<Fragment>, Vec<f32>) {
     let (frags, surf) = geometry(mesh, normals, vb, cam, view);
     let lit = self::light(&surf, cam, light);
+    let background = Fragment {
+        depth: f32::INFINITY,
+        ..Default::default()
+    };
+    let frags = (frags.into_iter().zip(&surf.model))
+        .map(|(f, &m)| if m { f.into() } else { background })
+        .collect();
     (frags, lit)
 }
 
-/// Each visible pixel's surface: what the lines read, and where its ray meets its triangle and
-/// the normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// Each visible pixel's surface: what the lines read (a [`Fragment`]'s fields in order, zeros
+/// where `Surfaces::model` says no model is seen), and where its ray meets its triangle and the
+/// normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
 /// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
 /// suggestive contours are wanted. Independent of the light.
 pub fn geometry(
@@ -74,7 +97,7 @@ pub fn geometry(
     vb: &VisBuffer,
     cam: &Camera,
     view: Option<&ViewCurvature>,
-) -> (Vec<Fragment>, Surfaces) {
+) -> (Vec<[f32; 4]>, Surfaces) {
     let w = (vb.width as usize).max(1);
     let n = vb.tri.len();
     let shader = Shader {
@@ -84,11 +107,11 @@ pub fn geometry(
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
     };
-    // One pass writes both, row by row in parallel: no image of whole fragments in between.
-    // The surfaces' zeroed memory comes from the system untouched (a background sample keeps
-    // its zeros), so its pages are first touched by the rows' threads.
-    let mut frags = vec![Fragment::default(); n];
-    let (mut planes, mut model) = (vec![0f32; 6 * n], vec![false; n]);
+    // One pass writes both, row by row in parallel. Zeroed memory comes from the system
+    // untouched, and a background sample keeps its zeros: pages are first touched by the rows'
+    // threads, and those of the background not at all.
+    let (mut frags, mut planes, mut model) =
+        (vec![[0f32; 4]; n], vec![0f32; 6 * n], vec![false; n]);
     frags
         .par_chunks_mut(w)
         .zip(planes.par_chunks_mut(6 * w))
@@ -98,7 +121,6 @@ pub fn geometry(
         .for_each(|(y, (((fr, planes), model), tri))| {
             for (x, &t) in tri.iter().enumerate() {
                 if t == NONE {
-                    fr[x].depth = f32::INFINITY;
                     continue;
                 }
                 let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
@@ -106,7 +128,8 @@ pub fn geometry(
                 for (c, v) in v.into_iter().enumerate() {
                     planes[c * tri.len() + x] = v;
                 }
-                (fr[x], model[x]) = (f, f.is_model());
+                fr[x] = [f.depth, f.kr, f.dwkr, f.ndotv];
+                model[x] = f.depth.is_finite();
             }
         });
     let surf = Surfaces {
@@ -250,15 +273,16 @@ fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
 }
 
 impl Lighter<'_> {
-    /// The intensity of every sample of working row `y` of `s` into `out` (the background's
+    /// The intensity of samples `xs` of working row `y` of `s` into `out` (the background's
     /// values are meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
     /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
     /// every term but the highlight's power as straight-line float code over the row (vector
     /// code, no branch), then the power (a `powf`, which has no vector form) only where the
     /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
     /// for the tests), in its order: the same bits.
-    pub fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
-        let row = s.row(y);
+    pub fn row(&self, s: &Surfaces, y: usize, xs: Range<usize>, out: &mut [f32], ndh: &mut [f32]) {
+        let row = s.row(y).map(|plane| &plane[xs.clone()]);
+        let (out, ndh) = (&mut out[xs.clone()], &mut ndh[xs]);
         let e = self.eye;
         let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);
         let key = |_: [f32; 6], i: f32| i;
@@ -584,7 +608,7 @@ mod tests {
             let lighter = Lighter::new(&cam, &light);
             let (mut out, mut ndh) = (vec![0f32; w], vec![0f32; w]);
             for y in 0..3 {
-                lighter.row(&s, y, &mut out, &mut ndh);
+                lighter.row(&s, y, 0..w, &mut out, &mut ndh);
                 for x in 0..w {
                     let (point, normal, model) = frags[y * w + x];
                     assert_eq!(s.model[y * w + x], model);
