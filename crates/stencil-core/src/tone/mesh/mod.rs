@@ -503,13 +503,7 @@ fn compose(
             || (vec![0f32; k * kw], vec![0f32; kw]),
             |(lit, ndh), (y, (((gray, shade), model), lines))| {
                 for (dy, lit) in lit.chunks_mut(kw).enumerate() {
-                    // From the row's first model sample to its last: no other's light is read.
-                    let m = &surf.model[(y * k + dy) * kw..][..kw];
-                    let xs = match m.iter().position(|&m| m) {
-                        Some(a) => a..kw - m.iter().rev().position(|&m| m).unwrap_or(0),
-                        None => 0..0,
-                    };
-                    lighter.row(surf, y * k + dy, xs, lit, ndh);
+                    lighter.row(surf, y * k + dy, lit, ndh);
                 }
                 if k == 1 {
                     // One sample a pixel: its sums are the sample itself (0 + it, as the sums

@@ -107,33 +107,51 @@ pub fn geometry(
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
     };
+    // Each row's surfaces from its first seen triangle to its last (see `Surfaces::rows`).
+    let mut at = 0;
+    let rows: Vec<[usize; 3]> = (vb.tri.chunks(w))
+        .map(|tri| {
+            let a = tri.iter().position(|&t| t != NONE).unwrap_or(w);
+            let b = w - tri.iter().rev().position(|&t| t != NONE).unwrap_or(0);
+            at += 6 * (b - a);
+            [at - 6 * (b - a), a, b]
+        })
+        .collect();
     // One pass writes both, row by row in parallel. Zeroed memory comes from the system
     // untouched, and a background sample keeps its zeros: pages are first touched by the rows'
     // threads, and those of the background not at all.
-    let (mut frags, mut planes, mut model) =
-        (vec![[0f32; 4]; n], vec![0f32; 6 * n], vec![false; n]);
+    let (mut frags, mut planes, mut model) = (vec![[0f32; 4]; n], vec![0f32; at], vec![false; n]);
+    let mut rest = &mut planes[..];
+    let row_planes: Vec<&mut [f32]> = (rows.iter())
+        .map(|&[_, a, b]| {
+            let (row, tail) = std::mem::take(&mut rest).split_at_mut(6 * (b - a));
+            rest = tail;
+            row
+        })
+        .collect();
     frags
         .par_chunks_mut(w)
-        .zip(planes.par_chunks_mut(6 * w))
+        .zip(row_planes)
         .zip(model.par_chunks_mut(w))
         .zip(vb.tri.par_chunks(w))
         .enumerate()
         .for_each(|(y, (((fr, planes), model), tri))| {
-            for (x, &t) in tri.iter().enumerate() {
+            let (a, n) = (rows[y][1], planes.len() / 6);
+            for (x, &t) in tri.iter().enumerate().skip(a).take(n) {
                 if t == NONE {
                     continue;
                 }
                 let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
                 let v = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z];
                 for (c, v) in v.into_iter().enumerate() {
-                    planes[c * tri.len() + x] = v;
+                    planes[c * n + x - a] = v;
                 }
                 fr[x] = [f.depth, f.kr, f.dwkr, f.ndotv];
                 model[x] = f.depth.is_finite();
             }
         });
     let surf = Surfaces {
-        width: w,
+        rows,
         planes,
         model,
     };
@@ -209,13 +227,14 @@ impl<'a> Lighter<'a> {
 }
 
 /// What lighting reads of a view's working samples, kept apart from the [`Fragment`]s the lines
-/// read: per working row, six planes of `width` values (the surface point's x, y, z, then the
-/// normal's), and which samples show the model. A light change reads only these, as straight
+/// read: per working row, six planes of its samples from its first seen triangle to its last
+/// (the surface point's x, y, z, then the normal's), and which samples show the model. A light change reads only these, as straight
 /// runs of floats the compiler turns into vector code, instead of 40-byte fragments one by one.
 #[derive(Clone, Debug, Default)]
 pub struct Surfaces {
-    pub width: usize,
-    /// Row `y`'s planes are `planes[6 * width * y..][..6 * width]`.
+    /// Row `y`'s `[start, a, b]`: its planes are `planes[start..][..6 * (b - a)]`, of samples
+    /// `a..b` (none where no triangle is seen: a view's background is most of its samples).
+    rows: Vec<[usize; 3]>,
     planes: Vec<f32>,
     /// The samples that show the model (a finite depth).
     pub model: Vec<bool>,
@@ -233,8 +252,11 @@ impl Surfaces {
             }
         }
         let model = samples.iter().map(|s| s.2).collect();
+        let rows = (0..samples.len() / width)
+            .map(|y| [6 * width * y, 0, width])
+            .collect();
         Surfaces {
-            width,
+            rows,
             planes,
             model,
         }
@@ -243,19 +265,27 @@ impl Surfaces {
     /// Sample `i`'s point and normal.
     #[cfg(test)]
     pub fn point_normal(&self, i: usize) -> (Vec3, Vec3) {
-        let (y, x) = (i / self.width, i % self.width);
-        let r = self.row(y);
+        let width = self.model.len() / self.rows.len();
+        let (y, x) = (i / width, i % width);
+        let (xs, r) = self.row(y);
+        if !xs.contains(&x) {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let x = x - xs.start;
         (
             Vec3::new(r[0][x], r[1][x], r[2][x]),
             Vec3::new(r[3][x], r[4][x], r[5][x]),
         )
     }
 
-    /// Working row `y`'s six planes (point x, y, z, normal x, y, z).
-    fn row(&self, y: usize) -> [&[f32]; 6] {
-        let w = self.width;
-        let r = &self.planes[6 * w * y..6 * w * (y + 1)];
-        std::array::from_fn(|c| &r[c * w..(c + 1) * w])
+    /// Working row `y`'s samples kept, and their six planes (point x, y, z, normal x, y, z).
+    fn row(&self, y: usize) -> (Range<usize>, [&[f32]; 6]) {
+        let [start, a, b] = self.rows[y];
+        let r = &self.planes[start..start + 6 * (b - a)];
+        (
+            a..b,
+            std::array::from_fn(|c| &r[c * (b - a)..(c + 1) * (b - a)]),
+        )
     }
 }
 
@@ -273,15 +303,15 @@ fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
 }
 
 impl Lighter<'_> {
-    /// The intensity of samples `xs` of working row `y` of `s` into `out` (the background's
-    /// values are meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
+    /// The intensity of the samples `s` keeps of working row `y` into `out` (the others, and
+    /// the background's, are left or meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
     /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
     /// every term but the highlight's power as straight-line float code over the row (vector
     /// code, no branch), then the power (a `powf`, which has no vector form) only where the
     /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
     /// for the tests), in its order: the same bits.
-    pub fn row(&self, s: &Surfaces, y: usize, xs: Range<usize>, out: &mut [f32], ndh: &mut [f32]) {
-        let row = s.row(y).map(|plane| &plane[xs.clone()]);
+    pub fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
+        let (xs, row) = s.row(y);
         let (out, ndh) = (&mut out[xs.clone()], &mut ndh[xs]);
         let e = self.eye;
         let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);
@@ -608,7 +638,7 @@ mod tests {
             let lighter = Lighter::new(&cam, &light);
             let (mut out, mut ndh) = (vec![0f32; w], vec![0f32; w]);
             for y in 0..3 {
-                lighter.row(&s, y, 0..w, &mut out, &mut ndh);
+                lighter.row(&s, y, &mut out, &mut ndh);
                 for x in 0..w {
                     let (point, normal, model) = frags[y * w + x];
                     assert_eq!(s.model[y * w + x], model);
