@@ -81,15 +81,11 @@ pub fn choose(
         (cost, sx, sy)
     };
     // Each island's search is independent of the others': they run in parallel. A search's
-    // distances live in a scratch grid over the part of the picture it can reach ([`Window`]; a
-    // stamp and a distance per pixel, side by side: one cache line per visit), stamped per
-    // search so it is never cleared. The grids are lent out
-    // from a pool, so there are at most as many as searches running at once (one per thread),
-    // not one per piece of work rayon splits off: each grid is 16 bytes per pixel, and zeroing
-    // one per split cost more than the searches on the photo bench. The pool outlives the call
-    // ([`POOL`]): zeroing a fresh 16 MB grid per thread on every call was a fifth of this
-    // function's time on the 1 MP photo (the allocator serves it from memory it kept, so it is
-    // written, not mapped).
+    // distances live in a scratch grid over what it can reach ([`Window`]): a stamp and a
+    // distance per pixel, side by side (one cache line per visit), stamped per search so it is
+    // never cleared. The grids are lent out from a pool ([`POOL`], which outlives the call), so
+    // there are at most as many as searches running at once, not one per piece of work rayon
+    // splits off.
     let pool = &POOL;
     let search = |island: usize| {
         if protected.get(island).copied().unwrap_or(false) {
@@ -133,8 +129,9 @@ pub fn choose(
 /// re-runs it on every threshold change), at most [`KEPT_GRIDS`] of them.
 static POOL: std::sync::Mutex<Vec<Scratch>> = std::sync::Mutex::new(Vec::new());
 
-/// How many scratch grids [`POOL`] keeps between calls (16 bytes per pixel each): as many as
-/// searches run at once on a small machine; on a larger one the others are made per call.
+/// How many scratch grids [`POOL`] keeps between calls (16 bytes per pixel of a window each):
+/// as many as searches run at once on a small machine; on a larger one the others are made per
+/// call.
 const KEPT_GRIDS: usize = 2;
 
 /// A search's scratch grid and the stamp of the search using it. Per pixel, `[stamp, distance
@@ -155,6 +152,9 @@ struct Scratch {
 /// pushed: the search stops at the first such pop, so leaving them out stops it at the same
 /// place (the heap runs dry instead) and changes nothing else, as they are larger than every
 /// entry that is popped.
+/// The search's heap: (cost bits, pixel), least first.
+type Heap = BinaryHeap<Reverse<(u64, u32)>>;
+
 fn search_one(
     map: &IslandMap,
     s: &mut Scratch,
@@ -167,15 +167,14 @@ fn search_one(
     let node = &map.nodes[island];
     let bw = width(node.area).max(1) as f64;
     let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
-    let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
+    let mut heap: Heap = BinaryHeap::new();
     let me = island as u32;
     if straight_under(map, island, limit, bw, price) {
         return None;
     }
-    let win = Window::new(map, &node.border, limit, bw);
-    if s.cells.len() < win.w * win.h {
-        // Zeros: no search yet, so the grid comes zeroed from the allocator rather than written.
-        s.cells = vec![[0; 2]; win.w * win.h];
+    let (win, cells) = Window::new(map, &node.border, limit, bw);
+    if s.cells.len() < cells {
+        s.cells = vec![[0; 2]; cells];
     }
     s.stamp += 1;
     if bridged_under(map, s, &win, island, limit, bw, price) {
@@ -186,11 +185,7 @@ fn search_one(
     let cells = &mut s.cells[..];
     // A cost `c` for pixel `j` (`lj` in the window): kept if it is the first or lower, pushed if
     // under the limit.
-    let relax = |cells: &mut [[u64; 2]],
-                 heap: &mut BinaryHeap<Reverse<(u64, u32)>>,
-                 j: usize,
-                 lj: usize,
-                 c| {
+    let relax = |cells: &mut [[u64; 2]], heap: &mut Heap, j: usize, lj: usize, c| {
         let cell = &mut cells[lj];
         if cell[0] != stamp || c < f64::from_bits(cell[1]) {
             *cell = [stamp, f64::to_bits(c)];
@@ -230,11 +225,12 @@ fn search_one(
             break;
         }
         let mut reached = false;
+        let lw = win.2;
         for (j, lj) in [
             (i - 1, li - 1),
             (i + 1, li + 1),
-            (i - w, li - win.w),
-            (i + w, li + win.w),
+            (i - w, li - lw),
+            (i + w, li + lw),
         ] {
             let l = map.labels[j];
             if l == CUT {
@@ -416,16 +412,11 @@ fn straight_under(
 /// The part of the picture the searches for an island can reach, where its scratch grid lies:
 /// the box of its border grown by the longest path under the limit (each pixel costs at least
 /// 0.1 × the width, as [`bridged_under`] counts) and the step to a neighbour, within the picture.
-/// A grid over the whole picture was zeroed for every search, most of the stage's time.
-struct Window {
-    x0: usize,
-    y0: usize,
-    w: usize,
-    h: usize,
-}
+/// (A grid over the whole picture was zeroed per search.) `Window(x0, y0, width)`, and its size.
+struct Window(usize, usize, usize);
 
 impl Window {
-    fn new(map: &IslandMap, border: &[(u32, u32)], limit: f64, bw: f64) -> Window {
+    fn new(map: &IslandMap, border: &[(u32, u32)], limit: f64, bw: f64) -> (Window, usize) {
         let (w, h) = (map.width as usize, map.height as usize);
         let reach = ((limit / (0.1 * bw)).ceil() + 3.0).min((w + h) as f64) as usize;
         let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
@@ -433,23 +424,15 @@ impl Window {
             (x0, y0) = (x0.min(x as usize), y0.min(y as usize));
             (x1, y1) = (x1.max(x as usize), y1.max(y as usize));
         }
-        let (x0, y0) = (
-            x0.saturating_sub(reach).min(x1),
-            y0.saturating_sub(reach).min(y1),
-        );
-        let (x1, y1) = ((x1 + reach).min(w - 1), (y1 + reach).min(h - 1));
-        Window {
-            x0,
-            y0,
-            w: x1 + 1 - x0,
-            h: y1 + 1 - y0,
-        }
+        let (x0, x1) = (x0.saturating_sub(reach).min(x1), (x1 + reach).min(w - 1));
+        let (y0, y1) = (y0.saturating_sub(reach).min(y1), (y1 + reach).min(h - 1));
+        (Window(x0, y0, x1 + 1 - x0), (x1 + 1 - x0) * (y1 + 1 - y0))
     }
 
     /// Pixel (x, y)'s cell: in scan order, as in the picture.
     #[inline]
     fn at(&self, x: usize, y: usize) -> usize {
-        (y - self.y0) * self.w + (x - self.x0)
+        (y - self.1) * self.2 + (x - self.0)
     }
 }
 

@@ -29,8 +29,8 @@ pub struct Light {
     pub fill: Option<(Vec3, f32)>,
 }
 
-/// What the line finder needs to know about a pixel, beyond its brightness (what lighting needs
-/// goes to [`Surfaces`]).
+/// A pixel's fragment as the tests read it ([`geometry`] keeps its fields, in order, as arrays).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fragment {
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
@@ -43,16 +43,15 @@ pub struct Fragment {
     pub ndotv: f32,
 }
 
+#[cfg(test)]
 impl Fragment {
-    #[cfg(test)]
     pub fn is_model(&self) -> bool {
         self.depth.is_finite()
     }
 }
 
+#[cfg(test)]
 impl From<[f32; 4]> for Fragment {
-    /// A fragment as [`geometry`] keeps it.
-    #[inline]
     fn from([depth, kr, dwkr, ndotv]: [f32; 4]) -> Fragment {
         Fragment {
             depth,
@@ -86,9 +85,10 @@ pub fn shade(
     (frags, lit)
 }
 
-/// Each visible pixel's surface: what the lines read (a [`Fragment`]'s fields in order, zeros
-/// where `Surfaces::model` says no model is seen), and where its ray meets its triangle and the
-/// normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// Each visible pixel's surface: what the lines read (its camera-space depth, its interpolated
+/// κr and D_w κr, signed as seen, and the cosine between normal and view; zeros where
+/// `Surfaces::model` says no model is seen), and where its ray meets its triangle and the normal
+/// there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
 /// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
 /// suggestive contours are wanted. Independent of the light.
 pub fn geometry(
@@ -142,20 +142,20 @@ pub fn geometry(
                     continue;
                 }
                 let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
-                let v = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z];
-                for (c, v) in v.into_iter().enumerate() {
+                for (c, v) in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z].into_iter().enumerate() {
                     planes[c * n + x - a] = v;
                 }
-                fr[x] = [f.depth, f.kr, f.dwkr, f.ndotv];
-                model[x] = f.depth.is_finite();
+                (fr[x], model[x]) = (f, f[0].is_finite());
             }
         });
-    let surf = Surfaces {
-        rows,
-        planes,
-        model,
-    };
-    (frags, surf)
+    (
+        frags,
+        Surfaces {
+            rows,
+            planes,
+            model,
+        },
+    )
 }
 
 /// The intensity of every sample under `light` (1 where no model is seen), one by one: a pass
@@ -226,10 +226,10 @@ impl<'a> Lighter<'a> {
     }
 }
 
-/// What lighting reads of a view's working samples, kept apart from the [`Fragment`]s the lines
+/// What lighting reads of a view's working samples, kept apart from the fragments the lines
 /// read: per working row, six planes of its samples from its first seen triangle to its last
-/// (the surface point's x, y, z, then the normal's), and which samples show the model. A light change reads only these, as straight
-/// runs of floats the compiler turns into vector code, instead of 40-byte fragments one by one.
+/// (the surface point's x, y, z, then the normal's), and which samples show the model. A light
+/// change reads only these, as straight runs of floats the compiler turns into vector code.
 #[derive(Clone, Debug, Default)]
 pub struct Surfaces {
     /// Row `y`'s `[start, a, b]`: its planes are `planes[start..][..6 * (b - a)]`, of samples
@@ -410,10 +410,10 @@ struct Shader<'a> {
 }
 
 impl Shader<'_> {
-    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`), the surface
-    /// point there and the normal of the side seen (world, unit).
+    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`) (see
+    /// [`geometry`]), the surface point there and the normal of the side seen (world, unit).
     #[inline]
-    fn fragment(&self, t: u32, sx: f32, sy: f32) -> (Fragment, Vec3, Vec3) {
+    fn fragment(&self, t: u32, sx: f32, sy: f32) -> ([f32; 4], Vec3, Vec3) {
         let (mesh, cam) = (self.mesh, self.cam);
         let idx = mesh.triangles[t as usize];
         let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
@@ -462,17 +462,7 @@ impl Shader<'_> {
             }
             None => (0.0, 0.0),
         };
-        let depth = depth.max(0.0);
-        (
-            Fragment {
-                depth,
-                kr,
-                dwkr,
-                ndotv: n.dot(v),
-            },
-            p,
-            n,
-        )
+        ([depth.max(0.0), kr, dwkr, n.dot(v)], p, n)
     }
 }
 
