@@ -29,16 +29,12 @@ pub struct Light {
     pub fill: Option<(Vec3, f32)>,
 }
 
-/// A pixel's fragment as the tests read it ([`geometry`] keeps its fields, in order, as arrays).
+/// What the tests read of a pixel's fragment (see [`geometry`]).
 #[cfg(test)]
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fragment {
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
     pub depth: f32,
-    /// Interpolated radial curvature (sign as seen: flipped on the back side of open surfaces).
-    pub kr: f32,
-    /// Interpolated D_w κr (scale-free), same sign convention.
-    pub dwkr: f32,
     /// Cosine between the shading normal and the direction to the viewer.
     pub ndotv: f32,
 }
@@ -47,18 +43,6 @@ pub struct Fragment {
 impl Fragment {
     pub fn is_model(&self) -> bool {
         self.depth.is_finite()
-    }
-}
-
-#[cfg(test)]
-impl From<[f32; 4]> for Fragment {
-    fn from([depth, kr, dwkr, ndotv]: [f32; 4]) -> Fragment {
-        Fragment {
-            depth,
-            kr,
-            dwkr,
-            ndotv,
-        }
     }
 }
 
@@ -80,7 +64,10 @@ pub fn shade(
         ..Default::default()
     };
     let frags = (frags.into_iter().zip(&surf.model))
-        .map(|(f, &m)| if m { f.into() } else { background })
+        .map(|([depth, _, _, ndotv], &m)| match m {
+            true => Fragment { depth, ndotv },
+            false => background,
+        })
         .collect();
     (frags, lit)
 }
