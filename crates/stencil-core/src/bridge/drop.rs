@@ -54,7 +54,7 @@ pub(crate) fn choose(
     }
     let t = level as f32 / 255.0;
     let price = |i: usize| 0.1 + (gray.data[i] - t).abs() as f64;
-    let (w, h) = (map.width as usize, map.height as usize);
+    let w = map.width as usize;
     // An island's drop cost and the sums for its centre, over its runs in scan order: the same
     // sums in the same order as a pass over the picture, but over its own pixels only, and in
     // its search's job (in parallel). Two full passes over the picture's labels were a fifth of
@@ -71,10 +71,12 @@ pub(crate) fn choose(
         }
         (cost, sx, sy)
     };
-    // Islands' searches run in parallel, each on a scratch grid (stamp and distance per pixel, side
-    // by side), stamped per search so it is never cleared. The grids are lent from a pool ([`POOL`])
-    // that outlives the call, one per running search: 16 bytes per pixel zeroed per rayon split, or
-    // per call, cost more than the searches on the 1 MP photo.
+    // Each island's search is independent of the others': they run in parallel. A search's
+    // distances live in a scratch grid over what it can reach ([`Window`]): a stamp and a
+    // distance per pixel, side by side (one cache line per visit), stamped per search so it is
+    // never cleared. The grids are lent out from a pool ([`POOL`], which outlives the call), so
+    // there are at most as many as searches running at once, not one per piece of work rayon
+    // splits off.
     let pool = &POOL;
     let search = |island: usize| {
         if protected.get(island).copied().unwrap_or(false) {
@@ -86,11 +88,6 @@ pub(crate) fn choose(
             .ok()
             .flatten()
             .unwrap_or_default();
-        if s.cells.len() != w * h {
-            s.cells = vec![[0; 2]; w * h];
-            s.stamp = 0;
-        }
-        s.stamp += 1;
         let (limit, sx, sy) = sums(island);
         let out = search_one(map, &mut s, island, limit, &price, &width);
         if let Ok(mut p) = pool.lock() {
@@ -123,8 +120,9 @@ pub(crate) fn choose(
 /// re-runs it on every threshold change), at most [`KEPT_GRIDS`] of them.
 static POOL: std::sync::Mutex<Vec<Scratch>> = std::sync::Mutex::new(Vec::new());
 
-/// How many scratch grids [`POOL`] keeps between calls (16 bytes per pixel each): as many as
-/// searches run at once on a small machine; on a larger one the others are made per call.
+/// How many scratch grids [`POOL`] keeps between calls (16 bytes per pixel of a window each):
+/// as many as searches run at once on a small machine; on a larger one the others are made per
+/// call.
 const KEPT_GRIDS: usize = 2;
 
 /// A search's scratch grid and the stamp of the search using it. Per pixel, `[stamp, distance
@@ -135,6 +133,9 @@ struct Scratch {
     cells: Vec<[u64; 2]>,
     stamp: u64,
 }
+
+/// The search's heap: (cost bits, pixel), least first.
+type Heap = BinaryHeap<Reverse<(u64, u32)>>;
 
 /// The search of [`choose`] for one island: `Some((drop cost, bridge cost))` when dropping it is
 /// cheaper, `None` when it stays (a bridge as cheap, or the search gave up). Dijkstra over the cut;
@@ -152,33 +153,39 @@ fn search_one(
     let node = &map.nodes[island];
     let bw = width(node.area).max(1) as f64;
     let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
-    let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
+    let mut heap: Heap = BinaryHeap::new();
     let me = island as u32;
-    if straight_under(map, island, limit, bw, price)
-        || bridged_under(map, s, island, limit, bw, price)
-    {
+    if straight_under(map, island, limit, bw, price) {
+        return None;
+    }
+    let (win, cells) = Window::new(map, &node.border, limit, bw);
+    if s.cells.len() < cells {
+        s.cells = vec![[0; 2]; cells];
+    }
+    s.stamp += 1;
+    if bridged_under(map, s, &win, island, limit, bw, price) {
         return None;
     }
     s.stamp += 1;
     let stamp = s.stamp;
     let cells = &mut s.cells[..];
-    // A cost `c` for pixel `j`: kept if it is the first or lower, pushed if under the limit.
-    let relax =
-        |cells: &mut [[u64; 2]], heap: &mut BinaryHeap<Reverse<(u64, u32)>>, j: usize, c| {
-            let cell = &mut cells[j];
-            if cell[0] != stamp || c < f64::from_bits(cell[1]) {
-                *cell = [stamp, f64::to_bits(c)];
-                if c < limit {
-                    heap.push(Reverse((f64::to_bits(c), j as u32)));
-                }
+    // A cost `c` for pixel `j` (`lj` in the window): kept if it is the first or lower, pushed if
+    // under the limit.
+    let relax = |cells: &mut [[u64; 2]], heap: &mut Heap, j: usize, lj: usize, c| {
+        let cell = &mut cells[lj];
+        if cell[0] != stamp || c < f64::from_bits(cell[1]) {
+            *cell = [stamp, f64::to_bits(c)];
+            if c < limit {
+                heap.push(Reverse((f64::to_bits(c), j as u32)));
             }
-        };
+        }
+    };
     // Seeds: the cut 4-neighbours of the island's border pixels.
     for &(x, y) in &node.border {
         for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
             let j = ny * w + nx;
             if map.labels[j] == CUT {
-                relax(cells, &mut heap, j, price(j) * bw);
+                relax(cells, &mut heap, j, win.at(nx, ny), price(j) * bw);
             }
         }
     }
@@ -187,7 +194,9 @@ fn search_one(
     let mut gave_up = false;
     while let Some(Reverse((bits, i))) = heap.pop() {
         let (c, i) = (f64::from_bits(bits), i as usize);
-        if c > f64::from_bits(cells[i][1]) {
+        let (x, y) = (i % w, i / w);
+        let li = win.at(x, y);
+        if c > f64::from_bits(cells[li][1]) {
             continue;
         }
         visited += 1;
@@ -195,7 +204,6 @@ fn search_one(
             gave_up = true;
             break;
         }
-        let (x, y) = (i % w, i / w);
         // Reaching the image's edge reaches the sheet beyond it (the search ends here, so what
         // the pixel's neighbours would cost is never read).
         if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
@@ -203,10 +211,16 @@ fn search_one(
             break;
         }
         let mut reached = false;
-        for j in [i - 1, i + 1, i - w, i + w] {
+        let lw = win.2;
+        for (j, lj) in [
+            (i - 1, li - 1),
+            (i + 1, li + 1),
+            (i - w, li - lw),
+            (i + w, li + lw),
+        ] {
             let l = map.labels[j];
             if l == CUT {
-                relax(cells, &mut heap, j, c + price(j) * bw);
+                relax(cells, &mut heap, j, lj, c + price(j) * bw);
             } else if l != me {
                 reached = true;
             }
@@ -230,6 +244,7 @@ fn search_one(
 fn bridged_under(
     map: &IslandMap,
     s: &mut Scratch,
+    win: &Window,
     island: usize,
     limit: f64,
     bw: f64,
@@ -245,8 +260,9 @@ fn bridged_under(
     for &(x, y) in &map.nodes[island].border {
         for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
             let j = ny * w + nx;
-            if map.labels[j] == CUT && cells[j][0] != stamp {
-                cells[j] = [stamp, SEED];
+            let lj = win.at(nx, ny);
+            if map.labels[j] == CUT && cells[lj][0] != stamp {
+                cells[lj] = [stamp, SEED];
                 ring.push((nx as u32, ny as u32));
             }
         }
@@ -270,10 +286,10 @@ fn bridged_under(
                     (i - w, x, y - 1),
                     (i + w, x, y + 1),
                 ] {
-                    let l = map.labels[j];
+                    let (l, lj) = (map.labels[j], win.at(nx, ny));
                     if l == CUT {
-                        if cells[j][0] != stamp {
-                            cells[j] = [stamp, i as u64];
+                        if cells[lj][0] != stamp {
+                            cells[lj] = [stamp, i as u64];
                             next.push((nx as u32, ny as u32));
                         }
                     } else if l != me {
@@ -283,8 +299,9 @@ fn bridged_under(
             }
             if end {
                 let mut path = vec![i];
-                while cells[*path.last().expect("a path has a pixel")][1] != SEED {
-                    path.push(cells[*path.last().expect("a path has a pixel")][1] as usize);
+                let prev = |p: usize| cells[win.at(p % w, p / w)][1];
+                while prev(*path.last().expect("a path has a pixel")) != SEED {
+                    path.push(prev(*path.last().expect("a path has a pixel")) as usize);
                 }
                 let mut c = price(path[path.len() - 1]) * bw;
                 for &p in path.iter().rev().skip(1) {
@@ -367,6 +384,33 @@ fn straight_under(
             c += price(i) * bw;
         }
     })
+}
+
+/// The part of the picture the searches for an island can reach, where its scratch grid lies:
+/// the box of its border grown by the longest path under the limit (each pixel costs at least
+/// 0.1 × the width, as [`bridged_under`] counts) and the step to a neighbour, within the picture.
+/// (A grid over the whole picture was zeroed per search.) `Window(x0, y0, width)`, and its size.
+struct Window(usize, usize, usize);
+
+impl Window {
+    fn new(map: &IslandMap, border: &[(u32, u32)], limit: f64, bw: f64) -> (Window, usize) {
+        let (w, h) = (map.width as usize, map.height as usize);
+        let reach = ((limit / (0.1 * bw)).ceil() + 3.0).min((w + h) as f64) as usize;
+        let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
+        for &(x, y) in border {
+            (x0, y0) = (x0.min(x as usize), y0.min(y as usize));
+            (x1, y1) = (x1.max(x as usize), y1.max(y as usize));
+        }
+        let (x0, x1) = (x0.saturating_sub(reach).min(x1), (x1 + reach).min(w - 1));
+        let (y0, y1) = (y0.saturating_sub(reach).min(y1), (y1 + reach).min(h - 1));
+        (Window(x0, y0, x1 + 1 - x0), (x1 + 1 - x0) * (y1 + 1 - y0))
+    }
+
+    /// Pixel (x, y)'s cell: in scan order, as in the picture.
+    #[inline]
+    fn at(&self, x: usize, y: usize) -> usize {
+        (y - self.1) * self.2 + (x - self.0)
+    }
 }
 
 fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {

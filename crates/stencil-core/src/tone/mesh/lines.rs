@@ -16,7 +16,6 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::load::Mesh;
-use super::shade::Fragment;
 use super::visibility::{VisBuffer, NONE};
 
 /// Which lines to draw.
@@ -50,30 +49,29 @@ pub(crate) struct LineParams {
 const SILHOUETTE: u8 = 1;
 const SUGGESTIVE: u8 = 2;
 
-/// The line mask (true = line) at the working resolution, and the seeds (1 = silhouette,
-/// 2 = suggestive contour) before thickening.
+/// The line mask (true = line) at the working resolution, from `shade::geometry`'s fragments
+/// and model mask: seeds (silhouettes, suggestive contours) thickened.
 pub(crate) fn find(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    frags: &[Fragment],
+    (frags, model): (&[[f32; 4]], &[bool]),
     p: &LineParams,
-) -> (Vec<bool>, Vec<u8>) {
+) -> Vec<bool> {
     let (w, h) = (vb.width as usize, vb.height as usize);
     if p.mode == LineMode::None {
-        return (vec![false; w * h], vec![0; w * h]);
+        return vec![false; w * h];
     }
     let mut seeds = vec![0u8; w * h];
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, s) in row.iter_mut().enumerate() {
-            *s = seed(mesh, cam, vb, frags, p, x, y);
+            *s = seed(mesh, cam, vb, (frags, model), p, x, y);
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
         drop_short_runs(&mut seeds, w, h, p.min_run_px);
     }
-    let mask = thicken(&seeds, w, h, p.width_px);
-    (mask, seeds)
+    thicken(&seeds, w, h, p.width_px)
 }
 
 /// Classify one pixel.
@@ -82,17 +80,17 @@ fn seed(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    frags: &[Fragment],
+    (frags, model): (&[[f32; 4]], &[bool]),
     p: &LineParams,
     x: usize,
     y: usize,
 ) -> u8 {
     let (w, h) = (vb.width as usize, vb.height as usize);
     let i = y * w + x;
-    let f = frags[i];
-    if !f.is_model() {
+    if !model[i] {
         return 0;
     }
+    let [depth, kr, dwkr, ndotv] = frags[i];
     let neighbours = [
         (x.wrapping_sub(1), y),
         (x + 1, y),
@@ -106,24 +104,24 @@ fn seed(
             return SILHOUETTE;
         }
         let j = ny * w + nx;
-        let g = frags[j];
-        if !g.is_model() {
+        if !model[j] {
             return SILHOUETTE;
         }
-        let gap = g.depth - f.depth;
+        let [g_depth, g_kr, ..] = frags[j];
+        let gap = g_depth - depth;
         if gap > p.depth_tolerance {
             let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));
-            if behind_plane(mesh, vb.tri[j], o, d, f.depth, p.depth_tolerance) {
+            if behind_plane(mesh, vb.tri[j], o, d, depth, p.depth_tolerance) {
                 return SILHOUETTE;
             }
         }
         if p.mode == LineMode::Suggestive
             && !contour
-            && (f.kr <= 0.0) != (g.kr <= 0.0)
-            && f.kr.abs() <= g.kr.abs()
-            && gap.abs() <= p.depth_tolerance.max(continuity_gap(cam, f.depth))
+            && (kr <= 0.0) != (g_kr <= 0.0)
+            && kr.abs() <= g_kr.abs()
+            && gap.abs() <= p.depth_tolerance.max(continuity_gap(cam, depth))
         {
-            contour = f.dwkr > p.contour_threshold && f.ndotv < p.max_ndotv && f.ndotv > 0.0;
+            contour = dwkr > p.contour_threshold && ndotv < p.max_ndotv && ndotv > 0.0;
         }
     }
     if contour {

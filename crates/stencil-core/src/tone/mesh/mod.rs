@@ -279,6 +279,20 @@ pub struct Drawn {
     pub timings: Timings,
 }
 
+/// The camera of `cfg`'s view of `mesh` at output size, and the mesh's bounding radius.
+fn framed(mesh: &Mesh, cfg: &MeshConfig) -> (Camera, f32) {
+    let (center, radius) = mesh.bounding_sphere();
+    let orbit = camera::Orbit {
+        azimuth_deg: cfg.azimuth_deg,
+        elevation_deg: cfg.elevation_deg,
+        up: cfg.up,
+        distance: cfg.eye_distance(),
+        orthographic: cfg.fov_deg.is_none(),
+    };
+    let cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
+    (cam, radius)
+}
+
 /// Render a mesh (no thresholding): `draw` then `light`.
 pub fn render_mesh(mesh: &Mesh, cfg: &MeshConfig) -> Result<Rendering, MeshError> {
     cfg.validate()?;
@@ -292,15 +306,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
     cfg.validate()?;
     let mesh = &prep.mesh;
     let mut tm = Timings::default();
-    let (center, radius) = mesh.bounding_sphere();
-    let orbit = camera::Orbit {
-        azimuth_deg: cfg.azimuth_deg,
-        elevation_deg: cfg.elevation_deg,
-        up: cfg.up,
-        distance: cfg.eye_distance(),
-        orthographic: cfg.fov_deg.is_none(),
-    };
-    let out_cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
+    let (out_cam, radius) = framed(mesh, cfg);
     let k = cfg.supersample;
     let cam = out_cam.scaled(k);
     let normals = &prep.normals;
@@ -315,9 +321,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
         visibility::rasterize(mesh, &cam, mesh.is_closed())
     });
     let (frags, surf) = tm.time("surface", || {
-        let frags = shade::geometry(mesh, normals, &vb, &cam, view.as_ref());
-        let surf = shade::Surfaces::of(&frags, cam.width as usize);
-        (frags, surf)
+        shade::geometry(mesh, normals, &vb, &cam, view.as_ref())
     });
     let line_mask = tm.time("lines", || {
         let line_px = cfg.line_px.max(cfg.min_line_px);
@@ -333,7 +337,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
             min_run_px: (4.0 * line_px * k as f32).round() as usize,
             depth_tolerance: 0.02 * radius,
         };
-        lines::find(mesh, &cam, &vb, &frags, &params).0
+        lines::find(mesh, &cam, &vb, (&frags, &surf.model), &params)
     });
     Ok(Drawn {
         surf,
@@ -558,15 +562,7 @@ pub struct PartSizes {
 
 /// [`PartSizes`] of `mesh` as `cfg` frames it (the same camera as [`render_mesh`]). O(mesh).
 pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
-    let (center, radius) = mesh.bounding_sphere();
-    let orbit = camera::Orbit {
-        azimuth_deg: cfg.azimuth_deg,
-        elevation_deg: cfg.elevation_deg,
-        up: cfg.up,
-        distance: cfg.eye_distance(),
-        orthographic: cfg.fov_deg.is_none(),
-    };
-    let cam = Camera::frame(center, radius, &orbit, cfg.size, &mesh.positions);
+    let cam = framed(mesh, cfg).0;
     // Union-find over the vertices of each triangle.
     let n = mesh.positions.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();

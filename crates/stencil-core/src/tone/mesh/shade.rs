@@ -2,6 +2,8 @@
 //! highlight. Each visible pixel's ray is intersected with its triangle, so the barycentric
 //! weights (and everything interpolated with them: normal, κr, D_w κr) are perspective-correct.
 
+use std::ops::Range;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -27,26 +29,18 @@ pub(crate) struct Light {
     pub fill: Option<(Vec3, f32)>,
 }
 
-/// What the line finder needs to know about a pixel, beyond its brightness; and what lighting
-/// it needs (its point and normal), so a new light re-shades without a new raster.
+/// What the tests read of a pixel's fragment (see [`geometry`]).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Fragment {
     /// Camera-space depth; `f32::INFINITY` where no model is seen.
     pub(crate) depth: f32,
-    /// Interpolated radial curvature (sign as seen: flipped on the back side of open surfaces).
-    pub(crate) kr: f32,
-    /// Interpolated D_w κr (scale-free), same sign convention.
-    pub(crate) dwkr: f32,
     /// Cosine between the shading normal and the direction to the viewer.
     pub(crate) ndotv: f32,
-    /// The surface point seen (world).
-    pub(crate) point: Vec3,
-    /// The shading normal of the side seen (world, unit).
-    pub(crate) normal: Vec3,
 }
 
+#[cfg(test)]
 impl Fragment {
-    #[inline]
     pub(crate) fn is_model(&self) -> bool {
         self.depth.is_finite()
     }
@@ -63,23 +57,36 @@ pub(crate) fn shade(
     light: &Light,
     view: Option<&ViewCurvature>,
 ) -> (Vec<Fragment>, Vec<f32>) {
-    let frags = geometry(mesh, normals, vb, cam, view);
-    let lit = self::light(&frags, vb.width as usize, cam, light);
+    let (frags, surf) = geometry(mesh, normals, vb, cam, view);
+    let lit = self::light(&surf, cam, light);
+    let background = Fragment {
+        depth: f32::INFINITY,
+        ..Default::default()
+    };
+    let frags = (frags.into_iter().zip(&surf.model))
+        .map(|([depth, _, _, ndotv], &m)| match m {
+            true => Fragment { depth, ndotv },
+            false => background,
+        })
+        .collect();
     (frags, lit)
 }
 
-/// Each visible pixel's surface: where its ray meets its triangle, the normal there, and what
-/// the lines read. `normals` are the smooth vertex normals (used unless the mesh has per-corner
-/// normals from its file); `view` adds κr and D_w κr when suggestive contours are wanted.
-/// Independent of the light.
+/// Each visible pixel's surface: what the lines read (its camera-space depth, its interpolated
+/// κr and D_w κr, signed as seen, and the cosine between normal and view; zeros where
+/// `Surfaces::model` says no model is seen), and where its ray meets its triangle and the normal
+/// there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
+/// suggestive contours are wanted. Independent of the light.
 pub(crate) fn geometry(
     mesh: &Mesh,
     normals: &[Vec3],
     vb: &VisBuffer,
     cam: &Camera,
     view: Option<&ViewCurvature>,
-) -> Vec<Fragment> {
+) -> (Vec<[f32; 4]>, Surfaces) {
     let w = (vb.width as usize).max(1);
+    let n = vb.tri.len();
     let shader = Shader {
         mesh,
         normals,
@@ -87,44 +94,72 @@ pub(crate) fn geometry(
         view,
         setup: (!cam.orthographic).then(|| ray_setup(mesh, cam)),
     };
-    let background = Fragment {
-        depth: f32::INFINITY,
-        ..Default::default()
-    };
-    // Collected in parallel straight into the result: a working image of fragments is tens of
-    // megabytes, freshly mapped each time, and filling it first on one thread cost a page
-    // fault per page there.
-    vb.tri
-        .par_iter()
-        .enumerate()
-        .with_min_len(w)
-        .map(|(i, &t)| {
-            if t == NONE {
-                background
-            } else {
-                shader.fragment(t, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)
-            }
+    // Each row's surfaces from its first seen triangle to its last (see `Surfaces::rows`).
+    let mut at = 0;
+    let rows: Vec<[usize; 3]> = (vb.tri.chunks(w))
+        .map(|tri| {
+            let a = tri.iter().position(|&t| t != NONE).unwrap_or(w);
+            let b = w - tri.iter().rev().position(|&t| t != NONE).unwrap_or(0);
+            at += 6 * (b - a);
+            [at - 6 * (b - a), a, b]
         })
-        .collect()
-}
-
-/// The intensity of every fragment under `light` (1 where no model is seen), row by row in
-/// parallel: a pass over the kept surfaces, no ray, no raster. (The renderer lights and averages
-/// in one pass, `super::light`; this whole-image form is for the tests.)
-#[cfg(test)]
-pub(crate) fn light(frags: &[Fragment], width: usize, cam: &Camera, light: &Light) -> Vec<f32> {
-    let lighter = Lighter::new(cam, light);
-    let mut out = vec![1f32; frags.len()];
-    out.par_chunks_mut(width.max(1))
-        .zip(frags.par_chunks(width.max(1)))
-        .for_each(|(row, fr)| {
-            for (o, f) in row.iter_mut().zip(fr) {
-                if f.is_model() {
-                    *o = lighter.intensity(f.point, f.normal);
+        .collect();
+    // One pass writes both, row by row in parallel. Zeroed memory comes from the system
+    // untouched, and a background sample keeps its zeros: pages are first touched by the rows'
+    // threads, and those of the background not at all.
+    let (mut frags, mut planes, mut model) = (vec![[0f32; 4]; n], vec![0f32; at], vec![false; n]);
+    let mut rest = &mut planes[..];
+    let row_planes: Vec<&mut [f32]> = (rows.iter())
+        .map(|&[_, a, b]| {
+            let (row, tail) = std::mem::take(&mut rest).split_at_mut(6 * (b - a));
+            rest = tail;
+            row
+        })
+        .collect();
+    frags
+        .par_chunks_mut(w)
+        .zip(row_planes)
+        .zip(model.par_chunks_mut(w))
+        .zip(vb.tri.par_chunks(w))
+        .enumerate()
+        .for_each(|(y, (((fr, planes), model), tri))| {
+            let (a, n) = (rows[y][1], planes.len() / 6);
+            for (x, &t) in tri.iter().enumerate().skip(a).take(n) {
+                if t == NONE {
+                    continue;
                 }
+                let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
+                for (c, v) in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z].into_iter().enumerate() {
+                    planes[c * n + x - a] = v;
+                }
+                (fr[x], model[x]) = (f, f[0].is_finite());
             }
         });
-    out
+    (
+        frags,
+        Surfaces {
+            rows,
+            planes,
+            model,
+        },
+    )
+}
+
+/// The intensity of every sample under `light` (1 where no model is seen), one by one: a pass
+/// over the kept surfaces, no ray, no raster. (The renderer lights and averages in one pass,
+/// `super::light`; this whole-image form is for the tests.)
+#[cfg(test)]
+pub(crate) fn light(surf: &Surfaces, cam: &Camera, light: &Light) -> Vec<f32> {
+    let lighter = Lighter::new(cam, light);
+    (0..surf.model.len())
+        .map(|i| match surf.model[i] {
+            true => {
+                let (p, n) = surf.point_normal(i);
+                lighter.intensity(p, n)
+            }
+            false => 1.0,
+        })
+        .collect()
 }
 
 /// A light and a camera, with what every pixel's intensity shares worked out once.
@@ -175,44 +210,37 @@ impl<'a> Lighter<'a> {
     }
 }
 
-/// What lighting reads of a view's working samples, kept apart from the [`Fragment`]s the lines
-/// read: per working row, six planes of `width` values (the surface point's x, y, z, then the
-/// normal's), and which samples show the model. A light change reads only these, as straight
-/// runs of floats the compiler turns into vector code, instead of 40-byte fragments one by one.
+/// What lighting reads of a view's working samples, kept apart from the fragments the lines
+/// read: per working row, six planes of its samples from its first seen triangle to its last
+/// (the surface point's x, y, z, then the normal's), and which samples show the model. A light
+/// change reads only these, as straight runs of floats the compiler turns into vector code.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Surfaces {
-    pub width: usize,
-    /// Row `y`'s planes are `planes[6 * width * y..][..6 * width]`.
+pub struct Surfaces {
+    /// Row `y`'s `[start, a, b]`: its planes are `planes[start..][..6 * (b - a)]`, of samples
+    /// `a..b` (none where no triangle is seen: a view's background is most of its samples).
+    rows: Vec<[usize; 3]>,
     planes: Vec<f32>,
     /// The samples that show the model (a finite depth).
     pub model: Vec<bool>,
 }
 
 impl Surfaces {
-    /// The points and normals of `frags`, a `width`-wide image of fragments, row by row in
-    /// parallel.
-    pub(crate) fn of(frags: &[Fragment], width: usize) -> Surfaces {
-        let width = width.max(1);
-        let mut planes = vec![0f32; 6 * frags.len()];
-        let mut model = vec![false; frags.len()];
-        planes
-            .par_chunks_mut(6 * width)
-            .zip(model.par_chunks_mut(width))
-            .zip(frags.par_chunks(width))
-            .for_each(|((planes, model), fr)| {
-                let w = fr.len();
-                for (x, f) in fr.iter().enumerate() {
-                    model[x] = f.is_model();
-                    let v = [
-                        f.point.x, f.point.y, f.point.z, f.normal.x, f.normal.y, f.normal.z,
-                    ];
-                    for (c, v) in v.into_iter().enumerate() {
-                        planes[c * w + x] = v;
-                    }
-                }
-            });
+    /// A `width`-wide image of samples (point, normal, shows the model), row by row.
+    #[cfg(test)]
+    pub(crate) fn of(samples: &[(Vec3, Vec3, bool)], width: usize) -> Surfaces {
+        let mut planes = vec![0f32; 6 * samples.len()];
+        for (i, (p, n, _)) in samples.iter().enumerate() {
+            let (y, x) = (i / width, i % width);
+            for (c, v) in [p.x, p.y, p.z, n.x, n.y, n.z].into_iter().enumerate() {
+                planes[6 * width * y + c * width + x] = v;
+            }
+        }
+        let model = samples.iter().map(|s| s.2).collect();
+        let rows = (0..samples.len() / width)
+            .map(|y| [6 * width * y, 0, width])
+            .collect();
         Surfaces {
-            width,
+            rows,
             planes,
             model,
         }
@@ -221,19 +249,27 @@ impl Surfaces {
     /// Sample `i`'s point and normal.
     #[cfg(test)]
     pub(crate) fn point_normal(&self, i: usize) -> (Vec3, Vec3) {
-        let (y, x) = (i / self.width, i % self.width);
-        let r = self.row(y);
+        let width = self.model.len() / self.rows.len();
+        let (y, x) = (i / width, i % width);
+        let (xs, r) = self.row(y);
+        if !xs.contains(&x) {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let x = x - xs.start;
         (
             Vec3::new(r[0][x], r[1][x], r[2][x]),
             Vec3::new(r[3][x], r[4][x], r[5][x]),
         )
     }
 
-    /// Working row `y`'s six planes (point x, y, z, normal x, y, z).
-    fn row(&self, y: usize) -> [&[f32]; 6] {
-        let w = self.width;
-        let r = &self.planes[6 * w * y..6 * w * (y + 1)];
-        std::array::from_fn(|c| &r[c * w..(c + 1) * w])
+    /// Working row `y`'s samples kept, and their six planes (point x, y, z, normal x, y, z).
+    fn row(&self, y: usize) -> (Range<usize>, [&[f32]; 6]) {
+        let [start, a, b] = self.rows[y];
+        let r = &self.planes[start..start + 6 * (b - a)];
+        (
+            a..b,
+            std::array::from_fn(|c| &r[c * (b - a)..(c + 1) * (b - a)]),
+        )
     }
 }
 
@@ -251,11 +287,16 @@ fn unit(x: f32, y: f32, z: f32) -> (f32, f32, f32) {
 }
 
 impl Lighter<'_> {
-    /// The intensity of every sample of working row `y` of `s` into `out` (the background's values
-    /// are meaningless), `ndh` a scratch row: the tests' one-sample `intensity` over the row, all
-    /// but the highlight's `powf` as branch-free vector code first, in the same order: same bits.
+    /// The intensity of the samples `s` keeps of working row `y` into `out` (the others, and
+    /// the background's, are left or meaningless), `ndh` a scratch row: Lambert from the key (and the fill),
+    /// lifted by the ambient share, plus the key's Blinn-Phong highlight, at most 1. Two passes:
+    /// every term but the highlight's power as straight-line float code over the row (vector
+    /// code, no branch), then the power (a `powf`, which has no vector form) only where the
+    /// highlight shows. The operations are those of the one-sample definition (`intensity`, kept
+    /// for the tests), in its order: the same bits.
     pub(crate) fn row(&self, s: &Surfaces, y: usize, out: &mut [f32], ndh: &mut [f32]) {
-        let row = s.row(y);
+        let (xs, row) = s.row(y);
+        let (out, ndh) = (&mut out[xs.clone()], &mut ndh[xs]);
         let e = self.eye;
         let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);
         let key = |_: [f32; 6], i: f32| i;
@@ -353,9 +394,10 @@ struct Shader<'a> {
 }
 
 impl Shader<'_> {
-    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`).
+    /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`) (see
+    /// [`geometry`]), the surface point there and the normal of the side seen (world, unit).
     #[inline]
-    fn fragment(&self, t: u32, sx: f32, sy: f32) -> Fragment {
+    fn fragment(&self, t: u32, sx: f32, sy: f32) -> ([f32; 4], Vec3, Vec3) {
         let (mesh, cam) = (self.mesh, self.cam);
         let idx = mesh.triangles[t as usize];
         let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
@@ -404,14 +446,7 @@ impl Shader<'_> {
             }
             None => (0.0, 0.0),
         };
-        Fragment {
-            depth: depth.max(0.0),
-            kr,
-            dwkr,
-            ndotv: n.dot(v),
-            point: p,
-            normal: n,
-        }
+        ([depth.max(0.0), kr, dwkr, n.dot(v)], p, n)
     }
 }
 
@@ -559,7 +594,7 @@ mod tests {
                 fill: (trial % 5 < 2).then(|| (Vec3::new(next(), next(), next()) * 3.0, 0.6)),
             };
             let w = 37;
-            let frags: Vec<Fragment> = (0..w * 3)
+            let frags: Vec<(Vec3, Vec3, bool)> = (0..w * 3)
                 .map(|i| {
                     let point = match i {
                         0 => key,
@@ -570,12 +605,7 @@ mod tests {
                         2 => Vec3::ZERO,
                         _ => Vec3::new(next(), next(), next()).normalize_or_zero(),
                     };
-                    Fragment {
-                        depth: if i % 7 == 3 { f32::INFINITY } else { 1.0 },
-                        point,
-                        normal,
-                        ..Default::default()
-                    }
+                    (point, normal, i % 7 != 3)
                 })
                 .collect();
             let s = Surfaces::of(&frags, w);
@@ -584,9 +614,9 @@ mod tests {
             for y in 0..3 {
                 lighter.row(&s, y, &mut out, &mut ndh);
                 for x in 0..w {
-                    let f = &frags[y * w + x];
-                    assert_eq!(s.model[y * w + x], f.is_model());
-                    let want = lighter.intensity(f.point, f.normal);
+                    let (point, normal, model) = frags[y * w + x];
+                    assert_eq!(s.model[y * w + x], model);
+                    let want = lighter.intensity(point, normal);
                     assert_eq!(out[x].to_bits(), want.to_bits(), "trial {trial} at {x},{y}");
                 }
             }
