@@ -213,7 +213,7 @@ fn core_stages_use_only_earlier_layers() {
         (
             "request",
             &[
-                "bridge", "export", "fit", "material", "raster", "tone", "units", "vector",
+                "bridge", "export", "fit", "gobo", "material", "raster", "tone", "units", "vector",
                 "timing",
             ][..],
         ),

@@ -1,7 +1,7 @@
 //! The stages, one file each, in order: [`source`] → [`two_tone`] → [`clean_up`] → [`bridges`]
 //! → [`vectors`] → [`outputs`], then [`files`] (all or nothing). The driver runs them; their
-//! parameters are the plan's (`crate::plan`), made by the pure resolve (`crate::resolve`) from
-//! the request (`crate::request`).
+//! parameters are the plan's (`plan.rs`), made by the pure resolve (`resolve.rs`) from
+//! the request (`request.rs`).
 
 pub mod bridges;
 pub mod clean_up;
