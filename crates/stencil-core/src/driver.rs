@@ -38,6 +38,7 @@ pub enum Stopped {
     /// The caller said, between two stages, that a newer request replaces this one.
     #[error("superseded by a newer change")]
     Superseded,
+    /// A stage failed.
     #[error(transparent)]
     Failed(#[from] Error),
 }
@@ -138,19 +139,25 @@ impl Bridged {
 pub struct Checked {
     /// After the trace: `.0.bridged` is the stencil as `make` writes it.
     pub traced: Arc<(Joined, Traced)>,
+    /// The stencil's report.
     pub report: Report,
+    /// Why `make` would write nothing, when it would not.
     pub refused: Option<Error>,
 }
 
 /// The stages' outputs up to the clean-up, with the parameters they were made with.
 pub struct Front {
+    /// The parameters the stages ran with.
     pub params: StageParams,
     /// The working gray (what the threshold reads; the two-tones share it) and its generation.
     pub gray: Arc<Gray>,
+    /// The working gray's generation: it changes when the gray is made again.
     pub gray_generation: u64,
+    /// The clean-up's output.
     pub cleaned: Arc<Cleaned>,
     /// The stages this run computed (the others were kept), in order.
     pub ran: Vec<&'static str>,
+    /// How long this run's stages took.
     pub timer: Timings,
 }
 

@@ -147,8 +147,8 @@ pub enum FitError {
         /// The largest width that fits, mm.
         largest_width_mm: f64,
     },
-    #[error("a {} mm margin on each side leaves nothing of {stock}", mm(*margin_mm))]
     /// The margins take the whole stock.
+    #[error("a {} mm margin on each side leaves nothing of {stock}", mm(*margin_mm))]
     MarginTooLarge {
         /// The margin on each side, mm.
         margin_mm: f64,
@@ -160,23 +160,33 @@ pub enum FitError {
 /// A size that cannot be made, found before any work.
 #[derive(Debug, thiserror::Error)]
 pub enum SizingError {
+    /// A gobo was asked of a mesh.
     #[error("a gobo is made from a picture: a mesh is drawn at its own size")]
     GoboMesh,
+    /// The gobo is larger than the machine's bed.
     #[error("a {gobo} gobo is {od_mm} mm across, larger than {bed}")]
     GoboBed {
+        /// The gobo size's name.
         gobo: String,
+        /// Its outside diameter, mm.
         od_mm: f64,
+        /// The bed.
         bed: Stock,
     },
+    /// The picture does not fit the sheet or bed.
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// The crop reaches outside the picture.
     #[error(
         "the crop reaches outside the picture, which is {:.1} x {:.1} mm at this size ({mm_per_px:.3} mm per pixel)",
         picture_mm[0], picture_mm[1]
     )]
     CropOutside {
+        /// The crop asked for: X, Y, W, H, mm.
         crop_mm: [f64; 4],
+        /// The whole picture's width and height at this size, mm.
         picture_mm: [f64; 2],
+        /// Millimetres per picture pixel at this size.
         mm_per_px: f64,
     },
 }

@@ -204,22 +204,28 @@ impl Marks {
 pub struct LayerReport {
     /// 1 = the first sprayed (lightest paint).
     pub layer: u32,
+    /// Its folder's name.
     pub folder: String,
     /// Cuts where the gray is below this 8-bit level.
     pub level: u8,
+    /// Its paint colour, `#rrggbb`.
     pub color: String,
     /// Share of the picture painted last by this layer in the posterised picture, %.
     pub tone_pct: f64,
     /// Share of the picture this layer's stencil cuts, %.
     pub cut_pct: f64,
+    /// Islands before bridging.
     pub islands: usize,
+    /// Bridges made.
     pub bridges: usize,
     /// Pixels (working) the bridges and the clean-up after them keep out of the paint: cut in
     /// the layer's two-tone, material in its stencil.
     pub bridge_px: usize,
     /// Of those, the pixels a later layer paints over.
     pub hidden_px: usize,
+    /// `hidden_px` as a share of `bridge_px`, %.
     pub hidden_pct: f64,
+    /// Whether its stencil passed the check.
     pub check_passed: bool,
 }
 
@@ -240,22 +246,27 @@ pub struct Composite {
 /// The fill-in's report.
 #[derive(Clone, Debug, Serialize)]
 pub struct FillInReport {
+    /// Its folder's name.
     pub folder: String,
     /// The first stencil's bridge pixels (cut in its two-tone, material in its stencil).
     pub bridge_px: usize,
     /// Of those, the pixels the fill-in cuts (paints).
     pub covered_px: usize,
+    /// `covered_px` as a share of `bridge_px`, %.
     pub covered_pct: f64,
     /// Pixels the fill-in paints that the first stencil's two-tone keeps unpainted: the specks
     /// it paints over rather than bridging them again, and its clean-up.
     pub overpainted_px: usize,
+    /// Whether its stencil passed the check.
     pub check_passed: bool,
 }
 
 /// A set's report.json (a layered folder's; `layers.json` beside a one-layer set's stencil).
 #[derive(Clone, Debug, Serialize)]
 pub struct SetReport {
+    /// The input picture's path.
     pub input: String,
+    /// How the picture was posterised.
     pub method: Method,
     /// Layers, in painting order.
     pub layers: Vec<LayerReport>,
@@ -263,15 +274,20 @@ pub struct SetReport {
     pub surface_color: String,
     /// The folders in the order to spray them.
     pub painting_order: Vec<String>,
+    /// How close the painted set comes to the picture.
     pub composite: Composite,
     /// Working pixels a darker layer's two-tone cuts but a lighter one's does not (the clean-up
     /// of each layer for the material can break the cumulative order at the edges).
     pub nesting_breaks_px: usize,
+    /// The registration marks.
     pub marks: Marks,
     /// Working pixels per input pixel, and mm per working pixel (the same for every layer).
     pub scale_factor: u32,
+    /// Millimetres per working pixel.
     pub mm_per_px: f64,
+    /// The fill-in's report, when one was made.
     pub fill_in: Option<FillInReport>,
+    /// The files written.
     pub files: Vec<String>,
 }
 
@@ -279,10 +295,13 @@ pub struct SetReport {
 pub struct Layered {
     /// Per layer, light to dark.
     pub layers: Vec<Made>,
+    /// The fill-in stencil, when one was made.
     pub fill_in: Option<Made>,
+    /// The posterised picture.
     pub tones: Tones,
     /// The composite (picture size), RGB.
     pub composite: Vec<u8>,
+    /// The set's report.
     pub report: SetReport,
 }
 

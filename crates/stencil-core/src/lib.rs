@@ -51,8 +51,24 @@
 //!   renderer's steps).
 //! - Not API: `vector::steps`, the vector stage's steps one by one for the `vector` bench, built
 //!   only with the `bench-internals` feature.
+//!
+//! ## Example: a stencil from a picture
+//! ```
+//! use stencil_core::{driver, islands, MakeConfig};
+//!
+//! let cfg = MakeConfig {
+//!     input: concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/rings.png").into(),
+//!     ..Default::default()
+//! };
+//! let made = driver::run(&cfg)?; // in memory: nothing is written
+//! assert_eq!(islands::floating_count(&made.bridged.bits), 0);
+//! assert_eq!(made.check.pieces, 1);
+//! assert!(!made.report.bridges.is_empty());
+//! # Ok::<(), stencil_core::Error>(())
+//! ```
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod bridge;
 pub mod check;

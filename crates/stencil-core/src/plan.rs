@@ -11,11 +11,14 @@ use crate::vector::VectorConfig;
 /// a mesh's view, light, lines and size (the lines widened to survive the clean-up).
 #[derive(Clone, Debug, PartialEq)]
 pub enum SourceParams {
+    /// A picture.
     Picture {
+        /// The most pixels it may have.
         max_pixels: u64,
         /// The adjustments made to the picture as it is rendered (see [`tone::Adjust`]).
         adjust: tone::Adjust,
     },
+    /// A mesh's view, light, lines and size.
     Mesh(MeshConfig),
 }
 
@@ -34,7 +37,9 @@ pub struct Working {
 /// The threshold stage's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneParams {
+    /// How gray becomes two tones.
     pub threshold: tone::Threshold,
+    /// Make the dark parts material instead of the light.
     pub invert: bool,
     /// A cropped gobo's image area in working pixels (cx, cy, r): outside it, metal.
     pub keep_circle_px: Option<[f64; 3]>,
@@ -54,9 +59,11 @@ impl ToneParams {
 /// explicit radius) the morphological filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CleanParams {
+    /// The morphological filter.
     pub filter: FilterConfig,
     /// The regularisation's narrowest web or hole, px, when it runs (the automatic radius).
     pub regularize_px: Option<f64>,
+    /// As in [`ToneParams`].
     pub invert: bool,
     /// `--threshold auto` on a picture: the clean-up searches the level (see [`crate::pipeline::clean`]).
     pub auto: bool,
@@ -67,6 +74,7 @@ pub struct CleanParams {
 pub struct UserParams {
     /// `min_island_mm2` and the scale it is measured at.
     pub min_island_mm2: f64,
+    /// Millimetres per working pixel.
     pub mm_per_px: f64,
 }
 
@@ -74,6 +82,7 @@ pub struct UserParams {
 /// user's places and keep-out grid included), and the clean-up around the bridges.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JoinParams {
+    /// The bridge options, in pixels.
     pub bridge: BridgeConfig,
     /// Set when any of the user's bridge options was given (they are reported).
     pub user: Option<UserParams>,
@@ -82,7 +91,8 @@ pub struct JoinParams {
     /// After the regularisation: settle to this width and fill sealed pockets; else tidy with
     /// `tidy_radius`.
     pub settle_px: Option<f64>,
-    pub tidy_radius: u32,
+    /// The tidy's radius, px (without the regularisation).
+    pub(crate) tidy_radius: u32,
     /// Millimetres per working pixel (the dropped islands are reported in mm).
     pub mm_per_px: f64,
     /// Drop an island when that changes the picture less than its cheapest bridge (see
@@ -93,7 +103,9 @@ pub struct JoinParams {
 /// The vector stage's and the check's parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TraceParams {
+    /// The vector stage's options.
     pub vector: VectorConfig,
+    /// The material (its smallest widths for the check).
     pub material: Material,
     /// Widen the necks the check finds and trace again (after the regularisation).
     pub repair: bool,
@@ -103,9 +115,14 @@ pub struct TraceParams {
 /// (the scale is carried for the stages that write millimetres), no paths, nothing left to decide.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StageParams {
+    /// The working resolution.
     pub working: Working,
+    /// The threshold's.
     pub tone: ToneParams,
+    /// The clean-up's.
     pub clean: CleanParams,
+    /// The bridges'.
     pub join: JoinParams,
+    /// The tracing's and the check's.
     pub trace: TraceParams,
 }

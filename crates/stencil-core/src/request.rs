@@ -20,6 +20,7 @@ pub use crate::timing::Progress;
 /// for, the profiles as loaded: a bad name is an option error, said in the options' order).
 #[derive(Clone, Debug, Default)]
 pub struct Request {
+    /// What needs no decision, as given.
     pub make: MakeConfig,
     /// The keep-out picture (see `bridge::constraints`).
     pub keep_out: Option<PathBuf>,
@@ -41,14 +42,21 @@ pub struct Request {
 /// ([`crate::resolve::resolve`] makes it; tests build it by hand).
 #[derive(Clone, Debug, Default)]
 pub struct MakeConfig {
+    /// The picture or mesh to read.
     pub input: PathBuf,
+    /// Where `make` writes its files.
     pub out_dir: PathBuf,
+    /// How gray becomes two tones.
     pub tone: ToneConfig,
+    /// How a mesh is drawn.
     pub mesh: MeshConfig,
+    /// The clean-up.
     pub filter: FilterConfig,
+    /// The bridges.
     pub bridge: BridgeConfig,
     /// The widest bridge asked for, px (else the material's `max_bridge_mm` decides).
     pub max_bridge_width_px: Option<u32>,
+    /// Size, material, vectors, check and export.
     pub physical: PhysicalConfig,
     /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
     /// report. A job that does not fit the machine's bed fails the run before anything is written.
@@ -75,7 +83,9 @@ pub struct KeepOut {
 pub struct Emit {
     /// twotone.png, stencil.png, preview.png.
     pub png: bool,
+    /// stencil.svg.
     pub svg: bool,
+    /// stencil.dxf.
     pub dxf: bool,
     /// mask.png and mask.svg.
     pub mask: bool,
@@ -95,10 +105,13 @@ impl Default for Emit {
 /// Physical size, material, vectors, check and export options.
 #[derive(Clone, Debug)]
 pub struct PhysicalConfig {
+    /// The stencil's size.
     pub size: Size,
+    /// The material's profile.
     pub material: Material,
     /// Where the material profile came from (for the report).
     pub material_source: String,
+    /// The vector stage's options.
     pub vector: VectorConfig,
     /// Write the outputs even when the check finds violations.
     pub allow_thin: bool,
@@ -106,8 +119,11 @@ pub struct PhysicalConfig {
     /// than this percentage of its pixels (`--max-change`; finite, 0..=100). See
     /// [`crate::report::Fidelity`].
     pub max_change_pct: Option<f64>,
+    /// Which files are written.
     pub emit: Emit,
+    /// The masks' options.
     pub mask: MaskConfig,
+    /// Write the DXF as R12 (else R2000).
     pub dxf_r12: bool,
     /// A gobo (`--gobo`): a round sheet, the picture at its centre (`size` is set to fit its
     /// image area), the rim cut (see [`crate::gobo`]).

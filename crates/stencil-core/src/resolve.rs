@@ -26,18 +26,26 @@ use crate::vector::VectorConfig;
 pub enum Note {
     /// An etched material's smallest feature raised (see `etched_widths`).
     Etched {
+        /// The material's name.
         material: String,
+        /// The smallest feature asked for, mm.
         given_mm: f64,
         /// Rounded up to a micrometre.
         need_mm: f64,
+        /// The etch's undercut under each mask edge, mm.
         undercut_mm: f64,
     },
     /// The picture made `width_mm` wide to fit `stock` (it would have been `from_mm`).
     Fitted {
+        /// The width made, mm.
         width_mm: f64,
+        /// The height made, mm.
         height_mm: f64,
+        /// The width and height it would have been, mm.
         from_mm: [f64; 2],
+        /// The stock fitted to.
         stock: Stock,
+        /// Whether the picture lies a quarter turn on the stock.
         turned: bool,
     },
 }

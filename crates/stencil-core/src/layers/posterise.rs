@@ -33,6 +33,7 @@ pub struct Tones {
     pub levels: Vec<u8>,
     /// The surface's colour, then each layer's paint (sRGB).
     pub colors: Vec<[u8; 3]>,
+    /// How it was posterised.
     pub method: Method,
 }
 

@@ -31,10 +31,12 @@ pub struct Joined {
     pub user: Option<crate::report::UserBridgesReport>,
     /// The islands before bridging.
     pub map: Arc<islands::IslandMap>,
+    /// The stencil: the two-tone with its bridges.
     pub bridged: Bridged,
     /// Islands dropped instead of bridged (see `bridge::drop`), in mm, and their pixels (cut in
     /// `twotone`; the preview shows them in their own colour).
     pub dropped: Vec<bridge::drop::Dropped>,
+    /// The dropped islands' pixels.
     pub dropped_px: Arc<Vec<u32>>,
 }
 
@@ -44,11 +46,17 @@ pub struct Joined {
 /// [`Prepared::key`]).
 #[derive(Clone, Debug)]
 pub struct Prepared {
+    /// The two-tone with the small and the dropped islands cut away.
     pub twotone: Arc<TwoTone>,
+    /// What the user's bridge requests became, when there were any.
     pub user: Option<crate::report::UserBridgesReport>,
+    /// Its islands.
     pub map: Arc<islands::IslandMap>,
+    /// The islands dropped, in mm.
     pub dropped: Vec<bridge::drop::Dropped>,
+    /// Their pixels.
     pub dropped_px: Arc<Vec<u32>>,
+    /// The bridge candidates and their walks.
     pub walks: bridge::Walks,
 }
 

@@ -15,10 +15,14 @@ use crate::tone::regularize::{regularize, RegularizeConfig};
 pub struct Cleaned {
     /// The picture thresholded, before the clean-up (what fidelity is measured against).
     pub picture: BitGrid,
+    /// The two-tone after the clean-up.
     pub twotone: TwoTone,
+    /// The threshold level, 8-bit.
     pub level: u8,
-    pub filter_stats: FilterStats,
-    pub reg_stats: Option<crate::tone::regularize::RegularizeStats>,
+    /// What the morphological filter changed.
+    pub(crate) filter_stats: FilterStats,
+    /// What the regularisation changed, when it ran.
+    pub(crate) reg_stats: Option<crate::tone::regularize::RegularizeStats>,
     /// How much the cleaned two-tone looks like the gray picture ([`tone::likeness()`]).
     pub likeness: f64,
     /// How `--threshold auto` chose the level.

@@ -24,12 +24,17 @@ pub struct Made {
     pub picture: BitGrid,
     /// After the topological filter, before bridges.
     pub twotone: TwoTone,
+    /// What the clean-up's filter changed.
     pub filter: FilterStats,
+    /// The stencil in pixels: the two-tone with its bridges.
     pub bridged: Bridged,
+    /// Millimetres per working pixel.
     pub scale: Scale,
     /// The stencil in millimetres (cut loops for G-code, material, bridges).
     pub geometry: CutGeometry,
+    /// The check's findings.
     pub check: CheckReport,
+    /// The report (report.json).
     pub report: Report,
     /// The G-code text, when asked for.
     pub gcode: Option<String>,

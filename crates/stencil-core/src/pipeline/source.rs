@@ -22,14 +22,18 @@ pub fn is_mesh_path(path: &Path) -> bool {
 /// studio keeps it once and each run borrows it.
 #[derive(Clone, Debug)]
 pub enum Input {
+    /// A picture's gray.
     Picture(Arc<Gray>),
+    /// A mesh, prepared.
     Mesh(Arc<mesh::Prepared>),
 }
 
 /// The input rendered: a picture is its own rendering; a mesh is drawn from its view and light.
 #[derive(Clone, Debug)]
 pub enum Source {
+    /// The picture's gray, as read.
     Picture(Arc<Gray>),
+    /// The mesh, drawn.
     Mesh(Arc<mesh::Rendering>),
 }
 

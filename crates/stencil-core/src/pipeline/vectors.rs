@@ -26,8 +26,11 @@ const REPAIR_SPREAD: u32 = 1;
 pub struct Traced {
     /// The stencil in millimetres, before the kerf.
     pub geometry: CutGeometry,
-    pub vstats: vector::VectorStats,
+    /// What the tracing measured.
+    pub(crate) vstats: vector::VectorStats,
+    /// The check's findings.
     pub check: CheckReport,
+    /// How far the stencil is from the thresholded picture.
     pub fidelity: Fidelity,
 }
 
