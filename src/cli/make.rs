@@ -167,6 +167,7 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
             mesh: mesh.as_ref().ok().cloned().unwrap_or_default(),
             filter: a.filter.to_config(),
             bridge: bridge.as_ref().ok().cloned().unwrap_or_default(),
+            places: a.bridge.places(),
             physical,
             ..MakeConfig::default()
         },

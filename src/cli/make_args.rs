@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use stencil_core::bridge::BridgeConfig;
+use stencil_core::request::BridgePlaces;
 use stencil_core::tone::{FilterConfig, Threshold, ToneConfig};
 
 use super::layers::LayerArgs;
@@ -314,6 +315,16 @@ pub struct BridgeArgs {
 }
 
 impl BridgeArgs {
+    /// The places and island options, in the user's millimetres.
+    pub fn places(&self) -> BridgePlaces {
+        BridgePlaces {
+            no_bridge_near_mm: self.no_bridge_near.clone(),
+            at_mm: self.bridge_at.clone(),
+            min_island_mm2: self.min_island_mm2,
+            keep_all_islands: self.keep_all_islands,
+        }
+    }
+
     pub fn to_config(&self) -> anyhow::Result<BridgeConfig> {
         let max = self.max_bridge_width_px.unwrap_or(u32::MAX);
         anyhow::ensure!(
@@ -332,13 +343,6 @@ impl BridgeArgs {
             min_width_px: self.min_bridge_width_px,
             support_margin: self.support_margin,
             gaps: !self.walks_only,
-            user: stencil_core::bridge::UserBridges {
-                no_bridge_near_mm: self.no_bridge_near.clone(),
-                at_mm: self.bridge_at.clone(),
-                min_island_mm2: self.min_island_mm2,
-                keep_all_islands: self.keep_all_islands,
-                ..Default::default()
-            },
             strength: stencil_core::bridge::StrengthConfig {
                 per_island: self.bridges_per_island,
                 ..Default::default()

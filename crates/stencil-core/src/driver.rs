@@ -6,17 +6,17 @@
 //! from `resolve::stage_params` compare with `==`: no table of which option touches which stage;
 //! a bridge weight re-runs only the join); a layered set once per layer, with [`Tweaks`].
 //!
-//! The list (one file each; the paper's Stages 1–5, Bronson et al.): [`source`] (load → draw a
-//! mesh's view → light), `resolve::stage_params` (the plan per stage, pure), [`two_tone`] (gray at the working resolution →
-//! threshold → look, the picture's side of the likeness), [`clean_up`], [`bridges`] (walk: the
-//! islands and candidate strips → join: the spanning tree, grown to width), [`vectors`] (trace,
-//! check, refuse), [`outputs`] (G-code, report: [`Cache::checked`], [`finish`]), then `make`
-//! writes them ([`pipeline::files`]).
+//! The list (one file each in `pipeline/`; the paper's Stages 1–5, Bronson et al.): `source`
+//! (load → draw a mesh's view → light), `resolve::stage_params` (the plan per stage, pure),
+//! `two_tone` (gray at the working resolution → threshold → look, the picture's side of the
+//! likeness), `clean_up`, `bridges` (walk: the islands and candidate strips → join: the spanning
+//! tree, grown to width), `vectors` (trace, check, refuse), `outputs` (G-code, report:
+//! [`Cache::checked`], [`finish`]), then `make` writes them (`files`).
 
 use std::sync::Arc;
 
 use crate::error::Error;
-use crate::pipeline::bridges::{self, Joined, Prepared};
+use crate::pipeline::bridges::{self, Joined, Prepared, PreparedKey};
 use crate::pipeline::clean_up::{self, Cleaned};
 use crate::pipeline::outputs::{self, Made};
 use crate::pipeline::source::{self, Input, Source};
@@ -109,7 +109,7 @@ struct Slots {
     cleaned: Kept<CleanParams, Arc<Cleaned>>,
     /// The islands and their walks, keyed by the join's parameters without the weights: a
     /// weight change re-chooses the bridges from the kept walks.
-    prepared: Kept<JoinParams, Arc<Prepared>>,
+    prepared: Kept<PreparedKey, Arc<Prepared>>,
     joined: Kept<JoinParams, Arc<Joined>>,
     traced: Kept<TraceParams, Arc<(Joined, Traced)>>,
 }
@@ -437,7 +437,7 @@ impl Slots {
             return Ok((b, None));
         }
         let (params, cleaned) = (&b.params, &b.cleaned);
-        let walk_key = (cg, Prepared::key(&params.join));
+        let walk_key = (cg, PreparedKey::of(&params.join));
         let (pg, prepared) = run.step(&mut self.prepared, "walk", walk_key, || {
             let prepared = match walked.take() {
                 Some((w, t)) => {

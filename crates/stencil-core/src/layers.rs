@@ -445,7 +445,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     // The registration marks are cut in every layer; the mask's own corner marks would be a
     // second set.
     lcfg.physical.mask.marks = false;
-    let u = &mut lcfg.bridge.user;
+    let u = &mut lcfg.places;
     for p in &mut u.at_mm {
         p[0] += marks.band_mm;
         p[1] += marks.band_mm;

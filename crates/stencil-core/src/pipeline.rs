@@ -1,17 +1,17 @@
-//! The stages, one file each, in order: [`source`] → [`two_tone`] → [`clean_up`] → [`bridges`]
-//! → [`vectors`] → [`outputs`], then [`files`] (all or nothing). The driver runs them; their
-//! parameters are the plan's (`plan.rs`), made by the pure resolve (`resolve.rs`) from
-//! the request (`request.rs`).
+//! The stages, one file each, in order: `source` → `two_tone` → `clean_up` → `bridges` →
+//! `vectors` → `outputs`, then `files` (all or nothing); their items are re-exported here. The
+//! driver runs them; their parameters are the plan's (`plan.rs`), made by the pure resolve
+//! (`resolve.rs`) from the request (`request.rs`).
 
-pub mod bridges;
-pub mod clean_up;
-pub mod files;
-pub mod outputs;
-pub mod source;
-pub mod two_tone;
-pub mod vectors;
+pub(crate) mod bridges;
+pub(crate) mod clean_up;
+pub(crate) mod files;
+pub(crate) mod outputs;
+pub(crate) mod source;
+pub(crate) mod two_tone;
+pub(crate) mod vectors;
 
-pub use bridges::{bridge_prepared, prepare, Joined, Prepared};
+pub use bridges::{bridge_prepared, prepare, Joined, Prepared, PreparedKey};
 pub use clean_up::{clean, clean_unmeasured, measure, Cleaned};
 pub use files::{default_out_dir, write, OUTPUT_NAMES};
 pub use outputs::{finish, gcode, report, report_joined, Made};

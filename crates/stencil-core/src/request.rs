@@ -52,8 +52,10 @@ pub struct MakeConfig {
     pub mesh: MeshConfig,
     /// The clean-up.
     pub filter: FilterConfig,
-    /// The bridges.
+    /// The bridges (the user's places in pixels are filled by `resolve` from [`Self::places`]).
     pub bridge: BridgeConfig,
+    /// The user's bridge places and island options, in millimetres.
+    pub places: BridgePlaces,
     /// The widest bridge asked for, px (else the material's `max_bridge_mm` decides).
     pub max_bridge_width_px: Option<u32>,
     /// Size, material, vectors, check and export.
@@ -75,6 +77,21 @@ pub struct KeepOut {
     pub picture: Result<Arc<Gray>, Arc<ToneError>>,
     /// The whole input picture's size as shown (from its header; `None` when unreadable).
     pub whole_px: Option<(u32, u32)>,
+}
+
+/// The user's bridge places and island options as given: millimetres from the picture's top left
+/// corner, x right, y down (as the report's positions).
+#[derive(Clone, Debug, Default)]
+pub struct BridgePlaces {
+    /// `--no-bridge-near X,Y,R`: discs no bridge may cross.
+    pub no_bridge_near_mm: Vec<[f64; 3]>,
+    /// `--bridge-at X,Y`: places a bridge should start near.
+    pub at_mm: Vec<[f64; 2]>,
+    /// `--min-island-mm2`: islands smaller than this are cut away instead of bridged.
+    pub min_island_mm2: f64,
+    /// `--keep-all-islands`: bridge every island, never drop one whose bridge would change the
+    /// picture more than dropping it (see `bridge::drop`).
+    pub keep_all_islands: bool,
 }
 
 /// Which files `make` writes (report.json always). Default: `png,svg`: the images to look at and

@@ -15,7 +15,7 @@ use crate::plan::{
     Working,
 };
 use crate::raster::{BitGrid, Gray};
-use crate::request::{KeepOut, MakeConfig, PhysicalConfig, Request};
+use crate::request::{BridgePlaces, KeepOut, MakeConfig, PhysicalConfig, Request};
 use crate::tone::filter::FilterConfig;
 use crate::tone::{self, mesh::MeshConfig};
 use crate::units::{Mm, Scale, Size};
@@ -355,7 +355,14 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
         .as_ref()
         .map(|k| place_keep_out(k, &cfg.tone.adjust, (sw, sh)))
         .transpose()?;
-    let (user, kept_out_px) = user_bridges(&mut bridge_cfg, w, h, scale, keep_out.as_deref());
+    let (user, kept_out_px) = user_bridges(
+        &mut bridge_cfg,
+        &cfg.places,
+        w,
+        h,
+        scale,
+        keep_out.as_deref(),
+    );
     Ok(StageParams {
         working,
         tone: ToneParams {
@@ -380,7 +387,7 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
             kept_out_px,
             settle_px: regularize_px,
             tidy_radius: filter_cfg.radius,
-            drop_islands: !cfg.bridge.user.keep_all_islands,
+            drop_islands: !cfg.places.keep_all_islands,
             mm_per_px: scale.mm_per_px,
         },
         trace: TraceParams {
@@ -474,12 +481,12 @@ fn place_keep_out(
 /// what the report needs (`None` when no option was given) and the pixels kept out.
 fn user_bridges(
     bridge: &mut BridgeConfig,
+    u: &BridgePlaces,
     w: u32,
     h: u32,
     scale: Scale,
     keep_out: Option<&Gray>,
 ) -> (Option<UserParams>, usize) {
-    let u = &mut bridge.user;
     if keep_out.is_none()
         && u.no_bridge_near_mm.is_empty()
         && u.at_mm.is_empty()
@@ -518,12 +525,9 @@ fn user_bridges(
             }
         }
         kept_out = grid.count_material();
-        u.keep_out = Some(Arc::new(grid));
+        bridge.user.keep_out = Some(Arc::new(grid));
     }
-    u.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
-    // What the stages read is in pixels now: the millimetres stay out of the params.
-    u.no_bridge_near_mm.clear();
-    u.at_mm.clear();
+    bridge.user.at = u.at_mm.iter().map(|p| [p[0] / mm, p[1] / mm]).collect();
     let user = UserParams {
         min_island_mm2: u.min_island_mm2,
         mm_per_px: mm,

@@ -128,24 +128,14 @@ pub struct CostTerms {
     pub(crate) total: f64,
 }
 
-/// The user's constraints. The millimetre fields are what the user gave (millimetres from the
-/// picture's top left corner, x right, y down, as the report's positions); `make`'s pipeline
-/// turns them into the pixel fields, which are what the bridge stage reads.
+/// The user's constraints on the working image, in pixels (`resolve` makes them from the
+/// request's millimetres, once the scale is known).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UserBridges {
-    /// `--no-bridge-near X,Y,R`, mm.
-    pub no_bridge_near_mm: Vec<[f64; 3]>,
-    /// `--bridge-at X,Y`, mm.
-    pub at_mm: Vec<[f64; 2]>,
-    /// `--min-island-mm2`: islands smaller than this are cut away instead of bridged.
-    pub min_island_mm2: f64,
     /// Pixels no bridge may cross, the image's size.
     pub keep_out: Option<Arc<BitGrid>>,
     /// Places a bridge should start near, (x, y) in pixels.
     pub at: Vec<[f64; 2]>,
-    /// `--keep-all-islands`: bridge every island, never drop one whose bridge would change the
-    /// picture more than dropping it (see `bridge::drop`).
-    pub keep_all_islands: bool,
 }
 
 /// The material numbers and the scale the strength rules need (the pipeline fills them from the

@@ -210,7 +210,7 @@ pub fn connect_timed(
 /// them (the walks follow the picture, not the costs), so a caller that keeps them (the
 /// studio) re-chooses the bridges for new weights, support margin or strength rules without
 /// walking again; they depend on `two`, `map`, the length limit, the narrowest bridge, `gaps`
-/// and the keep-out areas (see `Walks::key`).
+/// and the keep-out areas (see [`WalkKey`]).
 #[derive(Clone, Debug, Default)]
 pub struct Walks {
     cands: candidates::Candidates,
@@ -218,20 +218,27 @@ pub struct Walks {
     copies: Vec<bool>,
 }
 
-impl Walks {
-    /// `cfg` with everything the walks do not read set to its default: two configurations with
-    /// the same key (and the same two-tone and islands) give the same walks.
-    pub(crate) fn key(cfg: &BridgeConfig) -> BridgeConfig {
-        let d = BridgeConfig::default();
-        BridgeConfig {
-            w_intensity: d.w_intensity,
-            w_length: d.w_length,
-            w_curvature: d.w_curvature,
-            w_variance: d.w_variance,
-            alpha: d.alpha,
-            support_margin: d.support_margin,
-            strength: d.strength,
-            ..cfg.clone()
+/// What the walks read of a [`BridgeConfig`] (not the weights, the support margin or the
+/// strength rules): two configurations with the same key, on the same two-tone and islands,
+/// give the same walks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WalkKey {
+    max_length_px: u32,
+    min_width_px: u32,
+    max_width_px: u32,
+    gaps: bool,
+    user: UserBridges,
+}
+
+impl WalkKey {
+    /// The key of `cfg`.
+    pub fn of(cfg: &BridgeConfig) -> WalkKey {
+        WalkKey {
+            max_length_px: cfg.max_length_px,
+            min_width_px: cfg.min_width_px,
+            max_width_px: cfg.max_width_px,
+            gaps: cfg.gaps,
+            user: cfg.user.clone(),
         }
     }
 }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use crate::bridge::{self, Bridged};
 use crate::error::Error;
 use crate::islands;
-use crate::plan::JoinParams;
+use crate::plan::{JoinParams, UserParams};
 use crate::raster::TwoTone;
 use crate::timing::Timings;
 use crate::tone::regularize::{fill_sealed_pockets, settle_near};
@@ -43,7 +43,7 @@ pub struct Joined {
 /// What the bridges are chosen from: the two-tone with the small and the dropped islands
 /// cut away, its islands and their walks. None of it reads the bridge weights, the support
 /// margin or the strength rules, so the studio keeps it while a person tries weights (see
-/// [`Prepared::key`]).
+/// [`PreparedKey`]).
 #[derive(Clone, Debug)]
 pub struct Prepared {
     /// The two-tone with the small and the dropped islands cut away.
@@ -60,13 +60,30 @@ pub struct Prepared {
     pub walks: bridge::Walks,
 }
 
-impl Prepared {
-    /// The parameters a [`Prepared`] depends on: `p` with what only the choice of bridges
-    /// reads (the weights, the support margin, the strength rules) set to their defaults.
-    pub fn key(p: &JoinParams) -> JoinParams {
-        JoinParams {
-            bridge: bridge::Walks::key(&p.bridge),
-            ..p.clone()
+/// The parameters a [`Prepared`] depends on: the join's, but for what only the choice of bridges
+/// reads (the weights, the support margin, the strength rules).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PreparedKey {
+    walks: bridge::WalkKey,
+    user: Option<UserParams>,
+    kept_out_px: usize,
+    settle_px: Option<f64>,
+    tidy_radius: u32,
+    mm_per_px: f64,
+    drop_islands: bool,
+}
+
+impl PreparedKey {
+    /// The key of `p`.
+    pub fn of(p: &JoinParams) -> PreparedKey {
+        PreparedKey {
+            walks: bridge::WalkKey::of(&p.bridge),
+            user: p.user.clone(),
+            kept_out_px: p.kept_out_px,
+            settle_px: p.settle_px,
+            tidy_radius: p.tidy_radius,
+            mm_per_px: p.mm_per_px,
+            drop_islands: p.drop_islands,
         }
     }
 }
@@ -105,7 +122,7 @@ pub fn prepare(
 }
 
 /// The join's second half: the bridges chosen from `prepared` (made by [`prepare`] for the same
-/// [`Prepared::key`]) and drawn, the clean-up around them, and the check that nothing floats.
+/// [`PreparedKey`]) and drawn, the clean-up around them, and the check that nothing floats.
 /// `prepared` is only read (the studio keeps it for the next weights): the result shares its
 /// two-tone, islands and dropped pixels (and copies the few dropped islands' descriptions), and
 /// its walks are lent, not copied.
