@@ -51,7 +51,7 @@ fn main() {
         let s = Instant::now();
         let source = pipeline::light(&input, drawn.as_deref(), &sp).unwrap();
         t("0 light", s);
-        let params = stencil_core::resolve::stage_params(&cfg, &source).unwrap();
+        let params = stencil_core::stage_params(&cfg, &source).unwrap();
         let s = Instant::now();
         let gray = pipeline::working_gray(source.clone(), params.working.factor);
         t("0b gray", s);

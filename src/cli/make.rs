@@ -8,14 +8,14 @@ use anyhow::Context;
 
 use stencil_core::export;
 use stencil_core::fit::{SizingError, Stock};
-use stencil_core::inputs::{Inputs, Kept};
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::request::Request;
-use stencil_core::resolve::{self, Note};
 use stencil_core::tone::{ScaleCap, Threshold};
+use stencil_core::Request;
+use stencil_core::{resolve, resolve_picture, Note};
+use stencil_core::{Inputs, KeptInputs};
 
 use super::make_args::{ImageArgs, MakeArgs, ToneCmdArgs};
 use super::material::EmitKind;
@@ -141,7 +141,10 @@ pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersCon
 /// always), with the decisions `resolve` makes from the files it needs: read once here, its notes
 /// printed; or, for the studio, kept in `kept` while the files stay, the notes not printed.
 /// Without --material, a G-code job gets a material set up for the machine's tool.
-pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::Result<MakeConfig> {
+pub(super) fn make_config(
+    a: &MakeArgs,
+    mut kept: Option<&mut KeptInputs>,
+) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
     let machine = if emit_gcode {
         Some(a.machine.machine()?)
@@ -184,7 +187,7 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
         Some(k) => k.load(&request),
         None => Inputs::load(&request),
     };
-    let (notes, cfg) = resolve::resolve(&request, &inputs);
+    let (notes, cfg) = resolve(&request, &inputs);
     if kept.is_none() {
         for n in &notes {
             println!("note: {}: {}", a.input.display(), note(n));
@@ -742,7 +745,7 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         },
         ..image_request(&a.image, None)
     };
-    let cfg = resolve::resolve_picture(&request, &Inputs::load(&request))
+    let cfg = resolve_picture(&request, &Inputs::load(&request))
         .map_err(|e| sizing_words(&a.input, e))?;
     let bar = StageBar::start();
     let cfg = MakeConfig {

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use stencil_core::bridge::BridgeConfig;
-use stencil_core::request::BridgePlaces;
 use stencil_core::tone::{FilterConfig, Threshold, ToneConfig};
+use stencil_core::BridgePlaces;
 
 use super::layers::LayerArgs;
 use super::machine_args::{CutArgs, MachineArgs};

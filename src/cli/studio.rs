@@ -39,7 +39,7 @@ pub struct StudioArgs {
 /// once while they stay (the picture's header, the keep-out picture).
 struct CliMaker {
     cli: clap::Command,
-    inputs: std::sync::Mutex<stencil_core::inputs::Kept>,
+    inputs: std::sync::Mutex<stencil_core::KeptInputs>,
 }
 
 /// Options of `make` the studio does not offer: the input and output folder are fixed when it

@@ -39,7 +39,7 @@ impl Inputs {
 /// [`Inputs`] kept between requests (the studio's): read again only when a request names other
 /// files or a limit, or a file named changed on disk (its [`Stamp`]).
 #[derive(Default)]
-pub struct Kept {
+pub struct KeptInputs {
     key: Option<KeptKey>,
     inputs: Inputs,
 }
@@ -47,7 +47,7 @@ pub struct Kept {
 /// What the kept inputs were read for: the files with their stamps, and the pixel limit.
 type KeptKey = (Vec<(PathBuf, Option<Stamp>)>, u64);
 
-impl Kept {
+impl KeptInputs {
     /// The inputs of `r`: the kept ones when they were read for the same files, unchanged.
     pub fn load(&mut self, r: &Request) -> Inputs {
         let files = std::iter::once(&r.make.input).chain(&r.keep_out);

@@ -26,10 +26,11 @@
 //!   by the studio with a [`driver::Cache`] that keeps each stage's output and re-runs from the
 //!   first whose inputs changed, and by a layered set per layer ([`driver::Tweaks`]). The stages
 //!   are [`pipeline`]'s files, one each, in the order the driver's documentation lists them.
-//! - Before any work: a [`request::Request`] (the user's words) and its [`inputs::Inputs`] (the
-//!   files it names, read once) go through the pure [`resolve::resolve`] (size, [`fit`] to the bed
-//!   or stock, gobo, etched widths, picture adjustments; [`resolve::Note`]s back) to the
-//!   [`MakeConfig`] the driver runs; [`resolve::stage_params`] gives its [`plan`] per stage.
+//! - Before any work: a [`Request`] (the user's words) and its [`Inputs`] (the files it names,
+//!   read once) go through the pure [`resolve()`] (size, [`fit`] to the bed or stock, gobo,
+//!   etched widths, picture adjustments; [`Note`]s back) to the [`MakeConfig`] the driver runs;
+//!   once the input is rendered, [`stage_params`] gives each stage's parameters in pixels
+//!   ([`pipeline::StageParams`]).
 //! - Stage functions the binary, tests and benches call: [`pipeline::vectorize_and_check`] (what
 //!   `stencil check` runs), [`tone::load_gray`] / [`tone::picture_size`] /
 //!   [`tone::otsu_level`], [`tone::mesh::load`] / [`tone::mesh::render`] /
@@ -77,17 +78,17 @@ mod error;
 pub mod export;
 pub mod fit;
 pub mod gobo;
-pub mod inputs;
+mod inputs;
 pub mod islands;
 pub mod layers;
 pub mod limits;
 pub mod material;
 pub mod pipeline;
-pub mod plan;
+mod plan;
 pub mod raster;
 pub mod report;
-pub mod request;
-pub mod resolve;
+mod request;
+mod resolve;
 #[cfg(test)]
 mod test_rng;
 mod timing;
@@ -96,4 +97,7 @@ pub mod units;
 pub mod vector;
 
 pub use driver::make;
-pub use pipeline::{Error, MakeConfig};
+pub use inputs::{stamp, Inputs, KeptInputs, Stamp};
+pub use pipeline::Error;
+pub use request::{BridgePlaces, Emit, KeepOut, MakeConfig, PhysicalConfig, Request};
+pub use resolve::{resolve, resolve_picture, stage_params, Note};

@@ -3,7 +3,7 @@
 //! (`Stamp`), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
 
 use std::sync::{Arc, Mutex};
-use stencil_core::inputs::Stamp;
+use stencil_core::Stamp;
 
 use axum::body::Bytes;
 use stencil_core::export::png;

@@ -28,7 +28,7 @@ use crate::outcome::Shown;
 use crate::params::Params;
 use crate::state::{bad, Exported, Options, Refusal};
 use crate::studio::{Studio, StudioConfig};
-use stencil_core::inputs::stamp;
+use stencil_core::stamp;
 
 /// The JSON bodies' bound: a change of options is a few hundred bytes.
 const JSON_LIMIT: usize = 64 * 1024;

@@ -23,7 +23,7 @@ use crate::maker::Maker;
 use crate::outcome::{Done, Reuse, SetRun, Shown};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::state::{bad, Refusal, Shows, State};
-use stencil_core::inputs::{stamp, Stamp};
+use stencil_core::{stamp, Stamp};
 
 /// How many changes undo remembers.
 const HISTORY: usize = 500;
