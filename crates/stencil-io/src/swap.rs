@@ -206,11 +206,6 @@ fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
     out
 }
 
-/// The owned folders `names` sit in, outermost first.
-fn folders_of<'a>(names: &[&'a str]) -> Vec<&'a str> {
-    owned_folders(names)
-}
-
 /// Refuse an owned folder that is there but is not a real folder (a file, a link elsewhere).
 fn refuse_odd_folders(dir: &Path, folders: &[&str]) -> Result<(), WriteError> {
     for f in folders {
@@ -548,33 +543,44 @@ fn refuse_odd(path: &Path) -> Result<bool, WriteError> {
 /// itself if that empties it.
 fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(), WriteError> {
     let prev = dir.join(PREVIOUS_DIR);
-    if !std::fs::symlink_metadata(&prev).is_ok_and(|m| m.is_dir()) {
+    if !real_dir(&prev) {
         return Ok(());
     }
     refuse_odd_folders(&prev, &owned_folders(owned))?;
-    let mut there = Vec::new();
-    for n in owned {
-        if refuse_odd(&prev.join(n))? {
-            there.push(*n);
-        }
-    }
-    if !there.is_empty() {
-        steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous")));
-        for f in folders_of(&there) {
-            steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous/{f}")));
-        }
-        for n in &there {
-            steps.push(Step::Rename(
-                format!("{PREVIOUS_DIR}/{n}"),
-                format!("{SWAP_DIR}/old-previous/{n}"),
-            ));
-        }
-    }
-    for f in folders_of(&there).iter().rev() {
+    let there = present(&prev, owned)?;
+    let from = format!("{PREVIOUS_DIR}/");
+    move_into(steps, &there, &from, &format!("{SWAP_DIR}/old-previous"));
+    for f in owned_folders(&there).iter().rev() {
         steps.push(Step::RmDirIfEmpty(format!("{PREVIOUS_DIR}/{f}")));
     }
     steps.push(Step::RmDirIfEmpty(PREVIOUS_DIR.into()));
     Ok(())
+}
+
+/// The `owned` names there in `dir` (refusing one that is not a file or a link).
+fn present<'a>(dir: &Path, owned: &[&'a str]) -> Result<Vec<&'a str>, WriteError> {
+    let mut there = Vec::new();
+    for n in owned {
+        if refuse_odd(&dir.join(n))? {
+            there.push(*n);
+        }
+    }
+    Ok(there)
+}
+
+/// Steps that move the owned `names` from `from` (a folder and its `/`, or "" for the output
+/// folder) into the folder `into`, made first with the folders the names sit in in it.
+fn move_into(steps: &mut Vec<Step>, names: &[&str], from: &str, into: &str) {
+    if names.is_empty() {
+        return;
+    }
+    steps.push(Step::MkDir(into.to_string()));
+    for f in owned_folders(names) {
+        steps.push(Step::MkDir(format!("{into}/{f}")));
+    }
+    for n in names {
+        steps.push(Step::Rename(format!("{from}{n}"), format!("{into}/{n}")));
+    }
 }
 
 /// Write a set of files into `dir` as one transaction (see the module notes): afterwards the
@@ -608,12 +614,7 @@ pub(crate) fn replace_all_hooked(
     // Refuse, before writing anything, to replace what is not a file.
     let folders = owned_folders(&owned);
     refuse_odd_folders(dir, &folders)?;
-    let mut existing = Vec::new();
-    for n in &owned {
-        if refuse_odd(&dir.join(n))? {
-            existing.push(*n);
-        }
-    }
+    let existing = present(dir, &owned)?;
     let mut steps = Vec::new();
     clear_previous(dir, &owned, &mut steps)?;
     let swap = new_swap(dir)?;
@@ -624,17 +625,9 @@ pub(crate) fn replace_all_hooked(
         }
         return Err(e);
     }
-    if !existing.is_empty() {
-        steps.push(Step::MkDir(format!("{SWAP_DIR}/old")));
-        for f in folders_of(&existing) {
-            steps.push(Step::MkDir(format!("{SWAP_DIR}/old/{f}")));
-        }
-    }
-    for n in &existing {
-        steps.push(Step::Rename(n.to_string(), format!("{SWAP_DIR}/old/{n}")));
-    }
+    move_into(&mut steps, &existing, "", &format!("{SWAP_DIR}/old"));
     let new_names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
-    for f in folders_of(&new_names) {
+    for f in owned_folders(&new_names) {
         steps.push(Step::MkDir(f.to_string()));
     }
     for (n, _) in files {
@@ -701,24 +694,21 @@ pub(crate) fn set_aside_hooked(
     hook: Hook,
 ) -> Result<Option<SetAside>, Stop> {
     let mut pts = Points { hook, n: 0 };
-    if !std::fs::symlink_metadata(dir).is_ok_and(|m| m.is_dir()) {
+    if !real_dir(dir) {
         return Ok(None);
     }
     let _lock = lock(dir)?;
     recover_locked(dir, owned, &mut pts)?;
     let folders = owned_folders(owned);
     refuse_odd_folders(dir, &folders)?;
-    let mut existing = Vec::new();
-    let mut made: Option<SystemTime> = None;
-    for n in owned {
-        let p = dir.join(n);
-        if refuse_odd(&p)? {
-            existing.push(*n);
-            if let Ok(t) = std::fs::symlink_metadata(&p).and_then(|m| m.modified()) {
-                made = Some(made.map_or(t, |m| m.max(t)));
-            }
-        }
-    }
+    let existing = present(dir, owned)?;
+    let made = (existing.iter())
+        .filter_map(|n| {
+            std::fs::symlink_metadata(dir.join(n))
+                .and_then(|m| m.modified())
+                .ok()
+        })
+        .max();
     if existing.is_empty() {
         return Ok(None);
     }
@@ -734,14 +724,8 @@ pub(crate) fn set_aside_hooked(
     }
     let mut steps = Vec::new();
     clear_previous(dir, owned, &mut steps)?;
-    // clear_previous may remove an emptied previous/: make it again before filling it.
-    steps.push(Step::MkDir(PREVIOUS_DIR.into()));
-    for f in folders_of(&existing) {
-        steps.push(Step::MkDir(format!("{PREVIOUS_DIR}/{f}")));
-    }
-    for n in &existing {
-        steps.push(Step::Rename(n.to_string(), format!("{PREVIOUS_DIR}/{n}")));
-    }
+    // clear_previous may remove an emptied previous/: made again here before it is filled.
+    move_into(&mut steps, &existing, "", PREVIOUS_DIR);
     for f in folders.iter().rev() {
         steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
