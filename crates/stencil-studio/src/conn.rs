@@ -76,20 +76,16 @@ impl Conns {
         self.clock.fetch_add(1, Ordering::SeqCst)
     }
 
-    /// Close the connection idle the longest, if one is idle; whether one was.
-    fn evict_oldest_idle(&self) -> bool {
+    /// Close the connection idle the longest, if one is idle.
+    fn evict_oldest_idle(&self) {
         let open = self.open.lock().unwrap_or_else(|e| e.into_inner());
         let oldest = open
             .values()
             .filter(|c| c.busy.load(Ordering::SeqCst) == 0 && !c.evicted.load(Ordering::SeqCst))
             .min_by_key(|c| c.idle_since.load(Ordering::SeqCst));
-        match oldest {
-            Some(c) => {
-                c.evicted.store(true, Ordering::SeqCst);
-                c.close.notify_one();
-                true
-            }
-            None => false,
+        if let Some(c) = oldest {
+            c.evicted.store(true, Ordering::SeqCst);
+            c.close.notify_one();
         }
     }
 }
