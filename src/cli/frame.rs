@@ -276,10 +276,9 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let job = Program::parse(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     super::program::name_machine_changes(&job);
-    let dump = match &a.start.controller_state {
-        Some(p) => Some(super::place::read_dump(p)?),
-        None => None,
-    };
+    let dump = (a.start.controller_state.as_deref())
+        .map(super::place::read_dump)
+        .transpose()?;
     let mut opened = a.link.open(super::place::virtual_from(
         super::port::virtual_for(&machine, &[]),
         dump.as_ref(),

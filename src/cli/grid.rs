@@ -250,9 +250,7 @@ fn base_settings(
             }
         }
     };
-    if let Some(p) = a.passes {
-        base.passes = p;
-    }
+    base.passes = a.passes.unwrap_or(base.passes);
     Ok(base)
 }
 

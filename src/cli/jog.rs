@@ -137,11 +137,8 @@ impl Piped {
                     .filter(|s| !s.is_empty())
                 {
                     match parse_key(name) {
-                        Ok(k) => {
-                            if tx.send(k).is_err() {
-                                return;
-                            }
-                        }
+                        Ok(k) if tx.send(k).is_err() => return,
+                        Ok(_) => {}
                         Err(e) => eprintln!("stdin: {e}"),
                     }
                 }
@@ -194,14 +191,13 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
         if_moving: a.link.if_moving(),
         ..StreamConfig::default()
     };
-    let tty = io::stdin().is_terminal() && a.keys.is_none();
+    let raw = io::stdin().is_terminal() && a.keys.is_none();
     let mut keys: Box<dyn JogKeys> = match &a.keys {
         Some(k) => Box::new(Script(VecDeque::from(k.0.clone()))),
-        None if tty => Box::new(Terminal::start().context("cannot read the keyboard")?),
+        None if raw => Box::new(Terminal::start().context("cannot read the keyboard")?),
         None => Box::new(Piped::start()),
     };
-    let mut screen = Screen { raw: tty };
-    let raw = tty;
+    let mut screen = Screen { raw };
     if raw {
         screen.message(stencil_grbl::JOG_KEY_HELP);
     }

@@ -108,7 +108,7 @@ impl CutArgs {
         machine: &Machine,
     ) -> anyhow::Result<CutSettings> {
         let laser = matches!(machine.tool, Tool::Laser { .. });
-        let s = match base {
+        Ok(match base {
             Some(b) => CutSettings {
                 power_pct: self.power.unwrap_or(b.power_pct),
                 speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
@@ -135,8 +135,7 @@ impl CutArgs {
                     air_assist: self.air_assist.unwrap_or(laser && machine.air_assist),
                 }
             }
-        };
-        Ok(s)
+        })
     }
 
     /// Whether any cut option was given.

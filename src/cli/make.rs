@@ -62,10 +62,7 @@ fn change_parts(f: &Fidelity) -> String {
 /// [`stencil_io::set_aside`]; a person's own files stay where they are), and the error says so
 /// and when they were made.
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
-    let out_dir = a
-        .out
-        .clone()
-        .unwrap_or_else(|| pipeline::default_out_dir(&a.input));
+    let out_dir = a.out_dir();
     let inputs = make_inputs(&a);
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
@@ -132,8 +129,12 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
 /// The set `make` cuts instead of one stencil, if any: layers, a fill-in, or registration marks
 /// for a mask (every sheet registered).
 pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersConfig> {
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
-    a.layers.config(marks)
+    a.layers.config(mask_marks(a))
+}
+
+/// Registration marks on a mask, which cut the sheet's edge (so its margin counts).
+fn mask_marks(a: &MakeArgs) -> bool {
+    a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask)
 }
 
 /// The pipeline's settings from the command line, each option checked in the order given here
@@ -155,13 +156,9 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
     let mut physical = a.physical.to_config(&a.output, default_material)?;
     physical.mask.tone_inverted = a.image.invert;
     let (mesh, bridge) = (a.mesh.to_config(), a.bridge.to_config());
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
     let request = Request {
         make: MakeConfig {
-            out_dir: a
-                .out
-                .clone()
-                .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
+            out_dir: a.out_dir(),
             input: a.input.clone(),
             tone: a.image.to_config(),
             mesh: mesh.as_ref().ok().cloned().unwrap_or_default(),
@@ -176,7 +173,7 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
             w_mm: m.bed.width_mm,
             h_mm: m.bed.height_mm,
         }),
-        margin_counts: a.machine.cut_outline || marks,
+        margin_counts: a.machine.cut_outline || mask_marks(a),
         ..image_request(&a.image, a.bridge.keep_out.clone())
     };
     let inputs = match kept.as_deref_mut() {

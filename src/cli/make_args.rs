@@ -392,6 +392,13 @@ pub struct MakeArgs {
     pub layers: LayerArgs,
 }
 
+impl MakeArgs {
+    /// The output folder: -o, or the default beside the input.
+    pub fn out_dir(&self) -> PathBuf {
+        (self.out.clone()).unwrap_or_else(|| stencil_core::pipeline::default_out_dir(&self.input))
+    }
+}
+
 impl ImageArgs {
     pub fn to_config(&self) -> ToneConfig {
         ToneConfig {

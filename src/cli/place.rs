@@ -52,12 +52,8 @@ pub fn virtual_from(mut vcfg: VirtualConfig, dump: Option<&ControllerState>) -> 
             vcfg.settings.retain(|(n, _)| *n != k);
             vcfg.settings.push((k, stencil_gcode::num(v)));
         }
-        if let Some(h) = st.homes() {
-            vcfg.homing = h;
-        }
-        if let Some(r) = st.setting(110) {
-            vcfg.rapid_mm_min = r;
-        }
+        vcfg.homing = st.homes().unwrap_or(vcfg.homing);
+        vcfg.rapid_mm_min = st.setting(110).unwrap_or(vcfg.rapid_mm_min);
         vcfg.start = Some(st.clone());
     }
     vcfg

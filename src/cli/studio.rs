@@ -62,12 +62,7 @@ impl stencil_studio::Maker for CliMaker {
                 if NOT_OFFERED.contains(&name.as_str()) {
                     return None;
                 }
-                let kind = match a.get_action() {
-                    ArgAction::SetTrue => Kind::Flag,
-                    // A list given with commas is one value, as on the command line.
-                    ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
-                    _ => Kind::Value,
-                };
+                let kind = kind(a);
                 let choices = profile_choices(&name).unwrap_or_else(|| {
                     a.get_possible_values()
                         .iter()
@@ -106,6 +101,16 @@ impl stencil_studio::Maker for CliMaker {
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
         super::errors::one_line(&make_error(cfg, e))
+    }
+}
+
+/// How the page takes an option.
+fn kind(a: &clap::Arg) -> Kind {
+    match a.get_action() {
+        ArgAction::SetTrue => Kind::Flag,
+        // A list given with commas is one value, as on the command line.
+        ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
+        _ => Kind::Value,
     }
 }
 
@@ -172,10 +177,10 @@ fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
             .get_raw(id)
             .map(|v| v.map(|s| s.to_string_lossy().into_owned()).collect())
             .unwrap_or_default();
-        let v = match a.get_action() {
-            ArgAction::SetTrue => Value::from("true"),
-            ArgAction::Append if a.get_value_delimiter().is_none() => Value::from(raw),
-            _ => Value::from(raw.join(",")),
+        let v = match kind(a) {
+            Kind::Flag => Value::from("true"),
+            Kind::List => Value::from(raw),
+            Kind::Value => Value::from(raw.join(",")),
         };
         out.insert(long.to_string(), v);
     }
@@ -186,14 +191,9 @@ fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
 pub fn run_studio(a: StudioArgs, cli: clap::Command) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
     make_config(&a.make, None)?;
-    let out_dir = a
-        .make
-        .out
-        .clone()
-        .unwrap_or_else(|| stencil_core::pipeline::default_out_dir(&a.make.input));
     let cfg = stencil_studio::StudioConfig {
         input: a.make.input.clone(),
-        out_dir,
+        out_dir: a.make.out_dir(),
         initial: given_options(&cli, &std::env::args_os().collect::<Vec<_>>()),
         port: a.port,
     };

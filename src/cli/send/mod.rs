@@ -344,10 +344,9 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     };
     let machine = machine_profile::load(machine_arg.as_deref())?;
     frame_can_ask(&a)?;
-    let dump = match &a.start.controller_state {
-        Some(p) => Some(super::place::read_dump(p)?),
-        None => None,
-    };
+    let dump = (a.start.controller_state.as_deref())
+        .map(super::place::read_dump)
+        .transpose()?;
     let super::port::Opened {
         mut port,
         label,
@@ -530,16 +529,9 @@ fn frame_setup(
     job: &Program,
     machine: &machine_profile::Machine,
 ) -> anyhow::Result<Option<super::frame::Setup>> {
-    match a.frame {
-        false => Ok(None),
-        true => Ok(Some(super::frame::setup(
-            &a.file,
-            job,
-            machine,
-            a.frame_feed,
-            a.no_bed_check,
-        )?)),
-    }
+    a.frame
+        .then(|| super::frame::setup(&a.file, job, machine, a.frame_feed, a.no_bed_check))
+        .transpose()
 }
 
 /// How the job is streamed: the flow control, Grbl's buffer, the timeout, what happens before
