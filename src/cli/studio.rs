@@ -89,14 +89,11 @@ impl stencil_studio::Maker for CliMaker {
             .collect()
     }
 
-    fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
+    fn config(&self, args: &[String]) -> Result<(MakeConfig, Option<LayersConfig>), String> {
         let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
-        make_config(&parse_make(&self.cli, args)?, Some(&mut kept))
-            .map_err(|e| super::errors::one_line(&e))
-    }
-
-    fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
-        Ok(set_config(&parse_make(&self.cli, args)?))
+        let a = parse_make(&self.cli, args)?;
+        let cfg = make_config(&a, Some(&mut kept)).map_err(|e| super::errors::one_line(&e))?;
+        Ok((cfg, set_config(&a)))
     }
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {

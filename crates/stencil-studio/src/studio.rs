@@ -185,8 +185,7 @@ impl Studio {
     fn derive(&self, p: &Params) -> Result<Derived, String> {
         let stamp = stamp(&self.input);
         let args = self.args(p);
-        let cfg = self.maker.config(&args)?;
-        let set = self.maker.set(&args)?;
+        let (cfg, set) = self.maker.config(&args)?;
         Ok(Derived { stamp, cfg, set })
     }
 
