@@ -2,7 +2,7 @@
 //! a glimmer, and come back; and the framing step of `send --frame`. Machine side: reads any
 //! G-code file, knows nothing of stencils.
 
-use std::io::{BufRead, IsTerminal, Write};
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::mpsc::{channel, Receiver};
@@ -262,11 +262,6 @@ pub fn ask_start(input: &mut dyn BufRead) -> anyhow::Result<bool> {
     input.read_line(&mut line)?;
     let a = line.trim().to_ascii_lowercase();
     Ok(a == "y" || a == "yes")
-}
-
-/// `send --frame` without `--yes` needs someone at a terminal to answer.
-pub fn can_ask() -> bool {
-    std::io::stdin().is_terminal()
 }
 
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {

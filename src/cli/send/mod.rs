@@ -513,7 +513,7 @@ fn framed_and_started(
 /// `--frame` without `--yes` asks on the terminal: refused before the controller is asked
 /// anything when there is none.
 fn frame_can_ask(a: &SendArgs) -> anyhow::Result<()> {
-    if a.frame && !a.yes && !super::frame::can_ask() {
+    if a.frame && !a.yes && !std::io::stdin().is_terminal() {
         bail!(
             "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
              pass --yes to start right after framing, or frame first with `stencil frame`"
