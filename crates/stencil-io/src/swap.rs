@@ -73,19 +73,15 @@ impl Step {
                 .unwrap_or(s)
                 .to_string()
         };
+        // Where an owned file may be; an owned folder, in all but the new set's.
         const FILE_IN: &[&str] = &[
             "previous/",
+            ".stencil-swap/old/",
+            ".stencil-swap/old-previous/",
             ".stencil-swap/new/",
-            ".stencil-swap/old/",
-            ".stencil-swap/old-previous/",
-        ];
-        const FOLDER_IN: &[&str] = &[
-            "previous/",
-            ".stencil-swap/old/",
-            ".stencil-swap/old-previous/",
         ];
         let file = |s: &str| owned.contains(&strip(s, FILE_IN).as_str());
-        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, FOLDER_IN));
+        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, &FILE_IN[..3]));
         let folder = |s: &str| {
             matches!(
                 s,
@@ -117,7 +113,7 @@ impl Step {
             for anc in ancestors(p) {
                 let at = dir.join(anc);
                 if (anc == PREVIOUS_DIR && matches!(self, Step::Rename(..))) || exists(&at) {
-                    refuse_unless_real_dir(&at)?;
+                    refuse_unless_real(&at, true)?;
                 }
             }
         }
@@ -132,7 +128,7 @@ impl Step {
             Step::MkDir(a) => match std::fs::create_dir(dir.join(a)) {
                 // There already: only as a real folder (a link is not followed).
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    refuse_unless_real_dir(&dir.join(a))
+                    refuse_unless_real(&dir.join(a), true)
                 }
                 r => r.map_err(|e| err(a, e)),
             },
@@ -146,40 +142,22 @@ impl Step {
     }
 }
 
-/// Refuse a path a swap goes through that is not a real folder: a symbolic link (never followed,
-/// wherever it points) or anything else.
-fn refuse_unless_real_dir(p: &Path) -> Result<(), WriteError> {
-    match std::fs::symlink_metadata(p) {
-        Ok(m) if m.is_dir() => Ok(()),
-        Ok(m) => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: if m.file_type().is_symlink() {
-                "a symbolic link"
-            } else {
-                not_a_file(&m.file_type()).unwrap_or("a file")
-            },
-        }),
-        Err(_) => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: "missing",
-        }),
-    }
-}
-
-/// Refuse a file of the swap's own (its plan, its record of steps done) that is there as
-/// anything but a regular file: a link is never read or written through.
-fn refuse_unless_file(p: &Path) -> Result<(), WriteError> {
-    match std::fs::symlink_metadata(p) {
-        Ok(m) if !m.is_file() => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: if m.file_type().is_symlink() {
-                "a symbolic link"
-            } else {
-                not_a_file(&m.file_type()).unwrap_or("not a regular file")
-            },
-        }),
-        _ => Ok(()),
-    }
+/// Refuse a path a swap goes through that is not a real folder (`folder`: one it needs there), or
+/// a file of the swap's own (its plan, its record of steps done) that is there as anything but a
+/// regular file: a symbolic link is never followed, read or written through, wherever it points.
+fn refuse_unless_real(p: &Path, folder: bool) -> Result<(), WriteError> {
+    let is = match std::fs::symlink_metadata(p) {
+        Ok(m) if (folder && m.is_dir()) || (!folder && m.is_file()) => return Ok(()),
+        Ok(m) if m.file_type().is_symlink() => "a symbolic link",
+        // (Only a folder's place can hold a regular file here.)
+        Ok(m) => not_a_file(&m.file_type()).unwrap_or("a file"),
+        Err(_) if folder => "missing",
+        Err(_) => return Ok(()),
+    };
+    Err(WriteError::NotSwapFolder {
+        path: p.to_path_buf(),
+        is,
+    })
 }
 
 fn exists(p: &Path) -> bool {
@@ -447,7 +425,7 @@ fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recove
     if !exists(&swap) {
         return Ok(Recovered::Nothing);
     }
-    refuse_unless_real_dir(&swap)?;
+    refuse_unless_real(&swap, true)?;
     let plan = swap.join(PLAN);
     if exists(&plan) {
         run_plan(dir, owned, pts)?;
@@ -469,14 +447,14 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
             path: plan_path.clone(),
         })
     };
-    refuse_unless_file(&plan_path)?;
+    refuse_unless_real(&plan_path, false)?;
     let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
     let steps: Vec<Step> = text
         .lines()
         .map(|l| Step::parse(l, owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
-    refuse_unless_file(&done_path)?;
+    refuse_unless_real(&done_path, false)?;
     let done = std::fs::symlink_metadata(&done_path).map_or(0, |m| m.len() as usize);
     let mut record = std::fs::OpenOptions::new()
         .create(true)
