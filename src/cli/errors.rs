@@ -386,9 +386,7 @@ fn mesh_setting(s: &MeshSetting) -> String {
         MeshSetting::TooSmall { width, height } => {
             format!("--size: {width}x{height} is too small: at least 16 pixels a side")
         }
-        MeshSetting::Supersample(k) => {
-            format!("--supersample: {k} is out of range: use 1 to 4")
-        }
+        MeshSetting::Supersample(k) => out_of_range("--supersample", k, "1 to 4"),
         MeshSetting::TooMuchWork {
             width,
             height,
@@ -403,23 +401,24 @@ fn mesh_setting(s: &MeshSetting) -> String {
         MeshSetting::Light(l) => {
             format!("--light: {l:?} must be three finite numbers (bounding radii)")
         }
-        MeshSetting::Specular(v) => {
-            format!("--specular: {v} is out of range: use 0 (matte) to 10")
-        }
+        MeshSetting::Specular(v) => out_of_range("--specular", v, "0 (matte) to 10"),
         MeshSetting::Ambient(v) => {
-            format!("--ambient: {v} is out of range: use 0 (none) up to but not including 1")
+            out_of_range("--ambient", v, "0 (none) up to but not including 1")
         }
         MeshSetting::Fill(v) => {
-            format!("--fill: {v} is out of range: use 0 (none) to 1 (as strong as the key light)")
+            out_of_range("--fill", v, "0 (none) to 1 (as strong as the key light)")
         }
-        MeshSetting::Shininess(v) => format!("--shininess: {v} is out of range: use 1 to 10000"),
-        MeshSetting::LinePx(v) => {
-            format!("--line-px: {v} is out of range: use 0.5 to 64 pixels")
-        }
+        MeshSetting::Shininess(v) => out_of_range("--shininess", v, "1 to 10000"),
+        MeshSetting::LinePx(v) => out_of_range("--line-px", v, "0.5 to 64 pixels"),
         MeshSetting::ContourThreshold(v) => {
             format!("--contour-threshold: {v} must be a finite number >= 0")
         }
     }
+}
+
+/// `--option: VALUE is out of range: use RANGE`.
+fn out_of_range(option: &str, v: impl std::fmt::Display, range: &str) -> String {
+    format!("{option}: {v} is out of range: use {range}")
 }
 
 /// A time as "2026-11-26 17:03 UTC" (no time zone database: the civil date from the day count,

@@ -114,16 +114,22 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
     }
+    let (cfg, result) = with_progress(cfg, stencil_core::driver::make);
+    let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
+    print_made(&cfg, &made, &replaced);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `run(cfg)` with the progress line drawn while it runs; `cfg` comes back with it.
+fn with_progress<T>(cfg: MakeConfig, run: impl FnOnce(&MakeConfig) -> T) -> (MakeConfig, T) {
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),
         ..cfg
     };
-    let result = stencil_core::driver::make(&cfg);
+    let result = run(&cfg);
     bar.finish();
-    let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
-    print_made(&cfg, &made, &replaced);
-    Ok(ExitCode::SUCCESS)
+    (cfg, result)
 }
 
 /// The set `make` cuts instead of one stencil, if any: layers, a fill-in, or registration marks
@@ -144,11 +150,7 @@ fn mask_marks(a: &MakeArgs) -> bool {
 /// Without --material, a G-code job gets a material set up for the machine's tool.
 pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
-    let machine = if emit_gcode {
-        Some(a.machine.machine()?)
-    } else {
-        None
-    };
+    let machine = emit_gcode.then(|| a.machine.machine()).transpose()?;
     let default_material = match &machine {
         Some(m) => stencil_core::material::default_for(&m.tool),
         None => stencil_core::material::DEFAULT_MATERIAL,
@@ -200,12 +202,10 @@ pub(super) fn make_config(a: &MakeArgs, mut kept: Option<&mut Kept>) -> anyhow::
         emit_gcode,
         cfg.physical.vector.arc_tolerance_mm(),
     )?;
-    if let (Some(g), Some(_)) = (&mut gcode, &cfg.physical.gobo) {
-        // A gobo is a disc: its rim is always cut, last.
-        g.plan.cut_outline = true;
-    }
     let mut cfg = cfg;
-    if let Some(g) = &gcode {
+    if let Some(g) = &mut gcode {
+        // A gobo is a disc: its rim is always cut, last.
+        g.plan.cut_outline |= cfg.physical.gobo.is_some();
         // G-code without arcs (--no-arcs, the machine's profile, a drag knife): the outlines
         // are made straight within the whole tolerance, and every file carries those polygons,
         // the ones the check judges.
@@ -338,13 +338,7 @@ pub fn make_set(
     lc: &LayersConfig,
     fill_in_asked: bool,
 ) -> anyhow::Result<ExitCode> {
-    let bar = StageBar::start();
-    let cfg = MakeConfig {
-        progress: Some(bar.clone()),
-        ..cfg
-    };
-    let result = stencil_core::layers::make(&cfg, lc);
-    bar.finish();
+    let (cfg, result) = with_progress(cfg, |cfg| stencil_core::layers::make(cfg, lc));
     let (set, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_set(&cfg, &set, fill_in_asked);
     if !replaced.removed.is_empty() {
@@ -418,8 +412,6 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
     );
 }
 
-/// What a successful run tells: the stencil in one line, its size and files, files of an earlier
-/// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
 /// The level `otsu` or `auto` chose, and how alike the stencil is to the picture.
 fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
     let (Some(level), Some(like)) = (r.threshold_level, r.likeness) else {
@@ -438,6 +430,8 @@ fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
     }
 }
 
+/// What a successful run tells: the stencil in one line, its size and files, files of an earlier
+/// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
 fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replaced) {
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
@@ -740,15 +734,12 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
     };
     let cfg = resolve::resolve_picture(&request, &Inputs::load(&request))
         .map_err(|e| sizing_words(&a.input, e))?;
-    let bar = StageBar::start();
     let cfg = MakeConfig {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
-        progress: Some(bar.clone()),
         ..cfg
     };
-    let result = stencil_core::driver::clean_two_tone(&cfg);
-    bar.finish();
+    let (cfg, result) = with_progress(cfg, stencil_core::driver::clean_two_tone);
     let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
