@@ -265,10 +265,6 @@ fn io_err(path: &Path, e: std::io::Error) -> WriteError {
 /// on the folder itself, so that no lock file is left behind.
 pub struct FolderLock(#[allow(dead_code)] File);
 
-fn lock(dir: &Path) -> Result<FolderLock, WriteError> {
-    lock_folder(dir, std::time::Duration::ZERO)
-}
-
 /// Lock `dir` against other stencil runs, waiting up to `wait` for one that holds it (polled:
 /// each holder keeps it for one short read-modify-write); [`WriteError::Busy`] after that. A
 /// file system without locks is not refused: the folder is used unlocked.
@@ -335,7 +331,7 @@ pub fn recover(dir: &Path, owned: &[&str]) -> Result<Recovered, WriteError> {
         crate::atomic::sweep_temps(dir);
         return Ok(Recovered::Nothing);
     }
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     let mut h = process_hook();
     let mut pts = Points { hook: &mut h, n: 0 };
     recover_locked(dir, owned, &mut pts).map_err(unstop)
@@ -404,7 +400,7 @@ fn name_and_parent(p: &Path) -> Option<(String, PathBuf)> {
 
 #[cfg(test)]
 pub(crate) fn recover_hooked(dir: &Path, owned: &[&str], hook: Hook) -> Result<Recovered, Stop> {
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     let mut pts = Points { hook, n: 0 };
     recover_locked(dir, owned, &mut pts)
 }
@@ -581,7 +577,7 @@ pub(crate) fn replace_all_hooked(
     hook: Hook,
 ) -> Result<Replaced, Stop> {
     let mut pts = Points { hook, n: 0 };
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     recover_locked(dir, owned, &mut pts)?;
     let mut owned: Vec<&str> = owned.to_vec();
     for (n, _) in files {
@@ -675,7 +671,7 @@ pub(crate) fn set_aside_hooked(
     if !real_dir(dir) {
         return Ok(None);
     }
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     recover_locked(dir, owned, &mut pts)?;
     let folders = owned_folders(owned);
     refuse_odd_folders(dir, &folders)?;
