@@ -288,7 +288,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let start = super::place::choose(a.start.start_from, &state, &machine);
     let placement = stencil_grbl::Placement::new(start, &state);
     println!("{}", placement.describe());
-    let job = super::place::placed(&name, &text, &placement)?;
+    let job = Program::parse_from(&name, &text, placement.modal)?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
     let g92 = super::place::g92_needed(&placement, &state);
     // The frame may trace with the beam dimly on: the power scale is checked first too.

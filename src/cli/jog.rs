@@ -28,7 +28,7 @@ pub struct JogArgs {
     #[command(flatten)]
     pub link: super::port::PortArgs,
     /// Step per key press, mm (0.001 to 1000); 1, 2, 3 pick 0.1, 1 and 10 mm.
-    #[arg(long, default_value_t = 1.0, value_parser = parse_step)]
+    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| super::bounds::number_in(s, 0.001..=1000.0, " mm"))]
     pub step: f64,
     /// Jog feed, mm/min.
     #[arg(long, default_value_t = 1000.0, value_parser = super::bounds::parse_feed)]
@@ -44,10 +44,6 @@ pub struct JogArgs {
 /// The keys of `--keys` (a newtype: clap reads a bare `Vec` as a repeated option).
 #[derive(Clone, Debug)]
 pub struct KeyScript(Vec<JogKey>);
-
-fn parse_step(s: &str) -> Result<f64, String> {
-    super::bounds::number_in(s, 0.001..=1000.0, " mm")
-}
 
 /// The terminal in raw mode: arrows and page keys without Enter; key releases where the
 /// terminal reports them (kitty keyboard protocol), so a held key's jog stops when let go.

@@ -10,8 +10,8 @@ use clap::Args;
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine::Machine;
 use stencil_grbl::{
-    BytePort, Console, ControllerState, IfMoving, Observer, Placement, Program, StartFrom,
-    StreamConfig, VirtualConfig,
+    BytePort, Console, ControllerState, IfMoving, Observer, Placement, StartFrom, StreamConfig,
+    VirtualConfig,
 };
 
 /// What `--start-from` says, worded once for send and frame.
@@ -121,11 +121,6 @@ pub fn g92_needed(p: &Placement, st: &ControllerState) -> Option<String> {
         (false, Some(pos)) => Some(stencil_grbl::g92_for(p.zero, pos)),
         _ => None,
     }
-}
-
-/// The job read again from its placement: every move in machine coordinates.
-pub fn placed(name: &str, text: &str, p: &Placement) -> anyhow::Result<Program> {
-    Ok(Program::parse_from(name, text, p.modal)?)
 }
 
 /// The bed check on placed moves: a refusal says where the job's zero was put and how to move

@@ -365,7 +365,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let state = reading.state;
     let placement = placement_for(&a, &state, &machine, journal.as_ref(), from_line)?;
     println!("{}", placement.describe());
-    let job = super::place::placed(&name, &text, &placement)?;
+    let job = Program::parse_from(&name, &text, placement.modal)?;
     // The moves that will run (from --from-line or the recovered line on) must stay on the bed,
     // where the controller's offsets put them: checked before anything moves.
     let to_run: Vec<Move> = job
