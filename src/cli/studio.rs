@@ -155,10 +155,8 @@ fn clap_message(e: &clap::Error) -> String {
 /// The option values given on the command line, as `/api/params` takes them.
 fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
     let mut out = serde_json::Map::new();
-    let Ok(m) = cli.clone().try_get_matches_from(args) else {
-        return Value::Object(out);
-    };
-    let Some(("studio", m)) = m.subcommand() else {
+    let matches = cli.clone().try_get_matches_from(args).ok();
+    let Some(("studio", m)) = matches.as_ref().and_then(|m| m.subcommand()) else {
         return Value::Object(out);
     };
     for a in make_command(cli).get_arguments() {

@@ -348,12 +348,9 @@ pub fn recover_around(
     path: &Path,
     owned: &[&str],
 ) -> Result<Vec<(PathBuf, Recovered)>, WriteError> {
-    let mut out = Vec::new();
-    for dir in folders_around(path, owned) {
-        let r = recover(&dir, owned)?;
-        out.push((dir, r));
-    }
-    Ok(out)
+    (folders_around(path, owned).into_iter())
+        .map(|dir| recover(&dir, owned).map(|r| (dir, r)))
+        .collect()
 }
 
 /// The folders [`recover_around`] settles for `path`, outermost first, as the path names them
