@@ -1,7 +1,7 @@
 //! `stencil make` and `stencil tone`: running them and saying what was made (their options are
 //! `make_args.rs`'s).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -39,15 +39,6 @@ fn change_hints(cfg: &MakeConfig) -> String {
     )
 }
 
-/// The fidelity figures on one line.
-fn change_line(f: &Fidelity) -> String {
-    format!(
-        "changed {:.2} % of the picture: {}",
-        f.changed_pct,
-        change_parts(f)
-    )
-}
-
 /// What changed it, stage by stage.
 fn change_parts(f: &Fidelity) -> String {
     format!(
@@ -63,8 +54,15 @@ fn change_parts(f: &Fidelity) -> String {
 /// and when they were made.
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
     let out_dir = a.out_dir();
-    let inputs = make_inputs(&a);
-    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    // The files it reads: the picture or mesh, the keep-out mask, the profiles given as paths.
+    let mut inputs = vec![a.input.as_path()];
+    inputs.extend(a.bridge.keep_out.as_deref());
+    inputs.extend(
+        [&a.physical.material, &a.machine.machine]
+            .into_iter()
+            .flatten()
+            .map(Path::new),
+    );
     stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
     make_in(&a)
         .map_err(|e| gobo_words(&a, e))
@@ -93,20 +91,6 @@ fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
         Some(words) => anyhow::anyhow!(words),
         None => e,
     }
-}
-
-/// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
-/// profiles given as paths.
-fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
-    let mut v = vec![a.input.clone()];
-    v.extend(a.bridge.keep_out.clone());
-    for p in [&a.physical.material, &a.machine.machine]
-        .into_iter()
-        .flatten()
-    {
-        v.push(PathBuf::from(p));
-    }
-    v
 }
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
@@ -516,7 +500,11 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     }
     print_working_scale(r);
     if let Some(f) = &r.fidelity {
-        println!("{}", change_line(f));
+        println!(
+            "changed {:.2} % of the picture: {}",
+            f.changed_pct,
+            change_parts(f)
+        );
         if f.changed_pct > WARN_CHANGE_PCT {
             eprintln!(
                 "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {}",
