@@ -598,7 +598,6 @@ fn print_masks(m: &stencil_core::export::MaskReport) {
     }
 }
 
-/// File names, comma separated.
 fn file_names(paths: &[std::path::PathBuf]) -> String {
     paths
         .iter()
@@ -623,23 +622,21 @@ fn print_working_scale(r: &stencil_core::report::Report) {
         };
         println!("supersampled {k}x ({mm:.3} mm per working pixel) {why}");
     }
-    if let Some(a) = auto {
-        if let Some(cap) = a.capped_by {
-            // The library names the cap; the pixel limit is this command's --max-pixels.
-            let (by, help) = match cap {
-                ScaleCap::MaxFactor => (cap.to_string(), "use a picture with more pixels"),
-                ScaleCap::Memory => (
-                    cap.to_string(),
-                    "use a picture with more pixels, or give --scale",
-                ),
-                ScaleCap::MaxPixels => ("--max-pixels".to_string(), "raise --max-pixels"),
-            };
-            println!(
-                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {by}; \
-                 edges may show the picture's pixels ({help})",
-                a.target_mm_per_px, a.wanted
-            );
-        }
+    if let Some((a, cap)) = auto.and_then(|a| Some((a, a.capped_by?))) {
+        // The library names the cap; the pixel limit is this command's --max-pixels.
+        let (by, help) = match cap {
+            ScaleCap::MaxFactor => (cap.to_string(), "use a picture with more pixels"),
+            ScaleCap::Memory => (
+                cap.to_string(),
+                "use a picture with more pixels, or give --scale",
+            ),
+            ScaleCap::MaxPixels => ("--max-pixels".to_string(), "raise --max-pixels"),
+        };
+        println!(
+            "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {by}; edges \
+             may show the picture's pixels ({help})",
+            a.target_mm_per_px, a.wanted
+        );
     }
 }
 

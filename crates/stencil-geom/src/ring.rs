@@ -17,12 +17,10 @@ pub(crate) const NO_BOX: [f64; 4] = [
     f64::NEG_INFINITY,
 ];
 
-/// A point's box.
 pub(crate) fn point_box(p: [f64; 2]) -> [f64; 4] {
     [p[0], p[1], p[0], p[1]]
 }
 
-/// The box around boxes `a` and `b`.
 pub(crate) fn union_box(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
     [
         a[0].min(b[0]),

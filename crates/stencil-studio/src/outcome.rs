@@ -123,7 +123,6 @@ impl Done {
     }
 }
 
-/// The engine's working gray.
 pub(crate) type WorkingGray = Arc<Gray>;
 
 /// What the page is sent that depends on one stage's output alone, kept with that output (the

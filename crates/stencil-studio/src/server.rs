@@ -136,7 +136,6 @@ async fn answer(s: &Shared, v: u64) -> ApiResult {
     Ok(Json(s.state(&done)).into_response())
 }
 
-/// A request's JSON body.
 fn json_body(body: &[u8]) -> Result<Value, Refusal> {
     serde_json::from_slice(body).map_err(|e| {
         bad(
