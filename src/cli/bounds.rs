@@ -13,7 +13,6 @@ pub fn positive(s: &str) -> Result<f64, String> {
     }
 }
 
-/// A number in `lo..=hi`.
 fn within(v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, String> {
     if v.is_finite() && (lo..=hi).contains(&v) {
         Ok(v)

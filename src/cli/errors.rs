@@ -88,25 +88,30 @@ pub fn core(e: &stencil_core::Error) -> String {
     }
 }
 
+/// The option that set the picture's size, and its value (`None` for the default size).
+fn size_flag(size: Size) -> Option<(&'static str, f64)> {
+    match size {
+        Size::Default => None,
+        Size::WidthMm(v) => Some(("--width-mm", v)),
+        Size::Dpi(v) => Some(("--dpi", v)),
+    }
+}
+
 /// The option that set the picture's size, with its value.
 fn size_option(size: Size) -> String {
-    match size {
-        Size::Default => "the default size".to_string(),
-        Size::WidthMm(v) => format!("--width-mm {}", num(v)),
-        Size::Dpi(v) => format!("--dpi {}", num(v)),
-    }
+    size_flag(size).map_or("the default size".into(), |(f, v)| {
+        format!("{f} {}", num(v))
+    })
 }
 
 fn size(e: &SizeError) -> String {
     match *e {
-        SizeError::NotPositive { size } => {
-            let (option, value) = match size {
-                Size::Dpi(v) => ("--dpi", v),
-                Size::WidthMm(v) => ("--width-mm", v),
-                Size::Default => return e.to_string(),
-            };
-            format!("{option} {value} is not a size: use a finite number > 0")
-        }
+        SizeError::NotPositive { size } => match size_flag(size) {
+            Some((option, value)) => {
+                format!("{option} {value} is not a size: use a finite number > 0")
+            }
+            None => e.to_string(),
+        },
         SizeError::OutOfRange {
             size,
             width_px,
@@ -123,19 +128,16 @@ fn size(e: &SizeError) -> String {
                 ),
                 _ => size_option(size),
             };
-            let accepted = match (size, range) {
-                (Size::Default, Some((lo, hi))) => {
+            let accepted = match (size_flag(size), range) {
+                (Some((flag, _)), Some((lo, hi))) => {
+                    format!("use {flag} {} to {} for this picture", num(lo), num(hi))
+                }
+                (None, Some((lo, hi))) => {
                     format!(
                         "give --width-mm {} to {} for this picture",
                         num(lo),
                         num(hi)
                     )
-                }
-                (Size::WidthMm(_), Some((lo, hi))) => {
-                    format!("use --width-mm {} to {} for this picture", num(lo), num(hi))
-                }
-                (Size::Dpi(_), Some((lo, hi))) => {
-                    format!("use --dpi {} to {} for this picture", num(lo), num(hi))
                 }
                 (_, None) => "no size fits a picture of this shape: crop or resize it".to_string(),
             };
@@ -384,9 +386,7 @@ fn mesh_setting(s: &MeshSetting) -> String {
         MeshSetting::TooSmall { width, height } => {
             format!("--size: {width}x{height} is too small: at least 16 pixels a side")
         }
-        MeshSetting::Supersample(k) => {
-            format!("--supersample: {k} is out of range: use 1 to 4")
-        }
+        MeshSetting::Supersample(k) => out_of_range("--supersample", k, "1 to 4"),
         MeshSetting::TooMuchWork {
             width,
             height,
@@ -401,23 +401,24 @@ fn mesh_setting(s: &MeshSetting) -> String {
         MeshSetting::Light(l) => {
             format!("--light: {l:?} must be three finite numbers (bounding radii)")
         }
-        MeshSetting::Specular(v) => {
-            format!("--specular: {v} is out of range: use 0 (matte) to 10")
-        }
+        MeshSetting::Specular(v) => out_of_range("--specular", v, "0 (matte) to 10"),
         MeshSetting::Ambient(v) => {
-            format!("--ambient: {v} is out of range: use 0 (none) up to but not including 1")
+            out_of_range("--ambient", v, "0 (none) up to but not including 1")
         }
         MeshSetting::Fill(v) => {
-            format!("--fill: {v} is out of range: use 0 (none) to 1 (as strong as the key light)")
+            out_of_range("--fill", v, "0 (none) to 1 (as strong as the key light)")
         }
-        MeshSetting::Shininess(v) => format!("--shininess: {v} is out of range: use 1 to 10000"),
-        MeshSetting::LinePx(v) => {
-            format!("--line-px: {v} is out of range: use 0.5 to 64 pixels")
-        }
+        MeshSetting::Shininess(v) => out_of_range("--shininess", v, "1 to 10000"),
+        MeshSetting::LinePx(v) => out_of_range("--line-px", v, "0.5 to 64 pixels"),
         MeshSetting::ContourThreshold(v) => {
             format!("--contour-threshold: {v} must be a finite number >= 0")
         }
     }
+}
+
+/// `--option: VALUE is out of range: use RANGE`.
+fn out_of_range(option: &str, v: impl std::fmt::Display, range: &str) -> String {
+    format!("{option}: {v} is out of range: use {range}")
 }
 
 /// A time as "2026-11-26 17:03 UTC" (no time zone database: the civil date from the day count,
@@ -443,10 +444,6 @@ pub fn utc(t: std::time::SystemTime) -> String {
     )
 }
 
-/// A failed `make` in full: the error, then what the output folder holds. The earlier run's files
-/// are moved into `previous/` ([`stencil_io::set_aside`]) so that `send` cannot stream them as
-/// this run's job; the message says which files, from when, and where they are. A run refused
-/// because another run is writing the folder leaves that run's files alone.
 /// `--crop` reaching outside the picture (all in mm at the size the picture is made).
 pub fn crop_outside(crop: [f64; 4], picture_mm: [f64; 2], mm_per_px: f64) -> String {
     format!(
@@ -462,6 +459,10 @@ pub fn crop_outside(crop: [f64; 4], picture_mm: [f64; 2], mm_per_px: f64) -> Str
     )
 }
 
+/// A failed `make` in full: the error, then what the output folder holds. The earlier run's files
+/// are moved into `previous/` ([`stencil_io::set_aside`]) so that `send` cannot stream them as
+/// this run's job; the message says which files, from when, and where they are. A run refused
+/// because another run is writing the folder leaves that run's files alone.
 pub fn after_failed_make(dir: &Path, e: anyhow::Error) -> anyhow::Error {
     use stencil_io::WriteError;
     let busy = |w: &WriteError| matches!(w, WriteError::Busy { .. });

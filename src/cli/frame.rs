@@ -2,7 +2,7 @@
 //! a glimmer, and come back; and the framing step of `send --frame`. Machine side: reads any
 //! G-code file, knows nothing of stencils.
 
-use std::io::{BufRead, IsTerminal, Write};
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::mpsc::{channel, Receiver};
@@ -264,11 +264,6 @@ pub fn ask_start(input: &mut dyn BufRead) -> anyhow::Result<bool> {
     Ok(a == "y" || a == "yes")
 }
 
-/// `send --frame` without `--yes` needs someone at a terminal to answer.
-pub fn can_ask() -> bool {
-    std::io::stdin().is_terminal()
-}
-
 pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let text = super::program::read_program(&a.file)?;
     eprintln!("{}", super::program::origin_line(&a.file, &text));
@@ -276,10 +271,9 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let job = Program::parse(&name, &text)?;
     let machine = machine_profile::load(a.machine.as_deref())?;
     super::program::name_machine_changes(&job);
-    let dump = match &a.start.controller_state {
-        Some(p) => Some(super::place::read_dump(p)?),
-        None => None,
-    };
+    let dump = (a.start.controller_state.as_deref())
+        .map(super::place::read_dump)
+        .transpose()?;
     let mut opened = a.link.open(super::place::virtual_from(
         super::port::virtual_for(&machine, &[]),
         dump.as_ref(),
@@ -294,7 +288,7 @@ pub fn run_frame(a: FrameArgs) -> anyhow::Result<ExitCode> {
     let start = super::place::choose(a.start.start_from, &state, &machine);
     let placement = stencil_grbl::Placement::new(start, &state);
     println!("{}", placement.describe());
-    let job = super::place::placed(&name, &text, &placement)?;
+    let job = Program::parse_from(&name, &text, placement.modal)?;
     let s = setup(&a.file, &job, &machine, a.feed, a.no_bed_check)?;
     let g92 = super::place::g92_needed(&placement, &state);
     // The frame may trace with the beam dimly on: the power scale is checked first too.

@@ -99,11 +99,11 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     let machine = machine_profile::load(a.machine.as_deref())?;
     check_tool_options(&a, &machine)?;
     // Without --material, the machine's tool picks one (as `make` does).
-    let material = Some(match &a.material {
+    let material = match &a.material {
         Some(m) => Material::find(m)?.0,
         None => Material::find_default(stencil_core::material::default_for(&machine.tool))?.0,
-    });
-    let base = base_settings(&a, &machine, material.as_ref())?;
+    };
+    let base = base_settings(&a, &machine, &material)?;
     let max_feed = machine.motion.max_feed_mm_min;
     let speeds = a
         .speed
@@ -125,7 +125,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
     } else {
         format!("rows: {row_text}; columns: {speed_text}")
     };
-    let notes = header_notes(&a, &grid, &layout, material.as_ref());
+    let notes = header_notes(&a, &grid, &layout, &material);
     let gcode = grid_gcode(&grid, &machine, &notes);
     let svg_path = a.output.with_extension("svg");
     if svg_path == a.output {
@@ -134,14 +134,7 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
             a.output.display()
         );
     }
-    let title = format!(
-        "test grid on {}{}: {layout}",
-        machine.name,
-        material
-            .as_ref()
-            .map(|m| format!(", {}", m.name))
-            .unwrap_or_default()
-    );
+    let title = format!("test grid on {}, {}: {layout}", machine.name, material.name);
     stencil_io::write_atomic(&svg_path, grid_svg(&grid, &machine, &title).as_bytes())
         .with_context(|| format!("{}: cannot write the preview", svg_path.display()))?;
     stencil_io::write_atomic(&a.output, gcode.as_bytes())?;
@@ -156,18 +149,16 @@ pub fn run_test_grid(a: TestGridArgs) -> anyhow::Result<ExitCode> {
         machine.name,
         svg_path.display()
     );
-    if let Some(m) = &material {
-        let power = if matches!(machine.tool, Tool::Laser { .. }) {
-            " --power P"
-        } else {
-            ""
-        };
-        println!(
-            "cut it, then keep the cleanest square's settings for later jobs: stencil profiles set \
-             {} --machine {}{power} --speed S [--passes N]",
-            m.name, machine.name
-        );
-    }
+    let power = if matches!(machine.tool, Tool::Laser { .. }) {
+        " --power P"
+    } else {
+        ""
+    };
+    println!(
+        "cut it, then keep the cleanest square's settings for later jobs: stencil profiles set {} \
+         --machine {}{power} --speed S [--passes N]",
+        material.name, machine.name
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -198,61 +189,40 @@ fn check_tool_options(a: &TestGridArgs, machine: &Machine) -> anyhow::Result<()>
     Ok(())
 }
 
-/// The settings the grid centres on: the material's for this machine, or without one the middle
-/// of --speed at full power; --passes overrides either.
+/// The settings the grid centres on: the material's for this machine, or without them the middle
+/// of --power and --speed; --passes overrides either. (A material is always there: the machine's
+/// tool picks one when --material is not given.)
 fn base_settings(
     a: &TestGridArgs,
     machine: &Machine,
-    material: Option<&Material>,
+    material: &Material,
 ) -> anyhow::Result<CutSettings> {
     let user = stencil_core::material::UserSettings::load()?;
-    let chosen = match material.map(|m| stencil_core::material::choose(m, machine, &user)) {
-        Some(Ok(c)) => Some(c.settings),
+    let mut base = match stencil_core::material::choose(material, machine, &user) {
+        Ok(c) => c.settings,
         // No settings for this kind of machine yet: finding them is what the grid is for, from
         // the ranges given.
-        Some(Err(stencil_core::material::SettingsError::NoSettings { .. })) => {
+        Err(stencil_core::material::SettingsError::NoSettings { .. }) => {
             match (&a.power, &a.speed) {
-                (Some(p), Some(s)) => Some(CutSettings {
+                (Some(p), Some(s)) => CutSettings {
                     power_pct: (p.from + p.to) / 2.0,
                     speed_mm_min: (s.from + s.to) / 2.0,
                     passes: 1,
                     blade_offset_mm: 0.0,
                     air_assist: machine.air_assist,
-                }),
+                },
                 _ => bail!(
                     "material '{}' has no settings for '{}' ({}) to centre the grid on: give the \
                      ranges to try with --power FROM..TO:STEPS and --speed FROM..TO:STEPS",
-                    material.map_or("", |m| m.name.as_str()),
+                    material.name,
                     machine.name,
                     machine.kind()
                 ),
             }
         }
-        Some(Err(e)) => return Err(e.into()),
-        None => None,
+        Err(e) => return Err(e.into()),
     };
-    let mut base = match chosen {
-        Some(s) => s,
-        None => {
-            let Some(s) = &a.speed else {
-                bail!(
-                    "no settings to centre the grid on: name a {} material (--material) or give \
-                     --speed FROM..TO:STEPS",
-                    machine.tool.kind()
-                );
-            };
-            CutSettings {
-                power_pct: 100.0,
-                speed_mm_min: (s.from + s.to) / 2.0,
-                passes: 1,
-                blade_offset_mm: 0.0,
-                air_assist: false,
-            }
-        }
-    };
-    if let Some(p) = a.passes {
-        base.passes = p;
-    }
+    base.passes = a.passes.unwrap_or(base.passes);
     Ok(base)
 }
 
@@ -293,13 +263,8 @@ fn rows_for(
 
 /// The G-code header's notes: the grid's size and place, its layout, and that each square sets
 /// its own settings (the header's are the material's).
-fn header_notes(
-    a: &TestGridArgs,
-    grid: &Grid,
-    layout: &str,
-    material: Option<&Material>,
-) -> Vec<String> {
-    let mut notes = vec![
+fn header_notes(a: &TestGridArgs, grid: &Grid, layout: &str, material: &Material) -> Vec<String> {
+    vec![
         format!(
             "test grid: {} squares of {} mm, {} mm apart, {} x {} mm at X{} Y{}",
             grid.cells.len(),
@@ -311,12 +276,9 @@ fn header_notes(
             num(a.offset[1])
         ),
         layout.to_string(),
-    ];
-    if let Some(m) = material {
-        notes.push(format!(
+        format!(
             "material {}: the header's settings are its own; each square sets its own, see the comment before it",
-            m.name
-        ));
-    }
-    notes
+            material.name
+        ),
+    ]
 }

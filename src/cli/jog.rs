@@ -28,7 +28,7 @@ pub struct JogArgs {
     #[command(flatten)]
     pub link: super::port::PortArgs,
     /// Step per key press, mm (0.001 to 1000); 1, 2, 3 pick 0.1, 1 and 10 mm.
-    #[arg(long, default_value_t = 1.0, value_parser = parse_step)]
+    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| super::bounds::number_in(s, 0.001..=1000.0, " mm"))]
     pub step: f64,
     /// Jog feed, mm/min.
     #[arg(long, default_value_t = 1000.0, value_parser = super::bounds::parse_feed)]
@@ -44,10 +44,6 @@ pub struct JogArgs {
 /// The keys of `--keys` (a newtype: clap reads a bare `Vec` as a repeated option).
 #[derive(Clone, Debug)]
 pub struct KeyScript(Vec<JogKey>);
-
-fn parse_step(s: &str) -> Result<f64, String> {
-    super::bounds::number_in(s, 0.001..=1000.0, " mm")
-}
 
 /// The terminal in raw mode: arrows and page keys without Enter; key releases where the
 /// terminal reports them (kitty keyboard protocol), so a held key's jog stops when let go.
@@ -137,11 +133,8 @@ impl Piped {
                     .filter(|s| !s.is_empty())
                 {
                     match parse_key(name) {
-                        Ok(k) => {
-                            if tx.send(k).is_err() {
-                                return;
-                            }
-                        }
+                        Ok(k) if tx.send(k).is_err() => return,
+                        Ok(_) => {}
                         Err(e) => eprintln!("stdin: {e}"),
                     }
                 }
@@ -194,14 +187,13 @@ pub fn run_jog(a: JogArgs) -> anyhow::Result<ExitCode> {
         if_moving: a.link.if_moving(),
         ..StreamConfig::default()
     };
-    let tty = io::stdin().is_terminal() && a.keys.is_none();
+    let raw = io::stdin().is_terminal() && a.keys.is_none();
     let mut keys: Box<dyn JogKeys> = match &a.keys {
         Some(k) => Box::new(Script(VecDeque::from(k.0.clone()))),
-        None if tty => Box::new(Terminal::start().context("cannot read the keyboard")?),
+        None if raw => Box::new(Terminal::start().context("cannot read the keyboard")?),
         None => Box::new(Piped::start()),
     };
-    let mut screen = Screen { raw: tty };
-    let raw = tty;
+    let mut screen = Screen { raw };
     if raw {
         screen.message(stencil_grbl::JOG_KEY_HELP);
     }

@@ -60,22 +60,12 @@ impl MachineArgs {
     }
 }
 
-/// `--power`: as a material's `laser.power_pct`.
-fn parse_power(s: &str) -> Result<f64, String> {
-    super::bounds::number_in(s, 0.1..=100.0, " %")
-}
-
-/// `--blade-offset`: as the planner accepts it.
-fn parse_blade_offset(s: &str) -> Result<f64, String> {
-    super::bounds::number_in(s, 0.0..=plan::bounds::MAX_BLADE_OFFSET_MM, " mm")
-}
-
 /// Cut settings given on the command line; each overrides the material's.
 #[derive(Args, Debug, Clone, Default)]
 #[command(next_help_heading = "Cut settings (override the material)")]
 pub struct CutArgs {
     /// Laser power, % of full ($30): 0.1 to 100.
-    #[arg(long, value_name = "PCT", value_parser = parse_power)]
+    #[arg(long, value_name = "PCT", value_parser = |s: &str| super::bounds::number_in(s, 0.1..=100.0, " %"))]
     pub power: Option<f64>,
     /// Cutting feed, mm/min: 1 to 200000, and at most the machine's max feed.
     #[arg(long, value_name = "MM_MIN", value_parser = super::bounds::parse_feed)]
@@ -85,7 +75,7 @@ pub struct CutArgs {
     pub passes: Option<u32>,
     /// Drag knife: how far the blade tip trails its axis, mm (0 = no corner compensation; at
     /// most 5).
-    #[arg(long, value_name = "MM", value_parser = parse_blade_offset)]
+    #[arg(long, value_name = "MM", value_parser = |s: &str| super::bounds::number_in(s, 0.0..=plan::bounds::MAX_BLADE_OFFSET_MM, " mm"))]
     pub blade_offset: Option<f64>,
     /// Laser: air assist (on Grbl's coolant output) on with the beam, M8 before the first cut and
     /// M9 at the end: on or off [default: the material's air_assist, else the machine's].
@@ -108,7 +98,7 @@ impl CutArgs {
         machine: &Machine,
     ) -> anyhow::Result<CutSettings> {
         let laser = matches!(machine.tool, Tool::Laser { .. });
-        let s = match base {
+        Ok(match base {
             Some(b) => CutSettings {
                 power_pct: self.power.unwrap_or(b.power_pct),
                 speed_mm_min: self.speed.unwrap_or(b.speed_mm_min),
@@ -135,8 +125,7 @@ impl CutArgs {
                     air_assist: self.air_assist.unwrap_or(laser && machine.air_assist),
                 }
             }
-        };
-        Ok(s)
+        })
     }
 
     /// Whether any cut option was given.

@@ -1,7 +1,7 @@
 //! `stencil make` and `stencil tone`: running them and saying what was made (their options are
 //! `make_args.rs`'s).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -39,15 +39,6 @@ fn change_hints(cfg: &MakeConfig) -> String {
     )
 }
 
-/// The fidelity figures on one line.
-fn change_line(f: &Fidelity) -> String {
-    format!(
-        "changed {:.2} % of the picture: {}",
-        f.changed_pct,
-        change_parts(f)
-    )
-}
-
 /// What changed it, stage by stage.
 fn change_parts(f: &Fidelity) -> String {
     format!(
@@ -62,12 +53,16 @@ fn change_parts(f: &Fidelity) -> String {
 /// [`stencil_io::set_aside`]; a person's own files stay where they are), and the error says so
 /// and when they were made.
 pub fn run_make(a: MakeArgs) -> anyhow::Result<ExitCode> {
-    let out_dir = a
-        .out
-        .clone()
-        .unwrap_or_else(|| pipeline::default_out_dir(&a.input));
-    let inputs = make_inputs(&a);
-    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let out_dir = a.out_dir();
+    // The files it reads: the picture or mesh, the keep-out mask, the profiles given as paths.
+    let mut inputs = vec![a.input.as_path()];
+    inputs.extend(a.bridge.keep_out.as_deref());
+    inputs.extend(
+        [&a.physical.material, &a.machine.machine]
+            .into_iter()
+            .flatten()
+            .map(Path::new),
+    );
     stencil_io::check_output_dir(&out_dir, stencil_core::layers::owned_names(), &inputs)?;
     make_in(&a)
         .map_err(|e| gobo_words(&a, e))
@@ -98,42 +93,38 @@ fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
     }
 }
 
-/// The files a `make` reads: the picture or mesh, the keep-out mask, and the material and machine
-/// profiles given as paths.
-fn make_inputs(a: &MakeArgs) -> Vec<PathBuf> {
-    let mut v = vec![a.input.clone()];
-    v.extend(a.bridge.keep_out.clone());
-    for p in [&a.physical.material, &a.machine.machine]
-        .into_iter()
-        .flatten()
-    {
-        v.push(PathBuf::from(p));
-    }
-    v
-}
-
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a, None)?;
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
     }
-    let bar = StageBar::start();
-    let cfg = MakeConfig {
-        progress: Some(bar.clone()),
-        ..cfg
-    };
-    let result = stencil_core::driver::make(&cfg);
-    bar.finish();
+    let (cfg, result) = with_progress(cfg, stencil_core::driver::make);
     let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_made(&cfg, &made, &replaced);
     Ok(ExitCode::SUCCESS)
 }
 
+/// `run(cfg)` with the progress line drawn while it runs; `cfg` comes back with it.
+fn with_progress<T>(cfg: MakeConfig, run: impl FnOnce(&MakeConfig) -> T) -> (MakeConfig, T) {
+    let bar = StageBar::start();
+    let cfg = MakeConfig {
+        progress: Some(bar.clone()),
+        ..cfg
+    };
+    let result = run(&cfg);
+    bar.finish();
+    (cfg, result)
+}
+
 /// The set `make` cuts instead of one stencil, if any: layers, a fill-in, or registration marks
 /// for a mask (every sheet registered).
 pub(super) fn set_config(a: &MakeArgs) -> Option<stencil_core::layers::LayersConfig> {
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
-    a.layers.config(marks)
+    a.layers.config(mask_marks(a))
+}
+
+/// Registration marks on a mask, which cut the sheet's edge (so its margin counts).
+fn mask_marks(a: &MakeArgs) -> bool {
+    a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask)
 }
 
 /// The pipeline's settings from the command line, each option checked in the order given here
@@ -146,11 +137,7 @@ pub(super) fn make_config(
     mut kept: Option<&mut KeptInputs>,
 ) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
-    let machine = if emit_gcode {
-        Some(a.machine.machine()?)
-    } else {
-        None
-    };
+    let machine = emit_gcode.then(|| a.machine.machine()).transpose()?;
     let default_material = match &machine {
         Some(m) => stencil_core::material::default_for(&m.tool),
         None => stencil_core::material::DEFAULT_MATERIAL,
@@ -158,13 +145,9 @@ pub(super) fn make_config(
     let mut physical = a.physical.to_config(&a.output, default_material)?;
     physical.mask.tone_inverted = a.image.invert;
     let (mesh, bridge) = (a.mesh.to_config(), a.bridge.to_config());
-    let marks = a.output.mask_marks && a.output.emit.contains(&EmitKind::Mask);
     let request = Request {
         make: MakeConfig {
-            out_dir: a
-                .out
-                .clone()
-                .unwrap_or_else(|| pipeline::default_out_dir(&a.input)),
+            out_dir: a.out_dir(),
             input: a.input.clone(),
             tone: a.image.to_config(),
             mesh: mesh.as_ref().ok().cloned().unwrap_or_default(),
@@ -180,7 +163,7 @@ pub(super) fn make_config(
             w_mm: m.bed.width_mm,
             h_mm: m.bed.height_mm,
         }),
-        margin_counts: a.machine.cut_outline || marks,
+        margin_counts: a.machine.cut_outline || mask_marks(a),
         ..image_request(&a.image, a.bridge.keep_out.clone())
     };
     let inputs = match kept.as_deref_mut() {
@@ -207,12 +190,10 @@ pub(super) fn make_config(
         emit_gcode,
         cfg.physical.vector.arc_tolerance_mm(),
     )?;
-    if let (Some(g), Some(_)) = (&mut gcode, &cfg.physical.gobo) {
-        // A gobo is a disc: its rim is always cut, last.
-        g.plan.cut_outline = true;
-    }
     let mut cfg = cfg;
-    if let Some(g) = &gcode {
+    if let Some(g) = &mut gcode {
+        // A gobo is a disc: its rim is always cut, last.
+        g.plan.cut_outline |= cfg.physical.gobo.is_some();
         // G-code without arcs (--no-arcs, the machine's profile, a drag knife): the outlines
         // are made straight within the whole tolerance, and every file carries those polygons,
         // the ones the check judges.
@@ -345,13 +326,7 @@ pub fn make_set(
     lc: &LayersConfig,
     fill_in_asked: bool,
 ) -> anyhow::Result<ExitCode> {
-    let bar = StageBar::start();
-    let cfg = MakeConfig {
-        progress: Some(bar.clone()),
-        ..cfg
-    };
-    let result = stencil_core::layers::make(&cfg, lc);
-    bar.finish();
+    let (cfg, result) = with_progress(cfg, |cfg| stencil_core::layers::make(cfg, lc));
     let (set, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_set(&cfg, &set, fill_in_asked);
     if !replaced.removed.is_empty() {
@@ -425,8 +400,6 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
     );
 }
 
-/// What a successful run tells: the stencil in one line, its size and files, files of an earlier
-/// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
 /// The level `otsu` or `auto` chose, and how alike the stencil is to the picture.
 fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
     let (Some(level), Some(like)) = (r.threshold_level, r.likeness) else {
@@ -445,6 +418,8 @@ fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
     }
 }
 
+/// What a successful run tells: the stencil in one line, its size and files, files of an earlier
+/// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
 fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replaced) {
     let r = &made.report;
     let total_ms: f64 = r.timings_ms.values().sum();
@@ -529,7 +504,11 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     }
     print_working_scale(r);
     if let Some(f) = &r.fidelity {
-        println!("{}", change_line(f));
+        println!(
+            "changed {:.2} % of the picture: {}",
+            f.changed_pct,
+            change_parts(f)
+        );
         if f.changed_pct > WARN_CHANGE_PCT {
             eprintln!(
                 "warning: more than {WARN_CHANGE_PCT} % of the picture changed; {}",
@@ -623,7 +602,6 @@ fn print_masks(m: &stencil_core::export::MaskReport) {
     }
 }
 
-/// File names, comma separated.
 fn file_names(paths: &[std::path::PathBuf]) -> String {
     paths
         .iter()
@@ -648,23 +626,21 @@ fn print_working_scale(r: &stencil_core::report::Report) {
         };
         println!("supersampled {k}x ({mm:.3} mm per working pixel) {why}");
     }
-    if let Some(a) = auto {
-        if let Some(cap) = a.capped_by {
-            // The library names the cap; the pixel limit is this command's --max-pixels.
-            let (by, help) = match cap {
-                ScaleCap::MaxFactor => (cap.to_string(), "use a picture with more pixels"),
-                ScaleCap::Memory => (
-                    cap.to_string(),
-                    "use a picture with more pixels, or give --scale",
-                ),
-                ScaleCap::MaxPixels => ("--max-pixels".to_string(), "raise --max-pixels"),
-            };
-            println!(
-                "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {by}; \
-                 edges may show the picture's pixels ({help})",
-                a.target_mm_per_px, a.wanted
-            );
-        }
+    if let Some((a, cap)) = auto.and_then(|a| Some((a, a.capped_by?))) {
+        // The library names the cap; the pixel limit is this command's --max-pixels.
+        let (by, help) = match cap {
+            ScaleCap::MaxFactor => (cap.to_string(), "use a picture with more pixels"),
+            ScaleCap::Memory => (
+                cap.to_string(),
+                "use a picture with more pixels, or give --scale",
+            ),
+            ScaleCap::MaxPixels => ("--max-pixels".to_string(), "raise --max-pixels"),
+        };
+        println!(
+            "note: {:.3} mm working pixels need {}x supersampling, kept to {k}x by {by}; edges \
+             may show the picture's pixels ({help})",
+            a.target_mm_per_px, a.wanted
+        );
     }
 }
 
@@ -747,15 +723,12 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
     };
     let cfg = resolve_picture(&request, &Inputs::load(&request))
         .map_err(|e| sizing_words(&a.input, e))?;
-    let bar = StageBar::start();
     let cfg = MakeConfig {
         mesh: a.mesh.to_config()?,
         filter: a.filter.to_config(),
-        progress: Some(bar.clone()),
         ..cfg
     };
-    let result = stencil_core::driver::clean_two_tone(&cfg);
-    bar.finish();
+    let (cfg, result) = with_progress(cfg, stencil_core::driver::clean_two_tone);
     let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;

@@ -89,14 +89,6 @@ fn parse_percent(s: &str) -> Result<f64, String> {
     parse_in(s, -100.0, 100.0, "a percentage")
 }
 
-fn parse_gamma(s: &str) -> Result<f64, String> {
-    parse_in(s, 0.1, 10.0, "gamma")
-}
-
-fn parse_strength(s: &str) -> Result<f64, String> {
-    parse_in(s, 0.0, 1.0, "the strength")
-}
-
 fn parse_length(s: &str) -> Result<f64, String> {
     parse_in(s, 0.0, 1000.0, "a length in mm")
 }
@@ -201,7 +193,7 @@ pub struct ImageArgs {
     pub contrast: f64,
     /// Gamma, 0.1..10: above 1 lifts the midtones (a dark face opens up), below 1 sinks them; black
     /// and white stay.
-    #[arg(long, default_value_t = 1.0, value_parser = parse_gamma)]
+    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| parse_in(s, 0.1, 10.0, "gamma"))]
     pub gamma: f64,
     /// Edge-preserving smoothing (bilateral filter): the distance in mm over which similar tones
     /// are averaged; edges between different tones are kept. 0 = off.
@@ -210,7 +202,7 @@ pub struct ImageArgs {
     /// Abstraction strength 0..1 (after DeCarlo and Santella 2002): small regions of similar tone
     /// are merged into their neighbours before thresholding, so the stencil keeps the picture's
     /// large shapes instead of its speckle. 0 = off; 0.3 to 0.6 suits most photos.
-    #[arg(long = "abstract", value_name = "S", default_value_t = 0.0, value_parser = parse_strength)]
+    #[arg(long = "abstract", value_name = "S", default_value_t = 0.0, value_parser = |s: &str| parse_in(s, 0.0, 1.0, "the strength"))]
     pub abstraction: f64,
     /// Local (adaptive) threshold: compare each pixel with the mean of its surroundings (a
     /// Gaussian of this many mm) rather than with one level for the whole picture; --threshold
@@ -394,6 +386,13 @@ pub struct MakeArgs {
     pub cut: CutArgs,
     #[command(flatten)]
     pub layers: LayerArgs,
+}
+
+impl MakeArgs {
+    /// The output folder: -o, or the default beside the input.
+    pub fn out_dir(&self) -> PathBuf {
+        (self.out.clone()).unwrap_or_else(|| stencil_core::pipeline::default_out_dir(&self.input))
+    }
 }
 
 impl ImageArgs {

@@ -71,20 +71,11 @@ impl Keys {
         // handler per process: `send --frame` starts keys twice on the same channel, so the
         // first handler serves both.
         on_stop_signals(tx.clone());
-        if std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok() {
-            let stop2 = stop.clone();
-            let thread = std::thread::spawn(move || stencil_grbl::pump(&mut Terminal, &tx, &stop2));
-            return Keys {
-                stop,
-                thread: Some(thread),
-                raw: true,
-            };
-        }
-        Keys {
-            stop,
-            thread: None,
-            raw: false,
-        }
+        let raw = std::io::stdin().is_terminal() && crossterm::terminal::enable_raw_mode().is_ok();
+        let stop2 = stop.clone();
+        let thread =
+            raw.then(|| std::thread::spawn(move || stencil_grbl::pump(&mut Terminal, &tx, &stop2)));
+        Keys { stop, thread, raw }
     }
 }
 

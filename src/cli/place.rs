@@ -10,8 +10,8 @@ use clap::Args;
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine::Machine;
 use stencil_grbl::{
-    BytePort, Console, ControllerState, IfMoving, Observer, Placement, Program, StartFrom,
-    StreamConfig, VirtualConfig,
+    BytePort, Console, ControllerState, IfMoving, Observer, Placement, StartFrom, StreamConfig,
+    VirtualConfig,
 };
 
 /// What `--start-from` says, worded once for send and frame.
@@ -52,12 +52,8 @@ pub fn virtual_from(mut vcfg: VirtualConfig, dump: Option<&ControllerState>) -> 
             vcfg.settings.retain(|(n, _)| *n != k);
             vcfg.settings.push((k, stencil_gcode::num(v)));
         }
-        if let Some(h) = st.homes() {
-            vcfg.homing = h;
-        }
-        if let Some(r) = st.setting(110) {
-            vcfg.rapid_mm_min = r;
-        }
+        vcfg.homing = st.homes().unwrap_or(vcfg.homing);
+        vcfg.rapid_mm_min = st.setting(110).unwrap_or(vcfg.rapid_mm_min);
         vcfg.start = Some(st.clone());
     }
     vcfg
@@ -125,11 +121,6 @@ pub fn g92_needed(p: &Placement, st: &ControllerState) -> Option<String> {
         (false, Some(pos)) => Some(stencil_grbl::g92_for(p.zero, pos)),
         _ => None,
     }
-}
-
-/// The job read again from its placement: every move in machine coordinates.
-pub fn placed(name: &str, text: &str, p: &Placement) -> anyhow::Result<Program> {
-    Ok(Program::parse_from(name, text, p.modal)?)
 }
 
 /// The bed check on placed moves: a refusal says where the job's zero was put and how to move

@@ -83,7 +83,35 @@ impl PortArgs {
 
     /// Open the port, or with `--dry-run` start a virtual Grbl built as `vcfg` says.
     pub fn open(&self, vcfg: VirtualConfig) -> anyhow::Result<Opened> {
-        open_machine(self.dry_run, self.port.as_deref(), self.baud, vcfg)
+        if self.dry_run {
+            let (vg, host) = VirtualGrbl::spawn(vcfg)
+                .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
+            return Ok(Opened {
+                port: Box::new(host),
+                label: "the virtual Grbl (dry run)".into(),
+                virtual_grbl: Some(vg),
+            });
+        }
+        let Some(p) = &self.port else {
+            bail!(
+                "no machine given: pass --port PATH (ports found: {}) or --dry-run to use a simulated Grbl",
+                list_ports()
+            );
+        };
+        let sp = serialport::new(p, self.baud)
+            .timeout(Duration::from_millis(100))
+            .open()
+            .map_err(|e| {
+                anyhow::anyhow!(
+                    "{p}: cannot open the serial port: {e}; ports found: {}",
+                    list_ports()
+                )
+            })?;
+        Ok(Opened {
+            port: Box::new(sp),
+            label: p.to_string(),
+            virtual_grbl: None,
+        })
     }
 }
 
@@ -109,65 +137,29 @@ pub fn list_ports() -> String {
     }
 }
 
-/// Open `port` at `baud`, or with `dry_run` start a virtual Grbl built as `vcfg` says.
-fn open_machine(
-    dry_run: bool,
-    port: Option<&str>,
-    baud: u32,
-    vcfg: VirtualConfig,
-) -> anyhow::Result<Opened> {
-    if dry_run {
-        let (vg, host) = VirtualGrbl::spawn(vcfg)
-            .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
-        return Ok(Opened {
-            port: Box::new(host),
-            label: "the virtual Grbl (dry run)".into(),
-            virtual_grbl: Some(vg),
-        });
-    }
-    let Some(p) = port else {
-        bail!(
-            "no machine given: pass --port PATH (ports found: {}) or --dry-run to use a simulated Grbl",
-            list_ports()
-        );
-    };
-    let sp = serialport::new(p, baud)
-        .timeout(Duration::from_millis(100))
-        .open()
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "{p}: cannot open the serial port: {e}; ports found: {}",
-                list_ports()
-            )
-        })?;
-    Ok(Opened {
-        port: Box::new(sp),
-        label: p.to_string(),
-        virtual_grbl: None,
-    })
-}
-
 /// What the machine profile and the job say Grbl's settings should be (see [`Expected`]): the
 /// power scale the job's S words were written for (its header's `$30=`/`$31=`, as `stencil`
 /// writes it, else the profile's), the profile's rates, acceleration, junction deviation and bed.
 pub fn expected(machine: &Machine, text: &str, job: &Program) -> Expected {
     let fires = job.moves.iter().any(|m| m.power > 0.0);
     let power = match machine.tool {
-        Tool::Laser { s_max, s_min } if fires => Some(match header_scale(text) {
-            Some((s_max, s_min)) => PowerScale {
-                s_max,
-                s_min,
-                source: "read from its header".into(),
-            },
-            None => PowerScale {
-                s_max,
-                s_min,
-                source: format!(
-                    "taken from machine profile {}, as its header does not say",
-                    machine.name
+        Tool::Laser { s_max, s_min } if fires => {
+            let ((s_max, s_min), source) = match header_scale(text) {
+                Some(scale) => (scale, "read from its header".into()),
+                None => (
+                    (s_max, s_min),
+                    format!(
+                        "taken from machine profile {}, as its header does not say",
+                        machine.name
+                    ),
                 ),
-            },
-        }),
+            };
+            Some(PowerScale {
+                s_max,
+                s_min,
+                source,
+            })
+        }
         _ => None,
     };
     Expected {
@@ -256,18 +248,10 @@ pub fn controller_motion(
         let v = [first, first + 1, first + 2].map(|k| info.setting(k).filter(|x| *x > 0.0));
         Some([v[0]?, v[1]?, v[2]?])
     };
-    if let Some(r) = axes(110) {
-        limits.axis_rate_mm_min = Some(r);
-    }
-    if let Some(a) = axes(120) {
-        limits.axis_accel_mm_s2 = Some(a);
-    }
-    if let Some(s) = axes(100) {
-        limits.steps_per_mm = Some(s);
-    }
-    if let Some(ms) = info.setting(1).filter(|ms| *ms >= 0.0) {
-        limits.idle_lock_ms = Some(ms);
-    }
+    limits.axis_rate_mm_min = axes(110).or(limits.axis_rate_mm_min);
+    limits.axis_accel_mm_s2 = axes(120).or(limits.axis_accel_mm_s2);
+    limits.steps_per_mm = axes(100).or(limits.steps_per_mm);
+    limits.idle_lock_ms = (info.setting(1).filter(|ms| *ms >= 0.0)).or(limits.idle_lock_ms);
     limits
 }
 

@@ -62,12 +62,7 @@ impl stencil_studio::Maker for CliMaker {
                 if NOT_OFFERED.contains(&name.as_str()) {
                     return None;
                 }
-                let kind = match a.get_action() {
-                    ArgAction::SetTrue => Kind::Flag,
-                    // A list given with commas is one value, as on the command line.
-                    ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
-                    _ => Kind::Value,
-                };
+                let kind = kind(a);
                 let choices = profile_choices(&name).unwrap_or_else(|| {
                     a.get_possible_values()
                         .iter()
@@ -94,18 +89,25 @@ impl stencil_studio::Maker for CliMaker {
             .collect()
     }
 
-    fn config(&self, args: &[String]) -> Result<MakeConfig, String> {
+    fn config(&self, args: &[String]) -> Result<(MakeConfig, Option<LayersConfig>), String> {
         let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
-        make_config(&parse_make(&self.cli, args)?, Some(&mut kept))
-            .map_err(|e| super::errors::one_line(&e))
-    }
-
-    fn set(&self, args: &[String]) -> Result<Option<LayersConfig>, String> {
-        Ok(set_config(&parse_make(&self.cli, args)?))
+        let a = parse_make(&self.cli, args)?;
+        let cfg = make_config(&a, Some(&mut kept)).map_err(|e| super::errors::one_line(&e))?;
+        Ok((cfg, set_config(&a)))
     }
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
         super::errors::one_line(&make_error(cfg, e))
+    }
+}
+
+/// How the page takes an option.
+fn kind(a: &clap::Arg) -> Kind {
+    match a.get_action() {
+        ArgAction::SetTrue => Kind::Flag,
+        // A list given with commas is one value, as on the command line.
+        ArgAction::Append if a.get_value_delimiter().is_none() => Kind::List,
+        _ => Kind::Value,
     }
 }
 
@@ -153,10 +155,8 @@ fn clap_message(e: &clap::Error) -> String {
 /// The option values given on the command line, as `/api/params` takes them.
 fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
     let mut out = serde_json::Map::new();
-    let Ok(m) = cli.clone().try_get_matches_from(args) else {
-        return Value::Object(out);
-    };
-    let Some(("studio", m)) = m.subcommand() else {
+    let matches = cli.clone().try_get_matches_from(args).ok();
+    let Some(("studio", m)) = matches.as_ref().and_then(|m| m.subcommand()) else {
         return Value::Object(out);
     };
     for a in make_command(cli).get_arguments() {
@@ -172,10 +172,10 @@ fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
             .get_raw(id)
             .map(|v| v.map(|s| s.to_string_lossy().into_owned()).collect())
             .unwrap_or_default();
-        let v = match a.get_action() {
-            ArgAction::SetTrue => Value::from("true"),
-            ArgAction::Append if a.get_value_delimiter().is_none() => Value::from(raw),
-            _ => Value::from(raw.join(",")),
+        let v = match kind(a) {
+            Kind::Flag => Value::from("true"),
+            Kind::List => Value::from(raw),
+            Kind::Value => Value::from(raw.join(",")),
         };
         out.insert(long.to_string(), v);
     }
@@ -186,14 +186,9 @@ fn given_options(cli: &clap::Command, args: &[OsString]) -> Value {
 pub fn run_studio(a: StudioArgs, cli: clap::Command) -> anyhow::Result<ExitCode> {
     // Checked as `make` checks them, so a bad option fails here, before anything listens.
     make_config(&a.make, None)?;
-    let out_dir = a
-        .make
-        .out
-        .clone()
-        .unwrap_or_else(|| stencil_core::pipeline::default_out_dir(&a.make.input));
     let cfg = stencil_studio::StudioConfig {
         input: a.make.input.clone(),
-        out_dir,
+        out_dir: a.make.out_dir(),
         initial: given_options(&cli, &std::env::args_os().collect::<Vec<_>>()),
         port: a.port,
     };

@@ -454,6 +454,16 @@ struct Job<'a> {
     offset: Option<(f64, f64)>,
 }
 
+impl<'a> Job<'a> {
+    /// A boolean operation's job: its shapes, no offset.
+    fn of(shapes: Vec<&'a Polygon<f64>>) -> Self {
+        Job {
+            shapes,
+            offset: None,
+        }
+    }
+}
+
 /// Whether to turn each job a quarter turn (the cheaper way to sweep it); refuses an offset of a
 /// path crossing itself more than [`MAX_SELF_CROSSINGS`] times, and jobs that together would take
 /// more than [`MAX_SWEEP_WORK`] steps either way.
@@ -482,16 +492,10 @@ fn plan(jobs: &[Job]) -> Result<Vec<bool>, ClipError> {
             if worst <= SMALL {
                 return Ok((worst, false, 0));
             }
-            let raw = j.offset.map(|(d, spr)| {
-                let r: Vec<Polygon<f64>> = j.shapes.iter().map(|p| raw_offset(p, d, spr)).collect();
-                r
-            });
+            let raw: Option<Vec<Polygon<f64>>> =
+                (j.offset).map(|(d, spr)| j.shapes.iter().map(|p| raw_offset(p, d, spr)).collect());
             let cost = |turned: bool, cap: f64| -> Result<(f64, usize), ClipError> {
-                let limit = if raw.is_some() {
-                    MAX_SELF_CROSSINGS
-                } else {
-                    usize::MAX
-                };
+                let limit = raw.as_ref().map_or(usize::MAX, |_| MAX_SELF_CROSSINGS);
                 let s = sweep(&j.shapes, turned, cap, limit);
                 if raw.is_some() && s.crossings > MAX_SELF_CROSSINGS {
                     return Err(ClipError::SelfCrossing {
@@ -549,12 +553,8 @@ pub fn difference_each(
     for (a, b) in pairs {
         check_rings(rings_of(a).chain(b.0.iter().flat_map(rings_of)))?;
     }
-    let jobs: Vec<Job> = pairs
-        .iter()
-        .map(|(a, b)| Job {
-            shapes: std::iter::once(*a).chain(b.0.iter()).collect(),
-            offset: None,
-        })
+    let jobs: Vec<Job> = (pairs.iter())
+        .map(|(a, b)| Job::of(std::iter::once(*a).chain(b.0.iter()).collect()))
         .collect();
     let turns = plan(&jobs)?;
     Ok(pairs
@@ -577,13 +577,7 @@ pub fn union_each(groups: &[Vec<Polygon<f64>>]) -> Result<Vec<MultiPolygon<f64>>
     for g in groups {
         check_rings(g.iter().flat_map(rings_of))?;
     }
-    let jobs: Vec<Job> = groups
-        .iter()
-        .map(|g| Job {
-            shapes: g.iter().collect(),
-            offset: None,
-        })
-        .collect();
+    let jobs: Vec<Job> = groups.iter().map(|g| Job::of(g.iter().collect())).collect();
     let turns = plan(&jobs)?;
     let none = MultiPolygon::new(Vec::new());
     Ok(groups
@@ -619,10 +613,7 @@ pub fn boolean(
     op: Op,
 ) -> Result<MultiPolygon<f64>, ClipError> {
     check_rings(a.0.iter().chain(&b.0).flat_map(rings_of))?;
-    let jobs = [Job {
-        shapes: a.0.iter().chain(&b.0).collect(),
-        offset: None,
-    }];
+    let jobs = [Job::of(a.0.iter().chain(&b.0).collect())];
     let t = plan(&jobs)?[0];
     let run = |a: &MultiPolygon<f64>, b: &MultiPolygon<f64>| match op {
         Op::Intersection => a.intersection(b, CLIPPER_FACTOR),
@@ -649,10 +640,7 @@ pub fn clip_lines(
         .iter()
         .map(|l| Polygon::new(l.clone(), vec![]))
         .collect();
-    let jobs = [Job {
-        shapes: closed.iter().chain(&region.0).collect(),
-        offset: None,
-    }];
+    let jobs = [Job::of(closed.iter().chain(&region.0).collect())];
     plan(&jobs)?;
     let m = geo::MultiLineString::new(lines.to_vec());
     Ok(m.intersection(region, CLIPPER_FACTOR).0)

@@ -19,7 +19,7 @@
 //!
 //! The bulge is DXF's: `tan(sweep / 4)`, positive counter-clockwise in the numeric (x, y) plane.
 
-use crate::ring::{dist, seg_dist};
+use crate::ring::{dist, point_box, seg_closest, seg_dist, union_box, NO_BOX};
 
 /// One piece of a closed outline: from `from` to the next piece's `from` (the first piece's after
 /// the last), straight when `bulge` is 0, else a circular arc that sweeps `4 atan(bulge)`.
@@ -430,16 +430,7 @@ pub fn onto_pieces(ring: &[[f64; 2]], pieces: &[Piece]) -> Option<Vec<[f64; 2]>>
                     arc.center[1] + (q[1] - arc.center[1]) * s,
                 ]
             }
-            None => {
-                let d = [to[0] - from[0], to[1] - from[1]];
-                let l2 = d[0] * d[0] + d[1] * d[1];
-                let t = if l2 > 0.0 {
-                    (((q[0] - from[0]) * d[0] + (q[1] - from[1]) * d[1]) / l2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                [from[0] + t * d[0], from[1] + t * d[1]]
-            }
+            None => seg_closest(q, from, to),
         });
     }
     // Every piece was met, in order.
@@ -459,46 +450,21 @@ pub fn arc_count(pieces: &[Piece]) -> usize {
 /// and a blanket margin would refuse or move jobs that stay on the bed.
 pub fn bounds(pieces: &[Piece]) -> Option<[f64; 4]> {
     let n = pieces.len();
-    let mut b = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for (k, p) in pieces.iter().enumerate() {
+    let boxes = pieces.iter().enumerate().map(|(k, p)| {
         let to = pieces[(k + 1) % n].from;
-        let e = match arc_of(p.from, to, p.bulge) {
+        match arc_of(p.from, to, p.bulge) {
             Some(arc) => arc_box(&arc, p.from, to),
-            None => [p.from[0], p.from[1], p.from[0], p.from[1]],
-        };
-        b = [
-            b[0].min(e[0]),
-            b[1].min(e[1]),
-            b[2].max(e[2]),
-            b[3].max(e[3]),
-        ];
-    }
-    (n > 0).then_some(b)
+            None => point_box(p.from),
+        }
+    });
+    (n > 0).then_some(boxes.fold(NO_BOX, union_box))
 }
 
 /// The exact box of one arc from `p` to `q`: its ends, and its points at the quarter-turn
 /// angles its sweep passes.
 fn arc_box(arc: &ArcGeom, p: [f64; 2], q: [f64; 2]) -> [f64; 4] {
-    let mut b = [
-        p[0].min(q[0]),
-        p[1].min(q[1]),
-        p[0].max(q[0]),
-        p[1].max(q[1]),
-    ];
-    for (_, e) in quarter_points(arc) {
-        b = [
-            b[0].min(e[0]),
-            b[1].min(e[1]),
-            b[2].max(e[0]),
-            b[3].max(e[1]),
-        ];
-    }
-    b
+    let ends = union_box(point_box(p), point_box(q));
+    (quarter_points(arc).into_iter()).fold(ends, |b, (_, e)| union_box(b, point_box(e)))
 }
 
 /// The length of the closed path the pieces make: lines as chords, arcs as `radius · |sweep|`.
@@ -625,17 +591,13 @@ impl Curves {
             return None;
         }
         let s = c.at[j];
-        if (0..n).all(|i| ring[(q + i) % n] == c.flat[(s + i) % n]) {
-            let mut p = c.pieces.clone();
-            p.rotate_left(j);
-            return Some((q, p));
+        let forward = (0..n).all(|i| ring[(q + i) % n] == c.flat[(s + i) % n]);
+        if !forward && !(0..n).all(|i| ring[(q + i) % n] == c.flat[(s + n - i) % n]) {
+            return None;
         }
-        if (0..n).all(|i| ring[(q + i) % n] == c.flat[(s + n - i) % n]) {
-            let mut p = c.pieces.clone();
-            p.rotate_left(j);
-            return Some((q, reversed(&p)));
-        }
-        None
+        let mut p = c.pieces.clone();
+        p.rotate_left(j);
+        Some((q, if forward { p } else { reversed(&p) }))
     }
 }
 

@@ -3,7 +3,7 @@
 //! design line. Round joins, because the beam (or blade) is round.
 
 use geo::orient::{Direction, Orient};
-use geo::{Coord, LineString, MultiPolygon, Polygon};
+use geo::{LineString, MultiPolygon, Polygon};
 use rayon::prelude::*;
 
 use crate::clip::{self, ClipError};
@@ -66,14 +66,8 @@ pub fn offset_cuts_curved(
                         .iter()
                         .map(|pieces| {
                             let mut flat = curve::flatten(pieces, tol);
-                            let first = flat[0];
-                            flat.push(first);
-                            Polygon::new(
-                                LineString::new(
-                                    flat.into_iter().map(|[x, y]| Coord { x, y }).collect(),
-                                ),
-                                vec![],
-                            )
+                            flat.push(flat[0]);
+                            Polygon::new(LineString::from(flat), vec![])
                         })
                         .collect();
                     (MultiPolygon::new(polys), loops)

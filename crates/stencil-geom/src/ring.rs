@@ -4,22 +4,30 @@
 /// The bounding box `[min x, min y, max x, max y]` of points (infinite and inverted when there
 /// are none).
 pub fn bbox(points: &[[f64; 2]]) -> [f64; 4] {
-    points.iter().fold(
-        [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ],
-        |b, p| {
-            [
-                b[0].min(p[0]),
-                b[1].min(p[1]),
-                b[2].max(p[0]),
-                b[3].max(p[1]),
-            ]
-        },
-    )
+    points
+        .iter()
+        .fold(NO_BOX, |b, &p| union_box(b, point_box(p)))
+}
+
+/// The box of nothing: its union with any box is that box.
+pub(crate) const NO_BOX: [f64; 4] = [
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+];
+
+pub(crate) fn point_box(p: [f64; 2]) -> [f64; 4] {
+    [p[0], p[1], p[0], p[1]]
+}
+
+pub(crate) fn union_box(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].max(b[2]),
+        a[3].max(b[3]),
+    ]
 }
 
 /// Twice the signed shoelace area of a ring: positive when it runs counter-clockwise in the
@@ -70,6 +78,11 @@ pub fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// The distance from `p` to the segment from `a` to `b` (to `a` when the two are one point).
 pub fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    dist(p, seg_closest(p, a, b))
+}
+
+/// The point of the segment from `a` to `b` closest to `p` (`a` when the two are one point).
+pub(crate) fn seg_closest(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     let d = [b[0] - a[0], b[1] - a[1]];
     let l2 = d[0] * d[0] + d[1] * d[1];
     let t = if l2 > 0.0 {
@@ -77,7 +90,7 @@ pub fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     } else {
         0.0
     };
-    dist(p, [a[0] + t * d[0], a[1] + t * d[1]])
+    [a[0] + t * d[0], a[1] + t * d[1]]
 }
 
 #[cfg(test)]

@@ -60,8 +60,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     write_atomic_with(path, |w| w.write_all(bytes))
 }
 
-/// Write to `path` atomically through a closure that gets a buffered writer.
-pub fn write_atomic_with(
+/// Write to `path` atomically through a closure that gets the temp file (a test's failing writer
+/// shows that nothing is left behind).
+fn write_atomic_with(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), WriteError> {
@@ -120,11 +121,7 @@ fn staged(
 ) -> Result<NamedTempFile, WriteError> {
     let err = |e| write_error(path, e);
     let mut tmp = temp_in(folder_of(path)).map_err(err)?;
-    {
-        let mut buf = std::io::BufWriter::new(tmp.as_file_mut());
-        f(&mut buf).map_err(err)?;
-        buf.flush().map_err(err)?;
-    }
+    f(tmp.as_file_mut()).map_err(err)?;
     Ok(tmp)
 }
 

@@ -24,7 +24,7 @@ mod read;
 mod swap;
 mod text;
 
-pub use atomic::{write_atomic, write_atomic_with, Replaced, WriteError};
+pub use atomic::{write_atomic, Replaced, WriteError};
 pub use disk::plain_io;
 pub use output::{check_output, check_output_dir, OutputError};
 pub use read::{open_bounded, read_bytes, read_text, Kind, ReadError};

@@ -16,9 +16,6 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
-/// The largest material or machine profile read (1 MiB; the shipped ones are under 2 KB).
-pub const MAX_PROFILE_BYTES: u64 = crate::read::Kind::Profile.cap();
-
 /// Errors reading or validating a profile. Every message names the file (or the name looked up)
 /// and, where there is one, the field.
 #[derive(Debug, thiserror::Error)]
@@ -88,8 +85,8 @@ pub struct Shipped {
     pub text: &'static str,
 }
 
-/// Read and parse a TOML file into `T`. At most [`MAX_PROFILE_BYTES`] are read:
-/// a huge file or a device such as /dev/zero is refused instead of read forever.
+/// Read and parse a TOML file into `T`. At most [`Kind::Profile`](crate::Kind::Profile)'s cap (1
+/// MiB) is read: a huge file or a device such as /dev/zero is refused instead of read forever.
 pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<T, ProfileError> {
     let text = crate::read::read_text(path, crate::read::Kind::Profile)?;
     parse_toml(&text, path)
@@ -132,11 +129,11 @@ fn is_path(arg: &str) -> bool {
     arg.contains('/') || arg.contains('\\') || arg.ends_with(".toml")
 }
 
-/// The folders searched for `profiles/<kind>/`: the current directory's only. (No folder baked in
-/// at build time: the binary behaves the same wherever it was built; the shipped profiles are
-/// embedded.)
-fn search_dirs(kind: &str) -> Vec<PathBuf> {
-    vec![Path::new("profiles").join(kind)]
+/// The folder searched for a user's profiles: `profiles/<kind>/` in the current directory. (No
+/// folder baked in at build time: the binary behaves the same wherever it was built; the shipped
+/// profiles are embedded.)
+fn search_dir(kind: &str) -> PathBuf {
+    Path::new("profiles").join(kind)
 }
 
 /// Find a profile by name or path and parse it. Returns the value and where it came from (a path,
@@ -150,11 +147,9 @@ pub fn resolve<T: DeserializeOwned>(
         let p = PathBuf::from(arg);
         return Ok((load_toml(&p)?, p));
     }
-    for dir in search_dirs(kind) {
-        let p = dir.join(format!("{arg}.toml"));
-        if p.is_file() {
-            return Ok((load_toml(&p)?, p));
-        }
+    let p = search_dir(kind).join(format!("{arg}.toml"));
+    if p.is_file() {
+        return Ok((load_toml(&p)?, p));
     }
     embedded(arg, kind, shipped)
 }
@@ -180,19 +175,18 @@ pub fn embedded<T: DeserializeOwned>(
     })
 }
 
-/// Every profile name available: shipped ones plus `.toml` files in the search folders, sorted.
+/// Every profile name available: shipped ones plus `.toml` files in the search folder, sorted.
 pub fn known_names(kind: &str, shipped: &[Shipped]) -> Vec<String> {
     let mut names: Vec<String> = shipped.iter().map(|s| s.name.to_string()).collect();
-    for dir in search_dirs(kind) {
-        let Ok(rd) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for e in rd.flatten() {
-            let p = e.path();
-            if p.extension().is_some_and(|x| x == "toml") {
-                if let Some(stem) = p.file_stem().and_then(|s| s.to_str()) {
-                    names.push(stem.to_string());
-                }
+    for e in std::fs::read_dir(search_dir(kind))
+        .into_iter()
+        .flatten()
+        .flatten()
+    {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            if let Some(stem) = p.file_stem().and_then(|s| s.to_str()) {
+                names.push(stem.to_string());
             }
         }
     }

@@ -145,11 +145,6 @@ impl ReadError {
 /// caller reads at most that much (a picture decoder that needs to seek gets the file itself).
 pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
     let what = kind.name();
-    let io = |source: std::io::Error| ReadError::Io {
-        path: path.to_path_buf(),
-        what,
-        source: plain_io(source),
-    };
     let mut opts = std::fs::OpenOptions::new();
     opts.read(true);
     #[cfg(unix)]
@@ -164,7 +159,7 @@ pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
         what,
         source: plain_io(source),
     })?;
-    let meta = file.metadata().map_err(io)?;
+    let meta = file.metadata().map_err(|e| io_error(path, kind, e))?;
     if let Some(is) = not_a_file(&meta.file_type()) {
         return Err(ReadError::NotAFile {
             path: path.to_path_buf(),
@@ -176,6 +171,14 @@ pub fn open_bounded(path: &Path, kind: Kind) -> Result<(File, u64), ReadError> {
         return Err(too_large(path, kind));
     }
     Ok((file, meta.len()))
+}
+
+fn io_error(path: &Path, kind: Kind, source: std::io::Error) -> ReadError {
+    ReadError::Io {
+        path: path.to_path_buf(),
+        what: kind.name(),
+        source: plain_io(source),
+    }
 }
 
 fn too_large(path: &Path, kind: Kind) -> ReadError {
@@ -196,11 +199,7 @@ pub fn read_bytes(path: &Path, kind: Kind) -> Result<Vec<u8>, ReadError> {
         .map_err(|_| too_large(path, kind))?;
     file.take(kind.cap() + 1)
         .read_to_end(&mut bytes)
-        .map_err(|source| ReadError::Io {
-            path: path.to_path_buf(),
-            what: kind.name(),
-            source: plain_io(source),
-        })?;
+        .map_err(|e| io_error(path, kind, e))?;
     if bytes.len() as u64 > kind.cap() {
         return Err(too_large(path, kind));
     }

@@ -73,19 +73,15 @@ impl Step {
                 .unwrap_or(s)
                 .to_string()
         };
+        // Where an owned file may be; an owned folder, in all but the new set's.
         const FILE_IN: &[&str] = &[
             "previous/",
+            ".stencil-swap/old/",
+            ".stencil-swap/old-previous/",
             ".stencil-swap/new/",
-            ".stencil-swap/old/",
-            ".stencil-swap/old-previous/",
-        ];
-        const FOLDER_IN: &[&str] = &[
-            "previous/",
-            ".stencil-swap/old/",
-            ".stencil-swap/old-previous/",
         ];
         let file = |s: &str| owned.contains(&strip(s, FILE_IN).as_str());
-        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, FOLDER_IN));
+        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, &FILE_IN[..3]));
         let folder = |s: &str| {
             matches!(
                 s,
@@ -117,7 +113,7 @@ impl Step {
             for anc in ancestors(p) {
                 let at = dir.join(anc);
                 if (anc == PREVIOUS_DIR && matches!(self, Step::Rename(..))) || exists(&at) {
-                    refuse_unless_real_dir(&at)?;
+                    refuse_unless_real(&at, true)?;
                 }
             }
         }
@@ -132,7 +128,7 @@ impl Step {
             Step::MkDir(a) => match std::fs::create_dir(dir.join(a)) {
                 // There already: only as a real folder (a link is not followed).
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    refuse_unless_real_dir(&dir.join(a))
+                    refuse_unless_real(&dir.join(a), true)
                 }
                 r => r.map_err(|e| err(a, e)),
             },
@@ -146,40 +142,22 @@ impl Step {
     }
 }
 
-/// Refuse a path a swap goes through that is not a real folder: a symbolic link (never followed,
-/// wherever it points) or anything else.
-fn refuse_unless_real_dir(p: &Path) -> Result<(), WriteError> {
-    match std::fs::symlink_metadata(p) {
-        Ok(m) if m.is_dir() => Ok(()),
-        Ok(m) => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: if m.file_type().is_symlink() {
-                "a symbolic link"
-            } else {
-                not_a_file(&m.file_type()).unwrap_or("a file")
-            },
-        }),
-        Err(_) => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: "missing",
-        }),
-    }
-}
-
-/// Refuse a file of the swap's own (its plan, its record of steps done) that is there as
-/// anything but a regular file: a link is never read or written through.
-fn refuse_unless_file(p: &Path) -> Result<(), WriteError> {
-    match std::fs::symlink_metadata(p) {
-        Ok(m) if !m.is_file() => Err(WriteError::NotSwapFolder {
-            path: p.to_path_buf(),
-            is: if m.file_type().is_symlink() {
-                "a symbolic link"
-            } else {
-                not_a_file(&m.file_type()).unwrap_or("not a regular file")
-            },
-        }),
-        _ => Ok(()),
-    }
+/// Refuse a path a swap goes through that is not a real folder (`folder`: one it needs there), or
+/// a file of the swap's own (its plan, its record of steps done) that is there as anything but a
+/// regular file: a symbolic link is never followed, read or written through, wherever it points.
+fn refuse_unless_real(p: &Path, folder: bool) -> Result<(), WriteError> {
+    let is = match std::fs::symlink_metadata(p) {
+        Ok(m) if (folder && m.is_dir()) || (!folder && m.is_file()) => return Ok(()),
+        Ok(m) if m.file_type().is_symlink() => "a symbolic link",
+        // (Only a folder's place can hold a regular file here.)
+        Ok(m) => not_a_file(&m.file_type()).unwrap_or("a file"),
+        Err(_) if folder => "missing",
+        Err(_) => return Ok(()),
+    };
+    Err(WriteError::NotSwapFolder {
+        path: p.to_path_buf(),
+        is,
+    })
 }
 
 fn exists(p: &Path) -> bool {
@@ -204,11 +182,6 @@ fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
     }
     out.sort_by_key(|f| f.matches('/').count());
     out
-}
-
-/// The owned folders `names` sit in, outermost first.
-fn folders_of<'a>(names: &[&'a str]) -> Vec<&'a str> {
-    owned_folders(names)
 }
 
 /// Refuse an owned folder that is there but is not a real folder (a file, a link elsewhere).
@@ -292,10 +265,6 @@ fn io_err(path: &Path, e: std::io::Error) -> WriteError {
 /// on the folder itself, so that no lock file is left behind.
 pub struct FolderLock(#[allow(dead_code)] File);
 
-fn lock(dir: &Path) -> Result<FolderLock, WriteError> {
-    lock_folder(dir, std::time::Duration::ZERO)
-}
-
 /// Lock `dir` against other stencil runs, waiting up to `wait` for one that holds it (polled:
 /// each holder keeps it for one short read-modify-write); [`WriteError::Busy`] after that. A
 /// file system without locks is not refused: the folder is used unlocked.
@@ -362,7 +331,7 @@ pub fn recover(dir: &Path, owned: &[&str]) -> Result<Recovered, WriteError> {
         crate::atomic::sweep_temps(dir);
         return Ok(Recovered::Nothing);
     }
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     let mut h = process_hook();
     let mut pts = Points { hook: &mut h, n: 0 };
     recover_locked(dir, owned, &mut pts).map_err(unstop)
@@ -379,12 +348,9 @@ pub fn recover_around(
     path: &Path,
     owned: &[&str],
 ) -> Result<Vec<(PathBuf, Recovered)>, WriteError> {
-    let mut out = Vec::new();
-    for dir in folders_around(path, owned) {
-        let r = recover(&dir, owned)?;
-        out.push((dir, r));
-    }
-    Ok(out)
+    (folders_around(path, owned).into_iter())
+        .map(|dir| recover(&dir, owned).map(|r| (dir, r)))
+        .collect()
 }
 
 /// The folders [`recover_around`] settles for `path`, outermost first, as the path names them
@@ -431,7 +397,7 @@ fn name_and_parent(p: &Path) -> Option<(String, PathBuf)> {
 
 #[cfg(test)]
 pub(crate) fn recover_hooked(dir: &Path, owned: &[&str], hook: Hook) -> Result<Recovered, Stop> {
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     let mut pts = Points { hook, n: 0 };
     recover_locked(dir, owned, &mut pts)
 }
@@ -452,7 +418,7 @@ fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recove
     if !exists(&swap) {
         return Ok(Recovered::Nothing);
     }
-    refuse_unless_real_dir(&swap)?;
+    refuse_unless_real(&swap, true)?;
     let plan = swap.join(PLAN);
     if exists(&plan) {
         run_plan(dir, owned, pts)?;
@@ -474,14 +440,14 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
             path: plan_path.clone(),
         })
     };
-    refuse_unless_file(&plan_path)?;
+    refuse_unless_real(&plan_path, false)?;
     let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
     let steps: Vec<Step> = text
         .lines()
         .map(|l| Step::parse(l, owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
-    refuse_unless_file(&done_path)?;
+    refuse_unless_real(&done_path, false)?;
     let done = std::fs::symlink_metadata(&done_path).map_or(0, |m| m.len() as usize);
     let mut record = std::fs::OpenOptions::new()
         .create(true)
@@ -548,33 +514,44 @@ fn refuse_odd(path: &Path) -> Result<bool, WriteError> {
 /// itself if that empties it.
 fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(), WriteError> {
     let prev = dir.join(PREVIOUS_DIR);
-    if !std::fs::symlink_metadata(&prev).is_ok_and(|m| m.is_dir()) {
+    if !real_dir(&prev) {
         return Ok(());
     }
     refuse_odd_folders(&prev, &owned_folders(owned))?;
-    let mut there = Vec::new();
-    for n in owned {
-        if refuse_odd(&prev.join(n))? {
-            there.push(*n);
-        }
-    }
-    if !there.is_empty() {
-        steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous")));
-        for f in folders_of(&there) {
-            steps.push(Step::MkDir(format!("{SWAP_DIR}/old-previous/{f}")));
-        }
-        for n in &there {
-            steps.push(Step::Rename(
-                format!("{PREVIOUS_DIR}/{n}"),
-                format!("{SWAP_DIR}/old-previous/{n}"),
-            ));
-        }
-    }
-    for f in folders_of(&there).iter().rev() {
+    let there = present(&prev, owned)?;
+    let from = format!("{PREVIOUS_DIR}/");
+    move_into(steps, &there, &from, &format!("{SWAP_DIR}/old-previous"));
+    for f in owned_folders(&there).iter().rev() {
         steps.push(Step::RmDirIfEmpty(format!("{PREVIOUS_DIR}/{f}")));
     }
     steps.push(Step::RmDirIfEmpty(PREVIOUS_DIR.into()));
     Ok(())
+}
+
+/// The `owned` names there in `dir` (refusing one that is not a file or a link).
+fn present<'a>(dir: &Path, owned: &[&'a str]) -> Result<Vec<&'a str>, WriteError> {
+    let mut there = Vec::new();
+    for n in owned {
+        if refuse_odd(&dir.join(n))? {
+            there.push(*n);
+        }
+    }
+    Ok(there)
+}
+
+/// Steps that move the owned `names` from `from` (a folder and its `/`, or "" for the output
+/// folder) into the folder `into`, made first with the folders the names sit in in it.
+fn move_into(steps: &mut Vec<Step>, names: &[&str], from: &str, into: &str) {
+    if names.is_empty() {
+        return;
+    }
+    steps.push(Step::MkDir(into.to_string()));
+    for f in owned_folders(names) {
+        steps.push(Step::MkDir(format!("{into}/{f}")));
+    }
+    for n in names {
+        steps.push(Step::Rename(format!("{from}{n}"), format!("{into}/{n}")));
+    }
 }
 
 /// Write a set of files into `dir` as one transaction (see the module notes): afterwards the
@@ -597,7 +574,7 @@ pub(crate) fn replace_all_hooked(
     hook: Hook,
 ) -> Result<Replaced, Stop> {
     let mut pts = Points { hook, n: 0 };
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     recover_locked(dir, owned, &mut pts)?;
     let mut owned: Vec<&str> = owned.to_vec();
     for (n, _) in files {
@@ -608,12 +585,7 @@ pub(crate) fn replace_all_hooked(
     // Refuse, before writing anything, to replace what is not a file.
     let folders = owned_folders(&owned);
     refuse_odd_folders(dir, &folders)?;
-    let mut existing = Vec::new();
-    for n in &owned {
-        if refuse_odd(&dir.join(n))? {
-            existing.push(*n);
-        }
-    }
+    let existing = present(dir, &owned)?;
     let mut steps = Vec::new();
     clear_previous(dir, &owned, &mut steps)?;
     let swap = new_swap(dir)?;
@@ -624,17 +596,9 @@ pub(crate) fn replace_all_hooked(
         }
         return Err(e);
     }
-    if !existing.is_empty() {
-        steps.push(Step::MkDir(format!("{SWAP_DIR}/old")));
-        for f in folders_of(&existing) {
-            steps.push(Step::MkDir(format!("{SWAP_DIR}/old/{f}")));
-        }
-    }
-    for n in &existing {
-        steps.push(Step::Rename(n.to_string(), format!("{SWAP_DIR}/old/{n}")));
-    }
+    move_into(&mut steps, &existing, "", &format!("{SWAP_DIR}/old"));
     let new_names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
-    for f in folders_of(&new_names) {
+    for f in owned_folders(&new_names) {
         steps.push(Step::MkDir(f.to_string()));
     }
     for (n, _) in files {
@@ -701,24 +665,21 @@ pub(crate) fn set_aside_hooked(
     hook: Hook,
 ) -> Result<Option<SetAside>, Stop> {
     let mut pts = Points { hook, n: 0 };
-    if !std::fs::symlink_metadata(dir).is_ok_and(|m| m.is_dir()) {
+    if !real_dir(dir) {
         return Ok(None);
     }
-    let _lock = lock(dir)?;
+    let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     recover_locked(dir, owned, &mut pts)?;
     let folders = owned_folders(owned);
     refuse_odd_folders(dir, &folders)?;
-    let mut existing = Vec::new();
-    let mut made: Option<SystemTime> = None;
-    for n in owned {
-        let p = dir.join(n);
-        if refuse_odd(&p)? {
-            existing.push(*n);
-            if let Ok(t) = std::fs::symlink_metadata(&p).and_then(|m| m.modified()) {
-                made = Some(made.map_or(t, |m| m.max(t)));
-            }
-        }
-    }
+    let existing = present(dir, owned)?;
+    let made = (existing.iter())
+        .filter_map(|n| {
+            std::fs::symlink_metadata(dir.join(n))
+                .and_then(|m| m.modified())
+                .ok()
+        })
+        .max();
     if existing.is_empty() {
         return Ok(None);
     }
@@ -734,14 +695,8 @@ pub(crate) fn set_aside_hooked(
     }
     let mut steps = Vec::new();
     clear_previous(dir, owned, &mut steps)?;
-    // clear_previous may remove an emptied previous/: make it again before filling it.
-    steps.push(Step::MkDir(PREVIOUS_DIR.into()));
-    for f in folders_of(&existing) {
-        steps.push(Step::MkDir(format!("{PREVIOUS_DIR}/{f}")));
-    }
-    for n in &existing {
-        steps.push(Step::Rename(n.to_string(), format!("{PREVIOUS_DIR}/{n}")));
-    }
+    // clear_previous may remove an emptied previous/: made again here before it is filled.
+    move_into(&mut steps, &existing, "", PREVIOUS_DIR);
     for f in folders.iter().rev() {
         steps.push(Step::RmDirIfEmpty(f.to_string()));
     }

@@ -72,24 +72,24 @@ struct Conns {
 }
 
 impl Conns {
+    fn open(&self) -> std::sync::MutexGuard<'_, HashMap<u64, Arc<Conn>>> {
+        self.open.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
     fn tick(&self) -> u64 {
         self.clock.fetch_add(1, Ordering::SeqCst)
     }
 
-    /// Close the connection idle the longest, if one is idle; whether one was.
-    fn evict_oldest_idle(&self) -> bool {
-        let open = self.open.lock().unwrap_or_else(|e| e.into_inner());
+    /// Close the connection idle the longest, if one is idle.
+    fn evict_oldest_idle(&self) {
+        let open = self.open();
         let oldest = open
             .values()
             .filter(|c| c.busy.load(Ordering::SeqCst) == 0 && !c.evicted.load(Ordering::SeqCst))
             .min_by_key(|c| c.idle_since.load(Ordering::SeqCst));
-        match oldest {
-            Some(c) => {
-                c.evicted.store(true, Ordering::SeqCst);
-                c.close.notify_one();
-                true
-            }
-            None => false,
+        if let Some(c) = oldest {
+            c.evicted.store(true, Ordering::SeqCst);
+            c.close.notify_one();
         }
     }
 }
@@ -211,11 +211,7 @@ pub async fn serve(listener: TcpListener, router: Router, stop: watch::Receiver<
             evicted: AtomicBool::new(false),
             close: Notify::new(),
         });
-        conns
-            .open
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .insert(id, conn.clone());
+        conns.open().insert(id, conn.clone());
         let service = Service {
             inner: TowerToHyperService::new(router.clone()),
             conn: conn.clone(),
@@ -240,11 +236,7 @@ pub async fn serve(listener: TcpListener, router: Router, stop: watch::Receiver<
                 served.as_mut().graceful_shutdown();
                 let _ = tokio::time::timeout(CLOSING, served).await;
             }
-            conns
-                .open
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .remove(&id);
+            conns.open().remove(&id);
         });
     }
     // Every permit back: every connection closed (or the time is up).

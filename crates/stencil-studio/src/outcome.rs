@@ -123,7 +123,6 @@ impl Done {
     }
 }
 
-/// The engine's working gray.
 pub(crate) type WorkingGray = Arc<Gray>;
 
 /// What the page is sent that depends on one stage's output alone, kept with that output (the
@@ -145,30 +144,19 @@ impl Reuse {
     /// The working gray's histogram, counted once per gray.
     pub(crate) fn histogram_of(&self, gray: &WorkingGray) -> Arc<Vec<u64>> {
         let mut r = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        match &r.histogram {
-            Some((g, h)) if Arc::ptr_eq(g, gray) => h.clone(),
-            _ => {
-                let h = Arc::new(histogram(gray));
-                r.histogram = Some((gray.clone(), h.clone()));
-                h
-            }
-        }
+        kept_for(&r.histogram, gray).unwrap_or_else(|| {
+            let h = Arc::new(histogram(gray));
+            r.histogram = Some((gray.clone(), h.clone()));
+            h
+        })
     }
 
     /// The `gray` or `picture` PNG of `c` when it was made for the same stage output before.
     pub(crate) fn kept_png(&self, c: &Computed, name: &str) -> Option<Bytes> {
         let r = self.0.lock().unwrap_or_else(|e| e.into_inner());
         match name {
-            "gray" => r
-                .gray_png
-                .as_ref()
-                .filter(|(g, _)| Arc::ptr_eq(g, &c.gray))
-                .map(|(_, b)| b.clone()),
-            "picture" => r
-                .picture_png
-                .as_ref()
-                .filter(|(k, _)| Arc::ptr_eq(k, &c.cleaned))
-                .map(|(_, b)| b.clone()),
+            "gray" => kept_for(&r.gray_png, &c.gray),
+            "picture" => kept_for(&r.picture_png, &c.cleaned),
             _ => None,
         }
     }
@@ -182,6 +170,13 @@ impl Reuse {
             _ => {}
         }
     }
+}
+
+/// What `slot` keeps, when it was made from the very output `of` (the same `Arc`).
+fn kept_for<T, V: Clone>(slot: &Option<(Arc<T>, V)>, of: &Arc<T>) -> Option<V> {
+    slot.as_ref()
+        .filter(|(k, _)| Arc::ptr_eq(k, of))
+        .map(|(_, v)| v.clone())
 }
 
 /// Pixels per gray level (0..255) of the working gray.

@@ -103,12 +103,10 @@ impl Params {
                 .find(|s| &s.name == k)
                 .ok_or_else(|| ParamError::Unknown(k.clone()))?;
             let vals = match spec.kind {
-                Kind::Flag => match v.as_str() {
-                    Some("true") | Some("false") => vec![v.as_str().unwrap_or("false").into()],
-                    _ => match v.as_bool() {
-                        Some(b) => vec![b.to_string()],
-                        None => return Err(ParamError::NotFlag(k.clone())),
-                    },
+                Kind::Flag => match (v.as_str(), v.as_bool()) {
+                    (Some(s @ ("true" | "false")), _) => vec![s.into()],
+                    (_, Some(b)) => vec![b.to_string()],
+                    _ => return Err(ParamError::NotFlag(k.clone())),
                 },
                 Kind::Value => match v {
                     Json::String(s) if s.is_empty() => Vec::new(),

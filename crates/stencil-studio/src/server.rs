@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Path as UrlPath, Query, Request, State};
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::http::{header, StatusCode};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
@@ -48,49 +48,40 @@ type ApiResult = Result<Response, Refusal>;
 
 async fn guard(State(s): State<Shared>, req: Request, next: Next) -> Response {
     let headers = req.headers();
-    let host = headers
-        .get(header::HOST)
-        .and_then(|h| h.to_str().ok())
-        .unwrap_or("");
-    if !s.hosts.iter().any(|h| h == host) {
-        return (
-            StatusCode::FORBIDDEN,
-            "wrong Host: this server answers only to its own address",
-        )
-            .into_response();
-    }
-    if let Some(origin) = headers.get(header::ORIGIN) {
-        let ok = origin
-            .to_str()
-            .ok()
+    let text = |name| headers.get(name).and_then(|h| h.to_str().ok());
+    let ours = |host: &str| s.hosts.iter().any(|h| h == host);
+    // An Origin that is there but not text is not this page's.
+    let origin_ok = (headers.get(header::ORIGIN)).is_none_or(|o| {
+        (o.to_str().ok())
             .and_then(|o| o.strip_prefix("http://"))
-            .is_some_and(|o| s.hosts.iter().any(|h| h == o));
-        if !ok {
-            return (
-                StatusCode::FORBIDDEN,
-                "wrong Origin: this server answers only to its own page",
-            )
-                .into_response();
-        }
-    }
-    let bearer = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|h| h.to_str().ok())
-        .and_then(|h| h.strip_prefix("Bearer "));
+            .is_some_and(ours)
+    });
+    let bearer = text(header::AUTHORIZATION).and_then(|h| h.strip_prefix("Bearer "));
     let query = req.uri().query().unwrap_or("");
     let in_query = query
         .split('&')
         .filter_map(|kv| kv.strip_prefix("token="))
         .next();
     let given = bearer.or(in_query).unwrap_or("");
-    if !same(given.as_bytes(), s.token.as_bytes()) {
-        return (
+    let refused = if !ours(text(header::HOST).unwrap_or("")) {
+        (
+            StatusCode::FORBIDDEN,
+            "wrong Host: this server answers only to its own address",
+        )
+    } else if !origin_ok {
+        (
+            StatusCode::FORBIDDEN,
+            "wrong Origin: this server answers only to its own page",
+        )
+    } else if !same(given.as_bytes(), s.token.as_bytes()) {
+        (
             StatusCode::UNAUTHORIZED,
             "missing or wrong token: open the URL the studio printed",
         )
-            .into_response();
-    }
-    next.run(req).await
+    } else {
+        return next.run(req).await;
+    };
+    refused.into_response()
 }
 
 /// Equal, in a time that does not depend on where they first differ.
@@ -145,7 +136,6 @@ async fn answer(s: &Shared, v: u64) -> ApiResult {
     Ok(Json(s.state(&done)).into_response())
 }
 
-/// A request's JSON body.
 fn json_body(body: &[u8]) -> Result<Value, Refusal> {
     serde_json::from_slice(body).map_err(|e| {
         bad(
@@ -401,18 +391,11 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
         }
     };
     done.cache(name, &png);
-    let mut headers = HeaderMap::new();
-    headers.insert(
-        header::CONTENT_TYPE,
-        header::HeaderValue::from_static("image/png"),
-    );
-    headers.insert(
-        header::CACHE_CONTROL,
-        header::HeaderValue::from_static("no-store"),
-    );
-    if let Ok(v) = done.version.to_string().parse() {
-        headers.insert("x-stencil-version", v);
-    }
+    let headers = [
+        (header::CONTENT_TYPE.as_str(), "image/png".to_string()),
+        (header::CACHE_CONTROL.as_str(), "no-store".to_string()),
+        ("x-stencil-version", done.version.to_string()),
+    ];
     Ok((headers, png).into_response())
 }
 

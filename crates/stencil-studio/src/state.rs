@@ -23,7 +23,6 @@ pub(crate) struct Failure {
     error: String,
 }
 
-/// Refuse a request with `msg`.
 pub(crate) fn bad(status: StatusCode, msg: impl Into<String>) -> Refusal {
     let error = msg.into();
     (status, Json(Failure { error }))

@@ -145,10 +145,9 @@ impl Studio {
             shutdown: watch::Sender::new(false),
         });
         let derived = studio.derive(&initial)?;
-        {
-            let mut h = studio.history.lock().unwrap_or_else(|e| e.into_inner());
-            studio.queue(&mut h, initial, Some(derived));
-        }
+        let mut h = studio.history.lock().unwrap_or_else(|e| e.into_inner());
+        studio.queue(&mut h, initial, Some(derived));
+        drop(h);
         let s = studio.clone();
         let worker = std::thread::spawn(move || s.work());
         Ok((studio, worker))
@@ -185,8 +184,7 @@ impl Studio {
     fn derive(&self, p: &Params) -> Result<Derived, String> {
         let stamp = stamp(&self.input);
         let args = self.args(p);
-        let cfg = self.maker.config(&args)?;
-        let set = self.maker.set(&args)?;
+        let (cfg, set) = self.maker.config(&args)?;
         Ok(Derived { stamp, cfg, set })
     }
 

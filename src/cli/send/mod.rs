@@ -343,11 +343,17 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         (a.from_line as usize, a.machine.clone(), j)
     };
     let machine = machine_profile::load(machine_arg.as_deref())?;
-    frame_can_ask(&a)?;
-    let dump = match &a.start.controller_state {
-        Some(p) => Some(super::place::read_dump(p)?),
-        None => None,
-    };
+    // `--frame` without `--yes` asks on the terminal: refused before the controller is asked
+    // anything when there is none.
+    if a.frame && !a.yes && !std::io::stdin().is_terminal() {
+        bail!(
+            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
+             pass --yes to start right after framing, or frame first with `stencil frame`"
+        );
+    }
+    let dump = (a.start.controller_state.as_deref())
+        .map(super::place::read_dump)
+        .transpose()?;
     let super::port::Opened {
         mut port,
         label,
@@ -363,10 +369,10 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         Duration::from_secs_f64(a.timeout_s),
         a.link.if_moving(),
     )?;
-    let state = reading.state;
-    let placement = placement_for(&a, &state, &machine, journal.as_ref(), from_line)?;
+    let state = &reading.state;
+    let placement = placement_for(&a, state, &machine, journal.as_ref(), from_line)?;
     println!("{}", placement.describe());
-    let job = super::place::placed(&name, &text, &placement)?;
+    let job = Program::parse_from(&name, &text, placement.modal)?;
     // The moves that will run (from --from-line or the recovered line on) must stay on the bed,
     // where the controller's offsets put them: checked before anything moves.
     let to_run: Vec<Move> = job
@@ -376,7 +382,6 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         .copied()
         .collect();
     super::place::check_bed(&a.file, &to_run, &machine, a.no_bed_check, &placement)?;
-    let limits = machine.motion;
     let home_first = a.recover && machine.motion.homing;
     if home_first {
         println!(
@@ -384,7 +389,11 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             machine.name
         );
     }
-    let frame = frame_setup(&a, &job, &machine)?;
+    // With --frame, the whole file's extent is traced (a resumed job still lands where the file
+    // says).
+    let frame = (a.frame)
+        .then(|| super::frame::setup(&a.file, &job, &machine, a.frame_feed, a.no_bed_check))
+        .transpose()?;
     let mut cfg = stream_config(&a, &machine, &job, from_line, home_first);
     cfg.expect = super::port::expected(&machine, &text, &job);
     cfg.place_zero = Some(placement.zero);
@@ -415,7 +424,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
                 stencil_gcode::num(corner[1])
             ))
         } else {
-            super::place::g92_needed(&placement, &state)
+            super::place::g92_needed(&placement, state)
         };
         let framed = super::frame::frame_on(port.as_mut(), &cfg, &rx, &mut say, s, g92.as_deref());
         drop(keys);
@@ -426,7 +435,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         cfg.boot_wait = Duration::from_millis(300);
     }
     let keys = Keys::start(tx);
-    let mut bar = Bar::new(&job, &text, limits, keys.raw);
+    let mut bar = Bar::new(&job, &text, machine.motion, keys.raw);
     if keys.raw {
         bar.say(&format!("keys: {}", stencil_grbl::SEND_KEY_HELP));
     }
@@ -509,37 +518,6 @@ fn framed_and_started(
         return Ok(false);
     }
     Ok(true)
-}
-
-/// `--frame` without `--yes` asks on the terminal: refused before the controller is asked
-/// anything when there is none.
-fn frame_can_ask(a: &SendArgs) -> anyhow::Result<()> {
-    if a.frame && !a.yes && !super::frame::can_ask() {
-        bail!(
-            "--frame asks on the terminal before starting the job, but stdin is not a terminal: \
-             pass --yes to start right after framing, or frame first with `stencil frame`"
-        );
-    }
-    Ok(())
-}
-
-/// With --frame, what to trace before the job: the whole file's extent (a resumed job still
-/// lands where the file says). Refused when the question before starting cannot be asked.
-fn frame_setup(
-    a: &SendArgs,
-    job: &Program,
-    machine: &machine_profile::Machine,
-) -> anyhow::Result<Option<super::frame::Setup>> {
-    match a.frame {
-        false => Ok(None),
-        true => Ok(Some(super::frame::setup(
-            &a.file,
-            job,
-            machine,
-            a.frame_feed,
-            a.no_bed_check,
-        )?)),
-    }
 }
 
 /// How the job is streamed: the flow control, Grbl's buffer, the timeout, what happens before

@@ -168,21 +168,13 @@ pub fn print_virtual(vg: VirtualGrbl) {
     );
     // Where the simulated beam (or tool) really went, machine coordinates: the placement seen
     // from the machine's side.
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for m in r.moves.iter().filter(|m| m.beam && m.moves_xy()) {
-        for p in [m.from, m.to] {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-    }
-    if lo[0].is_finite() {
-        println!(
-            "virtual Grbl: the beam cut within machine X {:.3}..{:.3} Y {:.3}..{:.3}",
-            lo[0], hi[0], lo[1], hi[1]
-        );
+    let cut: Vec<[f64; 2]> = (r.moves.iter())
+        .filter(|m| m.beam && m.moves_xy())
+        .flat_map(|m| [m.from, m.to].map(|p| [p[0], p[1]]))
+        .collect();
+    let [x0, y0, x1, y1] = stencil_geom::ring::bbox(&cut);
+    if x0.is_finite() {
+        println!("virtual Grbl: the beam cut within machine X {x0:.3}..{x1:.3} Y {y0:.3}..{y1:.3}");
     }
 }
 

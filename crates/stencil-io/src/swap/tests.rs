@@ -304,7 +304,8 @@ fn what_is_not_a_file_is_refused_before_anything_moves() {
 #[test]
 fn a_second_writer_is_told_the_folder_is_busy() {
     let dir = tempfile::tempdir().unwrap();
-    let held = lock(dir.path()).unwrap_or_else(|_| panic!("locks"));
+    let held =
+        lock_folder(dir.path(), std::time::Duration::ZERO).unwrap_or_else(|_| panic!("locks"));
     let files = vec![("report.json".to_string(), b"new".to_vec())];
     let e = replace_all(dir.path(), &files, OWNED)
         .unwrap_err()
