@@ -207,6 +207,19 @@ pub struct GcodeError {
     pub out_of_range: bool,
 }
 
+impl GcodeError {
+    /// A number (or a program) beyond what any machine does: refused whole, with Grbl's
+    /// `error:2` (bad number format) as the nearest code.
+    pub fn out_of_range(line: usize, msg: String) -> GcodeError {
+        GcodeError {
+            line,
+            code: 2,
+            msg,
+            out_of_range: true,
+        }
+    }
+}
+
 /// A refusal with Grbl's error code.
 pub(crate) fn fail(line: usize, code: u8, msg: impl Into<String>) -> GcodeError {
     GcodeError {

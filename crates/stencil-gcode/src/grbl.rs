@@ -24,8 +24,9 @@ const MAX_LINE_NUMBER: f64 = 10_000_000.0;
 const MAX_TOOL_NUMBER: f64 = 255.0;
 
 /// What the block's axis words are for (gcode.c's `AXIS_COMMAND_*`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum AxisCommand {
+    #[default]
     None,
     NonModal,
     MotionMode,
@@ -33,8 +34,9 @@ enum AxisCommand {
 }
 
 /// Modal group 0 (gcode.h's `NON_MODAL_*`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum NonModal {
+    #[default]
     None,
     Dwell,
     SetCoordinateData,
@@ -79,6 +81,7 @@ const WORD_Y: u16 = 1 << 11;
 const WORD_Z: u16 = 1 << 12;
 
 /// The block being read and checked: gcode.c's `gc_block` with its tracking variables.
+#[derive(Default)]
 struct Block {
     line: usize,
     modal: Modal,
@@ -147,25 +150,8 @@ fn read_block(modal: &Modal, clean: &str, line: usize, jog: bool) -> Result<Bloc
         line,
         modal: *modal,
         jog,
-        non_modal: NonModal::None,
-        axis_command: AxisCommand::None,
-        commands: 0,
-        values: 0,
-        axis_words: 0,
-        ijk_words: 0,
-        xyz: [0.0; 3],
-        ijk: [0.0; 3],
-        f: 0.0,
-        l: 0,
-        n: 0.0,
-        p: 0.0,
-        r: 0.0,
-        s: 0.0,
-        tool_length_dynamic: false,
-        has_n: false,
-        flow: None,
-        coord_target: 0,
         block_coord: modal.coords[modal.coord_select],
+        ..Block::default()
     };
     if jog {
         blk.modal.motion = MOTION_LINEAR;
@@ -762,16 +748,14 @@ impl Block {
         if moving && matches!(self.modal.motion, MOTION_CW_ARC | MOTION_CCW_ARC) {
             let n = self.arc(st).segments(st.arc_tolerance);
             if n > MAX_ARC_SEGMENTS {
-                return Err(GcodeError {
-                    line: self.line,
-                    code: 2,
-                    msg: format!(
+                return Err(GcodeError::out_of_range(
+                    self.line,
+                    format!(
                         "the arc needs {n} segments at arc tolerance {} mm; Grbl counts at most \
                          {MAX_ARC_SEGMENTS}",
                         num(st.arc_tolerance)
                     ),
-                    out_of_range: true,
-                });
+                ));
             }
         }
         Ok(())
@@ -794,7 +778,6 @@ impl Block {
             n: self.has_n.then_some(self.n as u32),
             ..Executed::default()
         };
-        let before = st.wco();
         st.inverse_time = self.modal.inverse_time;
         st.feed = (self.f > 0.0).then_some(self.f);
         st.s = self.s;
@@ -846,7 +829,6 @@ impl Block {
         if self.flow == Some(Flow::End) {
             st.end_program();
         }
-        out.offsets_changed = st.wco() != before;
         out
     }
 
@@ -924,17 +906,13 @@ pub fn motion_word(m: u16) -> String {
 /// A number beyond [`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`] or [`MAX_S`]: the program is refused
 /// whole. Huge values are shown in scientific notation so the message stays one short line.
 pub(crate) fn beyond(line: usize, what: &str, v: f64, max: f64, unit: &str) -> GcodeError {
-    GcodeError {
+    let v = if v.abs() < 1e9 {
+        v.to_string()
+    } else {
+        format!("{v:.3e}")
+    };
+    GcodeError::out_of_range(
         line,
-        code: 2,
-        msg: format!(
-            "{what} {} is beyond what any machine does (at most {max}{unit})",
-            if v.abs() < 1e9 {
-                v.to_string()
-            } else {
-                format!("{v:.3e}")
-            }
-        ),
-        out_of_range: true,
-    }
+        format!("{what} {v} is beyond what any machine does (at most {max}{unit})"),
+    )
 }

@@ -14,9 +14,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use stencil_io::profile::{
-    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
-};
+use stencil_io::profile::{check_range, embedded, parse_toml, resolve, ProfileError, Shipped};
 use stencil_io::shipped;
 
 use crate::bounds;
@@ -372,18 +370,14 @@ impl Machine {
                 }
             }
         }
-        match worst {
-            Some((_, e)) => Err(e),
-            None => Ok(()),
-        }
+        worst.map_or(Ok(()), |(_, e)| Err(e))
     }
 
     /// [`Machine::check_extent`] for the moves of a G-code program.
     pub fn check_moves(&self, moves: &[Move]) -> Result<(), OffBed> {
-        match crate::interpret::extent(moves) {
-            Some(e) => self.check_extent(e.min, e.max, Some((e.min_line, e.max_line))),
-            None => Ok(()),
-        }
+        crate::interpret::extent(moves).map_or(Ok(()), |e| {
+            self.check_extent(e.min, e.max, Some((e.min_line, e.max_line)))
+        })
     }
 
     /// Which moves of `moves` cut on this machine: the rule the program itself shows
@@ -767,16 +761,6 @@ fn kind_name(k: ToolKind) -> &'static str {
         ToolKind::Pen => "pen",
         ToolKind::Knife => "knife",
     }
-}
-
-/// Names of the shipped profiles.
-pub fn builtin_names() -> Vec<&'static str> {
-    SHIPPED.iter().map(|s| s.name).collect()
-}
-
-/// Load a profile file.
-pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
-    validate(load_toml(path)?, path)
 }
 
 /// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see

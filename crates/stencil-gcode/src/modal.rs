@@ -182,6 +182,4 @@ pub struct Executed {
     pub probe: Option<u16>,
     /// The line's N number, if it has one.
     pub n: Option<u32>,
-    /// The work coordinate offset changed (G10, G92, G54..G59, G43.1/G49, a program end).
-    pub offsets_changed: bool,
 }

@@ -169,8 +169,6 @@ pub(crate) enum Gaps {
 /// in `inside` must be cut before then, while it is still held all round.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Piece {
-    /// Its outer edge, machine mm.
-    pub ring: Vec<[f64; 2]>,
     /// Loops lying inside it (at any depth), ascending.
     pub inside: Vec<usize>,
     /// The loops that, with the bridges, surround it, ascending.
@@ -379,14 +377,9 @@ pub(crate) fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipErro
         if around.is_empty() {
             continue;
         }
-        for (ring, inside) in region.holes.iter().zip(inside) {
-            if !inside.is_empty() {
-                out.push(Piece {
-                    ring: ring.clone(),
-                    inside,
-                    around: around.clone(),
-                });
-            }
+        for inside in inside.into_iter().filter(|i| !i.is_empty()) {
+            let around = around.clone();
+            out.push(Piece { inside, around });
         }
     }
     Ok(out)
@@ -400,8 +393,6 @@ pub(crate) struct Order {
     pub groups: Vec<Vec<usize>>,
     /// For each loop, the loops that must be cut before it.
     pub before: Vec<Vec<usize>>,
-    /// The pieces found (empty when the gaps could not be closed: then only hulls order).
-    pub pieces: Vec<Piece>,
 }
 
 /// The cut order of `loops`:
@@ -437,11 +428,7 @@ pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     if !outline.is_empty() {
         groups.push(outline);
     }
-    Order {
-        groups,
-        before,
-        pieces,
-    }
+    Order { groups, before }
 }
 
 /// For each loop, the loops that must be cut before it (sorted, once each): those inside a piece
@@ -711,8 +698,8 @@ mod tests {
         );
         for gaps in [Gaps::Regions(regions), Gaps::Closing { r_mm: 1.5 }] {
             let o = order(&loops, &gaps);
-            let mut p: Vec<(Vec<usize>, Vec<usize>)> = o
-                .pieces
+            let mut p: Vec<(Vec<usize>, Vec<usize>)> = pieces(&loops, &gaps)
+                .unwrap()
                 .iter()
                 .map(|p| (p.inside.clone(), p.around.clone()))
                 .collect();
@@ -775,10 +762,12 @@ mod tests {
             vec![1],
             "the small cut lies in the U's hull"
         );
-        let o = order(&loops, &Gaps::Regions(vec![region]));
-        assert_eq!(o.pieces.len(), 1);
+        let gaps = Gaps::Regions(vec![region]);
+        let p = pieces(&loops, &gaps).unwrap();
+        let o = order(&loops, &gaps);
+        assert_eq!(p.len(), 1);
         assert_eq!(
-            (o.pieces[0].inside.clone(), o.pieces[0].around.clone()),
+            (p[0].inside.clone(), p[0].around.clone()),
             (vec![1], vec![0, 2])
         );
         assert!(o.before[0].contains(&1) && !o.before[1].contains(&0));

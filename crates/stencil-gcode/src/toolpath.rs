@@ -367,11 +367,9 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
     // A knife swivels up to its blade offset out.
-    let knife = matches!(machine.tool, Tool::Knife { .. });
-    let reach = if knife {
-        cfg.settings.blade_offset_mm
-    } else {
-        0.0
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
     };
     // A drag knife's corner swivels are built from the polygon's corners: never arcs.
     let arc_tolerance_mm = cfg.arc_tolerance_on(machine);
@@ -426,7 +424,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         return Err(PlanError::Empty);
     }
 
-    let (min, max) = check_on_bed(&frame, &loops, &lines, machine, cfg)?;
+    let (min, max) = check_on_bed(&frame, &loops, &lines, machine, reach)?;
 
     let home = [0.0, 0.0];
     let naive_travel_mm = travel::naive_travel(&lines, &loops, home);
@@ -513,18 +511,14 @@ pub(crate) fn line_len(l: &[[f64; 2]]) -> f64 {
 
 /// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
 /// (`frame`), every line and every loop (its arcs' extremes included), which a drag knife's axis
-/// passes by up to the blade offset.
+/// passes by up to the blade offset (`reach`).
 fn check_on_bed(
     frame: &[[f64; 2]; 4],
     loops: &[Loop],
     lines: &[Vec<[f64; 2]>],
     machine: &Machine,
-    cfg: &PlanConfig,
+    reach: f64,
 ) -> Result<([f64; 2], [f64; 2]), PlanError> {
-    let reach = match machine.tool {
-        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
-        _ => 0.0,
-    };
     let mut min = [f64::INFINITY; 2];
     let mut max = [f64::NEG_INFINITY; 2];
     let mut grow = |p: &[f64; 2], r: f64| {
@@ -568,7 +562,7 @@ fn check_on_bed(
 /// keep the cut-order constraints: the depth layers optimised one by one, nearest neighbour under
 /// the constraints, and the input order itself where it keeps them.
 fn shortest_sequence(loops: &[Loop], gaps: &order::Gaps, home: [f64; 2]) -> Vec<(usize, usize)> {
-    let order::Order { groups, before, .. } = order::order(loops, gaps);
+    let order::Order { groups, before } = order::order(loops, gaps);
     let mut candidates = vec![
         travel::optimise(loops, &groups, home),
         travel::greedy_constrained(loops, &before, home),

@@ -207,12 +207,7 @@ impl Program {
                 Ok(done) if moves.len() + done.moves.len() > gcode::MAX_MOVES => {
                     return Err(MachineError::Gcode {
                         file: name.to_string(),
-                        cause: gcode::GcodeError {
-                            line: number,
-                            code: 2,
-                            msg: format!("the program makes more than {} moves", gcode::MAX_MOVES),
-                            out_of_range: true,
-                        },
+                        cause: gcode::too_many_moves(number),
                     })
                 }
                 Ok(done) => {
@@ -323,10 +318,7 @@ impl Program {
         // The height to travel at: the profile's, or the highest Z the program itself had reached
         // (its own travel height), whichever is higher.
         let z_restore = st.used[2].then(|| {
-            let up = match lift.z_up_mm {
-                Some(u) => u.max(st.max_z),
-                None => st.max_z,
-            };
+            let up = lift.z_up_mm.map_or(st.max_z, |u| u.max(st.max_z));
             (up, work(2))
         });
         if let Some((up, _)) = z_restore {
@@ -352,10 +344,8 @@ impl Program {
         }
         if let Some(f) = modal.feed {
             out.push(format!("F{}", num(f)));
-            if modal.motion == 1 {
-                out.push("G1".into());
-            }
-        } else if modal.motion == 1 {
+        }
+        if modal.motion == 1 {
             out.push("G1".into());
         }
         if !modal.metric {

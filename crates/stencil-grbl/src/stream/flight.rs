@@ -65,10 +65,7 @@ impl Session<'_, '_> {
             })
             .collect();
         let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
-        let rejected = match self.stream_inner(&lines, true, rx_limit, 1) {
-            Ok(run) => run.rejected,
-            Err(e) => return Err(e),
-        };
+        let rejected = self.stream_inner(&lines, true, rx_limit, 1)?.rejected;
         // Leaving check mode soft-resets Grbl: wait for its banner.
         self.command("$C")?;
         let (mut alarm, mut hinted) = (None, false);
@@ -76,10 +73,7 @@ impl Session<'_, '_> {
             .wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?
             .is_none()
         {
-            return Err(MachineError::NoWelcome {
-                port: self.port_name.clone(),
-                secs: self.cfg.timeout.as_secs_f64(),
-            });
+            return Err(self.no_answer());
         }
         if !rejected.is_empty() {
             return Err(MachineError::CheckFailed {
@@ -325,7 +319,6 @@ impl Session<'_, '_> {
             }
         }
         f.progress.elapsed = self.started.elapsed();
-        self.last_status = Some(st);
         self.obs.progress(&f.progress);
         Ok(())
     }

@@ -21,7 +21,6 @@ pub(super) struct Session<'a, 'o> {
     pub(super) controls: Option<&'a Receiver<Control>>,
     pub(super) port_name: String,
     pub(super) info: ControllerInfo,
-    pub(super) last_status: Option<Status>,
     pub(super) started: Instant,
     pub(super) stall: StallWatch,
     /// Why the position may be lost, noted by a stop path that could not see the machine stand
@@ -52,7 +51,6 @@ impl<'a, 'o> Session<'a, 'o> {
             obs,
             controls,
             info: ControllerInfo::default(),
-            last_status: None,
             started: Instant::now(),
             stall: StallWatch::new(stall_bound),
             unsure: None,
@@ -63,6 +61,14 @@ impl<'a, 'o> Session<'a, 'o> {
 }
 
 impl Session<'_, '_> {
+    /// No answer within the timeout.
+    pub(super) fn no_answer(&self) -> MachineError {
+        MachineError::NoWelcome {
+            port: self.port_name.clone(),
+            secs: self.cfg.timeout.as_secs_f64(),
+        }
+    }
+
     pub(super) fn lost(&self, f: LinkFault) -> MachineError {
         match f {
             LinkFault::Lost(detail) => MachineError::Io {
@@ -451,10 +457,7 @@ impl Session<'_, '_> {
                 Err(f) => return Err(self.lost(f)),
             }
         }
-        Err(MachineError::NoWelcome {
-            port: self.port_name.clone(),
-            secs: self.cfg.timeout.as_secs_f64(),
-        })
+        Err(self.no_answer())
     }
 
     /// Ask `?` until a status report comes (again every half second), at most the timeout.
@@ -470,16 +473,8 @@ impl Session<'_, '_> {
                 _ => None,
             },
         );
-        match st.map_err(|f| self.lost(f))? {
-            Some(st) => {
-                self.last_status = Some(st.clone());
-                Ok(st)
-            }
-            None => Err(MachineError::NoWelcome {
-                port: self.port_name.clone(),
-                secs: self.cfg.timeout.as_secs_f64(),
-            }),
-        }
+        st.map_err(|f| self.lost(f))?
+            .ok_or_else(|| self.no_answer())
     }
 
     /// Read replies for at most `limit`, asking `?` after `first` and then every `every`, and
