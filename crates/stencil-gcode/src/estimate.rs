@@ -293,16 +293,12 @@ pub fn length_over_feed_s(moves: &[Move], limits: &Motion) -> f64 {
     moves
         .iter()
         .map(|m| {
-            let d = ((m.to[0] - m.from[0]).powi(2)
-                + (m.to[1] - m.from[1]).powi(2)
-                + (m.to[2] - m.from[2]).powi(2))
-            .sqrt();
             let rate = if m.rapid {
                 limits.rapid_mm_min
             } else {
                 m.feed.min(limits.max_feed_mm_min).max(1.0)
             };
-            d / rate * 60.0
+            m.length() / rate * 60.0
         })
         .sum()
 }

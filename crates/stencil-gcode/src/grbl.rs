@@ -11,7 +11,7 @@
 use crate::arc::{Arc, MAX_ARC_SEGMENTS};
 use crate::error::{fail, GcodeError};
 use crate::modal::{
-    Executed, Flow, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
+    dist, Executed, Flow, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
     MOTION_CW_ARC, MOTION_LINEAR, MOTION_NONE, MOTION_SEEK,
 };
 use crate::num::num;
@@ -879,10 +879,6 @@ impl Block {
             line: self.line,
         }
     }
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
 }
 
 /// The plane's two arc axes and its linear axis (gcode.c's `axis_0`, `axis_1`, `axis_linear`).

@@ -22,6 +22,18 @@ pub struct Move {
     pub line: usize,
 }
 
+impl Move {
+    /// Its length, mm.
+    pub fn length(&self) -> f64 {
+        dist(self.from, self.to)
+    }
+}
+
+/// The distance between two points, mm.
+pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+}
+
 /// Grbl's motion modes (modal group 1), numbered as their G words; a probe G38.x is 380 + x.
 pub const MOTION_SEEK: u16 = 0;
 /// G1.

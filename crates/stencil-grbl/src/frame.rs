@@ -96,9 +96,7 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
         FrameTool::Laser { .. } => "M5 S0".into(),
         _ => "M5".into(),
     });
-    let mut text = out.join("\n");
-    text.push('\n');
-    text
+    out.join("\n") + "\n"
 }
 
 /// Why a frame did not run, or stopped.

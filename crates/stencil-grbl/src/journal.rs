@@ -15,7 +15,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use super::error::MachineError;
-use super::program::Program;
+use super::program::{n_word, Program};
 use super::stall::ClockRef;
 use super::stream::{ControllerInfo, Observer, Progress, Summary};
 use stencil_io::write_atomic;
@@ -406,15 +406,6 @@ pub struct Proposal {
     pub line: usize,
     /// Why that line.
     pub why: String,
-}
-
-/// The N number a cleaned line starts with.
-fn n_word(text: &str) -> Option<u32> {
-    let rest = text.strip_prefix('N')?;
-    let end = rest
-        .find(|c: char| !c.is_ascii_digit())
-        .unwrap_or(rest.len());
-    rest[..end].parse().ok()
 }
 
 /// An observer that keeps the journal while passing everything on to the front end's.

@@ -86,18 +86,9 @@ pub struct DumpError {
     pub what: String,
 }
 
+/// Three finite numbers, `x,y,z`.
 fn xyz(s: &str) -> Option<[f64; 3]> {
-    let mut out = [0.0; 3];
-    let mut it = s.split(',');
-    for v in out.iter_mut() {
-        *v = it
-            .next()?
-            .trim()
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())?;
-    }
-    Some(out)
+    crate::protocol::parse_list(s).filter(|p: &[f64; 3]| p.iter().all(|v| v.is_finite()))
 }
 
 impl ControllerState {

@@ -50,6 +50,15 @@ pub struct Program {
     source: Vec<String>,
 }
 
+/// The N number a cleaned line starts with (`N120G1X5` → 120).
+pub(crate) fn n_word(text: &str) -> Option<u32> {
+    let rest = text.strip_prefix('N')?;
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
 /// The read-only `$` queries: they change nothing, and a sender does not stream them.
 const QUERIES: [&str; 5] = ["$$", "$#", "$G", "$I", "$N"];
 

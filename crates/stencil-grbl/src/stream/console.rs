@@ -229,9 +229,7 @@ impl<'a> Console<'a> {
     /// soft reset, laser off.
     pub fn run(&mut self, job: &Program) -> Result<Summary, MachineError> {
         let lines: Vec<Outgoing> = job.lines.iter().map(Outgoing::program).collect();
-        // As `send` counts (send-response ignores the limit).
-        let rx_limit = self.s.info.rx_buffer.saturating_sub(1).max(1);
-        let summary = self.s.stream(&lines, false, rx_limit, 1);
+        let summary = self.s.stream(&lines, false, 1);
         if summary.is_err() {
             self.locked = matches!(&summary, Err(e) if e.halt().is_some_and(|h| h.locked));
         }

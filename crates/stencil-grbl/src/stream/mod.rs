@@ -82,9 +82,8 @@ pub fn send(
             d.number, d.text
         ));
     }
-    let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
     if cfg.flow == FlowControl::CharacterCounting {
-        fits_buffer(job, rx_limit, s.info.rx_buffer)?;
+        fits_buffer(job, s.rx_limit(), s.info.rx_buffer)?;
     }
     let (mut lines, resume_point) = outgoing(job, preamble, from);
     for l in &mut lines {
@@ -114,7 +113,7 @@ pub fn send(
     }
     s.obs
         .phase(false, lines.iter().filter(|l| !l.preamble).count());
-    let summary = s.stream(&lines, false, rx_limit, resume_point)?;
+    let summary = s.stream(&lines, false, resume_point)?;
     if job.may_end_laser_on {
         s.obs
             .message("the program ends without switching the laser off: sending M5");

@@ -202,10 +202,7 @@ impl Sim {
                 sim.unheard = bytes.iter().filter(|&&b| b == b'\n').count();
                 sim.backlog = bytes.into();
             }
-            None => {
-                sim.say("");
-                sim.say("Grbl 1.1h ['$' for help]");
-            }
+            None => sim.boot_banner(),
         }
         sim.publish();
         sim
@@ -360,15 +357,7 @@ impl Sim {
         let laser = self.modal.spindle_on && self.modal.s > 0.0;
         let air = self.modal.coolant;
         let laser_mode = self.laser_mode();
-        let state = match self.state {
-            State::Idle if self.check_mode => "Check",
-            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1",
-            State::Idle if self.hold => "Hold:0",
-            State::Idle if self.jogging() => "Jog",
-            State::Idle if !self.planner.is_empty() => "Run",
-            State::Idle => "Idle",
-            State::Alarm | State::Critical => "Alarm",
-        };
+        let state = self.state_word(false);
         let mut r = lock(&self.shared);
         r.position = pos;
         r.wco = self.wco;
