@@ -182,12 +182,7 @@ fn blocks(
         while next_stop.next_if(|&&s| s <= k).is_some() {
             stop_pending = true;
         }
-        let exact = [
-            m.to[0] - m.from[0],
-            m.to[1] - m.from[1],
-            m.to[2] - m.from[2],
-        ];
-        let exact_len = (exact[0] * exact[0] + exact[1] * exact[1] + exact[2] * exact[2]).sqrt();
+        let exact_len = m.length();
         let cut = rule.cuts(m);
         if cut {
             e.cut_mm += exact_len;
@@ -202,7 +197,7 @@ fn blocks(
                 steps_at = Some(to);
                 [0, 1, 2].map(|a| (to[a] - at[a]) / spm[a])
             }
-            None => exact,
+            None => [0, 1, 2].map(|a| m.to[a] - m.from[a]),
         };
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if len < 1e-9 {

@@ -126,10 +126,8 @@ pub(crate) fn execute(modal: &mut Modal, clean: &str, line: usize) -> Result<Exe
     Ok(blk.run(modal))
 }
 
-/// A `$J=` jog's words (after `$J=`), as `gc_execute_line` takes them with its jog flag: G1 and
-/// G94 forced, F required, only G20/G21, G90/G91 and G53 (`error:16` for any other command), S
-/// and T unused (`error:36`). The parser's state is not changed. Returns the target in machine
-/// coordinates (machine zero when no axis word is given, as Grbl's) and the feed in mm/min.
+/// [`interpret::jog`](crate::interpret::jog), as `gc_execute_line` takes a jog with its jog flag:
+/// G1 and G94 forced (a target with no axis word is machine zero, as Grbl's).
 pub(crate) fn jog(modal: &Modal, body: &str, line: usize) -> Result<([f64; 3], f64), GcodeError> {
     let mut blk = read_block(modal, body, line, true)?;
     blk.check(modal)?;
@@ -723,15 +721,9 @@ impl Block {
             points.push(self.ijk);
         }
         for p in points {
-            for (a, v) in p.iter().enumerate() {
+            for (axis, &v) in ["X", "Y", "Z"].into_iter().zip(&p) {
                 if v.abs() > MAX_COORD_MM {
-                    return Err(beyond(
-                        self.line,
-                        ["X", "Y", "Z"][a],
-                        *v,
-                        MAX_COORD_MM,
-                        " mm",
-                    ));
+                    return Err(beyond(self.line, axis, v, MAX_COORD_MM, " mm"));
                 }
             }
         }

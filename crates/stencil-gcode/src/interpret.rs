@@ -188,9 +188,10 @@ pub fn extent(moves: &[Move]) -> Option<Extent> {
     Some(e)
 }
 
-/// A `$J=` jog's words (the text after `$J=`, cleaned) as Grbl 1.1h checks them, against the
-/// parser's state (which a jog does not change): the target in machine coordinates and the feed
-/// in mm/min, or Grbl's `error:N`.
+/// A `$J=` jog's words (the text after `$J=`, cleaned) as Grbl 1.1h checks them against the
+/// parser's state, which a jog does not change: F required, only G20/G21, G90/G91 and G53
+/// (`error:16` for any other command), S and T unused (`error:36`). The target in machine
+/// coordinates and the feed in mm/min, or Grbl's `error:N`.
 pub fn jog(modal: &Modal, body: &str, line_no: usize) -> Result<([f64; 3], f64), GcodeError> {
     crate::grbl::jog(modal, body, line_no)
 }

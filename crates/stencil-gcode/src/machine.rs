@@ -763,6 +763,11 @@ fn kind_name(k: ToolKind) -> &'static str {
     }
 }
 
+/// Names of the shipped profiles.
+pub fn builtin_names() -> Vec<&'static str> {
+    SHIPPED.iter().map(|s| s.name).collect()
+}
+
 /// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
 /// `stencil_io::profile::resolve`). `None` gives the shipped [`DEFAULT_MACHINE`] as embedded,
 /// whatever `./profiles/` holds (see `stencil_io::profile::embedded`).

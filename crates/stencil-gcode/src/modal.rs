@@ -2,7 +2,7 @@
 //! program reader (`interpret`): Grbl's `gc_state`, its limits, and a move.
 
 /// One straight move, in millimetres, absolute machine coordinates.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Move {
     /// Where the move starts.
     pub from: [f64; 3],

@@ -500,16 +500,9 @@ fn largest_last(
         return;
     };
     if top.len() > 1 {
-        let (k, _) = top
-            .iter()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (k, &i)| {
-                if loops[i].area_mm2 > best.1 {
-                    (k, loops[i].area_mm2)
-                } else {
-                    best
-                }
-            });
+        // The first of the largest.
+        let area = |k: usize| loops[top[k]].area_mm2;
+        let k = (1..top.len()).fold(0, |best, k| if area(k) > area(best) { k } else { best });
         let largest = top.remove(k);
         before[largest] = regions.iter().copied().filter(|&i| i != largest).collect();
         groups.push(vec![largest]);

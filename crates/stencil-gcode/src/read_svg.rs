@@ -226,14 +226,8 @@ struct Sheet {
 /// given only as a viewBox is taken in px (96 per inch), as drawing programs write it; one of
 /// width and height alone takes the other from the viewBox's shape.
 fn sheet(root: roxmltree::Node) -> Result<Sheet, String> {
-    let w = root
-        .attribute("width")
-        .map(|v| length_mm("width", v))
-        .transpose()?;
-    let h = root
-        .attribute("height")
-        .map(|v| length_mm("height", v))
-        .transpose()?;
+    let length = |a| root.attribute(a).map(|v| length_mm(a, v)).transpose();
+    let (w, h) = (length("width")?, length("height")?);
     let vb = match root.attribute("viewBox") {
         None => None,
         Some(v) => match numbers(v) {

@@ -56,8 +56,7 @@ pub struct PlanConfig {
     pub settings: CutSettings,
     /// Write each loop as lines and G2/G3 arcs fitted within this many mm of its polygon
     /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
-    /// machine whose profile says `arcs = false`). A drag knife's path is always straight: its
-    /// corner swivels are built from the polygon's corners.
+    /// machine whose profile says `arcs = false`); see [`PlanConfig::arc_tolerance_on`].
     pub arc_tolerance_mm: f64,
 }
 
@@ -371,7 +370,6 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         Tool::Knife { .. } => cfg.settings.blade_offset_mm,
         _ => 0.0,
     };
-    // A drag knife's corner swivels are built from the polygon's corners: never arcs.
     let arc_tolerance_mm = cfg.arc_tolerance_on(machine);
     let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
@@ -488,8 +486,7 @@ fn cut_loops(geom: &CutLoops, place: &Placement, fit: Option<ArcFit>) -> Vec<Loo
 /// A drawing's open paths placed on the bed, as given (repeated points removed; a path with no
 /// length left out).
 fn open_lines(geom: &CutLoops, place: &Placement) -> Vec<Vec<[f64; 2]>> {
-    let mut out = Vec::new();
-    for ls in &geom.lines {
+    let placed = |ls: &LineString<f64>| {
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
         for c in &ls.0 {
             let p = place.map(c.x, c.y);
@@ -497,11 +494,13 @@ fn open_lines(geom: &CutLoops, place: &Placement) -> Vec<Vec<[f64; 2]>> {
                 pts.push(p);
             }
         }
-        if pts.len() >= 2 {
-            out.push(pts);
-        }
-    }
-    out
+        pts
+    };
+    geom.lines
+        .iter()
+        .map(placed)
+        .filter(|p| p.len() >= 2)
+        .collect()
 }
 
 /// The length of an open path, mm.

@@ -271,13 +271,8 @@ impl Program {
         if let Some(e) = cut_extent(&self.moves) {
             return [e.min[0] - w[0], e.min[1] - w[1]];
         }
-        let mut c = [f64::INFINITY; 2];
-        for m in &self.moves {
-            for p in [m.from, m.to] {
-                c[0] = c[0].min(p[0]);
-                c[1] = c[1].min(p[1]);
-            }
-        }
+        let points = self.moves.iter().flat_map(|m| [m.from, m.to]);
+        let c = points.fold([f64::INFINITY; 2], |c, p| [c[0].min(p[0]), c[1].min(p[1])]);
         if c[0].is_finite() {
             [c[0] - w[0], c[1] - w[1]]
         } else {

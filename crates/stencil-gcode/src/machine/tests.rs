@@ -17,7 +17,7 @@ s_max = 255
 
 #[test]
 fn every_builtin_profile_loads() {
-    for name in SHIPPED.iter().map(|s| s.name) {
+    for name in builtin_names() {
         let m = load(Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(m.name, name, "the profile's name matches its file");
     }

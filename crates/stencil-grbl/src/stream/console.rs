@@ -123,9 +123,7 @@ impl<'a> Console<'a> {
             st = self.s.query_status(&mut hinted)?;
             tries += 1;
         }
-        if let Some(w) = st.wco {
-            self.wco = Some(w);
-        }
+        self.wco = st.wco.or(self.wco);
         self.locked = st.state == MachineState::Alarm;
         let wco = self.wco.unwrap_or([0.0; 3]);
         let (machine, work) = match (st.mpos, st.wpos) {

@@ -174,9 +174,7 @@ impl Session<'_, '_> {
             if !lines[next].preamble {
                 self.obs.sending(lines[next].number);
             }
-            let mut bytes = Vec::with_capacity(len);
-            bytes.extend_from_slice(lines[next].text.as_bytes());
-            bytes.push(b'\n');
+            let bytes = [lines[next].text.as_bytes(), b"\n"].concat();
             if let Err(e) = self.link.write(&bytes) {
                 return Err(self.fault(e, f));
             }
@@ -326,6 +324,7 @@ impl Session<'_, '_> {
 }
 
 /// The state of lines on their way to Grbl.
+#[derive(Default)]
 pub(super) struct Flight<'l> {
     pub(super) lines: &'l [Outgoing],
     pub(super) start_line: usize,
@@ -375,10 +374,6 @@ impl<'l> Flight<'l> {
         Flight {
             lines,
             start_line,
-            in_flight: VecDeque::new(),
-            in_flight_bytes: 0,
-            acked_total: 0,
-            run: Run::default(),
             tracker: Tracker {
                 planner_blocks,
                 ..Tracker::default()
@@ -388,10 +383,7 @@ impl<'l> Flight<'l> {
                 unexecuted_from: start_line,
                 ..Progress::default()
             },
-            next: 0,
-            first_byte: None,
-            finished: false,
-            quiet: None,
+            ..Flight::default()
         }
     }
 

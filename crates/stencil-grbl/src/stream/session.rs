@@ -114,13 +114,13 @@ impl Session<'_, '_> {
             Err(MachineError::Setup { .. }) => Vec::new(),
             Err(e) => return Err(e),
         };
-        for r in &replies {
-            if let Reply::Feedback(f) = r {
-                if let Some((blocks, rx)) = protocol::parse_opt(f) {
-                    self.info.planner_blocks = blocks;
-                    self.info.rx_buffer = rx;
-                }
-            }
+        let opt = replies.iter().filter_map(|r| match r {
+            Reply::Feedback(f) => protocol::parse_opt(f),
+            _ => None,
+        });
+        if let Some((blocks, rx)) = opt.last() {
+            self.info.planner_blocks = blocks;
+            self.info.rx_buffer = rx;
         }
         if let Some(rx) = self.cfg.rx_buffer {
             self.info.rx_buffer = rx;

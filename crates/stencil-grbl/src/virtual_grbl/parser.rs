@@ -237,11 +237,8 @@ impl Sim {
             mv: Move {
                 from: here,
                 to: here,
-                rapid: false,
-                feed: 0.0,
-                power: 0.0,
-                spindle_s: 0.0,
                 line: idx + 1,
+                ..Move::default()
             },
             n: None,
             idx,

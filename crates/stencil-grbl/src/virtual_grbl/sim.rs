@@ -334,15 +334,8 @@ impl Sim {
     }
 
     pub(super) fn flush_out(&mut self, now: Instant) {
-        let mut out = Vec::new();
-        while let Some((t, _)) = self.wire_out.front() {
-            if *t > now {
-                break;
-            }
-            if let Some((_, b)) = self.wire_out.pop_front() {
-                out.extend_from_slice(&b);
-            }
-        }
+        let due = self.wire_out.iter().take_while(|(t, _)| *t <= now).count();
+        let out: Vec<u8> = self.wire_out.drain(..due).flat_map(|(_, b)| b).collect();
         if out.is_empty() {
             return;
         }
