@@ -249,12 +249,10 @@ fn junction_sq(pu: [f64; 3], unit: [f64; 3], accels: [f64; 3], deviation_mm: f64
 }
 
 /// Every block's exit speed² (the next one's entry), as Grbl's planner leaves it when the block
-/// runs: Grbl holds [`PLANNER_BLOCKS`] blocks, the running one included, and plans the last one
-/// it holds to end at a standstill, so a block may only leave as fast as the machine could
-/// still stop within the blocks held after it (and no block after a sync is held). Within
-/// that window the entry speeds are the reverse pass's (each entry within what braking over the
-/// block allows, and its junction's limit), capped by what accelerating over the running block
-/// reaches from its own entry (the forward pass).
+/// runs: within the window of [`PLANNER_BLOCKS`] it holds (up to a sync; the module says why),
+/// the reverse pass's entry speeds (within what braking over each block allows, and its
+/// junction's limit), capped by what accelerating over the running block reaches from its own
+/// entry (the forward pass).
 fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
     let n = blocks.len();
     // For each block, the index one past the last block Grbl can hold with it (the next sync).

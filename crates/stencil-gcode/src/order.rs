@@ -16,12 +16,7 @@
 //!
 //! The result ([`order`]) is the constraints and a sequence of groups that keeps them (by the
 //! longest chain of loops that must follow each); the travel optimiser orders loops freely within
-//! a group, or walks the constraints directly.
-//!
-//! Hull containment is transitive (A in hull(B) and B in hull(C) puts A in hull(C)); equal hulls
-//! (two loops with the same hull) are ordered by a strict key (hull area, then index). Piece
-//! constraints go from a loop in more pieces to one in fewer, and a hull constraint is kept only
-//! where it does not go the other way, so the two together never cycle (see [`order`]).
+//! a group, or walks the constraints directly. [`order`] says why they never cycle.
 
 use crate::job::Loop;
 use stencil_geom::clip::{self, ClipError};
@@ -395,16 +390,14 @@ pub(crate) struct Order {
     pub before: Vec<Vec<usize>>,
 }
 
-/// The cut order of `loops`:
-/// - every loop inside a piece (see [`pieces`]) before every loop around it;
-/// - every loop inside another's convex hull before it (see [`containers`]), where that does not
-///   contradict the pieces (below);
-/// - of the loops nothing must follow, the largest last; the sheet's outline after everything.
+/// The cut order of `loops`, by the rules the module lists; a hull constraint is kept only where
+/// it does not contradict the pieces.
 ///
 /// Why it cannot cycle: a loop's piece depth (how many pieces it lies in) is strictly greater than
 /// that of every loop around a piece it lies in; hull constraints are kept only from a piece depth
-/// to an equal or smaller one, and among equal depths they follow the strict key of
-/// [`containers`]. Every constraint so descends in (piece depth, -key), which never returns.
+/// to an equal or smaller one, and among equal depths they follow the strict key (hull area, then
+/// index) of [`containers`]. Every constraint so descends in (piece depth, -key), which never
+/// returns.
 pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     let n = loops.len();
     // Geometry Clipper refuses (see `clip`) only loses the piece constraints; hulls still order.

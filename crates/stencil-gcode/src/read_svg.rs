@@ -133,8 +133,7 @@ fn split_number(v: &str) -> (&str, &str) {
     v.split_at(i)
 }
 
-/// A length attribute (`width`, `height`) in mm: a number with an absolute CSS unit (mm, cm, Q,
-/// in, pt, pc, px or none, which is px; any case, exponents allowed). Relative units (%, em, ex,
+/// A length attribute (`width`, `height`) in mm, no unit being px. Relative units (%, em, ex,
 /// ...) have no size without a page around the picture, so they are refused, not guessed.
 fn length_mm(attr: &str, v: &str) -> Result<f64, String> {
     let t = v.trim();

@@ -374,9 +374,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
     let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
-    // Arcs are fitted on the sheet, from each ring's first point as the SVG and DXF writers fit
-    // them, and kept inside the job's box, so the job is placed (and its bed checked) as its
-    // polygons are: with or without arcs it lands at the same place.
+    // Kept inside the job's box: with or without arcs the job lands at the same place.
     let fit = (arc_tolerance_mm > 0.0).then_some(ArcFit {
         tol: arc_tolerance_mm,
         inside: rect,

@@ -3,8 +3,6 @@
 //! The same code runs against a serial port and against the virtual Grbl on a pty, so the tests
 //! exercise exactly what `stencil send` does. Flow control is Grbl's character counting (at most
 //! rx buffer − 1 bytes in flight, each line counted with its `\n`), or send-response as a fallback.
-//! Every way a stream can stop early ends with a soft reset (laser off), an `M5` when the controller
-//! accepts one, and the line to resume from.
 //!
 //! By concern: `link` (the byte port, read line by line), `session` (connect, setup commands,
 //! status queries), `flight` (flow control, acknowledgements, the `$C` pass), `tracker` (which

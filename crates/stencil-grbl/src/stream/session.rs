@@ -109,16 +109,12 @@ impl Session<'_, '_> {
         self.info.planner_blocks = PLANNER_BLOCKS;
         // Build info: Grbl 1.1 tells its planner and buffer sizes here; older firmware and
         // clones may not, or may refuse `$I`: then the stock sizes stand.
-        let replies = match self.command("$I") {
-            Ok(r) => r,
-            Err(MachineError::Setup { .. }) => Vec::new(),
-            Err(e) => return Err(e),
-        };
-        let opt = replies.iter().filter_map(|r| match r {
+        let replies = self.command_if_known("$I")?.unwrap_or_default();
+        let mut opt = replies.iter().filter_map(|r| match r {
             Reply::Feedback(f) => protocol::parse_opt(f),
             _ => None,
         });
-        if let Some((blocks, rx)) = opt.last() {
+        if let Some((blocks, rx)) = opt.next_back() {
             self.info.planner_blocks = blocks;
             self.info.rx_buffer = rx;
         }
@@ -375,11 +371,8 @@ impl Session<'_, '_> {
     /// `$$` into [`ControllerInfo::settings`]; a controller that refuses it (in an alarm,
     /// a clone) leaves them unknown, and nothing is compared.
     fn read_settings(&mut self) -> Result<(), MachineError> {
-        match self.command("$$") {
-            Ok(replies) => self.info.settings = parse_settings(&replies),
-            Err(MachineError::Setup { .. }) => self.info.settings.clear(),
-            Err(e) => return Err(e),
-        }
+        let replies = self.command_if_known("$$")?.unwrap_or_default();
+        self.info.settings = parse_settings(&replies);
         Ok(())
     }
 
@@ -426,6 +419,18 @@ impl Session<'_, '_> {
             }
         }
         Ok(())
+    }
+
+    /// [`Session::command`] for a command an old or reduced build may refuse: `None` when it did.
+    pub(super) fn command_if_known(
+        &mut self,
+        cmd: &str,
+    ) -> Result<Option<Vec<Reply>>, MachineError> {
+        match self.command(cmd) {
+            Ok(replies) => Ok(Some(replies)),
+            Err(MachineError::Setup { .. }) => Ok(None),
+            Err(e) => Err(e),
+        }
     }
 
     /// Send one setup command and wait for its answer (send-response).

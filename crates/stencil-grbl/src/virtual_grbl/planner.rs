@@ -66,11 +66,7 @@ impl Sim {
                 } else {
                     1.0
                 };
-                let mut p = [0.0; 3];
-                for (a, v) in p.iter_mut().enumerate() {
-                    *v = b.mv.from[a] + (b.mv.to[a] - b.mv.from[a]) * f;
-                }
-                p
+                [0, 1, 2].map(|a| b.mv.from[a] + (b.mv.to[a] - b.mv.from[a]) * f)
             }
             None => self.modal.pos,
         }
