@@ -227,19 +227,15 @@ struct Sheet {
 fn sheet(root: roxmltree::Node) -> Result<Sheet, String> {
     let length = |a| root.attribute(a).map(|v| length_mm(a, v)).transpose();
     let (w, h) = (length("width")?, length("height")?);
-    let vb = match root.attribute("viewBox") {
-        None => None,
-        Some(v) => match numbers(v) {
-            Some(n) if n.len() == 4 && n[2] > 0.0 && n[3] > 0.0 => Some([n[0], n[1], n[2], n[3]]),
-            _ => {
-                return Err(format!(
-                    "viewBox=\"{}\" is not four finite numbers (x, y, width, height) with a \
-                     width and height above 0",
-                    excerpt(v)
-                ))
-            }
-        },
+    let view_box = |v| match numbers(v) {
+        Some(n) if n.len() == 4 && n[2] > 0.0 && n[3] > 0.0 => Ok([n[0], n[1], n[2], n[3]]),
+        _ => Err(format!(
+            "viewBox=\"{}\" is not four finite numbers (x, y, width, height) with a width and \
+             height above 0",
+            excerpt(v)
+        )),
     };
+    let vb = root.attribute("viewBox").map(view_box).transpose()?;
     let px = 25.4 / 96.0;
     let (w, h) = match (w, h, vb) {
         (Some(w), Some(h), _) => (w, h),

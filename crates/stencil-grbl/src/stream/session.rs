@@ -156,12 +156,10 @@ impl Session<'_, '_> {
     }
 
     /// No banner came: the board did not reset when the port opened. Before the soft reset that
-    /// wakes it, ask what it is doing: a machine still running moves it was given before (a
-    /// sender that died mid-job) would lose its position to a reset (ALARM:3). Such a machine
-    /// is waited for until it stands idle, or stopped as the abort key stops a job (feed hold,
-    /// standstill, then the reset), as [`StreamConfig::if_moving`] says; one held in a feed
-    /// hold or at its door, which will not finish by itself, is left alone unless stopping was
-    /// asked for. Returns the banner if one arrives meanwhile (the board was only slow).
+    /// wakes it, ask what it is doing: a machine still running moves (a sender that died mid-job)
+    /// is waited for or stopped as the abort key stops a job, as [`StreamConfig::if_moving`] says;
+    /// one held in a feed hold or at its door, which will not finish by itself, is left alone
+    /// unless stopping was asked for. Returns the banner if one arrives meanwhile.
     fn before_reset(
         &mut self,
         alarm: &mut Option<u8>,
