@@ -7,6 +7,7 @@ use crate::num::num;
 
 /// Why [`plan`](crate::plan), [`gcode_for`](crate::gcode_for) or
 /// [`grid::plan_grid`](crate::grid::plan_grid) refused a job.
+#[allow(missing_docs)] // Each variant's message says what its fields are.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     #[error(
@@ -15,25 +16,15 @@ pub enum PlanError {
     )]
     /// The job leaves the bed at this placement.
     DoesNotFit {
-        /// The machine's name.
         machine: String,
-        /// The job's width and height, mm.
         w: f64,
-        /// The job's width and height, mm.
         h: f64,
-        /// The bed's width and height, mm.
         bw: f64,
-        /// The bed's width and height, mm.
         bh: f64,
-        /// What the job spans in machine X and Y, mm.
         x0: f64,
-        /// What the job spans in machine X and Y, mm.
         x1: f64,
-        /// What the job spans in machine X and Y, mm.
         y0: f64,
-        /// What the job spans in machine X and Y, mm.
         y1: f64,
-        /// What would make it fit.
         fix: Fit,
     },
     /// No loop to cut, and the sheet's outline is not cut either.
@@ -48,27 +39,20 @@ pub enum PlanError {
          segment was lost. Close them in the drawing, or cut them open on purpose"
     )]
     OpenPaths {
-        /// How many open paths.
         count: usize,
-        /// The machine's name.
         machine: String,
-        /// Its tool.
         tool: &'static str,
     },
     #[error(transparent)]
     /// Cut settings the machine cannot run.
     Settings(#[from] SettingsError),
-    /// A square of a test grid whose settings the machine refuses; `label` is the square's
-    /// caption (its power or depth and speed).
+    /// A square of a test grid whose settings the machine refuses: `row` and `col` counted from
+    /// 1, as printed; `label` is the square's caption (its power or depth and speed).
     #[error("square at row {row} column {col} ({label}): {cause}")]
     GridSquare {
-        /// Counted from 1, as printed.
         row: usize,
-        /// Counted from 1, as printed.
         col: usize,
-        /// The square's caption.
         label: String,
-        /// What the machine refuses.
         cause: Box<SettingsError>,
     },
     /// Our own output failed our own interpreter: a bug, reported rather than written.
@@ -98,26 +82,19 @@ impl std::fmt::Display for Fit {
 }
 
 /// Cut settings the machine cannot run, or a test grid that cannot be laid out.
+#[allow(missing_docs)] // Each variant's message says what its fields are.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SettingsError {
     #[error("cutting speed must be at least {min} mm/min, got {got}")]
     /// A speed below the least feed.
-    SpeedTooLow {
-        /// The least speed, mm/min.
-        min: f64,
-        /// The speed asked for, mm/min.
-        got: f64,
-    },
+    SpeedTooLow { min: f64, got: f64 },
     #[error(
         "cutting speed {speed} mm/min is above the max feed of '{machine}' ({max} mm/min); lower the speed"
     )]
     /// A speed above the machine's max feed.
     AboveMaxFeed {
-        /// The speed asked for, mm/min.
         speed: f64,
-        /// The machine's name.
         machine: String,
-        /// Its max feed, mm/min.
         max: f64,
     },
     #[error("blade offset must be 0..{MAX_BLADE_OFFSET_MM} mm, got {0}")]
@@ -128,12 +105,7 @@ pub enum SettingsError {
     Passes(u32),
     #[error("air assist is for a laser; '{machine}' has a {tool}: turn it off")]
     /// Air assist asked of a tool that is not a laser.
-    AirAssistNotLaser {
-        /// The machine's name.
-        machine: String,
-        /// Its tool.
-        tool: &'static str,
-    },
+    AirAssistNotLaser { machine: String, tool: &'static str },
     #[error("laser power must be in (0, 100] %, got {0}")]
     /// A laser power out of range, %.
     LaserPower(f64),
@@ -143,11 +115,8 @@ pub enum SettingsError {
     )]
     /// A power so low that the S word is 0.
     LaserDark {
-        /// The power asked for, %.
         power: f64,
-        /// The machine's name.
         machine: String,
-        /// Its `$30`.
         s_max: f64,
     },
     #[error(
@@ -155,13 +124,9 @@ pub enum SettingsError {
     )]
     /// A power whose S is under the machine's `$31`.
     BelowSMin {
-        /// The power asked for, %.
         power: f64,
-        /// The S it gives.
         s: f64,
-        /// The machine's name.
         machine: String,
-        /// Its `$31`.
         s_min: f64,
     },
     #[error("the squares need a size > 0 and a gap >= 0")]
@@ -173,21 +138,15 @@ pub enum SettingsError {
     #[error("depth Z{} is not below the blade's up height Z{} of '{machine}'", num(*depth), num(*up))]
     /// A knife depth not below its up height.
     DepthAboveBlade {
-        /// The depth asked for, Z mm.
         depth: f64,
-        /// The blade's up height, Z mm.
         up: f64,
-        /// The machine's name.
         machine: String,
     },
     #[error("a grid over {kind:?} does not apply to the {tool} of '{machine}'")]
     /// A test grid's rows that do not suit the tool.
     GridKind {
-        /// What the rows would vary.
         kind: RowKind,
-        /// The machine's tool.
         tool: &'static str,
-        /// The machine's name.
         machine: String,
     },
 }
@@ -205,6 +164,19 @@ pub struct GcodeError {
     /// A number beyond what any machine can do ([`MAX_COORD_MM`](crate::interpret::MAX_COORD_MM), [`MAX_FEED_MM_MIN`](crate::interpret::MAX_FEED_MM_MIN),
     /// [`MAX_S`](crate::interpret::MAX_S)), or not finite: the program is refused whole, not passed on to Grbl.
     pub out_of_range: bool,
+}
+
+impl GcodeError {
+    /// A number (or a program) beyond what any machine does: refused whole, with Grbl's
+    /// `error:2` (bad number format) as the nearest code.
+    pub fn out_of_range(line: usize, msg: String) -> GcodeError {
+        GcodeError {
+            line,
+            code: 2,
+            msg,
+            out_of_range: true,
+        }
+    }
 }
 
 /// A refusal with Grbl's error code.

@@ -182,12 +182,7 @@ fn blocks(
         while next_stop.next_if(|&&s| s <= k).is_some() {
             stop_pending = true;
         }
-        let exact = [
-            m.to[0] - m.from[0],
-            m.to[1] - m.from[1],
-            m.to[2] - m.from[2],
-        ];
-        let exact_len = (exact[0] * exact[0] + exact[1] * exact[1] + exact[2] * exact[2]).sqrt();
+        let exact_len = m.length();
         let cut = rule.cuts(m);
         if cut {
             e.cut_mm += exact_len;
@@ -202,7 +197,7 @@ fn blocks(
                 steps_at = Some(to);
                 [0, 1, 2].map(|a| (to[a] - at[a]) / spm[a])
             }
-            None => exact,
+            None => [0, 1, 2].map(|a| m.to[a] - m.from[a]),
         };
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if len < 1e-9 {
@@ -254,12 +249,10 @@ fn junction_sq(pu: [f64; 3], unit: [f64; 3], accels: [f64; 3], deviation_mm: f64
 }
 
 /// Every block's exit speed² (the next one's entry), as Grbl's planner leaves it when the block
-/// runs: Grbl holds [`PLANNER_BLOCKS`] blocks, the running one included, and plans the last one
-/// it holds to end at a standstill, so a block may only leave as fast as the machine could
-/// still stop within the blocks held after it (and no block after a sync is held). Within
-/// that window the entry speeds are the reverse pass's (each entry within what braking over the
-/// block allows, and its junction's limit), capped by what accelerating over the running block
-/// reaches from its own entry (the forward pass).
+/// runs: within the window of [`PLANNER_BLOCKS`] it holds (up to a sync; the module says why),
+/// the reverse pass's entry speeds (within what braking over each block allows, and its
+/// junction's limit), capped by what accelerating over the running block reaches from its own
+/// entry (the forward pass).
 fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
     let n = blocks.len();
     // For each block, the index one past the last block Grbl can hold with it (the next sync).
@@ -293,16 +286,12 @@ pub fn length_over_feed_s(moves: &[Move], limits: &Motion) -> f64 {
     moves
         .iter()
         .map(|m| {
-            let d = ((m.to[0] - m.from[0]).powi(2)
-                + (m.to[1] - m.from[1]).powi(2)
-                + (m.to[2] - m.from[2]).powi(2))
-            .sqrt();
             let rate = if m.rapid {
                 limits.rapid_mm_min
             } else {
                 m.feed.min(limits.max_feed_mm_min).max(1.0)
             };
-            d / rate * 60.0
+            m.length() / rate * 60.0
         })
         .sum()
 }

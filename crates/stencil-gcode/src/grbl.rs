@@ -11,7 +11,7 @@
 use crate::arc::{Arc, MAX_ARC_SEGMENTS};
 use crate::error::{fail, GcodeError};
 use crate::modal::{
-    Executed, Flow, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
+    dist, Executed, Flow, Modal, Move, MAX_COORD_MM, MAX_FEED_MM_MIN, MAX_S, MOTION_CCW_ARC,
     MOTION_CW_ARC, MOTION_LINEAR, MOTION_NONE, MOTION_SEEK,
 };
 use crate::num::num;
@@ -24,8 +24,9 @@ const MAX_LINE_NUMBER: f64 = 10_000_000.0;
 const MAX_TOOL_NUMBER: f64 = 255.0;
 
 /// What the block's axis words are for (gcode.c's `AXIS_COMMAND_*`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum AxisCommand {
+    #[default]
     None,
     NonModal,
     MotionMode,
@@ -33,8 +34,9 @@ enum AxisCommand {
 }
 
 /// Modal group 0 (gcode.h's `NON_MODAL_*`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum NonModal {
+    #[default]
     None,
     Dwell,
     SetCoordinateData,
@@ -79,6 +81,7 @@ const WORD_Y: u16 = 1 << 11;
 const WORD_Z: u16 = 1 << 12;
 
 /// The block being read and checked: gcode.c's `gc_block` with its tracking variables.
+#[derive(Default)]
 struct Block {
     line: usize,
     modal: Modal,
@@ -123,10 +126,8 @@ pub(crate) fn execute(modal: &mut Modal, clean: &str, line: usize) -> Result<Exe
     Ok(blk.run(modal))
 }
 
-/// A `$J=` jog's words (after `$J=`), as `gc_execute_line` takes them with its jog flag: G1 and
-/// G94 forced, F required, only G20/G21, G90/G91 and G53 (`error:16` for any other command), S
-/// and T unused (`error:36`). The parser's state is not changed. Returns the target in machine
-/// coordinates (machine zero when no axis word is given, as Grbl's) and the feed in mm/min.
+/// [`interpret::jog`](crate::interpret::jog), as `gc_execute_line` takes a jog with its jog flag:
+/// G1 and G94 forced (a target with no axis word is machine zero, as Grbl's).
 pub(crate) fn jog(modal: &Modal, body: &str, line: usize) -> Result<([f64; 3], f64), GcodeError> {
     let mut blk = read_block(modal, body, line, true)?;
     blk.check(modal)?;
@@ -147,25 +148,8 @@ fn read_block(modal: &Modal, clean: &str, line: usize, jog: bool) -> Result<Bloc
         line,
         modal: *modal,
         jog,
-        non_modal: NonModal::None,
-        axis_command: AxisCommand::None,
-        commands: 0,
-        values: 0,
-        axis_words: 0,
-        ijk_words: 0,
-        xyz: [0.0; 3],
-        ijk: [0.0; 3],
-        f: 0.0,
-        l: 0,
-        n: 0.0,
-        p: 0.0,
-        r: 0.0,
-        s: 0.0,
-        tool_length_dynamic: false,
-        has_n: false,
-        flow: None,
-        coord_target: 0,
         block_coord: modal.coords[modal.coord_select],
+        ..Block::default()
     };
     if jog {
         blk.modal.motion = MOTION_LINEAR;
@@ -737,15 +721,9 @@ impl Block {
             points.push(self.ijk);
         }
         for p in points {
-            for (a, v) in p.iter().enumerate() {
+            for (axis, &v) in ["X", "Y", "Z"].into_iter().zip(&p) {
                 if v.abs() > MAX_COORD_MM {
-                    return Err(beyond(
-                        self.line,
-                        ["X", "Y", "Z"][a],
-                        *v,
-                        MAX_COORD_MM,
-                        " mm",
-                    ));
+                    return Err(beyond(self.line, axis, v, MAX_COORD_MM, " mm"));
                 }
             }
         }
@@ -762,16 +740,14 @@ impl Block {
         if moving && matches!(self.modal.motion, MOTION_CW_ARC | MOTION_CCW_ARC) {
             let n = self.arc(st).segments(st.arc_tolerance);
             if n > MAX_ARC_SEGMENTS {
-                return Err(GcodeError {
-                    line: self.line,
-                    code: 2,
-                    msg: format!(
+                return Err(GcodeError::out_of_range(
+                    self.line,
+                    format!(
                         "the arc needs {n} segments at arc tolerance {} mm; Grbl counts at most \
                          {MAX_ARC_SEGMENTS}",
                         num(st.arc_tolerance)
                     ),
-                    out_of_range: true,
-                });
+                ));
             }
         }
         Ok(())
@@ -794,7 +770,6 @@ impl Block {
             n: self.has_n.then_some(self.n as u32),
             ..Executed::default()
         };
-        let before = st.wco();
         st.inverse_time = self.modal.inverse_time;
         st.feed = (self.f > 0.0).then_some(self.f);
         st.s = self.s;
@@ -846,7 +821,6 @@ impl Block {
         if self.flow == Some(Flow::End) {
             st.end_program();
         }
-        out.offsets_changed = st.wco() != before;
         out
     }
 
@@ -899,10 +873,6 @@ impl Block {
     }
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
-}
-
 /// The plane's two arc axes and its linear axis (gcode.c's `axis_0`, `axis_1`, `axis_linear`).
 pub(crate) fn plane_axes(plane: u8) -> (usize, usize, usize) {
     match plane {
@@ -924,17 +894,13 @@ pub fn motion_word(m: u16) -> String {
 /// A number beyond [`MAX_COORD_MM`], [`MAX_FEED_MM_MIN`] or [`MAX_S`]: the program is refused
 /// whole. Huge values are shown in scientific notation so the message stays one short line.
 pub(crate) fn beyond(line: usize, what: &str, v: f64, max: f64, unit: &str) -> GcodeError {
-    GcodeError {
+    let v = if v.abs() < 1e9 {
+        v.to_string()
+    } else {
+        format!("{v:.3e}")
+    };
+    GcodeError::out_of_range(
         line,
-        code: 2,
-        msg: format!(
-            "{what} {} is beyond what any machine does (at most {max}{unit})",
-            if v.abs() < 1e9 {
-                v.to_string()
-            } else {
-                format!("{v:.3e}")
-            }
-        ),
-        out_of_range: true,
-    }
+        format!("{what} {v} is beyond what any machine does (at most {max}{unit})"),
+    )
 }

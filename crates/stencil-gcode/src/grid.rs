@@ -6,7 +6,7 @@
 //! same header, laser mode and end as every job, each square at its own settings.
 
 use crate::machine::{Machine, Tool};
-use stencil_geom::ring::{bbox, dist};
+use stencil_geom::ring::bbox;
 
 use crate::error::{Fit, PlanError, RowKind, SettingsError};
 use crate::job::{CutSettings, Job, Loop, PathStats};
@@ -281,13 +281,7 @@ fn squares_job(spec: &GridSpec, cells: &[Cell], size: [f64; 2]) -> Job {
         })
         .collect();
     let home = [0.0, 0.0];
-    let mut travel = 0.0;
-    let mut at = home;
-    for l in &loops {
-        travel += dist(at, l.points[0]);
-        at = l.points[0];
-    }
-    travel += dist(at, home);
+    let travel = crate::travel::naive_travel(&[], &loops, home);
     let cut_mm = loops
         .iter()
         .map(|l| l.perimeter_mm() * spec.base.passes as f64)

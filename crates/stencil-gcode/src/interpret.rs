@@ -47,17 +47,16 @@ pub fn step(modal: &mut Modal, line: &str, line_no: usize) -> Result<Executed, G
     // Grbl's line buffer holds what is left after spaces and comments, 79 characters: a longer
     // line is refused whole (protocol.c's overflow flag, error:11), whatever its words say.
     if clean.len() > crate::limits::MAX_LINE_BYTES {
-        return Err(GcodeError {
-            line: line_no,
-            code: 11,
-            msg: format!(
+        return Err(crate::error::fail(
+            line_no,
+            11,
+            format!(
                 "the line is {} characters without spaces and comments; Grbl's line buffer \
                  holds {} (Grbl error:11)",
                 clean.len(),
                 crate::limits::MAX_LINE_BYTES
             ),
-            out_of_range: false,
-        });
+        ));
     }
     crate::grbl::execute(modal, &clean, line_no)
 }
@@ -189,9 +188,10 @@ pub fn extent(moves: &[Move]) -> Option<Extent> {
     Some(e)
 }
 
-/// A `$J=` jog's words (the text after `$J=`, cleaned) as Grbl 1.1h checks them, against the
-/// parser's state (which a jog does not change): the target in machine coordinates and the feed
-/// in mm/min, or Grbl's `error:N`.
+/// A `$J=` jog's words (the text after `$J=`, cleaned) as Grbl 1.1h checks them against the
+/// parser's state, which a jog does not change: F required, only G20/G21, G90/G91 and G53
+/// (`error:16` for any other command), S and T unused (`error:36`). The target in machine
+/// coordinates and the feed in mm/min, or Grbl's `error:N`.
 pub fn jog(modal: &Modal, body: &str, line_no: usize) -> Result<([f64; 3], f64), GcodeError> {
     crate::grbl::jog(modal, body, line_no)
 }
@@ -236,12 +236,7 @@ pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeErro
         let before = modal;
         let done = step(&mut modal, line, i + 1)?;
         if p.moves.len() + done.moves.len() > MAX_MOVES {
-            return Err(GcodeError {
-                line: i + 1,
-                code: 2,
-                msg: format!("the program makes more than {MAX_MOVES} moves"),
-                out_of_range: true,
-            });
+            return Err(too_many_moves(i + 1));
         }
         // Grbl's planner syncs for this line (gcode.c): before its own motion for the spindle,
         // coolant, S, a dwell and EEPROM writes; after it for program flow and probes.
@@ -271,6 +266,14 @@ pub fn interpret_from(text: &str, mut modal: Modal) -> Result<Program, GcodeErro
         }
     }
     Ok(p)
+}
+
+/// A program that makes more than [`MAX_MOVES`] moves, refused at `line`.
+pub fn too_many_moves(line: usize) -> GcodeError {
+    GcodeError::out_of_range(
+        line,
+        format!("the program makes more than {MAX_MOVES} moves"),
+    )
 }
 
 /// Interpret a whole program into its moves.

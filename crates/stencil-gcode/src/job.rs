@@ -90,8 +90,8 @@ pub struct Job {
     pub max: [f64; 2],
     /// Loops, lengths and travel.
     pub stats: PathStats,
-    /// Loops are written as arcs fitted within this many mm (0: straight segments): the plan's
-    /// [`PlanConfig::arc_tolerance_mm`](crate::PlanConfig::arc_tolerance_mm) when the machine runs arcs and the tool is not a drag
-    /// knife. Each loop's [`Loop::curve`] holds them.
+    /// Loops are written as arcs fitted within this many mm (0: straight segments), as
+    /// [`PlanConfig::arc_tolerance_on`](crate::PlanConfig::arc_tolerance_on) says; each loop's
+    /// [`Loop::curve`] holds them.
     pub arc_tolerance_mm: f64,
 }

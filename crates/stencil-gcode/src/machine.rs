@@ -4,19 +4,14 @@
 //! A profile names where machine (0, 0) is on the bed (`origin`), so the planner can place a job
 //! right-reading on any machine; the S range mirrors Grbl's `$30`/`$31`; the motion limits feed the
 //! time estimate. The shipped profiles are compiled into the binary, so `--machine diode-400` works
-//! from any folder; a path to a `.toml` file loads a user's own.
-//!
-//! Reading and name lookup go through the shared loader, `stencil_io::profile` (the same as
-//! materials): a path, `./profiles/machines/<name>.toml`, the embedded copy.
+//! from any folder; a path to a `.toml` file loads a user's own (see [`load`]).
 
 use std::ops::RangeInclusive;
 use std::path::Path;
 
 use serde::Deserialize;
 
-use stencil_io::profile::{
-    check_range, embedded, load_toml, parse_toml, resolve, ProfileError, Shipped,
-};
+use stencil_io::profile::{check_range, embedded, parse_toml, resolve, ProfileError, Shipped};
 use stencil_io::shipped;
 
 use crate::bounds;
@@ -101,9 +96,9 @@ pub struct Motion {
     /// homes it first, since a crash or power loss loses the position.
     #[serde(default)]
     pub homing: bool,
-    /// Per-axis max rates X, Y, Z, mm/min (Grbl's `$110`..`$112`), where a controller's settings
-    /// give them (this and the three below come from a controller's `$$`, never from a profile); `None`: `rapid_mm_min` on every axis. Grbl limits a block by its tightest axis,
-    /// so a plunge on a slow Z runs at Z's rate.
+    /// Per-axis max rates X, Y, Z, mm/min (`$110`..`$112`; this and the three below come from a
+    /// controller's `$$`, never from a profile); `None`: `rapid_mm_min` on every axis. Grbl
+    /// limits a block by its tightest axis, so a plunge on a slow Z runs at Z's rate.
     #[serde(skip)]
     pub axis_rate_mm_min: Option<[f64; 3]>,
     /// Per-axis accelerations X, Y, Z, mm/s² (`$120`..`$122`); `None`: `accel_mm_s2` on every
@@ -372,18 +367,14 @@ impl Machine {
                 }
             }
         }
-        match worst {
-            Some((_, e)) => Err(e),
-            None => Ok(()),
-        }
+        worst.map_or(Ok(()), |(_, e)| Err(e))
     }
 
     /// [`Machine::check_extent`] for the moves of a G-code program.
     pub fn check_moves(&self, moves: &[Move]) -> Result<(), OffBed> {
-        match crate::interpret::extent(moves) {
-            Some(e) => self.check_extent(e.min, e.max, Some((e.min_line, e.max_line))),
-            None => Ok(()),
-        }
+        crate::interpret::extent(moves).map_or(Ok(()), |e| {
+            self.check_extent(e.min, e.max, Some((e.min_line, e.max_line)))
+        })
     }
 
     /// Which moves of `moves` cut on this machine: the rule the program itself shows
@@ -774,14 +765,9 @@ pub fn builtin_names() -> Vec<&'static str> {
     SHIPPED.iter().map(|s| s.name).collect()
 }
 
-/// Load a profile file.
-pub fn load_file(path: &Path) -> Result<Machine, ProfileError> {
-    validate(load_toml(path)?, path)
-}
-
-/// Resolve `--machine` (a path, a name in `./profiles/machines/`, or a shipped name; see
-/// `stencil_io::profile::resolve`). `None` gives the shipped [`DEFAULT_MACHINE`] as embedded,
-/// whatever `./profiles/` holds (see `stencil_io::profile::embedded`).
+/// Resolve `--machine` through the shared loader, `stencil_io::profile` (as materials are): a
+/// path, a name in `./profiles/machines/`, or a shipped name. `None` gives the shipped
+/// [`DEFAULT_MACHINE`] as embedded, whatever `./profiles/` holds.
 pub fn load(name_or_path: Option<&str>) -> Result<Machine, ProfileError> {
     let (raw, origin): (RawMachine, _) = match name_or_path {
         Some(arg) => resolve(arg, "machines", SHIPPED)?,

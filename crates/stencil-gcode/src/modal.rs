@@ -2,7 +2,7 @@
 //! program reader (`interpret`): Grbl's `gc_state`, its limits, and a move.
 
 /// One straight move, in millimetres, absolute machine coordinates.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Move {
     /// Where the move starts.
     pub from: [f64; 3],
@@ -20,6 +20,18 @@ pub struct Move {
     pub spindle_s: f64,
     /// 1-based line number in the program text.
     pub line: usize,
+}
+
+impl Move {
+    /// Its length, mm.
+    pub fn length(&self) -> f64 {
+        dist(self.from, self.to)
+    }
+}
+
+/// The distance between two points, mm.
+pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
 }
 
 /// Grbl's motion modes (modal group 1), numbered as their G words; a probe G38.x is 380 + x.
@@ -182,6 +194,4 @@ pub struct Executed {
     pub probe: Option<u16>,
     /// The line's N number, if it has one.
     pub n: Option<u32>,
-    /// The work coordinate offset changed (G10, G92, G54..G59, G43.1/G49, a program end).
-    pub offsets_changed: bool,
 }

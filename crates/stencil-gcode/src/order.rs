@@ -16,12 +16,7 @@
 //!
 //! The result ([`order`]) is the constraints and a sequence of groups that keeps them (by the
 //! longest chain of loops that must follow each); the travel optimiser orders loops freely within
-//! a group, or walks the constraints directly.
-//!
-//! Hull containment is transitive (A in hull(B) and B in hull(C) puts A in hull(C)); equal hulls
-//! (two loops with the same hull) are ordered by a strict key (hull area, then index). Piece
-//! constraints go from a loop in more pieces to one in fewer, and a hull constraint is kept only
-//! where it does not go the other way, so the two together never cycle (see [`order`]).
+//! a group, or walks the constraints directly. [`order`] says why they never cycle.
 
 use crate::job::Loop;
 use stencil_geom::clip::{self, ClipError};
@@ -169,8 +164,6 @@ pub(crate) enum Gaps {
 /// in `inside` must be cut before then, while it is still held all round.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Piece {
-    /// Its outer edge, machine mm.
-    pub ring: Vec<[f64; 2]>,
     /// Loops lying inside it (at any depth), ascending.
     pub inside: Vec<usize>,
     /// The loops that, with the bridges, surround it, ascending.
@@ -379,14 +372,9 @@ pub(crate) fn pieces(loops: &[Loop], gaps: &Gaps) -> Result<Vec<Piece>, ClipErro
         if around.is_empty() {
             continue;
         }
-        for (ring, inside) in region.holes.iter().zip(inside) {
-            if !inside.is_empty() {
-                out.push(Piece {
-                    ring: ring.clone(),
-                    inside,
-                    around: around.clone(),
-                });
-            }
+        for inside in inside.into_iter().filter(|i| !i.is_empty()) {
+            let around = around.clone();
+            out.push(Piece { inside, around });
         }
     }
     Ok(out)
@@ -400,20 +388,16 @@ pub(crate) struct Order {
     pub groups: Vec<Vec<usize>>,
     /// For each loop, the loops that must be cut before it.
     pub before: Vec<Vec<usize>>,
-    /// The pieces found (empty when the gaps could not be closed: then only hulls order).
-    pub pieces: Vec<Piece>,
 }
 
-/// The cut order of `loops`:
-/// - every loop inside a piece (see [`pieces`]) before every loop around it;
-/// - every loop inside another's convex hull before it (see [`containers`]), where that does not
-///   contradict the pieces (below);
-/// - of the loops nothing must follow, the largest last; the sheet's outline after everything.
+/// The cut order of `loops`, by the rules the module lists; a hull constraint is kept only where
+/// it does not contradict the pieces.
 ///
 /// Why it cannot cycle: a loop's piece depth (how many pieces it lies in) is strictly greater than
 /// that of every loop around a piece it lies in; hull constraints are kept only from a piece depth
-/// to an equal or smaller one, and among equal depths they follow the strict key of
-/// [`containers`]. Every constraint so descends in (piece depth, -key), which never returns.
+/// to an equal or smaller one, and among equal depths they follow the strict key (hull area, then
+/// index) of [`containers`]. Every constraint so descends in (piece depth, -key), which never
+/// returns.
 pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     let n = loops.len();
     // Geometry Clipper refuses (see `clip`) only loses the piece constraints; hulls still order.
@@ -437,11 +421,7 @@ pub(crate) fn order(loops: &[Loop], gaps: &Gaps) -> Order {
     if !outline.is_empty() {
         groups.push(outline);
     }
-    Order {
-        groups,
-        before,
-        pieces,
-    }
+    Order { groups, before }
 }
 
 /// For each loop, the loops that must be cut before it (sorted, once each): those inside a piece
@@ -513,16 +493,9 @@ fn largest_last(
         return;
     };
     if top.len() > 1 {
-        let (k, _) = top
-            .iter()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (k, &i)| {
-                if loops[i].area_mm2 > best.1 {
-                    (k, loops[i].area_mm2)
-                } else {
-                    best
-                }
-            });
+        // The first of the largest.
+        let area = |k: usize| loops[top[k]].area_mm2;
+        let k = (1..top.len()).fold(0, |best, k| if area(k) > area(best) { k } else { best });
         let largest = top.remove(k);
         before[largest] = regions.iter().copied().filter(|&i| i != largest).collect();
         groups.push(vec![largest]);
@@ -711,8 +684,8 @@ mod tests {
         );
         for gaps in [Gaps::Regions(regions), Gaps::Closing { r_mm: 1.5 }] {
             let o = order(&loops, &gaps);
-            let mut p: Vec<(Vec<usize>, Vec<usize>)> = o
-                .pieces
+            let mut p: Vec<(Vec<usize>, Vec<usize>)> = pieces(&loops, &gaps)
+                .unwrap()
                 .iter()
                 .map(|p| (p.inside.clone(), p.around.clone()))
                 .collect();
@@ -775,10 +748,12 @@ mod tests {
             vec![1],
             "the small cut lies in the U's hull"
         );
-        let o = order(&loops, &Gaps::Regions(vec![region]));
-        assert_eq!(o.pieces.len(), 1);
+        let gaps = Gaps::Regions(vec![region]);
+        let p = pieces(&loops, &gaps).unwrap();
+        let o = order(&loops, &gaps);
+        assert_eq!(p.len(), 1);
         assert_eq!(
-            (o.pieces[0].inside.clone(), o.pieces[0].around.clone()),
+            (p[0].inside.clone(), p[0].around.clone()),
             (vec![1], vec![0, 2])
         );
         assert!(o.before[0].contains(&1) && !o.before[1].contains(&0));

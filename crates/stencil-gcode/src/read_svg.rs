@@ -53,33 +53,8 @@ pub(crate) const MAX_ATTRIBUTES: usize = 1000;
 /// column.
 #[derive(Debug, thiserror::Error)]
 pub enum SvgError {
-    /// Not well-formed XML (or not an SVG document).
-    #[error("{file}:{line}:{col}: not well-formed XML: {msg}")]
-    Xml {
-        /// The file, as named in messages.
-        file: String,
-        /// Where, from 1.
-        line: u32,
-        /// Where, from 1.
-        col: u32,
-        /// What is wrong.
-        msg: String,
-    },
-    /// A number that does not read as one, or is out of range.
-    #[error("{file}:{line}:{col}: {what}: {msg}")]
-    Number {
-        /// The file, as named in messages.
-        file: String,
-        /// Where, from 1.
-        line: u32,
-        /// Where, from 1.
-        col: u32,
-        /// The element and attribute, as written: `<path> d="M 1 1 L 5x 5"`.
-        what: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// Beyond a limit of the reader, at a place in the text.
+    /// At a place in the text: XML that is not well-formed, a number that does not read as one
+    /// or is out of range (naming the element and attribute), a limit of the reader.
     #[error("{file}:{line}:{col}: {msg}")]
     At {
         /// The file, as named in messages.
@@ -158,8 +133,7 @@ fn split_number(v: &str) -> (&str, &str) {
     v.split_at(i)
 }
 
-/// A length attribute (`width`, `height`) in mm: a number with an absolute CSS unit (mm, cm, Q,
-/// in, pt, pc, px or none, which is px; any case, exponents allowed). Relative units (%, em, ex,
+/// A length attribute (`width`, `height`) in mm, no unit being px. Relative units (%, em, ex,
 /// ...) have no size without a page around the picture, so they are refused, not guessed.
 fn length_mm(attr: &str, v: &str) -> Result<f64, String> {
     let t = v.trim();
@@ -251,27 +225,17 @@ struct Sheet {
 /// given only as a viewBox is taken in px (96 per inch), as drawing programs write it; one of
 /// width and height alone takes the other from the viewBox's shape.
 fn sheet(root: roxmltree::Node) -> Result<Sheet, String> {
-    let w = root
-        .attribute("width")
-        .map(|v| length_mm("width", v))
-        .transpose()?;
-    let h = root
-        .attribute("height")
-        .map(|v| length_mm("height", v))
-        .transpose()?;
-    let vb = match root.attribute("viewBox") {
-        None => None,
-        Some(v) => match numbers(v) {
-            Some(n) if n.len() == 4 && n[2] > 0.0 && n[3] > 0.0 => Some([n[0], n[1], n[2], n[3]]),
-            _ => {
-                return Err(format!(
-                    "viewBox=\"{}\" is not four finite numbers (x, y, width, height) with a \
-                     width and height above 0",
-                    excerpt(v)
-                ))
-            }
-        },
+    let length = |a| root.attribute(a).map(|v| length_mm(a, v)).transpose();
+    let (w, h) = (length("width")?, length("height")?);
+    let view_box = |v| match numbers(v) {
+        Some(n) if n.len() == 4 && n[2] > 0.0 && n[3] > 0.0 => Ok([n[0], n[1], n[2], n[3]]),
+        _ => Err(format!(
+            "viewBox=\"{}\" is not four finite numbers (x, y, width, height) with a width and \
+             height above 0",
+            excerpt(v)
+        )),
     };
+    let vb = root.attribute("viewBox").map(view_box).transpose()?;
     let px = 25.4 / 96.0;
     let (w, h) = match (w, h, vb) {
         (Some(w), Some(h), _) => (w, h),
@@ -422,12 +386,7 @@ fn parse_xml<'a>(text: &'a str, file: &str) -> Result<roxmltree::Document<'a>, S
     };
     roxmltree::Document::parse_with_options(text, opt).map_err(|e| {
         let p = e.pos();
-        SvgError::Xml {
-            file: file.to_string(),
-            line: p.row,
-            col: p.col,
-            msg: e.to_string(),
-        }
+        at(file, (p.row, p.col), format!("not well-formed XML: {e}"))
     })
 }
 
@@ -473,17 +432,15 @@ fn check_markup(text: &str, file: &str) -> Result<(), SvgError> {
                 return Ok(());
             };
             if attributes > MAX_ATTRIBUTES {
-                let (line, col) = line_col(text, lt);
-                return Err(SvgError::At {
-                    file: file.to_string(),
-                    line,
-                    col,
-                    msg: format!(
+                return Err(at(
+                    file,
+                    line_col(text, lt),
+                    format!(
                         "<{}> has {attributes} attributes; at most {MAX_ATTRIBUTES} per element \
                          are read (a drawing program writes a few dozen): remove the extra ones",
                         excerpt(tag_name(&text[lt + 1..]))
                     ),
-                });
+                ));
             }
             // An empty element (`<rect/>`) is a level too, as in the parsed tree.
             if depth + 1 > MAX_DEPTH {
@@ -502,19 +459,28 @@ fn check_markup(text: &str, file: &str) -> Result<(), SvgError> {
     Ok(())
 }
 
-fn too_deep(text: &str, file: &str, at: usize) -> SvgError {
-    let (line, col) = line_col(text, at);
+/// An [`SvgError::At`] at (line, column).
+fn at(file: &str, (line, col): (u32, u32), msg: String) -> SvgError {
+    let file = file.to_string();
     SvgError::At {
-        file: file.to_string(),
+        file,
         line,
         col,
-        msg: format!(
+        msg,
+    }
+}
+
+fn too_deep(text: &str, file: &str, lt: usize) -> SvgError {
+    at(
+        file,
+        line_col(text, lt),
+        format!(
             "<{}> is nested more than {MAX_DEPTH} elements deep; at most {MAX_DEPTH} levels are \
              read (a drawing program nests a few dozen): ungroup the drawing (Inkscape: Edit > \
              Select All in All Layers, then Object > Ungroup)",
-            excerpt(tag_name(&text[at + 1..]))
+            excerpt(tag_name(&text[lt + 1..]))
         ),
-    }
+    )
 }
 
 /// The element name at the start of `s` (up to a space, `/` or `>`).
@@ -618,9 +584,7 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
     let (mut texts, mut images) = (0usize, 0usize);
     for node in doc.descendants().filter(|n| n.is_element()) {
         let name = node.tag_name().name();
-        let hidden = node
-            .ancestors()
-            .any(|a| HIDDEN.contains(&a.tag_name().name()));
+        let hidden = in_hidden(node);
         match name {
             "text" if !hidden => texts += 1,
             "image" if !hidden => images += 1,
@@ -636,48 +600,41 @@ fn check_document(doc: &roxmltree::Document, file: &str) -> Result<Checked, SvgE
         }
         if !hidden && has_mask(node) {
             let p = doc.text_pos_at(node.range().start);
-            let id = node
-                .attribute("id")
-                .map(|i| format!(" id=\"{}\"", excerpt(i)))
-                .unwrap_or_default();
-            return Err(SvgError::At {
-                file: file.to_string(),
-                line: p.row,
-                col: p.col,
-                msg: format!(
-                    "<{}{id}> has a mask, which shows it partly, by the brightness of another \
+            return Err(at(
+                file,
+                (p.row, p.col),
+                format!(
+                    "<{}{}> has a mask, which shows it partly, by the brightness of another \
                      drawing; a cutter cannot follow that: remove the mask, or make it a clip \
                      path (which is cut along its edge)",
-                    excerpt(name)
+                    excerpt(name),
+                    id_attr(node)
                 ),
-            });
+            ));
         }
         let is_root = node.parent().is_some_and(|p| p.is_root());
         for a in node.attributes().filter(|a| a.namespace().is_none()) {
-            let at = |offset: usize, msg: String| {
+            // The element and attribute, as written: `<path> d="M 1 1 L 5x 5"`.
+            let bad_number = |offset: usize, msg: String| {
                 let p = doc.text_pos_at(a.range_value().start + offset);
-                SvgError::Number {
-                    file: file.to_string(),
-                    line: p.row,
-                    col: p.col,
-                    what: format!(
-                        "<{}> {}=\"{}\"",
-                        excerpt(name),
-                        a.name(),
-                        excerpt(a.value())
-                    ),
-                    msg,
-                }
+                let (v, n) = (excerpt(a.value()), excerpt(name));
+                at(
+                    file,
+                    (p.row, p.col),
+                    format!("<{n}> {}=\"{v}\": {msg}", a.name()),
+                )
             };
             match a.name() {
-                "transform" => check_transform(a.value()).map_err(|m| at(0, m))?,
-                "viewBox" => check_view_box(a.value()).map_err(|m| at(0, m))?,
-                "d" if name == "path" => check_path_data(a.value()).map_err(|(o, m)| at(o, m))?,
+                "transform" => check_transform(a.value()).map_err(|m| bad_number(0, m))?,
+                "viewBox" => check_view_box(a.value()).map_err(|m| bad_number(0, m))?,
+                "d" if name == "path" => {
+                    check_path_data(a.value()).map_err(|(o, m)| bad_number(o, m))?
+                }
                 "points" if name == "polygon" || name == "polyline" => {
-                    check_points(a.value()).map_err(|m| at(0, m))?
+                    check_points(a.value()).map_err(|m| bad_number(0, m))?
                 }
                 n if LENGTHS.contains(&n) && !(is_root && (n == "width" || n == "height")) => {
-                    check_length(a.value()).map_err(|m| at(0, m))?
+                    check_length(a.value()).map_err(|m| bad_number(0, m))?
                 }
                 _ => {}
             }
@@ -739,30 +696,22 @@ fn vanished(doc: &roxmltree::Document) -> Option<String> {
             continue;
         }
         count += 1;
-        if node
-            .ancestors()
-            .any(|a| HIDDEN.contains(&a.tag_name().name()))
-            || hidden_by_style(node)
-        {
+        if in_hidden(node) || hidden_by_style(node) {
             continue;
         }
         let p = doc.text_pos_at(node.range().start);
-        let id = node
-            .attribute("id")
-            .map(|i| format!(" id=\"{}\"", excerpt(i)))
-            .unwrap_or_default();
         let what = format!(
-            "<{name}{id}> (shape {count}, line {}, column {})",
-            p.row, p.col
+            "<{name}{}> (shape {count}, line {}, column {})",
+            id_attr(node),
+            p.row,
+            p.col
         );
         // The transforms from the root down to the shape, composed.
-        let chain: Vec<&str> = node
+        let mut chain: Vec<&str> = node
             .ancestors()
             .filter_map(|a| a.attribute("transform"))
-            .collect::<Vec<_>>()
-            .into_iter()
-            .rev()
             .collect();
+        chain.reverse();
         // The linear part [a c; b d], root first.
         let mut m = [1.0, 0.0, 0.0, 1.0];
         for t in &chain {
@@ -805,6 +754,19 @@ fn vanished(doc: &roxmltree::Document) -> Option<String> {
         return Some(format!("{what} comes out empty: {cause}"));
     }
     None
+}
+
+/// Whether `node` is inside (or is) an element whose content is never drawn directly.
+fn in_hidden(node: roxmltree::Node) -> bool {
+    node.ancestors()
+        .any(|a| HIDDEN.contains(&a.tag_name().name()))
+}
+
+/// ` id="…"` as the element has it, or nothing.
+fn id_attr(node: roxmltree::Node) -> String {
+    node.attribute("id")
+        .map(|i| format!(" id=\"{}\"", excerpt(i)))
+        .unwrap_or_default()
 }
 
 /// Whether an element names a mask, in its `mask` attribute or its `style`.

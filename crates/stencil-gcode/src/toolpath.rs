@@ -56,8 +56,7 @@ pub struct PlanConfig {
     pub settings: CutSettings,
     /// Write each loop as lines and G2/G3 arcs fitted within this many mm of its polygon
     /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
-    /// machine whose profile says `arcs = false`). A drag knife's path is always straight: its
-    /// corner swivels are built from the polygon's corners.
+    /// machine whose profile says `arcs = false`); see [`PlanConfig::arc_tolerance_on`].
     pub arc_tolerance_mm: f64,
 }
 
@@ -367,20 +366,15 @@ fn gaps(geom: &CutLoops, place: &Placement) -> order::Gaps {
 pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job, PlanError> {
     check_settings(&cfg.settings, machine)?;
     // A knife swivels up to its blade offset out.
-    let knife = matches!(machine.tool, Tool::Knife { .. });
-    let reach = if knife {
-        cfg.settings.blade_offset_mm
-    } else {
-        0.0
+    let reach = match machine.tool {
+        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
+        _ => 0.0,
     };
-    // A drag knife's corner swivels are built from the polygon's corners: never arcs.
     let arc_tolerance_mm = cfg.arc_tolerance_on(machine);
     let rect = job_rect(geom, cfg.cut_outline, reach);
     let size = [rect[2] - rect[0], rect[3] - rect[1]];
     let place = Placement::new(rect, machine, cfg);
-    // Arcs are fitted on the sheet, from each ring's first point as the SVG and DXF writers fit
-    // them, and kept inside the job's box, so the job is placed (and its bed checked) as its
-    // polygons are: with or without arcs it lands at the same place.
+    // Kept inside the job's box: with or without arcs the job lands at the same place.
     let fit = (arc_tolerance_mm > 0.0).then_some(ArcFit {
         tol: arc_tolerance_mm,
         inside: rect,
@@ -426,7 +420,7 @@ pub fn plan(geom: &CutLoops, machine: &Machine, cfg: &PlanConfig) -> Result<Job,
         return Err(PlanError::Empty);
     }
 
-    let (min, max) = check_on_bed(&frame, &loops, &lines, machine, cfg)?;
+    let (min, max) = check_on_bed(&frame, &loops, &lines, machine, reach)?;
 
     let home = [0.0, 0.0];
     let naive_travel_mm = travel::naive_travel(&lines, &loops, home);
@@ -490,8 +484,7 @@ fn cut_loops(geom: &CutLoops, place: &Placement, fit: Option<ArcFit>) -> Vec<Loo
 /// A drawing's open paths placed on the bed, as given (repeated points removed; a path with no
 /// length left out).
 fn open_lines(geom: &CutLoops, place: &Placement) -> Vec<Vec<[f64; 2]>> {
-    let mut out = Vec::new();
-    for ls in &geom.lines {
+    let placed = |ls: &LineString<f64>| {
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
         for c in &ls.0 {
             let p = place.map(c.x, c.y);
@@ -499,11 +492,13 @@ fn open_lines(geom: &CutLoops, place: &Placement) -> Vec<Vec<[f64; 2]>> {
                 pts.push(p);
             }
         }
-        if pts.len() >= 2 {
-            out.push(pts);
-        }
-    }
-    out
+        pts
+    };
+    geom.lines
+        .iter()
+        .map(placed)
+        .filter(|p| p.len() >= 2)
+        .collect()
 }
 
 /// The length of an open path, mm.
@@ -513,18 +508,14 @@ pub(crate) fn line_len(l: &[[f64; 2]]) -> f64 {
 
 /// Where the head goes, `(min, max)` in machine mm, refused unless it lies on the bed: the sheet
 /// (`frame`), every line and every loop (its arcs' extremes included), which a drag knife's axis
-/// passes by up to the blade offset.
+/// passes by up to the blade offset (`reach`).
 fn check_on_bed(
     frame: &[[f64; 2]; 4],
     loops: &[Loop],
     lines: &[Vec<[f64; 2]>],
     machine: &Machine,
-    cfg: &PlanConfig,
+    reach: f64,
 ) -> Result<([f64; 2], [f64; 2]), PlanError> {
-    let reach = match machine.tool {
-        Tool::Knife { .. } => cfg.settings.blade_offset_mm,
-        _ => 0.0,
-    };
     let mut min = [f64::INFINITY; 2];
     let mut max = [f64::NEG_INFINITY; 2];
     let mut grow = |p: &[f64; 2], r: f64| {
@@ -568,7 +559,7 @@ fn check_on_bed(
 /// keep the cut-order constraints: the depth layers optimised one by one, nearest neighbour under
 /// the constraints, and the input order itself where it keeps them.
 fn shortest_sequence(loops: &[Loop], gaps: &order::Gaps, home: [f64; 2]) -> Vec<(usize, usize)> {
-    let order::Order { groups, before, .. } = order::order(loops, gaps);
+    let order::Order { groups, before } = order::order(loops, gaps);
     let mut candidates = vec![
         travel::optimise(loops, &groups, home),
         travel::greedy_constrained(loops, &before, home),

@@ -28,17 +28,10 @@ pub(crate) fn next_word(
         ));
     }
     let mut j = *i + 1;
-    let negative = match b.get(j) {
-        Some(b'-') => {
-            j += 1;
-            true
-        }
-        Some(b'+') => {
-            j += 1;
-            false
-        }
-        _ => false,
-    };
+    let negative = b.get(j) == Some(&b'-');
+    if matches!(b.get(j), Some(b'-' | b'+')) {
+        j += 1;
+    }
     let (mut int, mut exp, mut digits, mut decimal) = (0u64, 0i32, 0u32, false);
     while let Some(&c) = b.get(j) {
         if c.is_ascii_digit() {
@@ -68,16 +61,14 @@ pub(crate) fn next_word(
         int as f64 * 10f64.powi(exp)
     };
     if !v.is_finite() {
-        return Err(GcodeError {
+        return Err(GcodeError::out_of_range(
             line,
-            code: 2,
-            msg: format!(
+            format!(
                 "the number after '{}' ({}) is too large to be a number",
                 letter as char,
                 excerpt(&clean[*i + 1..j])
             ),
-            out_of_range: true,
-        });
+        ));
     }
     *i = j;
     Ok(Some((letter as char, if negative { -v } else { v })))

@@ -17,9 +17,7 @@
 //! Laser jobs use `M4` (dynamic power) and change power with S words on G0/G1 lines, which Grbl's
 //! laser mode (`$32=1`) applies without stopping motion; M3/M4/M5 changes would stop the planner.
 
-use std::fmt::Write as _;
-
-use crate::machine::{Machine, PenLift, Tool, ZLift};
+use crate::machine::{Machine, PenLift, Tool};
 use stencil_geom::curve;
 use stencil_geom::ring::dist;
 
@@ -119,9 +117,7 @@ impl Writer {
             }
             return false;
         }
-        let mut l = String::with_capacity(40);
-        let _ = write!(l, "G{g} X{x} Y{y}{extra}");
-        self.line(&l);
+        self.line(&format!("G{g} X{x} Y{y}{extra}"));
         self.at = (x, y);
         true
     }
@@ -155,13 +151,8 @@ impl Writer {
         if off.is_nan() || off > GRBL_ARC_RADIUS_SLACK_MM / 2.0 || r0 < 0.001 {
             return self.go(1, to, extra);
         }
-        let mut l = String::with_capacity(48);
-        let _ = write!(
-            l,
-            "G{} X{x} Y{y} I{i} J{j}{extra}",
-            if a.sweep > 0.0 { 3 } else { 2 }
-        );
-        self.line(&l);
+        let g = if a.sweep > 0.0 { 3 } else { 2 };
+        self.line(&format!("G{g} X{x} Y{y} I{i} J{j}{extra}"));
         self.at = (x, y);
         true
     }
@@ -434,16 +425,14 @@ fn tool_on(w: &mut Writer, start: [f64; 2], machine: &Machine, s: &CutSettings) 
         Tool::Laser { .. } => {
             w.go(0, start, " S0");
         }
-        Tool::Pen(PenLift::Spindle { .. }) => {
+        Tool::Pen(PenLift::Spindle { down_s }) => {
             w.go(0, start, "");
+            w.line(&format!("M3 S{}", num(down_s)));
         }
         Tool::Pen(PenLift::Z(z)) | Tool::Knife { z, .. } => {
             w.go(0, start, "");
-            plunge(w, &z);
+            w.line(&format!("G1 Z{} F{}", num(z.down_mm), num(z.plunge_mm_min)));
         }
-    }
-    if let Tool::Pen(PenLift::Spindle { down_s }) = machine.tool {
-        w.line(&format!("M3 S{}", num(down_s)));
     }
     if w.air_pending {
         w.line("M8");
@@ -510,10 +499,6 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
         }
     }
     tool_off(w, machine);
-}
-
-fn plunge(w: &mut Writer, z: &ZLift) {
-    w.line(&format!("G1 Z{} F{}", num(z.down_mm), num(z.plunge_mm_min)));
 }
 
 #[cfg(test)]

@@ -100,34 +100,11 @@ pub struct MachineChange {
     pub what: String,
 }
 
-fn list_rejections(rejected: &[CheckRejection]) -> String {
-    let mut s: Vec<String> = rejected
-        .iter()
-        .take(10)
-        .map(|e| {
-            format!(
-                "line {} `{}`: error:{} ({})",
-                e.line,
-                e.text,
-                e.code,
-                protocol::error_meaning(e.code)
-            )
-        })
-        .collect();
-    if rejected.len() > 10 {
-        s.push(format!("and {} more", rejected.len() - 10));
-    }
-    s.join("; ")
-}
-
-fn list_changes(changes: &[MachineChange]) -> String {
-    let mut s: Vec<String> = changes
-        .iter()
-        .take(10)
-        .map(|c| format!("line {} `{}` {}", c.line, c.text, c.what))
-        .collect();
-    if changes.len() > 10 {
-        s.push(format!("and {} more", changes.len() - 10));
+/// The first ten items, `; `-separated, and how many more there are.
+fn list_ten<T>(items: &[T], each: impl Fn(&T) -> String) -> String {
+    let mut s: Vec<String> = items.iter().take(10).map(each).collect();
+    if items.len() > 10 {
+        s.push(format!("and {} more", items.len() - 10));
     }
     s.join("; ")
 }
@@ -207,14 +184,14 @@ pub enum MachineError {
         profile: String,
         why: String,
     },
-    #[error("{file}: the job would change the machine itself, not only cut: {}; nothing was sent. Remove these lines, or allow them if you meant the job to do this", list_changes(changes))]
+    #[error("{file}: the job would change the machine itself, not only cut: {}; nothing was sent. Remove these lines, or allow them if you meant the job to do this", list_ten(changes, |c| format!("line {} `{}` {}", c.line, c.text, c.what)))]
     MachineCommands {
         file: String,
         changes: Vec<MachineChange>,
     },
     #[error("{port}: Grbl answered `$32=1` with ok but still reports $32={value}: laser mode cannot be set on this controller (built without variable spindle?)")]
     LaserModeNotSet { port: String, value: String },
-    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", rejected.len(), list_rejections(rejected))]
+    #[error("{file}: check mode ($C) rejected {} line(s), nothing was cut: {}", rejected.len(), list_ten(rejected, |e| format!("line {} `{}`: error:{} ({})", e.line, e.text, e.code, protocol::error_meaning(e.code))))]
     CheckFailed {
         file: String,
         rejected: Vec<CheckRejection>,

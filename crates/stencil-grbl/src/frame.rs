@@ -18,12 +18,11 @@ use stencil_gcode::num;
 pub enum FrameTool {
     /// A laser: dark (`s` = 0: `M5 S0`), or at `s` in dynamic mode (`M4 S<s>`), so the beam is
     /// dim and lit only while the head moves along the frame; off (`M5 S0`) for the travel.
-    /// `z`: the work Z the job cuts at, taken first (`G0 Z`) when the job sets its own Z (a
-    /// head focused at Z5 frames there, not wherever it stood); `None` leaves Z alone.
     Laser {
         /// Laser power while tracing.
         s: f64,
-        /// Work Z to frame at.
+        /// The work Z the job cuts at, taken first (`G0 Z`) when the job sets its own Z (a head
+        /// focused at Z5 frames there, not wherever it stood); `None` leaves Z alone.
         z: Option<f64>,
     },
     /// A pen or knife on Z: lifted to `up_mm` (work Z) before any move, and left there.
@@ -96,9 +95,7 @@ pub(crate) fn frame_program(p: &FramePlan) -> String {
         FrameTool::Laser { .. } => "M5 S0".into(),
         _ => "M5".into(),
     });
-    let mut text = out.join("\n");
-    text.push('\n');
-    text
+    out.join("\n") + "\n"
 }
 
 /// Why a frame did not run, or stopped.

@@ -122,22 +122,14 @@ pub(crate) enum Action {
 
 /// The key map.
 pub(crate) fn action(key: JogKey) -> Action {
+    let jog = |axis, sign| Action::Jog { axis, sign };
     match key {
-        JogKey::Left => Action::Jog {
-            axis: 0,
-            sign: -1.0,
-        },
-        JogKey::Right => Action::Jog { axis: 0, sign: 1.0 },
-        JogKey::Up => Action::Jog { axis: 1, sign: 1.0 },
-        JogKey::Down => Action::Jog {
-            axis: 1,
-            sign: -1.0,
-        },
-        JogKey::PageUp => Action::Jog { axis: 2, sign: 1.0 },
-        JogKey::PageDown => Action::Jog {
-            axis: 2,
-            sign: -1.0,
-        },
+        JogKey::Left => jog(0, -1.0),
+        JogKey::Right => jog(0, 1.0),
+        JogKey::Up => jog(1, 1.0),
+        JogKey::Down => jog(1, -1.0),
+        JogKey::PageUp => jog(2, 1.0),
+        JogKey::PageDown => jog(2, -1.0),
         JogKey::Released | JogKey::Char(' ') => Action::Cancel,
         JogKey::Char('h') | JogKey::Char('H') => Action::Home,
         JogKey::Char('u') | JogKey::Char('U') => Action::Unlock,
@@ -343,9 +335,7 @@ impl<'c, 'a> Jogger<'c, 'a> {
             }
             Action::StepUp => self.step = (self.step + 1).min(self.steps.len() - 1),
             Action::StepDown => self.step = self.step.saturating_sub(1),
-            Action::Wait => {
-                self.still()?;
-            }
+            Action::Wait => self.still()?,
             Action::Quit => return Ok(true),
             Action::Nothing => {}
         }
@@ -394,12 +384,8 @@ pub fn jog_session(
         show(&j.status_line());
         loop {
             match keys.next_key(Duration::from_millis(200)) {
-                Ok(Some(k)) => {
-                    if j.press(k)? {
-                        break;
-                    }
-                }
-                Ok(None) => {}
+                Ok(Some(k)) if j.press(k)? => break,
+                Ok(_) => {}
                 Err(_) => break,
             }
             j.refresh()?;

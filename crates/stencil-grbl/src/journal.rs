@@ -15,7 +15,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use super::error::MachineError;
-use super::program::Program;
+use super::program::{n_word, Program};
 use super::stall::ClockRef;
 use super::stream::{ControllerInfo, Observer, Progress, Summary};
 use stencil_io::write_atomic;
@@ -98,10 +98,11 @@ pub fn fingerprint(content: &str) -> String {
 }
 
 /// How the run stands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RunState {
     /// Streaming (or the sender died without a word: crash, kill, power loss).
+    #[default]
     Running,
     /// Stopped by an error, an alarm, a lost or silent port, a stall or the operator.
     Stopped,
@@ -110,7 +111,7 @@ pub enum RunState {
 }
 
 /// The modal state a resume must restore, as the program had built it before `resume_from`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ModalRecord {
     /// "G21" (mm) or "G20" (inches).
     pub units: String,
@@ -129,7 +130,7 @@ pub struct ModalRecord {
 }
 
 /// The journal file's content.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Journal {
     pub(crate) format: String,
     /// The job file as it was named.
@@ -237,16 +238,9 @@ impl Journal {
             file_bytes: bytes.len() as u64,
             file_fnv1a64: fnv1a64(bytes),
             machine: machine.to_string(),
-            machine_fnv1a64: None,
-            state: RunState::Running,
-            stop_reason: None,
             started_unix_s: now,
             updated_unix_s: now,
             from_line,
-            last_acked_line: None,
-            last_sent_line: None,
-            grbl_stopped: false,
-            status_ln: None,
             planner_blocks: stencil_gcode::limits::PLANNER_BLOCKS,
             resume_from: from_line,
             modal: ModalRecord {
@@ -258,8 +252,7 @@ impl Journal {
                 air: false,
                 position_mm: [0.0; 3],
             },
-            last_position: None,
-            placement: None,
+            ..Journal::default()
         };
         j.set_resume(job, from_line);
         j
@@ -293,14 +286,12 @@ impl Journal {
     /// Write it atomically to `path`.
     pub fn write(&mut self, path: &Path) -> Result<(), JournalError> {
         self.updated_unix_s = unix_now();
-        let text = serde_json::to_string_pretty(self).map_err(|e| JournalError::Write {
+        let failed = |e: &dyn std::fmt::Display| JournalError::Write {
             path: path.to_path_buf(),
             detail: e.to_string(),
-        })?;
-        write_atomic(path, text.as_bytes()).map_err(|e| JournalError::Write {
-            path: path.to_path_buf(),
-            detail: e.to_string(),
-        })
+        };
+        let text = serde_json::to_string_pretty(self).map_err(|e| failed(&e))?;
+        write_atomic(path, text.as_bytes()).map_err(|e| failed(&e))
     }
 
     /// Read the journal at `path`.
@@ -323,7 +314,7 @@ impl Journal {
                 });
             }
         };
-        let j: Journal = serde_json::from_str(&text).map_err(|e| JournalError::NotJournal {
+        let mut j: Journal = serde_json::from_str(&text).map_err(|e| JournalError::NotJournal {
             path: path.to_path_buf(),
             detail: e.to_string(),
         })?;
@@ -333,7 +324,6 @@ impl Journal {
                 detail: format!("format `{}`, expected `{FORMAT}`", j.format),
             });
         }
-        let mut j = j;
         // Lines sent since the journal was last written in full.
         if let Some(sent) = read_sent(path).filter(|&n| n > 0) {
             j.last_sent_line = Some(j.last_sent_line.map_or(sent, |s| s.max(sent)));
@@ -406,15 +396,6 @@ pub struct Proposal {
     pub line: usize,
     /// Why that line.
     pub why: String,
-}
-
-/// The N number a cleaned line starts with.
-fn n_word(text: &str) -> Option<u32> {
-    let rest = text.strip_prefix('N')?;
-    let end = rest
-        .find(|c: char| !c.is_ascii_digit())
-        .unwrap_or(rest.len());
-    rest[..end].parse().ok()
 }
 
 /// An observer that keeps the journal while passing everything on to the front end's.

@@ -86,18 +86,9 @@ pub struct DumpError {
     pub what: String,
 }
 
+/// Three finite numbers, `x,y,z`.
 fn xyz(s: &str) -> Option<[f64; 3]> {
-    let mut out = [0.0; 3];
-    let mut it = s.split(',');
-    for v in out.iter_mut() {
-        *v = it
-            .next()?
-            .trim()
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())?;
-    }
-    Some(out)
+    crate::protocol::parse_list(s).filter(|p: &[f64; 3]| p.iter().all(|v| v.is_finite()))
 }
 
 impl ControllerState {
@@ -124,17 +115,17 @@ impl ControllerState {
     /// Take in one reply of `$$`, `$#`, `$G` or `?`; false if it is none of theirs.
     pub fn take(&mut self, reply: &Reply) -> bool {
         match reply {
-            Reply::Other(l) => match l.strip_prefix('$').and_then(|r| r.split_once('=')) {
-                Some((k, v)) => match (k.parse::<u32>(), v.trim().parse::<f64>()) {
-                    (Ok(k), Ok(v)) if v.is_finite() => {
+            Reply::Other(l) => {
+                let kv = l.strip_prefix('$').and_then(|r| r.split_once('='));
+                match kv.map(|(k, v)| (k.parse::<u32>(), v.trim().parse::<f64>())) {
+                    Some((Ok(k), Ok(v))) if v.is_finite() => {
                         self.settings.retain(|(n, _)| *n != k);
                         self.settings.push((k, v));
                         true
                     }
                     _ => false,
-                },
-                None => false,
-            },
+                }
+            }
             Reply::Feedback(f) => self.take_feedback(f),
             Reply::Status(st) => {
                 self.take_status(st);
@@ -159,14 +150,10 @@ impl ControllerState {
             return false;
         };
         match key {
-            "G54" | "G55" | "G56" | "G57" | "G58" | "G59" => match xyz(val) {
-                Some(p) => {
-                    let k: usize = key[1..].parse::<usize>().unwrap_or(54) - 54;
-                    self.coords[k] = p;
-                    true
-                }
-                None => false,
-            },
+            "G54" | "G55" | "G56" | "G57" | "G58" | "G59" => {
+                let k = key[1..].parse::<usize>().unwrap_or(54) - 54;
+                xyz(val).map(|p| self.coords[k] = p).is_some()
+            }
             "G92" => xyz(val).map(|p| self.g92 = p).is_some(),
             "TLO" => val
                 .trim()

@@ -50,6 +50,15 @@ pub struct Program {
     source: Vec<String>,
 }
 
+/// The N number a cleaned line starts with (`N120G1X5` → 120).
+pub(crate) fn n_word(text: &str) -> Option<u32> {
+    let rest = text.strip_prefix('N')?;
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
 /// The read-only `$` queries: they change nothing, and a sender does not stream them.
 const QUERIES: [&str; 5] = ["$$", "$#", "$G", "$I", "$N"];
 
@@ -207,12 +216,7 @@ impl Program {
                 Ok(done) if moves.len() + done.moves.len() > gcode::MAX_MOVES => {
                     return Err(MachineError::Gcode {
                         file: name.to_string(),
-                        cause: gcode::GcodeError {
-                            line: number,
-                            code: 2,
-                            msg: format!("the program makes more than {} moves", gcode::MAX_MOVES),
-                            out_of_range: true,
-                        },
+                        cause: gcode::too_many_moves(number),
                     })
                 }
                 Ok(done) => {
@@ -267,13 +271,8 @@ impl Program {
         if let Some(e) = cut_extent(&self.moves) {
             return [e.min[0] - w[0], e.min[1] - w[1]];
         }
-        let mut c = [f64::INFINITY; 2];
-        for m in &self.moves {
-            for p in [m.from, m.to] {
-                c[0] = c[0].min(p[0]);
-                c[1] = c[1].min(p[1]);
-            }
-        }
+        let points = self.moves.iter().flat_map(|m| [m.from, m.to]);
+        let c = points.fold([f64::INFINITY; 2], |c, p| [c[0].min(p[0]), c[1].min(p[1])]);
         if c[0].is_finite() {
             [c[0] - w[0], c[1] - w[1]]
         } else {
@@ -323,10 +322,7 @@ impl Program {
         // The height to travel at: the profile's, or the highest Z the program itself had reached
         // (its own travel height), whichever is higher.
         let z_restore = st.used[2].then(|| {
-            let up = match lift.z_up_mm {
-                Some(u) => u.max(st.max_z),
-                None => st.max_z,
-            };
+            let up = lift.z_up_mm.map_or(st.max_z, |u| u.max(st.max_z));
             (up, work(2))
         });
         if let Some((up, _)) = z_restore {
@@ -352,10 +348,8 @@ impl Program {
         }
         if let Some(f) = modal.feed {
             out.push(format!("F{}", num(f)));
-            if modal.motion == 1 {
-                out.push("G1".into());
-            }
-        } else if modal.motion == 1 {
+        }
+        if modal.motion == 1 {
             out.push("G1".into());
         }
         if !modal.metric {

@@ -36,9 +36,10 @@ pub(crate) fn is_realtime(b: u8) -> bool {
 }
 
 /// Machine state from a status report.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum MachineState {
     /// Standing, ready for a job.
+    #[default]
     Idle,
     /// Running moves.
     Run,
@@ -100,7 +101,7 @@ impl fmt::Display for MachineState {
 
 /// A parsed `<State|MPos:...|FS:...|...>` report. Fields Grbl leaves out (they depend on `$10` and
 /// on how often it refreshes them) are `None`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Status {
     /// The state.
     pub state: MachineState,
@@ -129,8 +130,11 @@ impl Status {
     }
 }
 
-fn parse_floats<const N: usize>(s: &str) -> Option<[f64; N]> {
-    let mut out = [0.0; N];
+/// `N` comma-separated numbers (more are ignored); `None` if fewer, or one does not read.
+pub(crate) fn parse_list<T: std::str::FromStr + Copy + Default, const N: usize>(
+    s: &str,
+) -> Option<[T; N]> {
+    let mut out = [T::default(); N];
     let mut it = s.split(',');
     for v in out.iter_mut() {
         *v = it.next()?.trim().parse().ok()?;
@@ -143,14 +147,7 @@ fn parse_status(body: &str) -> Option<Status> {
     let state = MachineState::parse(fields.next()?);
     let mut st = Status {
         state,
-        mpos: None,
-        wpos: None,
-        wco: None,
-        feed: None,
-        speed: None,
-        buffer: None,
-        line: None,
-        overrides: None,
+        ..Status::default()
     };
     for f in fields {
         let Some((key, val)) = f.split_once(':') else {
@@ -158,31 +155,19 @@ fn parse_status(body: &str) -> Option<Status> {
         };
         match key {
             // Grbl may report 3 or more axes; we keep X, Y, Z.
-            "MPos" => st.mpos = parse_floats::<3>(val),
-            "WPos" => st.wpos = parse_floats::<3>(val),
-            "WCO" => st.wco = parse_floats::<3>(val),
+            "MPos" => st.mpos = parse_list(val),
+            "WPos" => st.wpos = parse_list(val),
+            "WCO" => st.wco = parse_list(val),
             "FS" => {
-                if let Some([f, s]) = parse_floats::<2>(val) {
+                if let Some([f, s]) = parse_list(val) {
                     st.feed = Some(f);
                     st.speed = Some(s);
                 }
             }
             "F" => st.feed = val.parse().ok(),
-            "Bf" => {
-                let mut it = val.split(',').map(|v| v.parse::<u32>().ok());
-                if let (Some(Some(b)), Some(Some(r))) = (it.next(), it.next()) {
-                    st.buffer = Some((b, r));
-                }
-            }
+            "Bf" => st.buffer = parse_list(val).map(|[b, r]| (b, r)),
             "Ln" => st.line = val.parse().ok(),
-            "Ov" => {
-                let mut it = val.split(',').map(|v| v.parse::<u32>().ok());
-                if let (Some(Some(a)), Some(Some(b)), Some(Some(c))) =
-                    (it.next(), it.next(), it.next())
-                {
-                    st.overrides = Some([a, b, c]);
-                }
-            }
+            "Ov" => st.overrides = parse_list(val),
             _ => {}
         }
     }

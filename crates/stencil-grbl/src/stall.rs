@@ -78,13 +78,9 @@ pub fn slowest_step(job: &Program, rapid_mm_min: Option<f64>) -> Duration {
         });
     let mut longest = 0.0f64;
     for m in &job.moves {
-        let d = (0..3)
-            .map(|a| (m.to[a] - m.from[a]).powi(2))
-            .sum::<f64>()
-            .sqrt();
         let rate = if m.rapid { rapid } else { m.feed };
         if rate > 0.0 {
-            longest = longest.max(d / rate * 60.0);
+            longest = longest.max(m.length() / rate * 60.0);
         }
     }
     for l in &job.lines {

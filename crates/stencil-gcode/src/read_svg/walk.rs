@@ -97,12 +97,11 @@ impl Walk<'_> {
         let clip = match g.clip_path() {
             None => clip,
             Some(cp) => {
-                let own = self
-                    .clip_region(cp, g.abs_transform())
-                    .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?;
+                let bad = |e: String| (Self::group_label(g), format!("its clip path: {e}"));
+                let own = self.clip_region(cp, g.abs_transform()).map_err(bad)?;
                 region = match clip {
                     Some(outer) => clip::boolean(outer, &own, clip::Op::Intersection)
-                        .map_err(|e| (Self::group_label(g), format!("its clip path: {e}")))?,
+                        .map_err(|e| bad(e.to_string()))?,
                     None => own,
                 };
                 Some(&region)
@@ -367,23 +366,17 @@ fn clipped(
     let mut out_rings = Vec::new();
     for r in rings {
         match placed(&r) {
-            Some(true) => {
-                out_rings.push(r);
-                continue;
+            Some(true) => out_rings.push(r),
+            Some(false) => {}
+            None => {
+                let ring = MultiPolygon::new(vec![Polygon::new(r, vec![])]);
+                for p in clip::boolean(&ring, region, clip::Op::Intersection)?.0 {
+                    let (ext, holes) = p.into_inner();
+                    out_rings.extend(std::iter::once(ext).chain(holes).filter(|r| {
+                        r.0.len() >= 4 && Polygon::new(r.clone(), vec![]).unsigned_area() > 1e-12
+                    }));
+                }
             }
-            Some(false) => continue,
-            None => {}
-        }
-        let part = clip::boolean(
-            &MultiPolygon::new(vec![Polygon::new(r, vec![])]),
-            region,
-            clip::Op::Intersection,
-        )?;
-        for p in part.0 {
-            let (ext, holes) = p.into_inner();
-            out_rings.extend(std::iter::once(ext).chain(holes).filter(|r| {
-                r.0.len() >= 4 && Polygon::new(r.clone(), vec![]).unsigned_area() > 1e-12
-            }));
         }
     }
     let (mut out_lines, mut crossing) = (Vec::new(), Vec::new());

@@ -118,16 +118,15 @@ pub struct Expected {
     pub bed_mm: Option<[f64; 2]>,
 }
 
-/// The S scale of a job: S at full power (`$30`) and at the lowest (`$31`), and where it was
-/// read, as messages put it after the scale in brackets: "read from its header", or "taken
-/// from machine profile diode-400, as its header does not say".
+/// The S scale a job was written for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PowerScale {
     /// S at full power (`$30`).
     pub s_max: f64,
     /// S at the lowest power (`$31`).
     pub s_min: f64,
-    /// Where the scale was read.
+    /// Where the scale was read, as messages put it after the scale in brackets: "read from its
+    /// header", or "taken from machine profile diode-400, as its header does not say".
     pub source: String,
 }
 

@@ -123,9 +123,7 @@ impl<'a> Console<'a> {
             st = self.s.query_status(&mut hinted)?;
             tries += 1;
         }
-        if let Some(w) = st.wco {
-            self.wco = Some(w);
-        }
+        self.wco = st.wco.or(self.wco);
         self.locked = st.state == MachineState::Alarm;
         let wco = self.wco.unwrap_or([0.0; 3]);
         let (machine, work) = match (st.mpos, st.wpos) {
@@ -229,9 +227,7 @@ impl<'a> Console<'a> {
     /// soft reset, laser off.
     pub fn run(&mut self, job: &Program) -> Result<Summary, MachineError> {
         let lines: Vec<Outgoing> = job.lines.iter().map(Outgoing::program).collect();
-        // As `send` counts (send-response ignores the limit).
-        let rx_limit = self.s.info.rx_buffer.saturating_sub(1).max(1);
-        let summary = self.s.stream(&lines, false, rx_limit, 1);
+        let summary = self.s.stream(&lines, false, 1);
         if summary.is_err() {
             self.locked = matches!(&summary, Err(e) if e.halt().is_some_and(|h| h.locked));
         }

@@ -15,6 +15,7 @@ use crate::protocol::{MachineState, Reply, Status, RT_STATUS};
 use stencil_gcode::interpret as gcode;
 
 /// A line as it goes out: program lines and the resume preamble.
+#[derive(Clone)]
 pub(super) struct Outgoing {
     /// File line (the resume point for preamble lines).
     pub(super) number: usize,
@@ -58,17 +59,11 @@ impl Session<'_, '_> {
             .iter()
             .filter(|l| !is_system(&l.text))
             .map(|l| Outgoing {
-                number: l.number,
-                text: l.text.clone(),
                 motion: false,
-                preamble: l.preamble,
+                ..l.clone()
             })
             .collect();
-        let rx_limit = self.info.rx_buffer.saturating_sub(1).max(1);
-        let rejected = match self.stream_inner(&lines, true, rx_limit, 1) {
-            Ok(run) => run.rejected,
-            Err(e) => return Err(e),
-        };
+        let rejected = self.stream_inner(&lines, true, 1)?.rejected;
         // Leaving check mode soft-resets Grbl: wait for its banner.
         self.command("$C")?;
         let (mut alarm, mut hinted) = (None, false);
@@ -76,10 +71,7 @@ impl Session<'_, '_> {
             .wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?
             .is_none()
         {
-            return Err(MachineError::NoWelcome {
-                port: self.port_name.clone(),
-                secs: self.cfg.timeout.as_secs_f64(),
-            });
+            return Err(self.no_answer());
         }
         if !rejected.is_empty() {
             return Err(MachineError::CheckFailed {
@@ -96,15 +88,14 @@ impl Session<'_, '_> {
         &mut self,
         lines: &[Outgoing],
         checking: bool,
-        rx_limit: usize,
         start_line: usize,
     ) -> Result<Summary, MachineError> {
-        let run = self.stream_inner(lines, checking, rx_limit, start_line)?;
+        let run = self.stream_inner(lines, checking, start_line)?;
         Ok(Summary {
             lines: run.acked,
             bytes: run.bytes,
             elapsed: run.elapsed,
-            rx_limit,
+            rx_limit: self.rx_limit(),
             max_in_flight: run.max_in_flight,
             total: self.started.elapsed(),
             info: self.info.clone(),
@@ -117,7 +108,6 @@ impl Session<'_, '_> {
         &mut self,
         lines: &[Outgoing],
         checking: bool,
-        rx_limit: usize,
         start_line: usize,
     ) -> Result<Run, MachineError> {
         let mut f = Flight::new(lines, start_line, self.info.planner_blocks);
@@ -127,7 +117,7 @@ impl Session<'_, '_> {
 
         loop {
             self.apply_controls(&mut f)?;
-            self.fill(&mut f, rx_limit)?;
+            self.fill(&mut f)?;
             // Done when every line is acknowledged and, for a real run, the machine has finished
             // moving (`ok` only means queued).
             if f.acked_total == lines.len() && (checking || f.finished) {
@@ -154,9 +144,14 @@ impl Session<'_, '_> {
         Ok(f.run)
     }
 
+    /// The most bytes character counting keeps in flight: the receive buffer less one.
+    pub(super) fn rx_limit(&self) -> usize {
+        self.info.rx_buffer.saturating_sub(1).max(1)
+    }
+
     /// Fill Grbl's receive buffer as far as the flow control allows.
-    fn fill(&mut self, f: &mut Flight<'_>, rx_limit: usize) -> Result<(), MachineError> {
-        let lines = f.lines;
+    fn fill(&mut self, f: &mut Flight<'_>) -> Result<(), MachineError> {
+        let (lines, rx_limit) = (f.lines, self.rx_limit());
         while f.next < lines.len() {
             let next = f.next;
             let len = lines[next].text.len() + 1;
@@ -179,9 +174,7 @@ impl Session<'_, '_> {
             if !lines[next].preamble {
                 self.obs.sending(lines[next].number);
             }
-            let mut bytes = Vec::with_capacity(len);
-            bytes.extend_from_slice(lines[next].text.as_bytes());
-            bytes.push(b'\n');
+            let bytes = [lines[next].text.as_bytes(), b"\n"].concat();
             if let Err(e) = self.link.write(&bytes) {
                 return Err(self.fault(e, f));
             }
@@ -325,13 +318,13 @@ impl Session<'_, '_> {
             }
         }
         f.progress.elapsed = self.started.elapsed();
-        self.last_status = Some(st);
         self.obs.progress(&f.progress);
         Ok(())
     }
 }
 
 /// The state of lines on their way to Grbl.
+#[derive(Default)]
 pub(super) struct Flight<'l> {
     pub(super) lines: &'l [Outgoing],
     pub(super) start_line: usize,
@@ -381,25 +374,16 @@ impl<'l> Flight<'l> {
         Flight {
             lines,
             start_line,
-            in_flight: VecDeque::new(),
-            in_flight_bytes: 0,
-            acked_total: 0,
-            run: Run::default(),
             tracker: Tracker {
                 planner_blocks,
-                acked_motion: Vec::new(),
-                motion_at_status: 0,
-                planner_used_at_status: 0,
+                ..Tracker::default()
             },
             progress: Progress {
                 total: lines.iter().filter(|l| !l.preamble).count(),
                 unexecuted_from: start_line,
                 ..Progress::default()
             },
-            next: 0,
-            first_byte: None,
-            finished: false,
-            quiet: None,
+            ..Flight::default()
         }
     }
 

@@ -13,11 +13,8 @@ impl Session<'_, '_> {
     /// Before stopping on purpose: feed hold (`!`), then wait until the machine is known to
     /// stand, reading the acknowledgements still coming. A soft reset while the head moves
     /// loses Grbl's position (ALARM:3); from a completed hold it keeps it, and the report's free
-    /// planner blocks tell exactly which acknowledged moves have not run.
-    ///
-    /// Known to stand means [`standing`]: a report that can only have been made after Grbl
-    /// acted on this hold. If none comes within the hold deadline the reset goes ahead anyway
-    /// and the halt says the position may be lost.
+    /// planner blocks tell exactly which acknowledged moves have not run. Without [`Standstill`]'s
+    /// proof by the hold deadline the reset goes ahead, and the halt says the position may be lost.
     pub(super) fn settle(&mut self, f: Option<&mut Flight<'_>>) {
         if self.link.write(&[RT_FEED_HOLD]).is_err() {
             self.unsure = Some("the feed hold could not be sent".into());

@@ -3,8 +3,6 @@
 //! The same code runs against a serial port and against the virtual Grbl on a pty, so the tests
 //! exercise exactly what `stencil send` does. Flow control is Grbl's character counting (at most
 //! rx buffer − 1 bytes in flight, each line counted with its `\n`), or send-response as a fallback.
-//! Every way a stream can stop early ends with a soft reset (laser off), an `M5` when the controller
-//! accepts one, and the line to resume from.
 //!
 //! By concern: `link` (the byte port, read line by line), `session` (connect, setup commands,
 //! status queries), `flight` (flow control, acknowledgements, the `$C` pass), `tracker` (which
@@ -82,9 +80,8 @@ pub fn send(
             d.number, d.text
         ));
     }
-    let rx_limit = s.info.rx_buffer.saturating_sub(1).max(1);
     if cfg.flow == FlowControl::CharacterCounting {
-        fits_buffer(job, rx_limit, s.info.rx_buffer)?;
+        fits_buffer(job, s.rx_limit(), s.info.rx_buffer)?;
     }
     let (mut lines, resume_point) = outgoing(job, preamble, from);
     for l in &mut lines {
@@ -114,7 +111,7 @@ pub fn send(
     }
     s.obs
         .phase(false, lines.iter().filter(|l| !l.preamble).count());
-    let summary = s.stream(&lines, false, rx_limit, resume_point)?;
+    let summary = s.stream(&lines, false, resume_point)?;
     if job.may_end_laser_on {
         s.obs
             .message("the program ends without switching the laser off: sending M5");

@@ -20,14 +20,8 @@ impl Session<'_, '_> {
             ..ControllerState::default()
         };
         for cmd in ["$#", "$G"] {
-            match self.command(cmd) {
-                Ok(replies) => {
-                    for r in &replies {
-                        st.take(r);
-                    }
-                }
-                Err(MachineError::Setup { .. }) => {}
-                Err(e) => return Err(e),
+            for r in self.command_if_known(cmd)?.unwrap_or_default() {
+                st.take(&r);
             }
         }
         let mut hinted = false;

@@ -118,18 +118,17 @@ impl Session<'_, '_> {
         // Idle and not stopped by this connection: it ran everything it received, so it stands
         // where the last line sent that moves ends. If so, the planner and the position agree.
         // The journal names a line before it goes out, so the last one may not have gone.
-        let agree: Vec<(usize, [f64; 3])> = if ran_all && last != usize::MAX {
-            let mut v: Vec<(usize, [f64; 3])> = [last, last.saturating_sub(1)]
+        let mut agree: Vec<usize> = Vec::new();
+        if ran_all && last != usize::MAX {
+            agree = [last, last.saturating_sub(1)]
                 .iter()
-                .filter_map(|&s| ends.iter().rev().find(|e| e.0 <= s).copied())
+                .filter_map(|&s| ends.iter().rev().find(|e| e.0 <= s))
                 .filter(|e| e.0 + 1 >= from && at(e.1))
+                .map(|e| e.0)
                 .collect();
-            v.dedup_by_key(|e| e.0);
-            v
-        } else {
-            Vec::new()
-        };
-        if let [(line, _)] = agree[..] {
+            agree.dedup();
+        }
+        if let [line] = agree[..] {
             if line + 1 > from {
                 self.obs.message(&format!(
                     "Grbl stands idle at X{} Y{}, where line {line} ends, the last line that \

@@ -21,7 +21,6 @@ pub(super) struct Session<'a, 'o> {
     pub(super) controls: Option<&'a Receiver<Control>>,
     pub(super) port_name: String,
     pub(super) info: ControllerInfo,
-    pub(super) last_status: Option<Status>,
     pub(super) started: Instant,
     pub(super) stall: StallWatch,
     /// Why the position may be lost, noted by a stop path that could not see the machine stand
@@ -52,7 +51,6 @@ impl<'a, 'o> Session<'a, 'o> {
             obs,
             controls,
             info: ControllerInfo::default(),
-            last_status: None,
             started: Instant::now(),
             stall: StallWatch::new(stall_bound),
             unsure: None,
@@ -63,6 +61,14 @@ impl<'a, 'o> Session<'a, 'o> {
 }
 
 impl Session<'_, '_> {
+    /// No answer within the timeout.
+    pub(super) fn no_answer(&self) -> MachineError {
+        MachineError::NoWelcome {
+            port: self.port_name.clone(),
+            secs: self.cfg.timeout.as_secs_f64(),
+        }
+    }
+
     pub(super) fn lost(&self, f: LinkFault) -> MachineError {
         match f {
             LinkFault::Lost(detail) => MachineError::Io {
@@ -103,18 +109,14 @@ impl Session<'_, '_> {
         self.info.planner_blocks = PLANNER_BLOCKS;
         // Build info: Grbl 1.1 tells its planner and buffer sizes here; older firmware and
         // clones may not, or may refuse `$I`: then the stock sizes stand.
-        let replies = match self.command("$I") {
-            Ok(r) => r,
-            Err(MachineError::Setup { .. }) => Vec::new(),
-            Err(e) => return Err(e),
-        };
-        for r in &replies {
-            if let Reply::Feedback(f) = r {
-                if let Some((blocks, rx)) = protocol::parse_opt(f) {
-                    self.info.planner_blocks = blocks;
-                    self.info.rx_buffer = rx;
-                }
-            }
+        let replies = self.command_if_known("$I")?.unwrap_or_default();
+        let mut opt = replies.iter().filter_map(|r| match r {
+            Reply::Feedback(f) => protocol::parse_opt(f),
+            _ => None,
+        });
+        if let Some((blocks, rx)) = opt.next_back() {
+            self.info.planner_blocks = blocks;
+            self.info.rx_buffer = rx;
         }
         if let Some(rx) = self.cfg.rx_buffer {
             self.info.rx_buffer = rx;
@@ -154,12 +156,10 @@ impl Session<'_, '_> {
     }
 
     /// No banner came: the board did not reset when the port opened. Before the soft reset that
-    /// wakes it, ask what it is doing: a machine still running moves it was given before (a
-    /// sender that died mid-job) would lose its position to a reset (ALARM:3). Such a machine
-    /// is waited for until it stands idle, or stopped as the abort key stops a job (feed hold,
-    /// standstill, then the reset), as [`StreamConfig::if_moving`] says; one held in a feed
-    /// hold or at its door, which will not finish by itself, is left alone unless stopping was
-    /// asked for. Returns the banner if one arrives meanwhile (the board was only slow).
+    /// wakes it, ask what it is doing: a machine still running moves (a sender that died mid-job)
+    /// is waited for or stopped as the abort key stops a job, as [`StreamConfig::if_moving`] says;
+    /// one held in a feed hold or at its door, which will not finish by itself, is left alone
+    /// unless stopping was asked for. Returns the banner if one arrives meanwhile.
     fn before_reset(
         &mut self,
         alarm: &mut Option<u8>,
@@ -369,11 +369,8 @@ impl Session<'_, '_> {
     /// `$$` into [`ControllerInfo::settings`]; a controller that refuses it (in an alarm,
     /// a clone) leaves them unknown, and nothing is compared.
     fn read_settings(&mut self) -> Result<(), MachineError> {
-        match self.command("$$") {
-            Ok(replies) => self.info.settings = parse_settings(&replies),
-            Err(MachineError::Setup { .. }) => self.info.settings.clear(),
-            Err(e) => return Err(e),
-        }
+        let replies = self.command_if_known("$$")?.unwrap_or_default();
+        self.info.settings = parse_settings(&replies);
         Ok(())
     }
 
@@ -422,6 +419,18 @@ impl Session<'_, '_> {
         Ok(())
     }
 
+    /// [`Session::command`] for a command an old or reduced build may refuse: `None` when it did.
+    pub(super) fn command_if_known(
+        &mut self,
+        cmd: &str,
+    ) -> Result<Option<Vec<Reply>>, MachineError> {
+        match self.command(cmd) {
+            Ok(replies) => Ok(Some(replies)),
+            Err(MachineError::Setup { .. }) => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
     /// Send one setup command and wait for its answer (send-response).
     pub(super) fn command(&mut self, cmd: &str) -> Result<Vec<Reply>, MachineError> {
         self.link
@@ -451,10 +460,7 @@ impl Session<'_, '_> {
                 Err(f) => return Err(self.lost(f)),
             }
         }
-        Err(MachineError::NoWelcome {
-            port: self.port_name.clone(),
-            secs: self.cfg.timeout.as_secs_f64(),
-        })
+        Err(self.no_answer())
     }
 
     /// Ask `?` until a status report comes (again every half second), at most the timeout.
@@ -470,16 +476,8 @@ impl Session<'_, '_> {
                 _ => None,
             },
         );
-        match st.map_err(|f| self.lost(f))? {
-            Some(st) => {
-                self.last_status = Some(st.clone());
-                Ok(st)
-            }
-            None => Err(MachineError::NoWelcome {
-                port: self.port_name.clone(),
-                secs: self.cfg.timeout.as_secs_f64(),
-            }),
-        }
+        st.map_err(|f| self.lost(f))?
+            .ok_or_else(|| self.no_answer())
     }
 
     /// Read replies for at most `limit`, asking `?` after `first` and then every `every`, and

@@ -3,8 +3,8 @@
 
 use crate::protocol::{MachineState, Status};
 
-/// Estimates which acknowledged moves have really run: Grbl acknowledges a line when it is
-/// queued, and the status report's free planner blocks tell how many still wait.
+/// The acknowledged moves, and how many of them the last status report left in the planner.
+#[derive(Default)]
 pub(super) struct Tracker {
     pub(super) planner_blocks: usize,
     pub(super) acked_motion: Vec<usize>,

@@ -155,12 +155,17 @@ impl VirtualConfig {
         .map(|&(k, v)| (k, v.to_string()))
         .collect();
         for (k, v) in self.settings.clone() {
-            match settings.iter_mut().find(|(n, _)| *n == k) {
-                Some(e) => e.1 = v,
-                None => settings.push((k, v)),
-            }
+            put_setting(&mut settings, k, v);
         }
         settings
+    }
+}
+
+/// Setting `$k` set to `v`: changed in place where listed, else added at the end.
+pub(super) fn put_setting(settings: &mut Vec<(u32, String)>, k: u32, v: String) {
+    match settings.iter_mut().find(|(n, _)| *n == k) {
+        Some(e) => e.1 = v,
+        None => settings.push((k, v)),
     }
 }
 

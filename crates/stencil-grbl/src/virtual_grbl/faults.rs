@@ -52,11 +52,7 @@ impl Sim {
         } else {
             State::Idle
         };
-        self.say("");
-        self.say("Grbl 1.1h ['$' for help]");
-        if self.state == State::Alarm {
-            self.say("[MSG:'$H'|'$X' to unlock]");
-        }
+        self.boot_banner();
     }
 
     fn alarm(&mut self, code: u8) {

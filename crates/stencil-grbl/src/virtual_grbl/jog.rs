@@ -35,11 +35,9 @@ impl Sim {
         let mv = Move {
             from,
             to,
-            rapid: false,
             feed,
-            power: 0.0,
-            spindle_s: 0.0,
             line: idx + 1,
+            ..Move::default()
         };
         if self.plan(mv, idx) {
             self.say("ok");

@@ -1,19 +1,16 @@
 //! A simulated Grbl 1.1h on a pseudo-terminal, for dry runs and tests.
 //!
 //! It speaks the real protocol on the far end of a pty pair, so `stencil send` runs exactly the same
-//! code against it as against a board: welcome banner, a receive buffer of fixed size that drops
-//! (and counts) overflowing bytes, `ok`/`error:N` per line through the shared G-code interpreter,
-//! real-time `?` `!` `~` and soft reset, status reports whose position advances at the programmed
-//! feeds through a planner queue (`ok` means queued, not executed), `$C`, `$I`, `$X`, `$H`, `$G`,
-//! `$$`, jogs (`$J=`, refused in an alarm; 0x85 cancels them), `$H` (or `error:5` without
-//! homing), work offsets (reported as `WCO:`), and injected faults. It records
-//! every line it received, what it executed and every move it planned, so a test can check the
-//! machine got exactly the program, once each, in order, and where the head went.
+//! code against it as against a board. It records every line it received, what it executed and
+//! every move it planned, so a test can check the machine got exactly the program, once each, in
+//! order, and where the head went.
 //!
 //! By concern: `config` (the build, its pace, injected faults), `record` (what it saw and did),
-//! `sim` (the board, its main loop and the wire), `parser` (line buffer and G-code lines),
-//! `planner` (motion and work offsets), `jog`, `realtime` (real-time bytes, status reports),
-//! `system` (`$` commands and settings) and `faults`.
+//! `sim` (the board, its main loop and the wire: a receive buffer of fixed size that drops and
+//! counts overflowing bytes), `parser` (line buffer and G-code lines through the shared
+//! interpreter), `planner` (motion at the programmed feeds: `ok` means queued, not executed),
+//! `jog`, `realtime` (real-time bytes, status reports), `system` (`$` commands and settings) and
+//! `faults`.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};

@@ -8,7 +8,7 @@ use stencil_gcode::limits::MAX_LINE_BYTES;
 
 use stencil_gcode::interpret::Move;
 
-use super::config::Pace;
+use super::config::{put_setting, Pace};
 use super::record::{lock, Event, Received};
 use super::sim::{Block, Comment, Sim, State, Wait, WaitFor};
 
@@ -26,10 +26,7 @@ impl Sim {
                 }
                 self.eeprom = None;
                 if let Some((k, v)) = self.setting_pending.take() {
-                    match self.settings.iter_mut().find(|(n, _)| *n == k) {
-                        Some(e) => e.1 = v,
-                        None => self.settings.push((k, v)),
-                    }
+                    put_setting(&mut self.settings, k, v);
                 }
                 self.done(idx);
             }
@@ -240,11 +237,8 @@ impl Sim {
             mv: Move {
                 from: here,
                 to: here,
-                rapid: false,
-                feed: 0.0,
-                power: 0.0,
-                spindle_s: 0.0,
                 line: idx + 1,
+                ..Move::default()
             },
             n: None,
             idx,
@@ -257,13 +251,7 @@ impl Sim {
 
     /// The settings the parser reads: `$12`, the arc tolerance.
     pub(super) fn apply_settings(&mut self) {
-        if let Some(t) = self
-            .settings
-            .iter()
-            .find(|(k, _)| *k == 12)
-            .and_then(|(_, v)| v.parse::<f64>().ok())
-            .filter(|t| *t > 0.0)
-        {
+        if let Some(t) = self.setting(12).filter(|t| *t > 0.0) {
             self.modal.arc_tolerance = t;
         }
     }

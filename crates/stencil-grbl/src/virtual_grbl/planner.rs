@@ -8,15 +8,7 @@ use stencil_gcode::interpret::Move;
 use super::config::Pace;
 use super::record::{lock, PlannedMove};
 use super::sim::{Block, Sim, State};
-
-/// The N number a line starts with (`N120G1X5` → 120).
-fn line_number(text: &str) -> Option<u32> {
-    let rest = text.strip_prefix('N').or_else(|| text.strip_prefix('n'))?;
-    let end = rest
-        .find(|c: char| !c.is_ascii_digit())
-        .unwrap_or(rest.len());
-    rest[..end].parse().ok()
-}
+use crate::program::n_word;
 
 impl Sim {
     pub(super) fn advance(&mut self, now: Instant) {
@@ -74,11 +66,7 @@ impl Sim {
                 } else {
                     1.0
                 };
-                let mut p = [0.0; 3];
-                for (a, v) in p.iter_mut().enumerate() {
-                    *v = b.mv.from[a] + (b.mv.to[a] - b.mv.from[a]) * f;
-                }
-                p
+                [0, 1, 2].map(|a| b.mv.from[a] + (b.mv.to[a] - b.mv.from[a]) * f)
             }
             None => self.modal.pos,
         }
@@ -119,20 +107,20 @@ impl Sim {
             Pace::Instant if last => lock(&self.shared).executed.push(idx),
             Pace::Instant => {}
             Pace::Timed { .. } => {
-                let d = ((mv.to[0] - mv.from[0]).powi(2)
-                    + (mv.to[1] - mv.from[1]).powi(2)
-                    + (mv.to[2] - mv.from[2]).powi(2))
-                .sqrt();
                 let rate = if mv.rapid {
                     self.cfg.rapid_mm_min
                 } else {
                     mv.feed
                 };
-                let t = if rate > 0.0 { d / rate * 60.0 } else { 0.0 };
+                let t = if rate > 0.0 {
+                    mv.length() / rate * 60.0
+                } else {
+                    0.0
+                };
                 let n = lock(&self.shared)
                     .received
                     .get(idx)
-                    .and_then(|r| line_number(&r.text));
+                    .and_then(|r| n_word(&r.text));
                 self.planner.push_back(Block {
                     mv,
                     n,
@@ -150,14 +138,8 @@ impl Sim {
     /// S as Grbl's spindle runs it (spindle_control.c): 0 stays off, at or above `$30` runs at
     /// `$30`, at or below `$31` at `$31`.
     fn spindle_clamp(&self, s: f64) -> f64 {
-        let setting = |k: u32, default: f64| {
-            self.settings
-                .iter()
-                .find(|(n, _)| *n == k)
-                .and_then(|(_, v)| v.parse::<f64>().ok())
-                .unwrap_or(default)
-        };
-        let (max, min) = (setting(30, 1000.0), setting(31, 0.0));
+        let max = self.setting(30).unwrap_or(1000.0);
+        let min = self.setting(31).unwrap_or(0.0);
         if s <= 0.0 {
             0.0
         } else if s >= max {

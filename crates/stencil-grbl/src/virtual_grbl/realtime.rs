@@ -3,7 +3,7 @@
 
 use super::config::Pace;
 use super::record::{lock, Event};
-use super::sim::{Comment, Sim, State};
+use super::sim::{Block, Comment, Sim, State};
 use crate::protocol::{RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME, RT_SOFT_RESET, RT_STATUS};
 
 impl Sim {
@@ -46,12 +46,7 @@ impl Sim {
         if self.frozen || !matches!(self.cfg.pace, Pace::Timed { .. }) {
             return;
         }
-        let [feed_ov, rapid_ov, _] = self.ov;
-        let mm_min = if b.mv.rapid {
-            self.cfg.rapid_mm_min * rapid_ov as f64 / 100.0
-        } else {
-            b.mv.feed * feed_ov as f64 / 100.0
-        };
+        let mm_min = self.block_mm_min(b);
         let accel = self.setting(120).filter(|a| *a > 0.0).unwrap_or(1000.0);
         let t = mm_min / 60.0 / accel;
         if t > 0.0 {
@@ -133,6 +128,12 @@ impl Sim {
         if self.state == State::Critical {
             self.state = State::Alarm;
         }
+        self.boot_banner();
+    }
+
+    /// What Grbl prints when it starts: a blank line, the banner, and the unlock hint when it
+    /// starts locked in alarm.
+    pub(super) fn boot_banner(&mut self) {
         self.say("");
         self.say("Grbl 1.1h ['$' for help]");
         if self.state == State::Alarm {
@@ -140,30 +141,39 @@ impl Sim {
         }
     }
 
+    /// The state as a status report names it. A frozen machine claims `Run` in its reports
+    /// (`report`); the record shows what its planner holds.
+    pub(super) fn state_word(&self, report: bool) -> &'static str {
+        match self.state {
+            State::Alarm | State::Critical => "Alarm",
+            State::Idle if self.check_mode => "Check",
+            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1",
+            State::Idle if self.hold => "Hold:0",
+            State::Idle if report && self.frozen => "Run",
+            State::Idle if self.jogging() => "Jog",
+            State::Idle if !self.planner.is_empty() => "Run",
+            State::Idle => "Idle",
+        }
+    }
+
+    /// How fast the block runs, mm/min, under the feed or rapid override.
+    fn block_mm_min(&self, b: &Block) -> f64 {
+        let [feed_ov, rapid_ov, _] = self.ov;
+        if b.mv.rapid {
+            self.cfg.rapid_mm_min * rapid_ov as f64 / 100.0
+        } else {
+            b.mv.feed * feed_ov as f64 / 100.0
+        }
+    }
+
     pub(super) fn status_report(&mut self) {
         self.reports += 1;
-        let state = match self.state {
-            State::Alarm | State::Critical => "Alarm".to_string(),
-            State::Idle if self.check_mode => "Check".to_string(),
-            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1".to_string(),
-            State::Idle if self.hold => "Hold:0".to_string(),
-            State::Idle if self.frozen => "Run".to_string(),
-            State::Idle if self.jogging() => "Jog".to_string(),
-            State::Idle if !self.planner.is_empty() => "Run".to_string(),
-            State::Idle => "Idle".to_string(),
-        };
+        let state = self.state_word(true);
         let p = self.position();
         let running = !self.planner.is_empty() && !self.hold && self.state == State::Idle;
         let [feed_ov, rapid_ov, spindle_ov] = self.ov;
         let (feed, speed) = match self.planner.front() {
-            Some(b) if running => (
-                if b.mv.rapid {
-                    self.cfg.rapid_mm_min * rapid_ov as f64 / 100.0
-                } else {
-                    b.mv.feed * feed_ov as f64 / 100.0
-                },
-                b.mv.power * spindle_ov as f64 / 100.0,
-            ),
+            Some(b) if running => (self.block_mm_min(b), b.mv.power * spindle_ov as f64 / 100.0),
             // A frozen machine still claims its programmed feed: nothing in the report gives
             // the stall away but the position standing still.
             _ if self.frozen && !self.hold => (self.modal.feed.unwrap_or(0.0), 0.0),

@@ -202,10 +202,7 @@ impl Sim {
                 sim.unheard = bytes.iter().filter(|&&b| b == b'\n').count();
                 sim.backlog = bytes.into();
             }
-            None => {
-                sim.say("");
-                sim.say("Grbl 1.1h ['$' for help]");
-            }
+            None => sim.boot_banner(),
         }
         sim.publish();
         sim
@@ -255,13 +252,12 @@ impl Sim {
     fn next_wait(&self) -> Duration {
         let now = Instant::now();
         let mut wait = Duration::from_millis(20);
-        if let Some(&(t, _)) = self.wire_in.front() {
-            wait = wait.min(t.saturating_duration_since(now));
-        }
-        if let Some((t, _)) = self.wire_out.front() {
-            wait = wait.min(t.saturating_duration_since(now));
-        }
-        if let Some((t, _)) = self.eeprom {
+        // Until the next byte lands, the next line goes out, or the EEPROM write ends.
+        let next = [
+            self.wire_in.front().map(|w| w.0),
+            self.wire_out.front().map(|w| w.0),
+        ];
+        for t in next.into_iter().chain([self.eeprom.map(|e| e.0)]).flatten() {
             wait = wait.min(t.saturating_duration_since(now));
         }
         if let (Pace::Timed { .. }, false) = (self.cfg.pace, self.planner.is_empty()) {
@@ -337,15 +333,8 @@ impl Sim {
     }
 
     pub(super) fn flush_out(&mut self, now: Instant) {
-        let mut out = Vec::new();
-        while let Some((t, _)) = self.wire_out.front() {
-            if *t > now {
-                break;
-            }
-            if let Some((_, b)) = self.wire_out.pop_front() {
-                out.extend_from_slice(&b);
-            }
-        }
+        let due = self.wire_out.iter().take_while(|(t, _)| *t <= now).count();
+        let out: Vec<u8> = self.wire_out.drain(..due).flat_map(|(_, b)| b).collect();
         if out.is_empty() {
             return;
         }
@@ -356,25 +345,13 @@ impl Sim {
     }
 
     pub(super) fn publish(&mut self) {
-        let pos = self.position();
-        let laser = self.modal.spindle_on && self.modal.s > 0.0;
-        let air = self.modal.coolant;
-        let laser_mode = self.laser_mode();
-        let state = match self.state {
-            State::Idle if self.check_mode => "Check",
-            State::Idle if self.hold && self.hold_decel.is_some() => "Hold:1",
-            State::Idle if self.hold => "Hold:0",
-            State::Idle if self.jogging() => "Jog",
-            State::Idle if !self.planner.is_empty() => "Run",
-            State::Idle => "Idle",
-            State::Alarm | State::Critical => "Alarm",
-        };
+        let state = self.state_word(false);
         let mut r = lock(&self.shared);
-        r.position = pos;
+        r.position = self.position();
         r.wco = self.wco;
-        r.laser_on = laser;
-        r.air_on = air;
-        r.laser_mode = laser_mode;
+        r.laser_on = self.modal.spindle_on && self.modal.s > 0.0;
+        r.air_on = self.modal.coolant;
+        r.laser_mode = self.laser_mode();
         r.overrides = self.ov;
         r.frozen = self.frozen;
         if r.state != state {

@@ -34,13 +34,8 @@ impl Sim {
                 self.done(idx);
             }
             "$$" => {
-                let dump: Vec<String> = self
-                    .settings
-                    .iter()
-                    .map(|(k, v)| format!("${k}={v}"))
-                    .collect();
-                for l in dump {
-                    self.say(&l);
+                for (k, v) in self.settings.clone() {
+                    self.say(&format!("${k}={v}"));
                 }
                 self.done(idx);
             }
@@ -132,10 +127,7 @@ impl Sim {
 
     /// `$32` (laser mode) as the settings stand.
     pub(super) fn laser_mode(&self) -> bool {
-        self.settings
-            .iter()
-            .find(|(k, _)| *k == 32)
-            .is_some_and(|(_, v)| v.parse::<f64>().is_ok_and(|v| v != 0.0))
+        self.setting(32).is_some_and(|v| v != 0.0)
     }
 
     /// `$#`: the work systems G54..G59, the G28/G30 positions, G92, the tool length offset and
