@@ -45,7 +45,8 @@ use serde::Serialize;
 use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
 use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
-use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::raster::{edge_neighbours, BitGrid, Gray, TwoTone};
+use crate::report::share_pct as pct;
 use crate::tone::likeness::ssim;
 use crate::tone::Threshold;
 use crate::units::Size;
@@ -474,8 +475,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     } else {
         None
     };
-    let report_and_composite = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
-    let (report, composite) = report_and_composite;
+    let (report, composite) = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
     Ok(Layered {
         layers: made.into_iter().map(|(m, _)| m).collect(),
         fill_in: fill_in.map(|(m, _)| m),
@@ -493,10 +493,8 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     let (m, cut) = first;
     let stencil = &m.bridged.bits;
     let (w, h) = (stencil.width, stencil.height);
-    let mut hidden = BitGrid::new(w, h, false);
-    for i in 0..hidden.data.len() {
-        hidden.data[i] = !cut.data[i] && stencil.data[i];
-    }
+    let mut hidden = stencil.clone();
+    hidden.data.iter_mut().zip(&cut.data).for_each(|(s, &c)| *s &= !c);
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
     let draw = |_: &mut (), p: &StageParams| -> TwoTone {
@@ -506,26 +504,13 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
         for _ in 0..(reach / mm).round() as u32 {
             let prev = grown.clone();
-            for y in 0..h {
-                for x in 0..w {
-                    let i = (y * w + x) as usize;
-                    if prev.data[i] || cut.data[i] {
-                        continue;
-                    }
-                    let near = (x > 0 && prev.get(x - 1, y))
-                        || (x + 1 < w && prev.get(x + 1, y))
-                        || (y > 0 && prev.get(x, y - 1))
-                        || (y + 1 < h && prev.get(x, y + 1));
-                    if near {
-                        grown.data[i] = true;
-                    }
-                }
+            for (i, g) in grown.data.iter_mut().enumerate() {
+                let mut near = edge_neighbours(i, w as usize, h as usize).into_iter().flatten();
+                *g |= !cut.data[i] && near.any(|j| prev.data[j]);
             }
         }
-        let mut bits = BitGrid::new(w, h, true);
-        for i in 0..bits.data.len() {
-            bits.data[i] = !grown.data[i];
-        }
+        let mut bits = grown;
+        bits.data.iter_mut().for_each(|b| *b = !*b);
         f.marks
             .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
         let gray = Gray {
@@ -559,10 +544,8 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     };
     // Its own bridges (where its cut rings round material) are cheap where the first stencil
     // paints anyway: on the overlap, not on the pixels it exists to paint.
-    let mut painted = BitGrid::new(w, h, true);
-    for i in 0..painted.data.len() {
-        painted.data[i] = cut.data[i] || hidden.data[i];
-    }
+    let mut painted = hidden.clone();
+    painted.data.iter_mut().zip(&cut.data).for_each(|(p, &c)| *p |= c);
     let cost = |gray: &Gray| cost_gray(gray, &painted);
     let tweaks = Tweaks {
         two_tone: Some(&draw),
@@ -735,14 +718,6 @@ fn assess(
         files: Vec::new(),
     };
     (report, rgb)
-}
-
-fn pct(a: usize, b: usize) -> f64 {
-    if b == 0 {
-        0.0
-    } else {
-        100.0 * a as f64 / b as f64
-    }
 }
 
 /// The files of a set, by name (folders included), encoded in memory: each stencil's files as

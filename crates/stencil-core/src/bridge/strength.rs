@@ -139,7 +139,7 @@ impl StrengthReport {
 }
 
 /// An island's bounding box and pixel moments.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Moments {
     x0: u32,
     y0: u32,
@@ -183,14 +183,7 @@ fn moments(map: &IslandMap, n: u32) -> Moments {
     let mut k = Moments {
         x0: u32::MAX,
         y0: u32::MAX,
-        x1: 0,
-        y1: 0,
-        n: 0.0,
-        sx: 0.0,
-        sy: 0.0,
-        sxx: 0.0,
-        syy: 0.0,
-        sxy: 0.0,
+        ..Default::default()
     };
     for (y, a, b) in runs(map, n) {
         k.x0 = k.x0.min(a);
@@ -361,18 +354,12 @@ fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
         return None;
     }
     let (ex, ey) = s.end;
-    for (dx, dy) in [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)] {
-        let (x, y) = (ex + dx, ey + dy);
-        if x >= 0
-            && y >= 0
-            && (x as u32) < map.width
-            && (y as u32) < map.height
-            && map.label(x as u32, y as u32) == n
-        {
-            return Some((x as u32, y as u32));
-        }
-    }
-    None
+    [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)]
+        .into_iter()
+        .map(|(dx, dy)| (ex + dx, ey + dy))
+        .filter(|&(x, y)| x >= 0 && y >= 0 && (x as u32) < map.width && (y as u32) < map.height)
+        .map(|(x, y)| (x as u32, y as u32))
+        .find(|&(x, y)| map.label(x, y) == n)
 }
 
 /// Choose extra bridges (candidate ids, in island order, none twice) for the islands of `map`,

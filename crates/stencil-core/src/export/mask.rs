@@ -18,7 +18,7 @@
 
 use std::fmt::Write;
 
-use geo::{Area, Coord, LineString};
+use geo::{Area, LineString};
 
 use super::error::ExportError;
 use super::svg::{num, path_data, rings};
@@ -317,26 +317,11 @@ fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
         (o.max().x - m / 2.0, o.max().y - m / 2.0),
     ];
     let circle = |cx: f64, cy: f64, rad: f64| {
-        LineString::new(
-            (0..=64)
-                .map(|i| {
-                    let a = i as f64 / 64.0 * std::f64::consts::TAU;
-                    Coord {
-                        x: cx + rad * a.cos(),
-                        y: cy + rad * a.sin(),
-                    }
-                })
-                .collect(),
-        )
+        let at = |i| (i as f64 / 64.0 * std::f64::consts::TAU).sin_cos();
+        LineString::from_iter((0..=64).map(at).map(|(s, c)| (cx + rad * c, cy + rad * s)))
     };
     let rect = |x0: f64, y0: f64, x1: f64, y1: f64| {
-        LineString::new(vec![
-            Coord { x: x0, y: y0 },
-            Coord { x: x1, y: y0 },
-            Coord { x: x1, y: y1 },
-            Coord { x: x0, y: y1 },
-            Coord { x: x0, y: y0 },
-        ])
+        LineString::from(vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)])
     };
     let mut out = Vec::new();
     for (cx, cy) in centres {
