@@ -222,13 +222,7 @@ pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let diag = (g.width as f32).hypot(g.height as f32);
     let min_area = ((s * diag / 40.0).powi(2)).max(2.0) as usize;
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            p[x as usize] = p[p[x as usize] as usize];
-            x = p[x as usize];
-        }
-        x
-    }
+    let find = |p: &mut [u32], x: u32| crate::raster::root(p, x as usize) as u32;
     let mut order: Vec<u32> = (1..n as u32).filter(|&r| area[r as usize] > 0).collect();
     order.sort_by_key(|&r| area[r as usize]);
     for r in order {
