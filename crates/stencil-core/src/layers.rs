@@ -494,7 +494,9 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     let stencil = &m.bridged.bits;
     let (w, h) = (stencil.width, stencil.height);
     let mut hidden = stencil.clone();
-    hidden.data.iter_mut().zip(&cut.data).for_each(|(s, &c)| *s &= !c);
+    for (s, &c) in hidden.data.iter_mut().zip(&cut.data) {
+        *s &= !c;
+    }
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
     let draw = |_: &mut (), p: &StageParams| -> TwoTone {
@@ -505,8 +507,8 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         for _ in 0..(reach / mm).round() as u32 {
             let prev = grown.clone();
             for (i, g) in grown.data.iter_mut().enumerate() {
-                let mut near = edge_neighbours(i, w as usize, h as usize).into_iter().flatten();
-                *g |= !cut.data[i] && near.any(|j| prev.data[j]);
+                let near = edge_neighbours(i, w as usize, h as usize);
+                *g |= !cut.data[i] && near.into_iter().flatten().any(|j| prev.data[j]);
             }
         }
         let mut bits = grown;
@@ -545,7 +547,9 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     // Its own bridges (where its cut rings round material) are cheap where the first stencil
     // paints anyway: on the overlap, not on the pixels it exists to paint.
     let mut painted = hidden.clone();
-    painted.data.iter_mut().zip(&cut.data).for_each(|(p, &c)| *p |= c);
+    for (p, &c) in painted.data.iter_mut().zip(&cut.data) {
+        *p |= c;
+    }
     let cost = |gray: &Gray| cost_gray(gray, &painted);
     let tweaks = Tweaks {
         two_tone: Some(&draw),

@@ -299,24 +299,12 @@ impl UserSettings {
 impl Kept {
     /// The numbers in the ranges a profile allows.
     pub(crate) fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
+        let range =
+            |f, v, lo, hi, unit| check_range(origin, &format!("{prefix}{f}"), v, lo, hi, unit);
         if let Some(p) = self.power_pct {
-            check_range(origin, &format!("{prefix}power_pct"), p, 0.1, 100.0, "%")?;
+            range("power_pct", p, 0.1, 100.0, "%")?;
         }
-        check_range(
-            origin,
-            &format!("{prefix}speed_mm_min"),
-            self.speed_mm_min,
-            1.0,
-            100_000.0,
-            "mm/min",
-        )?;
-        check_range(
-            origin,
-            &format!("{prefix}passes"),
-            self.passes as f64,
-            1.0,
-            50.0,
-            "passes",
-        )
+        range("speed_mm_min", self.speed_mm_min, 1.0, 100_000.0, "mm/min")?;
+        range("passes", self.passes as f64, 1.0, 50.0, "passes")
     }
 }
