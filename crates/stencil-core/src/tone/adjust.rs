@@ -75,7 +75,7 @@ impl Adjust {
             Some(c) => crop(g, c),
             None => g.clone(),
         };
-        g = turn(&g, self.quarter_turns % 4);
+        g = turn(g, self.quarter_turns);
         if self.brightness != 0.0 || self.contrast != 1.0 || self.gamma != 1.0 {
             let inv = 1.0 / self.gamma;
             for v in &mut g.data {
@@ -117,30 +117,10 @@ fn crop(g: &Gray, [x, y, w, h]: [u32; 4]) -> Gray {
     }
 }
 
-/// `g` turned `q` quarter turns clockwise.
-fn turn(g: &Gray, q: u8) -> Gray {
-    let (w, h) = (g.width as usize, g.height as usize);
-    let (ow, oh) = if q % 2 == 1 { (h, w) } else { (w, h) };
-    if q == 0 {
-        return g.clone();
-    }
-    let mut data = Vec::with_capacity(w * h);
-    for y in 0..oh {
-        for x in 0..ow {
-            // The source of output pixel (x, y).
-            let (sx, sy) = match q {
-                1 => (y, h - 1 - x),
-                2 => (w - 1 - x, h - 1 - y),
-                _ => (w - 1 - y, x),
-            };
-            data.push(g.data[sy * w + sx]);
-        }
-    }
-    Gray {
-        width: ow as u32,
-        height: oh as u32,
-        data,
-    }
+/// `g` turned `q` quarter turns clockwise (as its EXIF orientation would turn it).
+fn turn(g: Gray, q: u8) -> Gray {
+    use image::metadata::Orientation::{NoTransforms, Rotate180, Rotate270, Rotate90};
+    super::image::oriented(g, [NoTransforms, Rotate90, Rotate180, Rotate270][q as usize % 4])
 }
 
 type F32Image = ImageBuffer<Luma<f32>, Vec<f32>>;
@@ -300,7 +280,7 @@ mod tests {
         // Clockwise: the left column becomes the top row.
         assert_eq!(t.get(0, 0), g.get(0, 3));
         assert_eq!(t.get(3, 9), g.get(9, 3));
-        let back = turn(&turn(&t, 2), 1);
+        let back = turn(turn(t, 2), 1);
         assert_eq!(back.data, g.data);
     }
 

@@ -85,7 +85,7 @@ type SourceOf = dyn Fn(usize, usize) -> (usize, usize);
 
 /// `g` turned as an EXIF orientation says (as `DynamicImage::apply_orientation` does: the
 /// rotations are clockwise, a flip after a rotation is left to right).
-fn oriented(g: Gray, o: Orientation) -> Gray {
+pub(super) fn oriented(g: Gray, o: Orientation) -> Gray {
     let (w, h) = (g.width as usize, g.height as usize);
     // The source pixel of output pixel (x, y) in an output of `ow` columns.
     let (ow, oh, src): (usize, usize, Box<SourceOf>) = match o {
