@@ -8,17 +8,12 @@
 //! paper and one paint). Layer `k` (1 = lightest paint) cuts every part of the picture at its
 //! tone or darker, so layers are cumulative: a later, darker layer paints over part of what an
 //! earlier one painted, and a small misregistration leaves no unpainted gap.
-//! - A gray picture, or any picture with `levels` given: multi-level thresholds on its luma.
-//!   Without levels, the `N` levels that minimise the spread of gray within the `N + 1` classes
-//!   (Otsu's criterion for several thresholds, solved exactly by dynamic programming over the
-//!   256-level histogram). Layer `k` cuts where the gray is below its level, exactly as a
-//!   one-layer `--threshold` does.
-//! - A colour picture: k-means with `N + 1` clusters in CIELAB (distances there follow what a
-//!   person sees as different), on a sample of at most [`KMEANS_SAMPLES`] pixels, started from the
-//!   pixels at evenly spaced quantiles of lightness (deterministic), [`KMEANS_ROUNDS`] rounds of
-//!   Lloyd's algorithm; clusters are ordered by their lightness L*. Each pixel then carries its
-//!   cluster's L* as its gray, and each layer's level sits between two clusters' L*, so
-//!   thresholding that gray gives exactly the union of the clusters at the layer's tone or darker.
+//! - A gray picture, or any picture with `levels` given: multi-level thresholds on its luma
+//!   ([`multi_otsu`] without levels). Layer `k` cuts where the gray is below its level, exactly
+//!   as a one-layer `--threshold` does.
+//! - A colour picture: k-means with `N + 1` clusters in CIELAB, where distances follow what a
+//!   person sees as different (`kmeans`: its cluster's L* becomes each pixel's gray, and the
+//!   levels sit between the clusters', so each layer cuts the clusters at its tone or darker).
 //!
 //! Each layer is then one ordinary stencil through `make`'s stages (clean-up for the material,
 //! islands, bridges, trace, check, repair): one 4-connected sheet, bridged, width-checked.
@@ -394,16 +389,9 @@ fn one_layer(
 /// the intensity cost `(1 − gray)²` is scaled by [`COVERED_COST`].
 fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
     let k = COVERED_COST.sqrt();
-    Gray {
-        width: gray.width,
-        height: gray.height,
-        data: gray
-            .data
-            .iter()
-            .zip(&covered.data)
-            .map(|(&g, &material)| if material { g } else { 1.0 - (1.0 - g) * k })
-            .collect(),
-    }
+    let data = gray.data.iter().zip(&covered.data);
+    let data = data.map(|(&g, &material)| if material { g } else { 1.0 - (1.0 - g) * k });
+    Gray::from_data(gray.width, gray.height, data.collect())
 }
 
 /// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
@@ -515,15 +503,12 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         bits.data.iter_mut().for_each(|b| *b = !*b);
         f.marks
             .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
-        let gray = Gray {
-            width: w,
-            height: h,
-            data: bits
-                .data
-                .iter()
-                .map(|&b| if b { 1.0 } else { 0.0 })
-                .collect(),
-        };
+        let gray = bits
+            .data
+            .iter()
+            .map(|&b| if b { 1.0 } else { 0.0 })
+            .collect();
+        let gray = Gray::from_data(w, h, gray);
         TwoTone {
             bits,
             gray: Arc::new(gray),

@@ -383,11 +383,7 @@ mod tests {
         let step = n.step_cost(&cfg);
         // Length: the slope of (L/10)^1.5 at L = 200, times 10: 1.5 × √20.
         assert!((step.length - (1.5 * 20f32.sqrt() + STEP_FLOOR)).abs() < 1e-4);
-        let gray = Gray {
-            width: 3,
-            height: 1,
-            data: vec![0.0, 0.5, 1.0],
-        };
+        let gray = Gray::from_data(3, 1, vec![0.0, 0.5, 1.0]);
         // Darkness: w0 (2 by default) × (1 − gray)².
         let w0 = cfg.w_intensity as f32;
         assert!((step.at(&gray, 0) - step.length - w0).abs() < 1e-6);

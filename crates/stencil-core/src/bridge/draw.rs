@@ -195,11 +195,7 @@ fn fill_polygon(
 /// (A hole of the picture itself never reached it and is left alone.)
 fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl Fn(usize) -> bool) {
     let (w, h) = (lw as u32, lh as u32);
-    let grid = |f: &dyn Fn(usize) -> bool| BitGrid {
-        width: w,
-        height: h,
-        data: (0..lw * lh).map(f).collect(),
-    };
+    let grid = |f: &dyn Fn(usize) -> bool| BitGrid::from_data(w, h, (0..lw * lh).map(f).collect());
     let after = grid(&|l| cut(l) && state[l] != 2);
     let (labels, areas) = raster::components(&after, true);
     let open = raster::touches_border(&labels, w, h, areas.len());

@@ -53,11 +53,7 @@ impl Packed {
                     }
                 });
         }
-        BitGrid {
-            width: w as u32,
-            height: h as u32,
-            data,
-        }
+        BitGrid::from_data(w as u32, h as u32, data)
     }
 
     #[inline]

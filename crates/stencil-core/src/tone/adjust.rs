@@ -110,17 +110,16 @@ fn crop(g: &Gray, [x, y, w, h]: [u32; 4]) -> Gray {
         let s = (row * g.width + x) as usize;
         data.extend_from_slice(&g.data[s..s + w as usize]);
     }
-    Gray {
-        width: w,
-        height: h,
-        data,
-    }
+    Gray::from_data(w, h, data)
 }
 
 /// `g` turned `q` quarter turns clockwise (as its EXIF orientation would turn it).
 fn turn(g: Gray, q: u8) -> Gray {
     use image::metadata::Orientation::{NoTransforms, Rotate180, Rotate270, Rotate90};
-    super::image::oriented(g, [NoTransforms, Rotate90, Rotate180, Rotate270][q as usize % 4])
+    super::image::oriented(
+        g,
+        [NoTransforms, Rotate90, Rotate180, Rotate270][q as usize % 4],
+    )
 }
 
 type F32Image = ImageBuffer<Luma<f32>, Vec<f32>>;
@@ -130,11 +129,7 @@ fn to_image(g: &Gray) -> F32Image {
 }
 
 fn from_image(i: F32Image) -> Gray {
-    Gray {
-        width: i.width(),
-        height: i.height(),
-        data: i.into_raw(),
-    }
+    Gray::from_data(i.width(), i.height(), i.into_raw())
 }
 
 /// The bilateral filter (Tomasi and Manduchi 1998) with a window of about 2σ each side (at most
@@ -239,11 +234,7 @@ pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
             (sum[r] / area[r] as f64) as f32
         })
         .collect();
-    Gray {
-        width: g.width,
-        height: g.height,
-        data,
-    }
+    Gray::from_data(g.width, g.height, data)
 }
 
 #[cfg(test)]

@@ -52,14 +52,7 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
         .map_err(|_| out_of_memory())?;
     to_gray(&buf, color, &mut data);
     drop(buf);
-    Ok(oriented(
-        Gray {
-            width,
-            height,
-            data,
-        },
-        orientation,
-    ))
+    Ok(oriented(Gray::from_data(width, height, data), orientation))
 }
 
 /// How the picture's EXIF orientation turns it, in words (`None` when it is shown as stored), for
@@ -105,11 +98,7 @@ pub(super) fn oriented(g: Gray, o: Orientation) -> Gray {
             data.push(g.data[sy * w + sx]);
         }
     }
-    Gray {
-        width: ow as u32,
-        height: oh as u32,
-        data,
-    }
+    Gray::from_data(ow as u32, oh as u32, data)
 }
 
 /// The picture's size in pixels as shown (after its EXIF orientation), from its header alone
