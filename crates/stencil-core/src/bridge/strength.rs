@@ -108,7 +108,7 @@ pub struct StrengthReport {
     pub model: String,
     /// The longest span within the material's sag limit, mm.
     pub max_span_mm: f64,
-    /// Islands wider than this get at least two bridges, mm.
+    /// Islands longer than this get at least two bridges, mm.
     pub two_bridges_above_mm: f64,
     pub(crate) bridges_per_island: u32,
     /// Islands that got extra bridges for strength, and how many bridges that added in all.

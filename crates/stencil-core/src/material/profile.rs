@@ -165,7 +165,6 @@ pub struct LaserCut {
     pub power_pct: f64,
     /// Cutting feed in mm/min.
     pub speed_mm_min: f64,
-    /// Passes over each loop (1..=50).
     /// Passes over each outline.
     pub passes: u32,
     /// Where the numbers come from (a maker's table, a published settings library), so a

@@ -33,7 +33,11 @@ pub(crate) fn box_average(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 +
                 *o /= (n_rows * cols) as f32;
             }
         });
-    Gray::from_data(ow, oh, data)
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
 }
 
 /// [`box_average`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a
@@ -64,7 +68,11 @@ pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
             }
         },
     );
-    Gray::from_data(ow, oh, data)
+    Gray {
+        width: ow,
+        height: oh,
+        data,
+    }
 }
 
 /// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity): the same
@@ -119,7 +127,11 @@ pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
         });
         divide(out);
     });
-    Gray::from_data(g.width, g.height, data)
+    Gray {
+        width: g.width,
+        height: g.height,
+        data,
+    }
 }
 
 /// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as
@@ -304,7 +316,11 @@ mod tests {
             (200, 150),
         ] {
             let data: Vec<f32> = (0..w * h).map(|_| rng.unit() as f32).collect();
-            let g = Gray::from_data(w, h, data);
+            let g = Gray {
+                width: w,
+                height: h,
+                data,
+            };
             let want = blur_11_taps(&g.data, w, h);
             let got = convolve(&g, &taps, sum).data;
             assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h}");
