@@ -153,29 +153,6 @@ struct Moments {
     sxy: f64,
 }
 
-/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone (an island
-/// does not touch the image edge, so each run starts and ends at a border pixel): in proportion
-/// to its perimeter, not the image's area.
-fn runs(map: &IslandMap, n: u32) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
-    let mut start = None;
-    map.nodes[n as usize]
-        .border
-        .iter()
-        .filter_map(move |&(x, y)| {
-            if x == 0 || map.label(x - 1, y) != n {
-                start = Some(x);
-            }
-            let end = x + 1 >= map.width || map.label(x + 1, y) != n;
-            match (end, start) {
-                (true, Some(a)) => {
-                    start = None;
-                    Some((y, a, x))
-                }
-                _ => None,
-            }
-        })
-}
-
 fn moments(map: &IslandMap, n: u32) -> Moments {
     // Σ_{x=0}^{m-1} (x + ½) and Σ (x + ½)², pixel centres.
     let s1 = |m: f64| m * m / 2.0;
@@ -185,7 +162,7 @@ fn moments(map: &IslandMap, n: u32) -> Moments {
         y0: u32::MAX,
         ..Default::default()
     };
-    for (y, a, b) in runs(map, n) {
+    for (y, a, b) in map.island_runs(n as usize) {
         k.x0 = k.x0.min(a);
         k.x1 = k.x1.max(b);
         k.y0 = k.y0.min(y);
@@ -529,7 +506,7 @@ fn frame_and_grid(map: &IslandMap, n: u32, m: &Moments) -> (Frame, Local) {
     let (w, h) = (bw.div_ceil(k) + 2, bh.div_ceil(k) + 2);
     let mut inside = vec![false; w * h];
     let (mut lo, mut hi, mut blo, mut bhi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (y, x0, x1) in runs(map, n) {
+    for (y, x0, x1) in map.island_runs(n as usize) {
         let (ly, ca, cb) = (
             (y - m.y0) as usize / k + 1,
             (x0 - m.x0) as usize / k + 1,
