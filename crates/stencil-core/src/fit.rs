@@ -248,7 +248,7 @@ pub fn fit(r: &FitRequest) -> Result<Fitted, FitError> {
     let asked = picture_mm(r.picture_px, r.size);
     let fits = asked[0] <= largest + 1e-6;
     match (r.size, fits) {
-        // A sheet is filled; a bed only scales down to (and is never turned).
+        // A sheet is filled; a bed (never turned) only when the picture would not fit on it.
         (Size::Default, fits) if sheet || !fits => Ok(Fitted::Scaled {
             from_mm: asked,
             width_mm: largest,
