@@ -229,6 +229,13 @@ pub(super) fn pixel_of(p: [f64; 2]) -> (i64, i64) {
     (down(p[0]), down(p[1]))
 }
 
+/// Whether the pixel holding point `p` is material (outside the image: the frame).
+#[inline]
+pub(super) fn material_at(bits: &BitGrid, p: [f64; 2]) -> bool {
+    let (x, y) = pixel_of(p);
+    bits.get_or_frame(x, y)
+}
+
 /// Turn the planned pixels into material; returns those that were still cut (a pixel an earlier
 /// bridge already took counts for that one).
 pub(crate) fn commit(bits: &mut BitGrid, pixels: &[u32]) -> Vec<u32> {
