@@ -63,6 +63,11 @@ pub struct Etch {
     pub two_sided: bool,
 }
 
+/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
+/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
+/// not etched as designed.
+pub(crate) const MIN_MASK_OPENING_MM: f64 = 0.05;
+
 impl Etch {
     /// The undercut under each mask edge, mm: each side etches its depth (the thickness, or half
     /// of it from both sides) and the etchant eats sideways depth ÷ etch factor under the resist.
@@ -76,14 +81,7 @@ impl Etch {
         };
         depth / self.etch_factor
     }
-}
 
-/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
-/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
-/// not etched as designed.
-pub(crate) const MIN_MASK_OPENING_MM: f64 = 0.05;
-
-impl Etch {
     /// The narrowest opening that etches at its designed size: twice the undercut (what the
     /// compensation takes off both sides) plus `MIN_MASK_OPENING_MM` left in the mask. `make`
     /// raises the material's smallest feature to it, so the clean-up and the width check judge
