@@ -248,19 +248,14 @@ pub fn fit(r: &FitRequest) -> Result<Fitted, FitError> {
     let asked = picture_mm(r.picture_px, r.size);
     let fits = asked[0] <= largest + 1e-6;
     match (r.size, fits) {
-        (Size::Default, _) if sheet => Ok(Fitted::Scaled {
+        // A sheet is filled; a bed (never turned) only when the picture would not fit on it.
+        (Size::Default, fits) if sheet || !fits => Ok(Fitted::Scaled {
             from_mm: asked,
             width_mm: largest,
             height_mm: largest * ph / pw,
             turned: is_turned,
         }),
         (_, true) => Ok(Fitted::AsAsked),
-        (Size::Default, false) => Ok(Fitted::Scaled {
-            from_mm: asked,
-            width_mm: largest,
-            height_mm: largest * ph / pw,
-            turned: false,
-        }),
         (_, false) => Err(FitError::TooLarge {
             size_mm: asked,
             margin_mm: m,

@@ -11,7 +11,7 @@
 //! Polarity: metal stays where the stencil is material, so a bright subject projects dark unless
 //! the tones are swapped (`--invert`): [`GoboReport::warning`] says so when most of it is clear.
 
-use geo::{Area, Coord, Rect};
+use geo::{Area, Rect};
 
 use crate::vector::CutGeometry;
 pub(crate) use crate::vector::Rim;
@@ -124,17 +124,8 @@ pub(crate) fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
         od_mm: gobo.od_mm,
         ia_mm: gobo.ia_mm,
     };
-    let b = rim.bounds();
-    geom.outline = Rect::new(
-        Coord {
-            x: b.min().x - margin_mm,
-            y: b.min().y - margin_mm,
-        },
-        Coord {
-            x: b.max().x + margin_mm,
-            y: b.max().y + margin_mm,
-        },
-    );
+    let (lo, hi, m) = (rim.bounds().min(), rim.bounds().max(), margin_mm);
+    geom.outline = Rect::new((lo.x - m, lo.y - m), (hi.x + m, hi.y + m));
     geom.rim = Some(rim);
 }
 

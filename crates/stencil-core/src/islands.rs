@@ -6,7 +6,7 @@
 
 use rayon::prelude::*;
 
-use crate::raster::{join_runs, runs_of, BitGrid, NOT_LABELLED};
+use crate::raster::{join, join_runs, root, runs_of, BitGrid, NOT_LABELLED};
 
 /// Label of a cut pixel in [`IslandMap::labels`]: the pixels `components` of the material leaves
 /// unlabelled.
@@ -310,20 +310,6 @@ pub(crate) fn floating_after_adding(map: &IslandMap, before: &BitGrid, after: &B
     }
     let nodes = map.nodes.len();
     let mut parent: Vec<u32> = (0..(nodes + added.len()) as u32).collect();
-    fn root(parent: &mut [u32], mut r: usize) -> usize {
-        while parent[r] as usize != r {
-            let p = parent[r] as usize;
-            parent[r] = parent[p];
-            r = p;
-        }
-        r
-    }
-    let join = |parent: &mut [u32], a: usize, b: usize| {
-        let (ra, rb) = (root(parent, a), root(parent, b));
-        if ra != rb {
-            parent[ra.max(rb)] = ra.min(rb) as u32;
-        }
-    };
     // The added pixel above the current one, if added, is found by a cursor that follows a row
     // behind (the pixels above rise with the current one).
     let mut up = 0;

@@ -8,17 +8,12 @@
 //! paper and one paint). Layer `k` (1 = lightest paint) cuts every part of the picture at its
 //! tone or darker, so layers are cumulative: a later, darker layer paints over part of what an
 //! earlier one painted, and a small misregistration leaves no unpainted gap.
-//! - A gray picture, or any picture with `levels` given: multi-level thresholds on its luma.
-//!   Without levels, the `N` levels that minimise the spread of gray within the `N + 1` classes
-//!   (Otsu's criterion for several thresholds, solved exactly by dynamic programming over the
-//!   256-level histogram). Layer `k` cuts where the gray is below its level, exactly as a
-//!   one-layer `--threshold` does.
-//! - A colour picture: k-means with `N + 1` clusters in CIELAB (distances there follow what a
-//!   person sees as different), on a sample of at most [`KMEANS_SAMPLES`] pixels, started from the
-//!   pixels at evenly spaced quantiles of lightness (deterministic), [`KMEANS_ROUNDS`] rounds of
-//!   Lloyd's algorithm; clusters are ordered by their lightness L*. Each pixel then carries its
-//!   cluster's L* as its gray, and each layer's level sits between two clusters' L*, so
-//!   thresholding that gray gives exactly the union of the clusters at the layer's tone or darker.
+//! - A gray picture, or any picture with `levels` given: multi-level thresholds on its luma
+//!   ([`multi_otsu`] without levels). Layer `k` cuts where the gray is below its level, exactly
+//!   as a one-layer `--threshold` does.
+//! - A colour picture: k-means with `N + 1` clusters in CIELAB, where distances follow what a
+//!   person sees as different (`kmeans`: its cluster's L* becomes each pixel's gray, and the
+//!   levels sit between the clusters', so each layer cuts the clusters at its tone or darker).
 //!
 //! Each layer is then one ordinary stencil through `make`'s stages (clean-up for the material,
 //! islands, bridges, trace, check, repair): one 4-connected sheet, bridged, width-checked.
@@ -45,7 +40,8 @@ use serde::Serialize;
 use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
 use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
-use crate::raster::{BitGrid, Gray, TwoTone};
+use crate::raster::{edge_neighbours, BitGrid, Gray, TwoTone};
+use crate::report::share_pct as pct;
 use crate::tone::likeness::ssim;
 use crate::tone::Threshold;
 use crate::units::Size;
@@ -393,16 +389,9 @@ fn one_layer(
 /// the intensity cost `(1 − gray)²` is scaled by [`COVERED_COST`].
 fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
     let k = COVERED_COST.sqrt();
-    Gray {
-        width: gray.width,
-        height: gray.height,
-        data: gray
-            .data
-            .iter()
-            .zip(&covered.data)
-            .map(|(&g, &material)| if material { g } else { 1.0 - (1.0 - g) * k })
-            .collect(),
-    }
+    let data = gray.data.iter().zip(&covered.data);
+    let data = data.map(|(&g, &material)| if material { g } else { 1.0 - (1.0 - g) * k });
+    Gray::from_data(gray.width, gray.height, data.collect())
 }
 
 /// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
@@ -474,8 +463,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     } else {
         None
     };
-    let report_and_composite = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
-    let (report, composite) = report_and_composite;
+    let (report, composite) = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
     Ok(Layered {
         layers: made.into_iter().map(|(m, _)| m).collect(),
         fill_in: fill_in.map(|(m, _)| m),
@@ -493,9 +481,9 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     let (m, cut) = first;
     let stencil = &m.bridged.bits;
     let (w, h) = (stencil.width, stencil.height);
-    let mut hidden = BitGrid::new(w, h, false);
-    for i in 0..hidden.data.len() {
-        hidden.data[i] = !cut.data[i] && stencil.data[i];
+    let mut hidden = stencil.clone();
+    for (s, &c) in hidden.data.iter_mut().zip(&cut.data) {
+        *s &= !c;
     }
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
@@ -506,37 +494,21 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
         for _ in 0..(reach / mm).round() as u32 {
             let prev = grown.clone();
-            for y in 0..h {
-                for x in 0..w {
-                    let i = (y * w + x) as usize;
-                    if prev.data[i] || cut.data[i] {
-                        continue;
-                    }
-                    let near = (x > 0 && prev.get(x - 1, y))
-                        || (x + 1 < w && prev.get(x + 1, y))
-                        || (y > 0 && prev.get(x, y - 1))
-                        || (y + 1 < h && prev.get(x, y + 1));
-                    if near {
-                        grown.data[i] = true;
-                    }
-                }
+            for (i, g) in grown.data.iter_mut().enumerate() {
+                let near = edge_neighbours(i, w as usize, h as usize);
+                *g |= !cut.data[i] && near.into_iter().flatten().any(|j| prev.data[j]);
             }
         }
-        let mut bits = BitGrid::new(w, h, true);
-        for i in 0..bits.data.len() {
-            bits.data[i] = !grown.data[i];
-        }
+        let mut bits = grown;
+        bits.data.iter_mut().for_each(|b| *b = !*b);
         f.marks
             .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
-        let gray = Gray {
-            width: w,
-            height: h,
-            data: bits
-                .data
-                .iter()
-                .map(|&b| if b { 1.0 } else { 0.0 })
-                .collect(),
-        };
+        let gray = bits
+            .data
+            .iter()
+            .map(|&b| if b { 1.0 } else { 0.0 })
+            .collect();
+        let gray = Gray::from_data(w, h, gray);
         TwoTone {
             bits,
             gray: Arc::new(gray),
@@ -559,9 +531,9 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     };
     // Its own bridges (where its cut rings round material) are cheap where the first stencil
     // paints anyway: on the overlap, not on the pixels it exists to paint.
-    let mut painted = BitGrid::new(w, h, true);
-    for i in 0..painted.data.len() {
-        painted.data[i] = cut.data[i] || hidden.data[i];
+    let mut painted = hidden.clone();
+    for (p, &c) in painted.data.iter_mut().zip(&cut.data) {
+        *p |= c;
     }
     let cost = |gray: &Gray| cost_gray(gray, &painted);
     let tweaks = Tweaks {
@@ -735,14 +707,6 @@ fn assess(
         files: Vec::new(),
     };
     (report, rgb)
-}
-
-fn pct(a: usize, b: usize) -> f64 {
-    if b == 0 {
-        0.0
-    } else {
-        100.0 * a as f64 / b as f64
-    }
 }
 
 /// The files of a set, by name (folders included), encoded in memory: each stencil's files as

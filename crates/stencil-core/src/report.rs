@@ -143,7 +143,7 @@ impl Fidelity {
 }
 
 /// `n` of `pixels` in percent (0 for an empty picture).
-fn share_pct(n: usize, pixels: usize) -> f64 {
+pub(crate) fn share_pct(n: usize, pixels: usize) -> f64 {
     if pixels == 0 {
         0.0
     } else {

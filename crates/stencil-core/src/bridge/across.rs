@@ -2,7 +2,7 @@
 //! material across, station by station, and where it reaches the image's edge, the run along
 //! that edge. What the outline and band drawings check a bridge's width with.
 
-use super::draw::pixel_of;
+use super::draw::{material_at, pixel_of};
 use crate::raster::BitGrid;
 use stencil_geom::ring::{dist, seg_dist};
 
@@ -186,12 +186,7 @@ impl Scan<'_> {
             } else {
                 own = 0;
             }
-            if drawn
-                || (i < count && {
-                    let (x, y) = pixel_of(p);
-                    self.bits.get_or_frame(x, y)
-                })
-            {
+            if drawn || (i < count && material_at(self.bits, p)) {
                 if run == 0 {
                     open = i == 0;
                     anchored = false;

@@ -2,7 +2,7 @@
 //! its node, with the outline the check knows it by; and the band outline of a lone straight
 //! strip.
 
-use super::draw::{draw, pixel_of, Plan};
+use super::draw::{draw, material_at, Plan};
 use super::strips::Strip;
 use crate::raster::{BitGrid, Gray};
 use stencil_geom::ring::dist;
@@ -74,11 +74,7 @@ pub(super) fn band(
 fn reach(bits: &BitGrid, p: [f64; 2], dir: [f64; 2], width: u32) -> f64 {
     let mut e = 0.5;
     while e < width as f64 / 2.0 {
-        let q = [p[0] + dir[0] * (e + 0.5), p[1] + dir[1] * (e + 0.5)];
-        if !{
-            let (x, y) = pixel_of(q);
-            bits.get_or_frame(x, y)
-        } {
+        if !material_at(bits, [p[0] + dir[0] * (e + 0.5), p[1] + dir[1] * (e + 0.5)]) {
             break;
         }
         e += 0.5;
@@ -116,10 +112,7 @@ impl BandAxis {
         let (d, [nx, ny], half) = (self.d, self.off, self.half);
         let limit = (self.len / 2.0 - 0.5).max(0.0);
         let (ux, uy) = (-d[1], d[0]);
-        let material = |q: [f64; 2]| {
-            let (x, y) = pixel_of(q);
-            bits.get_or_frame(x, y)
-        };
+        let material = |q: [f64; 2]| material_at(bits, q);
         let mut pull = 0.0f64;
         let mut u = -(half + 0.5);
         while u <= half + 0.5 + 1e-9 {

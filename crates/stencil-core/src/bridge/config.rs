@@ -156,7 +156,6 @@ pub struct StrengthConfig {
     /// The most an island may sag, mm.
     pub max_sag_mm: f64,
     /// Islands longer than this get at least two bridges, mm.
-    /// Islands wider than this get at least two bridges, mm.
     pub two_bridges_above_mm: f64,
 }
 

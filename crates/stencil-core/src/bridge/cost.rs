@@ -55,10 +55,10 @@ pub(crate) fn curvature_from_moments([n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> f6
         return 0.0;
     }
     let (mx, my) = (sx / n, sy / n);
-    let vxx = (sxx / n - mx * mx).max(0.0);
-    let vyy = (syy / n - my * my).max(0.0);
-    let vxy = sxy / n - mx * my;
-    let (sxx, syy, sxy) = (vxx, vyy, vxy);
+    // The covariance.
+    let sxx = (sxx / n - mx * mx).max(0.0);
+    let syy = (syy / n - my * my).max(0.0);
+    let sxy = sxy / n - mx * my;
     let half_tr = (sxx + syy) / 2.0;
     let root = (((sxx - syy) / 2.0).powi(2) + sxy * sxy).sqrt();
     let (big, small) = (half_tr + root, (half_tr - root).max(0.0));
@@ -124,21 +124,17 @@ impl Norm {
             *lengths.select_nth_unstable(mid).1 as f64
         }
         .max(1.0);
-        let mut n = Norm {
+        let typical_pow = length(typical, cfg.alpha);
+        let m = cfg.max_length_px.max(1) as f64;
+        Norm {
             typical_len: typical,
             alpha: cfg.alpha,
             missing: StripCost {
-                intensity: 0.0,
-                length: 0.0,
+                intensity: m / typical,
+                length: length(m, cfg.alpha) / typical_pow,
             },
-            typical_pow: length(typical, cfg.alpha),
-        };
-        let m = cfg.max_length_px.max(1) as f64;
-        n.missing = StripCost {
-            intensity: m / typical,
-            length: n.length_of(m),
-        };
-        n
+            typical_pow,
+        }
     }
 
     /// Per-pixel prices of the fallback search's paths (see [`StepCost`]).
@@ -383,11 +379,7 @@ mod tests {
         let step = n.step_cost(&cfg);
         // Length: the slope of (L/10)^1.5 at L = 200, times 10: 1.5 × √20.
         assert!((step.length - (1.5 * 20f32.sqrt() + STEP_FLOOR)).abs() < 1e-4);
-        let gray = Gray {
-            width: 3,
-            height: 1,
-            data: vec![0.0, 0.5, 1.0],
-        };
+        let gray = Gray::from_data(3, 1, vec![0.0, 0.5, 1.0]);
         // Darkness: w0 (2 by default) × (1 − gray)².
         let w0 = cfg.w_intensity as f32;
         assert!((step.at(&gray, 0) - step.length - w0).abs() < 1e-6);

@@ -195,11 +195,7 @@ fn fill_polygon(
 /// (A hole of the picture itself never reached it and is left alone.)
 fn seal_pockets(state: &mut [u8], lw: usize, lh: usize, seal: usize, cut: impl Fn(usize) -> bool) {
     let (w, h) = (lw as u32, lh as u32);
-    let grid = |f: &dyn Fn(usize) -> bool| BitGrid {
-        width: w,
-        height: h,
-        data: (0..lw * lh).map(f).collect(),
-    };
+    let grid = |f: &dyn Fn(usize) -> bool| BitGrid::from_data(w, h, (0..lw * lh).map(f).collect());
     let after = grid(&|l| cut(l) && state[l] != 2);
     let (labels, areas) = raster::components(&after, true);
     let open = raster::touches_border(&labels, w, h, areas.len());
@@ -231,6 +227,13 @@ pub(super) fn pixel_of(p: [f64; 2]) -> (i64, i64) {
         t - ((v < t as f64) as i64)
     };
     (down(p[0]), down(p[1]))
+}
+
+/// Whether the pixel holding point `p` is material (outside the image: the frame).
+#[inline]
+pub(super) fn material_at(bits: &BitGrid, p: [f64; 2]) -> bool {
+    let (x, y) = pixel_of(p);
+    bits.get_or_frame(x, y)
 }
 
 /// Turn the planned pixels into material; returns those that were still cut (a pixel an earlier

@@ -77,25 +77,31 @@ pub(crate) fn directions(
     borrow_along_chains(cands, &own, n)
 }
 
-/// For each place of a chain, how many steps along it the nearest flagged place is (`usize::MAX`
-/// if none), wrapping on a closed chain.
-fn along_chain_distance(flag: &[bool], closed: bool) -> Vec<usize> {
-    let n = flag.len();
-    let mut d = vec![usize::MAX; n];
+/// For each place `k` of a chain `len` long (wrapping when `closed`), how many steps along it
+/// the nearest place with a `value` is, and that value (`usize::MAX` and `None` if there is
+/// none; the earlier one on a tie).
+fn nearest_along<T: Copy>(
+    len: usize,
+    closed: bool,
+    value: impl Fn(usize) -> Option<T>,
+) -> Vec<(usize, Option<T>)> {
+    let mut best = vec![(usize::MAX, None); len];
     let laps = if closed { 2 } else { 1 };
     for forward in [true, false] {
-        let mut last: Option<usize> = None;
-        for step in 0..laps * n {
-            let k = if forward { step } else { laps * n - 1 - step } % n;
-            if flag[k] {
-                last = Some(step);
+        let mut last: Option<(usize, T)> = None;
+        for step in 0..laps * len {
+            let k = if forward { step } else { laps * len - 1 - step } % len;
+            if let Some(v) = value(k) {
+                last = Some((step, v));
             }
-            if let Some(s) = last {
-                d[k] = d[k].min(step - s);
+            if let Some((s, v)) = last {
+                if step - s < best[k].0 {
+                    best[k] = (step - s, Some(v));
+                }
             }
         }
     }
-    d
+    best
 }
 
 /// Every candidate without a direction takes the one of the nearest candidate along its chain
@@ -107,30 +113,10 @@ fn borrow_along_chains(
 ) -> Vec<Option<Heading>> {
     let mut out = own.to_vec();
     for chain in cands.chains.iter().filter(|c| c.start < n) {
-        let len = chain.len;
-        let at = |k: usize| chain.start + k % len;
-        // Distance (in candidates) to the nearest own direction, from both sides.
-        let mut best: Vec<(usize, Option<Heading>)> = vec![(usize::MAX, None); len];
-        let laps = if chain.closed { 2 } else { 1 };
-        for forward in [true, false] {
-            let mut last: Option<(usize, Heading)> = None;
-            for step in 0..laps * len {
-                let k = if forward { step } else { laps * len - 1 - step };
-                let pos = k % len;
-                if let Some(d) = own[at(k)] {
-                    last = Some((step, d));
-                }
-                if let Some((s, d)) = last {
-                    let dist = step - s;
-                    if dist < best[pos].0 {
-                        best[pos] = (dist, Some(d));
-                    }
-                }
-            }
-        }
-        for (pos, (dist, d)) in best.into_iter().enumerate() {
-            if out[at(pos)].is_none() && dist <= REACH {
-                out[at(pos)] = d;
+        let best = nearest_along(chain.len, chain.closed, |k| own[chain.start + k]);
+        for (k, (dist, d)) in best.into_iter().enumerate() {
+            if out[chain.start + k].is_none() && dist <= REACH {
+                out[chain.start + k] = d;
             }
         }
     }
@@ -537,8 +523,8 @@ pub(crate) fn walk_twins(
             .clone()
             .map(|k| strips[k].is_some() && !copies[k])
             .collect();
-        let dist = along_chain_distance(&walked, chain.closed);
-        for (k, d) in range.zip(dist) {
+        let dist = nearest_along(chain.len, chain.closed, |k| walked[k].then_some(()));
+        for (k, (d, _)) in range.zip(dist) {
             if copies[k] && d > keep {
                 strips[k] = None;
             }

@@ -403,13 +403,14 @@ fn span(
     }
     let mut best: Vec<_> = best.into_iter().collect();
     best.sort_unstable();
-    for ((a, b), id) in best {
-        prim.add(tree::Edge {
-            a,
-            b,
-            cost: total(g, id),
-            candidate: id,
-        });
+    let edge = |g: &Graph, (a, b), id| tree::Edge {
+        a,
+        b,
+        cost: total(g, id),
+        candidate: id,
+    };
+    for (p, id) in best {
+        prim.add(edge(g, p, id));
     }
     prim.grow();
     let step = g.norm.step_cost(cfg);
@@ -419,14 +420,9 @@ fn span(
         let Some(((sx, sy), strip)) = found else {
             return Err(stranded(&group, map, cfg));
         };
-        let (a, b) = (strip.from, strip.to);
+        let ends = (strip.from, strip.to);
         let id = add_found_strip(g, map, cfg, (sx, sy), strip);
-        prim.add(tree::Edge {
-            a,
-            b,
-            cost: total(g, id),
-            candidate: id,
-        });
+        prim.add(edge(g, ends, id));
         prim.grow();
     }
     Ok(prim)
@@ -618,10 +614,7 @@ fn plan_bridge(two: &TwoTone, g: &Graph, cfg: &BridgeConfig, id: usize) -> Vec<(
     let (Some(strip), Some(score)) = (g.strips[id].as_ref(), g.scores[id]) else {
         return Vec::new();
     };
-    let nodes = {
-        let (a, b) = pair(strip.from, strip.to);
-        [a, b]
-    };
+    let nodes = pair(strip.from, strip.to).into();
     let make = |members: &[usize], want: u32| {
         outline::plan(
             &two.bits, &two.gray, &g.cands, &g.strips, members, cfg, want,

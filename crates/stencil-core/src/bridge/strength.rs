@@ -108,7 +108,7 @@ pub struct StrengthReport {
     pub model: String,
     /// The longest span within the material's sag limit, mm.
     pub max_span_mm: f64,
-    /// Islands wider than this get at least two bridges, mm.
+    /// Islands longer than this get at least two bridges, mm.
     pub two_bridges_above_mm: f64,
     pub(crate) bridges_per_island: u32,
     /// Islands that got extra bridges for strength, and how many bridges that added in all.
@@ -139,7 +139,7 @@ impl StrengthReport {
 }
 
 /// An island's bounding box and pixel moments.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Moments {
     x0: u32,
     y0: u32,
@@ -153,29 +153,6 @@ struct Moments {
     sxy: f64,
 }
 
-/// An island's pixels as row runs `(y, first x, last x)`, read off its border alone (an island
-/// does not touch the image edge, so each run starts and ends at a border pixel): in proportion
-/// to its perimeter, not the image's area.
-fn runs(map: &IslandMap, n: u32) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
-    let mut start = None;
-    map.nodes[n as usize]
-        .border
-        .iter()
-        .filter_map(move |&(x, y)| {
-            if x == 0 || map.label(x - 1, y) != n {
-                start = Some(x);
-            }
-            let end = x + 1 >= map.width || map.label(x + 1, y) != n;
-            match (end, start) {
-                (true, Some(a)) => {
-                    start = None;
-                    Some((y, a, x))
-                }
-                _ => None,
-            }
-        })
-}
-
 fn moments(map: &IslandMap, n: u32) -> Moments {
     // Σ_{x=0}^{m-1} (x + ½) and Σ (x + ½)², pixel centres.
     let s1 = |m: f64| m * m / 2.0;
@@ -183,16 +160,9 @@ fn moments(map: &IslandMap, n: u32) -> Moments {
     let mut k = Moments {
         x0: u32::MAX,
         y0: u32::MAX,
-        x1: 0,
-        y1: 0,
-        n: 0.0,
-        sx: 0.0,
-        sy: 0.0,
-        sxx: 0.0,
-        syy: 0.0,
-        sxy: 0.0,
+        ..Default::default()
     };
-    for (y, a, b) in runs(map, n) {
+    for (y, a, b) in map.island_runs(n as usize) {
         k.x0 = k.x0.min(a);
         k.x1 = k.x1.max(b);
         k.y0 = k.y0.min(y);
@@ -361,18 +331,12 @@ fn touch(g: &Graph, map: &IslandMap, id: usize, n: u32) -> Option<(u32, u32)> {
         return None;
     }
     let (ex, ey) = s.end;
-    for (dx, dy) in [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)] {
-        let (x, y) = (ex + dx, ey + dy);
-        if x >= 0
-            && y >= 0
-            && (x as u32) < map.width
-            && (y as u32) < map.height
-            && map.label(x as u32, y as u32) == n
-        {
-            return Some((x as u32, y as u32));
-        }
-    }
-    None
+    [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)]
+        .into_iter()
+        .map(|(dx, dy)| (ex + dx, ey + dy))
+        .filter(|&(x, y)| x >= 0 && y >= 0 && (x as u32) < map.width && (y as u32) < map.height)
+        .map(|(x, y)| (x as u32, y as u32))
+        .find(|&(x, y)| map.label(x, y) == n)
 }
 
 /// Choose extra bridges (candidate ids, in island order, none twice) for the islands of `map`,
@@ -542,7 +506,7 @@ fn frame_and_grid(map: &IslandMap, n: u32, m: &Moments) -> (Frame, Local) {
     let (w, h) = (bw.div_ceil(k) + 2, bh.div_ceil(k) + 2);
     let mut inside = vec![false; w * h];
     let (mut lo, mut hi, mut blo, mut bhi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (y, x0, x1) in runs(map, n) {
+    for (y, x0, x1) in map.island_runs(n as usize) {
         let (ly, ca, cb) = (
             (y - m.y0) as usize / k + 1,
             (x0 - m.x0) as usize / k + 1,

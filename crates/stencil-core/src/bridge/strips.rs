@@ -558,11 +558,7 @@ mod tests {
 
     #[test]
     fn intensity_is_the_squared_distance_from_white() {
-        let gray = Gray {
-            width: 4,
-            height: 1,
-            data: vec![0.0, 0.5, 1.0, 0.25],
-        };
+        let gray = Gray::from_data(4, 1, vec![0.0, 0.5, 1.0, 0.25]);
         let v = intensity(&gray, &[0, 1, 2, 3]);
         assert!((v - (1.0 + 0.25 + 0.0 + 0.5625)).abs() < 1e-9);
         assert_eq!(intensity(&gray, &[2]), 0.0);

@@ -18,16 +18,8 @@ pub(crate) fn tidy(before: &BitGrid, after: &BitGrid, radius: u32) -> BitGrid {
     if radius == 0 || before == after {
         return after.clone();
     }
-    let added = BitGrid {
-        width: after.width,
-        height: after.height,
-        data: before
-            .data
-            .iter()
-            .zip(&after.data)
-            .map(|(&b, &a)| a && !b)
-            .collect(),
-    };
+    let added = before.data.iter().zip(&after.data).map(|(&b, &a)| a && !b);
+    let added = BitGrid::from_data(after.width, after.height, added.collect());
     let near = squared_distance_to(&added, true);
     // `squared_distance_to` counts the area outside the image as a target; measure from the
     // bridges only by padding the reach test with the real distance to the added pixels.

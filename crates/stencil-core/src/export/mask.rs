@@ -18,7 +18,7 @@
 
 use std::fmt::Write;
 
-use geo::{Area, Coord, LineString};
+use geo::{Area, LineString};
 
 use super::error::ExportError;
 use super::svg::{num, path_data, rings};
@@ -63,6 +63,11 @@ pub struct Etch {
     pub two_sided: bool,
 }
 
+/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
+/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
+/// not etched as designed.
+pub(crate) const MIN_MASK_OPENING_MM: f64 = 0.05;
+
 impl Etch {
     /// The undercut under each mask edge, mm: each side etches its depth (the thickness, or half
     /// of it from both sides) and the etchant eats sideways depth ÷ etch factor under the resist.
@@ -76,14 +81,7 @@ impl Etch {
         };
         depth / self.etch_factor
     }
-}
 
-/// The narrowest opening a mask is drawn with, mm: about two pixels at 1200 dpi, the narrowest
-/// line a film plotter draws reliably. An opening whose compensated mask would be narrower is
-/// not etched as designed.
-pub(crate) const MIN_MASK_OPENING_MM: f64 = 0.05;
-
-impl Etch {
     /// The narrowest opening that etches at its designed size: twice the undercut (what the
     /// compensation takes off both sides) plus `MIN_MASK_OPENING_MM` left in the mask. `make`
     /// raises the material's smallest feature to it, so the clean-up and the width check judge
@@ -317,26 +315,11 @@ fn mark_rings(geom: &CutGeometry) -> Vec<LineString<f64>> {
         (o.max().x - m / 2.0, o.max().y - m / 2.0),
     ];
     let circle = |cx: f64, cy: f64, rad: f64| {
-        LineString::new(
-            (0..=64)
-                .map(|i| {
-                    let a = i as f64 / 64.0 * std::f64::consts::TAU;
-                    Coord {
-                        x: cx + rad * a.cos(),
-                        y: cy + rad * a.sin(),
-                    }
-                })
-                .collect(),
-        )
+        let at = |i| (i as f64 / 64.0 * std::f64::consts::TAU).sin_cos();
+        LineString::from_iter((0..=64).map(at).map(|(s, c)| (cx + rad * c, cy + rad * s)))
     };
     let rect = |x0: f64, y0: f64, x1: f64, y1: f64| {
-        LineString::new(vec![
-            Coord { x: x0, y: y0 },
-            Coord { x: x1, y: y0 },
-            Coord { x: x1, y: y1 },
-            Coord { x: x0, y: y1 },
-            Coord { x: x0, y: y0 },
-        ])
+        LineString::from(vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)])
     };
     let mut out = Vec::new();
     for (cx, cy) in centres {

@@ -30,24 +30,9 @@ pub(crate) fn num(v: f64) -> String {
 /// Path data for closed rings (each `M … Z`).
 pub(crate) fn path_data<'a>(rings: impl IntoIterator<Item = &'a LineString<f64>>) -> String {
     let mut d = String::new();
-    for r in rings {
-        let pts = &r.0;
-        let n = if pts.len() > 1 && pts.first() == pts.last() {
-            pts.len() - 1
-        } else {
-            pts.len()
-        };
-        if n < 3 {
-            continue;
-        }
-        for (i, c) in pts[..n].iter().enumerate() {
-            let _ = write!(
-                d,
-                "{}{} {}",
-                if i == 0 { "M" } else { "L" },
-                num(c.x),
-                num(c.y)
-            );
+    for pts in rings.into_iter().filter_map(ring_points) {
+        for (i, &[x, y]) in pts.iter().enumerate() {
+            let _ = write!(d, "{}{} {}", if i == 0 { "M" } else { "L" }, num(x), num(y));
         }
         d.push('Z');
     }

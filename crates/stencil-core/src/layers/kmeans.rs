@@ -88,11 +88,7 @@ pub(super) fn kmeans_tones(
         .collect();
     let colors = centres.iter().map(|&c| srgb(c)).collect();
     (
-        Gray {
-            width: luma.width,
-            height: luma.height,
-            data,
-        },
+        Gray::from_data(luma.width, luma.height, data),
         levels,
         colors,
     )

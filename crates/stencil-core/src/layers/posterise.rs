@@ -66,10 +66,9 @@ pub fn posterise(
         let (gray, levels, colors) = kmeans_tones(luma, rgb, n + 1);
         (gray, levels, Method::KmeansLab, colors)
     } else {
-        let levels = if lc.levels.is_empty() {
-            let mut b = multi_otsu(luma, n + 1);
-            b.reverse();
-            b
+        let (levels, method) = if lc.levels.is_empty() {
+            let descending = multi_otsu(luma, n + 1).into_iter().rev().collect();
+            (descending, Method::MultiOtsu)
         } else {
             if lc.levels.len() != n {
                 return Err(LayersError::Levels {
@@ -82,12 +81,7 @@ pub fn posterise(
             if let Some(w) = l.windows(2).find(|w| w[0] == w[1]) {
                 return Err(LayersError::SameLevel(w[0]));
             }
-            l
-        };
-        let method = if lc.levels.is_empty() {
-            Method::MultiOtsu
-        } else {
-            Method::LevelsGiven
+            (l, Method::LevelsGiven)
         };
         let colors = class_grays(luma, &levels);
         (luma.clone(), levels, method, colors)

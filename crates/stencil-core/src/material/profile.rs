@@ -165,7 +165,6 @@ pub struct LaserCut {
     pub power_pct: f64,
     /// Cutting feed in mm/min.
     pub speed_mm_min: f64,
-    /// Passes over each loop (1..=50).
     /// Passes over each outline.
     pub passes: u32,
     /// Where the numbers come from (a maker's table, a published settings library), so a
@@ -427,24 +426,24 @@ fn invalid(origin: &Path, field: &str, value: String, why: &str) -> ProfileError
 /// missing decimal point), and a kerf that leaves the smallest feature standing. Returns the
 /// widest bridge (given, or [`DEFAULT_MAX_BRIDGE_RATIO`] × the narrowest).
 fn check_dimensions(f: &MaterialFile, origin: &Path) -> Result<f64, ProfileError> {
+    let range = |field: &str, v, lo, hi, unit| check_range(origin, field, v, lo, hi, unit);
     if f.name.trim().is_empty() {
         return Err(invalid(origin, "name", "\"\"".into(), "must not be empty"));
     }
-    check_range(origin, "thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
-    check_range(origin, "min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
-    check_range(origin, "min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
+    range("thickness_mm", f.thickness_mm, 0.005, 50.0, "mm")?;
+    range("min_bridge_mm", f.min_bridge_mm, 0.01, 50.0, "mm")?;
+    range("min_feature_mm", f.min_feature_mm, 0.01, 50.0, "mm")?;
     let max_bridge_mm = f
         .max_bridge_mm
         .unwrap_or(DEFAULT_MAX_BRIDGE_RATIO * f.min_bridge_mm);
-    check_range(
-        origin,
+    range(
         "max_bridge_mm",
         max_bridge_mm,
         f.min_bridge_mm,
         200.0,
         "mm (at least min_bridge_mm)",
     )?;
-    check_range(origin, "kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
+    range("kerf_mm", f.kerf_mm, 0.0, 2.0, "mm")?;
     if f.kerf_mm >= f.min_feature_mm {
         return Err(invalid(
             origin,
@@ -461,6 +460,7 @@ fn check_dimensions(f: &MaterialFile, origin: &Path) -> Result<f64, ProfileError
 /// bridges-per-island count applies); one that gives any gets the defaults for the rest, limits
 /// included.
 fn strength_of(f: &MaterialFile, origin: &Path) -> Result<Strength, ProfileError> {
+    let range = |field: &str, v, lo, hi, unit| check_range(origin, field, v, lo, hi, unit);
     let d = DEFAULT_STRENGTH;
     let given = f.youngs_modulus_gpa.is_some()
         || f.density_kg_m3.is_some()
@@ -483,16 +483,14 @@ fn strength_of(f: &MaterialFile, origin: &Path) -> Result<Strength, ProfileError
     };
     // Tissue paper is about 0.5 GPa, diamond 1000; the lightest foam board 30 kg/m³, osmium
     // 22,600.
-    check_range(
-        origin,
+    range(
         "youngs_modulus_gpa",
         strength.youngs_modulus_gpa,
         0.01,
         1200.0,
         "GPa",
     )?;
-    check_range(
-        origin,
+    range(
         "density_kg_m3",
         strength.density_kg_m3,
         10.0,
@@ -500,16 +498,8 @@ fn strength_of(f: &MaterialFile, origin: &Path) -> Result<Strength, ProfileError
         "kg/m³",
     )?;
     if given {
-        check_range(
-            origin,
-            "max_sag_mm",
-            strength.max_sag_mm,
-            0.001,
-            1000.0,
-            "mm",
-        )?;
-        check_range(
-            origin,
+        range("max_sag_mm", strength.max_sag_mm, 0.001, 1000.0, "mm")?;
+        range(
             "two_bridges_above_mm",
             strength.two_bridges_above_mm,
             0.1,
@@ -522,6 +512,7 @@ fn strength_of(f: &MaterialFile, origin: &Path) -> Result<Strength, ProfileError
 
 /// The process's settings: its own section, present and in range, and no other process's.
 fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileError> {
+    let range = |field: &str, v, lo, hi, unit| check_range(origin, field, v, lo, hi, unit);
     let sections = [
         ("laser", f.laser.is_some(), ProcessKind::Laser),
         ("knife", f.knife.is_some(), ProcessKind::Knife),
@@ -561,20 +552,13 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
         }
         ProcessKind::Pen => {
             let p = f.pen.take().ok_or_else(|| missing("pen"))?;
-            check_range(
-                origin,
-                "pen.speed_mm_min",
-                p.speed_mm_min,
-                1.0,
-                100_000.0,
-                "mm/min",
-            )?;
-            check_range(origin, "pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
+            range("pen.speed_mm_min", p.speed_mm_min, 1.0, 100_000.0, "mm/min")?;
+            range("pen.pen_width_mm", p.pen_width_mm, 0.01, 5.0, "mm")?;
             Process::Pen(p)
         }
         ProcessKind::Etch => {
             let e = f.etch.take().ok_or_else(|| missing("etch"))?;
-            check_range(origin, "etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
+            range("etch.etch_factor", e.etch_factor, 0.5, 10.0, "")?;
             Process::Etch(e)
         }
     })
@@ -583,6 +567,7 @@ fn process_of(f: &mut MaterialFile, origin: &Path) -> Result<Process, ProfileErr
 /// The `[laser]` section checked: flat settings (all three, for any laser) or `[[laser.on]]`
 /// entries, not both; each entry in range, with its source named and no two for the same kind.
 fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> {
+    let range = |field: &str, v, lo, hi, unit| check_range(origin, field, v, lo, hi, unit);
     let flat = [
         ("laser.power_pct", l.power_pct.is_some()),
         ("laser.speed_mm_min", l.speed_mm_min.is_some()),
@@ -635,26 +620,18 @@ fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> 
                 format!("laser.on[{k}].{f}")
             }
         };
-        check_range(origin, &field("power_pct"), c.power_pct, 0.1, 100.0, "%")?;
-        check_range(
-            origin,
+        range(&field("power_pct"), c.power_pct, 0.1, 100.0, "%")?;
+        range(
             &field("speed_mm_min"),
             c.speed_mm_min,
             1.0,
             100_000.0,
             "mm/min",
         )?;
-        check_range(
-            origin,
-            &field("passes"),
-            c.passes as f64,
-            1.0,
-            50.0,
-            "passes",
-        )?;
+        range(&field("passes"), c.passes as f64, 1.0, 50.0, "passes")?;
         if c.laser.is_some() {
             let w = stencil_gcode::bounds::WATTS;
-            check_range(origin, &field("watts"), c.watts, *w.start(), *w.end(), "W")?;
+            range(&field("watts"), c.watts, *w.start(), *w.end(), "W")?;
             if c.from.trim().is_empty() {
                 return Err(invalid(
                     origin,
@@ -684,22 +661,9 @@ fn laser_of(l: LaserFile, origin: &Path) -> Result<LaserSettings, ProfileError> 
 }
 
 fn check_knife(k: &KnifeSettings, origin: &Path) -> Result<(), ProfileError> {
-    check_range(origin, "knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
-    check_range(
-        origin,
-        "knife.speed_mm_s",
-        k.speed_mm_s,
-        1.0,
-        2000.0,
-        "mm/s",
-    )?;
-    check_range(origin, "knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
-    check_range(
-        origin,
-        "knife.blade_offset_mm",
-        k.blade_offset_mm,
-        0.0,
-        2.0,
-        "mm",
-    )
+    let range = |field: &str, v, lo, hi, unit| check_range(origin, field, v, lo, hi, unit);
+    range("knife.force_g", k.force_g, 1.0, 2000.0, "g")?;
+    range("knife.speed_mm_s", k.speed_mm_s, 1.0, 2000.0, "mm/s")?;
+    range("knife.passes", k.passes as f64, 1.0, 20.0, "passes")?;
+    range("knife.blade_offset_mm", k.blade_offset_mm, 0.0, 2.0, "mm")
 }

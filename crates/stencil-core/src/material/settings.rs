@@ -83,27 +83,23 @@ pub fn choose(
 ) -> Result<Chosen, SettingsError> {
     let (base, from) = match (&material.process, &machine.tool) {
         (Process::Laser(l), Tool::Laser { .. }) => {
-            let air_assist = l.air_assist.unwrap_or(machine.air_assist);
-            let pick = laser_entry(l, machine);
-            match (pick, user.find(&material.name, &machine.name)) {
+            let laser = |power_pct, speed_mm_min, passes| CutSettings {
+                power_pct,
+                speed_mm_min,
+                passes,
+                blade_offset_mm: 0.0,
+                air_assist: l.air_assist.unwrap_or(machine.air_assist),
+            };
+            match (
+                laser_entry(l, machine),
+                user.find(&material.name, &machine.name),
+            ) {
                 (_, Some(k)) => (
-                    CutSettings {
-                        power_pct: k.power_pct.unwrap_or(100.0),
-                        speed_mm_min: k.speed_mm_min,
-                        passes: k.passes,
-                        blade_offset_mm: 0.0,
-                        air_assist,
-                    },
+                    laser(k.power_pct.unwrap_or(100.0), k.speed_mm_min, k.passes),
                     user.describe(k),
                 ),
                 (Some(c), None) => (
-                    CutSettings {
-                        power_pct: c.power_pct,
-                        speed_mm_min: c.speed_mm_min,
-                        passes: c.passes,
-                        blade_offset_mm: 0.0,
-                        air_assist,
-                    },
+                    laser(c.power_pct, c.speed_mm_min, c.passes),
                     format!("{} for {}: {}", material.name, cut_kind(c), c.from),
                 ),
                 (None, None) => {
@@ -299,24 +295,12 @@ impl UserSettings {
 impl Kept {
     /// The numbers in the ranges a profile allows.
     pub(crate) fn check(&self, origin: &Path, prefix: &str) -> Result<(), ProfileError> {
+        let range =
+            |f, v, lo, hi, unit| check_range(origin, &format!("{prefix}{f}"), v, lo, hi, unit);
         if let Some(p) = self.power_pct {
-            check_range(origin, &format!("{prefix}power_pct"), p, 0.1, 100.0, "%")?;
+            range("power_pct", p, 0.1, 100.0, "%")?;
         }
-        check_range(
-            origin,
-            &format!("{prefix}speed_mm_min"),
-            self.speed_mm_min,
-            1.0,
-            100_000.0,
-            "mm/min",
-        )?;
-        check_range(
-            origin,
-            &format!("{prefix}passes"),
-            self.passes as f64,
-            1.0,
-            50.0,
-            "passes",
-        )
+        range("speed_mm_min", self.speed_mm_min, 1.0, 100_000.0, "mm/min")?;
+        range("passes", self.passes as f64, 1.0, 50.0, "passes")
     }
 }

@@ -17,10 +17,16 @@ pub struct Gray {
 impl Gray {
     /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: f32) -> Self {
+        Gray::from_data(width, height, vec![fill; width as usize * height as usize])
+    }
+
+    /// A grid of `data`, row by row (`width × height` values).
+    pub(crate) fn from_data(width: u32, height: u32, data: Vec<f32>) -> Self {
+        debug_assert_eq!(data.len(), width as usize * height as usize);
         Gray {
             width,
             height,
-            data: vec![fill; width as usize * height as usize],
+            data,
         }
     }
 
@@ -81,26 +87,23 @@ pub struct BitGrid {
 impl BitGrid {
     /// A grid of `fill`.
     pub fn new(width: u32, height: u32, fill: bool) -> Self {
-        BitGrid {
-            width,
-            height,
-            data: vec![fill; width as usize * height as usize],
-        }
+        BitGrid::from_data(width, height, vec![fill; width as usize * height as usize])
     }
 
-    /// Build from a predicate on (x, y).
-    pub fn from_fn(width: u32, height: u32, mut f: impl FnMut(u32, u32) -> bool) -> Self {
-        let mut data = Vec::with_capacity(width as usize * height as usize);
-        for y in 0..height {
-            for x in 0..width {
-                data.push(f(x, y));
-            }
-        }
+    /// A grid of `data`, row by row (`width × height` bits).
+    pub(crate) fn from_data(width: u32, height: u32, data: Vec<bool>) -> Self {
+        debug_assert_eq!(data.len(), width as usize * height as usize);
         BitGrid {
             width,
             height,
             data,
         }
+    }
+
+    /// Build from a predicate on (x, y).
+    pub fn from_fn(width: u32, height: u32, mut f: impl FnMut(u32, u32) -> bool) -> Self {
+        let data = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
+        BitGrid::from_data(width, height, data.map(|(x, y)| f(x, y)).collect())
     }
 
     /// Build from text rows, `#` = material, anything else = cut: a grid a reader can see, for
@@ -164,11 +167,7 @@ impl BitGrid {
 
     /// Inverse of [`BitGrid::to_u8`]: a pixel at or above 128 is material.
     pub fn from_u8(width: u32, height: u32, data: &[u8]) -> Self {
-        BitGrid {
-            width,
-            height,
-            data: data.iter().map(|&v| v >= 128).collect(),
-        }
+        BitGrid::from_data(width, height, data.iter().map(|&v| v >= 128).collect())
     }
 }
 

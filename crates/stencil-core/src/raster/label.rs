@@ -163,20 +163,31 @@ pub(crate) fn push_runs(y: u32, words: impl IntoIterator<Item = u64>, runs: &mut
     }
 }
 
+/// The root of `r`'s set in the union-find forest `parent`, halving the path on the way.
+pub(crate) fn root(parent: &mut [u32], mut r: usize) -> usize {
+    while parent[r] as usize != r {
+        let p = parent[r] as usize;
+        parent[r] = parent[p];
+        r = p;
+    }
+    r
+}
+
+/// Join the sets of `a` and `b` in `parent`: the lower root stays the root, so each root is its
+/// set's first member in scan order.
+pub(crate) fn join(parent: &mut [u32], a: usize, b: usize) {
+    let (ra, rb) = (root(parent, a), root(parent, b));
+    if ra != rb {
+        parent[ra.max(rb)] = ra.min(rb) as u32;
+    }
+}
+
 /// The connected pieces of runs listed row by row (`row_first[y]` the index of row `y`'s first
 /// run, one entry past the last row): runs in neighbouring rows join where they overlap, or touch
 /// at a corner when `corners`. Returns each run's piece and the number of pieces, numbered in
 /// raster order of their first pixel (union-find over the runs).
 pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Vec<u32>, usize) {
     let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
-    fn root(parent: &mut [u32], mut r: usize) -> usize {
-        while parent[r] as usize != r {
-            let p = parent[r] as usize;
-            parent[r] = parent[p];
-            r = p;
-        }
-        r
-    }
     let slack = corners as i64;
     for y in 1..row_first.len().saturating_sub(1) {
         let (mut a, a_end) = (row_first[y - 1], row_first[y]);
@@ -184,11 +195,7 @@ pub(crate) fn join_runs(runs: &[Run], row_first: &[usize], corners: bool) -> (Ve
         while a < a_end && b < b_end {
             let (ra, rb) = (runs[a], runs[b]);
             if ra.x0 as i64 <= rb.x1 as i64 + slack && rb.x0 as i64 <= ra.x1 as i64 + slack {
-                let (pa, pb) = (root(&mut parent, a), root(&mut parent, b));
-                if pa != pb {
-                    // The earlier run stays the root, so roots are first runs in scan order.
-                    parent[pa.max(pb)] = pa.min(pb) as u32;
-                }
+                join(&mut parent, a, b);
             }
             if ra.x1 <= rb.x1 {
                 a += 1;

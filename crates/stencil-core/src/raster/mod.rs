@@ -14,7 +14,7 @@ pub(crate) use distance::squared_distance_to;
 pub(crate) use grid::edge_neighbours;
 pub use grid::{BitGrid, Gray, TwoTone};
 pub(crate) use label::{
-    components, join_runs, push_runs, runs_of, touches_border, Run, NOT_LABELLED,
+    components, join, join_runs, push_runs, root, runs_of, touches_border, Run, NOT_LABELLED,
 };
 pub(crate) use morph::{close, open};
 pub(crate) use smooth::{blur, box_average, box_average_bits, convolve};

@@ -47,22 +47,18 @@ pub(crate) mod tests {
     fn dilate(bits: &BitGrid, r: u32) -> BitGrid {
         let d = squared_distance_to(bits, true);
         let r2 = (r * r) as f32;
-        BitGrid {
-            width: bits.width,
-            height: bits.height,
-            data: d.iter().map(|&v| v <= r2).collect(),
-        }
+        BitGrid::from_data(
+            bits.width,
+            bits.height,
+            d.iter().map(|&v| v <= r2).collect(),
+        )
     }
 
     /// Erode material by a disc of radius r (dilate the cut).
     fn erode(bits: &BitGrid, r: u32) -> BitGrid {
         let d = squared_distance_to(bits, false);
         let r2 = (r * r) as f32;
-        BitGrid {
-            width: bits.width,
-            height: bits.height,
-            data: d.iter().map(|&v| v > r2).collect(),
-        }
+        BitGrid::from_data(bits.width, bits.height, d.iter().map(|&v| v > r2).collect())
     }
 
     /// Opening: removes material features thinner than the disc.

@@ -53,16 +53,26 @@ impl Packed {
                     }
                 });
         }
-        BitGrid {
-            width: w as u32,
-            height: h as u32,
-            data,
-        }
+        BitGrid::from_data(w as u32, h as u32, data)
     }
 
     #[inline]
     pub(crate) fn row(&self, y: usize) -> &[u64] {
         &self.words[y * self.stride..(y + 1) * self.stride]
+    }
+
+    /// Row `y`'s words with a one where the pixel is `value`, none past the width.
+    pub(crate) fn row_where(&self, y: usize, value: bool) -> impl Iterator<Item = u64> + '_ {
+        let (last, tail) = (self.stride - 1, tail_mask(self.width));
+        let flip = if value { 0 } else { u64::MAX };
+        let row = self.row(y).iter().enumerate();
+        row.map(move |(k, &v)| {
+            if k == last {
+                (v ^ flip) & tail
+            } else {
+                v ^ flip
+            }
+        })
     }
 
     /// Pixels that differ between two grids of the same size.

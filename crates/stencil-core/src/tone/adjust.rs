@@ -75,7 +75,7 @@ impl Adjust {
             Some(c) => crop(g, c),
             None => g.clone(),
         };
-        g = turn(&g, self.quarter_turns % 4);
+        g = turn(g, self.quarter_turns);
         if self.brightness != 0.0 || self.contrast != 1.0 || self.gamma != 1.0 {
             let inv = 1.0 / self.gamma;
             for v in &mut g.data {
@@ -110,37 +110,16 @@ fn crop(g: &Gray, [x, y, w, h]: [u32; 4]) -> Gray {
         let s = (row * g.width + x) as usize;
         data.extend_from_slice(&g.data[s..s + w as usize]);
     }
-    Gray {
-        width: w,
-        height: h,
-        data,
-    }
+    Gray::from_data(w, h, data)
 }
 
-/// `g` turned `q` quarter turns clockwise.
-fn turn(g: &Gray, q: u8) -> Gray {
-    let (w, h) = (g.width as usize, g.height as usize);
-    let (ow, oh) = if q % 2 == 1 { (h, w) } else { (w, h) };
-    if q == 0 {
-        return g.clone();
-    }
-    let mut data = Vec::with_capacity(w * h);
-    for y in 0..oh {
-        for x in 0..ow {
-            // The source of output pixel (x, y).
-            let (sx, sy) = match q {
-                1 => (y, h - 1 - x),
-                2 => (w - 1 - x, h - 1 - y),
-                _ => (w - 1 - y, x),
-            };
-            data.push(g.data[sy * w + sx]);
-        }
-    }
-    Gray {
-        width: ow as u32,
-        height: oh as u32,
-        data,
-    }
+/// `g` turned `q` quarter turns clockwise (as its EXIF orientation would turn it).
+fn turn(g: Gray, q: u8) -> Gray {
+    use image::metadata::Orientation::{NoTransforms, Rotate180, Rotate270, Rotate90};
+    super::image::oriented(
+        g,
+        [NoTransforms, Rotate90, Rotate180, Rotate270][q as usize % 4],
+    )
 }
 
 type F32Image = ImageBuffer<Luma<f32>, Vec<f32>>;
@@ -150,11 +129,7 @@ fn to_image(g: &Gray) -> F32Image {
 }
 
 fn from_image(i: F32Image) -> Gray {
-    Gray {
-        width: i.width(),
-        height: i.height(),
-        data: i.into_raw(),
-    }
+    Gray::from_data(i.width(), i.height(), i.into_raw())
 }
 
 /// The bilateral filter (Tomasi and Manduchi 1998) with a window of about 2σ each side (at most
@@ -222,13 +197,7 @@ pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
     let diag = (g.width as f32).hypot(g.height as f32);
     let min_area = ((s * diag / 40.0).powi(2)).max(2.0) as usize;
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            p[x as usize] = p[p[x as usize] as usize];
-            x = p[x as usize];
-        }
-        x
-    }
+    let find = |p: &mut [u32], x: u32| crate::raster::root(p, x as usize) as u32;
     let mut order: Vec<u32> = (1..n as u32).filter(|&r| area[r as usize] > 0).collect();
     order.sort_by_key(|&r| area[r as usize]);
     for r in order {
@@ -265,11 +234,7 @@ pub(crate) fn abstraction(g: &Gray, strength: f32) -> Gray {
             (sum[r] / area[r] as f64) as f32
         })
         .collect();
-    Gray {
-        width: g.width,
-        height: g.height,
-        data,
-    }
+    Gray::from_data(g.width, g.height, data)
 }
 
 #[cfg(test)]
@@ -306,7 +271,7 @@ mod tests {
         // Clockwise: the left column becomes the top row.
         assert_eq!(t.get(0, 0), g.get(0, 3));
         assert_eq!(t.get(3, 9), g.get(9, 3));
-        let back = turn(&turn(&t, 2), 1);
+        let back = turn(turn(t, 2), 1);
         assert_eq!(back.data, g.data);
     }
 

@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::raster::packed::{close, open, Packed};
-use crate::raster::{join_runs, BitGrid, Run};
+use crate::raster::{join_runs, push_runs, BitGrid, Run};
 
 /// Options of the topological filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,17 +82,7 @@ fn flip_small(bits: &mut Packed, value: bool, min_px: usize, spare_border: bool)
     let mut row_first = Vec::with_capacity(h + 1);
     for y in 0..h {
         row_first.push(runs.len());
-        let row = bits.row(y);
-        let mut x = 0;
-        while let Some(start) = next_pixel(row, x, value, w) {
-            let end = next_pixel(row, start, !value, w).unwrap_or(w);
-            runs.push(Run {
-                y: y as u32,
-                x0: start as u32,
-                x1: end as u32 - 1,
-            });
-            x = end;
-        }
+        push_runs(y as u32, bits.row_where(y, value), &mut runs);
     }
     row_first.push(runs.len());
     let (piece, count) = join_runs(&runs, &row_first, false);
@@ -125,27 +115,6 @@ fn flip_small(bits: &mut Packed, value: bool, min_px: usize, spare_border: bool)
         .map(|(a, _)| a)
         .sum();
     (pieces, px)
-}
-
-/// The first pixel at or after `from` equal to `value`, before `width`.
-fn next_pixel(row: &[u64], from: usize, value: bool, width: usize) -> Option<usize> {
-    if from >= width {
-        return None;
-    }
-    let mut i = from / 64;
-    let flip = if value { 0 } else { u64::MAX };
-    let mut word = (row[i] ^ flip) & (u64::MAX << (from % 64));
-    loop {
-        if word != 0 {
-            let x = i * 64 + word.trailing_zeros() as usize;
-            return (x < width).then_some(x);
-        }
-        i += 1;
-        if i >= row.len() {
-            return None;
-        }
-        word = row[i] ^ flip;
-    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,8 @@ use image::metadata::Orientation;
 use image::{ColorType, ImageDecoder, ImageFormat, ImageReader};
 use rayon::prelude::*;
 
+use stencil_io::plain_io;
+
 use super::error::ToneError;
 use crate::limits;
 use crate::raster::Gray;
@@ -34,13 +36,7 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
             format: "JPEG",
         });
     }
-    let out_of_memory = || ToneError::TooMuchMemory {
-        path: path.to_path_buf(),
-        width,
-        height,
-        gb: need as f64 / 1e9,
-        limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
-    };
+    let out_of_memory = || too_much_memory(path, width, height, need);
     let color = decoder.color_type();
     let decoded = decoder.total_bytes();
     let mut buf: Vec<u8> = Vec::new();
@@ -56,14 +52,7 @@ pub fn load_gray(path: &Path, max_pixels: u64) -> Result<Gray, ToneError> {
         .map_err(|_| out_of_memory())?;
     to_gray(&buf, color, &mut data);
     drop(buf);
-    Ok(oriented(
-        Gray {
-            width,
-            height,
-            data,
-        },
-        orientation,
-    ))
+    Ok(oriented(Gray::from_data(width, height, data), orientation))
 }
 
 /// How the picture's EXIF orientation turns it, in words (`None` when it is shown as stored), for
@@ -89,7 +78,7 @@ type SourceOf = dyn Fn(usize, usize) -> (usize, usize);
 
 /// `g` turned as an EXIF orientation says (as `DynamicImage::apply_orientation` does: the
 /// rotations are clockwise, a flip after a rotation is left to right).
-fn oriented(g: Gray, o: Orientation) -> Gray {
+pub(super) fn oriented(g: Gray, o: Orientation) -> Gray {
     let (w, h) = (g.width as usize, g.height as usize);
     // The source pixel of output pixel (x, y) in an output of `ow` columns.
     let (ow, oh, src): (usize, usize, Box<SourceOf>) = match o {
@@ -109,11 +98,7 @@ fn oriented(g: Gray, o: Orientation) -> Gray {
             data.push(g.data[sy * w + sx]);
         }
     }
-    Gray {
-        width: ow as u32,
-        height: oh as u32,
-        data,
-    }
+    Gray::from_data(ow as u32, oh as u32, data)
 }
 
 /// The picture's size in pixels as shown (after its EXIF orientation), from its header alone
@@ -247,15 +232,20 @@ fn decode_bytes(
         .total_bytes()
         .saturating_add(pixels.saturating_mul(4));
     if need > limits::MAX_DECODE_BYTES {
-        return Err(ToneError::TooMuchMemory {
-            path: path.to_path_buf(),
-            width,
-            height,
-            gb: need as f64 / 1e9,
-            limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
-        });
+        return Err(too_much_memory(path, width, height, need));
     }
     Ok(need)
+}
+
+/// Decoding a `width` × `height` picture needs `need` bytes, more than it may.
+fn too_much_memory(path: &Path, width: u32, height: u32, need: u64) -> ToneError {
+    ToneError::TooMuchMemory {
+        path: path.to_path_buf(),
+        width,
+        height,
+        gb: need as f64 / 1e9,
+        limit_gb: limits::MAX_DECODE_BYTES as f64 / 1e9,
+    }
 }
 
 /// Decoded pixels of any colour type as gray in 0..1: Rec. 709 luma, composited over white.
@@ -356,12 +346,6 @@ pub(crate) fn without_type_dumps(text: &str) -> String {
     }
     out.push_str(rest);
     out
-}
-
-/// An I/O error as the operating system words it, once: without the context some libraries wrap
-/// around it (a temp file's name) and with no source chain to print it a second time.
-fn plain_io(e: std::io::Error) -> std::io::Error {
-    stencil_io::plain_io(e)
 }
 
 /// Whether a JPEG file reaches its end-of-image marker: the marker segments are followed from the

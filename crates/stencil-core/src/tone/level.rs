@@ -88,15 +88,8 @@ pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> 
 
 /// The two tones of `gray` at `level`: light (at or above it) is material unless `invert`.
 pub(crate) fn bits_at(gray: &Gray, level: u8, invert: bool) -> BitGrid {
-    BitGrid {
-        width: gray.width,
-        height: gray.height,
-        data: gray
-            .data
-            .iter()
-            .map(|&v| is_light(v, level) != invert)
-            .collect(),
-    }
+    let data = gray.data.iter().map(|&v| is_light(v, level) != invert);
+    BitGrid::from_data(gray.width, gray.height, data.collect())
 }
 
 #[cfg(test)]

@@ -21,15 +21,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::limits::AUTO_MAX_WORKING_PIXELS;
+
 /// The largest supersampling factor, automatic or given.
 pub(crate) const MAX_FACTOR: u32 = 8;
 
 /// Working pixels per `min_feature_mm` the automatic factor aims for (see the module notes).
 pub(crate) const PX_PER_MIN_FEATURE: f64 = 5.0;
-
-/// The automatic factor never makes the working image larger than this many pixels (16 MP: about
-/// 0.6 GB at 40 bytes per working pixel; 4000 × 4000).
-pub(crate) use crate::limits::AUTO_MAX_WORKING_PIXELS;
 
 /// What limited an automatic factor below what the rule asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

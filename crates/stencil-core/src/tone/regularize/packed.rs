@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::disc::Disc;
+use super::disc::{paint, Disc};
 use crate::raster::packed::pack_word;
 
 /// A grid of bits, `stride` words per row: column `x` is bit `x % 64` of word `x / 64`. The bits
@@ -408,25 +408,12 @@ struct Shape {
 }
 
 impl Shape {
+    /// The rows the disc paints about the lattice point (its first centre, see [`paint`]).
     fn of(disc: Disc) -> Shape {
-        let k = disc.reach();
-        let half = if disc.on_corners() { 0.5f32 } else { 0.0 };
-        let inside = |dx: i64, dy: i64| {
-            let (ex, ey) = (dx as f32 + half, dy as f32 + half);
-            ex * ex + ey * ey <= disc.r2
-        };
-        let mut rows = Vec::new();
-        let mut dy0 = None;
-        for dy in -k - 1..=k + 1 {
-            let xs: Vec<i64> = (-k - 1..=k + 1).filter(|&dx| inside(dx, dy)).collect();
-            if let (Some(&a), Some(&b)) = (xs.first(), xs.last()) {
-                dy0.get_or_insert(dy);
-                rows.push((a, b));
-            }
-        }
+        let rows = paint(disc).swap_remove(0);
         Shape {
-            dy0: dy0.unwrap_or(0),
-            rows,
+            dy0: rows.first().map_or(0, |r| r.0),
+            rows: rows.iter().map(|&(_, a, b)| (a, b)).collect(),
         }
     }
 
