@@ -4,6 +4,8 @@
 
 use std::borrow::Cow;
 
+use rayon::prelude::*;
+
 use crate::plan::CleanParams;
 use crate::raster::{BitGrid, Gray, TwoTone};
 use crate::tone;
@@ -99,12 +101,21 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
     let mut tried: Vec<(u8, f64)> = Vec::new();
     let mut levels: Vec<u8> = (16..=240).step_by(8).collect();
     levels.extend([128, otsu]);
-    let try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
+    // The levels of `levels` not in `into` yet, in order and once each, measured by `m` in
+    // parallel (each measure depends on its level alone) and appended in that order: the same
+    // list as measuring them one at a time.
+    let measure_new = |levels: &[u8], into: &mut Vec<(u8, f64)>, m: &(dyn Fn(u8) -> f64 + Sync)| {
+        let mut new: Vec<u8> = Vec::with_capacity(levels.len());
         for &l in levels {
-            if !tried.iter().any(|t| t.0 == l) {
-                tried.push((l, measure(&small, &small_look, &sp, l)));
+            if !into.iter().any(|t| t.0 == l) && !new.contains(&l) {
+                new.push(l);
             }
         }
+        let measured: Vec<f64> = new.par_iter().map(|&l| m(l)).collect();
+        into.extend(new.into_iter().zip(measured));
+    };
+    let try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
+        measure_new(levels, tried, &|l| measure(&small, &small_look, &sp, l))
     };
     try_all(&levels, &mut tried);
     let best = |t: &[(u8, f64)]| {
@@ -125,14 +136,9 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
         order.sort_by(|a, b| b.1.total_cmp(&a.1));
         let mut finalists: Vec<u8> = order.iter().take(2).map(|t| t.0).collect();
         finalists.extend([128, otsu]);
-        finalists.dedup();
         at_full = Vec::new();
-        for l in finalists {
-            if !at_full.iter().any(|t: &(u8, f64)| t.0 == l) {
-                at_full.push((l, measure(gray, look, p, l)));
-                tried.push((l, at_full.last().map_or(0.0, |t| t.1)));
-            }
-        }
+        measure_new(&finalists, &mut at_full, &|l| measure(gray, look, p, l));
+        tried.extend(at_full.iter().copied());
     }
     let (level, like) = best(&at_full);
     let at = |l: u8| at_full.iter().find(|t| t.0 == l).map_or(0.0, |t| t.1);

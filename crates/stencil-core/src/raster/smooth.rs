@@ -79,11 +79,23 @@ pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
 /// floats as `imageproc`'s `gaussian_blur_f32` (its kernel and sums, in its order), but a row at
 /// a time so the sums vectorise, and over threads.
 pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
+    blur_of(g.width, g.height, sigma, |i| g.data[i])
+}
+
+/// [`blur`] of the `w` × `h` picture of `value(i)` (pixel `i` row-major), without making that
+/// picture first: the likeness blurs squares and products of pictures it holds, and each would
+/// otherwise be a picture-sized buffer of fresh memory.
+pub(crate) fn blur_of(w: u32, h: u32, sigma: f32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
     // A NaN or non-positive sigma blurs nothing.
-    if sigma.is_nan() || sigma <= 0.0 || g.data.is_empty() {
-        return g.clone();
+    if sigma.is_nan() || sigma <= 0.0 || w == 0 || h == 0 {
+        let data = (0..w as usize * h as usize).map(value).collect();
+        return Gray {
+            width: w,
+            height: h,
+            data,
+        };
     }
-    convolve(g, &gaussian_kernel(sigma), 1.0)
+    convolve_of(w, h, &gaussian_kernel(sigma), 1.0, value)
 }
 
 /// `g` convolved with the symmetric `kernel` (an odd count of taps) along the rows, then down
@@ -95,7 +107,19 @@ pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
     if g.data.is_empty() {
         return g.clone();
     }
-    let (w, h) = (g.width as usize, g.height as usize);
+    convolve_of(g.width, g.height, kernel, sum, |i| g.data[i])
+}
+
+/// [`convolve`] of the `w` × `h` picture of `value(i)` (not empty).
+fn convolve_of(
+    w: u32,
+    h: u32,
+    kernel: &[f32],
+    sum: f32,
+    value: impl Fn(usize) -> f32 + Sync,
+) -> Gray {
+    let (width, height) = (w, h);
+    let (w, h) = (w as usize, h as usize);
     let r = kernel.len() / 2;
     let divide = |out: &mut [f32]| {
         if sum != 1.0 {
@@ -107,12 +131,13 @@ pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
     let mut across = vec![0f32; w * h];
     across
         .par_chunks_mut(w)
-        .zip(g.data.par_chunks(w))
-        .for_each_init(Vec::new, |padded, (out, row)| {
+        .enumerate()
+        .for_each_init(Vec::new, |padded, (y, out)| {
+            let row = y * w;
             padded.clear();
-            padded.extend(std::iter::repeat_n(row[0], r));
-            padded.extend_from_slice(row);
-            padded.extend(std::iter::repeat_n(row[w - 1], r));
+            padded.extend(std::iter::repeat_n(value(row), r));
+            padded.extend((row..row + w).map(&value));
+            padded.extend(std::iter::repeat_n(value(row + w - 1), r));
             let padded = &padded[..];
             taps(out, kernel, |i, x| &padded[i + x..]);
             divide(out);
@@ -128,8 +153,8 @@ pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
         divide(out);
     });
     Gray {
-        width: g.width,
-        height: g.height,
+        width,
+        height,
         data,
     }
 }
@@ -164,8 +189,9 @@ fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [
     }
 }
 
-/// Pixels a [`taps`] run holds in registers: four SSE vectors.
-const RUN: usize = 16;
+/// Pixels a [`taps`] run holds in registers: eight SSE vectors, enough independent sums to keep
+/// the adder busy while each waits for the one before (16 left it waiting: a fifth slower).
+const RUN: usize = 32;
 
 /// `imageproc`'s Gaussian kernel for `sigma`, to the last bit: `2σ` taps each side (rounded
 /// up), the density at each tap, divided by their sum.
@@ -264,6 +290,27 @@ mod tests {
                     ImageBuffer::from_raw(g.width, g.height, g.data.clone()).unwrap();
                 let want = gaussian_blur_f32(&image, sigma).into_raw();
                 let got = blur(&g, sigma).data;
+                assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
+            }
+        }
+    }
+
+    /// Blurring the picture of a function (a square, a product) gives the floats of blurring
+    /// that picture made first, on random pictures of many widths (runs and their remainders).
+    #[test]
+    fn blurring_a_function_is_blurring_its_picture() {
+        let mut rng = Lcg(31);
+        for (w, h) in [(1, 1), (3, 40), (31, 5), (33, 17), (64, 9), (95, 30)] {
+            let a: Vec<f32> = (0..w * h).map(|_| rng.unit() as f32).collect();
+            let b: Vec<f32> = (0..w * h).map(|_| rng.unit() as f32).collect();
+            let product = Gray {
+                width: w,
+                height: h,
+                data: a.iter().zip(&b).map(|(p, q)| p * q).collect(),
+            };
+            for sigma in [0.0f32, 0.7, 2.9, 5.8] {
+                let want = blur(&product, sigma).data;
+                let got = blur_of(w, h, sigma, |i| a[i] * b[i]).data;
                 assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
             }
         }
