@@ -101,9 +101,8 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
     let mut tried: Vec<(u8, f64)> = Vec::new();
     let mut levels: Vec<u8> = (16..=240).step_by(8).collect();
     levels.extend([128, otsu]);
-    // The levels of `levels` not in `into` yet, in order and once each, measured by `m` in
-    // parallel (each measure depends on its level alone) and appended in that order: the same
-    // list as measuring them one at a time.
+    // The levels not in `into` yet, once each, measured by `m` in parallel (each depends on its
+    // level alone) and appended in order: the same list as measuring them one at a time.
     let measure_new = |levels: &[u8], into: &mut Vec<(u8, f64)>, m: &(dyn Fn(u8) -> f64 + Sync)| {
         let mut new: Vec<u8> = Vec::with_capacity(levels.len());
         for &l in levels {
@@ -114,10 +113,8 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
         let measured: Vec<f64> = new.par_iter().map(|&l| m(l)).collect();
         into.extend(new.into_iter().zip(measured));
     };
-    let try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
-        measure_new(levels, tried, &|l| measure(&small, &small_look, &sp, l))
-    };
-    try_all(&levels, &mut tried);
+    let on_small = |l| measure(&small, &small_look, &sp, l);
+    measure_new(&levels, &mut tried, &on_small);
     let best = |t: &[(u8, f64)]| {
         t.iter()
             .copied()
@@ -129,7 +126,7 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
         .iter()
         .map(|k| (b as i32 + k).clamp(1, 255) as u8)
         .collect();
-    try_all(&near, &mut tried);
+    measure_new(&near, &mut tried, &on_small);
     let mut at_full = tried.clone();
     if d > 1 {
         let mut order = tried.clone();

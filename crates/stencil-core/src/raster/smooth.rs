@@ -82,44 +82,38 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
     blur_of(g.width, g.height, sigma, |i| g.data[i])
 }
 
-/// [`blur`] of the `w` × `h` picture of `value(i)` (pixel `i` row-major), without making that
-/// picture first: the likeness blurs squares and products of pictures it holds, and each would
-/// otherwise be a picture-sized buffer of fresh memory.
+/// [`blur`] of the `w` × `h` picture of `value(i)` (pixel `i` row-major), not made first: the
+/// likeness blurs squares and products, each a picture-sized buffer of fresh memory if made.
 pub(crate) fn blur_of(w: u32, h: u32, sigma: f32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
     // A NaN or non-positive sigma blurs nothing.
     if sigma.is_nan() || sigma <= 0.0 || w == 0 || h == 0 {
-        let data = (0..w as usize * h as usize).map(value).collect();
-        return Gray {
-            width: w,
-            height: h,
-            data,
-        };
+        let mut g = Gray::new(w, h, 0.0);
+        g.data
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = value(i));
+        return g;
     }
-    convolve_of(w, h, &gaussian_kernel(sigma), 1.0, value)
+    convolve(w, h, &gaussian_kernel(sigma), 1.0, value)
 }
 
-/// `g` convolved with the symmetric `kernel` (an odd count of taps) along the rows, then down
-/// the columns, edges padded by continuity, each pass's sums divided by `sum`: 1 for a kernel
-/// already normalised ([`blur`]'s; dividing by 1 changes no float, and is skipped), or the sum
-/// of unnormalised taps (the set likeness's window, whose sums were always divided after).
-/// Per pixel and pass: `Σ kernel[i] · src[i]` over the taps in order from 0, then the division.
-pub(crate) fn convolve(g: &Gray, kernel: &[f32], sum: f32) -> Gray {
-    if g.data.is_empty() {
-        return g.clone();
-    }
-    convolve_of(g.width, g.height, kernel, sum, |i| g.data[i])
-}
-
-/// [`convolve`] of the `w` × `h` picture of `value(i)` (not empty).
-fn convolve_of(
-    w: u32,
-    h: u32,
+/// The `w` × `h` picture of `value(i)` (pixel `i` row-major) convolved with the symmetric
+/// `kernel` (an odd count of taps) along the rows, then down the columns, edges padded by
+/// continuity, each pass's sums divided by `sum`: 1 for a kernel already normalised ([`blur`]'s;
+/// dividing by 1 changes no float, and is skipped), or the sum of unnormalised taps (the set
+/// likeness's window, whose sums were always divided after). Per pixel and pass:
+/// `Σ kernel[i] · src[i]` over the taps in order from 0, then the division.
+pub(crate) fn convolve(
+    width: u32,
+    height: u32,
     kernel: &[f32],
     sum: f32,
     value: impl Fn(usize) -> f32 + Sync,
 ) -> Gray {
-    let (width, height) = (w, h);
-    let (w, h) = (w as usize, h as usize);
+    if width == 0 || height == 0 {
+        return Gray::new(width, height, 0.0);
+    }
+    let (w, h) = (width as usize, height as usize);
     let r = kernel.len() / 2;
     let divide = |out: &mut [f32]| {
         if sum != 1.0 {
@@ -369,7 +363,7 @@ mod tests {
                 data,
             };
             let want = blur_11_taps(&g.data, w, h);
-            let got = convolve(&g, &taps, sum).data;
+            let got = convolve(w, h, &taps, sum, |i| g.data[i]).data;
             assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h}");
         }
     }

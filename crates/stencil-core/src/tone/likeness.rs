@@ -59,9 +59,8 @@ pub struct Likeness {
     y: Vec<f32>,
     my: Vec<f32>,
     vy: Vec<f32>,
-    /// The mean local contrast, which with each place's own gives its weight (`weight`), and
-    /// the weights' sum. The weights are worked out where they are used rather than kept: a
-    /// picture of f64s is the largest buffer the measure would hold.
+    /// The mean local contrast, which with each place's own gives its weight (`weight`, worked
+    /// out where used: kept, they were the largest buffer here), and the weights' sum.
     mean_contrast: f64,
     weights: f64,
 }
@@ -83,7 +82,7 @@ impl Likeness {
         let vy: Vec<f32> = (0..n)
             .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0))
             .collect();
-        let mean_contrast = vy.iter().map(|&v| contrast(v) as f64).sum::<f64>() / n.max(1) as f64;
+        let mean_contrast = vy.iter().map(|&v| v.sqrt() as f64).sum::<f64>() / n.max(1) as f64;
         let mut weights = 0.0;
         for &v in &vy {
             weights += weight(v, mean_contrast);
@@ -112,8 +111,7 @@ impl Likeness {
             return 0.0;
         }
         let window = 2.0 * self.sigma;
-        // One blur after another (each is parallel inside), so that each reuses the memory the
-        // one before freed rather than taking fresh pages at once.
+        // One blur after another (each parallel inside): each reuses the memory the last freed.
         let x = blur(&box_average_bits(bits, self.d, invert), self.sigma);
         let (w, h, x) = (x.width, x.height, &x.data);
         let mx = blur_of(w, h, window, |i| x[i]);
@@ -123,17 +121,12 @@ impl Likeness {
     }
 }
 
-/// The local contrast of a place whose variance in the window is `v`: the standard deviation.
-fn contrast(v: f32) -> f32 {
-    v.sqrt()
-}
-
 /// The weight of a place whose variance in the window is `v`, in a picture whose mean local
-/// contrast is `mean_contrast`: its contrast plus [`FLAT_WEIGHT`] times the mean (a flat picture
-/// weighs every place alike).
+/// contrast (standard deviation) is `mean_contrast`: its contrast plus [`FLAT_WEIGHT`] times the
+/// mean (a flat picture weighs every place alike).
 fn weight(v: f32, mean_contrast: f64) -> f64 {
     if mean_contrast > 0.0 {
-        contrast(v) as f64 + FLAT_WEIGHT as f64 * mean_contrast
+        v.sqrt() as f64 + FLAT_WEIGHT as f64 * mean_contrast
     } else {
         1.0
     }
@@ -206,12 +199,15 @@ pub(crate) fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
         .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
         .collect();
     let sum: f32 = taps.iter().sum();
-    let window = |g: &Gray| convolve(g, &taps, sum).data;
-    let prod = |x: &Gray, y: &Gray| map2(x, y, |p, q| p * q);
-    let (mu_a, mu_b) = (window(&a), window(&b));
-    let saa = window(&prod(&a, &a));
-    let sbb = window(&prod(&b, &b));
-    let sab = window(&prod(&a, &b));
+    // The window over the products of `x` and `y` (over `x` alone when `y` is None).
+    let window = |x: &Gray, y: Option<&Gray>| {
+        let value = |i: usize| y.map_or(x.data[i], |y| x.data[i] * y.data[i]);
+        convolve(x.width, x.height, &taps, sum, value).data
+    };
+    let (mu_a, mu_b) = (window(&a, None), window(&b, None));
+    let saa = window(&a, Some(&a));
+    let sbb = window(&b, Some(&b));
+    let sab = window(&a, Some(&b));
     let (c1, c2) = (0.01f64 * 0.01, 0.03f64 * 0.03);
     let mut total = 0.0;
     for i in 0..a.data.len() {
@@ -223,15 +219,6 @@ pub(crate) fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
             ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
     }
     total / a.data.len().max(1) as f64
-}
-
-/// `f` of `x` and `y` (the same size) at every pixel.
-fn map2(x: &Gray, y: &Gray, f: impl Fn(f32, f32) -> f32) -> Gray {
-    Gray {
-        width: x.width,
-        height: x.height,
-        data: x.data.iter().zip(&y.data).map(|(&p, &q)| f(p, q)).collect(),
-    }
 }
 
 /// How `--threshold auto` chose its level, for the report and the console.
