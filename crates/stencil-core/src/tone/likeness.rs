@@ -251,13 +251,13 @@ mod tests {
             data: g.data.iter().map(|&v| f(v)).collect(),
             ..g.clone()
         };
-        let d = gray.width.max(gray.height).div_ceil(EVAL_LONG_SIDE).max(1);
-        let g = stretch(box_average(gray.width, gray.height, d, |i| {
-            gray.data[i].clamp(0.0, 1.0)
-        }));
-        let sigma = ((g.width as f32).hypot(g.height as f32) / VIEW_BLUR_DIAGONALS).max(0.5);
-        let window = 2.0 * sigma;
-        let y = blur(&g, sigma);
+        // The gray seen from afar as the measure makes it (that part is unchanged).
+        let look = Likeness::of(gray);
+        let (d, sigma, window) = (look.d, look.sigma, 2.0 * look.sigma);
+        let y = Gray {
+            data: look.y.clone(),
+            ..box_average(gray.width, gray.height, d, |_| 0.0)
+        };
         let (my, yy) = (blur(&y, window), blur(&map(&y, &|v| v * v), window));
         let vy: Vec<f32> = (0..y.data.len())
             .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0))
