@@ -208,3 +208,46 @@ pub fn clean_unmeasured(raw: TwoTone, level: u8, p: &CleanParams, look: &Likenes
 pub fn measure(cleaned: &Cleaned, p: &CleanParams, look: &Likeness) -> f64 {
     look.of_bits(&cleaned.twotone.bits, p.invert)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Lcg;
+
+    /// With `--threshold auto` the clean-up of the level chosen comes from the search, not made
+    /// again: the same picture, two-tone and statistics as thresholding and cleaning up the gray
+    /// at that level afterwards, as it was done before (regularisation and filter, both tones).
+    #[test]
+    fn the_level_chosen_is_cleaned_up_as_if_again() {
+        let mut rng = Lcg(5);
+        let (w, h) = (90, 70);
+        let mut gray = Gray::new(w, h, 0.0);
+        for (i, v) in gray.data.iter_mut().enumerate() {
+            let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+            *v =
+                ((x / 7.0).sin() * (y / 5.0).cos() * 0.35 + 0.5 + rng.unit() as f32 * 0.3).min(1.0);
+        }
+        let look = Likeness::of(&gray);
+        for (regularize_px, invert) in [(Some(2.5), false), (Some(3.0), true), (None, false)] {
+            let p = CleanParams {
+                filter: FilterConfig::default(),
+                regularize_px,
+                invert,
+                auto: true,
+            };
+            let raw = TwoTone {
+                bits: tone::bits_at(&gray, 128, invert),
+                gray: std::sync::Arc::new(gray.clone()),
+            };
+            let c = clean_unmeasured(raw, 128, &p, &look);
+            let picture = tone::bits_at(&gray, c.level, invert);
+            let (bits, filter_stats, reg_stats) = clean_bits(&picture, &gray, c.level, &p);
+            assert_eq!(c.picture, picture, "{regularize_px:?} {invert}");
+            assert_eq!(c.twotone.bits, bits, "{regularize_px:?} {invert}");
+            assert_eq!((c.filter_stats, c.reg_stats), (filter_stats, reg_stats));
+            let choice = c.choice.as_ref().expect("auto chose");
+            assert_eq!(choice.level, c.level);
+            assert_eq!(measure(&c, &p, &look), choice.likeness);
+        }
+    }
+}
