@@ -135,7 +135,6 @@ fn choose_level(gray: &Gray, look: &Likeness, p: &CleanParams) -> (LevelChoice, 
         order.sort_by(|a, b| b.1.total_cmp(&a.1));
         let mut finalists: Vec<u8> = order.iter().take(2).map(|t| t.0).collect();
         finalists.extend([128, otsu]);
-        finalists.dedup();
         at_full = Vec::new();
         for l in finalists {
             if !at_full.iter().any(|t: &(u8, f64)| t.0 == l) {
