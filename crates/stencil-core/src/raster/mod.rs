@@ -17,4 +17,4 @@ pub(crate) use label::{
     components, join, join_runs, push_runs, root, runs_of, touches_border, Run, NOT_LABELLED,
 };
 pub(crate) use morph::{close, open};
-pub(crate) use smooth::{blur, box_average, box_average_bits, convolve};
+pub(crate) use smooth::{blur, blur_of, box_average, box_average_bits, convolve};

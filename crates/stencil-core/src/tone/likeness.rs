@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::raster::{blur, box_average, box_average_bits, convolve, BitGrid, Gray};
+use crate::raster::{blur, blur_of, box_average, box_average_bits, convolve, BitGrid, Gray};
 
 /// The long side of the grid the measure is taken on, pixels.
 pub(crate) const EVAL_LONG_SIDE: u32 = 512;
@@ -59,8 +59,9 @@ pub struct Likeness {
     y: Vec<f32>,
     my: Vec<f32>,
     vy: Vec<f32>,
-    /// Each place's weight, and their sum.
-    weight: Vec<f64>,
+    /// The mean local contrast, which with each place's own gives its weight (`weight`, worked
+    /// out where used: kept, they were the largest buffer here), and the weights' sum.
+    mean_contrast: f64,
     weights: f64,
 }
 
@@ -74,28 +75,17 @@ impl Likeness {
         let sigma = ((g.width as f32).hypot(g.height as f32) / VIEW_BLUR_DIAGONALS).max(0.5);
         let window = 2.0 * sigma;
         let y = blur(&g, sigma);
-        let (my, yy) = rayon::join(|| blur(&y, window), || blur(&map(&y, |v| v * v), window));
+        drop(g);
+        let my = blur(&y, window);
+        let yy = blur_of(y.width, y.height, window, |i| y.data[i] * y.data[i]);
         let n = y.data.len();
         let vy: Vec<f32> = (0..n)
             .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0))
             .collect();
-        // The local contrast is the standard deviation in the window.
-        let contrast: Vec<f32> = vy.iter().map(|v| v.sqrt()).collect();
-        let mean_contrast = contrast.iter().map(|&c| c as f64).sum::<f64>() / n.max(1) as f64;
-        // A flat picture weighs every place alike.
-        let weight: Vec<f64> = contrast
-            .iter()
-            .map(|&c| {
-                if mean_contrast > 0.0 {
-                    c as f64 + FLAT_WEIGHT as f64 * mean_contrast
-                } else {
-                    1.0
-                }
-            })
-            .collect();
+        let mean_contrast = vy.iter().map(|&v| v.sqrt() as f64).sum::<f64>() / n.max(1) as f64;
         let mut weights = 0.0;
-        for &w in &weight {
-            weights += w;
+        for &v in &vy {
+            weights += weight(v, mean_contrast);
         }
         Likeness {
             width: gray.width,
@@ -105,7 +95,7 @@ impl Likeness {
             y: y.data,
             my: my.data,
             vy,
-            weight,
+            mean_contrast,
             weights,
         }
     }
@@ -120,27 +110,25 @@ impl Likeness {
         if bits.data.is_empty() {
             return 0.0;
         }
-        let a = box_average_bits(bits, self.d, invert);
         let window = 2.0 * self.sigma;
-        let x = blur(&a, self.sigma);
-        let xy = Gray {
-            data: x.data.iter().zip(&self.y).map(|(&a, &b)| a * b).collect(),
-            ..x
-        };
-        let ((mx, xx), xy) = rayon::join(
-            || rayon::join(|| blur(&x, window), || blur(&map(&x, |v| v * v), window)),
-            || blur(&xy, window),
-        );
+        // One blur after another (each parallel inside): each reuses the memory the last freed.
+        let x = blur(&box_average_bits(bits, self.d, invert), self.sigma);
+        let (w, h, x) = (x.width, x.height, &x.data);
+        let mx = blur_of(w, h, window, |i| x[i]);
+        let xx = blur_of(w, h, window, |i| x[i] * x[i]);
+        let xy = blur_of(w, h, window, |i| x[i] * self.y[i]);
         score(self, &mx.data, &xx.data, &xy.data)
     }
 }
 
-/// `g` with `f` applied to every value.
-fn map(g: &Gray, f: impl Fn(f32) -> f32) -> Gray {
-    Gray {
-        width: g.width,
-        height: g.height,
-        data: g.data.iter().map(|&v| f(v)).collect(),
+/// The weight of a place whose variance in the window is `v`, in a picture whose mean local
+/// contrast (standard deviation) is `mean_contrast`: its contrast plus [`FLAT_WEIGHT`] times the
+/// mean (a flat picture weighs every place alike).
+fn weight(v: f32, mean_contrast: f64) -> f64 {
+    if mean_contrast > 0.0 {
+        v.sqrt() as f64 + FLAT_WEIGHT as f64 * mean_contrast
+    } else {
+        1.0
     }
 }
 
@@ -188,7 +176,7 @@ fn score(look: &Likeness, mx: &[f32], xx: &[f32], xy: &[f32]) -> f64 {
         let vy = look.vy[i];
         let cxy = xy[i] - ux * uy;
         let score = ((1.0 - (ux - uy).abs()) * (2.0 * cxy + c2) / (vx + vy + c2)) as f64;
-        total += look.weight[i] * score;
+        total += weight(vy, look.mean_contrast) * score;
     }
     total / look.weights.max(f64::MIN_POSITIVE)
 }
@@ -211,12 +199,15 @@ pub(crate) fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
         .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
         .collect();
     let sum: f32 = taps.iter().sum();
-    let window = |g: &Gray| convolve(g, &taps, sum).data;
-    let prod = |x: &Gray, y: &Gray| map2(x, y, |p, q| p * q);
-    let (mu_a, mu_b) = (window(&a), window(&b));
-    let saa = window(&prod(&a, &a));
-    let sbb = window(&prod(&b, &b));
-    let sab = window(&prod(&a, &b));
+    // The window over the products of `x` and `y` (over `x` alone when `y` is None).
+    let window = |x: &Gray, y: Option<&Gray>| {
+        let value = |i: usize| y.map_or(x.data[i], |y| x.data[i] * y.data[i]);
+        convolve(x.width, x.height, &taps, sum, value).data
+    };
+    let (mu_a, mu_b) = (window(&a, None), window(&b, None));
+    let saa = window(&a, Some(&a));
+    let sbb = window(&b, Some(&b));
+    let sab = window(&a, Some(&b));
     let (c1, c2) = (0.01f64 * 0.01, 0.03f64 * 0.03);
     let mut total = 0.0;
     for i in 0..a.data.len() {
@@ -228,15 +219,6 @@ pub(crate) fn ssim(a: &[f32], b: &[f32], w: u32, h: u32) -> f64 {
             ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
     }
     total / a.data.len().max(1) as f64
-}
-
-/// `f` of `x` and `y` (the same size) at every pixel.
-fn map2(x: &Gray, y: &Gray, f: impl Fn(f32, f32) -> f32) -> Gray {
-    Gray {
-        width: x.width,
-        height: x.height,
-        data: x.data.iter().zip(&y.data).map(|(&p, &q)| f(p, q)).collect(),
-    }
 }
 
 /// How `--threshold auto` chose its level, for the report and the console.
@@ -261,6 +243,85 @@ pub struct LevelChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The measure as it was first written, every intermediate picture made and each place's
+    /// weight kept, to the bit: the same as the measure that makes none of them.
+    fn likeness_as_written(bits: &BitGrid, gray: &Gray, invert: bool) -> f64 {
+        let map = |g: &Gray, f: &dyn Fn(f32) -> f32| Gray {
+            data: g.data.iter().map(|&v| f(v)).collect(),
+            ..g.clone()
+        };
+        // The gray seen from afar as the measure makes it (that part is unchanged).
+        let look = Likeness::of(gray);
+        let (d, sigma, window) = (look.d, look.sigma, 2.0 * look.sigma);
+        let y = Gray {
+            data: look.y.clone(),
+            ..box_average(gray.width, gray.height, d, |_| 0.0)
+        };
+        let (my, yy) = (blur(&y, window), blur(&map(&y, &|v| v * v), window));
+        let vy: Vec<f32> = (0..y.data.len())
+            .map(|i| (yy.data[i] - my.data[i] * my.data[i]).max(0.0))
+            .collect();
+        let contrast: Vec<f32> = vy.iter().map(|v| v.sqrt()).collect();
+        let mean = contrast.iter().map(|&c| c as f64).sum::<f64>() / vy.len().max(1) as f64;
+        let weight: Vec<f64> = contrast
+            .iter()
+            .map(|&c| {
+                if mean > 0.0 {
+                    c as f64 + FLAT_WEIGHT as f64 * mean
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let weights: f64 = weight.iter().fold(0.0, |s, w| s + w);
+        let x = blur(&box_average_bits(bits, d, invert), sigma);
+        let xy = Gray {
+            data: x.data.iter().zip(&y.data).map(|(&a, &b)| a * b).collect(),
+            ..x.clone()
+        };
+        let (mx, xx, xy) = (
+            blur(&x, window),
+            blur(&map(&x, &|v| v * v), window),
+            blur(&xy, window),
+        );
+        let mut total = 0.0;
+        for i in 0..mx.data.len() {
+            let (ux, uy) = (mx.data[i], my.data[i]);
+            let vx = (xx.data[i] - ux * ux).max(0.0);
+            let cxy = xy.data[i] - ux * uy;
+            let s = ((1.0 - (ux - uy).abs()) * (2.0 * cxy + 9e-4) / (vx + vy[i] + 9e-4)) as f64;
+            total += weight[i] * s;
+        }
+        total / weights.max(f64::MIN_POSITIVE)
+    }
+
+    #[test]
+    fn the_measure_is_the_measure_as_written() {
+        let mut rng = crate::test_rng::Lcg(41);
+        for (w, h) in [(1, 1), (7, 3), (40, 33), (130, 90), (700, 20), (600, 530)] {
+            let mut g = Gray::new(w, h, 0.0);
+            for (i, v) in g.data.iter_mut().enumerate() {
+                // Smooth shapes and noise, sometimes flat.
+                let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+                *v = if w == 7 {
+                    0.5
+                } else {
+                    (x / 9.0).sin() * (y / 13.0).cos() * 0.4 + 0.5
+                } + rng.unit() as f32 * 0.2;
+            }
+            let bits = BitGrid::from_fn(w, h, |x, y| g.get(x, y) > 0.55 || rng.below(9) == 0);
+            for invert in [false, true] {
+                let want = likeness_as_written(&bits, &g, invert);
+                let got = likeness(&bits, &g, invert);
+                assert_eq!(
+                    got.to_bits(),
+                    want.to_bits(),
+                    "{w}x{h} {invert}: {got} {want}"
+                );
+            }
+        }
+    }
 
     /// The plain SSIM of a set's composite: 1 for the same picture, low for its negative.
     #[test]

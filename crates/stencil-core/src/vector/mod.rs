@@ -120,18 +120,13 @@ impl Rim {
 
     /// The disc's bounding square: what a job cutting the rim places on the bed.
     pub(crate) fn bounds(&self) -> Rect<f64> {
+        self.square(self.od_mm / 2.0)
+    }
+
+    /// The square around the circle of radius `r` about the centre.
+    fn square(&self, r: f64) -> Rect<f64> {
         let [cx, cy] = self.centre_mm;
-        let r = self.od_mm / 2.0;
-        Rect::new(
-            Coord {
-                x: cx - r,
-                y: cy - r,
-            },
-            Coord {
-                x: cx + r,
-                y: cy + r,
-            },
-        )
+        Rect::new((cx - r, cy - r), (cx + r, cy + r))
     }
 }
 
@@ -370,18 +365,7 @@ impl CutGeometry {
         let (outline, outline_ring) = match self.rim {
             Some(rim) => {
                 let r = rim.od_mm / 2.0 + self.kerf_mm.max(0.0) / 2.0;
-                let [cx, cy] = rim.centre_mm;
-                let b = Rect::new(
-                    Coord {
-                        x: cx - r,
-                        y: cy - r,
-                    },
-                    Coord {
-                        x: cx + r,
-                        y: cy + r,
-                    },
-                );
-                (b, Some(rim.ring(r)))
+                (rim.square(r), Some(rim.ring(r)))
             }
             None => (self.outline, None),
         };
