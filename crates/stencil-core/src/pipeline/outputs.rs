@@ -15,6 +15,7 @@ use crate::report::{BridgeReport, Report};
 use crate::request::MakeConfig;
 use crate::timing::Timings;
 use crate::tone::filter::FilterStats;
+use crate::tone::mesh::PartSizes;
 use crate::units::Scale;
 use crate::vector::CutGeometry;
 
@@ -40,6 +41,8 @@ pub struct Made {
     pub gcode: Option<String>,
     /// Pixels of the islands dropped instead of bridged (the preview colours them).
     pub dropped_px: Vec<u32>,
+    /// A mesh's parts, and how many its view draws smaller than a pixel (`None` for a picture).
+    pub mesh_parts: Option<PartSizes>,
 }
 
 /// `make`'s end, from the bridges on to the report: trace and check, refuse what `make` refuses,
@@ -99,6 +102,7 @@ pub fn finish(
         report,
         gcode,
         dropped_px: Arc::unwrap_or_clone(joined.dropped_px),
+        mesh_parts: params.mesh_parts,
     })
 }
 

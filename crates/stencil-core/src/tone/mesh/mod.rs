@@ -219,6 +219,8 @@ pub struct Rendering {
     pub lines: BitGrid,
     /// The camera at output resolution.
     pub camera: Camera,
+    /// The mesh's parts, and how many of them this view draws smaller than a pixel.
+    pub parts: PartSizes,
     /// Milliseconds per step: `curvature`, `raster`, `shade`, `lines`, `compose`.
     pub timings: Timings,
 }
@@ -275,6 +277,7 @@ pub struct Drawn {
     cam: Camera,
     out_cam: Camera,
     k: u32,
+    parts: PartSizes,
     /// Milliseconds per step so far: `curvature`, `raster`, `lines`.
     pub timings: Timings,
 }
@@ -345,6 +348,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
         cam,
         out_cam,
         k,
+        parts: part_sizes(mesh, &out_cam),
         timings: tm,
     })
 }
@@ -359,7 +363,7 @@ pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut r = tm.time("shade", || {
         compose(&d.surf, &d.line_mask, &d.cam, &light, d.k, d.out_cam)
     });
-    r.timings = tm;
+    (r.timings, r.parts) = (tm, d.parts);
     r
 }
 
@@ -485,6 +489,7 @@ fn compose(
             data: lines,
         },
         camera: out_cam,
+        parts: PartSizes::default(),
         timings: Timings::default(),
     }
 }
@@ -560,10 +565,10 @@ pub struct PartSizes {
     pub below_a_pixel: usize,
 }
 
-/// [`PartSizes`] of `mesh` as `cfg` frames it (the same camera as [`render_mesh`]). O(mesh).
-pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
-    let cam = framed(mesh, cfg).0;
-    // Union-find over the vertices of each triangle.
+/// [`PartSizes`] of `mesh` seen by `cam` (the view's camera at output size). O(mesh): a
+/// union-find over the triangles' corners, then each used vertex projected once into its part's
+/// box (a box's min and max do not depend on the order its points come in).
+fn part_sizes(mesh: &Mesh, cam: &Camera) -> PartSizes {
     let n = mesh.positions.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(p: &mut [u32], mut i: u32) -> u32 {
@@ -573,6 +578,7 @@ pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
         }
         i
     }
+    let mut used = vec![false; n];
     for t in &mesh.triangles {
         let a = find(&mut parent, t[0]);
         for &v in &t[1..] {
@@ -581,30 +587,35 @@ pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
                 parent[b as usize] = a;
             }
         }
-    }
-    let mut boxes: std::collections::HashMap<u32, [f32; 4]> = Default::default();
-    for t in &mesh.triangles {
-        let root = find(&mut parent, t[0]);
-        let b = boxes.entry(root).or_insert([
-            f32::INFINITY,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NEG_INFINITY,
-        ]);
         for &v in t {
-            let p = cam.project(mesh.positions[v as usize]);
-            b[0] = b[0].min(p.x);
-            b[1] = b[1].min(p.y);
-            b[2] = b[2].max(p.x);
-            b[3] = b[3].max(p.y);
+            used[v as usize] = true;
         }
     }
+    const EMPTY: [f32; 4] = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    let mut boxes = vec![EMPTY; n];
+    for v in (0..n).filter(|&v| used[v]) {
+        let p = cam.project(mesh.positions[v]);
+        let b = &mut boxes[find(&mut parent, v as u32) as usize];
+        b[0] = b[0].min(p.x);
+        b[1] = b[1].min(p.y);
+        b[2] = b[2].max(p.x);
+        b[3] = b[3].max(p.y);
+    }
+    // A part's root is one of its triangles' corners.
+    let roots = (0..n).filter(|&v| used[v] && parent[v] == v as u32);
+    let (mut parts, mut below_a_pixel) = (0, 0);
+    for b in roots.map(|v| &boxes[v]) {
+        parts += 1;
+        below_a_pixel += !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0) as usize;
+    }
     PartSizes {
-        parts: boxes.len(),
-        below_a_pixel: boxes
-            .values()
-            .filter(|b| !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0))
-            .count(),
+        parts,
+        below_a_pixel,
     }
 }
 
