@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::load::Mesh;
+use super::shade::Surfaces;
 use super::visibility::{VisBuffer, NONE};
 
 /// Which lines to draw.
@@ -50,12 +51,12 @@ const SILHOUETTE: u8 = 1;
 const SUGGESTIVE: u8 = 2;
 
 /// The line mask (true = line) at the working resolution, from `shade::geometry`'s fragments
-/// and model mask: seeds (silhouettes, suggestive contours) thickened.
+/// and its surfaces' model mask: seeds (silhouettes, suggestive contours) thickened.
 pub(crate) fn find(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    (frags, model): (&[[f32; 4]], &[bool]),
+    (frags, surf): (&[[f32; 4]], &Surfaces),
     p: &LineParams,
 ) -> Vec<bool> {
     let (w, h) = (vb.width as usize, vb.height as usize);
@@ -65,7 +66,7 @@ pub(crate) fn find(
     let mut seeds = vec![0u8; w * h];
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, s) in row.iter_mut().enumerate() {
-            *s = seed(mesh, cam, vb, (frags, model), p, x, y);
+            *s = seed(mesh, cam, vb, (frags, surf), p, x, y);
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
@@ -80,17 +81,17 @@ fn seed(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    (frags, model): (&[[f32; 4]], &[bool]),
+    (frags, surf): (&[[f32; 4]], &Surfaces),
     p: &LineParams,
     x: usize,
     y: usize,
 ) -> u8 {
     let (w, h) = (vb.width as usize, vb.height as usize);
-    let i = y * w + x;
-    if !model[i] {
+    let model = &surf.model;
+    if !model[y * w + x] {
         return 0;
     }
-    let [depth, kr, dwkr, ndotv] = frags[i];
+    let [depth, kr, dwkr, ndotv] = frags[surf.kept(x, y)];
     let neighbours = [
         (x.wrapping_sub(1), y),
         (x + 1, y),
@@ -107,7 +108,7 @@ fn seed(
         if !model[j] {
             return SILHOUETTE;
         }
-        let [g_depth, g_kr, ..] = frags[j];
+        let [g_depth, g_kr, ..] = frags[surf.kept(nx, ny)];
         let gap = g_depth - depth;
         if gap > p.depth_tolerance {
             let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));

@@ -340,7 +340,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
             min_run_px: (4.0 * line_px * k as f32).round() as usize,
             depth_tolerance: 0.02 * radius,
         };
-        lines::find(mesh, &cam, &vb, (&frags, &surf.model), &params)
+        lines::find(mesh, &cam, &vb, (&frags, &surf), &params)
     });
     Ok(Drawn {
         surf,

@@ -63,9 +63,13 @@ pub(crate) fn shade(
         depth: f32::INFINITY,
         ..Default::default()
     };
-    let frags = (frags.into_iter().zip(&surf.model))
-        .map(|([depth, _, _, ndotv], &m)| match m {
-            true => Fragment { depth, ndotv },
+    let w = vb.width as usize;
+    let frags = (0..surf.model.len())
+        .map(|i| match surf.model[i] {
+            true => {
+                let [depth, _, _, ndotv] = frags[surf.kept(i % w, i / w)];
+                Fragment { depth, ndotv }
+            }
             false => background,
         })
         .collect();
@@ -73,8 +77,9 @@ pub(crate) fn shade(
 }
 
 /// Each visible pixel's surface: what the lines read (its camera-space depth, its interpolated
-/// κr and D_w κr, signed as seen, and the cosine between normal and view; zeros where
-/// `Surfaces::model` says no model is seen), and where its ray meets its triangle and the normal
+/// κr and D_w κr, signed as seen, and the cosine between normal and view; one per sample of each
+/// row's span, found with [`Surfaces::kept`], zeros where `Surfaces::model` says no model is
+/// seen), and where its ray meets its triangle and the normal
 /// there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
 /// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
 /// suggestive contours are wanted. Independent of the light.
@@ -104,26 +109,27 @@ pub(crate) fn geometry(
             [at - 6 * (b - a), a, b]
         })
         .collect();
-    // One pass writes both, row by row in parallel. Zeroed memory comes from the system
-    // untouched, and a background sample keeps its zeros: pages are first touched by the rows'
-    // threads, and those of the background not at all.
-    let (mut frags, mut planes, mut model) = (vec![[0f32; 4]; n], vec![0f32; at], vec![false; n]);
-    let mut rest = &mut planes[..];
-    let row_planes: Vec<&mut [f32]> = (rows.iter())
+    // One pass writes all three, row by row in parallel. The fragments, like the planes, are
+    // kept for each row's span only (a whole picture's were 16 bytes a sample, most of them
+    // background, every page of them touched when the buffer was zeroed).
+    let (mut frags, mut planes, mut model) =
+        (vec![[0f32; 4]; at / 6], vec![0f32; at], vec![false; n]);
+    let (mut rest, mut frags_rest) = (&mut planes[..], &mut frags[..]);
+    let row_spans: Vec<(&mut [f32], &mut [[f32; 4]])> = (rows.iter())
         .map(|&[_, a, b]| {
             let (row, tail) = std::mem::take(&mut rest).split_at_mut(6 * (b - a));
-            rest = tail;
-            row
+            let (fr, frags_tail) = std::mem::take(&mut frags_rest).split_at_mut(b - a);
+            (rest, frags_rest) = (tail, frags_tail);
+            (row, fr)
         })
         .collect();
-    frags
+    model
         .par_chunks_mut(w)
-        .zip(row_planes)
-        .zip(model.par_chunks_mut(w))
+        .zip(row_spans)
         .zip(vb.tri.par_chunks(w))
         .enumerate()
-        .for_each(|(y, (((fr, planes), model), tri))| {
-            let (a, n) = (rows[y][1], planes.len() / 6);
+        .for_each(|(y, ((model, (planes, fr)), tri))| {
+            let (a, n) = (rows[y][1], fr.len());
             for (x, &t) in tri.iter().enumerate().skip(a).take(n) {
                 if t == NONE {
                     continue;
@@ -132,7 +138,7 @@ pub(crate) fn geometry(
                 for (c, v) in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z].into_iter().enumerate() {
                     planes[c * n + x - a] = v;
                 }
-                (fr[x], model[x]) = (f, f[0].is_finite());
+                (fr[x - a], model[x]) = (f, f[0].is_finite());
             }
         });
     (
@@ -260,6 +266,14 @@ impl Surfaces {
             Vec3::new(r[0][x], r[1][x], r[2][x]),
             Vec3::new(r[3][x], r[4][x], r[5][x]),
         )
+    }
+
+    /// Where sample (`x`, `y`) is among the samples kept, one per sample of each row's span (the
+    /// order of [`geometry`]'s fragments). Only for samples that show the model.
+    #[inline]
+    pub(crate) fn kept(&self, x: usize, y: usize) -> usize {
+        let [start, a, _] = self.rows[y];
+        start / 6 + x - a
     }
 
     /// Working row `y`'s samples kept, and their six planes (point x, y, z, normal x, y, z).
