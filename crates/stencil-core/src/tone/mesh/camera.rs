@@ -219,8 +219,15 @@ impl Camera {
     /// the ray parameter is the depth.
     #[inline]
     pub(crate) fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
-        let u = (sx - self.cx) / self.focal_px;
-        let v = (self.cy - sy) / self.focal_px;
+        self.ray_at(
+            (sx - self.cx) / self.focal_px,
+            (self.cy - sy) / self.focal_px,
+        )
+    }
+
+    /// [`Camera::ray`] through the image-plane position (`u`, `v`), its divisions made.
+    #[inline]
+    pub(crate) fn ray_at(&self, u: f32, v: f32) -> (Vec3, Vec3) {
         let off = self.right * u + self.up * v;
         if self.orthographic {
             (self.eye + off, self.forward)

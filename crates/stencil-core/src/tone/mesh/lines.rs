@@ -65,8 +65,9 @@ pub(crate) fn find(
     }
     let mut seeds = vec![0u8; w * h];
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, s) in row.iter_mut().enumerate() {
-            *s = seed(mesh, cam, vb, (frags, surf), p, x, y);
+        // Outside its span a row shows no model.
+        for x in surf.span(y) {
+            row[x] = seed(mesh, cam, vb, (frags, surf), p, x, y);
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
@@ -165,16 +166,18 @@ fn behind_plane(mesh: &Mesh, t: u32, o: Vec3, d: Vec3, depth: f32, tol: f32) -> 
 /// Remove suggestive-contour runs (8-connected) shorter than `min` pixels: a stencil wants a few
 /// meaningful strokes, not dust.
 fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
-    let mut seen = vec![false; seeds.len()];
+    // A run's pixels are marked as they are found (no picture of flags), and given their kind
+    // back at the end where they are kept.
+    const SEEN: u8 = 4;
     let mut stack = Vec::new();
     let mut comp = Vec::new();
     for start in 0..seeds.len() {
-        if seeds[start] != SUGGESTIVE || seen[start] {
+        if seeds[start] != SUGGESTIVE {
             continue;
         }
         comp.clear();
         stack.push(start);
-        seen[start] = true;
+        seeds[start] = SEEN;
         while let Some(i) = stack.pop() {
             comp.push(i);
             let (x, y) = ((i % w) as isize, (i / w) as isize);
@@ -185,8 +188,8 @@ fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
                         continue;
                     }
                     let j = ny as usize * w + nx as usize;
-                    if seeds[j] == SUGGESTIVE && !seen[j] {
-                        seen[j] = true;
+                    if seeds[j] == SUGGESTIVE {
+                        seeds[j] = SEEN;
                         stack.push(j);
                     }
                 }
@@ -197,6 +200,9 @@ fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
                 seeds[i] = 0;
             }
         }
+    }
+    for s in seeds.iter_mut().filter(|s| **s == SEEN) {
+        *s = SUGGESTIVE;
     }
 }
 
