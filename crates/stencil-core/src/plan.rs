@@ -125,8 +125,6 @@ pub struct StageParams {
     pub join: JoinParams,
     /// The tracing's and the check's.
     pub trace: TraceParams,
-    /// A mesh's parts as its view draws them (`None` for a picture): passed on to what `make`
-    /// returns, as the scale is, so that its warning about parts smaller than a pixel does not
-    /// read the file again.
+    /// A mesh's parts as its view draws them (`None` for a picture), for `make`'s warning.
     pub mesh_parts: Option<PartSizes>,
 }

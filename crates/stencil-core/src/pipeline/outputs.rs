@@ -15,7 +15,6 @@ use crate::report::{BridgeReport, Report};
 use crate::request::MakeConfig;
 use crate::timing::Timings;
 use crate::tone::filter::FilterStats;
-use crate::tone::mesh::PartSizes;
 use crate::units::Scale;
 use crate::vector::CutGeometry;
 
@@ -42,7 +41,7 @@ pub struct Made {
     /// Pixels of the islands dropped instead of bridged (the preview colours them).
     pub dropped_px: Vec<u32>,
     /// A mesh's parts, and how many its view draws smaller than a pixel (`None` for a picture).
-    pub mesh_parts: Option<PartSizes>,
+    pub mesh_parts: Option<crate::tone::mesh::PartSizes>,
 }
 
 /// `make`'s end, from the bridges on to the report: trace and check, refuse what `make` refuses,

@@ -64,10 +64,11 @@ pub(crate) fn find(
         return vec![false; w * h];
     }
     let mut seeds = vec![0u8; w * h];
+    let us = cam.column_xs();
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        // Outside its span a row shows no model.
+        let v = cam.row_y(y);
         for x in surf.span(y) {
-            row[x] = seed(mesh, cam, vb, (frags, surf), p, x, y);
+            row[x] = seed(mesh, cam, vb, (frags, surf), p, (x, y), (us[x], v));
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
@@ -76,7 +77,7 @@ pub(crate) fn find(
     thicken(&seeds, w, h, p.width_px)
 }
 
-/// Classify one pixel.
+/// Classify one pixel, (`u`, `v`) its centre on the image plane (see `Camera::ray_at`).
 #[inline]
 fn seed(
     mesh: &Mesh,
@@ -84,12 +85,11 @@ fn seed(
     vb: &VisBuffer,
     (frags, surf): (&[[f32; 4]], &Surfaces),
     p: &LineParams,
-    x: usize,
-    y: usize,
+    (x, y): (usize, usize),
+    (u, v): (f32, f32),
 ) -> u8 {
     let (w, h) = (vb.width as usize, vb.height as usize);
-    let model = &surf.model;
-    if !model[y * w + x] {
+    if !surf.model[y * w + x] {
         return 0;
     }
     let [depth, kr, dwkr, ndotv] = frags[surf.kept(x, y)];
@@ -106,13 +106,13 @@ fn seed(
             return SILHOUETTE;
         }
         let j = ny * w + nx;
-        if !model[j] {
+        if !surf.model[j] {
             return SILHOUETTE;
         }
         let [g_depth, g_kr, ..] = frags[surf.kept(nx, ny)];
         let gap = g_depth - depth;
         if gap > p.depth_tolerance {
-            let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));
+            let (o, d) = *ray.get_or_insert_with(|| cam.ray_at(u, v));
             if behind_plane(mesh, vb.tri[j], o, d, depth, p.depth_tolerance) {
                 return SILHOUETTE;
             }
@@ -166,8 +166,7 @@ fn behind_plane(mesh: &Mesh, t: u32, o: Vec3, d: Vec3, depth: f32, tol: f32) -> 
 /// Remove suggestive-contour runs (8-connected) shorter than `min` pixels: a stencil wants a few
 /// meaningful strokes, not dust.
 fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
-    // A run's pixels are marked as they are found (no picture of flags), and given their kind
-    // back at the end where they are kept.
+    // A run's pixels are marked as found; the kept get their kind back at the end.
     const SEEN: u8 = 4;
     let mut stack = Vec::new();
     let mut comp = Vec::new();

@@ -402,8 +402,7 @@ fn compose(
     let k = k as usize;
     let n = (k * k) as f32;
     let lighter = shade::Lighter::new(cam, light);
-    // Every value is written below; zeroed memory comes from the system untouched, so its pages
-    // are first touched by the rows' threads, not filled on this one first.
+    // Every value is written below.
     let mut gray = vec![0f32; w * h];
     let mut shade = vec![0f32; w * h];
     let mut model = vec![false; w * h];
@@ -565,12 +564,11 @@ pub struct PartSizes {
     pub below_a_pixel: usize,
 }
 
-/// [`PartSizes`] of `mesh` seen by `cam` (the view's camera at output size). O(mesh): a
-/// union-find over the triangles' corners, then each used vertex projected once into its part's
-/// box (a box's min and max do not depend on the order its points come in).
+/// [`PartSizes`] of `mesh` seen by `cam` (the view's at output size): a union-find over the
+/// triangles' corners, each used vertex projected once into its part's box.
 fn part_sizes(mesh: &Mesh, cam: &Camera) -> PartSizes {
     let n = mesh.positions.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let (mut parent, mut used): (Vec<u32>, _) = ((0..n as u32).collect(), vec![false; n]);
     fn find(p: &mut [u32], mut i: u32) -> u32 {
         while p[i as usize] != i {
             p[i as usize] = p[p[i as usize] as usize];
@@ -578,44 +576,28 @@ fn part_sizes(mesh: &Mesh, cam: &Camera) -> PartSizes {
         }
         i
     }
-    let mut used = vec![false; n];
     for t in &mesh.triangles {
         let a = find(&mut parent, t[0]);
-        for &v in &t[1..] {
-            let b = find(&mut parent, v);
-            if a != b {
-                parent[b as usize] = a;
-            }
-        }
         for &v in t {
-            used[v as usize] = true;
+            let b = find(&mut parent, v);
+            (parent[b as usize], used[v as usize]) = (a, true);
         }
     }
-    const EMPTY: [f32; 4] = [
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-    ];
-    let mut boxes = vec![EMPTY; n];
+    let (lo, hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut boxes = vec![[lo, lo, hi, hi]; n];
     for v in (0..n).filter(|&v| used[v]) {
-        let p = cam.project(mesh.positions[v]);
         let b = &mut boxes[find(&mut parent, v as u32) as usize];
-        b[0] = b[0].min(p.x);
-        b[1] = b[1].min(p.y);
-        b[2] = b[2].max(p.x);
-        b[3] = b[3].max(p.y);
+        let q = cam.project(mesh.positions[v]);
+        *b = [b[0].min(q.x), b[1].min(q.y), b[2].max(q.x), b[3].max(q.y)];
     }
-    // A part's root is one of its triangles' corners.
     let roots = (0..n).filter(|&v| used[v] && parent[v] == v as u32);
-    let (mut parts, mut below_a_pixel) = (0, 0);
-    for b in roots.map(|v| &boxes[v]) {
-        parts += 1;
-        below_a_pixel += !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0) as usize;
-    }
+    let sizes: Vec<_> = roots.map(|v| boxes[v]).collect();
     PartSizes {
-        parts,
-        below_a_pixel,
+        parts: sizes.len(),
+        below_a_pixel: sizes
+            .iter()
+            .filter(|b| !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0))
+            .count(),
     }
 }
 

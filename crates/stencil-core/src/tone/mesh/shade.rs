@@ -77,10 +77,9 @@ pub(crate) fn shade(
 }
 
 /// Each visible pixel's surface: what the lines read (its camera-space depth, its interpolated
-/// κr and D_w κr, signed as seen, and the cosine between normal and view; one per sample of each
-/// row's span, found with [`Surfaces::kept`], zeros where `Surfaces::model` says no model is
-/// seen), and where its ray meets its triangle and the normal
-/// there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// κr and D_w κr, signed as seen, and the cosine between normal and view, at [`Surfaces::kept`];
+/// zeros where `Surfaces::model` says no model is seen), and where its ray meets its triangle and
+/// the normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
 /// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
 /// suggestive contours are wanted. Independent of the light.
 pub(crate) fn geometry(
@@ -109,9 +108,7 @@ pub(crate) fn geometry(
             [at - 6 * (b - a), a, b]
         })
         .collect();
-    // One pass writes all three, row by row in parallel. The fragments, like the planes, are
-    // kept for each row's span only (a whole picture's were 16 bytes a sample, most of them
-    // background, every page of them touched when the buffer was zeroed).
+    // One pass writes all three, rows in parallel; fragments and planes for each row's span only.
     let (mut frags, mut planes, mut model) =
         (vec![[0f32; 4]; at / 6], vec![0f32; at], vec![false; n]);
     let (mut rest, mut frags_rest) = (&mut planes[..], &mut frags[..]);
@@ -123,21 +120,14 @@ pub(crate) fn geometry(
             (row, fr)
         })
         .collect();
-    // The rays' image-plane x per column, divided once, not per sample as `Camera::ray` does.
-    let us: Vec<f32> = (0..w)
-        .map(|x| (x as f32 + 0.5 - cam.cx) / cam.focal_px)
-        .collect();
+    let us = cam.column_xs();
     model
         .par_chunks_mut(w)
         .zip(row_spans)
         .zip(vb.tri.par_chunks(w))
         .enumerate()
         .for_each_init(Vec::new, |sign, (y, ((model, (planes, fr)), tri))| {
-            let (a, n, v) = (
-                rows[y][1],
-                fr.len(),
-                (cam.cy - (y as f32 + 0.5)) / cam.focal_px,
-            );
+            let (a, n, v) = (rows[y][1], fr.len(), cam.row_y(y));
             sign.clear();
             sign.resize(n, 0.0);
             for (x, &t) in tri.iter().enumerate().skip(a).take(n) {
@@ -278,15 +268,14 @@ impl Surfaces {
         )
     }
 
-    /// Where sample (`x`, `y`) is among the samples kept, one per sample of each row's span (the
-    /// order of [`geometry`]'s fragments). Only for samples that show the model.
+    /// Where sample (`x`, `y`), which shows the model, is among the samples kept (each row's span).
     #[inline]
     pub(crate) fn kept(&self, x: usize, y: usize) -> usize {
         let [start, a, _] = self.rows[y];
         start / 6 + x - a
     }
 
-    /// Working row `y`'s span: the samples kept (none else shows the model).
+    /// Working row `y`'s span: the samples kept.
     pub(crate) fn span(&self, y: usize) -> Range<usize> {
         self.rows[y][1]..self.rows[y][2]
     }
@@ -423,9 +412,8 @@ struct Shader<'a> {
 }
 
 impl Shader<'_> {
-    /// Triangle `t` where the ray (`o`, `d`) meets it: the fragment (see [`geometry`]) but its
-    /// n·v, the surface point, the normal interpolated (not yet unit) and the side seen (-1 the
-    /// back, 1 the front). [`Shader::face`] finishes a row of them.
+    /// Triangle `t` where the ray (`o`, `d`) meets it: the fragment (see [`geometry`]) but its n·v,
+    /// the point, the normal interpolated (not unit) and the side seen (-1 back, 1 front).
     #[inline]
     fn surface(&self, t: u32, (o, d): (Vec3, Vec3)) -> ([f32; 4], Vec3, Vec3, f32) {
         let (mesh, cam) = (self.mesh, self.cam);
@@ -472,11 +460,8 @@ impl Shader<'_> {
         ([depth.max(0.0), kr, dwkr, 0.0], p, n, sign)
     }
 
-    /// The rest of a row's fragments from their [`Shader::surface`]s, all at once (straight-line
-    /// float code over the planes, which the compiler turns into vector code): each normal made
-    /// unit and turned to the side seen (`sign`, 0 where no triangle is), then n·v, the view
-    /// direction unit too, into the fragments; `sign` is left meaningless. The operations are
-    /// glam's, in the order `fragment` (the per-sample definition, kept for the tests) makes them.
+    /// A row's [`Shader::surface`]s finished in straight-line (vector) code: normals made unit and
+    /// turned to the side seen (`sign`, 0: no triangle), n·v; glam's operations in their order.
     fn face(&self, planes: &mut [f32], sign: &mut [f32], fr: &mut [[f32; 4]]) {
         let cam = self.cam;
         let (e, f) = (cam.eye, -cam.forward);
@@ -492,16 +477,11 @@ impl Shader<'_> {
     }
 }
 
-/// [`Shader::face`]'s loop for one lens (`view`: the unit direction to the viewer from a point):
-/// n·v into `sign`.
+/// [`Shader::face`] for one lens (`view`: the unit direction to the viewer): n·v into `sign`.
 #[inline(always)]
 fn faces(planes: &mut [f32], sign: &mut [f32], view: impl Fn(f32, f32, f32) -> (f32, f32, f32)) {
-    let n = sign.len();
-    let (p, nrm) = planes.split_at_mut(3 * n);
-    let (px, p) = p.split_at(n);
-    let (py, pz) = p.split_at(n);
-    let (nx, nrm) = nrm.split_at_mut(n);
-    let (ny, nz) = nrm.split_at_mut(n);
+    let (n, mut planes) = (sign.len(), planes.chunks_mut(sign.len().max(1)));
+    let [px, py, pz, nx, ny, nz] = std::array::from_fn(|_| planes.next().unwrap_or_default());
     for i in 0..n {
         let s = sign[i];
         let (x, y, z) = unit(nx[i], ny[i], nz[i]);

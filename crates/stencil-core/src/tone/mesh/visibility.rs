@@ -68,13 +68,8 @@ pub(crate) fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer
         .zip(bins.par_iter())
         .enumerate()
         .for_each_init(Vec::new, |key, (band, (tri, list))| {
-            if list.is_empty() {
-                return;
-            }
             let (y0, rows) = (band * BAND, tri.len() / w);
-            // The band's depth key per pixel while drawing: larger is nearer (1/z in perspective,
-            // -z orthographic). Only the band's own triangles read it, so each task has one
-            // band's worth, reused (it stays in cache; a whole picture's was 4 bytes a sample).
+            // The band's depth keys, reused: larger is nearer (1/z perspective, -z orthographic).
             key.clear();
             key.resize(tri.len(), f32::NEG_INFINITY);
             for &t in list {
