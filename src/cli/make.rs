@@ -471,21 +471,15 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
             cfg.input.display()
         );
     }
-    if let Some(mesh) = pipeline::is_mesh_path(&cfg.input)
-        .then(|| stencil_core::tone::mesh::load(&cfg.input).ok())
-        .flatten()
-    {
-        let p = stencil_core::tone::mesh::part_sizes(&mesh, &cfg.mesh);
-        if p.below_a_pixel > 0 {
-            eprintln!(
-                "warning: {}: {} of the mesh's {} parts come out smaller than a pixel and leave \
-                 no mark (a part far from the rest makes the view frame both, so everything \
-                 shrinks): remove stray parts, or raise the resolution",
-                cfg.input.display(),
-                p.below_a_pixel,
-                p.parts
-            );
-        }
+    if let Some(p) = made.mesh_parts.filter(|p| p.below_a_pixel > 0) {
+        eprintln!(
+            "warning: {}: {} of the mesh's {} parts come out smaller than a pixel and leave no \
+             mark (a part far from the rest makes the view frame both, so everything shrinks): \
+             remove stray parts, or raise the resolution",
+            cfg.input.display(),
+            p.below_a_pixel,
+            p.parts
+        );
     }
     if let Some(turn) = stencil_core::tone::orientation_note(&cfg.input) {
         eprintln!(

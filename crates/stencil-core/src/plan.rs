@@ -3,7 +3,7 @@
 
 use crate::bridge::BridgeConfig;
 use crate::material::Material;
-use crate::tone::{self, filter::FilterConfig, mesh::MeshConfig};
+use crate::tone::{self, filter::FilterConfig, mesh::MeshConfig, mesh::PartSizes};
 use crate::units::Scale;
 use crate::vector::VectorConfig;
 
@@ -125,4 +125,6 @@ pub struct StageParams {
     pub join: JoinParams,
     /// The tracing's and the check's.
     pub trace: TraceParams,
+    /// A mesh's parts as its view draws them (`None` for a picture), for `make`'s warning.
+    pub mesh_parts: Option<PartSizes>,
 }

@@ -399,6 +399,10 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
             material: phys.material.clone(),
             repair: regularize_px.is_some(),
         },
+        mesh_parts: match source {
+            Source::Mesh(r) => Some(r.parts),
+            Source::Picture(_) => None,
+        },
     })
 }
 

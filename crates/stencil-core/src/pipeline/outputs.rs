@@ -40,6 +40,8 @@ pub struct Made {
     pub gcode: Option<String>,
     /// Pixels of the islands dropped instead of bridged (the preview colours them).
     pub dropped_px: Vec<u32>,
+    /// A mesh's parts, and how many its view draws smaller than a pixel (`None` for a picture).
+    pub mesh_parts: Option<crate::tone::mesh::PartSizes>,
 }
 
 /// `make`'s end, from the bridges on to the report: trace and check, refuse what `make` refuses,
@@ -99,6 +101,7 @@ pub fn finish(
         report,
         gcode,
         dropped_px: Arc::unwrap_or_clone(joined.dropped_px),
+        mesh_parts: params.mesh_parts,
     })
 }
 

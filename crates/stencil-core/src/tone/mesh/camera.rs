@@ -142,7 +142,7 @@ impl Camera {
             glam::Vec2::splat(f32::NEG_INFINITY),
         );
         for &p in positions {
-            let q = cam.plane(p);
+            let q = cam.plane(p).0;
             lo = lo.min(q);
             hi = hi.max(q);
         }
@@ -188,39 +188,49 @@ impl Camera {
         Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
     }
 
-    /// Position on the unit image plane (before the pixel scale and offset).
+    /// Position on the unit image plane (before the pixel scale and offset), and the depth.
     #[inline]
-    fn plane(&self, p: Vec3) -> glam::Vec2 {
+    fn plane(&self, p: Vec3) -> (glam::Vec2, f32) {
         let c = self.to_camera(p);
-        if self.orthographic {
-            glam::Vec2::new(c.x, c.y)
-        } else {
-            glam::Vec2::new(c.x / c.z, c.y / c.z)
-        }
+        let d = if self.orthographic { 1.0 } else { c.z };
+        (glam::Vec2::new(c.x / d, c.y / d), c.z)
     }
 
     /// Pixel coordinates (x right, y down) and depth of a world point.
     #[inline]
     pub fn project(&self, p: Vec3) -> Vec3 {
-        let c = self.to_camera(p);
-        let q = if self.orthographic {
-            glam::Vec2::new(c.x, c.y)
-        } else {
-            glam::Vec2::new(c.x / c.z, c.y / c.z)
-        };
+        let (q, z) = self.plane(p);
         Vec3::new(
             self.cx + self.focal_px * q.x,
             self.cy - self.focal_px * q.y,
-            c.z,
+            z,
         )
     }
 
-    /// The ray through pixel position (sx, sy): origin and direction, with `dir · forward = 1`, so
-    /// the ray parameter is the depth.
-    #[inline]
+    /// The ray through pixel position (sx, sy): `ray_at` its image-plane position.
+    #[cfg(test)]
     pub(crate) fn ray(&self, sx: f32, sy: f32) -> (Vec3, Vec3) {
-        let u = (sx - self.cx) / self.focal_px;
-        let v = (self.cy - sy) / self.focal_px;
+        self.ray_at(
+            (sx - self.cx) / self.focal_px,
+            (self.cy - sy) / self.focal_px,
+        )
+    }
+
+    /// The image-plane x of each pixel column's centre (for [`Camera::ray_at`]).
+    pub(crate) fn column_xs(&self) -> Vec<f32> {
+        (0..self.width)
+            .map(|x| (x as f32 + 0.5 - self.cx) / self.focal_px)
+            .collect()
+    }
+
+    /// The image-plane y of pixel row `y`'s centre.
+    pub(crate) fn row_y(&self, y: usize) -> f32 {
+        (self.cy - (y as f32 + 0.5)) / self.focal_px
+    }
+
+    /// The ray through image-plane position (`u`, `v`): origin, direction (`dir · forward = 1`).
+    #[inline]
+    pub(crate) fn ray_at(&self, u: f32, v: f32) -> (Vec3, Vec3) {
         let off = self.right * u + self.up * v;
         if self.orthographic {
             (self.eye + off, self.forward)

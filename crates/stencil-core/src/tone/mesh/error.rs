@@ -8,14 +8,6 @@ pub enum MeshError {
     /// Refused by the bounded reader: too large for a mesh, not a regular file, or not UTF-8.
     #[error(transparent)]
     Read(#[from] stencil_io::ReadError),
-    /// The file could not be opened.
-    #[error("{path}: cannot open the mesh: {source}")]
-    Open {
-        /// The mesh file.
-        path: PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
     #[error("{path}: not a text OBJ file (invalid UTF-8 at byte {offset}); export the model as Wavefront OBJ")]
     /// Not UTF-8 text.
     NotText {
@@ -171,8 +163,7 @@ impl MeshError {
         match self {
             Read(e) => Some(e.subject()),
             Setting(_) => None,
-            Open { path, .. }
-            | NotText { path, .. }
+            NotText { path, .. }
             | Malformed { path, .. }
             | BadIndex { path, .. }
             | NonFinite { path, .. }

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::load::Mesh;
+use super::shade::Surfaces;
 use super::visibility::{VisBuffer, NONE};
 
 /// Which lines to draw.
@@ -50,12 +51,12 @@ const SILHOUETTE: u8 = 1;
 const SUGGESTIVE: u8 = 2;
 
 /// The line mask (true = line) at the working resolution, from `shade::geometry`'s fragments
-/// and model mask: seeds (silhouettes, suggestive contours) thickened.
+/// and its surfaces' model mask: seeds (silhouettes, suggestive contours) thickened.
 pub(crate) fn find(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    (frags, model): (&[[f32; 4]], &[bool]),
+    (frags, surf): (&[[f32; 4]], &Surfaces),
     p: &LineParams,
 ) -> Vec<bool> {
     let (w, h) = (vb.width as usize, vb.height as usize);
@@ -63,9 +64,11 @@ pub(crate) fn find(
         return vec![false; w * h];
     }
     let mut seeds = vec![0u8; w * h];
+    let us = cam.column_xs();
     seeds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, s) in row.iter_mut().enumerate() {
-            *s = seed(mesh, cam, vb, (frags, model), p, x, y);
+        let v = cam.row_y(y);
+        for x in surf.span(y) {
+            row[x] = seed(mesh, cam, vb, (frags, surf), p, (x, y), (us[x], v));
         }
     });
     if p.mode == LineMode::Suggestive && p.min_run_px > 1 {
@@ -74,23 +77,22 @@ pub(crate) fn find(
     thicken(&seeds, w, h, p.width_px)
 }
 
-/// Classify one pixel.
+/// Classify one pixel, (`u`, `v`) its centre on the image plane (see `Camera::ray_at`).
 #[inline]
 fn seed(
     mesh: &Mesh,
     cam: &Camera,
     vb: &VisBuffer,
-    (frags, model): (&[[f32; 4]], &[bool]),
+    (frags, surf): (&[[f32; 4]], &Surfaces),
     p: &LineParams,
-    x: usize,
-    y: usize,
+    (x, y): (usize, usize),
+    (u, v): (f32, f32),
 ) -> u8 {
     let (w, h) = (vb.width as usize, vb.height as usize);
-    let i = y * w + x;
-    if !model[i] {
+    if !surf.model[y * w + x] {
         return 0;
     }
-    let [depth, kr, dwkr, ndotv] = frags[i];
+    let [depth, kr, dwkr, ndotv] = frags[surf.kept(x, y)];
     let neighbours = [
         (x.wrapping_sub(1), y),
         (x + 1, y),
@@ -104,13 +106,13 @@ fn seed(
             return SILHOUETTE;
         }
         let j = ny * w + nx;
-        if !model[j] {
+        if !surf.model[j] {
             return SILHOUETTE;
         }
-        let [g_depth, g_kr, ..] = frags[j];
+        let [g_depth, g_kr, ..] = frags[surf.kept(nx, ny)];
         let gap = g_depth - depth;
         if gap > p.depth_tolerance {
-            let (o, d) = *ray.get_or_insert_with(|| cam.ray(x as f32 + 0.5, y as f32 + 0.5));
+            let (o, d) = *ray.get_or_insert_with(|| cam.ray_at(u, v));
             if behind_plane(mesh, vb.tri[j], o, d, depth, p.depth_tolerance) {
                 return SILHOUETTE;
             }
@@ -164,16 +166,17 @@ fn behind_plane(mesh: &Mesh, t: u32, o: Vec3, d: Vec3, depth: f32, tol: f32) -> 
 /// Remove suggestive-contour runs (8-connected) shorter than `min` pixels: a stencil wants a few
 /// meaningful strokes, not dust.
 fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
-    let mut seen = vec![false; seeds.len()];
+    // A run's pixels are marked as found; the kept get their kind back at the end.
+    const SEEN: u8 = 4;
     let mut stack = Vec::new();
     let mut comp = Vec::new();
     for start in 0..seeds.len() {
-        if seeds[start] != SUGGESTIVE || seen[start] {
+        if seeds[start] != SUGGESTIVE {
             continue;
         }
         comp.clear();
         stack.push(start);
-        seen[start] = true;
+        seeds[start] = SEEN;
         while let Some(i) = stack.pop() {
             comp.push(i);
             let (x, y) = ((i % w) as isize, (i / w) as isize);
@@ -184,8 +187,8 @@ fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
                         continue;
                     }
                     let j = ny as usize * w + nx as usize;
-                    if seeds[j] == SUGGESTIVE && !seen[j] {
-                        seen[j] = true;
+                    if seeds[j] == SUGGESTIVE {
+                        seeds[j] = SEEN;
                         stack.push(j);
                     }
                 }
@@ -196,6 +199,9 @@ fn drop_short_runs(seeds: &mut [u8], w: usize, h: usize, min: usize) {
                 seeds[i] = 0;
             }
         }
+    }
+    for s in seeds.iter_mut().filter(|s| **s == SEEN) {
+        *s = SUGGESTIVE;
     }
 }
 

@@ -415,48 +415,10 @@ struct Counts {
     faces: usize,
 }
 
-/// OBJ statements a mesh file may contain that we either use or may safely ignore.
-const KNOWN: &[&str] = &[
-    "v",
-    "vt",
-    "vn",
-    "vp",
-    "f",
-    "l",
-    "p",
-    "o",
-    "g",
-    "s",
-    "mg",
-    "usemtl",
-    "mtllib",
-    "cstype",
-    "deg",
-    "bmat",
-    "step",
-    "curv",
-    "curv2",
-    "surf",
-    "parm",
-    "trim",
-    "hole",
-    "scrv",
-    "sp",
-    "end",
-    "con",
-    "lod",
-    "shadow_obj",
-    "trace_obj",
-    "ctech",
-    "stech",
-    "bevel",
-    "c_interp",
-    "d_interp",
-    "maplib",
-    "usemap",
-    "call",
-    "csh",
-];
+/// OBJ statements a mesh file may contain that we either use or may safely ignore, by spaces.
+const KNOWN: &str = "v vt vn vp f l p o g s mg usemtl mtllib cstype deg bmat step curv curv2 surf \
+    parm trim hole scrv sp end con lod shadow_obj trace_obj ctech stech bevel \
+    c_interp d_interp maplib usemap call csh";
 
 /// Check every line tobj will read, so errors name the line (tobj's own errors name none):
 /// numbers that do not parse or are not finite, vertices with a number of values tobj refuses (it
@@ -490,7 +452,7 @@ fn prescan(path: &Path, text: &str) -> Result<Counts, MeshError> {
             "usemtl" if args.is_empty() => {
                 return Err(scan.malformed(line, "'usemtl' without a material name".into()));
             }
-            _ if KNOWN.contains(&kw) => {}
+            _ if KNOWN.split(' ').any(|k| k == kw) => {}
             _ => {
                 return Err(scan.malformed(
                     line,

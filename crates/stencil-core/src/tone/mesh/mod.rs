@@ -219,6 +219,8 @@ pub struct Rendering {
     pub lines: BitGrid,
     /// The camera at output resolution.
     pub camera: Camera,
+    /// The mesh's parts, and how many of them this view draws smaller than a pixel.
+    pub parts: PartSizes,
     /// Milliseconds per step: `curvature`, `raster`, `shade`, `lines`, `compose`.
     pub timings: Timings,
 }
@@ -275,6 +277,7 @@ pub struct Drawn {
     cam: Camera,
     out_cam: Camera,
     k: u32,
+    parts: PartSizes,
     /// Milliseconds per step so far: `curvature`, `raster`, `lines`.
     pub timings: Timings,
 }
@@ -337,7 +340,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
             min_run_px: (4.0 * line_px * k as f32).round() as usize,
             depth_tolerance: 0.02 * radius,
         };
-        lines::find(mesh, &cam, &vb, (&frags, &surf.model), &params)
+        lines::find(mesh, &cam, &vb, (&frags, &surf), &params)
     });
     Ok(Drawn {
         surf,
@@ -345,6 +348,7 @@ pub(crate) fn draw(prep: &Prepared, cfg: &MeshConfig) -> Result<Drawn, MeshError
         cam,
         out_cam,
         k,
+        parts: part_sizes(mesh, &out_cam),
         timings: tm,
     })
 }
@@ -359,7 +363,7 @@ pub(crate) fn light(d: &Drawn, cfg: &MeshConfig) -> Rendering {
     let mut r = tm.time("shade", || {
         compose(&d.surf, &d.line_mask, &d.cam, &light, d.k, d.out_cam)
     });
-    r.timings = tm;
+    (r.timings, r.parts) = (tm, d.parts);
     r
 }
 
@@ -398,8 +402,7 @@ fn compose(
     let k = k as usize;
     let n = (k * k) as f32;
     let lighter = shade::Lighter::new(cam, light);
-    // Every value is written below; zeroed memory comes from the system untouched, so its pages
-    // are first touched by the rows' threads, not filled on this one first.
+    // Every value is written below.
     let mut gray = vec![0f32; w * h];
     let mut shade = vec![0f32; w * h];
     let mut model = vec![false; w * h];
@@ -485,6 +488,7 @@ fn compose(
             data: lines,
         },
         camera: out_cam,
+        parts: PartSizes::default(),
         timings: Timings::default(),
     }
 }
@@ -560,12 +564,11 @@ pub struct PartSizes {
     pub below_a_pixel: usize,
 }
 
-/// [`PartSizes`] of `mesh` as `cfg` frames it (the same camera as [`render_mesh`]). O(mesh).
-pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
-    let cam = framed(mesh, cfg).0;
-    // Union-find over the vertices of each triangle.
+/// [`PartSizes`] of `mesh` seen by `cam` (the view's at output size): a union-find over the
+/// triangles' corners, each used vertex projected once into its part's box.
+fn part_sizes(mesh: &Mesh, cam: &Camera) -> PartSizes {
     let n = mesh.positions.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let (mut parent, mut used): (Vec<u32>, _) = ((0..n as u32).collect(), vec![false; n]);
     fn find(p: &mut [u32], mut i: u32) -> u32 {
         while p[i as usize] != i {
             p[i as usize] = p[p[i as usize] as usize];
@@ -575,34 +578,24 @@ pub fn part_sizes(mesh: &Mesh, cfg: &MeshConfig) -> PartSizes {
     }
     for t in &mesh.triangles {
         let a = find(&mut parent, t[0]);
-        for &v in &t[1..] {
-            let b = find(&mut parent, v);
-            if a != b {
-                parent[b as usize] = a;
-            }
-        }
-    }
-    let mut boxes: std::collections::HashMap<u32, [f32; 4]> = Default::default();
-    for t in &mesh.triangles {
-        let root = find(&mut parent, t[0]);
-        let b = boxes.entry(root).or_insert([
-            f32::INFINITY,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NEG_INFINITY,
-        ]);
         for &v in t {
-            let p = cam.project(mesh.positions[v as usize]);
-            b[0] = b[0].min(p.x);
-            b[1] = b[1].min(p.y);
-            b[2] = b[2].max(p.x);
-            b[3] = b[3].max(p.y);
+            let b = find(&mut parent, v);
+            (parent[b as usize], used[v as usize]) = (a, true);
         }
     }
+    let (lo, hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut boxes = vec![[lo, lo, hi, hi]; n];
+    for v in (0..n).filter(|&v| used[v]) {
+        let b = &mut boxes[find(&mut parent, v as u32) as usize];
+        let q = cam.project(mesh.positions[v]);
+        *b = [b[0].min(q.x), b[1].min(q.y), b[2].max(q.x), b[3].max(q.y)];
+    }
+    let roots = (0..n).filter(|&v| used[v] && parent[v] == v as u32);
+    let sizes: Vec<_> = roots.map(|v| boxes[v]).collect();
     PartSizes {
-        parts: boxes.len(),
-        below_a_pixel: boxes
-            .values()
+        parts: sizes.len(),
+        below_a_pixel: sizes
+            .iter()
             .filter(|b| !(b[2] - b[0] >= 1.0 || b[3] - b[1] >= 1.0))
             .count(),
     }

@@ -63,9 +63,13 @@ pub(crate) fn shade(
         depth: f32::INFINITY,
         ..Default::default()
     };
-    let frags = (frags.into_iter().zip(&surf.model))
-        .map(|([depth, _, _, ndotv], &m)| match m {
-            true => Fragment { depth, ndotv },
+    let w = vb.width as usize;
+    let frags = (0..surf.model.len())
+        .map(|i| match surf.model[i] {
+            true => {
+                let [depth, _, _, ndotv] = frags[surf.kept(i % w, i / w)];
+                Fragment { depth, ndotv }
+            }
             false => background,
         })
         .collect();
@@ -73,9 +77,9 @@ pub(crate) fn shade(
 }
 
 /// Each visible pixel's surface: what the lines read (its camera-space depth, its interpolated
-/// κr and D_w κr, signed as seen, and the cosine between normal and view; zeros where
-/// `Surfaces::model` says no model is seen), and where its ray meets its triangle and the normal
-/// there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
+/// κr and D_w κr, signed as seen, and the cosine between normal and view, at [`Surfaces::kept`];
+/// zeros where `Surfaces::model` says no model is seen), and where its ray meets its triangle and
+/// the normal there (the [`Surfaces`] lighting reads). `normals` are the smooth vertex normals
 /// (used unless the mesh has per-corner normals from its file); `view` adds κr and D_w κr when
 /// suggestive contours are wanted. Independent of the light.
 pub(crate) fn geometry(
@@ -104,36 +108,38 @@ pub(crate) fn geometry(
             [at - 6 * (b - a), a, b]
         })
         .collect();
-    // One pass writes both, row by row in parallel. Zeroed memory comes from the system
-    // untouched, and a background sample keeps its zeros: pages are first touched by the rows'
-    // threads, and those of the background not at all.
-    let (mut frags, mut planes, mut model) = (vec![[0f32; 4]; n], vec![0f32; at], vec![false; n]);
-    let mut rest = &mut planes[..];
-    let row_planes: Vec<&mut [f32]> = (rows.iter())
+    // One pass writes all three, rows in parallel; fragments and planes for each row's span only.
+    let (mut frags, mut planes, mut model) =
+        (vec![[0f32; 4]; at / 6], vec![0f32; at], vec![false; n]);
+    let (mut rest, mut frags_rest) = (&mut planes[..], &mut frags[..]);
+    let row_spans: Vec<(&mut [f32], &mut [[f32; 4]])> = (rows.iter())
         .map(|&[_, a, b]| {
             let (row, tail) = std::mem::take(&mut rest).split_at_mut(6 * (b - a));
-            rest = tail;
-            row
+            let (fr, frags_tail) = std::mem::take(&mut frags_rest).split_at_mut(b - a);
+            (rest, frags_rest) = (tail, frags_tail);
+            (row, fr)
         })
         .collect();
-    frags
+    let us = cam.column_xs();
+    model
         .par_chunks_mut(w)
-        .zip(row_planes)
-        .zip(model.par_chunks_mut(w))
+        .zip(row_spans)
         .zip(vb.tri.par_chunks(w))
         .enumerate()
-        .for_each(|(y, (((fr, planes), model), tri))| {
-            let (a, n) = (rows[y][1], planes.len() / 6);
+        .for_each_init(Vec::new, |sign, (y, ((model, (planes, fr)), tri))| {
+            let (a, n, v) = (rows[y][1], fr.len(), cam.row_y(y));
+            sign.clear();
+            sign.resize(n, 0.0);
             for (x, &t) in tri.iter().enumerate().skip(a).take(n) {
-                if t == NONE {
-                    continue;
+                if t != NONE {
+                    let (f, p, nrm, s) = shader.surface(t, cam.ray_at(us[x], v));
+                    for (c, v) in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z].into_iter().enumerate() {
+                        planes[c * n + x - a] = v;
+                    }
+                    (fr[x - a], model[x], sign[x - a]) = (f, f[0].is_finite(), s);
                 }
-                let (f, p, nrm) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
-                for (c, v) in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z].into_iter().enumerate() {
-                    planes[c * n + x - a] = v;
-                }
-                (fr[x], model[x]) = (f, f[0].is_finite());
             }
+            shader.face(planes, sign, fr);
         });
     (
         frags,
@@ -260,6 +266,18 @@ impl Surfaces {
             Vec3::new(r[0][x], r[1][x], r[2][x]),
             Vec3::new(r[3][x], r[4][x], r[5][x]),
         )
+    }
+
+    /// Where sample (`x`, `y`), which shows the model, is among the samples kept (each row's span).
+    #[inline]
+    pub(crate) fn kept(&self, x: usize, y: usize) -> usize {
+        let [start, a, _] = self.rows[y];
+        start / 6 + x - a
+    }
+
+    /// Working row `y`'s span: the samples kept.
+    pub(crate) fn span(&self, y: usize) -> Range<usize> {
+        self.rows[y][1]..self.rows[y][2]
     }
 
     /// Working row `y`'s samples kept, and their six planes (point x, y, z, normal x, y, z).
@@ -393,6 +411,92 @@ struct Shader<'a> {
     setup: Option<Vec<TriSetup>>,
 }
 
+impl Shader<'_> {
+    /// Triangle `t` where the ray (`o`, `d`) meets it: the fragment (see [`geometry`]) but its n·v,
+    /// the point, the normal interpolated (not unit) and the side seen (-1 back, 1 front).
+    #[inline]
+    fn surface(&self, t: u32, (o, d): (Vec3, Vec3)) -> ([f32; 4], Vec3, Vec3, f32) {
+        let (mesh, cam) = (self.mesh, self.cam);
+        let idx = mesh.triangles[t as usize];
+        let [p0, p1, p2] = idx.map(|i| mesh.positions[i as usize]);
+        let (b1, b2, depth, back) = match &self.setup {
+            Some(setup) => {
+                // Möller–Trumbore with the pixel-independent parts folded per triangle.
+                let s = &setup[t as usize];
+                let det = d.dot(s.d);
+                if det.abs() > 1e-20 {
+                    let inv = 1.0 / det;
+                    (d.dot(s.u) * inv, d.dot(s.v) * inv, s.c * inv, det < 0.0)
+                } else {
+                    let c = (p0 + p1 + p2) / 3.0;
+                    (1.0 / 3.0, 1.0 / 3.0, (c - cam.eye).dot(cam.forward), false)
+                }
+            }
+            None => moller_trumbore(o, d, p0, p1, p2, cam),
+        };
+        // Pixel centres a hair outside the triangle (the raster's tolerance): clamp.
+        let b1 = b1.clamp(0.0, 1.0);
+        let b2 = b2.clamp(0.0, 1.0 - b1);
+        let b0 = 1.0 - b1 - b2;
+        let p = p0 * b0 + p1 * b1 + p2 * b2;
+        let cn = match &mesh.corner_normals {
+            Some(cn) => cn[t as usize],
+            None => idx.map(|i| self.normals[i as usize]),
+        };
+        // The side we see: on open surfaces the back is visible and lit as a front.
+        let sign = if back { -1.0 } else { 1.0 };
+        let (kr, dwkr) = match self.view {
+            Some(vc) => {
+                let k = idx.map(|i| vc.kr[i as usize]);
+                let dk = idx.map(|i| vc.dwkr[i as usize]);
+                (
+                    sign * (k[0] * b0 + k[1] * b1 + k[2] * b2),
+                    sign * (dk[0] * b0 + dk[1] * b1 + dk[2] * b2),
+                )
+            }
+            None => (0.0, 0.0),
+        };
+        let n = cn[0] * b0 + cn[1] * b1 + cn[2] * b2;
+        ([depth.max(0.0), kr, dwkr, 0.0], p, n, sign)
+    }
+
+    /// A row's [`Shader::surface`]s finished in straight-line (vector) code: normals made unit and
+    /// turned to the side seen (`sign`, 0: no triangle), n·v; glam's operations in their order.
+    fn face(&self, planes: &mut [f32], sign: &mut [f32], fr: &mut [[f32; 4]]) {
+        let cam = self.cam;
+        let (e, f) = (cam.eye, -cam.forward);
+        let ortho = |_: f32, _: f32, _: f32| (f.x, f.y, f.z);
+        let persp = |x: f32, y: f32, z: f32| unit(e.x - x, e.y - y, e.z - z);
+        match cam.orthographic {
+            true => faces(planes, sign, ortho),
+            false => faces(planes, sign, persp),
+        }
+        for (f, &d) in fr.iter_mut().zip(sign.iter()) {
+            f[3] = d;
+        }
+    }
+}
+
+/// [`Shader::face`] for one lens (`view`: the unit direction to the viewer): n·v into `sign`.
+#[inline(always)]
+fn faces(planes: &mut [f32], sign: &mut [f32], view: impl Fn(f32, f32, f32) -> (f32, f32, f32)) {
+    let (n, mut planes) = (sign.len(), planes.chunks_mut(sign.len().max(1)));
+    let [px, py, pz, nx, ny, nz] = std::array::from_fn(|_| planes.next().unwrap_or_default());
+    for i in 0..n {
+        let s = sign[i];
+        let (x, y, z) = unit(nx[i], ny[i], nz[i]);
+        let (x, y, z) = (x * s, y * s, z * s);
+        let (vx, vy, vz) = view(px[i], py[i], pz[i]);
+        (nx[i], ny[i], nz[i]) = (x, y, z);
+        sign[i] = if s != 0.0 {
+            (x * vx) + (y * vy) + (z * vz)
+        } else {
+            0.0
+        };
+    }
+}
+
+#[cfg(test)]
 impl Shader<'_> {
     /// The fragment of triangle `t` seen through the pixel centre (`sx`, `sy`) (see
     /// [`geometry`]), the surface point there and the normal of the side seen (world, unit).
@@ -568,6 +672,69 @@ mod tests {
             lit.iter().cloned().fold(1.0, f32::min)
         );
         assert!(frags.iter().filter(|f| f.is_model()).all(|f| f.ndotv > 0.0));
+    }
+
+    /// The row-at-a-time geometry against the per-sample fragment on both lenses: an open sheet
+    /// seen from below (its back faces, the file's corner normals) and a bumpy sphere with its
+    /// curvature: the same bits.
+    #[test]
+    fn row_geometry_is_the_per_sample_fragment_to_the_bit() {
+        let mut sheet = shapes::height_field(8, |x, z| 0.3 * x * z);
+        let corners = (sheet.triangles.iter())
+            .map(|t| {
+                let [a, b, c] = t.map(|v| sheet.positions[v as usize]);
+                [(b - a).cross(c - a).normalize(); 3]
+            })
+            .collect();
+        sheet.corner_normals = Some(corners);
+        let sphere = shapes::displaced_sphere(12);
+        for (m, el, ortho) in [
+            (&sheet, -40.0, false),
+            (&sheet, -40.0, true),
+            (&sphere, 20.0, false),
+            (&sphere, 20.0, true),
+        ] {
+            let mut cam = setup(m, el);
+            cam.orthographic = ortho;
+            let normals = m.vertex_normals();
+            let c = super::super::curvature::estimate(m, &normals);
+            let radius = m.bounding_sphere().1;
+            let view = super::super::curvature::view_dependent(
+                m,
+                &normals,
+                &c,
+                |p| cam.view_dir(p),
+                radius,
+            );
+            let vb = visibility::rasterize(m, &cam, false);
+            let (frags, surf) = geometry(m, &normals, &vb, &cam, Some(&view));
+            let shader = Shader {
+                mesh: m,
+                normals: &normals,
+                cam: &cam,
+                view: Some(&view),
+                setup: (!ortho).then(|| ray_setup(m, &cam)),
+            };
+            let (w, mut seen) = (cam.width as usize, 0);
+            for (i, &t) in vb.tri.iter().enumerate().filter(|(_, &t)| t != NONE) {
+                let (x, y) = (i % w, i / w);
+                let (f, p, n) = shader.fragment(t, x as f32 + 0.5, y as f32 + 0.5);
+                let bits = |v: &[f32]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&f),
+                    bits(&frags[surf.kept(x, y)]),
+                    "{ortho} at {x},{y}"
+                );
+                let (sp, sn) = surf.point_normal(i);
+                assert_eq!(
+                    bits(&[p, n].map(|v| v.to_array()).concat()),
+                    bits(&[sp, sn].map(|v| v.to_array()).concat())
+                );
+                assert_eq!(surf.model[i], f[0].is_finite());
+                seen += 1;
+            }
+            assert!(seen > 1000, "{seen}");
+        }
     }
 
     /// The row lighter against the per-sample one on random surfaces, lights and lenses,

@@ -64,15 +64,14 @@ pub(crate) fn rasterize(mesh: &Mesh, cam: &Camera, cull_back: bool) -> VisBuffer
         }
     }
     let mut tri = vec![NONE; w * h];
-    // Depth key per pixel while drawing: larger is nearer (1/z in perspective, -z orthographic).
-    let mut key = vec![f32::NEG_INFINITY; w * h];
     tri.par_chunks_mut(BAND * w)
-        .zip(key.par_chunks_mut(BAND * w))
         .zip(bins.par_iter())
         .enumerate()
-        .for_each(|(band, ((tri, key), list))| {
-            let y0 = band * BAND;
-            let rows = tri.len() / w;
+        .for_each_init(Vec::new, |key, (band, (tri, list))| {
+            let (y0, rows) = (band * BAND, tri.len() / w);
+            // The band's depth keys, reused: larger is nearer (1/z perspective, -z orthographic).
+            key.clear();
+            key.resize(tri.len(), f32::NEG_INFINITY);
             for &t in list {
                 let idx = mesh.triangles[t as usize];
                 let [(a, ka), (mut b, mut kb), (mut c, mut kc)] = idx.map(|v| screen[v as usize]);
