@@ -63,11 +63,18 @@ mod tests {
     #[test]
     fn a_long_name_keeps_its_start_and_its_extension() {
         let name = "chelsea_the_cat_in_the_garden_long_name.png";
-        assert_eq!(excerpt_name(name), name, "a name of 43 characters is quoted whole");
+        assert_eq!(
+            excerpt_name(name),
+            name,
+            "a name of 43 characters is quoted whole"
+        );
         let long = format!("{}.png", "a".repeat(80) + &"b".repeat(40));
         let e = excerpt_name(&long);
         assert!(e.starts_with(&"a".repeat(60)), "{e}");
-        assert!(e.contains(&format!("…{}.png (124 characters)", "b".repeat(26))), "{e}");
+        assert!(
+            e.contains(&format!("…{}.png (124 characters)", "b".repeat(26))),
+            "{e}"
+        );
         assert!(!excerpt_name("x\u{1b}[2J.png").contains('\u{1b}'));
     }
 
