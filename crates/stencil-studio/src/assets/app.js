@@ -49,6 +49,8 @@ function buildControls() {
   for (const g of names) {
     const d = document.createElement("details");
     d.open = /picture|bridge|size|material|mesh/i.test(g);
+    // The mesh's options do nothing to a picture: shown only for a mesh.
+    d.hidden = /^mesh/i.test(g) && !/\.obj$/i.test(info.input);
     d.innerHTML = "<summary></summary>";
     d.firstChild.textContent = g;
     for (const o of groups[g]) {
