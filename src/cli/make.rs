@@ -12,7 +12,7 @@ use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::tone::{ScaleCap, Threshold};
+use stencil_core::tone::{LevelChoice, ScaleCap, Threshold};
 use stencil_core::Request;
 use stencil_core::{resolve, resolve_picture, Note};
 use stencil_core::{Inputs, KeptInputs};
@@ -428,11 +428,8 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
 /// What a successful run tells: the stencil in one line, its size and files, files of an earlier
 /// run it removed, the working scale, the fidelity, long joins, strength, the check, the G-code.
 /// The level `otsu` or `auto` chose, and how alike the stencil is to the picture.
-fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
-    let (Some(level), Some(like)) = (r.threshold_level, r.likeness) else {
-        return;
-    };
-    match (&cfg.tone.threshold, &r.threshold_choice) {
+fn print_threshold(t: Threshold, level: u8, like: f64, choice: Option<&LevelChoice>) {
+    match (t, choice) {
         (Threshold::Auto, Some(c)) => println!(
             "threshold: auto chose level {level} (likeness {:.3}; at 128: {:.3}, at Otsu's {}: \
              {:.3})",
@@ -467,7 +464,9 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         cfg.physical.material.name,
         file_names(&replaced.written)
     );
-    print_threshold(cfg, r);
+    if let (Some(level), Some(like)) = (r.threshold_level, r.likeness) {
+        print_threshold(cfg.tone.threshold, level, like, r.threshold_choice.as_ref());
+    }
     if let Some(d) = &r.dropped_islands {
         let area: f64 = d.iter().map(|i| i.area_mm2).sum();
         let listed: Vec<String> = d
@@ -756,7 +755,8 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
     };
     let result = stencil_core::driver::clean_two_tone(&cfg);
     bar.finish();
-    let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
+    let cleaned = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
+    let tt = &cleaned.twotone;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
     println!(
@@ -764,6 +764,12 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         a.out.display(),
         tt.bits.width,
         tt.bits.height
+    );
+    print_threshold(
+        cfg.tone.threshold,
+        cleaned.level,
+        cleaned.likeness,
+        cleaned.choice.as_ref(),
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -342,3 +342,31 @@ fn likeness_prefers_the_faithful_two_tone() {
     let blank = stencil_core::tone::likeness(&BitGrid::new(100, 80, true), &g, false);
     assert!(good > blank + 0.15, "{good} {blank}");
 }
+
+/// `tone --threshold otsu|auto` prints the level it chose, as `make` does, and it is the level
+/// `make` cuts at (report.json's `threshold_level`) (issue 42 item 1).
+#[test]
+fn tone_says_the_level_otsu_and_auto_chose() {
+    let dir = tmp();
+    let pic = samples().join("grace_hopper.jpg");
+    for how in ["otsu", "auto"] {
+        let png = dir.path().join(format!("{how}.png"));
+        let o = stencil(&["tone", s(&pic), "--threshold", how, "-o", s(&png)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let said = stdout(&o);
+        let level: u64 = said
+            .split(&format!("threshold: {how} chose level "))
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("tone --threshold {how} said no level: {said}"));
+        let out = dir.path().join(how);
+        let m = make_ok(&pic, &out, &["--threshold", how]);
+        assert!(
+            stdout(&m).contains(&format!("{how} chose level {level} ")),
+            "{}",
+            stdout(&m)
+        );
+        assert_eq!(report(&out)["threshold_level"].as_u64(), Some(level));
+    }
+}
