@@ -94,7 +94,7 @@ fn comment(out: &mut String, text: &str) {
     }
 }
 
-/// One note of a header again from the comment lines [`comment`] wrapped it into (without their
+/// One note of a header again from the comment lines the writer wrapped it into (without their
 /// `; `): a full line was a long word split, the rest were wrapped at a space. A note whose
 /// spaces fell exactly at a line's end reads without that space: the header is for people.
 pub fn unwrap_comment(lines: &[&str]) -> String {
