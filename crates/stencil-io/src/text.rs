@@ -22,7 +22,7 @@ pub fn excerpt(s: &str) -> String {
 /// extension), so a longer one keeps both, cut in the middle.
 pub const NAME_CHARS: usize = 100;
 
-/// A file name as quoted in a message: whole when up to [`NAME_CHARS`] characters, else its first
+/// A file name as quoted in a message: whole when up to `NAME_CHARS` (100) characters, else its first
 /// 60 and last 30 around an ellipsis, and how long it is; control characters written out.
 pub fn excerpt_name(s: &str) -> String {
     let n = s.chars().count();
