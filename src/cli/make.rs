@@ -435,6 +435,11 @@ fn print_threshold(t: Threshold, level: u8, like: f64, choice: Option<&LevelChoi
              {:.3})",
             c.likeness, c.likeness_128, c.otsu_level, c.likeness_otsu
         ),
+        (Threshold::ByPicture, Some(c)) => println!(
+            "threshold: level {level}, the likeliest for a photo (likeness {:.3}; at 128: {:.3}, at \
+             Otsu's {}: {:.3}); --threshold sets another",
+            c.likeness, c.likeness_128, c.otsu_level, c.likeness_otsu
+        ),
         (Threshold::Otsu | Threshold::Auto, _) => {
             println!("threshold: otsu chose level {level} (likeness {like:.3})")
         }

@@ -78,9 +78,16 @@ fn brightness_contrast_and_gamma_move_the_edge_as_expected() {
     let dir = tmp();
     let input = dir.path().join("ramp.png");
     ramp(&input);
+    // At a fixed level (a ramp is a photo to the default, which would choose its own level).
     let material = |extra: &[&str]| {
         let out = dir.path().join(extra.join("_"));
-        make_ok(&input, &out, extra);
+        let mut a = if extra.contains(&"--threshold") {
+            vec![]
+        } else {
+            vec!["--threshold", "128"]
+        };
+        a.extend_from_slice(extra);
+        make_ok(&input, &out, &a);
         read_bits(&out.join("twotone.png")).count_material()
     };
     let base = material(&["--scale", "1"]);
@@ -120,6 +127,8 @@ fn smoothing_and_abstraction_quiet_the_noise_and_keep_the_edge() {
     let run = |extra: &[&str]| {
         let out = dir.path().join(extra.join("_"));
         let mut a = vec![
+            "--threshold",
+            "128",
             "--scale",
             "1",
             "--filter-radius",
@@ -369,4 +378,84 @@ fn tone_says_the_level_otsu_and_auto_chose() {
         );
         assert_eq!(report(&out)["threshold_level"].as_u64(), Some(level));
     }
+}
+
+/// The bytes of `name` in `dir`.
+fn bytes(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()))
+}
+
+/// Without `--threshold`, a photo is cut at the level `auto` chooses, said on the output; two-tone
+/// art keeps its own tones (128 for black and white, halfway between two other tones); a mesh is
+/// cut at 128 (issue 42 item 1).
+#[test]
+fn the_default_level_is_autos_for_a_photo_and_the_arts_own_for_art() {
+    let dir = tmp();
+    let d = dir.path();
+    // A photo: the same two-tone and level as --threshold auto, and the level said.
+    let photo = samples().join("grace_hopper.jpg");
+    let plain = make_ok(&photo, &d.join("photo"), &[]);
+    let auto = make_ok(&photo, &d.join("photo-auto"), &["--threshold", "auto"]);
+    let level = report(&d.join("photo-auto"))["threshold_level"]
+        .as_u64()
+        .unwrap();
+    assert_ne!(level, 128, "this photo's auto level is not the old default");
+    assert_eq!(
+        report(&d.join("photo"))["threshold_level"].as_u64(),
+        Some(level)
+    );
+    assert!(
+        stdout(&plain).contains(&format!(
+            "threshold: level {level}, the likeliest for a photo (likeness "
+        )),
+        "{}",
+        stdout(&plain)
+    );
+    assert!(stdout(&auto).contains(&format!("auto chose level {level} ")));
+    assert_eq!(
+        bytes(&d.join("photo"), "twotone.png"),
+        bytes(&d.join("photo-auto"), "twotone.png")
+    );
+    // Black-and-white art (anti-aliased edges): as at 128, and nothing said of the level.
+    let art = samples().join("letters.png");
+    let plain = make_ok(&art, &d.join("art"), &[]);
+    make_ok(&art, &d.join("art-128"), &["--threshold", "128"]);
+    assert!(!stdout(&plain).contains("threshold:"), "{}", stdout(&plain));
+    assert_eq!(
+        bytes(&d.join("art"), "twotone.png"),
+        bytes(&d.join("art-128"), "twotone.png")
+    );
+    // Two-tone art in two dark tones (a dark red drawing on black: grays 20 and 90): cut halfway
+    // between them, so the drawing is kept; 128 would cut the whole sheet.
+    let dark = d.join("dark.png");
+    let data: Vec<u8> = (0..160u32 * 120)
+        .map(|i| {
+            let (x, y) = (i % 160, i / 160);
+            let ring = ((x as f64 - 80.0).hypot(y as f64 - 60.0) - 35.0).abs() < 8.0;
+            if ring || (20..140).contains(&x) && (8..20).contains(&y) {
+                90
+            } else {
+                20
+            }
+        })
+        .collect();
+    write_gray_png(&dark, 160, 120, &data);
+    make_ok(&dark, &d.join("dark"), &[]);
+    make_ok(&dark, &d.join("dark-55"), &["--threshold", "55"]);
+    assert_eq!(
+        report(&d.join("dark"))["threshold_level"].as_u64(),
+        Some(55)
+    );
+    assert_eq!(
+        bytes(&d.join("dark"), "twotone.png"),
+        bytes(&d.join("dark-55"), "twotone.png")
+    );
+    // A rendered mesh: 128, as before.
+    let mesh = samples().join("pawn.obj");
+    make_ok(&mesh, &d.join("mesh"), &[]);
+    make_ok(&mesh, &d.join("mesh-128"), &["--threshold", "128"]);
+    assert_eq!(
+        bytes(&d.join("mesh"), "twotone.png"),
+        bytes(&d.join("mesh-128"), "twotone.png")
+    );
 }
