@@ -445,6 +445,15 @@ fn print_threshold(t: Threshold, level: u8, like: f64, choice: Option<&LevelChoi
         }
         _ => {}
     }
+    if let Some([lo, hi]) = choice.and_then(|c| c.uneven_paper) {
+        println!(
+            "note: the paper's light varies across the picture ({:.0} % to {:.0} %), as on a page \
+             in uneven light, where no one level shows it all: --local-threshold MM compares each \
+             pixel with its surroundings instead (try 5)",
+            lo * 100.0,
+            hi * 100.0
+        );
+    }
 }
 
 fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replaced) {

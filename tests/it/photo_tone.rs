@@ -412,6 +412,11 @@ fn the_default_level_is_autos_for_a_photo_and_the_arts_own_for_art() {
         stdout(&plain)
     );
     assert!(stdout(&auto).contains(&format!("auto chose level {level} ")));
+    assert!(
+        !stdout(&plain).contains("note: the paper"),
+        "{}",
+        stdout(&plain)
+    );
     assert_eq!(
         bytes(&d.join("photo"), "twotone.png"),
         bytes(&d.join("photo-auto"), "twotone.png")
@@ -457,5 +462,65 @@ fn the_default_level_is_autos_for_a_photo_and_the_arts_own_for_art() {
     assert_eq!(
         bytes(&d.join("mesh"), "twotone.png"),
         bytes(&d.join("mesh-128"), "twotone.png")
+    );
+}
+
+/// A page of text lit from one side: no single level shows it all, and `make` says to try a local
+/// threshold, which does (issue 42 item 1).
+#[test]
+fn a_page_in_uneven_light_gets_a_local_threshold_suggested() {
+    let dir = tmp();
+    let (w, h) = (600u32, 400u32);
+    let mut data = vec![0u8; (w * h) as usize];
+    let mut seed = 1u32;
+    for y in 0..h {
+        for x in 0..w {
+            data[(y * w + x) as usize] = ((0.3 + 0.65 * x as f64 / w as f64) * 255.0) as u8;
+        }
+    }
+    // Letters: a stem and a bar of ink at a quarter of the paper's light, in rows.
+    for r in (20..h - 40).step_by(24) {
+        for c in (20..w - 20).step_by(14) {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            if seed >> 24 < 204 {
+                for (x0, y0, x1, y1) in [(c, r, c + 3, r + 14), (c, r, c + 10, r + 3)] {
+                    for y in y0..y1 {
+                        for x in x0..x1 {
+                            let i = (y * w + x) as usize;
+                            data[i] /= 4;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let page = dir.path().join("page.png");
+    write_gray_png(&page, w, h, &data);
+    let plain = make_ok(&page, &dir.path().join("plain"), &[]);
+    assert!(
+        stdout(&plain).contains("note: the paper's light varies across the picture")
+            && stdout(&plain).contains("--local-threshold"),
+        "{}",
+        stdout(&plain)
+    );
+    make_ok(
+        &page,
+        &dir.path().join("local"),
+        &["--local-threshold", "5"],
+    );
+    // The dark side's paper: cut at the one level, material under the local threshold.
+    let paper_kept = |out: &str| {
+        let b = read_bits(&dir.path().join(out).join("twotone.png"));
+        let (bw, bh) = (b.width, b.height);
+        let n = (0..bh)
+            .flat_map(|y| (0..bw / 4).map(move |x| (x, y)))
+            .filter(|&(x, y)| b.get(x, y))
+            .count();
+        n as f64 / (bw / 4 * bh) as f64
+    };
+    let (one, local) = (paper_kept("plain"), paper_kept("local"));
+    assert!(
+        one < 0.1 && local > 0.5,
+        "dark side kept: one level {one}, local {local}"
     );
 }

@@ -145,6 +145,7 @@ fn choose_level(gray: &Gray, look: &tone::Likeness, p: &CleanParams) -> (u8, ton
             otsu_level: otsu,
             likeness_otsu: at(otsu),
             tried,
+            uneven_paper: tone::uneven_page(gray),
         },
     )
 }

@@ -74,6 +74,37 @@ pub fn by_picture(gray: &Gray) -> Threshold {
     })
 }
 
+/// The paper's darkest and lightest across `gray` when it looks like a page in uneven light: in
+/// each cell of an 8 × 8 grid the 90th percentile is the paper's light there and the 10th the
+/// ink's; a page has paper in every cell (never under 0.25), lit unevenly (ranging over 0.3),
+/// with ink on it in three cells of four. A photo fails the first (its dark places have no
+/// paper), art and evenly lit pages the second.
+pub fn uneven_page(gray: &Gray) -> Option<[f32; 2]> {
+    const N: u32 = 8;
+    let (w, h) = (gray.width, gray.height);
+    if w < N || h < N {
+        return None;
+    }
+    let (mut lo, mut hi, mut inked) = (f32::MAX, f32::MIN, 0);
+    let mut cell = Vec::new();
+    for i in 0..N {
+        for j in 0..N {
+            cell.clear();
+            for y in i * h / N..(i + 1) * h / N {
+                let row = &gray.data[(y * w) as usize..((y + 1) * w) as usize];
+                cell.extend_from_slice(&row[(j * w / N) as usize..((j + 1) * w / N) as usize]);
+            }
+            cell.sort_by(f32::total_cmp);
+            let at = |q: usize| cell[(cell.len() - 1) * q / 100];
+            let (ink, paper) = (at(10), at(90));
+            lo = lo.min(paper);
+            hi = hi.max(paper);
+            inked += usize::from(paper - ink >= 0.15);
+        }
+    }
+    (lo >= 0.25 && hi - lo > 0.3 && inked * 4 >= (N * N) as usize * 3).then_some([lo, hi])
+}
+
 /// How many pixels of `gray` round to each 8-bit level.
 fn histogram(gray: &Gray) -> [u64; 256] {
     let mut hist = [0u64; 256];
