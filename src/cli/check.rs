@@ -74,8 +74,9 @@ pub struct CheckArgs {
     /// Material profile (default: the one the folder's report.json names, else cardstock).
     #[arg(long)]
     pub material: Option<String>,
-    /// Width of the picture in mm (default: from report.json, else 0.1 mm per pixel). At most
-    /// 10 m (10000 mm) on the picture's longer side, with pixels of at least 0.001 mm.
+    /// Width of the picture in mm (default: from report.json, else the PNG's own resolution,
+    /// else 0.1 mm per pixel, said). At most 10 m (10000 mm) on the picture's longer side, with
+    /// pixels of at least 0.001 mm.
     #[arg(long, conflicts_with = "dpi", value_parser = super::bounds::positive)]
     pub width_mm: Option<f64>,
     /// Pixels per inch (instead of --width-mm); at most 25400.
@@ -162,8 +163,17 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
         (None, _) => Material::find_default(DEFAULT_MATERIAL)?.0,
     };
     let from_report = report.is_some() && a.width_mm.is_none() && a.dpi.is_none();
+    // A bare picture with no size given: its own resolution, else 0.1 mm per pixel, said.
+    let no_size = report.is_none() && a.width_mm.is_none() && a.dpi.is_none();
+    let own_mm = no_size
+        .then(|| stencil_core::tone::png_mm_per_px(&png))
+        .flatten();
     let phys = PhysicalConfig {
-        size: match (a.width_mm, a.dpi, report.as_ref().and_then(|r| r.mm_per_px)) {
+        size: match (
+            a.width_mm,
+            a.dpi,
+            report.as_ref().and_then(|r| r.mm_per_px).or(own_mm),
+        ) {
             (None, None, Some(mm)) => Size::Dpi(25.4 / mm),
             (w, d, _) => size(w, d),
         },
@@ -198,8 +208,18 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&chk)?);
     } else {
+        let whence = match (no_size, own_mm) {
+            (false, _) => String::new(),
+            (true, Some(_)) => format!(
+                " (the PNG's own resolution, {:.0} dpi)",
+                25.4 / scale.mm_per_px
+            ),
+            (true, None) => {
+                " (assumed: the picture states no resolution; give --dpi or --width-mm)".to_string()
+            }
+        };
         println!(
-            "{}: {}x{} px at {:.4} mm/px",
+            "{}: {}x{} px at {:.4} mm/px{whence}",
             png.display(),
             bits.width,
             bits.height,

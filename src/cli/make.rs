@@ -12,7 +12,7 @@ use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::material::Material;
 use stencil_core::pipeline::{self, MakeConfig};
 use stencil_core::report::Fidelity;
-use stencil_core::tone::{ScaleCap, Threshold};
+use stencil_core::tone::{LevelChoice, ScaleCap, Threshold};
 use stencil_core::Request;
 use stencil_core::{resolve, resolve_picture, Note};
 use stencil_core::{Inputs, KeptInputs};
@@ -401,20 +401,31 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
 }
 
 /// The level `otsu` or `auto` chose, and how alike the stencil is to the picture.
-fn print_threshold(cfg: &MakeConfig, r: &stencil_core::report::Report) {
-    let (Some(level), Some(like)) = (r.threshold_level, r.likeness) else {
-        return;
-    };
-    match (&cfg.tone.threshold, &r.threshold_choice) {
+fn print_threshold(t: Threshold, level: u8, like: f64, choice: Option<&LevelChoice>) {
+    match (t, choice) {
         (Threshold::Auto, Some(c)) => println!(
             "threshold: auto chose level {level} (likeness {:.3}; at 128: {:.3}, at Otsu's {}: \
              {:.3})",
+            c.likeness, c.likeness_128, c.otsu_level, c.likeness_otsu
+        ),
+        (Threshold::ByPicture, Some(c)) => println!(
+            "threshold: level {level}, the likeliest for a photo (likeness {:.3}; at 128: {:.3}, at \
+             Otsu's {}: {:.3}); --threshold sets another",
             c.likeness, c.likeness_128, c.otsu_level, c.likeness_otsu
         ),
         (Threshold::Otsu | Threshold::Auto, _) => {
             println!("threshold: otsu chose level {level} (likeness {like:.3})")
         }
         _ => {}
+    }
+    if let Some([lo, hi]) = choice.and_then(|c| c.uneven_paper) {
+        println!(
+            "note: the paper's light varies across the picture ({:.0} % to {:.0} %), as on a page \
+             in uneven light, where no one level shows it all: --local-threshold MM compares each \
+             pixel with its surroundings instead (try 5)",
+            lo * 100.0,
+            hi * 100.0
+        );
     }
 }
 
@@ -442,7 +453,9 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         cfg.physical.material.name,
         file_names(&replaced.written)
     );
-    print_threshold(cfg, r);
+    if let (Some(level), Some(like)) = (r.threshold_level, r.likeness) {
+        print_threshold(cfg.tone.threshold, level, like, r.threshold_choice.as_ref());
+    }
     if let Some(d) = &r.dropped_islands {
         let area: f64 = d.iter().map(|i| i.area_mm2).sum();
         let listed: Vec<String> = d
@@ -723,7 +736,8 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         ..cfg
     };
     let (cfg, result) = with_progress(cfg, stencil_core::driver::clean_two_tone);
-    let tt = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
+    let cleaned = result.map_err(|e| super::errors::naming_input(&cfg.input, e))?;
+    let tt = &cleaned.twotone;
     stencil_io::write_atomic(&a.out, &export::png::encode_bits(&tt.bits))
         .with_context(|| format!("writing the two-tone image for {}", a.input.display()))?;
     println!(
@@ -731,6 +745,12 @@ pub fn run_tone(a: ToneCmdArgs) -> anyhow::Result<ExitCode> {
         a.out.display(),
         tt.bits.width,
         tt.bits.height
+    );
+    print_threshold(
+        cfg.tone.threshold,
+        cleaned.level,
+        cleaned.likeness,
+        cleaned.choice.as_ref(),
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -155,8 +155,11 @@ pub struct ImageArgs {
     /// the clean-up this material needs, looks most like the picture (SSIM of the two blurred to
     /// viewing distance; report.json's threshold_choice lists every level tried). Both print the
     /// level chosen. Applies to pictures and rendered meshes ('auto' is 'otsu' for a mesh).
-    #[arg(long, default_value = "128", value_parser = parse_threshold)]
-    pub threshold: Threshold,
+    /// [default: a photo at the level 'auto' chooses, printed beside the likeness at 128 and at
+    /// Otsu's; two-tone art (a scanned drawing, a logo) at its own tones, 128 for black and white;
+    /// a rendered mesh, or with --local-threshold, at 128]
+    #[arg(long, value_parser = parse_threshold)]
+    pub threshold: Option<Threshold>,
     /// Swap the tones: dark parts become material instead of light ones (the paper's reverse
     /// stencil). `--lit` is the same switch.
     #[arg(long, alias = "lit")]
@@ -398,7 +401,7 @@ impl MakeArgs {
 impl ImageArgs {
     pub fn to_config(&self) -> ToneConfig {
         ToneConfig {
-            threshold: self.threshold,
+            threshold: self.threshold.unwrap_or(Threshold::ByPicture),
             invert: self.invert,
             scale: self.scale,
             max_pixels: self.max_pixels,

@@ -26,7 +26,7 @@ mod studio;
 
 use std::process::ExitCode;
 
-use clap::{CommandFactory, Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Turn a picture or a 3D mesh into a stencil that holds together as one sheet.
 #[derive(Parser, Debug)]
@@ -66,6 +66,85 @@ pub enum Command {
     /// Serve a local page (127.0.0.1) that steers `make` live: every option, the images, the
     /// report, bridges to delete or pin, a keep-out brush, undo; export writes what `make` would.
     Studio(Box<studio::StudioArgs>),
+}
+
+/// What `make -h` shows, one line each: the options a first stencil needs. `--help` has them all,
+/// as written on their fields (it runs to hundreds of lines).
+const MAKE_SHORT: &[(&str, &str)] = &[
+    ("input", "The picture (PNG, JPEG, BMP, TIFF) or mesh (OBJ)"),
+    ("out", "Output folder [default: out/<input stem>/]"),
+    (
+        "width_mm",
+        "Width on the sheet in mm [default: 0.1 mm per pixel]",
+    ),
+    (
+        "dpi",
+        "Pixels of the picture per inch (instead of --width-mm)",
+    ),
+    (
+        "sheet",
+        "Fit to a sheet of stock: A4, A3, LETTER or WxH in mm",
+    ),
+    (
+        "material",
+        "Material profile (see `stencil profiles`) [default: cardstock]",
+    ),
+    (
+        "threshold",
+        "Gray level that splits the two tones: 0-255, otsu or auto",
+    ),
+    (
+        "invert",
+        "Make the dark parts material instead of the light",
+    ),
+    (
+        "emit",
+        "Files to write, comma separated (report.json always)",
+    ),
+    (
+        "machine",
+        "The machine a G-code job is for (see `stencil profiles`)",
+    ),
+    (
+        "layers",
+        "A set of N stencils sprayed in turn, light to dark",
+    ),
+    (
+        "gobo",
+        "A round gobo for a lighting fixture: A, B, M, E or OD,IA in mm",
+    ),
+];
+
+/// The command line as given: `make -h` lists the common options in a line each and says that
+/// `--help` lists every one (issue 42: `-h` was 314 lines).
+pub fn parse() -> Cli {
+    let cmd = Cli::command().mut_subcommand("make", |c| {
+        let all = c.get_arguments().filter(|a| !a.is_positional()).count();
+        let example = c
+            .get_after_help()
+            .map(|s| s.to_string())
+            .unwrap_or_default();
+        c.mut_args(
+            |a| match MAKE_SHORT.iter().find(|(id, _)| a.get_id() == *id) {
+                Some((_, short)) => {
+                    let long = a.get_long_help().or(a.get_help()).cloned();
+                    let a = a.help(*short);
+                    match long {
+                        Some(long) => a.long_help(long),
+                        None => a,
+                    }
+                }
+                None if a.get_id() == "help" => a,
+                None => a.hide_short_help(true),
+            },
+        )
+        .after_long_help(example.clone())
+        .after_help(format!(
+            "{example}\n\nThe common options; `stencil make --help` lists all {all}, with the \
+             rules each follows."
+        ))
+    });
+    Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {

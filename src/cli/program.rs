@@ -31,9 +31,16 @@ pub fn origin_line(path: &Path, text: &str) -> String {
         .split_once(" for ")
         .map(|(_, m)| m.split(':').next().unwrap_or(m).trim());
     let mut parts: Vec<String> = Vec::new();
-    for l in &header[1..] {
-        if let Some(from) = l.strip_prefix("from ") {
-            parts.push(format!("from {}", stencil_io::excerpt(from)));
+    for (i, l) in header.iter().enumerate().skip(1) {
+        if *l == "from" || l.starts_with("from ") {
+            // A long path wraps over lines, up to the material's.
+            let n = header[i..]
+                .iter()
+                .position(|l| l.starts_with("material "))
+                .unwrap_or(1);
+            let from = stencil_gcode::unwrap_comment(&header[i..i + n]);
+            let from = from.strip_prefix("from ").unwrap_or(&from);
+            parts.push(format!("from {}", stencil_io::excerpt_name(from)));
         } else if let Some(m) = l.strip_prefix("material ") {
             parts.push(format!("material {}", stencil_io::excerpt(m)));
         } else if let Some(job) = l.strip_prefix("job ") {

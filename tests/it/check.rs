@@ -266,3 +266,55 @@ fn check_on_a_folder_judges_the_outlines_make_wrote() {
         assert_eq!(made.violations.len(), checked.violations.len());
     }
 }
+
+/// `check PICTURE.png` says the scale it judged at: the PNG's own resolution when it states one,
+/// else 0.1 mm per pixel, said to be assumed (issue 42 item 4).
+#[test]
+fn a_bare_picture_is_checked_at_its_own_resolution_or_says_what_it_assumed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (120u32, 80u32);
+    let data: Vec<u8> = (0..w * h)
+        .map(|i| if (i % w) / 30 % 2 == 0 { 0 } else { 255 })
+        .collect();
+    let write = |name: &str, dpm: Option<u32>| {
+        let path = dir.path().join(name);
+        let mut enc = png::Encoder::new(std::fs::File::create(&path).unwrap(), w, h);
+        enc.set_color(png::ColorType::Grayscale);
+        if let Some(p) = dpm {
+            enc.set_pixel_dims(Some(png::PixelDimensions {
+                xppu: p,
+                yppu: p,
+                unit: png::Unit::Meter,
+            }));
+        }
+        enc.write_header().unwrap().write_image_data(&data).unwrap();
+        path
+    };
+    let first_line = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_stencil"))
+            .args(args)
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .next()
+            .unwrap_or("")
+            .to_string()
+    };
+    // 300 dpi is 11811 pixels per metre: 0.0847 mm per pixel.
+    let dpi300 = write("dpi300.png", Some(11811));
+    let line = first_line(&["check", dpi300.to_str().unwrap()]);
+    assert!(
+        line.contains("120x80 px at 0.0847 mm/px (the PNG's own resolution, 300 dpi)"),
+        "{line}"
+    );
+    let bare = write("bare.png", None);
+    let line = first_line(&["check", bare.to_str().unwrap()]);
+    assert!(
+        line.contains("at 0.1000 mm/px (assumed: the picture states no resolution; give --dpi"),
+        "{line}"
+    );
+    // Given a size, that is the scale, and nothing is said of where it came from.
+    let line = first_line(&["check", dpi300.to_str().unwrap(), "--dpi", "100"]);
+    assert!(line.ends_with("at 0.2540 mm/px"), "{line}");
+}

@@ -70,3 +70,46 @@ fn make_help_groups_options_under_headings_common_first() {
         "-o/--out should be under the first heading"
     );
 }
+
+/// `make -h` fits a screen: the options a first stencil needs, a line each, and a line saying
+/// that `--help` lists them all (issue 42 item 4: `-h` was 314 lines, `--help` 470).
+#[test]
+fn make_short_help_fits_a_screen_and_points_to_the_long_one() {
+    let short = String::from_utf8_lossy(&stencil(&["make", "-h"]).stdout).into_owned();
+    let long = String::from_utf8_lossy(&stencil(&["make", "--help"]).stdout).into_owned();
+    assert!(
+        short.lines().count() <= 50,
+        "make -h is {} lines:\n{short}",
+        short.lines().count()
+    );
+    for opt in [
+        "--out",
+        "--width-mm",
+        "--material",
+        "--threshold",
+        "--emit",
+        "--machine",
+        "--layers",
+    ] {
+        assert!(short.contains(opt), "{opt} not in make -h:\n{short}");
+    }
+    assert!(
+        !short.contains("--w-intensity"),
+        "a rare option in make -h:\n{short}"
+    );
+    assert!(short.contains("`stencil make --help` lists all"), "{short}");
+    // The long help keeps every option, with its whole text.
+    for opt in [
+        "--w-intensity",
+        "--contour-threshold",
+        "--mask-dpi",
+        "--width-mm",
+    ] {
+        assert!(long.contains(opt), "{opt} not in make --help");
+    }
+    assert!(
+        long.contains("whatever --scale does to the working pixels"),
+        "{long}"
+    );
+    assert!(long.lines().count() > 3 * short.lines().count());
+}

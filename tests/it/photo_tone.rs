@@ -78,9 +78,16 @@ fn brightness_contrast_and_gamma_move_the_edge_as_expected() {
     let dir = tmp();
     let input = dir.path().join("ramp.png");
     ramp(&input);
+    // At a fixed level (a ramp is a photo to the default, which would choose its own level).
     let material = |extra: &[&str]| {
         let out = dir.path().join(extra.join("_"));
-        make_ok(&input, &out, extra);
+        let mut a = if extra.contains(&"--threshold") {
+            vec![]
+        } else {
+            vec!["--threshold", "128"]
+        };
+        a.extend_from_slice(extra);
+        make_ok(&input, &out, &a);
         read_bits(&out.join("twotone.png")).count_material()
     };
     let base = material(&["--scale", "1"]);
@@ -120,6 +127,8 @@ fn smoothing_and_abstraction_quiet_the_noise_and_keep_the_edge() {
     let run = |extra: &[&str]| {
         let out = dir.path().join(extra.join("_"));
         let mut a = vec![
+            "--threshold",
+            "128",
             "--scale",
             "1",
             "--filter-radius",
@@ -341,4 +350,177 @@ fn likeness_prefers_the_faithful_two_tone() {
     let good = stencil_core::tone::likeness(&b, &g, false);
     let blank = stencil_core::tone::likeness(&BitGrid::new(100, 80, true), &g, false);
     assert!(good > blank + 0.15, "{good} {blank}");
+}
+
+/// `tone --threshold otsu|auto` prints the level it chose, as `make` does, and it is the level
+/// `make` cuts at (report.json's `threshold_level`) (issue 42 item 1).
+#[test]
+fn tone_says_the_level_otsu_and_auto_chose() {
+    let dir = tmp();
+    let pic = samples().join("grace_hopper.jpg");
+    for how in ["otsu", "auto"] {
+        let png = dir.path().join(format!("{how}.png"));
+        let o = stencil(&["tone", s(&pic), "--threshold", how, "-o", s(&png)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let said = stdout(&o);
+        let level: u64 = said
+            .split(&format!("threshold: {how} chose level "))
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("tone --threshold {how} said no level: {said}"));
+        let out = dir.path().join(how);
+        let m = make_ok(&pic, &out, &["--threshold", how]);
+        assert!(
+            stdout(&m).contains(&format!("{how} chose level {level} ")),
+            "{}",
+            stdout(&m)
+        );
+        assert_eq!(report(&out)["threshold_level"].as_u64(), Some(level));
+    }
+}
+
+/// The bytes of `name` in `dir`.
+fn bytes(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()))
+}
+
+/// Without `--threshold`, a photo is cut at the level `auto` chooses, said on the output; two-tone
+/// art keeps its own tones (128 for black and white, halfway between two other tones); a mesh is
+/// cut at 128 (issue 42 item 1).
+#[test]
+fn the_default_level_is_autos_for_a_photo_and_the_arts_own_for_art() {
+    let dir = tmp();
+    let d = dir.path();
+    // A photo: the same two-tone and level as --threshold auto, and the level said.
+    let photo = samples().join("grace_hopper.jpg");
+    let plain = make_ok(&photo, &d.join("photo"), &[]);
+    let auto = make_ok(&photo, &d.join("photo-auto"), &["--threshold", "auto"]);
+    let level = report(&d.join("photo-auto"))["threshold_level"]
+        .as_u64()
+        .unwrap();
+    assert_ne!(level, 128, "this photo's auto level is not the old default");
+    assert_eq!(
+        report(&d.join("photo"))["threshold_level"].as_u64(),
+        Some(level)
+    );
+    assert!(
+        stdout(&plain).contains(&format!(
+            "threshold: level {level}, the likeliest for a photo (likeness "
+        )),
+        "{}",
+        stdout(&plain)
+    );
+    assert!(stdout(&auto).contains(&format!("auto chose level {level} ")));
+    assert!(
+        !stdout(&plain).contains("note: the paper"),
+        "{}",
+        stdout(&plain)
+    );
+    assert_eq!(
+        bytes(&d.join("photo"), "twotone.png"),
+        bytes(&d.join("photo-auto"), "twotone.png")
+    );
+    // Black-and-white art (anti-aliased edges): as at 128, and nothing said of the level.
+    let art = samples().join("letters.png");
+    let plain = make_ok(&art, &d.join("art"), &[]);
+    make_ok(&art, &d.join("art-128"), &["--threshold", "128"]);
+    assert!(!stdout(&plain).contains("threshold:"), "{}", stdout(&plain));
+    assert_eq!(
+        bytes(&d.join("art"), "twotone.png"),
+        bytes(&d.join("art-128"), "twotone.png")
+    );
+    // Two-tone art in two dark tones (a dark red drawing on black: grays 20 and 90): cut halfway
+    // between them, so the drawing is kept; 128 would cut the whole sheet.
+    let dark = d.join("dark.png");
+    let data: Vec<u8> = (0..160u32 * 120)
+        .map(|i| {
+            let (x, y) = (i % 160, i / 160);
+            let ring = ((x as f64 - 80.0).hypot(y as f64 - 60.0) - 35.0).abs() < 8.0;
+            if ring || (20..140).contains(&x) && (8..20).contains(&y) {
+                90
+            } else {
+                20
+            }
+        })
+        .collect();
+    write_gray_png(&dark, 160, 120, &data);
+    make_ok(&dark, &d.join("dark"), &[]);
+    make_ok(&dark, &d.join("dark-55"), &["--threshold", "55"]);
+    assert_eq!(
+        report(&d.join("dark"))["threshold_level"].as_u64(),
+        Some(55)
+    );
+    assert_eq!(
+        bytes(&d.join("dark"), "twotone.png"),
+        bytes(&d.join("dark-55"), "twotone.png")
+    );
+    // A rendered mesh: 128, as before.
+    let mesh = samples().join("pawn.obj");
+    make_ok(&mesh, &d.join("mesh"), &[]);
+    make_ok(&mesh, &d.join("mesh-128"), &["--threshold", "128"]);
+    assert_eq!(
+        bytes(&d.join("mesh"), "twotone.png"),
+        bytes(&d.join("mesh-128"), "twotone.png")
+    );
+}
+
+/// A page of text lit from one side: no single level shows it all, and `make` says to try a local
+/// threshold, which does (issue 42 item 1).
+#[test]
+fn a_page_in_uneven_light_gets_a_local_threshold_suggested() {
+    let dir = tmp();
+    let (w, h) = (600u32, 400u32);
+    let mut data = vec![0u8; (w * h) as usize];
+    let mut seed = 1u32;
+    for y in 0..h {
+        for x in 0..w {
+            data[(y * w + x) as usize] = ((0.3 + 0.65 * x as f64 / w as f64) * 255.0) as u8;
+        }
+    }
+    // Letters: a stem and a bar of ink at a quarter of the paper's light, in rows.
+    for r in (20..h - 40).step_by(24) {
+        for c in (20..w - 20).step_by(14) {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            if seed >> 24 < 204 {
+                for (x0, y0, x1, y1) in [(c, r, c + 3, r + 14), (c, r, c + 10, r + 3)] {
+                    for y in y0..y1 {
+                        for x in x0..x1 {
+                            let i = (y * w + x) as usize;
+                            data[i] /= 4;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let page = dir.path().join("page.png");
+    write_gray_png(&page, w, h, &data);
+    let plain = make_ok(&page, &dir.path().join("plain"), &[]);
+    assert!(
+        stdout(&plain).contains("note: the paper's light varies across the picture")
+            && stdout(&plain).contains("--local-threshold"),
+        "{}",
+        stdout(&plain)
+    );
+    make_ok(
+        &page,
+        &dir.path().join("local"),
+        &["--local-threshold", "5"],
+    );
+    // The dark side's paper: cut at the one level, material under the local threshold.
+    let paper_kept = |out: &str| {
+        let b = read_bits(&dir.path().join(out).join("twotone.png"));
+        let (bw, bh) = (b.width, b.height);
+        let n = (0..bh)
+            .flat_map(|y| (0..bw / 4).map(move |x| (x, y)))
+            .filter(|&(x, y)| b.get(x, y))
+            .count();
+        n as f64 / (bw / 4 * bh) as f64
+    };
+    let (one, local) = (paper_kept("plain"), paper_kept("local"));
+    assert!(
+        one < 0.1 && local > 0.5,
+        "dark side kept: one level {one}, local {local}"
+    );
 }

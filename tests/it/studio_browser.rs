@@ -201,6 +201,18 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
     let v1 = shown_after(&c, 0).await;
     let sum1 = image_sum(&c).await;
     shot(&c, "1-loaded").await;
+    // A picture's page shows the picture's options, not the mesh's (issue 42 item 4).
+    let shown = c
+        .execute(
+            "return [...document.querySelectorAll('#groups details')]
+                 .filter((d) => !d.hidden).map((d) => d.querySelector('summary').textContent);",
+            vec![],
+        )
+        .await
+        .unwrap();
+    let shown: Vec<String> = serde_json::from_value(shown).unwrap();
+    assert!(shown.iter().any(|g| g.starts_with("Picture")), "{shown:?}");
+    assert!(!shown.iter().any(|g| g.starts_with("Mesh")), "{shown:?}");
 
     // The threshold slider, moved and released as a person does: the preview changes.
     c.execute(

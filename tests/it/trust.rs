@@ -285,6 +285,30 @@ fn jobs_say_where_they_come_from() {
     );
 }
 
+/// A job's first line names its picture by its start and its end: a long name is cut in the
+/// middle, so the extension stays (issue 42 item 4: it read "chelsea.pn… (41 characters)").
+#[test]
+fn a_long_picture_name_keeps_its_end_in_the_jobs_line() {
+    let dir = tmp();
+    let base = format!("chelsea_the_cat_{}_in_the_garden.png", "x".repeat(90));
+    let pic = dir.path().join(&base);
+    ring(&pic, 18.0);
+    let out = dir.path().join("out");
+    let ok = stencil(&["make", s(&pic), "-o", s(&out), "--emit", "gcode"]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    let o = stencil(&["send", s(&out.join("stencil.gcode")), "--dry-run"]);
+    let first = stderr(&o).lines().next().unwrap_or("").to_string();
+    let from = pic.display().to_string();
+    let n = from.chars().count();
+    let head: String = from.chars().take(60).collect();
+    let tail: String = from.chars().skip(n - 30).collect();
+    assert!(
+        first.contains(&format!("from {head}…{tail} ({n} characters),")),
+        "{first}"
+    );
+    assert!(tail.ends_with("_in_the_garden.png"), "{tail}");
+}
+
 /// Item 3: no command's output replaces one of its inputs, or what is not a regular file; the
 /// message names both paths, and the input is untouched.
 #[test]

@@ -516,12 +516,13 @@ fn bridged_once(
 
 /// The two-tone `make` writes as twotone.png (when no bridge is placed or kept out by hand): the
 /// picture at the working resolution after the clean-up for `cfg`'s material and size. What
-/// `stencil tone` writes, so that it shows exactly what `make` will bridge.
-pub fn clean_two_tone(cfg: &MakeConfig) -> Result<TwoTone, Error> {
+/// `stencil tone` writes, so that it shows exactly what `make` will bridge; with the level it was
+/// cut at and how that level was chosen.
+pub fn clean_two_tone(cfg: &MakeConfig) -> Result<Cleaned, Error> {
     let timer = Timings::new(cfg.progress.clone());
     let none = || false;
     match Cache::default().stages(cfg, &Start::Input, &Tweaks::default(), timer, &none, false) {
-        Ok((b, _)) => Ok(Arc::unwrap_or_clone(b.cleaned).twotone),
+        Ok((b, _)) => Ok(Arc::unwrap_or_clone(b.cleaned)),
         Err(Stopped::Failed(e)) => Err(e),
         Err(Stopped::Superseded) => unreachable!("nothing supersedes a run that is never asked"),
     }

@@ -349,6 +349,13 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
         crate::limits::check_filter_radius(filter_cfg.radius, w, h)?;
     }
     let regularize_px = filter_cfg.auto_radius.then(|| phys.feature_px(scale));
+    let threshold = match (cfg.tone.threshold, source) {
+        (tone::Threshold::ByPicture, Source::Picture(g)) if cfg.tone.adjust.local_px <= 0.0 => {
+            tone::by_picture(g)
+        }
+        (tone::Threshold::ByPicture, _) => tone::Threshold::Level(128),
+        (t, _) => t,
+    };
     let mut bridge_cfg = phys.bridge_for(&cfg.bridge, cfg.max_bridge_width_px, scale);
     let keep_out = cfg
         .keep_out
@@ -366,7 +373,7 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
     Ok(StageParams {
         working,
         tone: ToneParams {
-            threshold: cfg.tone.threshold,
+            threshold,
             invert: cfg.tone.invert,
             keep_circle_px: phys
                 .gobo
@@ -378,8 +385,7 @@ pub fn stage_params(cfg: &MakeConfig, source: &Source) -> Result<StageParams, Er
             filter: filter_cfg,
             regularize_px,
             invert: cfg.tone.invert,
-            auto: cfg.tone.threshold == tone::Threshold::Auto
-                && matches!(source, Source::Picture(_)),
+            auto: threshold == tone::Threshold::Auto && matches!(source, Source::Picture(_)),
         },
         join: JoinParams {
             bridge: bridge_cfg,

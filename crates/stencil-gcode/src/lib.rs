@@ -73,3 +73,4 @@ pub use read_svg::{
     cut_loops_from_svg, read as read_svg, SvgDrawing, SvgError, FLATTEN_TOLERANCE_MM,
 };
 pub use toolpath::{plan, Anchor, PlanConfig};
+pub use write::unwrap_comment;

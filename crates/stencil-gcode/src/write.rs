@@ -92,6 +92,20 @@ fn comment(out: &mut String, text: &str) {
     }
 }
 
+/// One note of a header again from the comment lines the writer wrapped it into (without their
+/// `; `): a full line was a long word split, the rest were wrapped at a space. A note whose
+/// spaces fell exactly at a line's end reads without that space: the header is for people.
+pub fn unwrap_comment(lines: &[&str]) -> String {
+    let mut note = String::new();
+    for (i, l) in lines.iter().enumerate() {
+        if i > 0 && lines[i - 1].len() < MAX_LINE - 2 {
+            note.push(' ');
+        }
+        note.push_str(l);
+    }
+    note
+}
+
 /// Emits moves, skipping those that round to where the head already is.
 struct Writer {
     out: String,
@@ -503,6 +517,21 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_wrapped_note_reads_back_whole() {
+        for note in [
+            format!("from /{}/a picture.png", "p".repeat(200)),
+            "from a/b.png".to_string(),
+            format!("from {} {}", "w".repeat(70), "x".repeat(5)),
+        ] {
+            let mut s = String::new();
+            comment(&mut s, &note);
+            let lines: Vec<&str> = s.lines().map(|l| &l[2..]).collect();
+            assert!(lines.len() > 1 || note.len() < MAX_LINE, "{s}");
+            assert_eq!(unwrap_comment(&lines), note, "{s}");
+        }
+    }
+
     use super::*;
 
     #[test]

@@ -31,4 +31,4 @@ pub use read::{open_bounded, read_bytes, read_text, Kind, ReadError};
 pub use swap::{
     lock_folder, recover, recover_around, replace_all, set_aside, FolderLock, Recovered, SetAside,
 };
-pub use text::{excerpt, printable};
+pub use text::{excerpt, excerpt_name, printable};

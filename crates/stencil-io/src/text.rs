@@ -18,6 +18,22 @@ pub fn excerpt(s: &str) -> String {
     }
 }
 
+/// The most characters of a file name quoted whole: a name is read by its start and its end (the
+/// extension), so a longer one keeps both, cut in the middle.
+pub const NAME_CHARS: usize = 100;
+
+/// A file name as quoted in a message: whole when up to `NAME_CHARS` (100) characters, else its first
+/// 60 and last 30 around an ellipsis, and how long it is; control characters written out.
+pub fn excerpt_name(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= NAME_CHARS {
+        return printable(s);
+    }
+    let head: String = s.chars().take(60).collect();
+    let tail: String = s.chars().skip(n - 30).collect();
+    format!("{}…{} ({n} characters)", printable(&head), printable(&tail))
+}
+
 /// `s` with every character that could act on a terminal written out as an escape instead: the
 /// C0 and C1 controls (ESC is `\u{1b}`, a line end `\n`) and the bidirectional overrides (which
 /// reorder what is shown). Everything else, other scripts included, is kept as it is.
@@ -43,6 +59,24 @@ pub fn printable(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_name_keeps_its_start_and_its_extension() {
+        let name = "chelsea_the_cat_in_the_garden_long_name.png";
+        assert_eq!(
+            excerpt_name(name),
+            name,
+            "a name of 43 characters is quoted whole"
+        );
+        let long = format!("{}.png", "a".repeat(80) + &"b".repeat(40));
+        let e = excerpt_name(&long);
+        assert!(e.starts_with(&"a".repeat(60)), "{e}");
+        assert!(
+            e.contains(&format!("…{}.png (124 characters)", "b".repeat(26))),
+            "{e}"
+        );
+        assert!(!excerpt_name("x\u{1b}[2J.png").contains('\u{1b}'));
+    }
 
     #[test]
     fn long_values_are_cut_and_say_their_length() {

@@ -119,6 +119,17 @@ pub fn picture_size(path: &Path) -> Result<(u32, u32), ToneError> {
     )
 }
 
+/// Millimetres per pixel as a PNG states it (its `pHYs` chunk in pixels per metre, the same on
+/// both axes), from its header alone; `None` for any other picture, or a PNG that states none.
+pub fn png_mm_per_px(path: &Path) -> Option<f64> {
+    let (file, _) = stencil_io::open_bounded(path, stencil_io::Kind::Picture).ok()?;
+    let decoder = png::Decoder::new(BufReader::new(file));
+    let reader = decoder.read_info().ok()?;
+    let d = reader.info().pixel_dims?;
+    (d.unit == png::Unit::Meter && d.xppu == d.yppu && d.xppu > 0)
+        .then(|| 1000.0 / f64::from(d.xppu))
+}
+
 /// The file opened with its format guessed from its first bytes, if it is one stencil reads
 /// (PNG, JPEG, BMP, TIFF), and the decoder's allocations capped at [`limits::MAX_DECODE_BYTES`].
 fn open_picture(path: &Path) -> Result<(ImageReader<Box<dyn Source>>, ImageFormat), ToneError> {

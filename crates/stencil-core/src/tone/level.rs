@@ -16,12 +16,102 @@ pub enum Threshold {
     /// level is tried through the clean-up the material needs and the likeliest kept. For a
     /// rendered mesh, which has no gray picture to resemble, the same as `Otsu`.
     Auto,
+    /// The command line's default, decided once the picture is read ([`by_picture`]): two-tone
+    /// art (a scan of a drawing, a logo) keeps its own tones, any other picture is cut at the
+    /// level `Auto` chooses; a rendered mesh, or a picture under a local threshold, at 128.
+    ByPicture,
 }
 
 impl Default for Threshold {
     fn default() -> Self {
         Threshold::Level(128)
     }
+}
+
+/// What [`Threshold::ByPicture`] means for this picture: `Level` for two-tone art, else `Auto`.
+///
+/// Two-tone art has at most 5 % of its pixels in the middle half between the means of its two
+/// Otsu classes, which stand at least a quarter of full scale apart (anti-aliased edges are a
+/// thin share; a photo's middle tones are not). Its level is 128 where that lies in the middle
+/// half (black-and-white art is cut as it always was), else halfway between the two means
+/// (a dark red drawing on black).
+///
+/// ```
+/// use stencil_core::{raster::Gray, tone::{by_picture, Threshold}};
+/// let mut art = Gray::new(100, 1, 0.02);
+/// (40..100).for_each(|x| art.set(x, 0, 0.97));
+/// art.set(39, 0, 0.5); // an anti-aliased edge
+/// assert_eq!(by_picture(&art), Threshold::Level(128));
+/// let mut ramp = Gray::new(100, 1, 0.0);
+/// (0..100).for_each(|x| ramp.set(x, 0, x as f32 / 99.0));
+/// assert_eq!(by_picture(&ramp), Threshold::Auto);
+/// ```
+pub fn by_picture(gray: &Gray) -> Threshold {
+    let hist = histogram(gray);
+    let t = usize::from(otsu_level(gray));
+    let class = |r: std::ops::Range<usize>| {
+        let n: u64 = hist[r.clone()].iter().sum();
+        let sum: f64 = r.map(|i| i as f64 * hist[i] as f64).sum();
+        (n, sum / n.max(1) as f64)
+    };
+    let ((n0, m0), (n1, m1)) = (class(0..t), class(t..256));
+    let d = m1 - m0;
+    if n0 == 0 || n1 == 0 || d < 64.0 {
+        return Threshold::Auto;
+    }
+    let (lo, hi) = (m0 + d / 4.0, m1 - d / 4.0);
+    let middle: u64 = (0..256)
+        .filter(|&i| (i as f64) > lo && (i as f64) < hi)
+        .map(|i| hist[i])
+        .sum();
+    if middle as f64 > 0.05 * (n0 + n1) as f64 {
+        return Threshold::Auto;
+    }
+    Threshold::Level(if lo < 128.0 && 128.0 < hi {
+        128
+    } else {
+        ((m0 + m1) / 2.0).round() as u8
+    })
+}
+
+/// The paper's darkest and lightest across `gray` when it looks like a page in uneven light: in
+/// each cell of an 8 × 8 grid the 90th percentile is the paper's light there and the 10th the
+/// ink's; a page has paper in every cell (never under 0.25), lit unevenly (ranging over 0.3),
+/// with ink on it in three cells of four. A photo fails the first (its dark places have no
+/// paper), art and evenly lit pages the second.
+pub fn uneven_page(gray: &Gray) -> Option<[f32; 2]> {
+    const N: u32 = 8;
+    let (w, h) = (gray.width, gray.height);
+    if w < N || h < N {
+        return None;
+    }
+    let (mut lo, mut hi, mut inked) = (f32::MAX, f32::MIN, 0);
+    let mut cell = Vec::new();
+    for i in 0..N {
+        for j in 0..N {
+            cell.clear();
+            for y in i * h / N..(i + 1) * h / N {
+                let row = &gray.data[(y * w) as usize..((y + 1) * w) as usize];
+                cell.extend_from_slice(&row[(j * w / N) as usize..((j + 1) * w / N) as usize]);
+            }
+            cell.sort_by(f32::total_cmp);
+            let at = |q: usize| cell[(cell.len() - 1) * q / 100];
+            let (ink, paper) = (at(10), at(90));
+            lo = lo.min(paper);
+            hi = hi.max(paper);
+            inked += usize::from(paper - ink >= 0.15);
+        }
+    }
+    (lo >= 0.25 && hi - lo > 0.3 && inked * 4 >= (N * N) as usize * 3).then_some([lo, hi])
+}
+
+/// How many pixels of `gray` round to each 8-bit level.
+fn histogram(gray: &Gray) -> [u64; 256] {
+    let mut hist = [0u64; 256];
+    for &v in &gray.data {
+        hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
+    }
+    hist
 }
 
 /// Otsu's threshold on a gray in 0..1, as an 8-bit level: the level maximising between-class variance.
@@ -32,10 +122,7 @@ impl Default for Threshold {
 /// assert!((51..204).contains(&stencil_core::tone::otsu_level(&gray)));
 /// ```
 pub fn otsu_level(gray: &Gray) -> u8 {
-    let mut hist = [0u64; 256];
-    for &v in &gray.data {
-        hist[(v.clamp(0.0, 1.0) * 255.0).round() as usize] += 1;
-    }
+    let hist = histogram(gray);
     let total: u64 = hist.iter().sum();
     let sum_all: f64 = hist
         .iter()
@@ -81,6 +168,8 @@ pub(crate) fn threshold(gray: Arc<Gray>, threshold: Threshold, invert: bool) -> 
         Threshold::Otsu => otsu_level(&gray),
         // Provisional: the clean-up stage searches the levels (`pipeline::clean`).
         Threshold::Auto => 128,
+        // Decided before the stages (`resolve::stage_params`); 128 where it was not.
+        Threshold::ByPicture => 128,
     };
     let bits = bits_at(&gray, level, invert);
     (TwoTone { bits, gray }, level)

@@ -238,6 +238,10 @@ pub struct LevelChoice {
     /// Every level tried and its likeness, in the order tried (on the reduced grid for a large
     /// picture; the finalists again at full size).
     pub(crate) tried: Vec<(u8, f64)>,
+    /// The paper's lightest and darkest across the picture when it looks like a page in uneven
+    /// light, where no single level shows it all (see `uneven_page`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uneven_paper: Option<[f32; 2]>,
 }
 
 #[cfg(test)]

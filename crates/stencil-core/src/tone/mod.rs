@@ -14,9 +14,9 @@ pub(crate) mod resolution;
 pub use adjust::Adjust;
 pub use error::ToneError;
 pub use filter::{FilterConfig, FilterStats};
-pub use image::{load_gray, orientation_note, picture_size};
+pub use image::{load_gray, orientation_note, picture_size, png_mm_per_px};
 pub(crate) use level::{bits_at, is_light, threshold};
-pub use level::{otsu_level, Threshold};
+pub use level::{by_picture, otsu_level, uneven_page, Threshold};
 pub use likeness::{likeness, LevelChoice, Likeness};
 pub use resolution::{AutoScale, ScaleCap};
 

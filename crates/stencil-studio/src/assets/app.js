@@ -49,6 +49,8 @@ function buildControls() {
   for (const g of names) {
     const d = document.createElement("details");
     d.open = /picture|bridge|size|material|mesh/i.test(g);
+    // The mesh's options do nothing to a picture: shown only for a mesh.
+    d.hidden = /^mesh/i.test(g) && !/\.obj$/i.test(info.input);
     d.innerHTML = "<summary></summary>";
     d.firstChild.textContent = g;
     for (const o of groups[g]) {
@@ -477,7 +479,7 @@ function show(s) {
   // The slider shows the level used, whichever way it was chosen (a number, otsu or auto).
   if (/^\d+$/.test(t)) $("threshold-slider").value = t;
   else if (lvl != null) $("threshold-slider").value = lvl;
-  $("level-text").textContent = s.set ? "levels " + s.set.layers.map((l) => l.level).join(", ") : "threshold " + t + (lvl != null ? " → level " + lvl : "");
+  $("level-text").textContent = s.set ? "levels " + s.set.layers.map((l) => l.level).join(", ") : "threshold " + (t || "by picture") + (lvl != null ? " → level " + lvl : "");
   const ch = s.report && s.report.threshold_choice;
   $("choice-text").textContent = ch ? `auto: likeness ${ch.likeness.toFixed(3)}; at 128 ${ch.likeness_128.toFixed(3)}, at Otsu's ${ch.otsu_level} ${ch.likeness_otsu.toFixed(3)}` : "";
   document.body.dataset.set = s.set ? s.set.layers.length + (s.set.fill_in ? 1 : 0) : "";

@@ -512,6 +512,7 @@ pub(crate) fn two_tone_with(
     debug_assert_eq!(gray.data.len(), r.gray.data.len());
     let level = match threshold {
         Threshold::Level(l) => l,
+        Threshold::ByPicture => 128,
         Threshold::Otsu | Threshold::Auto => {
             let data: Vec<f32> = (0..r.shade.data.len())
                 .filter(|&i| r.model.data[i] && !r.lines.data[i])
