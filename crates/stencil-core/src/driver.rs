@@ -422,6 +422,9 @@ impl Slots {
             }
             Ok(Arc::new(c))
         })?;
+        // The picture's side of the likeness is read by the clean-up alone: a run that keeps
+        // nothing frees it before the bridges (a few MB of a photo's peak memory).
+        drop(look);
         run.cancel()?;
         let mut b = Front {
             params,
