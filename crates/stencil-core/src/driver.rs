@@ -531,6 +531,12 @@ pub fn clean_two_tone(cfg: &MakeConfig) -> Result<Cleaned, Error> {
     }
 }
 
+/// `make`'s writing of a stencil made already (the studio's export of what it shows): the same
+/// files, by the same rules, as [`make`].
+pub fn write(cfg: &MakeConfig, made: Made) -> Result<(Made, crate::export::Replaced), Error> {
+    pipeline::files::write(cfg, made)
+}
+
 /// `stencil make`: run the pipeline and write its outputs into `cfg.out_dir`, all or nothing.
 /// Files of [`pipeline::OUTPUT_NAMES`] this run did not write are removed (listed in the result).
 pub fn make(cfg: &MakeConfig) -> Result<(Made, crate::export::Replaced), Error> {

@@ -13,7 +13,7 @@ pub(crate) mod vectors;
 
 pub use bridges::{bridge_prepared, prepare, Joined, Prepared, PreparedKey};
 pub use clean_up::{clean, clean_unmeasured, measure, Cleaned};
-pub use files::{default_out_dir, write, OUTPUT_NAMES};
+pub use files::{default_out_dir, OUTPUT_NAMES};
 pub use outputs::{finish, gcode, report, report_joined, Made};
 pub use source::{draw, is_mesh_path, light, load, Input, Source};
 pub use two_tone::{look, threshold, working_gray};

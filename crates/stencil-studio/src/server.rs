@@ -309,7 +309,7 @@ async fn post_export(State(s): State<Shared>) -> ApiResult {
     let written = tokio::task::spawn_blocking(move || match shown {
         Shown::One(c) => {
             let made = c.made().map_err(|e| s2.maker.describe(&c.cfg, e))?;
-            stencil_core::pipeline::write(&c.cfg, made)
+            stencil_core::driver::write(&c.cfg, made)
                 .map(|(_, r)| r)
                 .map_err(|e| s2.maker.describe(&c.cfg, e))
         }
