@@ -7,7 +7,7 @@ use clap::Args;
 
 use stencil_gcode::interpret::{interpret_from, Program};
 use stencil_gcode::machine as machine_profile;
-use stencil_gcode::{estimate_program, format_duration, length_over_feed_s};
+use stencil_gcode::{estimate_streamed, format_duration, length_over_feed_s};
 use stencil_grbl::{ControllerInfo, ControllerState, Placement, StartFrom};
 
 /// `stencil estimate job.gcode`: time and distances of any G-code file.
@@ -144,8 +144,16 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
     super::program::name_machine_changes_in(&a.file, &text);
     let job = read_placed(&a.file, &text, &machine, &a.place, a.no_bed_check)?;
     let (moves, motion) = (&job.program.moves, job.motion);
-    // Grbl's stops (its planner syncs), their motor holds ($1) and the G4 dwells included.
-    let e = estimate_program(&job.program, &motion, machine.cut_rule(moves));
+    // Grbl's stops (its planner syncs), their motor holds ($1) and the G4 dwells included, and
+    // the time lost where the serial line cannot keep the planner fed.
+    let streamed = estimate_streamed(
+        &job.program,
+        &text,
+        &motion,
+        &machine.link,
+        machine.cut_rule(moves),
+    );
+    let e = streamed.estimate;
     println!(
         "{}: about {} ({:.2} s) on {} (cut {}, travel {}); {} moves, cut {:.0} mm, travel \
          {:.0} mm; length / feed alone would say {}",
@@ -160,5 +168,21 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
         e.travel_mm,
         format_duration(length_over_feed_s(moves, &motion)),
     );
+    if !streamed.starved.is_empty() {
+        let n = streamed.starved.len();
+        println!(
+            "warning: the planner starves in {} at {} baud ({:.2} s lost, included above): the \
+             serial line brings the lines slower than the feed uses them, and the head stutters \
+             there; lower the feed there or use longer segments:",
+            if n == 1 {
+                "1 place".to_string()
+            } else {
+                format!("{n} places")
+            },
+            machine.link.baud,
+            streamed.lost_s(),
+        );
+        super::gcode::print_places(&streamed.starved, super::gcode::starve_line);
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -7,9 +7,9 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use stencil_core::material::Material;
-use stencil_gcode::format_duration;
 use stencil_gcode::machine::{Machine, Tool};
 use stencil_gcode::{self as plan, CutSettings, GcodeConfig, GcodeSummary};
+use stencil_gcode::{format_duration, Feeding, Starve};
 
 use super::machine_args::{CutArgs, MachineArgs};
 
@@ -34,6 +34,7 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
         format_duration(e.cut_s),
         format_duration(e.travel_s),
     );
+    print_feeding(&s.feeding);
     if let Some(c) = &s.settings {
         let power = if s.tool == "laser" {
             format!("{} % power, ", plan::num(c.power_pct))
@@ -50,6 +51,88 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
                 .map(|f| format!("; from {f}"))
                 .unwrap_or_default()
         );
+    }
+}
+
+/// Places printed one a line before the rest are counted.
+const PLACES_SHOWN: usize = 8;
+
+/// One place where the planner starves, for people: where, by how much, and what feed the
+/// serial line keeps fed there.
+pub fn starve_line(s: &Starve) -> String {
+    format!(
+        "  lines {}-{} (X{:.1} Y{:.1} to X{:.1} Y{:.1}, {:.0} mm): the feed ({} mm/min) uses {:.0} \
+         lines/s, the serial line brings {:.0}; {:.2} s lost; it keeps up to about {} mm/min",
+        s.first_line,
+        s.last_line,
+        s.from[0],
+        s.from[1],
+        s.to[0],
+        s.to[1],
+        s.length_mm,
+        plan::num(s.feed_mm_min.round()),
+        s.lines_per_s_needed,
+        s.lines_per_s_link,
+        s.lost_s,
+        plan::num(s.fed_mm_min.floor()),
+    )
+}
+
+/// Print `places`, at most [`PLACES_SHOWN`] of them, and how many more there are.
+pub fn print_places<T>(places: &[T], line: impl Fn(&T) -> String) {
+    for p in places.iter().take(PLACES_SHOWN) {
+        println!("{}", line(p));
+    }
+    if places.len() > PLACES_SHOWN {
+        println!("  ... and {} more", places.len() - PLACES_SHOWN);
+    }
+}
+
+/// Say where a written job would starve the planner and what was done about it: nothing when
+/// it never starves.
+pub fn print_feeding(f: &Feeding) {
+    if f.is_quiet() {
+        return;
+    }
+    let places = |n: usize| {
+        if n == 1 {
+            "1 place".to_string()
+        } else {
+            format!("{n} places")
+        }
+    };
+    if !f.slowed.is_empty() {
+        println!(
+            "feed lowered in {} so that the serial line ({} baud) keeps the planner fed (it \
+             would starve there and the head stutter, {:.2} s lost; --keep-feed keeps the \
+             feed); a laser in M4 scales its power with the speed:",
+            places(f.slowed.len()),
+            f.baud,
+            f.lost_s,
+        );
+        print_places(&f.slowed, |s| {
+            format!(
+                "  lines {}-{} (X{:.1} Y{:.1} to X{:.1} Y{:.1}): {} mm/min instead of {}",
+                s.first_line,
+                s.last_line,
+                s.from[0],
+                s.from[1],
+                s.to[0],
+                s.to[1],
+                plan::num(s.now_mm_min),
+                plan::num(s.was_mm_min),
+            )
+        });
+    }
+    if !f.still.is_empty() {
+        println!(
+            "warning: the planner starves in {} (the serial line at {} baud brings the lines \
+             slower than the feed uses them; the head stutters there; included in the time \
+             above):",
+            places(f.still.len()),
+            f.baud,
+        );
+        print_places(&f.still, starve_line);
     }
 }
 

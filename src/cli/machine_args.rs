@@ -39,6 +39,11 @@ pub struct MachineArgs {
     /// which are what the width check judged.
     #[arg(long)]
     pub no_arcs: bool,
+    /// Keep the cutting feed where the machine's serial line cannot bring the lines as fast as
+    /// the feed uses them (tiny segments at a high feed: the planner starves and the head
+    /// stutters there). By default the feed is lowered there, and the summary says where.
+    #[arg(long)]
+    pub keep_feed: bool,
 }
 
 impl MachineArgs {
@@ -56,6 +61,7 @@ impl MachineArgs {
             cut_open_paths: self.cut_open_paths,
             settings,
             arc_tolerance_mm: if self.no_arcs { 0.0 } else { arc_tolerance_mm },
+            keep_feed: self.keep_feed,
         }
     }
 }

@@ -1150,7 +1150,7 @@ mod prop {
             s.passes = passes;
             // Offsets as a fraction of the bed: mostly on it, sometimes over an edge.
             let offset = [fx * m.bed.width_mm, fy * m.bed.height_mm];
-            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s, arc_tolerance_mm: 0.0 };
+            let cfg = PlanConfig { anchor, offset, cut_outline: outline, cut_open_paths: false, settings: s, arc_tolerance_mm: 0.0, keep_feed: false };
             match gcode_for(&g, &m, &cfg, &[]) {
                 Ok((text, _)) => {
                     let r = check_program(&text, &m);

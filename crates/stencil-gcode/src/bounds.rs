@@ -24,6 +24,12 @@ pub const OVERCUT_MM: RangeInclusive<f64> = 0.0..=50.0;
 pub const FRAME_POWER_PCT: RangeInclusive<f64> = 0.0..=10.0;
 /// A laser's power, W: a 0.5 W diode to a 500 W CO2 tube.
 pub const WATTS: RangeInclusive<f64> = 0.5..=500.0;
+/// A controller's serial speed, baud: from 9600 to a native-USB board's 4 Mbaud.
+pub const BAUD: RangeInclusive<f64> = 9600.0..=4_000_000.0;
+/// A controller's serial receive buffer, bytes: an AVR Grbl's 128 up to a 32-bit port's 64 KiB.
+pub const RX_BUFFER_BYTES: RangeInclusive<f64> = 32.0..=65_536.0;
+/// A controller's planner blocks (usable): 2 up to the thousands some 32-bit ports keep.
+pub const PLANNER_BLOCKS: RangeInclusive<f64> = 2.0..=4096.0;
 /// The longest profile name, characters (it is printed in G-code comments and messages).
 pub const NAME_CHARS: usize = 100;
 

@@ -45,18 +45,22 @@ pub struct Estimate {
 }
 
 /// One planned block.
-struct Block {
-    len: f64,
+pub(crate) struct Block {
+    /// Length, mm.
+    pub(crate) len: f64,
     /// Nominal speed, mm/s.
-    v_nom: f64,
+    pub(crate) v_nom: f64,
     /// Acceleration along the block, mm/s².
-    accel: f64,
+    pub(crate) accel: f64,
     /// Highest entry speed², from the junction and the nominal speeds.
-    max_entry_sq: f64,
+    pub(crate) max_entry_sq: f64,
     /// Grbl emptied its planner before this block (a sync): it starts from a standstill, and the
     /// block before it ends in one.
-    stop_before: bool,
-    cut: bool,
+    pub(crate) stop_before: bool,
+    /// The tool cuts along it.
+    pub(crate) cut: bool,
+    /// The index of its move (moves without a step make no block).
+    pub(crate) mv: usize,
 }
 
 /// `limit` per axis X, Y, Z, scaled to a direction as Grbl's `limit_value_by_axis_maximum`
@@ -71,7 +75,7 @@ fn limit_by_axis(limit: [f64; 3], unit: &[f64; 3]) -> f64 {
 
 /// Time to run `len` mm entering at `v0`, leaving at `v1`, cruising at most at `vn`, accelerating
 /// at `a` (all speeds in mm/s).
-fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
+pub(crate) fn block_time(len: f64, v0: f64, v1: f64, vn: f64, a: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
@@ -164,7 +168,7 @@ fn estimate_stops(moves: &[Move], stops: &[usize], limits: &Motion, rule: CutRul
 /// With the machine's steps per mm known, each block runs between whole steps as Grbl's
 /// `plan_buffer_line` makes it (`lround` of the target, length and direction from the step
 /// counts), and a move shorter than half a step is no block at all.
-fn blocks(
+pub(crate) fn blocks(
     moves: &[Move],
     stops: &[usize],
     limits: &Motion,
@@ -225,6 +229,7 @@ fn blocks(
             max_entry_sq,
             stop_before: std::mem::take(&mut stop_pending),
             cut,
+            mv: k,
         });
     }
     blocks
@@ -253,9 +258,13 @@ fn junction_sq(pu: [f64; 3], unit: [f64; 3], accels: [f64; 3], deviation_mm: f64
 /// the reverse pass's entry speeds (within what braking over each block allows, and its
 /// junction's limit), capped by what accelerating over the running block reaches from its own
 /// entry (the forward pass).
-fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
+pub(crate) fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
+    plan_exit_speeds_in(blocks, PLANNER_BLOCKS)
+}
+
+/// For each block, the index one past the last block Grbl can hold with it: the next sync.
+pub(crate) fn held_ends(blocks: &[Block]) -> Vec<usize> {
     let n = blocks.len();
-    // For each block, the index one past the last block Grbl can hold with it (the next sync).
     let mut held_end = vec![n; n];
     for i in (0..n.saturating_sub(1)).rev() {
         held_end[i] = if blocks[i + 1].stop_before {
@@ -264,16 +273,27 @@ fn plan_exit_speeds(blocks: &[Block]) -> Vec<f64> {
             held_end[i + 1]
         };
     }
-    let mut exits = Vec::with_capacity(n);
+    held_end
+}
+
+/// The highest entry speed² of the block after the held blocks `later` that still lets the
+/// last of them end at rest (Grbl's reverse pass).
+pub(crate) fn reverse_pass(later: &[Block]) -> f64 {
+    let mut next_entry_sq = 0.0;
+    for b in later.iter().rev() {
+        next_entry_sq = b.max_entry_sq.min(next_entry_sq + 2.0 * b.accel * b.len);
+    }
+    next_entry_sq
+}
+
+/// [`plan_exit_speeds`] for a planner of `window` blocks.
+pub(crate) fn plan_exit_speeds_in(blocks: &[Block], window: usize) -> Vec<f64> {
+    let held_end = held_ends(blocks);
+    let mut exits = Vec::with_capacity(blocks.len());
     let mut entry_sq = 0.0;
     for (i, b) in blocks.iter().enumerate() {
-        let end = held_end[i].min(i + PLANNER_BLOCKS);
-        let mut next_entry_sq = 0.0;
-        for later in blocks[i + 1..end].iter().rev() {
-            next_entry_sq = later
-                .max_entry_sq
-                .min(next_entry_sq + 2.0 * later.accel * later.len);
-        }
+        let end = held_end[i].min(i + window);
+        let next_entry_sq = reverse_pass(&blocks[i + 1..end]);
         let exit_sq = next_entry_sq.min(entry_sq + 2.0 * b.accel * b.len);
         exits.push(exit_sq);
         entry_sq = exit_sq;

@@ -3,9 +3,9 @@
 
 use crate::cuts::CutLoops;
 use crate::error::PlanError;
-use crate::estimate::{estimate_program, Estimate};
-use crate::interpret::interpret_program;
+use crate::estimate::Estimate;
 use crate::job::{CutSettings, PathStats};
+use crate::keep_fed::{keep_fed, Feeding};
 use crate::machine::Machine;
 use crate::toolpath::{plan, PlanConfig};
 use crate::write::write;
@@ -39,12 +39,19 @@ pub struct GcodeSummary {
     #[serde(flatten)]
     /// Loops, lengths and travel.
     pub path: PathStats,
-    /// Time and lengths from the written G-code, as Grbl would plan it.
+    /// Time and lengths from the written G-code, as Grbl would plan it, with the time lost
+    /// where the serial line cannot keep its planner fed.
     pub estimate: Estimate,
+    /// Where the job's lines would arrive slower than its feed uses them, and where the feed
+    /// was lowered for it; absent when nothing starves.
+    #[serde(default, skip_serializing_if = "Feeding::is_quiet")]
+    pub feeding: Feeding,
 }
 
 /// Plan and write a job: the G-code text and its summary. The estimate runs the written text
-/// through the shared interpreter, so it times exactly what the machine will get.
+/// through the shared interpreter, so it times exactly what the machine will get, over the
+/// machine's serial line; where the line cannot keep the planner fed the feed is lowered
+/// (unless [`PlanConfig::keep_feed`]).
 pub fn gcode_for(
     geom: &CutLoops,
     machine: &Machine,
@@ -53,9 +60,14 @@ pub fn gcode_for(
 ) -> Result<(String, GcodeSummary), PlanError> {
     let job = plan(geom, machine, cfg)?;
     let text = write(&job, machine, notes);
-    let program = interpret_program(&text).map_err(PlanError::Internal)?;
-    let rule = machine.cut_rule(&program.moves);
-    let est = estimate_program(&program, &machine.motion, rule);
+    let (text, est, feeding) = keep_fed(
+        text,
+        &machine.motion,
+        &machine.link,
+        |p| machine.cut_rule(&p.moves),
+        !cfg.keep_feed,
+    )
+    .map_err(PlanError::Internal)?;
     Ok((
         text,
         GcodeSummary {
@@ -65,6 +77,7 @@ pub fn gcode_for(
             settings_from: None,
             path: job.stats,
             estimate: est,
+            feeding,
         },
     ))
 }

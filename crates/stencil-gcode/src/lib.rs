@@ -47,6 +47,7 @@ mod grbl;
 mod grid;
 pub mod interpret;
 mod job;
+mod keep_fed;
 pub mod limits;
 pub mod machine;
 mod modal;
@@ -54,6 +55,7 @@ mod num;
 mod order;
 mod read_svg;
 pub mod simulate;
+mod starve;
 mod toolpath;
 mod travel;
 mod word;
@@ -68,9 +70,11 @@ pub use estimate::{
 pub use gcode::{gcode_for, GcodeConfig, GcodeSummary};
 pub use grid::{grid_gcode, grid_svg, plan_grid, Cell, Grid, GridSpec, Steps};
 pub use job::{CutSettings, Job, Loop, PathStats};
+pub use keep_fed::{Feeding, Slowed};
 pub use num::num;
 pub use read_svg::{
     cut_loops_from_svg, read as read_svg, SvgDrawing, SvgError, FLATTEN_TOLERANCE_MM,
 };
+pub use starve::{estimate_streamed, Starve, Streamed, MIN_LOST_S};
 pub use toolpath::{plan, Anchor, PlanConfig};
 pub use write::unwrap_comment;

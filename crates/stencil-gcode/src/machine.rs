@@ -149,6 +149,47 @@ fn default_jd() -> f64 {
     0.01
 }
 
+/// How jobs reach the controller: its serial speed and buffers (a profile's `[link]`; every
+/// field optional). The defaults are Grbl 1.1h on an AVR (Arduino Uno/Nano): `BAUD_RATE 115200`
+/// in its `config.h`, a 128-byte receive buffer (`serial.h`) and 16 planner slots of which 15
+/// hold blocks (`planner.h`); its `$I` answers `[OPT:V,15,128]`. The starvation estimate
+/// times the lines over it.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Link {
+    /// Serial speed, baud; a character is 10 bits on the line (start, 8 data, stop).
+    #[serde(default = "default_baud")]
+    pub baud: u32,
+    /// The controller's serial receive buffer, bytes (the second number of `$I`'s `[OPT:]`).
+    #[serde(default = "default_rx")]
+    pub rx_buffer_bytes: u32,
+    /// Planner blocks it holds, the running one included (the first number of `[OPT:]`).
+    #[serde(default = "default_planner")]
+    pub planner_blocks: u32,
+}
+
+impl Default for Link {
+    fn default() -> Self {
+        Link {
+            baud: default_baud(),
+            rx_buffer_bytes: default_rx(),
+            planner_blocks: default_planner(),
+        }
+    }
+}
+
+fn default_baud() -> u32 {
+    115_200
+}
+
+fn default_rx() -> u32 {
+    crate::limits::RX_BUFFER_BYTES as u32
+}
+
+fn default_planner() -> u32 {
+    crate::limits::PLANNER_BLOCKS as u32
+}
+
 /// How a pen is raised and lowered.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PenLift {
@@ -292,6 +333,8 @@ pub struct Machine {
     /// settings are chosen by; `None` when the profile does not say (a profile written before
     /// they existed).
     pub laser: Option<LaserPower>,
+    /// The serial link and the controller's buffers (`[link]`), for the starvation estimate.
+    pub link: Link,
     /// The firmware runs G2/G3 arcs (`arcs`, default true: every Grbl 1.1 does). A profile says
     /// `arcs = false` for a controller or sender that does not (some Grbl ports and plotter
     /// firmwares drop them): its jobs are written with straight G1 segments only.
@@ -404,6 +447,8 @@ struct RawMachine {
     arcs: Option<bool>,
     bed: Bed,
     motion: Motion,
+    #[serde(default)]
+    link: Link,
     tool: RawTool,
 }
 
@@ -458,6 +503,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
     c.name(&raw.name)?;
     c.bed(&raw.bed)?;
     c.motion(&raw.motion)?;
+    c.link(&raw.link)?;
     let t = &raw.tool;
     let tool = c.tool(t)?;
     let frame_power_pct = c.within(
@@ -476,6 +522,7 @@ fn validate(raw: RawMachine, origin: &Path) -> Result<Machine, ProfileError> {
         motion: raw.motion,
         tool,
         frame_power_pct,
+        link: raw.link,
         arcs: raw.arcs.unwrap_or(true),
     })
 }
@@ -585,6 +632,23 @@ impl Checker<'_> {
                 "steps/mm",
             )?;
         }
+        Ok(())
+    }
+
+    fn link(&self, l: &Link) -> Result<(), ProfileError> {
+        self.within("link.baud", f64::from(l.baud), bounds::BAUD, "baud")?;
+        self.within(
+            "link.rx_buffer_bytes",
+            f64::from(l.rx_buffer_bytes),
+            bounds::RX_BUFFER_BYTES,
+            "bytes",
+        )?;
+        self.within(
+            "link.planner_blocks",
+            f64::from(l.planner_blocks),
+            bounds::PLANNER_BLOCKS,
+            "blocks",
+        )?;
         Ok(())
     }
 

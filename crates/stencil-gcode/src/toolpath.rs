@@ -58,6 +58,10 @@ pub struct PlanConfig {
     /// ([`stencil_geom::curve::fit_ring`]); 0 writes straight G1 segments only (`--no-arcs`, or a
     /// machine whose profile says `arcs = false`); see [`PlanConfig::arc_tolerance_on`].
     pub arc_tolerance_mm: f64,
+    /// Keep the programmed feed where the serial line cannot bring the lines as fast as the
+    /// feed uses them (the planner starves there: the head stutters). By default the feed is
+    /// lowered there instead, and the summary says where.
+    pub keep_feed: bool,
 }
 
 impl PlanConfig {
@@ -82,6 +86,7 @@ impl PlanConfig {
             cut_open_paths: false,
             settings,
             arc_tolerance_mm: 0.0,
+            keep_feed: false,
         }
     }
 }
