@@ -70,6 +70,7 @@ mod regularize;
 mod resolution;
 mod send_safety;
 mod start_from;
+mod starve;
 mod strength;
 mod studio;
 mod studio_browser;

@@ -18,10 +18,10 @@ use crate::starve::{estimate_streamed, Starve, Streamed};
 
 /// The share of what the serial line can feed that a lowered stretch asks for first: junctions
 /// and the ramps at its ends make it use lines a little faster than its feed alone says.
-const FIRST_SHARE: f64 = 0.9;
+const FIRST_SHARE: f64 = 0.97;
 
 /// Each further round lowers a stretch that still starves by this factor.
-const NEXT_SHARE: f64 = 0.85;
+const NEXT_SHARE: f64 = 0.95;
 
 /// Rounds of lowering before giving up (and saying where it still starves).
 const ROUNDS: usize = 6;

@@ -449,6 +449,7 @@ function showReport() {
       ["width check", !r.check ? wait : c.violations && c.violations.length ? `<span class="warn">${c.violations.length} violation(s)</span>` : '<span class="ok">passed</span>'],
       ["narrowest bridge / web / hole", [c.narrowest_bridge_mm, c.narrowest_web_mm, c.narrowest_hole_mm].map((x) => x == null ? "–" : x.toFixed(2)).join(" / ") + " mm"],
       ["job time", state.checking ? wait : r.gcode ? (r.gcode.estimate.total_s / 60).toFixed(1) + " min on " + esc(r.gcode.machine) : "– (choose a machine and emit gcode)"],
+      ["planner fed", !r.gcode ? "–" : !r.gcode.feeding ? '<span class="ok">yes</span>' : r.gcode.feeding.still.length ? `<span class="warn">starves in ${r.gcode.feeding.still.length} place(s) at ${r.gcode.feeding.baud} baud (lines ${r.gcode.feeding.still[0].first_line}-${r.gcode.feeding.still[0].last_line} first)</span>` : `feed lowered in ${r.gcode.feeding.slowed.length} place(s) (lines ${r.gcode.feeding.slowed[0].first_line}-${r.gcode.feeding.slowed[0].last_line} first, ${r.gcode.feeding.slowed[0].now_mm_min} mm/min): the serial line keeps up`],
       ["computed in", state.ms.toFixed(0) + " ms: " + (state.ran || []).join(", ")],
     ];
     if (state.set) {
