@@ -153,13 +153,16 @@ fn rewrite(text: &str, program: &Program, lowered: &BTreeMap<usize, f64>) -> Str
     // The F each line must carry: the lowered one where the feed changes to it, the original
     // one on the first cutting move after a lowered stretch.
     let mut carry: BTreeMap<usize, f64> = BTreeMap::new();
-    let mut written: Option<f64> = None;
+    // The feed in force before each move in the rewritten text, and in the original one: where
+    // both agree and the move keeps its feed, the original words already say it.
+    let (mut written, mut original): (Option<f64>, Option<f64>) = (None, None);
     for m in program.moves.iter().filter(|m| !m.rapid) {
         let want = lowered.get(&m.line).copied().unwrap_or(m.feed).min(m.feed);
-        if written != Some(want) {
+        if written != Some(want) && !(want == m.feed && written == original) {
             carry.insert(m.line, want);
-            written = Some(want);
         }
+        written = Some(want);
+        original = Some(m.feed);
     }
     let mut out = String::with_capacity(text.len() + 16 * carry.len());
     for (i, line) in text.lines().enumerate() {

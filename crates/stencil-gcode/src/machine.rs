@@ -163,7 +163,8 @@ pub struct Link {
     /// The controller's serial receive buffer, bytes (the second number of `$I`'s `[OPT:]`).
     #[serde(default = "default_rx")]
     pub rx_buffer_bytes: u32,
-    /// Planner blocks it holds, the running one included (the first number of `[OPT:]`).
+    /// Planner blocks it holds, the running one included (the first number of `[OPT:]`); the
+    /// starvation estimate plans with at most 128 of them.
     #[serde(default = "default_planner")]
     pub planner_blocks: u32,
 }

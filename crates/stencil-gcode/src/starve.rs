@@ -33,6 +33,14 @@ const OK_BYTES: f64 = 4.0;
 /// catching up at the start of a job or after a stop, not a stall anyone sees.
 pub const MIN_LOST_S: f64 = 0.02;
 
+/// The most planner blocks the model plans with (a larger planner is planned as this one): the
+/// time per block grows with it, and a 32-bit port's 256 blocks look ahead of any stall anyway.
+pub const MAX_PLANNED_BLOCKS: u32 = 128;
+
+/// The most times a block is replanned as blocks arrive before it brakes: each replan holds at
+/// least one block more, and a job that starves receives a block or two per block it runs.
+const MAX_REPLANS: usize = 8;
+
 /// Stretches closer than this many blocks are one.
 const JOIN_BLOCKS: usize = 8;
 
@@ -211,7 +219,7 @@ pub fn estimate_streamed(
 ) -> Streamed {
     let mut base = Estimate::default();
     let blocks = blocks(&program.moves, &program.stops, limits, rule, &mut base);
-    let slots = link.planner_blocks.max(2) as usize;
+    let slots = planner_slots(link);
     base_times(&blocks, slots, &mut base);
     let (lost, base_t) = lost_per_block(program, text, &blocks, limits, link);
     let starved = stretches(program, text, &blocks, &lost, &base_t, link);
@@ -223,6 +231,11 @@ pub fn estimate_streamed(
         + program.dwell_s
         + program.stops.len() as f64 * limits.stop_lock_s();
     Streamed { estimate, starved }
+}
+
+/// The planner blocks the model plans with.
+fn planner_slots(link: &Link) -> usize {
+    link.planner_blocks.clamp(2, MAX_PLANNED_BLOCKS) as usize
 }
 
 /// Fill `e`'s times from the blocks as a full planner of `slots` runs them.
@@ -252,7 +265,7 @@ fn lost_per_block(
     if n == 0 {
         return (Vec::new(), Vec::new());
     }
-    let slots = link.planner_blocks.max(2) as usize;
+    let slots = planner_slots(link);
     let by_line = line_bytes(text);
     // The sent lines, and each one's first block.
     let mut sent_of_line = vec![usize::MAX; by_line.len()];
@@ -318,12 +331,14 @@ fn lost_per_block(
         // Plan over the blocks held now; again over those that come before braking starts.
         let mut held = i + 1;
         let mut horizon = start;
+        let mut replans = 0;
         let exit_sq = loop {
             while held < end && serial.entry(held, &done) <= horizon {
                 held += 1;
             }
             let exit_sq = reverse_pass(&blocks[i + 1..held]).min(reach_sq);
-            if held == end {
+            replans += 1;
+            if held == end || replans > MAX_REPLANS {
                 break exit_sq;
             }
             let brake =
