@@ -8,7 +8,7 @@ use clap::Args;
 use stencil_core::export;
 use stencil_gcode::machine as machine_profile;
 use stencil_gcode::simulate;
-use stencil_gcode::{estimate_program, format_duration};
+use stencil_gcode::{estimate_streamed, format_duration};
 
 use super::program::read_program;
 
@@ -47,7 +47,8 @@ pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let job = super::estimate::read_placed(&a.file, &text, &machine, &a.place, a.no_bed_check)?;
     let moves = &job.program.moves;
     let rule = machine.cut_rule(moves);
-    let est = estimate_program(&job.program, &job.motion, rule);
+    // The same time `estimate` gives: over the machine's serial line, starvation included.
+    let est = estimate_streamed(&job.program, &text, &job.motion, &machine.link, rule).estimate;
     let d = simulate::draw(moves, a.size_px, rule);
     stencil_io::write_atomic(
         &a.output,

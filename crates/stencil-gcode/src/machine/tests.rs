@@ -264,3 +264,31 @@ fn every_number_is_bounded_by_what_a_machine_can_be() {
         assert!(e.len() < 300 && !e.contains("00000000000"), "{e}");
     }
 }
+
+#[test]
+fn the_serial_link_defaults_to_an_avr_grbl_and_is_checked() {
+    // Without [link]: Grbl 1.1h on an AVR, as its `$I` says ([OPT:V,15,128]) at 115200 baud.
+    let m = parse(GOOD, Path::new("t.toml")).unwrap();
+    assert_eq!(
+        (m.link.baud, m.link.rx_buffer_bytes, m.link.planner_blocks),
+        (115_200, 128, 15)
+    );
+    let with = |link: &str| GOOD.replace("[tool]", &format!("[link]\n{link}\n[tool]"));
+    let m = parse(
+        &with("baud = 250000\nplanner_blocks = 35"),
+        Path::new("t.toml"),
+    )
+    .unwrap();
+    assert_eq!(
+        (m.link.baud, m.link.rx_buffer_bytes, m.link.planner_blocks),
+        (250_000, 128, 35)
+    );
+    let e = err(&with("baud = 300"));
+    assert!(e.contains("link.baud") && e.contains("300"), "{e}");
+    let e = err(&with("rx_buffer_bytes = 4"));
+    assert!(e.contains("link.rx_buffer_bytes"), "{e}");
+    let e = err(&with("planner_blocks = 1"));
+    assert!(e.contains("link.planner_blocks"), "{e}");
+    let e = err(&with("bauds = 9600"));
+    assert!(e.contains("bauds"), "{e}");
+}
