@@ -169,16 +169,11 @@ pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
         format_duration(length_over_feed_s(moves, &motion)),
     );
     if !streamed.starved.is_empty() {
-        let n = streamed.starved.len();
         println!(
             "warning: the planner starves in {} at {} baud ({:.2} s lost, included above): the \
              serial line brings the lines slower than the feed uses them, and the head stutters \
              there; lower the feed there or use longer segments:",
-            if n == 1 {
-                "1 place".to_string()
-            } else {
-                format!("{n} places")
-            },
+            super::gcode::places(streamed.starved.len()),
             machine.link.baud,
             streamed.lost_s(),
         );

@@ -57,18 +57,21 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
 /// Places printed one a line before the rest are counted.
 const PLACES_SHOWN: usize = 8;
 
+/// Where a stretch of a program is: its lines and where the head goes, mm.
+fn stretch(first: usize, last: usize, from: [f64; 2], to: [f64; 2]) -> String {
+    format!(
+        "  lines {first}-{last} (X{:.1} Y{:.1} to X{:.1} Y{:.1}",
+        from[0], from[1], to[0], to[1]
+    )
+}
+
 /// One place where the planner starves, for people: where, by how much, and what feed the
 /// serial line keeps fed there.
 pub fn starve_line(s: &Starve) -> String {
     format!(
-        "  lines {}-{} (X{:.1} Y{:.1} to X{:.1} Y{:.1}, {:.0} mm): the feed ({} mm/min) uses {:.0} \
-         lines/s, the serial line brings {:.0}; {:.2} s lost; it keeps up to about {} mm/min",
-        s.first_line,
-        s.last_line,
-        s.from[0],
-        s.from[1],
-        s.to[0],
-        s.to[1],
+        "{}, {:.0} mm): the feed ({} mm/min) uses {:.0} lines/s, the serial line brings {:.0}; \
+         {:.2} s lost; it keeps up to about {} mm/min",
+        stretch(s.first_line, s.last_line, s.from, s.to),
         s.length_mm,
         plan::num(s.feed_mm_min.round()),
         s.lines_per_s_needed,
@@ -85,6 +88,15 @@ pub fn print_places<T>(places: &[T], line: impl Fn(&T) -> String) {
     }
     if places.len() > PLACES_SHOWN {
         println!("  ... and {} more", places.len() - PLACES_SHOWN);
+    }
+}
+
+/// "1 place", "3 places".
+pub fn places(n: usize) -> String {
+    if n == 1 {
+        "1 place".to_string()
+    } else {
+        format!("{n} places")
     }
 }
 
@@ -112,13 +124,8 @@ pub fn print_feeding(f: &Feeding) {
         );
         print_places(&f.slowed, |s| {
             format!(
-                "  lines {}-{} (X{:.1} Y{:.1} to X{:.1} Y{:.1}): {} mm/min instead of {}",
-                s.first_line,
-                s.last_line,
-                s.from[0],
-                s.from[1],
-                s.to[0],
-                s.to[1],
+                "{}): {} mm/min instead of {}",
+                stretch(s.first_line, s.last_line, s.from, s.to),
                 plan::num(s.now_mm_min),
                 plan::num(s.was_mm_min),
             )

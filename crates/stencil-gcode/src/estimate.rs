@@ -147,7 +147,13 @@ fn estimate_stops(moves: &[Move], stops: &[usize], limits: &Motion, rule: CutRul
     if blocks.is_empty() {
         return e;
     }
-    let exits = plan_exit_speeds(&blocks);
+    add_block_times(&blocks, plan_exit_speeds(&blocks), &mut e);
+    e.total_s = e.cut_s + e.travel_s;
+    e
+}
+
+/// Add to `e`'s cut and travel times each block's, run from rest with these exit speeds².
+pub(crate) fn add_block_times(blocks: &[Block], exits: Vec<f64>, e: &mut Estimate) {
     let mut entry_sq: f64 = 0.0;
     for (b, exit_sq) in blocks.iter().zip(exits) {
         let t = block_time(b.len, entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
@@ -158,8 +164,6 @@ fn estimate_stops(moves: &[Move], stops: &[usize], limits: &Motion, rule: CutRul
             e.travel_s += t;
         }
     }
-    e.total_s = e.cut_s + e.travel_s;
-    e
 }
 
 /// The moves as Grbl's planner blocks, each with its nominal speed, acceleration and the highest

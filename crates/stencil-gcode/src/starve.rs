@@ -22,7 +22,8 @@
 //! AVR: at 115200 baud the serial line is the tighter limit for lines over 23 characters).
 
 use crate::estimate::Estimate;
-use crate::estimate::{block_time, blocks, held_ends, plan_exit_speeds_in, reverse_pass, Block};
+use crate::estimate::{add_block_times, block_time, blocks, held_ends, plan_exit_speeds_in};
+use crate::estimate::{reverse_pass, Block};
 use crate::interpret::{clean_line, CutRule, Program};
 use crate::machine::{Link, Motion};
 
@@ -220,7 +221,7 @@ pub fn estimate_streamed(
     let mut base = Estimate::default();
     let blocks = blocks(&program.moves, &program.stops, limits, rule, &mut base);
     let slots = planner_slots(link);
-    base_times(&blocks, slots, &mut base);
+    add_block_times(&blocks, plan_exit_speeds_in(&blocks, slots), &mut base);
     let (lost, base_t) = lost_per_block(program, text, &blocks, limits, link);
     let starved = stretches(program, text, &blocks, &lost, &base_t, link);
     let mut estimate = base;
@@ -236,20 +237,6 @@ pub fn estimate_streamed(
 /// The planner blocks the model plans with.
 fn planner_slots(link: &Link) -> usize {
     link.planner_blocks.clamp(2, MAX_PLANNED_BLOCKS) as usize
-}
-
-/// Fill `e`'s times from the blocks as a full planner of `slots` runs them.
-fn base_times(blocks: &[Block], slots: usize, e: &mut Estimate) {
-    let mut entry_sq = 0.0f64;
-    for (b, exit_sq) in blocks.iter().zip(plan_exit_speeds_in(blocks, slots)) {
-        let t = block_time(b.len, entry_sq.sqrt(), exit_sq.sqrt(), b.v_nom, b.accel);
-        entry_sq = exit_sq;
-        if b.cut {
-            e.cut_s += t;
-        } else {
-            e.travel_s += t;
-        }
-    }
 }
 
 /// For each block: how much longer it takes (waiting included) over the serial line than
