@@ -34,7 +34,7 @@ pub fn print_summary(path: &Path, s: &GcodeSummary) {
         format_duration(e.cut_s),
         format_duration(e.travel_s),
     );
-    print_feeding(&s.feeding);
+    print_feeding(&s.feeding, s.tool == "laser");
     if let Some(c) = &s.settings {
         let power = if s.tool == "laser" {
             format!("{} % power, ", plan::num(c.power_pct))
@@ -102,7 +102,7 @@ pub fn places(n: usize) -> String {
 
 /// Say where a written job would starve the planner and what was done about it: nothing when
 /// it never starves.
-pub fn print_feeding(f: &Feeding) {
+pub fn print_feeding(f: &Feeding, laser: bool) {
     if f.is_quiet() {
         return;
     }
@@ -117,10 +117,15 @@ pub fn print_feeding(f: &Feeding) {
         println!(
             "feed lowered in {} so that the serial line ({} baud) keeps the planner fed (it \
              would starve there and the head stutter, {:.2} s lost; --keep-feed keeps the \
-             feed); a laser in M4 scales its power with the speed:",
+             feed){}:",
             places(f.slowed.len()),
             f.baud,
             f.lost_s,
+            if laser {
+                "; the laser's power (M4) follows the speed"
+            } else {
+                ""
+            },
         );
         print_places(&f.slowed, |s| {
             format!(
