@@ -68,6 +68,7 @@ mod profiles;
 mod property;
 mod regularize;
 mod resolution;
+mod send_dialects;
 mod send_safety;
 mod start_from;
 mod strength;
