@@ -207,6 +207,20 @@ pub struct Opened {
     pub tcp: Option<String>,
 }
 
+/// Connect (waiting while the board runs what it holds, never resetting it), switch the beam
+/// and the air off, and say where it stands: the firmware's name and the head's position.
+fn make_safe(
+    port: &mut TcpPort,
+    cfg: &stencil_grbl::StreamConfig,
+    print: &mut Print,
+) -> anyhow::Result<(String, stencil_grbl::Position)> {
+    let mut c = stencil_grbl::Console::connect(port, cfg, None, print)?;
+    c.command("M5")?;
+    c.command("M9")?;
+    let at = c.position()?;
+    Ok((c.info().name(), at))
+}
+
 /// Prints what a session after a dropped link hears.
 struct Print;
 impl stencil_grbl::Observer for Print {
@@ -248,13 +262,7 @@ pub fn after_drop(tcp: &str, cfg: &stencil_grbl::StreamConfig) -> bool {
         ..cfg.clone()
     };
     let mut print = Print;
-    let reached =
-        stencil_grbl::Console::connect(&mut port, &cfg, None, &mut print).and_then(|mut c| {
-            c.command("M5")?;
-            c.command("M9")?;
-            let at = c.position()?;
-            Ok((c.info().name(), at))
-        });
+    let reached = make_safe(&mut port, &cfg, &mut print);
     match reached {
         Ok((name, at)) => {
             let p = at.work;

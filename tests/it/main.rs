@@ -49,6 +49,7 @@ mod gobo;
 mod grbl_motion;
 mod grbl_parity;
 mod grbl_sim_reference;
+mod grblhal_sim;
 mod grid;
 mod help_headings;
 mod hostile_options;

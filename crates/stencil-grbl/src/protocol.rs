@@ -198,6 +198,9 @@ fn parse_status(body: &str) -> Option<Status> {
 }
 
 /// One line Grbl sent.
+// A status report is the big variant and the common one: replies are read one at a time and
+// never stored in bulk, so boxing it would only add an allocation per report.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Reply {
     /// The oldest unanswered line was accepted (queued, not yet executed).

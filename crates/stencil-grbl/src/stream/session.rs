@@ -617,7 +617,8 @@ impl Session<'_, '_> {
     }
 }
 
-/// The first answer to a `?` on connecting.
+/// The first answer to a `?` on connecting (one, once: its size does not matter).
+#[allow(clippy::large_enum_variant)]
 enum Heard {
     Status(Status),
     Banner((Firmware, String)),
