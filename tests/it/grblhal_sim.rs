@@ -5,6 +5,9 @@
 //! Runs when `GRBLHAL_SIM` names the running simulator's `HOST:PORT` (e.g. `127.0.0.1:23023`);
 //! otherwise each test says it was skipped. The simulator should have `$32=1` (laser mode) and
 //! brisk motion settings (`$110`/`$111` 6000, `$120`/`$121` 1000) so the jobs do not crawl.
+//! Start it fresh for each run: its socket mode was seen to stop reading after a few
+//! connections, or a few hundred streamed lines on a busy machine (the sender then reports a
+//! stall, or no answer, and stops as it stops any job).
 
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
