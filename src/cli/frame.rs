@@ -193,8 +193,8 @@ impl Say {
 impl Observer for Say {
     fn connected(&mut self, info: &ControllerInfo) {
         self.line(&format!(
-            "connected to Grbl {}{}",
-            info.version,
+            "connected to {}{}",
+            info.name(),
             if info.unlocked { ", unlocked" } else { "" }
         ));
     }

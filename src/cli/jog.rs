@@ -173,7 +173,7 @@ impl Screen {
 
 impl Observer for Screen {
     fn connected(&mut self, info: &ControllerInfo) {
-        self.message(&format!("connected to Grbl {}", info.version));
+        self.message(&format!("connected to {}", info.name()));
     }
     fn message(&mut self, text: &str) {
         Screen::message(self, text);

@@ -7,15 +7,16 @@ use anyhow::{bail, Context};
 
 use stencil_gcode::machine::{Machine, Tool};
 use stencil_grbl::{
-    BytePort, Expected, IfMoving, JournalError, MachineError, PowerScale, Program, VirtualConfig,
-    VirtualGrbl, MOVING_WAIT,
+    BytePort, Expected, Firmware, IfMoving, JournalError, MachineError, PowerScale, Program,
+    TcpPort, VirtualConfig, VirtualGrbl, MOVING_WAIT,
 };
 
 /// Where the controller is: a serial port, or `--dry-run` for the simulated Grbl (shared by
 /// `send`, `frame` and `jog`).
 #[derive(clap::Args, Debug, Clone)]
 pub struct PortArgs {
-    /// Serial port of the controller (e.g. /dev/ttyUSB0, /dev/ttyACM0, COM3).
+    /// Serial port of the controller (e.g. /dev/ttyUSB0, /dev/ttyACM0, COM3), or
+    /// tcp://HOST:PORT for a FluidNC or grblHAL board's network stream (e.g. tcp://fluidnc.local:23).
     #[arg(long)]
     pub port: Option<String>,
     #[arg(long, default_value_t = 115_200)]
@@ -29,6 +30,45 @@ pub struct PortArgs {
     /// It is never reset while it moves.
     #[arg(long)]
     pub stop_running: bool,
+    /// With --dry-run: the firmware the simulated controller plays (its banner, $I, status
+    /// fields, buffer sizes and settings; grblHAL and FluidNC do not reset when the port opens).
+    #[arg(long, value_enum, default_value_t = DryFirmware::Grbl, requires = "dry_run")]
+    pub dry_run_firmware: DryFirmware,
+    /// With --dry-run: reach the simulated controller over TCP on 127.0.0.1 (as a WiFi board's
+    /// tcp:// port) instead of a pseudo-terminal.
+    #[arg(long, requires = "dry_run")]
+    pub dry_run_tcp: bool,
+}
+
+/// How long a dropped network link is tried again before giving up.
+const RECONNECT_FOR: Duration = Duration::from_secs(30);
+
+/// `tcp://HOST:PORT` → `HOST:PORT`; `None` for a serial port's path.
+fn tcp_address(port: &str) -> anyhow::Result<Option<&str>> {
+    let Some(rest) = port.strip_prefix("tcp://") else {
+        return Ok(None);
+    };
+    let ok = rest
+        .rsplit_once(':')
+        .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok_and(|p| p > 0));
+    if !ok {
+        bail!(
+            "--port {port}: a network port is tcp://HOST:PORT, e.g. tcp://192.168.1.50:23 \
+             (FluidNC's and grblHAL's telnet stream listen on port 23)"
+        );
+    }
+    Ok(Some(rest))
+}
+
+/// The firmware a dry run's controller plays.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DryFirmware {
+    /// Grbl 1.1h (128-byte receive buffer, 15 planner blocks).
+    Grbl,
+    /// grblHAL (1024-byte receive buffer, 35 planner blocks, `$I` with NEWOPT).
+    Grblhal,
+    /// FluidNC (settings from its configuration file, sizes only in its status reports).
+    Fluidnc,
 }
 
 /// The option that does what a machine error asks for. The library says what is wrong and what
@@ -84,12 +124,38 @@ impl PortArgs {
     /// Open the port, or with `--dry-run` start a virtual Grbl built as `vcfg` says.
     pub fn open(&self, vcfg: VirtualConfig) -> anyhow::Result<Opened> {
         if self.dry_run {
+            let firmware = match self.dry_run_firmware {
+                DryFirmware::Grbl => Firmware::Grbl,
+                DryFirmware::Grblhal => Firmware::GrblHal,
+                DryFirmware::Fluidnc => Firmware::FluidNc,
+            };
+            let sizes = VirtualConfig::dialect(firmware);
+            let vcfg = VirtualConfig {
+                firmware,
+                rx_buffer: sizes.rx_buffer,
+                planner_blocks: sizes.planner_blocks,
+                ..vcfg
+            };
+            if self.dry_run_tcp {
+                let (vg, addr) =
+                    VirtualGrbl::spawn_tcp(vcfg).context("cannot start the virtual Grbl on TCP")?;
+                let tcp = addr.to_string();
+                let port = TcpPort::connect(&tcp, Duration::from_secs(5))
+                    .with_context(|| format!("cannot reach the virtual Grbl at tcp://{tcp}"))?;
+                return Ok(Opened {
+                    port: Box::new(port),
+                    label: format!("the virtual Grbl at tcp://{tcp} (dry run)"),
+                    virtual_grbl: Some(vg),
+                    tcp: Some(tcp),
+                });
+            }
             let (vg, host) = VirtualGrbl::spawn(vcfg)
                 .context("cannot start the virtual Grbl (no pseudo-terminals available?)")?;
             return Ok(Opened {
                 port: Box::new(host),
                 label: "the virtual Grbl (dry run)".into(),
                 virtual_grbl: Some(vg),
+                tcp: None,
             });
         }
         let Some(p) = &self.port else {
@@ -98,6 +164,20 @@ impl PortArgs {
                 list_ports()
             );
         };
+        if let Some(tcp) = tcp_address(p)? {
+            let port = TcpPort::connect(tcp, Duration::from_secs(10)).map_err(|e| {
+                anyhow::anyhow!(
+                    "{p}: cannot connect: {e}; check the board is on this network (its WiFi \
+                     or Ethernet address) and its telnet stream is enabled"
+                )
+            })?;
+            return Ok(Opened {
+                port: Box::new(port),
+                label: p.to_string(),
+                virtual_grbl: None,
+                tcp: Some(tcp.to_string()),
+            });
+        }
         let sp = serialport::new(p, self.baud)
             .timeout(Duration::from_millis(100))
             .open()
@@ -111,6 +191,7 @@ impl PortArgs {
             port: Box::new(sp),
             label: p.to_string(),
             virtual_grbl: None,
+            tcp: None,
         })
     }
 }
@@ -122,6 +203,84 @@ pub struct Opened {
     pub label: String,
     /// The simulated controller behind a dry run (its record is printed at the end).
     pub virtual_grbl: Option<VirtualGrbl>,
+    /// A network link's HOST:PORT, to reach the controller again after the link drops.
+    pub tcp: Option<String>,
+}
+
+/// Connect (waiting while the board runs what it holds, never resetting it), switch the beam
+/// and the air off, and say where it stands: the firmware's name and the head's position.
+fn make_safe(
+    port: &mut TcpPort,
+    cfg: &stencil_grbl::StreamConfig,
+    print: &mut Print,
+) -> anyhow::Result<(String, stencil_grbl::Position)> {
+    let mut c = stencil_grbl::Console::connect(port, cfg, None, print)?;
+    c.command("M5")?;
+    c.command("M9")?;
+    let at = c.position()?;
+    Ok((c.info().name(), at))
+}
+
+/// Prints what a session after a dropped link hears.
+struct Print;
+impl stencil_grbl::Observer for Print {
+    fn message(&mut self, text: &str) {
+        eprintln!("{text}");
+    }
+}
+
+/// The network link dropped mid-job: the board runs on with what it holds. Reach it again (for
+/// at most 30 s), never resetting it: while it still runs what it holds, it is watched until it
+/// stands (as connecting always does), then the beam and the air are switched off (M5, M9),
+/// which a board left in M3 would otherwise keep on. Says what it found; false when it could
+/// not be reached.
+pub fn after_drop(tcp: &str, cfg: &stencil_grbl::StreamConfig) -> bool {
+    eprintln!(
+        "the network link to tcp://{tcp} dropped mid-job: reaching the controller again (for at \
+         most {} s) to watch it finish what it holds and switch the beam off; it is not reset",
+        RECONNECT_FOR.as_secs()
+    );
+    let end = std::time::Instant::now() + RECONNECT_FOR;
+    let mut port = loop {
+        match TcpPort::connect(tcp, Duration::from_secs(3)) {
+            Ok(p) => break p,
+            Err(e) if std::time::Instant::now() >= end => {
+                eprintln!(
+                    "tcp://{tcp} cannot be reached ({e}): at the machine, make sure the laser \
+                     and the air are off"
+                );
+                return false;
+            }
+            Err(_) => std::thread::sleep(Duration::from_secs(1)),
+        }
+    };
+    let cfg = stencil_grbl::StreamConfig {
+        boot_wait: Duration::from_millis(300),
+        if_moving: IfMoving::Wait(MOVING_WAIT),
+        home_first: false,
+        unlock: false,
+        ..cfg.clone()
+    };
+    let mut print = Print;
+    let reached = make_safe(&mut port, &cfg, &mut print);
+    match reached {
+        Ok((name, at)) => {
+            let p = at.work;
+            eprintln!(
+                "reached {name} again: it ran what it held and stands {} at X{:.3} Y{:.3} \
+                 (work); laser and air switched off (M5, M9), not reset",
+                at.status.state, p[0], p[1]
+            );
+            true
+        }
+        Err(e) => {
+            eprintln!(
+                "tcp://{tcp} answered but could not be made safe ({e}): at the machine, make \
+                 sure the laser and the air are off"
+            );
+            false
+        }
+    }
 }
 
 /// The serial ports the system lists, for error messages.

@@ -20,9 +20,9 @@ use stencil_grbl::{VirtualConfig, VirtualGrbl};
 use crate::common::read_until;
 
 /// (setup lines, the line, Grbl 1.1h's answer, the rule).
-type Case = (&'static str, &'static str, &'static str, &'static str);
+pub(crate) type Case = (&'static str, &'static str, &'static str, &'static str);
 
-const CASES: &[Case] = &[
+pub(crate) const CASES: &[Case] = &[
     // ---- Words as read (gcode.c STEP 2, nuts_bolts.c read_float) ----
     ("", "G0X1", "ok", "gcode.c: G0 with an axis word"),
     (

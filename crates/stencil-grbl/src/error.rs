@@ -165,6 +165,10 @@ pub enum MachineError {
     Setup { port: String, cmd: String, code: u8 },
     #[error("{port}: Grbl is not in laser mode ($32={value}) and this is a laser job: without it Grbl stops at every power change and keeps the beam on through G0 moves that should be dark; nothing was sent. Set $32=1 (Grbl keeps it in its settings), or, if this machine is not a laser, use its own machine profile")]
     LaserModeOff { port: String, value: String },
+    /// FluidNC reports laser mode off: its `$32` only mirrors the configuration file, where the
+    /// spindle is not a laser.
+    #[error("{port}: FluidNC's laser mode is off ($32=0): its spindle in the configuration file (config.yaml) is not a laser, so the beam would stay on through G0 moves; nothing was sent. $32 cannot be set on FluidNC: give the configuration a `Laser:` spindle (with its speed_map), upload it and restart the board")]
+    FluidLaserOff { port: String },
     #[error("{port}: the controller's power scale is ${setting}={} but the job was written for ${setting}={} ({written_for}): {example}; nothing was sent. Set ${setting}={} on the controller (Grbl keeps it), or have every S rescaled to the controller's scale", stencil_gcode::num(*controller), stencil_gcode::num(*job), stencil_gcode::num(*job))]
     PowerScale {
         port: String,

@@ -27,6 +27,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod codes;
 mod error;
 mod frame;
 mod jog;
@@ -49,10 +50,10 @@ pub use keys::{controls_for, overrides_text, pump, Key, KeySource, SEND_KEY_HELP
 pub use placement::{g92_for, ControllerState, DumpError, Placement, StartFrom};
 pub use program::{cut_extent, cut_extent_with, machine_change, Extent, Program, ProgramLine};
 pub use program::{ResumeLift, StateBefore};
-pub use protocol::{MachineState, Status};
+pub use protocol::{Firmware, MachineState, Status};
 pub use stall::{slowest_step, Clock, ClockRef};
 pub use stream::{send, BytePort, Console, Control, ControllerInfo, Expected, FlowControl};
 pub use stream::{IfMoving, LaserMode, Observer, Override, Position, PowerScale, Progress, Quiet};
-pub use stream::{Recovery, StreamConfig, Summary, MOVING_WAIT};
+pub use stream::{Recovery, StreamConfig, Summary, TcpPort, MOVING_WAIT};
 pub use virtual_grbl::{Event, Fault, FaultKind, Pace, PlannedMove, Received, Record, Stutter};
 pub use virtual_grbl::{VirtualConfig, VirtualGrbl};

@@ -200,7 +200,7 @@ impl ControllerState {
             let l = l.split(" (").next().unwrap_or(l);
             let r = Reply::parse(l);
             match r {
-                Reply::Ok | Reply::Welcome(_) | Reply::Message(_) => continue,
+                Reply::Ok | Reply::Welcome(..) | Reply::Message(_) => continue,
                 _ if st.take(&r) => seen = true,
                 _ => {
                     return Err(DumpError {

@@ -4,6 +4,8 @@
 
 use std::fmt;
 
+pub(crate) use crate::codes::{alarm_meaning, error_meaning};
+
 /// Real-time command: ask for a status report (never enters the receive buffer).
 pub(crate) const RT_STATUS: u8 = b'?';
 /// Real-time command: feed hold (decelerate to a stop, keep the job).
@@ -121,6 +123,16 @@ pub struct Status {
     pub line: Option<u32>,
     /// Feed, rapid and spindle overrides in percent (`Ov:`).
     pub overrides: Option<[u32; 3]>,
+    /// Input pins active (`Pn:`, e.g. `XP` for the X limit and the probe).
+    pub pins: Option<String>,
+    /// grblHAL's `H:1` (homed) or `H:0`; the mask after a comma is not kept.
+    pub homed: Option<bool>,
+    /// grblHAL's `FW:` (the firmware's name, in the first report after connecting).
+    pub firmware: Option<String>,
+    /// grblHAL's `MPG:1`: a pendant has taken the controller, the host may only watch.
+    pub mpg: Option<bool>,
+    /// A job running from the controller's own card: percent done and the file (`SD:`).
+    pub card: Option<(f64, String)>,
 }
 
 impl Status {
@@ -168,6 +180,17 @@ fn parse_status(body: &str) -> Option<Status> {
             "Bf" => st.buffer = parse_list(val).map(|[b, r]| (b, r)),
             "Ln" => st.line = val.parse().ok(),
             "Ov" => st.overrides = parse_list(val),
+            "Pn" => st.pins = Some(val.to_string()),
+            "H" => st.homed = val.split(',').next().map(|h| h == "1"),
+            "FW" => st.firmware = Some(val.to_string()),
+            "MPG" => st.mpg = Some(val == "1"),
+            "SD" => {
+                st.card = val.split_once(',').and_then(|(pct, file)| {
+                    Some((pct.trim().parse().ok()?, file.trim().to_string()))
+                })
+            }
+            // Whatever else a firmware adds (grblHAL's `Sc`, `T`, `AR`; FluidNC's `ISRs`,
+            // `Heap`) describes nothing the sender acts on: ignored, never an error.
             _ => {}
         }
     }
@@ -175,6 +198,9 @@ fn parse_status(body: &str) -> Option<Status> {
 }
 
 /// One line Grbl sent.
+// A status report is the big variant and the common one: replies are read one at a time and
+// never stored in bulk, so boxing it would only add an allocation per report.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Reply {
     /// The oldest unanswered line was accepted (queued, not yet executed).
@@ -183,8 +209,10 @@ pub enum Reply {
     Error(u8),
     /// Pushed at any time: the machine stopped for this reason.
     Alarm(u8),
-    /// The boot/reset banner, e.g. `Grbl 1.1h ['$' for help]`: the version text.
-    Welcome(String),
+    /// The boot/reset banner, e.g. `Grbl 1.1h ['$' for help]`, `GrblHAL 1.1f ['$' or '$HELP'
+    /// for help]`, `Grbl 3.7 [FluidNC v3.7.8 (wifi) '$' for help]`: which firmware, and its
+    /// version text.
+    Welcome(Firmware, String),
     /// `[MSG:...]`: the text inside.
     Message(String),
     /// Other bracketed feedback (`[VER:..]`, `[OPT:..]`, `[GC:..]`, `[PRB:..]`...): the text inside.
@@ -211,9 +239,18 @@ impl Reply {
                 return Reply::Alarm(n);
             }
         }
-        if let Some(rest) = l.strip_prefix("Grbl ") {
+        if let Some(rest) = l.strip_prefix("GrblHAL ") {
             let version = rest.split_whitespace().next().unwrap_or("").to_string();
-            return Reply::Welcome(version);
+            return Reply::Welcome(Firmware::GrblHal, version);
+        }
+        if let Some(rest) = l.strip_prefix("Grbl ") {
+            // FluidNC's banner names itself and its own version in the brackets.
+            if let Some(v) = rest.split_once("[FluidNC ").map(|(_, v)| v) {
+                let version = v.split_whitespace().next().unwrap_or("");
+                return Reply::Welcome(Firmware::FluidNc, version.trim_start_matches('v').into());
+            }
+            let version = rest.split_whitespace().next().unwrap_or("").to_string();
+            return Reply::Welcome(Firmware::Grbl, version);
         }
         if let Some(body) = l.strip_prefix('<').and_then(|b| b.strip_suffix('>')) {
             if let Some(st) = parse_status(body) {
@@ -240,70 +277,110 @@ pub(crate) fn parse_opt(feedback: &str) -> Option<(usize, usize)> {
     Some((blocks, rx))
 }
 
+/// The firmware a controller runs: the three speak Grbl 1.1's protocol, each with its own
+/// additions (status fields, codes, buffer sizes, how settings are kept).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Firmware {
+    /// Grbl 1.1 (an AVR board: 128-byte receive buffer, 15 planner blocks).
+    #[default]
+    Grbl,
+    /// grblHAL (32-bit boards: larger buffers, `$I` with `NEWOPT` and `FIRMWARE` lines).
+    GrblHal,
+    /// FluidNC (ESP32 boards; settings in a YAML configuration file; often over WiFi).
+    FluidNc,
+}
+
+impl fmt::Display for Firmware {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Firmware::Grbl => "Grbl",
+            Firmware::GrblHal => "grblHAL",
+            Firmware::FluidNc => "FluidNC",
+        })
+    }
+}
+
+/// What `$I` (or grblHAL's `$I+`) said: the firmware, its version and the sizes it reports.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct BuildInfo {
+    /// Which firmware, if the answer said (`[FIRMWARE:grblHAL]`, `NEWOPT`, `FluidNC` in `VER`).
+    pub(crate) firmware: Option<Firmware>,
+    /// The version (`1.1h`, grblHAL's `1.1f`, FluidNC's own `3.7.8`) and the build date.
+    pub(crate) version: Option<String>,
+    pub(crate) build: Option<u32>,
+    /// Planner blocks and receive buffer bytes (`OPT`; FluidNC does not say).
+    pub(crate) sizes: Option<(usize, usize)>,
+    /// grblHAL's `NEWOPT` line was seen (an extended answer).
+    pub(crate) newopt: bool,
+}
+
+/// Read a `$I` answer's bracketed lines.
+pub(crate) fn build_info<'a>(feedback: impl IntoIterator<Item = &'a str>) -> BuildInfo {
+    let mut b = BuildInfo::default();
+    for f in feedback {
+        if let Some(ver) = f.strip_prefix("VER:") {
+            let head = ver.split(':').next().unwrap_or("").trim();
+            if let Some(v) = head.split_once("FluidNC ").map(|(_, v)| v) {
+                b.firmware = Some(Firmware::FluidNc);
+                let v = v.split_whitespace().next().unwrap_or("");
+                b.version = Some(v.trim_start_matches('v').to_string());
+            } else {
+                // `1.1h.20190830`: the version, a dot, the build date.
+                let (v, build) = head.rsplit_once('.').unwrap_or((head, ""));
+                b.version = Some(v.to_string());
+                b.build = build.parse().ok();
+            }
+        } else if f.starts_with("OPT:") {
+            b.sizes = b.sizes.or(parse_opt(f));
+        } else if f.starts_with("NEWOPT:") {
+            b.newopt = true;
+            b.firmware = Some(Firmware::GrblHal);
+        } else if f == "FIRMWARE:grblHAL" {
+            b.firmware = Some(Firmware::GrblHal);
+        }
+    }
+    b
+}
+
+/// Grbl 1.1h's build date: a `VER` line of a later build comes from grblHAL (whose `$I`
+/// may leave its `NEWOPT` and `FIRMWARE` lines to `$I+`) or another fork.
+pub(crate) const GRBL_LAST_BUILD: u32 = 20190830;
+
+/// A FluidNC configuration (`$Config/Dump`, YAML, one section level deep): its `Laser:` spindle's `speed_map` as
+/// (the S of full power, the highest S still at 0 %); `None` when it has no laser spindle.
+pub(crate) fn laser_speed_map<'a>(config: impl IntoIterator<Item = &'a str>) -> Option<(f64, f64)> {
+    // The lines come trimmed (as replies are read): a section is a key with no value.
+    let mut in_laser = false;
+    for line in config {
+        let t = line.trim();
+        if t.ends_with(':') {
+            in_laser = t.eq_ignore_ascii_case("laser:");
+            continue;
+        }
+        let Some(map) = t.strip_prefix("speed_map:").filter(|_| in_laser) else {
+            continue;
+        };
+        let points: Vec<(f64, f64)> = map
+            .split_whitespace()
+            .filter_map(|p| {
+                let (s, pct) = p.split_once('=')?;
+                Some((s.parse().ok()?, pct.trim_end_matches('%').parse().ok()?))
+            })
+            .collect();
+        let max = points.iter().map(|p| p.0).reduce(f64::max)?;
+        let min = points
+            .iter()
+            .filter(|p| p.1 <= 0.0)
+            .map(|p| p.0)
+            .fold(0.0, f64::max);
+        return Some((max, min));
+    }
+    None
+}
+
 /// The unlock hint Grbl prints after boot or reset while the machine is locked in alarm.
 pub(crate) fn is_unlock_hint(msg: &str) -> bool {
     msg.contains("'$H'|'$X' to unlock")
-}
-
-/// What an `error:N` means (Grbl 1.1, codes 1..38), in our words.
-pub(crate) fn error_meaning(code: u8) -> &'static str {
-    match code {
-        1 => "a word without its letter: G-code words are a letter followed by a number",
-        2 => "a number is missing or malformed",
-        3 => "not a Grbl '$' command",
-        4 => "a value that must be positive is negative",
-        5 => "homing is not enabled in the settings ($22)",
-        6 => "the step pulse time must be at least 3 microseconds",
-        7 => "the settings memory (EEPROM) could not be read; defaults were restored",
-        8 => "this '$' command only runs while the machine is idle",
-        9 => "G-code is locked out during an alarm or a jog; unlock ($X) or home ($H) first",
-        10 => "soft limits need homing enabled",
-        11 => {
-            "the line is longer than Grbl's line buffer (79 characters without spaces and comments)"
-        }
-        12 => "the setting would make the step rate exceed what the board can drive",
-        13 => "the safety door is open",
-        14 => "the build info or startup line is too long for the settings memory",
-        15 => "the jog target is outside the machine's travel",
-        16 => "a jog command without '=' or with a G-code jogging does not allow",
-        17 => "laser mode needs the spindle PWM output",
-        20 => "an unsupported or invalid G-code command",
-        21 => "two commands from the same modal group on one line",
-        22 => "a feed move (G1/G2/G3) before any feed rate F was set",
-        23 => "this command needs an integer value",
-        24 => "two commands on one line both want the axis words",
-        25 => "the same word appears twice on one line",
-        26 => "a command that needs axis words has none",
-        27 => "the line number N is out of range",
-        28 => "a required value word is missing",
-        29 => "G59.x work coordinate systems are not supported",
-        30 => "G53 only works with G0 or G1",
-        31 => "axis words on a line where no command uses them",
-        32 => "an arc (G2/G3) needs at least one axis word in the selected plane",
-        33 => "the motion target is invalid (e.g. an arc that cannot be drawn)",
-        34 => "the arc radius is invalid",
-        35 => "an arc (G2/G3) needs at least one offset word in the selected plane",
-        36 => "value words no command on the line uses",
-        37 => "the tool length offset (G43.1) is not on the configured axis",
-        38 => "the tool number is larger than supported",
-        _ => "an error code this program does not know (newer firmware?)",
-    }
-}
-
-/// What an `ALARM:N` means (Grbl 1.1, codes 1..9), in our words.
-pub(crate) fn alarm_meaning(code: u8) -> &'static str {
-    match code {
-        1 => "hard limit: a limit switch was hit; position is lost, home the machine again",
-        2 => "soft limit: a move would leave the machine's travel; position is kept",
-        3 => "reset while moving: position may be lost, home or re-zero the machine",
-        4 => "probe fail: the probe was not in its expected state before probing",
-        5 => "probe fail: the probe did not make contact within the travel",
-        6 => "homing fail: homing was reset",
-        7 => "homing fail: the safety door opened during homing",
-        8 => "homing fail: the pull-off move did not clear the limit switch",
-        9 => "homing fail: no limit switch was found within the search distance",
-        _ => "an alarm code this program does not know (newer firmware?)",
-    }
 }
 
 #[cfg(test)]
@@ -317,7 +394,15 @@ mod tests {
         assert_eq!(Reply::parse("ALARM:3"), Reply::Alarm(3));
         assert_eq!(
             Reply::parse("Grbl 1.1h ['$' for help]"),
-            Reply::Welcome("1.1h".into())
+            Reply::Welcome(Firmware::Grbl, "1.1h".into())
+        );
+        assert_eq!(
+            Reply::parse("GrblHAL 1.1f ['$' or '$HELP' for help]"),
+            Reply::Welcome(Firmware::GrblHal, "1.1f".into())
+        );
+        assert_eq!(
+            Reply::parse("Grbl 3.7 [FluidNC v3.7.8 (esp32-wifi) '$' for help]"),
+            Reply::Welcome(Firmware::FluidNc, "3.7.8".into())
         );
         assert_eq!(
             Reply::parse("[MSG:'$H'|'$X' to unlock]"),
@@ -360,6 +445,63 @@ mod tests {
     }
 
     #[test]
+    fn reads_each_firmwares_build_info_and_extended_status() {
+        let hal = build_info([
+            "VER:1.1f.20250731:",
+            "OPT:VNMSL,35,1024,3,0",
+            "AXS:3:XYZ",
+            "NEWOPT:ENUMS,RT+,HOME,SED",
+            "FIRMWARE:grblHAL",
+        ]);
+        assert_eq!(hal.firmware, Some(Firmware::GrblHal));
+        assert_eq!(hal.version.as_deref(), Some("1.1f"));
+        assert_eq!(hal.build, Some(20250731));
+        assert_eq!(hal.sizes, Some((35, 1024)));
+        let fluid = build_info(["VER:3.7 FluidNC v3.7.8 (esp32-wifi) :", "OPT:MPHS"]);
+        assert_eq!(fluid.firmware, Some(Firmware::FluidNc));
+        assert_eq!(fluid.version.as_deref(), Some("3.7.8"));
+        assert_eq!(fluid.sizes, None);
+        let grbl = build_info(["VER:1.1h.20190830:", "OPT:V,15,128"]);
+        assert_eq!((grbl.firmware, grbl.build), (None, Some(GRBL_LAST_BUILD)));
+        let Reply::Status(s) = Reply::parse(
+            "<Run|MPos:1.000,2.000,0.000|Bf:34,1023|FS:600,300|Pn:XP|WCO:0.000,0.000,0.000|\
+             A:S|Sc:|MPG:0|H:1,7|SD:45.25,/sd/job.nc|T:0|FW:grblHAL|Heap:1000|new:x|odd>",
+        ) else {
+            panic!("not a status");
+        };
+        assert_eq!(s.state, MachineState::Run);
+        assert_eq!(s.buffer, Some((34, 1023)));
+        assert_eq!(s.pins.as_deref(), Some("XP"));
+        assert_eq!((s.homed, s.mpg), (Some(true), Some(false)));
+        assert_eq!(s.firmware.as_deref(), Some("grblHAL"));
+        assert_eq!(s.card, Some((45.25, "/sd/job.nc".to_string())));
+        // A state word a firmware adds is kept, not an error.
+        let Reply::Status(s) = Reply::parse("<Tool|MPos:0,0,0|Bf:35,1023>") else {
+            panic!("not a status");
+        };
+        assert_eq!(s.state, MachineState::Other("Tool".into()));
+    }
+
+    #[test]
+    fn reads_a_fluidnc_laser_speed_map() {
+        let yaml = [
+            "name: virtual",
+            "spindle:",
+            "Laser:",
+            "  pwm_hz: 5000",
+            "  speed_map: 0=0.000% 10=0.000% 1000=100.000%",
+            "  off_on_alarm: true",
+            "coolant:",
+            "  speed_map: 0=0% 9=100%",
+        ];
+        assert_eq!(laser_speed_map(yaml), Some((1000.0, 10.0)));
+        assert_eq!(
+            laser_speed_map(["PWM:", "  speed_map: 0=0% 255=100%"]),
+            None
+        );
+    }
+
+    #[test]
     fn every_documented_code_has_its_own_meaning() {
         let unknown = error_meaning(200);
         let errs: Vec<_> = (1..=38u8).filter(|c| !(18..=19).contains(c)).collect();
@@ -374,6 +516,14 @@ mod tests {
             assert_ne!(alarm_meaning(c), alarm_meaning(0), "alarm {c}");
         }
         assert!(error_meaning(22).contains("feed"));
+        // Beyond Grbl's codes, each firmware's meaning, named.
+        assert!(error_meaning(46).starts_with("grblHAL: the machine must be homed"));
+        assert!(
+            error_meaning(162).starts_with("FluidNC:") && error_meaning(162).contains("read-only")
+        );
+        assert!(alarm_meaning(11).contains("grblHAL: homing is required"));
+        assert!(alarm_meaning(11).contains("FluidNC:"));
+        assert_eq!(alarm_meaning(40), alarm_meaning(0));
     }
 
     #[test]

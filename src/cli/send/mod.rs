@@ -79,7 +79,8 @@ pub struct SendArgs {
     /// With --dry-run: make the simulated Grbl fail when the N-th G-code line of the run arrives:
     /// `close@N` (port dies), `silence@N`, `freeze@N` (stuck in Run, still answering status),
     /// `drop-ok@N` / `garble-ok@N` (its answer lost or garbled), `power-loss@N` (the board
-    /// restarts at machine zero), `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
+    /// restarts at machine zero), `drop-link@N` (with --dry-run-tcp: the network link drops, the
+    /// board runs on), `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
     #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
     pub dry_run_fault: Vec<Fault>,
     /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
@@ -160,7 +161,7 @@ fn parse_setting(s: &str) -> Result<(u32, String), String> {
 /// `--dry-run-fault close@60`.
 fn parse_fault(s: &str) -> Result<Fault, String> {
     let usage = "expected KIND@N with KIND one of close, silence, freeze, drop-ok, garble-ok, \
-                 power-loss, error:C, alarm:C and N the G-code line (1 or more), e.g. close@60";
+                 power-loss, drop-link, error:C, alarm:C and N the G-code line (1 or more), e.g. close@60";
     let (kind, at) = s.split_once('@').ok_or_else(|| format!("`{s}`: {usage}"))?;
     let at: usize = at
         .parse()
@@ -180,6 +181,7 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
         None if kind == "drop-ok" => FaultKind::DropOk,
         None if kind == "garble-ok" => FaultKind::GarbleOk,
         None if kind == "power-loss" => FaultKind::PowerLoss,
+        None if kind == "drop-link" => FaultKind::DropLink,
         Some(("error", c)) => FaultKind::Error(code(c, 1..=38)?),
         Some(("alarm", c)) => FaultKind::Alarm(code(c, 1..=9)?),
         _ => return Err(format!("`{s}`: {usage}")),
@@ -358,6 +360,7 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         mut port,
         label,
         virtual_grbl,
+        tcp,
     } = a.link.open(super::place::virtual_from(
         virtual_config(&a, &machine),
         dump.as_ref(),
@@ -462,6 +465,10 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     let sum = match result {
         Ok(s) => s,
         Err(e) => {
+            if let (Some(tcp), stencil_grbl::MachineError::PortLost { .. }) = (&tcp, &e) {
+                drop(port);
+                super::port::after_drop(tcp, &cfg);
+            }
             if let Some(vg) = virtual_grbl {
                 print_virtual(vg);
             }

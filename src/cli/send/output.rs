@@ -62,8 +62,8 @@ impl Observer for Bar {
         // (the settings check has said where they differ from the profile).
         self.limits = controller_motion(self.limits, info);
         self.say(&format!(
-            "connected to Grbl {} ({} planner blocks, {}-byte receive buffer){}",
-            info.version,
+            "connected to {} ({} planner blocks, {}-byte receive buffer){}",
+            info.name(),
             info.planner_blocks,
             info.rx_buffer,
             if info.unlocked { ", unlocked" } else { "" }
@@ -129,13 +129,13 @@ fn timed_job(job: &Program, text: &str) -> stencil_gcode::interpret::Program {
 pub fn print_summary(sum: &Summary, label: &str, virtual_grbl: Option<VirtualGrbl>) {
     let secs = sum.elapsed.as_secs_f64();
     println!(
-        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; Grbl {}, counting against {} bytes, at most {} in flight",
+        "sent {} lines ({} bytes) to {label}: streamed in {:.2} s ({:.0} bytes/s), job done after {}; {}, counting against {} bytes, at most {} in flight",
         sum.lines,
         sum.bytes,
         secs,
         if secs > 0.0 { sum.bytes as f64 / secs } else { 0.0 },
         format_duration(sum.total.as_secs_f64()),
-        sum.info.version,
+        sum.info.name(),
         sum.rx_limit,
         sum.max_in_flight
     );

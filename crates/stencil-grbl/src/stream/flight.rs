@@ -240,7 +240,7 @@ impl Session<'_, '_> {
                 let halt = self.halt(f.run.last_acked, f.resume_at(None));
                 return Err(MachineError::Alarm { code, halt });
             }
-            Reply::Welcome(_) => {
+            Reply::Welcome(..) => {
                 // Everything queued was lost with the reset; the laser is off.
                 let halt = Halt {
                     last_acked: f.run.last_acked,

@@ -93,7 +93,7 @@ impl Session<'_, '_> {
                     }
                 }
                 // Grbl restarted (power, its own reset): it stands, with nothing queued.
-                (Reply::Alarm(_) | Reply::Welcome(_), _) => return Wait::Standing,
+                (Reply::Alarm(_) | Reply::Welcome(..), _) => return Wait::Standing,
                 _ => {}
             }
         }

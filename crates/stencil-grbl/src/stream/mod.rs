@@ -7,7 +7,8 @@
 //! By concern: `link` (the byte port, read line by line), `session` (connect, setup commands,
 //! status queries), `flight` (flow control, acknowledgements, the `$C` pass), `tracker` (which
 //! acknowledged moves really ran), `control` (the operator's real-time commands and overrides),
-//! `halt` (every stop path), `config` and `observe` (what goes in and what comes out), and
+//! `halt` (every stop path), `config` and `observe` (what goes in and what comes out), `tcp`
+//! (the network link), and
 //! [`console`] (the same session held open for jogging and framing).
 
 use std::sync::mpsc::Receiver;
@@ -23,6 +24,7 @@ mod place;
 mod recover;
 mod session;
 mod settings;
+mod tcp;
 mod tracker;
 
 pub use self::config::{
@@ -32,6 +34,7 @@ pub use self::config::{
 pub use self::console::{Console, Position};
 pub use self::link::BytePort;
 pub use self::observe::{ControllerInfo, Observer, Progress, Quiet, Summary};
+pub use self::tcp::TcpPort;
 use super::error::MachineError;
 use super::program::Program;
 

@@ -2,11 +2,13 @@
 
 use std::time::Duration;
 
-use crate::protocol::MachineState;
+use crate::protocol::{Firmware, MachineState};
 
 /// What the controller told us on connect.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ControllerInfo {
+    /// Which firmware, from the banner and `$I`.
+    pub firmware: Firmware,
     /// The firmware version from the banner or `$I`.
     pub version: String,
     /// Receive buffer, bytes.
@@ -20,6 +22,11 @@ pub struct ControllerInfo {
 }
 
 impl ControllerInfo {
+    /// "Grbl 1.1h", "grblHAL 1.1f", "FluidNC 3.7.8": what the controller is, for messages.
+    pub fn name(&self) -> String {
+        format!("{} {}", self.firmware, self.version)
+    }
+
     /// Setting `$n` as the controller reported it.
     pub fn setting(&self, n: u32) -> Option<f64> {
         self.settings.iter().find(|(k, _)| *k == n).map(|&(_, v)| v)

@@ -9,7 +9,7 @@ use super::config::{IfMoving, HOMING_LIMIT};
 use super::link::{BytePort, Link, LinkFault};
 use super::observe::{ControllerInfo, Observer};
 use crate::error::MachineError;
-use crate::protocol::{self, MachineState, Reply, Status, RT_SOFT_RESET, RT_STATUS};
+use crate::protocol::{self, Firmware, MachineState, Reply, Status, RT_SOFT_RESET, RT_STATUS};
 use crate::stall::StallWatch;
 use stencil_gcode::limits::{PLANNER_BLOCKS, RX_BUFFER_BYTES};
 
@@ -83,47 +83,84 @@ impl Session<'_, '_> {
     }
 
     /// Wait for the banner; a board that did not reset on open is asked what it is doing (`?`)
-    /// before it is woken with a soft reset: one still running moves it was given before is
-    /// waited for, or stopped safely ([`IfMoving`]), never reset while it moves.
+    /// before anything else: one still running moves it was given before is waited for, or
+    /// stopped safely ([`IfMoving`]), never reset while it moves. A standing one is asked what
+    /// it is (`$I`): grblHAL and FluidNC, which do not reset when a port opens and keep their
+    /// state for the next sender, are never reset by connecting; Grbl is woken with a soft
+    /// reset, as it expects.
     pub(super) fn connect(&mut self) -> Result<(), MachineError> {
         let mut alarm = None;
         let mut hinted = false;
-        let mut version = self.wait_welcome(self.cfg.boot_wait, &mut alarm, &mut hinted)?;
-        if version.is_none() {
-            version = self.before_reset(&mut alarm, &mut hinted)?;
+        let mut banner = self.wait_welcome(self.cfg.boot_wait, &mut alarm, &mut hinted)?;
+        let mut build = None;
+        if banner.is_none() {
+            banner = self.before_reset(&mut alarm, &mut hinted)?;
         }
-        if version.is_none() {
+        if banner.is_none() {
+            let b = self.identify(Firmware::Grbl)?;
+            if let (Some(fw @ (Firmware::GrblHal | Firmware::FluidNc)), Some(v)) =
+                (b.firmware, b.version.clone())
+            {
+                self.obs.message(&format!(
+                    "{fw} {v} answered without a banner (it does not reset when a port opens): \
+                     connected without resetting it, its state and position kept"
+                ));
+                banner = Some((fw, v));
+            }
+            // Grbl's answer stands after the reset that wakes it: not asked twice.
+            build = b.version.is_some().then_some(b);
+        }
+        if banner.is_none() {
             self.link
                 .write(&[RT_SOFT_RESET])
                 .map_err(|f| self.lost(f))?;
-            version = self.wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?;
+            banner = self.wait_welcome(self.cfg.timeout, &mut alarm, &mut hinted)?;
         }
-        let Some(version) = version else {
+        let Some((firmware, version)) = banner else {
             return Err(MachineError::NoWelcome {
                 port: self.port_name.clone(),
                 secs: (self.cfg.boot_wait + self.cfg.timeout).as_secs_f64(),
             });
         };
-        self.info.version = version;
+        // Build info: Grbl 1.1 and grblHAL tell their planner and buffer sizes here; older
+        // firmware and clones may not, or may refuse `$I`: then the stock sizes stand, and
+        // FluidNC's are read from its first status report.
+        let build = match build {
+            Some(b) => b,
+            None => self.identify(firmware)?,
+        };
+        self.info.firmware = build.firmware.unwrap_or(firmware);
+        self.info.version = match (&build.version, self.info.firmware) {
+            (Some(v), Firmware::GrblHal | Firmware::FluidNc) => v.clone(),
+            _ => version,
+        };
         self.info.rx_buffer = RX_BUFFER_BYTES;
         self.info.planner_blocks = PLANNER_BLOCKS;
-        // Build info: Grbl 1.1 tells its planner and buffer sizes here; older firmware and
-        // clones may not, or may refuse `$I`: then the stock sizes stand.
-        let replies = self.command_if_known("$I")?.unwrap_or_default();
-        let mut opt = replies.iter().filter_map(|r| match r {
-            Reply::Feedback(f) => protocol::parse_opt(f),
-            _ => None,
-        });
-        if let Some((blocks, rx)) = opt.next_back() {
+        let sized = build.sizes.is_some();
+        if let Some((blocks, rx)) = build.sizes {
             self.info.planner_blocks = blocks;
             self.info.rx_buffer = rx;
+        }
+        self.read_settings()?;
+        if self.info.firmware == Firmware::FluidNc {
+            self.read_fluid_laser()?;
+        }
+        // The banner may be followed by the unlock hint: collect it with the status.
+        let st = self.query_status(&mut hinted)?;
+        if let (false, Some((blocks, rx)), MachineState::Idle) = (sized, st.buffer, &st.state) {
+            // No sizes in `$I` (FluidNC): an idle controller's free space is all there is.
+            self.info.planner_blocks = blocks as usize;
+            self.info.rx_buffer = rx as usize;
         }
         if let Some(rx) = self.cfg.rx_buffer {
             self.info.rx_buffer = rx;
         }
-        self.read_settings()?;
-        // The banner may be followed by the unlock hint: collect it with the status.
-        let st = self.query_status(&mut hinted)?;
+        if st.mpg == Some(true) {
+            return Err(MachineError::Busy {
+                port: self.port_name.clone(),
+                state: format!("{} (a pendant has control: MPG mode)", st.state),
+            });
+        }
         match st.state {
             MachineState::Idle => {}
             // A machine with homing switches boots locked: homing is what unlocks it.
@@ -155,6 +192,31 @@ impl Session<'_, '_> {
         Ok(())
     }
 
+    /// `$I` (a grblHAL that leaves its extended lines to `$I+` is asked that too): which
+    /// firmware, its version and sizes. A controller that refuses it says nothing.
+    fn identify(&mut self, banner: Firmware) -> Result<protocol::BuildInfo, MachineError> {
+        let feedback = |replies: Vec<Reply>| -> Vec<String> {
+            replies
+                .into_iter()
+                .filter_map(|r| match r {
+                    Reply::Feedback(f) => Some(f),
+                    _ => None,
+                })
+                .collect()
+        };
+        let mut lines = feedback(self.command_if_known("$I")?.unwrap_or_default());
+        let b = protocol::build_info(lines.iter().map(String::as_str));
+        let later = b.build.is_some_and(|d| d > protocol::GRBL_LAST_BUILD);
+        if !b.newopt
+            && b.firmware != Some(Firmware::FluidNc)
+            && (later || banner == Firmware::GrblHal)
+        {
+            lines.extend(feedback(self.command_if_known("$I+")?.unwrap_or_default()));
+            return Ok(protocol::build_info(lines.iter().map(String::as_str)));
+        }
+        Ok(b)
+    }
+
     /// No banner came: the board did not reset when the port opened. Before the soft reset that
     /// wakes it, ask what it is doing: a machine still running moves (a sender that died mid-job)
     /// is waited for or stopped as the abort key stops a job, as [`StreamConfig::if_moving`] says;
@@ -164,7 +226,7 @@ impl Session<'_, '_> {
         &mut self,
         alarm: &mut Option<u8>,
         hinted: &mut bool,
-    ) -> Result<Option<String>, MachineError> {
+    ) -> Result<Option<(Firmware, String)>, MachineError> {
         let st = match self.first_report(alarm, hinted)? {
             Heard::Banner(v) => return Ok(Some(v)),
             Heard::Nothing => return Ok(None),
@@ -228,7 +290,7 @@ impl Session<'_, '_> {
         let half = Duration::from_millis(500);
         let heard = self.poll(half * 2, Duration::ZERO, half, hinted, |_, r| match r {
             Reply::Status(st) => Some(Heard::Status(st)),
-            Reply::Welcome(v) => Some(Heard::Banner(v)),
+            Reply::Welcome(fw, v) => Some(Heard::Banner((fw, v))),
             Reply::Alarm(a) => {
                 *alarm = Some(a);
                 None
@@ -326,7 +388,7 @@ impl Session<'_, '_> {
         limit: Duration,
         alarm: &mut Option<u8>,
         hinted: &mut bool,
-    ) -> Result<Option<String>, MachineError> {
+    ) -> Result<Option<(Firmware, String)>, MachineError> {
         let end = Instant::now() + limit;
         // The board may have been quiet for long before we opened it: only our own wait counts.
         self.link.last_heard = Instant::now();
@@ -339,7 +401,7 @@ impl Session<'_, '_> {
             }
             match self.link.line(end - now) {
                 Ok(Some(l)) => match Reply::parse(&l) {
-                    Reply::Welcome(v) => break Ok(Some(v)),
+                    Reply::Welcome(fw, v) => break Ok(Some((fw, v))),
                     Reply::Alarm(a) => *alarm = Some(a),
                     Reply::Message(m) => {
                         *hinted |= protocol::is_unlock_hint(&m);
@@ -374,6 +436,36 @@ impl Session<'_, '_> {
         Ok(())
     }
 
+    /// FluidNC keeps its laser's power scale in the configuration file, not in `$30`/`$31`: its
+    /// `$Config/Dump` (`$CD`) lists the `Laser:` spindle's `speed_map` (`0=0.000% 1000=100.000%`):
+    /// the highest S is the full-power scale (`$30`), the highest S still at 0 % the minimum
+    /// (`$31`). They stand in for the settings Grbl lists, so the power check compares them.
+    fn read_fluid_laser(&mut self) -> Result<(), MachineError> {
+        let Some(replies) = self.command_if_known("$CD")? else {
+            return Ok(());
+        };
+        let lines: Vec<String> = replies
+            .into_iter()
+            .filter_map(|r| match r {
+                Reply::Other(o) => Some(o),
+                _ => None,
+            })
+            .collect();
+        let Some(map) = protocol::laser_speed_map(lines.iter().map(String::as_str)) else {
+            return Ok(());
+        };
+        let (max, min) = map;
+        self.obs.message(&format!(
+            "FluidNC's configuration file: a Laser spindle, speed_map S{} at full power, \
+             S{} and below off",
+            stencil_gcode::num(max),
+            stencil_gcode::num(min)
+        ));
+        self.info.settings.retain(|(k, _)| *k != 30 && *k != 31);
+        self.info.settings.extend([(30, max), (31, min)]);
+        Ok(())
+    }
+
     /// Before a laser job: Grbl must be in laser mode (`$32=1`), or it pauses at every power
     /// change and fires through G0. Refuse, or set it when asked, and say which.
     pub(super) fn laser_mode(&mut self) -> Result<(), MachineError> {
@@ -395,6 +487,11 @@ impl Session<'_, '_> {
                  build in laser mode, or the beam stays on through G0 moves",
             ),
             Some(v) if on(&v) => self.obs.message("laser mode is on ($32=1)"),
+            Some(_) if self.info.firmware == Firmware::FluidNc => {
+                return Err(MachineError::FluidLaserOff {
+                    port: self.port_name.clone(),
+                })
+            }
             Some(v) if !set => {
                 return Err(MachineError::LaserModeOff {
                     port: self.port_name.clone(),
@@ -520,10 +617,11 @@ impl Session<'_, '_> {
     }
 }
 
-/// The first answer to a `?` on connecting.
+/// The first answer to a `?` on connecting (one, once: its size does not matter).
+#[allow(clippy::large_enum_variant)]
 enum Heard {
     Status(Status),
-    Banner(String),
+    Banner((Firmware, String)),
     Nothing,
 }
 

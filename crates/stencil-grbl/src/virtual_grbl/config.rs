@@ -2,6 +2,8 @@
 
 use stencil_gcode::limits::{PLANNER_BLOCKS, RX_BUFFER_BYTES};
 
+use crate::protocol::Firmware;
+
 /// How the simulated machine spends time on motion (its pace; not a move).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Pace {
@@ -26,6 +28,10 @@ pub enum FaultKind {
     Silence,
     /// Close the port when this line arrives (a cable pulled; the board loses power, laser off).
     ClosePort,
+    /// The network link drops when this line arrives (WiFi lost): the board runs the line and
+    /// what it holds, answering nobody, and takes the next connection. On a pty it is
+    /// [`FaultKind::ClosePort`].
+    DropLink,
     /// Freeze when this line arrives: the line is never answered, nothing more is taken from the
     /// receive buffer and nothing moves, yet status queries are still answered, in `Run` at a
     /// fixed position (a stalled planner or stepper driver: the firmware's serial interrupt
@@ -98,6 +104,10 @@ pub struct VirtualConfig {
     /// The board's thread loses the CPU now and then, as on a busy computer where the dry run's
     /// controller shares two cores with a dozen other processes; `None`: it runs when it can.
     pub stutter: Option<Stutter>,
+    /// The firmware it plays: its banner, `$I`, status fields and codes. grblHAL and FluidNC
+    /// boards do not reset when a port opens, so they greet a new host with no banner (build
+    /// one with [`VirtualConfig::dialect`] for their buffer sizes too).
+    pub firmware: Firmware,
 }
 
 /// Pauses between the board's turns: after each turn, with a chance of one in `one_in`, it
@@ -132,6 +142,24 @@ impl Stutter {
 }
 
 impl VirtualConfig {
+    /// A controller running `firmware` with its usual sizes: Grbl's 128-byte receive buffer and
+    /// 15 blocks; grblHAL's 1024 bytes and 35 blocks (what its `$I` reports on most 32-bit
+    /// boards); FluidNC's 256-byte channel buffer and 16 blocks (which only its status reports
+    /// tell).
+    pub fn dialect(firmware: Firmware) -> VirtualConfig {
+        let (rx_buffer, planner_blocks) = match firmware {
+            Firmware::Grbl => (RX_BUFFER_BYTES, PLANNER_BLOCKS),
+            Firmware::GrblHal => (1024, 35),
+            Firmware::FluidNc => (256, 16),
+        };
+        VirtualConfig {
+            firmware,
+            rx_buffer,
+            planner_blocks,
+            ..VirtualConfig::default()
+        }
+    }
+
     /// The settings a stock laser build lists in `$$` (with the configured homing, laser mode and
     /// rapid rate), then the configured ones over them.
     pub(super) fn initial_settings(&self) -> Vec<(u32, String)> {
@@ -156,6 +184,11 @@ impl VirtualConfig {
         .collect();
         for (k, v) in self.settings.clone() {
             put_setting(&mut settings, k, v);
+        }
+        if self.firmware == Firmware::FluidNc {
+            // FluidNC lists no minimum power: its laser's speed map in the configuration file
+            // holds it.
+            settings.retain(|(k, _)| *k != 31);
         }
         settings
     }
@@ -186,6 +219,7 @@ impl Default for VirtualConfig {
             start: None,
             stutter: None,
             mid_job: None,
+            firmware: Firmware::Grbl,
         }
     }
 }

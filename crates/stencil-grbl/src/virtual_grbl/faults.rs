@@ -24,6 +24,10 @@ impl Sim {
                 return false;
             }
             FaultKind::ClosePort => self.close(),
+            FaultKind::DropLink => {
+                self.drop_link();
+                return false;
+            }
             FaultKind::Freeze => self.frozen = true,
             // The line runs; only its answer goes wrong.
             FaultKind::DropOk | FaultKind::GarbleOk => {
@@ -67,6 +71,25 @@ impl Sim {
         lock(&self.shared).events.push(Event::Alarm(code));
         self.say(&format!("ALARM:{code}"));
         self.say("[MSG:Reset to continue]");
+    }
+
+    /// The network link drops: the board runs on with what it holds, its answers to the host
+    /// that is gone (this line's, and those of whole lines still in its buffer) go nowhere, a
+    /// half-received line is thrown away, and the next host is taken. A pty has no such link:
+    /// there it is the cable pulled ([`FaultKind::ClosePort`]).
+    fn drop_link(&mut self) {
+        if !self.port.as_mut().is_some_and(|w| w.drop_link()) {
+            return self.close();
+        }
+        let whole = self
+            .rx
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        self.rx.truncate(whole);
+        self.unheard += 1 + self.rx.iter().filter(|&&b| b == b'\n').count();
+        self.wire_out.clear();
+        lock(&self.shared).events.push(Event::LinkDropped);
     }
 
     fn close(&mut self) {

@@ -9,9 +9,10 @@
 //! `sim` (the board, its main loop and the wire: a receive buffer of fixed size that drops and
 //! counts overflowing bytes), `parser` (line buffer and G-code lines through the shared
 //! interpreter), `planner` (motion at the programmed feeds: `ok` means queued, not executed),
-//! `jog`, `realtime` (real-time bytes, status reports), `system` (`$` commands and settings) and
-//! `faults`.
+//! `jog`, `realtime` (real-time bytes, status reports), `system` (`$` commands and settings),
+//! `faults` and `wire` (its end of the link: a pty, or a TCP endpoint).
 
+use std::net::{SocketAddr, TcpListener};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -29,12 +30,14 @@ mod sim;
 mod system;
 #[cfg(test)]
 mod tests;
+mod wire;
 
 pub use self::config::{Fault, FaultKind, Pace, Stutter, VirtualConfig};
 pub use self::record::{Event, PlannedMove, Received, Record};
 
 use self::record::lock;
 use self::sim::Sim;
+use self::wire::Wire;
 
 /// A running virtual Grbl. Dropping it stops the thread and closes its end of the pty.
 pub struct VirtualGrbl {
@@ -47,21 +50,36 @@ impl VirtualGrbl {
     /// Start a virtual Grbl on a new pty pair; returns it and the host end to stream to.
     pub fn spawn(cfg: VirtualConfig) -> std::io::Result<(VirtualGrbl, TTYPort)> {
         let (master, host) = TTYPort::pair().map_err(std::io::Error::from)?;
+        Ok((VirtualGrbl::start(cfg, Wire::Pty(master))?, host))
+    }
+
+    /// Start a virtual controller behind a TCP endpoint on 127.0.0.1 (a WiFi board's telnet
+    /// stream; port chosen by the system): returns it and the address to connect to. It takes
+    /// one host at a time, and runs on when a host's connection drops (the next one is taken).
+    pub fn spawn_tcp(cfg: VirtualConfig) -> std::io::Result<(VirtualGrbl, SocketAddr)> {
+        let listener = TcpListener::bind(("127.0.0.1", 0))?;
+        listener.set_nonblocking(true)?;
+        let addr = listener.local_addr()?;
+        let wire = Wire::Tcp {
+            listener,
+            conn: None,
+        };
+        Ok((VirtualGrbl::start(cfg, wire)?, addr))
+    }
+
+    fn start(cfg: VirtualConfig, wire: Wire) -> std::io::Result<VirtualGrbl> {
         let shared = Arc::new(Mutex::new(Record::default()));
         let stop = Arc::new(AtomicBool::new(false));
-        let mut sim = Sim::new(cfg, master, shared.clone());
+        let mut sim = Sim::new(cfg, wire, shared.clone());
         let stop2 = stop.clone();
         let thread = std::thread::Builder::new()
             .name("virtual-grbl".into())
             .spawn(move || sim.run(&stop2))?;
-        Ok((
-            VirtualGrbl {
-                shared,
-                stop,
-                thread: Some(thread),
-            },
-            host,
-        ))
+        Ok(VirtualGrbl {
+            shared,
+            stop,
+            thread: Some(thread),
+        })
     }
 
     /// A snapshot of what the machine saw so far.

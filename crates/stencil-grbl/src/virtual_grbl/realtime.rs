@@ -4,7 +4,7 @@
 use super::config::Pace;
 use super::record::{lock, Event};
 use super::sim::{Block, Comment, Sim, State};
-use crate::protocol::{RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME, RT_SOFT_RESET, RT_STATUS};
+use crate::protocol::{Firmware, RT_FEED_HOLD, RT_JOG_CANCEL, RT_RESUME, RT_SOFT_RESET, RT_STATUS};
 
 impl Sim {
     pub(super) fn realtime(&mut self, b: u8) {
@@ -135,7 +135,11 @@ impl Sim {
     /// starts locked in alarm.
     pub(super) fn boot_banner(&mut self) {
         self.say("");
-        self.say("Grbl 1.1h ['$' for help]");
+        self.say(match self.cfg.firmware {
+            Firmware::Grbl => "Grbl 1.1h ['$' for help]",
+            Firmware::GrblHal => "GrblHAL 1.1f ['$' or '$HELP' for help]",
+            Firmware::FluidNc => "Grbl 3.7 [FluidNC v3.7.8 (virtual) '$' for help]",
+        });
         if self.state == State::Alarm {
             self.say("[MSG:'$H'|'$X' to unlock]");
         }
@@ -212,6 +216,14 @@ impl Sim {
             }
             if !a.is_empty() {
                 s.push_str(&format!("|A:{a}"));
+            }
+        }
+        if self.cfg.firmware == Firmware::GrblHal {
+            // grblHAL: homed or not, with the axes that home; its name in the first report.
+            let homed = self.homed && self.cfg.homing;
+            s.push_str(if homed { "|H:1,7" } else { "|H:0,7" });
+            if self.reports == 1 {
+                s.push_str("|FW:grblHAL");
             }
         }
         s.push('>');

@@ -26,6 +26,8 @@ pub enum Event {
     Closed,
     /// The board lost power and came back (an injected fault).
     PowerLoss,
+    /// The network link dropped; the board ran on (an injected fault).
+    LinkDropped,
 }
 
 /// Everything the simulated machine saw and did.

@@ -2,17 +2,16 @@
 //! and the record it publishes after every turn.
 
 use std::collections::VecDeque;
-use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use serialport::{SerialPort, TTYPort};
 use stencil_gcode::interpret::{Modal, Move};
 
 use super::config::{FaultKind, Pace, VirtualConfig};
 use super::record::{lock, Record};
-use crate::protocol;
+use super::wire::Wire;
+use crate::protocol::{self, Firmware};
 
 /// The controller's alarm state (motion states follow from the planner and the hold).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,7 +72,7 @@ pub(super) struct Block {
 /// The simulated controller, run on its own thread.
 pub(super) struct Sim {
     pub(super) cfg: VirtualConfig,
-    pub(super) port: Option<TTYPort>,
+    pub(super) port: Option<Wire>,
     pub(super) shared: Arc<Mutex<Record>>,
     pub(super) byte_time: Option<Duration>,
     pub(super) wire_in: VecDeque<(Instant, u8)>,
@@ -132,10 +131,12 @@ pub(super) struct Sim {
     pub(super) backlog: VecDeque<u8>,
     /// Answers still owed to the sender that is gone: not heard by this host.
     pub(super) unheard: usize,
+    /// Homed since it started (grblHAL reports it as `H:`).
+    pub(super) homed: bool,
 }
 
 impl Sim {
-    pub(super) fn new(cfg: VirtualConfig, port: TTYPort, shared: Arc<Mutex<Record>>) -> Sim {
+    pub(super) fn new(cfg: VirtualConfig, port: Wire, shared: Arc<Mutex<Record>>) -> Sim {
         let now = Instant::now();
         let byte_time = cfg
             .baud
@@ -182,6 +183,7 @@ impl Sim {
             wco_changed: false,
             backlog: VecDeque::new(),
             unheard: 0,
+            homed: false,
         };
         sim.apply_settings();
         if let Some(st) = sim.cfg.start.clone() {
@@ -202,7 +204,9 @@ impl Sim {
                 sim.unheard = bytes.iter().filter(|&&b| b == b'\n').count();
                 sim.backlog = bytes.into();
             }
-            None => sim.boot_banner(),
+            // grblHAL and FluidNC boards do not reset when a port opens: no banner then.
+            None if sim.cfg.firmware == Firmware::Grbl => sim.boot_banner(),
+            None => {}
         }
         sim.publish();
         sim
@@ -226,8 +230,7 @@ impl Sim {
             let Some(port) = self.port.as_mut() else {
                 break;
             };
-            let _ = port.set_timeout(wait);
-            match port.read(&mut buf) {
+            match port.read(&mut buf, wait) {
                 Ok(0) => {}
                 Ok(n) => {
                     let t = Instant::now();
@@ -242,7 +245,6 @@ impl Sim {
                         self.wire_in.push_back((at, b));
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
                 // The host end is closed or not open: wait for it (or for stop).
                 Err(_) => std::thread::sleep(Duration::from_millis(5)),
             }
@@ -339,8 +341,7 @@ impl Sim {
             return;
         }
         if let Some(port) = self.port.as_mut() {
-            let _ = port.set_timeout(Duration::from_millis(200));
-            let _ = port.write_all(&out);
+            port.write_all(&out);
         }
     }
 

@@ -4,6 +4,7 @@
 use std::time::{Duration, Instant};
 
 use super::sim::{Sim, State};
+use crate::protocol::Firmware;
 
 /// How long writing one setting to EEPROM keeps the simulated Grbl deaf (a few ms on an AVR).
 const EEPROM_WRITE: Duration = Duration::from_millis(20);
@@ -13,12 +14,8 @@ impl Sim {
     pub(super) fn system(&mut self, cmd: &str, idx: usize) {
         let idle = self.planner.is_empty() && self.pending.is_none();
         match cmd {
-            "$I" => {
-                self.say("[VER:1.1h.20190830:]");
-                let opt = format!("[OPT:V,{},{}]", self.cfg.planner_blocks, self.cfg.rx_buffer);
-                self.say(&opt);
-                self.done(idx);
-            }
+            "$CD" if self.cfg.firmware == Firmware::FluidNc => self.config_dump(idx),
+            "$I" | "$I+" => self.build_info(cmd == "$I+", idx),
             "$C" => self.toggle_check_mode(idx, idle),
             "$X" => {
                 if self.state == State::Alarm {
@@ -62,6 +59,51 @@ impl Sim {
         }
     }
 
+    /// `$I` as each firmware answers it; `$I+` is grblHAL's (Grbl and FluidNC refuse it).
+    fn build_info(&mut self, extended: bool, idx: usize) {
+        let (blocks, rx) = (self.cfg.planner_blocks, self.cfg.rx_buffer);
+        match self.cfg.firmware {
+            Firmware::Grbl | Firmware::FluidNc if extended => return self.reply_error(3),
+            Firmware::Grbl => {
+                self.say("[VER:1.1h.20190830:]");
+                self.say(&format!("[OPT:V,{blocks},{rx}]"));
+            }
+            Firmware::GrblHal => {
+                self.say("[VER:1.1f.20250731:]");
+                self.say(&format!("[OPT:VNMSL,{blocks},{rx},3,0]"));
+                self.say("[AXS:3:XYZ]");
+                self.say("[NEWOPT:ENUMS,RT+,HOME,SED]");
+                self.say("[FIRMWARE:grblHAL]");
+            }
+            Firmware::FluidNc => {
+                // No sizes: FluidNC's option line keeps only Grbl's letters.
+                self.say("[VER:3.7 FluidNC v3.7.8 (virtual) :]");
+                self.say("[OPT:PHS]");
+                self.say("[MSG:INFO: Machine virtual]");
+            }
+        }
+        self.done(idx);
+    }
+
+    /// FluidNC's configuration file, as `$Config/Dump` prints it: a laser spindle (when `$32`
+    /// is on) whose speed map goes to `$30`, or a PWM spindle.
+    fn config_dump(&mut self, idx: usize) {
+        let max = self.setting(30).unwrap_or(1000.0);
+        let spindle = if self.laser_mode() { "Laser:" } else { "PWM:" };
+        for l in [
+            "board: virtual".to_string(),
+            "name: virtual".into(),
+            spindle.into(),
+            "  pwm_hz: 5000".into(),
+            "  output_pin: gpio.2".into(),
+            format!("  speed_map: 0=0.000% {}=100.000%", stencil_gcode::num(max)),
+            "  off_on_alarm: true".into(),
+        ] {
+            self.say(&l);
+        }
+        self.done(idx);
+    }
+
     /// `$C`: into check mode, or out of it (which soft-resets, as Grbl does); only while idle.
     fn toggle_check_mode(&mut self, idx: usize, idle: bool) {
         if !idle || self.state == State::Alarm {
@@ -89,6 +131,7 @@ impl Sim {
         }
         self.modal.pos = [0.0; 3];
         self.state = State::Idle;
+        self.homed = true;
         self.done(idx);
     }
 
@@ -121,6 +164,11 @@ impl Sim {
             return self.reply_error(8);
         }
         let (k, v) = cmd[1..].split_once('=').unwrap_or_default();
+        let proxy = |k: u32| matches!(k, 20..=23 | 30 | 32 | 100..=133);
+        if self.cfg.firmware == Firmware::FluidNc && k.parse().is_ok_and(proxy) {
+            // FluidNC's numbered settings mirror its configuration file: read-only.
+            return self.reply_error(162);
+        }
         self.setting_pending = k.parse().ok().map(|k| (k, v.to_string()));
         self.eeprom = Some((Instant::now() + EEPROM_WRITE, idx));
     }
