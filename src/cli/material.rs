@@ -26,6 +26,9 @@ pub enum EmitKind {
     Mask,
     /// stencil.gcode for the --machine (GRBL 1.1 laser, pen or knife), with a time estimate.
     Gcode,
+    /// stencil.plt in HP-GL for the --machine (a plotter cutter or pen plotter), with the
+    /// virtual cutter's time.
+    Hpgl,
 }
 
 /// Physical size and material, and how far the stencil may stray from them.
