@@ -22,6 +22,7 @@ mod port;
 mod program;
 mod progress;
 mod send;
+mod send_hpgl;
 mod simulate;
 mod studio;
 

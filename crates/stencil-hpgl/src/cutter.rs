@@ -128,7 +128,9 @@ pub struct Cutter {
     /// A drag knife's tip path, mm (empty for a pen, or without a blade offset).
     pub tip: Vec<Vec<[f64; 2]>>,
     blade_offset_mm: f64,
-    tip_at: Option<[f64; 2]>,
+    /// Where the blade's tip is against the axis, mm: it keeps its angle while lifted (taken to
+    /// point along +X after switching on, as the writer assumes).
+    tip_behind: [f64; 2],
     /// Instructions taken but not drawn (text, circles): mnemonic and count.
     pub not_drawn: BTreeMap<String, usize>,
     /// Time and lengths so far.
@@ -163,7 +165,7 @@ impl Cutter {
             } else {
                 0.0
             },
-            tip_at: None,
+            tip_behind: [-blade_offset_mm, 0.0],
             not_drawn: BTreeMap::new(),
             timing: Timing::default(),
             clears: 0,
@@ -349,10 +351,9 @@ impl Cutter {
                     let at = self.mm(self.pos);
                     self.strokes.push(vec![at]);
                     if self.blade_offset_mm > 0.0 {
-                        // The blade is lowered wherever its tip was left.
-                        let tip = self.tip_at.unwrap_or(at);
-                        self.tip.push(vec![tip]);
-                        self.tip_at = Some(tip);
+                        // The blade goes down at the angle it was lifted at.
+                        let b = self.tip_behind;
+                        self.tip.push(vec![[at[0] + b[0], at[1] + b[1]]]);
                     }
                 }
                 self.move_through(pts, index)?;
@@ -421,7 +422,7 @@ impl Cutter {
         let r = self.blade_offset_mm;
         let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
         let steps = ((len / (r / 20.0)).ceil() as usize).clamp(1, 100_000);
-        let mut tip = self.tip_at.unwrap_or(a);
+        let mut tip = [a[0] + self.tip_behind[0], a[1] + self.tip_behind[1]];
         let line = self.tip.last_mut();
         let mut pts = Vec::with_capacity(steps);
         for k in 1..=steps {
@@ -440,7 +441,7 @@ impl Cutter {
         if let Some(l) = line {
             l.extend(pts);
         }
-        self.tip_at = Some(tip);
+        self.tip_behind = [tip[0] - b[0], tip[1] - b[1]];
     }
 }
 

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use crate::command::parse;
 use crate::cutter::{Cutter, Refusal, XOFF, XON};
-use crate::profile::{Flow, Plotter};
+use crate::profile::{Flow, Plotter, Serial};
 
 /// What stopped a stream.
 #[derive(Debug, thiserror::Error)]
@@ -91,14 +91,23 @@ pub enum Outcome {
 /// tool.
 pub const ABORT: &[u8] = b"\x1b.KPU;";
 
-/// The instructions of `text` to send from line `from_line` (1: all), as byte pieces with the line
-/// each ends on, each at most `max` bytes; a resume first sets the state the skipped part set
-/// (`IN`, pen, speed, force) and travels, tool up, to where the first instruction sent starts.
-pub fn pieces(
-    text: &str,
-    from_line: usize,
-    max: usize,
-) -> Result<Vec<(Vec<u8>, usize, usize)>, StreamError> {
+/// A piece of a stream: bytes sent in one write.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    /// The bytes.
+    pub bytes: Vec<u8>,
+    /// The line of its first instruction of the file (0: only a resume's set-up).
+    pub first_line: usize,
+    /// The line of its last instruction of the file.
+    pub last_line: usize,
+    /// Instructions of the file it ends.
+    pub count: usize,
+}
+
+/// The instructions of `text` to send from line `from_line` (1: all), as pieces of at most `max`
+/// bytes; a resume first sets the state the skipped part set (`IN`, pen, speed, force) and
+/// travels, tool up, to where the first instruction sent starts.
+pub fn pieces(text: &str, from_line: usize, max: usize) -> Result<Vec<Piece>, StreamError> {
     let parsed = parse(text)?;
     let last = parsed.last().map_or(0, |p| p.line);
     if from_line > 1 && from_line > last {
@@ -131,43 +140,59 @@ pub fn pieces(
     for p in parsed.iter().filter(|p| p.line >= from_line) {
         units.push((text.as_bytes()[p.offset..p.offset + p.len].to_vec(), p.line));
     }
-    let mut out: Vec<(Vec<u8>, usize, usize)> = Vec::new();
+    let mut out: Vec<Piece> = Vec::new();
     for (u, line) in units {
-        let counted = usize::from(line > 0);
+        let count = usize::from(line > 0);
         match out.last_mut() {
-            Some((buf, l, n)) if buf.len() + u.len() <= max => {
-                buf.extend(&u);
-                *l = line.max(*l);
-                *n += counted;
+            Some(p) if p.bytes.len() + u.len() <= max => {
+                p.bytes.extend(&u);
+                if p.first_line == 0 {
+                    p.first_line = line;
+                }
+                p.last_line = line.max(p.last_line);
+                p.count += count;
             }
             _ if u.len() > max => {
                 // One instruction longer than a piece: in byte pieces (the plotter assembles it).
                 let chunks: Vec<&[u8]> = u.chunks(max).collect();
                 let k = chunks.len();
                 for (i, c) in chunks.into_iter().enumerate() {
-                    out.push((c.to_vec(), line, if i + 1 == k { counted } else { 0 }));
+                    out.push(Piece {
+                        bytes: c.to_vec(),
+                        first_line: line,
+                        last_line: line,
+                        count: if i + 1 == k { count } else { 0 },
+                    });
                 }
             }
-            _ => out.push((u, line, counted)),
+            _ => out.push(Piece {
+                bytes: u,
+                first_line: line,
+                last_line: line,
+                count,
+            }),
         }
     }
     Ok(out)
 }
 
-/// Stream `text` from `from_line` over `line` with `flow`, in pieces of at most `headroom` bytes.
-/// `control` is asked for the operator's wishes before each piece and while waiting; `progress`
-/// hears of each piece sent.
+/// Stream `text` from `from_line` over `line` with the plotter's flow control, in pieces of at
+/// most its headroom. `control` is asked for the operator's wishes before each piece and while
+/// waiting; `progress` hears of each piece sent.
 pub fn stream(
     text: &str,
     from_line: usize,
-    flow: Flow,
-    headroom: usize,
+    serial: &Serial,
     line: &mut dyn Line,
     control: &mut dyn FnMut() -> Option<Control>,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Outcome, StreamError> {
+    let (flow, headroom) = (serial.flow, serial.headroom_bytes);
     let pieces = pieces(text, from_line, headroom.max(1))?;
-    let total: usize = pieces.iter().map(|p| p.2).sum();
+    // Bytes sent after each piece, and the line of the first instruction in it.
+    let mut sent_log: Vec<(usize, usize)> = Vec::new();
+    let mut sent_bytes: usize = 0;
+    let total: usize = pieces.iter().map(|p| p.count).sum();
     let (mut held, mut paused) = (false, false);
     let mut p = Progress {
         sent: 0,
@@ -175,7 +200,7 @@ pub fn stream(
         line: 0,
     };
     let mut waits = 0;
-    for (bytes, last_line, count) in pieces {
+    for piece in pieces {
         loop {
             match control() {
                 Some(Control::Pause) => paused = true,
@@ -183,9 +208,15 @@ pub fn stream(
                 Some(Control::Abort) => {
                     line.write(ABORT)?;
                     line.drain()?;
-                    return Ok(Outcome::Aborted {
-                        resume_line: next_line(text, p.line).max(from_line),
-                    });
+                    // What the plotter held may be lost: resume at the first instruction of the
+                    // oldest piece that may still have been in its buffer.
+                    let lost_from = sent_bytes.saturating_sub(serial.buffer_bytes);
+                    let resume_line = sent_log
+                        .iter()
+                        .find(|(end, _)| *end > lost_from)
+                        .map_or(p.line + 1, |&(_, first)| first)
+                        .max(from_line);
+                    return Ok(Outcome::Aborted { resume_line });
                 }
                 None => {}
             }
@@ -207,9 +238,11 @@ pub fn stream(
             waits += 1;
             line.wait()?;
         }
-        line.write(&bytes)?;
-        p.sent += count;
-        p.line = p.line.max(last_line);
+        line.write(&piece.bytes)?;
+        sent_bytes += piece.bytes.len();
+        sent_log.push((sent_bytes, piece.first_line.max(from_line)));
+        p.sent += piece.count;
+        p.line = p.line.max(piece.last_line);
         progress(&p);
     }
     line.drain()?;
@@ -217,14 +250,6 @@ pub fn stream(
         sent: p.sent,
         waits,
     })
-}
-
-/// The line of the first instruction after line `after` (the resume point of an abort).
-fn next_line(text: &str, after: usize) -> usize {
-    parse(text)
-        .ok()
-        .and_then(|v| v.into_iter().map(|p| p.line).find(|&l| l > after))
-        .unwrap_or(after + 1)
 }
 
 /// The virtual plotter cutter on the end of the line: every byte sent is delivered to it at once;
@@ -354,16 +379,7 @@ mod tests {
             let text = job(500);
             let total = parse(&text).unwrap().len();
             let mut line = VirtualLine::new(&p, 0.0);
-            let out = stream(
-                &text,
-                1,
-                p.serial.flow,
-                p.serial.headroom_bytes,
-                &mut line,
-                &mut || None,
-                &mut |_| {},
-            )
-            .unwrap();
+            let out = stream(&text, 1, &p.serial, &mut line, &mut || None, &mut |_| {}).unwrap();
             assert!(matches!(out, Outcome::Done { sent, waits } if sent == total && waits > 0));
             assert_eq!(line.cutter.executed, total, "{name}");
             assert!(line.cutter.peak <= p.serial.buffer_bytes);
@@ -384,8 +400,7 @@ mod tests {
         let out = stream(
             &text,
             1,
-            p.serial.flow,
-            p.serial.headroom_bytes,
+            &p.serial,
             &mut line,
             &mut || {
                 n += 1;
@@ -404,7 +419,7 @@ mod tests {
     fn resume_sets_up_and_travels_first() {
         let text = "IN;\nSP1;\nVS20;\nPU10,10;\nPD20,10;\nPU30,30;\nPD40,30;\n";
         let p = pieces(text, 6, 1000).unwrap();
-        let s = String::from_utf8(p[0].0.clone()).unwrap();
+        let s = String::from_utf8(p[0].bytes.clone()).unwrap();
         assert!(s.starts_with("IN;SP1;VS20;PU20,10;PU30,30;"), "{s}");
         assert!(pieces(text, 99, 1000).is_err());
     }

@@ -239,3 +239,124 @@ fn is_small(points: &[[f64; 2]], limit_mm: f64) -> bool {
     }
     (max[0] - min[0]).max(max[1] - min[1]) < limit_mm
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cutter::run_text_with;
+    use crate::profile::load;
+    use geo::{Polygon, Rect};
+
+    /// A 20 mm square hole and a sharp triangle on a 60 x 40 mm sheet, cut with a 0.25 mm blade
+    /// offset on the generic cutter; `offset_mm` is the offset the writer compensates for.
+    fn job(offset_mm: f64) -> (String, Plotter) {
+        let square = LineString::from(vec![
+            (10., 10.),
+            (30., 10.),
+            (30., 30.),
+            (10., 30.),
+            (10., 10.),
+        ]);
+        let tri = LineString::from(vec![(40., 30.), (55., 28.), (40., 26.), (40., 30.)]);
+        let cuts = MultiPolygon(vec![
+            Polygon::new(square, vec![]),
+            Polygon::new(tri, vec![]),
+        ]);
+        let geom = CutLoops::drawn(Rect::new((0., 0.), (60., 40.)), cuts);
+        let plotter = load("vinyl-hpgl").unwrap();
+        let settings = CutSettings {
+            power_pct: 100.0,
+            speed_mm_min: 2400.0,
+            passes: 1,
+            blade_offset_mm: offset_mm,
+            air_assist: false,
+        };
+        let cfg = HpglConfig {
+            plotter: plotter.clone(),
+            plan: PlanConfig::new(settings),
+            force_g: Some(80.0),
+            pen: 1,
+            settings_from: String::new(),
+        };
+        (hpgl_for(&geom, &cfg).unwrap().0, plotter)
+    }
+
+    /// The outlines as placed: the job's box (the cuts' box, grown by the blade's reach) at 0,0,
+    /// y up.
+    fn outlines(reach: f64) -> Vec<Vec<[f64; 2]>> {
+        let place = |x: f64, y: f64| [x - 10.0 + reach, 30.0 + reach - y];
+        vec![
+            vec![(10., 10.), (30., 10.), (30., 30.), (10., 30.)],
+            vec![(40., 30.), (55., 28.), (40., 26.)],
+        ]
+        .into_iter()
+        .map(|r| r.into_iter().map(|(x, y)| place(x, y)).collect())
+        .collect()
+    }
+
+    fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let t = (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+        ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
+    }
+
+    /// How far the farthest tip point lies from the nearest outline, mm.
+    fn worst(tip: &[Vec<[f64; 2]>], rings: &[Vec<[f64; 2]>]) -> f64 {
+        tip.iter()
+            .flatten()
+            .map(|&p| {
+                rings
+                    .iter()
+                    .flat_map(|r| {
+                        (0..r.len()).map(move |i| seg_dist(p, r[i], r[(i + 1) % r.len()]))
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_blade_tip_follows_the_outline_when_compensated() {
+        let r = 0.25;
+        // Compensated: the virtual cutter drags the tip r behind the axis; it stays on the
+        // outlines (the swivels hold it on each corner).
+        let (text, p) = job(r);
+        let c = run_text_with(&p, &text, r).unwrap();
+        let on = worst(&c.tip, &outlines(r));
+        // Within two plotter units (0.05 mm): the rounding of each point to 0.025 mm, and the
+        // tractrix drawn in steps.
+        assert!(on < 0.05, "compensated tip strays {on} mm");
+        // Not compensated, the same blade rounds every corner off (the 30° corner most).
+        let (text, p) = job(0.0);
+        let c = run_text_with(&p, &text, r).unwrap();
+        let off = worst(&c.tip, &outlines(0.0));
+        assert!(off > 0.1, "uncompensated tip strays only {off} mm");
+    }
+
+    #[test]
+    fn each_loop_is_cut_through_past_its_start() {
+        let (text, p) = job(0.25);
+        let c = run_text_with(&p, &text, 0.25).unwrap();
+        let len = |s: &Vec<[f64; 2]>| {
+            s.windows(2)
+                .map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt())
+                .sum::<f64>()
+        };
+        // The tip cuts each loop round once and 1 mm further (the overcut).
+        let tri = 2.0 * (15f64.hypot(2.0)) + 4.0;
+        let mut got: Vec<f64> = c.tip.iter().map(len).collect();
+        got.sort_by(f64::total_cmp);
+        assert!((got[0] - (tri + 1.0)).abs() < 0.1, "{got:?}");
+        assert!((got[1] - 81.0).abs() < 0.1, "{got:?}");
+        // The file has the material's force and speed (neither loop is a small feature), and
+        // parks 10 mm past the job's far end.
+        assert!(
+            text.contains("\nFS80;\n") && text.contains("\nVS4;\n"),
+            "{text}"
+        );
+        assert!(text.trim_end().ends_with(&format!(
+            "PU{},0;",
+            p.units(55.0 - 10.0 + 0.25 + PARK_PAST_MM + 0.25)
+        )));
+    }
+}
