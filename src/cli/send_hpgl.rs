@@ -198,3 +198,85 @@ fn print_virtual(c: &Cutter, total_s: f64) {
         );
     }
 }
+
+/// `stencil estimate job.plt --machine PLOTTER`: the job's time on the virtual cutter.
+pub fn run_estimate_hpgl(file: &Path, machine: Option<&str>) -> anyhow::Result<ExitCode> {
+    let text = read_hpgl(file)?;
+    let plotter = plotter_for(machine)?;
+    let c = check_file(file, &text, &plotter)?;
+    let t = &c.timing;
+    println!(
+        "estimated time {} on {} (cutting {}, travel {}); cut {:.0} mm, travel {:.0} mm, {} \
+         instructions (HP-GL on the virtual cutter: each move accelerated and braked at the \
+         profile's {} mm/s², pen-up at {} mm/s)",
+        format_duration(t.total_s),
+        plotter.name,
+        format_duration(t.cut_s),
+        format_duration(t.travel_s),
+        t.cut_mm,
+        t.travel_mm,
+        c.executed,
+        plotter.accel_mm_s2,
+        plotter.travel_mm_s
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `stencil simulate job.plt --machine PLOTTER`: what the virtual cutter cut, drawn (red: tool
+/// down, blue: travel), and its time.
+pub fn run_simulate_hpgl(
+    file: &Path,
+    machine: Option<&str>,
+    output: &Path,
+    size_px: u32,
+) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![file];
+    inputs.extend(machine.map(Path::new));
+    stencil_io::check_output(output, &inputs)?;
+    let text = read_hpgl(file)?;
+    let plotter = plotter_for(machine)?;
+    let c = check_file(file, &text, &plotter)?;
+    // The strokes as the G-code drawing's moves: tool down at Z0, travel at Z1.
+    let mut moves = Vec::new();
+    let mv = |from: [f64; 2], to: [f64; 2], z: f64| stencil_gcode::interpret::Move {
+        from: [from[0], from[1], z],
+        to: [to[0], to[1], z],
+        rapid: z > 0.0,
+        feed: 1.0,
+        power: 0.0,
+        spindle_s: 0.0,
+        line: 0,
+    };
+    let mut at = [0.0, 0.0];
+    for s in &c.strokes {
+        moves.push(mv(at, s[0], 1.0));
+        for w in s.windows(2) {
+            moves.push(mv(w[0], w[1], 0.0));
+        }
+        at = *s.last().unwrap_or(&at);
+    }
+    let rule = stencil_gcode::interpret::CutRule::ZDown {
+        down_at_or_below: 0.0,
+    };
+    let d = stencil_gcode::simulate::draw(&moves, size_px, rule);
+    stencil_io::write_atomic(
+        output,
+        &stencil_core::export::png::encode_rgb(d.width, d.height, &d.rgb),
+    )?;
+    println!(
+        "estimated time {} on {}; cut {:.0} mm in {} strokes, travel {:.0} mm",
+        format_duration(c.timing.total_s),
+        plotter.name,
+        c.timing.cut_mm,
+        c.strokes.len(),
+        c.timing.travel_mm
+    );
+    println!(
+        "wrote {} ({}×{} px, {:.3} mm per px; red = tool down, blue = travel)",
+        output.display(),
+        d.width,
+        d.height,
+        d.mm_per_px
+    );
+    Ok(ExitCode::SUCCESS)
+}
