@@ -12,7 +12,24 @@ use stencil_hpgl::cutter::{self, Cutter};
 use stencil_hpgl::stream::{self, Control, Line, Outcome, SerialLine, VirtualLine};
 
 use super::operator::{abort_cause, Keys};
-use super::send::SendArgs;
+
+/// What `send` was asked for an HP-GL job.
+pub struct SendHpgl<'a> {
+    /// The file.
+    pub file: &'a Path,
+    /// `--machine`.
+    pub machine: Option<&'a str>,
+    /// `--port`.
+    pub port: Option<&'a str>,
+    /// `--dry-run`.
+    pub dry_run: bool,
+    /// `--from-line`.
+    pub from_line: usize,
+    /// `--recover`.
+    pub recover: bool,
+    /// `--dry-run-abort-at`.
+    pub abort_at: Option<usize>,
+}
 
 /// Whether `path` is an HP-GL job: a `.plt`, `.hpgl`, `.hpg` or `.hgl` file.
 pub fn is_hpgl_file(path: &Path) -> bool {
@@ -54,7 +71,7 @@ pub fn check_file(
     })
 }
 
-pub fn run_send_hpgl(a: SendArgs) -> anyhow::Result<ExitCode> {
+pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
     if a.recover {
         bail!(
             "{}: --recover reads a G-code run's journal; an HP-GL job resumes with --from-line N \
@@ -63,14 +80,14 @@ pub fn run_send_hpgl(a: SendArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let text = read_hpgl(&a.file)?;
-    let plotter = plotter_for(a.machine.as_deref())?;
+    let plotter = plotter_for(a.machine)?;
     let whole = check_file(&a.file, &text, &plotter)?;
-    let from_line = a.from_line as usize;
+    let from_line = a.from_line;
     let (tx, rx) = channel();
     let keys = Keys::start(tx);
     // Instructions sent so far, for --dry-run-abort-at.
     let sent = std::cell::Cell::new(0usize);
-    let mut aborts_at = a.dry_run_abort_at;
+    let mut aborts_at = a.abort_at;
     let mut control = || {
         if aborts_at.is_some_and(|n| sent.get() >= n) {
             aborts_at = None;
@@ -110,7 +127,7 @@ pub fn run_send_hpgl(a: SendArgs) -> anyhow::Result<ExitCode> {
         format_duration(total_s)
     );
     let (mut vline, mut sline) = (None, None);
-    let line: &mut dyn Line = match (&a.link.port, a.link.dry_run) {
+    let line: &mut dyn Line = match (a.port, a.dry_run) {
         (_, true) => {
             let mut v = VirtualLine::new(&plotter, 0.0);
             // The plotter cuts while it receives: one instruction for every 16 bytes arriving.
@@ -154,14 +171,10 @@ pub fn run_send_hpgl(a: SendArgs) -> anyhow::Result<ExitCode> {
             abort_cause(),
             a.file.display(),
             plotter.name,
-            if a.link.dry_run {
+            if a.dry_run {
                 " --dry-run".to_string()
             } else {
-                a.link
-                    .port
-                    .as_ref()
-                    .map(|p| format!(" --port {p}"))
-                    .unwrap_or_default()
+                a.port.map(|p| format!(" --port {p}")).unwrap_or_default()
             }
         ),
     }

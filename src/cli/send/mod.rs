@@ -302,7 +302,15 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stencil_grbl::MachineError) -> 
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if super::send_hpgl::is_hpgl_file(&a.file) {
-        return super::send_hpgl::run_send_hpgl(a);
+        return super::send_hpgl::run_send_hpgl(super::send_hpgl::SendHpgl {
+            file: &a.file,
+            machine: a.machine.as_deref(),
+            port: a.link.port.as_deref(),
+            dry_run: a.link.dry_run,
+            from_line: a.from_line as usize,
+            recover: a.recover,
+            abort_at: a.dry_run_abort_at,
+        });
     }
     let text = read_program(&a.file)?;
     eprintln!("{}", origin_line(&a.file, &text));
