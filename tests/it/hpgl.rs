@@ -394,3 +394,60 @@ fn what_the_plotter_would_refuse_is_refused_before_sending() {
     ]);
     assert!(stderr(&o).contains("is a GRBL machine"), "{}", stderr(&o));
 }
+
+#[test]
+fn estimate_simulate_and_profiles_know_the_plotters() {
+    let dir = tmp();
+    let plt = dir.path().join("job.plt");
+    // Two 10 mm cuts at 2 cm/s on a 2000 mm/s² cutter: 0.51 s each with the ramps, 0.06 s of
+    // tool lifts, plus the travel.
+    std::fs::write(
+        &plt,
+        "IN;\nSP1;\nVS2;\nPU400,400;\nPD800,400;\nPU400,800;\nPD800,800;\nPU0,0;\n",
+    )
+    .unwrap();
+    let o = stencil(&["estimate", s(&plt), "--machine", "vinyl-hpgl"]);
+    let out = stdout(&o);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        out.contains("on vinyl-hpgl") && out.contains("cut 20 mm"),
+        "{out}"
+    );
+    let png = dir.path().join("sim.png");
+    let o = stencil(&[
+        "simulate",
+        s(&plt),
+        "--machine",
+        "vinyl-hpgl",
+        "-o",
+        s(&png),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("cut 20 mm in 2 strokes"),
+        "{}",
+        stdout(&o)
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert!(
+        img.pixels().any(|p| p[0] >= 180 && p[1] < 80),
+        "no red stroke drawn"
+    );
+    // Without a plotter named, a .plt is not guessed at.
+    let o = stencil(&["estimate", s(&plt)]);
+    assert!(stderr(&o).contains("needs its plotter"), "{}", stderr(&o));
+    let o = stencil(&["profiles"]);
+    let out = stdout(&o);
+    for (name, flow) in [
+        ("vinyl-hpgl", "xon-xoff"),
+        ("roland-camm", "rts-cts"),
+        ("graphtec-hpgl", "xon-xoff"),
+        ("hp7475a", "rts-cts"),
+    ] {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("{out}"));
+        assert!(line.contains(flow) && !line.contains("error"), "{line}");
+    }
+}
