@@ -79,9 +79,9 @@ pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
             a.file.display()
         );
     }
-    let text = read_hpgl(&a.file)?;
+    let text = read_hpgl(a.file)?;
     let plotter = plotter_for(a.machine)?;
-    let whole = check_file(&a.file, &text, &plotter)?;
+    let whole = check_file(a.file, &text, &plotter)?;
     let from_line = a.from_line;
     let (tx, rx) = channel();
     let keys = Keys::start(tx);
