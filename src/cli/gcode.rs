@@ -279,7 +279,7 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
             Ok(laser)
         },
     )?;
-    let machine = loaded.expect("read_job_input loads the machine");
+    let machine = loaded.context("the machine profile was not loaded")?;
     let (settings, settings_from) = chosen_settings(&a.cut, material.as_ref(), &machine)?;
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {

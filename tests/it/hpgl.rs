@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::common::{s, samples, stderr, stencil, svg_subpaths, tmp};
+use crate::common::{s, samples, seg_dist, stderr, stencil, svg_subpaths, tmp};
 
 fn stdout(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -93,10 +93,6 @@ fn placed_outlines(svg: &Path) -> Vec<Vec<[f64; 2]>> {
         .into_iter()
         .map(|r| r.into_iter().map(|p| [p[0] - x0, y1 - p[1]]).collect())
         .collect()
-}
-
-fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    crate::common::seg_dist(p, a, b)
 }
 
 /// The farthest a point of `from` lies from the polylines `to` (closed when `closed`).

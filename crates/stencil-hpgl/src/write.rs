@@ -246,6 +246,7 @@ mod tests {
     use crate::cutter::run_text_with;
     use crate::profile::load;
     use geo::{Polygon, Rect};
+    use stencil_geom::ring::seg_dist;
 
     /// A 20 mm square hole and a sharp triangle on a 60 x 40 mm sheet, cut with a 0.25 mm blade
     /// offset on the generic cutter; `offset_mm` is the offset the writer compensates for.
@@ -292,12 +293,6 @@ mod tests {
         .into_iter()
         .map(|r| r.into_iter().map(|(x, y)| place(x, y)).collect())
         .collect()
-    }
-
-    fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let t = (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
-        ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
     }
 
     /// How far the farthest tip point lies from the nearest outline, mm.
