@@ -447,3 +447,37 @@ fn estimate_simulate_and_profiles_know_the_plotters() {
         assert!(line.contains(flow) && !line.contains("error"), "{line}");
     }
 }
+
+#[test]
+fn the_grbl_drag_knife_slows_small_features_too() {
+    let dir = tmp();
+    let svg = dir.path().join("two.svg");
+    // A 3 mm square (a small feature: under the profile's 5 mm) and a 20 mm one.
+    std::fs::write(
+        &svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm" viewBox="0 0 40 40">
+<path d="M2 2H5V5H2Z"/><path d="M10 10H30V30H10Z"/></svg>"#,
+    )
+    .unwrap();
+    let gcode = dir.path().join("two.gcode");
+    let o = stencil(&[
+        "gcode",
+        s(&svg),
+        "-o",
+        s(&gcode),
+        "--machine",
+        "drag-knife",
+        "--speed",
+        "1200",
+        "--blade-offset",
+        "0.25",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&gcode).unwrap();
+    let feeds: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("G1 X"))
+        .filter_map(|l| l.split_whitespace().find(|w| w.starts_with('F')))
+        .collect();
+    assert_eq!(feeds, ["F600", "F1200"], "{text}");
+}

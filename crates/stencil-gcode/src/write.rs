@@ -176,12 +176,11 @@ impl Writer {
 /// than 0.005 mm (and 0.1 % of the radius) is `error:33`.
 const GRBL_ARC_RADIUS_SLACK_MM: f64 = 0.005;
 
-/// Corners turning less than this (degrees) are cut without swivelling the drag knife.
-const SWIVEL_MIN_DEG: f64 = 10.0;
-/// The axis path of a drag knife for one pass around a loop: [`blade::drag_knife_path`] with
-/// corners turning [`SWIVEL_MIN_DEG`] or more swivelled.
+/// The axis path of a drag knife for one pass around a loop ([`blade::drag_knife_path`]) with
+/// the default corner rule: what the tests of the compensation check.
+#[cfg(test)]
 pub(crate) fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
-    blade::drag_knife_path(points, r, SWIVEL_MIN_DEG)
+    blade::drag_knife_path(points, r, crate::machine::DEFAULT_SWIVEL_MIN_DEG)
 }
 
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
@@ -417,10 +416,28 @@ fn tool_off(w: &mut Writer, machine: &Machine) {
 /// A loop the planner fitted with arcs ([`Loop::curve`]) is written as its lines and G2/G3 arcs.
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
     let knife = matches!(machine.tool, Tool::Knife { .. });
-    let points = if knife {
-        drag_knife_path(&l.points, s.blade_offset_mm)
-    } else {
-        l.points.clone()
+    let slowed;
+    let (points, s) = match machine.tool {
+        Tool::Knife {
+            swivel_min_deg,
+            small_feature_mm,
+            small_feature_speed_pct,
+            ..
+        } => {
+            // A small feature is cut slower, so the blade turns cleanly in it.
+            let s = if small_feature_mm > 0.0 && longer_side(&l.points) < small_feature_mm {
+                slowed = CutSettings {
+                    speed_mm_min: s.speed_mm_min * small_feature_speed_pct / 100.0,
+                    ..*s
+                };
+                &slowed
+            } else {
+                s
+            };
+            let path = blade::drag_knife_path(&l.points, s.blade_offset_mm, swivel_min_deg);
+            (path, s)
+        }
+        _ => (l.points.clone(), s),
     };
     // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
     let mut first = tool_on(w, points[0], machine, s);
@@ -457,6 +474,18 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
         }
     }
     tool_off(w, machine);
+}
+
+/// The longer side of a loop's bounding box, mm.
+fn longer_side(points: &[[f64; 2]]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (hi[0] - lo[0]).max(hi[1] - lo[1])
 }
 
 #[cfg(test)]

@@ -418,6 +418,9 @@ impl Plotter {
                 (ToolKind::Knife, Some(k)) => Tool::Knife {
                     z,
                     overcut_mm: k.overcut_mm,
+                    swivel_min_deg: k.swivel_min_deg,
+                    small_feature_mm: k.small_feature_mm,
+                    small_feature_speed_pct: k.small_feature_speed_pct,
                 },
                 _ => Tool::Pen(PenLift::Z(z)),
             },
