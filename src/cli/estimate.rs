@@ -138,6 +138,9 @@ fn check_timing_settings(file: &Path, settings: &[(u32, f64)]) -> anyhow::Result
 }
 
 pub fn run_estimate(a: EstimateArgs) -> anyhow::Result<ExitCode> {
+    if super::send_hpgl::is_hpgl_file(&a.file) {
+        return super::send_hpgl::run_estimate_hpgl(&a.file, a.machine.as_deref());
+    }
     let machine = machine_profile::load(a.machine.as_deref())?;
     let text = super::program::read_program(&a.file)?;
     eprintln!("{}", super::program::origin_line(&a.file, &text));

@@ -255,27 +255,53 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     gcode_one(a)
 }
 
-/// One stencil folder (or file).
-fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
-    let (svg_path, dir) = if a.input.is_dir() {
-        (a.input.join("stencil.svg"), Some(a.input.clone()))
+/// A job's input, read by `gcode` and `hpgl` alike: the drawing's cut loops (offset for the
+/// material's kerf) and the material, from a stencil folder (its stencil.svg and report.json) or
+/// an SVG file.
+pub(super) struct JobInput {
+    /// The SVG read.
+    pub svg_path: PathBuf,
+    /// The cut loops.
+    pub geom: stencil_gcode::CutLoops,
+    /// The material, when named or recorded.
+    pub material: Option<Material>,
+}
+
+/// Where a job read from `input` goes by default: `name` in the folder, or the SVG's name with
+/// `ext`.
+pub(super) fn default_job_path(input: &Path, name: &str, ext: &str) -> PathBuf {
+    if input.is_dir() {
+        input.join(name)
     } else {
-        (a.input.clone(), None)
+        input.with_extension(ext)
+    }
+}
+
+/// Read a job's input (see [`JobInput`]) for writing `out`. `machine` loads the machine (after
+/// the drawing is read) and says whether it is a laser (which needs --power without a material).
+pub(super) fn read_job_input(
+    input: &Path,
+    out: &Path,
+    material_arg: &Option<String>,
+    machine_arg: &Option<String>,
+    cut: &CutArgs,
+    machine: &mut dyn FnMut() -> anyhow::Result<bool>,
+) -> anyhow::Result<JobInput> {
+    let (svg_path, dir) = if input.is_dir() {
+        (input.join("stencil.svg"), Some(input.to_path_buf()))
+    } else {
+        (input.to_path_buf(), None)
     };
     if let Some(d) = &dir {
         super::program::settle(d)?;
     }
-    let out = a.out.clone().unwrap_or_else(|| match &dir {
-        Some(d) => d.join("stencil.gcode"),
-        None => svg_path.with_extension("gcode"),
-    });
     let report_path = dir.as_ref().map(|d| d.join("report.json"));
     let mut inputs = vec![svg_path.as_path()];
     inputs.extend(report_path.as_deref());
-    for p in [&a.material, &a.machine.machine].into_iter().flatten() {
+    for p in [material_arg, machine_arg].into_iter().flatten() {
         inputs.push(Path::new(p));
     }
-    stencil_io::check_output(&out, &inputs)?;
+    stencil_io::check_output(out, &inputs)?;
     let text = stencil_io::read_text(&svg_path, stencil_io::Kind::Svg).with_context(|| {
         if dir.is_some() {
             format!(
@@ -291,8 +317,8 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         eprintln!("{}: note: {n}", svg_path.display());
     }
     let mut geom = drawing.geometry;
-    let machine = a.machine.machine()?;
-    let material = match (&a.material, &dir) {
+    let laser = machine()?;
+    let material = match (material_arg, &dir) {
         (Some(m), _) => Some(Material::find(m)?.0),
         (None, Some(d)) if d.join("report.json").is_file() => {
             let r = super::check::read_report(d)?;
@@ -300,20 +326,13 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         }
         // The folder's report names the material; without it and without the settings on the
         // command line, say what is missing rather than only that a material is.
-        (None, Some(d))
-            if a.cut.speed.is_none()
-                || (matches!(machine.tool, Tool::Laser { .. }) && a.cut.power.is_none()) =>
-        {
+        (None, Some(d)) if cut.speed.is_none() || (laser && cut.power.is_none()) => {
             bail!(
                 "{}: missing, so the folder does not say which material the stencil is for (its \
              kerf and cut settings): run `stencil make` again to write it, or name the material \
              (--material NAME) or give the settings (--speed{})",
                 d.join("report.json").display(),
-                if matches!(machine.tool, Tool::Laser { .. }) {
-                    ", --power"
-                } else {
-                    ""
-                }
+                if laser { ", --power" } else { "" }
             )
         }
         (None, _) => None,
@@ -324,6 +343,38 @@ fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
         geom.apply_kerf(m.kerf_mm)
             .with_context(|| format!("{}: the kerf offset", svg_path.display()))?;
     }
+    Ok(JobInput {
+        svg_path,
+        geom,
+        material,
+    })
+}
+
+/// One stencil folder (or file).
+fn gcode_one(a: GcodeArgs) -> anyhow::Result<ExitCode> {
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| default_job_path(&a.input, "stencil.gcode", "gcode"));
+    let mut loaded = None;
+    let JobInput {
+        svg_path,
+        geom,
+        material,
+    } = read_job_input(
+        &a.input,
+        &out,
+        &a.material,
+        &a.machine.machine,
+        &a.cut,
+        &mut || {
+            let m = a.machine.machine()?;
+            let laser = matches!(m.tool, Tool::Laser { .. });
+            loaded = Some(m);
+            Ok(laser)
+        },
+    )?;
+    let machine = loaded.context("the machine profile was not loaded")?;
     let (settings, settings_from) = chosen_settings(&a.cut, material.as_ref(), &machine)?;
     let mut notes = vec![format!("from {}", svg_path.display())];
     if let Some(m) = &material {

@@ -137,7 +137,19 @@ pub(super) fn make_config(
     mut kept: Option<&mut KeptInputs>,
 ) -> anyhow::Result<MakeConfig> {
     let emit_gcode = a.output.emit.contains(&EmitKind::Gcode);
-    let machine = emit_gcode.then(|| a.machine.machine()).transpose()?;
+    let emit_hpgl = a.output.emit.contains(&EmitKind::Hpgl);
+    if emit_gcode && emit_hpgl {
+        anyhow::bail!(
+            "--emit gcode and hpgl are for different machines (a GRBL machine, a plotter): emit \
+             one, and write the other with `stencil gcode` or `stencil hpgl` from the folder"
+        );
+    }
+    // An HP-GL job's plotter, seen as the planner sees machines (for its bed and default material).
+    let machine = if emit_hpgl {
+        Some(super::hpgl::plotter(&a.machine)?.planner_machine())
+    } else {
+        emit_gcode.then(|| a.machine.machine()).transpose()?
+    };
     let default_material = match &machine {
         Some(m) => stencil_core::material::default_for(&m.tool),
         None => stencil_core::material::DEFAULT_MATERIAL,
@@ -183,13 +195,24 @@ pub(super) fn make_config(
         max_bridge_width_px: a.bridge.max_bridge_width_px,
         ..cfg.map_err(|e| sizing_words(&a.input, e))?
     };
-    let mut gcode = super::gcode::make_gcode_config(
+    let hpgl = super::hpgl::make_hpgl_config(
         &a.machine,
         &a.cut,
+        &a.plotter,
         &cfg.physical.material,
-        emit_gcode,
-        cfg.physical.vector.arc_tolerance_mm(),
+        emit_hpgl,
     )?;
+    // The machine and cut options are the HP-GL job's when it is asked for.
+    let mut gcode = match hpgl {
+        Some(_) => None,
+        None => super::gcode::make_gcode_config(
+            &a.machine,
+            &a.cut,
+            &cfg.physical.material,
+            emit_gcode,
+            cfg.physical.vector.arc_tolerance_mm(),
+        )?,
+    };
     let mut cfg = cfg;
     if let Some(g) = &mut gcode {
         // A gobo is a disc: its rim is always cut, last.
@@ -199,7 +222,12 @@ pub(super) fn make_config(
         // the ones the check judges.
         cfg.physical.vector.arcs = g.plan.arc_tolerance_on(&g.machine) > 0.0;
     }
-    Ok(MakeConfig { gcode, ..cfg })
+    if hpgl.is_some() {
+        // HP-GL is straight segments: the outlines are made straight within the whole
+        // tolerance, and every file carries those polygons, as for G-code without arcs.
+        cfg.physical.vector.arcs = false;
+    }
+    Ok(MakeConfig { gcode, hpgl, ..cfg })
 }
 
 /// The picture's options measured in mm, as the request carries them.
@@ -528,6 +556,9 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
     super::check::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
         super::gcode::print_summary(&cfg.out_dir.join("stencil.gcode"), g);
+    }
+    if let Some(h) = &made.report.hpgl {
+        super::hpgl::print_summary(&cfg.out_dir.join("stencil.plt"), h);
     }
     if let Some(g) = &made.report.gobo {
         print_gobo(g);

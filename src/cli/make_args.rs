@@ -388,6 +388,8 @@ pub struct MakeArgs {
     #[command(flatten)]
     pub cut: CutArgs,
     #[command(flatten)]
+    pub plotter: super::hpgl::PlotterArgs,
+    #[command(flatten)]
     pub layers: LayerArgs,
 }
 

@@ -26,6 +26,9 @@ pub enum EmitKind {
     Mask,
     /// stencil.gcode for the --machine (GRBL 1.1 laser, pen or knife), with a time estimate.
     Gcode,
+    /// stencil.plt in HP-GL for the --machine (a plotter cutter or pen plotter), with the
+    /// virtual cutter's time.
+    Hpgl,
 }
 
 /// Physical size and material, and how far the stencil may stray from them.
@@ -360,6 +363,38 @@ fn settings_text(m: &Material) -> String {
     }
 }
 
+/// The HP-GL plotters (`make --emit hpgl`, `stencil hpgl`): area, dialect, tool, serial line.
+fn list_plotters() {
+    println!();
+    println!(
+        "{:<20} {:>15}  {:<9} {:<6} serial (HP-GL: make --emit hpgl, stencil hpgl, send)",
+        "plotter", "area", "dialect", "tool"
+    );
+    let names = stencil_io::profile::known_names("machines", stencil_hpgl::profile::SHIPPED);
+    for name in names
+        .into_iter()
+        .filter(|n| stencil_hpgl::profile::is_plotter(n))
+    {
+        match stencil_hpgl::profile::load(&name) {
+            Ok(p) => println!(
+                "{:<20} {:>15}  {:<9} {:<6} {} baud, {}, {}-byte buffer{}",
+                p.name,
+                format!("{} x {} mm", p.bed.width_mm, p.bed.height_mm),
+                p.dialect.name(),
+                match p.tool {
+                    stencil_hpgl::profile::ToolKind::Knife => "knife",
+                    stencil_hpgl::profile::ToolKind::Pen => "pen",
+                },
+                p.serial.baud,
+                p.serial.flow.name(),
+                p.serial.buffer_bytes,
+                if p.roll { ", roll-fed along X" } else { "" }
+            ),
+            Err(e) => println!("{name:<20} error: {e}"),
+        }
+    }
+}
+
 fn list_profiles() -> anyhow::Result<ExitCode> {
     let user = UserSettings::load()?;
     let mut machines = Vec::new();
@@ -367,7 +402,10 @@ fn list_profiles() -> anyhow::Result<ExitCode> {
     // script that picks material rows by their second column (`laser`, `pen`, ...) as
     // `../shared/tools/corpus.py` does cannot take `pen-a3` for a material.
     println!("{:<20} {:>13}  {:<12} kind", "machine", "bed", "origin");
-    for name in stencil_io::profile::known_names("machines", stencil_gcode::machine::SHIPPED) {
+    for name in stencil_io::profile::known_names("machines", stencil_gcode::machine::SHIPPED)
+        .into_iter()
+        .filter(|n| !stencil_hpgl::profile::is_plotter(n))
+    {
         match stencil_gcode::machine::load(Some(&name)) {
             Ok(m) => {
                 println!(
@@ -444,6 +482,7 @@ fn list_profiles() -> anyhow::Result<ExitCode> {
             |p| p.display().to_string()
         )
     );
+    list_plotters();
     println!("default: {DEFAULT_MATERIAL} (as shipped); to use an edited copy, put it in ./profiles/materials/ and name it with --material, or pass its path");
     Ok(ExitCode::SUCCESS)
 }

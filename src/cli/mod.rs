@@ -8,6 +8,7 @@ mod estimate;
 mod frame;
 mod gcode;
 mod grid;
+mod hpgl;
 mod jog;
 mod layers;
 mod machine_args;
@@ -21,6 +22,7 @@ mod port;
 mod program;
 mod progress;
 mod send;
+mod send_hpgl;
 mod simulate;
 mod studio;
 
@@ -54,6 +56,9 @@ pub enum Command {
     Profiles(material::ProfilesArgs),
     /// Write G-code for a GRBL 1.1 laser, pen plotter or drag knife from a stencil folder or an SVG.
     Gcode(gcode::GcodeArgs),
+    /// Write HP-GL for a plotter cutter (vinyl, Roland, Graphtec) or a pen plotter from a stencil
+    /// folder or an SVG.
+    Hpgl(hpgl::HpglArgs),
     /// Estimate how long any G-code file runs (Grbl-style acceleration and junction speeds).
     Estimate(estimate::EstimateArgs),
     /// Trace the outline of what a G-code file cuts (tool off or a dim laser), then come back.
@@ -156,6 +161,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(a) => check::run_check(a),
         Command::Profiles(a) => material::run_profiles(a),
         Command::Gcode(a) => gcode::run_gcode(a),
+        Command::Hpgl(a) => hpgl::run_hpgl(a),
         Command::Estimate(a) => estimate::run_estimate(a),
         Command::Frame(a) => frame::run_frame(a),
         Command::Jog(a) => jog::run_jog(a),

@@ -36,6 +36,14 @@ pub struct SimulateArgs {
 }
 
 pub fn run_simulate(a: SimulateArgs) -> anyhow::Result<ExitCode> {
+    if super::send_hpgl::is_hpgl_file(&a.file) {
+        return super::send_hpgl::run_simulate_hpgl(
+            &a.file,
+            a.machine.as_deref(),
+            &a.output,
+            a.size_px,
+        );
+    }
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.machine.as_deref().map(std::path::Path::new));
     stencil_io::check_output(&a.output, &inputs)?;

@@ -78,9 +78,19 @@ fn allowed() -> BTreeMap<&'static str, BTreeSet<&'static str>> {
             "stencil-grbl",
             BTreeSet::from(["stencil-io", "stencil-gcode"]),
         ),
+        // HP-GL for plotters: cut loops planned by the G-code side's planner, written as HP-GL.
+        (
+            "stencil-hpgl",
+            BTreeSet::from(["stencil-io", "stencil-geom", "stencil-gcode"]),
+        ),
         (
             "stencil-core",
-            BTreeSet::from(["stencil-io", "stencil-geom", "stencil-gcode"]),
+            BTreeSet::from([
+                "stencil-io",
+                "stencil-geom",
+                "stencil-gcode",
+                "stencil-hpgl",
+            ]),
         ),
         // The studio runs core's stages and writes through core's exporter.
         (
@@ -861,6 +871,7 @@ no_file_cycles!(
     no_file_cycles_in_stencil_geom: "crates/stencil-geom/src",
     no_file_cycles_in_stencil_gcode: "crates/stencil-gcode/src",
     no_file_cycles_in_stencil_grbl: "crates/stencil-grbl/src",
+    no_file_cycles_in_stencil_hpgl: "crates/stencil-hpgl/src",
     no_file_cycles_in_stencil_core: "crates/stencil-core/src",
     no_file_cycles_in_stencil_studio: "crates/stencil-studio/src",
     no_file_cycles_in_the_binary: "src",

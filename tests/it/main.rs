@@ -54,6 +54,7 @@ mod grid;
 mod help_headings;
 mod hostile_options;
 mod hostile_parsers;
+mod hpgl;
 mod jog;
 mod layers;
 mod machine;

@@ -898,3 +898,42 @@ fn a_negative_threshold_names_the_option() {
     let _ = std::fs::remove_dir_all(&out);
     let _ = std::fs::remove_dir_all(&made);
 }
+
+/// The studio exports an HP-GL job for a plotter cutter as `make` writes it (issue 45).
+#[test]
+fn the_studio_exports_the_hpgl_job_make_writes() {
+    let dir = tmp("hpgl-export");
+    let out = dir.join("studio");
+    let args = [
+        "--width-mm",
+        "60",
+        "--material",
+        "vinyl-0.08",
+        "--machine",
+        "vinyl-hpgl",
+        "--emit",
+        "png,svg,hpgl",
+    ];
+    let st = Studio::start("samples/rings.png", &out, &args);
+    let e = st.ok("POST", "/api/export", json!(null));
+    assert!(
+        e["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f == "stencil.plt"),
+        "{e}"
+    );
+    let made = dir.join("make");
+    let o = Command::new(bin())
+        .args(["make", "samples/rings.png", "-o"])
+        .arg(&made)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plt = |d: &Path| std::fs::read(d.join("stencil.plt")).unwrap();
+    assert!(plt(&out).starts_with(b"IN;\nSP1;\nVS4;\nFS80;\n"));
+    assert_eq!(plt(&out), plt(&made), "the studio's stencil.plt is make's");
+    let _ = std::fs::remove_dir_all(&dir);
+}

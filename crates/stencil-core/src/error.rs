@@ -26,6 +26,9 @@ pub enum Error {
     /// Planning the toolpaths and G-code.
     #[error(transparent)]
     Plan(#[from] stencil_gcode::PlanError),
+    /// Writing the HP-GL job (its planning refusals are [`Error::Plan`]).
+    #[error(transparent)]
+    Hpgl(stencil_hpgl::HpglError),
     /// A material or machine profile, or kept settings.
     #[error(transparent)]
     Profile(#[from] stencil_io::profile::ProfileError),

@@ -257,6 +257,9 @@ pub struct Report {
     /// The G-code job (`--emit gcode`): machine, lengths, travel vs input order, time estimate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gcode: Option<stencil_gcode::GcodeSummary>,
+    /// The HP-GL job (`--emit hpgl`): plotter, lengths, the virtual cutter's time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hpgl: Option<stencil_hpgl::HpglSummary>,
     /// The photo-etch masks (`--emit mask`): files, dpi, polarity, mirroring, undercut
     /// compensation, and how much of the picture is clear.
     #[serde(default, skip_serializing_if = "Option::is_none")]

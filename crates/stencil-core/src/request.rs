@@ -63,6 +63,9 @@ pub struct MakeConfig {
     /// Also plan the G-code job (`--emit gcode`): written as stencil.gcode, summarised in the
     /// report. A job that does not fit the machine's bed fails the run before anything is written.
     pub gcode: Option<stencil_gcode::GcodeConfig>,
+    /// Also write the job in HP-GL for a plotter cutter or pen plotter (`--emit hpgl`): written
+    /// as stencil.plt from the same cut loops, summarised in the report.
+    pub hpgl: Option<stencil_hpgl::HpglConfig>,
     /// Told each stage as it starts (see [`Progress`]).
     pub progress: Option<Arc<dyn Progress>>,
     /// The keep-out picture, read once (see [`KeepOut`]).

@@ -38,6 +38,7 @@
 #![warn(missing_docs)]
 
 mod arc;
+pub mod blade;
 pub mod bounds;
 mod cuts;
 mod error;

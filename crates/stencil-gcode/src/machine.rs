@@ -30,6 +30,10 @@ pub const SHIPPED: &[Shipped] = &[
     shipped!("machines", "drag-knife"),
 ];
 
+/// Corners turning less than this (degrees) are cut without swivelling a drag knife, unless its
+/// profile says otherwise (`tool.swivel_min_deg`).
+pub const DEFAULT_SWIVEL_MIN_DEG: f64 = 10.0;
+
 /// A corner of the bed, as seen from above with the rear (far side, +Y on most machines) at the top.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -234,6 +238,14 @@ pub enum Tool {
         z: ZLift,
         /// How far past the start each loop is cut, mm.
         overcut_mm: f64,
+        /// Corners turning at least this many degrees are swivelled around (blade-offset
+        /// compensation); `tool.swivel_min_deg`, default 10.
+        swivel_min_deg: f64,
+        /// Loops whose longer side is below this, mm, are cut at `small_feature_speed_pct` of
+        /// the speed (`tool.small_feature_mm`, default 0: none).
+        small_feature_mm: f64,
+        /// The speed of small features, % (`tool.small_feature_speed_pct`, default 100).
+        small_feature_speed_pct: f64,
     },
 }
 
@@ -484,6 +496,12 @@ struct RawTool {
     z_down_mm: Option<f64>,
     plunge_mm_min: Option<f64>,
     overcut_mm: Option<f64>,
+    /// Knife: the least corner angle swivelled around, degrees.
+    swivel_min_deg: Option<f64>,
+    /// Knife: loops smaller than this (mm) are cut slower.
+    small_feature_mm: Option<f64>,
+    /// Knife: their speed, % of the cut speed.
+    small_feature_speed_pct: Option<f64>,
     /// Laser: air assist wired to the coolant output (M8 on, M9 off).
     air_assist: Option<bool>,
     /// Laser: power % for framing.
@@ -667,6 +685,24 @@ impl Checker<'_> {
                     "mm",
                 )?,
                 z: self.z_lift(t)?,
+                swivel_min_deg: self.within(
+                    "tool.swivel_min_deg",
+                    t.swivel_min_deg.unwrap_or(DEFAULT_SWIVEL_MIN_DEG),
+                    0.0..=180.0,
+                    "°",
+                )?,
+                small_feature_mm: self.within(
+                    "tool.small_feature_mm",
+                    t.small_feature_mm.unwrap_or(0.0),
+                    0.0..=1000.0,
+                    "mm",
+                )?,
+                small_feature_speed_pct: self.within(
+                    "tool.small_feature_speed_pct",
+                    t.small_feature_speed_pct.unwrap_or(100.0),
+                    1.0..=100.0,
+                    "%",
+                )?,
             }),
         }
     }
@@ -674,7 +710,7 @@ impl Checker<'_> {
     /// Fields that belong to other tool kinds are mistakes worth naming.
     fn foreign_fields(&self, t: &RawTool) -> Result<(), ProfileError> {
         use ToolKind::{Knife, Laser, Pen};
-        let fields: [(&str, bool, &[ToolKind]); 12] = [
+        let fields: [(&str, bool, &[ToolKind]); 15] = [
             ("tool.source", t.source.is_some(), &[Laser]),
             ("tool.watts", t.watts.is_some(), &[Laser]),
             ("tool.s_max", t.s_max.is_some(), &[Laser]),
@@ -689,6 +725,17 @@ impl Checker<'_> {
                 &[Pen, Knife],
             ),
             ("tool.overcut_mm", t.overcut_mm.is_some(), &[Knife]),
+            ("tool.swivel_min_deg", t.swivel_min_deg.is_some(), &[Knife]),
+            (
+                "tool.small_feature_mm",
+                t.small_feature_mm.is_some(),
+                &[Knife],
+            ),
+            (
+                "tool.small_feature_speed_pct",
+                t.small_feature_speed_pct.is_some(),
+                &[Knife],
+            ),
             ("tool.air_assist", t.air_assist.is_some(), &[Laser]),
             (
                 "tool.frame_power_pct",

@@ -17,9 +17,9 @@
 //! Laser jobs use `M4` (dynamic power) and change power with S words on G0/G1 lines, which Grbl's
 //! laser mode (`$32=1`) applies without stopping motion; M3/M4/M5 changes would stop the planner.
 
+use crate::blade::{self, walk};
 use crate::machine::{Machine, PenLift, Tool};
 use stencil_geom::curve;
-use stencil_geom::ring::dist;
 
 use crate::job::{CutSettings, Job, Loop};
 use crate::num::num;
@@ -176,68 +176,11 @@ impl Writer {
 /// than 0.005 mm (and 0.1 % of the radius) is `error:33`.
 const GRBL_ARC_RADIUS_SLACK_MM: f64 = 0.005;
 
-/// The point `len` mm along the closed loop from its start, and the vertices passed on the way.
-fn walk(points: &[[f64; 2]], len: f64) -> Vec<[f64; 2]> {
-    let n = points.len();
-    let mut out = Vec::new();
-    let mut left = len;
-    for i in 0..n {
-        let (a, b) = (points[i], points[(i + 1) % n]);
-        let d = dist(a, b);
-        if d >= left {
-            let t = if d > 0.0 { left / d } else { 0.0 };
-            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
-            return out;
-        }
-        left -= d;
-        out.push(b);
-    }
-    out
-}
-
-/// Corners turning less than this (degrees) are cut without swivelling the drag knife.
-const SWIVEL_MIN_DEG: f64 = 10.0;
-/// Largest angle step of a swivel arc, degrees (arcs are written as G1 chords, not G2/G3).
-const SWIVEL_STEP_DEG: f64 = 10.0;
-
-/// The path of a drag knife's axis that drags its blade tip, `r` mm behind, along the closed
-/// loop `points`: each segment is shifted `r` along its own direction (the axis leads the tip), and
-/// at each corner the axis swings on a circle of radius `r` around the corner, turning the blade
-/// to the new direction. Starts (and implicitly ends) with the tip at `points[0]`, the blade
-/// pointing along the loop's last segment.
+/// The axis path of a drag knife for one pass around a loop ([`blade::drag_knife_path`]) with
+/// the default corner rule: what the tests of the compensation check.
+#[cfg(test)]
 pub(crate) fn drag_knife_path(points: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
-    let n = points.len();
-    if r <= 0.0 || n < 2 {
-        return points.to_vec();
-    }
-    let dir = |a: [f64; 2], b: [f64; 2]| {
-        let d = dist(a, b).max(1e-12);
-        [(b[0] - a[0]) / d, (b[1] - a[1]) / d]
-    };
-    let mut out = Vec::with_capacity(n * 3);
-    for i in 0..n {
-        let p = points[i];
-        let d_in = dir(points[(i + n - 1) % n], p);
-        let d_out = dir(p, points[(i + 1) % n]);
-        out.push([p[0] + r * d_in[0], p[1] + r * d_in[1]]);
-        let a0 = d_in[1].atan2(d_in[0]);
-        let mut turn = d_out[1].atan2(d_out[0]) - a0;
-        // The shorter way round, in (-π, π].
-        while turn > std::f64::consts::PI {
-            turn -= std::f64::consts::TAU;
-        }
-        while turn <= -std::f64::consts::PI {
-            turn += std::f64::consts::TAU;
-        }
-        if turn.abs().to_degrees() >= SWIVEL_MIN_DEG {
-            let steps = (turn.abs().to_degrees() / SWIVEL_STEP_DEG).ceil() as usize;
-            for k in 1..=steps {
-                let a = a0 + turn * k as f64 / steps as f64;
-                out.push([p[0] + r * a.cos(), p[1] + r * a.sin()]);
-            }
-        }
-    }
-    out
+    blade::drag_knife_path(points, r, crate::machine::DEFAULT_SWIVEL_MIN_DEG)
 }
 
 /// The G-code text of a job. `notes` become extra header comment lines (source, material).
@@ -473,10 +416,28 @@ fn tool_off(w: &mut Writer, machine: &Machine) {
 /// A loop the planner fitted with arcs ([`Loop::curve`]) is written as its lines and G2/G3 arcs.
 fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
     let knife = matches!(machine.tool, Tool::Knife { .. });
-    let points = if knife {
-        drag_knife_path(&l.points, s.blade_offset_mm)
-    } else {
-        l.points.clone()
+    let slowed;
+    let (points, s) = match machine.tool {
+        Tool::Knife {
+            swivel_min_deg,
+            small_feature_mm,
+            small_feature_speed_pct,
+            ..
+        } => {
+            // A small feature is cut slower, so the blade turns cleanly in it.
+            let s = if small_feature_mm > 0.0 && longer_side(&l.points) < small_feature_mm {
+                slowed = CutSettings {
+                    speed_mm_min: s.speed_mm_min * small_feature_speed_pct / 100.0,
+                    ..*s
+                };
+                &slowed
+            } else {
+                s
+            };
+            let path = blade::drag_knife_path(&l.points, s.blade_offset_mm, swivel_min_deg);
+            (path, s)
+        }
+        _ => (l.points.clone(), s),
     };
     // Travel, tool off, then tool on; the first cutting move carries the power and the feed.
     let mut first = tool_on(w, points[0], machine, s);
@@ -515,6 +476,18 @@ fn write_loop(w: &mut Writer, l: &Loop, machine: &Machine, s: &CutSettings) {
     tool_off(w, machine);
 }
 
+/// The longer side of a loop's bounding box, mm.
+fn longer_side(points: &[[f64; 2]]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (hi[0] - lo[0]).max(hi[1] - lo[1])
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -533,6 +506,7 @@ mod tests {
     }
 
     use super::*;
+    use stencil_geom::ring::dist;
 
     #[test]
     fn numbers_have_at_most_three_decimals() {
@@ -541,13 +515,6 @@ mod tests {
         assert_eq!(num(-0.0001), "0");
         assert_eq!(num(-2.5), "-2.5");
         assert_eq!(num(399.9999), "400");
-    }
-
-    #[test]
-    fn walk_follows_the_loop() {
-        let sq = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
-        assert_eq!(walk(&sq, 4.0), vec![[4.0, 0.0]]);
-        assert_eq!(walk(&sq, 12.0), vec![[10.0, 0.0], [10.0, 2.0]]);
     }
 
     #[test]

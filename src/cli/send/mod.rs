@@ -116,6 +116,10 @@ pub struct SendArgs {
     pub head_at_corner: bool,
     #[command(flatten)]
     pub start: super::place::StartArgs,
+    /// With --dry-run of an HP-GL job: abort as the abort key would once N instructions are
+    /// sent, to rehearse a stop (the plotter's buffer cleared, the tool lifted).
+    #[arg(long, value_name = "N", requires = "dry_run")]
+    pub dry_run_abort_at: Option<usize>,
 }
 
 /// Before an allowed job streams: a `$32=0` in it turns Grbl's laser mode off for the rest of the
@@ -299,6 +303,17 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stencil_grbl::MachineError) -> 
 }
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
+    if super::send_hpgl::is_hpgl_file(&a.file) {
+        return super::send_hpgl::run_send_hpgl(super::send_hpgl::SendHpgl {
+            file: &a.file,
+            machine: a.machine.as_deref(),
+            port: a.link.port.as_deref(),
+            dry_run: a.link.dry_run,
+            from_line: a.from_line as usize,
+            recover: a.recover,
+            abort_at: a.dry_run_abort_at,
+        });
+    }
     let text = read_program(&a.file)?;
     eprintln!("{}", origin_line(&a.file, &text));
     let name = a.file.display().to_string();

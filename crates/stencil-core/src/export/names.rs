@@ -19,6 +19,7 @@ pub const OUTPUT_NAMES: &[&str] = &[
     "mask-back.png",
     "mask-back.svg",
     "stencil.gcode",
+    "stencil.plt",
     "report.json",
 ];
 

@@ -62,6 +62,9 @@ pub(crate) fn encode_outputs(
     if let Some(text) = &made.gcode {
         files.push(("stencil.gcode".into(), text.as_bytes().to_vec()));
     }
+    if let Some(text) = &made.hpgl {
+        files.push(("stencil.plt".into(), text.as_bytes().to_vec()));
+    }
     made.report.mask = mask_report;
     let mut report = made.report.clone();
     report.files = files.iter().map(|(n, _)| n.clone()).collect();

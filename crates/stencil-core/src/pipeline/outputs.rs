@@ -38,6 +38,8 @@ pub struct Made {
     pub report: Report,
     /// The G-code text, when asked for.
     pub gcode: Option<String>,
+    /// The HP-GL text, when asked for.
+    pub hpgl: Option<String>,
     /// Pixels of the islands dropped instead of bridged (the preview colours them).
     pub dropped_px: Vec<u32>,
     /// A mesh's parts, and how many its view draws smaller than a pixel (`None` for a picture).
@@ -80,7 +82,18 @@ pub fn finish(
         None => None,
     };
     let (gcode, gcode_summary) = gcode.unzip();
-    let report = report(
+    let (hpgl, hpgl_summary) = match &cfg.hpgl {
+        Some(h) => Some(hpgl(
+            h,
+            &traced.geometry,
+            &joined,
+            &params.trace,
+            &mut timer,
+        )?),
+        None => None,
+    }
+    .unzip();
+    let mut report = report(
         cfg,
         params,
         &cleaned,
@@ -89,6 +102,7 @@ pub fn finish(
         gcode_summary,
         timer,
     );
+    report.hpgl = hpgl_summary;
     Ok(Made {
         picture: cleaned.picture,
         // `make`'s own join is the only holder (no copy); the studio's kept one is copied.
@@ -100,6 +114,7 @@ pub fn finish(
         check: traced.check,
         report,
         gcode,
+        hpgl,
         dropped_px: Arc::unwrap_or_clone(joined.dropped_px),
         mesh_parts: params.mesh_parts,
     })
@@ -133,6 +148,30 @@ pub fn gcode(
     })?;
     summary.settings_from = (!g.settings_from.is_empty()).then(|| g.settings_from.clone());
     Ok((text, summary))
+}
+
+/// The HP-GL job and its summary, from the same cut loops as the G-code (the unbridged pieces
+/// cut out whole, the kerf applied) on a copy of the geometry, so the G-code's is untouched.
+pub fn hpgl(
+    h: &stencil_hpgl::HpglConfig,
+    geometry: &CutGeometry,
+    joined: &Joined,
+    p: &TraceParams,
+    timer: &mut Timings,
+) -> Result<(String, stencil_hpgl::HpglSummary), Error> {
+    let mut geometry = geometry.clone();
+    if joined.map.island_count() > 0 {
+        timer.time("pieces", || {
+            geometry.set_unbridged(&joined.twotone.bits, &p.vector)
+        })?;
+    }
+    timer.time("kerf", || geometry.apply_kerf(p.material.kerf_mm))?;
+    timer.time("hpgl", || {
+        stencil_hpgl::hpgl_for(&geometry.loops(), h).map_err(|e| match e {
+            stencil_hpgl::HpglError::Plan(e) => Error::Plan(e),
+            e => Error::Hpgl(e),
+        })
+    })
 }
 
 /// report.json's contents (the files written are added by `driver::make`).
