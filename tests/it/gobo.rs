@@ -205,6 +205,15 @@ fn a_gobos_pngs_show_its_round_sheet_and_rim_where_the_svg_has_them() {
             "metal at {k}0 degrees is light"
         );
     }
+    // `stencil check` of the folder judges the picture as make did, not the disc the rim frees
+    // (read as a sheet, the disc would float and the rim be a hole too thin).
+    let c = stencil(&["check", s(&out)]);
+    let said = String::from_utf8_lossy(&c.stdout).to_string();
+    assert!(
+        c.status.success() && said.contains("1 piece(s)"),
+        "{said}{}",
+        stderr(&c)
+    );
 }
 
 #[test]

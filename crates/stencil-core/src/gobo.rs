@@ -161,12 +161,12 @@ impl SheetPx {
         if !(mm > 0.0 && mm.is_finite()) {
             return None;
         }
+        // The same whole number of pixels on either side (the rim is centred on the picture),
+        // so the picture is the sheet's middle ([`picture_of_sheet`] finds it again).
         let o = geom.outline;
-        let left = (-o.min().x / mm).ceil().max(0.0);
-        let top = (-o.min().y / mm).ceil().max(0.0);
-        let right = ((o.max().x - geom.width_mm) / mm).ceil().max(0.0);
-        let bottom = ((o.max().y - geom.height_mm) / mm).ceil().max(0.0);
-        let (sw, sh) = (left + w as f64 + right, top + h as f64 + bottom);
+        let left = ((o.width() - geom.width_mm) / 2.0 / mm).ceil().max(0.0);
+        let top = ((o.height() - geom.height_mm) / 2.0 / mm).ceil().max(0.0);
+        let (sw, sh) = (2.0 * left + w as f64, 2.0 * top + h as f64);
         if sw > MAX_SHEET_PX || sh > MAX_SHEET_PX {
             return None;
         }
@@ -220,6 +220,19 @@ impl SheetPx {
         let (x, y) = (i % w.max(1), i / w.max(1));
         (self.top + y) * self.width + self.left + x
     }
+}
+
+/// The picture's `w` × `h` pixels of a gobo's `stencil.png` drawn on its sheet (the picture in
+/// its middle, the same number of pixels on either side); `None` when `bits` is not such a
+/// sheet (the picture itself, or another size). Why: `stencil check` of a gobo's folder judges the
+/// picture as `make` did, not the disc its rim frees.
+pub fn picture_of_sheet(bits: &BitGrid, w: u32, h: u32) -> Option<BitGrid> {
+    let (dw, dh) = (bits.width.checked_sub(w)?, bits.height.checked_sub(h)?);
+    if (dw == 0 && dh == 0) || dw % 2 != 0 || dh % 2 != 0 {
+        return None;
+    }
+    let (left, top) = (dw / 2, dh / 2);
+    Some(BitGrid::from_fn(w, h, |x, y| bits.get(x + left, y + top)))
 }
 
 /// What the gobo is, for report.json and the console.

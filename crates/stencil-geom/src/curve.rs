@@ -8,10 +8,12 @@
 //! arcs directly to the polygon gives one geometry that every writer carries exactly, within one
 //! tolerance.
 //!
-//! How: two fits of each ring, and the one that costs the machine less is kept (pieces plus
-//! corners, a corner costing as much as a piece: the machine slows there, and a kerf offset adds a
-//! join): the tangent-continuous arc spline of the `smooth` module (pieces meeting with the same
-//! tangent except at corners, ends within the tolerance of vertices), and round 3's fit below.
+//! How: a traced outline (fitted with its [`Sides`]) is fitted twice, and the one that costs the
+//! machine less is kept (pieces plus corners turning more than 15 degrees, a corner costing as
+//! much as a piece: the machine slows there, and a kerf offset adds a join): the
+//! tangent-continuous arc spline of the `smooth` module (pieces meeting with the same tangent
+//! except at corners, ends within the tolerance of vertices), and round 3's fit below. A ring a
+//! writer fits again (one a later step changed, without sides) gets round 3's fit only.
 //!
 //! Round 3's fit: greedy, from the ring's first point, each piece runs from one polygon vertex to a
 //! later one, as far as an arc (or a line) stays within the tolerance of every vertex and every
@@ -118,6 +120,11 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
             bulge,
         });
         i = j;
+    }
+    // Only for the traced outlines (with their sides): a ring a writer fits again (changed by a
+    // later step) keeps round 3's fit, whose lengths the G-code's report was verified against.
+    if sides.is_none() {
+        return own;
     }
     let smooth = smooth::fit(ring, tol, sides, bounds, MAX_RUN, free);
     // The tangent-continuous pieces where they cost no more than the others: a kink costs as
