@@ -152,6 +152,13 @@ fn check_one(a: CheckArgs) -> anyhow::Result<ExitCode> {
             format!("{}: cannot read the stencil picture", png.display())
         }
     })?;
+    // A gobo's stencil.png is drawn on its round sheet: the picture is its middle.
+    let bits = match report.as_ref().filter(|r| r.gobo.is_some()) {
+        Some(r) => {
+            stencil_core::gobo::picture_of_sheet(&bits, r.width_px, r.height_px).unwrap_or(bits)
+        }
+        None => bits,
+    };
     stencil_core::check::bound_pieces(&bits)
         .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
     let material = match (

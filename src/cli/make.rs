@@ -27,16 +27,22 @@ const WARN_CHANGE_PCT: f64 = 5.0;
 /// What a user can do when the stencil strays from the picture (a gobo is made larger by its
 /// image area: --gobo excludes --width-mm and --dpi).
 fn change_hints(cfg: &MakeConfig) -> String {
-    let larger = if cfg.physical.gobo.is_some() {
-        "a larger image area in --gobo OD,IA"
-    } else {
-        "--width-mm or --dpi"
-    };
+    let larger = larger_hint(cfg);
     format!(
         "to keep closer to the picture, make it larger ({larger}), choose a material with a \
          smaller min_feature_mm (--material; `stencil profiles` lists them), move --threshold, \
          or supersample with --scale 2..4"
     )
+}
+
+/// How to make the picture larger: a gobo by its image area (--gobo excludes --width-mm and
+/// --dpi), anything else by its size.
+fn larger_hint(cfg: &MakeConfig) -> &'static str {
+    if cfg.physical.gobo.is_some() {
+        "a larger image area in --gobo OD,IA"
+    } else {
+        "--width-mm or --dpi"
+    }
 }
 
 /// What changed it, stage by stage.
@@ -564,7 +570,7 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         print_gobo(g);
     }
     if let Some(m) = &made.report.mask {
-        print_masks(m);
+        print_masks(m, larger_hint(cfg));
     }
 }
 
@@ -598,7 +604,7 @@ fn print_gobo(g: &stencil_core::gobo::GoboReport) {
 
 /// What the etch masks are: files, side and mirroring, dpi, polarity, the undercut compensation
 /// and what it closed, and the warning when most of the picture is clear.
-fn print_masks(m: &stencil_core::export::MaskReport) {
+fn print_masks(m: &stencil_core::export::MaskReport, larger: &str) {
     for s in &m.masks {
         println!(
             "mask {}{}: {}, {} at {} dpi; {}{}",
@@ -630,7 +636,7 @@ fn print_masks(m: &stencil_core::export::MaskReport) {
     if m.openings_closed > 0 {
         eprintln!(
             "warning: the undercut compensation closes {} opening(s) narrower than {:.3} mm: they \
-             will not be etched; make the picture larger (--width-mm) or use a thinner metal",
+             will not be etched; make the picture larger ({larger}) or use a thinner metal",
             m.openings_closed,
             2.0 * m.undercut_compensation_mm
         );

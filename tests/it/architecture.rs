@@ -218,8 +218,9 @@ fn core_stages_use_only_earlier_layers() {
             "export",
             &["raster", "vector", "limits", "units", "material"][..],
         ),
-        // A gobo: placed on the traced stencil, its polarity worded as the masks word it.
-        ("gobo", &["vector", "export"][..]),
+        // A gobo: placed on the traced stencil, its polarity worded as the masks word it, its
+        // sheet drawn on the bit grids for the PNGs.
+        ("gobo", &["vector", "export", "raster"][..]),
         (
             "request",
             &[

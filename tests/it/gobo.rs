@@ -88,6 +88,134 @@ fn a_b_gobo_is_a_circle_of_86_mm_with_the_picture_inscribed_in_its_image_area() 
     );
 }
 
+/// Issue 43 item 3: a gobo's stencil.png and preview.png are its round sheet, as the SVG draws
+/// it: the sheet's outline around the picture, the rim a ring of cut pixels on the SVG's rim
+/// circle all the way round, metal between it and the image area, the picture inside that.
+#[test]
+fn a_gobos_pngs_show_its_round_sheet_and_rim_where_the_svg_has_them() {
+    let t = tmp();
+    let input = t.path().join("corners.png");
+    ink_png(&input, 150, 100, |x, y| {
+        !(15..135).contains(&x) && !(15..85).contains(&y)
+    });
+    let out = t.path().join("e");
+    let o = stencil(&[
+        "make",
+        s(&input),
+        "-o",
+        s(&out),
+        "--gobo",
+        "E",
+        "--emit",
+        "png,svg",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mm = report(&out)["mm_per_px"].as_f64().unwrap();
+    let svg = std::fs::read_to_string(out.join("stencil.svg")).unwrap();
+    let attr = |tag: &str, name: &str| -> f64 {
+        let t = &svg[svg.find(tag).unwrap_or_else(|| panic!("{tag}: {svg:.600}"))..];
+        let v = t.split(&format!(" {name}=\"")).nth(1).unwrap();
+        v.split('"').next().unwrap().parse().unwrap()
+    };
+    // The SVG's rim circle, and its sheet (the viewBox), in mm.
+    let (cx, cy, r) = (
+        attr("<circle", "cx"),
+        attr("<circle", "cy"),
+        attr("<circle", "r"),
+    );
+    assert_eq!(r, 18.75, "Rosco's E: 37.5 mm across");
+    let vb: Vec<f64> = svg
+        .split("viewBox=\"")
+        .nth(1)
+        .unwrap()
+        .split('"')
+        .next()
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let png = common::read_bits(&out.join("stencil.png"));
+    // The PNG covers the SVG's sheet (to a pixel on each side), the rim at its centre as in
+    // the SVG.
+    let (w, h) = (png.width as f64, png.height as f64);
+    assert!(
+        (w * mm - vb[2]).abs() <= 2.0 * mm && (h * mm - vb[3]).abs() <= 2.0 * mm,
+        "{w} x {h} px at {mm} mm against the SVG's {vb:?}"
+    );
+    assert!((vb[0] + vb[2] / 2.0 - cx).abs() < 1e-6 && (vb[1] + vb[3] / 2.0 - cy).abs() < 1e-6);
+    let (pcx, pcy, rp) = (w / 2.0, h / 2.0, r / mm);
+    // Every cut pixel is the picture's (inside the image area, 14 mm) or the rim's (on the
+    // circle, within its pixel and a half outside it); the rim goes all the way round.
+    let mut around = [false; 360];
+    let (mut picture, mut rim) = (0, 0);
+    for y in 0..png.height {
+        for x in 0..png.width {
+            if png.get(x, y) {
+                continue;
+            }
+            let (dx, dy) = (x as f64 + 0.5 - pcx, y as f64 + 0.5 - pcy);
+            let d = dx.hypot(dy);
+            if d <= 14.0 / mm + 1.0 {
+                picture += 1;
+            } else {
+                assert!(
+                    d >= rp - 1.0 && d <= rp + 2.5,
+                    "cut pixel ({x}, {y}) {d} px from the centre, the rim at {rp}"
+                );
+                rim += 1;
+                around[(dy.atan2(dx).to_degrees().rem_euclid(360.0) as usize).min(359)] = true;
+            }
+        }
+    }
+    assert!(
+        picture > 100 && rim > 360,
+        "{picture} picture, {rim} rim pixels"
+    );
+    assert!(
+        around.iter().all(|&a| a),
+        "the rim is cut all the way round"
+    );
+    // The preview: the same sheet, enlarged by a whole factor; the rim dark, the metal
+    // between the rim and the image area light.
+    let pre = image::open(out.join("preview.png")).unwrap().to_rgb8();
+    let f = pre.width() / png.width;
+    assert!(
+        f >= 1 && pre.width() == f * png.width && pre.height() == f * png.height,
+        "{}x{} preview of a {}x{} sheet",
+        pre.width(),
+        pre.height(),
+        png.width,
+        png.height
+    );
+    let at = |d: f64, a: f64| {
+        let (x, y) = (pcx + d * a.cos(), pcy + d * a.sin());
+        let p = pre
+            .get_pixel((x * f as f64) as u32, (y * f as f64) as u32)
+            .0;
+        p.iter().map(|&c| c as u32).sum::<u32>()
+    };
+    for k in 0..36 {
+        let a = k as f64 * std::f64::consts::TAU / 36.0;
+        assert!(
+            at(rp + 0.75, a) < 3 * 100,
+            "the rim at {k}0 degrees is dark"
+        );
+        assert!(
+            at((rp + 14.0 / mm) / 2.0, a) > 3 * 200,
+            "metal at {k}0 degrees is light"
+        );
+    }
+    // `stencil check` of the folder judges the picture as make did, not the disc the rim frees
+    // (read as a sheet, the disc would float and the rim be a hole too thin).
+    let c = stencil(&["check", s(&out)]);
+    let said = String::from_utf8_lossy(&c.stdout).to_string();
+    assert!(
+        c.status.success() && said.contains("1 piece(s)"),
+        "{said}{}",
+        stderr(&c)
+    );
+}
+
 #[test]
 fn a_cropped_gobo_fills_its_image_area_and_keeps_metal_outside_it() {
     let t = tmp();

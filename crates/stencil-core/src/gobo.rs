@@ -13,6 +13,7 @@
 
 use geo::{Area, Rect};
 
+use crate::raster::{BitGrid, Gray};
 use crate::vector::CutGeometry;
 pub(crate) use crate::vector::Rim;
 
@@ -127,6 +128,111 @@ pub(crate) fn place(geom: &mut CutGeometry, gobo: &Gobo, margin_mm: f64) {
     let (lo, hi, m) = (rim.bounds().min(), rim.bounds().max(), margin_mm);
     geom.outline = Rect::new((lo.x - m, lo.y - m), (hi.x + m, hi.y + m));
     geom.rim = Some(rim);
+}
+
+/// The gobo's sheet in the picture's pixels: the grid `stencil.png` and `preview.png` are drawn
+/// on for a gobo, so that they show the round sheet and its rim as the SVG, DXF and masks do
+/// (the sheet's outline, `place`'s rim square grown by the margin, around the picture at its
+/// centre; the rim a cut ring a pixel and a half wide just outside the disc, as the rim's
+/// tool path runs just outside it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SheetPx {
+    /// The sheet's size, px.
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    /// Where the picture's top-left pixel lands on it.
+    left: u32,
+    top: u32,
+    /// The rim's centre (px, the sheet's pixel corners) and its cut ring's radii, px.
+    centre: [f64; 2],
+    ring: [f64; 2],
+}
+
+/// Largest gobo sheet drawn, px a side: beyond it the PNGs stay the picture (a 1 m gobo at a
+/// fine scale would be gigapixels).
+const MAX_SHEET_PX: f64 = 20_000.0;
+
+impl SheetPx {
+    /// The sheet of a gobo placed on `geom` (`None` without a gobo, or for a sheet too large to
+    /// draw) for a picture of `w` × `h` px.
+    pub(crate) fn of(geom: &CutGeometry, w: u32, h: u32) -> Option<SheetPx> {
+        let rim = geom.rim?;
+        let mm = geom.width_mm / w.max(1) as f64;
+        if !(mm > 0.0 && mm.is_finite()) {
+            return None;
+        }
+        // The same whole number of pixels on either side (the rim is centred on the picture),
+        // so the picture is the sheet's middle ([`picture_of_sheet`] finds it again).
+        let o = geom.outline;
+        let left = ((o.width() - geom.width_mm) / 2.0 / mm).ceil().max(0.0);
+        let top = ((o.height() - geom.height_mm) / 2.0 / mm).ceil().max(0.0);
+        let (sw, sh) = (2.0 * left + w as f64, 2.0 * top + h as f64);
+        if sw > MAX_SHEET_PX || sh > MAX_SHEET_PX {
+            return None;
+        }
+        let r = rim.od_mm / 2.0 / mm;
+        Some(SheetPx {
+            width: sw as u32,
+            height: sh as u32,
+            left: left as u32,
+            top: top as u32,
+            centre: [left + rim.centre_mm[0] / mm, top + rim.centre_mm[1] / mm],
+            ring: [r, r + 1.5],
+        })
+    }
+
+    /// Whether the sheet's pixel (x, y) is on the rim's cut ring (its centre within the ring).
+    fn on_rim(&self, x: u32, y: u32) -> bool {
+        let d = (x as f64 + 0.5 - self.centre[0]).hypot(y as f64 + 0.5 - self.centre[1]);
+        d >= self.ring[0] && d < self.ring[1]
+    }
+
+    /// The picture's pixel at the sheet's (x, y), if the picture covers it.
+    fn picture_px(&self, x: u32, y: u32, w: u32, h: u32) -> Option<(u32, u32)> {
+        let (px, py) = (x.checked_sub(self.left)?, y.checked_sub(self.top)?);
+        (px < w && py < h).then_some((px, py))
+    }
+
+    /// `bits` on the sheet: material around the picture, the rim cut.
+    pub(crate) fn bits(&self, bits: &BitGrid) -> BitGrid {
+        BitGrid::from_fn(self.width, self.height, |x, y| {
+            !self.on_rim(x, y)
+                && self
+                    .picture_px(x, y, bits.width, bits.height)
+                    .is_none_or(|(px, py)| bits.get(px, py))
+        })
+    }
+
+    /// `gray` on the sheet: white around the picture (the rim's colour comes from the bits).
+    pub(crate) fn gray(&self, gray: &Gray) -> Gray {
+        let mut out = Gray::new(self.width, self.height, 1.0);
+        for y in 0..gray.height {
+            let row = gray.idx(0, y);
+            let at = out.idx(self.left, self.top + y);
+            out.data[at..at + gray.width as usize]
+                .copy_from_slice(&gray.data[row..row + gray.width as usize]);
+        }
+        out
+    }
+
+    /// A picture's pixel index (of a `w` px wide picture) as the sheet's.
+    pub(crate) fn index(&self, i: u32, w: u32) -> u32 {
+        let (x, y) = (i % w.max(1), i / w.max(1));
+        (self.top + y) * self.width + self.left + x
+    }
+}
+
+/// The picture's `w` × `h` pixels of a gobo's `stencil.png` drawn on its sheet (the picture in
+/// its middle, the same number of pixels on either side); `None` when `bits` is not such a
+/// sheet (the picture itself, or another size). Why: `stencil check` of a gobo's folder judges the
+/// picture as `make` did, not the disc its rim frees.
+pub fn picture_of_sheet(bits: &BitGrid, w: u32, h: u32) -> Option<BitGrid> {
+    let (dw, dh) = (bits.width.checked_sub(w)?, bits.height.checked_sub(h)?);
+    if (dw == 0 && dh == 0) || dw % 2 != 0 || dh % 2 != 0 {
+        return None;
+    }
+    let (left, top) = (dw / 2, dh / 2);
+    Some(BitGrid::from_fn(w, h, |x, y| bits.get(x + left, y + top)))
 }
 
 /// What the gobo is, for report.json and the console.

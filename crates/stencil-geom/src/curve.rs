@@ -8,83 +8,34 @@
 //! arcs directly to the polygon gives one geometry that every writer carries exactly, within one
 //! tolerance.
 //!
-//! How: greedy, from the ring's first point, each piece runs from one polygon vertex to a later
-//! one, as far as an arc (or a line) stays within the tolerance of every vertex and every edge it
-//! replaces. The pieces' ends are polygon vertices, so corners are kept: no arc can round a corner
-//! by more than the tolerance. An arc's radius is chosen as the middle of the range the vertices
-//! allow (the circle through both ends and each vertex gives one bulge; the middle of their spread
-//! halves the worst deviation), then every vertex and edge is measured against it. Arcs sweep less
-//! than a half turn (their vertices project monotonically onto the chord, so the order along the
-//! arc is the polygon's).
+//! How: a traced outline (fitted with its [`Sides`]) is fitted twice, and the one that costs the
+//! machine less is kept (pieces plus corners turning more than 15 degrees, a corner costing as
+//! much as a piece: the machine slows there, and a kerf offset adds a join): the
+//! tangent-continuous arc spline of the `smooth` module (pieces meeting with the same tangent
+//! except at corners, ends within the tolerance of vertices), and round 3's fit below. A ring a
+//! writer fits again (one a later step changed, without sides) gets round 3's fit only.
+//!
+//! Round 3's fit: greedy, from the ring's first point, each piece runs from one polygon vertex to a
+//! later one, as far as an arc (or a line) stays within the tolerance of every vertex and every
+//! edge it replaces. The pieces' ends are polygon vertices, so corners are kept: no arc can round
+//! a corner by more than the tolerance. An arc's radius is chosen as the middle of the range the
+//! vertices allow (the circle through both ends and each vertex gives one bulge; the middle of
+//! their spread halves the worst deviation), then every vertex and edge is measured against it.
+//! Arcs sweep less than a half turn (their vertices project monotonically onto the chord, so the
+//! order along the arc is the polygon's).
 //!
 //! The bulge is DXF's: `tan(sweep / 4)`, positive counter-clockwise in the numeric (x, y) plane.
 
+mod arc;
+
+use arc::{arc_box, quarter_points};
+pub use arc::{arc_of, ArcGeom, Piece, Sides};
+
 use crate::ring::{dist, point_box, seg_closest, seg_dist, union_box, NO_BOX};
-
-/// One piece of a closed outline: from `from` to the next piece's `from` (the first piece's after
-/// the last), straight when `bulge` is 0, else a circular arc that sweeps `4 atan(bulge)`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Piece {
-    /// Where the piece starts.
-    pub from: [f64; 2],
-    /// 0 for a line, else `tan(sweep / 4)`.
-    pub bulge: f64,
-}
-
-/// An arc's circle and sweep.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ArcGeom {
-    /// The circle's centre.
-    pub center: [f64; 2],
-    /// The circle's radius.
-    pub radius: f64,
-    /// Angle of `from` about the centre, radians.
-    pub start_angle: f64,
-    /// Signed sweep, radians: positive counter-clockwise in the numeric (x, y) plane.
-    pub sweep: f64,
-}
-
-/// The arc from `a` to `b` with `bulge`; `None` for a line (bulge 0) or a chord of length 0.
-pub fn arc_of(a: [f64; 2], b: [f64; 2], bulge: f64) -> Option<ArcGeom> {
-    let l = dist(a, b);
-    if bulge == 0.0 || l == 0.0 || !bulge.is_finite() {
-        return None;
-    }
-    let sweep = 4.0 * bulge.atan();
-    let radius = l / (2.0 * (sweep.abs() / 2.0).sin());
-    // Centre: from the chord's midpoint along its left normal by d, where the arc's midpoint is
-    // at h = -bulge·L/2 along the same normal (a counter-clockwise arc bulges to the right).
-    let h = -bulge * l / 2.0;
-    let d = (h * h - l * l / 4.0) / (2.0 * h);
-    let t = [(b[0] - a[0]) / l, (b[1] - a[1]) / l];
-    let nrm = [-t[1], t[0]];
-    let m = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
-    let center = [m[0] + d * nrm[0], m[1] + d * nrm[1]];
-    let start_angle = (a[1] - center[1]).atan2(a[0] - center[0]);
-    Some(ArcGeom {
-        center,
-        radius,
-        start_angle,
-        sweep,
-    })
-}
 
 /// Longest run of polygon vertices one piece may replace: bounds the fit's work (quadratic in
 /// the run) on long smooth stretches.
 const MAX_RUN: usize = 400;
-
-/// Points that must stay on either side of a fitted outline: for ring vertex `k`, `points[k]` is
-/// `[left, right]` (as the ring runs), and each must be at least `margin` from the piece that
-/// replaces the vertex. The vector stage passes the two pixel centres beside each traced point, so
-/// that the curves sample to the same raster as the pixels they were traced from, and a margin
-/// of the flattening tolerance, so that the flattened curves do too.
-#[derive(Clone, Copy, Debug)]
-pub struct Sides<'a> {
-    /// `[left, right]` per ring vertex.
-    pub points: &'a [[[f64; 2]; 2]],
-    /// The least distance from each point to the fitted outline.
-    pub margin: f64,
-}
 
 /// Fit a closed ring (closing point not repeated) with lines and arcs, every vertex and edge of
 /// the ring within `tol` of the pieces and the pieces within `tol` of the ring. The first piece
@@ -116,11 +67,11 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
     if n < 3 || tol.is_nan() || tol <= 0.0 {
         return lines();
     }
-    let at = |i: usize| ring[i % n];
     let sides = sides.filter(|s| s.points.len() == n);
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < n {
+    // One piece from vertex i with its own bulge, as far as one fits: where no tangent-continuous
+    // piece does.
+    let free = |i: usize, s: [f64; 2]| -> (usize, f64) {
+        let at = |k: usize| if k == i { s } else { ring[k % n] };
         // Galloping, then halving: spans of 2, 4, 8, ... vertices until one fails, then the
         // longest that fits between the last that fitted and the first that failed (a span that
         // fits usually means every shorter one does), so a long arc costs a few passes over its
@@ -157,13 +108,33 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
                 None => hi = mid,
             }
         }
-        out.push(Piece {
+        best
+    };
+    // Vertex to vertex, each piece with its own bulge: round 3's fit.
+    let mut own = Vec::new();
+    let mut i = 0;
+    while i < n {
+        let (j, bulge) = free(i, ring[i]);
+        own.push(Piece {
             from: ring[i],
-            bulge: best.1,
+            bulge,
         });
-        i = best.0;
+        i = j;
     }
-    out
+    // Only for the traced outlines (with their sides): a ring a writer fits again (changed by a
+    // later step) keeps round 3's fit, whose lengths the G-code's report was verified against.
+    if sides.is_none() {
+        return own;
+    }
+    let smooth = smooth::fit(ring, tol, sides, bounds, MAX_RUN, free);
+    // The tangent-continuous pieces where they cost no more than the others: a kink costs as
+    // much as a piece (the machine slows there, and a kerf offset adds a join).
+    let cost = |p: &[Piece]| p.len() + smooth::kinks(p);
+    if cost(&smooth) <= cost(&own) {
+        smooth
+    } else {
+        own
+    }
 }
 
 /// The bulge of one piece from vertex `i` to vertex `j` (indices into the ring, `j` may be the
@@ -358,46 +329,13 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
     out
 }
 
-/// The points where an arc passes 0, 90, 180 or 270 degrees about its centre (strictly inside
-/// its sweep), in the order it passes them, with their angles: each the centre plus the radius
-/// along an axis (exact unit vectors, not cos/sin).
-fn quarter_points(arc: &ArcGeom) -> Vec<(f64, [f64; 2])> {
-    use std::f64::consts::FRAC_PI_2;
-    let (a0, a1) = if arc.sweep > 0.0 {
-        (arc.start_angle, arc.start_angle + arc.sweep)
-    } else {
-        (arc.start_angle + arc.sweep, arc.start_angle)
-    };
-    let mut out = Vec::new();
-    let mut q = (a0 / FRAC_PI_2).floor() + 1.0;
-    while q * FRAC_PI_2 < a1 {
-        let [dx, dy] = match q.rem_euclid(4.0) as u8 {
-            0 => [1.0, 0.0],
-            1 => [0.0, 1.0],
-            2 => [-1.0, 0.0],
-            _ => [0.0, -1.0],
-        };
-        out.push((
-            q * FRAC_PI_2,
-            [
-                arc.center[0] + arc.radius * dx,
-                arc.center[1] + arc.radius * dy,
-            ],
-        ));
-        q += 1.0;
-    }
-    if arc.sweep < 0.0 {
-        out.reverse();
-    }
-    out
-}
-
 /// Each vertex of `ring` moved onto the piece that replaced it: the pieces from
-/// [`fit_ring_within`] (or [`fit_ring`]) on this very ring, so each piece starts at one of its
-/// vertices, in order. A piece's own start stays where it is; a vertex inside an arc's span
-/// moves along the radius onto the arc, one inside a line's span onto the line (perpendicular,
-/// clamped to it). Each moves by at most the fit's tolerance (the fit measured exactly these
-/// distances). `None` when the pieces do not start at the ring's vertices in order.
+/// [`fit_ring_within`] (or [`fit_ring`]) on this very ring, in its order, the first starting at
+/// its first vertex. Pieces meet at vertices or where a vertex is nearest them; each vertex moves
+/// onto the nearest of the piece it was last near and the few after it: along the radius onto
+/// an arc, perpendicular onto a line (clamped to it). Each moves by at most the fit's tolerance
+/// (the fit measured these distances). `None` when the first piece does not start at the ring's
+/// first vertex, or a vertex sits on an arc's centre.
 ///
 /// Why: the fitted curves run through the middle of a traced staircase; a polygon whose corners
 /// sit on them, rather than on the staircase's steps, reaches farther within the same tolerance
@@ -407,34 +345,57 @@ pub fn onto_pieces(ring: &[[f64; 2]], pieces: &[Piece]) -> Option<Vec<[f64; 2]>>
     if m == 0 || n == 0 || ring[0] != pieces[0].from {
         return None;
     }
-    let mut out = Vec::with_capacity(n);
-    let mut p = 0;
-    for (k, &q) in ring.iter().enumerate() {
-        if k > 0 && p + 1 < m && q == pieces[p + 1].from {
-            p += 1;
-        }
-        let (from, to) = (pieces[p].from, pieces[(p + 1) % m].from);
-        if q == from {
-            out.push(q);
-            continue;
-        }
-        out.push(match arc_of(from, to, pieces[p].bulge) {
+    let onto = |q: [f64; 2], k: usize| -> Option<[f64; 2]> {
+        let (from, to) = (pieces[k].from, pieces[(k + 1) % m].from);
+        Some(match arc_of(from, to, pieces[k].bulge) {
             Some(arc) => {
                 let d = dist(q, arc.center);
                 if d == 0.0 {
                     return None;
                 }
+                // Onto the circle, or the nearer end where the circle's point is off the arc.
                 let s = arc.radius / d;
-                [
+                let c = [
                     arc.center[0] + (q[0] - arc.center[0]) * s,
                     arc.center[1] + (q[1] - arc.center[1]) * s,
-                ]
+                ];
+                let (u, v) = (
+                    [from[0] - arc.center[0], from[1] - arc.center[1]],
+                    [c[0] - arc.center[0], c[1] - arc.center[1]],
+                );
+                let ang = (u[0] * v[1] - u[1] * v[0]).atan2(u[0] * v[0] + u[1] * v[1]);
+                let within = if arc.sweep > 0.0 {
+                    (0.0..=arc.sweep).contains(&ang.rem_euclid(std::f64::consts::TAU))
+                } else {
+                    (arc.sweep..=0.0)
+                        .contains(&(ang.rem_euclid(std::f64::consts::TAU) - std::f64::consts::TAU))
+                };
+                if within || ang == 0.0 {
+                    c
+                } else if dist(q, from) <= dist(q, to) {
+                    from
+                } else {
+                    to
+                }
             }
             None => seg_closest(q, from, to),
-        });
+        })
+    };
+    let mut out = Vec::with_capacity(n);
+    let mut p = 0;
+    for &q in ring {
+        let mut best: Option<(usize, [f64; 2])> = None;
+        for k in p..(p + 4).min(m) {
+            let c = onto(q, k)?;
+            if best.is_none_or(|(_, b)| dist(c, q) < dist(b, q)) {
+                best = Some((k, c));
+            }
+        }
+        let (k, c) = best?;
+        p = k;
+        out.push(if q == pieces[k].from { q } else { c });
     }
-    // Every piece was met, in order.
-    (p + 1 == m).then_some(out)
+    Some(out)
 }
 
 /// How many of the pieces are arcs.
@@ -458,13 +419,6 @@ pub fn bounds(pieces: &[Piece]) -> Option<[f64; 4]> {
         }
     });
     (n > 0).then_some(boxes.fold(NO_BOX, union_box))
-}
-
-/// The exact box of one arc from `p` to `q`: its ends, and its points at the quarter-turn
-/// angles its sweep passes.
-fn arc_box(arc: &ArcGeom, p: [f64; 2], q: [f64; 2]) -> [f64; 4] {
-    let ends = union_box(point_box(p), point_box(q));
-    (quarter_points(arc).into_iter()).fold(ends, |b, (_, e)| union_box(b, point_box(e)))
 }
 
 /// The length of the closed path the pieces make: lines as chords, arcs as `radius · |sweep|`.
@@ -630,6 +584,8 @@ pub fn split_arcs(pieces: &[Piece], max_sweep: f64) -> Vec<Piece> {
     }
     out
 }
+
+mod smooth;
 
 #[cfg(test)]
 mod tests;

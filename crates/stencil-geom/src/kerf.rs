@@ -101,8 +101,9 @@ fn open_ring(r: &LineString<f64>) -> Vec<[f64; 2]> {
 /// its left) shrunk by `d` (grown when negative): cavalier_contours' parallel offset, which
 /// moves each line parallel and each arc about its own centre, joins them with round arcs, and
 /// removes what crosses itself, so the result is exact, not a polygon's approximation. It may be
-/// several loops (a neck narrower than `2 d` parts) or none. Arcs over a quarter turn are cut in
-/// two (writers take arcs under a half turn), and pieces shorter than a nanometre dropped.
+/// several loops (a neck narrower than `2 d` parts) or none. Arcs over 0.95 of a half turn are
+/// cut in equal parts (writers take arcs under a half turn), and pieces shorter than a nanometre
+/// dropped.
 pub fn offset_pieces(pieces: &[Piece], d: f64) -> Vec<Vec<Piece>> {
     use cavalier_contours::polyline::{PlineSource, PlineSourceMut, Polyline};
     let mut pl: Polyline<f64> = Polyline::new_closed();
@@ -125,11 +126,16 @@ pub fn offset_pieces(pieces: &[Piece], d: f64) -> Vec<Vec<Piece>> {
                 .filter(|&k| dist(raw[k].from, raw[(k + 1) % n].from) > 1e-9)
                 .map(|k| raw[k])
                 .collect();
-            curve::split_arcs(&mitred(&kept, d.abs()), std::f64::consts::FRAC_PI_2)
+            curve::split_arcs(&mitred(&kept, d.abs()), MAX_SWEEP)
         })
         .filter(|p| p.len() >= 2 && signed_area2(&curve::flatten(p, 1e-3)) > 0.0)
         .collect()
 }
+
+/// The largest sweep of an offset's arc, radians: under a half turn (SVG's small-arc flag), with
+/// room for rounding. Why not a quarter turn: each cut adds a G-code line, and the fitted arcs
+/// sweep up to this much.
+const MAX_SWEEP: f64 = 0.95 * std::f64::consts::PI;
 
 /// How far a mitred join may reach past the round join it replaces, mm: under the G-code's
 /// written resolution (0.001 mm) and far under any tolerance.

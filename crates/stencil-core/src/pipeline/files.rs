@@ -26,17 +26,33 @@ pub(crate) fn encode_outputs(
     }
     if phys.emit.png {
         files.push(("twotone.png".into(), png::encode_bits(&tt.bits)));
-        files.push(("stencil.png".into(), png::encode_bits(&made.bridged.bits)));
-        files.push((
-            "preview.png".into(),
-            png::preview(
-                &tt.gray,
-                &made.picture,
-                &tt.bits,
-                &made.bridged.bits,
-                &made.dropped_px,
-            ),
-        ));
+        let bits = &made.bridged.bits;
+        // A gobo's PNGs show its round sheet and rim, as the vector files do.
+        match crate::gobo::SheetPx::of(geom, bits.width, bits.height) {
+            Some(sheet) => {
+                files.push(("stencil.png".into(), png::encode_bits(&sheet.bits(bits))));
+                let dropped: Vec<u32> = (made.dropped_px.iter())
+                    .map(|&i| sheet.index(i, bits.width))
+                    .collect();
+                files.push((
+                    "preview.png".into(),
+                    png::preview(
+                        &sheet.gray(&tt.gray),
+                        &sheet.bits(&made.picture),
+                        &sheet.bits(&tt.bits),
+                        &sheet.bits(bits),
+                        &dropped,
+                    ),
+                ));
+            }
+            None => {
+                files.push(("stencil.png".into(), png::encode_bits(bits)));
+                files.push((
+                    "preview.png".into(),
+                    png::preview(&tt.gray, &made.picture, &tt.bits, bits, &made.dropped_px),
+                ));
+            }
+        }
     }
     if phys.emit.svg {
         files.push((

@@ -74,8 +74,10 @@ fn corners_stay_corners_and_lines_stay_lines() {
     ring.push([0.0, 10.0]);
     let pieces = fit_ring(&ring, 0.02);
     let froms: Vec<[f64; 2]> = pieces.iter().map(|p| p.from).collect();
+    // Each corner a piece's start (to the last bits: a piece may end where a vertex is
+    // nearest it rather than on the vertex).
     for corner in [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]] {
-        assert!(froms.contains(&corner), "{froms:?}");
+        assert!(froms.iter().any(|&f| dist(f, corner) < 1e-9), "{froms:?}");
     }
     assert_eq!(arc_count(&pieces), 1, "{pieces:?}");
     let flat = flatten(&pieces, 0.002);

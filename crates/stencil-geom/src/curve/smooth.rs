@@ -1,0 +1,572 @@
+//! The tangent-continuous fit behind the parent module's `fit_ring`: an arc spline whose pieces
+//! meet with the same tangent wherever the outline is smooth, and at an angle only where it has a
+//! corner.
+//!
+//! Why: pieces fitted one by one (each its own best bulge) meet at angles; a machine slows at
+//! every such joint, and a kerf offset adds a round join there (a G-code line of its own). Pieces
+//! that share their tangents are what potrace-based tools give (Béziers, then biarcs); fitting the
+//! arcs directly keeps one geometry for every file (see the parent module).
+//!
+//! How: greedy, from the ring's first vertex (a piece with its own bulge, through vertices, as the
+//! parent fits them), each next piece is one arc leaving the last piece's end along its end
+//! tangent, so the two meet smoothly. Its curvature is bounded by the vertices it must pass
+//! within the tolerance and by the [`Sides`]; within those bounds it is the one that arrives
+//! along the outline's own tangent at its last vertex (the chord between the vertices a few
+//! tolerances either side), so the piece after it leaves along the outline rather than across
+//! it. It ends where that last vertex is nearest it (within the tolerance of the vertex, not on
+//! it). The ring closes with a biarc (two arcs meeting with a common tangent, joint chosen among
+//! a few ratios) arriving along the first piece's start tangent, or one arc (a corner there).
+//! Where no smooth piece reaches past a few vertices and a piece with its own bulge reaches
+//! twice as far, that one is taken: a corner. Every candidate is measured, not assumed: every
+//! vertex and edge of the ring it replaces within the tolerance of it, and it within the
+//! tolerance of them (sampled finely enough that the steps between samples cannot hide an
+//! excess), the sides kept, the box kept.
+//!
+//! What it costs: under the [`Sides`] (pixel centres a fifth of the tolerance clear) a traced
+//! outline leaves a smooth arc little room, and the arcs that keep their tangents reach less far
+//! than arcs that each choose their own; the parent keeps whichever fit of a ring costs less
+//! ([`kinks`] counted as pieces).
+
+use super::arc::{arc_box, arc_of, ArcGeom, Piece, Sides};
+use crate::ring::{dist, seg_dist};
+
+/// How far, in tolerances, the chord giving a vertex's tangent reaches on either side, and at
+/// most how many vertices.
+const REACH_TOLS: f64 = 4.0;
+const MAX_REACH: usize = 8;
+
+/// Largest sweep of one arc, radians: under a half turn (SVG's small-arc flag, the parent's
+/// flattening), with room for the rounding of the written numbers.
+const MAX_SWEEP: f64 = 0.9 * std::f64::consts::PI;
+
+/// Joint ratios (the second tangent's length over the first's) a biarc is tried with.
+const RATIOS: [f64; 3] = [1.0, 0.5, 2.0];
+
+fn unit(v: [f64; 2]) -> Option<[f64; 2]> {
+    let l = v[0].hypot(v[1]);
+    (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l])
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+fn rotate(v: [f64; 2], a: f64) -> [f64; 2] {
+    let (s, c) = a.sin_cos();
+    [v[0] * c - v[1] * s, v[0] * s + v[1] * c]
+}
+
+/// One piece under test: a line or an arc from `a` to `b`.
+#[derive(Clone, Copy, Debug)]
+struct Part {
+    a: [f64; 2],
+    b: [f64; 2],
+    bulge: f64,
+    arc: Option<ArcGeom>,
+}
+
+impl Part {
+    fn new(a: [f64; 2], b: [f64; 2], bulge: f64) -> Part {
+        let arc = if bulge.abs() < 1e-12 {
+            None
+        } else {
+            arc_of(a, b, bulge)
+        };
+        Part {
+            a,
+            b,
+            bulge: if arc.is_some() { bulge } else { 0.0 },
+            arc,
+        }
+    }
+
+    /// The arc leaving `a` along the unit tangent `t` and ending at `b` (a line when `t` runs
+    /// along the chord); `None` when it would sweep more than [`MAX_SWEEP`].
+    fn leaving(a: [f64; 2], t: [f64; 2], b: [f64; 2]) -> Option<Part> {
+        let c = sub(b, a);
+        if c == [0.0, 0.0] {
+            return None;
+        }
+        // The tangent turns by half the sweep from the chord's direction.
+        let half = cross(t, c).atan2(dot(t, c));
+        (2.0 * half.abs() <= MAX_SWEEP).then(|| Part::new(a, b, (half / 2.0).tan()))
+    }
+
+    /// The unit tangent at `b`.
+    fn end_tangent(&self) -> [f64; 2] {
+        let c = unit(sub(self.b, self.a)).unwrap_or([1.0, 0.0]);
+        match self.arc {
+            Some(arc) => rotate(c, arc.sweep / 2.0),
+            None => c,
+        }
+    }
+
+    fn start_tangent(&self) -> [f64; 2] {
+        let c = unit(sub(self.b, self.a)).unwrap_or([1.0, 0.0]);
+        match self.arc {
+            Some(arc) => rotate(c, -arc.sweep / 2.0),
+            None => c,
+        }
+    }
+
+    /// Whether `p`'s direction from the centre is within the arc's sweep.
+    fn spans(&self, arc: &ArcGeom, p: [f64; 2]) -> bool {
+        use std::f64::consts::TAU;
+        let ang = (p[1] - arc.center[1]).atan2(p[0] - arc.center[0]);
+        if arc.sweep > 0.0 {
+            (ang - arc.start_angle).rem_euclid(TAU) <= arc.sweep
+        } else {
+            (arc.start_angle - ang).rem_euclid(TAU) <= -arc.sweep
+        }
+    }
+
+    /// Distance from `p` to the piece.
+    fn dist(&self, p: [f64; 2]) -> f64 {
+        match self.arc {
+            Some(arc) if self.spans(&arc, p) => (dist(p, arc.center) - arc.radius).abs(),
+            Some(_) => dist(p, self.a).min(dist(p, self.b)),
+            None => seg_dist(p, self.a, self.b),
+        }
+    }
+
+    /// Signed distance, positive on the piece's left (beyond its ends, by the tangent there).
+    fn left(&self, p: [f64; 2]) -> f64 {
+        match self.arc {
+            Some(arc) if self.spans(&arc, p) => {
+                self.bulge.signum() * (arc.radius - dist(p, arc.center))
+            }
+            _ => {
+                let (e, t) = if dist(p, self.a) <= dist(p, self.b) {
+                    (self.a, self.start_tangent())
+                } else {
+                    (self.b, self.end_tangent())
+                };
+                match self.arc {
+                    None => {
+                        let c = unit(sub(self.b, self.a)).unwrap_or(t);
+                        cross(c, sub(p, self.a))
+                    }
+                    Some(_) => cross(t, sub(p, e)),
+                }
+            }
+        }
+    }
+
+    fn length(&self) -> f64 {
+        match self.arc {
+            Some(a) => a.radius * a.sweep.abs(),
+            None => dist(self.a, self.b),
+        }
+    }
+
+    /// The point a fraction `s` of the way along.
+    fn point(&self, s: f64) -> [f64; 2] {
+        match self.arc {
+            Some(a) => {
+                let ang = a.start_angle + a.sweep * s;
+                [
+                    a.center[0] + a.radius * ang.cos(),
+                    a.center[1] + a.radius * ang.sin(),
+                ]
+            }
+            None => [
+                self.a[0] + s * (self.b[0] - self.a[0]),
+                self.a[1] + s * (self.b[1] - self.a[1]),
+            ],
+        }
+    }
+}
+
+/// The biarc from `a` leaving along `ta` to `b` arriving along `tb`, its second tangent `ratio`
+/// times as long as its first; `None` when there is none with both sweeps under [`MAX_SWEEP`].
+fn biarc(a: [f64; 2], ta: [f64; 2], b: [f64; 2], tb: [f64; 2], ratio: f64) -> Option<[Part; 2]> {
+    let v = sub(b, a);
+    let w = [ta[0] + ratio * tb[0], ta[1] + ratio * tb[1]];
+    let vw = dot(v, w);
+    let vv = dot(v, v);
+    let k = 2.0 * ratio * (1.0 - dot(ta, tb));
+    // k α² + 2 (v·w) α - v·v = 0: the tangents' lengths α and ratio·α meet where the joint's
+    // two tangent segments add up to the distance between their far ends.
+    let alpha = if k.abs() < 1e-12 {
+        if vw <= 0.0 {
+            return None;
+        }
+        vv / (2.0 * vw)
+    } else {
+        (-vw + (vw * vw + k * vv).sqrt()) / k
+    };
+    if !(alpha.is_finite() && alpha > 0.0) {
+        return None;
+    }
+    let beta = ratio * alpha;
+    let qa = [a[0] + alpha * ta[0], a[1] + alpha * ta[1]];
+    let qb = [b[0] - beta * tb[0], b[1] - beta * tb[1]];
+    let j = [
+        (beta * qa[0] + alpha * qb[0]) / (alpha + beta),
+        (beta * qa[1] + alpha * qb[1]) / (alpha + beta),
+    ];
+    let tj = unit(sub(qb, qa))?;
+    let first = Part::leaving(a, ta, j)?;
+    let second = Part::leaving(j, tj, b)?;
+    Some([first, second])
+}
+
+/// What the greedy measures candidates against: the ring, its sides, the box, the tolerance.
+struct Fit<'a> {
+    ring: &'a [[f64; 2]],
+    sides: Option<Sides<'a>>,
+    bounds: Option<[f64; 4]>,
+    tol: f64,
+}
+
+impl Fit<'_> {
+    fn at(&self, k: usize) -> [f64; 2] {
+        self.ring[k % self.ring.len()]
+    }
+
+    /// Whether `parts`, running from `prev`'s end (within the tolerance of vertex `i`; vertex
+    /// `i` itself without `prev`) to vertex `j` (which may be the ring's length: its first
+    /// vertex again) or within the tolerance of it, replace the vertices and edges between
+    /// within the tolerance both ways, keep the sides and stay in the box. `prev`, the piece
+    /// before, holds what of the ring around vertex `i` these parts do not.
+    fn holds(&self, parts: &[Part], prev: Option<&Part>, i: usize, j: usize) -> bool {
+        let tol = self.tol;
+        let n = self.ring.len();
+        // Sample spacing: a distance grows by at most the step between samples, so a sample
+        // within tol - h/2 leaves every point between within tol.
+        let h = tol / 8.0;
+        let all = || parts.iter().chain(prev);
+        let near = |p: [f64; 2]| all().map(|q| q.dist(p)).fold(f64::INFINITY, f64::min);
+        if parts.iter().any(|p| p.length() <= 0.0) {
+            return false;
+        }
+        // The ring to the parts: each edge, exactly where one arc or line holds both its ends
+        // (a line's distance is convex; an arc's outward distance is too, and its inward one is
+        // largest where the edge comes closest to the centre), else sampled.
+        for k in i..j {
+            let (p, q) = (self.at(k), self.at(k + 1));
+            let exact = parts.iter().any(|part| match part.arc {
+                None => part.dist(p) <= tol && part.dist(q) <= tol,
+                Some(arc) => {
+                    part.spans(&arc, p)
+                        && part.spans(&arc, q)
+                        && part.dist(p) <= tol
+                        && part.dist(q) <= tol
+                        && arc.radius - seg_dist(arc.center, p, q) <= tol
+                }
+            });
+            if exact {
+                continue;
+            }
+            let steps = (dist(p, q) / h).ceil().max(1.0) as usize;
+            for s in 0..=steps {
+                let t = s as f64 / steps as f64;
+                let x = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
+                if near(x) > tol - h / 2.0 {
+                    return false;
+                }
+            }
+        }
+        // The parts to the ring: samples against the edges near where the last one was nearest
+        // (the distance to a few edges bounds the distance to all of them from above), from
+        // the edge before vertex i (the parts may start before it).
+        let first = if prev.is_some() { i + n - 1 } else { i + n };
+        let end = j + n - 1;
+        let mut e = first;
+        for part in parts {
+            let steps = (part.length() / h).ceil().max(1.0) as usize;
+            for s in 0..=steps {
+                let x = part.point(s as f64 / steps as f64);
+                let (lo, hi) = (e.saturating_sub(2).max(first), (e + 12).min(end));
+                let (mut best, mut at) = (f64::INFINITY, e);
+                for k in lo..=hi {
+                    let d = seg_dist(x, self.at(k), self.at(k + 1));
+                    if d < best {
+                        best = d;
+                        at = k;
+                    }
+                }
+                if best > tol - h / 2.0 {
+                    return false;
+                }
+                e = at;
+            }
+        }
+        if let Some(sd) = self.sides {
+            let m = sd.points.len();
+            let side = |p: [f64; 2]| {
+                all()
+                    .min_by(|x, y| x.dist(p).total_cmp(&y.dist(p)))
+                    .map_or(0.0, |q| q.left(p))
+            };
+            for k in i..=j {
+                let [l, r] = sd.points[k % m];
+                if side(l) < sd.margin || side(r) > -sd.margin {
+                    return false;
+                }
+            }
+        }
+        if let Some(bx) = self.bounds {
+            for part in parts {
+                if let Some(arc) = part.arc {
+                    let e = arc_box(&arc, part.a, part.b);
+                    if e[0] < bx[0] - 1e-9
+                        || e[1] < bx[1] - 1e-9
+                        || e[2] > bx[2] + 1e-9
+                        || e[3] > bx[3] + 1e-9
+                    {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+/// The longest `j` in `i + 1 ..= last` for which `try_at` gives something, galloping then
+/// halving (a span that fits usually means every shorter one does), with what it gave.
+fn farthest<T>(i: usize, last: usize, try_at: impl Fn(usize) -> Option<T>) -> Option<(usize, T)> {
+    let mut best = None;
+    let mut step = 1;
+    let mut fail = last + 1;
+    while i + step <= last {
+        match try_at(i + step) {
+            Some(t) => best = Some((i + step, t)),
+            None => {
+                fail = i + step;
+                break;
+            }
+        }
+        step *= 2;
+    }
+    if fail > last && best.as_ref().is_none_or(|b| b.0 < last) {
+        match try_at(last) {
+            Some(t) => return Some((last, t)),
+            None => fail = last,
+        }
+    }
+    let mut lo = best.as_ref().map_or(i, |b| b.0);
+    let mut hi = fail.min(last + 1);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        match try_at(mid) {
+            Some(t) => {
+                best = Some((mid, t));
+                lo = mid;
+            }
+            None => hi = mid,
+        }
+    }
+    best
+}
+
+impl Fit<'_> {
+    /// The outline's tangent at vertex `k`: the chord between the vertices a few tolerances
+    /// before and after it (at most [`MAX_REACH`] vertices away), so the traced steps average
+    /// out.
+    fn tangent(&self, k: usize) -> Option<[f64; 2]> {
+        let n = self.ring.len();
+        let step = |dir: isize| {
+            let mut j = k as isize;
+            let mut len = 0.0;
+            for _ in 0..MAX_REACH {
+                let next = j + dir;
+                len += dist(
+                    self.at(j.rem_euclid(n as isize) as usize),
+                    self.at(next.rem_euclid(n as isize) as usize),
+                );
+                j = next;
+                if len >= REACH_TOLS * self.tol {
+                    break;
+                }
+            }
+            self.at(j.rem_euclid(n as isize) as usize)
+        };
+        unit(sub(step(1), step(-1)))
+    }
+
+    /// The arc leaving `s` along `t` that follows the vertices after `i` up to `j` within the
+    /// tolerance, ending where vertex `j` is nearest it: its curvature is the middle of what
+    /// the vertices (a circle tangent at `s` through each, give or take the tolerance) and the
+    /// sides allow, then measured ([`Fit::holds`]).
+    fn follow(&self, prev: &Part, i: usize, j: usize) -> Option<Part> {
+        let (s, t) = (prev.b, prev.end_tangent());
+        let tol = self.tol;
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        // The curvature of the circle tangent to t at s through p, and how much it changes for
+        // p moved by one unit across: 2 h / L², h the offset across t, L the distance.
+        let kappa = |p: [f64; 2]| -> Option<(f64, f64)> {
+            let d = sub(p, s);
+            let l2 = dot(d, d);
+            (l2 > tol * tol && dot(d, t) > 0.0).then(|| (2.0 * cross(t, d) / l2, 2.0 / l2))
+        };
+        for k in i + 1..=j {
+            if let Some((c, w)) = kappa(self.at(k)) {
+                lo = lo.max(c - w * tol);
+                hi = hi.min(c + w * tol);
+            }
+        }
+        if let Some(sd) = self.sides {
+            let n = sd.points.len();
+            for k in i..=j {
+                let [l, r] = sd.points[k % n];
+                // Left points must stay left: the curve turns left less than through them.
+                if let Some((c, w)) = kappa(l) {
+                    hi = hi.min(c - w * sd.margin);
+                }
+                if let Some((c, w)) = kappa(r) {
+                    lo = lo.max(c + w * sd.margin);
+                }
+            }
+        }
+        // The curvature that arrives along the outline's own tangent at vertex j, within what
+        // the vertices allow: the next piece then leaves along the outline, not across it.
+        let want = self.tangent(j).map(|tj| {
+            let d = sub(self.at(j), s);
+            let turn = cross(t, tj).atan2(dot(t, tj));
+            2.0 * (turn / 2.0).sin() / dot(d, d).sqrt()
+        });
+        let k = match (lo.is_finite(), hi.is_finite()) {
+            (true, true) if lo <= hi => want.map_or((lo + hi) / 2.0, |w| w.clamp(lo, hi)),
+            (true, true) => return None,
+            (true, false) => lo,
+            (false, true) => hi,
+            (false, false) => 0.0,
+        };
+        let p = self.at(j);
+        let part = if (k * dist(p, s)).abs() < 1e-9 {
+            let along = dot(sub(p, s), t);
+            if along <= 0.0 {
+                return None;
+            }
+            Part::new(s, [s[0] + along * t[0], s[1] + along * t[1]], 0.0)
+        } else {
+            let nrm = [-t[1], t[0]];
+            let c = [s[0] + nrm[0] / k, s[1] + nrm[1] / k];
+            let r = 1.0 / k.abs();
+            let u = unit(sub(p, c))?;
+            let e = [c[0] + r * u[0], c[1] + r * u[1]];
+            let (cs, ce) = (sub(s, c), sub(e, c));
+            let mut sweep = cross(cs, ce).atan2(dot(cs, ce));
+            if k > 0.0 && sweep < 0.0 {
+                sweep += std::f64::consts::TAU;
+            } else if k < 0.0 && sweep > 0.0 {
+                sweep -= std::f64::consts::TAU;
+            }
+            if sweep.abs() > MAX_SWEEP || sweep == 0.0 {
+                return None;
+            }
+            Part::new(s, e, (sweep / 4.0).tan())
+        };
+        self.holds(&[part], Some(prev), i, j).then_some(part)
+    }
+
+    /// The pieces from `s` (leaving along `t`) that close the ring at its first vertex,
+    /// arriving along `t0` (the first piece's start tangent): a biarc, else one arc (a corner
+    /// at the close).
+    fn close(&self, prev: &Part, i: usize, t0: [f64; 2]) -> Option<Vec<Part>> {
+        let n = self.ring.len();
+        let (s, t) = (prev.b, prev.end_tangent());
+        let end = self.ring[0];
+        RATIOS
+            .iter()
+            .find_map(|&r| {
+                let parts = biarc(s, t, end, t0, r)?;
+                self.holds(&parts, Some(prev), i, n).then(|| parts.to_vec())
+            })
+            .or_else(|| {
+                let p = Part::leaving(s, t, end)?;
+                self.holds(&[p], Some(prev), i, n).then(|| vec![p])
+            })
+    }
+}
+
+/// The tangent-continuous fit (see the module's notes). `free(i, s)` fits one piece from the
+/// point `s` (vertex `i` or a point the last piece ended at, within the tolerance of it) with
+/// its own start tangent (the parent's fit, through the vertices): the end vertex, and the
+/// bulge.
+pub(super) fn fit(
+    ring: &[[f64; 2]],
+    tol: f64,
+    sides: Option<Sides>,
+    bounds: Option<[f64; 4]>,
+    max_run: usize,
+    free: impl Fn(usize, [f64; 2]) -> (usize, f64),
+) -> Vec<Piece> {
+    let n = ring.len();
+    let f = Fit {
+        ring,
+        sides,
+        bounds,
+        tol,
+    };
+    let mut out: Vec<Part> = Vec::new();
+    let mut i = 0;
+    // The first piece's start tangent: the last arrives along it.
+    let mut t0: Option<[f64; 2]> = None;
+    while i < n {
+        let last = (i + max_run).min(n);
+        let s = out.last().map_or(ring[0], |p| p.b);
+        let smooth = out.last().copied().and_then(|prev| {
+            farthest(i, last, |j| {
+                if j == n {
+                    f.close(&prev, i, t0.unwrap_or(prev.end_tangent()))
+                } else {
+                    f.follow(&prev, i, j).map(|p| vec![p])
+                }
+            })
+        });
+        let rs = smooth.as_ref().map_or(0, |(j, _)| j - i);
+        // A corner: where no smooth piece reaches past a few vertices and one with its own
+        // tangent reaches twice as far (or at the ring's start).
+        let corner = (rs < 4)
+            .then(|| {
+                let (j, bulge) = free(i, s);
+                (rs == 0 || j - i >= 2 * rs).then(|| (j, vec![Part::new(s, f.at(j), bulge)]))
+            })
+            .flatten();
+        let Some((j, parts)) = corner.or(smooth) else {
+            unreachable!("a corner is fitted where no smooth piece is");
+        };
+        if out.is_empty() {
+            t0 = Some(parts[0].start_tangent());
+        }
+        out.extend(parts);
+        i = j;
+    }
+    // A piece of no length (a ring's repeated vertex) is no piece.
+    out.into_iter()
+        .filter(|p| p.a != p.b)
+        .map(|p| Piece {
+            from: p.a,
+            bulge: p.bulge,
+        })
+        .collect()
+}
+
+/// How far a joint's tangents may turn and still cost nothing, radians: 15 degrees, where a
+/// 0.2 mm kerf's offset mitres the joint within a micrometre instead of adding a round join, and
+/// a machine's junction deviation keeps most of its speed.
+const SHARP_JOINT: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// How many joints of the closed pieces turn by more than [`SHARP_JOINT`]: the corners a machine
+/// slows at.
+pub(super) fn kinks(pieces: &[Piece]) -> usize {
+    let m = pieces.len();
+    let part = |k: usize| Part::new(pieces[k].from, pieces[(k + 1) % m].from, pieces[k].bulge);
+    (0..m)
+        .filter(|&k| {
+            let (a, b) = (part((k + m - 1) % m).end_tangent(), part(k).start_tangent());
+            cross(a, b).atan2(dot(a, b)).abs() > SHARP_JOINT
+        })
+        .count()
+}
