@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use stencil_gcode::machine::{Bed, Machine, Motion, PenLift, Tool, ZLift};
+use stencil_gcode::machine::{Bed, Link, Machine, Motion, PenLift, Tool, ZLift};
 use stencil_io::profile::{check_range, embedded, parse_toml, ProfileError, Shipped};
 use stencil_io::shipped;
 
@@ -427,6 +427,9 @@ impl Plotter {
             air_assist: false,
             frame_power_pct: 0.0,
             laser: None,
+            // Grbl's serial model (the planner-starvation check) is the G-code writer's; this
+            // crate writes the HP-GL and streams it with the plotter's own buffer and handshake.
+            link: Link::default(),
             arcs: false,
         }
     }
