@@ -622,6 +622,48 @@ mod tests {
         assert!(choose(&map, &g, 128, &protect, |_| 6).is_empty());
     }
 
+    /// A speck beside a large island far from the frame: kept for the picture alone (its bridge
+    /// to the island is short), dropped when hanging on an island costs the sheet a hop, and kept
+    /// again when it sits as near the frame instead.
+    #[test]
+    fn a_speck_hanging_on_an_island_is_dropped_for_the_sheet() {
+        let (w, h) = (140u32, 80u32);
+        let picture = |speck_x: u32| {
+            let mut g = Gray::new(w, h, 0.05);
+            let mut b = BitGrid::new(w, h, false);
+            for y in 0..h {
+                for x in 0..w {
+                    let edge = x < 3 || y < 3 || x >= w - 3 || y >= h - 3;
+                    let speck = (speck_x..speck_x + 4).contains(&x) && (38..42).contains(&y);
+                    let disc = (x as f32 - 70.0).hypot(y as f32 - 40.0) < 15.0;
+                    if edge || speck || disc {
+                        g.set(x, y, 0.95);
+                        b.set(x, y, true);
+                    }
+                }
+            }
+            (g, b)
+        };
+        let run = |speck_x: u32, hop: f64| {
+            let (g, b) = picture(speck_x);
+            let map = islands::label(&b);
+            assert_eq!(map.island_count(), 2);
+            let price = |i: usize| 0.1 + (g.data[i] - 0.5).abs() as f64;
+            let sheet = SheetCost {
+                per_bridge: 0.0,
+                per_border_px: 0.0,
+                per_hop: hop,
+            };
+            let d = choose_for_sheet(&map, &price, &price, sheet, &|_| 2);
+            d.into_iter().map(|(_, d)| d.area_mm2).collect::<Vec<_>>()
+        };
+        // Beside the disc (a pixel of cut between them), 35 px from the frame.
+        assert_eq!(run(51, 0.0), Vec::<f64>::new());
+        assert_eq!(run(51, 30.0), vec![16.0]);
+        // Beside the frame (2 px of cut), the hop costs nothing.
+        assert_eq!(run(5, 30.0), Vec::<f64>::new());
+    }
+
     /// The search as first written (a heap of every entry, a grid per search, no breadth-first
     /// shortcut): which islands it drops, for comparing [`choose`] with.
     fn reference(map: &IslandMap, gray: &Gray, level: u8, bw: f64) -> Vec<u32> {
