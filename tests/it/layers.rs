@@ -485,7 +485,12 @@ fn longest_chain(r: &serde_json::Value) -> u64 {
         .as_array()
         .unwrap()
         .iter()
-        .map(|b| [b["nodes"][0].as_u64().unwrap(), b["nodes"][1].as_u64().unwrap()])
+        .map(|b| {
+            [
+                b["nodes"][0].as_u64().unwrap(),
+                b["nodes"][1].as_u64().unwrap(),
+            ]
+        })
         .collect();
     let n = r["islands"].as_u64().unwrap() + 1;
     let reaches_frame = |from: u64, without: u64| {
@@ -575,12 +580,19 @@ fn random_fur_gives_sheets_without_chains_longer_than_three() {
         for (k, l) in layer_dirs(&out).iter().enumerate() {
             assert_valid_stencil(l);
             let chain = longest_chain(&report(l));
-            assert!(chain <= 3, "case {case} {}: a chain of {chain}", l.display());
+            assert!(
+                chain <= 3,
+                "case {case} {}: a chain of {chain}",
+                l.display()
+            );
             assert_eq!(set["layers"][k]["longest_chain"], chain, "case {case}");
             remade += set["layers"][k]["chain_rounds"].as_u64().unwrap();
         }
     }
-    assert!(remade > 0, "the pictures never made a chain longer than three");
+    assert!(
+        remade > 0,
+        "the pictures never made a chain longer than three"
+    );
 }
 
 /// Issue 42, item 2: a picture of three tones asked for three layers (four tones) gets two, and

@@ -161,7 +161,14 @@ pub(crate) fn choose_for_sheet(
             }
         }
         let fixed = sheet.per_bridge + sheet.per_border_px * node.border.len() as f64;
-        let bridge = sheet_search(map, island, cost - fixed, bridge_price, sheet.per_hop, width);
+        let bridge = sheet_search(
+            map,
+            island,
+            cost - fixed,
+            bridge_price,
+            sheet.per_hop,
+            width,
+        );
         let kept = match bridge {
             Search::GaveUp => true,
             Search::Found(b) => b + fixed < cost,
@@ -183,7 +190,11 @@ pub(crate) fn choose_for_sheet(
             )
         })
     };
-    (1..n).into_par_iter().with_min_len(1).filter_map(one).collect()
+    (1..n)
+        .into_par_iter()
+        .with_min_len(1)
+        .filter_map(one)
+        .collect()
 }
 
 /// What [`sheet_search`] found.

@@ -251,7 +251,17 @@ mod tests {
     fn a_chain_is_counted_island_by_island() {
         // 0-1-2-3 a chain of three; 4 hangs on 1 but also has a bridge to the frame; 5 twice
         // to 3 (a support bridge); 6 to 2 and 3, both held by 2.
-        let links = [[0, 1], [1, 2], [2, 3], [1, 4], [4, 0], [3, 5], [5, 3], [6, 2], [6, 3]];
+        let links = [
+            [0, 1],
+            [1, 2],
+            [2, 3],
+            [1, 4],
+            [4, 0],
+            [3, 5],
+            [5, 3],
+            [6, 2],
+            [6, 3],
+        ];
         let c = Chains::of(8, links);
         assert_eq!(c.depth, vec![0, 1, 2, 3, 1, 4, 3, 0]);
         assert_eq!(c.hangs_on[5], Some(3));
@@ -280,7 +290,11 @@ mod tests {
                     .filter(|&b| b != a && holds(nodes, &links, b, a))
                     .collect();
                 let chain = c.chain(a);
-                assert_eq!(c.depth[a as usize] as usize, holders.len() + 1, "case {case}");
+                assert_eq!(
+                    c.depth[a as usize] as usize,
+                    holders.len() + 1,
+                    "case {case}"
+                );
                 let mut got = chain[1..].to_vec();
                 got.sort_unstable();
                 assert_eq!(got, holders, "case {case} island {a}: {links:?}");
