@@ -170,7 +170,7 @@ pub(crate) fn choose_for_sheet(
             width,
         );
         let kept = match bridge {
-            Search::GaveUp => true,
+            Search::GaveUp | Search::Under => true,
             Search::Found(b) => b + fixed < cost,
             Search::Over => false,
         };
@@ -204,15 +204,21 @@ enum Search {
     Found(f64),
     /// None under the limit.
     Over,
+    /// One under the limit, found by a straight path (its cost not known).
+    Under,
     /// The search ran out of pixels before it knew.
     GaveUp,
 }
+
+/// The most pixels [`sheet_search`] visits for one island (its distances are in a map, a few
+/// dozen bytes a pixel): past this it keeps the island, as [`choose`] does past its budget.
+const SHEET_SEARCH_MAX: usize = 200_000;
 
 /// [`choose_for_sheet`]'s search for one island: Dijkstra from its border through the cut, a
 /// pixel costing `price × width`, ending at the image's edge or the frame, or at another island
 /// for `hop` more (and going on, in case the frame is cheaper), stopped at `limit`. Distances in
 /// a map, not a grid: a covered pixel costs as little as a twentieth of a visible one, so the
-/// search may reach far, but it visits at most its budget.
+/// search may reach far, but it visits at most its budget, and at most [`SHEET_SEARCH_MAX`].
 fn sheet_search(
     map: &IslandMap,
     island: usize,
@@ -227,7 +233,12 @@ fn sheet_search(
     let (w, h) = (map.width as usize, map.height as usize);
     let node = &map.nodes[island];
     let bw = width(node.area).max(1) as f64;
-    let budget = SEARCH_PER_AREA * node.area + SEARCH_BASE;
+    // A straight path to any material, hop and all, under the limit keeps the island: most
+    // large ones, without a search.
+    if straight_under(map, island, limit - hop, bw, price) {
+        return Search::Under;
+    }
+    let budget = (SEARCH_PER_AREA * node.area + SEARCH_BASE).min(SHEET_SEARCH_MAX);
     let me = island as u32;
     let mut dist: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
     let mut heap: Heap = BinaryHeap::new();
@@ -493,7 +504,7 @@ fn straight_under(
     island: usize,
     limit: f64,
     bw: f64,
-    price: &impl Fn(usize) -> f64,
+    price: &(impl Fn(usize) -> f64 + ?Sized),
 ) -> bool {
     let (w, h) = (map.width as usize, map.height as usize);
     let me = island as u32;
