@@ -26,7 +26,10 @@ pub struct LayerArgs {
     /// by k-means in CIELAB, a gray one by multi-level Otsu thresholds — and layer k cuts every
     /// part at its tone or darker. Writes OUT/layer-1/ … OUT/layer-N/ (each what make writes for
     /// one stencil), OUT/composite.png (the painted result) and OUT/report.json (layers, colours,
-    /// painting order, likeness, hidden bridges). Every sheet gets registration marks.
+    /// painting order, likeness, hidden bridges). Every sheet gets registration marks. Fewer
+    /// sheets when the picture has fewer tones each sheet would show (make says so); specks a
+    /// sheet would hold on costly bridges are painted instead, and no sheet hangs more than three
+    /// islands each on the next.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(2..=MAX_LAYERS as i64))]
     pub layers: Option<u32>,
     /// With --layers: the gray levels (0..255, one per layer, comma-separated) instead of the

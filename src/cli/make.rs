@@ -392,10 +392,19 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
         "surface {}; registration marks: 4 crosses and 2 pin holes in a {:.1} mm band around the picture",
         r.surface_color, r.marks.band_mm
     );
+    if let Some(asked) = r.layers_asked {
+        println!(
+            "the picture has fewer tones than the {asked} layers asked for: {} cut (each layer's paint must differ from the tone under it by {} of lightness or ΔE {}, on {} % of the picture)",
+            r.layers.len(),
+            stencil_core::layers::MIN_STEP_L,
+            stencil_core::layers::MIN_STEP_DELTA_E,
+            stencil_core::layers::MIN_TONE_PCT,
+        );
+    }
     for l in &r.layers {
         let folder = if l.folder.is_empty() { "." } else { &l.folder };
         println!(
-            "  {folder}: level {}, paint {}, cuts {:.1} %, {} islands, {} bridges, {} bridge px of which {:.0} % hidden by later layers{}",
+            "  {folder}: level {}, paint {}, cuts {:.1} %, {} islands, {} bridges, {} bridge px of which {:.0} % hidden by later layers; longest chain of islands {}{}{}",
             l.level,
             l.color,
             l.cut_pct,
@@ -403,6 +412,12 @@ fn print_set(cfg: &MakeConfig, set: &Layered, fill_in_asked: bool) {
             l.bridges,
             l.bridge_px,
             l.hidden_pct,
+            l.longest_chain,
+            if l.dropped_islands > 0 {
+                format!(", {} islands painted rather than held", l.dropped_islands)
+            } else {
+                String::new()
+            },
             if l.check_passed { "" } else { " (CHECK FAILED)" }
         );
     }

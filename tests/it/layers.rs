@@ -476,3 +476,155 @@ fn a_command_given_a_layers_path_finishes_the_sets_swap_first() {
         }
     }
 }
+
+/// The longest chain of islands in a sheet's report, by the definition, by brute force: an
+/// island's chain is itself and every island without which it cannot reach the main sheet
+/// (node 0) along the bridges.
+fn longest_chain(r: &serde_json::Value) -> u64 {
+    let links: Vec<[u64; 2]> = r["bridges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| {
+            [
+                b["nodes"][0].as_u64().unwrap(),
+                b["nodes"][1].as_u64().unwrap(),
+            ]
+        })
+        .collect();
+    let n = r["islands"].as_u64().unwrap() + 1;
+    let reaches_frame = |from: u64, without: u64| {
+        let mut seen = vec![false; n as usize];
+        let mut stack = vec![from];
+        seen[from as usize] = true;
+        while let Some(v) = stack.pop() {
+            if v == 0 {
+                return true;
+            }
+            for &[a, b] in &links {
+                for (p, q) in [(a, b), (b, a)] {
+                    if p == v && q != without && !seen[q as usize] {
+                        seen[q as usize] = true;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        false
+    };
+    (1..n)
+        .map(|a| {
+            assert!(reaches_frame(a, u64::MAX), "island {a} is held by nothing");
+            1 + (1..n).filter(|&b| b != a && !reaches_frame(a, b)).count() as u64
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// Issue 42, item 2: on random pictures of light specks in strands over a dark gradient (fur,
+/// whose specks a plain bridger strings into laces), every sheet of a three-layer set is one
+/// valid piece whose longest chain of islands (each hanging only on the next) is at most three,
+/// as its report says; the pictures do make longer chains first (a layer made again).
+#[test]
+fn random_fur_gives_sheets_without_chains_longer_than_three() {
+    let dir = tmp();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (w, h) = (120u32, 90u32);
+    let mut remade = 0;
+    for case in 0..3 {
+        let mut specks = Vec::new();
+        for _ in 0..14 {
+            let (mut x, mut y) = (next() * w as f64, next() * h as f64);
+            for _ in 0..12 {
+                specks.push((x, y, 1.0 + next() * 0.8, 0.8 + next() * 0.2));
+                let a = next() * std::f64::consts::TAU;
+                (x, y) = (x + a.cos() * 3.6, y + a.sin() * 3.6);
+            }
+        }
+        let mut data = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let mut v = 0.12 + 0.45 * px / w as f64 + 0.15 * (py / 9.0).sin();
+                for &(sx, sy, r, g) in &specks {
+                    if (px - sx).hypot(py - sy) < r {
+                        v = g;
+                    }
+                }
+                data.push((v.clamp(0.0, 1.0) * 255.0) as u8);
+            }
+        }
+        let pic = dir.path().join(format!("fur{case}.png"));
+        write_gray_png(&pic, w, h, &data);
+        let out = dir.path().join(format!("set{case}"));
+        let o = stencil(&[
+            "make",
+            s(&pic),
+            "-o",
+            s(&out),
+            "--layers",
+            "3",
+            "--width-mm",
+            "60",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let set = report(&out);
+        assert_eq!(set["layers"].as_array().unwrap().len(), 3, "case {case}");
+        assert_eq!(set["max_chain"], 3);
+        for (k, l) in layer_dirs(&out).iter().enumerate() {
+            assert_valid_stencil(l);
+            let chain = longest_chain(&report(l));
+            assert!(
+                chain <= 3,
+                "case {case} {}: a chain of {chain}",
+                l.display()
+            );
+            assert_eq!(set["layers"][k]["longest_chain"], chain, "case {case}");
+            remade += set["layers"][k]["chain_rounds"].as_u64().unwrap();
+        }
+    }
+    assert!(
+        remade > 0,
+        "the pictures never made a chain longer than three"
+    );
+}
+
+/// Issue 42, item 2: a picture of three tones asked for three layers (four tones) gets two, and
+/// `make` says the picture has fewer tones than asked.
+#[test]
+fn a_picture_with_fewer_tones_than_asked_gets_fewer_sheets_and_says_so() {
+    let dir = tmp();
+    let pic = dir.path().join("three.png");
+    let (w, h) = (90u32, 60u32);
+    let data: Vec<u8> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            if (x - 30.0).hypot(y - 30.0) < 18.0 {
+                25
+            } else if (x - 65.0).hypot(y - 30.0) < 16.0 {
+                140
+            } else {
+                255
+            }
+        })
+        .collect();
+    write_gray_png(&pic, w, h, &data);
+    let out = dir.path().join("set");
+    let o = stencil(&["make", s(&pic), "-o", s(&out), "--layers", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("the picture has fewer tones than the 3 layers asked for: 2 cut"),
+        "{text}"
+    );
+    let r = report(&out);
+    assert_eq!(r["layers"].as_array().unwrap().len(), 2, "{r}");
+    assert_eq!(r["layers_asked"], 3);
+    assert_eq!(layer_dirs(&out).len(), 2);
+}

@@ -27,6 +27,21 @@
 //! the picture). The report says, per layer, how many of its bridge pixels (cut in its two-tone,
 //! material in its stencil) a later layer paints over.
 //!
+//! ## Sheets a person can handle
+//! A sheet of a set (of two layers or more) is lifted, laid, sprayed and cleaned: what it costs
+//! counts beside the picture. So each layer chooses, island by island, whether to bridge it or to
+//! drop it (cut it, so this layer paints it) with the sheet's costs added to the bridge's:
+//! [`SHEET_BRIDGE_MM2`] for the bridge itself, [`SHEET_CUT_MM2_PER_MM`] per millimetre of the
+//! island's outline, and another bridge's worth when its bridge would end on another island rather
+//! than on the main sheet (`bridge::drop`'s sheet choice). A bridge a later layer paints over is
+//! cheap for the picture ([`COVERED_COST`]) but costs the sheet the same. Then the bridges' chains
+//! are measured (`bridge::tree`: island `a` hangs on island `b` when every way from `a` to the
+//! main sheet along the bridges passes `b`; a chain is a run of islands each hanging directly on
+//! the next, its length the number of islands): where one is longer than [`MAX_CHAIN`], the
+//! smallest island of its links is dropped too and the layer made again (at most
+//! [`CHAIN_ROUNDS`] times, then every island deeper than the limit goes). The report gives each
+//! layer's longest chain and the islands it dropped.
+//!
 //! ## Registration
 //! Every sheet of a set grows by a band of material around the picture ([`Marks`]) holding four
 //! corner crosses and two pin holes, cut into every layer's raster before the clean-up, so every
@@ -37,8 +52,12 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
+use crate::bridge::drop::{choose_for_sheet, Dropped, SheetCost};
+use crate::bridge::grow;
+use crate::bridge::tree::Chains;
 use crate::driver::{self, Edit, Start, Tweaks};
 use crate::export::{self, png};
+use crate::islands;
 use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
 use crate::raster::{edge_neighbours, BitGrid, Gray, TwoTone};
 use crate::report::share_pct as pct;
@@ -49,6 +68,7 @@ use crate::units::Size;
 mod config;
 mod kmeans;
 mod lab;
+mod marks;
 mod posterise;
 
 use lab::dist2;
@@ -58,11 +78,40 @@ pub use crate::limits::MAX_LAYERS;
 pub use config::LayersConfig;
 pub use kmeans::{KMEANS_ROUNDS, KMEANS_SAMPLES};
 pub use lab::{lab, srgb};
-pub use posterise::{multi_otsu, posterise, Method, Tones};
+pub use marks::Marks;
+pub use posterise::{
+    multi_otsu, posterise, worth_a_sheet, Method, Tones, MIN_STEP_DELTA_E, MIN_STEP_L, MIN_TONE_PCT,
+};
 
 /// Share of the intensity cost a bridge pixel keeps where a later layer paints over it: a
 /// covered pixel is twenty times cheaper to bridge than the same pixel left visible.
 pub const COVERED_COST: f32 = 0.05;
+
+/// What a bridge costs a layered set's sheet, as a change to the picture: as much as this many
+/// mm² of picture each changed at full price (the drop's `0.1 + |gray − threshold|` per pixel;
+/// between two neighbouring tones of a photo it is about 0.17, so this is a third of a mm² of
+/// speck). A 1.2 mm bridge 5 mm long that a later layer paints over costs the picture about as
+/// much again, and the sheet this: the sheet's cost counts where the picture's does not. (On the
+/// cat of issue 42, a tenth of a mm² lost more likeness than it saved bridges; this, with
+/// [`SHEET_CUT_MM2_PER_MM`], holds its lightest sheet with 20 bridges instead of 120.)
+pub const SHEET_BRIDGE_MM2: f64 = 0.05;
+
+/// What a millimetre of cut around an island costs a layered set's sheet, in the same mm² of
+/// picture: the cut a speck's outline adds (a 1 mm speck's 3 mm of outline cost about a bridge).
+pub const SHEET_CUT_MM2_PER_MM: f64 = 0.02;
+
+/// What a chain is, in a set's report.
+pub const CHAIN: &str = "island a hangs on island b when every way from a to the main sheet \
+along the bridges passes through b; a chain is a run of islands each hanging directly on the \
+next, the last held by the main sheet without another island between; its length is the \
+number of islands in it (an island bridged straight to the main sheet is a chain of one)";
+
+/// The longest chain of islands (each hanging only on the next) a layered set's sheet keeps.
+pub const MAX_CHAIN: u32 = 3;
+
+/// How many times a layer is made again with the links of its too long chains dropped, before
+/// every island deeper than [`MAX_CHAIN`] is.
+pub const CHAIN_ROUNDS: usize = 4;
 
 /// The fill-in's cut reaches this far (mm) past each hidden bridge pixel, inside what the first
 /// stencil paints anyway, so that a small misregistration of the two sheets leaves no gap.
@@ -121,80 +170,6 @@ fn load_colours(path: &Path, luma: &Gray) -> Result<Option<Vec<[f32; 3]>>, Layer
     Ok((coloured * 50 > rgb.len()).then_some(rgb))
 }
 
-/// The registration marks: a band of material around the picture holding four corner crosses
-/// and two pin holes (top and bottom middle), the same on every sheet of a set. Coordinates are
-/// in mm from the top-left corner of the picture grown by the band (the SVG's, DXF's and
-/// G-code's origin), whose size is the picture's plus twice `band_mm`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Marks {
-    /// Width of the band on each side, mm (a whole number of input pixels).
-    pub band_mm: f64,
-    /// The same in input pixels.
-    pub band_px: u32,
-    /// Width of a cross's arms, mm: twice the material's smallest feature, at least 1 mm.
-    pub line_mm: f64,
-    /// Half the length of a cross's arm, mm.
-    pub arm_mm: f64,
-    /// Diameter of a pin hole, mm.
-    pub pin_mm: f64,
-    /// Centres of the crosses, mm.
-    pub crosses_mm: Vec<[f64; 2]>,
-    /// Centres of the pin holes, mm.
-    pub pins_mm: Vec<[f64; 2]>,
-}
-
-impl Marks {
-    /// The marks for a picture of `w` × `h` input pixels at `mm_per_px`, cut in `material`.
-    pub fn new(w: u32, h: u32, mm_per_px: f64, min_feature_mm: f64) -> Marks {
-        let line = (2.0 * min_feature_mm).max(1.0);
-        let arm = 3.5 * line;
-        let pin = 3.0 * line;
-        let band_px = ((2.0 * arm + 3.0 * line) / mm_per_px).ceil().max(1.0) as u32;
-        let band = band_px as f64 * mm_per_px;
-        let (sw, sh) = (
-            (w + 2 * band_px) as f64 * mm_per_px,
-            (h + 2 * band_px) as f64 * mm_per_px,
-        );
-        let c = band / 2.0;
-        Marks {
-            band_mm: band,
-            band_px,
-            line_mm: line,
-            arm_mm: arm,
-            pin_mm: pin,
-            crosses_mm: vec![[c, c], [sw - c, c], [c, sh - c], [sw - c, sh - c]],
-            pins_mm: vec![[sw / 2.0, c], [sw / 2.0, sh - c]],
-        }
-    }
-
-    /// Whether a point (mm) is inside a mark.
-    fn inside(&self, x: f64, y: f64) -> bool {
-        let half = self.line_mm / 2.0;
-        self.crosses_mm.iter().any(|&[cx, cy]| {
-            let (dx, dy) = ((x - cx).abs(), (y - cy).abs());
-            (dx <= self.arm_mm && dy <= half) || (dy <= self.arm_mm && dx <= half)
-        }) || self
-            .pins_mm
-            .iter()
-            .any(|&[cx, cy]| (x - cx).hypot(y - cy) <= self.pin_mm / 2.0)
-    }
-
-    /// Set the band of a working grid (band `band` working pixels wide, `mm_per_px` per working
-    /// pixel): material, but cut inside the marks.
-    pub fn stamp(&self, bits: &mut BitGrid, band: u32, mm_per_px: f64) {
-        let (w, h) = (bits.width, bits.height);
-        for y in 0..h {
-            let in_rows = y < band || y >= h.saturating_sub(band);
-            for x in 0..w {
-                if in_rows || x < band || x >= w.saturating_sub(band) {
-                    let (mx, my) = ((x as f64 + 0.5) * mm_per_px, (y as f64 + 0.5) * mm_per_px);
-                    bits.set(x, y, !self.inside(mx, my));
-                }
-            }
-        }
-    }
-}
-
 /// One layer's report.
 #[derive(Clone, Debug, Serialize)]
 pub struct LayerReport {
@@ -223,6 +198,13 @@ pub struct LayerReport {
     pub hidden_pct: f64,
     /// Whether its stencil passed the check.
     pub check_passed: bool,
+    /// Islands of its two-tone it cut (painted) rather than held, for the sheet's sake (see
+    /// the module notes, "Sheets a person can handle"); in its own report's dropped islands.
+    pub dropped_islands: usize,
+    /// Its longest chain of islands, each hanging on the next (see [`SetReport::chain`]).
+    pub longest_chain: u32,
+    /// Times it was made again to shorten its chains.
+    pub chain_rounds: usize,
 }
 
 /// How close the painted set comes to the picture.
@@ -283,6 +265,14 @@ pub struct SetReport {
     pub mm_per_px: f64,
     /// The fill-in's report, when one was made.
     pub fill_in: Option<FillInReport>,
+    /// What a chain is, as [`LayerReport::longest_chain`] counts it.
+    pub chain: &'static str,
+    /// The longest chain a sheet keeps ([`MAX_CHAIN`]).
+    pub max_chain: u32,
+    /// Layers asked for, when the picture has fewer tones a sheet would show (see
+    /// [`Tones::asked`]); absent when every layer asked for was cut.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub layers_asked: Option<u32>,
     /// The files written.
     pub files: Vec<String>,
 }
@@ -343,17 +333,19 @@ struct Frame {
 
 /// One layer through `make`'s stages at `level` (the driver's list, from the set's gray), its
 /// registration marks stamped into its two-tone, its bridges on a cost gray where `covered` (cut
-/// by a later layer) is cheap, its cut forced to include `darker`'s cleaned cut, every island
-/// bridged and none dropped: the layers' nesting (what a darker layer cuts, a lighter one cuts
-/// too) is taken from the cleaned cut before the join, so an island a layer dropped would be cut
-/// there but painted by the lighter layers. Returns the result and the layer's two-tone after
-/// the clean-up (what its bridges were drawn into).
+/// by a later layer) is cheap, its cut forced to include `darker`'s cleaned cut. The driver drops
+/// no island: the layers' nesting (what a darker layer cuts, a lighter one cuts too) is taken from
+/// the cleaned cut, so a layer's own drops are made in it, after the clean-up: with `sheet`, the
+/// islands [`sheet_drops`] chooses and those under `forced` (pixels to cut: the links of chains an
+/// earlier try made too long). Returns the result, the layer's two-tone after the clean-up (what
+/// its bridges were drawn into) and the islands dropped for the sheet.
 fn one_layer(
     f: &Frame,
     level: u8,
     covered: Option<&BitGrid>,
     darker: Option<&BitGrid>,
-) -> Result<(Made, BitGrid), Error> {
+    sheet: Option<&[u32]>,
+) -> Result<(Made, BitGrid, SheetDrops), Error> {
     let mut cfg = f.cfg.clone();
     cfg.tone.threshold = Threshold::Level(level);
     let stamp = |raw: &mut TwoTone, p: &StageParams| {
@@ -365,16 +357,27 @@ fn one_layer(
         Some(c) => cost_gray(gray, c),
         None => gray.clone(),
     };
-    let also = |tt: &mut TwoTone, _: &StageParams| {
+    let drops = std::sync::Mutex::new(SheetDrops::default());
+    let also = |tt: &mut TwoTone, p: &StageParams| {
         if let Some(d) = darker {
             for (b, &m) in tt.bits.data.iter_mut().zip(&d.data) {
                 *b &= m;
             }
         }
+        if let Some(forced) = sheet {
+            for &i in forced {
+                tt.bits.data[i as usize] = false;
+            }
+            let found = sheet_drops(tt, level, covered, p);
+            if let Ok(mut d) = drops.lock() {
+                *d = found;
+            }
+        }
     };
     let tweaks = Tweaks {
         after_threshold: Some(&stamp),
-        after_clean: darker.is_some().then_some(&also as &Edit<'_, TwoTone, ()>),
+        after_clean: (darker.is_some() || sheet.is_some())
+            .then_some(&also as &Edit<'_, TwoTone, ()>),
         cost_gray: covered
             .is_some()
             .then_some(&cost as &(dyn Fn(&Gray) -> Gray + Sync)),
@@ -382,7 +385,166 @@ fn one_layer(
         two_tone: None,
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    driver::made_once(&cfg, &start, &tweaks)
+    let (mut made, cut) = driver::made_once(&cfg, &start, &tweaks)?;
+    let mut drops = drops.into_inner().unwrap_or_default();
+    if let Some(forced) = sheet {
+        // The forced pixels were islands of an earlier try: they count as dropped here too.
+        drops.px.extend_from_slice(forced);
+        drops.px.sort_unstable();
+        drops.px.dedup();
+    }
+    if !drops.islands.is_empty() || !drops.px.is_empty() {
+        made.dropped_px.extend_from_slice(&drops.px);
+        made.dropped_px.sort_unstable();
+        made.dropped_px.dedup();
+        made.report
+            .dropped_islands
+            .get_or_insert_with(Vec::new)
+            .extend(drops.islands.iter().cloned());
+    }
+    Ok((made, cut, drops))
+}
+
+/// The islands a layer dropped for its sheet: their descriptions (mm) and their pixels.
+#[derive(Clone, Debug, Default)]
+struct SheetDrops {
+    islands: Vec<Dropped>,
+    px: Vec<u32>,
+}
+
+/// The islands of a layer's cleaned two-tone that cost the sheet more than dropping them costs
+/// the picture (`bridge::drop`'s sheet choice, see the module notes), cut. A dropped pixel's
+/// price is the drop's (`0.1 + |gray − level|`, from the layer's own gray); a bridge pixel's the
+/// same, times [`COVERED_COST`] where `covered` (a later layer's stencil) is cut.
+fn sheet_drops(
+    tt: &mut TwoTone,
+    level: u8,
+    covered: Option<&BitGrid>,
+    p: &StageParams,
+) -> SheetDrops {
+    let map = islands::label(&tt.bits);
+    if map.island_count() == 0 {
+        return SheetDrops::default();
+    }
+    let mm = p.join.mm_per_px;
+    let t = level as f32 / 255.0;
+    let gray = &tt.gray;
+    let drop_price = |i: usize| 0.1 + (gray.data[i] - t).abs() as f64;
+    let bridge_price = |i: usize| {
+        let hidden = covered.is_some_and(|c| !c.data[i]);
+        drop_price(i) * if hidden { COVERED_COST as f64 } else { 1.0 }
+    };
+    let per_bridge = SHEET_BRIDGE_MM2 / (mm * mm);
+    let sheet = SheetCost {
+        per_bridge,
+        per_border_px: SHEET_CUT_MM2_PER_MM / mm,
+        per_hop: per_bridge,
+    };
+    let bc = &p.join.bridge;
+    let width = |area: usize| grow::width_for(area, bc);
+    let chosen = choose_for_sheet(&map, &drop_price, &bridge_price, sheet, &width);
+    let mut out = SheetDrops::default();
+    let w = map.width as usize;
+    for (n, mut d) in chosen {
+        for (y, x0, x1) in map.island_runs(n as usize) {
+            let row = y as usize * w;
+            tt.bits.data[row + x0 as usize..=row + x1 as usize].fill(false);
+            out.px.extend(row as u32 + x0..=row as u32 + x1);
+        }
+        d.at_mm = [d.at_mm[0] * mm, d.at_mm[1] * mm];
+        d.area_mm2 *= mm * mm;
+        out.islands.push(d);
+    }
+    out.px.sort_unstable();
+    out
+}
+
+/// A made layer's chains (see the module notes), from its bridges.
+fn chains_of(m: &Made) -> Chains {
+    Chains::of(
+        m.report.islands + 1,
+        m.bridged.bridges.iter().map(|b| b.nodes),
+    )
+}
+
+/// The pixels of the islands to drop to shorten the chains of `m` longer than [`MAX_CHAIN`]: of
+/// each such chain, its smallest island but the one the main sheet holds (a speck in the middle
+/// of a lace, whose islands find another way when it goes), or, with `all`, every island deeper
+/// than the limit.
+fn chain_links(m: &Made, chains: &Chains, all: bool) -> (Vec<u32>, usize) {
+    let map = islands::label(&m.twotone.bits);
+    let nodes = map.nodes.len().min(chains.depth.len());
+    let mut gone = vec![false; nodes];
+    for v in (1..nodes).filter(|&v| chains.depth[v] > MAX_CHAIN) {
+        if all {
+            gone[v] = true;
+            continue;
+        }
+        let chain = chains.chain(v as u32);
+        let links = &chain[..chain.len().saturating_sub(1)];
+        if let Some(&s) = links.iter().min_by_key(|&&i| map.nodes[i as usize].area) {
+            gone[s as usize] = true;
+        }
+    }
+    let w = map.width;
+    let mut px = Vec::new();
+    for n in (1..nodes).filter(|&n| gone[n]) {
+        for (y, x0, x1) in map.island_runs(n) {
+            px.extend(y * w + x0..=y * w + x1);
+        }
+    }
+    (px, gone.iter().filter(|&&g| g).count())
+}
+
+/// One layer made for a set of `n` layers: with two or more, for its sheet (see the module notes):
+/// made again with the links of chains longer than [`MAX_CHAIN`] dropped, at most
+/// [`CHAIN_ROUNDS`] times and then once with every island deeper than it dropped. Returns the
+/// layer and its cleaned cut (as [`one_layer`]) and what its report says of its sheet.
+fn sheet_layer(
+    f: &Frame,
+    level: u8,
+    covered: Option<&BitGrid>,
+    darker: Option<&BitGrid>,
+    n: usize,
+) -> Result<(Made, BitGrid, SheetSummary), Error> {
+    if n < 2 {
+        let (m, cut, _) = one_layer(f, level, covered, darker, None)?;
+        let summary = SheetSummary {
+            longest_chain: chains_of(&m).longest(),
+            ..Default::default()
+        };
+        return Ok((m, cut, summary));
+    }
+    let (mut forced, mut links) = (Vec::new(), 0);
+    let mut rounds = 0;
+    loop {
+        let (m, cut, d) = one_layer(f, level, covered, darker, Some(&forced))?;
+        let chains = chains_of(&m);
+        if chains.longest() <= MAX_CHAIN || rounds > CHAIN_ROUNDS {
+            let summary = SheetSummary {
+                dropped: d.islands.len() + links,
+                longest_chain: chains.longest(),
+                rounds,
+            };
+            return Ok((m, cut, summary));
+        }
+        rounds += 1;
+        let (px, count) = chain_links(&m, &chains, rounds > CHAIN_ROUNDS);
+        forced.extend(px);
+        forced.sort_unstable();
+        forced.dedup();
+        links += count;
+    }
+}
+
+/// What a layer's report says of its sheet.
+#[derive(Clone, Copy, Debug, Default)]
+struct SheetSummary {
+    /// Islands dropped for the sheet: by the sheet's choice and as links of long chains.
+    dropped: usize,
+    longest_chain: u32,
+    /// Times the layer was made again.
+    rounds: usize,
 }
 
 /// The gray the bridge cost reads for a layer: where a later layer paints (`covered` is cut),
@@ -451,11 +613,14 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     let n = tones.levels.len();
     // Darkest first: each layer's bridges see the stencils painted after it.
     let mut made: Vec<Option<(Made, BitGrid)>> = (0..n).map(|_| None).collect();
+    let mut sheets = vec![SheetSummary::default(); n];
     for k in (0..n).rev() {
         let later = made.get(k + 1).and_then(|m| m.as_ref());
         let covered = later.map(|(m, _)| &m.bridged.bits);
         let darker = later.map(|(_, cut)| cut);
-        made[k] = Some(one_layer(&frame, tones.levels[k], covered, darker)?);
+        let (m, cut, summary) = sheet_layer(&frame, tones.levels[k], covered, darker, n)?;
+        sheets[k] = summary;
+        made[k] = Some((m, cut));
     }
     let made: Vec<(Made, BitGrid)> = made.into_iter().map(|m| m.expect("made")).collect();
     let fill_in = if lc.fill_in && n == 1 {
@@ -463,7 +628,7 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     } else {
         None
     };
-    let (report, composite) = assess(cfg, &frame, &tones, &made, fill_in.as_ref());
+    let (report, composite) = assess(cfg, &frame, &tones, &made, &sheets, fill_in.as_ref());
     Ok(Layered {
         layers: made.into_iter().map(|(m, _)| m).collect(),
         fill_in: fill_in.map(|(m, _)| m),
@@ -555,6 +720,7 @@ fn assess(
     f: &Frame,
     tones: &Tones,
     made: &[(Made, BitGrid)],
+    sheets: &[SheetSummary],
     fill_in: Option<&(Made, BitGrid)>,
 ) -> (SetReport, Vec<u8>) {
     let n = made.len();
@@ -643,6 +809,9 @@ fn assess(
             hidden_px,
             hidden_pct: pct(hidden_px, bridge_px),
             check_passed: m.check.passed(),
+            dropped_islands: sheets[k].dropped,
+            longest_chain: sheets[k].longest_chain,
+            chain_rounds: sheets[k].rounds,
         });
     }
     let agree = (0..len)
@@ -704,6 +873,9 @@ fn assess(
         scale_factor: factor,
         mm_per_px: first.scale.mm_per_px,
         fill_in: fill_report,
+        chain: CHAIN,
+        max_chain: MAX_CHAIN,
+        layers_asked: tones.asked,
         files: Vec::new(),
     };
     (report, rgb)
@@ -758,27 +930,4 @@ pub fn encode(set: &mut Layered, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8
 /// set of fewer layers leaves none of a larger one's folders behind.
 pub fn make(cfg: &MakeConfig, lc: &LayersConfig) -> Result<(Layered, export::Replaced), Error> {
     files::write_with(cfg, || run(cfg, lc), |set| encode(set, cfg))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn marks_sit_in_the_band() {
-        let m = Marks::new(400, 300, 0.1, 0.5);
-        assert_eq!(m.line_mm, 1.0);
-        assert!(m.band_mm >= 2.0 * m.arm_mm + m.line_mm);
-        for &[x, y] in m.crosses_mm.iter().chain(&m.pins_mm) {
-            let inner = |v: f64, size: f64| v < m.band_mm || v > size - m.band_mm;
-            assert!(inner(x, 40.0 + 2.0 * m.band_mm) || inner(y, 30.0 + 2.0 * m.band_mm));
-        }
-        let mut bits = BitGrid::new(400 + 2 * m.band_px, 300 + 2 * m.band_px, false);
-        m.stamp(&mut bits, m.band_px, 0.1);
-        // The picture is untouched; a cross's centre is cut, the band between marks is material.
-        assert!(!bits.get(200, 200));
-        let c = (m.crosses_mm[0][0] / 0.1) as u32;
-        assert!(!bits.get(c, c));
-        assert!(bits.get(1, 1));
-    }
 }

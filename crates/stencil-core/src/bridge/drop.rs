@@ -16,7 +16,7 @@ use std::collections::BinaryHeap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::islands::{IslandMap, CUT};
+use crate::islands::{IslandMap, CUT, FRAME};
 use crate::raster::Gray;
 
 /// The search for an island's cheapest bridge visits at most this many pixels per island pixel,
@@ -114,6 +114,183 @@ pub(crate) fn choose(
         .with_min_len(1)
         .filter_map(search)
         .collect()
+}
+
+/// What keeping an island costs the sheet beyond its bridge's change to the picture, in the
+/// same pixel-costs as a drop (`0.1 + |gray − threshold|` summed over pixels): a layered set's
+/// sheets are lifted, sprayed and cleaned, and every bridge, every millimetre cut and every
+/// island hanging on another island makes a sheet harder to handle, even where a later layer
+/// paints over the bridge (see [`choose_for_sheet`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SheetCost {
+    /// One bridge: a place the sheet bends and tears, and a joint to clean.
+    pub(crate) per_bridge: f64,
+    /// One border pixel of the island: the cut around it (the knife's or the beam's path).
+    pub(crate) per_border_px: f64,
+    /// Holding on another island rather than on the frame: one more link of a chain (see the
+    /// chains in `bridge::tree`).
+    pub(crate) per_hop: f64,
+}
+
+/// The islands a sheet of a layered set drops (node ids of `map`), with their reports in pixels
+/// (as [`choose`]'s): an island stays when its cheapest bridge, priced by `bridge_price` per cut
+/// pixel times its width (`width(area)`), plus what keeping it costs the sheet (`sheet`: a bridge,
+/// its border's cut, and a hop when the bridge ends on another island rather than the frame),
+/// costs less than dropping it, priced by `drop_price` per island pixel. The search is
+/// [`choose`]'s (Dijkstra through the cut, bounded by the drop's cost and by
+/// [`SEARCH_PER_AREA`] × A + [`SEARCH_BASE`] pixels, giving up by keeping the island), but it
+/// goes on past other islands to find the frame when the hop makes an island dearer.
+pub(crate) fn choose_for_sheet(
+    map: &IslandMap,
+    drop_price: &(dyn Fn(usize) -> f64 + Sync),
+    bridge_price: &(dyn Fn(usize) -> f64 + Sync),
+    sheet: SheetCost,
+    width: &(dyn Fn(usize) -> u32 + Sync),
+) -> Vec<(u32, Dropped)> {
+    let n = map.nodes.len();
+    let w = map.width as usize;
+    let one = |island: usize| {
+        let node = &map.nodes[island];
+        let (mut cost, mut sx, mut sy) = (0f64, 0f64, 0f64);
+        for (y, x0, x1) in map.island_runs(island) {
+            let row = y as usize * w;
+            for x in x0 as usize..=x1 as usize {
+                cost += drop_price(row + x);
+                sx += x as f64 + 0.5;
+                sy += y as f64 + 0.5;
+            }
+        }
+        let fixed = sheet.per_bridge + sheet.per_border_px * node.border.len() as f64;
+        let bridge = sheet_search(
+            map,
+            island,
+            cost - fixed,
+            bridge_price,
+            sheet.per_hop,
+            width,
+        );
+        let kept = match bridge {
+            Search::GaveUp | Search::Under => true,
+            Search::Found(b) => b + fixed < cost,
+            Search::Over => false,
+        };
+        let a = node.area as f64;
+        (!kept).then(|| {
+            (
+                island as u32,
+                Dropped {
+                    at_mm: [sx / a, sy / a],
+                    area_mm2: a,
+                    drop_cost: cost,
+                    bridge_cost: match bridge {
+                        Search::Found(b) => Some(b + fixed),
+                        _ => None,
+                    },
+                },
+            )
+        })
+    };
+    (1..n)
+        .into_par_iter()
+        .with_min_len(1)
+        .filter_map(one)
+        .collect()
+}
+
+/// What [`sheet_search`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Search {
+    /// The cheapest way to the frame or to another island (with its hop), under the limit.
+    Found(f64),
+    /// None under the limit.
+    Over,
+    /// One under the limit, found by a straight path (its cost not known).
+    Under,
+    /// The search ran out of pixels before it knew.
+    GaveUp,
+}
+
+/// The most pixels [`sheet_search`] visits for one island (its distances are in a map, a few
+/// dozen bytes a pixel): past this it keeps the island, as [`choose`] does past its budget.
+const SHEET_SEARCH_MAX: usize = 200_000;
+
+/// [`choose_for_sheet`]'s search for one island: Dijkstra from its border through the cut, a
+/// pixel costing `price × width`, ending at the image's edge or the frame, or at another island
+/// for `hop` more (and going on, in case the frame is cheaper), stopped at `limit`. Distances in
+/// a map, not a grid: a covered pixel costs as little as a twentieth of a visible one, so the
+/// search may reach far, but it visits at most its budget, and at most [`SHEET_SEARCH_MAX`].
+fn sheet_search(
+    map: &IslandMap,
+    island: usize,
+    limit: f64,
+    price: &(dyn Fn(usize) -> f64 + Sync),
+    hop: f64,
+    width: &(dyn Fn(usize) -> u32 + Sync),
+) -> Search {
+    if limit <= 0.0 {
+        return Search::Over;
+    }
+    let (w, h) = (map.width as usize, map.height as usize);
+    let node = &map.nodes[island];
+    let bw = width(node.area).max(1) as f64;
+    // A straight path to any material, hop and all, under the limit keeps the island: most
+    // large ones, without a search.
+    if straight_under(map, island, limit - hop, bw, price) {
+        return Search::Under;
+    }
+    let budget = (SEARCH_PER_AREA * node.area + SEARCH_BASE).min(SHEET_SEARCH_MAX);
+    let me = island as u32;
+    let mut dist: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
+    let mut heap: Heap = BinaryHeap::new();
+    let mut relax = |heap: &mut Heap, j: usize, c: f64| {
+        if c < limit && dist.get(&j).is_none_or(|&d| c < d) {
+            dist.insert(j, c);
+            heap.push(Reverse((c.to_bits(), j as u32)));
+        }
+    };
+    for &(x, y) in &node.border {
+        for (nx, ny) in neighbours(x as usize, y as usize, w, h) {
+            let j = ny * w + nx;
+            if map.labels[j] == CUT {
+                relax(&mut heap, j, price(j) * bw);
+            }
+        }
+    }
+    let mut best = f64::INFINITY;
+    let mut visited = 0usize;
+    let mut settled = std::collections::HashSet::new();
+    while let Some(Reverse((bits, i))) = heap.pop() {
+        let (c, i) = (f64::from_bits(bits), i as usize);
+        if c >= best.min(limit) {
+            break;
+        }
+        if !settled.insert(i) {
+            continue;
+        }
+        visited += 1;
+        if visited > budget {
+            return Search::GaveUp;
+        }
+        let (x, y) = (i % w, i / w);
+        if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+            best = best.min(c);
+            continue;
+        }
+        for (nx, ny) in neighbours(x, y, w, h) {
+            let j = ny * w + nx;
+            match map.labels[j] {
+                CUT => relax(&mut heap, j, c + price(j) * bw),
+                l if l == me => {}
+                FRAME => best = best.min(c),
+                _ => best = best.min(c + hop),
+            }
+        }
+    }
+    if best < limit {
+        Search::Found(best)
+    } else {
+        Search::Over
+    }
 }
 
 /// The scratch grids [`choose`] lends its searches, kept from one call to the next (a studio
@@ -327,7 +504,7 @@ fn straight_under(
     island: usize,
     limit: f64,
     bw: f64,
-    price: &impl Fn(usize) -> f64,
+    price: &(impl Fn(usize) -> f64 + ?Sized),
 ) -> bool {
     let (w, h) = (map.width as usize, map.height as usize);
     let me = island as u32;
@@ -433,7 +610,7 @@ fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (u
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::islands::{self, FRAME};
+    use crate::islands;
     use crate::raster::BitGrid;
     use crate::test_rng::Lcg;
 
@@ -465,6 +642,48 @@ mod tests {
         let mut protect = vec![false; map.nodes.len()];
         protect[speck] = true;
         assert!(choose(&map, &g, 128, &protect, |_| 6).is_empty());
+    }
+
+    /// A speck beside a large island far from the frame: kept for the picture alone (its bridge
+    /// to the island is short), dropped when hanging on an island costs the sheet a hop, and kept
+    /// again when it sits as near the frame instead.
+    #[test]
+    fn a_speck_hanging_on_an_island_is_dropped_for_the_sheet() {
+        let (w, h) = (140u32, 80u32);
+        let picture = |speck_x: u32| {
+            let mut g = Gray::new(w, h, 0.05);
+            let mut b = BitGrid::new(w, h, false);
+            for y in 0..h {
+                for x in 0..w {
+                    let edge = x < 3 || y < 3 || x >= w - 3 || y >= h - 3;
+                    let speck = (speck_x..speck_x + 4).contains(&x) && (38..42).contains(&y);
+                    let disc = (x as f32 - 70.0).hypot(y as f32 - 40.0) < 15.0;
+                    if edge || speck || disc {
+                        g.set(x, y, 0.95);
+                        b.set(x, y, true);
+                    }
+                }
+            }
+            (g, b)
+        };
+        let run = |speck_x: u32, hop: f64| {
+            let (g, b) = picture(speck_x);
+            let map = islands::label(&b);
+            assert_eq!(map.island_count(), 2);
+            let price = |i: usize| 0.1 + (g.data[i] - 0.5).abs() as f64;
+            let sheet = SheetCost {
+                per_bridge: 0.0,
+                per_border_px: 0.0,
+                per_hop: hop,
+            };
+            let d = choose_for_sheet(&map, &price, &price, sheet, &|_| 2);
+            d.into_iter().map(|(_, d)| d.area_mm2).collect::<Vec<_>>()
+        };
+        // Beside the disc (a pixel of cut between them), 35 px from the frame.
+        assert_eq!(run(51, 0.0), Vec::<f64>::new());
+        assert_eq!(run(51, 30.0), vec![16.0]);
+        // Beside the frame (2 px of cut), the hop costs nothing.
+        assert_eq!(run(5, 30.0), Vec::<f64>::new());
     }
 
     /// The search as first written (a heap of every entry, a grid per search, no breadth-first

@@ -1,10 +1,16 @@
 //! A picture posterised into tones, one per layer plus the surface (see [`super`], "Tones"):
 //! multi-level Otsu on the luma, the levels given, or k-means for a colour picture.
+//!
+//! Each layer is a sheet to cut, lay and spray, so each must change the picture noticeably
+//! ([`worth_a_sheet`]): where the tones chosen for the layers asked for have one that does not,
+//! the picture has fewer tones than asked, and it is posterised again into one layer fewer, until
+//! every tone shows (the levels or the colours given are the person's choice, and kept).
 
 use serde::Serialize;
 
 use super::config::LayersConfig;
 use super::kmeans::kmeans_tones;
+use super::lab::{dist2, lab, srgb};
 use crate::error::LayersError;
 use crate::limits::MAX_LAYERS;
 use crate::raster::Gray;
@@ -20,6 +26,9 @@ pub enum Method {
     LevelsGiven,
     /// k-means in CIELAB.
     KmeansLab,
+    /// Multi-level Otsu on the luma of a colour picture, each class its mean colour: where
+    /// k-means gave two tones too alike for a sheet each.
+    LightnessClasses,
 }
 
 /// The picture posterised: what each layer is cut from and painted with.
@@ -35,6 +44,46 @@ pub struct Tones {
     pub colors: Vec<[u8; 3]>,
     /// How it was posterised.
     pub method: Method,
+    /// The layers asked for, when the picture has fewer tones worth a sheet and fewer were made
+    /// (see [`worth_a_sheet`]); `None` when every layer asked for is there.
+    pub asked: Option<u32>,
+}
+
+/// The least step in lightness (CIE L*) between a layer's paint and the tone under it that shows
+/// in the painted picture (a person sees it at a glance in spray paint; a mid-tone photo's
+/// neighbouring tones are 9 to 17 apart), unless the two differ as clearly in colour
+/// ([`MIN_STEP_DELTA_E`]).
+pub const MIN_STEP_L: f32 = 6.0;
+
+/// The least colour difference (CIE76 ΔE) between a layer's paint and the tone under it that
+/// shows in the painted picture when their lightness is close: two paints this far apart are
+/// different colours even at the same lightness (a near-black navy and black, 27 apart with
+/// 4 of lightness, are not).
+pub const MIN_STEP_DELTA_E: f32 = 30.0;
+
+/// The least share of the picture, %, a layer's tone must paint last to show.
+pub const MIN_TONE_PCT: f64 = 0.5;
+
+/// Whether every layer of `tones` changes the painted picture noticeably: its paint at least
+/// [`MIN_STEP_L`] darker than the tone under it or [`MIN_STEP_DELTA_E`] from it, and its tone
+/// painted last on at least [`MIN_TONE_PCT`] % of the picture.
+pub fn worth_a_sheet(tones: &Tones) -> bool {
+    let labs: Vec<[f32; 3]> = tones
+        .colors
+        .iter()
+        .map(|c| lab(c.map(|v| v as f32 / 255.0)))
+        .collect();
+    let mut count = vec![0usize; tones.colors.len()];
+    let last = count.len() - 1;
+    for &v in &tones.gray.data {
+        count[tones.tone_of(v).min(last)] += 1;
+    }
+    let total = tones.gray.data.len().max(1) as f64;
+    (1..labs.len()).all(|k| {
+        let shows = labs[k - 1][0] - labs[k][0] >= MIN_STEP_L
+            || dist2(labs[k - 1], labs[k]) >= MIN_STEP_DELTA_E * MIN_STEP_DELTA_E;
+        shows && count[k] as f64 * 100.0 / total >= MIN_TONE_PCT
+    })
 }
 
 impl Tones {
@@ -44,9 +93,47 @@ impl Tones {
     }
 }
 
-/// Posterise a picture into `lc.count + 1` tones (see the module notes). `rgb`: the picture's
-/// colours (sRGB 0..1, alpha over white) when it has any, `None` for a gray one.
+/// Posterise a picture into `lc.count + 1` tones (see the module notes), or fewer when the
+/// picture has fewer tones worth a sheet ([`worth_a_sheet`]; not with levels or colours given).
+/// `rgb`: the picture's colours (sRGB 0..1, alpha over white) when it has any, `None` for a gray
+/// one.
 pub fn posterise(
+    luma: &Gray,
+    rgb: Option<&[[f32; 3]]>,
+    lc: &LayersConfig,
+) -> Result<Tones, LayersError> {
+    if !lc.levels.is_empty() || !lc.colors.is_empty() {
+        return posterise_into(luma, rgb, lc);
+    }
+    // k-means finds the picture's colours, but two of them may differ in hue alone, where a
+    // layer on the other shows little: then classes of lightness (multi-level Otsu on the luma,
+    // each painted its pixels' mean colour), which layers painted light to dark show best.
+    let best = |lc: &LayersConfig| -> Result<Tones, LayersError> {
+        let tones = posterise_into(luma, rgb, lc)?;
+        if worth_a_sheet(&tones) || tones.method != Method::KmeansLab {
+            return Ok(tones);
+        }
+        let by_lightness = lightness_classes(luma, rgb.unwrap_or_default(), lc.count as usize);
+        Ok(if worth_a_sheet(&by_lightness) {
+            by_lightness
+        } else {
+            tones
+        })
+    };
+    let mut tones = best(lc)?;
+    let mut fewer = lc.clone();
+    while fewer.count > 1 && !worth_a_sheet(&tones) {
+        fewer.count -= 1;
+        tones = best(&fewer)?;
+    }
+    if fewer.count != lc.count {
+        tones.asked = Some(lc.count);
+    }
+    Ok(tones)
+}
+
+/// [`posterise`] into exactly `lc.count + 1` tones.
+fn posterise_into(
     luma: &Gray,
     rgb: Option<&[[f32; 3]]>,
     lc: &LayersConfig,
@@ -99,6 +186,7 @@ pub fn posterise(
         levels,
         colors,
         method,
+        asked: None,
     })
 }
 
@@ -155,6 +243,40 @@ pub fn multi_otsu(gray: &Gray, classes: usize) -> Vec<u8> {
     }
     levels.reverse();
     levels
+}
+
+/// A colour picture posterised into `n + 1` classes of lightness (multi-level Otsu on `luma`),
+/// each painted the mean colour of its pixels (averaged in CIELAB).
+fn lightness_classes(luma: &Gray, rgb: &[[f32; 3]], n: usize) -> Tones {
+    let levels: Vec<u8> = multi_otsu(luma, n + 1).into_iter().rev().collect();
+    let mut sum = vec![[0f64; 3]; n + 1];
+    let mut count = vec![0usize; n + 1];
+    for (&v, &c) in luma.data.iter().zip(rgb) {
+        let t = levels.iter().filter(|&&l| !is_light(v, l)).count();
+        let l = lab(c);
+        for j in 0..3 {
+            sum[t][j] += l[j] as f64;
+        }
+        count[t] += 1;
+    }
+    let grays = class_grays(luma, &levels);
+    let colors = (0..=n)
+        .map(|t| {
+            if count[t] == 0 {
+                grays[t]
+            } else {
+                srgb(sum[t].map(|v| (v / count[t] as f64) as f32))
+            }
+        })
+        .collect();
+    Tones {
+        gray: luma.clone(),
+        luma: luma.clone(),
+        levels,
+        colors,
+        method: Method::LightnessClasses,
+        asked: None,
+    }
 }
 
 /// Each tone's mean gray as a colour (the surface's first): the posterised picture of a gray one.
