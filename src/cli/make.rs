@@ -95,6 +95,9 @@ fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a, None)?;
+    if let Some(tc) = super::tiles::config(a)? {
+        return super::tiles::make_tiles(cfg, &tc);
+    }
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
     }
@@ -105,7 +108,10 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `run(cfg)` with the progress line drawn while it runs; `cfg` comes back with it.
-fn with_progress<T>(cfg: MakeConfig, run: impl FnOnce(&MakeConfig) -> T) -> (MakeConfig, T) {
+pub(super) fn with_progress<T>(
+    cfg: MakeConfig,
+    run: impl FnOnce(&MakeConfig) -> T,
+) -> (MakeConfig, T) {
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),
@@ -157,12 +163,16 @@ pub(super) fn make_config(
             physical,
             ..MakeConfig::default()
         },
-        sheet: a.physical.sheet.clone(),
-        bed: machine.as_ref().map(|m| Stock::Bed {
-            machine: m.name.clone(),
-            w_mm: m.bed.width_mm,
-            h_mm: m.bed.height_mm,
-        }),
+        // Tiles fit each tile to the sheet or bed, not the whole picture.
+        sheet: a.physical.sheet.clone().filter(|_| !a.tiles.asked()),
+        bed: machine
+            .as_ref()
+            .filter(|_| !a.tiles.asked())
+            .map(|m| Stock::Bed {
+                machine: m.name.clone(),
+                w_mm: m.bed.width_mm,
+                h_mm: m.bed.height_mm,
+            }),
         margin_counts: a.machine.cut_outline || mask_marks(a),
         ..image_request(&a.image, a.bridge.keep_out.clone())
     };

@@ -389,6 +389,8 @@ pub struct MakeArgs {
     pub cut: CutArgs,
     #[command(flatten)]
     pub layers: LayerArgs,
+    #[command(flatten)]
+    pub tiles: super::tiles::TileArgs,
 }
 
 impl MakeArgs {

@@ -23,6 +23,7 @@ mod progress;
 mod send;
 mod simulate;
 mod studio;
+mod tiles;
 
 use std::process::ExitCode;
 
