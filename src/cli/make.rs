@@ -95,8 +95,8 @@ fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a, None)?;
-    if let Some(tc) = super::tiles::config(a)? {
-        return super::tiles::make_tiles(cfg, &tc);
+    if let Some(tc) = tiles_config(a)? {
+        return make_tiles(cfg, &tc);
     }
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
@@ -107,11 +107,47 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The tiles asked for, fitted to --sheet or else the machine's bed; refused for a set.
+fn tiles_config(a: &MakeArgs) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
+    if a.tiles.asked() && set_config(a).is_some() {
+        anyhow::bail!(
+            "{}: --tiles cuts one stencil in tiles; tiles of a set (--layers, --fill-in, \
+             --mask-marks) are not made yet: leave out --tiles or those options",
+            a.input.display()
+        );
+    }
+    a.tiles.config(a.physical.sheet.as_ref(), || {
+        let m = a.machine.machine()?;
+        Ok(Stock::Bed {
+            machine: m.name.clone(),
+            w_mm: m.bed.width_mm,
+            h_mm: m.bed.height_mm,
+        })
+    })
+}
+
+/// Run and write the tiles, then say what was made.
+fn make_tiles(cfg: MakeConfig, tc: &stencil_core::tiles::TilesConfig) -> anyhow::Result<ExitCode> {
+    let (cfg, result) = with_progress(cfg, |cfg| stencil_core::tiles::make(cfg, tc));
+    let (t, replaced) = result.map_err(|e| match e {
+        stencil_core::Error::Tiles(t) => {
+            let help = super::tiles::help(&t);
+            anyhow::anyhow!("{}: {t} ({help})", cfg.input.display())
+        }
+        e => make_error(&cfg, e),
+    })?;
+    super::tiles::print(&cfg, &t);
+    if !replaced.removed.is_empty() {
+        println!(
+            "removed an earlier run's {} file(s) this run does not write",
+            replaced.removed.len()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 /// `run(cfg)` with the progress line drawn while it runs; `cfg` comes back with it.
-pub(super) fn with_progress<T>(
-    cfg: MakeConfig,
-    run: impl FnOnce(&MakeConfig) -> T,
-) -> (MakeConfig, T) {
+fn with_progress<T>(cfg: MakeConfig, run: impl FnOnce(&MakeConfig) -> T) -> (MakeConfig, T) {
     let bar = StageBar::start();
     let cfg = MakeConfig {
         progress: Some(bar.clone()),
@@ -193,8 +229,13 @@ pub(super) fn make_config(
         max_bridge_width_px: a.bridge.max_bridge_width_px,
         ..cfg.map_err(|e| sizing_words(&a.input, e))?
     };
+    // With tiles, --machine alone names the bed they fit.
+    let mut machine_args = a.machine.clone();
+    if a.tiles.asked() && !emit_gcode {
+        machine_args.machine = None;
+    }
     let mut gcode = super::gcode::make_gcode_config(
-        &a.machine,
+        &machine_args,
         &a.cut,
         &cfg.physical.material,
         emit_gcode,

@@ -1,15 +1,11 @@
 //! `stencil make`'s tile options (a stencil larger than the bed or sheet, cut in tiles along
 //! seams through the quiet parts of the picture), running them and saying what was made.
 
-use std::process::ExitCode;
-
 use clap::Args;
 
 use stencil_core::fit::Stock;
 use stencil_core::pipeline::MakeConfig;
-use stencil_core::tiles::{self, Grid, Tiled, TilesConfig, TilesError, DEFAULT_OVERLAP_MM};
-
-use super::make_args::MakeArgs;
+use stencil_core::tiles::{Grid, Tiled, TilesConfig, TilesError, DEFAULT_OVERLAP_MM};
 
 /// `auto` or `CxR`.
 fn parse_grid(s: &str) -> Result<Grid, String> {
@@ -67,39 +63,33 @@ impl TileArgs {
     pub fn asked(&self) -> bool {
         self.tiles.is_some()
     }
+
+    /// The tiles asked for, fitted to `sheet` or else the machine's bed (`bed` loads it).
+    pub fn config(
+        &self,
+        sheet: Option<&Stock>,
+        bed: impl FnOnce() -> anyhow::Result<Stock>,
+    ) -> anyhow::Result<Option<TilesConfig>> {
+        let Some(grid) = self.tiles else {
+            return Ok(None);
+        };
+        let stock = match sheet {
+            Some(s) => s.clone(),
+            None => bed()?,
+        };
+        Ok(Some(TilesConfig {
+            grid,
+            overlap_mm: self.tile_overlap_mm,
+            stock: Some(stock),
+            seam_x_mm: self.seam_x.clone(),
+            seam_y_mm: self.seam_y.clone(),
+        }))
+    }
 }
 
-/// The tiles asked for, fitted to --sheet or else the machine's bed.
-pub fn config(a: &MakeArgs) -> anyhow::Result<Option<TilesConfig>> {
-    let Some(grid) = a.tiles.tiles else {
-        return Ok(None);
-    };
-    let stock = match &a.physical.sheet {
-        Some(s) => Some(s.clone()),
-        None => {
-            let m = a.machine.machine()?;
-            Some(Stock::Bed {
-                machine: m.name.clone(),
-                w_mm: m.bed.width_mm,
-                h_mm: m.bed.height_mm,
-            })
-        }
-    };
-    Ok(Some(TilesConfig {
-        grid,
-        overlap_mm: a.tiles.tile_overlap_mm,
-        stock,
-        seam_x_mm: a.tiles.seam_x.clone(),
-        seam_y_mm: a.tiles.seam_y.clone(),
-    }))
-}
-
-/// A tiled run's error in this command's words.
-fn words(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
-    let stencil_core::Error::Tiles(t) = &e else {
-        return super::make::make_error(cfg, e);
-    };
-    let help = match t {
+/// What to change when a tiled run is refused.
+pub fn help(t: &TilesError) -> &'static str {
+    match t {
         TilesError::NoStock => "give --sheet or --machine, or --tiles CxR",
         TilesError::StockTooSmall { .. } => "use a smaller --margin-mm or --tile-overlap-mm",
         TilesError::TooMany { .. } => "make it smaller (--width-mm) or use a larger --sheet",
@@ -110,28 +100,18 @@ fn words(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
         TilesError::Seams { .. } => "see --seam-x and --seam-y",
         TilesError::Overlap(_) => "see --tile-overlap-mm",
         TilesError::Unsupported(_) => "leave out --tiles, or that option",
-    };
-    anyhow::anyhow!("{}: {t} ({help})", cfg.input.display())
+    }
 }
 
-/// Run and write the tiles, then say what was made.
-pub fn make_tiles(cfg: MakeConfig, tc: &TilesConfig) -> anyhow::Result<ExitCode> {
-    let (cfg, result) = super::make::with_progress(cfg, |cfg| tiles::make(cfg, tc));
-    let (t, replaced) = result.map_err(|e| words(&cfg, e))?;
-    print_tiles(&cfg, &t);
-    if !replaced.removed.is_empty() {
-        println!(
-            "removed an earlier run's {} file(s) this run does not write",
-            replaced.removed.len()
-        );
-    }
+/// What a tiled run made, as `make` says it.
+pub fn print(cfg: &MakeConfig, t: &Tiled) {
+    print_tiles(cfg, t);
     let failed = t.report.tiles.iter().filter(|t| !t.check_passed).count();
     if failed > 0 {
         eprintln!(
             "warning: {failed} tile(s) failed the check (their report.json lists why; --allow-thin wrote them)"
         );
     }
-    Ok(ExitCode::SUCCESS)
 }
 
 fn print_tiles(cfg: &MakeConfig, t: &Tiled) {

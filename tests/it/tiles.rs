@@ -302,3 +302,18 @@ fn bad_tile_options_are_refused_by_name() {
     let o = stencil(&["make", s(&pic), "--tiles", "two", "-o", s(&out)]);
     assert!(stderr(&o).contains("CxR"), "{}", stderr(&o));
 }
+
+/// The numbers of a large run made by hand (`TILED` and `UNTILED` name its two folders): not
+/// run by default. `cargo test --test it tiles::measure -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn measure() {
+    let (Ok(t), Ok(u)) = (std::env::var("TILED"), std::env::var("UNTILED")) else {
+        return;
+    };
+    let (compared, differ, unexplained) = reassembly(Path::new(&t), Path::new(&u));
+    println!(
+        "{differ} of {compared} px differ outside the overlaps ({:.3} %), {unexplained} not at a bridge",
+        100.0 * differ as f64 / compared as f64
+    );
+}

@@ -49,14 +49,15 @@ pub use map::MAP_MAX_PX;
 pub use seams::{Crossing, Seams, CROSS_CUT, DIAGONAL, NEAR_EDGE};
 
 /// The overlap past each seam when none is given, mm.
-pub const DEFAULT_OVERLAP_MM: f64 = 3.0;
+pub const DEFAULT_OVERLAP_MM: f64 = 2.0;
 
 /// What a tiled run is asked.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TilesConfig {
     /// How many tiles.
     pub grid: Grid,
-    /// How far each tile's strip of material reaches past its seams, mm.
+    /// How far each tile's strip of material reaches past its seams, mm (at least the material's
+    /// narrowest bridge: the strip holds the tile together along its seams).
     pub overlap_mm: f64,
     /// What each tile must fit, margin included (a sheet, or the machine's bed).
     pub stock: Option<Stock>,
@@ -358,6 +359,12 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
     let (w, h) = (bits.width, bits.height);
     let margin = cfg.physical.vector.margin_mm;
     let stock = tc.stock.as_ref().map(layout::stock_size);
+    // The strip is the tile's frame along its seams: never narrower than a bridge may be.
+    let m = &cfg.physical.material;
+    let tc = &TilesConfig {
+        overlap_mm: tc.overlap_mm.max(m.min_bridge_mm).max(m.min_feature_mm),
+        ..tc.clone()
+    };
     let ov_px = (tc.overlap_mm / mm).ceil() as u32;
     let min_feature = cfg.physical.material.min_feature_mm;
     // A window is never narrower than the smallest feature (with two pixels to spare): a tile's

@@ -218,9 +218,7 @@ mod tests {
     fn a_seam_goes_round_the_dark() {
         // A dark bar across the middle with one light gap: the seam takes the gap.
         let (w, h) = (60u32, 40u32);
-        let bits = BitGrid::from_fn(w, h, |x, y| {
-            !((18..22).contains(&y) && !(40..46).contains(&x))
-        });
+        let bits = BitGrid::from_fn(w, h, |x, y| !(18..22).contains(&y) || (40..46).contains(&x));
         let gray = Gray::from_data(
             w,
             h,
