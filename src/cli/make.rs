@@ -107,23 +107,27 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The tiles asked for, fitted to --sheet or else the machine's bed; refused for a set.
+/// The tiles asked for, fitted to --sheet or else the machine's bed, with the layers asked
+/// for (a fill-in or a mask's marks in tiles are refused).
 fn tiles_config(a: &MakeArgs) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
-    if a.tiles.asked() && set_config(a).is_some() {
+    let set = set_config(a).filter(|_| a.tiles.asked());
+    if set.as_ref().is_some_and(|lc| lc.fill_in || lc.count < 2) {
         anyhow::bail!(
-            "{}: --tiles cuts one stencil in tiles; tiles of a set (--layers, --fill-in, \
-             --mask-marks) are not made yet: leave out --tiles or those options",
+            "{}: --tiles cuts a stencil, or --layers N stencils, in tiles; a fill-in layer \
+             (--fill-in) or a one-layer set's registration marks (--mask-marks) in tiles are not \
+             made: leave out --tiles or those options",
             a.input.display()
         );
     }
-    a.tiles.config(a.physical.sheet.as_ref(), || {
+    let tc = a.tiles.config(a.physical.sheet.as_ref(), || {
         let m = a.machine.machine()?;
         Ok(Stock::Bed {
             machine: m.name.clone(),
             w_mm: m.bed.width_mm,
             h_mm: m.bed.height_mm,
         })
-    })
+    })?;
+    Ok(tc.map(|tc| stencil_core::tiles::TilesConfig { layers: set, ..tc }))
 }
 
 /// Run and write the tiles, then say what was made.

@@ -83,6 +83,7 @@ impl TileArgs {
             stock: Some(stock),
             seam_x_mm: self.seam_x.clone(),
             seam_y_mm: self.seam_y.clone(),
+            layers: None,
         }))
     }
 }
@@ -150,6 +151,20 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
             tile.pins_mm.len(),
             if tile.check_passed { "" } else { " (CHECK FAILED)" }
         );
+        for l in &tile.layers {
+            println!(
+                "    {}: level {}, {} islands, {} bridges{}",
+                l.folder,
+                l.level,
+                l.islands,
+                l.bridges,
+                if l.check_passed {
+                    ""
+                } else {
+                    " (CHECK FAILED)"
+                }
+            );
+        }
     }
     println!(
         "tiles.png maps the seams and numbers the tiles in cutting order; registration pin holes {:.1} mm across on the seams (pin both tiles through them)",

@@ -243,10 +243,10 @@ fn core_stages_use_only_earlier_layers() {
         let first = rel.iter().next().unwrap().to_str().unwrap();
         let module = first.trim_end_matches(".rs");
         // The facade, in its own order: `pipeline` (the stage functions, resolve, the writer),
-        // `driver` (the stages listed once), `tiles` (a stencil in tiles, each run by the
-        // driver), `layers` (a set of stencils, each run by the driver; it lists a tiled folder's
-        // stencils too). Each may use the stages and those before it, never one after it.
-        let facade = ["pipeline", "inputs", "resolve", "driver", "tiles", "layers"];
+        // `driver` (the stages listed once), `layers` (a set of stencils, each run by the
+        // driver), `tiles` (a stencil or a set in tiles, each run by the driver). Each may use
+        // the stages and those before it, never one after it.
+        let facade = ["pipeline", "inputs", "resolve", "driver", "layers", "tiles"];
         if let Some(k) = facade.iter().position(|m| *m == module) {
             let code = non_test_source(&f);
             for later in &facade[k + 1..] {

@@ -317,3 +317,64 @@ fn measure() {
         100.0 * differ as f64 / compared as f64
     );
 }
+
+#[test]
+fn layers_in_tiles_share_the_seams_and_the_pins() {
+    let d = tmp();
+    let pic = d.path().join("steps.png");
+    // Three grays and white in bands that cross where the seam falls.
+    smooth_png(&pic, 200, 120, |x, y| {
+        let r = ((x - 100.0).powi(2) + (y - 60.0).powi(2)).sqrt();
+        match r as u32 {
+            0..=14 => 0.05,
+            15..=29 => 0.4,
+            30..=44 => 0.7,
+            _ => 1.0,
+        }
+    });
+    let out = d.path().join("o");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "200",
+        "--tiles",
+        "2x1",
+        "--layers",
+        "3",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    let tiles = r["tiles"].as_array().unwrap();
+    assert_eq!(tiles.len(), 2);
+    let mm = r["mm_per_px"].as_f64().unwrap();
+    for t in tiles {
+        let layers = t["layers"].as_array().unwrap();
+        assert_eq!(layers.len(), 3, "{t}");
+        let pins = t["pins_mm"].as_array().unwrap();
+        assert!(!pins.is_empty(), "{t}");
+        let mut sizes = Vec::new();
+        for l in layers {
+            let dir = out.join(l["folder"].as_str().unwrap());
+            assert_valid_stencil(&dir);
+            assert_eq!(report(&dir)["check"]["pieces"], 1);
+            let bits = read_bits(&dir.join("stencil.png"));
+            sizes.push((bits.width, bits.height));
+            // Every layer has the tile's pin holes, at the same place.
+            for p in pins {
+                let (x, y) = (p[0].as_f64().unwrap() / mm, p[1].as_f64().unwrap() / mm);
+                assert!(
+                    !bits.get(x as u32, y as u32),
+                    "{}: no pin at {p}",
+                    dir.display()
+                );
+            }
+        }
+        assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{sizes:?}");
+    }
+    let o = stencil(&["check", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).matches("== ").count(), 6);
+}

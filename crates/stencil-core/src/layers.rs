@@ -317,15 +317,13 @@ pub fn layer_folder(k: usize, n: usize) -> String {
 pub use crate::export::{owned_names, FOLDERS};
 
 /// The stencil folders of a `make` output folder, in painting order: `layer-1/` … when it is a
-/// layered set, a tiled stencil's `tile-R-C/` in cutting order, else the folder itself; then
-/// `fill-in/` when there is one.
+/// layered set, else the folder itself; then `fill-in/` when there is one.
 pub fn stencil_folders(dir: &Path) -> Vec<std::path::PathBuf> {
     let mut v: Vec<std::path::PathBuf> = FOLDERS[..MAX_LAYERS as usize]
         .iter()
         .map(|f| dir.join(f))
         .filter(|p| p.join("report.json").is_file())
         .collect();
-    v.extend(crate::tiles::tile_folders(dir));
     if v.is_empty() {
         v.push(dir.to_path_buf());
     }

@@ -52,7 +52,7 @@ pub use seams::{Crossing, Seams, CROSS_CUT, DIAGONAL, NEAR_EDGE};
 pub const DEFAULT_OVERLAP_MM: f64 = 2.0;
 
 /// What a tiled run is asked.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct TilesConfig {
     /// How many tiles.
     pub grid: Grid,
@@ -65,6 +65,8 @@ pub struct TilesConfig {
     pub seam_x_mm: Vec<f64>,
     /// The horizontal seams' straight lines, mm from the picture's top edge (empty: evenly).
     pub seam_y_mm: Vec<f64>,
+    /// Layers (two or more) of a picture, each tiled along the same seams; `None`: one stencil.
+    pub layers: Option<crate::layers::LayersConfig>,
 }
 
 impl Default for TilesConfig {
@@ -75,6 +77,7 @@ impl Default for TilesConfig {
             stock: None,
             seam_x_mm: Vec::new(),
             seam_y_mm: Vec::new(),
+            layers: None,
         }
     }
 }
@@ -125,6 +128,25 @@ pub struct TileReport {
     pub box_px: [u32; 4],
     /// Its pin holes' centres, mm from its picture's top-left corner.
     pub pins_mm: Vec<[f64; 2]>,
+    /// Islands before bridging (of every layer).
+    pub islands: usize,
+    /// Bridges made (in every layer).
+    pub bridges: usize,
+    /// Whether its stencil (every layer's) passed the check.
+    pub check_passed: bool,
+    /// Its layers, light to dark, when the picture is cut in layers.
+    pub layers: Vec<TileLayerReport>,
+}
+
+/// One layer of a tile.
+#[derive(Clone, Debug, Serialize)]
+pub struct TileLayerReport {
+    /// 1 = the first sprayed (lightest paint).
+    pub layer: u32,
+    /// Its folder, in the output folder.
+    pub folder: String,
+    /// It cuts where the picture's gray is below this 8-bit level.
+    pub level: u8,
     /// Islands before bridging.
     pub islands: usize,
     /// Bridges made.
@@ -168,8 +190,8 @@ pub struct TilesReport {
 
 /// What a tiled run made, before anything is written.
 pub struct Tiled {
-    /// Each tile's stencil, in cutting order.
-    pub tiles: Vec<Made>,
+    /// Each tile's stencils (one, or one per layer light to dark), in cutting order.
+    pub tiles: Vec<Vec<Made>>,
     /// The map, RGB, with its size.
     pub map: (u32, u32, Vec<u8>),
     /// The report.
@@ -181,14 +203,35 @@ pub fn tile_folder(r: u32, c: u32) -> String {
     format!("tile-{r}-{c}")
 }
 
-/// The tile folders of a `make` output folder, in cutting order (empty when it holds no tiles).
+/// The stencil folders of a tiled `make` output folder, in cutting order (each tile's layers
+/// in painting order): empty when it holds no tiles.
 pub fn tile_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let most = MAX_TILES_PER_SIDE;
-    (1..=most)
-        .flat_map(|r| (1..=most).map(move |c| tile_folder(r, c)))
-        .map(|f| dir.join(f))
-        .filter(|p| p.join("report.json").is_file())
-        .collect()
+    let mut v = Vec::new();
+    for f in (1..=most).flat_map(|r| (1..=most).map(move |c| tile_folder(r, c))) {
+        let t = dir.join(f);
+        if t.join("report.json").is_file() {
+            v.push(t);
+        } else if t.is_dir() {
+            v.extend(
+                crate::layers::stencil_folders(&t)
+                    .into_iter()
+                    .filter(|p| p != &t),
+            );
+        }
+    }
+    v
+}
+
+/// The stencil folders of any `make` output folder: a tiled one's tiles (see [`tile_folders`]),
+/// else a set's or the folder itself (see `layers::stencil_folders`).
+pub fn stencil_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let v = tile_folders(dir);
+    if v.is_empty() {
+        crate::layers::stencil_folders(dir)
+    } else {
+        v
+    }
 }
 
 /// What a tile's pixel is, in its box.
@@ -345,9 +388,41 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
     let sp = pipeline::SourceParams::of(cfg)?;
     let input = source::load(&cfg.input, &sp)?;
     let drawn = source::draw(&input, &sp)?;
-    let src = source::light(&input, drawn.as_deref(), &sp)?;
+    let mut src = source::light(&input, drawn.as_deref(), &sp)?;
     drop((input, drawn));
-    let (whole, params) = driver::cleaned_from(cfg, &Start::Source(src.clone()))?;
+    // A set: the picture posterised (by its gray), one cleaned two-tone per layer.
+    let mut levels = Vec::new();
+    if let Some(lc) = &tc.layers {
+        let Source::Picture(g) = &src else {
+            return Err(crate::error::LayersError::Mesh.into());
+        };
+        if cfg.tone.invert {
+            return Err(crate::error::LayersError::Invert.into());
+        }
+        let tones = crate::layers::posterise(g, None, lc)?;
+        levels = tones.levels.clone();
+        src = Source::Picture(Arc::new(tones.gray));
+    }
+    let mut wholes = Vec::new();
+    let mut params = None;
+    let runs: Vec<Option<u8>> = if levels.is_empty() {
+        vec![None]
+    } else {
+        levels.iter().copied().map(Some).collect()
+    };
+    for l in runs {
+        let mut lcfg = cfg.clone();
+        if let Some(l) = l {
+            lcfg.tone.threshold = Threshold::Level(l);
+        }
+        let (w, p) = driver::cleaned_from(&lcfg, &Start::Source(src.clone()))?;
+        wholes.push(w);
+        params = Some(p);
+    }
+    let params = params.expect("one run at least");
+    // The seams are chosen on the first layer's, which cuts the most (every later layer cuts
+    // part of what it cuts): through its material, they go through every layer's.
+    let whole = &wholes[0];
     let src_gray = match &src {
         Source::Picture(g) => Arc::clone(g),
         Source::Mesh(r) => Arc::new(r.gray.clone()),
@@ -439,17 +514,22 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
     }
     let mut made = Vec::with_capacity(tiles.len());
     for t in &tiles {
-        made.push(one_tile(cfg, t, &whole, &src_gray, (factor, mm), pin_r)?);
+        let mut layers = Vec::with_capacity(wholes.len());
+        for whole in &wholes {
+            layers.push(one_tile(cfg, t, whole, &src_gray, (factor, mm), pin_r)?);
+        }
+        made.push(layers);
     }
+    let geometry = (w, h, mm, pin_mm);
     let report = assess(
         cfg,
         tc,
         &tiles,
         &made,
-        &seams,
-        &crossings,
-        (w, h, mm, pin_mm),
+        (&seams, &crossings),
+        geometry,
         (&cols, &rows),
+        &levels,
     );
     let labels: Vec<(usize, (u32, u32))> = tiles
         .iter()
@@ -554,11 +634,11 @@ fn assess(
     cfg: &MakeConfig,
     tc: &TilesConfig,
     tiles: &[Tile],
-    made: &[Made],
-    seams: &Seams,
-    crossings: &[Crossing],
+    made: &[Vec<Made>],
+    (seams, crossings): (&Seams, &[Crossing]),
     (w, h, mm, pin_mm): (u32, u32, f64, f64),
     (cols, rows): (&layout::Side, &layout::Side),
+    levels: &[u8],
 ) -> TilesReport {
     let margin = cfg.physical.vector.margin_mm;
     let mut seam_reports = Vec::new();
@@ -612,9 +692,22 @@ fn assess(
                     .iter()
                     .map(|&(x, y)| [(x as f64 + 0.5) * mm, (y as f64 + 0.5) * mm])
                     .collect(),
-                islands: m.report.islands,
-                bridges: m.bridged.bridges.len(),
-                check_passed: m.check.passed(),
+                islands: m.iter().map(|m| m.report.islands).sum(),
+                bridges: m.iter().map(|m| m.bridged.bridges.len()).sum(),
+                check_passed: m.iter().all(|m| m.check.passed()),
+                layers: levels
+                    .iter()
+                    .zip(m)
+                    .enumerate()
+                    .map(|(k, (&level, m))| TileLayerReport {
+                        layer: k as u32 + 1,
+                        folder: format!("{}/layer-{}", tile_folder(t.row, t.col), k + 1),
+                        level,
+                        islands: m.report.islands,
+                        bridges: m.bridged.bridges.len(),
+                        check_passed: m.check.passed(),
+                    })
+                    .collect(),
             }
         })
         .collect();
@@ -643,9 +736,12 @@ fn assess(
 /// folder, tiles.png and report.json.
 pub fn encode(t: &mut Tiled, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
     let mut files = Vec::new();
-    for (m, r) in t.tiles.iter_mut().zip(&t.report.tiles) {
-        for (name, bytes) in files::encode_outputs(m, &cfg.physical)? {
-            files.push((format!("{}/{name}", r.folder), bytes));
+    for (ms, r) in t.tiles.iter_mut().zip(&t.report.tiles) {
+        for (k, m) in ms.iter_mut().enumerate() {
+            let folder = r.layers.get(k).map_or(&r.folder, |l| &l.folder);
+            for (name, bytes) in files::encode_outputs(m, &cfg.physical)? {
+                files.push((format!("{folder}/{name}"), bytes));
+            }
         }
     }
     let (mw, mh, rgb) = &t.map;

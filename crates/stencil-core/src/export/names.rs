@@ -44,6 +44,9 @@ pub fn owned_names() -> &'static [&'static str] {
             for c in 1..=most {
                 for n in OUTPUT_NAMES {
                     v.push(Box::leak(format!("tile-{r}-{c}/{n}").into_boxed_str()));
+                    for f in &FOLDERS[..crate::limits::MAX_LAYERS as usize] {
+                        v.push(Box::leak(format!("tile-{r}-{c}/{f}/{n}").into_boxed_str()));
+                    }
                 }
             }
         }

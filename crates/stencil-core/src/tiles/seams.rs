@@ -60,7 +60,8 @@ pub struct Crossing {
 }
 
 /// Pin places on a seam: up to two points on it, each where the whole stencil is material for
-/// at least `clear_px` around (working px), near a third and two thirds of its length.
+/// at least `clear_px` around (working px), near a third and two thirds of its length (or, when
+/// neither is clear, the clearest place on it).
 fn pins_on(path: &[u32], clear2: &dyn Fn(u32, u32) -> f32, clear_px: f64) -> Vec<(u32, u32)> {
     let n = path.len();
     let mut out = Vec::new();
@@ -74,6 +75,15 @@ fn pins_on(path: &[u32], clear2: &dyn Fn(u32, u32) -> f32, clear_px: f64) -> Vec
             if (d2 as f64).sqrt() >= clear_px {
                 out.push((i as u32, path[i]));
             }
+        }
+    }
+    if out.is_empty() {
+        // None near the thirds: the clearest place anywhere on the seam, if any is clear.
+        let best = (0..n)
+            .map(|i| (i, clear2(i as u32, path[i])))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, d2)) = best.filter(|b| (b.1 as f64).sqrt() >= clear_px) {
+            out.push((i as u32, path[i]));
         }
     }
     out
