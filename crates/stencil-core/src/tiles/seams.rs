@@ -82,7 +82,7 @@ fn pins_on(path: &[u32], clear2: &dyn Fn(u32, u32) -> f32, clear_px: f64) -> Vec
         let best = (0..n)
             .map(|i| (i, clear2(i as u32, path[i])))
             .max_by(|a, b| a.1.total_cmp(&b.1));
-        if let Some((i, d2)) = best.filter(|b| (b.1 as f64).sqrt() >= clear_px) {
+        if let Some((i, _)) = best.filter(|b| (b.1 as f64).sqrt() >= clear_px) {
             out.push((i as u32, path[i]));
         }
     }
