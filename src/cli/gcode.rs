@@ -237,7 +237,7 @@ pub fn run_gcode(a: GcodeArgs) -> anyhow::Result<ExitCode> {
     // A layered folder: a job in each layer's folder (and the fill-in's).
     if a.input.is_dir()
         && a.out.is_some()
-        && stencil_core::layers::stencil_folders(&a.input).len() > 1
+        && stencil_core::tiles::stencil_folders(&a.input).len() > 1
     {
         bail!(
             "{}: a folder of several stencils gets one job in each stencil's folder; leave out -o",

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use stencil_core::layers::{self, LayersConfig, MAX_LAYERS};
+use stencil_core::layers::{LayersConfig, MAX_LAYERS};
 
 fn parse_color(s: &str) -> Result<[u8; 3], String> {
     let h = s.trim().trim_start_matches('#');
@@ -81,7 +81,7 @@ pub fn each_stencil(
     if let Err(e) = super::program::settle(dir) {
         return Some(Err(e));
     }
-    let folders = layers::stencil_folders(dir);
+    let folders = stencil_core::tiles::stencil_folders(dir);
     if folders.len() == 1 && folders[0] == dir {
         return None;
     }

@@ -101,12 +101,58 @@ fn gobo_words(a: &MakeArgs, e: anyhow::Error) -> anyhow::Error {
 
 fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     let cfg = make_config(a, None)?;
+    if let Some(tc) = tiles_config(a)? {
+        return make_tiles(cfg, &tc);
+    }
     if let Some(lc) = set_config(a) {
         return make_set(cfg, &lc, a.layers.fill_in);
     }
     let (cfg, result) = with_progress(cfg, stencil_core::driver::make);
     let (made, replaced) = result.map_err(|e| make_error(&cfg, e))?;
     print_made(&cfg, &made, &replaced);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The tiles asked for, fitted to --sheet or else the machine's bed, with the layers asked
+/// for (a fill-in or a mask's marks in tiles are refused).
+fn tiles_config(a: &MakeArgs) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
+    let set = set_config(a).filter(|_| a.tiles.asked());
+    if set.as_ref().is_some_and(|lc| lc.fill_in || lc.count < 2) {
+        anyhow::bail!(
+            "{}: --tiles cuts a stencil, or --layers N stencils, in tiles; a fill-in layer \
+             (--fill-in) or a one-layer set's registration marks (--mask-marks) in tiles are not \
+             made: leave out --tiles or those options",
+            a.input.display()
+        );
+    }
+    let tc = a.tiles.config(a.physical.sheet.as_ref(), || {
+        let m = a.machine.machine()?;
+        Ok(Stock::Bed {
+            machine: m.name.clone(),
+            w_mm: m.bed.width_mm,
+            h_mm: m.bed.height_mm,
+        })
+    })?;
+    Ok(tc.map(|tc| stencil_core::tiles::TilesConfig { layers: set, ..tc }))
+}
+
+/// Run and write the tiles, then say what was made.
+fn make_tiles(cfg: MakeConfig, tc: &stencil_core::tiles::TilesConfig) -> anyhow::Result<ExitCode> {
+    let (cfg, result) = with_progress(cfg, |cfg| stencil_core::tiles::make(cfg, tc));
+    let (t, replaced) = result.map_err(|e| match e {
+        stencil_core::Error::Tiles(t) => {
+            let help = super::tiles::help(&t);
+            anyhow::anyhow!("{}: {t} ({help})", cfg.input.display())
+        }
+        e => make_error(&cfg, e),
+    })?;
+    super::tiles::print(&cfg, &t);
+    if !replaced.removed.is_empty() {
+        println!(
+            "removed an earlier run's {} file(s) this run does not write",
+            replaced.removed.len()
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -175,12 +221,16 @@ pub(super) fn make_config(
             physical,
             ..MakeConfig::default()
         },
-        sheet: a.physical.sheet.clone(),
-        bed: machine.as_ref().map(|m| Stock::Bed {
-            machine: m.name.clone(),
-            w_mm: m.bed.width_mm,
-            h_mm: m.bed.height_mm,
-        }),
+        // Tiles fit each tile to the sheet or bed, not the whole picture.
+        sheet: a.physical.sheet.clone().filter(|_| !a.tiles.asked()),
+        bed: machine
+            .as_ref()
+            .filter(|_| !a.tiles.asked())
+            .map(|m| Stock::Bed {
+                machine: m.name.clone(),
+                w_mm: m.bed.width_mm,
+                h_mm: m.bed.height_mm,
+            }),
         margin_counts: a.machine.cut_outline || mask_marks(a),
         ..image_request(&a.image, a.bridge.keep_out.clone())
     };
@@ -201,8 +251,13 @@ pub(super) fn make_config(
         max_bridge_width_px: a.bridge.max_bridge_width_px,
         ..cfg.map_err(|e| sizing_words(&a.input, e))?
     };
+    // With tiles, --machine alone names the bed they fit.
+    let mut machine_args = a.machine.clone();
+    if a.tiles.asked() && !emit_gcode && !emit_hpgl {
+        machine_args.machine = None;
+    }
     let hpgl = super::hpgl::make_hpgl_config(
-        &a.machine,
+        &machine_args,
         &a.cut,
         &a.plotter,
         &cfg.physical.material,
@@ -212,7 +267,7 @@ pub(super) fn make_config(
     let mut gcode = match hpgl {
         Some(_) => None,
         None => super::gcode::make_gcode_config(
-            &a.machine,
+            &machine_args,
             &a.cut,
             &cfg.physical.material,
             emit_gcode,

@@ -391,6 +391,8 @@ pub struct MakeArgs {
     pub plotter: super::hpgl::PlotterArgs,
     #[command(flatten)]
     pub layers: LayerArgs,
+    #[command(flatten)]
+    pub tiles: super::tiles::TileArgs,
 }
 
 impl MakeArgs {

@@ -25,6 +25,7 @@ mod send;
 mod send_hpgl;
 mod simulate;
 mod studio;
+mod tiles;
 
 use std::process::ExitCode;
 

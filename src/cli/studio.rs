@@ -92,6 +92,13 @@ impl stencil_studio::Maker for CliMaker {
     fn config(&self, args: &[String]) -> Result<(MakeConfig, Option<LayersConfig>), String> {
         let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
         let a = parse_make(&self.cli, args)?;
+        if a.tiles.asked() {
+            return Err(
+                "--tiles: the studio shows one stencil, not tiles yet; make them with \
+                        `stencil make` (OUT/tiles.png maps the seams, --seam-x/--seam-y move them)"
+                    .into(),
+            );
+        }
         let cfg = make_config(&a, Some(&mut kept)).map_err(|e| super::errors::one_line(&e))?;
         Ok((cfg, set_config(&a)))
     }

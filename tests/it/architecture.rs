@@ -255,8 +255,9 @@ fn core_stages_use_only_earlier_layers() {
         let module = first.trim_end_matches(".rs");
         // The facade, in its own order: `pipeline` (the stage functions, resolve, the writer),
         // `driver` (the stages listed once), `layers` (a set of stencils, each run by the
-        // driver). Each may use the stages and those before it, never one after it.
-        let facade = ["pipeline", "inputs", "resolve", "driver", "layers"];
+        // driver), `tiles` (a stencil or a set in tiles, each run by the driver). Each may use
+        // the stages and those before it, never one after it.
+        let facade = ["pipeline", "inputs", "resolve", "driver", "layers", "tiles"];
         if let Some(k) = facade.iter().position(|m| *m == module) {
             let code = non_test_source(&f);
             for later in &facade[k + 1..] {

@@ -78,5 +78,6 @@ mod strength;
 mod studio;
 mod studio_browser;
 mod third_party;
+mod tiles;
 mod trust;
 mod vector;

@@ -531,6 +531,18 @@ pub fn clean_two_tone(cfg: &MakeConfig) -> Result<Cleaned, Error> {
     }
 }
 
+/// The stages up to the clean-up from `start`, with the parameters they ran with (a tiled
+/// stencil's whole picture, whose seams are chosen before it is split).
+pub fn cleaned_from(cfg: &MakeConfig, start: &Start) -> Result<(Cleaned, StageParams), Error> {
+    let timer = Timings::new(cfg.progress.clone());
+    let none = || false;
+    match Cache::default().stages(cfg, start, &Tweaks::default(), timer, &none, false) {
+        Ok((b, _)) => Ok((Arc::unwrap_or_clone(b.cleaned), b.params)),
+        Err(Stopped::Failed(e)) => Err(e),
+        Err(Stopped::Superseded) => unreachable!("nothing supersedes a run that is never asked"),
+    }
+}
+
 /// `make`'s writing of a stencil made already (the studio's export of what it shows): the same
 /// files, by the same rules, as [`make`].
 pub fn write(cfg: &MakeConfig, made: Made) -> Result<(Made, crate::export::Replaced), Error> {

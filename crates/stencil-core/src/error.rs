@@ -44,6 +44,9 @@ pub enum Error {
     /// A layered set's request.
     #[error(transparent)]
     Layers(#[from] LayersError),
+    /// A tiled stencil's request.
+    #[error(transparent)]
+    Tiles(#[from] TilesError),
     /// The check found violations and the caller did not allow them
     /// (`PhysicalConfig::allow_thin`); nothing was written.
     #[error(
@@ -152,4 +155,79 @@ pub enum LayersError {
         /// What the decoder said.
         msg: String,
     },
+}
+
+/// A tiled run's errors, as data (the `stencil` binary words them with its options).
+#[derive(Debug, thiserror::Error)]
+pub enum TilesError {
+    /// Automatic tiles with nothing to fit them to.
+    #[error("automatic tiles need a bed or a sheet to fit")]
+    NoStock,
+    /// The stock leaves no room for a tile after its margins and overlaps.
+    #[error(
+        "a {w_mm} x {h_mm} mm stock leaves no room for a tile: its {margin_mm} mm margins and \
+         {overlap_mm} mm overlaps take it all"
+    )]
+    StockTooSmall {
+        /// Stock width, mm.
+        w_mm: f64,
+        /// Stock height, mm.
+        h_mm: f64,
+        /// The sheet's margin, mm.
+        margin_mm: f64,
+        /// The overlap past each seam, mm.
+        overlap_mm: f64,
+    },
+    /// More tiles along a side than the limit.
+    #[error("{cols} x {rows} tiles: at most {max} along each side")]
+    TooMany {
+        /// Columns.
+        cols: u32,
+        /// Rows.
+        rows: u32,
+        /// The limit per side.
+        max: u32,
+    },
+    /// A tile comes out larger than the stock it must fit.
+    #[error(
+        "tile {row}-{col} is {w_mm:.1} x {h_mm:.1} mm with its margin, larger than the \
+         {stock_w_mm} x {stock_h_mm} mm stock"
+    )]
+    TileTooLarge {
+        /// Its row, from 1.
+        row: u32,
+        /// Its column, from 1.
+        col: u32,
+        /// Its sheet's width, mm.
+        w_mm: f64,
+        /// Its sheet's height, mm.
+        h_mm: f64,
+        /// The stock's width, mm.
+        stock_w_mm: f64,
+        /// The stock's height, mm.
+        stock_h_mm: f64,
+    },
+    /// Seam places given that do not match the tiles.
+    #[error(
+        "{given} {axis} seam place(s) for {want}: give one per seam, in order, each inside the \
+         picture (0 to {size_mm:.1} mm) and at least {gap_mm:.1} mm from the next"
+    )]
+    Seams {
+        /// "vertical" or "horizontal".
+        axis: &'static str,
+        /// How many were given.
+        given: usize,
+        /// How many seams there are.
+        want: usize,
+        /// The picture's size along that axis, mm.
+        size_mm: f64,
+        /// The least distance between seams, mm.
+        gap_mm: f64,
+    },
+    /// An overlap that is not a finite number in range.
+    #[error("an overlap of {0} mm: it must be from {min} to {max} mm", min = crate::limits::MIN_TILE_OVERLAP_MM, max = crate::limits::MAX_TILE_OVERLAP_MM)]
+    Overlap(f64),
+    /// A request tiles do not support.
+    #[error("tiles are not made for {0}")]
+    Unsupported(&'static str),
 }

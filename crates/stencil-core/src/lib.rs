@@ -91,6 +91,7 @@ mod request;
 mod resolve;
 #[cfg(test)]
 mod test_rng;
+pub mod tiles;
 mod timing;
 pub mod tone;
 pub mod units;

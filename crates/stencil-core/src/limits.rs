@@ -29,6 +29,15 @@ use crate::units::{Scale, Size};
 /// Most layers a set may have (`layers`).
 pub const MAX_LAYERS: u32 = 6;
 
+/// Most tiles along each side of a tiled stencil (`tiles`).
+pub const MAX_TILES_PER_SIDE: u32 = 12;
+
+/// The narrowest overlap past a seam, mm: the strip each tile keeps there holds it together.
+pub const MIN_TILE_OVERLAP_MM: f64 = 0.5;
+
+/// The widest overlap past a seam, mm.
+pub const MAX_TILE_OVERLAP_MM: f64 = 50.0;
+
 /// The longest side of the picture on the sheet, in mm (10 m).
 pub const MAX_PICTURE_MM: f64 = 10_000.0;
 

@@ -29,7 +29,8 @@ pub const FOLDERS: &[&str] = &[
 ];
 
 /// Every name `make` owns in its output folder: a one-layer run's files, a set's `composite.png`
-/// and `layers.json`, and every file of every layer folder and of `fill-in/`. Any run removes the
+/// and `layers.json`, every file of every layer folder and of `fill-in/`, and a tiled stencil's `tiles.png` and
+/// tile folders. Any run removes the
 /// owned names it does not write, so a one-layer run leaves no layer folder behind.
 pub fn owned_names() -> &'static [&'static str] {
     static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
@@ -37,6 +38,19 @@ pub fn owned_names() -> &'static [&'static str] {
         let mut v: Vec<&'static str> = OUTPUT_NAMES.to_vec();
         v.push("composite.png");
         v.push("layers.json");
+        // A tiled stencil's map and tile folders (`tiles`).
+        v.push("tiles.png");
+        let most = crate::limits::MAX_TILES_PER_SIDE;
+        for r in 1..=most {
+            for c in 1..=most {
+                for n in OUTPUT_NAMES {
+                    v.push(Box::leak(format!("tile-{r}-{c}/{n}").into_boxed_str()));
+                    for f in &FOLDERS[..crate::limits::MAX_LAYERS as usize] {
+                        v.push(Box::leak(format!("tile-{r}-{c}/{f}/{n}").into_boxed_str()));
+                    }
+                }
+            }
+        }
         for f in FOLDERS {
             for n in OUTPUT_NAMES {
                 v.push(Box::leak(format!("{f}/{n}").into_boxed_str()));

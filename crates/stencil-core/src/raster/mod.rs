@@ -10,7 +10,7 @@ pub(crate) mod morph;
 pub(crate) mod packed;
 mod smooth;
 
-pub(crate) use distance::squared_distance_to;
+pub(crate) use distance::{squared_distance, squared_distance_to};
 pub(crate) use grid::edge_neighbours;
 pub use grid::{BitGrid, Gray, TwoTone};
 pub(crate) use label::{

@@ -1,0 +1,380 @@
+//! Tiles, checked on the files `make` writes: every tile a valid sheet that fits the stock, the
+//! seams through no feature thinner than the material's smallest, and the tiles put back at their
+//! places painting what the untiled stencil paints outside the overlaps (counted in pixels), for
+//! a picture and a mesh; `check` on the tiled folder; bad tile options refused by name.
+
+use std::path::Path;
+
+use stencil_core::raster::BitGrid;
+
+use crate::common::*;
+
+/// A seam's path from the report's corner points: the across position at every step along.
+fn seam_path(s: &serde_json::Value, len: u32) -> (bool, Vec<i64>) {
+    let vertical = s["axis"] == "vertical";
+    let pts: Vec<(i64, i64)> = s["points_px"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let (x, y) = (p[0].as_i64().unwrap(), p[1].as_i64().unwrap());
+            if vertical {
+                (y, x)
+            } else {
+                (x, y)
+            }
+        })
+        .collect();
+    let mut path = vec![0i64; len as usize];
+    for w in pts.windows(2) {
+        let ((s0, a0), (s1, a1)) = (w[0], w[1]);
+        for s in s0..=s1 {
+            let t = if s1 == s0 {
+                0.0
+            } else {
+                (s - s0) as f64 / (s1 - s0) as f64
+            };
+            path[s as usize] = a0 + ((a1 - a0) as f64 * t).round() as i64;
+        }
+    }
+    (vertical, path)
+}
+
+/// What the tiles paint, put back at their places, against the untiled stencil: pixels compared
+/// (outside the overlaps: farther than the overlap plus a pixel from every seam), of those the
+/// ones where the two differ, and of those the ones that are no bridge of either (neither
+/// stencil has a bridge there: the pixels the bridges do not explain).
+fn reassembly(tiled: &Path, untiled: &Path) -> (usize, usize, usize) {
+    let r = report(tiled);
+    let whole = read_bits(&untiled.join("stencil.png"));
+    let whole_two = read_bits(&untiled.join("twotone.png"));
+    let (w, h) = (
+        r["size_px"][0].as_u64().unwrap() as u32,
+        r["size_px"][1].as_u64().unwrap() as u32,
+    );
+    assert_eq!((whole.width, whole.height), (w, h), "the same working grid");
+    let ov =
+        (r["overlap_mm"].as_f64().unwrap() / r["mm_per_px"].as_f64().unwrap()).ceil() as i64 + 1;
+    let seams: Vec<(bool, Vec<i64>)> = r["seams"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            let len = if s["axis"] == "vertical" { h } else { w };
+            seam_path(s, len)
+        })
+        .collect();
+    let tiles: Vec<(u32, u32, [u32; 4], BitGrid, BitGrid)> = r["tiles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            let b = &t["box_px"];
+            let bx = [0, 1, 2, 3].map(|i| b[i].as_u64().unwrap() as u32);
+            let dir = tiled.join(t["folder"].as_str().unwrap());
+            let bits = read_bits(&dir.join("stencil.png"));
+            assert_eq!((bits.width, bits.height), (bx[2], bx[3]), "{}", t["folder"]);
+            (
+                t["row"].as_u64().unwrap() as u32 - 1,
+                t["col"].as_u64().unwrap() as u32 - 1,
+                bx,
+                bits,
+                read_bits(&dir.join("twotone.png")),
+            )
+        })
+        .collect();
+    let (mut compared, mut differ, mut unexplained) = (0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (mut col, mut row, mut near) = (0, 0, false);
+            for (vertical, p) in &seams {
+                let (along, across) = if *vertical { (y, x) } else { (x, y) };
+                let at = p[along as usize];
+                near |= (across as i64 - at).abs() <= ov;
+                if across as i64 >= at {
+                    if *vertical {
+                        col += 1
+                    } else {
+                        row += 1
+                    }
+                }
+            }
+            if near {
+                continue;
+            }
+            let (_, _, [x0, y0, _, _], bits, two) = tiles
+                .iter()
+                .find(|t| t.0 == row && t.1 == col)
+                .expect("a tile for every pixel");
+            compared += 1;
+            let (tx, ty) = (x - x0, y - y0);
+            if bits.get(tx, ty) != whole.get(x, y) {
+                differ += 1;
+                // A bridge: cut in a two-tone, material in its stencil.
+                let bridge = (!two.get(tx, ty) && bits.get(tx, ty))
+                    || (!whole_two.get(x, y) && whole.get(x, y));
+                if !bridge {
+                    unexplained += 1;
+                }
+            }
+        }
+    }
+    (compared, differ, unexplained)
+}
+
+/// Every tile one valid sheet that fits the stock and passed the check, with its own files.
+fn assert_tiles_valid(out: &Path, stock: Option<[f64; 2]>) {
+    let r = report(out);
+    let tiles = r["tiles"].as_array().unwrap();
+    let [c, rows] = [0, 1].map(|i| r["grid"][i].as_u64().unwrap() as usize);
+    assert_eq!(tiles.len(), c * rows);
+    for (i, t) in tiles.iter().enumerate() {
+        assert_eq!(
+            t["number"].as_u64().unwrap() as usize,
+            i + 1,
+            "cutting order"
+        );
+        let dir = out.join(t["folder"].as_str().unwrap());
+        assert_valid_stencil(&dir);
+        let tr = report(&dir);
+        assert_eq!(tr["check"]["pieces"], 1, "{}", dir.display());
+        assert!(
+            tr["check"]["violations"].as_array().unwrap().is_empty(),
+            "{}",
+            dir.display()
+        );
+        assert!(dir.join("stencil.svg").is_file());
+        if let Some([sw, sh]) = stock {
+            let [tw, th] = [0, 1].map(|k| t["sheet_mm"][k].as_f64().unwrap());
+            assert!(
+                tw <= sw + 1e-6 && th <= sh + 1e-6,
+                "{tw} x {th} on {sw} x {sh}"
+            );
+        }
+    }
+    for s in r["seams"].as_array().unwrap() {
+        assert_eq!(s["through_thin_mm"].as_f64().unwrap(), 0.0, "{s}");
+    }
+    assert!(out.join("tiles.png").is_file());
+}
+
+/// Rings and bars across where straight seams would fall: islands to bridge on both sides.
+fn rings_picture(path: &Path) {
+    ink_png(path, 240, 160, |x, y| {
+        let (fx, fy) = (x as f64, y as f64);
+        let ring = |cx: f64, cy: f64, r0: f64, r1: f64| {
+            let d = ((fx - cx).powi(2) + (fy - cy).powi(2)).sqrt();
+            d >= r0 && d <= r1
+        };
+        ring(60.0, 50.0, 20.0, 30.0)
+            || ring(125.0, 80.0, 22.0, 34.0)
+            || ring(190.0, 110.0, 15.0, 24.0)
+            || ((70..76).contains(&y) && (10..230).contains(&x))
+            || ((150..156).contains(&x) && (20..140).contains(&y))
+    });
+}
+
+#[test]
+fn tiles_fit_the_sheet_and_put_back_paint_the_untiled_stencil() {
+    let d = tmp();
+    let pic = d.path().join("rings.png");
+    rings_picture(&pic);
+    let (un, ti) = (d.path().join("untiled"), d.path().join("tiled"));
+    let o = stencil(&["make", s(&pic), "--width-mm", "240", "-o", s(&un)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "240",
+        "--tiles",
+        "auto",
+        "--sheet",
+        "150x130",
+        "-o",
+        s(&ti),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&ti);
+    // 240 x 160 mm on 150 x 130 mm: two across, two down.
+    assert_eq!(r["grid"], serde_json::json!([2, 2]));
+    assert_tiles_valid(&ti, Some([150.0, 130.0]));
+    let (compared, differ, unexplained) = reassembly(&ti, &un);
+    let pct = 100.0 * differ as f64 / compared as f64;
+    println!(
+        "picture: {differ} of {compared} px differ outside the overlaps ({pct:.3} %), {unexplained} not at a bridge"
+    );
+    assert!(
+        unexplained * 1000 < compared,
+        "{unexplained} px differ not at a bridge"
+    );
+    assert!(compared > 1_000_000, "{compared}");
+    // Only where a tile bridges an island the whole stencil bridged elsewhere.
+    assert!(pct < 0.5, "{differ} of {compared} px differ ({pct:.3} %)");
+    // Pins: on both tiles of a seam, at the same place in the whole picture.
+    let mut places: Vec<(i64, i64)> = Vec::new();
+    for t in r["tiles"].as_array().unwrap() {
+        for p in t["pins_mm"].as_array().unwrap() {
+            let at = |k: usize, o: &str| {
+                ((p[k].as_f64().unwrap() + t[o].as_f64().unwrap()) * 10.0).round() as i64
+            };
+            places.push((at(0, "x_mm"), at(1, "y_mm")));
+        }
+    }
+    places.sort();
+    assert!(!places.is_empty());
+    for p in &places {
+        assert!(
+            places.iter().filter(|q| *q == p).count() >= 2,
+            "pin {p:?} on one tile only"
+        );
+    }
+    // `check` goes through the tiles.
+    let o = stencil(&["check", s(&ti)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(text.matches("== ").count(), 4, "{text}");
+    // A run without tiles into the folder leaves none of them behind.
+    let o = stencil(&["make", s(&pic), "--width-mm", "240", "-o", s(&ti)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!ti.join("tile-1-1").exists() && !ti.join("tiles.png").exists());
+}
+
+#[test]
+fn a_mesh_in_tiles_puts_back_as_its_untiled_stencil() {
+    let d = tmp();
+    let mesh = samples().join("torus.obj");
+    let (un, ti) = (d.path().join("untiled"), d.path().join("tiled"));
+    let o = stencil(&["make", s(&mesh), "-o", s(&un)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = stencil(&["make", s(&mesh), "--tiles", "2x1", "-o", s(&ti)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_tiles_valid(&ti, None);
+    let (compared, differ, unexplained) = reassembly(&ti, &un);
+    let pct = 100.0 * differ as f64 / compared as f64;
+    println!(
+        "mesh: {differ} of {compared} px differ outside the overlaps ({pct:.3} %), {unexplained} not at a bridge"
+    );
+    assert!(
+        unexplained * 1000 < compared,
+        "{unexplained} px differ not at a bridge"
+    );
+    assert!(compared > 100_000, "{compared}");
+    assert!(pct < 0.5, "{differ} of {compared} px differ ({pct:.3} %)");
+}
+
+#[test]
+fn bad_tile_options_are_refused_by_name() {
+    let d = tmp();
+    let pic = d.path().join("rings.png");
+    rings_picture(&pic);
+    let out = d.path().join("o");
+    // Seams given that do not match the grid.
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--tiles",
+        "3x1",
+        "--seam-x",
+        "100",
+        "-o",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--seam-x"), "{}", stderr(&o));
+    // Tiles that cannot fit: a sheet smaller than the margins and overlaps need.
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "240",
+        "--tiles",
+        "2x1",
+        "--sheet",
+        "100x100",
+        "-o",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("tile 1-1") && e.contains("--tiles auto"), "{e}");
+    assert!(!out.exists(), "nothing written");
+    let o = stencil(&["make", s(&pic), "--tiles", "two", "-o", s(&out)]);
+    assert!(stderr(&o).contains("CxR"), "{}", stderr(&o));
+}
+
+/// The numbers of a large run made by hand (`TILED` and `UNTILED` name its two folders): not
+/// run by default. `cargo test --test it tiles::measure -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn measure() {
+    let (Ok(t), Ok(u)) = (std::env::var("TILED"), std::env::var("UNTILED")) else {
+        return;
+    };
+    let (compared, differ, unexplained) = reassembly(Path::new(&t), Path::new(&u));
+    println!(
+        "{differ} of {compared} px differ outside the overlaps ({:.3} %), {unexplained} not at a bridge",
+        100.0 * differ as f64 / compared as f64
+    );
+}
+
+#[test]
+fn layers_in_tiles_share_the_seams_and_the_pins() {
+    let d = tmp();
+    let pic = d.path().join("steps.png");
+    // Three grays and white in bands that cross where the seam falls.
+    smooth_png(&pic, 200, 120, |x, y| {
+        let r = ((x - 100.0).powi(2) + (y - 60.0).powi(2)).sqrt();
+        match r as u32 {
+            0..=14 => 0.05,
+            15..=29 => 0.4,
+            30..=44 => 0.7,
+            _ => 1.0,
+        }
+    });
+    let out = d.path().join("o");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "200",
+        "--tiles",
+        "2x1",
+        "--layers",
+        "3",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    let tiles = r["tiles"].as_array().unwrap();
+    assert_eq!(tiles.len(), 2);
+    let mm = r["mm_per_px"].as_f64().unwrap();
+    for t in tiles {
+        let layers = t["layers"].as_array().unwrap();
+        assert_eq!(layers.len(), 3, "{t}");
+        let pins = t["pins_mm"].as_array().unwrap();
+        assert!(!pins.is_empty(), "{t}");
+        let mut sizes = Vec::new();
+        for l in layers {
+            let dir = out.join(l["folder"].as_str().unwrap());
+            assert_valid_stencil(&dir);
+            assert_eq!(report(&dir)["check"]["pieces"], 1);
+            let bits = read_bits(&dir.join("stencil.png"));
+            sizes.push((bits.width, bits.height));
+            // Every layer has the tile's pin holes, at the same place.
+            for p in pins {
+                let (x, y) = (p[0].as_f64().unwrap() / mm, p[1].as_f64().unwrap() / mm);
+                assert!(
+                    !bits.get(x as u32, y as u32),
+                    "{}: no pin at {p}",
+                    dir.display()
+                );
+            }
+        }
+        assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{sizes:?}");
+    }
+    let o = stencil(&["check", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).matches("== ").count(), 6);
+}
