@@ -28,6 +28,7 @@
 #![warn(missing_docs)]
 
 mod codes;
+mod dialects;
 mod error;
 mod frame;
 mod jog;

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use super::config::{Control, StreamConfig};
 use super::link::{BytePort, LinkFault};
 use super::observe::{ControllerInfo, Observer};
-use super::prepare::{allowed, outgoing, rescale};
+use super::prepare::{allowed, name_differences, outgoing, rescale};
 use super::session::Session;
 use crate::error::MachineError;
 use crate::program::Program;
@@ -72,6 +72,7 @@ pub fn send_to_card(
             firmware: s.info.name(),
         });
     }
+    name_differences(&mut s, job);
     s.laser_mode()?;
     if let Some(zero) = cfg.place_zero {
         s.place(zero)?;

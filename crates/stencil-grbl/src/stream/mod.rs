@@ -42,7 +42,7 @@ pub use self::tcp::TcpPort;
 use super::error::MachineError;
 use super::program::Program;
 
-use self::prepare::{allowed, outgoing, rescale};
+use self::prepare::{allowed, name_differences, outgoing, rescale};
 use self::session::Session;
 use super::stall;
 
@@ -64,6 +64,7 @@ pub fn send(
     let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
     let mut s = Session::new(port, cfg, controls, obs, stall);
     s.connect()?;
+    name_differences(&mut s, job);
     s.laser_mode()?;
     let from = match &cfg.recovery {
         Some(r) => s.recover(job, r, cfg.from_line.max(1))?,

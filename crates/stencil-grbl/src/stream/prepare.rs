@@ -5,8 +5,10 @@
 use super::config::StreamConfig;
 use super::flight::Outgoing;
 use super::session::Session;
+use crate::dialects::grblhal_differs;
 use crate::error::MachineError;
 use crate::program::Program;
+use crate::protocol::Firmware;
 
 /// A job that changes the machine's settings goes out only when that was allowed.
 pub(super) fn allowed(job: &Program, cfg: &StreamConfig) -> Result<(), MachineError> {
@@ -63,4 +65,30 @@ pub(super) fn outgoing(
         .collect();
     lines.extend(body);
     (lines, resume_point)
+}
+
+/// The job check plays Grbl 1.1h; on a grblHAL board, the lines it answers differently are
+/// named (the first ten), before any is sent.
+pub(super) fn name_differences(s: &mut Session, job: &Program) {
+    if s.info.firmware != Firmware::GrblHal {
+        return;
+    }
+    let differ: Vec<String> = job
+        .lines
+        .iter()
+        .filter_map(|l| {
+            let why = grblhal_differs(&l.text)?;
+            Some(format!("line {} `{}`: {why}", l.number, l.text))
+        })
+        .collect();
+    for d in differ.iter().take(10) {
+        s.obs.message(&format!("{}: {d}", job.name));
+    }
+    if differ.len() > 10 {
+        s.obs.message(&format!(
+            "{}: {} more lines grblHAL answers differently from Grbl 1.1h",
+            job.name,
+            differ.len() - 10
+        ));
+    }
 }
