@@ -76,6 +76,8 @@ pub enum DryFirmware {
 pub(super) fn machine_hint(e: &MachineError) -> &'static str {
     match e {
         MachineError::Locked { .. } => "; run again with --unlock to send $X",
+        MachineError::NoCard { .. } | MachineError::CardWholeJob { .. } => " (without --to-card)",
+        MachineError::CardMissing { .. } => " (or without --to-card)",
         MachineError::LaserModeOff { .. } => {
             "; run again with --set-laser-mode to send $32=1, or name the machine's profile with \
              --machine"
@@ -240,19 +242,8 @@ pub fn after_drop(tcp: &str, cfg: &stencil_grbl::StreamConfig) -> bool {
          most {} s) to watch it finish what it holds and switch the beam off; it is not reset",
         RECONNECT_FOR.as_secs()
     );
-    let end = std::time::Instant::now() + RECONNECT_FOR;
-    let mut port = loop {
-        match TcpPort::connect(tcp, Duration::from_secs(3)) {
-            Ok(p) => break p,
-            Err(e) if std::time::Instant::now() >= end => {
-                eprintln!(
-                    "tcp://{tcp} cannot be reached ({e}): at the machine, make sure the laser \
-                     and the air are off"
-                );
-                return false;
-            }
-            Err(_) => std::thread::sleep(Duration::from_secs(1)),
-        }
+    let Some(mut port) = reach(tcp) else {
+        return false;
     };
     let cfg = stencil_grbl::StreamConfig {
         boot_wait: Duration::from_millis(300),
@@ -279,6 +270,25 @@ pub fn after_drop(tcp: &str, cfg: &stencil_grbl::StreamConfig) -> bool {
                  sure the laser and the air are off"
             );
             false
+        }
+    }
+}
+
+/// Reach a network controller again after its link dropped, trying for at most
+/// [`RECONNECT_FOR`]; `None` (said) when it cannot be reached.
+pub fn reach(tcp: &str) -> Option<TcpPort> {
+    let end = std::time::Instant::now() + RECONNECT_FOR;
+    loop {
+        match TcpPort::connect(tcp, Duration::from_secs(3)) {
+            Ok(p) => return Some(p),
+            Err(e) if std::time::Instant::now() >= end => {
+                eprintln!(
+                    "tcp://{tcp} cannot be reached ({e}): at the machine, make sure the laser \
+                     and the air are off"
+                );
+                return None;
+            }
+            Err(_) => std::thread::sleep(Duration::from_secs(1)),
         }
     }
 }

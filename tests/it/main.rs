@@ -70,6 +70,7 @@ mod profiles;
 mod property;
 mod regularize;
 mod resolution;
+mod send_card;
 mod send_dialects;
 mod send_safety;
 mod start_from;

@@ -400,3 +400,35 @@ fn send_over_tcp_reports_a_dropped_link_and_makes_the_board_safe_without_resetti
         "{err}"
     );
 }
+
+/// The job check plays Grbl 1.1h: on a grblHAL board the lines grblHAL answers differently (as
+/// measured against its Simulator) are named before anything is sent; on Grbl they are not.
+#[test]
+fn the_job_check_names_what_grblhal_answers_differently() {
+    let job = Program::parse("j.gcode", "G21G90\nG0X5\nM7\nG0X1A2\nM9\n").unwrap();
+    for fw in [Firmware::GrblHal, Firmware::Grbl] {
+        let (vg, mut port) = VirtualGrbl::spawn(VirtualConfig::dialect(fw)).unwrap();
+        let mut notes = Notes::default();
+        // The virtual board judges lines as Grbl 1.1h does: M7 is refused either way.
+        let _ = send(&mut port, &job, &cfg(), None, &mut notes);
+        drop(vg);
+        let named: Vec<&String> = notes
+            .0
+            .iter()
+            .filter(|n| n.starts_with("j.gcode: line"))
+            .collect();
+        if fw == Firmware::GrblHal {
+            assert_eq!(named.len(), 2, "{:?}", notes.0);
+            assert!(
+                named[0].contains("line 3 `M7`: grblHAL accepts it"),
+                "{named:?}"
+            );
+            assert!(
+                named[1].contains("line 4 `G0X1A2`: grblHAL answers error:36"),
+                "{named:?}"
+            );
+        } else {
+            assert!(named.is_empty(), "{named:?}");
+        }
+    }
+}

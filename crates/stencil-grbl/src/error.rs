@@ -251,6 +251,47 @@ pub enum MachineError {
     Restarted { halt: Halt },
     #[error("aborted by the operator; {halt}")]
     Aborted { halt: Halt },
+    #[error("{port}: {firmware} has no card to run a job from (only grblHAL and FluidNC boards keep job files, on an SD card or flash): stream the job instead")]
+    NoCard { port: String, firmware: String },
+    #[error("{port}: {firmware} has no card to put the job on ({detail}): insert its SD card, or stream the job instead")]
+    CardMissing {
+        port: String,
+        firmware: String,
+        detail: String,
+    },
+    #[error("{port}: a job on the card runs whole, from its first line: resuming from a line is done by streaming")]
+    CardWholeJob { port: String },
+    #[error("{port}: the upload of {file} to the card failed ({detail}); nothing was started")]
+    CardUpload {
+        port: String,
+        file: String,
+        detail: String,
+    },
+    #[error("{port}: {file} did not arrive whole on the card ({detail}); nothing was started")]
+    CardMismatch {
+        port: String,
+        file: String,
+        detail: String,
+    },
+    #[error("{port}: the controller stopped the card job {file}: `{text}` ({}); the laser is off with the job", protocol::error_meaning(*code))]
+    CardJobError {
+        port: String,
+        file: String,
+        text: String,
+        code: u8,
+    },
+    #[error("{port}: the controller stopped the card job {file} with ALARM:{code} ({}); an alarm switches the laser off", protocol::alarm_meaning(*code))]
+    CardAlarm {
+        port: String,
+        file: String,
+        code: u8,
+    },
+    #[error("{port}: the link to the controller dropped ({detail}) while it runs {file} from its card: the cut goes on there, unharmed")]
+    CardLinkLost {
+        port: String,
+        file: String,
+        detail: String,
+    },
 }
 
 impl MachineError {

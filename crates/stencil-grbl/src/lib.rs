@@ -28,6 +28,7 @@
 #![warn(missing_docs)]
 
 mod codes;
+mod dialects;
 mod error;
 mod frame;
 mod jog;
@@ -39,6 +40,7 @@ mod protocol;
 mod stall;
 mod stream;
 mod virtual_grbl;
+mod xmodem;
 
 pub use error::{CheckRejection, Halt, MachineChange, MachineError, Unanswered};
 pub use frame::{frame, FrameError, FramePlan, FrameTool, Framed};
@@ -52,7 +54,10 @@ pub use program::{cut_extent, cut_extent_with, machine_change, Extent, Program, 
 pub use program::{ResumeLift, StateBefore};
 pub use protocol::{Firmware, MachineState, Status};
 pub use stall::{slowest_step, Clock, ClockRef};
-pub use stream::{send, BytePort, Console, Control, ControllerInfo, Expected, FlowControl};
+pub use stream::{
+    send, send_to_card, watch_card, BytePort, CardSummary, Console, Control, ControllerInfo,
+    Expected, FlowControl,
+};
 pub use stream::{IfMoving, LaserMode, Observer, Override, Position, PowerScale, Progress, Quiet};
 pub use stream::{Recovery, StreamConfig, Summary, TcpPort, MOVING_WAIT};
 pub use virtual_grbl::{Event, Fault, FaultKind, Pace, PlannedMove, Received, Record, Stutter};

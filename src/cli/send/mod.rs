@@ -12,6 +12,7 @@ use clap::Args;
 use stencil_gcode::interpret::Move;
 use stencil_gcode::machine as machine_profile;
 
+mod card;
 mod output;
 mod recover;
 
@@ -120,6 +121,11 @@ pub struct SendArgs {
     /// sent, to rehearse a stop (the plotter's buffer cleared, the tool lifted).
     #[arg(long, value_name = "N", requires = "dry_run")]
     pub dry_run_abort_at: Option<usize>,
+    /// Upload the job to the controller's own storage (SD card or flash: grblHAL by YModem,
+    /// FluidNC by XModem), check it arrived whole (listed size, read back), run it there and
+    /// follow it: a USB or WiFi drop cannot kill the cut. Grbl 1.1h has no card (refused).
+    #[arg(long, conflicts_with_all = ["from_line", "recover", "send_response"])]
+    pub to_card: bool,
 }
 
 /// Before an allowed job streams: a `$32=0` in it turns Grbl's laser mode off for the rest of the
@@ -451,6 +457,15 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
         }
         // The controller is awake and idle: no need to wait for a boot banner.
         cfg.boot_wait = Duration::from_millis(300);
+    }
+    if a.to_card {
+        let run = card::Run {
+            port,
+            label,
+            virtual_grbl,
+            tcp,
+        };
+        return card::run(run, &job, &cfg, tx, &rx);
     }
     let keys = Keys::start(tx);
     let mut bar = Bar::new(&job, &text, machine.motion, keys.raw);

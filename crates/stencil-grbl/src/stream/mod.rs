@@ -7,12 +7,14 @@
 //! By concern: `link` (the byte port, read line by line), `session` (connect, setup commands,
 //! status queries), `flight` (flow control, acknowledgements, the `$C` pass), `tracker` (which
 //! acknowledged moves really ran), `control` (the operator's real-time commands and overrides),
-//! `halt` (every stop path), `config` and `observe` (what goes in and what comes out), `tcp`
+//! `halt` (every stop path), `card` (a job uploaded to the controller's SD card and run there), `config` and `observe`
+//! (what goes in and what comes out), `tcp`
 //! (the network link), and
 //! [`console`] (the same session held open for jogging and framing).
 
 use std::sync::mpsc::Receiver;
 
+mod card;
 mod config;
 mod console;
 mod control;
@@ -21,12 +23,14 @@ mod halt;
 mod link;
 mod observe;
 mod place;
+mod prepare;
 mod recover;
 mod session;
 mod settings;
 mod tcp;
 mod tracker;
 
+pub use self::card::{send_to_card, watch_card, CardSummary};
 pub use self::config::{
     Control, Expected, FlowControl, IfMoving, LaserMode, Override, PowerScale, Recovery,
     StreamConfig, MOVING_WAIT,
@@ -38,7 +42,7 @@ pub use self::tcp::TcpPort;
 use super::error::MachineError;
 use super::program::Program;
 
-use self::flight::Outgoing;
+use self::prepare::{allowed, name_differences, outgoing, rescale};
 use self::session::Session;
 use super::stall;
 
@@ -54,17 +58,13 @@ pub fn send(
     controls: Option<&Receiver<Control>>,
     obs: &mut dyn Observer,
 ) -> Result<Summary, MachineError> {
-    if !job.machine_changes.is_empty() && !cfg.allow_machine_commands {
-        return Err(MachineError::MachineCommands {
-            file: job.name.clone(),
-            changes: job.machine_changes.clone(),
-        });
-    }
+    allowed(job, cfg)?;
     // Checked before anything is sent; built again below if a recovery moves the line.
     job.resume_preamble_with(cfg.from_line.max(1), &cfg.lift)?;
     let stall = stall::stall_bound(stall::slowest_step(job, cfg.rapid_mm_min));
     let mut s = Session::new(port, cfg, controls, obs, stall);
     s.connect()?;
+    name_differences(&mut s, job);
     s.laser_mode()?;
     let from = match &cfg.recovery {
         Some(r) => s.recover(job, r, cfg.from_line.max(1))?,
@@ -87,16 +87,7 @@ pub fn send(
         fits_buffer(job, s.rx_limit(), s.info.rx_buffer)?;
     }
     let (mut lines, resume_point) = outgoing(job, preamble, from);
-    for l in &mut lines {
-        l.text = s.rescaled(&l.text);
-        if l.text.len() > stencil_gcode::limits::MAX_LINE_BYTES {
-            return Err(MachineError::LineTooLong {
-                file: job.name.clone(),
-                line: l.number,
-                len: l.text.len(),
-            });
-        }
-    }
+    rescale(&s, job, &mut lines)?;
     if cfg.check_first {
         // With the preamble, so a resumed job is checked in the state it will run in.
         s.check(job, &lines)?;
@@ -139,27 +130,4 @@ fn fits_buffer(job: &Program, rx_limit: usize, rx: usize) -> Result<(), MachineE
         }),
         None => Ok(()),
     }
-}
-
-/// What goes out: the resume preamble (numbered with the resume point), then the program's lines
-/// from line `from` on; and the resume point (the first program line sent).
-fn outgoing(job: &Program, preamble: Vec<String>, from: usize) -> (Vec<Outgoing>, usize) {
-    let body: Vec<Outgoing> = job
-        .lines
-        .iter()
-        .filter(|l| l.number >= from)
-        .map(Outgoing::program)
-        .collect();
-    let resume_point = body.first().map(|l| l.number).unwrap_or(from);
-    let mut lines: Vec<Outgoing> = preamble
-        .into_iter()
-        .map(|text| Outgoing {
-            number: resume_point,
-            text,
-            motion: false,
-            preamble: true,
-        })
-        .collect();
-    lines.extend(body);
-    (lines, resume_point)
 }

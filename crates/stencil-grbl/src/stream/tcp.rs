@@ -40,19 +40,37 @@ impl TcpPort {
 impl Read for TcpPort {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match self.stream.read(buf) {
-            Ok(0) if !buf.is_empty() => Err(io::Error::new(
-                io::ErrorKind::ConnectionAborted,
-                "the controller closed the network connection",
-            )),
+            Ok(0) if !buf.is_empty() => Err(closed()),
+            Err(e) if gone(&e) => Err(closed()),
             // A read timeout is `WouldBlock` on Unix sockets; the link reads it as no data.
             r => r,
         }
     }
 }
 
+/// The other end shut the connection: whether a read or a write finds out first (a write to
+/// a socket the board closed fails with a broken pipe or a reset), it is the same event.
+fn gone(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::BrokenPipe
+            | io::ErrorKind::ConnectionReset
+            | io::ErrorKind::ConnectionAborted
+    )
+}
+
+fn closed() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::ConnectionAborted,
+        "the controller closed the network connection",
+    )
+}
+
 impl Write for TcpPort {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.stream.write(buf)
+        self.stream
+            .write(buf)
+            .map_err(|e| if gone(&e) { closed() } else { e })
     }
     fn flush(&mut self) -> io::Result<()> {
         self.stream.flush()

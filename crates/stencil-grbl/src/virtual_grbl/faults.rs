@@ -81,11 +81,15 @@ impl Sim {
         if !self.port.as_mut().is_some_and(|w| w.drop_link()) {
             return self.close();
         }
-        let whole = self
-            .rx
-            .iter()
-            .rposition(|&b| b == b'\n')
-            .map_or(0, |i| i + 1);
+        // A job run from the card fills the buffer from the card, not over the link.
+        let whole = match self.card_run {
+            Some(_) => self.rx.len(),
+            None => self
+                .rx
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1),
+        };
         self.rx.truncate(whole);
         self.unheard += 1 + self.rx.iter().filter(|&&b| b == b'\n').count();
         self.wire_out.clear();

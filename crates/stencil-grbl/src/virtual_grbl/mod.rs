@@ -10,7 +10,7 @@
 //! counts overflowing bytes), `parser` (line buffer and G-code lines through the shared
 //! interpreter), `planner` (motion at the programmed feeds: `ok` means queued, not executed),
 //! `jog`, `realtime` (real-time bytes, status reports), `system` (`$` commands and settings),
-//! `faults` and `wire` (its end of the link: a pty, or a TCP endpoint).
+//! `card` (grblHAL's and FluidNC's SD card: uploads, runs from it), `storage`, `faults` and `wire` (its end of the link: a pty, or a TCP endpoint).
 
 use std::net::{SocketAddr, TcpListener};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,6 +19,7 @@ use std::thread::JoinHandle;
 
 use serialport::TTYPort;
 
+mod card;
 mod config;
 mod faults;
 mod jog;
@@ -27,6 +28,7 @@ mod planner;
 mod realtime;
 mod record;
 mod sim;
+mod storage;
 mod system;
 #[cfg(test)]
 mod tests;

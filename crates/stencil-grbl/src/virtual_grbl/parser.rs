@@ -57,9 +57,15 @@ impl Sim {
             let Some(b) = self.rx.pop_front() else {
                 return;
             };
+            // The line as it came (bounded), for the file names of card commands.
+            if b != b'\n' && b != b'\r' && self.raw_line.len() < 256 {
+                self.raw_line.push(b);
+            }
             // As Grbl fills its line buffer: comments, spaces, control characters and block
             // delete never enter it; what is left must fit 79 characters.
             if b == b'\n' || b == b'\r' {
+                let as_came = std::mem::take(&mut self.raw_line);
+                self.last_raw = String::from_utf8_lossy(&as_came).into_owned();
                 let raw = std::mem::take(&mut self.line_buf);
                 let overflow = std::mem::replace(&mut self.line_overflow, false);
                 self.comment = Comment::None;

@@ -94,6 +94,7 @@ impl Sim {
         self.pending = None;
         self.rx.clear();
         self.line_buf.clear();
+        self.raw_line.clear();
         self.hold = false;
         self.hold_decel = None;
         self.rt_hold = false;
@@ -110,6 +111,8 @@ impl Sim {
         lock(&self.shared).events.push(Event::SoftReset);
         self.forget();
         self.backlog.clear();
+        self.card_run = None;
+        self.upload = None;
         self.unheard = 0;
         self.line_overflow = false;
         self.comment = Comment::None;
@@ -225,6 +228,9 @@ impl Sim {
             if self.reports == 1 {
                 s.push_str("|FW:grblHAL");
             }
+        }
+        if let Some(sd) = self.card_field() {
+            s.push_str(&sd);
         }
         s.push('>');
         lock(&self.shared).status_reports += 1;

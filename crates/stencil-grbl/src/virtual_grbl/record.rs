@@ -28,6 +28,8 @@ pub enum Event {
     PowerLoss,
     /// The network link dropped; the board ran on (an injected fault).
     LinkDropped,
+    /// A file was written to the card (its name), received over the stream.
+    CardFile(String),
 }
 
 /// Everything the simulated machine saw and did.

@@ -10,6 +10,7 @@ use stencil_gcode::interpret::{Modal, Move};
 
 use super::config::{FaultKind, Pace, VirtualConfig};
 use super::record::{lock, Record};
+use super::storage::{Card, CardRun, Upload};
 use super::wire::Wire;
 use crate::protocol::{self, Firmware};
 
@@ -133,6 +134,16 @@ pub(super) struct Sim {
     pub(super) unheard: usize,
     /// Homed since it started (grblHAL reports it as `H:`).
     pub(super) homed: bool,
+    /// The files on its card (grblHAL and FluidNC builds).
+    pub(super) card: Card,
+    /// A file arriving over the stream.
+    pub(super) upload: Option<Upload>,
+    /// The job it runs from its card.
+    pub(super) card_run: Option<CardRun>,
+    /// The last line as it came, case and slashes kept (a card command's file name).
+    pub(super) last_raw: String,
+    /// The line being received, as it comes.
+    pub(super) raw_line: Vec<u8>,
 }
 
 impl Sim {
@@ -184,6 +195,11 @@ impl Sim {
             backlog: VecDeque::new(),
             unheard: 0,
             homed: false,
+            card: Card::new(),
+            upload: None,
+            card_run: None,
+            last_raw: String::new(),
+            raw_line: Vec::new(),
         };
         sim.apply_settings();
         if let Some(st) = sim.cfg.start.clone() {
@@ -223,6 +239,7 @@ impl Sim {
             self.deliver(now);
             self.advance(now);
             self.process_lines();
+            self.card_tick();
             self.rt_pass();
             self.flush_out(Instant::now());
             self.publish();
@@ -285,8 +302,15 @@ impl Sim {
                 lock(&self.shared).eeprom_lost_bytes += 1;
                 continue;
             }
+            if self.card_byte(b) {
+                continue;
+            }
             if protocol::is_realtime(b) {
                 self.realtime(b);
+                continue;
+            }
+            // While it runs a job from its card, the host's lines are dropped.
+            if self.card_run.is_some() {
                 continue;
             }
             if self.rx.len() >= self.cfg.rx_buffer {

@@ -55,6 +55,7 @@ impl Sim {
             {
                 self.write_setting(c, idx, idle)
             }
+            c if self.card_command(c, idx) => {}
             _ => self.reply_error(3),
         }
     }
