@@ -223,6 +223,21 @@ fn send_to_card_refuses_grbl_which_has_no_card() {
     assert!(!out.contains("the beam cut"), "{out}");
 }
 
+#[test]
+fn send_to_card_refuses_a_plotter_job_which_has_no_card_to_go_to() {
+    let dir = crate::common::tmp();
+    let file = dir.path().join("j.plt");
+    std::fs::write(&file, "IN;SP1;PU0,0;PD400,0,400,400;PU;").unwrap();
+    let o = crate::common::stencil(&["send", "--dry-run", "--to-card", crate::common::s(&file)]);
+    let err = crate::common::stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("j.plt: --to-card runs a G-code job")
+            && err.contains("send the HP-GL job without --to-card"),
+        "{err}"
+    );
+}
+
 /// Presses keys when the card run says how it stands: a feed hold once it runs, then resume
 /// once it is held (or an abort once it runs).
 struct Operator {

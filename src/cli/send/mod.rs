@@ -310,6 +310,13 @@ fn stopped(a: &SendArgs, journal_path: &Path, e: stencil_grbl::MachineError) -> 
 
 pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
     if super::send_hpgl::is_hpgl_file(&a.file) {
+        if a.to_card {
+            anyhow::bail!(
+                "{}: --to-card runs a G-code job from a grblHAL or FluidNC board's card; a \
+                 plotter has no card: send the HP-GL job without --to-card",
+                a.file.display()
+            );
+        }
         return super::send_hpgl::run_send_hpgl(super::send_hpgl::SendHpgl {
             file: &a.file,
             machine: a.machine.as_deref(),
