@@ -390,9 +390,10 @@ function drawSeams(svg) {
     t.textContent = `${s.axis} seam at ${s.at_mm.toFixed(1)} mm (it wanders up to ${s.band_mm.toFixed(1)} mm each way): drag to move`;
     h.appendChild(t);
   });
+  // Near the top of each tile's box (the map numbers its middle): its number in cutting order.
   for (const t of state.tiles.tiles) {
-    const [x, y, w, h] = t.box_px;
-    el("text", { x: x + w / 2, y: y + h / 2, "font-size": Math.max(12, Math.min(w, h) / 6) }, "tile-number").textContent = String(t.number);
+    const [x, y, w, h] = t.box_px, size = Math.max(8, Math.min(w, h) / 12);
+    el("text", { x: x + w / 2, y: y + 1.5 * size, "font-size": size }, "tile-number").textContent = `tile ${t.number}`;
   }
 }
 // While a seam's handle is dragged: its straight line and handle follow the pointer.
