@@ -115,7 +115,9 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
 
 /// The tiles asked for, fitted to --sheet or else the machine's bed, with the layers asked
 /// for (a fill-in or a mask's marks in tiles are refused).
-fn tiles_config(a: &MakeArgs) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
+pub(super) fn tiles_config(
+    a: &MakeArgs,
+) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
     let set = set_config(a).filter(|_| a.tiles.asked());
     if set.as_ref().is_some_and(|lc| lc.fill_in || lc.count < 2) {
         anyhow::bail!(
@@ -139,13 +141,7 @@ fn tiles_config(a: &MakeArgs) -> anyhow::Result<Option<stencil_core::tiles::Tile
 /// Run and write the tiles, then say what was made.
 fn make_tiles(cfg: MakeConfig, tc: &stencil_core::tiles::TilesConfig) -> anyhow::Result<ExitCode> {
     let (cfg, result) = with_progress(cfg, |cfg| stencil_core::tiles::make(cfg, tc));
-    let (t, replaced) = result.map_err(|e| match e {
-        stencil_core::Error::Tiles(t) => {
-            let help = super::tiles::help(&t);
-            anyhow::anyhow!("{}: {t} ({help})", cfg.input.display())
-        }
-        e => make_error(&cfg, e),
-    })?;
+    let (t, replaced) = result.map_err(|e| tiles_error(&cfg, e))?;
     super::tiles::print(&cfg, &t);
     if !replaced.removed.is_empty() {
         println!(
@@ -154,6 +150,18 @@ fn make_tiles(cfg: MakeConfig, tc: &stencil_core::tiles::TilesConfig) -> anyhow:
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A tiled run's error in `make`'s words (a tiling's own, with what to change; else any
+/// stencil's).
+pub(super) fn tiles_error(cfg: &MakeConfig, e: stencil_core::Error) -> anyhow::Error {
+    match e {
+        stencil_core::Error::Tiles(t) => {
+            let help = super::tiles::help(&t);
+            anyhow::anyhow!("{}: {t} ({help})", cfg.input.display())
+        }
+        e => make_error(cfg, e),
+    }
 }
 
 /// `run(cfg)` with the progress line drawn while it runs; `cfg` comes back with it.

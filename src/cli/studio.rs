@@ -11,11 +11,10 @@ use std::sync::Arc;
 use clap::{ArgAction, Args, FromArgMatches};
 use serde_json::Value;
 use stencil_core::MakeConfig;
-use stencil_studio::{Kind, OptionSpec};
+use stencil_studio::{Configured, Kind, OptionSpec};
 
-use super::make::{make_config, make_error, set_config};
+use super::make::{make_config, set_config, tiles_config, tiles_error};
 use super::make_args::MakeArgs;
-use stencil_core::layers::LayersConfig;
 
 #[derive(Args, Debug)]
 #[command(after_help = "\
@@ -89,22 +88,19 @@ impl stencil_studio::Maker for CliMaker {
             .collect()
     }
 
-    fn config(&self, args: &[String]) -> Result<(MakeConfig, Option<LayersConfig>), String> {
+    fn config(&self, args: &[String]) -> Result<Configured, String> {
         let mut kept = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
         let a = parse_make(&self.cli, args)?;
-        if a.tiles.asked() {
-            return Err(
-                "--tiles: the studio shows one stencil, not tiles yet; make them with \
-                        `stencil make` (OUT/tiles.png maps the seams, --seam-x/--seam-y move them)"
-                    .into(),
-            );
-        }
-        let cfg = make_config(&a, Some(&mut kept)).map_err(|e| super::errors::one_line(&e))?;
-        Ok((cfg, set_config(&a)))
+        let one_line = |e: anyhow::Error| super::errors::one_line(&e);
+        let cfg = make_config(&a, Some(&mut kept)).map_err(one_line)?;
+        let tiles = tiles_config(&a).map_err(one_line)?;
+        // In tiles, the layers asked for are the tiles' (as `make` runs them).
+        let set = set_config(&a).filter(|_| tiles.is_none());
+        Ok(Configured { cfg, set, tiles })
     }
 
     fn describe(&self, cfg: &MakeConfig, e: stencil_core::Error) -> String {
-        super::errors::one_line(&make_error(cfg, e))
+        super::errors::one_line(&tiles_error(cfg, e))
     }
 }
 

@@ -78,6 +78,7 @@ mod starve;
 mod strength;
 mod studio;
 mod studio_browser;
+mod studio_tiles;
 mod third_party;
 mod tiles;
 mod trust;

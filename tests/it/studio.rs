@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 use crate::common::{make_as_shown, same_outputs};
 
 /// A running `stencil studio`, stopped when dropped.
-struct Studio {
+pub(crate) struct Studio {
     child: Child,
     port: u16,
     token: String,
@@ -33,7 +33,7 @@ fn bin() -> &'static str {
 }
 
 impl Studio {
-    fn start(input: &str, out: &Path, extra: &[&str]) -> Studio {
+    pub(crate) fn start(input: &str, out: &Path, extra: &[&str]) -> Studio {
         let mut cmd = Command::new(bin());
         cmd.args(["studio", input, "-o"]).arg(out).args(extra);
         Studio::spawn(cmd)
@@ -63,7 +63,7 @@ impl Studio {
     }
 
     /// One request with the token in the header; returns the status and the body.
-    fn call(&self, method: &str, path: &str, body: &[u8]) -> (u16, Vec<u8>) {
+    pub(crate) fn call(&self, method: &str, path: &str, body: &[u8]) -> (u16, Vec<u8>) {
         let auth = format!("Bearer {}", self.token);
         let host = format!("127.0.0.1:{}", self.port);
         request(
@@ -75,14 +75,14 @@ impl Studio {
         )
     }
 
-    fn json(&self, method: &str, path: &str, body: Value) -> (u16, Value) {
+    pub(crate) fn json(&self, method: &str, path: &str, body: Value) -> (u16, Value) {
         let (s, b) = self.call(method, path, body.to_string().as_bytes());
         let v = serde_json::from_slice(&b)
             .unwrap_or_else(|_| panic!("{path}: not JSON: {}", String::from_utf8_lossy(&b)));
         (s, v)
     }
 
-    fn ok(&self, method: &str, path: &str, body: Value) -> Value {
+    pub(crate) fn ok(&self, method: &str, path: &str, body: Value) -> Value {
         let (s, v) = self.json(method, path, body);
         assert_eq!(s, 200, "{method} {path}: {v}");
         v
@@ -138,7 +138,7 @@ fn unchunk(mut b: &[u8]) -> Vec<u8> {
     }
 }
 
-fn tmp(name: &str) -> PathBuf {
+pub(crate) fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("stencil-studio-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d

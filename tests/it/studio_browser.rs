@@ -3,7 +3,9 @@
 //! change, delete a bridge and see another hold its island, pin one, export, and compare the
 //! exported files byte for byte with `stencil make` run with the command line the page shows;
 //! then brighten the picture and see the preview change, and cut two layers and pick one of
-//! them and the composite in the layer selector.
+//! them and the composite in the layer selector; then cut it in two tiles, see the seam drawn
+//! over the map and the tiles numbered, drag the seam's handle and see the seam and the command
+//! line's `--seam-x` follow.
 //! Screenshots go to `target/tmp/studio-*.png`.
 //!
 //! Without `chromedriver` on the PATH the test says so and passes, unless
@@ -15,6 +17,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use fantoccini::actions::{InputSource, MouseActions, PointerAction, MOUSE_BUTTON_LEFT};
 use fantoccini::{Client, ClientBuilder, Locator};
 use serde_json::{json, Value};
 
@@ -375,7 +378,57 @@ async fn the_page_steers_the_stencil_and_exports_what_make_writes() {
     )
     .await;
     shot(&c, "7-layers").await;
-    let _ = v8;
+
+    // Tiles: the map with each seam drawn over it and the tiles numbered; the seam's handle,
+    // dragged left as a person drags it, moves the seam, and the command line says where.
+    set_control(&c, "opt-layers", "").await;
+    let v9 = shown_after(&c, v8).await;
+    set_control(&c, "opt-tiles", "2x1").await;
+    let v10 = shown_after(&c, v9).await;
+    let overlay = "const o = document.getElementById('overlay');
+         return document.getElementById('img').src.includes('/tiles.png')
+             && o.querySelectorAll('polyline.seam').length === 1
+             && o.querySelectorAll('text.tile-number').length === 2
+             ? o.querySelector('polyline.seam').getAttribute('points') : null;";
+    let path1 = until(&c, "the seams over the map", overlay, 30).await;
+    let st = state(&c).await;
+    let at1 = st["tiles"]["seams"][0]["at_mm"].as_f64().unwrap();
+    shot(&c, "8-tiles").await;
+    let handle = c.find(Locator::Id("seam-handle-0")).await.unwrap();
+    let drag = MouseActions::new("mouse".into())
+        .then(PointerAction::MoveToElement {
+            element: handle,
+            duration: None,
+            x: 0.0,
+            y: 0.0,
+        })
+        .then(PointerAction::Down {
+            button: MOUSE_BUTTON_LEFT,
+        })
+        .then(PointerAction::MoveBy {
+            duration: Some(Duration::from_millis(200)),
+            x: -40.0,
+            y: 0.0,
+        })
+        .then(PointerAction::Up {
+            button: MOUSE_BUTTON_LEFT,
+        });
+    c.perform_actions(drag).await.unwrap();
+    shown_after(&c, v10).await;
+    let st = state(&c).await;
+    let at2 = st["tiles"]["seams"][0]["at_mm"].as_f64().unwrap();
+    assert!(at2 < at1, "the seam did not move left: {at1} -> {at2} mm");
+    assert_eq!(
+        st["params"]["seam-x"],
+        format!("{at2}").as_str(),
+        "{}",
+        st["params"]
+    );
+    let cmd = st["command"].as_str().unwrap();
+    assert!(cmd.contains(&format!("--seam-x {at2}")), "{cmd}");
+    let path2 = until(&c, "the moved seam", overlay, 30).await;
+    assert_ne!(path1, path2, "the seam drawn did not move");
+    shot(&c, "9-seam-moved").await;
 
     c.close().await.unwrap();
     let made = out.with_extension("make");

@@ -378,3 +378,65 @@ fn layers_in_tiles_share_the_seams_and_the_pins() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(String::from_utf8_lossy(&o.stdout).matches("== ").count(), 6);
 }
+
+/// `send` and `frame` take a tile's G-code as any stencil's: each tile's job streams to the
+/// virtual Grbl whole with the laser off at the end, and its frame is its own tile's outline
+/// (the second tile's job is narrower: it starts at its seam).
+#[test]
+fn send_and_frame_take_a_tiles_gcode() {
+    let d = tmp();
+    let out = d.path().join("tiled");
+    let rings = samples().join("rings.png");
+    let o = stencil(&[
+        "make",
+        s(&rings),
+        "--tiles",
+        "2x1",
+        "--machine",
+        "diode-400",
+        "--emit",
+        "gcode",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut widths = Vec::new();
+    for t in ["tile-1-1", "tile-1-2"] {
+        let job = out.join(t).join("stencil.gcode");
+        // Every line but the blank ones and the comments is sent.
+        let text = std::fs::read_to_string(&job).unwrap();
+        let lines = text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with(';') && !l.starts_with('('))
+            .count();
+        let o = stencil(&["send", s(&job), "--dry-run"]);
+        assert!(o.status.success(), "{t}: {}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(text.contains(&format!("sent {lines} lines")), "{t}: {text}");
+        assert!(
+            text.contains("laser off") && text.contains("alarms: none"),
+            "{text}"
+        );
+        let o = stencil(&["frame", s(&job), "--dry-run"]);
+        assert!(o.status.success(), "{t}: {}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(text.contains("laser off at the end"), "{text}");
+        // "the job cuts within X a..b Y ...": the tile's width.
+        let x: Vec<f64> = text
+            .split_once("cuts within X ")
+            .and_then(|(_, r)| r.split_once(' '))
+            .map(|(x, _)| x.split("..").filter_map(|v| v.parse().ok()).collect())
+            .unwrap_or_default();
+        assert_eq!(x.len(), 2, "no frame: {text}");
+        let w = x[1] - x[0];
+        let r = report(&out.join(t));
+        let sheet = r["width_mm"].as_f64().unwrap_or(f64::MAX);
+        assert!(
+            w > 5.0 && w <= sheet + 1e-6,
+            "{t}: frame {w} mm, tile {sheet} mm"
+        );
+        widths.push(w);
+    }
+    assert!(widths[1] < widths[0], "{widths:?}");
+}

@@ -40,7 +40,7 @@ mod state;
 mod studio;
 
 pub use engine::{Computed, Engine, RunError};
-pub use maker::Maker;
+pub use maker::{Configured, Maker};
 pub use params::{Kind, OptionSpec};
 pub use server::serve;
 pub use studio::StudioConfig;

@@ -1,5 +1,5 @@
 //! A finished run as the page sees it ([`Done`]): what it computed (one stencil through the
-//! engine, or a set as `make` cuts it), the input file's identity on disk when it was read
+//! engine, or a set or tiles as `make` cuts them), the input file's identity on disk when it was read
 //! (`Stamp`), and the page's images, encoded once ([`Done::cached`], [`Reuse`]).
 
 use std::sync::{Arc, Mutex};
@@ -10,6 +10,7 @@ use stencil_core::export::png;
 use stencil_core::layers::{Layered, LayersConfig};
 use stencil_core::pipeline::{Cleaned, Made};
 use stencil_core::raster::Gray;
+use stencil_core::tiles::{Tiled, TilesConfig};
 
 use crate::engine::{fast_png, Computed, Pixels};
 use crate::params::Params;
@@ -18,11 +19,85 @@ use crate::params::Params;
 /// names; the page shows one or two at a time).
 const IMAGE_CACHE: usize = 12;
 
-/// What a run computed: one stencil, through the incremental engine, or a set.
+/// What a run computed: one stencil, through the incremental engine, a set, or tiles.
 #[derive(Clone)]
 pub(crate) enum Shown {
     One(Arc<Computed>),
     Set(Arc<SetRun>),
+    Tiles(Arc<TilesRun>),
+}
+
+impl Shown {
+    /// One of the page's images of this result (see each kind's `image`).
+    pub(crate) fn image(&self, name: &str) -> Option<Vec<u8>> {
+        match self {
+            Shown::One(c) => c.image(name),
+            Shown::Set(set) => set.image(name),
+            Shown::Tiles(t) => t.image(name),
+        }
+    }
+}
+
+/// Tiles (`--tiles`, with `--layers` or not) as `make` computes them, by
+/// `stencil_core::tiles::run`. Not incremental: the seams run through the whole picture and
+/// each tile's stencil depends on them, so a change (a seam moved) runs the tiling again.
+pub(crate) struct TilesRun {
+    pub(crate) cfg: stencil_core::MakeConfig,
+    pub(crate) tc: TilesConfig,
+    pub(crate) tiled: Tiled,
+}
+
+impl TilesRun {
+    /// The tiles' stencils in cutting order (each tile's layers in painting order).
+    pub(crate) fn stencils(&self) -> Vec<&Made> {
+        self.tiled.tiles.iter().flatten().collect()
+    }
+
+    /// One of the page's images: `tiles` (make's tiles.png: the seams, the overlaps, the pins
+    /// and the numbers over the whole picture), or `tK-NAME` for stencil K (1-based, in the
+    /// order of [`TilesRun::stencils`]) with a NAME as [`Computed::image`] has.
+    pub(crate) fn image(&self, name: &str) -> Option<Vec<u8>> {
+        if name == "tiles" {
+            let (w, h, rgb) = &self.tiled.map;
+            return Some(fast_png(*w, *h, rgb, Pixels::Rgb));
+        }
+        let (k, what) = numbered(name, 't')?;
+        stencil_image(self.stencils().get(k.checked_sub(1)?)?, what)
+    }
+}
+
+/// `K` and `NAME` of `{prefix}K-NAME`, K a canonical number (`s1`, not `s01` or `s+1`: one name
+/// per image).
+fn numbered(name: &str, prefix: char) -> Option<(usize, &str)> {
+    let (k, what) = name.strip_prefix(prefix)?.split_once('-')?;
+    Some((
+        k.parse::<usize>().ok().filter(|n| n.to_string() == k)?,
+        what,
+    ))
+}
+
+/// A made stencil's image `what`, as [`Computed::image`] names them.
+fn stencil_image(m: &Made, what: &str) -> Option<Vec<u8>> {
+    let (w, h) = (m.bridged.bits.width, m.bridged.bits.height);
+    let gray = &m.twotone.gray;
+    Some(match what {
+        "gray" => fast_png(w, h, &gray.to_u8(), Pixels::Gray),
+        "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), Pixels::Gray),
+        "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), Pixels::Gray),
+        "picture" => fast_png(w, h, &m.picture.to_u8(), Pixels::Gray),
+        "preview" => {
+            let rgb = png::preview_rgb(
+                gray,
+                &m.picture,
+                &m.twotone.bits,
+                &m.bridged.bits,
+                &m.dropped_px,
+                1,
+            );
+            fast_png(w, h, &rgb, Pixels::Rgb)
+        }
+        _ => return None,
+    })
 }
 
 /// A set (`--layers`, `--fill-in`, registration marks for a mask) as `make` computes it, by
@@ -48,35 +123,11 @@ impl SetRun {
             let (w, h) = (self.set.tones.luma.width, self.set.tones.luma.height);
             return Some(fast_png(w, h, &self.set.composite, Pixels::Rgb));
         }
-        let (k, what) = match name.strip_prefix('s').and_then(|r| r.split_once('-')) {
-            // Canonical numbers only (`s1`, not `s01` or `s+1`): one name per image.
-            Some((k, what)) => (
-                k.parse::<usize>().ok().filter(|n| n.to_string() == k)?,
-                what,
-            ),
+        let (k, what) = match name.split_once('-') {
+            Some(_) => numbered(name, 's')?,
             None => (1, name),
         };
-        let m = *self.stencils().get(k.checked_sub(1)?)?;
-        let (w, h) = (m.bridged.bits.width, m.bridged.bits.height);
-        let gray = &m.twotone.gray;
-        Some(match what {
-            "gray" => fast_png(w, h, &gray.to_u8(), Pixels::Gray),
-            "twotone" => fast_png(w, h, &m.twotone.bits.to_u8(), Pixels::Gray),
-            "stencil" => fast_png(w, h, &m.bridged.bits.to_u8(), Pixels::Gray),
-            "picture" => fast_png(w, h, &m.picture.to_u8(), Pixels::Gray),
-            "preview" => {
-                let rgb = png::preview_rgb(
-                    gray,
-                    &m.picture,
-                    &m.twotone.bits,
-                    &m.bridged.bits,
-                    &m.dropped_px,
-                    1,
-                );
-                fast_png(w, h, &rgb, Pixels::Rgb)
-            }
-            _ => return None,
-        })
+        stencil_image(self.stencils().get(k.checked_sub(1)?)?, what)
     }
 }
 

@@ -39,8 +39,8 @@ const PNG_LIMIT: usize = 32 * 1024 * 1024;
 /// (undo gives back the earlier painting exactly) and the same painting is one file.
 pub const KEEP_OUT_PREFIX: &str = "keep-out-painted";
 /// Why a set's bridges cannot be deleted one by one.
-const SET_BRIDGES: &str = "a set's bridges are chosen per layer; keep them away with \
-                           no-bridge-near discs (Bridges), which every layer obeys";
+const SET_BRIDGES: &str = "a set's or tiles' bridges are chosen per stencil; keep them away \
+                           with no-bridge-near discs (Bridges), which every stencil obeys";
 type Shared = Arc<Studio>;
 type ApiResult = Result<Response, Refusal>;
 
@@ -159,7 +159,9 @@ async fn post_bridges(State(s): State<Shared>, body: Bytes) -> ApiResult {
         let done = s.done.borrow().clone();
         let c = match &done.outcome {
             Ok(Shown::One(c)) => c,
-            Ok(Shown::Set(_)) => return Err(bad(StatusCode::CONFLICT, SET_BRIDGES)),
+            Ok(Shown::Set(_) | Shown::Tiles(_)) => {
+                return Err(bad(StatusCode::CONFLICT, SET_BRIDGES))
+            }
             Err(_) => {
                 return Err(bad(
                     StatusCode::CONFLICT,
@@ -304,7 +306,7 @@ async fn post_export(State(s): State<Shared>) -> ApiResult {
         return Err(input_changed());
     }
     let command = s.command(&done.params);
-    let rereads = matches!(shown, Shown::Set(_));
+    let rereads = matches!(shown, Shown::Set(_) | Shown::Tiles(_));
     let s2 = s.clone();
     let written = tokio::task::spawn_blocking(move || match shown {
         Shown::One(c) => {
@@ -317,6 +319,10 @@ async fn post_export(State(s): State<Shared>) -> ApiResult {
         Shown::Set(set) => stencil_core::layers::make(&set.cfg, &set.lc)
             .map(|(_, r)| r)
             .map_err(|e| s2.maker.describe(&set.cfg, e)),
+        // `make`'s own tiles writer: it runs the tiling again, as a set's.
+        Shown::Tiles(t) => stencil_core::tiles::make(&t.cfg, &t.tc)
+            .map(|(_, r)| r)
+            .map_err(|e| s2.maker.describe(&t.cfg, e)),
     })
     .await
     .map_err(|e| bad(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
@@ -365,25 +371,20 @@ async fn get_image(State(s): State<Shared>, UrlPath(file): UrlPath<String>) -> A
         None => {
             let run = shown.clone();
             let n = name.to_string();
-            let p = tokio::task::spawn_blocking(move || {
-                match run {
-                    Shown::One(c) => c.image(&n),
-                    Shown::Set(set) => set.image(&n),
-                }
-                .map(Bytes::from)
-            })
-            .await
-            .ok()
-            .flatten()
-            .ok_or_else(|| {
-                bad(
-                    StatusCode::NOT_FOUND,
-                    format!(
-                        "no image {name}: gray, twotone, stencil, preview, picture (of a \
-                             set: sK-NAME for stencil K, K as 1, 2, ..., and composite)"
-                    ),
-                )
-            })?;
+            let p = tokio::task::spawn_blocking(move || run.image(&n).map(Bytes::from))
+                .await
+                .ok()
+                .flatten()
+                .ok_or_else(|| {
+                    bad(
+                        StatusCode::NOT_FOUND,
+                        format!(
+                            "no image {name}: gray, twotone, stencil, preview, picture (of a \
+                             set: sK-NAME for stencil K, K as 1, 2, ..., and composite; of \
+                             tiles: tK-NAME and tiles)"
+                        ),
+                    )
+                })?;
             if let Shown::One(c) = shown {
                 s.reuse.keep_png(c, name, &p);
             }

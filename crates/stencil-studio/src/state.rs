@@ -10,6 +10,7 @@ use axum::Json;
 use serde::Serialize;
 use stencil_core::layers::SetReport;
 use stencil_core::report::Report;
+use stencil_core::tiles::TilesReport;
 
 use crate::outcome::{histogram, Done, Reuse, Shown};
 use crate::params::{OptionSpec, OptionValue};
@@ -68,7 +69,7 @@ pub(crate) struct State<'a> {
     pub(crate) shows: Shows<'a>,
 }
 
-/// What the result shown is: an error, one stencil, or a set.
+/// What the result shown is: an error, one stencil, a set, or tiles.
 #[derive(Serialize)]
 #[serde(untagged)]
 pub(crate) enum Shows<'a> {
@@ -99,6 +100,18 @@ pub(crate) enum Shows<'a> {
         height_px: u32,
         composite_px: [u32; 2],
     },
+    /// The page shows the whole picture's map (`tiles.png`) with the seams drawn over it from
+    /// `tiles.seams` (in working pixels of the whole picture, `width_px` × `height_px`), or one
+    /// tile's stencil (`tile_reports[k]`; `report` is the first).
+    Tiles {
+        tiles: &'a TilesReport,
+        report: &'a Report,
+        tile_reports: Vec<&'a Report>,
+        mm_per_px: f64,
+        width_px: u32,
+        height_px: u32,
+        map_px: [u32; 2],
+    },
 }
 
 impl<'a> Shows<'a> {
@@ -128,6 +141,19 @@ impl<'a> Shows<'a> {
                     width_px: stencils[0].report.width_px,
                     height_px: stencils[0].report.height_px,
                     composite_px: [luma.width, luma.height],
+                }
+            }
+            Ok(Shown::Tiles(t)) => {
+                let stencils = t.stencils();
+                let r = &t.tiled.report;
+                Shows::Tiles {
+                    tiles: r,
+                    report: &stencils[0].report,
+                    tile_reports: stencils.iter().map(|m| &m.report).collect(),
+                    mm_per_px: r.mm_per_px,
+                    width_px: r.size_px[0],
+                    height_px: r.size_px[1],
+                    map_px: [t.tiled.map.0, t.tiled.map.1],
                 }
             }
         }

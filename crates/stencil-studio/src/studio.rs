@@ -1,6 +1,6 @@
 //! The running studio ([`Studio`]): the history of states (undo, redo), `make`'s reading of each
 //! (through the [`Maker`]), and the worker thread that computes the newest version through the
-//! engine (or a set through `make`'s layer code) and publishes it as [`Done`].
+//! engine (or a set or tiles through `make`'s own code) and publishes it as [`Done`].
 //!
 //! One version, one picture: every result is kept with the options it was computed from and the
 //! input file's identity on disk ([`Stamp`]), so the state, the command line and the files an
@@ -17,10 +17,11 @@ use serde_json::Value;
 use tokio::sync::watch;
 
 use stencil_core::layers::LayersConfig;
+use stencil_core::tiles::TilesConfig;
 
 use crate::engine::{Engine, RunError};
 use crate::maker::Maker;
-use crate::outcome::{Done, Reuse, SetRun, Shown};
+use crate::outcome::{Done, Reuse, SetRun, Shown, TilesRun};
 use crate::params::{shell_quote, OptionSpec, Params};
 use crate::state::{bad, Refusal, Shows, State};
 use stencil_core::{stamp, Stamp};
@@ -50,6 +51,7 @@ struct Derived {
     stamp: Option<Stamp>,
     cfg: stencil_core::MakeConfig,
     set: Option<LayersConfig>,
+    tiles: Option<TilesConfig>,
 }
 
 /// A version to compute.
@@ -184,8 +186,13 @@ impl Studio {
     fn derive(&self, p: &Params) -> Result<Derived, String> {
         let stamp = stamp(&self.input);
         let args = self.args(p);
-        let (cfg, set) = self.maker.config(&args)?;
-        Ok(Derived { stamp, cfg, set })
+        let c = self.maker.config(&args)?;
+        Ok(Derived {
+            stamp,
+            cfg: c.cfg,
+            set: c.set,
+            tiles: c.tiles,
+        })
     }
 
     /// Ask the worker for a new version of `params`; returns it.
@@ -331,6 +338,24 @@ impl Studio {
             run.stamp = d.stamp.clone();
             // The file read is the one the options were checked against.
             let unchanged = || stamp(&self.input) == d.stamp;
+            // Tiles are made whole by `make`'s own tiles code (the seams depend on the whole
+            // picture, and each tile's stencil on them).
+            if let Some(tc) = d.tiles {
+                let made = stencil_core::tiles::run(&d.cfg, &tc);
+                if !unchanged() {
+                    continue;
+                }
+                let outcome = match made {
+                    Ok(tiled) => Ok(Shown::Tiles(Arc::new(TilesRun {
+                        cfg: d.cfg,
+                        tc,
+                        tiled,
+                    }))),
+                    Err(e) => Err(self.maker.describe(&d.cfg, e)),
+                };
+                self.publish(&run, outcome, None, false);
+                return;
+            }
             // A set (layers, fill-in) is made whole by `make`'s own layer code.
             if let Some(lc) = d.set {
                 let made = stencil_core::layers::run(&d.cfg, &lc);

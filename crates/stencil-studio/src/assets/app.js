@@ -5,8 +5,9 @@ const $ = (id) => document.getElementById(id);
 let options = [], state = null, info = null, imgName = "preview", mode = "look";
 let view = { x: 10, y: 10, k: 1 }, fitted = false, shownVersion = -1;
 // Which stencil of a set the viewer shows (1-based, in painting order, the fill-in last), or
-// "composite" for the painted result.
-let pick = 1;
+// "composite" for the painted result; of tiles, "map" (the seams over the whole picture) or a
+// tile's stencil (1-based, in cutting order, each tile's layers in painting order).
+let pick = 1, pickKind = "one";
 
 // How the page presents some of make's options (the rest are text fields with make's own help):
 // a range for the picture's adjustments and the mesh's light, a list where make takes few values.
@@ -190,6 +191,7 @@ function applyView() { $("layer").style.transform = `translate(${view.x}px,${vie
 // size, without the marks' band).
 function shownSize() {
   if (state && state.set && pick === "composite") return state.composite_px;
+  if (state && state.tiles && pick !== "map") return [state.report.width_px, state.report.height_px];
   return [state.width_px, state.height_px];
 }
 function fit() {
@@ -203,33 +205,57 @@ $("fit").onclick = fit;
 function loadImages(v) {
   const q = "?token=" + TOKEN + "&v=" + v;
   const set = state && state.set, comp = set && pick === "composite";
-  const pre = set && !comp ? "s" + pick + "-" : "";
-  $("img").src = "/api/image/" + (comp ? "composite" : pre + imgName) + ".png" + q;
-  $("before").hidden = comp;
-  if (!comp) $("before").src = "/api/image/" + pre + "picture.png" + q;
+  // Tiles: the map (make's tiles.png, smaller than the working picture) is stretched over the
+  // whole picture's working pixels, where the seams are drawn.
+  const tiles = state && state.tiles, map = tiles && pick === "map";
+  const pre = set && !comp ? "s" + pick + "-" : tiles && !map ? "t" + pick + "-" : "";
+  $("img").src = "/api/image/" + (comp ? "composite" : map ? "tiles" : pre + imgName) + ".png" + q;
+  $("img").style.width = map ? state.width_px + "px" : "";
+  $("img").style.height = map ? state.height_px + "px" : "";
+  $("before").hidden = comp || map;
+  if (!comp && !map) $("before").src = "/api/image/" + pre + "picture.png" + q;
 }
 
 // A set: the selector lists its stencils and the composite; the report and the overlay follow
 // the stencil shown.
 function showPick() {
-  const sel = $("layer-pick"), set = state && state.set;
-  $("layer-pick-box").hidden = !set;
+  const sel = $("layer-pick"), set = state && state.set, tiles = state && state.tiles;
+  $("layer-pick-box").hidden = !set && !tiles;
+  // A new kind of result (one stencil, a set, tiles) shows its first view: tiles their map.
+  const kind = tiles ? "tiles" : set ? "set" : "one";
+  if (kind !== pickKind) { pickKind = kind; pick = tiles ? "map" : 1; setTimeout(fit, 0); }
+  if (tiles) return showTilePick(sel, tiles);
   if (!set) { pick = 1; return; }
   const names = set.layers.map((l) => `layer ${l.layer} (level ${l.level}, ${l.color})`);
   if (set.fill_in) names.push("fill-in");
   const n = names.length;
   if (pick !== "composite" && !(pick >= 1 && pick <= n)) pick = 1;
   const want = names.map((t, i) => [String(i + 1), t]).concat([["composite", "composite (painted)"]]);
+  setChoices(sel, want);
+  state.report = state.layer_reports[pick === "composite" ? 0 : pick - 1];
+}
+function setChoices(sel, want) {
   if (sel.options.length !== want.length || [...sel.options].some((o, i) => o.textContent !== want[i][1])) {
     sel.innerHTML = "";
     for (const [v, t] of want) { const o = document.createElement("option"); o.value = v; o.textContent = t; sel.appendChild(o); }
   }
   sel.value = String(pick);
-  state.report = state.layer_reports[pick === "composite" ? 0 : pick - 1];
+}
+// Tiles: the map of the seams, or one tile's stencil (each of its layers, with layers).
+function showTilePick(sel, tiles) {
+  const names = [];
+  for (const t of tiles.tiles) {
+    const at = `tile ${t.number} (row ${t.row}, column ${t.col})`;
+    if (t.layers.length) for (const l of t.layers) names.push(at + ` layer ${l.layer}`);
+    else names.push(at);
+  }
+  if (pick !== "map" && !(pick >= 1 && pick <= names.length)) pick = "map";
+  setChoices(sel, [["map", "tiles: drag a seam's handle to move it"]].concat(names.map((t, i) => [String(i + 1), t])));
+  state.report = state.tile_reports[pick === "map" ? 0 : pick - 1];
 }
 $("layer-pick").onchange = () => {
   const v = $("layer-pick").value;
-  pick = v === "composite" ? "composite" : +v;
+  pick = v === "composite" || v === "map" ? v : +v;
   if (state) { showPick(); loadImages(state.shown); setTimeout(fit, 0); drawOverlay(); showReport(); }
 };
 for (const b of document.querySelectorAll("[data-img]")) b.onclick = () => {
@@ -256,9 +282,11 @@ function toPx(e) { // working pixel under the pointer
 let drag = null;
 stage.addEventListener("pointerdown", (e) => {
   const [px, py] = toPx(e);
-  drag = { x: e.clientX, y: e.clientY, vx: view.x, vy: view.y, px, py, moved: false };
+  // A seam's handle (tiles, on the map) is dragged whatever the mode.
+  const seam = e.target.dataset && e.target.dataset.seam !== undefined ? +e.target.dataset.seam : null;
+  drag = { x: e.clientX, y: e.clientY, vx: view.x, vy: view.y, px, py, moved: false, seam };
   stage.setPointerCapture(e.pointerId);
-  if (mode === "brush") paintAt(px, py);
+  if (mode === "brush" && seam === null) paintAt(px, py);
 });
 
 // The crop rectangle dragged on the shown picture, in mm of the whole picture as make's --crop
@@ -285,7 +313,8 @@ function showCropBox(d, e) {
 stage.addEventListener("pointermove", (e) => {
   if (!drag) return hover(e);
   drag.moved = drag.moved || Math.abs(e.clientX - drag.x) + Math.abs(e.clientY - drag.y) > 3;
-  if (mode === "look" || mode === "delete" || mode === "pin") {
+  if (drag.seam !== null) moveSeamLine(drag.seam, toPx(e));
+  else if (mode === "look" || mode === "delete" || mode === "pin") {
     view.x = drag.vx + e.clientX - drag.x; view.y = drag.vy + e.clientY - drag.y; applyView();
   } else if (mode === "brush") { const [px, py] = toPx(e); paintAt(px, py); }
   else if (mode === "crop") showCropBox(drag, e);
@@ -294,7 +323,9 @@ stage.addEventListener("pointerup", (e) => {
   const d = drag; drag = null;
   if (!d) return;
   const [px, py] = toPx(e);
-  if (mode === "crop") {
+  if (d.seam !== null) {
+    if (d.moved) send(seamMoved(d.seam, [px, py]));
+  } else if (mode === "crop") {
     showCropBox(null);
     if (d.moved && state && state.mm_per_px && !state.set) send({ crop: cropFrom([d.px, d.py], [px, py]) });
     else if (state && state.set) alertMsg("crop the picture with one stencil shown, or type the crop (mm) in Picture");
@@ -325,8 +356,9 @@ $("uncrop").onclick = () => send({ crop: "" });
 function current(name) { return state && state.params ? state.params[name] : ""; }
 
 for (const b of document.querySelectorAll("[data-mode]")) b.onclick = () => {
-  if (state && state.set && ["delete", "pin", "brush"].includes(b.dataset.mode)) {
-    alertMsg("a set's bridges are chosen per layer: keep them away with no-bridge-near discs (Bridges)");
+  if (state && (state.set || state.tiles) && ["delete", "pin", "brush"].includes(b.dataset.mode)) {
+    alertMsg(state.set ? "a set's bridges are chosen per layer: keep them away with no-bridge-near discs (Bridges)"
+      : "tiles' bridges are chosen per tile: keep them away with no-bridge-near discs (Bridges)");
     return;
   }
   mode = b.dataset.mode;
@@ -335,12 +367,61 @@ for (const b of document.querySelectorAll("[data-mode]")) b.onclick = () => {
   stage.style.cursor = mode === "look" ? "grab" : "crosshair";
 };
 
+// ---- tiles: the seams, their handles, the tiles' numbers ----------------------------------------
+// Each seam's path (make's, in working pixels of the whole picture), its straight line dashed
+// with a handle in its middle, and each tile's number at the middle of its box.
+function drawSeams(svg) {
+  const NS = "http://www.w3.org/2000/svg", W = state.width_px, H = state.height_px, mm = state.mm_per_px;
+  svg.setAttribute("width", W); svg.setAttribute("height", H);
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  const el = (name, attrs, cls) => {
+    const x = document.createElementNS(NS, name);
+    for (const [k, v] of Object.entries(attrs)) x.setAttribute(k, v);
+    x.setAttribute("class", cls); svg.appendChild(x); return x;
+  };
+  state.tiles.seams.forEach((s, i) => {
+    const vertical = s.axis === "vertical", at = s.at_mm / mm;
+    el("polyline", { points: s.points_px.map((q) => q[0] + "," + q[1]).join(" ") }, "seam").dataset.index = i;
+    const line = vertical ? { x1: at, y1: 0, x2: at, y2: H } : { x1: 0, y1: at, x2: W, y2: at };
+    el("line", line, "seam-line").id = "seam-line-" + i;
+    const h = el("circle", { cx: vertical ? at : W / 2, cy: vertical ? H / 2 : at, r: 8 / view.k + 4 }, "seam-handle");
+    h.id = "seam-handle-" + i; h.dataset.seam = i; h.style.cursor = vertical ? "ew-resize" : "ns-resize";
+    const t = document.createElementNS(NS, "title");
+    t.textContent = `${s.axis} seam at ${s.at_mm.toFixed(1)} mm (it wanders up to ${s.band_mm.toFixed(1)} mm each way): drag to move`;
+    h.appendChild(t);
+  });
+  // Near the top of each tile's box (the map numbers its middle): its number in cutting order.
+  for (const t of state.tiles.tiles) {
+    const [x, y, w, h] = t.box_px, size = Math.max(8, Math.min(w, h) / 12);
+    el("text", { x: x + w / 2, y: y + 1.5 * size, "font-size": size }, "tile-number").textContent = `tile ${t.number}`;
+  }
+}
+// While a seam's handle is dragged: its straight line and handle follow the pointer.
+function moveSeamLine(i, [px, py]) {
+  const s = state.tiles.seams[i], vertical = s.axis === "vertical";
+  const line = $("seam-line-" + i), h = $("seam-handle-" + i);
+  if (!line || !h) return;
+  if (vertical) { line.setAttribute("x1", px); line.setAttribute("x2", px); h.setAttribute("cx", px); }
+  else { line.setAttribute("y1", py); line.setAttribute("y2", py); h.setAttribute("cy", py); }
+}
+// The change a seam dropped at a working pixel asks for: every seam along that axis at its
+// straight line, the moved one at the new place (make's --seam-x / --seam-y, mm).
+function seamMoved(i, [px, py]) {
+  const s = state.tiles.seams[i], vertical = s.axis === "vertical", mm = state.mm_per_px;
+  const size = (vertical ? state.width_px : state.height_px) * mm;
+  const to = Math.max(0, Math.min(size, (vertical ? px : py) * mm));
+  const places = state.tiles.seams.map((t, k) => [t, k]).filter(([t]) => t.axis === s.axis)
+    .map(([t, k]) => +(k === i ? to : t.at_mm).toFixed(1));
+  return { [vertical ? "seam-x" : "seam-y"]: places.join(",") };
+}
+
 // ---- bridges: hover, delete, pin ---------------------------------------------------------------
 function drawOverlay() {
   const svg = $("overlay");
   svg.innerHTML = "";
   // The tip described a bridge of the result just replaced: hidden until the pointer moves again.
   $("tip").hidden = true;
+  if (state && state.tiles && pick === "map") return drawSeams(svg);
   if (!state || !state.report || (state.set && pick === "composite")) return;
   const r = state.report, mm = state.mm_per_px;
   svg.setAttribute("width", r.width_px); svg.setAttribute("height", r.height_px);
@@ -459,6 +540,13 @@ function showReport() {
         `<table><tr><td>composite likeness</td><td>${cp.likeness.toFixed(3)} (posterised ${cp.posterised_likeness.toFixed(3)})</td></tr><tr><td>painted in its tone</td><td>${cp.tone_agreement_pct.toFixed(1)} %</td></tr>` +
         (st.fill_in ? `<tr><td>fill-in paints</td><td>${st.fill_in.covered_pct.toFixed(1)} % of the bridges</td></tr>` : "") + "</table>" +
         `<h3>${pick === "composite" ? "layer 1" : esc(pick > st.layers.length ? "fill-in" : "layer " + pick)}</h3>`;
+    }
+    if (state.tiles) {
+      const ti = state.tiles;
+      h += `<h3>tiles: ${ti.grid[0]} × ${ti.grid[1]}, ${ti.width_mm.toFixed(0)} × ${ti.height_mm.toFixed(0)} mm, overlap ${ti.overlap_mm} mm</h3><table class="layers"><tr><td>tile</td><td>place (mm)</td><td>sheet (mm)</td><td>bridges</td></tr>` +
+        ti.tiles.map((t) => `<tr><td>${t.number}: ${esc(t.folder)}</td><td>${t.x_mm.toFixed(0)}, ${t.y_mm.toFixed(0)}</td><td>${t.sheet_mm[0].toFixed(0)} × ${t.sheet_mm[1].toFixed(0)}</td><td>${t.bridges}${t.check_passed ? "" : ' <span class="warn">check failed</span>'}</td></tr>`).join("") + "</table>" +
+        "<table>" + ti.seams.map((m) => `<tr><td>${m.axis} seam at ${m.at_mm.toFixed(1)} mm</td><td>${m.length_mm.toFixed(0)} mm, ${m.through_cut_mm.toFixed(1)} mm through the cut</td></tr>`).join("") + "</table>" +
+        `<h3>${pick === "map" ? "tile 1" : "tile stencil " + pick}</h3>`;
     }
     h += "<table>" + rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${v}</td></tr>`).join("") + "</table>";
     if (c.violations && c.violations.length) h += "<h3>violations</h3><ul>" + c.violations.slice(0, 30).map((v) => `<li>${esc(v.kind)} at ${v.x_mm.toFixed(1)}, ${v.y_mm.toFixed(1)} mm: ${v.width_mm ? v.width_mm.toFixed(2) : "?"} of ${v.required_mm} mm</li>`).join("") + "</ul>";
