@@ -64,8 +64,7 @@ impl Step {
     /// else (a person's file, a path out of the folder) is not run. An owned name may sit in a
     /// folder of its own (`layer-1/stencil.png`): such folders ([`owned_folders`]) may be made
     /// and removed when empty, in the output folder, in `previous/` and in the swap's own.
-    fn parse(line: &str, owned: &[&str]) -> Option<Step> {
-        let folders = owned_folders(owned);
+    fn parse(line: &str, owned: &Owned) -> Option<Step> {
         let strip = |s: &'_ str, prefixes: &[&str]| -> String {
             prefixes
                 .iter()
@@ -80,8 +79,8 @@ impl Step {
             ".stencil-swap/old-previous/",
             ".stencil-swap/new/",
         ];
-        let file = |s: &str| owned.contains(&strip(s, FILE_IN).as_str());
-        let owned_folder = |s: &str| folders.iter().any(|f| *f == strip(s, &FILE_IN[..3]));
+        let file = |s: &str| owned.names.contains(strip(s, FILE_IN).as_str());
+        let owned_folder = |s: &str| owned.folders.contains(strip(s, &FILE_IN[..3]).as_str());
         let folder = |s: &str| {
             matches!(
                 s,
@@ -172,10 +171,11 @@ fn ancestors(p: &str) -> Vec<&str> {
 /// The folders the owned names sit in (`layer-1` for `layer-1/stencil.png`), outermost first,
 /// each once.
 fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
+    let mut seen = std::collections::HashSet::new();
     let mut out: Vec<&str> = Vec::new();
     for n in owned {
         for a in ancestors(n) {
-            if !out.contains(&a) {
+            if seen.insert(a) {
                 out.push(a);
             }
         }
@@ -184,11 +184,52 @@ fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
     out
 }
 
+/// The owned names and their folders as sets, for the plan's lines to be checked against (a
+/// tiled set owns some twenty thousand names: a list searched per line took seconds).
+struct Owned<'a> {
+    names: std::collections::HashSet<&'a str>,
+    folders: std::collections::HashSet<&'a str>,
+}
+
+impl<'a> Owned<'a> {
+    fn new(owned: &[&'a str]) -> Self {
+        Owned {
+            names: owned.iter().copied().collect(),
+            folders: owned_folders(owned).into_iter().collect(),
+        }
+    }
+}
+
+/// Which of `folders` (outermost first, as [`owned_folders`] gives them) are there in `dir` as
+/// anything. A folder whose parent is not there as a real folder is not looked for: most owned
+/// folders (a tile's, a tile's layer's) are absent, and each look is a system call.
+fn folders_there<'a>(dir: &Path, folders: &[&'a str]) -> Vec<&'a str> {
+    let mut real = std::collections::HashSet::new();
+    let mut there = Vec::new();
+    for f in folders {
+        if let Some((parent, _)) = f.rsplit_once('/') {
+            if !real.contains(parent) {
+                continue;
+            }
+        }
+        match std::fs::symlink_metadata(dir.join(f)) {
+            Ok(m) => {
+                if m.is_dir() {
+                    real.insert(*f);
+                }
+                there.push(*f);
+            }
+            Err(_) => {}
+        }
+    }
+    there
+}
+
 /// Refuse an owned folder that is there but is not a real folder (a file, a link elsewhere).
 fn refuse_odd_folders(dir: &Path, folders: &[&str]) -> Result<(), WriteError> {
-    for f in folders {
+    for f in folders_there(dir, folders) {
         let p = dir.join(f);
-        if exists(&p) && !real_dir(&p) {
+        if !real_dir(&p) {
             return Err(WriteError::NotAFile {
                 path: p,
                 is: "not a folder stencil made",
@@ -442,9 +483,10 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
     };
     refuse_unless_real(&plan_path, false)?;
     let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
+    let owned = Owned::new(owned);
     let steps: Vec<Step> = text
         .lines()
-        .map(|l| Step::parse(l, owned).ok_or_else(bad))
+        .map(|l| Step::parse(l, &owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
     refuse_unless_real(&done_path, false)?;
@@ -530,8 +572,18 @@ fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(
 
 /// The `owned` names there in `dir` (refusing one that is not a file or a link).
 fn present<'a>(dir: &Path, owned: &[&'a str]) -> Result<Vec<&'a str>, WriteError> {
+    // Only names whose folder is there as a real folder can be there (an odd folder is refused
+    // before this by refuse_odd_folders).
+    let folders: std::collections::HashSet<&str> = folders_there(dir, &owned_folders(owned))
+        .into_iter()
+        .collect();
     let mut there = Vec::new();
     for n in owned {
+        if let Some((parent, _)) = n.rsplit_once('/') {
+            if !folders.contains(parent) {
+                continue;
+            }
+        }
         if refuse_odd(&dir.join(n))? {
             there.push(*n);
         }
@@ -577,8 +629,9 @@ pub(crate) fn replace_all_hooked(
     let _lock = lock_folder(dir, std::time::Duration::ZERO)?;
     recover_locked(dir, owned, &mut pts)?;
     let mut owned: Vec<&str> = owned.to_vec();
+    let mut seen: std::collections::HashSet<&str> = owned.iter().copied().collect();
     for (n, _) in files {
-        if !owned.contains(&n.as_str()) {
+        if seen.insert(n.as_str()) {
             owned.push(n);
         }
     }
@@ -598,14 +651,19 @@ pub(crate) fn replace_all_hooked(
     }
     move_into(&mut steps, &existing, "", &format!("{SWAP_DIR}/old"));
     let new_names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
-    for f in owned_folders(&new_names) {
+    let new_folders = owned_folders(&new_names);
+    for f in &new_folders {
         steps.push(Step::MkDir(f.to_string()));
     }
     for (n, _) in files {
         steps.push(Step::Rename(format!("{SWAP_DIR}/new/{n}"), n.clone()));
     }
-    // Owned folders this set left empty go (a person's file in one keeps it).
-    for f in folders.iter().rev() {
+    // Owned folders this set left empty go (a person's file in one keeps it): those there now
+    // and those this set makes; the rest are not there to remove.
+    let mut may_be_there: std::collections::HashSet<&str> =
+        folders_there(dir, &folders).into_iter().collect();
+    may_be_there.extend(new_folders.iter().copied());
+    for f in folders.iter().rev().filter(|f| may_be_there.contains(*f)) {
         steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
     commit(dir, &steps, &mut pts)?;
@@ -697,7 +755,8 @@ pub(crate) fn set_aside_hooked(
     clear_previous(dir, owned, &mut steps)?;
     // clear_previous may remove an emptied previous/: made again here before it is filled.
     move_into(&mut steps, &existing, "", PREVIOUS_DIR);
-    for f in folders.iter().rev() {
+    let there: std::collections::HashSet<&str> = folders_there(dir, &folders).into_iter().collect();
+    for f in folders.iter().rev().filter(|f| there.contains(*f)) {
         steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
     new_swap(dir)?;
