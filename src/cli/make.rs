@@ -636,6 +636,7 @@ fn print_made(cfg: &MakeConfig, made: &pipeline::Made, replaced: &export::Replac
         }
     }
     print_long_joins(r, cfg.bridge.max_length_px);
+    print_no_light_place(r);
     print_strength(r);
     super::check::print_check(&made.check, "report.json lists them all");
     if let Some(g) = &made.report.gcode {
@@ -797,6 +798,22 @@ fn print_strength(r: &stencil_core::report::Report) {
             notes.len(),
             notes[..notes.len().min(3)].join("; "),
             if notes.len() > 3 { "; ..." } else { "" }
+        );
+    }
+}
+
+/// A note when the cut where the bridges can go has no light place: there every way darkens the
+/// picture alike, and the bridges take the shortest ones.
+fn print_no_light_place(r: &stencil_core::report::Report) {
+    if let Some(l) = r
+        .bridge_light
+        .filter(|l| !l.light_places && !r.bridges.is_empty())
+    {
+        println!(
+            "note: no light place for a bridge: {} of the {} cut pixels the bridges could cross \
+             are much lighter than the rest, so every way darkens the picture alike and the \
+             bridges take the shortest ones (\"bridge_light\" in report.json)",
+            l.light_px, l.near_islands_px
         );
     }
 }

@@ -30,6 +30,7 @@ use stencil_core::tone::mesh::Mesh;
 
 mod architecture;
 mod bad_input;
+mod bridge_light;
 mod bridge_report;
 mod bridge_stability;
 mod bridge_user;

@@ -193,6 +193,11 @@ pub struct Report {
     /// `--no-bridge-near`). Absent when none was given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) user_bridges: Option<UserBridgesReport>,
+    /// Whether the cut where the bridges can go had light places (see `bridge::Light`): without
+    /// any, every way darkens the picture alike and the bridges take the shortest ways. Absent
+    /// without islands, and in older reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bridge_light: Option<crate::bridge::Light>,
     /// Material pieces not joined to the frame after bridging: 0 for a valid stencil.
     pub floating_after: usize,
     /// What the clean-up and the bridges changed in the picture (absent in reports written before

@@ -167,7 +167,7 @@ const STEP_FLOOR: f32 = 1e-3;
 /// The cost of one pixel of a path found by the fallback search ([`super::search::search`]),
 /// which needs a cost that adds up: the strip cost's intensity and length terms per pixel, in
 /// units of ΣI, `w0·(1 − gray)² + w1·α·(L_max / L̃)^(α−1)` (the slope of L^α at the length limit).
-/// With the default weights and L̃ ≈ 10 px a pixel of length costs about 6.7 pixels of black.
+/// With the default weights and L̃ ≈ 10 px a pixel of length costs about 0.67 pixels of black.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct StepCost {
     /// w0: the price of a pixel of pure black.
@@ -374,10 +374,13 @@ mod tests {
 
     #[test]
     fn a_search_step_prices_darkness_and_length() {
-        let cfg = BridgeConfig::default();
+        let cfg = BridgeConfig {
+            w_length: 1.0,
+            ..BridgeConfig::default()
+        };
         let n = Norm::new(vec![10; 5], &cfg);
         let step = n.step_cost(&cfg);
-        // Length: the slope of (L/10)^1.5 at L = 200, times 10: 1.5 × √20.
+        // Length (w1 = 1): the slope of (L/10)^1.5 at L = 200, times 10: 1.5 × √20.
         assert!((step.length - (1.5 * 20f32.sqrt() + STEP_FLOOR)).abs() < 1e-4);
         let gray = Gray::from_data(3, 1, vec![0.0, 0.5, 1.0]);
         // Darkness: w0 (2 by default) × (1 − gray)².

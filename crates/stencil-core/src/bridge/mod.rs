@@ -6,7 +6,8 @@
 //! 2. `strips`: from each, a walk through the cut along the gray gradient to material of another
 //!    node (`reach` stops walks that can no longer arrive);
 //! 3. `cost`: `C = w0·ΣI + w1·L^α + w2·κ + w3·σ²` over windows as wide as the bridge needs;
-//! 4. `tree`: Prim from the frame over island groups; a group no walk leaves is joined by the
+//! 4. `tree`: Prim from the frame over island groups, each pair of nodes priced by its best
+//!    candidates' bridges as drawn (`measured`); a group no walk leaves is joined by the
 //!    cheapest path through the cut of any length (`search`), so the length limit is a preference;
 //!    then `strength`: more bridges, spread apart, for islands whose size or sag asks for them;
 //! 5. `grow`: each chosen strip grown to its width; `outline`: drawn (`draw`) as the polygon of
@@ -28,6 +29,8 @@ mod error;
 pub(crate) mod gaps;
 mod graph;
 pub(crate) mod grow;
+mod light;
+mod measured;
 mod outline;
 mod reach;
 mod search;
@@ -40,6 +43,7 @@ pub use config::{BridgeConfig, CostTerms, StrengthConfig, UserBridges, MAX_PER_I
 pub use constraints::Request;
 pub use error::BridgeError;
 use graph::{pair, smaller_area, Graph};
+pub use light::Light;
 pub use strength::{IslandStrength, StrengthReport, Why};
 
 use std::borrow::Cow;
@@ -106,6 +110,8 @@ pub struct Bridged {
     /// Per bridge, the pixels it turned into material when drawn (disjoint: a pixel two bridges
     /// share is the first one's). [`Bridged::recount`] starts from them.
     drawn: Vec<Vec<u32>>,
+    /// Whether the cut the candidates cross had light places for the bridges.
+    pub light: Light,
 }
 
 /// No bridge owns the pixel (yet), in [`Bridged::recount`].
@@ -325,13 +331,16 @@ pub(crate) fn connect_walked(
             strength: Vec::new(),
             requests: Vec::new(),
             drawn: Vec::new(),
+            light: Light::default(),
         });
     }
     let fields = strips::Fields::new(two, map).with_forbidden(cfg.user.keep_out.as_deref());
     let mut g = times.time("scores", || {
         build_graph(&walks.cands, &walks.walked, &walks.copies, map, cfg)
     });
-    let prim = times.time("tree", || span(&mut g, &fields, map, cfg))?;
+    let prim = times.time("tree", || span(two, &mut g, &fields, map, cfg))?;
+    // After the tree, so that the fallback search's paths count: where the bridges could go.
+    let light = Light::survey(&two.gray, g.strips.iter().flatten());
     let g = &g;
     // The tree's bridges are planned while the strength rules choose the extra ones (both
     // read the graph only; planning one bridge reads nothing another's plan makes): the
@@ -379,38 +388,29 @@ pub(crate) fn connect_walked(
         strength,
         requests,
         drawn,
+        light,
     })
 }
 
-/// Stage 4 of the paper: a minimum spanning tree (Prim, from the frame) over the cheapest
-/// candidate of every pair of nodes; an island group no walk under the length limit left is
-/// joined by the fallback search's path, added to the graph as a candidate of its own.
+/// Stage 4 of the paper: a minimum spanning tree (Prim, from the frame) over every pair of nodes
+/// some candidate joins, each priced by the cheapest of its few best candidates once drawn
+/// (`measured`); an island group no walk under the length limit left is joined by the fallback
+/// search's path, added to the graph as a candidate of its own.
 fn span(
+    two: &TwoTone,
     g: &mut Graph,
     fields: &strips::Fields,
     map: &IslandMap,
     cfg: &BridgeConfig,
 ) -> Result<tree::Prim, BridgeError> {
     let mut prim = tree::Prim::new(map.nodes.len());
-    let mut best: HashMap<(u32, u32), usize> = HashMap::new();
-    for (&p, ids) in &g.by_pair {
-        if let Some(&id) = ids
-            .iter()
-            .min_by(|&&a, &&b| total(g, a).total_cmp(&total(g, b)))
-        {
-            best.insert(p, id);
-        }
-    }
-    let mut best: Vec<_> = best.into_iter().collect();
-    best.sort_unstable();
-    let edge = |g: &Graph, (a, b), id| tree::Edge {
-        a,
-        b,
-        cost: total(g, id),
-        candidate: id,
-    };
-    for (p, id) in best {
-        prim.add(edge(g, p, id));
+    for (p, id, cost) in measured::cheapest_drawn(two, g, cfg, map.nodes.len()) {
+        prim.add(tree::Edge {
+            a: p.0,
+            b: p.1,
+            cost,
+            candidate: id,
+        });
     }
     prim.grow();
     let step = g.norm.step_cost(cfg);
@@ -422,7 +422,13 @@ fn span(
         };
         let ends = (strip.from, strip.to);
         let id = add_found_strip(g, map, cfg, (sx, sy), strip);
-        prim.add(edge(g, ends, id));
+        let cost = measured::drawn_total(two, g, cfg, id);
+        prim.add(tree::Edge {
+            a: ends.0,
+            b: ends.1,
+            cost,
+            candidate: id,
+        });
         prim.grow();
     }
     Ok(prim)

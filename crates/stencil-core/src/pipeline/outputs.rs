@@ -250,6 +250,7 @@ pub fn report_joined(
             bridged.strength.clone(),
             &bridge_cfg.strength,
         )),
+        bridge_light: (joined.map.island_count() > 0).then_some(bridged.light),
         user_bridges: joined.user.clone().map(|mut u| {
             let mm = scale.mm_per_px;
             u.bridge_at = bridged
