@@ -55,6 +55,7 @@ mod help_headings;
 mod hostile_options;
 mod hostile_parsers;
 mod hpgl;
+mod hpgl_send;
 mod jog;
 mod layers;
 mod machine;
