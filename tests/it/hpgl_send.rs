@@ -241,3 +241,184 @@ fn plotter_recover_refuses_another_file_or_profile_and_opens_no_path_the_journal
     let (ok, out, err) = send(&plt, &["--recover", "--machine", "vinyl-hpgl"]);
     assert!(ok && out.contains("resuming from line"), "{out}{err}");
 }
+
+/// Item 2: XON/XOFF over a real terminal line. `send --port` opens the slave side of a
+/// pseudo-terminal as it would a plotter's serial port (the system's driver does the flow
+/// control: IXON); the test plays the plotter on the master side with the virtual cutter, which
+/// says XOFF when its buffer is nearly full and XON when it has room. The master runs in packet
+/// mode, so the kernel reports when the sender's output is stopped; the XON is held past the
+/// sender's 200 ms write timeout, and once the line has been quiet no byte may come until it.
+/// A pseudo-terminal has no baud rate and buffers about 64 KiB in the kernel: what the sender
+/// wrote before the stop took hold still arrives, and is fed to the cutter as it has room (so
+/// an overrun cannot be judged here: the virtual line's tests judge that). RTS/CTS cannot be
+/// tested on one: Linux pseudo-terminals have no modem lines (TIOCMGET fails, CRTSCTS does
+/// nothing), which the test checks too.
+/// Packet mode's first byte (Linux `<asm-generic/ioctls.h>`; not in the libc crate): data
+/// follows, or the slave's output was stopped by its flow control.
+#[cfg(target_os = "linux")]
+const PKT_DATA: u8 = 0;
+#[cfg(target_os = "linux")]
+const PKT_STOP: u8 = 4;
+
+#[cfg(target_os = "linux")]
+#[test]
+fn xon_xoff_over_a_pseudo_terminal_stops_and_restarts_the_sender() {
+    use std::collections::VecDeque;
+    use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+
+    let dir = tmp();
+    let plt = dir.path().join("job.plt");
+    // Larger than what a pseudo-terminal buffers in the kernel (about 64 KiB), so the sender
+    // must be stopped more than once.
+    let text = job(2500);
+    assert!(text.len() > 65536);
+    std::fs::write(&plt, &text).unwrap();
+    let (mut m, mut sl) = (-1, -1);
+    let mut name = [0 as libc::c_char; 128];
+    // SAFETY: openpty writes two descriptors and a NUL-terminated name of at most 128 bytes.
+    let r = unsafe {
+        libc::openpty(
+            &mut m,
+            &mut sl,
+            name.as_mut_ptr(),
+            std::ptr::null(),
+            std::ptr::null(),
+        )
+    };
+    assert_eq!(r, 0, "openpty: {}", std::io::Error::last_os_error());
+    // SAFETY: both descriptors were just opened by openpty and are owned here alone.
+    let (master, slave) = unsafe { (OwnedFd::from_raw_fd(m), OwnedFd::from_raw_fd(sl)) };
+    // SAFETY: openpty wrote a NUL-terminated string.
+    let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) }
+        .to_str()
+        .unwrap()
+        .to_string();
+    // No modem lines on a pseudo-terminal: RTS/CTS has nothing to act on.
+    let mut bits: libc::c_int = 0;
+    // SAFETY: TIOCMGET writes one c_int.
+    let modem = unsafe { libc::ioctl(slave.as_raw_fd(), libc::TIOCMGET, &mut bits) };
+    assert_eq!(
+        modem, -1,
+        "this kernel's pseudo-terminals have modem lines: test RTS/CTS too"
+    );
+    let one: libc::c_int = 1;
+    // SAFETY: TIOCPKT reads one c_int.
+    assert_eq!(
+        unsafe { libc::ioctl(master.as_raw_fd(), libc::TIOCPKT, &one) },
+        0
+    );
+
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_stencil"))
+        .args(["send", s(&plt), "--machine", "vinyl-hpgl", "--port", &path])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let plotter = stencil_hpgl::profile::load("vinyl-hpgl").unwrap();
+    let mut cutter = stencil_hpgl::cutter::Cutter::new(&plotter, 0.0);
+    cutter.log = Some(Vec::new());
+    let mut backlog: VecDeque<u8> = VecDeque::new();
+    // XOFF written; the kernel said the sender is stopped; quiet polls since.
+    let (mut xoff, mut stopped, mut quiet) = (false, false, 0);
+    let (mut stops_seen, mut while_stopped, mut in_flight) = (0, 0usize, 0usize);
+    let mut held: Vec<u8> = Vec::new();
+    let mut buf = [0u8; 4096];
+    let mut status = None;
+    for _ in 0..200_000 {
+        let mut pfd = libc::pollfd {
+            fd: master.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        // Idle, or an XON held back while the stop holds: wait for bytes (none may come).
+        let wait = if (backlog.is_empty() && cutter.idle()) || (stopped && !held.is_empty()) {
+            20
+        } else {
+            0
+        };
+        // SAFETY: one pollfd.
+        let ready = unsafe { libc::poll(&mut pfd, 1, wait) };
+        if ready > 0 && pfd.revents & libc::POLLIN != 0 {
+            // SAFETY: reads into a buffer of its length.
+            let n = unsafe { libc::read(master.as_raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
+            if n > 0 {
+                let n = n as usize;
+                if buf[0] == PKT_DATA {
+                    // Written before the stop took hold, still on its way: only until the
+                    // line has been quiet; after that nothing may come until the XON.
+                    if stopped && quiet >= 2 {
+                        while_stopped += n - 1;
+                    } else if stopped {
+                        in_flight = in_flight.max(n - 1);
+                    }
+                    backlog.extend(&buf[1..n]);
+                    quiet = 0;
+                } else if buf[0] & PKT_STOP != 0 {
+                    stopped = true;
+                    stops_seen += 1;
+                }
+            }
+        } else if stopped && wait > 0 {
+            // A poll that waited 20 ms for nothing.
+            quiet += 1;
+        }
+        // The plotter takes in what it has room for, and cuts one instruction.
+        let take = backlog.len().min(cutter.free());
+        let bytes: Vec<u8> = backlog.drain(..take).collect();
+        cutter.receive(&bytes).unwrap();
+        cutter.step().unwrap();
+        held.extend(cutter.take_output());
+        // XOFF at once; an XON only once the stop has held for a few quiet polls.
+        while let Some(&b) = held.first() {
+            let xon = b == stencil_hpgl::cutter::XON;
+            // Held past the sender's 200 ms write timeout, which it must ride out.
+            if xon && xoff && !(stopped && quiet >= 12) {
+                break;
+            }
+            // SAFETY: writes one byte.
+            assert_eq!(
+                unsafe { libc::write(master.as_raw_fd(), [b].as_ptr().cast(), 1) },
+                1
+            );
+            held.remove(0);
+            xoff = !xon;
+            if xon {
+                stopped = false;
+            }
+        }
+        if status.is_none() {
+            status = child.try_wait().unwrap();
+        }
+        if status.is_some() && backlog.is_empty() && ready == 0 {
+            break;
+        }
+    }
+    cutter.finish().unwrap();
+    let out = child.wait_with_output().unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{so}{se}");
+    assert!(so.contains("xon-xoff flow control"), "{so}");
+    drop(slave);
+    // The kernel stopped the sender on XOFF (it set IXON), and nothing came while stopped.
+    assert!(
+        stops_seen > 1 && cutter.stops > 1,
+        "never stopped: {stops_seen}"
+    );
+    assert_eq!(
+        while_stopped, 0,
+        "bytes arrived while the sender was stopped"
+    );
+    eprintln!(
+        "pty: the sender was stopped {stops_seen} times; at most {in_flight} bytes came after a \
+         stop, none once the line was quiet"
+    );
+    // Every instruction arrived once, in order: the cut is the file's.
+    let total = text.lines().count();
+    assert_eq!(cutter.executed, total);
+    let log = String::from_utf8(cutter.log.take().unwrap()).unwrap();
+    assert_eq!(cut_segments(&log), cut_segments(&text));
+    assert!(!cutter.down);
+}
