@@ -56,6 +56,7 @@ mod hostile_options;
 mod hostile_parsers;
 mod hpgl;
 mod hpgl_send;
+mod hpgl_weed;
 mod jog;
 mod layers;
 mod machine;
