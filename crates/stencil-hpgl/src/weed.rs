@@ -65,10 +65,12 @@ fn bounds<'a>(rings: impl Iterator<Item = &'a [[f64; 2]]>) -> Option<([f64; 2], 
 }
 
 /// The weeding box: a closed rectangle (counter-clockwise, machine mm) `margin` outside every
-/// cut loop, which must lie on the cutting area `[0, area]`. `None` without cuts.
+/// cut loop, which must lie on the cutting area `[0, area]` with `reach` to spare (a drag
+/// knife's axis swings that far outside the tip's path at the corners). `None` without cuts.
 pub fn weed_box(
     loops: &[Loop],
     margin: f64,
+    reach: f64,
     area: [f64; 2],
 ) -> Result<Option<Vec<[f64; 2]>>, WeedError> {
     let Some((lo, hi)) = bounds(cut_loops(loops)) else {
@@ -84,7 +86,7 @@ pub fn weed_box(
         ("right", area[0] - hi[0]),
         ("back", area[1] - hi[1]),
     ] {
-        if room < margin {
+        if room < margin + reach {
             return Err(WeedError::OffArea {
                 margin_mm: margin,
                 side,
@@ -240,9 +242,14 @@ mod tests {
     #[test]
     fn the_box_lies_outside_every_cut_and_on_the_area() {
         let loops = vec![lp(rect(10.0, 10.0, 70.0, 40.0), false)];
-        let b = weed_box(&loops, 5.0, [100.0, 100.0]).unwrap().unwrap();
+        let b = weed_box(&loops, 5.0, 0.25, [100.0, 100.0])
+            .unwrap()
+            .unwrap();
         assert_eq!(b, rect(5.0, 5.0, 75.0, 45.0));
-        let e = weed_box(&loops, 12.0, [100.0, 100.0]).unwrap_err();
+        let e = weed_box(&loops, 12.0, 0.0, [100.0, 100.0]).unwrap_err();
         assert!(matches!(e, WeedError::OffArea { side: "left", .. }), "{e}");
+        // The knife's reach counts: 10 mm of room holds a 9.8 mm margin only with less reach.
+        assert!(weed_box(&loops, 9.8, 0.1, [100.0, 100.0]).is_ok());
+        assert!(weed_box(&loops, 9.8, 0.25, [100.0, 100.0]).is_err());
     }
 }

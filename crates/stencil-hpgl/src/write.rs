@@ -103,7 +103,8 @@ pub fn hpgl_for(geom: &CutLoops, cfg: &HpglConfig) -> Result<(String, HpglSummar
     };
     let mut job = job;
     if let Some(m) = cfg.weeding.box_margin_mm {
-        make_room(&mut job, m);
+        let reach = box_reach(&job, p);
+        make_room(&mut job, m + reach);
     }
     let Written {
         commands,
@@ -133,6 +134,16 @@ pub fn hpgl_for(geom: &CutLoops, cfg: &HpglConfig) -> Result<(String, HpglSummar
             weed_box,
         },
     ))
+}
+
+/// How far outside a weeding box the head may go: a drag knife's axis swings the blade offset
+/// beyond the tip's path at the corners; a little more for rounding to plotter units.
+fn box_reach(job: &Job, p: &Plotter) -> f64 {
+    let blade = match p.tool {
+        ToolKind::Knife => job.settings.blade_offset_mm,
+        ToolKind::Pen => 0.0,
+    };
+    blade + 0.05
 }
 
 /// A weeding box is part of the job, as in sign-making software: where the job was placed too
@@ -305,7 +316,12 @@ fn commands(job: &Job, cfg: &HpglConfig) -> Result<Written, WeedError> {
     }
     // The weeding box, last, as the sheet's outline is: around everything, at the job's speed.
     let boxed = match cfg.weeding.box_margin_mm {
-        Some(margin) => weed_box(&job.loops, margin, [p.bed.width_mm, p.bed.height_mm])?,
+        Some(margin) => weed_box(
+            &job.loops,
+            margin,
+            box_reach(job, p),
+            [p.bed.width_mm, p.bed.height_mm],
+        )?,
         None => None,
     };
     if let Some(b) = &boxed {
