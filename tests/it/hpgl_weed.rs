@@ -94,13 +94,14 @@ fn weeding_lines_split_only_the_large_hole_and_the_box_surrounds_the_cuts() {
         "{so}"
     );
     // The holes, as the plain job cuts them: the large one (60 x 30 mm) and the small one.
-    // The weeded job moves in just as far as its box needs (the plain one sits at the origin).
+    // The weeded job moves in just as far as its box needs (the plain one sits at the origin):
+    // 5 mm, and 0.05 mm the head may go beyond the box (no blade offset here), 202 units.
     let plain_raw = cut_segments(&plain);
     let lo0 = plain_raw
         .iter()
         .flat_map(|(a, b)| [*a, *b])
         .fold([i64::MAX; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]);
-    let shift = [(200 - lo0[0]).max(0), (200 - lo0[1]).max(0)];
+    let shift = [(202 - lo0[0]).max(0), (202 - lo0[1]).max(0)];
     assert!(
         shift != [0, 0],
         "the test expects the job at the origin: {lo0:?}"
