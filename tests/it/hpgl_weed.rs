@@ -46,10 +46,8 @@ fn strokes(text: &str) -> Vec<([i64; 2], [i64; 2])> {
         }
         let bx = boxes.last_mut().unwrap();
         for p in [a, b] {
-            for k in 0..2 {
-                bx.0[k] = bx.0[k].min(p[k]);
-                bx.1[k] = bx.1[k].max(p[k]);
-            }
+            bx.0 = [bx.0[0].min(p[0]), bx.0[1].min(p[1])];
+            bx.1 = [bx.1[0].max(p[0]), bx.1[1].max(p[1])];
         }
         last_end = Some(b);
     }
