@@ -236,10 +236,31 @@ fn plotter_recover_refuses_another_file_or_profile_and_opens_no_path_the_journal
         !ok && err.contains("different") && !out.contains("virtual cutter"),
         "{out}{err}"
     );
-    // The run's own file and profile: the recovery goes ahead.
+    // A run that did not end (the sender killed): said so, and resumed from its record.
     std::fs::write(&plt, &text).unwrap();
+    let mut j: serde_json::Value = serde_json::from_str(&original).unwrap();
+    j["state"] = "running".into();
+    std::fs::write(&jpath, j.to_string()).unwrap();
+    let (ok, out, err) = send(&plt, &["--recover"]);
+    assert!(ok && out.contains("did not end"), "{out}{err}");
+    // An abort leaves the journal too, with the line it printed.
+    let (ok, _, err) = send(
+        &plt,
+        &["--machine", "vinyl-hpgl", "--dry-run-abort-at", "300"],
+    );
+    assert!(!ok, "{err}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&jpath).unwrap()).unwrap();
+    let line = j["resume_from"].as_u64().unwrap();
+    assert!(err.contains(&format!("--from-line {line} ")), "{err}");
+    assert!(j["stop_reason"].as_str().unwrap().contains("abort"), "{j}");
+    // The run's own file and profile: the recovery goes ahead.
     let (ok, out, err) = send(&plt, &["--recover", "--machine", "vinyl-hpgl"]);
-    assert!(ok && out.contains("resuming from line"), "{out}{err}");
+    assert!(
+        ok && out.contains(&format!("resuming from line {line}")),
+        "{out}{err}"
+    );
+    assert!(!jpath.exists());
 }
 
 /// Item 2: XON/XOFF over a real terminal line. `send --port` opens the slave side of a
