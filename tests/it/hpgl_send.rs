@@ -30,7 +30,7 @@ fn job(n: usize) -> String {
 }
 
 /// Every tool-down move an HP-GL record makes, in plotter units (read here, not by our parser).
-fn cut_segments(text: &str) -> Vec<([i64; 2], [i64; 2])> {
+pub(crate) fn cut_segments(text: &str) -> Vec<([i64; 2], [i64; 2])> {
     let mut at = [0i64, 0i64];
     let mut out = Vec::new();
     for ins in text.split(';') {

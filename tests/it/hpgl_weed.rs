@@ -5,36 +5,9 @@
 use std::collections::BTreeSet;
 
 use crate::common::{s, stderr, stencil, tmp};
+use crate::hpgl_send::cut_segments;
 
 type Seg = ([i64; 2], [i64; 2]);
-
-/// Every tool-down move of an HP-GL file, plotter units.
-fn cut_segments(text: &str) -> Vec<Seg> {
-    let mut at = [0i64, 0i64];
-    let mut out = Vec::new();
-    for ins in text.split(';') {
-        let ins = ins.trim();
-        if ins.len() < 2 {
-            continue;
-        }
-        let (m, params) = ins.split_at(2);
-        let nums: Vec<i64> = params
-            .split(',')
-            .filter(|t| !t.trim().is_empty())
-            .map(|t| t.trim().parse().unwrap())
-            .collect();
-        if m == "PU" || m == "PD" {
-            for q in nums.chunks(2) {
-                let to = [q[0], q[1]];
-                if m == "PD" && to != at {
-                    out.push((at, to));
-                }
-                at = to;
-            }
-        }
-    }
-    out
-}
 
 /// Bounding boxes of each stroke (a PU, then PDs) of a file, plotter units.
 fn strokes(text: &str) -> Vec<([i64; 2], [i64; 2])> {

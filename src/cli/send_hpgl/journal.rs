@@ -165,27 +165,8 @@ pub fn journal_plotter(
     j: &PlotJournal,
     journal_path: &Path,
 ) -> anyhow::Result<Plotter> {
-    // Quoted with control characters escaped: a journal is not trusted to hold a name.
-    let named = |m: &str| stencil_io::excerpt(&m.escape_debug().to_string());
-    let arg = match given {
-        Some(m) => m.to_string(),
-        None => {
-            let plain = !j.plotter.is_empty()
-                && !j.plotter.contains(['/', '\\'])
-                && !j.plotter.ends_with(".toml")
-                && j.plotter.chars().all(|c| c.is_ascii_graphic());
-            if !plain {
-                bail!(
-                    "{}: the journal names its plotter profile as `{}`, which is not a profile \
-                     name; a recovery never opens a file a journal names: name the profile the \
-                     run used with --machine; nothing was sent",
-                    journal_path.display(),
-                    named(&j.plotter)
-                );
-            }
-            j.plotter.clone()
-        }
-    };
+    let named = crate::cli::port::journal_named;
+    let arg = crate::cli::port::recovery_profile(given, &j.plotter, "plotter", journal_path)?;
     let p = match stencil_hpgl::profile::load(&arg) {
         Ok(p) => p,
         Err(e) if given.is_none() => bail!(

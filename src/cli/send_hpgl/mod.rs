@@ -91,16 +91,7 @@ fn recover(
     let j = PlotJournal::read(journal_path).map_err(journal_error)?;
     j.check_file(journal_path, text).map_err(journal_error)?;
     let plotter = journal_plotter(a.machine, &j, journal_path)?;
-    let how = match j.state {
-        RunState::Running => {
-            "did not end (the sender was killed, crashed, or the power went)".to_string()
-        }
-        RunState::Stopped => format!(
-            "stopped: {}",
-            stencil_io::printable(j.stop_reason.as_deref().unwrap_or("(no reason recorded)"))
-        ),
-        RunState::Complete => "finished".to_string(),
-    };
+    let how = super::port::run_state_words(j.state, j.stop_reason.as_deref());
     println!(
         "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
         journal_path.display(),
