@@ -292,7 +292,11 @@ pub fn stream(
         sent_bytes += piece.bytes.len();
         p.sent += piece.count;
         p.line = p.line.max(piece.last_line);
-        p.delivered_bytes = sent_bytes.saturating_sub(line.queued()?);
+        // A port that cannot say what it still queues leaves the count where it was (known
+        // short, never long): the reckoning is a help for a resume, not a condition of cutting.
+        if let Ok(q) = line.queued() {
+            p.delivered_bytes = sent_bytes.saturating_sub(q).max(p.delivered_bytes);
+        }
         p.resume_line = not_known_cut(&ends, p.delivered_bytes, serial.buffer_bytes, from_line);
         progress(&p);
     }
