@@ -234,14 +234,11 @@ fn folders_there<'a>(dir: &Path, folders: &[&'a str]) -> Vec<&'a str> {
         {
             continue;
         }
-        match std::fs::symlink_metadata(dir.join(f)) {
-            Ok(m) => {
-                if m.is_dir() {
-                    real.insert(*f);
-                }
-                there.push(*f);
+        if let Ok(m) = std::fs::symlink_metadata(dir.join(f)) {
+            if m.is_dir() {
+                real.insert(*f);
             }
-            Err(_) => {}
+            there.push(*f);
         }
     }
     there

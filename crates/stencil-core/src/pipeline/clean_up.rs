@@ -58,6 +58,9 @@ fn clean_bits(bits: &BitGrid, gray: &Gray, level: u8, p: &CleanParams) -> Clean 
     }
 }
 
+/// A level measured at full size, its likeness, its thresholded gray and clean-up.
+type Measured = ((u8, f64), BitGrid, Clean);
+
 /// Above this many working pixels, `--threshold auto` searches on the gray box-averaged to about
 /// this size (the clean-up's widths scaled alike), then measures the finalists at full size.
 const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
@@ -108,7 +111,7 @@ fn choose_level(gray: &Gray, look: &Likeness, p: &CleanParams) -> (LevelChoice, 
     // the levels are measured in, and they are measured on threads, a level each (the clean-up
     // and the measure of one level are sequences of short parallel steps, which on their own
     // leave the threads waiting between steps).
-    let kept: Mutex<Option<((u8, f64), BitGrid, Clean)>> = Mutex::new(None);
+    let kept: Mutex<Option<Measured>> = Mutex::new(None);
     let keep = |t: (u8, f64), raw: BitGrid, clean: Clean| {
         let mut kept = kept.lock().unwrap_or_else(|e| e.into_inner());
         if kept.as_ref().is_none_or(|k| order(&t, &k.0).is_gt()) {
