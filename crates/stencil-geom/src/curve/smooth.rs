@@ -244,7 +244,16 @@ impl Fit<'_> {
         // within tol - h/2 leaves every point between within tol.
         let h = tol / 8.0;
         let all = || parts.iter().chain(prev);
-        let near = |p: [f64; 2]| all().map(|q| q.dist(p)).fold(f64::INFINITY, f64::min);
+        // Whether the nearest of the parts to `p` is farther than `lim`: every part's distance
+        // (a NaN one skipped, as the nearest's minimum skips it) is, and no part is measured
+        // after one within `lim`. (Infinity > `lim` is what the nearest of none is.)
+        let far = |p: [f64; 2], lim: f64| {
+            f64::INFINITY > lim
+                && all().all(|q| {
+                    let d = q.dist(p);
+                    d.is_nan() || d > lim
+                })
+        };
         if parts.iter().any(|p| p.length() <= 0.0) {
             return false;
         }
@@ -255,11 +264,12 @@ impl Fit<'_> {
             let (p, q) = (self.at(k), self.at(k + 1));
             let exact = parts.iter().any(|part| match part.arc {
                 None => part.dist(p) <= tol && part.dist(q) <= tol,
+                // Within the sweep, `dist` is the distance to the circle (not asked again).
                 Some(arc) => {
                     part.spans(&arc, p)
                         && part.spans(&arc, q)
-                        && part.dist(p) <= tol
-                        && part.dist(q) <= tol
+                        && (dist(p, arc.center) - arc.radius).abs() <= tol
+                        && (dist(q, arc.center) - arc.radius).abs() <= tol
                         && arc.radius - seg_dist(arc.center, p, q) <= tol
                 }
             });
@@ -270,7 +280,7 @@ impl Fit<'_> {
             for s in 0..=steps {
                 let t = s as f64 / steps as f64;
                 let x = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
-                if near(x) > tol - h / 2.0 {
+                if far(x, tol - h / 2.0) {
                     return false;
                 }
             }
