@@ -52,7 +52,13 @@ fn reassembly(tiled: &Path, untiled: &Path) -> (usize, usize, usize) {
         r["size_px"][0].as_u64().unwrap() as u32,
         r["size_px"][1].as_u64().unwrap() as u32,
     );
-    assert_eq!((whole.width, whole.height), (w, h), "the same working grid");
+    // The tiles' grid is the picture's grown by the marks' band on every side.
+    let band = r["band_px"].as_u64().unwrap() as u32;
+    assert_eq!(
+        (whole.width + 2 * band, whole.height + 2 * band),
+        (w, h),
+        "the same working grid"
+    );
     let ov =
         (r["overlap_mm"].as_f64().unwrap() / r["mm_per_px"].as_f64().unwrap()).ceil() as i64 + 1;
     let seams: Vec<(bool, Vec<i64>)> = r["seams"]
@@ -99,20 +105,22 @@ fn reassembly(tiled: &Path, untiled: &Path) -> (usize, usize, usize) {
                     }
                 }
             }
-            if near {
+            let in_picture = x >= band && y >= band && x < w - band && y < h - band;
+            if near || !in_picture {
                 continue;
             }
+            let (px, py) = (x - band, y - band);
             let (_, _, [x0, y0, _, _], bits, two) = tiles
                 .iter()
                 .find(|t| t.0 == row && t.1 == col)
                 .expect("a tile for every pixel");
             compared += 1;
             let (tx, ty) = (x - x0, y - y0);
-            if bits.get(tx, ty) != whole.get(x, y) {
+            if bits.get(tx, ty) != whole.get(px, py) {
                 differ += 1;
                 // A bridge: cut in a two-tone, material in its stencil.
                 let bridge = (!two.get(tx, ty) && bits.get(tx, ty))
-                    || (!whole_two.get(x, y) && whole.get(x, y));
+                    || (!whole_two.get(px, py) && whole.get(px, py));
                 if !bridge {
                     unexplained += 1;
                 }
@@ -155,7 +163,77 @@ fn assert_tiles_valid(out: &Path, stock: Option<[f64; 2]>) {
     for s in r["seams"].as_array().unwrap() {
         assert_eq!(s["through_thin_mm"].as_f64().unwrap(), 0.0, "{s}");
     }
+    assert_seams_registered(out);
     assert!(out.join("tiles.png").is_file());
+}
+
+/// Every seam registered: two pin holes or more on each pair of tiles it parts, each cut through
+/// both tiles' stencils (every layer's) at the same place on the wall. Returns the marks' places
+/// (`clear`, `band`, `pad`) counted.
+fn assert_seams_registered(out: &Path) -> std::collections::BTreeMap<String, usize> {
+    let r = report(out);
+    let mm = r["mm_per_px"].as_f64().unwrap();
+    let tiles = r["tiles"].as_array().unwrap();
+    let [cols, rows] = [0, 1].map(|i| r["grid"][i].as_u64().unwrap() as usize);
+    let mut places = std::collections::BTreeMap::new();
+    for s in r["seams"].as_array().unwrap() {
+        assert_eq!(s["unregistered_segments"], 0, "{s}");
+        let vertical = s["axis"] == "vertical";
+        let marks = s["marks"].as_array().unwrap();
+        for seg in 1..=(if vertical { rows } else { cols }) {
+            let n = marks.iter().filter(|m| m["segment"] == seg).count();
+            assert!(n >= 2, "segment {seg} of {s} has {n} marks");
+        }
+        for m in marks {
+            *places
+                .entry(m["place"].as_str().unwrap().to_string())
+                .or_insert(0) += 1;
+            let [x, y] = [0, 1].map(|k| m["at_mm"][k].as_f64().unwrap());
+            // Every tile whose pins list it cuts it, in every stencil it has; two tiles do.
+            let mut carried = 0;
+            for t in tiles {
+                let (tx, ty) = (
+                    x - t["x_mm"].as_f64().unwrap(),
+                    y - t["y_mm"].as_f64().unwrap(),
+                );
+                let has = t["pins_mm"].as_array().unwrap().iter().any(|p| {
+                    (p[0].as_f64().unwrap() - tx).abs() < 1e-6
+                        && (p[1].as_f64().unwrap() - ty).abs() < 1e-6
+                });
+                if !has {
+                    continue;
+                }
+                carried += 1;
+                let layers = t["layers"].as_array().unwrap();
+                let dirs: Vec<String> = if layers.is_empty() {
+                    vec![t["folder"].as_str().unwrap().to_string()]
+                } else {
+                    layers
+                        .iter()
+                        .map(|l| l["folder"].as_str().unwrap().to_string())
+                        .collect()
+                };
+                for d in dirs {
+                    let bits = read_bits(&out.join(&d).join("stencil.png"));
+                    let (px, py) = ((tx / mm) as u32, (ty / mm) as u32);
+                    assert!(!bits.get(px, py), "{d}: no pin hole at {tx:.1}, {ty:.1} mm");
+                    // A hole, not the window: material a pin's width away along the seam.
+                    let r = (r["pin_mm"].as_f64().unwrap() / 2.0 / mm) as u32 + 2;
+                    let ring = if vertical {
+                        [(px, py + r), (px, py.saturating_sub(r))]
+                    } else {
+                        [(px + r, py), (px.saturating_sub(r), py)]
+                    };
+                    assert!(
+                        ring.iter().any(|&(a, b)| bits.get(a, b)),
+                        "{d}: the pin at {tx:.1}, {ty:.1} mm is in no material"
+                    );
+                }
+            }
+            assert!(carried >= 2, "mark {m} on {carried} tile(s)");
+        }
+    }
+    places
 }
 
 /// Rings and bars across where straight seams would fall: islands to bridge on both sides.
@@ -190,15 +268,15 @@ fn tiles_fit_the_sheet_and_put_back_paint_the_untiled_stencil() {
         "--tiles",
         "auto",
         "--sheet",
-        "150x130",
+        "160x130",
         "-o",
         s(&ti),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let r = report(&ti);
-    // 240 x 160 mm on 150 x 130 mm: two across, two down.
+    // 240 x 160 mm and the marks' band on 160 x 130 mm: two across, two down.
     assert_eq!(r["grid"], serde_json::json!([2, 2]));
-    assert_tiles_valid(&ti, Some([150.0, 130.0]));
+    assert_tiles_valid(&ti, Some([160.0, 130.0]));
     let (compared, differ, unexplained) = reassembly(&ti, &un);
     let pct = 100.0 * differ as f64 / compared as f64;
     println!(
@@ -303,6 +381,40 @@ fn bad_tile_options_are_refused_by_name() {
     assert!(stderr(&o).contains("CxR"), "{}", stderr(&o));
 }
 
+/// A dark area all along a seam: where the picture gives no clear place, the seam's marks sit in
+/// the band around the picture and on pads, and still every pair of tiles gets two, each cut
+/// through both tiles.
+#[test]
+fn every_seam_is_registered_even_through_the_dark() {
+    let d = tmp();
+    let pic = d.path().join("dark.png");
+    // A dark band down the middle (where the vertical seam must run), light elsewhere, with a
+    // few light rings so neither half is plain.
+    ink_png(&pic, 160, 120, |x, y| {
+        let (fx, fy) = (x as f64, y as f64);
+        let ring = ((fx - 20.0).powi(2) + (fy - 30.0).powi(2)).sqrt();
+        (55..105).contains(&x) || (8.0..12.0).contains(&ring)
+    });
+    let out = d.path().join("o");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "160",
+        "--tiles",
+        "2x2",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_tiles_valid(&out, None);
+    let places = assert_seams_registered(&out);
+    println!("marks: {places:?}");
+    assert!(places.get("pad").copied().unwrap_or(0) >= 2, "{places:?}");
+    assert!(places.get("band").copied().unwrap_or(0) >= 4, "{places:?}");
+    assert!(places.get("clear").copied().unwrap_or(0) >= 2, "{places:?}");
+}
+
 /// The numbers of a large run made by hand (`TILED` and `UNTILED` name its two folders): not
 /// run by default. `cargo test --test it tiles::measure -- --ignored --nocapture`.
 #[test]
@@ -374,6 +486,7 @@ fn layers_in_tiles_share_the_seams_and_the_pins() {
         }
         assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{sizes:?}");
     }
+    assert_seams_registered(&out);
     let o = stencil(&["check", s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(String::from_utf8_lossy(&o.stdout).matches("== ").count(), 6);

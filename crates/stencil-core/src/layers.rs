@@ -78,7 +78,7 @@ pub use crate::limits::MAX_LAYERS;
 pub use config::LayersConfig;
 pub use kmeans::{KMEANS_ROUNDS, KMEANS_SAMPLES};
 pub use lab::{lab, srgb};
-pub use marks::Marks;
+pub use marks::{grown_bits, grown_gray, mark_sizes, Marks};
 pub use posterise::{
     multi_otsu, posterise, worth_a_sheet, Method, Tones, MIN_STEP_DELTA_E, MIN_STEP_L, MIN_TONE_PCT,
 };
@@ -291,7 +291,8 @@ pub struct Layered {
     pub report: SetReport,
 }
 
-fn hex(c: [u8; 3]) -> String {
+/// A colour as `#rrggbb`.
+pub(crate) fn hex(c: [u8; 3]) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
@@ -360,9 +361,7 @@ fn one_layer(
     let drops = std::sync::Mutex::new(SheetDrops::default());
     let also = |tt: &mut TwoTone, p: &StageParams| {
         if let Some(d) = darker {
-            for (b, &m) in tt.bits.data.iter_mut().zip(&d.data) {
-                *b &= m;
-            }
+            nest(&mut tt.bits, d);
         }
         if let Some(forced) = sheet {
             for &i in forced {
@@ -556,17 +555,15 @@ fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
     Gray::from_data(gray.width, gray.height, data.collect())
 }
 
-/// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
-/// fill-in), in memory.
-pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
+/// A set's tones: the picture read (a mesh or an inverted picture refused), its colours
+/// clustered when it has any and no levels were given, posterised (see the module notes). Every
+/// set's, tiled or not, so a tiled set's layers are the untiled set's.
+pub(crate) fn tones_of(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Tones, Error> {
     if source::is_mesh_path(&cfg.input) {
         return Err(LayersError::Mesh.into());
     }
     if cfg.tone.invert {
         return Err(LayersError::Invert.into());
-    }
-    if cfg.keep_out.is_some() {
-        return Err(LayersError::KeepOut.into());
     }
     let sp = pipeline::SourceParams::of(cfg)?;
     let source::Input::Picture(luma) = source::load(&cfg.input, &sp)? else {
@@ -577,20 +574,30 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     } else {
         None
     };
-    let tones = posterise(&luma, rgb.as_deref(), lc)?;
-    drop(rgb);
-    let (w, h) = (luma.width, luma.height);
+    Ok(posterise(&luma, rgb.as_deref(), lc)?)
+}
+
+/// The layers' nesting: what a darker layer cuts, a lighter one cuts too (`bits` keeps material
+/// only where `darker`, the darker layer's cleaned two-tone, has it), so a small
+/// misregistration leaves no unpainted gap between tones.
+pub(crate) fn nest(bits: &mut BitGrid, darker: &BitGrid) {
+    for (b, &m) in bits.data.iter_mut().zip(&darker.data) {
+        *b &= m;
+    }
+}
+
+/// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
+/// fill-in), in memory.
+pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
+    if cfg.keep_out.is_some() {
+        return Err(LayersError::KeepOut.into());
+    }
+    let tones = tones_of(cfg, lc)?;
+    let (w, h) = (tones.luma.width, tones.luma.height);
     let scale = cfg.physical.scale(w, h)?;
     let marks = Marks::new(w, h, scale.mm_per_px, cfg.physical.material.min_feature_mm);
     // The layers' gray, grown by the band (white: material).
-    let b = marks.band_px;
-    let (pw, ph) = (w + 2 * b, h + 2 * b);
-    let mut padded = Gray::new(pw, ph, 1.0);
-    for y in 0..h {
-        let src = &tones.gray.data[(y * w) as usize..((y + 1) * w) as usize];
-        let at = ((y + b) * pw + b) as usize;
-        padded.data[at..at + w as usize].copy_from_slice(src);
-    }
+    let padded = grown_gray(&tones.gray, marks.band_px);
     let mut lcfg = cfg.clone();
     lcfg.physical.size = Size::Dpi(25.4 / scale.mm_per_px);
     // The registration marks are cut in every layer; the mask's own corner marks would be a
