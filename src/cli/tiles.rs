@@ -151,7 +151,7 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
             tile.pins_mm.len(),
             if tile.check_passed { "" } else { " (CHECK FAILED)" }
         );
-        for l in &tile.layers {
+        for l in tile.layers.iter().chain(&tile.fill_in) {
             println!(
                 "    {}: level {}, {} islands, {} bridges{}",
                 l.folder,

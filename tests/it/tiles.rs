@@ -553,3 +553,134 @@ fn send_and_frame_take_a_tiles_gcode() {
     }
     assert!(widths[1] < widths[0], "{widths:?}");
 }
+
+/// A colour picture in layers and tiles: its layers are the untiled set's (the same colours and
+/// levels, from the colours' clusters), and in every tile a darker layer's cut lies inside the
+/// lighter one's (the set's nesting), every layer carrying the tile's marks.
+#[test]
+fn tiled_layers_are_the_untiled_sets_colours_and_nest() {
+    let d = tmp();
+    let pic = d.path().join("colour.png");
+    let img = image::RgbImage::from_fn(160, 100, |x, y| {
+        let (fx, fy) = (x as f64, y as f64);
+        let r = ((fx - 80.0).powi(2) + (fy - 50.0).powi(2)).sqrt();
+        if r < 14.0 {
+            image::Rgb([30, 20, 90])
+        } else if r < 30.0 {
+            image::Rgb([200, 40, 40])
+        } else if (20..40).contains(&y) || (120..140).contains(&x) {
+            image::Rgb([60, 160, 70])
+        } else {
+            image::Rgb([250, 240, 200])
+        }
+    });
+    img.save(&pic).unwrap();
+    let (un, ti) = (d.path().join("untiled"), d.path().join("tiled"));
+    let base = ["make", s(&pic), "--width-mm", "160", "--layers", "3"];
+    let o = stencil(&[&base[..], &["-o", s(&un)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = stencil(&[&base[..], &["--tiles", "2x1", "-o", s(&ti)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let u = report(&un);
+    assert_ne!(u["method"], "gray", "{}", u["method"]);
+    let t = report(&ti);
+    assert_eq!(t["surface_color"], u["surface_color"]);
+    for tile in t["tiles"].as_array().unwrap() {
+        let layers = tile["layers"].as_array().unwrap();
+        assert_eq!(layers.len(), 3);
+        for (tl, ul) in layers.iter().zip(u["layers"].as_array().unwrap()) {
+            assert_eq!(tl["color"], ul["color"], "{tile}");
+            assert_eq!(tl["level"], ul["level"], "{tile}");
+        }
+        // Nesting: no pixel a darker layer's two-tone cuts that a lighter one's keeps.
+        let two: Vec<_> = layers
+            .iter()
+            .map(|l| read_bits(&ti.join(l["folder"].as_str().unwrap()).join("twotone.png")))
+            .collect();
+        for k in 0..2 {
+            let breaks = (two[k].data.iter().zip(&two[k + 1].data))
+                .filter(|&(&lighter, &darker)| lighter && !darker)
+                .count();
+            assert_eq!(
+                breaks,
+                0,
+                "{}: layer {} and {}",
+                tile["folder"],
+                k + 1,
+                k + 2
+            );
+        }
+    }
+    assert_seams_registered(&ti);
+}
+
+/// `--fill-in` and `--mask-marks` with `--tiles`: each tile gets its fill-in stencil (cutting
+/// what its bridges hide) in `tile-R-C/fill-in/`, a valid sheet `check` goes through; with mask
+/// marks, the tiles carry the registration marks they always carry.
+#[test]
+fn tiles_take_a_fill_in_and_mask_marks() {
+    let d = tmp();
+    let pic = d.path().join("rings.png");
+    rings_picture(&pic);
+    let out = d.path().join("o");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "240",
+        "--tiles",
+        "2x1",
+        "--fill-in",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    for t in r["tiles"].as_array().unwrap() {
+        let dir = out.join(t["folder"].as_str().unwrap());
+        let fill = out.join(t["fill_in"]["folder"].as_str().unwrap());
+        assert_eq!(fill, dir.join("fill-in"));
+        assert_valid_stencil(&dir);
+        assert_valid_stencil(&fill);
+        // The tile's bridges: cut in its two-tone, material in its stencil; the fill-in cuts them.
+        let (two, st) = (
+            read_bits(&dir.join("twotone.png")),
+            read_bits(&dir.join("stencil.png")),
+        );
+        let fb = read_bits(&fill.join("stencil.png"));
+        assert_eq!((fb.width, fb.height), (st.width, st.height));
+        let bridge: Vec<usize> = (0..st.data.len())
+            .filter(|&i| !two.data[i] && st.data[i])
+            .collect();
+        assert!(!bridge.is_empty(), "{}: no bridges", dir.display());
+        let covered = bridge.iter().filter(|&&i| !fb.data[i]).count();
+        assert!(
+            covered * 10 >= bridge.len() * 9,
+            "{}: the fill-in cuts {covered} of {} bridge px",
+            dir.display(),
+            bridge.len()
+        );
+    }
+    let o = stencil(&["check", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).matches("== ").count(), 4);
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "240",
+        "--tiles",
+        "2x1",
+        "--emit",
+        "png,svg,mask",
+        "--mask-marks",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !out.join("tile-1-1/fill-in").exists(),
+        "the fill-in removed"
+    );
+    assert_tiles_valid(&out, None);
+}

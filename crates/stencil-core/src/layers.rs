@@ -650,6 +650,26 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
 /// paints, marks and band as every sheet of the set; then the same clean-up, bridges, trace and
 /// check as any stencil. Returns it with the bridge pixels it was made for.
 fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error> {
+    let stamp = |bits: &mut BitGrid, p: &StageParams| {
+        f.marks.stamp(
+            bits,
+            f.marks.band_px * p.working.factor,
+            p.working.scale.mm_per_px,
+        )
+    };
+    let start = Start::Source(Source::Picture(f.source_gray.clone()));
+    fill_in_with(&f.cfg, &start, first, &stamp)
+}
+
+/// The fill-in of a first stencil `first` (with its two-tone after the clean-up), made by
+/// `cfg` from `start` (which sizes it) with `stamp` putting the sheet's own parts into its
+/// two-tone (an untiled set's band and marks, a tile's window and marks): see [`fill_in`].
+pub(crate) fn fill_in_with(
+    cfg: &MakeConfig,
+    start: &Start,
+    first: &(Made, BitGrid),
+    stamp: &Edit<'_, BitGrid, ()>,
+) -> Result<(Made, BitGrid), Error> {
     let (m, cut) = first;
     let stencil = &m.bridged.bits;
     let (w, h) = (stencil.width, stencil.height);
@@ -657,13 +677,14 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     for (s, &c) in hidden.data.iter_mut().zip(&cut.data) {
         *s &= !c;
     }
-    let mut cfg = f.cfg.clone();
+    let mut cfg = cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
+    let min_feature = cfg.physical.material.min_feature_mm;
     let draw = |_: &mut (), p: &StageParams| -> TwoTone {
         let mm = p.working.scale.mm_per_px;
         // Grown into the first stencil's cut, 4-neighbour steps.
         let mut grown = hidden.clone();
-        let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
+        let reach = FILL_IN_OVERLAP_MM.max(min_feature);
         for _ in 0..(reach / mm).round() as u32 {
             let prev = grown.clone();
             for (i, g) in grown.data.iter_mut().enumerate() {
@@ -673,8 +694,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         }
         let mut bits = grown;
         bits.data.iter_mut().for_each(|b| *b = !*b);
-        f.marks
-            .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
+        stamp(&mut bits, p);
         let gray = bits
             .data
             .iter()
@@ -715,8 +735,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         cost_gray: Some(&cost),
         keep_all_islands: true,
     };
-    let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    let (made, _) = driver::made_once(&cfg, &start, &tweaks)?;
+    let (made, _) = driver::made_once(&cfg, start, &tweaks)?;
     Ok((made, hidden))
 }
 

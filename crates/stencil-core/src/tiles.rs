@@ -161,14 +161,18 @@ pub struct TileReport {
     pub bridges: usize,
     /// Whether its stencil (every layer's) passed the check.
     pub check_passed: bool,
-    /// Its layers, light to dark, when the picture is cut in layers.
+    /// Its layers, light to dark, when the picture is cut in layers (one layer: its stencil is
+    /// the tile's folder itself).
     pub layers: Vec<TileLayerReport>,
+    /// Its fill-in stencil (which paints what its bridges hide), when one was asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill_in: Option<TileLayerReport>,
 }
 
-/// One layer of a tile.
+/// One layer of a tile, or its fill-in.
 #[derive(Clone, Debug, Serialize)]
 pub struct TileLayerReport {
-    /// 1 = the first sprayed (lightest paint).
+    /// 1 = the first sprayed (lightest paint); a fill-in is sprayed second, in the first's paint.
     pub layer: u32,
     /// Its folder, in the output folder.
     pub folder: String,
@@ -252,7 +256,7 @@ pub fn tile_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     for f in (1..=most).flat_map(|r| (1..=most).map(move |c| tile_folder(r, c))) {
         let t = dir.join(f);
         if t.join("report.json").is_file() {
-            v.push(t);
+            v.extend(crate::layers::stencil_folders(&t));
         } else if t.is_dir() {
             v.extend(
                 crate::layers::stencil_folders(&t)
@@ -595,11 +599,13 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
             tiles.push(t);
         }
     }
+    let fill_in = tc.layers.as_ref().is_some_and(|lc| lc.fill_in) && wholes.len() == 1;
     let mut made = Vec::with_capacity(tiles.len());
     for t in &tiles {
-        let mut layers = Vec::with_capacity(wholes.len());
+        let mut layers = Vec::with_capacity(wholes.len() + 1);
         for whole in &wholes {
-            layers.push(one_tile(cfg, t, whole, &src_gray, factor, band_mm)?);
+            let sheets = one_tile(cfg, t, whole, &src_gray, (factor, band_mm), fill_in)?;
+            layers.extend(sheets);
         }
         made.push(layers);
     }
@@ -645,15 +651,16 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
 /// One tile through `make`'s stages: its picture the whole one's in its box (it sizes the
 /// stencil and shows in its preview), its two-tone drawn from the whole cleaned one (so every
 /// tile agrees along the seams), cleaned again as any stencil's and imposed once more, bridged
-/// with the window as over black.
+/// with the window as over black; with `fill_in`, followed by its fill-in stencil (the layers'
+/// fill-in of its bridges, its window and marks as the tile's).
 fn one_tile(
     cfg: &MakeConfig,
     t: &Tile,
     whole: &pipeline::Cleaned,
     src_gray: &Gray,
-    factor: u32,
-    band_mm: f64,
-) -> Result<Made, Error> {
+    (factor, band_mm): (u32, f64),
+    fill_in: bool,
+) -> Result<Vec<Made>, Error> {
     let mm = t.mm;
     let [x0, y0, bw, bh] = t.bx;
     let (ix0, iy0, iw, ih) = (x0 / factor, y0 / factor, bw / factor, bh / factor);
@@ -713,8 +720,21 @@ fn one_tile(
         keep_all_islands: cfg.places.keep_all_islands,
     };
     let start = Start::Source(Source::Picture(Arc::new(crop)));
-    let (made, _) = driver::made_once(&tcfg, &start, &tweaks)?;
-    Ok(made)
+    let (made, cut) = driver::made_once(&tcfg, &start, &tweaks)?;
+    if !fill_in {
+        return Ok(vec![made]);
+    }
+    let stamp = |bits: &mut BitGrid, _: &StageParams| {
+        for (b, p) in bits.data.iter_mut().zip(&t.parts) {
+            if *p == Part::Window {
+                *b = false;
+            }
+        }
+        t.marks.cut(bits, t.origin_mm, t.mm);
+    };
+    let first = (made, cut);
+    let (fill, _) = crate::layers::fill_in_with(&tcfg, &start, &first, &stamp)?;
+    Ok(vec![first.0, fill])
 }
 
 /// The seams and their marks, for the report.
@@ -818,13 +838,28 @@ fn assess(
                 islands: m.iter().map(|m| m.report.islands).sum(),
                 bridges: m.iter().map(|m| m.bridged.bridges.len()).sum(),
                 check_passed: m.iter().all(|m| m.check.passed()),
+                fill_in: (m.len() > levels.len().max(1)).then(|| {
+                    let f = &m[m.len() - 1];
+                    TileLayerReport {
+                        layer: 2,
+                        folder: format!("{}/fill-in", tile_folder(t.row, t.col)),
+                        level: 128,
+                        color: tones.map_or(String::new(), |t| crate::layers::hex(t.colors[1])),
+                        islands: f.report.islands,
+                        bridges: f.bridged.bridges.len(),
+                        check_passed: f.check.passed(),
+                    }
+                }),
                 layers: levels
                     .iter()
                     .zip(m)
                     .enumerate()
                     .map(|(k, (&level, m))| TileLayerReport {
                         layer: k as u32 + 1,
-                        folder: format!("{}/layer-{}", tile_folder(t.row, t.col), k + 1),
+                        folder: match crate::layers::layer_folder(k + 1, levels.len()) {
+                            f if f.is_empty() => tile_folder(t.row, t.col),
+                            f => format!("{}/{f}", tile_folder(t.row, t.col)),
+                        },
                         level,
                         color: tones.map_or(String::new(), |t| crate::layers::hex(t.colors[k + 1])),
                         islands: m.report.islands,
@@ -863,11 +898,18 @@ fn assess(
 /// The files of a tiled stencil, by name: each tile's files as `make` writes them in its
 /// folder, tiles.png and report.json.
 pub fn encode(t: &mut Tiled, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    // Every tile cuts the registration marks: a mask's own corner marks would be a second set.
+    let mut phys = cfg.physical.clone();
+    phys.mask.marks = false;
     let mut files = Vec::new();
     for (ms, r) in t.tiles.iter_mut().zip(&t.report.tiles) {
         for (k, m) in ms.iter_mut().enumerate() {
-            let folder = r.layers.get(k).map_or(&r.folder, |l| &l.folder);
-            for (name, bytes) in files::encode_outputs(m, &cfg.physical)? {
+            let folder = match (r.layers.get(k), &r.fill_in) {
+                (Some(l), _) => &l.folder,
+                (None, Some(f)) if k > 0 => &f.folder,
+                _ => &r.folder,
+            };
+            for (name, bytes) in files::encode_outputs(m, &phys)? {
                 files.push((format!("{folder}/{name}"), bytes));
             }
         }
