@@ -543,8 +543,15 @@ fn send_and_frame_take_a_tiles_gcode() {
             .unwrap_or_default();
         assert_eq!(x.len(), 2, "no frame: {text}");
         let w = x[1] - x[0];
-        let r = report(&out.join(t));
-        let sheet = r["width_mm"].as_f64().unwrap_or(f64::MAX);
+        // Within the tile's sheet (its cuts reach the margin on the seam's side: see
+        // a_tile_comes_off_the_machine_ready_to_tape).
+        let r = report(&out);
+        let tile = r["tiles"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["folder"] == t);
+        let sheet = tile.unwrap()["sheet_mm"][0].as_f64().unwrap();
         assert!(
             w > 5.0 && w <= sheet + 1e-6,
             "{t}: frame {w} mm, tile {sheet} mm"
@@ -683,4 +690,127 @@ fn tiles_take_a_fill_in_and_mask_marks() {
         "the fill-in removed"
     );
     assert_tiles_valid(&out, None);
+}
+
+/// The closed paths of a stencil.svg's CUT layer, in mm.
+fn cut_paths(svg: &str) -> Vec<Vec<[f64; 2]>> {
+    let start = svg.find("id=\"cut\"").expect("a CUT layer");
+    let layer = &svg[start..start + svg[start..].find("</g>").expect("layer ends")];
+    let mut paths = Vec::new();
+    for chunk in layer.split(" d=\"").skip(1) {
+        let d = &chunk[..chunk.find('"').unwrap()];
+        paths.extend(svg_subpaths(d, 0.01));
+    }
+    paths
+}
+
+/// What stays of the sheet along the line at `y` once every loop is cut: the material's
+/// stretches between `x0` and `x1` (even-odd across the loops, as the cuts free them).
+fn kept_on_row(paths: &[Vec<[f64; 2]>], y: f64, (x0, x1): (f64, f64)) -> Vec<(f64, f64)> {
+    let mut xs = Vec::new();
+    for p in paths {
+        for k in 0..p.len() {
+            let (a, b) = (p[k], p[(k + 1) % p.len()]);
+            if (a[1] > y) != (b[1] > y) {
+                xs.push(a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
+            }
+        }
+    }
+    xs.sort_by(f64::total_cmp);
+    let mut kept = Vec::new();
+    let mut at = x0;
+    for pair in xs.chunks(2) {
+        if let [a, b] = pair {
+            if *a > at {
+                kept.push((at, a.min(x1)));
+            }
+            at = at.max(*b);
+        }
+    }
+    if at < x1 {
+        kept.push((at, x1));
+    }
+    kept
+}
+
+/// A tile's cut follows its seam: once its loops are cut, no material stays beyond its strip
+/// past the seam (no frame of margin to trim by hand), while its outer sides keep their margin.
+#[test]
+fn a_tile_comes_off_the_machine_ready_to_tape() {
+    let d = tmp();
+    let pic = d.path().join("rings.png");
+    rings_picture(&pic);
+    let out = d.path().join("o");
+    let o = stencil(&[
+        "make",
+        s(&pic),
+        "--width-mm",
+        "240",
+        "--tiles",
+        "2x1",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    let (m, ov) = (
+        r["margin_mm"].as_f64().unwrap(),
+        r["overlap_mm"].as_f64().unwrap(),
+    );
+    let seam_x: Vec<f64> = r["seams"][0]["points_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[0].as_f64().unwrap())
+        .collect();
+    let (lo, hi) = (
+        seam_x.iter().copied().fold(f64::MAX, f64::min),
+        seam_x.iter().copied().fold(f64::MIN, f64::max),
+    );
+    for (i, t) in r["tiles"].as_array().unwrap().iter().enumerate() {
+        let svg =
+            std::fs::read_to_string(out.join(t["folder"].as_str().unwrap()).join("stencil.svg"))
+                .unwrap();
+        let paths = cut_paths(&svg);
+        let (tx, w, h) = (
+            t["x_mm"].as_f64().unwrap(),
+            t["width_mm"].as_f64().unwrap(),
+            t["height_mm"].as_f64().unwrap(),
+        );
+        let (mut outer_margin, mut near_seam) = (0, 0);
+        for k in 0..24 {
+            let y = -m + (h + 2.0 * m) * (k as f64 + 0.5) / 24.0;
+            let kept = kept_on_row(&paths, y, (-m, w + m));
+            for &(a, b) in &kept {
+                if i == 0 {
+                    // The left tile: nothing past its strip, right of the seam.
+                    assert!(
+                        b <= hi - tx + ov + 0.5,
+                        "{}: material to {b} at y {y}",
+                        t["folder"]
+                    );
+                    outer_margin += (a < -m / 2.0) as usize;
+                    near_seam += (b > lo - tx + ov - 0.5) as usize;
+                } else {
+                    assert!(
+                        a >= lo - tx - ov - 0.5,
+                        "{}: material from {a} at y {y}",
+                        t["folder"]
+                    );
+                    outer_margin += (b > w + m / 2.0) as usize;
+                    near_seam += (a < hi - tx - ov + 0.5) as usize;
+                }
+            }
+        }
+        assert!(
+            outer_margin >= 20,
+            "{}: the outer margin is kept",
+            t["folder"]
+        );
+        assert!(
+            near_seam >= 20,
+            "{}: the strip reaches the seam",
+            t["folder"]
+        );
+    }
 }

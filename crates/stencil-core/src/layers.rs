@@ -382,6 +382,7 @@ fn one_layer(
             .then_some(&cost as &(dyn Fn(&Gray) -> Gray + Sync)),
         keep_all_islands: true,
         two_tone: None,
+        geometry: None,
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
     let (mut made, cut) = driver::made_once(&cfg, &start, &tweaks)?;
@@ -658,17 +659,19 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         )
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    fill_in_with(&f.cfg, &start, first, &stamp)
+    fill_in_with(&f.cfg, &start, first, &stamp, None)
 }
 
 /// The fill-in of a first stencil `first` (with its two-tone after the clean-up), made by
 /// `cfg` from `start` (which sizes it) with `stamp` putting the sheet's own parts into its
-/// two-tone (an untiled set's band and marks, a tile's window and marks): see [`fill_in`].
+/// two-tone (an untiled set's band and marks, a tile's window and marks) and `geometry` changing
+/// its traced geometry (a tile's edge): see [`fill_in`].
 pub(crate) fn fill_in_with(
     cfg: &MakeConfig,
     start: &Start,
     first: &(Made, BitGrid),
     stamp: &Edit<'_, BitGrid, ()>,
+    geometry: Option<&driver::GeometryEdit<'_>>,
 ) -> Result<(Made, BitGrid), Error> {
     let (m, cut) = first;
     let stencil = &m.bridged.bits;
@@ -734,6 +737,7 @@ pub(crate) fn fill_in_with(
         after_clean: Some(&specks),
         cost_gray: Some(&cost),
         keep_all_islands: true,
+        geometry,
     };
     let (made, _) = driver::made_once(&cfg, start, &tweaks)?;
     Ok((made, hidden))

@@ -44,6 +44,7 @@ use crate::raster::{squared_distance, BitGrid, Gray, TwoTone};
 use crate::tone::Threshold;
 use crate::units::Size;
 
+mod edge;
 mod layout;
 mod map;
 mod seams;
@@ -294,6 +295,9 @@ enum Part {
 struct Tile {
     row: u32,
     col: u32,
+    /// The grid's rows and columns (a tile on its last row or column has an outer side there).
+    rows: u32,
+    cols: u32,
     /// x, y, w, h in working px (on whole input pixels).
     bx: [u32; 4],
     parts: Vec<Part>,
@@ -364,6 +368,8 @@ fn tile(
     Tile {
         row: r as u32 + 1,
         col: c as u32 + 1,
+        rows: seams.ys.len() as u32 + 1,
+        cols: seams.xs.len() as u32 + 1,
         bx: [x0, y0, bw, bh],
         parts,
         marks: Marks::new(1, 1, 1.0, 1.0).with_pins(0.0, Vec::new()),
@@ -712,12 +718,18 @@ fn one_tile(
         }
         g
     };
+    // Its edge along its seams (see `edge`).
+    let outer = [t.col == 1, t.row == 1, t.col == t.cols, t.row == t.rows];
+    let trim = |g: &mut crate::vector::CutGeometry| -> Result<(), Error> {
+        Ok(edge::trim(g, outer, mm / 2.0)?)
+    };
     let tweaks = Tweaks {
         two_tone: Some(&draw),
         after_threshold: None,
         after_clean: Some(&again),
         cost_gray: Some(&cost),
         keep_all_islands: cfg.places.keep_all_islands,
+        geometry: Some(&trim),
     };
     let start = Start::Source(Source::Picture(Arc::new(crop)));
     let (made, cut) = driver::made_once(&tcfg, &start, &tweaks)?;
@@ -733,7 +745,7 @@ fn one_tile(
         t.marks.cut(bits, t.origin_mm, t.mm);
     };
     let first = (made, cut);
-    let (fill, _) = crate::layers::fill_in_with(&tcfg, &start, &first, &stamp)?;
+    let (fill, _) = crate::layers::fill_in_with(&tcfg, &start, &first, &stamp, Some(&trim))?;
     Ok(vec![first.0, fill])
 }
 
