@@ -413,6 +413,53 @@ fn every_seam_is_registered_even_through_the_dark() {
     assert!(places.get("pad").copied().unwrap_or(0) >= 2, "{places:?}");
     assert!(places.get("band").copied().unwrap_or(0) >= 4, "{places:?}");
     assert!(places.get("clear").copied().unwrap_or(0) >= 2, "{places:?}");
+    // Where the horizontal seam crosses the dark band, the tiles on the wall together leave
+    // unpainted only the earlier tile's strip (the later one's overlap gives way to the dark):
+    // one overlap wide, not two. A pixel is painted when no tile over it has material there.
+    let r = report(&out);
+    let mm = r["mm_per_px"].as_f64().unwrap();
+    let ov = (r["overlap_mm"].as_f64().unwrap() / mm).round() as i64;
+    let band = r["band_px"].as_i64().unwrap();
+    let tiles: Vec<([i64; 4], BitGrid)> = r["tiles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            let b = [0, 1, 2, 3].map(|i| t["box_px"][i].as_i64().unwrap());
+            let dir = out.join(t["folder"].as_str().unwrap());
+            (b, read_bits(&dir.join("stencil.png")))
+        })
+        .collect();
+    let blocked = |x: i64, y: i64| {
+        tiles.iter().any(|([x0, y0, w, h], bits)| {
+            x >= *x0
+                && y >= *y0
+                && x < x0 + w
+                && y < y0 + h
+                && bits.get((x - x0) as u32, (y - y0) as u32)
+        })
+    };
+    let seam = r["seams"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["axis"] == "horizontal")
+        .unwrap();
+    let (_, path) = seam_path(seam, r["size_px"][0].as_u64().unwrap() as u32);
+    let px = |mm_in_picture: f64| band + (mm_in_picture / mm) as i64;
+    let mut widths = Vec::new();
+    // The dark band is 55..105 mm across; its middle, clear of its edges and the other seam.
+    for x in (px(62.0)..px(98.0)).step_by(3) {
+        let at = path[x as usize];
+        let w = (at - 3 * ov..at + 3 * ov)
+            .filter(|&y| blocked(x, y))
+            .count() as i64;
+        widths.push(w);
+    }
+    widths.sort();
+    let median = widths[widths.len() / 2];
+    println!("unpainted across the seam in the dark: {median} px (overlap {ov} px)");
+    assert!(median <= ov + 2, "{widths:?}, overlap {ov} px");
 }
 
 /// The numbers of a large run made by hand (`TILED` and `UNTILED` name its two folders): not

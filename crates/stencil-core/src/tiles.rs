@@ -40,7 +40,7 @@ use crate::fit::Stock;
 use crate::layers::{grown_bits, grown_gray, Marks};
 use crate::limits::{MAX_TILES_PER_SIDE, MAX_TILE_OVERLAP_MM, MIN_TILE_OVERLAP_MM};
 use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
-use crate::raster::{squared_distance, BitGrid, Gray, TwoTone};
+use crate::raster::{squared_distance, squared_distance_to, BitGrid, Gray, TwoTone};
 use crate::tone::Threshold;
 use crate::units::Size;
 
@@ -289,6 +289,10 @@ enum Part {
     Strip,
     /// Beyond: cut (the neighbour shows through).
     Window,
+    /// Within the overlap past a seam to an earlier tile (left or above), deep in a dark part
+    /// of the picture: the whole stencil's two-tone (cut), so that spraying this tile paints
+    /// the overlap (the earlier tile's strip holds that one there).
+    Open,
 }
 
 /// A tile: its box in working pixels of the whole picture, what each pixel is, its marks.
@@ -316,7 +320,7 @@ impl Tile {
         for (i, p) in self.parts.iter().enumerate() {
             let (x, y) = (i as u32 % w, i as u32 / w);
             bits.data[i] = match p {
-                Part::Region => whole.get(x0 + x, y0 + y),
+                Part::Region | Part::Open => whole.get(x0 + x, y0 + y),
                 Part::Strip => true,
                 Part::Window => false,
             };
@@ -333,6 +337,7 @@ fn tile(
     (w, h): (u32, u32),
     (ov, window): (u32, u32),
     factor: u32,
+    (whole, min_px): (&BitGrid, f64),
 ) -> Tile {
     let lo = |s: Option<&Vec<u32>>| s.map_or(0, |s| *s.iter().min().unwrap_or(&0));
     let hi = |s: Option<&Vec<u32>>, end: u32| s.map_or(end, |s| *s.iter().max().unwrap_or(&end));
@@ -351,15 +356,26 @@ fn tile(
     // Outside the box is no one's: the strip reaches only from the region.
     let d2 = squared_distance(&region, true, false);
     let reach = (ov * ov) as f32;
+    // How far the whole stencil's material is (outside the box counts as material).
+    let material = BitGrid::from_fn(bw, bh, |x, y| whole.get(x0 + x, y0 + y));
+    let to_material = squared_distance_to(&material, true);
+    let dark = (min_px * min_px) as f32;
     let parts = region
         .data
         .iter()
         .zip(&d2)
-        .map(|(&own, &d)| {
+        .enumerate()
+        .map(|(i, (&own, &d))| {
             if own {
                 Part::Region
             } else if d <= reach {
-                Part::Strip
+                let (gx, gy) = (x0 + i as u32 % bw, y0 + i as u32 / bw);
+                let earlier = seams.col(gx, gy) < c || seams.row(gx, gy) < r;
+                if earlier && to_material[i] >= dark {
+                    Part::Open
+                } else {
+                    Part::Strip
+                }
             } else {
                 Part::Window
             }
@@ -566,7 +582,8 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
     let mut tiles: Vec<Tile> = Vec::new();
     for r in 0..rows.count as usize {
         for c in 0..cols.count as usize {
-            let mut t = tile((r, c), &seams, (w, h), (ov_px, window_px), factor);
+            let dark = (&wholes[0].twotone.bits, min_feature / mm);
+            let mut t = tile((r, c), &seams, (w, h), (ov_px, window_px), factor, dark);
             let [x0, y0, bw, bh] = t.bx;
             let (sw_mm, sh_mm) = (bw as f64 * mm + 2.0 * margin, bh as f64 * mm + 2.0 * margin);
             if let Some((stock_w, stock_h)) = stock {
