@@ -133,8 +133,14 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
     );
     for s in &r.seams {
         println!(
-            "  seam {} at {:.1} mm (within {:.1} mm): {:.1} mm long, {:.1} mm through the cut, {:.1} mm through features thinner than the material's smallest",
-            s.axis, s.at_mm, s.band_mm, s.length_mm, s.through_cut_mm, s.through_thin_mm
+            "  seam {} at {:.1} mm (within {:.1} mm): {:.1} mm long, {:.1} mm through the cut in {} run(s) (the earlier tile's strip bridges them), {:.1} mm through features thinner than the material's smallest",
+            s.axis,
+            s.at_mm,
+            s.band_mm,
+            s.length_mm,
+            s.through_cut_mm,
+            s.bridges_mm.len(),
+            s.through_thin_mm
         );
     }
     for tile in &r.tiles {

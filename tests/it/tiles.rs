@@ -630,7 +630,17 @@ fn tiled_layers_are_the_untiled_sets_colours_and_nest() {
     });
     img.save(&pic).unwrap();
     let (un, ti) = (d.path().join("untiled"), d.path().join("tiled"));
-    let base = ["make", s(&pic), "--width-mm", "160", "--layers", "3"];
+    // Cropped: the layers start from the adjusted picture, tiled or not.
+    let base = [
+        "make",
+        s(&pic),
+        "--width-mm",
+        "160",
+        "--crop",
+        "0,10,160,80",
+        "--layers",
+        "3",
+    ];
     let o = stencil(&[&base[..], &["-o", s(&un)]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     let o = stencil(&[&base[..], &["--tiles", "2x1", "-o", s(&ti)]].concat());
@@ -639,6 +649,15 @@ fn tiled_layers_are_the_untiled_sets_colours_and_nest() {
     assert_ne!(u["method"], "gray", "{}", u["method"]);
     let t = report(&ti);
     assert_eq!(t["surface_color"], u["surface_color"]);
+    let ul = report(&un.join("layer-1"));
+    let band = t["band_mm"].as_f64().unwrap();
+    for (k, want) in [(0, 160.0), (1, 80.0)] {
+        let key = ["width_mm", "height_mm"][k];
+        let untiled = ul[key].as_f64().unwrap() - 2.0 * u["marks"]["band_mm"].as_f64().unwrap();
+        assert!((untiled - want).abs() < 1.5, "untiled {key}: {untiled}");
+        let tiled = t[key].as_f64().unwrap() - 2.0 * band;
+        assert!((tiled - want).abs() < 1.5, "tiled {key}: {tiled}");
+    }
     for tile in t["tiles"].as_array().unwrap() {
         let layers = tile["layers"].as_array().unwrap();
         assert_eq!(layers.len(), 3);

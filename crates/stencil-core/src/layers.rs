@@ -575,7 +575,41 @@ pub(crate) fn tones_of(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Tones, Err
     } else {
         None
     };
-    Ok(posterise(&luma, rgb.as_deref(), lc)?)
+    // The picture adjusted as any stencil's (crop, turns, tones: the layers start from it, past
+    // the stage that adjusts), its colours cropped and turned with it.
+    let pic = source::Input::Picture(luma.clone());
+    let Source::Picture(adjusted) = source::light(&pic, None, &sp)? else {
+        return Err(LayersError::Mesh.into());
+    };
+    let rgb = match (&sp, rgb) {
+        (pipeline::SourceParams::Picture { adjust, .. }, Some(rgb)) => {
+            let shape = crate::tone::Adjust {
+                crop_px: adjust.crop_px,
+                quarter_turns: adjust.quarter_turns,
+                ..Default::default()
+            };
+            if shape.is_identity() {
+                Some(rgb)
+            } else {
+                let channel = |k: usize| {
+                    let g = Gray::from_data(
+                        luma.width,
+                        luma.height,
+                        rgb.iter().map(|c| c[k]).collect(),
+                    );
+                    shape.apply(&g)
+                };
+                let [r, g, b] = [0, 1, 2].map(channel);
+                Some(
+                    (0..r.data.len())
+                        .map(|i| [r.data[i], g.data[i], b.data[i]])
+                        .collect(),
+                )
+            }
+        }
+        (_, rgb) => rgb,
+    };
+    Ok(posterise(&adjusted, rgb.as_deref(), lc)?)
 }
 
 /// The layers' nesting: what a darker layer cuts, a lighter one cuts too (`bits` keeps material

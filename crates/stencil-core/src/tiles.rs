@@ -109,6 +109,10 @@ pub struct SeamReport {
     pub through_thin_mm: f64,
     /// Its length, mm.
     pub length_mm: f64,
+    /// Where it runs through the cut (its bridges: the earlier tile's strip, one overlap wide,
+    /// stays unpainted there), each as the seam's first and last point in the run, mm in the
+    /// whole grown picture.
+    pub bridges_mm: Vec<[[f64; 2]; 2]>,
     /// Its registration pin holes, each cut into both tiles of its segment.
     pub marks: Vec<SeamMarkReport>,
     /// Its segments (one per pair of tiles it parts) with fewer than two marks: none, unless
@@ -831,6 +835,22 @@ fn assess(
             through_cut_mm: cr.cut_px as f64 * mm,
             through_thin_mm: cr.thin_px as f64 * mm,
             length_mm: cr.len_px as f64 * mm,
+            bridges_mm: cr
+                .runs
+                .iter()
+                .map(|&(a, b)| {
+                    let at = |st: u32| {
+                        let across = path[st as usize] as f64 + 0.5;
+                        let along = st as f64 + 0.5;
+                        if vertical {
+                            [across * mm, along * mm]
+                        } else {
+                            [along * mm, across * mm]
+                        }
+                    };
+                    [at(a), at(b)]
+                })
+                .collect(),
             marks,
             unregistered_segments: if seamed.all_marks.pin_mm > 0.0 {
                 unregistered

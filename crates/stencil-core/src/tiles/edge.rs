@@ -155,9 +155,10 @@ mod tests {
             .collect();
         areas.sort_by(f64::total_cmp);
         // The hole as it was (2 x 2 mm); the scrap: x 8..12 mm (the window and the right
-        // margin) over the whole height with the margin above and below it (12 mm).
-        assert!((areas[0] - 4.0).abs() < 0.05, "{areas:?}");
-        assert!((areas[1] - 4.0 * 12.0).abs() < 0.05, "{areas:?}");
+        // margin) over the whole height with the margin above and below it (12 mm); their
+        // corners rounded by the trace's smoothing.
+        assert!((areas[0] - 4.0).abs() < 0.3, "{areas:?}");
+        assert!((areas[1] - 4.0 * 12.0).abs() < 0.3, "{areas:?}");
         assert_eq!(geom.cuts, geom.design_cuts);
         // A tile with no seam side is left alone.
         let (mut whole, _) = vectorize_design(&bits, &[], &cfg).unwrap();

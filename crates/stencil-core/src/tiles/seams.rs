@@ -61,7 +61,7 @@ impl Seams {
 
 /// What a seam crossed: its length through the cut, and through cut narrower than the smallest
 /// feature (none, after the clean-up; counted so the report can say so).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Crossing {
     /// Seam pixels in the cut.
     pub cut_px: usize,
@@ -69,6 +69,9 @@ pub struct Crossing {
     pub thin_px: usize,
     /// Seam pixels in all.
     pub len_px: usize,
+    /// Its runs through the cut, as first and last steps along it: where the earlier tile's
+    /// strip is the seam's bridge.
+    pub runs: Vec<(u32, u32)>,
 }
 
 /// One seam through a band of the picture seen along its length: `len` steps along, `across`
@@ -205,6 +208,10 @@ pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<Along>) {
             for (s, &a) in p.iter().enumerate() {
                 let i = idx(s as u32, a);
                 if !bits.data[i] {
+                    match cr.runs.last_mut() {
+                        Some(r) if r.1 + 1 == s as u32 => r.1 = s as u32,
+                        _ => cr.runs.push((s as u32, s as u32)),
+                    }
                     cr.cut_px += 1;
                     // The cut's width here: twice the radius of the widest disc of cut that
                     // holds this pixel (a thin line crossed is narrower than the feature).
