@@ -53,7 +53,7 @@ fn reassembly(tiled: &Path, untiled: &Path) -> (usize, usize, usize) {
         r["size_px"][1].as_u64().unwrap() as u32,
     );
     // The tiles' grid is the picture's grown by the marks' band on every side.
-    let band = r["band_px"].as_u64().unwrap() as u32;
+    let band = r["marks_band_px"].as_u64().unwrap() as u32;
     assert_eq!(
         (whole.width + 2 * band, whole.height + 2 * band),
         (w, h),
@@ -419,7 +419,7 @@ fn every_seam_is_registered_even_through_the_dark() {
     let r = report(&out);
     let mm = r["mm_per_px"].as_f64().unwrap();
     let ov = (r["overlap_mm"].as_f64().unwrap() / mm).round() as i64;
-    let band = r["band_px"].as_i64().unwrap();
+    let band = r["marks_band_px"].as_i64().unwrap();
     let tiles: Vec<([i64; 4], BitGrid)> = r["tiles"]
         .as_array()
         .unwrap()
@@ -650,7 +650,7 @@ fn tiled_layers_are_the_untiled_sets_colours_and_nest() {
     let t = report(&ti);
     assert_eq!(t["surface_color"], u["surface_color"]);
     let ul = report(&un.join("layer-1"));
-    let band = t["band_mm"].as_f64().unwrap();
+    let band = t["marks_band_mm"].as_f64().unwrap();
     for (k, want) in [(0, 160.0), (1, 80.0)] {
         let key = ["width_mm", "height_mm"][k];
         let untiled = ul[key].as_f64().unwrap() - 2.0 * u["marks"]["band_mm"].as_f64().unwrap();

@@ -30,7 +30,7 @@ use crate::report::Report;
 use crate::timing::Timings;
 use crate::tone::{self, mesh};
 
-pub use crate::pipeline::outputs::finish;
+pub use crate::pipeline::outputs::{finish, GeometryEdit};
 
 /// Why a run stopped without a result.
 #[derive(Debug, thiserror::Error)]
@@ -72,10 +72,6 @@ pub struct Tweaks<'a> {
     /// tile's edge trimmed along its seams).
     pub geometry: Option<&'a GeometryEdit<'a>>,
 }
-
-/// A change to the traced geometry (see [`Tweaks::geometry`]).
-pub type GeometryEdit<'a> =
-    dyn Fn(&mut crate::vector::CutGeometry) -> Result<(), Error> + Sync + 'a;
 
 /// A set's change to a stage's output: `T` changed in place (or made, for `()`), knowing the
 /// resolved parameters.

@@ -210,9 +210,9 @@ pub struct TilesReport {
     pub size_px: [u32; 2],
     /// The band of material around the picture holding the registration marks, mm: the
     /// picture's top-left corner lies this far right and down in the grown picture.
-    pub band_mm: f64,
+    pub marks_band_mm: f64,
     /// The same in working pixels.
-    pub band_px: u32,
+    pub marks_band_px: u32,
     /// Each tile's strip past its seams, mm.
     pub overlap_mm: f64,
     /// The stock each tile fits (name, width, height), when there is one.
@@ -926,8 +926,8 @@ fn assess(
         height_mm: h as f64 * mm,
         mm_per_px: mm,
         size_px: [w, h],
-        band_mm,
-        band_px: band,
+        marks_band_mm: band_mm,
+        marks_band_px: band,
         overlap_mm: tc.overlap_mm,
         stock: tc.stock.as_ref().map(|s| {
             let (sw, sh) = layout::stock_size(s);

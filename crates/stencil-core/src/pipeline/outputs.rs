@@ -60,6 +60,10 @@ pub fn finish(
     finish_with(cfg, params, (cleaned, joined), timer, None)
 }
 
+/// A change to the traced geometry after the check, before any job is planned from it (a
+/// tile's edge along its seams).
+pub type GeometryEdit<'a> = dyn Fn(&mut CutGeometry) -> Result<(), Error> + Sync + 'a;
+
 /// [`finish`], the traced geometry changed by `edit` (if any) after the check and before any
 /// job is planned from it (a tile's edge along its seams).
 pub(crate) fn finish_with(
@@ -67,7 +71,7 @@ pub(crate) fn finish_with(
     params: &StageParams,
     (cleaned, joined): (Arc<Cleaned>, Arc<Joined>),
     timer: Option<Timings>,
-    edit: Option<&crate::driver::GeometryEdit<'_>>,
+    edit: Option<&GeometryEdit<'_>>,
 ) -> Result<Made, Error> {
     let mut timer = timer.unwrap_or_else(|| Timings::new(cfg.progress.clone()));
     let (cleaned, mut joined) = (Arc::unwrap_or_clone(cleaned), Arc::unwrap_or_clone(joined));
