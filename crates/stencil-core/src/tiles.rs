@@ -825,7 +825,8 @@ fn assess(
             .count();
         seam_reports.push(SeamReport {
             axis: if vertical { "vertical" } else { "horizontal" },
-            at_mm: centre as f64 * mm - band_mm,
+            // On the picture, as the seam options take it (whole pixels first: no rounding).
+            at_mm: centre.saturating_sub(band) as f64 * mm,
             band_mm: wander as f64 * mm,
             points_mm: points_px
                 .iter()

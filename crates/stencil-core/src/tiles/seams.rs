@@ -485,4 +485,75 @@ mod tests {
         });
         assert_eq!(crossings[0].cut_px, 4, "{:?}", seams.xs[0]);
     }
+
+    #[test]
+    fn every_segment_gets_two_marks_and_no_pad_fills_a_thin_line() {
+        let (w, h) = (200u32, 100u32);
+        let run = |bits: &BitGrid| {
+            let gray = Gray::from_data(
+                w,
+                h,
+                bits.data
+                    .iter()
+                    .map(|&b| if b { 1.0 } else { 0.0 })
+                    .collect(),
+            );
+            let cols = Side {
+                count: 2,
+                centres_px: vec![100],
+                band_px: 5,
+            };
+            let rows = Side {
+                count: 2,
+                centres_px: vec![50],
+                band_px: 5,
+            };
+            let req = SeamRequest {
+                bits,
+                gray: &gray,
+                cols: &cols,
+                rows: &rows,
+                overlap_px: 2.0,
+                min_px: 4.0,
+                pin_clear_px: 6.0,
+                band_px: 10,
+            };
+            let (seams, _, alongs) = find(&req);
+            place_marks(&seams, &alongs, &req)
+        };
+        // A dark block over the vertical seam (the band around the picture is material): each of
+        // its two segments gets its band's mark and a pad in the dark.
+        let dark = BitGrid::from_fn(w, h, |x, y| {
+            !((70..130).contains(&x) && (10..90).contains(&y))
+        });
+        let marks = run(&dark);
+        for seg in 0..2 {
+            let on: Vec<&SeamMark> = marks
+                .iter()
+                .filter(|m| m.seam == 0 && m.segment == seg)
+                .collect();
+            assert_eq!(on.len(), 2, "{marks:?}");
+            assert!(on.iter().any(|m| m.place == MarkPlace::Band), "{on:?}");
+            let pad = on
+                .iter()
+                .find(|m| m.place == MarkPlace::Pad)
+                .expect("a pad");
+            assert!(
+                !dark.get(pad.at.0, pad.at.1),
+                "the pad is in the dark: {pad:?}"
+            );
+            let mut padded = dark.clone();
+            put_pads(&mut padded, &marks, 6.0);
+            assert!(
+                padded.get(pad.at.0 + 5, pad.at.1),
+                "material around the pad"
+            );
+        }
+        // Thin cut lines (1 px, under the 4 px smallest feature) all over the seam: no pad.
+        let lines = BitGrid::from_fn(w, h, |x, y| {
+            !((70..130).contains(&x) && (10..90).contains(&y) && y % 3 == 0)
+        });
+        let marks = run(&lines);
+        assert!(marks.iter().all(|m| m.place != MarkPlace::Pad), "{marks:?}");
+    }
 }
