@@ -22,10 +22,10 @@
 //! tolerance of them (sampled finely enough that the steps between samples cannot hide an
 //! excess), the sides kept, the box kept.
 //!
-//! What it costs: under the [`Sides`] (pixel centres a fifth of the tolerance clear) a traced
-//! outline leaves a smooth arc little room, and the arcs that keep their tangents reach less far
-//! than arcs that each choose their own; the parent keeps whichever fit of a ring costs less
-//! ([`kinks`] counted as pieces).
+//! What it costs: the [`Sides`] (pixel centres kept on their sides) and the staircase of a traced
+//! outline leave a smooth arc little room, and the arcs that keep their tangents sometimes reach
+//! less far than arcs that each choose their own; the parent keeps whichever fit of a ring costs
+//! less ([`kinks`] counted as pieces).
 
 use super::arc::{arc_box, arc_of, ArcGeom, Piece, Sides};
 use crate::ring::{dist, seg_dist};

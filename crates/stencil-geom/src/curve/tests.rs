@@ -380,3 +380,60 @@ fn long_arcs_are_split_into_equal_parts_on_the_same_circle() {
     assert_eq!(split.len(), 3, "{split:?}");
     assert!((length(&split) - length(&pieces)).abs() < 1e-9);
 }
+
+/// Even-odd: whether `p` is inside the closed polygon `r`.
+fn inside(r: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let n = r.len();
+    let mut c = false;
+    for i in 0..n {
+        let (a, b) = (r[i], r[(i + 1) % n]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0])
+        {
+            c = !c;
+        }
+    }
+    c
+}
+
+#[test]
+fn a_flattening_keeps_points_between_an_arc_and_its_chords_inside() {
+    let pieces = half_disc();
+    let tol = 0.05;
+    // Points a hair inside the arc (radius 2 about (1, 1)) all along it, and some outside it
+    // and deep inside: the first are what plain chords cut off.
+    let keep: Vec<[f64; 2]> = (1..200)
+        .flat_map(|i| {
+            let a = std::f64::consts::PI * i as f64 / 200.0;
+            [1.999, 2.001, 1.5].map(|r| [1.0 + r * a.cos(), 1.0 + r * a.sin()])
+        })
+        .collect();
+    let plain = flatten(&pieces, tol);
+    let clear = flatten_clear(&pieces, tol, &keep);
+    let wrong = |flat: &[[f64; 2]]| {
+        keep.iter()
+            .filter(|&&p| inside(flat, p) != (dist(p, [1.0, 1.0]) < 2.0))
+            .count()
+    };
+    assert!(wrong(&plain) > 100, "{}", wrong(&plain));
+    assert_eq!(wrong(&clear), 0);
+    // Every vertex still on the arc or the diameter, in order along the path, and the plain
+    // flattening's vertices among them.
+    for p in &clear {
+        assert!(
+            (dist(*p, [1.0, 1.0]) - 2.0).abs() < 1e-12 || p[1] == 1.0,
+            "{p:?}"
+        );
+    }
+    let ang = |p: &[f64; 2]| (p[1] - 1.0).atan2(p[0] - 1.0);
+    for w in clear.windows(2) {
+        assert!(w[1][1] == 1.0 || ang(&w[1]) > ang(&w[0]), "{w:?}");
+    }
+    assert!(plain.iter().all(|p| clear.contains(p)));
+    assert_eq!(flatten_clear(&pieces, tol, &[]), plain);
+    // Points away from the band add nothing.
+    assert_eq!(
+        flatten_clear(&pieces, tol, &[[1.0, 1.5], [1.0, 3.5]]),
+        plain
+    );
+}
