@@ -8,12 +8,14 @@
 //! arcs directly to the polygon gives one geometry that every writer carries exactly, within one
 //! tolerance.
 //!
-//! How: a traced outline (fitted with its [`Sides`]) is fitted twice, and the one that costs the
-//! machine less is kept (pieces plus corners turning more than 15 degrees, a corner costing as
-//! much as a piece: the machine slows there, and a kerf offset adds a join): the
+//! How: a traced outline (fitted with its [`Sides`]) is fitted three ways, and the one that costs
+//! the machine least is kept (pieces plus corners turning more than 15 degrees, a corner costing
+//! as much as a piece: the machine slows there, and a kerf offset adds a join): the
 //! tangent-continuous arc spline of the `smooth` module (pieces meeting with the same tangent
-//! except at corners, ends within the tolerance of vertices), and round 3's fit below. A ring a
-//! writer fits again (one a later step changed, without sides) gets round 3's fit only.
+//! except at corners, ends within the tolerance of vertices), the same module's loose chain
+//! (each piece the least-squares arc from the last one's end, joints turning by a few degrees),
+//! and round 3's fit below. A ring a writer fits again (one a later step changed, without sides)
+//! gets round 3's fit only.
 //!
 //! Round 3's fit: greedy, from the ring's first point, each piece runs from one polygon vertex to a
 //! later one, as far as an arc (or a line) stays within the tolerance of every vertex and every
@@ -127,9 +129,13 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
         return own;
     }
     let smooth = smooth::fit(ring, tol, sides, bounds, MAX_RUN, free);
+    let loose = smooth::fit_loose(ring, tol, sides, bounds, MAX_RUN, free);
     // The tangent-continuous pieces where they cost no more than the others: a kink costs as
     // much as a piece (the machine slows there, and a kerf offset adds a join).
     let cost = |p: &[Piece]| p.len() + smooth::kinks(p);
+    if cost(&loose) < cost(&smooth).min(cost(&own)) {
+        return loose;
+    }
     if cost(&smooth) <= cost(&own) {
         smooth
     } else {
