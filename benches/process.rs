@@ -4,7 +4,9 @@
 //! transaction and thread pools spinning up, on the inputs issue 41 measures:
 //! - a photo at its own size (`samples/grace_hopper.jpg`, 512×600) and supersampled 2× (about
 //!   1 megapixel working), `--emit png,svg`;
-//! - the same 1-megapixel photo with `--threshold auto`;
+//! - the same 1-megapixel photo with `--threshold auto` (a photo's default level since issue 42:
+//!   some 36 clean-ups and likeness measures), and at a fixed `--threshold 128`, which leaves out
+//!   that search and so shows what the rest of `make` costs;
 //! - a small mesh (`samples/pawn.obj`) and a 200k-triangle one (a displaced sphere), `--emit png`.
 //!
 //! Each case also prints the CPU time (user + system) the child processes used per run, which
@@ -62,6 +64,11 @@ fn bench(c: &mut Criterion) {
         ("photo_512x600", photo, "--emit png,svg"),
         ("photo_1mp", photo, "--scale 2 --emit png,svg"),
         ("auto_1mp", photo, "--scale 2 --threshold auto --emit png"),
+        (
+            "level128_1mp",
+            photo,
+            "--scale 2 --threshold 128 --emit png,svg",
+        ),
         ("mesh_pawn", "samples/pawn.obj", "--emit png"),
         ("mesh_200k", mesh, "--emit png"),
     ];

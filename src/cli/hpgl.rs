@@ -25,6 +25,27 @@ pub struct PlotterArgs {
     /// The pen (tool holder) to select with SP: 1 to the plotter's pen count [default: 1].
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub pen: u32,
+    /// Cut a weeding box around the job, MM outside its cuts [default: 5], last: the sheet
+    /// around it then lifts away in one piece. 0.5 to 100.
+    #[arg(long, value_name = "MM", num_args = 0..=1, default_missing_value = "5",
+          value_parser = |s: &str| super::bounds::number_in(s, 0.5..=100.0, " mm"))]
+    pub weed_box: Option<f64>,
+    /// Cut weeding lines MM apart [default: 40] across every cut-out area wider or taller than
+    /// that, so a large hole's waste lifts out in pieces. Only ever inside a hole, never across
+    /// the stencil. 5 to 1000.
+    #[arg(long, value_name = "MM", num_args = 0..=1, default_missing_value = "40",
+          value_parser = |s: &str| super::bounds::number_in(s, 5.0..=1000.0, " mm"))]
+    pub weed_lines: Option<f64>,
+}
+
+impl PlotterArgs {
+    /// The weeding aids asked for.
+    fn weeding(&self) -> stencil_hpgl::weed::Weeding {
+        stencil_hpgl::weed::Weeding {
+            box_margin_mm: self.weed_box,
+            line_spacing_mm: self.weed_lines,
+        }
+    }
 }
 
 /// `stencil hpgl STENCIL_DIR_OR_SVG -o job.plt`.
@@ -88,9 +109,10 @@ pub fn make_hpgl_config(
     emit: bool,
 ) -> anyhow::Result<Option<HpglConfig>> {
     if !emit {
-        if p.force.is_some() || p.pen != 1 {
+        if p.force.is_some() || p.pen != 1 || p.weed_box.is_some() || p.weed_lines.is_some() {
             bail!(
-                "--force and --pen only apply to HP-GL: add hpgl to --emit (e.g. --emit png,hpgl)"
+                "--force, --pen, --weed-box and --weed-lines only apply to HP-GL: add hpgl to \
+                 --emit (e.g. --emit png,hpgl)"
             );
         }
         return Ok(None);
@@ -104,6 +126,7 @@ pub fn make_hpgl_config(
         pen: p.pen,
         plotter,
         settings_from,
+        weeding: p.weeding(),
     }))
 }
 
@@ -135,6 +158,17 @@ pub fn print_summary(path: &Path, s: &HpglSummary) {
             ""
         },
     );
+    if s.weed_lines > 0 || s.weed_box {
+        println!(
+            "weeding: {} line(s) inside cut-out areas{}",
+            s.weed_lines,
+            if s.weed_box {
+                ", a box around the job"
+            } else {
+                ""
+            }
+        );
+    }
     if let Some(c) = &s.settings {
         println!(
             "cut settings: {} mm/s, {} pass{}, blade offset {} mm{}{}",
@@ -200,6 +234,7 @@ fn hpgl_one(a: HpglArgs) -> anyhow::Result<ExitCode> {
         pen: a.plotter.pen,
         plotter,
         settings_from,
+        weeding: a.plotter.weeding(),
     };
     let (text, summary) = match stencil_hpgl::hpgl_for(&geom, &cfg) {
         Err(stencil_hpgl::HpglError::Plan(e)) => {

@@ -113,20 +113,12 @@ fn make_in(a: &MakeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The tiles asked for, fitted to --sheet or else the machine's bed, with the layers asked
-/// for (a fill-in or a mask's marks in tiles are refused).
+/// The tiles asked for, fitted to --sheet or else the machine's bed, with the layers or the
+/// fill-in asked for (--mask-marks alone asks for what every tile has: registration marks).
 pub(super) fn tiles_config(
     a: &MakeArgs,
 ) -> anyhow::Result<Option<stencil_core::tiles::TilesConfig>> {
-    let set = set_config(a).filter(|_| a.tiles.asked());
-    if set.as_ref().is_some_and(|lc| lc.fill_in || lc.count < 2) {
-        anyhow::bail!(
-            "{}: --tiles cuts a stencil, or --layers N stencils, in tiles; a fill-in layer \
-             (--fill-in) or a one-layer set's registration marks (--mask-marks) in tiles are not \
-             made: leave out --tiles or those options",
-            a.input.display()
-        );
-    }
+    let set = set_config(a).filter(|lc| a.tiles.asked() && (lc.count >= 2 || lc.fill_in));
     let tc = a.tiles.config(a.physical.sheet.as_ref(), || {
         let m = a.machine.machine()?;
         Ok(Stock::Bed {

@@ -104,6 +104,55 @@ pub(super) fn machine_hint(e: &MachineError) -> &'static str {
     }
 }
 
+/// A name as a journal keeps it, for a message: quoted with control characters escaped (a
+/// journal is a file that may have come from elsewhere, not trusted to hold a name).
+pub(super) fn journal_named(m: &str) -> String {
+    stencil_io::excerpt(&m.escape_debug().to_string())
+}
+
+/// The profile a recovery loads: the one named with `--machine`, else the name the journal
+/// keeps for its run's `kind` (machine or plotter) profile, when it is a plain profile name: a
+/// recovery never opens a file a journal names.
+pub(super) fn recovery_profile(
+    given: Option<&str>,
+    in_journal: &str,
+    kind: &str,
+    journal_path: &std::path::Path,
+) -> anyhow::Result<String> {
+    if let Some(m) = given {
+        return Ok(m.to_string());
+    }
+    let plain = !in_journal.is_empty()
+        && !in_journal.contains(['/', '\\'])
+        && !in_journal.ends_with(".toml")
+        && in_journal.chars().all(|c| c.is_ascii_graphic());
+    if !plain {
+        bail!(
+            "{}: the journal names its {kind} profile as `{}`, which is not a profile name; a \
+             recovery never opens a file a journal names: name the profile the run used with \
+             --machine; nothing was sent",
+            journal_path.display(),
+            journal_named(in_journal)
+        );
+    }
+    Ok(in_journal.to_string())
+}
+
+/// How a journal's run stands, as a recovery says it (the stop's reason printed with its
+/// control characters written out).
+pub(super) fn run_state_words(state: stencil_grbl::RunState, reason: Option<&str>) -> String {
+    match state {
+        stencil_grbl::RunState::Running => {
+            "did not end (the sender was killed, crashed, or the power went)".to_string()
+        }
+        stencil_grbl::RunState::Stopped => format!(
+            "stopped: {}",
+            stencil_io::printable(reason.unwrap_or("(no reason recorded)"))
+        ),
+        stencil_grbl::RunState::Complete => "finished".to_string(),
+    }
+}
+
 /// The options that resume without a usable journal.
 pub(super) fn journal_hint(e: &JournalError) -> &'static str {
     match e {

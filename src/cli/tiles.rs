@@ -5,7 +5,7 @@ use clap::Args;
 
 use stencil_core::fit::Stock;
 use stencil_core::pipeline::MakeConfig;
-use stencil_core::tiles::{Grid, Tiled, TilesConfig, TilesError, DEFAULT_OVERLAP_MM};
+use stencil_core::tiles::{Grid, MarkPlace, Tiled, TilesConfig, TilesError, DEFAULT_OVERLAP_MM};
 
 /// `auto` or `CxR`.
 fn parse_grid(s: &str) -> Result<Grid, String> {
@@ -133,8 +133,14 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
     );
     for s in &r.seams {
         println!(
-            "  seam {} at {:.1} mm (within {:.1} mm): {:.1} mm long, {:.1} mm through the cut, {:.1} mm through features thinner than the material's smallest",
-            s.axis, s.at_mm, s.band_mm, s.length_mm, s.through_cut_mm, s.through_thin_mm
+            "  seam {} at {:.1} mm (within {:.1} mm): {:.1} mm long, {:.1} mm through the cut in {} run(s) (the earlier tile's strip bridges them), {:.1} mm through features thinner than the material's smallest",
+            s.axis,
+            s.at_mm,
+            s.band_mm,
+            s.length_mm,
+            s.through_cut_mm,
+            s.bridges_mm.len(),
+            s.through_thin_mm
         );
     }
     for tile in &r.tiles {
@@ -151,7 +157,7 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
             tile.pins_mm.len(),
             if tile.check_passed { "" } else { " (CHECK FAILED)" }
         );
-        for l in &tile.layers {
+        for l in tile.layers.iter().chain(&tile.fill_in) {
             println!(
                 "    {}: level {}, {} islands, {} bridges{}",
                 l.folder,
@@ -166,10 +172,24 @@ fn print_tiles(cfg: &MakeConfig, t: &Tiled) {
             );
         }
     }
+    let marks: usize = r.seams.iter().map(|s| s.marks.len()).sum();
+    let pads = r.seams.iter().flat_map(|s| &s.marks);
+    let pads = pads.filter(|m| m.place == MarkPlace::Pad).count();
     println!(
-        "tiles.png maps the seams and numbers the tiles in cutting order; registration pin holes {:.1} mm across on the seams (pin both tiles through them)",
-        r.pin_mm
+        "tiles.png maps the seams and numbers the tiles in cutting order; {marks} registration pin holes {:.1} mm across on the seams, each through both tiles (pin or tape them together there){}",
+        r.pin_mm,
+        if pads > 0 {
+            format!(", {pads} of them on a pad of material put into a dark part of the picture")
+        } else {
+            String::new()
+        }
     );
+    let unregistered: usize = r.seams.iter().map(|s| s.unregistered_segments).sum();
+    if unregistered > 0 {
+        eprintln!(
+            "warning: {unregistered} pair(s) of tiles have fewer than two registration pin holes (the overlap is too narrow for one, or thin features fill the seam): line them up by the picture (a wider --tile-overlap-mm makes room)"
+        );
+    }
 }
 
 #[cfg(test)]

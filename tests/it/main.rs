@@ -56,6 +56,8 @@ mod help_headings;
 mod hostile_options;
 mod hostile_parsers;
 mod hpgl;
+mod hpgl_send;
+mod hpgl_weed;
 mod jog;
 mod layers;
 mod machine;

@@ -354,12 +354,13 @@ fn gcode_with(dir: &Path, tag: &str, args: &[&str]) -> Result<String, String> {
     }
 }
 
-/// Where air assist goes on and off: the line indices of M8 and M9 and the first and last cut.
+/// Where air assist goes on and off: the line indices of M8 and M9 and the first and last cut
+/// (a line or an arc: a loop may start with either).
 fn air_lines(text: &str) -> (Vec<usize>, Vec<usize>, usize, usize) {
     let lines: Vec<&str> = text.lines().collect();
     let at = |w: &str| -> Vec<usize> { (0..lines.len()).filter(|&i| lines[i] == w).collect() };
     let cuts: Vec<usize> = (0..lines.len())
-        .filter(|&i| lines[i].starts_with("G1"))
+        .filter(|&i| ["G1", "G2 ", "G3 "].iter().any(|g| lines[i].starts_with(g)))
         .collect();
     (at("M8"), at("M9"), cuts[0], *cuts.last().unwrap())
 }

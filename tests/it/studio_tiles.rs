@@ -65,7 +65,9 @@ fn the_studio_shows_the_seams_and_a_moved_seam_is_makes_seam_x() {
     let (at1, band1, xs1) = vertical_seam(&s1["tiles"]);
     assert_eq!((at1, band1), (to, band));
     assert_ne!(xs1, xs, "the seam's path moved with its line");
-    let (lo, hi) = ((to - band) / mm, (to + band) / mm);
+    // The path is in the picture grown by the marks' band; the seam's line on the picture.
+    let off = s1["tiles"]["marks_band_px"].as_f64().unwrap();
+    let (lo, hi) = ((to - band) / mm + off, (to + band) / mm + off);
     for &x in &xs1 {
         assert!(
             x as f64 >= lo - 1.0 && x as f64 <= hi + 1.0,

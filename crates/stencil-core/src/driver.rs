@@ -30,7 +30,7 @@ use crate::report::Report;
 use crate::timing::Timings;
 use crate::tone::{self, mesh};
 
-pub use crate::pipeline::outputs::finish;
+pub use crate::pipeline::outputs::{finish, GeometryEdit};
 
 /// Why a run stopped without a result.
 #[derive(Debug, thiserror::Error)]
@@ -68,6 +68,9 @@ pub struct Tweaks<'a> {
     pub cost_gray: Option<&'a (dyn Fn(&Gray) -> Gray + Sync)>,
     /// Bridge every island, drop none.
     pub keep_all_islands: bool,
+    /// Applied to the traced geometry after the check, before any job is planned from it (a
+    /// tile's edge trimmed along its seams).
+    pub geometry: Option<&'a GeometryEdit<'a>>,
 }
 
 /// A set's change to a stage's output: `T` changed in place (or made, for `()`), knowing the
@@ -498,7 +501,13 @@ pub fn made_once(
     let b = bridged_once(cfg, start, tweaks, Timings::new(cfg.progress.clone()))?;
     let cut = b.front.cleaned.twotone.bits.clone();
     Ok((
-        finish(cfg, &b.front.params, b.front.cleaned, b.joined, None)?,
+        outputs::finish_with(
+            cfg,
+            &b.front.params,
+            (b.front.cleaned, b.joined),
+            None,
+            tweaks.geometry,
+        )?,
         cut,
     ))
 }

@@ -78,7 +78,7 @@ pub use crate::limits::MAX_LAYERS;
 pub use config::LayersConfig;
 pub use kmeans::{KMEANS_ROUNDS, KMEANS_SAMPLES};
 pub use lab::{lab, srgb};
-pub use marks::Marks;
+pub use marks::{grown_bits, grown_gray, mark_sizes, Marks};
 pub use posterise::{
     multi_otsu, posterise, worth_a_sheet, Method, Tones, MIN_STEP_DELTA_E, MIN_STEP_L, MIN_TONE_PCT,
 };
@@ -291,7 +291,8 @@ pub struct Layered {
     pub report: SetReport,
 }
 
-fn hex(c: [u8; 3]) -> String {
+/// A colour as `#rrggbb`.
+pub(crate) fn hex(c: [u8; 3]) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
@@ -360,9 +361,7 @@ fn one_layer(
     let drops = std::sync::Mutex::new(SheetDrops::default());
     let also = |tt: &mut TwoTone, p: &StageParams| {
         if let Some(d) = darker {
-            for (b, &m) in tt.bits.data.iter_mut().zip(&d.data) {
-                *b &= m;
-            }
+            nest(&mut tt.bits, d);
         }
         if let Some(forced) = sheet {
             for &i in forced {
@@ -383,6 +382,7 @@ fn one_layer(
             .then_some(&cost as &(dyn Fn(&Gray) -> Gray + Sync)),
         keep_all_islands: true,
         two_tone: None,
+        geometry: None,
     };
     let start = Start::Source(Source::Picture(f.source_gray.clone()));
     let (mut made, cut) = driver::made_once(&cfg, &start, &tweaks)?;
@@ -556,17 +556,15 @@ fn cost_gray(gray: &Gray, covered: &BitGrid) -> Gray {
     Gray::from_data(gray.width, gray.height, data.collect())
 }
 
-/// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
-/// fill-in), in memory.
-pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
+/// A set's tones: the picture read (a mesh or an inverted picture refused), its colours
+/// clustered when it has any and no levels were given, posterised (see the module notes). Every
+/// set's, tiled or not, so a tiled set's layers are the untiled set's.
+pub(crate) fn tones_of(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Tones, Error> {
     if source::is_mesh_path(&cfg.input) {
         return Err(LayersError::Mesh.into());
     }
     if cfg.tone.invert {
         return Err(LayersError::Invert.into());
-    }
-    if cfg.keep_out.is_some() {
-        return Err(LayersError::KeepOut.into());
     }
     let sp = pipeline::SourceParams::of(cfg)?;
     let source::Input::Picture(luma) = source::load(&cfg.input, &sp)? else {
@@ -577,20 +575,64 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
     } else {
         None
     };
-    let tones = posterise(&luma, rgb.as_deref(), lc)?;
-    drop(rgb);
-    let (w, h) = (luma.width, luma.height);
+    // The picture adjusted as any stencil's (crop, turns, tones: the layers start from it, past
+    // the stage that adjusts), its colours cropped and turned with it.
+    let pic = source::Input::Picture(luma.clone());
+    let Source::Picture(adjusted) = source::light(&pic, None, &sp)? else {
+        return Err(LayersError::Mesh.into());
+    };
+    let rgb = match (&sp, rgb) {
+        (pipeline::SourceParams::Picture { adjust, .. }, Some(rgb)) => {
+            let shape = crate::tone::Adjust {
+                crop_px: adjust.crop_px,
+                quarter_turns: adjust.quarter_turns,
+                ..Default::default()
+            };
+            if shape.is_identity() {
+                Some(rgb)
+            } else {
+                let channel = |k: usize| {
+                    let g = Gray::from_data(
+                        luma.width,
+                        luma.height,
+                        rgb.iter().map(|c| c[k]).collect(),
+                    );
+                    shape.apply(&g)
+                };
+                let [r, g, b] = [0, 1, 2].map(channel);
+                Some(
+                    (0..r.data.len())
+                        .map(|i| [r.data[i], g.data[i], b.data[i]])
+                        .collect(),
+                )
+            }
+        }
+        (_, rgb) => rgb,
+    };
+    Ok(posterise(&adjusted, rgb.as_deref(), lc)?)
+}
+
+/// The layers' nesting: what a darker layer cuts, a lighter one cuts too (`bits` keeps material
+/// only where `darker`, the darker layer's cleaned two-tone, has it), so a small
+/// misregistration leaves no unpainted gap between tones.
+pub(crate) fn nest(bits: &mut BitGrid, darker: &BitGrid) {
+    for (b, &m) in bits.data.iter_mut().zip(&darker.data) {
+        *b &= m;
+    }
+}
+
+/// `make` for a set (`lc.count` layers, or one layer with registration marks and perhaps a
+/// fill-in), in memory.
+pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
+    if cfg.keep_out.is_some() {
+        return Err(LayersError::KeepOut.into());
+    }
+    let tones = tones_of(cfg, lc)?;
+    let (w, h) = (tones.luma.width, tones.luma.height);
     let scale = cfg.physical.scale(w, h)?;
     let marks = Marks::new(w, h, scale.mm_per_px, cfg.physical.material.min_feature_mm);
     // The layers' gray, grown by the band (white: material).
-    let b = marks.band_px;
-    let (pw, ph) = (w + 2 * b, h + 2 * b);
-    let mut padded = Gray::new(pw, ph, 1.0);
-    for y in 0..h {
-        let src = &tones.gray.data[(y * w) as usize..((y + 1) * w) as usize];
-        let at = ((y + b) * pw + b) as usize;
-        padded.data[at..at + w as usize].copy_from_slice(src);
-    }
+    let padded = grown_gray(&tones.gray, marks.band_px);
     let mut lcfg = cfg.clone();
     lcfg.physical.size = Size::Dpi(25.4 / scale.mm_per_px);
     // The registration marks are cut in every layer; the mask's own corner marks would be a
@@ -643,6 +685,28 @@ pub fn run(cfg: &MakeConfig, lc: &LayersConfig) -> Result<Layered, Error> {
 /// paints, marks and band as every sheet of the set; then the same clean-up, bridges, trace and
 /// check as any stencil. Returns it with the bridge pixels it was made for.
 fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error> {
+    let stamp = |bits: &mut BitGrid, p: &StageParams| {
+        f.marks.stamp(
+            bits,
+            f.marks.band_px * p.working.factor,
+            p.working.scale.mm_per_px,
+        )
+    };
+    let start = Start::Source(Source::Picture(f.source_gray.clone()));
+    fill_in_with(&f.cfg, &start, first, &stamp, None)
+}
+
+/// The fill-in of a first stencil `first` (with its two-tone after the clean-up), made by
+/// `cfg` from `start` (which sizes it) with `stamp` putting the sheet's own parts into its
+/// two-tone (an untiled set's band and marks, a tile's window and marks) and `geometry` changing
+/// its traced geometry (a tile's edge): see [`fill_in`].
+pub(crate) fn fill_in_with(
+    cfg: &MakeConfig,
+    start: &Start,
+    first: &(Made, BitGrid),
+    stamp: &Edit<'_, BitGrid, ()>,
+    geometry: Option<&driver::GeometryEdit<'_>>,
+) -> Result<(Made, BitGrid), Error> {
     let (m, cut) = first;
     let stencil = &m.bridged.bits;
     let (w, h) = (stencil.width, stencil.height);
@@ -650,13 +714,14 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
     for (s, &c) in hidden.data.iter_mut().zip(&cut.data) {
         *s &= !c;
     }
-    let mut cfg = f.cfg.clone();
+    let mut cfg = cfg.clone();
     cfg.tone.threshold = Threshold::Level(128);
+    let min_feature = cfg.physical.material.min_feature_mm;
     let draw = |_: &mut (), p: &StageParams| -> TwoTone {
         let mm = p.working.scale.mm_per_px;
         // Grown into the first stencil's cut, 4-neighbour steps.
         let mut grown = hidden.clone();
-        let reach = FILL_IN_OVERLAP_MM.max(f.cfg.physical.material.min_feature_mm);
+        let reach = FILL_IN_OVERLAP_MM.max(min_feature);
         for _ in 0..(reach / mm).round() as u32 {
             let prev = grown.clone();
             for (i, g) in grown.data.iter_mut().enumerate() {
@@ -666,8 +731,7 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         }
         let mut bits = grown;
         bits.data.iter_mut().for_each(|b| *b = !*b);
-        f.marks
-            .stamp(&mut bits, f.marks.band_px * p.working.factor, mm);
+        stamp(&mut bits, p);
         let gray = bits
             .data
             .iter()
@@ -707,9 +771,9 @@ fn fill_in(f: &Frame, first: &(Made, BitGrid)) -> Result<(Made, BitGrid), Error>
         after_clean: Some(&specks),
         cost_gray: Some(&cost),
         keep_all_islands: true,
+        geometry,
     };
-    let start = Start::Source(Source::Picture(f.source_gray.clone()));
-    let (made, _) = driver::made_once(&cfg, &start, &tweaks)?;
+    let (made, _) = driver::made_once(&cfg, start, &tweaks)?;
     Ok((made, hidden))
 }
 

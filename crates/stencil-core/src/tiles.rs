@@ -15,16 +15,20 @@
 //! tiles lie on each other), and cut beyond the strip (the *window*, where the neighbour's part
 //! shows through; its bridges cost there as over black, so none is put in it). That two-tone
 //! goes through `make`'s stages as any stencil's (islands, bridges, trace, check, repair), its
-//! registration pin holes cut into it.
+//! registration marks cut into it.
 //!
 //! So, laid back at their places, the tiles paint what the whole stencil paints outside the
 //! overlaps around the seams (up to their own bridges, each tile bridging its own islands), and
 //! nothing inside them: where a seam crosses the cut, the two strips are the seam's bridge.
 //!
 //! ## Registration
-//! Up to two pin holes on each seam, at a third and two thirds of its length where the whole
-//! stencil is material around them, cut into both tiles at the same place: push a pin through
-//! both (or tape over them) and the tiles line up.
+//! The layers' marks (`layers::Marks`), one set for the whole tiled stencil: the picture grows by
+//! their band of material on every side, its corner crosses on the corner tiles, and the pin
+//! holes sit on the seams, each centred on a seam so that both tiles of it carry it at the same
+//! place on the wall (one half in its own picture, the other in its strip): push a pin through
+//! both, or tape over them. Every pair of tiles a seam parts gets two at least (see `seams`):
+//! in the band where the seam reaches it, where the picture is material around, or else on a
+//! pad of material put into the picture. With layers, every layer of a tile carries them.
 
 use std::sync::Arc;
 
@@ -33,12 +37,14 @@ use serde::Serialize;
 use crate::driver::{self, Start, Tweaks};
 use crate::export::{self, png};
 use crate::fit::Stock;
+use crate::layers::{grown_bits, grown_gray, Marks};
 use crate::limits::{MAX_TILES_PER_SIDE, MAX_TILE_OVERLAP_MM, MIN_TILE_OVERLAP_MM};
 use crate::pipeline::{self, files, source, Error, Made, MakeConfig, Source, StageParams};
-use crate::raster::{squared_distance, BitGrid, Gray, TwoTone};
+use crate::raster::{squared_distance, squared_distance_to, BitGrid, Gray, TwoTone};
 use crate::tone::Threshold;
 use crate::units::Size;
 
+mod edge;
 mod layout;
 mod map;
 mod seams;
@@ -46,7 +52,7 @@ mod seams;
 pub use crate::error::TilesError;
 pub use layout::{Grid, MAX_BAND_MM, MIN_BAND_MM};
 pub use map::MAP_MAX_PX;
-pub use seams::{Crossing, Seams, CROSS_CUT, DIAGONAL, NEAR_EDGE};
+pub use seams::{Crossing, MarkPlace, Seams, CROSS_CUT, DIAGONAL, NEAR_EDGE};
 
 /// The overlap past each seam when none is given, mm.
 pub const DEFAULT_OVERLAP_MM: f64 = 2.0;
@@ -87,11 +93,13 @@ impl Default for TilesConfig {
 pub struct SeamReport {
     /// "vertical" or "horizontal".
     pub axis: &'static str,
-    /// Its straight line, mm from the picture's left (vertical) or top edge.
+    /// Its straight line, mm from the picture's left (vertical) or top edge (what the seam
+    /// options take).
     pub at_mm: f64,
     /// How far it could wander each way, mm.
     pub band_mm: f64,
-    /// Its path, mm in the whole picture: a point where its direction changes, and its ends.
+    /// Its path, mm in the whole grown picture (the picture and the marks' band around it, as
+    /// the tiles' places): a point where its direction changes, and its ends.
     pub points_mm: Vec<[f64; 2]>,
     /// The same in working pixels: `[across, along]`... as `[x, y]`.
     pub points_px: Vec<[u32; 2]>,
@@ -101,6 +109,28 @@ pub struct SeamReport {
     pub through_thin_mm: f64,
     /// Its length, mm.
     pub length_mm: f64,
+    /// Where it runs through the cut (its bridges: the earlier tile's strip, one overlap wide,
+    /// stays unpainted there), each as the seam's first and last point in the run, mm in the
+    /// whole grown picture.
+    pub bridges_mm: Vec<[[f64; 2]; 2]>,
+    /// Its registration pin holes, each cut into both tiles of its segment.
+    pub marks: Vec<SeamMarkReport>,
+    /// Its segments (one per pair of tiles it parts) with fewer than two marks: none, unless
+    /// the picture left no place at all (a segment too short, or thin features all along it).
+    pub unregistered_segments: usize,
+}
+
+/// A registration pin hole on a seam.
+#[derive(Clone, Debug, Serialize)]
+pub struct SeamMarkReport {
+    /// Which pair of tiles along the seam (from 1: the first row's or column's).
+    pub segment: usize,
+    /// Its centre, mm in the whole grown picture.
+    pub at_mm: [f64; 2],
+    /// `clear` (the picture is material around it), `band` (in the band around the picture) or
+    /// `pad` (a ring of material put into the picture for it, where it changes the fewest
+    /// pixels).
+    pub place: MarkPlace,
 }
 
 /// One tile's report.
@@ -128,25 +158,33 @@ pub struct TileReport {
     pub box_px: [u32; 4],
     /// Its pin holes' centres, mm from its picture's top-left corner.
     pub pins_mm: Vec<[f64; 2]>,
+    /// Its registration crosses' centres (in the band, on a corner tile), mm from the same.
+    pub crosses_mm: Vec<[f64; 2]>,
     /// Islands before bridging (of every layer).
     pub islands: usize,
     /// Bridges made (in every layer).
     pub bridges: usize,
     /// Whether its stencil (every layer's) passed the check.
     pub check_passed: bool,
-    /// Its layers, light to dark, when the picture is cut in layers.
+    /// Its layers, light to dark, when the picture is cut in layers (one layer: its stencil is
+    /// the tile's folder itself).
     pub layers: Vec<TileLayerReport>,
+    /// Its fill-in stencil (which paints what its bridges hide), when one was asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill_in: Option<TileLayerReport>,
 }
 
-/// One layer of a tile.
+/// One layer of a tile, or its fill-in.
 #[derive(Clone, Debug, Serialize)]
 pub struct TileLayerReport {
-    /// 1 = the first sprayed (lightest paint).
+    /// 1 = the first sprayed (lightest paint); a fill-in is sprayed second, in the first's paint.
     pub layer: u32,
     /// Its folder, in the output folder.
     pub folder: String,
     /// It cuts where the picture's gray is below this 8-bit level.
     pub level: u8,
+    /// Its paint colour, `#rrggbb` (the untiled set's layer's).
+    pub color: String,
     /// Islands before bridging.
     pub islands: usize,
     /// Bridges made.
@@ -162,22 +200,34 @@ pub struct TilesReport {
     pub input: String,
     /// Tiles across and down.
     pub grid: [u32; 2],
-    /// The whole picture, mm.
+    /// The whole grown picture (the picture and the marks' band around it), mm.
     pub width_mm: f64,
     /// As above.
     pub height_mm: f64,
     /// Millimetres per working pixel.
     pub mm_per_px: f64,
-    /// The whole picture in working pixels.
+    /// The whole grown picture in working pixels.
     pub size_px: [u32; 2],
+    /// The band of material around the picture holding the registration marks, mm: the
+    /// picture's top-left corner lies this far right and down in the grown picture.
+    pub marks_band_mm: f64,
+    /// The same in working pixels.
+    pub marks_band_px: u32,
     /// Each tile's strip past its seams, mm.
     pub overlap_mm: f64,
     /// The stock each tile fits (name, width, height), when there is one.
     pub stock: Option<(String, f64, f64)>,
     /// The sheet's margin around each tile's picture, mm.
     pub margin_mm: f64,
-    /// Diameter of the registration pin holes, mm (0: none).
+    /// Diameter of the registration pin holes, mm (0: none: the overlap is too narrow to hold
+    /// them).
     pub pin_mm: f64,
+    /// The registration marks, mm in the whole grown picture: the corner crosses in the band,
+    /// the pin holes on the seams (see the seams' marks).
+    pub marks: Marks,
+    /// The surface's colour, `#rrggbb`, when the picture is cut in layers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_color: Option<String>,
     /// The seams.
     pub seams: Vec<SeamReport>,
     /// The tiles, in cutting order.
@@ -211,7 +261,7 @@ pub fn tile_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     for f in (1..=most).flat_map(|r| (1..=most).map(move |c| tile_folder(r, c))) {
         let t = dir.join(f);
         if t.join("report.json").is_file() {
-            v.push(t);
+            v.extend(crate::layers::stencil_folders(&t));
         } else if t.is_dir() {
             v.extend(
                 crate::layers::stencil_folders(&t)
@@ -243,48 +293,43 @@ enum Part {
     Strip,
     /// Beyond: cut (the neighbour shows through).
     Window,
+    /// Within the overlap past a seam to an earlier tile (left or above), deep in a dark part
+    /// of the picture: the whole stencil's two-tone (cut), so that spraying this tile paints
+    /// the overlap (the earlier tile's strip holds that one there).
+    Open,
 }
 
-/// A tile: its box in working pixels of the whole picture, what each pixel is, its pins.
+/// A tile: its box in working pixels of the whole picture, what each pixel is, its marks.
 struct Tile {
     row: u32,
     col: u32,
+    /// The grid's rows and columns (a tile on its last row or column has an outer side there).
+    rows: u32,
+    cols: u32,
     /// x, y, w, h in working px (on whole input pixels).
     bx: [u32; 4],
     parts: Vec<Part>,
-    /// Pin centres in the box.
-    pins: Vec<(u32, u32)>,
+    /// Its share of the registration marks (in the whole grown picture's mm).
+    marks: Marks,
+    /// Its box's top-left corner in the marks' mm.
+    origin_mm: [f64; 2],
+    /// Millimetres per working pixel.
+    mm: f64,
 }
 
 impl Tile {
-    /// Its two-tone from the whole one: region as it is, strip material, window cut, pins cut.
-    fn impose(&self, bits: &mut BitGrid, whole: &BitGrid, pin_r: f64) {
+    /// Its two-tone from the whole one: region as it is, strip material, window cut, marks cut.
+    fn impose(&self, bits: &mut BitGrid, whole: &BitGrid) {
         let [x0, y0, w, _] = self.bx;
         for (i, p) in self.parts.iter().enumerate() {
             let (x, y) = (i as u32 % w, i as u32 / w);
             bits.data[i] = match p {
-                Part::Region => whole.get(x0 + x, y0 + y),
+                Part::Region | Part::Open => whole.get(x0 + x, y0 + y),
                 Part::Strip => true,
                 Part::Window => false,
             };
         }
-        let r = pin_r.ceil() as i64;
-        for &(cx, cy) in &self.pins {
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let (x, y) = (cx as i64 + dx, cy as i64 + dy);
-                    let inside = ((dx * dx + dy * dy) as f64) <= pin_r * pin_r;
-                    if inside
-                        && x >= 0
-                        && y >= 0
-                        && (x as u32) < bits.width
-                        && (y as u32) < bits.height
-                    {
-                        bits.set(x as u32, y as u32, false);
-                    }
-                }
-            }
-        }
+        self.marks.cut(bits, self.origin_mm, self.mm);
     }
 }
 
@@ -296,6 +341,7 @@ fn tile(
     (w, h): (u32, u32),
     (ov, window): (u32, u32),
     factor: u32,
+    (whole, min_px): (&BitGrid, f64),
 ) -> Tile {
     let lo = |s: Option<&Vec<u32>>| s.map_or(0, |s| *s.iter().min().unwrap_or(&0));
     let hi = |s: Option<&Vec<u32>>, end: u32| s.map_or(end, |s| *s.iter().max().unwrap_or(&end));
@@ -314,15 +360,26 @@ fn tile(
     // Outside the box is no one's: the strip reaches only from the region.
     let d2 = squared_distance(&region, true, false);
     let reach = (ov * ov) as f32;
+    // How far the whole stencil's material is (outside the box counts as material).
+    let material = BitGrid::from_fn(bw, bh, |x, y| whole.get(x0 + x, y0 + y));
+    let to_material = squared_distance_to(&material, true);
+    let dark = (min_px * min_px) as f32;
     let parts = region
         .data
         .iter()
         .zip(&d2)
-        .map(|(&own, &d)| {
+        .enumerate()
+        .map(|(i, (&own, &d))| {
             if own {
                 Part::Region
             } else if d <= reach {
-                Part::Strip
+                let (gx, gy) = (x0 + i as u32 % bw, y0 + i as u32 / bw);
+                let earlier = seams.col(gx, gy) < c || seams.row(gx, gy) < r;
+                if earlier && to_material[i] >= dark {
+                    Part::Open
+                } else {
+                    Part::Strip
+                }
             } else {
                 Part::Window
             }
@@ -331,9 +388,13 @@ fn tile(
     Tile {
         row: r as u32 + 1,
         col: c as u32 + 1,
+        rows: seams.ys.len() as u32 + 1,
+        cols: seams.xs.len() as u32 + 1,
         bx: [x0, y0, bw, bh],
         parts,
-        pins: Vec::new(),
+        marks: Marks::new(1, 1, 1.0, 1.0).with_pins(0.0, Vec::new()),
+        origin_mm: [0.0; 2],
+        mm: 1.0,
     }
 }
 
@@ -384,45 +445,44 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
             .into());
         }
     }
-    // The whole picture, rendered once: a mesh drawn and lit, a picture adjusted.
-    let sp = pipeline::SourceParams::of(cfg)?;
-    let input = source::load(&cfg.input, &sp)?;
-    let drawn = source::draw(&input, &sp)?;
-    let mut src = source::light(&input, drawn.as_deref(), &sp)?;
-    drop((input, drawn));
-    // A set: the picture posterised (by its gray), one cleaned two-tone per layer.
-    let mut levels = Vec::new();
-    if let Some(lc) = &tc.layers {
-        let Source::Picture(g) = &src else {
-            return Err(crate::error::LayersError::Mesh.into());
-        };
-        if cfg.tone.invert {
-            return Err(crate::error::LayersError::Invert.into());
+    // The whole picture, rendered once: a mesh drawn and lit, a picture adjusted; a set's
+    // posterised as the untiled set's (its colours clustered), one cleaned two-tone per layer.
+    let (src, tones) = match &tc.layers {
+        Some(lc) => {
+            let tones = crate::layers::tones_of(cfg, lc)?;
+            let g = Arc::new(tones.gray.clone());
+            (Source::Picture(g), Some(tones))
         }
-        let tones = crate::layers::posterise(g, None, lc)?;
-        levels = tones.levels.clone();
-        src = Source::Picture(Arc::new(tones.gray));
-    }
-    let mut wholes = Vec::new();
-    let mut params = None;
+        None => {
+            let sp = pipeline::SourceParams::of(cfg)?;
+            let input = source::load(&cfg.input, &sp)?;
+            let drawn = source::draw(&input, &sp)?;
+            (source::light(&input, drawn.as_deref(), &sp)?, None)
+        }
+    };
+    let levels: Vec<u8> = tones.as_ref().map_or(Vec::new(), |t| t.levels.clone());
     let runs: Vec<Option<u8>> = if levels.is_empty() {
         vec![None]
     } else {
         levels.iter().copied().map(Some).collect()
     };
-    for l in runs {
+    // Darkest first, each lighter layer nested in the darker one's cut (as an untiled set's).
+    let mut wholes: Vec<pipeline::Cleaned> = Vec::with_capacity(runs.len());
+    let mut params = None;
+    for l in runs.iter().rev() {
         let mut lcfg = cfg.clone();
         if let Some(l) = l {
-            lcfg.tone.threshold = Threshold::Level(l);
+            lcfg.tone.threshold = Threshold::Level(*l);
         }
-        let (w, p) = driver::cleaned_from(&lcfg, &Start::Source(src.clone()))?;
+        let (mut w, p) = driver::cleaned_from(&lcfg, &Start::Source(src.clone()))?;
+        if let Some(darker) = wholes.last() {
+            crate::layers::nest(&mut w.twotone.bits, &darker.twotone.bits);
+        }
         wholes.push(w);
         params = Some(p);
     }
+    wholes.reverse();
     let params = params.expect("one run at least");
-    // The seams are chosen on the first layer's, which cuts the most (every later layer cuts
-    // part of what it cuts): through its material, they go through every layer's.
-    let whole = &wholes[0];
     let src_gray = match &src {
         Source::Picture(g) => Arc::clone(g),
         Source::Mesh(r) => Arc::new(r.gray.clone()),
@@ -430,8 +490,25 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
     drop(src);
     let factor = params.working.factor;
     let mm = params.working.scale.mm_per_px;
-    let bits = &whole.twotone.bits;
-    let (w, h) = (bits.width, bits.height);
+    let min_feature = cfg.physical.material.min_feature_mm;
+    // The registration marks' band of material around the whole picture (the layers' band, its
+    // corner crosses on the corner tiles): every tile's picture is drawn from the grown one.
+    let frame = Marks::new(
+        src_gray.width,
+        src_gray.height,
+        mm * factor as f64,
+        min_feature,
+    );
+    let band = frame.band_px * factor;
+    let band_mm = band as f64 * mm;
+    let src_gray = Arc::new(grown_gray(&src_gray, frame.band_px));
+    for w in &mut wholes {
+        w.twotone.bits = grown_bits(&w.twotone.bits, band);
+        w.twotone.gray = Arc::new(grown_gray(&w.twotone.gray, band));
+    }
+    // The seams are chosen on the first layer's, which cuts the most (every later layer cuts
+    // part of what it cuts): through its material, they go through every layer's.
+    let (w, h) = (wholes[0].twotone.bits.width, wholes[0].twotone.bits.height);
     let margin = cfg.physical.vector.margin_mm;
     let stock = tc.stock.as_ref().map(layout::stock_size);
     // The strip is the tile's frame along its seams: never narrower than a bridge may be.
@@ -441,7 +518,6 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
         ..tc.clone()
     };
     let ov_px = (tc.overlap_mm / mm).ceil() as u32;
-    let min_feature = cfg.physical.material.min_feature_mm;
     // A window is never narrower than the smallest feature (with two pixels to spare): a tile's
     // box reaches that far past its strip on a seam's side.
     let window_px = (min_feature / mm).ceil() as u32 + 2;
@@ -463,17 +539,31 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
         Grid::Auto => (None, None),
         Grid::Fixed { cols, rows } => (Some(cols), Some(rows)),
     };
-    let cols = side("vertical", w, stock.map(|s| s.0), count_x, &tc.seam_x_mm)?;
-    let rows = side("horizontal", h, stock.map(|s| s.1), count_y, &tc.seam_y_mm)?;
-    // Pin holes: as large as the layers' (three of their cross's lines) where the overlap holds
-    // them with the smallest feature to spare on each side.
-    let line = (2.0 * min_feature).max(1.0);
-    let pin_mm = (3.0 * line).min(2.0 * (tc.overlap_mm - min_feature));
+    // Seam places asked for are on the picture: the grown one's are a band further.
+    let shift = |v: &[f64]| v.iter().map(|x| x + band_mm).collect::<Vec<f64>>();
+    let cols = side(
+        "vertical",
+        w,
+        stock.map(|s| s.0),
+        count_x,
+        &shift(&tc.seam_x_mm),
+    )?;
+    let rows = side(
+        "horizontal",
+        h,
+        stock.map(|s| s.1),
+        count_y,
+        &shift(&tc.seam_y_mm),
+    )?;
+    // Pin holes: the layers' where the overlap holds them with the smallest feature to spare on
+    // each side (a pin hole on a seam is in both tiles: its far half in the strip).
+    let (line, _, layers_pin) = crate::layers::mark_sizes(min_feature);
+    let pin_mm = layers_pin.min(2.0 * (tc.overlap_mm - min_feature));
     let pin_mm = if pin_mm >= line { pin_mm } else { 0.0 };
     let pin_r = pin_mm / 2.0 / mm;
-    let (seams, crossings, pins) = seams::find(&seams::SeamRequest {
-        bits,
-        gray: &whole.twotone.gray,
+    let request = seams::SeamRequest {
+        bits: &wholes[0].twotone.bits,
+        gray: &wholes[0].twotone.gray,
         cols: &cols,
         rows: &rows,
         overlap_px: ov_px as f64,
@@ -483,11 +573,21 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
         } else {
             0.0
         },
-    });
+        band_px: band,
+    };
+    let (seams, crossings, alongs) = seams::find(&request);
+    let seam_marks = seams::place_marks(&seams, &alongs, &request);
+    let pad_px = request.pin_clear_px;
+    for w in &mut wholes {
+        seams::put_pads(&mut w.twotone.bits, &seam_marks, pad_px);
+    }
+    let at_mm = |(x, y): (u32, u32)| [(x as f64 + 0.5) * mm, (y as f64 + 0.5) * mm];
+    let marks = frame.with_pins(pin_mm, seam_marks.iter().map(|m| at_mm(m.at)).collect());
     let mut tiles: Vec<Tile> = Vec::new();
     for r in 0..rows.count as usize {
         for c in 0..cols.count as usize {
-            let mut t = tile((r, c), &seams, (w, h), (ov_px, window_px), factor);
+            let dark = (&wholes[0].twotone.bits, min_feature / mm);
+            let mut t = tile((r, c), &seams, (w, h), (ov_px, window_px), factor, dark);
             let [x0, y0, bw, bh] = t.bx;
             let (sw_mm, sh_mm) = (bw as f64 * mm + 2.0 * margin, bh as f64 * mm + 2.0 * margin);
             if let Some((stock_w, stock_h)) = stock {
@@ -503,33 +603,53 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
                     .into());
                 }
             }
-            t.pins = pins
-                .iter()
-                .filter(|&&(x, y)| x >= x0 && y >= y0 && x < x0 + bw && y < y0 + bh)
-                .filter(|&&(x, y)| t.parts[((y - y0) * bw + (x - x0)) as usize] != Part::Window)
-                .map(|&(x, y)| (x - x0, y - y0))
-                .collect();
+            // Its marks: the pins centred on its material, the crosses on its own picture.
+            let part = |[x, y]: [f64; 2]| {
+                let (px, py) = ((x / mm).floor(), (y / mm).floor());
+                let inside = px >= x0 as f64
+                    && py >= y0 as f64
+                    && px < (x0 + bw) as f64
+                    && py < (y0 + bh) as f64;
+                inside.then(|| t.parts[((py as u32 - y0) * bw + (px as u32 - x0)) as usize])
+            };
+            let pins = marks.pins_mm.iter().copied();
+            let pins = pins.filter(|&p| part(p).is_some_and(|p| p != Part::Window));
+            let crosses = marks.crosses_mm.iter().copied();
+            let crosses = crosses.filter(|&p| part(p) == Some(Part::Region));
+            t.marks = Marks {
+                pins_mm: pins.collect(),
+                crosses_mm: crosses.collect(),
+                ..marks.clone()
+            };
+            t.origin_mm = [x0 as f64 * mm, y0 as f64 * mm];
+            t.mm = mm;
             tiles.push(t);
         }
     }
+    let fill_in = tc.layers.as_ref().is_some_and(|lc| lc.fill_in) && wholes.len() == 1;
     let mut made = Vec::with_capacity(tiles.len());
     for t in &tiles {
-        let mut layers = Vec::with_capacity(wholes.len());
+        let mut layers = Vec::with_capacity(wholes.len() + 1);
         for whole in &wholes {
-            layers.push(one_tile(cfg, t, whole, &src_gray, (factor, mm), pin_r)?);
+            let sheets = one_tile(cfg, t, whole, &src_gray, (factor, band_mm), fill_in)?;
+            layers.extend(sheets);
         }
         made.push(layers);
     }
-    let geometry = (w, h, mm, pin_mm);
     let report = assess(
         cfg,
         tc,
         &tiles,
         &made,
-        (&seams, &crossings),
-        geometry,
+        Seamed {
+            seams: &seams,
+            crossings: &crossings,
+            marks: &seam_marks,
+            all_marks: &marks,
+        },
+        (w, h, mm, band),
         (&cols, &rows),
-        &levels,
+        tones.as_ref(),
     );
     let labels: Vec<(usize, (u32, u32))> = tiles
         .iter()
@@ -540,8 +660,9 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
             (i + 1, (x0 + bw / 2, y0 + bh / 2))
         })
         .collect();
+    let pins: Vec<(u32, u32)> = seam_marks.iter().map(|m| m.at).collect();
     let map = map::draw(&map::MapRequest {
-        bits,
+        bits: &wholes[0].twotone.bits,
         seams: &seams,
         overlap_px: ov_px,
         pins: &pins,
@@ -557,15 +678,17 @@ pub fn run(cfg: &MakeConfig, tc: &TilesConfig) -> Result<Tiled, Error> {
 /// One tile through `make`'s stages: its picture the whole one's in its box (it sizes the
 /// stencil and shows in its preview), its two-tone drawn from the whole cleaned one (so every
 /// tile agrees along the seams), cleaned again as any stencil's and imposed once more, bridged
-/// with the window as over black.
+/// with the window as over black; with `fill_in`, followed by its fill-in stencil (the layers'
+/// fill-in of its bridges, its window and marks as the tile's).
 fn one_tile(
     cfg: &MakeConfig,
     t: &Tile,
     whole: &pipeline::Cleaned,
     src_gray: &Gray,
-    (factor, mm): (u32, f64),
-    pin_r: f64,
-) -> Result<Made, Error> {
+    (factor, band_mm): (u32, f64),
+    fill_in: bool,
+) -> Result<Vec<Made>, Error> {
+    let mm = t.mm;
     let [x0, y0, bw, bh] = t.bx;
     let (ix0, iy0, iw, ih) = (x0 / factor, y0 / factor, bw / factor, bh / factor);
     let mut crop = Gray::new(iw, ih, 1.0);
@@ -579,8 +702,8 @@ fn one_tile(
     tcfg.tone.scale = Some(factor);
     tcfg.tone.threshold = Threshold::Level(whole.level);
     tcfg.tone.adjust = Default::default();
-    // The user's places, from the whole picture's corner to the tile's.
-    let (ox, oy) = (x0 as f64 * mm, y0 as f64 * mm);
+    // The user's places, from the picture's corner to the tile's.
+    let (ox, oy) = (x0 as f64 * mm - band_mm, y0 as f64 * mm - band_mm);
     for p in &mut tcfg.places.at_mm {
         p[0] -= ox;
         p[1] -= oy;
@@ -594,7 +717,7 @@ fn one_tile(
     let draw = |_: &mut (), p: &StageParams| -> TwoTone {
         debug_assert_eq!(p.working.factor, factor);
         let mut bits = BitGrid::new(bw, bh, true);
-        t.impose(&mut bits, wbits, pin_r);
+        t.impose(&mut bits, wbits);
         let mut g = Gray::new(bw, bh, 1.0);
         for y in 0..bh {
             let s = ((y0 + y) * wgray.width + x0) as usize;
@@ -606,7 +729,7 @@ fn one_tile(
             gray: Arc::new(g),
         }
     };
-    let again = |tt: &mut TwoTone, _: &StageParams| t.impose(&mut tt.bits, wbits, pin_r);
+    let again = |tt: &mut TwoTone, _: &StageParams| t.impose(&mut tt.bits, wbits);
     let cost = |g: &Gray| {
         let mut g = g.clone();
         for (v, p) in g.data.iter_mut().zip(&t.parts) {
@@ -616,16 +739,43 @@ fn one_tile(
         }
         g
     };
+    // Its edge along its seams (see `edge`).
+    let outer = [t.col == 1, t.row == 1, t.col == t.cols, t.row == t.rows];
+    let trim = |g: &mut crate::vector::CutGeometry| -> Result<(), Error> {
+        Ok(edge::trim(g, outer, mm / 2.0)?)
+    };
     let tweaks = Tweaks {
         two_tone: Some(&draw),
         after_threshold: None,
         after_clean: Some(&again),
         cost_gray: Some(&cost),
         keep_all_islands: cfg.places.keep_all_islands,
+        geometry: Some(&trim),
     };
     let start = Start::Source(Source::Picture(Arc::new(crop)));
-    let (made, _) = driver::made_once(&tcfg, &start, &tweaks)?;
-    Ok(made)
+    let (made, cut) = driver::made_once(&tcfg, &start, &tweaks)?;
+    if !fill_in {
+        return Ok(vec![made]);
+    }
+    let stamp = |bits: &mut BitGrid, _: &StageParams| {
+        for (b, p) in bits.data.iter_mut().zip(&t.parts) {
+            if *p == Part::Window {
+                *b = false;
+            }
+        }
+        t.marks.cut(bits, t.origin_mm, t.mm);
+    };
+    let first = (made, cut);
+    let (fill, _) = crate::layers::fill_in_with(&tcfg, &start, &first, &stamp, Some(&trim))?;
+    Ok(vec![first.0, fill])
+}
+
+/// The seams and their marks, for the report.
+struct Seamed<'a> {
+    seams: &'a Seams,
+    crossings: &'a [Crossing],
+    marks: &'a [seams::SeamMark],
+    all_marks: &'a Marks,
 }
 
 /// The report: the seams, and each tile's place, size and result.
@@ -635,31 +785,49 @@ fn assess(
     tc: &TilesConfig,
     tiles: &[Tile],
     made: &[Vec<Made>],
-    (seams, crossings): (&Seams, &[Crossing]),
-    (w, h, mm, pin_mm): (u32, u32, f64, f64),
+    seamed: Seamed,
+    (w, h, mm, band): (u32, u32, f64, u32),
     (cols, rows): (&layout::Side, &layout::Side),
-    levels: &[u8],
+    tones: Option<&crate::layers::Tones>,
 ) -> TilesReport {
     let margin = cfg.physical.vector.margin_mm;
+    let band_mm = band as f64 * mm;
+    let seams = seamed.seams;
     let mut seam_reports = Vec::new();
     let all = seams
         .xs
         .iter()
         .zip(&cols.centres_px)
-        .map(|(p, &c)| (true, p, c, cols.band_px))
+        .map(|(p, &c)| (true, p, c, cols.band_px, rows.count))
         .chain(
             seams
                 .ys
                 .iter()
                 .zip(&rows.centres_px)
-                .map(|(p, &c)| (false, p, c, rows.band_px)),
+                .map(|(p, &c)| (false, p, c, rows.band_px, cols.count)),
         );
-    for ((vertical, path, centre, band), cr) in all.zip(crossings) {
+    for (k, ((vertical, path, centre, wander, segments), cr)) in
+        all.zip(seamed.crossings).enumerate()
+    {
         let points_px = corners(path, vertical);
+        let marks: Vec<SeamMarkReport> = seamed
+            .marks
+            .iter()
+            .filter(|m| m.seam == k)
+            .map(|m| SeamMarkReport {
+                segment: m.segment + 1,
+                at_mm: [(m.at.0 as f64 + 0.5) * mm, (m.at.1 as f64 + 0.5) * mm],
+                place: m.place,
+            })
+            .collect();
+        let unregistered = (1..=segments as usize)
+            .filter(|&s| marks.iter().filter(|m| m.segment == s).count() < 2)
+            .count();
         seam_reports.push(SeamReport {
             axis: if vertical { "vertical" } else { "horizontal" },
-            at_mm: centre as f64 * mm,
-            band_mm: band as f64 * mm,
+            // On the picture, as the seam options take it (whole pixels first: no rounding).
+            at_mm: centre.saturating_sub(band) as f64 * mm,
+            band_mm: wander as f64 * mm,
             points_mm: points_px
                 .iter()
                 .map(|&[x, y]| [x as f64 * mm, y as f64 * mm])
@@ -668,14 +836,42 @@ fn assess(
             through_cut_mm: cr.cut_px as f64 * mm,
             through_thin_mm: cr.thin_px as f64 * mm,
             length_mm: cr.len_px as f64 * mm,
+            bridges_mm: cr
+                .runs
+                .iter()
+                .map(|&(a, b)| {
+                    let at = |st: u32| {
+                        let across = path[st as usize] as f64 + 0.5;
+                        let along = st as f64 + 0.5;
+                        if vertical {
+                            [across * mm, along * mm]
+                        } else {
+                            [along * mm, across * mm]
+                        }
+                    };
+                    [at(a), at(b)]
+                })
+                .collect(),
+            marks,
+            unregistered_segments: if seamed.all_marks.pin_mm > 0.0 {
+                unregistered
+            } else {
+                segments as usize
+            },
         });
     }
+    let levels: &[u8] = tones.map_or(&[], |t| &t.levels);
     let tile_reports: Vec<TileReport> = tiles
         .iter()
         .zip(made)
         .enumerate()
         .map(|(i, (t, m))| {
             let [x0, y0, bw, bh] = t.bx;
+            let rel = |v: &Vec<[f64; 2]>| {
+                v.iter()
+                    .map(|&[x, y]| [x - t.origin_mm[0], y - t.origin_mm[1]])
+                    .collect()
+            };
             TileReport {
                 number: i + 1,
                 row: t.row,
@@ -687,22 +883,35 @@ fn assess(
                 height_mm: bh as f64 * mm,
                 sheet_mm: [bw as f64 * mm + 2.0 * margin, bh as f64 * mm + 2.0 * margin],
                 box_px: t.bx,
-                pins_mm: t
-                    .pins
-                    .iter()
-                    .map(|&(x, y)| [(x as f64 + 0.5) * mm, (y as f64 + 0.5) * mm])
-                    .collect(),
+                pins_mm: rel(&t.marks.pins_mm),
+                crosses_mm: rel(&t.marks.crosses_mm),
                 islands: m.iter().map(|m| m.report.islands).sum(),
                 bridges: m.iter().map(|m| m.bridged.bridges.len()).sum(),
                 check_passed: m.iter().all(|m| m.check.passed()),
+                fill_in: (m.len() > levels.len().max(1)).then(|| {
+                    let f = &m[m.len() - 1];
+                    TileLayerReport {
+                        layer: 2,
+                        folder: format!("{}/fill-in", tile_folder(t.row, t.col)),
+                        level: 128,
+                        color: tones.map_or(String::new(), |t| crate::layers::hex(t.colors[1])),
+                        islands: f.report.islands,
+                        bridges: f.bridged.bridges.len(),
+                        check_passed: f.check.passed(),
+                    }
+                }),
                 layers: levels
                     .iter()
                     .zip(m)
                     .enumerate()
                     .map(|(k, (&level, m))| TileLayerReport {
                         layer: k as u32 + 1,
-                        folder: format!("{}/layer-{}", tile_folder(t.row, t.col), k + 1),
+                        folder: match crate::layers::layer_folder(k + 1, levels.len()) {
+                            f if f.is_empty() => tile_folder(t.row, t.col),
+                            f => format!("{}/{f}", tile_folder(t.row, t.col)),
+                        },
                         level,
+                        color: tones.map_or(String::new(), |t| crate::layers::hex(t.colors[k + 1])),
                         islands: m.report.islands,
                         bridges: m.bridged.bridges.len(),
                         check_passed: m.check.passed(),
@@ -718,13 +927,17 @@ fn assess(
         height_mm: h as f64 * mm,
         mm_per_px: mm,
         size_px: [w, h],
+        marks_band_mm: band_mm,
+        marks_band_px: band,
         overlap_mm: tc.overlap_mm,
         stock: tc.stock.as_ref().map(|s| {
             let (sw, sh) = layout::stock_size(s);
             (s.to_string(), sw, sh)
         }),
         margin_mm: margin,
-        pin_mm,
+        pin_mm: seamed.all_marks.pin_mm,
+        marks: seamed.all_marks.clone(),
+        surface_color: tones.map(|t| crate::layers::hex(t.colors[0])),
         seams: seam_reports,
         cutting_order: tile_reports.iter().map(|t| t.folder.clone()).collect(),
         tiles: tile_reports,
@@ -735,11 +948,18 @@ fn assess(
 /// The files of a tiled stencil, by name: each tile's files as `make` writes them in its
 /// folder, tiles.png and report.json.
 pub fn encode(t: &mut Tiled, cfg: &MakeConfig) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    // Every tile cuts the registration marks: a mask's own corner marks would be a second set.
+    let mut phys = cfg.physical.clone();
+    phys.mask.marks = false;
     let mut files = Vec::new();
     for (ms, r) in t.tiles.iter_mut().zip(&t.report.tiles) {
         for (k, m) in ms.iter_mut().enumerate() {
-            let folder = r.layers.get(k).map_or(&r.folder, |l| &l.folder);
-            for (name, bytes) in files::encode_outputs(m, &cfg.physical)? {
+            let folder = match (r.layers.get(k), &r.fill_in) {
+                (Some(l), _) => &l.folder,
+                (None, Some(f)) if k > 0 => &f.folder,
+                _ => &r.folder,
+            };
+            for (name, bytes) in files::encode_outputs(m, &phys)? {
                 files.push((format!("{folder}/{name}"), bytes));
             }
         }

@@ -8,12 +8,14 @@
 //! arcs directly to the polygon gives one geometry that every writer carries exactly, within one
 //! tolerance.
 //!
-//! How: a traced outline (fitted with its [`Sides`]) is fitted twice, and the one that costs the
-//! machine less is kept (pieces plus corners turning more than 15 degrees, a corner costing as
-//! much as a piece: the machine slows there, and a kerf offset adds a join): the
+//! How: a traced outline (fitted with its [`Sides`]) is fitted three ways, and the one that costs
+//! the machine least is kept (pieces plus corners turning more than 15 degrees, a corner costing
+//! as much as a piece: the machine slows there, and a kerf offset adds a join): the
 //! tangent-continuous arc spline of the `smooth` module (pieces meeting with the same tangent
-//! except at corners, ends within the tolerance of vertices), and round 3's fit below. A ring a
-//! writer fits again (one a later step changed, without sides) gets round 3's fit only.
+//! except at corners, ends within the tolerance of vertices), the same module's loose chain
+//! (each piece the least-squares arc from the last one's end, joints turning by a few degrees),
+//! and round 3's fit below. A ring a writer fits again (one a later step changed, without sides)
+//! gets round 3's fit only.
 //!
 //! Round 3's fit: greedy, from the ring's first point, each piece runs from one polygon vertex to a
 //! later one, as far as an arc (or a line) stays within the tolerance of every vertex and every
@@ -127,9 +129,13 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
         return own;
     }
     let smooth = smooth::fit(ring, tol, sides, bounds, MAX_RUN, free);
+    let loose = smooth::fit_loose(ring, tol, sides, bounds, MAX_RUN, free);
     // The tangent-continuous pieces where they cost no more than the others: a kink costs as
     // much as a piece (the machine slows there, and a kerf offset adds a join).
     let cost = |p: &[Piece]| p.len() + smooth::kinks(p);
+    if cost(&loose) < cost(&smooth).min(cost(&own)) {
+        return loose;
+    }
     if cost(&smooth) <= cost(&own) {
         smooth
     } else {
@@ -292,12 +298,53 @@ fn kept_sides(
 /// Why those extremes: the polygon's box is then the arcs' own box, so a job placed by its
 /// polygons' box is placed by what the head really cuts, and no arc of it reaches outside.
 pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
+    flatten_clear(pieces, tol, &[])
+}
+
+/// [`flatten`], and no point of `keep` changes sides: where a point lies between an arc and its
+/// chords (inside the arc's circle, within `tol` of it, in its sweep), the arc also gets a vertex
+/// on it at the point's angle. Without such points the polygon is [`flatten`]'s to the bit.
+///
+/// Why: the fit keeps the pixel centres beside a traced outline on their sides of the curve, but
+/// only by a hair (a fixed clearance as wide as the chords' sagitta cost a large smooth circle its
+/// few long arcs: its pixel centres come that close to the circle somewhere on every turn). A
+/// chord cuts only inside its arc's circle, and the two chords meeting at a vertex on the arc at
+/// a point's angle both pass outside the point (the point is on the radius through their common
+/// end, farther in), so the polygon separates the same pixel centres as the curve.
+pub fn flatten_clear(pieces: &[Piece], tol: f64, keep: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let n = pieces.len();
     let mut out = Vec::with_capacity(n);
     for (k, p) in pieces.iter().enumerate() {
         out.push(p.from);
         let to = pieces[(k + 1) % n].from;
         if let Some(arc) = arc_of(p.from, to, p.bulge) {
+            // The sweep's fractions (0..1, exclusive) where a point of `keep` lies between the
+            // arc and its chords.
+            let mut extra: Vec<f64> = if keep.is_empty() {
+                Vec::new()
+            } else {
+                let bx = arc_box(&arc, p.from, to);
+                keep.iter()
+                    .filter(|q| {
+                        q[0] >= bx[0] && q[0] <= bx[2] && q[1] >= bx[1] && q[1] <= bx[3] && {
+                            let d = dist(**q, arc.center);
+                            d < arc.radius && d >= arc.radius - tol
+                        }
+                    })
+                    .filter_map(|q| {
+                        let ang = (q[1] - arc.center[1]).atan2(q[0] - arc.center[0]);
+                        let f = if arc.sweep > 0.0 {
+                            (ang - arc.start_angle).rem_euclid(std::f64::consts::TAU)
+                        } else {
+                            (arc.start_angle - ang).rem_euclid(std::f64::consts::TAU)
+                        } / arc.sweep.abs();
+                        (f > 0.0 && f < 1.0).then_some(f)
+                    })
+                    .collect()
+            };
+            extra.sort_by(f64::total_cmp);
+            extra.dedup();
+            let mut extra = extra.into_iter().peekable();
             let step = if tol > 0.0 && tol < arc.radius {
                 2.0 * (1.0 - tol / arc.radius).acos()
             } else {
@@ -310,16 +357,35 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
                 .iter()
                 .map(|&(a, q)| (a, Some(q)))
                 .chain([(arc.start_angle + arc.sweep, None)]);
+            let on = |a: f64| {
+                [
+                    arc.center[0] + arc.radius * a.cos(),
+                    arc.center[1] + arc.radius * a.sin(),
+                ]
+            };
+            let frac = |a: f64| (a - arc.start_angle) / arc.sweep;
             for (a1, q) in ends {
                 let count = ((a1 - a0).abs() / step).ceil().clamp(1.0, 1e5) as usize;
-                for s in 1..count {
+                for s in 1..=count {
                     let a = a0 + (a1 - a0) * s as f64 / count as f64;
-                    out.push([
-                        arc.center[0] + arc.radius * a.cos(),
-                        arc.center[1] + arc.radius * a.sin(),
-                    ]);
+                    // The points' vertices before the next regular one (or the part's end).
+                    let upto = if s < count { frac(a) } else { frac(a1) };
+                    // Whether the last vertex is a point's (a regular one equal to it is
+                    // not pushed again).
+                    let mut points = false;
+                    while let Some(f) = extra.next_if(|&f| f < upto) {
+                        let v = on(arc.start_angle + arc.sweep * f);
+                        if out.last() != Some(&v) {
+                            out.push(v);
+                            points = true;
+                        }
+                    }
+                    if s < count && !(points && out.last() == Some(&on(a))) {
+                        out.push(on(a));
+                    }
                 }
                 if let Some(q) = q {
+                    extra.next_if(|&f| f == frac(a1));
                     out.push(q);
                 }
                 a0 = a1;

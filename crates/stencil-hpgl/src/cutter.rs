@@ -137,6 +137,10 @@ pub struct Cutter {
     pub timing: Timing,
     /// Buffer clears (`ESC.K`) received.
     pub clears: usize,
+    /// What it ran, byte for byte, when kept (`Some`): the record a dry run can write out.
+    pub log: Option<Vec<u8>>,
+    /// Where the last instruction run starts in `log`: the one a power loss interrupts.
+    last_run_at: usize,
 }
 
 impl Cutter {
@@ -169,6 +173,8 @@ impl Cutter {
             not_drawn: BTreeMap::new(),
             timing: Timing::default(),
             clears: 0,
+            log: None,
+            last_run_at: 0,
         }
     }
 
@@ -259,9 +265,31 @@ impl Cutter {
             return Ok(false);
         };
         let bytes: Vec<u8> = self.buffer.drain(..=end).collect();
+        if let Some(log) = self.log.as_mut() {
+            self.last_run_at = log.len();
+            log.extend(&bytes);
+        }
         self.run_bytes(&bytes)?;
         self.signal();
         Ok(true)
+    }
+
+    /// The serial line is gone (a pulled cable): the plotter runs on through every complete
+    /// instruction it holds; an unfinished one at the end is dropped.
+    pub fn line_lost(&mut self) -> Result<(), Refusal> {
+        while self.step()? {}
+        self.buffer.clear();
+        Ok(())
+    }
+
+    /// The plotter lost power: what it held is gone, uncut, and the instruction it was running
+    /// did not finish (it is taken out of the record: at most part of it was cut).
+    pub fn power_lost(&mut self) {
+        self.buffer.clear();
+        if let Some(log) = self.log.as_mut() {
+            log.truncate(self.last_run_at);
+        }
+        self.down = false;
     }
 
     /// The end of the stream: whatever is left (an instruction without its `;`) is run.

@@ -9,6 +9,7 @@
 //! - [`command`]: the instructions as data, written and parsed.
 //! - [`cutter`]: the virtual plotter cutter (buffer, flow control, dialect, tool state, drawing).
 //! - [`stream`]: sending a program with the plotter's flow control, pause, resume and abort.
+//! - [`weed`]: weeding aids (a box around the job, lines across large cut-out areas only).
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -17,6 +18,7 @@ pub mod command;
 pub mod cutter;
 pub mod profile;
 pub mod stream;
+pub mod weed;
 mod write;
 
 pub use write::{hpgl_for, HpglConfig, HpglError, HpglSummary, PARK_PAST_MM, POINTS_PER_COMMAND};

@@ -46,6 +46,11 @@ pub trait Line {
     fn wait(&mut self) -> Result<(), StreamError>;
     /// Wait until everything sent is out (a real line) or run (the virtual cutter).
     fn drain(&mut self) -> Result<(), StreamError>;
+    /// Bytes written but still in the host's own output queue (not yet on the wire): they have
+    /// not reached the plotter, so they count as not delivered.
+    fn queued(&mut self) -> Result<usize, StreamError> {
+        Ok(0)
+    }
 }
 
 /// What the operator asks for while a program streams.
@@ -68,6 +73,10 @@ pub struct Progress {
     pub total: usize,
     /// The line of the last instruction sent.
     pub line: usize,
+    /// Bytes known to have reached the plotter (written, less what the host still queues).
+    pub delivered_bytes: usize,
+    /// The first instruction not known to be cut ([`not_known_cut`]): a resume starts here.
+    pub resume_line: usize,
 }
 
 /// How a stream ended.
@@ -102,6 +111,9 @@ pub struct Piece {
     pub last_line: usize,
     /// Instructions of the file it ends.
     pub count: usize,
+    /// Each instruction of the file ending in it: the offset just past its last byte in
+    /// `bytes`, and its line.
+    pub ends: Vec<(usize, usize)>,
 }
 
 /// The instructions of `text` to send from line `from_line` (1: all), as pieces of at most `max`
@@ -146,6 +158,9 @@ pub fn pieces(text: &str, from_line: usize, max: usize) -> Result<Vec<Piece>, St
         match out.last_mut() {
             Some(p) if p.bytes.len() + u.len() <= max => {
                 p.bytes.extend(&u);
+                if line > 0 {
+                    p.ends.push((p.bytes.len(), line));
+                }
                 if p.first_line == 0 {
                     p.first_line = line;
                 }
@@ -157,15 +172,26 @@ pub fn pieces(text: &str, from_line: usize, max: usize) -> Result<Vec<Piece>, St
                 let chunks: Vec<&[u8]> = u.chunks(max).collect();
                 let k = chunks.len();
                 for (i, c) in chunks.into_iter().enumerate() {
+                    let last = i + 1 == k && line > 0;
                     out.push(Piece {
                         bytes: c.to_vec(),
                         first_line: line,
                         last_line: line,
                         count: if i + 1 == k { count } else { 0 },
+                        ends: if last {
+                            vec![(c.len(), line)]
+                        } else {
+                            Vec::new()
+                        },
                     });
                 }
             }
             _ => out.push(Piece {
+                ends: if line > 0 {
+                    vec![(u.len(), line)]
+                } else {
+                    Vec::new()
+                },
                 bytes: u,
                 first_line: line,
                 last_line: line,
@@ -176,9 +202,34 @@ pub fn pieces(text: &str, from_line: usize, max: usize) -> Result<Vec<Piece>, St
     Ok(out)
 }
 
+/// The line of the first instruction not known to be cut, when `delivered` bytes of a stream
+/// have reached a plotter whose buffer holds `buffer` bytes; `ends` holds, in order, each
+/// instruction sent: the stream offset just past its last byte, and its line.
+///
+/// A plotter acknowledges nothing: flow control says only that its buffer has room, and what
+/// has left the buffer is not what was cut. Up to `buffer` bytes may wait uncut, so every byte
+/// up to `delivered - buffer` has left the buffer; the last instruction ending there may still
+/// be running (or the one after it, already partly taken in): only the ones before it are known
+/// cut. A resume from the returned line may cut again what was cut (harmless: the blade runs in
+/// its own groove); it never leaves a segment out. `from_line` when nothing is known cut.
+pub fn not_known_cut(
+    ends: &[(usize, usize)],
+    delivered: usize,
+    buffer: usize,
+    from_line: usize,
+) -> usize {
+    let horizon = delivered.saturating_sub(buffer);
+    // Instructions ending at or before the horizon: all but the last are known cut.
+    let left = ends.partition_point(|&(end, _)| end <= horizon);
+    match left.checked_sub(1) {
+        Some(i) => ends[i].1.max(from_line),
+        None => from_line,
+    }
+}
+
 /// Stream `text` from `from_line` over `line` with the plotter's flow control, in pieces of at
 /// most its headroom. `control` is asked for the operator's wishes before each piece and while
-/// waiting; `progress` hears of each piece sent.
+/// waiting; `progress` hears of each piece sent, with the line a resume would start from.
 pub fn stream(
     text: &str,
     from_line: usize,
@@ -189,8 +240,8 @@ pub fn stream(
 ) -> Result<Outcome, StreamError> {
     let (flow, headroom) = (serial.flow, serial.headroom_bytes);
     let pieces = pieces(text, from_line, headroom.max(1))?;
-    // Bytes sent after each piece, and the line of the first instruction in it.
-    let mut sent_log: Vec<(usize, usize)> = Vec::new();
+    // Every instruction of the file sent: the stream offset past its last byte, its line.
+    let mut ends: Vec<(usize, usize)> = Vec::new();
     let mut sent_bytes: usize = 0;
     let total: usize = pieces.iter().map(|p| p.count).sum();
     let (mut held, mut paused) = (false, false);
@@ -198,6 +249,8 @@ pub fn stream(
         sent: 0,
         total,
         line: 0,
+        delivered_bytes: 0,
+        resume_line: from_line,
     };
     let mut waits = 0;
     for piece in pieces {
@@ -208,14 +261,10 @@ pub fn stream(
                 Some(Control::Abort) => {
                     line.write(ABORT)?;
                     line.drain()?;
-                    // What the plotter held may be lost: resume at the first instruction of the
-                    // oldest piece that may still have been in its buffer.
-                    let lost_from = sent_bytes.saturating_sub(serial.buffer_bytes);
-                    let resume_line = sent_log
-                        .iter()
-                        .find(|(end, _)| *end > lost_from)
-                        .map_or(p.line + 1, |&(_, first)| first)
-                        .max(from_line);
+                    // Everything written reached the plotter before the clear; what it held was
+                    // dropped uncut, and what it was running may not have finished.
+                    let resume_line =
+                        not_known_cut(&ends, sent_bytes, serial.buffer_bytes, from_line);
                     return Ok(Outcome::Aborted { resume_line });
                 }
                 None => {}
@@ -239,10 +288,16 @@ pub fn stream(
             line.wait()?;
         }
         line.write(&piece.bytes)?;
+        ends.extend(piece.ends.iter().map(|&(end, l)| (sent_bytes + end, l)));
         sent_bytes += piece.bytes.len();
-        sent_log.push((sent_bytes, piece.first_line.max(from_line)));
         p.sent += piece.count;
         p.line = p.line.max(piece.last_line);
+        // A port that cannot say what it still queues leaves the count where it was (known
+        // short, never long): the reckoning is a help for a resume, not a condition of cutting.
+        if let Ok(q) = line.queued() {
+            p.delivered_bytes = sent_bytes.saturating_sub(q).max(p.delivered_bytes);
+        }
+        p.resume_line = not_known_cut(&ends, p.delivered_bytes, serial.buffer_bytes, from_line);
         progress(&p);
     }
     line.drain()?;
@@ -261,6 +316,42 @@ pub struct VirtualLine {
     /// receives): 0 runs only when the sender waits, which fills the buffer.
     pub run_every_bytes: usize,
     since_run: usize,
+    /// A failure to rehearse, if any.
+    pub fault: Option<LineFault>,
+    /// Instructions received (their `;`s).
+    received: usize,
+    /// The fault happened: every further use of the line fails.
+    dead: Option<LineFaultKind>,
+}
+
+/// A failure the virtual line rehearses: when the plotter has received this many instructions
+/// (counting their `;`), the line or the plotter fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LineFault {
+    /// The instruction (from 1, in the order sent) whose arrival is the last.
+    pub at_instruction: usize,
+    /// What fails.
+    pub kind: LineFaultKind,
+}
+
+/// What fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineFaultKind {
+    /// The port goes away (a pulled cable, a lost USB adapter): the plotter cuts on through
+    /// what it holds.
+    PortLost,
+    /// The plotter loses power: what it holds is lost and what it was cutting stops half way.
+    PowerLoss,
+}
+
+impl LineFaultKind {
+    fn error(self) -> StreamError {
+        let what = match self {
+            LineFaultKind::PortLost => "the port went away (a pulled cable or a lost adapter)",
+            LineFaultKind::PowerLoss => "the plotter stopped answering (it lost power)",
+        };
+        StreamError::Io(io::Error::new(io::ErrorKind::BrokenPipe, what))
+    }
 }
 
 impl VirtualLine {
@@ -271,13 +362,48 @@ impl VirtualLine {
             cutter: Cutter::new(plotter, blade_offset_mm),
             run_every_bytes: 0,
             since_run: 0,
+            fault: None,
+            received: 0,
+            dead: None,
+        }
+    }
+
+    fn alive(&self) -> Result<(), StreamError> {
+        match self.dead {
+            Some(kind) => Err(kind.error()),
+            None => Ok(()),
         }
     }
 }
 
 impl Line for VirtualLine {
-    fn write(&mut self, bytes: &[u8]) -> Result<(), StreamError> {
+    fn write(&mut self, mut bytes: &[u8]) -> Result<(), StreamError> {
+        self.alive()?;
+        let ends = bytes.iter().filter(|&&b| b == b';').count();
+        let failing = self
+            .fault
+            .filter(|f| self.received + ends >= f.at_instruction);
+        if let Some(f) = failing {
+            // Delivered up to the end of the fault's instruction, then the failure.
+            let k = f.at_instruction.saturating_sub(self.received);
+            let cut = bytes
+                .iter()
+                .enumerate()
+                .filter(|(_, &b)| b == b';')
+                .nth(k.saturating_sub(1))
+                .map_or(0, |(i, _)| i + 1);
+            bytes = &bytes[..if k == 0 { 0 } else { cut }];
+        }
+        self.received += ends;
         self.cutter.receive(bytes)?;
+        if let Some(f) = failing {
+            match f.kind {
+                LineFaultKind::PortLost => self.cutter.line_lost()?,
+                LineFaultKind::PowerLoss => self.cutter.power_lost(),
+            }
+            self.dead = Some(f.kind);
+            return Err(f.kind.error());
+        }
         self.since_run += bytes.len();
         if self.run_every_bytes > 0 && self.since_run >= self.run_every_bytes {
             self.since_run = 0;
@@ -286,12 +412,15 @@ impl Line for VirtualLine {
         Ok(())
     }
     fn signals(&mut self) -> Result<Vec<u8>, StreamError> {
+        self.alive()?;
         Ok(self.cutter.take_output())
     }
     fn clear_to_send(&mut self) -> Result<bool, StreamError> {
+        self.alive()?;
         Ok(self.cutter.clear_to_send())
     }
     fn wait(&mut self) -> Result<(), StreamError> {
+        self.alive()?;
         if !self.cutter.step()? {
             // Nothing complete to run, yet the sender is held: the plotter would hang here.
             return Err(Refusal::TooLong {
@@ -302,6 +431,7 @@ impl Line for VirtualLine {
         Ok(())
     }
     fn drain(&mut self) -> Result<(), StreamError> {
+        self.alive()?;
         self.cutter.finish()?;
         Ok(())
     }
@@ -354,6 +484,9 @@ impl Line for SerialLine {
     fn drain(&mut self) -> Result<(), StreamError> {
         self.port.flush()?;
         Ok(())
+    }
+    fn queued(&mut self) -> Result<usize, StreamError> {
+        Ok(self.port.bytes_to_write().map_err(io::Error::from)? as usize)
     }
 }
 

@@ -3,12 +3,13 @@
 //! knife's blade physics, then times what was written on the virtual cutter.
 
 use geo::{Coord, LineString, MapCoords, MultiPolygon, Rect};
-use stencil_gcode::blade::{knife_loop, Blade};
+use stencil_gcode::blade::{axis_path, direction, knife_loop, Blade};
 use stencil_gcode::{plan, CutLoops, CutSettings, Job, PathStats, Pieces, PlanConfig, PlanError};
 
 use crate::command::{to_text, Command};
 use crate::cutter::{self, Refusal};
 use crate::profile::{Park, Plotter, ToolKind};
+use crate::weed::{weed_box, weed_lines, WeedError, Weeding};
 
 /// What `make --emit hpgl` and `stencil hpgl` need besides the geometry.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,6 +25,8 @@ pub struct HpglConfig {
     pub pen: u32,
     /// Where the settings came from, for the report.
     pub settings_from: String,
+    /// Weeding aids to cut.
+    pub weeding: Weeding,
 }
 
 /// What an HP-GL job costs, as `make` and `hpgl` print it and report.json records it.
@@ -51,6 +54,16 @@ pub struct HpglSummary {
     pub commands: usize,
     /// The virtual cutter's run of the written file: time and lengths.
     pub estimate: cutter::Timing,
+    /// Weeding lines cut (each from a point inside a cut-out area to a cut around it).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub weed_lines: usize,
+    /// A weeding box was cut around the job.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub weed_box: bool,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The largest number of points in one `PU`/`PD`: every instruction stays short (under 80
@@ -63,6 +76,9 @@ pub enum HpglError {
     /// The planner refused it.
     #[error(transparent)]
     Plan(#[from] PlanError),
+    /// A weeding aid cannot be cut.
+    #[error(transparent)]
+    Weed(#[from] WeedError),
     /// Our own output failed our own virtual cutter: a bug, reported rather than written.
     #[error("internal error: the written HP-GL does not run on the virtual cutter ({0}); please report this")]
     Internal(Refusal),
@@ -85,7 +101,17 @@ pub fn hpgl_for(geom: &CutLoops, cfg: &HpglConfig) -> Result<(String, HpglSummar
         }
         r => (r?, false),
     };
-    let (commands, force) = commands(&job, cfg);
+    let mut job = job;
+    if let Some(m) = cfg.weeding.box_margin_mm {
+        let reach = box_reach(&job, p);
+        make_room(&mut job, m + reach);
+    }
+    let Written {
+        commands,
+        force,
+        weed_lines,
+        weed_box,
+    } = commands(&job, cfg)?;
     let text = to_text(&commands);
     let run = cutter::run_text(p, &text).map_err(HpglError::Internal)?;
     Ok((
@@ -104,8 +130,57 @@ pub fn hpgl_for(geom: &CutLoops, cfg: &HpglConfig) -> Result<(String, HpglSummar
             path: job.stats,
             commands: commands.len(),
             estimate: run.timing,
+            weed_lines,
+            weed_box,
         },
     ))
+}
+
+/// How far outside a weeding box the head may go: a drag knife's axis swings the blade offset
+/// beyond the tip's path at the corners; a little more for rounding to plotter units.
+fn box_reach(job: &Job, p: &Plotter) -> f64 {
+    let blade = match p.tool {
+        ToolKind::Knife => job.settings.blade_offset_mm,
+        ToolKind::Pen => 0.0,
+    };
+    blade + 0.05
+}
+
+/// A weeding box is part of the job, as in sign-making software: where the job was placed too
+/// near the cutting area's origin edges for a box `margin` outside its cuts, it moves in just
+/// as far as the box needs (the far edges are checked with the box).
+fn make_room(job: &mut Job, margin: f64) {
+    let mut lo = [f64::INFINITY; 2];
+    for q in job
+        .loops
+        .iter()
+        .filter(|l| !l.outline)
+        .flat_map(|l| &l.points)
+    {
+        lo = [lo[0].min(q[0]), lo[1].min(q[1])];
+    }
+    let shift = [0, 1].map(|a| {
+        if lo[a].is_finite() {
+            (margin - lo[a]).max(0.0)
+        } else {
+            0.0
+        }
+    });
+    if shift == [0.0, 0.0] {
+        return;
+    }
+    let mv = |q: &mut [f64; 2]| {
+        q[0] += shift[0];
+        q[1] += shift[1];
+    };
+    for l in &mut job.loops {
+        l.points.iter_mut().for_each(mv);
+    }
+    for l in &mut job.lines {
+        l.iter_mut().for_each(mv);
+    }
+    mv(&mut job.min);
+    mv(&mut job.max);
 }
 
 /// The job turned a quarter turn on the sheet (counter-clockwise as seen from above): the same
@@ -134,8 +209,16 @@ fn quarter_turn(g: &CutLoops) -> CutLoops {
     }
 }
 
+/// A job's instructions, the `FS` written and the weeding aids.
+struct Written {
+    commands: Vec<Command>,
+    force: Option<i64>,
+    weed_lines: usize,
+    weed_box: bool,
+}
+
 /// The job's instructions, and the `FS` written.
-fn commands(job: &Job, cfg: &HpglConfig) -> (Vec<Command>, Option<i64>) {
+fn commands(job: &Job, cfg: &HpglConfig) -> Result<Written, WeedError> {
     let p = &cfg.plotter;
     let s = &job.settings;
     let speed_mm_s = s.speed_mm_min / 60.0;
@@ -172,8 +255,31 @@ fn commands(job: &Job, cfg: &HpglConfig) -> (Vec<Command>, Option<i64>) {
         emit(&mut out, &path);
     }
     // The blade after `IN` is taken to point along +X (the direction the last job ended in is
-    // not known): the first loop's orientation move turns it from there.
+    // not known): the first cut's orientation move turns it from there.
     let mut blade_dir = [1.0, 0.0];
+    let knife = match (p.tool, p.knife) {
+        (ToolKind::Knife, Some(k)) => Some(k),
+        _ => None,
+    };
+    // Weeding lines, while the sheet is whole: the tip from a point inside a cut-out area to
+    // the cut around it, lowered there and swivelled to the line first (the axis runs on past
+    // the cut by the blade offset, so the tip reaches it).
+    let mut weed_count = 0;
+    if let Some(spacing) = cfg.weeding.line_spacing_mm {
+        for [from, to] in weed_lines(&job.loops, spacing) {
+            let path = match knife {
+                Some(k) => {
+                    let path =
+                        axis_path(&[from, to], s.blade_offset_mm, k.swivel_min_deg, blade_dir);
+                    blade_dir = direction(from, to);
+                    path
+                }
+                None => vec![from, to],
+            };
+            emit(&mut out, &path);
+            weed_count += 1;
+        }
+    }
     let mut current_vs = vs;
     for l in &job.loops {
         let path = match (p.tool, p.knife) {
@@ -208,19 +314,55 @@ fn commands(job: &Job, cfg: &HpglConfig) -> (Vec<Command>, Option<i64>) {
         };
         emit(&mut out, &path);
     }
+    // The weeding box, last, as the sheet's outline is: around everything, at the job's speed.
+    let boxed = match cfg.weeding.box_margin_mm {
+        Some(margin) => weed_box(
+            &job.loops,
+            margin,
+            box_reach(job, p),
+            [p.bed.width_mm, p.bed.height_mm],
+        )?,
+        None => None,
+    };
+    if let Some(b) = &boxed {
+        if current_vs != vs {
+            out.push(Command::Vs(vs));
+        }
+        let path = match knife {
+            Some(k) => {
+                let blade = Blade {
+                    offset_mm: s.blade_offset_mm,
+                    swivel_min_deg: k.swivel_min_deg,
+                    overcut_mm: k.overcut_mm,
+                };
+                knife_loop(b, &blade, 1, blade_dir).0
+            }
+            None => {
+                let mut path = b.clone();
+                path.push(b[0]);
+                path
+            }
+        };
+        emit(&mut out, &path);
+    }
     // Park: past the job along the feed so the media can be cut off, or home.
+    let end_x = boxed
+        .as_ref()
+        .map_or(job.max[0], |b| job.max[0].max(b[1][0]));
     let park = match p.park {
-        Park::PastJob => [
-            (job.max[0] + PARK_PAST_MM).min(p.bed.width_mm).max(0.0),
-            0.0,
-        ],
+        Park::PastJob => [(end_x + PARK_PAST_MM).min(p.bed.width_mm).max(0.0), 0.0],
         Park::Origin => [0.0, 0.0],
     };
     out.push(Command::Pu(vec![units(park)]));
     if p.tool == ToolKind::Pen {
         out.push(Command::Sp(0));
     }
-    (out, force)
+    Ok(Written {
+        commands: out,
+        force,
+        weed_lines: weed_count,
+        weed_box: boxed.is_some(),
+    })
 }
 
 /// How far past the job's end a roll cutter parks, mm: clear of the last cut, so the media can
@@ -278,6 +420,7 @@ mod tests {
             force_g: Some(80.0),
             pen: 1,
             settings_from: String::new(),
+            weeding: Weeding::default(),
         };
         (hpgl_for(&geom, &cfg).unwrap().0, plotter)
     }

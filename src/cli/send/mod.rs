@@ -81,7 +81,9 @@ pub struct SendArgs {
     /// `close@N` (port dies), `silence@N`, `freeze@N` (stuck in Run, still answering status),
     /// `drop-ok@N` / `garble-ok@N` (its answer lost or garbled), `power-loss@N` (the board
     /// restarts at machine zero), `drop-link@N` (with --dry-run-tcp: the network link drops, the
-    /// board runs on), `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery.
+    /// board runs on), `error:C@N`, `alarm:C@N`. To rehearse a stop and its recovery. An HP-GL
+    /// job's virtual cutter takes `close@N` (it cuts on through its buffer) and `power-loss@N`
+    /// (its buffer is lost, the instruction it was cutting unfinished), N its N-th instruction.
     #[arg(long, value_name = "KIND@N", requires = "dry_run", value_parser = parse_fault)]
     pub dry_run_fault: Vec<Fault>,
     /// Do not refuse a job that leaves the machine's bed (for a file whose work zero is set away
@@ -121,6 +123,10 @@ pub struct SendArgs {
     /// sent, to rehearse a stop (the plotter's buffer cleared, the tool lifted).
     #[arg(long, value_name = "N", requires = "dry_run")]
     pub dry_run_abort_at: Option<usize>,
+    /// With --dry-run of an HP-GL job: write what the virtual cutter ran (its instructions, byte
+    /// for byte, as it cut them) to FILE.
+    #[arg(long, value_name = "FILE", requires = "dry_run")]
+    pub dry_run_record: Option<PathBuf>,
     /// Upload the job to the controller's own storage (SD card or flash: grblHAL by YModem,
     /// FluidNC by XModem), check it arrived whole (listed size, read back), run it there and
     /// follow it: a USB or WiFi drop cannot kill the cut. Grbl 1.1h has no card (refused).
@@ -200,6 +206,28 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
         at_job_line: at,
         kind,
     })
+}
+
+/// `--dry-run-fault` for a plotter job: what its virtual line can rehearse.
+fn plotter_faults(faults: &[Fault]) -> anyhow::Result<Vec<stencil_hpgl::stream::LineFault>> {
+    use stencil_hpgl::stream::{LineFault, LineFaultKind};
+    faults
+        .iter()
+        .map(|f| {
+            let kind = match f.kind {
+                FaultKind::ClosePort => LineFaultKind::PortLost,
+                FaultKind::PowerLoss => LineFaultKind::PowerLoss,
+                _ => bail!(
+                    "--dry-run-fault: the virtual plotter cutter rehearses close@N (the port goes \
+                     away) and power-loss@N (the plotter loses power), N its N-th instruction"
+                ),
+            };
+            Ok(LineFault {
+                at_instruction: f.at_job_line,
+                kind,
+            })
+        })
+        .collect()
 }
 
 /// Refuse, before a port is opened, a file with no move at all whose first line stencil does not
@@ -325,7 +353,16 @@ pub fn run_send(a: SendArgs) -> anyhow::Result<ExitCode> {
             from_line: a.from_line as usize,
             recover: a.recover,
             abort_at: a.dry_run_abort_at,
+            faults: plotter_faults(&a.dry_run_fault)?,
+            record: a.dry_run_record.as_deref(),
         });
+    }
+    if a.dry_run_record.is_some() {
+        bail!(
+            "{}: --dry-run-record writes what a virtual plotter cutter ran, for an HP-GL job \
+             (.plt); a G-code dry run prints what the virtual Grbl did",
+            a.file.display()
+        );
     }
     let text = read_program(&a.file)?;
     eprintln!("{}", origin_line(&a.file, &text));

@@ -13,18 +13,7 @@ use stencil_grbl::{Journal, Program, RunState};
 /// nothing left to do.
 fn recovery_report(j: &Journal, job: &Program, path: &std::path::Path) -> Option<usize> {
     let age = j.age().as_secs_f64();
-    let how = match j.state {
-        RunState::Running => {
-            "did not end (the sender was killed, crashed, or the power went)".to_string()
-        }
-        // The journal is a file that may have come from elsewhere: its text is printed with its
-        // control characters written out.
-        RunState::Stopped => format!(
-            "stopped: {}",
-            stencil_io::printable(j.stop_reason.as_deref().unwrap_or("(no reason recorded)"))
-        ),
-        RunState::Complete => "finished".to_string(),
-    };
+    let how = crate::cli::port::run_state_words(j.state, j.stop_reason.as_deref());
     println!(
         "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
         path.display(),
@@ -97,27 +86,13 @@ fn journal_machine(
     j: &Journal,
     journal_path: &Path,
 ) -> anyhow::Result<Option<String>> {
-    // Quoted with control characters escaped: a journal is not trusted to hold a name.
-    let named = |m: &str| stencil_io::excerpt(&m.escape_debug().to_string());
-    let arg = match given {
-        Some(m) => m.clone(),
-        None => {
-            let plain = !j.machine.is_empty()
-                && !j.machine.contains(['/', '\\'])
-                && !j.machine.ends_with(".toml")
-                && j.machine.chars().all(|c| c.is_ascii_graphic());
-            if !plain {
-                bail!(
-                    "{}: the journal names its machine profile as `{}`, which is not a profile \
-                     name; a recovery never opens a file a journal names: name the profile the \
-                     run used with --machine; nothing was sent",
-                    journal_path.display(),
-                    named(&j.machine)
-                );
-            }
-            j.machine.clone()
-        }
-    };
+    let named = crate::cli::port::journal_named;
+    let arg = crate::cli::port::recovery_profile(
+        given.map(String::as_str),
+        &j.machine,
+        "machine",
+        journal_path,
+    )?;
     let m = match machine_profile::load(Some(&arg)) {
         Ok(m) => m,
         Err(e) if given.is_none() => bail!(

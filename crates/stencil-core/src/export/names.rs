@@ -30,7 +30,7 @@ pub const FOLDERS: &[&str] = &[
 
 /// Every name `make` owns in its output folder: a one-layer run's files, a set's `composite.png`
 /// and `layers.json`, every file of every layer folder and of `fill-in/`, and a tiled stencil's `tiles.png` and
-/// tile folders. Any run removes the
+/// tile folders (each with its layer folders or its `fill-in/`). Any run removes the
 /// owned names it does not write, so a one-layer run leaves no layer folder behind.
 pub fn owned_names() -> &'static [&'static str] {
     static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
@@ -45,7 +45,7 @@ pub fn owned_names() -> &'static [&'static str] {
             for c in 1..=most {
                 for n in OUTPUT_NAMES {
                     v.push(Box::leak(format!("tile-{r}-{c}/{n}").into_boxed_str()));
-                    for f in &FOLDERS[..crate::limits::MAX_LAYERS as usize] {
+                    for f in FOLDERS {
                         v.push(Box::leak(format!("tile-{r}-{c}/{f}/{n}").into_boxed_str()));
                     }
                 }

@@ -1,9 +1,10 @@
-//! The registration marks of a set's sheets ([`Marks`]): cut at the same sheet coordinates in
-//! every layer, so the sheets register.
+//! The registration marks ([`Marks`]): corner crosses and pin holes cut at the same sheet
+//! coordinates in every sheet that must register: every layer of a set, and (the same shapes,
+//! the pins on the seams) every tile of a tiled stencil where two tiles meet.
 
 use serde::Serialize;
 
-use crate::raster::BitGrid;
+use crate::raster::{BitGrid, Gray};
 
 /// The registration marks: a band of material around the picture holding four corner crosses
 /// and two pin holes (top and bottom middle), the same on every sheet of a set. Coordinates are
@@ -30,9 +31,7 @@ pub struct Marks {
 impl Marks {
     /// The marks for a picture of `w` × `h` input pixels at `mm_per_px`, cut in `material`.
     pub fn new(w: u32, h: u32, mm_per_px: f64, min_feature_mm: f64) -> Marks {
-        let line = (2.0 * min_feature_mm).max(1.0);
-        let arm = 3.5 * line;
-        let pin = 3.0 * line;
+        let (line, arm, pin) = mark_sizes(min_feature_mm);
         let band_px = ((2.0 * arm + 3.0 * line) / mm_per_px).ceil().max(1.0) as u32;
         let band = band_px as f64 * mm_per_px;
         let (sw, sh) = (
@@ -48,6 +47,17 @@ impl Marks {
             pin_mm: pin,
             crosses_mm: vec![[c, c], [sw - c, c], [c, sh - c], [sw - c, sh - c]],
             pins_mm: vec![[sw / 2.0, c], [sw / 2.0, sh - c]],
+        }
+    }
+
+    /// The same marks with pin holes `pin_mm` across at `pins_mm` (a tiled stencil's: on its
+    /// seams, where both tiles of a seam carry them, as small as the overlap holds) in place of
+    /// the band's middle ones.
+    pub fn with_pins(self, pin_mm: f64, pins_mm: Vec<[f64; 2]>) -> Marks {
+        Marks {
+            pin_mm,
+            pins_mm,
+            ..self
         }
     }
 
@@ -79,6 +89,65 @@ impl Marks {
     }
 }
 
+impl Marks {
+    /// Cut every mark into a grid (anywhere in it, band or not) whose top-left corner lies at
+    /// `origin_mm` in the marks' coordinates, `mm_per_px` per pixel: a tile's share of them.
+    pub fn cut(&self, bits: &mut BitGrid, origin_mm: [f64; 2], mm_per_px: f64) {
+        let reach = self.arm_mm.max(self.pin_mm / 2.0) + mm_per_px;
+        let centres = self.crosses_mm.iter().chain(&self.pins_mm);
+        for &[cx, cy] in centres {
+            let px = |v: f64, o: f64, n: u32| ((v - o) / mm_per_px).floor().clamp(0.0, n as f64);
+            let (x0, x1) = (
+                px(cx - reach, origin_mm[0], bits.width) as u32,
+                px(cx + reach, origin_mm[0], bits.width) as u32 + 1,
+            );
+            let (y0, y1) = (
+                px(cy - reach, origin_mm[1], bits.height) as u32,
+                px(cy + reach, origin_mm[1], bits.height) as u32 + 1,
+            );
+            for y in y0..y1.min(bits.height) {
+                for x in x0..x1.min(bits.width) {
+                    let mx = origin_mm[0] + (x as f64 + 0.5) * mm_per_px;
+                    let my = origin_mm[1] + (y as f64 + 0.5) * mm_per_px;
+                    if self.inside(mx, my) {
+                        bits.set(x, y, false);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A gray picture grown by `band` pixels on every side, white (material): the band the marks
+/// are cut in.
+pub fn grown_gray(g: &Gray, band: u32) -> Gray {
+    let (w, h) = (g.width, g.height);
+    let pw = w + 2 * band;
+    let mut out = Gray::new(pw, h + 2 * band, 1.0);
+    for y in 0..h {
+        let src = &g.data[(y * w) as usize..((y + 1) * w) as usize];
+        let at = ((y + band) * pw + band) as usize;
+        out.data[at..at + w as usize].copy_from_slice(src);
+    }
+    out
+}
+
+/// A two-tone grown by `band` pixels of material on every side (see [`grown_gray`]).
+pub fn grown_bits(b: &BitGrid, band: u32) -> BitGrid {
+    let (w, h) = (b.width, b.height);
+    BitGrid::from_fn(w + 2 * band, h + 2 * band, |x, y| {
+        x < band || y < band || x >= w + band || y >= h + band || b.get(x - band, y - band)
+    })
+}
+
+/// The marks' sizes for a material whose smallest feature is `min_feature_mm`: a cross's line
+/// (twice the smallest feature, at least 1 mm, so it cuts cleanly and shows), half its arm, and
+/// a pin hole's diameter (three lines: a drawing pin or a 3 mm dowel goes through), mm.
+pub fn mark_sizes(min_feature_mm: f64) -> (f64, f64, f64) {
+    let line = (2.0 * min_feature_mm).max(1.0);
+    (line, 3.5 * line, 3.0 * line)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -99,5 +168,16 @@ mod tests {
         let c = (m.crosses_mm[0][0] / 0.1) as u32;
         assert!(!bits.get(c, c));
         assert!(bits.get(1, 1));
+    }
+
+    #[test]
+    fn a_tiles_share_of_the_marks_is_cut_where_the_marks_are() {
+        let m = Marks::new(400, 300, 0.1, 0.5).with_pins(3.0, vec![[20.0, 15.0]]);
+        // A grid whose corner is 10 mm right and 5 mm down: the pin lands at 100, 100 px.
+        let mut bits = BitGrid::new(200, 200, true);
+        m.cut(&mut bits, [10.0, 5.0], 0.1);
+        assert!(!bits.get(100, 100));
+        assert!(bits.get(100, 120), "only the pin's 3 mm");
+        assert!(bits.get(199, 199));
     }
 }

@@ -3,6 +3,9 @@
 //! for the level whose cleaned-up two-tone looks most like the picture.
 
 use std::borrow::Cow;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
 
 use crate::plan::CleanParams;
 use crate::raster::{BitGrid, Gray, TwoTone};
@@ -55,6 +58,9 @@ fn clean_bits(bits: &BitGrid, gray: &Gray, level: u8, p: &CleanParams) -> Clean 
     }
 }
 
+/// A level measured at full size, its likeness, its thresholded gray and clean-up.
+type Measured = ((u8, f64), BitGrid, Clean);
+
 /// Above this many working pixels, `--threshold auto` searches on the gray box-averaged to about
 /// this size (the clean-up's widths scaled alike), then measures the finalists at full size.
 const AUTO_SEARCH_PIXELS: u64 = 1_000_000;
@@ -101,34 +107,48 @@ fn choose_level(gray: &Gray, look: &Likeness, p: &CleanParams) -> (LevelChoice, 
     // The choice's order: likelier, then the lower level.
     let order = |a: &(u8, f64), b: &(u8, f64)| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0));
     // The first in that order of the levels measured at full size so far, with its clean-up.
-    let mut kept: Option<((u8, f64), BitGrid, Clean)> = None;
-    let mut keep = |t: (u8, f64), raw: BitGrid, clean: Clean| {
+    // Levels differ, so no two are equal in that order: the first is the same whatever order
+    // the levels are measured in, and they are measured on threads, a level each (the clean-up
+    // and the measure of one level are sequences of short parallel steps, which on their own
+    // leave the threads waiting between steps).
+    let kept: Mutex<Option<Measured>> = Mutex::new(None);
+    let keep = |t: (u8, f64), raw: BitGrid, clean: Clean| {
+        let mut kept = kept.lock().unwrap_or_else(|e| e.into_inner());
         if kept.as_ref().is_none_or(|k| order(&t, &k.0).is_gt()) {
-            kept = Some((t, raw, clean));
+            *kept = Some((t, raw, clean));
         }
+    };
+    // The levels of `levels` not tried yet, first occurrences in order, each measured; their
+    // results appended to `tried` in that order.
+    let measure_new =
+        |levels: &[u8], tried: &mut Vec<(u8, f64)>, at: &(dyn Fn(u8) -> f64 + Sync)| {
+            let mut new: Vec<u8> = Vec::new();
+            for &l in levels {
+                if !tried.iter().any(|t| t.0 == l) && !new.contains(&l) {
+                    new.push(l);
+                }
+            }
+            let likes: Vec<f64> = new.par_iter().map(|&l| at(l)).collect();
+            tried.extend(new.into_iter().zip(likes));
+        };
+    let search = |l: u8| {
+        let (like, raw, clean) = measure(&small, &small_look, &sp, l);
+        if d == 1 {
+            keep((l, like), raw, clean);
+        }
+        like
     };
     let mut tried: Vec<(u8, f64)> = Vec::new();
     let mut levels: Vec<u8> = (16..=240).step_by(8).collect();
     levels.extend([128, otsu]);
-    let mut try_all = |levels: &[u8], tried: &mut Vec<(u8, f64)>| {
-        for &l in levels {
-            if !tried.iter().any(|t| t.0 == l) {
-                let (like, raw, clean) = measure(&small, &small_look, &sp, l);
-                tried.push((l, like));
-                if d == 1 {
-                    keep((l, like), raw, clean);
-                }
-            }
-        }
-    };
-    try_all(&levels, &mut tried);
+    measure_new(&levels, &mut tried, &search);
     let best = |t: &[(u8, f64)]| t.iter().copied().max_by(order).unwrap_or((128, 0.0));
     let b = best(&tried).0;
     let near: Vec<u8> = [-6i32, -4, -2, 2, 4, 6]
         .iter()
         .map(|k| (b as i32 + k).clamp(1, 255) as u8)
         .collect();
-    try_all(&near, &mut tried);
+    measure_new(&near, &mut tried, &search);
     let mut at_full = tried.clone();
     if d > 1 {
         let mut order = tried.clone();
@@ -136,18 +156,18 @@ fn choose_level(gray: &Gray, look: &Likeness, p: &CleanParams) -> (LevelChoice, 
         let mut finalists: Vec<u8> = order.iter().take(2).map(|t| t.0).collect();
         finalists.extend([128, otsu]);
         at_full = Vec::new();
-        for l in finalists {
-            if !at_full.iter().any(|t: &(u8, f64)| t.0 == l) {
-                let (like, raw, clean) = measure(gray, look, p, l);
-                at_full.push((l, like));
-                tried.push((l, like));
-                keep((l, like), raw, clean);
-            }
-        }
+        let full = |l: u8| {
+            let (like, raw, clean) = measure(gray, look, p, l);
+            keep((l, like), raw, clean);
+            like
+        };
+        measure_new(&finalists, &mut at_full, &full);
+        tried.extend(at_full.iter().copied());
     }
     let (level, like) = best(&at_full);
     let at = |l: u8| at_full.iter().find(|t| t.0 == l).map_or(0.0, |t| t.1);
     // Kept is the best of `at_full` in the same order, so at the level chosen.
+    let kept = kept.into_inner().unwrap_or_else(|e| e.into_inner());
     let (clean, raw) = match kept {
         Some(((l, _), raw, clean)) if l == level => (clean, raw),
         _ => cleaned_at(gray, p, level),

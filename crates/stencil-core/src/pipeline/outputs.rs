@@ -57,6 +57,22 @@ pub fn finish(
     joined: Arc<Joined>,
     timer: Option<Timings>,
 ) -> Result<Made, Error> {
+    finish_with(cfg, params, (cleaned, joined), timer, None)
+}
+
+/// A change to the traced geometry after the check, before any job is planned from it (a
+/// tile's edge along its seams).
+pub type GeometryEdit<'a> = dyn Fn(&mut CutGeometry) -> Result<(), Error> + Sync + 'a;
+
+/// [`finish`], the traced geometry changed by `edit` (if any) after the check and before any
+/// job is planned from it (a tile's edge along its seams).
+pub(crate) fn finish_with(
+    cfg: &MakeConfig,
+    params: &StageParams,
+    (cleaned, joined): (Arc<Cleaned>, Arc<Joined>),
+    timer: Option<Timings>,
+    edit: Option<&GeometryEdit<'_>>,
+) -> Result<Made, Error> {
     let mut timer = timer.unwrap_or_else(|| Timings::new(cfg.progress.clone()));
     let (cleaned, mut joined) = (Arc::unwrap_or_clone(cleaned), Arc::unwrap_or_clone(joined));
     let mut traced = trace(
@@ -69,6 +85,9 @@ pub fn finish(
     refuse(&cfg.physical, traced.fidelity, &traced.check)?;
     if let Some(g) = &cfg.physical.gobo {
         crate::gobo::place(&mut traced.geometry, g, params.trace.vector.margin_mm);
+    }
+    if let Some(edit) = edit {
+        edit(&mut traced.geometry)?;
     }
     let gcode = match &cfg.gcode {
         Some(g) => Some(gcode(

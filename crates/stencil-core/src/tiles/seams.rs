@@ -13,6 +13,18 @@
 //!   feature of its edge (crossing a shape at its rim leaves a sliver on one side).
 //!
 //! A step across costs [`DIAGONAL`] more, so of equal paths the straighter one wins.
+//!
+//! ## Registration marks on a seam
+//! Two tiles meet along a *segment* of a seam (between the seams that cross it, or the picture's
+//! outer band). Each segment gets at least two pin holes centred on it, cut into both tiles at
+//! the same place on the wall (see [`place_marks`]): in the outer band of material around the
+//! picture where the segment reaches it (always clear); near a third and two thirds of its length
+//! where the picture is material around the hole ([`MarkPlace::Clear`]); and, where a segment
+//! still has fewer than two, a *pad* ([`MarkPlace::Pad`]): the hole's ring of material put into
+//! the picture where it changes the fewest pixels, never over a cut feature thinner than the
+//! material's smallest (it would close it).
+
+use serde::Serialize;
 
 use crate::raster::{squared_distance_to, BitGrid, Gray};
 
@@ -49,7 +61,7 @@ impl Seams {
 
 /// What a seam crossed: its length through the cut, and through cut narrower than the smallest
 /// feature (none, after the clean-up; counted so the report can say so).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Crossing {
     /// Seam pixels in the cut.
     pub cut_px: usize,
@@ -57,36 +69,9 @@ pub struct Crossing {
     pub thin_px: usize,
     /// Seam pixels in all.
     pub len_px: usize,
-}
-
-/// Pin places on a seam: up to two points on it, each where the whole stencil is material for
-/// at least `clear_px` around (working px), near a third and two thirds of its length (or, when
-/// neither is clear, the clearest place on it).
-fn pins_on(path: &[u32], clear2: &dyn Fn(u32, u32) -> f32, clear_px: f64) -> Vec<(u32, u32)> {
-    let n = path.len();
-    let mut out = Vec::new();
-    for frac in [1.0 / 3.0, 2.0 / 3.0] {
-        let at = (n as f64 * frac) as usize;
-        let reach = n / 6;
-        let best = (at.saturating_sub(reach)..(at + reach).min(n))
-            .map(|i| (i, clear2(i as u32, path[i])))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        if let Some((i, d2)) = best {
-            if (d2 as f64).sqrt() >= clear_px {
-                out.push((i as u32, path[i]));
-            }
-        }
-    }
-    if out.is_empty() {
-        // None near the thirds: the clearest place anywhere on the seam, if any is clear.
-        let best = (0..n)
-            .map(|i| (i, clear2(i as u32, path[i])))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        if let Some((i, _)) = best.filter(|b| (b.1 as f64).sqrt() >= clear_px) {
-            out.push((i as u32, path[i]));
-        }
-    }
-    out
+    /// Its runs through the cut, as first and last steps along it: where the earlier tile's
+    /// strip is the seam's bridge.
+    pub runs: Vec<(u32, u32)>,
 }
 
 /// One seam through a band of the picture seen along its length: `len` steps along, `across`
@@ -140,14 +125,49 @@ pub(crate) struct SeamRequest<'a> {
     pub min_px: f64,
     /// A pin hole's radius plus the smallest feature around it, px (0: no pins).
     pub pin_clear_px: f64,
+    /// The band of material around the picture, px (the seams' ends lie in it).
+    pub band_px: u32,
 }
 
-/// The seams found, what each crossed (vertical seams first), and the pins on them (x, y).
-pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<(u32, u32)>) {
+/// What lies along a seam's path, step by step, for its marks: how far the picture's cut is
+/// (px), and how many cut pixels a pad there would fill (`u32::MAX`: a thin cut feature).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Along {
+    clear: Vec<f32>,
+    pad_cut: Vec<u32>,
+}
+
+/// How a registration mark on a seam was placed (see the module notes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MarkPlace {
+    /// Where the picture is material around it.
+    Clear,
+    /// In the band of material around the picture.
+    Band,
+    /// On a pad of material put into the picture for it.
+    Pad,
+}
+
+/// A registration pin hole on a seam, shared by the two tiles of its segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SeamMark {
+    /// Its seam (vertical seams first).
+    pub seam: usize,
+    /// Its segment along the seam (from 0: the tiles of row or column `segment + 1`).
+    pub segment: usize,
+    /// Its centre, working px of the whole picture.
+    pub at: (u32, u32),
+    /// How it was placed.
+    pub place: MarkPlace,
+}
+
+/// The seams found, what each crossed (vertical seams first), and what lies along them.
+pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<Along>) {
     let (w, h) = (r.bits.width, r.bits.height);
     let mut seams = Seams::default();
     let mut crossings = Vec::new();
-    let mut pins = Vec::new();
+    let mut alongs = Vec::new();
     for (vertical, side) in [(true, r.cols), (false, r.rows)] {
         let (len, across_len) = if vertical { (h, w) } else { (w, h) };
         for &c in &side.centres_px {
@@ -188,6 +208,10 @@ pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<(u32, u32)>) {
             for (s, &a) in p.iter().enumerate() {
                 let i = idx(s as u32, a);
                 if !bits.data[i] {
+                    match cr.runs.last_mut() {
+                        Some(r) if r.1 + 1 == s as u32 => r.1 = s as u32,
+                        _ => cr.runs.push((s as u32, s as u32)),
+                    }
                     cr.cut_px += 1;
                     // The cut's width here: twice the radius of the widest disc of cut that
                     // holds this pixel (a thin line crossed is narrower than the feature).
@@ -204,10 +228,9 @@ pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<(u32, u32)>) {
                 }
             }
             if r.pin_clear_px > 0.0 {
-                let clear2 = |s: u32, a: u32| to_cut[idx(s, a)];
-                for (s, a) in pins_on(&p, &clear2, r.pin_clear_px) {
-                    pins.push(if vertical { (a, s) } else { (s, a) });
-                }
+                alongs.push(along(&p, &bits, b0, &to_cut, &to_material, r));
+            } else {
+                alongs.push(Along::default());
             }
             crossings.push(cr);
             if vertical {
@@ -217,7 +240,190 @@ pub(crate) fn find(r: &SeamRequest) -> (Seams, Vec<Crossing>, Vec<(u32, u32)>) {
             }
         }
     }
-    (seams, crossings, pins)
+    (seams, crossings, alongs)
+}
+
+/// What lies along path `p` (across positions from `b0` in the band's box `bits`, seen along).
+fn along(
+    p: &[u32],
+    bits: &BitGrid,
+    b0: u32,
+    to_cut: &[f32],
+    to_material: &[f32],
+    r: &SeamRequest,
+) -> Along {
+    let bw = bits.width;
+    // Wide cut: within half the smallest feature of a point that far from material (the cut's
+    // opening by a disc of the smallest feature); a cut pixel not in it is a thin feature.
+    let half = (r.min_px / 2.0).max(0.5) as f32;
+    let centres = BitGrid::from_fn(bw, bits.height, |x, y| {
+        to_material[(y * bw + x) as usize] >= half * half
+    });
+    let to_centre = squared_distance_to(&centres, true);
+    let pad = r.pin_clear_px;
+    let k = pad.ceil() as i64;
+    let mut out = Along::default();
+    for (s, &a) in p.iter().enumerate() {
+        let i = (s as u32 * bw + (a - b0)) as usize;
+        out.clear.push(to_cut[i].sqrt());
+        let mut n = 0u32;
+        'disc: for dy in -k..=k {
+            for dx in -k..=k {
+                let (q, t) = (a as i64 - b0 as i64 + dx, s as i64 + dy);
+                if (dx * dx + dy * dy) as f64 > pad * pad
+                    || q < 0
+                    || t < 0
+                    || q >= bw as i64
+                    || t >= bits.height as i64
+                {
+                    continue;
+                }
+                let j = (t as u32 * bw + q as u32) as usize;
+                if !bits.data[j] {
+                    if to_centre[j] > half * half + 0.5 {
+                        n = u32::MAX;
+                        break 'disc;
+                    }
+                    n += 1;
+                }
+            }
+        }
+        out.pad_cut.push(n);
+    }
+    out
+}
+
+/// The steps where seam `k` (vertical when `vertical`) passes from one segment to the next:
+/// where it enters the next row (column) of tiles the crossing seams make.
+fn segment_ends(seams: &Seams, vertical: bool, k: usize) -> Vec<usize> {
+    let path = if vertical { &seams.xs[k] } else { &seams.ys[k] };
+    let mut ends = Vec::new();
+    let mut last = 0;
+    for (s, &a) in path.iter().enumerate() {
+        let (x, y) = if vertical {
+            (a, s as u32)
+        } else {
+            (s as u32, a)
+        };
+        let seg = if vertical {
+            seams.row(x, y)
+        } else {
+            seams.col(x, y)
+        };
+        while seg > last {
+            ends.push(s);
+            last += 1;
+        }
+    }
+    ends.push(path.len());
+    ends
+}
+
+/// The registration marks of every seam's segments, and so the pads to put into the picture
+/// (see the module notes). `alongs` is what [`find`] gave, one per seam.
+pub(crate) fn place_marks(seams: &Seams, alongs: &[Along], r: &SeamRequest) -> Vec<SeamMark> {
+    let mut out = Vec::new();
+    if r.pin_clear_px <= 0.0 {
+        return out;
+    }
+    let keep = (r.overlap_px + r.pin_clear_px).ceil() as usize + 1;
+    let band = r.band_px as usize;
+    let all = seams
+        .xs
+        .iter()
+        .map(|p| (true, p))
+        .chain(seams.ys.iter().map(|p| (false, p)));
+    for (k, ((vertical, path), al)) in all.zip(alongs).enumerate() {
+        let len = path.len();
+        let kk = if vertical { k } else { k - seams.xs.len() };
+        let mut start = 0;
+        for (seg, end) in segment_ends(seams, vertical, kk).into_iter().enumerate() {
+            let at = |s: usize| {
+                let a = path[s];
+                if vertical {
+                    (a, s as u32)
+                } else {
+                    (s as u32, a)
+                }
+            };
+            let mut marks: Vec<(usize, MarkPlace)> = Vec::new();
+            // The outer band's, at the segment's ends there.
+            if band > 0 && start == 0 && end > band {
+                marks.push((band / 2, MarkPlace::Band));
+            }
+            if band > 0 && end == len && len > band && start + band < len {
+                marks.push((len - 1 - band / 2, MarkPlace::Band));
+            }
+            // The picture's steps of the segment, clear of the crossing seams.
+            let lo = if start == 0 { band } else { start + keep };
+            let hi = if end == len {
+                len.saturating_sub(band)
+            } else {
+                end.saturating_sub(keep)
+            };
+            if hi > lo {
+                let n = hi - lo;
+                let mut wants = Vec::new();
+                for frac in [1.0 / 3.0, 2.0 / 3.0] {
+                    let c = lo + (n as f64 * frac) as usize;
+                    let reach = (n / 6).max(1);
+                    let span = c.saturating_sub(reach).max(lo)..(c + reach).min(hi);
+                    let best = span
+                        .clone()
+                        .max_by(|&i, &j| al.clear[i].total_cmp(&al.clear[j]));
+                    match best {
+                        Some(i) if al.clear[i] as f64 >= r.pin_clear_px => {
+                            marks.push((i, MarkPlace::Clear))
+                        }
+                        _ => wants.push(span),
+                    }
+                }
+                // Fewer than two: pads, where they change the fewest pixels.
+                for span in wants {
+                    if marks.len() >= 2 {
+                        break;
+                    }
+                    let best = span
+                        .filter(|&i| al.pad_cut[i] != u32::MAX)
+                        .min_by_key(|&i| al.pad_cut[i]);
+                    if let Some(i) = best {
+                        marks.push((i, MarkPlace::Pad));
+                    }
+                }
+            }
+            for (s, place) in marks {
+                out.push(SeamMark {
+                    seam: k,
+                    segment: seg,
+                    at: at(s),
+                    place,
+                });
+            }
+            start = end;
+        }
+    }
+    out
+}
+
+/// Put the pads of `marks` into a two-tone: material within `pad_px` of each pad's centre.
+pub(crate) fn put_pads(bits: &mut BitGrid, marks: &[SeamMark], pad_px: f64) {
+    let k = pad_px.ceil() as i64;
+    for m in marks.iter().filter(|m| m.place == MarkPlace::Pad) {
+        let (cx, cy) = (m.at.0 as i64, m.at.1 as i64);
+        for dy in -k..=k {
+            for dx in -k..=k {
+                let (x, y) = (cx + dx, cy + dy);
+                if (dx * dx + dy * dy) as f64 <= pad_px * pad_px
+                    && x >= 0
+                    && y >= 0
+                    && (x as u32) < bits.width
+                    && (y as u32) < bits.height
+                {
+                    bits.set(x as u32, y as u32, true);
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -255,6 +461,7 @@ mod tests {
             overlap_px: 1.0,
             min_px: 2.0,
             pin_clear_px: 0.0,
+            band_px: 0,
         });
         let s = &seams.xs[0];
         assert_eq!(s.len(), h as usize);
@@ -274,7 +481,79 @@ mod tests {
             overlap_px: 1.0,
             min_px: 2.0,
             pin_clear_px: 0.0,
+            band_px: 0,
         });
         assert_eq!(crossings[0].cut_px, 4, "{:?}", seams.xs[0]);
+    }
+
+    #[test]
+    fn every_segment_gets_two_marks_and_no_pad_fills_a_thin_line() {
+        let (w, h) = (200u32, 100u32);
+        let run = |bits: &BitGrid| {
+            let gray = Gray::from_data(
+                w,
+                h,
+                bits.data
+                    .iter()
+                    .map(|&b| if b { 1.0 } else { 0.0 })
+                    .collect(),
+            );
+            let cols = Side {
+                count: 2,
+                centres_px: vec![100],
+                band_px: 5,
+            };
+            let rows = Side {
+                count: 2,
+                centres_px: vec![50],
+                band_px: 5,
+            };
+            let req = SeamRequest {
+                bits,
+                gray: &gray,
+                cols: &cols,
+                rows: &rows,
+                overlap_px: 2.0,
+                min_px: 4.0,
+                pin_clear_px: 6.0,
+                band_px: 10,
+            };
+            let (seams, _, alongs) = find(&req);
+            place_marks(&seams, &alongs, &req)
+        };
+        // A dark block over the vertical seam (the band around the picture is material): each of
+        // its two segments gets its band's mark and a pad in the dark.
+        let dark = BitGrid::from_fn(w, h, |x, y| {
+            !((70..130).contains(&x) && (10..90).contains(&y))
+        });
+        let marks = run(&dark);
+        for seg in 0..2 {
+            let on: Vec<&SeamMark> = marks
+                .iter()
+                .filter(|m| m.seam == 0 && m.segment == seg)
+                .collect();
+            assert_eq!(on.len(), 2, "{marks:?}");
+            assert!(on.iter().any(|m| m.place == MarkPlace::Band), "{on:?}");
+            let pad = on
+                .iter()
+                .find(|m| m.place == MarkPlace::Pad)
+                .expect("a pad");
+            assert!(
+                !dark.get(pad.at.0, pad.at.1),
+                "the pad is in the dark: {pad:?}"
+            );
+            let mut padded = dark.clone();
+            put_pads(&mut padded, &marks, 6.0);
+            assert!(
+                padded.get(pad.at.0 + 5, pad.at.1),
+                "material around the pad"
+            );
+        }
+        // Thin cut lines (1 px, under the 4 px smallest feature) all over the seam: no pad.
+        let lines = BitGrid::from_fn(w, h, |x, y| {
+            !((70..130).contains(&x) && (10..90).contains(&y) && y % 3 == 0)
+        });
+        let marks = run(&lines);
+        assert!(marks.iter().all(|m| m.place != MarkPlace::Pad), "{marks:?}");
     }
 }

@@ -173,11 +173,24 @@ impl Default for VectorConfig {
 impl VectorConfig {
     /// How far the flattened curves' chords may stray from the arcs: a fifth of the tolerance.
     /// Why so fine: with arcs, this polygon is only what the check judges, never what a file
-    /// carries (the files carry the fitted arcs, [`CutGeometry::curves`]). It is also the margin
-    /// the fit keeps the pixel centres clear of the curves by, so the flattening samples to the
-    /// same pixels. Without arcs it is not used for the outline ([`VectorConfig::arcs`]).
+    /// carries (the files carry the fitted arcs, [`CutGeometry::curves`]). Without arcs it is
+    /// not used for the outline ([`VectorConfig::arcs`]).
     pub(crate) fn flatten_mm(&self) -> f64 {
         self.tolerance_mm / 5.0
+    }
+
+    /// How far the fitted curves keep the pixel centres beside the traced outline from them: a
+    /// fiftieth of the tolerance, at least 0.001 mm (ten times the SVG's 0.1 µm numbers, which
+    /// move a near-half-turn arc's middle by up to about six times their rounding), at most the
+    /// flattening's. The curves, and every file that carries them, then fill the very pixels
+    /// they were traced from; the flattening keeps them too by a vertex wherever a chord would
+    /// cross one (`stencil_geom::curve::flatten_clear`).
+    ///
+    /// Why not a clearance as wide as the flattening's sagitta (round 3's rule): a traced
+    /// circle's pixel centres come within a fifth of the tolerance of the true circle somewhere
+    /// on every turn, so that clearance cut a large smooth circle into dozens of short arcs.
+    pub(crate) fn clear_mm(&self) -> f64 {
+        (self.tolerance_mm / 50.0).max(0.001).min(self.flatten_mm())
     }
 
     /// How far SVG, DXF and G-code arcs may stray from a polygon whose curves the geometry does
@@ -269,6 +282,7 @@ pub fn vectorize_design(
     let tol_px = cfg.scale.to_px(Mm(cfg.tolerance_mm)).0;
     let curves = cfg.curves.then(|| simplify::FitCurves {
         flatten: cfg.scale.to_px(Mm(cfg.flatten_mm())).0,
+        clear: cfg.scale.to_px(Mm(cfg.clear_mm())).0,
         straight: !cfg.arcs,
     });
     let (simplify, pieces) = simplify::simplify_and_fit(&mut rings, Some(&guards), tol_px, curves);

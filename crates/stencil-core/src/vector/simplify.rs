@@ -48,6 +48,10 @@ pub struct SimplifyStats {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct FitCurves {
     pub(crate) flatten: f64,
+    /// How far the curves keep the pixel centres beside the traced outline from them (the
+    /// flattening then adds a vertex where a chord would cross one:
+    /// [`stencil_geom::curve::flatten_clear`]).
+    pub(crate) clear: f64,
     /// No file will carry arcs (`--no-arcs`, a machine without them): each ring becomes the polygon
     /// with the fewest corners Douglas–Peucker finds on the fitted curves within `tol` of the traced
     /// points, guards kept ([`straighten`]), unless simplification's own has fewer points.
@@ -171,25 +175,45 @@ fn fit_curves(
                 return None;
             }
             let orig = &originals[i];
-            let sides = guards.and_then(|g| g.get(i)).map(|g| curve::Sides {
-                points: g.as_slice(),
-                margin: c.flatten,
-            });
-            let pieces = curve::fit_ring_within(orig, tol, sides);
-            let arcs = curve::arc_count(&pieces);
-            if arcs == 0 {
-                return None;
-            }
-            let (flat, pieces) = if c.straight {
-                let g = guards.and_then(|g| g.get(i)).map(Vec::as_slice);
-                let s = straighten(orig, &pieces, g, tol)?;
+            let g = guards.and_then(|g| g.get(i));
+            let fit = |margin: f64| {
+                let sides = g.map(|g| curve::Sides {
+                    points: g.as_slice(),
+                    margin,
+                });
+                let pieces = curve::fit_ring_within(orig, tol, sides);
+                let arcs = curve::arc_count(&pieces);
+                (arcs > 0).then_some((pieces, arcs))
+            };
+            let (flat, arcs, pieces) = if c.straight {
+                // The straight outline from the curves kept clear by either margin, whichever
+                // has fewer corners: the curves closer to the pixel centres reach farther, but
+                // the chords between their points must keep the centres on their sides too.
+                let margins = if c.flatten > c.clear {
+                    vec![c.clear, c.flatten]
+                } else {
+                    vec![c.clear]
+                };
+                let (s, arcs) = margins
+                    .into_iter()
+                    .filter_map(|m| {
+                        let (pieces, arcs) = fit(m)?;
+                        Some((straighten(orig, &pieces, g.map(Vec::as_slice), tol)?, arcs))
+                    })
+                    .min_by_key(|(s, _)| s.len())?;
                 // Simplification's polygon (in `rings[i]` until now) when it has fewer points.
                 if s.len() >= rings_len[i] {
                     return None;
                 }
-                (s, None)
+                (s, arcs, None)
             } else {
-                (curve::flatten(&pieces, c.flatten), Some(pieces))
+                let (pieces, arcs) = fit(c.clear)?;
+                let keep: &[[f64; 2]] = g.map_or(&[], |g| g.as_flattened());
+                (
+                    curve::flatten_clear(&pieces, c.flatten, keep),
+                    arcs,
+                    Some(pieces),
+                )
             };
             let a = signed_area2(&flat);
             (flat.len() >= 3 && a != 0.0 && a.signum() == signed_area2(orig).signum())
@@ -632,10 +656,12 @@ mod tests {
             let (dp, dp_st) = run(None);
             let (fine, _) = run(Some(FitCurves {
                 flatten: tol / 5.0,
+                clear: tol / 50.0,
                 straight: false,
             }));
             let (straight, st) = run(Some(FitCurves {
                 flatten: tol / 5.0,
+                clear: tol / 50.0,
                 straight: true,
             }));
             let count = |r: &[Vec<[f64; 2]>]| r.iter().map(Vec::len).sum::<usize>();

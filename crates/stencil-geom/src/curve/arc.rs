@@ -55,8 +55,9 @@ pub fn arc_of(a: [f64; 2], b: [f64; 2], bulge: f64) -> Option<ArcGeom> {
 /// Points that must stay on either side of a fitted outline: for ring vertex `k`, `points[k]` is
 /// `[left, right]` (as the ring runs), and each must be at least `margin` from the piece that
 /// replaces the vertex. The vector stage passes the two pixel centres beside each traced point, so
-/// that the curves sample to the same raster as the pixels they were traced from, and a margin
-/// of the flattening tolerance, so that the flattened curves do too.
+/// that the curves sample to the same raster as the pixels they were traced from, and a small
+/// margin that the rounding of the numbers written cannot cross (its flattening keeps the same
+/// points on their sides by vertices of its own: the parent module's `flatten_clear`).
 #[derive(Clone, Copy, Debug)]
 pub struct Sides<'a> {
     /// `[left, right]` per ring vertex.

@@ -380,7 +380,7 @@ function drawSeams(svg) {
     x.setAttribute("class", cls); svg.appendChild(x); return x;
   };
   state.tiles.seams.forEach((s, i) => {
-    const vertical = s.axis === "vertical", at = s.at_mm / mm;
+    const vertical = s.axis === "vertical", at = (s.at_mm + state.tiles.marks_band_mm) / mm;
     el("polyline", { points: s.points_px.map((q) => q[0] + "," + q[1]).join(" ") }, "seam").dataset.index = i;
     const line = vertical ? { x1: at, y1: 0, x2: at, y2: H } : { x1: 0, y1: at, x2: W, y2: at };
     el("line", line, "seam-line").id = "seam-line-" + i;
@@ -409,7 +409,8 @@ function moveSeamLine(i, [px, py]) {
 function seamMoved(i, [px, py]) {
   const s = state.tiles.seams[i], vertical = s.axis === "vertical", mm = state.mm_per_px;
   const size = (vertical ? state.width_px : state.height_px) * mm;
-  const to = Math.max(0, Math.min(size, (vertical ? px : py) * mm));
+  // The map is the picture grown by the marks' band; the seam options are on the picture.
+  const band = state.tiles.marks_band_mm, to = Math.max(0, Math.min(size - 2 * band, (vertical ? px : py) * mm - band));
   const places = state.tiles.seams.map((t, k) => [t, k]).filter(([t]) => t.axis === s.axis)
     .map(([t, k]) => +(k === i ? to : t.at_mm).toFixed(1));
   return { [vertical ? "seam-x" : "seam-y"]: places.join(",") };

@@ -8,10 +8,14 @@ use std::sync::mpsc::channel;
 use anyhow::{bail, Context};
 
 use stencil_gcode::format_duration;
+use stencil_grbl::{RunState, JOURNAL_EVERY};
 use stencil_hpgl::cutter::{self, Cutter};
-use stencil_hpgl::stream::{self, Control, Line, Outcome, SerialLine, VirtualLine};
+use stencil_hpgl::stream::{self, Control, Line, LineFault, Outcome, SerialLine, VirtualLine};
 
 use super::operator::{abort_cause, Keys};
+
+mod journal;
+use journal::{journal_plotter, PlotJournal};
 
 /// What `send` was asked for an HP-GL job.
 pub struct SendHpgl<'a> {
@@ -29,6 +33,10 @@ pub struct SendHpgl<'a> {
     pub recover: bool,
     /// `--dry-run-abort-at`.
     pub abort_at: Option<usize>,
+    /// `--dry-run-fault`, as the virtual line rehearses them.
+    pub faults: Vec<LineFault>,
+    /// `--dry-run-record`.
+    pub record: Option<&'a Path>,
 }
 
 /// Whether `path` is an HP-GL job: a `.plt`, `.hpgl`, `.hpg` or `.hgl` file.
@@ -71,18 +79,60 @@ pub fn check_file(
     })
 }
 
-pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
-    if a.recover {
-        bail!(
-            "{}: --recover reads a G-code run's journal; an HP-GL job resumes with --from-line N \
-             (the line printed when it stopped)",
-            a.file.display()
-        );
+/// `--recover`: read the journal beside the file, check it was written for this file and this
+/// plotter profile, say what it knows, and choose where to resume; `None` when nothing is left.
+fn recover(
+    a: &SendHpgl,
+    text: &str,
+    journal_path: &Path,
+) -> anyhow::Result<Option<(stencil_hpgl::profile::Plotter, usize)>> {
+    let journal_error =
+        |e: stencil_grbl::JournalError| anyhow::anyhow!("{e}{}", super::port::journal_hint(&e));
+    let j = PlotJournal::read(journal_path).map_err(journal_error)?;
+    j.check_file(journal_path, text).map_err(journal_error)?;
+    let plotter = journal_plotter(a.machine, &j, journal_path)?;
+    let how = super::port::run_state_words(j.state, j.stop_reason.as_deref());
+    println!(
+        "journal {}: the run of {} from line {} on {}, last written {} ago, {how}",
+        journal_path.display(),
+        stencil_io::printable(&j.file),
+        j.from_line,
+        stencil_io::printable(&j.plotter),
+        format_duration(j.age_s())
+    );
+    let last = stencil_hpgl::command::parse(text)?
+        .last()
+        .map_or(0, |p| p.line);
+    if j.state == RunState::Complete || j.resume_from > last {
+        println!("every instruction was cut: nothing to recover");
+        return Ok(None);
     }
+    println!(
+        "{} bytes had reached the plotter, whose buffer holds up to {} bytes not yet cut: the          instructions before line {} are known cut; line {} may have been running when it          stopped, and the plotter may have cut further (cut again, a cut runs in its own groove)",
+        j.delivered_bytes, j.buffer_bytes, j.resume_from, j.resume_from
+    );
+    println!(
+        "resuming from line {}: initialised, the run's pen, speed and force set again, tool up,          travel to where that line starts, tool down. The media must not have moved, and the          plotter's origin must be where the run's was (a cutter switched off and on takes its          origin where the media lies: set it back first)",
+        j.resume_from
+    );
+    Ok(Some((plotter, j.resume_from)))
+}
+
+pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
     let text = read_hpgl(a.file)?;
-    let plotter = plotter_for(a.machine)?;
+    let journal_path = stencil_grbl::journal_path(a.file);
+    if let Some(r) = a.record {
+        stencil_io::check_output(r, &[a.file])?;
+    }
+    let (plotter, from_line) = if a.recover {
+        match recover(&a, &text, &journal_path)? {
+            Some(r) => r,
+            None => return Ok(ExitCode::SUCCESS),
+        }
+    } else {
+        (plotter_for(a.machine)?, a.from_line)
+    };
     let whole = check_file(a.file, &text, &plotter)?;
-    let from_line = a.from_line;
     let (tx, rx) = channel();
     let keys = Keys::start(tx);
     // Instructions sent so far, for --dry-run-abort-at.
@@ -106,13 +156,6 @@ pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} instructions, {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let mut progress = |p: &stream::Progress| {
-        bar.set_length(p.total as u64);
-        bar.set_position(p.sent as u64);
-        sent.set(p.sent);
-        let left = total_s * (1.0 - p.sent as f64 / p.total.max(1) as f64);
-        bar.set_message(format!("about {} left", format_duration(left)));
-    };
     println!(
         "{}: {} instructions for {} ({}, {} baud, {} flow control, {}-byte buffer); about {} \
          on the virtual cutter; ! or h = pause, ~ or r = resume, a / q / Esc / Ctrl-C = abort (clears the \
@@ -132,6 +175,10 @@ pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
             let mut v = VirtualLine::new(&plotter, 0.0);
             // The plotter cuts while it receives: one instruction for every 16 bytes arriving.
             v.run_every_bytes = 16;
+            v.fault = a.faults.first().copied();
+            if a.record.is_some() {
+                v.cutter.log = Some(Vec::new());
+            }
             vline.insert(v)
         }
         (Some(p), false) => sline.insert(
@@ -142,22 +189,82 @@ pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
             bail!("name the plotter's serial port with --port, or rehearse with --dry-run")
         }
     };
-    let out = stream::stream(
-        &text,
-        from_line,
-        &plotter.serial,
-        line,
-        &mut control,
-        &mut progress,
-    );
+    // The journal exists from the run's start: a sender killed mid-job leaves it `running`.
+    let mut journal = PlotJournal::new(a.file, &text, &plotter, from_line);
+    let mut journal_warned = false;
+    let mut save = |j: &mut PlotJournal| {
+        if let Err(e) = j.write(&journal_path) {
+            // The job goes on: a journal is a help, not a condition of cutting.
+            if !journal_warned {
+                journal_warned = true;
+                eprintln!("{e}; the job goes on without it");
+            }
+        }
+    };
+    save(&mut journal);
+    let out = {
+        let mut last_write = std::time::Instant::now();
+        let mut progress = |p: &stream::Progress| {
+            bar.set_length(p.total as u64);
+            bar.set_position(p.sent as u64);
+            sent.set(p.sent);
+            let left = total_s * (1.0 - p.sent as f64 / p.total.max(1) as f64);
+            bar.set_message(format!("about {} left", format_duration(left)));
+            journal.last_sent_line = Some(p.line);
+            journal.delivered_bytes = p.delivered_bytes;
+            journal.resume_from = p.resume_line;
+            if last_write.elapsed() >= JOURNAL_EVERY {
+                save(&mut journal);
+                last_write = std::time::Instant::now();
+            }
+        };
+        stream::stream(
+            &text,
+            from_line,
+            &plotter.serial,
+            line,
+            &mut control,
+            &mut progress,
+        )
+    };
     bar.finish_and_clear();
     drop(keys);
-    let out = out.map_err(|e| anyhow::anyhow!("{}: {e}; the stream stopped", a.file.display()))?;
+    if let (Some(v), Some(r)) = (&vline, a.record) {
+        let log = v.cutter.log.as_deref().unwrap_or_default();
+        stencil_io::write_atomic(r, log)
+            .with_context(|| format!("{}: cannot write the record", r.display()))?;
+    }
     if let Some(v) = &vline {
         print_virtual(&v.cutter, total_s);
     }
+    let same_machine = format!(
+        " --machine {}{}",
+        plotter.name,
+        if a.dry_run {
+            " --dry-run".to_string()
+        } else {
+            a.port.map(|p| format!(" --port {p}")).unwrap_or_default()
+        }
+    );
+    let resume_hint = |line: usize| {
+        format!(
+            "\nto resume: stencil send {} --from-line {line}{same_machine}\n(the journal {} \
+             keeps this; after a crash or power loss: stencil send {} --recover{same_machine})",
+            a.file.display(),
+            journal_path.display(),
+            a.file.display(),
+        )
+    };
     match out {
-        Outcome::Done { sent, waits } => {
+        Ok(Outcome::Done { sent, waits }) => {
+            if let Err(e) = std::fs::remove_file(&journal_path) {
+                if e.kind() != std::io::ErrorKind::NotFound {
+                    eprintln!(
+                        "{}: cannot remove the finished job's journal: {e}",
+                        journal_path.display()
+                    );
+                }
+            }
             println!(
                 "{}: sent {sent} instructions to {}; the plotter said stop {waits} time(s)",
                 a.file.display(),
@@ -165,18 +272,24 @@ pub fn run_send_hpgl(a: SendHpgl) -> anyhow::Result<ExitCode> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Outcome::Aborted { resume_line } => bail!(
-            "{}; the plotter's buffer was cleared (ESC.K) and the tool lifted (PU)\nto resume: \
-             stencil send {} --from-line {resume_line} --machine {}{}",
-            abort_cause(),
-            a.file.display(),
-            plotter.name,
-            if a.dry_run {
-                " --dry-run".to_string()
-            } else {
-                a.port.map(|p| format!(" --port {p}")).unwrap_or_default()
-            }
-        ),
+        Ok(Outcome::Aborted { resume_line }) => {
+            let text = format!(
+                "{}; the plotter's buffer was cleared (ESC.K) and the tool lifted (PU)",
+                abort_cause()
+            );
+            journal.state = RunState::Stopped;
+            journal.stop_reason = Some(text.clone());
+            journal.resume_from = resume_line;
+            save(&mut journal);
+            bail!("{text}{}", resume_hint(resume_line))
+        }
+        Err(e) => {
+            let text = format!("{}: {e}; the stream stopped", a.file.display());
+            journal.state = RunState::Stopped;
+            journal.stop_reason = Some(text.clone());
+            save(&mut journal);
+            bail!("{text}{}", resume_hint(journal.resume_from))
+        }
     }
 }
 
