@@ -314,6 +314,15 @@ pub fn flatten(pieces: &[Piece], tol: f64) -> Vec<[f64; 2]> {
 pub fn flatten_clear(pieces: &[Piece], tol: f64, keep: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let n = pieces.len();
     let mut out = Vec::with_capacity(n);
+    // The points of `keep` by x, so each arc looks only at those in its box's x range (a ring's
+    // points are two per traced vertex: looking at all of them for every arc was quadratic).
+    // Non-finite points are in no box.
+    let mut by_x: Vec<[f64; 2]> = keep
+        .iter()
+        .copied()
+        .filter(|q| q[0].is_finite() && q[1].is_finite())
+        .collect();
+    by_x.sort_by(|a, b| a[0].total_cmp(&b[0]));
     for (k, p) in pieces.iter().enumerate() {
         out.push(p.from);
         let to = pieces[(k + 1) % n].from;
@@ -324,9 +333,13 @@ pub fn flatten_clear(pieces: &[Piece], tol: f64, keep: &[[f64; 2]]) -> Vec<[f64;
                 Vec::new()
             } else {
                 let bx = arc_box(&arc, p.from, to);
-                keep.iter()
+                // The order does not matter: the fractions are sorted below.
+                let from = by_x.partition_point(|q| q[0] < bx[0]);
+                by_x[from..]
+                    .iter()
+                    .take_while(|q| q[0] <= bx[2])
                     .filter(|q| {
-                        q[0] >= bx[0] && q[0] <= bx[2] && q[1] >= bx[1] && q[1] <= bx[3] && {
+                        q[1] >= bx[1] && q[1] <= bx[3] && {
                             let d = dist(**q, arc.center);
                             d < arc.radius && d >= arc.radius - tol
                         }

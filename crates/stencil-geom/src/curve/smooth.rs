@@ -28,7 +28,7 @@
 //! less ([`kinks`] counted as pieces).
 
 use super::arc::{arc_box, arc_of, ArcGeom, Piece, Sides};
-use crate::ring::{dist, seg_dist};
+use crate::ring::{dist, seg_closest, seg_dist};
 
 /// How far, in tolerances, the chord giving a vertex's tangent reaches on either side, and at
 /// most how many vertices.
@@ -130,19 +130,24 @@ impl Part {
 
     /// Distance from `p` to the piece.
     fn dist(&self, p: [f64; 2]) -> f64 {
+        self.dist_spans(p).0
+    }
+
+    /// [`Part::dist`], and whether `p` is within an arc's sweep (false for a line): what
+    /// [`Part::left_of`] needs, so that the sweep is asked once.
+    fn dist_spans(&self, p: [f64; 2]) -> (f64, bool) {
         match self.arc {
-            Some(arc) if self.spans(&arc, p) => (dist(p, arc.center) - arc.radius).abs(),
-            Some(_) => dist(p, self.a).min(dist(p, self.b)),
-            None => seg_dist(p, self.a, self.b),
+            Some(arc) if self.spans(&arc, p) => ((dist(p, arc.center) - arc.radius).abs(), true),
+            Some(_) => (dist(p, self.a).min(dist(p, self.b)), false),
+            None => (seg_dist(p, self.a, self.b), false),
         }
     }
 
-    /// Signed distance, positive on the piece's left (beyond its ends, by the tangent there).
-    fn left(&self, p: [f64; 2]) -> f64 {
+    /// Signed distance, positive on the piece's left (beyond its ends, by the tangent there),
+    /// given whether `p` is within the arc's sweep ([`Part::dist_spans`]).
+    fn left_of(&self, p: [f64; 2], spans: bool) -> f64 {
         match self.arc {
-            Some(arc) if self.spans(&arc, p) => {
-                self.bulge.signum() * (arc.radius - dist(p, arc.center))
-            }
+            Some(arc) if spans => self.bulge.signum() * (arc.radius - dist(p, arc.center)),
             _ => {
                 let (e, t) = if dist(p, self.a) <= dist(p, self.b) {
                     (self.a, self.start_tangent())
@@ -244,78 +249,23 @@ impl Fit<'_> {
         // within tol - h/2 leaves every point between within tol.
         let h = tol / 8.0;
         let all = || parts.iter().chain(prev);
-        // Whether the nearest of the parts to `p` is farther than `lim`: every part's distance
-        // (a NaN one skipped, as the nearest's minimum skips it) is, and no part is measured
-        // after one within `lim`. (Infinity > `lim` is what the nearest of none is.)
-        let far = |p: [f64; 2], lim: f64| {
-            f64::INFINITY > lim
-                && all().all(|q| {
-                    let d = q.dist(p);
-                    d.is_nan() || d > lim
-                })
-        };
         if parts.iter().any(|p| p.length() <= 0.0) {
             return false;
         }
-        // The ring to the parts: each edge, exactly where one arc or line holds both its ends
-        // (a line's distance is convex; an arc's outward distance is too, and its inward one is
-        // largest where the edge comes closest to the centre), else sampled.
-        for k in i..j {
-            let (p, q) = (self.at(k), self.at(k + 1));
-            let exact = parts.iter().any(|part| match part.arc {
-                None => part.dist(p) <= tol && part.dist(q) <= tol,
-                // Within the sweep, `dist` is the distance to the circle (not asked again).
-                Some(arc) => {
-                    part.spans(&arc, p)
-                        && part.spans(&arc, q)
-                        && (dist(p, arc.center) - arc.radius).abs() <= tol
-                        && (dist(q, arc.center) - arc.radius).abs() <= tol
-                        && arc.radius - seg_dist(arc.center, p, q) <= tol
-                }
-            });
-            if exact {
-                continue;
-            }
-            let steps = (dist(p, q) / h).ceil().max(1.0) as usize;
-            for s in 0..=steps {
-                let t = s as f64 / steps as f64;
-                let x = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
-                if far(x, tol - h / 2.0) {
-                    return false;
-                }
-            }
-        }
-        // The parts to the ring: samples against the edges near where the last one was nearest
-        // (the distance to a few edges bounds the distance to all of them from above), from
-        // the edge before vertex i (the parts may start before it).
-        let first = if prev.is_some() { i + n - 1 } else { i + n };
-        let end = j + n - 1;
-        let mut e = first;
-        for part in parts {
-            let steps = (part.length() / h).ceil().max(1.0) as usize;
-            for s in 0..=steps {
-                let x = part.point(s as f64 / steps as f64);
-                let (lo, hi) = (e.saturating_sub(2).max(first), (e + 12).min(end));
-                let (mut best, mut at) = (f64::INFINITY, e);
-                for k in lo..=hi {
-                    let d = seg_dist(x, self.at(k), self.at(k + 1));
-                    if d < best {
-                        best = d;
-                        at = k;
-                    }
-                }
-                if best > tol - h / 2.0 {
-                    return false;
-                }
-                e = at;
-            }
-        }
+        // The cheap conditions first (the answer is the same whatever their order): the sides,
+        // the box, then the sampled distances both ways.
         if let Some(sd) = self.sides {
             let m = sd.points.len();
+            // The left distance by the nearest part (the first of equals).
             let side = |p: [f64; 2]| {
-                all()
-                    .min_by(|x, y| x.dist(p).total_cmp(&y.dist(p)))
-                    .map_or(0.0, |q| q.left(p))
+                let mut near: Option<(&Part, f64, bool)> = None;
+                for q in all() {
+                    let (d, spans) = q.dist_spans(p);
+                    if near.is_none_or(|n| d.total_cmp(&n.1).is_lt()) {
+                        near = Some((q, d, spans));
+                    }
+                }
+                near.map_or(0.0, |(q, _, spans)| q.left_of(p, spans))
             };
             for k in i..=j {
                 let [l, r] = sd.points[k % m];
@@ -336,6 +286,96 @@ impl Fit<'_> {
                         return false;
                     }
                 }
+            }
+        }
+        // The distance from `p` to the nearest of the parts (a NaN one skipped; infinity for
+        // none).
+        let nearest = |p: [f64; 2]| {
+            all()
+                .map(|q| q.dist(p))
+                .filter(|d| !d.is_nan())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let lim = tol - h / 2.0;
+        // The ring to the parts: each edge, exactly where one arc or line holds both its ends
+        // (a line's distance is convex; an arc's outward distance is too, and its inward one is
+        // largest where the edge comes closest to the centre), else sampled.
+        for k in i..j {
+            let (p, q) = (self.at(k), self.at(k + 1));
+            let exact = parts.iter().any(|part| match part.arc {
+                None => part.dist(p) <= tol && part.dist(q) <= tol,
+                // Within the sweep, `dist` is the distance to the circle (not asked again).
+                Some(arc) => {
+                    part.spans(&arc, p)
+                        && part.spans(&arc, q)
+                        && (dist(p, arc.center) - arc.radius).abs() <= tol
+                        && (dist(q, arc.center) - arc.radius).abs() <= tol
+                        && arc.radius - seg_dist(arc.center, p, q) <= tol
+                }
+            });
+            if exact {
+                continue;
+            }
+            let len = dist(p, q);
+            let steps = (len / h).ceil().max(1.0) as usize;
+            let gap = len / steps as f64;
+            // A distance to fixed pieces changes no faster than the point moves, so the samples
+            // within `lim - d` of one at distance `d` are within `lim` too: not measured (less a
+            // nanometre, for the arithmetic's rounding).
+            let mut s = 0;
+            while s <= steps {
+                let t = s as f64 / steps as f64;
+                let x = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
+                let d = nearest(x);
+                if d > lim {
+                    return false;
+                }
+                let room = lim - 1e-9 - d;
+                let skip = if gap > 0.0 && room > 0.0 {
+                    (room / gap).floor().min(steps as f64) as usize
+                } else {
+                    0
+                };
+                s += 1 + skip;
+            }
+        }
+        // The parts to the ring: samples against the edges near where the last one was nearest
+        // (the distance to a few edges bounds the distance to all of them from above), from
+        // the edge before vertex i (the parts may start before it).
+        let first = if prev.is_some() { i + n - 1 } else { i + n };
+        let end = j + n - 1;
+        let mut e = first;
+        for part in parts {
+            let steps = (part.length() / h).ceil().max(1.0) as usize;
+            // Samples closer to one measured than its room under `lim` are skipped, as above
+            // (the step between samples along the part is at least the distance between them).
+            let gap = part.length() / steps as f64;
+            let mut s = 0;
+            while s <= steps {
+                let x = part.point(s as f64 / steps as f64);
+                let (lo, hi) = (e.saturating_sub(2).max(first), (e + 12).min(end));
+                // Squared distances compared (one square root per sample, not one per edge).
+                let (mut best, mut at) = (f64::INFINITY, e);
+                for k in lo..=hi {
+                    let c = seg_closest(x, self.at(k), self.at(k + 1));
+                    let d = (x[0] - c[0]).powi(2) + (x[1] - c[1]).powi(2);
+                    if d < best {
+                        best = d;
+                        at = k;
+                    }
+                }
+                let best = best.sqrt();
+                if best > lim {
+                    return false;
+                }
+                e = at;
+                let room = lim - 1e-9 - best;
+                let skip = if gap > 0.0 && room > 0.0 {
+                    (room / gap).floor().min(steps as f64) as usize
+                } else {
+                    0
+                };
+                s += 1 + skip;
             }
         }
         true
@@ -632,28 +672,32 @@ impl Fit<'_> {
             let ccw = cross(sub(s, c0), sub(self.at((i + 1 + j) / 2), c0)) > 0.0;
             let m = 2.0 * r0 * sd.margin * 1.5;
             let np = sd.points.len();
-            for _ in 0..12 {
-                let mut moved = false;
-                for k in i..=j {
+            // Each point from s, its square length and its side, in order: the same every round.
+            let points: Vec<([f64; 2], f64, bool)> = (i..=j)
+                .flat_map(|k| {
                     let [l, r] = sd.points[k % np];
                     let (inner, outer) = if ccw { (l, r) } else { (r, l) };
-                    for (pt, inside) in [(inner, true), (outer, false)] {
-                        let q = sub(pt, s);
-                        let q2 = dot(q, q);
-                        if q2 == 0.0 {
-                            continue;
-                        }
-                        // inside: q2 + m - w·q <= 0; outside: w·q - q2 + m <= 0.
-                        let v = if inside {
-                            q2 + m - dot(w, q)
-                        } else {
-                            dot(w, q) - q2 + m
-                        };
-                        if v > 0.0 {
-                            let f = if inside { v / q2 } else { -v / q2 };
-                            w = [w[0] + f * q[0], w[1] + f * q[1]];
-                            moved = true;
-                        }
+                    [(inner, true), (outer, false)]
+                })
+                .filter_map(|(pt, inside)| {
+                    let q = sub(pt, s);
+                    let q2 = dot(q, q);
+                    (q2 != 0.0).then_some((q, q2, inside))
+                })
+                .collect();
+            for _ in 0..12 {
+                let mut moved = false;
+                for &(q, q2, inside) in &points {
+                    // inside: q2 + m - w·q <= 0; outside: w·q - q2 + m <= 0.
+                    let v = if inside {
+                        q2 + m - dot(w, q)
+                    } else {
+                        dot(w, q) - q2 + m
+                    };
+                    if v > 0.0 {
+                        let f = if inside { v / q2 } else { -v / q2 };
+                        w = [w[0] + f * q[0], w[1] + f * q[1]];
+                        moved = true;
                     }
                 }
                 if !moved {
