@@ -626,23 +626,42 @@ impl Fit<'_> {
     /// tangent at `s` free: the least-squares circle through `s` and those vertices, moved until
     /// the sides' points are on their sides, ending where vertex `j` is nearest it, then
     /// measured ([`Fit::holds`]).
-    fn through(&self, s: [f64; 2], prev: Option<&Part>, i: usize, j: usize) -> Option<Part> {
+    /// The sums [`Fit::through`] fits a circle by, of the vertices after `i` from `s`: for each
+    /// `j` in `i + 1 ..= to`, those of the vertices up to `j`. Running sums, so each is what
+    /// summing its vertices alone gives, to the bit (the same additions in the same order), and
+    /// a search over shorter and shorter spans sums its vertices once.
+    fn moments(&self, s: [f64; 2], i: usize, to: usize) -> Vec<[f64; 6]> {
+        let mut m = [0.0; 6];
+        (i + 1..=to)
+            .map(|k| {
+                let q = sub(self.at(k), s);
+                let r2 = dot(q, q);
+                m[0] += q[0] * q[0];
+                m[1] += q[0] * q[1];
+                m[2] += q[1] * q[1];
+                m[3] += r2 * q[0];
+                m[4] += r2 * q[1];
+                m[5] += r2 * r2;
+                m
+            })
+            .collect()
+    }
+
+    /// `sums`: [`Fit::moments`] of the vertices after `i` up to `j`.
+    fn through(
+        &self,
+        s: [f64; 2],
+        prev: Option<&Part>,
+        i: usize,
+        j: usize,
+        sums: [f64; 6],
+    ) -> Option<Part> {
         let p = self.at(j);
         // The circle (or line) through the origin (s): c |q|² + a qx + b qy = 0 with a² + b² = 1,
         // by least squares. With that normalisation the left side's gradient has length 1 all
         // along the circle, so it is the distance to the circle near it (Pratt's fit held through
         // s; Kåsa's, normalised by c, shrinks the circles of short noisy arcs).
-        let (mut sxx, mut sxy, mut syy, mut bx, mut by, mut s4) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for k in i + 1..=j {
-            let q = sub(self.at(k), s);
-            let r2 = dot(q, q);
-            sxx += q[0] * q[0];
-            sxy += q[0] * q[1];
-            syy += q[1] * q[1];
-            bx += r2 * q[0];
-            by += r2 * q[1];
-            s4 += r2 * r2;
-        }
+        let [sxx, sxy, syy, bx, by, s4] = sums;
         if s4 <= 0.0 {
             return None;
         }
@@ -657,7 +676,11 @@ impl Fit<'_> {
         // after the small moves below: not measured.
         if let Some(c0) = centre {
             let r0 = dist(c0, s);
-            if (i + 1..=j).any(|k| (dist(self.at(k), c0) - r0).abs() > 1.5 * self.tol) {
+            // From the far end, where a span too long misses first (the answer is the same).
+            if (i + 1..=j)
+                .rev()
+                .any(|k| (dist(self.at(k), c0) - r0).abs() > 1.5 * self.tol)
+            {
                 return None;
             }
         }
@@ -784,9 +807,10 @@ pub(super) fn fit_loose(
             // traced from, so a longer span can hold where a shorter one does not.
             let last = (i + max_run).min(n - 1);
             let mut span = (last - i).min(2 * long.max(32));
+            let sums = f.moments(s, i, i + span);
             let mut found = None;
             while span >= 1 {
-                if let Some(p) = f.through(s, out.last(), i, i + span) {
+                if let Some(p) = f.through(s, out.last(), i, i + span, sums[span - 1]) {
                     found = Some((i + span, p));
                     break;
                 }
