@@ -120,6 +120,27 @@ impl Part {
     /// Whether `p`'s direction from the centre is within the arc's sweep.
     fn spans(&self, arc: &ArcGeom, p: [f64; 2]) -> bool {
         use std::f64::consts::TAU;
+        // A sweep under a half turn is where the direction is left of the start's and right of
+        // the end's (counter-clockwise; the other way round clockwise). Where both sides are
+        // clear by a billionth of a radian, far more than the angles' rounding, that answers
+        // as the angles below would, without an arctangent; nearer an end (where a piece's
+        // last vertex often is), the angles decide, as they always did.
+        if arc.sweep.abs() < std::f64::consts::PI {
+            let v = sub(p, arc.center);
+            let (s0, e0) = (sub(self.a, arc.center), sub(self.b, arc.center));
+            let (c1, c2) = if arc.sweep > 0.0 {
+                (cross(s0, v), cross(v, e0))
+            } else {
+                (cross(v, s0), cross(e0, v))
+            };
+            let eps = 1e-9 * arc.radius * v[0].hypot(v[1]);
+            if c1 > eps && c2 > eps {
+                return true;
+            }
+            if c1 < -eps || c2 < -eps {
+                return false;
+            }
+        }
         let ang = (p[1] - arc.center[1]).atan2(p[0] - arc.center[0]);
         if arc.sweep > 0.0 {
             (ang - arc.start_angle).rem_euclid(TAU) <= arc.sweep
