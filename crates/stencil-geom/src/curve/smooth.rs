@@ -133,11 +133,13 @@ impl Part {
             } else {
                 (cross(v, s0), cross(e0, v))
             };
-            let eps = 1e-9 * arc.radius * v[0].hypot(v[1]);
-            if c1 > eps && c2 > eps {
+            // Squared: c > 1e-9 r |v| with no square root.
+            let e2 = 1e-18 * arc.radius * arc.radius * dot(v, v);
+            let clear = |c: f64| c * c > e2;
+            if c1 > 0.0 && c2 > 0.0 && clear(c1) && clear(c2) {
                 return true;
             }
-            if c1 < -eps || c2 < -eps {
+            if (c1 < 0.0 && clear(c1)) || (c2 < 0.0 && clear(c2)) {
                 return false;
             }
         }
