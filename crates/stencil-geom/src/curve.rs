@@ -72,7 +72,7 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
     let sides = sides.filter(|s| s.points.len() == n);
     // One piece from vertex i with its own bulge, as far as one fits: where no tangent-continuous
     // piece does.
-    let free = |i: usize, s: [f64; 2]| -> (usize, f64) {
+    let fresh = |i: usize, s: [f64; 2]| -> (usize, f64) {
         let at = |k: usize| if k == i { s } else { ring[k % n] };
         // Galloping, then halving: spans of 2, 4, 8, ... vertices until one fails, then the
         // longest that fits between the last that fitted and the first that failed (a span that
@@ -111,6 +111,18 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
             }
         }
         best
+    };
+    // The three fits ask for the same piece where their paths meet (at a vertex, after a
+    // corner): each asked once.
+    let known = std::cell::RefCell::new(std::collections::HashMap::new());
+    let free = |i: usize, s: [f64; 2]| -> (usize, f64) {
+        let key = (i, s.map(f64::to_bits));
+        if let Some(&r) = known.borrow().get(&key) {
+            return r;
+        }
+        let r = fresh(i, s);
+        known.borrow_mut().insert(key, r);
+        r
     };
     // Vertex to vertex, each piece with its own bulge: round 3's fit.
     let mut own = Vec::new();
