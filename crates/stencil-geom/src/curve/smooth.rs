@@ -635,10 +635,16 @@ const SHARP_JOINT: f64 = 15.0 * std::f64::consts::PI / 180.0;
 /// slows at.
 pub(super) fn kinks(pieces: &[Piece]) -> usize {
     let m = pieces.len();
-    let part = |k: usize| Part::new(pieces[k].from, pieces[(k + 1) % m].from, pieces[k].bulge);
+    // Each piece's tangents at both ends, worked out once.
+    let ends: Vec<([f64; 2], [f64; 2])> = (0..m)
+        .map(|k| {
+            let part = Part::new(pieces[k].from, pieces[(k + 1) % m].from, pieces[k].bulge);
+            (part.start_tangent(), part.end_tangent())
+        })
+        .collect();
     (0..m)
         .filter(|&k| {
-            let (a, b) = (part((k + m - 1) % m).end_tangent(), part(k).start_tangent());
+            let (a, b) = (ends[(k + m - 1) % m].1, ends[k].0);
             cross(a, b).atan2(dot(a, b)).abs() > SHARP_JOINT
         })
         .count()
