@@ -43,12 +43,33 @@ pub(crate) fn box_average(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 +
 /// [`box_average`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a
 /// box's sum of ones and zeros is its count of ones, exactly, in any order. An output row's
 /// source rows are first added column by column (a long loop over bytes that vectorises), then
-/// each box's columns summed.
+/// each box's columns summed. (The measures use [`box_average_bits_into`], which reuses a buffer.)
+#[cfg(test)]
 pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
+    let mut data = Vec::new();
+    let (width, height) = box_average_bits_into(bits, d, invert, &mut data);
+    Gray {
+        width,
+        height,
+        data,
+    }
+}
+
+/// [`box_average_bits`] written into `data` (resized to the result, every value written, so a
+/// buffer reused from an earlier call needs no clearing); returns the result's size.
+pub(crate) fn box_average_bits_into(
+    bits: &BitGrid,
+    d: u32,
+    invert: bool,
+    data: &mut Vec<f32>,
+) -> (u32, u32) {
     let (w, h) = (bits.width, bits.height);
     let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
     let (wu, du) = (w as usize, d as usize);
-    let mut data = vec![0f32; (ow * oh) as usize];
+    resize_unset(data, (ow * oh) as usize);
+    if ow == 0 || oh == 0 {
+        return (ow, oh);
+    }
     data.par_chunks_mut(ow as usize).enumerate().for_each_init(
         Vec::new,
         |cols: &mut Vec<u32>, (oy, out)| {
@@ -68,11 +89,14 @@ pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
             }
         },
     );
-    Gray {
-        width: ow,
-        height: oh,
-        data,
-    }
+    (ow, oh)
+}
+
+/// `v` made `n` long without writing the values it already holds: for a buffer every value of
+/// which is written next, reused between calls (clearing it first would cost a pass over it).
+fn resize_unset(v: &mut Vec<f32>, n: usize) {
+    v.truncate(n);
+    v.resize(n, 0.0);
 }
 
 /// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity): the same
@@ -85,16 +109,34 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
 /// [`blur`] of the `w` × `h` picture of `value(i)` (pixel `i` row-major), not made first: the
 /// likeness blurs squares and products, each a picture-sized buffer of fresh memory if made.
 pub(crate) fn blur_of(w: u32, h: u32, sigma: f32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
+    let mut data = Vec::new();
+    blur_of_into(w, h, sigma, value, &mut Vec::new(), &mut data);
+    Gray {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+/// [`blur_of`] written into `out` (resized to `w` × `h`, every value written), with `across` as
+/// the buffer between the two passes: both reusable between calls, so that measuring many
+/// two-tones of one picture (`--threshold auto`'s levels) does not allocate and clear
+/// picture-sized buffers for each.
+pub(crate) fn blur_of_into(
+    w: u32,
+    h: u32,
+    sigma: f32,
+    value: impl Fn(usize) -> f32 + Sync,
+    across: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
     // A NaN or non-positive sigma blurs nothing.
     if sigma.is_nan() || sigma <= 0.0 || w == 0 || h == 0 {
-        let mut g = Gray::new(w, h, 0.0);
-        g.data
-            .iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v = value(i));
-        return g;
+        out.clear();
+        out.extend((0..w as usize * h as usize).map(value));
+        return;
     }
-    convolve(w, h, &gaussian_kernel(sigma), 1.0, value)
+    convolve_into(w, h, &gaussian_kernel(sigma), 1.0, value, across, out);
 }
 
 /// The `w` × `h` picture of `value(i)` (pixel `i` row-major) convolved with the symmetric
@@ -110,10 +152,38 @@ pub(crate) fn convolve(
     sum: f32,
     value: impl Fn(usize) -> f32 + Sync,
 ) -> Gray {
-    if width == 0 || height == 0 {
-        return Gray::new(width, height, 0.0);
+    let mut data = Vec::new();
+    convolve_into(
+        width,
+        height,
+        kernel,
+        sum,
+        value,
+        &mut Vec::new(),
+        &mut data,
+    );
+    Gray {
+        width,
+        height,
+        data,
     }
+}
+
+/// [`convolve`] written into `out`, with `across` between the passes (see [`blur_of_into`]).
+fn convolve_into(
+    width: u32,
+    height: u32,
+    kernel: &[f32],
+    sum: f32,
+    value: impl Fn(usize) -> f32 + Sync,
+    across: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
     let (w, h) = (width as usize, height as usize);
+    resize_unset(out, w * h);
+    if w == 0 || h == 0 {
+        return;
+    }
     let r = kernel.len() / 2;
     let divide = |out: &mut [f32]| {
         if sum != 1.0 {
@@ -122,7 +192,7 @@ pub(crate) fn convolve(
     };
     // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
     // tap (see `taps`).
-    let mut across = vec![0f32; w * h];
+    resize_unset(across, w * h);
     across
         .par_chunks_mut(w)
         .enumerate()
@@ -137,20 +207,21 @@ pub(crate) fn convolve(
             divide(out);
         });
     // Down the columns: each output row sums the rows above and below it (clamped to the
-    // picture), tap by tap.
-    let mut data = vec![0f32; w * h];
-    data.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        taps(out, kernel, |i, x| {
-            let sy = (y + i).saturating_sub(r).min(h - 1);
-            &across[sy * w + x..(sy + 1) * w]
-        });
-        divide(out);
-    });
-    Gray {
-        width,
-        height,
-        data,
-    }
+    // picture), tap by tap; the rows of its taps are found once per output row, not per run.
+    let across = &across[..];
+    out.par_chunks_mut(w).enumerate().for_each_init(
+        Vec::new,
+        |rows: &mut Vec<&[f32]>, (y, out)| {
+            rows.clear();
+            rows.extend((0..kernel.len()).map(|i| {
+                let sy = (y + i).saturating_sub(r).min(h - 1);
+                &across[sy * w..(sy + 1) * w]
+            }));
+            let rows = &rows[..];
+            taps(out, kernel, |i, x| &rows[i][x..]);
+            divide(out);
+        },
+    );
 }
 
 /// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as

@@ -21,7 +21,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::raster::{blur, blur_of, box_average, box_average_bits, convolve, BitGrid, Gray};
+use crate::raster::{
+    blur, blur_of, blur_of_into, box_average, box_average_bits_into, convolve, BitGrid, Gray,
+};
 
 /// The long side of the grid the measure is taken on, pixels.
 pub(crate) const EVAL_LONG_SIDE: u32 = 512;
@@ -111,14 +113,55 @@ impl Likeness {
             return 0.0;
         }
         let window = 2.0 * self.sigma;
-        // One blur after another (each parallel inside): each reuses the memory the last freed.
-        let x = blur(&box_average_bits(bits, self.d, invert), self.sigma);
-        let (w, h, x) = (x.width, x.height, &x.data);
-        let mx = blur_of(w, h, window, |i| x[i]);
-        let xx = blur_of(w, h, window, |i| x[i] * x[i]);
-        let xy = blur_of(w, h, window, |i| x[i] * self.y[i]);
-        score(self, &mx.data, &xx.data, &xy.data)
+        // The buffers of the last measure on this thread (`--threshold auto` measures dozens of
+        // two-tones of one picture, a level each on threads), taken out while in use: a blur
+        // below may run another level's measure on this thread meanwhile, which then makes its
+        // own.
+        let mut b = SCRATCH.with(|s| s.take()).unwrap_or_default();
+        let Scratch {
+            boxed,
+            across,
+            x,
+            mx,
+            xx,
+            xy,
+        } = &mut *b;
+        let (w, h) = if self.d == 1 {
+            // Boxes of one pixel average to its tone, 0 or 1: no box average to make.
+            let tone = |i: usize| (bits.data[i] != invert) as u32 as f32;
+            blur_of_into(bits.width, bits.height, self.sigma, tone, across, x);
+            (bits.width, bits.height)
+        } else {
+            let (w, h) = box_average_bits_into(bits, self.d, invert, boxed);
+            let boxed = &boxed[..];
+            blur_of_into(w, h, self.sigma, |i| boxed[i], across, x);
+            (w, h)
+        };
+        // One blur after another (each parallel inside).
+        let x = &x[..];
+        blur_of_into(w, h, window, |i| x[i], across, mx);
+        blur_of_into(w, h, window, |i| x[i] * x[i], across, xx);
+        blur_of_into(w, h, window, |i| x[i] * self.y[i], across, xy);
+        let s = score(self, mx, xx, xy);
+        SCRATCH.with(|s| s.set(Some(b)));
+        s
     }
+}
+
+/// [`Likeness::of_bits`]'s picture-sized buffers, kept on each thread between measures (at most
+/// six of `EVAL_LONG_SIDE` squared floats, 6 MiB, a thread).
+#[derive(Default)]
+struct Scratch {
+    boxed: Vec<f32>,
+    across: Vec<f32>,
+    x: Vec<f32>,
+    mx: Vec<f32>,
+    xx: Vec<f32>,
+    xy: Vec<f32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::Cell<Option<Box<Scratch>>> = const { std::cell::Cell::new(None) };
 }
 
 /// The weight of a place whose variance in the window is `v`, in a picture whose mean local
@@ -247,6 +290,7 @@ pub struct LevelChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::box_average_bits;
 
     /// The measure as it was first written, every intermediate picture made and each place's
     /// weight kept, to the bit: the same as the measure that makes none of them.
