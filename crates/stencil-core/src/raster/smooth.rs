@@ -190,35 +190,59 @@ fn convolve_into(
             out.iter_mut().for_each(|o| *o /= sum);
         }
     };
+    // Per row of `across` and whole run of pixels in it: the value the run holds when every tap
+    // of it read one value (so the run is flat), else NaN. A run of the column pass whose taps'
+    // runs are all flat with one value reads only that value too.
+    let runs = w / RUN;
+    let mut flat = vec![f32::NAN; h * runs.max(1)];
     // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
     // tap (see `taps`).
     resize_unset(across, w * h);
     across
         .par_chunks_mut(w)
+        .zip(flat.par_chunks_mut(runs.max(1)))
         .enumerate()
-        .for_each_init(Vec::new, |padded, (y, out)| {
+        .for_each_init(Vec::new, |padded, (y, (out, flat))| {
             let row = y * w;
             padded.clear();
             padded.extend(std::iter::repeat_n(value(row), r));
             padded.extend((row..row + w).map(&value));
             padded.extend(std::iter::repeat_n(value(row + w - 1), r));
             let padded = &padded[..];
-            taps(out, kernel, |i, x| &padded[i + x..]);
+            // The run from `x` reads the padded row from `x` to `x + RUN + 2r`.
+            let one_value = |x: usize| {
+                let read = &padded[x..x + RUN + 2 * r];
+                let v = read[0];
+                read.iter().all(|&p| p == v).then_some(v)
+            };
+            taps(out, kernel, |i, x| &padded[i + x..], one_value, flat);
             divide(out);
+            for (k, f) in flat.iter_mut().enumerate().take(runs) {
+                if !f.is_nan() {
+                    *f = out[k * RUN];
+                }
+            }
         });
     // Down the columns: each output row sums the rows above and below it (clamped to the
     // picture), tap by tap; the rows of its taps are found once per output row, not per run.
-    let across = &across[..];
+    let (across, flat) = (&across[..], &flat[..]);
     out.par_chunks_mut(w).enumerate().for_each_init(
-        Vec::new,
-        |rows: &mut Vec<&[f32]>, (y, out)| {
+        || (Vec::new(), Vec::new()),
+        |(rows, at): &mut (Vec<&[f32]>, Vec<usize>), (y, out)| {
             rows.clear();
-            rows.extend((0..kernel.len()).map(|i| {
+            at.clear();
+            for i in 0..kernel.len() {
                 let sy = (y + i).saturating_sub(r).min(h - 1);
-                &across[sy * w..(sy + 1) * w]
-            }));
-            let rows = &rows[..];
-            taps(out, kernel, |i, x| &rows[i][x..]);
+                rows.push(&across[sy * w..(sy + 1) * w]);
+                at.push(sy * runs);
+            }
+            let (rows, at) = (&rows[..], &at[..]);
+            let one_value = |x: usize| {
+                let k = x / RUN;
+                let v = flat[at[0] + k];
+                (!v.is_nan() && at.iter().all(|&a| flat[a + k] == v)).then_some(v)
+            };
+            taps(out, kernel, |i, x| &rows[i][x..], one_value, &mut []);
             divide(out);
         },
     );
@@ -228,10 +252,34 @@ fn convolve_into(
 /// adding each tap's product to every pixel in turn gives it (imageproc's order, to the bit), but
 /// a run of [`RUN`] pixels at a time with its sums held in registers instead of read and written
 /// back once per tap. `src(i, x)` is the source of tap `i` from pixel `x` on.
+///
+/// When `one_value(x)` finds every tap of the run from `x` reads one value `v` (a flat part of
+/// the picture: a two-tone's measure blurs large areas of one tone), each of the run's sums is
+/// `Σ kernel[i] · v` in the same order, made once; the run's entry of `flat` (when there is one)
+/// then says so. Equal floats are the same float but for the sign of zero, and a sum from +0 of
+/// zeros of either sign is +0 either way.
 #[inline(always)]
-fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
+fn taps<'a>(
+    out: &mut [f32],
+    kernel: &[f32],
+    src: impl Fn(usize, usize) -> &'a [f32],
+    one_value: impl Fn(usize) -> Option<f32>,
+    flat: &mut [f32],
+) {
     let mut x = 0;
     while x + RUN <= out.len() {
+        if let Some(v) = one_value(x) {
+            let mut s = 0f32;
+            for &k in kernel {
+                s += v * k;
+            }
+            out[x..x + RUN].fill(s);
+            if let Some(f) = flat.get_mut(x / RUN) {
+                *f = s;
+            }
+            x += RUN;
+            continue;
+        }
         let mut acc = [0f32; RUN];
         for (i, &k) in kernel.iter().enumerate() {
             let p = &src(i, x)[..RUN];
@@ -378,6 +426,43 @@ mod tests {
                 let got = blur_of(w, h, sigma, |i| a[i] * b[i]).data;
                 assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
             }
+        }
+    }
+
+    /// Pictures with flat parts (a two-tone's areas of one tone, a constant, zeros of both signs
+    /// side by side) beside noise: the runs of pixels whose taps all read one value, summed once,
+    /// hold the floats summing each pixel gives (`imageproc`'s blur; the pixel-by-pixel blur with
+    /// a sum), and so do the runs next to them.
+    #[test]
+    fn flat_parts_blur_to_the_same_floats() {
+        let mut rng = Lcg(43);
+        let taps: Vec<f32> = (-5i32..=5)
+            .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
+            .collect();
+        let sum: f32 = taps.iter().sum();
+        for (w, h) in [(40, 30), (97, 64), (160, 130), (400, 90)] {
+            let mut g = Gray::new(w, h, 0.0);
+            for (i, v) in g.data.iter_mut().enumerate() {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                *v = match (x / 75 + y / 40) % 5 {
+                    0 => 0.0,
+                    1 => 1.0,
+                    2 => 0.37,
+                    3 if (x + y) % 2 == 0 => -0.0,
+                    3 => 0.0,
+                    _ => rng.unit() as f32,
+                };
+            }
+            let image: ImageBuffer<image::Luma<f32>, Vec<f32>> =
+                ImageBuffer::from_raw(w, h, g.data.clone()).unwrap();
+            for sigma in [0.5f32, 1.0, 2.9, 5.8] {
+                let want = gaussian_blur_f32(&image, sigma).into_raw();
+                let got = blur(&g, sigma).data;
+                assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
+            }
+            let want = blur_11_taps(&g.data, w, h);
+            let got = convolve(w, h, &taps, sum, |i| g.data[i]).data;
+            assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} with a sum");
         }
     }
 
