@@ -113,55 +113,35 @@ impl Likeness {
             return 0.0;
         }
         let window = 2.0 * self.sigma;
-        // The buffers of the last measure on this thread (`--threshold auto` measures dozens of
-        // two-tones of one picture, a level each on threads), taken out while in use: a blur
-        // below may run another level's measure on this thread meanwhile, which then makes its
-        // own.
-        let mut b = SCRATCH.with(|s| s.take()).unwrap_or_default();
-        let Scratch {
-            boxed,
-            across,
-            x,
-            mx,
-            xx,
-            xy,
-        } = &mut *b;
+        // Each blur's buffer between its passes serves the next (made once, not four times).
+        let mut across = Vec::new();
+        let (mut x, mut mx, mut xx, mut xy) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (w, h) = if self.d == 1 {
             // Boxes of one pixel average to its tone, 0 or 1: no box average to make.
             let tone = |i: usize| (bits.data[i] != invert) as u32 as f32;
-            blur_of_into(bits.width, bits.height, self.sigma, tone, across, x);
+            blur_of_into(
+                bits.width,
+                bits.height,
+                self.sigma,
+                tone,
+                &mut across,
+                &mut x,
+            );
             (bits.width, bits.height)
         } else {
-            let (w, h) = box_average_bits_into(bits, self.d, invert, boxed);
-            let boxed = &boxed[..];
-            blur_of_into(w, h, self.sigma, |i| boxed[i], across, x);
+            let mut boxed = Vec::new();
+            let (w, h) = box_average_bits_into(bits, self.d, invert, &mut boxed);
+            blur_of_into(w, h, self.sigma, |i| boxed[i], &mut across, &mut x);
             (w, h)
         };
         // One blur after another (each parallel inside).
         let x = &x[..];
-        blur_of_into(w, h, window, |i| x[i], across, mx);
-        blur_of_into(w, h, window, |i| x[i] * x[i], across, xx);
-        blur_of_into(w, h, window, |i| x[i] * self.y[i], across, xy);
-        let s = score(self, mx, xx, xy);
-        SCRATCH.with(|s| s.set(Some(b)));
-        s
+        blur_of_into(w, h, window, |i| x[i], &mut across, &mut mx);
+        blur_of_into(w, h, window, |i| x[i] * x[i], &mut across, &mut xx);
+        blur_of_into(w, h, window, |i| x[i] * self.y[i], &mut across, &mut xy);
+        drop(across);
+        score(self, &mx, &xx, &xy)
     }
-}
-
-/// [`Likeness::of_bits`]'s picture-sized buffers, kept on each thread between measures (at most
-/// six of `EVAL_LONG_SIDE` squared floats, 6 MiB, a thread).
-#[derive(Default)]
-struct Scratch {
-    boxed: Vec<f32>,
-    across: Vec<f32>,
-    x: Vec<f32>,
-    mx: Vec<f32>,
-    xx: Vec<f32>,
-    xy: Vec<f32>,
-}
-
-thread_local! {
-    static SCRATCH: std::cell::Cell<Option<Box<Scratch>>> = const { std::cell::Cell::new(None) };
 }
 
 /// The weight of a place whose variance in the window is `v`, in a picture whose mean local
