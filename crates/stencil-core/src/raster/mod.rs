@@ -17,4 +17,8 @@ pub(crate) use label::{
     components, join, join_runs, push_runs, root, runs_of, touches_border, Run, NOT_LABELLED,
 };
 pub(crate) use morph::{close, open};
-pub(crate) use smooth::{blur, blur_of, box_average, box_average_bits, convolve};
+#[cfg(test)]
+pub(crate) use smooth::box_average_bits;
+pub(crate) use smooth::{
+    blur, blur_of, blur_of_into, box_average, box_average_bits_into, convolve,
+};

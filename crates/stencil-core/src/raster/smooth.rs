@@ -43,12 +43,33 @@ pub(crate) fn box_average(w: u32, h: u32, d: u32, value: impl Fn(usize) -> f32 +
 /// [`box_average`] of a two-tone's tone (1 where `bits` differs from `invert`), by counting: a
 /// box's sum of ones and zeros is its count of ones, exactly, in any order. An output row's
 /// source rows are first added column by column (a long loop over bytes that vectorises), then
-/// each box's columns summed.
+/// each box's columns summed. (The measures use [`box_average_bits_into`], which reuses a buffer.)
+#[cfg(test)]
 pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
+    let mut data = Vec::new();
+    let (width, height) = box_average_bits_into(bits, d, invert, &mut data);
+    Gray {
+        width,
+        height,
+        data,
+    }
+}
+
+/// [`box_average_bits`] written into `data` (resized to the result, every value written, so a
+/// buffer reused from an earlier call needs no clearing); returns the result's size.
+pub(crate) fn box_average_bits_into(
+    bits: &BitGrid,
+    d: u32,
+    invert: bool,
+    data: &mut Vec<f32>,
+) -> (u32, u32) {
     let (w, h) = (bits.width, bits.height);
     let (ow, oh) = (w.div_ceil(d), h.div_ceil(d));
     let (wu, du) = (w as usize, d as usize);
-    let mut data = vec![0f32; (ow * oh) as usize];
+    resize_unset(data, (ow * oh) as usize);
+    if ow == 0 || oh == 0 {
+        return (ow, oh);
+    }
     data.par_chunks_mut(ow as usize).enumerate().for_each_init(
         Vec::new,
         |cols: &mut Vec<u32>, (oy, out)| {
@@ -68,11 +89,14 @@ pub(crate) fn box_average_bits(bits: &BitGrid, d: u32, invert: bool) -> Gray {
             }
         },
     );
-    Gray {
-        width: ow,
-        height: oh,
-        data,
-    }
+    (ow, oh)
+}
+
+/// `v` made `n` long without writing the values it already holds: for a buffer every value of
+/// which is written next, reused between calls (clearing it first would cost a pass over it).
+fn resize_unset(v: &mut Vec<f32>, n: usize) {
+    v.truncate(n);
+    v.resize(n, 0.0);
 }
 
 /// A Gaussian blur of standard deviation `sigma` pixels (edges padded by continuity): the same
@@ -85,16 +109,34 @@ pub(crate) fn blur(g: &Gray, sigma: f32) -> Gray {
 /// [`blur`] of the `w` × `h` picture of `value(i)` (pixel `i` row-major), not made first: the
 /// likeness blurs squares and products, each a picture-sized buffer of fresh memory if made.
 pub(crate) fn blur_of(w: u32, h: u32, sigma: f32, value: impl Fn(usize) -> f32 + Sync) -> Gray {
+    let mut data = Vec::new();
+    blur_of_into(w, h, sigma, value, &mut Vec::new(), &mut data);
+    Gray {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+/// [`blur_of`] written into `out` (resized to `w` × `h`, every value written), with `across` as
+/// the buffer between the two passes: both reusable between calls, so that measuring many
+/// two-tones of one picture (`--threshold auto`'s levels) does not allocate and clear
+/// picture-sized buffers for each.
+pub(crate) fn blur_of_into(
+    w: u32,
+    h: u32,
+    sigma: f32,
+    value: impl Fn(usize) -> f32 + Sync,
+    across: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
     // A NaN or non-positive sigma blurs nothing.
     if sigma.is_nan() || sigma <= 0.0 || w == 0 || h == 0 {
-        let mut g = Gray::new(w, h, 0.0);
-        g.data
-            .iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v = value(i));
-        return g;
+        out.clear();
+        out.extend((0..w as usize * h as usize).map(value));
+        return;
     }
-    convolve(w, h, &gaussian_kernel(sigma), 1.0, value)
+    convolve_into(w, h, &gaussian_kernel(sigma), 1.0, value, across, out);
 }
 
 /// The `w` × `h` picture of `value(i)` (pixel `i` row-major) convolved with the symmetric
@@ -110,42 +152,16 @@ pub(crate) fn convolve(
     sum: f32,
     value: impl Fn(usize) -> f32 + Sync,
 ) -> Gray {
-    if width == 0 || height == 0 {
-        return Gray::new(width, height, 0.0);
-    }
-    let (w, h) = (width as usize, height as usize);
-    let r = kernel.len() / 2;
-    let divide = |out: &mut [f32]| {
-        if sum != 1.0 {
-            out.iter_mut().for_each(|o| *o /= sum);
-        }
-    };
-    // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
-    // tap (see `taps`).
-    let mut across = vec![0f32; w * h];
-    across
-        .par_chunks_mut(w)
-        .enumerate()
-        .for_each_init(Vec::new, |padded, (y, out)| {
-            let row = y * w;
-            padded.clear();
-            padded.extend(std::iter::repeat_n(value(row), r));
-            padded.extend((row..row + w).map(&value));
-            padded.extend(std::iter::repeat_n(value(row + w - 1), r));
-            let padded = &padded[..];
-            taps(out, kernel, |i, x| &padded[i + x..]);
-            divide(out);
-        });
-    // Down the columns: each output row sums the rows above and below it (clamped to the
-    // picture), tap by tap.
-    let mut data = vec![0f32; w * h];
-    data.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        taps(out, kernel, |i, x| {
-            let sy = (y + i).saturating_sub(r).min(h - 1);
-            &across[sy * w + x..(sy + 1) * w]
-        });
-        divide(out);
-    });
+    let mut data = Vec::new();
+    convolve_into(
+        width,
+        height,
+        kernel,
+        sum,
+        value,
+        &mut Vec::new(),
+        &mut data,
+    );
     Gray {
         width,
         height,
@@ -153,14 +169,117 @@ pub(crate) fn convolve(
     }
 }
 
+/// [`convolve`] written into `out`, with `across` between the passes (see [`blur_of_into`]).
+fn convolve_into(
+    width: u32,
+    height: u32,
+    kernel: &[f32],
+    sum: f32,
+    value: impl Fn(usize) -> f32 + Sync,
+    across: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
+    let (w, h) = (width as usize, height as usize);
+    resize_unset(out, w * h);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let r = kernel.len() / 2;
+    let divide = |out: &mut [f32]| {
+        if sum != 1.0 {
+            out.iter_mut().for_each(|o| *o /= sum);
+        }
+    };
+    // Per row of `across` and whole run of pixels in it: the value the run holds when every tap
+    // of it read one value (so the run is flat), else NaN. A run of the column pass whose taps'
+    // runs are all flat with one value reads only that value too.
+    let runs = w / RUN;
+    let mut flat = vec![f32::NAN; h * runs.max(1)];
+    // Along the rows: each row padded by its end pixels, then each run of pixels summed tap by
+    // tap (see `taps`).
+    resize_unset(across, w * h);
+    across
+        .par_chunks_mut(w)
+        .zip(flat.par_chunks_mut(runs.max(1)))
+        .enumerate()
+        .for_each_init(Vec::new, |padded, (y, (out, flat))| {
+            let row = y * w;
+            padded.clear();
+            padded.extend(std::iter::repeat_n(value(row), r));
+            padded.extend((row..row + w).map(&value));
+            padded.extend(std::iter::repeat_n(value(row + w - 1), r));
+            let padded = &padded[..];
+            // The run from `x` reads the padded row from `x` to `x + RUN + 2r`.
+            let one_value = |x: usize| {
+                let read = &padded[x..x + RUN + 2 * r];
+                let v = read[0];
+                read.iter().all(|&p| p == v).then_some(v)
+            };
+            taps(out, kernel, |i, x| &padded[i + x..], one_value, flat);
+            divide(out);
+            for (k, f) in flat.iter_mut().enumerate().take(runs) {
+                if !f.is_nan() {
+                    *f = out[k * RUN];
+                }
+            }
+        });
+    // Down the columns: each output row sums the rows above and below it (clamped to the
+    // picture), tap by tap; the rows of its taps are found once per output row, not per run.
+    let (across, flat) = (&across[..], &flat[..]);
+    out.par_chunks_mut(w).enumerate().for_each_init(
+        || (Vec::new(), Vec::new()),
+        |(rows, at): &mut (Vec<&[f32]>, Vec<usize>), (y, out)| {
+            rows.clear();
+            at.clear();
+            for i in 0..kernel.len() {
+                let sy = (y + i).saturating_sub(r).min(h - 1);
+                rows.push(&across[sy * w..(sy + 1) * w]);
+                at.push(sy * runs);
+            }
+            let (rows, at) = (&rows[..], &at[..]);
+            let one_value = |x: usize| {
+                let k = x / RUN;
+                let v = flat[at[0] + k];
+                (!v.is_nan() && at.iter().all(|&a| flat[a + k] == v)).then_some(v)
+            };
+            taps(out, kernel, |i, x| &rows[i][x..], one_value, &mut []);
+            divide(out);
+        },
+    );
+}
+
 /// `out[x] = Σ kernel[i] · src(i, x)[0]` over the taps in order, each sum starting at 0, as
 /// adding each tap's product to every pixel in turn gives it (imageproc's order, to the bit), but
 /// a run of [`RUN`] pixels at a time with its sums held in registers instead of read and written
 /// back once per tap. `src(i, x)` is the source of tap `i` from pixel `x` on.
+///
+/// When `one_value(x)` finds every tap of the run from `x` reads one value `v` (a flat part of
+/// the picture: a two-tone's measure blurs large areas of one tone), each of the run's sums is
+/// `Σ kernel[i] · v` in the same order, made once; the run's entry of `flat` (when there is one)
+/// then says so. Equal floats are the same float but for the sign of zero, and a sum from +0 of
+/// zeros of either sign is +0 either way.
 #[inline(always)]
-fn taps<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
+fn taps<'a>(
+    out: &mut [f32],
+    kernel: &[f32],
+    src: impl Fn(usize, usize) -> &'a [f32],
+    one_value: impl Fn(usize) -> Option<f32>,
+    flat: &mut [f32],
+) {
     let mut x = 0;
     while x + RUN <= out.len() {
+        if let Some(v) = one_value(x) {
+            let mut s = 0f32;
+            for &k in kernel {
+                s += v * k;
+            }
+            out[x..x + RUN].fill(s);
+            if let Some(f) = flat.get_mut(x / RUN) {
+                *f = s;
+            }
+            x += RUN;
+            continue;
+        }
         let mut acc = [0f32; RUN];
         for (i, &k) in kernel.iter().enumerate() {
             let p = &src(i, x)[..RUN];
@@ -307,6 +426,43 @@ mod tests {
                 let got = blur_of(w, h, sigma, |i| a[i] * b[i]).data;
                 assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
             }
+        }
+    }
+
+    /// Pictures with flat parts (a two-tone's areas of one tone, a constant, zeros of both signs
+    /// side by side) beside noise: the runs of pixels whose taps all read one value, summed once,
+    /// hold the floats summing each pixel gives (`imageproc`'s blur; the pixel-by-pixel blur with
+    /// a sum), and so do the runs next to them.
+    #[test]
+    fn flat_parts_blur_to_the_same_floats() {
+        let mut rng = Lcg(43);
+        let taps: Vec<f32> = (-5i32..=5)
+            .map(|d| (-(d * d) as f32 / (2.0 * 1.5 * 1.5)).exp())
+            .collect();
+        let sum: f32 = taps.iter().sum();
+        for (w, h) in [(40, 30), (97, 64), (160, 130), (400, 90)] {
+            let mut g = Gray::new(w, h, 0.0);
+            for (i, v) in g.data.iter_mut().enumerate() {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                *v = match (x / 75 + y / 40) % 5 {
+                    0 => 0.0,
+                    1 => 1.0,
+                    2 => 0.37,
+                    3 if (x + y) % 2 == 0 => -0.0,
+                    3 => 0.0,
+                    _ => rng.unit() as f32,
+                };
+            }
+            let image: ImageBuffer<image::Luma<f32>, Vec<f32>> =
+                ImageBuffer::from_raw(w, h, g.data.clone()).unwrap();
+            for sigma in [0.5f32, 1.0, 2.9, 5.8] {
+                let want = gaussian_blur_f32(&image, sigma).into_raw();
+                let got = blur(&g, sigma).data;
+                assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} sigma {sigma}");
+            }
+            let want = blur_11_taps(&g.data, w, h);
+            let got = convolve(w, h, &taps, sum, |i| g.data[i]).data;
+            assert_eq!(bit_vals(&got), bit_vals(&want), "{w}x{h} with a sum");
         }
     }
 

@@ -21,7 +21,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::raster::{blur, blur_of, box_average, box_average_bits, convolve, BitGrid, Gray};
+use crate::raster::{
+    blur, blur_of, blur_of_into, box_average, box_average_bits_into, convolve, BitGrid, Gray,
+};
 
 /// The long side of the grid the measure is taken on, pixels.
 pub(crate) const EVAL_LONG_SIDE: u32 = 512;
@@ -111,13 +113,34 @@ impl Likeness {
             return 0.0;
         }
         let window = 2.0 * self.sigma;
-        // One blur after another (each parallel inside): each reuses the memory the last freed.
-        let x = blur(&box_average_bits(bits, self.d, invert), self.sigma);
-        let (w, h, x) = (x.width, x.height, &x.data);
-        let mx = blur_of(w, h, window, |i| x[i]);
-        let xx = blur_of(w, h, window, |i| x[i] * x[i]);
-        let xy = blur_of(w, h, window, |i| x[i] * self.y[i]);
-        score(self, &mx.data, &xx.data, &xy.data)
+        // Each blur's buffer between its passes serves the next (made once, not four times).
+        let mut across = Vec::new();
+        let (mut x, mut mx, mut xx, mut xy) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (w, h) = if self.d == 1 {
+            // Boxes of one pixel average to its tone, 0 or 1: no box average to make.
+            let tone = |i: usize| (bits.data[i] != invert) as u32 as f32;
+            blur_of_into(
+                bits.width,
+                bits.height,
+                self.sigma,
+                tone,
+                &mut across,
+                &mut x,
+            );
+            (bits.width, bits.height)
+        } else {
+            let mut boxed = Vec::new();
+            let (w, h) = box_average_bits_into(bits, self.d, invert, &mut boxed);
+            blur_of_into(w, h, self.sigma, |i| boxed[i], &mut across, &mut x);
+            (w, h)
+        };
+        // One blur after another (each parallel inside).
+        let x = &x[..];
+        blur_of_into(w, h, window, |i| x[i], &mut across, &mut mx);
+        blur_of_into(w, h, window, |i| x[i] * x[i], &mut across, &mut xx);
+        blur_of_into(w, h, window, |i| x[i] * self.y[i], &mut across, &mut xy);
+        drop(across);
+        score(self, &mx, &xx, &xy)
     }
 }
 
@@ -247,6 +270,7 @@ pub struct LevelChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::box_average_bits;
 
     /// The measure as it was first written, every intermediate picture made and each place's
     /// weight kept, to the bit: the same as the measure that makes none of them.
