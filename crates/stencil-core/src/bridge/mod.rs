@@ -33,7 +33,6 @@ mod light;
 mod measured;
 mod outline;
 mod reach;
-mod reattach;
 mod search;
 pub(crate) mod strength;
 pub(crate) mod strips;
@@ -340,40 +339,38 @@ pub(crate) fn connect_walked(
         build_graph(&walks.cands, &walks.walked, &walks.copies, map, cfg)
     });
     let prim = times.time("tree", || span(two, &mut g, &fields, map, cfg))?;
-    let mut chosen = prim.chosen;
-    // The tree's bridges planned, then the long ones moved onto the others where that costs
-    // less (`reattach`), before the strength rules read the tree.
-    let tree_jobs: Vec<(usize, bool)> = chosen.iter().map(|(e, _)| (e.candidate, false)).collect();
-    let mut planned = times.time("grow", || plan_jobs(two, &g, cfg, &tree_jobs));
-    times.time("reattach", || {
-        let step = g.norm.step_cost(cfg);
-        let hooks = reattach::Hooks {
-            add: |g: &mut Graph, start, strip| add_found_strip(g, map, cfg, start, strip),
-            price: |g: &Graph, id| measured::drawn_total(two, g, cfg, id),
-            plan: |g: &Graph, id| plan_bridge(two, g, cfg, id),
-            pixels: |p: &Vec<(Bridge, Vec<u32>)>| {
-                p.iter().flat_map(|(_, px)| px.iter().copied()).collect()
-            },
-        };
-        reattach::reattach(&mut g, &fields, map, &step, &mut chosen, &mut planned, hooks)
-    });
     // After the tree, so that the fallback search's paths count: where the bridges could go.
     let light = Light::survey(&two.gray, g.strips.iter().flatten());
     let g = &g;
-    let (tree, extra, strength, requests) = times.time("strength", || {
-        // Bridges that hold: what each island's size, shape and weight need beyond the
-        // tree's.
-        let mut tree: Vec<(usize, u32)> = chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
-        // The user's places: a bridge each, holding its island like the tree's.
-        let mut requests = Vec::new();
-        for (id, req) in constraints::requested(g, map, &cfg.user.at) {
-            if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
-                tree.push((id, req.island));
-            }
-            requests.push(req);
-        }
-        let (extra, strength) = strength::reinforce(g, map, &tree, &cfg.strength);
-        (tree, extra, strength, requests)
+    // The tree's bridges are planned while the strength rules choose the extra ones (both
+    // read the graph only; planning one bridge reads nothing another's plan makes): the
+    // strength rules' work per island is uneven, so the two together keep both cores busy where
+    // each alone left one idle. The "strength" time includes that planning.
+    let tree_jobs: Vec<(usize, bool)> = prim
+        .chosen
+        .iter()
+        .map(|(e, _)| (e.candidate, false))
+        .collect();
+    let ((tree, extra, strength, requests), mut planned) = times.time("strength", || {
+        rayon::join(
+            || {
+                // Bridges that hold: what each island's size, shape and weight need beyond the
+                // tree's.
+                let mut tree: Vec<(usize, u32)> =
+                    prim.chosen.iter().map(|(e, n)| (e.candidate, *n)).collect();
+                // The user's places: a bridge each, holding its island like the tree's.
+                let mut requests = Vec::new();
+                for (id, req) in constraints::requested(g, map, &cfg.user.at) {
+                    if let Some(id) = id.filter(|id| !tree.iter().any(|t| t.0 == *id)) {
+                        tree.push((id, req.island));
+                    }
+                    requests.push(req);
+                }
+                let (extra, strength) = strength::reinforce(g, map, &tree, &cfg.strength);
+                (tree, extra, strength, requests)
+            },
+            || plan_jobs(two, g, cfg, &tree_jobs),
+        )
     });
     let (bits, bridges, drawn) = times.time("grow", || {
         // The rest: the user's places (after the tree's), then the strength bridges.

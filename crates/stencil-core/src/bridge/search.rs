@@ -4,7 +4,7 @@
 //! costs nothing; so every island can be joined.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
 use super::cost::StepCost;
 use super::strips::{intensity, Fields, Strip};
@@ -25,22 +25,26 @@ pub(crate) struct SearchScratch {
 impl SearchScratch {
     fn prepare(&mut self, pixels: usize) {
         if self.dist.len() != pixels {
-            self.dist = vec![f32::INFINITY; pixels];
-            self.parent = vec![u32::MAX; pixels];
+            // Zeroed memory is handed out untouched by the allocator: a search that explores a
+            // corner of a large picture pays for that corner, not for the whole grid.
+            self.dist = vec![0.0; pixels];
+            self.parent = vec![0; pixels];
         } else {
             for &i in &self.touched {
-                self.dist[i as usize] = f32::INFINITY;
+                self.dist[i as usize] = 0.0;
             }
         }
         self.touched.clear();
         self.heap.clear();
     }
 
+    /// Record a path of cost `d` (always above 0: every step costs something) to pixel `i`
+    /// through `from` if it is the cheapest yet; 0 in `dist` means not reached.
     #[inline]
     fn relax(&mut self, i: u32, d: f32, from: u32) {
         let slot = &mut self.dist[i as usize];
-        if d < *slot {
-            if slot.is_infinite() {
+        if *slot == 0.0 || d < *slot {
+            if *slot == 0.0 {
                 self.touched.push(i);
             }
             *slot = d;
@@ -64,47 +68,18 @@ pub(crate) fn search(
     step: &StepCost,
     scratch: &mut SearchScratch,
 ) -> Option<((u32, u32), Strip)> {
-    search_with(f, map, group, None, &Landings::new(), step, scratch)
-}
-
-/// Cut pixels a search may end on as if they were material of a node (pixel index to node): the
-/// pixels of bridges already drawn.
-pub(crate) type Landings = HashMap<u32, u32>;
-
-/// [`search`] from the border of node `from` alone when given (else of every node in `group`),
-/// never arriving at a node of `group`, and arriving also at the `landings` (a path ends beside
-/// one, its strip's `to` being the landing's node and its `end` that pixel; no path crosses one).
-pub(crate) fn search_with(
-    f: &Fields,
-    map: &IslandMap,
-    group: &[bool],
-    from: Option<u32>,
-    landings: &Landings,
-    step: &StepCost,
-    scratch: &mut SearchScratch,
-) -> Option<((u32, u32), Strip)> {
     let w = f.width;
     scratch.prepare((f.width * f.height) as usize);
     let cost = |i: u32| step.at(f.gray, i);
-    let landing = |x: i64, y: i64| {
-        if landings.is_empty() || !f.inside(x, y) {
-            return None;
-        }
-        landings.get(&((y * w + x) as u32)).copied()
-    };
     for (n, node) in map.nodes.iter().enumerate() {
-        if from.map_or(!group[n], |s| s as usize != n) {
+        if !group[n] {
             continue;
         }
         for &(x, y) in &node.border {
             let (x, y) = (x as i64, y as i64);
             for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
                 let (nx, ny) = (x + dx, y + dy);
-                if f.inside(nx, ny)
-                    && f.label(nx, ny) == CUT
-                    && !f.blocked(nx, ny)
-                    && landing(nx, ny).is_none()
-                {
+                if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
                     let i = (ny * w + nx) as u32;
                     scratch.relax(i, cost(i), (y * w + x) as u32);
                 }
@@ -120,7 +95,7 @@ pub(crate) fn search_with(
         let (x, y) = ((i as i64) % w, (i as i64) / w);
         for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
-            let l = landing(nx, ny).unwrap_or_else(|| f.label(nx, ny));
+            let l = f.label(nx, ny);
             if l != CUT && !in_group(l) {
                 // Arrived: walk the predecessors back to the start.
                 let mut pixels = vec![i];
@@ -152,11 +127,7 @@ pub(crate) fn search_with(
         }
         for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
-            if f.inside(nx, ny)
-                && f.label(nx, ny) == CUT
-                && !f.blocked(nx, ny)
-                && landing(nx, ny).is_none()
-            {
+            if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
                 let j = (ny * w + nx) as u32;
                 scratch.relax(j, d + cost(j), i);
             }
