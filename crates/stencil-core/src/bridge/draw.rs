@@ -4,7 +4,7 @@
 
 use super::strips::Strip;
 use crate::raster::{self, BitGrid, Gray};
-use stencil_geom::ring::{point_in_ring, signed_area2};
+use stencil_geom::ring::{point_in_ring, seg_dist, signed_area2};
 
 /// What drawing a bridge would change, computed before committing it.
 #[derive(Clone, Debug, Default)]
@@ -41,8 +41,35 @@ pub(super) fn draw(
     brush: i64,
     seal: usize,
 ) -> (Vec<u32>, f64) {
+    draw_brushed(bits, gray, polygon, seeds, Brush::Square(brush), seal)
+}
+
+/// How [`draw_brushed`] thickens its seeds.
+#[derive(Clone, Copy)]
+pub(super) enum Brush<'a> {
+    /// A square of this radius around every seed pixel.
+    Square(i64),
+    /// Every pixel whose centre lies within `half` of the polyline `line` (round ends): a
+    /// slanted run is as wide at right angles as a straight one, where a square brush on its
+    /// staircase covers up to √2 times the area.
+    Round(&'a [[f64; 2]], f64),
+}
+
+/// [`draw`] with either brush.
+pub(super) fn draw_brushed(
+    bits: &BitGrid,
+    gray: &Gray,
+    polygon: &[[f64; 2]],
+    seeds: &[&Strip],
+    brush: Brush,
+    seal: usize,
+) -> (Vec<u32>, f64) {
     let w = bits.width as i64;
-    let Some(win) = Window::around(bits, polygon, seeds, brush) else {
+    let reach = match brush {
+        Brush::Square(r) => r,
+        Brush::Round(_, half) => half.ceil() as i64 + 1,
+    };
+    let Some(win) = Window::around(bits, polygon, seeds, reach) else {
         return (Vec::new(), 0.0);
     };
     // 0 = untouched, 1 = fill candidate, 2 = taken.
@@ -62,8 +89,22 @@ pub(super) fn draw(
     if signed_area2(polygon).abs() > 0.0 {
         fill_polygon(&mut state, &win, bits, polygon, fill, stack);
     }
-    if brush > 0 {
-        for s in seeds {
+    if let Brush::Round(line, half) = brush {
+        for seg in line.windows(2) {
+            let (a, b) = (seg[0], seg[1]);
+            let (xa, ya) = pixel_of([a[0].min(b[0]) - half, a[1].min(b[1]) - half]);
+            let (xb, yb) = pixel_of([a[0].max(b[0]) + half, a[1].max(b[1]) + half]);
+            for y in ya.max(win.y0)..=yb.min(win.y1) {
+                for x in xa.max(win.x0)..=xb.min(win.x1) {
+                    if seg_dist([x as f64 + 0.5, y as f64 + 0.5], a, b) <= half {
+                        state[win.local(x, y)] = 2;
+                    }
+                }
+            }
+        }
+    }
+    if let Brush::Square(brush) = brush {
+        for s in seeds.iter().filter(|_| brush > 0) {
             for &p in &s.pixels {
                 let (x, y) = (p as i64 % w, p as i64 / w);
                 for yy in (y - brush).max(win.y0)..=(y + brush).min(win.y1) {

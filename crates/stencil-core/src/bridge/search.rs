@@ -25,22 +25,26 @@ pub(crate) struct SearchScratch {
 impl SearchScratch {
     fn prepare(&mut self, pixels: usize) {
         if self.dist.len() != pixels {
-            self.dist = vec![f32::INFINITY; pixels];
-            self.parent = vec![u32::MAX; pixels];
+            // Zeroed memory is handed out untouched by the allocator: a search that explores a
+            // corner of a large picture pays for that corner, not for the whole grid.
+            self.dist = vec![0.0; pixels];
+            self.parent = vec![0; pixels];
         } else {
             for &i in &self.touched {
-                self.dist[i as usize] = f32::INFINITY;
+                self.dist[i as usize] = 0.0;
             }
         }
         self.touched.clear();
         self.heap.clear();
     }
 
+    /// Record a path of cost `d` (always above 0: every step costs something) to pixel `i`
+    /// through `from` if it is the cheapest yet; 0 in `dist` means not reached.
     #[inline]
     fn relax(&mut self, i: u32, d: f32, from: u32) {
         let slot = &mut self.dist[i as usize];
-        if d < *slot {
-            if slot.is_infinite() {
+        if *slot == 0.0 || d < *slot {
+            if *slot == 0.0 {
                 self.touched.push(i);
             }
             *slot = d;
