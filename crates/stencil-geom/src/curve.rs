@@ -33,7 +33,7 @@ mod arc;
 use arc::{arc_box, quarter_points};
 pub use arc::{arc_of, ArcGeom, Piece, Sides};
 
-use crate::ring::{dist, point_box, seg_closest, seg_dist, union_box, NO_BOX};
+use crate::ring::{dist, point_box, seg_closest, seg_dist, union_box, wrap, NO_BOX};
 
 /// Longest run of polygon vertices one piece may replace: bounds the fit's work (quadratic in
 /// the run) on long smooth stretches.
@@ -73,7 +73,7 @@ fn fit(ring: &[[f64; 2]], tol: f64, sides: Option<Sides>, bounds: Option<[f64; 4
     // One piece from vertex i with its own bulge, as far as one fits: where no tangent-continuous
     // piece does.
     let fresh = |i: usize, s: [f64; 2]| -> (usize, f64) {
-        let at = |k: usize| if k == i { s } else { ring[k % n] };
+        let at = |k: usize| if k == i { s } else { ring[wrap(k, n)] };
         // Galloping, then halving: spans of 2, 4, 8, ... vertices until one fails, then the
         // longest that fits between the last that fitted and the first that failed (a span that
         // fits usually means every shorter one does), so a long arc costs a few passes over its
@@ -179,23 +179,7 @@ fn fit_span(
         (x * t[0] + y * t[1], -x * t[1] + y * t[0])
     };
     let half = l / 2.0;
-    // The bulge of the circle through a, b and the point at (u, v): its centre at d on the
-    // normal, the sagitta h of its minor arc. `None` for a point outside the circle on the chord
-    // as diameter, which would need more than a half turn.
-    let through = |u: f64, v: f64| -> Option<f64> {
-        if v == 0.0 {
-            return Some(0.0);
-        }
-        let w = u * u + v * v - half * half;
-        if w > 0.0 {
-            return None;
-        }
-        let d = w / (2.0 * v);
-        let r = (d * d + half * half).sqrt();
-        let h = -(half * half) / (d + d.signum() * r);
-        Some(-h / half)
-    };
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut spread = Spread::new(half);
     let mut prev_u = -half;
     let mut straight = true;
     for k in i + 1..j {
@@ -206,10 +190,9 @@ fn fit_span(
         }
         prev_u = u;
         straight &= v.abs() <= tol;
-        let bulge = through(u, v)?;
-        lo = lo.min(bulge);
-        hi = hi.max(bulge);
+        spread.add(u, v)?;
     }
+    let (lo, hi) = spread.range(|| (i + 1..j).map(|k| frame(at(k))));
     let n_ring = sides.map_or(0, |s| s.points.len());
     if straight {
         // Left of the chord: positive.
@@ -222,17 +205,26 @@ fn fit_span(
     // than the bulge through the point, so left points set a floor and right points a ceiling.
     let (mut floor, mut ceil) = (f64::NEG_INFINITY, f64::INFINITY);
     if let Some(s) = sides {
+        let (mut lefts, mut rights) = (Spread::new(half), Spread::new(half));
         for k in i + 1..j {
-            let [l, r] = s.points[k % n_ring];
+            let [l, r] = s.points[wrap(k, n_ring)];
             let (ul, vl) = frame(l);
-            if let (true, Some(b)) = (ul.abs() < half, through(ul, vl)) {
-                floor = floor.max(b);
+            if ul.abs() < half {
+                // A point past the half turn sets no bound.
+                let _ = lefts.add(ul, vl);
             }
             let (ur, vr) = frame(r);
-            if let (true, Some(b)) = (ur.abs() < half, through(ur, vr)) {
-                ceil = ceil.min(b);
+            if ur.abs() < half {
+                let _ = rights.add(ur, vr);
             }
         }
+        let side = |pick: fn(&[[f64; 2]; 2]) -> [f64; 2]| {
+            (i + 1..j)
+                .map(move |k| frame(pick(&s.points[wrap(k, n_ring)])))
+                .filter(|&(u, _)| u.abs() < half)
+        };
+        floor = lefts.range(|| side(|p| p[0])).1;
+        ceil = rights.range(|| side(|p| p[1])).0;
     }
     let (blo, bhi) = (lo.max(floor), hi.min(ceil));
     let bulge = if blo <= bhi {
@@ -284,6 +276,107 @@ fn fit_span(
     Some(bulge)
 }
 
+/// The bulge of the circle through the ends of a chord `2 half` long and the point at (u, v) in
+/// the chord's frame (u along it from its midpoint, v along its left normal). `None` for a point
+/// outside the circle on the chord as diameter, which would need more than a half turn.
+fn through(half: f64, u: f64, v: f64) -> Option<f64> {
+    if v == 0.0 {
+        return Some(0.0);
+    }
+    let w = u * u + v * v - half * half;
+    if w > 0.0 {
+        return None;
+    }
+    Some(bulge_at(half, w / (2.0 * v)))
+}
+
+/// The bulge of the circle through the ends of a chord `2 half` long with its centre at `d` on
+/// the chord's normal: its minor arc's sagitta `h` over `half`.
+fn bulge_at(half: f64, d: f64) -> f64 {
+    let r = (d * d + half * half).sqrt();
+    let h = -(half * half) / (d + d.signum() * r);
+    -h / half
+}
+
+/// The least and greatest [`through`] of a run of points, to the bit what folding `min` and `max`
+/// over every point's bulge gives, for one division a point instead of three and a square root.
+///
+/// Why it is exact: on each side of the chord (the sign of `d`) the bulge falls as `d` grows,
+/// and every step from `d` to the bulge (square, sum, root, quotient) is a correctly rounded
+/// operation, each monotone, so the computed bulges fall (weakly) with the computed `d`. The
+/// extremes are then the bulges at the extreme `d` of each side: positive bulges on one side,
+/// negative on the other, zero for points on the chord. A `d` too large for its square to stay
+/// finite (where rounding reaches signed zeros) sends the run back to the plain fold.
+struct Spread {
+    half: f64,
+    /// The least and greatest `d` of each side: `d` positive, then negative (empty: inverted).
+    sides: [[f64; 2]; 2],
+    on_chord: bool,
+    plain: bool,
+}
+
+impl Spread {
+    fn new(half: f64) -> Spread {
+        Spread {
+            half,
+            sides: [[f64::INFINITY, f64::NEG_INFINITY]; 2],
+            on_chord: false,
+            plain: false,
+        }
+    }
+
+    /// Take the point at (u, v); `None` where [`through`] gives none.
+    #[inline]
+    fn add(&mut self, u: f64, v: f64) -> Option<()> {
+        if v == 0.0 {
+            self.on_chord = true;
+            return Some(());
+        }
+        let half = self.half;
+        let w = u * u + v * v - half * half;
+        if w > 0.0 {
+            return None;
+        }
+        let d = w / (2.0 * v);
+        // `min` and `max` pass over a NaN bulge as over a NaN `d`.
+        if d.abs() >= 1e150 {
+            self.plain = true;
+        }
+        let side = &mut self.sides[usize::from(d.is_sign_negative())];
+        side[0] = side[0].min(d);
+        side[1] = side[1].max(d);
+        Some(())
+    }
+
+    /// The least and greatest bulge (infinities for none); `points` gives every point taken
+    /// again, in order, for the plain fold.
+    fn range<I: Iterator<Item = (f64, f64)>>(&self, points: impl Fn() -> I) -> (f64, f64) {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut fold = |b: f64| {
+            lo = lo.min(b);
+            hi = hi.max(b);
+        };
+        if self.plain {
+            for (u, v) in points() {
+                if let Some(b) = through(self.half, u, v) {
+                    fold(b);
+                }
+            }
+            return (lo, hi);
+        }
+        if self.on_chord {
+            fold(0.0);
+        }
+        for &[least, most] in &self.sides {
+            if least <= most {
+                fold(bulge_at(self.half, least));
+                fold(bulge_at(self.half, most));
+            }
+        }
+        (lo, hi)
+    }
+}
+
 /// Whether every vertex strictly between `i` and `j` has its [`Sides`] on their sides, `margin`
 /// clear; `left` is a signed distance, positive on the left of the piece.
 fn kept_sides(
@@ -297,7 +390,7 @@ fn kept_sides(
         return true;
     };
     (i + 1..j).all(|k| {
-        let [l, r] = s.points[k % n];
+        let [l, r] = s.points[wrap(k, n)];
         left(l) >= s.margin && left(r) <= -s.margin
     })
 }

@@ -17,6 +17,20 @@ pub(crate) const NO_BOX: [f64; 4] = [
     f64::NEG_INFINITY,
 ];
 
+/// Index `k` of a closed ring of `n` points, counted on past its end (`k % n`): the fits walk
+/// at most twice round, so a subtraction usually does instead of a division, which costs as
+/// much as the distance it serves.
+#[inline]
+pub(crate) fn wrap(k: usize, n: usize) -> usize {
+    if k < n {
+        k
+    } else if k - n < n {
+        k - n
+    } else {
+        k % n
+    }
+}
+
 pub(crate) fn point_box(p: [f64; 2]) -> [f64; 4] {
     [p[0], p[1], p[0], p[1]]
 }

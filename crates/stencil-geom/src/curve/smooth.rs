@@ -28,7 +28,7 @@
 //! less ([`kinks`] counted as pieces).
 
 use super::arc::{arc_box, arc_of, ArcGeom, Piece, Sides};
-use crate::ring::{dist, seg_closest, seg_dist};
+use crate::ring::{dist, seg_closest, seg_dist, wrap};
 
 /// How far, in tolerances, the chord giving a vertex's tangent reaches on either side, and at
 /// most how many vertices.
@@ -257,7 +257,7 @@ struct Fit<'a> {
 
 impl Fit<'_> {
     fn at(&self, k: usize) -> [f64; 2] {
-        self.ring[k % self.ring.len()]
+        self.ring[wrap(k, self.ring.len())]
     }
 
     /// Whether `parts`, running from `prev`'s end (within the tolerance of vertex `i`; vertex
@@ -291,7 +291,7 @@ impl Fit<'_> {
                 near.map_or(0.0, |(q, _, spans)| q.left_of(p, spans))
             };
             for k in i..=j {
-                let [l, r] = sd.points[k % m];
+                let [l, r] = sd.points[wrap(k, m)];
                 if side(l) < sd.margin || side(r) > -sd.margin {
                     return false;
                 }
@@ -491,7 +491,7 @@ impl Fit<'_> {
         if let Some(sd) = self.sides {
             let n = sd.points.len();
             for k in i..=j {
-                let [l, r] = sd.points[k % n];
+                let [l, r] = sd.points[wrap(k, n)];
                 // Left points must stay left: the curve turns left less than through them.
                 if let Some((c, w)) = kappa(l) {
                     hi = hi.min(c - w * sd.margin);
@@ -727,7 +727,7 @@ impl Fit<'_> {
             // Each point from s, its square length and its side, in order: the same every round.
             let points: Vec<([f64; 2], f64, bool)> = (i..=j)
                 .flat_map(|k| {
-                    let [l, r] = sd.points[k % np];
+                    let [l, r] = sd.points[wrap(k, np)];
                     let (inner, outer) = if ccw { (l, r) } else { (r, l) };
                     [(inner, true), (outer, false)]
                 })

@@ -476,3 +476,64 @@ fn a_stepped_circle_is_a_few_arcs_through_the_middle_of_its_steps() {
         assert!(inside(&flat, l) && !inside(&flat, r), "{l:?} {r:?}");
     }
 }
+
+/// The spread of bulges through a chord is what folding `min` and `max` over every point's
+/// bulge gives, to the bit: on points anywhere around the chord, on it, on the circle with the
+/// chord as diameter, nearly on the chord, and far from it.
+#[test]
+fn a_spread_of_bulges_is_the_plain_fold_to_the_bit() {
+    // A fixed generator (xorshift), so a failure can be run again.
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut runs_with_none = 0;
+    for run in 0..4000 {
+        let half = 0.5 + 40.0 * next();
+        let n = 1 + (next() * 12.0) as usize;
+        let points: Vec<(f64, f64)> = (0..n)
+            .map(|_| {
+                let u = (2.0 * next() - 1.0) * half;
+                let v = match run % 5 {
+                    // On the chord, or a rounding's width off it.
+                    0 if next() < 0.5 => 0.0,
+                    1 => (2.0 * next() - 1.0) * 1e-12,
+                    // On the diameter's circle (w = 0 up to rounding).
+                    2 => (half * half - u * u).sqrt() * if next() < 0.5 { -1.0 } else { 1.0 },
+                    3 => (2.0 * next() - 1.0) * 3.0 * half,
+                    _ => (2.0 * next() - 1.0) * half,
+                };
+                (u, v)
+            })
+            .collect();
+        let mut plain = Some((f64::INFINITY, f64::NEG_INFINITY));
+        for &(u, v) in &points {
+            plain = match (plain, through(half, u, v)) {
+                (Some((lo, hi)), Some(b)) => Some((lo.min(b), hi.max(b))),
+                _ => None,
+            };
+        }
+        let mut spread = Spread::new(half);
+        let added = points.iter().try_for_each(|&(u, v)| spread.add(u, v));
+        match (plain, added) {
+            (None, None) => runs_with_none += 1,
+            (Some((lo, hi)), Some(())) => {
+                let (slo, shi) = spread.range(|| points.iter().copied());
+                assert_eq!(
+                    (lo.to_bits(), hi.to_bits()),
+                    (slo.to_bits(), shi.to_bits()),
+                    "run {run}: half {half}, points {points:?}"
+                );
+            }
+            _ => panic!("run {run}: a point past the half turn seen by one and not the other"),
+        }
+    }
+    // Both kinds of run were met.
+    assert!(
+        runs_with_none > 100 && runs_with_none < 3900,
+        "{runs_with_none}"
+    );
+}
