@@ -1,6 +1,7 @@
 //! The fallback search's bridges, by output: an island no walk under the length limit leaves is
 //! joined along the shortest gap as the crow flies, drawn as a band of its width, where a search
-//! that counted 4-connected pixels took the nearest gap along the rows and columns instead.
+//! that counted 4-connected pixels took the nearest gap along the rows and columns instead; and
+//! the slanted band covers no more pixels than its area.
 
 use crate::common::*;
 
@@ -61,7 +62,9 @@ fn a_far_island_is_joined_across_the_shortest_slanted_gap_not_the_nearest_straig
     assert_eq!(bridges[0]["via"], "search", "{bridges:?}");
     assert!(r["check"]["violations"].as_array().unwrap().is_empty());
     // Read from stencil.png: the bridge runs along the diagonal to the disc, nowhere near the
-    // edges, and covers fewer pixels than a 3 px bridge straight up or left (240).
+    // edges, and covers fewer pixels than a 3 px bridge straight up or left (240, as the old
+    // search drew it: 242) or a 3 px band along the diagonal through the pixel centres, which
+    // takes 5 pixels a row at 45° where its area is 4.24 (229).
     let added = added_at(&out);
     assert!(
         added
@@ -69,5 +72,5 @@ fn a_far_island_is_joined_across_the_shortest_slanted_gap_not_the_nearest_straig
             .all(|&(x, y)| x.abs_diff(y) <= 4 && x >= 20 && y >= 20),
         "a bridge off the diagonal: {added:?}"
     );
-    assert!(added.len() < 240, "{} pixels added", added.len());
+    assert!(added.len() < 200, "{} pixels added", added.len());
 }
