@@ -61,7 +61,9 @@ pub(super) fn band(
         let (pixels, real) = draw(bits, gray, &axis.outline(back, on), &[], 0, seal);
         match &best {
             None => {
-                centred_slits = slits(bits, &pixels);
+                if tries.len() > 1 {
+                    centred_slits = slits(bits, &pixels);
+                }
                 best = Some((axis, pixels, real));
             }
             Some(b) if real < b.2 - 1e-9 && slits(bits, &pixels) <= centred_slits => {
