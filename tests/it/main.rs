@@ -32,6 +32,7 @@ mod architecture;
 mod bad_input;
 mod bridge_light;
 mod bridge_report;
+mod bridge_search;
 mod bridge_stability;
 mod bridge_user;
 mod bridge_weights;

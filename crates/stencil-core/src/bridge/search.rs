@@ -5,6 +5,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+use std::f64::consts::SQRT_2;
 
 use super::cost::StepCost;
 use super::strips::{intensity, Fields, Strip};
@@ -57,7 +58,8 @@ impl SearchScratch {
 
 /// The fallback when no walk leaves a group of nodes: the cheapest path of any length through the
 /// cut from the border of every node in `group` (a mask over nodes) to material of another node
-/// or the image edge. Dijkstra over the cut pixels priced by `step` ([`StepCost`]), then
+/// or the image edge. Dijkstra over the cut pixels priced by `step` ([`StepCost`]), in eight
+/// directions (a diagonal step at √2 its pixel's price, through a corner of open cut), then
 /// straightened (`straighten`). Returns the start candidate pixel and the strip. Such a path always
 /// exists (a row's rightmost group pixel has cut to its right), so `None` means the labels do not
 /// describe the bits. O(pixels) at worst; it stops at the first arrival.
@@ -87,6 +89,7 @@ pub(crate) fn search(
         }
     }
     let in_group = |l: u32| (l as usize) < group.len() && group[l as usize];
+    let open = |x: i64, y: i64| f.inside(x, y) && f.label(x, y) == CUT && !f.blocked(x, y);
     while let Some(Reverse(key)) = scratch.heap.pop() {
         let (d, i) = (f32::from_bits((key >> 32) as u32), key as u32);
         if d > scratch.dist[i as usize] {
@@ -97,7 +100,8 @@ pub(crate) fn search(
             let (nx, ny) = (x + dx, y + dy);
             let l = f.label(nx, ny);
             if l != CUT && !in_group(l) {
-                // Arrived: walk the predecessors back to the start.
+                // Arrived: walk the predecessors back to the start (8-connected; `straighten`
+                // makes the strip 4-connected).
                 let mut pixels = vec![i];
                 let mut cur = i;
                 let start = loop {
@@ -127,47 +131,91 @@ pub(crate) fn search(
         }
         for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
             let (nx, ny) = (x + dx, y + dy);
-            if f.inside(nx, ny) && f.label(nx, ny) == CUT && !f.blocked(nx, ny) {
+            if open(nx, ny) {
                 let j = (ny * w + nx) as u32;
                 scratch.relax(j, d + cost(j), i);
+            }
+        }
+        // Diagonal steps at √2 the price: a bridge is drawn as a band along its path, whose
+        // area grows with the path's length, not with its 4-connected pixel count. With
+        // straight steps only, every monotone staircase cost the same, so a path that followed
+        // a lighter row or column and turned (an L, or steps of a few tens of pixels) was as
+        // cheap as the straight diagonal, though its band covered up to √2 times the pixels.
+        for (dx, dy) in [(1i64, 1i64), (1, -1), (-1, 1), (-1, -1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            if open(nx, ny) && (open(nx, y) || open(x, ny)) {
+                let j = (ny * w + nx) as u32;
+                scratch.relax(j, d + std::f32::consts::SQRT_2 * cost(j), i);
             }
         }
     }
     None
 }
 
-/// A searched path made straight where that costs nothing (Dijkstra keeps an arbitrary one of
-/// many equally cheap staircases): from each anchor, the straight 4-connected line ([`line4`]) to
-/// the farthest later path pixel it can reach through cut for no more than the stretch it
-/// replaces (doubling, then bisection: O(n log n)). The ends stay where they were.
+/// The pixel a diagonal step of the search from `from` to `to` (linear indices) goes through
+/// to stay 4-connected: the cheaper of the two corners that are open cut; `None` when the step
+/// is not diagonal.
+fn corner(f: &Fields, step: &StepCost, to: u32, from: u32) -> Option<u32> {
+    let w = f.width;
+    let (tx, ty) = (to as i64 % w, to as i64 / w);
+    let (fx, fy) = (from as i64 % w, from as i64 / w);
+    if tx == fx || ty == fy {
+        return None;
+    }
+    [(tx, fy), (fx, ty)]
+        .into_iter()
+        .filter(|&(x, y)| f.inside(x, y) && f.label(x, y) == CUT && !f.blocked(x, y))
+        .map(|(x, y)| (y * w + x) as u32)
+        .min_by(|&a, &b| step.at(f.gray, a).total_cmp(&step.at(f.gray, b)))
+}
+
+/// A searched path (8-connected) made straight where that costs no more, and 4-connected:
+/// from each anchor, the straight 4-connected line ([`line4`]) to the farthest later path pixel
+/// it can reach through cut for no more than the stretch it replaces (doubling, then bisection:
+/// O(n log n)); a diagonal step no line fits goes through its cheaper open corner. Costs are
+/// per length, as the search's: a stretch costs its steps' prices (a diagonal √2 times its
+/// pixel's), a line its pixels' mean price times its length, so a staircase of lighter pixels
+/// gives way to the straight line only where the line's band would not cost more. The ends stay
+/// where they were.
 fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
     let n = path.len();
-    if n < 3 {
-        return path.to_vec();
-    }
     let w = f.width;
     let xy = |p: u32| (p as i64 % w, p as i64 / w);
-    let mut prefix = Vec::with_capacity(n + 1);
+    if n < 2 {
+        return path.to_vec();
+    }
+    let mut prefix = Vec::with_capacity(n);
     prefix.push(0.0f64);
-    for (k, &p) in path.iter().enumerate() {
-        prefix.push(prefix[k] + step.at(f.gray, p) as f64);
+    for k in 1..n {
+        let ((xa, ya), (xb, yb)) = (xy(path[k - 1]), xy(path[k]));
+        let diagonal = xa != xb && ya != yb;
+        let price = step.at(f.gray, path[k]) as f64;
+        prefix.push(prefix[k - 1] + if diagonal { SQRT_2 * price } else { price });
     }
     let fits = |a: usize, b: usize| {
-        let budget = prefix[b + 1] - prefix[a] + 1e-6;
+        let budget = prefix[b] - prefix[a] + 1e-6;
+        let ((xa, ya), (xb, yb)) = (xy(path[a]), xy(path[b]));
+        let (dx, dy) = ((xb - xa) as f64, (yb - ya) as f64);
+        // Each line pixel after the first stands for this much of the line's length.
+        let per = dx.hypot(dy) / (dx.abs() + dy.abs()).max(1.0);
         let mut cost = 0.0f64;
+        let mut first = true;
         line4(xy(path[a]), xy(path[b]), |x, y| {
+            if std::mem::take(&mut first) {
+                return true;
+            }
             if f.material(x, y) || f.blocked(x, y) {
                 cost = f64::INFINITY;
                 return false;
             }
-            cost += step.at(f.gray, (y * w + x) as u32) as f64;
+            cost += step.at(f.gray, (y * w + x) as u32) as f64 * per;
             cost <= budget
         }) && cost <= budget
     };
     let mut out = vec![path[0]];
     let mut a = 0;
     while a + 1 < n {
-        // Path neighbours always fit: gallop from there, then bisect up to the first misfit.
+        // Gallop from the next path pixel, then bisect up to the first misfit.
         let (mut good, mut span, mut bad) = (a + 1, 2, None);
         while bad.is_none() && good < n - 1 {
             let j = (a + span).min(n - 1);
@@ -188,13 +236,19 @@ fn straighten(f: &Fields, path: &[u32], step: &StepCost) -> Vec<u32> {
                 }
             }
         }
-        let mut first = true;
-        line4(xy(path[a]), xy(path[good]), |x, y| {
-            if !std::mem::take(&mut first) {
-                out.push((y * w + x) as u32);
-            }
-            true
-        });
+        if good == a + 1 && !fits(a, good) {
+            // A diagonal step whose line's corner is material or dearer: the other corner.
+            out.extend(corner(f, step, path[good], path[a]));
+            out.push(path[good]);
+        } else {
+            let mut first = true;
+            line4(xy(path[a]), xy(path[good]), |x, y| {
+                if !std::mem::take(&mut first) {
+                    out.push((y * w + x) as u32);
+                }
+                true
+            });
+        }
         a = good;
     }
     out
