@@ -114,7 +114,7 @@ impl<'a> Row<'a> {
     }
 }
 
-/// [`seed`] of pixel (`x`, `y`) given the rows above it, its own and below it (`None` past the
+/// The class `seed` gives pixel (`x`, `y`), given the rows above it, its own and below it (`None` past the
 /// picture's edge), found once per row rather than per pixel and neighbour: the same tests in
 /// the same order, so the same class.
 #[inline]
