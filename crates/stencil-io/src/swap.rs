@@ -175,6 +175,15 @@ fn owned_folders<'a>(owned: &[&'a str]) -> Vec<&'a str> {
     let mut seen = std::collections::HashSet::new();
     let mut out: Vec<&str> = Vec::new();
     for n in owned {
+        // A name's own folder seen means its folders all are (they were added with it): one
+        // look per name, not one per folder (a tiled set owns some twenty thousand names, and
+        // this runs a few times per write).
+        let Some((folder, _)) = n.rsplit_once('/') else {
+            continue;
+        };
+        if seen.contains(folder) {
+            continue;
+        }
         for a in ancestors(n) {
             if seen.insert(a) {
                 out.push(a);
@@ -194,9 +203,15 @@ struct Owned<'a> {
 
 impl<'a> Owned<'a> {
     fn new(owned: &[&'a str]) -> Self {
+        Owned::with_folders(owned, &owned_folders(owned))
+    }
+
+    /// [`Owned::new`] given the names' folders ([`owned_folders`] of `owned`), where a write
+    /// has them already.
+    fn with_folders(owned: &[&'a str], folders: &[&'a str]) -> Self {
         Owned {
             names: owned.iter().copied().collect(),
-            folders: owned_folders(owned).into_iter().collect(),
+            folders: folders.iter().copied().collect(),
         }
     }
 }
@@ -481,7 +496,7 @@ fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recove
     refuse_unless_real(&swap, true)?;
     let plan = swap.join(PLAN);
     if exists(&plan) {
-        run_plan(dir, owned, pts)?;
+        run_plan(dir, &Owned::new(owned), pts)?;
         finish(dir, pts)?;
         Ok(Recovered::Finished)
     } else {
@@ -492,7 +507,7 @@ fn recover_locked(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<Recove
 }
 
 /// Run the committed plan from its first unrecorded step.
-fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
+fn run_plan(dir: &Path, owned: &Owned, pts: &mut Points) -> Result<(), Stop> {
     let swap = dir.join(SWAP_DIR);
     let plan_path = swap.join(PLAN);
     let bad = || {
@@ -502,10 +517,9 @@ fn run_plan(dir: &Path, owned: &[&str], pts: &mut Points) -> Result<(), Stop> {
     };
     refuse_unless_real(&plan_path, false)?;
     let text = crate::read::read_text(&plan_path, crate::read::Kind::Journal).map_err(|_| bad())?;
-    let owned = Owned::new(owned);
     let steps: Vec<Step> = text
         .lines()
-        .map(|l| Step::parse(l, &owned).ok_or_else(bad))
+        .map(|l| Step::parse(l, owned).ok_or_else(bad))
         .collect::<Result<_, _>>()?;
     let done_path = swap.join(DONE);
     refuse_unless_real(&done_path, false)?;
@@ -572,14 +586,18 @@ fn refuse_odd(path: &Path) -> Result<bool, WriteError> {
 }
 
 /// Steps that delete the owned files `previous/` holds (into the swap folder), and `previous/`
-/// itself if that empties it.
-fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(), WriteError> {
+/// itself if that empties it. `folders` are the `owned` names' ([`owned_folders`]).
+fn clear_previous(
+    dir: &Path,
+    (owned, folders): (&[&str], &[&str]),
+    steps: &mut Vec<Step>,
+) -> Result<(), WriteError> {
     let prev = dir.join(PREVIOUS_DIR);
     if !real_dir(&prev) {
         return Ok(());
     }
-    refuse_odd_folders(&prev, &owned_folders(owned))?;
-    let there = present(&prev, owned)?;
+    refuse_odd_folders(&prev, folders)?;
+    let there = present(&prev, owned, folders)?;
     let from = format!("{PREVIOUS_DIR}/");
     move_into(steps, &there, &from, &format!("{SWAP_DIR}/old-previous"));
     for f in owned_folders(&there).iter().rev() {
@@ -589,13 +607,17 @@ fn clear_previous(dir: &Path, owned: &[&str], steps: &mut Vec<Step>) -> Result<(
     Ok(())
 }
 
-/// The `owned` names there in `dir` (refusing one that is not a file or a link).
-fn present<'a>(dir: &Path, owned: &[&'a str]) -> Result<Vec<&'a str>, WriteError> {
+/// The `owned` names there in `dir` (refusing one that is not a file or a link); `folders` are
+/// their folders ([`owned_folders`]).
+fn present<'a>(
+    dir: &Path,
+    owned: &[&'a str],
+    folders: &[&str],
+) -> Result<Vec<&'a str>, WriteError> {
     // Only names whose folder is there as a real folder can be there (an odd folder is refused
     // before this by refuse_odd_folders).
-    let folders: std::collections::HashSet<&str> = folders_there(dir, &owned_folders(owned))
-        .into_iter()
-        .collect();
+    let folders: std::collections::HashSet<&str> =
+        folders_there(dir, folders).into_iter().collect();
     let mut there = Vec::new();
     for n in owned {
         if let Some((parent, _)) = n.rsplit_once('/') {
@@ -657,9 +679,9 @@ pub(crate) fn replace_all_hooked(
     // Refuse, before writing anything, to replace what is not a file.
     let folders = owned_folders(&owned);
     refuse_odd_folders(dir, &folders)?;
-    let existing = present(dir, &owned)?;
+    let existing = present(dir, &owned, &folders)?;
     let mut steps = Vec::new();
-    clear_previous(dir, &owned, &mut steps)?;
+    clear_previous(dir, (&owned, &folders), &mut steps)?;
     let swap = new_swap(dir)?;
     let staged = stage(&swap, files, &mut pts);
     if let Err(e) = staged {
@@ -686,7 +708,7 @@ pub(crate) fn replace_all_hooked(
         steps.push(Step::RmDirIfEmpty(f.to_string()));
     }
     commit(dir, &steps, &mut pts)?;
-    run_plan(dir, &owned, &mut pts)?;
+    run_plan(dir, &Owned::with_folders(&owned, &folders), &mut pts)?;
     finish(dir, &mut pts)?;
     Ok(Replaced {
         written: files.iter().map(|(n, _)| dir.join(n)).collect(),
@@ -749,7 +771,7 @@ pub(crate) fn set_aside_hooked(
     recover_locked(dir, owned, &mut pts)?;
     let folders = owned_folders(owned);
     refuse_odd_folders(dir, &folders)?;
-    let existing = present(dir, owned)?;
+    let existing = present(dir, owned, &folders)?;
     let made = (existing.iter())
         .filter_map(|n| {
             std::fs::symlink_metadata(dir.join(n))
@@ -771,7 +793,7 @@ pub(crate) fn set_aside_hooked(
         _ => {}
     }
     let mut steps = Vec::new();
-    clear_previous(dir, owned, &mut steps)?;
+    clear_previous(dir, (owned, &folders), &mut steps)?;
     // clear_previous may remove an emptied previous/: made again here before it is filled.
     move_into(&mut steps, &existing, "", PREVIOUS_DIR);
     let there: std::collections::HashSet<&str> = folders_there(dir, &folders).into_iter().collect();
@@ -780,7 +802,7 @@ pub(crate) fn set_aside_hooked(
     }
     new_swap(dir)?;
     commit(dir, &steps, &mut pts)?;
-    run_plan(dir, owned, &mut pts)?;
+    run_plan(dir, &Owned::with_folders(owned, &folders), &mut pts)?;
     finish(dir, &mut pts)?;
     Ok(Some(SetAside {
         names: existing.iter().map(|s| s.to_string()).collect(),

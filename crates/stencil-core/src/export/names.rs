@@ -35,27 +35,78 @@ pub const FOLDERS: &[&str] = &[
 pub fn owned_names() -> &'static [&'static str] {
     static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
     NAMES.get_or_init(|| {
-        let mut v: Vec<&'static str> = OUTPUT_NAMES.to_vec();
-        v.push("composite.png");
-        v.push("layers.json");
-        // A tiled stencil's map and tile folders (`tiles`).
-        v.push("tiles.png");
+        // Some twenty thousand names, made every run: written end to end into one text (kept
+        // for the program's life, as the names are) and cut at their ends, not formatted and
+        // allocated one by one (a tenth of a 1 MP photo's `make` was this and the swap's sets).
+        let mut text = String::new();
+        let mut ends = Vec::new();
+        let mut add = |parts: &[&str]| {
+            for p in parts {
+                text.push_str(p);
+            }
+            ends.push(text.len());
+        };
         let most = crate::limits::MAX_TILES_PER_SIDE;
         for r in 1..=most {
             for c in 1..=most {
+                let tile = format!("tile-{r}-{c}/");
                 for n in OUTPUT_NAMES {
-                    v.push(Box::leak(format!("tile-{r}-{c}/{n}").into_boxed_str()));
+                    add(&[&tile, n]);
                     for f in FOLDERS {
-                        v.push(Box::leak(format!("tile-{r}-{c}/{f}/{n}").into_boxed_str()));
+                        add(&[&tile, f, "/", n]);
                     }
                 }
             }
         }
         for f in FOLDERS {
             for n in OUTPUT_NAMES {
-                v.push(Box::leak(format!("{f}/{n}").into_boxed_str()));
+                add(&[f, "/", n]);
             }
+        }
+        let text: &'static str = Box::leak(text.into_boxed_str());
+        let mut v: Vec<&'static str> = OUTPUT_NAMES.to_vec();
+        v.push("composite.png");
+        v.push("layers.json");
+        // A tiled stencil's map and tile folders (`tiles`).
+        v.push("tiles.png");
+        let mut start = 0;
+        for end in ends {
+            v.push(&text[start..end]);
+            start = end;
         }
         v
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names cut from one text are the names formatted one by one, in the same order:
+    /// the files, the set's, then each tile's (its files and its layer folders' files in
+    /// turn) and each layer folder's; none twice.
+    #[test]
+    fn owned_names_are_each_formatted_name_in_order() {
+        let mut want: Vec<String> = OUTPUT_NAMES.iter().map(|n| n.to_string()).collect();
+        want.extend(["composite.png", "layers.json", "tiles.png"].map(String::from));
+        let most = crate::limits::MAX_TILES_PER_SIDE;
+        for r in 1..=most {
+            for c in 1..=most {
+                for n in OUTPUT_NAMES {
+                    want.push(format!("tile-{r}-{c}/{n}"));
+                    for f in FOLDERS {
+                        want.push(format!("tile-{r}-{c}/{f}/{n}"));
+                    }
+                }
+            }
+        }
+        for f in FOLDERS {
+            for n in OUTPUT_NAMES {
+                want.push(format!("{f}/{n}"));
+            }
+        }
+        assert_eq!(owned_names(), want);
+        let unique: std::collections::HashSet<_> = owned_names().iter().collect();
+        assert_eq!(unique.len(), want.len());
+    }
 }

@@ -411,3 +411,37 @@ fn a_link_in_the_swap_folder_is_refused_and_never_followed() {
         );
     }
 }
+
+/// The folders of the owned names, found with one look per name, are those of every name's
+/// every folder in the order first met (outermost first): names in any order, nested and
+/// repeated folders, a folder met first as a name's own and later inside a deeper one.
+#[test]
+fn owned_folders_are_every_names_folders_once_in_order() {
+    let names = [
+        "a/x.png",
+        "top.png",
+        "b/c/d/y.png",
+        "a/q/z.png",
+        "b/c/w.png",
+        "a/x.png",
+        "b/v.png",
+        "e//f.png",
+        "a/q/r/s.png",
+        "b/c/d/y2.png",
+    ];
+    let mut want: Vec<&str> = Vec::new();
+    for n in names {
+        for a in ancestors(n) {
+            if !want.contains(&a) {
+                want.push(a);
+            }
+        }
+    }
+    want.sort_by_key(|f| f.matches('/').count());
+    assert_eq!(owned_folders(&names), want);
+    assert_eq!(
+        owned_folders(&names)[..4],
+        ["a", "b", "e", "b/c"],
+        "outermost first, then in the order met"
+    );
+}
